@@ -1,0 +1,1 @@
+"""The benchmark: CLI, runner, protocols, metrics and tables."""

@@ -1,0 +1,70 @@
+"""The dataset interface: observations, complete models and category templates."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+
+from catpose.types import Template
+
+
+@dataclass(frozen=True, eq=False)
+class Observation:
+    """One partial view of one object instance.
+
+    Attributes:
+        obs_id: unique, stable id within the dataset, e.g. ``"chair/0003/v02"``.
+        category: category name.
+        instance_id: id of the observed instance within its category.
+        points_camera: (N, 3) observed points, camera frame, object-normalised unit.
+        normals_camera: (N, 3) unit normals, oriented towards the camera.
+        ground_normal_camera: (3,) unit up direction in the camera frame (known or estimated).
+        T_object_camera: (4, 4) true camera pose in the instance's canonical frame. For data
+            whose object frame is unknown (a Redwood trajectory) it is the pose in a frame shared
+            by all views of that instance, and ``info["absolute_gt"]`` is False: only relative
+            poses can be scored.
+        symmetry_axis: (3,) main axis in the object frame if the object is rotationally
+            symmetric (scored by main-axis error), else None.
+        info: facts for the per-sample table (view id, mask source, ...).
+    """
+
+    obs_id: str
+    category: str
+    instance_id: str
+    points_camera: np.ndarray
+    normals_camera: np.ndarray
+    ground_normal_camera: np.ndarray
+    T_object_camera: np.ndarray
+    symmetry_axis: np.ndarray | None = None
+    info: Mapping[str, Any] = field(default_factory=dict)
+
+
+class ObjectDataset(ABC):
+    """A set of observations plus the complete models and templates to register them to.
+
+    Implementations load lazily: ``observation_ids`` must be cheap and deterministic, and a bad
+    file surfaces as a :class:`~catpose.errors.DatasetError` from ``observation`` (the runner
+    records that sample as failed and goes on).
+    """
+
+    name: str = "dataset"
+
+    @abstractmethod
+    def observation_ids(self) -> list[str]:
+        """All observation ids in a fixed order."""
+
+    @abstractmethod
+    def observation(self, obs_id: str) -> Observation:
+        """Load or render one observation."""
+
+    @abstractmethod
+    def instance_model(self, category: str, instance_id: str) -> Template:
+        """The observed instance's own complete model in its canonical frame (``gt_model``
+        protocol). Raises :class:`~catpose.errors.DatasetError` when the dataset has none."""
+
+    @abstractmethod
+    def category_templates(self, category: str) -> list[Template]:
+        """The configured category templates (``templates`` protocol), in a fixed order."""

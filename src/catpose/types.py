@@ -1,0 +1,193 @@
+"""The types every part of catpose shares.
+
+Frames are named in fields: ``camera`` is the depth camera's optical frame (x right, y down,
+z forward, OpenCV convention), ``template`` is the category template's canonical frame
+(z up, x forward), ``object`` is the observed instance's canonical frame (the same convention;
+category-level alignment makes ``T_template_object`` the identity). ``T_a_b`` maps points
+from frame ``b`` into frame ``a``: ``p_a = T_a_b @ p_b``.
+
+Lengths are in the object-normalised unit: every shape is centred at its bounding-box centre
+and scaled so that its farthest vertex lies at distance 1 (unit bounding sphere). Translation
+errors are in that unit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+
+from catpose.errors import InvalidInputError
+
+
+def _as_points(name: str, array: np.ndarray | None, *, allow_empty: bool = False) -> np.ndarray:
+    if array is None:
+        raise InvalidInputError(f"{name} is missing; pass an (N, 3) array")
+    a = np.asarray(array, dtype=np.float64)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise InvalidInputError(f"{name} has shape {a.shape}; expected (N, 3)")
+    if not allow_empty and len(a) == 0:
+        raise InvalidInputError(f"{name} has no points; the view or file is empty")
+    if not np.isfinite(a).all():
+        bad = int((~np.isfinite(a).all(axis=1)).sum())
+        raise InvalidInputError(f"{name} has {bad} rows with NaN or inf; drop them before registration")
+    return a
+
+
+def validate_cloud(name: str, points: np.ndarray, normals: np.ndarray | None = None,
+                   min_points: int = 10) -> tuple[np.ndarray, np.ndarray | None]:
+    """Check a cloud (and its normals) and return them as float64 arrays.
+
+    Raises :class:`InvalidInputError` with one line naming ``name`` when the cloud is empty,
+    has fewer than ``min_points`` points, contains NaN/inf, or is degenerate (all points equal
+    or collinear: no rigid pose can be recovered from it), or when the normals do not match.
+    """
+    p = _as_points(name, points)
+    if len(p) < min_points:
+        raise InvalidInputError(f"{name} has only {len(p)} points; at least {min_points} are needed")
+    extent = np.linalg.svd(p - p.mean(axis=0), compute_uv=False)
+    scale = max(float(np.abs(p).max()), 1e-12)
+    if extent[0] <= 1e-9 * scale * np.sqrt(len(p)):
+        raise InvalidInputError(f"{name} is degenerate: all {len(p)} points are equal")
+    if extent[1] <= 1e-9 * scale * np.sqrt(len(p)):
+        raise InvalidInputError(f"{name} is degenerate: all points lie on one line")
+    n = None
+    if normals is not None:
+        n = _as_points(f"{name} normals", normals)
+        if n.shape != p.shape:
+            raise InvalidInputError(f"{name} normals have shape {n.shape}; expected {p.shape}")
+        norms = np.linalg.norm(n, axis=1)
+        if (norms < 1e-8).any():
+            raise InvalidInputError(f"{name} has {int((norms < 1e-8).sum())} zero-length normals; re-estimate them")
+        n = n / norms[:, None]
+    return p, n
+
+
+def validate_pose(name: str, T: np.ndarray) -> np.ndarray:
+    """Return ``T`` as a float64 (4, 4) rigid transform or raise :class:`InvalidInputError`."""
+    T = np.asarray(T, dtype=np.float64)
+    if T.shape != (4, 4):
+        raise InvalidInputError(f"{name} has shape {T.shape}; expected (4, 4)")
+    if not np.isfinite(T).all():
+        raise InvalidInputError(f"{name} is not finite")
+    R = T[:3, :3]
+    if np.abs(R @ R.T - np.eye(3)).max() > 1e-4 or np.linalg.det(R) < 0:
+        raise InvalidInputError(f"{name} is not a rotation (R R^T != I or det R < 0)")
+    return T
+
+
+@dataclass(frozen=True, eq=False)
+class Template:
+    """A category template (or an instance's own complete model) in the template frame.
+
+    Attributes:
+        template_id: unique id, e.g. ``"synthetic/chair/t0"`` or ``"modelnet40/chair_0001"``.
+        category: category name.
+        points: (M, 3) complete surface samples, template frame, object-normalised unit.
+        normals: (M, 3) outward unit normals of ``points``.
+        vertices: (V, 3) mesh vertices, or None when only a cloud is known.
+        triangles: (F, 3) int mesh faces, or None.
+        up: (3,) unit up axis in the template frame (z for every built-in set).
+        symmetry_axis: (3,) main axis of a rotationally symmetric category, or None.
+    """
+
+    template_id: str
+    category: str
+    points: np.ndarray
+    normals: np.ndarray
+    vertices: np.ndarray | None = None
+    triangles: np.ndarray | None = None
+    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    symmetry_axis: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        p, n = validate_cloud(f"template {self.template_id}", self.points, self.normals)
+        object.__setattr__(self, "points", p)
+        object.__setattr__(self, "normals", n)
+
+    @property
+    def has_mesh(self) -> bool:
+        return self.vertices is not None and self.triangles is not None
+
+
+@dataclass(frozen=True, eq=False)
+class RegistrationProblem:
+    """What a method sees: a partial view in the camera frame and a template.
+
+    Attributes:
+        sample_id: unique id of this problem in its dataset and protocol.
+        category: category name.
+        points_camera: (N, 3) observed points, camera frame.
+        normals_camera: (N, 3) unit normals of ``points_camera``, oriented towards the camera.
+        ground_normal_camera: (3,) unit up direction (the ground plane's normal) in the camera frame.
+        template: the template to register to.
+        meta: dataset-specific, method-independent facts (never ground truth).
+    """
+
+    sample_id: str
+    category: str
+    points_camera: np.ndarray
+    normals_camera: np.ndarray
+    ground_normal_camera: np.ndarray
+    template: Template
+    meta: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        p, n = validate_cloud(f"sample {self.sample_id}: observed cloud", self.points_camera,
+                              self.normals_camera)
+        object.__setattr__(self, "points_camera", p)
+        object.__setattr__(self, "normals_camera", n)
+        g = np.asarray(self.ground_normal_camera, dtype=np.float64).reshape(-1)
+        if g.shape != (3,) or not np.isfinite(g).all() or np.linalg.norm(g) < 1e-8:
+            raise InvalidInputError(f"sample {self.sample_id}: ground normal {g} is not a finite non-zero 3-vector")
+        object.__setattr__(self, "ground_normal_camera", g / np.linalg.norm(g))
+
+
+@dataclass(frozen=True, eq=False)
+class GroundTruth:
+    """What only the evaluation sees.
+
+    Attributes:
+        T_template_camera: (4, 4) true pose of the camera in the template frame.
+        symmetry_axis: (3,) main axis in the template frame for rotationally symmetric
+            objects (scored by main-axis error), else None.
+    """
+
+    T_template_camera: np.ndarray
+    symmetry_axis: np.ndarray | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Sample:
+    """One evaluated problem: the method's input and, kept apart, the ground truth.
+
+    ``group_id`` ties problems that the protocol scores together (the K templates of one view,
+    the two views of a relative pair); ``info`` holds protocol and dataset facts written to the
+    per-sample table (instance id, view id, template id, which mask was used, ...).
+    """
+
+    problem: RegistrationProblem
+    gt: GroundTruth
+    group_id: str = ""
+    info: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
+class RegistrationResult:
+    """A method's answer.
+
+    Attributes:
+        T_target_source: (4, 4) estimated transform from the source (camera) frame into the
+            target (template) frame, i.e. the estimate of ``T_template_camera``.
+        score: the method's own final loss (lower is better) used to choose among templates;
+            NaN when the method has none.
+        runtime_s: wall-clock seconds of the registration (set by the runner).
+        extras: method-specific, JSON-serialisable details (chosen template index, per-stage
+            timings, per-template losses, ...).
+    """
+
+    T_target_source: np.ndarray
+    score: float = float("nan")
+    runtime_s: float = float("nan")
+    extras: Mapping[str, Any] = field(default_factory=dict)

@@ -1,0 +1,33 @@
+"""Shared fixtures.
+
+Real fixtures live in ``../shared/data`` beside the checkout (never copied into the project);
+tests that need them take the ``shared_data`` fixture, which skips with a clear message when the
+folder is absent. ``CATPOSE_SHARED_DATA`` overrides the location.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _shared_data_dir() -> Path:
+    env = os.environ.get("CATPOSE_SHARED_DATA")
+    return Path(env) if env else REPO.parent / "shared" / "data"
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    path = _shared_data_dir()
+    if not path.is_dir():
+        pytest.skip(f"real fixtures not found at {path} (set CATPOSE_SHARED_DATA to their folder)")
+    return path
+
+
+@pytest.fixture(scope="session")
+def repo_root() -> Path:
+    return REPO
