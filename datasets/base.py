@@ -56,6 +56,11 @@ class ObjectDataset(ABC):
     def observation_ids(self) -> list[str]:
         """All observation ids in a fixed order."""
 
+    def category_of(self, obs_id: str) -> str:
+        """The category of an observation without loading it. Ids start with the category
+        (``"chair/..."``) by convention; override when they do not."""
+        return obs_id.split("/", 1)[0]
+
     @abstractmethod
     def observation(self, obs_id: str) -> Observation:
         """Load or render one observation."""

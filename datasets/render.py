@@ -58,16 +58,24 @@ def render_depth(vertices: np.ndarray, triangles: np.ndarray, T_camera_object: n
     mesh.vertex.positions = o3d.core.Tensor(np.ascontiguousarray(vertices, dtype=np.float32))
     mesh.triangle.indices = o3d.core.Tensor(np.ascontiguousarray(triangles, dtype=np.int32))
     scene.add_triangles(mesh)
+    # Open3D casts pixel (row, col) through image point (col + 0.5, row + 0.5); shifting the
+    # principal point by half a pixel makes it cast through (col, row), the OpenCV convention
+    # that ``depth_to_points`` (and real sensors' K) use, so render and back-projection agree.
+    K_o3d = camera.K.copy()
+    K_o3d[0, 2] += 0.5
+    K_o3d[1, 2] += 0.5
     rays = scene.create_rays_pinhole(
-        intrinsic_matrix=o3d.core.Tensor(camera.K),
+        intrinsic_matrix=o3d.core.Tensor(K_o3d),
         extrinsic_matrix=o3d.core.Tensor(np.asarray(T_camera_object, dtype=np.float64)),
         width_px=camera.width, height_px=camera.height)
     hit = scene.cast_rays(rays)["t_hit"].numpy()  # distance along the (unnormalised) ray
-    rays_np = rays.numpy()
+    missed = ~np.isfinite(hit)
+    hit = np.where(missed, 0.0, hit)
+    rays_np = rays.numpy().astype(np.float64)
     points_object = rays_np[..., :3] + hit[..., None] * rays_np[..., 3:]
-    R, t = T_camera_object[:3, :3], T_camera_object[:3, 3]
-    z = (np.nan_to_num(points_object, posinf=0.0) @ R[2] + t[2]).astype(np.float32)
-    z[~np.isfinite(hit)] = 0.0
+    R, t = np.asarray(T_camera_object, dtype=np.float64)[:3, :3], np.asarray(T_camera_object, dtype=np.float64)[:3, 3]
+    z = (points_object @ R[2] + t[2]).astype(np.float32)
+    z[missed] = 0.0
     return z
 
 

@@ -1,0 +1,39 @@
+# catpose: two commands.
+#   make demo   set up .venv (CPU torch, open3d-cpu) and run ICP and ours on the embedded data
+#   make test   the default test suite (slow tests excluded; `make test-slow` runs them)
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+BENCH := $(VENV)/bin/bench
+TORCH_PIN ?= torch==2.13.0
+
+.PHONY: setup demo test test-slow regress clean
+
+setup: $(VENV)/.installed
+
+# torch is pinned here (the CPU wheel on this machine): an unpinned torch pulls a multi-GB CUDA
+# build. open3d-cpu's missing libusb-1.0.so.0 comes from the PyPI package libusb-package,
+# loaded by catpose.o3d before Open3D.
+$(VENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet $(TORCH_PIN)
+	$(PY) -m pip install --quiet -e ".[test]"
+	touch $@
+
+demo: setup
+	$(BENCH) run method=icp dataset=synthetic
+	$(BENCH) run method=ours dataset=synthetic
+
+test: setup
+	$(VENV)/bin/pytest -m "not slow" -q
+
+test-slow: setup
+	$(VENV)/bin/pytest -m slow -q
+
+regress: setup
+	$(BENCH) regress
+
+clean:
+	rm -rf outputs build dist *.egg-info

@@ -1,0 +1,70 @@
+"""The ``bench`` command line.
+
+Each command lives in its own module and is imported only when it runs, so ``bench --help``
+answers instantly (no torch, Open3D or Hydra import).
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+# command -> (module, function, one-line help)
+COMMANDS: dict[str, tuple[str, str, str]] = {
+    "run": ("catpose.bench.run_cmd", "main", "run a method on a dataset: bench run method=ours dataset=synthetic [-m sweeps]"),
+    "evaluate": ("catpose.bench.run_cmd", "evaluate_main", "recompute errors and summaries of run directories from their files"),
+    "table": ("catpose.bench.tables", "main", "the paper's tables (Markdown, LaTeX, CSV) from run directories"),
+    "report": ("catpose.bench.report", "main", "tables and plots of run directories in one folder"),
+    "perf": ("catpose.bench.perf", "main", "seconds per registration and per stage for ours and ICP"),
+    "templates": ("catpose.bench.templates_select", "main", "choose K category templates by K-medoids over F-score"),
+    "align": ("catpose.bench.align", "main", "estimate a canonical-alignment table for a ModelNet40 category"),
+    "export": ("catpose.bench.predictions", "export_main", "export a run's estimates as a BOP results CSV"),
+    "score": ("catpose.bench.predictions", "score_main", "score an external predictions file (BOP CSV or per-sample CSV)"),
+    "regress": ("catpose.bench.regress", "main", "CI regression: small subsets against committed reference metrics"),
+}
+
+
+def _usage() -> str:
+    width = max(map(len, COMMANDS))
+    lines = ["usage: bench <command> [args]", "", "Category-level camera pose estimation benchmark (catpose).", "",
+             "commands:"]
+    lines += [f"  {name:<{width}}  {help_}" for name, (_, _, help_) in COMMANDS.items()]
+    lines += ["", "Run `bench <command> --help` for a command's options. Examples:",
+              "  bench run method=icp dataset=synthetic",
+              "  bench run -m method=icp,ours dataset=synthetic protocol=gt_model,templates",
+              "  bench run method=ours dataset=modelnet40 dataset.root=/data/ModelNet40"]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if not argv or argv[0] in ("-h", "--help", "help"):
+        print(_usage())
+        return 0
+    if argv[0] in ("-V", "--version"):
+        from catpose import __version__
+
+        print(f"catpose {__version__}")
+        return 0
+    name = argv[0]
+    if name not in COMMANDS:
+        print(f"bench: error: unknown command {name!r}; choose one of: {', '.join(COMMANDS)} (see bench --help)",
+              file=sys.stderr)
+        return 2
+    module_name, func_name, _ = COMMANDS[name]
+    from catpose.errors import CatposeError
+
+    try:
+        func = getattr(importlib.import_module(module_name), func_name)
+        return int(func(argv[1:]) or 0)
+    except CatposeError as e:
+        print(f"bench {name}: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"bench {name}: interrupted; finished samples are saved, re-run the same command to resume",
+              file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

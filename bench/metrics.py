@@ -1,0 +1,116 @@
+"""Pose error metrics (pure functions) and per-group statistics.
+
+Argument order follows bop_toolkit: estimate first, ground truth second. Rotations are (3, 3)
+matrices, translations (3,) vectors in the object-normalised unit (shapes scaled to a unit
+bounding sphere), angles in degrees. The definitions are the paper's (Section IV-A):
+
+    L_R = arccos((tr(R_gt^T R_est) - 1) / 2)         (geodesic distance on SO(3))
+    L_T = || t_gt - t_est ||_2
+
+For rotationally symmetric objects (bottle, bowl, can, plate) the rotation about the main axis
+is unobservable, so they are scored by the angle between the estimated and true main axis as
+seen from the camera (the paper's "main axis" error for TYO-L).
+"""
+
+from __future__ import annotations
+
+from typing import Iterable
+
+import numpy as np
+
+FAILED_ERROR_DEG = 180.0
+"""A failed sample (the method raised or returned a non-finite pose) counts as this error."""
+
+
+def rotation_error_deg(R_est: np.ndarray, R_gt: np.ndarray) -> float:
+    """Geodesic angle between two rotations, in degrees, in [0, 180]."""
+    R_est, R_gt = np.asarray(R_est, float), np.asarray(R_gt, float)
+    cos = (np.trace(R_gt.T @ R_est) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+
+
+def translation_error(t_est: np.ndarray, t_gt: np.ndarray) -> float:
+    """Euclidean distance between two translations (object-normalised unit)."""
+    return float(np.linalg.norm(np.asarray(t_est, float).reshape(3) - np.asarray(t_gt, float).reshape(3)))
+
+
+def axis_error_deg(R_est: np.ndarray, R_gt: np.ndarray, axis: np.ndarray) -> float:
+    """Angle in degrees between the main axis as placed by the estimate and by the ground truth.
+
+    ``R_est`` and ``R_gt`` are rotations of ``T_template_camera``; ``axis`` (3,) is the symmetry
+    axis in the template frame. The axis in the camera frame is ``R^T axis``; the error is the
+    angle between the two, in [0, 180] (an upside-down bottle is 180 degrees off).
+    """
+    a = np.asarray(axis, float).reshape(3)
+    a = a / np.linalg.norm(a)
+    u, v = np.asarray(R_est, float).T @ a, np.asarray(R_gt, float).T @ a
+    return float(np.degrees(np.arccos(np.clip(u @ v / (np.linalg.norm(u) * np.linalg.norm(v)), -1.0, 1.0))))
+
+
+def sample_errors(T_est: np.ndarray, T_gt: np.ndarray, symmetry_axis: np.ndarray | None = None) -> dict[str, float]:
+    """Every error of one estimate of ``T_template_camera`` (both (4, 4)).
+
+    Returns ``rot_err_deg``, ``axis_err_deg`` (NaN unless symmetric), ``trans_err`` and
+    ``err_deg``, the error the statistics use (axis error if symmetric, else rotation error).
+    """
+    T_est, T_gt = np.asarray(T_est, float), np.asarray(T_gt, float)
+    rot = rotation_error_deg(T_est[:3, :3], T_gt[:3, :3])
+    axis = float("nan") if symmetry_axis is None else axis_error_deg(T_est[:3, :3], T_gt[:3, :3], symmetry_axis)
+    return {
+        "rot_err_deg": rot,
+        "axis_err_deg": axis,
+        "trans_err": translation_error(T_est[:3, 3], T_gt[:3, 3]),
+        "err_deg": rot if symmetry_axis is None else axis,
+    }
+
+
+def accuracy(errors_deg: Iterable[float], threshold_deg: float) -> float:
+    """Fraction of errors at or below ``threshold_deg`` (NaN for an empty set)."""
+    e = np.asarray(list(errors_deg), float)
+    return float("nan") if e.size == 0 else float((e <= threshold_deg).mean())
+
+
+def runtime_stats(runtimes_s: Iterable[float]) -> dict[str, float]:
+    """Mean, median, 90th percentile and total of runtimes in seconds (finite values only)."""
+    r = np.asarray([x for x in runtimes_s if x is not None and np.isfinite(x)], float)
+    if r.size == 0:
+        return {"mean_s": float("nan"), "median_s": float("nan"), "p90_s": float("nan"), "total_s": 0.0}
+    return {"mean_s": float(r.mean()), "median_s": float(np.median(r)),
+            "p90_s": float(np.percentile(r, 90)), "total_s": float(r.sum())}
+
+
+SUMMARY_COLUMNS = ["category", "n", "failed", "mean_err_deg", "median_err_deg", "acc10", "acc30",
+                   "mean_trans_err", "median_runtime_s"]
+
+
+def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0, 30.0)):
+    """Per-group statistics of a per-sample (or per-scoring-unit) table.
+
+    ``df`` needs columns ``by``, ``status``, ``err_deg``, ``trans_err`` and ``runtime_s``.
+    Failed rows count as :data:`FAILED_ERROR_DEG` in the angle statistics, are counted in
+    ``failed`` and are left out of the translation mean (they have no estimate). The last row,
+    ``all``, pools every sample. Returns a pandas DataFrame with :data:`SUMMARY_COLUMNS`
+    (``acc10``/``acc30`` named after ``thresholds``).
+    """
+    import pandas as pd
+
+    lo, hi = thresholds
+    names = [by, "n", "failed", "mean_err_deg", "median_err_deg", f"acc{lo:g}", f"acc{hi:g}",
+             "mean_trans_err", "median_runtime_s"]
+
+    def stats(key: str, g) -> list:
+        failed = (g["status"] != "ok").to_numpy()
+        err = np.where(failed, FAILED_ERROR_DEG, pd.to_numeric(g["err_deg"], errors="coerce").to_numpy(float))
+        err = np.where(np.isnan(err), FAILED_ERROR_DEG, err)
+        trans = pd.to_numeric(g["trans_err"], errors="coerce").to_numpy(float)[~failed]
+        trans = trans[np.isfinite(trans)]
+        return [key, len(g), int(failed.sum()), float(err.mean()), float(np.median(err)),
+                accuracy(err, lo), accuracy(err, hi),
+                float(trans.mean()) if trans.size else float("nan"),
+                runtime_stats(pd.to_numeric(g["runtime_s"], errors="coerce"))["median_s"]]
+
+    if len(df) == 0:
+        return pd.DataFrame(columns=names)
+    rows = [stats(str(k), g) for k, g in df.groupby(by, sort=True)]
+    rows.append(stats("all", df))
+    return pd.DataFrame(rows, columns=names)

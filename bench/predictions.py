@@ -1,0 +1,342 @@
+"""External predictions: export a run as a BOP results CSV, and score predictions made elsewhere.
+
+Learning-based methods (RPM-Net, Equi-pose, ...) need not be reimplemented: run them in their
+own code on the same samples, write their poses to a file, and ``bench score`` turns the file
+into a run directory scored with the same metrics, so ``bench table`` / ``bench report`` put
+them beside ours.
+
+Two file formats are read (detected from the header):
+
+- **BOP results CSV** (``scene_id,im_id,obj_id,score,R,t,time``; bop_toolkit's format). ``R`` is
+  ``R_camera_model`` (BOP's ``cam_R_m2c``), 9 space-separated row-major values; ``t`` is
+  ``t_camera_model`` in millimetres; ``score`` is a confidence (higher is better); ``time`` in
+  seconds (-1 when unknown). Where several rows share an image and object, the highest score wins.
+- **Per-sample CSV** (``sample_id,R,t[,score][,time]``): ``R``/``t`` of ``T_template_camera``
+  (this project's convention: camera points into the template frame) in the object-normalised
+  unit; ``sample_id`` is a run's sample id or observation id (``obs_id``).
+
+Mapping between samples and BOP ids. BOP datasets put ``scene_id``, ``im_id``, ``obj_id`` in each
+sample's ``info`` (from ``Observation.info``), with ``mm_per_unit`` (millimetres per
+object-normalised unit, the normalisation scale) and optionally ``model_centre_mm`` (the
+model-frame bounding-box centre subtracted by the normalisation, default 0). Then
+
+    R_camera_model = R_est^T,    t_camera_model[mm] = mm_per_unit * t_cn - R_camera_model @ centre
+
+with ``(R_cn, t_cn) = inv(T_template_camera_est)``. Other datasets have no BOP ids; the export
+then uses this documented mapping and writes it to ``<out>.map.csv``: ``obj_id`` = 1-based index
+of the category in sorted order, ``scene_id`` = 1-based index of the instance within its
+category (sorted), ``im_id`` = 0-based index of the observation within the instance (sorted
+``obs_id``), ``mm_per_unit`` = 1 (translations stay in the object-normalised unit).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from catpose.errors import CatposeError, DatasetError, InvalidInputError
+
+BOP_COLUMNS = ["scene_id", "im_id", "obj_id", "score", "R", "t", "time"]
+
+
+# --------------------------------------------------------------------------------------------
+# Writing run directories
+
+
+def write_run(out_dir: str | Path, rows: Sequence[dict], config: dict, info: dict | None = None) -> Path:
+    """Write a run directory (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries).
+
+    ``rows`` follow the ``samples.jsonl`` schema; ``config`` is a plain dict with at least
+    ``method``, ``dataset``, ``protocol`` (config-group dicts with ``name`` and ``_target_``)
+    and ``seed``. Returns ``out_dir``.
+    """
+    from omegaconf import OmegaConf
+
+    from catpose.bench.runner import _jsonable, summarize_run
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "samples.jsonl", "w", encoding="utf-8") as f:
+        for r in rows:
+            f.write(json.dumps(_jsonable(r)) + "\n")
+    OmegaConf.save(OmegaConf.create(config), out / "config.yaml")
+    meta = {"method": _name(config.get("method")), "dataset": _name(config.get("dataset")),
+            "protocol": _name(config.get("protocol")), "seed": config.get("seed"), "n_samples": len(rows)}
+    (out / "run.json").write_text(json.dumps(dict(meta, **(info or {})), indent=2) + "\n")
+    (out / "git_rev.txt").write_text("external predictions\n")
+    if rows:
+        summarize_run(out)
+    return out
+
+
+def _name(node: Any) -> str:
+    return str(node.get("name")) if isinstance(node, dict) else str(node)
+
+
+# --------------------------------------------------------------------------------------------
+# Export
+
+
+def _bop_ids(runs_rows: Sequence[dict]) -> tuple[list[tuple[int, int, int, float, np.ndarray]], list[dict]]:
+    """(scene_id, im_id, obj_id, mm_per_unit, centre_mm) for each row, and the mapping rows."""
+    categories = sorted({str(r["category"]) for r in runs_rows})
+    instances: dict[str, list[str]] = {}
+    views: dict[tuple[str, str], list[str]] = {}
+    for r in runs_rows:
+        instances.setdefault(r["category"], [])
+        if str(r.get("instance_id")) not in instances[r["category"]]:
+            instances[r["category"]].append(str(r.get("instance_id")))
+        views.setdefault((r["category"], str(r.get("instance_id"))), []).append(str(r.get("obs_id")))
+    out, mapping = [], []
+    for r in runs_rows:
+        info = r.get("info") or {}
+        if all(k in info for k in ("scene_id", "im_id", "obj_id")):
+            ids = (int(info["scene_id"]), int(info["im_id"]), int(info["obj_id"]))
+            scale = float(info.get("mm_per_unit", 1.0))
+            centre = np.asarray(info.get("model_centre_mm", [0.0, 0.0, 0.0]), float).reshape(3)
+        else:
+            inst = str(r.get("instance_id"))
+            ids = (sorted(instances[r["category"]]).index(inst) + 1,
+                   sorted(set(views[(r["category"], inst)])).index(str(r.get("obs_id"))),
+                   categories.index(r["category"]) + 1)
+            scale, centre = 1.0, np.zeros(3)
+        out.append((*ids, scale, centre))
+        mapping.append({"sample_id": r["sample_id"], "obs_id": r.get("obs_id"), "scene_id": ids[0],
+                        "im_id": ids[1], "obj_id": ids[2], "mm_per_unit": scale})
+    return out, mapping
+
+
+def export_bop(run_dir: str | Path, out_csv: str | Path) -> int:
+    """Write a run's estimates as a BOP results CSV; returns the number of rows written.
+
+    Uses the run's scoring units of one view each (for the templates protocol: the template the
+    method chose), skips failed samples, and writes ``<out_csv>.map.csv`` with the sample ->
+    BOP id mapping. ``score`` is ``exp(-method score)`` (a confidence in (0, 1]; 1 when the
+    method has no score).
+    """
+    import pandas as pd
+
+    from catpose.bench.relative import Relative
+    from catpose.bench.tables import load_run, protocol_of
+    from catpose.geometry import invert_T
+
+    run = load_run(run_dir)
+    proto = protocol_of(run)
+    units = proto.view_rows(run.samples) if isinstance(proto, Relative) else proto.score_units(run.samples)
+    rows = [r for r in units.to_dict("records") if r.get("status") == "ok" and r.get("T_est") is not None]
+    ids, mapping = _bop_ids(rows)
+    lines = [",".join(BOP_COLUMNS)]
+    for r, (scene, im, obj, scale, centre) in zip(rows, ids):
+        T_cn = invert_T(np.asarray(r["T_est"], float).reshape(4, 4))
+        R = T_cn[:3, :3]
+        t = scale * T_cn[:3, 3] - R @ centre
+        s = r.get("score")
+        conf = 1.0 if s is None or not math.isfinite(float(s)) else math.exp(-float(s))
+        rt = r.get("runtime_s")
+        rt = -1.0 if rt is None or not math.isfinite(float(rt)) else float(rt)
+        lines.append(f"{scene},{im},{obj},{conf:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"
+                     f"{' '.join(f'{x:.9g}' for x in t)},{rt:.6g}")
+    out_csv = Path(out_csv)
+    out_csv.parent.mkdir(parents=True, exist_ok=True)
+    out_csv.write_text("\n".join(lines) + "\n")
+    pd.DataFrame(mapping).to_csv(str(out_csv) + ".map.csv", index=False)
+    return len(rows)
+
+
+# --------------------------------------------------------------------------------------------
+# Reading and scoring
+
+
+def _floats(text: Any, n: int, where: str) -> np.ndarray:
+    try:
+        v = np.array([float(x) for x in str(text).replace(",", " ").split()], float)
+    except ValueError:
+        v = np.array([])
+    if v.shape != (n,) or not np.isfinite(v).all():
+        raise InvalidInputError(f"{where}: expected {n} space-separated numbers, got {str(text)[:60]!r}")
+    return v
+
+
+def read_predictions(path: str | Path):
+    """Read a BOP or per-sample predictions CSV into a DataFrame with a ``T`` column.
+
+    ``T`` is the file's (4, 4) pose as written (BOP: ``T_camera_model`` in mm; per-sample:
+    ``T_template_camera``); ``kind`` is ``"bop"`` or ``"sample"``.
+    """
+    import pandas as pd
+
+    path = Path(path)
+    if not path.is_file():
+        raise DatasetError(f"predictions file {path} does not exist")
+    df = pd.read_csv(path, dtype=str, keep_default_na=False)
+    cols = set(df.columns)
+    if {"scene_id", "im_id", "obj_id", "R", "t"} <= cols:
+        kind = "bop"
+    elif {"sample_id", "R", "t"} <= cols:
+        kind = "sample"
+    else:
+        raise InvalidInputError(f"{path}: header {list(df.columns)} is neither BOP (scene_id,im_id,obj_id,score,R,t,time) "
+                                "nor per-sample (sample_id,R,t[,score][,time])")
+    Ts = []
+    for k, r in enumerate(df.to_dict("records"), 2):
+        T = np.eye(4)
+        T[:3, :3] = _floats(r["R"], 9, f"{path}:{k} R").reshape(3, 3)
+        T[:3, 3] = _floats(r["t"], 3, f"{path}:{k} t")
+        Ts.append(T)
+    df["T"] = Ts
+    df["score"] = pd.to_numeric(df["score"], errors="coerce") if "score" in df else np.nan
+    df["time"] = pd.to_numeric(df["time"], errors="coerce") if "time" in df else np.nan
+    df.attrs["kind"] = kind
+    return df
+
+
+def _orthonormalise(R: np.ndarray) -> np.ndarray:
+    """Nearest rotation (files hold rounded values)."""
+    U, _, Vt = np.linalg.svd(R)
+    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
+
+
+def score_predictions(preds, gt_rows: Sequence[dict], method: str) -> list[dict]:
+    """Per-sample rows (``samples.jsonl`` schema) for the predictions against ground-truth rows.
+
+    ``gt_rows`` are rows with ``T_gt`` (a run's ``samples.jsonl``, one per view is enough). A
+    view without a prediction is recorded as failed ("no prediction").
+    """
+    from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors
+    from catpose.geometry import invert_T, make_T
+
+    kind = preds.attrs.get("kind", "sample")
+    by_key: dict[Any, dict] = {}
+    for p in preds.to_dict("records"):
+        key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"])) if kind == "bop" else str(p["sample_id"])
+        old = by_key.get(key)
+        if old is None or (kind == "bop" and np.nan_to_num(p["score"], nan=-np.inf) > np.nan_to_num(old["score"], nan=-np.inf)):
+            by_key[key] = p
+    ids = _bop_ids(gt_rows)[0] if kind == "bop" else None
+    out = []
+    for k, g in enumerate(gt_rows):
+        row = {key: g.get(key) for key in ("sample_id", "group_id", "obs_id", "category", "instance_id", "template_id",
+                                           "dataset", "protocol", "seed", "symmetric", "T_gt", "symmetry_axis", "info")}
+        row.update(method=method, extras={}, stage="")
+        if kind == "bop":
+            scene, im, obj, scale, centre = ids[k]
+            p = by_key.get((scene, im, obj))
+        else:
+            p = by_key.get(str(g["sample_id"])) or by_key.get(str(g.get("obs_id")))
+            scale, centre = 1.0, np.zeros(3)
+        if p is None:
+            row.update(status="failed", error="no prediction", stage="register", err_deg=FAILED_ERROR_DEG,
+                       rot_err_deg=None, axis_err_deg=None, trans_err=None, score=None, runtime_s=None, T_est=None)
+            out.append(row)
+            continue
+        T = np.asarray(p["T"], float)
+        R = _orthonormalise(T[:3, :3])
+        if kind == "bop":  # T_camera_model[mm] -> T_template_camera[unit]
+            t_cn = (T[:3, 3] + R @ centre) / scale
+            T_est = invert_T(make_T(R, t_cn))
+        else:
+            T_est = make_T(R, T[:3, 3])
+        axis = g.get("symmetry_axis")
+        errs = sample_errors(T_est, np.asarray(g["T_gt"], float).reshape(4, 4), None if axis is None else np.asarray(axis, float))
+        score = p.get("score")
+        score = None if score is None or not math.isfinite(float(score)) else (-float(score) if kind == "bop" else float(score))
+        rt = p.get("time")
+        row.update(status="ok", error="", score=score, T_est=T_est.reshape(-1).tolist(),
+                   runtime_s=None if rt is None or not math.isfinite(float(rt)) or float(rt) < 0 else float(rt), **errs)
+        out.append(row)
+    return out
+
+
+def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
+    """Ground-truth rows (one per view) and the config of a run directory."""
+    from catpose.bench.tables import load_run
+
+    run = load_run(run_dir)
+    s = run.samples
+    if len(s) == 0 or "T_gt" not in s:
+        raise DatasetError(f"run {run_dir} has no ground truth rows; pass a run written by `bench run`")
+    s = s[s["T_gt"].notna()]
+    key = "group_id" if run.protocol in ("templates", "relative") else "sample_id"
+    return s.drop_duplicates(key).to_dict("records"), run.config
+
+
+def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Sequence[str] = ()) -> tuple[list[dict], dict]:
+    """Ground-truth rows built from ``configs/dataset/<dataset>.yaml`` + ``configs/protocol/<protocol>.yaml``."""
+    from hydra import compose, initialize_config_module
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    with initialize_config_module("catpose.configs", version_base=None):
+        cfg = compose("run", overrides=[f"dataset={dataset}", f"protocol={protocol}", f"seed={seed}", *overrides])
+    config = OmegaConf.to_container(cfg, resolve=True)
+    ds_cfg, pr_cfg = dict(config["dataset"]), dict(config["protocol"])
+    ds_name, pr_name = ds_cfg.pop("name"), pr_cfg.pop("name")
+    ds, proto = instantiate(ds_cfg, _convert_="all"), instantiate(pr_cfg, _convert_="all")
+    ds.name = ds_name
+    rows, seen = [], set()
+    for sid in proto.sample_ids(ds):
+        sample = proto.load(ds, sid)
+        group = sample.group_id or sid
+        if group in seen and pr_name in ("templates", "relative"):
+            continue
+        seen.add(group)
+        info = dict(sample.info)
+        axis = sample.gt.symmetry_axis
+        rows.append({"sample_id": sid, "group_id": group, "obs_id": sid.split("|")[0], "category": sample.problem.category,
+                     "instance_id": info.get("instance_id"), "template_id": sample.problem.template.template_id,
+                     "dataset": ds_name, "protocol": pr_name, "seed": seed, "symmetric": axis is not None,
+                     "T_gt": np.asarray(sample.gt.T_template_camera, float).reshape(-1).tolist(),
+                     "symmetry_axis": None if axis is None else np.asarray(axis, float).tolist(), "info": info})
+    return rows, config
+
+
+def export_main(argv: list[str] | None = None) -> int:
+    """``bench export RUN_DIR --out results.csv``."""
+    ap = argparse.ArgumentParser(prog="bench export", description="Export a run's estimates as a BOP results CSV.")
+    ap.add_argument("run", help="a run directory written by `bench run`")
+    ap.add_argument("--out", required=True, help="CSV to write (a <out>.map.csv with the id mapping is written beside it)")
+    args = ap.parse_args(argv)
+    try:
+        n = export_bop(args.run, args.out)
+    except CatposeError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(f"wrote {n} estimates to {args.out}")
+    return 0
+
+
+def score_main(argv: list[str] | None = None) -> int:
+    """``bench score PREDICTIONS.csv --gt RUN_DIR --method NAME --out DIR`` (or ``--dataset D --protocol P``)."""
+    ap = argparse.ArgumentParser(prog="bench score",
+                                 description="Score an external predictions file (BOP CSV or per-sample CSV).")
+    ap.add_argument("predictions")
+    ap.add_argument("--gt", help="a run directory whose ground truth (and samples) to score against")
+    ap.add_argument("--dataset", help="or: a dataset config name (configs/dataset)")
+    ap.add_argument("--protocol", default="gt_model", help="with --dataset: a protocol config name")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--override", action="append", default=[], help="extra Hydra override for --dataset, repeatable")
+    ap.add_argument("--method", required=True, help="name of the external method (row label in tables)")
+    ap.add_argument("--out", required=True, help="run directory to write")
+    args = ap.parse_args(argv)
+    try:
+        if bool(args.gt) == bool(args.dataset):
+            raise InvalidInputError("pass exactly one of --gt RUN_DIR or --dataset NAME")
+        gt_rows, config = gt_rows_from_run(args.gt) if args.gt else gt_rows_from_config(
+            args.dataset, args.protocol, args.seed, args.override)
+        preds = read_predictions(args.predictions)
+        rows = score_predictions(preds, gt_rows, args.method)
+        config = dict(config, method={"name": args.method, "external": str(args.predictions)})
+        out = write_run(args.out, rows, config, {"predictions": str(args.predictions)})
+    except CatposeError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    n_ok = sum(r["status"] == "ok" for r in rows)
+    print(f"scored {n_ok}/{len(rows)} samples with predictions; run directory {out}")
+    print((out / "summary.md").read_text())
+    return 0

@@ -1,0 +1,186 @@
+"""The ``relative`` protocol: the relative camera pose between two views of one object.
+
+This is the paper's real-data protocol (Section IV-C): the absolute object frame of a real scan
+is unknown, so each view is registered to a template on its own and the two estimates are
+compared through the relative pose they imply:
+
+    T_c1_c2_est = inv(T_template_c1_est) @ T_template_c2_est
+    T_c1_c2_gt  = inv(T_object_c1_gt)    @ T_object_c2_gt
+
+The ground truth only has to be consistent between the views of one instance (a Redwood
+trajectory frame is enough: ``Observation.info["absolute_gt"]`` may be False).
+
+The per-sample rows (``samples.jsonl``) are the single-view registrations; ``score_units`` turns
+them into one row per view pair. A pair's ``err_deg`` is the geodesic angle between the
+estimated and true relative rotation, or for rotationally symmetric objects the main-axis error:
+the axis as seen in camera 2, mapped into camera 1 by the estimated and by the true relative pose
+(this is invariant to each view's unobservable spin about the axis). A failed view fails its
+pairs (180 degrees).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from catpose.bench.metrics import FAILED_ERROR_DEG, axis_error_deg, rotation_error_deg, translation_error
+from catpose.bench.protocols import GtModel, Protocol, Templates
+from catpose.datasets.base import ObjectDataset
+from catpose.errors import ConfigError
+from catpose.geometry import invert_T
+from catpose.types import Sample
+
+TEMPLATE_SOURCES = ("own", "category")
+PAIRINGS = ("consecutive", "all")
+
+
+def pair_indices(n_views: int, pairs: str, max_pairs: int | None) -> list[tuple[int, int]]:
+    """Index pairs ``(i, j)``, ``i < j``, among ``n_views`` ordered views.
+
+    ``pairs="consecutive"`` gives (0, 1), (1, 2), ...; ``"all"`` gives every ``i < j``. When
+    ``max_pairs`` is set and smaller, that many pairs are kept, evenly spaced over the list
+    (deterministic, so every method is scored on the same pairs).
+    """
+    if pairs == "consecutive":
+        out = [(i, i + 1) for i in range(n_views - 1)]
+    elif pairs == "all":
+        out = [(i, j) for i in range(n_views) for j in range(i + 1, n_views)]
+    else:
+        raise ConfigError(f"protocol.pairs={pairs!r} is unknown; use one of {PAIRINGS}")
+    if max_pairs is not None and 0 < max_pairs < len(out):
+        keep = np.unique(np.linspace(0, len(out) - 1, max_pairs).round().astype(int))
+        out = [out[k] for k in keep]
+    return out
+
+
+def relative_errors(T_est1: np.ndarray, T_est2: np.ndarray, T_gt1: np.ndarray, T_gt2: np.ndarray,
+                    symmetry_axis: np.ndarray | None = None) -> dict[str, float]:
+    """Errors of the relative pose of two views.
+
+    Args:
+        T_est1, T_est2: (4, 4) estimated ``T_template_camera`` of views 1 and 2.
+        T_gt1, T_gt2: (4, 4) true ``T_object_camera`` of the two views (any frame shared by both).
+        symmetry_axis: (3,) main axis in the object/template frame of a symmetric object, or None.
+
+    Returns:
+        ``rot_err_deg`` (geodesic angle between estimated and true ``R_c1_c2``), ``axis_err_deg``
+        (NaN unless symmetric), ``trans_err`` (distance between the relative translations, in the
+        object-normalised unit of the estimates) and ``err_deg`` (axis error if symmetric).
+    """
+    T_c1_c2_est = invert_T(np.asarray(T_est1, float)) @ np.asarray(T_est2, float)
+    T_c1_c2_gt = invert_T(np.asarray(T_gt1, float)) @ np.asarray(T_gt2, float)
+    rot = rotation_error_deg(T_c1_c2_est[:3, :3], T_c1_c2_gt[:3, :3])
+    axis = float("nan")
+    if symmetry_axis is not None:
+        # Main axis in camera 2 (from view 2's ground truth); compare where the two relative
+        # poses put it in camera 1. axis_error_deg compares R_est^T a with R_gt^T a.
+        a_c2 = np.asarray(T_gt2, float)[:3, :3].T @ np.asarray(symmetry_axis, float).reshape(3)
+        axis = axis_error_deg(T_c1_c2_est[:3, :3].T, T_c1_c2_gt[:3, :3].T, a_c2)
+    return {"rot_err_deg": rot, "axis_err_deg": axis,
+            "trans_err": translation_error(T_c1_c2_est[:3, 3], T_c1_c2_gt[:3, 3]),
+            "err_deg": rot if symmetry_axis is None else axis}
+
+
+def _matrix(value: Any) -> np.ndarray | None:
+    if value is None or (isinstance(value, float) and np.isnan(value)):
+        return None
+    return np.asarray(value, float).reshape(4, 4)
+
+
+def _axis(value: Any) -> np.ndarray | None:
+    if value is None or (isinstance(value, float) and np.isnan(value)):
+        return None
+    return np.asarray(value, float).reshape(3)
+
+
+class Relative(Protocol):
+    """Relative pose between views of one instance, each view registered to a template.
+
+    Args:
+        template_source: ``"own"``: each view against the instance's own complete model
+            (``dataset.instance_model``); ``"category"``: against the category templates
+            (``dataset.category_templates``; with several, a view's estimate is the template
+            with the lowest method score, as in the ``templates`` protocol).
+        pairs: ``"consecutive"`` (view k with view k+1, in sorted ``obs_id`` order) or ``"all"``.
+        max_pairs_per_instance: keep at most this many pairs per instance (evenly spaced), or
+            None for all.
+        max_templates: with ``template_source="category"``, use only the first K templates.
+    """
+
+    name = "relative"
+
+    def __init__(self, template_source: str = "category", pairs: str = "consecutive",
+                 max_pairs_per_instance: int | None = None, max_templates: int | None = None) -> None:
+        if template_source not in TEMPLATE_SOURCES:
+            raise ConfigError(f"protocol.template_source={template_source!r} is unknown; use one of {TEMPLATE_SOURCES}")
+        if pairs not in PAIRINGS:
+            raise ConfigError(f"protocol.pairs={pairs!r} is unknown; use one of {PAIRINGS}")
+        if max_pairs_per_instance is not None and int(max_pairs_per_instance) < 1:
+            raise ConfigError(f"protocol.max_pairs_per_instance={max_pairs_per_instance} must be >= 1 or null")
+        self.template_source = template_source
+        self.pairs = pairs
+        self.max_pairs_per_instance = None if max_pairs_per_instance is None else int(max_pairs_per_instance)
+        self._views: Protocol = GtModel() if template_source == "own" else Templates(max_templates=max_templates)
+
+    def sample_ids(self, dataset: ObjectDataset) -> list[str]:
+        """One registration per view (``"own"``) or per (view, template) (``"category"``)."""
+        return self._views.sample_ids(dataset)
+
+    def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
+        sample = self._views.load(dataset, sample_id)
+        obs_id = sample_id.rpartition("|")[0] if self.template_source == "category" else sample_id
+        info = dict(sample.info)
+        info.setdefault("absolute_gt", True)
+        return Sample(problem=sample.problem, gt=sample.gt, group_id=obs_id, info=info)
+
+    def view_rows(self, samples):
+        """Per-sample rows -> one row per view (the chosen template's estimate)."""
+        if self.template_source == "category":
+            return self._views.score_units(samples)
+        return samples
+
+    def score_units(self, samples):
+        """Per-view registration rows -> one row per view pair of an instance.
+
+        Needs the ``samples.jsonl`` columns ``category``, ``instance_id``, ``group_id`` (the
+        view's ``obs_id``), ``status``, ``T_est``, ``T_gt``, ``symmetry_axis``, ``runtime_s`` and
+        ``score``. Output rows keep the schema's columns (``err_deg``, ``status``, ...);
+        ``sample_id`` is ``"<obs_id1>~<obs_id2>"``, ``group_id`` the instance, ``runtime_s`` and
+        ``score`` the sums over the two views.
+        """
+        import pandas as pd
+
+        if len(samples) == 0:
+            return samples
+        views = self.view_rows(samples)
+        views = views.assign(_view=views["group_id"].astype(str)).sort_values("_view", kind="stable")
+        rows = []
+        for (category, instance), g in views.groupby(["category", "instance_id"], sort=True):
+            g = g.drop_duplicates("_view")
+            records = g.to_dict("records")
+            for i, j in pair_indices(len(records), self.pairs, self.max_pairs_per_instance):
+                rows.append(self._pair_row(records[i], records[j], str(category), str(instance)))
+        out = pd.DataFrame(rows)
+        return out.drop(columns=["_view"], errors="ignore")
+
+    def _pair_row(self, r1: dict, r2: dict, category: str, instance: str) -> dict:
+        row = dict(r1)
+        row.update(sample_id=f"{r1['_view']}~{r2['_view']}", group_id=f"{category}/{instance}",
+                   obs_id=f"{r1['_view']}~{r2['_view']}", view1=r1["_view"], view2=r2["_view"],
+                   runtime_s=float(np.nansum([r1.get("runtime_s", np.nan), r2.get("runtime_s", np.nan)])),
+                   score=float(np.nansum([r1.get("score", np.nan), r2.get("score", np.nan)])))
+        failed = [r["_view"] for r in (r1, r2) if r.get("status") != "ok" or _matrix(r.get("T_est")) is None]
+        if failed:
+            row.update(status="failed", error=f"view {failed[0]} failed: {r1.get('error') or r2.get('error') or 'no estimate'}",
+                       rot_err_deg=FAILED_ERROR_DEG, axis_err_deg=float("nan"), trans_err=float("nan"),
+                       err_deg=FAILED_ERROR_DEG, T_est=None)
+            return row
+        T_gt1, T_gt2 = _matrix(r1.get("T_gt")), _matrix(r2.get("T_gt"))
+        axis = _axis(r1.get("symmetry_axis"))
+        errors = relative_errors(_matrix(r1["T_est"]), _matrix(r2["T_est"]), T_gt1, T_gt2, axis)
+        T_rel_est = invert_T(_matrix(r1["T_est"])) @ _matrix(r2["T_est"])
+        T_rel_gt = invert_T(T_gt1) @ T_gt2
+        row.update(status="ok", error="", T_est=T_rel_est.reshape(-1).tolist(), T_gt=T_rel_gt.reshape(-1).tolist(),
+                   symmetric=axis is not None, **errors)
+        return row

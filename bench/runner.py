@@ -1,0 +1,358 @@
+"""The runner: every sample of a dataset + protocol through one method, into one run directory.
+
+Stages with files between them (run -> estimates and errors -> tables):
+
+- ``samples.jsonl``: one JSON object per finished sample, appended and flushed as soon as it is
+  done, so a run killed midway loses nothing already written and a re-run skips finished
+  samples (resume). A truncated last line from a kill is ignored and rewritten.
+- ``config.yaml`` (the resolved config), ``git_rev.txt``, ``run.json``.
+- ``samples.csv``, ``summary.csv``, ``summary.md``: made from ``samples.jsonl`` by
+  :func:`summarize_run`, never from in-memory state.
+
+A sample whose data fails to load, whose method raises, or whose estimate is not a finite rigid
+transform is recorded with ``status="failed"`` and its message; the run goes on.
+
+The run directory is ``<output_root>/<dataset>-<protocol>/<method>/<tag>-<hash>``: ``tag`` spells
+the command-line overrides (readable), ``hash`` is a digest of the resolved method, dataset,
+protocol and seed (so two different configurations never share a directory).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import random
+import re
+import subprocess
+import sys
+import time
+import traceback
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+from catpose.errors import CatposeError, ConfigError
+from catpose.geometry import stable_seed
+
+SAMPLES_FILE = "samples.jsonl"
+_RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", "limit", "sample_ids", "output_root",
+                               "progress", "threads", "retry_failed", "print_summary"}
+
+
+# ---------------------------------------------------------------------------------------------
+# building the pieces from config
+
+
+def _instantiate(node: Any, what: str) -> tuple[str, Any]:
+    """Pop ``name`` from a config group node and build its ``_target_`` with the rest."""
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    d = OmegaConf.to_container(node, resolve=True) if not isinstance(node, dict) else dict(node)
+    name = str(d.pop("name", what))
+    if "_target_" not in d:
+        raise ConfigError(f"config group '{what}' ({name}) has no _target_; add one to configs/{what}/{name}.yaml")
+    try:
+        return name, instantiate(d, _convert_="all")
+    except CatposeError:
+        raise
+    except Exception as e:  # Hydra wraps constructor errors; surface the user-facing one
+        cause = e
+        while cause.__cause__ is not None:
+            cause = cause.__cause__
+        if isinstance(cause, CatposeError):
+            raise cause from None
+        raise ConfigError(f"cannot build {what} '{name}' ({d['_target_']}): {cause}") from None
+
+
+def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:
+    """The output directory of a configuration (see the module docstring)."""
+    from omegaconf import OmegaConf
+
+    identity = {k: OmegaConf.to_container(cfg[k], resolve=True) for k in ("method", "dataset", "protocol")}
+    identity["seed"] = int(cfg.seed)
+    digest = hashlib.sha1(json.dumps(identity, sort_keys=True, default=str).encode()).hexdigest()[:8]
+    parts = []
+    for o in overrides:
+        key = o.split("=", 1)[0].lstrip("+~")
+        if key.split(".")[0] in _RUN_KEYS_EXCLUDED_FROM_TAG and "." not in key:
+            continue
+        if key.startswith("hydra.") or key == "output_root":
+            continue
+        parts.append(re.sub(r"[^A-Za-z0-9_.=,+-]+", "_", o.replace("/", "_")))
+    tag = ",".join(sorted(parts))[:80] or "default"
+    name = f"seed{int(cfg.seed)}-{tag}-{digest}"
+    return Path(str(cfg.output_root)) / f"{cfg.dataset.name}-{cfg.protocol.name}" / str(cfg.method.name) / name
+
+
+def _git_revision() -> str:
+    here = Path(__file__).resolve().parent
+    try:
+        rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=10)
+        if rev.returncode != 0:
+            return "unknown (not a git checkout)"
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return rev.stdout.strip() + (" (with uncommitted changes)" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        return "unknown (git not available)"
+
+
+# ---------------------------------------------------------------------------------------------
+# the per-sample table
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, (np.floating, float)):
+        f = float(x)
+        return f if math.isfinite(f) else None
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (np.bool_,)):
+        return bool(x)
+    if isinstance(x, (str, int, bool)) or x is None:
+        return x
+    return str(x)
+
+
+def read_samples(path: Path) -> list[dict]:
+    """Rows of a ``samples.jsonl``; a truncated last line (a killed run) is skipped."""
+    rows = []
+    if not path.exists():
+        return rows
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            line = line.strip()
+            if not line:
+                continue
+            try:
+                rows.append(json.loads(line))
+            except json.JSONDecodeError:
+                continue
+    return rows
+
+
+class _SampleWriter:
+    """Appends one JSON line per sample and makes it durable before the next sample starts."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        if path.exists():  # drop a partial last line left by a kill, keep every complete one
+            data = path.read_bytes()
+            if data and not data.endswith(b"\n"):
+                path.write_bytes(data[: data.rfind(b"\n") + 1])
+        self._f = open(path, "a", encoding="utf-8")
+
+    def write(self, row: dict) -> None:
+        self._f.write(json.dumps(_jsonable(row), sort_keys=False) + "\n")
+        self._f.flush()
+        os.fsync(self._f.fileno())
+
+    def close(self) -> None:
+        self._f.close()
+
+
+def seed_everything(seed: int) -> None:
+    """Seed Python, NumPy, and (when loaded) torch and Open3D, for one sample."""
+    seed32 = seed % (2**32)
+    random.seed(seed32)
+    np.random.seed(seed32)
+    if "torch" in sys.modules:
+        sys.modules["torch"].manual_seed(seed32)
+    if "open3d" in sys.modules:
+        from catpose.o3d import o3d
+
+        o3d.utility.random.seed(seed32 % (2**31))
+
+
+def _run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dict, seed: int) -> dict:
+    from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors
+
+    row = dict(base, sample_id=sample_id, group_id=sample_id, obs_id=sample_id.split("|")[0],
+               category=dataset.category_of(sample_id.split("|")[0]), instance_id=None, template_id=None,
+               status="failed", error="", stage="load", rot_err_deg=None, axis_err_deg=None, trans_err=None,
+               err_deg=FAILED_ERROR_DEG, symmetric=None, score=None, runtime_s=None, T_est=None, T_gt=None,
+               symmetry_axis=None, info={}, extras={})
+    try:
+        sample = protocol.load(dataset, sample_id)
+    except Exception as e:  # a bad sample is recorded, the run goes on
+        row["error"] = _one_line(e)
+        return row
+    info = dict(sample.info)
+    row.update(group_id=sample.group_id or sample_id, category=sample.problem.category,
+               instance_id=info.get("instance_id"), template_id=sample.problem.template.template_id,
+               T_gt=np.asarray(sample.gt.T_template_camera, float).reshape(-1), symmetric=sample.gt.symmetry_axis is not None,
+               symmetry_axis=sample.gt.symmetry_axis, info=info, stage="register")
+    seed_everything(stable_seed(seed, sample_id))
+    t0 = time.perf_counter()
+    try:
+        result = method.register(sample.problem)
+    except Exception as e:
+        row["runtime_s"] = time.perf_counter() - t0
+        row["error"] = _one_line(e)
+        return row
+    runtime = time.perf_counter() - t0
+    result = dataclasses.replace(result, runtime_s=runtime)
+    T = np.asarray(result.T_target_source, dtype=float)
+    row.update(runtime_s=runtime, score=result.score, extras=dict(result.extras))
+    if T.shape != (4, 4) or not np.isfinite(T).all():
+        row["error"] = f"method returned a non-finite or malformed pose (shape {T.shape})"
+        return row
+    R = T[:3, :3]
+    if np.abs(R @ R.T - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
+        row["error"] = "method returned a matrix whose rotation part is not a rotation"
+        return row
+    row.update(status="ok", stage="", T_est=T.reshape(-1), **sample_errors(T, sample.gt.T_template_camera, sample.gt.symmetry_axis))
+    return row
+
+
+def _one_line(e: BaseException) -> str:
+    msg = " ".join(str(e).split()) or "(no message)"
+    if isinstance(e, CatposeError):
+        return msg
+    tb = traceback.extract_tb(e.__traceback__)
+    where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno})" if tb else ""
+    return f"{type(e).__name__}: {msg}{where}"
+
+
+# ---------------------------------------------------------------------------------------------
+# run and summarise
+
+
+def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
+    """Run ``cfg.method`` on every sample of ``cfg.dataset`` under ``cfg.protocol``.
+
+    Returns the run directory. Finished samples already in its ``samples.jsonl`` are skipped.
+    """
+    from omegaconf import OmegaConf
+
+    if cfg.get("threads"):
+        import torch
+
+        torch.set_num_threads(int(cfg.threads))
+    method_name, method = _instantiate(cfg.method, "method")
+    dataset_name, dataset = _instantiate(cfg.dataset, "dataset")
+    dataset.name = dataset_name
+    _, protocol = _instantiate(cfg.protocol, "protocol")
+
+    ids = protocol.sample_ids(dataset)
+    if cfg.get("sample_ids"):
+        wanted = list(cfg.sample_ids)
+        unknown = sorted(set(wanted) - set(ids))
+        if unknown:
+            raise ConfigError(f"sample_ids not in {dataset_name}/{cfg.protocol.name}: {unknown[:3]}; "
+                              f"valid ids look like {ids[:2]}")
+        ids = wanted
+    if cfg.get("limit") is not None:
+        ids = ids[: int(cfg.limit)]
+
+    out = run_dir_for(cfg, overrides)
+    out.mkdir(parents=True, exist_ok=True)
+    OmegaConf.save(cfg, out / "config.yaml", resolve=True)
+    (out / "git_rev.txt").write_text(_git_revision() + "\n")
+    (out / "overrides.txt").write_text("\n".join(overrides) + "\n")
+
+    samples_path = out / SAMPLES_FILE
+    retry = bool(cfg.get("retry_failed", False))
+    existing = read_samples(samples_path)
+    done = {r["sample_id"] for r in existing if r.get("status") == "ok" or not retry}
+    todo = [s for s in ids if s not in done]
+    base = {"method": method_name, "dataset": dataset_name, "protocol": str(cfg.protocol.name),
+            "seed": int(cfg.seed)}
+
+    writer = _SampleWriter(samples_path)
+    from tqdm import tqdm
+
+    bar = tqdm(total=len(ids), initial=len(ids) - len(todo), unit="sample", dynamic_ncols=True,
+               desc=f"{method_name} on {dataset_name}", disable=not cfg.get("progress", True), file=sys.stderr)
+    try:
+        for sample_id in todo:
+            row = _run_one(method, protocol, dataset, sample_id, base, int(cfg.seed))
+            writer.write(row)
+            bar.update(1)
+            if row["status"] != "ok":
+                bar.write(f"[failed] {sample_id}: {row['error']}", file=sys.stderr)
+    finally:
+        bar.close()
+        writer.close()
+
+    meta = dict(base, n_samples=len(ids), n_run_now=len(todo), output_dir=str(out))
+    (out / "run.json").write_text(json.dumps(meta, indent=2) + "\n")
+    summary = summarize_run(out, ids)
+    if cfg.get("print_summary", True):
+        print(f"\n{method_name} on {dataset_name} ({cfg.protocol.name}), seed {int(cfg.seed)}: {out}")
+        print(format_summary(summary))
+    return out
+
+
+def load_protocol(run_dir: Path) -> Any:
+    """Rebuild the protocol of a run from its ``config.yaml`` (for scoring from files)."""
+    from omegaconf import OmegaConf
+
+    cfg = OmegaConf.load(run_dir / "config.yaml")
+    return _instantiate(cfg.protocol, "protocol")[1]
+
+
+def summarize_run(run_dir: Path, sample_ids: Iterable[str] | None = None):
+    """Per-category summary of a run from its files; writes samples.csv, summary.csv/md.
+
+    Only ``sample_ids`` are counted when given (a ``limit``-ed run of a larger directory).
+    Errors are recomputed from the stored estimates and ground truth, so the statistics never
+    depend on in-memory state.
+    """
+    import pandas as pd
+
+    from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors, summarize
+
+    run_dir = Path(run_dir)
+    latest: dict[str, dict] = {}
+    for r in read_samples(run_dir / SAMPLES_FILE):  # a retried sample: its last row counts
+        latest.pop(r["sample_id"], None)
+        latest[r["sample_id"]] = r
+    rows = list(latest.values())
+    if sample_ids is not None:
+        wanted = {s: i for i, s in enumerate(sample_ids)}
+        rows = sorted((r for r in rows if r["sample_id"] in wanted), key=lambda r: wanted[r["sample_id"]])
+    for r in rows:
+        if r.get("status") == "ok" and r.get("T_est") is not None:
+            axis = r.get("symmetry_axis")
+            r.update(sample_errors(np.reshape(r["T_est"], (4, 4)), np.reshape(r["T_gt"], (4, 4)),
+                                   None if axis is None else np.asarray(axis)))
+        else:
+            r["err_deg"] = FAILED_ERROR_DEG
+    df = pd.DataFrame(rows)
+    if len(df):
+        flat = df.drop(columns=[c for c in ("info", "extras") if c in df.columns]).copy()
+        for c in ("T_est", "T_gt", "symmetry_axis"):
+            if c in flat.columns:
+                flat[c] = flat[c].map(lambda v: " ".join(f"{x:.9g}" for x in np.ravel(v)) if isinstance(v, list) else "")
+        flat.to_csv(run_dir / "samples.csv", index=False)
+        units = load_protocol(run_dir).score_units(df)
+    else:
+        units = df
+    summary = summarize(units) if len(units) else summarize(pd.DataFrame(
+        columns=["category", "status", "err_deg", "trans_err", "runtime_s"]))
+    if "oracle_err_deg" in getattr(units, "columns", []):
+        oracle = summarize(units.assign(err_deg=units["oracle_err_deg"], status="ok"))
+        summary["oracle_mean_err_deg"] = oracle["mean_err_deg"].to_numpy()
+        summary["oracle_median_err_deg"] = oracle["median_err_deg"].to_numpy()
+    summary.to_csv(run_dir / "summary.csv", index=False)
+    (run_dir / "summary.md").write_text(format_summary(summary) + "\n")
+    return summary
+
+
+def format_summary(summary) -> str:
+    """The summary as a Markdown table (angles in degrees, translation in object-normalised units)."""
+    if len(summary) == 0:
+        return "(no samples)"
+    return summary.to_markdown(index=False, floatfmt=".3f")

@@ -1,0 +1,598 @@
+"""Paper tables from run directories (files only: ``samples.jsonl``, ``config.yaml``, ``run.json``).
+
+A run directory is what the runner writes. Its per-sample rows are turned into scoring units by
+the run's own protocol (``score_units``: templates keep the best-scored template per view,
+``relative`` forms view pairs), summarised per category with :func:`catpose.bench.metrics.summarize`,
+and laid out like the paper's tables:
+
+==============  ================================================================================
+layout          paper table
+==============  ================================================================================
+optimizer       \\compareoptimizerfull: pipeline/descriptor x method rows, category x {mean,
+                median, L_T} columns
+one_template    \\matchonetemplateplane: one category (airplane), {mean, median, @10, @30, L_T}
+templates       \\templatechair: rows grouped by the number of templates (chair), oracle error
+real            \\realdatatablesmall: category x metric rows, one column per method
+tyol            \\TYOL: method x metric rows, one column per category (bottle ... mug)
+ablation        \\ablationsvd: with and without optimisation, {mean, median, @10}
+generic         any runs x categories x metrics
+==============  ================================================================================
+
+Best values are bold and second best underlined per column (or per row for ``real``), with the
+direction of each metric (errors lower, accuracies higher). Output: Markdown, LaTeX or CSV.
+
+Usage: ``bench table outputs/modelnet40-gt_model --layout optimizer --format latex``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from catpose.errors import CatposeError, ConfigError, DatasetError
+
+
+# --------------------------------------------------------------------------------------------
+# Runs
+
+
+@dataclass
+class Run:
+    """One run directory read from disk.
+
+    Attributes:
+        path: the run directory.
+        config: the resolved config (``config.yaml``) as a plain dict ({} when absent).
+        info: ``run.json`` as a dict ({} when absent).
+        samples: per-sample rows (pandas DataFrame with the ``samples.jsonl`` columns).
+    """
+
+    path: Path
+    config: dict
+    info: dict
+    samples: Any
+
+    @property
+    def method(self) -> str:
+        m = self.config.get("method")
+        if isinstance(m, dict) and m.get("name"):
+            return str(m["name"])
+        if isinstance(m, str):
+            return m
+        if self.info.get("method"):
+            return str(self.info["method"])
+        if len(self.samples) and "method" in self.samples:
+            return str(self.samples["method"].iloc[0])
+        return self.path.name
+
+    @property
+    def protocol(self) -> str:
+        p = self.config.get("protocol")
+        if isinstance(p, dict) and p.get("name"):
+            return str(p["name"])
+        if isinstance(p, str):
+            return p
+        return str(self.info.get("protocol", "gt_model"))
+
+    @property
+    def method_config(self) -> dict:
+        m = self.config.get("method")
+        return m if isinstance(m, dict) else {}
+
+
+def read_samples(path: Path):
+    """Read a ``samples.jsonl`` file into a DataFrame (raises :class:`DatasetError` if malformed)."""
+    import pandas as pd
+
+    rows = []
+    with open(path, encoding="utf-8") as f:
+        for k, line in enumerate(f, 1):
+            if not line.strip():
+                continue
+            try:
+                rows.append(json.loads(line))
+            except json.JSONDecodeError as e:
+                raise DatasetError(f"{path}:{k} is not valid JSON ({e.msg}); re-run the method or fix the line") from e
+    df = pd.DataFrame(rows)
+    if len(df) and "sample_id" in df:  # a retried sample: its last row counts (as in the runner)
+        df = df.drop_duplicates("sample_id", keep="last").reset_index(drop=True)
+    return df
+
+
+def load_run(path: str | Path) -> Run:
+    """Read a run directory (``samples.jsonl`` required, ``config.yaml`` and ``run.json`` optional)."""
+    path = Path(path)
+    samples_path = path / "samples.jsonl"
+    if not samples_path.is_file():
+        raise DatasetError(f"{path} is not a run directory: {samples_path.name} is missing; pass a folder written by `bench run`")
+    config: dict = {}
+    if (path / "config.yaml").is_file():
+        from omegaconf import OmegaConf
+
+        config = OmegaConf.to_container(OmegaConf.load(path / "config.yaml"), resolve=False)  # type: ignore[assignment]
+    info = json.loads((path / "run.json").read_text()) if (path / "run.json").is_file() else {}
+    return Run(path=path, config=config, info=info, samples=read_samples(samples_path))
+
+
+def find_run_dirs(paths: Sequence[str | Path]) -> list[Path]:
+    """Run directories given directly or found below the given folders (sorted, no duplicates)."""
+    out: list[Path] = []
+    for p in map(Path, paths):
+        if (p / "samples.jsonl").is_file():
+            out.append(p)
+        elif p.is_dir():
+            found = sorted(q.parent for q in p.rglob("samples.jsonl"))
+            if not found:
+                raise DatasetError(f"no samples.jsonl below {p}; pass run directories written by `bench run`")
+            out.extend(found)
+        else:
+            raise DatasetError(f"{p} does not exist; pass run directories written by `bench run`")
+    seen: set[Path] = set()
+    return [p for p in out if not (p.resolve() in seen or seen.add(p.resolve()))]
+
+
+def protocol_of(run: Run):
+    """The run's protocol object, instantiated from ``config.yaml`` (plain constructor args)."""
+    cfg = dict(run.config.get("protocol") or {}) if isinstance(run.config.get("protocol"), dict) else {}
+    cfg.pop("name", None)
+    if cfg.get("_target_"):
+        try:
+            from hydra.utils import instantiate
+
+            return instantiate(cfg)
+        except Exception:  # noqa: BLE001 - fall back on the built-in protocol of that name
+            pass
+    from catpose.bench.protocols import GtModel, Templates
+
+    if run.protocol == "relative":
+        from catpose.bench.relative import Relative
+
+        return Relative()
+    return Templates() if run.protocol == "templates" else GtModel()
+
+
+def scored_units(run: Run, error: str = "err_deg"):
+    """The run's scoring units (protocol ``score_units``); ``error="oracle_err_deg"`` uses the
+    templates protocol's minimum error across templates as ``err_deg`` (an oracle)."""
+    units = protocol_of(run).score_units(run.samples)
+    if error != "err_deg":
+        if error not in units:
+            raise ConfigError(f"run {run.path} has no column {error!r}; the oracle exists only for the templates protocol")
+        units = units.assign(err_deg=units[error])
+    return units
+
+
+# --------------------------------------------------------------------------------------------
+# Labels
+
+DISPLAY_NAMES = {"ours": "Ours", "icp": "ICP", "fgr": "FGR", "teaser": "Teaser++", "teaserpp": "Teaser++",
+                 "teaser_pp": "Teaser++", "equipose": "Equi-pose", "equi_pose": "Equi-pose",
+                 "rpmnet": "RPM-Net", "rpm_net": "RPM-Net", "ransac": "RANSAC"}
+
+
+def _first(cfg: dict, keys: Sequence[str]) -> Any:
+    for k in keys:
+        if cfg.get(k) not in (None, ""):
+            return cfg[k]
+    return None
+
+
+def pipeline_label(run: Run) -> str:
+    """``"Dictionary LPS"``-style group label from the method's pipeline options, or ``"-"``."""
+    cfg = run.method_config
+    matching = _first(cfg, ("matching", "pipeline", "match"))
+    descriptor = _first(cfg, ("descriptor", "features", "feature"))
+    parts = []
+    if matching is not None:
+        parts.append({"direct": "Direct match", "dictionary": "Dictionary"}.get(str(matching), str(matching)))
+    if descriptor is not None:
+        parts.append(str(descriptor).upper())
+    return " ".join(parts) if parts else "-"
+
+
+def without_optimisation(run: Run) -> bool:
+    """Whether the method config switches the pose optimisation off (ablation runs)."""
+    for k, v in run.method_config.items():
+        if "optim" in k.lower() and v is False:
+            return True
+        if k in ("steps", "n_steps", "opt_steps", "optim_steps", "iterations") and v == 0:
+            return True
+    return False
+
+
+def method_label(run: Run) -> str:
+    """Display name of the run's method (``Ours``, ``Teaser++``, ...), marking ablations."""
+    name = DISPLAY_NAMES.get(run.method.lower(), run.method)
+    return f"{name} (w/o optimization)" if without_optimisation(run) else name
+
+
+def template_count(run: Run) -> str:
+    """Number of templates per view of a templates run (from the rows, else the config)."""
+    s = run.samples
+    if run.protocol == "templates" and len(s) and "group_id" in s:
+        return str(int(s.groupby("group_id").size().max()))
+    p = run.config.get("protocol") if isinstance(run.config.get("protocol"), dict) else {}
+    return str(p.get("max_templates") or ("1" if run.protocol != "templates" else "?"))
+
+
+# --------------------------------------------------------------------------------------------
+# Table model and rendering
+
+
+@dataclass(frozen=True)
+class Metric:
+    """A statistic of :func:`catpose.bench.metrics.summarize` and how to show and rank it."""
+
+    column: str
+    md: str
+    tex: str
+    lower_is_better: bool
+    digits: int = 3
+
+
+METRICS: dict[str, Metric] = {
+    "mean": Metric("mean_err_deg", "Mean° ↓", r"Mean$^{\circ}\downarrow$", True),
+    "median": Metric("median_err_deg", "Med.° ↓", r"Med.$^{\circ}\downarrow$", True),
+    "acc10": Metric("acc10", "@10 ↑", r"$@10\uparrow$", False),
+    "acc30": Metric("acc30", "@30 ↑", r"$@30\uparrow$", False),
+    "trans": Metric("mean_trans_err", "L_T ↓", r"$\mathcal{L}_T\downarrow$", True),
+    "runtime": Metric("median_runtime_s", "time [s] ↓", r"time [s]$\downarrow$", True, 2),
+    "n": Metric("n", "n", "n", False, 0),
+    "failed": Metric("failed", "failed ↓", r"failed$\downarrow$", True, 0),
+}
+
+
+@dataclass
+class Table:
+    """A table of numbers with best/second marks.
+
+    ``rows`` and ``columns`` are tuples of labels (1 or 2 levels each); ``cells`` maps
+    ``(row, column)`` to ``(value, metric key)``. Cells compete for bold/underline within
+    ``(column, metric)`` when ``rank_by == "column"`` and within ``(row, metric)`` when
+    ``rank_by == "row"``.
+    """
+
+    title: str
+    row_header: list[str]
+    rows: list[tuple[str, ...]]
+    columns: list[tuple[str, ...]]
+    cells: dict[tuple[tuple[str, ...], tuple[str, ...]], tuple[float, str]] = field(default_factory=dict)
+    rank_by: str = "column"
+    notes: list[str] = field(default_factory=list)
+
+    def ranks(self) -> dict[tuple, int]:
+        """1 for the best cell(s), 2 for the second best, per ranking group (ties share a rank)."""
+        groups: dict[tuple, list[tuple[tuple, float]]] = {}
+        for (r, c), (v, m) in self.cells.items():
+            if v is None or not math.isfinite(v) or m in ("n",):
+                continue
+            key = (c, m) if self.rank_by == "column" else (r, m)
+            groups.setdefault(key, []).append(((r, c), v))
+        out: dict[tuple, int] = {}
+        for (_, m), items in groups.items():
+            if len(items) < 2:
+                continue
+            sign = 1.0 if METRICS[m].lower_is_better else -1.0
+            distinct = sorted({round(sign * v, 9) for _, v in items})
+            for cell, v in items:
+                pos = distinct.index(round(sign * v, 9))
+                if pos < 2:
+                    out[cell] = pos + 1
+        return out
+
+    def text(self, r: tuple, c: tuple) -> str:
+        v, m = self.cells.get((r, c), (float("nan"), "mean"))
+        if v is None or not math.isfinite(v):
+            return "-"
+        return f"{v:.{METRICS[m].digits}f}"
+
+
+def _header_text(label: str, fmt: str) -> str:
+    for m in METRICS.values():
+        if label == m.md:
+            return m.tex if fmt == "latex" else m.md
+    return label
+
+
+def _tex_escape(s: str) -> str:
+    return s.replace("\\", r"\textbackslash{}").replace("&", r"\&").replace("%", r"\%").replace("_", r"\_").replace("#", r"\#")
+
+
+def to_markdown(table: Table) -> str:
+    """GitHub Markdown: best in **bold**, second <u>underlined</u>."""
+    ranks = table.ranks()
+    head = table.row_header + [" ".join(x for x in c if x) for c in table.columns]
+    lines = [f"**{table.title}**", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    prev: tuple = ()
+    for r in table.rows:
+        shown = [x if (k == len(r) - 1 or prev[: k + 1] != r[: k + 1]) else "" for k, x in enumerate(r)]
+        prev = r
+        cells = []
+        for c in table.columns:
+            t = table.text(r, c)
+            rank = ranks.get((r, c))
+            cells.append(f"**{t}**" if rank == 1 else f"<u>{t}</u>" if rank == 2 else t)
+        lines.append("| " + " | ".join(shown + cells) + " |")
+    lines += [""] + [f"{n}" for n in table.notes]
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def to_latex(table: Table) -> str:
+    """A booktabs ``tabular``: best in ``\\textbf``, second in ``\\underline``."""
+    ranks = table.ranks()
+    n_lead = len(table.row_header)
+    two_level = any(len(c) > 1 for c in table.columns)
+    spec = "l" * n_lead + " " + " ".join("c" for _ in table.columns)
+    out = [r"\begin{table}[t]", r"\centering", rf"\caption{{{_tex_escape(table.title)}}}",
+           r"\resizebox{\columnwidth}{!}{%", rf"\begin{{tabular}}{{{spec}}}", r"\toprule"]
+    if two_level:
+        spans: list[tuple[str, int]] = []
+        for c in table.columns:
+            if spans and spans[-1][0] == c[0]:
+                spans[-1] = (c[0], spans[-1][1] + 1)
+            else:
+                spans.append((c[0], 1))
+        top = [""] * n_lead + [rf"\multicolumn{{{n}}}{{c}}{{{_tex_escape(name)}}}" for name, n in spans]
+        out.append(" & ".join(top) + r" \\")
+        bottom = [rf"\textbf{{{_tex_escape(h)}}}" for h in table.row_header] + [_header_text(c[-1], "latex") for c in table.columns]
+    else:
+        bottom = [rf"\textbf{{{_tex_escape(h)}}}" for h in table.row_header] + [_header_text(c[0], "latex") if c[0] in [m.md for m in METRICS.values()] else _tex_escape(c[0]) for c in table.columns]
+    out += [" & ".join(bottom) + r" \\", r"\midrule"]
+    prev: tuple = ()
+    for r in table.rows:
+        if prev and n_lead > 1 and prev[0] != r[0]:
+            out.append(r"\midrule")
+        shown = [_header_text(x, "latex") if k == len(r) - 1 and x in [m.md for m in METRICS.values()] else _tex_escape(x)
+                 for k, x in enumerate(r)]
+        shown = [x if (k == len(r) - 1 or prev[: k + 1] != r[: k + 1]) else "" for k, x in enumerate(shown)]
+        prev = r
+        cells = []
+        for c in table.columns:
+            t = table.text(r, c)
+            rank = ranks.get((r, c))
+            cells.append(rf"\textbf{{{t}}}" if rank == 1 else rf"\underline{{{t}}}" if rank == 2 else t)
+        out.append(" & ".join(shown + cells) + r" \\")
+    out += [r"\bottomrule", r"\end{tabular}%", "}", r"\end{table}"]
+    return "\n".join(out) + "\n"
+
+
+def to_csv(table: Table) -> str:
+    """Plain CSV, one row per table row, full precision, no marks (empty for missing)."""
+    import csv
+    import io
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(table.row_header + ["/".join(x for x in c if x) for c in table.columns])
+    for r in table.rows:
+        vals = []
+        for c in table.columns:
+            v = table.cells.get((r, c), (float("nan"), ""))[0]
+            vals.append("" if v is None or not math.isfinite(v) else repr(float(v)))
+        w.writerow(list(r) + vals)
+    return buf.getvalue()
+
+
+RENDERERS: dict[str, Callable[[Table], str]] = {"md": to_markdown, "latex": to_latex, "csv": to_csv}
+
+
+# --------------------------------------------------------------------------------------------
+# Layouts
+
+
+@dataclass
+class Entry:
+    """The runs sharing one row label, pooled: per-category statistics."""
+
+    group: str
+    label: str
+    summary: Any  # DataFrame from metrics.summarize, indexed by category
+
+
+def collect(runs: Sequence[Run], group_of: Callable[[Run], str], labels: dict[str, str] | None = None,
+            error_of: Callable[[Run], str] = lambda r: "err_deg") -> list[Entry]:
+    """Pool the scoring units of runs with the same (group, label) and summarise per category.
+
+    ``labels`` maps a run directory (as given, or its name) to a user label; ``error_of`` names
+    the error column each run is scored by (see :func:`scored_units`).
+    """
+    import pandas as pd
+
+    from catpose.bench.metrics import summarize
+
+    labels = labels or {}
+    pooled: dict[tuple[str, str], list] = {}
+    for run in runs:
+        label = labels.get(str(run.path)) or labels.get(run.path.name) or method_label(run)
+        pooled.setdefault((group_of(run), label), []).append(scored_units(run, error_of(run)))
+    entries = []
+    for (group, label), parts in pooled.items():
+        summary = summarize(pd.concat(parts, ignore_index=True)).set_index("category")
+        entries.append(Entry(group, label, summary))
+    return entries
+
+
+def _value(entry: Entry, category: str, metric: str) -> float:
+    col = METRICS[metric].column
+    if category not in entry.summary.index or col not in entry.summary.columns:
+        return float("nan")
+    return float(entry.summary.loc[category, col])
+
+
+def _categories(entries: Sequence[Entry], wanted: Sequence[str] | None = None,
+                defaults: Sequence[str] | None = None) -> list[str]:
+    """User-given categories as they are; else the layout's defaults that some run has; else
+    every category present (sorted)."""
+    if wanted:
+        return list(wanted)
+    seen: list[str] = []
+    for e in entries:
+        seen += [c for c in e.summary.index if c != "all" and c not in seen]
+    chosen = [c for c in defaults or [] if c in seen]
+    return chosen or sorted(seen)
+
+
+def grid_table(entries: Sequence[Entry], categories: Sequence[str], metrics: Sequence[str], title: str,
+               grouped: bool = True, group_header: str = "Pipeline / Descriptor") -> Table:
+    """Rows (group, method) x columns (category, metric); ranks per column."""
+    rows = [(e.group, e.label) if grouped else (e.label,) for e in entries]
+    cols = [(c.capitalize(), METRICS[m].md) for c in categories for m in metrics]
+    t = Table(title, [group_header, "Methods"] if grouped else ["Methods"], rows, cols)
+    for e, r in zip(entries, rows):
+        for c in categories:
+            for m in metrics:
+                t.cells[(r, (c.capitalize(), METRICS[m].md))] = (_value(e, c, m), m)
+    return t
+
+
+def layout_generic(entries, categories=None, metrics=None, title="Results") -> Table:
+    cats = _categories(entries, categories) + ([] if categories else ["all"])
+    return grid_table(entries, cats, metrics or ["mean", "median", "acc10", "acc30", "trans"], title,
+                      grouped=any(e.group not in ("", "-") for e in entries))
+
+
+def layout_optimizer(entries, categories=None, metrics=None, title=None) -> Table:
+    return grid_table(entries, _categories(entries, categories, ["airplane", "chair", "car"]),
+                      metrics or ["mean", "median", "trans"],
+                      title or "Partial point cloud registration with the ground-truth complete shape")
+
+
+def layout_one_template(entries, categories=None, metrics=None, title=None) -> Table:
+    return grid_table(entries, _categories(entries, categories, ["airplane"]), metrics or ["mean", "median", "acc10", "acc30", "trans"],
+                      title or "Registration with one category-level template (airplane)")
+
+
+def layout_templates(entries, categories=None, metrics=None, title=None) -> Table:
+    return grid_table(entries, _categories(entries, categories, ["chair"]), metrics or ["mean", "median", "acc10", "acc30"],
+                      title or "Registration with several category-level templates (chair)",
+                      group_header="Number of templates")
+
+
+def layout_ablation(entries, categories=None, metrics=None, title=None) -> Table:
+    return grid_table(entries, _categories(entries, categories, ["airplane"]), metrics or ["mean", "median", "acc10"],
+                      title or "Registration with and without the pose optimisation (airplane)", group_header="Setting")
+
+
+def layout_real(entries, categories=None, metrics=None, title=None) -> Table:
+    """Rows (category, metric) x one column per method; ranks across methods within a row."""
+    cats = _categories(entries, categories, ["airplane", "chair", "car"])
+    metrics = metrics or ["mean", "median", "acc10", "acc30"]
+    cols = [(e.label,) for e in entries]
+    rows = [(c.capitalize(), METRICS[m].md) for c in cats for m in metrics]
+    t = Table(title or "Pairwise relative pose between two partial views of real scans",
+              ["Category", "Metric"], rows, cols, rank_by="row")
+    for e, col in zip(entries, cols):
+        for c in cats:
+            for m in metrics:
+                t.cells[((c.capitalize(), METRICS[m].md), col)] = (_value(e, c, m), m)
+    return t
+
+
+def layout_tyol(entries, categories=None, metrics=None, title=None) -> Table:
+    """Rows (method, metric) x one column per category; ranks across methods per column and metric."""
+    cats = _categories(entries, categories, ["bottle", "bowl", "can", "plate", "mug"])
+    metrics = metrics or ["mean", "median", "acc10", "acc30"]
+    rows = [(e.label, METRICS[m].md) for e in entries for m in metrics]
+    cols = [(c.capitalize(),) for c in cats]
+    t = Table(title or "Camera pose estimation on TYO-L (symmetric objects by main-axis error)",
+              ["Methods", "Metric"], rows, cols, rank_by="column")
+    for e in entries:
+        for m in metrics:
+            for c in cats:
+                t.cells[((e.label, METRICS[m].md), (c.capitalize(),))] = (_value(e, c, m), m)
+    return t
+
+
+LAYOUTS: dict[str, tuple[Callable[..., Table], Callable[[Run], str], str]] = {
+    # name: (layout, row group of a run, default error column)
+    "generic": (layout_generic, lambda r: "", "err_deg"),
+    "optimizer": (layout_optimizer, pipeline_label, "err_deg"),
+    "one_template": (layout_one_template, pipeline_label, "err_deg"),
+    "templates": (layout_templates, template_count, "oracle_err_deg"),
+    "ablation": (layout_ablation, lambda r: f"{r.protocol} {pipeline_label(r)}".replace(" -", ""), "err_deg"),
+    "real": (layout_real, lambda r: "", "err_deg"),
+    "tyol": (layout_tyol, lambda r: "", "err_deg"),
+}
+
+
+def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequence[str] | None = None,
+                metrics: Sequence[str] | None = None, labels: dict[str, str] | None = None,
+                error: str | None = None, title: str | None = None) -> Table:
+    """Lay out ``runs`` as one of :data:`LAYOUTS`.
+
+    ``error`` picks the per-unit error: ``"err_deg"`` (the method's own choice) or
+    ``"oracle_err_deg"`` (templates protocol: minimum across templates); the ``templates``
+    layout defaults to the oracle, as in the paper, and says so in a note.
+    """
+    if layout not in LAYOUTS:
+        raise ConfigError(f"unknown table layout {layout!r}; use one of {sorted(LAYOUTS)}")
+    for m in metrics or []:
+        if m not in METRICS:
+            raise ConfigError(f"unknown metric {m!r}; use some of {sorted(METRICS)}")
+    fn, group_of, default_error = LAYOUTS[layout]
+    error = error or default_error
+    # Only templates runs have an oracle; other runs in the same table keep their own error.
+    oracle = error == "oracle_err_deg"
+    entries = collect(runs, group_of, labels,
+                      lambda r: "oracle_err_deg" if oracle and r.protocol == "templates" else "err_deg")
+    # Paper order: pipelines from plain to ours, and within one, our method last.
+    entries.sort(key=lambda e: (_group_order(e.group), e.group, e.label.startswith("Ours")))
+    kwargs = {"title": title} if title else {}
+    table = fn(entries, categories=list(categories) if categories else None, metrics=list(metrics) if metrics else None, **kwargs)
+    if oracle and any(r.protocol == "templates" for r in runs):
+        table.notes.append("Errors of templates runs are the minimum across templates (an oracle that needs ground truth).")
+    return table
+
+
+def _group_order(group: str) -> int:
+    order = ["-", "", "Direct match FPFH", "Dictionary FPFH", "Dictionary PFH", "Dictionary LPS"]
+    if group.isdigit():
+        return int(group)
+    return order.index(group) if group in order else len(order)
+
+
+def parse_labels(items: Sequence[str]) -> dict[str, str]:
+    """``["runs/a=Ours (LPS)", ...]`` -> ``{"runs/a": "Ours (LPS)"}``."""
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not value:
+            raise ConfigError(f"--label {item!r} must be RUN_DIR=LABEL")
+        out[str(Path(key))] = value
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bench table RUN_DIR... [--layout L] [--format md|latex|csv] [--out FILE]``."""
+    ap = argparse.ArgumentParser(prog="bench table", description="Paper tables from run directories.")
+    ap.add_argument("runs", nargs="+", help="run directories, or folders searched for samples.jsonl")
+    ap.add_argument("--layout", default="generic", choices=sorted(LAYOUTS))
+    ap.add_argument("--format", default="md", choices=sorted(RENDERERS))
+    ap.add_argument("--categories", default=None, help="comma-separated categories (default: the layout's)")
+    ap.add_argument("--metrics", default=None, help=f"comma-separated, of {','.join(METRICS)}")
+    ap.add_argument("--label", action="append", default=[], help="RUN_DIR=LABEL, repeatable")
+    ap.add_argument("--error", default=None, choices=["err_deg", "oracle_err_deg"],
+                    help="the method's own choice or the minimum across templates (oracle)")
+    ap.add_argument("--title", default=None)
+    ap.add_argument("--out", default=None, help="write here instead of stdout")
+    args = ap.parse_args(argv)
+    try:
+        runs = [load_run(p) for p in find_run_dirs(args.runs)]
+        table = build_table(runs, args.layout, args.categories.split(",") if args.categories else None,
+                            args.metrics.split(",") if args.metrics else None, parse_labels(args.label),
+                            args.error, args.title)
+    except CatposeError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    text = RENDERERS[args.format](table)
+    if args.out:
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.out).write_text(text)
+    else:
+        sys.stdout.write(text)
+    return 0

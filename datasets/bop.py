@@ -1,0 +1,356 @@
+"""Real depth frames in the official BOP layout (TYO-L, or any BOP dataset).
+
+Layout (BOP toolkit conventions)::
+
+    <root>/models/obj_XXXXXX.ply, models_info.json   (model units: mm)
+    <root>/<split>/<scene_id:06d>/depth/<im_id:06d>.png  (uint16; depth_mm = value * depth_scale)
+    <root>/<split>/<scene_id:06d>/mask_visib/<im_id:06d>_<gt_idx:06d>.png   (optional)
+    <root>/<split>/<scene_id:06d>/scene_gt.json       ({im_id: [{obj_id, cam_R_m2c, cam_t_m2c}]})
+    <root>/<split>/<scene_id:06d>/scene_camera.json   ({im_id: {cam_K, depth_scale}})
+
+Only frames whose depth image is present are listed. The object's pixels come from
+``mask_visib`` when present; otherwise the model is rendered at the ground-truth pose and a
+pixel belongs to the object where the rendered depth matches the measured depth within
+``depth_tolerance_mm`` (``Observation.info["mask_source"]`` says which). The ground normal is
+the normal of the dominant plane of the background depth (RANSAC, Open3D ``segment_plane``),
+oriented towards the camera, as in the paper.
+
+Units and frames: the object frame is the BOP model frame rotated by the configured model axes
+(``up`` -> +z, ``forward`` -> +x) and normalised like every shape in catpose (centre at the
+model's bounding-box centre, farthest vertex at 1). Observed points are divided by the same
+scale, so ``points_camera`` and ``T_object_camera`` are in the object-normalised unit.
+Symmetric objects (``symmetries_continuous`` in ``models_info.json``, or a ``symmetric``
+category entry) are scored by main-axis error.
+
+Observation ids: ``<category>/<scene_id:06d>/<im_id:06d>/<gt_idx>``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from catpose.datasets.base import ObjectDataset, Observation
+from catpose.datasets.meshio import R_template_file, TemplateSet, read_mesh, sample_outer_surface
+from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
+from catpose.errors import DatasetError
+from catpose.geometry import make_T, normalize_to_unit_sphere, stable_seed
+from catpose.types import Template
+
+
+def read_json(path: Path) -> Any:
+    """Load a JSON file, raising :class:`DatasetError` naming it when missing or malformed."""
+    if not path.is_file():
+        raise DatasetError(f"{path} does not exist; check dataset.root and dataset.split")
+    try:
+        return json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"{path} is not valid JSON ({exc}); re-download it") from None
+
+
+def read_depth_png(path: Path) -> np.ndarray:
+    """A 16-bit depth PNG as a (H, W) uint16 array; other dtypes raise :class:`DatasetError`."""
+    from PIL import Image
+
+    if not path.is_file():
+        raise DatasetError(f"depth image {path} does not exist")
+    try:
+        with Image.open(path) as im:
+            arr = np.asarray(im)
+    except Exception as exc:  # PIL raises several types for a broken file
+        raise DatasetError(f"{path} cannot be read as an image ({type(exc).__name__})") from None
+    if arr.ndim != 2 or arr.dtype not in (np.uint16, np.int32, np.int16):
+        raise DatasetError(f"{path} is {arr.dtype} with shape {arr.shape}; depth must be a single-channel "
+                           "16-bit PNG")
+    if arr.dtype != np.uint16:  # PIL opens some 16-bit PNGs as mode "I" (int32)
+        if arr.min() < 0 or arr.max() > 65535:
+            raise DatasetError(f"{path} has values outside 0..65535; depth must be a 16-bit PNG")
+        arr = arr.astype(np.uint16)
+    return arr
+
+
+def read_mask_png(path: Path) -> np.ndarray:
+    """A mask PNG as a (H, W) bool array (non-zero = object)."""
+    from PIL import Image
+
+    try:
+        with Image.open(path) as im:
+            arr = np.asarray(im)
+    except Exception as exc:
+        raise DatasetError(f"mask {path} cannot be read as an image ({type(exc).__name__})") from None
+    return (arr if arr.ndim == 2 else arr[..., 0]) > 0
+
+
+def fit_ground_plane(points: np.ndarray, distance: float, iterations: int,
+                     seed: int) -> tuple[np.ndarray, int]:
+    """Dominant plane of ``points`` (N, 3) by RANSAC (Open3D ``segment_plane``).
+
+    Returns the unit plane normal (3,) oriented towards the origin (the camera) and the number
+    of inliers. ``distance`` is in the points' unit.
+    """
+    from catpose.o3d import o3d
+
+    if len(points) < 3:
+        raise DatasetError("too few background points to fit the ground plane")
+    o3d.utility.random.seed(int(seed % (2**31)))
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, np.float64)))
+    (a, b, c, d), inliers = pcd.segment_plane(distance_threshold=float(distance), ransac_n=3,
+                                              num_iterations=int(iterations))
+    n = np.array([a, b, c], float)
+    norm = np.linalg.norm(n)
+    n, d = n / norm, d / norm
+    if d < 0:  # the origin must lie on the positive side: n . 0 + d > 0
+        n = -n
+    return n, len(inliers)
+
+
+class BOP(ObjectDataset):
+    """BOP depth frames and models.
+
+    Args:
+        root: BOP dataset folder (``models/``, ``<split>/``).
+        split: e.g. ``"test"``.
+        scenes: scene ids to use (None: all).
+        categories: object id -> category name; objects not listed are skipped (None: every
+            object, category ``obj_XXXXXX``).
+        templates: category -> template entries (mesh specs, or ``obj_XXXXXX`` to use a BOP model).
+        templates_root: base folder of relative template paths (None: ``root``).
+        symmetric: category -> main axis (object frame), overriding ``models_info.json``.
+        model_up, model_forward: the BOP model axes that become +z and +x.
+        object_axes: object id -> ``{up, forward}`` per-object override of the model axes.
+        mask: ``"auto"`` (mask_visib when present, else render), ``"mask_visib"`` or ``"render"``.
+        depth_tolerance_mm: rendered-vs-measured depth agreement of an object pixel.
+        min_visible_pixels: fewer object pixels raise :class:`DatasetError`.
+        plane_distance_mm, plane_iterations: RANSAC ground-plane fit.
+        plane_max_points: background points used by the fit (random subset).
+        normal_radius: normal-estimation radius (object-normalised unit).
+        max_points: points kept per view (0: all).
+        template_points: points sampled on each model / template.
+        seed: fixes the random subsets.
+    """
+
+    name = "bop"
+
+    def __init__(self, root: str, split: str = "test", scenes: list[int] | None = None,
+                 categories: dict[int | str, str] | None = None, templates: dict[str, list] | None = None,
+                 templates_root: str | None = None, symmetric: dict[str, list[float]] | None = None,
+                 model_up: str = "+z", model_forward: str = "+x",
+                 object_axes: dict[int | str, dict[str, str]] | None = None, mask: str = "auto",
+                 depth_tolerance_mm: float = 15.0, min_visible_pixels: int = 50,
+                 plane_distance_mm: float = 10.0, plane_iterations: int = 1000,
+                 plane_max_points: int = 20000, normal_radius: float = 0.08, max_points: int = 2048,
+                 template_points: int = 2048, seed: int = 0) -> None:
+        self.root = Path(root)
+        if not self.root.is_dir():
+            raise DatasetError(f"BOP root {self.root} is not a folder; set dataset.root to the folder with "
+                               "models/ and <split>/")
+        if mask not in ("auto", "mask_visib", "render"):
+            raise DatasetError(f"dataset.mask {mask!r} is not auto, mask_visib or render")
+        self.split = str(split)
+        self.scenes = None if scenes is None else {int(s) for s in scenes}
+        self.categories = None if categories is None else {int(k): str(v) for k, v in categories.items()}
+        self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
+        self.model_axes = (str(model_up), str(model_forward))
+        self.object_axes = {int(k): (str(v.get("up", model_up)), str(v.get("forward", model_forward)))
+                            for k, v in (object_axes or {}).items()}
+        self.mask = mask
+        self.depth_tolerance_mm = float(depth_tolerance_mm)
+        self.min_visible_pixels = int(min_visible_pixels)
+        self.plane_distance_mm = float(plane_distance_mm)
+        self.plane_iterations = int(plane_iterations)
+        self.plane_max_points = int(plane_max_points)
+        self.normal_radius = float(normal_radius)
+        self.max_points = int(max_points)
+        self.template_points = int(template_points)
+        self.seed = int(seed)
+        self._templates = TemplateSet(templates, templates_root or self.root, self.template_points,
+                                      self.seed, instance_loader=self._template_instance)
+        self._json: dict[Path, Any] = {}
+        self._models_mm: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._norm: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
+        self._instances: dict[int, Template] = {}
+        self._ids: list[str] | None = None
+
+    # ------------------------------------------------------------------ files
+    def _scene_dir(self, scene_id: int) -> Path:
+        return self.root / self.split / f"{scene_id:06d}"
+
+    def _read_json(self, path: Path) -> Any:
+        if path not in self._json:
+            self._json[path] = read_json(path)
+        return self._json[path]
+
+    def category_of_object(self, obj_id: int) -> str | None:
+        if self.categories is None:
+            return f"obj_{obj_id:06d}"
+        return self.categories.get(obj_id)
+
+    def observation_ids(self) -> list[str]:
+        if self._ids is not None:
+            return self._ids
+        split_dir = self.root / self.split
+        if not split_dir.is_dir():
+            raise DatasetError(f"BOP split folder {split_dir} does not exist; check dataset.root and dataset.split")
+        ids: list[str] = []
+        for scene_dir in sorted(p for p in split_dir.iterdir() if p.is_dir() and p.name.isdigit()):
+            scene_id = int(scene_dir.name)
+            if self.scenes is not None and scene_id not in self.scenes:
+                continue
+            scene_gt = self._read_json(scene_dir / "scene_gt.json")
+            for im_key in sorted(scene_gt, key=int):
+                if not (scene_dir / "depth" / f"{int(im_key):06d}.png").is_file():
+                    continue
+                for gt_idx, gt in enumerate(scene_gt[im_key]):
+                    category = self.category_of_object(int(gt["obj_id"]))
+                    if category is not None:
+                        ids.append(f"{category}/{scene_id:06d}/{int(im_key):06d}/{gt_idx}")
+        if not ids:
+            raise DatasetError(f"no depth frames with configured objects under {split_dir}; check "
+                               "dataset.split, dataset.scenes and dataset.categories")
+        self._ids = ids
+        return ids
+
+    # ------------------------------------------------------------------ models
+    def model_mm(self, obj_id: int) -> tuple[np.ndarray, np.ndarray]:
+        """Model vertices (V, 3) in mm (BOP model frame) and triangles (F, 3)."""
+        if obj_id not in self._models_mm:
+            self._models_mm[obj_id] = read_mesh(self.root / "models" / f"obj_{obj_id:06d}.ply")
+        return self._models_mm[obj_id]
+
+    def normalisation(self, obj_id: int) -> tuple[np.ndarray, np.ndarray, float]:
+        """``(R_object_model (3, 3), centre (3,) mm, scale mm)``: ``p_object = (R p_model - centre) / scale``."""
+        if obj_id not in self._norm:
+            R = R_template_file(*self.object_axes.get(obj_id, self.model_axes))
+            v, _ = self.model_mm(obj_id)
+            _, centre, scale = normalize_to_unit_sphere(v @ R.T)
+            self._norm[obj_id] = (R, centre, scale)
+        return self._norm[obj_id]
+
+    def symmetry_axis(self, obj_id: int, category: str) -> np.ndarray | None:
+        """Main axis (3,) in the object frame: the category entry, else ``models_info.json``."""
+        if category in self.symmetric:
+            return self.symmetric[category]
+        info_path = self.root / "models" / "models_info.json"
+        if not info_path.is_file():
+            return None
+        info = self._read_json(info_path).get(str(obj_id), {})
+        sym = info.get("symmetries_continuous") or []
+        if not sym:
+            return None
+        R, _, _ = self.normalisation(obj_id)
+        axis = R @ np.asarray(sym[0]["axis"], float)
+        return axis / np.linalg.norm(axis)
+
+    @staticmethod
+    def _obj_id(instance_id: str) -> int:
+        try:
+            return int(str(instance_id).rsplit("_", 1)[-1])
+        except ValueError:
+            raise DatasetError(f"BOP instance id {instance_id!r} is not obj_XXXXXX") from None
+
+    def instance_model(self, category: str, instance_id: str) -> Template:
+        obj_id = self._obj_id(instance_id)
+        if obj_id not in self._instances:
+            v_mm, f = self.model_mm(obj_id)
+            R, centre, scale = self.normalisation(obj_id)
+            v = (v_mm @ R.T - centre) / scale
+            tid = f"bop/obj_{obj_id:06d}"
+            pts, nrm = sample_outer_surface(v, f, self.template_points, stable_seed(self.seed, tid))
+            self._instances[obj_id] = Template(template_id=tid, category=category, points=pts, normals=nrm,
+                                               vertices=v, triangles=f,
+                                               symmetry_axis=self.symmetry_axis(obj_id, category))
+        return self._instances[obj_id]
+
+    def _template_instance(self, category: str, instance_id: str) -> Template:
+        return self.instance_model(category, instance_id)
+
+    def category_templates(self, category: str) -> list[Template]:
+        return self._templates.get(category)
+
+    # ------------------------------------------------------------------ frames
+    def observation(self, obs_id: str) -> Observation:
+        try:
+            category, scene_s, im_s, gt_s = obs_id.split("/")
+            scene_id, im_id, gt_idx = int(scene_s), int(im_s), int(gt_s)
+        except ValueError:
+            raise DatasetError(f"observation id {obs_id!r} is not <category>/<scene>/<image>/<gt index>") from None
+        scene_dir = self._scene_dir(scene_id)
+        gt_path, cam_path = scene_dir / "scene_gt.json", scene_dir / "scene_camera.json"
+        try:
+            gt = self._read_json(gt_path)[str(im_id)][gt_idx]
+            obj_id = int(gt["obj_id"])
+            R_cam_model = np.asarray(gt["cam_R_m2c"], float).reshape(3, 3)
+            t_cam_model = np.asarray(gt["cam_t_m2c"], float).reshape(3)
+        except (KeyError, IndexError, TypeError, ValueError):
+            raise DatasetError(f"{gt_path} has no valid pose for image {im_id}, object index {gt_idx}") from None
+        try:
+            cam = self._read_json(cam_path)[str(im_id)]
+            K = np.asarray(cam["cam_K"], float).reshape(3, 3)
+            depth_scale = float(cam.get("depth_scale", 1.0))
+        except (KeyError, TypeError, ValueError):
+            raise DatasetError(f"{cam_path} has no valid cam_K for image {im_id}") from None
+        if self.category_of_object(obj_id) is None:
+            raise DatasetError(f"object {obj_id} in {gt_path} is not in dataset.categories; add it there")
+
+        depth_path = scene_dir / "depth" / f"{im_id:06d}.png"
+        depth_mm = read_depth_png(depth_path).astype(np.float64) * depth_scale
+        h, w = depth_mm.shape
+        camera = PinholeCamera.from_K(K, w, h)
+        T_camera_model = make_T(R_cam_model, t_cam_model)
+
+        mask_path = scene_dir / "mask_visib" / f"{im_id:06d}_{gt_idx:06d}.png"
+        rendered = None
+        if self.mask != "render" and mask_path.is_file():
+            mask, source = read_mask_png(mask_path), "mask_visib"
+            if mask.shape != depth_mm.shape:
+                raise DatasetError(f"{mask_path} is {mask.shape[::-1]} but the depth image is {(w, h)}")
+        elif self.mask == "mask_visib":
+            raise DatasetError(f"{mask_path} does not exist; set dataset.mask=auto to render the model instead")
+        else:
+            v_mm, f = self.model_mm(obj_id)
+            rendered = render_depth(v_mm, f, T_camera_model, camera).astype(np.float64)
+            mask = (rendered > 0) & (depth_mm > 0) & (np.abs(depth_mm - rendered) < self.depth_tolerance_mm)
+            source = "render"
+        mask &= depth_mm > 0
+        n_pix = int(mask.sum())
+        if n_pix < self.min_visible_pixels:
+            raise DatasetError(f"object {obj_id} has {n_pix} visible pixels in {depth_path} (mask: {source}); "
+                               f"at least {self.min_visible_pixels} are needed")
+
+        R_obj_model, centre, scale = self.normalisation(obj_id)
+        points_mm, _ = depth_to_points(depth_mm, camera, mask)
+        points = points_mm / scale
+
+        # background for the ground plane: everything not the object (nor where the model is)
+        background = (depth_mm > 0) & ~mask
+        if rendered is not None:
+            background &= rendered <= 0
+        bg_points, _ = depth_to_points(depth_mm, camera, background)
+        rng = np.random.default_rng(stable_seed(self.seed, "bop", obs_id))
+        if self.plane_max_points and len(bg_points) > self.plane_max_points:
+            bg_points = bg_points[rng.choice(len(bg_points), size=self.plane_max_points, replace=False)]
+        if len(bg_points) < 100:
+            raise DatasetError(f"{depth_path}: only {len(bg_points)} background pixels; cannot fit the ground plane")
+        ground, n_inliers = fit_ground_plane(bg_points, self.plane_distance_mm, self.plane_iterations,
+                                             stable_seed(self.seed, "plane", obs_id))
+
+        normals = estimate_normals(points, self.normal_radius)
+        if self.max_points and len(points) > self.max_points:
+            keep = np.sort(rng.choice(len(points), size=self.max_points, replace=False))
+            points, normals = points[keep], normals[keep]
+
+        # p_object = R_obj_model R^T (p_cam - t) / s - centre / s, with p_cam in mm
+        R_object_camera = R_obj_model @ R_cam_model.T
+        T_object_camera = make_T(R_object_camera, -(R_object_camera @ t_cam_model + centre) / scale)
+        up_camera = R_object_camera.T @ np.array([0.0, 0.0, 1.0])
+        ground_err = float(np.degrees(np.arccos(np.clip(ground @ up_camera, -1.0, 1.0))))
+        return Observation(
+            obs_id=obs_id, category=category, instance_id=f"obj_{obj_id:06d}", points_camera=points,
+            normals_camera=normals, ground_normal_camera=ground, T_object_camera=T_object_camera,
+            symmetry_axis=self.symmetry_axis(obj_id, category),
+            info={"scene_id": scene_id, "im_id": im_id, "gt_idx": gt_idx, "obj_id": obj_id,
+                  "mask_source": source, "visible_pixels": n_pix, "ground_inliers": n_inliers,
+                  "ground_vs_object_up_deg": ground_err, "scale_mm": scale})

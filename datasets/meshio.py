@@ -1,0 +1,330 @@
+"""Mesh files (OFF, OBJ, PLY) and category templates built from them.
+
+Reading:
+
+- OFF is parsed here, including ModelNet40's known quirk where the header keyword and the
+  counts share one line (``OFF490 518 0``) and Windows line endings.
+- OBJ and PLY are read with trimesh (``process=False`` keeps the vertices as written); polygons
+  are triangulated by trimesh.
+
+Templates: a mesh file in its own axes (ShapeNet's ``model_normalized.obj`` is y-up, most CAD
+files are z-up) is rotated so that its ``up`` axis becomes +z and its ``forward`` axis +x (the
+template frame), normalised to the unit bounding sphere (centre at the bounding-box centre,
+farthest vertex at distance 1), and sampled on its outer surface (points visible from outside,
+so that inner faces of CAD models do not enter the cloud).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from catpose.errors import DatasetError
+from catpose.geometry import normalize_to_unit_sphere, stable_seed
+from catpose.types import Template
+
+_AXES = {"x": 0, "y": 1, "z": 2}
+
+
+# --------------------------------------------------------------------------- reading
+
+def read_off(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read an OFF mesh; returns vertices (V, 3) float64 and triangles (F, 3) int64.
+
+    Polygons with more than three corners are fan-triangulated. Accepts the ModelNet40 quirk
+    of ``OFF`` and the counts on one line, comments (``#``) and CRLF line endings.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DatasetError(f"mesh file {path} does not exist; check the dataset root and the id")
+    text = path.read_text(errors="replace")
+    lines = [ln.split("#", 1)[0].strip() for ln in text.splitlines()]
+    lines = [ln for ln in lines if ln]
+    if not lines or not lines[0].startswith("OFF"):
+        raise DatasetError(f"{path} is not an OFF file: its first line must start with 'OFF'")
+    head = lines[0][3:].strip()  # the quirk: counts right after 'OFF' on the same line
+    body = lines[1:]
+    if not head:
+        if not body:
+            raise DatasetError(f"{path} is a malformed OFF file: the counts line is missing")
+        head, body = body[0], body[1:]
+    try:
+        n_v, n_f = (int(c) for c in head.split()[:2])
+    except ValueError:
+        raise DatasetError(f"{path} is a malformed OFF file: counts line {head!r} is not 'V F E'") from None
+    if len(body) < n_v + n_f:
+        raise DatasetError(f"{path} is a truncated OFF file: header says {n_v} vertices and {n_f} faces "
+                           f"but only {len(body)} lines follow")
+    try:
+        vertices = np.array([ln.split()[:3] for ln in body[:n_v]], dtype=np.float64)
+        tris: list[list[int]] = []
+        for ln in body[n_v:n_v + n_f]:
+            vals = [int(v) for v in ln.split()]
+            k, idx = vals[0], vals[1:1 + vals[0]]
+            if k < 3 or len(idx) != k:
+                raise ValueError(ln)
+            tris.extend([idx[0], idx[i], idx[i + 1]] for i in range(1, k - 1))
+    except ValueError as exc:
+        raise DatasetError(f"{path} is a malformed OFF file: cannot parse line {str(exc)[:60]!r}") from None
+    triangles = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
+    _check_mesh(path, vertices, triangles)
+    return vertices, triangles
+
+
+def read_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read an OFF, OBJ or PLY triangle mesh; returns vertices (V, 3) and triangles (F, 3)."""
+    path = Path(path)
+    if not path.is_file():
+        raise DatasetError(f"mesh file {path} does not exist; check the path in the config")
+    suffix = path.suffix.lower()
+    if suffix == ".off":
+        return read_off(path)
+    if suffix not in (".obj", ".ply"):
+        raise DatasetError(f"{path}: unsupported mesh format {suffix!r}; use .off, .obj or .ply")
+    import trimesh
+
+    try:
+        mesh = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
+    except Exception as exc:  # trimesh raises many types for a bad file
+        raise DatasetError(f"{path} cannot be read as a mesh ({type(exc).__name__}: {str(exc)[:80]})") from None
+    vertices = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64)
+    triangles = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64).reshape(-1, 3)
+    _check_mesh(path, vertices, triangles)
+    return vertices, triangles
+
+
+def _check_mesh(path: Path, vertices: np.ndarray, triangles: np.ndarray) -> None:
+    if len(vertices) < 3 or len(triangles) == 0:
+        raise DatasetError(f"{path} has no triangles ({len(vertices)} vertices, {len(triangles)} faces)")
+    if not np.isfinite(vertices).all():
+        raise DatasetError(f"{path} has non-finite vertex coordinates")
+    if triangles.min() < 0 or triangles.max() >= len(vertices):
+        raise DatasetError(f"{path} has face indices outside 0..{len(vertices) - 1}")
+
+
+# --------------------------------------------------------------------------- axes
+
+def axis_vector(spec: str) -> np.ndarray:
+    """``"+y"``, ``"-z"``, ``"x"`` -> the unit vector (3,)."""
+    s = str(spec).strip().lower()
+    sign = -1.0 if s.startswith("-") else 1.0
+    s = s.lstrip("+-")
+    if s not in _AXES:
+        raise DatasetError(f"axis {spec!r} is not one of +x, -x, +y, -y, +z, -z")
+    v = np.zeros(3)
+    v[_AXES[s]] = sign
+    return v
+
+
+def R_template_file(up: str = "+z", forward: str = "+x") -> np.ndarray:
+    """Rotation (3, 3) taking a file's axes to the template frame: ``up`` -> +z, ``forward`` -> +x."""
+    u, f = axis_vector(up), axis_vector(forward)
+    if abs(float(u @ f)) > 0.5:
+        raise DatasetError(f"up {up!r} and forward {forward!r} must be different axes")
+    # rows are the file-frame directions of the template axes x, y, z
+    return np.stack([f, np.cross(u, f), u])
+
+
+# --------------------------------------------------------------------------- sampling
+
+def fibonacci_sphere(n: int) -> np.ndarray:
+    """(n, 3) nearly uniform unit directions."""
+    i = np.arange(n) + 0.5
+    phi = np.arccos(1 - 2 * i / n)
+    theta = np.pi * (1 + 5 ** 0.5) * i
+    return np.stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)], axis=1)
+
+
+def sample_outer_surface(vertices: np.ndarray, triangles: np.ndarray, n_points: int, seed: int,
+                         n_views: int = 42, oversample: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """Uniform samples of the part of a mesh's surface seen from outside, with outward normals.
+
+    Points are drawn area-weighted on the triangles (``oversample * n_points`` candidates), a
+    candidate is kept when it is the first hit of the ray from at least one of ``n_views``
+    viewpoints on a sphere of radius 3 (the mesh must be roughly unit-sized and centred), and
+    ``n_points`` of the kept ones are drawn. Normals are the face normals, flipped to face the
+    viewpoint that sees the point.
+
+    Returns:
+        points (n_points, 3) and unit normals (n_points, 3) in the mesh frame.
+    """
+    from catpose.o3d import o3d
+
+    rng = np.random.default_rng(seed)
+    v = np.asarray(vertices, np.float64)
+    tri = np.asarray(triangles, np.int64)
+    a, b, c = v[tri[:, 0]], v[tri[:, 1]], v[tri[:, 2]]
+    cross = np.cross(b - a, c - a)
+    area = np.linalg.norm(cross, axis=1)
+    keep = area > 1e-15
+    if not keep.any():
+        raise DatasetError("mesh has only zero-area triangles; it cannot be sampled")
+    face_n = np.zeros_like(cross)
+    face_n[keep] = cross[keep] / area[keep, None]
+    m = max(oversample * n_points, n_points)
+    fid = rng.choice(len(tri), size=m, p=area / area.sum())
+    r1, r2 = rng.random(m), rng.random(m)
+    s = np.sqrt(r1)
+    pts = (1 - s)[:, None] * a[fid] + (s * (1 - r2))[:, None] * b[fid] + (s * r2)[:, None] * c[fid]
+    nrm = face_n[fid]
+
+    scene = o3d.t.geometry.RaycastingScene()
+    mesh = o3d.t.geometry.TriangleMesh()
+    mesh.vertex.positions = o3d.core.Tensor(v.astype(np.float32))
+    mesh.triangle.indices = o3d.core.Tensor(tri.astype(np.int32))
+    scene.add_triangles(mesh)
+    radius = 3.0 * max(float(np.linalg.norm(v - v.mean(0), axis=1).max()), 1e-9)
+    eyes = radius * fibonacci_sphere(n_views) + v.mean(0)
+    visible = np.zeros(m, bool)
+    outward = np.zeros((m, 3))
+    for eye in eyes:
+        d = pts - eye
+        dist = np.linalg.norm(d, axis=1)
+        rays = np.concatenate([np.broadcast_to(eye, d.shape), d / dist[:, None]], axis=1).astype(np.float32)
+        t = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy()
+        seen = np.abs(t - dist) < 1e-4 * radius + 1e-6 * dist
+        new = seen & ~visible
+        flip = np.einsum("ij,ij->i", nrm[new], d[new]) > 0
+        outward[new] = np.where(flip[:, None], -nrm[new], nrm[new])
+        visible |= seen
+    if visible.sum() < 10:
+        raise DatasetError("mesh surface is not visible from outside (fewer than 10 visible samples)")
+    idx = np.flatnonzero(visible)
+    chosen = rng.choice(idx, size=n_points, replace=len(idx) < n_points)
+    return pts[chosen], outward[chosen]
+
+
+# --------------------------------------------------------------------------- templates
+
+@dataclass(frozen=True)
+class TemplateSpec:
+    """How to turn a mesh file into a template.
+
+    Attributes:
+        path: OFF, OBJ or PLY file.
+        category: category name.
+        up: the file's up axis (``"+y"`` for ShapeNet, ``"+z"`` for ModelNet40).
+        forward: the file's forward axis, mapped to the template's +x.
+        scale: file units per metre (or any unit); it cancels in the unit-sphere
+            normalisation and is kept for templates loaded with ``normalize=False``.
+        template_id: id; defaults to ``<category>/<file stem>``.
+        symmetry_axis: (3,) main axis in the template frame for symmetric categories, or None.
+    """
+
+    path: str
+    category: str
+    up: str = "+z"
+    forward: str = "+x"
+    scale: float = 1.0
+    template_id: str = ""
+    symmetry_axis: tuple[float, float, float] | None = None
+
+
+def mesh_to_template(vertices: np.ndarray, triangles: np.ndarray, template_id: str, category: str,
+                     n_points: int = 2048, seed: int = 0, up: str = "+z", forward: str = "+x",
+                     scale: float = 1.0, normalize: bool = True,
+                     symmetry_axis: np.ndarray | None = None) -> Template:
+    """Rotate a mesh into the template frame, normalise it and sample its outer surface.
+
+    Args:
+        vertices: (V, 3) in the file's axes and units.
+        triangles: (F, 3).
+        n_points: number of surface samples.
+        seed: sampling seed (combined with ``template_id``).
+        up, forward: the file's axes that become +z and +x.
+        scale: multiplies the vertices before normalisation.
+        normalize: centre at the bounding-box centre and scale to the unit bounding sphere.
+    """
+    v = (np.asarray(vertices, np.float64) * float(scale)) @ R_template_file(up, forward).T
+    if normalize:
+        try:
+            v, _, _ = normalize_to_unit_sphere(v)
+        except ValueError:
+            raise DatasetError(f"template {template_id}: mesh has zero extent") from None
+    pts, nrm = sample_outer_surface(v, triangles, n_points, stable_seed(seed, template_id))
+    axis = None if symmetry_axis is None else np.asarray(symmetry_axis, np.float64)
+    return Template(template_id=template_id, category=category, points=pts, normals=nrm,
+                    vertices=v, triangles=np.asarray(triangles, np.int64), symmetry_axis=axis)
+
+
+def load_template(spec: TemplateSpec, n_points: int = 2048, seed: int = 0,
+                  base_dir: str | Path | None = None) -> Template:
+    """Load a :class:`TemplateSpec` into a :class:`~catpose.types.Template` (z up, x forward,
+    unit sphere); a relative ``spec.path`` is resolved against ``base_dir``."""
+    path = Path(spec.path)
+    if not path.is_absolute() and base_dir is not None:
+        path = Path(base_dir) / path
+    vertices, triangles = read_mesh(path)
+    tid = spec.template_id or f"{spec.category}/{path.stem}"
+    return mesh_to_template(vertices, triangles, tid, spec.category, n_points=n_points, seed=seed,
+                            up=spec.up, forward=spec.forward, scale=spec.scale,
+                            symmetry_axis=spec.symmetry_axis)
+
+
+def template_spec_from_dict(category: str, entry: object) -> TemplateSpec:
+    """A config entry (a path string or a mapping with path/up/forward/scale/...) -> spec."""
+    if isinstance(entry, (str, Path)):
+        return TemplateSpec(path=str(entry), category=category)
+    try:
+        d = dict(entry)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise DatasetError(f"template entry {entry!r} for {category!r} must be a path or a mapping") from None
+    if "path" not in d:
+        raise DatasetError(f"template entry {d} for {category!r} has no 'path'")
+    allowed = {"path", "up", "forward", "scale", "template_id", "symmetry_axis"}
+    unknown = set(d) - allowed
+    if unknown:
+        raise DatasetError(f"template entry for {category!r} has unknown keys {sorted(unknown)}; "
+                           f"allowed: {sorted(allowed)}")
+    sym = d.get("symmetry_axis")
+    return TemplateSpec(path=str(d["path"]), category=category, up=str(d.get("up", "+z")),
+                        forward=str(d.get("forward", "+x")), scale=float(d.get("scale", 1.0)),
+                        template_id=str(d.get("template_id", "")),
+                        symmetry_axis=None if sym is None else tuple(float(x) for x in sym))
+
+
+MESH_SUFFIXES = (".off", ".obj", ".ply")
+
+
+class TemplateSet:
+    """The configured templates of each category, loaded once and kept.
+
+    ``entries`` maps a category to a list of entries, each one of:
+
+    - a mesh path (``.off``/``.obj``/``.ply``) or a mapping ``{path, up, forward, scale,
+      template_id, symmetry_axis}`` (see :class:`TemplateSpec`); relative paths are resolved
+      against ``base_dir``;
+    - an instance id of the dataset (a string without a mesh suffix, or ``{instance: id}``),
+      loaded with ``instance_loader(category, instance_id)`` (e.g. ModelNet40 training shapes).
+    """
+
+    def __init__(self, entries: dict | None, base_dir: str | Path | None, n_points: int = 2048,
+                 seed: int = 0, instance_loader=None) -> None:
+        self.entries = {str(k): list(v or []) for k, v in (entries or {}).items()}
+        self.base_dir = None if base_dir is None else Path(base_dir)
+        self.n_points = int(n_points)
+        self.seed = int(seed)
+        self.instance_loader = instance_loader
+        self._cache: dict[str, list[Template]] = {}
+
+    def get(self, category: str) -> list[Template]:
+        """Templates of ``category`` in config order ([] when none are configured)."""
+        if category not in self._cache:
+            self._cache[category] = [self._load(category, e) for e in self.entries.get(category, [])]
+        return self._cache[category]
+
+    def _load(self, category: str, entry: object) -> Template:
+        instance = None
+        if isinstance(entry, str) and not entry.lower().endswith(MESH_SUFFIXES):
+            instance = entry
+        elif not isinstance(entry, (str, Path)) and hasattr(entry, "keys") and "instance" in entry:
+            instance = str(entry["instance"])  # type: ignore[index]
+        if instance is not None:
+            if self.instance_loader is None:
+                raise DatasetError(f"template {instance!r} for {category!r} is not a mesh path "
+                                   "(.off/.obj/.ply) and this dataset has no instances to use as templates")
+            return self.instance_loader(category, instance)
+        spec = template_spec_from_dict(category, entry)
+        return load_template(spec, n_points=self.n_points, seed=self.seed, base_dir=self.base_dir)

@@ -1,0 +1,211 @@
+"""ModelNet40 meshes in the official layout, with rendered partial views.
+
+Layout: ``<root>/<category>/<split>/<category>_<id>.off`` (Princeton ModelNet40, or the
+aligned release of Sedaghat et al., which has the same layout: set ``aligned: true``). OFF files
+with ``OFF`` and the counts on one line are read (:func:`catpose.datasets.meshio.read_off`).
+
+Each shape is rotated so that the configured ``up``/``forward`` file axes become +z/+x, rotated
+by its entry in the optional alignment table (:mod:`catpose.datasets.alignment`; raw ModelNet40
+instances differ by multiples of 90 degrees of yaw), and normalised to the unit bounding sphere
+at its bounding-box centre: the object frame of every observation, in which translation errors
+are measured. Partial views are rendered with :mod:`catpose.datasets.render` from viewpoints of
+a :class:`~catpose.datasets.render.ViewSampler`, exactly as for the synthetic set; the view of
+``obs_id`` is a deterministic function of ``(seed, obs_id)``.
+
+Observation ids: ``<category>/<instance_id>/v<k>``, e.g. ``airplane/airplane_0001/v02``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from catpose.datasets.alignment import read_alignment_table
+from catpose.datasets.base import ObjectDataset, Observation
+from catpose.datasets.meshio import R_template_file, TemplateSet, read_off, sample_outer_surface
+from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
+from catpose.errors import DatasetError
+from catpose.geometry import invert_T, normalize_to_unit_sphere, stable_seed
+from catpose.types import Template
+
+
+def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_object: np.ndarray,
+                        camera: PinholeCamera, rng: np.random.Generator, depth_noise: float,
+                        normal_radius: float, max_points: int, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """Render a mesh's depth, add Gaussian depth noise, back-project and estimate normals.
+
+    Args:
+        vertices: (V, 3) object frame, object-normalised unit; triangles: (F, 3).
+        T_camera_object: (4, 4) object pose in the camera frame.
+        depth_noise: standard deviation of the additive depth noise (object-normalised unit).
+        normal_radius: normal-estimation radius (object-normalised unit).
+        max_points: keep at most this many points (uniformly at random; 0 keeps all).
+        what: names the view in error messages.
+
+    Returns:
+        points (N, 3) and camera-facing unit normals (N, 3), camera frame.
+    """
+    depth = render_depth(vertices, triangles, T_camera_object, camera)
+    if depth_noise > 0:
+        hit = depth > 0
+        depth[hit] += rng.normal(0.0, depth_noise, size=int(hit.sum())).astype(depth.dtype)
+    points, _ = depth_to_points(depth, camera)
+    if len(points) < 10:
+        raise DatasetError(f"{what}: only {len(points)} pixels see the object; "
+                           "move the camera closer (distance) or enlarge the image")
+    normals = estimate_normals(points, normal_radius)
+    if max_points and len(points) > max_points:
+        keep = np.sort(rng.choice(len(points), size=max_points, replace=False))
+        points, normals = points[keep], normals[keep]
+    return points, normals
+
+
+class ModelNet40(ObjectDataset):
+    """ModelNet40 OFF meshes and partial views rendered from them.
+
+    Args:
+        root: folder holding ``<category>/<split>/*.off``.
+        categories: categories to use (None: every folder under ``root``).
+        split: ``"train"`` or ``"test"``.
+        instances_per_category: use only the first N instances of each category (None: all).
+        views_per_instance: rendered views per instance.
+        width, height, fx, fy, cx, cy: pinhole camera (pixels).
+        distance: camera distance from the object centre (object-normalised unit).
+        elevation_min_deg, elevation_max_deg, roll_max_deg: viewpoint distribution
+            (:class:`~catpose.datasets.render.ViewSampler`).
+        depth_noise: Gaussian depth noise sigma (object-normalised unit).
+        normal_radius: normal-estimation radius (object-normalised unit).
+        max_points: points kept per view (0: all).
+        template_points: points sampled on each complete model / template.
+        templates: category -> list of template entries (training instance ids or mesh specs,
+            see :class:`~catpose.datasets.meshio.TemplateSet`).
+        template_split: the split that instance-id templates come from.
+        templates_root: base folder of relative template mesh paths (None: ``root``).
+        aligned: the shapes are already consistently oriented (Sedaghat et al. release).
+        alignment_table: CSV of per-instance rotations (ignored when ``aligned``).
+        up, forward: the files' axes that become +z and +x (ModelNet40: +z, +x).
+        symmetric: category -> main axis (template frame) of rotationally symmetric categories.
+        seed: fixes every view.
+    """
+
+    name = "modelnet40"
+
+    def __init__(self, root: str, categories: list[str] | None = None, split: str = "test",
+                 instances_per_category: int | None = None, views_per_instance: int = 5,
+                 width: int = 320, height: int = 240, fx: float = 300.0, fy: float = 300.0,
+                 cx: float = 159.5, cy: float = 119.5, distance: float = 3.0,
+                 elevation_min_deg: float = 10.0, elevation_max_deg: float = 60.0,
+                 roll_max_deg: float = 0.0, depth_noise: float = 0.0, normal_radius: float = 0.08,
+                 max_points: int = 2048, template_points: int = 2048,
+                 templates: dict[str, list] | None = None, template_split: str = "train",
+                 templates_root: str | None = None, aligned: bool = False,
+                 alignment_table: str | None = None, up: str = "+z", forward: str = "+x",
+                 symmetric: dict[str, list[float]] | None = None, seed: int = 0) -> None:
+        self.root = Path(root)
+        if not self.root.is_dir():
+            raise DatasetError(f"ModelNet40 root {self.root} is not a folder; set dataset.root to the "
+                               "folder that holds <category>/<split>/*.off")
+        self.categories = sorted(categories) if categories else sorted(
+            p.name for p in self.root.iterdir() if p.is_dir())
+        self.split = str(split)
+        self.instances_per_category = instances_per_category
+        self.views_per_instance = int(views_per_instance)
+        self.camera = PinholeCamera(int(width), int(height), float(fx), float(fy), float(cx), float(cy))
+        self.sampler = ViewSampler(float(distance), float(elevation_min_deg), float(elevation_max_deg),
+                                   float(roll_max_deg))
+        self.depth_noise = float(depth_noise)
+        self.normal_radius = float(normal_radius)
+        self.max_points = int(max_points)
+        self.template_points = int(template_points)
+        self.template_split = str(template_split)
+        self.aligned = bool(aligned)
+        self.alignment = {} if aligned or not alignment_table else read_alignment_table(alignment_table)
+        self.R_template_file = R_template_file(up, forward)
+        self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
+        self.seed = int(seed)
+        self._templates = TemplateSet(templates, templates_root or self.root, self.template_points,
+                                      self.seed, instance_loader=self._template_instance)
+        self._meshes: dict[tuple[str, str, str], tuple[np.ndarray, np.ndarray]] = {}
+        self._models: dict[tuple[str, str], Template] = {}
+        self._ids: list[str] | None = None
+
+    # ------------------------------------------------------------------ index
+    def instance_ids(self, category: str, split: str | None = None) -> list[str]:
+        """Instance ids (file stems, e.g. ``airplane_0001``) of a category's split, sorted."""
+        folder = self.root / category / (split or self.split)
+        if not folder.is_dir():
+            return []
+        ids = sorted(p.stem for p in folder.glob("*.off"))
+        n = self.instances_per_category
+        return ids[:n] if n and (split or self.split) == self.split else ids
+
+    def observation_ids(self) -> list[str]:
+        if self._ids is None:
+            ids = [f"{c}/{i}/v{k:02d}" for c in self.categories for i in self.instance_ids(c)
+                   for k in range(self.views_per_instance)]
+            if not ids:
+                raise DatasetError(f"no {self.split}-split OFF files under {self.root} for categories "
+                                   f"{self.categories}; check dataset.root, dataset.split and dataset.categories")
+            self._ids = ids
+        return self._ids
+
+    # ------------------------------------------------------------------ shapes
+    def _find(self, category: str, instance_id: str) -> tuple[Path, str]:
+        for split in (self.split, self.template_split, "train", "test"):
+            path = self.root / category / split / f"{instance_id}.off"
+            if path.is_file():
+                return path, split
+        raise DatasetError(f"no ModelNet40 file for {category}/{instance_id} under {self.root}/{category}/"
+                           f"{{train,test}}; check the instance id")
+
+    def canonical_mesh(self, category: str, instance_id: str) -> tuple[np.ndarray, np.ndarray]:
+        """Vertices (V, 3) in the canonical object frame (z up, x forward, unit sphere) and triangles."""
+        path, split = self._find(category, instance_id)
+        key = (category, split, instance_id)
+        if key not in self._meshes:
+            v, f = read_off(path)
+            v = v @ self.R_template_file.T
+            R = self.alignment.get((category, instance_id))
+            if R is not None:
+                v = v @ R.T
+            try:
+                v, _, _ = normalize_to_unit_sphere(v)
+            except ValueError:
+                raise DatasetError(f"{path} has zero extent") from None
+            self._meshes[key] = (v, f)
+        return self._meshes[key]
+
+    def instance_model(self, category: str, instance_id: str) -> Template:
+        key = (category, instance_id)
+        if key not in self._models:
+            v, f = self.canonical_mesh(category, instance_id)
+            tid = f"modelnet40/{instance_id}"
+            pts, nrm = sample_outer_surface(v, f, self.template_points, stable_seed(self.seed, tid))
+            self._models[key] = Template(template_id=tid, category=category, points=pts, normals=nrm,
+                                         vertices=v, triangles=f, symmetry_axis=self.symmetric.get(category))
+        return self._models[key]
+
+    def _template_instance(self, category: str, instance_id: str) -> Template:
+        return self.instance_model(category, instance_id)
+
+    def category_templates(self, category: str) -> list[Template]:
+        return self._templates.get(category)
+
+    # ------------------------------------------------------------------ views
+    def observation(self, obs_id: str) -> Observation:
+        try:
+            category, instance_id, view = obs_id.split("/")
+        except ValueError:
+            raise DatasetError(f"observation id {obs_id!r} is not <category>/<instance>/v<k>") from None
+        v, f = self.canonical_mesh(category, instance_id)
+        rng = np.random.default_rng(stable_seed(self.seed, "modelnet40", obs_id))
+        T_camera_object = self.sampler.sample(rng)
+        points, normals = render_partial_view(v, f, T_camera_object, self.camera, rng, self.depth_noise,
+                                              self.normal_radius, self.max_points, f"ModelNet40 {obs_id}")
+        return Observation(obs_id=obs_id, category=category, instance_id=instance_id, points_camera=points,
+                           normals_camera=normals, ground_normal_camera=T_camera_object[:3, 2].copy(),
+                           T_object_camera=invert_T(T_camera_object),
+                           symmetry_axis=self.symmetric.get(category),
+                           info={"view": view, "split": self.split, "aligned": self.aligned
+                                 or (category, instance_id) in self.alignment})

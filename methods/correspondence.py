@@ -1,0 +1,314 @@
+"""The matching pipeline shared by the correspondence-based baselines (FGR, RANSAC, TEASER).
+
+Two choices, both plain constructor arguments (paper Section IV-B, Table "optimizer"):
+
+``matching``
+    ``"direct"``: the partial input against the complete template (one estimate).
+    ``"dictionary"``: against each partial template of the dictionary that ``ours`` uses
+    (:func:`catpose.methods.dictionary.get_dictionary`, same parameters, same cache), keeping
+    the estimate with the lowest one-directional Chamfer distance from the transformed input to
+    the complete template.
+
+``features``
+    ``"fpfh"``: FPFH (Rusu et al. 2009, Open3D ``compute_fpfh_feature``) on voxel-downsampled
+    clouds; FGR/RANSAC use Open3D's feature-matching entry points, TEASER mutual nearest
+    neighbours in feature space.
+    ``"lps"``: keypoints by farthest point sampling (``n`` on the input, ``2n`` on the target)
+    and the LPS affinity matrix of ``ours`` (:mod:`catpose.methods.lps`); each input keypoint
+    keeps its top-1 template keypoint. FGR/RANSAC use the correspondence entry points.
+
+A method subclasses :class:`CorrespondenceRegistration` and implements ``_estimate`` for one
+(input, target) pair; this module does the rest (downsampling, features, per-template caching,
+optional point-to-plane ICP refinement, candidate selection, score, extras).
+All lengths are object-normalised units; the source is the camera frame, targets the template
+frame, and every estimate is ``T_template_camera``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from abc import abstractmethod
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from catpose.errors import ConfigError
+from catpose.geometry import stable_seed, transform_points
+from catpose.methods.base import RegistrationMethod
+from catpose.types import RegistrationProblem, RegistrationResult, Template
+
+MATCHINGS = ("direct", "dictionary")
+FEATURES = ("fpfh", "lps")
+
+_TARGET_CACHE: dict[tuple, Any] = {}
+_TARGET_CACHE_MAX = 64
+
+
+@dataclass(frozen=True, eq=False)
+class Cloud:
+    """A downsampled cloud ready for matching.
+
+    Attributes:
+        points: (N, 3) points (camera frame for the input, template frame for targets).
+        normals: (N, 3) unit normals.
+        pcd: the same as an Open3D ``PointCloud`` with normals.
+        fpfh: (N, 33) FPFH descriptors (``features="fpfh"``), else None.
+        feature: the Open3D ``Feature`` of ``fpfh``, or None.
+    """
+
+    points: np.ndarray
+    normals: np.ndarray
+    pcd: Any
+    fpfh: np.ndarray | None = None
+    feature: Any = None
+
+
+@dataclass(frozen=True, eq=False)
+class MatchInput:
+    """One (input, target) registration for ``_estimate``.
+
+    Attributes:
+        source: input cloud, camera frame (all voxel-downsampled points for ``fpfh``; the ``n``
+            FPS keypoints for ``lps``).
+        target: target cloud, template frame (complete or partial template; keypoints for lps).
+        correspondences: (K, 2) int rows (source index, target index) for ``lps``; None for
+            ``fpfh`` (use :meth:`fpfh_correspondences` where explicit pairs are needed).
+        seed: per-(sample, candidate) seed for randomised estimators.
+    """
+
+    source: Cloud
+    target: Cloud
+    correspondences: np.ndarray | None
+    seed: int
+
+    def fpfh_correspondences(self, mutual: bool = True, max_count: int = 0) -> np.ndarray:
+        """(K, 2) pairs from FPFH nearest neighbours (source -> target), mutual ones if
+        ``mutual`` and at least 3 exist; the ``max_count`` most similar when ``max_count > 0``."""
+        if self.correspondences is not None:
+            return self.correspondences
+        from scipy.spatial import cKDTree
+
+        fs, ft = self.source.fpfh, self.target.fpfh
+        d_st, nn_st = cKDTree(ft).query(fs, k=1)
+        corr = np.stack([np.arange(len(fs)), nn_st], axis=1)
+        dist = d_st
+        if mutual:
+            _, nn_ts = cKDTree(fs).query(ft, k=1)
+            keep = nn_ts[nn_st] == np.arange(len(fs))
+            if keep.sum() >= 3:
+                corr, dist = corr[keep], dist[keep]
+        if max_count > 0 and len(corr) > max_count:
+            corr = corr[np.argsort(dist, kind="stable")[:max_count]]
+        return corr.astype(np.int64)
+
+
+def _make_cloud(points: np.ndarray, normals: np.ndarray, voxel_size: float, fpfh_radius: float,
+                fpfh_max_nn: int, with_fpfh: bool) -> Cloud:
+    """Voxel-downsample (averaging normals) and optionally compute FPFH."""
+    from catpose.o3d import o3d
+
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64)))
+    pcd.normals = o3d.utility.Vector3dVector(np.asarray(normals, dtype=np.float64))
+    if voxel_size > 0:
+        pcd = pcd.voxel_down_sample(voxel_size)
+    pcd.normalize_normals()
+    fpfh = feature = None
+    if with_fpfh:
+        feature = o3d.pipelines.registration.compute_fpfh_feature(
+            pcd, o3d.geometry.KDTreeSearchParamHybrid(radius=fpfh_radius, max_nn=fpfh_max_nn))
+        fpfh = np.asarray(feature.data).T.copy()
+    return Cloud(np.asarray(pcd.points).copy(), np.asarray(pcd.normals).copy(), pcd, fpfh, feature)
+
+
+def _select(cloud: Cloud, idx: np.ndarray) -> Cloud:
+    """The sub-cloud ``cloud[idx]`` (no features)."""
+    from catpose.o3d import o3d
+
+    pts, nrm = cloud.points[idx], cloud.normals[idx]
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
+    pcd.normals = o3d.utility.Vector3dVector(nrm)
+    return Cloud(pts, nrm, pcd)
+
+
+def _template_hash(template: Template) -> str:
+    h = hashlib.blake2b(np.ascontiguousarray(template.points).tobytes(), digest_size=8)
+    return f"{template.template_id}-{h.hexdigest()}"
+
+
+def one_directional_chamfer(points: np.ndarray, tree: Any) -> float:
+    """Mean distance from each of ``points`` (N, 3) to its nearest neighbour in ``tree``
+    (a ``scipy.spatial.cKDTree`` of the complete template), object-normalised units."""
+    d, _ = tree.query(points, k=1)
+    return float(np.mean(d))
+
+
+class CorrespondenceRegistration(RegistrationMethod):
+    """Base class: ``matching`` x ``features`` pipeline around one pairwise estimator.
+
+    Args:
+        matching: ``"direct"`` or ``"dictionary"``.
+        features: ``"fpfh"`` or ``"lps"``.
+        voxel_size: voxel downsampling size (object-normalised; 0 disables).
+        fpfh_radius: FPFH neighbourhood radius (typically 5 x voxel_size).
+        fpfh_max_nn: FPFH neighbour cap.
+        num_keypoints: ``n`` input keypoints for ``lps`` (``2n`` on each target).
+        lps_radius: LPS feature radius (object-normalised).
+        lps_tau: LPS F-score distance threshold (object-normalised).
+        lps_max_points: LPS patch size cap.
+        refine_icp: refine every candidate with point-to-plane ICP against the complete template.
+        icp_max_distance: ICP correspondence distance.
+        icp_max_iterations: ICP iterations.
+        dictionary_num_views, dictionary_layout, dictionary_elevations_deg,
+        dictionary_distance, dictionary_hpr_radius_factor: passed to
+            :func:`catpose.methods.dictionary.get_dictionary`; keep them equal to ``ours`` to
+            share its cache.
+        seed: base seed of the randomised parts (mixed with the sample id).
+    """
+
+    def __init__(self, matching: str = "dictionary", features: str = "fpfh", voxel_size: float = 0.05,
+                 fpfh_radius: float = 0.25, fpfh_max_nn: int = 100, num_keypoints: int = 100,
+                 lps_radius: float = 0.2, lps_tau: float = 0.02, lps_max_points: int = 128,
+                 refine_icp: bool = False, icp_max_distance: float = 0.1,
+                 icp_max_iterations: int = 30, dictionary_num_views: int = 18,
+                 dictionary_layout: str = "rings",
+                 dictionary_elevations_deg: tuple[float, ...] | list[float] = (0.0, 30.0, 60.0),
+                 dictionary_distance: float = 3.0, dictionary_hpr_radius_factor: float = 100.0,
+                 seed: int = 0) -> None:
+        if matching not in MATCHINGS:
+            raise ConfigError(f"matching={matching!r} is unknown; use one of {list(MATCHINGS)}")
+        if features not in FEATURES:
+            raise ConfigError(f"features={features!r} is unknown; use one of {list(FEATURES)}")
+        for name, value in (("voxel_size", voxel_size),):
+            if not value >= 0:
+                raise ConfigError(f"{name}={value} must be >= 0 (object-normalised units)")
+        for name, value in (("fpfh_radius", fpfh_radius), ("lps_radius", lps_radius), ("lps_tau", lps_tau),
+                            ("icp_max_distance", icp_max_distance)):
+            if not value > 0:
+                raise ConfigError(f"{name}={value} must be > 0 (object-normalised units)")
+        if num_keypoints < 3 or fpfh_max_nn < 1 or icp_max_iterations < 1:
+            raise ConfigError(f"num_keypoints={num_keypoints}, fpfh_max_nn={fpfh_max_nn}, "
+                              f"icp_max_iterations={icp_max_iterations}: use >= 3, >= 1, >= 1")
+        self.matching = matching
+        self.features = features
+        self.voxel_size = float(voxel_size)
+        self.fpfh_radius = float(fpfh_radius)
+        self.fpfh_max_nn = int(fpfh_max_nn)
+        self.num_keypoints = int(num_keypoints)
+        self.lps_radius = float(lps_radius)
+        self.lps_tau = float(lps_tau)
+        self.lps_max_points = int(lps_max_points)
+        self.refine_icp = bool(refine_icp)
+        self.icp_max_distance = float(icp_max_distance)
+        self.icp_max_iterations = int(icp_max_iterations)
+        self.dictionary_kwargs = dict(num_views=int(dictionary_num_views), layout=str(dictionary_layout),
+                                      elevations_deg=tuple(float(e) for e in dictionary_elevations_deg),
+                                      distance=float(dictionary_distance),
+                                      hpr_radius_factor=float(dictionary_hpr_radius_factor))
+        if matching == "dictionary":  # fail at construction on a bad layout, not per sample
+            from catpose.methods.dictionary import viewpoint_layout
+            viewpoint_layout(self.dictionary_kwargs["num_views"], self.dictionary_kwargs["layout"],
+                             self.dictionary_kwargs["elevations_deg"], self.dictionary_kwargs["distance"])
+        self.seed = int(seed)
+
+    # -- what a subclass provides ---------------------------------------------------------------
+
+    @abstractmethod
+    def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
+        """Estimate ``T_target_source`` (4, 4) for one pair; return it with JSON-able details."""
+
+    # -- the pipeline ---------------------------------------------------------------------------
+
+    def _targets(self, template: Template) -> dict[str, Any]:
+        """Per-template data, cached in memory: complete cloud + KD-tree, downsampled targets."""
+        from scipy.spatial import cKDTree
+
+        key = (_template_hash(template), self.matching, self.features, self.voxel_size, self.fpfh_radius,
+               self.fpfh_max_nn, self.num_keypoints, self.lps_radius, self.lps_tau, self.lps_max_points,
+               tuple(sorted(self.dictionary_kwargs.items())))
+        hit = _TARGET_CACHE.get(key)
+        if hit is not None:
+            return hit
+        with_fpfh = self.features == "fpfh"
+        direct = self.matching == "direct"
+        complete = _make_cloud(template.points, template.normals, self.voxel_size, self.fpfh_radius,
+                               self.fpfh_max_nn, with_fpfh and direct)
+        if direct:
+            targets = [complete]
+        else:
+            from catpose.methods.dictionary import get_dictionary
+
+            d = get_dictionary(template, **self.dictionary_kwargs)
+            targets = [_make_cloud(p, n, self.voxel_size, self.fpfh_radius, self.fpfh_max_nn, with_fpfh)
+                       for p, n in zip(d.points, d.normals)]
+        data = {"complete": complete, "tree": cKDTree(template.points), "targets": targets,
+                "lps_cache": {}}
+        if len(_TARGET_CACHE) >= _TARGET_CACHE_MAX:
+            _TARGET_CACHE.pop(next(iter(_TARGET_CACHE)))
+        _TARGET_CACHE[key] = data
+        return data
+
+    def _lps_match(self, source: Cloud, target: Cloud, up_source: np.ndarray, up_target: np.ndarray,
+                   cache: dict, target_index: int) -> tuple[Cloud, Cloud, np.ndarray]:
+        """FPS keypoints (n on the input, 2n on the target) and top-1 LPS correspondences.
+
+        The target's keypoints and patches depend only on the template and are cached in
+        ``cache[target_index]``. Returns (input keypoints, target keypoints, (n, 2) pairs).
+        """
+        from catpose.methods import lps
+        from catpose.methods.keypoints import farthest_point_indices
+
+        if target_index not in cache:
+            kt = farthest_point_indices(target.points, 2 * self.num_keypoints)
+            cache[target_index] = (kt, lps.lps_patches(target.points, target.normals, kt, up_target,
+                                                       self.lps_radius, self.lps_max_points))
+        kt, patches_t = cache[target_index]
+        ks = farthest_point_indices(source.points, self.num_keypoints)
+        patches_s = lps.lps_patches(source.points, source.normals, ks, up_source, self.lps_radius,
+                                    self.lps_max_points)
+        A = lps.lps_affinity(patches_s, patches_t, self.lps_tau, self.lps_radius)
+        corr = np.stack([np.arange(len(ks)), np.argmax(A, axis=1)], axis=1).astype(np.int64)
+        return _select(source, ks), _select(target, kt), corr
+
+    def _refine(self, source: Cloud, complete: Cloud, T: np.ndarray) -> np.ndarray:
+        from catpose.o3d import o3d
+
+        reg = o3d.pipelines.registration
+        result = reg.registration_icp(
+            source.pcd, complete.pcd, self.icp_max_distance, T, reg.TransformationEstimationPointToPlane(),
+            reg.ICPConvergenceCriteria(max_iteration=self.icp_max_iterations))
+        return np.asarray(result.transformation).copy()
+
+    def register(self, problem: RegistrationProblem) -> RegistrationResult:
+        """Run ``_estimate`` against every target and keep the lowest-Chamfer estimate.
+
+        ``score`` = one-directional Chamfer distance (mean nearest-neighbour distance, object-
+        normalised) from the transformed downsampled input to the complete template.
+        """
+        t_start = time.perf_counter()
+        data = self._targets(problem.template)
+        source = _make_cloud(problem.points_camera, problem.normals_camera, self.voxel_size, self.fpfh_radius,
+                             self.fpfh_max_nn, self.features == "fpfh")
+        t_prep = time.perf_counter() - t_start
+        candidates = []
+        for i, target in enumerate(data["targets"]):
+            seed = stable_seed(self.seed, problem.sample_id, i)
+            if self.features == "lps":
+                src_k, tgt_k, corr = self._lps_match(source, target, problem.ground_normal_camera,
+                                                     problem.template.up, data["lps_cache"], i)
+                match = MatchInput(src_k, tgt_k, corr, seed)
+            else:
+                match = MatchInput(source, target, None, seed)
+            T, info = self._estimate(match)
+            if self.refine_icp:
+                T = self._refine(source, data["complete"], T)
+            cd = one_directional_chamfer(transform_points(T, source.points), data["tree"])
+            candidates.append((cd, T, info))
+        best = int(np.argmin([c[0] for c in candidates]))
+        cd, T, info = candidates[best]
+        extras = {"matching": self.matching, "features": self.features, "chosen_index": best,
+                  "num_candidates": len(candidates), "candidate_chamfer": [float(c[0]) for c in candidates],
+                  "num_source_points": int(len(source.points)), "prepare_s": t_prep,
+                  "total_s": time.perf_counter() - t_start, **info}
+        return RegistrationResult(T_target_source=T, score=cd, extras=extras)

@@ -1,0 +1,187 @@
+"""The partial-template dictionary (paper Section III-B, "Overview").
+
+A complete template cloud ``X*`` (template frame) is seen from ``m`` viewpoints; hidden point
+removal (Katz et al. 2007, Open3D ``hidden_point_removal``) keeps the points visible from each
+one. The ``m`` partial templates stay in the template frame (only different parts are missing),
+so a pose estimated against any of them is a pose against the template.
+
+Viewpoint layout (default, ``layout="rings"``, ``num_views=18``): 3 elevation rings at
+``elevations_deg = (0, 30, 60)`` degrees above the template's ground plane (the xy plane,
+z up) x 6 azimuths every 60 degrees starting at +x, at ``distance`` (object-normalised units)
+from the origin. The rings match where a depth camera looks at an upright object from.
+``layout="fibonacci"`` spreads ``num_views`` directions evenly over the whole sphere instead.
+
+Built once per template and parameters and cached in memory and on disk: the key is the
+template id, a hash of the template points and every parameter. The disk folder is
+``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose`` (subfolder ``dictionary``); only indices are
+stored, points and normals are looked up from the template.
+
+Usage::
+
+    from catpose.methods.dictionary import get_dictionary
+    d = get_dictionary(template)                 # 18 partial templates
+    for pts, nrm in zip(d.points, d.normals): ...
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from catpose.errors import ConfigError
+from catpose.types import Template
+
+_VERSION = "1"
+_MEMORY: dict[str, "PartialDictionary"] = {}
+
+
+@dataclass(frozen=True, eq=False)
+class PartialDictionary:
+    """``m`` partial templates of one template, all in the template frame.
+
+    Attributes:
+        template_id: id of the template they were cut from.
+        key: cache key (template id, points hash, parameters).
+        viewpoints: (m, 3) camera positions in the template frame, object-normalised unit.
+        indices: m int64 arrays; ``indices[i]`` (K_i,) indexes ``template.points`` visible from
+            viewpoint ``i``.
+        points: m arrays (K_i, 3), template frame: ``template.points[indices[i]]``.
+        normals: m arrays (K_i, 3), unit outward normals of ``points[i]``.
+    """
+
+    template_id: str
+    key: str
+    viewpoints: np.ndarray
+    indices: list[np.ndarray]
+    points: list[np.ndarray]
+    normals: list[np.ndarray]
+
+    def __len__(self) -> int:
+        return len(self.indices)
+
+
+def viewpoint_layout(num_views: int = 18, layout: str = "rings",
+                     elevations_deg: tuple[float, ...] = (0.0, 30.0, 60.0),
+                     distance: float = 3.0) -> np.ndarray:
+    """Camera positions (num_views, 3) around the template origin, template frame (z up).
+
+    ``rings``: ``len(elevations_deg)`` rings (degrees above the xy plane), each with
+    ``num_views / len(elevations_deg)`` azimuths evenly spaced from +x (ring ``j`` is rotated by
+    half an azimuth step for odd ``j`` so rings interleave). ``fibonacci``: a Fibonacci sphere.
+    """
+    if num_views < 1:
+        raise ConfigError(f"dictionary num_views={num_views}; use a positive count such as 18")
+    if layout == "rings":
+        rings = len(elevations_deg)
+        if rings == 0 or num_views % rings:
+            raise ConfigError(f"dictionary num_views={num_views} is not a multiple of the "
+                              f"{rings} elevation rings {list(elevations_deg)}; change one of them")
+        per = num_views // rings
+        out = []
+        for j, el in enumerate(elevations_deg):
+            el_r = np.deg2rad(el)
+            offset = 0.5 * (j % 2) * 2 * np.pi / per
+            for a in range(per):
+                az = offset + 2 * np.pi * a / per
+                out.append([np.cos(el_r) * np.cos(az), np.cos(el_r) * np.sin(az), np.sin(el_r)])
+        dirs = np.array(out)
+    elif layout == "fibonacci":
+        i = np.arange(num_views) + 0.5
+        z = 1 - 2 * i / num_views
+        r = np.sqrt(1 - z * z)
+        phi = np.pi * (1 + 5 ** 0.5) * i
+        dirs = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+    else:
+        raise ConfigError(f"dictionary layout={layout!r} is unknown; use 'rings' or 'fibonacci'")
+    return distance * dirs
+
+
+def visible_indices(points: np.ndarray, viewpoint: np.ndarray, radius_factor: float = 100.0) -> np.ndarray:
+    """Indices (sorted, int64) of ``points`` (N, 3) visible from ``viewpoint`` (3,) by hidden point
+    removal with radius ``radius_factor`` x the largest distance from the viewpoint."""
+    from catpose.o3d import o3d
+
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64)))
+    diameter = float(np.linalg.norm(points - viewpoint, axis=1).max())
+    _, idx = pcd.hidden_point_removal(np.asarray(viewpoint, dtype=np.float64), diameter * radius_factor)
+    return np.unique(np.asarray(idx, dtype=np.int64))
+
+
+def cache_dir() -> Path:
+    """``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``."""
+    env = os.environ.get("CATPOSE_CACHE_DIR")
+    return Path(env) if env else Path.home() / ".cache" / "catpose"
+
+
+def dictionary_key(template: Template, num_views: int, layout: str, elevations_deg: tuple[float, ...],
+                   distance: float, hpr_radius_factor: float) -> str:
+    """Cache key: safe template id + blake2b of the template points and every parameter."""
+    h = hashlib.blake2b(digest_size=10)
+    h.update(np.ascontiguousarray(template.points, dtype=np.float64).tobytes())
+    h.update(repr((_VERSION, num_views, layout, tuple(float(e) for e in elevations_deg),
+                   float(distance), float(hpr_radius_factor))).encode())
+    safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", template.template_id)[-80:]
+    return f"{safe}-{h.hexdigest()}"
+
+
+def get_dictionary(template: Template, num_views: int = 18, layout: str = "rings",
+                   elevations_deg: tuple[float, ...] = (0.0, 30.0, 60.0), distance: float = 3.0,
+                   hpr_radius_factor: float = 100.0, use_disk_cache: bool = True) -> PartialDictionary:
+    """The partial-template dictionary of ``template``, built once and cached.
+
+    Args:
+        template: complete template (points and normals in the template frame).
+        num_views: number ``m`` of viewpoints (partial templates).
+        layout: ``"rings"`` or ``"fibonacci"`` (see the module docstring).
+        elevations_deg: ring elevations in degrees above the xy plane (``rings`` only).
+        distance: camera distance from the origin, object-normalised unit.
+        hpr_radius_factor: hidden point removal radius as a multiple of the cloud's extent seen
+            from the viewpoint (Open3D's usual choice is 100).
+        use_disk_cache: also read/write ``cache_dir()/dictionary/<key>.npz``.
+
+    Returns:
+        A :class:`PartialDictionary`; the same object for repeated calls with equal inputs.
+    """
+    elevations_deg = tuple(float(e) for e in elevations_deg)
+    key = dictionary_key(template, num_views, layout, elevations_deg, distance, hpr_radius_factor)
+    hit = _MEMORY.get(key)
+    if hit is not None:
+        return hit
+    viewpoints = viewpoint_layout(num_views, layout, elevations_deg, distance)
+    path = cache_dir() / "dictionary" / f"{key}.npz"
+    indices: list[np.ndarray] | None = None
+    if use_disk_cache and path.is_file():
+        try:
+            with np.load(path) as z:
+                flat, offsets = z["indices"], z["offsets"]
+            indices = [flat[offsets[i]:offsets[i + 1]].astype(np.int64) for i in range(num_views)]
+            if len(indices) != num_views or any(len(i) and i.max() >= len(template.points) for i in indices):
+                indices = None
+        except Exception:  # a corrupt cache file is rebuilt, never fatal
+            indices = None
+    if indices is None:
+        indices = [visible_indices(template.points, v, hpr_radius_factor) for v in viewpoints]
+        if use_disk_cache:
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                offsets = np.cumsum([0] + [len(i) for i in indices])
+                tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
+                np.savez(tmp, indices=np.concatenate(indices), offsets=offsets, viewpoints=viewpoints)
+                os.replace(tmp, path)
+            except OSError:  # a read-only cache folder only costs the rebuild next time
+                pass
+    d = PartialDictionary(
+        template_id=template.template_id, key=key, viewpoints=viewpoints, indices=indices,
+        points=[template.points[i] for i in indices], normals=[template.normals[i] for i in indices])
+    _MEMORY[key] = d
+    return d
+
+
+def clear_memory_cache() -> None:
+    """Forget every in-memory dictionary (the disk cache stays)."""
+    _MEMORY.clear()

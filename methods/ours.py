@@ -1,0 +1,357 @@
+"""The paper's method: dictionary matching with soft correspondences (Section III).
+
+Pipeline for one problem (input cloud ``X_c`` in the camera frame, template ``X*_t``):
+
+1. Dictionary: ``m`` partial templates of ``X*_t`` (see :mod:`catpose.methods.dictionary`;
+   default 18 views, 3 elevation rings 0/30/60 deg x 6 azimuths, hidden point removal), cached.
+2. Both the input and every partial template are voxel-downsampled with ``voxel_size`` so that
+   their local point densities (which descriptors see) match.
+3. Keypoints by farthest point sampling (start index 0): ``n`` on the input, ``2n`` on each
+   partial (:mod:`catpose.methods.keypoints`).
+4. Descriptors and affinity ``A`` (m, n, 2n): ``lps`` (F-score of local patches, default, see
+   :mod:`catpose.methods.lps`) or ``pfh`` (1 / (marginal EMD + eps), :mod:`catpose.methods.pfh`);
+   rows normalised to sum to 1. Template-side keypoints and descriptors are computed once per
+   template and cached in memory.
+5. Initial pose per partial: soft targets ``A P_t`` and Kabsch/SVD with the reflection fix.
+6. Optimisation (Adam, all ``m`` candidates as one batched tensor program of shape (m, n, 2n)):
+   stage 1 updates the pose only, loss ``sum(A . d(T P_c, P_t))``; stage 2 updates the pose and
+   ``C = softmax_rows(L)`` with logits ``L`` initialised to ``log A``, loss
+   ``sum(C . d(T P_c, P_t))``. Rotations use the 6D representation (Zhou et al. 2019). An optional
+   one-directional Chamfer term (input points -> complete template) is added with weight
+   ``chamfer_weight``.
+7. Selection among the ``m`` candidates: ``loss`` (the paper's rule: lowest final loss) or
+   ``chamfer`` (lowest one-directional Chamfer distance of the transformed input to the complete
+   template), optionally after a gravity filter dropping candidates whose rotation maps the known
+   ground normal more than ``gravity_max_deg`` away from the template's up axis.
+8. Optional point-to-plane ICP refinement from the selected pose.
+
+``score`` is the selected candidate's final loss divided by ``n`` (the mean correspondence-
+weighted keypoint distance, object-normalised units), or the Chamfer distance when
+``selection="chamfer"``; both are comparable across templates of the same normalised scale.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+
+from catpose.errors import ConfigError
+from catpose.geometry import make_T, stable_seed
+from catpose.methods.base import RegistrationMethod
+from catpose.methods.dictionary import PartialDictionary, get_dictionary
+from catpose.methods.keypoints import farthest_point_indices
+from catpose.types import RegistrationProblem, RegistrationResult, Template
+
+
+def voxel_downsample(points: np.ndarray, normals: np.ndarray, voxel_size: float) -> tuple[np.ndarray, np.ndarray]:
+    """Keep one point per voxel (the first in input order; deterministic); normals follow."""
+    if voxel_size <= 0:
+        return points, normals
+    keys = np.floor(points / voxel_size).astype(np.int64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    first.sort()
+    return points[first], normals[first]
+
+
+def kabsch(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """Batched least-squares rigid transforms (B, 4, 4) mapping P (B, n, 3) onto Q (B, n, 3),
+    with the reflection fix (Sorkine 2017): ``R = V diag(1, 1, sign det(V U^T)) U^T``."""
+    mp, mq = P.mean(1, keepdims=True), Q.mean(1, keepdims=True)
+    H = np.einsum("bni,bnj->bij", P - mp, Q - mq)
+    U, _, Vt = np.linalg.svd(H)
+    V = np.swapaxes(Vt, 1, 2)
+    s = np.sign(np.linalg.det(V @ np.swapaxes(U, 1, 2)))
+    s[s == 0] = 1.0
+    D = np.zeros_like(H)
+    D[:, 0, 0] = D[:, 1, 1] = 1.0
+    D[:, 2, 2] = s
+    R = V @ D @ np.swapaxes(U, 1, 2)
+    t = mq[:, 0] - np.einsum("bij,bj->bi", R, mp[:, 0])
+    T = np.tile(np.eye(4), (len(P), 1, 1))
+    T[:, :3, :3], T[:, :3, 3] = R, t
+    return T
+
+
+@dataclass(frozen=True, eq=False)
+class _TemplateFeatures:
+    """Constant per (template, parameters): keypoints (m, 2n, 3) and per-partial descriptors."""
+
+    keypoints: np.ndarray
+    descriptors: list          # lps: VoxelPatches or Patches per partial; pfh: (2n, 125) arrays
+    complete_points: np.ndarray  # (M', 3) downsampled complete template for Chamfer terms
+    tree: object               # cKDTree of the full template points
+
+
+class Ours(RegistrationMethod):
+    """Multi-hypothesis correspondence matching against a partial-template dictionary.
+
+    Args:
+        descriptor: ``lps`` (default; the paper's descriptor) or ``pfh``.
+        num_keypoints: ``n`` input keypoints (``2n`` per partial template).
+        voxel_size: downsampling voxel for input and partials, object-normalised units (0: none).
+        num_views, layout, elevations_deg, view_distance, hpr_radius_factor: dictionary layout.
+        lps_radius, lps_tau, lps_max_points, lps_parallel_deg, lps_fscore, lps_voxel_subdiv:
+            LPS crop radius, F-score threshold (object-normalised units), patch size cap, PCA
+            fallback angle (deg), ``voxel`` (fast) or ``exact`` F-score, grid cells per tau.
+        pfh_radius, pfh_max_nn, pfh_eps, pfh_distance: PFH neighbourhood radius and cap,
+            affinity epsilon, ``marginal`` (fast) or ``exact`` EMD.
+        optimize: ``joint`` (stage 1 then stage 2, default), ``pose`` (stage 1 only) or ``none``
+            (SVD initial pose only).
+        steps_pose, steps_joint: Adam steps of stage 1 and stage 2 (paper: 300 each).
+        lr: Adam learning rate for both stages (paper: 1e-3; default 1e-2, see config).
+        chamfer_weight: weight of the one-directional Chamfer term (0: off).
+        chamfer_points: input / template points used by Chamfer terms (FPS subsets).
+        selection: ``loss`` or ``chamfer``.
+        gravity_max_deg: gravity filter threshold in degrees (``None`` or <= 0: off).
+        refine: run point-to-plane ICP from the selected pose.
+        refine_max_distance, refine_iterations: ICP inlier distance and iterations.
+        device: torch device (``cpu`` or ``cuda``).
+        num_threads: torch CPU threads (0: leave torch's setting).
+        seed: seed of the method's own randomness (none is used at present; kept for the API).
+    """
+
+    def __init__(self, descriptor: str = "lps", num_keypoints: int = 32, voxel_size: float = 0.025,
+                 num_views: int = 18, layout: str = "rings", elevations_deg: tuple[float, ...] | list[float] = (0.0, 30.0, 60.0),
+                 view_distance: float = 3.0, hpr_radius_factor: float = 100.0,
+                 lps_radius: float = 0.2, lps_tau: float = 0.03, lps_max_points: int = 96,
+                 lps_parallel_deg: float = 10.0, lps_fscore: str = "voxel", lps_voxel_subdiv: int = 1,
+                 pfh_radius: float = 0.2, pfh_max_nn: int = 32, pfh_eps: float = 0.01, pfh_distance: str = "marginal",
+                 optimize: str = "joint", steps_pose: int = 300, steps_joint: int = 300, lr: float = 1e-2,
+                 chamfer_weight: float = 0.0, chamfer_points: int = 256,
+                 selection: str = "loss", gravity_max_deg: float | None = None,
+                 refine: bool = False, refine_max_distance: float = 0.05, refine_iterations: int = 30,
+                 device: str = "cpu", num_threads: int = 0, seed: int = 0) -> None:
+        checks = {"descriptor": (descriptor, ("lps", "pfh")), "optimize": (optimize, ("joint", "pose", "none")),
+                  "selection": (selection, ("loss", "chamfer")), "lps_fscore": (lps_fscore, ("voxel", "exact")),
+                  "pfh_distance": (pfh_distance, ("marginal", "exact"))}
+        for name, (value, allowed) in checks.items():
+            if value not in allowed:
+                raise ConfigError(f"method ours: {name}={value!r} is unknown; use one of {list(allowed)}")
+        if num_keypoints < 3:
+            raise ConfigError(f"method ours: num_keypoints={num_keypoints}; use at least 3 (e.g. 32)")
+        self.descriptor, self.num_keypoints, self.voxel_size = descriptor, int(num_keypoints), float(voxel_size)
+        self.dict_args = dict(num_views=int(num_views), layout=layout,
+                              elevations_deg=tuple(float(e) for e in elevations_deg),
+                              distance=float(view_distance), hpr_radius_factor=float(hpr_radius_factor))
+        self.lps_radius, self.lps_tau, self.lps_max_points = float(lps_radius), float(lps_tau), int(lps_max_points)
+        self.lps_parallel_deg, self.lps_fscore, self.lps_voxel_subdiv = float(lps_parallel_deg), lps_fscore, int(lps_voxel_subdiv)
+        self.pfh_radius, self.pfh_max_nn, self.pfh_eps, self.pfh_distance = float(pfh_radius), int(pfh_max_nn), float(pfh_eps), pfh_distance
+        self.optimize, self.steps_pose, self.steps_joint, self.lr = optimize, int(steps_pose), int(steps_joint), float(lr)
+        self.chamfer_weight, self.chamfer_points = float(chamfer_weight), int(chamfer_points)
+        self.selection = selection
+        self.gravity_max_deg = None if gravity_max_deg is None or gravity_max_deg <= 0 else float(gravity_max_deg)
+        self.refine, self.refine_max_distance, self.refine_iterations = bool(refine), float(refine_max_distance), int(refine_iterations)
+        self.device, self.num_threads, self.seed = device, int(num_threads), int(seed)
+        self._features: OrderedDict[str, _TemplateFeatures] = OrderedDict()
+
+    # ----------------------------------------------------------------- descriptors
+    def _describe(self, points: np.ndarray, normals: np.ndarray, kp_idx: np.ndarray, ground: np.ndarray, tree):
+        if self.descriptor == "pfh":
+            from catpose.methods.pfh import pfh_descriptors
+
+            return pfh_descriptors(points, normals, points[kp_idx], self.pfh_radius, self.pfh_max_nn, tree)
+        from catpose.methods.lps import lps_patches, voxelize
+
+        patches = lps_patches(points, normals, kp_idx, ground, self.lps_radius, self.lps_max_points,
+                              self.lps_parallel_deg, tree)
+        if self.lps_fscore == "exact":
+            return patches
+        return voxelize(patches, self.lps_radius, self.lps_tau, self.lps_voxel_subdiv)
+
+    def _affinity(self, desc_c, desc_t) -> np.ndarray:
+        if self.descriptor == "pfh":
+            from catpose.methods.pfh import pfh_affinity
+
+            return pfh_affinity(desc_c, desc_t, self.pfh_eps, self.pfh_distance)
+        from catpose.methods.lps import fscore_exact, fscore_voxel
+
+        if self.lps_fscore == "exact":
+            return fscore_exact(desc_c, desc_t, self.lps_tau)
+        return fscore_voxel(desc_c, desc_t)
+
+    def template_features(self, template: Template, dictionary: PartialDictionary) -> _TemplateFeatures:
+        """Keypoints and descriptors of every partial template, cached per template and parameters."""
+        from scipy.spatial import cKDTree
+
+        key = repr((dictionary.key, self.descriptor, self.num_keypoints, self.voxel_size, self.lps_radius,
+                    self.lps_tau, self.lps_max_points, self.lps_parallel_deg, self.lps_fscore,
+                    self.lps_voxel_subdiv, self.pfh_radius, self.pfh_max_nn, self.chamfer_points))
+        hit = self._features.get(key)
+        if hit is not None:
+            self._features.move_to_end(key)
+            return hit
+        k2 = 2 * self.num_keypoints
+        up = np.asarray(template.up, dtype=np.float64)
+        kps, descs = [], []
+        for pts, nrm in zip(dictionary.points, dictionary.normals):
+            p, n = voxel_downsample(pts, nrm, self.voxel_size)
+            idx = farthest_point_indices(p, k2)
+            if len(idx) < k2:  # a tiny partial: repeat keypoints so all candidates batch together
+                idx = np.resize(idx, k2)
+            kps.append(p[idx])
+            descs.append(self._describe(p, n, idx, up, cKDTree(p)))
+        complete = template.points[farthest_point_indices(template.points, self.chamfer_points)]
+        feats = _TemplateFeatures(np.stack(kps), descs, complete, cKDTree(template.points))
+        self._features[key] = feats
+        while len(self._features) > 64:
+            self._features.popitem(last=False)
+        return feats
+
+    # ----------------------------------------------------------------- main
+    def register(self, problem: RegistrationProblem) -> RegistrationResult:
+        from scipy.spatial import cKDTree
+
+        timings: dict[str, float] = {}
+        t0 = time.perf_counter()
+        template = problem.template
+        dictionary = get_dictionary(template, **self.dict_args)
+        timings["dictionary"] = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        feats = self.template_features(template, dictionary)
+        pts, nrm = voxel_downsample(problem.points_camera, problem.normals_camera, self.voxel_size)
+        kp_idx = farthest_point_indices(pts, self.num_keypoints)
+        if len(kp_idx) < 3:
+            from catpose.errors import InvalidInputError
+
+            raise InvalidInputError(f"sample {problem.sample_id}: only {len(kp_idx)} points after voxel "
+                                    f"downsampling at {self.voxel_size}; lower method.voxel_size")
+        P_c = pts[kp_idx]
+        desc_c = self._describe(pts, nrm, kp_idx, problem.ground_normal_camera, cKDTree(pts))
+        timings["descriptors"] = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        A = np.stack([self._affinity(desc_c, d) for d in feats.descriptors])      # (m, n, 2n)
+        A = np.maximum(A, 0.0) + 1e-12
+        A /= A.sum(axis=2, keepdims=True)
+        timings["affinity"] = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        P_t = feats.keypoints                                                     # (m, 2n, 3)
+        m = len(P_t)
+        T0 = kabsch(np.broadcast_to(P_c, (m,) + P_c.shape), A @ P_t)
+        timings["initial_pose"] = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        chamfer_src = pts[farthest_point_indices(pts, self.chamfer_points)]
+        T, losses = self._optimize(P_c, P_t, A, T0, chamfer_src, feats.complete_points)
+        timings["optimization"] = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        dists = np.array([feats.tree.query(chamfer_src @ Ti[:3, :3].T + Ti[:3, 3])[0].mean() for Ti in T])
+        g_template = np.einsum("mij,j->mi", T[:, :3, :3], problem.ground_normal_camera)
+        up = np.asarray(template.up, dtype=np.float64) / np.linalg.norm(template.up)
+        tilt_deg = np.degrees(np.arccos(np.clip(g_template @ up, -1.0, 1.0)))
+        keep = np.ones(m, dtype=bool)
+        if self.gravity_max_deg is not None:
+            keep = tilt_deg <= self.gravity_max_deg
+            if not keep.any():  # nothing is consistent with gravity: fall back to all candidates
+                keep[:] = True
+        crit = losses if self.selection == "loss" else dists
+        best = int(np.argmin(np.where(keep, crit, np.inf)))
+        T_best = T[best]
+        timings["selection"] = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        if self.refine:
+            T_best = self._refine(pts, nrm, template, T_best)
+        timings["refinement"] = time.perf_counter() - t0
+
+        extras = {"template_index": best, "losses": [float(x) for x in losses],
+                  "chamfer": [float(x) for x in dists], "tilt_deg": [float(x) for x in tilt_deg],
+                  "kept": [bool(x) for x in keep], "timings": {k: float(v) for k, v in timings.items()},
+                  "num_input_points": int(len(pts))}
+        return RegistrationResult(T_target_source=T_best, score=float(crit[best]), extras=extras)
+
+    # ----------------------------------------------------------------- optimisation
+    def _optimize(self, P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray,
+                  chamfer_src: np.ndarray, complete: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Two-stage Adam on all candidates at once. Returns poses (m, 4, 4) and final losses (m,)
+        as mean correspondence-weighted keypoint distances (object-normalised units)."""
+        import torch
+
+        if self.num_threads > 0:
+            torch.set_num_threads(self.num_threads)
+        dev = torch.device(self.device)
+        dt = torch.float32
+        pc = torch.as_tensor(P_c, dtype=dt, device=dev)                          # (n, 3)
+        pt = torch.as_tensor(P_t, dtype=dt, device=dev)                          # (m, 2n, 3)
+        A_t = torch.as_tensor(A, dtype=dt, device=dev)                           # (m, n, 2n)
+        n = pc.shape[0]
+        use_ch = self.chamfer_weight > 0
+        if use_ch:
+            src = torch.as_tensor(chamfer_src, dtype=dt, device=dev)
+            cmp = torch.as_tensor(complete, dtype=dt, device=dev)
+        r6 = torch.as_tensor(np.concatenate([T0[:, :3, 0], T0[:, :3, 1]], axis=1), dtype=dt, device=dev)
+        r6.requires_grad_(True)
+        t = torch.as_tensor(T0[:, :3, 3], dtype=dt, device=dev).clone().requires_grad_(True)
+
+        def rot(r):
+            a1, a2 = r[:, :3], r[:, 3:]
+            b1 = a1 / a1.norm(dim=1, keepdim=True)
+            b2 = a2 - (b1 * a2).sum(1, keepdim=True) * b1
+            b2 = b2 / b2.norm(dim=1, keepdim=True)
+            return torch.stack([b1, b2, torch.cross(b1, b2, dim=1)], dim=2)  # columns
+
+        def loss_terms(C):
+            R = rot(r6)
+            x = torch.einsum("mij,nj->mni", R, pc) + t[:, None]                 # (m, n, 3)
+            d = torch.sqrt(((x[:, :, None] - pt[:, None]) ** 2).sum(-1) + 1e-12)  # (m, n, 2n)
+            per = (C * d).sum((1, 2))                                           # (m,)
+            if use_ch:
+                xs = torch.einsum("mij,nj->mni", R, src) + t[:, None]
+                dc = torch.sqrt(((xs[:, :, None] - cmp[None, None]) ** 2).sum(-1) + 1e-12)
+                per = per + self.chamfer_weight * n * dc.min(2).values.mean(1)
+            return per
+
+        stages = []
+        if self.optimize in ("pose", "joint"):
+            stages.append(("pose", self.steps_pose))
+        if self.optimize == "joint":
+            stages.append(("joint", self.steps_joint))
+        logits = None
+        with torch.no_grad():
+            final = loss_terms(A_t)
+        for stage, steps in stages:
+            if stage == "joint":
+                logits = torch.log(A_t).clone().requires_grad_(True)
+                params = [r6, t, logits]
+            else:
+                params = [r6, t]
+            opt = torch.optim.Adam(params, lr=self.lr)
+            for _ in range(steps):
+                opt.zero_grad(set_to_none=True)
+                C = torch.softmax(logits, dim=2) if logits is not None else A_t
+                loss_terms(C).sum().backward()
+                opt.step()
+            with torch.no_grad():
+                C = torch.softmax(logits, dim=2) if logits is not None else A_t
+                final = loss_terms(C)
+        with torch.no_grad():
+            R = rot(r6).cpu().double().numpy()
+            tt = t.detach().cpu().double().numpy()
+        # re-orthonormalise in float64 so validate_pose accepts the result
+        U, _, Vt = np.linalg.svd(R)
+        R = U @ Vt
+        T = np.tile(np.eye(4), (len(R), 1, 1))
+        T[:, :3, :3], T[:, :3, 3] = R, tt
+        return T, final.detach().cpu().double().numpy() / n
+
+    def _refine(self, pts: np.ndarray, nrm: np.ndarray, template: Template, T_init: np.ndarray) -> np.ndarray:
+        from catpose.o3d import o3d
+
+        src = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
+        src.normals = o3d.utility.Vector3dVector(nrm)
+        tgt = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(template.points))
+        tgt.normals = o3d.utility.Vector3dVector(template.normals)
+        res = o3d.pipelines.registration.registration_icp(
+            src, tgt, self.refine_max_distance, T_init,
+            o3d.pipelines.registration.TransformationEstimationPointToPlane(),
+            o3d.pipelines.registration.ICPConvergenceCriteria(max_iteration=self.refine_iterations))
+        T = np.asarray(res.transformation, dtype=np.float64).copy()
+        U, _, Vt = np.linalg.svd(T[:3, :3])
+        T[:3, :3] = U @ Vt
+        return T

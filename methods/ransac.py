@@ -1,0 +1,76 @@
+"""RANSAC registration through Open3D (feature matching or given correspondences).
+
+``features="fpfh"``: ``registration_ransac_based_on_feature_matching`` on FPFH features;
+``features="lps"``: ``registration_ransac_based_on_correspondence`` on the top-1 LPS pairs.
+Hypotheses are pruned by the edge-length and distance checkers (and optionally the normal
+checker) before the full inlier count. Open3D's RANSAC draws from its global generator, seeded
+here per (sample, candidate) with ``o3d.utility.random.seed`` before every call.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from catpose.errors import ConfigError
+from catpose.methods.correspondence import CorrespondenceRegistration, MatchInput
+
+
+class RANSAC(CorrespondenceRegistration):
+    """RANSAC baseline.
+
+    Args:
+        max_correspondence_distance: inlier distance (object-normalised; e.g. 1.5 x voxel_size).
+        mutual_filter: keep only mutual FPFH nearest neighbours (fpfh only).
+        ransac_n: points per hypothesis (>= 3).
+        edge_length_similarity: ``CorrespondenceCheckerBasedOnEdgeLength`` threshold in (0, 1).
+        normal_angle_deg: ``CorrespondenceCheckerBasedOnNormal`` angle; 0 disables it.
+        max_iteration: ``RANSACConvergenceCriteria.max_iteration``.
+        confidence: ``RANSACConvergenceCriteria.confidence`` in (0, 1].
+        **pipeline: :class:`CorrespondenceRegistration` arguments (matching, features, ...).
+    """
+
+    def __init__(self, max_correspondence_distance: float = 0.075, mutual_filter: bool = True,
+                 ransac_n: int = 3, edge_length_similarity: float = 0.9, normal_angle_deg: float = 0.0,
+                 max_iteration: int = 100000, confidence: float = 0.999, **pipeline: Any) -> None:
+        super().__init__(**pipeline)
+        if not max_correspondence_distance > 0:
+            raise ConfigError(f"ransac max_correspondence_distance={max_correspondence_distance} must be > 0")
+        if ransac_n < 3 or max_iteration < 1 or not 0 < confidence <= 1:
+            raise ConfigError(f"ransac ransac_n={ransac_n} (>= 3), max_iteration={max_iteration} (>= 1), "
+                              f"confidence={confidence} (in (0, 1]) out of range")
+        if not 0 < edge_length_similarity < 1 or not 0 <= normal_angle_deg < 180:
+            raise ConfigError(f"ransac edge_length_similarity={edge_length_similarity} must be in (0, 1) "
+                              f"and normal_angle_deg={normal_angle_deg} in [0, 180)")
+        self.max_correspondence_distance = float(max_correspondence_distance)
+        self.mutual_filter = bool(mutual_filter)
+        self.ransac_n = int(ransac_n)
+        self.edge_length_similarity = float(edge_length_similarity)
+        self.normal_angle_deg = float(normal_angle_deg)
+        self.max_iteration = int(max_iteration)
+        self.confidence = float(confidence)
+
+    def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
+        from catpose.o3d import o3d
+
+        reg = o3d.pipelines.registration
+        checkers = [reg.CorrespondenceCheckerBasedOnEdgeLength(self.edge_length_similarity),
+                    reg.CorrespondenceCheckerBasedOnDistance(self.max_correspondence_distance)]
+        if self.normal_angle_deg > 0:
+            checkers.append(reg.CorrespondenceCheckerBasedOnNormal(np.deg2rad(self.normal_angle_deg)))
+        criteria = reg.RANSACConvergenceCriteria(self.max_iteration, self.confidence)
+        estimation = reg.TransformationEstimationPointToPoint(False)
+        o3d.utility.random.seed(match.seed % (2**31))
+        if match.correspondences is None:
+            result = reg.registration_ransac_based_on_feature_matching(
+                match.source.pcd, match.target.pcd, match.source.feature, match.target.feature,
+                self.mutual_filter, self.max_correspondence_distance, estimation, self.ransac_n, checkers,
+                criteria)
+        else:
+            result = reg.registration_ransac_based_on_correspondence(
+                match.source.pcd, match.target.pcd, o3d.utility.Vector2iVector(match.correspondences),
+                self.max_correspondence_distance, estimation, self.ransac_n, checkers, criteria)
+        info = {"num_inliers": int(len(result.correspondence_set)), "fitness": float(result.fitness),
+                "inlier_rmse": float(result.inlier_rmse)}
+        return np.asarray(result.transformation).copy(), info

@@ -1,0 +1,338 @@
+"""A TEASER-style robust registration solver from putative correspondences (NumPy).
+
+Re-implements the pipeline of TEASER (Yang, Shi, Carlone, "TEASER: Fast and Certifiable Point
+Cloud Registration", T-RO 2020) and its C++ library TEASER++ with the scale fixed to 1, because
+no ``teaserpp_python`` wheel builds on Python 3.11 here. Given correspondences
+``b_i = R a_i + t + e_i`` with ``|e_i| <= noise_bound`` for inliers:
+
+1. Translation- and rotation-invariant measurements (TIMs): pairwise lengths. A pair (i, j) is
+   consistent when ``| ||b_i - b_j|| - ||a_i - a_j|| | <= 2 * noise_bound`` (scale 1).
+2. Maximum clique of the consistency graph (exact branch and bound with greedy-colouring bounds,
+   Tomita's MCQ, after pruning to the k-core that a greedy clique proves necessary). A node
+   budget caps the search; past it the best clique found so far is returned
+   (``SolverResult.clique_exact`` is then False).
+3. Rotation from the translation-invariant measurements (TIMs ``b_j - b_i`` vs ``a_j - a_i``)
+   inside the clique by graduated non-convexity with a truncated least-squares cost (GNC-TLS,
+   Yang et al., RA-L 2020): weighted Kabsch each iteration, closed-form TLS weights, ``mu``
+   starting at ``1 / (2 r_max^2 / c^2 - 1)`` and multiplied by ``gnc_factor`` until the cost
+   settles. The TIM noise bound is ``2 * noise_bound`` (sum of two point bounds) times
+   ``sqrt(cbar2)``, with ``cbar2 = 1``.
+4. Translation by component-wise adaptive voting: per axis, the intervals
+   ``t_i +- noise_bound`` of ``t_i = b_i - R a_i`` over the clique; the estimate is the mean of
+   the largest consistent (maximum-consensus) set, ties broken by the smaller spread.
+
+Lengths are in the caller's unit (object-normalised in catpose).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from catpose.errors import ConfigError, InvalidInputError
+
+
+@dataclass(frozen=True)
+class SolverResult:
+    """Output of :func:`solve`.
+
+    Attributes:
+        R: (3, 3) rotation with ``b ~ R a + t``.
+        t: (3,) translation.
+        clique: indices of the max-clique correspondences (into the input rows).
+        clique_exact: whether the clique search finished within its node budget.
+        rotation_inliers: (k_pairs,) bool, TIMs kept by GNC-TLS (weight > 0.5).
+        translation_inliers: indices (into the input rows) that voted for ``t`` on all axes.
+        gnc_iterations: number of GNC iterations run.
+        timings: seconds per stage.
+    """
+
+    R: np.ndarray
+    t: np.ndarray
+    clique: np.ndarray
+    clique_exact: bool
+    rotation_inliers: np.ndarray
+    translation_inliers: np.ndarray
+    gnc_iterations: int
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def T(self) -> np.ndarray:
+        """(4, 4) homogeneous transform mapping ``a`` (source) into ``b`` (target)."""
+        T = np.eye(4)
+        T[:3, :3] = self.R
+        T[:3, 3] = self.t
+        return T
+
+
+def consistency_graph(src: np.ndarray, dst: np.ndarray, noise_bound: float) -> np.ndarray:
+    """Pairwise-length consistency (scale fixed to 1).
+
+    Args:
+        src: (N, 3) source points ``a_i``.
+        dst: (N, 3) corresponding target points ``b_i``.
+        noise_bound: per-point noise bound ``beta`` (same unit as the points).
+
+    Returns:
+        (N, N) bool adjacency, ``| ||b_i - b_j|| - ||a_i - a_j|| | <= 2 beta``, zero diagonal.
+    """
+    d_src = np.linalg.norm(src[:, None, :] - src[None, :, :], axis=-1)
+    d_dst = np.linalg.norm(dst[:, None, :] - dst[None, :, :], axis=-1)
+    adj = np.abs(d_dst - d_src) <= 2.0 * noise_bound
+    np.fill_diagonal(adj, False)
+    return adj
+
+
+def _greedy_clique(adj: np.ndarray) -> list[int]:
+    """A quick lower bound: grow a clique from each of the highest-degree vertices."""
+    deg = adj.sum(axis=1)
+    best: list[int] = []
+    for start in np.argsort(-deg, kind="stable")[:16]:
+        clique = [int(start)]
+        cand = adj[start].copy()
+        while cand.any():
+            idx = np.flatnonzero(cand)
+            v = int(idx[np.argmax(adj[np.ix_(idx, idx)].sum(axis=1))])
+            clique.append(v)
+            cand &= adj[v]
+        if len(clique) > len(best):
+            best = clique
+    return best
+
+
+def _k_core(adj: np.ndarray, k: int) -> np.ndarray:
+    """Vertices of the k-core (every kept vertex has >= k kept neighbours); bool (N,)."""
+    keep = np.ones(len(adj), dtype=bool)
+    deg = adj.sum(axis=1)
+    while True:
+        drop = keep & (deg < k)
+        if not drop.any():
+            return keep
+        keep &= ~drop
+        deg = deg - adj[:, drop].sum(axis=1)
+
+
+def max_clique(adj: np.ndarray, node_budget: int = 200_000) -> tuple[np.ndarray, bool]:
+    """Maximum clique of an undirected graph.
+
+    Tomita and Seki's MCQ branch and bound (greedy colouring as the upper bound) on Python-int
+    bitsets, restricted to the k-core implied by a greedy clique (a vertex of a clique of size
+    ``s`` has degree >= ``s - 1``), as TEASER++'s PMC does.
+
+    Args:
+        adj: (N, N) symmetric bool adjacency with a false diagonal.
+        node_budget: maximum number of search-tree nodes; past it the best clique so far is
+            returned and the second value is False.
+
+    Returns:
+        (sorted vertex indices of the clique, whether the search was exact).
+    """
+    n = len(adj)
+    if n == 0:
+        return np.zeros(0, dtype=int), True
+    best = _greedy_clique(adj)
+    keep = _k_core(adj, max(len(best) - 1, 0))
+    verts = np.flatnonzero(keep)
+    if len(verts) <= len(best):
+        return np.sort(np.asarray(best, dtype=int)), True
+    sub = adj[np.ix_(verts, verts)]
+    # order by degree (descending) so the bitset's low bits are the high-degree vertices
+    order = np.argsort(-sub.sum(axis=1), kind="stable")
+    sub = sub[np.ix_(order, order)]
+    local_to_global = verts[order]
+    m = len(sub)
+    nbr = [int("".join("1" if x else "0" for x in row[::-1]), 2) for row in sub]
+    state = {"best": [int(np.flatnonzero(local_to_global == v)[0]) for v in best],
+             "nodes": 0, "exact": True}
+
+    def colour_sort(P: int) -> tuple[list[int], list[int]]:
+        order_: list[int] = []
+        colours: list[int] = []
+        uncoloured = P
+        colour = 0
+        while uncoloured:
+            colour += 1
+            Q = uncoloured
+            while Q:
+                v = (Q & -Q).bit_length() - 1
+                bit = 1 << v
+                Q &= ~nbr[v] & ~bit
+                uncoloured &= ~bit
+                order_.append(v)
+                colours.append(colour)
+        return order_, colours
+
+    def expand(C: list[int], P: int) -> None:
+        state["nodes"] += 1
+        if state["nodes"] > node_budget:
+            state["exact"] = False
+            return
+        order_, colours = colour_sort(P)
+        for k in range(len(order_) - 1, -1, -1):
+            if len(C) + colours[k] <= len(state["best"]) or not state["exact"]:
+                return
+            v = order_[k]
+            newP = P & nbr[v]
+            if newP:
+                expand(C + [v], newP)
+            elif len(C) + 1 > len(state["best"]):
+                state["best"] = C + [v]
+            P &= ~(1 << v)
+
+    expand([], (1 << m) - 1)
+    clique = np.sort(local_to_global[np.asarray(state["best"], dtype=int)])
+    return clique, bool(state["exact"])
+
+
+def weighted_kabsch(src: np.ndarray, dst: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Rotation minimising ``sum_k w_k ||dst_k - R src_k||^2`` (no translation), det(R) = +1.
+
+    Args:
+        src, dst: (K, 3) vectors; w: (K,) non-negative weights.
+    """
+    H = (src * w[:, None]).T @ dst
+    U, _, Vt = np.linalg.svd(H)
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0])
+    return Vt.T @ D @ U.T
+
+
+def gnc_tls_rotation(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1.0,
+                     gnc_factor: float = 1.4, max_iterations: int = 100,
+                     cost_threshold: float = 1e-6) -> tuple[np.ndarray, np.ndarray, int]:
+    """GNC-TLS rotation: ``min_R sum_k min(||dst_k - R src_k||^2 / c^2, cbar2)``.
+
+    Follows TEASER++'s ``GNCTLSRotationSolver``: each iteration solves a weighted Kabsch
+    problem, then the TLS weights in closed form for the current ``mu``
+    (``w = 1`` below ``th2 = mu/(mu+1) cbar2 c^2``, ``0`` above ``th1 = (mu+1)/mu cbar2 c^2``,
+    ``sqrt(cbar2 c^2 mu (mu+1) / r^2) - mu`` between), ``mu *= gnc_factor``.
+
+    Args:
+        src, dst: (K, 3) rotation-only measurements (TIMs).
+        noise_bound: bound ``c`` on an inlier measurement's residual norm.
+
+    Returns:
+        (R (3, 3), weights (K,), iterations run).
+    """
+    K = len(src)
+    w = np.ones(K)
+    bound2 = max(cbar2 * noise_bound**2, 1e-16)
+    mu = 1.0
+    prev_cost = np.inf
+    R = np.eye(3)
+    it = 0
+    for it in range(1, max_iterations + 1):
+        R = weighted_kabsch(src, dst, w)
+        r2 = ((dst - src @ R.T) ** 2).sum(axis=1)
+        if it == 1:
+            mu = 1.0 / (2.0 * r2.max() / bound2 - 1.0)
+            if mu <= 0:  # every residual is already within the bound: least squares is TLS
+                break
+        th1 = (mu + 1.0) / mu * bound2
+        th2 = mu / (mu + 1.0) * bound2
+        cost = float((w * r2).sum())
+        with np.errstate(divide="ignore"):
+            mid = np.sqrt(bound2 * mu * (mu + 1.0) / np.maximum(r2, 1e-300)) - mu
+        w = np.where(r2 >= th1, 0.0, np.where(r2 <= th2, 1.0, np.clip(mid, 0.0, 1.0)))
+        mu *= gnc_factor
+        if abs(cost - prev_cost) < cost_threshold:
+            break
+        prev_cost = cost
+    if w.sum() > 0:
+        R = weighted_kabsch(src, dst, w)
+    return R, w, it
+
+
+def adaptive_voting(values: np.ndarray, bound: float) -> tuple[float, np.ndarray]:
+    """Scalar maximum-consensus estimate by adaptive voting.
+
+    Every measurement ``x_i`` votes for the interval ``[x_i - bound, x_i + bound]``; sweeping the
+    sorted interval end points gives every maximal set of mutually overlapping intervals. The
+    estimate is the mean of the largest set (ties: the one with the smallest variance).
+
+    Args:
+        values: (K,) scalar measurements.
+        bound: half-width of each interval.
+
+    Returns:
+        (estimate, bool (K,) mask of the consensus set).
+    """
+    x = np.asarray(values, dtype=np.float64)
+    lo, hi = x - bound, x + bound
+    # events: +1 at the interval start, -1 after its end; starts sort before ends at ties
+    pos = np.concatenate([lo, hi])
+    kind = np.concatenate([np.zeros(len(x), int), np.ones(len(x), int)])
+    order = np.lexsort((kind, pos))
+    count, best_count, best_var, best_mask = 0, -1, np.inf, np.ones(len(x), dtype=bool)
+    for e in order:
+        if kind[e] == 0:
+            count += 1
+            if count >= best_count:
+                mask = (lo <= pos[e]) & (hi >= pos[e])
+                var = float(x[mask].var())
+                if count > best_count or var < best_var:
+                    best_count, best_var, best_mask = count, var, mask
+        else:
+            count -= 1
+    return float(x[best_mask].mean()), best_mask
+
+
+def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1.0,
+          gnc_factor: float = 1.4, max_iterations: int = 100, cost_threshold: float = 1e-6,
+          clique_node_budget: int = 200_000, max_rotation_tims: int = 20_000,
+          seed: int = 0) -> SolverResult:
+    """Robust registration ``dst ~ R src + t`` from putative correspondences (TEASER, scale 1).
+
+    Args:
+        src: (N, 3) source points ``a_i`` (e.g. camera frame).
+        dst: (N, 3) target points ``b_i`` (e.g. template frame), row-matched with ``src``.
+        noise_bound: inlier bound ``beta`` on ``||b_i - (R a_i + t)||`` (same unit).
+        cbar2: TLS truncation (squared, in units of the bound); 1 as in TEASER++.
+        gnc_factor, max_iterations, cost_threshold: GNC-TLS schedule.
+        clique_node_budget: branch-and-bound node cap of the max-clique search.
+        max_rotation_tims: the rotation uses all clique pairs up to this many, else a
+            random subset drawn with ``seed``.
+
+    Returns:
+        :class:`SolverResult`.
+    """
+    import time
+
+    src = np.asarray(src, dtype=np.float64)
+    dst = np.asarray(dst, dtype=np.float64)
+    if src.shape != dst.shape or src.ndim != 2 or src.shape[1] != 3:
+        raise InvalidInputError(f"TEASER needs two (N, 3) arrays of matched points; got {src.shape} and {dst.shape}")
+    if not noise_bound > 0:
+        raise ConfigError(f"noise_bound={noise_bound} must be > 0 (object-normalised units, e.g. 0.02)")
+    timings: dict[str, float] = {}
+    if len(src) < 3:
+        raise InvalidInputError(f"TEASER needs at least 3 correspondences; got {len(src)}")
+
+    t0 = time.perf_counter()
+    adj = consistency_graph(src, dst, noise_bound)
+    clique, exact = max_clique(adj, clique_node_budget)
+    timings["clique_s"] = time.perf_counter() - t0
+    if len(clique) < 2:
+        # no two correspondences agree: fall back to the single best guess (identity rotation)
+        t = dst[clique[0]] - src[clique[0]] if len(clique) else dst.mean(0) - src.mean(0)
+        return SolverResult(np.eye(3), t, clique, exact, np.zeros(0, bool), clique, 0, timings)
+
+    t0 = time.perf_counter()
+    i, j = np.triu_indices(len(clique), k=1)
+    if len(i) > max_rotation_tims:
+        pick = np.random.default_rng(seed).choice(len(i), max_rotation_tims, replace=False)
+        i, j = i[pick], j[pick]
+    a, b = src[clique], dst[clique]
+    R, w, iters = gnc_tls_rotation(a[j] - a[i], b[j] - b[i], 2.0 * noise_bound, cbar2, gnc_factor,
+                                   max_iterations, cost_threshold)
+    timings["rotation_s"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    t_meas = b - a @ R.T
+    t = np.zeros(3)
+    voted = np.ones(len(clique), dtype=bool)
+    for axis in range(3):
+        t[axis], mask = adaptive_voting(t_meas[:, axis], noise_bound * np.sqrt(cbar2))
+        voted &= mask
+    timings["translation_s"] = time.perf_counter() - t0
+    return SolverResult(R, t, clique, exact, w > 0.5, clique[voted], iters, timings)

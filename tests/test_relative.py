@@ -1,0 +1,144 @@
+"""The relative protocol: pair formation and relative-pose errors on frozen per-view rows."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from catpose.bench.relative import Relative, pair_indices, relative_errors
+from catpose.datasets.base import ObjectDataset, Observation
+from catpose.errors import ConfigError
+from catpose.geometry import axis_angle_to_R, make_T, random_rotation
+from catpose.types import Template
+
+
+def _row(obs_id: str, instance: str, T_gt: np.ndarray, T_est: np.ndarray | None, *, status: str = "ok",
+         axis=None, category: str = "chair", score: float = 1.0, template: str = "0") -> dict:
+    return {"sample_id": f"{obs_id}|{template}", "group_id": obs_id, "obs_id": obs_id, "category": category,
+            "instance_id": instance, "status": status, "error": "" if status == "ok" else "boom",
+            "T_est": None if T_est is None else T_est.reshape(-1).tolist(), "T_gt": T_gt.reshape(-1).tolist(),
+            "symmetry_axis": axis, "runtime_s": 0.5, "score": score, "err_deg": 0.0, "trans_err": 0.0}
+
+
+def test_pair_indices():
+    assert pair_indices(4, "consecutive", None) == [(0, 1), (1, 2), (2, 3)]
+    assert pair_indices(3, "all", None) == [(0, 1), (0, 2), (1, 2)]
+    assert pair_indices(5, "all", 2) == [(0, 1), (3, 4)]
+    assert pair_indices(1, "all", None) == []
+    with pytest.raises(ConfigError):
+        pair_indices(3, "random", None)
+
+
+def test_relative_error_ignores_unknown_absolute_frame():
+    rng = np.random.default_rng(0)
+    T_gt1 = make_T(random_rotation(rng), rng.normal(size=3))
+    T_gt2 = make_T(random_rotation(rng), rng.normal(size=3))
+    # Estimates in another frame (template != the trajectory's frame): relative pose is exact.
+    T_template_object = make_T(random_rotation(rng), rng.normal(size=3))
+    e = relative_errors(T_template_object @ T_gt1, T_template_object @ T_gt2, T_gt1, T_gt2)
+    assert e["rot_err_deg"] < 1e-4 and e["trans_err"] < 1e-9 and e["err_deg"] == e["rot_err_deg"]
+    # A 20 degree error in view 2's rotation about the camera z axis gives 20 degrees.
+    T_est2 = T_gt2 @ make_T(axis_angle_to_R(np.array([0, 0, 1.0]), np.radians(20)), np.zeros(3))
+    e = relative_errors(T_gt1, T_est2, T_gt1, T_gt2)
+    assert e["rot_err_deg"] == pytest.approx(20.0, abs=1e-4)
+
+
+def test_symmetric_relative_error_ignores_spin_about_axis():
+    rng = np.random.default_rng(1)
+    axis = np.array([0.0, 0.0, 1.0])
+    T_gt1, T_gt2 = make_T(random_rotation(rng), np.zeros(3)), make_T(random_rotation(rng), np.zeros(3))
+    spin1 = make_T(axis_angle_to_R(axis, 0.7), np.zeros(3))  # template-frame spin: unobservable
+    spin2 = make_T(axis_angle_to_R(axis, -1.9), np.zeros(3))
+    e = relative_errors(spin1 @ T_gt1, spin2 @ T_gt2, T_gt1, T_gt2, axis)
+    assert e["axis_err_deg"] < 1e-4 and e["err_deg"] == e["axis_err_deg"] and e["rot_err_deg"] > 1.0
+    tilt = make_T(axis_angle_to_R(np.array([1.0, 0, 0]), np.radians(15)), np.zeros(3))
+    e = relative_errors(T_gt1, tilt @ T_gt2, T_gt1, T_gt2, axis)
+    assert e["axis_err_deg"] == pytest.approx(15.0, abs=1e-4)
+
+
+def test_score_units_pairs_and_failures():
+    rng = np.random.default_rng(2)
+    gts = [make_T(random_rotation(rng), rng.normal(size=3)) for _ in range(3)]
+    off = make_T(axis_angle_to_R(np.array([0, 1.0, 0]), np.radians(30)), np.zeros(3))
+    rows = [_row("chair/a/v0", "a", gts[0], gts[0]), _row("chair/a/v1", "a", gts[1], gts[1] @ off),
+            _row("chair/a/v2", "a", gts[2], gts[2]),
+            _row("chair/b/v0", "b", gts[0], None, status="failed"), _row("chair/b/v1", "b", gts[1], gts[1])]
+    df = pd.DataFrame(rows).sample(frac=1.0, random_state=0)  # order of the file does not matter
+    units = Relative(template_source="own", pairs="consecutive").score_units(df)
+    units = units.set_index("sample_id")
+    assert list(units.index) == ["chair/a/v0~chair/a/v1", "chair/a/v1~chair/a/v2", "chair/b/v0~chair/b/v1"]
+    assert units.loc["chair/a/v0~chair/a/v1", "err_deg"] == pytest.approx(30.0, abs=1e-4)
+    assert units.loc["chair/a/v1~chair/a/v2", "err_deg"] == pytest.approx(30.0, abs=1e-4)
+    failed = units.loc["chair/b/v0~chair/b/v1"]
+    assert failed["status"] == "failed" and failed["err_deg"] == 180.0
+    assert units.loc["chair/a/v0~chair/a/v1", "runtime_s"] == pytest.approx(1.0)
+    all_pairs = Relative(template_source="own", pairs="all", max_pairs_per_instance=2).score_units(df)
+    assert len(all_pairs) == 3  # 2 kept of instance a's 3, and b's single pair
+
+
+def test_score_units_category_templates_picks_lowest_score():
+    rng = np.random.default_rng(3)
+    g1, g2 = make_T(random_rotation(rng), np.zeros(3)), make_T(random_rotation(rng), np.zeros(3))
+    bad = make_T(axis_angle_to_R(np.array([1.0, 0, 0]), np.radians(90)), np.zeros(3))
+    rows = [_row("car/x/v0", "x", g1, g1, category="car", score=0.1, template="0"),
+            _row("car/x/v0", "x", g1, g1 @ bad, category="car", score=0.9, template="1"),
+            _row("car/x/v1", "x", g2, g2 @ bad, category="car", score=0.5, template="0"),
+            _row("car/x/v1", "x", g2, g2, category="car", score=0.2, template="1")]
+    units = Relative(template_source="category").score_units(pd.DataFrame(rows))
+    assert len(units) == 1 and units.iloc[0]["err_deg"] == pytest.approx(0.0, abs=1e-4)
+
+
+class _TinyDataset(ObjectDataset):
+    name = "tiny"
+
+    def __init__(self) -> None:
+        rng = np.random.default_rng(4)
+        self._pts = rng.normal(size=(50, 3))
+        self._T = {f"mug/i0/v{k}": make_T(random_rotation(rng), np.zeros(3)) for k in range(3)}
+
+    def observation_ids(self) -> list[str]:
+        return list(self._T)
+
+    def observation(self, obs_id: str) -> Observation:
+        n = self._pts / np.linalg.norm(self._pts, axis=1, keepdims=True)
+        return Observation(obs_id, "mug", "i0", self._pts, n, np.array([0, -1.0, 0]), self._T[obs_id],
+                           info={"absolute_gt": False})
+
+    def _template(self, tid: str) -> Template:
+        n = self._pts / np.linalg.norm(self._pts, axis=1, keepdims=True)
+        return Template(tid, "mug", self._pts, n)
+
+    def instance_model(self, category: str, instance_id: str) -> Template:
+        return self._template("own")
+
+    def category_templates(self, category: str) -> list[Template]:
+        return [self._template("t0"), self._template("t1")]
+
+
+def test_load_samples_from_dataset():
+    ds = _TinyDataset()
+    rel = Relative(template_source="category")
+    ids = rel.sample_ids(ds)
+    assert ids == [f"mug/i0/v{k}|{t}" for k in range(3) for t in range(2)]
+    s = rel.load(ds, ids[1])
+    assert s.group_id == "mug/i0/v0" and s.problem.template.template_id == "t1"
+    assert s.info["absolute_gt"] is False
+    own = Relative(template_source="own")
+    assert own.sample_ids(ds) == ["mug/i0/v0", "mug/i0/v1", "mug/i0/v2"]
+    assert own.load(ds, "mug/i0/v2").problem.template.template_id == "own"
+
+
+def test_config_instantiates(repo_root: Path):
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    cfg = OmegaConf.load(repo_root / "configs" / "protocol" / "relative.yaml")
+    assert cfg.name == "relative"
+    cfg.pop("name")
+    proto = instantiate(cfg)
+    assert isinstance(proto, Relative) and proto.pairs == "consecutive"
+    with pytest.raises(ConfigError):
+        Relative(template_source="nearest")
