@@ -9,7 +9,10 @@ bounding sphere), angles in degrees. The definitions are the paper's (Section IV
 
 For rotationally symmetric objects (bottle, bowl, can, plate) the rotation about the main axis
 is unobservable, so they are scored by the angle between the estimated and true main axis as
-seen from the camera (the paper's "main axis" error for TYO-L).
+seen from the camera (the paper's "main axis" error for TYO-L). Their translation error is the
+distance between the estimated and true positions of the object's origin in the camera frame,
+``-R^T t`` (a spin about the axis moves the camera's position in the template frame, so the
+paper's ``|| t_gt - t_est ||`` would charge the unobservable spin to the translation).
 """
 
 from __future__ import annotations
@@ -50,16 +53,22 @@ def axis_error_deg(R_est: np.ndarray, R_gt: np.ndarray, axis: np.ndarray) -> flo
 def sample_errors(T_est: np.ndarray, T_gt: np.ndarray, symmetry_axis: np.ndarray | None = None) -> dict[str, float]:
     """Every error of one estimate of ``T_template_camera`` (both (4, 4)).
 
-    Returns ``rot_err_deg``, ``axis_err_deg`` (NaN unless symmetric), ``trans_err`` and
+    Returns ``rot_err_deg``, ``axis_err_deg`` (NaN unless symmetric), ``trans_err`` (of the
+    object's origin in the camera frame when symmetric, see the module docstring) and
     ``err_deg``, the error the statistics use (axis error if symmetric, else rotation error).
     """
     T_est, T_gt = np.asarray(T_est, float), np.asarray(T_gt, float)
     rot = rotation_error_deg(T_est[:3, :3], T_gt[:3, :3])
-    axis = float("nan") if symmetry_axis is None else axis_error_deg(T_est[:3, :3], T_gt[:3, :3], symmetry_axis)
+    if symmetry_axis is None:
+        axis = float("nan")
+        trans = translation_error(T_est[:3, 3], T_gt[:3, 3])
+    else:
+        axis = axis_error_deg(T_est[:3, :3], T_gt[:3, :3], symmetry_axis)
+        trans = translation_error(-T_est[:3, :3].T @ T_est[:3, 3], -T_gt[:3, :3].T @ T_gt[:3, 3])
     return {
         "rot_err_deg": rot,
         "axis_err_deg": axis,
-        "trans_err": translation_error(T_est[:3, 3], T_gt[:3, 3]),
+        "trans_err": trans,
         "err_deg": rot if symmetry_axis is None else axis,
     }
 

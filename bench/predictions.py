@@ -16,17 +16,18 @@ Two file formats are read (detected from the header):
   unit; ``sample_id`` is a run's sample id or observation id (``obs_id``).
 
 Mapping between samples and BOP ids. BOP datasets put ``scene_id``, ``im_id``, ``obj_id`` in each
-sample's ``info`` (from ``Observation.info``), with ``mm_per_unit`` (millimetres per
-object-normalised unit, the normalisation scale) and optionally ``model_centre_mm`` (the
-model-frame bounding-box centre subtracted by the normalisation, default 0). Then
+sample's ``info`` (from ``Observation.info``), with ``scale_mm`` (millimetres per
+object-normalised unit; ``mm_per_unit`` is read too) and optionally ``centre_mm`` (3,) and
+``R_object_model`` (9, row-major) of the normalisation ``p_object = (R_object_model p_model -
+centre_mm) / scale_mm`` (defaults: 0 and identity). With ``(R_co, t_co) = inv(T_template_camera_est)``:
 
-    R_camera_model = R_est^T,    t_camera_model[mm] = mm_per_unit * t_cn - R_camera_model @ centre
+    R_camera_model = R_co @ R_object_model,    t_camera_model[mm] = scale_mm * t_co - R_co @ centre_mm
 
-with ``(R_cn, t_cn) = inv(T_template_camera_est)``. Other datasets have no BOP ids; the export
+Other datasets have no BOP ids; the export
 then uses this documented mapping and writes it to ``<out>.map.csv``: ``obj_id`` = 1-based index
 of the category in sorted order, ``scene_id`` = 1-based index of the instance within its
 category (sorted), ``im_id`` = 0-based index of the observation within the instance (sorted
-``obs_id``), ``mm_per_unit`` = 1 (translations stay in the object-normalised unit).
+``obs_id``), ``scale_mm`` = 1 (translations stay in the object-normalised unit).
 """
 
 from __future__ import annotations
@@ -83,8 +84,9 @@ def _name(node: Any) -> str:
 # Export
 
 
-def _bop_ids(runs_rows: Sequence[dict]) -> tuple[list[tuple[int, int, int, float, np.ndarray]], list[dict]]:
-    """(scene_id, im_id, obj_id, mm_per_unit, centre_mm) for each row, and the mapping rows."""
+def _bop_ids(runs_rows: Sequence[dict]) -> tuple[list[tuple], list[dict]]:
+    """(scene_id, im_id, obj_id, scale_mm, centre_mm (3,), R_object_model (3, 3)) for each row,
+    and the rows of the mapping file."""
     categories = sorted({str(r["category"]) for r in runs_rows})
     instances: dict[str, list[str]] = {}
     views: dict[tuple[str, str], list[str]] = {}
@@ -98,17 +100,18 @@ def _bop_ids(runs_rows: Sequence[dict]) -> tuple[list[tuple[int, int, int, float
         info = r.get("info") or {}
         if all(k in info for k in ("scene_id", "im_id", "obj_id")):
             ids = (int(info["scene_id"]), int(info["im_id"]), int(info["obj_id"]))
-            scale = float(info.get("mm_per_unit", 1.0))
-            centre = np.asarray(info.get("model_centre_mm", [0.0, 0.0, 0.0]), float).reshape(3)
+            scale = float(info.get("scale_mm", info.get("mm_per_unit", 1.0)))
+            centre = np.asarray(info.get("centre_mm", info.get("model_centre_mm", [0.0, 0.0, 0.0])), float).reshape(3)
+            R_om = np.asarray(info.get("R_object_model", np.eye(3)), float).reshape(3, 3)
         else:
             inst = str(r.get("instance_id"))
             ids = (sorted(instances[r["category"]]).index(inst) + 1,
                    sorted(set(views[(r["category"], inst)])).index(str(r.get("obs_id"))),
                    categories.index(r["category"]) + 1)
-            scale, centre = 1.0, np.zeros(3)
-        out.append((*ids, scale, centre))
+            scale, centre, R_om = 1.0, np.zeros(3), np.eye(3)
+        out.append((*ids, scale, centre, R_om))
         mapping.append({"sample_id": r["sample_id"], "obs_id": r.get("obs_id"), "scene_id": ids[0],
-                        "im_id": ids[1], "obj_id": ids[2], "mm_per_unit": scale})
+                        "im_id": ids[1], "obj_id": ids[2], "scale_mm": scale})
     return out, mapping
 
 
@@ -132,10 +135,10 @@ def export_bop(run_dir: str | Path, out_csv: str | Path) -> int:
     rows = [r for r in units.to_dict("records") if r.get("status") == "ok" and r.get("T_est") is not None]
     ids, mapping = _bop_ids(rows)
     lines = [",".join(BOP_COLUMNS)]
-    for r, (scene, im, obj, scale, centre) in zip(rows, ids):
-        T_cn = invert_T(np.asarray(r["T_est"], float).reshape(4, 4))
-        R = T_cn[:3, :3]
-        t = scale * T_cn[:3, 3] - R @ centre
+    for r, (scene, im, obj, scale, centre, R_om) in zip(rows, ids):
+        T_co = invert_T(np.asarray(r["T_est"], float).reshape(4, 4))
+        R = T_co[:3, :3] @ R_om
+        t = scale * T_co[:3, 3] - T_co[:3, :3] @ centre
         s = r.get("score")
         conf = 1.0 if s is None or not math.isfinite(float(s)) else math.exp(-float(s))
         rt = r.get("runtime_s")
@@ -225,11 +228,10 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str) -> list[dict]
                                            "dataset", "protocol", "seed", "symmetric", "T_gt", "symmetry_axis", "info")}
         row.update(method=method, extras={}, stage="")
         if kind == "bop":
-            scene, im, obj, scale, centre = ids[k]
+            scene, im, obj, scale, centre, R_om = ids[k]
             p = by_key.get((scene, im, obj))
         else:
             p = by_key.get(str(g["sample_id"])) or by_key.get(str(g.get("obs_id")))
-            scale, centre = 1.0, np.zeros(3)
         if p is None:
             row.update(status="failed", error="no prediction", stage="register", err_deg=FAILED_ERROR_DEG,
                        rot_err_deg=None, axis_err_deg=None, trans_err=None, score=None, runtime_s=None, T_est=None)
@@ -238,8 +240,8 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str) -> list[dict]
         T = np.asarray(p["T"], float)
         R = _orthonormalise(T[:3, :3])
         if kind == "bop":  # T_camera_model[mm] -> T_template_camera[unit]
-            t_cn = (T[:3, 3] + R @ centre) / scale
-            T_est = invert_T(make_T(R, t_cn))
+            R_co = R @ R_om.T
+            T_est = invert_T(make_T(R_co, (T[:3, 3] + R_co @ centre) / scale))
         else:
             T_est = make_T(R, T[:3, 3])
         axis = g.get("symmetry_axis")

@@ -165,7 +165,7 @@ class Relative(Protocol):
         return out.drop(columns=["_view"], errors="ignore")
 
     def _pair_row(self, r1: dict, r2: dict, category: str, instance: str) -> dict:
-        row = dict(r1)
+        row = {k: v for k, v in r1.items() if k not in ("oracle_err_deg", "n_templates")}  # per view, not per pair
         row.update(sample_id=f"{r1['_view']}~{r2['_view']}", group_id=f"{category}/{instance}",
                    obs_id=f"{r1['_view']}~{r2['_view']}", view1=r1["_view"], view2=r2["_view"],
                    runtime_s=float(np.nansum([r1.get("runtime_s", np.nan), r2.get("runtime_s", np.nan)])),

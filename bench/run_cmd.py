@@ -50,11 +50,13 @@ def main(argv: list[str]) -> int:
         try:
             run(cfg, list(hc.overrides.task))
         except CatposeError as e:
+            # one line, not Hydra's report; a sweep goes on with its other jobs
             if hc.mode == RunMode.MULTIRUN:
                 print(f"bench run: error in job {list(hc.overrides.task)}: {e}", file=sys.stderr)
                 _failed_jobs.append(str(e))
                 return
-            raise
+            print(f"bench run: error: {e}", file=sys.stderr)
+            raise SystemExit(2) from None
 
     saved = sys.argv
     sys.argv = ["bench run", *argv]

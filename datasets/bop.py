@@ -85,11 +85,12 @@ def read_mask_png(path: Path) -> np.ndarray:
 
 
 def fit_ground_plane(points: np.ndarray, distance: float, iterations: int,
-                     seed: int) -> tuple[np.ndarray, int]:
-    """Dominant plane of ``points`` (N, 3) by RANSAC (Open3D ``segment_plane``).
+                     seed: int) -> tuple[np.ndarray, float, int]:
+    """Dominant plane ``n . p + d = 0`` of ``points`` (N, 3) by RANSAC (Open3D ``segment_plane``).
 
-    Returns the unit plane normal (3,) oriented towards the origin (the camera) and the number
-    of inliers. ``distance`` is in the points' unit.
+    Returns the unit normal ``n`` (3,) oriented towards the origin (the camera), the offset
+    ``d`` >= 0 (so ``n . p + d`` is the height above the plane) and the number of inliers.
+    ``distance`` is in the points' unit.
     """
     from catpose.o3d import o3d
 
@@ -103,8 +104,8 @@ def fit_ground_plane(points: np.ndarray, distance: float, iterations: int,
     norm = np.linalg.norm(n)
     n, d = n / norm, d / norm
     if d < 0:  # the origin must lie on the positive side: n . 0 + d > 0
-        n = -n
-    return n, len(inliers)
+        n, d = -n, -d
+    return n, float(d), len(inliers)
 
 
 class BOP(ObjectDataset):
@@ -141,7 +142,7 @@ class BOP(ObjectDataset):
                  object_axes: dict[int | str, dict[str, str]] | None = None, mask: str = "auto",
                  depth_tolerance_mm: float = 15.0, min_visible_pixels: int = 50,
                  plane_distance_mm: float = 10.0, plane_iterations: int = 1000,
-                 plane_max_points: int = 20000, normal_radius: float = 0.08, max_points: int = 2048,
+                 plane_max_points: int = 20000, normal_radius: float = 0.1, max_points: int = 2048,
                  template_points: int = 2048, seed: int = 0) -> None:
         self.root = Path(root)
         if not self.root.is_dir():
@@ -334,7 +335,7 @@ class BOP(ObjectDataset):
             bg_points = bg_points[rng.choice(len(bg_points), size=self.plane_max_points, replace=False)]
         if len(bg_points) < 100:
             raise DatasetError(f"{depth_path}: only {len(bg_points)} background pixels; cannot fit the ground plane")
-        ground, n_inliers = fit_ground_plane(bg_points, self.plane_distance_mm, self.plane_iterations,
+        ground, _, n_inliers = fit_ground_plane(bg_points, self.plane_distance_mm, self.plane_iterations,
                                              stable_seed(self.seed, "plane", obs_id))
 
         normals = estimate_normals(points, self.normal_radius)

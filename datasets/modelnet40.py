@@ -31,27 +31,29 @@ from catpose.types import Template
 
 
 def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_object: np.ndarray,
-                        camera: PinholeCamera, rng: np.random.Generator, depth_noise: float,
-                        normal_radius: float, max_points: int, what: str) -> tuple[np.ndarray, np.ndarray]:
+                        camera: PinholeCamera, rng: np.random.Generator, depth_noise_std: float,
+                        normal_radius: float, max_points: int, what: str,
+                        min_points: int = 10) -> tuple[np.ndarray, np.ndarray]:
     """Render a mesh's depth, add Gaussian depth noise, back-project and estimate normals.
 
     Args:
         vertices: (V, 3) object frame, object-normalised unit; triangles: (F, 3).
         T_camera_object: (4, 4) object pose in the camera frame.
-        depth_noise: standard deviation of the additive depth noise (object-normalised unit).
+        depth_noise_std: standard deviation of the additive depth noise (object-normalised unit).
         normal_radius: normal-estimation radius (object-normalised unit).
         max_points: keep at most this many points (uniformly at random; 0 keeps all).
+        min_points: fewer visible points raise :class:`DatasetError`.
         what: names the view in error messages.
 
     Returns:
         points (N, 3) and camera-facing unit normals (N, 3), camera frame.
     """
     depth = render_depth(vertices, triangles, T_camera_object, camera)
-    if depth_noise > 0:
+    if depth_noise_std > 0:
         hit = depth > 0
-        depth[hit] += rng.normal(0.0, depth_noise, size=int(hit.sum())).astype(depth.dtype)
+        depth[hit] += rng.normal(0.0, depth_noise_std, size=int(hit.sum())).astype(depth.dtype)
     points, _ = depth_to_points(depth, camera)
-    if len(points) < 10:
+    if len(points) < min_points:
         raise DatasetError(f"{what}: only {len(points)} pixels see the object; "
                            "move the camera closer (distance) or enlarge the image")
     normals = estimate_normals(points, normal_radius)
@@ -70,13 +72,14 @@ class ModelNet40(ObjectDataset):
         split: ``"train"`` or ``"test"``.
         instances_per_category: use only the first N instances of each category (None: all).
         views_per_instance: rendered views per instance.
-        width, height, fx, fy, cx, cy: pinhole camera (pixels).
+        width, height, fx, fy, cx, cy: pinhole camera (pixels; cx/cy None: the image centre).
         distance: camera distance from the object centre (object-normalised unit).
         elevation_min_deg, elevation_max_deg, roll_max_deg: viewpoint distribution
             (:class:`~catpose.datasets.render.ViewSampler`).
-        depth_noise: Gaussian depth noise sigma (object-normalised unit).
+        depth_noise_std: Gaussian depth noise sigma (object-normalised unit).
         normal_radius: normal-estimation radius (object-normalised unit).
         max_points: points kept per view (0: all).
+        min_points: a view with fewer visible points raises :class:`DatasetError`.
         template_points: points sampled on each complete model / template.
         templates: category -> list of template entries (training instance ids or mesh specs,
             see :class:`~catpose.datasets.meshio.TemplateSet`).
@@ -94,10 +97,10 @@ class ModelNet40(ObjectDataset):
     def __init__(self, root: str, categories: list[str] | None = None, split: str = "test",
                  instances_per_category: int | None = None, views_per_instance: int = 5,
                  width: int = 320, height: int = 240, fx: float = 300.0, fy: float = 300.0,
-                 cx: float = 159.5, cy: float = 119.5, distance: float = 3.0,
+                 cx: float | None = None, cy: float | None = None, distance: float = 3.0,
                  elevation_min_deg: float = 10.0, elevation_max_deg: float = 60.0,
-                 roll_max_deg: float = 0.0, depth_noise: float = 0.0, normal_radius: float = 0.08,
-                 max_points: int = 2048, template_points: int = 2048,
+                 roll_max_deg: float = 0.0, depth_noise_std: float = 0.0, normal_radius: float = 0.1,
+                 max_points: int = 2048, min_points: int = 50, template_points: int = 2048,
                  templates: dict[str, list] | None = None, template_split: str = "train",
                  templates_root: str | None = None, aligned: bool = False,
                  alignment_table: str | None = None, up: str = "+z", forward: str = "+x",
@@ -111,12 +114,15 @@ class ModelNet40(ObjectDataset):
         self.split = str(split)
         self.instances_per_category = instances_per_category
         self.views_per_instance = int(views_per_instance)
-        self.camera = PinholeCamera(int(width), int(height), float(fx), float(fy), float(cx), float(cy))
+        self.camera = PinholeCamera(int(width), int(height), float(fx), float(fy),
+                                    (int(width) - 1) / 2 if cx is None else float(cx),
+                                    (int(height) - 1) / 2 if cy is None else float(cy))
         self.sampler = ViewSampler(float(distance), float(elevation_min_deg), float(elevation_max_deg),
                                    float(roll_max_deg))
-        self.depth_noise = float(depth_noise)
+        self.depth_noise_std = float(depth_noise_std)
         self.normal_radius = float(normal_radius)
         self.max_points = int(max_points)
+        self.min_points = int(min_points)
         self.template_points = int(template_points)
         self.template_split = str(template_split)
         self.aligned = bool(aligned)
@@ -201,8 +207,9 @@ class ModelNet40(ObjectDataset):
         v, f = self.canonical_mesh(category, instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "modelnet40", obs_id))
         T_camera_object = self.sampler.sample(rng)
-        points, normals = render_partial_view(v, f, T_camera_object, self.camera, rng, self.depth_noise,
-                                              self.normal_radius, self.max_points, f"ModelNet40 {obs_id}")
+        points, normals = render_partial_view(v, f, T_camera_object, self.camera, rng, self.depth_noise_std,
+                                              self.normal_radius, self.max_points, f"ModelNet40 {obs_id}",
+                                              self.min_points)
         return Observation(obs_id=obs_id, category=category, instance_id=instance_id, points_camera=points,
                            normals_camera=normals, ground_normal_camera=T_camera_object[:3, 2].copy(),
                            T_object_camera=invert_T(T_camera_object),

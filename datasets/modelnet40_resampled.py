@@ -76,7 +76,7 @@ class ModelNet40Resampled(ObjectDataset):
         distance, elevation_min_deg, elevation_max_deg, roll_max_deg: viewpoint distribution
             (object-normalised unit, degrees), as for the rendered sets.
         hpr_radius_factor: HPR spherical-flip radius over the farthest point's distance.
-        depth_noise: Gaussian noise sigma along the viewing rays (object-normalised unit).
+        depth_noise_std: Gaussian noise sigma along the viewing rays (object-normalised unit).
         max_points: points kept per view (0: all).
         template_points: points of each complete model (0: all 10,000).
         templates: category -> template entries (instance ids of ``template_split`` or meshes).
@@ -95,7 +95,7 @@ class ModelNet40Resampled(ObjectDataset):
     def __init__(self, root: str, categories: list[str] | None = None, split: str = "test",
                  instances_per_category: int | None = None, views_per_instance: int = 5,
                  distance: float = 3.0, elevation_min_deg: float = 10.0, elevation_max_deg: float = 60.0,
-                 roll_max_deg: float = 0.0, hpr_radius_factor: float = 100.0, depth_noise: float = 0.0,
+                 roll_max_deg: float = 0.0, hpr_radius_factor: float = 100.0, depth_noise_std: float = 0.0,
                  max_points: int = 2048, template_points: int = 2048,
                  templates: dict[str, list] | None = None, template_split: str = "train",
                  templates_root: str | None = None, aligned: bool = False,
@@ -111,7 +111,7 @@ class ModelNet40Resampled(ObjectDataset):
         self.sampler = ViewSampler(float(distance), float(elevation_min_deg), float(elevation_max_deg),
                                    float(roll_max_deg))
         self.hpr_radius_factor = float(hpr_radius_factor)
-        self.depth_noise = float(depth_noise)
+        self.depth_noise_std = float(depth_noise_std)
         self.max_points = int(max_points)
         self.template_points = int(template_points)
         self.template_split = str(template_split)
@@ -207,9 +207,9 @@ class ModelNet40Resampled(ObjectDataset):
             visible = np.sort(rng.choice(visible, size=self.max_points, replace=False))
         points = transform_points(T_camera_object, pts[visible])
         normals = nrm[visible] @ T_camera_object[:3, :3].T
-        if self.depth_noise > 0:  # noise along the viewing ray, like a depth sensor's
+        if self.depth_noise_std > 0:  # noise along the viewing ray, like a depth sensor's
             rays = points / np.linalg.norm(points, axis=1, keepdims=True)
-            points = points + rays * rng.normal(0.0, self.depth_noise, size=(len(points), 1))
+            points = points + rays * rng.normal(0.0, self.depth_noise_std, size=(len(points), 1))
         flip = np.einsum("ij,ij->i", normals, points) > 0  # make them face the camera (origin)
         normals[flip] *= -1
         return Observation(obs_id=obs_id, category=category, instance_id=instance_id, points_camera=points,

@@ -286,14 +286,14 @@ def make_car(rng: np.random.Generator) -> trimesh.Trimesh:
     Varies length/width/height, ground clearance, hood slope, cabin position/length/height and
     windshield rake, body style (sedan, hatchback, SUV), wheel radius/width and overhangs.
     """
-    L = rng.uniform(3.6, 4.8)
-    W = rng.uniform(1.6, 1.9)
+    L = rng.uniform(3.4, 5.0)
+    W = rng.uniform(1.55, 2.0)
     style = rng.choice(["sedan", "hatchback", "suv"])
-    Hb = rng.uniform(0.45, 0.6) + (0.15 if style == "suv" else 0.0)
+    Hb = rng.uniform(0.4, 0.65) + (0.15 if style == "suv" else 0.0)
     clear = rng.uniform(0.15, 0.22) + (0.08 if style == "suv" else 0.0)
     wheel_r = rng.uniform(0.28, 0.36) + (0.04 if style == "suv" else 0.0)
     wheel_w = rng.uniform(0.18, 0.26)
-    nose_drop = rng.uniform(0.08, 0.2)
+    nose_drop = rng.uniform(0.05, 0.25)
     ztop = clear + Hb
     body_pts = []
     for y in (W / 2, -W / 2):
@@ -393,9 +393,9 @@ def make_bowl(rng: np.random.Generator) -> trimesh.Trimesh:
     """Bowl (symmetric about z): open shell; varies rim radius, depth, wall curvature,
     thickness and the presence/size of a foot ring."""
     R = rng.uniform(0.8, 1.0)
-    D = R * rng.uniform(0.3, 0.6)
+    D = R * rng.uniform(0.25, 0.65)
     t = rng.uniform(0.03, 0.05)
-    k = rng.uniform(1.6, 3.0)
+    k = rng.uniform(1.5, 3.5)
     rs = np.linspace(0.0, 1.0, 16)
     prof: list[tuple[float, float]] = []
     if rng.random() < 0.7:
@@ -435,10 +435,10 @@ def make_plate(rng: np.random.Generator) -> trimesh.Trimesh:
     """Plate (symmetric about z): varies the well radius, rim slope and width, thickness and
     the foot ring."""
     R = 1.0
-    Rw = R * rng.uniform(0.5, 0.75)
-    slope = np.deg2rad(rng.uniform(8.0, 30.0))
+    Rw = R * rng.uniform(0.45, 0.8)
+    slope = np.deg2rad(rng.uniform(6.0, 35.0))
     rise = (R - Rw) * np.tan(slope)
-    t = rng.uniform(0.025, 0.045)
+    t = rng.uniform(0.02, 0.05)
     prof: list[tuple[float, float]] = []
     if rng.random() < 0.6:
         Rf, fh = Rw * rng.uniform(0.7, 0.95), rng.uniform(0.02, 0.05)
@@ -527,12 +527,14 @@ def outer_surface_cloud(vertices: np.ndarray, triangles: np.ndarray, n_points: i
     t_hit = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy().reshape(n_views, n_cand)
     tol = 1e-3 / np.linalg.norm(d, axis=1).reshape(n_views, n_cand)  # 1e-3 object units
     visible = t_hit >= 1.0 - tol
-    seen = visible.any(axis=0)
-    seen_from = np.argmax(visible, axis=0)  # first viewpoint that sees each sample
-    keep = np.nonzero(seen)[0]
+    keep = np.nonzero(visible.any(axis=0))[0]
     if len(keep) > n_points:
         keep = np.sort(rng.choice(keep, size=n_points, replace=False))
-    points, normals, eye = points[keep], normals[keep], eyes[seen_from[keep]]
-    facing = np.einsum("ij,ij->i", normals, eye - points) < 0
-    normals[facing] *= -1
+    points, normals = points[keep], normals[keep]
+    # orient each normal towards the most frontal viewpoint that sees its sample (a sample on a
+    # face's border may also be grazed from behind the face)
+    to_eye = eyes[:, None, :] - points[None]                                     # (views, M, 3)
+    cos = np.einsum("vmk,mk->vm", to_eye, normals) / np.linalg.norm(to_eye, axis=2)
+    best = np.argmax(np.where(visible[:, keep], np.abs(cos), -1.0), axis=0)
+    normals[cos[best, np.arange(len(keep))] < 0] *= -1
     return points, normals

@@ -249,25 +249,29 @@ class CorrespondenceRegistration(RegistrationMethod):
         _TARGET_CACHE[key] = data
         return data
 
-    def _lps_match(self, source: Cloud, target: Cloud, up_source: np.ndarray, up_target: np.ndarray,
+    def _lps_keypoints(self, cloud: Cloud, up: np.ndarray, k: int) -> tuple[np.ndarray, Any]:
+        """FPS keypoint indices (k,) of ``cloud`` and their gridded LPS patches."""
+        from catpose.methods import lps
+        from catpose.methods.keypoints import farthest_point_indices
+
+        idx = farthest_point_indices(cloud.points, k)
+        patches = lps.lps_patches(cloud.points, cloud.normals, idx, up, self.lps_radius, self.lps_max_points)
+        return idx, lps.voxelize(patches, self.lps_radius, self.lps_tau)
+
+    def _lps_match(self, source: Cloud, source_kp: tuple[np.ndarray, Any], target: Cloud, up_target: np.ndarray,
                    cache: dict, target_index: int) -> tuple[Cloud, Cloud, np.ndarray]:
-        """FPS keypoints (n on the input, 2n on the target) and top-1 LPS correspondences.
+        """Top-1 LPS correspondences from ``n`` input keypoints to ``2n`` target keypoints.
 
         The target's keypoints and patches depend only on the template and are cached in
         ``cache[target_index]``. Returns (input keypoints, target keypoints, (n, 2) pairs).
         """
         from catpose.methods import lps
-        from catpose.methods.keypoints import farthest_point_indices
 
         if target_index not in cache:
-            kt = farthest_point_indices(target.points, 2 * self.num_keypoints)
-            cache[target_index] = (kt, lps.lps_patches(target.points, target.normals, kt, up_target,
-                                                       self.lps_radius, self.lps_max_points))
-        kt, patches_t = cache[target_index]
-        ks = farthest_point_indices(source.points, self.num_keypoints)
-        patches_s = lps.lps_patches(source.points, source.normals, ks, up_source, self.lps_radius,
-                                    self.lps_max_points)
-        A = lps.lps_affinity(patches_s, patches_t, self.lps_tau, self.lps_radius)
+            cache[target_index] = self._lps_keypoints(target, up_target, 2 * self.num_keypoints)
+        kt, grid_t = cache[target_index]
+        ks, grid_s = source_kp
+        A = lps.fscore_voxel(grid_s, grid_t)  # (n, 2n); row normalisation does not change the argmax
         corr = np.stack([np.arange(len(ks)), np.argmax(A, axis=1)], axis=1).astype(np.int64)
         return _select(source, ks), _select(target, kt), corr
 
@@ -286,20 +290,25 @@ class CorrespondenceRegistration(RegistrationMethod):
         ``score`` = one-directional Chamfer distance (mean nearest-neighbour distance, object-
         normalised) from the transformed downsampled input to the complete template.
         """
+        from catpose.o3d import o3d
+
         t_start = time.perf_counter()
         data = self._targets(problem.template)
         source = _make_cloud(problem.points_camera, problem.normals_camera, self.voxel_size, self.fpfh_radius,
                              self.fpfh_max_nn, self.features == "fpfh")
         t_prep = time.perf_counter() - t_start
+        source_kp = (self._lps_keypoints(source, problem.ground_normal_camera, self.num_keypoints)
+                     if self.features == "lps" else None)
         candidates = []
         for i, target in enumerate(data["targets"]):
             seed = stable_seed(self.seed, problem.sample_id, i)
             if self.features == "lps":
-                src_k, tgt_k, corr = self._lps_match(source, target, problem.ground_normal_camera,
-                                                     problem.template.up, data["lps_cache"], i)
+                src_k, tgt_k, corr = self._lps_match(source, source_kp, target, problem.template.up,
+                                                     data["lps_cache"], i)
                 match = MatchInput(src_k, tgt_k, corr, seed)
             else:
                 match = MatchInput(source, target, None, seed)
+            o3d.utility.random.seed(seed % (2**31))  # FGR's tuple sampling and RANSAC draw from it
             T, info = self._estimate(match)
             if self.refine_icp:
                 T = self._refine(source, data["complete"], T)

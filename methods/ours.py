@@ -83,6 +83,7 @@ class _TemplateFeatures:
     descriptors: list          # lps: VoxelPatches or Patches per partial; pfh: (2n, 125) arrays
     complete_points: np.ndarray  # (M', 3) downsampled complete template for Chamfer terms
     tree: object               # cKDTree of the full template points
+    stacked: object = None     # descriptors of all partials stacked for one batched affinity
 
 
 class Ours(RegistrationMethod):
@@ -123,7 +124,7 @@ class Ours(RegistrationMethod):
                  chamfer_weight: float = 0.0, chamfer_points: int = 256,
                  selection: str = "loss", gravity_max_deg: float | None = None,
                  refine: bool = False, refine_max_distance: float = 0.05, refine_iterations: int = 30,
-                 device: str = "cpu", num_threads: int = 0, seed: int = 0) -> None:
+                 device: str = "cpu", num_threads: int = 1, seed: int = 0) -> None:
         checks = {"descriptor": (descriptor, ("lps", "pfh")), "optimize": (optimize, ("joint", "pose", "none")),
                   "selection": (selection, ("loss", "chamfer")), "lps_fscore": (lps_fscore, ("voxel", "exact")),
                   "pfh_distance": (pfh_distance, ("marginal", "exact"))}
@@ -161,16 +162,32 @@ class Ours(RegistrationMethod):
             return patches
         return voxelize(patches, self.lps_radius, self.lps_tau, self.lps_voxel_subdiv)
 
-    def _affinity(self, desc_c, desc_t) -> np.ndarray:
+    def _affinity(self, desc_c, feats: "_TemplateFeatures") -> np.ndarray:
+        """Unnormalised affinities (m, n, 2n) of the input keypoints to every partial's keypoints."""
+        m, k2 = feats.keypoints.shape[:2]
         if self.descriptor == "pfh":
             from catpose.methods.pfh import pfh_affinity
 
-            return pfh_affinity(desc_c, desc_t, self.pfh_eps, self.pfh_distance)
-        from catpose.methods.lps import fscore_exact, fscore_voxel
+            if self.pfh_distance == "marginal":
+                from catpose.methods.pfh import marginal_cdfs
+                from scipy.spatial.distance import cdist
+
+                emd = cdist(marginal_cdfs(desc_c), feats.stacked, metric="cityblock")
+                return (1.0 / (emd + self.pfh_eps)).reshape(len(desc_c), m, k2).transpose(1, 0, 2)
+            return np.stack([pfh_affinity(desc_c, d, self.pfh_eps, "exact") for d in feats.descriptors])
+        from catpose.methods.lps import fscore_exact
 
         if self.lps_fscore == "exact":
-            return fscore_exact(desc_c, desc_t, self.lps_tau)
-        return fscore_voxel(desc_c, desc_t)
+            return np.stack([fscore_exact(desc_c, d, self.lps_tau) for d in feats.descriptors])
+        # one sparse x dense product per direction over all partials at once (input grids are sparse)
+        from scipy import sparse
+
+        counts_t, dilated_t, n_t = feats.stacked
+        prec = np.asarray(sparse.csr_matrix(desc_c.counts) @ dilated_t) / np.maximum(desc_c.n[:, None], 1)
+        rec = np.asarray(sparse.csr_matrix(desc_c.dilated) @ counts_t) / np.maximum(n_t[None], 1)
+        s = prec + rec
+        f = np.where(s > 0, 2 * prec * rec / np.maximum(s, 1e-12), 0.0)
+        return f.reshape(len(f), m, k2).transpose(1, 0, 2)
 
     def template_features(self, template: Template, dictionary: PartialDictionary) -> _TemplateFeatures:
         """Keypoints and descriptors of every partial template, cached per template and parameters."""
@@ -194,7 +211,16 @@ class Ours(RegistrationMethod):
             kps.append(p[idx])
             descs.append(self._describe(p, n, idx, up, cKDTree(p)))
         complete = template.points[farthest_point_indices(template.points, self.chamfer_points)]
-        feats = _TemplateFeatures(np.stack(kps), descs, complete, cKDTree(template.points))
+        stacked = None
+        if self.descriptor == "pfh" and self.pfh_distance == "marginal":
+            from catpose.methods.pfh import marginal_cdfs
+
+            stacked = marginal_cdfs(np.concatenate(descs))                      # (m 2n, 15)
+        elif self.descriptor == "lps" and self.lps_fscore == "voxel":
+            stacked = (np.concatenate([d.counts for d in descs]).T.copy(),        # (G^3, m 2n)
+                       np.concatenate([d.dilated for d in descs]).T.copy(),
+                       np.concatenate([d.n for d in descs]))
+        feats = _TemplateFeatures(np.stack(kps), descs, complete, cKDTree(template.points), stacked)
         self._features[key] = feats
         while len(self._features) > 64:
             self._features.popitem(last=False)
@@ -224,7 +250,7 @@ class Ours(RegistrationMethod):
         timings["descriptors"] = time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        A = np.stack([self._affinity(desc_c, d) for d in feats.descriptors])      # (m, n, 2n)
+        A = self._affinity(desc_c, feats)                                        # (m, n, 2n)
         A = np.maximum(A, 0.0) + 1e-12
         A /= A.sum(axis=2, keepdims=True)
         timings["affinity"] = time.perf_counter() - t0
@@ -273,66 +299,31 @@ class Ours(RegistrationMethod):
         as mean correspondence-weighted keypoint distances (object-normalised units)."""
         import torch
 
+        from catpose.methods.optim import BatchedProblem, _rot6d, optimize
+
         if self.num_threads > 0:
             torch.set_num_threads(self.num_threads)
         dev = torch.device(self.device)
         dt = torch.float32
-        pc = torch.as_tensor(P_c, dtype=dt, device=dev)                          # (n, 3)
-        pt = torch.as_tensor(P_t, dtype=dt, device=dev)                          # (m, 2n, 3)
-        A_t = torch.as_tensor(A, dtype=dt, device=dev)                           # (m, n, 2n)
-        n = pc.shape[0]
+
+        def tens(a):
+            return torch.as_tensor(np.ascontiguousarray(a), dtype=dt, device=dev)
+
         use_ch = self.chamfer_weight > 0
-        if use_ch:
-            src = torch.as_tensor(chamfer_src, dtype=dt, device=dev)
-            cmp = torch.as_tensor(complete, dtype=dt, device=dev)
-        r6 = torch.as_tensor(np.concatenate([T0[:, :3, 0], T0[:, :3, 1]], axis=1), dtype=dt, device=dev)
-        r6.requires_grad_(True)
-        t = torch.as_tensor(T0[:, :3, 3], dtype=dt, device=dev).clone().requires_grad_(True)
-
-        def rot(r):
-            a1, a2 = r[:, :3], r[:, 3:]
-            b1 = a1 / a1.norm(dim=1, keepdim=True)
-            b2 = a2 - (b1 * a2).sum(1, keepdim=True) * b1
-            b2 = b2 / b2.norm(dim=1, keepdim=True)
-            return torch.stack([b1, b2, torch.cross(b1, b2, dim=1)], dim=2)  # columns
-
-        def loss_terms(C):
-            R = rot(r6)
-            x = torch.einsum("mij,nj->mni", R, pc) + t[:, None]                 # (m, n, 3)
-            d = torch.sqrt(((x[:, :, None] - pt[:, None]) ** 2).sum(-1) + 1e-12)  # (m, n, 2n)
-            per = (C * d).sum((1, 2))                                           # (m,)
-            if use_ch:
-                xs = torch.einsum("mij,nj->mni", R, src) + t[:, None]
-                dc = torch.sqrt(((xs[:, :, None] - cmp[None, None]) ** 2).sum(-1) + 1e-12)
-                per = per + self.chamfer_weight * n * dc.min(2).values.mean(1)
-            return per
-
+        prob = BatchedProblem(tens(P_c), tens(P_t), tens(A), tens(chamfer_src) if use_ch else None,
+                              tens(complete) if use_ch else None, self.chamfer_weight)
+        n = len(P_c)
+        r6 = tens(np.concatenate([T0[:, :3, 0], T0[:, :3, 1]], axis=1))
+        t = tens(T0[:, :3, 3])
         stages = []
         if self.optimize in ("pose", "joint"):
             stages.append(("pose", self.steps_pose))
         if self.optimize == "joint":
             stages.append(("joint", self.steps_joint))
-        logits = None
+        final, _ = optimize(prob, r6, t, stages, self.lr)
         with torch.no_grad():
-            final = loss_terms(A_t)
-        for stage, steps in stages:
-            if stage == "joint":
-                logits = torch.log(A_t).clone().requires_grad_(True)
-                params = [r6, t, logits]
-            else:
-                params = [r6, t]
-            opt = torch.optim.Adam(params, lr=self.lr)
-            for _ in range(steps):
-                opt.zero_grad(set_to_none=True)
-                C = torch.softmax(logits, dim=2) if logits is not None else A_t
-                loss_terms(C).sum().backward()
-                opt.step()
-            with torch.no_grad():
-                C = torch.softmax(logits, dim=2) if logits is not None else A_t
-                final = loss_terms(C)
-        with torch.no_grad():
-            R = rot(r6).cpu().double().numpy()
-            tt = t.detach().cpu().double().numpy()
+            R = _rot6d(r6)[0].cpu().double().numpy()
+            tt = t.cpu().double().numpy()
         # re-orthonormalise in float64 so validate_pose accepts the result
         U, _, Vt = np.linalg.svd(R)
         R = U @ Vt

@@ -3,8 +3,8 @@
 ``features="fpfh"``: ``registration_ransac_based_on_feature_matching`` on FPFH features;
 ``features="lps"``: ``registration_ransac_based_on_correspondence`` on the top-1 LPS pairs.
 Hypotheses are pruned by the edge-length and distance checkers (and optionally the normal
-checker) before the full inlier count. Open3D's RANSAC draws from its global generator, seeded
-here per (sample, candidate) with ``o3d.utility.random.seed`` before every call.
+checker) before the full inlier count. Open3D's RANSAC draws from its global generator, which
+the pipeline seeds per (sample, candidate) with ``o3d.utility.random.seed`` before every call.
 """
 
 from __future__ import annotations
@@ -61,7 +61,6 @@ class RANSAC(CorrespondenceRegistration):
             checkers.append(reg.CorrespondenceCheckerBasedOnNormal(np.deg2rad(self.normal_angle_deg)))
         criteria = reg.RANSACConvergenceCriteria(self.max_iteration, self.confidence)
         estimation = reg.TransformationEstimationPointToPoint(False)
-        o3d.utility.random.seed(match.seed % (2**31))
         if match.correspondences is None:
             result = reg.registration_ransac_based_on_feature_matching(
                 match.source.pcd, match.target.pcd, match.source.feature, match.target.feature,

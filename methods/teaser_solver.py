@@ -205,7 +205,11 @@ def gnc_tls_rotation(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2
     Follows TEASER++'s ``GNCTLSRotationSolver``: each iteration solves a weighted Kabsch
     problem, then the TLS weights in closed form for the current ``mu``
     (``w = 1`` below ``th2 = mu/(mu+1) cbar2 c^2``, ``0`` above ``th1 = (mu+1)/mu cbar2 c^2``,
-    ``sqrt(cbar2 c^2 mu (mu+1) / r^2) - mu`` between), ``mu *= gnc_factor``.
+    ``sqrt(cbar2 c^2 mu (mu+1) / r^2) - mu`` between), ``mu *= gnc_factor``. It stops when the
+    weights are binary and either unchanged or the cost (in units of ``cbar2 c^2``) changed by
+    less than ``cost_threshold``. (TEASER++ stops on an absolute cost change alone, which can
+    stop while ``mu`` is still tiny and every weight is near 0 when residuals are small in
+    absolute terms, as they are in object-normalised units.)
 
     Args:
         src, dst: (K, 3) rotation-only measurements (TIMs).
@@ -230,12 +234,15 @@ def gnc_tls_rotation(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2
                 break
         th1 = (mu + 1.0) / mu * bound2
         th2 = mu / (mu + 1.0) * bound2
-        cost = float((w * r2).sum())
+        cost = float((w * r2).sum()) / bound2  # dimensionless, so the threshold is unit-free
         with np.errstate(divide="ignore"):
             mid = np.sqrt(bound2 * mu * (mu + 1.0) / np.maximum(r2, 1e-300)) - mu
+        w_prev = w
         w = np.where(r2 >= th1, 0.0, np.where(r2 <= th2, 1.0, np.clip(mid, 0.0, 1.0)))
         mu *= gnc_factor
-        if abs(cost - prev_cost) < cost_threshold:
+        # converged once the weights are binary (TLS reached) and stable
+        binary = bool(np.all((w == 0.0) | (w == 1.0)))
+        if binary and (np.array_equal(w, w_prev) or abs(cost - prev_cost) < cost_threshold):
             break
         prev_cost = cost
     if w.sum() > 0:

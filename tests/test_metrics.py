@@ -55,6 +55,18 @@ def test_sample_errors_picks_axis_error_for_symmetric():
     assert e["err_deg"] == pytest.approx(40.0) and math.isnan(e["axis_err_deg"])
 
 
+def test_symmetric_translation_error_ignores_the_spin_about_the_axis():
+    # camera 3 units in front of a can: a spin about z moves the camera in the template frame
+    # (t changes) but not the can's position in the camera frame
+    R_gt = np.array([[0.0, -1, 0], [0, 0, -1], [1, 0, 0]]).T  # any rotation
+    T_gt = make_T(R_gt, [3.0, 0.0, 0.0])
+    spin = Rz(90)
+    T_est = make_T(spin @ R_gt, spin @ np.array([3.0, 0.0, 0.0]))
+    e = sample_errors(T_est, T_gt, np.array([0, 0, 1.0]))
+    assert e["err_deg"] == pytest.approx(0.0, abs=1e-6) and e["trans_err"] == pytest.approx(0.0, abs=1e-9)
+    assert sample_errors(T_est, T_gt, None)["trans_err"] == pytest.approx(3 * math.sqrt(2))
+
+
 def test_accuracy_and_runtime_stats():
     assert accuracy([1, 10, 11, 30, 31], 10) == pytest.approx(0.4)
     assert accuracy([1, 10, 11, 30, 31], 30) == pytest.approx(0.8)

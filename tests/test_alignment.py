@@ -1,0 +1,128 @@
+"""Alignment tables, the Chamfer rotation search and the ``bench align`` command."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from catpose.bench import align as align_cmd
+from catpose.datasets.alignment import (axis_aligned_rotations, chamfer_distance, estimate_alignment,
+                                        read_alignment_table, rotation_candidates, write_alignment_table,
+                                        yaw_deg_of, yaw_rotations)
+from catpose.datasets.meshio import read_off
+from catpose.datasets.modelnet40 import ModelNet40
+from catpose.errors import DatasetError
+from catpose.geometry import axis_angle_to_R
+
+# an "L": a long bar along +x and a short bar along +y, both 0.2 thick: no rotational symmetry
+L_PARTS = [((0, 0, 0), (3, 0.5, 0.5)), ((0, 0.5, 0), (0.5, 1.5, 0.5))]
+
+
+def l_shape_mesh() -> tuple[np.ndarray, np.ndarray]:
+    import trimesh
+
+    boxes = []
+    for lo, size in L_PARTS:
+        b = trimesh.creation.box(extents=size)
+        b.apply_translation(np.asarray(lo) + np.asarray(size) / 2)
+        boxes.append(b)
+    m = trimesh.util.concatenate(boxes)
+    return np.asarray(m.vertices), np.asarray(m.faces)
+
+
+def write_off(path: Path, v: np.ndarray, f: np.ndarray) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join([f"OFF{len(v)} {len(f)} 0"] + [" ".join(map(str, x)) for x in v]
+                              + [f"3 {a} {b} {c}" for a, b, c in f]) + "\n")
+
+
+def test_24_axis_aligned_rotations_are_distinct_and_proper():
+    Rs = axis_aligned_rotations()
+    assert Rs.shape == (24, 3, 3)
+    assert np.allclose(np.linalg.det(Rs), 1.0)
+    assert len({tuple(R.round().astype(int).ravel()) for R in Rs}) == 24
+    assert rotation_candidates("yaw4").shape == (4, 3, 3)
+    with pytest.raises(DatasetError, match="yaw<N>"):
+        rotation_candidates("fine")
+
+
+def test_table_round_trip_with_matrices_and_yaw(tmp_path):
+    R = axis_angle_to_R(np.array([0, 0, 1.0]), np.pi / 2)
+    write_alignment_table(tmp_path / "t.csv", [{"category": "airplane", "instance_id": "airplane_0002", "R": R,
+                                                "yaw_deg": yaw_deg_of(R), "chamfer": 0.1}])
+    with (tmp_path / "t.csv").open("a") as fh:
+        fh.write("airplane,airplane_0003,,,,,,,,,,180,\n")
+    table = read_alignment_table(tmp_path / "t.csv")
+    np.testing.assert_allclose(table[("airplane", "airplane_0002")], R, atol=1e-8)
+    np.testing.assert_allclose(table[("airplane", "airplane_0003")], np.diag([-1.0, -1.0, 1.0]), atol=1e-12)
+    assert yaw_deg_of(R) == pytest.approx(90.0)
+
+
+@pytest.mark.parametrize("text, words", [
+    ("category,instance_id,foo\n", "needs columns"),
+    ("category,instance_id,yaw_deg\nairplane,a,abc\n", "line 2"),
+    ("category,instance_id," + ",".join(f"r{i}{j}" for i in range(3) for j in range(3))
+     + "\nairplane,a,1,0,0,0,1,0,0,0,2\n", "not a rotation"),
+])
+def test_bad_tables_raise(tmp_path, text, words):
+    (tmp_path / "t.csv").write_text(text)
+    with pytest.raises(DatasetError, match=words):
+        read_alignment_table(tmp_path / "t.csv")
+    with pytest.raises(DatasetError, match="does not exist"):
+        read_alignment_table(tmp_path / "missing.csv")
+
+
+def test_estimate_alignment_recovers_a_known_rotation():
+    rng = np.random.default_rng(0)
+    v, f = l_shape_mesh()
+    from catpose.datasets.meshio import sample_outer_surface
+
+    ref, _ = sample_outer_surface(v - v.mean(0), f, 800, seed=1)
+    for k in range(24):
+        R_true = axis_aligned_rotations()[k]
+        moved, _ = sample_outer_surface((v - v.mean(0)) @ R_true.T, f, 800, seed=int(rng.integers(1 << 30)))
+        R_est, cost = estimate_alignment(ref, moved)
+        np.testing.assert_allclose(R_est, R_true.T, atol=1e-12)
+        if k and not np.allclose(R_true, np.eye(3)):
+            assert cost < chamfer_distance(moved, ref)
+
+
+def test_bench_align_writes_a_table_the_loader_applies(tmp_path, capsys):
+    v, f = l_shape_mesh()
+    root = tmp_path / "ModelNet40"
+    write_off(root / "thing/train/thing_0001.off", v, f)
+    yaw90 = axis_angle_to_R(np.array([0, 0, 1.0]), np.pi / 2)
+    write_off(root / "thing/train/thing_0002.off", v @ yaw90.T * 7.0 + 3.0, f)  # rotated, scaled, moved
+    out = tmp_path / "align.csv"
+    assert align_cmd.main(["--root", str(root), "--category", "thing", "--out", str(out), "--points", "600"]) == 0
+    table = read_alignment_table(out)
+    np.testing.assert_allclose(table[("thing", "thing_0001")], np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(table[("thing", "thing_0002")], yaw90.T, atol=1e-12)
+
+    ds = ModelNet40(str(root), categories=["thing"], split="train", alignment_table=str(out))
+    a, _ = ds.canonical_mesh("thing", "thing_0001")
+    b, _ = ds.canonical_mesh("thing", "thing_0002")
+    np.testing.assert_allclose(a, b, atol=1e-9)
+    raw = ModelNet40(str(root), categories=["thing"], split="train")
+    assert not np.allclose(raw.canonical_mesh("thing", "thing_0002")[0], a, atol=1e-3)
+    assert ds.observation("thing/thing_0002/v00").info["aligned"] is True
+
+
+def test_bench_align_reports_a_bad_root_in_one_line(tmp_path, capsys):
+    assert align_cmd.main(["--root", str(tmp_path / "none"), "--category", "x", "--out", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and "\n" not in err
+
+
+@pytest.mark.data
+def test_shared_airplanes_align_by_yaw(shared_data, tmp_path):
+    out = tmp_path / "airplane.csv"
+    assert align_cmd.main(["--root", str(shared_data / "ModelNet40"), "--category", "airplane",
+                           "--out", str(out), "--points", "512"]) == 0
+    table = read_alignment_table(out)
+    assert len(table) == 6
+    np.testing.assert_allclose(table[("airplane", "airplane_0001")], np.eye(3))
+    for R in table.values():  # yaw steps only: the up axis is kept
+        assert any(np.allclose(R, Y, atol=1e-9) for Y in yaw_rotations(4))

@@ -1,0 +1,172 @@
+"""FGR, RANSAC and TEASER on the shared matching pipeline (catpose.methods.correspondence)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from catpose.errors import ConfigError
+from catpose.geometry import invert_T, rotate_vectors
+from catpose.types import RegistrationProblem, Template
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _rot_err_deg(T_est: np.ndarray, T_gt: np.ndarray) -> float:
+    R = T_est[:3, :3].T @ T_gt[:3, :3]
+    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))))
+
+
+def _easy_problem(seed: int, template: Template | None = None, view_seed: int | None = None):
+    """A rendered partial view of a procedural chair against its own complete model.
+
+    Returns (problem, true T_template_camera)."""
+    from catpose.datasets.render import (PinholeCamera, ViewSampler, depth_to_points, estimate_normals,
+                                         render_depth)
+    from catpose.datasets.shapes import make_shape, outer_surface_cloud
+
+    rng = np.random.default_rng(seed)
+    mesh = make_shape("chair", rng)
+    V, F = np.asarray(mesh.vertices), np.asarray(mesh.faces)
+    if template is None:
+        pts, nrm = outer_surface_cloud(V, F, 3000, rng)
+        template = Template(f"test/chair/{seed}", "chair", pts, nrm, V, F)
+    cam = PinholeCamera(160, 120, 150.0, 150.0, 80.0, 60.0)
+    view_rng = rng if view_seed is None else np.random.default_rng(view_seed)
+    T_camera_object = ViewSampler(distance=3.0).sample(view_rng)
+    with np.errstate(over="ignore"):
+        depth = render_depth(V, F, T_camera_object, cam)
+    points, _ = depth_to_points(depth, cam)
+    normals = estimate_normals(points, radius=0.08)
+    up_camera = rotate_vectors(T_camera_object, np.array([0.0, 0.0, 1.0]))
+    problem = RegistrationProblem(f"chair{seed}", "chair", points, normals, up_camera, template)
+    return problem, invert_T(T_camera_object)
+
+
+@pytest.fixture(scope="module")
+def easy():
+    return _easy_problem(0)
+
+
+@pytest.mark.parametrize("cls_path,kwargs", [
+    ("catpose.methods.fgr.FGR", dict(matching="dictionary", features="fpfh")),
+    ("catpose.methods.ransac.RANSAC", dict(matching="dictionary", features="fpfh")),
+    ("catpose.methods.teaser.TEASER", dict(matching="dictionary", features="fpfh")),
+])
+def test_recovers_known_pose(easy, cls_path: str, kwargs: dict) -> None:
+    from hydra.utils import get_class
+
+    problem, T_gt = easy
+    result = get_class(cls_path)(**kwargs).register(problem)
+    assert _rot_err_deg(result.T_target_source, T_gt) < 5.0
+    assert np.linalg.norm(result.T_target_source[:3, 3] - T_gt[:3, 3]) < 0.25
+    assert np.isfinite(result.score) and result.score < 0.05
+    n_expected = 18 if kwargs["matching"] == "dictionary" else 1
+    assert result.extras["num_candidates"] == n_expected == len(result.extras["candidate_chamfer"])
+    assert result.score == pytest.approx(min(result.extras["candidate_chamfer"]))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cls_name", ["fgr.FGR", "ransac.RANSAC", "teaser.TEASER"])
+def test_dictionary_lps_with_icp(easy, cls_name: str) -> None:
+    from hydra.utils import get_class
+
+    problem, T_gt = easy
+    method = get_class(f"catpose.methods.{cls_name}")(matching="dictionary", features="lps", refine_icp=True)
+    result = method.register(problem)
+    assert _rot_err_deg(result.T_target_source, T_gt) < 5.0
+
+
+def test_ransac_is_deterministic(easy) -> None:
+    from catpose.methods.ransac import RANSAC
+
+    problem, _ = easy
+    method = RANSAC(matching="direct", features="fpfh", max_iteration=20000)
+    T1 = method.register(problem).T_target_source
+    T2 = method.register(problem).T_target_source
+    np.testing.assert_array_equal(T1, T2)
+
+
+def test_dictionary_is_shared_with_ours(monkeypatch, tmp_path) -> None:
+    """The baselines take the dictionary from ``ours``' cache: built once, never rebuilt."""
+    from catpose.methods import correspondence, dictionary
+    from catpose.methods.teaser import TEASER
+
+    monkeypatch.setenv("CATPOSE_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(correspondence, "_TARGET_CACHE", {})
+    dictionary.clear_memory_cache()
+    calls = []
+    original = dictionary.visible_indices
+    monkeypatch.setattr(dictionary, "visible_indices", lambda *a, **k: calls.append(1) or original(*a, **k))
+
+    problem, T_gt = _easy_problem(1)
+    built_by_ours = dictionary.get_dictionary(problem.template)  # what ``ours`` builds (defaults)
+    assert len(calls) == 18
+    method = TEASER(matching="dictionary", features="fpfh")
+    method.register(problem)
+    problem2, _ = _easy_problem(1, template=problem.template, view_seed=7)
+    method.register(problem2)
+    assert len(calls) == 18
+    assert dictionary.get_dictionary(problem.template) is built_by_ours
+    # a fresh process (memory cache cleared) reads the disk cache instead of rebuilding
+    dictionary.clear_memory_cache()
+    monkeypatch.setattr(correspondence, "_TARGET_CACHE", {})
+    TEASER(matching="dictionary", features="fpfh").register(problem)
+    assert len(calls) == 18
+
+
+@pytest.mark.parametrize("cls_path,kwargs,match", [
+    ("catpose.methods.fgr.FGR", dict(matching="nearest"), "matching='nearest'"),
+    ("catpose.methods.ransac.RANSAC", dict(features="shot"), "features='shot'"),
+    ("catpose.methods.teaser.TEASER", dict(noise_bound=-0.1), "noise_bound=-0.1"),
+    ("catpose.methods.teaser.TEASER", dict(noise_bound=0.0), "noise_bound=0.0"),
+    ("catpose.methods.fgr.FGR", dict(voxel_size=-1.0), "voxel_size"),
+    ("catpose.methods.fgr.FGR", dict(division_factor=0.5), "division_factor"),
+    ("catpose.methods.ransac.RANSAC", dict(confidence=2.0), "confidence"),
+    ("catpose.methods.teaser.TEASER", dict(matching="dictionary", dictionary_num_views=17), "num_views=17"),
+])
+def test_bad_options_fail_at_construction(cls_path: str, kwargs: dict, match: str) -> None:
+    from hydra.utils import get_class
+
+    with pytest.raises(ConfigError, match=match) as info:
+        get_class(cls_path)(**kwargs)
+    assert "\n" not in str(info.value)
+
+
+def test_teaserpp_without_bindings_says_how_to_get_them() -> None:
+    pytest.importorskip("catpose.methods.teaserpp")
+    try:
+        import teaserpp_python  # noqa: F401
+        pytest.skip("teaserpp_python is installed")
+    except ImportError:
+        pass
+    from catpose.methods.teaserpp import TEASERPlusPlus
+
+    with pytest.raises(ConfigError, match="method=teaser") as info:
+        TEASERPlusPlus()
+    assert "TEASER-plusplus" in str(info.value) and "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("name", ["fgr", "ransac", "teaser", "teaserpp"])
+def test_configs_instantiate(name: str) -> None:
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    cfg = OmegaConf.load(REPO / "configs" / "method" / f"{name}.yaml")
+    cfg = OmegaConf.merge({"seed": 3}, {"m": cfg}).m  # resolves ${seed} like the runner's root config
+    d = OmegaConf.to_container(cfg, resolve=True)
+    assert d.pop("name") == name
+    for matching in ("direct", "dictionary"):
+        for features in ("fpfh", "lps"):
+            d.update(matching=matching, features=features)
+            if name == "teaserpp":
+                try:
+                    import teaserpp_python  # noqa: F401
+                except ImportError:
+                    with pytest.raises(ConfigError):
+                        instantiate(d, _convert_="all")
+                    continue
+            method = instantiate(d, _convert_="all")
+            assert method.matching == matching and method.features == features and method.seed == 3

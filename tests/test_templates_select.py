@@ -1,0 +1,85 @@
+"""K-medoids template selection on shapes whose clusters are known."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from catpose.bench import templates_select as ts
+from catpose.errors import ConfigError
+from catpose.geometry import normalize_to_unit_sphere
+
+
+def _sphere(rng, n, squash):
+    v = rng.normal(size=(n, 3))
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    return v * np.array([1.0, 1.0, squash])
+
+
+def _box(rng, n, dims):
+    face = rng.integers(0, 6, n)
+    p = rng.uniform(-1, 1, size=(n, 3))
+    p[np.arange(n), face % 3] = np.where(face < 3, -1.0, 1.0)
+    return p * np.asarray(dims)
+
+
+def _cylinder(rng, n, height):
+    theta = rng.uniform(0, 2 * np.pi, n)
+    return np.stack([np.cos(theta), np.sin(theta), rng.uniform(-height, height, n)], axis=1)
+
+
+def shape_family(seed: int = 0, per_cluster: int = 4, n: int = 1200) -> dict[str, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    clouds = {}
+    for k in range(per_cluster):
+        clouds[f"sphere{k}"] = _sphere(rng, n, 1.0 + 0.03 * k)
+        clouds[f"box{k}"] = _box(rng, n, (1.0, 0.5 + 0.03 * k, 0.3))
+        clouds[f"cyl{k}"] = _cylinder(rng, n, 2.5 + 0.1 * k)
+    return {name: normalize_to_unit_sphere(p)[0] for name, p in clouds.items()}
+
+
+def test_fscore_basics():
+    rng = np.random.default_rng(0)
+    P = _sphere(rng, 500, 1.0)
+    assert ts.fscore(P, P, 0.01) == pytest.approx(1.0)
+    assert ts.fscore(P, P + 10.0, 0.05) == 0.0
+    D = ts.fscore_distances([P, P + 10.0, P], 0.05)
+    assert D.shape == (3, 3) and np.allclose(D, D.T) and np.allclose(np.diag(D), 0)
+    assert D[0, 2] == pytest.approx(0.0) and D[0, 1] == pytest.approx(1.0)
+
+
+def test_medoids_one_per_cluster():
+    clouds = shape_family()
+    result = ts.choose_templates(clouds, k=3, tau=0.05, n_points=800, seed=0)
+    families = sorted(t.rstrip("0123456789") for t in result["templates"])
+    assert families == ["box", "cyl", "sphere"]
+    for medoid, members in result["clusters"].items():  # every cluster is one family
+        assert {m.rstrip("0123456789") for m in members} == {medoid.rstrip("0123456789")}
+        assert len(members) == 4
+    # deterministic
+    assert ts.choose_templates(clouds, k=3, tau=0.05, n_points=800, seed=0)["templates"] == result["templates"]
+
+
+def test_write_yaml_keeps_other_categories(tmp_path: Path):
+    out = tmp_path / "templates" / "toy.yaml"
+    out.parent.mkdir()
+    out.write_text(yaml.safe_dump({"airplane": ["a1"]}))
+    result = {"templates": ["c2", "c7"], "clusters": {"c2": ["c1", "c2"], "c7": ["c7"]}, "mean_distance": 0.1}
+    ts.write_templates_yaml(out, "chair", result, {"k": 2, "tau": 0.05})
+    doc = yaml.safe_load(out.read_text())
+    assert doc == {"airplane": ["a1"], "chair": ["c2", "c7"]}
+    assert "k=2" in out.read_text()
+    with pytest.raises(ConfigError):
+        ts.select_medoids(np.zeros((2, 2)), 3)
+
+
+def test_cli_on_synthetic_dataset(tmp_path: Path):
+    out = tmp_path / "t.yaml"
+    rc = ts.main(["dataset=synthetic", "dataset.categories=[mug]", "dataset.instances_per_category=3",
+                  "--category", "mug", "--k", "2", "--points", "300", "--out", str(out)])
+    assert rc == 0
+    doc = yaml.safe_load(out.read_text())
+    assert list(doc) == ["mug"] and len(doc["mug"]) == 2
