@@ -1,7 +1,8 @@
 """``bench align``: estimate a category's per-instance alignment table for ModelNet40.
 
 Every instance of a category (in the configured split) is compared with a reference instance
-over a set of candidate rotations (the 24 axis-aligned rotations, or N yaw steps about +z);
+over a set of candidate rotations (N yaw steps about +z, ``yaw4`` by default since ModelNet40
+files share their up axis; or all 24 axis-aligned rotations with ``--rotations 24``);
 the rotation with the lowest Chamfer distance between the normalised surface samples is
 written to a CSV that ``dataset=modelnet40 dataset.alignment_table=<csv>`` applies::
 

@@ -50,14 +50,23 @@ def axis_error_deg(R_est: np.ndarray, R_gt: np.ndarray, axis: np.ndarray) -> flo
     return float(np.degrees(np.arccos(np.clip(u @ v / (np.linalg.norm(u) * np.linalg.norm(v)), -1.0, 1.0))))
 
 
-def sample_errors(T_est: np.ndarray, T_gt: np.ndarray, symmetry_axis: np.ndarray | None = None) -> dict[str, float]:
+def sample_errors(T_est: np.ndarray, T_gt: np.ndarray, symmetry_axis: np.ndarray | None = None,
+                  symmetries: Iterable[np.ndarray] = ()) -> dict[str, float]:
     """Every error of one estimate of ``T_template_camera`` (both (4, 4)).
+
+    ``symmetries`` are discrete symmetries ``S`` (4, 4) of the template frame (BOP
+    ``symmetries_discrete``): each ``S @ T_gt`` is an equally correct answer, and the errors
+    are those of the one closest to the estimate (by ``err_deg``, then ``trans_err``).
 
     Returns ``rot_err_deg``, ``axis_err_deg`` (NaN unless symmetric), ``trans_err`` (of the
     object's origin in the camera frame when symmetric, see the module docstring) and
     ``err_deg``, the error the statistics use (axis error if symmetric, else rotation error).
     """
     T_est, T_gt = np.asarray(T_est, float), np.asarray(T_gt, float)
+    symmetries = [np.asarray(S, float).reshape(4, 4) for S in symmetries]
+    if symmetries:
+        candidates = [sample_errors(T_est, S @ T_gt, symmetry_axis) for S in [np.eye(4), *symmetries]]
+        return min(candidates, key=lambda e: (round(e["err_deg"], 9), e["trans_err"]))
     rot = rotation_error_deg(T_est[:3, :3], T_gt[:3, :3])
     if symmetry_axis is None:
         axis = float("nan")

@@ -62,14 +62,18 @@ def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, 
     rows = int(np.ceil(n / cols))
     fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 3.0 * rows), squeeze=False, sharey=True)
     for ax, cat in zip(axes.ravel(), categories):
-        for label, units in units_by_method.items():
+        for m, (label, units) in enumerate(units_by_method.items()):
             u = units[units["category"].astype(str) == cat]
             if len(u) == 0:
                 continue
             e = np.sort(scored_errors(u))
             y = np.arange(1, len(e) + 1) / len(e)
-            ax.step(np.concatenate([[0], e]), np.concatenate([[0], y]), where="post", label=f"{label} (n={len(e)})")
+            ax.step(np.concatenate([[0], e]), np.concatenate([[0], y]), where="post", color=f"C{m % 10}",
+                    label=f"{label} (n={len(e)})")  # one colour per method across panels
         ax.set_title(cat)
+        ax.text(0.98, 0.04, "n=" + ", ".join(str(int((units["category"].astype(str) == cat).sum()))
+                                              for units in units_by_method.values()),
+                transform=ax.transAxes, ha="right", fontsize=6, color="grey")
         ax.set_xlim(0, 180)
         ax.set_ylim(0, 1.02)
         ax.set_xticks([0, 30, 60, 90, 120, 150, 180])
@@ -79,9 +83,14 @@ def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, 
         ax.set_ylabel("fraction of samples <= error")
     for ax in axes.ravel()[len(categories):]:
         ax.axis("off")
-    axes.ravel()[0].legend(fontsize=7, loc="lower right")
-    fig.suptitle(title or "Cumulative distribution of the rotation error")
+    handles: dict[str, object] = {}
+    for ax in axes.ravel():
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(lab.rsplit(" (n=", 1)[0], h)
+    fig.suptitle(title or "Cumulative distribution of the error (rotation; main axis for symmetric objects)")
     fig.tight_layout()
+    fig.legend(list(handles.values()), list(handles), loc="lower center", fontsize=7,
+               ncol=min(len(handles), 4), bbox_to_anchor=(0.5, -0.02 - 0.04 * (len(handles) // 4)))
     return save(fig, out_stem)
 
 
@@ -91,10 +100,10 @@ def plot_accuracy(units_by_method: Mapping[str, object], out_stem: str | Path, m
     plt = _plt()
     fig, ax = plt.subplots(figsize=(5.0, 3.6))
     th = np.linspace(0, max_threshold_deg, 241)
-    for label, units in units_by_method.items():
+    for m, (label, units) in enumerate(units_by_method.items()):
         e = scored_errors(units)
         if len(e):
-            ax.plot(th, [(e <= t).mean() for t in th], label=f"{label} (n={len(e)})")
+            ax.plot(th, [(e <= t).mean() for t in th], color=f"C{m % 10}", label=f"{label} (n={len(e)})")
     for t in (10, 30):
         ax.axvline(t, color="grey", lw=0.8, ls="--")
     ax.set_xlim(0, max_threshold_deg)

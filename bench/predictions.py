@@ -27,7 +27,9 @@ Other datasets have no BOP ids; the export
 then uses this documented mapping and writes it to ``<out>.map.csv``: ``obj_id`` = 1-based index
 of the category in sorted order, ``scene_id`` = 1-based index of the instance within its
 category (sorted), ``im_id`` = 0-based index of the observation within the instance (sorted
-``obs_id``), ``scale_mm`` = 1 (translations stay in the object-normalised unit).
+``obs_id``), ``scale_mm`` = 1 (translations stay in the object-normalised unit). ``bench score``
+reads ``<predictions>.map.csv`` when it is there (or ``--map FILE``) and otherwise derives the
+same ids from the ground-truth rows.
 """
 
 from __future__ import annotations
@@ -132,8 +134,11 @@ def export_bop(run_dir: str | Path, out_csv: str | Path) -> int:
     run = load_run(run_dir)
     proto = protocol_of(run)
     units = proto.view_rows(run.samples) if isinstance(proto, Relative) else proto.score_units(run.samples)
-    rows = [r for r in units.to_dict("records") if r.get("status") == "ok" and r.get("T_est") is not None]
-    ids, mapping = _bop_ids(rows)
+    # ids over every view (failed ones too), so the mapping matches the scorer's, which sees all
+    everything = units.to_dict("records")
+    all_ids, all_mapping = _bop_ids(everything)
+    keep = [k for k, r in enumerate(everything) if r.get("status") == "ok" and r.get("T_est") is not None]
+    rows, ids, mapping = [everything[k] for k in keep], [all_ids[k] for k in keep], [all_mapping[k] for k in keep]
     lines = [",".join(BOP_COLUMNS)]
     for r, (scene, im, obj, scale, centre, R_om) in zip(rows, ids):
         T_co = invert_T(np.asarray(r["T_est"], float).reshape(4, 4))
@@ -205,11 +210,22 @@ def _orthonormalise(R: np.ndarray) -> np.ndarray:
     return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
 
 
-def score_predictions(preds, gt_rows: Sequence[dict], method: str) -> list[dict]:
+def read_mapping(path: str | Path) -> dict[tuple[int, int, int], str]:
+    """An export's ``<out>.map.csv``: (scene_id, im_id, obj_id) -> sample_id."""
+    import pandas as pd
+
+    df = pd.read_csv(path, dtype={"sample_id": str})
+    return {(int(r.scene_id), int(r.im_id), int(r.obj_id)): str(r.sample_id) for r in df.itertuples()}
+
+
+def score_predictions(preds, gt_rows: Sequence[dict], method: str,
+                      mapping: dict[tuple[int, int, int], str] | None = None) -> list[dict]:
     """Per-sample rows (``samples.jsonl`` schema) for the predictions against ground-truth rows.
 
     ``gt_rows`` are rows with ``T_gt`` (a run's ``samples.jsonl``, one per view is enough). A
-    view without a prediction is recorded as failed ("no prediction").
+    view without a prediction is recorded as failed ("no prediction"). For a BOP file,
+    ``mapping`` ((scene_id, im_id, obj_id) -> sample_id, from the export's ``.map.csv``) takes
+    precedence over the ids derived from the rows.
     """
     from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors
     from catpose.geometry import invert_T, make_T
@@ -222,6 +238,8 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str) -> list[dict]
         if old is None or (kind == "bop" and np.nan_to_num(p["score"], nan=-np.inf) > np.nan_to_num(old["score"], nan=-np.inf)):
             by_key[key] = p
     ids = _bop_ids(gt_rows)[0] if kind == "bop" else None
+    if kind == "bop" and mapping:
+        by_sample = {mapping[k]: p for k, p in by_key.items() if k in mapping}
     out = []
     for k, g in enumerate(gt_rows):
         row = {key: g.get(key) for key in ("sample_id", "group_id", "obs_id", "category", "instance_id", "template_id",
@@ -229,7 +247,7 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str) -> list[dict]
         row.update(method=method, extras={}, stage="")
         if kind == "bop":
             scene, im, obj, scale, centre, R_om = ids[k]
-            p = by_key.get((scene, im, obj))
+            p = by_sample.get(str(g["sample_id"])) if mapping else by_key.get((scene, im, obj))
         else:
             p = by_key.get(str(g["sample_id"])) or by_key.get(str(g.get("obs_id")))
         if p is None:
@@ -323,6 +341,7 @@ def score_main(argv: list[str] | None = None) -> int:
     ap.add_argument("--protocol", default="gt_model", help="with --dataset: a protocol config name")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--override", action="append", default=[], help="extra Hydra override for --dataset, repeatable")
+    ap.add_argument("--map", default=None, help="BOP id -> sample id CSV (default: <predictions>.map.csv if present)")
     ap.add_argument("--method", required=True, help="name of the external method (row label in tables)")
     ap.add_argument("--out", required=True, help="run directory to write")
     args = ap.parse_args(argv)
@@ -332,7 +351,11 @@ def score_main(argv: list[str] | None = None) -> int:
         gt_rows, config = gt_rows_from_run(args.gt) if args.gt else gt_rows_from_config(
             args.dataset, args.protocol, args.seed, args.override)
         preds = read_predictions(args.predictions)
-        rows = score_predictions(preds, gt_rows, args.method)
+        map_path = Path(args.map) if args.map else Path(str(args.predictions) + ".map.csv")
+        if args.map and not map_path.is_file():
+            raise InvalidInputError(f"--map {map_path} does not exist")
+        mapping = read_mapping(map_path) if preds.attrs["kind"] == "bop" and map_path.is_file() else None
+        rows = score_predictions(preds, gt_rows, args.method, mapping)
         config = dict(config, method={"name": args.method, "external": str(args.predictions)})
         out = write_run(args.out, rows, config, {"predictions": str(args.predictions)})
     except CatposeError as e:

@@ -31,7 +31,8 @@ def make_sample(obs: Observation, template: Template, sample_id: str, group_id: 
         sample_id=sample_id, category=obs.category, points_camera=obs.points_camera,
         normals_camera=obs.normals_camera, ground_normal_camera=obs.ground_normal_camera,
         template=template)
-    gt = GroundTruth(T_template_camera=np.asarray(obs.T_object_camera, float), symmetry_axis=obs.symmetry_axis)
+    gt = GroundTruth(T_template_camera=np.asarray(obs.T_object_camera, float), symmetry_axis=obs.symmetry_axis,
+                     symmetries=tuple(np.asarray(S, float) for S in obs.symmetries))
     info = {"instance_id": obs.instance_id, "template_id": template.template_id, **dict(obs.info)}
     return Sample(problem=problem, gt=gt, group_id=group_id, info=info)
 

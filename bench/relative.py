@@ -154,9 +154,19 @@ class Relative(Protocol):
         if len(samples) == 0:
             return samples
         views = self.view_rows(samples)
-        views = views.assign(_view=views["group_id"].astype(str)).sort_values("_view", kind="stable")
+        view = views["obs_id"].fillna(views["group_id"]) if "obs_id" in views else views["group_id"]
+        views = views.assign(_view=view.astype(str)).sort_values("_view", kind="stable")
+        # A view that failed to load has no instance id: take it from a "<category>/<instance>/<view>"
+        # id; otherwise it cannot be paired and counts as one failed unit of its own.
+        instance = views["instance_id"] if "instance_id" in views else pd.Series(None, index=views.index)
+        parts = views["_view"].str.split("/")
+        guess = parts.map(lambda p: p[1] if len(p) == 3 else None)
+        views = views.assign(instance_id=instance.where(instance.notna(), guess))
         rows = []
-        for (category, instance), g in views.groupby(["category", "instance_id"], sort=True):
+        for r in views[views["instance_id"].isna()].to_dict("records"):
+            rows.append(dict(r, sample_id=r["_view"], status="failed", err_deg=FAILED_ERROR_DEG, T_est=None,
+                             error=f"view {r['_view']} failed ({r.get('error') or 'no estimate'}) and its instance is unknown"))
+        for (category, instance), g in views.dropna(subset=["instance_id"]).groupby(["category", "instance_id"], sort=True):
             g = g.drop_duplicates("_view")
             records = g.to_dict("records")
             for i, j in pair_indices(len(records), self.pairs, self.max_pairs_per_instance):

@@ -49,8 +49,8 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
     labels = labels or {}
 
     def label_of(run: tables.Run) -> str:
-        base = labels.get(str(run.path)) or labels.get(run.path.name) or tables.method_label(run)
-        return base if len({r.method for r in runs}) == len(runs) else f"{base} [{run.protocol}, {run.path.name}]"
+        base = tables.user_label(run, labels) or tables.method_label(run)
+        return base if len({r.method for r in runs}) == len(runs) else f"{base} ({run.protocol}, {run.path.name[-8:]})"
 
     md = ["# catpose report", "", "Runs:", ""]
     for run in runs:
@@ -75,10 +75,10 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
 
     if qualitative > 0:
         md += ["## Qualitative results", "", "Orange: the input carried into the template frame; blue-grey: the template.", ""]
-        for run, (label, u) in zip(runs, units.items()):
+        for i, (run, (label, u)) in enumerate(zip(runs, units.items())):
             view_rows = run.samples if run.protocol == "relative" else u  # pairs have no single sample
             for k, sid in enumerate(qualitative_picks(view_rows, qualitative)):
-                stem = out / "figures" / f"sample_{run.path.name}_{k}"
+                stem = out / "figures" / f"sample_run{i}_{k}"
                 try:
                     plots.plot_sample_from_run(run.path, sid, stem)
                     md += [f"**{label}**, `{sid}`:", "", f"![{sid}](figures/{stem.name}.png)", ""]

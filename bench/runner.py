@@ -182,7 +182,7 @@ def _run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dic
                category=dataset.category_of(sample_id.split("|")[0]), instance_id=None, template_id=None,
                status="failed", error="", stage="load", rot_err_deg=None, axis_err_deg=None, trans_err=None,
                err_deg=FAILED_ERROR_DEG, symmetric=None, score=None, runtime_s=None, T_est=None, T_gt=None,
-               symmetry_axis=None, info={}, extras={})
+               symmetry_axis=None, symmetries=None, info={}, extras={})
     try:
         sample = protocol.load(dataset, sample_id)
     except Exception as e:  # a bad sample is recorded, the run goes on
@@ -192,7 +192,9 @@ def _run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dic
     row.update(group_id=sample.group_id or sample_id, category=sample.problem.category,
                instance_id=info.get("instance_id"), template_id=sample.problem.template.template_id,
                T_gt=np.asarray(sample.gt.T_template_camera, float).reshape(-1), symmetric=sample.gt.symmetry_axis is not None,
-               symmetry_axis=sample.gt.symmetry_axis, info=info, stage="register")
+               symmetry_axis=sample.gt.symmetry_axis,
+               symmetries=[np.asarray(S, float).reshape(-1) for S in sample.gt.symmetries] or None,
+               info=info, stage="register")
     seed_everything(stable_seed(seed, sample_id))
     t0 = time.perf_counter()
     try:
@@ -212,7 +214,8 @@ def _run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dic
     if np.abs(R @ R.T - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
         row["error"] = "method returned a matrix whose rotation part is not a rotation"
         return row
-    row.update(status="ok", stage="", T_est=T.reshape(-1), **sample_errors(T, sample.gt.T_template_camera, sample.gt.symmetry_axis))
+    row.update(status="ok", stage="", T_est=T.reshape(-1),
+               **sample_errors(T, sample.gt.T_template_camera, sample.gt.symmetry_axis, sample.gt.symmetries))
     return row
 
 
@@ -327,12 +330,12 @@ def summarize_run(run_dir: Path, sample_ids: Iterable[str] | None = None):
         if r.get("status") == "ok" and r.get("T_est") is not None:
             axis = r.get("symmetry_axis")
             r.update(sample_errors(np.reshape(r["T_est"], (4, 4)), np.reshape(r["T_gt"], (4, 4)),
-                                   None if axis is None else np.asarray(axis)))
+                                   None if axis is None else np.asarray(axis), r.get("symmetries") or ()))
         else:
             r["err_deg"] = FAILED_ERROR_DEG
     df = pd.DataFrame(rows)
     if len(df):
-        flat = df.drop(columns=[c for c in ("info", "extras") if c in df.columns]).copy()
+        flat = df.drop(columns=[c for c in ("info", "extras", "symmetries") if c in df.columns]).copy()
         for c in ("T_est", "T_gt", "symmetry_axis"):
             if c in flat.columns:
                 flat[c] = flat[c].map(lambda v: " ".join(f"{x:.9g}" for x in np.ravel(v)) if isinstance(v, list) else "")

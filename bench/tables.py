@@ -104,8 +104,37 @@ def read_samples(path: Path):
     return df
 
 
+def recompute_errors(samples):
+    """Errors of every finished row recomputed from its ``T_est``, ``T_gt`` and ``symmetry_axis``
+    with :func:`catpose.bench.metrics.sample_errors` (as the runner's summary does), so tables
+    follow the current metric definitions rather than the numbers stored at run time."""
+    import numpy as np
+
+    from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors
+
+    if len(samples) == 0 or not {"T_est", "T_gt", "status"} <= set(samples.columns):
+        return samples
+    samples = samples.copy()
+    for col in ("rot_err_deg", "axis_err_deg", "trans_err", "err_deg"):
+        samples[col] = samples[col].astype(float) if col in samples else float("nan")
+    for i, r in samples.iterrows():
+        ok = r["status"] == "ok" and isinstance(r["T_est"], list) and isinstance(r["T_gt"], list)
+        if ok:
+            axis = r.get("symmetry_axis")
+            errs = sample_errors(np.reshape(r["T_est"], (4, 4)), np.reshape(r["T_gt"], (4, 4)),
+                                 np.asarray(axis, float) if isinstance(axis, list) else None)
+            for k, v in errs.items():
+                samples.at[i, k] = v
+        else:
+            samples.at[i, "err_deg"] = FAILED_ERROR_DEG
+    return samples
+
+
 def load_run(path: str | Path) -> Run:
-    """Read a run directory (``samples.jsonl`` required, ``config.yaml`` and ``run.json`` optional)."""
+    """Read a run directory (``samples.jsonl`` required, ``config.yaml`` and ``run.json`` optional).
+
+    Errors are recomputed from the stored poses (:func:`recompute_errors`).
+    """
     path = Path(path)
     samples_path = path / "samples.jsonl"
     if not samples_path.is_file():
@@ -116,7 +145,7 @@ def load_run(path: str | Path) -> Run:
 
         config = OmegaConf.to_container(OmegaConf.load(path / "config.yaml"), resolve=False)  # type: ignore[assignment]
     info = json.loads((path / "run.json").read_text()) if (path / "run.json").is_file() else {}
-    return Run(path=path, config=config, info=info, samples=read_samples(samples_path))
+    return Run(path=path, config=config, info=info, samples=recompute_errors(read_samples(samples_path)))
 
 
 def find_run_dirs(paths: Sequence[str | Path]) -> list[Path]:
@@ -186,6 +215,8 @@ def pipeline_label(run: Run) -> str:
     """``"Dictionary LPS"``-style group label from the method's pipeline options, or ``"-"``."""
     cfg = run.method_config
     matching = _first(cfg, ("matching", "pipeline", "match"))
+    if matching is None and run.method.lower().startswith("ours"):
+        matching = "dictionary"  # our method always matches against the partial-template dictionary
     descriptor = _first(cfg, ("descriptor", "features", "feature"))
     parts = []
     if matching is not None:
@@ -198,7 +229,7 @@ def pipeline_label(run: Run) -> str:
 def without_optimisation(run: Run) -> bool:
     """Whether the method config switches the pose optimisation off (ablation runs)."""
     for k, v in run.method_config.items():
-        if "optim" in k.lower() and v is False:
+        if "optim" in k.lower() and (v is False or str(v).lower() in ("none", "false", "off", "svd")):
             return True
         if k in ("steps", "n_steps", "opt_steps", "optim_steps", "iterations") and v == 0:
             return True
@@ -292,15 +323,18 @@ class Table:
         return f"{v:.{METRICS[m].digits}f}"
 
 
-def _header_text(label: str, fmt: str) -> str:
+def _tex_escape(s: str) -> str:
+    for a, b in (("\\", r"\textbackslash{}"), ("&", r"\&"), ("%", r"\%"), ("_", r"\_"), ("#", r"\#")):
+        s = s.replace(a, b)
+    return s
+
+
+def _tex_label(label: str) -> str:
+    """A metric's LaTeX header (``METRICS[...].tex``) or the escaped label."""
     for m in METRICS.values():
         if label == m.md:
-            return m.tex if fmt == "latex" else m.md
-    return label
-
-
-def _tex_escape(s: str) -> str:
-    return s.replace("\\", r"\textbackslash{}").replace("&", r"\&").replace("%", r"\%").replace("_", r"\_").replace("#", r"\#")
+            return m.tex
+    return _tex_escape(label)
 
 
 def to_markdown(table: Table) -> str:
@@ -339,17 +373,14 @@ def to_latex(table: Table) -> str:
                 spans.append((c[0], 1))
         top = [""] * n_lead + [rf"\multicolumn{{{n}}}{{c}}{{{_tex_escape(name)}}}" for name, n in spans]
         out.append(" & ".join(top) + r" \\")
-        bottom = [rf"\textbf{{{_tex_escape(h)}}}" for h in table.row_header] + [_header_text(c[-1], "latex") for c in table.columns]
-    else:
-        bottom = [rf"\textbf{{{_tex_escape(h)}}}" for h in table.row_header] + [_header_text(c[0], "latex") if c[0] in [m.md for m in METRICS.values()] else _tex_escape(c[0]) for c in table.columns]
+    bottom = [rf"\textbf{{{_tex_escape(h)}}}" for h in table.row_header] + [_tex_label(c[-1]) for c in table.columns]
     out += [" & ".join(bottom) + r" \\", r"\midrule"]
     prev: tuple = ()
     for r in table.rows:
         if prev and n_lead > 1 and prev[0] != r[0]:
             out.append(r"\midrule")
-        shown = [_header_text(x, "latex") if k == len(r) - 1 and x in [m.md for m in METRICS.values()] else _tex_escape(x)
+        shown = [_tex_label(x) if (k == len(r) - 1 or prev[: k + 1] != r[: k + 1]) else ""
                  for k, x in enumerate(r)]
-        shown = [x if (k == len(r) - 1 or prev[: k + 1] != r[: k + 1]) else "" for k, x in enumerate(shown)]
         prev = r
         cells = []
         for c in table.columns:
@@ -394,6 +425,11 @@ class Entry:
     summary: Any  # DataFrame from metrics.summarize, indexed by category
 
 
+def user_label(run: Run, labels: dict[str, str]) -> str | None:
+    """The label given for ``run`` (by its path as given, resolved, or its folder name)."""
+    return labels.get(str(run.path)) or labels.get(str(run.path.resolve())) or labels.get(run.path.name)
+
+
 def collect(runs: Sequence[Run], group_of: Callable[[Run], str], labels: dict[str, str] | None = None,
             error_of: Callable[[Run], str] = lambda r: "err_deg") -> list[Entry]:
     """Pool the scoring units of runs with the same (group, label) and summarise per category.
@@ -406,10 +442,22 @@ def collect(runs: Sequence[Run], group_of: Callable[[Run], str], labels: dict[st
     from catpose.bench.metrics import summarize
 
     labels = labels or {}
-    pooled: dict[tuple[str, str], list] = {}
+    keyed: dict[tuple[str, str], list[Run]] = {}
     for run in runs:
-        label = labels.get(str(run.path)) or labels.get(run.path.name) or method_label(run)
-        pooled.setdefault((group_of(run), label), []).append(scored_units(run, error_of(run)))
+        label = user_label(run, labels) or method_label(run)
+        keyed.setdefault((group_of(run), label), []).append(run)
+    pooled: dict[tuple[str, str], list] = {}
+    for (group, label), members in keyed.items():
+        cats = [set(r.samples["category"].astype(str)) if len(r.samples) else set() for r in members]
+        disjoint = sum(map(len, cats)) == len(set().union(*cats))
+        same_protocol = len({r.protocol for r in members}) == 1
+        for run in members:
+            # Runs of one label over different categories are pooled (one run per category);
+            # runs that overlap, or differ in protocol, keep their own rows.
+            key = label if disjoint and same_protocol else (
+                f"{label} ({run.protocol})" if not same_protocol and len({r.protocol for r in members}) == len(members)
+                else f"{label} [{run.path.name}]")
+            pooled.setdefault((group, key), []).append(scored_units(run, error_of(run)))
     entries = []
     for (group, label), parts in pooled.items():
         summary = summarize(pd.concat(parts, ignore_index=True)).set_index("category")
@@ -450,35 +498,41 @@ def grid_table(entries: Sequence[Entry], categories: Sequence[str], metrics: Seq
     return t
 
 
-def layout_generic(entries, categories=None, metrics=None, title="Results") -> Table:
+def layout_generic(entries: Sequence[Entry], categories: Sequence[str] | None = None,
+                   metrics: Sequence[str] | None = None, title: str | None = "Results") -> Table:
     cats = _categories(entries, categories) + ([] if categories else ["all"])
     return grid_table(entries, cats, metrics or ["mean", "median", "acc10", "acc30", "trans"], title,
                       grouped=any(e.group not in ("", "-") for e in entries))
 
 
-def layout_optimizer(entries, categories=None, metrics=None, title=None) -> Table:
+def layout_optimizer(entries: Sequence[Entry], categories: Sequence[str] | None = None,
+                     metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
     return grid_table(entries, _categories(entries, categories, ["airplane", "chair", "car"]),
                       metrics or ["mean", "median", "trans"],
                       title or "Partial point cloud registration with the ground-truth complete shape")
 
 
-def layout_one_template(entries, categories=None, metrics=None, title=None) -> Table:
+def layout_one_template(entries: Sequence[Entry], categories: Sequence[str] | None = None,
+                        metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
     return grid_table(entries, _categories(entries, categories, ["airplane"]), metrics or ["mean", "median", "acc10", "acc30", "trans"],
                       title or "Registration with one category-level template (airplane)")
 
 
-def layout_templates(entries, categories=None, metrics=None, title=None) -> Table:
+def layout_templates(entries: Sequence[Entry], categories: Sequence[str] | None = None,
+                     metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
     return grid_table(entries, _categories(entries, categories, ["chair"]), metrics or ["mean", "median", "acc10", "acc30"],
                       title or "Registration with several category-level templates (chair)",
                       group_header="Number of templates")
 
 
-def layout_ablation(entries, categories=None, metrics=None, title=None) -> Table:
+def layout_ablation(entries: Sequence[Entry], categories: Sequence[str] | None = None,
+                    metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
     return grid_table(entries, _categories(entries, categories, ["airplane"]), metrics or ["mean", "median", "acc10"],
                       title or "Registration with and without the pose optimisation (airplane)", group_header="Setting")
 
 
-def layout_real(entries, categories=None, metrics=None, title=None) -> Table:
+def layout_real(entries: Sequence[Entry], categories: Sequence[str] | None = None,
+                metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
     """Rows (category, metric) x one column per method; ranks across methods within a row."""
     cats = _categories(entries, categories, ["airplane", "chair", "car"])
     metrics = metrics or ["mean", "median", "acc10", "acc30"]
@@ -493,7 +547,8 @@ def layout_real(entries, categories=None, metrics=None, title=None) -> Table:
     return t
 
 
-def layout_tyol(entries, categories=None, metrics=None, title=None) -> Table:
+def layout_tyol(entries: Sequence[Entry], categories: Sequence[str] | None = None,
+                metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
     """Rows (method, metric) x one column per category; ranks across methods per column and metric."""
     cats = _categories(entries, categories, ["bottle", "bowl", "can", "plate", "mug"])
     metrics = metrics or ["mean", "median", "acc10", "acc30"]
@@ -544,8 +599,25 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     entries.sort(key=lambda e: (_group_order(e.group), e.group, e.label.startswith("Ours")))
     kwargs = {"title": title} if title else {}
     table = fn(entries, categories=list(categories) if categories else None, metrics=list(metrics) if metrics else None, **kwargs)
+    prune(table)
     if oracle and any(r.protocol == "templates" for r in runs):
         table.notes.append("Errors of templates runs are the minimum across templates (an oracle that needs ground truth).")
+    return table
+
+
+def prune(table: Table) -> Table:
+    """Drop rows, then columns, with no finite value (runs without the shown categories)."""
+    def finite(r, c) -> bool:
+        v = table.cells.get((r, c), (float("nan"), ""))[0]
+        return v is not None and math.isfinite(v)
+
+    rows = [r for r in table.rows if any(finite(r, c) for c in table.columns)]
+    cols = [c for c in table.columns if any(finite(r, c) for r in rows)]
+    if rows and cols:
+        dropped = [r[-1] if len(r) == 1 else " ".join(r) for r in table.rows if r not in rows]
+        table.rows, table.columns = rows, cols
+        if dropped:
+            table.notes.append(f"Without results for these categories: {', '.join(dropped)}.")
     return table
 
 
@@ -564,6 +636,7 @@ def parse_labels(items: Sequence[str]) -> dict[str, str]:
         if not sep or not value:
             raise ConfigError(f"--label {item!r} must be RUN_DIR=LABEL")
         out[str(Path(key))] = value
+        out[str(Path(key).resolve())] = value  # the same run however its path is spelled
     return out
 
 

@@ -10,11 +10,16 @@ clouds (Tatarchenko et al., "What do single-view 3D reconstruction networks lear
 FasterPAM (``kmedoids`` package) picks the K medoids; their instance ids are written to a YAML
 file that a dataset config lists as its templates, e.g.::
 
-    bench templates dataset=modelnet40 dataset.root=/data/ModelNet40 --category chair --k 5 \\
-        --out configs/templates/modelnet40_chair.yaml
+    bench templates dataset=modelnet40 dataset.root=/data/ModelNet40 --category chair --k 5
+
+writes ``configs/templates/modelnet40_chair.yaml`` (or ``--out FILE``).
 
 The YAML holds only ``{category: [instance ids]}`` (the shape of a dataset's ``templates``
-option), with the settings and clusters as comments.
+option) under the Hydra header ``# @package dataset.templates``, with the settings and clusters as
+comments, so the default output (``configs/templates/<dataset>_<category>.yaml``) is a config
+group that merges into the dataset's templates::
+
+    bench run method=ours dataset=modelnet40 protocol=templates +templates=modelnet40_chair
 """
 
 from __future__ import annotations
@@ -114,13 +119,22 @@ def write_templates_yaml(path: str | Path, category: str, result: dict, settings
             raise ConfigError(f"{path} is not a category -> template ids mapping; pass another --out")
         doc = {str(k): v for k, v in old.items()}
     doc[category] = list(result["templates"])
-    lines = ["# Category templates chosen by `bench templates`: K-medoids (FasterPAM) over 1 - F-score@tau",
+    lines = ["# @package dataset.templates",
+             "# Category templates chosen by `bench templates`: K-medoids (FasterPAM) over 1 - F-score@tau",
              f"# between complete canonical clouds. Last run ({category}): "
              + ", ".join(f"{k}={v}" for k, v in settings.items()),
              f"# mean distance to medoid {result['mean_distance']:.4f}; clusters (medoid: members):"]
     lines += [f"#   {m}: {', '.join(members)}" for m, members in result["clusters"].items()]
     path.write_text("\n".join(lines) + "\n" + yaml.safe_dump(doc, sort_keys=True))
     return path
+
+
+def default_output(dataset: str, category: str) -> Path:
+    """``configs/templates/<dataset>_<category>.yaml`` in the installed ``catpose.configs`` (a
+    Hydra group: ``bench run ... protocol=templates +templates=<dataset>_<category>``)."""
+    import catpose.configs
+
+    return Path(catpose.configs.__file__).parent / "templates" / f"{dataset}_{category}.yaml"
 
 
 def _instance_ids(dataset, category: str, split: str | None) -> list[str]:
@@ -168,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
                                f"--k {args.k} needs at least that many (check --category, --split, dataset.root)")
         clouds = {i: dataset.instance_model(args.category, i).points for i in ids}
         result = choose_templates(clouds, args.k, args.tau, args.points, args.seed)
-        out = Path(args.out) if args.out else Path("configs") / "templates" / f"{name}_{args.category}.yaml"
+        out = Path(args.out) if args.out else default_output(name, args.category)
         write_templates_yaml(out, args.category, result, {"dataset": name, "split": args.split, "k": args.k,
                                                           "tau": args.tau, "points": args.points, "seed": args.seed,
                                                           "n_instances": len(ids)})

@@ -6,6 +6,12 @@ degrees of yaw), so category-level ground truth needs a per-instance rotation
 canonical frame. This module reads and writes that table and estimates it by Chamfer distance
 against a reference instance.
 
+The estimate is a heuristic to review, not ground truth: on the six shared ModelNet40 airplanes
+(yaw4 search, 1024 outer-surface points) it put every fuselage on the reference's axis, but the
+nose/tail direction came out 180 degrees off for 2 of 6 with airplane_0003 or airplane_0005 as
+reference and for 4 of 6 with airplane_0001 (a high-wing plane), judged by eye from top views.
+Check the table and edit ``yaw_deg`` where needed.
+
 Table format (CSV with a header): ``category,instance_id`` and either the nine entries
 ``r00,r01,r02,r10,r11,r12,r20,r21,r22`` of ``R_canonical_raw`` (row-major) or ``yaw_deg``
 (a rotation about +z, the up axis). Empty cells mean "not given". Instances missing from the

@@ -28,6 +28,8 @@ class Observation:
             poses can be scored.
         symmetry_axis: (3,) main axis in the object frame if the object is rotationally
             symmetric (scored by main-axis error), else None.
+        symmetries: discrete symmetries of the object, (4, 4) transforms of the object frame
+            that map it onto itself (e.g. BOP ``symmetries_discrete``); scored as equivalent.
         info: facts for the per-sample table (view id, mask source, ...).
     """
 
@@ -40,6 +42,7 @@ class Observation:
     T_object_camera: np.ndarray
     symmetry_axis: np.ndarray | None = None
     info: Mapping[str, Any] = field(default_factory=dict)
+    symmetries: tuple = ()
 
 
 class ObjectDataset(ABC):

@@ -12,8 +12,8 @@ Only frames whose depth image is present are listed. The object's pixels come fr
 ``mask_visib`` when present; otherwise the model is rendered at the ground-truth pose and a
 pixel belongs to the object where the rendered depth matches the measured depth within
 ``depth_tolerance_mm`` (``Observation.info["mask_source"]`` says which). The ground normal is
-the normal of the dominant plane of the background depth (RANSAC, Open3D ``segment_plane``),
-oriented towards the camera, as in the paper.
+the normal of the dominant plane of the background depth (RANSAC as in Open3D's
+``segment_plane``, seeded: :func:`fit_ground_plane`), oriented towards the camera, as in the paper.
 
 Units and frames: the object frame is the BOP model frame rotated by the configured model axes
 (``up`` -> +z, ``forward`` -> +x) and normalised like every shape in catpose (centre at the
@@ -86,26 +86,48 @@ def read_mask_png(path: Path) -> np.ndarray:
 
 def fit_ground_plane(points: np.ndarray, distance: float, iterations: int,
                      seed: int) -> tuple[np.ndarray, float, int]:
-    """Dominant plane ``n . p + d = 0`` of ``points`` (N, 3) by RANSAC (Open3D ``segment_plane``).
+    """Dominant plane ``n . p + d = 0`` of ``points`` (N, 3) by RANSAC, refined by least squares.
+
+    The same three-point RANSAC as Open3D's ``segment_plane``, but run here with a seeded NumPy
+    generator: Open3D's multithreaded version returns slightly different planes from run to run,
+    and observations must be deterministic functions of (seed, id). The best plane's inliers are
+    then refitted by least squares (smallest principal axis).
 
     Returns the unit normal ``n`` (3,) oriented towards the origin (the camera), the offset
     ``d`` >= 0 (so ``n . p + d`` is the height above the plane) and the number of inliers.
     ``distance`` is in the points' unit.
     """
-    from catpose.o3d import o3d
-
-    if len(points) < 3:
+    p = np.asarray(points, np.float64)
+    if len(p) < 3:
         raise DatasetError("too few background points to fit the ground plane")
-    o3d.utility.random.seed(int(seed % (2**31)))
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, np.float64)))
-    (a, b, c, d), inliers = pcd.segment_plane(distance_threshold=float(distance), ransac_n=3,
-                                              num_iterations=int(iterations))
-    n = np.array([a, b, c], float)
-    norm = np.linalg.norm(n)
-    n, d = n / norm, d / norm
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(0, len(p), size=(max(int(iterations), 1), 3))
+    a, b, c = p[idx[:, 0]], p[idx[:, 1]], p[idx[:, 2]]
+    normals = np.cross(b - a, c - a)
+    norms = np.linalg.norm(normals, axis=1)
+    ok = norms > 1e-12 * max(float(np.abs(p).max()), 1.0) ** 2
+    if not ok.any():
+        raise DatasetError("background points are collinear; cannot fit the ground plane")
+    normals, offsets = normals[ok] / norms[ok, None], -np.einsum("ij,ij->i", normals[ok] / norms[ok, None], a[ok])
+    best, best_count = 0, -1
+    for s in range(0, len(normals), 64):
+        counts = (np.abs(p @ normals[s:s + 64].T + offsets[s:s + 64]) < distance).sum(axis=0)
+        k = int(counts.argmax())
+        if counts[k] > best_count:
+            best, best_count = s + k, int(counts[k])
+    n, d = normals[best], offsets[best]
+    for _ in range(2):  # least-squares refinement on the inliers
+        inl = p[np.abs(p @ n + d) < distance]
+        if len(inl) < 3:
+            break
+        centroid = inl.mean(axis=0)
+        n_new = np.linalg.svd(inl - centroid, full_matrices=False)[2][-1]
+        n = n_new if n_new @ n >= 0 else -n_new
+        d = -float(n @ centroid)
+    n_inliers = int((np.abs(p @ n + d) < distance).sum())
     if d < 0:  # the origin must lie on the positive side: n . 0 + d > 0
         n, d = -n, -d
-    return n, float(d), len(inliers)
+    return n, float(d), n_inliers
 
 
 class BOP(ObjectDataset):
@@ -245,6 +267,25 @@ class BOP(ObjectDataset):
         axis = R @ np.asarray(sym[0]["axis"], float)
         return axis / np.linalg.norm(axis)
 
+    def discrete_symmetries(self, obj_id: int) -> tuple[np.ndarray, ...]:
+        """``symmetries_discrete`` of ``models_info.json`` as (4, 4) transforms of the normalised
+        object frame: ``S_object = N S_model N^-1`` with ``N`` the normalisation
+        ``p_object = (R p_model - centre) / scale`` (BOP gives S_model with t in mm)."""
+        info_path = self.root / "models" / "models_info.json"
+        if not info_path.is_file():
+            return ()
+        entries = self._read_json(info_path).get(str(obj_id), {}).get("symmetries_discrete") or []
+        R, centre, scale = self.normalisation(obj_id)
+        N = make_T(R / scale, -centre / scale)
+        N_inv = np.linalg.inv(N)
+        out = []
+        for k, entry in enumerate(entries):
+            S = np.asarray(entry, float).reshape(-1)
+            if S.size != 16 or not np.isfinite(S).all():
+                raise DatasetError(f"{info_path}: symmetries_discrete[{k}] of object {obj_id} is not 16 numbers")
+            out.append(N @ S.reshape(4, 4) @ N_inv)
+        return tuple(out)
+
     @staticmethod
     def _obj_id(instance_id: str) -> int:
         try:
@@ -352,6 +393,7 @@ class BOP(ObjectDataset):
             obs_id=obs_id, category=category, instance_id=f"obj_{obj_id:06d}", points_camera=points,
             normals_camera=normals, ground_normal_camera=ground, T_object_camera=T_object_camera,
             symmetry_axis=self.symmetry_axis(obj_id, category),
+            symmetries=self.discrete_symmetries(obj_id),
             info={"scene_id": scene_id, "im_id": im_id, "gt_idx": gt_idx, "obj_id": obj_id,
                   "mask_source": source, "visible_pixels": n_pix, "ground_inliers": n_inliers,
                   "ground_vs_object_up_deg": ground_err, "scale_mm": scale})

@@ -8,21 +8,22 @@ metres, row by row). A scan's category comes from ``scan_categories``, else from
 index). Intrinsics default to the PrimeSense ones (fx = fy = 525, cx = 319.5, cy = 239.5).
 
 Segmentation: points within ``depth_range`` (metres); the floor is the dominant RANSAC plane
-(Open3D ``segment_plane``), whose normal oriented towards the camera is the ground normal;
+(:func:`catpose.datasets.bop.fit_ground_plane`), whose normal oriented towards the camera is the ground normal;
 the object is what lies between ``min_height`` and ``max_height`` above it, and (when
 ``cluster_eps`` > 0) the DBSCAN cluster with the most points in the central image window
 (the operator points the camera at the object).
 
 Scale: scans are in metres. Points are divided by the object's size ``object_size`` (metres;
-the radius of its bounding sphere), or, when it is None, by the bounding-sphere radius of the
-segmented points of the scan's first listed frame (estimated once per scan, so that all views
+the radius of its bounding sphere), or, when it is None, by the largest distance of the
+segmented points of the scan's first listed frame from their camera-frame bounding-box centre (estimated once per scan, so that all views
 of a scan share one unit). ``Observation.info["scale_m"]`` states the value used.
 
 Ground truth: the object frame of a scan is unknown. ``T_object_camera`` is the trajectory pose
 ``T_world_camera`` (translation divided by the scale) when a trajectory exists and the identity
 otherwise; ``info["absolute_gt"]`` is False and ``info["pose_source"]`` is ``"trajectory"`` or
-``"none"``. Only relative poses between two views (the ``relative`` protocol) are meaningful,
-and only with a trajectory.
+``"none"``; ``info["relative_gt"]`` is True only with a trajectory. Only relative poses between
+two views (the ``relative`` protocol) are meaningful, and only with a trajectory: without one,
+every view has the identity pose and any score against it is meaningless.
 
 Observation ids: ``<category>/<scan>/<frame index:04d>``.
 """
@@ -297,7 +298,8 @@ class Redwood(ObjectDataset):
             obs_id=obs_id, category=category, instance_id=scan, points_camera=points, normals_camera=normals,
             ground_normal_camera=ground, T_object_camera=T, symmetry_axis=self.symmetric.get(category),
             info={"scan": scan, "frame": index, "file": self.frame_files(scan)[index].name,
-                  "absolute_gt": False, "pose_source": "none" if poses is None else "trajectory",
+                  "absolute_gt": False, "relative_gt": poses is not None,
+                  "pose_source": "none" if poses is None else "trajectory",
                   "scale_m": scale, "scale_source": "config" if self.object_size is not None else "first_frame",
                   **facts})
 

@@ -115,8 +115,9 @@ def _wing(root_le: np.ndarray, root_chord: float, tip_le: np.ndarray, tip_chord:
 def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     """Airplane: nose at +x, wings along y, fin up (+z).
 
-    Varies fuselage length/radius, wing span, chord, taper, sweep, dihedral, height and position,
-    tail layout (conventional or T-tail) and fin shape, and the engine count (0, 2 or 4).
+    Varies fuselage length/radius, wing planform (trapezoidal or delta), span, chord, taper,
+    sweep, dihedral, height and position, tail layout (conventional, T-tail, or none for a delta)
+    and fin shape, and the engine count (0, 2 or 4).
     """
     L = rng.uniform(1.6, 2.4)
     r = L * rng.uniform(0.045, 0.075)
@@ -132,11 +133,18 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     fuselage.apply_transform(make_T(axis_angle_to_R(np.array([0.0, 1.0, 0.0]), np.pi / 2), np.zeros(3)))
     parts = [fuselage]
 
-    # main wings
-    half_span = L * rng.uniform(0.4, 0.65)
-    root_chord = L * rng.uniform(0.14, 0.24)
-    tip_chord = root_chord * rng.uniform(0.25, 0.6)
-    sweep = np.deg2rad(rng.uniform(0.0, 38.0))
+    # main wings: trapezoidal (airliner / light aircraft) or delta (fighter: no tailplane, no pods)
+    delta = rng.random() < 0.2
+    if delta:
+        half_span = L * rng.uniform(0.25, 0.38)
+        root_chord = L * rng.uniform(0.38, 0.5)
+        tip_chord = root_chord * rng.uniform(0.05, 0.15)
+        sweep = np.arctan((root_chord - tip_chord) * rng.uniform(0.8, 1.0) / half_span)
+    else:
+        half_span = L * rng.uniform(0.4, 0.65)
+        root_chord = L * rng.uniform(0.14, 0.24)
+        tip_chord = root_chord * rng.uniform(0.25, 0.6)
+        sweep = np.deg2rad(rng.uniform(0.0, 38.0))
     dihedral = np.deg2rad(rng.uniform(-2.0, 8.0))
     z_w = r * rng.uniform(-0.6, 0.5)
     x_le = L * rng.uniform(0.5, 0.66)
@@ -149,7 +157,7 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
                            thick, thick * 0.5))
 
     # engines under the wings: 0, 2 or 4
-    n_eng = int(rng.choice([0, 2, 4], p=[0.25, 0.5, 0.25]))
+    n_eng = 0 if delta else int(rng.choice([0, 2, 4], p=[0.25, 0.5, 0.25]))
     eng_r = r * rng.uniform(0.35, 0.55)
     eng_len = root_chord * rng.uniform(0.6, 0.9)
     stations = [0.35] if n_eng == 2 else ([0.3, 0.6] if n_eng == 4 else [])
@@ -182,7 +190,7 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     else:
         h_le = np.array([0.04 * L + h_chord, 0.0, 0.2 * r])
     h_sweep = h_span * np.tan(sweep * rng.uniform(0.8, 1.2))
-    for s in (1.0, -1.0):
+    for s in (() if delta else (1.0, -1.0)):
         parts.append(_wing(h_le, h_chord, h_le + np.array([-h_sweep, s * h_span, 0.0]), h_chord * 0.5,
                            0.1 * h_chord, 0.05 * h_chord))
     return _finish(parts)

@@ -122,6 +122,14 @@ def _make_cloud(points: np.ndarray, normals: np.ndarray, voxel_size: float, fpfh
     return Cloud(np.asarray(pcd.points).copy(), np.asarray(pcd.normals).copy(), pcd, fpfh, feature)
 
 
+def _lps_cloud(points: np.ndarray, normals: np.ndarray, voxel_size: float) -> Cloud:
+    """The cloud ``ours`` describes with LPS: its own voxel downsampling (first point per voxel)."""
+    from catpose.methods.ours import voxel_downsample
+
+    p, n = voxel_downsample(np.asarray(points, dtype=np.float64), np.asarray(normals, dtype=np.float64), voxel_size)
+    return _select(Cloud(p, n, None), np.arange(len(p)))
+
+
 def _select(cloud: Cloud, idx: np.ndarray) -> Cloud:
     """The sub-cloud ``cloud[idx]`` (no features)."""
     from catpose.o3d import o3d
@@ -154,9 +162,9 @@ class CorrespondenceRegistration(RegistrationMethod):
         fpfh_radius: FPFH neighbourhood radius (typically 5 x voxel_size).
         fpfh_max_nn: FPFH neighbour cap.
         num_keypoints: ``n`` input keypoints for ``lps`` (``2n`` on each target).
-        lps_radius: LPS feature radius (object-normalised).
-        lps_tau: LPS F-score distance threshold (object-normalised).
-        lps_max_points: LPS patch size cap.
+        lps_voxel_size, lps_radius, lps_tau, lps_max_points, lps_parallel_deg: the LPS
+            downsampling and descriptor parameters; keep them equal to ``ours`` (its
+            ``voxel_size``, ``lps_*``) so the affinity is the one ``ours`` starts from.
         refine_icp: refine every candidate with point-to-plane ICP against the complete template.
         icp_max_distance: ICP correspondence distance.
         icp_max_iterations: ICP iterations.
@@ -168,8 +176,9 @@ class CorrespondenceRegistration(RegistrationMethod):
     """
 
     def __init__(self, matching: str = "dictionary", features: str = "fpfh", voxel_size: float = 0.05,
-                 fpfh_radius: float = 0.25, fpfh_max_nn: int = 100, num_keypoints: int = 100,
-                 lps_radius: float = 0.2, lps_tau: float = 0.02, lps_max_points: int = 128,
+                 fpfh_radius: float = 0.25, fpfh_max_nn: int = 100, num_keypoints: int = 32,
+                 lps_voxel_size: float = 0.025, lps_radius: float = 0.2, lps_tau: float = 0.03,
+                 lps_max_points: int = 96, lps_parallel_deg: float = 10.0,
                  refine_icp: bool = False, icp_max_distance: float = 0.1,
                  icp_max_iterations: int = 30, dictionary_num_views: int = 18,
                  dictionary_layout: str = "rings",
@@ -180,7 +189,7 @@ class CorrespondenceRegistration(RegistrationMethod):
             raise ConfigError(f"matching={matching!r} is unknown; use one of {list(MATCHINGS)}")
         if features not in FEATURES:
             raise ConfigError(f"features={features!r} is unknown; use one of {list(FEATURES)}")
-        for name, value in (("voxel_size", voxel_size),):
+        for name, value in (("voxel_size", voxel_size), ("lps_voxel_size", lps_voxel_size)):
             if not value >= 0:
                 raise ConfigError(f"{name}={value} must be >= 0 (object-normalised units)")
         for name, value in (("fpfh_radius", fpfh_radius), ("lps_radius", lps_radius), ("lps_tau", lps_tau),
@@ -198,6 +207,8 @@ class CorrespondenceRegistration(RegistrationMethod):
         self.num_keypoints = int(num_keypoints)
         self.lps_radius = float(lps_radius)
         self.lps_tau = float(lps_tau)
+        self.lps_voxel_size = float(lps_voxel_size)
+        self.lps_parallel_deg = float(lps_parallel_deg)
         self.lps_max_points = int(lps_max_points)
         self.refine_icp = bool(refine_icp)
         self.icp_max_distance = float(icp_max_distance)
@@ -226,6 +237,7 @@ class CorrespondenceRegistration(RegistrationMethod):
 
         key = (_template_hash(template), self.matching, self.features, self.voxel_size, self.fpfh_radius,
                self.fpfh_max_nn, self.num_keypoints, self.lps_radius, self.lps_tau, self.lps_max_points,
+               self.lps_voxel_size, self.lps_parallel_deg,
                tuple(sorted(self.dictionary_kwargs.items())))
         hit = _TARGET_CACHE.get(key)
         if hit is not None:
@@ -235,13 +247,19 @@ class CorrespondenceRegistration(RegistrationMethod):
         complete = _make_cloud(template.points, template.normals, self.voxel_size, self.fpfh_radius,
                                self.fpfh_max_nn, with_fpfh and direct)
         if direct:
-            targets = [complete]
+            parts = [(template.points, template.normals)]
         else:
             from catpose.methods.dictionary import get_dictionary
 
             d = get_dictionary(template, **self.dictionary_kwargs)
-            targets = [_make_cloud(p, n, self.voxel_size, self.fpfh_radius, self.fpfh_max_nn, with_fpfh)
-                       for p, n in zip(d.points, d.normals)]
+            parts = list(zip(d.points, d.normals))
+        if not with_fpfh:
+            targets = [_lps_cloud(p, n, self.lps_voxel_size) for p, n in parts]
+        elif direct:
+            targets = [complete]
+        else:
+            targets = [_make_cloud(p, n, self.voxel_size, self.fpfh_radius, self.fpfh_max_nn, True)
+                       for p, n in parts]
         data = {"complete": complete, "tree": cKDTree(template.points), "targets": targets,
                 "lps_cache": {}}
         if len(_TARGET_CACHE) >= _TARGET_CACHE_MAX:
@@ -255,7 +273,8 @@ class CorrespondenceRegistration(RegistrationMethod):
         from catpose.methods.keypoints import farthest_point_indices
 
         idx = farthest_point_indices(cloud.points, k)
-        patches = lps.lps_patches(cloud.points, cloud.normals, idx, up, self.lps_radius, self.lps_max_points)
+        patches = lps.lps_patches(cloud.points, cloud.normals, idx, up, self.lps_radius, self.lps_max_points,
+                                  self.lps_parallel_deg)
         return idx, lps.voxelize(patches, self.lps_radius, self.lps_tau)
 
     def _lps_match(self, source: Cloud, source_kp: tuple[np.ndarray, Any], target: Cloud, up_target: np.ndarray,
@@ -296,28 +315,38 @@ class CorrespondenceRegistration(RegistrationMethod):
         data = self._targets(problem.template)
         source = _make_cloud(problem.points_camera, problem.normals_camera, self.voxel_size, self.fpfh_radius,
                              self.fpfh_max_nn, self.features == "fpfh")
-        t_prep = time.perf_counter() - t_start
-        source_kp = (self._lps_keypoints(source, problem.ground_normal_camera, self.num_keypoints)
-                     if self.features == "lps" else None)
+        if self.features == "lps":
+            lps_source = _lps_cloud(problem.points_camera, problem.normals_camera, self.lps_voxel_size)
+            source_kp = self._lps_keypoints(lps_source, problem.ground_normal_camera, self.num_keypoints)
+        stages = {"prepare_s": time.perf_counter() - t_start, "match_s": 0.0, "estimate_s": 0.0,
+                  "refine_s": 0.0, "select_s": 0.0}
         candidates = []
         for i, target in enumerate(data["targets"]):
             seed = stable_seed(self.seed, problem.sample_id, i)
+            t0 = time.perf_counter()
             if self.features == "lps":
-                src_k, tgt_k, corr = self._lps_match(source, source_kp, target, problem.template.up,
+                src_k, tgt_k, corr = self._lps_match(lps_source, source_kp, target, problem.template.up,
                                                      data["lps_cache"], i)
                 match = MatchInput(src_k, tgt_k, corr, seed)
             else:
                 match = MatchInput(source, target, None, seed)
+            t1 = time.perf_counter()
             o3d.utility.random.seed(seed % (2**31))  # FGR's tuple sampling and RANSAC draw from it
             T, info = self._estimate(match)
+            t2 = time.perf_counter()
             if self.refine_icp:
                 T = self._refine(source, data["complete"], T)
+            t3 = time.perf_counter()
             cd = one_directional_chamfer(transform_points(T, source.points), data["tree"])
+            stages["match_s"] += t1 - t0
+            stages["estimate_s"] += t2 - t1
+            stages["refine_s"] += t3 - t2
+            stages["select_s"] += time.perf_counter() - t3
             candidates.append((cd, T, info))
         best = int(np.argmin([c[0] for c in candidates]))
         cd, T, info = candidates[best]
         extras = {"matching": self.matching, "features": self.features, "chosen_index": best,
                   "num_candidates": len(candidates), "candidate_chamfer": [float(c[0]) for c in candidates],
-                  "num_source_points": int(len(source.points)), "prepare_s": t_prep,
+                  "num_source_points": int(len(source.points)), **stages,
                   "total_s": time.perf_counter() - t_start, **info}
         return RegistrationResult(T_target_source=T, score=cd, extras=extras)

@@ -123,7 +123,7 @@ class Ours(RegistrationMethod):
                  optimize: str = "joint", steps_pose: int = 300, steps_joint: int = 300, lr: float = 1e-2,
                  chamfer_weight: float = 0.0, chamfer_points: int = 256,
                  selection: str = "loss", gravity_max_deg: float | None = None,
-                 refine: bool = False, refine_max_distance: float = 0.05, refine_iterations: int = 30,
+                 refine: bool = True, refine_max_distance: float = 0.05, refine_iterations: int = 30,
                  device: str = "cpu", num_threads: int = 1, seed: int = 0) -> None:
         checks = {"descriptor": (descriptor, ("lps", "pfh")), "optimize": (optimize, ("joint", "pose", "none")),
                   "selection": (selection, ("loss", "chamfer")), "lps_fscore": (lps_fscore, ("voxel", "exact")),

@@ -52,7 +52,7 @@ def easy():
 
 @pytest.mark.parametrize("cls_path,kwargs", [
     ("catpose.methods.fgr.FGR", dict(matching="dictionary", features="fpfh")),
-    ("catpose.methods.ransac.RANSAC", dict(matching="dictionary", features="fpfh")),
+    ("catpose.methods.ransac.RANSAC", dict(matching="dictionary", features="fpfh", max_iteration=20000)),
     ("catpose.methods.teaser.TEASER", dict(matching="dictionary", features="fpfh")),
 ])
 def test_recovers_known_pose(easy, cls_path: str, kwargs: dict) -> None:
@@ -123,6 +123,7 @@ def test_dictionary_is_shared_with_ours(monkeypatch, tmp_path) -> None:
     ("catpose.methods.teaser.TEASER", dict(noise_bound=-0.1), "noise_bound=-0.1"),
     ("catpose.methods.teaser.TEASER", dict(noise_bound=0.0), "noise_bound=0.0"),
     ("catpose.methods.fgr.FGR", dict(voxel_size=-1.0), "voxel_size"),
+    ("catpose.methods.fgr.FGR", dict(lps_tau=0.0), "lps_tau"),
     ("catpose.methods.fgr.FGR", dict(division_factor=0.5), "division_factor"),
     ("catpose.methods.ransac.RANSAC", dict(confidence=2.0), "confidence"),
     ("catpose.methods.teaser.TEASER", dict(matching="dictionary", dictionary_num_views=17), "num_views=17"),
@@ -165,8 +166,37 @@ def test_configs_instantiate(name: str) -> None:
                 try:
                     import teaserpp_python  # noqa: F401
                 except ImportError:
-                    with pytest.raises(ConfigError):
+                    with pytest.raises(Exception) as info:  # Hydra wraps the constructor's error
                         instantiate(d, _convert_="all")
+                    assert isinstance(info.value.__cause__ or info.value, ConfigError)
                     continue
             method = instantiate(d, _convert_="all")
             assert method.matching == matching and method.features == features and method.seed == 3
+
+
+def test_lps_pairs_are_the_top1_of_ours_affinity(easy) -> None:
+    """features=lps uses exactly ``ours``' keypoints and LPS affinity (argmax per input keypoint)."""
+    from scipy.spatial import cKDTree
+
+    from catpose.methods.correspondence import _lps_cloud
+    from catpose.methods.dictionary import get_dictionary
+    from catpose.methods.keypoints import farthest_point_indices
+    from catpose.methods.ours import Ours, voxel_downsample
+    from catpose.methods.teaser import TEASER
+
+    problem, _ = easy
+    ours = Ours()  # defaults; the baseline defaults mirror them
+    feats = ours.template_features(problem.template, get_dictionary(problem.template, **ours.dict_args))
+    pts, nrm = voxel_downsample(problem.points_camera, problem.normals_camera, ours.voxel_size)
+    kp = farthest_point_indices(pts, ours.num_keypoints)
+    A = ours._affinity(ours._describe(pts, nrm, kp, problem.ground_normal_camera, cKDTree(pts)), feats)
+
+    method = TEASER(matching="dictionary", features="lps")
+    data = method._targets(problem.template)
+    source = _lps_cloud(problem.points_camera, problem.normals_camera, method.lps_voxel_size)
+    source_kp = method._lps_keypoints(source, problem.ground_normal_camera, method.num_keypoints)
+    for i, target in enumerate(data["targets"]):
+        src_k, tgt_k, corr = method._lps_match(source, source_kp, target, problem.template.up,
+                                               data["lps_cache"], i)
+        np.testing.assert_allclose(src_k.points[corr[:, 0]], pts[kp])
+        np.testing.assert_allclose(tgt_k.points[corr[:, 1]], feats.keypoints[i][np.argmax(A[i], axis=1)])

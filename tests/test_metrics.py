@@ -90,3 +90,14 @@ def test_summarize_counts_failed_as_180_and_reports_them():
     assert s.loc["a", "mean_trans_err"] == pytest.approx(0.2)  # failed rows have no translation
     assert s.loc["a", "median_runtime_s"] == pytest.approx(2.0)
     assert s.loc["all", "n"] == 4 and s.loc["all", "mean_err_deg"] == pytest.approx((5 + 20 + 180 + 40) / 4)
+
+
+def test_discrete_symmetry_takes_the_closest_equivalent_pose():
+    T_gt = make_T(Rx(30), [0.1, 0.2, 3.0])
+    flip = make_T(Rz(180), np.zeros(3))  # a basket with a 2-fold symmetry about z
+    T_est = flip @ T_gt
+    assert sample_errors(T_est, T_gt)["err_deg"] == pytest.approx(180.0)
+    e = sample_errors(T_est, T_gt, None, [flip])
+    assert e["err_deg"] == pytest.approx(0.0, abs=1e-6) and e["trans_err"] == pytest.approx(0.0, abs=1e-9)
+    e = sample_errors(make_T(Rz(10), np.zeros(3)) @ T_est, T_gt, None, [flip])
+    assert e["err_deg"] == pytest.approx(10.0)

@@ -18,7 +18,7 @@ from catpose.geometry import axis_angle_to_R, make_T, random_rotation
 def _rows(info_fn=lambda i: {}) -> list[dict]:
     rng = np.random.default_rng(0)
     rows = []
-    for i, (cat, err) in enumerate([("mug", 5.0), ("mug", 25.0), ("can", 70.0), ("can", None)]):
+    for i, (cat, err) in enumerate([("mug", 5.0), ("mug", 25.0), ("can", None), ("can", 70.0)]):
         T_gt = make_T(random_rotation(rng), rng.normal(size=3) + [0, 0, 3])
         row = {"sample_id": f"{cat}/i{i}/v0", "group_id": f"{cat}/i{i}/v0", "obs_id": f"{cat}/i{i}/v0",
                "category": cat, "instance_id": f"i{i}", "template_id": "own", "method": "ours", "dataset": "toy",
@@ -51,17 +51,18 @@ def test_bop_round_trip(tmp_path: Path, bop_info: bool):
     fields = lines[1].split(",")
     assert len(fields[4].split()) == 9 and len(fields[5].split()) == 3 and float(fields[6]) == pytest.approx(0.25)
     mapping = pd.read_csv(str(out) + ".map.csv")
-    assert list(mapping["sample_id"]) == ["mug/i0/v0", "mug/i1/v0", "can/i2/v0"]
+    assert list(mapping["sample_id"]) == ["mug/i0/v0", "mug/i1/v0", "can/i3/v0"]
     if bop_info:
-        assert list(mapping["im_id"]) == [10, 11, 12]
+        assert list(mapping["im_id"]) == [10, 11, 13]
     else:  # documented mapping: obj_id = sorted category index, scene_id = instance index
         assert list(mapping["obj_id"]) == [2, 2, 1] and list(mapping["im_id"]) == [0, 0, 0]
+        assert list(mapping["scene_id"]) == [1, 2, 2]  # can/i3 is the 2nd can instance (i2 failed)
     scored = tmp_path / "scored"
     assert predictions.score_main([str(out), "--gt", str(run), "--method", "ours_again", "--out", str(scored)]) == 0
     back = [json.loads(x) for x in (scored / "samples.jsonl").read_text().splitlines()]
     errs = {r["sample_id"]: r["err_deg"] for r in back}
-    assert errs["mug/i0/v0"] == pytest.approx(5.0, abs=1e-3) and errs["can/i2/v0"] == pytest.approx(70.0, abs=1e-3)
-    assert errs["can/i3/v0"] == 180.0 and back[3]["error"] == "no prediction"
+    assert errs["mug/i0/v0"] == pytest.approx(5.0, abs=1e-3) and errs["can/i3/v0"] == pytest.approx(70.0, abs=1e-3)
+    assert errs["can/i2/v0"] == 180.0 and back[2]["error"] == "no prediction"
     trans = {r["sample_id"]: r["trans_err"] for r in back if r["status"] == "ok"}
     from catpose.bench.metrics import sample_errors
 
@@ -71,6 +72,12 @@ def test_bop_round_trip(tmp_path: Path, bop_info: bool):
     summary = pd.read_csv(scored / "summary.csv").set_index("category")
     assert summary.loc["mug", "mean_err_deg"] == pytest.approx(15.0, abs=1e-3)
     assert json.loads((scored / "run.json").read_text())["method"] == "ours_again"
+    # without the .map.csv the ids are derived from the ground-truth rows: same result
+    Path(str(out) + ".map.csv").unlink()
+    again = tmp_path / "scored2"
+    assert predictions.score_main([str(out), "--gt", str(run), "--method", "m", "--out", str(again)]) == 0
+    errs2 = {json.loads(x)["sample_id"]: json.loads(x)["err_deg"] for x in (again / "samples.jsonl").read_text().splitlines()}
+    assert errs2 == pytest.approx(errs, abs=1e-9)
 
 
 def test_per_sample_csv_and_best_score(tmp_path: Path):
@@ -118,3 +125,51 @@ def test_bop_export_matches_bop_pose_convention(tmp_path: Path):
     assert (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"])) == (1, 2, 3)
     np.testing.assert_allclose(p["T"][:3, :3], R_cm, atol=1e-6)
     np.testing.assert_allclose(p["T"][:3, 3], t_cm, atol=1e-4)
+
+
+def test_score_against_dataset_config(tmp_path: Path):
+    """Ground truth rebuilt from configs/dataset + configs/protocol (no run directory needed)."""
+    from catpose.datasets.synthetic import SyntheticDataset
+
+    ds = SyntheticDataset(seed=0, categories=["mug"], instances_per_category=1, views_per_instance=2)
+    lines = ["sample_id,R,t"]
+    for k, obs_id in enumerate(ds.observation_ids()):
+        T = np.asarray(ds.observation(obs_id).T_object_camera, float)
+        T = make_T(axis_angle_to_R(np.array([1.0, 0, 0]), np.radians(7.0 * k)), np.zeros(3)) @ T
+        lines.append(f"{obs_id},{' '.join(f'{x:.12g}' for x in T[:3, :3].ravel())},{' '.join(f'{x:.12g}' for x in T[:3, 3])}")
+    (tmp_path / "p.csv").write_text("\n".join(lines) + "\n")
+    out = tmp_path / "scored"
+    rc = predictions.score_main([str(tmp_path / "p.csv"), "--dataset", "synthetic", "--protocol", "gt_model",
+                                 "--override", "dataset.categories=[mug]", "--override", "dataset.instances_per_category=1",
+                                 "--override", "dataset.views_per_instance=2", "--method", "ext", "--out", str(out)])
+    assert rc == 0
+    rows = [json.loads(x) for x in (out / "samples.jsonl").read_text().splitlines()]
+    assert [r["status"] for r in rows] == ["ok", "ok"]
+    assert rows[0]["err_deg"] == pytest.approx(0.0, abs=1e-3) and rows[1]["err_deg"] == pytest.approx(7.0, abs=1e-3)
+
+
+@pytest.mark.data
+def test_bop_export_reproduces_scene_gt_on_real_tyol_frame(shared_data: Path, tmp_path: Path):
+    """Exporting the ground truth of the shared TYO-L frame gives back BOP's own cam_R_m2c / cam_t_m2c."""
+    from catpose.bench.protocols import GtModel
+    from catpose.datasets.bop import BOP
+
+    root = shared_data / "bop" / "tyol"
+    ds = BOP(root=str(root), categories={19: "basket"}, templates={"basket": ["obj_000019"]})
+    obs_id = ds.observation_ids()[0]
+    sample = GtModel().load(ds, obs_id)
+    info = dict(sample.info)
+    R_om, centre, scale = ds.normalisation(int(info["obj_id"]))
+    info.setdefault("centre_mm", np.asarray(centre).tolist())
+    info.setdefault("R_object_model", np.asarray(R_om).ravel().tolist())
+    T = np.asarray(sample.gt.T_template_camera, float)
+    row = {"sample_id": obs_id, "group_id": obs_id, "obs_id": obs_id, "category": "basket", "instance_id": "obj_000019",
+           "status": "ok", "error": "", "err_deg": 0.0, "T_est": T.reshape(-1).tolist(), "T_gt": T.reshape(-1).tolist(),
+           "symmetry_axis": None, "score": None, "runtime_s": 1.0, "info": info}
+    run = write_run(tmp_path / "run", [row], CFG)
+    export_bop(run, tmp_path / "b.csv")
+    p = read_predictions(tmp_path / "b.csv").iloc[0]
+    gt = json.loads((root / "test" / f"{int(info['scene_id']):06d}" / "scene_gt.json").read_text())
+    entry = gt[str(int(info["im_id"]))][int(info["gt_idx"])]
+    np.testing.assert_allclose(p["T"][:3, :3], np.reshape(entry["cam_R_m2c"], (3, 3)), atol=1e-5)
+    np.testing.assert_allclose(p["T"][:3, 3], np.asarray(entry["cam_t_m2c"], float), atol=1e-2)

@@ -77,6 +77,10 @@ def test_score_units_pairs_and_failures():
     assert units.loc["chair/a/v0~chair/a/v1", "runtime_s"] == pytest.approx(1.0)
     all_pairs = Relative(template_source="own", pairs="all", max_pairs_per_instance=2).score_units(df)
     assert len(all_pairs) == 3  # 2 kept of instance a's 3, and b's single pair
+    # a view that failed to load has no instance id: recovered from its id, its pair fails
+    df.loc[df["obs_id"] == "chair/b/v0", "instance_id"] = None
+    units = Relative(template_source="own").score_units(df).set_index("sample_id")
+    assert units.loc["chair/b/v0~chair/b/v1", "status"] == "failed"
 
 
 def test_score_units_category_templates_picks_lowest_score():
@@ -142,3 +146,26 @@ def test_config_instantiates(repo_root: Path):
     assert isinstance(proto, Relative) and proto.pairs == "consecutive"
     with pytest.raises(ConfigError):
         Relative(template_source="nearest")
+
+
+def test_runner_end_to_end(tmp_path: Path):
+    """The runner writes per-view rows; the summary counts view pairs of each instance."""
+    from hydra import compose, initialize_config_module
+
+    from catpose.bench.runner import run
+
+    overrides = ["method=icp", "method.num_starts=2", "dataset=synthetic", "dataset.categories=[car]",
+                 "dataset.instances_per_category=1", "dataset.views_per_instance=3", "protocol=relative",
+                 "protocol.template_source=own", "protocol.pairs=all", f"output_root={tmp_path}", "progress=false",
+                 "print_summary=false"]
+    with initialize_config_module("catpose.configs", version_base=None):
+        cfg = compose("run", overrides=overrides)
+    run_dir = run(cfg, overrides)
+    summary = pd.read_csv(run_dir / "summary.csv").set_index("category")
+    assert summary.loc["car", "n"] == 3  # pairs (v00, v01), (v00, v02), (v01, v02)
+    from catpose.bench.tables import load_run, scored_units
+
+    units = scored_units(load_run(run_dir))
+    assert sorted(units["sample_id"]) == ["car/000/v00~car/000/v01", "car/000/v00~car/000/v02",
+                                          "car/000/v01~car/000/v02"]
+    assert np.isfinite(units["err_deg"]).all()

@@ -59,7 +59,9 @@ def runs(tmp_path: Path) -> list[Path]:
 
 
 def test_golden_statistics(runs):
+    """Statistics recomputed from the frozen poses (the stored err_deg is not trusted)."""
     run = tables.load_run(runs[0])
+    assert run.samples["err_deg"].tolist()[:4] == pytest.approx([1, 2, 3, 40], abs=1e-4)
     entries = tables.collect([run], tables.pipeline_label)
     s = entries[0].summary
     assert entries[0].group == "Dictionary LPS" and entries[0].label == "Ours"
@@ -86,7 +88,8 @@ def test_optimizer_layout_marks_best_and_second(runs):
     assert r"\textbf{11.500}" in tex and r"\underline{25.000}" in tex and r"\multicolumn{3}{c}{Airplane}" in tex
     csv = tables.to_csv(t).splitlines()
     assert csv[0].startswith("Pipeline / Descriptor,Methods,Airplane/Mean° ↓")
-    assert csv[3].startswith("Dictionary LPS,Ours,11.5")
+    fields = csv[3].split(",")
+    assert fields[:2] == ["Dictionary LPS", "Ours"] and float(fields[2]) == pytest.approx(11.5, abs=1e-6)
 
 
 def test_higher_is_better_columns(runs):
@@ -121,9 +124,10 @@ def test_templates_layout_uses_oracle(tmp_path: Path):
 
 def test_ablation_labels(tmp_path: Path):
     a = make_run(tmp_path, "full", {"airplane": [1.0]}, {"name": "ours", "optimize": True})
-    b = make_run(tmp_path, "svd", {"airplane": [9.0]}, {"name": "ours", "optimize": False})
+    b = make_run(tmp_path, "svd", {"airplane": [9.0]}, {"name": "ours", "optimize": "none"})
     t = tables.build_table([tables.load_run(a), tables.load_run(b)], "ablation")
     assert [r[1] for r in t.rows] == ["Ours", "Ours (w/o optimization)"]
+    assert t.rows[0][0] == "gt_model Dictionary"  # ours always matches against the dictionary
 
 
 def test_cli_writes_file_and_user_labels(runs, tmp_path: Path, capsys):
@@ -144,3 +148,22 @@ def test_bad_jsonl_line_is_reported(tmp_path: Path):
     (tmp_path / "samples.jsonl").write_text('{"sample_id": "a"}\n{oops\n')
     with pytest.raises(DatasetError, match="samples.jsonl:2"):
         tables.load_run(tmp_path)
+
+
+def test_rows_without_shown_categories_are_dropped(runs, tmp_path: Path):
+    only_car = make_run(tmp_path, "car_only", {"car": [3.0]}, {"name": "teaser"})
+    t = tables.build_table([tables.load_run(p) for p in [*runs, only_car]], "optimizer", categories=["airplane"])
+    assert ("-", "Teaser++") not in t.rows and len(t.rows) == 3
+    assert any("Teaser++" in n for n in t.notes)
+
+
+def test_errors_come_from_poses_not_stored_numbers(runs):
+    import json
+
+    path = runs[0] / "samples.jsonl"
+    rows = [json.loads(x) for x in path.read_text().splitlines()]
+    for r in rows:
+        r["err_deg"] = 999.0 if r["status"] == "ok" else r["err_deg"]
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    s = tables.load_run(runs[0]).samples
+    assert s.loc[s["status"] == "ok", "err_deg"].max() < 100.0

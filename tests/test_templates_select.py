@@ -83,3 +83,27 @@ def test_cli_on_synthetic_dataset(tmp_path: Path):
     assert rc == 0
     doc = yaml.safe_load(out.read_text())
     assert list(doc) == ["mug"] and len(doc["mug"]) == 2
+
+
+@pytest.mark.data
+def test_cli_on_shared_modelnet40_airplanes(shared_data: Path, tmp_path: Path):
+    out = tmp_path / "airplane.yaml"
+    rc = ts.main(["dataset=modelnet40", f"dataset.root={shared_data / 'ModelNet40'}", "--category", "airplane",
+                  "--k", "2", "--points", "512", "--out", str(out)])
+    assert rc == 0
+    chosen = yaml.safe_load(out.read_text())["airplane"]
+    assert len(set(chosen)) == 2 and all(c.startswith("airplane_000") for c in chosen)
+
+
+def test_written_file_is_a_hydra_group_for_dataset_templates(tmp_path: Path):
+    from hydra import compose, initialize_config_module
+
+    result = {"templates": ["chair_0002", "chair_0001"], "clusters": {"chair_0002": ["chair_0002"],
+                                                                      "chair_0001": ["chair_0001"]},
+              "mean_distance": 0.0}
+    ts.write_templates_yaml(tmp_path / "templates" / "mn_chair.yaml", "chair", result, {"k": 2})
+    with initialize_config_module("catpose.configs", version_base=None):
+        cfg = compose("run", overrides=["dataset=modelnet40", "+templates=mn_chair",
+                                        f"hydra.searchpath=[file://{tmp_path}]"])
+    assert list(cfg.dataset.templates.chair) == ["chair_0002", "chair_0001"]
+    assert ts.default_output("modelnet40", "chair").parts[-2:] == ("templates", "modelnet40_chair.yaml")

@@ -152,10 +152,14 @@ class GroundTruth:
         T_template_camera: (4, 4) true pose of the camera in the template frame.
         symmetry_axis: (3,) main axis in the template frame for rotationally symmetric
             objects (scored by main-axis error), else None.
+        symmetries: discrete symmetries, (4, 4) transforms ``S`` of the template frame that
+            map the object onto itself (BOP ``symmetries_discrete``); ``S @ T_template_camera``
+            is as correct as ``T_template_camera`` and the error is the minimum over them.
     """
 
     T_template_camera: np.ndarray
     symmetry_axis: np.ndarray | None = None
+    symmetries: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)

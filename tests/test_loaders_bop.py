@@ -1,0 +1,227 @@
+"""BOP loader on a scene rendered here (a box and a cylinder on a table, written as a 16-bit mm
+depth PNG with scene_gt/scene_camera/models_info JSON files) and on the shared TYO-L frame."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from catpose.datasets.bop import BOP, fit_ground_plane
+from catpose.datasets.render import PinholeCamera, render_depth
+from catpose.errors import DatasetError
+from catpose.geometry import invert_T, look_at_T_camera_world, make_T, transform_points
+
+CAMERA = PinholeCamera(320, 240, 300.0, 300.0, 159.5, 119.5)
+BOX = (100.0, 60.0, 40.0)  # mm; obj 1 stands on z = 0 of its model frame
+CYL_AT = np.array([150.0, 0.0, 0.0])  # obj 2 (cylinder, radius 30, height 80) placement on the table
+T_CAMERA_WORLD = look_at_T_camera_world(np.array([350.0, -450.0, 500.0]), np.array([60.0, 0.0, 20.0]),
+                                        np.array([0.0, 0.0, 1.0]))
+
+
+def models() -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    import trimesh
+
+    box = trimesh.creation.box(extents=BOX)
+    box.apply_translation([0, 0, BOX[2] / 2])
+    cyl = trimesh.creation.cylinder(radius=30.0, height=80.0, sections=48)
+    cyl.apply_translation([0, 0, 40.0])
+    return {1: (np.asarray(box.vertices), np.asarray(box.faces)),
+            2: (np.asarray(cyl.vertices), np.asarray(cyl.faces))}
+
+
+def T_camera_model(obj_id: int) -> np.ndarray:
+    return T_CAMERA_WORLD @ make_T(np.eye(3), CYL_AT if obj_id == 2 else np.zeros(3))
+
+
+def write_png16(path: Path, depth_mm: np.ndarray) -> None:
+    from PIL import Image
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(np.round(depth_mm).astype(np.uint16)).save(path)
+
+
+@pytest.fixture()
+def bop_root(tmp_path) -> Path:
+    import trimesh
+
+    root = tmp_path / "bop"
+    (root / "models").mkdir(parents=True)
+    ms = models()
+    for obj_id, (v, f) in ms.items():
+        trimesh.Trimesh(v, f, process=False).export(root / "models" / f"obj_{obj_id:06d}.ply")
+    shutil.copy(root / "models/obj_000001.ply", root / "models/obj_000003.ply")
+    (root / "models/models_info.json").write_text(json.dumps({
+        "1": {"diameter": 124.0}, "2": {"diameter": 100.0, "symmetries_continuous": [{"axis": [0, 0, 1], "offset": [0, 0, 0]}]},
+        "3": {"diameter": 124.0}}))
+    # the scene: a 2 m table at z = 0 with both objects on it
+    table_v = np.array([[-1000, -1000, 0], [1000, -1000, 0], [1000, 1000, 0], [-1000, 1000, 0]], float)
+    parts = [(table_v, np.array([[0, 1, 2], [0, 2, 3]]))] + [
+        (transform_points(make_T(np.eye(3), CYL_AT if k == 2 else np.zeros(3)), v), f) for k, (v, f) in ms.items()]
+    verts, tris, off = [], [], 0
+    for v, f in parts:
+        verts.append(v)
+        tris.append(f + off)
+        off += len(v)
+    depth = render_depth(np.concatenate(verts), np.concatenate(tris), T_CAMERA_WORLD, CAMERA)
+    scene = root / "test" / "000001"
+    write_png16(scene / "depth" / "000000.png", depth)
+
+    def gt(obj_id: int, T: np.ndarray) -> dict:
+        return {"obj_id": obj_id, "cam_R_m2c": T[:3, :3].ravel().tolist(), "cam_t_m2c": T[:3, 3].tolist()}
+
+    far = make_T(np.eye(3), [5000.0, 0.0, 1000.0])  # obj 3: outside the image
+    (scene / "scene_gt.json").write_text(json.dumps({
+        "0": [gt(1, T_camera_model(1)), gt(2, T_camera_model(2)), gt(3, far), gt(4, T_camera_model(1))],
+        "1": [gt(1, T_camera_model(1))]}))  # image 1 has no depth file: not listed
+    cam = {"cam_K": CAMERA.K.ravel().tolist(), "depth_scale": 1.0}
+    (scene / "scene_camera.json").write_text(json.dumps({"0": cam, "1": cam}))
+    return root
+
+
+CATS = {1: "box", 2: "can", 3: "box"}
+
+
+def test_ground_plane_fit_is_exact_on_a_plane_with_clutter_and_deterministic():
+    rng = np.random.default_rng(0)
+    up = np.array([0.2, -0.9, -0.3])
+    up /= np.linalg.norm(up)
+    e1 = np.cross(up, [1.0, 0, 0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(up, e1)
+    origin = -2.0 * up  # the plane lies 2 units from the camera, which sees it from the +up side
+    plane = origin + rng.uniform(-1, 1, (3000, 1)) * e1 + rng.uniform(-1, 1, (3000, 1)) * e2
+    clutter = rng.uniform(-1, 1, (1500, 3))
+    pts = np.concatenate([plane, clutter])
+    n, d, count = fit_ground_plane(pts, 0.01, 200, seed=5)
+    np.testing.assert_allclose(n, up, atol=1e-9)
+    assert d == pytest.approx(2.0) and 3000 <= count < 3100
+    n2, d2, _ = fit_ground_plane(pts, 0.01, 200, seed=5)
+    np.testing.assert_array_equal(n, n2)
+
+
+def test_ids_skip_unlisted_objects_and_missing_frames(bop_root):
+    ds = BOP(str(bop_root), categories=CATS)
+    assert ds.observation_ids() == ["box/000001/000000/0", "can/000001/000000/1", "box/000001/000000/2"]
+    everything = BOP(str(bop_root))
+    assert everything.observation_ids()[-1] == "obj_000004/000001/000000/3"
+
+
+def test_rendered_frame_round_trips_the_ground_truth_pose(bop_root):
+    ds = BOP(str(bop_root), categories=CATS, max_points=0)
+    obs = ds.observation("box/000001/000000/0")
+    assert obs.info["mask_source"] == "render" and obs.instance_id == "obj_000001"
+    R_obj_model, centre, scale = ds.normalisation(1)
+    np.testing.assert_allclose(centre, [0, 0, 20.0], atol=1e-9)
+    np.testing.assert_allclose(scale, np.linalg.norm(np.asarray(BOX) / 2), rtol=1e-9)
+    # independent expectation: object frame = model frame shifted by -centre and divided by scale
+    T_object_model = make_T(R_obj_model, -centre) / 1.0
+    T_object_model[:3] /= scale
+    T_object_model[3] = [0, 0, 0, 1]
+    S = np.diag([scale, scale, scale, 1.0])  # normalised camera points -> mm
+    expected = T_object_model @ invert_T(T_camera_model(1)) @ S
+    np.testing.assert_allclose(obs.T_object_camera, expected, atol=1e-9)
+    # every observed point lies on the box surface (depth is quantised to 1 mm)
+    p_model = transform_points(invert_T(T_camera_model(1)), obs.points_camera * scale)
+    half = np.asarray(BOX) / 2
+    q = np.abs(p_model - [0, 0, 20.0])
+    assert np.all(q <= half + 2.0)
+    assert np.percentile(np.abs(q - half).min(axis=1), 95) < 2.0
+    # ground normal from the table = the model's up axis in the camera frame
+    up = T_camera_model(1)[:3, 2]
+    assert np.degrees(np.arccos(obs.ground_normal_camera @ up)) < 2.0
+    assert obs.symmetry_axis is None and obs.info["ground_vs_object_up_deg"] < 2.0
+
+
+def test_symmetry_from_models_info_and_category_override(bop_root):
+    ds = BOP(str(bop_root), categories=CATS, max_points=500)
+    np.testing.assert_allclose(ds.observation("can/000001/000000/1").symmetry_axis, [0, 0, 1])
+    assert ds.instance_model("can", "obj_000002").symmetry_axis is not None
+    over = BOP(str(bop_root), categories=CATS, symmetric={"box": [1, 0, 0]})
+    np.testing.assert_allclose(over.symmetry_axis(1, "box"), [1, 0, 0])
+
+
+def test_mask_visib_is_used_when_present(bop_root):
+    from PIL import Image
+
+    ds = BOP(str(bop_root), categories=CATS)
+    depth = np.asarray(Image.open(bop_root / "test/000001/depth/000000.png")).astype(float)
+    v, f = models()[1]
+    rendered = render_depth(v, f, T_camera_model(1), CAMERA)
+    mask = (rendered > 0) & (np.abs(depth - rendered) < 5)
+    (bop_root / "test/000001/mask_visib").mkdir()
+    Image.fromarray((mask * 255).astype(np.uint8)).save(bop_root / "test/000001/mask_visib/000000_000000.png")
+    obs = ds.observation("box/000001/000000/0")
+    assert obs.info["mask_source"] == "mask_visib" and obs.info["visible_pixels"] == int((mask & (depth > 0)).sum())
+    with pytest.raises(DatasetError, match="000000_000001.png"):
+        BOP(str(bop_root), categories=CATS, mask="mask_visib").observation("can/000001/000000/1")
+
+
+def test_templates_from_mesh_files_and_models(bop_root):
+    ds = BOP(str(bop_root), categories=CATS, template_points=200,
+             templates={"box": ["obj_000001", {"path": "models/obj_000002.ply", "up": "+z"}]})
+    a, b = ds.category_templates("box")
+    assert a.template_id == "bop/obj_000001" and b.template_id == "box/obj_000002"
+    np.testing.assert_allclose(np.linalg.norm(a.vertices, axis=1).max(), 1.0)
+
+
+def test_bad_input_raises_one_line_dataset_errors(bop_root):
+    ds = BOP(str(bop_root), categories=CATS)
+    with pytest.raises(DatasetError, match="visible pixels"):
+        ds.observation("box/000001/000000/2")
+    with pytest.raises(DatasetError, match="not in dataset.categories"):
+        ds.observation("box/000001/000000/3")
+    with pytest.raises(DatasetError, match="obj_000009.ply"):
+        ds.instance_model("box", "obj_000009")
+    with pytest.raises(DatasetError, match="split folder"):
+        BOP(str(bop_root), split="val").observation_ids()
+    with pytest.raises(DatasetError, match="not a folder"):
+        BOP(str(bop_root / "nope"))
+
+    from PIL import Image
+
+    depth_path = bop_root / "test/000001/depth/000000.png"
+    Image.fromarray(np.zeros((240, 320), np.uint8)).save(depth_path)
+    with pytest.raises(DatasetError, match="000000.png is uint8") as info:
+        BOP(str(bop_root), categories=CATS).observation("box/000001/000000/0")
+    assert "\n" not in str(info.value)
+
+    (bop_root / "test/000001/scene_gt.json").write_text("{not json")
+    with pytest.raises(DatasetError, match="scene_gt.json is not valid JSON"):
+        BOP(str(bop_root), categories=CATS).observation_ids()
+
+
+@pytest.mark.data
+def test_shared_tyol_frame(shared_data):
+    ds = BOP(str(shared_data / "bop" / "tyol"), categories={19: "basket"}, max_points=1000)
+    assert ds.observation_ids() == ["basket/000019/000010/0"]
+    obs = ds.observation("basket/000019/000010/0")
+    assert obs.info["mask_source"] == "render" and obs.info["visible_pixels"] > 5000
+    assert obs.info["ground_vs_object_up_deg"] < 10.0  # measured 5.4: the basket stands on the table
+    model = ds.instance_model("basket", "obj_000019")
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(model.points).query(transform_points(obs.T_object_camera, obs.points_camera))
+    assert np.median(d) < 0.05  # object unit: the masked points lie on the model at the GT pose
+
+
+def test_discrete_symmetries_map_the_normalised_model_onto_itself(bop_root):
+    info_path = bop_root / "models/models_info.json"
+    info = json.loads(info_path.read_text())
+    S_model = make_T(np.diag([-1.0, -1.0, 1.0]), [0.0, 0.0, 0.0])  # the box turned 180 degrees about z
+    info["1"]["symmetries_discrete"] = [S_model.ravel().tolist()]
+    info_path.write_text(json.dumps(info))
+    ds = BOP(str(bop_root), categories=CATS)
+    (S,) = ds.discrete_symmetries(1)
+    v = ds.instance_model("box", "obj_000001").vertices
+    moved = transform_points(S, v)
+    dist = np.linalg.norm(moved[:, None] - v[None], axis=2).min(axis=1)
+    assert dist.max() < 1e-9 and np.allclose(S[:3, :3] @ S[:3, :3].T, np.eye(3))
+    assert len(ds.observation("box/000001/000000/0").symmetries) == 1
+    info["1"]["symmetries_discrete"] = [[1, 2, 3]]
+    info_path.write_text(json.dumps(info))
+    with pytest.raises(DatasetError, match="symmetries_discrete"):
+        BOP(str(bop_root), categories=CATS).discrete_symmetries(1)
