@@ -48,10 +48,15 @@ def pair_indices(n_views: int, pairs: str, max_pairs: int | None) -> list[tuple[
         out = [(i, j) for i in range(n_views) for j in range(i + 1, n_views)]
     else:
         raise ConfigError(f"protocol.pairs={pairs!r} is unknown; use one of {PAIRINGS}")
-    if max_pairs is not None and 0 < max_pairs < len(out):
-        keep = np.unique(np.linspace(0, len(out) - 1, max_pairs).round().astype(int))
-        out = [out[k] for k in keep]
-    return out
+    return evenly_spaced(out, max_pairs)
+
+
+def evenly_spaced(items: list, n: int | None) -> list:
+    """At most ``n`` of ``items``, evenly spaced and in order (all when ``n`` is None)."""
+    if n is None or not 0 < n < len(items):
+        return items
+    keep = np.unique(np.linspace(0, len(items) - 1, n).round().astype(int))
+    return [items[k] for k in keep]
 
 
 def relative_errors(T_est1: np.ndarray, T_est2: np.ndarray, T_gt1: np.ndarray, T_gt2: np.ndarray,
@@ -94,6 +99,14 @@ def _axis(value: Any) -> np.ndarray | None:
     return np.asarray(value, float).reshape(3)
 
 
+def _relative_angle_deg(r1: dict, r2: dict) -> float:
+    """Geodesic angle of the true relative rotation between two views (inf when unknown)."""
+    T1, T2 = _matrix(r1.get("T_gt")), _matrix(r2.get("T_gt"))
+    if T1 is None or T2 is None:
+        return float("inf")
+    return rotation_error_deg(T1[:3, :3].T @ T2[:3, :3], np.eye(3))
+
+
 class Relative(Protocol):
     """Relative pose between views of one instance, each view registered to a template.
 
@@ -106,12 +119,15 @@ class Relative(Protocol):
         max_pairs_per_instance: keep at most this many pairs per instance (evenly spaced), or
             None for all.
         max_templates: with ``template_source="category"``, use only the first K templates.
+        max_relative_angle_deg: keep only pairs whose true relative rotation is at most this
+            (the paper's "< 45 deg" testing range), or None for all.
     """
 
     name = "relative"
 
     def __init__(self, template_source: str = "category", pairs: str = "consecutive",
-                 max_pairs_per_instance: int | None = None, max_templates: int | None = None) -> None:
+                 max_pairs_per_instance: int | None = None, max_templates: int | None = None,
+                 max_relative_angle_deg: float | None = None) -> None:
         if template_source not in TEMPLATE_SOURCES:
             raise ConfigError(f"protocol.template_source={template_source!r} is unknown; use one of {TEMPLATE_SOURCES}")
         if pairs not in PAIRINGS:
@@ -120,6 +136,7 @@ class Relative(Protocol):
             raise ConfigError(f"protocol.max_pairs_per_instance={max_pairs_per_instance} must be >= 1 or null")
         self.template_source = template_source
         self.pairs = pairs
+        self.max_relative_angle_deg = None if max_relative_angle_deg is None else float(max_relative_angle_deg)
         self.max_pairs_per_instance = None if max_pairs_per_instance is None else int(max_pairs_per_instance)
         self._views: Protocol = GtModel() if template_source == "own" else Templates(max_templates=max_templates)
 
@@ -154,6 +171,12 @@ class Relative(Protocol):
         if len(samples) == 0:
             return samples
         views = self.view_rows(samples)
+        if "info" in views:  # views without a ground-truth frame shared with the others (a Redwood
+            # scan with no trajectory: info["relative_gt"] False) cannot be scored; leave them out
+            scorable = views["info"].map(lambda i: not (isinstance(i, dict) and i.get("relative_gt") is False))
+            views = views[scorable.astype(bool)]
+            if len(views) == 0:
+                return views
         view = views["obs_id"].fillna(views["group_id"]) if "obs_id" in views else views["group_id"]
         views = views.assign(_view=view.astype(str)).sort_values("_view", kind="stable")
         # A view that failed to load has no instance id: take it from a "<category>/<instance>/<view>"
@@ -164,12 +187,18 @@ class Relative(Protocol):
         views = views.assign(instance_id=instance.where(instance.notna(), guess))
         rows = []
         for r in views[views["instance_id"].isna()].to_dict("records"):
+            why = r.get("error") or "no estimate"
             rows.append(dict(r, sample_id=r["_view"], status="failed", err_deg=FAILED_ERROR_DEG, T_est=None,
-                             error=f"view {r['_view']} failed ({r.get('error') or 'no estimate'}) and its instance is unknown"))
-        for (category, instance), g in views.dropna(subset=["instance_id"]).groupby(["category", "instance_id"], sort=True):
+                             error=f"view {r['_view']} failed ({why}) and its instance is unknown"))
+        known = views.dropna(subset=["instance_id"])
+        for (category, instance), g in known.groupby(["category", "instance_id"], sort=True):
             g = g.drop_duplicates("_view")
             records = g.to_dict("records")
-            for i, j in pair_indices(len(records), self.pairs, self.max_pairs_per_instance):
+            candidates = pair_indices(len(records), self.pairs, None)
+            if self.max_relative_angle_deg is not None:
+                candidates = [(i, j) for i, j in candidates
+                              if _relative_angle_deg(records[i], records[j]) <= self.max_relative_angle_deg]
+            for i, j in evenly_spaced(candidates, self.max_pairs_per_instance):
                 rows.append(self._pair_row(records[i], records[j], str(category), str(instance)))
         out = pd.DataFrame(rows)
         return out.drop(columns=["_view"], errors="ignore")
@@ -180,9 +209,9 @@ class Relative(Protocol):
                    obs_id=f"{r1['_view']}~{r2['_view']}", view1=r1["_view"], view2=r2["_view"],
                    runtime_s=float(np.nansum([r1.get("runtime_s", np.nan), r2.get("runtime_s", np.nan)])),
                    score=float(np.nansum([r1.get("score", np.nan), r2.get("score", np.nan)])))
-        failed = [r["_view"] for r in (r1, r2) if r.get("status") != "ok" or _matrix(r.get("T_est")) is None]
+        failed = [r for r in (r1, r2) if r.get("status") != "ok" or _matrix(r.get("T_est")) is None]
         if failed:
-            row.update(status="failed", error=f"view {failed[0]} failed: {r1.get('error') or r2.get('error') or 'no estimate'}",
+            row.update(status="failed", error=f"view {failed[0]['_view']} failed: {failed[0].get('error') or 'no estimate'}",
                        rot_err_deg=FAILED_ERROR_DEG, axis_err_deg=float("nan"), trans_err=float("nan"),
                        err_deg=FAILED_ERROR_DEG, T_est=None)
             return row

@@ -54,8 +54,10 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
 
     md = ["# catpose report", "", "Runs:", ""]
     for run in runs:
-        md.append(f"- **{label_of(run)}**: `{run.path}` ({run.method} on {run.config.get('dataset', {}).get('name', '?') if isinstance(run.config.get('dataset'), dict) else '?'}, "
-                  f"protocol {run.protocol}, {len(run.samples)} samples)")
+        dataset = run.config.get("dataset")
+        dataset = dataset.get("name", "?") if isinstance(dataset, dict) else run.info.get("dataset", "?")
+        md.append(f"- **{label_of(run)}**: `{run.path}` ({run.method} on {dataset}, protocol {run.protocol}, "
+                  f"{len(run.samples)} samples)")
     md += ["", "## Tables", ""]
     for layout in layouts:
         table = tables.build_table(runs, layout, labels=labels)

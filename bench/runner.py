@@ -52,7 +52,17 @@ def _instantiate(node: Any, what: str) -> tuple[str, Any]:
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
-    d = OmegaConf.to_container(node, resolve=True) if not isinstance(node, dict) else dict(node)
+    from omegaconf.errors import MissingMandatoryValue
+
+    if not isinstance(node, dict):
+        missing = sorted(OmegaConf.missing_keys(node))
+        if missing:
+            raise ConfigError(f"{what} needs {', '.join(f'{what}.{k}' for k in missing)}: "
+                              f"set it on the command line, e.g. {what}.{missing[0]}=<value>")
+    try:
+        d = OmegaConf.to_container(node, resolve=True) if not isinstance(node, dict) else dict(node)
+    except MissingMandatoryValue as e:
+        raise ConfigError(f"{what}: a required value is missing ({e}); set it on the command line") from None
     name = str(d.pop("name", what))
     if "_target_" not in d:
         raise ConfigError(f"config group '{what}' ({name}) has no _target_; add one to configs/{what}/{name}.yaml")

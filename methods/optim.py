@@ -53,6 +53,38 @@ def _rot6d_backward(gR, cache):
     return torch.cat([ga1, ga2], dim=1)
 
 
+def _cross_np(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (m, 3) arrays (np.cross has ~20 us of overhead a call)."""
+    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
+
+
+def _rot6d_np(r6: np.ndarray):
+    """NumPy twin of :func:`_rot6d` for CPU tensors: ~1 us per op instead of ~5 us."""
+    a1, a2 = r6[:, :3], r6[:, 3:]
+    n1 = np.sqrt((a1 * a1).sum(1, keepdims=True))
+    b1 = a1 / n1
+    u = a2 - (b1 * a2).sum(1, keepdims=True) * b1
+    nu = np.sqrt((u * u).sum(1, keepdims=True))
+    b2 = u / nu
+    return np.stack([b1, b2, _cross_np(b1, b2)], axis=2), (a2, n1, b1, nu, b2)
+
+
+def _rot6d_backward_np(gR: np.ndarray, cache) -> np.ndarray:
+    """NumPy twin of :func:`_rot6d_backward`."""
+    a2, n1, b1, nu, b2 = cache
+    g1, g2, g3 = gR[:, :, 0], gR[:, :, 1], gR[:, :, 2]
+    g1 = g1 + _cross_np(b2, g3)
+    g2 = g2 + _cross_np(g3, b1)
+    gu = (g2 - (g2 * b2).sum(1, keepdims=True) * b2) / nu
+    gub1 = (gu * b1).sum(1, keepdims=True)
+    ga2 = gu - gub1 * b1
+    g1 = g1 - a2 * gub1 - (b1 * a2).sum(1, keepdims=True) * gu
+    ga1 = (g1 - (g1 * b1).sum(1, keepdims=True) * b1) / n1
+    return np.concatenate([ga1, ga2], axis=1)
+
+
 @dataclass
 class _Adam:
     """Adam state for one tensor (PyTorch's update rule)."""
@@ -92,7 +124,12 @@ class BatchedProblem:
         """Per-candidate loss (m,) and gradients w.r.t. r6 (m, 6), t (m, 3), logits (m, n, 2n)."""
         import torch
 
-        R, cache = _rot6d(r6)
+        cpu = r6.device.type == "cpu"
+        if cpu:
+            R_np, cache = _rot6d_np(r6.numpy())
+            R = torch.from_numpy(R_np)
+        else:
+            R, cache = _rot6d(r6)
         x = torch.matmul(self.p, R.transpose(1, 2)) + t[:, None]          # (m, n, 3)
         d2 = (x * x).sum(-1, keepdim=True) + self.q2 - 2 * torch.bmm(x, self.qT)
         d = d2.clamp_min_(1e-12).sqrt_()                                   # (m, n, 2n)
@@ -115,7 +152,7 @@ class BatchedProblem:
             diff = (xs - self.c[nn]) / e[..., None] * (self.w * self.n / xs.shape[1])
             gR = gR + torch.bmm(diff.transpose(1, 2), self.s.expand(len(x), -1, -1))
             gt = gt + diff.sum(1)
-        gr6 = _rot6d_backward(gR, cache)
+        gr6 = torch.from_numpy(_rot6d_backward_np(gR.numpy(), cache)) if cpu else _rot6d_backward(gR, cache)
         gL = None
         if logits is not None:
             gL = Cd - C * Cd.sum(2, keepdim=True)                          # softmax backward of sum(C d)

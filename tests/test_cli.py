@@ -65,3 +65,8 @@ def test_missing_dataset_root_gives_one_line(tmp_path):
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and str(tmp_path / "nope") in lines[0] and "Traceback" not in r.stderr, r.stderr
+
+
+def test_missing_required_root_gives_one_line(tmp_path):
+    r = bench("run", "method=icp", "dataset=bop", cwd=tmp_path)
+    assert r.returncode == 2 and "dataset.root" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr

@@ -169,3 +169,28 @@ def test_runner_end_to_end(tmp_path: Path):
     assert sorted(units["sample_id"]) == ["car/000/v00~car/000/v01", "car/000/v00~car/000/v02",
                                           "car/000/v01~car/000/v02"]
     assert np.isfinite(units["err_deg"]).all()
+
+
+def test_max_relative_angle_keeps_small_motions():
+    rng = np.random.default_rng(7)
+    T0 = make_T(random_rotation(rng), np.zeros(3))
+    small = T0 @ make_T(axis_angle_to_R(np.array([0, 0, 1.0]), np.radians(20)), np.zeros(3))
+    large = T0 @ make_T(axis_angle_to_R(np.array([0, 0, 1.0]), np.radians(120)), np.zeros(3))
+    rows = [_row("cup/a/v0", "a", T0, T0), _row("cup/a/v1", "a", small, small), _row("cup/a/v2", "a", large, large)]
+    units = Relative(template_source="own", pairs="all", max_relative_angle_deg=45).score_units(pd.DataFrame(rows))
+    assert list(units["sample_id"]) == ["cup/a/v0~cup/a/v1"]
+
+
+def test_views_without_relative_ground_truth_are_not_scored():
+    import pandas as pd
+
+    from catpose.bench.relative import Relative
+
+    T = np.eye(4).reshape(-1).tolist()
+    rows = [dict(sample_id=f"chair/s1/v{k}", group_id=f"chair/s1/v{k}", obs_id=f"chair/s1/v{k}", category="chair",
+                 instance_id="s1", status="ok", T_est=T, T_gt=T, symmetry_axis=None, runtime_s=1.0, score=0.0,
+                 err_deg=0.0, trans_err=0.0, info={"relative_gt": False}) for k in range(3)]
+    assert len(Relative(template_source="own").score_units(pd.DataFrame(rows))) == 0
+    for r in rows:
+        r["info"] = {"relative_gt": True}
+    assert len(Relative(template_source="own").score_units(pd.DataFrame(rows))) == 2
