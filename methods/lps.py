@@ -93,19 +93,40 @@ def lps_patches(points: np.ndarray, normals: np.ndarray, centres_idx: np.ndarray
     return Patches(points=local, mask=nb_mask, frames=frames)
 
 
-def fscore_exact(a: Patches, b: Patches, tau: float, chunk: int = 64) -> np.ndarray:
-    """Exact F-score (Ka, Kb) between every patch of ``a`` and of ``b`` at threshold ``tau``."""
-    Ka, Kb = len(a.points), len(b.points)
-    out = np.zeros((Ka, Kb))
-    na = a.mask.sum(1)
-    nbp = b.mask.sum(1)
-    for s in range(0, Ka, chunk):
-        pa = a.points[s:s + chunk]                                         # (c, ka, 3)
-        d = np.linalg.norm(pa[:, None, :, None] - b.points[None, :, None], axis=-1)  # (c, Kb, ka, kb)
-        d = np.where(a.mask[s:s + chunk, None, :, None] & b.mask[None, :, None, :], d, np.inf)
-        prec = ((d.min(3) <= tau) & a.mask[s:s + chunk, None]).sum(2) / np.maximum(na[s:s + chunk, None], 1)
-        rec = ((d.min(2) <= tau) & b.mask[None]).sum(2) / np.maximum(nbp[None], 1)
-        out[s:s + chunk] = np.where(prec + rec > 0, 2 * prec * rec / np.maximum(prec + rec, 1e-12), 0.0)
+def fscore_exact(a: Patches, b: Patches, tau: float) -> np.ndarray:
+    """Exact F-score (Ka, Kb) between every patch of ``a`` and of ``b`` at threshold ``tau``.
+
+    All patch-b points (local coordinates) go into one KD-tree; for each patch of ``a`` the pairs
+    within ``tau`` give, per a-point and per b-patch, whether a match exists (precision), and per
+    b-point whether this a-patch has a match (recall); a sparse indicator product sums them per
+    patch. Exact, and ~100x faster than dense all-pairs distances.
+    """
+    from scipy import sparse
+    from scipy.spatial import cKDTree
+
+    Kb = len(b.points)
+    pb = b.points[b.mask]
+    lb = np.nonzero(b.mask)[0]                     # patch label of every b point
+    nb = np.maximum(b.mask.sum(1), 1).astype(np.float64)
+    tb = cKDTree(pb)
+    out = np.zeros((len(a.points), Kb))
+    for i in range(len(a.points)):
+        pa = a.points[i][a.mask[i]]
+        if len(pa) == 0:
+            continue
+        pairs = cKDTree(pa).query_ball_tree(tb, tau)
+        ia = np.repeat(np.arange(len(pa)), [len(p) for p in pairs])
+        jb = np.fromiter((j for p in pairs for j in p), dtype=np.int64, count=len(ia))
+        if len(ia) == 0:
+            continue
+        hit_a = sparse.coo_matrix((np.ones(len(ia)), (ia, lb[jb])), shape=(len(pa), Kb)).tocsr()
+        hit_a.data[:] = 1.0                         # any match in that patch
+        prec = np.asarray(hit_a.sum(0)).ravel() / len(pa)
+        matched_b = np.zeros(len(pb))
+        matched_b[np.unique(jb)] = 1.0
+        rec = np.bincount(lb, weights=matched_b, minlength=Kb) / nb
+        s = prec + rec
+        out[i] = np.where(s > 0, 2 * prec * rec / np.maximum(s, 1e-12), 0.0)
     return out
 
 

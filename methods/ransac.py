@@ -5,6 +5,9 @@
 Hypotheses are pruned by the edge-length and distance checkers (and optionally the normal
 checker) before the full inlier count. Open3D's RANSAC draws from its global generator, which
 the pipeline seeds per (sample, candidate) with ``o3d.utility.random.seed`` before every call.
+Its TBB worker threads share that generator and an early-termination counter, so the result
+depends on thread timing unless Open3D runs on one thread: ``num_threads=1`` (the default)
+limits it with ``o3d.utility.set_max_threads`` for the call and makes runs reproducible.
 """
 
 from __future__ import annotations
@@ -28,18 +31,23 @@ class RANSAC(CorrespondenceRegistration):
         normal_angle_deg: ``CorrespondenceCheckerBasedOnNormal`` angle; 0 disables it.
         max_iteration: ``RANSACConvergenceCriteria.max_iteration``.
         confidence: ``RANSACConvergenceCriteria.confidence`` in (0, 1].
+        num_threads: Open3D threads during the call; 1 is deterministic, 0 keeps Open3D's
+            default (faster, not reproducible).
         **pipeline: :class:`CorrespondenceRegistration` arguments (matching, features, ...).
     """
 
     def __init__(self, max_correspondence_distance: float = 0.075, mutual_filter: bool = True,
                  ransac_n: int = 3, edge_length_similarity: float = 0.9, normal_angle_deg: float = 0.0,
-                 max_iteration: int = 100000, confidence: float = 0.999, **pipeline: Any) -> None:
+                 max_iteration: int = 100000, confidence: float = 0.999, num_threads: int = 1,
+                 **pipeline: Any) -> None:
         super().__init__(**pipeline)
         if not max_correspondence_distance > 0:
             raise ConfigError(f"ransac max_correspondence_distance={max_correspondence_distance} must be > 0")
         if ransac_n < 3 or max_iteration < 1 or not 0 < confidence <= 1:
             raise ConfigError(f"ransac ransac_n={ransac_n} (>= 3), max_iteration={max_iteration} (>= 1), "
                               f"confidence={confidence} (in (0, 1]) out of range")
+        if num_threads < 0:
+            raise ConfigError(f"ransac num_threads={num_threads} must be >= 0 (1: deterministic, 0: Open3D default)")
         if not 0 < edge_length_similarity < 1 or not 0 <= normal_angle_deg < 180:
             raise ConfigError(f"ransac edge_length_similarity={edge_length_similarity} must be in (0, 1) "
                               f"and normal_angle_deg={normal_angle_deg} in [0, 180)")
@@ -50,6 +58,7 @@ class RANSAC(CorrespondenceRegistration):
         self.normal_angle_deg = float(normal_angle_deg)
         self.max_iteration = int(max_iteration)
         self.confidence = float(confidence)
+        self.num_threads = int(num_threads)
 
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
         from catpose.o3d import o3d
@@ -61,15 +70,22 @@ class RANSAC(CorrespondenceRegistration):
             checkers.append(reg.CorrespondenceCheckerBasedOnNormal(np.deg2rad(self.normal_angle_deg)))
         criteria = reg.RANSACConvergenceCriteria(self.max_iteration, self.confidence)
         estimation = reg.TransformationEstimationPointToPoint(False)
-        if match.correspondences is None:
-            result = reg.registration_ransac_based_on_feature_matching(
-                match.source.pcd, match.target.pcd, match.source.feature, match.target.feature,
-                self.mutual_filter, self.max_correspondence_distance, estimation, self.ransac_n, checkers,
-                criteria)
-        else:
-            result = reg.registration_ransac_based_on_correspondence(
-                match.source.pcd, match.target.pcd, o3d.utility.Vector2iVector(match.correspondences),
-                self.max_correspondence_distance, estimation, self.ransac_n, checkers, criteria)
+        previous_threads = o3d.utility.get_max_threads()
+        if self.num_threads:
+            o3d.utility.set_max_threads(self.num_threads)
+        try:
+            if match.correspondences is None:
+                result = reg.registration_ransac_based_on_feature_matching(
+                    match.source.pcd, match.target.pcd, match.source.feature, match.target.feature,
+                    self.mutual_filter, self.max_correspondence_distance, estimation, self.ransac_n, checkers,
+                    criteria)
+            else:
+                result = reg.registration_ransac_based_on_correspondence(
+                    match.source.pcd, match.target.pcd, o3d.utility.Vector2iVector(match.correspondences),
+                    self.max_correspondence_distance, estimation, self.ransac_n, checkers, criteria)
+        finally:
+            if self.num_threads:
+                o3d.utility.set_max_threads(previous_threads)
         info = {"num_inliers": int(len(result.correspondence_set)), "fitness": float(result.fitness),
                 "inlier_rmse": float(result.inlier_rmse)}
         return np.asarray(result.transformation).copy(), info

@@ -28,12 +28,14 @@ class TEASER(CorrespondenceRegistration):
         mutual_filter: keep only mutual FPFH nearest neighbours (fpfh only).
         max_correspondences: keep at most this many FPFH pairs (most similar first; 0 = all).
         clique_node_budget: branch-and-bound node cap of the max-clique search.
+        rotation_tim_graph: ``"chain"`` (TEASER++'s default) or ``"complete"`` TIMs for GNC-TLS.
         **pipeline: :class:`CorrespondenceRegistration` arguments (matching, features, ...).
     """
 
     def __init__(self, noise_bound: float = 0.05, cbar2: float = 1.0, gnc_factor: float = 1.4,
                  max_iterations: int = 100, cost_threshold: float = 1e-6, mutual_filter: bool = True,
-                 max_correspondences: int = 1000, clique_node_budget: int = 200_000, **pipeline: Any) -> None:
+                 max_correspondences: int = 1000, clique_node_budget: int = 200_000,
+                 rotation_tim_graph: str = "chain", **pipeline: Any) -> None:
         super().__init__(**pipeline)
         if not noise_bound > 0:
             raise ConfigError(f"teaser noise_bound={noise_bound} must be > 0 (object-normalised units, e.g. 0.05)")
@@ -43,6 +45,9 @@ class TEASER(CorrespondenceRegistration):
         if max_correspondences < 0 or clique_node_budget < 1:
             raise ConfigError(f"teaser max_correspondences={max_correspondences} (>= 0) or "
                               f"clique_node_budget={clique_node_budget} (>= 1) out of range")
+        if rotation_tim_graph not in ("chain", "complete"):
+            raise ConfigError(f"teaser rotation_tim_graph={rotation_tim_graph!r} is unknown; use 'chain' or 'complete'")
+        self.rotation_tim_graph = str(rotation_tim_graph)
         self.noise_bound = float(noise_bound)
         self.cbar2 = float(cbar2)
         self.gnc_factor = float(gnc_factor)
@@ -58,7 +63,8 @@ class TEASER(CorrespondenceRegistration):
             return np.eye(4), {"num_correspondences": int(len(corr)), "clique_size": 0}
         r = teaser_solver.solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]],
                                 self.noise_bound, self.cbar2, self.gnc_factor, self.max_iterations,
-                                self.cost_threshold, self.clique_node_budget, seed=match.seed)
+                                self.cost_threshold, self.clique_node_budget, self.rotation_tim_graph,
+                                seed=match.seed)
         info = {"num_correspondences": int(len(corr)), "clique_size": int(len(r.clique)),
                 "clique_exact": r.clique_exact, "translation_inliers": int(len(r.translation_inliers)),
                 "gnc_iterations": r.gnc_iterations, **{f"teaser_{k}": v for k, v in r.timings.items()}}

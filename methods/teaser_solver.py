@@ -12,7 +12,7 @@ no ``teaserpp_python`` wheel builds on Python 3.11 here. Given correspondences
    budget caps the search; past it the best clique found so far is returned
    (``SolverResult.clique_exact`` is then False).
 3. Rotation from the translation-invariant measurements (TIMs ``b_j - b_i`` vs ``a_j - a_i``)
-   inside the clique by graduated non-convexity with a truncated least-squares cost (GNC-TLS,
+   inside the clique (a cyclic chain through the clique, TEASER++'s default, or every pair) by graduated non-convexity with a truncated least-squares cost (GNC-TLS,
    Yang et al., RA-L 2020): weighted Kabsch each iteration, closed-form TLS weights, ``mu``
    starting at ``1 / (2 r_max^2 / c^2 - 1)`` and multiplied by ``gnc_factor`` until the cost
    settles. The TIM noise bound is ``2 * noise_bound`` (sum of two point bounds) times
@@ -20,6 +20,8 @@ no ``teaserpp_python`` wheel builds on Python 3.11 here. Given correspondences
 4. Translation by component-wise adaptive voting: per axis, the intervals
    ``t_i +- noise_bound`` of ``t_i = b_i - R a_i`` over the clique; the estimate is the mean of
    the largest consistent (maximum-consensus) set, ties broken by the smaller spread.
+   (TEASER++'s ``ScalarTLSEstimator`` instead keeps the set of least TLS cost; both sweep the
+   same interval end points.)
 
 Lengths are in the caller's unit (object-normalised in catpose).
 """
@@ -286,8 +288,8 @@ def adaptive_voting(values: np.ndarray, bound: float) -> tuple[float, np.ndarray
 
 def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1.0,
           gnc_factor: float = 1.4, max_iterations: int = 100, cost_threshold: float = 1e-6,
-          clique_node_budget: int = 200_000, max_rotation_tims: int = 20_000,
-          seed: int = 0) -> SolverResult:
+          clique_node_budget: int = 200_000, rotation_tim_graph: str = "chain",
+          max_rotation_tims: int = 20_000, seed: int = 0) -> SolverResult:
     """Robust registration ``dst ~ R src + t`` from putative correspondences (TEASER, scale 1).
 
     Args:
@@ -297,8 +299,11 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
         cbar2: TLS truncation (squared, in units of the bound); 1 as in TEASER++.
         gnc_factor, max_iterations, cost_threshold: GNC-TLS schedule.
         clique_node_budget: branch-and-bound node cap of the max-clique search.
-        max_rotation_tims: the rotation uses all clique pairs up to this many, else a
-            random subset drawn with ``seed``.
+        rotation_tim_graph: which TIMs of the clique the rotation uses: ``"chain"`` (clique
+            member k to k+1, cyclic; TEASER++'s default) or ``"complete"`` (every pair, as in the
+            T-RO paper).
+        max_rotation_tims: ``complete`` uses all clique pairs up to this many, else a random
+            subset drawn with ``seed``.
 
     Returns:
         :class:`SolverResult`.
@@ -311,6 +316,8 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
         raise InvalidInputError(f"TEASER needs two (N, 3) arrays of matched points; got {src.shape} and {dst.shape}")
     if not noise_bound > 0:
         raise ConfigError(f"noise_bound={noise_bound} must be > 0 (object-normalised units, e.g. 0.02)")
+    if rotation_tim_graph not in ("chain", "complete"):
+        raise ConfigError(f"rotation_tim_graph={rotation_tim_graph!r} is unknown; use 'chain' or 'complete'")
     timings: dict[str, float] = {}
     if len(src) < 3:
         raise InvalidInputError(f"TEASER needs at least 3 correspondences; got {len(src)}")
@@ -325,7 +332,13 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
         return SolverResult(np.eye(3), t, clique, exact, np.zeros(0, bool), clique, 0, timings)
 
     t0 = time.perf_counter()
-    i, j = np.triu_indices(len(clique), k=1)
+    if rotation_tim_graph == "chain":
+        i = np.arange(len(clique))
+        j = np.roll(i, -1)
+        if len(clique) == 2:
+            i, j = i[:1], j[:1]
+    else:
+        i, j = np.triu_indices(len(clique), k=1)
     if len(i) > max_rotation_tims:
         pick = np.random.default_rng(seed).choice(len(i), max_rotation_tims, replace=False)
         i, j = i[pick], j[pick]

@@ -44,6 +44,9 @@ class TEASERPlusPlus(TEASER):
         params.rotation_gnc_factor = self.gnc_factor
         params.rotation_max_iterations = self.max_iterations
         params.rotation_cost_threshold = self.cost_threshold
+        graphs = teaserpp_python.RobustRegistrationSolver.INLIER_GRAPH_FORMULATION
+        params.rotation_tim_graph = graphs.CHAIN if self.rotation_tim_graph == "chain" else graphs.COMPLETE
+        params.inlier_selection_mode = teaserpp_python.RobustRegistrationSolver.INLIER_SELECTION_MODE.PMC_EXACT
         solver = teaserpp_python.RobustRegistrationSolver(params)
         solver.solve(np.ascontiguousarray(match.source.points[corr[:, 0]].T),
                      np.ascontiguousarray(match.target.points[corr[:, 1]].T))

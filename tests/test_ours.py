@@ -55,7 +55,7 @@ def test_same_problem_gives_same_pose_and_json_extras(problems):
 
 @pytest.mark.parametrize("kw", [dict(optimize="none"), dict(optimize="pose"), dict(descriptor="pfh"),
                                 dict(selection="chamfer", gravity_max_deg=20.0, chamfer_weight=0.1, chamfer_points=64),
-                                dict(refine=False)])
+                                dict(refine=False), dict(stage2_top_k=4), dict(selection="loss", gravity_max_deg=None)])
 def test_ablations_run_and_return_rigid_poses(problems, kw):
     from catpose.types import validate_pose
 
@@ -123,3 +123,34 @@ def test_analytic_gradients_match_autograd():
     np.testing.assert_allclose(loss.numpy(), loss_autograd(prob, r6, t, L).detach().numpy(), atol=1e-10)
     for a, b in ((g6, r6.grad), (gt, t.grad), (gL, L.grad)):
         np.testing.assert_allclose(a.numpy(), b.numpy(), atol=1e-9)
+
+
+@pytest.mark.slow
+@pytest.mark.data
+def test_modelnet40_airplanes_own_model(shared_data):
+    """Real ModelNet40 airplanes: partial views against their own complete models."""
+    import glob
+
+    from catpose.datasets.meshio import mesh_to_template, read_mesh
+
+    files = sorted(glob.glob(str(shared_data / "ModelNet40" / "airplane" / "*" / "*.off")))[:3]
+    if not files:
+        pytest.skip("no ModelNet40 airplanes in the shared data")
+    errs = []
+    method = Ours()
+    for f in files:
+        v, tri = read_mesh(f)
+        t = mesh_to_template(v, tri, Path(f).stem, "airplane", n_points=2048)
+        for s in range(3):
+            p, T = partial_problem(t, s)
+            errs.append(rotation_error_deg(method.register(p).T_target_source[:3, :3], T[:3, :3]))
+    assert np.median(errs) < 2.0, errs
+
+
+@pytest.mark.slow
+def test_bench_perf_prints_a_table(capsys):
+    from catpose.bench.perf import main
+
+    assert main(["--n", "2", "--methods", "ours", "--categories", "chair"]) == 0
+    out = capsys.readouterr().out
+    assert "| ours" in out and "optimization" in out
