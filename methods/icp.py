@@ -56,10 +56,14 @@ class ICP(RegistrationMethod):
         max_iterations: ICP iterations per stage.
         estimation: ``point_to_plane`` (uses normals) or ``point_to_point``.
         center_source: start with the input's centroid on the template's centroid.
+        num_threads: Open3D threads during registration; 1 makes runs reproducible (Open3D's
+            parallel reductions differ in the last digits between runs, which can flip the
+            choice between two near-equal starts), None leaves Open3D's default.
     """
 
     def __init__(self, num_starts: int = 20, voxel_size: float = 0.03,
-                 max_correspondence_distances: tuple[float, ...] = (0.4, 0.1), max_iterations: int = 30, estimation: str = "point_to_plane", center_source: bool = True) -> None:
+                 max_correspondence_distances: tuple[float, ...] = (0.4, 0.1), max_iterations: int = 30, estimation: str = "point_to_plane", center_source: bool = True,
+                 num_threads: int | None = 1) -> None:
         if estimation not in ("point_to_plane", "point_to_point"):
             raise ConfigError(f"icp: estimation={estimation!r}; use point_to_plane or point_to_point")
         distances = [float(d) for d in (max_correspondence_distances if isinstance(
@@ -73,6 +77,7 @@ class ICP(RegistrationMethod):
         self.max_iterations = int(max_iterations)
         self.estimation = estimation
         self.center_source = bool(center_source)
+        self.num_threads = None if num_threads is None else int(num_threads)
         self._targets: dict[str, object] = {}
 
     def _cloud(self, points: np.ndarray, normals: np.ndarray):
@@ -92,7 +97,7 @@ class ICP(RegistrationMethod):
         return self._targets[key]
 
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
-        from catpose.o3d import o3d
+        from catpose.o3d import max_threads, o3d
 
         reg = o3d.pipelines.registration
         source = self._cloud(problem.points_camera, problem.normals_camera)
@@ -105,9 +110,10 @@ class ICP(RegistrationMethod):
         starts = []
         for R in so3_partition_centres(self.num_starts):
             T = make_T(R, c_tgt - R @ c_src)
-            for distance in self.max_correspondence_distances:
-                res = reg.registration_icp(source, target, distance, T, estimation, criteria)
-                T = np.array(res.transformation)
+            with max_threads(self.num_threads):
+                for distance in self.max_correspondence_distances:
+                    res = reg.registration_icp(source, target, distance, T, estimation, criteria)
+                    T = np.array(res.transformation)
             starts.append((float(res.fitness), float(res.inlier_rmse), np.array(res.transformation)))
         best = min(range(len(starts)), key=lambda i: (-round(starts[i][0], 9), starts[i][1]))
         fitness, rmse, T = starts[best]

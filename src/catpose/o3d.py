@@ -9,6 +9,7 @@ makes the import work without a system package. Import Open3D only through this 
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import ctypes.util
 
@@ -31,4 +32,24 @@ import open3d as o3d  # noqa: E402
 
 o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
 
-__all__ = ["o3d"]
+
+@contextlib.contextmanager
+def max_threads(n: int | None):
+    """Limit Open3D's worker threads inside the block (None: leave as is).
+
+    Open3D's parallel reductions (ICP, RANSAC) sum in a scheduling-dependent order, so with more
+    than one thread two runs can differ in the last digits and pick a different start or
+    candidate; one thread makes them reproducible.
+    """
+    if n is None:
+        yield
+        return
+    previous = o3d.utility.get_max_threads()
+    o3d.utility.set_max_threads(int(n))
+    try:
+        yield
+    finally:
+        o3d.utility.set_max_threads(previous)
+
+
+__all__ = ["o3d", "max_threads"]
