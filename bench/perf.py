@@ -55,16 +55,15 @@ def _problems(n: int, seed: int, categories: list[str] | None):
 
 
 def _method(name: str, seed: int, overrides: dict):
-    from hydra.utils import instantiate
+    """Build a method from its config exactly as the runner does (Hydra defaults lists included)."""
+    from hydra import compose, initialize_config_module
     from omegaconf import OmegaConf
 
-    from catpose.configs import __file__ as configs_init
+    from catpose.bench.runner import _instantiate
 
-    path = Path(configs_init).parent / "method" / f"{name}.yaml"
-    cfg = OmegaConf.merge({"seed": seed}, {"m": OmegaConf.load(path)}, {"m": overrides})
-    d = OmegaConf.to_container(cfg, resolve=True)["m"]
-    d.pop("name", None)
-    return instantiate(d, _convert_="all")
+    with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
+        cfg = compose(config_name="run", overrides=[f"method={name}", f"seed={seed}"])
+    return _instantiate(OmegaConf.merge(cfg.method, overrides), "method")[1]
 
 
 def _stats(xs: list[float]) -> tuple[float, float]:

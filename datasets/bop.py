@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from catpose.datasets.base import ObjectDataset, Observation
-from catpose.datasets.meshio import R_template_file, TemplateSet, read_mesh, sample_outer_surface
+from catpose.datasets.meshio import R_template_file, TemplateSet, read_mesh, sampled_template
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
 from catpose.errors import DatasetError
 from catpose.geometry import make_T, normalize_to_unit_sphere, stable_seed
@@ -190,7 +190,7 @@ class BOP(ObjectDataset):
         self.template_points = int(template_points)
         self.seed = int(seed)
         self._templates = TemplateSet(templates, templates_root or self.root, self.template_points,
-                                      self.seed, instance_loader=self._template_instance)
+                                      self.seed, instance_loader=self.instance_model)
         self._json: dict[Path, Any] = {}
         self._models_mm: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._norm: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
@@ -299,15 +299,10 @@ class BOP(ObjectDataset):
             v_mm, f = self.model_mm(obj_id)
             R, centre, scale = self.normalisation(obj_id)
             v = (v_mm @ R.T - centre) / scale
-            tid = f"bop/obj_{obj_id:06d}"
-            pts, nrm = sample_outer_surface(v, f, self.template_points, stable_seed(self.seed, tid))
-            self._instances[obj_id] = Template(template_id=tid, category=category, points=pts, normals=nrm,
-                                               vertices=v, triangles=f,
-                                               symmetry_axis=self.symmetry_axis(obj_id, category))
+            self._instances[obj_id] = sampled_template(v, f, f"bop/obj_{obj_id:06d}", category,
+                                                       self.template_points, self.seed,
+                                                       self.symmetry_axis(obj_id, category))
         return self._instances[obj_id]
-
-    def _template_instance(self, category: str, instance_id: str) -> Template:
-        return self.instance_model(category, instance_id)
 
     def category_templates(self, category: str) -> list[Template]:
         return self._templates.get(category)

@@ -129,71 +129,92 @@ def R_template_file(up: str = "+z", forward: str = "+x") -> np.ndarray:
 
 # --------------------------------------------------------------------------- sampling
 
-def fibonacci_sphere(n: int) -> np.ndarray:
-    """(n, 3) nearly uniform unit directions."""
+def fibonacci_sphere(n: int, radius: float = 1.0) -> np.ndarray:
+    """(n, 3) points spread near-uniformly on a sphere of ``radius`` (golden-angle spiral)."""
     i = np.arange(n) + 0.5
-    phi = np.arccos(1 - 2 * i / n)
-    theta = np.pi * (1 + 5 ** 0.5) * i
-    return np.stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)], axis=1)
+    z = 1.0 - 2.0 * i / n
+    r = np.sqrt(1.0 - z * z)
+    phi = np.pi * (3.0 - np.sqrt(5.0)) * i
+    return radius * np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
 
 
-def sample_outer_surface(vertices: np.ndarray, triangles: np.ndarray, n_points: int, seed: int,
-                         n_views: int = 42, oversample: int = 4) -> tuple[np.ndarray, np.ndarray]:
+def sample_outer_surface(vertices: np.ndarray, triangles: np.ndarray, n_points: int,
+                         seed: int | np.random.Generator, n_views: int = 40, view_distance: float = 3.0,
+                         oversample: int = 4) -> tuple[np.ndarray, np.ndarray]:
     """Uniform samples of the part of a mesh's surface seen from outside, with outward normals.
 
-    Points are drawn area-weighted on the triangles (``oversample * n_points`` candidates), a
-    candidate is kept when it is the first hit of the ray from at least one of ``n_views``
-    viewpoints on a sphere of radius 3 (the mesh must be roughly unit-sized and centred), and
-    ``n_points`` of the kept ones are drawn. Normals are the face normals, flipped to face the
-    viewpoint that sees the point.
+    Works for meshes made of concatenated parts with interior faces: draws
+    ``oversample * n_points`` area-weighted surface samples, keeps those that are the first hit
+    of a ray from at least one of ``n_views`` viewpoints on a sphere of radius
+    ``view_distance * r`` around the origin (``r``: the farthest vertex's distance from the
+    origin, 1 for a unit-sphere normalised mesh), and draws ``n_points`` of them without
+    replacement (with replacement only when fewer are visible).
+
+    Args:
+        vertices: (V, 3) mesh vertices, object frame; the origin should lie inside the object
+            (e.g. a unit-sphere normalised mesh).
+        triangles: (F, 3) faces.
+        n_points: number of points to return.
+        seed: an int seed or a seeded generator; the result is a pure function of it and the mesh.
+        n_views: number of viewpoints (golden-angle spiral).
+        view_distance: viewpoint distance from the origin in units of ``r``.
+        oversample: candidates per returned point.
 
     Returns:
-        points (n_points, 3) and unit normals (n_points, 3) in the mesh frame.
+        (n_points, 3) points and (n_points, 3) unit normals, both in the mesh frame; normals are
+        the face normals oriented towards the most frontal viewpoint that sees the point
+        (outward).
+
+    Raises:
+        DatasetError: the mesh has only zero-area faces, or fewer than 10 samples are visible.
     """
     from catpose.o3d import o3d
 
-    rng = np.random.default_rng(seed)
-    v = np.asarray(vertices, np.float64)
-    tri = np.asarray(triangles, np.int64)
-    a, b, c = v[tri[:, 0]], v[tri[:, 1]], v[tri[:, 2]]
-    cross = np.cross(b - a, c - a)
-    area = np.linalg.norm(cross, axis=1)
-    keep = area > 1e-15
-    if not keep.any():
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    vertices = np.asarray(vertices, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    n_cand = oversample * n_points
+    tri = vertices[triangles]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area2 = np.linalg.norm(cross, axis=1)
+    if not (area2 > 1e-15).any():
         raise DatasetError("mesh has only zero-area triangles; it cannot be sampled")
-    face_n = np.zeros_like(cross)
-    face_n[keep] = cross[keep] / area[keep, None]
-    m = max(oversample * n_points, n_points)
-    fid = rng.choice(len(tri), size=m, p=area / area.sum())
-    r1, r2 = rng.random(m), rng.random(m)
-    s = np.sqrt(r1)
-    pts = (1 - s)[:, None] * a[fid] + (s * (1 - r2))[:, None] * b[fid] + (s * r2)[:, None] * c[fid]
-    nrm = face_n[fid]
+    face = rng.choice(len(triangles), size=n_cand, p=area2 / area2.sum())
+    u, v = rng.random(n_cand), rng.random(n_cand)
+    flip = u + v > 1
+    u[flip], v[flip] = 1 - u[flip], 1 - v[flip]
+    t = tri[face]
+    points = t[:, 0] + u[:, None] * (t[:, 1] - t[:, 0]) + v[:, None] * (t[:, 2] - t[:, 0])
+    normals = cross[face] / np.maximum(area2[face], 1e-20)[:, None]
 
     scene = o3d.t.geometry.RaycastingScene()
     mesh = o3d.t.geometry.TriangleMesh()
-    mesh.vertex.positions = o3d.core.Tensor(v.astype(np.float32))
-    mesh.triangle.indices = o3d.core.Tensor(tri.astype(np.int32))
+    mesh.vertex.positions = o3d.core.Tensor(vertices.astype(np.float32))
+    mesh.triangle.indices = o3d.core.Tensor(triangles.astype(np.int32))
     scene.add_triangles(mesh)
-    radius = 3.0 * max(float(np.linalg.norm(v - v.mean(0), axis=1).max()), 1e-9)
-    eyes = radius * fibonacci_sphere(n_views) + v.mean(0)
-    visible = np.zeros(m, bool)
-    outward = np.zeros((m, 3))
-    for eye in eyes:
-        d = pts - eye
-        dist = np.linalg.norm(d, axis=1)
-        rays = np.concatenate([np.broadcast_to(eye, d.shape), d / dist[:, None]], axis=1).astype(np.float32)
-        t = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy()
-        seen = np.abs(t - dist) < 1e-4 * radius + 1e-6 * dist
-        new = seen & ~visible
-        flip = np.einsum("ij,ij->i", nrm[new], d[new]) > 0
-        outward[new] = np.where(flip[:, None], -nrm[new], nrm[new])
-        visible |= seen
-    if visible.sum() < 10:
+    r = max(float(np.linalg.norm(vertices, axis=1).max()), 1e-9)
+    eyes = fibonacci_sphere(n_views, view_distance * r)
+    # one ray per (viewpoint, sample), cast in a single batch; the unnormalised direction
+    # (sample - eye) puts the sample itself at t_hit == 1
+    origins = np.repeat(eyes, n_cand, axis=0)
+    d = np.tile(points, (n_views, 1)) - origins
+    rays = np.hstack([origins, d]).astype(np.float32)
+    t_hit = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy().reshape(n_views, n_cand)
+    tol = 1e-3 * r / np.linalg.norm(d, axis=1).reshape(n_views, n_cand)  # 1e-3 r (object units)
+    visible = t_hit >= 1.0 - tol
+    keep = np.nonzero(visible.any(axis=0))[0]
+    if len(keep) < 10:
         raise DatasetError("mesh surface is not visible from outside (fewer than 10 visible samples)")
-    idx = np.flatnonzero(visible)
-    chosen = rng.choice(idx, size=n_points, replace=len(idx) < n_points)
-    return pts[chosen], outward[chosen]
+    if len(keep) != n_points:
+        keep = np.sort(rng.choice(keep, size=n_points, replace=len(keep) < n_points))
+    points, normals = points[keep], normals[keep]
+    # orient each normal towards the most frontal viewpoint that sees its sample (a sample on a
+    # face's border may also be grazed from behind the face)
+    to_eye = eyes[:, None, :] - points[None]                                     # (views, M, 3)
+    cos = np.einsum("vmk,mk->vm", to_eye, normals) / np.linalg.norm(to_eye, axis=2)
+    best = np.argmax(np.where(visible[:, keep], np.abs(cos), -1.0), axis=0)
+    normals[cos[best, np.arange(len(keep))] < 0] *= -1
+    return points, normals
 
 
 # --------------------------------------------------------------------------- templates
@@ -243,10 +264,25 @@ def mesh_to_template(vertices: np.ndarray, triangles: np.ndarray, template_id: s
             v, _, _ = normalize_to_unit_sphere(v)
         except ValueError:
             raise DatasetError(f"template {template_id}: mesh has zero extent") from None
-    pts, nrm = sample_outer_surface(v, triangles, n_points, stable_seed(seed, template_id))
+    return sampled_template(v, triangles, template_id, category, n_points, seed, symmetry_axis)
+
+
+def sampled_template(vertices: np.ndarray, triangles: np.ndarray, template_id: str, category: str,
+                     n_points: int = 2048, seed: int = 0,
+                     symmetry_axis: np.ndarray | None = None) -> Template:
+    """A template (mesh plus outer-surface samples) of a mesh already in the template frame.
+
+    Args:
+        vertices: (V, 3) template frame (z up, x forward), unit-sphere normalised.
+        triangles: (F, 3).
+        n_points: number of surface samples (:func:`sample_outer_surface`).
+        seed: sampling seed, combined with ``template_id`` so each template has its own stream.
+        symmetry_axis: (3,) main axis in the template frame for symmetric objects, or None.
+    """
+    pts, nrm = sample_outer_surface(vertices, triangles, n_points, stable_seed(seed, template_id))
     axis = None if symmetry_axis is None else np.asarray(symmetry_axis, np.float64)
     return Template(template_id=template_id, category=category, points=pts, normals=nrm,
-                    vertices=v, triangles=np.asarray(triangles, np.int64), symmetry_axis=axis)
+                    vertices=vertices, triangles=np.asarray(triangles, np.int64), symmetry_axis=axis)
 
 
 def load_template(spec: TemplateSpec, n_points: int = 2048, seed: int = 0,

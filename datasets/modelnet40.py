@@ -23,8 +23,9 @@ import numpy as np
 
 from catpose.datasets.alignment import read_alignment_table
 from catpose.datasets.base import ObjectDataset, Observation
-from catpose.datasets.meshio import R_template_file, TemplateSet, read_off, sample_outer_surface
+from catpose.datasets.meshio import R_template_file, TemplateSet, read_off, sampled_template
 from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
+from catpose.datasets.views import pinhole_camera
 from catpose.errors import DatasetError
 from catpose.geometry import invert_T, normalize_to_unit_sphere, stable_seed
 from catpose.types import Template
@@ -114,9 +115,7 @@ class ModelNet40(ObjectDataset):
         self.split = str(split)
         self.instances_per_category = instances_per_category
         self.views_per_instance = int(views_per_instance)
-        self.camera = PinholeCamera(int(width), int(height), float(fx), float(fy),
-                                    (int(width) - 1) / 2 if cx is None else float(cx),
-                                    (int(height) - 1) / 2 if cy is None else float(cy))
+        self.camera = pinhole_camera(width, height, fx, fy, cx, cy)
         self.sampler = ViewSampler(float(distance), float(elevation_min_deg), float(elevation_max_deg),
                                    float(roll_max_deg))
         self.depth_noise_std = float(depth_noise_std)
@@ -131,7 +130,7 @@ class ModelNet40(ObjectDataset):
         self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
         self.seed = int(seed)
         self._templates = TemplateSet(templates, templates_root or self.root, self.template_points,
-                                      self.seed, instance_loader=self._template_instance)
+                                      self.seed, instance_loader=self.instance_model)
         self._meshes: dict[tuple[str, str, str], tuple[np.ndarray, np.ndarray]] = {}
         self._models: dict[tuple[str, str], Template] = {}
         self._ids: list[str] | None = None
@@ -186,14 +185,9 @@ class ModelNet40(ObjectDataset):
         key = (category, instance_id)
         if key not in self._models:
             v, f = self.canonical_mesh(category, instance_id)
-            tid = f"modelnet40/{instance_id}"
-            pts, nrm = sample_outer_surface(v, f, self.template_points, stable_seed(self.seed, tid))
-            self._models[key] = Template(template_id=tid, category=category, points=pts, normals=nrm,
-                                         vertices=v, triangles=f, symmetry_axis=self.symmetric.get(category))
+            self._models[key] = sampled_template(v, f, f"modelnet40/{instance_id}", category,
+                                                 self.template_points, self.seed, self.symmetric.get(category))
         return self._models[key]
-
-    def _template_instance(self, category: str, instance_id: str) -> Template:
-        return self.instance_model(category, instance_id)
 
     def category_templates(self, category: str) -> list[Template]:
         return self._templates.get(category)

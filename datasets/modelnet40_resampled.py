@@ -121,7 +121,7 @@ class ModelNet40Resampled(ObjectDataset):
         self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
         self.seed = int(seed)
         self._templates = TemplateSet(templates, templates_root or self.root, self.template_points,
-                                      self.seed, instance_loader=self._template_instance)
+                                      self.seed, instance_loader=self.instance_model)
         self._clouds: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._models: dict[str, Template] = {}
         self._ids: list[str] | None = None
@@ -183,9 +183,6 @@ class ModelNet40Resampled(ObjectDataset):
                                                  category=category, points=pts, normals=nrm,
                                                  symmetry_axis=self.symmetric.get(category))
         return self._models[instance_id]
-
-    def _template_instance(self, category: str, instance_id: str) -> Template:
-        return self.instance_model(category, instance_id)
 
     def category_templates(self, category: str) -> list[Template]:
         return self._templates.get(category)

@@ -11,7 +11,7 @@ Instances differ in part proportions, counts and shapes (engine count, leg count
 armrests, handle shape, ...), so a template from the same category is not the instance.
 
 Parts are concatenated, not booleaned, so the mesh has interior faces; use
-:func:`outer_surface_cloud` to sample the complete cloud of the outer surface only.
+:func:`catpose.datasets.meshio.sample_outer_surface` to sample the outer surface only.
 """
 
 from __future__ import annotations
@@ -24,8 +24,7 @@ import trimesh
 from catpose.geometry import axis_angle_to_R, make_T, normalize_to_unit_sphere
 
 __all__ = ["SHAPES", "SYMMETRIC_CATEGORIES", "make_airplane", "make_chair", "make_car", "make_mug",
-           "make_bottle", "make_bowl", "make_can", "make_plate", "make_shape", "outer_surface_cloud",
-           "fibonacci_sphere"]
+           "make_bottle", "make_bowl", "make_can", "make_plate", "make_shape"]
 
 #: Categories whose instances are rotationally symmetric about the z axis.
 SYMMETRIC_CATEGORIES = frozenset({"bottle", "bowl", "can", "plate"})
@@ -473,76 +472,3 @@ def make_shape(category: str, rng: np.random.Generator) -> trimesh.Trimesh:
         from catpose.errors import ConfigError
         raise ConfigError(f"unknown synthetic category {category!r}; choose from {sorted(SHAPES)}")
     return SHAPES[category](rng)
-
-
-# --------------------------------------------------------------------------- outer-surface cloud
-
-def fibonacci_sphere(n: int, radius: float = 1.0) -> np.ndarray:
-    """(n, 3) points spread near-uniformly on a sphere of ``radius`` (golden-angle spiral)."""
-    i = np.arange(n) + 0.5
-    z = 1.0 - 2.0 * i / n
-    r = np.sqrt(1.0 - z * z)
-    phi = np.pi * (3.0 - np.sqrt(5.0)) * i
-    return radius * np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
-
-
-def outer_surface_cloud(vertices: np.ndarray, triangles: np.ndarray, n_points: int, rng: np.random.Generator,
-                        n_views: int = 40, view_distance: float = 3.0,
-                        oversample: int = 4) -> tuple[np.ndarray, np.ndarray]:
-    """Sample the outer surface of a mesh whose concatenated parts have interior faces.
-
-    Draws ``oversample * n_points`` area-weighted surface samples, keeps those that are the
-    first hit of a ray from at least one of ``n_views`` viewpoints on a sphere of radius
-    ``view_distance`` around the origin, and keeps ``n_points`` of them by a seeded random choice.
-
-    Args:
-        vertices: (V, 3) mesh vertices, object frame, unit-sphere normalised.
-        triangles: (F, 3) faces.
-        n_points: number of points to return (fewer only if fewer are visible).
-        rng: seeded generator; the result is a pure function of it and the mesh.
-
-    Returns:
-        (M, 3) points and (M, 3) unit normals, both object frame; normals are the face
-        normals oriented towards a viewpoint that sees the point (outward).
-    """
-    from catpose.o3d import o3d
-
-    vertices = np.asarray(vertices, dtype=np.float64)
-    triangles = np.asarray(triangles, dtype=np.int64)
-    n_cand = oversample * n_points
-    tri = vertices[triangles]
-    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    area2 = np.linalg.norm(cross, axis=1)
-    face = rng.choice(len(triangles), size=n_cand, p=area2 / area2.sum())
-    u, v = rng.random(n_cand), rng.random(n_cand)
-    flip = u + v > 1
-    u[flip], v[flip] = 1 - u[flip], 1 - v[flip]
-    t = tri[face]
-    points = t[:, 0] + u[:, None] * (t[:, 1] - t[:, 0]) + v[:, None] * (t[:, 2] - t[:, 0])
-    normals = cross[face] / np.maximum(area2[face], 1e-20)[:, None]
-
-    scene = o3d.t.geometry.RaycastingScene()
-    mesh = o3d.t.geometry.TriangleMesh()
-    mesh.vertex.positions = o3d.core.Tensor(vertices.astype(np.float32))
-    mesh.triangle.indices = o3d.core.Tensor(triangles.astype(np.int32))
-    scene.add_triangles(mesh)
-    eyes = fibonacci_sphere(n_views, view_distance)
-    # one ray per (viewpoint, sample), cast in a single batch; the unnormalised direction
-    # (sample - eye) puts the sample itself at t_hit == 1
-    origins = np.repeat(eyes, n_cand, axis=0)
-    d = np.tile(points, (n_views, 1)) - origins
-    rays = np.hstack([origins, d]).astype(np.float32)
-    t_hit = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy().reshape(n_views, n_cand)
-    tol = 1e-3 / np.linalg.norm(d, axis=1).reshape(n_views, n_cand)  # 1e-3 object units
-    visible = t_hit >= 1.0 - tol
-    keep = np.nonzero(visible.any(axis=0))[0]
-    if len(keep) > n_points:
-        keep = np.sort(rng.choice(keep, size=n_points, replace=False))
-    points, normals = points[keep], normals[keep]
-    # orient each normal towards the most frontal viewpoint that sees its sample (a sample on a
-    # face's border may also be grazed from behind the face)
-    to_eye = eyes[:, None, :] - points[None]                                     # (views, M, 3)
-    cos = np.einsum("vmk,mk->vm", to_eye, normals) / np.linalg.norm(to_eye, axis=2)
-    best = np.argmax(np.where(visible[:, keep], np.abs(cos), -1.0), axis=0)
-    normals[cos[best, np.arange(len(keep))] < 0] *= -1
-    return points, normals

@@ -23,8 +23,10 @@ from typing import Sequence
 import numpy as np
 
 from catpose.datasets.base import ObjectDataset, Observation
-from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
-from catpose.datasets.shapes import SHAPES, SYMMETRIC_CATEGORIES, outer_surface_cloud
+from catpose.datasets.render import ViewSampler, depth_to_points, estimate_normals, render_depth
+from catpose.datasets.meshio import sample_outer_surface
+from catpose.datasets.shapes import SHAPES, SYMMETRIC_CATEGORIES
+from catpose.datasets.views import pinhole_camera
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import axis_angle_to_R, invert_T, stable_seed
 from catpose.types import Template
@@ -95,9 +97,7 @@ class SyntheticDataset(ObjectDataset):
         self.views_per_instance = int(views_per_instance)
         self.num_templates = int(num_templates)
         self.template_points = int(template_points)
-        self.camera = PinholeCamera(int(width), int(height), float(fx), float(fy),
-                                    float((width - 1) / 2 if cx is None else cx),
-                                    float((height - 1) / 2 if cy is None else cy))
+        self.camera = pinhole_camera(width, height, fx, fy, cx, cy)
         self.view_sampler = ViewSampler(float(distance), float(elevation_min_deg), float(elevation_max_deg),
                                         float(roll_max_deg))
         self.depth_noise_std = float(depth_noise_std)
@@ -137,7 +137,7 @@ class SyntheticDataset(ObjectDataset):
             mesh = SHAPES[category](mesh_rng)
             cloud_rng = np.random.default_rng(stable_seed(self.seed, "synthetic", stream, "cloud", category, model_id))
             vertices, triangles = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
-            points, normals = outer_surface_cloud(vertices, triangles, self.template_points, cloud_rng)
+            points, normals = sample_outer_surface(vertices, triangles, self.template_points, cloud_rng)
             self._models[key] = Template(
                 template_id=f"synthetic/{category}/{model_id}", category=category, points=points, normals=normals,
                 vertices=vertices, triangles=triangles, up=np.array([0.0, 0.0, 1.0]),

@@ -14,8 +14,10 @@ Two choices, both plain constructor arguments (paper Section IV-B, Table "optimi
     clouds; FGR/RANSAC use Open3D's feature-matching entry points, TEASER mutual nearest
     neighbours in feature space.
     ``"lps"``: keypoints by farthest point sampling (``n`` on the input, ``2n`` on the target)
-    and the LPS affinity matrix of ``ours`` (:mod:`catpose.methods.lps`); each input keypoint
-    keeps its top-1 template keypoint. FGR/RANSAC use the correspondence entry points.
+    and the LPS affinity matrix of ``ours``, computed by an :class:`~catpose.methods.ours.Ours`
+    configured with the ``lps_*`` arguments (its public ``downsample_keypoints``, ``describe``
+    and ``pair_affinity``); each input keypoint keeps its top-1 template keypoint. FGR/RANSAC use
+    the correspondence entry points.
 
 A method subclasses :class:`CorrespondenceRegistration` and implements ``_estimate`` for one
 (input, target) pair; this module does the rest (downsampling, features, per-template caching,
@@ -122,22 +124,13 @@ def _make_cloud(points: np.ndarray, normals: np.ndarray, voxel_size: float, fpfh
     return Cloud(np.asarray(pcd.points).copy(), np.asarray(pcd.normals).copy(), pcd, fpfh, feature)
 
 
-def _lps_cloud(points: np.ndarray, normals: np.ndarray, voxel_size: float) -> Cloud:
-    """The cloud ``ours`` describes with LPS: its own voxel downsampling (first point per voxel)."""
-    from catpose.methods.ours import voxel_downsample
-
-    p, n = voxel_downsample(np.asarray(points, dtype=np.float64), np.asarray(normals, dtype=np.float64), voxel_size)
-    return _select(Cloud(p, n, None), np.arange(len(p)))
-
-
-def _select(cloud: Cloud, idx: np.ndarray) -> Cloud:
-    """The sub-cloud ``cloud[idx]`` (no features)."""
+def _keypoint_cloud(points: np.ndarray, normals: np.ndarray) -> Cloud:
+    """A cloud of keypoints (no features) with its Open3D point cloud."""
     from catpose.o3d import o3d
 
-    pts, nrm = cloud.points[idx], cloud.normals[idx]
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
-    pcd.normals = o3d.utility.Vector3dVector(nrm)
-    return Cloud(pts, nrm, pcd)
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    pcd.normals = o3d.utility.Vector3dVector(normals)
+    return Cloud(points, normals, pcd)
 
 
 def _template_hash(template: Template) -> str:
@@ -217,6 +210,17 @@ class CorrespondenceRegistration(RegistrationMethod):
                                       elevations_deg=tuple(float(e) for e in dictionary_elevations_deg),
                                       distance=float(dictionary_distance),
                                       hpr_radius_factor=float(dictionary_hpr_radius_factor))
+        # ``ours`` with the same LPS and dictionary settings: its dictionary, and its keypoints,
+        # descriptors and affinity for features="lps"
+        from catpose.methods.ours import Ours
+
+        self.ours = Ours(descriptor="lps", num_keypoints=self.num_keypoints, voxel_size=self.lps_voxel_size,
+                         num_views=self.dictionary_kwargs["num_views"], layout=self.dictionary_kwargs["layout"],
+                         elevations_deg=self.dictionary_kwargs["elevations_deg"],
+                         view_distance=self.dictionary_kwargs["distance"],
+                         hpr_radius_factor=self.dictionary_kwargs["hpr_radius_factor"],
+                         lps_radius=self.lps_radius, lps_tau=self.lps_tau, lps_max_points=self.lps_max_points,
+                         lps_parallel_deg=self.lps_parallel_deg)
         if matching == "dictionary":  # fail at construction on a bad layout, not per sample
             from catpose.methods.dictionary import viewpoint_layout
             viewpoint_layout(self.dictionary_kwargs["num_views"], self.dictionary_kwargs["layout"],
@@ -249,58 +253,47 @@ class CorrespondenceRegistration(RegistrationMethod):
         if direct:
             parts = [(template.points, template.normals)]
         else:
-            from catpose.methods.dictionary import get_dictionary
-
-            d = get_dictionary(template, **self.dictionary_kwargs)
+            d = self.ours.dictionary(template)
             parts = list(zip(d.points, d.normals))
+        descriptors = None
         if not with_fpfh:
-            targets = [_lps_cloud(p, n, self.lps_voxel_size) for p, n in parts]
+            keypoints = [self._lps_keypoints(p, n, template.up, 2 * self.num_keypoints) for p, n in parts]
+            targets, descriptors = [k[0] for k in keypoints], [k[1] for k in keypoints]
         elif direct:
             targets = [complete]
         else:
             targets = [_make_cloud(p, n, self.voxel_size, self.fpfh_radius, self.fpfh_max_nn, True)
                        for p, n in parts]
         data = {"complete": complete, "tree": cKDTree(template.points), "targets": targets,
-                "lps_cache": {}}
+                "lps_descriptors": descriptors}
         if len(_TARGET_CACHE) >= _TARGET_CACHE_MAX:
             _TARGET_CACHE.pop(next(iter(_TARGET_CACHE)))
         _TARGET_CACHE[key] = data
         return data
 
-    def _lps_keypoints(self, cloud: Cloud, up: np.ndarray, k: int) -> tuple[np.ndarray, Any]:
-        """FPS keypoint indices (k,) of ``cloud`` and their gridded LPS patches."""
-        from catpose.methods import lps
-        from catpose.methods.keypoints import farthest_point_indices
+    def _lps_keypoints(self, points: np.ndarray, normals: np.ndarray, up: np.ndarray,
+                       k: int) -> tuple[Cloud, Any]:
+        """``ours``' LPS keypoints of a cloud: ``k`` FPS keypoints of its ``lps_voxel_size``
+        downsampling (as a :class:`Cloud`, same frame) and their LPS descriptors (``up``: the
+        up direction in that frame)."""
+        p, n, idx = self.ours.downsample_keypoints(np.asarray(points, dtype=np.float64),
+                                                   np.asarray(normals, dtype=np.float64), k)
+        return _keypoint_cloud(p[idx], n[idx]), self.ours.describe(p, n, idx, up)
 
-        idx = farthest_point_indices(cloud.points, k)
-        patches = lps.lps_patches(cloud.points, cloud.normals, idx, up, self.lps_radius, self.lps_max_points,
-                                  self.lps_parallel_deg)
-        return idx, lps.voxelize(patches, self.lps_radius, self.lps_tau)
-
-    def _lps_match(self, source: Cloud, source_kp: tuple[np.ndarray, Any], target: Cloud, up_target: np.ndarray,
-                   cache: dict, target_index: int) -> tuple[Cloud, Cloud, np.ndarray]:
-        """Top-1 LPS correspondences from ``n`` input keypoints to ``2n`` target keypoints.
-
-        The target's keypoints and patches depend only on the template and are cached in
-        ``cache[target_index]``. Returns (input keypoints, target keypoints, (n, 2) pairs).
-        """
-        from catpose.methods import lps
-
-        if target_index not in cache:
-            cache[target_index] = self._lps_keypoints(target, up_target, 2 * self.num_keypoints)
-        kt, grid_t = cache[target_index]
-        ks, grid_s = source_kp
-        A = lps.fscore_voxel(grid_s, grid_t)  # (n, 2n); row normalisation does not change the argmax
-        corr = np.stack([np.arange(len(ks)), np.argmax(A, axis=1)], axis=1).astype(np.int64)
-        return _select(source, ks), _select(target, kt), corr
+    def _lps_correspondences(self, source_desc: Any, target_desc: Any) -> np.ndarray:
+        """(n, 2) top-1 pairs (input keypoint, target keypoint) by ``ours``' LPS affinity; row
+        normalisation does not change the argmax, so the unnormalised affinity is used."""
+        A = self.ours.pair_affinity(source_desc, target_desc)                  # (n, 2n)
+        return np.stack([np.arange(len(A)), np.argmax(A, axis=1)], axis=1).astype(np.int64)
 
     def _refine(self, source: Cloud, complete: Cloud, T: np.ndarray) -> np.ndarray:
-        from catpose.o3d import o3d
+        from catpose.o3d import max_threads, o3d
 
         reg = o3d.pipelines.registration
-        result = reg.registration_icp(
-            source.pcd, complete.pcd, self.icp_max_distance, T, reg.TransformationEstimationPointToPlane(),
-            reg.ICPConvergenceCriteria(max_iteration=self.icp_max_iterations))
+        with max_threads(1):  # Open3D's parallel ICP sums differ in the last digits run to run
+            result = reg.registration_icp(
+                source.pcd, complete.pcd, self.icp_max_distance, T, reg.TransformationEstimationPointToPlane(),
+                reg.ICPConvergenceCriteria(max_iteration=self.icp_max_iterations))
         return np.asarray(result.transformation).copy()
 
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
@@ -316,8 +309,8 @@ class CorrespondenceRegistration(RegistrationMethod):
         source = _make_cloud(problem.points_camera, problem.normals_camera, self.voxel_size, self.fpfh_radius,
                              self.fpfh_max_nn, self.features == "fpfh")
         if self.features == "lps":
-            lps_source = _lps_cloud(problem.points_camera, problem.normals_camera, self.lps_voxel_size)
-            source_kp = self._lps_keypoints(lps_source, problem.ground_normal_camera, self.num_keypoints)
+            source_kp, source_desc = self._lps_keypoints(problem.points_camera, problem.normals_camera,
+                                                         problem.ground_normal_camera, self.num_keypoints)
         stages = {"prepare_s": time.perf_counter() - t_start, "match_s": 0.0, "estimate_s": 0.0,
                   "refine_s": 0.0, "select_s": 0.0}
         candidates = []
@@ -325,9 +318,8 @@ class CorrespondenceRegistration(RegistrationMethod):
             seed = stable_seed(self.seed, problem.sample_id, i)
             t0 = time.perf_counter()
             if self.features == "lps":
-                src_k, tgt_k, corr = self._lps_match(lps_source, source_kp, target, problem.template.up,
-                                                     data["lps_cache"], i)
-                match = MatchInput(src_k, tgt_k, corr, seed)
+                corr = self._lps_correspondences(source_desc, data["lps_descriptors"][i])
+                match = MatchInput(source_kp, target, corr, seed)
             else:
                 match = MatchInput(source, target, None, seed)
             t1 = time.perf_counter()

@@ -167,7 +167,64 @@ class Ours(RegistrationMethod):
         self.device, self.num_threads, self.seed = device, int(num_threads), int(seed)
         self._features: OrderedDict[str, _TemplateFeatures] = OrderedDict()
 
+    def dictionary(self, template: Template) -> PartialDictionary:
+        """The template's partial-template dictionary for this configuration (cached)."""
+        return get_dictionary(template, **self.dict_args)
+
     # ----------------------------------------------------------------- descriptors
+    # The public part (downsample_keypoints, describe, pair_affinity) is also what the
+    # correspondence baselines use for ``features="lps"`` (catpose.methods.correspondence).
+
+    def downsample_keypoints(self, points: np.ndarray, normals: np.ndarray, num_keypoints: int,
+                             pad: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Voxel-downsample a cloud with ``voxel_size`` and pick keypoints by farthest point sampling.
+
+        Args:
+            points, normals: (N, 3) cloud and unit normals, any one frame.
+            num_keypoints: keypoints to pick (FPS from index 0).
+            pad: repeat keypoints up to ``num_keypoints`` when the downsampled cloud has fewer
+                points (so partial templates batch together).
+
+        Returns:
+            downsampled points (N', 3), normals (N', 3), keypoint indices (k,) into them.
+        """
+        p, n = voxel_downsample(points, normals, self.voxel_size)
+        idx = farthest_point_indices(p, num_keypoints)
+        if pad and len(idx) < num_keypoints:
+            idx = np.resize(idx, num_keypoints)
+        return p, n, idx
+
+    def describe(self, points: np.ndarray, normals: np.ndarray, kp_idx: np.ndarray, up: np.ndarray):
+        """Descriptors of the keypoints ``points[kp_idx]``.
+
+        Args:
+            points, normals: (N, 3) downsampled cloud (see :meth:`downsample_keypoints`).
+            kp_idx: (k,) keypoint indices.
+            up: (3,) the up direction in the cloud's frame (the ground normal for the camera
+                frame, ``template.up`` for the template frame); LPS frames use it.
+
+        Returns:
+            LPS ``VoxelPatches`` (or ``Patches`` for ``lps_fscore="exact"``), or (k, 125) PFH
+            histograms; compare them with :meth:`pair_affinity`.
+        """
+        from scipy.spatial import cKDTree
+
+        return self._describe(points, normals, kp_idx, up, cKDTree(points))
+
+    def pair_affinity(self, desc_a, desc_b) -> np.ndarray:
+        """Unnormalised affinities (k_a, k_b) between two descriptor sets from :meth:`describe`:
+        the LPS F-score or the PFH 1 / (EMD + eps) that ``register`` computes batched over all
+        partial templates."""
+        if self.descriptor == "pfh":
+            from catpose.methods.pfh import pfh_affinity
+
+            return pfh_affinity(desc_a, desc_b, self.pfh_eps, self.pfh_distance)
+        from catpose.methods.lps import fscore_exact, fscore_voxel
+
+        if self.lps_fscore == "exact":
+            return fscore_exact(desc_a, desc_b, self.lps_tau)
+        return fscore_voxel(desc_a, desc_b)
+
     def _describe(self, points: np.ndarray, normals: np.ndarray, kp_idx: np.ndarray, ground: np.ndarray, tree):
         if self.descriptor == "pfh":
             from catpose.methods.pfh import pfh_descriptors
@@ -223,10 +280,8 @@ class Ours(RegistrationMethod):
         up = np.asarray(template.up, dtype=np.float64)
         kps, descs = [], []
         for pts, nrm in zip(dictionary.points, dictionary.normals):
-            p, n = voxel_downsample(pts, nrm, self.voxel_size)
-            idx = farthest_point_indices(p, k2)
-            if len(idx) < k2:  # a tiny partial: repeat keypoints so all candidates batch together
-                idx = np.resize(idx, k2)
+            # a tiny partial: repeat keypoints so all candidates batch together
+            p, n, idx = self.downsample_keypoints(pts, nrm, k2, pad=True)
             kps.append(p[idx])
             descs.append(self._describe(p, n, idx, up, cKDTree(p)))
         complete = template.points[farthest_point_indices(template.points, self.chamfer_points)]
@@ -252,13 +307,13 @@ class Ours(RegistrationMethod):
         timings: dict[str, float] = {}
         t0 = time.perf_counter()
         template = problem.template
-        dictionary = get_dictionary(template, **self.dict_args)
+        dictionary = self.dictionary(template)
         timings["dictionary"] = time.perf_counter() - t0
 
         t0 = time.perf_counter()
         feats = self.template_features(template, dictionary)
-        pts, nrm = voxel_downsample(problem.points_camera, problem.normals_camera, self.voxel_size)
-        kp_idx = farthest_point_indices(pts, self.num_keypoints)
+        pts, nrm, kp_idx = self.downsample_keypoints(problem.points_camera, problem.normals_camera,
+                                                     self.num_keypoints)
         if len(kp_idx) < 3:
             from catpose.errors import InvalidInputError
 

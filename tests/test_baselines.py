@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from catpose.errors import ConfigError
 from catpose.geometry import invert_T, rotate_vectors
 from catpose.types import RegistrationProblem, Template
-
-REPO = Path(__file__).resolve().parents[1]
 
 
 def _rot_err_deg(T_est: np.ndarray, T_gt: np.ndarray) -> float:
@@ -25,13 +21,14 @@ def _easy_problem(seed: int, template: Template | None = None, view_seed: int | 
     Returns (problem, true T_template_camera)."""
     from catpose.datasets.render import (PinholeCamera, ViewSampler, depth_to_points, estimate_normals,
                                          render_depth)
-    from catpose.datasets.shapes import make_shape, outer_surface_cloud
+    from catpose.datasets.meshio import sample_outer_surface
+    from catpose.datasets.shapes import make_shape
 
     rng = np.random.default_rng(seed)
     mesh = make_shape("chair", rng)
     V, F = np.asarray(mesh.vertices), np.asarray(mesh.faces)
     if template is None:
-        pts, nrm = outer_surface_cloud(V, F, 3000, rng)
+        pts, nrm = sample_outer_surface(V, F, 3000, rng)
         template = Template(f"test/chair/{seed}", "chair", pts, nrm, V, F)
     cam = PinholeCamera(160, 120, 150.0, 150.0, 80.0, 60.0)
     view_rng = rng if view_seed is None else np.random.default_rng(view_seed)
@@ -163,12 +160,15 @@ def test_teaserpp_without_bindings_says_how_to_get_them() -> None:
 
 @pytest.mark.parametrize("name", ["fgr", "ransac", "teaser", "teaserpp"])
 def test_configs_instantiate(name: str) -> None:
+    from hydra import compose, initialize_config_module
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
-    cfg = OmegaConf.load(REPO / "configs" / "method" / f"{name}.yaml")
-    cfg = OmegaConf.merge({"seed": 3}, {"m": cfg}).m  # resolves ${seed} like the runner's root config
-    d = OmegaConf.to_container(cfg, resolve=True)
+    # composed like the runner's config: the defaults list pulls in configs/pipeline/correspondence.yaml
+    with initialize_config_module("catpose.configs", version_base=None):
+        cfg = compose("run", overrides=[f"method={name}", "seed=3"])
+    d = OmegaConf.to_container(cfg.method, resolve=True)
+    assert "defaults" not in d and d["voxel_size"] == 0.05 and d["lps_radius"] == 0.2
     assert d.pop("name") == name
     for matching in ("direct", "dictionary"):
         for features in ("fpfh", "lps"):
@@ -186,28 +186,24 @@ def test_configs_instantiate(name: str) -> None:
 
 
 def test_lps_pairs_are_the_top1_of_ours_affinity(easy) -> None:
-    """features=lps uses exactly ``ours``' keypoints and LPS affinity (argmax per input keypoint)."""
-    from scipy.spatial import cKDTree
-
-    from catpose.methods.correspondence import _lps_cloud
-    from catpose.methods.dictionary import get_dictionary
-    from catpose.methods.keypoints import farthest_point_indices
-    from catpose.methods.ours import Ours, voxel_downsample
+    """features=lps uses exactly ``ours``' keypoints and LPS affinity (argmax per input keypoint):
+    compared with the batched affinity ``Ours.register`` computes over the whole dictionary."""
+    from catpose.methods.ours import Ours
     from catpose.methods.teaser import TEASER
 
     problem, _ = easy
     ours = Ours()  # defaults; the baseline defaults mirror them
-    feats = ours.template_features(problem.template, get_dictionary(problem.template, **ours.dict_args))
-    pts, nrm = voxel_downsample(problem.points_camera, problem.normals_camera, ours.voxel_size)
-    kp = farthest_point_indices(pts, ours.num_keypoints)
-    A = ours._affinity(ours._describe(pts, nrm, kp, problem.ground_normal_camera, cKDTree(pts)), feats)
+    feats = ours.template_features(problem.template, ours.dictionary(problem.template))
+    pts, nrm, kp = ours.downsample_keypoints(problem.points_camera, problem.normals_camera, ours.num_keypoints)
+    A = ours._affinity(ours.describe(pts, nrm, kp, problem.ground_normal_camera), feats)
 
     method = TEASER(matching="dictionary", features="lps")
     data = method._targets(problem.template)
-    source = _lps_cloud(problem.points_camera, problem.normals_camera, method.lps_voxel_size)
-    source_kp = method._lps_keypoints(source, problem.ground_normal_camera, method.num_keypoints)
+    source_kp, source_desc = method._lps_keypoints(problem.points_camera, problem.normals_camera,
+                                                   problem.ground_normal_camera, method.num_keypoints)
+    np.testing.assert_allclose(source_kp.points, pts[kp])
+    assert len(data["targets"]) == len(feats.keypoints)
     for i, target in enumerate(data["targets"]):
-        src_k, tgt_k, corr = method._lps_match(source, source_kp, target, problem.template.up,
-                                               data["lps_cache"], i)
-        np.testing.assert_allclose(src_k.points[corr[:, 0]], pts[kp])
-        np.testing.assert_allclose(tgt_k.points[corr[:, 1]], feats.keypoints[i][np.argmax(A[i], axis=1)])
+        corr = method._lps_correspondences(source_desc, data["lps_descriptors"][i])
+        np.testing.assert_array_equal(corr[:, 0], np.arange(len(kp)))
+        np.testing.assert_allclose(target.points[corr[:, 1]], feats.keypoints[i][np.argmax(A[i], axis=1)])

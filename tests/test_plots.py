@@ -46,6 +46,7 @@ def test_registration_picture(tmp_path: Path):
     T_gt = make_T(axis_angle_to_R(np.array([0, 0, 1.0]), 0.5), [0, 0, -3])
     points_camera = (template[:200] - T_gt[:3, 3]) @ T_gt[:3, :3]  # inv(T_gt) applied
     paths = plots.plot_registration(points_camera, template, T_gt, T_gt, tmp_path / "reg", "toy", 0.0)
+    assert [p.suffix for p in paths] == [".png", ".pdf"]
     _png_ok(paths[0])
 
 

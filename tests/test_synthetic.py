@@ -9,7 +9,8 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from catpose.datasets.shapes import SHAPES, SYMMETRIC_CATEGORIES, outer_surface_cloud
+from catpose.datasets.meshio import sample_outer_surface
+from catpose.datasets.shapes import SHAPES, SYMMETRIC_CATEGORIES
 from catpose.datasets.synthetic import SyntheticDataset
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import invert_T, stable_seed, transform_points
@@ -71,16 +72,16 @@ def test_asymmetric_categories_face_plus_x() -> None:
         assert v[:, 0].max() - rim_x > rim_x - v[:, 0].min() + 0.1  # the handle sticks out along +x
 
 
-def test_outer_surface_cloud_drops_interior_faces() -> None:
+def test_outer_surface_sampling_drops_interior_faces_of_concatenated_parts() -> None:
     outer = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
     inner = trimesh.creation.box(extents=(0.4, 0.4, 0.4))  # fully hidden inside
     mesh = trimesh.util.concatenate([outer, inner])
-    points, normals = outer_surface_cloud(mesh.vertices, mesh.faces, 500, np.random.default_rng(0))
+    points, normals = sample_outer_surface(mesh.vertices, mesh.faces, 500, np.random.default_rng(0))
     assert len(points) == 500
     assert (np.abs(points).max(axis=1) > 0.5 - 1e-6).all()  # all on the outer box
     np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0)
     assert (np.einsum("ij,ij->i", normals, points) > 0).all()  # outward
-    again, _ = outer_surface_cloud(mesh.vertices, mesh.faces, 500, np.random.default_rng(0))
+    again, _ = sample_outer_surface(mesh.vertices, mesh.faces, 500, np.random.default_rng(0))
     np.testing.assert_array_equal(points, again)
 
 
