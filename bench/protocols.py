@@ -51,8 +51,20 @@ class Protocol(ABC):
         """Build one problem (raises :class:`~catpose.errors.CatposeError` on bad data)."""
 
     def score_units(self, samples):
-        """Per-sample rows (the ``samples.jsonl`` schema) -> the rows the statistics count."""
+        """Per-sample rows (the ``samples.jsonl`` schema) -> the rows the statistics count.
+
+        Views whose dataset has no absolute ground truth (``info["absolute_gt"]`` False, e.g. a
+        Redwood scan: only relative poses are known) are left out; use ``protocol=relative``.
+        """
+        return absolute_gt_only(samples)
+
+
+def absolute_gt_only(samples):
+    """The rows whose ground truth is an absolute pose (see :meth:`Protocol.score_units`)."""
+    if len(samples) == 0 or "info" not in samples:
         return samples
+    keep = samples["info"].map(lambda i: not (isinstance(i, dict) and i.get("absolute_gt") is False))
+    return samples[keep.astype(bool)].reset_index(drop=True)
 
 
 class _ObservationCache:
@@ -127,6 +139,7 @@ class Templates(Protocol):
     def score_units(self, samples):
         import pandas as pd
 
+        samples = absolute_gt_only(samples)
         if len(samples) == 0:
             return samples
         rows = []

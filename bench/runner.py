@@ -367,5 +367,5 @@ def summarize_run(run_dir: Path, sample_ids: Iterable[str] | None = None):
 def format_summary(summary) -> str:
     """The summary as a Markdown table (angles in degrees, translation in object-normalised units)."""
     if len(summary) == 0:
-        return "(no samples)"
+        return "(no scored samples: none finished, or none has the ground truth this protocol scores)"
     return summary.to_markdown(index=False, floatfmt=".3f")

@@ -199,7 +199,7 @@ def scored_units(run: Run, error: str = "err_deg"):
 # --------------------------------------------------------------------------------------------
 # Labels
 
-DISPLAY_NAMES = {"ours": "Ours", "icp": "ICP", "fgr": "FGR", "teaser": "Teaser++", "teaserpp": "Teaser++",
+DISPLAY_NAMES = {"ours": "Ours", "icp": "ICP", "fgr": "FGR", "teaser": "TEASER (re-impl.)", "teaserpp": "Teaser++",
                  "teaser_pp": "Teaser++", "equipose": "Equi-pose", "equi_pose": "Equi-pose",
                  "rpmnet": "RPM-Net", "rpm_net": "RPM-Net", "ransac": "RANSAC"}
 
@@ -629,10 +629,13 @@ def _group_order(group: str) -> int:
 
 
 def parse_labels(items: Sequence[str]) -> dict[str, str]:
-    """``["runs/a=Ours (LPS)", ...]`` -> ``{"runs/a": "Ours (LPS)"}``."""
+    """``["runs/a=Ours (LPS)", ...]`` -> ``{"runs/a": "Ours (LPS)"}``.
+
+    Run directories contain ``=`` (``seed0-method.lr=0.01-<hash>``), labels rarely do, so the
+    item is split at its last ``=``."""
     out = {}
     for item in items:
-        key, sep, value = item.partition("=")
+        key, sep, value = item.rpartition("=")
         if not sep or not value:
             raise ConfigError(f"--label {item!r} must be RUN_DIR=LABEL")
         out[str(Path(key))] = value

@@ -116,3 +116,13 @@ def test_templates_protocol_selects_by_score_and_reports_oracle(tmp_path):
     units = Templates().score_units(df).set_index("group_id")
     assert units.loc["o1", "err_deg"] == 50.0 and units.loc["o1", "oracle_err_deg"] == 3.0
     assert units.loc["o2", "err_deg"] == 7.0 and units.loc["o2", "runtime_s"] == 4.0
+
+
+def test_views_without_absolute_ground_truth_are_not_scored():
+    from catpose.bench.protocols import GtModel, Templates
+
+    df = pd.DataFrame({"group_id": ["a", "b"], "category": ["c", "c"], "status": ["ok", "ok"], "score": [1.0, 1.0],
+                       "err_deg": [3.0, 100.0], "trans_err": [0.1, 0.1], "runtime_s": [1.0, 1.0],
+                       "info": [{}, {"absolute_gt": False}]})
+    assert GtModel().score_units(df)["err_deg"].tolist() == [3.0]
+    assert Templates().score_units(df)["err_deg"].tolist() == [3.0]

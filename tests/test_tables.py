@@ -153,8 +153,8 @@ def test_bad_jsonl_line_is_reported(tmp_path: Path):
 def test_rows_without_shown_categories_are_dropped(runs, tmp_path: Path):
     only_car = make_run(tmp_path, "car_only", {"car": [3.0]}, {"name": "teaser"})
     t = tables.build_table([tables.load_run(p) for p in [*runs, only_car]], "optimizer", categories=["airplane"])
-    assert ("-", "Teaser++") not in t.rows and len(t.rows) == 3
-    assert any("Teaser++" in n for n in t.notes)
+    assert ("-", "TEASER (re-impl.)") not in t.rows and len(t.rows) == 3
+    assert any("TEASER (re-impl.)" in n for n in t.notes)
 
 
 def test_errors_come_from_poses_not_stored_numbers(runs):
