@@ -57,4 +57,4 @@ for fmt in md latex csv; do
   "$B" table "$OUT/synthetic-relative" --layout generic --format $fmt \
     --title "Relative pose between two views of one object, each registered to the category templates" --out "$T/relative.$ext"
 done
-"$B" report "$G/icp" "$G/ours" --out results/report --qualitative 1
+"$B" report "$G/icp" "$G/ours" "${L[@]}" --out results/report --qualitative 1
