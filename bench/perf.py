@@ -59,11 +59,11 @@ def _method(name: str, seed: int, overrides: dict):
     from hydra import compose, initialize_config_module
     from omegaconf import OmegaConf
 
-    from catpose.bench.runner import _instantiate
+    from catpose.bench.runner import build_from_config
 
     with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
         cfg = compose(config_name="run", overrides=[f"method={name}", f"seed={seed}"])
-    return _instantiate(OmegaConf.merge(cfg.method, overrides), "method")[1]
+    return build_from_config(OmegaConf.merge(cfg.method, overrides), "method")[1]
 
 
 def _stats(xs: list[float]) -> tuple[float, float]:

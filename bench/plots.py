@@ -188,11 +188,8 @@ def plot_sample_from_run(run_dir: str | Path, sample_id: str, out_stem: str | Pa
 
     Raises :class:`~catpose.errors.CatposeError` when the dataset cannot be rebuilt here.
     """
-    from hydra.utils import instantiate
-    from omegaconf import OmegaConf
-
     from catpose.bench.tables import load_run
-    from catpose.errors import ConfigError, DatasetError
+    from catpose.errors import CatposeError, ConfigError, DatasetError
 
     run = load_run(run_dir)
     rows = run.samples[run.samples["sample_id"] == sample_id]
@@ -202,17 +199,13 @@ def plot_sample_from_run(run_dir: str | Path, sample_id: str, out_stem: str | Pa
     cfg = run.config
     if not isinstance(cfg.get("dataset"), dict) or not isinstance(cfg.get("protocol"), dict):
         raise ConfigError(f"{run_dir}/config.yaml has no dataset/protocol to re-load samples from")
-    ds_cfg, pr_cfg = dict(cfg["dataset"]), dict(cfg["protocol"])
-    ds_name = ds_cfg.pop("name", "dataset")
-    pr_cfg.pop("name", None)
+    from catpose.bench.runner import build_from_config
+
     try:
-        dataset = instantiate(OmegaConf.create(ds_cfg), _convert_="all")
-        protocol = instantiate(OmegaConf.create(pr_cfg), _convert_="all")
-    except Exception as e:  # noqa: BLE001 - Hydra wraps the dataset's own error
-        cause = e
-        while cause.__cause__ is not None:
-            cause = cause.__cause__
-        raise DatasetError(f"cannot rebuild dataset {ds_name!r} from {run_dir}/config.yaml: {cause}") from None
+        ds_name, dataset = build_from_config(dict(cfg["dataset"]), "dataset")
+        protocol = build_from_config(dict(cfg["protocol"]), "protocol")[1]
+    except CatposeError as e:
+        raise DatasetError(f"cannot rebuild the dataset from {run_dir}/config.yaml: {e}") from None
     dataset.name = ds_name
     sample = protocol.load(dataset, sample_id)
     T_est = None if row.get("T_est") is None else np.asarray(row["T_est"], float).reshape(4, 4)

@@ -243,7 +243,8 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str,
     out = []
     for k, g in enumerate(gt_rows):
         row = {key: g.get(key) for key in ("sample_id", "group_id", "obs_id", "category", "instance_id", "template_id",
-                                           "dataset", "protocol", "seed", "symmetric", "T_gt", "symmetry_axis", "info")}
+                                           "dataset", "protocol", "seed", "symmetric", "T_gt", "symmetry_axis", "symmetries",
+                                           "info")}
         row.update(method=method, extras={}, stage="")
         if kind == "bop":
             scene, im, obj, scale, centre, R_om = ids[k]
@@ -262,8 +263,10 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str,
             T_est = invert_T(make_T(R_co, (T[:3, 3] + R_co @ centre) / scale))
         else:
             T_est = make_T(R, T[:3, 3])
-        axis = g.get("symmetry_axis")
-        errs = sample_errors(T_est, np.asarray(g["T_gt"], float).reshape(4, 4), None if axis is None else np.asarray(axis, float))
+        axis, symmetries = g.get("symmetry_axis"), g.get("symmetries")
+        errs = sample_errors(T_est, np.asarray(g["T_gt"], float).reshape(4, 4),
+                             None if axis is None else np.asarray(axis, float),
+                             symmetries if isinstance(symmetries, (list, tuple)) else ())
         score = p.get("score")
         score = None if score is None or not math.isfinite(float(score)) else (-float(score) if kind == "bop" else float(score))
         rt = p.get("time")
@@ -289,15 +292,17 @@ def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
 def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Sequence[str] = ()) -> tuple[list[dict], dict]:
     """Ground-truth rows built from ``configs/dataset/<dataset>.yaml`` + ``configs/protocol/<protocol>.yaml``."""
     from hydra import compose, initialize_config_module
-    from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
+    from catpose.bench.run_cmd import check_overrides
+    from catpose.bench.runner import build_from_config
+
+    check_overrides([f"dataset={dataset}", f"protocol={protocol}"])
     with initialize_config_module("catpose.configs", version_base=None):
         cfg = compose("run", overrides=[f"dataset={dataset}", f"protocol={protocol}", f"seed={seed}", *overrides])
+    ds_name, ds = build_from_config(cfg.dataset, "dataset")  # one-line errors for a missing root etc.
+    pr_name, proto = build_from_config(cfg.protocol, "protocol")
     config = OmegaConf.to_container(cfg, resolve=True)
-    ds_cfg, pr_cfg = dict(config["dataset"]), dict(config["protocol"])
-    ds_name, pr_name = ds_cfg.pop("name"), pr_cfg.pop("name")
-    ds, proto = instantiate(ds_cfg, _convert_="all"), instantiate(pr_cfg, _convert_="all")
     ds.name = ds_name
     rows, seen = [], set()
     for sid in proto.sample_ids(ds):
@@ -312,7 +317,9 @@ def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Seque
                      "instance_id": info.get("instance_id"), "template_id": sample.problem.template.template_id,
                      "dataset": ds_name, "protocol": pr_name, "seed": seed, "symmetric": axis is not None,
                      "T_gt": np.asarray(sample.gt.T_template_camera, float).reshape(-1).tolist(),
-                     "symmetry_axis": None if axis is None else np.asarray(axis, float).tolist(), "info": info})
+                     "symmetry_axis": None if axis is None else np.asarray(axis, float).tolist(),
+                     "symmetries": [np.asarray(S, float).reshape(-1).tolist() for S in sample.gt.symmetries] or None,
+                     "info": info})
     return rows, config
 
 

@@ -12,8 +12,6 @@ scored on the same problems (fixed by dataset, protocol and seed alone).
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from functools import lru_cache
-
 import numpy as np
 
 from catpose.datasets.base import ObjectDataset, Observation
@@ -137,9 +135,13 @@ class Templates(Protocol):
         return make_sample(obs, template, sample_id, obs_id)
 
     def score_units(self, samples):
+        return self.best_per_view(absolute_gt_only(samples))
+
+    def best_per_view(self, samples):
+        """One row per view (``group_id``): the template with the lowest method score, with
+        ``oracle_err_deg``, ``n_templates`` and the summed ``runtime_s`` of the group."""
         import pandas as pd
 
-        samples = absolute_gt_only(samples)
         if len(samples) == 0:
             return samples
         rows = []

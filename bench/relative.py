@@ -153,8 +153,8 @@ class Relative(Protocol):
 
     def view_rows(self, samples):
         """Per-sample rows -> one row per view (the chosen template's estimate)."""
-        if self.template_source == "category":
-            return self._views.score_units(samples)
+        if self.template_source == "category":  # not score_units: that keeps absolute ground truth only
+            return self._views.best_per_view(samples)
         return samples
 
     def score_units(self, samples):

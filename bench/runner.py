@@ -47,7 +47,7 @@ _RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", "limit",
 # building the pieces from config
 
 
-def _instantiate(node: Any, what: str) -> tuple[str, Any]:
+def build_from_config(node: Any, what: str) -> tuple[str, Any]:
     """Pop ``name`` from a config group node and build its ``_target_`` with the rest."""
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
@@ -253,10 +253,10 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
         import torch
 
         torch.set_num_threads(int(cfg.threads))
-    method_name, method = _instantiate(cfg.method, "method")
-    dataset_name, dataset = _instantiate(cfg.dataset, "dataset")
+    method_name, method = build_from_config(cfg.method, "method")
+    dataset_name, dataset = build_from_config(cfg.dataset, "dataset")
     dataset.name = dataset_name
-    _, protocol = _instantiate(cfg.protocol, "protocol")
+    _, protocol = build_from_config(cfg.protocol, "protocol")
 
     ids = protocol.sample_ids(dataset)
     if cfg.get("sample_ids"):
@@ -313,54 +313,81 @@ def load_protocol(run_dir: Path) -> Any:
     from omegaconf import OmegaConf
 
     cfg = OmegaConf.load(run_dir / "config.yaml")
-    return _instantiate(cfg.protocol, "protocol")[1]
+    return build_from_config(cfg.protocol, "protocol")[1]
+
+
+def recompute_errors(row: dict) -> dict:
+    """A per-sample row with its errors recomputed from ``T_est``, ``T_gt``, ``symmetry_axis``
+    and ``symmetries`` (the current metric definitions); a row without an estimate gets
+    :data:`~catpose.bench.metrics.FAILED_ERROR_DEG`. Every table is scored through this."""
+    from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors
+
+    row = dict(row)
+    T_est, T_gt = row.get("T_est"), row.get("T_gt")
+    if row.get("status") == "ok" and isinstance(T_est, (list, np.ndarray)) and isinstance(T_gt, (list, np.ndarray)):
+        axis = row.get("symmetry_axis")
+        symmetries = row.get("symmetries")
+        row.update(sample_errors(np.reshape(T_est, (4, 4)), np.reshape(T_gt, (4, 4)),
+                                 np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
+                                 symmetries if isinstance(symmetries, (list, tuple)) else ()))
+    else:
+        row["err_deg"] = FAILED_ERROR_DEG
+    return row
+
+
+def latest_rows(path: Path) -> list[dict]:
+    """The rows of a ``samples.jsonl``, one per sample (a retried sample: its last row)."""
+    latest: dict[str, dict] = {}
+    for r in read_samples(path):
+        latest.pop(r["sample_id"], None)
+        latest[r["sample_id"]] = r
+    return list(latest.values())
 
 
 def summarize_run(run_dir: Path, sample_ids: Iterable[str] | None = None):
-    """Per-category summary of a run from its files; writes samples.csv, summary.csv/md.
+    """Per-category summary of a run from its files.
 
-    Only ``sample_ids`` are counted when given (a ``limit``-ed run of a larger directory).
-    Errors are recomputed from the stored estimates and ground truth, so the statistics never
-    depend on in-memory state.
+    Writes ``samples.csv`` and ``summary.csv``/``.md`` over every finished sample of the
+    directory, so they always agree with ``samples.jsonl``. Returns that summary, or, when
+    ``sample_ids`` is given (a ``limit``-ed run of a larger directory), the summary of those
+    samples only (not written). Errors are recomputed from the stored estimates and ground
+    truth, so the statistics never depend on in-memory state.
     """
     import pandas as pd
 
-    from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors, summarize
-
     run_dir = Path(run_dir)
-    latest: dict[str, dict] = {}
-    for r in read_samples(run_dir / SAMPLES_FILE):  # a retried sample: its last row counts
-        latest.pop(r["sample_id"], None)
-        latest[r["sample_id"]] = r
-    rows = list(latest.values())
-    if sample_ids is not None:
-        wanted = {s: i for i, s in enumerate(sample_ids)}
-        rows = sorted((r for r in rows if r["sample_id"] in wanted), key=lambda r: wanted[r["sample_id"]])
-    for r in rows:
-        if r.get("status") == "ok" and r.get("T_est") is not None:
-            axis = r.get("symmetry_axis")
-            r.update(sample_errors(np.reshape(r["T_est"], (4, 4)), np.reshape(r["T_gt"], (4, 4)),
-                                   None if axis is None else np.asarray(axis), r.get("symmetries") or ()))
-        else:
-            r["err_deg"] = FAILED_ERROR_DEG
-    df = pd.DataFrame(rows)
+    df = pd.DataFrame([recompute_errors(r) for r in latest_rows(run_dir / SAMPLES_FILE)])
+    protocol = load_protocol(run_dir)
     if len(df):
         flat = df.drop(columns=[c for c in ("info", "extras", "symmetries") if c in df.columns]).copy()
         for c in ("T_est", "T_gt", "symmetry_axis"):
             if c in flat.columns:
                 flat[c] = flat[c].map(lambda v: " ".join(f"{x:.9g}" for x in np.ravel(v)) if isinstance(v, list) else "")
         flat.to_csv(run_dir / "samples.csv", index=False)
-        units = load_protocol(run_dir).score_units(df)
-    else:
-        units = df
-    summary = summarize(units) if len(units) else summarize(pd.DataFrame(
-        columns=["category", "status", "err_deg", "trans_err", "runtime_s"]))
-    if "oracle_err_deg" in getattr(units, "columns", []):
+    summary = _summary(df, protocol)
+    summary.to_csv(run_dir / "summary.csv", index=False)
+    (run_dir / "summary.md").write_text(format_summary(summary) + "\n")
+    if sample_ids is None or len(df) == 0:
+        return summary
+    wanted = set(sample_ids)
+    return _summary(df[df["sample_id"].isin(wanted)].reset_index(drop=True), protocol)
+
+
+def _summary(df, protocol):
+    """Per-category statistics of per-sample rows scored by ``protocol``, oracle columns added
+    for protocols that report one."""
+    import pandas as pd
+
+    from catpose.bench.metrics import summarize
+
+    units = protocol.score_units(df) if len(df) else df
+    if len(units) == 0:
+        return summarize(pd.DataFrame(columns=["category", "status", "err_deg", "trans_err", "runtime_s"]))
+    summary = summarize(units)
+    if "oracle_err_deg" in units.columns:
         oracle = summarize(units.assign(err_deg=units["oracle_err_deg"], status="ok"))
         summary["oracle_mean_err_deg"] = oracle["mean_err_deg"].to_numpy()
         summary["oracle_median_err_deg"] = oracle["median_err_deg"].to_numpy()
-    summary.to_csv(run_dir / "summary.csv", index=False)
-    (run_dir / "summary.md").write_text(format_summary(summary) + "\n")
     return summary
 
 

@@ -86,48 +86,26 @@ class Run:
 
 
 def read_samples(path: Path):
-    """Read a ``samples.jsonl`` file into a DataFrame (raises :class:`DatasetError` if malformed)."""
+    """A ``samples.jsonl`` as a DataFrame, one row per sample (the runner's reader: a truncated
+    line of a killed run is skipped, a retried sample's last row counts)."""
     import pandas as pd
 
-    rows = []
-    with open(path, encoding="utf-8") as f:
-        for k, line in enumerate(f, 1):
-            if not line.strip():
-                continue
-            try:
-                rows.append(json.loads(line))
-            except json.JSONDecodeError as e:
-                raise DatasetError(f"{path}:{k} is not valid JSON ({e.msg}); re-run the method or fix the line") from e
-    df = pd.DataFrame(rows)
-    if len(df) and "sample_id" in df:  # a retried sample: its last row counts (as in the runner)
-        df = df.drop_duplicates("sample_id", keep="last").reset_index(drop=True)
-    return df
+    from catpose.bench.runner import latest_rows
+
+    return pd.DataFrame(latest_rows(Path(path)))
 
 
 def recompute_errors(samples):
-    """Errors of every finished row recomputed from its ``T_est``, ``T_gt`` and ``symmetry_axis``
-    with :func:`catpose.bench.metrics.sample_errors` (as the runner's summary does), so tables
-    follow the current metric definitions rather than the numbers stored at run time."""
-    import numpy as np
+    """Errors of every row recomputed from its estimate and ground truth by the runner's
+    :func:`~catpose.bench.runner.recompute_errors` (symmetries included), so tables follow the
+    current metric definitions rather than the numbers stored at run time."""
+    import pandas as pd
 
-    from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors
+    from catpose.bench.runner import recompute_errors as recompute_row
 
     if len(samples) == 0 or not {"T_est", "T_gt", "status"} <= set(samples.columns):
         return samples
-    samples = samples.copy()
-    for col in ("rot_err_deg", "axis_err_deg", "trans_err", "err_deg"):
-        samples[col] = samples[col].astype(float) if col in samples else float("nan")
-    for i, r in samples.iterrows():
-        ok = r["status"] == "ok" and isinstance(r["T_est"], list) and isinstance(r["T_gt"], list)
-        if ok:
-            axis = r.get("symmetry_axis")
-            errs = sample_errors(np.reshape(r["T_est"], (4, 4)), np.reshape(r["T_gt"], (4, 4)),
-                                 np.asarray(axis, float) if isinstance(axis, list) else None)
-            for k, v in errs.items():
-                samples.at[i, k] = v
-        else:
-            samples.at[i, "err_deg"] = FAILED_ERROR_DEG
-    return samples
+    return pd.DataFrame([recompute_row(r) for r in samples.to_dict("records")], index=samples.index)
 
 
 def load_run(path: str | Path) -> Run:
@@ -166,16 +144,14 @@ def find_run_dirs(paths: Sequence[str | Path]) -> list[Path]:
 
 
 def protocol_of(run: Run):
-    """The run's protocol object, instantiated from ``config.yaml`` (plain constructor args)."""
-    cfg = dict(run.config.get("protocol") or {}) if isinstance(run.config.get("protocol"), dict) else {}
-    cfg.pop("name", None)
-    if cfg.get("_target_"):
-        try:
-            from hydra.utils import instantiate
+    """The run's protocol, built from its ``config.yaml`` as the runner builds it; runs without a
+    protocol config (external predictions written by hand) get the built-in protocol of their
+    name."""
+    cfg = run.config.get("protocol") if isinstance(run.config.get("protocol"), dict) else None
+    if cfg and cfg.get("_target_"):
+        from catpose.bench.runner import build_from_config
 
-            return instantiate(cfg)
-        except Exception:  # noqa: BLE001 - fall back on the built-in protocol of that name
-            pass
+        return build_from_config(dict(cfg), "protocol")[1]
     from catpose.bench.protocols import GtModel, Templates
 
     if run.protocol == "relative":

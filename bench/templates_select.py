@@ -168,14 +168,14 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     try:
         from hydra import compose, initialize_config_module
-        from hydra.utils import instantiate
-        from omegaconf import OmegaConf
 
+        from catpose.bench.run_cmd import check_overrides
+        from catpose.bench.runner import build_from_config
+
+        check_overrides(list(args.overrides))
         with initialize_config_module("catpose.configs", version_base=None):
             cfg = compose("run", overrides=list(args.overrides))
-        ds_cfg = OmegaConf.to_container(cfg.dataset, resolve=True)
-        name = str(ds_cfg.pop("name", "dataset"))
-        dataset = instantiate(ds_cfg, _convert_="all")
+        name, dataset = build_from_config(cfg.dataset, "dataset")  # one-line errors (missing root, ...)
         ids = args.instances.split(",") if args.instances else _instance_ids(dataset, args.category, args.split)
         if len(ids) < args.k:
             raise DatasetError(f"dataset {name} has {len(ids)} {args.split} instances of {args.category!r}; "

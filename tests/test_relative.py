@@ -191,6 +191,7 @@ def test_views_without_relative_ground_truth_are_not_scored():
                  instance_id="s1", status="ok", T_est=T, T_gt=T, symmetry_axis=None, runtime_s=1.0, score=0.0,
                  err_deg=0.0, trans_err=0.0, info={"relative_gt": False}) for k in range(3)]
     assert len(Relative(template_source="own").score_units(pd.DataFrame(rows))) == 0
-    for r in rows:
-        r["info"] = {"relative_gt": True}
+    for r in rows:  # a Redwood scan with a trajectory: relative but no absolute ground truth
+        r["info"] = {"relative_gt": True, "absolute_gt": False}
     assert len(Relative(template_source="own").score_units(pd.DataFrame(rows))) == 2
+    assert len(Relative(template_source="category").score_units(pd.DataFrame(rows))) == 2

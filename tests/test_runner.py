@@ -126,3 +126,14 @@ def test_views_without_absolute_ground_truth_are_not_scored():
                        "info": [{}, {"absolute_gt": False}]})
     assert GtModel().score_units(df)["err_deg"].tolist() == [3.0]
     assert Templates().score_units(df)["err_deg"].tolist() == [3.0]
+
+
+def test_limited_rerun_prints_its_subset_but_files_keep_every_sample(tmp_path):
+    from catpose.bench.runner import summarize_run
+
+    out = run(make_cfg(tmp_path))
+    sub = summarize_run(out, ["block/0/v0", "block/0/v1"]).set_index("category")
+    assert sub.loc["block", "n"] == 2
+    assert pd.read_csv(out / "summary.csv").set_index("category").loc["block", "n"] == 4
+    limited = run(make_cfg(tmp_path, overrides=["limit=2"]))
+    assert limited == out and pd.read_csv(out / "summary.csv").set_index("category").loc["block", "n"] == 4

@@ -144,10 +144,10 @@ def test_cli_writes_file_and_user_labels(runs, tmp_path: Path, capsys):
         tables.load_run(tmp_path)
 
 
-def test_bad_jsonl_line_is_reported(tmp_path: Path):
-    (tmp_path / "samples.jsonl").write_text('{"sample_id": "a"}\n{oops\n')
-    with pytest.raises(DatasetError, match="samples.jsonl:2"):
-        tables.load_run(tmp_path)
+def test_truncated_jsonl_line_is_skipped_as_by_the_runner(tmp_path: Path):
+    # a killed run leaves a partial last line: tables read it as `bench run` resumes it
+    (tmp_path / "samples.jsonl").write_text('{"sample_id": "a"}\n{"sample_id": "a", "sta\n')
+    assert tables.load_run(tmp_path).samples["sample_id"].tolist() == ["a"]
 
 
 def test_rows_without_shown_categories_are_dropped(runs, tmp_path: Path):

@@ -107,3 +107,11 @@ def test_written_file_is_a_hydra_group_for_dataset_templates(tmp_path: Path):
                                         f"hydra.searchpath=[file://{tmp_path}]"])
     assert list(cfg.dataset.templates.chair) == ["chair_0002", "chair_0001"]
     assert ts.default_output("modelnet40", "chair").parts[-2:] == ("templates", "modelnet40_chair.yaml")
+
+
+def test_bad_dataset_root_is_one_line(tmp_path, capsys):
+    from catpose.bench.templates_select import main
+
+    assert main(["--category", "chair", "dataset=modelnet40", f"dataset.root={tmp_path / 'nope'}"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "nope" in err[0] and "Traceback" not in err[0]
