@@ -215,6 +215,9 @@ def main(argv: list[str] | None = None) -> int:
         failures: list[str] = []
         with tempfile.TemporaryDirectory(prefix="catpose-regress-") as tmp:
             out_root = Path(args.keep) if args.keep else Path(tmp)
+            if args.keep and out_root.exists() and any(out_root.iterdir()):
+                # the runner would resume from old rows and compare results of older code
+                raise ConfigError(f"--keep {out_root} is not empty; pass a new or empty folder")
             for name in names:
                 suite = cfg["suites"][name]
                 if suite.get("requires_shared_data") and not shared_data_dir().is_dir():

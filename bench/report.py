@@ -66,7 +66,8 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
         md += [tables.to_markdown(table), f"Files: [md](tables/{layout}.md), [LaTeX](tables/{layout}.tex), "
                f"[CSV](tables/{layout}.csv)", ""]
 
-    units = {label_of(r): tables.scored_units(r) for r in runs}
+    run_units = [tables.scored_units(r) for r in runs]  # in run order (labels may repeat)
+    units = {label_of(r): u for r, u in zip(runs, run_units)}
     figures = [("error_cdf", "Cumulative error distribution per category", plots.plot_error_cdf(units, out / "figures" / "error_cdf")),
                ("accuracy", "Accuracy against threshold", plots.plot_accuracy(units, out / "figures" / "accuracy")),
                ("runtime", "Runtime per registration", plots.plot_runtime({label_of(r): r.samples for r in runs},
@@ -77,7 +78,8 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
 
     if qualitative > 0:
         md += ["## Qualitative results", "", "Orange: the input carried into the template frame; blue-grey: the template.", ""]
-        for i, (run, (label, u)) in enumerate(zip(runs, units.items())):
+        for i, (run, u) in enumerate(zip(runs, run_units)):
+            label = label_of(run)
             view_rows = run.samples if run.protocol == "relative" else u  # pairs have no single sample
             for k, sid in enumerate(qualitative_picks(view_rows, qualitative)):
                 stem = out / "figures" / f"sample_run{i}_{k}"

@@ -188,8 +188,12 @@ def seed_everything(seed: int) -> None:
 def _run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dict, seed: int) -> dict:
     from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors
 
+    try:
+        category = dataset.category_of(sample_id.split("|")[0])
+    except Exception:  # an id the dataset cannot parse still gets its failed row below
+        category = None
     row = dict(base, sample_id=sample_id, group_id=sample_id, obs_id=sample_id.split("|")[0],
-               category=dataset.category_of(sample_id.split("|")[0]), instance_id=None, template_id=None,
+               category=category, instance_id=None, template_id=None,
                status="failed", error="", stage="load", rot_err_deg=None, axis_err_deg=None, trans_err=None,
                err_deg=FAILED_ERROR_DEG, symmetric=None, score=None, runtime_s=None, T_est=None, T_gt=None,
                symmetry_axis=None, symmetries=None, info={}, extras={})

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from catpose.errors import ConfigError
+from catpose.errors import ConfigError, InvalidInputError
 from catpose.geometry import stable_seed, transform_points
 from catpose.methods.base import RegistrationMethod
 from catpose.types import RegistrationProblem, RegistrationResult, Template
@@ -168,7 +168,7 @@ class CorrespondenceRegistration(RegistrationMethod):
         seed: base seed of the randomised parts (mixed with the sample id).
     """
 
-    def __init__(self, matching: str = "dictionary", features: str = "fpfh", voxel_size: float = 0.05,
+    def __init__(self, matching: str = "direct", features: str = "fpfh", voxel_size: float = 0.05,
                  fpfh_radius: float = 0.25, fpfh_max_nn: int = 100, num_keypoints: int = 32,
                  lps_voxel_size: float = 0.025, lps_radius: float = 0.2, lps_tau: float = 0.03,
                  lps_max_points: int = 96, lps_parallel_deg: float = 10.0,
@@ -230,8 +230,9 @@ class CorrespondenceRegistration(RegistrationMethod):
     # -- what a subclass provides ---------------------------------------------------------------
 
     @abstractmethod
-    def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
-        """Estimate ``T_target_source`` (4, 4) for one pair; return it with JSON-able details."""
+    def _estimate(self, match: MatchInput) -> tuple[np.ndarray | None, dict[str, Any]]:
+        """Estimate ``T_target_source`` (4, 4) for one pair; return it with JSON-able details,
+        or ``None`` when the pair cannot give an estimate (fewer than 3 correspondences)."""
 
     # -- the pipeline ---------------------------------------------------------------------------
 
@@ -326,10 +327,11 @@ class CorrespondenceRegistration(RegistrationMethod):
             o3d.utility.random.seed(seed % (2**31))  # FGR's tuple sampling and RANSAC draw from it
             T, info = self._estimate(match)
             t2 = time.perf_counter()
-            if self.refine_icp:
+            if T is not None and self.refine_icp:
                 T = self._refine(source, data["complete"], T)
             t3 = time.perf_counter()
-            cd = one_directional_chamfer(transform_points(T, source.points), data["tree"])
+            # an estimator without an estimate (too few correspondences) cannot be selected
+            cd = float("inf") if T is None else one_directional_chamfer(transform_points(T, source.points), data["tree"])
             stages["match_s"] += t1 - t0
             stages["estimate_s"] += t2 - t1
             stages["refine_s"] += t3 - t2
@@ -337,6 +339,9 @@ class CorrespondenceRegistration(RegistrationMethod):
             candidates.append((cd, T, info))
         best = int(np.argmin([c[0] for c in candidates]))
         cd, T, info = candidates[best]
+        if T is None:
+            raise InvalidInputError(f"sample {problem.sample_id}: no {self.features} correspondence set of 3 or more "
+                                    f"against any of {len(candidates)} targets; no pose can be estimated")
         extras = {"matching": self.matching, "features": self.features, "chosen_index": best,
                   "num_candidates": len(candidates), "candidate_chamfer": [float(c[0]) for c in candidates],
                   "num_source_points": int(len(source.points)), **stages,

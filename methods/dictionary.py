@@ -7,12 +7,13 @@ so a pose estimated against any of them is a pose against the template.
 
 Viewpoint layout (default, ``layout="rings"``, ``num_views=18``): 3 elevation rings at
 ``elevations_deg = (0, 30, 60)`` degrees above the template's ground plane (the xy plane,
-z up) x 6 azimuths every 60 degrees starting at +x, at ``distance`` (object-normalised units)
+z up) x 6 azimuths every 60 degrees (starting at +x on even rings, offset by half a step, 30 degrees,
+on odd rings), at ``distance`` (object-normalised units)
 from the origin. The rings match where a depth camera looks at an upright object from.
 ``layout="fibonacci"`` spreads ``num_views`` directions evenly over the whole sphere instead.
 
 Built once per template and parameters and cached in memory and on disk: the key is the
-template id, a hash of the template points and every parameter. The disk folder is
+template id, a hash of the template points and normals and every parameter. The disk folder is
 ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose`` (subfolder ``dictionary``); only indices are
 stored, points and normals are looked up from the template.
 
@@ -28,6 +29,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -37,7 +39,8 @@ from catpose.errors import ConfigError
 from catpose.types import Template
 
 _VERSION = "1"
-_MEMORY: dict[str, "PartialDictionary"] = {}
+_MEMORY: "OrderedDict[str, PartialDictionary]" = OrderedDict()
+_MEMORY_MAX = 32  # dictionaries kept in memory (LRU); an own-model run sees a new template per instance
 
 
 @dataclass(frozen=True, eq=False)
@@ -123,6 +126,7 @@ def dictionary_key(template: Template, num_views: int, layout: str, elevations_d
     """Cache key: safe template id + blake2b of the template points and every parameter."""
     h = hashlib.blake2b(digest_size=10)
     h.update(np.ascontiguousarray(template.points, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(template.normals, dtype=np.float64).tobytes())
     h.update(repr((_VERSION, num_views, layout, tuple(float(e) for e in elevations_deg),
                    float(distance), float(hpr_radius_factor))).encode())
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", template.template_id)[-80:]
@@ -151,6 +155,7 @@ def get_dictionary(template: Template, num_views: int = 18, layout: str = "rings
     key = dictionary_key(template, num_views, layout, elevations_deg, distance, hpr_radius_factor)
     hit = _MEMORY.get(key)
     if hit is not None:
+        _MEMORY.move_to_end(key)
         return hit
     viewpoints = viewpoint_layout(num_views, layout, elevations_deg, distance)
     path = cache_dir() / "dictionary" / f"{key}.npz"
@@ -179,6 +184,8 @@ def get_dictionary(template: Template, num_views: int = 18, layout: str = "rings
         template_id=template.template_id, key=key, viewpoints=viewpoints, indices=indices,
         points=[template.points[i] for i in indices], normals=[template.normals[i] for i in indices])
     _MEMORY[key] = d
+    while len(_MEMORY) > _MEMORY_MAX:
+        _MEMORY.popitem(last=False)
     return d
 
 

@@ -11,6 +11,7 @@ correspondence distance), then the lowest inlier RMSE, wins.
 
 from __future__ import annotations
 
+import hashlib
 from functools import lru_cache
 
 import numpy as np
@@ -78,18 +79,24 @@ class ICP(RegistrationMethod):
         self.estimation = estimation
         self.center_source = bool(center_source)
         self.num_threads = None if num_threads is None else int(num_threads)
-        self._targets: dict[str, object] = {}
+        self._targets: dict[tuple[str, str], object] = {}
 
     def _cloud(self, points: np.ndarray, normals: np.ndarray):
         from catpose.o3d import o3d
 
         pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
         pcd.normals = o3d.utility.Vector3dVector(normals)
-        return pcd.voxel_down_sample(self.voxel_size) if self.voxel_size > 0 else pcd
+        if self.voxel_size > 0:
+            pcd = pcd.voxel_down_sample(self.voxel_size)
+            pcd.normalize_normals()  # voxel averaging shortens normals; point-to-plane needs unit ones
+        return pcd
 
     def _target(self, template: Template):
-        # the template cloud is downsampled once, not once per sample
-        key = template.template_id
+        # the template cloud is downsampled once, not once per sample; ids alone can repeat
+        # across datasets (synthetic ids do not name the seed), so the key hashes the content
+        key = (template.template_id, hashlib.blake2b(np.ascontiguousarray(template.points).tobytes()
+                                                     + np.ascontiguousarray(template.normals).tobytes(),
+                                                     digest_size=8).hexdigest())
         if key not in self._targets:
             if len(self._targets) > 16:
                 self._targets.clear()

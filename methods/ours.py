@@ -151,6 +151,27 @@ class Ours(RegistrationMethod):
                 raise ConfigError(f"method ours: {name}={value!r} is unknown; use one of {list(allowed)}")
         if num_keypoints < 3:
             raise ConfigError(f"method ours: num_keypoints={num_keypoints}; use at least 3 (e.g. 32)")
+        positive = {"lps_radius": lps_radius, "lps_tau": lps_tau, "lps_voxel_subdiv": lps_voxel_subdiv,
+                    "lps_max_points": lps_max_points, "pfh_radius": pfh_radius, "pfh_max_nn": pfh_max_nn,
+                    "pfh_eps": pfh_eps, "lr": lr, "view_distance": view_distance,
+                    "hpr_radius_factor": hpr_radius_factor, "refine_max_distance": refine_max_distance}
+        for name, value in positive.items():
+            if not value > 0:
+                raise ConfigError(f"method ours: {name}={value}; it must be positive")
+        non_negative = {"voxel_size": voxel_size, "steps_pose": steps_pose, "steps_joint": steps_joint,
+                        "chamfer_weight": chamfer_weight, "refine_iterations": refine_iterations,
+                        "num_threads": num_threads}
+        for name, value in non_negative.items():
+            if value < 0:
+                raise ConfigError(f"method ours: {name}={value}; it must be >= 0")
+        if str(device).startswith("cuda"):
+            import torch
+
+            if not torch.cuda.is_available():
+                raise ConfigError(f"method ours: device={device!r} but torch has no CUDA device here; use device=cpu")
+        from catpose.methods.dictionary import viewpoint_layout
+
+        viewpoint_layout(int(num_views), layout, tuple(float(e) for e in elevations_deg), float(view_distance))
         self.descriptor, self.num_keypoints, self.voxel_size = descriptor, int(num_keypoints), float(voxel_size)
         self.dict_args = dict(num_views=int(num_views), layout=layout,
                               elevations_deg=tuple(float(e) for e in elevations_deg),
@@ -269,7 +290,7 @@ class Ours(RegistrationMethod):
         """Keypoints and descriptors of every partial template, cached per template and parameters."""
         from scipy.spatial import cKDTree
 
-        key = repr((dictionary.key, self.descriptor, self.num_keypoints, self.voxel_size, self.lps_radius,
+        key = repr((dictionary.key, tuple(np.round(np.asarray(template.up, float), 12)), self.descriptor, self.num_keypoints, self.voxel_size, self.lps_radius,
                     self.lps_tau, self.lps_max_points, self.lps_parallel_deg, self.lps_fscore,
                     self.lps_voxel_subdiv, self.pfh_radius, self.pfh_max_nn, self.chamfer_points))
         hit = self._features.get(key)
@@ -296,7 +317,7 @@ class Ours(RegistrationMethod):
                        np.concatenate([d.n for d in descs]))
         feats = _TemplateFeatures(np.stack(kps), descs, complete, cKDTree(template.points), stacked)
         self._features[key] = feats
-        while len(self._features) > 64:
+        while len(self._features) > 8:  # LPS grids are ~25 MB a template
             self._features.popitem(last=False)
         return feats
 

@@ -60,7 +60,7 @@ class TEASER(CorrespondenceRegistration):
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
         corr = match.fpfh_correspondences(self.mutual_filter, self.max_correspondences)
         if len(corr) < 3:
-            return np.eye(4), {"num_correspondences": int(len(corr)), "clique_size": 0}
+            return None, {"num_correspondences": int(len(corr)), "clique_size": 0}
         r = teaser_solver.solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]],
                                 self.noise_bound, self.cbar2, self.gnc_factor, self.max_iterations,
                                 self.cost_threshold, self.clique_node_budget, self.rotation_tim_graph,

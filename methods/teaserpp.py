@@ -34,7 +34,7 @@ class TEASERPlusPlus(TEASER):
 
         corr = match.fpfh_correspondences(self.mutual_filter, self.max_correspondences)
         if len(corr) < 3:
-            return np.eye(4), {"num_correspondences": int(len(corr))}
+            return None, {"num_correspondences": int(len(corr))}
         params = teaserpp_python.RobustRegistrationSolver.Params()
         params.cbar2 = self.cbar2
         params.noise_bound = self.noise_bound
