@@ -122,8 +122,8 @@ def export_bop(run_dir: str | Path, out_csv: str | Path) -> int:
 
     Uses the run's scoring units of one view each (for the templates protocol: the template the
     method chose), skips failed samples, and writes ``<out_csv>.map.csv`` with the sample ->
-    BOP id mapping. ``score`` is ``exp(-method score)`` (a confidence in (0, 1]; 1 when the
-    method has no score).
+    BOP id mapping. ``score`` is ``exp(-max(method score, 0))``, a confidence in (0, 1] (1 when
+    the method has no score; every built-in method's score is a non-negative loss).
     """
     import pandas as pd
 
@@ -145,7 +145,7 @@ def export_bop(run_dir: str | Path, out_csv: str | Path) -> int:
         R = T_co[:3, :3] @ R_om
         t = scale * T_co[:3, 3] - T_co[:3, :3] @ centre
         s = r.get("score")
-        conf = 1.0 if s is None or not math.isfinite(float(s)) else math.exp(-float(s))
+        conf = 1.0 if s is None or not math.isfinite(float(s)) else math.exp(-max(float(s), 0.0))
         rt = r.get("runtime_s")
         rt = -1.0 if rt is None or not math.isfinite(float(rt)) else float(rt)
         lines.append(f"{scene},{im},{obj},{conf:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"

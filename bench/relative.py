@@ -71,7 +71,9 @@ def relative_errors(T_est1: np.ndarray, T_est2: np.ndarray, T_gt1: np.ndarray, T
     Returns:
         ``rot_err_deg`` (geodesic angle between estimated and true ``R_c1_c2``), ``axis_err_deg``
         (NaN unless symmetric), ``trans_err`` (distance between the relative translations, in the
-        object-normalised unit of the estimates) and ``err_deg`` (axis error if symmetric).
+        object-normalised unit of the estimates; for symmetric objects the distance between where
+        the two relative poses put the object's origin in camera 1, which a spin about the axis
+        does not change) and ``err_deg`` (axis error if symmetric).
     """
     T_c1_c2_est = invert_T(np.asarray(T_est1, float)) @ np.asarray(T_est2, float)
     T_c1_c2_gt = invert_T(np.asarray(T_gt1, float)) @ np.asarray(T_gt2, float)
@@ -82,8 +84,16 @@ def relative_errors(T_est1: np.ndarray, T_est2: np.ndarray, T_gt1: np.ndarray, T
         # poses put it in camera 1. axis_error_deg compares R_est^T a with R_gt^T a.
         a_c2 = np.asarray(T_gt2, float)[:3, :3].T @ np.asarray(symmetry_axis, float).reshape(3)
         axis = axis_error_deg(T_c1_c2_est[:3, :3].T, T_c1_c2_gt[:3, :3].T, a_c2)
-    return {"rot_err_deg": rot, "axis_err_deg": axis,
-            "trans_err": translation_error(T_c1_c2_est[:3, 3], T_c1_c2_gt[:3, 3]),
+    if symmetry_axis is None:
+        trans = translation_error(T_c1_c2_est[:3, 3], T_c1_c2_gt[:3, 3])
+    else:
+        # the object's origin seen from camera 2, carried into camera 1 by both relative poses:
+        # unlike the relative translation, this ignores each view's unobservable spin
+        T2 = np.asarray(T_gt2, float)
+        o_c2 = -T2[:3, :3].T @ T2[:3, 3]
+        trans = translation_error(T_c1_c2_est[:3, :3] @ o_c2 + T_c1_c2_est[:3, 3],
+                                  T_c1_c2_gt[:3, :3] @ o_c2 + T_c1_c2_gt[:3, 3])
+    return {"rot_err_deg": rot, "axis_err_deg": axis, "trans_err": trans,
             "err_deg": rot if symmetry_axis is None else axis}
 
 

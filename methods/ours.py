@@ -455,8 +455,9 @@ class Ours(RegistrationMethod):
     def _refine(self, pts: np.ndarray, template: Template, tree, T_init: np.ndarray) -> np.ndarray:
         """Point-to-plane ICP (Chen & Medioni 1992) from ``T_init`` against the complete template.
 
-        Written in NumPy with a KD-tree rather than Open3D's ICP, whose multi-threaded reductions
-        change the last bits of the result from run to run (same input, different output).
+        Written in NumPy with a KD-tree against the full complete template (no voxel averaging
+        of its normals); Open3D's ICP, used by the baselines, is reproducible only on one thread
+        (``catpose.o3d.max_threads``).
         ``tree`` is a KD-tree of ``template.points``. Correspondences: the nearest template point
         within ``refine_max_distance``; each step solves
         the linearised 6x6 system for a small rotation and translation.

@@ -195,3 +195,14 @@ def test_views_without_relative_ground_truth_are_not_scored():
         r["info"] = {"relative_gt": True, "absolute_gt": False}
     assert len(Relative(template_source="own").score_units(pd.DataFrame(rows))) == 2
     assert len(Relative(template_source="category").score_units(pd.DataFrame(rows))) == 2
+
+
+def test_symmetric_relative_errors_ignore_each_views_spin():
+    rng = np.random.default_rng(3)
+    axis = np.array([0.0, 0.0, 1.0])
+    T_gt1 = make_T(random_rotation(rng), [0.2, -0.1, 3.0])
+    T_gt2 = make_T(random_rotation(rng), [-0.3, 0.4, 2.5])
+    spin = make_T(axis_angle_to_R(axis, 1.1), np.zeros(3))  # unobservable for a can
+    e = relative_errors(T_gt1, spin @ T_gt2, T_gt1, T_gt2, axis)
+    assert e["err_deg"] == pytest.approx(0.0, abs=1e-6) and e["trans_err"] == pytest.approx(0.0, abs=1e-9)
+    assert relative_errors(T_gt1, spin @ T_gt2, T_gt1, T_gt2, None)["trans_err"] > 0.1
