@@ -9,8 +9,10 @@ by its entry in the optional alignment table (:mod:`catpose.datasets.alignment`;
 instances differ by multiples of 90 degrees of yaw), and normalised to the unit bounding sphere
 at its bounding-box centre: the object frame of every observation, in which translation errors
 are measured. Partial views are rendered with :mod:`catpose.datasets.render` from viewpoints of
-a :class:`~catpose.datasets.render.ViewSampler`, exactly as for the synthetic set; the view of
-``obs_id`` is a deterministic function of ``(seed, obs_id)``.
+a :class:`~catpose.datasets.render.ViewSampler` with the synthetic set's knobs; the view of
+``obs_id`` is a deterministic function of ``(seed, obs_id)``. One difference: normals are
+estimated on every back-projected pixel before subsampling to ``max_points`` (the synthetic set
+subsamples first, which is faster; its views are denser per unit area).
 
 Observation ids: ``<category>/<instance_id>/v<k>``, e.g. ``airplane/airplane_0001/v02``.
 """

@@ -28,7 +28,7 @@ from catpose.datasets.base import ObjectDataset, Observation
 from catpose.datasets.meshio import R_template_file, TemplateSet
 from catpose.datasets.render import ViewSampler
 from catpose.errors import DatasetError
-from catpose.geometry import invert_T, stable_seed, transform_points
+from catpose.geometry import invert_T, normalize_to_unit_sphere, stable_seed, transform_points
 from catpose.types import Template
 
 
@@ -164,11 +164,11 @@ class ModelNet40Resampled(ObjectDataset):
             if extra is not None:
                 R = extra @ R
             pts, nrm = pts @ R.T, nrm @ R.T
-            centre = 0.5 * (pts.min(0) + pts.max(0))
-            scale = float(np.linalg.norm(pts - centre, axis=1).max())
-            if scale <= 0:
-                raise DatasetError(f"{instance_id}: all points are equal")
-            self._clouds[instance_id] = ((pts - centre) / scale, nrm)
+            try:
+                pts, _, _ = normalize_to_unit_sphere(pts)
+            except ValueError:
+                raise DatasetError(f"{instance_id}: all points are equal") from None
+            self._clouds[instance_id] = (pts, nrm)
         return self._clouds[instance_id]
 
     def instance_model(self, category: str, instance_id: str) -> Template:
