@@ -66,7 +66,48 @@ def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_ob
     return points, normals
 
 
-class ModelNet40(ObjectDataset):
+class ModelNetBase(ObjectDataset):
+    """What the two ModelNet40 releases share: root, split and instance selection, views per
+    instance, the file-to-canonical rotation (file axes, then the optional per-instance alignment
+    table), templates and symmetric categories. Subclasses read their own file format."""
+
+    def _init_common(self, root: str, missing_root: str, split: str, instances_per_category: int | None,
+                     views_per_instance: int, distance: float, elevation_min_deg: float,
+                     elevation_max_deg: float, roll_max_deg: float, depth_noise_std: float, max_points: int,
+                     template_points: int, templates: dict[str, list] | None, template_split: str,
+                     templates_root: str | None, aligned: bool, alignment_table: str | None, up: str,
+                     forward: str, symmetric: dict[str, list[float]] | None, seed: int) -> None:
+        self.root = Path(root)
+        if not self.root.is_dir():
+            raise DatasetError(missing_root.format(root=self.root))
+        self.split = str(split)
+        self.instances_per_category = instances_per_category
+        self.views_per_instance = int(views_per_instance)
+        self.sampler = ViewSampler(float(distance), float(elevation_min_deg), float(elevation_max_deg),
+                                   float(roll_max_deg))
+        self.depth_noise_std = float(depth_noise_std)
+        self.max_points = int(max_points)
+        self.template_points = int(template_points)
+        self.template_split = str(template_split)
+        self.aligned = bool(aligned)
+        self.alignment = {} if aligned or not alignment_table else read_alignment_table(alignment_table)
+        self.R_template_file = R_template_file(up, forward)
+        self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
+        self.seed = int(seed)
+        self._templates = TemplateSet(templates, templates_root or self.root, self.template_points,
+                                      self.seed, instance_loader=self.instance_model)
+        self._ids: list[str] | None = None
+
+    def canonical_rotation(self, category: str, instance_id: str) -> np.ndarray:
+        """(3, 3) rotation from the file's frame into the canonical object frame (z up, x forward)."""
+        R = self.alignment.get((category, instance_id))
+        return self.R_template_file if R is None else R @ self.R_template_file
+
+    def category_templates(self, category: str) -> list[Template]:
+        return self._templates.get(category)
+
+
+class ModelNet40(ModelNetBase):
     """ModelNet40 OFF meshes and partial views rendered from them.
 
     Args:
@@ -108,34 +149,18 @@ class ModelNet40(ObjectDataset):
                  templates_root: str | None = None, aligned: bool = False,
                  alignment_table: str | None = None, up: str = "+z", forward: str = "+x",
                  symmetric: dict[str, list[float]] | None = None, seed: int = 0) -> None:
-        self.root = Path(root)
-        if not self.root.is_dir():
-            raise DatasetError(f"ModelNet40 root {self.root} is not a folder; set dataset.root to the "
-                               "folder that holds <category>/<split>/*.off")
+        self._init_common(root, "ModelNet40 root {root} is not a folder; set dataset.root to the folder that "
+                          "holds <category>/<split>/*.off", split, instances_per_category, views_per_instance,
+                          distance, elevation_min_deg, elevation_max_deg, roll_max_deg, depth_noise_std,
+                          max_points, template_points, templates, template_split, templates_root, aligned,
+                          alignment_table, up, forward, symmetric, seed)
         self.categories = sorted(categories) if categories else sorted(
             p.name for p in self.root.iterdir() if p.is_dir())
-        self.split = str(split)
-        self.instances_per_category = instances_per_category
-        self.views_per_instance = int(views_per_instance)
         self.camera = pinhole_camera(width, height, fx, fy, cx, cy)
-        self.sampler = ViewSampler(float(distance), float(elevation_min_deg), float(elevation_max_deg),
-                                   float(roll_max_deg))
-        self.depth_noise_std = float(depth_noise_std)
         self.normal_radius = float(normal_radius)
-        self.max_points = int(max_points)
         self.min_points = int(min_points)
-        self.template_points = int(template_points)
-        self.template_split = str(template_split)
-        self.aligned = bool(aligned)
-        self.alignment = {} if aligned or not alignment_table else read_alignment_table(alignment_table)
-        self.R_template_file = R_template_file(up, forward)
-        self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
-        self.seed = int(seed)
-        self._templates = TemplateSet(templates, templates_root or self.root, self.template_points,
-                                      self.seed, instance_loader=self.instance_model)
         self._meshes: dict[tuple[str, str, str], tuple[np.ndarray, np.ndarray]] = {}
         self._models: dict[tuple[str, str], Template] = {}
-        self._ids: list[str] | None = None
 
     # ------------------------------------------------------------------ index
     def instance_ids(self, category: str, split: str | None = None) -> list[str]:
@@ -172,10 +197,7 @@ class ModelNet40(ObjectDataset):
         key = (category, split, instance_id)
         if key not in self._meshes:
             v, f = read_off(path)
-            v = v @ self.R_template_file.T
-            R = self.alignment.get((category, instance_id))
-            if R is not None:
-                v = v @ R.T
+            v = v @ self.canonical_rotation(category, instance_id).T
             try:
                 v, _, _ = normalize_to_unit_sphere(v)
             except ValueError:
@@ -190,9 +212,6 @@ class ModelNet40(ObjectDataset):
             self._models[key] = sampled_template(v, f, f"modelnet40/{instance_id}", category,
                                                  self.template_points, self.seed, self.symmetric.get(category))
         return self._models[key]
-
-    def category_templates(self, category: str) -> list[Template]:
-        return self._templates.get(category)
 
     # ------------------------------------------------------------------ views
     def observation(self, obs_id: str) -> Observation:

@@ -23,10 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from catpose.datasets.alignment import read_alignment_table
-from catpose.datasets.base import ObjectDataset, Observation
-from catpose.datasets.meshio import R_template_file, TemplateSet
-from catpose.datasets.render import ViewSampler
+from catpose.datasets.base import Observation
+from catpose.datasets.modelnet40 import ModelNetBase
 from catpose.errors import DatasetError
 from catpose.geometry import invert_T, normalize_to_unit_sphere, stable_seed, transform_points
 from catpose.types import Template
@@ -64,7 +62,7 @@ def hidden_point_removal(points: np.ndarray, camera_position: np.ndarray, radius
     return np.sort(np.asarray(idx, dtype=np.int64))
 
 
-class ModelNet40Resampled(ObjectDataset):
+class ModelNet40Resampled(ModelNetBase):
     """``modelnet40_normal_resampled`` clouds and their hidden-point-removal partial views.
 
     Args:
@@ -101,30 +99,15 @@ class ModelNet40Resampled(ObjectDataset):
                  templates_root: str | None = None, aligned: bool = False,
                  alignment_table: str | None = None, up: str = "+y", forward: str = "-x",
                  symmetric: dict[str, list[float]] | None = None, seed: int = 0) -> None:
-        self.root = Path(root)
-        if not self.root.is_dir():
-            raise DatasetError(f"modelnet40_normal_resampled root {self.root} is not a folder; set dataset.root")
+        self._init_common(root, "modelnet40_normal_resampled root {root} is not a folder; set dataset.root",
+                          split, instances_per_category, views_per_instance, distance, elevation_min_deg,
+                          elevation_max_deg, roll_max_deg, depth_noise_std, max_points, template_points,
+                          templates, template_split, templates_root, aligned, alignment_table, up, forward,
+                          symmetric, seed)
         self.categories = list(categories) if categories else None
-        self.split = str(split)
-        self.instances_per_category = instances_per_category
-        self.views_per_instance = int(views_per_instance)
-        self.sampler = ViewSampler(float(distance), float(elevation_min_deg), float(elevation_max_deg),
-                                   float(roll_max_deg))
         self.hpr_radius_factor = float(hpr_radius_factor)
-        self.depth_noise_std = float(depth_noise_std)
-        self.max_points = int(max_points)
-        self.template_points = int(template_points)
-        self.template_split = str(template_split)
-        self.aligned = bool(aligned)
-        self.alignment = {} if aligned or not alignment_table else read_alignment_table(alignment_table)
-        self.R_template_file = R_template_file(up, forward)
-        self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
-        self.seed = int(seed)
-        self._templates = TemplateSet(templates, templates_root or self.root, self.template_points,
-                                      self.seed, instance_loader=self.instance_model)
         self._clouds: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._models: dict[str, Template] = {}
-        self._ids: list[str] | None = None
 
     # ------------------------------------------------------------------ index
     def split_ids(self, split: str | None = None) -> list[str]:
@@ -159,10 +142,7 @@ class ModelNet40Resampled(ObjectDataset):
         if instance_id not in self._clouds:
             category = self.category_of_instance(instance_id)
             pts, nrm = read_resampled_txt(self.root / category / f"{instance_id}.txt")
-            R = self.R_template_file
-            extra = self.alignment.get((category, instance_id))
-            if extra is not None:
-                R = extra @ R
+            R = self.canonical_rotation(category, instance_id)
             pts, nrm = pts @ R.T, nrm @ R.T
             try:
                 pts, _, _ = normalize_to_unit_sphere(pts)
@@ -183,9 +163,6 @@ class ModelNet40Resampled(ObjectDataset):
                                                  category=category, points=pts, normals=nrm,
                                                  symmetry_axis=self.symmetric.get(category))
         return self._models[instance_id]
-
-    def category_templates(self, category: str) -> list[Template]:
-        return self._templates.get(category)
 
     # ------------------------------------------------------------------ views
     def observation(self, obs_id: str) -> Observation:
