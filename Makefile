@@ -15,11 +15,11 @@ setup: $(VENV)/.installed
 # torch is pinned here (the CPU wheel on this machine): an unpinned torch pulls a multi-GB CUDA
 # build. open3d-cpu's missing libusb-1.0.so.0 comes from the PyPI package libusb-package,
 # loaded by catpose.o3d before Open3D.
-$(VENV)/.installed: pyproject.toml
+$(VENV)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet $(TORCH_PIN)
-	$(PY) -m pip install --quiet -e ".[test]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[test]"
 	touch $@
 
 demo: setup

@@ -1,15 +1,27 @@
-"""``bench regress``: CI regression of ours and the baselines on small fixed subsets.
+"""``bench regress``: a per-sample regression gate for ours and the baselines.
 
-Each suite of ``configs/regress/default.yaml`` (a dataset + protocol + seed + overrides and a
-list of methods) is run through the runner into a temporary folder, summarised per category,
-and compared with the committed reference (``results/reference/<suite>.json``) within the
-stated tolerances (absolute, per statistic). A regression prints a per-metric diff and exits 1;
-``--update`` rewrites the reference from the current code. Methods whose config or module is
-missing (or whose optional dependency is absent) are skipped with a note, never failed.
+Each suite of ``configs/regress/default.yaml`` is a fixed set of problems and a list of methods.
+The embedded suite reads its problems from committed golden inputs (:mod:`catpose.bench.golden`),
+so every machine registers the same bits; a suite on ``../shared/data`` renders them live.
 
-    bench regress                      # every suite (shared-data suites only when present)
+What is compared, per method (the reference is ``results/reference/<suite>.json``):
+
+- **every sample**: it fails when a sample that was ok now fails, or when a *stable* sample that
+  was within ``within_deg`` (10 deg) of the truth leaves it by more than ``chaos_deg``;
+  every sample whose answer moved more than ``chaos_deg`` is printed with how far;
+- **aggregates** per category and overall, over the stable samples only, within the
+  tolerances derived in the config (mean / median error, @10 / @30, translation error).
+
+A sample is *chaotic* when its answer is decided by the last bits: a ``1e-12`` relative
+perturbation of its input, or a second BLAS kernel, moves its estimate by more than
+``chaos_deg``. ``bench regress --update`` measures that for every sample (three runs, the third
+in a subprocess under another ``OPENBLAS_CORETYPE``, MKL instruction set and torch CPU capability) and stores the flag
+in the reference; chaotic samples are reported, never failed on.
+
+    bench regress                          # every suite (shared-data suites only when present)
     bench regress --suite synthetic --methods icp,ours
-    bench regress --update             # after an intended change: commit the new reference
+    bench regress --update                 # after an intended change; commit results/reference/
+    bench regress --write-inputs           # re-render the golden inputs (changes every answer)
 """
 
 from __future__ import annotations
@@ -18,40 +30,55 @@ import argparse
 import json
 import math
 import os
+import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from catpose.errors import CatposeError, ConfigError
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_CONFIG = REPO / "configs" / "regress" / "default.yaml"
-STATISTICS = ("n", "failed", "mean_err_deg", "median_err_deg", "acc10", "acc30", "mean_trans_err")
+AGGREGATES = ("n", "failed", "mean_err_deg", "median_err_deg", "acc10", "acc30", "mean_trans_err")
+#: OpenBLAS kernels to try as "a second kernel", in order of preference, by the first one's name
+SECOND_KERNEL = {"SkylakeX": "Haswell", "Cooperlake": "Haswell", "SapphireRapids": "Haswell", "Zen": "Sandybridge",
+                 "Haswell": "Sandybridge", "Sandybridge": "Haswell"}
+
+
+# --------------------------------------------------------------------------------------------
+# configuration
 
 
 @dataclass(frozen=True)
-class Diff:
-    """One compared statistic: ``ok`` when ``|current - reference| <= tolerance`` (NaN == NaN)."""
+class Gate:
+    """The gate's thresholds (``gate:`` in the config; the derivations are documented there)."""
 
-    suite: str
-    method: str
-    category: str
-    statistic: str
-    reference: float | None
-    current: float | None
-    tolerance: float
+    within_deg: float = 10.0
+    chaos_deg: float = 1.0
+    perturbation: float = 1e-12
+    mean_err_deg: float = 1.0
+    median_err_deg: float = 1.0
+    mean_trans_err: float = 0.02
+    accuracy_thresholds: tuple[float, ...] = (10.0, 30.0)
 
-    @property
-    def ok(self) -> bool:
-        r, c = self.reference, self.current
-        if r is None or c is None:
-            return False
-        if math.isnan(r) or math.isnan(c):
-            return math.isnan(r) and math.isnan(c)
-        return abs(c - r) <= self.tolerance + 1e-9
+
+@dataclass
+class Suite:
+    """One configured suite."""
+
+    name: str
+    methods: list[str]
+    reference: Path
+    dataset: str = "synthetic"
+    protocol: str = "gt_model"
+    seed: int = 0
+    overrides: list[str] = field(default_factory=list)
+    method_overrides: dict[str, list[str]] = field(default_factory=dict)
+    inputs: Path | None = None
+    requires_shared_data: bool = False
 
 
 def shared_data_dir() -> Path:
@@ -60,8 +87,13 @@ def shared_data_dir() -> Path:
     return Path(env) if env else REPO.parent / "shared" / "data"
 
 
-def load_config(path: str | Path = DEFAULT_CONFIG) -> dict:
-    """The regress config as a plain dict (raises :class:`ConfigError` when malformed)."""
+def _repo_path(p: str | Path) -> Path:
+    p = Path(p)
+    return p if p.is_absolute() else REPO / p
+
+
+def load_config(path: str | Path = DEFAULT_CONFIG) -> tuple[Gate, dict[str, Suite]]:
+    """The gate thresholds and the suites (raises :class:`ConfigError` naming the key)."""
     import yaml
 
     path = Path(path)
@@ -70,189 +102,433 @@ def load_config(path: str | Path = DEFAULT_CONFIG) -> dict:
     cfg = yaml.safe_load(path.read_text()) or {}
     if not isinstance(cfg.get("suites"), dict) or not cfg["suites"]:
         raise ConfigError(f"{path} has no 'suites' mapping; see configs/regress/default.yaml")
-    for name, suite in cfg["suites"].items():
+    g = dict(cfg.get("gate") or {})
+    unknown = set(g) - set(Gate.__dataclass_fields__)
+    if unknown:
+        raise ConfigError(f"{path}: unknown gate keys {sorted(unknown)}; valid: {sorted(Gate.__dataclass_fields__)}")
+    if "accuracy_thresholds" in g:
+        g["accuracy_thresholds"] = tuple(float(x) for x in g["accuracy_thresholds"])
+    gate = Gate(**g)
+    suites = {}
+    for name, s in cfg["suites"].items():
         for key in ("dataset", "protocol", "methods", "reference"):
-            if key not in suite:
+            if key not in s:
                 raise ConfigError(f"{path}: suite {name!r} lacks {key!r}")
-    return cfg
+        suites[name] = Suite(name=name, methods=list(s["methods"]), reference=_repo_path(s["reference"]),
+                             dataset=str(s["dataset"]), protocol=str(s["protocol"]), seed=int(s.get("seed", 0)),
+                             overrides=[str(o) for o in s.get("overrides") or []],
+                             method_overrides={k: list(v) for k, v in (s.get("method_overrides") or {}).items()},
+                             inputs=_repo_path(s["inputs"]) if s.get("inputs") else None,
+                             requires_shared_data=bool(s.get("requires_shared_data", False)))
+    return gate, suites
 
 
-def method_available(name: str) -> str | None:
-    """None when ``configs/method/<name>.yaml`` and its module exist, else why not."""
-    import importlib.util
-
-    import yaml
-
-    cfg_path = REPO / "configs" / "method" / f"{name}.yaml"
-    if not cfg_path.is_file():
+def method_available(name: str, suite: "Suite | None" = None) -> str | None:
+    """None when ``configs/method/<name>.yaml`` exists and the method can be built (its module
+    and optional dependencies import), else why not."""
+    if not (REPO / "configs" / "method" / f"{name}.yaml").is_file():
         return f"no configs/method/{name}.yaml"
-    target = str((yaml.safe_load(cfg_path.read_text()) or {}).get("_target_", ""))
-    module = target.rpartition(".")[0]
+    from catpose.bench.runner import build_from_config
+
     try:
-        if not module or importlib.util.find_spec(module) is None:
-            return f"module {module or '?'} does not exist yet"
-    except ModuleNotFoundError:
-        return f"module {module} does not exist yet"
+        build_from_config(_compose(suite or Suite(name="-", methods=[], reference=Path("-")), name).method, "method")
+    except (CatposeError, ImportError) as e:
+        return " ".join(str(e).split())
     return None
 
 
-def run_suite(name: str, suite: dict, methods: Sequence[str] | None, out_root: Path,
-              log=print) -> tuple[dict[str, dict[str, dict[str, float]]], list[str]]:
-    """Run a suite's methods through the runner.
+# --------------------------------------------------------------------------------------------
+# running
 
-    Returns ({method: {category: {statistic: value}}}, notes about skipped methods).
-    """
-    import pandas as pd
+
+def _compose(suite: Suite, method: str | None) -> Any:
     from hydra import compose, initialize_config_module
 
-    from catpose.bench.runner import run
-
-    results: dict[str, dict[str, dict[str, float]]] = {}
-    notes: list[str] = []
     shared = str(shared_data_dir())
-    base = [f"dataset={suite['dataset']}", f"protocol={suite['protocol']}", f"seed={int(suite.get('seed', 0))}",
-            f"output_root={out_root / name}", "progress=false", "print_summary=false"]
-    base += [str(o).replace("{shared_data}", shared) for o in suite.get("overrides") or []]
-    for method in methods or suite["methods"]:
-        why = method_available(method)
-        if why:
-            notes.append(f"{name}/{method}: skipped ({why})")
-            continue
-        overrides = base + [f"method={method}"] + list((suite.get("method_overrides") or {}).get(method, []))
-        t0 = time.perf_counter()
-        try:
-            with initialize_config_module("catpose.configs", version_base=None):
-                cfg = compose("run", overrides=overrides)
-            run_dir = run(cfg, overrides)
-        except (CatposeError, ImportError) as e:
-            notes.append(f"{name}/{method}: skipped ({' '.join(str(e).split())})")
-            continue
-        summary = pd.read_csv(run_dir / "summary.csv")
-        results[method] = {str(r["category"]): {s: _num(r.get(s)) for s in STATISTICS} for r in summary.to_dict("records")}
-        log(f"  {name}/{method}: {time.perf_counter() - t0:.1f} s, mean error (all) "
-            f"{results[method].get('all', {}).get('mean_err_deg', float('nan')):.3f} deg")
-    return results, notes
+    overrides = [f"dataset={suite.dataset}", f"protocol={suite.protocol}", f"seed={suite.seed}",
+                 *[o.replace("{shared_data}", shared) for o in suite.overrides]]
+    if method:
+        overrides += [f"method={method}", *suite.method_overrides.get(method, [])]
+    with initialize_config_module("catpose.configs", version_base=None):
+        return compose("run", overrides=overrides)
+
+
+def suite_samples(suite: Suite, transform: Callable | None = None) -> tuple[Any, Any, list[str]]:
+    """(dataset, protocol, sample ids) of a suite: golden inputs when it has them, else its
+    dataset and protocol built from config. ``transform`` maps each loaded sample (golden only)."""
+    from catpose.bench.golden import GoldenDataset, GoldenProtocol, read_golden
+    from catpose.bench.runner import build_from_config
+
+    if suite.inputs is not None:
+        golden = read_golden(suite.inputs)
+        protocol = GoldenProtocol(golden, transform)
+        return GoldenDataset(golden), protocol, protocol.sample_ids()
+    cfg = _compose(suite, None)
+    name, dataset = build_from_config(cfg.dataset, "dataset")
+    dataset.name = name
+    _, protocol = build_from_config(cfg.protocol, "protocol")
+    return dataset, protocol, protocol.sample_ids(dataset)
+
+
+def run_method(suite: Suite, method_name: str, transform: Callable | None = None) -> dict[str, dict]:
+    """Register every problem of ``suite`` with one method; {sample_id: runner row}."""
+    from catpose.bench.runner import _run_one, build_from_config
+
+    cfg = _compose(suite, method_name)
+    _, method = build_from_config(cfg.method, "method")
+    dataset, protocol, ids = suite_samples(suite, transform)
+    base = {"method": method_name, "dataset": suite.dataset, "protocol": suite.protocol, "seed": suite.seed}
+    return {sid: _run_one(method, protocol, dataset, sid, base, suite.seed) for sid in ids}
+
+
+def slim_rows(suite: Suite, method: str, perturbation: float = 0.0) -> dict[str, dict]:
+    """{sample_id: slim row} of one method on a suite; with ``perturbation`` > 0 every golden
+    input is first perturbed by that relative amount (see :func:`catpose.bench.golden.perturbed`).
+    A top-level function, so that worker processes can run it."""
+    transform = None
+    if perturbation > 0:
+        from catpose.bench.golden import perturbed
+        from catpose.geometry import stable_seed
+
+        def transform(s):
+            return perturbed(s, perturbation, stable_seed("regress-perturb", s.problem.sample_id))
+    return {k: _slim(v) for k, v in run_method(suite, method, transform).items()}
+
+
+def map_jobs(tasks: Sequence[tuple], jobs: int) -> list:
+    """``[slim_rows(*t) for t in tasks]``, in ``jobs`` worker processes when ``jobs`` > 1 (each
+    method runs single-threaded, so workers never change a result, only the wall time)."""
+    if jobs <= 1 or len(tasks) <= 1:
+        return [slim_rows(*t) for t in tasks]
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=multiprocessing.get_context("spawn")) as ex:
+        return list(ex.map(slim_rows, *zip(*tasks)))
+
+
+def _slim(row: dict) -> dict:
+    """The part of a runner row the reference keeps."""
+    T = row.get("T_est")
+    return {"category": row.get("category"), "status": row.get("status"), "error": row.get("error") or "",
+            "err_deg": _num(row.get("err_deg")), "trans_err": _num(row.get("trans_err")),
+            "T_est": None if T is None else [float(x) for x in list(T)],
+            "T_gt": None if row.get("T_gt") is None else [float(x) for x in list(row["T_gt"])],
+            "symmetry_axis": None if row.get("symmetry_axis") is None else [float(x) for x in list(row["symmetry_axis"])],
+            "symmetries": [[float(x) for x in list(S)] for S in row.get("symmetries") or []]}
 
 
 def _num(v: Any) -> float:
     try:
-        return float(v)
+        f = float(v)
     except (TypeError, ValueError):
         return float("nan")
+    return f
 
 
-def compare(suite: str, reference: dict, current: dict, tolerances: dict[str, float],
-            methods: Sequence[str]) -> tuple[list[Diff], list[str]]:
-    """Diff every statistic of every (method, category) of ``current`` against ``reference``.
+def estimate_distance_deg(a: dict, b: dict) -> float:
+    """How far apart two answers to one sample are: the symmetry-aware rotation error of one
+    estimate measured against the other (degrees); 180 when exactly one of them failed, 0 when
+    both did."""
+    import numpy as np
 
-    Only ``methods`` (those that ran) are compared; a method or category present on one side
-    only is reported as a failing diff (a category lost or gained is a change), a method without
-    any reference as a note (run ``--update`` to add it).
-    """
-    diffs: list[Diff] = []
-    notes: list[str] = []
-    for method in methods:
-        ref_m, cur_m = reference.get(method), current.get(method, {})
-        if ref_m is None:
-            notes.append(f"{suite}/{method}: no reference yet (run `bench regress --update` and commit it)")
+    from catpose.bench.metrics import sample_errors
+
+    if (a.get("T_est") is None) != (b.get("T_est") is None):
+        return 180.0
+    if a.get("T_est") is None:
+        return 0.0
+    axis = a.get("symmetry_axis")
+    err = sample_errors(np.reshape(a["T_est"], (4, 4)), np.reshape(b["T_est"], (4, 4)),
+                        None if axis is None else np.asarray(axis, float),
+                        [np.reshape(S, (4, 4)) for S in a.get("symmetries") or []])
+    return float(err["err_deg"])
+
+
+# --------------------------------------------------------------------------------------------
+# aggregates and the comparison
+
+
+def aggregates(rows: dict[str, dict], stable: set[str], gate: Gate) -> dict[str, dict[str, float]]:
+    """Per-category (and ``all``) statistics over the stable samples of ``rows``, plus the
+    derived accuracy tolerances: the fraction of those samples within ``chaos_deg`` of each
+    accuracy threshold (they may cross it without having moved beyond noise)."""
+    import numpy as np
+
+    by_cat: dict[str, list[dict]] = {}
+    for sid, r in rows.items():
+        if sid in stable:
+            by_cat.setdefault(str(r["category"]), []).append(r)
+            by_cat.setdefault("all", []).append(r)
+    out = {}
+    for cat, rs in sorted(by_cat.items()):
+        err = np.array([r["err_deg"] if r["status"] == "ok" else 180.0 for r in rs], float)
+        trans = np.array([r["trans_err"] for r in rs if r["status"] == "ok"], float)
+        stats = {"n": float(len(rs)), "failed": float(sum(r["status"] != "ok" for r in rs)),
+                 "mean_err_deg": float(err.mean()), "median_err_deg": float(np.median(err)),
+                 "mean_trans_err": float(np.nanmean(trans)) if np.isfinite(trans).any() else float("nan")}
+        for thr in gate.accuracy_thresholds:
+            stats[f"acc{thr:g}"] = float((err <= thr).mean())
+            stats[f"acc{thr:g}_tolerance"] = float((np.abs(err - thr) <= gate.chaos_deg).mean())
+        out[cat] = stats
+    return out
+
+
+@dataclass
+class Finding:
+    """One line of the gate's report."""
+
+    method: str
+    where: str          # a sample id or a "category/statistic"
+    what: str
+    fails: bool
+
+
+def compare_method(method: str, ref: dict, current: dict[str, dict], gate: Gate) -> list[Finding]:
+    """Judge one method's current rows against its reference entry (see the module doc)."""
+    findings: list[Finding] = []
+    ref_rows: dict[str, dict] = ref["samples"]
+    chaotic = {sid for sid, r in ref_rows.items() if r.get("chaotic")}
+    missing, extra = sorted(set(ref_rows) - set(current)), sorted(set(current) - set(ref_rows))
+    for sid in missing:
+        findings.append(Finding(method, sid, "sample in the reference but not run now", True))
+    for sid in extra:
+        findings.append(Finding(method, sid, "sample run now but not in the reference (run --update)", True))
+    for sid in sorted(set(ref_rows) & set(current)):
+        r, c = ref_rows[sid], current[sid]
+        moved = estimate_distance_deg(r, c)
+        tag = "chaotic" if sid in chaotic else "stable"
+        if r["status"] == "ok" and c["status"] != "ok":
+            findings.append(Finding(method, sid, f"failed now ({c.get('error')}); was ok at {r['err_deg']:.2f} deg", True))
             continue
-        for category in sorted(set(ref_m) | set(cur_m)):
-            for stat in STATISTICS:
-                r = ref_m.get(category, {}).get(stat)
-                c = cur_m.get(category, {}).get(stat)
-                diffs.append(Diff(suite, method, category, stat, None if r is None else _num(r),
-                                  None if c is None else _num(c), float(tolerances.get(stat, 0.0))))
-    return diffs, notes
+        if moved <= gate.chaos_deg:
+            continue
+        left = r["err_deg"] <= gate.within_deg < c["err_deg"]
+        fails = left and sid not in chaotic
+        note = f"{tag}: moved {moved:.2f} deg, error {r['err_deg']:.2f} -> {c['err_deg']:.2f} deg"
+        if left:
+            note += f" (left {gate.within_deg:g} deg)"
+        findings.append(Finding(method, sid, note, fails))
+    stable = set(ref_rows) - chaotic
+    ref_agg, cur_agg = ref["aggregates"], aggregates({k: v for k, v in current.items() if k in ref_rows}, stable, gate)
+    tolerances = {"n": 0.0, "failed": 0.0, "mean_err_deg": gate.mean_err_deg, "median_err_deg": gate.median_err_deg,
+                  "mean_trans_err": gate.mean_trans_err}
+    for cat in sorted(set(ref_agg) | set(cur_agg)):
+        rs, cs = ref_agg.get(cat, {}), cur_agg.get(cat, {})
+        for stat in [*tolerances, *(f"acc{t:g}" for t in gate.accuracy_thresholds)]:
+            rv, cv = _num(rs.get(stat)), _num(cs.get(stat))
+            tol = tolerances.get(stat, _num(rs.get(f"{stat}_tolerance")))
+            if math.isnan(rv) and math.isnan(cv):
+                continue
+            if math.isnan(rv) or math.isnan(cv) or abs(cv - rv) > tol + 1e-9:
+                findings.append(Finding(method, f"{cat}/{stat}", f"{rv:.4g} -> {cv:.4g} (tolerance {tol:.3g})", True))
+    return findings
 
 
-def format_failures(diffs: Sequence[Diff]) -> str:
-    """The failing diffs as a readable table."""
-    bad = [d for d in diffs if not d.ok]
-    if not bad:
-        return ""
-    head = f"{'suite/method':<24} {'category':<10} {'statistic':<15} {'reference':>10} {'current':>10} {'diff':>9} {'tol':>6}"
-    lines = [head, "-" * len(head)]
-    for d in bad:
-        fmt = lambda v: "missing" if v is None else f"{v:.4g}"  # noqa: E731
-        delta = "" if d.reference is None or d.current is None else f"{d.current - d.reference:+.4g}"
-        lines.append(f"{d.suite + '/' + d.method:<24} {d.category:<10} {d.statistic:<15} {fmt(d.reference):>10} "
-                     f"{fmt(d.current):>10} {delta:>9} {d.tolerance:>6g}")
-    return "\n".join(lines)
+# --------------------------------------------------------------------------------------------
+# the reference
 
 
-def write_reference(path: Path, suite_name: str, suite: dict, results: dict, tolerances: dict) -> None:
-    """Write (merge per method) a suite's reference JSON."""
-    old = json.loads(path.read_text()) if path.is_file() else {}
-    metrics = dict(old.get("metrics", {}))
-    metrics.update(results)
-    doc = {"suite": suite_name, "dataset": suite["dataset"], "protocol": suite["protocol"],
-           "seed": int(suite.get("seed", 0)), "overrides": list(suite.get("overrides") or []),
-           "method_overrides": suite.get("method_overrides") or {}, "tolerances": tolerances,
-           "metrics": {m: metrics[m] for m in sorted(metrics)}}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(doc, indent=1, sort_keys=False, allow_nan=True) + "\n")
+def second_kernel(current: str) -> str:
+    """An OpenBLAS kernel that differs from ``current`` and runs on this CPU."""
+    return SECOND_KERNEL.get(current, "Sandybridge" if current != "Sandybridge" else "Haswell")
+
+
+def estimates_in_subprocess(config: Path, suite: str, methods: Sequence[str], env_extra: dict[str, str],
+                            jobs: int = 1) -> dict:
+    """{method: {sample_id: slim row}} from ``bench regress --emit-estimates`` in a child process
+    with ``env_extra`` set (another BLAS kernel)."""
+    with tempfile.TemporaryDirectory(prefix="catpose-regress-") as tmp:
+        out = Path(tmp) / "estimates.json"
+        cmd = [sys.executable, "-m", "catpose.bench.regress", "--config", str(config), "--suite", suite,
+               "--methods", ",".join(methods), "--emit-estimates", str(out), "--jobs", str(jobs)]
+        proc = subprocess.run(cmd, env=dict(os.environ, **env_extra), capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise CatposeError(f"second-kernel run failed ({' '.join(f'{k}={v}' for k, v in env_extra.items())}): "
+                               f"{proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}")
+        return json.loads(out.read_text())
+
+
+def build_reference(suite: Suite, methods: Sequence[str], gate: Gate, config: Path, jobs: int = 1,
+                    log=print) -> dict:
+    """Run, perturb, re-run under a second kernel, and return the reference entries per method."""
+    from catpose.bench.environment import numpy_blas_kernel
+
+    kernel2 = second_kernel(numpy_blas_kernel())
+    env2 = {"OPENBLAS_CORETYPE": kernel2, "MKL_ENABLE_INSTRUCTIONS": "AVX", "ATEN_CPU_CAPABILITY": "default"}
+    log(f"  second kernel for chaos detection: {' '.join(f'{k}={v}' for k, v in env2.items())}")
+    t0 = time.perf_counter()
+    other = estimates_in_subprocess(config, suite.name, methods, env2, jobs)
+    tasks = [(suite, m, 0.0) for m in methods]
+    if suite.inputs is not None:  # live inputs already differ in their last bits across kernels
+        tasks += [(suite, m, gate.perturbation) for m in methods]
+    results = map_jobs(tasks, jobs)
+    log(f"  {suite.name}: {len(tasks) + len(methods)} runs in {time.perf_counter() - t0:.1f} s")
+    out = {}
+    for i, m in enumerate(methods):
+        nominal = results[i]
+        shaken = results[len(methods) + i] if suite.inputs is not None else {}
+        for sid, r in nominal.items():
+            d_p = estimate_distance_deg(r, shaken[sid]) if sid in shaken else float("nan")
+            d_k = estimate_distance_deg(r, other[m][sid]) if sid in other.get(m, {}) else float("nan")
+            r["perturbation_moves_deg"] = None if math.isnan(d_p) else round(d_p, 4)
+            r["kernel_moves_deg"] = None if math.isnan(d_k) else round(d_k, 4)
+            r["chaotic"] = bool(max(0.0 if math.isnan(d_p) else d_p, 0.0 if math.isnan(d_k) else d_k) > gate.chaos_deg)
+        stable = {sid for sid, r in nominal.items() if not r["chaotic"]}
+        out[m] = {"samples": nominal, "aggregates": aggregates(nominal, stable, gate)}
+        n_ch = len(nominal) - len(stable)
+        log(f"  {suite.name}/{m}: {n_ch} of {len(nominal)} samples chaotic"
+            + (f": {', '.join(sorted(set(nominal) - stable))}" if n_ch else ""))
+    return out
+
+
+def write_reference(suite: Suite, entries: dict, gate: Gate) -> None:
+    """Merge ``entries`` (per method) into the suite's reference file with this environment."""
+    from catpose.bench.environment import environment
+
+    old = json.loads(suite.reference.read_text()) if suite.reference.is_file() else {}
+    methods = dict(old.get("methods", {})) if old.get("format") == 2 else {}
+    methods.update(entries)
+    doc = {"format": 2, "suite": suite.name, "dataset": suite.dataset, "protocol": suite.protocol,
+           "seed": suite.seed, "overrides": suite.overrides, "method_overrides": suite.method_overrides,
+           "inputs": None if suite.inputs is None else str(suite.inputs.relative_to(REPO)),
+           "gate": gate.__dict__ | {"accuracy_thresholds": list(gate.accuracy_thresholds)},
+           "environment": environment(), "methods": {m: methods[m] for m in sorted(methods)}}
+    suite.reference.parent.mkdir(parents=True, exist_ok=True)
+    suite.reference.write_text(json.dumps(doc, indent=1, allow_nan=True) + "\n")
+
+
+def write_inputs(suite: Suite, log=print) -> None:
+    """Render the suite's problems from its dataset config and freeze them (golden inputs)."""
+    from catpose.bench.golden import write_golden
+
+    if suite.inputs is None:
+        raise ConfigError(f"suite {suite.name!r} has no 'inputs' file configured; add inputs: <path>.npz")
+    cfg_suite = Suite(**{**suite.__dict__, "inputs": None})
+    dataset, protocol, ids = suite_samples(cfg_suite)
+    samples = [protocol.load(dataset, sid) for sid in ids]
+    write_golden(suite.inputs, suite.name, suite.overrides, samples)
+    log(f"  {suite.name}: {len(samples)} problems written to {suite.inputs} "
+        f"({suite.inputs.stat().st_size / 1024:.0f} KiB)")
+
+
+# --------------------------------------------------------------------------------------------
+# the command
+
+
+def _available_methods(suite: Suite, wanted: Sequence[str] | None, notes: list[str]) -> list[str]:
+    methods = []
+    for m in wanted or suite.methods:
+        why = method_available(m, suite)
+        if why:
+            notes.append(f"{suite.name}/{m}: skipped ({why})")
+        else:
+            methods.append(m)
+    return methods
+
+
+def check_suite(suite: Suite, methods: Sequence[str], gate: Gate, jobs: int = 1,
+                log=print) -> tuple[list[Finding], list[str]]:
+    """Run and judge one suite against its reference; (findings, notes)."""
+    from catpose.bench.environment import differences, environment
+
+    if not suite.reference.is_file():
+        return [Finding("-", suite.name, f"no reference file {suite.reference}; run `bench regress --update` "
+                                         "and commit it", True)], []
+    doc = json.loads(suite.reference.read_text())
+    if doc.get("format") != 2:
+        return [Finding("-", suite.name, f"{suite.reference} is of an older format; run `bench regress --update`",
+                        True)], []
+    findings, notes = [], []
+    for m in methods:
+        if m not in doc["methods"]:
+            notes.append(f"{suite.name}/{m}: no reference yet (run `bench regress --update` and commit it)")
+    methods = [m for m in methods if m in doc["methods"]]
+    t0 = time.perf_counter()
+    results = map_jobs([(suite, m, 0.0) for m in methods], jobs)
+    log(f"  {suite.name}: {len(methods)} methods in {time.perf_counter() - t0:.1f} s")
+    for m, current in zip(methods, results):
+        found = compare_method(m, doc["methods"][m], current, gate)
+        findings += found
+        n_ch = sum(bool(r.get("chaotic")) for r in doc["methods"][m]["samples"].values())
+        log(f"  {suite.name}/{m}: {len(current)} samples ({n_ch} chaotic), "
+            f"{sum(f.fails for f in found)} failing, {sum(not f.fails for f in found)} noted")
+    if any(f.fails for f in findings):
+        diff = differences(doc.get("environment"), environment())
+        notes += [f"{suite.name}: environment differs from the reference's: {d}" for d in diff] or \
+                 [f"{suite.name}: environment is the reference's"]
+    return findings, notes
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``bench regress [--config FILE] [--suite S] [--methods a,b] [--update] [--keep DIR]``."""
-    ap = argparse.ArgumentParser(prog="bench regress", description="CI regression against committed reference metrics.")
+    """``bench regress [--config F] [--suite S] [--methods a,b] [--update | --write-inputs]``."""
+    ap = argparse.ArgumentParser(prog="bench regress", description="Per-sample regression gate against committed references.")
     ap.add_argument("--config", default=str(DEFAULT_CONFIG))
     ap.add_argument("--suite", action="append", help="run only these suites (repeatable)")
     ap.add_argument("--methods", default=None, help="comma-separated subset of each suite's methods")
-    ap.add_argument("--update", action="store_true", help="rewrite the reference from this run")
-    ap.add_argument("--keep", default=None, help="keep the run directories here (default: a temporary folder)")
+    ap.add_argument("--update", action="store_true", help="rewrite the reference (with chaos detection)")
+    ap.add_argument("--write-inputs", action="store_true", help="re-render the golden inputs of the suites")
+    ap.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1),
+                    help="worker processes, one method each (results do not depend on it)")
+    ap.add_argument("--emit-estimates", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     try:
-        cfg = load_config(args.config)
-        tolerances = {s: float(cfg.get("tolerances", {}).get(s, 0.0)) for s in STATISTICS}
-        names = args.suite or list(cfg["suites"])
-        unknown = [s for s in names if s not in cfg["suites"]]
+        from catpose.bench.environment import numpy_blas_kernel
+
+        gate, suites = load_config(args.config)
+        names = args.suite or list(suites)
+        unknown = [s for s in names if s not in suites]
         if unknown:
-            raise ConfigError(f"unknown suite(s) {unknown}; configured: {list(cfg['suites'])}")
-        methods = args.methods.split(",") if args.methods else None
-        all_diffs: list[Diff] = []
+            raise ConfigError(f"unknown suite(s) {unknown}; configured: {list(suites)}")
+        wanted = args.methods.split(",") if args.methods else None
+        findings: list[Finding] = []
         notes: list[str] = []
-        failures: list[str] = []
-        with tempfile.TemporaryDirectory(prefix="catpose-regress-") as tmp:
-            out_root = Path(args.keep) if args.keep else Path(tmp)
-            if args.keep and out_root.exists() and any(out_root.iterdir()):
-                # the runner would resume from old rows and compare results of older code
-                raise ConfigError(f"--keep {out_root} is not empty; pass a new or empty folder")
-            for name in names:
-                suite = cfg["suites"][name]
-                if suite.get("requires_shared_data") and not shared_data_dir().is_dir():
-                    notes.append(f"{name}: skipped (no shared data at {shared_data_dir()})")
-                    continue
-                print(f"suite {name}: {suite['dataset']} / {suite['protocol']}, seed {suite.get('seed', 0)}")
-                results, skipped = run_suite(name, suite, methods, out_root)
-                notes += skipped
-                ref_path = Path(suite["reference"])
-                ref_path = ref_path if ref_path.is_absolute() else REPO / ref_path
-                if args.update:
-                    write_reference(ref_path, name, suite, results, tolerances)
-                    notes.append(f"{name}: reference written to {ref_path} ({len(results)} methods)")
-                    continue
-                if not ref_path.is_file():
-                    failures.append(f"{name}: no reference file {ref_path}; run `bench regress --update` and commit it")
-                    continue
-                reference = json.loads(ref_path.read_text()).get("metrics", {})
-                diffs, more = compare(name, reference, results, tolerances, list(results))
-                all_diffs += diffs
-                notes += more
+        emitted: dict = {}
+        for name in names:
+            suite = suites[name]
+            if suite.requires_shared_data and not shared_data_dir().is_dir():
+                notes.append(f"{name}: skipped (no shared data at {shared_data_dir()})")
+                continue
+            if args.write_inputs:
+                if suite.inputs is not None:
+                    write_inputs(suite)
+                continue
+            methods = _available_methods(suite, wanted, notes)
+            if args.emit_estimates:
+                emitted = dict(zip(methods, map_jobs([(suite, m, 0.0) for m in methods], args.jobs)))
+                continue
+            print(f"suite {name}: {suite.dataset} / {suite.protocol}, seed {suite.seed}, "
+                  f"{'golden inputs' if suite.inputs else 'rendered here'}, BLAS kernel {numpy_blas_kernel()}")
+            if args.update:
+                write_reference(suite, build_reference(suite, methods, gate, Path(args.config), args.jobs), gate)
+                notes.append(f"{name}: reference written to {suite.reference}")
+                continue
+            found, more = check_suite(suite, methods, gate, args.jobs)
+            findings += found
+            notes += more
+        if args.emit_estimates:
+            Path(args.emit_estimates).write_text(json.dumps(emitted))
+            return 0
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    for f in findings:
+        if not f.fails:
+            print(f"moved: {f.method} {f.where}: {f.what}")
     for n in notes:
         print(f"note: {n}")
-    table = format_failures(all_diffs)
-    n_bad = sum(not d.ok for d in all_diffs)
-    if table or failures:
-        print("\nREGRESSION: statistics outside tolerance\n" + table if table else "", file=sys.stderr)
-        for f in failures:
-            print(f"REGRESSION: {f}", file=sys.stderr)
-        print(f"\n{n_bad} of {len(all_diffs)} statistics differ; if the change is intended run "
-              "`bench regress --update` and commit results/reference/", file=sys.stderr)
+    bad = [f for f in findings if f.fails]
+    if bad:
+        print("\nREGRESSION:", file=sys.stderr)
+        for f in bad:
+            print(f"  {f.method} {f.where}: {f.what}", file=sys.stderr)
+        print(f"\n{len(bad)} failing finding(s); if the change is intended run `bench regress --update` "
+              "and commit results/reference/", file=sys.stderr)
         return 1
-    if not args.update:
-        print(f"regress: {len(all_diffs)} statistics within tolerance")
+    if not (args.update or args.write_inputs):
+        print(f"regress: passed ({len(findings)} samples moved within what the gate allows)")
     return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

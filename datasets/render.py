@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from catpose.errors import InvalidInputError
-from catpose.geometry import look_at_T_camera_world, make_T, axis_angle_to_R
+from catpose.geometry import axis_angle_to_R, compose_T, look_at_T_camera_world, make_T
 
 
 @dataclass(frozen=True)
@@ -74,7 +74,8 @@ def render_depth(vertices: np.ndarray, triangles: np.ndarray, T_camera_object: n
     rays_np = rays.numpy().astype(np.float64)
     points_object = rays_np[..., :3] + hit[..., None] * rays_np[..., 3:]
     R, t = np.asarray(T_camera_object, dtype=np.float64)[:3, :3], np.asarray(T_camera_object, dtype=np.float64)[:3, 3]
-    z = (points_object @ R[2] + t[2]).astype(np.float32)
+    z = (points_object[..., 0] * R[2, 0] + points_object[..., 1] * R[2, 1] + points_object[..., 2] * R[2, 2]
+         + t[2]).astype(np.float32)
     z[missed] = 0.0
     return z
 
@@ -146,5 +147,5 @@ class ViewSampler:
         eye = self.distance * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
         T = look_at_T_camera_world(eye, np.zeros(3), np.array([0.0, 0.0, 1.0]))
         if roll:
-            T = make_T(axis_angle_to_R(np.array([0.0, 0.0, 1.0]), roll), np.zeros(3)) @ T
+            T = compose_T(make_T(axis_angle_to_R(np.array([0.0, 0.0, 1.0]), roll), np.zeros(3)), T)
         return T

@@ -21,7 +21,7 @@ from typing import Callable
 import numpy as np
 import trimesh
 
-from catpose.geometry import axis_angle_to_R, make_T, normalize_to_unit_sphere
+from catpose.geometry import axis_angle_to_R, make_T, normalize_to_unit_sphere, transform_points
 
 __all__ = ["SHAPES", "SYMMETRIC_CATEGORIES", "make_airplane", "make_chair", "make_car", "make_mug",
            "make_bottle", "make_bowl", "make_can", "make_plate", "make_shape"]
@@ -32,17 +32,38 @@ SYMMETRIC_CATEGORIES = frozenset({"bottle", "bowl", "can", "plate"})
 
 # --------------------------------------------------------------------------- primitives
 
+def _posed(mesh: trimesh.Trimesh, T: np.ndarray) -> trimesh.Trimesh:
+    """``mesh`` moved by the (4, 4) rigid ``T``. The vertices are transformed in closed form
+    (:func:`catpose.geometry.transform_points`), not by trimesh's BLAS product, so the shapes
+    are the same bits on every CPU."""
+    return trimesh.Trimesh(transform_points(T, np.asarray(mesh.vertices, dtype=np.float64)),
+                           np.asarray(mesh.faces), process=False)
+
+
+def _align_z(direction: np.ndarray) -> np.ndarray:
+    """A rotation (3, 3) taking +z onto the unit ``direction`` (the shortest arc)."""
+    z = np.array([0.0, 0.0, 1.0])
+    d = np.asarray(direction, dtype=np.float64) / np.linalg.norm(direction)
+    axis = np.cross(z, d)
+    s, c = float(np.linalg.norm(axis)), float(d[2])
+    if s < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    return axis_angle_to_R(axis, float(np.arctan2(s, c)))
+
+
 def _box(extents: tuple[float, float, float], center: tuple[float, float, float],
          R: np.ndarray | None = None) -> trimesh.Trimesh:
     """Axis-aligned box (optionally rotated by ``R`` about its centre)."""
     T = make_T(np.eye(3) if R is None else R, np.asarray(center, dtype=np.float64))
-    return trimesh.creation.box(extents=extents, transform=T)
+    return _posed(trimesh.creation.box(extents=extents), T)
 
 
 def _cylinder(p0: np.ndarray, p1: np.ndarray, radius: float, sections: int = 20) -> trimesh.Trimesh:
     """Solid cylinder from point ``p0`` to ``p1``."""
-    return trimesh.creation.cylinder(radius=radius, segment=np.array([p0, p1], dtype=np.float64),
-                                     sections=sections)
+    p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
+    height = float(np.linalg.norm(p1 - p0))
+    T = make_T(_align_z(p1 - p0), (p0 + p1) / 2)
+    return _posed(trimesh.creation.cylinder(radius=radius, height=height, sections=sections), T)
 
 
 def _hull(points: np.ndarray) -> trimesh.Trimesh:
@@ -129,7 +150,7 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
         prof.append((r * np.cos(a), L - nose + nose * np.sin(a)))
     prof[-1] = (0.0, L)
     fuselage = _revolve_z(prof, sections=24)
-    fuselage.apply_transform(make_T(axis_angle_to_R(np.array([0.0, 1.0, 0.0]), np.pi / 2), np.zeros(3)))
+    fuselage = _posed(fuselage, make_T(axis_angle_to_R(np.array([0.0, 1.0, 0.0]), np.pi / 2), np.zeros(3)))
     parts = [fuselage]
 
     # main wings: trapezoidal (airliner / light aircraft) or delta (fighter: no tailplane, no pods)
@@ -231,7 +252,7 @@ def make_chair(rng: np.random.Generator) -> trimesh.Trimesh:
                 direction = foot - top
                 length = np.linalg.norm(direction)
                 zaxis = direction / length
-                R = trimesh.geometry.align_vectors(np.array([0.0, 0.0, 1.0]), zaxis)[:3, :3]
+                R = _align_z(zaxis)
                 parts.append(_box((2 * leg_r, 2 * leg_r, length), tuple((top + foot) / 2), R))
             else:
                 parts.append(_cylinder(top, foot, leg_r, sections=12))

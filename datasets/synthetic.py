@@ -28,7 +28,7 @@ from catpose.datasets.meshio import sample_outer_surface
 from catpose.datasets.shapes import SHAPES, SYMMETRIC_CATEGORIES
 from catpose.datasets.views import pinhole_camera
 from catpose.errors import ConfigError, DatasetError
-from catpose.geometry import axis_angle_to_R, invert_T, stable_seed
+from catpose.geometry import apply_R, axis_angle_to_R, invert_T, stable_seed
 from catpose.types import Template
 
 DEFAULT_CATEGORIES = ("airplane", "chair", "car", "mug", "bottle", "bowl", "can", "plate")
@@ -186,11 +186,11 @@ class SyntheticDataset(ObjectDataset):
         normals = estimate_normals(points, self.normal_radius)
 
         R_camera_object = T_camera_object[:3, :3]
-        ground = R_camera_object @ np.array([0.0, 0.0, 1.0])
+        ground = apply_R(R_camera_object, np.array([0.0, 0.0, 1.0]))
         if self.ground_normal_noise_deg > 0:
             axis = np.cross(ground, rng.normal(size=3))
             angle = np.deg2rad(rng.normal(0.0, self.ground_normal_noise_deg))
-            ground = axis_angle_to_R(axis, angle) @ ground
+            ground = apply_R(axis_angle_to_R(axis, angle), ground)
         return Observation(
             obs_id=obs_id, category=category, instance_id=instance_id, points_camera=points,
             normals_camera=normals, ground_normal_camera=ground / np.linalg.norm(ground),

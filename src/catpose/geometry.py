@@ -1,8 +1,34 @@
-"""Small rigid-geometry helpers shared by datasets, methods and metrics (NumPy, float64)."""
+"""Small rigid-geometry helpers shared by datasets, methods and metrics (NumPy, float64).
+
+Products of 3x3 matrices and (N, 3) points are written out in closed form (element-wise
+multiplies and adds in a fixed order) rather than through ``@``: NumPy hands ``@`` to OpenBLAS,
+whose kernel is chosen per CPU at run time (SkylakeX, Haswell, Sandybridge, ...) and rounds
+differently (FMA or not, other summation orders). Closed form gives the same bits on every
+machine, so a dataset's points and ground-truth poses do not depend on the CPU.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+
+
+def matmul3(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``A @ B`` for (3, 3) matrices, in closed form (bit-identical on every CPU)."""
+    A = np.asarray(A, dtype=np.float64)
+    B = np.asarray(B, dtype=np.float64)
+    return A[:, 0:1] * B[0] + A[:, 1:2] * B[1] + A[:, 2:3] * B[2]
+
+
+def apply_R(R: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """``vectors @ R.T`` for (3, 3) ``R`` and (N, 3) or (3,) vectors, in closed form."""
+    R = np.asarray(R, dtype=np.float64)
+    v = np.asarray(vectors, dtype=np.float64)
+    return v[..., 0:1] * R[:, 0] + v[..., 1:2] * R[:, 1] + v[..., 2:3] * R[:, 2]
+
+
+def compose_T(T_a_b: np.ndarray, T_b_c: np.ndarray) -> np.ndarray:
+    """``T_a_c = T_a_b @ T_b_c`` for (4, 4) rigid transforms, in closed form."""
+    return make_T(matmul3(T_a_b[:3, :3], T_b_c[:3, :3]), apply_R(T_a_b[:3, :3], T_b_c[:3, 3]) + T_a_b[:3, 3])
 
 
 def make_T(R: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -15,19 +41,18 @@ def make_T(R: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 def invert_T(T: np.ndarray) -> np.ndarray:
     """Inverse of a rigid transform: ``T_b_a`` from ``T_a_b``."""
-    R, t = T[:3, :3], T[:3, 3]
-    return make_T(R.T, -R.T @ t)
+    R, t = np.asarray(T, dtype=np.float64)[:3, :3], np.asarray(T, dtype=np.float64)[:3, 3]
+    return make_T(R.T, -apply_R(R.T, t))
 
 
 def transform_points(T: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Apply (4, 4) ``T`` to (N, 3) points."""
-    return points @ T[:3, :3].T + T[:3, 3]
+    return apply_R(T[:3, :3], points) + T[:3, 3]
 
 
 def rotate_vectors(T_or_R: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     """Rotate (N, 3) or (3,) direction vectors by the rotation part of a (4, 4) or (3, 3) matrix."""
-    R = T_or_R[:3, :3]
-    return vectors @ R.T
+    return apply_R(T_or_R[:3, :3], vectors)
 
 
 def axis_angle_to_R(axis: np.ndarray, angle_rad: float) -> np.ndarray:
@@ -35,7 +60,7 @@ def axis_angle_to_R(axis: np.ndarray, angle_rad: float) -> np.ndarray:
     a = np.asarray(axis, dtype=np.float64)
     a = a / np.linalg.norm(a)
     K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    return np.eye(3) + np.sin(angle_rad) * K + (1 - np.cos(angle_rad)) * K @ K
+    return np.eye(3) + np.sin(angle_rad) * K + (1 - np.cos(angle_rad)) * matmul3(K, K)
 
 
 def random_rotation(rng: np.random.Generator) -> np.ndarray:
