@@ -78,6 +78,10 @@ def problem_set(problems: int = 50, n: int = 1000, noise_bound: float = 0.05,
     return [synthetic_problem(seed + i, float(r), n, noise_bound) for i, r in enumerate(rates)]
 
 
+def _angle_deg(R_a: np.ndarray, R_b: np.ndarray) -> float:
+    return float(np.degrees(np.arccos(np.clip((np.trace(R_a.T @ R_b) - 1) / 2, -1, 1))))
+
+
 def teaserpp_available() -> bool:
     try:
         import teaserpp_python  # noqa: F401
@@ -87,7 +91,9 @@ def teaserpp_available() -> bool:
 
 
 def measure(problems: list[CorrespondenceProblem], with_teaserpp: bool | None = None) -> list[dict]:
-    """One row per problem: outlier rate, clique sizes and solve seconds of both solvers.
+    """One row per problem: outlier rate, clique sizes and solve seconds of both solvers, and
+    whether they chose the same clique (then the rotation gap in degrees). TEASER++'s clique is
+    counted as it returns it (its PMC exact solver has been seen to list a vertex twice).
 
     Args:
         problems: the correspondence sets.
@@ -111,7 +117,10 @@ def measure(problems: list[CorrespondenceProblem], with_teaserpp: bool | None = 
 
             t0 = time.perf_counter()
             tpp = teaserpp.solve(p.src, p.dst, p.noise_bound, min_clique_size=0)
-            row.update(clique_teaserpp=len(tpp.clique), seconds_teaserpp=time.perf_counter() - t0)
+            seconds = time.perf_counter() - t0
+            same = np.array_equal(ours.clique, tpp.clique)
+            row.update(clique_teaserpp=len(tpp.clique), seconds_teaserpp=seconds, same_clique=same,
+                       rotation_gap_deg=_angle_deg(ours.R, tpp.R) if same else float("nan"))
         rows.append(row)
     return rows
 
@@ -124,6 +133,9 @@ def summary(rows: list[dict], min_clique: int = 400) -> list[dict]:
         if not sel:
             continue
         entry = {"problems": label, "count": len(sel)}
+        if "same_clique" in sel[0]:
+            entry["same_clique"] = sum(r["same_clique"] for r in sel)
+            entry["same_clique_size"] = sum(r["clique_ours"] == r["clique_teaserpp"] for r in sel)
         for key in ("seconds_ours", "seconds_teaserpp"):
             if key in sel[0]:
                 xs = [r[key] for r in sel]

@@ -45,6 +45,67 @@ _DB = np.uint64(_DEBRUIJN)
 
 
 @numba.njit(cache=True, nogil=True)
+def _popcount(x):
+    """Set bits of a uint64 (SWAR)."""
+    x = x - ((x >> np.uint64(1)) & np.uint64(0x5555555555555555))
+    x = (x & np.uint64(0x3333333333333333)) + ((x >> np.uint64(2)) & np.uint64(0x3333333333333333))
+    x = (x + (x >> np.uint64(4))) & np.uint64(0x0F0F0F0F0F0F0F0F)
+    return (x * np.uint64(0x0101010101010101)) >> np.uint64(56)
+
+
+@numba.njit(cache=True, nogil=True)
+def _greedy_clique(adj, nbr, starts):
+    n = adj.shape[0]
+    A = adj.view(np.uint8)
+    deg = np.zeros(n, dtype=np.int64)
+    for u in range(n):
+        for w in range(nbr.shape[1]):
+            deg[u] += _popcount(nbr[u, w])
+    best = np.empty(0, dtype=np.int64)
+    cl = np.empty(n, dtype=np.int64)     # candidates (common neighbours), ascending
+    cdeg = np.empty(n, dtype=np.int64)   # candidate neighbours of each candidate
+    gone = np.empty(n, dtype=np.int64)
+    for s in starts:
+        if deg[s] + 1 <= len(best):  # cannot beat the best so far (nor can any later start)
+            break
+        k = 0
+        for u in range(n):
+            if adj[s, u]:
+                cl[k] = u
+                k += 1
+        for a in range(k):
+            c = 0
+            for w in range(nbr.shape[1]):
+                c += _popcount(nbr[cl[a], w] & nbr[s, w])
+            cdeg[a] = c
+        clique = [s]
+        while k > 0:
+            ia = 0
+            for a in range(1, k):  # most candidate neighbours, lowest vertex on ties
+                if cdeg[a] > cdeg[ia]:
+                    ia = a
+            v = cl[ia]
+            clique.append(v)
+            kept, ngone = 0, 0
+            for a in range(k):  # keep v's neighbours, in order
+                u = cl[a]
+                if a != ia and adj[v, u]:
+                    cl[kept] = u
+                    cdeg[kept] = cdeg[a]
+                    kept += 1
+                else:
+                    gone[ngone] = u
+                    ngone += 1
+            k = kept
+            for g in range(ngone):  # the leavers no longer count as candidate neighbours
+                r = gone[g]
+                for a in range(k):
+                    cdeg[a] -= A[r, cl[a]]
+        if len(clique) > len(best):
+            best = np.array(clique, dtype=np.int64)
+    return best
+
+
 def greedy_clique(adj: np.ndarray, starts: np.ndarray) -> np.ndarray:
     """Multi-start greedy clique (the lower bound and the budget fallback).
 
@@ -54,36 +115,11 @@ def greedy_clique(adj: np.ndarray, starts: np.ndarray) -> np.ndarray:
 
     Args:
         adj: (N, N) symmetric bool adjacency, false diagonal.
-        starts: (S,) int64 start vertices.
+        starts: (S,) start vertices in non-increasing degree (a start whose degree cannot beat
+            the best clique so far ends the loop).
     """
-    n = adj.shape[0]
-    best = np.empty(0, dtype=np.int64)
-    for s in starts:
-        cand = adj[s].copy()
-        cdeg = np.zeros(n, dtype=np.int64)  # candidate neighbours of every vertex
-        for u in range(n):
-            if cand[u]:
-                for w in range(n):
-                    if adj[u, w]:
-                        cdeg[w] += 1
-        clique = [s]
-        while True:
-            v, vdeg = -1, -1
-            for u in range(n):
-                if cand[u] and cdeg[u] > vdeg:
-                    v, vdeg = u, cdeg[u]
-            if v < 0:
-                break
-            clique.append(v)
-            for u in range(n):  # v and its non-neighbours leave the candidates
-                if cand[u] and (u == v or not adj[v, u]):
-                    cand[u] = False
-                    for w in range(n):
-                        if adj[u, w]:
-                            cdeg[w] -= 1
-        if len(clique) > len(best):
-            best = np.array(clique, dtype=np.int64)
-    return best
+    adj = np.ascontiguousarray(adj, dtype=bool)
+    return _greedy_clique(adj, _bitsets(adj), np.asarray(starts, dtype=np.int64))
 
 
 @numba.njit(cache=True, nogil=True)

@@ -81,10 +81,11 @@ def consistency_graph(src: np.ndarray, dst: np.ndarray, noise_bound: float) -> n
     Returns:
         (N, N) bool adjacency, ``| ||b_i - b_j|| - ||a_i - a_j|| | <= 2 beta``, zero diagonal.
     """
-    from scipy.spatial.distance import pdist, squareform
+    from scipy.spatial.distance import cdist
 
-    # condensed (N (N - 1) / 2) pair lengths: no (N, N, 3) temporaries
-    return squareform(np.abs(pdist(dst) - pdist(src)) <= 2.0 * noise_bound)
+    adj = np.abs(cdist(dst, dst) - cdist(src, src)) <= 2.0 * noise_bound  # no (N, N, 3) temporaries
+    np.fill_diagonal(adj, False)
+    return adj
 
 
 def max_clique(adj: np.ndarray, node_budget: int = 200_000,

@@ -109,9 +109,9 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
         t0 = time.perf_counter()
         solver.solve(np.ascontiguousarray(src.T), np.ascontiguousarray(dst.T))
         solve_s = time.perf_counter() - t0
-    clique = np.sort(np.asarray(solver.getInlierMaxClique(), dtype=np.int64))
-    if len(clique) < min_clique_size:
-        raise InvalidInputError(f"TEASER++ max clique has {len(clique)} of {len(src)} correspondences "
+    clique = np.sort(np.asarray(solver.getInlierMaxClique(), dtype=np.int64))  # as returned (may repeat)
+    if len(np.unique(clique)) < min_clique_size:
+        raise InvalidInputError(f"TEASER++ max clique has {len(np.unique(clique))} of {len(src)} correspondences "
                                 f"(fewer than {min_clique_size}): degenerate, no reliable pose")
     sol = solver.getSolution()
     R = np.asarray(sol.rotation, dtype=np.float64).reshape(3, 3)
@@ -137,7 +137,8 @@ class TEASERPlusPlus(TEASER):
         r = solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]], self.noise_bound,
                   self.cbar2, self.gnc_factor, self.max_iterations, self.cost_threshold,
                   self.rotation_tim_graph)
-        info = {"num_correspondences": int(len(corr)), "clique_size": int(len(r.clique)),
+        # PMC's exact solver has been seen to list a vertex twice: count distinct members
+        info = {"num_correspondences": int(len(corr)), "clique_size": int(len(np.unique(r.clique))),
                 "clique_exact": r.clique_exact, "translation_inliers": int(len(r.translation_inliers)),
                 **{f"teaserpp_{k}": v for k, v in r.timings.items()}}
         return r.T, info
