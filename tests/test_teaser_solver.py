@@ -192,3 +192,12 @@ def test_perf_solvers_problems_and_table(capsys) -> None:
     assert perf_solvers.main(["--problems", "2", "--n", "100", "--no-teaserpp"]) == 0
     out = capsys.readouterr().out
     assert "seconds_ours" in out and "clique_ours" in out
+
+
+def test_teaser_method_checks_the_clique_time_budget() -> None:
+    from catpose.methods.teaser import TEASER
+
+    with pytest.raises(ConfigError, match="clique_time_budget_s=-1") as info:
+        TEASER(clique_time_budget_s=-1)
+    assert "\n" not in str(info.value)
+    assert TEASER(clique_time_budget_s=0).clique_time_budget_s == 0.0  # 0 = no limit
