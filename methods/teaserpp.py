@@ -2,8 +2,9 @@
 
 catpose does not build or ship TEASER++: where ``teaserpp_python`` is not importable,
 constructing this method raises :class:`~catpose.errors.ConfigError` pointing to TEASER++'s own
-build instructions (its README, "Python bindings"). ``method=teaser`` is the re-implementation
-(:mod:`catpose.methods.teaser_solver`) of the same pipeline, with the same arguments.
+build instructions (its README, "Minimal Python 3 example", and teaser.readthedocs.io).
+``method=teaser`` is the re-implementation (:mod:`catpose.methods.teaser_solver`) of the same
+pipeline, with the same arguments.
 
 The arguments mean the same for both solvers:
 
@@ -40,8 +41,9 @@ from catpose.methods.teaser_solver import SolverResult
 MIN_CLIQUE_SIZE = 4  # a clique of 3 or fewer correspondences is reported as a failure
 
 _MISSING = ("method=teaserpp needs the teaserpp_python module (TEASER++'s Python bindings), which is not "
-            "importable; build and install it into this environment by following the Python-bindings "
-            "section of the README at github.com/MIT-SPARK/TEASER-plusplus, or use method=teaser")
+            "importable: build and install it into this environment as TEASER++'s own README says "
+            "(github.com/MIT-SPARK/TEASER-plusplus, 'Minimal Python 3 example'; it builds on Python 3.11 too), "
+            "or use method=teaser")
 
 
 def _import_teaserpp():
