@@ -28,6 +28,8 @@ class TEASER(CorrespondenceRegistration):
         mutual_filter: keep only mutual FPFH nearest neighbours (fpfh only).
         max_correspondences: keep at most this many FPFH pairs (most similar first; 0 = all).
         clique_node_budget: branch-and-bound node cap of the max-clique search.
+        clique_time_budget_s: seconds the max-clique search may take (0 = no limit); past either
+            budget the best clique so far is used (``clique_exact`` False in the details).
         rotation_tim_graph: ``"chain"`` (TEASER++'s default) or ``"complete"`` TIMs for GNC-TLS.
         **pipeline: :class:`CorrespondenceRegistration` arguments (matching, features, ...).
     """
@@ -35,13 +37,16 @@ class TEASER(CorrespondenceRegistration):
     def __init__(self, noise_bound: float = 0.05, cbar2: float = 1.0, gnc_factor: float = 1.4,
                  max_iterations: int = 100, cost_threshold: float = 1e-6, mutual_filter: bool = True,
                  max_correspondences: int = 1000, clique_node_budget: int = 200_000,
-                 rotation_tim_graph: str = "chain", **pipeline: Any) -> None:
+                 rotation_tim_graph: str = "chain", clique_time_budget_s: float = 10.0,
+                 **pipeline: Any) -> None:
         super().__init__(**pipeline)
         if not noise_bound > 0:
             raise ConfigError(f"teaser noise_bound={noise_bound} must be > 0 (object-normalised units, e.g. 0.05)")
         if not cbar2 > 0 or not gnc_factor > 1 or max_iterations < 1:
             raise ConfigError(f"teaser cbar2={cbar2} (> 0), gnc_factor={gnc_factor} (> 1), "
                               f"max_iterations={max_iterations} (>= 1) out of range")
+        if not clique_time_budget_s >= 0:
+            raise ConfigError(f"teaser clique_time_budget_s={clique_time_budget_s} must be >= 0 (seconds; 0 = no limit)")
         if max_correspondences < 0 or clique_node_budget < 1:
             raise ConfigError(f"teaser max_correspondences={max_correspondences} (>= 0) or "
                               f"clique_node_budget={clique_node_budget} (>= 1) out of range")
@@ -56,6 +61,7 @@ class TEASER(CorrespondenceRegistration):
         self.mutual_filter = bool(mutual_filter)
         self.max_correspondences = int(max_correspondences)
         self.clique_node_budget = int(clique_node_budget)
+        self.clique_time_budget_s = float(clique_time_budget_s)
 
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
         corr = match.fpfh_correspondences(self.mutual_filter, self.max_correspondences)
@@ -64,7 +70,7 @@ class TEASER(CorrespondenceRegistration):
         r = teaser_solver.solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]],
                                 self.noise_bound, self.cbar2, self.gnc_factor, self.max_iterations,
                                 self.cost_threshold, self.clique_node_budget, self.rotation_tim_graph,
-                                seed=match.seed)
+                                seed=match.seed, clique_time_budget_s=self.clique_time_budget_s or None)
         info = {"num_correspondences": int(len(corr)), "clique_size": int(len(r.clique)),
                 "clique_exact": r.clique_exact, "translation_inliers": int(len(r.translation_inliers)),
                 "gnc_iterations": r.gnc_iterations, **{f"teaser_{k}": v for k, v in r.timings.items()}}

@@ -1,16 +1,18 @@
-"""A TEASER-style robust registration solver from putative correspondences (NumPy).
+"""A TEASER-style robust registration solver from putative correspondences (NumPy, numba).
 
 Re-implements the pipeline of TEASER (Yang, Shi, Carlone, "TEASER: Fast and Certifiable Point
-Cloud Registration", T-RO 2020) and its C++ library TEASER++ with the scale fixed to 1, because
-no ``teaserpp_python`` wheel builds on Python 3.11 here. Given correspondences
+Cloud Registration", T-RO 2020) and its C++ library TEASER++ with the scale fixed to 1 (the real
+TEASER++ is ``method=teaserpp``, :mod:`catpose.methods.teaserpp`, where its bindings are
+installed). Given correspondences
 ``b_i = R a_i + t + e_i`` with ``|e_i| <= noise_bound`` for inliers:
 
 1. Translation- and rotation-invariant measurements (TIMs): pairwise lengths. A pair (i, j) is
    consistent when ``| ||b_i - b_j|| - ||a_i - a_j|| | <= 2 * noise_bound`` (scale 1).
 2. Maximum clique of the consistency graph (exact branch and bound with greedy-colouring bounds,
-   Tomita's MCQ, after pruning to the k-core that a greedy clique proves necessary). A node
-   budget caps the search; past it the best clique found so far is returned
-   (``SolverResult.clique_exact`` is then False).
+   Tomita's MCQ on bitsets, compiled with numba, after pruning to the k-core that a greedy
+   clique proves necessary; :mod:`catpose.methods.max_clique`). A node budget and a time budget
+   cap the search; past either, the best clique found so far (at least the greedy clique) is
+   returned and ``SolverResult.clique_exact`` is False.
 3. Rotation from the translation-invariant measurements (TIMs ``b_j - b_i`` vs ``a_j - a_i``)
    inside the clique (a cyclic chain through the clique, TEASER++'s default, or every pair) by graduated non-convexity with a truncated least-squares cost (GNC-TLS,
    Yang et al., RA-L 2020): weighted Kabsch each iteration, closed-form TLS weights, ``mu``
@@ -79,112 +81,33 @@ def consistency_graph(src: np.ndarray, dst: np.ndarray, noise_bound: float) -> n
     Returns:
         (N, N) bool adjacency, ``| ||b_i - b_j|| - ||a_i - a_j|| | <= 2 beta``, zero diagonal.
     """
-    d_src = np.linalg.norm(src[:, None, :] - src[None, :, :], axis=-1)
-    d_dst = np.linalg.norm(dst[:, None, :] - dst[None, :, :], axis=-1)
-    adj = np.abs(d_dst - d_src) <= 2.0 * noise_bound
+    from scipy.spatial.distance import cdist
+
+    adj = np.abs(cdist(dst, dst) - cdist(src, src)) <= 2.0 * noise_bound  # no (N, N, 3) temporaries
     np.fill_diagonal(adj, False)
     return adj
 
 
-def _greedy_clique(adj: np.ndarray) -> list[int]:
-    """A quick lower bound: grow a clique from each of the highest-degree vertices."""
-    deg = adj.sum(axis=1)
-    best: list[int] = []
-    for start in np.argsort(-deg, kind="stable")[:16]:
-        clique = [int(start)]
-        cand = adj[start].copy()
-        while cand.any():
-            idx = np.flatnonzero(cand)
-            v = int(idx[np.argmax(adj[np.ix_(idx, idx)].sum(axis=1))])
-            clique.append(v)
-            cand &= adj[v]
-        if len(clique) > len(best):
-            best = clique
-    return best
-
-
-def _k_core(adj: np.ndarray, k: int) -> np.ndarray:
-    """Vertices of the k-core (every kept vertex has >= k kept neighbours); bool (N,)."""
-    keep = np.ones(len(adj), dtype=bool)
-    deg = adj.sum(axis=1)
-    while True:
-        drop = keep & (deg < k)
-        if not drop.any():
-            return keep
-        keep &= ~drop
-        deg = deg - adj[:, drop].sum(axis=1)
-
-
-def max_clique(adj: np.ndarray, node_budget: int = 200_000) -> tuple[np.ndarray, bool]:
-    """Maximum clique of an undirected graph.
-
-    Tomita and Seki's MCQ branch and bound (greedy colouring as the upper bound) on Python-int
-    bitsets, restricted to the k-core implied by a greedy clique (a vertex of a clique of size
-    ``s`` has degree >= ``s - 1``), as TEASER++'s PMC does.
+def max_clique(adj: np.ndarray, node_budget: int = 200_000,
+               time_budget_s: float | None = None) -> tuple[np.ndarray, bool]:
+    """Maximum clique of an undirected graph: :func:`catpose.methods.max_clique.max_clique`
+    (compiled MCQ branch and bound on the k-core a greedy clique implies, as TEASER++'s PMC).
 
     Args:
         adj: (N, N) symmetric bool adjacency with a false diagonal.
-        node_budget: maximum number of search-tree nodes; past it the best clique so far is
-            returned and the second value is False.
+        node_budget: maximum number of search-tree nodes.
+        time_budget_s: maximum seconds of search (None: no limit).
 
     Returns:
-        (sorted vertex indices of the clique, whether the search was exact).
+        (sorted vertex indices of the clique, whether the search was exact). Past a budget, the
+        best clique found so far (at least the multi-start greedy clique) and False.
     """
-    n = len(adj)
-    if n == 0:
-        return np.zeros(0, dtype=int), True
-    best = _greedy_clique(adj)
-    keep = _k_core(adj, max(len(best) - 1, 0))
-    verts = np.flatnonzero(keep)
-    if len(verts) <= len(best):
-        return np.sort(np.asarray(best, dtype=int)), True
-    sub = adj[np.ix_(verts, verts)]
-    # order by degree (descending) so the bitset's low bits are the high-degree vertices
-    order = np.argsort(-sub.sum(axis=1), kind="stable")
-    sub = sub[np.ix_(order, order)]
-    local_to_global = verts[order]
-    m = len(sub)
-    nbr = [int("".join("1" if x else "0" for x in row[::-1]), 2) for row in sub]
-    state = {"best": [int(np.flatnonzero(local_to_global == v)[0]) for v in best],
-             "nodes": 0, "exact": True}
-
-    def colour_sort(P: int) -> tuple[list[int], list[int]]:
-        order_: list[int] = []
-        colours: list[int] = []
-        uncoloured = P
-        colour = 0
-        while uncoloured:
-            colour += 1
-            Q = uncoloured
-            while Q:
-                v = (Q & -Q).bit_length() - 1
-                bit = 1 << v
-                Q &= ~nbr[v] & ~bit
-                uncoloured &= ~bit
-                order_.append(v)
-                colours.append(colour)
-        return order_, colours
-
-    def expand(C: list[int], P: int) -> None:
-        state["nodes"] += 1
-        if state["nodes"] > node_budget:
-            state["exact"] = False
-            return
-        order_, colours = colour_sort(P)
-        for k in range(len(order_) - 1, -1, -1):
-            if len(C) + colours[k] <= len(state["best"]) or not state["exact"]:
-                return
-            v = order_[k]
-            newP = P & nbr[v]
-            if newP:
-                expand(C + [v], newP)
-            elif len(C) + 1 > len(state["best"]):
-                state["best"] = C + [v]
-            P &= ~(1 << v)
-
-    expand([], (1 << m) - 1)
-    clique = np.sort(local_to_global[np.asarray(state["best"], dtype=int)])
-    return clique, bool(state["exact"])
+    try:  # numba is imported here, not with this module, so `bench --help` stays instant
+        from catpose.methods import max_clique as mc
+    except ImportError as e:
+        raise ConfigError(f"the TEASER max-clique search needs numba ({e}); install it with "
+                          "`pip install 'numba>=0.60'` or reinstall catpose (`pip install -e .`)") from None
+    return mc.max_clique(adj, node_budget, time_budget_s)
 
 
 def weighted_kabsch(src: np.ndarray, dst: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -272,24 +195,23 @@ def adaptive_voting(values: np.ndarray, bound: float) -> tuple[float, np.ndarray
     pos = np.concatenate([lo, hi])
     kind = np.concatenate([np.zeros(len(x), int), np.ones(len(x), int)])
     order = np.lexsort((kind, pos))
-    count, best_count, best_var, best_mask = 0, -1, np.inf, np.ones(len(x), dtype=bool)
-    for e in order:
-        if kind[e] == 0:
-            count += 1
-            if count >= best_count:
-                mask = (lo <= pos[e]) & (hi >= pos[e])
-                var = float(x[mask].var())
-                if count > best_count or var < best_var:
-                    best_count, best_var, best_mask = count, var, mask
-        else:
-            count -= 1
+    is_start = kind[order] == 0
+    count = np.cumsum(np.where(is_start, 1, -1))  # open intervals just after each event
+    best_var, best_mask = np.inf, np.ones(len(x), dtype=bool)
+    # the maximal sets are read at start events; keep the largest, then the first least spread
+    for e in order[is_start & (count == count[is_start].max())]:
+        mask = (lo <= pos[e]) & (hi >= pos[e])
+        var = float(x[mask].var())
+        if var < best_var:
+            best_var, best_mask = var, mask
     return float(x[best_mask].mean()), best_mask
 
 
 def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1.0,
           gnc_factor: float = 1.4, max_iterations: int = 100, cost_threshold: float = 1e-6,
           clique_node_budget: int = 200_000, rotation_tim_graph: str = "chain",
-          max_rotation_tims: int = 20_000, seed: int = 0) -> SolverResult:
+          max_rotation_tims: int = 20_000, seed: int = 0,
+          clique_time_budget_s: float | None = None) -> SolverResult:
     """Robust registration ``dst ~ R src + t`` from putative correspondences (TEASER, scale 1).
 
     Args:
@@ -304,6 +226,9 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
             T-RO paper).
         max_rotation_tims: ``complete`` uses all clique pairs up to this many, else a random
             subset drawn with ``seed``.
+        clique_time_budget_s: seconds the max-clique search may take (None: no limit); past it,
+            or past ``clique_node_budget``, the best clique so far is used and
+            ``clique_exact`` is False.
 
     Returns:
         :class:`SolverResult`.
@@ -324,7 +249,7 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
 
     t0 = time.perf_counter()
     adj = consistency_graph(src, dst, noise_bound)
-    clique, exact = max_clique(adj, clique_node_budget)
+    clique, exact = max_clique(adj, clique_node_budget, clique_time_budget_s)
     timings["clique_s"] = time.perf_counter() - t0
     if len(clique) < 2:
         # no two correspondences agree: fall back to the single best guess (identity rotation)

@@ -1,58 +1,146 @@
-"""TEASER++ itself (MIT-SPARK/TEASER-plusplus) through ``teaserpp_python``, when installed.
+"""TEASER++ itself (MIT-SPARK/TEASER-plusplus) through its Python bindings ``teaserpp_python``.
 
-No wheel of ``teaserpp_python`` exists for Python 3.11; constructing this method without it
-raises :class:`~catpose.errors.ConfigError` saying how to get it. ``method=teaser`` is the
-NumPy re-implementation (:mod:`catpose.methods.teaser_solver`) on the same pipeline.
+catpose does not build or ship TEASER++: where ``teaserpp_python`` is not importable,
+constructing this method raises :class:`~catpose.errors.ConfigError` pointing to TEASER++'s own
+build instructions (its README, "Minimal Python 3 example", and teaser.readthedocs.io).
+``method=teaser`` is the re-implementation (:mod:`catpose.methods.teaser_solver`) of the same
+pipeline, with the same arguments.
+
+The arguments mean the same for both solvers:
+
+- ``noise_bound`` (object-normalised) is passed unchanged; both use ``2 noise_bound sqrt(cbar2)``
+  for pairwise consistency and ``2 noise_bound`` as the rotation (TIM) bound.
+- ``cost_threshold`` is unit-free in ``method=teaser`` (a change of the GNC cost in units of the
+  squared TIM bound ``cbar2 (2 noise_bound)^2``); TEASER++ compares the absolute change of
+  ``sum_k w_k r_k^2``. It is converted: ``rotation_cost_threshold = cost_threshold * cbar2 *
+  (2 noise_bound)^2``. (Passing 1e-6 unconverted lets TEASER++ stop while the GNC weights are
+  still fractional when the points are small, as they are here.)
+- the exact max clique (``PMC_EXACT``), ``gnc_factor``, ``max_iterations``, the TIM graph.
+
+A max clique of 3 correspondences or fewer fixes no reliable rotation (and for 0 or 1 TEASER++
+returns an unset pose that changes from run to run): :func:`solve` raises
+:class:`~catpose.errors.InvalidInputError` then, so the runner records the sample as failed
+with that reason instead of scoring a meaningless pose.
 """
 
 from __future__ import annotations
 
-from typing import Any
+import contextlib
+import os
+import sys
+import time
+from typing import Any, Iterator
 
 import numpy as np
 
-from catpose.errors import ConfigError
+from catpose.errors import ConfigError, InvalidInputError
 from catpose.methods.correspondence import MatchInput
 from catpose.methods.teaser import TEASER
+from catpose.methods.teaser_solver import SolverResult
+
+MIN_CLIQUE_SIZE = 4  # a clique of 3 or fewer correspondences is reported as a failure
+
+_MISSING = ("method=teaserpp needs the teaserpp_python module (TEASER++'s Python bindings), which is not "
+            "importable: build and install it into this environment as TEASER++'s own README says "
+            "(github.com/MIT-SPARK/TEASER-plusplus, 'Minimal Python 3 example'; it builds on Python 3.11 too), "
+            "or use method=teaser")
+
+
+def _import_teaserpp():
+    try:
+        import teaserpp_python
+    except ImportError:
+        raise ConfigError(_MISSING) from None
+    return teaserpp_python
+
+
+@contextlib.contextmanager
+def _stdout_silenced() -> Iterator[None]:
+    """Send file descriptor 1 to /dev/null: TEASER++ built with TEASER_DIAG_PRINT writes its
+    progress to the C++ stdout, which would interleave with the runner's output."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+            yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1.0,
+          gnc_factor: float = 1.4, max_iterations: int = 100, cost_threshold: float = 1e-6,
+          rotation_tim_graph: str = "chain", min_clique_size: int = MIN_CLIQUE_SIZE) -> SolverResult:
+    """``dst ~ R src + t`` by TEASER++ (scale fixed, exact max clique, GNC-TLS rotation), with
+    the arguments of :func:`catpose.methods.teaser_solver.solve` (see the module docstring).
+
+    Args:
+        src, dst: (N, 3) row-matched points (object-normalised).
+        noise_bound: inlier bound ``beta`` (same unit).
+        min_clique_size: a max clique smaller than this raises :class:`InvalidInputError`
+            (0 returns TEASER++'s raw output, whatever its clique).
+
+    Returns:
+        :class:`~catpose.methods.teaser_solver.SolverResult`; ``gnc_iterations`` is -1 (TEASER++
+        does not report it), ``timings["solve_s"]`` the wall time of TEASER++'s ``solve``.
+    """
+    tpp = _import_teaserpp()
+    src = np.asarray(src, dtype=np.float64)
+    dst = np.asarray(dst, dtype=np.float64)
+    if src.shape != dst.shape or src.ndim != 2 or src.shape[1] != 3:
+        raise InvalidInputError(f"TEASER++ needs two (N, 3) arrays of matched points; got {src.shape} and {dst.shape}")
+    if not noise_bound > 0:
+        raise ConfigError(f"noise_bound={noise_bound} must be > 0 (object-normalised units, e.g. 0.02)")
+    if rotation_tim_graph not in ("chain", "complete"):
+        raise ConfigError(f"rotation_tim_graph={rotation_tim_graph!r} is unknown; use 'chain' or 'complete'")
+    Solver = tpp.RobustRegistrationSolver
+    params = Solver.Params()
+    params.noise_bound = float(noise_bound)
+    params.cbar2 = float(cbar2)
+    params.estimate_scaling = False
+    params.rotation_estimation_algorithm = Solver.ROTATION_ESTIMATION_ALGORITHM.GNC_TLS
+    params.rotation_gnc_factor = float(gnc_factor)
+    params.rotation_max_iterations = int(max_iterations)
+    params.rotation_cost_threshold = float(cost_threshold) * float(cbar2) * (2.0 * float(noise_bound)) ** 2
+    graphs = Solver.INLIER_GRAPH_FORMULATION
+    params.rotation_tim_graph = graphs.CHAIN if rotation_tim_graph == "chain" else graphs.COMPLETE
+    params.inlier_selection_mode = Solver.INLIER_SELECTION_MODE.PMC_EXACT
+    solver = Solver(params)
+    with _stdout_silenced():
+        t0 = time.perf_counter()
+        solver.solve(np.ascontiguousarray(src.T), np.ascontiguousarray(dst.T))
+        solve_s = time.perf_counter() - t0
+    clique = np.sort(np.asarray(solver.getInlierMaxClique(), dtype=np.int64))  # as returned (may repeat)
+    if len(np.unique(clique)) < min_clique_size:
+        raise InvalidInputError(f"TEASER++ max clique has {len(np.unique(clique))} of {len(src)} correspondences "
+                                f"(fewer than {min_clique_size}): degenerate, no reliable pose")
+    sol = solver.getSolution()
+    R = np.asarray(sol.rotation, dtype=np.float64).reshape(3, 3)
+    t = np.asarray(sol.translation, dtype=np.float64).reshape(3)
+    translation_inliers = np.asarray(solver.getTranslationInliers(), dtype=np.int64)
+    return SolverResult(R, t, clique, True, np.asarray(solver.getRotationInliersMask(), dtype=bool).reshape(-1),
+                        clique[translation_inliers[translation_inliers < len(clique)]], -1,
+                        {"solve_s": solve_s})
 
 
 class TEASERPlusPlus(TEASER):
     """The same pipeline and arguments as :class:`~catpose.methods.teaser.TEASER`, solved by
-    ``teaserpp_python.RobustRegistrationSolver`` (scale fixed, exact max clique, GNC-TLS)."""
+    ``teaserpp_python.RobustRegistrationSolver`` through :func:`solve`."""
 
     def __init__(self, **kwargs: Any) -> None:
-        try:
-            import teaserpp_python  # noqa: F401
-        except ImportError:
-            raise ConfigError("method=teaserpp needs teaserpp_python: build TEASER++ with its Python bindings "
-                              "from source (github.com/MIT-SPARK/TEASER-plusplus, Python <= 3.10) "
-                              "or use method=teaser") from None
+        _import_teaserpp()
         super().__init__(**kwargs)
 
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
-        import teaserpp_python
-
         corr = match.fpfh_correspondences(self.mutual_filter, self.max_correspondences)
         if len(corr) < 3:
-            return None, {"num_correspondences": int(len(corr))}
-        params = teaserpp_python.RobustRegistrationSolver.Params()
-        params.cbar2 = self.cbar2
-        params.noise_bound = self.noise_bound
-        params.estimate_scaling = False
-        params.rotation_estimation_algorithm = (
-            teaserpp_python.RobustRegistrationSolver.ROTATION_ESTIMATION_ALGORITHM.GNC_TLS)
-        params.rotation_gnc_factor = self.gnc_factor
-        params.rotation_max_iterations = self.max_iterations
-        params.rotation_cost_threshold = self.cost_threshold
-        graphs = teaserpp_python.RobustRegistrationSolver.INLIER_GRAPH_FORMULATION
-        params.rotation_tim_graph = graphs.CHAIN if self.rotation_tim_graph == "chain" else graphs.COMPLETE
-        params.inlier_selection_mode = teaserpp_python.RobustRegistrationSolver.INLIER_SELECTION_MODE.PMC_EXACT
-        solver = teaserpp_python.RobustRegistrationSolver(params)
-        solver.solve(np.ascontiguousarray(match.source.points[corr[:, 0]].T),
-                     np.ascontiguousarray(match.target.points[corr[:, 1]].T))
-        sol = solver.getSolution()
-        T = np.eye(4)
-        T[:3, :3] = np.asarray(sol.rotation)
-        T[:3, 3] = np.asarray(sol.translation).reshape(3)
-        return T, {"num_correspondences": int(len(corr)),
-                   "clique_size": int(len(solver.getInlierMaxClique()))}
+            return None, {"num_correspondences": int(len(corr)), "clique_size": 0}
+        r = solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]], self.noise_bound,
+                  self.cbar2, self.gnc_factor, self.max_iterations, self.cost_threshold,
+                  self.rotation_tim_graph)
+        # PMC's exact solver has been seen to list a vertex twice: count distinct members
+        info = {"num_correspondences": int(len(corr)), "clique_size": int(len(np.unique(r.clique))),
+                "clique_exact": r.clique_exact, "translation_inliers": int(len(r.translation_inliers)),
+                **{f"teaserpp_{k}": v for k, v in r.timings.items()}}
+        return r.T, info

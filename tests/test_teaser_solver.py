@@ -85,6 +85,62 @@ def test_max_clique_budget_returns_a_clique_flagged_inexact() -> None:
     assert all(adj[i, j] for i, j in itertools.combinations(clique.tolist(), 2))
 
 
+def _random_graph(rng: np.random.Generator, n: int, p: float, planted: int = 0) -> np.ndarray:
+    upper = np.triu(rng.random((n, n)) < p, k=1)
+    adj = upper | upper.T
+    if planted:
+        members = rng.choice(n, planted, replace=False)
+        adj[np.ix_(members, members)] = True
+        np.fill_diagonal(adj, False)
+    return adj
+
+
+@pytest.mark.parametrize("n,p,planted", [(40, 0.3, 0), (60, 0.5, 0), (50, 0.7, 0), (70, 0.1, 0),
+                                         (130, 0.2, 25), (200, 0.1, 60), (150, 0.3, 0)])
+@pytest.mark.parametrize("seed", range(3))
+def test_max_clique_size_equals_networkx(n: int, p: float, planted: int, seed: int) -> None:
+    """Against networkx's exact max_weight_clique (unit weights) as the independent reference;
+    n > 64 exercises multi-word bitsets."""
+    nx = pytest.importorskip("networkx")
+    adj = _random_graph(np.random.default_rng(seed), n, p, planted)
+    clique, exact = teaser_solver.max_clique(adj)
+    _, size = nx.max_weight_clique(nx.from_numpy_array(adj.astype(int)), weight=None)
+    assert exact and len(clique) == size
+    assert len(set(clique.tolist())) == len(clique)
+    assert all(adj[i, j] for i, j in itertools.combinations(clique.tolist(), 2))
+
+
+def test_max_clique_edge_cases() -> None:
+    assert teaser_solver.max_clique(np.zeros((0, 0), bool))[0].tolist() == []
+    assert len(teaser_solver.max_clique(np.zeros((5, 5), bool))[0]) == 1  # no edges: one vertex
+    full = ~np.eye(9, dtype=bool)
+    assert teaser_solver.max_clique(full)[0].tolist() == list(range(9))
+
+
+def test_max_clique_time_budget_falls_back_to_a_clique() -> None:
+    """A zero time budget stops after the first chunk of the search: a valid clique, flagged
+    inexact, at least as large as the greedy one."""
+    from catpose.methods import max_clique as mc
+
+    adj = _random_graph(np.random.default_rng(0), 300, 0.8)
+    clique, exact = teaser_solver.max_clique(adj, time_budget_s=0.0)
+    assert not exact
+    greedy = mc.greedy_clique(adj, np.argsort(-adj.sum(axis=1), kind="stable")[:mc.GREEDY_STARTS])
+    assert len(clique) >= len(greedy)
+    assert all(adj[i, j] for i, j in itertools.combinations(clique.tolist(), 2))
+
+
+def test_consistency_graph_matches_its_definition() -> None:
+    rng = np.random.default_rng(4)
+    src, dst = rng.normal(size=(40, 3)), rng.normal(size=(40, 3))
+    adj = teaser_solver.consistency_graph(src, dst, 0.1)
+    d_src = np.linalg.norm(src[:, None] - src[None], axis=-1)
+    d_dst = np.linalg.norm(dst[:, None] - dst[None], axis=-1)
+    expected = np.abs(d_dst - d_src) <= 0.2
+    np.fill_diagonal(expected, False)
+    assert adj.dtype == bool and np.array_equal(adj, expected)
+
+
 def test_gnc_tls_rejects_outlier_measurements() -> None:
     rng = np.random.default_rng(1)
     R = random_rotation(rng)
@@ -103,6 +159,14 @@ def test_adaptive_voting_takes_the_max_consensus_mean() -> None:
     assert est == pytest.approx(np.mean(x[:4]))
 
 
+def test_adaptive_voting_breaks_ties_by_the_smaller_spread() -> None:
+    # two consensus sets of 3; the second is tighter
+    x = np.array([0.0, 0.03, 0.06, 1.0, 1.001, 1.002])
+    est, mask = teaser_solver.adaptive_voting(x, 0.035)
+    assert mask.tolist() == [False, False, False, True, True, True]
+    assert est == pytest.approx(1.001)
+
+
 def test_bad_input() -> None:
     with pytest.raises(ConfigError, match="noise_bound"):
         teaser_solver.solve(np.zeros((5, 3)), np.zeros((5, 3)), -1.0)
@@ -110,3 +174,30 @@ def test_bad_input() -> None:
         teaser_solver.solve(np.zeros((5, 3)), np.zeros((4, 3)), 0.1)
     with pytest.raises(ConfigError, match="rotation_tim_graph"):
         teaser_solver.solve(np.ones((5, 3)), np.ones((5, 3)), 0.1, rotation_tim_graph="star")
+
+
+def test_perf_solvers_problems_and_table(capsys) -> None:
+    """The ``perf_solvers`` problem class: the planted inliers form a clique the solver finds
+    (timings are not asserted; ``bench perf`` reports them)."""
+    from catpose.bench import perf_solvers
+
+    problems = perf_solvers.problem_set(problems=3, n=200, noise_bound=0.05, seed=5)
+    assert [p.outlier_rate for p in problems] == pytest.approx([0.5, 0.745, 0.99])
+    for p in problems:
+        r = teaser_solver.solve(p.src, p.dst, p.noise_bound)
+        assert r.clique_exact and len(r.clique) >= len(p.inliers)
+        if len(p.inliers) >= 10:
+            assert set(p.inliers.tolist()) <= set(r.clique.tolist())
+            assert _rot_err_deg(r.R, p.R_gt) < 1.0
+    assert perf_solvers.main(["--problems", "2", "--n", "100", "--no-teaserpp"]) == 0
+    out = capsys.readouterr().out
+    assert "seconds_ours" in out and "clique_ours" in out
+
+
+def test_teaser_method_checks_the_clique_time_budget() -> None:
+    from catpose.methods.teaser import TEASER
+
+    with pytest.raises(ConfigError, match="clique_time_budget_s=-1") as info:
+        TEASER(clique_time_budget_s=-1)
+    assert "\n" not in str(info.value)
+    assert TEASER(clique_time_budget_s=0).clique_time_budget_s == 0.0  # 0 = no limit
