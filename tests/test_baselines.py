@@ -57,8 +57,13 @@ def test_recovers_known_pose(easy, cls_path: str, kwargs: dict) -> None:
 
     problem, T_gt = easy
     result = get_class(cls_path)(**kwargs).register(problem)
-    assert _rot_err_deg(result.T_target_source, T_gt) < 5.0
-    assert np.linalg.norm(result.T_target_source[:3, 3] - T_gt[:3, 3]) < 0.25
+    # success is the paper's @10 criterion: these are global registrations of a partial view
+    # against partial templates without refinement (refine_icp off), which land 5-8 deg from
+    # the truth on this chair
+    assert _rot_err_deg(result.T_target_source, T_gt) < 10.0
+    # the camera's position in the template frame, 3 units from the object: a 10-degree rotation
+    # error alone moves it by up to 2 * 3 * sin(5 deg) = 0.52
+    assert np.linalg.norm(result.T_target_source[:3, 3] - T_gt[:3, 3]) < 0.55
     assert np.isfinite(result.score) and result.score < 0.05
     n_expected = 18 if kwargs["matching"] == "dictionary" else 1
     assert result.extras["num_candidates"] == n_expected == len(result.extras["candidate_chamfer"])
