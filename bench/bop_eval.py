@@ -48,9 +48,11 @@ def check_results_filename(path: str | Path) -> tuple[str, str, str]:
     name = Path(path).name
     m = re.fullmatch(r"([^_]+)_([^_-]+)-([^_]+?)\.csv", name)
     if not m:
-        stem = re.sub(r"[^A-Za-z0-9]", "", Path(name).stem.split("_")[0]) or "method"
+        parts = re.fullmatch(r"(.+)_([^_-]+)-([^_]+?)\.csv", name)
+        example = (f"{parts.group(1).replace('_', '-')}_{parts.group(2)}-{parts.group(3)}.csv" if parts
+                   else f"{re.sub(r'[^A-Za-z0-9-]', '-', Path(name).stem) or 'method'}_ycbv-test.csv")
         raise InvalidInputError(f"results file {name!r}: the BOP toolkit needs METHOD_DATASET-SPLIT.csv with no '_' "
-                                f"in METHOD, e.g. {stem}_ycbv-test.csv")
+                                f"in METHOD, e.g. {example}")
     return m.group(1), m.group(2), m.group(3)
 
 
