@@ -28,6 +28,7 @@ Observation ids: ``<category>/<scene_id:06d>/<im_id:06d>/<gt_idx>``.
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -384,6 +385,12 @@ class BOP(ObjectDataset):
                         continue
                     ids.append(f"{category}/{scene_id:06d}/{im_id:06d}/{gt_idx}")
         self.seen_objects = sorted(seen_objects)
+        if self.categories is not None:
+            unseen = sorted(set(self.categories) - seen_objects)
+            unmapped = sorted(seen_objects - set(self.categories))
+            if unseen:  # e.g. unverified ids in configs/dataset/tyol.yaml
+                warnings.warn(f"BOP {split_dir}: dataset.categories lists object ids {unseen} that no frame shows; "
+                              f"the frames show object ids {self.seen_objects} (unmapped: {unmapped})", stacklevel=2)
         self.filters = []
         if targets is not None:
             self.filters.append(f"targets from {self.targets} ({n_not_target} instances not listed left out)")

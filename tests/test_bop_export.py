@@ -97,6 +97,13 @@ def test_export_of_a_two_object_image_passes_the_toolkit_checks_and_scores_perfe
     table = bop_eval.score_table(errs, ALL_METRICS)
     assert (table[ALL_METRICS].to_numpy() == 1.0).all()
     assert errs["mssd"].max() < 1e-3 and errs["mspd"].max() < 1e-3  # mm, px
+    # bench table reads the same file: per-object and per-category rows, chosen metrics
+    from catpose.bench.tables import main as table_main
+
+    table_out = tmp_path / "t.md"
+    assert table_main([str(scored), "--bop-metrics", "ar_mssd,10deg10cm", "--out", str(table_out)]) == 0
+    text = table_out.read_text()
+    assert "obj_000001 (box)" in text and "| catposeOurs | category | can" in text and "10deg10cm" in text
 
 
 def test_several_instances_of_one_object_are_matched_greedily_by_score(bop_root):

@@ -308,3 +308,23 @@ def test_object_centre_lies_on_the_offset_symmetry_axis(bop_root):
     np.testing.assert_allclose((R.T @ centre)[:2], [7.0, 4.0], atol=1e-9)
     v = (ds.model_mm(2)[0] @ R.T - centre) / scale
     assert np.linalg.norm(v, axis=1).max() == pytest.approx(1.0)
+
+
+def test_unseen_configured_ids_warn_with_the_ids_the_frames_show(bop_root):
+    with pytest.warns(UserWarning, match=r"object ids \[7\] that no frame shows; the frames show object ids \[1, 2, 3, 4\]"):
+        BOP(str(bop_root), categories={1: "box", 7: "mug"}).observation_ids()
+
+
+@pytest.mark.data
+def test_tyol_config_composes_and_loads_the_shared_frame(shared_data):
+    from hydra import compose, initialize_config_module
+
+    from catpose.bench.runner import build_from_config
+
+    with initialize_config_module("catpose.configs", version_base=None):
+        cfg = compose("run", overrides=["dataset=tyol", f"dataset.root={shared_data / 'bop' / 'tyol'}",
+                                        f"dataset.templates_root={shared_data / 'templates'}"])
+    name, ds = build_from_config(cfg.dataset, "dataset")
+    assert name == "tyol" and ds.observation_ids() == ["basket/000019/000010/0"]
+    assert ds.filters == []  # the shared frame has neither targets nor scene_gt_info
+    assert len(ds.category_templates("mug")) == 1 and len(ds.category_templates("bottle")) == 1
