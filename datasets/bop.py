@@ -590,4 +590,5 @@ class BOP(ObjectDataset):
             info={"scene_id": scene_id, "im_id": im_id, "gt_idx": gt_idx, "obj_id": obj_id,
                   "mask_source": source, "visible_pixels": n_pix, "ground_inliers": n_inliers,
                   "ground_vs_object_up_deg": ground_err, "scale_mm": scale,
-                  "centre_mm": [float(x) for x in centre], "R_object_model": [float(x) for x in R_obj_model.ravel()]})
+                  "centre_mm": [float(x) for x in centre], "R_object_model": [float(x) for x in R_obj_model.ravel()],
+                  "bop_filters": "; ".join(self.filters) or "none"})

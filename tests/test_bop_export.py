@@ -167,6 +167,7 @@ def test_ycbv_ground_truth_scores_recall_one_and_a_shift_scores_its_errors(share
     shift = np.array([10.0, 0.0, 0.0])  # 1 cm sideways
     errs = pd.DataFrame(bop_eval.compute_errors(read_predictions(_gt_csv(ds, tmp_path / "s_ycbv-test.csv", shift)), ds,
                                                 vsd=False))
+    assert (errs["im_width"] == 640).all()  # from the depth header, also without VSD
     np.testing.assert_allclose(errs["add"], 10.0, atol=1e-4)  # R in scene_gt is rounded
     np.testing.assert_allclose(errs["te_mm"], 10.0, atol=1e-4)
     np.testing.assert_allclose(errs["re_deg"], 0.0, atol=0.1)  # arccos near 1 amplifies the rounding

@@ -274,7 +274,7 @@ def test_visib_fract_and_test_targets_filters(bop_root):
 
 
 def test_unmapped_object_ids_are_named(bop_root):
-    with pytest.raises(DatasetError, match=r"object ids \[1, 2, 3, 4\]"):
+    with pytest.raises(DatasetError, match=r"object ids \[1, 2, 3, 4\]"), pytest.warns(UserWarning, match="99"):
         BOP(str(bop_root), categories={99: "mug"}).observation_ids()
 
 
