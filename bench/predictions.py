@@ -443,9 +443,24 @@ def score_main(argv: list[str] | None = None) -> int:
     n_ok = sum(r["status"] == "ok" for r in rows)
     print(f"scored {n_ok}/{len(rows)} samples with predictions; run directory {out}")
     print((out / "summary.md").read_text())
+    print(_object_summary(rows, out))
     if bop_text:
         print(bop_text)
     return 0
+
+
+def _object_summary(rows: Sequence[dict], out_dir: Path) -> str:
+    """Per-object rows of the same statistics as ``summary.md`` (written to ``summary_objects.md``)."""
+    import pandas as pd
+
+    from catpose.bench.metrics import summarize
+    from catpose.bench.runner import format_summary
+
+    df = pd.DataFrame(list(rows))
+    df["object"] = [f"{c}/{i}" for c, i in zip(df["category"], df["instance_id"])]
+    text = format_summary(summarize(df, by="object"))
+    (Path(out_dir) / "summary_objects.md").write_text(text + "\n")
+    return text
 
 
 DEFAULT_BOP_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
