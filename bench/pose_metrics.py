@@ -52,19 +52,17 @@ def _axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
 
 
 def symmetry_transforms(discrete: Iterable[Sequence[float]] = (), continuous: Iterable[Mapping] = (),
-                        diameter: float | None = None, max_sym_disc_step: float = 0.01) -> list[np.ndarray]:
+                        max_sym_disc_step: float = 0.01) -> list[np.ndarray]:
     """Every symmetry transform (4, 4) of the model frame, identity first.
 
     ``discrete``: BOP ``symmetries_discrete`` entries (16 numbers, row-major 4x4, t in model
     units). ``continuous``: BOP ``symmetries_continuous`` entries ``{"axis": (3,), "offset":
     (3,)}``: rotations about the line through ``offset`` along ``axis``. A continuous axis is
     sampled every ``2 pi / ceil(pi / max_sym_disc_step)`` radians (BOP's step: a point on the
-    diameter moves at most ``max_sym_disc_step * diameter``; ``diameter`` is accepted for the
-    record, the step depends on the ratio only). Several continuous axes are composed in
-    the order given; discrete transforms are applied after the continuous ones
-    (``S = S_disc @ S_cont``).
+    diameter moves about ``max_sym_disc_step * diameter`` between samples). The rotations of
+    every continuous axis are pooled (as BOP does; composing two axes would give O(n^2)
+    transforms) and each is combined with every discrete transform: ``S = S_cont @ S_disc``.
     """
-    del diameter
     conts = [np.eye(4)]
     for c in continuous:
         axis = np.asarray(c["axis"], float).reshape(3)

@@ -175,6 +175,9 @@ def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True
     out_csv = Path(out_csv)
     out_csv.parent.mkdir(parents=True, exist_ok=True)
     out_csv.write_text("\n".join(lines) + "\n")
+    from catpose.bench.bop_eval import check_results_csv
+
+    check_results_csv(out_csv)  # what bop_toolkit's loader checks (header, ids, one time per image)
     pd.DataFrame(mapping).to_csv(str(out_csv) + ".map.csv", index=False)
     return len(rows)
 

@@ -223,3 +223,15 @@ def test_recalls_at_bop19_thresholds_by_hand():
     assert pm.recall([10.0], 10.0) == 0.0  # BOP counts e < th
     # VSD: two instances with per-tau errors 0 and 0.3: the second is correct at th 0.35..0.5 (4 of 10)
     assert pm.average_recall_vsd([[0.0] * 10, [0.3] * 10]) == pytest.approx((1.0 + 0.4) / 2)
+
+
+def test_every_continuous_axis_is_used_with_its_offset():
+    c = np.array([3.0, -2.0, 5.0])  # a sphere centred off the origin: symmetric about any axis through c
+    axes = [{"axis": [0, 0, 1], "offset": c.tolist()}, {"axis": [1, 0, 0], "offset": c.tolist()}]
+    syms = pm.symmetry_transforms(continuous=axes, max_sym_disc_step=0.5)
+    n = math.ceil(math.pi / 0.5)
+    assert len(syms) == 1 + 2 * (n - 1)
+    for S in syms:
+        assert np.allclose(S[:3, :3] @ c + S[:3, 3], c)  # the centre stays: offsets are applied
+    rotation_axes = {tuple(np.round(np.linalg.svd(S[:3, :3] - np.eye(3))[2][-1] ** 2, 6)) for S in syms[1:]}
+    assert rotation_axes == {(0.0, 0.0, 1.0), (1.0, 0.0, 0.0)}  # both axes, not only the first
