@@ -198,3 +198,20 @@ def test_tyol_frame_export_then_score_gives_recall_one(shared_data: Path, tmp_pa
     assert (bop_eval.score_table(errs, ALL_METRICS)[ALL_METRICS].to_numpy() == 1.0).all()
     samples = [json.loads(x) for x in (scored / "samples.jsonl").read_text().splitlines()]
     assert samples[0]["err_deg"] < 1e-3 and not math.isnan(samples[0]["trans_err"])
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_ycbv_bench_export_then_bench_score_reproduces_the_ground_truth(shared_data: Path, tmp_path: Path):
+    root = shared_data / "bop" / "ycbv"
+    ds = BOP(str(root), categories=YCBV)
+    run = write_run(tmp_path / "run", _gt_rows(ds), dict(CFG, dataset=_dataset_cfg(root, YCBV)))
+    out = tmp_path / "gt_ycbv-test.csv"
+    assert export_bop(run, out) == 38 and bop_eval.check_results_csv(out) == 38
+    scored = tmp_path / "scored"
+    assert predictions.score_main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
+    errs, header = bop_eval.read_errors(scored / bop_eval.ERRORS_FILE)
+    assert header["targets"] == 38 and header["matched"] == 38
+    assert (bop_eval.score_table(errs, ALL_METRICS)[ALL_METRICS].to_numpy() == 1.0).all()
+    samples = [json.loads(x) for x in (scored / "samples.jsonl").read_text().splitlines()]
+    assert max(s["err_deg"] for s in samples) < 0.1  # the run's own error: rounding of the written R only
