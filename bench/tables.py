@@ -632,8 +632,18 @@ def main(argv: list[str] | None = None) -> int:
                     help="the method's own choice or the minimum across templates (oracle)")
     ap.add_argument("--title", default=None)
     ap.add_argument("--out", default=None, help="write here instead of stdout")
+    ap.add_argument("--bop-metrics", default=None,
+                    help="BOP recalls of runs scored by `bench score` (bop_errors.jsonl), e.g. "
+                         "ar_mssd,ar_mspd,adds@0.1,5deg5cm (see catpose.bench.bop_eval.parse_metric)")
+    ap.add_argument("--by", default="object,category", help="with --bop-metrics: rows per object and/or category")
     args = ap.parse_args(argv)
     try:
+        if args.bop_metrics:
+            from catpose.bench.bop_eval import table_main_from_runs
+
+            text = table_main_from_runs(find_run_dirs(args.runs), args.bop_metrics.split(","), args.by.split(",")) + "\n"
+            Path(args.out).write_text(text) if args.out else sys.stdout.write(text)
+            return 0
         runs = [load_run(p) for p in find_run_dirs(args.runs)]
         table = build_table(runs, args.layout, args.categories.split(",") if args.categories else None,
                             args.metrics.split(",") if args.metrics else None, parse_labels(args.label),
