@@ -179,7 +179,7 @@ class CorrespondenceRegistration(RegistrationMethod):
         self.icp_max_iterations = options.positive("method.icp_max_iterations", icp_max_iterations, integer=True)
         self.num_keypoints = self.layout.num_keypoints
         self.seed = int(seed)
-        self._targets: LRUCache[tuple, dict[str, Any]] = LRUCache(64)
+        self._target_cache: LRUCache[tuple, dict[str, Any]] = LRUCache(64)
 
     # -- what a subclass provides ---------------------------------------------------------------
 
@@ -196,7 +196,7 @@ class CorrespondenceRegistration(RegistrationMethod):
 
         # the options are fixed per instance: the template's content and up axis are the key
         key = (template_key(template), tuple(np.round(np.asarray(template.up, dtype=np.float64), 12)))
-        hit = self._targets.get(key)
+        hit = self._target_cache.get(key)
         if hit is not None:
             return hit
         with_fpfh = self.features == "fpfh"
@@ -219,7 +219,7 @@ class CorrespondenceRegistration(RegistrationMethod):
                        for p, n in parts]
         data = {"complete": complete, "tree": cKDTree(template.points), "targets": targets,
                 "descriptors": descriptors}
-        self._targets.put(key, data)
+        self._target_cache.put(key, data)
         return data
 
     def _keypoints(self, points: np.ndarray, normals: np.ndarray, up: np.ndarray, k: int) -> tuple[Cloud, Any]:
