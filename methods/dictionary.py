@@ -84,11 +84,11 @@ def viewpoint_layout(num_views: int = 18, layout: str = "rings",
     half an azimuth step for odd ``j`` so rings interleave). ``fibonacci``: a Fibonacci sphere.
     """
     if num_views < 1:
-        raise ConfigError(f"dictionary num_views={num_views}; use a positive count such as 18")
+        raise ConfigError(f"method.dictionary.num_views={num_views}; use a positive count such as 18")
     if layout == "rings":
         rings = len(elevations_deg)
         if rings == 0 or num_views % rings:
-            raise ConfigError(f"dictionary num_views={num_views} is not a multiple of the "
+            raise ConfigError(f"method.dictionary.num_views={num_views} is not a multiple of the "
                               f"{rings} elevation rings {list(elevations_deg)}; change one of them")
         per = num_views // rings
         out = []
@@ -106,7 +106,7 @@ def viewpoint_layout(num_views: int = 18, layout: str = "rings",
         phi = np.pi * (1 + 5 ** 0.5) * i
         dirs = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
     else:
-        raise ConfigError(f"dictionary layout={layout!r} is unknown; use 'rings' or 'fibonacci'")
+        raise ConfigError(f"method.dictionary.layout={layout!r} is unknown; use 'rings' or 'fibonacci'")
     return distance * dirs
 
 

@@ -84,7 +84,7 @@ def test_cache_keys_name_every_parameter() -> None:
     (lambda: LPS(fscore="dense"), "method.descriptor.fscore='dense' is unknown"),
     (lambda: PFH(distance="l2"), "method.descriptor.distance='l2' is unknown"),
     (lambda: PFH(voxel_size=-1), "method.descriptor.voxel_size=-1 must be a number >= 0"),
-    (lambda: DictionaryLayout(num_views=17), "17"),
+    (lambda: DictionaryLayout(num_views=17), "method.dictionary.num_views=17 is not a multiple of the 3"),
     (lambda: DictionaryLayout(num_keypoints=2), "method.dictionary.num_keypoints=2 must be an integer >= 3"),
     (lambda: DictionaryLayout(layout="cube"), "method.dictionary.layout='cube' is unknown"),
 ])
@@ -116,3 +116,27 @@ def test_dictionary_layout_is_the_viewpoint_layout() -> None:
     layout = DictionaryLayout(elevations_deg=[0, 45], num_views=12)
     assert layout.elevations_deg == (0.0, 45.0) and layout.azimuths_per_ring == 6
     np.testing.assert_array_equal(layout.viewpoints(), viewpoint_layout(12, "rings", (0.0, 45.0), 3.0))
+
+
+@pytest.mark.parametrize("group,cls", [("descriptor", Descriptor), ("dictionary", DictionaryLayout)])
+def test_every_shared_group_config_instantiates_into_ours_and_the_baselines(repo_root, group: str, cls: type) -> None:
+    """Each file of configs/descriptor and configs/dictionary, selected for ours and for a
+    correspondence baseline, reaches the method as the same typed object (one source, no mirror)."""
+    from hydra import compose, initialize_config_module
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    names = sorted(p.stem for p in (repo_root / "configs" / group).glob("*.yaml"))
+    assert names
+    for name in names:
+        built = []
+        for method in ("ours", "teaser"):
+            with initialize_config_module("catpose.configs", version_base=None):
+                cfg = compose("run", overrides=[f"method={method}", f"{group}@method.{group}={name}"])
+            d = OmegaConf.to_container(cfg.method, resolve=True)
+            d.pop("name")
+            obj = instantiate(d, _convert_="all")
+            part = obj.descriptor if group == "descriptor" else obj.layout
+            assert isinstance(part, cls)
+            built.append(part.cache_key() if group == "descriptor" else part)
+        assert built[0] == built[1]
