@@ -35,7 +35,7 @@ def make_sample(obs: Observation, template: Template, sample_id: str, group_id: 
     return Sample(problem=problem, gt=gt, group_id=group_id, info=info)
 
 
-def require_consistent_frames(dataset: ObjectDataset, protocol: str) -> None:
+def require_consistent_frames(dataset: ObjectDataset, what: str) -> None:
     """Refuse a category-level protocol on a dataset whose instances' frames are not declared
     consistent (``dataset.frames_consistent``): a template's frame would differ from the
     observed instance's by an unknown rotation, and the errors would measure that rotation.
@@ -45,7 +45,7 @@ def require_consistent_frames(dataset: ObjectDataset, protocol: str) -> None:
     """
     if getattr(dataset, "frames_consistent", True):
         return
-    raise ConfigError(f"{dataset.name}: protocol={protocol} compares instances, but their frames are not declared "
+    raise ConfigError(f"{dataset.name}: {what} compares instances, but their frames are not declared "
                       "consistent and dataset.alignment_table is unset; use dataset=modelnet40_aligned (the "
                       "aligned release), or run `bench align` and set dataset.alignment_table=<csv>")
 
@@ -133,7 +133,7 @@ class Templates(Protocol):
         return templates[: self.max_templates] if self.max_templates else templates
 
     def sample_ids(self, dataset: ObjectDataset) -> list[str]:
-        require_consistent_frames(dataset, self.name)
+        require_consistent_frames(dataset, f"protocol={self.name}")
         ids: list[str] = []
         counts: dict[str, int] = {}
         for obs_id in dataset.observation_ids():
@@ -145,7 +145,7 @@ class Templates(Protocol):
         return ids
 
     def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
-        require_consistent_frames(dataset, self.name)
+        require_consistent_frames(dataset, f"protocol={self.name}")
         obs_id, _, k = sample_id.rpartition("|")
         obs = self._cache.get(dataset, obs_id)
         template = self._templates(dataset, obs.category)[int(k)]

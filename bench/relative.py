@@ -159,7 +159,7 @@ class Relative(Protocol):
         # a constant template-to-instance rotation cancels in a relative pose, but two views that
         # pick differently oriented templates do not: category templates need consistent frames
         if self.template_source == "category":
-            require_consistent_frames(dataset, "relative protocol.template_source=category")
+            require_consistent_frames(dataset, "protocol=relative protocol.template_source=category")
 
     def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
         self._check_frames(dataset)
