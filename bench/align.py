@@ -164,7 +164,7 @@ def align(args: argparse.Namespace) -> list[dict]:
 
 def draw_contact_sheet(path: str | Path, ids: list[str], clouds: list, reference: int, R_ref_instance: list,
                        confidence: list[float], low: list[bool], title: str, per_row: int = 2,
-                       max_points: int = 900) -> Path:
+                       max_points: int = 700) -> Path:
     """A PNG grid: per instance, its cloud turned by ``R_ref_instance`` (3, 3) over the reference's
     (grey) in three views: top (x right, y up), side (x right, z up) and side (y right, z up),
     coloured by height (z); ``low`` rows titled in red."""
@@ -202,10 +202,10 @@ def draw_contact_sheet(path: str | Path, ids: list[str], clouds: list, reference
             else:
                 ax.set_title(("side x,z", "side y,z")[v - 1], fontsize=5.5, loc="right", color="0.4")
     fig.suptitle(title + "  [top x,y | side x,z | side y,z; colour: height; red title: check]", fontsize=7)
-    fig.tight_layout(pad=0.3, h_pad=0.4, w_pad=0.2)
+    fig.tight_layout(pad=0.3, h_pad=0.4, w_pad=0.2, rect=(0, 0, 1, 1 - 0.3 / fig.get_figheight()))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=75)
     plt.close(fig)
     return path
 
