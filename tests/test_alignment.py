@@ -197,3 +197,36 @@ def test_shared_airplanes_fuselage_axis_matches_the_verified_table(shared_data, 
     for key, R in est.items():
         # the fuselage axis is found; nose against tail (180 deg) is what the person checks
         assert np.allclose(R, verified[key], atol=1e-9) or np.allclose(R, yaw_rotations(2)[1] @ verified[key], atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["mn40r_airplane_1template", "mn40r_chair_ktemplates"])
+def test_experiment_configs_compose_and_leave_the_templates_views_out(name):
+    from hydra import compose, initialize_config_module
+
+    with initialize_config_module("catpose.configs", version_base=None):
+        cfg = compose("run", overrides=[f"+experiment={name}", "method=fgr", "method.matching=dictionary"])
+    assert cfg.protocol.name == "templates" and cfg.dataset.name == "modelnet40_resampled"
+    (category,) = cfg.dataset.categories
+    templates = set(cfg.dataset.templates[category])
+    instances = {s.split("/")[1] for s in cfg.sample_ids}
+    assert instances and not instances & templates
+    assert (COMMITTED.parents[1] / cfg.dataset.alignment_table).is_file()
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("name", ["mn40r_airplane_1template", "mn40r_chair_ktemplates"])
+def test_experiment_sample_ids_are_every_non_template_view(name, shared_data, monkeypatch):
+    from hydra import compose, initialize_config_module
+
+    from catpose.bench.runner import build_from_config
+
+    monkeypatch.chdir(COMMITTED.parents[1])  # the configs' paths are relative to the repository root
+    with initialize_config_module("catpose.configs", version_base=None):
+        cfg = compose("run", overrides=[f"+experiment={name}", f"dataset.root={shared_data / 'modelnet40_normal_resampled'}"])
+    _, dataset = build_from_config(cfg.dataset, "dataset")
+    dataset.name = "modelnet40_resampled"
+    _, protocol = build_from_config(cfg.protocol, "protocol")
+    (category,) = cfg.dataset.categories
+    templates = set(cfg.dataset.templates[category])
+    every = [s for s in protocol.sample_ids(dataset) if s.split("/")[1] not in templates]
+    assert list(cfg.sample_ids) == every
