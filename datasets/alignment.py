@@ -8,9 +8,13 @@ against a reference instance.
 
 The estimate is a proposal for a person to confirm: :func:`estimate_table` searches the
 multiples of 90 degrees of yaw (optionally with an up-axis flip), refines every hypothesis by ICP,
-scores it by symmetric Chamfer against every other instance (a consensus, more robust than one
-reference: a single high-wing reference put 4 of 6 airplane noses backwards) and reports a
-confidence margin; ``bench align`` draws a contact sheet to check the rows by eye.
+scores it by symmetric Chamfer against every other instance (a consensus: instances that look
+alike stay consistent with each other) and reports a confidence margin; ``bench align`` draws a
+contact sheet to check the rows by eye. Chamfer cannot tell nose from tail between unlike
+shapes: on the shared airplanes it found every fuselage axis (24/24) but turned the jets
+180 degrees against the propeller planes (with the biplane airplane_0001 as reference, 4 of 6 OFF
+and 11 of 18 resampled rows wrong, all corrected by eye in ``results/alignment/``); the chairs
+were all right (8/8).
 
 Table format (CSV with a header): ``category,instance_id`` and either the nine entries
 ``r00,r01,r02,r10,r11,r12,r20,r21,r22`` of ``R_canonical_raw`` (row-major) or ``yaw_deg``
@@ -182,9 +186,9 @@ def pair_costs(source: np.ndarray, target: np.ndarray, hypotheses: np.ndarray, m
     ``max_distance`` is ICP's correspondence distance (object-normalised unit): two different
     instances are never an exact fit, and a loose one (0.2) let ICP slide 30-50 deg to partial
     overlaps whose costs tie with the right hypothesis's on the shared airplanes; 0.05 keeps
-    refinements within 5-20 deg. A refinement that slides to another hypothesis's basin (its rotation is nearer to another
-    hypothesis) scores for that one; each hypothesis keeps its lowest cost and one whose own
-    refinement left it (and no other landed on it) keeps its unrefined cost.
+    refinements within 5-20 deg. A refinement that ends nearer another hypothesis scores for
+    that one; each hypothesis keeps its lowest cost, so one whose own refinement left it (and
+    that no other refinement reached) keeps its unrefined cost.
     """
     raw = np.array([chamfer_distance(source @ R.T, target) for R in hypotheses])
     if not refine:
