@@ -199,7 +199,7 @@ def test_shared_airplanes_fuselage_axis_matches_the_verified_table(shared_data, 
         assert np.allclose(R, verified[key], atol=1e-9) or np.allclose(R, yaw_rotations(2)[1] @ verified[key], atol=1e-9)
 
 
-@pytest.mark.parametrize("name", ["mn40r_airplane_1template", "mn40r_chair_ktemplates"])
+@pytest.mark.parametrize("name", ["mn40r_airplane_1template", "mn40r_chair_ktemplates", "mn40r_chair_1template"])
 def test_experiment_configs_compose_and_leave_the_templates_views_out(name):
     from hydra import compose, initialize_config_module
 
@@ -214,7 +214,7 @@ def test_experiment_configs_compose_and_leave_the_templates_views_out(name):
 
 
 @pytest.mark.data
-@pytest.mark.parametrize("name", ["mn40r_airplane_1template", "mn40r_chair_ktemplates"])
+@pytest.mark.parametrize("name", ["mn40r_airplane_1template", "mn40r_chair_ktemplates", "mn40r_chair_1template"])
 def test_experiment_sample_ids_are_every_non_template_view(name, shared_data, monkeypatch):
     from hydra import compose, initialize_config_module
 
