@@ -91,6 +91,9 @@ class ModelNetBase(ObjectDataset):
         self.template_split = str(template_split)
         self.aligned = bool(aligned)
         self.alignment = {} if aligned or not alignment_table else read_alignment_table(alignment_table)
+        # raw ModelNet40 instances differ by multiples of 90 deg of yaw: consistent only when
+        # aligned (Sedaghat et al. release) or given a per-instance alignment table
+        self.frames_consistent = self.aligned or bool(self.alignment)
         self.R_template_file = R_template_file(up, forward)
         self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
         self.seed = int(seed)
