@@ -401,7 +401,7 @@ def import_heavy_libraries(interrupts: _Interrupts | None = None) -> None:
     for name in _HEAVY_MODULES:
         try:
             importlib.import_module(name)
-        except ImportError as e:
+        except Exception as e:  # noqa: BLE001 - a swallowed Ctrl-C can surface as anything (trimesh: TypeError)
             if interrupts is not None:
                 interrupts.check()
             raise RunAborted(f"cannot import {name} ({_one_line(e)}); the installation is broken: "
@@ -550,8 +550,12 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     """
     validate_run_options(cfg)
     with _Interrupts() as interrupts:
-        import_heavy_libraries(interrupts)
-        return _run(cfg, list(overrides), interrupts)
+        try:
+            import_heavy_libraries(interrupts)
+            return _run(cfg, list(overrides), interrupts)
+        except CatposeError:
+            interrupts.check()  # a Ctrl-C that a library turned into a build or load error
+            raise
 
 
 def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:

@@ -338,7 +338,7 @@ def test_two_bench_runs_into_one_directory_do_each_sample_once(tmp_path):
 
 def _bench(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
     env = dict(os.environ, HYDRA_FULL_ERROR="0")
-    return subprocess.run([*BENCH, "run", *args, f"output_root={tmp_path / 'out'}", "progress=false"],
+    return subprocess.run([*BENCH, "run", f"output_root={tmp_path / 'out'}", "progress=false", *args],
                           capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env)
 
 
@@ -355,7 +355,7 @@ CASES = {  # name -> (args, needle); the files are written by _prepare
     "no root": (["dataset=bop"], "e.g. dataset.root=<value>"),
     "bop fx<0": (["dataset=bop", "dataset.root={bop_fx}"], "fx=-300, fy=300"),
     "bop no obj_id": (["dataset=bop", "dataset.root={bop_gt}"], "has no integer obj_id"),
-    "redwood fx=0": (["dataset=redwood", "dataset.root={tmp}", "dataset.fx=0"], "dataset.fx=0.0 must be a positive"),
+    "redwood fx=0": (["dataset=redwood", "dataset.root={tmp}", "dataset.fx=0"], "dataset.fx=0 must be a positive"),
     "views=0": (["dataset=modelnet40", "dataset.root={tmp}", "dataset.views_per_instance=0"],
                 "dataset.views_per_instance=0 must be an integer >= 1"),
     "off 2 coords": (["dataset=modelnet40", "dataset.root={mn}", "dataset.categories=[box]",

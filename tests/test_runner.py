@@ -221,6 +221,37 @@ def test_heavy_libraries_are_imported_before_the_first_sample(tmp_path):
     assert seen and all(seen.values()), seen
 
 
+_SWALLOWED_IN_TRIMESH = """
+import signal, sys
+from catpose.bench import runner
+
+class CtrlCWhileTrimeshImportsPath:  # trimesh.base wraps `from .path import Path3D` in `except BaseException`
+    def find_spec(self, name, path=None, target=None):
+        if name == "trimesh.path":
+            print("Ctrl-C;", end=" ")
+            signal.raise_signal(signal.SIGINT)
+        return None
+
+sys.meta_path.insert(0, CtrlCWhileTrimeshImportsPath())
+try:
+    with runner._Interrupts() as interrupts:
+        runner.import_heavy_libraries(interrupts)
+except KeyboardInterrupt:
+    print("stopped")
+    sys.exit(0)
+print("not stopped")
+sys.exit(1)
+"""
+
+
+def test_ctrl_c_swallowed_by_trimesh_during_its_import_still_stops_the_run():
+    r = subprocess.run([sys.executable, "-c", _SWALLOWED_IN_TRIMESH], capture_output=True, text=True, timeout=300,
+                       preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    # trimesh did swallow it (its Path3D became an ExceptionWrapper, and then its import failed with a
+    # TypeError), and the run stopped with KeyboardInterrupt anyway
+    assert r.returncode == 0 and r.stdout.startswith("Ctrl-C;") and r.stdout.strip().endswith("stopped"), (r.stdout, r.stderr[-2000:])
+
+
 BENCH = [sys.executable, "-m", "catpose.bench.cli"]
 TINY_RUN = ["run", "method=icp", "dataset=synthetic", "dataset.categories=[car,bottle]",
             "dataset.instances_per_category=1", "dataset.views_per_instance=2", "limit=3", "progress=false"]
@@ -245,7 +276,6 @@ def _rows(tmp_path: Path) -> list[dict]:
 
 
 def _check_clean_abort(p: subprocess.Popen, err: str, stop_s: float, tmp_path: Path) -> None:
-    Path("/tmp/gi/lasterr.txt").write_text(err) if p.returncode not in (130, -2) else None
     assert p.returncode in (130, -2), (p.returncode, err)  # -2: Python re-raised SIGINT at exit (shell: 130)
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1 and "interrupted" in err, err
     assert stop_s < 10, stop_s  # the interpreter's own exit (torch, Open3D) takes about a second
@@ -253,10 +283,12 @@ def _check_clean_abort(p: subprocess.Popen, err: str, stop_s: float, tmp_path: P
         assert r["status"] == "ok", r  # no ImportError / KeyboardInterrupt recorded as a failure
 
 
-@pytest.mark.parametrize("delay_s", [0.5, 2.0, 3.5])
+@pytest.mark.parametrize("delay_s", [1.0, 2.0, 3.5])
 def test_ctrl_c_during_start_up_stops_the_run_cleanly(tmp_path, delay_s):
     """Ctrl-C while Hydra, torch, trimesh or Open3D are being imported (the 2 s case used to be
-    swallowed by trimesh, the 3.5 s case recorded an ImportError for every sample)."""
+    swallowed by trimesh, the 3.5 s case recorded an ImportError for every sample). Not earlier
+    than 1 s: before about 0.4 s (more on a loaded machine) Python itself is still importing its
+    ``site`` module, where a Ctrl-C is the interpreter's own fatal error, before any catpose code."""
     p = _start_bench(tmp_path)
     time.sleep(delay_s)
     err, stop_s = _interrupt(p)
