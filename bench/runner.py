@@ -116,8 +116,13 @@ def _scalar_annotation(annotation: Any) -> set[str] | None:
     if annotation is inspect.Parameter.empty:
         return None
     text = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", str(annotation))
-    parts = {p.strip().removeprefix("typing.") for p in str(text).replace("Optional[", "").rstrip("]").split("|")}
-    parts = {"None" if p in ("None", "NoneType") else p for p in parts}
+    text = str(text).replace("typing.", "")
+    optional = text.startswith("Optional[")
+    if optional:
+        text = text.removeprefix("Optional[").removesuffix("]")
+    parts = {"None" if p.strip() in ("None", "NoneType") else p.strip() for p in text.split("|")}
+    if optional:
+        parts.add("None")
     return parts if parts <= {*_SCALAR_TYPES, "None"} and parts - {"None"} else None
 
 

@@ -113,6 +113,15 @@ def test_wrong_option_values_name_the_key(group, options, needle):
     assert needle in one_line(info.value)
 
 
+@pytest.mark.parametrize("annotation, kinds", [
+    ("float", {"float"}), ("int | None", {"int", "None"}), ("Optional[float]", {"float", "None"}),
+    (float, {"float"}), ("list[float]", None), ("tuple[float, ...] | list[float]", None), ("None", None)])
+def test_scalar_annotations_are_read(annotation, kinds):
+    from catpose.bench.runner import _scalar_annotation
+
+    assert _scalar_annotation(annotation) == kinds
+
+
 def test_right_option_values_pass_the_check():
     from catpose.bench.runner import check_constructor_args
 
@@ -257,6 +266,19 @@ def test_unwritable_or_full_output_directory_aborts_without_recording(tmp_path, 
     monkeypatch.setattr(runner._SampleWriter, "write", real)
     run(toy_cfg(tmp_path))  # with space again, the re-run finishes the rest
     assert len(read_samples(out / "samples.jsonl")) == 3
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into a read-only folder anyway")
+def test_read_only_output_root_for_real(tmp_path):
+    root = tmp_path / "ro"
+    root.mkdir()
+    root.chmod(0o555)
+    try:
+        with pytest.raises(RunAborted) as info:
+            run(toy_cfg(tmp_path, output_root=root))
+    finally:
+        root.chmod(0o755)
+    assert "not writable" in one_line(info.value) and str(root) in str(info.value)
 
 
 def test_read_only_output_root_when_creating_the_run_directory(tmp_path, monkeypatch):
