@@ -195,6 +195,17 @@ def test_bop_object_missing_from_models_info_warns_once(tmp_path):
     assert "dataset.symmetric" in msgs[0]
 
 
+def test_bench_shows_catpose_warnings_in_one_line(monkeypatch):
+    import catpose.datasets.bop as bop
+    from catpose.bench.cli import _one_line_catpose_warnings
+
+    monkeypatch.setattr(warnings, "formatwarning", warnings.formatwarning)  # restored afterwards
+    _one_line_catpose_warnings()
+    assert warnings.formatwarning("no entry for object 19", UserWarning, bop.__file__, 1) == \
+        "bench: warning: no entry for object 19\n"
+    assert warnings.formatwarning("other", UserWarning, warnings.__file__, 1).count("UserWarning") == 1
+
+
 @pytest.mark.parametrize("key, value", [("fx", 0.0), ("fx", -525.0), ("fy", 0.0), ("fx", float("nan"))])
 def test_redwood_non_positive_focal_length(tmp_path, key, value):
     from catpose.datasets.redwood import Redwood
