@@ -101,12 +101,13 @@ def build_from_config(node: Any, what: str) -> tuple[str, Any]:
             cause = cause.__cause__
         if isinstance(cause, CatposeError):
             raise cause from None
+        named = [k for k in d if not k.startswith("_") and re.search(rf"\b{re.escape(k)}\b", str(cause))]
+        keys = ", ".join(f"{what}.{k}={d[k]!r}" for k in named) or f"the {what}.* values"
         raise ConfigError(f"cannot build {what} '{name}' ({d['_target_']}): {_one_line(cause)}; "
-                          f"check the {what}.* values (bench run --cfg job shows them)") from None
+                          f"check {keys} (bench run --cfg job shows them)") from None
 
 
 # annotation (as written, `from __future__ import annotations` keeps it a string) -> what it accepts
-_SCALAR_TYPES = {"float": "a number", "int": "an integer", "bool": "true or false", "str": "a string"}
 _SCALAR_HINTS = {"float": "<number>", "int": "<integer>", "bool": "<true|false>", "str": "<text>"}
 
 
@@ -123,7 +124,7 @@ def _scalar_annotation(annotation: Any) -> set[str] | None:
     parts = {"None" if p.strip() in ("None", "NoneType") else p.strip() for p in text.split("|")}
     if optional:
         parts.add("None")
-    return parts if parts <= {*_SCALAR_TYPES, "None"} and parts - {"None"} else None
+    return parts if parts <= {*_SCALAR_HINTS, "None"} and parts - {"None"} else None
 
 
 def _accepts(kinds: set[str], value: Any) -> bool:

@@ -420,3 +420,12 @@ def test_bench_run_gives_one_line(tmp_path, case):
         return
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2 and len(lines) == 1 and needle in lines[0], r.stderr[-3000:]
+
+
+def test_other_constructor_errors_name_the_group_and_the_key_they_mention():
+    # a target without readable annotations that raises a plain TypeError naming its argument
+    node = OmegaConf.create({"name": "span", "_target_": "datetime.timedelta", "days": "abc"})
+    with pytest.raises(ConfigError) as info:
+        build_from_config(node, "method")
+    msg = one_line(info.value)
+    assert "cannot build method 'span'" in msg and "check method.days='abc'" in msg, msg
