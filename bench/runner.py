@@ -77,12 +77,7 @@ def build_from_config(node: Any, what: str) -> tuple[str, Any]:
 
     from omegaconf.errors import MissingMandatoryValue
 
-    if not isinstance(node, dict):
-        # missing_keys of a child node gives full paths ("dataset.root"); keep them relative
-        missing = sorted(k.removeprefix(f"{what}.") for k in OmegaConf.missing_keys(node))
-        if missing:
-            raise ConfigError(f"{what} needs {', '.join(f'{what}.{k}' for k in missing)}: "
-                              f"set it on the command line, e.g. {what}.{missing[0]}=<value>")
+    check_missing(node, what)
     try:
         d = OmegaConf.to_container(node, resolve=True) if not isinstance(node, dict) else dict(node)
     except MissingMandatoryValue as e:
@@ -105,6 +100,19 @@ def build_from_config(node: Any, what: str) -> tuple[str, Any]:
         keys = ", ".join(f"{what}.{k}={d[k]!r}" for k in named) or f"the {what}.* values"
         raise ConfigError(f"cannot build {what} '{name}' ({d['_target_']}): {_one_line(cause)}; "
                           f"check {keys} (bench run --cfg job shows them)") from None
+
+
+def check_missing(node: Any, what: str) -> None:
+    """A one-line :class:`ConfigError` naming the mandatory (``???``) keys of a group left unset."""
+    from omegaconf import OmegaConf
+
+    if isinstance(node, dict):
+        return
+    # missing_keys of a child node gives full paths ("dataset.root"); keep them relative
+    missing = sorted(k.removeprefix(f"{what}.") for k in OmegaConf.missing_keys(node))
+    if missing:
+        raise ConfigError(f"{what} needs {', '.join(f'{what}.{k}' for k in missing)}: "
+                          f"set it on the command line, e.g. {what}.{missing[0]}=<value>")
 
 
 # annotation (as written, `from __future__ import annotations` keeps it a string) -> what it accepts
@@ -352,11 +360,14 @@ def _one_line(e: BaseException) -> str:
 # what aborts a run (never a sample failure)
 
 # heavy libraries, imported before the first sample so that a Ctrl-C during their import
-# (seconds) stops the run instead of turning into an ImportError of every sample. Order
-# matters: trimesh wraps its optional imports (scipy, networkx, PIL) in `except BaseException`,
-# so those go first and are already loaded when trimesh looks for them.
-_HEAVY_MODULES = ("numpy", "scipy.spatial", "scipy.sparse", "scipy.optimize", "scipy.ndimage", "PIL.Image",
-                  "torch", "catpose.o3d", "trimesh")
+# (seconds) stops the run instead of turning into an ImportError of every sample. trimesh wraps
+# its optional imports (scipy, networkx, PIL, its own submodules) in `except BaseException`, so
+# it and what it looks for are imported first, before the builders need them: once loaded, no
+# window is left where a Ctrl-C would be swallowed for long. torch and Open3D come after the
+# builds, so that a config mistake is reported without waiting for them.
+_EARLY_MODULES = ("numpy", "scipy.spatial", "scipy.sparse", "scipy.optimize", "scipy.ndimage", "PIL.Image",
+                  "trimesh")
+_LATE_MODULES = ("torch", "catpose.o3d")
 _OPTIONAL_MODULES = ("networkx",)  # trimesh uses it when present
 
 
@@ -393,18 +404,20 @@ class _Interrupts:
             raise KeyboardInterrupt
 
 
-def import_heavy_libraries(interrupts: _Interrupts | None = None) -> None:
-    """Import torch, Open3D, trimesh and SciPy now (see :data:`_HEAVY_MODULES`).
+def import_heavy_libraries(interrupts: _Interrupts | None = None,
+                           modules: tuple[str, ...] = _EARLY_MODULES + _LATE_MODULES) -> None:
+    """Import ``modules`` now (default: SciPy, trimesh, torch, Open3D; see :data:`_EARLY_MODULES`).
 
     A missing or broken library raises :class:`RunAborted` in one line; a Ctrl-C during an
     import raises ``KeyboardInterrupt`` even when the library swallowed it.
     """
-    for name in _OPTIONAL_MODULES:
-        with contextlib.suppress(ImportError):
-            importlib.import_module(name)
-        if interrupts is not None:
-            interrupts.check()
-    for name in _HEAVY_MODULES:
+    if "trimesh" in modules:
+        for name in _OPTIONAL_MODULES:
+            with contextlib.suppress(ImportError):
+                importlib.import_module(name)
+            if interrupts is not None:
+                interrupts.check()
+    for name in modules:
         try:
             importlib.import_module(name)
         except Exception as e:  # noqa: BLE001 - a swallowed Ctrl-C can surface as anything (trimesh: TypeError)
@@ -533,13 +546,17 @@ def _run_option(cfg: Any, key: str, kind: str, minimum: int | float | None = Non
 
 
 def validate_run_options(cfg: Any) -> None:
-    """Check the run-level keys (``seed``, ``limit``, ``threads``, ``lock_timeout``) before any work."""
+    """Check the run-level keys (``seed``, ``limit``, ``threads``, ``lock_timeout``) and that no
+    mandatory group key (``dataset.root``) is unset, before any work."""
     if cfg.get("seed") is None:
         raise ConfigError("seed is not set; set seed=<integer>, e.g. seed=0")
     _run_option(cfg, "seed", "int")
     _run_option(cfg, "limit", "int", 1)
     _run_option(cfg, "threads", "int", 1)
     _run_option(cfg, "lock_timeout", "float", 0)
+    for group in ("method", "dataset", "protocol"):
+        if group in cfg:
+            check_missing(cfg[group], group)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -557,7 +574,6 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     validate_run_options(cfg)
     with _Interrupts() as interrupts:
         try:
-            import_heavy_libraries(interrupts)
             return _run(cfg, list(overrides), interrupts)
         except CatposeError:
             interrupts.check()  # a Ctrl-C that a library turned into a build or load error
@@ -565,8 +581,8 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
 
 
 def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
-    from omegaconf import OmegaConf
-
+    """Build the pieces, list the samples, lock the run directory and run (see :func:`run`)."""
+    import_heavy_libraries(interrupts, _EARLY_MODULES)
     if cfg.get("threads"):
         import torch
 
@@ -576,6 +592,9 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
     dataset.name = dataset_name
     _, protocol = build_from_config(cfg.protocol, "protocol")
     interrupts.check()
+    # after the builds (so that a config mistake is reported without waiting for torch) and
+    # before the first sample (so that a Ctrl-C during an import stops the run)
+    import_heavy_libraries(interrupts, _LATE_MODULES)
 
     ids = protocol.sample_ids(dataset)
     if cfg.get("sample_ids"):
