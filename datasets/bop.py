@@ -85,6 +85,33 @@ def read_mask_png(path: Path) -> np.ndarray:
     return (arr if arr.ndim == 2 else arr[..., 0]) > 0
 
 
+def camera_K(cam_path: Path, cameras: Any, im_id: int | str) -> tuple[np.ndarray, float]:
+    """``cam_K`` (3, 3, pixels) and ``depth_scale`` of image ``im_id`` in a ``scene_camera.json``
+    (already loaded as ``cameras``); a :class:`DatasetError` naming the file when the entry is
+    missing or malformed, or when a focal length is not a positive finite number of pixels."""
+    try:
+        cam = cameras[str(im_id)]
+        K = np.asarray(cam["cam_K"], float).reshape(3, 3)
+        depth_scale = float(cam.get("depth_scale", 1.0))
+    except (KeyError, TypeError, ValueError, AttributeError):
+        raise DatasetError(f"{cam_path} has no valid cam_K for image {im_id}") from None
+    fx, fy = float(K[0, 0]), float(K[1, 1])
+    if not (np.isfinite(fx) and np.isfinite(fy) and fx > 0 and fy > 0):
+        raise DatasetError(f"{cam_path}: cam_K of image {im_id} has focal lengths fx={fx:g}, fy={fy:g}; they must "
+                           "be positive pixels: fix cam_K (row-major [fx, 0, cx, 0, fy, cy, 0, 0, 1])")
+    return K, depth_scale
+
+
+def gt_obj_id(gt_path: Path, im_key: str, gt_idx: int, entry: Any) -> int:
+    """``obj_id`` of entry ``gt_idx`` of image ``im_key`` in a ``scene_gt.json``; a
+    :class:`DatasetError` naming the file when it is missing or not an integer."""
+    try:
+        return int(entry["obj_id"])
+    except (KeyError, TypeError, ValueError):
+        raise DatasetError(f"{gt_path}: entry {gt_idx} of image {im_key} has no integer obj_id; every entry "
+                           "needs obj_id, cam_R_m2c and cam_t_m2c (BOP format)") from None
+
+
 def fit_ground_plane(points: np.ndarray, distance: float, iterations: int,
                      seed: int) -> tuple[np.ndarray, float, int]:
     """Dominant plane ``n . p + d = 0`` of ``points`` (N, 3) by RANSAC, refined by least squares.
@@ -332,6 +359,7 @@ class BOP(ObjectDataset):
         self._norm: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
         self._instances: dict[int, Template] = {}
         self._ids: list[str] | None = None
+        self._warned_no_info: set[int] = set()
 
     # ------------------------------------------------------------------ files
     def _scene_dir(self, scene_id: int) -> Path:
@@ -363,15 +391,24 @@ class BOP(ObjectDataset):
             scene_id = int(scene_dir.name)
             if self.scenes is not None and scene_id not in self.scenes:
                 continue
-            scene_gt = self._read_json(self.layout.scene_gt(scene_id))
+            gt_path, cam_path = self.layout.scene_gt(scene_id), self.layout.scene_camera(scene_id)
+            scene_gt = self._read_json(gt_path)
+            if not isinstance(scene_gt, dict) or not all(str(k).isdigit() for k in scene_gt):
+                raise DatasetError(f"{gt_path} must map image ids to lists of objects (BOP format)")
+            cameras = self._read_json(cam_path) if cam_path.is_file() else None
             visib = visible_fractions(self.layout.scene_gt_info(scene_id)) if self.min_visib_fract > 0 else None
             visib_files += visib is not None
             for im_key in sorted(scene_gt, key=int):
                 im_id = int(im_key)
                 if not self.layout.depth(scene_id, im_id).is_file():
                     continue
-                for gt_idx, gt in enumerate(scene_gt[im_key]):
-                    obj_id = int(gt["obj_id"])
+                if cameras is not None:  # a bad focal length fails the run here, not every sample
+                    camera_K(cam_path, cameras, im_key)
+                entries = scene_gt[im_key]
+                if not isinstance(entries, list):
+                    raise DatasetError(f"{gt_path}: image {im_key} must map to a list of objects (BOP format)")
+                for gt_idx, gt in enumerate(entries):
+                    obj_id = gt_obj_id(gt_path, im_key, gt_idx, gt)
                     seen_objects.add(obj_id)
                     category = self.category_of_object(obj_id)
                     if category is None:
@@ -438,7 +475,11 @@ class BOP(ObjectDataset):
         path = self.layout.models_info()
         if not path.is_file():
             return {}
-        return self._read_json(path).get(str(obj_id), {})
+        entry = self._read_json(path).get(str(obj_id))
+        if entry is None:
+            self._warn_no_info(path, obj_id)
+            return {}
+        return entry
 
     def continuous_symmetries(self, obj_id: int) -> list[dict]:
         """Every ``symmetries_continuous`` entry, ``{"axis": (3,), "offset": (3,) mm}`` (model frame)."""
@@ -466,6 +507,14 @@ class BOP(ObjectDataset):
         R, _, _ = self.normalisation(obj_id)
         axis = R @ np.asarray(sym[0]["axis"], float)
         return axis / np.linalg.norm(axis)
+
+    def _warn_no_info(self, info_path: Path, obj_id: int) -> None:
+        """Warn once per object that ``models_info.json`` lacks it (then it is non-symmetric)."""
+        if obj_id not in self._warned_no_info:
+            self._warned_no_info.add(obj_id)
+            warnings.warn(f"{info_path} has no entry for object {obj_id}; it is scored as non-symmetric: add "
+                          f"\"{obj_id}\" there, or set dataset.symmetric.<category>=[x, y, z] if it is symmetric",
+                          stacklevel=2)
 
     def discrete_symmetries(self, obj_id: int) -> tuple[np.ndarray, ...]:
         """``symmetries_discrete`` of ``models_info.json`` as (4, 4) transforms of the normalised
@@ -521,12 +570,7 @@ class BOP(ObjectDataset):
             t_cam_model = np.asarray(gt["cam_t_m2c"], float).reshape(3)
         except (KeyError, IndexError, TypeError, ValueError):
             raise DatasetError(f"{gt_path} has no valid pose for image {im_id}, object index {gt_idx}") from None
-        try:
-            cam = self._read_json(cam_path)[str(im_id)]
-            K = np.asarray(cam["cam_K"], float).reshape(3, 3)
-            depth_scale = float(cam.get("depth_scale", 1.0))
-        except (KeyError, TypeError, ValueError):
-            raise DatasetError(f"{cam_path} has no valid cam_K for image {im_id}") from None
+        K, depth_scale = camera_K(cam_path, self._read_json(cam_path), im_id)
         if self.category_of_object(obj_id) is None:
             raise DatasetError(f"object {obj_id} in {gt_path} is not in dataset.categories; add it there")
 
