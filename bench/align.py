@@ -86,7 +86,7 @@ def load_clouds(args: argparse.Namespace) -> tuple[str, list[str], str, list]:
     from hydra import compose, initialize_config_module
 
     from catpose.bench.run_cmd import check_overrides
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
     from catpose.errors import ConfigError, DatasetError
 
     overrides = list(args.overrides)

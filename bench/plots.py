@@ -199,7 +199,7 @@ def plot_sample_from_run(run_dir: str | Path, sample_id: str, out_stem: str | Pa
     cfg = run.config
     if not isinstance(cfg.get("dataset"), dict) or not isinstance(cfg.get("protocol"), dict):
         raise ConfigError(f"{run_dir}/config.yaml has no dataset/protocol to re-load samples from")
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
 
     try:
         ds_name, dataset = build_from_config(dict(cfg["dataset"]), "dataset")

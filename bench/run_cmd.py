@@ -44,7 +44,8 @@ def main(argv: list[str]) -> int:
 
     @hydra.main(version_base="1.3", config_path="pkg://catpose.configs", config_name="run")
     def _job(cfg) -> None:
-        from catpose.bench.runner import RunAborted, run
+        from catpose.bench.runner import run
+        from catpose.errors import RunAborted
 
         hc = HydraConfig.get()
         try:
@@ -94,7 +95,8 @@ def evaluate_main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="bench evaluate", description=evaluate_main.__doc__)
     parser.add_argument("run_dirs", nargs="+", type=Path, help="run directories (with samples.jsonl)")
     args = parser.parse_args(argv)
-    from catpose.bench.runner import SAMPLES_FILE, format_summary, summarize_run
+    from catpose.bench.evaluate import format_summary, summarize_run
+    from catpose.bench.rundir import SAMPLES_FILE
 
     for d in args.run_dirs:
         if not (d / SAMPLES_FILE).exists():

@@ -90,7 +90,7 @@ def read_samples(path: Path):
     line of a killed run is skipped, a retried sample's last row counts)."""
     import pandas as pd
 
-    from catpose.bench.runner import latest_rows
+    from catpose.bench.rundir import latest_rows
 
     return pd.DataFrame(latest_rows(Path(path)))
 
@@ -101,7 +101,7 @@ def recompute_errors(samples):
     current metric definitions rather than the numbers stored at run time."""
     import pandas as pd
 
-    from catpose.bench.runner import recompute_errors as recompute_row
+    from catpose.bench.evaluate import recompute_errors as recompute_row
 
     if len(samples) == 0 or not {"T_est", "T_gt", "status"} <= set(samples.columns):
         return samples
@@ -149,7 +149,7 @@ def protocol_of(run: Run):
     name."""
     cfg = run.config.get("protocol") if isinstance(run.config.get("protocol"), dict) else None
     if cfg and cfg.get("_target_"):
-        from catpose.bench.runner import build_from_config
+        from catpose.bench.build import build_from_config
 
         return build_from_config(dict(cfg), "protocol")[1]
     from catpose.bench.protocols import GtModel, Templates

@@ -192,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
 
         from catpose.bench.protocols import require_consistent_frames
         from catpose.bench.run_cmd import check_overrides
-        from catpose.bench.runner import build_from_config
+        from catpose.bench.build import build_from_config
 
         check_overrides(list(args.overrides))
         with initialize_config_module("catpose.configs", version_base=None):

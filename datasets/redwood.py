@@ -8,7 +8,7 @@ metres, row by row). A scan's category comes from ``scan_categories``, else from
 index). Intrinsics default to the PrimeSense ones (fx = fy = 525, cx = 319.5, cy = 239.5).
 
 Segmentation: points within ``depth_range`` (metres); the floor is the dominant RANSAC plane
-(:func:`catpose.datasets.bop.fit_ground_plane`), whose normal oriented towards the camera is the ground normal;
+(:func:`catpose.datasets.depthio.fit_ground_plane`), whose normal oriented towards the camera is the ground normal;
 the object is what lies between ``min_height`` and ``max_height`` above it, and (when
 ``cluster_eps`` > 0) the DBSCAN cluster with the most points in the central image window
 (the operator points the camera at the object).
@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from catpose.datasets.base import ObjectDataset, Observation
-from catpose.datasets.bop import fit_ground_plane, read_depth_png
+from catpose.datasets.depthio import fit_ground_plane, read_depth_png
 from catpose.datasets.meshio import TemplateSet
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals
 from catpose.errors import ConfigError, DatasetError

@@ -219,7 +219,7 @@ def test_experiment_configs_compose_and_leave_the_templates_views_out(name):
 def test_experiment_sample_ids_are_every_non_template_view(name, every, shared_data, monkeypatch):
     from hydra import compose, initialize_config_module
 
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
 
     monkeypatch.chdir(COMMITTED.parents[1])  # the configs' paths are relative to the repository root
     with initialize_config_module("catpose.configs", version_base=None):

@@ -21,7 +21,11 @@ import pytest
 from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
-from catpose.bench.runner import LOCK_FILE, RunAborted, build_from_config, read_samples, run
+from catpose.bench import rundir
+from catpose.bench.build import build_from_config
+from catpose.bench.rundir import LOCK_FILE, read_samples
+from catpose.bench.runner import run
+from catpose.errors import RunAborted
 from catpose.errors import CatposeError, ConfigError, DatasetError
 
 TESTS = Path(__file__).resolve().parent
@@ -126,13 +130,13 @@ def test_wrong_option_values_name_the_key(group, options, needle):
     ("float", {"float"}), ("int | None", {"int", "None"}), ("Optional[float]", {"float", "None"}),
     (float, {"float"}), ("list[float]", None), ("tuple[float, ...] | list[float]", None), ("None", None)])
 def test_scalar_annotations_are_read(annotation, kinds):
-    from catpose.bench.runner import _scalar_annotation
+    from catpose.bench.build import _scalar_annotation
 
     assert _scalar_annotation(annotation) == kinds
 
 
 def test_right_option_values_pass_the_check():
-    from catpose.bench.runner import check_constructor_args
+    from catpose.bench.build import check_constructor_args
 
     # an int for a float, an integral float for an int, None for an optional, a number for a str
     check_constructor_args({"_target_": "catpose.methods.ours.Ours", "chamfer_points": 256.0,
@@ -142,7 +146,7 @@ def test_right_option_values_pass_the_check():
 
 def test_every_shipped_config_passes_the_type_check():
     from catpose.bench.run_cmd import available
-    from catpose.bench.runner import check_constructor_args
+    from catpose.bench.build import check_constructor_args
 
     for group in ("method", "dataset", "protocol"):
         for name in available(group):
@@ -271,20 +275,20 @@ def test_unwritable_or_full_output_directory_aborts_without_recording(tmp_path, 
     from catpose.bench import runner
 
     out = run(toy_cfg(tmp_path, ["limit=1"]))
-    real = runner._SampleWriter.write
+    real = rundir.SampleWriter.write
 
     def write(self, row):
         if row["sample_id"].endswith("v2"):
             raise OSError(code, os.strerror(code))
         real(self, row)
 
-    monkeypatch.setattr(runner._SampleWriter, "write", write)
+    monkeypatch.setattr(rundir.SampleWriter, "write", write)
     with pytest.raises(RunAborted) as info:
         run(toy_cfg(tmp_path))
     msg = one_line(info.value)
     assert needle in msg and str(out) in msg and "set output_root=" in msg
     assert [r["sample_id"] for r in read_samples(out / "samples.jsonl")] == ["block/0/v0", "block/0/v1"]
-    monkeypatch.setattr(runner._SampleWriter, "write", real)
+    monkeypatch.setattr(rundir.SampleWriter, "write", real)
     run(toy_cfg(tmp_path))  # with space again, the re-run finishes the rest
     assert len(read_samples(out / "samples.jsonl")) == 3
 

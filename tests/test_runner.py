@@ -15,7 +15,8 @@ import pytest
 from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
-from catpose.bench.runner import read_samples, run
+from catpose.bench.rundir import read_samples
+from catpose.bench.runner import run
 
 TESTS = Path(__file__).resolve().parent
 
@@ -133,7 +134,7 @@ def test_views_without_absolute_ground_truth_are_not_scored():
 
 
 def test_limited_rerun_prints_its_subset_but_files_keep_every_sample(tmp_path):
-    from catpose.bench.runner import summarize_run
+    from catpose.bench.evaluate import summarize_run
 
     out = run(make_cfg(tmp_path))
     sub = summarize_run(out, ["block/0/v0", "block/0/v1"]).set_index("category")
@@ -150,7 +151,7 @@ def test_limited_rerun_prints_its_subset_but_files_keep_every_sample(tmp_path):
 def test_import_and_memory_errors_abort_the_run_and_record_nothing(tmp_path, monkeypatch):
     import toy_dataset
 
-    from catpose.bench.runner import RunAborted
+    from catpose.errors import RunAborted
 
     cfg = make_cfg(tmp_path)
     out = run(cfg)
