@@ -205,8 +205,13 @@ def plot_runtime(samples_by_method: Mapping[str, object], out_stem: str | Path, 
     fig, ax = plt.subplots(figsize=(6.4, 0.9 + 0.45 * max(len(stats), 1)))
     if stats:
         pos = np.arange(len(stats), 0, -1)  # first method on top
-        ax.boxplot([s["_values"] for s in stats], positions=pos, vert=False, widths=0.6, showfliers=True,
-                   flierprops={"markersize": 3})
+        import matplotlib
+
+        # ``vert`` is deprecated from matplotlib 3.10, which added ``orientation``.
+        horizontal = ({"orientation": "horizontal"} if tuple(int(x) for x in matplotlib.__version__.split(".")[:2]) >= (3, 10)
+                      else {"vert": False})
+        ax.boxplot([s["_values"] for s in stats], positions=pos, widths=0.6, showfliers=True,
+                   flierprops={"markersize": 3}, **horizontal)
         ax.set_yticks(pos, [s["method"] for s in stats], fontsize=8)
         ax.set_xscale("log")
         for p, s in zip(pos, stats):
