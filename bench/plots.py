@@ -26,8 +26,20 @@ import numpy as np
 
 from catpose.bench.metrics import FAILED_ERROR_DEG
 
-#: Errors below this (degrees) are drawn at it on the CDF's log axis (a log axis has no zero).
+#: The CDF's log axis starts at 0.01 degrees, or lower (down to 1e-4) when smaller errors occur;
+#: errors below the start are drawn at it (a log axis has no zero).
 CDF_FLOOR_DEG = 0.01
+CDF_MIN_FLOOR_DEG = 1e-4
+
+
+def cdf_floor(errors: np.ndarray) -> float:
+    """Where the CDF's log error axis starts (degrees): a power of ten at or below every
+    positive error, within [:data:`CDF_MIN_FLOOR_DEG`, :data:`CDF_FLOOR_DEG`]."""
+    e = np.asarray(errors, float)
+    e = e[np.isfinite(e) & (e > 0)]
+    if not len(e):
+        return CDF_FLOOR_DEG
+    return float(np.clip(10.0 ** np.floor(np.log10(e.min())), CDF_MIN_FLOOR_DEG, CDF_FLOOR_DEG))
 #: Thresholds (degrees) of the accuracy bars.
 ACCURACY_THRESHOLDS_DEG = (1.0, 2.0, 5.0, 10.0, 30.0)
 
@@ -89,6 +101,7 @@ def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, 
     rows = int(np.ceil(n / cols))
     fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 3.0 * rows + 0.6), squeeze=False, sharey=True)
     csv_rows: list[dict] = []
+    floor = cdf_floor(np.concatenate([scored_errors(u) for u in units_by_method.values()] or [np.zeros(0)]))
     for ax, cat in zip(axes.ravel(), categories):
         counts = []
         for m, (label, units) in enumerate(units_by_method.items()):
@@ -99,16 +112,17 @@ def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, 
             counts.append(len(e))
             csv_rows += [{"method": label, "category": cat, "n": len(e), "error_deg": a, "fraction": b}
                          for a, b in zip(e, y)]
-            x = np.clip(e, CDF_FLOOR_DEG, FAILED_ERROR_DEG)
+            x = np.clip(e, floor, FAILED_ERROR_DEG)
             # One colour per method across panels; the curve starts at 0 on the left edge.
-            ax.step(np.concatenate([[CDF_FLOOR_DEG], x, [FAILED_ERROR_DEG]]), np.concatenate([[0], y, [y[-1]]]),
+            ax.step(np.concatenate([[floor], x, [FAILED_ERROR_DEG]]), np.concatenate([[0], y, [y[-1]]]),
                     where="post", color=f"C{m % 10}", lw=1.6, alpha=0.9, label=label)
         for t in (10, 30):
             ax.axvline(t, color="grey", lw=0.7, ls="--")
         ax.set_title(f"{cat} (n={'/'.join(map(str, sorted(set(counts))))})", fontsize=10)
         ax.set_xscale("log")
-        ax.set_xlim(CDF_FLOOR_DEG, FAILED_ERROR_DEG * 1.15)
-        ax.set_xticks([0.01, 0.1, 1, 10, 180], ["0.01", "0.1", "1", "10", "180"])
+        ax.set_xlim(floor, FAILED_ERROR_DEG * 1.15)
+        ticks = [t for t in (1e-4, 1e-3, 0.01, 0.1, 1, 10, 180) if t >= floor]
+        ax.set_xticks(ticks, [f"{t:g}" for t in ticks])
         ax.set_ylim(0, 1.02)
         ax.grid(alpha=0.3)
     for ax in axes[-1, :]:
@@ -123,7 +137,7 @@ def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, 
             handles.setdefault(lab, h)
     fig.suptitle(title or "Cumulative error distribution per category (rotation; main axis for symmetric objects)",
                  fontsize=11)
-    note = (f"errors below {CDF_FLOOR_DEG:g} deg drawn at {CDF_FLOOR_DEG:g};\nfailures count as "
+    note = (f"errors below {floor:g} deg drawn at {floor:g};\nfailures count as "
             f"{FAILED_ERROR_DEG:g} deg; dashed: 10 and 30 deg")
     spare = axes.ravel()[len(categories):]
     if len(spare):  # the legend goes into the first empty panel, beside the curves

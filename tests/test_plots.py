@@ -79,17 +79,23 @@ def test_cdf_points_match_counting(units, captured, tmp_path: Path):
             # The drawn step line: a start at the floor, the points, the end at 180.
             (line,) = [ln for ln in axes[cat].get_lines() if ln.get_label() == method]
             x, y = line.get_xdata()[1:-1], line.get_ydata()[1:-1]
-            assert x.tolist() == pytest.approx(np.clip(expected_x, plots.CDF_FLOOR_DEG, 180).tolist())
+            assert x.tolist() == pytest.approx(expected_x)  # all errors are above the axis start here
             assert y.tolist() == pytest.approx(expected_y)
     # Log axis: the near-zero method's curve is spread over the panel, not squeezed at 0.
     ax = axes["bottle"]
-    assert ax.get_xscale() == "log"
+    assert ax.get_xscale() == "log" and ax.get_xlim()[0] == pytest.approx(0.01)
     lo, hi = np.log10(ax.get_xlim())
     icp_x = [ln for ln in ax.get_lines() if ln.get_label() == "ICP"][0].get_xdata()[1:-1]
     assert (np.log10(icp_x.max()) - np.log10(icp_x.min())) / (hi - lo) > 0.05
     legend_labels = {t.get_text() for a in fig.axes if a.get_legend() for t in a.get_legend().get_texts()}
     legend_labels |= {t.get_text() for lg in fig.legends for t in lg.get_texts()}
     assert legend_labels == set(ERRORS)
+
+
+def test_cdf_floor():
+    assert plots.cdf_floor(np.array([0.5, 3.0, 180.0])) == pytest.approx(0.01)
+    assert plots.cdf_floor(np.array([0.0, 0.004, 3.0])) == pytest.approx(0.001)  # zero has no log; 0.004 sets it
+    assert plots.cdf_floor(np.array([1e-9, 1.0])) == pytest.approx(plots.CDF_MIN_FLOOR_DEG)
 
 
 def test_accuracy_bars_match_counting(units, captured, tmp_path: Path):
