@@ -126,6 +126,9 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
         summary = tables.build_table(group, "generic", categories=["all"], labels=names,
                                      metrics=["mean", "median", "acc10", "acc30", "trans", "runtime", "failed"],
                                      title=f"All categories pooled ({protocol})")
+        # One category ("all"): the metric alone names each column.
+        summary.cells = {(r, c[1:]): v for (r, c), v in summary.cells.items()}
+        summary.columns = [c[1:] for c in summary.columns]
         md += _write_table(summary, out, f"{protocol}_summary")
         cats = sorted({str(c) for r in group for c in r.samples.get("category", [])})
         if cats:
@@ -146,7 +149,8 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
             ("accuracy", "Accuracy at thresholds", plots.plot_accuracy(units, fig / f"{protocol}_accuracy", pdf=pdf)),
             ("runtime", "Runtime per registration", plots.plot_runtime(samples, fig / f"{protocol}_runtime", pdf=pdf)),
         ]
-        md += ["### Figures", ""]
+        md += ["### Figures", "", "Runtime is wall-clock time per registration on the machine, and under the load, "
+               "that the runs had: compare only runs made together.", ""]
         for name, caption, paths in figures:
             links = ", ".join(f"[{p.suffix[1:].upper()}](figures/{p.name})" for p in paths[1:])
             md += [f"#### {caption}", "", f"![{caption}](figures/{paths[0].name})", "", f"Data and vector: {links}", ""]
