@@ -62,7 +62,7 @@ def qualitative_picks(units, n: int = 2, failure_deg: float = FAILURE_DEG) -> li
     return picks[:n]
 
 
-def _units_by_label(runs, labels: list[str], units: list) -> dict:
+def _units_by_label(labels: list[str], units: list) -> dict:
     """Scoring units per label; runs that share a label (one run per category) are pooled."""
     import pandas as pd
 
@@ -140,8 +140,8 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
             md += _write_table(tables.build_table(group, layout, labels=names), out, f"{protocol}_{layout}")
 
         run_units = [tables.scored_units(r) for r in group]
-        units = _units_by_label(group, group_labels, run_units)
-        samples = _units_by_label(group, group_labels, [r.samples for r in group])
+        units = _units_by_label(group_labels, run_units)
+        samples = _units_by_label(group_labels, [r.samples for r in group])
         fig = out / "figures"
         figures = [
             ("error_cdf", "Cumulative error distribution per category",
