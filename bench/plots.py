@@ -64,6 +64,12 @@ def save(fig, out_stem: str | Path, pdf: bool = True, dpi: int = 150) -> list[Pa
     return paths
 
 
+def _colors(labels, colors: Mapping[str, str] | None) -> dict[str, str]:
+    """A colour per label: the given ones, else the default cycle in label order."""
+    colors = colors or {}
+    return {label: colors.get(label, f"C{m % 10}") for m, label in enumerate(labels)}
+
+
 def _write_csv(rows: list[dict], columns: list[str], out_stem: str | Path) -> Path:
     import pandas as pd
 
@@ -88,13 +94,15 @@ def cdf_points(errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, title: str = "",
-                   pdf: bool = True) -> list[Path]:
+                   pdf: bool = True, colors: Mapping[str, str] | None = None) -> list[Path]:
     """Cumulative distribution of the error per method, one panel per category (log error axis).
 
     Writes ``<out_stem>.csv`` with columns ``method, category, n, error_deg, fraction`` (the
     step points, errors as scored, not floored). Returns the PNG (, PDF) and CSV paths.
+    ``colors`` maps labels to matplotlib colours (default: the colour cycle in order).
     """
     plt = _plt()
+    color = _colors(units_by_method, colors)
     categories = sorted({c for u in units_by_method.values() for c in u["category"].astype(str)})
     n = max(len(categories), 1)
     cols = min(n, 4)
@@ -104,7 +112,7 @@ def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, 
     floor = cdf_floor(np.concatenate([scored_errors(u) for u in units_by_method.values()] or [np.zeros(0)]))
     for ax, cat in zip(axes.ravel(), categories):
         counts = []
-        for m, (label, units) in enumerate(units_by_method.items()):
+        for label, units in units_by_method.items():
             u = units[units["category"].astype(str) == cat]
             if len(u) == 0:
                 continue
@@ -115,7 +123,7 @@ def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, 
             x = np.clip(e, floor, FAILED_ERROR_DEG)
             # One colour per method across panels; the curve starts at 0 on the left edge.
             ax.step(np.concatenate([[floor], x, [FAILED_ERROR_DEG]]), np.concatenate([[0], y, [y[-1]]]),
-                    where="post", color=f"C{m % 10}", lw=1.6, alpha=0.9, label=label)
+                    where="post", color=color[label], lw=1.6, alpha=0.9, label=label)
         for t in (10, 30):
             ax.axvline(t, color="grey", lw=0.7, ls="--")
         ax.set_title(f"{cat} (n={'/'.join(map(str, sorted(set(counts))))})", fontsize=10)
@@ -160,13 +168,15 @@ def accuracy_at(errors: np.ndarray, thresholds=ACCURACY_THRESHOLDS_DEG) -> np.nd
 
 
 def plot_accuracy(units_by_method: Mapping[str, object], out_stem: str | Path,
-                  thresholds=ACCURACY_THRESHOLDS_DEG, title: str = "", pdf: bool = True) -> list[Path]:
+                  thresholds=ACCURACY_THRESHOLDS_DEG, title: str = "", pdf: bool = True,
+                  colors: Mapping[str, str] | None = None) -> list[Path]:
     """Accuracy (fraction with error <= threshold) at ``thresholds`` (degrees), categories pooled:
     one group of bars per threshold, one bar per method, its value written above it.
 
     Writes ``<out_stem>.csv`` with columns ``method, threshold_deg, n, accuracy``.
     """
     plt = _plt()
+    color = _colors(units_by_method, colors)
     items = [(label, scored_errors(u)) for label, u in units_by_method.items()]
     items = [(label, e) for label, e in items if len(e)]
     k = max(len(items), 1)
@@ -176,7 +186,7 @@ def plot_accuracy(units_by_method: Mapping[str, object], out_stem: str | Path,
     csv_rows = []
     for m, (label, e) in enumerate(items):
         acc = accuracy_at(e, thresholds)
-        bars = ax.bar(x - 0.4 + width * (m + 0.5), acc, width, color=f"C{m % 10}", label=label)
+        bars = ax.bar(x - 0.4 + width * (m + 0.5), acc, width, color=color[label], label=label)
         ax.bar_label(bars, [f"{a:.2f}" for a in acc], fontsize=6, padding=1, rotation=90 if k > 3 else 0)
         csv_rows += [{"method": label, "threshold_deg": t, "n": len(e), "accuracy": a} for t, a in zip(thresholds, acc)]
     ax.set_xticks(x, [f"<= {t:g} deg" for t in thresholds])

@@ -109,6 +109,8 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
     by_protocol = tables.split_by_protocol(runs)
     label_of = {id(r): lab for group in by_protocol.values() for r, lab in zip(group, tables.run_labels(group, labels))}
 
+    # One colour per label across the protocols' figures.
+    colors = {lab: f"C{k % 10}" for k, lab in enumerate(dict.fromkeys(label_of[id(r)] for r in runs))}
     root, rel = _relative_names([r.path for r in runs])
     md = ["# catpose report", ""] + [x for n in notes for x in (n, "")]
     md += [f"Built from these run directories (below their common folder `{root}/`; revision = the git "
@@ -145,12 +147,12 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
         fig = out / "figures"
         figures = [
             ("error_cdf", "Cumulative error distribution per category",
-             plots.plot_error_cdf(units, fig / f"{protocol}_error_cdf", pdf=pdf)),
-            ("accuracy", "Accuracy at thresholds", plots.plot_accuracy(units, fig / f"{protocol}_accuracy", pdf=pdf)),
+             plots.plot_error_cdf(units, fig / f"{protocol}_error_cdf", pdf=pdf, colors=colors)),
+            ("accuracy", "Accuracy at thresholds", plots.plot_accuracy(units, fig / f"{protocol}_accuracy", pdf=pdf, colors=colors)),
             ("runtime", "Runtime per registration", plots.plot_runtime(samples, fig / f"{protocol}_runtime", pdf=pdf)),
         ]
-        md += ["### Figures", "", "Runtime is wall-clock time per registration on the machine, and under the load, "
-               "that the runs had: compare only runs made together.", ""]
+        md += ["### Figures", "", "Runtime: wall-clock seconds per registration, measured under whatever load the "
+               "machine had during the run; compare only runs made together.", ""]
         for name, caption, paths in figures:
             links = ", ".join(f"[{p.suffix[1:].upper()}](figures/{p.name})" for p in paths[1:])
             md += [f"#### {caption}", "", f"![{caption}](figures/{paths[0].name})", "", f"Data and vector: {links}", ""]

@@ -157,3 +157,15 @@ def test_registration_picture_places_points(captured, tmp_path: Path):
     assert len(fig.axes) == 2 and fig.axes[0].get_title() == "estimate (0.0 deg)"
     drawn = np.column_stack(fig.axes[0].collections[1]._offsets3d)  # the input, in the template frame
     np.testing.assert_allclose(drawn, template[:200], atol=1e-9)
+
+
+def test_given_colours_are_used(units, captured, tmp_path: Path):
+    """The report gives each method one colour across its figures."""
+    from matplotlib.colors import to_rgba
+
+    plots.plot_error_cdf(units, tmp_path / "cdf", colors={"Ours": "red"})
+    plots.plot_accuracy(units, tmp_path / "acc", colors={"Ours": "red"})
+    lines = [ln for ax in captured[0].axes for ln in ax.get_lines() if ln.get_label() == "Ours"]
+    assert lines and all(to_rgba(ln.get_color()) == to_rgba("red") for ln in lines)
+    ours_bars = [c for c in captured[1].axes[0].containers if c.get_label() == "Ours"][0]
+    assert all(b.get_facecolor() == to_rgba("red") for b in ours_bars)
