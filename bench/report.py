@@ -152,7 +152,9 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
             ("runtime", "Runtime per registration", plots.plot_runtime(samples, fig / f"{protocol}_runtime", pdf=pdf)),
         ]
         md += ["### Figures", "", "Runtime: wall-clock seconds per registration, measured under whatever load the "
-               "machine had during the run; compare only runs made together.", ""]
+               "machine had during the run; compare only runs made together."
+               + ("" if protocol == "gt_model" else " The tables' time is per scored unit (a view with all its "
+                  "templates, or a pair of views); the box plot shows single registrations."), ""]
         for name, caption, paths in figures:
             links = ", ".join(f"[{p.suffix[1:].upper()}](figures/{p.name})" for p in paths[1:])
             md += [f"#### {caption}", "", f"![{caption}](figures/{paths[0].name})", "", f"Data and vector: {links}", ""]
