@@ -10,9 +10,9 @@ instances differ by multiples of 90 degrees of yaw), and normalised to the unit 
 at its bounding-box centre: the object frame of every observation, in which translation errors
 are measured. Partial views are rendered with :mod:`catpose.datasets.render` from viewpoints of
 a :class:`~catpose.datasets.render.ViewSampler` with the synthetic set's knobs; the view of
-``obs_id`` is a deterministic function of ``(seed, obs_id)``. One difference: normals are
-estimated on every back-projected pixel before subsampling to ``max_points`` (the synthetic set
-subsamples first, which is faster; its views are denser per unit area).
+``obs_id`` is a deterministic function of ``(seed, obs_id)``, made in the order every dataset
+uses: render, noise, subsample to ``max_points``, normals (as a method would estimate them from
+a downsampled scan).
 
 Observation ids: ``<category>/<instance_id>/v<k>``, e.g. ``airplane/airplane_0001/v02``.
 """
@@ -37,7 +37,7 @@ def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_ob
                         camera: PinholeCamera, rng: np.random.Generator, depth_noise_std: float,
                         normal_radius: float, max_points: int, what: str,
                         min_points: int = 10) -> tuple[np.ndarray, np.ndarray]:
-    """Render a mesh's depth, add Gaussian depth noise, back-project and estimate normals.
+    """Render a mesh's depth, add Gaussian depth noise, back-project, subsample and estimate normals.
 
     Args:
         vertices: (V, 3) object frame, object-normalised unit; triangles: (F, 3).
@@ -59,11 +59,10 @@ def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_ob
     if len(points) < min_points:
         raise DatasetError(f"{what}: only {len(points)} pixels see the object; "
                            "move the camera closer (distance) or enlarge the image")
-    normals = estimate_normals(points, normal_radius)
     if max_points and len(points) > max_points:
         keep = np.sort(rng.choice(len(points), size=max_points, replace=False))
-        points, normals = points[keep], normals[keep]
-    return points, normals
+        points = points[keep]
+    return points, estimate_normals(points, normal_radius)
 
 
 def _check_counts(**counts: int | None) -> None:
