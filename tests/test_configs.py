@@ -46,16 +46,19 @@ def _compose(overrides: list[str]):
 
 @pytest.mark.parametrize("group,name", _all_configs(), ids=lambda v: str(v))
 def test_config_composes_and_builds(group: str, name: str, tmp_path: Path) -> None:
+    from omegaconf import OmegaConf
+
     from catpose.bench.build import build_from_config
 
     top = group.split("/")[0]
     if group in RUN_GROUPS:
         overrides = [f"{group}={name}"]
         shared = CONFIGS.parents[1] / "shared" / "data"
-        needs_root = group == "dataset" and "???" in (CONFIGS / group / f"{name}.yaml").read_text()
+        cfg = _compose(overrides)
+        needs_root = group == "dataset" and OmegaConf.is_missing(cfg.dataset, "root")
         if needs_root and name in SHARED_ROOTS and (shared / SHARED_ROOTS[name]).is_dir():
             overrides.append(f"dataset.root={shared / SHARED_ROOTS[name]}")
-        cfg = _compose(overrides)
+            cfg = _compose(overrides)
         if needs_root and not any(o.startswith("dataset.root=") for o in overrides):
             with pytest.raises(CatposeError, match="dataset.root"):
                 build_from_config(cfg[group], group)
@@ -82,7 +85,6 @@ def test_config_composes_and_builds(group: str, name: str, tmp_path: Path) -> No
     if top == "hydra":
         pytest.skip("Hydra launcher presets are composed by the scale-out tests")
     from hydra.utils import instantiate
-    from omegaconf import OmegaConf
 
     node = OmegaConf.load(CONFIGS / group / f"{name}.yaml")
     if "_target_" in node:
