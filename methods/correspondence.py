@@ -290,8 +290,9 @@ class CorrespondenceRegistration(RegistrationMethod):
         best = int(np.argmin([c[0] for c in candidates]))
         cd, T, info = candidates[best]
         if T is None:
-            raise InvalidInputError(f"sample {problem.sample_id}: no {self.features} correspondence set of 3 or more "
-                                    f"against any of {len(candidates)} targets; no pose can be estimated")
+            why = next((c[2]["no_pose_reason"] for c in candidates if c[2].get("no_pose_reason")), None)
+            raise InvalidInputError(f"sample {problem.sample_id}: no pose from any of {len(candidates)} targets: "
+                                    + (why or f"no {self.features} correspondence set of 3 or more"))
         extras = {"matching": self.matching, "features": self.features, "chosen_index": best,
                   "num_candidates": len(candidates), "candidate_chamfer": [float(c[0]) for c in candidates],
                   "num_source_points": int(len(source.points)), **stages,
