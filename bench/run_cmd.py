@@ -82,7 +82,7 @@ def main(argv: list[str]) -> int:
                 return {"status": "failed", "error": str(e)}
             print(f"bench run: error: {e}", file=sys.stderr)
             raise SystemExit(2) from None
-        return {"status": "ok", "run_dir": str(out), "label": cfg.get("label")}
+        return {"status": "ok", "run_dir": str(Path(out).resolve()), "label": cfg.get("label")}
 
     from catpose.bench import sweep
 
