@@ -683,6 +683,8 @@ def main(argv: list[str] | None = None) -> int:
         run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
         if not args.runs and not run_paths:
             raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
+        if args.layout not in (None, defaults.get("layout")):
+            defaults = {}  # another layout than the experiment's: none of its settings apply
         for key, value in defaults.items():  # the experiment's settings, unless given here
             if getattr(args, key) is None and value:
                 setattr(args, key, ",".join(map(str, value)) if isinstance(value, list) else str(value))

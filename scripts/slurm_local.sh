@@ -76,14 +76,22 @@ stop() {
 
 check() {
   start
+  export PYTHONWARNINGS=ignore  # submitit warns at every poll that sacct has no accounting storage here
   out=$(mktemp -d)
   # two jobs (seeds 0 and 1), one Slurm job each; a failed job makes the sweep exit non-zero
   .venv/bin/bench run -m hydra/launcher=slurm hydra.launcher.partition=local hydra.launcher.cpus_per_task=1 \
     hydra.launcher.mem_gb=1 hydra.launcher.timeout_min=10 method=icp dataset=synthetic limit=2 seed=0,1 \
     progress=false output_root="$out"
-  sweep=$(ls -d "$out"/multirun/*/* | head -n 1)
+  sweep=$(ls -d "$out"/multirun/sweep/* | head -n 1)
+  [ "$(ls "$sweep"/*/job.json | wc -l)" = 2 ] || { echo "slurm_local: expected 2 job.json in $sweep" >&2; exit 1; }
   .venv/bin/bench table --sweep "$sweep"
-  echo "slurm_local: 2-job sweep through Slurm passed ($sweep)"
+  # a sweep with a failing job (modelnet40 without dataset.root) must exit non-zero
+  if .venv/bin/bench run -m hydra/launcher=slurm hydra.launcher.partition=local hydra.launcher.cpus_per_task=1 \
+      hydra.launcher.mem_gb=1 hydra.launcher.timeout_min=10 method=icp dataset=synthetic,modelnet40 limit=1 \
+      progress=false output_root="$out" hydra.job.name=failing; then
+    echo "slurm_local: a sweep with a failed job exited 0" >&2; exit 1
+  fi
+  echo "slurm_local: 2-job sweep through Slurm passed ($sweep); a failed job failed its sweep"
 }
 
 case "${1:-check}" in
