@@ -140,9 +140,21 @@ def merged_rows(run_dir: Path) -> list[dict]:
 def merge_run(run_dir: Path):
     """Write ``samples.jsonl``, ``run.json`` and the summaries of a sharded run from its shard
     files; returns the run's summary (:func:`~catpose.bench.runner.summarize_run`)."""
-    from catpose.bench.runner import _jsonable, summarize_run
+    import fcntl
 
     run_dir = Path(run_dir)
+    # shards finishing together merge one after the other (each merge writes the same files)
+    with open(run_dir / ".merge.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            return _merge_locked(run_dir)
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+def _merge_locked(run_dir: Path):
+    from catpose.bench.runner import _jsonable, summarize_run
+
     rows = merged_rows(run_dir)
     tmp = run_dir / f".{SAMPLES_FILE}.{os.getpid()}.tmp"
     with open(tmp, "w", encoding="utf-8") as f:

@@ -35,12 +35,15 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from catpose.bench.merge import parse_shard, shard_ids, shard_samples_file, write_shard_meta
 from catpose.errors import CatposeError, ConfigError
 from catpose.geometry import stable_seed
 
 SAMPLES_FILE = "samples.jsonl"
 _RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", "limit", "sample_ids", "output_root",
-                               "progress", "threads", "retry_failed", "print_summary"}
+                               "progress", "threads", "retry_failed", "print_summary",
+                               # shards of one run share its directory; an experiment's rows name themselves
+                               "shard", "shards", "label", "experiment"}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -272,6 +275,9 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
         ids = wanted
     if cfg.get("limit") is not None:
         ids = ids[: int(cfg.limit)]
+    sharding = parse_shard(cfg.get("shard"), cfg.get("shards", 1))
+    if sharding:  # this job's part of the run: its own files in the run directory (bench/merge.py)
+        ids = shard_ids(ids, *sharding)
 
     out = run_dir_for(cfg, overrides)
     out.mkdir(parents=True, exist_ok=True)
@@ -279,9 +285,12 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     (out / "git_rev.txt").write_text(_git_revision() + "\n")
     (out / "overrides.txt").write_text("\n".join(overrides) + "\n")
 
-    samples_path = out / SAMPLES_FILE
+    samples_path = out / (shard_samples_file(*sharding) if sharding else SAMPLES_FILE)
     retry = bool(cfg.get("retry_failed", False))
     existing = read_samples(samples_path)
+    if sharding:  # samples already in the run's merged (or serial) file are done too
+        existing = read_samples(out / SAMPLES_FILE) + existing
+        write_shard_meta(out, *sharding, ids, finished=False)
     done = {r["sample_id"] for r in existing if r.get("status") == "ok" or not retry}
     todo = [s for s in ids if s not in done]
     base = {"method": method_name, "dataset": dataset_name, "protocol": str(cfg.protocol.name),
@@ -303,11 +312,32 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
         bar.close()
         writer.close()
 
+    if sharding:
+        write_shard_meta(out, *sharding, ids, finished=True)
+        return _finish_shard(out, sharding, cfg, base, len(ids), len(todo))
     meta = dict(base, n_samples=len(ids), n_run_now=len(todo), output_dir=str(out))
     (out / "run.json").write_text(json.dumps(meta, indent=2) + "\n")
     summary = summarize_run(out, ids)
     if cfg.get("print_summary", True):
         print(f"\n{method_name} on {dataset_name} ({cfg.protocol.name}), seed {int(cfg.seed)}: {out}")
+        print(format_summary(summary))
+    return out
+
+
+def _finish_shard(out: Path, sharding: tuple[int, int], cfg: Any, base: dict, n_ids: int, n_run_now: int) -> Path:
+    """After a shard: merge the run when every shard is done (the last shard to finish does it)."""
+    from catpose.bench.merge import merge_run
+
+    i, n = sharding
+    head = f"\n{base['method']} on {base['dataset']} ({base['protocol']}), seed {base['seed']}, shard {i} of {n}"
+    try:
+        summary = merge_run(out)
+    except CatposeError as e:  # other shards still running: the last one (or bench merge) merges
+        if cfg.get("print_summary", True):
+            print(f"{head}: {n_ids} samples ({n_run_now} run now) in {out}; the last shard to finish merges (or: bench merge {out})")
+        return out
+    if cfg.get("print_summary", True):
+        print(f"{head}: all {n} shards done, merged into {out}")
         print(format_summary(summary))
     return out
 
