@@ -68,7 +68,7 @@ def main(argv: list[str]) -> int:
     from hydra.types import RunMode
 
     @hydra.main(version_base="1.3", config_path="pkg://catpose.configs", config_name="run")
-    def _job(cfg) -> None:
+    def _job(cfg) -> dict:
         from catpose.bench.runner import run
 
         hc = HydraConfig.get()
