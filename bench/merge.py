@@ -33,6 +33,11 @@ def shard_samples_file(shard: int, shards: int) -> str:
     return f"samples.shard-{shard}-of-{shards}.jsonl"
 
 
+def shard_lock_file(shard: int, shards: int) -> str:
+    """The lock a shard holds while it writes (the run's own ``run.lock`` guards the merge)."""
+    return f"run.shard-{shard}-of-{shards}.lock"
+
+
 def shard_meta_file(shard: int, shards: int) -> str:
     """File name of shard ``shard`` of ``shards``'s ids and state."""
     return f"shard-{shard}-of-{shards}.json"
@@ -140,16 +145,17 @@ def merged_rows(run_dir: Path) -> list[dict]:
 def merge_run(run_dir: Path):
     """Write ``samples.jsonl``, ``run.json`` and the summaries of a sharded run from its shard
     files; returns the run's summary (:func:`~catpose.bench.runner.summarize_run`)."""
-    import fcntl
+    from catpose.bench.runner import _RunLock
 
     run_dir = Path(run_dir)
-    # shards finishing together merge one after the other (each merge writes the same files)
-    with open(run_dir / ".merge.lock", "a") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        try:
-            return _merge_locked(run_dir)
-        finally:
-            fcntl.flock(lock, fcntl.LOCK_UN)
+    # under the run's own lock: shards finishing together merge one after the other, and a serial
+    # run into the same directory never interleaves with a merge
+    lock = _RunLock(run_dir)
+    lock.acquire()
+    try:
+        return _merge_locked(run_dir)
+    finally:
+        lock.release()
 
 
 def _merge_locked(run_dir: Path):

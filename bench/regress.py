@@ -175,6 +175,10 @@ def run_method(suite: Suite, method_name: str, transform: Callable | None = None
     from catpose.bench.runner import _run_one, build_from_config
 
     cfg = _compose(suite, method_name)
+    if cfg.get("threads"):
+        import torch
+
+        torch.set_num_threads(int(cfg.threads))
     _, method = build_from_config(cfg.method, "method")
     dataset, protocol, ids = suite_samples(suite, transform)
     base = {"method": method_name, "dataset": suite.dataset, "protocol": suite.protocol, "seed": suite.seed}

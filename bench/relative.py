@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from catpose.bench.metrics import FAILED_ERROR_DEG, axis_error_deg, rotation_error_deg, translation_error
-from catpose.bench.protocols import GtModel, Protocol, Templates
+from catpose.bench.protocols import GtModel, Protocol, Templates, require_consistent_frames
 from catpose.datasets.base import ObjectDataset
 from catpose.errors import ConfigError
 from catpose.geometry import invert_T
@@ -152,9 +152,17 @@ class Relative(Protocol):
 
     def sample_ids(self, dataset: ObjectDataset) -> list[str]:
         """One registration per view (``"own"``) or per (view, template) (``"category"``)."""
+        self._check_frames(dataset)
         return self._views.sample_ids(dataset)
 
+    def _check_frames(self, dataset: ObjectDataset) -> None:
+        # a constant template-to-instance rotation cancels in a relative pose, but two views that
+        # pick differently oriented templates do not: category templates need consistent frames
+        if self.template_source == "category":
+            require_consistent_frames(dataset, "protocol=relative protocol.template_source=category")
+
     def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
+        self._check_frames(dataset)
         sample = self._views.load(dataset, sample_id)
         obs_id = sample_id.rpartition("|")[0] if self.template_source == "category" else sample_id
         info = dict(sample.info)

@@ -5,12 +5,17 @@ Stages with files between them (run -> estimates and errors -> tables):
 - ``samples.jsonl``: one JSON object per finished sample, appended and flushed as soon as it is
   done, so a run killed midway loses nothing already written and a re-run skips finished
   samples (resume). A truncated last line from a kill is ignored and rewritten.
-- ``config.yaml`` (the resolved config), ``git_rev.txt``, ``run.json``.
+- ``config.yaml`` (the resolved config), ``git_rev.txt``, ``run.json`` (counts and the environment:
+  library versions, CPU, BLAS kernels).
 - ``samples.csv``, ``summary.csv``, ``summary.md``: made from ``samples.jsonl`` by
   :func:`summarize_run`, never from in-memory state.
 
 A sample whose data fails to load, whose method raises, or whose estimate is not a finite rigid
-transform is recorded with ``status="failed"`` and its message; the run goes on.
+transform is recorded with ``status="failed"`` and its message; the run goes on. What is not the
+sample's own fault aborts the run in one line and records nothing for the sample in progress, so
+a re-run redoes it: Ctrl-C (at any moment: the heavy libraries are imported before the first
+sample), an import error, ``MemoryError``, an ``OSError`` writing the run directory. A run holds
+a lock on its directory (``run.lock``); a second run of the same configuration waits for it.
 
 The run directory is ``<output_root>/<dataset>-<protocol>/<method>/<tag>-<hash>``: ``tag`` spells
 the command-line overrides (readable), ``hash`` is a digest of the resolved method, dataset,
@@ -19,31 +24,44 @@ protocol and seed (so two different configurations never share a directory).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import errno
 import hashlib
+import importlib
+import inspect
 import json
 import math
 import os
 import random
 import re
+import signal
 import subprocess
 import sys
+import threading
 import time
 import traceback
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Iterator
 
 import numpy as np
 
-from catpose.bench.merge import parse_shard, shard_ids, shard_samples_file, write_shard_meta
+from catpose.bench.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
 from catpose.errors import CatposeError, ConfigError
 from catpose.geometry import stable_seed
 
 SAMPLES_FILE = "samples.jsonl"
+LOCK_FILE = "run.lock"
 _RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", "limit", "sample_ids", "output_root",
-                               "progress", "threads", "retry_failed", "print_summary",
+                               "progress", "threads", "retry_failed", "print_summary", "lock_timeout",
                                # shards of one run share its directory; an experiment's rows name themselves
                                "shard", "shards", "label", "experiment"}
+
+
+class RunAborted(CatposeError):
+    """The run itself cannot go on (not one sample's fault): a broken installation, no memory,
+    an unwritable output directory, a run directory held by another run. Nothing is recorded for
+    the sample in progress, so a re-run redoes it."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -51,17 +69,19 @@ _RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", "limit",
 
 
 def build_from_config(node: Any, what: str) -> tuple[str, Any]:
-    """Pop ``name`` from a config group node and build its ``_target_`` with the rest."""
+    """Pop ``name`` from a config group node and build its ``_target_`` with the rest.
+
+    Every user mistake becomes a one-line :class:`ConfigError` naming the key: a missing
+    mandatory value, an option the target does not take, a value of the wrong type for a
+    constructor argument annotated ``float``/``int``/``bool``/``str`` (see
+    :func:`check_constructor_args`), and any other ``TypeError``/``ValueError`` of the constructor.
+    """
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
     from omegaconf.errors import MissingMandatoryValue
 
-    if not isinstance(node, dict):
-        missing = sorted(OmegaConf.missing_keys(node))
-        if missing:
-            raise ConfigError(f"{what} needs {', '.join(f'{what}.{k}' for k in missing)}: "
-                              f"set it on the command line, e.g. {what}.{missing[0]}=<value>")
+    check_missing(node, what)
     try:
         d = OmegaConf.to_container(node, resolve=True) if not isinstance(node, dict) else dict(node)
     except MissingMandatoryValue as e:
@@ -69,6 +89,7 @@ def build_from_config(node: Any, what: str) -> tuple[str, Any]:
     name = str(d.pop("name", what))
     if "_target_" not in d:
         raise ConfigError(f"config group '{what}' ({name}) has no _target_; add one to configs/{what}/{name}.yaml")
+    check_constructor_args(d, what, name)
     try:
         return name, instantiate(d, _convert_="all")
     except CatposeError:
@@ -79,7 +100,94 @@ def build_from_config(node: Any, what: str) -> tuple[str, Any]:
             cause = cause.__cause__
         if isinstance(cause, CatposeError):
             raise cause from None
-        raise ConfigError(f"cannot build {what} '{name}' ({d['_target_']}): {cause}") from None
+        named = [k for k in d if not k.startswith("_") and re.search(rf"\b{re.escape(k)}\b", str(cause))]
+        keys = ", ".join(f"{what}.{k}={d[k]!r}" for k in named) or f"the {what}.* values"
+        raise ConfigError(f"cannot build {what} '{name}' ({d['_target_']}): {_one_line(cause)}; "
+                          f"check {keys} (bench run --cfg job shows them)") from None
+
+
+def check_missing(node: Any, what: str) -> None:
+    """A one-line :class:`ConfigError` naming the mandatory (``???``) keys of a group left unset."""
+    from omegaconf import OmegaConf
+
+    if isinstance(node, dict):
+        return
+    # missing_keys of a child node gives full paths ("dataset.root"); keep them relative
+    missing = sorted(k.removeprefix(f"{what}.") for k in OmegaConf.missing_keys(node))
+    if missing:
+        raise ConfigError(f"{what} needs {', '.join(f'{what}.{k}' for k in missing)}: "
+                          f"set it on the command line, e.g. {what}.{missing[0]}=<value>")
+
+
+# annotation (as written, `from __future__ import annotations` keeps it a string) -> what it accepts
+_SCALAR_HINTS = {"float": "<number>", "int": "<integer>", "bool": "<true|false>", "str": "<text>"}
+
+
+def _scalar_annotation(annotation: Any) -> set[str] | None:
+    """The scalar types an annotation allows (``"float | None"`` -> {"float", "None"}), or None
+    when it is anything else (containers, classes, unannotated): those are not checked."""
+    if annotation is inspect.Parameter.empty:
+        return None
+    text = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", str(annotation))
+    text = str(text).replace("typing.", "")
+    optional = text.startswith("Optional[")
+    if optional:
+        text = text.removeprefix("Optional[").removesuffix("]")
+    parts = {"None" if p.strip() in ("None", "NoneType") else p.strip() for p in text.split("|")}
+    if optional:
+        parts.add("None")
+    return parts if parts <= {*_SCALAR_HINTS, "None"} and parts - {"None"} else None
+
+
+def _accepts(kinds: set[str], value: Any) -> bool:
+    """Whether ``value`` (as Hydra parsed it) fits one of the scalar ``kinds``."""
+    if value is None:
+        return "None" in kinds
+    if isinstance(value, bool):
+        return "bool" in kinds
+    if isinstance(value, int):
+        return bool(kinds & {"int", "float", "str"}) or ("bool" in kinds and value in (0, 1))
+    if isinstance(value, float):
+        return "float" in kinds or "str" in kinds or ("int" in kinds and value.is_integer())
+    if isinstance(value, str):
+        return "str" in kinds
+    return False
+
+
+def check_constructor_args(d: dict, what: str, name: str) -> None:
+    """Check a group's options against its ``_target_``'s constructor before building it.
+
+    Raises a one-line :class:`ConfigError` for an option the constructor does not take (unless
+    it has ``**kwargs``) and for a value that does not fit a parameter annotated with scalar
+    types only (``float``, ``int``, ``bool``, ``str``, optionally ``| None``), e.g.
+    ``method.lr='abc' is not a float; set method.lr=<number>``. Anything the check cannot read
+    (an unimportable target, container annotations) is left to the constructor.
+    """
+    try:
+        module_name, _, attr = str(d["_target_"]).rpartition(".")
+        target = getattr(importlib.import_module(module_name), attr)
+        params = inspect.signature(target).parameters
+    except (ImportError, AttributeError, ValueError, TypeError):
+        return  # Hydra reports an unknown target itself
+    takes_kwargs = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
+    for key, value in d.items():
+        if key.startswith("_"):
+            continue
+        if isinstance(value, dict) and "_target_" in value:  # a nested settings object: its own keys
+            check_constructor_args(value, f"{what}.{key}", name)
+        if key not in params:
+            if not takes_kwargs:
+                options = ", ".join(k for k, p in params.items() if p.kind is not inspect.Parameter.VAR_POSITIONAL)
+                raise ConfigError(f"{what}.{key} is not an option of {what} '{name}' ({d['_target_']}); "
+                                  f"options: {options}")
+            continue
+        kinds = _scalar_annotation(params[key].annotation)
+        if kinds is not None and not _accepts(kinds, value):
+            main = next(k for k in ("float", "int", "bool", "str") if k in kinds)
+            article = "an" if main == "int" else "a"
+            or_null = " or null" if "None" in kinds else ""
+            raise ConfigError(f"{what}.{key}={value!r} is not {article} {main}{or_null}; "
+                              f"set {what}.{key}={_SCALAR_HINTS[main]}")
 
 
 def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:
@@ -188,6 +296,11 @@ def seed_everything(seed: int) -> None:
         o3d.utility.random.seed(seed32 % (2**31))
 
 
+# raised inside a sample but not its fault: the run aborts (see run()); KeyboardInterrupt and
+# other BaseExceptions pass through `except Exception` anyway
+_NOT_THE_SAMPLES_FAULT = (ImportError, MemoryError)
+
+
 def _run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dict, seed: int) -> dict:
     from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors
 
@@ -202,6 +315,8 @@ def _run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dic
                symmetry_axis=None, symmetries=None, info={}, extras={})
     try:
         sample = protocol.load(dataset, sample_id)
+    except _NOT_THE_SAMPLES_FAULT:
+        raise
     except Exception as e:  # a bad sample is recorded, the run goes on
         row["error"] = _one_line(e)
         return row
@@ -216,6 +331,8 @@ def _run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dic
     t0 = time.perf_counter()
     try:
         result = method.register(sample.problem)
+    except _NOT_THE_SAMPLES_FAULT:
+        raise
     except Exception as e:
         row["runtime_s"] = time.perf_counter() - t0
         row["error"] = _one_line(e)
@@ -246,6 +363,210 @@ def _one_line(e: BaseException) -> str:
 
 
 # ---------------------------------------------------------------------------------------------
+# what aborts a run (never a sample failure)
+
+# heavy libraries, imported before the first sample so that a Ctrl-C during their import
+# (seconds) stops the run instead of turning into an ImportError of every sample. trimesh wraps
+# its optional imports (scipy, networkx, PIL, its own submodules) in `except BaseException`, so
+# it and what it looks for are imported first, before the builders need them: once loaded, no
+# window is left where a Ctrl-C would be swallowed for long. torch and Open3D come after the
+# builds, so that a config mistake is reported without waiting for them.
+_EARLY_MODULES = ("numpy", "scipy.spatial", "scipy.sparse", "scipy.optimize", "scipy.ndimage", "PIL.Image",
+                  "trimesh")
+_LATE_MODULES = ("torch", "catpose.o3d")
+_OPTIONAL_MODULES = ("networkx",)  # trimesh uses it when present
+
+
+class _Interrupts:
+    """Ctrl-C that no library can swallow or turn into another exception.
+
+    While active (main thread only, and only when SIGINT has Python's default handler), SIGINT
+    raises ``KeyboardInterrupt`` as usual and also sets :attr:`seen`; :meth:`check` re-raises it
+    after code that may have caught it (trimesh's imports catch ``BaseException``; a C extension
+    may report it as an ``ImportError`` or ``RuntimeError``).
+    """
+
+    def __init__(self) -> None:
+        self.seen = False
+        self._previous: Any = None
+
+    def _handler(self, signum: int, frame: Any) -> None:
+        self.seen = True
+        raise KeyboardInterrupt
+
+    def __enter__(self) -> "_Interrupts":
+        if (threading.current_thread() is threading.main_thread()
+                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+            self._previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+    def check(self) -> None:
+        """Raise ``KeyboardInterrupt`` if a Ctrl-C arrived, whatever became of its exception."""
+        if self.seen:
+            raise KeyboardInterrupt
+
+
+def import_heavy_libraries(interrupts: _Interrupts | None = None,
+                           modules: tuple[str, ...] = _EARLY_MODULES + _LATE_MODULES) -> None:
+    """Import ``modules`` now (default: SciPy, trimesh, torch, Open3D; see :data:`_EARLY_MODULES`).
+
+    A missing or broken library raises :class:`RunAborted` in one line; a Ctrl-C during an
+    import raises ``KeyboardInterrupt`` even when the library swallowed it.
+    """
+    if "trimesh" in modules:
+        for name in _OPTIONAL_MODULES:
+            with contextlib.suppress(ImportError):
+                importlib.import_module(name)
+            if interrupts is not None:
+                interrupts.check()
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except Exception as e:  # noqa: BLE001 - a swallowed Ctrl-C can surface as anything (trimesh: TypeError)
+            if interrupts is not None:
+                interrupts.check()
+            raise RunAborted(f"cannot import {name} ({_one_line(e)}); the installation is broken: "
+                             "reinstall with `make install` (or pip install -e .)") from None
+        if interrupts is not None:
+            interrupts.check()
+
+
+def _abort_message(e: BaseException, sample_id: str) -> str:
+    """One line for an exception that stops the run while ``sample_id`` was in progress."""
+    redo = f"sample {sample_id} was not recorded; re-run the same command to resume"
+    if isinstance(e, MemoryError):
+        return f"out of memory on sample {sample_id}; free memory or lower dataset.max_points, then re-run ({redo})"
+    name = getattr(e, "name", None) or "a module"
+    return (f"cannot import {name} on sample {sample_id} ({_one_line(e)}); the installation is broken: "
+            f"reinstall with `make install`, then re-run ({redo})")
+
+
+def _output_error(path: Path, e: OSError) -> RunAborted:
+    """A one-line error for an ``OSError`` while writing the run directory."""
+    if e.errno == errno.ENOSPC:
+        why = "the disk is full"
+    elif e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        why = "it is not writable"
+    elif e.errno in (errno.ENOTDIR, errno.EEXIST) or isinstance(e, (NotADirectoryError, FileExistsError)):
+        why = "a file is in the way of a folder on its path"
+    else:
+        why = e.strerror or type(e).__name__
+    filename = getattr(e, "filename", None)
+    where = f" ({filename})" if filename and Path(str(filename)) != path else ""
+    return RunAborted(f"cannot write the run directory {path}{where}: {why}; set output_root=<a writable "
+                      "folder with free space> (finished samples are kept, a re-run resumes)")
+
+
+@contextlib.contextmanager
+def _writing(path: Path) -> Iterator[None]:
+    """Turn an ``OSError`` while writing the run directory ``path`` into :func:`_output_error`."""
+    try:
+        yield
+    except OSError as e:
+        raise _output_error(path, e) from None
+
+
+class _RunLock:
+    """An exclusive lock on a run directory (``fcntl.flock`` on ``run.lock``), held while a run
+    writes it, so that two runs of one configuration never do the same samples.
+
+    A second run waits for the first (saying which pid holds the lock) and then resumes from
+    its samples; with ``timeout`` (seconds) it gives up with :class:`RunAborted` instead.
+    The lock file holds the pid of the holder; the kernel drops the lock when the holder exits.
+    """
+
+    def __init__(self, run_dir: Path, timeout: float | None = None, poll_s: float = 0.2,
+                 name: str = LOCK_FILE) -> None:
+        self.path = run_dir / name
+        self.timeout = timeout
+        self.poll_s = poll_s
+        self._fd: int | None = None
+
+    def holder(self) -> str:
+        """The pid written by the holder ("unknown" if none yet)."""
+        try:
+            return self.path.read_text().strip() or "unknown"
+        except OSError:
+            return "unknown"
+
+    def acquire(self) -> None:
+        import fcntl
+
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                self._wait(fd)
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode())
+        except BaseException:
+            os.close(fd)
+            raise
+        self._fd = fd
+
+    def _wait(self, fd: int) -> None:
+        import fcntl
+
+        holder = self.holder()
+        if self.timeout is not None and self.timeout <= 0:
+            raise RunAborted(f"run directory {self.path.parent} is in use by pid {holder}; wait for that run "
+                             "to finish or stop it")
+        print(f"bench run: waiting for pid {holder}, which is running into {self.path.parent} "
+              "(it finishes the same samples; Ctrl-C to stop)", file=sys.stderr, flush=True)
+        deadline = None if self.timeout is None else time.monotonic() + self.timeout
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                return
+            except BlockingIOError:
+                if deadline is not None and time.monotonic() > deadline:
+                    raise RunAborted(f"run directory {self.path.parent} is still in use by pid {self.holder()} "
+                                     f"after {self.timeout:g} s; wait for that run to finish or stop it, or "
+                                     "raise lock_timeout") from None
+                time.sleep(self.poll_s)
+
+    def release(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)  # closing the last descriptor drops the flock
+            self._fd = None
+
+
+def _run_option(cfg: Any, key: str, kind: str, minimum: int | float | None = None) -> Any:
+    """``cfg[key]`` validated as ``kind`` ("int" or "float", None allowed), at least ``minimum``;
+    a one-line :class:`ConfigError` naming the key and the fix otherwise (``limit=-1``,
+    ``limit=abc`` and ``seed=1.5`` must not become something else silently)."""
+    value = cfg.get(key)
+    if value is None:
+        return None
+    ok = not isinstance(value, bool) and (isinstance(value, int) or (kind == "float" and isinstance(value, float)))
+    if not ok or (minimum is not None and value < minimum):
+        need = "an integer" if kind == "int" else "a number"
+        bound = f" >= {minimum}" if minimum is not None else ""
+        raise ConfigError(f"{key}={value!r} is not {need}{bound}; set {key}=<{'integer' if kind == 'int' else 'number'}"
+                          f"{bound}> (or drop it)")
+    return value
+
+
+def validate_run_options(cfg: Any) -> None:
+    """Check the run-level keys (``seed``, ``limit``, ``threads``, ``lock_timeout``) and that no
+    mandatory group key (``dataset.root``) is unset, before any work."""
+    if cfg.get("seed") is None:
+        raise ConfigError("seed is not set; set seed=<integer>, e.g. seed=0")
+    _run_option(cfg, "seed", "int")
+    _run_option(cfg, "limit", "int", 1)
+    _run_option(cfg, "threads", "int", 1)
+    _run_option(cfg, "lock_timeout", "float", 0)
+    for group in ("method", "dataset", "protocol"):
+        if group in cfg:
+            check_missing(cfg[group], group)
+
+
+# ---------------------------------------------------------------------------------------------
 # run and summarise
 
 
@@ -253,9 +574,22 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     """Run ``cfg.method`` on every sample of ``cfg.dataset`` under ``cfg.protocol``.
 
     Returns the run directory. Finished samples already in its ``samples.jsonl`` are skipped.
+    Only a sample's own fault is recorded as its failure; Ctrl-C, a failed import, no memory
+    and an unwritable output directory abort the run (``KeyboardInterrupt`` or
+    :class:`RunAborted`) and record nothing for the sample in progress.
     """
-    from omegaconf import OmegaConf
+    validate_run_options(cfg)
+    with _Interrupts() as interrupts:
+        try:
+            return _run(cfg, list(overrides), interrupts)
+        except CatposeError:
+            interrupts.check()  # a Ctrl-C that a library turned into a build or load error
+            raise
 
+
+def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
+    """Build the pieces, list the samples, lock the run directory and run (see :func:`run`)."""
+    import_heavy_libraries(interrupts, _EARLY_MODULES)
     if cfg.get("threads"):
         import torch
 
@@ -264,6 +598,10 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     dataset_name, dataset = build_from_config(cfg.dataset, "dataset")
     dataset.name = dataset_name
     _, protocol = build_from_config(cfg.protocol, "protocol")
+    interrupts.check()
+    # after the builds (so that a config mistake is reported without waiting for torch) and
+    # before the first sample (so that a Ctrl-C during an import stops the run)
+    import_heavy_libraries(interrupts, _LATE_MODULES)
 
     ids = protocol.sample_ids(dataset)
     if cfg.get("sample_ids"):
@@ -280,10 +618,30 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
         ids = shard_ids(ids, *sharding)
 
     out = run_dir_for(cfg, overrides)
-    out.mkdir(parents=True, exist_ok=True)
-    OmegaConf.save(cfg, out / "config.yaml", resolve=True)
-    (out / "git_rev.txt").write_text(_git_revision() + "\n")
-    (out / "overrides.txt").write_text("\n".join(overrides) + "\n")
+    with _writing(out):
+        out.mkdir(parents=True, exist_ok=True)
+    # a shard locks its own files only, so the shards of one run go on side by side
+    lock = _RunLock(out, cfg.get("lock_timeout"), name=shard_lock_file(*sharding) if sharding else LOCK_FILE)
+    with _writing(out):
+        lock.acquire()
+    try:
+        return _run_locked(cfg, overrides, interrupts, out, ids, method_name, method, dataset_name, dataset,
+                           protocol, sharding)
+    finally:
+        lock.release()
+
+
+def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Path, ids: list[str],
+                method_name: str, method: Any, dataset_name: str, dataset: Any, protocol: Any,
+                sharding: tuple[int, int] | None = None) -> Path:
+    """The part of a run that writes ``out``, under its lock (samples read after locking, so a
+    run that waited for another skips what that one finished)."""
+    from omegaconf import OmegaConf
+
+    with _writing(out):
+        OmegaConf.save(cfg, out / "config.yaml", resolve=True)
+        (out / "git_rev.txt").write_text(_git_revision() + "\n")
+        (out / "overrides.txt").write_text("\n".join(overrides) + "\n")
 
     samples_path = out / (shard_samples_file(*sharding) if sharding else SAMPLES_FILE)
     retry = bool(cfg.get("retry_failed", False))
@@ -296,28 +654,40 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     base = {"method": method_name, "dataset": dataset_name, "protocol": str(cfg.protocol.name),
             "seed": int(cfg.seed)}
 
-    writer = _SampleWriter(samples_path)
+    with _writing(out):
+        writer = _SampleWriter(samples_path)
     from tqdm import tqdm
 
     bar = tqdm(total=len(ids), initial=len(ids) - len(todo), unit="sample", dynamic_ncols=True,
                desc=f"{method_name} on {dataset_name}", disable=not cfg.get("progress", True), file=sys.stderr)
     try:
         for sample_id in todo:
-            row = _run_one(method, protocol, dataset, sample_id, base, int(cfg.seed))
-            writer.write(row)
+            try:
+                row = _run_one(method, protocol, dataset, sample_id, base, int(cfg.seed))
+            except (ImportError, MemoryError) as e:
+                interrupts.check()
+                raise RunAborted(_abort_message(e, sample_id)) from None
+            interrupts.check()  # a Ctrl-C caught inside the sample is not the sample's failure
+            with _writing(out):
+                writer.write(row)
             bar.update(1)
             if row["status"] != "ok":
                 bar.write(f"[failed] {sample_id}: {row['error']}", file=sys.stderr)
     finally:
         bar.close()
-        writer.close()
+        with contextlib.suppress(OSError):
+            writer.close()
 
     if sharding:
         write_shard_meta(out, *sharding, ids, finished=True)
         return _finish_shard(out, sharding, cfg, base, len(ids), len(todo))
-    meta = dict(base, n_samples=len(ids), n_run_now=len(todo), output_dir=str(out))
-    (out / "run.json").write_text(json.dumps(meta, indent=2) + "\n")
-    summary = summarize_run(out, ids)
+    from catpose.bench.environment import environment
+
+    # the versions, CPU and BLAS kernels the numbers came from (see catpose.bench.environment)
+    meta = dict(base, n_samples=len(ids), n_run_now=len(todo), output_dir=str(out), environment=environment())
+    with _writing(out):
+        (out / "run.json").write_text(json.dumps(meta, indent=2) + "\n")
+        summary = summarize_run(out, ids)
     if cfg.get("print_summary", True):
         print(f"\n{method_name} on {dataset_name} ({cfg.protocol.name}), seed {int(cfg.seed)}: {out}")
         print(format_summary(summary))

@@ -678,11 +678,22 @@ def main(argv: list[str] | None = None) -> int:
                     help="the method's own choice or the minimum across templates (oracle)")
     ap.add_argument("--title", default=None)
     ap.add_argument("--out", default=None, help="write here instead of stdout")
+    ap.add_argument("--bop-metrics", default=None,
+                    help="BOP recalls of runs scored by `bench score` (bop_errors.jsonl), e.g. "
+                         "ar_mssd,ar_mspd,adds@0.1,5deg5cm (see catpose.bench.bop_eval.parse_metric)")
+    ap.add_argument("--by", default="object,category", help="with --bop-metrics: rows per object and/or category")
     args = ap.parse_args(argv)
     try:
         run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
         if not args.runs and not run_paths:
             raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
+        if args.bop_metrics:
+            from catpose.bench.bop_eval import table_main_from_runs
+
+            text = table_main_from_runs(find_run_dirs([*args.runs, *run_paths]), args.bop_metrics.split(","),
+                                        args.by.split(",")) + "\n"
+            Path(args.out).write_text(text) if args.out else sys.stdout.write(text)
+            return 0
         if args.layout not in (None, defaults.get("layout")):
             defaults = {}  # another layout than the experiment's: none of its settings apply
         for key, value in defaults.items():  # the experiment's settings, unless given here

@@ -154,8 +154,10 @@ def test_every_experiment_names_its_sweep_and_table():
 
     from catpose.bench.tables import LAYOUTS
 
-    names = sorted(p.stem for p in (Path(__file__).resolve().parents[1] / "configs" / "experiment").glob("*.yaml"))
-    assert {"optimizer", "one_template", "templates", "relative_real", "tyol", "ablation"} <= set(names)
+    # the paper's tables (other experiment files, e.g. mn40r_*, are single runs on shared data)
+    names = ["ablation", "one_template", "optimizer", "relative_real", "templates", "tyol"]
+    folder = Path(__file__).resolve().parents[1] / "configs" / "experiment"
+    assert all((folder / f"{n}.yaml").is_file() for n in names)
     with initialize_config_module("catpose.configs", version_base=None):
         for name in names:
             cfg = compose("run", overrides=[f"+experiment={name}"], return_hydra_config=True)
