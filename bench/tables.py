@@ -199,7 +199,10 @@ def pipeline_label(run: Run) -> str:
     matching = _first(cfg, ("matching", "pipeline", "match"))
     if matching is None and run.method.lower().startswith("ours"):
         matching = "dictionary"  # our method always matches against the partial-template dictionary
-    descriptor = _first(cfg, ("descriptor", "features", "feature"))
+    # baselines name their features; ours' descriptor is a config group node ({_target_: ...LPS, ...})
+    descriptor = _first(cfg, ("features", "feature", "descriptor"))
+    if isinstance(descriptor, dict):
+        descriptor = str(descriptor.get("_target_", "")).rsplit(".", 1)[-1] or None
     parts = []
     if matching is not None:
         parts.append({"direct": "Direct match", "dictionary": "Dictionary"}.get(str(matching), str(matching)))
@@ -211,6 +214,8 @@ def pipeline_label(run: Run) -> str:
 def without_optimisation(run: Run) -> bool:
     """Whether the method config switches the pose optimisation off (ablation runs)."""
     for k, v in run.method_config.items():
+        if "optim" in k.lower() and isinstance(v, dict):  # ours: optimiser.mode
+            v = v.get("mode")
         if "optim" in k.lower() and (v is False or str(v).lower() in ("none", "false", "off", "svd")):
             return True
         if k in ("steps", "n_steps", "opt_steps", "optim_steps", "iterations") and v == 0:
