@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # A single-node Slurm on this machine, for checking the submitit path for real.
 #   bash scripts/slurm_local.sh start   munged + slurmctld + slurmd, config in $SLURM_DIR
-#   bash scripts/slurm_local.sh check   start, then a 2-job sweep through hydra/launcher=slurm
+#   bash scripts/slurm_local.sh check   start, a 2-job sweep through hydra/launcher=slurm, stop
 #   bash scripts/slurm_local.sh stop    stop the daemons this script started
 # Needs root and Debian's slurm-wlm and munge (installed here with apt-get when missing).
 # Slurm commands find this cluster through SLURM_CONF=$SLURM_DIR/slurm.conf.
@@ -55,6 +55,7 @@ CONF
     mkdir -p /run/munge /var/log/munge /var/lib/munge
     chown munge:munge /run/munge /var/log/munge /var/lib/munge
     runuser -u munge -- /usr/sbin/munged
+    touch "$SLURM_DIR/munged.started"  # stop ends only the munged this script started
   fi
   munge -n | unmunge >/dev/null  # fails here, with munge's message, when munged does not answer
   [ -f "$SLURM_DIR/slurmctld.pid" ] && kill -0 "$(cat "$SLURM_DIR/slurmctld.pid")" 2>/dev/null || slurmctld -f "$SLURM_CONF"
@@ -69,13 +70,22 @@ CONF
 }
 
 stop() {
+  for _ in $(seq 30); do  # let finished jobs' steps end before their daemons go
+    [ -z "$(squeue -h 2>/dev/null)" ] && break
+    sleep 1
+  done
   for d in slurmd slurmctld; do
     [ -f "$SLURM_DIR/$d.pid" ] && kill "$(cat "$SLURM_DIR/$d.pid")" 2>/dev/null || true
   done
+  if [ -f "$SLURM_DIR/munged.started" ] && [ -f /run/munge/munged.pid ]; then
+    kill "$(cat /run/munge/munged.pid)" 2>/dev/null || true
+    rm -f "$SLURM_DIR/munged.started"
+  fi
 }
 
 check() {
   start
+  trap stop EXIT  # the daemons go when the check ends, passed or not
   export PYTHONWARNINGS=ignore  # submitit warns at every poll that sacct has no accounting storage here
   out=$(mktemp -d)
   # two jobs (seeds 0 and 1), one Slurm job each; a failed job makes the sweep exit non-zero
