@@ -16,6 +16,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "run": ("catpose.bench.run_cmd", "main", "run a method on a dataset: bench run method=ours dataset=synthetic [-m sweeps]"),
     "evaluate": ("catpose.bench.run_cmd", "evaluate_main", "recompute errors and summaries of run directories from their files"),
     "table": ("catpose.bench.tables", "main", "the paper's tables (Markdown, LaTeX, CSV) from run directories"),
+    "merge": ("catpose.bench.merge", "main", "samples.jsonl and summaries of a sharded run (shards=N) from its shard files"),
     "report": ("catpose.bench.report", "main", "tables and plots of run directories in one folder"),
     "perf": ("catpose.bench.perf", "main", "seconds per registration and per stage for ours and ICP"),
     "templates": ("catpose.bench.templates_select", "main", "choose K category templates by K-medoids over F-score"),

@@ -119,7 +119,9 @@ LOCK_FILE = "run.lock"
 
 
 _RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", "limit", "sample_ids", "output_root",
-                               "progress", "threads", "retry_failed", "print_summary", "lock_timeout"}
+                               "progress", "threads", "retry_failed", "print_summary", "lock_timeout",
+                               # shards of one run share its directory; an experiment's rows name themselves
+                               "shard", "shards", "label", "experiment"}
 
 
 def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:
@@ -245,8 +247,9 @@ class RunLock:
     The lock file holds the pid of the holder; the kernel drops the lock when the holder exits.
     """
 
-    def __init__(self, run_dir: Path, timeout: float | None = None, poll_s: float = 0.2) -> None:
-        self.path = run_dir / LOCK_FILE
+    def __init__(self, run_dir: Path, timeout: float | None = None, poll_s: float = 0.2,
+                 name: str = LOCK_FILE) -> None:
+        self.path = run_dir / name
         self.timeout = timeout
         self.poll_s = poll_s
         self._fd: int | None = None

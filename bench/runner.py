@@ -38,6 +38,7 @@ import numpy as np
 
 from catpose.bench.build import build_from_config, validate_run_options
 from catpose.bench.evaluate import format_summary, summarize_run
+from catpose.bench.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
 from catpose.bench.rundir import (SAMPLES_FILE, RunLock, SampleWriter, failed_row, new_row, read_samples,
                                   run_dir_for, scored_row, write_run_files, write_run_json, writing)
 from catpose.errors import CatposeError, ConfigError, RunAborted
@@ -48,7 +49,8 @@ from catpose.geometry import stable_seed
 # catpose.bench.build (config -> objects), .rundir (directory, rows, lock), .evaluate (errors, summaries).
 from catpose.bench.build import check_constructor_args, check_missing  # noqa: E402,F401
 from catpose.bench.evaluate import load_protocol, recompute_errors  # noqa: E402,F401
-from catpose.bench.rundir import LOCK_FILE, latest_rows  # noqa: E402,F401
+from catpose.bench.rundir import LOCK_FILE  # noqa: E402
+from catpose.bench.rundir import latest_rows  # noqa: E402,F401
 
 
 # ---------------------------------------------------------------------------------------------
@@ -252,30 +254,38 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
         ids = wanted
     if cfg.get("limit") is not None:
         ids = ids[: int(cfg.limit)]
+    sharding = parse_shard(cfg.get("shard"), cfg.get("shards", 1))
+    if sharding:  # this job's part of the run: its own files in the run directory (bench/merge.py)
+        ids = shard_ids(ids, *sharding)
 
     out = run_dir_for(cfg, overrides)
     with writing(out):
         out.mkdir(parents=True, exist_ok=True)
-    lock = RunLock(out, cfg.get("lock_timeout"))
+    # a shard locks its own files only, so the shards of one run go on side by side
+    lock = RunLock(out, cfg.get("lock_timeout"), name=shard_lock_file(*sharding) if sharding else LOCK_FILE)
     with writing(out):
         lock.acquire()
     try:
         return _run_locked(cfg, overrides, interrupts, out, ids, method_name, method, dataset_name, dataset,
-                           protocol)
+                           protocol, sharding)
     finally:
         lock.release()
 
 
 def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Path, ids: list[str],
-                method_name: str, method: Any, dataset_name: str, dataset: Any, protocol: Any) -> Path:
+                method_name: str, method: Any, dataset_name: str, dataset: Any, protocol: Any,
+                sharding: tuple[int, int] | None = None) -> Path:
     """The part of a run that writes ``out``, under its lock (samples read after locking, so a
     run that waited for another skips what that one finished)."""
 
     write_run_files(out, cfg, overrides)
 
-    samples_path = out / SAMPLES_FILE
+    samples_path = out / (shard_samples_file(*sharding) if sharding else SAMPLES_FILE)
     retry = bool(cfg.get("retry_failed", False))
     existing = read_samples(samples_path)
+    if sharding:  # samples already in the run's merged (or serial) file are done too
+        existing = read_samples(out / SAMPLES_FILE) + existing
+        write_shard_meta(out, *sharding, ids, finished=False)
     done = {r["sample_id"] for r in existing if r.get("status") == "ok" or not retry}
     todo = [s for s in ids if s not in done]
     base = {"method": method_name, "dataset": dataset_name, "protocol": str(cfg.protocol.name),
@@ -305,6 +315,9 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
         with contextlib.suppress(OSError):
             writer.close()
 
+    if sharding:
+        write_shard_meta(out, *sharding, ids, finished=True)
+        return _finish_shard(out, sharding, cfg, base, len(ids), len(todo))
     write_run_json(out, dict(base, n_samples=len(ids), n_run_now=len(todo), output_dir=str(out)))
     with writing(out):
         summary = summarize_run(out, ids)
@@ -314,3 +327,19 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
     return out
 
 
+def _finish_shard(out: Path, sharding: tuple[int, int], cfg: Any, base: dict, n_ids: int, n_run_now: int) -> Path:
+    """After a shard: merge the run when every shard is done (the last shard to finish does it)."""
+    from catpose.bench.merge import merge_run
+
+    i, n = sharding
+    head = f"\n{base['method']} on {base['dataset']} ({base['protocol']}), seed {base['seed']}, shard {i} of {n}"
+    try:
+        summary = merge_run(out)
+    except CatposeError:  # other shards still running: the last one (or bench merge) merges
+        if cfg.get("print_summary", True):
+            print(f"{head}: {n_ids} samples ({n_run_now} run now) in {out}; the last shard to finish merges (or: bench merge {out})")
+        return out
+    if cfg.get("print_summary", True):
+        print(f"{head}: all {n} shards done, merged into {out}")
+        print(format_summary(summary))
+    return out

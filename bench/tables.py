@@ -128,8 +128,14 @@ def load_run(path: str | Path) -> Run:
 
 def find_run_dirs(paths: Sequence[str | Path]) -> list[Path]:
     """Run directories given directly or found below the given folders (sorted, no duplicates)."""
+    from catpose.bench.merge import ensure_merged, is_sharded
+
     out: list[Path] = []
     for p in map(Path, paths):
+        if p.is_dir():  # sharded runs: samples.jsonl from the shard files first (bench merge)
+            for d in sorted({p} | {q.parent for q in p.rglob("samples.shard-*-of-*.jsonl")}):
+                if is_sharded(d):
+                    ensure_merged(d)
         if (p / "samples.jsonl").is_file():
             out.append(p)
         elif p.is_dir():
@@ -193,7 +199,10 @@ def pipeline_label(run: Run) -> str:
     matching = _first(cfg, ("matching", "pipeline", "match"))
     if matching is None and run.method.lower().startswith("ours"):
         matching = "dictionary"  # our method always matches against the partial-template dictionary
-    descriptor = _first(cfg, ("descriptor", "features", "feature"))
+    # baselines name their features; ours' descriptor is a config group node ({_target_: ...LPS, ...})
+    descriptor = _first(cfg, ("features", "feature", "descriptor"))
+    if isinstance(descriptor, dict):
+        descriptor = str(descriptor.get("_target_", "")).rsplit(".", 1)[-1] or None
     parts = []
     if matching is not None:
         parts.append({"direct": "Direct match", "dictionary": "Dictionary"}.get(str(matching), str(matching)))
@@ -205,6 +214,8 @@ def pipeline_label(run: Run) -> str:
 def without_optimisation(run: Run) -> bool:
     """Whether the method config switches the pose optimisation off (ablation runs)."""
     for k, v in run.method_config.items():
+        if "optim" in k.lower() and isinstance(v, dict):  # ours: optimiser.mode
+            v = v.get("mode")
         if "optim" in k.lower() and (v is False or str(v).lower() in ("none", "false", "off", "svd")):
             return True
         if k in ("steps", "n_steps", "opt_steps", "optim_steps", "iterations") and v == 0:
@@ -694,11 +705,51 @@ def parse_labels(items: Sequence[str]) -> dict[str, str]:
     return out
 
 
+def sweep_runs(sweep_dirs: Sequence[str | Path]) -> tuple[list[Path], dict[str, str], dict[str, Any]]:
+    """Run directories, labels and table settings of sweeps (``bench run -m``).
+
+    Reads each job's ``job.json`` (:mod:`catpose.bench.sweep`) and the sweep's ``multirun.yaml``,
+    whose ``table`` node (set by ``configs/experiment/*.yaml``) gives ``layout``, ``categories``,
+    ``metrics``, ``error`` and ``title``. A failed or unfinished job stops the table with a
+    one-line error naming it."""
+    from catpose.bench.sweep import read_sweep
+
+    paths: list[Path] = []
+    labels: dict[str, str] = {}
+    settings: dict[str, Any] = {}
+    for d in map(Path, sweep_dirs):
+        records = read_sweep(d)
+        if not records:
+            raise DatasetError(f"{d} is not a sweep directory (no */job.json); pass <output_root>/multirun/<name>/<time> "
+                               f"of a `bench run -m` that has finished")
+        bad = [r for r in records if r.get("status") != "ok" or not r.get("run_dir")]
+        if bad:
+            raise DatasetError(f"sweep {d}: job {bad[0].get('job')} ({' '.join(bad[0].get('overrides') or [])}) failed: "
+                               f"{bad[0].get('error')}; re-run the sweep (finished samples are skipped)")
+        for r in records:
+            run_dir = Path(r["run_dir"])
+            if run_dir not in paths:
+                paths.append(run_dir)
+            if r.get("label"):
+                labels.update({str(run_dir): r["label"], str(run_dir.resolve()): r["label"]})
+        if (d / "multirun.yaml").is_file() and not settings:
+            from omegaconf import OmegaConf
+
+            table = OmegaConf.to_container(OmegaConf.load(d / "multirun.yaml"), resolve=False).get("table") or {}
+            settings = {k: v for k, v in table.items() if k in ("layout", "categories", "metrics", "error", "title")}
+    if settings.get("layout") not in (None, *LAYOUTS):
+        raise ConfigError(f"the sweep's table.layout {settings['layout']!r} is not one of {sorted(LAYOUTS)}")
+    return paths, labels, settings
+
+
 def main(argv: list[str] | None = None) -> int:
-    """``bench table RUN_DIR... [--layout L] [--format md|latex|csv] [--out FILE]``."""
+    """``bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE]``."""
     ap = argparse.ArgumentParser(prog="bench table", description="Paper tables from run directories.")
-    ap.add_argument("runs", nargs="+", help="run directories, or folders searched for samples.jsonl")
-    ap.add_argument("--layout", default="generic", choices=sorted(LAYOUTS))
+    ap.add_argument("runs", nargs="*", help="run directories, or folders searched for samples.jsonl")
+    ap.add_argument("--sweep", action="append", default=[], metavar="DIR",
+                    help="a sweep directory of `bench run -m` (<output_root>/multirun/<name>/<time>): its jobs' "
+                         "runs and labels, and the experiment's table settings (repeatable)")
+    ap.add_argument("--layout", default=None, choices=sorted(LAYOUTS), help="default: the sweep's, else generic")
     ap.add_argument("--format", default="md", choices=sorted(RENDERERS))
     ap.add_argument("--categories", default=None, help="comma-separated categories (default: the layout's)")
     ap.add_argument("--metrics", default=None, help=f"comma-separated, of {','.join(METRICS)}")
@@ -713,16 +764,26 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--by", default="object,category", help="with --bop-metrics: rows per object and/or category")
     args = ap.parse_args(argv)
     try:
+        run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
+        if not args.runs and not run_paths:
+            raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
         if args.bop_metrics:
             from catpose.bench.bop_eval import table_main_from_runs
 
-            text = table_main_from_runs(find_run_dirs(args.runs), args.bop_metrics.split(","), args.by.split(",")) + "\n"
+            text = table_main_from_runs(find_run_dirs([*args.runs, *run_paths]), args.bop_metrics.split(","),
+                                        args.by.split(",")) + "\n"
             Path(args.out).write_text(text) if args.out else sys.stdout.write(text)
             return 0
-        runs = [load_run(p) for p in find_run_dirs(args.runs)]
+        if args.layout not in (None, defaults.get("layout")):
+            defaults = {}  # another layout than the experiment's: none of its settings apply
+        for key, value in defaults.items():  # the experiment's settings, unless given here
+            if getattr(args, key) is None and value:
+                setattr(args, key, ",".join(map(str, value)) if isinstance(value, list) else str(value))
+        args.layout = args.layout or "generic"
+        runs = [load_run(p) for p in find_run_dirs([*args.runs, *run_paths])]
         table = build_table(runs, args.layout, args.categories.split(",") if args.categories else None,
-                            args.metrics.split(",") if args.metrics else None, parse_labels(args.label),
-                            args.error, args.title)
+                            args.metrics.split(",") if args.metrics else None,
+                            {**sweep_labels, **parse_labels(args.label)}, args.error, args.title)
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

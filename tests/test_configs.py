@@ -82,6 +82,10 @@ def test_config_composes_and_builds(group: str, name: str, tmp_path: Path) -> No
         cfg = _compose([f"+experiment={name}"])
         assert cfg.method and cfg.dataset
         return
+    if top == "row":  # a table row of configs/experiment: composes on its own and builds its method
+        cfg = _compose([f"+row={name}"])
+        assert build_from_config(cfg.method, "method")[0] == cfg.method.name
+        return
     if top == "hydra":
         pytest.skip("Hydra launcher presets are composed by the scale-out tests")
     from hydra.utils import instantiate
