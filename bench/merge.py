@@ -22,9 +22,9 @@ import re
 from pathlib import Path
 from typing import Sequence
 
+from catpose.bench.rundir import SAMPLES_FILE
 from catpose.errors import ConfigError, DatasetError
 
-from catpose.bench.rundir import SAMPLES_FILE  # noqa: E402
 _SHARD_RE = re.compile(r"^samples\.shard-(\d+)-of-(\d+)\.jsonl$")
 
 
