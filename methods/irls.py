@@ -177,6 +177,45 @@ def solve_numpy(P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray,
             res.C.double().cpu().numpy(), res.iterations.cpu().numpy())
 
 
+def solve_many(problems: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]], stages: tuple[str, ...],
+               beta: float = 10.0, max_iter: int = 50, tol: float = 1e-6, device: str = "cpu",
+               dtype: str = "float64") -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """:func:`solve_numpy` for several problems in one launch per shape: the candidates of all
+    problems with the same (m, n) are stacked into one batch (the GPU path; on the CPU it is the
+    same code). Each candidate converges and freezes on its own, so every problem gets the answer
+    it gets alone (up to the last bits of batched kernels).
+
+    Args:
+        problems: ``(P_c (n, 3), P_t (m, 2n, 3), A (m, n, 2n), T0 (m, 4, 4))`` per problem.
+
+    Returns:
+        per problem, in order: poses (m, 4, 4), losses (m,) (``sum C d / n``), C (m, n, 2n),
+        iterations (m,).
+    """
+    import torch
+
+    dev, dt = torch.device(device), getattr(torch, dtype)
+    groups: dict[tuple[int, ...], list[int]] = {}
+    for i, (P_c, P_t, _, _) in enumerate(problems):
+        groups.setdefault((len(P_c),) + tuple(P_t.shape), []).append(i)
+    out: list = [None] * len(problems)
+    for idx in groups.values():
+        P = np.concatenate([np.broadcast_to(problems[i][0], (len(problems[i][1]),) + problems[i][0].shape)
+                            for i in idx])
+        Q, A, T0 = (np.concatenate([problems[i][k] for i in idx]) for k in (1, 2, 3))
+        res = solve(*(torch.as_tensor(np.ascontiguousarray(a), dtype=dt, device=dev)
+                      for a in (P, Q, A, T0[:, :3, :3], T0[:, :3, 3])), stages, beta, max_iter, tol)
+        T, loss = to_poses(res.R, res.t), res.loss.double().cpu().numpy()
+        C, iters = res.C.double().cpu().numpy(), res.iterations.cpu().numpy()
+        start = 0
+        for i in idx:
+            m, n = len(problems[i][1]), len(problems[i][0])
+            sl = slice(start, start + m)
+            out[i] = (T[sl], loss[sl] / n, C[sl], iters[sl])
+            start += m
+    return out
+
+
 def to_poses(R, t) -> np.ndarray:
     """(B, 4, 4) float64 poses from torch R (B, 3, 3), t (B, 3), rotations re-orthonormalised in
     float64 so pose validation accepts float32 results."""

@@ -137,3 +137,16 @@ def test_unknown_stage_is_a_clear_error():
     p, q, A, _ = _random_problem(8, m=1)
     with pytest.raises(ValueError, match="unknown stage"):
         irls.solve_numpy(p, q, A, np.eye(4)[None], ("lbfgs",))
+
+
+def test_many_problems_in_one_launch_give_each_problem_its_own_answer():
+    probs = []
+    for seed, n in ((10, 12), (11, 12), (12, 9)):        # two shapes: two launches
+        p, q, A, _ = _random_problem(seed, m=3, n=n)
+        probs.append((p, q, A, np.tile(np.eye(4), (3, 1, 1))))
+    many = irls.solve_many(probs, ("pose", "joint"))
+    for prob, got in zip(probs, many):
+        alone = irls.solve_numpy(*prob, ("pose", "joint"))
+        np.testing.assert_allclose(got[0], alone[0], atol=1e-12)
+        np.testing.assert_allclose(got[1], alone[1], atol=1e-12)
+        np.testing.assert_array_equal(got[3], alone[3])
