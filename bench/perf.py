@@ -4,7 +4,8 @@ Problems come from any configured dataset through the runner's builder (``--data
 ``--root PATH`` for the real ones, ``--protocol``, default ``synthetic`` / ``gt_model``), the first
 ``--n`` sample ids taken round-robin over categories. Methods are built from
 ``configs/method/<name>.yaml`` exactly as ``bench run`` builds them (``--set key=value`` overrides
-an ``ours`` option, e.g. ``--set optimiser.solver=adam``).
+an ``ours`` option; ``--methods adam=ours`` with ``--set adam:optimiser.solver=adam`` runs a second,
+differently configured copy in the same interleaved rounds).
 
 How it measures, so that the numbers can be trusted:
 
@@ -27,7 +28,8 @@ batch time divided by ``B`` per registration. ``--solvers`` runs the TEASER solv
 Usage::
 
     bench perf                                    # 12 synthetic problems, ours, icp, fgr, 3 rounds
-    bench perf --n 24 --methods ours,fgr --repeat 5 --set optimiser.solver=adam
+    bench perf --n 24 --methods ours,adam=ours,fgr --repeat 5 --set adam:optimiser.solver=adam
+    bench perf --methods ransac,ransac2=ransac --set ransac2:num_threads=2
     bench perf --dataset redwood --root ../shared/data/redwood --n 12
     bench perf --methods ours,fgr --device cuda --batch 16 --n 48
     bench perf --solvers --problems 20
@@ -95,6 +97,34 @@ def build_method(name: str, seed: int, overrides: Sequence[str] = ()) -> Any:
 
     cfg = _compose([f"method={name}", f"seed={seed}", *[f"method.{kv}" for kv in overrides]])
     return build_from_config(cfg.method, "method")[1]
+
+
+def parse_methods(spec: str) -> list[tuple[str, str]]:
+    """``ours,adam=ours,fgr`` -> [(label, config name)]: a label lets one config run twice with
+    different ``--set LABEL:KEY=VALUE`` options in the same interleaved run."""
+    out = []
+    for item in (s.strip() for s in spec.split(",")):
+        if item:
+            label, _, name = item.partition("=")
+            out.append((label.strip(), (name or label).strip()))
+    labels = [lab for lab, _ in out]
+    if len(set(labels)) != len(labels):
+        raise ConfigError(f"bench perf: --methods {spec!r} repeats a label; name copies like adam=ours")
+    return out
+
+
+def method_overrides(label: str, name: str, sets: Sequence[str]) -> list[str]:
+    """The ``--set`` options for one method: ``LABEL:KEY=VALUE`` for that label, plain
+    ``KEY=VALUE`` for every ``ours``."""
+    out = []
+    for kv in sets:
+        target, sep, rest = kv.partition(":")
+        if sep and "=" not in target:
+            if target == label:
+                out.append(rest)
+        elif name == "ours":
+            out.append(kv)
+    return out
 
 
 def device_override(name: str, device: str) -> list[str]:
@@ -211,7 +241,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="bench perf", description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=12, help="number of problems (default 12)")
     ap.add_argument("--repeat", type=int, default=3, help="interleaved timing rounds (default 3)")
-    ap.add_argument("--methods", default="ours,icp,fgr", help="comma-separated method config names")
+    ap.add_argument("--methods", default="ours,icp,fgr",
+                    help="comma-separated method config names; LABEL=NAME runs a config under another label")
     ap.add_argument("--dataset", default="synthetic", help="dataset config name (default synthetic)")
     ap.add_argument("--root", default=None, help="dataset root (sets dataset.root)")
     ap.add_argument("--protocol", default="gt_model", help="protocol config name (default gt_model)")
@@ -220,7 +251,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--categories", default=None, help="comma-separated categories (sets dataset.categories)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=1, help="torch intra-op threads (default 1)")
-    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override an ours option")
+    ap.add_argument("--set", action="append", default=[], metavar="[LABEL:]KEY=VALUE",
+                    help="override an option of ours (KEY=VALUE) or of the method LABEL (LABEL:KEY=VALUE)")
     ap.add_argument("--device", default="cpu", choices=("cpu", "cuda"), help="ours' solver device")
     ap.add_argument("--batch", type=int, default=1, help="problems per ours register_batch call (default 1)")
     ap.add_argument("--out", default=None, help="CSV path (default outputs/perf/<parameters>.csv)")
@@ -247,12 +279,14 @@ def main(argv: list[str] | None = None) -> int:
         ds_over.append(f"dataset.categories=[{args.categories}]")
     problems, source = load_problems(args.dataset, args.protocol, args.n, args.seed, args.root, ds_over)
     methods: dict[str, Any] = {}
-    for name in [m.strip() for m in args.methods.split(",") if m.strip()]:
-        over = (args.set + device_override(name, args.device)) if name == "ours" else []
+    for label, name in parse_methods(args.methods):
+        over = method_overrides(label, name, args.set)
+        if name == "ours":
+            over += device_override(name, args.device)
         try:
-            methods[name] = build_method(name, args.seed, over)
+            methods[label] = build_method(name, args.seed, over)
         except Exception as e:  # a method whose module or config is missing or broken: skip it, say why
-            print(f"skipping {name}: {type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}")
+            print(f"skipping {label}: {type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}")
     if not methods:
         raise ConfigError(f"bench perf: none of --methods {args.methods} could be built")
     measured = measure(methods, problems, args.repeat, args.seed, args.batch)

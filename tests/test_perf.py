@@ -115,3 +115,14 @@ def test_solvers_flag_delegates_to_the_solver_benchmark(monkeypatch):
     monkeypatch.setattr(ps, "main", lambda argv: seen.append(argv) or 0)
     assert perf.main(["--solvers", "--problems", "3"]) == 0
     assert seen == [["--problems", "3"]]
+
+
+def test_labels_let_one_config_run_twice_with_its_own_options():
+    assert perf.parse_methods("ours, adam=ours ,fgr") == [("ours", "ours"), ("adam", "ours"), ("fgr", "fgr")]
+    with pytest.raises(ConfigError, match="repeats a label"):
+        perf.parse_methods("ours,ours")
+    sets = ["lr=0.1", "adam:optimiser.solver=adam", "ransac2:num_threads=2"]
+    assert perf.method_overrides("ours", "ours", sets) == ["lr=0.1"]
+    assert perf.method_overrides("adam", "ours", sets) == ["lr=0.1", "optimiser.solver=adam"]
+    assert perf.method_overrides("ransac2", "ransac", sets) == ["num_threads=2"]
+    assert perf.method_overrides("fgr", "fgr", sets) == []
