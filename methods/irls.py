@@ -130,10 +130,11 @@ def solve(P, Q, A, R0, t0, stages: tuple[str, ...] = ("pose", "joint"), beta: fl
             for _ in range(max_iter):
                 d = _distances(P, Q, R, t)
                 if stage == "joint":
-                    C_new = torch.softmax(logA - beta * d, dim=2)
-                    C_stage = torch.where(active[:, None, None], C_new, C_stage)
-                    Cd = C_stage * d
-                    obj = Cd.sum((1, 2)) + (C_stage * (torch.log(C_stage.clamp_min(1e-30)) - logA)).sum((1, 2)) / beta
+                    # exact C step; at it F = -(1/beta) sum_j log sum_k A e^(-beta d) (no log C needed)
+                    z = logA - beta * d
+                    lse = torch.logsumexp(z, dim=2, keepdim=True)
+                    C_stage = torch.where(active[:, None, None], torch.exp(z - lse), C_stage)
+                    obj = -lse.sum((1, 2)) / beta
                 else:
                     obj = (C_stage * d).sum((1, 2))
                 # converged: frozen from here on at the current pose (and C)
