@@ -45,6 +45,9 @@ import numpy as np
 _D_MIN = 1e-6
 
 
+_STAGE_CODES = {"pose": 0, "joint": 1}
+
+
 @dataclass(frozen=True)
 class IRLSResult:
     """Solver output for a batch of ``B`` candidates (torch tensors on the solver's device).
@@ -153,17 +156,41 @@ def solve(P, Q, A, R0, t0, stages: tuple[str, ...] = ("pose", "joint"), beta: fl
 
 def solve_numpy(P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray, stages: tuple[str, ...],
                 beta: float = 10.0, max_iter: int = 50, tol: float = 1e-6, device: str = "cpu",
-                dtype: str = "float64") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                dtype: str = "float64", compiled: bool | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`solve` for one problem's ``m`` candidates from NumPy arrays.
 
     Args:
         P_c: (n, 3) input keypoints (camera frame); P_t: (m, 2n, 3) partial-template keypoints;
         A: (m, n, 2n) affinities; T0: (m, 4, 4) initial ``T_template_camera``.
+        compiled: run the compiled CPU kernel (:mod:`catpose.methods.irls_kernel`, the same
+            steps in float64) instead of torch; None: it on ``cpu`` in float64 when numba
+            imports, torch otherwise.
 
     Returns:
         poses (m, 4, 4) float64 (re-orthonormalised), losses (m,) ``sum C d / n`` (mean
         correspondence-weighted keypoint distance), C (m, n, 2n), iterations (m,).
     """
+    for s in stages:
+        if s not in _STAGE_CODES:
+            raise ValueError(f"unknown stage {s!r}; use 'pose' or 'joint'")
+    if compiled is None:
+        compiled = device == "cpu" and dtype == "float64" and _kernel() is not None
+    if compiled:
+        kernel = _kernel()
+        if kernel is None:
+            raise ImportError("the compiled IRLS kernel needs numba; install it (pip install 'numba>=0.60')")
+        R = np.ascontiguousarray(T0[:, :3, :3], dtype=np.float64).copy()
+        t = np.ascontiguousarray(T0[:, :3, 3], dtype=np.float64).copy()
+        codes = np.array([_STAGE_CODES[s] for s in stages], dtype=np.int64)
+        loss, C, iters = kernel.solve(np.ascontiguousarray(P_c, dtype=np.float64),
+                                      np.ascontiguousarray(P_t, dtype=np.float64),
+                                      np.ascontiguousarray(A, dtype=np.float64), R, t, codes,
+                                      float(beta), int(max_iter), float(tol))
+        U, _, Vt = np.linalg.svd(R)
+        T = np.tile(np.eye(4), (len(R), 1, 1))
+        T[:, :3, :3], T[:, :3, 3] = U @ Vt, t
+        return T, loss / len(P_c), C, iters
     import torch
 
     dev, dt = torch.device(device), getattr(torch, dtype)
@@ -176,6 +203,15 @@ def solve_numpy(P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray,
     res = solve(P, tens(P_t), tens(A), tens(T0[:, :3, :3]), tens(T0[:, :3, 3]), stages, beta, max_iter, tol)
     return (to_poses(res.R, res.t), res.loss.double().cpu().numpy() / len(P_c),
             res.C.double().cpu().numpy(), res.iterations.cpu().numpy())
+
+
+def _kernel():
+    """The compiled kernel module, or None where numba is missing."""
+    try:
+        from catpose.methods import irls_kernel
+    except ImportError:
+        return None
+    return irls_kernel
 
 
 def solve_many(problems: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]], stages: tuple[str, ...],

@@ -59,24 +59,26 @@ def test_weighted_kabsch_matches_scipy_align_vectors():
     np.testing.assert_allclose(t[0].numpy(), md - R_ref.as_matrix() @ ms, atol=1e-10)
 
 
-def test_exact_correspondences_give_the_exact_pose():
+@pytest.mark.parametrize("compiled", [False, True], ids=["torch", "kernel"])
+def test_exact_correspondences_give_the_exact_pose(compiled):
     p, q, A, T = _random_problem(2, noise=0.0)
     n = len(p)
     # one-hot affinity on the true match: stage 1 is plain Kabsch, exact in one step
     A_hard = (A == A.max(2, keepdims=True)).astype(float)
-    T_est, loss, _, _ = irls.solve_numpy(p, q, A_hard, np.tile(np.eye(4), (len(q), 1, 1)), ("pose",))
+    T_est, loss, _, _ = irls.solve_numpy(p, q, A_hard, np.tile(np.eye(4), (len(q), 1, 1)), ("pose",), compiled=compiled)
     np.testing.assert_allclose(T_est, T, atol=1e-6)
     assert loss.max() < 1e-6 * n
 
 
-def test_stage1_reaches_the_minimum_found_by_scipy():
+@pytest.mark.parametrize("compiled", [False, True], ids=["torch", "kernel"])
+def test_stage1_reaches_the_minimum_found_by_scipy(compiled):
     from scipy.optimize import minimize
     from scipy.spatial.transform import Rotation
 
     p, q, A, T = _random_problem(3)
     T0 = np.tile(np.eye(4), (len(q), 1, 1))
     T0[:, :3, 3] = q.mean(1) - p.mean(0)
-    T_est, loss, _, iters = irls.solve_numpy(p, q, A, T0, ("pose",), max_iter=500, tol=1e-12)
+    T_est, loss, _, iters = irls.solve_numpy(p, q, A, T0, ("pose",), max_iter=500, tol=1e-12, compiled=compiled)
     for i in range(len(q)):
         def f(x):
             return _stage1_loss(p, q[i], A[i], Rotation.from_rotvec(x[:3]).as_matrix(), x[3:])
@@ -87,22 +89,24 @@ def test_stage1_reaches_the_minimum_found_by_scipy():
         assert _stage1_loss(p, q[i], A[i], T_est[i, :3, :3], T_est[i, :3, 3]) == pytest.approx(loss[i] * len(p), rel=1e-9)
 
 
-def test_each_iteration_lowers_the_objective():
+@pytest.mark.parametrize("compiled", [False, True], ids=["torch", "kernel"])
+def test_each_iteration_lowers_the_objective(compiled):
     p, q, A, _ = _random_problem(4)
     T0 = np.tile(np.eye(4), (len(q), 1, 1))
     prev = None
     for k in range(1, 8):  # k iterations from the same start: a monotone sequence (majorise-minimise)
-        _, loss, _, _ = irls.solve_numpy(p, q, A, T0, ("pose",), max_iter=k, tol=0.0)
+        _, loss, _, _ = irls.solve_numpy(p, q, A, T0, ("pose",), max_iter=k, tol=0.0, compiled=compiled)
         if prev is not None:
             assert np.all(loss <= prev + 1e-12)
         prev = loss
 
 
-def test_joint_stage_correspondences_are_the_exact_c_step():
+@pytest.mark.parametrize("compiled", [False, True], ids=["torch", "kernel"])
+def test_joint_stage_correspondences_are_the_exact_c_step(compiled):
     p, q, A, _ = _random_problem(5)
     T0 = np.tile(np.eye(4), (len(q), 1, 1))
     beta = 10.0
-    T, loss, C, _ = irls.solve_numpy(p, q, A, T0, ("pose", "joint"), beta=beta, max_iter=30)
+    T, loss, C, _ = irls.solve_numpy(p, q, A, T0, ("pose", "joint"), beta=beta, max_iter=30, compiled=compiled)
     np.testing.assert_allclose(C.sum(2), 1.0, atol=1e-12)
     # at convergence C is (close to) the softmax of log A - beta d at the returned pose
     d = np.linalg.norm((np.einsum("mij,nj->mni", T[:, :3, :3], p) + T[:, None, :3, 3])[:, :, None] - q[:, None], axis=3)
@@ -113,12 +117,13 @@ def test_joint_stage_correspondences_are_the_exact_c_step():
     np.testing.assert_allclose(loss * len(p), (C * d).sum((1, 2)), rtol=1e-9)
 
 
-def test_a_candidate_does_not_depend_on_its_batch():
+@pytest.mark.parametrize("compiled", [False, True], ids=["torch", "kernel"])
+def test_a_candidate_does_not_depend_on_its_batch(compiled):
     p, q, A, _ = _random_problem(6, m=5)
     T0 = np.tile(np.eye(4), (5, 1, 1))
-    full = irls.solve_numpy(p, q, A, T0, ("pose", "joint"))
+    full = irls.solve_numpy(p, q, A, T0, ("pose", "joint"), compiled=compiled)
     for i in (0, 3):
-        one = irls.solve_numpy(p, q[i:i + 1], A[i:i + 1], T0[i:i + 1], ("pose", "joint"))
+        one = irls.solve_numpy(p, q[i:i + 1], A[i:i + 1], T0[i:i + 1], ("pose", "joint"), compiled=compiled)
         np.testing.assert_allclose(one[0][0], full[0][i], atol=1e-12)
         assert one[3][0] == full[3][i]
 
@@ -146,7 +151,20 @@ def test_many_problems_in_one_launch_give_each_problem_its_own_answer():
         probs.append((p, q, A, np.tile(np.eye(4), (3, 1, 1))))
     many = irls.solve_many(probs, ("pose", "joint"))
     for prob, got in zip(probs, many):
-        alone = irls.solve_numpy(*prob, ("pose", "joint"))
+        alone = irls.solve_numpy(*prob, ("pose", "joint"), compiled=False)
         np.testing.assert_allclose(got[0], alone[0], atol=1e-12)
         np.testing.assert_allclose(got[1], alone[1], atol=1e-12)
         np.testing.assert_array_equal(got[3], alone[3])
+
+
+def test_compiled_kernel_matches_the_torch_solver():
+    for seed in (20, 21):
+        p, q, A, _ = _random_problem(seed, m=6)
+        T0 = np.tile(np.eye(4), (6, 1, 1))
+        for stages in (("pose",), ("pose", "joint"), ("joint",)):
+            a = irls.solve_numpy(p, q, A, T0, stages, max_iter=8, tol=1e-4, compiled=False)
+            b = irls.solve_numpy(p, q, A, T0, stages, max_iter=8, tol=1e-4, compiled=True)
+            np.testing.assert_allclose(b[0], a[0], atol=1e-9)
+            np.testing.assert_allclose(b[1], a[1], rtol=1e-9)
+            np.testing.assert_allclose(b[2], a[2], atol=1e-9)
+            np.testing.assert_array_equal(b[3], a[3])
