@@ -200,7 +200,7 @@ def compute_errors(preds, dataset, vsd: bool = True, max_points: int = 0, seed: 
         depth_path = dataset.layout.depth(scene, im)
         depth_mm = None
         if vsd and depth_path.is_file():
-            from catpose.datasets.bop import read_depth
+            from catpose.datasets.depthio import read_depth
 
             depth_mm = read_depth(depth_path).astype(np.float64) * float(cam.get("depth_scale", 1.0))
         width = depth_mm.shape[1] if depth_mm is not None else _image_width(dataset, depth_path, K)

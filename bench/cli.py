@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import importlib
 import sys
+import warnings
+from pathlib import Path
 
 # command -> (module, function, one-line help)
 COMMANDS: dict[str, tuple[str, str, str]] = {
@@ -36,8 +38,23 @@ def _usage() -> str:
     return "\n".join(lines)
 
 
+def _one_line_catpose_warnings() -> None:
+    """Show catpose's own warnings (e.g. an object missing from models_info.json) as one line,
+    ``bench: warning: <message>``; other libraries' warnings keep Python's format."""
+    package = Path(__file__).resolve().parents[1]
+    default = warnings.formatwarning
+
+    def formatwarning(message, category, filename, lineno, line=None):  # noqa: ANN001 - warnings' signature
+        if Path(filename).resolve().is_relative_to(package) and ".venv" not in Path(filename).parts:
+            return f"bench: warning: {message}\n"
+        return default(message, category, filename, lineno, line)
+
+    warnings.formatwarning = formatwarning
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    _one_line_catpose_warnings()
     if not argv or argv[0] in ("-h", "--help", "help"):
         print(_usage())
         return 0

@@ -63,7 +63,7 @@ def load_problems(dataset: str, protocol: str, n: int, seed: int, root: str | No
                   overrides: Sequence[str] = ()) -> tuple[list, str]:
     """The first ``n`` problems of ``dataset`` under ``protocol`` (round-robin over categories),
     built exactly as ``bench run`` builds them, and a label saying where they come from."""
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
 
     ov = [f"dataset={dataset}", f"protocol={protocol}", f"seed={seed}", *overrides]
     if root:
@@ -93,7 +93,7 @@ def load_problems(dataset: str, protocol: str, n: int, seed: int, root: str | No
 def build_method(name: str, seed: int, overrides: Sequence[str] = ()) -> Any:
     """Build a method from its config exactly as the runner does (``overrides`` are ``key=value``
     relative to the method node)."""
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
 
     cfg = _compose([f"method={name}", f"seed={seed}", *[f"method.{kv}" for kv in overrides]])
     return build_from_config(cfg.method, "method")[1]

@@ -65,13 +65,18 @@ def write_run(out_dir: str | Path, rows: Sequence[dict], config: dict, info: dic
     """
     from omegaconf import OmegaConf
 
-    from catpose.bench.runner import _jsonable, summarize_run
+    from catpose.bench.evaluate import summarize_run
+    from catpose.bench.rundir import SAMPLES_FILE, SampleWriter
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "samples.jsonl", "w", encoding="utf-8") as f:
+    (out / SAMPLES_FILE).unlink(missing_ok=True)
+    writer = SampleWriter(out / SAMPLES_FILE)
+    try:
         for r in rows:
-            f.write(json.dumps(_jsonable(r)) + "\n")
+            writer.write(r)
+    finally:
+        writer.close()
     OmegaConf.save(OmegaConf.create(config), out / "config.yaml")
     meta = {"method": _name(config.get("method")), "dataset": _name(config.get("dataset")),
             "protocol": _name(config.get("protocol")), "seed": config.get("seed"), "n_samples": len(rows)}
@@ -265,7 +270,8 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str,
     matched greedily as bop_toolkit does: in descending score order, each takes the unmatched
     instance with the smallest ``err_deg`` (then ``trans_err``); extra estimates are ignored.
     """
-    from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors
+    from catpose.bench.metrics import sample_errors
+    from catpose.bench.rundir import failed_row, scored_row
     from catpose.geometry import invert_T, make_T
 
     kind = preds.attrs.get("kind", "sample")
@@ -321,18 +327,15 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str,
         else:
             p = by_key.get(str(g["sample_id"])) or by_key.get(str(g.get("obs_id")))
         if p is None:
-            row.update(status="failed", error="no prediction", stage="register", err_deg=FAILED_ERROR_DEG,
-                       rot_err_deg=None, axis_err_deg=None, trans_err=None, score=None, runtime_s=None, T_est=None)
-            out.append(row)
+            out.append(failed_row(row, "no prediction", stage="register", score=None, runtime_s=None))
             continue
         T_est = estimate(p, k)
         errs = errors_of(T_est, g)
         score = p.get("score")
         score = None if score is None or not math.isfinite(float(score)) else (-float(score) if kind == "bop" else float(score))
         rt = p.get("time")
-        row.update(status="ok", error="", score=score, T_est=T_est.reshape(-1).tolist(),
-                   runtime_s=None if rt is None or not math.isfinite(float(rt)) or float(rt) < 0 else float(rt), **errs)
-        out.append(row)
+        out.append(scored_row(row, T_est, errs, score=score,
+                              runtime_s=None if rt is None or not math.isfinite(float(rt)) or float(rt) < 0 else float(rt)))
     return out
 
 
@@ -355,7 +358,7 @@ def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Seque
     from omegaconf import OmegaConf
 
     from catpose.bench.run_cmd import check_overrides
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
 
     check_overrides([f"dataset={dataset}", f"protocol={protocol}"])
     with initialize_config_module("catpose.configs", version_base=None):
@@ -461,7 +464,7 @@ def _object_summary(rows: Sequence[dict], out_dir: Path) -> str:
     import pandas as pd
 
     from catpose.bench.metrics import summarize
-    from catpose.bench.runner import format_summary
+    from catpose.bench.evaluate import format_summary
 
     df = pd.DataFrame(list(rows))
     df["object"] = [f"{c}/{i}" for c, i in zip(df["category"], df["instance_id"])]
@@ -483,7 +486,7 @@ def score_bop(preds, dataset_cfg: dict, out_dir: str | Path, method: str, metric
     dict): writes ``bop_errors.jsonl`` and ``bop_summary.md`` into ``out_dir`` and returns the
     summary (which states the target and visibility filters applied)."""
     from catpose.bench.bop_eval import ERRORS_FILE, compute_errors, format_scores, score_table, write_errors
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
 
     _, ds = build_from_config(dict(dataset_cfg), "dataset")
     errs = compute_errors(preds, ds, vsd=vsd)

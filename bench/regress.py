@@ -128,7 +128,7 @@ def method_available(name: str, suite: "Suite | None" = None) -> str | None:
     and optional dependencies import), else why not."""
     if not (REPO / "configs" / "method" / f"{name}.yaml").is_file():
         return f"no configs/method/{name}.yaml"
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
 
     try:
         build_from_config(_compose(suite or Suite(name="-", methods=[], reference=Path("-")), name).method, "method")
@@ -157,7 +157,7 @@ def suite_samples(suite: Suite, transform: Callable | None = None) -> tuple[Any,
     """(dataset, protocol, sample ids) of a suite: golden inputs when it has them, else its
     dataset and protocol built from config. ``transform`` maps each loaded sample (golden only)."""
     from catpose.bench.golden import GoldenDataset, GoldenProtocol, read_golden
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
 
     if suite.inputs is not None:
         golden = read_golden(suite.inputs)
@@ -172,9 +172,14 @@ def suite_samples(suite: Suite, transform: Callable | None = None) -> tuple[Any,
 
 def run_method(suite: Suite, method_name: str, transform: Callable | None = None) -> dict[str, dict]:
     """Register every problem of ``suite`` with one method; {sample_id: runner row}."""
-    from catpose.bench.runner import _run_one, build_from_config
+    from catpose.bench.build import build_from_config
+    from catpose.bench.runner import _run_one
 
     cfg = _compose(suite, method_name)
+    if cfg.get("threads"):
+        import torch
+
+        torch.set_num_threads(int(cfg.threads))
     _, method = build_from_config(cfg.method, "method")
     dataset, protocol, ids = suite_samples(suite, transform)
     base = {"method": method_name, "dataset": suite.dataset, "protocol": suite.protocol, "seed": suite.seed}

@@ -45,10 +45,14 @@ def main(argv: list[str]) -> int:
     @hydra.main(version_base="1.3", config_path="pkg://catpose.configs", config_name="run")
     def _job(cfg) -> None:
         from catpose.bench.runner import run
+        from catpose.errors import RunAborted
 
         hc = HydraConfig.get()
         try:
             run(cfg, list(hc.overrides.task))
+        except RunAborted as e:  # not this job's fault (disk full, broken install): stop the sweep too
+            print(f"bench run: error: {e}", file=sys.stderr)
+            raise SystemExit(2) from None
         except CatposeError as e:
             # one line, not Hydra's report; a sweep goes on with its other jobs
             if hc.mode == RunMode.MULTIRUN:
@@ -75,7 +79,8 @@ Run a method over every sample of a dataset under a protocol (Hydra overrides).
   dataset=NAME     one of configs/dataset/*.yaml (synthetic, modelnet40, bop, redwood, ...)
   protocol=NAME    gt_model | templates | relative
   seed=INT         fixes the samples and the methods' randomness (default 0)
-  limit=INT        only the first INT samples
+  limit=INT        only the first INT samples (INT >= 1)
+  lock_timeout=S   a second run into a busy run directory waits for the first; give up after S seconds
   method.KEY=VAL   any method option, e.g. method.lr=0.001; dataset.root=PATH for real data
   output_root=DIR  where run directories go (default: outputs)
   -m               sweep comma-separated values: bench run -m method=icp,ours seed=0,1
@@ -90,7 +95,8 @@ def evaluate_main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="bench evaluate", description=evaluate_main.__doc__)
     parser.add_argument("run_dirs", nargs="+", type=Path, help="run directories (with samples.jsonl)")
     args = parser.parse_args(argv)
-    from catpose.bench.runner import SAMPLES_FILE, format_summary, summarize_run
+    from catpose.bench.evaluate import format_summary, summarize_run
+    from catpose.bench.rundir import SAMPLES_FILE
 
     for d in args.run_dirs:
         if not (d / SAMPLES_FILE).exists():

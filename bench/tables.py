@@ -90,7 +90,7 @@ def read_samples(path: Path):
     line of a killed run is skipped, a retried sample's last row counts)."""
     import pandas as pd
 
-    from catpose.bench.runner import latest_rows
+    from catpose.bench.rundir import latest_rows
 
     return pd.DataFrame(latest_rows(Path(path)))
 
@@ -101,7 +101,7 @@ def recompute_errors(samples):
     current metric definitions rather than the numbers stored at run time."""
     import pandas as pd
 
-    from catpose.bench.runner import recompute_errors as recompute_row
+    from catpose.bench.evaluate import recompute_errors as recompute_row
 
     if len(samples) == 0 or not {"T_est", "T_gt", "status"} <= set(samples.columns):
         return samples
@@ -149,7 +149,7 @@ def protocol_of(run: Run):
     name."""
     cfg = run.config.get("protocol") if isinstance(run.config.get("protocol"), dict) else None
     if cfg and cfg.get("_target_"):
-        from catpose.bench.runner import build_from_config
+        from catpose.bench.build import build_from_config
 
         return build_from_config(dict(cfg), "protocol")[1]
     from catpose.bench.protocols import GtModel, Templates
@@ -216,6 +216,85 @@ def method_label(run: Run) -> str:
     """Display name of the run's method (``Ours``, ``Teaser++``, ...), marking ablations."""
     name = DISPLAY_NAMES.get(run.method.lower(), run.method)
     return f"{name} (w/o optimization)" if without_optimisation(run) else name
+
+
+def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
+    """A nested config as ``{"method.descriptor": "pfh", ...}``."""
+    if not isinstance(d, dict):
+        return {prefix: d}
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        out.update(_flat(v, f"{prefix}.{k}" if prefix else str(k)))
+    return out
+
+
+def _overrides(run: Run) -> list[str]:
+    """The command-line overrides the runner recorded beside the run (``overrides.txt``)."""
+    f = run.path / "overrides.txt"
+    if not f.is_file():
+        return []
+    return [o.strip().lstrip("+~") for o in f.read_text().splitlines()
+            if o.strip() and not o.startswith(("output_root", "progress", "print_summary", "hydra."))]
+
+
+def _short(item: str) -> str:
+    """``method.descriptor=pfh`` -> ``descriptor=pfh`` (the method is already in the label)."""
+    return item[len("method."):] if item.startswith("method.") else item
+
+
+def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
+    """Label suffixes that tell ``members`` (runs sharing a label) apart, the fewest kinds first:
+    the protocol, the dataset, the recorded overrides not shared by all, the config values that
+    differ, and only when nothing else does, the run directory's name (which ends in a hash)."""
+    def dataset(r: Run) -> str:
+        d = r.config.get("dataset")
+        return str(d.get("name", "?")) if isinstance(d, dict) else str(r.info.get("dataset", "?"))
+
+    def unique(parts: list[list[str]]) -> bool:
+        return len({tuple(p) for p in parts}) == len(parts)
+
+    parts: list[list[str]] = [[] for _ in members]
+    if len({r.protocol for r in members}) > 1:
+        parts = [p + [r.protocol] for p, r in zip(parts, members)]
+    if not unique(parts) and len({dataset(r) for r in members}) > 1:
+        parts = [p + [dataset(r)] for p, r in zip(parts, members)]
+    if not unique(parts):
+        overrides = [[o for o in _overrides(r) if o.split("=", 1)[0] not in ("protocol", "dataset")] for r in members]
+        shared = set.intersection(*(set(o) for o in overrides))
+        parts = [p + [_short(o) for o in sorted(ov) if o not in shared] for p, ov in zip(parts, overrides)]
+    if not unique(parts):
+        flats = [_flat({k: r.config.get(k) for k in ("method", "dataset", "protocol", "seed")}) for r in members]
+        keys = sorted({k for f in flats for k in f if len({json.dumps(g.get(k), sort_keys=True, default=str) for g in flats}) > 1})
+        parts = [p + [_short(f"{k}={f.get(k)}") for k in keys] for p, f in zip(parts, flats)]
+    if not unique(parts):
+        parts = [p + [r.path.name] for p, r in zip(parts, members)]
+    return parts
+
+
+def run_labels(runs: Sequence[Run], labels: dict[str, str] | None = None,
+               group_of: Callable[[Run], str] = lambda r: "") -> list[str]:
+    """One label per run (in order), unique within each row group ``group_of(run)``.
+
+    The label is the user's (``labels``, see :func:`user_label`) or :func:`method_label`. Runs
+    sharing a label and group keep it, pooled into one row, when they have the same protocol and
+    disjoint categories (one run per category); otherwise each gets only what distinguishes it
+    (:func:`_distinguishing`), e.g. ``Ours`` and ``Ours (descriptor=pfh)``, never a hash unless
+    nothing else differs.
+    """
+    labels = labels or {}
+    base = [user_label(r, labels) or method_label(r) for r in runs]
+    keyed: dict[tuple[str, str], list[int]] = {}
+    for i, r in enumerate(runs):
+        keyed.setdefault((group_of(r), base[i]), []).append(i)
+    out = list(base)
+    for idx in keyed.values():
+        members = [runs[i] for i in idx]
+        cats = [set(r.samples["category"].astype(str)) if len(r.samples) else set() for r in members]
+        if len(members) == 1 or (sum(map(len, cats)) == len(set().union(*cats)) and len({r.protocol for r in members}) == 1):
+            continue
+        for i, extra in zip(idx, _distinguishing(members)):
+            out[i] = f"{base[i]} ({', '.join(extra)})" if extra else base[i]
+    return out
 
 
 def template_count(run: Run) -> str:
@@ -410,30 +489,17 @@ def collect(runs: Sequence[Run], group_of: Callable[[Run], str], labels: dict[st
             error_of: Callable[[Run], str] = lambda r: "err_deg") -> list[Entry]:
     """Pool the scoring units of runs with the same (group, label) and summarise per category.
 
-    ``labels`` maps a run directory (as given, or its name) to a user label; ``error_of`` names
-    the error column each run is scored by (see :func:`scored_units`).
+    ``labels`` maps a run directory (as given, or its name) to a user label; labels are made
+    unique within a group by :func:`run_labels`. ``error_of`` names the error column each run is
+    scored by (see :func:`scored_units`).
     """
     import pandas as pd
 
     from catpose.bench.metrics import summarize
 
-    labels = labels or {}
-    keyed: dict[tuple[str, str], list[Run]] = {}
-    for run in runs:
-        label = user_label(run, labels) or method_label(run)
-        keyed.setdefault((group_of(run), label), []).append(run)
     pooled: dict[tuple[str, str], list] = {}
-    for (group, label), members in keyed.items():
-        cats = [set(r.samples["category"].astype(str)) if len(r.samples) else set() for r in members]
-        disjoint = sum(map(len, cats)) == len(set().union(*cats))
-        same_protocol = len({r.protocol for r in members}) == 1
-        for run in members:
-            # Runs of one label over different categories are pooled (one run per category);
-            # runs that overlap, or differ in protocol, keep their own rows.
-            key = label if disjoint and same_protocol else (
-                f"{label} ({run.protocol})" if not same_protocol and len({r.protocol for r in members}) == len(members)
-                else f"{label} [{run.path.name}]")
-            pooled.setdefault((group, key), []).append(scored_units(run, error_of(run)))
+    for run, label in zip(runs, run_labels(runs, labels, group_of)):
+        pooled.setdefault((group_of(run), label), []).append(scored_units(run, error_of(run)))
     entries = []
     for (group, label), parts in pooled.items():
         summary = summarize(pd.concat(parts, ignore_index=True)).set_index("category")
@@ -579,6 +645,15 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     if oracle and any(r.protocol == "templates" for r in runs):
         table.notes.append("Errors of templates runs are the minimum across templates (an oracle that needs ground truth).")
     return table
+
+
+def split_by_protocol(runs: Sequence[Run]) -> dict[str, list[Run]]:
+    """Runs per protocol (in first-seen order): errors of different protocols answer different
+    questions, so the report gives each its own tables and figures."""
+    out: dict[str, list[Run]] = {}
+    for r in runs:
+        out.setdefault(r.protocol, []).append(r)
+    return out
 
 
 def prune(table: Table) -> Table:

@@ -27,7 +27,6 @@ Observation ids: ``<category>/<scene_id:06d>/<im_id:06d>/<gt_idx>``.
 
 from __future__ import annotations
 
-import json
 import warnings
 from pathlib import Path
 from typing import Any
@@ -35,6 +34,9 @@ from typing import Any
 import numpy as np
 
 from catpose.datasets.base import ObjectDataset, Observation
+from catpose.datasets.bop_layout import (BopLayout, camera_K, continuous_symmetry_origin, gt_obj_id, read_json,
+                                         read_targets, visible_fractions)
+from catpose.datasets.depthio import fit_ground_plane, read_depth, read_mask_png
 from catpose.datasets.meshio import R_template_file, TemplateSet, read_mesh, sampled_template
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
 from catpose.errors import DatasetError
@@ -42,215 +44,6 @@ from catpose.geometry import make_T, normalize_to_unit_sphere, stable_seed
 from catpose.types import Template
 
 
-def read_json(path: Path) -> Any:
-    """Load a JSON file, raising :class:`DatasetError` naming it when missing or malformed."""
-    if not path.is_file():
-        raise DatasetError(f"{path} does not exist; check dataset.root and dataset.split")
-    try:
-        return json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DatasetError(f"{path} is not valid JSON ({exc}); re-download it") from None
-
-
-def read_depth_png(path: Path) -> np.ndarray:
-    """A 16-bit depth PNG as a (H, W) uint16 array; other dtypes raise :class:`DatasetError`."""
-    from PIL import Image
-
-    if not path.is_file():
-        raise DatasetError(f"depth image {path} does not exist")
-    try:
-        with Image.open(path) as im:
-            arr = np.asarray(im)
-    except Exception as exc:  # PIL raises several types for a broken file
-        raise DatasetError(f"{path} cannot be read as an image ({type(exc).__name__})") from None
-    if arr.ndim != 2 or arr.dtype not in (np.uint16, np.int32, np.int16):
-        raise DatasetError(f"{path} is {arr.dtype} with shape {arr.shape}; depth must be a single-channel "
-                           "16-bit PNG")
-    if arr.dtype != np.uint16:  # PIL opens some 16-bit PNGs as mode "I" (int32)
-        if arr.min() < 0 or arr.max() > 65535:
-            raise DatasetError(f"{path} has values outside 0..65535; depth must be a 16-bit PNG")
-        arr = arr.astype(np.uint16)
-    return arr
-
-
-def read_mask_png(path: Path) -> np.ndarray:
-    """A mask PNG as a (H, W) bool array (non-zero = object)."""
-    from PIL import Image
-
-    try:
-        with Image.open(path) as im:
-            arr = np.asarray(im)
-    except Exception as exc:
-        raise DatasetError(f"mask {path} cannot be read as an image ({type(exc).__name__})") from None
-    return (arr if arr.ndim == 2 else arr[..., 0]) > 0
-
-
-def fit_ground_plane(points: np.ndarray, distance: float, iterations: int,
-                     seed: int) -> tuple[np.ndarray, float, int]:
-    """Dominant plane ``n . p + d = 0`` of ``points`` (N, 3) by RANSAC, refined by least squares.
-
-    The same three-point RANSAC as Open3D's ``segment_plane``, but run here with a seeded NumPy
-    generator: Open3D's multithreaded version returns slightly different planes from run to run,
-    and observations must be deterministic functions of (seed, id). The best plane's inliers are
-    then refitted by least squares (smallest principal axis).
-
-    Returns the unit normal ``n`` (3,) oriented towards the origin (the camera), the offset
-    ``d`` >= 0 (so ``n . p + d`` is the height above the plane) and the number of inliers.
-    ``distance`` is in the points' unit.
-    """
-    p = np.asarray(points, np.float64)
-    if len(p) < 3:
-        raise DatasetError("too few background points to fit the ground plane")
-    rng = np.random.default_rng(seed)
-    idx = rng.integers(0, len(p), size=(max(int(iterations), 1), 3))
-    a, b, c = p[idx[:, 0]], p[idx[:, 1]], p[idx[:, 2]]
-    normals = np.cross(b - a, c - a)
-    norms = np.linalg.norm(normals, axis=1)
-    ok = norms > 1e-12 * max(float(np.abs(p).max()), 1.0) ** 2
-    if not ok.any():
-        raise DatasetError("background points are collinear; cannot fit the ground plane")
-    normals, offsets = normals[ok] / norms[ok, None], -np.einsum("ij,ij->i", normals[ok] / norms[ok, None], a[ok])
-    best, best_count = 0, -1
-    for s in range(0, len(normals), 64):
-        counts = (np.abs(p @ normals[s:s + 64].T + offsets[s:s + 64]) < distance).sum(axis=0)
-        k = int(counts.argmax())
-        if counts[k] > best_count:
-            best, best_count = s + k, int(counts[k])
-    n, d = normals[best], offsets[best]
-    for _ in range(2):  # least-squares refinement on the inliers
-        inl = p[np.abs(p @ n + d) < distance]
-        if len(inl) < 3:
-            break
-        centroid = inl.mean(axis=0)
-        n_new = np.linalg.svd(inl - centroid, full_matrices=False)[2][-1]
-        n = n_new if n_new @ n >= 0 else -n_new
-        d = -float(n @ centroid)
-    n_inliers = int((np.abs(p @ n + d) < distance).sum())
-    if d < 0:  # the origin must lie on the positive side: n . 0 + d > 0
-        n, d = -n, -d
-    return n, float(d), n_inliers
-
-
-SENSORLESS = (None, "", "none")
-
-
-class BopLayout:
-    """File paths of one BOP dataset split (bop_toolkit's ``dataset_params`` conventions).
-
-    Args:
-        root: dataset folder (``<models_dir>/``, ``<split>/``, ``test_targets_bop19.json``).
-        split: e.g. ``"test"``.
-        models_dir: ``"models"`` or ``"models_eval"`` (the BOP evaluation models).
-        depth_ext: ``".png"`` (most datasets) or ``".tif"`` (ITODD).
-        sensor: multi-sensor layouts (BOP-H3: ``depth_<sensor>/``, ``scene_gt_<sensor>.json``,
-            ``scene_camera_<sensor>.json``, ...); None for the classic layout.
-    """
-
-    def __init__(self, root: str | Path, split: str = "test", models_dir: str = "models",
-                 depth_ext: str = ".png", sensor: str | None = None) -> None:
-        self.root = Path(root)
-        self.split = str(split)
-        self.models_dir = str(models_dir)
-        ext = str(depth_ext)
-        self.depth_ext = ext if ext.startswith(".") else "." + ext
-        if self.depth_ext.lower() not in (".png", ".tif", ".tiff"):
-            raise DatasetError(f"dataset.depth_ext {depth_ext!r} is not .png or .tif")
-        self.sensor = None if sensor in SENSORLESS else str(sensor)
-
-    @property
-    def _sfx(self) -> str:
-        return "" if self.sensor is None else f"_{self.sensor}"
-
-    def split_dir(self) -> Path:
-        return self.root / self.split
-
-    def scene_dir(self, scene_id: int) -> Path:
-        return self.split_dir() / f"{int(scene_id):06d}"
-
-    def scene_gt(self, scene_id: int) -> Path:
-        return self.scene_dir(scene_id) / f"scene_gt{self._sfx}.json"
-
-    def scene_gt_info(self, scene_id: int) -> Path:
-        return self.scene_dir(scene_id) / f"scene_gt_info{self._sfx}.json"
-
-    def scene_camera(self, scene_id: int) -> Path:
-        return self.scene_dir(scene_id) / f"scene_camera{self._sfx}.json"
-
-    def depth(self, scene_id: int, im_id: int) -> Path:
-        return self.scene_dir(scene_id) / f"depth{self._sfx}" / f"{int(im_id):06d}{self.depth_ext}"
-
-    def mask_visib(self, scene_id: int, im_id: int, gt_idx: int) -> Path:
-        return self.scene_dir(scene_id) / f"mask_visib{self._sfx}" / f"{int(im_id):06d}_{int(gt_idx):06d}.png"
-
-    def model(self, obj_id: int) -> Path:
-        return self.root / self.models_dir / f"obj_{int(obj_id):06d}.ply"
-
-    def models_info(self) -> Path:
-        return self.root / self.models_dir / "models_info.json"
-
-    def targets(self, name: str) -> Path:
-        return self.root / name
-
-
-def read_depth(path: Path) -> np.ndarray:
-    """A depth image (16-bit PNG, or TIFF as in ITODD) as a (H, W) array of raw values
-    (multiply by the frame's ``depth_scale`` for mm)."""
-    if path.suffix.lower() == ".png":
-        return read_depth_png(path)
-    from PIL import Image
-
-    if not path.is_file():
-        raise DatasetError(f"depth image {path} does not exist")
-    try:
-        with Image.open(path) as im:
-            arr = np.asarray(im)
-    except Exception as exc:
-        raise DatasetError(f"{path} cannot be read as an image ({type(exc).__name__})") from None
-    if arr.ndim != 2 or arr.dtype.kind not in "uif":
-        raise DatasetError(f"{path} is {arr.dtype} with shape {arr.shape}; depth must be a single-channel image")
-    return arr
-
-
-def read_targets(path: Path) -> dict[tuple[int, int, int], int]:
-    """``test_targets_bop19.json``: (scene_id, im_id, obj_id) -> number of instances to find."""
-    data = read_json(path)
-    out: dict[tuple[int, int, int], int] = {}
-    try:
-        for t in data:
-            key = (int(t["scene_id"]), int(t["im_id"]), int(t["obj_id"]))
-            out[key] = out.get(key, 0) + int(t.get("inst_count", 1))
-    except (KeyError, TypeError, ValueError):
-        raise DatasetError(f"{path}: entries need scene_id, im_id, obj_id and inst_count; re-download it") from None
-    return out
-
-
-def visible_fractions(path: Path) -> dict[int, list[float]] | None:
-    """``scene_gt_info.json``: im_id -> visib_fract of each gt instance (None when absent)."""
-    if not path.is_file():
-        return None
-    data = read_json(path)
-    try:
-        return {int(k): [float(g.get("visib_fract", 1.0)) for g in v] for k, v in data.items()}
-    except (AttributeError, TypeError, ValueError):
-        raise DatasetError(f"{path}: expected {{im_id: [{{visib_fract, ...}}]}}; re-download it") from None
-
-
-def continuous_symmetry_origin(entries: list[dict], near: np.ndarray) -> np.ndarray | None:
-    """The point (3,) on the continuous-symmetry axes (least squares when there are several)
-    closest to ``near`` (3,); model frame, mm. A spin about the axes leaves it in place. None
-    without continuous symmetries."""
-    if not entries:
-        return None
-    A, b = np.zeros((3, 3)), np.zeros(3)
-    for e in entries:
-        d = np.asarray(e["axis"], float).reshape(3)
-        d = d / np.linalg.norm(d)
-        P = np.eye(3) - np.outer(d, d)  # distance of x to the line: |P (x - offset)|
-        o = np.asarray(e.get("offset", (0.0, 0.0, 0.0)), float).reshape(3)
-        A += P
-        b += P @ o
-    near = np.asarray(near, float).reshape(3)
-    return near + np.linalg.lstsq(A, b - A @ near, rcond=None)[0]
 
 
 class BOP(ObjectDataset):
@@ -332,6 +125,7 @@ class BOP(ObjectDataset):
         self._norm: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
         self._instances: dict[int, Template] = {}
         self._ids: list[str] | None = None
+        self._warned_no_info: set[int] = set()
 
     # ------------------------------------------------------------------ files
     def _scene_dir(self, scene_id: int) -> Path:
@@ -363,15 +157,24 @@ class BOP(ObjectDataset):
             scene_id = int(scene_dir.name)
             if self.scenes is not None and scene_id not in self.scenes:
                 continue
-            scene_gt = self._read_json(self.layout.scene_gt(scene_id))
+            gt_path, cam_path = self.layout.scene_gt(scene_id), self.layout.scene_camera(scene_id)
+            scene_gt = self._read_json(gt_path)
+            if not isinstance(scene_gt, dict) or not all(str(k).isdigit() for k in scene_gt):
+                raise DatasetError(f"{gt_path} must map image ids to lists of objects (BOP format)")
+            cameras = self._read_json(cam_path) if cam_path.is_file() else None
             visib = visible_fractions(self.layout.scene_gt_info(scene_id)) if self.min_visib_fract > 0 else None
             visib_files += visib is not None
             for im_key in sorted(scene_gt, key=int):
                 im_id = int(im_key)
                 if not self.layout.depth(scene_id, im_id).is_file():
                     continue
-                for gt_idx, gt in enumerate(scene_gt[im_key]):
-                    obj_id = int(gt["obj_id"])
+                if cameras is not None:  # a bad focal length fails the run here, not every sample
+                    camera_K(cam_path, cameras, im_key)
+                entries = scene_gt[im_key]
+                if not isinstance(entries, list):
+                    raise DatasetError(f"{gt_path}: image {im_key} must map to a list of objects (BOP format)")
+                for gt_idx, gt in enumerate(entries):
+                    obj_id = gt_obj_id(gt_path, im_key, gt_idx, gt)
                     seen_objects.add(obj_id)
                     category = self.category_of_object(obj_id)
                     if category is None:
@@ -438,7 +241,11 @@ class BOP(ObjectDataset):
         path = self.layout.models_info()
         if not path.is_file():
             return {}
-        return self._read_json(path).get(str(obj_id), {})
+        entry = self._read_json(path).get(str(obj_id))
+        if entry is None:
+            self._warn_no_info(path, obj_id)
+            return {}
+        return entry
 
     def continuous_symmetries(self, obj_id: int) -> list[dict]:
         """Every ``symmetries_continuous`` entry, ``{"axis": (3,), "offset": (3,) mm}`` (model frame)."""
@@ -466,6 +273,14 @@ class BOP(ObjectDataset):
         R, _, _ = self.normalisation(obj_id)
         axis = R @ np.asarray(sym[0]["axis"], float)
         return axis / np.linalg.norm(axis)
+
+    def _warn_no_info(self, info_path: Path, obj_id: int) -> None:
+        """Warn once per object that ``models_info.json`` lacks it (then it is non-symmetric)."""
+        if obj_id not in self._warned_no_info:
+            self._warned_no_info.add(obj_id)
+            warnings.warn(f"{info_path} has no entry for object {obj_id}; it is scored as non-symmetric: add "
+                          f"\"{obj_id}\" there, or set dataset.symmetric.<category>=[x, y, z] if it is symmetric",
+                          stacklevel=2)
 
     def discrete_symmetries(self, obj_id: int) -> tuple[np.ndarray, ...]:
         """``symmetries_discrete`` of ``models_info.json`` as (4, 4) transforms of the normalised
@@ -512,7 +327,6 @@ class BOP(ObjectDataset):
             scene_id, im_id, gt_idx = int(scene_s), int(im_s), int(gt_s)
         except ValueError:
             raise DatasetError(f"observation id {obs_id!r} is not <category>/<scene>/<image>/<gt index>") from None
-        scene_dir = self._scene_dir(scene_id)
         gt_path, cam_path = self.layout.scene_gt(scene_id), self.layout.scene_camera(scene_id)
         try:
             gt = self._read_json(gt_path)[str(im_id)][gt_idx]
@@ -521,12 +335,7 @@ class BOP(ObjectDataset):
             t_cam_model = np.asarray(gt["cam_t_m2c"], float).reshape(3)
         except (KeyError, IndexError, TypeError, ValueError):
             raise DatasetError(f"{gt_path} has no valid pose for image {im_id}, object index {gt_idx}") from None
-        try:
-            cam = self._read_json(cam_path)[str(im_id)]
-            K = np.asarray(cam["cam_K"], float).reshape(3, 3)
-            depth_scale = float(cam.get("depth_scale", 1.0))
-        except (KeyError, TypeError, ValueError):
-            raise DatasetError(f"{cam_path} has no valid cam_K for image {im_id}") from None
+        K, depth_scale = camera_K(cam_path, self._read_json(cam_path), im_id)
         if self.category_of_object(obj_id) is None:
             raise DatasetError(f"object {obj_id} in {gt_path} is not in dataset.categories; add it there")
 

@@ -28,7 +28,7 @@ from catpose.datasets.base import ObjectDataset, Observation
 from catpose.datasets.meshio import R_template_file, TemplateSet, read_off, sampled_template
 from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
 from catpose.datasets.views import pinhole_camera
-from catpose.errors import DatasetError
+from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import invert_T, normalize_to_unit_sphere, stable_seed
 from catpose.types import Template
 
@@ -66,6 +66,15 @@ def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_ob
     return points, normals
 
 
+def _check_counts(**counts: int | None) -> None:
+    """One-line :class:`ConfigError` for a count below 1 (None means "all" and passes): with
+    ``views_per_instance=0`` there would be no sample, and the error would blame ``dataset.root``."""
+    for key, n in counts.items():
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+            raise ConfigError(f"dataset.{key}={n!r} must be an integer >= 1; set dataset.{key}=<N>"
+                              + (" (or null for all)" if key == "instances_per_category" else ""))
+
+
 class ModelNetBase(ObjectDataset):
     """What the two ModelNet40 releases share: root, split and instance selection, views per
     instance, the file-to-canonical rotation (file axes, then the optional per-instance alignment
@@ -77,6 +86,7 @@ class ModelNetBase(ObjectDataset):
                      template_points: int, templates: dict[str, list] | None, template_split: str,
                      templates_root: str | None, aligned: bool, alignment_table: str | None, up: str,
                      forward: str, symmetric: dict[str, list[float]] | None, seed: int) -> None:
+        _check_counts(views_per_instance=views_per_instance, instances_per_category=instances_per_category)
         self.root = Path(root)
         if not self.root.is_dir():
             raise DatasetError(missing_root.format(root=self.root))
@@ -91,6 +101,9 @@ class ModelNetBase(ObjectDataset):
         self.template_split = str(template_split)
         self.aligned = bool(aligned)
         self.alignment = {} if aligned or not alignment_table else read_alignment_table(alignment_table)
+        # raw ModelNet40 instances differ by multiples of 90 deg of yaw: consistent only when
+        # aligned (Sedaghat et al. release) or given a per-instance alignment table
+        self.frames_consistent = self.aligned or bool(self.alignment)
         self.R_template_file = R_template_file(up, forward)
         self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
         self.seed = int(seed)

@@ -46,7 +46,7 @@ def _compose(overrides: list[str]):
 
 @pytest.mark.parametrize("group,name", _all_configs(), ids=lambda v: str(v))
 def test_config_composes_and_builds(group: str, name: str, tmp_path: Path) -> None:
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
 
     top = group.split("/")[0]
     if group in RUN_GROUPS:

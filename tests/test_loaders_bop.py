@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.datasets.bop import BOP, fit_ground_plane
+from catpose.datasets.bop import BOP
+from catpose.datasets.depthio import fit_ground_plane
 from catpose.datasets.render import PinholeCamera, render_depth
 from catpose.errors import DatasetError
 from catpose.geometry import invert_T, look_at_T_camera_world, make_T, transform_points
@@ -279,7 +280,7 @@ def test_unmapped_object_ids_are_named(bop_root):
 
 
 def test_continuous_symmetry_origin_uses_every_axis_and_offset():
-    from catpose.datasets.bop import continuous_symmetry_origin
+    from catpose.datasets.bop_layout import continuous_symmetry_origin
 
     one = continuous_symmetry_origin([{"axis": [0, 0, 2], "offset": [5, -3, 0]}], np.array([0.0, 0.0, 40.0]))
     np.testing.assert_allclose(one, [5, -3, 40])
@@ -319,7 +320,7 @@ def test_unseen_configured_ids_warn_with_the_ids_the_frames_show(bop_root):
 def test_tyol_config_composes_and_loads_the_shared_frame(shared_data):
     from hydra import compose, initialize_config_module
 
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
 
     with initialize_config_module("catpose.configs", version_base=None):
         cfg = compose("run", overrides=["dataset=tyol", f"dataset.root={shared_data / 'bop' / 'tyol'}",
