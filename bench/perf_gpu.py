@@ -35,6 +35,7 @@ def _irls():
         path = Path(__file__).resolve().parents[1] / "methods" / "irls.py"
         spec = importlib.util.spec_from_file_location("catpose_irls", path)
         irls = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = irls  # dataclasses look their module up there
         spec.loader.exec_module(irls)
     return irls
 
