@@ -211,8 +211,8 @@ class Ours(RegistrationMethod):
         P_t = feats.keypoints                                                     # (m, 2n, 3)
         m = len(P_t)
         T0 = kabsch(np.broadcast_to(P_c, (m,) + P_c.shape), A @ P_t)
-        timings["initial_pose"] = time.perf_counter() - t0
         chamfer_src = inp.points[farthest_point_indices(inp.points, self.chamfer_points)]
+        timings["initial_pose"] = time.perf_counter() - t0
         return _Prepared(feats, inp.points, P_c, P_t, A, T0, chamfer_src)
 
     def candidates(self, problem: RegistrationProblem, timings: dict[str, float] | None = None) -> Candidates:
