@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import csv
-import sys
+import inspect
 from types import SimpleNamespace
 
 import numpy as np
@@ -90,7 +90,8 @@ def test_cli_writes_the_table_and_csvs(tmp_path, capsys):
     assert rows[0]["method"] == "fgr" and float(rows[0]["ratio_to_fgr"]) == 1.0 and rows[0]["n"] == "4"
     times = list(csv.DictReader(open(tmp_path / "perf_times.csv")))
     assert len(times) == 4 and all(float(r["seconds"]) > 0 for r in times)
-    assert "_ours_fixtures" not in sys.modules  # bench never imports from tests/
+    source = inspect.getsource(perf)
+    assert "_ours_fixtures" not in source and "sys.path" not in source  # bench never imports from tests/
 
 
 def test_cuda_without_a_gpu_is_a_one_line_error():
