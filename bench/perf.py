@@ -9,14 +9,15 @@ differently configured copy in the same interleaved rounds).
 
 How it measures, so that the numbers can be trusted:
 
-- every method first registers each problem's template once, untimed: the one-off dictionary and
-  template-descriptor build (cached afterwards) is reported apart as ``warmup_s``;
-- then ``--repeat`` rounds; in each round every problem is registered by every method back to
-  back (the method order rotates per round), so load changes on a shared machine hit all methods
-  alike; every call is seeded as in ``bench run``;
-- per method: median, mean and p90 seconds per registration, the ratio of its median to FGR's
-  median from the same run, and the process' peak RSS after its warm-up (``ru_maxrss``,
-  cumulative: methods warm up in the order given); the load average before and after is printed;
+- problems are taken in order; before a problem with a new template every method registers it
+  once, untimed: the one-off dictionary and template-descriptor build (cached afterwards) is
+  reported apart as ``warmup_s``, and the caches are warm for the timed calls whatever their size;
+- then ``--repeat`` rounds on that problem, each calling every method back to back (the method
+  order rotates per round), so load changes on a shared machine hit all methods alike; every
+  call is seeded as in ``bench run``;
+- per method: median, mean and p90 seconds per registration and the ratio of its median to FGR's
+  median from the same run; the process' peak RSS (``ru_maxrss``) and the load average before
+  and after are printed and written with the table;
 - the table is also written as CSV (``--out``, default ``outputs/perf/<parameters>.csv``) with the
   raw per-registration times beside it (``*_times.csv``) and, for ``ours``, the per-stage medians.
 
@@ -163,27 +164,32 @@ def _out_path(args: argparse.Namespace) -> Path:
 
 
 def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int, batch: int = 1) -> dict[str, dict]:
-    """Warm up, then time every method on every problem in ``repeat`` interleaved rounds.
+    """Time every method on every problem, ``repeat`` times, interleaved call by call.
+
+    Problems (or batches of ``batch`` problems) are taken in order; before a problem whose
+    template is new, every method registers it once untimed (``warmup_s``: the dictionary and
+    template-descriptor build). Then ``repeat`` rounds on it, each calling every method back to
+    back, the method order rotating per round. The template caches therefore stay warm whatever
+    their size (ours keeps 8 templates' descriptors; a round-robin over more would time rebuilds).
 
     Returns per method: ``times`` (s per registration, in call order), ``stages`` (stage -> list
-    of s, ours only), ``warmup_s`` and ``peak_rss_mb`` (process peak after its warm-up).
+    of s, ours only) and ``warmup_s``.
     """
-    out: dict[str, dict] = {}
-    for name, method in methods.items():
-        seen: set = set()
-        t0 = time.perf_counter()
-        for p in problems:  # one untimed call per template builds its caches
-            if p.template.template_id not in seen:
-                seen.add(p.template.template_id)
-                _seeded(seed, p.sample_id)
-                method.register(p)
-        out[name] = {"times": [], "stages": {s: [] for s in STAGES}, "warmup_s": time.perf_counter() - t0,
-                     "peak_rss_mb": _peak_rss_mb()}
+    out = {name: {"times": [], "stages": {s: [] for s in STAGES}, "warmup_s": 0.0} for name in methods}
     names = list(methods)
+    seen: set = set()
     chunks = [problems[i:i + batch] for i in range(0, len(problems), batch)]
-    for r in range(repeat):
-        order = names[r % len(names):] + names[:r % len(names)]
-        for chunk in chunks:
+    for chunk in chunks:
+        for name, method in methods.items():
+            for p in chunk:  # one untimed call per new template builds its caches
+                if p.template.template_id not in seen:
+                    _seeded(seed, p.sample_id)
+                    t0 = time.perf_counter()
+                    method.register(p)
+                    out[name]["warmup_s"] += time.perf_counter() - t0
+        seen.update(p.template.template_id for p in chunk)
+        for r in range(repeat):
+            order = names[r % len(names):] + names[:r % len(names)]
             for name in order:
                 method, rec = methods[name], out[name]
                 if batch > 1 and hasattr(method, "register_batch"):
@@ -206,7 +212,7 @@ def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int, bat
 
 
 def summarise(measured: dict[str, dict]) -> list[dict]:
-    """One row per method: n, median/mean/p90 seconds, ratio to FGR's median, warm-up, peak RSS."""
+    """One row per method: n, median/mean/p90 seconds, ratio to FGR's median, warm-up seconds."""
     ref = measured.get(REFERENCE)
     ref_median = statistics.median(ref["times"]) if ref and ref["times"] else None
     rows = []
@@ -216,7 +222,7 @@ def summarise(measured: dict[str, dict]) -> list[dict]:
         rows.append({"method": name, "n": len(xs), "median_s": med, "mean_s": statistics.fmean(xs),
                      "p90_s": _percentile(xs, 90),
                      f"ratio_to_{REFERENCE}": med / ref_median if ref_median else float("nan"),
-                     "warmup_s": rec["warmup_s"], "peak_rss_mb": rec["peak_rss_mb"]})
+                     "warmup_s": rec["warmup_s"]})
     return rows
 
 
@@ -292,12 +298,14 @@ def main(argv: list[str] | None = None) -> int:
     measured = measure(methods, problems, args.repeat, args.seed, args.batch)
     load_after = os.getloadavg()
     rows = summarise(measured)
+    peak_rss = _peak_rss_mb()
     stage_rows = [{"method": name, "stage": s, "median_s": statistics.median(v), "mean_s": statistics.fmean(v)}
                   for name, rec in measured.items() for s, v in rec["stages"].items() if v]
 
     print(f"problems: {len(problems)} from {source}; {args.repeat} interleaved rounds; torch threads "
           f"{torch.get_num_threads()}; ours on {args.device}, batch {args.batch}; load average "
-          f"{load_before[0]:.1f} before, {load_after[0]:.1f} after on {os.cpu_count()} CPUs")
+          f"{load_before[0]:.1f} before, {load_after[0]:.1f} after on {os.cpu_count()} CPUs; "
+          f"peak RSS {peak_rss:.0f} MiB (the process, all methods)")
     print(tabulate(rows, headers="keys", tablefmt="github", floatfmt=".3f"))
     if stage_rows:
         print()
@@ -305,7 +313,7 @@ def main(argv: list[str] | None = None) -> int:
     out = _out_path(args)
     meta = {"source": source, "repeat": args.repeat, "device": args.device, "batch": args.batch,
             "threads": torch.get_num_threads(), "load_before": round(load_before[0], 2),
-            "load_after": round(load_after[0], 2), "cpus": os.cpu_count()}
+            "load_after": round(load_after[0], 2), "cpus": os.cpu_count(), "peak_rss_mb": round(peak_rss, 1)}
     _write_csv(out, [dict(r, **meta) for r in rows])
     _write_csv(out.with_name(out.stem + "_times.csv"),
                [{"method": name, "call": i, "seconds": x} for name, rec in measured.items()
