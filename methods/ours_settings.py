@@ -13,16 +13,23 @@ from catpose.methods import options
 
 @dataclass(frozen=True)
 class OptimiserSettings:
-    """Two-stage Adam on all candidates (paper Section III-D).
+    """The two optimisation stages on all candidates (paper Section III-D).
 
     Attributes:
+        solver: ``irls`` (default: each stage in closed form by iteratively reweighted Kabsch,
+            :mod:`catpose.methods.irls`) or ``adam`` (the paper's Adam on 6D rotation, translation
+            and correspondence logits, :mod:`catpose.methods.optim`).
+        irls_iterations: IRLS iterations per stage at most (each candidate also stops on
+            convergence); irls_beta: stage-2 sharpness (1 / object-normalised unit, the KL trust
+            region to the affinity is 1 / beta); irls_tol: relative objective decrease to stop.
         mode: ``joint`` (stage 1 pose, then stage 2 pose + correspondences; the paper), ``pose``
             (stage 1 only) or ``none`` (the SVD initial pose only).
-        steps_pose, steps_joint: Adam steps of stage 1 and stage 2 (paper: 300 each).
-        lr: Adam learning rate of both stages (paper: 1e-3; default 1e-2, see the config).
+        steps_pose, steps_joint: (adam) Adam steps of stage 1 and stage 2 (paper: 300 each).
+        lr: (adam) learning rate of both stages (paper: 1e-3; default 1e-2, see the config).
         stage2_top_k: if in (0, m), stage 2 runs only on the ``k`` best candidates after stage 1
             (by the selection criterion); 0 runs it on all ``m`` (the paper).
-        chamfer_weight: weight of the one-directional Chamfer term (input -> complete template; 0: off).
+        chamfer_weight: (adam) weight of the one-directional Chamfer term (input -> complete
+            template; 0: off).
         device: torch device, ``cpu`` or ``cuda``.
     """
 
@@ -33,6 +40,10 @@ class OptimiserSettings:
     stage2_top_k: int = 0
     chamfer_weight: float = 0.0
     device: str = "cpu"
+    solver: str = "irls"
+    irls_iterations: int = 5
+    irls_beta: float = 10.0
+    irls_tol: float = 1e-4
 
     def __post_init__(self) -> None:
         k, set_ = "method.optimiser.", object.__setattr__
@@ -40,7 +51,14 @@ class OptimiserSettings:
         for key in ("steps_pose", "steps_joint", "stage2_top_k"):
             set_(self, key, options.non_negative(k + key, getattr(self, key), integer=True))
         set_(self, "lr", options.positive(k + "lr", self.lr))
+        set_(self, "solver", options.one_of(k + "solver", self.solver, ("irls", "adam")))
+        set_(self, "irls_iterations", options.positive(k + "irls_iterations", self.irls_iterations, integer=True))
+        set_(self, "irls_beta", options.positive(k + "irls_beta", self.irls_beta))
+        set_(self, "irls_tol", options.non_negative(k + "irls_tol", self.irls_tol))
         set_(self, "chamfer_weight", options.non_negative(k + "chamfer_weight", self.chamfer_weight))
+        if self.chamfer_weight > 0 and self.solver == "irls":
+            raise ConfigError(f"{k}chamfer_weight={self.chamfer_weight} needs {k}solver=adam "
+                              "(the IRLS solver has no Chamfer term)")
         if str(self.device).startswith("cuda"):
             import torch
 

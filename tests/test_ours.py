@@ -17,7 +17,7 @@ from catpose.methods.descriptors import LPS, PFH  # noqa: E402
 from catpose.methods.ours import Ours, OptimiserSettings, SelectionSettings  # noqa: E402
 from catpose.types import validate_pose  # noqa: E402
 
-FAST = dict(steps_pose=100, steps_joint=100, lr=2e-2)
+FAST = dict(solver="adam", steps_pose=100, steps_joint=100, lr=2e-2)  # the Adam path (irls: tests/test_optim.py)
 
 
 def _ours(optimiser: dict | None = None, selection: dict | None = None, **kw) -> Ours:

@@ -1,0 +1,140 @@
+"""``bench perf``: interleaving, statistics, CSV output and its command line (no timing asserts)."""
+
+from __future__ import annotations
+
+import csv
+import inspect
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from catpose.bench import perf
+from catpose.errors import ConfigError
+from catpose.types import RegistrationResult
+
+
+class _Recorder:
+    """A method that records the order of its calls (shared log) and reports a stage timing."""
+
+    def __init__(self, name: str, log: list, batched: bool = False) -> None:
+        self.name, self.log = name, log
+        if batched:
+            self.register_batch = lambda ps: [self.register(p) for p in ps]
+
+    def register(self, problem):
+        self.log.append((self.name, problem.sample_id))
+        return RegistrationResult(T_target_source=np.eye(4), score=0.0,
+                                  extras={"timings": {"optimization": 0.001}})
+
+
+def _problems(k: int, templates: int = 2):
+    return [SimpleNamespace(sample_id=f"s{i}", template=SimpleNamespace(template_id=f"t{i % templates}"))
+            for i in range(k)]
+
+
+def test_methods_are_interleaved_per_call_and_rotate_per_round():
+    log: list = []
+    methods = {"a": _Recorder("a", log), "b": _Recorder("b", log)}
+    out = perf.measure(methods, _problems(3), repeat=2, seed=0)
+    # s0: warm-up of its new template t0 (untimed), then round 1 (a, b) and round 2 (b, a)
+    assert log[:6] == [("a", "s0"), ("b", "s0"), ("a", "s0"), ("b", "s0"), ("b", "s0"), ("a", "s0")]
+    assert log[6:12] == [("a", "s1"), ("b", "s1"), ("a", "s1"), ("b", "s1"), ("b", "s1"), ("a", "s1")]
+    assert log[12:] == [("a", "s2"), ("b", "s2"), ("b", "s2"), ("a", "s2")]  # t0 again: no warm-up
+    assert [len(out[m]["times"]) for m in "ab"] == [6, 6]
+    assert out["a"]["stages"]["optimization"] == [0.001] * 6
+    assert out["a"]["warmup_s"] > 0
+
+
+def test_batch_goes_through_register_batch_when_the_method_has_one():
+    log: list = []
+    calls = []
+    batched = _Recorder("ours", log, batched=True)
+    inner = batched.register_batch
+    batched.register_batch = lambda ps: calls.append(len(ps)) or inner(ps)
+    out = perf.measure({"ours": batched, "fgr": _Recorder("fgr", log)}, _problems(5), repeat=1, seed=0, batch=2)
+    assert calls == [2, 2, 1]
+    assert len(out["ours"]["times"]) == 5 and len(out["fgr"]["times"]) == 5
+
+
+def test_summary_statistics_and_ratio_to_fgr():
+    measured = {"fgr": {"times": [1.0, 2.0, 3.0], "warmup_s": 0.0},
+                "ours": {"times": [2.0, 4.0, 6.0, 100.0], "warmup_s": 0.0}}
+    rows = {r["method"]: r for r in perf.summarise(measured)}
+    assert rows["fgr"]["ratio_to_fgr"] == 1.0
+    assert rows["ours"]["median_s"] == 5.0 and rows["ours"]["ratio_to_fgr"] == 2.5
+    assert rows["ours"]["mean_s"] == pytest.approx(28.0)
+    assert rows["ours"]["p90_s"] == pytest.approx(np.percentile([2, 4, 6, 100], 90))
+    only = perf.summarise({"ours": measured["ours"]})
+    assert np.isnan(only[0]["ratio_to_fgr"])
+
+
+def test_problems_are_taken_round_robin_over_categories():
+    problems, label = perf.load_problems("synthetic", "gt_model", 4, 0,
+                                         overrides=["dataset.instances_per_category=1",
+                                                    "dataset.views_per_instance=2",
+                                                    "dataset.categories=[chair,mug]"])
+    assert [p.category for p in problems] == ["chair", "mug", "chair", "mug"]
+    assert "synthetic" in label
+
+
+def test_cli_writes_the_table_and_csvs(tmp_path, capsys):
+    out = tmp_path / "perf.csv"
+    rc = perf.main(["--methods", "fgr", "--n", "2", "--repeat", "2", "--categories", "chair",
+                    "--dataset-set", "instances_per_category=1", "--out", str(out)])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "| fgr" in text and "load average" in text
+    rows = list(csv.DictReader(open(out)))
+    assert rows[0]["method"] == "fgr" and float(rows[0]["ratio_to_fgr"]) == 1.0 and rows[0]["n"] == "4"
+    assert float(rows[0]["peak_rss_mb"]) > 0
+    times = list(csv.DictReader(open(tmp_path / "perf_times.csv")))
+    assert len(times) == 4 and all(float(r["seconds"]) > 0 for r in times)
+    source = inspect.getsource(perf)
+    assert "_ours_fixtures" not in source and "sys.path" not in source  # bench never imports from tests/
+
+
+def test_cuda_without_a_gpu_is_a_one_line_error():
+    torch = pytest.importorskip("torch")
+    if torch.cuda.is_available():
+        pytest.skip("a CUDA device is present")
+    with pytest.raises(ConfigError, match="--device cuda"):
+        perf.main(["--device", "cuda"])
+
+
+def test_bad_arguments_are_config_errors():
+    with pytest.raises(ConfigError, match="KEY=VALUE"):
+        perf.main(["--set", "nonsense"])
+    with pytest.raises(ConfigError, match="at least 1"):
+        perf.main(["--repeat", "0"])
+
+
+def test_solvers_flag_delegates_to_the_solver_benchmark(monkeypatch):
+    import catpose.bench.perf_solvers as ps
+
+    seen = []
+    monkeypatch.setattr(ps, "main", lambda argv: seen.append(argv) or 0)
+    assert perf.main(["--solvers", "--problems", "3"]) == 0
+    assert seen == [["--problems", "3"]]
+
+
+def test_labels_let_one_config_run_twice_with_its_own_options():
+    assert perf.parse_methods("ours, adam=ours ,fgr") == [("ours", "ours"), ("adam", "ours"), ("fgr", "fgr")]
+    with pytest.raises(ConfigError, match="repeats a label"):
+        perf.parse_methods("ours,ours")
+    sets = ["lr=0.1", "adam:optimiser.solver=adam", "ransac2:num_threads=2"]
+    assert perf.method_overrides("ours", "ours", sets) == ["lr=0.1"]
+    assert perf.method_overrides("adam", "ours", sets) == ["lr=0.1", "optimiser.solver=adam"]
+    assert perf.method_overrides("ransac2", "ransac", sets) == ["num_threads=2"]
+    assert perf.method_overrides("fgr", "fgr", sets) == []
+
+
+def test_solver_only_gpu_check_runs_on_cpu(tmp_path):
+    pytest.importorskip("torch")
+    from catpose.bench import perf_gpu
+
+    out = tmp_path / "gpu.csv"
+    assert perf_gpu.main(["--devices", "cpu", "--batches", "1,3", "--repeat", "1", "--out", str(out)]) == 0
+    rows = list(csv.DictReader(open(out)))
+    assert [r["batch"] for r in rows] == ["1", "3"]
+    assert all(float(r["max_rot_diff_deg_vs_cpu64"]) < 1e-6 and float(r["ms_per_problem"]) > 0 for r in rows)
