@@ -58,6 +58,37 @@ def make_problems(count: int, m: int = 18, n: int = 32, seed: int = 0) -> list:
     return out
 
 
+def dump_inputs(path: Path, golden: Path | None = None) -> int:
+    """Write the solver inputs of ours on real problems (the regression suite's golden inputs:
+    24 rendered views of 8 categories) to ``path`` (.npz): per problem ``p{i}`` (n, 3) input
+    keypoints, ``q{i}`` (m, 2n, 3) partial-template keypoints, ``A{i}`` (m, n, 2n) affinities,
+    ``T{i}`` (m, 4, 4) SVD starts. Needs the project installed (Open3D, Hydra); the file then
+    travels to a GPU machine that has only torch and NumPy. Returns the number of problems."""
+    from hydra import compose, initialize_config_module
+
+    from catpose.bench.build import build_from_config
+    from catpose.bench.golden import read_golden
+
+    golden = golden or Path(__file__).resolve().parents[1] / "results" / "reference" / "synthetic_inputs.npz"
+    with initialize_config_module("catpose.configs", version_base=None):
+        cfg = compose("run", overrides=["method=ours"])
+    _, ours = build_from_config(cfg.method, "method")
+    arrays = {}
+    samples = read_golden(golden).samples
+    for i, s in enumerate(samples):
+        x = ours._prepare(s.problem, {})
+        arrays.update({f"p{i}": x.keypoints, f"q{i}": x.P_t, f"A{i}": x.A, f"T{i}": x.T_svd})
+    np.savez_compressed(path, **arrays)
+    return len(samples)
+
+
+def load_inputs(path: Path) -> list:
+    """The problems written by :func:`dump_inputs`."""
+    with np.load(path) as z:
+        n = sum(k.startswith("p") for k in z.files)
+        return [tuple(np.asarray(z[f"{k}{i}"], np.float64) for k in "pqAT") for i in range(n)]
+
+
 def _rot_diff_deg(Ta: np.ndarray, Tb: np.ndarray) -> float:
     c = (np.einsum("bij,bij->b", Ta[:, :3, :3], Tb[:, :3, :3]) - 1) / 2
     return float(np.degrees(np.arccos(np.clip(c, -1, 1))).max())
@@ -70,7 +101,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=10)
     ap.add_argument("--iterations", type=int, default=5, help="IRLS iterations per stage (default 5)")
     ap.add_argument("--out", default=None, help="CSV path")
+    ap.add_argument("--inputs", default=None, help="real solver inputs (.npz from --dump-inputs) instead of "
+                                                   "generated problems (cycled to fill larger batches)")
+    ap.add_argument("--dump-inputs", default=None, help="write ours' solver inputs on the golden problems to this "
+                                                        ".npz and exit (needs the installed project)")
     args = ap.parse_args(argv)
+    if args.dump_inputs:
+        print(f"perf_gpu: {dump_inputs(Path(args.dump_inputs))} problems written to {args.dump_inputs}")
+        return 0
     import torch
 
     irls = _irls()
@@ -80,7 +118,11 @@ def main(argv: list[str] | None = None) -> int:
         print("perf_gpu: error: --devices cuda but torch has no CUDA device here", file=sys.stderr)
         return 2
     batches = [int(b) for b in args.batches.split(",")]
-    problems = make_problems(max(batches))
+    if args.inputs:  # the real problems, cycled for batches larger than their count
+        real = load_inputs(Path(args.inputs))
+        problems = [real[i % len(real)] for i in range(max(batches))]
+    else:
+        problems = make_problems(max(batches))
     stages = ("pose", "joint")
     reference = irls.solve_many(problems, stages, max_iter=args.iterations, tol=1e-4, device="cpu", dtype="float64")
     rows = []
@@ -105,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
                 times.append(time.perf_counter() - t0)
             ms = statistics.median(times) * 1e3 / b
             diff = max(_rot_diff_deg(r[0], ref[0]) for r, ref in zip(res, reference))
-            rows.append({"device": dev, "batch": b, "ms_per_problem": round(ms, 4),
+            rows.append({"problems": f"real ({len(real)} golden views, cycled)" if args.inputs else "generated", "device": dev, "batch": b, "ms_per_problem": round(ms, 4),
                          "problems_per_s": round(1e3 / ms, 1), "max_rot_diff_deg_vs_cpu64": round(diff, 5),
                          "dtype": dtype, "name": name, "torch": torch.__version__})
             print(rows[-1], flush=True)
