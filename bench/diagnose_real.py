@@ -58,6 +58,19 @@ class _MeshDistance:
         return np.linalg.norm(closest - points, axis=1), closest, normals
 
 
+class _CloudDistance:
+    """The same queries against a point cloud with normals (templates without a mesh)."""
+
+    def __init__(self, points: np.ndarray, normals: np.ndarray) -> None:
+        from scipy.spatial import cKDTree
+
+        self.points, self.normals, self.tree = points, normals, cKDTree(points)
+
+    def query(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        d, j = self.tree.query(points)
+        return d, self.points[j], self.normals[j]
+
+
 def _transform(T: np.ndarray, p: np.ndarray) -> np.ndarray:
     return p @ T[:3, :3].T + T[:3, 3]
 
@@ -113,7 +126,7 @@ def ablate(problem, sample, mesh: _MeshDistance, which: str, bleed: float):
 
 
 def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, bleed_mm: float,
-             ours_overrides: list[str]) -> None:
+             ours_overrides: list[str], save_dir: Path | None = None) -> None:
     from catpose.bench.metrics import sample_errors
     from catpose.bench.runner import build_from_config, seed_everything
     from catpose.bench.suite_real import METHODS, SETS, compose, shared_data_dir
@@ -133,7 +146,8 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
             problem, gt = sample.problem, sample.gt
             tpl = problem.template
             if tpl.template_id not in meshes:
-                meshes[tpl.template_id] = _MeshDistance(tpl.vertices, tpl.triangles)
+                meshes[tpl.template_id] = (_MeshDistance(tpl.vertices, tpl.triangles) if tpl.has_mesh
+                                           else _CloudDistance(tpl.points, tpl.normals))
             mesh = meshes[tpl.template_id]
             scale_mm = sample.info.get("scale_mm")
             bleed = bleed_mm / scale_mm if scale_mm else bleed_mm / 100.0  # ModelNet: 1 unit ~ 100 mm
@@ -173,6 +187,16 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
                            fit_est_mm=d_est * scale_mm if scale_mm else None,
                            fit_gt_mm=d_gt * scale_mm if scale_mm else None,
                            n_points=int(len(prob.points_camera)))
+                if save_dir is not None:  # inputs and candidates, to score selection rules offline
+                    save_dir.mkdir(parents=True, exist_ok=True)
+                    np.savez_compressed(save_dir / f"{sid.replace('/', '_')}__{which}.npz",
+                                        points=prob.points_camera, normals=prob.normals_camera,
+                                        ground=prob.ground_normal_camera, candidates=cand, T_est=T_est,
+                                        T_gt=np.asarray(gt.T_template_camera, float), template_id=tpl.template_id,
+                                        up=np.asarray(prob.template.up, float), cand_err=np.array(cand_err),
+                                        chamfer=np.array(ex["chamfer"]), tilt=np.array(ex["tilt_deg"]),
+                                        losses=np.array([np.nan if x is None else x for x in ex["losses"]]),
+                                        scale_mm=np.nan if scale_mm is None else float(scale_mm))
                 f.write(json.dumps(row) + "\n")
                 f.flush()
                 print(f"{sid} [{which}] err {row['err_deg']:.1f} sel {cand_err[sel]:.1f} oracle {cand_err[best]:.1f} "
@@ -189,8 +213,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--bleed-mm", type=float, default=10.0)
     parser.add_argument("-o", "--ours-override", action="append", default=[])
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--save-dir", type=Path, default=None, help="save inputs and candidate poses (npz)")
     args = parser.parse_args(argv)
-    diagnose(args.set, args.ablate.split(","), args.limit, args.out, args.bleed_mm, args.ours_override)
+    diagnose(args.set, args.ablate.split(","), args.limit, args.out, args.bleed_mm, args.ours_override, args.save_dir)
     return 0
 
 
