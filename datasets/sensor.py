@@ -65,7 +65,9 @@ class SensorModel:
             ``1 / subpixel_steps`` pixel (``subpixel_steps = 0``: no quantisation).
         dropout_start_deg, dropout_end_deg: incidence angles where dropout starts and is certain.
         near_m, far_m: working range; depth outside it is dropped.
-        mask_bleed_px: dilation of the object mask into the background, pixels.
+        mask_bleed_px: dilation of the object mask into the background, pixels (1 at the default
+            320x240, f = 300 px: measured against the real YCB-V frames, where 2 gave twice their
+            fraction of points > 10 mm off the object, 0.085 vs 0.033).
         distance_m: (min, max) camera distance from the object centre, drawn uniformly; the
             distance is at least ``2.5`` bounding radii so large objects stay in view.
     """
@@ -124,13 +126,13 @@ class SensorModel:
 KINECT = SensorModel(name="kinect", axial_a=0.0012, axial_b=0.0019, axial_z0=0.4, axial_c=0.0001,
                      lateral_px=0.8, lateral_angle=0.035, edge_jump_m=0.02, flying_pixel_prob=0.3,
                      disparity_focal_px=580.0, baseline_m=0.075, subpixel_steps=8.0,
-                     dropout_start_deg=70.0, dropout_end_deg=88.0, near_m=0.4, far_m=4.0, mask_bleed_px=2)
+                     dropout_start_deg=70.0, dropout_end_deg=88.0, near_m=0.4, far_m=4.0, mask_bleed_px=1)
 #: RealSense D435 (active stereo): 0.08 px subpixel RMS, ~430 px focal length at 848x480, 5 cm
 #: baseline (RMS 3.7 mm at 1 m), 1/32-pixel disparity steps, 0.2 m minimum range.
 REALSENSE = SensorModel(name="realsense", axial_a=0.0, axial_b=0.08 / (430.0 * 0.05), axial_z0=0.0, axial_c=0.0001,
                         lateral_px=1.0, lateral_angle=0.035, edge_jump_m=0.02, flying_pixel_prob=0.5,
                         disparity_focal_px=430.0, baseline_m=0.05, subpixel_steps=32.0,
-                        dropout_start_deg=65.0, dropout_end_deg=85.0, near_m=0.2, far_m=4.0, mask_bleed_px=2)
+                        dropout_start_deg=65.0, dropout_end_deg=85.0, near_m=0.2, far_m=4.0, mask_bleed_px=1)
 
 PRESETS: dict[str, SensorModel] = {"kinect": KINECT, "realsense": REALSENSE}
 
