@@ -151,9 +151,11 @@ def format_table(results: dict[tuple[str, str], dict], sets: list[str], methods:
 
 def run_suite(sets: list[str], methods: list[str], shared: Path, seed: int = 0, limit: int | None = None,
               output_root: str = "outputs/real", method_overrides: list[str] | None = None,
-              log=print) -> tuple[dict, dict]:
-    """Run every (set, method) pair; returns ({(set, method): summary row}, {set: skip reason})."""
-    from catpose.bench.runner import run
+              log=print, table_only: bool = False) -> tuple[dict, dict]:
+    """Run every (set, method) pair; returns ({(set, method): summary row}, {set: skip reason}).
+    With ``table_only`` nothing runs: the rows come from the run directories already written
+    (finished samples only; pairs never run are left out)."""
+    from catpose.bench.runner import SAMPLES_FILE, run, run_dir_for
 
     results: dict[tuple[str, str], dict] = {}
     skipped: dict[str, str] = {}
@@ -165,8 +167,13 @@ def run_suite(sets: list[str], methods: list[str], shared: Path, seed: int = 0, 
             continue
         for m in methods:
             cfg, overrides = compose(SETS[s], METHODS[m], shared, seed, limit, output_root, method_overrides or [])
-            log(f"bench suite real: {m} on {s} ...")
-            run_dir = run(cfg, overrides)
+            if table_only:
+                run_dir = run_dir_for(cfg, overrides)
+                if not (run_dir / SAMPLES_FILE).is_file():
+                    continue
+            else:
+                log(f"bench suite real: {m} on {s} ...")
+                run_dir = run(cfg, overrides)
             results[(s, m)] = summary_row(run_dir)
             results[(s, m)]["run_dir"] = str(run_dir)
     return results, skipped
@@ -184,6 +191,8 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--output-root", default="outputs/real", help="where run directories go")
     parser.add_argument("-o", "--ours-override", action="append", default=[], metavar="KEY=VALUE",
                         help="an override applied to method=ours only (repeatable), e.g. -o method.selection=loss")
+    parser.add_argument("--table-only", action="store_true",
+                        help="run nothing: the table of the run directories already written")
     parser.add_argument("--write", type=Path, default=None, help="also write the Markdown table to this file")
     args = parser.parse_args(argv)
 
@@ -197,7 +206,8 @@ def main(argv: list[str]) -> int:
         print(f"bench suite real: skipped: no shared real data at {shared} (set CATPOSE_SHARED_DATA)")
         return 0
     results, skipped = run_suite(sets, methods, shared, args.seed, args.limit, args.output_root,
-                                 args.ours_override, log=lambda msg: print(msg, file=sys.stderr))
+                                 args.ours_override, log=lambda msg: print(msg, file=sys.stderr),
+                                 table_only=args.table_only)
     table = format_table(results, [s for s in sets if s not in skipped], methods, skipped)
     print(table)
     if args.write:
