@@ -1,6 +1,7 @@
 # catpose: two commands.
 #   make demo   set up .venv (CPU torch, open3d-cpu) and run ICP and ours on the embedded data
 #   make test   the default test suite (slow tests excluded; `make test-slow` runs them)
+#   make cluster  the optional Hydra launchers (joblib, Slurm via submitit, Ray): README "Scale out"
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV ?= .venv
@@ -8,7 +9,7 @@ PY := $(VENV)/bin/python
 BENCH := $(VENV)/bin/bench
 TORCH_PIN ?= torch==2.13.0
 
-.PHONY: setup demo test test-slow regress realcheck clean
+.PHONY: setup demo test test-slow regress realcheck cluster slurm-check clean
 
 setup: $(VENV)/.installed
 
@@ -39,6 +40,17 @@ regress: setup
 # CPU-heavy (about an hour on 2 cores): runs under nice and resumes where it stopped.
 realcheck: setup
 	nice $(BENCH) suite real --write results/real/table.md
+
+# The launchers extra (`pip install -e ".[cluster]"`), with the same pins as `make setup`.
+cluster: $(VENV)/.cluster
+$(VENV)/.cluster: $(VENV)/.installed pyproject.toml
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[test,cluster]"
+	touch $@
+
+# A real single-node Slurm on this machine (Debian's slurm-wlm and munge, root only), then a
+# 2-job sweep through hydra-submitit-launcher; not part of `make test`.
+slurm-check: cluster
+	bash scripts/slurm_local.sh check
 
 clean:
 	rm -rf outputs build dist *.egg-info

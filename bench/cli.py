@@ -8,12 +8,15 @@ from __future__ import annotations
 
 import importlib
 import sys
+import warnings
+from pathlib import Path
 
 # command -> (module, function, one-line help)
 COMMANDS: dict[str, tuple[str, str, str]] = {
     "run": ("catpose.bench.run_cmd", "main", "run a method on a dataset: bench run method=ours dataset=synthetic [-m sweeps]"),
     "evaluate": ("catpose.bench.run_cmd", "evaluate_main", "recompute errors and summaries of run directories from their files"),
     "table": ("catpose.bench.tables", "main", "the paper's tables (Markdown, LaTeX, CSV) from run directories"),
+    "merge": ("catpose.bench.merge", "main", "samples.jsonl and summaries of a sharded run (shards=N) from its shard files"),
     "report": ("catpose.bench.report", "main", "tables and plots of run directories in one folder"),
     "perf": ("catpose.bench.perf", "main", "seconds per registration and per stage for ours and ICP"),
     "templates": ("catpose.bench.templates_select", "main", "choose K category templates by K-medoids over F-score"),
@@ -37,8 +40,23 @@ def _usage() -> str:
     return "\n".join(lines)
 
 
+def _one_line_catpose_warnings() -> None:
+    """Show catpose's own warnings (e.g. an object missing from models_info.json) as one line,
+    ``bench: warning: <message>``; other libraries' warnings keep Python's format."""
+    package = Path(__file__).resolve().parents[1]
+    default = warnings.formatwarning
+
+    def formatwarning(message, category, filename, lineno, line=None):  # noqa: ANN001 - warnings' signature
+        if Path(filename).resolve().is_relative_to(package) and ".venv" not in Path(filename).parts:
+            return f"bench: warning: {message}\n"
+        return default(message, category, filename, lineno, line)
+
+    warnings.formatwarning = formatwarning
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    _one_line_catpose_warnings()
     if not argv or argv[0] in ("-h", "--help", "help"):
         print(_usage())
         return 0

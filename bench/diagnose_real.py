@@ -81,14 +81,14 @@ class RecordingOurs:
     def __init__(self, ours) -> None:
         self.ours = ours
         self.candidates: np.ndarray | None = None
-        original = ours._optimize
+        original = ours.candidates
 
-        def _optimize(*args, **kwargs):
-            T, losses = original(*args, **kwargs)
-            self.candidates = T.copy()
-            return T, losses
+        def candidates(*args, **kwargs):
+            c = original(*args, **kwargs)
+            self.candidates = c.T.copy()
+            return c
 
-        ours._optimize = _optimize
+        ours.candidates = candidates
 
     def register(self, problem):
         return self.ours.register(problem)

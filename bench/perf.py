@@ -59,7 +59,7 @@ def _method(name: str, seed: int, overrides: dict):
     from hydra import compose, initialize_config_module
     from omegaconf import OmegaConf
 
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
 
     with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
         cfg = compose(config_name="run", overrides=[f"method={name}", f"seed={seed}"])

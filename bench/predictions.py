@@ -10,7 +10,11 @@ Two file formats are read (detected from the header):
 - **BOP results CSV** (``scene_id,im_id,obj_id,score,R,t,time``; bop_toolkit's format). ``R`` is
   ``R_camera_model`` (BOP's ``cam_R_m2c``), 9 space-separated row-major values; ``t`` is
   ``t_camera_model`` in millimetres; ``score`` is a confidence (higher is better); ``time`` in
-  seconds (-1 when unknown). Where several rows share an image and object, the highest score wins.
+  seconds, one value per image (-1 when unknown). Several rows of one image and object are
+  matched to that object's instances greedily by score (as bop_toolkit does); files must be
+  named ``METHOD_DATASET-SPLIT.csv`` for the toolkit. For BOP datasets ``bench score`` also
+  computes BOP's metrics (MSSD, MSPD, VSD, ADD(-S), n-degree m-cm; :mod:`catpose.bench.bop_eval`)
+  on the split's official targets with gt instances at ``visib_fract >= 0.1``.
 - **Per-sample CSV** (``sample_id,R,t[,score][,time]``): ``R``/``t`` of ``T_template_camera``
   (this project's convention: camera points into the template frame) in the object-normalised
   unit; ``sample_id`` is a run's sample id or observation id (``obs_id``).
@@ -61,13 +65,18 @@ def write_run(out_dir: str | Path, rows: Sequence[dict], config: dict, info: dic
     """
     from omegaconf import OmegaConf
 
-    from catpose.bench.runner import _jsonable, summarize_run
+    from catpose.bench.evaluate import summarize_run
+    from catpose.bench.rundir import SAMPLES_FILE, SampleWriter
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "samples.jsonl", "w", encoding="utf-8") as f:
+    (out / SAMPLES_FILE).unlink(missing_ok=True)
+    writer = SampleWriter(out / SAMPLES_FILE)
+    try:
         for r in rows:
-            f.write(json.dumps(_jsonable(r)) + "\n")
+            writer.write(r)
+    finally:
+        writer.close()
     OmegaConf.save(OmegaConf.create(config), out / "config.yaml")
     meta = {"method": _name(config.get("method")), "dataset": _name(config.get("dataset")),
             "protocol": _name(config.get("protocol")), "seed": config.get("seed"), "n_samples": len(rows)}
@@ -117,8 +126,27 @@ def _bop_ids(runs_rows: Sequence[dict]) -> tuple[list[tuple], list[dict]]:
     return out, mapping
 
 
-def export_bop(run_dir: str | Path, out_csv: str | Path) -> int:
+def image_times(ids: Sequence[tuple], runtimes: Sequence[Any]) -> dict[tuple[int, int], float]:
+    """One time per image (bop_toolkit's ``check_consistent_timings``): the sum of the
+    runtimes (s) of the image's estimates, -1 when any of them is unknown. ``ids`` start with
+    ``(scene_id, im_id, ...)``."""
+    out: dict[tuple[int, int], float] = {}
+    for i, rt in zip(ids, runtimes):
+        key = (int(i[0]), int(i[1]))
+        known = rt is not None and math.isfinite(float(rt)) and float(rt) >= 0
+        if out.get(key, 0.0) < 0 or not known:
+            out[key] = -1.0
+        else:
+            out[key] = out.get(key, 0.0) + float(rt)
+    return out
+
+
+def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True) -> int:
     """Write a run's estimates as a BOP results CSV; returns the number of rows written.
+
+    ``out_csv`` must be named ``METHOD_DATASET-SPLIT.csv`` (no ``_`` in METHOD) as the BOP
+    toolkit requires (``check_name=False`` skips this, e.g. for non-BOP datasets). ``time`` is
+    one value per image: the summed runtimes of all the image's estimates (-1 if one is unknown).
 
     Uses the run's scoring units of one view each (for the templates protocol: the template the
     method chose), skips failed samples, and writes ``<out_csv>.map.csv`` with the sample ->
@@ -129,8 +157,11 @@ def export_bop(run_dir: str | Path, out_csv: str | Path) -> int:
 
     from catpose.bench.relative import Relative
     from catpose.bench.tables import load_run, protocol_of
+    from catpose.bench.bop_eval import check_results_filename
     from catpose.geometry import invert_T
 
+    if check_name:
+        check_results_filename(out_csv)
     run = load_run(run_dir)
     proto = protocol_of(run)
     units = proto.view_rows(run.samples) if isinstance(proto, Relative) else proto.score_units(run.samples)
@@ -139,6 +170,7 @@ def export_bop(run_dir: str | Path, out_csv: str | Path) -> int:
     all_ids, all_mapping = _bop_ids(everything)
     keep = [k for k, r in enumerate(everything) if r.get("status") == "ok" and r.get("T_est") is not None]
     rows, ids, mapping = [everything[k] for k in keep], [all_ids[k] for k in keep], [all_mapping[k] for k in keep]
+    times = image_times(ids, [r.get("runtime_s") for r in rows])
     lines = [",".join(BOP_COLUMNS)]
     for r, (scene, im, obj, scale, centre, R_om) in zip(rows, ids):
         T_co = invert_T(np.asarray(r["T_est"], float).reshape(4, 4))
@@ -146,13 +178,15 @@ def export_bop(run_dir: str | Path, out_csv: str | Path) -> int:
         t = scale * T_co[:3, 3] - T_co[:3, :3] @ centre
         s = r.get("score")
         conf = 1.0 if s is None or not math.isfinite(float(s)) else math.exp(-max(float(s), 0.0))
-        rt = r.get("runtime_s")
-        rt = -1.0 if rt is None or not math.isfinite(float(rt)) else float(rt)
+        rt = times[(scene, im)]
         lines.append(f"{scene},{im},{obj},{conf:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"
                      f"{' '.join(f'{x:.9g}' for x in t)},{rt:.6g}")
     out_csv = Path(out_csv)
     out_csv.parent.mkdir(parents=True, exist_ok=True)
     out_csv.write_text("\n".join(lines) + "\n")
+    from catpose.bench.bop_eval import check_results_csv
+
+    check_results_csv(out_csv)  # what bop_toolkit's loader checks (header, ids, one time per image)
     pd.DataFrame(mapping).to_csv(str(out_csv) + ".map.csv", index=False)
     return len(rows)
 
@@ -211,11 +245,17 @@ def _orthonormalise(R: np.ndarray) -> np.ndarray:
 
 
 def read_mapping(path: str | Path) -> dict[tuple[int, int, int], str]:
-    """An export's ``<out>.map.csv``: (scene_id, im_id, obj_id) -> sample_id."""
+    """An export's ``<out>.map.csv``: (scene_id, im_id, obj_id) -> sample_id. Ids shared by
+    several samples (several instances of one object in an image) are left out: those are
+    matched greedily by score."""
     import pandas as pd
 
     df = pd.read_csv(path, dtype={"sample_id": str})
-    return {(int(r.scene_id), int(r.im_id), int(r.obj_id)): str(r.sample_id) for r in df.itertuples()}
+    keys = [(int(r.scene_id), int(r.im_id), int(r.obj_id)) for r in df.itertuples()]
+    counts: dict[tuple, int] = {}
+    for k in keys:
+        counts[k] = counts.get(k, 0) + 1
+    return {k: str(sid) for k, sid in zip(keys, df["sample_id"]) if counts[k] == 1}
 
 
 def score_predictions(preds, gt_rows: Sequence[dict], method: str,
@@ -225,21 +265,56 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str,
     ``gt_rows`` are rows with ``T_gt`` (a run's ``samples.jsonl``, one per view is enough). A
     view without a prediction is recorded as failed ("no prediction"). For a BOP file,
     ``mapping`` ((scene_id, im_id, obj_id) -> sample_id, from the export's ``.map.csv``) takes
-    precedence over the ids derived from the rows.
+    precedence over the ids derived from the rows. Without it, where several gt rows share
+    (scene_id, im_id, obj_id) (several instances of one object in an image), the estimates are
+    matched greedily as bop_toolkit does: in descending score order, each takes the unmatched
+    instance with the smallest ``err_deg`` (then ``trans_err``); extra estimates are ignored.
     """
-    from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors
+    from catpose.bench.metrics import sample_errors
+    from catpose.bench.rundir import failed_row, scored_row
     from catpose.geometry import invert_T, make_T
 
     kind = preds.attrs.get("kind", "sample")
     by_key: dict[Any, dict] = {}
+    all_by_key: dict[Any, list[dict]] = {}
     for p in preds.to_dict("records"):
         key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"])) if kind == "bop" else str(p["sample_id"])
+        all_by_key.setdefault(key, []).append(p)
         old = by_key.get(key)
         if old is None or (kind == "bop" and np.nan_to_num(p["score"], nan=-np.inf) > np.nan_to_num(old["score"], nan=-np.inf)):
             by_key[key] = p
     ids = _bop_ids(gt_rows)[0] if kind == "bop" else None
     if kind == "bop" and mapping:
         by_sample = {mapping[k]: p for k, p in by_key.items() if k in mapping}
+
+    def estimate(p: dict, k: int) -> np.ndarray:
+        T = np.asarray(p["T"], float)
+        R = _orthonormalise(T[:3, :3])
+        if kind != "bop":
+            return make_T(R, T[:3, 3])
+        _, _, _, scale, centre, R_om = ids[k]  # T_camera_model[mm] -> T_template_camera[unit]
+        R_co = R @ R_om.T
+        return invert_T(make_T(R_co, (T[:3, 3] + R_co @ centre) / scale))
+
+    def errors_of(T_est: np.ndarray, g: dict) -> dict:
+        axis, symmetries = g.get("symmetry_axis"), g.get("symmetries")
+        return sample_errors(T_est, np.asarray(g["T_gt"], float).reshape(4, 4),
+                             None if axis is None else np.asarray(axis, float),
+                             symmetries if isinstance(symmetries, (list, tuple)) else ())
+
+    matched: dict[int, dict] = {}
+    if kind == "bop":
+        groups: dict[tuple, list[int]] = {}
+        for k in range(len(gt_rows)):
+            groups.setdefault(ids[k][:3], []).append(k)
+        for key, members in groups.items():
+            cands = sorted(all_by_key.get(key, []), key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
+            free = list(members)
+            for p in cands[:len(members)]:
+                errs = {k: errors_of(estimate(p, k), gt_rows[k]) for k in free}
+                best = min(free, key=lambda k: (round(errs[k]["err_deg"], 9), errs[k]["trans_err"]))
+                matched[best] = p
+                free.remove(best)
     out = []
     for k, g in enumerate(gt_rows):
         row = {key: g.get(key) for key in ("sample_id", "group_id", "obs_id", "category", "instance_id", "template_id",
@@ -247,32 +322,20 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str,
                                            "info")}
         row.update(method=method, extras={}, stage="")
         if kind == "bop":
-            scene, im, obj, scale, centre, R_om = ids[k]
-            p = by_sample.get(str(g["sample_id"])) if mapping else by_key.get((scene, im, obj))
+            sid = str(g["sample_id"])
+            p = by_sample[sid] if mapping and sid in by_sample else matched.get(k)
         else:
             p = by_key.get(str(g["sample_id"])) or by_key.get(str(g.get("obs_id")))
         if p is None:
-            row.update(status="failed", error="no prediction", stage="register", err_deg=FAILED_ERROR_DEG,
-                       rot_err_deg=None, axis_err_deg=None, trans_err=None, score=None, runtime_s=None, T_est=None)
-            out.append(row)
+            out.append(failed_row(row, "no prediction", stage="register", score=None, runtime_s=None))
             continue
-        T = np.asarray(p["T"], float)
-        R = _orthonormalise(T[:3, :3])
-        if kind == "bop":  # T_camera_model[mm] -> T_template_camera[unit]
-            R_co = R @ R_om.T
-            T_est = invert_T(make_T(R_co, (T[:3, 3] + R_co @ centre) / scale))
-        else:
-            T_est = make_T(R, T[:3, 3])
-        axis, symmetries = g.get("symmetry_axis"), g.get("symmetries")
-        errs = sample_errors(T_est, np.asarray(g["T_gt"], float).reshape(4, 4),
-                             None if axis is None else np.asarray(axis, float),
-                             symmetries if isinstance(symmetries, (list, tuple)) else ())
+        T_est = estimate(p, k)
+        errs = errors_of(T_est, g)
         score = p.get("score")
         score = None if score is None or not math.isfinite(float(score)) else (-float(score) if kind == "bop" else float(score))
         rt = p.get("time")
-        row.update(status="ok", error="", score=score, T_est=T_est.reshape(-1).tolist(),
-                   runtime_s=None if rt is None or not math.isfinite(float(rt)) or float(rt) < 0 else float(rt), **errs)
-        out.append(row)
+        out.append(scored_row(row, T_est, errs, score=score,
+                              runtime_s=None if rt is None or not math.isfinite(float(rt)) or float(rt) < 0 else float(rt)))
     return out
 
 
@@ -295,7 +358,7 @@ def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Seque
     from omegaconf import OmegaConf
 
     from catpose.bench.run_cmd import check_overrides
-    from catpose.bench.runner import build_from_config
+    from catpose.bench.build import build_from_config
 
     check_overrides([f"dataset={dataset}", f"protocol={protocol}"])
     with initialize_config_module("catpose.configs", version_base=None):
@@ -324,10 +387,11 @@ def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Seque
 
 
 def export_main(argv: list[str] | None = None) -> int:
-    """``bench export RUN_DIR --out results.csv``."""
+    """``bench export RUN_DIR --out METHOD_DATASET-SPLIT.csv``."""
     ap = argparse.ArgumentParser(prog="bench export", description="Export a run's estimates as a BOP results CSV.")
     ap.add_argument("run", help="a run directory written by `bench run`")
-    ap.add_argument("--out", required=True, help="CSV to write (a <out>.map.csv with the id mapping is written beside it)")
+    ap.add_argument("--out", required=True, help="CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the "
+                    "BOP toolkit requires; a <out>.map.csv with the id mapping is written beside it")
     args = ap.parse_args(argv)
     try:
         n = export_bop(args.run, args.out)
@@ -349,10 +413,24 @@ def score_main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--override", action="append", default=[], help="extra Hydra override for --dataset, repeatable")
     ap.add_argument("--map", default=None, help="BOP id -> sample id CSV (default: <predictions>.map.csv if present)")
-    ap.add_argument("--method", required=True, help="name of the external method (row label in tables)")
+    ap.add_argument("--method", default=None, help="name of the external method (row label in tables; default: "
+                    "METHOD of a METHOD_DATASET-SPLIT.csv file name)")
     ap.add_argument("--out", required=True, help="run directory to write")
+    ap.add_argument("--metrics", default=",".join(DEFAULT_BOP_METRICS),
+                    help="BOP datasets: comma-separated recalls, e.g. ar,ar_mssd,ar_mspd,ar_vsd,adds@0.1,add@0.1,mssd@0.2,"
+                         "mspd@10,5deg5cm,10deg10cm")
+    ap.add_argument("--by", default="object,category", help="BOP datasets: rows per object and/or category")
+    ap.add_argument("--no-vsd", action="store_true", help="BOP datasets: skip VSD (it renders the model twice per estimate)")
     args = ap.parse_args(argv)
     try:
+        if args.method is None:
+            from catpose.bench.bop_eval import check_results_filename
+
+            try:
+                args.method = check_results_filename(args.predictions)[0]
+            except InvalidInputError:
+                raise InvalidInputError(f"pass --method NAME (the file name {Path(args.predictions).name!r} is not "
+                                        "METHOD_DATASET-SPLIT.csv)") from None
         if bool(args.gt) == bool(args.dataset):
             raise InvalidInputError("pass exactly one of --gt RUN_DIR or --dataset NAME")
         gt_rows, config = gt_rows_from_run(args.gt) if args.gt else gt_rows_from_config(
@@ -365,10 +443,58 @@ def score_main(argv: list[str] | None = None) -> int:
         rows = score_predictions(preds, gt_rows, args.method, mapping)
         config = dict(config, method={"name": args.method, "external": str(args.predictions)})
         out = write_run(args.out, rows, config, {"predictions": str(args.predictions)})
+        bop_text = None
+        if preds.attrs["kind"] == "bop" and _is_bop_dataset(config.get("dataset")):
+            bop_text = score_bop(preds, config["dataset"], out, args.method, args.metrics.split(","),
+                                 args.by.split(","), vsd=not args.no_vsd)
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
     n_ok = sum(r["status"] == "ok" for r in rows)
     print(f"scored {n_ok}/{len(rows)} samples with predictions; run directory {out}")
     print((out / "summary.md").read_text())
+    print(_object_summary(rows, out))
+    if bop_text:
+        print(bop_text)
     return 0
+
+
+def _object_summary(rows: Sequence[dict], out_dir: Path) -> str:
+    """Per-object rows of the same statistics as ``summary.md`` (written to ``summary_objects.md``)."""
+    import pandas as pd
+
+    from catpose.bench.metrics import summarize
+    from catpose.bench.evaluate import format_summary
+
+    df = pd.DataFrame(list(rows))
+    df["object"] = [f"{c}/{i}" for c, i in zip(df["category"], df["instance_id"])]
+    text = format_summary(summarize(df, by="object"))
+    (Path(out_dir) / "summary_objects.md").write_text(text + "\n")
+    return text
+
+
+DEFAULT_BOP_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
+
+
+def _is_bop_dataset(node: Any) -> bool:
+    return isinstance(node, dict) and str(node.get("_target_", "")).endswith("datasets.bop.BOP")
+
+
+def score_bop(preds, dataset_cfg: dict, out_dir: str | Path, method: str, metrics: Sequence[str],
+              by: Sequence[str], vsd: bool = True) -> str:
+    """BOP metrics of a BOP results CSV on the dataset of ``dataset_cfg`` (a resolved config
+    dict): writes ``bop_errors.jsonl`` and ``bop_summary.md`` into ``out_dir`` and returns the
+    summary (which states the target and visibility filters applied)."""
+    from catpose.bench.bop_eval import ERRORS_FILE, compute_errors, format_scores, score_table, write_errors
+    from catpose.bench.build import build_from_config
+
+    _, ds = build_from_config(dict(dataset_cfg), "dataset")
+    errs = compute_errors(preds, ds, vsd=vsd)
+    header = {"method": method, "filters": list(getattr(ds, "filters", [])), "targets": len(errs),
+              "matched": int(sum(r["matched"] for r in errs))}
+    write_errors(errs, Path(out_dir) / ERRORS_FILE, header)
+    import pandas as pd
+
+    text = f"BOP metrics ({method}):\n" + format_scores(score_table(pd.DataFrame(errs), metrics, by), header)
+    (Path(out_dir) / "bop_summary.md").write_text(text + "\n")
+    return text

@@ -15,7 +15,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from catpose.datasets.base import ObjectDataset, Observation
-from catpose.errors import DatasetError
+from catpose.errors import ConfigError, DatasetError
 from catpose.types import GroundTruth, RegistrationProblem, Sample, Template
 
 
@@ -33,6 +33,21 @@ def make_sample(obs: Observation, template: Template, sample_id: str, group_id: 
                      symmetries=tuple(np.asarray(S, float) for S in obs.symmetries))
     info = {"instance_id": obs.instance_id, "template_id": template.template_id, **dict(obs.info)}
     return Sample(problem=problem, gt=gt, group_id=group_id, info=info)
+
+
+def require_consistent_frames(dataset: ObjectDataset, what: str) -> None:
+    """Refuse a category-level protocol on a dataset whose instances' frames are not declared
+    consistent (``dataset.frames_consistent``): a template's frame would differ from the
+    observed instance's by an unknown rotation, and the errors would measure that rotation.
+
+    Raises:
+        ConfigError: one line naming the fixes.
+    """
+    if getattr(dataset, "frames_consistent", True):
+        return
+    raise ConfigError(f"{dataset.name}: {what} compares instances, but their frames are not declared "
+                      "consistent and dataset.alignment_table is unset; use dataset=modelnet40_aligned (the "
+                      "aligned release), or run `bench align` and set dataset.alignment_table=<csv>")
 
 
 class Protocol(ABC):
@@ -118,6 +133,7 @@ class Templates(Protocol):
         return templates[: self.max_templates] if self.max_templates else templates
 
     def sample_ids(self, dataset: ObjectDataset) -> list[str]:
+        require_consistent_frames(dataset, f"protocol={self.name}")
         ids: list[str] = []
         counts: dict[str, int] = {}
         for obs_id in dataset.observation_ids():
@@ -129,6 +145,7 @@ class Templates(Protocol):
         return ids
 
     def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
+        require_consistent_frames(dataset, f"protocol={self.name}")
         obs_id, _, k = sample_id.rpartition("|")
         obs = self._cache.get(dataset, obs_id)
         template = self._templates(dataset, obs.category)[int(k)]

@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 
 from catpose.bench.metrics import FAILED_ERROR_DEG, axis_error_deg, rotation_error_deg, translation_error
-from catpose.bench.protocols import GtModel, Protocol, Templates
+from catpose.bench.protocols import GtModel, Protocol, Templates, require_consistent_frames
+from catpose.bench.rundir import failed_row, scored_row
 from catpose.datasets.base import ObjectDataset
 from catpose.errors import ConfigError
 from catpose.geometry import invert_T
@@ -152,9 +153,17 @@ class Relative(Protocol):
 
     def sample_ids(self, dataset: ObjectDataset) -> list[str]:
         """One registration per view (``"own"``) or per (view, template) (``"category"``)."""
+        self._check_frames(dataset)
         return self._views.sample_ids(dataset)
 
+    def _check_frames(self, dataset: ObjectDataset) -> None:
+        # a constant template-to-instance rotation cancels in a relative pose, but two views that
+        # pick differently oriented templates do not: category templates need consistent frames
+        if self.template_source == "category":
+            require_consistent_frames(dataset, "protocol=relative protocol.template_source=category")
+
     def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
+        self._check_frames(dataset)
         sample = self._views.load(dataset, sample_id)
         obs_id = sample_id.rpartition("|")[0] if self.template_source == "category" else sample_id
         info = dict(sample.info)
@@ -198,8 +207,8 @@ class Relative(Protocol):
         rows = []
         for r in views[views["instance_id"].isna()].to_dict("records"):
             why = r.get("error") or "no estimate"
-            rows.append(dict(r, sample_id=r["_view"], status="failed", err_deg=FAILED_ERROR_DEG, T_est=None,
-                             error=f"view {r['_view']} failed ({why}) and its instance is unknown"))
+            rows.append(failed_row(dict(r, sample_id=r["_view"]),
+                                   f"view {r['_view']} failed ({why}) and its instance is unknown"))
         known = views.dropna(subset=["instance_id"])
         for (category, instance), g in known.groupby(["category", "instance_id"], sort=True):
             g = g.drop_duplicates("_view")
@@ -221,15 +230,12 @@ class Relative(Protocol):
                    score=float(np.nansum([r1.get("score", np.nan), r2.get("score", np.nan)])))
         failed = [r for r in (r1, r2) if r.get("status") != "ok" or _matrix(r.get("T_est")) is None]
         if failed:
-            row.update(status="failed", error=f"view {failed[0]['_view']} failed: {failed[0].get('error') or 'no estimate'}",
-                       rot_err_deg=FAILED_ERROR_DEG, axis_err_deg=float("nan"), trans_err=float("nan"),
-                       err_deg=FAILED_ERROR_DEG, T_est=None)
-            return row
+            return failed_row(row, f"view {failed[0]['_view']} failed: {failed[0].get('error') or 'no estimate'}",
+                              rot_err_deg=FAILED_ERROR_DEG, axis_err_deg=float("nan"), trans_err=float("nan"))
         T_gt1, T_gt2 = _matrix(r1.get("T_gt")), _matrix(r2.get("T_gt"))
         axis = _axis(r1.get("symmetry_axis"))
         errors = relative_errors(_matrix(r1["T_est"]), _matrix(r2["T_est"]), T_gt1, T_gt2, axis)
         T_rel_est = invert_T(_matrix(r1["T_est"])) @ _matrix(r2["T_est"])
         T_rel_gt = invert_T(T_gt1) @ T_gt2
-        row.update(status="ok", error="", T_est=T_rel_est.reshape(-1).tolist(), T_gt=T_rel_gt.reshape(-1).tolist(),
-                   symmetric=axis is not None, **errors)
-        return row
+        return scored_row(row, T_rel_est, errors, stage=row.get("stage", ""), T_gt=T_rel_gt.reshape(-1).tolist(),
+                          symmetric=axis is not None)

@@ -10,7 +10,11 @@ from pathlib import Path
 from catpose.errors import CatposeError, ConfigError
 
 _GROUPS = ("method", "dataset", "protocol")
-_failed_jobs: list[str] = []
+# hydra/launcher option -> the plugin package it needs (the cluster extra, `make cluster`)
+_LAUNCHER_PLUGINS = {"joblib": "hydra_joblib_launcher", "local_procs": "hydra_joblib_launcher",
+                     "submitit_local": "hydra_submitit_launcher", "submitit_slurm": "hydra_submitit_launcher",
+                     "slurm": "hydra_submitit_launcher", "ray": "hydra_ray_launcher",
+                     "ray_local": "hydra_ray_launcher"}
 
 
 def available(group: str) -> list[str]:
@@ -33,38 +37,67 @@ def check_overrides(argv: list[str]) -> None:
                                   f"(add configs/{key}/{v}.yaml to plug in a new one)")
 
 
+def check_launcher(argv: list[str]) -> None:
+    """Fail fast, in one line, on a launcher whose Hydra plugin is not installed."""
+    import importlib.util
+
+    for arg in argv:
+        key, sep, value = arg.partition("=")
+        if key.lstrip("+~") != "hydra/launcher" or not sep or value == "basic":
+            continue
+        plugin = _LAUNCHER_PLUGINS.get(value)
+        if plugin is None:
+            raise ConfigError(f"unknown hydra/launcher {value!r}; use one of basic, {', '.join(_LAUNCHER_PLUGINS)}")
+        try:
+            found = importlib.util.find_spec(f"hydra_plugins.{plugin}") is not None
+        except ImportError:
+            found = False
+        if not found:
+            raise ConfigError(f"hydra/launcher={value} needs {plugin.replace('_', '-')}, which is not installed; "
+                              f"install the launchers with `make cluster` (pip install -e \".[cluster]\")")
+
+
 def main(argv: list[str]) -> int:
     if any(a in ("-h", "--help") for a in argv):
         print(__doc_run__)
         return 0
     check_overrides(argv)
+    check_launcher(argv)
     import hydra
     from hydra.core.hydra_config import HydraConfig
     from hydra.types import RunMode
 
     @hydra.main(version_base="1.3", config_path="pkg://catpose.configs", config_name="run")
-    def _job(cfg) -> None:
+    def _job(cfg) -> dict:
         from catpose.bench.runner import run
+        from catpose.errors import RunAborted
 
         hc = HydraConfig.get()
         try:
-            run(cfg, list(hc.overrides.task))
-        except CatposeError as e:
-            # one line, not Hydra's report; a sweep goes on with its other jobs
-            if hc.mode == RunMode.MULTIRUN:
-                print(f"bench run: error in job {list(hc.overrides.task)}: {e}", file=sys.stderr)
-                _failed_jobs.append(str(e))
-                return
+            out = run(cfg, list(hc.overrides.task))
+        except RunAborted as e:  # not this job's fault (disk full, broken install): stop the sweep too
             print(f"bench run: error: {e}", file=sys.stderr)
             raise SystemExit(2) from None
+        except CatposeError as e:
+            # one line, not Hydra's report; a sweep goes on with its other jobs, and the job's
+            # status reaches the parent through <sweep dir>/<job>/job.json (bench/sweep.py)
+            if hc.mode == RunMode.MULTIRUN:
+                print(f"bench run: error in job {list(hc.overrides.task)}: {e}", file=sys.stderr)
+                return {"status": "failed", "error": str(e)}
+            print(f"bench run: error: {e}", file=sys.stderr)
+            raise SystemExit(2) from None
+        return {"status": "ok", "run_dir": str(Path(out).resolve()), "label": cfg.get("label")}
 
+    from catpose.bench import sweep
+
+    sweep.last_sweep.clear()
     saved = sys.argv
     sys.argv = ["bench run", *argv]
     try:
         _job()
     finally:
         sys.argv = saved
-    return 2 if _failed_jobs else 0
+    return 2 if sweep.last_sweep.get("failed") else 0
 
 
 __doc_run__ = """usage: bench run [-m] [KEY=VALUE ...]
@@ -75,14 +108,20 @@ Run a method over every sample of a dataset under a protocol (Hydra overrides).
   dataset=NAME     one of configs/dataset/*.yaml (synthetic, modelnet40, bop, redwood, ...)
   protocol=NAME    gt_model | templates | relative
   seed=INT         fixes the samples and the methods' randomness (default 0)
-  limit=INT        only the first INT samples
+  limit=INT        only the first INT samples (INT >= 1)
+  lock_timeout=S   a second run into a busy run directory waits for the first; give up after S seconds
   method.KEY=VAL   any method option, e.g. method.lr=0.001; dataset.root=PATH for real data
   output_root=DIR  where run directories go (default: outputs)
   -m               sweep comma-separated values: bench run -m method=icp,ours seed=0,1
+  +experiment=NAME one paper table's sweep (configs/experiment/NAME.yaml), with -m
+  hydra/launcher=L with -m: local_procs | slurm | ray_local (presets) or joblib | submitit_slurm |
+                   submitit_local | ray (the cluster extra, `make cluster`); README "Scale out"
+  shard=I shards=N only the I-th of N deterministic parts of the samples (sweep shard=range(N))
 
 Writes <output_root>/<dataset>-<protocol>/<method>/seed<S>-<overrides>-<hash>/ with samples.jsonl,
 samples.csv, summary.csv, summary.md, config.yaml and git_rev.txt. Re-running the same command
-skips finished samples. Show the composed config with: bench run --cfg job"""
+skips finished samples. A sweep writes <output_root>/multirun/<name>/<time>/<job>/job.json per job
+and exits non-zero when a job failed. Show the composed config with: bench run --cfg job"""
 
 
 def evaluate_main(argv: list[str]) -> int:
@@ -90,7 +129,8 @@ def evaluate_main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="bench evaluate", description=evaluate_main.__doc__)
     parser.add_argument("run_dirs", nargs="+", type=Path, help="run directories (with samples.jsonl)")
     args = parser.parse_args(argv)
-    from catpose.bench.runner import SAMPLES_FILE, format_summary, summarize_run
+    from catpose.bench.evaluate import format_summary, summarize_run
+    from catpose.bench.rundir import SAMPLES_FILE
 
     for d in args.run_dirs:
         if not (d / SAMPLES_FILE).exists():

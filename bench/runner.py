@@ -5,171 +5,60 @@ Stages with files between them (run -> estimates and errors -> tables):
 - ``samples.jsonl``: one JSON object per finished sample, appended and flushed as soon as it is
   done, so a run killed midway loses nothing already written and a re-run skips finished
   samples (resume). A truncated last line from a kill is ignored and rewritten.
-- ``config.yaml`` (the resolved config), ``git_rev.txt``, ``run.json``.
+- ``config.yaml`` (the resolved config), ``git_rev.txt``, ``run.json`` (counts and the environment:
+  library versions, CPU, BLAS kernels).
 - ``samples.csv``, ``summary.csv``, ``summary.md``: made from ``samples.jsonl`` by
   :func:`summarize_run`, never from in-memory state.
 
 A sample whose data fails to load, whose method raises, or whose estimate is not a finite rigid
-transform is recorded with ``status="failed"`` and its message; the run goes on.
+transform is recorded with ``status="failed"`` and its message; the run goes on. What is not the
+sample's own fault aborts the run in one line and records nothing for the sample in progress, so
+a re-run redoes it: Ctrl-C (at any moment: the heavy libraries are imported before the first
+sample), an import error, ``MemoryError``, an ``OSError`` writing the run directory. A run holds
+a lock on its directory (``run.lock``); a second run of the same configuration waits for it.
 
-The run directory is ``<output_root>/<dataset>-<protocol>/<method>/<tag>-<hash>``: ``tag`` spells
-the command-line overrides (readable), ``hash`` is a digest of the resolved method, dataset,
-protocol and seed (so two different configurations never share a directory).
+The run directory's name, files, rows and lock are :mod:`catpose.bench.rundir`'s; configs become
+objects in :mod:`catpose.bench.build`; errors and summaries are :mod:`catpose.bench.evaluate`'s.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
-import hashlib
-import json
-import math
-import os
+import importlib
 import random
-import re
-import subprocess
+import signal
 import sys
+import threading
 import time
-import traceback
 from pathlib import Path
 from typing import Any, Iterable
 
 import numpy as np
 
-from catpose.errors import CatposeError, ConfigError
+from catpose.bench.build import build_from_config, validate_run_options
+from catpose.bench.evaluate import format_summary, summarize_run
+from catpose.bench.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
+from catpose.bench.rundir import (SAMPLES_FILE, RunLock, SampleWriter, failed_row, new_row, read_samples,
+                                  run_dir_for, scored_row, write_run_files, write_run_json, writing)
+from catpose.errors import CatposeError, ConfigError, RunAborted
+from catpose.errors import one_line as _one_line
 from catpose.geometry import stable_seed
 
-SAMPLES_FILE = "samples.jsonl"
-_RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", "limit", "sample_ids", "output_root",
-                               "progress", "threads", "retry_failed", "print_summary"}
+# Re-exported for callers of the runner's earlier API; new code imports them from their homes:
+# catpose.bench.build (config -> objects), .rundir (directory, rows, lock), .evaluate (errors, summaries).
+from catpose.bench.build import check_constructor_args, check_missing  # noqa: E402,F401
+from catpose.bench.evaluate import load_protocol, recompute_errors  # noqa: E402,F401
+from catpose.bench.rundir import LOCK_FILE  # noqa: E402
+from catpose.bench.rundir import latest_rows  # noqa: E402,F401
 
 
 # ---------------------------------------------------------------------------------------------
 # building the pieces from config
 
 
-def build_from_config(node: Any, what: str) -> tuple[str, Any]:
-    """Pop ``name`` from a config group node and build its ``_target_`` with the rest."""
-    from hydra.utils import instantiate
-    from omegaconf import OmegaConf
-
-    from omegaconf.errors import MissingMandatoryValue
-
-    if not isinstance(node, dict):
-        missing = sorted(OmegaConf.missing_keys(node))
-        if missing:
-            raise ConfigError(f"{what} needs {', '.join(f'{what}.{k}' for k in missing)}: "
-                              f"set it on the command line, e.g. {what}.{missing[0]}=<value>")
-    try:
-        d = OmegaConf.to_container(node, resolve=True) if not isinstance(node, dict) else dict(node)
-    except MissingMandatoryValue as e:
-        raise ConfigError(f"{what}: a required value is missing ({e}); set it on the command line") from None
-    name = str(d.pop("name", what))
-    if "_target_" not in d:
-        raise ConfigError(f"config group '{what}' ({name}) has no _target_; add one to configs/{what}/{name}.yaml")
-    try:
-        return name, instantiate(d, _convert_="all")
-    except CatposeError:
-        raise
-    except Exception as e:  # Hydra wraps constructor errors; surface the user-facing one
-        cause = e
-        while cause.__cause__ is not None:
-            cause = cause.__cause__
-        if isinstance(cause, CatposeError):
-            raise cause from None
-        raise ConfigError(f"cannot build {what} '{name}' ({d['_target_']}): {cause}") from None
-
-
-def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:
-    """The output directory of a configuration (see the module docstring)."""
-    from omegaconf import OmegaConf
-
-    identity = {k: OmegaConf.to_container(cfg[k], resolve=True) for k in ("method", "dataset", "protocol")}
-    identity["seed"] = int(cfg.seed)
-    digest = hashlib.sha1(json.dumps(identity, sort_keys=True, default=str).encode()).hexdigest()[:8]
-    parts = []
-    for o in overrides:
-        key = o.split("=", 1)[0].lstrip("+~")
-        if key.split(".")[0] in _RUN_KEYS_EXCLUDED_FROM_TAG and "." not in key:
-            continue
-        if key.startswith("hydra.") or key == "output_root":
-            continue
-        parts.append(re.sub(r"[^A-Za-z0-9_.=,+-]+", "_", o.replace("/", "_")))
-    tag = ",".join(sorted(parts))[:80] or "default"
-    name = f"seed{int(cfg.seed)}-{tag}-{digest}"
-    return Path(str(cfg.output_root)) / f"{cfg.dataset.name}-{cfg.protocol.name}" / str(cfg.method.name) / name
-
-
-def _git_revision() -> str:
-    here = Path(__file__).resolve().parent
-    try:
-        rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=10)
-        if rev.returncode != 0:
-            return "unknown (not a git checkout)"
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
-                               capture_output=True, text=True, timeout=10).stdout.strip()
-        return rev.stdout.strip() + (" (with uncommitted changes)" if dirty else "")
-    except (OSError, subprocess.SubprocessError):
-        return "unknown (git not available)"
-
-
 # ---------------------------------------------------------------------------------------------
 # the per-sample table
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, (np.floating, float)):
-        f = float(x)
-        return f if math.isfinite(f) else None
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, (np.bool_,)):
-        return bool(x)
-    if isinstance(x, (str, int, bool)) or x is None:
-        return x
-    return str(x)
-
-
-def read_samples(path: Path) -> list[dict]:
-    """Rows of a ``samples.jsonl``; a truncated last line (a killed run) is skipped."""
-    rows = []
-    if not path.exists():
-        return rows
-    with open(path, encoding="utf-8") as f:
-        for line in f:
-            line = line.strip()
-            if not line:
-                continue
-            try:
-                rows.append(json.loads(line))
-            except json.JSONDecodeError:
-                continue
-    return rows
-
-
-class _SampleWriter:
-    """Appends one JSON line per sample and makes it durable before the next sample starts."""
-
-    def __init__(self, path: Path) -> None:
-        self.path = path
-        if path.exists():  # drop a partial last line left by a kill, keep every complete one
-            data = path.read_bytes()
-            if data and not data.endswith(b"\n"):
-                path.write_bytes(data[: data.rfind(b"\n") + 1])
-        self._f = open(path, "a", encoding="utf-8")
-
-    def write(self, row: dict) -> None:
-        self._f.write(json.dumps(_jsonable(row), sort_keys=False) + "\n")
-        self._f.flush()
-        os.fsync(self._f.fileno())
-
-    def close(self) -> None:
-        self._f.close()
 
 
 def seed_everything(seed: int) -> None:
@@ -185,23 +74,28 @@ def seed_everything(seed: int) -> None:
         o3d.utility.random.seed(seed32 % (2**31))
 
 
+# raised inside a sample but not its fault: the run aborts (see run()); KeyboardInterrupt and
+# other BaseExceptions pass through `except Exception` anyway
+_NOT_THE_SAMPLES_FAULT = (ImportError, MemoryError)
+
+
 def _run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dict, seed: int) -> dict:
-    from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors
+    """Load, register and score one sample; its row (see :class:`catpose.bench.rundir.SampleRow`).
+    A failure that is the sample's own is its row's ``error``; what is not (an import error, no
+    memory) is raised."""
+    from catpose.bench.metrics import sample_errors
 
     try:
         category = dataset.category_of(sample_id.split("|")[0])
     except Exception:  # an id the dataset cannot parse still gets its failed row below
         category = None
-    row = dict(base, sample_id=sample_id, group_id=sample_id, obs_id=sample_id.split("|")[0],
-               category=category, instance_id=None, template_id=None,
-               status="failed", error="", stage="load", rot_err_deg=None, axis_err_deg=None, trans_err=None,
-               err_deg=FAILED_ERROR_DEG, symmetric=None, score=None, runtime_s=None, T_est=None, T_gt=None,
-               symmetry_axis=None, symmetries=None, info={}, extras={})
+    row = new_row(base, sample_id, category=category)
     try:
         sample = protocol.load(dataset, sample_id)
+    except _NOT_THE_SAMPLES_FAULT:
+        raise
     except Exception as e:  # a bad sample is recorded, the run goes on
-        row["error"] = _one_line(e)
-        return row
+        return failed_row(row, _one_line(e))
     info = dict(sample.info)
     row.update(group_id=sample.group_id or sample_id, category=sample.problem.category,
                instance_id=info.get("instance_id"), template_id=sample.problem.template.template_id,
@@ -213,33 +107,104 @@ def _run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dic
     t0 = time.perf_counter()
     try:
         result = method.register(sample.problem)
+    except _NOT_THE_SAMPLES_FAULT:
+        raise
     except Exception as e:
-        row["runtime_s"] = time.perf_counter() - t0
-        row["error"] = _one_line(e)
-        return row
+        return failed_row(row, _one_line(e), runtime_s=time.perf_counter() - t0)
     runtime = time.perf_counter() - t0
     result = dataclasses.replace(result, runtime_s=runtime)
     T = np.asarray(result.T_target_source, dtype=float)
     row.update(runtime_s=runtime, score=result.score, extras=dict(result.extras))
     if T.shape != (4, 4) or not np.isfinite(T).all():
-        row["error"] = f"method returned a non-finite or malformed pose (shape {T.shape})"
-        return row
+        return failed_row(row, f"method returned a non-finite or malformed pose (shape {T.shape})")
     R = T[:3, :3]
     if np.abs(R @ R.T - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
-        row["error"] = "method returned a matrix whose rotation part is not a rotation"
-        return row
-    row.update(status="ok", stage="", T_est=T.reshape(-1),
-               **sample_errors(T, sample.gt.T_template_camera, sample.gt.symmetry_axis, sample.gt.symmetries))
-    return row
+        return failed_row(row, "method returned a matrix whose rotation part is not a rotation")
+    return scored_row(row, T, sample_errors(T, sample.gt.T_template_camera, sample.gt.symmetry_axis,
+                                            sample.gt.symmetries))
 
 
-def _one_line(e: BaseException) -> str:
-    msg = " ".join(str(e).split()) or "(no message)"
-    if isinstance(e, CatposeError):
-        return msg
-    tb = traceback.extract_tb(e.__traceback__)
-    where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno})" if tb else ""
-    return f"{type(e).__name__}: {msg}{where}"
+# ---------------------------------------------------------------------------------------------
+# what aborts a run (never a sample failure)
+
+# heavy libraries, imported before the first sample so that a Ctrl-C during their import
+# (seconds) stops the run instead of turning into an ImportError of every sample. trimesh wraps
+# its optional imports (scipy, networkx, PIL, its own submodules) in `except BaseException`, so
+# it and what it looks for are imported first, before the builders need them: once loaded, no
+# window is left where a Ctrl-C would be swallowed for long. torch and Open3D come after the
+# builds, so that a config mistake is reported without waiting for them.
+_EARLY_MODULES = ("numpy", "scipy.spatial", "scipy.sparse", "scipy.optimize", "scipy.ndimage", "PIL.Image",
+                  "trimesh")
+_LATE_MODULES = ("torch", "catpose.o3d")
+_OPTIONAL_MODULES = ("networkx",)  # trimesh uses it when present
+
+
+class _Interrupts:
+    """Ctrl-C that no library can swallow or turn into another exception.
+
+    While active (main thread only, and only when SIGINT has Python's default handler), SIGINT
+    raises ``KeyboardInterrupt`` as usual and also sets :attr:`seen`; :meth:`check` re-raises it
+    after code that may have caught it (trimesh's imports catch ``BaseException``; a C extension
+    may report it as an ``ImportError`` or ``RuntimeError``).
+    """
+
+    def __init__(self) -> None:
+        self.seen = False
+        self._previous: Any = None
+
+    def _handler(self, signum: int, frame: Any) -> None:
+        self.seen = True
+        raise KeyboardInterrupt
+
+    def __enter__(self) -> "_Interrupts":
+        if (threading.current_thread() is threading.main_thread()
+                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+            self._previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+    def check(self) -> None:
+        """Raise ``KeyboardInterrupt`` if a Ctrl-C arrived, whatever became of its exception."""
+        if self.seen:
+            raise KeyboardInterrupt
+
+
+def import_heavy_libraries(interrupts: _Interrupts | None = None,
+                           modules: tuple[str, ...] = _EARLY_MODULES + _LATE_MODULES) -> None:
+    """Import ``modules`` now (default: SciPy, trimesh, torch, Open3D; see :data:`_EARLY_MODULES`).
+
+    A missing or broken library raises :class:`RunAborted` in one line; a Ctrl-C during an
+    import raises ``KeyboardInterrupt`` even when the library swallowed it.
+    """
+    if "trimesh" in modules:
+        for name in _OPTIONAL_MODULES:
+            with contextlib.suppress(ImportError):
+                importlib.import_module(name)
+            if interrupts is not None:
+                interrupts.check()
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except Exception as e:  # noqa: BLE001 - a swallowed Ctrl-C can surface as anything (trimesh: TypeError)
+            if interrupts is not None:
+                interrupts.check()
+            raise RunAborted(f"cannot import {name} ({_one_line(e)}); the installation is broken: "
+                             "reinstall with `make install` (or pip install -e .)") from None
+        if interrupts is not None:
+            interrupts.check()
+
+
+def _abort_message(e: BaseException, sample_id: str) -> str:
+    """One line for an exception that stops the run while ``sample_id`` was in progress."""
+    redo = f"sample {sample_id} was not recorded; re-run the same command to resume"
+    if isinstance(e, MemoryError):
+        return f"out of memory on sample {sample_id}; free memory or lower dataset.max_points, then re-run ({redo})"
+    name = getattr(e, "name", None) or "a module"
+    return (f"cannot import {name} on sample {sample_id} ({_one_line(e)}); the installation is broken: "
+            f"reinstall with `make install`, then re-run ({redo})")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -250,9 +215,22 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     """Run ``cfg.method`` on every sample of ``cfg.dataset`` under ``cfg.protocol``.
 
     Returns the run directory. Finished samples already in its ``samples.jsonl`` are skipped.
+    Only a sample's own fault is recorded as its failure; Ctrl-C, a failed import, no memory
+    and an unwritable output directory abort the run (``KeyboardInterrupt`` or
+    :class:`RunAborted`) and record nothing for the sample in progress.
     """
-    from omegaconf import OmegaConf
+    validate_run_options(cfg)
+    with _Interrupts() as interrupts:
+        try:
+            return _run(cfg, list(overrides), interrupts)
+        except CatposeError:
+            interrupts.check()  # a Ctrl-C that a library turned into a build or load error
+            raise
 
+
+def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
+    """Build the pieces, list the samples, lock the run directory and run (see :func:`run`)."""
+    import_heavy_libraries(interrupts, _EARLY_MODULES)
     if cfg.get("threads"):
         import torch
 
@@ -261,6 +239,10 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     dataset_name, dataset = build_from_config(cfg.dataset, "dataset")
     dataset.name = dataset_name
     _, protocol = build_from_config(cfg.protocol, "protocol")
+    interrupts.check()
+    # after the builds (so that a config mistake is reported without waiting for torch) and
+    # before the first sample (so that a Ctrl-C during an import stops the run)
+    import_heavy_libraries(interrupts, _LATE_MODULES)
 
     ids = protocol.sample_ids(dataset)
     if cfg.get("sample_ids"):
@@ -272,131 +254,92 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
         ids = wanted
     if cfg.get("limit") is not None:
         ids = ids[: int(cfg.limit)]
+    sharding = parse_shard(cfg.get("shard"), cfg.get("shards", 1))
+    if sharding:  # this job's part of the run: its own files in the run directory (bench/merge.py)
+        ids = shard_ids(ids, *sharding)
 
     out = run_dir_for(cfg, overrides)
-    out.mkdir(parents=True, exist_ok=True)
-    OmegaConf.save(cfg, out / "config.yaml", resolve=True)
-    (out / "git_rev.txt").write_text(_git_revision() + "\n")
-    (out / "overrides.txt").write_text("\n".join(overrides) + "\n")
+    with writing(out):
+        out.mkdir(parents=True, exist_ok=True)
+    # a shard locks its own files only, so the shards of one run go on side by side
+    lock = RunLock(out, cfg.get("lock_timeout"), name=shard_lock_file(*sharding) if sharding else LOCK_FILE)
+    with writing(out):
+        lock.acquire()
+    try:
+        return _run_locked(cfg, overrides, interrupts, out, ids, method_name, method, dataset_name, dataset,
+                           protocol, sharding)
+    finally:
+        lock.release()
 
-    samples_path = out / SAMPLES_FILE
+
+def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Path, ids: list[str],
+                method_name: str, method: Any, dataset_name: str, dataset: Any, protocol: Any,
+                sharding: tuple[int, int] | None = None) -> Path:
+    """The part of a run that writes ``out``, under its lock (samples read after locking, so a
+    run that waited for another skips what that one finished)."""
+
+    write_run_files(out, cfg, overrides)
+
+    samples_path = out / (shard_samples_file(*sharding) if sharding else SAMPLES_FILE)
     retry = bool(cfg.get("retry_failed", False))
     existing = read_samples(samples_path)
+    if sharding:  # samples already in the run's merged (or serial) file are done too
+        existing = read_samples(out / SAMPLES_FILE) + existing
+        write_shard_meta(out, *sharding, ids, finished=False)
     done = {r["sample_id"] for r in existing if r.get("status") == "ok" or not retry}
     todo = [s for s in ids if s not in done]
     base = {"method": method_name, "dataset": dataset_name, "protocol": str(cfg.protocol.name),
             "seed": int(cfg.seed)}
 
-    writer = _SampleWriter(samples_path)
+    with writing(out):
+        writer = SampleWriter(samples_path)
     from tqdm import tqdm
 
     bar = tqdm(total=len(ids), initial=len(ids) - len(todo), unit="sample", dynamic_ncols=True,
                desc=f"{method_name} on {dataset_name}", disable=not cfg.get("progress", True), file=sys.stderr)
     try:
         for sample_id in todo:
-            row = _run_one(method, protocol, dataset, sample_id, base, int(cfg.seed))
-            writer.write(row)
+            try:
+                row = _run_one(method, protocol, dataset, sample_id, base, int(cfg.seed))
+            except (ImportError, MemoryError) as e:
+                interrupts.check()
+                raise RunAborted(_abort_message(e, sample_id)) from None
+            interrupts.check()  # a Ctrl-C caught inside the sample is not the sample's failure
+            with writing(out):
+                writer.write(row)
             bar.update(1)
             if row["status"] != "ok":
                 bar.write(f"[failed] {sample_id}: {row['error']}", file=sys.stderr)
     finally:
         bar.close()
-        writer.close()
+        with contextlib.suppress(OSError):
+            writer.close()
 
-    meta = dict(base, n_samples=len(ids), n_run_now=len(todo), output_dir=str(out))
-    (out / "run.json").write_text(json.dumps(meta, indent=2) + "\n")
-    summary = summarize_run(out, ids)
+    if sharding:
+        write_shard_meta(out, *sharding, ids, finished=True)
+        return _finish_shard(out, sharding, cfg, base, len(ids), len(todo))
+    write_run_json(out, dict(base, n_samples=len(ids), n_run_now=len(todo), output_dir=str(out)))
+    with writing(out):
+        summary = summarize_run(out, ids)
     if cfg.get("print_summary", True):
         print(f"\n{method_name} on {dataset_name} ({cfg.protocol.name}), seed {int(cfg.seed)}: {out}")
         print(format_summary(summary))
     return out
 
 
-def load_protocol(run_dir: Path) -> Any:
-    """Rebuild the protocol of a run from its ``config.yaml`` (for scoring from files)."""
-    from omegaconf import OmegaConf
+def _finish_shard(out: Path, sharding: tuple[int, int], cfg: Any, base: dict, n_ids: int, n_run_now: int) -> Path:
+    """After a shard: merge the run when every shard is done (the last shard to finish does it)."""
+    from catpose.bench.merge import merge_run
 
-    cfg = OmegaConf.load(run_dir / "config.yaml")
-    return build_from_config(cfg.protocol, "protocol")[1]
-
-
-def recompute_errors(row: dict) -> dict:
-    """A per-sample row with its errors recomputed from ``T_est``, ``T_gt``, ``symmetry_axis``
-    and ``symmetries`` (the current metric definitions); a row without an estimate gets
-    :data:`~catpose.bench.metrics.FAILED_ERROR_DEG`. Every table is scored through this."""
-    from catpose.bench.metrics import FAILED_ERROR_DEG, sample_errors
-
-    row = dict(row)
-    T_est, T_gt = row.get("T_est"), row.get("T_gt")
-    if row.get("status") == "ok" and isinstance(T_est, (list, np.ndarray)) and isinstance(T_gt, (list, np.ndarray)):
-        axis = row.get("symmetry_axis")
-        symmetries = row.get("symmetries")
-        row.update(sample_errors(np.reshape(T_est, (4, 4)), np.reshape(T_gt, (4, 4)),
-                                 np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
-                                 symmetries if isinstance(symmetries, (list, tuple)) else ()))
-    else:
-        row["err_deg"] = FAILED_ERROR_DEG
-    return row
-
-
-def latest_rows(path: Path) -> list[dict]:
-    """The rows of a ``samples.jsonl``, one per sample (a retried sample: its last row)."""
-    latest: dict[str, dict] = {}
-    for r in read_samples(path):
-        latest.pop(r["sample_id"], None)
-        latest[r["sample_id"]] = r
-    return list(latest.values())
-
-
-def summarize_run(run_dir: Path, sample_ids: Iterable[str] | None = None):
-    """Per-category summary of a run from its files.
-
-    Writes ``samples.csv`` and ``summary.csv``/``.md`` over every finished sample of the
-    directory, so they always agree with ``samples.jsonl``. Returns that summary, or, when
-    ``sample_ids`` is given (a ``limit``-ed run of a larger directory), the summary of those
-    samples only (not written). Errors are recomputed from the stored estimates and ground
-    truth, so the statistics never depend on in-memory state.
-    """
-    import pandas as pd
-
-    run_dir = Path(run_dir)
-    df = pd.DataFrame([recompute_errors(r) for r in latest_rows(run_dir / SAMPLES_FILE)])
-    protocol = load_protocol(run_dir)
-    if len(df):
-        flat = df.drop(columns=[c for c in ("info", "extras", "symmetries") if c in df.columns]).copy()
-        for c in ("T_est", "T_gt", "symmetry_axis"):
-            if c in flat.columns:
-                flat[c] = flat[c].map(lambda v: " ".join(f"{x:.9g}" for x in np.ravel(v)) if isinstance(v, list) else "")
-        flat.to_csv(run_dir / "samples.csv", index=False)
-    summary = _summary(df, protocol)
-    summary.to_csv(run_dir / "summary.csv", index=False)
-    (run_dir / "summary.md").write_text(format_summary(summary) + "\n")
-    if sample_ids is None or len(df) == 0:
-        return summary
-    wanted = set(sample_ids)
-    return _summary(df[df["sample_id"].isin(wanted)].reset_index(drop=True), protocol)
-
-
-def _summary(df, protocol):
-    """Per-category statistics of per-sample rows scored by ``protocol``, oracle columns added
-    for protocols that report one."""
-    import pandas as pd
-
-    from catpose.bench.metrics import summarize
-
-    units = protocol.score_units(df) if len(df) else df
-    if len(units) == 0:
-        return summarize(pd.DataFrame(columns=["category", "status", "err_deg", "trans_err", "runtime_s"]))
-    summary = summarize(units)
-    if "oracle_err_deg" in units.columns:
-        oracle = summarize(units.assign(err_deg=units["oracle_err_deg"], status="ok"))
-        summary["oracle_mean_err_deg"] = oracle["mean_err_deg"].to_numpy()
-        summary["oracle_median_err_deg"] = oracle["median_err_deg"].to_numpy()
-    return summary
-
-
-def format_summary(summary) -> str:
-    """The summary as a Markdown table (angles in degrees, translation in object-normalised units)."""
-    if len(summary) == 0:
-        return "(no scored samples: none finished, or none has the ground truth this protocol scores)"
-    return summary.to_markdown(index=False, floatfmt=".3f")
+    i, n = sharding
+    head = f"\n{base['method']} on {base['dataset']} ({base['protocol']}), seed {base['seed']}, shard {i} of {n}"
+    try:
+        summary = merge_run(out)
+    except CatposeError:  # other shards still running: the last one (or bench merge) merges
+        if cfg.get("print_summary", True):
+            print(f"{head}: {n_ids} samples ({n_run_now} run now) in {out}; the last shard to finish merges (or: bench merge {out})")
+        return out
+    if cfg.get("print_summary", True):
+        print(f"{head}: all {n} shards done, merged into {out}")
+        print(format_summary(summary))
+    return out

@@ -46,7 +46,8 @@ def synthetic_rows(sensor: str, categories: list[str], instances: int, views: in
 
 def ycbv_rows(root: str, seed: int) -> list[dict]:
     from catpose.bench.protocols import GtModel
-    from catpose.datasets.bop import BOP, read_depth_png, read_mask_png
+    from catpose.datasets.bop import BOP
+    from catpose.datasets.depthio import read_depth_png, read_mask_png
     from pathlib import Path
 
     ds = BOP(root, categories={1: "can", 5: "bottle", 9: "can"}, seed=seed)

@@ -109,7 +109,7 @@ def compose(real_set: RealSet, variant: MethodVariant, shared: Path, seed: int, 
 
 def summary_row(run_dir: Path, sample_ids: list[str] | None = None) -> dict:
     """The pooled ``all`` row of a run's summary, from its files."""
-    from catpose.bench.runner import summarize_run
+    from catpose.bench.evaluate import summarize_run
 
     summary = summarize_run(run_dir, sample_ids)
     rows = summary[summary["category"] == "all"]
@@ -155,7 +155,8 @@ def run_suite(sets: list[str], methods: list[str], shared: Path, seed: int = 0, 
     """Run every (set, method) pair; returns ({(set, method): summary row}, {set: skip reason}).
     With ``table_only`` nothing runs: the rows come from the run directories already written
     (finished samples only; pairs never run are left out)."""
-    from catpose.bench.runner import SAMPLES_FILE, run, run_dir_for
+    from catpose.bench.rundir import SAMPLES_FILE, run_dir_for
+    from catpose.bench.runner import run
 
     results: dict[tuple[str, str], dict] = {}
     skipped: dict[str, str] = {}

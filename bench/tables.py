@@ -90,7 +90,7 @@ def read_samples(path: Path):
     line of a killed run is skipped, a retried sample's last row counts)."""
     import pandas as pd
 
-    from catpose.bench.runner import latest_rows
+    from catpose.bench.rundir import latest_rows
 
     return pd.DataFrame(latest_rows(Path(path)))
 
@@ -101,7 +101,7 @@ def recompute_errors(samples):
     current metric definitions rather than the numbers stored at run time."""
     import pandas as pd
 
-    from catpose.bench.runner import recompute_errors as recompute_row
+    from catpose.bench.evaluate import recompute_errors as recompute_row
 
     if len(samples) == 0 or not {"T_est", "T_gt", "status"} <= set(samples.columns):
         return samples
@@ -128,8 +128,14 @@ def load_run(path: str | Path) -> Run:
 
 def find_run_dirs(paths: Sequence[str | Path]) -> list[Path]:
     """Run directories given directly or found below the given folders (sorted, no duplicates)."""
+    from catpose.bench.merge import ensure_merged, is_sharded
+
     out: list[Path] = []
     for p in map(Path, paths):
+        if p.is_dir():  # sharded runs: samples.jsonl from the shard files first (bench merge)
+            for d in sorted({p} | {q.parent for q in p.rglob("samples.shard-*-of-*.jsonl")}):
+                if is_sharded(d):
+                    ensure_merged(d)
         if (p / "samples.jsonl").is_file():
             out.append(p)
         elif p.is_dir():
@@ -149,7 +155,7 @@ def protocol_of(run: Run):
     name."""
     cfg = run.config.get("protocol") if isinstance(run.config.get("protocol"), dict) else None
     if cfg and cfg.get("_target_"):
-        from catpose.bench.runner import build_from_config
+        from catpose.bench.build import build_from_config
 
         return build_from_config(dict(cfg), "protocol")[1]
     from catpose.bench.protocols import GtModel, Templates
@@ -193,7 +199,10 @@ def pipeline_label(run: Run) -> str:
     matching = _first(cfg, ("matching", "pipeline", "match"))
     if matching is None and run.method.lower().startswith("ours"):
         matching = "dictionary"  # our method always matches against the partial-template dictionary
-    descriptor = _first(cfg, ("descriptor", "features", "feature"))
+    # baselines name their features; ours' descriptor is a config group node ({_target_: ...LPS, ...})
+    descriptor = _first(cfg, ("features", "feature", "descriptor"))
+    if isinstance(descriptor, dict):
+        descriptor = str(descriptor.get("_target_", "")).rsplit(".", 1)[-1] or None
     parts = []
     if matching is not None:
         parts.append({"direct": "Direct match", "dictionary": "Dictionary"}.get(str(matching), str(matching)))
@@ -205,6 +214,8 @@ def pipeline_label(run: Run) -> str:
 def without_optimisation(run: Run) -> bool:
     """Whether the method config switches the pose optimisation off (ablation runs)."""
     for k, v in run.method_config.items():
+        if "optim" in k.lower() and isinstance(v, dict):  # ours: optimiser.mode
+            v = v.get("mode")
         if "optim" in k.lower() and (v is False or str(v).lower() in ("none", "false", "off", "svd")):
             return True
         if k in ("steps", "n_steps", "opt_steps", "optim_steps", "iterations") and v == 0:
@@ -216,6 +227,85 @@ def method_label(run: Run) -> str:
     """Display name of the run's method (``Ours``, ``Teaser++``, ...), marking ablations."""
     name = DISPLAY_NAMES.get(run.method.lower(), run.method)
     return f"{name} (w/o optimization)" if without_optimisation(run) else name
+
+
+def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
+    """A nested config as ``{"method.descriptor": "pfh", ...}``."""
+    if not isinstance(d, dict):
+        return {prefix: d}
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        out.update(_flat(v, f"{prefix}.{k}" if prefix else str(k)))
+    return out
+
+
+def _overrides(run: Run) -> list[str]:
+    """The command-line overrides the runner recorded beside the run (``overrides.txt``)."""
+    f = run.path / "overrides.txt"
+    if not f.is_file():
+        return []
+    return [o.strip().lstrip("+~") for o in f.read_text().splitlines()
+            if o.strip() and not o.startswith(("output_root", "progress", "print_summary", "hydra."))]
+
+
+def _short(item: str) -> str:
+    """``method.descriptor=pfh`` -> ``descriptor=pfh`` (the method is already in the label)."""
+    return item[len("method."):] if item.startswith("method.") else item
+
+
+def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
+    """Label suffixes that tell ``members`` (runs sharing a label) apart, the fewest kinds first:
+    the protocol, the dataset, the recorded overrides not shared by all, the config values that
+    differ, and only when nothing else does, the run directory's name (which ends in a hash)."""
+    def dataset(r: Run) -> str:
+        d = r.config.get("dataset")
+        return str(d.get("name", "?")) if isinstance(d, dict) else str(r.info.get("dataset", "?"))
+
+    def unique(parts: list[list[str]]) -> bool:
+        return len({tuple(p) for p in parts}) == len(parts)
+
+    parts: list[list[str]] = [[] for _ in members]
+    if len({r.protocol for r in members}) > 1:
+        parts = [p + [r.protocol] for p, r in zip(parts, members)]
+    if not unique(parts) and len({dataset(r) for r in members}) > 1:
+        parts = [p + [dataset(r)] for p, r in zip(parts, members)]
+    if not unique(parts):
+        overrides = [[o for o in _overrides(r) if o.split("=", 1)[0] not in ("protocol", "dataset")] for r in members]
+        shared = set.intersection(*(set(o) for o in overrides))
+        parts = [p + [_short(o) for o in sorted(ov) if o not in shared] for p, ov in zip(parts, overrides)]
+    if not unique(parts):
+        flats = [_flat({k: r.config.get(k) for k in ("method", "dataset", "protocol", "seed")}) for r in members]
+        keys = sorted({k for f in flats for k in f if len({json.dumps(g.get(k), sort_keys=True, default=str) for g in flats}) > 1})
+        parts = [p + [_short(f"{k}={f.get(k)}") for k in keys] for p, f in zip(parts, flats)]
+    if not unique(parts):
+        parts = [p + [r.path.name] for p, r in zip(parts, members)]
+    return parts
+
+
+def run_labels(runs: Sequence[Run], labels: dict[str, str] | None = None,
+               group_of: Callable[[Run], str] = lambda r: "") -> list[str]:
+    """One label per run (in order), unique within each row group ``group_of(run)``.
+
+    The label is the user's (``labels``, see :func:`user_label`) or :func:`method_label`. Runs
+    sharing a label and group keep it, pooled into one row, when they have the same protocol and
+    disjoint categories (one run per category); otherwise each gets only what distinguishes it
+    (:func:`_distinguishing`), e.g. ``Ours`` and ``Ours (descriptor=pfh)``, never a hash unless
+    nothing else differs.
+    """
+    labels = labels or {}
+    base = [user_label(r, labels) or method_label(r) for r in runs]
+    keyed: dict[tuple[str, str], list[int]] = {}
+    for i, r in enumerate(runs):
+        keyed.setdefault((group_of(r), base[i]), []).append(i)
+    out = list(base)
+    for idx in keyed.values():
+        members = [runs[i] for i in idx]
+        cats = [set(r.samples["category"].astype(str)) if len(r.samples) else set() for r in members]
+        if len(members) == 1 or (sum(map(len, cats)) == len(set().union(*cats)) and len({r.protocol for r in members}) == 1):
+            continue
+        for i, extra in zip(idx, _distinguishing(members)):
+            out[i] = f"{base[i]} ({', '.join(extra)})" if extra else base[i]
+    return out
 
 
 def template_count(run: Run) -> str:
@@ -410,30 +500,17 @@ def collect(runs: Sequence[Run], group_of: Callable[[Run], str], labels: dict[st
             error_of: Callable[[Run], str] = lambda r: "err_deg") -> list[Entry]:
     """Pool the scoring units of runs with the same (group, label) and summarise per category.
 
-    ``labels`` maps a run directory (as given, or its name) to a user label; ``error_of`` names
-    the error column each run is scored by (see :func:`scored_units`).
+    ``labels`` maps a run directory (as given, or its name) to a user label; labels are made
+    unique within a group by :func:`run_labels`. ``error_of`` names the error column each run is
+    scored by (see :func:`scored_units`).
     """
     import pandas as pd
 
     from catpose.bench.metrics import summarize
 
-    labels = labels or {}
-    keyed: dict[tuple[str, str], list[Run]] = {}
-    for run in runs:
-        label = user_label(run, labels) or method_label(run)
-        keyed.setdefault((group_of(run), label), []).append(run)
     pooled: dict[tuple[str, str], list] = {}
-    for (group, label), members in keyed.items():
-        cats = [set(r.samples["category"].astype(str)) if len(r.samples) else set() for r in members]
-        disjoint = sum(map(len, cats)) == len(set().union(*cats))
-        same_protocol = len({r.protocol for r in members}) == 1
-        for run in members:
-            # Runs of one label over different categories are pooled (one run per category);
-            # runs that overlap, or differ in protocol, keep their own rows.
-            key = label if disjoint and same_protocol else (
-                f"{label} ({run.protocol})" if not same_protocol and len({r.protocol for r in members}) == len(members)
-                else f"{label} [{run.path.name}]")
-            pooled.setdefault((group, key), []).append(scored_units(run, error_of(run)))
+    for run, label in zip(runs, run_labels(runs, labels, group_of)):
+        pooled.setdefault((group_of(run), label), []).append(scored_units(run, error_of(run)))
     entries = []
     for (group, label), parts in pooled.items():
         summary = summarize(pd.concat(parts, ignore_index=True)).set_index("category")
@@ -581,6 +658,15 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     return table
 
 
+def split_by_protocol(runs: Sequence[Run]) -> dict[str, list[Run]]:
+    """Runs per protocol (in first-seen order): errors of different protocols answer different
+    questions, so the report gives each its own tables and figures."""
+    out: dict[str, list[Run]] = {}
+    for r in runs:
+        out.setdefault(r.protocol, []).append(r)
+    return out
+
+
 def prune(table: Table) -> Table:
     """Drop rows, then columns, with no finite value (runs without the shown categories)."""
     def finite(r, c) -> bool:
@@ -619,11 +705,51 @@ def parse_labels(items: Sequence[str]) -> dict[str, str]:
     return out
 
 
+def sweep_runs(sweep_dirs: Sequence[str | Path]) -> tuple[list[Path], dict[str, str], dict[str, Any]]:
+    """Run directories, labels and table settings of sweeps (``bench run -m``).
+
+    Reads each job's ``job.json`` (:mod:`catpose.bench.sweep`) and the sweep's ``multirun.yaml``,
+    whose ``table`` node (set by ``configs/experiment/*.yaml``) gives ``layout``, ``categories``,
+    ``metrics``, ``error`` and ``title``. A failed or unfinished job stops the table with a
+    one-line error naming it."""
+    from catpose.bench.sweep import read_sweep
+
+    paths: list[Path] = []
+    labels: dict[str, str] = {}
+    settings: dict[str, Any] = {}
+    for d in map(Path, sweep_dirs):
+        records = read_sweep(d)
+        if not records:
+            raise DatasetError(f"{d} is not a sweep directory (no */job.json); pass <output_root>/multirun/<name>/<time> "
+                               f"of a `bench run -m` that has finished")
+        bad = [r for r in records if r.get("status") != "ok" or not r.get("run_dir")]
+        if bad:
+            raise DatasetError(f"sweep {d}: job {bad[0].get('job')} ({' '.join(bad[0].get('overrides') or [])}) failed: "
+                               f"{bad[0].get('error')}; re-run the sweep (finished samples are skipped)")
+        for r in records:
+            run_dir = Path(r["run_dir"])
+            if run_dir not in paths:
+                paths.append(run_dir)
+            if r.get("label"):
+                labels.update({str(run_dir): r["label"], str(run_dir.resolve()): r["label"]})
+        if (d / "multirun.yaml").is_file() and not settings:
+            from omegaconf import OmegaConf
+
+            table = OmegaConf.to_container(OmegaConf.load(d / "multirun.yaml"), resolve=False).get("table") or {}
+            settings = {k: v for k, v in table.items() if k in ("layout", "categories", "metrics", "error", "title")}
+    if settings.get("layout") not in (None, *LAYOUTS):
+        raise ConfigError(f"the sweep's table.layout {settings['layout']!r} is not one of {sorted(LAYOUTS)}")
+    return paths, labels, settings
+
+
 def main(argv: list[str] | None = None) -> int:
-    """``bench table RUN_DIR... [--layout L] [--format md|latex|csv] [--out FILE]``."""
+    """``bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE]``."""
     ap = argparse.ArgumentParser(prog="bench table", description="Paper tables from run directories.")
-    ap.add_argument("runs", nargs="+", help="run directories, or folders searched for samples.jsonl")
-    ap.add_argument("--layout", default="generic", choices=sorted(LAYOUTS))
+    ap.add_argument("runs", nargs="*", help="run directories, or folders searched for samples.jsonl")
+    ap.add_argument("--sweep", action="append", default=[], metavar="DIR",
+                    help="a sweep directory of `bench run -m` (<output_root>/multirun/<name>/<time>): its jobs' "
+                         "runs and labels, and the experiment's table settings (repeatable)")
+    ap.add_argument("--layout", default=None, choices=sorted(LAYOUTS), help="default: the sweep's, else generic")
     ap.add_argument("--format", default="md", choices=sorted(RENDERERS))
     ap.add_argument("--categories", default=None, help="comma-separated categories (default: the layout's)")
     ap.add_argument("--metrics", default=None, help=f"comma-separated, of {','.join(METRICS)}")
@@ -632,12 +758,32 @@ def main(argv: list[str] | None = None) -> int:
                     help="the method's own choice or the minimum across templates (oracle)")
     ap.add_argument("--title", default=None)
     ap.add_argument("--out", default=None, help="write here instead of stdout")
+    ap.add_argument("--bop-metrics", default=None,
+                    help="BOP recalls of runs scored by `bench score` (bop_errors.jsonl), e.g. "
+                         "ar_mssd,ar_mspd,adds@0.1,5deg5cm (see catpose.bench.bop_eval.parse_metric)")
+    ap.add_argument("--by", default="object,category", help="with --bop-metrics: rows per object and/or category")
     args = ap.parse_args(argv)
     try:
-        runs = [load_run(p) for p in find_run_dirs(args.runs)]
+        run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
+        if not args.runs and not run_paths:
+            raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
+        if args.bop_metrics:
+            from catpose.bench.bop_eval import table_main_from_runs
+
+            text = table_main_from_runs(find_run_dirs([*args.runs, *run_paths]), args.bop_metrics.split(","),
+                                        args.by.split(",")) + "\n"
+            Path(args.out).write_text(text) if args.out else sys.stdout.write(text)
+            return 0
+        if args.layout not in (None, defaults.get("layout")):
+            defaults = {}  # another layout than the experiment's: none of its settings apply
+        for key, value in defaults.items():  # the experiment's settings, unless given here
+            if getattr(args, key) is None and value:
+                setattr(args, key, ",".join(map(str, value)) if isinstance(value, list) else str(value))
+        args.layout = args.layout or "generic"
+        runs = [load_run(p) for p in find_run_dirs([*args.runs, *run_paths])]
         table = build_table(runs, args.layout, args.categories.split(",") if args.categories else None,
-                            args.metrics.split(",") if args.metrics else None, parse_labels(args.label),
-                            args.error, args.title)
+                            args.metrics.split(",") if args.metrics else None,
+                            {**sweep_labels, **parse_labels(args.label)}, args.error, args.title)
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

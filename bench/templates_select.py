@@ -7,19 +7,24 @@ clouds (Tatarchenko et al., "What do single-view 3D reconstruction networks lear
     precision = |{p in P : d(p, Q) < tau}| / |P|,  recall = |{q in Q : d(q, P) < tau}| / |Q|
     F = 2 * precision * recall / (precision + recall)
 
-FasterPAM (``kmedoids`` package) picks the K medoids; their instance ids are written to a YAML
-file that a dataset config lists as its templates, e.g.::
+FasterPAM (``kmedoids`` package) picks the K medoids; scikit-learn's silhouette score over the
+same precomputed distances is reported for every K (``--k auto`` takes the best). The instances
+must be in one frame: a dataset whose frames are not declared consistent (raw ModelNet40) is
+refused unless it has an alignment table (``bench align``)::
 
-    bench templates dataset=modelnet40 dataset.root=/data/ModelNet40 --category chair --k 5
-
-writes ``configs/templates/modelnet40_chair.yaml`` (or ``--out FILE``).
+    bench templates dataset=modelnet40_resampled dataset.root=/data/modelnet40_normal_resampled \
+        dataset.alignment_table=results/alignment/modelnet40_resampled_chair.csv \
+        --category chair --k 5 --out my_templates/templates/modelnet40_resampled_chair.yaml
 
 The YAML holds only ``{category: [instance ids]}`` (the shape of a dataset's ``templates``
-option) under the Hydra header ``# @package dataset.templates``, with the settings and clusters as
-comments, so the default output (``configs/templates/<dataset>_<category>.yaml``) is a config
-group that merges into the dataset's templates::
+option) under the Hydra header ``# @package dataset.templates``, with the settings, silhouette
+scores and clusters as comments, so a file ``<dir>/templates/<name>.yaml`` is a config group that
+merges into the dataset's templates::
 
-    bench run method=ours dataset=modelnet40 protocol=templates +templates=modelnet40_chair
+    bench run method=ours dataset=modelnet40 protocol=templates +templates=<name> \
+        hydra.searchpath=[file://<dir>]
+
+Nothing is written into the installed package: ``--out`` is required.
 """
 
 from __future__ import annotations
@@ -77,6 +82,16 @@ def select_medoids(D: np.ndarray, k: int, seed: int = 0) -> tuple[list[int], np.
     return [int(medoids[c]) for c in order], remap[labels]
 
 
+def silhouette_by_k(D: np.ndarray, ks: Sequence[int], seed: int = 0) -> dict[int, float]:
+    """Mean silhouette (scikit-learn, ``metric="precomputed"``) of the K-medoids clustering of the
+    (N, N) distance matrix ``D`` for each K in ``ks`` with 2 <= K <= N - 1 (higher is better)."""
+    from sklearn.metrics import silhouette_score
+
+    n = len(D)
+    return {int(k): float(silhouette_score(D, select_medoids(D, int(k), seed)[1], metric="precomputed"))
+            for k in ks if 2 <= int(k) <= n - 1}
+
+
 def subsample(points: np.ndarray, n: int, seed: int) -> np.ndarray:
     """At most ``n`` points of ``points`` (N, 3), chosen reproducibly."""
     if n <= 0 or len(points) <= n:
@@ -85,20 +100,29 @@ def subsample(points: np.ndarray, n: int, seed: int) -> np.ndarray:
     return np.asarray(points, float)[np.sort(rng.choice(len(points), size=n, replace=False))]
 
 
-def choose_templates(clouds: dict[str, np.ndarray], k: int, tau: float = 0.05, n_points: int = 2048,
+def choose_templates(clouds: dict[str, np.ndarray], k: int | str, tau: float = 0.05, n_points: int = 2048,
                      seed: int = 0) -> dict:
     """Pick ``k`` template ids among ``clouds`` (instance id -> (N, 3) complete cloud, canonical frame).
 
+    ``k="auto"`` takes the K (2..N-1) with the highest silhouette score.
+
     Returns ``{"templates": [ids, largest cluster first], "clusters": {id: [members]},
-    "mean_distance": float}`` (mean distance of each instance to its medoid).
+    "mean_distance": float, "silhouette": {K: score}, "distances": (N, N) array, "ids": [ids]}``
+    (``mean_distance``: mean distance of each instance to its medoid).
     """
     ids = list(clouds)
     pts = [subsample(clouds[i], n_points, seed) for i in ids]
     D = fscore_distances(pts, tau)
-    medoids, labels = select_medoids(D, k, seed)
+    silhouette = silhouette_by_k(D, range(2, len(ids)), seed)
+    if k == "auto":
+        if not silhouette:
+            raise ConfigError(f"--k auto needs at least 3 instances; there are {len(ids)}")
+        k = max(silhouette, key=lambda kk: (silhouette[kk], -kk))
+    medoids, labels = select_medoids(D, int(k), seed)
     clusters = {ids[m]: [ids[j] for j in np.flatnonzero(labels == c)] for c, m in enumerate(medoids)}
     mean_d = float(np.mean([D[j, medoids[labels[j]]] for j in range(len(ids))]))
-    return {"templates": [ids[m] for m in medoids], "clusters": clusters, "mean_distance": mean_d}
+    return {"templates": [ids[m] for m in medoids], "clusters": clusters, "mean_distance": mean_d,
+            "silhouette": silhouette, "distances": D, "ids": ids}
 
 
 def write_templates_yaml(path: str | Path, category: str, result: dict, settings: dict) -> Path:
@@ -123,18 +147,12 @@ def write_templates_yaml(path: str | Path, category: str, result: dict, settings
              "# Category templates chosen by `bench templates`: K-medoids (FasterPAM) over 1 - F-score@tau",
              f"# between complete canonical clouds. Last run ({category}): "
              + ", ".join(f"{k}={v}" for k, v in settings.items()),
-             f"# mean distance to medoid {result['mean_distance']:.4f}; clusters (medoid: members):"]
+             f"# mean distance to medoid {result['mean_distance']:.4f}; silhouette by K: "
+             + (", ".join(f"{k}: {v:.3f}" for k, v in result.get("silhouette", {}).items()) or "n/a"),
+             "# clusters (medoid: members):"]
     lines += [f"#   {m}: {', '.join(members)}" for m, members in result["clusters"].items()]
     path.write_text("\n".join(lines) + "\n" + yaml.safe_dump(doc, sort_keys=True))
     return path
-
-
-def default_output(dataset: str, category: str) -> Path:
-    """``configs/templates/<dataset>_<category>.yaml`` in the installed ``catpose.configs`` (a
-    Hydra group: ``bench run ... protocol=templates +templates=<dataset>_<category>``)."""
-    import catpose.configs
-
-    return Path(catpose.configs.__file__).parent / "templates" / f"{dataset}_{category}.yaml"
 
 
 def _instance_ids(dataset, category: str, split: str | None) -> list[str]:
@@ -158,36 +176,45 @@ def main(argv: list[str] | None = None) -> int:
                                  description="Choose K category templates by K-medoids over F-score distance.")
     ap.add_argument("overrides", nargs="*", help="Hydra overrides: dataset=NAME dataset.root=... seed=...")
     ap.add_argument("--category", required=True)
-    ap.add_argument("--k", type=int, default=5)
+    ap.add_argument("--k", default="5", help="number of templates, or 'auto' (best silhouette)")
     ap.add_argument("--tau", type=float, default=0.05, help="F-score distance threshold (object-normalised unit)")
     ap.add_argument("--split", default="train", help="which instances to cluster (datasets with instance_ids)")
     ap.add_argument("--instances", default=None, help="comma-separated instance ids (default: the split's)")
     ap.add_argument("--points", type=int, default=2048, help="points per cloud")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default=None, help="YAML to write (default configs/templates/<dataset>_<category>.yaml)")
+    ap.add_argument("--out", required=True, help="YAML to write (e.g. <dir>/templates/<dataset>_<category>.yaml)")
     args = ap.parse_args(argv)
     try:
+        if args.k != "auto" and not args.k.isdigit():
+            raise ConfigError(f"--k {args.k!r} is not a positive integer or 'auto'")
+        k = args.k if args.k == "auto" else int(args.k)
         from hydra import compose, initialize_config_module
 
+        from catpose.bench.protocols import require_consistent_frames
         from catpose.bench.run_cmd import check_overrides
-        from catpose.bench.runner import build_from_config
+        from catpose.bench.build import build_from_config
 
         check_overrides(list(args.overrides))
         with initialize_config_module("catpose.configs", version_base=None):
             cfg = compose("run", overrides=list(args.overrides))
         name, dataset = build_from_config(cfg.dataset, "dataset")  # one-line errors (missing root, ...)
+        dataset.name = name
+        require_consistent_frames(dataset, "bench templates")
         ids = args.instances.split(",") if args.instances else _instance_ids(dataset, args.category, args.split)
-        if len(ids) < args.k:
+        if len(ids) < (3 if k == "auto" else k):
             raise DatasetError(f"dataset {name} has {len(ids)} {args.split} instances of {args.category!r}; "
-                               f"--k {args.k} needs at least that many (check --category, --split, dataset.root)")
+                               f"--k {args.k} needs more (check --category, --split, dataset.root)")
         clouds = {i: dataset.instance_model(args.category, i).points for i in ids}
-        result = choose_templates(clouds, args.k, args.tau, args.points, args.seed)
-        out = Path(args.out) if args.out else default_output(name, args.category)
-        write_templates_yaml(out, args.category, result, {"dataset": name, "split": args.split, "k": args.k,
+        result = choose_templates(clouds, k, args.tau, args.points, args.seed)
+        out = Path(args.out)
+        write_templates_yaml(out, args.category, result, {"dataset": name, "split": args.split,
+                                                          "k": len(result["templates"]),
                                                           "tau": args.tau, "points": args.points, "seed": args.seed,
                                                           "n_instances": len(ids)})
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    print(f"{args.category}: templates {result['templates']} (mean 1-F to medoid {result['mean_distance']:.3f}); wrote {out}")
+    sil = ", ".join(f"K={kk}: {v:.3f}" for kk, v in result["silhouette"].items()) or "n/a"
+    print(f"{args.category}: templates {result['templates']} (mean 1-F to medoid {result['mean_distance']:.3f}; "
+          f"silhouette {sil}); wrote {out}")
     return 0

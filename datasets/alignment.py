@@ -6,16 +6,21 @@ degrees of yaw), so category-level ground truth needs a per-instance rotation
 canonical frame. This module reads and writes that table and estimates it by Chamfer distance
 against a reference instance.
 
-The estimate is a heuristic to review, not ground truth: on the six shared ModelNet40 airplanes
-(yaw4 search, 1024 outer-surface points) it put every fuselage on the reference's axis, but the
-nose/tail direction came out 180 degrees off for 2 of 6 with airplane_0003 or airplane_0005 as
-reference and for 4 of 6 with airplane_0001 (a high-wing plane), judged by eye from top views.
-Check the table and edit ``yaw_deg`` where needed.
+The estimate is a proposal for a person to confirm: :func:`estimate_table` searches the
+multiples of 90 degrees of yaw (optionally with an up-axis flip), refines every hypothesis by ICP,
+scores it by symmetric Chamfer against every other instance (a consensus: instances that look
+alike stay consistent with each other) and reports a confidence margin; ``bench align`` draws a
+contact sheet to check the rows by eye. Chamfer cannot tell nose from tail between unlike
+shapes: on the shared airplanes it found every fuselage axis (24/24) but turned the jets
+180 degrees against the propeller planes (with the biplane airplane_0001 as reference, 4 of 6 OFF
+and 11 of 18 resampled rows wrong, all corrected by eye in ``results/alignment/``); the chairs
+were all right (8/8).
 
 Table format (CSV with a header): ``category,instance_id`` and either the nine entries
 ``r00,r01,r02,r10,r11,r12,r20,r21,r22`` of ``R_canonical_raw`` (row-major) or ``yaw_deg``
 (a rotation about +z, the up axis). Empty cells mean "not given". Instances missing from the
-table are left as they are (identity).
+table are left as they are (identity). ``bench align`` also writes ``flip``, ``chamfer``,
+``confidence``, ``verified`` and ``note`` columns; the reader ignores them.
 """
 
 from __future__ import annotations
@@ -61,19 +66,29 @@ def read_alignment_table(path: str | Path) -> dict[tuple[str, str], np.ndarray]:
     return table
 
 
+EXTRA_COLUMNS = ["yaw_deg", "flip", "chamfer", "confidence", "verified", "note"]
+
+
 def write_alignment_table(path: str | Path, rows: list[dict]) -> None:
-    """Write rows ``{category, instance_id, R (3, 3), chamfer (optional), yaw_deg (optional)}``."""
+    """Write rows ``{category, instance_id, R (3, 3)}`` plus any of the optional keys
+    ``yaw_deg, flip, chamfer, confidence, verified, note`` (empty cells when missing)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+
+    def cell(v) -> str:
+        if v is None:
+            return ""
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        return f"{v:.6g}" if isinstance(v, float) else str(v)
+
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["category", "instance_id", *R_COLUMNS, "yaw_deg", "chamfer"])
+        w.writerow(["category", "instance_id", *R_COLUMNS, *EXTRA_COLUMNS])
         for r in rows:
             R = np.asarray(r["R"], float)
-            yaw = r.get("yaw_deg")
             w.writerow([r["category"], r["instance_id"], *(f"{x:.9g}" for x in R.reshape(-1)),
-                        "" if yaw is None else f"{yaw:.6g}",
-                        "" if r.get("chamfer") is None else f"{r['chamfer']:.6g}"])
+                        *(cell(r.get(c)) for c in EXTRA_COLUMNS)])
 
 
 def axis_aligned_rotations() -> np.ndarray:
@@ -128,3 +143,140 @@ def yaw_deg_of(R: np.ndarray) -> float | None:
     if abs(R[2, 2] - 1.0) > 1e-6:
         return None
     return float(np.rad2deg(np.arctan2(R[1, 0], R[0, 0])))
+
+
+# ---------------------------------------------------------------------------------------------
+# hypotheses, ICP refinement and the consensus estimate
+
+FLIP = np.diag([1.0, -1.0, -1.0])  # 180 deg about +x: the up axis turned over
+
+
+def yaw_flip_hypotheses(flip: bool) -> np.ndarray:
+    """The 4 yaws by multiples of 90 deg, then (``flip``) the same composed with an up-axis flip:
+    (4 or 8, 3, 3), a group (closed under products and inverses)."""
+    yaws = yaw_rotations(4)
+    return np.concatenate([yaws, yaws @ FLIP]) if flip else yaws
+
+
+def _index_of(R: np.ndarray, group: np.ndarray) -> int:
+    return int(np.argmin(np.abs(group - R).reshape(len(group), -1).max(axis=1)))
+
+
+def icp_refine(source: np.ndarray, target: np.ndarray, R_init: np.ndarray, max_distance: float,
+               iterations: int = 30) -> np.ndarray:
+    """Open3D point-to-point ICP of ``source`` (N, 3) onto ``target`` (M, 3) from rotation
+    ``R_init`` (no initial translation); returns ``T_target_source`` (4, 4)."""
+    from catpose.o3d import o3d
+
+    reg = o3d.pipelines.registration
+    T0 = np.eye(4)
+    T0[:3, :3] = R_init
+    src = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(source, float)))
+    tgt = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(target, float)))
+    result = reg.registration_icp(src, tgt, max_distance, T0, reg.TransformationEstimationPointToPoint(),
+                                  reg.ICPConvergenceCriteria(max_iteration=iterations))
+    return np.asarray(result.transformation, float)
+
+
+def pair_costs(source: np.ndarray, target: np.ndarray, hypotheses: np.ndarray, max_distance: float = 0.05,
+               refine: bool = True) -> np.ndarray:
+    """(H,) symmetric Chamfer distance between ``target`` and ``source`` turned by each hypothesis
+    ``R_target_source`` (H, 3, 3), after ICP refinement from it.
+
+    ``max_distance`` is ICP's correspondence distance (object-normalised unit): two different
+    instances are never an exact fit, and a loose one (0.2) let ICP slide 30-50 deg to partial
+    overlaps whose costs tie with the right hypothesis's on the shared airplanes; 0.05 keeps
+    refinements within 5-20 deg. A refinement that ends nearer another hypothesis scores for
+    that one; each hypothesis keeps its lowest cost, so one whose own refinement left it (and
+    that no other refinement reached) keeps its unrefined cost.
+    """
+    raw = np.array([chamfer_distance(source @ R.T, target) for R in hypotheses])
+    if not refine:
+        return raw
+    costs = raw.copy()
+    for R in hypotheses:
+        T = icp_refine(source, target, R, max_distance)
+        k = _index_of(T[:3, :3], hypotheses)
+        if np.abs(T[:3, :3] - hypotheses[k]).max() < 0.5:  # within ~30 deg of a hypothesis
+            costs[k] = min(costs[k], chamfer_distance(source @ T[:3, :3].T + T[:3, 3], target))
+    return costs
+
+
+def pairwise_costs(clouds: list[np.ndarray], hypotheses: np.ndarray, refine: bool = True,
+                   max_distance: float = 0.05) -> np.ndarray:
+    """(N, N, H) costs ``C[i, j, g]`` of hypothesis ``g`` turning cloud ``i`` onto cloud ``j``
+    (:func:`pair_costs`; zero on the diagonal)."""
+    N, H = len(clouds), len(hypotheses)
+    C = np.zeros((N, N, H))
+    for i in range(N):
+        for j in range(N):
+            if i != j:
+                C[i, j] = pair_costs(clouds[i], clouds[j], hypotheses, max_distance, refine)
+    return C
+
+
+def estimate_table(clouds: list[np.ndarray], hypotheses: np.ndarray, reference: int = 0,
+                   refine: bool = True, max_distance: float = 0.05) -> dict:
+    """Per-instance hypothesis that puts every cloud in the reference's frame.
+
+    Args:
+        clouds: N centred, unit-sphere-normalised clouds (M_i, 3), each in its own raw frame.
+        hypotheses: (H, 3, 3) rotation group (:func:`yaw_flip_hypotheses`).
+        reference: index of the instance that defines the frame.
+        refine, max_distance: ICP refinement of each hypothesis (:func:`pair_costs`).
+
+    Returns :func:`synchronize` of the pairwise costs.
+    """
+    return synchronize(pairwise_costs(clouds, hypotheses, refine, max_distance), hypotheses, reference)
+
+
+def synchronize(C: np.ndarray, hypotheses: np.ndarray, reference: int = 0, max_rounds: int = 50) -> dict:
+    """Labels ``l_i`` (``R_frame_i = G[l_i]``) minimising the summed pairwise cost
+    ``sum_{i != j} C[i, j, g(l_i, l_j)]`` with ``G[g] = G[l_j]^T G[l_i]``.
+
+    Labels are defined up to a common rotation; coordinate descent is started from each
+    instance's single-anchor estimate (every instance in turn as the anchor: an atypical anchor,
+    such as a biplane among jets, misleads a single-reference search) and the lowest total wins;
+    the labels are then expressed in ``reference``'s frame (its label is identity).
+
+    Returns a dict with ``labels`` (N,), ``labels_reference`` (N,: each instance's best
+    hypothesis against the reference alone), ``cost`` (N, H: mean cost of each hypothesis of an
+    instance against all others at their labels), ``confidence`` (N,: ``(second - best) / second``
+    of that row; 0 is a tie), ``chamfer`` (N,: cost against the reference at the labels) and
+    ``total`` (the minimised sum).
+    """
+    N, H = C.shape[0], len(hypotheses)
+    # rel[a, b]: the g turning instance i (label a) onto instance j (label b): G[b]^T G[a]
+    rel = np.array([[_index_of(hypotheses[b].T @ hypotheses[a], hypotheses) for b in range(H)] for a in range(H)])
+    others = [[j for j in range(N) if j != i] for i in range(N)]
+
+    def row_cost(labels: np.ndarray, i: int) -> np.ndarray:
+        return np.array([np.mean([C[i, j, rel[a, labels[j]]] for j in others[i]]) for a in range(H)])
+
+    def total(labels: np.ndarray) -> float:
+        return float(sum(C[i, j, rel[labels[i], labels[j]]] for i in range(N) for j in others[i]))
+
+    best = None
+    for anchor in range(N):
+        labels = np.array([0 if i == anchor else int(np.argmin(C[i, anchor])) for i in range(N)])
+        for _ in range(max_rounds):
+            changed = False
+            for i in range(N):
+                a = int(np.argmin(row_cost(labels, i)))
+                if a != labels[i] and row_cost(labels, i)[a] < row_cost(labels, i)[labels[i]] - 1e-12:
+                    labels[i], changed = a, True
+            if not changed:
+                break
+        t = total(labels)
+        if best is None or t < best[0] - 1e-12:
+            best = (t, labels.copy())
+    t, labels = best
+    # gauge: R_ref_i = G[l_ref]^T G[l_i]
+    labels = np.array([rel[labels[i], labels[reference]] for i in range(N)])
+    cost = np.stack([row_cost(labels, i) for i in range(N)]) if N > 1 else np.zeros((N, H))
+    srt = np.sort(cost, axis=1)
+    confidence = ((srt[:, 1] - srt[:, 0]) / np.maximum(srt[:, 1], 1e-12)) if H > 1 else np.ones(N)
+    labels_ref = np.array([0 if i == reference else int(np.argmin(C[i, reference])) for i in range(N)])
+    chamfer = np.array([0.0 if i == reference else C[i, reference, labels[i]] for i in range(N)])
+    return {"labels": labels, "labels_reference": labels_ref, "cost": cost, "confidence": confidence,
+            "chamfer": chamfer, "total": t}

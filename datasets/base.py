@@ -54,6 +54,13 @@ class ObjectDataset(ABC):
     """
 
     name: str = "dataset"
+    #: The instances of a category share one canonical frame, so a template (another instance)
+    #: and an observation's ground truth are in the same frame. Category-level protocols
+    #: (``templates``, ``relative`` with category templates) refuse datasets where this is False
+    #: (raw ModelNet40 without an alignment table: its instances differ by multiples of 90 deg
+    #: of yaw). True for data whose frames are consistent by construction (the synthetic set)
+    #: or whose templates are the observed objects' own models (BOP).
+    frames_consistent: bool = True
 
     @abstractmethod
     def observation_ids(self) -> list[str]:

@@ -27,13 +27,16 @@ Observation ids: ``<category>/<scene_id:06d>/<im_id:06d>/<gt_idx>``.
 
 from __future__ import annotations
 
-import json
+import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from catpose.datasets.base import ObjectDataset, Observation
+from catpose.datasets.bop_layout import (BopLayout, camera_K, continuous_symmetry_origin, gt_obj_id, read_json,
+                                         read_targets, visible_fractions)
+from catpose.datasets.depthio import fit_ground_plane, read_depth, read_mask_png
 from catpose.datasets.meshio import R_template_file, TemplateSet, read_mesh, sampled_template
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
 from catpose.errors import DatasetError
@@ -41,93 +44,6 @@ from catpose.geometry import make_T, normalize_to_unit_sphere, stable_seed
 from catpose.types import Template
 
 
-def read_json(path: Path) -> Any:
-    """Load a JSON file, raising :class:`DatasetError` naming it when missing or malformed."""
-    if not path.is_file():
-        raise DatasetError(f"{path} does not exist; check dataset.root and dataset.split")
-    try:
-        return json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DatasetError(f"{path} is not valid JSON ({exc}); re-download it") from None
-
-
-def read_depth_png(path: Path) -> np.ndarray:
-    """A 16-bit depth PNG as a (H, W) uint16 array; other dtypes raise :class:`DatasetError`."""
-    from PIL import Image
-
-    if not path.is_file():
-        raise DatasetError(f"depth image {path} does not exist")
-    try:
-        with Image.open(path) as im:
-            arr = np.asarray(im)
-    except Exception as exc:  # PIL raises several types for a broken file
-        raise DatasetError(f"{path} cannot be read as an image ({type(exc).__name__})") from None
-    if arr.ndim != 2 or arr.dtype not in (np.uint16, np.int32, np.int16):
-        raise DatasetError(f"{path} is {arr.dtype} with shape {arr.shape}; depth must be a single-channel "
-                           "16-bit PNG")
-    if arr.dtype != np.uint16:  # PIL opens some 16-bit PNGs as mode "I" (int32)
-        if arr.min() < 0 or arr.max() > 65535:
-            raise DatasetError(f"{path} has values outside 0..65535; depth must be a 16-bit PNG")
-        arr = arr.astype(np.uint16)
-    return arr
-
-
-def read_mask_png(path: Path) -> np.ndarray:
-    """A mask PNG as a (H, W) bool array (non-zero = object)."""
-    from PIL import Image
-
-    try:
-        with Image.open(path) as im:
-            arr = np.asarray(im)
-    except Exception as exc:
-        raise DatasetError(f"mask {path} cannot be read as an image ({type(exc).__name__})") from None
-    return (arr if arr.ndim == 2 else arr[..., 0]) > 0
-
-
-def fit_ground_plane(points: np.ndarray, distance: float, iterations: int,
-                     seed: int) -> tuple[np.ndarray, float, int]:
-    """Dominant plane ``n . p + d = 0`` of ``points`` (N, 3) by RANSAC, refined by least squares.
-
-    The same three-point RANSAC as Open3D's ``segment_plane``, but run here with a seeded NumPy
-    generator: Open3D's multithreaded version returns slightly different planes from run to run,
-    and observations must be deterministic functions of (seed, id). The best plane's inliers are
-    then refitted by least squares (smallest principal axis).
-
-    Returns the unit normal ``n`` (3,) oriented towards the origin (the camera), the offset
-    ``d`` >= 0 (so ``n . p + d`` is the height above the plane) and the number of inliers.
-    ``distance`` is in the points' unit.
-    """
-    p = np.asarray(points, np.float64)
-    if len(p) < 3:
-        raise DatasetError("too few background points to fit the ground plane")
-    rng = np.random.default_rng(seed)
-    idx = rng.integers(0, len(p), size=(max(int(iterations), 1), 3))
-    a, b, c = p[idx[:, 0]], p[idx[:, 1]], p[idx[:, 2]]
-    normals = np.cross(b - a, c - a)
-    norms = np.linalg.norm(normals, axis=1)
-    ok = norms > 1e-12 * max(float(np.abs(p).max()), 1.0) ** 2
-    if not ok.any():
-        raise DatasetError("background points are collinear; cannot fit the ground plane")
-    normals, offsets = normals[ok] / norms[ok, None], -np.einsum("ij,ij->i", normals[ok] / norms[ok, None], a[ok])
-    best, best_count = 0, -1
-    for s in range(0, len(normals), 64):
-        counts = (np.abs(p @ normals[s:s + 64].T + offsets[s:s + 64]) < distance).sum(axis=0)
-        k = int(counts.argmax())
-        if counts[k] > best_count:
-            best, best_count = s + k, int(counts[k])
-    n, d = normals[best], offsets[best]
-    for _ in range(2):  # least-squares refinement on the inliers
-        inl = p[np.abs(p @ n + d) < distance]
-        if len(inl) < 3:
-            break
-        centroid = inl.mean(axis=0)
-        n_new = np.linalg.svd(inl - centroid, full_matrices=False)[2][-1]
-        n = n_new if n_new @ n >= 0 else -n_new
-        d = -float(n @ centroid)
-    n_inliers = int((np.abs(p @ n + d) < distance).sum())
-    if d < 0:  # the origin must lie on the positive side: n . 0 + d > 0
-        n, d = -n, -d
-    return n, float(d), n_inliers
 
 
 class BOP(ObjectDataset):
@@ -153,6 +69,13 @@ class BOP(ObjectDataset):
         max_points: points kept per view (0: all).
         template_points: points sampled on each model / template.
         seed: fixes the random subsets.
+        models_dir: ``models`` or ``models_eval``; depth_ext: ``.png`` or ``.tif`` (ITODD);
+            sensor: multi-sensor layouts (``depth_<sensor>/``, ``scene_gt_<sensor>.json``, ...).
+        min_visib_fract: gt instances less visible than this (``scene_gt_info.json``) are left
+            out, as in BOP19 (0: keep all; no effect where the file is absent).
+        targets: the split's target list (``test_targets_bop19.json``): only the listed
+            (scene, image, object) are used when the file exists (None: every frame).
+            ``self.filters`` says which filters were applied.
     """
 
     name = "bop"
@@ -165,7 +88,9 @@ class BOP(ObjectDataset):
                  depth_tolerance_mm: float = 15.0, min_visible_pixels: int = 50,
                  plane_distance_mm: float = 10.0, plane_iterations: int = 1000,
                  plane_max_points: int = 20000, normal_radius: float = 0.1, max_points: int = 2048,
-                 template_points: int = 2048, seed: int = 0) -> None:
+                 template_points: int = 2048, seed: int = 0, models_dir: str = "models",
+                 depth_ext: str = ".png", sensor: str | None = None, min_visib_fract: float = 0.1,
+                 targets: str | None = "test_targets_bop19.json") -> None:
         self.root = Path(root)
         if not self.root.is_dir():
             raise DatasetError(f"BOP root {self.root} is not a folder; set dataset.root to the folder with "
@@ -173,6 +98,10 @@ class BOP(ObjectDataset):
         if mask not in ("auto", "mask_visib", "render"):
             raise DatasetError(f"dataset.mask {mask!r} is not auto, mask_visib or render")
         self.split = str(split)
+        self.layout = BopLayout(self.root, self.split, models_dir, depth_ext, sensor)
+        self.min_visib_fract = float(min_visib_fract)
+        self.targets = None if targets in (None, "", "none") else str(targets)
+        self.filters: list[str] = []
         self.scenes = None if scenes is None else {int(s) for s in scenes}
         self.categories = None if categories is None else {int(k): str(v) for k, v in categories.items()}
         self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
@@ -196,10 +125,11 @@ class BOP(ObjectDataset):
         self._norm: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
         self._instances: dict[int, Template] = {}
         self._ids: list[str] | None = None
+        self._warned_no_info: set[int] = set()
 
     # ------------------------------------------------------------------ files
     def _scene_dir(self, scene_id: int) -> Path:
-        return self.root / self.split / f"{scene_id:06d}"
+        return self.layout.scene_dir(scene_id)
 
     def _read_json(self, path: Path) -> Any:
         if path not in self._json:
@@ -214,22 +144,64 @@ class BOP(ObjectDataset):
     def observation_ids(self) -> list[str]:
         if self._ids is not None:
             return self._ids
-        split_dir = self.root / self.split
+        split_dir = self.layout.split_dir()
         if not split_dir.is_dir():
             raise DatasetError(f"BOP split folder {split_dir} does not exist; check dataset.root and dataset.split")
+        targets = None
+        if self.targets is not None and self.layout.targets(self.targets).is_file():
+            targets = read_targets(self.layout.targets(self.targets))
         ids: list[str] = []
+        seen_objects: set[int] = set()
+        n_low_visib, n_not_target, visib_files = 0, 0, 0
         for scene_dir in sorted(p for p in split_dir.iterdir() if p.is_dir() and p.name.isdigit()):
             scene_id = int(scene_dir.name)
             if self.scenes is not None and scene_id not in self.scenes:
                 continue
-            scene_gt = self._read_json(scene_dir / "scene_gt.json")
+            gt_path, cam_path = self.layout.scene_gt(scene_id), self.layout.scene_camera(scene_id)
+            scene_gt = self._read_json(gt_path)
+            if not isinstance(scene_gt, dict) or not all(str(k).isdigit() for k in scene_gt):
+                raise DatasetError(f"{gt_path} must map image ids to lists of objects (BOP format)")
+            cameras = self._read_json(cam_path) if cam_path.is_file() else None
+            visib = visible_fractions(self.layout.scene_gt_info(scene_id)) if self.min_visib_fract > 0 else None
+            visib_files += visib is not None
             for im_key in sorted(scene_gt, key=int):
-                if not (scene_dir / "depth" / f"{int(im_key):06d}.png").is_file():
+                im_id = int(im_key)
+                if not self.layout.depth(scene_id, im_id).is_file():
                     continue
-                for gt_idx, gt in enumerate(scene_gt[im_key]):
-                    category = self.category_of_object(int(gt["obj_id"]))
-                    if category is not None:
-                        ids.append(f"{category}/{scene_id:06d}/{int(im_key):06d}/{gt_idx}")
+                if cameras is not None:  # a bad focal length fails the run here, not every sample
+                    camera_K(cam_path, cameras, im_key)
+                entries = scene_gt[im_key]
+                if not isinstance(entries, list):
+                    raise DatasetError(f"{gt_path}: image {im_key} must map to a list of objects (BOP format)")
+                for gt_idx, gt in enumerate(entries):
+                    obj_id = gt_obj_id(gt_path, im_key, gt_idx, gt)
+                    seen_objects.add(obj_id)
+                    category = self.category_of_object(obj_id)
+                    if category is None:
+                        continue
+                    if targets is not None and (scene_id, im_id, obj_id) not in targets:
+                        n_not_target += 1
+                        continue
+                    fr = (visib or {}).get(im_id)
+                    if fr is not None and gt_idx < len(fr) and fr[gt_idx] < self.min_visib_fract:
+                        n_low_visib += 1
+                        continue
+                    ids.append(f"{category}/{scene_id:06d}/{im_id:06d}/{gt_idx}")
+        self.seen_objects = sorted(seen_objects)
+        if self.categories is not None:
+            unseen = sorted(set(self.categories) - seen_objects)
+            unmapped = sorted(seen_objects - set(self.categories))
+            if unseen:  # e.g. unverified ids in configs/dataset/tyol.yaml
+                warnings.warn(f"BOP {split_dir}: dataset.categories lists object ids {unseen} that no frame shows; "
+                              f"the frames show object ids {self.seen_objects} (unmapped: {unmapped})", stacklevel=2)
+        self.filters = []
+        if targets is not None:
+            self.filters.append(f"targets from {self.targets} ({n_not_target} instances not listed left out)")
+        if visib_files:
+            self.filters.append(f"visib_fract >= {self.min_visib_fract:g} ({n_low_visib} instances left out)")
+        if not ids and self.categories is not None:
+            raise DatasetError(f"no depth frames with configured objects under {split_dir}; the frames show "
+                               f"object ids {self.seen_objects}: map them in dataset.categories")
         if not ids:
             raise DatasetError(f"no depth frames with configured objects under {split_dir}; check "
                                "dataset.split, dataset.scenes and dataset.categories")
@@ -240,41 +212,82 @@ class BOP(ObjectDataset):
     def model_mm(self, obj_id: int) -> tuple[np.ndarray, np.ndarray]:
         """Model vertices (V, 3) in mm (BOP model frame) and triangles (F, 3)."""
         if obj_id not in self._models_mm:
-            self._models_mm[obj_id] = read_mesh(self.root / "models" / f"obj_{obj_id:06d}.ply")
+            self._models_mm[obj_id] = read_mesh(self.layout.model(obj_id))
         return self._models_mm[obj_id]
 
     def normalisation(self, obj_id: int) -> tuple[np.ndarray, np.ndarray, float]:
-        """``(R_object_model (3, 3), centre (3,) mm, scale mm)``: ``p_object = (R p_model - centre) / scale``."""
+        """``(R_object_model (3, 3), centre (3,) mm, scale mm)``: ``p_object = (R p_model - centre) / scale``.
+
+        The centre is the bounding-box centre, moved onto the continuous-symmetry axis (the
+        point of the axis nearest to it, BOP's ``offset`` included) when the object has one,
+        so that a spin about the axis leaves the object origin in place.
+        """
         if obj_id not in self._norm:
             R = R_template_file(*self.object_axes.get(obj_id, self.model_axes))
             v, _ = self.model_mm(obj_id)
-            _, centre, scale = normalize_to_unit_sphere(v @ R.T)
+            vr = v @ R.T
+            _, centre, scale = normalize_to_unit_sphere(vr)
+            cont = self.continuous_symmetries(obj_id)
+            if cont:
+                rotated = [{"axis": R @ np.asarray(e["axis"], float), "offset": R @ np.asarray(e["offset"], float)}
+                           for e in cont]
+                centre = continuous_symmetry_origin(rotated, centre)
+                scale = float(np.linalg.norm(vr - centre, axis=1).max())
             self._norm[obj_id] = (R, centre, scale)
         return self._norm[obj_id]
+
+    def models_info(self, obj_id: int) -> dict:
+        """The object's ``models_info.json`` entry (empty when the file or entry is absent)."""
+        path = self.layout.models_info()
+        if not path.is_file():
+            return {}
+        entry = self._read_json(path).get(str(obj_id))
+        if entry is None:
+            self._warn_no_info(path, obj_id)
+            return {}
+        return entry
+
+    def continuous_symmetries(self, obj_id: int) -> list[dict]:
+        """Every ``symmetries_continuous`` entry, ``{"axis": (3,), "offset": (3,) mm}`` (model frame)."""
+        out = []
+        for k, e in enumerate(self.models_info(obj_id).get("symmetries_continuous") or []):
+            try:
+                axis = np.asarray(e["axis"], float).reshape(3)
+                offset = np.asarray(e.get("offset", (0.0, 0.0, 0.0)), float).reshape(3)
+            except (KeyError, TypeError, ValueError):
+                raise DatasetError(f"{self.layout.models_info()}: symmetries_continuous[{k}] of object {obj_id} "
+                                   "needs axis and offset (3 numbers each)") from None
+            if not np.isfinite(axis).all() or np.linalg.norm(axis) == 0 or not np.isfinite(offset).all():
+                raise DatasetError(f"{self.layout.models_info()}: symmetries_continuous[{k}] of object {obj_id} "
+                                   "has a zero or non-finite axis or offset")
+            out.append({"axis": axis.tolist(), "offset": offset.tolist()})
+        return out
 
     def symmetry_axis(self, obj_id: int, category: str) -> np.ndarray | None:
         """Main axis (3,) in the object frame: the category entry, else ``models_info.json``."""
         if category in self.symmetric:
             return self.symmetric[category]
-        info_path = self.root / "models" / "models_info.json"
-        if not info_path.is_file():
-            return None
-        info = self._read_json(info_path).get(str(obj_id), {})
-        sym = info.get("symmetries_continuous") or []
+        sym = self.continuous_symmetries(obj_id)
         if not sym:
             return None
         R, _, _ = self.normalisation(obj_id)
         axis = R @ np.asarray(sym[0]["axis"], float)
         return axis / np.linalg.norm(axis)
 
+    def _warn_no_info(self, info_path: Path, obj_id: int) -> None:
+        """Warn once per object that ``models_info.json`` lacks it (then it is non-symmetric)."""
+        if obj_id not in self._warned_no_info:
+            self._warned_no_info.add(obj_id)
+            warnings.warn(f"{info_path} has no entry for object {obj_id}; it is scored as non-symmetric: add "
+                          f"\"{obj_id}\" there, or set dataset.symmetric.<category>=[x, y, z] if it is symmetric",
+                          stacklevel=2)
+
     def discrete_symmetries(self, obj_id: int) -> tuple[np.ndarray, ...]:
         """``symmetries_discrete`` of ``models_info.json`` as (4, 4) transforms of the normalised
         object frame: ``S_object = N S_model N^-1`` with ``N`` the normalisation
         ``p_object = (R p_model - centre) / scale`` (BOP gives S_model with t in mm)."""
-        info_path = self.root / "models" / "models_info.json"
-        if not info_path.is_file():
-            return ()
-        entries = self._read_json(info_path).get(str(obj_id), {}).get("symmetries_discrete") or []
+        info_path = self.layout.models_info()
+        entries = self.models_info(obj_id).get("symmetries_discrete") or []
         R, centre, scale = self.normalisation(obj_id)
         N = make_T(R / scale, -centre / scale)
         N_inv = np.linalg.inv(N)
@@ -314,8 +327,7 @@ class BOP(ObjectDataset):
             scene_id, im_id, gt_idx = int(scene_s), int(im_s), int(gt_s)
         except ValueError:
             raise DatasetError(f"observation id {obs_id!r} is not <category>/<scene>/<image>/<gt index>") from None
-        scene_dir = self._scene_dir(scene_id)
-        gt_path, cam_path = scene_dir / "scene_gt.json", scene_dir / "scene_camera.json"
+        gt_path, cam_path = self.layout.scene_gt(scene_id), self.layout.scene_camera(scene_id)
         try:
             gt = self._read_json(gt_path)[str(im_id)][gt_idx]
             obj_id = int(gt["obj_id"])
@@ -323,22 +335,17 @@ class BOP(ObjectDataset):
             t_cam_model = np.asarray(gt["cam_t_m2c"], float).reshape(3)
         except (KeyError, IndexError, TypeError, ValueError):
             raise DatasetError(f"{gt_path} has no valid pose for image {im_id}, object index {gt_idx}") from None
-        try:
-            cam = self._read_json(cam_path)[str(im_id)]
-            K = np.asarray(cam["cam_K"], float).reshape(3, 3)
-            depth_scale = float(cam.get("depth_scale", 1.0))
-        except (KeyError, TypeError, ValueError):
-            raise DatasetError(f"{cam_path} has no valid cam_K for image {im_id}") from None
+        K, depth_scale = camera_K(cam_path, self._read_json(cam_path), im_id)
         if self.category_of_object(obj_id) is None:
             raise DatasetError(f"object {obj_id} in {gt_path} is not in dataset.categories; add it there")
 
-        depth_path = scene_dir / "depth" / f"{im_id:06d}.png"
-        depth_mm = read_depth_png(depth_path).astype(np.float64) * depth_scale
+        depth_path = self.layout.depth(scene_id, im_id)
+        depth_mm = read_depth(depth_path).astype(np.float64) * depth_scale
         h, w = depth_mm.shape
         camera = PinholeCamera.from_K(K, w, h)
         T_camera_model = make_T(R_cam_model, t_cam_model)
 
-        mask_path = scene_dir / "mask_visib" / f"{im_id:06d}_{gt_idx:06d}.png"
+        mask_path = self.layout.mask_visib(scene_id, im_id, gt_idx)
         rendered = None
         if self.mask != "render" and mask_path.is_file():
             mask, source = read_mask_png(mask_path), "mask_visib"
@@ -392,4 +399,5 @@ class BOP(ObjectDataset):
             info={"scene_id": scene_id, "im_id": im_id, "gt_idx": gt_idx, "obj_id": obj_id,
                   "mask_source": source, "visible_pixels": n_pix, "ground_inliers": n_inliers,
                   "ground_vs_object_up_deg": ground_err, "scale_mm": scale,
-                  "centre_mm": [float(x) for x in centre], "R_object_model": [float(x) for x in R_obj_model.ravel()]})
+                  "centre_mm": [float(x) for x in centre], "R_object_model": [float(x) for x in R_obj_model.ravel()],
+                  "bop_filters": "; ".join(self.filters) or "none"})

@@ -40,16 +40,18 @@ def read_off(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if not path.is_file():
         raise DatasetError(f"mesh file {path} does not exist; check the dataset root and the id")
     text = path.read_text(errors="replace")
-    lines = [ln.split("#", 1)[0].strip() for ln in text.splitlines()]
-    lines = [ln for ln in lines if ln]
+    # (line number in the file, content) of the non-empty lines, so errors can point at the line
+    numbered = [(k + 1, ln.split("#", 1)[0].strip()) for k, ln in enumerate(text.splitlines())]
+    numbered = [(k, ln) for k, ln in numbered if ln]
+    lines = [ln for _, ln in numbered]
     if not lines or not lines[0].startswith("OFF"):
         raise DatasetError(f"{path} is not an OFF file: its first line must start with 'OFF'")
     head = lines[0][3:].strip()  # the quirk: counts right after 'OFF' on the same line
-    body = lines[1:]
+    body, body_numbers = lines[1:], [k for k, _ in numbered[1:]]
     if not head:
         if not body:
             raise DatasetError(f"{path} is a malformed OFF file: the counts line is missing")
-        head, body = body[0], body[1:]
+        head, body, body_numbers = body[0], body[1:], body_numbers[1:]
     try:
         n_v, n_f = (int(c) for c in head.split()[:2])
     except ValueError:
@@ -57,20 +59,39 @@ def read_off(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if len(body) < n_v + n_f:
         raise DatasetError(f"{path} is a truncated OFF file: header says {n_v} vertices and {n_f} faces "
                            f"but only {len(body)} lines follow")
+    vertex_fields = [ln.split()[:3] for ln in body[:n_v]]
+    for i, fields in enumerate(vertex_fields):
+        if len(fields) < 3:
+            raise DatasetError(f"{path} line {body_numbers[i]}: a vertex needs 3 coordinates, found "
+                               f"{len(fields)} ({body[i][:60]!r}); fix or re-export the file")
     try:
-        vertices = np.array([ln.split()[:3] for ln in body[:n_v]], dtype=np.float64)
-        tris: list[list[int]] = []
-        for ln in body[n_v:n_v + n_f]:
-            vals = [int(v) for v in ln.split()]
+        vertices = np.array(vertex_fields, dtype=np.float64)
+    except ValueError:
+        bad = next(i for i, f in enumerate(vertex_fields) if not _all_floats(f))
+        raise DatasetError(f"{path} line {body_numbers[bad]}: vertex coordinates {body[bad][:60]!r} are not "
+                           "numbers; fix or re-export the file") from None
+    tris: list[list[int]] = []
+    for i in range(n_v, n_v + n_f):
+        try:
+            vals = [int(v) for v in body[i].split()]
             k, idx = vals[0], vals[1:1 + vals[0]]
             if k < 3 or len(idx) != k:
-                raise ValueError(ln)
-            tris.extend([idx[0], idx[i], idx[i + 1]] for i in range(1, k - 1))
-    except ValueError as exc:
-        raise DatasetError(f"{path} is a malformed OFF file: cannot parse line {str(exc)[:60]!r}") from None
+                raise ValueError(body[i])
+        except (ValueError, IndexError):
+            raise DatasetError(f"{path} line {body_numbers[i]}: face {body[i][:60]!r} is not 'k i1 ... ik' "
+                               "with k >= 3 integer vertex indices; fix or re-export the file") from None
+        tris.extend([idx[0], idx[j], idx[j + 1]] for j in range(1, k - 1))
     triangles = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
     _check_mesh(path, vertices, triangles)
     return vertices, triangles
+
+
+def _all_floats(fields: list[str]) -> bool:
+    try:
+        [float(x) for x in fields]
+    except ValueError:
+        return False
+    return True
 
 
 def read_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:

@@ -10,9 +10,9 @@ instances differ by multiples of 90 degrees of yaw), and normalised to the unit 
 at its bounding-box centre: the object frame of every observation, in which translation errors
 are measured. Partial views are rendered with :mod:`catpose.datasets.render` from viewpoints of
 a :class:`~catpose.datasets.render.ViewSampler` with the synthetic set's knobs; the view of
-``obs_id`` is a deterministic function of ``(seed, obs_id)``. One difference: normals are
-estimated on every back-projected pixel before subsampling to ``max_points`` (the synthetic set
-subsamples first, which is faster; its views are denser per unit area).
+``obs_id`` is a deterministic function of ``(seed, obs_id)``, made in the order every dataset
+uses: render, noise, subsample to ``max_points``, normals (as a method would estimate them from
+a downsampled scan).
 
 Observation ids: ``<category>/<instance_id>/v<k>``, e.g. ``airplane/airplane_0001/v02``.
 """
@@ -28,7 +28,7 @@ from catpose.datasets.base import ObjectDataset, Observation
 from catpose.datasets.meshio import R_template_file, TemplateSet, read_off, sampled_template
 from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
 from catpose.datasets.views import pinhole_camera
-from catpose.errors import DatasetError
+from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import invert_T, normalize_to_unit_sphere, stable_seed
 from catpose.types import Template
 
@@ -37,7 +37,7 @@ def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_ob
                         camera: PinholeCamera, rng: np.random.Generator, depth_noise_std: float,
                         normal_radius: float, max_points: int, what: str,
                         min_points: int = 10) -> tuple[np.ndarray, np.ndarray]:
-    """Render a mesh's depth, add Gaussian depth noise, back-project and estimate normals.
+    """Render a mesh's depth, add Gaussian depth noise, back-project, subsample and estimate normals.
 
     Args:
         vertices: (V, 3) object frame, object-normalised unit; triangles: (F, 3).
@@ -59,11 +59,19 @@ def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_ob
     if len(points) < min_points:
         raise DatasetError(f"{what}: only {len(points)} pixels see the object; "
                            "move the camera closer (distance) or enlarge the image")
-    normals = estimate_normals(points, normal_radius)
     if max_points and len(points) > max_points:
         keep = np.sort(rng.choice(len(points), size=max_points, replace=False))
-        points, normals = points[keep], normals[keep]
-    return points, normals
+        points = points[keep]
+    return points, estimate_normals(points, normal_radius)
+
+
+def _check_counts(**counts: int | None) -> None:
+    """One-line :class:`ConfigError` for a count below 1 (None means "all" and passes): with
+    ``views_per_instance=0`` there would be no sample, and the error would blame ``dataset.root``."""
+    for key, n in counts.items():
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+            raise ConfigError(f"dataset.{key}={n!r} must be an integer >= 1; set dataset.{key}=<N>"
+                              + (" (or null for all)" if key == "instances_per_category" else ""))
 
 
 class ModelNetBase(ObjectDataset):
@@ -77,6 +85,7 @@ class ModelNetBase(ObjectDataset):
                      template_points: int, templates: dict[str, list] | None, template_split: str,
                      templates_root: str | None, aligned: bool, alignment_table: str | None, up: str,
                      forward: str, symmetric: dict[str, list[float]] | None, seed: int) -> None:
+        _check_counts(views_per_instance=views_per_instance, instances_per_category=instances_per_category)
         self.root = Path(root)
         if not self.root.is_dir():
             raise DatasetError(missing_root.format(root=self.root))
@@ -91,6 +100,9 @@ class ModelNetBase(ObjectDataset):
         self.template_split = str(template_split)
         self.aligned = bool(aligned)
         self.alignment = {} if aligned or not alignment_table else read_alignment_table(alignment_table)
+        # raw ModelNet40 instances differ by multiples of 90 deg of yaw: consistent only when
+        # aligned (Sedaghat et al. release) or given a per-instance alignment table
+        self.frames_consistent = self.aligned or bool(self.alignment)
         self.R_template_file = R_template_file(up, forward)
         self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
         self.seed = int(seed)

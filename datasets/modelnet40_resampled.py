@@ -27,6 +27,7 @@ from catpose.datasets.base import Observation
 from catpose.datasets.modelnet40 import ModelNetBase
 from catpose.errors import DatasetError
 from catpose.geometry import invert_T, normalize_to_unit_sphere, stable_seed, transform_points
+from catpose.hpr import visible_indices
 from catpose.types import Template
 
 
@@ -49,17 +50,6 @@ def read_resampled_txt(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if (norms < 1e-8).any():
         raise DatasetError(f"{path} has {int((norms < 1e-8).sum())} zero-length normals")
     return data[:, :3], normals / norms
-
-
-def hidden_point_removal(points: np.ndarray, camera_position: np.ndarray, radius_factor: float) -> np.ndarray:
-    """Indices of ``points`` (N, 3) visible from ``camera_position`` (3,), by Open3D's HPR with
-    radius ``radius_factor`` times the camera's distance to the farthest point."""
-    from catpose.o3d import o3d
-
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-    dist = float(np.linalg.norm(points - camera_position, axis=1).max())
-    _, idx = pcd.hidden_point_removal(camera_position.tolist(), radius_factor * dist)
-    return np.sort(np.asarray(idx, dtype=np.int64))
 
 
 class ModelNet40Resampled(ModelNetBase):
@@ -174,7 +164,7 @@ class ModelNet40Resampled(ModelNetBase):
         rng = np.random.default_rng(stable_seed(self.seed, "modelnet40_resampled", obs_id))
         T_camera_object = self.sampler.sample(rng)
         T_object_camera = invert_T(T_camera_object)
-        visible = hidden_point_removal(pts, T_object_camera[:3, 3], self.hpr_radius_factor)
+        visible = visible_indices(pts, T_object_camera[:3, 3], self.hpr_radius_factor)
         if len(visible) < 10:
             raise DatasetError(f"modelnet40_resampled {obs_id}: only {len(visible)} points are visible")
         if self.max_points and len(visible) > self.max_points:

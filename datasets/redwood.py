@@ -8,7 +8,7 @@ metres, row by row). A scan's category comes from ``scan_categories``, else from
 index). Intrinsics default to the PrimeSense ones (fx = fy = 525, cx = 319.5, cy = 239.5).
 
 Segmentation: points within ``depth_range`` (metres); the floor is the dominant RANSAC plane
-(:func:`catpose.datasets.bop.fit_ground_plane`), whose normal oriented towards the camera is the ground normal;
+(:func:`catpose.datasets.depthio.fit_ground_plane`), whose normal oriented towards the camera is the ground normal;
 the object is what lies between ``min_height`` and ``max_height`` above it, and (when
 ``cluster_eps`` > 0) the DBSCAN cluster with the most points in the central image window
 (the operator points the camera at the object).
@@ -37,10 +37,10 @@ from pathlib import Path
 import numpy as np
 
 from catpose.datasets.base import ObjectDataset, Observation
-from catpose.datasets.bop import fit_ground_plane, read_depth_png
+from catpose.datasets.depthio import fit_ground_plane, read_depth_png
 from catpose.datasets.meshio import TemplateSet
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals
-from catpose.errors import DatasetError
+from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import stable_seed
 from catpose.types import Template
 
@@ -74,6 +74,20 @@ def write_log_trajectory(path: str | Path, poses: list[np.ndarray]) -> None:
             fh.write(f"{i} {i} {len(poses)}\n")
             for row in np.asarray(T, float):
                 fh.write(" ".join(f"{x:.10f}" for x in row) + "\n")
+
+
+def check_intrinsics(group: str, **values: float) -> None:
+    """Raise a one-line :class:`ConfigError` unless every value (image size, focal length; pixels)
+    is a positive finite number: a zero or negative focal length would be scored as a mirrored or
+    degenerate camera instead of failing (``fx=0`` even stalls the renderer)."""
+    for key, value in values.items():
+        try:
+            ok = bool(np.isfinite(float(value)) and float(value) > 0)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise ConfigError(f"{group}.{key}={value!r} must be a positive number of pixels; "
+                              f"set {group}.{key}=<pixels> (e.g. the PrimeSense fx=fy=525)")
 
 
 class Redwood(ObjectDataset):
@@ -121,6 +135,7 @@ class Redwood(ObjectDataset):
         if not self.root.is_dir():
             raise DatasetError(f"Redwood root {self.root} is not a folder; set dataset.root to the folder "
                                "with <scan>/depth/*.png")
+        check_intrinsics("dataset", width=width, height=height, fx=fx, fy=fy)
         self.scans = None if scans is None else [str(s) for s in scans]
         self.scan_categories = {str(k): str(v) for k, v in (scan_categories or {}).items()}
         self.frames = None if frames is None else [int(f) for f in frames]

@@ -212,7 +212,7 @@ class SyntheticDataset(ObjectDataset):
         """Render at physical scale on a table, apply the sensor model, then subsample and
         estimate normals (order: render, noise, subsample, normals). Points are returned in the
         object-normalised unit like every other view."""
-        from catpose.datasets.bop import fit_ground_plane
+        from catpose.datasets.depthio import fit_ground_plane
         from catpose.datasets.sensor import CATEGORY_SIZE_M, apply_sensor, table_mesh
         from catpose.geometry import make_T
 

@@ -4,20 +4,20 @@ Two choices, both plain constructor arguments (paper Section IV-B, Table "optimi
 
 ``matching``
     ``"direct"``: the partial input against the complete template (one estimate).
-    ``"dictionary"``: against each partial template of the dictionary that ``ours`` uses
-    (:func:`catpose.methods.dictionary.get_dictionary`, same parameters, same cache), keeping
-    the estimate with the lowest one-directional Chamfer distance from the transformed input to
-    the complete template.
+    ``"dictionary"``: against each partial template of the injected
+    :class:`~catpose.methods.dictionary.DictionaryLayout` (the one ``ours`` uses, same cache),
+    keeping the estimate with the lowest one-directional Chamfer distance from the transformed
+    input to the complete template.
 
 ``features``
     ``"fpfh"``: FPFH (Rusu et al. 2009, Open3D ``compute_fpfh_feature``) on voxel-downsampled
     clouds; FGR/RANSAC use Open3D's feature-matching entry points, TEASER mutual nearest
     neighbours in feature space.
-    ``"lps"``: keypoints by farthest point sampling (``n`` on the input, ``2n`` on the target)
-    and the LPS affinity matrix of ``ours``, computed by an :class:`~catpose.methods.ours.Ours`
-    configured with the ``lps_*`` arguments (its public ``downsample_keypoints``, ``describe``
-    and ``pair_affinity``); each input keypoint keeps its top-1 template keypoint. FGR/RANSAC use
-    the correspondence entry points.
+    ``"lps"`` / ``"pfh"``: the injected :class:`~catpose.methods.descriptors.Descriptor` (the one
+    ``ours`` uses; its name must match): keypoints by farthest point sampling (``n`` on the input,
+    ``2n`` on the target, ``n`` from the dictionary layout) and the descriptor's affinity; each
+    input keypoint keeps its top-1 template keypoint. FGR/RANSAC use the correspondence entry
+    points.
 
 A method subclasses :class:`CorrespondenceRegistration` and implements ``_estimate`` for one
 (input, target) pair; this module does the rest (downsampling, features, per-template caching,
@@ -28,7 +28,6 @@ frame, and every estimate is ``T_template_camera``.
 
 from __future__ import annotations
 
-import hashlib
 import time
 from abc import abstractmethod
 from dataclasses import dataclass
@@ -36,16 +35,18 @@ from typing import Any
 
 import numpy as np
 
+from catpose.content_hash import template_key
 from catpose.errors import ConfigError, InvalidInputError
 from catpose.geometry import stable_seed, transform_points
+from catpose.lru import LRUCache
+from catpose.methods import options
 from catpose.methods.base import RegistrationMethod
+from catpose.methods.descriptors import LPS, Descriptor
+from catpose.methods.dictionary import DictionaryLayout
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
 MATCHINGS = ("direct", "dictionary")
-FEATURES = ("fpfh", "lps")
-
-_TARGET_CACHE: dict[tuple, Any] = {}
-_TARGET_CACHE_MAX = 64
+FEATURES = ("fpfh", "lps", "pfh")
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,9 +74,9 @@ class MatchInput:
 
     Attributes:
         source: input cloud, camera frame (all voxel-downsampled points for ``fpfh``; the ``n``
-            FPS keypoints for ``lps``).
-        target: target cloud, template frame (complete or partial template; keypoints for lps).
-        correspondences: (K, 2) int rows (source index, target index) for ``lps``; None for
+            FPS keypoints for ``lps``/``pfh``).
+        target: target cloud, template frame (complete or partial template; keypoints for lps/pfh).
+        correspondences: (K, 2) int rows (source index, target index) for ``lps``/``pfh``; None for
             ``fpfh`` (use :meth:`fpfh_correspondences` where explicit pairs are needed).
         seed: per-(sample, candidate) seed for randomised estimators.
     """
@@ -133,11 +134,6 @@ def _keypoint_cloud(points: np.ndarray, normals: np.ndarray) -> Cloud:
     return Cloud(points, normals, pcd)
 
 
-def _template_hash(template: Template) -> str:
-    h = hashlib.blake2b(np.ascontiguousarray(template.points).tobytes(), digest_size=8)
-    return f"{template.template_id}-{h.hexdigest()}"
-
-
 def one_directional_chamfer(points: np.ndarray, tree: Any) -> float:
     """Mean distance from each of ``points`` (N, 3) to its nearest neighbour in ``tree``
     (a ``scipy.spatial.cKDTree`` of the complete template), object-normalised units."""
@@ -150,82 +146,40 @@ class CorrespondenceRegistration(RegistrationMethod):
 
     Args:
         matching: ``"direct"`` or ``"dictionary"``.
-        features: ``"fpfh"`` or ``"lps"``.
-        voxel_size: voxel downsampling size (object-normalised; 0 disables).
+        features: ``"fpfh"``, or the injected descriptor's name (``"lps"`` / ``"pfh"``).
+        voxel_size: voxel downsampling size for FPFH and the ICP source (object-normalised; 0 disables).
         fpfh_radius: FPFH neighbourhood radius (typically 5 x voxel_size).
         fpfh_max_nn: FPFH neighbour cap.
-        num_keypoints: ``n`` input keypoints for ``lps`` (``2n`` on each target).
-        lps_voxel_size, lps_radius, lps_tau, lps_max_points, lps_parallel_deg: the LPS
-            downsampling and descriptor parameters; keep them equal to ``ours`` (its
-            ``voxel_size``, ``lps_*``) so the affinity is the one ``ours`` starts from.
+        descriptor: the keypoint descriptor of ``features="lps"/"pfh"`` (default ``LPS()``, as ours).
+        dictionary: partial-template layout of ``matching="dictionary"`` and keypoint count ``n``.
         refine_icp: refine every candidate with point-to-plane ICP against the complete template.
         icp_max_distance: ICP correspondence distance.
         icp_max_iterations: ICP iterations.
-        dictionary_num_views, dictionary_layout, dictionary_elevations_deg,
-        dictionary_distance, dictionary_hpr_radius_factor: passed to
-            :func:`catpose.methods.dictionary.get_dictionary`; keep them equal to ``ours`` to
-            share its cache.
         seed: base seed of the randomised parts (mixed with the sample id).
     """
 
     def __init__(self, matching: str = "direct", features: str = "fpfh", voxel_size: float = 0.05,
-                 fpfh_radius: float = 0.25, fpfh_max_nn: int = 100, num_keypoints: int = 32,
-                 lps_voxel_size: float = 0.025, lps_radius: float = 0.2, lps_tau: float = 0.03,
-                 lps_max_points: int = 96, lps_parallel_deg: float = 10.0,
-                 refine_icp: bool = False, icp_max_distance: float = 0.1,
-                 icp_max_iterations: int = 30, dictionary_num_views: int = 18,
-                 dictionary_layout: str = "rings",
-                 dictionary_elevations_deg: tuple[float, ...] | list[float] = (0.0, 30.0, 60.0),
-                 dictionary_distance: float = 3.0, dictionary_hpr_radius_factor: float = 100.0,
-                 seed: int = 0) -> None:
-        if matching not in MATCHINGS:
-            raise ConfigError(f"matching={matching!r} is unknown; use one of {list(MATCHINGS)}")
-        if features not in FEATURES:
-            raise ConfigError(f"features={features!r} is unknown; use one of {list(FEATURES)}")
-        for name, value in (("voxel_size", voxel_size), ("lps_voxel_size", lps_voxel_size)):
-            if not value >= 0:
-                raise ConfigError(f"{name}={value} must be >= 0 (object-normalised units)")
-        for name, value in (("fpfh_radius", fpfh_radius), ("lps_radius", lps_radius), ("lps_tau", lps_tau),
-                            ("icp_max_distance", icp_max_distance)):
-            if not value > 0:
-                raise ConfigError(f"{name}={value} must be > 0 (object-normalised units)")
-        if num_keypoints < 3 or fpfh_max_nn < 1 or icp_max_iterations < 1:
-            raise ConfigError(f"num_keypoints={num_keypoints}, fpfh_max_nn={fpfh_max_nn}, "
-                              f"icp_max_iterations={icp_max_iterations}: use >= 3, >= 1, >= 1")
-        self.matching = matching
-        self.features = features
-        self.voxel_size = float(voxel_size)
-        self.fpfh_radius = float(fpfh_radius)
-        self.fpfh_max_nn = int(fpfh_max_nn)
-        self.num_keypoints = int(num_keypoints)
-        self.lps_radius = float(lps_radius)
-        self.lps_tau = float(lps_tau)
-        self.lps_voxel_size = float(lps_voxel_size)
-        self.lps_parallel_deg = float(lps_parallel_deg)
-        self.lps_max_points = int(lps_max_points)
-        self.refine_icp = bool(refine_icp)
-        self.icp_max_distance = float(icp_max_distance)
-        self.icp_max_iterations = int(icp_max_iterations)
-        self.dictionary_kwargs = dict(num_views=int(dictionary_num_views), layout=str(dictionary_layout),
-                                      elevations_deg=tuple(float(e) for e in dictionary_elevations_deg),
-                                      distance=float(dictionary_distance),
-                                      hpr_radius_factor=float(dictionary_hpr_radius_factor))
-        # ``ours`` with the same LPS and dictionary settings: its dictionary, and its keypoints,
-        # descriptors and affinity for features="lps"
-        from catpose.methods.ours import Ours
-
-        self.ours = Ours(descriptor="lps", num_keypoints=self.num_keypoints, voxel_size=self.lps_voxel_size,
-                         num_views=self.dictionary_kwargs["num_views"], layout=self.dictionary_kwargs["layout"],
-                         elevations_deg=self.dictionary_kwargs["elevations_deg"],
-                         view_distance=self.dictionary_kwargs["distance"],
-                         hpr_radius_factor=self.dictionary_kwargs["hpr_radius_factor"],
-                         lps_radius=self.lps_radius, lps_tau=self.lps_tau, lps_max_points=self.lps_max_points,
-                         lps_parallel_deg=self.lps_parallel_deg)
-        if matching == "dictionary":  # fail at construction on a bad layout, not per sample
-            from catpose.methods.dictionary import viewpoint_layout
-            viewpoint_layout(self.dictionary_kwargs["num_views"], self.dictionary_kwargs["layout"],
-                             self.dictionary_kwargs["elevations_deg"], self.dictionary_kwargs["distance"])
+                 fpfh_radius: float = 0.25, fpfh_max_nn: int = 100, descriptor: Descriptor | None = None,
+                 dictionary: DictionaryLayout | None = None, refine_icp: bool = False,
+                 icp_max_distance: float = 0.1, icp_max_iterations: int = 30, seed: int = 0) -> None:
+        self.matching = options.one_of("method.matching", matching, MATCHINGS)
+        self.features = options.one_of("method.features", features, FEATURES)
+        options.instance_of("method.descriptor", descriptor, Descriptor)
+        options.instance_of("method.dictionary", dictionary, DictionaryLayout)
+        self.descriptor = descriptor or LPS()
+        self.layout = dictionary or DictionaryLayout()
+        if self.features != "fpfh" and self.features != self.descriptor.name:
+            raise ConfigError(f"method.features={features!r} but method.descriptor is {self.descriptor.name}; "
+                              f"select it with descriptor@method.descriptor={features}")
+        self.voxel_size = options.non_negative("method.voxel_size", voxel_size)
+        self.fpfh_radius = options.positive("method.fpfh_radius", fpfh_radius)
+        self.fpfh_max_nn = options.positive("method.fpfh_max_nn", fpfh_max_nn, integer=True)
+        self.refine_icp = options.flag("method.refine_icp", refine_icp)
+        self.icp_max_distance = options.positive("method.icp_max_distance", icp_max_distance)
+        self.icp_max_iterations = options.positive("method.icp_max_iterations", icp_max_iterations, integer=True)
+        self.num_keypoints = self.layout.num_keypoints
         self.seed = int(seed)
+        self._target_cache: LRUCache[tuple, dict[str, Any]] = LRUCache(64)
 
     # -- what a subclass provides ---------------------------------------------------------------
 
@@ -240,11 +194,9 @@ class CorrespondenceRegistration(RegistrationMethod):
         """Per-template data, cached in memory: complete cloud + KD-tree, downsampled targets."""
         from scipy.spatial import cKDTree
 
-        key = (_template_hash(template), self.matching, self.features, self.voxel_size, self.fpfh_radius,
-               self.fpfh_max_nn, self.num_keypoints, self.lps_radius, self.lps_tau, self.lps_max_points,
-               self.lps_voxel_size, self.lps_parallel_deg,
-               tuple(sorted(self.dictionary_kwargs.items())))
-        hit = _TARGET_CACHE.get(key)
+        # the options are fixed per instance: the template's content and up axis are the key
+        key = (template_key(template), tuple(np.round(np.asarray(template.up, dtype=np.float64), 12)))
+        hit = self._target_cache.get(key)
         if hit is not None:
             return hit
         with_fpfh = self.features == "fpfh"
@@ -254,11 +206,11 @@ class CorrespondenceRegistration(RegistrationMethod):
         if direct:
             parts = [(template.points, template.normals)]
         else:
-            d = self.ours.dictionary(template)
+            d = self.layout.dictionary(template)
             parts = list(zip(d.points, d.normals))
         descriptors = None
         if not with_fpfh:
-            keypoints = [self._lps_keypoints(p, n, template.up, 2 * self.num_keypoints) for p, n in parts]
+            keypoints = [self._keypoints(p, n, template.up, 2 * self.num_keypoints) for p, n in parts]
             targets, descriptors = [k[0] for k in keypoints], [k[1] for k in keypoints]
         elif direct:
             targets = [complete]
@@ -266,25 +218,22 @@ class CorrespondenceRegistration(RegistrationMethod):
             targets = [_make_cloud(p, n, self.voxel_size, self.fpfh_radius, self.fpfh_max_nn, True)
                        for p, n in parts]
         data = {"complete": complete, "tree": cKDTree(template.points), "targets": targets,
-                "lps_descriptors": descriptors}
-        if len(_TARGET_CACHE) >= _TARGET_CACHE_MAX:
-            _TARGET_CACHE.pop(next(iter(_TARGET_CACHE)))
-        _TARGET_CACHE[key] = data
+                "descriptors": descriptors}
+        self._target_cache.put(key, data)
         return data
 
-    def _lps_keypoints(self, points: np.ndarray, normals: np.ndarray, up: np.ndarray,
-                       k: int) -> tuple[Cloud, Any]:
-        """``ours``' LPS keypoints of a cloud: ``k`` FPS keypoints of its ``lps_voxel_size``
-        downsampling (as a :class:`Cloud`, same frame) and their LPS descriptors (``up``: the
-        up direction in that frame)."""
-        p, n, idx = self.ours.downsample_keypoints(np.asarray(points, dtype=np.float64),
-                                                   np.asarray(normals, dtype=np.float64), k)
-        return _keypoint_cloud(p[idx], n[idx]), self.ours.describe(p, n, idx, up)
+    def _keypoints(self, points: np.ndarray, normals: np.ndarray, up: np.ndarray, k: int) -> tuple[Cloud, Any]:
+        """The descriptor's keypoints of a cloud: ``k`` FPS keypoints of its voxel downsampling
+        (as a :class:`Cloud`, same frame) and their descriptors (``up``: the up direction in that
+        frame)."""
+        f = self.descriptor.keypoint_features(np.asarray(points, dtype=np.float64),
+                                              np.asarray(normals, dtype=np.float64), k, up)
+        return _keypoint_cloud(f.keypoints, f.normals[f.indices]), f.features
 
-    def _lps_correspondences(self, source_desc: Any, target_desc: Any) -> np.ndarray:
-        """(n, 2) top-1 pairs (input keypoint, target keypoint) by ``ours``' LPS affinity; row
+    def _correspondences(self, source_desc: Any, target_desc: Any) -> np.ndarray:
+        """(n, 2) top-1 pairs (input keypoint, target keypoint) by the descriptor's affinity; row
         normalisation does not change the argmax, so the unnormalised affinity is used."""
-        A = self.ours.pair_affinity(source_desc, target_desc)                  # (n, 2n)
+        A = self.descriptor.affinity(source_desc, target_desc)                 # (n, 2n)
         return np.stack([np.arange(len(A)), np.argmax(A, axis=1)], axis=1).astype(np.int64)
 
     def _refine(self, source: Cloud, complete: Cloud, T: np.ndarray) -> np.ndarray:
@@ -309,17 +258,18 @@ class CorrespondenceRegistration(RegistrationMethod):
         data = self._targets(problem.template)
         source = _make_cloud(problem.points_camera, problem.normals_camera, self.voxel_size, self.fpfh_radius,
                              self.fpfh_max_nn, self.features == "fpfh")
-        if self.features == "lps":
-            source_kp, source_desc = self._lps_keypoints(problem.points_camera, problem.normals_camera,
-                                                         problem.ground_normal_camera, self.num_keypoints)
+        keypoint_features = self.features != "fpfh"
+        if keypoint_features:
+            source_kp, source_desc = self._keypoints(problem.points_camera, problem.normals_camera,
+                                                     problem.ground_normal_camera, self.num_keypoints)
         stages = {"prepare_s": time.perf_counter() - t_start, "match_s": 0.0, "estimate_s": 0.0,
                   "refine_s": 0.0, "select_s": 0.0}
         candidates = []
         for i, target in enumerate(data["targets"]):
             seed = stable_seed(self.seed, problem.sample_id, i)
             t0 = time.perf_counter()
-            if self.features == "lps":
-                corr = self._lps_correspondences(source_desc, data["lps_descriptors"][i])
+            if keypoint_features:
+                corr = self._correspondences(source_desc, data["descriptors"][i])
                 match = MatchInput(source_kp, target, corr, seed)
             else:
                 match = MatchInput(source, target, None, seed)
@@ -340,8 +290,9 @@ class CorrespondenceRegistration(RegistrationMethod):
         best = int(np.argmin([c[0] for c in candidates]))
         cd, T, info = candidates[best]
         if T is None:
-            raise InvalidInputError(f"sample {problem.sample_id}: no {self.features} correspondence set of 3 or more "
-                                    f"against any of {len(candidates)} targets; no pose can be estimated")
+            why = next((c[2]["no_pose_reason"] for c in candidates if c[2].get("no_pose_reason")), None)
+            raise InvalidInputError(f"sample {problem.sample_id}: no pose from any of {len(candidates)} targets: "
+                                    + (why or f"no {self.features} correspondence set of 3 or more"))
         extras = {"matching": self.matching, "features": self.features, "chosen_index": best,
                   "num_candidates": len(candidates), "candidate_chamfer": [float(c[0]) for c in candidates],
                   "num_source_points": int(len(source.points)), **stages,

@@ -26,21 +26,27 @@ Usage::
 
 from __future__ import annotations
 
-import hashlib
 import os
 import re
-from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from catpose.content_hash import content_hash
 from catpose.errors import ConfigError
+from catpose.hpr import visible_indices
+from catpose.lru import LRUCache
+from catpose.methods import options
 from catpose.types import Template
 
 _VERSION = "1"
-_MEMORY: "OrderedDict[str, PartialDictionary]" = OrderedDict()
-_MEMORY_MAX = 32  # dictionaries kept in memory (LRU); an own-model run sees a new template per instance
+# process-wide, so ``ours`` and the dictionary baselines share it; an own-model run sees a new
+# template per instance
+_MEMORY: LRUCache[str, "PartialDictionary"] = LRUCache(32)
+
+__all__ = ["DictionaryLayout", "PartialDictionary", "clear_memory_cache", "get_dictionary", "viewpoint_layout",
+           "visible_indices"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,11 +84,11 @@ def viewpoint_layout(num_views: int = 18, layout: str = "rings",
     half an azimuth step for odd ``j`` so rings interleave). ``fibonacci``: a Fibonacci sphere.
     """
     if num_views < 1:
-        raise ConfigError(f"dictionary num_views={num_views}; use a positive count such as 18")
+        raise ConfigError(f"method.dictionary.num_views={num_views}; use a positive count such as 18")
     if layout == "rings":
         rings = len(elevations_deg)
         if rings == 0 or num_views % rings:
-            raise ConfigError(f"dictionary num_views={num_views} is not a multiple of the "
+            raise ConfigError(f"method.dictionary.num_views={num_views} is not a multiple of the "
                               f"{rings} elevation rings {list(elevations_deg)}; change one of them")
         per = num_views // rings
         out = []
@@ -100,19 +106,8 @@ def viewpoint_layout(num_views: int = 18, layout: str = "rings",
         phi = np.pi * (1 + 5 ** 0.5) * i
         dirs = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
     else:
-        raise ConfigError(f"dictionary layout={layout!r} is unknown; use 'rings' or 'fibonacci'")
+        raise ConfigError(f"method.dictionary.layout={layout!r} is unknown; use 'rings' or 'fibonacci'")
     return distance * dirs
-
-
-def visible_indices(points: np.ndarray, viewpoint: np.ndarray, radius_factor: float = 100.0) -> np.ndarray:
-    """Indices (sorted, int64) of ``points`` (N, 3) visible from ``viewpoint`` (3,) by hidden point
-    removal with radius ``radius_factor`` x the largest distance from the viewpoint."""
-    from catpose.o3d import o3d
-
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64)))
-    diameter = float(np.linalg.norm(points - viewpoint, axis=1).max())
-    _, idx = pcd.hidden_point_removal(np.asarray(viewpoint, dtype=np.float64), diameter * radius_factor)
-    return np.unique(np.asarray(idx, dtype=np.int64))
 
 
 def cache_dir() -> Path:
@@ -124,13 +119,10 @@ def cache_dir() -> Path:
 def dictionary_key(template: Template, num_views: int, layout: str, elevations_deg: tuple[float, ...],
                    distance: float, hpr_radius_factor: float) -> str:
     """Cache key: safe template id + blake2b of the template points and every parameter."""
-    h = hashlib.blake2b(digest_size=10)
-    h.update(np.ascontiguousarray(template.points, dtype=np.float64).tobytes())
-    h.update(np.ascontiguousarray(template.normals, dtype=np.float64).tobytes())
-    h.update(repr((_VERSION, num_views, layout, tuple(float(e) for e in elevations_deg),
-                   float(distance), float(hpr_radius_factor))).encode())
+    params = repr((_VERSION, num_views, layout, tuple(float(e) for e in elevations_deg),
+                   float(distance), float(hpr_radius_factor)))
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", template.template_id)[-80:]
-    return f"{safe}-{h.hexdigest()}"
+    return f"{safe}-{content_hash(template.points, template.normals, extra=params, digest_size=10)}"
 
 
 def get_dictionary(template: Template, num_views: int = 18, layout: str = "rings",
@@ -155,7 +147,6 @@ def get_dictionary(template: Template, num_views: int = 18, layout: str = "rings
     key = dictionary_key(template, num_views, layout, elevations_deg, distance, hpr_radius_factor)
     hit = _MEMORY.get(key)
     if hit is not None:
-        _MEMORY.move_to_end(key)
         return hit
     viewpoints = viewpoint_layout(num_views, layout, elevations_deg, distance)
     path = cache_dir() / "dictionary" / f"{key}.npz"
@@ -183,12 +174,61 @@ def get_dictionary(template: Template, num_views: int = 18, layout: str = "rings
     d = PartialDictionary(
         template_id=template.template_id, key=key, viewpoints=viewpoints, indices=indices,
         points=[template.points[i] for i in indices], normals=[template.normals[i] for i in indices])
-    _MEMORY[key] = d
-    while len(_MEMORY) > _MEMORY_MAX:
-        _MEMORY.popitem(last=False)
+    _MEMORY.put(key, d)
     return d
 
 
 def clear_memory_cache() -> None:
     """Forget every in-memory dictionary (the disk cache stays)."""
     _MEMORY.clear()
+
+
+@dataclass(frozen=True)
+class DictionaryLayout:
+    """How a template becomes a dictionary of partial templates, and how many keypoints each has.
+
+    Attributes:
+        num_views: ``m`` viewpoints (partial templates); ``rings`` needs a multiple of the rings.
+        layout: ``rings`` (elevation rings x azimuths) or ``fibonacci`` (whole sphere).
+        elevations_deg: ring elevations, degrees above the template's ground plane.
+        view_distance: camera distance from the template origin, object-normalised units.
+        hpr_radius_factor: hidden point removal radius / the cloud's extent from the viewpoint.
+        num_keypoints: ``n`` keypoints on the input, ``2n`` on each partial template.
+    Invalid values raise a one-line ConfigError naming ``method.dictionary.<key>``.
+    """
+
+    num_views: int = 18
+    layout: str = "rings"
+    elevations_deg: tuple[float, ...] = (0.0, 30.0, 60.0)
+    view_distance: float = 3.0
+    hpr_radius_factor: float = 100.0
+    num_keypoints: int = 32
+
+    def __post_init__(self) -> None:
+        k = "method.dictionary."
+        set_ = object.__setattr__
+        set_(self, "num_views", options.positive(k + "num_views", self.num_views, integer=True))
+        set_(self, "layout", options.one_of(k + "layout", self.layout, ("rings", "fibonacci")))
+        try:
+            elevations = tuple(float(e) for e in self.elevations_deg)
+        except (TypeError, ValueError):
+            raise ConfigError(f"{k}elevations_deg={self.elevations_deg!r} must be a list of degrees") from None
+        set_(self, "elevations_deg", elevations)
+        set_(self, "view_distance", options.positive(k + "view_distance", self.view_distance))
+        set_(self, "hpr_radius_factor", options.positive(k + "hpr_radius_factor", self.hpr_radius_factor))
+        set_(self, "num_keypoints", options.at_least(k + "num_keypoints", self.num_keypoints, 3))
+        self.viewpoints()  # a rings layout that does not divide num_views fails here, not per sample
+
+    @property
+    def azimuths_per_ring(self) -> int:
+        """Azimuths on each elevation ring (``rings`` layout)."""
+        return self.num_views // len(self.elevations_deg)
+
+    def viewpoints(self) -> np.ndarray:
+        """Camera positions (num_views, 3), template frame, object-normalised units."""
+        return viewpoint_layout(self.num_views, self.layout, self.elevations_deg, self.view_distance)
+
+    def dictionary(self, template: Template) -> PartialDictionary:
+        """The partial-template dictionary of ``template`` (cached in memory and on disk)."""
+        return get_dictionary(template, self.num_views, self.layout, self.elevations_deg, self.view_distance,
+                              self.hpr_radius_factor)

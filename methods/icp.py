@@ -11,13 +11,14 @@ correspondence distance), then the lowest inlier RMSE, wins.
 
 from __future__ import annotations
 
-import hashlib
 from functools import lru_cache
 
 import numpy as np
 
+from catpose.content_hash import template_key
 from catpose.errors import ConfigError
 from catpose.geometry import make_T, quat_to_R
+from catpose.lru import LRUCache
 from catpose.methods.base import RegistrationMethod
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
@@ -79,7 +80,7 @@ class ICP(RegistrationMethod):
         self.estimation = estimation
         self.center_source = bool(center_source)
         self.num_threads = None if num_threads is None else int(num_threads)
-        self._targets: dict[tuple[str, str], object] = {}
+        self._targets: LRUCache[str, object] = LRUCache(16)
 
     def _cloud(self, points: np.ndarray, normals: np.ndarray):
         from catpose.o3d import o3d
@@ -94,14 +95,8 @@ class ICP(RegistrationMethod):
     def _target(self, template: Template):
         # the template cloud is downsampled once, not once per sample; ids alone can repeat
         # across datasets (synthetic ids do not name the seed), so the key hashes the content
-        key = (template.template_id, hashlib.blake2b(np.ascontiguousarray(template.points).tobytes()
-                                                     + np.ascontiguousarray(template.normals).tobytes(),
-                                                     digest_size=8).hexdigest())
-        if key not in self._targets:
-            if len(self._targets) > 16:
-                self._targets.clear()
-            self._targets[key] = self._cloud(template.points, template.normals)
-        return self._targets[key]
+        return self._targets.get_or_build(template_key(template),
+                                          lambda: self._cloud(template.points, template.normals))
 
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
         from catpose.o3d import max_threads, o3d

@@ -1,8 +1,9 @@
-"""Farthest point sampling that returns indices (Qi et al. 2017, PointNet++).
+"""Keypoint sampling: first-point voxel downsampling and farthest point sampling with indices
+(Qi et al. 2017, PointNet++).
 
-Open3D's ``farthest_point_down_sample`` returns points only; the method needs indices (to
-look up normals and neighbourhoods), so this is a small vectorised NumPy version with a fixed
-start index, hence deterministic.
+Open3D's ``farthest_point_down_sample`` returns points only and its ``voxel_down_sample``
+averages; the method needs indices (to look up normals and neighbourhoods) and input points, so
+these are small vectorised NumPy versions, deterministic (fixed start index, first point per voxel).
 """
 
 from __future__ import annotations
@@ -36,3 +37,14 @@ def farthest_point_indices(points: np.ndarray, k: int, start: int = 0) -> np.nda
         d2 = np.minimum(d2, np.einsum("ij,ij->i", diff, diff))
         idx = int(np.argmax(d2))
     return out
+
+
+def voxel_downsample(points: np.ndarray, normals: np.ndarray, voxel_size: float) -> tuple[np.ndarray, np.ndarray]:
+    """Keep one point per voxel of edge ``voxel_size`` (the first in input order; deterministic);
+    normals follow. ``voxel_size <= 0`` returns the inputs. Shapes (N, 3) -> (N', 3)."""
+    if voxel_size <= 0:
+        return points, normals
+    keys = np.floor(points / voxel_size).astype(np.int64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    first.sort()
+    return points[first], normals[first]

@@ -157,12 +157,16 @@ def voxelize(p: Patches, radius: float, tau: float, subdiv: int = 1) -> VoxelPat
                         dilated=dil.reshape(K, -1).astype(np.float32), n=p.mask.sum(1).astype(np.float32))
 
 
-def fscore_voxel(a: VoxelPatches, b: VoxelPatches) -> np.ndarray:
-    """Approximate F-score (Ka, Kb) from grids (two matrix products)."""
-    prec = (a.counts @ b.dilated.T) / np.maximum(a.n[:, None], 1)
-    rec = (a.dilated @ b.counts.T) / np.maximum(b.n[None], 1)
+def fscore_voxel(a: VoxelPatches, b: VoxelPatches, dtype: type = np.float64) -> np.ndarray:
+    """Approximate F-score (Ka, Kb) from grids: two sparse x dense products (``a``'s grids, the
+    input's, are sparse), computed in float32 (the matched-point counts are small integers, so
+    exact) and returned as ``dtype``. ``b`` may stack the keypoints of many partial templates."""
+    from scipy import sparse
+
+    prec = np.asarray(sparse.csr_matrix(a.counts) @ b.dilated.T) / np.maximum(a.n[:, None], 1)
+    rec = np.asarray(sparse.csr_matrix(a.dilated) @ b.counts.T) / np.maximum(b.n[None], 1)
     s = prec + rec
-    return np.where(s > 0, 2 * prec * rec / np.maximum(s, 1e-12), 0.0).astype(np.float64)
+    return np.where(s > 0, 2 * prec * rec / np.maximum(s, 1e-12), 0.0).astype(dtype)
 
 
 def lps_affinity(a: Patches, b: Patches, tau: float, radius: float, mode: str = "voxel", subdiv: int = 1) -> np.ndarray:

@@ -19,8 +19,9 @@ The arguments mean the same for both solvers:
 
 A max clique of 3 correspondences or fewer fixes no reliable rotation (and for 0 or 1 TEASER++
 returns an unset pose that changes from run to run): :func:`solve` raises
-:class:`~catpose.errors.InvalidInputError` then, so the runner records the sample as failed
-with that reason instead of scoring a meaningless pose.
+:class:`~catpose.errors.InvalidInputError` then. Such a target gives no candidate; with
+dictionary matching the other partial templates still can, and a sample with no candidate at
+all is recorded as failed with that reason instead of scoring a meaningless pose.
 """
 
 from __future__ import annotations
@@ -136,9 +137,12 @@ class TEASERPlusPlus(TEASER):
         corr = match.fpfh_correspondences(self.mutual_filter, self.max_correspondences)
         if len(corr) < 3:
             return None, {"num_correspondences": int(len(corr)), "clique_size": 0}
-        r = solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]], self.noise_bound,
-                  self.cbar2, self.gnc_factor, self.max_iterations, self.cost_threshold,
-                  self.rotation_tim_graph)
+        try:
+            r = solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]], self.noise_bound,
+                      self.cbar2, self.gnc_factor, self.max_iterations, self.cost_threshold,
+                      self.rotation_tim_graph)
+        except InvalidInputError as e:  # a degenerate clique: this target gives no pose (others may)
+            return None, {"num_correspondences": int(len(corr)), "clique_size": 0, "no_pose_reason": str(e)}
         # PMC's exact solver has been seen to list a vertex twice: count distinct members
         info = {"num_correspondences": int(len(corr)), "clique_size": int(len(np.unique(r.clique))),
                 "clique_exact": r.clique_exact, "translation_inliers": int(len(r.translation_inliers)),

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from catpose.bench import align as align_cmd
-from catpose.datasets.alignment import (axis_aligned_rotations, chamfer_distance, estimate_alignment,
-                                        read_alignment_table, rotation_candidates, write_alignment_table,
-                                        yaw_deg_of, yaw_rotations)
+from catpose.datasets.alignment import (FLIP, axis_aligned_rotations, chamfer_distance, estimate_alignment,
+                                        estimate_table, read_alignment_table, rotation_candidates, synchronize,
+                                        write_alignment_table, yaw_deg_of, yaw_flip_hypotheses, yaw_rotations)
 from catpose.datasets.meshio import read_off
 from catpose.datasets.modelnet40 import ModelNet40
 from catpose.errors import DatasetError
@@ -89,6 +89,47 @@ def test_estimate_alignment_recovers_a_known_rotation():
             assert cost < chamfer_distance(moved, ref)
 
 
+def test_hypotheses_form_a_group():
+    for flip in (False, True):
+        G = yaw_flip_hypotheses(flip)
+        assert len(G) == (8 if flip else 4)
+        for A in G:
+            for B in G:
+                assert min(np.abs(G - A @ B).max(axis=(1, 2))) < 1e-9
+
+
+def test_synchronize_recovers_labels_from_noisy_pairwise_costs():
+    G = yaw_flip_hypotheses(True)
+    rng = np.random.default_rng(0)
+    truth = rng.integers(0, len(G), 7)
+    truth[2] = 0
+    C = rng.uniform(0.3, 0.5, size=(7, 7, len(G)))
+    for i in range(7):
+        for j in range(7):
+            g = int(np.argmin(np.abs(G - G[truth[j]].T @ G[truth[i]]).max(axis=(1, 2))))
+            C[i, j, g] = 0.2 if (i, j) != (0, 1) else 0.6  # one misleading pair
+    out = synchronize(C, G, reference=2)
+    np.testing.assert_array_equal(out["labels"], truth)
+    assert (out["confidence"] > 0).all()
+
+
+def test_estimate_table_recovers_yaws_and_a_flip_of_distinct_instances():
+    from catpose.datasets.meshio import sample_outer_surface
+
+    v, f = l_shape_mesh()
+    v = v - (v.max(0) + v.min(0)) / 2
+    G = yaw_flip_hypotheses(True)
+    truth = [0, 1, 6, 3]  # R_reference_instance labels
+    clouds = []
+    for k, label in enumerate(truth):
+        vk = v * (1.0 + 0.05 * k)  # distinct instances: scaled, resampled
+        p, _ = sample_outer_surface(vk @ G[label], f, 600, seed=k)  # raw_k = R_ref_k^T ref
+        clouds.append(p / np.linalg.norm(p, axis=1).max())
+    out = estimate_table(clouds, G, reference=0)
+    np.testing.assert_array_equal(out["labels"], truth)
+    np.testing.assert_allclose(G[6], yaw_rotations(4)[2] @ FLIP)
+
+
 def test_bench_align_writes_a_table_the_loader_applies(tmp_path, capsys):
     v, f = l_shape_mesh()
     root = tmp_path / "ModelNet40"
@@ -96,10 +137,14 @@ def test_bench_align_writes_a_table_the_loader_applies(tmp_path, capsys):
     yaw90 = axis_angle_to_R(np.array([0, 0, 1.0]), np.pi / 2)
     write_off(root / "thing/train/thing_0002.off", v @ yaw90.T * 7.0 + 3.0, f)  # rotated, scaled, moved
     out = tmp_path / "align.csv"
-    assert align_cmd.main(["--root", str(root), "--category", "thing", "--out", str(out), "--points", "600"]) == 0
+    assert align_cmd.main(["dataset=modelnet40", f"dataset.root={root}", "dataset.categories=[thing]",
+                           "dataset.split=train", "--category", "thing", "--out", str(out), "--points", "600"]) == 0
     table = read_alignment_table(out)
     np.testing.assert_allclose(table[("thing", "thing_0001")], np.eye(3), atol=1e-12)
     np.testing.assert_allclose(table[("thing", "thing_0002")], yaw90.T, atol=1e-12)
+    text = out.read_text().splitlines()
+    assert text[0].endswith("yaw_deg,flip,chamfer,confidence,verified,note") and ",false," in text[2]
+    assert out.with_suffix(".png").stat().st_size > 1000
 
     ds = ModelNet40(str(root), categories=["thing"], split="train", alignment_table=str(out))
     a, _ = ds.canonical_mesh("thing", "thing_0001")
@@ -109,20 +154,83 @@ def test_bench_align_writes_a_table_the_loader_applies(tmp_path, capsys):
     assert not np.allclose(raw.canonical_mesh("thing", "thing_0002")[0], a, atol=1e-3)
     assert ds.observation("thing/thing_0002/v00").info["aligned"] is True
 
+    sheet = tmp_path / "redrawn.png"  # --draw-only redraws the table as it is
+    assert align_cmd.main(["dataset=modelnet40", f"dataset.root={root}", "dataset.categories=[thing]",
+                           "dataset.split=train", "--category", "thing", "--out", str(out), "--draw-only",
+                           "--sheet", str(sheet)]) == 0
+    assert sheet.stat().st_size > 1000
+
 
 def test_bench_align_reports_a_bad_root_in_one_line(tmp_path, capsys):
-    assert align_cmd.main(["--root", str(tmp_path / "none"), "--category", "x", "--out", str(tmp_path / "o.csv")]) == 2
+    assert align_cmd.main(["dataset=modelnet40", f"dataset.root={tmp_path / 'none'}", "--category", "x",
+                           "--out", str(tmp_path / "o.csv")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error:") and "\n" not in err
 
 
-@pytest.mark.data
-def test_shared_airplanes_align_by_yaw(shared_data, tmp_path):
-    out = tmp_path / "airplane.csv"
-    assert align_cmd.main(["--root", str(shared_data / "ModelNet40"), "--category", "airplane",
-                           "--out", str(out), "--points", "512"]) == 0
-    table = read_alignment_table(out)
-    assert len(table) == 6
-    np.testing.assert_allclose(table[("airplane", "airplane_0001")], np.eye(3))
-    for R in table.values():  # yaw steps only: the up axis is kept
+COMMITTED = Path(__file__).resolve().parents[1] / "results" / "alignment"
+
+
+@pytest.mark.parametrize("name, n_rows", [("modelnet40_airplane", 6), ("modelnet40_chair", 3),
+                                          ("modelnet40_resampled_airplane", 18), ("modelnet40_resampled_chair", 5)])
+def test_committed_tables_are_verified_yaw_tables_with_small_sheets(name, n_rows):
+    import csv
+
+    table = read_alignment_table(COMMITTED / f"{name}.csv")
+    assert len(table) == n_rows
+    for R in table.values():  # ModelNet40 files share their up axis: yaw steps only
         assert any(np.allclose(R, Y, atol=1e-9) for Y in yaw_rotations(4))
+    rows = list(csv.DictReader((COMMITTED / f"{name}.csv").open()))
+    assert all(r["verified"] == "true" and r["note"] for r in rows)
+    assert 0 < (COMMITTED / f"{name}.png").stat().st_size < 500_000
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_shared_airplanes_fuselage_axis_matches_the_verified_table(shared_data, tmp_path):
+    out = tmp_path / "airplane.csv"
+    assert align_cmd.main(["dataset=modelnet40", f"dataset.root={shared_data / 'ModelNet40'}",
+                           "--category", "airplane", "--out", str(out), "--points", "512"]) == 0
+    est, verified = read_alignment_table(out), read_alignment_table(COMMITTED / "modelnet40_airplane.csv")
+    assert set(est) == set(verified)
+    np.testing.assert_allclose(est[("airplane", "airplane_0001")], np.eye(3))
+    for key, R in est.items():
+        # the fuselage axis is found; nose against tail (180 deg) is what the person checks
+        assert np.allclose(R, verified[key], atol=1e-9) or np.allclose(R, yaw_rotations(2)[1] @ verified[key], atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["mn40r_airplane_1template", "mn40r_chair_ktemplates", "mn40r_chair_1template"])
+def test_experiment_configs_compose_and_leave_the_templates_views_out(name):
+    from hydra import compose, initialize_config_module
+
+    with initialize_config_module("catpose.configs", version_base=None):
+        cfg = compose("run", overrides=[f"+experiment={name}", "method=fgr", "method.matching=dictionary"])
+    assert cfg.protocol.name == "templates" and cfg.dataset.name == "modelnet40_resampled"
+    (category,) = cfg.dataset.categories
+    templates = set(cfg.dataset.templates[category])
+    instances = {s.split("/")[1] for s in cfg.sample_ids}
+    assert instances and not instances & templates
+    assert (COMMITTED.parents[1] / cfg.dataset.alignment_table).is_file()
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("name, every", [("mn40r_airplane_1template", True), ("mn40r_chair_ktemplates", True),
+                                         ("mn40r_chair_1template", False)])  # the K=3 run's test views
+def test_experiment_sample_ids_are_every_non_template_view(name, every, shared_data, monkeypatch):
+    from hydra import compose, initialize_config_module
+
+    from catpose.bench.build import build_from_config
+
+    monkeypatch.chdir(COMMITTED.parents[1])  # the configs' paths are relative to the repository root
+    with initialize_config_module("catpose.configs", version_base=None):
+        cfg = compose("run", overrides=[f"+experiment={name}", f"dataset.root={shared_data / 'modelnet40_normal_resampled'}"])
+    _, dataset = build_from_config(cfg.dataset, "dataset")
+    dataset.name = "modelnet40_resampled"
+    _, protocol = build_from_config(cfg.protocol, "protocol")
+    (category,) = cfg.dataset.categories
+    templates = set(cfg.dataset.templates[category])
+    candidates = [s for s in protocol.sample_ids(dataset) if s.split("/")[1] not in templates]
+    if every:
+        assert list(cfg.sample_ids) == candidates
+    else:
+        assert set(cfg.sample_ids) < set(candidates)

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.datasets.bop import BOP, fit_ground_plane
+from catpose.datasets.bop import BOP
+from catpose.datasets.depthio import fit_ground_plane
 from catpose.datasets.render import PinholeCamera, render_depth
 from catpose.errors import DatasetError
 from catpose.geometry import invert_T, look_at_T_camera_world, make_T, transform_points
@@ -225,3 +226,106 @@ def test_discrete_symmetries_map_the_normalised_model_onto_itself(bop_root):
     info_path.write_text(json.dumps(info))
     with pytest.raises(DatasetError, match="symmetries_discrete"):
         BOP(str(bop_root), categories=CATS).discrete_symmetries(1)
+
+
+def _observed(ds: BOP, obs_id: str) -> np.ndarray:
+    return np.asarray(ds.observation(obs_id).points_camera)
+
+
+def test_models_eval_tif_depth_and_sensor_layouts_read_the_same_frame(bop_root, tmp_path):
+    from PIL import Image
+
+    ref = BOP(str(bop_root), categories=CATS)
+    ids = ref.observation_ids()
+    root = tmp_path / "h3"
+    shutil.copytree(bop_root, root)
+    shutil.move(root / "models", root / "models_eval")
+    scene = root / "test" / "000001"
+    for name in ("scene_gt", "scene_camera"):
+        shutil.move(scene / f"{name}.json", scene / f"{name}_cam1.json")
+    (scene / "depth_cam1").mkdir()
+    depth = np.asarray(Image.open(scene / "depth" / "000000.png"))
+    Image.fromarray(depth.astype(np.uint16)).save(scene / "depth_cam1" / "000000.tif")
+    shutil.rmtree(scene / "depth")
+    ds = BOP(str(root), categories=CATS, models_dir="models_eval", depth_ext=".tif", sensor="cam1")
+    assert ds.observation_ids() == ids
+    np.testing.assert_allclose(_observed(ds, ids[0]), _observed(ref, ids[0]))
+    with pytest.raises(DatasetError, match="does not exist"):  # the classic layout is not there any more
+        BOP(str(root), categories=CATS).observation_ids()
+    with pytest.raises(DatasetError, match="depth_ext"):
+        BOP(str(root), categories=CATS, depth_ext=".jpg")
+
+
+def test_visib_fract_and_test_targets_filters(bop_root):
+    scene = bop_root / "test" / "000001"
+    all_ids = BOP(str(bop_root), categories=CATS).observation_ids()
+    assert all_ids == ["box/000001/000000/0", "can/000001/000000/1", "box/000001/000000/2"]
+    (scene / "scene_gt_info.json").write_text(json.dumps(
+        {"0": [{"visib_fract": 0.9}, {"visib_fract": 0.6}, {"visib_fract": 0.0}, {"visib_fract": 0.9}]}))
+    ds = BOP(str(bop_root), categories=CATS)
+    assert ds.observation_ids() == all_ids[:2]
+    assert any("visib_fract >= 0.1 (1 instances left out)" in f for f in ds.filters)
+    assert BOP(str(bop_root), categories=CATS, min_visib_fract=0).observation_ids() == all_ids
+    (bop_root / "test_targets_bop19.json").write_text(json.dumps(
+        [{"scene_id": 1, "im_id": 0, "obj_id": 2, "inst_count": 1}]))
+    ds = BOP(str(bop_root), categories=CATS)
+    assert ds.observation_ids() == ["can/000001/000000/1"]
+    assert any("test_targets_bop19.json" in f for f in ds.filters)
+    assert BOP(str(bop_root), categories=CATS, targets=None, min_visib_fract=0).observation_ids() == all_ids
+
+
+def test_unmapped_object_ids_are_named(bop_root):
+    with pytest.raises(DatasetError, match=r"object ids \[1, 2, 3, 4\]"), pytest.warns(UserWarning, match="99"):
+        BOP(str(bop_root), categories={99: "mug"}).observation_ids()
+
+
+def test_continuous_symmetry_origin_uses_every_axis_and_offset():
+    from catpose.datasets.bop_layout import continuous_symmetry_origin
+
+    one = continuous_symmetry_origin([{"axis": [0, 0, 2], "offset": [5, -3, 0]}], np.array([0.0, 0.0, 40.0]))
+    np.testing.assert_allclose(one, [5, -3, 40])
+    two = continuous_symmetry_origin([{"axis": [0, 0, 1], "offset": [5, -3, 0]},
+                                      {"axis": [1, 0, 0], "offset": [0, -3, 7]}], np.zeros(3))
+    np.testing.assert_allclose(two, [5, -3, 7], atol=1e-9)  # where the two axes cross
+    assert continuous_symmetry_origin([], np.zeros(3)) is None
+
+
+def test_object_centre_lies_on_the_offset_symmetry_axis(bop_root):
+    """A spin about the (offset) axis must keep the normalised object's origin in place."""
+    import trimesh
+
+    info_path = bop_root / "models/models_info.json"
+    info = json.loads(info_path.read_text())
+    cyl = trimesh.creation.cylinder(radius=30.0, height=80.0, sections=48)
+    handle = trimesh.creation.box(extents=(5, 5, 5))
+    handle.apply_translation([-40.0, 0, 0])  # shifts the bounding-box centre off the axis
+    mesh = trimesh.util.concatenate([cyl, handle])
+    mesh.apply_translation([7.0, 4.0, 40.0])
+    mesh.export(bop_root / "models" / "obj_000002.ply")
+    info["2"]["symmetries_continuous"] = [{"axis": [0, 0, 1], "offset": [7.0, 4.0, 0.0]}]
+    info_path.write_text(json.dumps(info))
+    ds = BOP(str(bop_root), categories=CATS)
+    R, centre, scale = ds.normalisation(2)
+    np.testing.assert_allclose((R.T @ centre)[:2], [7.0, 4.0], atol=1e-9)
+    v = (ds.model_mm(2)[0] @ R.T - centre) / scale
+    assert np.linalg.norm(v, axis=1).max() == pytest.approx(1.0)
+
+
+def test_unseen_configured_ids_warn_with_the_ids_the_frames_show(bop_root):
+    with pytest.warns(UserWarning, match=r"object ids \[7\] that no frame shows; the frames show object ids \[1, 2, 3, 4\]"):
+        BOP(str(bop_root), categories={1: "box", 7: "mug"}).observation_ids()
+
+
+@pytest.mark.data
+def test_tyol_config_composes_and_loads_the_shared_frame(shared_data):
+    from hydra import compose, initialize_config_module
+
+    from catpose.bench.build import build_from_config
+
+    with initialize_config_module("catpose.configs", version_base=None):
+        cfg = compose("run", overrides=["dataset=tyol", f"dataset.root={shared_data / 'bop' / 'tyol'}",
+                                        f"dataset.templates_root={shared_data / 'templates'}"])
+    name, ds = build_from_config(cfg.dataset, "dataset")
+    assert name == "tyol" and ds.observation_ids() == ["basket/000019/000010/0"]
+    assert ds.filters == []  # the shared frame has neither targets nor scene_gt_info
+    assert len(ds.category_templates("mug")) == 1 and len(ds.category_templates("bottle")) == 1

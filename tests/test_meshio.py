@@ -40,7 +40,10 @@ def test_off_quirk_and_crlf_parse_like_a_plain_off(tmp_path):
     ("OFF\nthree 1 0\n0 0 0\n", "counts line"),
     ("OFF\n8 6 0\n0 0 0\n", "truncated"),
     ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "outside"),
-    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 x 2\n", "cannot parse"),
+    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 x 2\n", "line 6: face '3 0 x 2'"),
+    ("OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n", "line 4: a vertex needs 3 coordinates, found 2"),
+    ("OFF\n# comment\n\n3 1 0\n0 0 0\n1 0 0\n0 y 0\n3 0 1 2\n", "line 7: vertex coordinates '0 y 0'"),
+    ("OFF3 1 0\r\n0 0 0\r\n1 0\r\n0 1 0\r\n3 0 1 2\r\n", "line 3: a vertex needs 3"),
 ])
 def test_malformed_off_raises_one_line_naming_the_file(tmp_path, text, words):
     path = tmp_path / "bad.off"

@@ -44,7 +44,7 @@ def test_bop_round_trip(tmp_path: Path, bop_info: bool):
                           "centre_mm": [1.0, 2.0, 3.0],
                           "R_object_model": axis_angle_to_R(np.array([1.0, 2, 3]), 0.4).ravel().tolist()}) if bop_info else (lambda i: {})
     run = write_run(tmp_path / "run", _rows(info_fn), CFG)
-    out = tmp_path / "bop.csv"
+    out = tmp_path / "ours_toy-test.csv"
     assert export_bop(run, out) == 3  # the failed sample has no estimate
     lines = out.read_text().splitlines()
     assert lines[0] == "scene_id,im_id,obj_id,score,R,t,time"
@@ -100,10 +100,10 @@ def test_bad_prediction_files(tmp_path: Path):
     (tmp_path / "a.csv").write_text("foo,bar\n1,2\n")
     with pytest.raises(InvalidInputError, match="neither BOP"):
         read_predictions(tmp_path / "a.csv")
-    (tmp_path / "b.csv").write_text("sample_id,R,t\nx,1 0 0 0 1 0 0 0,0 0 0\n")
-    with pytest.raises(InvalidInputError, match="b.csv:2 R"):
-        read_predictions(tmp_path / "b.csv")
-    assert predictions.score_main([str(tmp_path / "b.csv"), "--method", "m", "--out", str(tmp_path / "o")]) == 2
+    (tmp_path / "m_toy-test.csv").write_text("sample_id,R,t\nx,1 0 0 0 1 0 0 0,0 0 0\n")
+    with pytest.raises(InvalidInputError, match="m_toy-test.csv:2 R"):
+        read_predictions(tmp_path / "m_toy-test.csv")
+    assert predictions.score_main([str(tmp_path / "m_toy-test.csv"), "--method", "m", "--out", str(tmp_path / "o")]) == 2
 
 
 def test_bop_export_matches_bop_pose_convention(tmp_path: Path):
@@ -120,8 +120,8 @@ def test_bop_export_matches_bop_pose_convention(tmp_path: Path):
            "info": {"scene_id": 1, "im_id": 2, "obj_id": 3, "scale_mm": scale, "centre_mm": centre.tolist(),
                     "R_object_model": R_om.ravel().tolist()}}
     run = write_run(tmp_path / "run", [row], CFG)
-    export_bop(run, tmp_path / "b.csv")
-    p = read_predictions(tmp_path / "b.csv").iloc[0]
+    export_bop(run, tmp_path / "m_toy-test.csv")
+    p = read_predictions(tmp_path / "m_toy-test.csv").iloc[0]
     assert (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"])) == (1, 2, 3)
     np.testing.assert_allclose(p["T"][:3, :3], R_cm, atol=1e-6)
     np.testing.assert_allclose(p["T"][:3, 3], t_cm, atol=1e-4)
@@ -167,8 +167,8 @@ def test_bop_export_reproduces_scene_gt_on_real_tyol_frame(shared_data: Path, tm
            "status": "ok", "error": "", "err_deg": 0.0, "T_est": T.reshape(-1).tolist(), "T_gt": T.reshape(-1).tolist(),
            "symmetry_axis": None, "score": None, "runtime_s": 1.0, "info": info}
     run = write_run(tmp_path / "run", [row], CFG)
-    export_bop(run, tmp_path / "b.csv")
-    p = read_predictions(tmp_path / "b.csv").iloc[0]
+    export_bop(run, tmp_path / "m_toy-test.csv")
+    p = read_predictions(tmp_path / "m_toy-test.csv").iloc[0]
     gt = json.loads((root / "test" / f"{int(info['scene_id']):06d}" / "scene_gt.json").read_text())
     entry = gt[str(int(info["im_id"]))][int(info["gt_idx"])]
     np.testing.assert_allclose(p["T"][:3, :3], np.reshape(entry["cam_R_m2c"], (3, 3)), atol=1e-5)

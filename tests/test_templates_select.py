@@ -59,8 +59,38 @@ def test_medoids_one_per_cluster():
     for medoid, members in result["clusters"].items():  # every cluster is one family
         assert {m.rstrip("0123456789") for m in members} == {medoid.rstrip("0123456789")}
         assert len(members) == 4
-    # deterministic
-    assert ts.choose_templates(clouds, k=3, tau=0.05, n_points=800, seed=0)["templates"] == result["templates"]
+    # deterministic: the same ids, clusters and distances on a second run
+    again = ts.choose_templates(clouds, k=3, tau=0.05, n_points=800, seed=0)
+    assert again["templates"] == result["templates"] and again["clusters"] == result["clusters"]
+    np.testing.assert_array_equal(again["distances"], result["distances"])
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 5])
+def test_every_medoid_is_a_member_of_its_cluster_and_clusters_partition(k):
+    clouds = shape_family(seed=1, per_cluster=3, n=600)
+    result = ts.choose_templates(clouds, k=k, tau=0.05, n_points=600, seed=0)
+    assert len(result["templates"]) == k == len(result["clusters"])
+    members = [m for ms in result["clusters"].values() for m in ms]
+    assert sorted(members) == sorted(clouds)  # every instance in exactly one cluster
+    D, ids = result["distances"], result["ids"]
+    for medoid, ms in result["clusters"].items():
+        assert medoid in ms
+        # each member is nearest to its own medoid (ties allowed)
+        for m in ms:
+            d_own = D[ids.index(m), ids.index(medoid)]
+            assert all(d_own <= D[ids.index(m), ids.index(o)] + 1e-12 for o in result["clusters"])
+
+
+def test_silhouette_picks_the_three_families():
+    from sklearn.metrics import silhouette_score
+
+    clouds = shape_family()
+    result = ts.choose_templates(clouds, k="auto", tau=0.05, n_points=800, seed=0)
+    assert len(result["templates"]) == 3 and max(result["silhouette"], key=result["silhouette"].get) == 3
+    assert set(result["silhouette"]) == set(range(2, len(clouds)))
+    labels = ts.select_medoids(result["distances"], 3, 0)[1]
+    assert result["silhouette"][3] == pytest.approx(silhouette_score(result["distances"], labels,
+                                                                     metric="precomputed"))
 
 
 def test_write_yaml_keeps_other_categories(tmp_path: Path):
@@ -88,8 +118,9 @@ def test_cli_on_synthetic_dataset(tmp_path: Path):
 @pytest.mark.data
 def test_cli_on_shared_modelnet40_airplanes(shared_data: Path, tmp_path: Path):
     out = tmp_path / "airplane.yaml"
-    rc = ts.main(["dataset=modelnet40", f"dataset.root={shared_data / 'ModelNet40'}", "--category", "airplane",
-                  "--k", "2", "--points", "512", "--out", str(out)])
+    table = Path(__file__).resolve().parents[1] / "results/alignment/modelnet40_airplane.csv"
+    rc = ts.main(["dataset=modelnet40", f"dataset.root={shared_data / 'ModelNet40'}", f"dataset.alignment_table={table}",
+                  "--category", "airplane", "--k", "2", "--points", "512", "--out", str(out)])
     assert rc == 0
     chosen = yaml.safe_load(out.read_text())["airplane"]
     assert len(set(chosen)) == 2 and all(c.startswith("airplane_000") for c in chosen)
@@ -106,12 +137,24 @@ def test_written_file_is_a_hydra_group_for_dataset_templates(tmp_path: Path):
         cfg = compose("run", overrides=["dataset=modelnet40", "+templates=mn_chair",
                                         f"hydra.searchpath=[file://{tmp_path}]"])
     assert list(cfg.dataset.templates.chair) == ["chair_0002", "chair_0001"]
-    assert ts.default_output("modelnet40", "chair").parts[-2:] == ("templates", "modelnet40_chair.yaml")
+
+
+def test_out_is_required_and_unaligned_data_is_refused(tmp_path, capsys):
+    with pytest.raises(SystemExit):  # argparse: --out is required, nothing is written into the package
+        ts.main(["dataset=synthetic", "--category", "mug"])
+    capsys.readouterr()
+    root = tmp_path / "mn"
+    (root / "chair" / "train").mkdir(parents=True)
+    assert ts.main(["dataset=modelnet40", f"dataset.root={root}", "--category", "chair",
+                    "--out", str(tmp_path / "t.yaml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "bench align" in err[-1] and not (tmp_path / "t.yaml").exists()
 
 
 def test_bad_dataset_root_is_one_line(tmp_path, capsys):
     from catpose.bench.templates_select import main
 
-    assert main(["--category", "chair", "dataset=modelnet40", f"dataset.root={tmp_path / 'nope'}"]) == 2
+    assert main(["--category", "chair", "dataset=modelnet40", f"dataset.root={tmp_path / 'nope'}",
+                 "--out", str(tmp_path / "t.yaml")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "nope" in err[0] and "Traceback" not in err[0]

@@ -21,3 +21,22 @@ class DatasetError(CatposeError):
 
 class ConfigError(CatposeError):
     """An unknown name or a wrong option in the configuration."""
+
+
+class RunAborted(CatposeError):
+    """The run itself cannot go on (not one sample's fault): a broken installation, no memory,
+    an unwritable output directory, a run directory held by another run. Nothing is recorded for
+    the sample in progress, so a re-run redoes it."""
+
+
+def one_line(e: BaseException) -> str:
+    """An exception as one line: a catpose error's own message, or ``Type: message (at file:line)``."""
+    import traceback
+    from pathlib import Path
+
+    msg = " ".join(str(e).split()) or "(no message)"
+    if isinstance(e, CatposeError):
+        return msg
+    tb = traceback.extract_tb(e.__traceback__)
+    where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno})" if tb else ""
+    return f"{type(e).__name__}: {msg}{where}"

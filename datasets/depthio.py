@@ -1,0 +1,114 @@
+"""Depth frames from files and the ground plane under an object: what every real RGB-D loader
+(BOP, Redwood) shares.
+
+Depth PNGs are uint16 in the sensor's unit (millimetres times a scale the loader knows); TIFF
+depth (ITODD) is float. The ground normal of a real frame is the normal of the dominant plane of
+the background depth, found by seeded RANSAC (as Open3D's ``segment_plane``): the paper's
+gravity direction.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from catpose.errors import DatasetError
+
+
+def read_depth_png(path: Path) -> np.ndarray:
+    """A 16-bit depth PNG as a (H, W) uint16 array; other dtypes raise :class:`DatasetError`."""
+    from PIL import Image
+
+    if not path.is_file():
+        raise DatasetError(f"depth image {path} does not exist")
+    try:
+        with Image.open(path) as im:
+            arr = np.asarray(im)
+    except Exception as exc:  # PIL raises several types for a broken file
+        raise DatasetError(f"{path} cannot be read as an image ({type(exc).__name__})") from None
+    if arr.ndim != 2 or arr.dtype not in (np.uint16, np.int32, np.int16):
+        raise DatasetError(f"{path} is {arr.dtype} with shape {arr.shape}; depth must be a single-channel "
+                           "16-bit PNG")
+    if arr.dtype != np.uint16:  # PIL opens some 16-bit PNGs as mode "I" (int32)
+        if arr.min() < 0 or arr.max() > 65535:
+            raise DatasetError(f"{path} has values outside 0..65535; depth must be a 16-bit PNG")
+        arr = arr.astype(np.uint16)
+    return arr
+
+
+def read_mask_png(path: Path) -> np.ndarray:
+    """A mask PNG as a (H, W) bool array (non-zero = object)."""
+    from PIL import Image
+
+    try:
+        with Image.open(path) as im:
+            arr = np.asarray(im)
+    except Exception as exc:
+        raise DatasetError(f"mask {path} cannot be read as an image ({type(exc).__name__})") from None
+    return (arr if arr.ndim == 2 else arr[..., 0]) > 0
+
+
+def read_depth(path: Path) -> np.ndarray:
+    """A depth image (16-bit PNG, or TIFF as in ITODD) as a (H, W) array of raw values
+    (multiply by the frame's ``depth_scale`` for mm)."""
+    if path.suffix.lower() == ".png":
+        return read_depth_png(path)
+    from PIL import Image
+
+    if not path.is_file():
+        raise DatasetError(f"depth image {path} does not exist")
+    try:
+        with Image.open(path) as im:
+            arr = np.asarray(im)
+    except Exception as exc:
+        raise DatasetError(f"{path} cannot be read as an image ({type(exc).__name__})") from None
+    if arr.ndim != 2 or arr.dtype.kind not in "uif":
+        raise DatasetError(f"{path} is {arr.dtype} with shape {arr.shape}; depth must be a single-channel image")
+    return arr
+
+
+def fit_ground_plane(points: np.ndarray, distance: float, iterations: int,
+                     seed: int) -> tuple[np.ndarray, float, int]:
+    """Dominant plane ``n . p + d = 0`` of ``points`` (N, 3) by RANSAC, refined by least squares.
+
+    The same three-point RANSAC as Open3D's ``segment_plane``, but run here with a seeded NumPy
+    generator: Open3D's multithreaded version returns slightly different planes from run to run,
+    and observations must be deterministic functions of (seed, id). The best plane's inliers are
+    then refitted by least squares (smallest principal axis).
+
+    Returns the unit normal ``n`` (3,) oriented towards the origin (the camera), the offset
+    ``d`` >= 0 (so ``n . p + d`` is the height above the plane) and the number of inliers.
+    ``distance`` is in the points' unit.
+    """
+    p = np.asarray(points, np.float64)
+    if len(p) < 3:
+        raise DatasetError("too few background points to fit the ground plane")
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(0, len(p), size=(max(int(iterations), 1), 3))
+    a, b, c = p[idx[:, 0]], p[idx[:, 1]], p[idx[:, 2]]
+    normals = np.cross(b - a, c - a)
+    norms = np.linalg.norm(normals, axis=1)
+    ok = norms > 1e-12 * max(float(np.abs(p).max()), 1.0) ** 2
+    if not ok.any():
+        raise DatasetError("background points are collinear; cannot fit the ground plane")
+    normals, offsets = normals[ok] / norms[ok, None], -np.einsum("ij,ij->i", normals[ok] / norms[ok, None], a[ok])
+    best, best_count = 0, -1
+    for s in range(0, len(normals), 64):
+        counts = (np.abs(p @ normals[s:s + 64].T + offsets[s:s + 64]) < distance).sum(axis=0)
+        k = int(counts.argmax())
+        if counts[k] > best_count:
+            best, best_count = s + k, int(counts[k])
+    n, d = normals[best], offsets[best]
+    for _ in range(2):  # least-squares refinement on the inliers
+        inl = p[np.abs(p @ n + d) < distance]
+        if len(inl) < 3:
+            break
+        centroid = inl.mean(axis=0)
+        n_new = np.linalg.svd(inl - centroid, full_matrices=False)[2][-1]
+        n = n_new if n_new @ n >= 0 else -n_new
+        d = -float(n @ centroid)
+    n_inliers = int((np.abs(p @ n + d) < distance).sum())
+    if d < 0:  # the origin must lie on the positive side: n . 0 + d > 0
+        n, d = -n, -d
+    return n, float(d), n_inliers

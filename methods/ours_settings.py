@@ -1,0 +1,92 @@
+"""Typed option groups of ``ours`` (:class:`~catpose.methods.ours.Ours`): the optimiser and the
+selection among candidates. Built by Hydra from ``configs/method/ours.yaml``
+(``method.optimiser.*``, ``method.selection.*``); invalid values raise a one-line ConfigError
+naming the key."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from catpose.errors import ConfigError
+from catpose.methods import options
+
+
+@dataclass(frozen=True)
+class OptimiserSettings:
+    """Two-stage Adam on all candidates (paper Section III-D).
+
+    Attributes:
+        mode: ``joint`` (stage 1 pose, then stage 2 pose + correspondences; the paper), ``pose``
+            (stage 1 only) or ``none`` (the SVD initial pose only).
+        steps_pose, steps_joint: Adam steps of stage 1 and stage 2 (paper: 300 each).
+        lr: Adam learning rate of both stages (paper: 1e-3; default 1e-2, see the config).
+        stage2_top_k: if in (0, m), stage 2 runs only on the ``k`` best candidates after stage 1
+            (by the selection criterion); 0 runs it on all ``m`` (the paper).
+        chamfer_weight: weight of the one-directional Chamfer term (input -> complete template; 0: off).
+        device: torch device, ``cpu`` or ``cuda``.
+    """
+
+    mode: str = "joint"
+    steps_pose: int = 300
+    steps_joint: int = 300
+    lr: float = 1e-2
+    stage2_top_k: int = 0
+    chamfer_weight: float = 0.0
+    device: str = "cpu"
+
+    def __post_init__(self) -> None:
+        k, set_ = "method.optimiser.", object.__setattr__
+        set_(self, "mode", options.one_of(k + "mode", self.mode, ("joint", "pose", "none")))
+        for key in ("steps_pose", "steps_joint", "stage2_top_k"):
+            set_(self, key, options.non_negative(k + key, getattr(self, key), integer=True))
+        set_(self, "lr", options.positive(k + "lr", self.lr))
+        set_(self, "chamfer_weight", options.non_negative(k + "chamfer_weight", self.chamfer_weight))
+        if str(self.device).startswith("cuda"):
+            import torch
+
+            if not torch.cuda.is_available():
+                raise ConfigError(f"{k}device={self.device!r} but torch has no CUDA device here; use device=cpu")
+        elif self.device != "cpu":
+            raise ConfigError(f"{k}device={self.device!r} is unknown; use cpu or cuda")
+
+
+@dataclass(frozen=True)
+class SelectionSettings:
+    """Choosing one of the ``m`` candidates, then refining it.
+
+    Attributes:
+        rule: ``visibility`` (default: the ``top_k`` candidates by the visibility-aware Chamfer,
+            each with its three half turns, refined, then the lowest visibility-aware Chamfer;
+            :func:`catpose.methods.selection.select_with_half_turns`), ``chamfer`` (lowest
+            one-directional Chamfer distance of the transformed input to the complete template)
+            or ``loss`` (lowest final loss; the paper's rule).
+        gravity_max_deg: drop candidates tilting the ground normal more than this (degrees) from
+            the template's up axis; ``None`` or <= 0: off.
+        refine: point-to-plane ICP from the selected pose (false: the paper).
+        refine_max_distance: ICP correspondence distance (object-normalised).
+        refine_iterations: ICP iterations.
+        top_k: ``visibility``: candidates expanded by half turns (each costs 4 refinements).
+        visibility_trunc: ``visibility``: truncation of both Chamfer directions (object-normalised).
+    """
+
+    rule: str = "chamfer"
+    gravity_max_deg: float | None = 30.0
+    refine: bool = True
+    refine_max_distance: float = 0.05
+    refine_iterations: int = 30
+    top_k: int = 3
+    visibility_trunc: float = 0.1
+
+    def __post_init__(self) -> None:
+        k, set_ = "method.selection.", object.__setattr__
+        set_(self, "rule", options.one_of(k + "rule", self.rule, ("visibility", "chamfer", "loss")))
+        g = self.gravity_max_deg
+        if g is not None and not options.is_number(g):
+            raise ConfigError(f"{k}gravity_max_deg={g!r} must be a number of degrees or null (off)")
+        set_(self, "gravity_max_deg", None if g is None or g <= 0 else float(g))
+        set_(self, "refine", options.flag(k + "refine", self.refine))
+        set_(self, "refine_max_distance", options.positive(k + "refine_max_distance", self.refine_max_distance))
+        set_(self, "refine_iterations", options.non_negative(k + "refine_iterations", self.refine_iterations,
+                                                             integer=True))
+        set_(self, "top_k", options.positive(k + "top_k", self.top_k, integer=True))
+        set_(self, "visibility_trunc", options.positive(k + "visibility_trunc", self.visibility_trunc))

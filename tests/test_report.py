@@ -1,0 +1,170 @@
+"""The report folder: unique hash-free labels, per-protocol tables, relative links only, and the
+qualitative examples (the worst registration and a typical failure)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from catpose.bench import tables
+from catpose.bench.predictions import write_run
+from catpose.bench.report import build_report, main as report_main, qualitative_picks
+from catpose.geometry import axis_angle_to_R, make_T
+
+GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.GtModel"}
+TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.Templates", "max_templates": None}
+HASH = re.compile(r"\b[0-9a-f]{8}\b")
+
+
+def _rows(errors: dict[str, list[float]], method: str, protocol: str) -> list[dict]:
+    rows = []
+    for cat, errs in errors.items():
+        for i, e in enumerate(errs):
+            obs = f"{cat}/{i:03d}/v00"
+            T_gt = make_T(np.eye(3), np.array([0.0, 0.0, 2.0]))
+            T_est = make_T(axis_angle_to_R(np.array([1.0, 0, 0]), np.radians(e)), np.array([0.0, 0.0, 2.0]))
+            rows.append({"sample_id": obs if protocol == "gt_model" else f"{obs}|0", "group_id": obs, "obs_id": obs,
+                         "category": cat, "instance_id": f"{i:03d}", "template_id": "t0", "method": method,
+                         "status": "ok", "error": "", "err_deg": e, "rot_err_deg": e, "trans_err": 0.0,
+                         "T_est": T_est.reshape(-1).tolist(), "T_gt": T_gt.reshape(-1).tolist(),
+                         "symmetric": False, "symmetry_axis": None, "score": 0.0, "runtime_s": 0.1 * (i + 1),
+                         "info": {}, "extras": {}})
+    return rows
+
+
+def _run(root: Path, name: str, method: dict, protocol: dict = GT_MODEL, errors: dict | None = None,
+         overrides: list[str] | None = None) -> Path:
+    """A frozen run directory named like the runner's (``<tag>-<hash>``), with its overrides file."""
+    errors = errors or {"airplane": [1.0, 2.0, 40.0], "chair": [0.5, 90.0]}
+    cfg = {"method": dict(method, _target_="x.Y"), "dataset": {"name": "toy"}, "protocol": protocol, "seed": 0}
+    out = write_run(root / f"toy-{protocol['name']}" / method["name"] / name,
+                    _rows(errors, method["name"], protocol["name"]), cfg)
+    if overrides is not None:
+        (out / "overrides.txt").write_text("\n".join(["dataset=toy", "seed=0", "output_root=/abs/out",
+                                                      f"method={method['name']}"] + overrides) + "\n")
+    return out
+
+
+def test_labels_unique_by_the_distinguishing_override(tmp_path: Path):
+    a = _run(tmp_path, "seed0-default-1a2b3c4d", {"name": "ours", "descriptor": "lps"}, overrides=[])
+    b = _run(tmp_path, "seed0-method.descriptor=pfh-5e6f7a8b", {"name": "ours", "descriptor": "pfh"},
+             overrides=["method.descriptor=pfh"])
+    c = _run(tmp_path, "seed0-default-9c0d1e2f", {"name": "icp"}, overrides=[])
+    runs = [tables.load_run(p) for p in (a, b, c)]
+    assert tables.run_labels(runs) == ["Ours", "Ours (descriptor=pfh)", "ICP"]
+    t = tables.build_table(runs, "generic")
+    assert sorted(r[-1] for r in t.rows) == ["ICP", "Ours", "Ours (descriptor=pfh)"]
+
+
+def test_labels_from_config_differences_then_protocol(tmp_path: Path):
+    a = _run(tmp_path, "seed0-x-1a2b3c4d", {"name": "icp", "max_iter": 30})
+    b = _run(tmp_path, "seed0-y-5e6f7a8b", {"name": "icp", "max_iter": 100})
+    c = _run(tmp_path, "seed0-default-9c0d1e2f", {"name": "icp", "max_iter": 30}, TEMPLATES)
+    labels = tables.run_labels([tables.load_run(p) for p in (a, b)])
+    assert labels == ["ICP (max_iter=30)", "ICP (max_iter=100)"]
+    labels = tables.run_labels([tables.load_run(p) for p in (a, c)])
+    assert labels == ["ICP (gt_model)", "ICP (templates)"]
+    assert not any(HASH.search(x) for x in labels)
+
+
+def test_labels_hash_only_when_nothing_else_differs(tmp_path: Path):
+    a = _run(tmp_path, "seed0-default-1a2b3c4d", {"name": "icp"})
+    b = _run(tmp_path / "again", "seed0-default-5e6f7a8b", {"name": "icp"})
+    labels = tables.run_labels([tables.load_run(p) for p in (a, b)])
+    assert len(set(labels)) == 2 and all(HASH.search(x) for x in labels)
+
+
+def test_labels_pool_one_run_per_category(tmp_path: Path):
+    a = _run(tmp_path, "chair", {"name": "ours"}, errors={"chair": [1.0]})
+    b = _run(tmp_path, "car", {"name": "ours"}, errors={"car": [2.0]})
+    assert tables.run_labels([tables.load_run(p) for p in (a, b)]) == ["Ours", "Ours"]
+
+
+def _picks_units(errors: list[float | None]) -> pd.DataFrame:
+    return pd.DataFrame({"sample_id": [f"s{i}" for i in range(len(errors))],
+                         "status": ["ok" if e is not None else "failed" for e in errors],
+                         "err_deg": [180.0 if e is None else e for e in errors],
+                         "T_est": [[0.0] if e is not None else None for e in errors]})
+
+
+def test_qualitative_picks_worst_and_typical_failure():
+    #            s0   s1    s2   s3    s4   s5    s6 (failed: no estimate to draw)
+    units = _picks_units([1.0, 35.0, 3.0, 150.0, 12.0, 20.0, None])
+    # worst drawable: s3 (150); failures above 10 deg besides it: 12, 20, 35 -> median 20 -> s5
+    assert qualitative_picks(units, 2) == [("worst", "s3"), ("typical failure", "s5")]
+    assert qualitative_picks(units, 1) == [("worst", "s3")]
+    assert qualitative_picks(units, 0) == []
+    # failures 12, 20, 35, 50: median 27.5 -> closest is 20 (7.5) before 35 (7.5) in error order
+    assert qualitative_picks(_picks_units([12.0, 50.0, 35.0, 20.0, 170.0]), 2)[1] == ("typical failure", "s3")
+    # no failure besides the worst: only the worst
+    assert qualitative_picks(_picks_units([1.0, 2.0, 30.0]), 2) == [("worst", "s2")]
+
+
+def _links(text: str) -> list[str]:
+    return re.findall(r"\]\(([^)]+)\)", text) + re.findall(r'(?:src|href)="([^"]+)"', text)
+
+
+def test_report_per_protocol_relative_links(tmp_path: Path):
+    runs = [_run(tmp_path / "runs", "seed0-default-1a2b3c4d", {"name": "ours"}, overrides=[]),
+            _run(tmp_path / "runs", "seed0-method.descriptor=pfh-5e6f7a8b", {"name": "ours", "descriptor": "pfh"},
+                 overrides=["method.descriptor=pfh"]),
+            _run(tmp_path / "runs", "seed0-default-9c0d1e2f", {"name": "icp"}, TEMPLATES, overrides=["protocol=templates"]),
+            _run(tmp_path / "runs", "seed0-default-0a0b0c0d", {"name": "ours"}, TEMPLATES, overrides=["protocol=templates"])]
+    out = tmp_path / "report"
+    index = build_report([tmp_path / "runs"], out, layouts=["optimizer"], notes=["Made by the test."])
+    md, page = index.read_text(), (out / "index.html").read_text()
+    for text in (md, page):
+        assert str(tmp_path) not in text and "/abs/" not in text
+        for link in _links(text):
+            assert not link.startswith("/") and "://" not in link, link
+            assert (out / link).is_file(), link
+    for protocol in ("gt_model", "templates"):
+        for stem in ("summary", "per_category", "optimizer"):
+            assert f"tables/{protocol}_{stem}.md" in md
+        for fig in ("error_cdf", "accuracy", "runtime"):
+            assert f"figures/{protocol}_{fig}.png" in md and (out / "figures" / f"{protocol}_{fig}.csv").is_file()
+    # Each table holds one protocol's runs, with hash-free unique labels.
+    gt = (out / "tables" / "gt_model_summary.csv").read_text().splitlines()
+    assert [line.split(",")[0] for line in gt[1:]] == ["Ours", "Ours (descriptor=pfh)"]
+    tpl = (out / "tables" / "templates_per_category.md").read_text()
+    assert "ICP" in tpl and "pfh" not in tpl
+    assert len(gt[0].split(",")) <= 10  # methods + 7 pooled metrics, not categories x metrics
+    # Hashes only in the list of run directories, nowhere in tables, legends or captions.
+    assert "Made by the test." in md and not HASH.search(md[md.index("## Protocol"):])
+    for csv in (out / "figures").glob("*.csv"):
+        assert not HASH.search(csv.read_text().split("\n", 1)[1].split(",")[0]), csv
+    assert "<table>" in page and '<img src="figures/gt_model_error_cdf.png"' in page
+    assert report_main([str(tmp_path / "missing"), "--out", str(tmp_path / "r2")]) == 2
+
+
+@pytest.mark.slow
+def test_report_pictures_from_synthetic_run(tmp_path: Path):
+    """The examples are rebuilt from the run's config (one rendered synthetic mug view, 2 views)."""
+    from catpose.datasets.synthetic import SyntheticDataset
+
+    ds_cfg = {"name": "synthetic", "_target_": "catpose.datasets.synthetic.SyntheticDataset", "seed": 0,
+              "categories": ["mug"], "instances_per_category": 1, "views_per_instance": 3, "num_templates": 1,
+              "template_points": 512}
+    ds = SyntheticDataset(**{k: v for k, v in ds_cfg.items() if k not in ("name", "_target_")})
+    rows = []
+    for k, obs_id in enumerate(ds.observation_ids()):
+        T_gt = np.asarray(ds.observation(obs_id).T_object_camera, float)
+        T_est = make_T(axis_angle_to_R(np.array([0, 0, 1.0]), np.radians(40 * k)), np.zeros(3)) @ T_gt
+        rows.append({"sample_id": obs_id, "group_id": obs_id, "obs_id": obs_id, "category": "mug", "instance_id": "000",
+                     "method": "ours", "status": "ok", "error": "", "err_deg": 40.0 * k, "rot_err_deg": 40.0 * k,
+                     "trans_err": 0.0, "T_est": T_est.reshape(-1).tolist(), "T_gt": T_gt.reshape(-1).tolist(),
+                     "symmetry_axis": None, "score": 0.1, "runtime_s": 0.2, "info": {}, "extras": {}})
+    cfg = {"method": {"name": "ours", "_target_": "x.Y"}, "dataset": ds_cfg, "protocol": GT_MODEL, "seed": 0}
+    run = write_run(tmp_path / "run_ours", rows, cfg)
+    index = build_report([run], tmp_path / "report", qualitative=2, pdf=False)
+    md = index.read_text()
+    ids = list(ds.observation_ids())
+    assert f"worst: `{ids[2]}`, 80.0 deg" in md and f"typical failure: `{ids[1]}`, 40.0 deg" in md
+    assert "not drawn" not in md
+    for link in _links(md):
+        assert (tmp_path / "report" / link).is_file(), link
+    assert not list((tmp_path / "report" / "figures").glob("*.pdf"))
