@@ -69,7 +69,7 @@ class SelectionSettings:
         visibility_trunc: ``visibility``: truncation of both Chamfer directions (object-normalised).
     """
 
-    rule: str = "chamfer"
+    rule: str = "visibility"
     gravity_max_deg: float | None = 30.0
     refine: bool = True
     refine_max_distance: float = 0.05
