@@ -19,7 +19,7 @@ values where **lower is better**.
   and missing data cost.
 
 The paper's rule (lowest final loss) and the earlier one-directional Chamfer stay reachable
-through ``method.selection`` (``loss`` | ``chamfer`` | ``visibility``).
+through ``method.selection.rule`` (``loss`` | ``chamfer`` | ``visibility``).
 """
 
 from __future__ import annotations
