@@ -9,7 +9,7 @@ PY := $(VENV)/bin/python
 BENCH := $(VENV)/bin/bench
 TORCH_PIN ?= torch==2.13.0
 
-.PHONY: setup demo test test-slow regress cluster slurm-check clean
+.PHONY: setup demo test test-slow regress realcheck cluster slurm-check clean
 
 setup: $(VENV)/.installed
 
@@ -35,6 +35,11 @@ test-slow: setup
 
 regress: setup
 	$(BENCH) regress
+
+# every method on ../shared/data (YCB-V, TYO-L, ModelNet40 resampled), one table; skips without the data.
+# CPU-heavy (about an hour on 2 cores): runs under nice and resumes where it stopped.
+realcheck: setup
+	nice $(BENCH) suite real --write results/real/table.md
 
 # The launchers extra (`pip install -e ".[cluster]"`), with the same pins as `make setup`.
 cluster: $(VENV)/.cluster

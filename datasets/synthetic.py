@@ -25,6 +25,7 @@ import numpy as np
 from catpose.datasets.base import ObjectDataset, Observation
 from catpose.datasets.render import ViewSampler, depth_to_points, estimate_normals, render_depth
 from catpose.datasets.meshio import sample_outer_surface
+from catpose.datasets.sensor import get_sensor
 from catpose.datasets.shapes import SHAPES, SYMMETRIC_CATEGORIES
 from catpose.datasets.views import pinhole_camera
 from catpose.errors import ConfigError, DatasetError
@@ -60,6 +61,11 @@ class SyntheticDataset(ObjectDataset):
         min_points: fewer visible points than this raises :class:`DatasetError`.
         ground_normal_noise_deg: std of the angle (degrees) by which the reported ground normal
             is tilted about a random perpendicular axis (0: exact).
+        sensor: ``none`` (default: clean depth as above), ``kinect`` or ``realsense``: render the
+            object at its physical size (:data:`catpose.datasets.sensor.CATEGORY_SIZE_M`) on a
+            table plane at a physical distance and apply the sensor model
+            (:func:`catpose.datasets.sensor.apply_sensor`); the ground normal is then a RANSAC
+            plane fit to the measured background, as for real frames.
     """
 
     name = "synthetic"
@@ -70,7 +76,8 @@ class SyntheticDataset(ObjectDataset):
                  cx: float | None = None, cy: float | None = None, fov_deg: float | None = None,
                  distance: float = 3.0, elevation_min_deg: float = 10.0, elevation_max_deg: float = 60.0,
                  roll_max_deg: float = 0.0, depth_noise_std: float = 0.0, normal_radius: float = 0.1,
-                 max_points: int = 2048, min_points: int = 50, ground_normal_noise_deg: float = 0.0) -> None:
+                 max_points: int = 2048, min_points: int = 50, ground_normal_noise_deg: float = 0.0,
+                 sensor: str | None = "none") -> None:
         cats = list(DEFAULT_CATEGORIES) if categories is None else [str(c) for c in categories]
         unknown = [c for c in cats if c not in SHAPES]
         if unknown:
@@ -105,6 +112,7 @@ class SyntheticDataset(ObjectDataset):
         self.max_points = int(max_points)
         self.min_points = int(min_points)
         self.ground_normal_noise_deg = float(ground_normal_noise_deg)
+        self.sensor = get_sensor(sensor)
         self._models: dict[tuple[str, str], Template] = {}
 
     # ------------------------------------------------------------------ ids
@@ -170,6 +178,8 @@ class SyntheticDataset(ObjectDataset):
         model = self.instance_model(category, instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "synthetic", "view", obs_id))
         T_camera_object = self.view_sampler.sample(rng)
+        if self.sensor is not None:
+            return self._sensor_observation(obs_id, category, instance_id, view, model, T_camera_object, rng)
         depth = render_depth(model.vertices, model.triangles, T_camera_object, self.camera)
         if self.depth_noise_std > 0:
             noise = rng.normal(0.0, self.depth_noise_std, size=depth.shape).astype(np.float32)
@@ -196,3 +206,58 @@ class SyntheticDataset(ObjectDataset):
             normals_camera=normals, ground_normal_camera=ground / np.linalg.norm(ground),
             T_object_camera=invert_T(T_camera_object), symmetry_axis=model.symmetry_axis,
             info={"view": f"v{view:02d}", "n_depth_pixels": n_pixels})
+
+    def _sensor_observation(self, obs_id: str, category: str, instance_id: str, view: int, model: Template,
+                            T_camera_object: np.ndarray, rng: np.random.Generator) -> Observation:
+        """Render at physical scale on a table, apply the sensor model, then subsample and
+        estimate normals (order: render, noise, subsample, normals). Points are returned in the
+        object-normalised unit like every other view."""
+        from catpose.datasets.depthio import fit_ground_plane
+        from catpose.datasets.sensor import CATEGORY_SIZE_M, apply_sensor, table_mesh
+        from catpose.geometry import make_T
+
+        sensor, cam = self.sensor, self.camera
+        size = CATEGORY_SIZE_M[category]                                   # metres per object unit
+        distance_m = max(float(rng.uniform(*sensor.distance_m)), 2.5 * size)
+        t = T_camera_object[:3, 3]
+        T_camera_object_m = make_T(T_camera_object[:3, :3], t / np.linalg.norm(t) * distance_m)
+        v_m = model.vertices * size
+        table_v, table_f = table_mesh(float(v_m[:, 2].min()) - 1e-4)
+        scene_v = np.concatenate([v_m, table_v])
+        scene_f = np.concatenate([model.triangles, table_f + len(v_m)])
+        depth_object = render_depth(v_m, model.triangles, T_camera_object_m, cam).astype(np.float64)
+        depth_scene = render_depth(scene_v, scene_f, T_camera_object_m, cam).astype(np.float64)
+        true_mask = (depth_object > 0) & (depth_object <= depth_scene + 1e-6)
+        depth, mask = apply_sensor(depth_scene, true_mask, cam.fx, cam.fy, cam.cx, cam.cy, sensor, rng)
+        points_m, _ = depth_to_points(depth, cam, mask)
+        n_pixels = int(len(points_m))
+        if n_pixels < self.min_points:
+            raise DatasetError(f"synthetic observation {obs_id}: only {n_pixels} points measured with "
+                               f"sensor={sensor.name} (need {self.min_points}); enlarge the image")
+        background_m, _ = depth_to_points(depth, cam, (depth > 0) & ~mask)
+        if len(background_m) > 4000:  # the table is the dominant plane: a few thousand points fit it
+            background_m = background_m[rng.choice(len(background_m), size=4000, replace=False)]
+        if len(background_m) < 100:
+            raise DatasetError(f"synthetic observation {obs_id}: only {len(background_m)} background pixels "
+                               "to fit the ground plane; enlarge the image")
+        ground, _, _ = fit_ground_plane(background_m, 0.01, 300, stable_seed(self.seed, "synthetic", "plane", obs_id))
+        points = points_m / size
+        if len(points) > self.max_points:
+            keep = np.sort(rng.choice(len(points), size=self.max_points, replace=False))
+            points = points[keep]
+        normals = estimate_normals(points, self.normal_radius)
+        if self.ground_normal_noise_deg > 0:
+            axis = np.cross(ground, rng.normal(size=3))
+            angle = np.deg2rad(rng.normal(0.0, self.ground_normal_noise_deg))
+            ground = apply_R(axis_angle_to_R(axis, angle), ground)
+        T_camera_object_unit = make_T(T_camera_object_m[:3, :3], T_camera_object_m[:3, 3] / size)
+        true_up = T_camera_object[:3, :3] @ np.array([0.0, 0.0, 1.0])
+        return Observation(
+            obs_id=obs_id, category=category, instance_id=instance_id, points_camera=points,
+            normals_camera=normals, ground_normal_camera=ground / np.linalg.norm(ground),
+            T_object_camera=invert_T(T_camera_object_unit), symmetry_axis=model.symmetry_axis,
+            info={"view": f"v{view:02d}", "n_depth_pixels": n_pixels, "sensor": sensor.name,
+                  "scale_mm": 1000.0 * size, "distance_m": distance_m,
+                  "bleed_pixels": int((mask & ~true_mask).sum()),
+                  "missing_fraction": float(1.0 - (depth[true_mask] > 0).mean()) if true_mask.any() else 0.0,
+                  "ground_vs_object_up_deg": float(np.degrees(np.arccos(np.clip(ground @ true_up, -1, 1))))})

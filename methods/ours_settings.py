@@ -73,24 +73,31 @@ class SelectionSettings:
     """Choosing one of the ``m`` candidates, then refining it.
 
     Attributes:
-        rule: ``chamfer`` (lowest one-directional Chamfer distance of the transformed input to the
-            complete template) or ``loss`` (lowest final loss; the paper's rule).
+        rule: ``visibility`` (default: the ``top_k`` candidates by the visibility-aware Chamfer,
+            each with its three half turns, refined, then the lowest visibility-aware Chamfer;
+            :func:`catpose.methods.selection.select_with_half_turns`), ``chamfer`` (lowest
+            one-directional Chamfer distance of the transformed input to the complete template)
+            or ``loss`` (lowest final loss; the paper's rule).
         gravity_max_deg: drop candidates tilting the ground normal more than this (degrees) from
             the template's up axis; ``None`` or <= 0: off.
         refine: point-to-plane ICP from the selected pose (false: the paper).
         refine_max_distance: ICP correspondence distance (object-normalised).
         refine_iterations: ICP iterations.
+        top_k: ``visibility``: candidates expanded by half turns (each costs 4 refinements).
+        visibility_trunc: ``visibility``: truncation of both Chamfer directions (object-normalised).
     """
 
-    rule: str = "chamfer"
+    rule: str = "visibility"
     gravity_max_deg: float | None = 30.0
     refine: bool = True
     refine_max_distance: float = 0.05
     refine_iterations: int = 30
+    top_k: int = 3
+    visibility_trunc: float = 0.1
 
     def __post_init__(self) -> None:
         k, set_ = "method.selection.", object.__setattr__
-        set_(self, "rule", options.one_of(k + "rule", self.rule, ("chamfer", "loss")))
+        set_(self, "rule", options.one_of(k + "rule", self.rule, ("visibility", "chamfer", "loss")))
         g = self.gravity_max_deg
         if g is not None and not options.is_number(g):
             raise ConfigError(f"{k}gravity_max_deg={g!r} must be a number of degrees or null (off)")
@@ -99,3 +106,5 @@ class SelectionSettings:
         set_(self, "refine_max_distance", options.positive(k + "refine_max_distance", self.refine_max_distance))
         set_(self, "refine_iterations", options.non_negative(k + "refine_iterations", self.refine_iterations,
                                                              integer=True))
+        set_(self, "top_k", options.positive(k + "top_k", self.top_k, integer=True))
+        set_(self, "visibility_trunc", options.positive(k + "visibility_trunc", self.visibility_trunc))

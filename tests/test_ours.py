@@ -117,8 +117,8 @@ def test_pfh_descriptor_gives_the_pfh_affinity(problems):
 
 def test_gravity_filter_drops_tilted_candidates_and_chamfer_term_changes_the_loss(problems):
     p, _ = problems[1]
-    plain = _ours({"chamfer_weight": 0.0}, {"gravity_max_deg": 20.0}, chamfer_points=64)
-    method = _ours({"chamfer_weight": 0.1}, {"gravity_max_deg": 20.0}, chamfer_points=64)
+    plain = _ours({"chamfer_weight": 0.0}, {"gravity_max_deg": 20.0, "rule": "chamfer"}, chamfer_points=64)
+    method = _ours({"chamfer_weight": 0.1}, {"gravity_max_deg": 20.0, "rule": "chamfer"}, chamfer_points=64)
     r = method.register(p)
     tilt, kept, chamfer = (np.array(r.extras[k]) for k in ("tilt_deg", "kept", "chamfer"))
     if (tilt <= 20.0).any():
@@ -131,10 +131,10 @@ def test_gravity_filter_drops_tilted_candidates_and_chamfer_term_changes_the_los
 
 def test_no_refinement_returns_the_selected_candidate(problems):
     p, _ = problems[1]
-    c = _ours(selection={"refine": False}).candidates(p)
-    r = _ours(selection={"refine": False}).register(p)
+    c = _ours(selection={"refine": False, "rule": "chamfer"}).candidates(p)
+    r = _ours(selection={"refine": False, "rule": "chamfer"}).register(p)
     np.testing.assert_array_equal(r.T_target_source, c.T[r.extras["template_index"]])
-    refined = _ours().register(p)
+    refined = _ours(selection={"rule": "chamfer"}).register(p)
     assert refined.extras["template_index"] == r.extras["template_index"]
     assert np.abs(refined.T_target_source - r.T_target_source).max() > 0
     assert refined.score <= r.score + 1e-9                     # ICP lowers the Chamfer score
@@ -185,7 +185,7 @@ def test_config_composes_and_instantiates():
     assert d.pop("name") == "ours"
     method = instantiate(d, _convert_="all")
     assert isinstance(method, Ours) and isinstance(method.descriptor, PFH) and method.optimiser.lr == 0.05
-    assert method.layout.num_views == 18 and method.selection.rule == "chamfer"
+    assert method.layout.num_views == 18 and method.selection.rule == "visibility"
     assert isinstance(Ours().descriptor, LPS)
 
 
@@ -239,3 +239,16 @@ def test_bench_perf_prints_a_table(capsys):
     assert main(["--n", "2", "--methods", "ours", "--categories", "chair"]) == 0
     out = capsys.readouterr().out
     assert "| ours" in out and "optimization" in out
+
+
+def test_visibility_selection_returns_a_refined_half_turn_of_a_gravity_kept_candidate(problems):
+    from catpose.methods.selection import half_turns
+
+    p, _ = problems[1]
+    unrefined = _ours(selection={"refine": False}).register(p)
+    c = _ours().candidates(p)
+    i, k = unrefined.extras["template_index"], unrefined.extras["half_turn"]
+    np.testing.assert_allclose(unrefined.T_target_source, half_turns()[k] @ c.T[i], atol=1e-12)
+    r = _ours().register(p)
+    assert r.extras["half_turn"] in (0, 1, 2, 3) and np.isfinite(r.score)
+    np.testing.assert_array_equal(_ours().register(p).T_target_source, r.T_target_source)  # deterministic

@@ -1,0 +1,133 @@
+"""Scores for choosing among the candidate poses of ours (selection, step 7 of the pipeline).
+
+Every score takes the input cloud in the camera frame ``points_camera`` (N, 3), candidate poses
+``T_template_camera`` (B, 4, 4) and the complete template (``points`` (M, 3), ``normals``
+(M, 3), a KD-tree of ``points``), all lengths in the object-normalised unit, and returns (B,)
+values where **lower is better**.
+
+- :func:`chamfer`: mean distance of the transformed input to the nearest template point (the
+  one-directional Chamfer distance ours has used; it cannot see template surface that the
+  camera should have seen but did not).
+- :func:`outlier_ratio`: ``1 -`` the fraction of input points within ``threshold`` of the
+  template (an inlier ratio; robust to background points bleeding into the mask).
+- :func:`visibility_chamfer`: the two-directional, visibility-aware Chamfer distance: the
+  truncated mean distance of the input to the template, plus the truncated mean distance of the
+  template points the estimated camera sees (outward normal facing the camera centre: back-face
+  visibility, no self-occlusion) to the input. A pose that shows the camera a side of the template
+  that is not in the observation (a flipped airplane, a bottle seen from the side instead of from
+  above) pays for every such point; the truncation at ``trunc`` bounds what background points
+  and missing data cost.
+
+The paper's rule (lowest final loss) and the earlier one-directional Chamfer stay reachable
+through ``method.selection.rule`` (``loss`` | ``chamfer`` | ``visibility``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """``points`` (N, 3) mapped by the rigid ``T`` (4, 4)."""
+    return points @ T[:3, :3].T + T[:3, 3]
+
+
+def chamfer(points_camera: np.ndarray, T_template_camera: np.ndarray, tree) -> np.ndarray:
+    """(B,) mean distance of the input mapped by each pose to the nearest template point."""
+    return np.array([tree.query(transform(T, points_camera))[0].mean() for T in T_template_camera])
+
+
+def outlier_ratio(points_camera: np.ndarray, T_template_camera: np.ndarray, tree, threshold: float) -> np.ndarray:
+    """(B,) fraction of input points further than ``threshold`` from the template, per pose."""
+    return np.array([(tree.query(transform(T, points_camera), distance_upper_bound=threshold)[0] > threshold).mean()
+                     for T in T_template_camera])
+
+
+def visible_mask(points: np.ndarray, normals: np.ndarray, camera_centre: np.ndarray) -> np.ndarray:
+    """(M,) bool: template points whose outward normal faces ``camera_centre`` (template frame)."""
+    return np.einsum("ij,ij->i", normals, camera_centre[None] - points) > 0
+
+
+def visibility_chamfer(points_camera: np.ndarray, T_template_camera: np.ndarray, template_points: np.ndarray,
+                       template_normals: np.ndarray, tree, trunc: float) -> np.ndarray:
+    """(B,) truncated two-directional Chamfer between the input and the template's visible side.
+
+    For pose ``T`` (camera -> template), the camera centre in the template frame is ``T[:3, 3]``;
+    the visible template points ``V`` are those facing it. The score is
+    ``mean_i min(d(T x_i, template), trunc) + mean_{v in V} min(d(v, T X), trunc)``.
+    """
+    from scipy.spatial import cKDTree
+
+    out = np.empty(len(T_template_camera))
+    for b, T in enumerate(T_template_camera):
+        src = transform(T, points_camera)
+        d_in = np.minimum(tree.query(src, distance_upper_bound=trunc)[0], trunc).mean()
+        vis = template_points[visible_mask(template_points, template_normals, T[:3, 3])]
+        if len(vis) == 0:
+            out[b] = d_in + trunc
+            continue
+        d_vis = np.minimum(cKDTree(src).query(vis, distance_upper_bound=trunc)[0], trunc).mean()
+        out[b] = d_in + d_vis
+    return out
+
+
+def half_turns() -> np.ndarray:
+    """(4, 4, 4): the identity and the 180-degree rotations about the template's x, y and z axes
+    (through the template origin), as rigid transforms of the template frame."""
+    out = [np.eye(4)]
+    for axis in np.eye(3):
+        F = np.eye(4)
+        F[:3, :3] = 2.0 * np.outer(axis, axis) - np.eye(3)
+        out.append(F)
+    return np.stack(out)
+
+
+def tilt_deg(T_template_camera: np.ndarray, ground_normal_camera: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """(B,) angle (deg) between the ground normal mapped into the template frame and the template up."""
+    g = np.einsum("bij,j->bi", T_template_camera[:, :3, :3], ground_normal_camera)
+    return np.degrees(np.arccos(np.clip(g @ (up / np.linalg.norm(up)), -1.0, 1.0)))
+
+
+def select_with_half_turns(points_camera: np.ndarray, candidates: np.ndarray, allowed: np.ndarray,
+                           template_points: np.ndarray, template_normals: np.ndarray, tree, refine,
+                           ground_normal_camera: np.ndarray, up: np.ndarray, gravity_max_deg: float | None,
+                           top_k: int = 1, trunc: float = 0.1) -> tuple[np.ndarray, float, dict]:
+    """Visibility-aware selection with explicit 180-degree alternatives (the "flip class").
+
+    Candidates of a near-symmetric shape (an airplane seen from above or below, a mustard
+    bottle's front or back) converge to the true pose or to a half turn of it, and the
+    one-directional Chamfer distance scores both alike. Here the ``top_k`` allowed candidates by
+    :func:`visibility_chamfer` are each expanded by the half turns about the template axes
+    (:func:`half_turns`), every expanded pose is refined by ``refine(T) -> T``, poses whose tilt
+    exceeds ``gravity_max_deg`` are dropped (all kept when none passes) and the lowest
+    :func:`visibility_chamfer` wins.
+
+    Args:
+        points_camera: (N, 3) input cloud, camera frame.
+        candidates: (m, 4, 4) ``T_template_camera`` candidates.
+        allowed: (m,) bool, candidates that may be chosen (e.g. the gravity filter's).
+        template_points, template_normals, tree: complete template and its KD-tree.
+        refine: callable refining one (4, 4) pose.
+        ground_normal_camera, up: gravity (camera frame) and the template up axis.
+        gravity_max_deg: tilt limit in degrees (None: no limit).
+        top_k: candidates expanded.
+        trunc: truncation of :func:`visibility_chamfer` (object-normalised unit).
+
+    Returns:
+        the chosen pose (4, 4), its score, and ``{"candidate": index into candidates,
+        "half_turn": 0 (none) or 1..3 (x, y, z), "scores": (m,) visibility scores}``.
+    """
+    scores = visibility_chamfer(points_camera, candidates, template_points, template_normals, tree, trunc)
+    order = np.argsort(np.where(allowed, scores, np.inf), kind="stable")[:max(int(top_k), 1)]
+    turns = half_turns()
+    expanded = np.stack([refine(F @ candidates[i]) for i in order for F in turns])
+    final = visibility_chamfer(points_camera, expanded, template_points, template_normals, tree, trunc)
+    keep = np.ones(len(expanded), bool)
+    if gravity_max_deg is not None:
+        keep = tilt_deg(expanded, ground_normal_camera, up) <= gravity_max_deg
+        if not keep.any():
+            keep[:] = True
+    best = int(np.argmin(np.where(keep, final, np.inf)))
+    info = {"candidate": int(order[best // len(turns)]), "half_turn": int(best % len(turns)),
+            "scores": [float(s) for s in scores]}
+    return expanded[best], float(final[best]), info

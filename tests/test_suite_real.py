@@ -1,0 +1,68 @@
+"""``bench suite real``: set and method tables, skipping, composition, the table format."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from catpose.bench import suite_real as sr
+from catpose.errors import ConfigError
+
+
+def test_every_set_and_method_composes(tmp_path):
+    for s in sr.SETS.values():
+        for v in sr.METHODS.values():
+            cfg, overrides = sr.compose(s, v, tmp_path, 0, 2, str(tmp_path / "out"), ["method.selection=loss"])
+            assert cfg.dataset.name == s.dataset and cfg.method.name == v.method and cfg.limit == 2
+            assert str(cfg.dataset.root).startswith(str(tmp_path))
+            if v.label.endswith("-dict"):
+                assert cfg.method.matching == "dictionary"
+            # ours-only overrides never reach the baselines
+            assert ("method.selection=loss" in overrides) == (v.method == "ours")
+
+
+def test_skips_absent_data_and_untracked_redwood(tmp_path):
+    assert "absent" in sr.skip_reason(sr.SETS["ycbv"], tmp_path)
+    (tmp_path / "redwood" / "chair_1" / "depth").mkdir(parents=True)
+    assert "trajectory" in sr.skip_reason(sr.SETS["redwood"], tmp_path)
+    (tmp_path / "redwood" / "chair_1" / "chair_1.log").write_text("")
+    assert sr.skip_reason(sr.SETS["redwood"], tmp_path) is None
+
+
+def test_main_skips_cleanly_without_shared_data(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("CATPOSE_SHARED_DATA", str(tmp_path / "nowhere"))
+    assert sr.main(["real"]) == 0
+    assert "skipped" in capsys.readouterr().out
+
+
+def test_unknown_method_is_a_config_error(monkeypatch, tmp_path):
+    monkeypatch.setenv("CATPOSE_SHARED_DATA", str(tmp_path))
+    with pytest.raises(ConfigError, match="--methods"):
+        sr.main(["real", "--methods", "ours,nope"])
+
+
+def test_table_marks_the_best_and_lists_skips():
+    row = dict(n=2, failed=0, mean_err_deg=10.0, median_err_deg=5.0, acc10=0.5, acc30=1.0, median_runtime_s=1.0)
+    better = dict(row, mean_err_deg=2.0, acc10=1.0)
+    table = sr.format_table({("ycbv", "ours"): better, ("ycbv", "icp"): row}, ["ycbv"], ["ours", "icp"],
+                            {"redwood": "no trajectory"})
+    lines = table.splitlines()
+    assert lines[2].startswith("| ours | **2.00** / 5.00 / **1.000**")
+    assert lines[3].startswith("| icp | 10.00 / 5.00 / 0.500")
+    assert "skipped redwood: no trajectory" in table
+
+
+def test_cli_lists_the_suite_command():
+    from catpose.bench.cli import COMMANDS
+
+    assert COMMANDS["suite"][0] == "catpose.bench.suite_real"
+
+
+@pytest.mark.slow
+def test_one_real_sample_runs_through_the_runner(shared_data, tmp_path, monkeypatch):
+    monkeypatch.setenv("CATPOSE_SHARED_DATA", str(shared_data))
+    results, skipped = sr.run_suite(["ycbv"], ["icp"], Path(shared_data), limit=1, output_root=str(tmp_path),
+                                    log=lambda m: None)
+    r = results[("ycbv", "icp")]
+    assert r["n"] == 1 and r["failed"] == 0 and Path(r["run_dir"], "samples.jsonl").is_file()
