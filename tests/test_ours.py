@@ -26,16 +26,7 @@ def _ours(optimiser: dict | None = None, selection: dict | None = None, **kw) ->
                 selection=SelectionSettings(**(selection or {})), **kw)
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _one_torch_thread():
-    """The runner's ``threads=1`` (what configs/regress and bench perf use): ours' per-step
-    overhead dominates and extra threads only contend on a shared machine."""
-    import torch
-
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 @pytest.fixture(scope="module")
