@@ -318,7 +318,7 @@ class Ours(RegistrationMethod):
             T_best, score, info = select_with_half_turns(
                 chamfer_src, c.T, keep, template.points, template.normals, feats.tree, refine,
                 problem.ground_normal_camera, np.asarray(template.up, float), sel.gravity_max_deg, sel.top_k,
-                sel.visibility_trunc)
+                sel.visibility_trunc, sel.refine_top)
             T_best = refine(T_best, c.points)
             best, half_turn = info["candidate"], info["half_turn"]
         elif sel.refine:

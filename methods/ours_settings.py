@@ -85,6 +85,8 @@ class SelectionSettings:
         refine_iterations: ICP iterations.
         top_k: ``visibility``: candidates expanded by half turns (each costs 4 refinements).
         visibility_trunc: ``visibility``: truncation of both Chamfer directions (object-normalised).
+        refine_top: ``visibility``: refine only this many of the ``4 top_k`` hypotheses, the best
+            by their score before refinement (0: all of them).
     """
 
     rule: str = "visibility"
@@ -94,6 +96,7 @@ class SelectionSettings:
     refine_iterations: int = 30
     top_k: int = 3
     visibility_trunc: float = 0.1
+    refine_top: int = 0
 
     def __post_init__(self) -> None:
         k, set_ = "method.selection.", object.__setattr__
@@ -107,4 +110,5 @@ class SelectionSettings:
         set_(self, "refine_iterations", options.non_negative(k + "refine_iterations", self.refine_iterations,
                                                              integer=True))
         set_(self, "top_k", options.positive(k + "top_k", self.top_k, integer=True))
+        set_(self, "refine_top", options.non_negative(k + "refine_top", self.refine_top, integer=True))
         set_(self, "visibility_trunc", options.positive(k + "visibility_trunc", self.visibility_trunc))

@@ -91,7 +91,8 @@ def tilt_deg(T_template_camera: np.ndarray, ground_normal_camera: np.ndarray, up
 def select_with_half_turns(points_camera: np.ndarray, candidates: np.ndarray, allowed: np.ndarray,
                            template_points: np.ndarray, template_normals: np.ndarray, tree, refine,
                            ground_normal_camera: np.ndarray, up: np.ndarray, gravity_max_deg: float | None,
-                           top_k: int = 1, trunc: float = 0.1) -> tuple[np.ndarray, float, dict]:
+                           top_k: int = 1, trunc: float = 0.1,
+                           refine_top: int | None = None) -> tuple[np.ndarray, float, dict]:
     """Visibility-aware selection with explicit 180-degree alternatives (the "flip class").
 
     Candidates of a near-symmetric shape (an airplane seen from above or below, a mustard
@@ -112,6 +113,8 @@ def select_with_half_turns(points_camera: np.ndarray, candidates: np.ndarray, al
         gravity_max_deg: tilt limit in degrees (None: no limit).
         top_k: candidates expanded.
         trunc: truncation of :func:`visibility_chamfer` (object-normalised unit).
+        refine_top: refine only this many hypotheses, the best by their score before refinement
+            (None or 0: all ``4 top_k``).
 
     Returns:
         the chosen pose (4, 4), its score, and ``{"candidate": index into candidates,
@@ -120,13 +123,23 @@ def select_with_half_turns(points_camera: np.ndarray, candidates: np.ndarray, al
     scores = visibility_chamfer(points_camera, candidates, template_points, template_normals, tree, trunc)
     order = np.argsort(np.where(allowed, scores, np.inf), kind="stable")[:max(int(top_k), 1)]
     turns = half_turns()
-    expanded = np.stack([refine(F @ candidates[i]) for i in order for F in turns])
-    final = visibility_chamfer(points_camera, expanded, template_points, template_normals, tree, trunc)
-    keep = np.ones(len(expanded), bool)
+    expanded = np.stack([F @ candidates[i] for i in order for F in turns])
+    if refine_top is not None and 0 < refine_top < len(expanded):
+        # only the most promising hypotheses (by their score before refinement) are refined
+        pre = visibility_chamfer(points_camera, expanded, template_points, template_normals, tree, trunc)
+        chosen = np.argsort(pre, kind="stable")[:refine_top]
+    else:
+        chosen = np.arange(len(expanded))
+    final = np.full(len(expanded), np.inf)
+    for i in chosen:
+        expanded[i] = refine(expanded[i])
+    final[chosen] = visibility_chamfer(points_camera, expanded[chosen], template_points, template_normals, tree,
+                                       trunc)
+    keep = np.isfinite(final)
     if gravity_max_deg is not None:
-        keep = tilt_deg(expanded, ground_normal_camera, up) <= gravity_max_deg
+        keep &= tilt_deg(expanded, ground_normal_camera, up) <= gravity_max_deg
         if not keep.any():
-            keep[:] = True
+            keep = np.isfinite(final)
     best = int(np.argmin(np.where(keep, final, np.inf)))
     info = {"candidate": int(order[best // len(turns)]), "half_turn": int(best % len(turns)),
             "scores": [float(s) for s in scores]}
