@@ -43,3 +43,13 @@ def one_torch_thread():
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(before)
+
+
+@pytest.fixture(scope="module")
+def private_cache_dir(tmp_path_factory):
+    """``CATPOSE_CACHE_DIR`` in a fresh folder for the module: dictionaries built by its tests,
+    never read from or written to the user's cache."""
+    mp = pytest.MonkeyPatch()
+    mp.setenv("CATPOSE_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
+    yield
+    mp.undo()

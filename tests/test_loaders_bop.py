@@ -313,7 +313,11 @@ def test_object_centre_lies_on_the_offset_symmetry_axis(bop_root):
 
 def test_unseen_configured_ids_warn_with_the_ids_the_frames_show(bop_root):
     with pytest.warns(UserWarning, match=r"object ids \[7\] that no frame shows; the frames show object ids \[1, 2, 3, 4\]"):
-        BOP(str(bop_root), categories={1: "box", 7: "mug"}).observation_ids()
+        ds = BOP(str(bop_root), categories={1: "box", 7: "mug"})
+        ids = ds.observation_ids()
+    # the configured object that the frames do show is still listed, and only it
+    assert ids and {i.split("/")[0] for i in ids} == {"box"}
+    assert ds.seen_objects == [1, 2, 3, 4]
 
 
 @pytest.mark.data

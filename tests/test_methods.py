@@ -33,20 +33,12 @@ def _build(name: str, overrides: list[str]):
     return instantiate(d, _convert_="all")
 
 
-pytestmark = pytest.mark.usefixtures("one_torch_thread")
+pytestmark = pytest.mark.usefixtures("one_torch_thread", "private_cache_dir")
 
 
 @pytest.fixture(scope="module")
 def problem():
     return partial_problem(chair_template(), 3)
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _cache(tmp_path_factory):
-    mp = pytest.MonkeyPatch()
-    mp.setenv("CATPOSE_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
-    yield
-    mp.undo()
 
 
 def test_every_method_config_is_covered(repo_root):

@@ -26,7 +26,7 @@ def _ours(optimiser: dict | None = None, selection: dict | None = None, **kw) ->
                 selection=SelectionSettings(**(selection or {})), **kw)
 
 
-pytestmark = pytest.mark.usefixtures("one_torch_thread")
+pytestmark = pytest.mark.usefixtures("one_torch_thread", "private_cache_dir")
 
 
 @pytest.fixture(scope="module")
@@ -37,14 +37,6 @@ def template():
 @pytest.fixture(scope="module")
 def problems(template):
     return [partial_problem(template, s) for s in range(10)]
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _cache(tmp_path_factory):
-    mp = pytest.MonkeyPatch()
-    mp.setenv("CATPOSE_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
-    yield
-    mp.undo()
 
 
 def test_partial_view_to_own_model_is_accurate(problems):
