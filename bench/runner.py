@@ -39,18 +39,12 @@ import numpy as np
 from catpose.bench.build import build_from_config, validate_run_options
 from catpose.bench.evaluate import format_summary, summarize_run
 from catpose.bench.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
-from catpose.bench.rundir import (SAMPLES_FILE, RunLock, SampleWriter, failed_row, new_row, read_samples,
-                                  run_dir_for, scored_row, write_run_files, write_run_json, writing)
+from catpose.bench.rundir import (LOCK_FILE, SAMPLES_FILE, RunLock, SampleWriter, failed_row, new_row,
+                                  read_samples, run_dir_for, scored_row, write_run_files, write_run_json,
+                                  writing)
 from catpose.errors import CatposeError, ConfigError, RunAborted
 from catpose.errors import one_line as _one_line
 from catpose.geometry import stable_seed
-
-# Re-exported for callers of the runner's earlier API; new code imports them from their homes:
-# catpose.bench.build (config -> objects), .rundir (directory, rows, lock), .evaluate (errors, summaries).
-from catpose.bench.build import check_constructor_args, check_missing  # noqa: E402,F401
-from catpose.bench.evaluate import load_protocol, recompute_errors  # noqa: E402,F401
-from catpose.bench.rundir import LOCK_FILE  # noqa: E402
-from catpose.bench.rundir import latest_rows  # noqa: E402,F401
 
 
 # ---------------------------------------------------------------------------------------------

@@ -69,7 +69,7 @@ def read_samples(path: Path):
 
 def recompute_errors(samples):
     """Errors of every row recomputed from its estimate and ground truth by the runner's
-    :func:`~catpose.bench.runner.recompute_errors` (symmetries included), so tables follow the
+    :func:`~catpose.bench.evaluate.recompute_errors` (symmetries included), so tables follow the
     current metric definitions rather than the numbers stored at run time."""
     import pandas as pd
 

@@ -43,7 +43,7 @@ def table(root: Path, cwd: Path) -> str:
 
 def estimates(root: Path) -> dict[str, list]:
     """run directory name -> [(sample_id, T_est, status)] in file order."""
-    from catpose.bench.runner import latest_rows
+    from catpose.bench.rundir import latest_rows
 
     out = {}
     for p in sorted(root.glob("synthetic-*/*/*/samples.jsonl")):
