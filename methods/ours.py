@@ -22,11 +22,18 @@ Pipeline for one problem (input cloud ``X_c`` in the camera frame, template ``X*
    GPU); ``solver=adam`` is the paper's Adam on 6D rotations (Zhou et al. 2019), translation and
    logits ``L`` (initialised to ``log A``, ``C = softmax_rows(L)``), with an optional
    one-directional Chamfer term (input points -> complete template) of weight ``chamfer_weight``.
-7. Selection among the ``m`` candidates: ``loss`` (the paper's rule: lowest final loss) or
-   ``chamfer`` (lowest one-directional Chamfer distance of the transformed input to the complete
-   template), optionally after a gravity filter dropping candidates whose rotation maps the known
-   ground normal more than ``gravity_max_deg`` away from the template's up axis.
+7. Selection among the ``m`` candidates: ``visibility`` (default: the best ``top_k`` by the
+   visibility-aware Chamfer, each with its three half turns, refined, and the best of those;
+   :func:`catpose.methods.selection.select_with_half_turns`), ``loss`` (the paper's rule: lowest
+   final loss) or ``chamfer`` (lowest one-directional Chamfer distance of the transformed input to
+   the complete template), after a gravity filter dropping candidates whose rotation maps the
+   known ground normal more than ``gravity_max_deg`` away from the template's up axis.
 8. Optional point-to-plane ICP refinement from the selected pose.
+
+Steps 7 and 8 ask hundreds of nearest-neighbour questions per problem; they run as compiled
+kernels on a grid of the template (:mod:`catpose.cell_grid`, exact like a KD-tree):
+:mod:`catpose.point_to_plane_kernel` refines all hypotheses in one call and
+:mod:`catpose.methods.selection_kernel` scores all poses in one call.
 
 ``score`` is the selection criterion of the selected candidate: its final loss divided by ``n``
 (the mean correspondence-weighted keypoint distance) for ``selection="loss"``, or the
@@ -42,7 +49,7 @@ Choices where the paper is silent or that were measured (numbers in configs/meth
   different partial templates is a weak criterion across templates (the templates protocol picks
   the template by ``score``); the Chamfer distance to the complete template is not, and the
   gravity filter removes 180-degree flips the loss prefers.
-- ``refine = true``: point-to-plane ICP from the selected pose costs ~10 ms and removes the
+- ``refine = true``: point-to-plane ICP from the selected pose costs a few ms and removes the
   keypoint-discretisation error left by the keypoint-to-keypoint loss.
 - ``solver=irls``: 5 + 5 iterations replace 300 + 300 Adam steps (numbers in the config).
 - The Adam optimisation uses analytic gradients (:mod:`catpose.methods.optim`); per-step overhead,
@@ -63,6 +70,8 @@ from typing import Sequence
 
 import numpy as np
 
+from catpose import cell_grid
+from catpose.cell_grid import CellGrid
 from catpose.errors import InvalidInputError
 from catpose.kabsch import kabsch
 from catpose.lru import LRUCache
@@ -72,10 +81,14 @@ from catpose.methods.descriptors import LPS, Descriptor
 from catpose.methods.dictionary import DictionaryLayout
 from catpose.methods.keypoints import farthest_point_indices
 from catpose.methods.ours_settings import OptimiserSettings, SelectionSettings
-from catpose.point_to_plane import refine_point_to_plane
+from catpose.point_to_plane_kernel import refine_many
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
 __all__ = ["Candidates", "OptimiserSettings", "Ours", "SelectionSettings"]
+
+#: cell edge of the nearest-neighbour grids (object-normalised; about one template point a cell
+#: at 2,048 points, the refinement's pairing cap; any value gives the same answers, only speed)
+GRID_CELL = 0.05
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,7 +98,8 @@ class _TemplateFeatures:
     keypoints: np.ndarray
     stacked: object              # the partials' descriptors, stacked for one batched affinity
     complete_points: np.ndarray  # (M', 3) FPS subset of the complete template for Chamfer terms
-    tree: object                 # cKDTree of the full template points
+    grid: CellGrid               # nearest-neighbour grid of the full template points (bounded queries)
+    tree: object                 # cKDTree of the same points (unbounded queries)
 
 
 @dataclass(frozen=True, eq=False)
@@ -180,7 +194,7 @@ class Ours(RegistrationMethod):
         complete = template.points[farthest_point_indices(template.points, self.chamfer_points)]
         feats = _TemplateFeatures(np.stack([f.keypoints for f in parts]),
                                   self.descriptor.stack([f.features for f in parts]), complete,
-                                  cKDTree(template.points))
+                                  cell_grid.build(template.points, GRID_CELL), cKDTree(template.points))
         self._features.put(key, feats)
         return feats
 
@@ -302,29 +316,34 @@ class Ours(RegistrationMethod):
         t0 = time.perf_counter()
         sel = self.selection
         half_turn = None
+        template = problem.template
+
+        def refine(T: np.ndarray, points: np.ndarray = chamfer_src) -> np.ndarray:
+            """Poses (B, 4, 4) refined by point-to-plane ICP on ``points`` (all at once, compiled)."""
+            if not sel.refine:
+                return T
+            return refine_many(points, feats.grid, template.normals, T, sel.refine_max_distance,
+                               sel.refine_iterations)
+
         if sel.rule == "visibility":
             from catpose.methods.selection import select_with_half_turns
+            from catpose.methods.selection_kernel import visibility_scores
 
-            template = problem.template
+            input_grid = cell_grid.build(chamfer_src, 2 * GRID_CELL)
 
-            def refine(T: np.ndarray, points: np.ndarray = chamfer_src) -> np.ndarray:
-                if not sel.refine:
-                    return T
-                return refine_point_to_plane(points, template.points, template.normals, feats.tree, T,
-                                             sel.refine_max_distance, sel.refine_iterations)
+            def score_of(T: np.ndarray) -> np.ndarray:
+                return visibility_scores(chamfer_src, input_grid, T, feats.grid, template.normals,
+                                         sel.visibility_trunc)
 
             # scored and refined on the FPS subset of the Chamfer distances (4x fewer points: the
             # 4 top_k alternatives cost about what one full refinement did), the winner on all points
             T_best, score, info = select_with_half_turns(
-                chamfer_src, c.T, keep, template.points, template.normals, feats.tree, refine,
-                problem.ground_normal_camera, np.asarray(template.up, float), sel.gravity_max_deg, sel.top_k,
-                sel.visibility_trunc, sel.refine_top)
-            T_best = refine(T_best, c.points)
+                c.T, keep, score_of, refine, problem.ground_normal_camera, np.asarray(template.up, float),
+                sel.gravity_max_deg, sel.top_k, sel.refine_top)
+            T_best = refine(T_best[None], c.points)[0]
             best, half_turn = info["candidate"], info["half_turn"]
         elif sel.refine:
-            template = problem.template
-            T_best = refine_point_to_plane(c.points, template.points, template.normals, feats.tree, T_best,
-                                           sel.refine_max_distance, sel.refine_iterations)
+            T_best = refine(T_best[None], c.points)[0]
             if sel.rule == "chamfer":  # the score of the pose actually returned
                 score = float(_chamfer(feats.tree, chamfer_src, T_best[None])[0])
         timings["refinement"] = time.perf_counter() - t0
@@ -389,5 +408,7 @@ class Ours(RegistrationMethod):
 
 def _chamfer(tree, points: np.ndarray, T: np.ndarray) -> np.ndarray:
     """One-directional Chamfer distance (mean nearest-template-point distance) of ``points``
-    (N, 3) under each pose of ``T`` (B, 4, 4); (B,), object-normalised units."""
-    return np.array([tree.query(points @ Ti[:3, :3].T + Ti[:3, 3])[0].mean() for Ti in T])
+    (N, 3) under each pose of ``T`` (B, 4, 4); (B,), object-normalised units. One KD-tree query
+    for all poses (unbounded distances: a KD-tree, not the grid, is the right structure)."""
+    moved = np.einsum("bij,nj->bni", T[:, :3, :3], points) + T[:, None, :3, 3]
+    return tree.query(moved.reshape(-1, 3))[0].reshape(len(T), len(points)).mean(axis=1)

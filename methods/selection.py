@@ -20,11 +20,17 @@ values where **lower is better**.
 
 The paper's rule (lowest final loss) and the earlier one-directional Chamfer stay reachable
 through ``method.selection.rule`` (``loss`` | ``chamfer`` | ``visibility``).
+
+These NumPy scores are the readable references; ours calls the compiled twin of
+:func:`visibility_chamfer` (:mod:`catpose.methods.selection_kernel`) and passes it, with the
+compiled refinement, to :func:`select_with_half_turns` as callables.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from catpose.geometry import compose_T
 
 
 def transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -88,53 +94,63 @@ def tilt_deg(T_template_camera: np.ndarray, ground_normal_camera: np.ndarray, up
     return np.degrees(np.arccos(np.clip(g @ (up / np.linalg.norm(up)), -1.0, 1.0)))
 
 
-def select_with_half_turns(points_camera: np.ndarray, candidates: np.ndarray, allowed: np.ndarray,
-                           template_points: np.ndarray, template_normals: np.ndarray, tree, refine,
+#: how far (deg) refinement is assumed able to tilt a pose at most: a hypothesis tilted more than
+#: ``gravity_max_deg`` + this before refinement cannot pass the gravity filter after it, and is not
+#: refined (half turns about a horizontal axis turn a 30-degree tilt into 150 degrees or more; the
+#: ICP, with 5 cm pairing, moves a pose by a few degrees)
+REACH_DEG = 90.0
+
+
+def select_with_half_turns(candidates: np.ndarray, allowed: np.ndarray, score, refine,
                            ground_normal_camera: np.ndarray, up: np.ndarray, gravity_max_deg: float | None,
-                           top_k: int = 1, trunc: float = 0.1,
-                           refine_top: int | None = None) -> tuple[np.ndarray, float, dict]:
+                           top_k: int = 1, refine_top: int | None = None) -> tuple[np.ndarray, float, dict]:
     """Visibility-aware selection with explicit 180-degree alternatives (the "flip class").
 
     Candidates of a near-symmetric shape (an airplane seen from above or below, a mustard
     bottle's front or back) converge to the true pose or to a half turn of it, and the
     one-directional Chamfer distance scores both alike. Here the ``top_k`` allowed candidates by
-    :func:`visibility_chamfer` are each expanded by the half turns about the template axes
-    (:func:`half_turns`), every expanded pose is refined by ``refine(T) -> T``, poses whose tilt
-    exceeds ``gravity_max_deg`` are dropped (all kept when none passes) and the lowest
-    :func:`visibility_chamfer` wins.
+    ``score`` (the visibility-aware Chamfer, :func:`visibility_chamfer` or its compiled twin) are
+    each expanded by the half turns about the template axes (:func:`half_turns`), the expanded
+    poses are refined by ``refine``, poses whose tilt exceeds ``gravity_max_deg`` are dropped (all
+    kept when none passes) and the lowest ``score`` wins. Only what can matter is computed: scores
+    of allowed candidates, refinements of hypotheses within ``gravity_max_deg`` +
+    :data:`REACH_DEG` of upright (all of them when none is).
 
     Args:
-        points_camera: (N, 3) input cloud, camera frame.
         candidates: (m, 4, 4) ``T_template_camera`` candidates.
         allowed: (m,) bool, candidates that may be chosen (e.g. the gravity filter's).
-        template_points, template_normals, tree: complete template and its KD-tree.
-        refine: callable refining one (4, 4) pose.
+        score: callable, poses (B, 4, 4) -> (B,) scores, lower is better.
+        refine: callable, poses (B, 4, 4) -> refined poses (B, 4, 4).
         ground_normal_camera, up: gravity (camera frame) and the template up axis.
         gravity_max_deg: tilt limit in degrees (None: no limit).
         top_k: candidates expanded.
-        trunc: truncation of :func:`visibility_chamfer` (object-normalised unit).
         refine_top: refine only this many hypotheses, the best by their score before refinement
             (None or 0: all ``4 top_k``).
 
     Returns:
         the chosen pose (4, 4), its score, and ``{"candidate": index into candidates,
-        "half_turn": 0 (none) or 1..3 (x, y, z), "scores": (m,) visibility scores}``.
+        "half_turn": 0 (none) or 1..3 (x, y, z), "scores": (m,) scores of the allowed candidates
+        (inf for the others)}``.
     """
-    scores = visibility_chamfer(points_camera, candidates, template_points, template_normals, tree, trunc)
-    order = np.argsort(np.where(allowed, scores, np.inf), kind="stable")[:max(int(top_k), 1)]
+    allowed = np.asarray(allowed, dtype=bool)
+    scores = np.full(len(candidates), np.inf)
+    if allowed.any():
+        scores[allowed] = score(candidates[allowed])
+    order = np.argsort(scores, kind="stable")[:max(int(top_k), 1)]
     turns = half_turns()
-    expanded = np.stack([F @ candidates[i] for i in order for F in turns])
+    expanded = np.stack([compose_T(F, candidates[i]) for i in order for F in turns])
     if refine_top is not None and 0 < refine_top < len(expanded):
         # only the most promising hypotheses (by their score before refinement) are refined
-        pre = visibility_chamfer(points_camera, expanded, template_points, template_normals, tree, trunc)
-        chosen = np.argsort(pre, kind="stable")[:refine_top]
+        chosen = np.sort(np.argsort(score(expanded), kind="stable")[:refine_top])
     else:
         chosen = np.arange(len(expanded))
+    if gravity_max_deg is not None:
+        reachable = tilt_deg(expanded[chosen], ground_normal_camera, up) <= gravity_max_deg + REACH_DEG
+        if reachable.any():
+            chosen = chosen[reachable]
     final = np.full(len(expanded), np.inf)
-    for i in chosen:
-        expanded[i] = refine(expanded[i])
-    final[chosen] = visibility_chamfer(points_camera, expanded[chosen], template_points, template_normals, tree,
-                                       trunc)
+    expanded[chosen] = refine(expanded[chosen])
+    final[chosen] = score(expanded[chosen])
     keep = np.isfinite(final)
     if gravity_max_deg is not None:
         keep &= tilt_deg(expanded, ground_normal_camera, up) <= gravity_max_deg

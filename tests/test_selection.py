@@ -56,13 +56,50 @@ def test_visibility_chamfer_prefers_the_true_pose_to_its_half_turn():
     assert S.outlier_ratio(observed, T[None], tree, 0.05)[0] == 0.0
 
 
+def _numpy_score(observed, points, normals, tree):
+    return lambda T: S.visibility_chamfer(observed, T, points, normals, tree, 0.1)
+
+
 def test_select_with_half_turns_recovers_a_flipped_candidate():
     points, normals, observed, T = toy_problem()
     tree = cKDTree(points)
     ground = np.linalg.inv(T)[:3, :3] @ np.array([0.0, 0.0, 1.0])
     cands = np.stack([S.half_turns()[3] @ T, S.half_turns()[1] @ T])
-    best, score, info = S.select_with_half_turns(observed, cands, np.array([True, True]), points, normals, tree,
-                                                 lambda X: X, ground, np.array([0.0, 0.0, 1.0]), 30.0)
+    best, score, info = S.select_with_half_turns(cands, np.array([True, True]),
+                                                 _numpy_score(observed, points, normals, tree), lambda X: X,
+                                                 ground, np.array([0.0, 0.0, 1.0]), 30.0)
     assert np.allclose(best, T, atol=1e-9) and score < 0.02
     assert info["half_turn"] in (1, 3) and len(info["scores"]) == 2
     assert np.allclose(S.tilt_deg(best[None], ground, np.array([0.0, 0.0, 1.0])), 0.0, atol=1e-6)
+
+
+def test_select_with_half_turns_refines_only_what_can_pass_gravity():
+    """Hypotheses tilted beyond gravity_max_deg + REACH_DEG are not refined; disallowed candidates
+    are not scored; without gravity every hypothesis is refined."""
+    points, normals, observed, T = toy_problem()
+    tree = cKDTree(points)
+    up = np.array([0.0, 0.0, 1.0])
+    ground = np.linalg.inv(T)[:3, :3] @ up
+    cands = np.stack([T, S.half_turns()[1] @ T, S.half_turns()[3] @ T])
+    numpy_score = _numpy_score(observed, points, normals, tree)
+    scored, refined = [], []
+
+    def score(X):
+        scored.append(len(X))
+        return numpy_score(X)
+
+    def refine(X):
+        refined.append(S.tilt_deg(X, ground, up))
+        return X
+
+    best, _, info = S.select_with_half_turns(cands, np.array([True, False, True]), score, refine, ground, up, 30.0,
+                                             top_k=2)
+    assert scored[0] == 2 and np.isinf(info["scores"][1])
+    # top 2 allowed candidates x 4 half turns = 8 hypotheses; the turns about x and y of the
+    # upright ones are tilted ~180 degrees and are skipped
+    tilts = np.concatenate(refined)
+    assert len(tilts) == 4 and tilts.max() <= 30.0 + S.REACH_DEG
+    assert np.allclose(best, T, atol=1e-9) and info["candidate"] == 0 and info["half_turn"] == 0
+    refined.clear()
+    S.select_with_half_turns(cands, np.array([True, False, True]), score, refine, ground, up, None, top_k=2)
+    assert len(np.concatenate(refined)) == 8

@@ -1,0 +1,147 @@
+"""Point-to-plane ICP of :mod:`catpose.point_to_plane` as one compiled call for many start poses.
+
+Same algorithm, step order and stopping rule as :func:`catpose.point_to_plane.refine_point_to_plane`
+(the NumPy version, this kernel's reference in ``tests/test_cell_grid.py``): pair each transformed
+source point with its nearest target point within ``max_distance``, solve
+``min_x sum ((q - s) . n - [s x n, n] . x)^2`` (here by Cholesky on the 6 x 6 normal equations),
+apply ``x`` on the left, stop on a step below 1e-7 or with fewer than 6 pairs. Nearest neighbours
+come from a :class:`~catpose.cell_grid.CellGrid` of the target (exact within ``max_distance``).
+One start after another on one thread, float64, no parallel reductions: the same bits on any
+number of threads. Ours refines 12 hypotheses x 30 iterations per problem with it; in NumPy with
+a KD-tree that was ~0.2 s of per-call overhead, compiled it is a few milliseconds.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from catpose import cell_grid
+from catpose.cell_grid import CellGrid
+from catpose.geometry import matmul3
+
+
+def refine_many(points: np.ndarray, grid: CellGrid, target_normals: np.ndarray, T_init: np.ndarray,
+                max_distance: float, iterations: int, return_steps: bool = False):
+    """Refine every start ``T_init`` (B, 4, 4) (``T_target_source``) on ``points`` (N, 3, source
+    frame) against the grid's points with unit ``target_normals`` (M, 3, target frame).
+
+    Args:
+        max_distance: pairing cap (the points' unit).
+        iterations: Gauss-Newton steps at most (each start stops on its own convergence).
+        return_steps: also return the steps each start took (B,) int64.
+
+    Returns:
+        (B, 4, 4) refined transforms with orthonormal rotations (and the steps).
+    """
+    T = np.array(T_init, dtype=np.float64, copy=True).reshape(-1, 4, 4)
+    steps = np.zeros(len(T), dtype=np.int64)
+    _refine_into(np.ascontiguousarray(points, dtype=np.float64), *cell_grid.arrays(grid),
+                 np.ascontiguousarray(target_normals, dtype=np.float64), T, float(max_distance), int(iterations),
+                 steps)
+
+    for b in range(len(T)):  # re-orthonormalise (LAPACK once per start, outside the kernel)
+        U, _, Vt = np.linalg.svd(T[b, :3, :3])
+        T[b, :3, :3] = matmul3(U, Vt)
+    return (T, steps) if return_steps else T
+
+
+@numba.njit(cache=True, nogil=True)
+def _solve6(H, g, x):  # pragma: no cover - compiled
+    """x = H^-1 g for symmetric positive definite H (6, 6), by Cholesky; False if not SPD."""
+    L = np.zeros((6, 6))
+    for i in range(6):
+        for j in range(i + 1):
+            s = H[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            if i == j:
+                if s <= 0.0:
+                    return False
+                L[i, i] = np.sqrt(s)
+            else:
+                L[i, j] = s / L[j, j]
+    y = np.zeros(6)
+    for i in range(6):
+        s = g[i]
+        for k in range(i):
+            s -= L[i, k] * y[k]
+        y[i] = s / L[i, i]
+    for i in range(5, -1, -1):
+        s = y[i]
+        for k in range(i + 1, 6):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _refine_into(points, tp, origin, cell, dims, start, order, normals, T, max_distance,
+                 iterations, steps):  # pragma: no cover - compiled
+    H = np.zeros((6, 6))
+    g = np.zeros(6)
+    J = np.zeros(6)
+    x = np.zeros(6)
+    dR = np.zeros((3, 3))
+    hint = np.empty(points.shape[0], dtype=np.int64)  # each point's last neighbour bounds its next search
+    for b in range(T.shape[0]):
+        hint[:] = -1
+        for _ in range(iterations):
+            steps[b] += 1
+            H[:, :] = 0.0
+            g[:] = 0.0
+            pairs = 0
+            for i in range(points.shape[0]):
+                px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+                sx = T[b, 0, 0] * px + T[b, 0, 1] * py + T[b, 0, 2] * pz + T[b, 0, 3]
+                sy = T[b, 1, 0] * px + T[b, 1, 1] * py + T[b, 1, 2] * pz + T[b, 1, 3]
+                sz = T[b, 2, 0] * px + T[b, 2, 1] * py + T[b, 2, 2] * pz + T[b, 2, 3]
+                d, j = cell_grid.nearest_one(tp, origin, cell, dims, start, order, sx, sy, sz, max_distance,
+                                             hint[i])
+                if j < 0:
+                    continue
+                hint[i] = j
+                pairs += 1
+                nx, ny, nz = normals[j, 0], normals[j, 1], normals[j, 2]
+                J[0] = sy * nz - sz * ny
+                J[1] = sz * nx - sx * nz
+                J[2] = sx * ny - sy * nx
+                J[3], J[4], J[5] = nx, ny, nz
+                r = (tp[j, 0] - sx) * nx + (tp[j, 1] - sy) * ny + (tp[j, 2] - sz) * nz
+                for a in range(6):
+                    g[a] += J[a] * r
+                    for c in range(a + 1):
+                        H[a, c] += J[a] * J[c]
+            if pairs < 6:
+                break
+            for a in range(6):
+                H[a, a] += 1e-9
+                for c in range(a):
+                    H[c, a] = H[a, c]
+            if not _solve6(H, g, x):
+                break
+            angle = np.sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2])
+            if angle > 1e-12:
+                ax, ay, az = x[0] / angle, x[1] / angle, x[2] / angle
+                s, c1 = np.sin(angle), 1.0 - np.cos(angle)
+                # Rodrigues: I + sin K + (1 - cos) K K, K the cross-product matrix of the axis
+                dR[0, 0] = 1.0 + c1 * (-ay * ay - az * az)
+                dR[0, 1] = -s * az + c1 * ax * ay
+                dR[0, 2] = s * ay + c1 * ax * az
+                dR[1, 0] = s * az + c1 * ax * ay
+                dR[1, 1] = 1.0 + c1 * (-ax * ax - az * az)
+                dR[1, 2] = -s * ax + c1 * ay * az
+                dR[2, 0] = -s * ay + c1 * ax * az
+                dR[2, 1] = s * ax + c1 * ay * az
+                dR[2, 2] = 1.0 + c1 * (-ax * ax - ay * ay)
+            else:
+                dR[:, :] = 0.0
+                dR[0, 0] = dR[1, 1] = dR[2, 2] = 1.0
+            for col in range(4):
+                v0, v1, v2 = T[b, 0, col], T[b, 1, col], T[b, 2, col]
+                for a in range(3):
+                    T[b, a, col] = dR[a, 0] * v0 + dR[a, 1] * v1 + dR[a, 2] * v2
+            for a in range(3):
+                T[b, a, 3] += x[3 + a]
+            if angle < 1e-7 and np.sqrt(x[3] * x[3] + x[4] * x[4] + x[5] * x[5]) < 1e-7:
+                break

@@ -1,0 +1,139 @@
+"""Compiled nearest-neighbour grid and the kernels built on it, each against an independent
+reference: scipy's cKDTree, the NumPy point-to-plane ICP, the NumPy visibility-aware Chamfer."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
+
+from catpose import cell_grid
+from catpose.geometry import make_T
+
+
+def _shell(rng: np.random.Generator, n: int) -> np.ndarray:
+    p = rng.normal(size=(n, 3))
+    return p / np.linalg.norm(p, axis=1, keepdims=True) * rng.uniform(0.6, 1.0, (n, 1))
+
+
+@pytest.mark.parametrize("cell", [0.03, 0.05, 0.2])
+def test_nearest_matches_a_kd_tree_for_any_radius(cell: float) -> None:
+    rng = np.random.default_rng(0)
+    points = _shell(rng, 1500)
+    queries = np.concatenate([rng.normal(scale=0.7, size=(2000, 3)),          # inside and around
+                              points[:300] + rng.normal(scale=0.005, size=(300, 3)),  # on the surface
+                              rng.normal(scale=50.0, size=(20, 3))])          # far outside the grid
+    grid = cell_grid.build(points, cell)
+    tree = cKDTree(points)
+    for radius in (0.02, 0.05, 0.1, 0.5, np.inf):
+        d, j = cell_grid.nearest(grid, queries, radius)
+        d_ref, j_ref = tree.query(queries, distance_upper_bound=radius)
+        found = np.isfinite(d_ref)
+        np.testing.assert_array_equal(np.isfinite(d), found)
+        np.testing.assert_array_equal(d[found], d_ref[found])       # the same bits: exact search
+        np.testing.assert_array_equal(j[found], j_ref[found])
+        assert np.all(j[~found] == -1)
+
+
+def test_nearest_edge_cases() -> None:
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
+    grid = cell_grid.build(points, 0.1)
+    d, j = cell_grid.nearest(grid, np.array([[0.9, 0.0, 0.0], [np.nan, 0.0, 0.0], [0.5, 0.0, 0.0],
+                                             [0.0, 2.0, 0.3]]), 0.3)
+    assert j[0] == 1                                   # a tie between duplicates: the lowest index
+    assert j[1] == -1 and np.isinf(d[1])               # a non-finite query finds nothing
+    assert j[2] == -1 and np.isinf(d[2])               # 0.5 away, beyond the radius: nothing
+    assert j[3] == 3 and d[3] == pytest.approx(0.3)    # on the radius: found (inclusive)
+    with pytest.raises(ValueError, match="points must be"):
+        cell_grid.build(np.zeros((0, 3)), 0.1)
+    with pytest.raises(ValueError, match="NaN"):
+        cell_grid.build(np.array([[0.0, np.nan, 0.0]]), 0.1)
+
+
+def test_huge_extent_coarsens_the_grid_and_stays_exact() -> None:
+    rng = np.random.default_rng(1)
+    points = rng.uniform(-1e4, 1e4, size=(500, 3))
+    grid = cell_grid.build(points, 1e-3)
+    assert np.prod(grid.dims) <= cell_grid.MAX_CELLS
+    queries = rng.uniform(-1.2e4, 1.2e4, size=(300, 3))
+    np.testing.assert_array_equal(cell_grid.nearest(grid, queries)[0], cKDTree(points).query(queries)[0])
+
+
+def test_a_hint_never_changes_the_answer() -> None:
+    import numba
+
+    rng = np.random.default_rng(2)
+    points = _shell(rng, 800)
+    grid = cell_grid.build(points, 0.05)
+    queries = points[rng.integers(0, 800, 500)] + rng.normal(scale=0.02, size=(500, 3))
+    hints = rng.integers(-1, 800, 500)
+
+    @numba.njit
+    def with_hints(points, origin, cell, dims, start, order, q, radius, hints, out):
+        for i in range(q.shape[0]):
+            out[i] = cell_grid.nearest_one(points, origin, cell, dims, start, order, q[i, 0], q[i, 1], q[i, 2],
+                                           radius, hints[i])[1]
+
+    for radius in (0.03, np.inf):
+        out = np.empty(500, dtype=np.int64)
+        with_hints(*cell_grid.arrays(grid), queries, radius, hints, out)
+        np.testing.assert_array_equal(out, cell_grid.nearest(grid, queries, radius)[1])
+
+
+def _box_cloud(rng: np.random.Generator, n: int = 3000) -> tuple[np.ndarray, np.ndarray]:
+    """Points and outward normals on a 0.8 x 0.5 x 0.3 box with a bump (no sliding symmetry)."""
+    ext = np.array([0.8, 0.5, 0.3])
+    faces = rng.integers(0, 6, n)
+    p = rng.uniform(-0.5, 0.5, (n, 3)) * ext
+    axis, sign = faces // 2, np.where(faces % 2 == 0, 1.0, -1.0)
+    p[np.arange(n), axis] = sign * 0.5 * ext[axis]
+    normals = np.zeros((n, 3))
+    normals[np.arange(n), axis] = sign
+    bump = (p[:, 2] > 0.14) & (p[:, 0] > 0.2)
+    p[bump, 2] += 0.05
+    return p, normals
+
+
+def test_refine_many_matches_the_numpy_icp_from_every_start() -> None:
+    from catpose.point_to_plane import refine_point_to_plane
+    from catpose.point_to_plane_kernel import refine_many
+
+    rng = np.random.default_rng(3)
+    tgt, tgt_n = _box_cloud(rng)
+    T_gt = make_T(Rotation.from_rotvec([0.05, -0.03, 0.04]).as_matrix(), [0.02, -0.03, 0.01])
+    src = (tgt[::4] - T_gt[:3, 3]) @ T_gt[:3, :3]            # T_gt maps src onto the target
+    starts = np.stack([np.eye(4), make_T(Rotation.from_rotvec([0.1, 0.0, -0.1]).as_matrix(), [0.03, 0.0, 0.0]),
+                       make_T(Rotation.from_rotvec([0.0, 2.5, 0.0]).as_matrix(), [0.0, 0.0, 0.2]),
+                       make_T(np.eye(3), [5.0, 0.0, 0.0])])   # no pair within reach: unchanged
+    tree, grid = cKDTree(tgt), cell_grid.build(tgt, 0.05)
+    for iterations in (1, 3, 30):
+        T, steps = refine_many(src, grid, tgt_n, starts, 0.1, iterations, return_steps=True)
+        for b, start in enumerate(starts):
+            T_ref = refine_point_to_plane(src, tgt, tgt_n, tree, start, 0.1, iterations)
+            np.testing.assert_allclose(T[b], T_ref, atol=1e-9)
+        assert np.all(steps <= iterations) and steps[3] == 1
+    np.testing.assert_allclose(T[0], T_gt, atol=1e-6)
+    assert steps[0] < 30                                     # stopped on convergence
+    np.testing.assert_allclose(np.einsum("bij,bkj->bik", T[:, :3, :3], T[:, :3, :3]), np.tile(np.eye(3), (4, 1, 1)),
+                               atol=1e-12)
+
+
+def test_visibility_scores_match_the_numpy_score() -> None:
+    from catpose.methods import selection as S
+    from catpose.methods.selection_kernel import visibility_scores
+
+    rng = np.random.default_rng(4)
+    points, normals = _box_cloud(rng)
+    R = Rotation.from_rotvec([2.2, 0.3, -0.4]).as_matrix()
+    T = make_T(R, [0.1, -0.2, 2.5])                           # T_template_camera
+    visible = S.visible_mask(points, normals, T[:3, 3])
+    observed = (points[visible] - T[:3, 3]) @ R               # camera frame
+    observed = observed[::5] + rng.normal(scale=0.003, size=observed[::5].shape)
+    poses = np.stack([T, S.half_turns()[1] @ T, S.half_turns()[3] @ T,
+                      make_T(R, [0.1, -0.2, 9.0])])            # far away: everything truncated
+    ref = S.visibility_chamfer(observed, poses, points, normals, cKDTree(points), 0.1)
+    got = visibility_scores(observed, cell_grid.build(observed, 0.1), poses, cell_grid.build(points, 0.05), normals,
+                            0.1)
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-15)
+    assert got[0] < min(got[1], got[2])
