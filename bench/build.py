@@ -156,13 +156,14 @@ def _run_option(cfg: Any, key: str, kind: str, minimum: int | float | None = Non
 
 
 def validate_run_options(cfg: Any) -> None:
-    """Check the run-level keys (``seed``, ``limit``, ``threads``, ``lock_timeout``) and that no
+    """Check the run-level keys (``seed``, ``limit``, ``threads``, ``batch``, ``lock_timeout``) and that no
     mandatory group key (``dataset.root``) is unset, before any work."""
     if cfg.get("seed") is None:
         raise ConfigError("seed is not set; set seed=<integer>, e.g. seed=0")
     _run_option(cfg, "seed", "int")
     _run_option(cfg, "limit", "int", 1)
     _run_option(cfg, "threads", "int", 1)
+    _run_option(cfg, "batch", "int", 1)
     _run_option(cfg, "lock_timeout", "float", 0)
     for group in ("method", "dataset", "protocol"):
         if group in cfg:

@@ -129,7 +129,7 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
              ours_overrides: list[str], save_dir: Path | None = None) -> None:
     from catpose.bench.metrics import sample_errors
     from catpose.bench.build import build_from_config
-    from catpose.bench.runner import seed_everything
+    from catpose.bench.sample_run import seed_everything
     from catpose.bench.suite_real import METHODS, SETS, compose, shared_data_dir
     from catpose.geometry import stable_seed
 

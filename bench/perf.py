@@ -148,7 +148,7 @@ def _peak_rss_mb() -> float:
 
 
 def _seeded(seed: int, sample_id: str) -> None:
-    from catpose.bench.runner import seed_everything
+    from catpose.bench.sample_run import seed_everything
     from catpose.geometry import stable_seed
 
     seed_everything(stable_seed(seed, sample_id))

@@ -164,7 +164,7 @@ def suite_samples(suite: Suite, transform: Callable | None = None) -> tuple[Any,
 def run_method(suite: Suite, method_name: str, transform: Callable | None = None) -> dict[str, dict]:
     """Register every problem of ``suite`` with one method; {sample_id: runner row}."""
     from catpose.bench.build import build_from_config
-    from catpose.bench.runner import _run_one
+    from catpose.bench.sample_run import run_one
 
     cfg = _compose(suite, method_name)
     if cfg.get("threads"):
@@ -174,7 +174,7 @@ def run_method(suite: Suite, method_name: str, transform: Callable | None = None
     _, method = build_from_config(cfg.method, "method")
     dataset, protocol, ids = suite_samples(suite, transform)
     base = {"method": method_name, "dataset": suite.dataset, "protocol": suite.protocol, "seed": suite.seed}
-    return {sid: _run_one(method, protocol, dataset, sid, base, suite.seed) for sid in ids}
+    return {sid: run_one(method, protocol, dataset, sid, base, suite.seed) for sid in ids}
 
 
 def slim_rows(suite: Suite, method: str, perturbation: float = 0.0) -> dict[str, dict]:

@@ -119,7 +119,7 @@ LOCK_FILE = "run.lock"
 
 
 _RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", "limit", "sample_ids", "output_root",
-                               "progress", "threads", "retry_failed", "print_summary", "lock_timeout",
+                               "progress", "threads", "batch", "retry_failed", "print_summary", "lock_timeout",
                                # shards of one run share its directory; an experiment's rows name themselves
                                "shard", "shards", "label", "experiment"}
 

@@ -10,6 +10,10 @@ Stages with files between them (run -> estimates and errors -> tables):
 - ``samples.csv``, ``summary.csv``, ``summary.md``: made from ``samples.jsonl`` by
   :func:`summarize_run`, never from in-memory state.
 
+``batch=N`` (default 1) hands the method ``N`` samples per call of its ``register_batch`` where
+it has one (ours: one solver launch for all their candidates, the GPU path with
+``method.optimiser.device=cuda``); each sample's ``runtime_s`` is then its share of the call.
+
 A sample whose data fails to load, whose method raises, or whose estimate is not a finite rigid
 transform is recorded with ``status="failed"`` and its message; the run goes on. What is not the
 sample's own fault aborts the run in one line and records nothing for the sample in progress, so
@@ -18,104 +22,28 @@ sample), an import error, ``MemoryError``, an ``OSError`` writing the run direct
 a lock on its directory (``run.lock``); a second run of the same configuration waits for it.
 
 The run directory's name, files, rows and lock are :mod:`catpose.bench.rundir`'s; configs become
-objects in :mod:`catpose.bench.build`; errors and summaries are :mod:`catpose.bench.evaluate`'s.
+objects in :mod:`catpose.bench.build`; one sample's load, registration and scoring are
+:mod:`catpose.bench.sample_run`'s; errors and summaries are :mod:`catpose.bench.evaluate`'s.
 """
 
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import importlib
-import random
 import signal
 import sys
 import threading
-import time
 from pathlib import Path
 from typing import Any, Iterable
-
-import numpy as np
 
 from catpose.bench.build import build_from_config, validate_run_options
 from catpose.bench.evaluate import format_summary, summarize_run
 from catpose.bench.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
-from catpose.bench.rundir import (LOCK_FILE, SAMPLES_FILE, RunLock, SampleWriter, failed_row, new_row,
-                                  read_samples, run_dir_for, scored_row, write_run_files, write_run_json,
-                                  writing)
+from catpose.bench.rundir import (LOCK_FILE, SAMPLES_FILE, RunLock, SampleWriter, read_samples, run_dir_for,
+                                  write_run_files, write_run_json, writing)
+from catpose.bench.sample_run import run_batch, run_one
 from catpose.errors import CatposeError, ConfigError, RunAborted
 from catpose.errors import one_line as _one_line
-from catpose.geometry import stable_seed
-
-
-# ---------------------------------------------------------------------------------------------
-# building the pieces from config
-
-
-# ---------------------------------------------------------------------------------------------
-# the per-sample table
-
-
-def seed_everything(seed: int) -> None:
-    """Seed Python, NumPy, and (when loaded) torch and Open3D, for one sample."""
-    seed32 = seed % (2**32)
-    random.seed(seed32)
-    np.random.seed(seed32)
-    if "torch" in sys.modules:
-        sys.modules["torch"].manual_seed(seed32)
-    if "open3d" in sys.modules:
-        from catpose.o3d import o3d
-
-        o3d.utility.random.seed(seed32 % (2**31))
-
-
-# raised inside a sample but not its fault: the run aborts (see run()); KeyboardInterrupt and
-# other BaseExceptions pass through `except Exception` anyway
-_NOT_THE_SAMPLES_FAULT = (ImportError, MemoryError)
-
-
-def _run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dict, seed: int) -> dict:
-    """Load, register and score one sample; its row (see :class:`catpose.bench.rundir.SampleRow`).
-    A failure that is the sample's own is its row's ``error``; what is not (an import error, no
-    memory) is raised."""
-    from catpose.bench.metrics import sample_errors
-
-    try:
-        category = dataset.category_of(sample_id.split("|")[0])
-    except Exception:  # an id the dataset cannot parse still gets its failed row below
-        category = None
-    row = new_row(base, sample_id, category=category)
-    try:
-        sample = protocol.load(dataset, sample_id)
-    except _NOT_THE_SAMPLES_FAULT:
-        raise
-    except Exception as e:  # a bad sample is recorded, the run goes on
-        return failed_row(row, _one_line(e))
-    info = dict(sample.info)
-    row.update(group_id=sample.group_id or sample_id, category=sample.problem.category,
-               instance_id=info.get("instance_id"), template_id=sample.problem.template.template_id,
-               T_gt=np.asarray(sample.gt.T_template_camera, float).reshape(-1), symmetric=sample.gt.symmetry_axis is not None,
-               symmetry_axis=sample.gt.symmetry_axis,
-               symmetries=[np.asarray(S, float).reshape(-1) for S in sample.gt.symmetries] or None,
-               info=info, stage="register")
-    seed_everything(stable_seed(seed, sample_id))
-    t0 = time.perf_counter()
-    try:
-        result = method.register(sample.problem)
-    except _NOT_THE_SAMPLES_FAULT:
-        raise
-    except Exception as e:
-        return failed_row(row, _one_line(e), runtime_s=time.perf_counter() - t0)
-    runtime = time.perf_counter() - t0
-    result = dataclasses.replace(result, runtime_s=runtime)
-    T = np.asarray(result.T_target_source, dtype=float)
-    row.update(runtime_s=runtime, score=result.score, extras=dict(result.extras))
-    if T.shape != (4, 4) or not np.isfinite(T).all():
-        return failed_row(row, f"method returned a non-finite or malformed pose (shape {T.shape})")
-    R = T[:3, :3]
-    if np.abs(R @ R.T - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
-        return failed_row(row, "method returned a matrix whose rotation part is not a rotation")
-    return scored_row(row, T, sample_errors(T, sample.gt.T_template_camera, sample.gt.symmetry_axis,
-                                            sample.gt.symmetries))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -291,19 +219,25 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
 
     bar = tqdm(total=len(ids), initial=len(ids) - len(todo), unit="sample", dynamic_ncols=True,
                desc=f"{method_name} on {dataset_name}", disable=not cfg.get("progress", True), file=sys.stderr)
+    batch = int(cfg.get("batch") or 1)
     try:
-        for sample_id in todo:
+        for start in range(0, len(todo), batch):
+            chunk = todo[start:start + batch]
             try:
-                row = _run_one(method, protocol, dataset, sample_id, base, int(cfg.seed))
+                if batch == 1:
+                    rows = [run_one(method, protocol, dataset, chunk[0], base, int(cfg.seed))]
+                else:
+                    rows = run_batch(method, protocol, dataset, chunk, base, int(cfg.seed))
             except (ImportError, MemoryError) as e:
                 interrupts.check()
-                raise RunAborted(_abort_message(e, sample_id)) from None
+                raise RunAborted(_abort_message(e, ", ".join(chunk))) from None
             interrupts.check()  # a Ctrl-C caught inside the sample is not the sample's failure
-            with writing(out):
-                writer.write(row)
-            bar.update(1)
-            if row["status"] != "ok":
-                bar.write(f"[failed] {sample_id}: {row['error']}", file=sys.stderr)
+            for row in rows:
+                with writing(out):
+                    writer.write(row)
+                bar.update(1)
+                if row["status"] != "ok":
+                    bar.write(f"[failed] {row['sample_id']}: {row['error']}", file=sys.stderr)
     finally:
         bar.close()
         with contextlib.suppress(OSError):

@@ -398,7 +398,8 @@ def test_bench_run_bad_limit_gives_one_line(tmp_path):
 CASES = {  # name -> (args, needle); the files are written by _prepare
     "limit=abc": (["limit=abc"], "limit='abc' is not an integer"),
     "seed=1.5": (["seed=1.5"], "seed=1.5 is not an integer"),
-    "lr=abc": (["method=ours", "method.lr=abc"], "method.lr='abc' is not a float; set method.lr=<number>"),
+    "lr=abc": (["method=ours", "method.optimiser.lr=abc"],
+               "method.optimiser.lr='abc' is not a float; set method.optimiser.lr=<number>"),
     "no root": (["dataset=bop"], "e.g. dataset.root=<value>"),
     "bop fx<0": (["dataset=bop", "dataset.root={bop_fx}"], "fx=-300, fy=300"),
     "bop no obj_id": (["dataset=bop", "dataset.root={bop_gt}"], "has no integer obj_id"),

@@ -15,7 +15,7 @@ import pytest
 from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
-from catpose.bench.rundir import read_samples
+from catpose.bench.rundir import read_samples, run_dir_for
 from catpose.bench.runner import run
 
 TESTS = Path(__file__).resolve().parent
@@ -94,6 +94,32 @@ def test_resume_after_interrupt_gives_the_same_table_without_repeated_work(tmp_p
 
     run(make_cfg(b))  # a third run has nothing left to do
     assert len(calls(b)) == 5
+
+
+def test_batched_runs_give_the_same_table_and_isolate_a_bad_sample(tmp_path):
+    """batch=N feeds register_batch N samples at a time; a sample that fails to load stays out
+    of the call, one that fails inside it makes its batch register one by one, and the table is
+    the one batch=1 writes."""
+    special = ["load_error"]
+    plain = make_cfg(tmp_path / "a", special=special, method_kwargs={"fail_on": ["v1"]})
+    rows_1 = {r["sample_id"]: r for r in read_samples(run(plain) / "samples.jsonl")}
+    cfg = make_cfg(tmp_path / "b", special=special, method_kwargs={"fail_on": ["v1"]}, overrides=["batch=3"])
+    cfg.method._target_ = "toy_dataset.BatchOracle"
+    out = run(cfg)
+    rows_3 = {r["sample_id"]: r for r in read_samples(out / "samples.jsonl")}
+    assert run_dir_for(cfg, ["batch=3"]) == run_dir_for(cfg, []) == out   # batch is not part of the name
+    assert rows_3.keys() == rows_1.keys()
+    for sid, r in rows_1.items():
+        assert (r["status"], r["error"], r.get("T_est")) == (rows_3[sid]["status"], rows_3[sid]["error"],
+                                                              rows_3[sid].get("T_est")), sid
+    log = calls(tmp_path / "b")
+    # samples v0 v1 v2 | v3 load_error: the first batch fails (v1) and registers one by one; the
+    # second has one loadable sample and registers alone
+    assert log[0] == "batch:3" and "batch:2" not in log
+    assert sorted(x for x in log if not x.startswith("batch")) == sorted(
+        s for s, r in rows_1.items() if r["stage"] != "load")
+    with pytest.raises(Exception, match="batch=0 is not an integer >= 1"):
+        run(make_cfg(tmp_path / "c", overrides=["batch=0"]))
 
 
 def test_output_directory_is_named_from_parameters(tmp_path):

@@ -87,3 +87,16 @@ class Oracle(RegistrationMethod):
         if any(problem.sample_id.endswith(s) for s in self.nan_on):
             T[0, 0] = np.nan
         return RegistrationResult(T_target_source=T, score=float(len(problem.points_camera)))
+
+
+class BatchOracle(Oracle):
+    """:class:`Oracle` with ``register_batch``: one call for several problems (logged as
+    ``batch:<n>``), failing as a whole when one of them fails, as a solver launch does."""
+
+    def register_batch(self, problems):
+        if self.count_file:
+            with open(self.count_file, "a") as f:
+                f.write(f"batch:{len(problems)}\n")
+        if any(p.sample_id.endswith(s) for p in problems for s in self.fail_on):
+            raise RuntimeError("one problem of the batch blew up on purpose")
+        return [Oracle.register(self, p) for p in problems]
