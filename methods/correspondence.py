@@ -43,6 +43,7 @@ from catpose.methods import options
 from catpose.methods.base import RegistrationMethod
 from catpose.methods.descriptors import LPS, Descriptor
 from catpose.methods.dictionary import DictionaryLayout
+from catpose.methods.dictionary_features import DictionaryFeatures, describe_clouds, dictionary_features
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
 MATCHINGS = ("direct", "dictionary")
@@ -208,17 +209,22 @@ class CorrespondenceRegistration(RegistrationMethod):
         else:
             d = self.layout.dictionary(template)
             parts = list(zip(d.points, d.normals))
-        descriptors = None
+        described = None
         if not with_fpfh:
-            keypoints = [self._keypoints(p, n, template.up, 2 * self.num_keypoints) for p, n in parts]
-            targets, descriptors = [k[0] for k in keypoints], [k[1] for k in keypoints]
+            k2 = 2 * self.num_keypoints
+            up = np.asarray(template.up, dtype=np.float64)
+            # the dictionary's keypoints and descriptors are the ones ours computes: one shared cache
+            described = (describe_clouds(self.descriptor, parts, up, k2) if direct
+                         else dictionary_features(self.descriptor, self.layout, template, k2))
+            targets = [_keypoint_cloud(kp[:c], nm[:c])
+                       for kp, nm, c in zip(described.keypoints, described.normals, described.counts)]
         elif direct:
             targets = [complete]
         else:
             targets = [_make_cloud(p, n, self.voxel_size, self.fpfh_radius, self.fpfh_max_nn, True)
                        for p, n in parts]
         data = {"complete": complete, "tree": cKDTree(template.points), "targets": targets,
-                "descriptors": descriptors}
+                "described": described}
         self._target_cache.put(key, data)
         return data
 
@@ -230,11 +236,14 @@ class CorrespondenceRegistration(RegistrationMethod):
                                               np.asarray(normals, dtype=np.float64), k, up)
         return _keypoint_cloud(f.keypoints, f.normals[f.indices]), f.features
 
-    def _correspondences(self, source_desc: Any, target_desc: Any) -> np.ndarray:
-        """(n, 2) top-1 pairs (input keypoint, target keypoint) by the descriptor's affinity; row
-        normalisation does not change the argmax, so the unnormalised affinity is used."""
-        A = self.descriptor.affinity(source_desc, target_desc)                 # (n, 2n)
-        return np.stack([np.arange(len(A)), np.argmax(A, axis=1)], axis=1).astype(np.int64)
+    def _correspondences(self, source_desc: Any, described: DictionaryFeatures) -> list[np.ndarray]:
+        """Per target, (n, 2) top-1 pairs (input keypoint, target keypoint) by the descriptor's
+        affinity (one batched affinity for all targets; a padded target's repeated keypoints are
+        left out); row normalisation does not change the argmax, so the unnormalised affinity is
+        used."""
+        A = self.descriptor.batched_affinity(source_desc, described.stacked)    # (m, n, 2n)
+        return [np.stack([np.arange(A.shape[1]), np.argmax(A[i][:, :c], axis=1)], axis=1).astype(np.int64)
+                for i, c in enumerate(described.counts)]
 
     def _refine(self, source: Cloud, complete: Cloud, T: np.ndarray) -> np.ndarray:
         from catpose.o3d import max_threads, o3d
@@ -265,12 +274,14 @@ class CorrespondenceRegistration(RegistrationMethod):
         stages = {"prepare_s": time.perf_counter() - t_start, "match_s": 0.0, "estimate_s": 0.0,
                   "refine_s": 0.0, "select_s": 0.0}
         candidates = []
+        t0 = time.perf_counter()
+        pairs = self._correspondences(source_desc, data["described"]) if keypoint_features else None
+        stages["match_s"] += time.perf_counter() - t0
         for i, target in enumerate(data["targets"]):
             seed = stable_seed(self.seed, problem.sample_id, i)
             t0 = time.perf_counter()
             if keypoint_features:
-                corr = self._correspondences(source_desc, data["descriptors"][i])
-                match = MatchInput(source_kp, target, corr, seed)
+                match = MatchInput(source_kp, target, pairs[i], seed)
             else:
                 match = MatchInput(source, target, None, seed)
             t1 = time.perf_counter()

@@ -79,6 +79,7 @@ from catpose.methods import options
 from catpose.methods.base import RegistrationMethod
 from catpose.methods.descriptors import LPS, Descriptor
 from catpose.methods.dictionary import DictionaryLayout
+from catpose.methods.dictionary_features import dictionary_features
 from catpose.methods.keypoints import farthest_point_indices
 from catpose.methods.ours_settings import OptimiserSettings, SelectionSettings
 from catpose.point_to_plane_kernel import refine_many
@@ -93,7 +94,9 @@ GRID_CELL = 0.05
 
 @dataclass(frozen=True, eq=False)
 class _TemplateFeatures:
-    """Constant per (template, parameters): keypoints (m, 2n, 3) and per-partial descriptors."""
+    """Constant per (template, parameters): keypoints (m, 2n, 3) and per-partial descriptors (the
+    cache shared with the correspondence baselines, :mod:`catpose.methods.dictionary_features`),
+    and what the selection searches."""
 
     keypoints: np.ndarray
     stacked: object              # the partials' descriptors, stacked for one batched affinity
@@ -174,7 +177,7 @@ class Ours(RegistrationMethod):
         self.selection = selection or SelectionSettings()
         self.chamfer_points = options.positive("method.chamfer_points", chamfer_points, integer=True)
         self.num_keypoints = self.layout.num_keypoints
-        self._features: LRUCache[tuple, _TemplateFeatures] = LRUCache(8)  # LPS grids are ~25 MB a template
+        self._features: LRUCache[tuple, _TemplateFeatures] = LRUCache(8)  # holds the shared LPS grids (~25 MB a template)
 
     def template_features(self, template: Template) -> _TemplateFeatures:
         """Keypoints and descriptors of every partial template, cached per template and parameters."""
@@ -187,13 +190,10 @@ class Ours(RegistrationMethod):
         hit = self._features.get(key)
         if hit is not None:
             return hit
-        k2 = 2 * self.num_keypoints
-        # a tiny partial repeats keypoints (pad) so all candidates batch together
-        parts = [self.descriptor.keypoint_features(p, n, k2, up, pad=True)
-                 for p, n in zip(dictionary.points, dictionary.normals)]
+        # a tiny partial repeats keypoints (padded) so all candidates batch together
+        shared = dictionary_features(self.descriptor, self.layout, template, 2 * self.num_keypoints)
         complete = template.points[farthest_point_indices(template.points, self.chamfer_points)]
-        feats = _TemplateFeatures(np.stack([f.keypoints for f in parts]),
-                                  self.descriptor.stack([f.features for f in parts]), complete,
+        feats = _TemplateFeatures(shared.keypoints, shared.stacked, complete,
                                   cell_grid.build(template.points, GRID_CELL), cKDTree(template.points))
         self._features.put(key, feats)
         return feats

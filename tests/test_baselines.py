@@ -192,8 +192,9 @@ def test_configs_instantiate(name: str) -> None:
 
 
 def test_lps_pairs_are_the_top1_of_ours_affinity(easy) -> None:
-    """features=lps uses exactly ``ours``' keypoints and LPS affinity (argmax per input keypoint):
-    compared with the batched affinity ``Ours`` computes over the whole dictionary."""
+    """features=lps uses exactly ``ours``' keypoints and LPS features (the same cached object, not a
+    copy) and pairs each input keypoint with its top-1 partial-template keypoint; checked against
+    an independent per-partial computation (unpadded keypoints, one pair's affinity at a time)."""
     from catpose.methods.ours import Ours
     from catpose.methods.teaser import TEASER
 
@@ -202,16 +203,39 @@ def test_lps_pairs_are_the_top1_of_ours_affinity(easy) -> None:
     feats = ours.template_features(problem.template)
     inp = ours.descriptor.keypoint_features(problem.points_camera, problem.normals_camera, ours.num_keypoints,
                                             problem.ground_normal_camera)
-    A = ours.descriptor.batched_affinity(inp.features, feats.stacked)
 
     method = TEASER(matching="dictionary", features="lps")
     assert method.descriptor.cache_key() == ours.descriptor.cache_key() and method.layout == ours.layout
     data = method._targets(problem.template)
+    assert data["described"].stacked is feats.stacked               # one shared cache
     source_kp, source_desc = method._keypoints(problem.points_camera, problem.normals_camera,
                                                problem.ground_normal_camera, method.num_keypoints)
     np.testing.assert_allclose(source_kp.points, inp.keypoints)
-    assert len(data["targets"]) == len(feats.keypoints)
+    dictionary = ours.layout.dictionary(problem.template)
+    assert len(data["targets"]) == len(dictionary.points) == len(feats.keypoints)
+    pairs = method._correspondences(source_desc, data["described"])
     for i, target in enumerate(data["targets"]):
-        corr = method._correspondences(source_desc, data["descriptors"][i])
-        np.testing.assert_array_equal(corr[:, 0], np.arange(len(inp.indices)))
-        np.testing.assert_allclose(target.points[corr[:, 1]], feats.keypoints[i][np.argmax(A[i], axis=1)])
+        part = ours.descriptor.keypoint_features(dictionary.points[i], dictionary.normals[i], 2 * ours.num_keypoints,
+                                                 np.asarray(problem.template.up, float))
+        A_i = ours.descriptor.affinity(inp.features, part.features)  # (n, distinct keypoints)
+        np.testing.assert_array_equal(target.points, part.keypoints)
+        np.testing.assert_array_equal(pairs[i][:, 0], np.arange(len(inp.indices)))
+        np.testing.assert_array_equal(pairs[i][:, 1], np.argmax(A_i, axis=1))
+
+def test_dictionary_features_are_cached_once_per_descriptor_and_bounded(easy) -> None:
+    from catpose.methods import dictionary_features as DF
+    from catpose.methods.descriptors import LPS
+    from catpose.methods.dictionary import DictionaryLayout
+
+    problem, _ = easy
+    template = problem.template
+    DF.clear()
+    layout = DictionaryLayout()
+    a = DF.dictionary_features(LPS(), layout, template, 64)
+    assert DF.dictionary_features(LPS(), DictionaryLayout(), template, 64) is a      # equal parameters: shared
+    b = DF.dictionary_features(LPS(tau=0.02), layout, template, 64)                    # other parameters: not
+    assert b is not a and len(DF._CACHE) == 2
+    assert a.keypoints.shape == (len(layout.dictionary(template).points), 64, 3) and np.all(a.counts <= 64)
+    for k in range(DF.CACHE_SIZE + 2):
+        DF.dictionary_features(LPS(), layout, template, 8 + k)
+    assert len(DF._CACHE) == DF.CACHE_SIZE
