@@ -87,9 +87,6 @@ from catpose.types import RegistrationProblem, RegistrationResult, Template
 
 __all__ = ["Candidates", "OptimiserSettings", "Ours", "SelectionSettings"]
 
-#: cell edge of the nearest-neighbour grids (object-normalised; about one template point a cell
-#: at 2,048 points, the refinement's pairing cap; any value gives the same answers, only speed)
-GRID_CELL = 0.05
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,7 +98,8 @@ class _TemplateFeatures:
     keypoints: np.ndarray
     stacked: object              # the partials' descriptors, stacked for one batched affinity
     complete_points: np.ndarray  # (M', 3) FPS subset of the complete template for Chamfer terms
-    grid: CellGrid               # nearest-neighbour grid of the full template points (bounded queries)
+    pairing: CellGrid            # the full template points, searched within refine_max_distance (ICP)
+    truncated: CellGrid          # the same, searched within visibility_trunc (visibility scores)
     tree: object                 # cKDTree of the same points (unbounded queries)
 
 
@@ -185,8 +183,9 @@ class Ours(RegistrationMethod):
 
         dictionary = self.layout.dictionary(template)
         up = np.asarray(template.up, dtype=np.float64)
+        sel = self.selection
         key = (dictionary.key, tuple(np.round(up, 12)), self.descriptor.cache_key(), self.num_keypoints,
-               self.chamfer_points)
+               self.chamfer_points, sel.refine_max_distance, sel.visibility_trunc)
         hit = self._features.get(key)
         if hit is not None:
             return hit
@@ -194,7 +193,8 @@ class Ours(RegistrationMethod):
         shared = dictionary_features(self.descriptor, self.layout, template, 2 * self.num_keypoints)
         complete = template.points[farthest_point_indices(template.points, self.chamfer_points)]
         feats = _TemplateFeatures(shared.keypoints, shared.stacked, complete,
-                                  cell_grid.build(template.points, GRID_CELL), cKDTree(template.points))
+                                  cell_grid.build(template.points, sel.refine_max_distance),
+                                  cell_grid.build(template.points, sel.visibility_trunc), cKDTree(template.points))
         self._features.put(key, feats)
         return feats
 
@@ -322,17 +322,17 @@ class Ours(RegistrationMethod):
             """Poses (B, 4, 4) refined by point-to-plane ICP on ``points`` (all at once, compiled)."""
             if not sel.refine:
                 return T
-            return refine_many(points, feats.grid, template.normals, T, sel.refine_max_distance,
+            return refine_many(points, feats.pairing, template.normals, T, sel.refine_max_distance,
                                sel.refine_iterations)
 
         if sel.rule == "visibility":
             from catpose.methods.selection import select_with_half_turns
             from catpose.methods.selection_kernel import visibility_scores
 
-            input_grid = cell_grid.build(chamfer_src, 2 * GRID_CELL)
+            input_grid = cell_grid.build(chamfer_src, sel.visibility_trunc)
 
             def score_of(T: np.ndarray) -> np.ndarray:
-                return visibility_scores(chamfer_src, input_grid, T, feats.grid, template.normals,
+                return visibility_scores(chamfer_src, input_grid, T, feats.truncated, template.normals,
                                          sel.visibility_trunc)
 
             # scored and refined on the FPS subset of the Chamfer distances (4x fewer points: the

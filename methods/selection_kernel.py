@@ -3,8 +3,8 @@ compiled call for many poses (numba).
 
 Same score (``mean_i min(d(T x_i, template), trunc) + mean_{v in V} min(d(v, T X), trunc)``, ``V``
 the template points whose outward normal faces the camera centre ``T[:3, 3]``), with both nearest
-neighbour searches on :class:`~catpose.cell_grid.CellGrid` s instead of KD-trees: the template's
-grid for the first term; for the second the visible template points are mapped back into the
+neighbour searches on :class:`~catpose.cell_grid.CellGrid` s (reach ``trunc`` at least) instead of
+KD-trees: the template's grid for the first term; for the second the visible template points are mapped back into the
 camera frame (``d(v, T X) = d(T^-1 v, X)`` for a rigid ``T``) and searched in one grid of the
 input, built once per problem instead of one KD-tree per pose. The NumPy version is the reference
 in ``tests/test_cell_grid.py``.
@@ -24,6 +24,9 @@ def visibility_scores(points_camera: np.ndarray, input_grid: CellGrid, T_templat
     """(B,) truncated two-directional visible Chamfer of ``points_camera`` (N, 3; ``input_grid``
     is its grid) under each pose ``T_template_camera`` (B, 4, 4), against the template of
     ``template_grid`` with unit ``template_normals`` (M, 3); object-normalised unit."""
+    if not (trunc <= input_grid.reach and trunc <= template_grid.reach):
+        raise ValueError(f"visibility_scores: trunc {trunc} exceeds a grid's reach "
+                         f"({input_grid.reach}, {template_grid.reach})")
     T = np.ascontiguousarray(T_template_camera, dtype=np.float64).reshape(-1, 4, 4)
     out = np.empty(len(T))
     _scores_into(np.ascontiguousarray(points_camera, dtype=np.float64), *cell_grid.arrays(input_grid),
@@ -33,8 +36,8 @@ def visibility_scores(points_camera: np.ndarray, input_grid: CellGrid, T_templat
 
 
 @numba.njit(cache=True, nogil=True)
-def _scores_into(points, ip, i_origin, i_cell, i_dims, i_start, i_order, tp, t_origin, t_cell, t_dims, t_start,
-                 t_order, normals, T, trunc, out):  # pragma: no cover - compiled
+def _scores_into(points, ip, i_origin, i_cell, i_dims, i_start, i_cand, tp, t_origin, t_cell, t_dims, t_start,
+                 t_cand, normals, T, trunc, out):  # pragma: no cover - compiled
     for b in range(T.shape[0]):
         d_in = 0.0
         for i in range(points.shape[0]):
@@ -42,7 +45,7 @@ def _scores_into(points, ip, i_origin, i_cell, i_dims, i_start, i_order, tp, t_o
             sx = T[b, 0, 0] * px + T[b, 0, 1] * py + T[b, 0, 2] * pz + T[b, 0, 3]
             sy = T[b, 1, 0] * px + T[b, 1, 1] * py + T[b, 1, 2] * pz + T[b, 1, 3]
             sz = T[b, 2, 0] * px + T[b, 2, 1] * py + T[b, 2, 2] * pz + T[b, 2, 3]
-            d, _ = cell_grid.nearest_one(tp, t_origin, t_cell, t_dims, t_start, t_order, sx, sy, sz, trunc)
+            d, _ = cell_grid.nearest_one(tp, t_origin, t_cell, t_dims, t_start, t_cand, sx, sy, sz, trunc)
             d_in += min(d, trunc)
         d_in /= max(points.shape[0], 1)
         cx, cy, cz = T[b, 0, 3], T[b, 1, 3], T[b, 2, 3]
@@ -58,6 +61,6 @@ def _scores_into(points, ip, i_origin, i_cell, i_dims, i_start, i_order, tp, t_o
             qx = T[b, 0, 0] * ux + T[b, 1, 0] * uy + T[b, 2, 0] * uz
             qy = T[b, 0, 1] * ux + T[b, 1, 1] * uy + T[b, 2, 1] * uz
             qz = T[b, 0, 2] * ux + T[b, 1, 2] * uy + T[b, 2, 2] * uz
-            d, _ = cell_grid.nearest_one(ip, i_origin, i_cell, i_dims, i_start, i_order, qx, qy, qz, trunc)
+            d, _ = cell_grid.nearest_one(ip, i_origin, i_cell, i_dims, i_start, i_cand, qx, qy, qz, trunc)
             d_vis += min(d, trunc)
         out[b] = d_in + (d_vis / visible if visible > 0 else trunc)

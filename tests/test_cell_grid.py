@@ -17,68 +17,55 @@ def _shell(rng: np.random.Generator, n: int) -> np.ndarray:
     return p / np.linalg.norm(p, axis=1, keepdims=True) * rng.uniform(0.6, 1.0, (n, 1))
 
 
-@pytest.mark.parametrize("cell", [0.03, 0.05, 0.2])
-def test_nearest_matches_a_kd_tree_for_any_radius(cell: float) -> None:
+@pytest.mark.parametrize("reach", [0.03, 0.05, 0.2])
+def test_nearest_matches_a_kd_tree_within_the_reach(reach: float) -> None:
     rng = np.random.default_rng(0)
     points = _shell(rng, 1500)
     queries = np.concatenate([rng.normal(scale=0.7, size=(2000, 3)),          # inside and around
                               points[:300] + rng.normal(scale=0.005, size=(300, 3)),  # on the surface
+                              points[300:600] + rng.normal(scale=reach, size=(300, 3)),  # near the reach
                               rng.normal(scale=50.0, size=(20, 3))])          # far outside the grid
-    grid = cell_grid.build(points, cell)
+    grid = cell_grid.build(points, reach)
     tree = cKDTree(points)
-    for radius in (0.02, 0.05, 0.1, 0.5, np.inf):
+    for radius in (reach / 3, reach):
         d, j = cell_grid.nearest(grid, queries, radius)
         d_ref, j_ref = tree.query(queries, distance_upper_bound=radius)
         found = np.isfinite(d_ref)
         np.testing.assert_array_equal(np.isfinite(d), found)
         np.testing.assert_array_equal(d[found], d_ref[found])       # the same bits: exact search
         np.testing.assert_array_equal(j[found], j_ref[found])
-        assert np.all(j[~found] == -1)
+        assert np.all(j[~found] == -1) and 0 < found.sum() < len(queries)
+    with pytest.raises(ValueError, match="exceeds the grid's reach"):
+        cell_grid.nearest(grid, queries, 2 * reach)
 
 
 def test_nearest_edge_cases() -> None:
     points = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
-    grid = cell_grid.build(points, 0.1)
+    grid = cell_grid.build(points, 0.3)
     d, j = cell_grid.nearest(grid, np.array([[0.9, 0.0, 0.0], [np.nan, 0.0, 0.0], [0.5, 0.0, 0.0],
-                                             [0.0, 2.0, 0.3]]), 0.3)
+                                             [0.0, 2.0, 0.3], [np.inf, 0.0, 0.0]]), 0.3)
     assert j[0] == 1                                   # a tie between duplicates: the lowest index
     assert j[1] == -1 and np.isinf(d[1])               # a non-finite query finds nothing
     assert j[2] == -1 and np.isinf(d[2])               # 0.5 away, beyond the radius: nothing
     assert j[3] == 3 and d[3] == pytest.approx(0.3)    # on the radius: found (inclusive)
+    assert j[4] == -1
     with pytest.raises(ValueError, match="points must be"):
         cell_grid.build(np.zeros((0, 3)), 0.1)
     with pytest.raises(ValueError, match="NaN"):
         cell_grid.build(np.array([[0.0, np.nan, 0.0]]), 0.1)
+    with pytest.raises(ValueError, match="reach must be > 0"):
+        cell_grid.build(points, 0.0)
 
 
 def test_huge_extent_coarsens_the_grid_and_stays_exact() -> None:
     rng = np.random.default_rng(1)
     points = rng.uniform(-1e4, 1e4, size=(500, 3))
-    grid = cell_grid.build(points, 1e-3)
-    assert np.prod(grid.dims) <= cell_grid.MAX_CELLS
-    queries = rng.uniform(-1.2e4, 1.2e4, size=(300, 3))
-    np.testing.assert_array_equal(cell_grid.nearest(grid, queries)[0], cKDTree(points).query(queries)[0])
-
-
-def test_a_hint_never_changes_the_answer() -> None:
-    import numba
-
-    rng = np.random.default_rng(2)
-    points = _shell(rng, 800)
-    grid = cell_grid.build(points, 0.05)
-    queries = points[rng.integers(0, 800, 500)] + rng.normal(scale=0.02, size=(500, 3))
-    hints = rng.integers(-1, 800, 500)
-
-    @numba.njit
-    def with_hints(points, origin, cell, dims, start, order, q, radius, hints, out):
-        for i in range(q.shape[0]):
-            out[i] = cell_grid.nearest_one(points, origin, cell, dims, start, order, q[i, 0], q[i, 1], q[i, 2],
-                                           radius, hints[i])[1]
-
-    for radius in (0.03, np.inf):
-        out = np.empty(500, dtype=np.int64)
-        with_hints(*cell_grid.arrays(grid), queries, radius, hints, out)
-        np.testing.assert_array_equal(out, cell_grid.nearest(grid, queries, radius)[1])
+    grid = cell_grid.build(points, 1e-3 * 2e4)
+    assert np.prod(grid.dims) <= cell_grid.MAX_CELLS and grid.cell > grid.reach
+    queries = points[:200] + rng.normal(scale=20.0, size=(200, 3))
+    d, _ = cell_grid.nearest(grid, queries, grid.reach)
+    d_ref = cKDTree(points).query(queries, distance_upper_bound=grid.reach)[0]
+    np.testing.assert_array_equal(d, d_ref)
 
 
 def _box_cloud(rng: np.random.Generator, n: int = 3000) -> tuple[np.ndarray, np.ndarray]:
@@ -106,7 +93,7 @@ def test_refine_many_matches_the_numpy_icp_from_every_start() -> None:
     starts = np.stack([np.eye(4), make_T(Rotation.from_rotvec([0.1, 0.0, -0.1]).as_matrix(), [0.03, 0.0, 0.0]),
                        make_T(Rotation.from_rotvec([0.0, 2.5, 0.0]).as_matrix(), [0.0, 0.0, 0.2]),
                        make_T(np.eye(3), [5.0, 0.0, 0.0])])   # no pair within reach: unchanged
-    tree, grid = cKDTree(tgt), cell_grid.build(tgt, 0.05)
+    tree, grid = cKDTree(tgt), cell_grid.build(tgt, 0.1)
     for iterations in (1, 3, 30):
         T, steps = refine_many(src, grid, tgt_n, starts, 0.1, iterations, return_steps=True)
         for b, start in enumerate(starts):
@@ -133,7 +120,7 @@ def test_visibility_scores_match_the_numpy_score() -> None:
     poses = np.stack([T, S.half_turns()[1] @ T, S.half_turns()[3] @ T,
                       make_T(R, [0.1, -0.2, 9.0])])            # far away: everything truncated
     ref = S.visibility_chamfer(observed, poses, points, normals, cKDTree(points), 0.1)
-    got = visibility_scores(observed, cell_grid.build(observed, 0.1), poses, cell_grid.build(points, 0.05), normals,
+    got = visibility_scores(observed, cell_grid.build(observed, 0.1), poses, cell_grid.build(points, 0.1), normals,
                             0.1)
     np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-15)
     assert got[0] < min(got[1], got[2])

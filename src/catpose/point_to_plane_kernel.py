@@ -5,7 +5,8 @@ Same algorithm, step order and stopping rule as :func:`catpose.point_to_plane.re
 source point with its nearest target point within ``max_distance``, solve
 ``min_x sum ((q - s) . n - [s x n, n] . x)^2`` (here by Cholesky on the 6 x 6 normal equations),
 apply ``x`` on the left, stop on a step below 1e-7 or with fewer than 6 pairs. Nearest neighbours
-come from a :class:`~catpose.cell_grid.CellGrid` of the target (exact within ``max_distance``).
+come from a :class:`~catpose.cell_grid.CellGrid` of the target (exact within ``max_distance``, which
+must be at most the grid's reach).
 One start after another on one thread, float64, no parallel reductions: the same bits on any
 number of threads. Ours refines 12 hypotheses x 30 iterations per problem with it; in NumPy with
 a KD-tree that was ~0.2 s of per-call overhead, compiled it is a few milliseconds.
@@ -34,6 +35,8 @@ def refine_many(points: np.ndarray, grid: CellGrid, target_normals: np.ndarray, 
     Returns:
         (B, 4, 4) refined transforms with orthonormal rotations (and the steps).
     """
+    if not max_distance <= grid.reach:
+        raise ValueError(f"refine_many: max_distance {max_distance} exceeds the grid's reach {grid.reach}")
     T = np.array(T_init, dtype=np.float64, copy=True).reshape(-1, 4, 4)
     steps = np.zeros(len(T), dtype=np.int64)
     _refine_into(np.ascontiguousarray(points, dtype=np.float64), *cell_grid.arrays(grid),
@@ -76,16 +79,14 @@ def _solve6(H, g, x):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _refine_into(points, tp, origin, cell, dims, start, order, normals, T, max_distance,
+def _refine_into(points, tp, origin, cell, dims, start, cand, normals, T, max_distance,
                  iterations, steps):  # pragma: no cover - compiled
     H = np.zeros((6, 6))
     g = np.zeros(6)
     J = np.zeros(6)
     x = np.zeros(6)
     dR = np.zeros((3, 3))
-    hint = np.empty(points.shape[0], dtype=np.int64)  # each point's last neighbour bounds its next search
     for b in range(T.shape[0]):
-        hint[:] = -1
         for _ in range(iterations):
             steps[b] += 1
             H[:, :] = 0.0
@@ -96,11 +97,9 @@ def _refine_into(points, tp, origin, cell, dims, start, order, normals, T, max_d
                 sx = T[b, 0, 0] * px + T[b, 0, 1] * py + T[b, 0, 2] * pz + T[b, 0, 3]
                 sy = T[b, 1, 0] * px + T[b, 1, 1] * py + T[b, 1, 2] * pz + T[b, 1, 3]
                 sz = T[b, 2, 0] * px + T[b, 2, 1] * py + T[b, 2, 2] * pz + T[b, 2, 3]
-                d, j = cell_grid.nearest_one(tp, origin, cell, dims, start, order, sx, sy, sz, max_distance,
-                                             hint[i])
+                d, j = cell_grid.nearest_one(tp, origin, cell, dims, start, cand, sx, sy, sz, max_distance)
                 if j < 0:
                     continue
-                hint[i] = j
                 pairs += 1
                 nx, ny, nz = normals[j, 0], normals[j, 1], normals[j, 2]
                 J[0] = sy * nz - sz * ny
