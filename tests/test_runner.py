@@ -221,11 +221,17 @@ def test_a_ctrl_c_swallowed_inside_a_sample_still_stops_the_run(tmp_path, monkey
         return real(self, problem)
 
     monkeypatch.setattr(toy_dataset.Oracle, "register", register)
-    with pytest.raises(KeyboardInterrupt):
-        run(make_cfg(tmp_path))
+    # Python's own handler, as in a terminal: a shell that starts the tests in the background
+    # (`make test &`) hands them SIGINT ignored, and the runner leaves that choice alone
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            run(make_cfg(tmp_path))
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
+    finally:
+        signal.signal(signal.SIGINT, previous)
     out = next((tmp_path / "out").glob("*/*/*"))
     assert [r["sample_id"] for r in read_samples(out / "samples.jsonl")] == ["block/0/v0"]
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
 
 
 def test_heavy_libraries_are_imported_before_the_first_sample(tmp_path):
