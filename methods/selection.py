@@ -97,7 +97,7 @@ def tilt_deg(T_template_camera: np.ndarray, ground_normal_camera: np.ndarray, up
 #: how far (deg) refinement is assumed able to tilt a pose at most: a hypothesis tilted more than
 #: ``gravity_max_deg`` + this before refinement cannot pass the gravity filter after it, and is not
 #: refined (half turns about a horizontal axis turn a 30-degree tilt into 150 degrees or more; the
-#: ICP, with 5 cm pairing, moves a pose by a few degrees)
+#: ICP, pairing within 0.05 of the unit-sphere scale, moves a pose by a few degrees)
 REACH_DEG = 90.0
 
 

@@ -1,12 +1,12 @@
 """Exact nearest-neighbour queries within a radius, on a uniform cell grid, compiled (numba).
 
 Ours asks ~100,000 bounded nearest-neighbour questions per problem: point-to-plane ICP pairs within
-5 cm on each of its hypotheses for 30 iterations, and truncated (10 cm) visibility-aware Chamfer
-scores of ~30 poses. A ``cKDTree.query`` call costs tens of microseconds of Python and dispatch
-before any search, and a KD-tree or a search over neighbouring cells still spends most of a
-query's time visiting nodes or cells; here each cell of the grid lists, once per template, every
-point within the radius of the cell's box, so a query reads one list, and the whole refinement
-or scoring loop is one compiled call.
+0.05 (object-normalised) on each of its hypotheses for 30 iterations, and truncated (0.1)
+visibility-aware Chamfer scores of ~30 poses. A ``cKDTree.query`` call costs tens of microseconds
+of Python and dispatch before any search, and a KD-tree or a search over neighbouring cells still
+spends most of a query's time visiting nodes or cells; here each cell of the grid lists, once per
+template, every point within the radius of the cell's box, so a query reads one list, and the
+whole refinement or scoring loop is one compiled call.
 
 The answer is exact: the same distance and index as a KD-tree queried with
 ``distance_upper_bound`` (``tests/test_cell_grid.py`` compares with ``scipy.spatial.cKDTree``),
@@ -27,8 +27,8 @@ MAX_CELLS = 1 << 21
 @dataclass(frozen=True, eq=False)
 class CellGrid:
     """Per cell, every point within ``reach`` of the cell's box: a query for the nearest point
-    within ``radius <= reach`` scans one list, with no search over cells. ICP pairing (5 cm) and
-    truncated Chamfer terms (10 cm) ask exactly this, and on real scans about 40% of the queries
+    within ``radius <= reach`` scans one list, with no search over cells. ICP pairing (0.05) and
+    truncated Chamfer terms (0.1) ask exactly this, and on real scans about 40% of the queries
     (background and mask bleed) have no point in reach at all: an empty or short list.
 
     Attributes:
