@@ -57,12 +57,36 @@ def check_launcher(argv: list[str]) -> None:
                               f"install the launchers with `make cluster` (pip install -e \".[cluster]\")")
 
 
+def check_composition(argv: list[str]) -> None:
+    """Fail fast, in one line, on an override that does not fit the config (a key that does not
+    exist, such as a misspelt ``datset=...`` or ``method.foo=1`` without ``+``; broken override
+    syntax) instead of Hydra's multi-line report. Single runs only: a sweep (``-m``) or an
+    experiment is left to Hydra, which composes what this check cannot (sweep values, hydra keys)."""
+    if any(a in ("-m", "--multirun") for a in argv):
+        return
+    overrides = [a for a in argv if not a.startswith("-")]
+    if any(a.lstrip("+~").startswith(("hydra", "experiment")) for a in overrides):
+        return
+    from hydra import compose, initialize_config_module
+    from hydra.errors import ConfigCompositionException, OverrideParseException
+
+    try:
+        with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
+            compose(config_name="run", overrides=overrides)
+    except (ConfigCompositionException, OverrideParseException) as e:
+        parts = [str(e)] + ([str(e.__cause__).splitlines()[0]] if e.__cause__ is not None else [])
+        lines = [ln.strip().rstrip(".") for p in parts for ln in p.splitlines()
+                 if ln.strip() and not ln.startswith(("See https://", "Set the environment"))]
+        raise ConfigError("; ".join(lines) + " (bench run --help lists the common keys)") from None
+
+
 def main(argv: list[str]) -> int:
     if any(a in ("-h", "--help") for a in argv):
         print(__doc_run__)
         return 0
     check_overrides(argv)
     check_launcher(argv)
+    check_composition(argv)
     import hydra
     from hydra.core.hydra_config import HydraConfig
     from hydra.types import RunMode
@@ -110,7 +134,7 @@ Run a method over every sample of a dataset under a protocol (Hydra overrides).
   seed=INT         fixes the samples and the methods' randomness (default 0)
   limit=INT        only the first INT samples (INT >= 1)
   lock_timeout=S   a second run into a busy run directory waits for the first; give up after S seconds
-  method.KEY=VAL   any method option, e.g. method.lr=0.001; dataset.root=PATH for real data
+  method.KEY=VAL   any method option, e.g. method.optimiser.lr=0.001; dataset.root=PATH for real data
   output_root=DIR  where run directories go (default: outputs)
   -m               sweep comma-separated values: bench run -m method=icp,ours seed=0,1
   +experiment=NAME one paper table's sweep (configs/experiment/NAME.yaml), with -m

@@ -52,6 +52,9 @@ def test_multirun_sweep(tmp_path):
     (["run", "protocol=nosuch"], "unknown protocol 'nosuch'; available:"),
     (["nosuch"], "unknown command 'nosuch'"),
     (["evaluate", "/nonexistent/run"], "is not a run directory"),
+    (["run", "method=ours", "method.foo=1"], "Could not override 'method.foo'; To append to your config use +method.foo=1"),
+    (["run", "datset=synthetic"], "Could not override 'datset'"),
+    (["run", "seed=[1"], "no viable alternative at input '[1'"),
 ])
 def test_bad_names_give_one_line(tmp_path, args, needle):
     r = bench(*args, cwd=tmp_path)
