@@ -17,6 +17,7 @@ import numpy as np
 
 from catpose import cell_grid
 from catpose.cell_grid import CellGrid
+from catpose.point_to_plane_kernel import transform_point
 
 
 def visibility_scores(points_camera: np.ndarray, input_grid: CellGrid, T_template_camera: np.ndarray,
@@ -41,10 +42,7 @@ def _scores_into(points, ip, i_origin, i_cell, i_dims, i_start, i_cand, tp, t_or
     for b in range(T.shape[0]):
         d_in = 0.0
         for i in range(points.shape[0]):
-            px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-            sx = T[b, 0, 0] * px + T[b, 0, 1] * py + T[b, 0, 2] * pz + T[b, 0, 3]
-            sy = T[b, 1, 0] * px + T[b, 1, 1] * py + T[b, 1, 2] * pz + T[b, 1, 3]
-            sz = T[b, 2, 0] * px + T[b, 2, 1] * py + T[b, 2, 2] * pz + T[b, 2, 3]
+            sx, sy, sz = transform_point(T, b, points, i)
             d, _ = cell_grid.nearest_one(tp, t_origin, t_cell, t_dims, t_start, t_cand, sx, sy, sz, trunc)
             d_in += min(d, trunc)
         d_in /= max(points.shape[0], 1)

@@ -3,6 +3,9 @@ reference: scipy's cKDTree, the NumPy point-to-plane ICP, the NumPy visibility-a
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
@@ -10,6 +13,9 @@ from scipy.spatial.transform import Rotation
 
 from catpose import cell_grid
 from catpose.geometry import make_T
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _clouds import box_cloud  # noqa: E402
 
 
 def _shell(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -70,13 +76,7 @@ def test_huge_extent_coarsens_the_grid_and_stays_exact() -> None:
 
 def _box_cloud(rng: np.random.Generator, n: int = 3000) -> tuple[np.ndarray, np.ndarray]:
     """Points and outward normals on a 0.8 x 0.5 x 0.3 box with a bump (no sliding symmetry)."""
-    ext = np.array([0.8, 0.5, 0.3])
-    faces = rng.integers(0, 6, n)
-    p = rng.uniform(-0.5, 0.5, (n, 3)) * ext
-    axis, sign = faces // 2, np.where(faces % 2 == 0, 1.0, -1.0)
-    p[np.arange(n), axis] = sign * 0.5 * ext[axis]
-    normals = np.zeros((n, 3))
-    normals[np.arange(n), axis] = sign
+    p, normals = box_cloud((0.8, 0.5, 0.3), (0.0, 0.0, 0.0), n, rng)
     bump = (p[:, 2] > 0.14) & (p[:, 0] > 0.2)
     p[bump, 2] += 0.05
     return p, normals

@@ -2,23 +2,17 @@
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 from scipy.spatial import cKDTree
 
 from catpose.geometry import axis_angle_to_R, make_T
 from catpose.methods import selection as S
 
-
-def box_cloud(extents, centre, n, rng):
-    """Points and outward normals on the surface of an axis-aligned box."""
-    ext, c = np.asarray(extents, float), np.asarray(centre, float)
-    faces = rng.integers(0, 6, n)
-    p = rng.uniform(-0.5, 0.5, (n, 3)) * ext
-    axis, sign = faces // 2, np.where(faces % 2 == 0, 1.0, -1.0)
-    p[np.arange(n), axis] = sign * 0.5 * ext[axis]
-    normals = np.zeros((n, 3))
-    normals[np.arange(n), axis] = sign
-    return p + c, normals
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _clouds import box_cloud  # noqa: E402
 
 
 def toy_problem():

@@ -50,6 +50,16 @@ def refine_many(points: np.ndarray, grid: CellGrid, target_normals: np.ndarray, 
 
 
 @numba.njit(cache=True, nogil=True)
+def transform_point(T, b, points, i):  # pragma: no cover - compiled
+    """``T[b] @ points[i]`` for poses ``T`` (B, 4, 4) and points (N, 3): the (x, y, z) of the moved
+    point, in one fixed order of operations (the compiled kernels share it)."""
+    px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+    return (T[b, 0, 0] * px + T[b, 0, 1] * py + T[b, 0, 2] * pz + T[b, 0, 3],
+            T[b, 1, 0] * px + T[b, 1, 1] * py + T[b, 1, 2] * pz + T[b, 1, 3],
+            T[b, 2, 0] * px + T[b, 2, 1] * py + T[b, 2, 2] * pz + T[b, 2, 3])
+
+
+@numba.njit(cache=True, nogil=True)
 def _solve6(H, g, x):  # pragma: no cover - compiled
     """x = H^-1 g for symmetric positive definite H (6, 6), by Cholesky; False if not SPD."""
     L = np.zeros((6, 6))
@@ -93,10 +103,7 @@ def _refine_into(points, tp, origin, cell, dims, start, cand, normals, T, max_di
             g[:] = 0.0
             pairs = 0
             for i in range(points.shape[0]):
-                px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-                sx = T[b, 0, 0] * px + T[b, 0, 1] * py + T[b, 0, 2] * pz + T[b, 0, 3]
-                sy = T[b, 1, 0] * px + T[b, 1, 1] * py + T[b, 1, 2] * pz + T[b, 1, 3]
-                sz = T[b, 2, 0] * px + T[b, 2, 1] * py + T[b, 2, 2] * pz + T[b, 2, 3]
+                sx, sy, sz = transform_point(T, b, points, i)
                 d, j = cell_grid.nearest_one(tp, origin, cell, dims, start, cand, sx, sy, sz, max_distance)
                 if j < 0:
                     continue
