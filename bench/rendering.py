@@ -78,6 +78,17 @@ def _tex_label(label: str) -> str:
     return _tex_escape(label)
 
 
+def _ranked_cells(table: Table, ranks: dict, row: tuple, best: str, second: str) -> list[str]:
+    """The cells of ``row``, the best value of its column formatted by ``best``, the second by
+    ``second`` (``str.format`` patterns with one ``{}``)."""
+    cells = []
+    for c in table.columns:
+        t = table.text(row, c)
+        rank = ranks.get((row, c))
+        cells.append(best.format(t) if rank == 1 else second.format(t) if rank == 2 else t)
+    return cells
+
+
 def to_markdown(table: Table) -> str:
     """GitHub Markdown: best in **bold**, second <u>underlined</u>."""
     ranks = table.ranks()
@@ -87,11 +98,7 @@ def to_markdown(table: Table) -> str:
     for r in table.rows:
         shown = [x if (k == len(r) - 1 or prev[: k + 1] != r[: k + 1]) else "" for k, x in enumerate(r)]
         prev = r
-        cells = []
-        for c in table.columns:
-            t = table.text(r, c)
-            rank = ranks.get((r, c))
-            cells.append(f"**{t}**" if rank == 1 else f"<u>{t}</u>" if rank == 2 else t)
+        cells = _ranked_cells(table, ranks, r, "**{}**", "<u>{}</u>")
         lines.append("| " + " | ".join(shown + cells) + " |")
     lines += [""] + [f"{n}" for n in table.notes]
     return "\n".join(lines).rstrip() + "\n"
@@ -123,11 +130,7 @@ def to_latex(table: Table) -> str:
         shown = [_tex_label(x) if (k == len(r) - 1 or prev[: k + 1] != r[: k + 1]) else ""
                  for k, x in enumerate(r)]
         prev = r
-        cells = []
-        for c in table.columns:
-            t = table.text(r, c)
-            rank = ranks.get((r, c))
-            cells.append(rf"\textbf{{{t}}}" if rank == 1 else rf"\underline{{{t}}}" if rank == 2 else t)
+        cells = _ranked_cells(table, ranks, r, r"\textbf{{{}}}", r"\underline{{{}}}")
         out.append(" & ".join(shown + cells) + r" \\")
     out += [r"\bottomrule", r"\end{tabular}%", "}", r"\end{table}"]
     return "\n".join(out) + "\n"

@@ -29,13 +29,18 @@ class Run:
     info: dict
     samples: Any
 
+    def _group_name(self, group: str) -> str | None:
+        """The name of config group ``group`` (``method``, ``protocol``) in ``config.yaml``, if any."""
+        g = self.config.get(group)
+        if isinstance(g, dict) and g.get("name"):
+            return str(g["name"])
+        return g if isinstance(g, str) else None
+
     @property
     def method(self) -> str:
-        m = self.config.get("method")
-        if isinstance(m, dict) and m.get("name"):
-            return str(m["name"])
-        if isinstance(m, str):
-            return m
+        name = self._group_name("method")
+        if name:
+            return name
         if self.info.get("method"):
             return str(self.info["method"])
         if len(self.samples) and "method" in self.samples:
@@ -44,12 +49,7 @@ class Run:
 
     @property
     def protocol(self) -> str:
-        p = self.config.get("protocol")
-        if isinstance(p, dict) and p.get("name"):
-            return str(p["name"])
-        if isinstance(p, str):
-            return p
-        return str(self.info.get("protocol", "gt_model"))
+        return self._group_name("protocol") or str(self.info.get("protocol", "gt_model"))
 
     @property
     def method_config(self) -> dict:

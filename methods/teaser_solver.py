@@ -207,6 +207,21 @@ def adaptive_voting(values: np.ndarray, bound: float) -> tuple[float, np.ndarray
     return float(x[best_mask].mean()), best_mask
 
 
+def checked_inputs(src: np.ndarray, dst: np.ndarray, noise_bound: float, rotation_tim_graph: str,
+                   solver: str = "TEASER") -> tuple[np.ndarray, np.ndarray]:
+    """``src``, ``dst`` as float64 after the checks every TEASER solver makes (matched (N, 3)
+    arrays, a positive noise bound, a known TIM graph), each failure in one line naming ``solver``."""
+    src = np.asarray(src, dtype=np.float64)
+    dst = np.asarray(dst, dtype=np.float64)
+    if src.shape != dst.shape or src.ndim != 2 or src.shape[1] != 3:
+        raise InvalidInputError(f"{solver} needs two (N, 3) arrays of matched points; got {src.shape} and {dst.shape}")
+    if not noise_bound > 0:
+        raise ConfigError(f"noise_bound={noise_bound} must be > 0 (object-normalised units, e.g. 0.02)")
+    if rotation_tim_graph not in ("chain", "complete"):
+        raise ConfigError(f"rotation_tim_graph={rotation_tim_graph!r} is unknown; use 'chain' or 'complete'")
+    return src, dst
+
+
 def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1.0,
           gnc_factor: float = 1.4, max_iterations: int = 100, cost_threshold: float = 1e-6,
           clique_node_budget: int = 200_000, rotation_tim_graph: str = "chain",
@@ -235,14 +250,7 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
     """
     import time
 
-    src = np.asarray(src, dtype=np.float64)
-    dst = np.asarray(dst, dtype=np.float64)
-    if src.shape != dst.shape or src.ndim != 2 or src.shape[1] != 3:
-        raise InvalidInputError(f"TEASER needs two (N, 3) arrays of matched points; got {src.shape} and {dst.shape}")
-    if not noise_bound > 0:
-        raise ConfigError(f"noise_bound={noise_bound} must be > 0 (object-normalised units, e.g. 0.02)")
-    if rotation_tim_graph not in ("chain", "complete"):
-        raise ConfigError(f"rotation_tim_graph={rotation_tim_graph!r} is unknown; use 'chain' or 'complete'")
+    src, dst = checked_inputs(src, dst, noise_bound, rotation_tim_graph)
     timings: dict[str, float] = {}
     if len(src) < 3:
         raise InvalidInputError(f"TEASER needs at least 3 correspondences; got {len(src)}")

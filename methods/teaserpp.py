@@ -37,7 +37,7 @@ import numpy as np
 from catpose.errors import ConfigError, InvalidInputError
 from catpose.methods.correspondence import MatchInput
 from catpose.methods.teaser import TEASER
-from catpose.methods.teaser_solver import SolverResult
+from catpose.methods.teaser_solver import SolverResult, checked_inputs
 
 MIN_CLIQUE_SIZE = 4  # a clique of 3 or fewer correspondences is reported as a failure
 
@@ -87,14 +87,7 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
         does not report it), ``timings["solve_s"]`` the wall time of TEASER++'s ``solve``.
     """
     tpp = _import_teaserpp()
-    src = np.asarray(src, dtype=np.float64)
-    dst = np.asarray(dst, dtype=np.float64)
-    if src.shape != dst.shape or src.ndim != 2 or src.shape[1] != 3:
-        raise InvalidInputError(f"TEASER++ needs two (N, 3) arrays of matched points; got {src.shape} and {dst.shape}")
-    if not noise_bound > 0:
-        raise ConfigError(f"noise_bound={noise_bound} must be > 0 (object-normalised units, e.g. 0.02)")
-    if rotation_tim_graph not in ("chain", "complete"):
-        raise ConfigError(f"rotation_tim_graph={rotation_tim_graph!r} is unknown; use 'chain' or 'complete'")
+    src, dst = checked_inputs(src, dst, noise_bound, rotation_tim_graph, "TEASER++")
     Solver = tpp.RobustRegistrationSolver
     params = Solver.Params()
     params.noise_bound = float(noise_bound)

@@ -192,13 +192,18 @@ def test_sharded_run_equals_serial_bit_for_bit(tmp_path, shards):
     pd.testing.assert_frame_equal(merged, ref, check_exact=True)  # every statistic but wall time
 
 
-@pytest.mark.slow
-@needs("hydra_joblib_launcher")
-def test_joblib_sweep_equals_serial(serial, tmp_path):
-    r = bench("run", "-m", "hydra/launcher=local_procs", *GRID, *TINY, f"output_root={tmp_path}", cwd=tmp_path)
+def _assert_sweep_equals_serial(launcher: str, serial: Path, tmp_path: Path) -> None:
+    """The GRID sweep under ``hydra/launcher=launcher`` gives the serial sweep's table and estimates."""
+    r = bench("run", "-m", f"hydra/launcher={launcher}", *GRID, *TINY, f"output_root={tmp_path}", cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]
     assert table(tmp_path, tmp_path) == table(serial, tmp_path)
     assert estimates(tmp_path) == estimates(serial)
+
+
+@pytest.mark.slow
+@needs("hydra_joblib_launcher")
+def test_joblib_sweep_equals_serial(serial, tmp_path):
+    _assert_sweep_equals_serial("local_procs", serial, tmp_path)
     (sweep,) = sweep_dirs(tmp_path)
     r = bench("table", "--sweep", str(sweep), "--format", "csv", cwd=tmp_path)
     assert r.returncode == 0 and r.stdout.count("\n") >= 5, r.stderr
@@ -216,10 +221,7 @@ def test_joblib_sweep_with_a_failed_job_exits_non_zero(tmp_path):
 @needs("hydra_ray_launcher")
 def test_local_ray_sweep_equals_serial(serial, tmp_path):
     # a local Ray with 2 CPUs (configs/hydra/launcher/ray_local.yaml); a failed job fails the sweep
-    r = bench("run", "-m", "hydra/launcher=ray_local", *GRID, *TINY, f"output_root={tmp_path}", cwd=tmp_path)
-    assert r.returncode == 0, r.stderr[-3000:]
-    assert table(tmp_path, tmp_path) == table(serial, tmp_path)
-    assert estimates(tmp_path) == estimates(serial)
+    _assert_sweep_equals_serial("ray_local", serial, tmp_path)
     r = bench("run", "-m", "hydra/launcher=ray_local", "method=icp", "dataset=synthetic,modelnet40", "limit=1",
               *TINY[1:], f"output_root={tmp_path / 'failing'}", cwd=tmp_path)
     assert r.returncode == 2 and "1 failed" in r.stderr, r.stderr[-3000:]
