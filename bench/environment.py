@@ -1,9 +1,16 @@
 """The software and hardware a run's numbers came from, and how two such records differ.
 
 Last-bit floating-point differences between machines come from library versions and from the
-BLAS kernel chosen at run time for the CPU (OpenBLAS: SkylakeX, Haswell, Zen, Sandybridge...;
-torch's own CPU capability). Every ``run.json`` and every regression reference records them, so
-that a result that moved can be traced to the code or to the machine.
+code paths the libraries choose at run time for the CPU: OpenBLAS's kernel (SkylakeX, Haswell,
+Zen, Sandybridge...), NumPy's dispatched loops (AVX-512 versions of ``exp``, ``log``,
+``arccos``, ... round differently from the AVX2 ones), torch's CPU capability and numba's target
+CPU. Every ``run.json`` and every regression reference records them, so that a result that moved
+can be traced to the code or to the machine.
+
+:func:`numeric_variants` lists, for this CPU, the environment settings under which it computes
+the way other x86-64 CPUs do (``bench regress --update`` and ``tests/test_portable_bits.py`` run
+under each); :func:`portable_profile` is the one setting every AVX2 and AVX-512 CPU can run,
+which ``results/make_results.sh`` uses so that its tables are the same bits on either.
 """
 
 from __future__ import annotations
@@ -13,7 +20,10 @@ import platform
 from importlib import metadata
 from typing import Any
 
-PACKAGES = ("numpy", "scipy", "open3d-cpu", "open3d", "torch", "trimesh", "hydra-core")
+PACKAGES = ("numpy", "scipy", "open3d-cpu", "open3d", "torch", "trimesh", "hydra-core", "numba")
+#: environment variables that choose a library's code path (recorded with every run)
+NUMERIC_ENV = ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES", "ATEN_CPU_CAPABILITY", "NUMBA_CPU_NAME",
+               "MKL_ENABLE_INSTRUCTIONS")
 _CACHE: dict[str, Any] = {}
 
 
@@ -71,13 +81,56 @@ def numpy_blas_kernel() -> str:
     return "?"
 
 
+def numpy_avx512_targets() -> list[str]:
+    """NumPy's dispatch targets above AVX2 (x86-64-v3) that this CPU runs, e.g. ``X86_V4``;
+    naming them in ``NPY_DISABLE_CPU_FEATURES`` makes NumPy take the loops an AVX2 CPU takes."""
+    try:
+        from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+    except ImportError:  # another NumPy layout: nothing known to disable
+        return []
+    return [t for t in __cpu_dispatch__ if __cpu_features__.get(t) and ("AVX512" in t or t == "X86_V4")]
+
+
+def portable_profile() -> dict[str, str]:
+    """Environment that makes every numerical library take its AVX2 code path: OpenBLAS's
+    Haswell kernel, NumPy without its AVX-512 loops, torch's AVX2 kernels, numba compiling for
+    Haswell. Any x86-64 CPU with AVX2 computes the same bits under it (set it before Python
+    starts; the libraries read it when they load). Empty on CPUs without AVX2."""
+    if "avx2" not in cpu_flags():
+        return {}
+    env = {"OPENBLAS_CORETYPE": "Haswell", "ATEN_CPU_CAPABILITY": "avx2", "NUMBA_CPU_NAME": "haswell",
+           "MKL_ENABLE_INSTRUCTIONS": "AVX2"}
+    targets = numpy_avx512_targets()
+    if targets:
+        env["NPY_DISABLE_CPU_FEATURES"] = " ".join(targets)
+    return env
+
+
+def numeric_variants() -> dict[str, dict[str, str]]:
+    """{name: environment} of the code paths this CPU can take besides its own: each OpenBLAS
+    kernel it runs (SkylakeX where AVX-512 exists, Haswell, Sandybridge), the AVX2 profile
+    (:func:`portable_profile`: what an AVX2-only CPU computes) where the CPU has AVX-512, and
+    torch's portable ``default`` kernels. A result that changes under one of them would change
+    on another machine. Empty on CPUs without AVX2 (not x86-64, or too old to matter)."""
+    flags = set(cpu_flags())
+    if "avx2" not in flags:
+        return {}
+    out = {"Haswell": {"OPENBLAS_CORETYPE": "Haswell"}, "Sandybridge": {"OPENBLAS_CORETYPE": "Sandybridge"}}
+    if "avx512f" in flags:
+        out["SkylakeX"] = {"OPENBLAS_CORETYPE": "SkylakeX"}
+        out["avx2-profile"] = portable_profile()
+    out["torch-default"] = {"ATEN_CPU_CAPABILITY": "default"}
+    return out
+
+
 def environment() -> dict:
     """Versions, CPU and BLAS kernels of this process (computed once per process)."""
     if "env" not in _CACHE:
         versions = {p: v for p in PACKAGES if (v := _version(p))}
         env = {"python": platform.python_version(), "platform": platform.platform(), "versions": versions,
                "cpu": cpu_model(), "cpu_flags": cpu_flags(), "blas": blas_kernels(),
-               "OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE")}
+               "OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE"),
+               "numeric_env": {k: os.environ[k] for k in NUMERIC_ENV if k in os.environ}}
         try:
             import torch
 
@@ -94,7 +147,7 @@ def differences(reference: dict | None, current: dict) -> list[str]:
     if not reference:
         return ["the reference records no environment"]
     lines = []
-    for key in ("python", "cpu", "cpu_flags", "OPENBLAS_CORETYPE", "torch_cpu_capability"):
+    for key in ("python", "cpu", "cpu_flags", "OPENBLAS_CORETYPE", "numeric_env", "torch_cpu_capability"):
         if reference.get(key) != current.get(key):
             lines.append(f"{key}: reference {reference.get(key)!r}, here {current.get(key)!r}")
     rv, cv = reference.get("versions", {}), current.get("versions", {})

@@ -32,7 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from catpose.errors import DatasetError
-from catpose.geometry import axis_angle_to_R
+from catpose import libm
+from catpose.geometry import apply_R, axis_angle_to_R, dot3, matmul3
 
 R_COLUMNS = [f"r{i}{j}" for i in range(3) for j in range(3)]
 
@@ -60,7 +61,7 @@ def read_alignment_table(path: str | Path) -> dict[tuple[str, str], np.ndarray]:
                     raise ValueError("no rotation")
             except ValueError:
                 raise DatasetError(f"alignment table {path} line {line}: needs 9 numbers r00..r22 or yaw_deg") from None
-            if np.abs(R @ R.T - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
+            if np.abs(matmul3(R, R.T) - np.eye(3)).max() > 1e-3 or dot3(np.cross(R[0], R[1]), R[2]) < 0:
                 raise DatasetError(f"alignment table {path} line {line}: r00..r22 is not a rotation")
             table[key] = R
     return table
@@ -98,7 +99,7 @@ def axis_aligned_rotations() -> np.ndarray:
         for signs in itertools.product((1.0, -1.0), repeat=3):
             R = np.zeros((3, 3))
             R[np.arange(3), perm] = signs
-            if np.linalg.det(R) > 0:
+            if dot3(np.cross(R[0], R[1]), R[2]) > 0:
                 out.append(R)
     return np.stack(out)
 
@@ -124,7 +125,7 @@ def estimate_alignment(reference: np.ndarray, points: np.ndarray,
     ``candidates`` (K, 3, 3; the 24 axis-aligned rotations by default) and that distance.
     """
     cands = axis_aligned_rotations() if candidates is None else np.asarray(candidates, float)
-    costs = [chamfer_distance(points @ R.T, reference) for R in cands]
+    costs = [chamfer_distance(apply_R(R, points), reference) for R in cands]
     k = int(np.argmin(costs))
     return cands[k], float(costs[k])
 
@@ -142,7 +143,7 @@ def yaw_deg_of(R: np.ndarray) -> float | None:
     """The yaw angle in degrees when ``R`` is a pure rotation about +z, else None."""
     if abs(R[2, 2] - 1.0) > 1e-6:
         return None
-    return float(np.rad2deg(np.arctan2(R[1, 0], R[0, 0])))
+    return float(np.rad2deg(libm.arctan2(R[1, 0], R[0, 0])))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -155,7 +156,7 @@ def yaw_flip_hypotheses(flip: bool) -> np.ndarray:
     """The 4 yaws by multiples of 90 deg, then (``flip``) the same composed with an up-axis flip:
     (4 or 8, 3, 3), a group (closed under products and inverses)."""
     yaws = yaw_rotations(4)
-    return np.concatenate([yaws, yaws @ FLIP]) if flip else yaws
+    return np.concatenate([yaws, [matmul3(R, FLIP) for R in yaws]]) if flip else yaws
 
 
 def _index_of(R: np.ndarray, group: np.ndarray) -> int:
@@ -190,7 +191,7 @@ def pair_costs(source: np.ndarray, target: np.ndarray, hypotheses: np.ndarray, m
     that one; each hypothesis keeps its lowest cost, so one whose own refinement left it (and
     that no other refinement reached) keeps its unrefined cost.
     """
-    raw = np.array([chamfer_distance(source @ R.T, target) for R in hypotheses])
+    raw = np.array([chamfer_distance(apply_R(R, source), target) for R in hypotheses])
     if not refine:
         return raw
     costs = raw.copy()
@@ -198,7 +199,7 @@ def pair_costs(source: np.ndarray, target: np.ndarray, hypotheses: np.ndarray, m
         T = icp_refine(source, target, R, max_distance)
         k = _index_of(T[:3, :3], hypotheses)
         if np.abs(T[:3, :3] - hypotheses[k]).max() < 0.5:  # within ~30 deg of a hypothesis
-            costs[k] = min(costs[k], chamfer_distance(source @ T[:3, :3].T + T[:3, 3], target))
+            costs[k] = min(costs[k], chamfer_distance(apply_R(T[:3, :3], source) + T[:3, 3], target))
     return costs
 
 
@@ -247,7 +248,7 @@ def synchronize(C: np.ndarray, hypotheses: np.ndarray, reference: int = 0, max_r
     """
     N, H = C.shape[0], len(hypotheses)
     # rel[a, b]: the g turning instance i (label a) onto instance j (label b): G[b]^T G[a]
-    rel = np.array([[_index_of(hypotheses[b].T @ hypotheses[a], hypotheses) for b in range(H)] for a in range(H)])
+    rel = np.array([[_index_of(matmul3(hypotheses[b].T, hypotheses[a]), hypotheses) for b in range(H)] for a in range(H)])
     others = [[j for j in range(N) if j != i] for i in range(N)]
 
     def row_cost(labels: np.ndarray, i: int) -> np.ndarray:

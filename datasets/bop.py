@@ -40,7 +40,8 @@ from catpose.datasets.depthio import fit_ground_plane, read_depth, read_mask_png
 from catpose.datasets.meshio import R_template_file, TemplateSet, read_mesh, sampled_template
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
 from catpose.errors import DatasetError
-from catpose.geometry import make_T, normalize_to_unit_sphere, stable_seed
+from catpose import libm
+from catpose.geometry import apply_R, dot3, make_T, matmul3, norm3, normalize_to_unit_sphere, small_matmul, stable_seed, unit3
 from catpose.types import Template
 
 
@@ -225,14 +226,14 @@ class BOP(ObjectDataset):
         if obj_id not in self._norm:
             R = R_template_file(*self.object_axes.get(obj_id, self.model_axes))
             v, _ = self.model_mm(obj_id)
-            vr = v @ R.T
+            vr = apply_R(R, v)
             _, centre, scale = normalize_to_unit_sphere(vr)
             cont = self.continuous_symmetries(obj_id)
             if cont:
-                rotated = [{"axis": R @ np.asarray(e["axis"], float), "offset": R @ np.asarray(e["offset"], float)}
+                rotated = [{"axis": apply_R(R, np.asarray(e["axis"], float)), "offset": apply_R(R, np.asarray(e["offset"], float))}
                            for e in cont]
                 centre = continuous_symmetry_origin(rotated, centre)
-                scale = float(np.linalg.norm(vr - centre, axis=1).max())
+                scale = float(norm3(vr - centre).max())
             self._norm[obj_id] = (R, centre, scale)
         return self._norm[obj_id]
 
@@ -257,7 +258,7 @@ class BOP(ObjectDataset):
             except (KeyError, TypeError, ValueError):
                 raise DatasetError(f"{self.layout.models_info()}: symmetries_continuous[{k}] of object {obj_id} "
                                    "needs axis and offset (3 numbers each)") from None
-            if not np.isfinite(axis).all() or np.linalg.norm(axis) == 0 or not np.isfinite(offset).all():
+            if not np.isfinite(axis).all() or norm3(axis) == 0 or not np.isfinite(offset).all():
                 raise DatasetError(f"{self.layout.models_info()}: symmetries_continuous[{k}] of object {obj_id} "
                                    "has a zero or non-finite axis or offset")
             out.append({"axis": axis.tolist(), "offset": offset.tolist()})
@@ -271,8 +272,7 @@ class BOP(ObjectDataset):
         if not sym:
             return None
         R, _, _ = self.normalisation(obj_id)
-        axis = R @ np.asarray(sym[0]["axis"], float)
-        return axis / np.linalg.norm(axis)
+        return unit3(apply_R(R, np.asarray(sym[0]["axis"], float)))
 
     def _warn_no_info(self, info_path: Path, obj_id: int) -> None:
         """Warn once per object that ``models_info.json`` lacks it (then it is non-symmetric)."""
@@ -290,13 +290,13 @@ class BOP(ObjectDataset):
         entries = self.models_info(obj_id).get("symmetries_discrete") or []
         R, centre, scale = self.normalisation(obj_id)
         N = make_T(R / scale, -centre / scale)
-        N_inv = np.linalg.inv(N)
+        N_inv = make_T(scale * R.T, apply_R(R.T, centre))  # p_model = R^T (scale p_object + centre)
         out = []
         for k, entry in enumerate(entries):
             S = np.asarray(entry, float).reshape(-1)
             if S.size != 16 or not np.isfinite(S).all():
                 raise DatasetError(f"{info_path}: symmetries_discrete[{k}] of object {obj_id} is not 16 numbers")
-            out.append(N @ S.reshape(4, 4) @ N_inv)
+            out.append(small_matmul(small_matmul(N, S.reshape(4, 4)), N_inv))
         return tuple(out)
 
     @staticmethod
@@ -311,7 +311,7 @@ class BOP(ObjectDataset):
         if obj_id not in self._instances:
             v_mm, f = self.model_mm(obj_id)
             R, centre, scale = self.normalisation(obj_id)
-            v = (v_mm @ R.T - centre) / scale
+            v = (apply_R(R, v_mm) - centre) / scale
             self._instances[obj_id] = sampled_template(v, f, f"bop/obj_{obj_id:06d}", category,
                                                        self.template_points, self.seed,
                                                        self.symmetry_axis(obj_id, category))
@@ -387,10 +387,10 @@ class BOP(ObjectDataset):
             points, normals = points[keep], normals[keep]
 
         # p_object = R_obj_model R^T (p_cam - t) / s - centre / s, with p_cam in mm
-        R_object_camera = R_obj_model @ R_cam_model.T
-        T_object_camera = make_T(R_object_camera, -(R_object_camera @ t_cam_model + centre) / scale)
-        up_camera = R_object_camera.T @ np.array([0.0, 0.0, 1.0])
-        ground_err = float(np.degrees(np.arccos(np.clip(ground @ up_camera, -1.0, 1.0))))
+        R_object_camera = matmul3(R_obj_model, R_cam_model.T)
+        T_object_camera = make_T(R_object_camera, -(apply_R(R_object_camera, t_cam_model) + centre) / scale)
+        up_camera = apply_R(R_object_camera.T, np.array([0.0, 0.0, 1.0]))
+        ground_err = float(np.degrees(libm.arccos(np.clip(dot3(ground, up_camera), -1.0, 1.0))))
         return Observation(
             obs_id=obs_id, category=category, instance_id=f"obj_{obj_id:06d}", points_camera=points,
             normals_camera=normals, ground_normal_camera=ground, T_object_camera=T_object_camera,

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import DatasetError
+from catpose.geometry import apply_R, dot3, unit3
 
 #: values of dataset.sensor that mean a single-sensor layout
 SENSORLESS = (None, "", "none")
@@ -142,13 +143,15 @@ def continuous_symmetry_origin(entries: list[dict], near: np.ndarray) -> np.ndar
     without continuous symmetries."""
     if not entries:
         return None
-    A, b = np.zeros((3, 3)), np.zeros(3)
-    for e in entries:
-        d = np.asarray(e["axis"], float).reshape(3)
-        d = d / np.linalg.norm(d)
-        P = np.eye(3) - np.outer(d, d)  # distance of x to the line: |P (x - offset)|
-        o = np.asarray(e.get("offset", (0.0, 0.0, 0.0)), float).reshape(3)
-        A += P
-        b += P @ o
     near = np.asarray(near, float).reshape(3)
-    return near + np.linalg.lstsq(A, b - A @ near, rcond=None)[0]
+    lines = [(unit3(np.asarray(e["axis"], float).reshape(3)),
+              np.asarray(e.get("offset", (0.0, 0.0, 0.0)), float).reshape(3)) for e in entries]
+    if len(lines) == 1:  # the foot of the perpendicular, in closed form (the same bits on every CPU)
+        d, o = lines[0]
+        return o + d * dot3(d, near - o)
+    A, b = np.zeros((3, 3)), np.zeros(3)
+    for d, o in lines:
+        P = np.eye(3) - np.outer(d, d)  # distance of x to the line: |P (x - offset)|
+        A += P
+        b += apply_R(P, o)
+    return near + np.linalg.lstsq(A, b - apply_R(A, near), rcond=None)[0]

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from catpose.errors import DatasetError
+from catpose.geometry import dot3, smallest_eigenvector_sym3
 
 
 def read_depth_png(path: Path) -> np.ndarray:
@@ -95,20 +96,21 @@ def fit_ground_plane(points: np.ndarray, distance: float, iterations: int,
     normals, offsets = normals[ok] / norms[ok, None], -np.einsum("ij,ij->i", normals[ok] / norms[ok, None], a[ok])
     best, best_count = 0, -1
     for s in range(0, len(normals), 64):
-        counts = (np.abs(p @ normals[s:s + 64].T + offsets[s:s + 64]) < distance).sum(axis=0)
+        counts = (np.abs(dot3(p[:, None, :], normals[None, s:s + 64]) + offsets[s:s + 64]) < distance).sum(axis=0)
         k = int(counts.argmax())
         if counts[k] > best_count:
             best, best_count = s + k, int(counts[k])
     n, d = normals[best], offsets[best]
     for _ in range(2):  # least-squares refinement on the inliers
-        inl = p[np.abs(p @ n + d) < distance]
+        inl = p[np.abs(dot3(p, n) + d) < distance]
         if len(inl) < 3:
             break
         centroid = inl.mean(axis=0)
-        n_new = np.linalg.svd(inl - centroid, full_matrices=False)[2][-1]
-        n = n_new if n_new @ n >= 0 else -n_new
-        d = -float(n @ centroid)
-    n_inliers = int((np.abs(p @ n + d) < distance).sum())
+        X = inl - centroid
+        n_new = smallest_eigenvector_sym3(np.einsum("ni,nj->ij", X, X))  # closed form, not LAPACK
+        n = n_new if dot3(n_new, n) >= 0 else -n_new
+        d = -dot3(n, centroid)
+    n_inliers = int((np.abs(dot3(p, n) + d) < distance).sum())
     if d < 0:  # the origin must lie on the positive side: n . 0 + d > 0
         n, d = -n, -d
     return n, float(d), n_inliers

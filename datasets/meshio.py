@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from catpose.errors import DatasetError
-from catpose.geometry import normalize_to_unit_sphere, stable_seed
+from catpose.geometry import apply_R, dot3, norm3, normalize_to_unit_sphere, stable_seed
 from catpose.types import Template
 
 _AXES = {"x": 0, "y": 1, "z": 2}
@@ -142,7 +142,7 @@ def axis_vector(spec: str) -> np.ndarray:
 def R_template_file(up: str = "+z", forward: str = "+x") -> np.ndarray:
     """Rotation (3, 3) taking a file's axes to the template frame: ``up`` -> +z, ``forward`` -> +x."""
     u, f = axis_vector(up), axis_vector(forward)
-    if abs(float(u @ f)) > 0.5:
+    if abs(dot3(u, f)) > 0.5:
         raise DatasetError(f"up {up!r} and forward {forward!r} must be different axes")
     # rows are the file-frame directions of the template axes x, y, z
     return np.stack([f, np.cross(u, f), u])
@@ -189,7 +189,7 @@ def sample_outer_surface(vertices: np.ndarray, triangles: np.ndarray, n_points: 
     Raises:
         DatasetError: the mesh has only zero-area faces, or fewer than 10 samples are visible.
     """
-    from catpose.o3d import o3d
+    from catpose.datasets.render import cast_rays
 
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     vertices = np.asarray(vertices, dtype=np.float64)
@@ -208,20 +208,14 @@ def sample_outer_surface(vertices: np.ndarray, triangles: np.ndarray, n_points: 
     points = t[:, 0] + u[:, None] * (t[:, 1] - t[:, 0]) + v[:, None] * (t[:, 2] - t[:, 0])
     normals = cross[face] / np.maximum(area2[face], 1e-20)[:, None]
 
-    scene = o3d.t.geometry.RaycastingScene()
-    mesh = o3d.t.geometry.TriangleMesh()
-    mesh.vertex.positions = o3d.core.Tensor(vertices.astype(np.float32))
-    mesh.triangle.indices = o3d.core.Tensor(triangles.astype(np.int32))
-    scene.add_triangles(mesh)
-    r = max(float(np.linalg.norm(vertices, axis=1).max()), 1e-9)
+    r = max(float(norm3(vertices).max()), 1e-9)
     eyes = fibonacci_sphere(n_views, view_distance * r)
     # one ray per (viewpoint, sample), cast in a single batch; the unnormalised direction
-    # (sample - eye) puts the sample itself at t_hit == 1
+    # (sample - eye) puts the sample itself at t_hit == 1 (float64, the same on every CPU)
     origins = np.repeat(eyes, n_cand, axis=0)
     d = np.tile(points, (n_views, 1)) - origins
-    rays = np.hstack([origins, d]).astype(np.float32)
-    t_hit = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy().reshape(n_views, n_cand)
-    tol = 1e-3 * r / np.linalg.norm(d, axis=1).reshape(n_views, n_cand)  # 1e-3 r (object units)
+    t_hit = cast_rays(vertices, triangles, origins, d).reshape(n_views, n_cand)
+    tol = 1e-3 * r / norm3(d).reshape(n_views, n_cand)  # 1e-3 r (object units)
     visible = t_hit >= 1.0 - tol
     keep = np.nonzero(visible.any(axis=0))[0]
     if len(keep) < 10:
@@ -279,7 +273,7 @@ def mesh_to_template(vertices: np.ndarray, triangles: np.ndarray, template_id: s
         scale: multiplies the vertices before normalisation.
         normalize: centre at the bounding-box centre and scale to the unit bounding sphere.
     """
-    v = (np.asarray(vertices, np.float64) * float(scale)) @ R_template_file(up, forward).T
+    v = apply_R(R_template_file(up, forward), np.asarray(vertices, np.float64) * float(scale))
     if normalize:
         try:
             v, _, _ = normalize_to_unit_sphere(v)

@@ -29,7 +29,7 @@ from catpose.datasets.meshio import R_template_file, TemplateSet, read_off, samp
 from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
 from catpose.datasets.views import pinhole_camera
 from catpose.errors import ConfigError, DatasetError
-from catpose.geometry import invert_T, normalize_to_unit_sphere, stable_seed
+from catpose.geometry import apply_R, invert_T, matmul3, normalize_to_unit_sphere, stable_seed
 from catpose.types import Template
 
 
@@ -113,7 +113,7 @@ class ModelNetBase(ObjectDataset):
     def canonical_rotation(self, category: str, instance_id: str) -> np.ndarray:
         """(3, 3) rotation from the file's frame into the canonical object frame (z up, x forward)."""
         R = self.alignment.get((category, instance_id))
-        return self.R_template_file if R is None else R @ self.R_template_file
+        return self.R_template_file if R is None else matmul3(R, self.R_template_file)
 
     def category_templates(self, category: str) -> list[Template]:
         return self._templates.get(category)
@@ -209,7 +209,7 @@ class ModelNet40(ModelNetBase):
         key = (category, split, instance_id)
         if key not in self._meshes:
             v, f = read_off(path)
-            v = v @ self.canonical_rotation(category, instance_id).T
+            v = apply_R(self.canonical_rotation(category, instance_id), v)
             try:
                 v, _, _ = normalize_to_unit_sphere(v)
             except ValueError:

@@ -26,7 +26,7 @@ import numpy as np
 from catpose.datasets.base import Observation
 from catpose.datasets.modelnet40 import ModelNetBase
 from catpose.errors import DatasetError
-from catpose.geometry import invert_T, normalize_to_unit_sphere, stable_seed, transform_points
+from catpose.geometry import apply_R, invert_T, normalize_to_unit_sphere, stable_seed, transform_points
 from catpose.hpr import visible_indices
 from catpose.types import Template
 
@@ -133,7 +133,7 @@ class ModelNet40Resampled(ModelNetBase):
             category = self.category_of_instance(instance_id)
             pts, nrm = read_resampled_txt(self.root / category / f"{instance_id}.txt")
             R = self.canonical_rotation(category, instance_id)
-            pts, nrm = pts @ R.T, nrm @ R.T
+            pts, nrm = apply_R(R, pts), apply_R(R, nrm)
             try:
                 pts, _, _ = normalize_to_unit_sphere(pts)
             except ValueError:
@@ -170,7 +170,7 @@ class ModelNet40Resampled(ModelNetBase):
         if self.max_points and len(visible) > self.max_points:
             visible = np.sort(rng.choice(visible, size=self.max_points, replace=False))
         points = transform_points(T_camera_object, pts[visible])
-        normals = nrm[visible] @ T_camera_object[:3, :3].T
+        normals = apply_R(T_camera_object[:3, :3], nrm[visible])
         if self.depth_noise_std > 0:  # noise along the viewing ray, like a depth sensor's
             rays = points / np.linalg.norm(points, axis=1, keepdims=True)
             points = points + rays * rng.normal(0.0, self.depth_noise_std, size=(len(points), 1))

@@ -41,7 +41,7 @@ from catpose.datasets.depthio import fit_ground_plane, read_depth_png
 from catpose.datasets.meshio import TemplateSet
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals
 from catpose.errors import ConfigError, DatasetError
-from catpose.geometry import stable_seed
+from catpose.geometry import dot3, stable_seed
 from catpose.types import Template
 
 
@@ -245,7 +245,7 @@ class Redwood(ObjectDataset):
             fit = points[rng.choice(len(points), size=self.plane_max_points, replace=False)]
         normal, offset, n_inliers = fit_ground_plane(fit, self.plane_distance, self.plane_iterations,
                                                      stable_seed(self.seed, "floor", scan, index))
-        height = points @ normal + offset
+        height = dot3(points, normal) + offset
         obj = points[(height > self.min_height) & (height < self.max_height)]
         if self.cluster_eps > 0 and len(obj) >= 10:
             obj = self._object_cluster(obj)

@@ -1,9 +1,9 @@
 """Depth rendering and back-projection with a pinhole camera.
 
-Rendering casts one ray per pixel with Open3D's ``RaycastingScene`` using the intrinsics +
-extrinsics form of ``create_rays_pinhole`` (the fov/eye form flips the image). Depth is the
-z coordinate in the camera frame (OpenCV: x right, y down, z forward), in the object-normalised
-unit, 0 where no surface was hit. The same camera model back-projects depth images from real
+Rendering casts one ray per pixel with Open3D's ``RaycastingScene`` and recomputes each hit in
+float64 from the hit triangle (:func:`cast_rays`), so depth images are the same bits on every
+CPU whatever code path Embree takes. Depth is the z coordinate in the camera frame (OpenCV:
+x right, y down, z forward), in the object-normalised unit, 0 where no surface was hit. The same camera model back-projects depth images from real
 sensors (BOP, Redwood), so synthetic and real views go through one code path.
 """
 
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from catpose.errors import InvalidInputError
-from catpose.geometry import axis_angle_to_R, compose_T, look_at_T_camera_world, make_T
+from catpose.geometry import axis_angle_to_R, compose_T, dot3, look_at_T_camera_world, make_T, norm3, transform_points
 
 
 @dataclass(frozen=True)
@@ -38,9 +38,59 @@ class PinholeCamera:
         return cls(int(width), int(height), float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2]))
 
 
+def cast_rays(vertices: np.ndarray, triangles: np.ndarray, origins: np.ndarray,
+              directions: np.ndarray) -> np.ndarray:
+    """Ray parameter ``s`` of the first hit along ``origins + s * directions``, in float64.
+
+    Open3D's ``RaycastingScene`` (Embree, float32) only says which triangle each ray hits; ``s``
+    is then recomputed in float64 from that triangle's plane, ``s = n . (v0 - o) / n . d``. Embree
+    ships code paths for several instruction sets (SSE, AVX2, AVX-512) whose float32 hit
+    distances differ in the last bits, so its own ``t_hit`` changes with the CPU; the plane of a
+    given triangle does not (closed form, no BLAS). Rays that graze their triangle
+    (``|n . d| < 1e-9 |n| |d|``) keep Embree's value.
+
+    Args:
+        vertices: (V, 3) mesh vertices; triangles: (F, 3) vertex indices.
+        origins, directions: (..., 3) rays in the vertices' frame (directions need not be unit).
+
+    Returns:
+        (...) float64 ray parameters, ``inf`` where the ray hits nothing.
+    """
+    from catpose.o3d import o3d
+
+    vertices = np.asarray(vertices, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    o = np.asarray(origins, dtype=np.float64)
+    d = np.asarray(directions, dtype=np.float64)
+    shape = np.broadcast_shapes(o.shape, d.shape)[:-1]
+    o, d = np.broadcast_to(o, shape + (3,)).reshape(-1, 3), np.broadcast_to(d, shape + (3,)).reshape(-1, 3)
+    scene = o3d.t.geometry.RaycastingScene()
+    mesh = o3d.t.geometry.TriangleMesh()
+    mesh.vertex.positions = o3d.core.Tensor(np.ascontiguousarray(vertices, dtype=np.float32))
+    mesh.triangle.indices = o3d.core.Tensor(np.ascontiguousarray(triangles, dtype=np.int32))
+    scene.add_triangles(mesh)
+    ans = scene.cast_rays(o3d.core.Tensor(np.ascontiguousarray(np.hstack([o, d]), dtype=np.float32)))
+    prim = ans["primitive_ids"].numpy().astype(np.int64)
+    t_embree = ans["t_hit"].numpy().astype(np.float64)
+    s = np.full(len(o), np.inf)
+    hit = (prim != int(o3d.t.geometry.RaycastingScene.INVALID_ID)) & np.isfinite(t_embree)
+    tri = vertices[triangles[prim[hit]]]                                       # (k, 3, 3)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    nd = dot3(n, d[hit])
+    s_hit = dot3(n, tri[:, 0] - o[hit]) / np.where(nd == 0.0, 1.0, nd)
+    grazing = np.abs(nd) < 1e-9 * norm3(n) * norm3(d[hit])
+    s[hit] = np.where(grazing, t_embree[hit], s_hit)
+    return s.reshape(shape)
+
+
 def render_depth(vertices: np.ndarray, triangles: np.ndarray, T_camera_object: np.ndarray,
                  camera: PinholeCamera) -> np.ndarray:
-    """Render the depth image of a triangle mesh.
+    """Render the depth image of a triangle mesh, the same bits on every CPU.
+
+    Pixel (row, col) is cast through image point (col, row), the OpenCV convention that
+    :func:`depth_to_points` and real sensors' ``K`` use. The mesh is moved into the camera frame
+    in closed form and each ray ``(0, (col - cx) / fx, (row - cy) / fy, 1)`` is cast by
+    :func:`cast_rays`, so the ray parameter is the depth itself.
 
     Args:
         vertices: (V, 3) mesh vertices in the object frame.
@@ -51,33 +101,11 @@ def render_depth(vertices: np.ndarray, triangles: np.ndarray, T_camera_object: n
     Returns:
         (H, W) float32 depth (camera-frame z), 0 where the ray hits nothing.
     """
-    from catpose.o3d import o3d
-
-    scene = o3d.t.geometry.RaycastingScene()
-    mesh = o3d.t.geometry.TriangleMesh()
-    mesh.vertex.positions = o3d.core.Tensor(np.ascontiguousarray(vertices, dtype=np.float32))
-    mesh.triangle.indices = o3d.core.Tensor(np.ascontiguousarray(triangles, dtype=np.int32))
-    scene.add_triangles(mesh)
-    # Open3D casts pixel (row, col) through image point (col + 0.5, row + 0.5); shifting the
-    # principal point by half a pixel makes it cast through (col, row), the OpenCV convention
-    # that ``depth_to_points`` (and real sensors' K) use, so render and back-projection agree.
-    K_o3d = camera.K.copy()
-    K_o3d[0, 2] += 0.5
-    K_o3d[1, 2] += 0.5
-    rays = scene.create_rays_pinhole(
-        intrinsic_matrix=o3d.core.Tensor(K_o3d),
-        extrinsic_matrix=o3d.core.Tensor(np.asarray(T_camera_object, dtype=np.float64)),
-        width_px=camera.width, height_px=camera.height)
-    hit = scene.cast_rays(rays)["t_hit"].numpy()  # distance along the (unnormalised) ray
-    missed = ~np.isfinite(hit)
-    hit = np.where(missed, 0.0, hit)
-    rays_np = rays.numpy().astype(np.float64)
-    points_object = rays_np[..., :3] + hit[..., None] * rays_np[..., 3:]
-    R, t = np.asarray(T_camera_object, dtype=np.float64)[:3, :3], np.asarray(T_camera_object, dtype=np.float64)[:3, 3]
-    z = (points_object[..., 0] * R[2, 0] + points_object[..., 1] * R[2, 1] + points_object[..., 2] * R[2, 2]
-         + t[2]).astype(np.float32)
-    z[missed] = 0.0
-    return z
+    v_camera = transform_points(np.asarray(T_camera_object, dtype=np.float64), np.asarray(vertices, dtype=np.float64))
+    rows, cols = np.mgrid[0:camera.height, 0:camera.width].astype(np.float64)
+    dirs = np.stack([(cols - camera.cx) / camera.fx, (rows - camera.cy) / camera.fy, np.ones_like(cols)], axis=-1)
+    z = cast_rays(v_camera, triangles, np.zeros(3), dirs)
+    return np.where(np.isfinite(z), z, 0.0).astype(np.float32)
 
 
 def depth_to_points(depth: np.ndarray, camera: PinholeCamera, mask: np.ndarray | None = None,

@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from catpose import libm
 from catpose.errors import ConfigError
 
 #: Physical bounding radius (metres) of each synthetic category: the scale of the unit-sphere
@@ -165,7 +166,7 @@ def incidence_angle(depth: np.ndarray, fx: float, fy: float, cx: float, cy: floa
     nn = np.linalg.norm(n, axis=-1)
     ray = P / np.maximum(np.linalg.norm(P, axis=-1, keepdims=True), 1e-12)
     cos = np.abs(np.einsum("hwi,hwi->hw", n, ray)) / np.maximum(nn, 1e-18)
-    theta = np.arccos(np.clip(cos, 0.0, 1.0))
+    theta = libm.arccos(np.clip(cos, 0.0, 1.0))  # NumPy's arccos rounds per CPU
     valid = depth > 0
     ok = valid.copy()
     ok[:, 1:-1] &= valid[:, 2:] & valid[:, :-2]

@@ -21,7 +21,8 @@ from typing import Callable
 import numpy as np
 import trimesh
 
-from catpose.geometry import axis_angle_to_R, make_T, normalize_to_unit_sphere, transform_points
+from catpose import libm
+from catpose.geometry import apply_R, axis_angle_to_R, make_T, norm3, normalize_to_unit_sphere, transform_points, unit3
 
 __all__ = ["SHAPES", "SYMMETRIC_CATEGORIES", "make_airplane", "make_chair", "make_car", "make_mug",
            "make_bottle", "make_bowl", "make_can", "make_plate", "make_shape"]
@@ -43,12 +44,12 @@ def _posed(mesh: trimesh.Trimesh, T: np.ndarray) -> trimesh.Trimesh:
 def _align_z(direction: np.ndarray) -> np.ndarray:
     """A rotation (3, 3) taking +z onto the unit ``direction`` (the shortest arc)."""
     z = np.array([0.0, 0.0, 1.0])
-    d = np.asarray(direction, dtype=np.float64) / np.linalg.norm(direction)
+    d = unit3(direction)
     axis = np.cross(z, d)
-    s, c = float(np.linalg.norm(axis)), float(d[2])
+    s, c = norm3(axis), float(d[2])
     if s < 1e-12:
         return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
-    return axis_angle_to_R(axis, float(np.arctan2(s, c)))
+    return axis_angle_to_R(axis, libm.arctan2(s, c))
 
 
 def _box(extents: tuple[float, float, float], center: tuple[float, float, float],
@@ -61,7 +62,7 @@ def _box(extents: tuple[float, float, float], center: tuple[float, float, float]
 def _cylinder(p0: np.ndarray, p1: np.ndarray, radius: float, sections: int = 20) -> trimesh.Trimesh:
     """Solid cylinder from point ``p0`` to ``p1``."""
     p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
-    height = float(np.linalg.norm(p1 - p0))
+    height = norm3(p1 - p0)
     T = make_T(_align_z(p1 - p0), (p0 + p1) / 2)
     return _posed(trimesh.creation.cylinder(radius=radius, height=height, sections=sections), T)
 
@@ -81,13 +82,12 @@ def _tube(path: np.ndarray, radius: float, sections: int = 12) -> trimesh.Trimes
     """Closed tube of circular cross-section swept along a (K, 3) polyline (mug handles)."""
     path = np.asarray(path, dtype=np.float64)
     tangents = np.gradient(path, axis=0)
-    tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
+    tangents = unit3(tangents)
     ref = np.array([0.0, 1.0, 0.0]) if abs(tangents[0, 1]) < 0.9 else np.array([1.0, 0.0, 0.0])
     angles = np.linspace(0.0, 2 * np.pi, sections, endpoint=False)
     rings = []
     for t in tangents:
-        u = np.cross(t, ref)
-        u /= np.linalg.norm(u)
+        u = unit3(np.cross(t, ref))
         v = np.cross(t, u)
         rings.append(np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v)
     K = len(path)
@@ -159,7 +159,7 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
         half_span = L * rng.uniform(0.25, 0.38)
         root_chord = L * rng.uniform(0.38, 0.5)
         tip_chord = root_chord * rng.uniform(0.05, 0.15)
-        sweep = np.arctan((root_chord - tip_chord) * rng.uniform(0.8, 1.0) / half_span)
+        sweep = libm.arctan((root_chord - tip_chord) * rng.uniform(0.8, 1.0) / half_span)
     else:
         half_span = L * rng.uniform(0.4, 0.65)
         root_chord = L * rng.uniform(0.14, 0.24)
@@ -169,8 +169,8 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     z_w = r * rng.uniform(-0.6, 0.5)
     x_le = L * rng.uniform(0.5, 0.66)
     thick = root_chord * 0.12
-    tip_dx = -half_span * np.tan(sweep)
-    tip_dz = half_span * np.tan(dihedral)
+    tip_dx = -half_span * libm.tan(sweep)
+    tip_dz = half_span * libm.tan(dihedral)
     for s in (1.0, -1.0):
         parts.append(_wing(np.array([x_le, 0.0, z_w]), root_chord,
                            np.array([x_le + tip_dx, s * half_span, z_w + tip_dz]), tip_chord,
@@ -194,7 +194,7 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     fin_h = r * rng.uniform(2.0, 3.5)
     fin_chord = tail * rng.uniform(0.7, 1.0)
     fin_tip_chord = fin_chord * rng.uniform(0.35, 0.7)
-    fin_sweep = fin_h * np.tan(np.deg2rad(rng.uniform(20.0, 50.0)))
+    fin_sweep = fin_h * libm.tan(np.deg2rad(rng.uniform(20.0, 50.0)))
     fin_le = np.array([0.05 * L + fin_chord, 0.0, 0.5 * r])
     fin_tip = np.array([fin_le[0] - fin_sweep, 0.0, 0.5 * r + fin_h])
     parts.append(_wing(fin_le, fin_chord, fin_tip, fin_tip_chord, 0.12 * fin_chord, 0.06 * fin_chord,
@@ -209,7 +209,7 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
         h_chord = min(h_chord, fin_tip_chord * 1.3)
     else:
         h_le = np.array([0.04 * L + h_chord, 0.0, 0.2 * r])
-    h_sweep = h_span * np.tan(sweep * rng.uniform(0.8, 1.2))
+    h_sweep = h_span * libm.tan(sweep * rng.uniform(0.8, 1.2))
     for s in (() if delta else (1.0, -1.0)):
         parts.append(_wing(h_le, h_chord, h_le + np.array([-h_sweep, s * h_span, 0.0]), h_chord * 0.5,
                            0.1 * h_chord, 0.05 * h_chord))
@@ -246,11 +246,11 @@ def make_chair(rng: np.random.Generator) -> trimesh.Trimesh:
                               z_under]) for k in range(n_legs)]
         for top in tops:
             out = np.array([top[0], top[1], 0.0])
-            out /= max(np.linalg.norm(out), 1e-9)
+            out /= max(norm3(out), 1e-9)
             foot = np.array([top[0], top[1], 0.0]) + splay * out
             if square:
                 direction = foot - top
-                length = np.linalg.norm(direction)
+                length = norm3(direction)
                 zaxis = direction / length
                 R = _align_z(zaxis)
                 parts.append(_box((2 * leg_r, 2 * leg_r, length), tuple((top + foot) / 2), R))
@@ -270,8 +270,8 @@ def make_chair(rng: np.random.Generator) -> trimesh.Trimesh:
         for k in range(n_arms):
             a = off + 2 * np.pi * k / n_arms
             R = axis_angle_to_R(np.array([0.0, 0.0, 1.0]), a)
-            parts.append(_box((arm_len, 0.06, 0.05), tuple(R @ np.array([arm_len / 2, 0.0, base_h])), R))
-            tip = R @ np.array([arm_len, 0.0, 0.0])
+            parts.append(_box((arm_len, 0.06, 0.05), tuple(apply_R(R, np.array([arm_len / 2, 0.0, base_h]))), R))
+            tip = apply_R(R, np.array([arm_len, 0.0, 0.0]))
             parts.append(_cylinder(tip + np.array([0, 0, base_h - 0.02]), tip, 0.03, sections=10))
 
     # back at -x, tilted backwards about y
@@ -282,7 +282,7 @@ def make_chair(rng: np.random.Generator) -> trimesh.Trimesh:
     base = np.array([-d / 2 + bt / 2, 0.0, h])
 
     def back_part(extents: tuple[float, float, float], local_center: np.ndarray) -> trimesh.Trimesh:
-        return _box(extents, tuple(base + R_tilt @ local_center), R_tilt)
+        return _box(extents, tuple(base + apply_R(R_tilt, local_center)), R_tilt)
 
     if rng.random() < 0.5:
         bw = w * rng.uniform(0.8, 1.0)
@@ -382,8 +382,8 @@ def make_mug(rng: np.random.Generator) -> trimesh.Trimesh:
     p = rng.uniform(2.0, 6.0)  # superellipse exponent: 2 = ellipse, large = squarish "D"
     theta = np.linspace(-np.pi / 2, np.pi / 2, 25)
     c, s = np.cos(theta), np.sin(theta)
-    xe = np.abs(c) ** (2.0 / p)
-    ze = np.sign(s) * np.abs(s) ** (2.0 / p)
+    xe = libm.power(np.abs(c), 2.0 / p)
+    ze = np.sign(s) * libm.power(np.abs(s), 2.0 / p)
     zc, a = 0.5 * (z_lo + z_hi), 0.5 * (z_hi - z_lo)
     z = zc + a * ze
 
@@ -409,7 +409,7 @@ def make_bottle(rng: np.random.Generator) -> trimesh.Trimesh:
     curve = rng.uniform(1.0, 3.0)  # 1: conical shoulder, 2: elliptic, 3: boxy
     prof = [(0.0, 0.0), (Rb * 0.92, 0.0), (Rb, 0.04), (Rb, Hb)]
     for u in np.linspace(0.0, 1.0, 8)[1:]:
-        prof.append((rn + (Rb - rn) * (1 - u ** curve) ** (1 / curve), Hb + hs * u))
+        prof.append((rn + (Rb - rn) * libm.power(1 - libm.power(u, curve), 1 / curve), Hb + hs * u))
     z = Hb + hs + hn
     prof.append((rn, z))
     rc, hc = rn * rng.uniform(1.05, 1.25), rng.uniform(0.06, 0.14)
@@ -434,10 +434,10 @@ def make_bowl(rng: np.random.Generator) -> trimesh.Trimesh:
         prof += [(0.0, 0.0)]
         start = 0.0
     for u in rs[rs > start]:
-        prof.append((R * u, D * u ** k))
+        prof.append((R * u, D * libm.power(u, k)))
     Ri = R - t
     for u in rs[::-1][:-1]:
-        prof.append((Ri * u, t + (D - t) * u ** k))
+        prof.append((Ri * u, t + (D - t) * libm.power(u, k)))
     prof.append((0.0, t))
     return _finish([_revolve_z(prof)])
 
@@ -465,7 +465,7 @@ def make_plate(rng: np.random.Generator) -> trimesh.Trimesh:
     R = 1.0
     Rw = R * rng.uniform(0.45, 0.8)
     slope = np.deg2rad(rng.uniform(6.0, 35.0))
-    rise = (R - Rw) * np.tan(slope)
+    rise = (R - Rw) * libm.tan(slope)
     t = rng.uniform(0.02, 0.05)
     prof: list[tuple[float, float]] = []
     if rng.random() < 0.6:
@@ -475,7 +475,7 @@ def make_plate(rng: np.random.Generator) -> trimesh.Trimesh:
     else:
         base = 0.0
         prof += [(0.0, 0.0)]
-    prof += [(Rw, base), (R, base + rise), (R, base + rise + t), (Rw - t * np.tan(slope / 2), base + t), (0.0, base + t)]
+    prof += [(Rw, base), (R, base + rise), (R, base + rise + t), (Rw - t * libm.tan(slope / 2), base + t), (0.0, base + t)]
     return _finish([_revolve_z(prof, sections=64)])
 
 

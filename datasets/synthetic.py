@@ -29,7 +29,8 @@ from catpose.datasets.sensor import get_sensor
 from catpose.datasets.shapes import SHAPES, SYMMETRIC_CATEGORIES
 from catpose.datasets.views import pinhole_camera
 from catpose.errors import ConfigError, DatasetError
-from catpose.geometry import apply_R, axis_angle_to_R, invert_T, stable_seed
+from catpose import libm
+from catpose.geometry import apply_R, axis_angle_to_R, dot3, invert_T, stable_seed, unit3
 from catpose.types import Template
 
 DEFAULT_CATEGORIES = ("airplane", "chair", "car", "mug", "bottle", "bowl", "can", "plate")
@@ -97,7 +98,7 @@ class SyntheticDataset(ObjectDataset):
         if fov_deg is not None:
             if not 0.0 < fov_deg < 180.0:
                 raise ConfigError(f"synthetic dataset: fov_deg={fov_deg}; use a value in (0, 180)")
-            fx = fy = 0.5 * width / np.tan(np.deg2rad(fov_deg) / 2)
+            fx = fy = 0.5 * width / libm.tan(np.deg2rad(fov_deg) / 2)
         self.seed = int(seed)
         self.categories = cats
         self.instances_per_category = int(instances_per_category)
@@ -203,7 +204,7 @@ class SyntheticDataset(ObjectDataset):
             ground = apply_R(axis_angle_to_R(axis, angle), ground)
         return Observation(
             obs_id=obs_id, category=category, instance_id=instance_id, points_camera=points,
-            normals_camera=normals, ground_normal_camera=ground / np.linalg.norm(ground),
+            normals_camera=normals, ground_normal_camera=unit3(ground),
             T_object_camera=invert_T(T_camera_object), symmetry_axis=model.symmetry_axis,
             info={"view": f"v{view:02d}", "n_depth_pixels": n_pixels})
 
@@ -220,7 +221,7 @@ class SyntheticDataset(ObjectDataset):
         size = CATEGORY_SIZE_M[category]                                   # metres per object unit
         distance_m = max(float(rng.uniform(*sensor.distance_m)), 2.5 * size)
         t = T_camera_object[:3, 3]
-        T_camera_object_m = make_T(T_camera_object[:3, :3], t / np.linalg.norm(t) * distance_m)
+        T_camera_object_m = make_T(T_camera_object[:3, :3], unit3(t) * distance_m)
         v_m = model.vertices * size
         table_v, table_f = table_mesh(float(v_m[:, 2].min()) - 1e-4)
         scene_v = np.concatenate([v_m, table_v])
@@ -251,13 +252,13 @@ class SyntheticDataset(ObjectDataset):
             angle = np.deg2rad(rng.normal(0.0, self.ground_normal_noise_deg))
             ground = apply_R(axis_angle_to_R(axis, angle), ground)
         T_camera_object_unit = make_T(T_camera_object_m[:3, :3], T_camera_object_m[:3, 3] / size)
-        true_up = T_camera_object[:3, :3] @ np.array([0.0, 0.0, 1.0])
+        true_up = apply_R(T_camera_object[:3, :3], np.array([0.0, 0.0, 1.0]))
         return Observation(
             obs_id=obs_id, category=category, instance_id=instance_id, points_camera=points,
-            normals_camera=normals, ground_normal_camera=ground / np.linalg.norm(ground),
+            normals_camera=normals, ground_normal_camera=unit3(ground),
             T_object_camera=invert_T(T_camera_object_unit), symmetry_axis=model.symmetry_axis,
             info={"view": f"v{view:02d}", "n_depth_pixels": n_pixels, "sensor": sensor.name,
                   "scale_mm": 1000.0 * size, "distance_m": distance_m,
                   "bleed_pixels": int((mask & ~true_mask).sum()),
                   "missing_fraction": float(1.0 - (depth[true_mask] > 0).mean()) if true_mask.any() else 0.0,
-                  "ground_vs_object_up_deg": float(np.degrees(np.arccos(np.clip(ground @ true_up, -1, 1))))})
+                  "ground_vs_object_up_deg": float(np.degrees(libm.arccos(np.clip(dot3(ground, true_up), -1, 1))))})

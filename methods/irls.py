@@ -41,6 +41,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from catpose.kabsch import DEGENERATE_RATIO, rank_one_rotation
+
 #: distances below this are clamped in the IRLS weights (object-normalised units)
 _D_MIN = 1e-6
 
@@ -90,12 +92,18 @@ def weighted_kabsch(P, Q, W):
     mp = (omega[..., None] * P).sum(1)                                     # (B, 3)
     mq = (omega[..., None] * qbar).sum(1)
     H = torch.bmm((P - mp[:, None]).transpose(1, 2), omega[..., None] * (qbar - mq[:, None]))
-    U, _, Vt = torch.linalg.svd(H)
+    U, S, Vt = torch.linalg.svd(H)
     V = Vt.transpose(1, 2)
     D = torch.ones_like(mp)
     D[:, 2] = torch.sign(torch.linalg.det(torch.bmm(V, U.transpose(1, 2))))
     D[:, 2][D[:, 2] == 0] = 1.0
     R = torch.bmm(V * D[:, None, :], U.transpose(1, 2))
+    degenerate = S[:, 1] <= DEGENERATE_RATIO * S[:, 0]
+    if bool(degenerate.any()):  # rank one: the closed form, not LAPACK's arbitrary null space
+        idx = torch.nonzero(degenerate)[:, 0]
+        fixed = np.stack([rank_one_rotation(h) for h in H[idx].detach().double().cpu().numpy()])
+        R = R.clone()
+        R[idx] = torch.as_tensor(fixed, dtype=R.dtype, device=R.device)
     t = mq - torch.bmm(R, mp[..., None])[..., 0]
     return R, t
 

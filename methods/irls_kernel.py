@@ -13,7 +13,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from catpose.kabsch import DEGENERATE_RATIO, rank_one_rotation
+
 _D_MIN = 1e-6
+_rank_one_rotation = numba.njit(cache=True, nogil=True)(rank_one_rotation)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -48,14 +51,17 @@ def _weighted_kabsch(p, q, W, R, t):  # pragma: no cover - compiled
             pa = p[j, a] - mp[a]
             for b in range(3):
                 H[a, b] += pa * omega[j] * (qbar[j, b] - mq[b])
-    U, _, Vt = np.linalg.svd(H)
-    V = Vt.T
-    s = np.sign(np.linalg.det(V @ U.T))
-    if s == 0:
-        s = 1.0
-    D = np.eye(3)
-    D[2, 2] = s
-    Rn = V @ D @ U.T
+    U, S, Vt = np.linalg.svd(H)
+    if S[1] <= DEGENERATE_RATIO * S[0]:  # rank one: not LAPACK's arbitrary null space
+        Rn = _rank_one_rotation(H)
+    else:
+        V = Vt.T
+        s = np.sign(np.linalg.det(V @ U.T))
+        if s == 0:
+            s = 1.0
+        D = np.eye(3)
+        D[2, 2] = s
+        Rn = V @ D @ U.T
     for a in range(3):
         R[a, :] = Rn[a, :]
         t[a] = mq[a] - (Rn[a, 0] * mp[0] + Rn[a, 1] * mp[1] + Rn[a, 2] * mp[2])

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from catpose.errors import ConfigError
+from catpose.errors import ConfigError, InvalidInputError
 from catpose.methods import teaser_solver
 from catpose.methods.correspondence import CorrespondenceRegistration, MatchInput
 
@@ -67,10 +67,13 @@ class TEASER(CorrespondenceRegistration):
         corr = match.fpfh_correspondences(self.mutual_filter, self.max_correspondences)
         if len(corr) < 3:
             return None, {"num_correspondences": int(len(corr)), "clique_size": 0}
-        r = teaser_solver.solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]],
-                                self.noise_bound, self.cbar2, self.gnc_factor, self.max_iterations,
-                                self.cost_threshold, self.clique_node_budget, self.rotation_tim_graph,
-                                seed=match.seed, clique_time_budget_s=self.clique_time_budget_s or None)
+        try:
+            r = teaser_solver.solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]],
+                                    self.noise_bound, self.cbar2, self.gnc_factor, self.max_iterations,
+                                    self.cost_threshold, self.clique_node_budget, self.rotation_tim_graph,
+                                    seed=match.seed, clique_time_budget_s=self.clique_time_budget_s or None)
+        except InvalidInputError as e:  # a degenerate clique: this target gives no pose (others may)
+            return None, {"num_correspondences": int(len(corr)), "clique_size": 0, "no_pose_reason": str(e)}
         info = {"num_correspondences": int(len(corr)), "clique_size": int(len(r.clique)),
                 "clique_exact": r.clique_exact, "translation_inliers": int(len(r.translation_inliers)),
                 "gnc_iterations": r.gnc_iterations, **{f"teaser_{k}": v for k, v in r.timings.items()}}

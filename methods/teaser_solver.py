@@ -35,6 +35,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from catpose.errors import ConfigError, InvalidInputError
+from catpose.geometry import apply_R
+from catpose.kabsch import rotations_from_covariance
+
+#: A max clique smaller than this gives no pose (both solvers): 3 or fewer mutually consistent
+#: correspondences arise by chance among outliers, and 2 leave the rotation about their line free.
+MIN_CLIQUE_SIZE = 4
 
 
 @dataclass(frozen=True)
@@ -110,16 +116,20 @@ def max_clique(adj: np.ndarray, node_budget: int = 200_000,
     return mc.max_clique(adj, node_budget, time_budget_s)
 
 
-def weighted_kabsch(src: np.ndarray, dst: np.ndarray, w: np.ndarray) -> np.ndarray:
+def weighted_kabsch(src: np.ndarray, dst: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, bool]:
     """Rotation minimising ``sum_k w_k ||dst_k - R src_k||^2`` (no translation), det(R) = +1.
 
     Args:
         src, dst: (K, 3) vectors; w: (K,) non-negative weights.
+
+    Returns:
+        The rotation (3, 3), and whether the weighted measurements span one direction or none
+        (then the rotation about it is not determined, and the rotation is the closed-form
+        :func:`catpose.kabsch.rank_one_rotation`).
     """
-    H = (src * w[:, None]).T @ dst
-    U, _, Vt = np.linalg.svd(H)
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0])
-    return Vt.T @ D @ U.T
+    H = np.einsum("k,ki,kj->ij", w, src, dst)
+    R, degenerate = rotations_from_covariance(H[None])
+    return R[0], bool(degenerate[0])
 
 
 def gnc_tls_rotation(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1.0,
@@ -141,7 +151,8 @@ def gnc_tls_rotation(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2
         noise_bound: bound ``c`` on an inlier measurement's residual norm.
 
     Returns:
-        (R (3, 3), weights (K,), iterations run).
+        (R (3, 3), weights (K,), iterations run, whether the final weighted measurements span one
+        direction or none, so that R is not determined by them).
     """
     K = len(src)
     w = np.ones(K)
@@ -151,8 +162,8 @@ def gnc_tls_rotation(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2
     R = np.eye(3)
     it = 0
     for it in range(1, max_iterations + 1):
-        R = weighted_kabsch(src, dst, w)
-        r2 = ((dst - src @ R.T) ** 2).sum(axis=1)
+        R, _ = weighted_kabsch(src, dst, w)
+        r2 = ((dst - apply_R(R, src)) ** 2).sum(axis=1)
         if it == 1:
             mu = 1.0 / (2.0 * r2.max() / bound2 - 1.0)
             if mu <= 0:  # every residual is already within the bound: least squares is TLS
@@ -170,9 +181,10 @@ def gnc_tls_rotation(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2
         if binary and (np.array_equal(w, w_prev) or abs(cost - prev_cost) < cost_threshold):
             break
         prev_cost = cost
+    degenerate = True
     if w.sum() > 0:
-        R = weighted_kabsch(src, dst, w)
-    return R, w, it
+        R, degenerate = weighted_kabsch(src, dst, w)
+    return R, w, it, degenerate
 
 
 def adaptive_voting(values: np.ndarray, bound: float) -> tuple[float, np.ndarray]:
@@ -247,6 +259,11 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
 
     Returns:
         :class:`SolverResult`.
+
+    Raises:
+        InvalidInputError: fewer than 3 correspondences, a max clique smaller than
+            :data:`MIN_CLIQUE_SIZE`, or rotation inliers that span one direction (the rotation
+            about it would be whatever LAPACK's CPU kernel returns): no pose.
     """
     import time
 
@@ -259,10 +276,9 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
     adj = consistency_graph(src, dst, noise_bound)
     clique, exact = max_clique(adj, clique_node_budget, clique_time_budget_s)
     timings["clique_s"] = time.perf_counter() - t0
-    if len(clique) < 2:
-        # no two correspondences agree: fall back to the single best guess (identity rotation)
-        t = dst[clique[0]] - src[clique[0]] if len(clique) else dst.mean(0) - src.mean(0)
-        return SolverResult(np.eye(3), t, clique, exact, np.zeros(0, bool), clique, 0, timings)
+    if len(clique) < MIN_CLIQUE_SIZE:
+        raise InvalidInputError(f"TEASER max clique has {len(clique)} of {len(src)} correspondences "
+                                f"(fewer than {MIN_CLIQUE_SIZE}): degenerate, no reliable pose")
 
     t0 = time.perf_counter()
     if rotation_tim_graph == "chain":
@@ -276,12 +292,15 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
         pick = np.random.default_rng(seed).choice(len(i), max_rotation_tims, replace=False)
         i, j = i[pick], j[pick]
     a, b = src[clique], dst[clique]
-    R, w, iters = gnc_tls_rotation(a[j] - a[i], b[j] - b[i], 2.0 * noise_bound, cbar2, gnc_factor,
-                                   max_iterations, cost_threshold)
+    R, w, iters, degenerate = gnc_tls_rotation(a[j] - a[i], b[j] - b[i], 2.0 * noise_bound, cbar2, gnc_factor,
+                                               max_iterations, cost_threshold)
+    if degenerate:
+        raise InvalidInputError(f"TEASER: the {int((w > 0.5).sum())} rotation inliers of the {len(clique)}-point "
+                                "max clique lie on one line: the rotation about it is not determined, no pose")
     timings["rotation_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    t_meas = b - a @ R.T
+    t_meas = b - apply_R(R, a)
     t = np.zeros(3)
     voted = np.ones(len(clique), dtype=bool)
     for axis in range(3):

@@ -37,9 +37,8 @@ import numpy as np
 from catpose.errors import ConfigError, InvalidInputError
 from catpose.methods.correspondence import MatchInput
 from catpose.methods.teaser import TEASER
-from catpose.methods.teaser_solver import SolverResult, checked_inputs
+from catpose.methods.teaser_solver import MIN_CLIQUE_SIZE, SolverResult, checked_inputs
 
-MIN_CLIQUE_SIZE = 4  # a clique of 3 or fewer correspondences is reported as a failure
 
 _MISSING = ("method=teaserpp needs the teaserpp_python module (TEASER++'s Python bindings), which is not "
             "importable: build and install it into this environment as TEASER++'s own README says "

@@ -83,7 +83,7 @@ def _box_cloud(rng: np.random.Generator, n: int = 3000) -> tuple[np.ndarray, np.
 
 
 def test_refine_many_matches_the_numpy_icp_from_every_start() -> None:
-    from catpose.point_to_plane import refine_point_to_plane
+    from _point_to_plane_reference import refine_point_to_plane
     from catpose.point_to_plane_kernel import refine_many
 
     rng = np.random.default_rng(3)

@@ -1,62 +1,148 @@
-"""The embedded set is the same bits under every BLAS kernel: its problems and ground truth do
-not depend on which CPU made them (OpenBLAS picks a kernel per CPU at run time)."""
+"""Samples are the same bits on every x86-64 CPU: their problems and ground truth do not depend on
+which code paths the numerical libraries choose for the machine (OpenBLAS's kernel, NumPy's
+AVX-512 or AVX2 loops, Embree's instruction set).
+
+Two checks. The first runs the sample-making code under every code path this CPU can take
+(:func:`catpose.bench.environment.numeric_variants`: SkylakeX, Haswell and Sandybridge kernels,
+NumPy without AVX-512) and compares hashes of everything a method or the scorer reads. The second
+reads the source: no BLAS product, 1-D ``np.linalg.norm`` or CPU-dispatched NumPy transcendental
+is left under ``datasets/`` and ``src/catpose/`` (Embree's path cannot be switched from here;
+:func:`catpose.datasets.render.cast_rays` recomputes every hit in float64, tested in
+``test_render.py``).
+"""
 
 from __future__ import annotations
 
+import ast
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
-from catpose.bench.environment import cpu_flags
+from catpose.bench.environment import numeric_variants
+
+REPO = Path(__file__).resolve().parents[1]
 
 SCRIPT = r"""
-import hashlib, sys
+import hashlib, json, os
 import numpy as np
 from catpose.bench.environment import numpy_blas_kernel
 from catpose.bench.protocols import GtModel
+from catpose.datasets.render import cast_rays
+from catpose.datasets.shapes import make_shape
 from catpose.datasets.synthetic import SyntheticDataset
 
-ds = SyntheticDataset(seed=3, instances_per_category=1, views_per_instance=1, max_points=500, template_points=500,
-                      ground_normal_noise_deg=2.0)
-proto = GtModel()
-print("kernel", numpy_blas_kernel())
-for sid in proto.sample_ids(ds):
-    s = proto.load(ds, sid)
+def digest(*arrays):
     h = hashlib.sha1()
-    for a in (s.problem.points_camera, s.problem.normals_camera, s.problem.ground_normal_camera,
-              s.problem.template.points, s.problem.template.normals, s.gt.T_template_camera):
+    for a in arrays:
         h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
-    print(sid, h.hexdigest())
+    return h.hexdigest()
+
+out = {"kernel": numpy_blas_kernel()}
+proto = GtModel()
+plain = SyntheticDataset(seed=3, instances_per_category=1, views_per_instance=1, max_points=500, template_points=500,
+                         ground_normal_noise_deg=2.0)
+for sid in proto.sample_ids(plain):
+    s = proto.load(plain, sid)
+    out[sid] = digest(s.problem.points_camera, s.problem.normals_camera, s.problem.ground_normal_camera,
+                      s.problem.template.points, s.problem.template.normals, s.gt.T_template_camera)
+sensor = SyntheticDataset(seed=5, categories=["mug", "chair"], instances_per_category=1, views_per_instance=1,
+                          max_points=500, template_points=500, sensor="kinect", width=320, height=240, fx=290.0, fy=290.0)
+for sid in proto.sample_ids(sensor):
+    s = proto.load(sensor, sid)
+    out["kinect/" + sid] = digest(s.problem.points_camera, s.problem.normals_camera, s.problem.ground_normal_camera,
+                                  s.gt.T_template_camera)
+for t in plain.category_templates("airplane"):
+    out["template/" + t.template_id] = digest(t.points, t.normals)
+mesh = make_shape("car", np.random.default_rng(0))
+rng = np.random.default_rng(1)
+origins = rng.normal(size=(20000, 3)) * 0.1 + np.array([0.0, 0.0, -3.0])
+out["rays"] = digest(cast_rays(mesh.vertices, mesh.faces, origins, -origins + rng.normal(size=(20000, 3)) * 0.3))
+print(json.dumps(out))
 """
 
 
-def kernels_here() -> list[str]:
-    """OpenBLAS kernels this CPU can run: Haswell and Sandybridge on any AVX2 machine, SkylakeX
-    where AVX-512 is present."""
-    flags = set(cpu_flags())
-    if "avx2" not in flags:
-        return []
-    return ["Haswell", "Sandybridge"] + (["SkylakeX"] if "avx512f" in flags else [])
+def _digests(env_extra: dict[str, str]) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
+    proc = subprocess.run([sys.executable, "-c", SCRIPT], env=dict(env, **env_extra), capture_output=True,
+                          text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    import json
+
+    return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-def _hashes(kernel: str) -> list[str]:
-    proc = subprocess.run([sys.executable, "-c", SCRIPT], env=dict(os.environ, OPENBLAS_CORETYPE=kernel),
-                          capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    lines = proc.stdout.splitlines()
-    assert lines[0] == f"kernel {kernel}", f"OpenBLAS did not take OPENBLAS_CORETYPE={kernel}: {lines[0]}"
-    return lines[1:]
+def test_samples_are_bit_identical_under_every_code_path_of_this_cpu():
+    """8 categories, 2 sensor-model views (table, noise, ground-plane fit), category templates and
+    20,000 cast rays hash the same under each OpenBLAS kernel and NumPy dispatch level."""
+    variants = {k: v for k, v in numeric_variants().items() if k != "torch-default"}  # torch makes no sample
+    if not variants:
+        pytest.skip("needs an x86-64 CPU with AVX2 to run other OpenBLAS kernels")
+    first_name, first_env = next(iter(variants.items()))
+    first = _digests(first_env)
+    assert len([k for k in first if "/" in k and not k.startswith(("kinect/", "template/"))]) == 8
+    kernel = first_env.get("OPENBLAS_CORETYPE")
+    assert first["kernel"] == kernel, f"OpenBLAS did not take OPENBLAS_CORETYPE={kernel}: {first['kernel']}"
+    for name, env in list(variants.items())[1:]:
+        other = _digests(env)
+        if "OPENBLAS_CORETYPE" in env:
+            assert other["kernel"] == env["OPENBLAS_CORETYPE"], f"OpenBLAS ignored {env}"
+        diff = sorted(k for k in first if k != "kernel" and first[k] != other.get(k))
+        assert not diff, f"samples differ between {first_name} and {name}: {diff}"
 
 
-def test_synthetic_samples_are_bit_identical_across_blas_kernels():
-    kernels = kernels_here()
-    if len(kernels) < 2:
-        pytest.skip("needs an x86-64 CPU with AVX2 to run two OpenBLAS kernels")
-    first = _hashes(kernels[0])
-    assert len(first) == 8
-    for k in kernels[1:]:
-        other = _hashes(k)
-        diff = [a.split()[0] for a, b in zip(first, other) if a != b]
-        assert not diff, f"samples differ between {kernels[0]} and {k}: {diff}"
+# ------------------------------------------------------------------------------ the source rule
+
+#: NumPy ufuncs whose float64 loops are dispatched per CPU and round differently on AVX-512
+#: (measured with NPY_DISABLE_CPU_FEATURES); use catpose.libm instead.
+DISPATCHED_UFUNCS = {"exp", "exp2", "expm1", "log", "log2", "log10", "log1p", "arccos", "arcsin", "arctan",
+                     "arctan2", "tan", "power", "float_power", "cbrt", "sinh", "cosh", "tanh", "arcsinh",
+                     "arccosh", "arctanh"}
+BLAS_CALLS = {"dot", "matmul", "inner", "vdot", "tensordot"}
+
+
+def portability_violations(source: str) -> list[tuple[int, str]]:
+    """(line, what) for each construct whose result depends on the CPU's BLAS kernel or NumPy's
+    dispatch: ``@``, ``np.dot``-like calls and ``.dot``, ``np.linalg.norm`` without ``axis``,
+    dispatched transcendental ufuncs, and ``**`` with an exponent other than a literal 2, 3, 0.5
+    or 1 (NumPy routes those to ``power``)."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.MatMult):
+            out.append((node.lineno, f"@ in {ast.unparse(node)}"))
+        elif isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow):
+            if not (isinstance(node.right, ast.Constant) and node.right.value in (1, 2, 3, 0.5)):
+                out.append((node.lineno, f"** in {ast.unparse(node)} (use catpose.libm.power)"))
+        elif isinstance(node, ast.Call):
+            name = ast.unparse(node.func)
+            last = name.rsplit(".", 1)[-1]
+            if name in ("np.linalg.norm", "numpy.linalg.norm") and not any(k.arg == "axis" for k in node.keywords):
+                out.append((node.lineno, f"1-D {ast.unparse(node)} (use catpose.geometry.norm3)"))
+            elif name.startswith(("np.", "numpy.")) and last in DISPATCHED_UFUNCS:
+                out.append((node.lineno, f"{name} (use catpose.libm.{last})"))
+            elif (name.startswith(("np.", "numpy.")) and last in BLAS_CALLS) or \
+                    (isinstance(node.func, ast.Attribute) and node.func.attr == "dot"):
+                out.append((node.lineno, f"BLAS {name}"))
+    return sorted(out)
+
+
+def test_the_rule_finds_each_kind_of_violation():
+    src = ("import numpy as np\n"
+           "a = R @ v\n"
+           "b = np.linalg.norm(v)\n"
+           "c = np.linalg.norm(V, axis=1)\n"
+           "d = np.arccos(x)\n"
+           "e = np.cos(x)\n"
+           "f = x ** 2 + x ** k\n"
+           "g = np.dot(a, b) + a.dot(b)\n")
+    lines = [line for line, _ in portability_violations(src)]
+    assert lines == [2, 3, 5, 7, 8, 8]
+
+
+@pytest.mark.parametrize("folder", ["datasets", "src/catpose"])
+def test_no_cpu_dependent_arithmetic_in_sample_code(folder: str):
+    bad = [f"{p.relative_to(REPO)}:{line}: {what}" for p in sorted((REPO / folder).rglob("*.py"))
+           for line, what in portability_violations(p.read_text())]
+    assert not bad, "CPU-dependent arithmetic where samples are made:\n" + "\n".join(bad)

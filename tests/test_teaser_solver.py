@@ -147,7 +147,8 @@ def test_gnc_tls_rejects_outlier_measurements() -> None:
     a = rng.normal(size=(60, 3))
     b = a @ R.T
     b[:30] = rng.normal(size=(30, 3)) * 2  # 50 % gross outliers
-    R_est, w, _ = teaser_solver.gnc_tls_rotation(a, b, noise_bound=0.01)
+    R_est, w, _, degenerate = teaser_solver.gnc_tls_rotation(a, b, noise_bound=0.01)
+    assert not degenerate
     assert _rot_err_deg(R_est, R) < 1e-3
     assert (w[30:] > 0.5).all() and (w[:30] < 0.5).mean() > 0.9
 

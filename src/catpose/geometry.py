@@ -1,10 +1,12 @@
 """Small rigid-geometry helpers shared by datasets, methods and metrics (NumPy, float64).
 
-Products of 3x3 matrices and (N, 3) points are written out in closed form (element-wise
-multiplies and adds in a fixed order) rather than through ``@``: NumPy hands ``@`` to OpenBLAS,
-whose kernel is chosen per CPU at run time (SkylakeX, Haswell, Sandybridge, ...) and rounds
-differently (FMA or not, other summation orders). Closed form gives the same bits on every
-machine, so a dataset's points and ground-truth poses do not depend on the CPU.
+Dot products, lengths and products of 3x3 matrices and (N, 3) points are written out in closed
+form (element-wise multiplies and adds in a fixed order) rather than through ``@`` or a 1-D
+``np.linalg.norm``: NumPy hands those to OpenBLAS, whose kernel is chosen per CPU at run time
+(SkylakeX, Haswell, Sandybridge, ...) and rounds differently (FMA or not, other summation
+orders). Closed form gives the same bits on every machine, so a dataset's points and
+ground-truth poses do not depend on the CPU. ``tests/test_portable_bits.py`` checks that no
+BLAS product or CPU-dispatched transcendental remains under ``datasets/`` and ``src/catpose/``.
 """
 
 from __future__ import annotations
@@ -12,11 +14,41 @@ from __future__ import annotations
 import numpy as np
 
 
+def dot3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot product of 3-vectors along the last axis, ``a[..., 0] * b[..., 0] + ...``, in a fixed
+    order: (3,) inputs give a float, (N, 3) inputs an (N,) array. ``a @ b`` on 1-D arrays is a
+    BLAS ``ddot`` whose rounding depends on the CPU's kernel (SkylakeX fuses multiply-adds)."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    out = a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+    return float(out) if out.ndim == 0 else out
+
+
+def norm3(v: np.ndarray) -> np.ndarray:
+    """Euclidean length of 3-vectors along the last axis, in closed form (bit-identical on every
+    CPU; ``np.linalg.norm`` of a 1-D vector calls BLAS ``ddot``). (3,) gives a float."""
+    out = np.sqrt(dot3(v, v))
+    return float(out) if np.ndim(out) == 0 else out
+
+
+def unit3(v: np.ndarray) -> np.ndarray:
+    """``v / |v|`` for (3,) or (N, 3) vectors, in closed form. Zero vectors give NaN (callers that
+    can meet one check the length first)."""
+    v = np.asarray(v, dtype=np.float64)
+    return v / np.asarray(norm3(v))[..., None]
+
+
 def matmul3(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     """``A @ B`` for (3, 3) matrices, in closed form (bit-identical on every CPU)."""
     A = np.asarray(A, dtype=np.float64)
     B = np.asarray(B, dtype=np.float64)
     return A[:, 0:1] * B[0] + A[:, 1:2] * B[1] + A[:, 2:3] * B[2]
+
+
+def small_matmul(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``A @ B`` for small (..., n, k) and (..., k, m) matrices without BLAS: ``np.einsum``'s own
+    loops (no BLAS call, and not dispatched per CPU) give the same bits on every machine."""
+    return np.einsum("...ij,...jk->...ik", np.asarray(A, dtype=np.float64), np.asarray(B, dtype=np.float64))
 
 
 def apply_R(R: np.ndarray, vectors: np.ndarray) -> np.ndarray:
@@ -57,8 +89,7 @@ def rotate_vectors(T_or_R: np.ndarray, vectors: np.ndarray) -> np.ndarray:
 
 def axis_angle_to_R(axis: np.ndarray, angle_rad: float) -> np.ndarray:
     """Rodrigues' formula: rotation by ``angle_rad`` about unit ``axis`` (3,)."""
-    a = np.asarray(axis, dtype=np.float64)
-    a = a / np.linalg.norm(a)
+    a = unit3(axis)
     K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
     return np.eye(3) + np.sin(angle_rad) * K + (1 - np.cos(angle_rad)) * matmul3(K, K)
 
@@ -88,14 +119,46 @@ def look_at_T_camera_world(eye: np.ndarray, target: np.ndarray, up: np.ndarray) 
     """Camera extrinsics ``T_camera_world`` for an OpenCV camera (x right, y down, z forward)
     at ``eye`` looking at ``target`` with image-up roughly along world ``up``."""
     z = np.asarray(target, float) - np.asarray(eye, float)
-    z /= np.linalg.norm(z)
+    z = unit3(z)
     x = np.cross(z, up)
-    if np.linalg.norm(x) < 1e-8:  # looking straight along up: any perpendicular works
+    if norm3(x) < 1e-8:  # looking straight along up: any perpendicular works
         x = np.cross(z, np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0]))
-    x /= np.linalg.norm(x)
+    x = unit3(x)
     y = np.cross(z, x)
     R_world_camera = np.stack([x, y, z], axis=1)
     return invert_T(make_T(R_world_camera, eye))
+
+
+def smallest_eigenvector_sym3(C: np.ndarray) -> np.ndarray:
+    """Unit eigenvector (3,) of the smallest eigenvalue of a symmetric (3, 3) ``C``, in closed
+    form: the eigenvalues by the trigonometric formula (Smith 1961, the C library's ``acos`` and
+    ``cos``), the vector as the longest cross product of two rows of ``C - lambda I``. Unlike
+    LAPACK, whose kernel is chosen per CPU, it gives the same bits on every machine. The sign is
+    arbitrary (callers orient it); a repeated smallest eigenvalue gives one vector of its plane.
+    """
+    import math
+
+    C = np.asarray(C, dtype=np.float64)
+    q = (C[0, 0] + C[1, 1] + C[2, 2]) / 3.0
+    p1 = C[0, 1] * C[0, 1] + C[0, 2] * C[0, 2] + C[1, 2] * C[1, 2]
+    p2 = (C[0, 0] - q) * (C[0, 0] - q) + (C[1, 1] - q) * (C[1, 1] - q) + (C[2, 2] - q) * (C[2, 2] - q) + 2.0 * p1
+    if p2 <= 0.0:  # a multiple of the identity: every direction is an eigenvector
+        return np.array([0.0, 0.0, 1.0])
+    p = math.sqrt(p2 / 6.0)
+    B = (C - q * np.eye(3)) / p
+    det_B = (B[0, 0] * (B[1, 1] * B[2, 2] - B[1, 2] * B[2, 1]) - B[0, 1] * (B[1, 0] * B[2, 2] - B[1, 2] * B[2, 0])
+             + B[0, 2] * (B[1, 0] * B[2, 1] - B[1, 1] * B[2, 0]))
+    phi = math.acos(min(max(det_B / 2.0, -1.0), 1.0)) / 3.0
+    lam_min = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)
+    M = C - lam_min * np.eye(3)
+    crosses = np.stack([np.cross(M[0], M[1]), np.cross(M[0], M[2]), np.cross(M[1], M[2])])
+    lengths = norm3(crosses)
+    k = int(np.argmax(lengths))
+    if lengths[k] <= 0.0:  # rank <= 1: any vector orthogonal to the non-zero row
+        row = M[int(np.argmax(norm3(M)))]
+        helper = np.array([1.0, 0.0, 0.0]) if abs(row[0]) < 0.9 * norm3(row) else np.array([0.0, 1.0, 0.0])
+        return unit3(np.cross(row, helper))
+    return crosses[k] / lengths[k]
 
 
 def normalize_to_unit_sphere(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
@@ -105,7 +168,7 @@ def normalize_to_unit_sphere(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarr
     """
     v = np.asarray(vertices, dtype=np.float64)
     centre = 0.5 * (v.min(axis=0) + v.max(axis=0))
-    scale = float(np.linalg.norm(v - centre, axis=1).max())
+    scale = float(norm3(v - centre).max())
     if not np.isfinite(scale) or scale <= 0:
         raise ValueError("cannot normalise a shape with zero extent")
     return (v - centre) / scale, centre, scale

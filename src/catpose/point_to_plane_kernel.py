@@ -1,7 +1,7 @@
-"""Point-to-plane ICP of :mod:`catpose.point_to_plane` as one compiled call for many start poses.
+"""Point-to-plane ICP as one compiled call for many start poses.
 
-Same algorithm, step order and stopping rule as :func:`catpose.point_to_plane.refine_point_to_plane`
-(the NumPy version, this kernel's reference in ``tests/test_cell_grid.py``): pair each transformed
+Same algorithm, step order and stopping rule as the NumPy version in
+``tests/_point_to_plane_reference.py`` (this kernel's reference in ``tests/test_cell_grid.py``): pair each transformed
 source point with its nearest target point within ``max_distance``, solve
 ``min_x sum ((q - s) . n - [s x n, n] . x)^2`` (here by Cholesky on the 6 x 6 normal equations),
 apply ``x`` on the left, stop on a step below 1e-7 or with fewer than 6 pairs. Nearest neighbours

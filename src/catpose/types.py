@@ -19,6 +19,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from catpose.errors import InvalidInputError
+from catpose.geometry import dot3, matmul3, norm3, unit3
 
 
 def _as_points(name: str, array: np.ndarray | None, *, allow_empty: bool = False) -> np.ndarray:
@@ -72,7 +73,7 @@ def validate_pose(name: str, T: np.ndarray) -> np.ndarray:
     if not np.isfinite(T).all():
         raise InvalidInputError(f"{name} is not finite")
     R = T[:3, :3]
-    if np.abs(R @ R.T - np.eye(3)).max() > 1e-4 or np.linalg.det(R) < 0:
+    if np.abs(matmul3(R, R.T) - np.eye(3)).max() > 1e-4 or dot3(np.cross(R[0], R[1]), R[2]) < 0:
         raise InvalidInputError(f"{name} is not a rotation (R R^T != I or det R < 0)")
     return T
 
@@ -139,9 +140,9 @@ class RegistrationProblem:
         object.__setattr__(self, "points_camera", p)
         object.__setattr__(self, "normals_camera", n)
         g = np.asarray(self.ground_normal_camera, dtype=np.float64).reshape(-1)
-        if g.shape != (3,) or not np.isfinite(g).all() or np.linalg.norm(g) < 1e-8:
+        if g.shape != (3,) or not np.isfinite(g).all() or norm3(g) < 1e-8:
             raise InvalidInputError(f"sample {self.sample_id}: ground normal {g} is not a finite non-zero 3-vector")
-        object.__setattr__(self, "ground_normal_camera", g / np.linalg.norm(g))
+        object.__setattr__(self, "ground_normal_camera", unit3(g))
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,4 +1,5 @@
-"""Point-to-plane ICP (Chen & Medioni 1992) in NumPy against a KD-tree of the target.
+"""Point-to-plane ICP (Chen & Medioni 1992) in NumPy against a KD-tree of the target: the test
+reference of the compiled kernel (:mod:`catpose.point_to_plane_kernel`).
 
 Each step pairs every transformed source point ``s`` with its nearest target point ``q``
 (normal ``n``) within ``max_distance`` and solves the linearised least squares
