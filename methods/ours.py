@@ -65,13 +65,11 @@ candidates (the GPU path).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 
 from catpose import cell_grid
-from catpose.cell_grid import CellGrid
 from catpose.errors import InvalidInputError
 from catpose.kabsch import kabsch
 from catpose.lru import LRUCache
@@ -81,73 +79,13 @@ from catpose.methods.descriptors import LPS, Descriptor
 from catpose.methods.dictionary import DictionaryLayout
 from catpose.methods.dictionary_features import dictionary_features
 from catpose.methods.keypoints import farthest_point_indices
+from catpose.methods.ours_candidates import Candidates, Prepared, TemplateFeatures
+from catpose.methods.ours_selection import criterion, finish
 from catpose.methods.ours_settings import OptimiserSettings, SelectionSettings
-from catpose.point_to_plane_kernel import refine_many
+from catpose.methods.ours_solver import IRLS_STAGES, optimise
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
 __all__ = ["Candidates", "OptimiserSettings", "Ours", "SelectionSettings"]
-
-
-
-@dataclass(frozen=True, eq=False)
-class _TemplateFeatures:
-    """Constant per (template, parameters): keypoints (m, 2n, 3) and per-partial descriptors (the
-    cache shared with the correspondence baselines, :mod:`catpose.methods.dictionary_features`),
-    and what the selection searches."""
-
-    keypoints: np.ndarray
-    stacked: object              # the partials' descriptors, stacked for one batched affinity
-    complete_points: np.ndarray  # (M', 3) FPS subset of the complete template for Chamfer terms
-    pairing: CellGrid            # the full template points, searched within refine_max_distance (ICP)
-    truncated: CellGrid          # the same, searched within visibility_trunc (visibility scores)
-    tree: object                 # cKDTree of the same points (unbounded queries)
-
-
-@dataclass(frozen=True, eq=False)
-class _Prepared:
-    """One problem up to the optimiser: features, downsampled input (N', 3), keypoints (n, 3),
-    partial-template keypoints (m, 2n, 3), affinities (m, n, 2n), SVD poses (m, 4, 4), Chamfer
-    source points."""
-
-    feats: _TemplateFeatures
-    points: np.ndarray
-    keypoints: np.ndarray
-    P_t: np.ndarray
-    A: np.ndarray
-    T_svd: np.ndarray
-    chamfer_src: np.ndarray
-
-
-#: the IRLS stages of each optimiser mode
-_IRLS_STAGES = {"none": (), "pose": ("pose",), "joint": ("pose", "joint"), "joint_only": ("joint",)}
-
-
-@dataclass(frozen=True, eq=False)
-class Candidates:
-    """Every candidate of one problem, one per partial template (``m`` of them).
-
-    Attributes:
-        points: (N', 3) downsampled input, camera frame; ``keypoints`` (n, 3) its FPS keypoints;
-            ``chamfer_src`` (chamfer_points, 3) its FPS subset for the Chamfer distances.
-        A: (m, n, 2n) row-normalised affinities (input keypoint -> partial-template keypoint).
-        T_svd: (m, 4, 4) initial poses ``T_template_camera`` (weighted Kabsch on ``A P_t``).
-        T: (m, 4, 4) poses after the optimiser (``mode=none``: ``T_svd`` rounded through the
-            optimiser's float32 6D parameters and re-orthonormalised).
-        losses: (m,) final mean correspondence-weighted keypoint distances (inf: not optimised
-            in stage 2 with ``stage2_top_k``).
-        C: (m, n, 2n) final soft correspondences (``A`` unless stage 2 ran on that candidate).
-        stage2: indices of the candidates stage 2 ran on (all for the paper's setting).
-    """
-
-    points: np.ndarray
-    keypoints: np.ndarray
-    chamfer_src: np.ndarray
-    A: np.ndarray
-    T_svd: np.ndarray
-    T: np.ndarray
-    losses: np.ndarray
-    C: np.ndarray
-    stage2: np.ndarray
 
 
 class Ours(RegistrationMethod):
@@ -175,9 +113,9 @@ class Ours(RegistrationMethod):
         self.selection = selection or SelectionSettings()
         self.chamfer_points = options.positive("method.chamfer_points", chamfer_points, integer=True)
         self.num_keypoints = self.layout.num_keypoints
-        self._features: LRUCache[tuple, _TemplateFeatures] = LRUCache(8)  # holds the shared LPS grids (~25 MB a template)
+        self._features: LRUCache[tuple, TemplateFeatures] = LRUCache(8)  # holds the shared LPS grids (~25 MB a template)
 
-    def template_features(self, template: Template) -> _TemplateFeatures:
+    def template_features(self, template: Template) -> TemplateFeatures:
         """Keypoints and descriptors of every partial template, cached per template and parameters."""
         from scipy.spatial import cKDTree
 
@@ -192,14 +130,14 @@ class Ours(RegistrationMethod):
         # a tiny partial repeats keypoints (padded) so all candidates batch together
         shared = dictionary_features(self.descriptor, self.layout, template, 2 * self.num_keypoints)
         complete = template.points[farthest_point_indices(template.points, self.chamfer_points)]
-        feats = _TemplateFeatures(shared.keypoints, shared.stacked, complete,
+        feats = TemplateFeatures(shared.keypoints, shared.stacked, complete,
                                   cell_grid.build(template.points, sel.refine_max_distance),
                                   cell_grid.build(template.points, sel.visibility_trunc), cKDTree(template.points))
         self._features.put(key, feats)
         return feats
 
     # ----------------------------------------------------------------- candidates
-    def _prepare(self, problem: RegistrationProblem, timings: dict[str, float]) -> _Prepared:
+    def _prepare(self, problem: RegistrationProblem, timings: dict[str, float]) -> Prepared:
         """Everything before the optimiser: keypoints, affinities, SVD poses."""
         t0 = time.perf_counter()
         self.layout.dictionary(problem.template)
@@ -227,7 +165,7 @@ class Ours(RegistrationMethod):
         T0 = kabsch(np.broadcast_to(P_c, (m,) + P_c.shape), A @ P_t)
         chamfer_src = inp.points[farthest_point_indices(inp.points, self.chamfer_points)]
         timings["initial_pose"] = time.perf_counter() - t0
-        return _Prepared(feats, inp.points, P_c, P_t, A, T0, chamfer_src)
+        return Prepared(feats, inp.points, P_c, P_t, A, T0, chamfer_src)
 
     def candidates(self, problem: RegistrationProblem, timings: dict[str, float] | None = None) -> Candidates:
         """Affinities, SVD poses and optimised poses of every candidate (no selection)."""
@@ -252,20 +190,6 @@ class Ours(RegistrationMethod):
         timings["optimization"] = time.perf_counter() - t0
         return Candidates(x.points, P_c, chamfer_src, A, T0, T, losses, C, stage2)
 
-    def _criterion(self, problem: RegistrationProblem, feats: _TemplateFeatures, chamfer_src: np.ndarray,
-                   T: np.ndarray, losses: np.ndarray, allowed: np.ndarray):
-        """Chamfer distances, tilts (deg), kept mask and criterion (inf where not kept), all (m,)."""
-        dists = _chamfer(feats.tree, chamfer_src, T)
-        up = np.asarray(problem.template.up, dtype=np.float64) / np.linalg.norm(problem.template.up)
-        g_template = np.einsum("mij,j->mi", T[:, :3, :3], problem.ground_normal_camera)
-        tilt = np.degrees(np.arccos(np.clip(g_template @ up, -1.0, 1.0)))
-        keep = allowed.copy()
-        if self.selection.gravity_max_deg is not None:
-            keep &= tilt <= self.selection.gravity_max_deg
-            if not keep.any():  # nothing is consistent with gravity: fall back to all allowed
-                keep = allowed.copy()
-        crit = losses if self.selection.rule == "loss" else dists
-        return dists, tilt, keep, np.where(keep, crit, np.inf)
 
     # ----------------------------------------------------------------- main
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
@@ -288,7 +212,7 @@ class Ours(RegistrationMethod):
         timings: list[dict[str, float]] = [{} for _ in problems]
         prepared = [self._prepare(p, tm) for p, tm in zip(problems, timings)]
         t0 = time.perf_counter()
-        solved = irls.solve_many([(x.keypoints, x.P_t, x.A, x.T_svd) for x in prepared], _IRLS_STAGES[opt.mode],
+        solved = irls.solve_many([(x.keypoints, x.P_t, x.A, x.T_svd) for x in prepared], IRLS_STAGES[opt.mode],
                                  opt.irls_beta, opt.irls_iterations, opt.irls_tol, opt.device,
                                  "float32" if opt.device.startswith("cuda") else "float64")
         share = (time.perf_counter() - t0) / max(len(problems), 1)
@@ -300,115 +224,17 @@ class Ours(RegistrationMethod):
         return results
 
     def _finish(self, problem: RegistrationProblem, c: Candidates, timings: dict[str, float]) -> RegistrationResult:
-        """Selection among the candidates and refinement of the selected one."""
-        feats = self.template_features(problem.template)
-        chamfer_src = c.chamfer_src
+        """Selection among the candidates and refinement of the selected one
+        (:func:`catpose.methods.ours_selection.finish`)."""
+        return finish(self.selection, problem, c, self.template_features(problem.template), timings)
 
-        t0 = time.perf_counter()
-        allowed = np.zeros(len(c.T), dtype=bool)
-        allowed[c.stage2] = True
-        dists, tilt_deg, keep, crit = self._criterion(problem, feats, chamfer_src, c.T, c.losses, allowed)
-        best = int(np.argmin(crit))
-        score = float(crit[best])
-        T_best = c.T[best]
-        timings["selection"] = time.perf_counter() - t0
+    def _criterion(self, problem: RegistrationProblem, feats: TemplateFeatures, chamfer_src: np.ndarray,
+                   T: np.ndarray, losses: np.ndarray, allowed: np.ndarray):
+        """Chamfer distances, tilts (deg), kept mask and criterion (inf where not kept), all (m,)
+        (:func:`catpose.methods.ours_selection.criterion`)."""
+        return criterion(self.selection, problem, feats, chamfer_src, T, losses, allowed)
 
-        t0 = time.perf_counter()
-        sel = self.selection
-        half_turn = None
-        template = problem.template
-
-        def refine(T: np.ndarray, points: np.ndarray = chamfer_src) -> np.ndarray:
-            """Poses (B, 4, 4) refined by point-to-plane ICP on ``points`` (all at once, compiled)."""
-            if not sel.refine:
-                return T
-            return refine_many(points, feats.pairing, template.normals, T, sel.refine_max_distance,
-                               sel.refine_iterations)
-
-        if sel.rule == "visibility":
-            from catpose.methods.selection import select_with_half_turns
-            from catpose.methods.selection_kernel import visibility_scores
-
-            input_grid = cell_grid.build(chamfer_src, sel.visibility_trunc)
-
-            def score_of(T: np.ndarray) -> np.ndarray:
-                return visibility_scores(chamfer_src, input_grid, T, feats.truncated, template.normals,
-                                         sel.visibility_trunc)
-
-            # scored and refined on the FPS subset of the Chamfer distances (4x fewer points: the
-            # 4 top_k alternatives cost about what one full refinement did), the winner on all points
-            T_best, score, info = select_with_half_turns(
-                c.T, keep, score_of, refine, problem.ground_normal_camera, np.asarray(template.up, float),
-                sel.gravity_max_deg, sel.top_k, sel.refine_top)
-            T_best = refine(T_best[None], c.points)[0]
-            best, half_turn = info["candidate"], info["half_turn"]
-        elif sel.refine:
-            T_best = refine(T_best[None], c.points)[0]
-            if sel.rule == "chamfer":  # the score of the pose actually returned
-                score = float(_chamfer(feats.tree, chamfer_src, T_best[None])[0])
-        timings["refinement"] = time.perf_counter() - t0
-
-        extras = {"template_index": best, "losses": [float(x) if np.isfinite(x) else None for x in c.losses],
-                  "chamfer": [float(x) for x in dists], "tilt_deg": [float(x) for x in tilt_deg],
-                  "kept": [bool(x) for x in keep], "timings": {k: float(v) for k, v in timings.items()},
-                  "num_input_points": int(len(c.points))}
-        extras["stage2_candidates"] = [int(i) for i in c.stage2]
-        if half_turn is not None:
-            extras["half_turn"] = half_turn  # 0: the candidate itself; 1, 2, 3: turned about x, y, z
-        return RegistrationResult(T_target_source=T_best, score=score, extras=extras)
-
-    # ----------------------------------------------------------------- optimisation
     def _optimize(self, P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray, chamfer_src: np.ndarray,
                   complete: np.ndarray, mode: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The solver on all candidates at once (``mode``: none, pose, joint or joint_only). Returns
-        poses (m, 4, 4), final losses (m,) as mean correspondence-weighted keypoint distances
-        (object-normalised units) and the final soft correspondences C (m, n, 2n)."""
-        opt = self.optimiser
-        if opt.solver == "irls":
-            from catpose.methods import irls
-
-            cuda = opt.device.startswith("cuda")
-            T, losses, C, _ = irls.solve_numpy(P_c, P_t, A, T0, _IRLS_STAGES[mode], opt.irls_beta,
-                                               opt.irls_iterations, opt.irls_tol, opt.device,
-                                               "float32" if cuda else "float64")
-            return T, losses, C
-        import torch
-
-        from catpose.methods.optim import BatchedProblem, _rot6d, optimize
-
-        dev = torch.device(self.optimiser.device)
-        dt = torch.float32
-
-        def tens(a):
-            return torch.as_tensor(np.ascontiguousarray(a), dtype=dt, device=dev)
-
-        w = self.optimiser.chamfer_weight
-        prob = BatchedProblem(tens(P_c), tens(P_t), tens(A), tens(chamfer_src) if w > 0 else None,
-                              tens(complete) if w > 0 else None, w)
-        n = len(P_c)
-        r6 = tens(np.concatenate([T0[:, :3, 0], T0[:, :3, 1]], axis=1))
-        t = tens(T0[:, :3, 3])
-        stages = []
-        if mode in ("pose", "joint"):
-            stages.append(("pose", self.optimiser.steps_pose))
-        if mode in ("joint", "joint_only"):
-            stages.append(("joint", self.optimiser.steps_joint))
-        final, logits = optimize(prob, r6, t, stages, self.optimiser.lr)
-        with torch.no_grad():
-            R = _rot6d(r6)[0].cpu().double().numpy()
-            tt = t.cpu().double().numpy()
-            C = A if logits is None else torch.softmax(logits, dim=2).cpu().double().numpy()
-        # re-orthonormalise in float64 so validate_pose accepts the result
-        U, _, Vt = np.linalg.svd(R)
-        R = U @ Vt
-        T = np.tile(np.eye(4), (len(R), 1, 1))
-        T[:, :3, :3], T[:, :3, 3] = R, tt
-        return T, final.detach().cpu().double().numpy() / n, C
-
-
-def _chamfer(tree, points: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """One-directional Chamfer distance (mean nearest-template-point distance) of ``points``
-    (N, 3) under each pose of ``T`` (B, 4, 4); (B,), object-normalised units. One KD-tree query
-    for all poses (unbounded distances: a KD-tree, not the grid, is the right structure)."""
-    moved = np.einsum("bij,nj->bni", T[:, :3, :3], points) + T[:, None, :3, 3]
-    return tree.query(moved.reshape(-1, 3))[0].reshape(len(T), len(points)).mean(axis=1)
+        """The solver on all candidates at once (:func:`catpose.methods.ours_solver.optimise`)."""
+        return optimise(self.optimiser, P_c, P_t, A, T0, chamfer_src, complete, mode)
