@@ -19,6 +19,7 @@ from catpose.datasets.depthio import fit_ground_plane, read_depth, read_mask_png
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
 from catpose.errors import DatasetError
 from catpose.geometry import apply_R, dot3, make_T, matmul3, stable_seed
+from catpose.types import DepthImage
 
 
 class BopFrames:
@@ -99,6 +100,7 @@ class BopFrames:
             normals_camera=normals, ground_normal_camera=ground, T_object_camera=T_object_camera,
             symmetry_axis=self.symmetry_axis(obj_id, category),
             symmetries=self.discrete_symmetries(obj_id),
+            depth_image=DepthImage(depth_mm / scale, K, mask),
             info={"scene_id": scene_id, "im_id": im_id, "gt_idx": gt_idx, "obj_id": obj_id,
                   "mask_source": source, "visible_pixels": n_pix, "ground_inliers": n_inliers,
                   "ground_vs_object_up_deg": ground_err, "scale_mm": scale,
