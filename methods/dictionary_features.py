@@ -21,7 +21,7 @@ from catpose.methods.dictionary import DictionaryLayout
 from catpose.types import Template
 
 #: templates whose dictionary features stay in memory (LPS: ~25 MB each)
-CACHE_SIZE = 8
+CACHE_SIZE = 40
 
 _CACHE: LRUCache[tuple, "DictionaryFeatures"] = LRUCache(CACHE_SIZE)
 

@@ -81,11 +81,11 @@ from catpose.methods.dictionary_features import dictionary_features
 from catpose.methods.keypoints import farthest_point_indices
 from catpose.methods.ours_candidates import Candidates, Prepared, TemplateFeatures
 from catpose.methods.ours_selection import criterion, finish
-from catpose.methods.ours_settings import OptimiserSettings, SelectionSettings
+from catpose.methods.ours_settings import OptimiserSettings, RestingSettings, SelectionSettings
 from catpose.methods.ours_solver import IRLS_STAGES, optimise
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
-__all__ = ["Candidates", "OptimiserSettings", "Ours", "SelectionSettings"]
+__all__ = ["Candidates", "OptimiserSettings", "Ours", "RestingSettings", "SelectionSettings"]
 
 
 class Ours(RegistrationMethod):
@@ -98,22 +98,30 @@ class Ours(RegistrationMethod):
         optimiser: two-stage Adam settings (:class:`OptimiserSettings`).
         selection: selection rule, gravity filter and refinement (:class:`SelectionSettings`).
         chamfer_points: input / template points (FPS subsets) of the Chamfer distances.
+        resting: gravity hypotheses beyond the template's up (:class:`RestingSettings`; ``rule=depth``
+            with a depth image only).
     """
 
     def __init__(self, descriptor: Descriptor | None = None, dictionary: DictionaryLayout | None = None,
                  optimiser: OptimiserSettings | None = None, selection: SelectionSettings | None = None,
-                 chamfer_points: int = 256) -> None:
+                 chamfer_points: int = 256, resting: RestingSettings | None = None) -> None:
         for key, value, cls in (("descriptor", descriptor, Descriptor), ("dictionary", dictionary, DictionaryLayout),
                                 ("optimiser", optimiser, OptimiserSettings),
-                                ("selection", selection, SelectionSettings)):
+                                ("selection", selection, SelectionSettings), ("resting", resting, RestingSettings)):
             options.instance_of(f"method.{key}", value, cls)
+        from dataclasses import replace
+
         self.descriptor = descriptor or LPS()
         self.layout = dictionary or DictionaryLayout()
         self.optimiser = optimiser or OptimiserSettings()
         self.selection = selection or SelectionSettings()
+        self.resting = resting or RestingSettings()
+        # the rule for problems without a depth image (rule=depth falls back to depth_fallback)
+        self._point_selection = (replace(self.selection, rule=self.selection.depth_fallback)
+                                 if self.selection.rule == "depth" else self.selection)
         self.chamfer_points = options.positive("method.chamfer_points", chamfer_points, integer=True)
         self.num_keypoints = self.layout.num_keypoints
-        self._features: LRUCache[tuple, TemplateFeatures] = LRUCache(8)  # holds the shared LPS grids (~25 MB a template)
+        self._features: LRUCache[tuple, TemplateFeatures] = LRUCache(40)  # holds the shared LPS grids (~25 MB a template)
 
     def template_features(self, template: Template) -> TemplateFeatures:
         """Keypoints and descriptors of every partial template, cached per template and parameters."""
@@ -137,19 +145,25 @@ class Ours(RegistrationMethod):
         return feats
 
     # ----------------------------------------------------------------- candidates
-    def _prepare(self, problem: RegistrationProblem, timings: dict[str, float]) -> Prepared:
-        """Everything before the optimiser: keypoints, affinities, SVD poses."""
+    def input_features(self, problem: RegistrationProblem):
+        """The input's keypoints and descriptors (independent of the template)."""
+        inp = self.descriptor.keypoint_features(problem.points_camera, problem.normals_camera, self.num_keypoints,
+                                                problem.ground_normal_camera)
+        if len(inp.indices) < 3:
+            raise InvalidInputError(f"sample {problem.sample_id}: only {len(inp.indices)} points after voxel "
+                                    f"downsampling at {self.descriptor.voxel_size}; lower method.descriptor.voxel_size")
+        return inp
+
+    def _prepare(self, problem: RegistrationProblem, timings: dict[str, float], inp=None) -> Prepared:
+        """Everything before the optimiser: keypoints, affinities, SVD poses (``inp``: the input's
+        features when already computed, :meth:`input_features`)."""
         t0 = time.perf_counter()
         self.layout.dictionary(problem.template)
         timings["dictionary"] = time.perf_counter() - t0
 
         t0 = time.perf_counter()
         feats = self.template_features(problem.template)
-        inp = self.descriptor.keypoint_features(problem.points_camera, problem.normals_camera, self.num_keypoints,
-                                                problem.ground_normal_camera)
-        if len(inp.indices) < 3:
-            raise InvalidInputError(f"sample {problem.sample_id}: only {len(inp.indices)} points after voxel "
-                                    f"downsampling at {self.descriptor.voxel_size}; lower method.descriptor.voxel_size")
+        inp = self.input_features(problem) if inp is None else inp
         P_c = inp.keypoints
         timings["descriptors"] = time.perf_counter() - t0
 
@@ -167,10 +181,12 @@ class Ours(RegistrationMethod):
         timings["initial_pose"] = time.perf_counter() - t0
         return Prepared(feats, inp.points, P_c, P_t, A, T0, chamfer_src)
 
-    def candidates(self, problem: RegistrationProblem, timings: dict[str, float] | None = None) -> Candidates:
-        """Affinities, SVD poses and optimised poses of every candidate (no selection)."""
+    def candidates(self, problem: RegistrationProblem, timings: dict[str, float] | None = None,
+                   inp=None) -> Candidates:
+        """Affinities, SVD poses and optimised poses of every candidate (no selection); ``inp``:
+        the input's features when already computed (:meth:`input_features`)."""
         timings = {} if timings is None else timings
-        x = self._prepare(problem, timings)
+        x = self._prepare(problem, timings, inp)
         feats, P_c, P_t, A, T0, chamfer_src = x.feats, x.keypoints, x.P_t, x.A, x.T_svd, x.chamfer_src
         m = len(P_t)
         t0 = time.perf_counter()
@@ -194,7 +210,67 @@ class Ours(RegistrationMethod):
     # ----------------------------------------------------------------- main
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
         timings: dict[str, float] = {}
+        if self.uses_depth(problem):
+            return self._register_depth(problem, timings)
         return self._finish(problem, self.candidates(problem, timings), timings)
+
+    def uses_depth(self, problem: RegistrationProblem) -> bool:
+        """Whether ``problem`` is selected by the depth check: ``rule=depth``, a depth image with a
+        non-empty mask and a template mesh (otherwise the ``depth_fallback`` rule applies)."""
+        image = problem.depth_image
+        return (self.selection.rule == "depth" and image is not None and problem.template.has_mesh
+                and bool(image.mask.any()))
+
+    def _register_depth(self, problem: RegistrationProblem, timings: dict[str, float]) -> RegistrationResult:
+        """The depth check on the template's own up; the other gravity hypotheses when that does
+        not explain the image (fewer than ``resting.escalate_below`` of the mask's pixels); the
+        ``depth_poor_fit_rule`` among the own up's candidates when no hypothesis does (fewer than
+        ``selection.depth_min_inliers``: a template unlike the object)
+        (:func:`catpose.methods.ours_depth.select_by_depth`)."""
+        from dataclasses import replace
+
+        from catpose.methods.ours_depth import select_by_depth
+        from catpose.methods.resting_hypotheses import hypotheses
+
+        t0 = time.perf_counter()
+        hyps = list(hypotheses(problem.template, self.resting))
+        timings["hypotheses"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        inp = self.input_features(problem)
+        timings["descriptors"] = time.perf_counter() - t0
+        cands, feats = [], []
+
+        def add(h) -> None:
+            part: dict[str, float] = {}
+            cands.append(self.candidates(replace(problem, template=h.template), part, inp))
+            feats.append(self.template_features(h.template))
+            for name, value in part.items():
+                timings[name] = timings.get(name, 0.0) + value
+
+        add(hyps[0])
+        result = select_by_depth(self.selection, problem, hyps[:1], cands, feats, timings)
+        escalated = len(hyps) > 1 and result.extras["depth_inliers"] < self.resting.escalate_below
+        if escalated:
+            for h in hyps[1:]:
+                add(h)
+            result = select_by_depth(self.selection, problem, hyps, cands, feats, timings)
+        extras = dict(result.extras, escalated=bool(escalated))
+        if result.extras["depth_inliers"] < self.selection.depth_min_inliers:
+            # no hypothesis explains the image: the template is unlike the object (category level);
+            # the point rule chooses among the own up's candidates, scored by depth like the rest
+            from catpose.methods.depth_check import DepthVerifier
+
+            point = replace(self.selection, rule=self.selection.depth_poor_fit_rule)
+            fallback = finish(point, problem, cands[0], feats[0], timings)
+            verifier = DepthVerifier(problem.template, problem.depth_image, self.selection.depth_tau,
+                                     self.selection.depth_pixels, self.selection.depth_max_rays,
+                                     self.selection.depth_free_weight)
+            score = float(verifier.scores(fallback.T_target_source[None])[0])
+            extras.update(fallback.extras, depth_poor_fit=True, depth_score=score,
+                          timings={k: float(v) for k, v in timings.items()})
+            return RegistrationResult(T_target_source=fallback.T_target_source, score=score, extras=extras)
+        extras["depth_poor_fit"] = False
+        return RegistrationResult(T_target_source=result.T_target_source, score=result.score, extras=extras)
 
     def register_batch(self, problems: Sequence[RegistrationProblem]) -> list[RegistrationResult]:
         """:meth:`register` for several problems, with one solver launch for the candidates of all
@@ -208,6 +284,8 @@ class Ours(RegistrationMethod):
 
         opt = self.optimiser
         if opt.solver != "irls" or (opt.mode == "joint" and opt.stage2_top_k > 0):
+            return [self.register(p) for p in problems]
+        if any(self.uses_depth(p) for p in problems):  # several hypotheses each: one by one
             return [self.register(p) for p in problems]
         timings: list[dict[str, float]] = [{} for _ in problems]
         prepared = [self._prepare(p, tm) for p, tm in zip(problems, timings)]
@@ -225,14 +303,15 @@ class Ours(RegistrationMethod):
 
     def _finish(self, problem: RegistrationProblem, c: Candidates, timings: dict[str, float]) -> RegistrationResult:
         """Selection among the candidates and refinement of the selected one
-        (:func:`catpose.methods.ours_selection.finish`)."""
-        return finish(self.selection, problem, c, self.template_features(problem.template), timings)
+        (:func:`catpose.methods.ours_selection.finish`; ``rule=depth`` without a depth image: its
+        ``depth_fallback`` rule)."""
+        return finish(self._point_selection, problem, c, self.template_features(problem.template), timings)
 
     def _criterion(self, problem: RegistrationProblem, feats: TemplateFeatures, chamfer_src: np.ndarray,
                    T: np.ndarray, losses: np.ndarray, allowed: np.ndarray):
         """Chamfer distances, tilts (deg), kept mask and criterion (inf where not kept), all (m,)
         (:func:`catpose.methods.ours_selection.criterion`)."""
-        return criterion(self.selection, problem, feats, chamfer_src, T, losses, allowed)
+        return criterion(self._point_selection, problem, feats, chamfer_src, T, losses, allowed)
 
     def _optimize(self, P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray, chamfer_src: np.ndarray,
                   complete: np.ndarray, mode: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
