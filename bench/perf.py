@@ -49,7 +49,8 @@ from typing import Any, Sequence
 
 from catpose.errors import ConfigError
 
-STAGES = ("dictionary", "descriptors", "affinity", "initial_pose", "optimization", "selection", "refinement")
+STAGES = ("dictionary", "descriptors", "affinity", "initial_pose", "optimization", "selection", "refinement",
+          "hypotheses", "verification")
 REFERENCE = "fgr"
 
 

@@ -81,6 +81,7 @@ SUITES: dict[str, dict[str, RealSet]] = {"real": SETS, "clutter": CLUTTER_SETS}
 
 METHODS: dict[str, MethodVariant] = {v.label: v for v in (
     MethodVariant("ours", "ours"),
+    MethodVariant("ours-visibility", "ours", ("method.selection.rule=visibility",)),  # the rule before issue 22
     MethodVariant("icp", "icp"),
     MethodVariant("fgr", "fgr"),
     MethodVariant("teaser", "teaser"),

@@ -121,7 +121,9 @@ class Ours(RegistrationMethod):
                                  if self.selection.rule == "depth" else self.selection)
         self.chamfer_points = options.positive("method.chamfer_points", chamfer_points, integer=True)
         self.num_keypoints = self.layout.num_keypoints
-        self._features: LRUCache[tuple, TemplateFeatures] = LRUCache(40)  # holds the shared LPS grids (~25 MB a template)
+        # holds the shared LPS grids (~25 MB a template); a template turned for a gravity hypothesis
+        # is a template of its own, so the clutter set's 8 objects need up to 32
+        self._features: LRUCache[tuple, TemplateFeatures] = LRUCache(32)
 
     def template_features(self, template: Template) -> TemplateFeatures:
         """Keypoints and descriptors of every partial template, cached per template and parameters."""

@@ -112,7 +112,7 @@ class SelectionSettings:
             (``visibility``, ``chamfer`` or ``loss``).
     """
 
-    rule: str = "visibility"
+    rule: str = "depth"
     gravity_max_deg: float | None = 30.0
     refine: bool = True
     refine_max_distance: float = 0.05
@@ -128,7 +128,7 @@ class SelectionSettings:
     depth_rest_prior: float = 0.03
     depth_top_k: int = 5
     depth_final_refine: int = 3
-    depth_min_inliers: float = 0.0
+    depth_min_inliers: float = 0.9
     depth_poor_fit_rule: str = "chamfer"
     depth_fallback: str = "visibility"
 
