@@ -171,9 +171,11 @@ class DepthVerifier:
             out.append((mask_cost + self.free_weight * free) / n_mask)
         return np.asarray(out, dtype=np.float64)
 
-    def fit(self, T_template_camera: np.ndarray) -> np.ndarray:
-        """(B, 2) per pose: the fraction of mask pixels explained within ``tau`` and the free-space
-        violations per mask pixel (how well a pose fits, in units that do not depend on scale)."""
+    def fit(self, T_template_camera: np.ndarray, tolerance: float | None = None) -> np.ndarray:
+        """(B, 2) per pose: the fraction of mask pixels explained within ``tolerance`` (default
+        ``tau``) and the free-space violations (by more than ``tolerance``) per mask pixel: how
+        well a pose fits, in units that do not depend on the object's size."""
+        tol = self.tau if tolerance is None else float(tolerance)
         L = self.lattice
         n_mask = max(self.mask_pixels, 1)
         out = []
@@ -183,7 +185,7 @@ class DepthVerifier:
                 continue
             o, m = L.depth[win], L.mask[win]
             hit = r > 0
-            inliers = (m & hit & (np.abs(r - o) <= self.tau)).sum()
-            free = (~m & hit & (o > 0) & (o - r > self.tau)).sum()
+            inliers = (m & hit & (np.abs(r - o) <= tol)).sum()
+            free = (~m & hit & (o > 0) & (o - r > tol)).sum()
             out.append((inliers / n_mask, free / n_mask))
         return np.asarray(out, dtype=np.float64).reshape(-1, 2)

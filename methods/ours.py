@@ -227,7 +227,7 @@ class Ours(RegistrationMethod):
         """The depth check on the template's own up; the other gravity hypotheses when that does
         not explain the image (fewer than ``resting.escalate_below`` of the mask's pixels); the
         ``depth_poor_fit_rule`` among the own up's candidates when no hypothesis does (fewer than
-        ``selection.depth_min_inliers``: a template unlike the object)
+        ``selection.depth_min_inliers`` within ``depth_fit_tau``: a template unlike the object)
         (:func:`catpose.methods.ours_depth.select_by_depth`)."""
         from dataclasses import replace
 
@@ -257,7 +257,7 @@ class Ours(RegistrationMethod):
                 add(h)
             result = select_by_depth(self.selection, problem, hyps, cands, feats, timings)
         extras = dict(result.extras, escalated=bool(escalated))
-        if result.extras["depth_inliers"] < self.selection.depth_min_inliers:
+        if result.extras["depth_inliers_loose"] < self.selection.depth_min_inliers:
             # no hypothesis explains the image: the template is unlike the object (category level);
             # the point rule chooses among the own up's candidates, scored by depth like the rest
             from catpose.methods.depth_check import DepthVerifier

@@ -91,11 +91,16 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
     timings["refinement"] += time.perf_counter() - t0
     t0 = time.perf_counter()
     T_top_t = _in_template(hyps, [expanded[i] for i in top], T_top)
+    if sel.depth_final_pixels > sel.depth_pixels:   # the final comparison on a finer lattice
+        verifier = DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, sel.depth_final_pixels,
+                                 sel.depth_max_rays * sel.depth_final_pixels // sel.depth_pixels,
+                                 sel.depth_free_weight)
     top_scores = verifier.scores(T_top_t)
     top_cost, top_keep, rest_top = _costs(sel, top_scores, T_top_t, g, ups, axis)
     b = int(np.argmin(np.where(top_keep, top_cost, np.inf))) if top_keep.any() else int(np.argmin(top_cost))
     best, T_out, score = int(top[b]), T_top_t[b], float(top_scores[b])
     fit = verifier.fit(T_out[None])[0]
+    fit_loose = verifier.fit(T_out[None], sel.depth_fit_tau)[0]
     timings["verification"] += time.perf_counter() - t0
     if debug is not None:
         debug.update(verifier=verifier, hyps=hyps, cands=cands, pool=pool, prescores=pre, order=order,
@@ -107,6 +112,7 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
     extras = {"template_index": i, "hypothesis": k, "half_turn": j, "resting": rest,
               "resting_up": [float(x) for x in hyps[rest].up], "num_hypotheses": len(hyps), "depth_score": score,
               "depth_inliers": float(fit[0]), "depth_free": float(fit[1]),
+              "depth_inliers_loose": float(fit_loose[0]),
               "depth_stride": verifier.lattice.stride, "depth_mask_pixels": verifier.mask_pixels,
               "prescores": [float(x) for x in np.sort(pre)[:8]],
               "timings": {name: float(v) for name, v in timings.items()},

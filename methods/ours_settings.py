@@ -96,6 +96,8 @@ class SelectionSettings:
         depth_max_rays: ``depth``: at most this many rays per pose (a coarser lattice otherwise).
         depth_free_weight: ``depth``: cost of a free-space violation relative to an unexplained
             mask pixel.
+        depth_final_pixels: ``depth``: lattice pixels in the mask for the last comparison (of the
+            ``depth_final_refine`` poses; at most ``depth_pixels`` means the same lattice).
         depth_top_k: ``depth``: candidates (of all gravity hypotheses, by their depth score) expanded
             by their half turns and refined.
         depth_final_refine: ``depth``: poses refined on all input points and scored again at the
@@ -105,8 +107,9 @@ class SelectionSettings:
         depth_prescreen: ``depth``: candidates of each gravity hypothesis scored by the depth check,
             those of lowest one-directional Chamfer distance (0: all).
         depth_min_inliers: ``depth``: when the best pose explains fewer of the mask's pixels than
-            this (within ``depth_tau``), the template is taken to be unlike the object and
+            this within ``depth_fit_tau``, the template is taken to be unlike the object and
             ``depth_poor_fit_rule`` chooses among the candidates of the template's own up instead.
+        depth_fit_tau: ``depth``: the tolerance of that test (object-normalised unit).
         depth_poor_fit_rule: that rule (``chamfer``, ``visibility`` or ``loss``).
         depth_fallback: the rule used when ``rule=depth`` has no depth image or no template mesh
             (``visibility``, ``chamfer`` or ``loss``).
@@ -128,7 +131,9 @@ class SelectionSettings:
     depth_rest_prior: float = 0.03
     depth_top_k: int = 5
     depth_final_refine: int = 3
+    depth_final_pixels: int = 300
     depth_min_inliers: float = 0.9
+    depth_fit_tau: float = 0.2
     depth_poor_fit_rule: str = "chamfer"
     depth_fallback: str = "visibility"
 
@@ -142,8 +147,11 @@ class SelectionSettings:
         set_(self, "depth_max_rays", options.positive(k + "depth_max_rays", self.depth_max_rays, integer=True))
         set_(self, "depth_free_weight", options.non_negative(k + "depth_free_weight", self.depth_free_weight))
         set_(self, "depth_min_inliers", options.non_negative(k + "depth_min_inliers", self.depth_min_inliers))
+        set_(self, "depth_fit_tau", options.positive(k + "depth_fit_tau", self.depth_fit_tau))
         set_(self, "depth_poor_fit_rule", options.one_of(k + "depth_poor_fit_rule", self.depth_poor_fit_rule,
                                                          ("visibility", "chamfer", "loss")))
+        set_(self, "depth_final_pixels", options.positive(k + "depth_final_pixels", self.depth_final_pixels,
+                                                          integer=True))
         set_(self, "depth_top_k", options.positive(k + "depth_top_k", self.depth_top_k, integer=True))
         set_(self, "depth_final_refine", options.positive(k + "depth_final_refine", self.depth_final_refine,
                                                           integer=True))
