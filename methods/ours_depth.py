@@ -27,6 +27,7 @@ candidate and half turn won.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -88,6 +89,9 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
     T_top = T_exp[top].copy()
     if sel.refine:
         T_top = _refine(sel, hyps, cands, feats, [expanded[i][0] for i in top], T_top, "points")
+        if sel.depth_fine_distance > 0:   # then pairing only within a tighter distance: bleed and noise let go
+            T_top = _refine(replace(sel, refine_max_distance=min(sel.depth_fine_distance, sel.refine_max_distance)),
+                            hyps, cands, feats, [expanded[i][0] for i in top], T_top, "points")
     timings["refinement"] += time.perf_counter() - t0
     t0 = time.perf_counter()
     T_top_t = _in_template(hyps, [expanded[i] for i in top], T_top)

@@ -96,6 +96,8 @@ class SelectionSettings:
         depth_max_rays: ``depth``: at most this many rays per pose (a coarser lattice otherwise).
         depth_free_weight: ``depth``: cost of a free-space violation relative to an unexplained
             mask pixel.
+        depth_fine_distance: ``depth``: after the refinement on all points, the last poses are
+            refined again pairing only within this distance (0: not).
         depth_final_pixels: ``depth``: lattice pixels in the mask for the last comparison (of the
             ``depth_final_refine`` poses; at most ``depth_pixels`` means the same lattice).
         depth_top_k: ``depth``: candidates (of all gravity hypotheses, by their depth score) expanded
@@ -132,6 +134,7 @@ class SelectionSettings:
     depth_top_k: int = 5
     depth_final_refine: int = 3
     depth_final_pixels: int = 300
+    depth_fine_distance: float = 0.0
     depth_min_inliers: float = 0.9
     depth_fit_tau: float = 0.2
     depth_poor_fit_rule: str = "chamfer"
@@ -150,6 +153,7 @@ class SelectionSettings:
         set_(self, "depth_fit_tau", options.positive(k + "depth_fit_tau", self.depth_fit_tau))
         set_(self, "depth_poor_fit_rule", options.one_of(k + "depth_poor_fit_rule", self.depth_poor_fit_rule,
                                                          ("visibility", "chamfer", "loss")))
+        set_(self, "depth_fine_distance", options.non_negative(k + "depth_fine_distance", self.depth_fine_distance))
         set_(self, "depth_final_pixels", options.positive(k + "depth_final_pixels", self.depth_final_pixels,
                                                           integer=True))
         set_(self, "depth_top_k", options.positive(k + "depth_top_k", self.depth_top_k, integer=True))
