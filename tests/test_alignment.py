@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.bench import align as align_cmd
+from catpose.bench.category import align as align_cmd
 from catpose.datasets.alignment import (FLIP, axis_aligned_rotations, chamfer_distance, estimate_alignment,
                                         estimate_table, read_alignment_table, rotation_candidates, synchronize,
                                         write_alignment_table, yaw_deg_of, yaw_flip_hypotheses, yaw_rotations)
@@ -219,7 +219,7 @@ def test_experiment_configs_compose_and_leave_the_templates_views_out(name):
 def test_experiment_sample_ids_are_every_non_template_view(name, every, shared_data, monkeypatch):
     from hydra import compose, initialize_config_module
 
-    from catpose.bench.build import build_from_config
+    from catpose.bench.run.build import build_from_config
 
     monkeypatch.chdir(COMMITTED.parents[1])  # the configs' paths are relative to the repository root
     with initialize_config_module("catpose.configs", version_base=None):

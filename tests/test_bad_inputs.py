@@ -21,10 +21,10 @@ import pytest
 from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
-from catpose.bench import rundir
-from catpose.bench.build import build_from_config
-from catpose.bench.rundir import LOCK_FILE, read_samples
-from catpose.bench.runner import run
+from catpose.bench.run import rundir
+from catpose.bench.run.build import build_from_config
+from catpose.bench.run.rundir import LOCK_FILE, read_samples
+from catpose.bench.run.runner import run
 from catpose.errors import RunAborted
 from catpose.errors import CatposeError, ConfigError, DatasetError
 
@@ -130,13 +130,13 @@ def test_wrong_option_values_name_the_key(group, options, needle):
     ("float", {"float"}), ("int | None", {"int", "None"}), ("Optional[float]", {"float", "None"}),
     (float, {"float"}), ("list[float]", None), ("tuple[float, ...] | list[float]", None), ("None", None)])
 def test_scalar_annotations_are_read(annotation, kinds):
-    from catpose.bench.build import _scalar_annotation
+    from catpose.bench.run.build import _scalar_annotation
 
     assert _scalar_annotation(annotation) == kinds
 
 
 def test_right_option_values_pass_the_check():
-    from catpose.bench.build import check_constructor_args
+    from catpose.bench.run.build import check_constructor_args
 
     # an int for a float, an integral float for an int, None for an optional, a number for a str
     check_constructor_args({"_target_": "catpose.methods.ours.Ours", "chamfer_points": 256.0,
@@ -145,8 +145,8 @@ def test_right_option_values_pass_the_check():
 
 
 def test_every_shipped_config_passes_the_type_check():
-    from catpose.bench.run_cmd import available
-    from catpose.bench.build import check_constructor_args
+    from catpose.bench.run.command import available
+    from catpose.bench.run.build import check_constructor_args
 
     for group in ("method", "dataset", "protocol"):
         for name in available(group):
@@ -272,7 +272,7 @@ def test_output_root_that_is_a_file(tmp_path):
 def test_unwritable_or_full_output_directory_aborts_without_recording(tmp_path, monkeypatch, code, needle):
     """Tests run as root here, so a read-only folder cannot be made with chmod: the OSError is
     injected where the runner writes a sample (as a full disk would raise it)."""
-    from catpose.bench import runner
+    from catpose.bench.run import runner
 
     out = run(toy_cfg(tmp_path, ["limit=1"]))
     real = rundir.SampleWriter.write

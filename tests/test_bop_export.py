@@ -14,8 +14,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench import bop_eval, predictions
-from catpose.bench.predictions import export_bop, read_predictions, score_predictions, write_run
+from catpose.bench.scoring import bop_eval
+
+from catpose.bench.interop import predictions
+from catpose.bench.interop.predictions import export_bop, read_predictions, score_predictions, write_run
 from catpose.datasets.bop import BOP
 from catpose.errors import InvalidInputError
 from catpose.geometry import make_T
@@ -23,7 +25,7 @@ from catpose.geometry import make_T
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_loaders_bop import T_camera_model, bop_root  # noqa: E402, F401  (the rendered scene fixture)
 
-CFG = {"method": {"name": "ours", "_target_": "x.Y"}, "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.GtModel"},
+CFG = {"method": {"name": "ours", "_target_": "x.Y"}, "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"},
        "seed": 0}
 ALL_METRICS = ["ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "add@0.1", "mssd@0.1", "mspd@10", "5deg5cm", "10deg10cm"]
 
@@ -35,7 +37,7 @@ def _dataset_cfg(root: Path, categories: dict) -> dict:
 
 def _gt_rows(ds: BOP, runtimes: dict[int, float] | None = None) -> list[dict]:
     """Run rows whose estimate is the ground truth, from the dataset itself (gt_model protocol)."""
-    from catpose.bench.protocols import GtModel
+    from catpose.bench.protocols.absolute import GtModel
 
     rows = []
     for k, oid in enumerate(ds.observation_ids()):
@@ -100,7 +102,7 @@ def test_export_of_a_two_object_image_passes_the_toolkit_checks_and_scores_perfe
     assert (table[ALL_METRICS].to_numpy() == 1.0).all()
     assert errs["mssd"].max() < 1e-3 and errs["mspd"].max() < 1e-3  # mm, px
     # bench table reads the same file: per-object and per-category rows, chosen metrics
-    from catpose.bench.tables import main as table_main
+    from catpose.bench.report.tables import main as table_main
 
     table_out = tmp_path / "t.md"
     assert table_main([str(scored), "--bop-metrics", "ar_mssd,10deg10cm", "--out", str(table_out)]) == 0

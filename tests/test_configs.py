@@ -48,7 +48,7 @@ def _compose(overrides: list[str]):
 def test_config_composes_and_builds(group: str, name: str, tmp_path: Path) -> None:
     from omegaconf import OmegaConf
 
-    from catpose.bench.build import build_from_config
+    from catpose.bench.run.build import build_from_config
 
     top = group.split("/")[0]
     if group in RUN_GROUPS:

@@ -38,13 +38,13 @@ def test_wheel_installs_and_hydra_finds_its_configs(tmp_path):
     wheel = next((tmp_path / "w").glob("catpose-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "catpose/configs/run.yaml" in names and "catpose/configs/method/icp.yaml" in names
-    assert "catpose/bench/runner.py" in names and "catpose/datasets/render.py" in names
+    assert "catpose/bench/run/runner.py" in names and "catpose/datasets/render.py" in names
     assert not any(n.startswith(("datasets/", "methods/", "bench/")) for n in names)
     target = tmp_path / "site"
     r = _run([sys.executable, "-m", "pip", "install", "--no-deps", "--target", str(target), str(wheel)])
     assert r.returncode == 0, r.stderr[-2000:]
     probe = """
-import catpose, catpose.bench.run_cmd as rc
+import catpose, catpose.bench.run.command as rc
 from hydra import compose, initialize_config_module
 assert catpose.__file__.startswith(TARGET), catpose.__file__
 assert 'icp' in rc.available('method') and 'gt_model' in rc.available('protocol')

@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from catpose.bench import perf
+from catpose.bench.perf import registration as perf
 from catpose.errors import ConfigError
 from catpose.types import RegistrationResult
 
@@ -110,7 +110,7 @@ def test_bad_arguments_are_config_errors():
 
 
 def test_solvers_flag_delegates_to_the_solver_benchmark(monkeypatch):
-    import catpose.bench.perf_solvers as ps
+    import catpose.bench.perf.solvers as ps
 
     seen = []
     monkeypatch.setattr(ps, "main", lambda argv: seen.append(argv) or 0)
@@ -131,7 +131,7 @@ def test_labels_let_one_config_run_twice_with_its_own_options():
 
 def test_solver_only_gpu_check_runs_on_cpu(tmp_path):
     pytest.importorskip("torch")
-    from catpose.bench import perf_gpu
+    from catpose.bench.perf import gpu as perf_gpu
 
     out = tmp_path / "gpu.csv"
     assert perf_gpu.main(["--devices", "cpu", "--batches", "1,3", "--repeat", "1", "--out", str(out)]) == 0

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench import plots
+from catpose.bench.report import plots
 from catpose.geometry import axis_angle_to_R, make_T
 
 # Errors in degrees (None: failed). "ICP" is near zero everywhere: it must stay visible.

@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench import predictions
-from catpose.bench.predictions import export_bop, read_predictions, score_predictions, write_run
+from catpose.bench.interop import predictions
+from catpose.bench.interop.predictions import export_bop, read_predictions, score_predictions, write_run
 from catpose.errors import InvalidInputError
 from catpose.geometry import axis_angle_to_R, make_T, random_rotation
 
@@ -35,7 +35,7 @@ def _rows(info_fn=lambda i: {}) -> list[dict]:
 
 
 CFG = {"method": {"name": "ours", "_target_": "x.Y"}, "dataset": {"name": "toy"},
-       "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.GtModel"}, "seed": 0}
+       "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}, "seed": 0}
 
 
 @pytest.mark.parametrize("bop_info", [False, True])
@@ -64,7 +64,7 @@ def test_bop_round_trip(tmp_path: Path, bop_info: bool):
     assert errs["mug/i0/v0"] == pytest.approx(5.0, abs=1e-3) and errs["can/i3/v0"] == pytest.approx(70.0, abs=1e-3)
     assert errs["can/i2/v0"] == 180.0 and back[2]["error"] == "no prediction"
     trans = {r["sample_id"]: r["trans_err"] for r in back if r["status"] == "ok"}
-    from catpose.bench.metrics import sample_errors
+    from catpose.bench.scoring.metrics import sample_errors
 
     r0 = _rows()[0]
     expected = sample_errors(np.reshape(r0["T_est"], (4, 4)), np.reshape(r0["T_gt"], (4, 4)))["trans_err"]
@@ -151,7 +151,7 @@ def test_score_against_dataset_config(tmp_path: Path):
 @pytest.mark.data
 def test_bop_export_reproduces_scene_gt_on_real_tyol_frame(shared_data: Path, tmp_path: Path):
     """Exporting the ground truth of the shared TYO-L frame gives back BOP's own cam_R_m2c / cam_t_m2c."""
-    from catpose.bench.protocols import GtModel
+    from catpose.bench.protocols.absolute import GtModel
     from catpose.datasets.bop import BOP
 
     root = shared_data / "bop" / "tyol"

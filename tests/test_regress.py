@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
-from catpose.bench import regress
-from catpose.bench.golden import perturbed, read_golden, write_golden
+from catpose.bench.regress import regress
+from catpose.bench.regress.golden import perturbed, read_golden, write_golden
 
 
 def _row(err, status="ok", T=None, category="mug"):
@@ -66,7 +66,7 @@ def test_accuracy_tolerance_counts_samples_near_the_threshold():
 
 
 def test_golden_round_trip_is_bit_exact_and_perturbation_is_tiny(tmp_path: Path):
-    from catpose.bench.protocols import GtModel
+    from catpose.bench.protocols.absolute import GtModel
     from catpose.datasets.synthetic import SyntheticDataset
 
     ds = SyntheticDataset(seed=0, categories=["mug", "can"], instances_per_category=1, views_per_instance=1,
@@ -132,7 +132,7 @@ def test_injected_regression_fails_the_gate(tmp_path: Path, repo_root: Path, cap
 def test_committed_reference_passes_under_two_blas_kernels(repo_root: Path):
     """The committed reference holds under two OpenBLAS kernels (what .ci/run also checks)."""
     for kernel in ("Haswell", "Sandybridge"):
-        proc = subprocess.run([sys.executable, "-m", "catpose.bench.regress", "--suite", "synthetic",
+        proc = subprocess.run([sys.executable, "-m", "catpose.bench.regress.regress", "--suite", "synthetic",
                                "--methods", "icp,ours"], env=dict(os.environ, OPENBLAS_CORETYPE=kernel),
                               capture_output=True, text=True, cwd=repo_root)
         assert proc.returncode == 0, proc.stdout + proc.stderr

@@ -10,13 +10,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench import tables
-from catpose.bench.predictions import write_run
-from catpose.bench.report import build_report, main as report_main, qualitative_picks
+from catpose.bench.report import tables
+from catpose.bench.interop.predictions import write_run
+from catpose.bench.report.report import build_report, main as report_main, qualitative_picks
 from catpose.geometry import axis_angle_to_R, make_T
 
-GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.GtModel"}
-TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.Templates", "max_templates": None}
+GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}
+TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.absolute.Templates", "max_templates": None}
 HASH = re.compile(r"\b[0-9a-f]{8}\b")
 
 

@@ -15,8 +15,8 @@ import pytest
 from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
-from catpose.bench.rundir import read_samples, run_dir_for
-from catpose.bench.runner import run
+from catpose.bench.run.rundir import read_samples, run_dir_for
+from catpose.bench.run.runner import run
 
 TESTS = Path(__file__).resolve().parent
 
@@ -138,7 +138,7 @@ def test_same_seed_same_table(tmp_path):
 
 
 def test_templates_protocol_selects_by_score_and_reports_oracle(tmp_path):
-    from catpose.bench.protocols import Templates
+    from catpose.bench.protocols.absolute import Templates
 
     df = pd.DataFrame({
         "group_id": ["o1", "o1", "o2", "o2"], "category": ["c"] * 4, "status": ["ok", "ok", "ok", "failed"],
@@ -150,7 +150,7 @@ def test_templates_protocol_selects_by_score_and_reports_oracle(tmp_path):
 
 
 def test_views_without_absolute_ground_truth_are_not_scored():
-    from catpose.bench.protocols import GtModel, Templates
+    from catpose.bench.protocols.absolute import GtModel, Templates
 
     df = pd.DataFrame({"group_id": ["a", "b"], "category": ["c", "c"], "status": ["ok", "ok"], "score": [1.0, 1.0],
                        "err_deg": [3.0, 100.0], "trans_err": [0.1, 0.1], "runtime_s": [1.0, 1.0],
@@ -160,7 +160,7 @@ def test_views_without_absolute_ground_truth_are_not_scored():
 
 
 def test_limited_rerun_prints_its_subset_but_files_keep_every_sample(tmp_path):
-    from catpose.bench.evaluate import summarize_run
+    from catpose.bench.run.evaluate import summarize_run
 
     out = run(make_cfg(tmp_path))
     sub = summarize_run(out, ["block/0/v0", "block/0/v1"]).set_index("category")
@@ -256,7 +256,7 @@ def test_heavy_libraries_are_imported_before_the_first_sample(tmp_path):
 
 _SWALLOWED_IN_TRIMESH = """
 import signal, sys
-from catpose.bench import runner
+from catpose.bench.run import runner
 
 class CtrlCWhileTrimeshImportsPath:  # trimesh.base wraps `from .path import Path3D` in `except BaseException`
     def find_spec(self, name, path=None, target=None):
@@ -354,7 +354,7 @@ def test_run_json_records_the_environment(tmp_path):
 
     from hydra import compose, initialize_config_module
 
-    from catpose.bench.runner import run
+    from catpose.bench.run.runner import run
 
     with initialize_config_module("catpose.configs", version_base=None):
         cfg = compose("run", overrides=["method=icp", "method.num_starts=1", "dataset.categories=[bowl]",

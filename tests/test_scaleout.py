@@ -43,7 +43,7 @@ def table(root: Path, cwd: Path) -> str:
 
 def estimates(root: Path) -> dict[str, list]:
     """run directory name -> [(sample_id, T_est, status)] in file order."""
-    from catpose.bench.rundir import latest_rows
+    from catpose.bench.run.rundir import latest_rows
 
     out = {}
     for p in sorted(root.glob("synthetic-*/*/*/samples.jsonl")):
@@ -69,7 +69,7 @@ def serial(tmp_path_factory) -> Path:
 
 
 def test_shards_partition_the_ids_in_order():
-    from catpose.bench.merge import shard_ids
+    from catpose.bench.run.merge import shard_ids
 
     ids = [f"s{i:02d}" for i in range(11)]
     for n in (1, 2, 3, 4, 11, 12):
@@ -85,21 +85,21 @@ def test_shards_partition_the_ids_in_order():
     ("a", 2, "shard='a' is not an integer"), (0, 0, "N >= 1"),
 ])
 def test_bad_shard_values_name_the_key(shard, shards, needle):
-    from catpose.bench.merge import parse_shard
+    from catpose.bench.run.merge import parse_shard
 
     with pytest.raises(ConfigError, match=needle):
         parse_shard(shard, shards)
 
 
 def test_parse_shard_accepts_unsharded_and_sharded():
-    from catpose.bench.merge import parse_shard
+    from catpose.bench.run.merge import parse_shard
 
     assert parse_shard(None, 1) is None and parse_shard(0, 1) is None
     assert parse_shard(3, 4) == (3, 4) and parse_shard("1", "2") == (1, 2)
 
 
 def test_merge_restores_order_and_names_a_missing_shard(tmp_path):
-    from catpose.bench.merge import merged_rows, shard_ids, shard_meta_file, shard_samples_file, write_shard_meta
+    from catpose.bench.run.merge import merged_rows, shard_ids, shard_meta_file, shard_samples_file, write_shard_meta
 
     ids = [f"x{i}" for i in range(7)]
     for i in range(3):
@@ -152,7 +152,7 @@ def test_unknown_or_missing_launcher_is_one_line(tmp_path):
 def test_every_experiment_names_its_sweep_and_table():
     from hydra import compose, initialize_config_module
 
-    from catpose.bench.tables import LAYOUTS
+    from catpose.bench.report.tables import LAYOUTS
 
     # the paper's tables (other experiment files, e.g. mn40r_*, are single runs on shared data)
     names = ["ablation", "one_template", "optimizer", "relative_real", "templates", "tyol"]

@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.bench import tables
-from catpose.bench.predictions import write_run
+from catpose.bench.report import tables
+from catpose.bench.interop.predictions import write_run
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 
-GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.GtModel"}
-TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.Templates", "max_templates": None}
+GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}
+TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.absolute.Templates", "max_templates": None}
 
 
 def rows_with_errors(errors: dict[str, list[float | None]], method: str, protocol: str = "gt_model",

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from catpose.bench import templates_select as ts
+from catpose.bench.category import templates_select as ts
 from catpose.errors import ConfigError
 from catpose.geometry import normalize_to_unit_sphere
 
@@ -152,7 +152,7 @@ def test_out_is_required_and_unaligned_data_is_refused(tmp_path, capsys):
 
 
 def test_bad_dataset_root_is_one_line(tmp_path, capsys):
-    from catpose.bench.templates_select import main
+    from catpose.bench.category.templates_select import main
 
     assert main(["--category", "chair", "dataset=modelnet40", f"dataset.root={tmp_path / 'nope'}",
                  "--out", str(tmp_path / "t.yaml")]) == 2
