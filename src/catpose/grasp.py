@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from catpose.geometry import invert_T
+from catpose.geometry import compose_T, invert_T
 from catpose.types import validate_pose
 
 
@@ -47,7 +47,7 @@ def transfer_grasp(T_template_grasp: np.ndarray, T_template_camera_est: np.ndarr
         raise InvalidInputError(f"grasp scale {scale} must be a positive number of metres per template unit")
     T_tg[:3, 3] *= scale
     T_tc[:3, 3] *= scale
-    T_camera_grasp = invert_T(T_tc) @ T_tg
+    T_camera_grasp = compose_T(invert_T(T_tc), T_tg)
     if T_gripper_camera is None:
         return T_camera_grasp
-    return validate_pose("T_gripper_camera", T_gripper_camera) @ T_camera_grasp
+    return compose_T(validate_pose("T_gripper_camera", T_gripper_camera), T_camera_grasp)
