@@ -7,10 +7,8 @@
   pooled, as grouped bars per method. CSV: one row per (method, threshold).
 - :func:`plot_runtime`: per-registration runtime per method (horizontal box plot, log scale,
   method names on the y axis). CSV: one row per method with its runtime statistics.
-- :func:`plot_registration`: a qualitative picture of one registration: the observed points
-  carried into the template frame by the estimate, over the template, next to the same with the
-  ground truth. :func:`plot_sample_from_run` rebuilds the sample from the run's ``config.yaml``
-  (dataset + protocol instantiated with Hydra), since the run stores no points.
+
+The qualitative picture of one registration is :mod:`catpose.bench.report.qualitative`'s.
 
 Inputs are per-method tables of scoring units (``{label: DataFrame}``, columns ``category``,
 ``status``, ``err_deg``) as :func:`catpose.bench.report.tables.scored_units` returns them. Failed units
@@ -44,7 +42,8 @@ def cdf_floor(errors: np.ndarray) -> float:
 ACCURACY_THRESHOLDS_DEG = (1.0, 2.0, 5.0, 10.0, 30.0)
 
 
-def _plt():
+def pyplot():
+    """matplotlib.pyplot on the Agg backend (files only, no display)."""
     import matplotlib
 
     matplotlib.use("Agg", force=True)
@@ -60,7 +59,7 @@ def save(fig, out_stem: str | Path, pdf: bool = True, dpi: int = 150) -> list[Pa
     paths = [out_stem.with_suffix(".png")] + ([out_stem.with_suffix(".pdf")] if pdf else [])
     for path in paths:
         fig.savefig(path, dpi=dpi, bbox_inches="tight")
-    _plt().close(fig)
+    pyplot().close(fig)
     return paths
 
 
@@ -101,7 +100,7 @@ def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, 
     step points, errors as scored, not floored). Returns the PNG (, PDF) and CSV paths.
     ``colors`` maps labels to matplotlib colours (default: the colour cycle in order).
     """
-    plt = _plt()
+    plt = pyplot()
     color = _colors(units_by_method, colors)
     categories = sorted({c for u in units_by_method.values() for c in u["category"].astype(str)})
     n = max(len(categories), 1)
@@ -175,7 +174,7 @@ def plot_accuracy(units_by_method: Mapping[str, object], out_stem: str | Path,
 
     Writes ``<out_stem>.csv`` with columns ``method, threshold_deg, n, accuracy``.
     """
-    plt = _plt()
+    plt = pyplot()
     color = _colors(units_by_method, colors)
     items = [(label, scored_errors(u)) for label, u in units_by_method.items()]
     items = [(label, e) for label, e in items if len(e)]
@@ -224,7 +223,7 @@ def plot_runtime(samples_by_method: Mapping[str, object], out_stem: str | Path, 
 
     Writes ``<out_stem>.csv`` with columns ``method, n, min_s, q1_s, median_s, q3_s, max_s, mean_s``.
     """
-    plt = _plt()
+    plt = pyplot()
     stats = runtime_rows(samples_by_method)
     fig, ax = plt.subplots(figsize=(6.4, 0.9 + 0.45 * max(len(stats), 1)))
     if stats:
@@ -248,79 +247,3 @@ def plot_runtime(samples_by_method: Mapping[str, object], out_stem: str | Path, 
     columns = ["method", "n", "min_s", "q1_s", "median_s", "q3_s", "max_s", "mean_s"]
     csv = _write_csv([{k: s[k] for k in columns} for s in stats], columns, out_stem)
     return save(fig, out_stem, pdf) + [csv]
-
-
-def _scatter(ax, points: np.ndarray, color: str, size: float, label: str, max_points: int = 3000) -> None:
-    if len(points) > max_points:
-        points = points[np.linspace(0, len(points) - 1, max_points).astype(int)]
-    ax.scatter(points[:, 0], points[:, 1], points[:, 2], s=size, c=color, label=label, depthshade=False)
-
-
-def plot_registration(points_camera: np.ndarray, template_points: np.ndarray, T_est: np.ndarray | None,
-                      T_gt: np.ndarray | None, out_stem: str | Path, title: str = "",
-                      err_deg: float | None = None, pdf: bool = True) -> list[Path]:
-    """The input (orange) carried into the template frame over the template (blue-grey).
-
-    Args:
-        points_camera: (N, 3) observed points, camera frame.
-        template_points: (M, 3) template points, template frame.
-        T_est, T_gt: (4, 4) estimated / true ``T_template_camera`` (either may be None).
-    """
-    from catpose.geometry import transform_points
-
-    plt = _plt()
-    panels = [(T, name) for T, name in ((T_est, "estimate"), (T_gt, "ground truth")) if T is not None]
-    fig = plt.figure(figsize=(4.2 * max(len(panels), 1), 4.2))
-    lim = 1.1 * max(1.0, float(np.abs(template_points).max()))
-    for k, (T, name) in enumerate(panels, 1):
-        ax = fig.add_subplot(1, len(panels), k, projection="3d")
-        _scatter(ax, template_points, "#8fa8c8", 1.0, "template")
-        _scatter(ax, transform_points(np.asarray(T, float), points_camera), "#e8751a", 2.0, "input")
-        ax.set_xlim(-lim, lim)
-        ax.set_ylim(-lim, lim)
-        ax.set_zlim(-lim, lim)
-        ax.set_box_aspect((1, 1, 1))
-        ax.view_init(elev=20, azim=-60)
-        ax.set_xlabel("x")
-        ax.set_ylabel("y")
-        ax.set_zlabel("z (up)")
-        sub = f" ({err_deg:.1f} deg)" if name == "estimate" and err_deg is not None else ""
-        ax.set_title(f"{name}{sub}", fontsize=9)
-        if k == 1:
-            ax.legend(fontsize=7, loc="upper left", markerscale=4)
-    fig.suptitle(title, fontsize=9)
-    return save(fig, out_stem, pdf, dpi=110)
-
-
-def plot_sample_from_run(run_dir: str | Path, sample_id: str, out_stem: str | Path, title: str | None = None,
-                         pdf: bool = True) -> list[Path]:
-    """Re-load ``sample_id`` from the run's config (dataset + protocol) and plot its registration
-    (``title`` defaults to ``method | sample | status``).
-
-    Raises :class:`~catpose.errors.CatposeError` when the dataset cannot be rebuilt here.
-    """
-    from catpose.bench.report.tables import load_run
-    from catpose.errors import CatposeError, ConfigError, DatasetError
-
-    run = load_run(run_dir)
-    rows = run.samples[run.samples["sample_id"] == sample_id]
-    if len(rows) == 0:
-        raise DatasetError(f"sample {sample_id!r} is not in {run_dir}/samples.jsonl")
-    row = rows.iloc[-1]
-    cfg = run.config
-    if not isinstance(cfg.get("dataset"), dict) or not isinstance(cfg.get("protocol"), dict):
-        raise ConfigError(f"{run_dir}/config.yaml has no dataset/protocol to re-load samples from")
-    from catpose.bench.run.build import build_from_config
-
-    try:
-        ds_name, dataset = build_from_config(dict(cfg["dataset"]), "dataset")
-        protocol = build_from_config(dict(cfg["protocol"]), "protocol")[1]
-    except CatposeError as e:
-        raise DatasetError(f"cannot rebuild the dataset from {run_dir}/config.yaml: {e}") from None
-    dataset.name = ds_name
-    sample = protocol.load(dataset, sample_id)
-    T_est = None if row.get("T_est") is None else np.asarray(row["T_est"], float).reshape(4, 4)
-    err = None if row.get("status") != "ok" else float(row["err_deg"])
-    title = title or f"{run.method} | {sample_id} | {row.get('status')}"
-    return plot_registration(sample.problem.points_camera, sample.problem.template.points, T_est,
-                             sample.gt.T_template_camera, out_stem, title, err, pdf)

@@ -101,6 +101,7 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
     of each summary figure.
     """
     from catpose.bench.report import plots, tables
+    from catpose.bench.report.qualitative import plot_sample_from_run
 
     out = Path(out)
     (out / "tables").mkdir(parents=True, exist_ok=True)
@@ -175,7 +176,7 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
                     err = float(view_rows.loc[view_rows["sample_id"] == sid, "err_deg"].iloc[-1])
                     stem = fig / f"{protocol}_{re.sub(r'[^A-Za-z0-9]+', '_', label).strip('_')}_{kind.replace(' ', '_')}"
                     try:
-                        plots.plot_sample_from_run(run.path, sid, stem, f"{label} | {sid} | {kind}", pdf=False)
+                        plot_sample_from_run(run.path, sid, stem, f"{label} | {sid} | {kind}", pdf=False)
                     except CatposeError as e:
                         md += [f"**{label}**, {kind} `{sid}` ({err:.1f} deg): not drawn ({e})", ""]
                         break
