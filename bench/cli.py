@@ -21,8 +21,8 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "perf": ("catpose.bench.perf.registration", "main", "seconds per registration and per stage for ours and ICP"),
     "templates": ("catpose.bench.category.templates_select", "main", "choose K category templates by K-medoids over F-score"),
     "align": ("catpose.bench.category.align", "main", "estimate a canonical-alignment table for a ModelNet40 category"),
-    "export": ("catpose.bench.interop.predictions", "export_main", "export a run's estimates as a BOP results CSV"),
-    "score": ("catpose.bench.interop.predictions", "score_main", "score an external predictions file (BOP CSV or per-sample CSV)"),
+    "export": ("catpose.bench.interop.bop_export", "main", "export a run's estimates as a BOP results CSV"),
+    "score": ("catpose.bench.interop.score", "main", "score an external predictions file (BOP CSV or per-sample CSV)"),
     "suite": ("catpose.bench.real.suite", "main", "every method on the shared real data, one table: bench suite real"),
     "regress": ("catpose.bench.regress.regress", "main", "CI regression: small subsets against committed reference metrics"),
 }

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from catpose.bench.report import tables
-from catpose.bench.interop.predictions import write_run
+from catpose.bench.run.rundir import write_run
 from catpose.bench.report.report import build_report, main as report_main, qualitative_picks
 from catpose.geometry import axis_angle_to_R, make_T
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from catpose.bench.report import tables
-from catpose.bench.interop.predictions import write_run
+from catpose.bench.run.rundir import write_run
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, axis_error_deg, rotation_error_deg, translation_error
 from catpose.bench.protocols.absolute import GtModel, Protocol, Templates, require_consistent_frames
-from catpose.bench.run.rundir import failed_row, scored_row
+from catpose.bench.scoring.rows import failed_row, scored_row
 from catpose.datasets.base import ObjectDataset
 from catpose.errors import ConfigError
 from catpose.geometry import invert_T

@@ -145,7 +145,7 @@ def merged_rows(run_dir: Path) -> list[dict]:
 def merge_run(run_dir: Path):
     """Write ``samples.jsonl``, ``run.json`` and the summaries of a sharded run from its shard
     files; returns the run's summary (:func:`~catpose.bench.run.evaluate.summarize_run`)."""
-    from catpose.bench.run.rundir import RunLock
+    from catpose.bench.run.lock import RunLock
 
     run_dir = Path(run_dir)
     # under the run's own lock: shards finishing together merge one after the other, and a serial

@@ -1,26 +1,26 @@
-"""The run directory: its name, its files, the per-sample row, and the lock that keeps two runs
-of one configuration apart.
+"""The run directory: its name and its files.
 
 A run directory is ``<output_root>/<dataset>-<protocol>/<method>/seed<S>-<tag>-<hash>``: ``tag``
 spells the command-line overrides (readable), ``hash`` is a digest of the resolved method,
 dataset, protocol and seed (so two configurations never share a directory). It holds
 
-- ``samples.jsonl``: one :class:`SampleRow` per finished sample, appended and fsynced as soon as
+- ``samples.jsonl``: one :class:`~catpose.bench.scoring.rows.SampleRow` per finished sample, appended and fsynced as soon as
   it is done (a truncated last line from a kill is dropped on resume);
 - ``config.yaml`` (resolved), ``overrides.txt``, ``git_rev.txt``, ``run.json`` (counts and the
-  environment, :mod:`catpose.bench.run.environment`), ``run.lock``;
+  environment, :mod:`catpose.bench.run.environment`), ``run.lock`` (:mod:`catpose.bench.run.lock`);
 - ``samples.csv``, ``summary.csv`` / ``.md``, written by :mod:`catpose.bench.run.evaluate` from the
   files alone.
 
-Every per-sample row in catpose is made here (:class:`SampleRow` and :func:`failed_row` /
-:func:`scored_row`): the runner, external predictions and the relative protocol all write the
-same schema.
+:func:`write_run` writes a whole run directory from rows made elsewhere (external predictions,
+:mod:`catpose.bench.interop.score`).
+
+The rows themselves (:class:`~catpose.bench.scoring.rows.SampleRow`) are
+:mod:`catpose.bench.scoring.rows`'s.
 """
 
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import errno
 import hashlib
 import json
@@ -28,94 +28,15 @@ import math
 import os
 import re
 import subprocess
-import sys
-import time
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Iterator
+from typing import Any, Iterable, Iterator, Sequence
 
 import numpy as np
 
-from catpose.bench.scoring.metrics import FAILED_ERROR_DEG
 from catpose.errors import RunAborted
 
 
-@dataclass
-class SampleRow:
-    """One line of ``samples.jsonl``: which problem, what the method answered, and its errors.
-
-    Frames and units: ``T_est`` and ``T_gt`` are ``T_template_camera`` (16 floats, row-major),
-    translations in the dataset's unit (object-normalised for the built-in sets); errors in
-    degrees (``rot_err_deg``, ``axis_err_deg``, ``err_deg`` the one the statistics use) and in that
-    unit (``trans_err``); ``runtime_s`` in seconds. ``status`` is ``ok`` or ``failed`` (then
-    ``error`` says why, ``stage`` where, and ``err_deg`` is 180).
-    """
-
-    method: str
-    dataset: str
-    protocol: str
-    seed: int
-    sample_id: str
-    group_id: str = ""
-    obs_id: str = ""
-    category: str | None = None
-    instance_id: str | None = None
-    template_id: str | None = None
-    status: str = "failed"
-    error: str = ""
-    stage: str = "load"
-    rot_err_deg: float | None = None
-    axis_err_deg: float | None = None
-    trans_err: float | None = None
-    err_deg: float = FAILED_ERROR_DEG
-    symmetric: bool | None = None
-    score: float | None = None
-    runtime_s: float | None = None
-    T_est: Any = None
-    T_gt: Any = None
-    symmetry_axis: Any = None
-    symmetries: Any = None
-    info: dict = field(default_factory=dict)
-    extras: dict = field(default_factory=dict)
-
-    def as_dict(self) -> dict:
-        """The row as written to ``samples.jsonl``."""
-        return dataclasses.asdict(self)
-
-
-def new_row(base: dict, sample_id: str, **fields: Any) -> dict:
-    """A fresh row (status failed at stage load until told otherwise) for ``sample_id``;
-    ``base`` holds method, dataset, protocol and seed."""
-    row = SampleRow(method=str(base["method"]), dataset=str(base["dataset"]), protocol=str(base["protocol"]),
-                    seed=int(base["seed"]), sample_id=sample_id, group_id=sample_id,
-                    obs_id=sample_id.split("|")[0]).as_dict()
-    row.update(fields)
-    return row
-
-
-def failed_row(row: dict, error: str, stage: str | None = None, **fields: Any) -> dict:
-    """``row`` marked failed with ``error`` (one line): no estimate, counted as 180 degrees."""
-    out = dict(row, status="failed", error=error, T_est=None, err_deg=FAILED_ERROR_DEG, rot_err_deg=None,
-               axis_err_deg=None, trans_err=None)
-    if stage is not None:
-        out["stage"] = stage
-    out.update(fields)
-    return out
-
-
-def scored_row(row: dict, T_est: np.ndarray, errors: dict, **fields: Any) -> dict:
-    """``row`` with the estimate ``T_est`` (4, 4) and its ``errors`` (see
-    :func:`catpose.bench.scoring.metrics.sample_errors`)."""
-    out = dict(row, status="ok", error="", stage="", T_est=np.asarray(T_est, float).reshape(-1).tolist())
-    out.update(errors)
-    out.update(fields)
-    return out
-
-
 SAMPLES_FILE = "samples.jsonl"
-
-
-LOCK_FILE = "run.lock"
 
 
 _RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", "limit", "sample_ids", "output_root",
@@ -243,72 +164,6 @@ def writing(path: Path) -> Iterator[None]:
         raise output_error(path, e) from None
 
 
-class RunLock:
-    """An exclusive lock on a run directory (``fcntl.flock`` on ``run.lock``), held while a run
-    writes it, so that two runs of one configuration never do the same samples.
-
-    A second run waits for the first (saying which pid holds the lock) and then resumes from
-    its samples; with ``timeout`` (seconds) it gives up with :class:`RunAborted` instead.
-    The lock file holds the pid of the holder; the kernel drops the lock when the holder exits.
-    """
-
-    def __init__(self, run_dir: Path, timeout: float | None = None, poll_s: float = 0.2,
-                 name: str = LOCK_FILE) -> None:
-        self.path = run_dir / name
-        self.timeout = timeout
-        self.poll_s = poll_s
-        self._fd: int | None = None
-
-    def holder(self) -> str:
-        """The pid written by the holder ("unknown" if none yet)."""
-        try:
-            return self.path.read_text().strip() or "unknown"
-        except OSError:
-            return "unknown"
-
-    def acquire(self) -> None:
-        import fcntl
-
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                self._wait(fd)
-            os.ftruncate(fd, 0)
-            os.write(fd, f"{os.getpid()}\n".encode())
-        except BaseException:
-            os.close(fd)
-            raise
-        self._fd = fd
-
-    def _wait(self, fd: int) -> None:
-        import fcntl
-
-        holder = self.holder()
-        if self.timeout is not None and self.timeout <= 0:
-            raise RunAborted(f"run directory {self.path.parent} is in use by pid {holder}; wait for that run "
-                             "to finish or stop it")
-        print(f"bench run: waiting for pid {holder}, which is running into {self.path.parent} "
-              "(it finishes the same samples; Ctrl-C to stop)", file=sys.stderr, flush=True)
-        deadline = None if self.timeout is None else time.monotonic() + self.timeout
-        while True:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                return
-            except BlockingIOError:
-                if deadline is not None and time.monotonic() > deadline:
-                    raise RunAborted(f"run directory {self.path.parent} is still in use by pid {self.holder()} "
-                                     f"after {self.timeout:g} s; wait for that run to finish or stop it, or "
-                                     "raise lock_timeout") from None
-                time.sleep(self.poll_s)
-
-    def release(self) -> None:
-        if self._fd is not None:
-            os.close(self._fd)  # closing the last descriptor drops the flock
-            self._fd = None
-
-
 def latest_rows(path: Path) -> list[dict]:
     """The rows of a ``samples.jsonl``, one per sample (a retried sample: its last row)."""
     latest: dict[str, dict] = {}
@@ -335,3 +190,37 @@ def write_run_json(out: Path, meta: dict) -> None:
 
     with writing(out):
         (out / "run.json").write_text(json.dumps(dict(meta, environment=environment()), indent=2) + "\n")
+
+
+def write_run(out_dir: str | Path, rows: Sequence[dict], config: dict, info: dict | None = None) -> Path:
+    """Write a run directory (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries).
+
+    ``rows`` follow the ``samples.jsonl`` schema; ``config`` is a plain dict with at least
+    ``method``, ``dataset``, ``protocol`` (config-group dicts with ``name`` and ``_target_``)
+    and ``seed``. Returns ``out_dir``.
+    """
+    from omegaconf import OmegaConf
+
+    from catpose.bench.run.evaluate import summarize_run
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / SAMPLES_FILE).unlink(missing_ok=True)
+    writer = SampleWriter(out / SAMPLES_FILE)
+    try:
+        for r in rows:
+            writer.write(r)
+    finally:
+        writer.close()
+    OmegaConf.save(OmegaConf.create(config), out / "config.yaml")
+    meta = {"method": _name(config.get("method")), "dataset": _name(config.get("dataset")),
+            "protocol": _name(config.get("protocol")), "seed": config.get("seed"), "n_samples": len(rows)}
+    (out / "run.json").write_text(json.dumps(dict(meta, **(info or {})), indent=2) + "\n")
+    (out / "git_rev.txt").write_text("external predictions\n")
+    if rows:
+        summarize_run(out)
+    return out
+
+
+def _name(node: Any) -> str:
+    return str(node.get("name")) if isinstance(node, dict) else str(node)

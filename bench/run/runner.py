@@ -21,7 +21,8 @@ a re-run redoes it: Ctrl-C (at any moment: the heavy libraries are imported befo
 sample), an import error, ``MemoryError``, an ``OSError`` writing the run directory. A run holds
 a lock on its directory (``run.lock``); a second run of the same configuration waits for it.
 
-The run directory's name, files, rows and lock are :mod:`catpose.bench.run.rundir`'s; configs become
+The run directory's name and files are :mod:`catpose.bench.run.rundir`'s, its lock
+:mod:`catpose.bench.run.lock`'s, the rows :mod:`catpose.bench.scoring.rows`'; configs become
 objects in :mod:`catpose.bench.run.build`; one sample's load, registration and scoring are
 :mod:`catpose.bench.run.sample_run`'s; errors and summaries are :mod:`catpose.bench.run.evaluate`'s.
 """
@@ -39,7 +40,8 @@ from typing import Any, Iterable
 from catpose.bench.run.build import build_from_config, validate_run_options
 from catpose.bench.run.evaluate import format_summary, summarize_run
 from catpose.bench.run.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
-from catpose.bench.run.rundir import (LOCK_FILE, SAMPLES_FILE, RunLock, SampleWriter, read_samples, run_dir_for,
+from catpose.bench.run.lock import LOCK_FILE, RunLock
+from catpose.bench.run.rundir import (SAMPLES_FILE, SampleWriter, read_samples, run_dir_for,
                                   write_run_files, write_run_json, writing)
 from catpose.bench.run.sample_run import run_batch, run_one
 from catpose.errors import CatposeError, ConfigError, RunAborted

@@ -1,5 +1,5 @@
 """One sample (or a batch of samples) through a method: load, register, check and score, into
-its row of the run's table (:class:`catpose.bench.run.rundir.SampleRow`).
+its row of the run's table (:class:`catpose.bench.scoring.rows.SampleRow`).
 
 What is the sample's own fault (its data fails to load, the method raises on it, the estimate is
 not a finite rigid transform) becomes its row's ``error``; what is not (an import error, no
@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from catpose.bench.run.rundir import failed_row, new_row, scored_row
+from catpose.bench.scoring.rows import failed_row, new_row, scored_row
 from catpose.errors import one_line as _one_line
 from catpose.geometry import stable_seed
 
@@ -93,7 +93,7 @@ def _register_one(method: Any, row: dict, sample: Any, seed: int) -> dict:
 
 
 def run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dict, seed: int) -> dict:
-    """Load, register and score one sample; its row (see :class:`catpose.bench.run.rundir.SampleRow`)."""
+    """Load, register and score one sample; its row (see :class:`catpose.bench.scoring.rows.SampleRow`)."""
     row, sample = _load_one(protocol, dataset, sample_id, base)
     return row if sample is None else _register_one(method, row, sample, seed)
 

@@ -167,7 +167,7 @@ def _match(errors: list[list[dict]], key: str) -> list[Any]:
 def compute_errors(preds, dataset, vsd: bool = True, max_points: int = 0, seed: int = 0) -> list[dict]:
     """Per-target errors of BOP predictions against a :class:`catpose.datasets.bop.BOP` dataset.
 
-    ``preds``: a DataFrame from :func:`catpose.bench.interop.predictions.read_predictions` (kind
+    ``preds``: a DataFrame from :func:`catpose.bench.interop.prediction_io.read_predictions` (kind
     ``bop``: ``T`` is ``T_camera_model`` in mm). The targets are the dataset's observation ids
     (its categories, ``targets`` and ``min_visib_fract`` filters). ``vsd``: also VSD, reading
     the depth image and rendering the model twice per (estimate, instance) pair. Returns one
