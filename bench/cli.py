@@ -71,13 +71,13 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     module_name, func_name, _ = COMMANDS[name]
-    from catpose.errors import CatposeError
+    from catpose.errors import CatposeError, command_error
 
     try:
         func = getattr(importlib.import_module(module_name), func_name)
         return int(func(argv[1:]) or 0)
-    except CatposeError as e:
-        print(f"bench {name}: error: {e}", file=sys.stderr)
+    except CatposeError as e:  # every command's user errors: one line, exit status 2
+        print(command_error(name, e), file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"bench {name}: interrupted; finished samples are saved, re-run the same command to resume",

@@ -162,10 +162,12 @@ def test_bench_align_writes_a_table_the_loader_applies(tmp_path, capsys):
 
 
 def test_bench_align_reports_a_bad_root_in_one_line(tmp_path, capsys):
-    assert align_cmd.main(["dataset=modelnet40", f"dataset.root={tmp_path / 'none'}", "--category", "x",
-                           "--out", str(tmp_path / "o.csv")]) == 2
+    from catpose.bench.cli import main
+
+    assert main(["align", "dataset=modelnet40", f"dataset.root={tmp_path / 'none'}", "--category", "x",
+                 "--out", str(tmp_path / "o.csv")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("error:") and "\n" not in err
+    assert err.startswith("bench align: error: ") and "\n" not in err
 
 
 COMMITTED = Path(__file__).resolve().parents[1] / "results" / "alignment"

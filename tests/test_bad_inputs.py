@@ -146,7 +146,7 @@ def test_right_option_values_pass_the_check():
 
 
 def test_every_shipped_config_passes_the_type_check():
-    from catpose.bench.run.command import available
+    from catpose.bench.run.config import available
     from catpose.bench.run.build import check_constructor_args
 
     for group in ("method", "dataset", "protocol"):

@@ -44,7 +44,7 @@ def test_wheel_installs_and_hydra_finds_its_configs(tmp_path):
     r = _run([sys.executable, "-m", "pip", "install", "--no-deps", "--target", str(target), str(wheel)])
     assert r.returncode == 0, r.stderr[-2000:]
     probe = """
-import catpose, catpose.bench.run.command as rc
+import catpose, catpose.bench.run.config as rc
 from hydra import compose, initialize_config_module
 assert catpose.__file__.startswith(TARGET), catpose.__file__
 assert 'icp' in rc.available('method') and 'gt_model' in rc.available('protocol')

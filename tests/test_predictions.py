@@ -106,7 +106,9 @@ def test_bad_prediction_files(tmp_path: Path):
     (tmp_path / "m_toy-test.csv").write_text("sample_id,R,t\nx,1 0 0 0 1 0 0 0,0 0 0\n")
     with pytest.raises(InvalidInputError, match="m_toy-test.csv:2 R"):
         read_predictions(tmp_path / "m_toy-test.csv")
-    assert score_cmd.main([str(tmp_path / "m_toy-test.csv"), "--method", "m", "--out", str(tmp_path / "o")]) == 2
+    from catpose.bench.cli import main
+
+    assert main(["score", str(tmp_path / "m_toy-test.csv"), "--method", "m", "--out", str(tmp_path / "o")]) == 2
 
 
 def test_bop_export_matches_bop_pose_convention(tmp_path: Path):

@@ -13,6 +13,7 @@ import pytest
 from catpose.bench.report import tables
 from catpose.bench.run.rundir import write_run
 from catpose.bench.report.report import build_report, main as report_main, qualitative_picks
+from catpose.errors import DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 
 GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}
@@ -138,7 +139,11 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
     for csv in (out / "figures").glob("*.csv"):
         assert not HASH.search(csv.read_text().split("\n", 1)[1].split(",")[0]), csv
     assert "<table>" in page and '<img src="figures/gt_model_error_cdf.png"' in page
-    assert report_main([str(tmp_path / "missing"), "--out", str(tmp_path / "r2")]) == 2
+    from catpose.bench.cli import main
+
+    assert main(["report", str(tmp_path / "missing"), "--out", str(tmp_path / "r2")]) == 2
+    with pytest.raises(DatasetError, match="missing does not exist"):
+        report_main([str(tmp_path / "missing"), "--out", str(tmp_path / "r2")])
 
 
 @pytest.mark.slow

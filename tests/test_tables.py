@@ -136,8 +136,11 @@ def test_cli_writes_file_and_user_labels(runs, tmp_path: Path, capsys):
                         "--label", f"{runs[2]}=ICP (20 starts)", "--metrics", "mean,median"]) == 0
     text = out.read_text()
     assert "ICP (20 starts)" in text and "All" in text
-    assert tables.main([str(tmp_path / "nope")]) == 2
-    assert "does not exist" in capsys.readouterr().err
+    from catpose.bench.cli import main
+
+    assert main(["table", str(tmp_path / "nope")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bench table: error: ") and "does not exist" in err and err.count("\n") == 1
     with pytest.raises(ConfigError):
         tables.build_table([tables.load_run(runs[0])], "nope")
     with pytest.raises(DatasetError):

@@ -49,15 +49,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command; returns the exit status (2 on a user error, printed as one line)."""
+    """Run the command; a user error raises :class:`~catpose.errors.CatposeError`, which the CLI prints
+    as one line (exit status 2)."""
     args = build_parser().parse_args(argv)
-    from catpose.errors import CatposeError
-
-    try:
-        rows = redraw(args) if args.draw_only else align(args)
-    except CatposeError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    rows = redraw(args) if args.draw_only else align(args)
     n_low = sum(1 for r in rows if r["low"])
     print(f"wrote {len(rows)} rows to {args.out} ({n_low} marked for a closer look) and {sheet_path(args)}")
     return 0
@@ -67,36 +62,19 @@ def sheet_path(args: argparse.Namespace) -> Path:
     return Path(args.sheet) if args.sheet else Path(args.out).with_suffix(".png")
 
 
-def _instance_ids(dataset, category: str, split: str | None) -> list[str]:
-    if hasattr(dataset, "instance_ids"):
-        return list(dataset.instance_ids(category, split))
-    if hasattr(dataset, "split_ids"):  # modelnet40_resampled
-        return [i for i in dataset.split_ids(split) if dataset.category_of_instance(i) == category]
-    seen: dict[str, None] = {}
-    for obs_id in dataset.observation_ids():
-        parts = obs_id.split("/")
-        if parts[0] == category and len(parts) == 3:
-            seen.setdefault(parts[1])
-    return list(seen)
-
-
 def load_clouds(args: argparse.Namespace) -> tuple[str, list[str], str, list]:
     """(dataset name, instance ids, reference id, raw-frame normalised clouds (M, 3) per id)."""
     import numpy as np
-    from hydra import compose, initialize_config_module
 
-    from catpose.bench.run.command import check_overrides
-    from catpose.bench.run.build import build_from_config
+    from catpose.bench.category.instances import instance_ids
+    from catpose.bench.run.config import compose_and_build
     from catpose.errors import ConfigError, DatasetError
 
     overrides = list(args.overrides)
-    check_overrides(overrides)
     # the raw frames are what is estimated: no table, not declared aligned
     overrides += ["dataset.alignment_table=null", "dataset.aligned=false", f"dataset.template_points={args.points}"]
-    with initialize_config_module("catpose.configs", version_base=None):
-        cfg = compose("run", overrides=overrides)
-    name, ds = build_from_config(cfg.dataset, "dataset")
-    ids = _instance_ids(ds, args.category, args.split)
+    _, ((name, ds),) = compose_and_build(overrides, ("dataset",))
+    ids = instance_ids(ds, args.category, args.split)
     if len(ids) < 2:
         raise DatasetError(f"dataset {name} has {len(ids)} instances of {args.category!r}; alignment needs at "
                            "least 2 (check --category, --split and dataset.root)")

@@ -30,13 +30,12 @@ Nothing is written into the installed package: ``--out`` is required.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 
-from catpose.errors import CatposeError, ConfigError, DatasetError
+from catpose.errors import ConfigError, DatasetError
 
 
 def fscore(P: np.ndarray, Q: np.ndarray, tau: float) -> float:
@@ -155,21 +154,6 @@ def write_templates_yaml(path: str | Path, category: str, result: dict, settings
     return path
 
 
-def _instance_ids(dataset, category: str, split: str | None) -> list[str]:
-    if hasattr(dataset, "instance_ids"):
-        try:
-            return list(dataset.instance_ids(category, split))
-        except TypeError:
-            return list(dataset.instance_ids(category))
-    ids: list[str] = []
-    for obs_id in dataset.observation_ids():
-        if dataset.category_of(obs_id) == category:
-            inst = dataset.observation(obs_id).instance_id
-            if inst not in ids:
-                ids.append(inst)
-    return ids
-
-
 def main(argv: list[str] | None = None) -> int:
     """``bench templates dataset=NAME [dataset.key=value ...] --category C --k K [--tau T] --out FILE``."""
     ap = argparse.ArgumentParser(prog="bench templates",
@@ -178,42 +162,32 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--category", required=True)
     ap.add_argument("--k", default="5", help="number of templates, or 'auto' (best silhouette)")
     ap.add_argument("--tau", type=float, default=0.05, help="F-score distance threshold (object-normalised unit)")
-    ap.add_argument("--split", default="train", help="which instances to cluster (datasets with instance_ids)")
+    ap.add_argument("--split", default="train", help="which instances to cluster (datasets with splits; catpose.bench.category.instances)")
     ap.add_argument("--instances", default=None, help="comma-separated instance ids (default: the split's)")
     ap.add_argument("--points", type=int, default=2048, help="points per cloud")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", required=True, help="YAML to write (e.g. <dir>/templates/<dataset>_<category>.yaml)")
     args = ap.parse_args(argv)
-    try:
-        if args.k != "auto" and not args.k.isdigit():
-            raise ConfigError(f"--k {args.k!r} is not a positive integer or 'auto'")
-        k = args.k if args.k == "auto" else int(args.k)
-        from hydra import compose, initialize_config_module
+    if args.k != "auto" and not args.k.isdigit():
+        raise ConfigError(f"--k {args.k!r} is not a positive integer or 'auto'")
+    k = args.k if args.k == "auto" else int(args.k)
+    from catpose.bench.category.instances import instance_ids
+    from catpose.bench.protocols.absolute import require_consistent_frames
+    from catpose.bench.run.config import compose_and_build
 
-        from catpose.bench.protocols.absolute import require_consistent_frames
-        from catpose.bench.run.command import check_overrides
-        from catpose.bench.run.build import build_from_config
-
-        check_overrides(list(args.overrides))
-        with initialize_config_module("catpose.configs", version_base=None):
-            cfg = compose("run", overrides=list(args.overrides))
-        name, dataset = build_from_config(cfg.dataset, "dataset")  # one-line errors (missing root, ...)
-        dataset.name = name
-        require_consistent_frames(dataset, "bench templates")
-        ids = args.instances.split(",") if args.instances else _instance_ids(dataset, args.category, args.split)
-        if len(ids) < (3 if k == "auto" else k):
-            raise DatasetError(f"dataset {name} has {len(ids)} {args.split} instances of {args.category!r}; "
-                               f"--k {args.k} needs more (check --category, --split, dataset.root)")
-        clouds = {i: dataset.instance_model(args.category, i).points for i in ids}
-        result = choose_templates(clouds, k, args.tau, args.points, args.seed)
-        out = Path(args.out)
-        write_templates_yaml(out, args.category, result, {"dataset": name, "split": args.split,
-                                                          "k": len(result["templates"]),
-                                                          "tau": args.tau, "points": args.points, "seed": args.seed,
-                                                          "n_instances": len(ids)})
-    except CatposeError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    _, ((name, dataset),) = compose_and_build(args.overrides, ("dataset",))  # one-line errors (missing root, ...)
+    require_consistent_frames(dataset, "bench templates")
+    ids = args.instances.split(",") if args.instances else instance_ids(dataset, args.category, args.split)
+    if len(ids) < (3 if k == "auto" else k):
+        raise DatasetError(f"dataset {name} has {len(ids)} {args.split} instances of {args.category!r}; "
+                           f"--k {args.k} needs more (check --category, --split, dataset.root)")
+    clouds = {i: dataset.instance_model(args.category, i).points for i in ids}
+    result = choose_templates(clouds, k, args.tau, args.points, args.seed)
+    out = Path(args.out)
+    write_templates_yaml(out, args.category, result, {"dataset": name, "split": args.split,
+                                                      "k": len(result["templates"]),
+                                                      "tau": args.tau, "points": args.points, "seed": args.seed,
+                                                      "n_instances": len(ids)})
     sil = ", ".join(f"K={kk}: {v:.3f}" for kk, v in result["silhouette"].items()) or "n/a"
     print(f"{args.category}: templates {result['templates']} (mean 1-F to medoid {result['mean_distance']:.3f}; "
           f"silhouette {sil}); wrote {out}")

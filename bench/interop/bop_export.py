@@ -22,14 +22,12 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
 from catpose.bench.interop.prediction_io import BOP_COLUMNS
-from catpose.errors import CatposeError
 
 
 def bop_ids(runs_rows: Sequence[dict]) -> tuple[list[tuple], list[dict]]:
@@ -135,10 +133,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", required=True, help="CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the "
                     "BOP toolkit requires; a <out>.map.csv with the id mapping is written beside it")
     args = ap.parse_args(argv)
-    try:
-        n = export_bop(args.run, args.out)
-    except CatposeError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    n = export_bop(args.run, args.out)
     print(f"wrote {n} estimates to {args.out}")
     return 0

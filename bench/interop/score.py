@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -22,7 +21,7 @@ import numpy as np
 from catpose.bench.interop.bop_export import bop_ids
 from catpose.bench.interop.prediction_io import read_mapping, read_predictions
 from catpose.bench.run.rundir import write_run
-from catpose.errors import CatposeError, DatasetError, InvalidInputError
+from catpose.errors import DatasetError, InvalidInputError
 
 
 def _orthonormalise(R: np.ndarray) -> np.ndarray:
@@ -127,19 +126,14 @@ def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
 
 def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Sequence[str] = ()) -> tuple[list[dict], dict]:
     """Ground-truth rows built from ``configs/dataset/<dataset>.yaml`` + ``configs/protocol/<protocol>.yaml``."""
-    from hydra import compose, initialize_config_module
     from omegaconf import OmegaConf
 
-    from catpose.bench.run.command import check_overrides
-    from catpose.bench.run.build import build_from_config
+    from catpose.bench.run.config import compose_and_build
 
-    check_overrides([f"dataset={dataset}", f"protocol={protocol}"])
-    with initialize_config_module("catpose.configs", version_base=None):
-        cfg = compose("run", overrides=[f"dataset={dataset}", f"protocol={protocol}", f"seed={seed}", *overrides])
-    ds_name, ds = build_from_config(cfg.dataset, "dataset")  # one-line errors for a missing root etc.
-    pr_name, proto = build_from_config(cfg.protocol, "protocol")
+    # one-line errors for an unknown name, a missing root etc.
+    cfg, ((ds_name, ds), (pr_name, proto)) = compose_and_build(
+        [f"dataset={dataset}", f"protocol={protocol}", f"seed={seed}", *overrides], ("dataset", "protocol"))
     config = OmegaConf.to_container(cfg, resolve=True)
-    ds.name = ds_name
     rows, seen = [], set()
     for sid in proto.sample_ids(ds):
         sample = proto.load(ds, sid)
@@ -179,34 +173,30 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--by", default="object,category", help="BOP datasets: rows per object and/or category")
     ap.add_argument("--no-vsd", action="store_true", help="BOP datasets: skip VSD (it renders the model twice per estimate)")
     args = ap.parse_args(argv)
-    try:
-        if args.method is None:
-            from catpose.bench.scoring.bop_eval import check_results_filename
+    if args.method is None:
+        from catpose.bench.scoring.bop_eval import check_results_filename
 
-            try:
-                args.method = check_results_filename(args.predictions)[0]
-            except InvalidInputError:
-                raise InvalidInputError(f"pass --method NAME (the file name {Path(args.predictions).name!r} is not "
-                                        "METHOD_DATASET-SPLIT.csv)") from None
-        if bool(args.gt) == bool(args.dataset):
-            raise InvalidInputError("pass exactly one of --gt RUN_DIR or --dataset NAME")
-        gt_rows, config = gt_rows_from_run(args.gt) if args.gt else gt_rows_from_config(
-            args.dataset, args.protocol, args.seed, args.override)
-        preds = read_predictions(args.predictions)
-        map_path = Path(args.map) if args.map else Path(str(args.predictions) + ".map.csv")
-        if args.map and not map_path.is_file():
-            raise InvalidInputError(f"--map {map_path} does not exist")
-        mapping = read_mapping(map_path) if preds.attrs["kind"] == "bop" and map_path.is_file() else None
-        rows = score_predictions(preds, gt_rows, args.method, mapping)
-        config = dict(config, method={"name": args.method, "external": str(args.predictions)})
-        out = write_run(args.out, rows, config, {"predictions": str(args.predictions)})
-        bop_text = None
-        if preds.attrs["kind"] == "bop" and _is_bop_dataset(config.get("dataset")):
-            bop_text = score_bop(preds, config["dataset"], out, args.method, args.metrics.split(","),
-                                 args.by.split(","), vsd=not args.no_vsd)
-    except CatposeError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        try:
+            args.method = check_results_filename(args.predictions)[0]
+        except InvalidInputError:
+            raise InvalidInputError(f"pass --method NAME (the file name {Path(args.predictions).name!r} is not "
+                                    "METHOD_DATASET-SPLIT.csv)") from None
+    if bool(args.gt) == bool(args.dataset):
+        raise InvalidInputError("pass exactly one of --gt RUN_DIR or --dataset NAME")
+    gt_rows, config = gt_rows_from_run(args.gt) if args.gt else gt_rows_from_config(
+        args.dataset, args.protocol, args.seed, args.override)
+    preds = read_predictions(args.predictions)
+    map_path = Path(args.map) if args.map else Path(str(args.predictions) + ".map.csv")
+    if args.map and not map_path.is_file():
+        raise InvalidInputError(f"--map {map_path} does not exist")
+    mapping = read_mapping(map_path) if preds.attrs["kind"] == "bop" and map_path.is_file() else None
+    rows = score_predictions(preds, gt_rows, args.method, mapping)
+    config = dict(config, method={"name": args.method, "external": str(args.predictions)})
+    out = write_run(args.out, rows, config, {"predictions": str(args.predictions)})
+    bop_text = None
+    if preds.attrs["kind"] == "bop" and _is_bop_dataset(config.get("dataset")):
+        bop_text = score_bop(preds, config["dataset"], out, args.method, args.metrics.split(","),
+                             args.by.split(","), vsd=not args.no_vsd)
     n_ok = sum(r["status"] == "ok" for r in rows)
     print(f"scored {n_ok}/{len(rows)} samples with predictions; run directory {out}")
     print((out / "summary.md").read_text())

@@ -64,15 +64,11 @@ def dump_inputs(path: Path, golden: Path | None = None) -> int:
     keypoints, ``q{i}`` (m, 2n, 3) partial-template keypoints, ``A{i}`` (m, n, 2n) affinities,
     ``T{i}`` (m, 4, 4) SVD starts. Needs the project installed (Open3D, Hydra); the file then
     travels to a GPU machine that has only torch and NumPy. Returns the number of problems."""
-    from hydra import compose, initialize_config_module
-
-    from catpose.bench.run.build import build_from_config
     from catpose.bench.regress.golden import read_golden
+    from catpose.bench.run.config import compose_and_build
 
     golden = golden or Path(__file__).resolve().parents[2] / "results" / "reference" / "synthetic_inputs.npz"
-    with initialize_config_module("catpose.configs", version_base=None):
-        cfg = compose("run", overrides=["method=ours"])
-    _, ours = build_from_config(cfg.method, "method")
+    _, ((_, ours),) = compose_and_build(["method=ours"], ("method",))
     arrays = {}
     samples = read_golden(golden).samples
     for i, s in enumerate(samples):

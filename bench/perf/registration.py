@@ -53,30 +53,17 @@ STAGES = ("dictionary", "descriptors", "affinity", "initial_pose", "optimization
 REFERENCE = "fgr"
 
 
-def _compose(overrides: Sequence[str]) -> Any:
-    from hydra import compose, initialize_config_module
-
-    with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
-        return compose(config_name="run", overrides=list(overrides))
-
-
 def load_problems(dataset: str, protocol: str, n: int, seed: int, root: str | None = None,
                   overrides: Sequence[str] = ()) -> tuple[list, str]:
     """The first ``n`` problems of ``dataset`` under ``protocol`` (round-robin over categories),
     built exactly as ``bench run`` builds them, and a label saying where they come from."""
-    from catpose.bench.run.build import build_from_config
+    from catpose.bench.run.config import compose_and_build
 
     ov = [f"dataset={dataset}", f"protocol={protocol}", f"seed={seed}", *overrides]
     if root:
         ov.append(f"dataset.root={root}")
-    try:
-        cfg = _compose(ov)
-    except Exception as e:  # Hydra's unknown group / key
-        raise ConfigError(f"bench perf: cannot compose dataset={dataset} protocol={protocol} "
-                          f"({str(e).splitlines()[0]}); check --dataset/--protocol/--dataset-set") from None
-    name, ds = build_from_config(cfg.dataset, "dataset")
-    ds.name = name
-    _, proto = build_from_config(cfg.protocol, "protocol")
+    _, ((name, ds), (_, proto)) = compose_and_build(ov, ("dataset", "protocol"),
+                                                    hint="check --dataset/--protocol/--dataset-set")
     by_cat: dict[str, list[str]] = {}
     for sid in proto.sample_ids(ds):
         by_cat.setdefault(str(ds.category_of(sid.split("|")[0])), []).append(sid)
@@ -94,10 +81,11 @@ def load_problems(dataset: str, protocol: str, n: int, seed: int, root: str | No
 def build_method(name: str, seed: int, overrides: Sequence[str] = ()) -> Any:
     """Build a method from its config exactly as the runner does (``overrides`` are ``key=value``
     relative to the method node)."""
-    from catpose.bench.run.build import build_from_config
+    from catpose.bench.run.config import compose_and_build
 
-    cfg = _compose([f"method={name}", f"seed={seed}", *[f"method.{kv}" for kv in overrides]])
-    return build_from_config(cfg.method, "method")[1]
+    _, ((_, method),) = compose_and_build([f"method={name}", f"seed={seed}", *[f"method.{kv}" for kv in overrides]],
+                                          ("method",), hint="check --methods/--set")
+    return method
 
 
 def parse_methods(spec: str) -> list[tuple[str, str]]:
@@ -132,7 +120,9 @@ def device_override(name: str, device: str) -> list[str]:
     """The ``--set`` that puts ``name``'s solver on ``device`` (empty for cpu)."""
     if device == "cpu":
         return []
-    cfg = _compose([f"method={name}"])
+    from catpose.bench.run.config import compose
+
+    cfg = compose([f"method={name}"])
     key = "optimiser.device" if "optimiser" in cfg.method else "device"
     return [f"{key}={device}"]
 

@@ -130,7 +130,8 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
     from catpose.bench.scoring.metrics import sample_errors
     from catpose.bench.run.build import build_from_config
     from catpose.bench.run.sample_run import seed_everything
-    from catpose.bench.real.suite import METHODS, SETS, compose, shared_data_dir
+    from catpose.bench.real.suite import METHODS, SETS, compose
+    from catpose.bench.run.config import shared_data_dir
     from catpose.geometry import stable_seed
 
     cfg, _ = compose(SETS[set_name], METHODS["ours"], shared_data_dir(), 0, limit, "outputs/real", ours_overrides)

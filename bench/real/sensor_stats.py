@@ -71,7 +71,7 @@ def ycbv_rows(root: str, seed: int) -> list[dict]:
 def main(argv: list[str] | None = None) -> int:
     import pandas as pd
 
-    from catpose.bench.real.suite import shared_data_dir
+    from catpose.bench.run.config import shared_data_dir
 
     parser = argparse.ArgumentParser(prog="python -m catpose.bench.real.sensor_stats", description=__doc__)
     parser.add_argument("--sensors", default="kinect,realsense")

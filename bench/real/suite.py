@@ -22,14 +22,12 @@ their files (``summary.csv``). Protocol: ``gt_model`` (each view against its own
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from catpose.bench.run.config import shared_data_dir
 from catpose.errors import ConfigError
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 @dataclass(frozen=True)
@@ -75,12 +73,6 @@ METHODS: dict[str, MethodVariant] = {v.label: v for v in (
 )}
 
 
-def shared_data_dir() -> Path:
-    """``$CATPOSE_SHARED_DATA`` or ``../shared/data`` beside the checkout."""
-    env = os.environ.get("CATPOSE_SHARED_DATA")
-    return Path(env) if env else REPO.parent / "shared" / "data"
-
-
 def skip_reason(real_set: RealSet, shared: Path) -> str | None:
     """Why a set cannot be run and scored here (None: it can)."""
     root = shared / real_set.requires
@@ -95,7 +87,7 @@ def skip_reason(real_set: RealSet, shared: Path) -> str | None:
 def compose(real_set: RealSet, variant: MethodVariant, shared: Path, seed: int, limit: int | None,
             output_root: str, method_overrides: list[str]) -> tuple[object, list[str]]:
     """The resolved run config of one (set, method) pair and its command-line overrides."""
-    from hydra import compose as hydra_compose, initialize_config_module
+    from catpose.bench.run import config
 
     overrides = [f"method={variant.method}", f"dataset={real_set.dataset}", f"protocol={real_set.protocol}",
                  f"seed={seed}", f"output_root={output_root}", "progress=false", "print_summary=false",
@@ -103,8 +95,7 @@ def compose(real_set: RealSet, variant: MethodVariant, shared: Path, seed: int, 
                  *variant.overrides, *(method_overrides if variant.method == "ours" else [])]
     if limit is not None:
         overrides.append(f"limit={limit}")
-    with initialize_config_module("catpose.configs", version_base=None):
-        return hydra_compose("run", overrides=overrides), overrides
+    return config.compose(overrides), overrides
 
 
 def summary_row(run_dir: Path, sample_ids: list[str] | None = None) -> dict:

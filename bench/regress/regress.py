@@ -42,7 +42,8 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from catpose.bench.regress.regress_gate import Finding, Gate, to_float, aggregates, compare_method, estimate_distance_deg
-from catpose.errors import CatposeError, ConfigError
+from catpose.bench.run.config import compose, shared_data_dir
+from catpose.errors import CatposeError, ConfigError, command_error
 
 REPO = Path(__file__).resolve().parents[2]
 DEFAULT_CONFIG = REPO / "configs" / "regress" / "default.yaml"
@@ -70,12 +71,6 @@ class Suite:
     method_overrides: dict[str, list[str]] = field(default_factory=dict)
     inputs: Path | None = None
     requires_shared_data: bool = False
-
-
-def shared_data_dir() -> Path:
-    """``$CATPOSE_SHARED_DATA`` or ``../shared/data`` beside the checkout."""
-    env = os.environ.get("CATPOSE_SHARED_DATA")
-    return Path(env) if env else REPO.parent / "shared" / "data"
 
 
 def _repo_path(p: str | Path) -> Path:
@@ -133,15 +128,12 @@ def method_available(name: str, suite: "Suite | None" = None) -> str | None:
 
 
 def _compose(suite: Suite, method: str | None) -> Any:
-    from hydra import compose, initialize_config_module
-
     shared = str(shared_data_dir())
     overrides = [f"dataset={suite.dataset}", f"protocol={suite.protocol}", f"seed={suite.seed}",
                  *[o.replace("{shared_data}", shared) for o in suite.overrides]]
     if method:
         overrides += [f"method={method}", *suite.method_overrides.get(method, [])]
-    with initialize_config_module("catpose.configs", version_base=None):
-        return compose("run", overrides=overrides)
+    return compose(overrides)
 
 
 def suite_samples(suite: Suite, transform: Callable | None = None) -> tuple[Any, Any, list[str]]:
@@ -403,7 +395,7 @@ def main(argv: list[str] | None = None) -> int:
             Path(args.emit_estimates).write_text(json.dumps(emitted))
             return 0
     except CatposeError as e:
-        print(f"error: {e}", file=sys.stderr)
+        print(command_error("regress", e), file=sys.stderr)
         return 2
     for f in findings:
         if not f.fails:

@@ -23,7 +23,6 @@ import argparse
 import html
 import os
 import re
-import sys
 from pathlib import Path
 from typing import Sequence
 
@@ -248,11 +247,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--note", action="append", default=[], help="a paragraph under the title (how the runs were made)")
     ap.add_argument("--no-pdf", action="store_true", help="figures as PNG (+ CSV) only")
     args = ap.parse_args(argv)
-    try:
-        index = build_report(args.runs, args.out, args.layout or [], args.qualitative, parse_labels(args.label),
-                             args.note, pdf=not args.no_pdf)
-    except CatposeError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    index = build_report(args.runs, args.out, args.layout or [], args.qualitative, parse_labels(args.label),
+                         args.note, pdf=not args.no_pdf)
     print(f"report written: {index} (and index.html)")
     return 0

@@ -35,7 +35,7 @@ from typing import Any, Callable, Sequence
 from catpose.bench.report.labels import parse_labels, pipeline_label, run_labels, template_count
 from catpose.bench.report.rendering import METRICS, Metric, Table, prune, to_csv, to_latex, to_markdown
 from catpose.bench.report.runs import Run, find_run_dirs, load_run, protocol_of, scored_units
-from catpose.errors import CatposeError, ConfigError, DatasetError
+from catpose.errors import ConfigError, DatasetError
 
 # tables.load_run, tables.scored_units, tables.protocol_of, tables.to_markdown ... stay reachable here:
 # reports and plots read runs and render tables through this module's names
@@ -310,30 +310,26 @@ def main(argv: list[str] | None = None) -> int:
                          "ar_mssd,ar_mspd,adds@0.1,5deg5cm (see catpose.bench.scoring.bop_eval.parse_metric)")
     ap.add_argument("--by", default="object,category", help="with --bop-metrics: rows per object and/or category")
     args = ap.parse_args(argv)
-    try:
-        run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
-        if not args.runs and not run_paths:
-            raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
-        if args.bop_metrics:
-            from catpose.bench.scoring.bop_eval import table_main_from_runs
+    run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
+    if not args.runs and not run_paths:
+        raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
+    if args.bop_metrics:
+        from catpose.bench.scoring.bop_eval import table_main_from_runs
 
-            text = table_main_from_runs(find_run_dirs([*args.runs, *run_paths]), args.bop_metrics.split(","),
-                                        args.by.split(",")) + "\n"
-            Path(args.out).write_text(text) if args.out else sys.stdout.write(text)
-            return 0
-        if args.layout not in (None, defaults.get("layout")):
-            defaults = {}  # another layout than the experiment's: none of its settings apply
-        for key, value in defaults.items():  # the experiment's settings, unless given here
-            if getattr(args, key) is None and value:
-                setattr(args, key, ",".join(map(str, value)) if isinstance(value, list) else str(value))
-        args.layout = args.layout or "generic"
-        runs = [load_run(p) for p in find_run_dirs([*args.runs, *run_paths])]
-        table = build_table(runs, args.layout, args.categories.split(",") if args.categories else None,
-                            args.metrics.split(",") if args.metrics else None,
-                            {**sweep_labels, **parse_labels(args.label)}, args.error, args.title)
-    except CatposeError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        text = table_main_from_runs(find_run_dirs([*args.runs, *run_paths]), args.bop_metrics.split(","),
+                                    args.by.split(",")) + "\n"
+        Path(args.out).write_text(text) if args.out else sys.stdout.write(text)
+        return 0
+    if args.layout not in (None, defaults.get("layout")):
+        defaults = {}  # another layout than the experiment's: none of its settings apply
+    for key, value in defaults.items():  # the experiment's settings, unless given here
+        if getattr(args, key) is None and value:
+            setattr(args, key, ",".join(map(str, value)) if isinstance(value, list) else str(value))
+    args.layout = args.layout or "generic"
+    runs = [load_run(p) for p in find_run_dirs([*args.runs, *run_paths])]
+    table = build_table(runs, args.layout, args.categories.split(",") if args.categories else None,
+                        args.metrics.split(",") if args.metrics else None,
+                        {**sweep_labels, **parse_labels(args.label)}, args.error, args.title)
     text = RENDERERS[args.format](table)
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)

@@ -28,6 +28,8 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
+from catpose.bench.scoring.metrics import rotation_error_deg, translation_error
+
 # BOP19 threshold ranges (bop_toolkit scripts/eval_bop19_pose.py)
 BOP19_VSD_DELTA_MM = 15.0
 """Tolerance (mm) of VSD's visibility test."""
@@ -156,14 +158,15 @@ def mspd(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarra
 
 
 def re_deg(R_est: np.ndarray, R_gt: np.ndarray) -> float:
-    """Rotation error: geodesic angle ``arccos((tr(R_est R_gt^T) - 1) / 2)`` in degrees."""
-    c = (np.trace(np.asarray(R_est, float).reshape(3, 3) @ np.asarray(R_gt, float).reshape(3, 3).T) - 1.0) / 2.0
-    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+    """Rotation error (BOP's ``re``): the geodesic angle in degrees,
+    :func:`catpose.bench.scoring.metrics.rotation_error_deg` of the (3, 3) matrices."""
+    return rotation_error_deg(np.asarray(R_est, float).reshape(3, 3), np.asarray(R_gt, float).reshape(3, 3))
 
 
 def te(t_est: np.ndarray, t_gt: np.ndarray) -> float:
-    """Translation error ``||t_est - t_gt||`` (model units)."""
-    return float(np.linalg.norm(np.asarray(t_est, float).reshape(3) - np.asarray(t_gt, float).reshape(3)))
+    """Translation error (BOP's ``te``) ``||t_est - t_gt||`` in model units,
+    :func:`catpose.bench.scoring.metrics.translation_error`."""
+    return translation_error(t_est, t_gt)
 
 
 def rt_errors(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarray,
@@ -236,22 +239,17 @@ def vsd_from_depths(dist_est: np.ndarray, dist_gt: np.ndarray, dist_test: np.nda
 
 def render_depth(vertices: np.ndarray, triangles: np.ndarray, R: np.ndarray, t: np.ndarray, K: np.ndarray,
                  width: int, height: int) -> np.ndarray:
-    """z-depth (H, W) of a mesh (vertices (V, 3), triangles (F, 3)) at pose ``R, t``, by one
-    Open3D ray per pixel centre; 0 where no surface. Units of the vertices."""
-    from catpose.o3d import o3d
+    """z-depth (H, W) float64 of a mesh (vertices (V, 3), triangles (F, 3)) at pose ``R, t``, one
+    ray per pixel centre cast by :func:`catpose.datasets.render.cast_rays` (the renderer of the
+    datasets: Embree finds the hit triangle, the depth is recomputed from it in float64, the same
+    bits on every CPU); 0 where no surface. Units of the vertices."""
+    from catpose.datasets.render import cast_rays
 
-    scene = o3d.t.geometry.RaycastingScene()
-    mesh = o3d.t.geometry.TriangleMesh()
-    v = _transform(R, t, vertices).astype(np.float32)
-    mesh.vertex.positions = o3d.core.Tensor(np.ascontiguousarray(v))
-    mesh.triangle.indices = o3d.core.Tensor(np.ascontiguousarray(np.asarray(triangles), dtype=np.int32))
-    scene.add_triangles(mesh)
     K = np.asarray(K, float).reshape(3, 3)
-    u, vv = np.meshgrid(np.arange(width, dtype=float), np.arange(height, dtype=float))
-    dirs = np.stack([(u - K[0, 2]) / K[0, 0], (vv - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
-    rays = np.concatenate([np.zeros_like(dirs), dirs], axis=-1).astype(np.float32)
-    hit = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy()  # along dirs with z = 1: t_hit = depth
-    return np.where(np.isfinite(hit), hit, 0.0).astype(np.float64)
+    u, v = np.meshgrid(np.arange(width, dtype=float), np.arange(height, dtype=float))
+    dirs = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
+    z = cast_rays(_transform(R, t, vertices), triangles, np.zeros(3), dirs)  # along dirs with z = 1: s = depth
+    return np.where(np.isfinite(z), z, 0.0)
 
 
 def vsd(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarray, depth_test: np.ndarray,
