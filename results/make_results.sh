@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 B=.venv/bin/bench
 OUT=${OUT:-outputs/results}
 S=$OUT/multirun  # named sweep directories, so a re-run resumes into the same ones
-EXPERIMENTS=(optimizer ablation one_template templates relative_real tyol)
+EXPERIMENTS=(optimiser ablation one_template templates relative_real tyol)
 
 if [ "${1:-}" != tables ]; then
   for e in "${EXPERIMENTS[@]}"; do
@@ -23,10 +23,10 @@ T=results/tables
 mkdir -p "$T"
 for fmt in md latex csv; do
   ext=$fmt; [ "$fmt" = latex ] && ext=tex
-  for e in optimizer ablation one_template templates tyol; do
+  for e in optimiser ablation one_template templates tyol; do
     "$B" table --sweep "$S/$e" --format $fmt --out "$T/$e.$ext"
   done
-  "$B" table --sweep "$S/optimizer" --layout generic --format $fmt --out "$T/gt_model_all.$ext"
+  "$B" table --sweep "$S/optimiser" --layout generic --format $fmt --out "$T/gt_model_all.$ext"
   "$B" table --sweep "$S/templates" --layout generic --format $fmt --error err_deg \
     --title "Category templates (3 other instances; estimate chosen by the method's own score)" --out "$T/templates_selected.$ext"
   "$B" table --sweep "$S/templates" --layout generic --format $fmt --error oracle_err_deg \

@@ -60,12 +60,12 @@ def test_batch_goes_through_register_batch_when_the_method_has_one():
 def test_summary_statistics_and_ratio_to_fgr():
     measured = {"fgr": {"times": [1.0, 2.0, 3.0], "warmup_s": 0.0},
                 "ours": {"times": [2.0, 4.0, 6.0, 100.0], "warmup_s": 0.0}}
-    rows = {r["method"]: r for r in perf.summarise(measured)}
+    rows = {r["method"]: r for r in perf.summarize(measured)}
     assert rows["fgr"]["ratio_to_fgr"] == 1.0
     assert rows["ours"]["median_s"] == 5.0 and rows["ours"]["ratio_to_fgr"] == 2.5
     assert rows["ours"]["mean_s"] == pytest.approx(28.0)
     assert rows["ours"]["p90_s"] == pytest.approx(np.percentile([2, 4, 6, 100], 90))
-    only = perf.summarise({"ours": measured["ours"]})
+    only = perf.summarize({"ours": measured["ours"]})
     assert np.isnan(only[0]["ratio_to_fgr"])
 
 

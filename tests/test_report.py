@@ -116,7 +116,7 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
             _run(tmp_path / "runs", "seed0-default-9c0d1e2f", {"name": "icp"}, TEMPLATES, overrides=["protocol=templates"]),
             _run(tmp_path / "runs", "seed0-default-0a0b0c0d", {"name": "ours"}, TEMPLATES, overrides=["protocol=templates"])]
     out = tmp_path / "report"
-    index = build_report([tmp_path / "runs"], out, layouts=["optimizer"], notes=["Made by the test."])
+    index = build_report([tmp_path / "runs"], out, layouts=["optimiser"], notes=["Made by the test."])
     md, page = index.read_text(), (out / "index.html").read_text()
     for text in (md, page):
         assert str(tmp_path) not in text and "/abs/" not in text
@@ -124,7 +124,7 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
             assert not link.startswith("/") and "://" not in link, link
             assert (out / link).is_file(), link
     for protocol in ("gt_model", "templates"):
-        for stem in ("summary", "per_category", "optimizer"):
+        for stem in ("summary", "per_category", "optimiser"):
             assert f"tables/{protocol}_{stem}.md" in md
         for fig in ("error_cdf", "accuracy", "runtime"):
             assert f"figures/{protocol}_{fig}.png" in md and (out / "figures" / f"{protocol}_{fig}.csv").is_file()

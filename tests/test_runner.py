@@ -15,7 +15,7 @@ import pytest
 from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
-from catpose.bench.run.rundir import read_samples, run_dir_for
+from catpose.bench.run.rundir import read_rows, run_dir_for
 from catpose.bench.run.runner import run
 
 TESTS = Path(__file__).resolve().parent
@@ -47,7 +47,7 @@ def test_run_writes_the_long_table_and_records_failures(tmp_path):
     cfg = make_cfg(tmp_path, special=["load_error", "empty", "nan", "collinear"],
                    method_kwargs={"fail_on": ["v1"], "nan_on": ["v2"]})
     out = run(cfg)
-    rows = {r["sample_id"]: r for r in read_samples(out / "samples.jsonl")}
+    rows = {r["sample_id"]: r for r in read_rows(out / "samples.jsonl")}
     assert len(rows) == 8
     assert rows["block/0/v0"]["status"] == "ok" and len(rows["block/0/v0"]["T_est"]) == 16
     assert rows["block/0/v0"]["rot_err_deg"] >= 0 and rows["block/0/v0"]["runtime_s"] >= 0
@@ -82,7 +82,7 @@ def test_resume_after_interrupt_gives_the_same_table_without_repeated_work(tmp_p
         run(make_cfg(b))
     monkeypatch.delenv("TOY_INTERRUPT_ON")
     out = next((b / "out").glob("*/*/*"))
-    assert [r["sample_id"] for r in read_samples(out / "samples.jsonl")] == ["block/0/v0", "block/0/v1"]
+    assert [r["sample_id"] for r in read_rows(out / "samples.jsonl")] == ["block/0/v0", "block/0/v1"]
     with open(out / "samples.jsonl", "a") as f:  # a kill in the middle of writing a line
         f.write('{"sample_id": "block/0/v2", "sta')
     out2 = run(make_cfg(b))
@@ -90,7 +90,7 @@ def test_resume_after_interrupt_gives_the_same_table_without_repeated_work(tmp_p
     assert calls(b) == ["block/0/v0", "block/0/v1", "block/0/v2", "block/0/v2", "block/0/v3"]
     resumed = pd.read_csv(out / "summary.csv").drop(columns="median_runtime_s")
     pd.testing.assert_frame_equal(resumed, reference)
-    assert len(read_samples(out / "samples.jsonl")) == 4
+    assert len(read_rows(out / "samples.jsonl")) == 4
 
     run(make_cfg(b))  # a third run has nothing left to do
     assert len(calls(b)) == 5
@@ -102,11 +102,11 @@ def test_batched_runs_give_the_same_table_and_isolate_a_bad_sample(tmp_path):
     the one batch=1 writes."""
     special = ["load_error"]
     plain = make_cfg(tmp_path / "a", special=special, method_kwargs={"fail_on": ["v1"]})
-    rows_1 = {r["sample_id"]: r for r in read_samples(run(plain) / "samples.jsonl")}
+    rows_1 = {r["sample_id"]: r for r in read_rows(run(plain) / "samples.jsonl")}
     cfg = make_cfg(tmp_path / "b", special=special, method_kwargs={"fail_on": ["v1"]}, overrides=["batch=3"])
     cfg.method._target_ = "toy_dataset.BatchOracle"
     out = run(cfg)
-    rows_3 = {r["sample_id"]: r for r in read_samples(out / "samples.jsonl")}
+    rows_3 = {r["sample_id"]: r for r in read_rows(out / "samples.jsonl")}
     assert run_dir_for(cfg, ["batch=3"]) == run_dir_for(cfg, []) == out   # batch is not part of the name
     assert rows_3.keys() == rows_1.keys()
     for sid, r in rows_1.items():
@@ -153,7 +153,7 @@ def test_a_moved_protocol_class_keeps_its_run_directory_and_old_configs_build(tm
 def test_same_seed_same_table(tmp_path):
     a = run(make_cfg(tmp_path / "a"))
     b = run(make_cfg(tmp_path / "b"))
-    ra, rb = read_samples(a / "samples.jsonl"), read_samples(b / "samples.jsonl")
+    ra, rb = read_rows(a / "samples.jsonl"), read_rows(b / "samples.jsonl")
     assert [r["T_gt"] for r in ra] == [r["T_gt"] for r in rb]
     assert [r["err_deg"] for r in ra] == [r["err_deg"] for r in rb]
 
@@ -215,11 +215,11 @@ def test_import_and_memory_errors_abort_the_run_and_record_nothing(tmp_path, mon
         with pytest.raises(RunAborted, match=needle) as info:
             run(make_cfg(tmp_path))
         assert "\n" not in str(info.value) and "re-run" in str(info.value)
-        rows = read_samples(out / "samples.jsonl")
+        rows = read_rows(out / "samples.jsonl")
         assert [r["sample_id"] for r in rows] == ["block/0/v0"] and rows[0]["status"] == "ok"
     monkeypatch.setattr(toy_dataset.Oracle, "register", real)
     run(make_cfg(tmp_path))  # the re-run redoes the aborted sample
-    rows = read_samples(out / "samples.jsonl")
+    rows = read_rows(out / "samples.jsonl")
     assert sorted(r["sample_id"] for r in rows) == [f"block/0/v{i}" for i in range(4)]
     assert all(r["status"] == "ok" for r in rows)
 
@@ -252,7 +252,7 @@ def test_a_ctrl_c_swallowed_inside_a_sample_still_stops_the_run(tmp_path, monkey
     finally:
         signal.signal(signal.SIGINT, previous)
     out = next((tmp_path / "out").glob("*/*/*"))
-    assert [r["sample_id"] for r in read_samples(out / "samples.jsonl")] == ["block/0/v0"]
+    assert [r["sample_id"] for r in read_rows(out / "samples.jsonl")] == ["block/0/v0"]
 
 
 def test_heavy_libraries_are_imported_before_the_first_sample(tmp_path):
@@ -326,7 +326,7 @@ def _interrupt(p: subprocess.Popen) -> tuple[str, float]:
 
 
 def _rows(tmp_path: Path) -> list[dict]:
-    return [r for f in tmp_path.glob("*/*/*/samples.jsonl") for r in read_samples(f)]
+    return [r for f in tmp_path.glob("*/*/*/samples.jsonl") for r in read_rows(f)]
 
 
 def _check_clean_abort(p: subprocess.Popen, err: str, stop_s: float, tmp_path: Path) -> None:

@@ -155,7 +155,7 @@ def test_every_experiment_names_its_sweep_and_table():
     from catpose.bench.report.tables import LAYOUTS
 
     # the paper's tables (other experiment files, e.g. mn40r_*, are single runs on shared data)
-    names = ["ablation", "one_template", "optimizer", "relative_real", "templates", "tyol"]
+    names = ["ablation", "one_template", "optimiser", "relative_real", "templates", "tyol"]
     folder = Path(__file__).resolve().parents[1] / "configs" / "experiment"
     assert all((folder / f"{n}.yaml").is_file() for n in names)
     with initialize_config_module("catpose.configs", version_base=None):

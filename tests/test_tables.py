@@ -73,8 +73,8 @@ def test_golden_statistics(runs):
     assert s.loc["chair", "mean_trans_err"] == pytest.approx(0.1)
 
 
-def test_optimizer_layout_marks_best_and_second(runs):
-    t = tables.build_table([tables.load_run(p) for p in runs], "optimizer")
+def test_optimiser_layout_marks_best_and_second(runs):
+    t = tables.build_table([tables.load_run(p) for p in runs], "optimiser")
     assert [r for r in t.rows] == [("-", "ICP"), ("Direct match FPFH", "FGR"), ("Dictionary LPS", "Ours")]
     assert ("Airplane", "Mean° ↓") in t.columns and ("Chair", "L_T ↓") in t.columns
     ranks = t.ranks()
@@ -138,6 +138,9 @@ def test_cli_writes_file_and_user_labels(runs, tmp_path: Path, capsys):
     assert "ICP (20 starts)" in text and "All" in text
     from catpose.bench.cli import main
 
+    assert main(["table", str(runs[0]), "--layout", "optimizer"]) == 2  # the old spelling
+    assert capsys.readouterr().err == ("bench table: error: table layout optimizer was renamed optimiser; "
+                                       "write --layout optimiser\n")
     assert main(["table", str(tmp_path / "nope")]) == 2
     err = capsys.readouterr().err
     assert err.startswith("bench table: error: ") and "does not exist" in err and err.count("\n") == 1
@@ -155,7 +158,7 @@ def test_truncated_jsonl_line_is_skipped_as_by_the_runner(tmp_path: Path):
 
 def test_rows_without_shown_categories_are_dropped(runs, tmp_path: Path):
     only_car = make_run(tmp_path, "car_only", {"car": [3.0]}, {"name": "teaser"})
-    t = tables.build_table([tables.load_run(p) for p in [*runs, only_car]], "optimizer", categories=["airplane"])
+    t = tables.build_table([tables.load_run(p) for p in [*runs, only_car]], "optimiser", categories=["airplane"])
     assert ("-", "TEASER (re-impl.)") not in t.rows and len(t.rows) == 3
     assert any("TEASER (re-impl.)" in n for n in t.notes)
 

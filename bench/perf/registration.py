@@ -74,7 +74,7 @@ def load_problems(dataset: str, protocol: str, n: int, seed: int, root: str | No
             if q and len(ids) < n:
                 ids.append(q.pop(0))
     if not ids:
-        raise ConfigError(f"bench perf: dataset {name} ({protocol}) has no samples; check --root / --dataset-set")
+        raise ConfigError(f"dataset {name} ({protocol}) has no samples; check --root / --dataset-set")
     return [proto.load(ds, sid).problem for sid in ids], f"{name} ({protocol}, seed {seed})"
 
 
@@ -98,7 +98,7 @@ def parse_methods(spec: str) -> list[tuple[str, str]]:
             out.append((label.strip(), (name or label).strip()))
     labels = [lab for lab, _ in out]
     if len(set(labels)) != len(labels):
-        raise ConfigError(f"bench perf: --methods {spec!r} repeats a label; name copies like adam=ours")
+        raise ConfigError(f"--methods {spec!r} repeats a label; name copies like adam=ours")
     return out
 
 
@@ -201,7 +201,7 @@ def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int, bat
     return out
 
 
-def summarise(measured: dict[str, dict]) -> list[dict]:
+def summarize(measured: dict[str, dict]) -> list[dict]:
     """One row per method: n, median/mean/p90 seconds, ratio to FGR's median, warm-up seconds."""
     ref = measured.get(REFERENCE)
     ref_median = statistics.median(ref["times"]) if ref and ref["times"] else None
@@ -254,16 +254,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=None, help="CSV path (default outputs/perf/<parameters>.csv)")
     args = ap.parse_args(argv)
     if args.n < 1 or args.repeat < 1 or args.batch < 1:
-        raise ConfigError("bench perf: --n, --repeat and --batch must be at least 1")
+        raise ConfigError("--n, --repeat and --batch must be at least 1")
     for kv in args.set + args.dataset_set:
         if "=" not in kv:
-            raise ConfigError(f"bench perf: --set/--dataset-set {kv!r} is not KEY=VALUE")
+            raise ConfigError(f"--set/--dataset-set {kv!r} is not KEY=VALUE")
         yaml.safe_load(kv.partition("=")[2])  # a malformed value fails here, before any work
     if args.device == "cuda":
         import torch
 
         if not torch.cuda.is_available():
-            raise ConfigError("bench perf: --device cuda but torch has no CUDA device here; run it on a GPU "
+            raise ConfigError("--device cuda but torch has no CUDA device here; run it on a GPU "
                               "machine with a CUDA build of torch, or use --device cpu")
     import torch
     from tabulate import tabulate
@@ -284,10 +284,10 @@ def main(argv: list[str] | None = None) -> int:
         except Exception as e:  # a method whose module or config is missing or broken: skip it, say why
             print(f"skipping {label}: {type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}")
     if not methods:
-        raise ConfigError(f"bench perf: none of --methods {args.methods} could be built")
+        raise ConfigError(f"none of --methods {args.methods} could be built")
     measured = measure(methods, problems, args.repeat, args.seed, args.batch)
     load_after = os.getloadavg()
-    rows = summarise(measured)
+    rows = summarize(measured)
     peak_rss = _peak_rss_mb()
     stage_rows = [{"method": name, "stage": s, "median_s": statistics.median(v), "mean_s": statistics.fmean(v)}
                   for name, rec in measured.items() for s, v in rec["stages"].items() if v]

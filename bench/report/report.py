@@ -1,6 +1,6 @@
 """``bench report``: tables and figures of run directories in one folder a person can open.
 
-    bench report outputs/synthetic-gt_model --out report/ [--layout optimizer] [--qualitative 2]
+    bench report outputs/synthetic-gt_model --out report/ [--layout optimiser] [--qualitative 2]
 
 writes ``index.md`` and ``index.html`` (the same content; every link relative, so the folder can
 be moved or opened from disk), and per protocol (errors of different protocols answer different
@@ -234,12 +234,12 @@ def _html(md_lines: list[str]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """``bench report RUN_DIR... --out DIR [--layout L ...] [--qualitative N] [--note TEXT ...]``."""
-    from catpose.bench.report.tables import LAYOUTS, parse_labels
+    from catpose.bench.report.tables import LAYOUTS, RENAMED_LAYOUTS, parse_labels
 
     ap = argparse.ArgumentParser(prog="bench report", description="Tables and figures of run directories in one folder.")
     ap.add_argument("runs", nargs="+", help="run directories, or folders searched for samples.jsonl")
     ap.add_argument("--out", required=True)
-    ap.add_argument("--layout", action="append", choices=sorted(LAYOUTS),
+    ap.add_argument("--layout", action="append", choices=sorted({*LAYOUTS, *RENAMED_LAYOUTS}),
                     help="extra table layouts per protocol (always: a summary and a per-category table)")
     ap.add_argument("--qualitative", type=int, default=0,
                     help="pictures per run, at most 2: the worst and a typical failure (re-loads samples from the config)")

@@ -57,7 +57,7 @@ class Run:
         return m if isinstance(m, dict) else {}
 
 
-def read_samples(path: Path):
+def samples_frame(path: Path):
     """A ``samples.jsonl`` as a DataFrame, one row per sample (the runner's reader: a truncated
     line of a killed run is skipped, a retried sample's last row counts)."""
     import pandas as pd
@@ -67,23 +67,23 @@ def read_samples(path: Path):
     return pd.DataFrame(latest_rows(Path(path)))
 
 
-def recompute_errors(samples):
+def recompute_frame_errors(samples):
     """Errors of every row recomputed from its estimate and ground truth by the runner's
-    :func:`~catpose.bench.run.evaluate.recompute_errors` (symmetries included), so tables follow the
+    :func:`~catpose.bench.run.evaluate.recompute_row_errors` (symmetries included), so tables follow the
     current metric definitions rather than the numbers stored at run time."""
     import pandas as pd
 
-    from catpose.bench.run.evaluate import recompute_errors as recompute_row
+    from catpose.bench.run.evaluate import recompute_row_errors
 
     if len(samples) == 0 or not {"T_est", "T_gt", "status"} <= set(samples.columns):
         return samples
-    return pd.DataFrame([recompute_row(r) for r in samples.to_dict("records")], index=samples.index)
+    return pd.DataFrame([recompute_row_errors(r) for r in samples.to_dict("records")], index=samples.index)
 
 
 def load_run(path: str | Path) -> Run:
     """Read a run directory (``samples.jsonl`` required, ``config.yaml`` and ``run.json`` optional).
 
-    Errors are recomputed from the stored poses (:func:`recompute_errors`).
+    Errors are recomputed from the stored poses (:func:`recompute_frame_errors`).
     """
     path = Path(path)
     samples_path = path / "samples.jsonl"
@@ -95,7 +95,7 @@ def load_run(path: str | Path) -> Run:
 
         config = OmegaConf.to_container(OmegaConf.load(path / "config.yaml"), resolve=False)  # type: ignore[assignment]
     info = json.loads((path / "run.json").read_text()) if (path / "run.json").is_file() else {}
-    return Run(path=path, config=config, info=info, samples=recompute_errors(read_samples(samples_path)))
+    return Run(path=path, config=config, info=info, samples=recompute_frame_errors(samples_frame(samples_path)))
 
 
 def find_run_dirs(paths: Sequence[str | Path]) -> list[Path]:

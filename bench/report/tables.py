@@ -2,13 +2,13 @@
 
 A run directory is what the runner writes. Its per-sample rows are turned into scoring units by
 the run's own protocol (``score_units``: templates keep the best-scored template per view,
-``relative`` forms view pairs), summarised per category with :func:`catpose.bench.scoring.metrics.summarize`,
+``relative`` forms view pairs), summarized per category with :func:`catpose.bench.scoring.metrics.summarize`,
 and laid out like the paper's tables:
 
 ==============  ================================================================================
 layout          paper table
 ==============  ================================================================================
-optimizer       \\compareoptimizerfull: pipeline/descriptor x method rows, category x {mean,
+optimiser       \\compareoptimizerfull: pipeline/descriptor x method rows, category x {mean,
                 median, L_T} columns
 one_template    \\matchonetemplateplane: one category (airplane), {mean, median, @10, @30, L_T}
 templates       \\templatechair: rows grouped by the number of templates (chair), oracle error
@@ -21,7 +21,8 @@ generic         any runs x categories x metrics
 Best values are bold and second best underlined per column (or per row for ``real``), with the
 direction of each metric (errors lower, accuracies higher). Output: Markdown, LaTeX or CSV.
 
-Usage: ``bench table outputs/modelnet40-gt_model --layout optimizer --format latex``.
+Usage: ``bench table outputs/modelnet40-gt_model --layout optimiser --format latex``. (The layout
+was spelt ``optimizer`` before; that name is refused with the new one named.)
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from catpose.bench.report.labels import parse_labels, pipeline_label, run_labels, template_count
-from catpose.bench.report.rendering import METRICS, Metric, Table, prune, to_csv, to_latex, to_markdown
+from catpose.bench.report.table_format import METRICS, Metric, Table, prune, to_csv, to_latex, to_markdown
 from catpose.bench.report.runs import Run, find_run_dirs, load_run, protocol_of, scored_units
 from catpose.errors import ConfigError, DatasetError
 
@@ -53,7 +54,7 @@ __all__ = ["LAYOUTS", "build_table", "collect", "split_by_protocol", "main", "lo
 
 
 # --------------------------------------------------------------------------------------------
-# Table model and rendering
+# Table model and formats (catpose.bench.report.table_format)
 
 
 
@@ -76,7 +77,7 @@ class Entry:
 
 def collect(runs: Sequence[Run], group_of: Callable[[Run], str], labels: dict[str, str] | None = None,
             error_of: Callable[[Run], str] = lambda r: "err_deg") -> list[Entry]:
-    """Pool the scoring units of runs with the same (group, label) and summarise per category.
+    """Pool the scoring units of runs with the same (group, label) and summarize per category.
 
     ``labels`` maps a run directory (as given, or its name) to a user label; labels are made
     unique within a group by :func:`run_labels`. ``error_of`` names the error column each run is
@@ -136,7 +137,7 @@ def layout_generic(entries: Sequence[Entry], categories: Sequence[str] | None = 
                       grouped=any(e.group not in ("", "-") for e in entries))
 
 
-def layout_optimizer(entries: Sequence[Entry], categories: Sequence[str] | None = None,
+def layout_optimiser(entries: Sequence[Entry], categories: Sequence[str] | None = None,
                      metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
     return grid_table(entries, _categories(entries, categories, ["airplane", "chair", "car"]),
                       metrics or ["mean", "median", "trans"],
@@ -197,13 +198,17 @@ def layout_tyol(entries: Sequence[Entry], categories: Sequence[str] | None = Non
 LAYOUTS: dict[str, tuple[Callable[..., Table], Callable[[Run], str], str]] = {
     # name: (layout, row group of a run, default error column)
     "generic": (layout_generic, lambda r: "", "err_deg"),
-    "optimizer": (layout_optimizer, pipeline_label, "err_deg"),
+    "optimiser": (layout_optimiser, pipeline_label, "err_deg"),
     "one_template": (layout_one_template, pipeline_label, "err_deg"),
     "templates": (layout_templates, template_count, "oracle_err_deg"),
     "ablation": (layout_ablation, lambda r: f"{r.protocol} {pipeline_label(r)}".replace(" -", ""), "err_deg"),
     "real": (layout_real, lambda r: "", "err_deg"),
     "tyol": (layout_tyol, lambda r: "", "err_deg"),
 }
+
+
+#: layouts renamed: old name -> new name (the old one is refused, naming the new one)
+RENAMED_LAYOUTS = {"optimizer": "optimiser"}
 
 
 def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequence[str] | None = None,
@@ -215,6 +220,9 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     ``"oracle_err_deg"`` (templates protocol: minimum across templates); the ``templates``
     layout defaults to the oracle, as in the paper, and says so in a note.
     """
+    if layout in RENAMED_LAYOUTS:
+        raise ConfigError(f"table layout {layout} was renamed {RENAMED_LAYOUTS[layout]}; "
+                          f"write --layout {RENAMED_LAYOUTS[layout]}")
     if layout not in LAYOUTS:
         raise ConfigError(f"unknown table layout {layout!r}; use one of {sorted(LAYOUTS)}")
     for m in metrics or []:
@@ -296,7 +304,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sweep", action="append", default=[], metavar="DIR",
                     help="a sweep directory of `bench run -m` (<output_root>/multirun/<name>/<time>): its jobs' "
                          "runs and labels, and the experiment's table settings (repeatable)")
-    ap.add_argument("--layout", default=None, choices=sorted(LAYOUTS), help="default: the sweep's, else generic")
+    ap.add_argument("--layout", default=None, choices=sorted({*LAYOUTS, *RENAMED_LAYOUTS}), help="default: the sweep's, else generic")
     ap.add_argument("--format", default="md", choices=sorted(RENDERERS))
     ap.add_argument("--categories", default=None, help="comma-separated categories (default: the layout's)")
     ap.add_argument("--metrics", default=None, help=f"comma-separated, of {','.join(METRICS)}")

@@ -61,18 +61,20 @@ def check_overrides(argv: Sequence[str]) -> None:
     a renamed key or name (``method.optimizer.lr=...``: "method.optimizer was renamed
     method.optimiser; write method.optimiser.lr=...")."""
     for arg in argv:
-        key, sep, value = arg.partition("=")
-        key = key.lstrip("+~")
+        raw, sep, value = arg.partition("=")
+        key = raw.lstrip("+~")
+        prefix = raw[:len(raw) - len(key)]  # "+" / "~" as typed
         for old, new in RENAMED_KEYS.items():
             if key == old or key.startswith(old + "."):
-                fixed = new + key[len(old):] + (f"={value}" if sep else "")
+                fixed = prefix + new + key[len(old):] + (f"={value}" if sep else "")
                 raise ConfigError(f"{old} was renamed {new}; write {fixed}")
         if not sep or key not in GROUPS:
             continue
         names = available(key)
         for v in value.split(","):
             if (key, v) in RENAMED_NAMES:
-                raise ConfigError(f"{key} {v} was renamed {RENAMED_NAMES[key, v]}; write {key}={RENAMED_NAMES[key, v]}")
+                new = RENAMED_NAMES[key, v]
+                raise ConfigError(f"{key} {v} was renamed {new}; write {prefix}{key}={new}")
             if v and v not in names:
                 raise ConfigError(f"unknown {key} {v!r}; available: {', '.join(names)} "
                                   f"(add configs/{key}/{v}.yaml to plug in a new one)")

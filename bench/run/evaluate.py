@@ -1,6 +1,6 @@
 """Errors and summaries from a run directory's files (never from in-memory state).
 
-Every table is scored through :func:`recompute_errors`: the errors of each row are recomputed
+Every table is scored through :func:`recompute_row_errors`: the errors of each row are recomputed
 from its stored estimate and ground truth with the current metric definitions, so a metric fix
 re-scores old runs without re-running them. :func:`summarize_run` writes ``samples.csv`` and
 ``summary.csv`` / ``.md`` over every finished sample of a run directory.
@@ -25,7 +25,7 @@ def load_protocol(run_dir: Path) -> Any:
     return build_from_config(cfg.protocol, "protocol")[1]
 
 
-def recompute_errors(row: dict) -> dict:
+def recompute_row_errors(row: dict) -> dict:
     """A per-sample row with its errors recomputed from ``T_est``, ``T_gt``, ``symmetry_axis``
     and ``symmetries`` (the current metric definitions); a row without an estimate gets
     :data:`~catpose.bench.scoring.metrics.FAILED_ERROR_DEG`. Every table is scored through this."""
@@ -56,7 +56,7 @@ def summarize_run(run_dir: Path, sample_ids: Iterable[str] | None = None):
     import pandas as pd
 
     run_dir = Path(run_dir)
-    df = pd.DataFrame([recompute_errors(r) for r in latest_rows(run_dir / SAMPLES_FILE)])
+    df = pd.DataFrame([recompute_row_errors(r) for r in latest_rows(run_dir / SAMPLES_FILE)])
     protocol = load_protocol(run_dir)
     if len(df):
         flat = df.drop(columns=[c for c in ("info", "extras", "symmetries") if c in df.columns]).copy()

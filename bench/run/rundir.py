@@ -102,8 +102,9 @@ def jsonable(x: Any) -> Any:
     return str(x)
 
 
-def read_samples(path: Path) -> list[dict]:
-    """Rows of a ``samples.jsonl``; a truncated last line (a killed run) is skipped."""
+def read_rows(path: Path) -> list[dict]:
+    """Every row of a ``samples.jsonl`` in file order (a retried sample: each of its rows; one per
+    sample: :func:`latest_rows`); a truncated last line (a killed run) is skipped."""
     rows = []
     if not path.exists():
         return rows
@@ -167,7 +168,7 @@ def writing(path: Path) -> Iterator[None]:
 def latest_rows(path: Path) -> list[dict]:
     """The rows of a ``samples.jsonl``, one per sample (a retried sample: its last row)."""
     latest: dict[str, dict] = {}
-    for r in read_samples(path):
+    for r in read_rows(path):
         latest.pop(r["sample_id"], None)
         latest[r["sample_id"]] = r
     return list(latest.values())

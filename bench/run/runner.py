@@ -41,7 +41,7 @@ from catpose.bench.run.build import build_from_config, validate_run_options
 from catpose.bench.run.evaluate import format_summary, summarize_run
 from catpose.bench.run.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
 from catpose.bench.run.lock import LOCK_FILE, RunLock
-from catpose.bench.run.rundir import (SAMPLES_FILE, SampleWriter, read_samples, run_dir_for,
+from catpose.bench.run.rundir import (SAMPLES_FILE, SampleWriter, read_rows, run_dir_for,
                                   write_run_files, write_run_json, writing)
 from catpose.bench.run.sample_run import run_batch, run_one
 from catpose.errors import CatposeError, ConfigError, RunAborted
@@ -132,7 +132,7 @@ def _abort_message(e: BaseException, sample_id: str) -> str:
 
 
 # ---------------------------------------------------------------------------------------------
-# run and summarise
+# run and summarize
 
 
 def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
@@ -206,9 +206,9 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
 
     samples_path = out / (shard_samples_file(*sharding) if sharding else SAMPLES_FILE)
     retry = bool(cfg.get("retry_failed", False))
-    existing = read_samples(samples_path)
+    existing = read_rows(samples_path)
     if sharding:  # samples already in the run's merged (or serial) file are done too
-        existing = read_samples(out / SAMPLES_FILE) + existing
+        existing = read_rows(out / SAMPLES_FILE) + existing
         write_shard_meta(out, *sharding, ids, finished=False)
     done = {r["sample_id"] for r in existing if r.get("status") == "ok" or not retry}
     todo = [s for s in ids if s not in done]
