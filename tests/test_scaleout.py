@@ -238,27 +238,4 @@ def test_submitit_local_sweep_equals_serial(serial, tmp_path):
     assert estimates(tmp_path) == estimates(serial)
 
 
-PRESETS = {"local_procs": "hydra_joblib_launcher", "slurm": "hydra_submitit_launcher", "ray_local": "hydra_ray_launcher"}
-
-
-@pytest.mark.parametrize("preset", sorted(PRESETS))
-def test_launcher_presets_compose(preset):
-    try:  # without any launcher plugin even the hydra_plugins namespace is absent
-        installed = importlib.util.find_spec(f"hydra_plugins.{PRESETS[preset]}") is not None
-    except ModuleNotFoundError:
-        installed = False
-    if not installed:
-        pytest.skip(f"{PRESETS[preset]} is not installed (the cluster extra: make cluster)")
-    from hydra import compose, initialize_config_module
-
-    with initialize_config_module("catpose.configs", version_base=None):
-        cfg = compose("run", overrides=[f"hydra/launcher={preset}"], return_hydra_config=True)
-    launcher = cfg.hydra.launcher
-    assert launcher._target_.startswith("hydra_plugins.")
-    if preset == "slurm":
-        assert launcher.timeout_min > 0 and launcher.cpus_per_task >= 1 and launcher.mem_gb > 0
-        assert "partition" in launcher
-    elif preset == "local_procs":
-        assert launcher.n_jobs == 2
-    else:
-        assert launcher.ray.init.num_cpus == 2
+# The launcher presets compose in tests/test_configs.py (without their plugins too).
