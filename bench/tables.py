@@ -208,12 +208,16 @@ LAYOUTS: dict[str, tuple[Callable[..., Table], Callable[[Run], str], str]] = {
 
 def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequence[str] | None = None,
                 metrics: Sequence[str] | None = None, labels: dict[str, str] | None = None,
-                error: str | None = None, title: str | None = None) -> Table:
+                error: str | None = None, title: str | None = None,
+                stability_roots: Sequence[Path] = ()) -> Table:
     """Lay out ``runs`` as one of :data:`LAYOUTS`.
 
     ``error`` picks the per-unit error: ``"err_deg"`` (the method's own choice) or
     ``"oracle_err_deg"`` (templates protocol: minimum across templates); the ``templates``
     layout defaults to the oracle, as in the paper, and says so in a note.
+    ``stability_roots``: output roots holding the same runs made under other code paths of the
+    numerical libraries; the notes then say, per row, how many views changed and the range of
+    the overall figures (:mod:`catpose.bench.stability`).
     """
     if layout not in LAYOUTS:
         raise ConfigError(f"unknown table layout {layout!r}; use one of {sorted(LAYOUTS)}")
@@ -224,8 +228,10 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     error = error or default_error
     # Only templates runs have an oracle; other runs in the same table keep their own error.
     oracle = error == "oracle_err_deg"
-    entries = collect(runs, group_of, labels,
-                      lambda r: "oracle_err_deg" if oracle and r.protocol == "templates" else "err_deg")
+    def error_of(r: Run) -> str:
+        return "oracle_err_deg" if oracle and r.protocol == "templates" else "err_deg"
+
+    entries = collect(runs, group_of, labels, error_of)
     # Paper order: pipelines from plain to ours, and within one, our method last.
     entries.sort(key=lambda e: (_group_order(e.group), e.group, e.label.startswith("Ours")))
     kwargs = {"title": title} if title else {}
@@ -233,6 +239,11 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     prune(table)
     if oracle and any(r.protocol == "templates" for r in runs):
         table.notes.append("Errors of templates runs are the minimum across templates (an oracle that needs ground truth).")
+    if stability_roots:
+        from catpose.bench.stability import stability_notes
+
+        names = [f"{group_of(r)} / {label}".lstrip(" /") for r, label in zip(runs, run_labels(runs, labels, group_of))]
+        table.notes += [""] + stability_notes(runs, names, stability_roots, error_of)
     return table
 
 
@@ -309,6 +320,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="BOP recalls of runs scored by `bench score` (bop_errors.jsonl), e.g. "
                          "ar_mssd,ar_mspd,adds@0.1,5deg5cm (see catpose.bench.bop_eval.parse_metric)")
     ap.add_argument("--by", default="object,category", help="with --bop-metrics: rows per object and/or category")
+    ap.add_argument("--stability", action="append", default=[], metavar="ROOT",
+                    help="an output root with the same runs made under another code path of the numerical "
+                         "libraries (results/make_results.sh); notes say per row how many views changed "
+                         "and the range of the overall figures (repeatable)")
     args = ap.parse_args(argv)
     try:
         run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
@@ -330,7 +345,8 @@ def main(argv: list[str] | None = None) -> int:
         runs = [load_run(p) for p in find_run_dirs([*args.runs, *run_paths])]
         table = build_table(runs, args.layout, args.categories.split(",") if args.categories else None,
                             args.metrics.split(",") if args.metrics else None,
-                            {**sweep_labels, **parse_labels(args.label)}, args.error, args.title)
+                            {**sweep_labels, **parse_labels(args.label)}, args.error, args.title,
+                            [Path(p) for p in args.stability])
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
