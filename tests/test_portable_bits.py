@@ -146,3 +146,26 @@ def test_no_cpu_dependent_arithmetic_in_sample_code(folder: str):
     bad = [f"{p.relative_to(REPO)}:{line}: {what}" for p in sorted((REPO / folder).rglob("*.py"))
            for line, what in portability_violations(p.read_text())]
     assert not bad, "CPU-dependent arithmetic where samples are made:\n" + "\n".join(bad)
+
+
+def test_golden_inputs_are_what_this_machine_renders():
+    """The committed golden inputs of ``bench regress`` (rendered on one machine) are bit for bit
+    what this machine renders from the suite's settings (float32 as stored): whatever CPU made
+    them, the problems are the same."""
+    import numpy as np
+
+    from catpose.bench import regress
+    from catpose.bench.regress.golden import _f32
+
+    _, suites = regress.load_config()
+    suite = suites["synthetic"]
+    golden = np.load(suite.inputs)
+    live = regress.Suite(**{**suite.__dict__, "inputs": None})
+    dataset, protocol, ids = regress.suite_samples(live)
+    assert len(ids) == 24
+    for i, sid in enumerate(ids):
+        s = protocol.load(dataset, sid)
+        for key, a in (("p", s.problem.points_camera), ("n", s.problem.normals_camera),
+                       ("g", s.problem.ground_normal_camera)):
+            assert np.array_equal(golden[f"{key}{i}"], _f32(a)), f"{sid}: {key} differs from the golden inputs"
+        assert np.array_equal(golden[f"T{i}"], s.gt.T_template_camera), sid

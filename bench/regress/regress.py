@@ -13,10 +13,12 @@ What is compared, per method (the reference is ``results/reference/<suite>.json`
   tolerances derived in the config (mean / median error, @10 / @30, translation error).
 
 A sample is *chaotic* when its answer is decided by the last bits: a ``1e-12`` relative
-perturbation of its input, or a second BLAS kernel, moves its estimate by more than
-``chaos_deg``. ``bench regress --update`` measures that for every sample (three runs, the third
-in a subprocess under another ``OPENBLAS_CORETYPE``, MKL instruction set and torch CPU capability) and stores the flag
-in the reference; chaotic samples are reported, never failed on.
+perturbation of its input, or another code path of the numerical libraries, moves its estimate
+by more than ``chaos_deg``. ``bench regress --update`` measures that for every sample: a nominal
+run, a perturbed run, and one run in a child process per code path this CPU can take
+(:func:`catpose.bench.run.environment.numeric_variants`: every OpenBLAS kernel it runs, SkylakeX
+included where AVX-512 exists, NumPy without its AVX-512 loops, torch's default kernels). It
+stores the flag in the reference; chaotic samples are reported, never failed on.
 
     bench regress                          # every suite (shared-data suites only when present)
     bench regress --suite synthetic --methods icp,ours
@@ -48,9 +50,6 @@ from catpose.errors import CatposeError, ConfigError, command_error
 REPO = Path(__file__).resolve().parents[2]
 DEFAULT_CONFIG = REPO / "configs" / "regress" / "default.yaml"
 AGGREGATES = ("n", "failed", "mean_err_deg", "median_err_deg", "acc10", "acc30", "mean_trans_err")
-#: OpenBLAS kernels to try as "a second kernel", in order of preference, by the first one's name
-SECOND_KERNEL = {"SkylakeX": "Haswell", "Cooperlake": "Haswell", "SapphireRapids": "Haswell", "Zen": "Sandybridge",
-                 "Haswell": "Sandybridge", "Sandybridge": "Haswell"}
 
 
 # --------------------------------------------------------------------------------------------
@@ -214,51 +213,64 @@ def _slim(row: dict) -> dict:
 # the reference
 
 
-def second_kernel(current: str) -> str:
-    """An OpenBLAS kernel that differs from ``current`` and runs on this CPU."""
-    return SECOND_KERNEL.get(current, "Sandybridge" if current != "Sandybridge" else "Haswell")
+def other_code_paths() -> dict[str, dict[str, str]]:
+    """The code paths of :func:`~catpose.bench.run.environment.numeric_variants` that differ from
+    this process's own (a variant already in effect is left out); without AVX2, another
+    OpenBLAS kernel and torch's default kernels."""
+    from catpose.bench.run.environment import numeric_variants, numpy_blas_kernel
+
+    variants = numeric_variants() or {"other-kernel": {"OPENBLAS_CORETYPE": "Sandybridge"},
+                                      "torch-default": {"ATEN_CPU_CAPABILITY": "default"}}
+    kernel = numpy_blas_kernel()
+    out = {}
+    for name, env in variants.items():
+        if all(os.environ.get(k) == v for k, v in env.items()):
+            continue
+        if set(env) == {"OPENBLAS_CORETYPE"} and env["OPENBLAS_CORETYPE"] == kernel:
+            continue
+        out[name] = env
+    return out
 
 
 def estimates_in_subprocess(config: Path, suite: str, methods: Sequence[str], env_extra: dict[str, str],
                             jobs: int = 1) -> dict:
     """{method: {sample_id: slim row}} from ``bench regress --emit-estimates`` in a child process
-    with ``env_extra`` set (another BLAS kernel)."""
+    with ``env_extra`` set (another code path of the numerical libraries)."""
     with tempfile.TemporaryDirectory(prefix="catpose-regress-") as tmp:
         out = Path(tmp) / "estimates.json"
         cmd = [sys.executable, "-m", "catpose.bench.regress.regress", "--config", str(config), "--suite", suite,
                "--methods", ",".join(methods), "--emit-estimates", str(out), "--jobs", str(jobs)]
         proc = subprocess.run(cmd, env=dict(os.environ, **env_extra), capture_output=True, text=True)
         if proc.returncode != 0:
-            raise CatposeError(f"second-kernel run failed ({' '.join(f'{k}={v}' for k, v in env_extra.items())}): "
+            raise CatposeError(f"run under another code path failed ({' '.join(f'{k}={v}' for k, v in env_extra.items())}): "
                                f"{proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}")
         return json.loads(out.read_text())
 
 
 def build_reference(suite: Suite, methods: Sequence[str], gate: Gate, config: Path, jobs: int = 1,
                     log=print) -> dict:
-    """Run, perturb, re-run under a second kernel, and return the reference entries per method."""
-    from catpose.bench.run.environment import numpy_blas_kernel
-
-    kernel2 = second_kernel(numpy_blas_kernel())
-    env2 = {"OPENBLAS_CORETYPE": kernel2, "MKL_ENABLE_INSTRUCTIONS": "AVX", "ATEN_CPU_CAPABILITY": "default"}
-    log(f"  second kernel for chaos detection: {' '.join(f'{k}={v}' for k, v in env2.items())}")
+    """Run, perturb, re-run under every other code path of this CPU, and return the reference
+    entries per method (each sample records how far each of them moved it)."""
     t0 = time.perf_counter()
-    other = estimates_in_subprocess(config, suite.name, methods, env2, jobs)
+    others = {}
+    for name, env in other_code_paths().items():
+        log(f"  chaos detection under {name}: {' '.join(f'{k}={v}' for k, v in env.items())}")
+        others[name] = estimates_in_subprocess(config, suite.name, methods, env, jobs)
     tasks = [(suite, m, 0.0) for m in methods]
     if suite.inputs is not None:  # live inputs already differ in their last bits across kernels
         tasks += [(suite, m, gate.perturbation) for m in methods]
     results = map_jobs(tasks, jobs)
-    log(f"  {suite.name}: {len(tasks) + len(methods)} runs in {time.perf_counter() - t0:.1f} s")
+    log(f"  {suite.name}: {len(tasks) + len(others) * len(methods)} runs in {time.perf_counter() - t0:.1f} s")
     out = {}
     for i, m in enumerate(methods):
         nominal = results[i]
         shaken = results[len(methods) + i] if suite.inputs is not None else {}
         for sid, r in nominal.items():
             d_p = estimate_distance_deg(r, shaken[sid]) if sid in shaken else float("nan")
-            d_k = estimate_distance_deg(r, other[m][sid]) if sid in other.get(m, {}) else float("nan")
+            d_k = {name: estimate_distance_deg(r, o[m][sid]) for name, o in others.items() if sid in o.get(m, {})}
             r["perturbation_moves_deg"] = None if math.isnan(d_p) else round(d_p, 4)
-            r["kernel_moves_deg"] = None if math.isnan(d_k) else round(d_k, 4)
-            r["chaotic"] = bool(max(0.0 if math.isnan(d_p) else d_p, 0.0 if math.isnan(d_k) else d_k) > gate.chaos_deg)
+            r["code_path_moves_deg"] = {name: round(d, 4) for name, d in d_k.items()}
+            r["chaotic"] = bool(max([0.0 if math.isnan(d_p) else d_p, *d_k.values()]) > gate.chaos_deg)
         stable = {sid for sid, r in nominal.items() if not r["chaotic"]}
         out[m] = {"samples": nominal, "aggregates": aggregates(nominal, stable, gate)}
         n_ch = len(nominal) - len(stable)

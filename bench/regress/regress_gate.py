@@ -4,8 +4,13 @@ reference (see :mod:`catpose.bench.regress.regress` for the suites and the comma
 
 - A sample that was ok and now fails, fails the gate.
 - A *stable* sample (not flagged chaotic in the reference) that was within ``within_deg`` and now
-  is not, by a move larger than ``chaos_deg``, fails the gate.
-- Aggregates per category over the stable samples must stay within the derived tolerances.
+  is not, or within ``wrong_deg`` and now is not, by a move larger than ``chaos_deg``, fails the
+  gate.
+- A sample that was already wrong (beyond ``wrong_deg``) gates only on its status and on crossing
+  ``wrong_deg``, never on how far it moves: a wrong answer that moves is still wrong.
+- Aggregates per category over the stable samples, with every error clipped at ``wrong_deg`` and
+  translation errors over the samples the reference had within it, must stay within the derived
+  tolerances.
 - Every sample whose answer moved more than ``chaos_deg`` is reported (chaotic ones as expected).
 """
 
@@ -21,6 +26,7 @@ class Gate:
     """The gate's thresholds (``gate:`` in the config; the derivations are documented there)."""
 
     within_deg: float = 10.0
+    wrong_deg: float = 30.0
     chaos_deg: float = 1.0
     perturbation: float = 1e-12
     mean_err_deg: float = 1.0
@@ -56,23 +62,33 @@ def estimate_distance_deg(a: dict, b: dict) -> float:
     return float(err["err_deg"])
 
 
-def aggregates(rows: dict[str, dict], stable: set[str], gate: Gate) -> dict[str, dict[str, float]]:
+def aggregates(rows: dict[str, dict], stable: set[str], gate: Gate,
+               right: set[str] | None = None) -> dict[str, dict[str, float]]:
     """Per-category (and ``all``) statistics over the stable samples of ``rows``, plus the
     derived accuracy tolerances: the fraction of those samples within ``chaos_deg`` of each
-    accuracy threshold (they may cross it without having moved beyond noise)."""
+    accuracy threshold (they may cross it without having moved beyond noise).
+
+    Rotation errors are clipped at ``wrong_deg`` (a failure counts as ``wrong_deg``), so a wrong
+    answer that moves cannot move an aggregate; the mean translation error is taken over the
+    stable samples in ``right`` (the reference's samples within ``wrong_deg``; by default those
+    of ``rows`` themselves), so the set it averages does not depend on the current answers."""
     import numpy as np
 
-    by_cat: dict[str, list[dict]] = {}
+    if right is None:
+        right = {sid for sid, r in rows.items() if r["status"] == "ok" and r["err_deg"] <= gate.wrong_deg}
+    by_cat: dict[str, list[tuple[str, dict]]] = {}
     for sid, r in rows.items():
         if sid in stable:
-            by_cat.setdefault(str(r["category"]), []).append(r)
-            by_cat.setdefault("all", []).append(r)
+            by_cat.setdefault(str(r["category"]), []).append((sid, r))
+            by_cat.setdefault("all", []).append((sid, r))
     out = {}
-    for cat, rs in sorted(by_cat.items()):
+    for cat, items in sorted(by_cat.items()):
+        rs = [r for _, r in items]
         err = np.array([r["err_deg"] if r["status"] == "ok" else 180.0 for r in rs], float)
-        trans = np.array([r["trans_err"] for r in rs if r["status"] == "ok"], float)
+        clipped = np.minimum(err, gate.wrong_deg)
+        trans = np.array([r["trans_err"] if r["status"] == "ok" else np.nan for sid, r in items if sid in right], float)
         stats = {"n": float(len(rs)), "failed": float(sum(r["status"] != "ok" for r in rs)),
-                 "mean_err_deg": float(err.mean()), "median_err_deg": float(np.median(err)),
+                 "mean_err_deg": float(clipped.mean()), "median_err_deg": float(np.median(clipped)),
                  "mean_trans_err": float(np.nanmean(trans)) if np.isfinite(trans).any() else float("nan")}
         for thr in gate.accuracy_thresholds:
             stats[f"acc{thr:g}"] = float((err <= thr).mean())
@@ -110,14 +126,22 @@ def compare_method(method: str, ref: dict, current: dict[str, dict], gate: Gate)
             continue
         if moved <= gate.chaos_deg:
             continue
-        left = r["err_deg"] <= gate.within_deg < c["err_deg"]
-        fails = left and sid not in chaotic
-        note = f"{tag}: moved {moved:.2f} deg, error {r['err_deg']:.2f} -> {c['err_deg']:.2f} deg"
+        r_err = r["err_deg"] if r["status"] == "ok" else 180.0
+        c_err = c["err_deg"] if c["status"] == "ok" else 180.0
+        note = f"{tag}: moved {moved:.2f} deg, error {r_err:.2f} -> {c_err:.2f} deg"
+        if r_err > gate.wrong_deg:  # wrong in the reference: only crossing back is news
+            if c_err <= gate.wrong_deg:
+                note += f" (now within {gate.wrong_deg:g} deg)"
+            findings.append(Finding(method, sid, note + " (wrong in the reference: not gated)", False))
+            continue
+        left = [x for x in (gate.within_deg, gate.wrong_deg) if r_err <= x < c_err]
         if left:
-            note += f" (left {gate.within_deg:g} deg)"
-        findings.append(Finding(method, sid, note, fails))
+            note += f" (left {left[0]:g} deg)"
+        findings.append(Finding(method, sid, note, bool(left) and sid not in chaotic))
     stable = set(ref_rows) - chaotic
-    ref_agg, cur_agg = ref["aggregates"], aggregates({k: v for k, v in current.items() if k in ref_rows}, stable, gate)
+    right = {sid for sid, r in ref_rows.items() if r["status"] == "ok" and r["err_deg"] <= gate.wrong_deg}
+    ref_agg = ref["aggregates"]
+    cur_agg = aggregates({k: v for k, v in current.items() if k in ref_rows}, stable, gate, right)
     tolerances = {"n": 0.0, "failed": 0.0, "mean_err_deg": gate.mean_err_deg, "median_err_deg": gate.median_err_deg,
                   "mean_trans_err": gate.mean_trans_err}
     for cat in sorted(set(ref_agg) | set(cur_agg)):

@@ -213,12 +213,16 @@ RENAMED_LAYOUTS = {"optimizer": "optimiser"}
 
 def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequence[str] | None = None,
                 metrics: Sequence[str] | None = None, labels: dict[str, str] | None = None,
-                error: str | None = None, title: str | None = None) -> Table:
+                error: str | None = None, title: str | None = None,
+                stability_roots: Sequence[Path] = ()) -> Table:
     """Lay out ``runs`` as one of :data:`LAYOUTS`.
 
     ``error`` picks the per-unit error: ``"err_deg"`` (the method's own choice) or
     ``"oracle_err_deg"`` (templates protocol: minimum across templates); the ``templates``
     layout defaults to the oracle, as in the paper, and says so in a note.
+    ``stability_roots``: output roots holding the same runs made under other code paths of the
+    numerical libraries; the notes then say, per row, how many views changed and the range of
+    the overall figures (:mod:`catpose.bench.report.stability`).
     """
     if layout in RENAMED_LAYOUTS:
         raise ConfigError(f"table layout {layout} was renamed {RENAMED_LAYOUTS[layout]}; "
@@ -232,8 +236,10 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     error = error or default_error
     # Only templates runs have an oracle; other runs in the same table keep their own error.
     oracle = error == "oracle_err_deg"
-    entries = collect(runs, group_of, labels,
-                      lambda r: "oracle_err_deg" if oracle and r.protocol == "templates" else "err_deg")
+    def error_of(r: Run) -> str:
+        return "oracle_err_deg" if oracle and r.protocol == "templates" else "err_deg"
+
+    entries = collect(runs, group_of, labels, error_of)
     # Paper order: pipelines from plain to ours, and within one, our method last.
     entries.sort(key=lambda e: (_group_order(e.group), e.group, e.label.startswith("Ours")))
     kwargs = {"title": title} if title else {}
@@ -241,6 +247,11 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     prune(table)
     if oracle and any(r.protocol == "templates" for r in runs):
         table.notes.append("Errors of templates runs are the minimum across templates (an oracle that needs ground truth).")
+    if stability_roots:
+        from catpose.bench.report.stability import stability_notes
+
+        names = [f"{group_of(r)} / {label}".lstrip(" /") for r, label in zip(runs, run_labels(runs, labels, group_of))]
+        table.notes += [""] + stability_notes(runs, names, stability_roots, error_of)
     return table
 
 
@@ -317,6 +328,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="BOP recalls of runs scored by `bench score` (bop_errors.jsonl), e.g. "
                          "ar_mssd,ar_mspd,adds@0.1,5deg5cm (see catpose.bench.scoring.bop_eval.parse_metric)")
     ap.add_argument("--by", default="object,category", help="with --bop-metrics: rows per object and/or category")
+    ap.add_argument("--stability", action="append", default=[], metavar="ROOT",
+                    help="an output root with the same runs made under another code path of the numerical "
+                         "libraries (results/make_results.sh); notes say per row how many views changed "
+                         "and the range of the overall figures (repeatable)")
     args = ap.parse_args(argv)
     run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
     if not args.runs and not run_paths:
@@ -337,7 +352,8 @@ def main(argv: list[str] | None = None) -> int:
     runs = [load_run(p) for p in find_run_dirs([*args.runs, *run_paths])]
     table = build_table(runs, args.layout, args.categories.split(",") if args.categories else None,
                         args.metrics.split(",") if args.metrics else None,
-                        {**sweep_labels, **parse_labels(args.label)}, args.error, args.title)
+                        {**sweep_labels, **parse_labels(args.label)}, args.error, args.title,
+                        [Path(p) for p in args.stability])
     text = RENDERERS[args.format](table)
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)

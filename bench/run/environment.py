@@ -148,7 +148,7 @@ def differences(reference: dict | None, current: dict) -> list[str]:
         return ["the reference records no environment"]
     lines = []
     for key in ("python", "cpu", "cpu_flags", "OPENBLAS_CORETYPE", "numeric_env", "torch_cpu_capability"):
-        if reference.get(key) != current.get(key):
+        if reference.get(key) != current.get(key) and (reference.get(key) or current.get(key)):
             lines.append(f"{key}: reference {reference.get(key)!r}, here {current.get(key)!r}")
     rv, cv = reference.get("versions", {}), current.get("versions", {})
     for p in sorted(set(rv) | set(cv)):
@@ -159,3 +159,33 @@ def differences(reference: dict | None, current: dict) -> list[str]:
     if rk != ck:
         lines.append(f"BLAS kernels: reference {rk}, here {ck}")
     return lines
+
+
+def _shell_exports(env: dict[str, str]) -> str:
+    import shlex
+
+    return "\n".join(f"export {k}={shlex.quote(v)}" for k, v in env.items())
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m catpose.bench.run.environment portable|variants``: shell lines for scripts.
+
+    ``portable`` prints ``export`` lines of :func:`portable_profile`; ``variants`` prints one line
+    per :func:`numeric_variants` entry, ``NAME<TAB>export ...; export ...``.
+    """
+    import sys
+
+    argv = sys.argv[1:] if argv is None else argv
+    if argv == ["portable"]:
+        print(_shell_exports(portable_profile()))
+        return 0
+    if argv == ["variants"]:
+        for name, env in numeric_variants().items():
+            print(f"{name}\t{_shell_exports(env).replace(chr(10), '; ')}")
+        return 0
+    print("usage: python -m catpose.bench.run.environment portable|variants", file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
