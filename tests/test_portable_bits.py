@@ -154,7 +154,7 @@ def test_golden_inputs_are_what_this_machine_renders():
     them, the problems are the same."""
     import numpy as np
 
-    from catpose.bench import regress
+    from catpose.bench.regress import regress
     from catpose.bench.regress.golden import _f32
 
     _, suites = regress.load_config()
