@@ -4,7 +4,9 @@ Method, dataset and protocol configs are composed through the ``run`` config, ex
 ``bench run`` does, and built by the same builder. Datasets that need real data are built on
 ``../shared/data`` when it is present; without it, or for files not shipped there, they must stop
 with a one-line error that names ``dataset.root``. Experiment files are composed as
-``+experiment=<name>``. Any other group's file with a ``_target_`` is instantiated on its own.
+``+experiment=<name>``. Hydra launcher presets compose with or without their plugin (a stand-in
+for the plugin's base config when it is absent). Any other group's file with a ``_target_`` is
+instantiated on its own; a fragment without one must be in a method's defaults list.
 """
 
 from __future__ import annotations
