@@ -15,6 +15,7 @@ def main(argv: list[str]) -> int:
     if any(a in ("-h", "--help") for a in argv):
         print(__doc_run__)
         return 0
+    config.check_modes(argv)
     config.check_overrides(argv)
     config.check_launcher(argv)
     config.check_composition(argv)

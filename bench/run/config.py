@@ -150,3 +150,18 @@ def check_composition(argv: Sequence[str]) -> None:
     if any(a.lstrip("+~").startswith(("hydra", "experiment")) for a in overrides):
         return
     compose(overrides)
+
+
+# Hydra's modes: only one of them per command line (hydra/_internal/utils.py says so in a traceback)
+_HYDRA_MODES = {"-m": "-m", "--multirun": "-m", "-r": "--run", "--run": "--run", "-c": "--cfg", "--cfg": "--cfg",
+                "-i": "--info", "--info": "--info", "-sc": "--shell-completion", "--shell-completion": "--shell-completion"}
+
+
+def check_modes(argv: Sequence[str]) -> None:
+    """Fail fast, in one line, on two of Hydra's modes together (``-m`` with ``--cfg job``)."""
+    modes = list(dict.fromkeys(_HYDRA_MODES[a.split("=", 1)[0]] for a in argv if a.split("=", 1)[0] in _HYDRA_MODES))
+    if len(modes) > 1:
+        hint = (" (show one job's config: drop -m and give one value per key, e.g. bench run method=icp --cfg job)"
+                if "-m" in modes and "--cfg" in modes else "")
+        raise ConfigError(f"{' and '.join(modes)} cannot be combined: pass one of -m, --run, --cfg, --info, "
+                          f"--shell-completion{hint}")
