@@ -180,6 +180,14 @@ def test_unreadable_metadata_fails_that_run_in_one_line_not_the_others(two_runs,
         assert not (tmp_path / "m_toy-test.csv").exists()
 
 
+def test_a_table_of_only_unreadable_runs_is_one_line(two_runs, capsys):
+    a, _ = two_runs
+    (a / "run.json").write_bytes(b"")
+    assert bench(["table", str(a)]) == 2
+    assert one_error_line(capsys, "table") == f"bench table: error: run {a}: run.json is unreadable (an empty file); " \
+        "re-run the same `bench run` command to rewrite it (finished samples are skipped), or restore it from a copy"
+
+
 # ---------------------------------------------------------------------------------------------
 # 1. no command writes into a run it did not create
 

@@ -18,10 +18,10 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from catpose import atomic
 from catpose.bench.interop.bop_export import bop_ids
 from catpose.bench.interop.prediction_checks import key_text
 from catpose.bench.interop.prediction_io import read_mapping, read_predictions
-from catpose import atomic
 from catpose.bench.run.overwrite import check_new_output
 from catpose.bench.run.rundir import write_run_into
 from catpose.errors import DatasetError, InvalidInputError

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Sequence
 
 from catpose import atomic
-from catpose.errors import CatposeError, DatasetError
+from catpose.errors import CatposeError
 
 #: Errors (degrees) above which a registration counts as a failure for the qualitative examples.
 FAILURE_DEG = 10.0
@@ -110,11 +110,9 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
     from catpose.bench.report.runs import load_runs, print_left_out
 
     runs, reasons = load_runs(run_dirs)
-    print_left_out("report", reasons)
+    print_left_out("report", runs, reasons)
     if left_out is not None:
         left_out.extend(reasons)
-    if not runs:
-        raise DatasetError(f"no run could be read ({len(reasons)} left out, see above)")
     by_protocol = tables.split_by_protocol(runs)
     label_of = {id(r): lab for group in by_protocol.values() for r, lab in zip(group, tables.run_labels(group, labels))}
 

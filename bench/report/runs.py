@@ -114,15 +114,20 @@ def load_runs(paths: Sequence[str | Path]) -> tuple[list[Run], list[str]]:
     return runs, reasons
 
 
-def print_left_out(command: str, reasons: Sequence[str]) -> None:
-    """Each run left out by :func:`load_runs`, one ``bench <command>: error: ...`` line each (stderr);
-    the command then exits with status 2 after doing what it can with the others."""
+def print_left_out(command: str, runs: Sequence[Run], reasons: Sequence[str]) -> None:
+    """Each run left out by :func:`load_runs`, one ``bench <command>: error: left out: ...`` line each
+    (stderr); the command then exits with status 2 after doing what it can with the others. With
+    no run left at all it raises instead (one line when one run was given)."""
     import sys
 
     from catpose.errors import command_error
 
+    if not runs and len(reasons) == 1:
+        raise DatasetError(reasons[0])
     for why in reasons:
         print(command_error(command, f"left out: {why}"), file=sys.stderr)
+    if not runs:
+        raise DatasetError(f"no run could be read ({len(reasons)} left out, see above)")
 
 
 def find_run_dirs(paths: Sequence[str | Path], merge_failures: list[str] | None = None) -> list[Path]:

@@ -33,9 +33,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from catpose import atomic
 from catpose.bench.report.labels import parse_labels, pipeline_label, run_labels, template_count
 from catpose.bench.report.table_format import METRICS, Metric, Table, prune, to_csv, to_latex, to_markdown
-from catpose import atomic
 from catpose.bench.report.runs import Run, find_run_dirs, load_run, load_runs, print_left_out, protocol_of, scored_units
 from catpose.errors import ConfigError, DatasetError
 
@@ -351,9 +351,7 @@ def main(argv: list[str] | None = None) -> int:
             setattr(args, key, ",".join(map(str, value)) if isinstance(value, list) else str(value))
     args.layout = args.layout or "generic"
     runs, left_out = load_runs([*args.runs, *run_paths])
-    print_left_out("table", left_out)  # one damaged run does not stop the others; the exit status says so
-    if not runs:
-        raise DatasetError(f"no run could be read ({len(left_out)} left out, see above)")
+    print_left_out("table", runs, left_out)  # one damaged run does not stop the others; the exit status says so
     table = build_table(runs, args.layout, args.categories.split(",") if args.categories else None,
                         args.metrics.split(",") if args.metrics else None,
                         {**sweep_labels, **parse_labels(args.label)}, args.error, args.title,

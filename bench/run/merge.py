@@ -31,6 +31,10 @@ from catpose.errors import ConfigError, DatasetError
 _SHARD_RE = re.compile(r"^samples\.shard-(\d+)-of-(\d+)\.jsonl$")
 
 
+class ShardsNotDone(DatasetError):
+    """A merge before every shard has finished (not a fault: the last shard to finish merges)."""
+
+
 def shard_samples_file(shard: int, shards: int) -> str:
     """File name of shard ``shard`` of ``shards``'s per-sample rows."""
     return f"samples.shard-{shard}-of-{shards}.jsonl"
@@ -132,7 +136,7 @@ def merged_rows(run_dir: Path) -> list[dict]:
     read = _metas(run_dir, n)
     for i in range(n):
         if i not in present or i not in read:
-            raise DatasetError(f"{run_dir}: shard {i} of {n} has not run; run it with shards={n} shard={i}")
+            raise ShardsNotDone(f"{run_dir}: shard {i} of {n} has not run; run it with shards={n} shard={i}")
     metas = [read[i] for i in range(n)]
     check_shard_configs(run_dir, metas)
     serial = {r["sample_id"]: r for r in latest_rows(run_dir / SAMPLES_FILE)}
@@ -141,7 +145,7 @@ def merged_rows(run_dir: Path) -> list[dict]:
         rows = {r["sample_id"]: r for r in latest_rows(run_dir / shard_samples_file(i, n))}
         missing = [s for s in meta["sample_ids"] if s not in rows and s not in serial]
         if missing:
-            raise DatasetError(f"{run_dir}: shard {i} of {n} lacks {len(missing)} of {len(meta['sample_ids'])} samples "
+            raise ShardsNotDone(f"{run_dir}: shard {i} of {n} lacks {len(missing)} of {len(meta['sample_ids'])} samples "
                                f"(e.g. {missing[0]!r}); finish it with the same command (shards={n} shard={i})")
         per_shard.append([rows.get(s) or serial[s] for s in meta["sample_ids"]])
     out = []

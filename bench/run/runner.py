@@ -44,7 +44,7 @@ from catpose.bench.run.lock import LOCK_FILE, RunLock
 from catpose.bench.run.rundir import (SAMPLES_FILE, SampleWriter, read_rows, run_dir_for,
                                   write_run_files, write_run_json, writing)
 from catpose.bench.run.sample_run import run_batch, run_one
-from catpose.errors import CatposeError, ConfigError, RunAborted
+from catpose.errors import CatposeError, ConfigError, RunAborted, command_error
 from catpose.errors import one_line as _one_line
 
 
@@ -268,15 +268,17 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
 
 def _finish_shard(out: Path, sharding: tuple[int, int], cfg: Any, base: dict, n_ids: int, n_run_now: int) -> Path:
     """After a shard: merge the run when every shard is done (the last shard to finish does it)."""
-    from catpose.bench.run.merge import merge_run
+    from catpose.bench.run.merge import ShardsNotDone, merge_run
 
     i, n = sharding
     head = f"\n{base['method']} on {base['dataset']} ({base['protocol']}), seed {base['seed']}, shard {i} of {n}"
     try:
         summary = merge_run(out)
-    except CatposeError:  # other shards still running: the last one (or bench merge) merges
+    except CatposeError as e:  # other shards still running: the last one (or bench merge) merges
         if cfg.get("print_summary", True):
             print(f"{head}: {n_ids} samples ({n_run_now} run now) in {out}; the last shard to finish merges (or: bench merge {out})")
+        if not isinstance(e, ShardsNotDone):  # a merge refused (bench/run/shard_check.py, overwrite.py): say why
+            print(command_error("run", f"shard {i} of {n} is done but the run was not merged: {e}"), file=sys.stderr)
         return out
     if cfg.get("print_summary", True):
         print(f"{head}: all {n} shards done, merged into {out}")
