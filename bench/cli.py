@@ -24,6 +24,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "export": ("catpose.bench.predictions", "export_main", "export a run's estimates as a BOP results CSV"),
     "score": ("catpose.bench.predictions", "score_main", "score an external predictions file (BOP CSV or per-sample CSV)"),
     "suite": ("catpose.bench.suite_real", "main", "every method on the shared real data, one table: bench suite real"),
+    "data": ("catpose.bench.data_check", "main", "check a dataset root before a run: bench data check dataset=NAME dataset.root=PATH"),
     "regress": ("catpose.bench.regress", "main", "CI regression: small subsets against committed reference metrics"),
 }
 
