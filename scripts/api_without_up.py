@@ -84,7 +84,9 @@ def main() -> None:
                      f"{(e <= 30).mean():.3f} | {np.mean(secs):.2f} |")
         print(table[-1], flush=True)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    where = " ".join([f"dataset={args.dataset}", f"seed={args.seed}", *args.override])
+    shown = [o if not o.startswith("dataset.root=") else f"dataset.root=.../{Path(o.split('=', 1)[1]).name}"
+             for o in args.override]  # no machine-specific paths in the results file
+    where = " ".join([f"dataset={args.dataset}", f"seed={args.seed}", *shown])
     args.out.write_text(
         f"`catpose.register` without `up`: {where}, protocol=gt_model, {len(samples)} views "
         f"(written by scripts/api_without_up.py)\n\n"

@@ -127,6 +127,9 @@ def _template_geometry(template: Any) -> tuple[np.ndarray, np.ndarray | None]:
     if isinstance(template, (str, Path)):
         from catpose.datasets.meshio import read_mesh
 
+        if not Path(template).is_file():
+            raise InvalidInputError(f"template: mesh file {template} does not exist; pass an existing .off, .obj or "
+                                    ".ply file, a mesh or an (M, 3) array")
         try:
             return read_mesh(template)
         except CatposeError as e:
