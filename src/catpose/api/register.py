@@ -82,8 +82,9 @@ def register(observation: Any, template: Any, method: str | Any = "ours", up: Se
             ground plane's normal pointing away from the ground (3,). ICP and the FPFH/PFH
             baselines do not use it. Ours does (LPS descriptor frames and its gravity filter):
             without it, ours is run once per direction of ``up_hypotheses`` spread over the
-            sphere and the best-scoring answer is kept, which costs ``up_hypotheses`` times the
-            time and can be less accurate (figures: docs/api.md, from ``results/api/without_up_*.md``).
+            sphere and the best-scoring answer is kept, which costs up to ``up_hypotheses``
+            times the time and can be less accurate (figures: docs/api.md, quoting
+            ``results/api/without_up_*.md``).
         observation_normals: (N, 3) normals of ``observation`` (any orientation: they are turned
             towards the camera), or None to estimate them by local plane fits (radius 0.1
             template radii, as the datasets do).
