@@ -332,8 +332,8 @@ def _check_redwood(name: str, ds: Any, report: Report) -> None:
     if report.problems:
         return
     if no_trajectory:
-        report.warn(f"{len(no_trajectory)} scans have no trajectory (*.log), e.g. {no_trajectory[0]}: protocol=relative "
-                    "cannot score them (docs/data.md says how to make one)")
+        report.warn(f"{len(no_trajectory)} scans have no trajectory (*.log), e.g. {no_trajectory[0]}: "
+                    "protocol=relative cannot score them (docs/data.md says how to make one)")
     try:
         read_depth_png(ds.frame_files(scans[0].name)[0])
     except CatposeError as e:

@@ -46,7 +46,8 @@ def normals_arg(name: str, value: Any, points: np.ndarray) -> np.ndarray | None:
         raise InvalidInputError(f"{name} has shape {n.shape}; expected {points.shape} (one normal per point)")
     length = norm3(n)
     if (length < 1e-12).any():
-        raise InvalidInputError(f"{name} has {int((length < 1e-12).sum())} zero-length normals; pass None to estimate them")
+        raise InvalidInputError(f"{name} has {int((length < 1e-12).sum())} zero-length normals; "
+                                "pass None to estimate them")
     return n / length[:, None]
 
 

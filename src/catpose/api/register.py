@@ -115,7 +115,8 @@ def register(observation: Any, template: Any, method: str | Any = "ours", up: Se
     up_camera = None if up is None else direction_arg("up", up)
     for name, value in (("max_points", max_points), ("template_points", template_points),
                         ("up_hypotheses", up_hypotheses)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < (name == "max_points" and 0 or 1):
+        least = 0 if name == "max_points" else 1
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
             raise InvalidInputError(f"{name}={value!r} is not a positive integer")
     if isinstance(method, str):
         method_name, impl = method, build_method(method, **options)
