@@ -1,6 +1,6 @@
 """The matching pipeline shared by the correspondence-based baselines (FGR, RANSAC, TEASER).
 
-Two choices, both plain constructor arguments (paper Section IV-B, Table "optimizer"):
+Two choices, both plain constructor arguments (paper Section IV-B, Table "optimiser"):
 
 ``matching``
     ``"direct"``: the partial input against the complete template (one estimate).

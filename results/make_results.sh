@@ -8,12 +8,12 @@
 # LAUNCHER=hydra/launcher=local_procs, or =slurm on a cluster.
 #
 # Numbers that hold on any CPU: the tables are computed under the portable numeric profile
-# (catpose.bench.environment.portable_profile: OpenBLAS's Haswell kernel, NumPy without its AVX-512
+# (catpose.bench.run.environment.portable_profile: OpenBLAS's Haswell kernel, NumPy without its AVX-512
 # loops, torch's AVX2 kernels, numba compiling for Haswell), which every x86-64 CPU with AVX2 runs,
 # AVX-512 ones included, so they come out the same there. The experiments then run again under other
 # code paths (OpenBLAS Sandybridge with torch's default kernels; where the CPU has AVX-512, its own
 # AVX-512 paths), each into its own output root, and the Markdown tables' notes say per row how many
-# views changed and the range of the overall figures (catpose.bench.stability): a difference between
+# views changed and the range of the overall figures (catpose.bench.report.stability): a difference between
 # methods smaller than that range is chaos of ambiguous views, not evidence.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,8 +22,8 @@ PY=.venv/bin/python
 OUT=${OUT:-outputs/results}
 S=$OUT/multirun  # named sweep directories, so a re-run resumes into the same ones
 V=$OUT-variants  # the same sweeps under other code paths
-EXPERIMENTS=(optimizer ablation one_template templates relative_real tyol)
-eval "$("$PY" -m catpose.bench.environment portable)"
+EXPERIMENTS=(optimiser ablation one_template templates relative_real tyol)
+eval "$("$PY" -m catpose.bench.run.environment portable)"
 
 run_experiments() {  # $1: output root
   for e in "${EXPERIMENTS[@]}"; do
@@ -48,10 +48,10 @@ mkdir -p "$T"
 for fmt in md latex csv; do
   ext=$fmt; [ "$fmt" = latex ] && ext=tex
   ST=(); if [ "$fmt" = md ]; then ST=(${STAB[@]+"${STAB[@]}"}); fi  # the stability notes are Markdown text
-  for e in optimizer ablation one_template templates tyol; do
+  for e in optimiser ablation one_template templates tyol; do
     "$B" table --sweep "$S/$e" --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/$e.$ext"
   done
-  "$B" table --sweep "$S/optimizer" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/gt_model_all.$ext"
+  "$B" table --sweep "$S/optimiser" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/gt_model_all.$ext"
   "$B" table --sweep "$S/templates" --layout generic --format $fmt --error err_deg ${ST[@]+"${ST[@]}"} \
     --title "Category templates (3 other instances; estimate chosen by the method's own score)" --out "$T/templates_selected.$ext"
   "$B" table --sweep "$S/templates" --layout generic --format $fmt --error oracle_err_deg ${ST[@]+"${ST[@]}"} \

@@ -11,7 +11,7 @@ registered through :func:`catpose.register` with method ``ours``:
   might try instead;
 - ``icp``: multi-start ICP, which never uses ``up``.
 
-Errors are ``err_deg`` of :func:`catpose.bench.metrics.sample_errors` (main-axis error for
+Errors are ``err_deg`` of :func:`catpose.bench.scoring.metrics.sample_errors` (main-axis error for
 symmetric categories). Seconds are the method calls' wall-clock time per view (1 thread).
 
     python scripts/api_without_up.py --seed 0 --hypotheses 12,24,48 --out results/api/without_up_seed0.md
@@ -27,15 +27,10 @@ import numpy as np
 
 
 def _samples(dataset: str, seed: int, overrides: list[str]):
-    from hydra import compose, initialize_config_module
+    from catpose.bench.run.config import compose_and_build
 
-    from catpose.bench.build import build_from_config
-
-    with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
-        cfg = compose(config_name="run", overrides=[f"dataset={dataset}", "protocol=gt_model", f"seed={seed}",
-                                                    *overrides])
-    _, ds = build_from_config(cfg.dataset, "dataset")
-    _, protocol = build_from_config(cfg.protocol, "protocol")
+    _, ((_, ds), (_, protocol)) = compose_and_build(
+        [f"dataset={dataset}", "protocol=gt_model", f"seed={seed}", *overrides], ("dataset", "protocol"))
     return [protocol.load(ds, sid) for sid in protocol.sample_ids(ds)]
 
 
@@ -52,7 +47,7 @@ def main() -> None:
     import torch
 
     import catpose
-    from catpose.bench.metrics import sample_errors
+    from catpose.bench.scoring.metrics import sample_errors
 
     torch.set_num_threads(1)
     samples = _samples(args.dataset, args.seed, args.override)[:args.limit]

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from catpose.bench.data_check import main
-from catpose.bench.run_cmd import available
+from catpose.bench.run.config import available
+from catpose.bench.run.data_check import main
 
 REPO = Path(__file__).resolve().parents[1]
 BENCH = [sys.executable, "-m", "catpose.bench.cli"]

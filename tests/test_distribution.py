@@ -52,7 +52,7 @@ def test_licence_citation_and_declared_imports():
 
 
 def test_templates_without_kmedoids_says_how_to_install_it(monkeypatch, tmp_path):
-    from catpose.bench import templates_select
+    from catpose.bench.category import templates_select
 
     monkeypatch.setitem(sys.modules, "kmedoids", None)  # `import kmedoids` now raises ImportError
     with pytest.raises(ConfigError, match=r"pip install 'catpose\[kmedoids\]'") as info:

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
-from catpose.bench import regress
-from catpose.bench.golden import perturbed, read_golden, write_golden
+from catpose.bench.regress import regress
+from catpose.bench.regress.golden import perturbed, read_golden, write_golden
 
 
 def _row(err, status="ok", T=None, category="mug"):
@@ -90,7 +90,7 @@ def test_a_stable_sample_leaving_30_degrees_fails():
 def test_chaos_detection_covers_every_code_path_of_this_cpu(monkeypatch):
     """--update re-runs under each OpenBLAS kernel the CPU offers other than its own, NumPy without
     AVX-512 where it has it, and torch's default kernels."""
-    from catpose.bench import environment
+    from catpose.bench.run import environment
 
     monkeypatch.setattr(environment, "cpu_flags", lambda: ["avx", "avx2", "avx512f", "fma"])
     monkeypatch.setattr(environment, "numpy_blas_kernel", lambda: "SkylakeX")
@@ -105,7 +105,7 @@ def test_chaos_detection_covers_every_code_path_of_this_cpu(monkeypatch):
 
 
 def test_golden_round_trip_is_bit_exact_and_perturbation_is_tiny(tmp_path: Path):
-    from catpose.bench.protocols import GtModel
+    from catpose.bench.protocols.absolute import GtModel
     from catpose.datasets.synthetic import SyntheticDataset
 
     ds = SyntheticDataset(seed=0, categories=["mug", "can"], instances_per_category=1, views_per_instance=1,
@@ -171,11 +171,11 @@ def test_injected_regression_fails_the_gate(tmp_path: Path, repo_root: Path, cap
 def test_committed_reference_passes_under_every_blas_kernel(repo_root: Path):
     """The committed reference holds under every OpenBLAS kernel this CPU runs (what .ci/run also
     checks)."""
-    from catpose.bench.environment import numeric_variants
+    from catpose.bench.run.environment import numeric_variants
 
     kernels = [v["OPENBLAS_CORETYPE"] for v in numeric_variants().values() if set(v) == {"OPENBLAS_CORETYPE"}]
     for kernel in kernels or ["Haswell"]:
-        proc = subprocess.run([sys.executable, "-m", "catpose.bench.regress", "--suite", "synthetic",
+        proc = subprocess.run([sys.executable, "-m", "catpose.bench.regress.regress", "--suite", "synthetic",
                                "--methods", "icp,ours"], env=dict(os.environ, OPENBLAS_CORETYPE=kernel),
                               capture_output=True, text=True, cwd=repo_root)
         assert proc.returncode == 0, proc.stdout + proc.stderr

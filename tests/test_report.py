@@ -10,13 +10,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench import tables
-from catpose.bench.predictions import write_run
-from catpose.bench.report import build_report, main as report_main, qualitative_picks
+from catpose.bench.report import tables
+from catpose.bench.run.rundir import write_run
+from catpose.bench.report.report import build_report, main as report_main, qualitative_picks
+from catpose.errors import DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 
-GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.GtModel"}
-TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.Templates", "max_templates": None}
+GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}
+TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.absolute.Templates", "max_templates": None}
 HASH = re.compile(r"\b[0-9a-f]{8}\b")
 
 
@@ -115,7 +116,7 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
             _run(tmp_path / "runs", "seed0-default-9c0d1e2f", {"name": "icp"}, TEMPLATES, overrides=["protocol=templates"]),
             _run(tmp_path / "runs", "seed0-default-0a0b0c0d", {"name": "ours"}, TEMPLATES, overrides=["protocol=templates"])]
     out = tmp_path / "report"
-    index = build_report([tmp_path / "runs"], out, layouts=["optimizer"], notes=["Made by the test."])
+    index = build_report([tmp_path / "runs"], out, layouts=["optimiser"], notes=["Made by the test."])
     md, page = index.read_text(), (out / "index.html").read_text()
     for text in (md, page):
         assert str(tmp_path) not in text and "/abs/" not in text
@@ -123,7 +124,7 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
             assert not link.startswith("/") and "://" not in link, link
             assert (out / link).is_file(), link
     for protocol in ("gt_model", "templates"):
-        for stem in ("summary", "per_category", "optimizer"):
+        for stem in ("summary", "per_category", "optimiser"):
             assert f"tables/{protocol}_{stem}.md" in md
         for fig in ("error_cdf", "accuracy", "runtime"):
             assert f"figures/{protocol}_{fig}.png" in md and (out / "figures" / f"{protocol}_{fig}.csv").is_file()
@@ -138,7 +139,11 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
     for csv in (out / "figures").glob("*.csv"):
         assert not HASH.search(csv.read_text().split("\n", 1)[1].split(",")[0]), csv
     assert "<table>" in page and '<img src="figures/gt_model_error_cdf.png"' in page
-    assert report_main([str(tmp_path / "missing"), "--out", str(tmp_path / "r2")]) == 2
+    from catpose.bench.cli import main
+
+    assert main(["report", str(tmp_path / "missing"), "--out", str(tmp_path / "r2")]) == 2
+    with pytest.raises(DatasetError, match="missing does not exist"):
+        report_main([str(tmp_path / "missing"), "--out", str(tmp_path / "r2")])
 
 
 @pytest.mark.slow

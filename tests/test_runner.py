@@ -15,8 +15,8 @@ import pytest
 from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
-from catpose.bench.rundir import read_samples, run_dir_for
-from catpose.bench.runner import run
+from catpose.bench.run.rundir import read_rows, run_dir_for
+from catpose.bench.run.runner import run
 
 TESTS = Path(__file__).resolve().parent
 
@@ -47,7 +47,7 @@ def test_run_writes_the_long_table_and_records_failures(tmp_path):
     cfg = make_cfg(tmp_path, special=["load_error", "empty", "nan", "collinear"],
                    method_kwargs={"fail_on": ["v1"], "nan_on": ["v2"]})
     out = run(cfg)
-    rows = {r["sample_id"]: r for r in read_samples(out / "samples.jsonl")}
+    rows = {r["sample_id"]: r for r in read_rows(out / "samples.jsonl")}
     assert len(rows) == 8
     assert rows["block/0/v0"]["status"] == "ok" and len(rows["block/0/v0"]["T_est"]) == 16
     assert rows["block/0/v0"]["rot_err_deg"] >= 0 and rows["block/0/v0"]["runtime_s"] >= 0
@@ -82,7 +82,7 @@ def test_resume_after_interrupt_gives_the_same_table_without_repeated_work(tmp_p
         run(make_cfg(b))
     monkeypatch.delenv("TOY_INTERRUPT_ON")
     out = next((b / "out").glob("*/*/*"))
-    assert [r["sample_id"] for r in read_samples(out / "samples.jsonl")] == ["block/0/v0", "block/0/v1"]
+    assert [r["sample_id"] for r in read_rows(out / "samples.jsonl")] == ["block/0/v0", "block/0/v1"]
     with open(out / "samples.jsonl", "a") as f:  # a kill in the middle of writing a line
         f.write('{"sample_id": "block/0/v2", "sta')
     out2 = run(make_cfg(b))
@@ -90,7 +90,7 @@ def test_resume_after_interrupt_gives_the_same_table_without_repeated_work(tmp_p
     assert calls(b) == ["block/0/v0", "block/0/v1", "block/0/v2", "block/0/v2", "block/0/v3"]
     resumed = pd.read_csv(out / "summary.csv").drop(columns="median_runtime_s")
     pd.testing.assert_frame_equal(resumed, reference)
-    assert len(read_samples(out / "samples.jsonl")) == 4
+    assert len(read_rows(out / "samples.jsonl")) == 4
 
     run(make_cfg(b))  # a third run has nothing left to do
     assert len(calls(b)) == 5
@@ -102,11 +102,11 @@ def test_batched_runs_give_the_same_table_and_isolate_a_bad_sample(tmp_path):
     the one batch=1 writes."""
     special = ["load_error"]
     plain = make_cfg(tmp_path / "a", special=special, method_kwargs={"fail_on": ["v1"]})
-    rows_1 = {r["sample_id"]: r for r in read_samples(run(plain) / "samples.jsonl")}
+    rows_1 = {r["sample_id"]: r for r in read_rows(run(plain) / "samples.jsonl")}
     cfg = make_cfg(tmp_path / "b", special=special, method_kwargs={"fail_on": ["v1"]}, overrides=["batch=3"])
     cfg.method._target_ = "toy_dataset.BatchOracle"
     out = run(cfg)
-    rows_3 = {r["sample_id"]: r for r in read_samples(out / "samples.jsonl")}
+    rows_3 = {r["sample_id"]: r for r in read_rows(out / "samples.jsonl")}
     assert run_dir_for(cfg, ["batch=3"]) == run_dir_for(cfg, []) == out   # batch is not part of the name
     assert rows_3.keys() == rows_1.keys()
     for sid, r in rows_1.items():
@@ -129,16 +129,37 @@ def test_output_directory_is_named_from_parameters(tmp_path):
     assert a.parent.name == "oracle" and a.parent.parent.name == "toy-gt_model"
 
 
+def test_a_moved_protocol_class_keeps_its_run_directory_and_old_configs_build(tmp_path):
+    """The relative protocol moved (catpose.bench.relative -> catpose.bench.protocols): its
+    configurations keep the directory name they had (the digest hashes the old class name), and a
+    run directory's config.yaml written before the move still builds."""
+    import hashlib
+    import json
+
+    from catpose.bench.protocols import Relative
+    from catpose.bench.run.build import build_from_config
+
+    cfg = make_cfg(tmp_path, overrides=["protocol=relative"])
+    assert cfg.protocol._target_ == "catpose.bench.protocols.Relative"
+    identity = {k: OmegaConf.to_container(cfg[k], resolve=True) for k in ("method", "dataset", "protocol")}
+    identity["protocol"]["_target_"] = "catpose.bench.relative.Relative"  # as configs wrote it before
+    identity["seed"] = int(cfg.seed)
+    digest = hashlib.sha1(json.dumps(identity, sort_keys=True, default=str).encode()).hexdigest()[:8]
+    assert run_dir_for(cfg).name == f"seed0-default-{digest}"
+    old = dict(OmegaConf.to_container(cfg.protocol, resolve=True), _target_="catpose.bench.relative.Relative")
+    assert isinstance(build_from_config(old, "protocol")[1], Relative)
+
+
 def test_same_seed_same_table(tmp_path):
     a = run(make_cfg(tmp_path / "a"))
     b = run(make_cfg(tmp_path / "b"))
-    ra, rb = read_samples(a / "samples.jsonl"), read_samples(b / "samples.jsonl")
+    ra, rb = read_rows(a / "samples.jsonl"), read_rows(b / "samples.jsonl")
     assert [r["T_gt"] for r in ra] == [r["T_gt"] for r in rb]
     assert [r["err_deg"] for r in ra] == [r["err_deg"] for r in rb]
 
 
 def test_templates_protocol_selects_by_score_and_reports_oracle(tmp_path):
-    from catpose.bench.protocols import Templates
+    from catpose.bench.protocols.absolute import Templates
 
     df = pd.DataFrame({
         "group_id": ["o1", "o1", "o2", "o2"], "category": ["c"] * 4, "status": ["ok", "ok", "ok", "failed"],
@@ -150,7 +171,7 @@ def test_templates_protocol_selects_by_score_and_reports_oracle(tmp_path):
 
 
 def test_views_without_absolute_ground_truth_are_not_scored():
-    from catpose.bench.protocols import GtModel, Templates
+    from catpose.bench.protocols.absolute import GtModel, Templates
 
     df = pd.DataFrame({"group_id": ["a", "b"], "category": ["c", "c"], "status": ["ok", "ok"], "score": [1.0, 1.0],
                        "err_deg": [3.0, 100.0], "trans_err": [0.1, 0.1], "runtime_s": [1.0, 1.0],
@@ -160,7 +181,7 @@ def test_views_without_absolute_ground_truth_are_not_scored():
 
 
 def test_limited_rerun_prints_its_subset_but_files_keep_every_sample(tmp_path):
-    from catpose.bench.evaluate import summarize_run
+    from catpose.bench.run.evaluate import summarize_run
 
     out = run(make_cfg(tmp_path))
     sub = summarize_run(out, ["block/0/v0", "block/0/v1"]).set_index("category")
@@ -194,11 +215,11 @@ def test_import_and_memory_errors_abort_the_run_and_record_nothing(tmp_path, mon
         with pytest.raises(RunAborted, match=needle) as info:
             run(make_cfg(tmp_path))
         assert "\n" not in str(info.value) and "re-run" in str(info.value)
-        rows = read_samples(out / "samples.jsonl")
+        rows = read_rows(out / "samples.jsonl")
         assert [r["sample_id"] for r in rows] == ["block/0/v0"] and rows[0]["status"] == "ok"
     monkeypatch.setattr(toy_dataset.Oracle, "register", real)
     run(make_cfg(tmp_path))  # the re-run redoes the aborted sample
-    rows = read_samples(out / "samples.jsonl")
+    rows = read_rows(out / "samples.jsonl")
     assert sorted(r["sample_id"] for r in rows) == [f"block/0/v{i}" for i in range(4)]
     assert all(r["status"] == "ok" for r in rows)
 
@@ -231,7 +252,7 @@ def test_a_ctrl_c_swallowed_inside_a_sample_still_stops_the_run(tmp_path, monkey
     finally:
         signal.signal(signal.SIGINT, previous)
     out = next((tmp_path / "out").glob("*/*/*"))
-    assert [r["sample_id"] for r in read_samples(out / "samples.jsonl")] == ["block/0/v0"]
+    assert [r["sample_id"] for r in read_rows(out / "samples.jsonl")] == ["block/0/v0"]
 
 
 def test_heavy_libraries_are_imported_before_the_first_sample(tmp_path):
@@ -256,7 +277,7 @@ def test_heavy_libraries_are_imported_before_the_first_sample(tmp_path):
 
 _SWALLOWED_IN_TRIMESH = """
 import signal, sys
-from catpose.bench import runner
+from catpose.bench.run import runner
 
 class CtrlCWhileTrimeshImportsPath:  # trimesh.base wraps `from .path import Path3D` in `except BaseException`
     def find_spec(self, name, path=None, target=None):
@@ -307,7 +328,7 @@ def _interrupt(p: subprocess.Popen) -> tuple[str, float]:
 
 
 def _rows(tmp_path: Path) -> list[dict]:
-    return [r for f in tmp_path.glob("*/*/*/samples.jsonl") for r in read_samples(f)]
+    return [r for f in tmp_path.glob("*/*/*/samples.jsonl") for r in read_rows(f)]
 
 
 def _check_clean_abort(p: subprocess.Popen, err: str, tmp_path: Path) -> None:
@@ -384,7 +405,7 @@ def test_run_json_records_the_environment(tmp_path):
 
     from hydra import compose, initialize_config_module
 
-    from catpose.bench.runner import run
+    from catpose.bench.run.runner import run
 
     with initialize_config_module("catpose.configs", version_base=None):
         cfg = compose("run", overrides=["method=icp", "method.num_starts=1", "dataset.categories=[bowl]",

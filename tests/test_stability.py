@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from catpose.bench import tables
-from catpose.bench.runs import load_run
-from catpose.bench.stability import stability, stability_notes
+from catpose.bench.report import tables
+from catpose.bench.report.runs import load_run
+from catpose.bench.report.stability import stability, stability_notes
 from catpose.errors import DatasetError
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -1,5 +1,5 @@
 """Methods for :func:`catpose.register`, built from ``configs/method/<name>.yaml`` by the same builder
-as ``bench run`` (:func:`catpose.bench.build.build_from_config`), keyword options as overrides."""
+as ``bench run`` (:func:`catpose.bench.run.build.build_from_config`), keyword options as overrides."""
 
 from __future__ import annotations
 
@@ -60,25 +60,19 @@ def build_method(name: str, **options: Any) -> Any:
     hit = _METHODS.get(key)
     if hit is not None:
         return hit
-    from hydra import compose, initialize_config_module
-    from hydra.errors import HydraException
-    from omegaconf.errors import OmegaConfBaseException
-
-    from catpose.bench.build import build_from_config
-    from catpose.bench.run_cmd import available
+    from catpose.bench.run.build import build_from_config
+    from catpose.bench.run.config import available, compose
 
     names = available("method")
     if name not in names:
         raise InvalidInputError(f"method={name!r} is not a method config; choose one of {', '.join(names)} "
                                 "or pass a RegistrationMethod instance")
-    overrides = [f"method={name}", *_overrides(options)]
     try:
-        with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
-            cfg = compose(config_name="run", overrides=overrides)
+        cfg = compose([f"method={name}", *_overrides(options)], hint="see configs/method/" + name + ".yaml")
+    except CatposeError as e:
+        raise InvalidInputError(f"options {sorted(options)} do not fit method {name!r}: {e}") from None
+    try:
         built = build_from_config(cfg.method, "method")[1]
-    except (HydraException, OmegaConfBaseException) as e:
-        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-        raise InvalidInputError(f"options {sorted(options)} do not fit method {name!r}: {first}") from None
     except CatposeError as e:
         raise InvalidInputError(f"options of method {name!r}: {e}") from None
     _METHODS.put(key, built)

@@ -190,7 +190,7 @@ def _problem(points: np.ndarray, normals: np.ndarray, g: np.ndarray, template: T
 
 def _call(method: Any, problem: RegistrationProblem) -> RegistrationResult:
     """``method.register(problem)`` with the global seeds set as ``bench run`` sets them."""
-    from catpose.bench.sample_run import seed_everything
+    from catpose.bench.run.sample_run import seed_everything
 
     seed_everything(0)
     return method.register(problem)
