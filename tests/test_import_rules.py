@@ -83,3 +83,20 @@ def test_rules_as_documented(source, target, ok):
 def test_violation_reads_as_one_line():
     assert str(Violation("bench/run/x.py", 3, "bench.run", "catpose.bench.report.tables")) == \
         "bench/run/x.py:3: bench.run imports catpose.bench.report.tables"
+
+
+def test_the_application_layer_and_its_lazy_export(tmp_path):
+    """``catpose.api`` may use the bench's run wing, datasets and methods; no other core module may
+    import it (only the package root's lazy ``catpose.register``), and it may not import the CLI
+    or another wing."""
+    _plant(tmp_path, {
+        "src/catpose/__init__.py": "def __getattr__(name):\n    from catpose import api\n",
+        "src/catpose/geometry.py": "import catpose.api\n",  # the core below the application layer
+        "src/catpose/api/__init__.py": "from catpose.bench.run.build import build_from_config\n"
+                                       "from catpose.methods.ours import Ours\nfrom catpose.datasets import render\n",
+        "src/catpose/api/bad.py": "from catpose.bench.report import tables\nfrom catpose.bench import cli\n",
+    })
+    found = {(v.path, v.target) for v in check_tree(tmp_path)}
+    assert found == {("src/catpose/geometry.py", "catpose.api"),
+                     ("src/catpose/api/bad.py", "catpose.bench.report.tables"),
+                     ("src/catpose/api/bad.py", "catpose.bench.cli")}
