@@ -236,6 +236,23 @@ def test_score_never_writes_over_a_run(tmp_path, capsys):
     assert "is a file" in one_error_line(capsys, "score")
 
 
+@pytest.mark.parametrize("command", ["score", "export"])
+def test_a_full_disk_while_scoring_or_exporting_is_one_line_and_leaves_nothing(tmp_path, capsys, monkeypatch, command):
+    gt = write_run(tmp_path / "gt", rows([5.0, 10.0]), CFG)
+    preds = _per_sample_csv(tmp_path / "p.csv", rows([7.0, 9.0]))
+    before = sorted(p.name for p in tmp_path.iterdir())
+
+    def full(*args):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(atomic.os, "replace", full)
+    args = {"score": ["score", str(preds), "--gt", str(gt), "--method", "ext", "--out", str(tmp_path / "o")],
+            "export": ["export", str(gt), "--out", str(tmp_path / "m_toy-test.csv")]}[command]
+    assert bench(args) == 2
+    assert "No space left on device); pass a" in one_error_line(capsys, command)
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # no half-written folder or file
+
+
 def test_table_destination_never_overwrites_verified_rows(tmp_path):
     from catpose.bench.run.overwrite import table_destination
 

@@ -153,7 +153,13 @@ def main(argv: list[str] | None = None) -> int:
                     "BOP toolkit requires; a <out>.map.csv with the id mapping is written beside it")
     args = ap.parse_args(argv)
     skipped: list[str] = []
-    n = export_bop(args.run, args.out, skipped=skipped)
+    try:
+        n = export_bop(args.run, args.out, skipped=skipped)
+    except OSError as e:  # an unwritable or full --out folder: one line (the old file, if any, is kept)
+        from catpose.errors import InvalidInputError
+
+        raise InvalidInputError(f"cannot write --out {args.out} ({e.strerror or type(e).__name__}); pass a path in "
+                                "a writable folder with free space") from None
     for line in skipped:
         print(f"bench export: skipped: {line}", file=sys.stderr)
     print(f"wrote {n} estimates to {args.out}")

@@ -252,13 +252,17 @@ def main(argv: list[str] | None = None) -> int:
     bop_text = None
     # the whole run directory is built beside --out and moved there when complete: a failure
     # leaves no half-written folder, and --force replaces the old one only then
-    with atomic.building_dir(out) as tmp:
-        write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
-        if preds.attrs["kind"] == "bop" and _is_bop_dataset(config.get("dataset")):
-            bop_text = score_bop(preds, config["dataset"], tmp, args.method, args.metrics.split(","),
-                                 args.by.split(","), vsd=not args.no_vsd)
-        objects = _object_summary(rows, tmp)
-        summary = (tmp / "summary.md").read_text() if (tmp / "summary.md").is_file() else ""
+    try:
+        with atomic.building_dir(out) as tmp:
+            write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
+            if preds.attrs["kind"] == "bop" and _is_bop_dataset(config.get("dataset")):
+                bop_text = score_bop(preds, config["dataset"], tmp, args.method, args.metrics.split(","),
+                                     args.by.split(","), vsd=not args.no_vsd)
+            objects = _object_summary(rows, tmp)
+            summary = (tmp / "summary.md").read_text() if (tmp / "summary.md").is_file() else ""
+    except OSError as e:  # an unwritable or full --out: one line, nothing left behind
+        raise InvalidInputError(f"cannot write --out {out} ({e.strerror or type(e).__name__}); pass a writable "
+                                "folder with free space") from None
     print(count_text(stats))
     print(f"run directory {out}")
     print(summary)
