@@ -225,7 +225,7 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
 
     with writing(out):
         writer = SampleWriter(samples_path)
-    log.info("%s: %d samples, %d done before, %d to run", out, len(ids), len(ids) - len(todo), len(todo))
+    log.debug("%s: %d samples, %d done before, %d to run", out, len(ids), len(ids) - len(todo), len(todo))
     from tqdm import tqdm
 
     bar = tqdm(total=len(ids), initial=len(ids) - len(todo), unit="sample", dynamic_ncols=True,

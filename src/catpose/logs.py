@@ -4,9 +4,9 @@ all below the ``catpose`` logger; nothing in the library prints diagnostics.
 The command line (``bench`` / ``catpose``) calls :func:`configure` once: one handler on the
 ``catpose`` logger writes each record as one line on stderr, in the CLI's format::
 
-    bench run: outputs/synthetic-gt_model/icp/seed0-default-1a2b3c4d: 48 samples, 0 done before
+    bench run: sweep outputs/multirun/sweep/2026-01-01_10-00-00: 4 of 4 jobs ok; table: ...
     bench run: warning: sample mug/002/v01 failed: the estimate is not a finite rigid transform
-    bench run: debug: [catpose.bench.run.runner] sample car/000/v00: ok, 0.31 deg, 0.052 s
+    bench run: debug: [catpose.bench.run.runner] sample car/000/v00: ok, error 0.310 deg, 0.052 s
 
 (INFO without a level word; a tqdm progress bar in use is kept intact). ``bench run`` then sets
 the level from the run config's ``log_level`` key, or to DEBUG when Hydra's ``hydra.verbose``
