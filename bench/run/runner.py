@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import logging
 import signal
 import sys
 import threading
@@ -46,6 +47,8 @@ from catpose.bench.run.rundir import (SAMPLES_FILE, SampleWriter, read_rows, run
 from catpose.bench.run.sample_run import run_batch, run_one
 from catpose.errors import CatposeError, ConfigError, RunAborted
 from catpose.errors import one_line as _one_line
+
+log = logging.getLogger(__name__)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -119,6 +122,11 @@ def import_heavy_libraries(interrupts: _Interrupts | None = None,
                              "reinstall with `make install` (or pip install -e .)") from None
         if interrupts is not None:
             interrupts.check()
+
+
+def _short(value: Any) -> str:
+    """A number in a log line (3 decimals), or ``-``."""
+    return "-" if value is None else f"{float(value):.3f}"
 
 
 def _abort_message(e: BaseException, sample_id: str) -> str:
@@ -217,6 +225,7 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
 
     with writing(out):
         writer = SampleWriter(samples_path)
+    log.debug("%s: %d samples, %d done before, %d to run", out, len(ids), len(ids) - len(todo), len(todo))
     from tqdm import tqdm
 
     bar = tqdm(total=len(ids), initial=len(ids) - len(todo), unit="sample", dynamic_ncols=True,
@@ -239,7 +248,10 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
                     writer.write(row)
                 bar.update(1)
                 if row["status"] != "ok":
-                    bar.write(f"[failed] {row['sample_id']}: {row['error']}", file=sys.stderr)
+                    log.warning("sample %s failed: %s", row["sample_id"], row["error"])
+                else:
+                    log.debug("sample %s: ok, error %s deg, %s s", row["sample_id"], _short(row.get("err_deg")),
+                              _short(row.get("runtime_s")))
     finally:
         bar.close()
         with contextlib.suppress(OSError):

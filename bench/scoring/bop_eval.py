@@ -147,10 +147,10 @@ ERROR_KEYS = ("mssd", "mspd", "add", "adds", "re_deg", "te_mm", "5deg5cm", "10de
 """Per-target errors; ``5deg5cm``/``10deg10cm`` are 0 (correct) or 1 so that smaller is better."""
 
 
-def _match(errors: list[list[dict]], key: str) -> list[Any]:
+def _match(errors: list[list[dict]], key: str, n_gt: int) -> list[Any]:
     """Greedy matching for one error type: ``errors[e][g]`` of estimate ``e`` (score order)
-    against gt ``g``; returns each gt's matched error (None when unmatched)."""
-    n_gt = len(errors[0]) if errors else 0
+    against the ``n_gt`` gt instances ``g``; returns each gt's matched error (None when
+    unmatched, e.g. an image and object without an estimate)."""
     taken: list[Any] = [None] * n_gt
 
     def scalar(v: Any) -> float:
@@ -216,7 +216,7 @@ def compute_errors(preds, dataset, vsd: bool = True, max_points: int = 0, seed: 
             R_e = U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
             errors.append([_pair_errors(R_e, T[:3, 3], R_g, t_g, K, pts, syms, depth_mm, mesh, diameter)
                            for R_g, t_g in gt_poses])
-        matched = {key: _match(errors, key) for key in ERROR_KEYS}
+        matched = {key: _match(errors, key, len(gts)) for key in ERROR_KEYS}
         for k, (g, category) in enumerate(gts):
             row = {"scene_id": scene, "im_id": im, "obj_id": obj, "gt_idx": g, "category": category,
                    "diameter": diameter, "im_width": width, "matched": matched["mssd"][k] is not None,
