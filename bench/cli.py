@@ -72,7 +72,10 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     module_name, func_name, _ = COMMANDS[name]
+    from catpose import logs
     from catpose.errors import CatposeError, command_error
+
+    logs.configure(name)  # catpose's loggers: one line each on stderr, "bench <name>: ..." (bench run: log_level=)
 
     try:
         func = getattr(importlib.import_module(module_name), func_name)

@@ -173,3 +173,42 @@ def test_report_pictures_from_synthetic_run(tmp_path: Path):
     for link in _links(md):
         assert (tmp_path / "report" / link).is_file(), link
     assert not list((tmp_path / "report" / "figures").glob("*.pdf"))
+
+
+def test_a_user_label_is_kept_beside_other_runs_of_the_method(tmp_path: Path):
+    """make_results.sh labels the row=ours run "Ours" beside other runs of ours: the label stays
+    "Ours" (it was "Ours (row=ours)"), the others are told apart from it."""
+    a = _run(tmp_path, "seed0-+row=ours-1a2b3c4d", {"name": "ours"}, overrides=["+row=ours"])
+    b = _run(tmp_path, "seed0-+row=ours_pfh-5e6f7a8b", {"name": "ours", "descriptor": "pfh"}, overrides=["+row=ours_pfh"])
+    runs = [tables.load_run(p) for p in (a, b)]
+    assert tables.run_labels(runs, tables.parse_labels([f"{a}=Ours"])) == ["Ours", "Ours (row=ours_pfh)"]
+
+
+def test_report_index_links_every_file_and_stale_files_go(tmp_path: Path):
+    runs = tmp_path / "runs"
+    a = _run(runs, "seed0-default-1a2b3c4d", {"name": "ours"}, overrides=[])
+    b = _run(runs, "seed0-default-9c0d1e2f", {"name": "icp"}, TEMPLATES, overrides=["protocol=templates"])
+    out = tmp_path / "report"
+    build_report([a, b], out, qualitative=0)
+    assert (out / "figures" / "templates_accuracy.png").is_file()
+    (out / "notes.txt").write_text("mine")  # not in the report's own folders: kept
+    index = build_report([a], out, qualitative=0, pdf=False)  # a second report, gt_model only, no PDFs
+    assert not (out / "figures" / "templates_accuracy.png").exists() and not list(out.glob("figures/*.pdf"))
+    assert (out / "notes.txt").read_text() == "mine"
+    assert unlinked_report_files(out, index.read_text()) == []
+
+
+def unlinked_report_files(folder: Path, index_text: str) -> list[str]:
+    """Files under a report folder's tables/ and figures/ that its index does not link."""
+    linked = set(_links(index_text))
+    return [f"{d}/{f.name}" for d in ("tables", "figures") for f in sorted((folder / d).glob("*"))
+            if f"{d}/{f.name}" not in linked]
+
+
+def test_committed_report_links_every_file(repo_root: Path):
+    """results/report (made by results/make_results.sh): its index links every table and figure."""
+    folder = repo_root / "results" / "report"
+    index = (folder / "index.md").read_text()
+    assert unlinked_report_files(folder, index) == []
+    for link in _links(index):
+        assert (folder / link).is_file(), link

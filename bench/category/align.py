@@ -23,8 +23,10 @@ instance's hypothesis in the reference instance's frame
 from __future__ import annotations
 
 import argparse
-import sys
+import logging
 from pathlib import Path
+
+log = logging.getLogger(__name__)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -59,7 +61,7 @@ def main(argv: list[str] | None = None) -> int:
 
         args.out, note = table_destination(args.out, args.force)
         if note:
-            print(f"bench align: {note}", file=sys.stderr)
+            log.warning("%s", note)
     rows = redraw(args) if args.draw_only else align(args)
     n_low = sum(1 for r in rows if r["low"])
     print(f"wrote {len(rows)} rows to {args.out} ({n_low} marked for a closer look) and {sheet_path(args)}")
@@ -137,9 +139,8 @@ def align(args: argparse.Namespace) -> list[dict]:
                      "yaw_deg": float(round((a % 4) * 90.0)), "flip": a >= 4, "chamfer": float(est["chamfer"][k]),
                      "confidence": float(est["confidence"][k]), "verified": False,
                      "note": "consensus differs from the reference-only estimate" if disagree else "", "low": low})
-        print(f"{args.category}/{instance_id}: yaw {(a % 4) * 90}{' flip' if a >= 4 else ''}, "
-              f"chamfer {est['chamfer'][k]:.4f}, confidence {est['confidence'][k]:.3f}{'  <- check' if low else ''}",
-              file=sys.stderr)
+        log.info("%s/%s: yaw %d%s, chamfer %.4f, confidence %.3f%s", args.category, instance_id, (a % 4) * 90,
+                 " flip" if a >= 4 else "", est["chamfer"][k], est["confidence"][k], "  <- check" if low else "")
     assert all(yaw_deg_of(r["R"]) is not None or r["flip"] for r in rows)
     write_alignment_table(args.out, rows)
     draw_contact_sheet(sheet_path(args), ids, clouds, ids.index(ref), [r["R"] for r in rows],

@@ -21,14 +21,16 @@ same ids from the ground-truth rows.
 from __future__ import annotations
 
 import argparse
+import logging
 import math
-import sys
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
 from catpose.bench.interop.prediction_io import BOP_COLUMNS
+
+log = logging.getLogger(__name__)
 
 
 def bop_ids(runs_rows: Sequence[dict]) -> tuple[list[tuple], list[dict]]:
@@ -161,6 +163,6 @@ def main(argv: list[str] | None = None) -> int:
         raise InvalidInputError(f"cannot write --out {args.out} ({e.strerror or type(e).__name__}); pass a path in "
                                 "a writable folder with free space") from None
     for line in skipped:
-        print(f"bench export: skipped: {line}", file=sys.stderr)
+        log.warning("skipped: %s", line)
     print(f"wrote {n} estimates to {args.out}")
     return 0

@@ -207,7 +207,8 @@ def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Seque
 def main(argv: list[str] | None = None) -> int:
     """``bench score PREDICTIONS.csv --gt RUN_DIR --method NAME --out DIR`` (or ``--dataset D --protocol P``)."""
     ap = argparse.ArgumentParser(prog="bench score",
-                                 description="Score an external predictions file (BOP CSV or per-sample CSV).")
+                                 description="Score an external predictions file (BOP CSV, per-sample CSV, or a "
+                                 ".npy/.npz array of (B, 3, 4) or (B, 4, 4) transforms with --ids).")
     ap.add_argument("predictions")
     ap.add_argument("--gt", help="a run directory whose ground truth (and samples) to score against")
     ap.add_argument("--dataset", help="or: a dataset config name (configs/dataset)")
@@ -225,6 +226,14 @@ def main(argv: list[str] | None = None) -> int:
                          "mspd@10,5deg5cm,10deg10cm")
     ap.add_argument("--by", default="object,category", help="BOP datasets: rows per object and/or category")
     ap.add_argument("--no-vsd", action="store_true", help="BOP datasets: skip VSD (it renders the model twice per estimate)")
+    ap.add_argument("--ids", default=None, help=".npy/.npz transforms: a text file of sample ids, one per line, in the "
+                    "arrays' order (not needed when the .npz has an 'ids' array)")
+    ap.add_argument("--inverse", action="store_true", help=".npy/.npz transforms: they map the template onto the "
+                    "observation (T_camera_template); invert them")
+    ap.add_argument("--acc", default=None, metavar="LIST", help="also print accuracies at these thresholds, "
+                    "degrees and n-degree m-cm, e.g. --acc 5,10,30,5deg5cm,10deg10cm (summary_thresholds.md)")
+    ap.add_argument("--auc", type=float, default=None, metavar="DEG",
+                    help="also print the area under the accuracy curve from 0 to DEG degrees, over DEG")
     args = ap.parse_args(argv)
     if args.method is None:
         from catpose.bench.scoring.bop_eval import check_results_filename
@@ -241,7 +250,10 @@ def main(argv: list[str] | None = None) -> int:
     check_new_output(out, args.force, protected=Path(args.gt) if args.gt else None)
     gt_rows, config = gt_rows_from_run(args.gt) if args.gt else gt_rows_from_config(
         args.dataset, args.protocol, args.seed, args.override)
-    preds = read_predictions(args.predictions)
+    from catpose.bench.interop.transform_arrays import is_transform_array, read_transform_arrays
+
+    preds = (read_transform_arrays(args.predictions, args.ids, args.inverse) if is_transform_array(args.predictions)
+             else read_predictions(args.predictions))
     map_path = Path(args.map) if args.map else Path(str(args.predictions) + ".map.csv")
     if args.map and not map_path.is_file():
         raise InvalidInputError(f"--map {map_path} does not exist")
@@ -252,6 +264,7 @@ def main(argv: list[str] | None = None) -> int:
     bop_text = None
     # the whole run directory is built beside --out and moved there when complete: a failure
     # leaves no half-written folder, and --force replaces the old one only then
+    thresholds = None
     try:
         with atomic.building_dir(out) as tmp:
             write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
@@ -260,6 +273,8 @@ def main(argv: list[str] | None = None) -> int:
                                      args.by.split(","), vsd=not args.no_vsd)
             objects = _object_summary(rows, tmp)
             summary = (tmp / "summary.md").read_text() if (tmp / "summary.md").is_file() else ""
+            if args.acc or args.auc is not None:
+                thresholds = _threshold_summary(rows, tmp, args.acc or "", args.auc)
     except OSError as e:  # an unwritable or full --out: one line, nothing left behind
         raise InvalidInputError(f"cannot write --out {out} ({e.strerror or type(e).__name__}); pass a writable "
                                 "folder with free space") from None
@@ -267,6 +282,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"run directory {out}")
     print(summary)
     print(objects)
+    if thresholds is not None:
+        print(thresholds)
     if bop_text:
         print(bop_text)
     return 0
@@ -286,6 +303,19 @@ def _object_summary(rows: Sequence[dict], out_dir: Path) -> str:
     return text
 
 
+def _threshold_summary(rows: Sequence[dict], out_dir: Path, acc: str, auc: float | None) -> str:
+    """``--acc`` / ``--auc``: per category, the accuracies and AUC of
+    :mod:`catpose.bench.scoring.curves` (written to ``summary_thresholds.md``)."""
+    import pandas as pd
+
+    from catpose.bench.scoring.curves import threshold_keys, threshold_table
+
+    keys = threshold_keys(acc, auc)
+    text = threshold_table(pd.DataFrame(list(rows)), keys).to_markdown(index=False, floatfmt=".3f")
+    atomic.write_text(Path(out_dir) / "summary_thresholds.md", text + "\n")
+    return text
+
+
 DEFAULT_BOP_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
 
 
@@ -293,14 +323,26 @@ def _is_bop_dataset(node: Any) -> bool:
     return isinstance(node, dict) and str(node.get("_target_", "")).endswith("datasets.bop.BOP")
 
 
+def evaluation_models(dataset_cfg: dict) -> dict:
+    """The dataset config BOP's errors are computed with: ``models_dir: models_eval`` when the
+    dataset has that folder (the BOP toolkit's evaluation models, uniformly resampled surfaces),
+    whatever the run registered against; the config as it is otherwise."""
+    root = dataset_cfg.get("root")
+    if root and dataset_cfg.get("models_dir", "models") == "models" and (Path(str(root)) / "models_eval" / "models_info.json").is_file():
+        return dict(dataset_cfg, models_dir="models_eval")
+    return dataset_cfg
+
+
 def score_bop(preds, dataset_cfg: dict, out_dir: str | Path, method: str, metrics: Sequence[str],
               by: Sequence[str], vsd: bool = True) -> str:
     """BOP metrics of a BOP results CSV on the dataset of ``dataset_cfg`` (a resolved config
     dict): writes ``bop_errors.jsonl`` and ``bop_summary.md`` into ``out_dir`` and returns the
-    summary (which states the target and visibility filters applied)."""
+    summary (which states the target and visibility filters applied, and the models used: the
+    dataset's ``models_eval/`` when present, :func:`evaluation_models`)."""
     from catpose.bench.scoring.bop_eval import ERRORS_FILE, compute_errors, format_scores, score_table, write_errors
     from catpose.bench.run.build import build_from_config
 
+    dataset_cfg = evaluation_models(dataset_cfg)
     _, ds = build_from_config(dict(dataset_cfg), "dataset")
     errs = compute_errors(preds, ds, vsd=vsd)
     instances: dict[tuple, int] = {}
@@ -311,7 +353,8 @@ def score_bop(preds, dataset_cfg: dict, out_dir: str | Path, method: str, metric
     for p in preds.to_dict("records"):
         key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"]))
         estimates[key] = estimates.get(key, 0) + 1
-    header = {"method": method, "filters": list(getattr(ds, "filters", [])), "targets": len(errs),
+    filters = list(getattr(ds, "filters", [])) + [f"models: {dataset_cfg.get('models_dir', 'models')}/"]
+    header = {"method": method, "filters": filters, "targets": len(errs),
               "matched": int(sum(r["matched"] for r in errs)),
               # ignored, and said so: estimates of no target, and those beyond an (image, object)'s instances
               "unknown_estimates": sum(n for k, n in estimates.items() if k not in instances),

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import logging
 import os
 import resource
 import statistics
@@ -48,6 +49,8 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from catpose.errors import ConfigError
+
+log = logging.getLogger(__name__)
 
 STAGES = ("dictionary", "descriptors", "affinity", "initial_pose", "optimization", "selection", "refinement")
 REFERENCE = "fgr"
@@ -283,7 +286,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             methods[label] = build_method(name, args.seed, over)
         except Exception as e:  # a method whose module or config is missing or broken: skip it, say why
-            print(f"skipping {label}: {type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}")
+            log.warning("skipping %s: %s: %s", label, type(e).__name__, str(e).splitlines()[0] if str(e) else "")
     if not methods:
         raise ConfigError(f"none of --methods {args.methods} could be built")
     measured = measure(methods, problems, args.repeat, args.seed, args.batch)

@@ -29,10 +29,13 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import logging
 import sys
 from pathlib import Path
 
 import numpy as np
+
+log = logging.getLogger(__name__)
 
 ABLATIONS = ("none", "trim", "gt_normals", "gt_ground", "denoise", "true_up", "all")
 
@@ -203,9 +206,9 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
                                         scale_mm=np.nan if scale_mm is None else float(scale_mm))
                 f.write(json.dumps(row) + "\n")
                 f.flush()
-                print(f"{sid} [{which}] err {row['err_deg']:.1f} sel {cand_err[sel]:.1f} oracle {cand_err[best]:.1f} "
-                      f"n_ok {row['n_correct']} bleed {base['bleed_fraction']:.2f} nerr {base['normal_err_median_deg']:.1f} "
-                      f"up {ground_err:.1f} fit est/gt {d_est:.4f}/{d_gt:.4f}", file=sys.stderr)
+                log.info(f"{sid} [{which}] err {row['err_deg']:.1f} sel {cand_err[sel]:.1f} oracle {cand_err[best]:.1f} "
+                         f"n_ok {row['n_correct']} bleed {base['bleed_fraction']:.2f} nerr {base['normal_err_median_deg']:.1f} "
+                         f"up {ground_err:.1f} fit est/gt {d_est:.4f}/{d_gt:.4f}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -219,6 +222,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--save-dir", type=Path, default=None, help="save inputs and candidate poses (npz)")
     args = parser.parse_args(argv)
+    from catpose import logs
+
+    logs.configure("", prefix="diagnose")  # its progress lines on stderr
     diagnose(args.set, args.ablate.split(","), args.limit, args.out, args.bleed_mm, args.ours_override, args.save_dir)
     return 0
 

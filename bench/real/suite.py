@@ -22,12 +22,14 @@ their files (``summary.csv``). Protocol: ``gt_model`` (each view against its own
 from __future__ import annotations
 
 import argparse
-import sys
+import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from catpose.bench.run.config import shared_data_dir
 from catpose.errors import ConfigError
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -198,7 +200,7 @@ def main(argv: list[str]) -> int:
         print(f"bench suite real: skipped: no shared real data at {shared} (set CATPOSE_SHARED_DATA)")
         return 0
     results, skipped = run_suite(sets, methods, shared, args.seed, args.limit, args.output_root,
-                                 args.ours_override, log=lambda msg: print(msg, file=sys.stderr),
+                                 args.ours_override, log=log.info,
                                  table_only=args.table_only)
     table = format_table(results, [s for s in sets if s not in skipped], methods, skipped)
     print(table)

@@ -122,7 +122,8 @@ def run_labels(runs: Sequence[Run], labels: dict[str, str] | None = None,
     sharing a label and group keep it, pooled into one row, when they have the same protocol and
     disjoint categories (one run per category); otherwise each gets only what distinguishes it
     (:func:`_distinguishing`), e.g. ``Ours`` and ``Ours (descriptor=pfh)``, never a hash unless
-    nothing else differs.
+    nothing else differs. A label the user gave to one of them is kept as given (``--label
+    RUN=Ours`` beside other runs of ours: ``Ours``, ``Ours (row=ours_pfh)``).
     """
     labels = labels or {}
     base = [user_label(r, labels) or method_label(r) for r in runs]
@@ -135,7 +136,10 @@ def run_labels(runs: Sequence[Run], labels: dict[str, str] | None = None,
         cats = [set(r.samples["category"].astype(str)) if len(r.samples) else set() for r in members]
         if len(members) == 1 or (sum(map(len, cats)) == len(set().union(*cats)) and len({r.protocol for r in members}) == 1):
             continue
+        given = [i for i in idx if user_label(runs[i], labels)]
         for i, extra in zip(idx, _distinguishing(members)):
+            if given == [i]:  # the one run the user named keeps that name; the others are told apart from it
+                continue
             out[i] = f"{base[i]} ({', '.join(extra)})" if extra else base[i]
     return out
 

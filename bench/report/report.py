@@ -14,7 +14,9 @@ questions, so they never share a table or a figure):
   failure (:func:`qualitative_picks`), rebuilt from the run's config.
 
 Labels are unique per protocol (:func:`catpose.bench.report.tables.run_labels`). Everything is made
-from the run directories' files.
+from the run directories' files. The index links every file the report writes, and files under
+``tables/`` and ``figures/`` that it does not link (an earlier report's into the same folder) are
+removed (:func:`remove_stale_files`), so the folder holds one report.
 """
 
 from __future__ import annotations
@@ -193,7 +195,30 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
     index = out / "index.md"
     atomic.write_text(index, "\n".join(md) + "\n")
     atomic.write_text(out / "index.html", _html(md))
+    remove_stale_files(out, md)
     return index
+
+
+REPORT_FOLDERS = ("tables", "figures")
+
+
+def linked_files(md_lines: Sequence[str]) -> set[str]:
+    """The relative paths the index links (``[text](path)`` and ``![alt](path)``)."""
+    return set(re.findall(r"\]\(([^)\s]+)\)", "\n".join(md_lines)))
+
+
+def remove_stale_files(out: Path, md_lines: Sequence[str]) -> list[Path]:
+    """Delete the files under ``out/tables`` and ``out/figures`` that the index does not link:
+    an earlier report's into the same folder (other runs, labels or protocols). Those two
+    folders are the report's own; nothing else under ``out`` is touched. Returns what was removed."""
+    keep = linked_files(md_lines)
+    removed = []
+    for folder in REPORT_FOLDERS:
+        for f in sorted((out / folder).glob("*")):
+            if f.is_file() and f"{folder}/{f.name}" not in keep:
+                f.unlink()
+                removed.append(f)
+    return removed
 
 
 def _inline(text: str) -> str:

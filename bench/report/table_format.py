@@ -49,7 +49,7 @@ class Table:
         for (_, m), items in groups.items():
             if len(items) < 2:
                 continue
-            sign = 1.0 if METRICS[m].lower_is_better else -1.0
+            sign = 1.0 if metric(m).lower_is_better else -1.0
             distinct = sorted({round(sign * v, 9) for _, v in items})
             for cell, v in items:
                 pos = distinct.index(round(sign * v, 9))
@@ -61,7 +61,7 @@ class Table:
         v, m = self.cells.get((r, c), (float("nan"), "mean"))
         if v is None or not math.isfinite(v):
             return "-"
-        return f"{v:.{METRICS[m].digits}f}"
+        return f"{v:.{metric(m).digits}f}"
 
 
 def _tex_escape(s: str) -> str:
@@ -72,7 +72,7 @@ def _tex_escape(s: str) -> str:
 
 def _tex_label(label: str) -> str:
     """A metric's LaTeX header (``METRICS[...].tex``) or the escaped label."""
-    for m in METRICS.values():
+    for m in [*METRICS.values(), *_DYNAMIC.values()]:
         if label == m.md:
             return m.tex
     return _tex_escape(label)
@@ -179,3 +179,30 @@ METRICS: dict[str, Metric] = {
     "n": Metric("n", "n", "n", False, 0),
     "failed": Metric("failed", "failed ↓", r"failed$\downarrow$", True, 0),
 }
+
+#: metrics made from a key on first use (:func:`metric`): ``acc5``, ``auc30``, ``5deg5cm``, ...
+_DYNAMIC: dict[str, Metric] = {}
+
+
+def metric(key: str) -> Metric:
+    """A metric of :data:`METRICS`, or one of the threshold keys of
+    :mod:`catpose.bench.scoring.curves` (``acc<X>``, ``auc<X>``, ``<n>deg<m>cm``; higher is
+    better). An unknown key is a one-line :class:`catpose.errors.ConfigError`."""
+    if key in METRICS:
+        return METRICS[key]
+    if key not in _DYNAMIC:
+        from catpose.bench.scoring.curves import KEY_HELP, parse_key
+        from catpose.errors import ConfigError
+
+        parsed = parse_key(key)
+        if parsed is None:
+            raise ConfigError(f"unknown metric {key!r}; use some of {', '.join(METRICS)} or {KEY_HELP}")
+        kind, params = parsed
+        if kind == "acc":
+            md, tex = f"@{params[0]:g} ↑", rf"$@{params[0]:g}\uparrow$"
+        elif kind == "auc":
+            md, tex = f"AUC@{params[0]:g} ↑", rf"AUC$@{params[0]:g}\uparrow$"
+        else:
+            md, tex = f"{params[0]:g}°{params[1]:g}cm ↑", rf"${params[0]:g}^{{\circ}}{params[1]:g}$cm$\uparrow$"
+        _DYNAMIC[key] = Metric(key, md, tex, False)
+    return _DYNAMIC[key]

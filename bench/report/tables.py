@@ -35,7 +35,7 @@ from typing import Any, Callable, Sequence
 
 from catpose import atomic
 from catpose.bench.report.labels import parse_labels, pipeline_label, run_labels, template_count
-from catpose.bench.report.table_format import METRICS, Metric, Table, prune, to_csv, to_latex, to_markdown
+from catpose.bench.report.table_format import METRICS, Metric, Table, metric, prune, to_csv, to_latex, to_markdown
 from catpose.bench.report.runs import Run, find_run_dirs, load_run, load_runs, print_left_out, protocol_of, scored_units
 from catpose.errors import ConfigError, DatasetError
 
@@ -44,20 +44,6 @@ from catpose.errors import ConfigError, DatasetError
 __all__ = ["LAYOUTS", "build_table", "collect", "split_by_protocol", "main", "load_run", "scored_units",
            "protocol_of", "find_run_dirs", "run_labels", "pipeline_label", "parse_labels", "to_markdown",
            "to_latex", "to_csv", "Run", "Table", "Metric", "METRICS"]
-
-
-# --------------------------------------------------------------------------------------------
-# Runs
-
-
-# --------------------------------------------------------------------------------------------
-# Labels
-
-
-# --------------------------------------------------------------------------------------------
-# Table model and formats (catpose.bench.report.table_format)
-
-
 
 
 RENDERERS: dict[str, Callable[[Table], str]] = {"md": to_markdown, "latex": to_latex, "csv": to_csv}
@@ -74,6 +60,7 @@ class Entry:
     group: str
     label: str
     summary: Any  # DataFrame from metrics.summarize, indexed by category
+    units: Any = None  # the pooled scoring units (DataFrame): statistics beyond the summary's (curves)
 
 
 def collect(runs: Sequence[Run], group_of: Callable[[Run], str], labels: dict[str, str] | None = None,
@@ -93,13 +80,22 @@ def collect(runs: Sequence[Run], group_of: Callable[[Run], str], labels: dict[st
         pooled.setdefault((group_of(run), label), []).append(scored_units(run, error_of(run)))
     entries = []
     for (group, label), parts in pooled.items():
-        summary = summarize(pd.concat(parts, ignore_index=True)).set_index("category")
-        entries.append(Entry(group, label, summary))
+        units = pd.concat(parts, ignore_index=True)
+        entries.append(Entry(group, label, summarize(units).set_index("category"), units))
     return entries
 
 
-def _value(entry: Entry, category: str, metric: str) -> float:
-    col = METRICS[metric].column
+def _value(entry: Entry, category: str, key: str) -> float:
+    """A summary statistic, or a threshold statistic (``acc5``, ``auc30``, ``5deg5cm``:
+    :mod:`catpose.bench.scoring.curves`) of the entry's units of ``category`` (``all``: every unit)."""
+    if key not in METRICS:
+        from catpose.bench.scoring.curves import statistic
+
+        if category not in entry.summary.index or entry.units is None:
+            return float("nan")
+        units = entry.units if category == "all" else entry.units[entry.units["category"].astype(str) == category]
+        return statistic(units, key)
+    col = METRICS[key].column
     if category not in entry.summary.index or col not in entry.summary.columns:
         return float("nan")
     return float(entry.summary.loc[category, col])
@@ -122,45 +118,72 @@ def grid_table(entries: Sequence[Entry], categories: Sequence[str], metrics: Seq
                grouped: bool = True, group_header: str = "Pipeline / Descriptor") -> Table:
     """Rows (group, method) x columns (category, metric); ranks per column."""
     rows = [(e.group, e.label) if grouped else (e.label,) for e in entries]
-    cols = [(c.capitalize(), METRICS[m].md) for c in categories for m in metrics]
+    cols = [(c.capitalize(), metric(m).md) for c in categories for m in metrics]
     t = Table(title, [group_header, "Methods"] if grouped else ["Methods"], rows, cols)
     for e, r in zip(entries, rows):
         for c in categories:
             for m in metrics:
-                t.cells[(r, (c.capitalize(), METRICS[m].md))] = (_value(e, c, m), m)
+                t.cells[(r, (c.capitalize(), metric(m).md))] = (_value(e, c, m), m)
     return t
+
+
+#: each layout's metrics when none are given (``--acc`` / ``--auc`` replace and add to them)
+DEFAULT_METRICS: dict[str, list[str]] = {
+    "generic": ["mean", "median", "acc10", "acc30", "trans"],
+    "optimiser": ["mean", "median", "trans"],
+    "one_template": ["mean", "median", "acc10", "acc30", "trans"],
+    "templates": ["mean", "median", "acc10", "acc30"],
+    "ablation": ["mean", "median", "acc10"],
+    "real": ["mean", "median", "acc10", "acc30"],
+    "tyol": ["mean", "median", "acc10", "acc30"],
+}
+
+
+def with_thresholds(metrics: Sequence[str], keys: Sequence[str]) -> list[str]:
+    """``metrics`` with their ``acc<X>`` entries replaced by ``keys`` (``--acc``'s and
+    ``--auc``'s), placed where the first accuracy was, else after ``median`` (else at the end)."""
+    import re
+
+    is_acc = [bool(re.fullmatch(r"acc\d+(\.\d+)?", m)) for m in metrics]
+    if any(is_acc):
+        pos = is_acc.index(True)
+    else:
+        pos = list(metrics).index("median") + 1 if "median" in metrics else len(metrics)
+    kept = [m for m, a in zip(metrics, is_acc) if not a]
+    pos -= sum(is_acc[:pos])
+    return kept[:pos] + [k for k in keys if k not in kept] + kept[pos:]
 
 
 def layout_generic(entries: Sequence[Entry], categories: Sequence[str] | None = None,
                    metrics: Sequence[str] | None = None, title: str | None = "Results") -> Table:
     cats = _categories(entries, categories) + ([] if categories else ["all"])
-    return grid_table(entries, cats, metrics or ["mean", "median", "acc10", "acc30", "trans"], title,
+    return grid_table(entries, cats, metrics or DEFAULT_METRICS["generic"], title,
                       grouped=any(e.group not in ("", "-") for e in entries))
 
 
 def layout_optimiser(entries: Sequence[Entry], categories: Sequence[str] | None = None,
                      metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
     return grid_table(entries, _categories(entries, categories, ["airplane", "chair", "car"]),
-                      metrics or ["mean", "median", "trans"],
+                      metrics or DEFAULT_METRICS["optimiser"],
                       title or "Partial point cloud registration with the ground-truth complete shape")
 
 
 def layout_one_template(entries: Sequence[Entry], categories: Sequence[str] | None = None,
                         metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
-    return grid_table(entries, _categories(entries, categories, ["airplane"]), metrics or ["mean", "median", "acc10", "acc30", "trans"],
+    return grid_table(entries, _categories(entries, categories, ["airplane"]), metrics or DEFAULT_METRICS["one_template"],
                       title or "Registration with one category-level template (airplane)")
 
 
 def layout_templates(entries: Sequence[Entry], categories: Sequence[str] | None = None,
                      metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
-    return grid_table(entries, _categories(entries, categories, ["chair"]), metrics or ["mean", "median", "acc10", "acc30"],
+    return grid_table(entries, _categories(entries, categories, ["chair"]), metrics or DEFAULT_METRICS["templates"],
                       title or "Registration with several category-level templates (chair)",
                       group_header="Number of templates")
 
 
 def layout_ablation(entries: Sequence[Entry], categories: Sequence[str] | None = None,
                     metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
-    return grid_table(entries, _categories(entries, categories, ["airplane"]), metrics or ["mean", "median", "acc10"],
+    return grid_table(entries, _categories(entries, categories, ["airplane"]), metrics or DEFAULT_METRICS["ablation"],
                       title or "Registration with and without the pose optimisation (airplane)", group_header="Setting")
 
 
@@ -168,15 +191,15 @@ def layout_real(entries: Sequence[Entry], categories: Sequence[str] | None = Non
                 metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
     """Rows (category, metric) x one column per method; ranks across methods within a row."""
     cats = _categories(entries, categories, ["airplane", "chair", "car"])
-    metrics = metrics or ["mean", "median", "acc10", "acc30"]
+    metrics = metrics or DEFAULT_METRICS["real"]
     cols = [(e.label,) for e in entries]
-    rows = [(c.capitalize(), METRICS[m].md) for c in cats for m in metrics]
+    rows = [(c.capitalize(), metric(m).md) for c in cats for m in metrics]
     t = Table(title or "Pairwise relative pose between two partial views of real scans",
               ["Category", "Metric"], rows, cols, rank_by="row")
     for e, col in zip(entries, cols):
         for c in cats:
             for m in metrics:
-                t.cells[((c.capitalize(), METRICS[m].md), col)] = (_value(e, c, m), m)
+                t.cells[((c.capitalize(), metric(m).md), col)] = (_value(e, c, m), m)
     return t
 
 
@@ -184,15 +207,15 @@ def layout_tyol(entries: Sequence[Entry], categories: Sequence[str] | None = Non
                 metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
     """Rows (method, metric) x one column per category; ranks across methods per column and metric."""
     cats = _categories(entries, categories, ["bottle", "bowl", "can", "plate", "mug"])
-    metrics = metrics or ["mean", "median", "acc10", "acc30"]
-    rows = [(e.label, METRICS[m].md) for e in entries for m in metrics]
+    metrics = metrics or DEFAULT_METRICS["tyol"]
+    rows = [(e.label, metric(m).md) for e in entries for m in metrics]
     cols = [(c.capitalize(),) for c in cats]
     t = Table(title or "Camera pose estimation on TYO-L (symmetric objects by main-axis error)",
               ["Methods", "Metric"], rows, cols, rank_by="column")
     for e in entries:
         for m in metrics:
             for c in cats:
-                t.cells[((e.label, METRICS[m].md), (c.capitalize(),))] = (_value(e, c, m), m)
+                t.cells[((e.label, metric(m).md), (c.capitalize(),))] = (_value(e, c, m), m)
     return t
 
 
@@ -215,7 +238,7 @@ RENAMED_LAYOUTS = {"optimizer": "optimiser"}
 def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequence[str] | None = None,
                 metrics: Sequence[str] | None = None, labels: dict[str, str] | None = None,
                 error: str | None = None, title: str | None = None,
-                stability_roots: Sequence[Path] = ()) -> Table:
+                stability_roots: Sequence[Path] = (), thresholds: Sequence[str] = ()) -> Table:
     """Lay out ``runs`` as one of :data:`LAYOUTS`.
 
     ``error`` picks the per-unit error: ``"err_deg"`` (the method's own choice) or
@@ -224,15 +247,19 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     ``stability_roots``: output roots holding the same runs made under other code paths of the
     numerical libraries; the notes then say, per row, how many views changed and the range of
     the overall figures (:mod:`catpose.bench.report.stability`).
+    ``thresholds``: metric keys of :mod:`catpose.bench.scoring.curves` (``acc5``, ``auc30``,
+    ``5deg5cm``; ``bench table --acc/--auc``) that replace the metrics' accuracies
+    (:func:`with_thresholds`).
     """
     if layout in RENAMED_LAYOUTS:
         raise ConfigError(f"table layout {layout} was renamed {RENAMED_LAYOUTS[layout]}; "
                           f"write --layout {RENAMED_LAYOUTS[layout]}")
     if layout not in LAYOUTS:
         raise ConfigError(f"unknown table layout {layout!r}; use one of {sorted(LAYOUTS)}")
+    if thresholds:
+        metrics = with_thresholds(metrics or DEFAULT_METRICS[layout], thresholds)
     for m in metrics or []:
-        if m not in METRICS:
-            raise ConfigError(f"unknown metric {m!r}; use some of {sorted(METRICS)}")
+        metric(m)  # an unknown key: one line naming the choices
     fn, group_of, default_error = LAYOUTS[layout]
     error = error or default_error
     # Only templates runs have an oracle; other runs in the same table keep their own error.
@@ -246,6 +273,11 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     kwargs = {"title": title} if title else {}
     table = fn(entries, categories=list(categories) if categories else None, metrics=list(metrics) if metrics else None, **kwargs)
     prune(table)
+    shown = {c[-1] for c in table.columns} | {r[-1] for r in table.rows}
+    cm = [m for m in metrics or [] if m not in METRICS and m.endswith("cm") and metric(m).md not in shown]
+    if cm:
+        table.notes.append(f"Left out: {', '.join(cm)} (no run here has rows with a metric scale, info.scale_mm: "
+                           "their errors are in object-normalised units).")
     if oracle and any(r.protocol == "templates" for r in runs):
         table.notes.append("Errors of templates runs are the minimum across templates (an oracle that needs ground truth).")
     if stability_roots:
@@ -319,7 +351,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--layout", default=None, choices=sorted({*LAYOUTS, *RENAMED_LAYOUTS}), help="default: the sweep's, else generic")
     ap.add_argument("--format", default="md", choices=sorted(RENDERERS))
     ap.add_argument("--categories", default=None, help="comma-separated categories (default: the layout's)")
-    ap.add_argument("--metrics", default=None, help=f"comma-separated, of {','.join(METRICS)}")
+    ap.add_argument("--metrics", default=None, help=f"comma-separated, of {','.join(METRICS)} or acc<X>, auc<X>, "
+                    "<n>deg<m>cm (catpose.bench.scoring.curves)")
+    ap.add_argument("--acc", default=None, metavar="LIST",
+                    help="accuracy thresholds replacing @10/@30: degrees and n-degree m-cm, e.g. --acc 5,10,30,5deg5cm "
+                         "(cm only where rows carry a metric scale: BOP, synthetic with a sensor model)")
+    ap.add_argument("--auc", type=float, default=None, metavar="DEG",
+                    help="add the area under the accuracy-vs-threshold curve from 0 to DEG degrees, over DEG")
     ap.add_argument("--label", action="append", default=[], help="RUN_DIR=LABEL, repeatable")
     ap.add_argument("--error", default=None, choices=["err_deg", "oracle_err_deg"],
                     help="the method's own choice or the minimum across templates (oracle)")
@@ -334,6 +372,8 @@ def main(argv: list[str] | None = None) -> int:
                          "libraries (results/make_results.sh); notes say per row how many views changed "
                          "and the range of the overall figures (repeatable)")
     args = ap.parse_args(argv)
+    from catpose.bench.scoring.curves import threshold_keys
+
     run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
     if not args.runs and not run_paths:
         raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
@@ -355,7 +395,8 @@ def main(argv: list[str] | None = None) -> int:
     table = build_table(runs, args.layout, args.categories.split(",") if args.categories else None,
                         args.metrics.split(",") if args.metrics else None,
                         {**sweep_labels, **parse_labels(args.label)}, args.error, args.title,
-                        [Path(p) for p in args.stability])
+                        [Path(p) for p in args.stability],
+                        threshold_keys(args.acc or [], args.auc) if (args.acc or args.auc is not None) else ())
     text = RENDERERS[args.format](table)
     if args.out:
         atomic.write_text(args.out, text)

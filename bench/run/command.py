@@ -15,10 +15,7 @@ def main(argv: list[str]) -> int:
     if any(a in ("-h", "--help") for a in argv):
         print(__doc_run__)
         return 0
-    config.check_modes(argv)
-    config.check_overrides(argv)
-    config.check_launcher(argv)
-    config.check_composition(argv)
+    config.check_run_args(argv)  # plain overrides only: Hydra's flags (--cfg, --info, ...) and hydra.* pass untouched
     import hydra
     from hydra.core.hydra_config import HydraConfig
     from hydra.types import RunMode
@@ -28,8 +25,12 @@ def main(argv: list[str]) -> int:
         from catpose.bench.run.runner import run
         from catpose.errors import RunAborted
 
+        from catpose import logs
+
         hc = HydraConfig.get()
         try:
+            logs.configure_run(cfg.get("log_level", "INFO"), hc.verbose,
+                               hydra_logging=bool(hc.job_logging) and hc.job_logging.get("root") is not None)
             out = run(cfg, list(hc.overrides.task))
         except RunAborted as e:  # not this job's fault (disk full, broken install): stop the sweep too
             print(command_error("run", e), file=sys.stderr)
@@ -71,13 +72,19 @@ Run a method over every sample of a dataset under a protocol (Hydra overrides).
   -m               sweep comma-separated values: bench run -m method=icp,ours seed=0,1
   +experiment=NAME one paper table's sweep (configs/experiment/NAME.yaml), with -m
   hydra/launcher=L with -m: local_procs | slurm | ray_local (presets) or joblib | submitit_slurm |
-                   submitit_local | ray (the cluster extra, `make cluster`); README "Scale out"
+                   submitit_local | ray (the cluster extra, `make cluster`); docs/scale-out.md
   shard=I shards=N only the I-th of N deterministic parts of the samples (sweep shard=range(N))
+  log_level=LEVEL  DEBUG | INFO (default) | WARNING | ERROR: catpose's messages on stderr
+                   (hydra.verbose=true or hydra.verbose=catpose: DEBUG)
+
+Hydra's own flags pass through: --cfg job|hydra|all [--resolve] [--package PKG] prints the
+composed config instead of running; --info [plugins|config|defaults|defaults-tree|searchpath];
+--config-dir DIR adds a config folder; --hydra-help; hydra.KEY=VALUE overrides.
 
 Writes <output_root>/<dataset>-<protocol>/<method>/seed<S>-<overrides>-<hash>/ with samples.jsonl,
 samples.csv, summary.csv, summary.md, config.yaml and git_rev.txt. Re-running the same command
 skips finished samples. A sweep writes <output_root>/multirun/<name>/<time>/<job>/job.json per job
-and exits non-zero when a job failed. Show the composed config with: bench run --cfg job"""
+and exits non-zero when a job failed."""
 
 
 def evaluate_main(argv: list[str]) -> int:

@@ -56,27 +56,33 @@ def available(group: str) -> list[str]:
     return sorted(p.name[:-5] for p in root.iterdir() if p.name.endswith(".yaml"))
 
 
-def check_overrides(argv: Sequence[str]) -> None:
+def check_overrides(argv: Sequence[str], names: bool = True) -> None:
     """Fail fast, in one line, on an unknown method, dataset, protocol or experiment name and on
     a renamed key or name (``method.optimizer.lr=...``: "method.optimizer was renamed
-    method.optimiser; write method.optimiser.lr=...")."""
+    method.optimiser; write method.optimiser.lr=...").
+
+    ``argv`` are plain overrides (:func:`split_hydra_args` takes Hydra's flags out first);
+    ``hydra.*`` and ``hydra/...`` overrides are Hydra's and pass untouched. ``names=False`` skips
+    the name check (configs from ``--config-dir`` are not in the package's lists)."""
     for arg in argv:
         raw, sep, value = arg.partition("=")
         key = raw.lstrip("+~")
         prefix = raw[:len(raw) - len(key)]  # "+" / "~" as typed
+        if key == "hydra" or key.startswith(("hydra.", "hydra/")):
+            continue
         for old, new in RENAMED_KEYS.items():
             if key == old or key.startswith(old + "."):
                 fixed = prefix + new + key[len(old):] + (f"={value}" if sep else "")
                 raise ConfigError(f"{old} was renamed {new}; write {fixed}")
         if not sep or key not in GROUPS:
             continue
-        names = available(key)
+        available_names = available(key)
         for v in value.split(","):
             if (key, v) in RENAMED_NAMES:
                 new = RENAMED_NAMES[key, v]
                 raise ConfigError(f"{key} {v} was renamed {new}; write {prefix}{key}={new}")
-            if v and v not in names:
-                raise ConfigError(f"unknown {key} {v!r}; available: {', '.join(names)} "
+            if names and v and v not in available_names:
+                raise ConfigError(f"unknown {key} {v!r}; available: {', '.join(available_names)} "
                                   f"(add configs/{key}/{v}.yaml to plug in a new one)")
 
 
@@ -141,27 +147,101 @@ def compose_and_build(overrides: Sequence[str], groups: Sequence[str],
 
 
 def check_composition(argv: Sequence[str]) -> None:
-    """``bench run``'s fail-fast check: a single run's overrides compose, or a one-line error
-    (see :func:`compose`). A sweep (``-m``) or an experiment is left to Hydra, which composes
-    what this check cannot (sweep values, hydra keys)."""
-    if any(a in ("-m", "--multirun") for a in argv):
+    """``bench run``'s fail-fast check: a single run's plain overrides compose, or a one-line
+    error (see :func:`compose`). A sweep (``-m``) or an experiment is left to Hydra, which
+    composes what this check cannot (sweep values, hydra keys); so is a command line that points
+    Hydra at other configs (``--config-dir``, ``--config-name``, ``--config-path``)."""
+    flags, overrides = split_hydra_args(argv)
+    if flag_names(flags) & {"--multirun", *OTHER_CONFIGS}:
         return
-    overrides = [a for a in argv if not a.startswith("-")]
     if any(a.lstrip("+~").startswith(("hydra", "experiment")) for a in overrides):
         return
     compose(overrides)
 
 
-# Hydra's modes: only one of them per command line (hydra/_internal/utils.py says so in a traceback)
-_HYDRA_MODES = {"-m": "-m", "--multirun": "-m", "-r": "--run", "--run": "--run", "-c": "--cfg", "--cfg": "--cfg",
-                "-i": "--info", "--info": "--info", "-sc": "--shell-completion", "--shell-completion": "--shell-completion"}
+# --------------------------------------------------------------------------------------------
+# Hydra's own command-line flags (Hydra 1.3: hydra/_internal/utils.py get_args_parser)
+
+#: flags that take a value (``--cfg job`` or ``--cfg=job``), long and short spellings
+HYDRA_VALUE_FLAGS = {"--cfg": "--cfg", "-c": "--cfg", "--package": "--package", "-p": "--package",
+                     "--config-path": "--config-path", "-cp": "--config-path",
+                     "--config-name": "--config-name", "-cn": "--config-name",
+                     "--config-dir": "--config-dir", "-cd": "--config-dir",
+                     "--experimental-rerun": "--experimental-rerun"}
+#: ``--info`` takes an optional value, one of these (default ``all``)
+HYDRA_INFO_CHOICES = ("all", "config", "defaults", "defaults-tree", "plugins", "searchpath")
+#: flags without a value
+HYDRA_SWITCHES = {"--resolve": "--resolve", "--run": "--run", "-r": "--run", "--multirun": "--multirun",
+                  "-m": "--multirun", "--shell-completion": "--shell-completion", "-sc": "--shell-completion",
+                  "--hydra-help": "--hydra-help", "--version": "--version", "--info": "--info", "-i": "--info"}
+#: flags that make Hydra read other configs than the package's (names and composition unchecked)
+OTHER_CONFIGS = ("--config-path", "--config-name", "--config-dir", "--experimental-rerun")
 
 
-def check_modes(argv: Sequence[str]) -> None:
-    """Fail fast, in one line, on two of Hydra's modes together (``-m`` with ``--cfg job``)."""
-    modes = list(dict.fromkeys(_HYDRA_MODES[a.split("=", 1)[0]] for a in argv if a.split("=", 1)[0] in _HYDRA_MODES))
+def split_hydra_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
+    """``(flags, overrides)``: Hydra's command-line flags with their values, as typed (``--cfg``,
+    ``job``, ``--info``, ``plugins``, ``--config-dir=DIR``, ...), and the plain overrides
+    (``key=value``, ``+key=value``, ``~key``). The flags go to Hydra untouched; only the
+    overrides are checked here. A flag Hydra does not know is left among the overrides, where
+    Hydra reports it."""
+    flags: list[str] = []
+    overrides: list[str] = []
+    args = list(argv)
+    k = 0
+    while k < len(args):
+        a = args[k]
+        name, eq, _ = a.partition("=")
+        if a.startswith("-") and name in HYDRA_VALUE_FLAGS:
+            flags.append(a)
+            if not eq and k + 1 < len(args):
+                flags.append(args[k + 1])
+                k += 1
+        elif a.startswith("-") and name in ("--info", "-i"):
+            flags.append(a)
+            if not eq and k + 1 < len(args) and args[k + 1] in HYDRA_INFO_CHOICES:
+                flags.append(args[k + 1])
+                k += 1
+        elif a.startswith("-") and a in HYDRA_SWITCHES:
+            flags.append(a)
+        else:
+            overrides.append(a)
+        k += 1
+    return flags, overrides
+
+
+def flag_names(flags: Sequence[str]) -> set[str]:
+    """The long names of the Hydra flags among ``flags`` (values dropped): ``{"--cfg", ...}``."""
+    out = set()
+    for f in flags:
+        name = f.partition("=")[0]
+        if f.startswith("-") and (name in HYDRA_VALUE_FLAGS or name in HYDRA_SWITCHES):
+            out.add(HYDRA_VALUE_FLAGS.get(name) or HYDRA_SWITCHES[name])
+    return out
+
+
+#: Hydra's modes: one per command line (Hydra refuses two, with a traceback)
+HYDRA_MODES = {"--multirun": "-m", "--run": "--run", "--cfg": "--cfg", "--info": "--info",
+               "--shell-completion": "--shell-completion"}
+
+
+def check_modes(flags: Sequence[str]) -> None:
+    """Fail fast, in one line, on two of Hydra's modes together (``-m`` with ``--cfg job``);
+    ``flags`` as :func:`split_hydra_args` returns them."""
+    names = flag_names(flags)
+    modes = [shown for name, shown in HYDRA_MODES.items() if name in names]
     if len(modes) > 1:
         hint = (" (show one job's config: drop -m and give one value per key, e.g. bench run method=icp --cfg job)"
                 if "-m" in modes and "--cfg" in modes else "")
         raise ConfigError(f"{' and '.join(modes)} cannot be combined: pass one of -m, --run, --cfg, --info, "
                           f"--shell-completion{hint}")
+
+
+def check_run_args(argv: Sequence[str]) -> None:
+    """Every check ``bench run`` makes before Hydra, on the plain overrides only: names and
+    renamed keys (:func:`check_overrides`), the launcher's plugin (:func:`check_launcher`) and,
+    for a single run, the composition (:func:`check_composition`)."""
+    flags, overrides = split_hydra_args(argv)
+    check_modes(flags)
+    check_overrides(overrides, names=not flag_names(flags) & set(OTHER_CONFIGS))
+    check_launcher(overrides)
+    check_composition(argv)

@@ -3,14 +3,16 @@ run directory's ``run.lock`` (a shard locks its own file, :mod:`catpose.bench.ru
 
 from __future__ import annotations
 
+import logging
 import os
-import sys
 import time
 from pathlib import Path
 
 from catpose.errors import RunAborted
 
 LOCK_FILE = "run.lock"
+
+log = logging.getLogger(__name__)
 
 
 class RunLock:
@@ -59,8 +61,8 @@ class RunLock:
         if self.timeout is not None and self.timeout <= 0:
             raise RunAborted(f"run directory {self.path.parent} is in use by pid {holder}; wait for that run "
                              "to finish or stop it")
-        print(f"bench run: waiting for pid {holder}, which is running into {self.path.parent} "
-              "(it finishes the same samples; Ctrl-C to stop)", file=sys.stderr, flush=True)
+        log.warning("waiting for pid %s, which is running into %s (it finishes the same samples; Ctrl-C to stop)",
+                    holder, self.path.parent)
         deadline = None if self.timeout is None else time.monotonic() + self.timeout
         while True:
             try:

@@ -40,7 +40,7 @@ SAMPLES_FILE = "samples.jsonl"
 
 
 _RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", "limit", "sample_ids", "output_root",
-                               "progress", "threads", "batch", "retry_failed", "print_summary", "lock_timeout",
+                               "progress", "threads", "batch", "retry_failed", "print_summary", "lock_timeout", "log_level",
                                # shards of one run share its directory; an experiment's rows name themselves
                                "shard", "shards", "label", "experiment"}
 

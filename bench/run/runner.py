@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import logging
 import signal
 import sys
 import threading
@@ -44,8 +45,10 @@ from catpose.bench.run.lock import LOCK_FILE, RunLock
 from catpose.bench.run.rundir import (SAMPLES_FILE, SampleWriter, read_rows, run_dir_for,
                                   write_run_files, write_run_json, writing)
 from catpose.bench.run.sample_run import run_batch, run_one
-from catpose.errors import CatposeError, ConfigError, RunAborted, command_error
+from catpose.errors import CatposeError, ConfigError, RunAborted
 from catpose.errors import one_line as _one_line
+
+log = logging.getLogger(__name__)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -119,6 +122,11 @@ def import_heavy_libraries(interrupts: _Interrupts | None = None,
                              "reinstall with `make install` (or pip install -e .)") from None
         if interrupts is not None:
             interrupts.check()
+
+
+def _short(value: Any) -> str:
+    """A number in a log line (3 decimals), or ``-``."""
+    return "-" if value is None else f"{float(value):.3f}"
 
 
 def _abort_message(e: BaseException, sample_id: str) -> str:
@@ -226,6 +234,7 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
 
     with writing(out):
         writer = SampleWriter(samples_path)
+    log.debug("%s: %d samples, %d done before, %d to run", out, len(ids), len(ids) - len(todo), len(todo))
     from tqdm import tqdm
 
     bar = tqdm(total=len(ids), initial=len(ids) - len(todo), unit="sample", dynamic_ncols=True,
@@ -248,7 +257,10 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
                     writer.write(row)
                 bar.update(1)
                 if row["status"] != "ok":
-                    bar.write(f"[failed] {row['sample_id']}: {row['error']}", file=sys.stderr)
+                    log.warning("sample %s failed: %s", row["sample_id"], row["error"])
+                else:
+                    log.debug("sample %s: ok, error %s deg, %s s", row["sample_id"], _short(row.get("err_deg")),
+                              _short(row.get("runtime_s")))
     finally:
         bar.close()
         with contextlib.suppress(OSError):
@@ -278,7 +290,7 @@ def _finish_shard(out: Path, sharding: tuple[int, int], cfg: Any, base: dict, n_
         if cfg.get("print_summary", True):
             print(f"{head}: {n_ids} samples ({n_run_now} run now) in {out}; the last shard to finish merges (or: bench merge {out})")
         if not isinstance(e, ShardsNotDone):  # a merge refused (bench/run/shard_check.py, overwrite.py): say why
-            print(command_error("run", f"shard {i} of {n} is done but the run was not merged: {e}"), file=sys.stderr)
+            log.error("shard %d of %d is done but the run was not merged: %s", i, n, e)
         return out
     if cfg.get("print_summary", True):
         print(f"{head}: all {n} shards done, merged into {out}")

@@ -18,9 +18,11 @@ The sweep directory is ``<output_root>/multirun/<hydra.job.name>/<YYYY-MM-DD_HH-
 from __future__ import annotations
 
 import json
-import sys
+import logging
 from pathlib import Path
 from typing import Any
+
+log = logging.getLogger(__name__)
 
 JOB_FILE = "job.json"
 
@@ -83,8 +85,7 @@ class SweepStatus(Callback):  # type: ignore[misc]
         failed = [r for r in records if r.get("status") != "ok"]
         last_sweep.clear()
         last_sweep.update(sweep_dir=str(sweep_dir), jobs=len(records), failed=failed)
-        print(f"bench run: sweep {sweep_dir}: {len(records) - len(failed)} of {len(records)} jobs ok"
-              + (f", {len(failed)} failed" if failed else "")
-              + f"; table: bench table --sweep {sweep_dir}", file=sys.stderr)
-        for r in failed:
-            print(f"  job {r.get('job')} {' '.join(r.get('overrides') or [])}: {r.get('error')}", file=sys.stderr)
+        text = (f"sweep {sweep_dir}: {len(records) - len(failed)} of {len(records)} jobs ok"
+                + (f", {len(failed)} failed" if failed else "") + f"; table: bench table --sweep {sweep_dir}")
+        text += "".join(f"\n  job {r.get('job')} {' '.join(r.get('overrides') or [])}: {r.get('error')}" for r in failed)
+        (log.error if failed else log.info)(text)
