@@ -121,7 +121,10 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
               "prescores": [float(x) for x in np.sort(pre)[:8]],
               "timings": {name: float(v) for name, v in timings.items()},
               "num_input_points": int(len(cands[0].points))}
-    return RegistrationResult(T_target_source=T_out, score=score, extras=extras)
+    # every half-turned candidate scored in step 3 (template frame) with its cost (inf: not kept)
+    return RegistrationResult(T_target_source=T_out, score=score, extras=extras,
+                              candidates_T=_in_template(hyps, expanded, T_exp),
+                              candidate_scores=np.where(keep, cost, np.inf).astype(float))
 
 
 def _pool(sel: SelectionSettings, hyps, cands, feats, g, ups, axis) -> list[tuple[int, int]]:

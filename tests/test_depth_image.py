@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from catpose.bench.golden import perturbed, read_golden, write_golden
+from catpose.bench.regress.golden import perturbed, read_golden, write_golden
 from catpose.bench.protocols import GtModel
 from catpose.datasets.render import PinholeCamera, depth_to_points
 from catpose.datasets.synthetic import SyntheticDataset

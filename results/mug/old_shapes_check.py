@@ -10,7 +10,7 @@ import sys
 import numpy as np
 
 import catpose.datasets.synthetic as synthetic
-from catpose.bench.metrics import sample_errors
+from catpose.bench.scoring.metrics import sample_errors
 from catpose.bench.protocols import Templates
 from catpose.methods.ours import OptimiserSettings, Ours, SelectionSettings
 

@@ -1,0 +1,367 @@
+"""``bench score``: predictions made elsewhere scored into a run directory like any run.
+
+Learning-based methods (RPM-Net, Equi-pose, ...) need not be reimplemented: run them in their
+own code on the same samples, write their poses to a file, and ``bench score`` turns the file
+into a run directory scored with the same metrics, so ``bench table`` / ``bench report`` put
+them beside ours.
+
+The file formats are :mod:`catpose.bench.interop.prediction_io`'s; BOP ids map to samples as
+:mod:`catpose.bench.interop.bop_export` documents.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from catpose import atomic
+from catpose.bench.interop.bop_export import bop_ids
+from catpose.bench.interop.prediction_checks import key_text
+from catpose.bench.interop.prediction_io import read_mapping, read_predictions
+from catpose.bench.run.overwrite import check_new_output
+from catpose.bench.run.rundir import write_run_into
+from catpose.errors import DatasetError, InvalidInputError
+
+
+def _orthonormalise(R: np.ndarray) -> np.ndarray:
+    """Nearest rotation (files hold rounded values)."""
+    U, _, Vt = np.linalg.svd(R)
+    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
+
+
+def score_predictions(preds, gt_rows: Sequence[dict], method: str,
+                      mapping: dict[tuple[int, int, int], str] | None = None,
+                      stats: dict | None = None) -> list[dict]:
+    """Per-sample rows (``samples.jsonl`` schema) for the predictions against ground-truth rows.
+
+    ``gt_rows`` are rows with ``T_gt`` (a run's ``samples.jsonl``, one per view is enough). A
+    view without a prediction is recorded as failed ("no prediction"): a miss. For a BOP file,
+    ``mapping`` ((scene_id, im_id, obj_id) -> sample_id, from the export's ``.map.csv``) takes
+    precedence over the ids derived from the rows. Without it, where several gt rows share
+    (scene_id, im_id, obj_id) (several instances of one object in an image), the estimates are
+    matched greedily as bop_toolkit does: in descending score order, each takes the unmatched
+    instance with the smallest ``err_deg`` (then ``trans_err``).
+
+    Duplicates, one rule each (docs/file-safety.md): in a per-sample file the LAST row of a
+    sample id counts, as a run's ``samples.jsonl`` keeps a retried sample's last row; in a BOP
+    file an (image, object) keeps its highest-scored estimates, one per gt instance (ties: file
+    order), and the others are extra and ignored. Predictions for ids that no gt row has are
+    unknown and ignored. ``stats`` (a dict, optional) receives the counts :func:`count_text` prints.
+    """
+    from catpose.bench.scoring.metrics import sample_errors
+    from catpose.bench.scoring.rows import failed_row, scored_row
+    from catpose.geometry import invert_T, make_T
+
+    kind = preds.attrs.get("kind", "sample")
+    all_by_key: dict[Any, list[dict]] = {}
+    for p in preds.to_dict("records"):
+        key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"])) if kind == "bop" else str(p["sample_id"]).strip()
+        all_by_key.setdefault(key, []).append(p)
+
+    def by_score(cands: list[dict]) -> list[dict]:  # highest first, ties in file order (a stable sort)
+        return sorted(cands, key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
+
+    by_key = {k: (by_score(v)[0] if kind == "bop" else v[-1]) for k, v in all_by_key.items()}
+    ids = bop_ids(gt_rows)[0] if kind == "bop" else None
+    if kind == "bop" and mapping:
+        by_sample = {mapping[k]: p for k, p in by_key.items() if k in mapping}
+
+    def estimate(p: dict, k: int) -> np.ndarray:
+        T = np.asarray(p["T"], float)
+        R = _orthonormalise(T[:3, :3])
+        if kind != "bop":
+            return make_T(R, T[:3, 3])
+        _, _, _, scale, centre, R_om = ids[k]  # T_camera_model[mm] -> T_template_camera[unit]
+        R_co = R @ R_om.T
+        return invert_T(make_T(R_co, (T[:3, 3] + R_co @ centre) / scale))
+
+    def errors_of(T_est: np.ndarray, g: dict) -> dict:
+        axis, symmetries = g.get("symmetry_axis"), g.get("symmetries")
+        return sample_errors(T_est, np.asarray(g["T_gt"], float).reshape(4, 4),
+                             None if axis is None else np.asarray(axis, float),
+                             symmetries if isinstance(symmetries, (list, tuple)) else ())
+
+    matched: dict[int, dict] = {}
+    groups: dict[Any, list[int]] = {}
+    if kind == "bop":
+        for k in range(len(gt_rows)):
+            groups.setdefault(ids[k][:3], []).append(k)
+        for key, members in groups.items():
+            cands = by_score(all_by_key.get(key, []))
+            free = list(members)
+            for p in cands[:len(members)]:
+                errs = {k: errors_of(estimate(p, k), gt_rows[k]) for k in free}
+                best = min(free, key=lambda k: (round(errs[k]["err_deg"], 9), errs[k]["trans_err"]))
+                matched[best] = p
+                free.remove(best)
+    out = []
+    for k, g in enumerate(gt_rows):
+        row = {key: g.get(key) for key in ("sample_id", "group_id", "obs_id", "category", "instance_id", "template_id",
+                                           "dataset", "protocol", "seed", "symmetric", "T_gt", "symmetry_axis", "symmetries",
+                                           "info")}
+        row.update(method=method, extras={}, stage="")
+        if kind == "bop":
+            sid = str(g["sample_id"])
+            p = by_sample[sid] if mapping and sid in by_sample else matched.get(k)
+        else:
+            p = by_key.get(str(g["sample_id"])) or by_key.get(str(g.get("obs_id")))
+        if p is None:
+            out.append(failed_row(row, "no prediction", stage="register", score=None, runtime_s=None))
+            continue
+        T_est = estimate(p, k)
+        errs = errors_of(T_est, g)
+        score = p.get("score")
+        score = None if score is None or not math.isfinite(float(score)) else (-float(score) if kind == "bop" else float(score))
+        rt = p.get("time")
+        out.append(scored_row(row, T_est, errs, score=score,
+                              runtime_s=None if rt is None or not math.isfinite(float(rt)) or float(rt) < 0 else float(rt)))
+    if stats is not None:
+        stats.update(_counts(kind, all_by_key, gt_rows, groups, mapping, out))
+    return out
+
+
+def _counts(kind: str, all_by_key: dict, gt_rows: Sequence[dict], groups: dict, mapping: dict | None,
+            out: Sequence[dict]) -> dict:
+    """The counts of :func:`score_predictions` (see :func:`count_text`)."""
+    if kind == "bop":
+        known = set(groups) | set(mapping or {})
+        wanted = {k: len(v) for k, v in groups.items()}
+        wanted.update({k: 1 for k in (mapping or {})})
+        ignored = sum(max(0, len(v) - wanted[k]) for k, v in all_by_key.items() if k in wanted)
+        rule = "an (image, object) keeps its highest-scored estimates, one per instance"
+    else:
+        known = {str(g["sample_id"]) for g in gt_rows} | {str(g.get("obs_id")) for g in gt_rows}
+        ignored = sum(len(v) - 1 for k, v in all_by_key.items() if k in known)
+        rule = "the last row of a sample id counts"
+    unknown = [k for k in all_by_key if k not in known]
+    return {"predictions": sum(map(len, all_by_key.values())), "targets": len(gt_rows),
+            "scored": sum(r["status"] == "ok" for r in out),
+            "missing": sum(r["status"] != "ok" for r in out),
+            "duplicates_ignored": ignored, "duplicate_rule": rule,
+            "unknown_ids": len(unknown), "unknown_rows": sum(len(all_by_key[k]) for k in unknown),
+            "unknown_examples": [key_text(k) for k in unknown[:5]]}
+
+
+def count_text(stats: dict) -> str:
+    """What a score counted, for people: scored, missing (misses), duplicates and unknown ids."""
+    lines = [f"{stats['predictions']} prediction rows; {stats['scored']} of {stats['targets']} samples scored, "
+             f"{stats['missing']} without a prediction (counted as misses: failed, 180 deg)"]
+    if stats["duplicates_ignored"]:
+        lines.append(f"{stats['duplicates_ignored']} duplicate row(s) ignored ({stats['duplicate_rule']})")
+    if stats["unknown_ids"]:
+        lines.append(f"{stats['unknown_rows']} row(s) with {stats['unknown_ids']} id(s) that no sample has, ignored: "
+                     + ", ".join(stats["unknown_examples"]) + (", ..." if stats["unknown_ids"] > 5 else ""))
+    return "\n".join(lines)
+
+
+def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
+    """Ground-truth rows (one per view) and the config of a run directory."""
+    from catpose.bench.report.tables import load_run
+
+    run = load_run(run_dir)
+    s = run.samples
+    if len(s) == 0 or "T_gt" not in s:
+        raise DatasetError(f"run {run_dir} has no ground truth rows; pass a run written by `bench run`")
+    n_rows = len(s)
+    s = s[s["T_gt"].map(lambda v: isinstance(v, (list, np.ndarray)))]
+    if len(s) == 0:
+        raise DatasetError(f"run {run_dir} has no sample with ground truth ({n_rows} rows, all failed before their "
+                           "data loaded); pass a run whose samples loaded, or --dataset NAME")
+    key = "group_id" if run.protocol in ("templates", "relative") else "sample_id"
+    return s.drop_duplicates(key).to_dict("records"), run.config
+
+
+def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Sequence[str] = ()) -> tuple[list[dict], dict]:
+    """Ground-truth rows built from ``configs/dataset/<dataset>.yaml`` + ``configs/protocol/<protocol>.yaml``."""
+    from omegaconf import OmegaConf
+
+    from catpose.bench.run.config import compose_and_build
+
+    # one-line errors for an unknown name, a missing root etc.
+    cfg, ((ds_name, ds), (pr_name, proto)) = compose_and_build(
+        [f"dataset={dataset}", f"protocol={protocol}", f"seed={seed}", *overrides], ("dataset", "protocol"))
+    config = OmegaConf.to_container(cfg, resolve=True)
+    rows, seen = [], set()
+    for sid in proto.sample_ids(ds):
+        sample = proto.load(ds, sid)
+        group = sample.group_id or sid
+        if group in seen and pr_name in ("templates", "relative"):
+            continue
+        seen.add(group)
+        info = dict(sample.info)
+        axis = sample.gt.symmetry_axis
+        rows.append({"sample_id": sid, "group_id": group, "obs_id": sid.split("|")[0], "category": sample.problem.category,
+                     "instance_id": info.get("instance_id"), "template_id": sample.problem.template.template_id,
+                     "dataset": ds_name, "protocol": pr_name, "seed": seed, "symmetric": axis is not None,
+                     "T_gt": np.asarray(sample.gt.T_template_camera, float).reshape(-1).tolist(),
+                     "symmetry_axis": None if axis is None else np.asarray(axis, float).tolist(),
+                     "symmetries": [np.asarray(S, float).reshape(-1).tolist() for S in sample.gt.symmetries] or None,
+                     "info": info})
+    return rows, config
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bench score PREDICTIONS.csv --gt RUN_DIR --method NAME --out DIR`` (or ``--dataset D --protocol P``)."""
+    ap = argparse.ArgumentParser(prog="bench score",
+                                 description="Score an external predictions file (BOP CSV, per-sample CSV, or a "
+                                 ".npy/.npz array of (B, 3, 4) or (B, 4, 4) transforms with --ids).")
+    ap.add_argument("predictions")
+    ap.add_argument("--gt", help="a run directory whose ground truth (and samples) to score against")
+    ap.add_argument("--dataset", help="or: a dataset config name (configs/dataset)")
+    ap.add_argument("--protocol", default="gt_model", help="with --dataset: a protocol config name")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--override", action="append", default=[], help="extra Hydra override for --dataset, repeatable")
+    ap.add_argument("--map", default=None, help="BOP id -> sample id CSV (default: <predictions>.map.csv if present)")
+    ap.add_argument("--method", default=None, help="name of the external method (row label in tables; default: "
+                    "METHOD of a METHOD_DATASET-SPLIT.csv file name)")
+    ap.add_argument("--out", required=True, help="run directory to write (new or empty; see --force)")
+    ap.add_argument("--force", action="store_true",
+                    help="replace an existing run or other files at --out (never the --gt run itself)")
+    ap.add_argument("--metrics", default=",".join(DEFAULT_BOP_METRICS),
+                    help="BOP datasets: comma-separated recalls, e.g. ar,ar_mssd,ar_mspd,ar_vsd,adds@0.1,add@0.1,mssd@0.2,"
+                         "mspd@10,5deg5cm,10deg10cm")
+    ap.add_argument("--by", default="object,category", help="BOP datasets: rows per object and/or category")
+    ap.add_argument("--no-vsd", action="store_true", help="BOP datasets: skip VSD (it renders the model twice per estimate)")
+    ap.add_argument("--ids", default=None, help=".npy/.npz transforms: a text file of sample ids, one per line, in the "
+                    "arrays' order (not needed when the .npz has an 'ids' array)")
+    ap.add_argument("--inverse", action="store_true", help=".npy/.npz transforms: they map the template onto the "
+                    "observation (T_camera_template); invert them")
+    ap.add_argument("--acc", default=None, metavar="LIST", help="also print accuracies at these thresholds, "
+                    "degrees and n-degree m-cm, e.g. --acc 5,10,30,5deg5cm,10deg10cm (summary_thresholds.md)")
+    ap.add_argument("--auc", type=float, default=None, metavar="DEG",
+                    help="also print the area under the accuracy curve from 0 to DEG degrees, over DEG")
+    args = ap.parse_args(argv)
+    if args.method is None:
+        from catpose.bench.scoring.bop_eval import check_results_filename
+
+        try:
+            args.method = check_results_filename(args.predictions)[0]
+        except InvalidInputError:
+            raise InvalidInputError(f"pass --method NAME (the file name {Path(args.predictions).name!r} is not "
+                                    "METHOD_DATASET-SPLIT.csv)") from None
+    if bool(args.gt) == bool(args.dataset):
+        raise InvalidInputError("pass exactly one of --gt RUN_DIR or --dataset NAME")
+    out = Path(args.out)
+    # before any work: no run is written over (bench/run/overwrite.py), the --gt run never
+    check_new_output(out, args.force, protected=Path(args.gt) if args.gt else None)
+    gt_rows, config = gt_rows_from_run(args.gt) if args.gt else gt_rows_from_config(
+        args.dataset, args.protocol, args.seed, args.override)
+    from catpose.bench.interop.transform_arrays import is_transform_array, read_transform_arrays
+
+    preds = (read_transform_arrays(args.predictions, args.ids, args.inverse) if is_transform_array(args.predictions)
+             else read_predictions(args.predictions))
+    map_path = Path(args.map) if args.map else Path(str(args.predictions) + ".map.csv")
+    if args.map and not map_path.is_file():
+        raise InvalidInputError(f"--map {map_path} does not exist")
+    mapping = read_mapping(map_path) if preds.attrs["kind"] == "bop" and map_path.is_file() else None
+    stats: dict = {}
+    rows = score_predictions(preds, gt_rows, args.method, mapping, stats)
+    config = dict(config, method={"name": args.method, "external": str(args.predictions)})
+    bop_text = None
+    # the whole run directory is built beside --out and moved there when complete: a failure
+    # leaves no half-written folder, and --force replaces the old one only then
+    thresholds = None
+    try:
+        with atomic.building_dir(out) as tmp:
+            write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
+            if preds.attrs["kind"] == "bop" and _is_bop_dataset(config.get("dataset")):
+                bop_text = score_bop(preds, config["dataset"], tmp, args.method, args.metrics.split(","),
+                                     args.by.split(","), vsd=not args.no_vsd)
+            objects = _object_summary(rows, tmp)
+            summary = (tmp / "summary.md").read_text() if (tmp / "summary.md").is_file() else ""
+            if args.acc or args.auc is not None:
+                thresholds = _threshold_summary(rows, tmp, args.acc or "", args.auc)
+    except OSError as e:  # an unwritable or full --out: one line, nothing left behind
+        raise InvalidInputError(f"cannot write --out {out} ({e.strerror or type(e).__name__}); pass a writable "
+                                "folder with free space") from None
+    print(count_text(stats))
+    print(f"run directory {out}")
+    print(summary)
+    print(objects)
+    if thresholds is not None:
+        print(thresholds)
+    if bop_text:
+        print(bop_text)
+    return 0
+
+
+def _object_summary(rows: Sequence[dict], out_dir: Path) -> str:
+    """Per-object rows of the same statistics as ``summary.md`` (written to ``summary_objects.md``)."""
+    import pandas as pd
+
+    from catpose.bench.scoring.metrics import summarize
+    from catpose.bench.run.evaluate import format_summary
+
+    df = pd.DataFrame(list(rows))
+    df["object"] = [f"{c}/{i}" for c, i in zip(df["category"], df["instance_id"])]
+    text = format_summary(summarize(df, by="object"))
+    atomic.write_text(Path(out_dir) / "summary_objects.md", text + "\n")
+    return text
+
+
+def _threshold_summary(rows: Sequence[dict], out_dir: Path, acc: str, auc: float | None) -> str:
+    """``--acc`` / ``--auc``: per category, the accuracies and AUC of
+    :mod:`catpose.bench.scoring.curves` (written to ``summary_thresholds.md``)."""
+    import pandas as pd
+
+    from catpose.bench.scoring.curves import threshold_keys, threshold_table
+
+    keys = threshold_keys(acc, auc)
+    text = threshold_table(pd.DataFrame(list(rows)), keys).to_markdown(index=False, floatfmt=".3f")
+    atomic.write_text(Path(out_dir) / "summary_thresholds.md", text + "\n")
+    return text
+
+
+DEFAULT_BOP_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
+
+
+def _is_bop_dataset(node: Any) -> bool:
+    return isinstance(node, dict) and str(node.get("_target_", "")).endswith("datasets.bop.BOP")
+
+
+def evaluation_models(dataset_cfg: dict) -> dict:
+    """The dataset config BOP's errors are computed with: ``models_dir: models_eval`` when the
+    dataset has that folder (the BOP toolkit's evaluation models, uniformly resampled surfaces),
+    whatever the run registered against; the config as it is otherwise."""
+    root = dataset_cfg.get("root")
+    if root and dataset_cfg.get("models_dir", "models") == "models" and (Path(str(root)) / "models_eval" / "models_info.json").is_file():
+        return dict(dataset_cfg, models_dir="models_eval")
+    return dataset_cfg
+
+
+def score_bop(preds, dataset_cfg: dict, out_dir: str | Path, method: str, metrics: Sequence[str],
+              by: Sequence[str], vsd: bool = True) -> str:
+    """BOP metrics of a BOP results CSV on the dataset of ``dataset_cfg`` (a resolved config
+    dict): writes ``bop_errors.jsonl`` and ``bop_summary.md`` into ``out_dir`` and returns the
+    summary (which states the target and visibility filters applied, and the models used: the
+    dataset's ``models_eval/`` when present, :func:`evaluation_models`)."""
+    from catpose.bench.scoring.bop_eval import ERRORS_FILE, compute_errors, format_scores, score_table, write_errors
+    from catpose.bench.run.build import build_from_config
+
+    dataset_cfg = evaluation_models(dataset_cfg)
+    _, ds = build_from_config(dict(dataset_cfg), "dataset")
+    errs = compute_errors(preds, ds, vsd=vsd)
+    instances: dict[tuple, int] = {}
+    for r in errs:
+        key = (int(r["scene_id"]), int(r["im_id"]), int(r["obj_id"]))
+        instances[key] = instances.get(key, 0) + 1
+    estimates: dict[tuple, int] = {}
+    for p in preds.to_dict("records"):
+        key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"]))
+        estimates[key] = estimates.get(key, 0) + 1
+    filters = list(getattr(ds, "filters", [])) + [f"models: {dataset_cfg.get('models_dir', 'models')}/"]
+    header = {"method": method, "filters": filters, "targets": len(errs),
+              "matched": int(sum(r["matched"] for r in errs)),
+              # ignored, and said so: estimates of no target, and those beyond an (image, object)'s instances
+              "unknown_estimates": sum(n for k, n in estimates.items() if k not in instances),
+              "extra_estimates": sum(max(0, n - instances[k]) for k, n in estimates.items() if k in instances)}
+    write_errors(errs, Path(out_dir) / ERRORS_FILE, header)
+    import pandas as pd
+
+    text = f"BOP metrics ({method}):\n" + format_scores(score_table(pd.DataFrame(errs), metrics, by), header)
+    atomic.write_text(Path(out_dir) / "bop_summary.md", text + "\n")
+    return text
