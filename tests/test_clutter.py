@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from catpose.bench.split import load_split
+from catpose.bench.real.split import load_split
 from catpose.datasets.clutter import Clutter, clutter_root, generate
 from catpose.datasets.clutter_layout import ClutterSpec, footprint, layout_scene, polygons_overlap
 from catpose.datasets.clutter_render import render_scene

@@ -71,8 +71,8 @@ def test_one_real_sample_runs_through_the_runner(shared_data, tmp_path, monkeypa
 def test_sets_with_a_split_get_a_column_per_part(tmp_path):
     import json
 
-    from catpose.bench.split import load_split
-    from catpose.bench.suite_parts import part_label, part_rows
+    from catpose.bench.real.split import load_split
+    from catpose.bench.real.suite_parts import part_label, part_rows
 
     run = tmp_path / "run"
     run.mkdir()
