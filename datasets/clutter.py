@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import os
 import shutil
-import sys
 from dataclasses import asdict
 from pathlib import Path
 from typing import Sequence
@@ -108,7 +108,7 @@ def generate(spec: ClutterSpec, models_root: str | Path, scenes: Sequence[int] |
     rests = {o: resting_ups(v) for o, (v, _) in meshes.items()}
     split_dir = root / "test"
     split_dir.mkdir(parents=True, exist_ok=True)
-    log = log or (lambda msg: print(msg, file=sys.stderr))
+    log = log or logging.getLogger(__name__).info
     log(f"clutter: generating {len(todo)} scenes into {root}")
     for i, s in enumerate(todo):
         layout = layout_scene(spec, s, {o: v for o, (v, _) in meshes.items()}, rests)
