@@ -24,6 +24,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "export": ("catpose.bench.interop.bop_export", "main", "export a run's estimates as a BOP results CSV"),
     "score": ("catpose.bench.interop.score", "main", "score an external predictions file (BOP CSV or per-sample CSV)"),
     "suite": ("catpose.bench.real.suite", "main", "every method on the shared real data, one table: bench suite real"),
+    "clutter": ("catpose.bench.real.clutter", "main", "generate the cluttered synthetic set (dataset=clutter) and print its folder"),
     "data": ("catpose.bench.run.data_check", "main", "check a dataset root before a run: bench data check dataset=NAME dataset.root=PATH"),
     "regress": ("catpose.bench.regress.regress", "main", "CI regression: small subsets against committed reference metrics"),
 }

@@ -8,7 +8,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from catpose.types import Template
+from catpose.types import DepthImage, Template
 
 
 @dataclass(frozen=True, eq=False)
@@ -31,6 +31,9 @@ class Observation:
         symmetries: discrete symmetries of the object, (4, 4) transforms of the object frame
             that map it onto itself (e.g. BOP ``symmetries_discrete``); scored as equivalent.
         info: facts for the per-sample table (view id, mask source, ...).
+        depth_image: the depth image (object-normalised unit), intrinsics and object mask the
+            points came from, where the view is an image (:class:`~catpose.types.DepthImage`);
+            None for clouds without one.
     """
 
     obs_id: str
@@ -43,6 +46,7 @@ class Observation:
     symmetry_axis: np.ndarray | None = None
     info: Mapping[str, Any] = field(default_factory=dict)
     symmetries: tuple = ()
+    depth_image: DepthImage | None = None
 
 
 class ObjectDataset(ABC):

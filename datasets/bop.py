@@ -33,21 +33,16 @@ from typing import Any
 
 import numpy as np
 
-from catpose.datasets.base import ObjectDataset, Observation
-from catpose.datasets.bop_layout import (BopLayout, camera_K, continuous_symmetry_origin, gt_obj_id, read_json,
-                                         read_targets, visible_fractions)
-from catpose.datasets.depthio import fit_ground_plane, read_depth, read_mask_png
-from catpose.datasets.meshio import R_template_file, TemplateSet, read_mesh, sampled_template
-from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
+from catpose.datasets.base import ObjectDataset
+from catpose.datasets.bop_frames import BopFrames
+from catpose.datasets.bop_layout import BopLayout, camera_K, gt_obj_id, read_json, read_targets, visible_fractions
+from catpose.datasets.bop_models import BopModels
+from catpose.datasets.meshio import TemplateSet
 from catpose.errors import DatasetError
-from catpose import libm
-from catpose.geometry import apply_R, dot3, make_T, matmul3, norm3, normalize_to_unit_sphere, small_matmul, stable_seed, unit3
 from catpose.types import Template
 
 
-
-
-class BOP(ObjectDataset):
+class BOP(BopModels, BopFrames, ObjectDataset):
     """BOP depth frames and models.
 
     Args:
@@ -209,195 +204,5 @@ class BOP(ObjectDataset):
         self._ids = ids
         return ids
 
-    # ------------------------------------------------------------------ models
-    def model_mm(self, obj_id: int) -> tuple[np.ndarray, np.ndarray]:
-        """Model vertices (V, 3) in mm (BOP model frame) and triangles (F, 3)."""
-        if obj_id not in self._models_mm:
-            self._models_mm[obj_id] = read_mesh(self.layout.model(obj_id))
-        return self._models_mm[obj_id]
-
-    def normalisation(self, obj_id: int) -> tuple[np.ndarray, np.ndarray, float]:
-        """``(R_object_model (3, 3), centre (3,) mm, scale mm)``: ``p_object = (R p_model - centre) / scale``.
-
-        The centre is the bounding-box centre, moved onto the continuous-symmetry axis (the
-        point of the axis nearest to it, BOP's ``offset`` included) when the object has one,
-        so that a spin about the axis leaves the object origin in place.
-        """
-        if obj_id not in self._norm:
-            R = R_template_file(*self.object_axes.get(obj_id, self.model_axes))
-            v, _ = self.model_mm(obj_id)
-            vr = apply_R(R, v)
-            _, centre, scale = normalize_to_unit_sphere(vr)
-            cont = self.continuous_symmetries(obj_id)
-            if cont:
-                rotated = [{"axis": apply_R(R, np.asarray(e["axis"], float)), "offset": apply_R(R, np.asarray(e["offset"], float))}
-                           for e in cont]
-                centre = continuous_symmetry_origin(rotated, centre)
-                scale = float(norm3(vr - centre).max())
-            self._norm[obj_id] = (R, centre, scale)
-        return self._norm[obj_id]
-
-    def models_info(self, obj_id: int) -> dict:
-        """The object's ``models_info.json`` entry (empty when the file or entry is absent)."""
-        path = self.layout.models_info()
-        if not path.is_file():
-            return {}
-        entry = self._read_json(path).get(str(obj_id))
-        if entry is None:
-            self._warn_no_info(path, obj_id)
-            return {}
-        return entry
-
-    def continuous_symmetries(self, obj_id: int) -> list[dict]:
-        """Every ``symmetries_continuous`` entry, ``{"axis": (3,), "offset": (3,) mm}`` (model frame)."""
-        out = []
-        for k, e in enumerate(self.models_info(obj_id).get("symmetries_continuous") or []):
-            try:
-                axis = np.asarray(e["axis"], float).reshape(3)
-                offset = np.asarray(e.get("offset", (0.0, 0.0, 0.0)), float).reshape(3)
-            except (KeyError, TypeError, ValueError):
-                raise DatasetError(f"{self.layout.models_info()}: symmetries_continuous[{k}] of object {obj_id} "
-                                   "needs axis and offset (3 numbers each)") from None
-            if not np.isfinite(axis).all() or norm3(axis) == 0 or not np.isfinite(offset).all():
-                raise DatasetError(f"{self.layout.models_info()}: symmetries_continuous[{k}] of object {obj_id} "
-                                   "has a zero or non-finite axis or offset")
-            out.append({"axis": axis.tolist(), "offset": offset.tolist()})
-        return out
-
-    def symmetry_axis(self, obj_id: int, category: str) -> np.ndarray | None:
-        """Main axis (3,) in the object frame: the category entry, else ``models_info.json``."""
-        if category in self.symmetric:
-            return self.symmetric[category]
-        sym = self.continuous_symmetries(obj_id)
-        if not sym:
-            return None
-        R, _, _ = self.normalisation(obj_id)
-        return unit3(apply_R(R, np.asarray(sym[0]["axis"], float)))
-
-    def _warn_no_info(self, info_path: Path, obj_id: int) -> None:
-        """Warn once per object that ``models_info.json`` lacks it (then it is non-symmetric)."""
-        if obj_id not in self._warned_no_info:
-            self._warned_no_info.add(obj_id)
-            warnings.warn(f"{info_path} has no entry for object {obj_id}; it is scored as non-symmetric: add "
-                          f"\"{obj_id}\" there, or set dataset.symmetric.<category>=[x, y, z] if it is symmetric",
-                          stacklevel=2)
-
-    def discrete_symmetries(self, obj_id: int) -> tuple[np.ndarray, ...]:
-        """``symmetries_discrete`` of ``models_info.json`` as (4, 4) transforms of the normalised
-        object frame: ``S_object = N S_model N^-1`` with ``N`` the normalisation
-        ``p_object = (R p_model - centre) / scale`` (BOP gives S_model with t in mm)."""
-        info_path = self.layout.models_info()
-        entries = self.models_info(obj_id).get("symmetries_discrete") or []
-        R, centre, scale = self.normalisation(obj_id)
-        N = make_T(R / scale, -centre / scale)
-        N_inv = make_T(scale * R.T, apply_R(R.T, centre))  # p_model = R^T (scale p_object + centre)
-        out = []
-        for k, entry in enumerate(entries):
-            S = np.asarray(entry, float).reshape(-1)
-            if S.size != 16 or not np.isfinite(S).all():
-                raise DatasetError(f"{info_path}: symmetries_discrete[{k}] of object {obj_id} is not 16 numbers")
-            out.append(small_matmul(small_matmul(N, S.reshape(4, 4)), N_inv))
-        return tuple(out)
-
-    @staticmethod
-    def _obj_id(instance_id: str) -> int:
-        try:
-            return int(str(instance_id).rsplit("_", 1)[-1])
-        except ValueError:
-            raise DatasetError(f"BOP instance id {instance_id!r} is not obj_XXXXXX") from None
-
-    def instance_model(self, category: str, instance_id: str) -> Template:
-        obj_id = self._obj_id(instance_id)
-        if obj_id not in self._instances:
-            v_mm, f = self.model_mm(obj_id)
-            R, centre, scale = self.normalisation(obj_id)
-            v = (apply_R(R, v_mm) - centre) / scale
-            self._instances[obj_id] = sampled_template(v, f, f"bop/obj_{obj_id:06d}", category,
-                                                       self.template_points, self.seed,
-                                                       self.symmetry_axis(obj_id, category))
-        return self._instances[obj_id]
-
     def category_templates(self, category: str) -> list[Template]:
         return self._templates.get(category)
-
-    # ------------------------------------------------------------------ frames
-    def observation(self, obs_id: str) -> Observation:
-        try:
-            category, scene_s, im_s, gt_s = obs_id.split("/")
-            scene_id, im_id, gt_idx = int(scene_s), int(im_s), int(gt_s)
-        except ValueError:
-            raise DatasetError(f"observation id {obs_id!r} is not <category>/<scene>/<image>/<gt index>") from None
-        gt_path, cam_path = self.layout.scene_gt(scene_id), self.layout.scene_camera(scene_id)
-        try:
-            gt = self._read_json(gt_path)[str(im_id)][gt_idx]
-            obj_id = int(gt["obj_id"])
-            R_cam_model = np.asarray(gt["cam_R_m2c"], float).reshape(3, 3)
-            t_cam_model = np.asarray(gt["cam_t_m2c"], float).reshape(3)
-        except (KeyError, IndexError, TypeError, ValueError):
-            raise DatasetError(f"{gt_path} has no valid pose for image {im_id}, object index {gt_idx}") from None
-        K, depth_scale = camera_K(cam_path, self._read_json(cam_path), im_id)
-        if self.category_of_object(obj_id) is None:
-            raise DatasetError(f"object {obj_id} in {gt_path} is not in dataset.categories; add it there")
-
-        depth_path = self.layout.depth(scene_id, im_id)
-        depth_mm = read_depth(depth_path).astype(np.float64) * depth_scale
-        h, w = depth_mm.shape
-        camera = PinholeCamera.from_K(K, w, h)
-        T_camera_model = make_T(R_cam_model, t_cam_model)
-
-        mask_path = self.layout.mask_visib(scene_id, im_id, gt_idx)
-        rendered = None
-        if self.mask != "render" and mask_path.is_file():
-            mask, source = read_mask_png(mask_path), "mask_visib"
-            if mask.shape != depth_mm.shape:
-                raise DatasetError(f"{mask_path} is {mask.shape[::-1]} but the depth image is {(w, h)}")
-        elif self.mask == "mask_visib":
-            raise DatasetError(f"{mask_path} does not exist; set dataset.mask=auto to render the model instead")
-        else:
-            v_mm, f = self.model_mm(obj_id)
-            rendered = render_depth(v_mm, f, T_camera_model, camera).astype(np.float64)
-            mask = (rendered > 0) & (depth_mm > 0) & (np.abs(depth_mm - rendered) < self.depth_tolerance_mm)
-            source = "render"
-        mask &= depth_mm > 0
-        n_pix = int(mask.sum())
-        if n_pix < self.min_visible_pixels:
-            raise DatasetError(f"object {obj_id} has {n_pix} visible pixels in {depth_path} (mask: {source}); "
-                               f"at least {self.min_visible_pixels} are needed")
-
-        R_obj_model, centre, scale = self.normalisation(obj_id)
-        points_mm, _ = depth_to_points(depth_mm, camera, mask)
-        points = points_mm / scale
-
-        # background for the ground plane: everything not the object (nor where the model is)
-        background = (depth_mm > 0) & ~mask
-        if rendered is not None:
-            background &= rendered <= 0
-        bg_points, _ = depth_to_points(depth_mm, camera, background)
-        rng = np.random.default_rng(stable_seed(self.seed, "bop", obs_id))
-        if self.plane_max_points and len(bg_points) > self.plane_max_points:
-            bg_points = bg_points[rng.choice(len(bg_points), size=self.plane_max_points, replace=False)]
-        if len(bg_points) < 100:
-            raise DatasetError(f"{depth_path}: only {len(bg_points)} background pixels; cannot fit the ground plane")
-        ground, _, n_inliers = fit_ground_plane(bg_points, self.plane_distance_mm, self.plane_iterations,
-                                             stable_seed(self.seed, "plane", obs_id))
-
-        normals = estimate_normals(points, self.normal_radius)
-        if self.max_points and len(points) > self.max_points:
-            keep = np.sort(rng.choice(len(points), size=self.max_points, replace=False))
-            points, normals = points[keep], normals[keep]
-
-        # p_object = R_obj_model R^T (p_cam - t) / s - centre / s, with p_cam in mm
-        R_object_camera = matmul3(R_obj_model, R_cam_model.T)
-        T_object_camera = make_T(R_object_camera, -(apply_R(R_object_camera, t_cam_model) + centre) / scale)
-        up_camera = apply_R(R_object_camera.T, np.array([0.0, 0.0, 1.0]))
-        ground_err = float(np.degrees(libm.arccos(np.clip(dot3(ground, up_camera), -1.0, 1.0))))
-        return Observation(
-            obs_id=obs_id, category=category, instance_id=f"obj_{obj_id:06d}", points_camera=points,
-            normals_camera=normals, ground_normal_camera=ground, T_object_camera=T_object_camera,
-            symmetry_axis=self.symmetry_axis(obj_id, category),
-            symmetries=self.discrete_symmetries(obj_id),
-            info={"scene_id": scene_id, "im_id": im_id, "gt_idx": gt_idx, "obj_id": obj_id,
-                  "mask_source": source, "visible_pixels": n_pix, "ground_inliers": n_inliers,
-                  "ground_vs_object_up_deg": ground_err, "scale_mm": scale,
-                  "centre_mm": [float(x) for x in centre], "R_object_model": [float(x) for x in R_obj_model.ravel()],
-                  "bop_filters": "; ".join(self.filters) or "none"})

@@ -189,7 +189,7 @@ def sample_outer_surface(vertices: np.ndarray, triangles: np.ndarray, n_points: 
     Raises:
         DatasetError: the mesh has only zero-area faces, or fewer than 10 samples are visible.
     """
-    from catpose.datasets.render import cast_rays
+    from catpose.raycast import cast_rays
 
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     vertices = np.asarray(vertices, dtype=np.float64)

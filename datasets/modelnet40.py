@@ -30,13 +30,13 @@ from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points,
 from catpose.datasets.views import pinhole_camera
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import apply_R, invert_T, matmul3, normalize_to_unit_sphere, stable_seed
-from catpose.types import Template
+from catpose.types import DepthImage, Template
 
 
 def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_object: np.ndarray,
                         camera: PinholeCamera, rng: np.random.Generator, depth_noise_std: float,
                         normal_radius: float, max_points: int, what: str,
-                        min_points: int = 10) -> tuple[np.ndarray, np.ndarray]:
+                        min_points: int = 10) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Render a mesh's depth, add Gaussian depth noise, back-project, subsample and estimate normals.
 
     Args:
@@ -49,7 +49,8 @@ def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_ob
         what: names the view in error messages.
 
     Returns:
-        points (N, 3) and camera-facing unit normals (N, 3), camera frame.
+        points (N, 3) and camera-facing unit normals (N, 3), camera frame, and the (H, W) depth
+        image they came from (object-normalised unit, 0 where the object is not).
     """
     depth = render_depth(vertices, triangles, T_camera_object, camera)
     if depth_noise_std > 0:
@@ -62,7 +63,7 @@ def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_ob
     if max_points and len(points) > max_points:
         keep = np.sort(rng.choice(len(points), size=max_points, replace=False))
         points = points[keep]
-    return points, estimate_normals(points, normal_radius)
+    return points, estimate_normals(points, normal_radius), depth
 
 
 def _check_counts(**counts: int | None) -> None:
@@ -261,12 +262,13 @@ class ModelNet40(ModelNetBase):
         v, f = self.canonical_mesh(category, instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "modelnet40", obs_id))
         T_camera_object = self.sampler.sample(rng)
-        points, normals = render_partial_view(v, f, T_camera_object, self.camera, rng, self.depth_noise_std,
-                                              self.normal_radius, self.max_points, f"ModelNet40 {obs_id}",
-                                              self.min_points)
+        points, normals, depth = render_partial_view(v, f, T_camera_object, self.camera, rng,
+                                                     self.depth_noise_std, self.normal_radius, self.max_points,
+                                                     f"ModelNet40 {obs_id}", self.min_points)
         return Observation(obs_id=obs_id, category=category, instance_id=instance_id, points_camera=points,
                            normals_camera=normals, ground_normal_camera=T_camera_object[:3, 2].copy(),
                            T_object_camera=invert_T(T_camera_object),
                            symmetry_axis=self.symmetric.get(category),
+                           depth_image=DepthImage(depth, self.camera.K, depth > 0),
                            info={"view": view, "split": self.split, "aligned": self.aligned
                                  or (category, instance_id) in self.alignment})

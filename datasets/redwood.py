@@ -42,7 +42,7 @@ from catpose.datasets.meshio import TemplateSet
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import dot3, stable_seed
-from catpose.types import Template
+from catpose.types import DepthImage, Template
 
 
 def read_log_trajectory(path: str | Path) -> dict[int, np.ndarray]:
@@ -256,6 +256,20 @@ class Redwood(ObjectDataset):
                                "min_height/max_height")
         return obj, normal, {"floor_inliers": n_inliers, "object_points_raw": len(obj)}
 
+    def object_mask(self, scan: str, index: int, obj_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The frame's depth (H, W, metres) and the object's pixels: those whose back-projected
+        point lies within a voxel diagonal (``cluster_eps / 4 * sqrt(3)``; 5 mm without
+        clustering) of the segmented object points ``obj_m`` (N, 3)."""
+        from scipy.spatial import cKDTree
+
+        depth = read_depth_png(self.frame_files(scan)[index]).astype(np.float64) / self.depth_scale
+        points, pixels = depth_to_points(depth, self.camera, depth_range=self.depth_range)
+        reach = self.cluster_eps / 4 * np.sqrt(3.0) if self.cluster_eps > 0 else 0.005
+        near = cKDTree(obj_m).query(points, distance_upper_bound=reach)[0] <= reach
+        mask = np.zeros(depth.shape, dtype=bool)
+        mask[pixels[near, 0], pixels[near, 1]] = True
+        return np.where(np.isfinite(depth) & (depth > 0), depth, 0.0), mask
+
     def _object_cluster(self, points: np.ndarray) -> np.ndarray:
         """The DBSCAN cluster with the most points projecting into the central image window
         (the middle half of each image axis): the operator points the camera at the object."""
@@ -300,6 +314,7 @@ class Redwood(ObjectDataset):
             raise DatasetError(f"frame {index} is not in {self.root / scan / 'depth'}")
         obj_m, ground, facts = self.segment(scan, index)
         scale = self.scale_m(scan)
+        depth_m, mask = self.object_mask(scan, index, obj_m)
         points = obj_m / scale
         normals = estimate_normals(points, self.normal_radius)
         rng = np.random.default_rng(stable_seed(self.seed, "redwood-points", obs_id))
@@ -314,6 +329,7 @@ class Redwood(ObjectDataset):
         return Observation(
             obs_id=obs_id, category=category, instance_id=scan, points_camera=points, normals_camera=normals,
             ground_normal_camera=ground, T_object_camera=T, symmetry_axis=self.symmetric.get(category),
+            depth_image=DepthImage(depth_m / scale, self.camera.K, mask),
             info={"scan": scan, "frame": index, "file": self.frame_files(scan)[index].name,
                   "absolute_gt": False, "relative_gt": poses is not None,
                   "pose_source": "none" if poses is None else "trajectory",

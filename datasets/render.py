@@ -1,7 +1,7 @@
 """Depth rendering and back-projection with a pinhole camera.
 
 Rendering casts one ray per pixel with Open3D's ``RaycastingScene`` and recomputes each hit in
-float64 from the hit triangle (:func:`cast_rays`), so depth images are the same bits on every
+float64 from the hit triangle (:func:`catpose.raycast.cast_rays`), so depth images are the same bits on every
 CPU whatever code path Embree takes. Depth is the z coordinate in the camera frame (OpenCV:
 x right, y down, z forward), in the object-normalised unit, 0 where no surface was hit. The same camera model back-projects depth images from real
 sensors (BOP, Redwood), so synthetic and real views go through one code path.
@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from catpose.errors import InvalidInputError
-from catpose.geometry import axis_angle_to_R, compose_T, dot3, look_at_T_camera_world, make_T, norm3, transform_points
+from catpose.geometry import axis_angle_to_R, compose_T, look_at_T_camera_world, make_T, transform_points
+from catpose.raycast import cast_rays  # noqa: F401  (catpose.datasets.render.cast_rays is its old home)
 
 
 @dataclass(frozen=True)
@@ -36,51 +37,6 @@ class PinholeCamera:
     def from_K(cls, K: np.ndarray, width: int, height: int) -> "PinholeCamera":
         K = np.asarray(K, dtype=np.float64).reshape(3, 3)
         return cls(int(width), int(height), float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2]))
-
-
-def cast_rays(vertices: np.ndarray, triangles: np.ndarray, origins: np.ndarray,
-              directions: np.ndarray) -> np.ndarray:
-    """Ray parameter ``s`` of the first hit along ``origins + s * directions``, in float64.
-
-    Open3D's ``RaycastingScene`` (Embree, float32) only says which triangle each ray hits; ``s``
-    is then recomputed in float64 from that triangle's plane, ``s = n . (v0 - o) / n . d``. Embree
-    ships code paths for several instruction sets (SSE, AVX2, AVX-512) whose float32 hit
-    distances differ in the last bits, so its own ``t_hit`` changes with the CPU; the plane of a
-    given triangle does not (closed form, no BLAS). Rays that graze their triangle
-    (``|n . d| < 1e-9 |n| |d|``) keep Embree's value.
-
-    Args:
-        vertices: (V, 3) mesh vertices; triangles: (F, 3) vertex indices.
-        origins, directions: (..., 3) rays in the vertices' frame (directions need not be unit).
-
-    Returns:
-        (...) float64 ray parameters, ``inf`` where the ray hits nothing.
-    """
-    from catpose.o3d import o3d
-
-    vertices = np.asarray(vertices, dtype=np.float64)
-    triangles = np.asarray(triangles, dtype=np.int64)
-    o = np.asarray(origins, dtype=np.float64)
-    d = np.asarray(directions, dtype=np.float64)
-    shape = np.broadcast_shapes(o.shape, d.shape)[:-1]
-    o, d = np.broadcast_to(o, shape + (3,)).reshape(-1, 3), np.broadcast_to(d, shape + (3,)).reshape(-1, 3)
-    scene = o3d.t.geometry.RaycastingScene()
-    mesh = o3d.t.geometry.TriangleMesh()
-    mesh.vertex.positions = o3d.core.Tensor(np.ascontiguousarray(vertices, dtype=np.float32))
-    mesh.triangle.indices = o3d.core.Tensor(np.ascontiguousarray(triangles, dtype=np.int32))
-    scene.add_triangles(mesh)
-    ans = scene.cast_rays(o3d.core.Tensor(np.ascontiguousarray(np.hstack([o, d]), dtype=np.float32)))
-    prim = ans["primitive_ids"].numpy().astype(np.int64)
-    t_embree = ans["t_hit"].numpy().astype(np.float64)
-    s = np.full(len(o), np.inf)
-    hit = (prim != int(o3d.t.geometry.RaycastingScene.INVALID_ID)) & np.isfinite(t_embree)
-    tri = vertices[triangles[prim[hit]]]                                       # (k, 3, 3)
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    nd = dot3(n, d[hit])
-    s_hit = dot3(n, tri[:, 0] - o[hit]) / np.where(nd == 0.0, 1.0, nd)
-    grazing = np.abs(nd) < 1e-9 * norm3(n) * norm3(d[hit])
-    s[hit] = np.where(grazing, t_embree[hit], s_hit)
-    return s.reshape(shape)
 
 
 def render_depth(vertices: np.ndarray, triangles: np.ndarray, T_camera_object: np.ndarray,

@@ -31,7 +31,7 @@ from catpose.datasets.views import pinhole_camera
 from catpose.errors import ConfigError, DatasetError
 from catpose import libm
 from catpose.geometry import apply_R, axis_angle_to_R, dot3, invert_T, stable_seed, unit3
-from catpose.types import Template
+from catpose.types import DepthImage, Template
 
 DEFAULT_CATEGORIES = ("airplane", "chair", "car", "mug", "bottle", "bowl", "can", "plate")
 
@@ -206,6 +206,7 @@ class SyntheticDataset(ObjectDataset):
             obs_id=obs_id, category=category, instance_id=instance_id, points_camera=points,
             normals_camera=normals, ground_normal_camera=unit3(ground),
             T_object_camera=invert_T(T_camera_object), symmetry_axis=model.symmetry_axis,
+            depth_image=DepthImage(depth, self.camera.K, depth > 0),
             info={"view": f"v{view:02d}", "n_depth_pixels": n_pixels})
 
     def _sensor_observation(self, obs_id: str, category: str, instance_id: str, view: int, model: Template,
@@ -257,6 +258,7 @@ class SyntheticDataset(ObjectDataset):
             obs_id=obs_id, category=category, instance_id=instance_id, points_camera=points,
             normals_camera=normals, ground_normal_camera=unit3(ground),
             T_object_camera=invert_T(T_camera_object_unit), symmetry_axis=model.symmetry_axis,
+            depth_image=DepthImage(depth / size, cam.K, mask),
             info={"view": f"v{view:02d}", "n_depth_pixels": n_pixels, "sensor": sensor.name,
                   "scale_mm": 1000.0 * size, "distance_m": distance_m,
                   "bleed_pixels": int((mask & ~true_mask).sum()),

@@ -65,13 +65,11 @@ candidates (the GPU path).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 
 from catpose import cell_grid
-from catpose.cell_grid import CellGrid
 from catpose.errors import InvalidInputError
 from catpose.kabsch import kabsch
 from catpose.lru import LRUCache
@@ -81,73 +79,13 @@ from catpose.methods.descriptors import LPS, Descriptor
 from catpose.methods.dictionary import DictionaryLayout
 from catpose.methods.dictionary_features import dictionary_features
 from catpose.methods.keypoints import farthest_point_indices
-from catpose.methods.ours_settings import OptimiserSettings, SelectionSettings
-from catpose.point_to_plane_kernel import refine_many
+from catpose.methods.ours_candidates import Candidates, Prepared, TemplateFeatures
+from catpose.methods.ours_selection import criterion, finish
+from catpose.methods.ours_settings import OptimiserSettings, RestingSettings, SelectionSettings
+from catpose.methods.ours_solver import IRLS_STAGES, optimise
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
-__all__ = ["Candidates", "OptimiserSettings", "Ours", "SelectionSettings"]
-
-
-
-@dataclass(frozen=True, eq=False)
-class _TemplateFeatures:
-    """Constant per (template, parameters): keypoints (m, 2n, 3) and per-partial descriptors (the
-    cache shared with the correspondence baselines, :mod:`catpose.methods.dictionary_features`),
-    and what the selection searches."""
-
-    keypoints: np.ndarray
-    stacked: object              # the partials' descriptors, stacked for one batched affinity
-    complete_points: np.ndarray  # (M', 3) FPS subset of the complete template for Chamfer terms
-    pairing: CellGrid            # the full template points, searched within refine_max_distance (ICP)
-    truncated: CellGrid          # the same, searched within visibility_trunc (visibility scores)
-    tree: object                 # cKDTree of the same points (unbounded queries)
-
-
-@dataclass(frozen=True, eq=False)
-class _Prepared:
-    """One problem up to the optimiser: features, downsampled input (N', 3), keypoints (n, 3),
-    partial-template keypoints (m, 2n, 3), affinities (m, n, 2n), SVD poses (m, 4, 4), Chamfer
-    source points."""
-
-    feats: _TemplateFeatures
-    points: np.ndarray
-    keypoints: np.ndarray
-    P_t: np.ndarray
-    A: np.ndarray
-    T_svd: np.ndarray
-    chamfer_src: np.ndarray
-
-
-#: the IRLS stages of each optimiser mode
-_IRLS_STAGES = {"none": (), "pose": ("pose",), "joint": ("pose", "joint"), "joint_only": ("joint",)}
-
-
-@dataclass(frozen=True, eq=False)
-class Candidates:
-    """Every candidate of one problem, one per partial template (``m`` of them).
-
-    Attributes:
-        points: (N', 3) downsampled input, camera frame; ``keypoints`` (n, 3) its FPS keypoints;
-            ``chamfer_src`` (chamfer_points, 3) its FPS subset for the Chamfer distances.
-        A: (m, n, 2n) row-normalised affinities (input keypoint -> partial-template keypoint).
-        T_svd: (m, 4, 4) initial poses ``T_template_camera`` (weighted Kabsch on ``A P_t``).
-        T: (m, 4, 4) poses after the optimiser (``mode=none``: ``T_svd`` rounded through the
-            optimiser's float32 6D parameters and re-orthonormalised).
-        losses: (m,) final mean correspondence-weighted keypoint distances (inf: not optimised
-            in stage 2 with ``stage2_top_k``).
-        C: (m, n, 2n) final soft correspondences (``A`` unless stage 2 ran on that candidate).
-        stage2: indices of the candidates stage 2 ran on (all for the paper's setting).
-    """
-
-    points: np.ndarray
-    keypoints: np.ndarray
-    chamfer_src: np.ndarray
-    A: np.ndarray
-    T_svd: np.ndarray
-    T: np.ndarray
-    losses: np.ndarray
-    C: np.ndarray
-    stage2: np.ndarray
+__all__ = ["Candidates", "OptimiserSettings", "Ours", "RestingSettings", "SelectionSettings"]
 
 
 class Ours(RegistrationMethod):
@@ -160,24 +98,34 @@ class Ours(RegistrationMethod):
         optimiser: two-stage Adam settings (:class:`OptimiserSettings`).
         selection: selection rule, gravity filter and refinement (:class:`SelectionSettings`).
         chamfer_points: input / template points (FPS subsets) of the Chamfer distances.
+        resting: gravity hypotheses beyond the template's up (:class:`RestingSettings`; ``rule=depth``
+            with a depth image only).
     """
 
     def __init__(self, descriptor: Descriptor | None = None, dictionary: DictionaryLayout | None = None,
                  optimiser: OptimiserSettings | None = None, selection: SelectionSettings | None = None,
-                 chamfer_points: int = 256) -> None:
+                 chamfer_points: int = 256, resting: RestingSettings | None = None) -> None:
         for key, value, cls in (("descriptor", descriptor, Descriptor), ("dictionary", dictionary, DictionaryLayout),
                                 ("optimiser", optimiser, OptimiserSettings),
-                                ("selection", selection, SelectionSettings)):
+                                ("selection", selection, SelectionSettings), ("resting", resting, RestingSettings)):
             options.instance_of(f"method.{key}", value, cls)
+        from dataclasses import replace
+
         self.descriptor = descriptor or LPS()
         self.layout = dictionary or DictionaryLayout()
         self.optimiser = optimiser or OptimiserSettings()
         self.selection = selection or SelectionSettings()
+        self.resting = resting or RestingSettings()
+        # the rule for problems without a depth image (rule=depth falls back to depth_fallback)
+        self._point_selection = (replace(self.selection, rule=self.selection.depth_fallback)
+                                 if self.selection.rule == "depth" else self.selection)
         self.chamfer_points = options.positive("method.chamfer_points", chamfer_points, integer=True)
         self.num_keypoints = self.layout.num_keypoints
-        self._features: LRUCache[tuple, _TemplateFeatures] = LRUCache(8)  # holds the shared LPS grids (~25 MB a template)
+        # holds the shared LPS grids (~25 MB a template); a template turned for a gravity hypothesis
+        # is a template of its own, so the clutter set's 8 objects need up to 32
+        self._features: LRUCache[tuple, TemplateFeatures] = LRUCache(32)
 
-    def template_features(self, template: Template) -> _TemplateFeatures:
+    def template_features(self, template: Template) -> TemplateFeatures:
         """Keypoints and descriptors of every partial template, cached per template and parameters."""
         from scipy.spatial import cKDTree
 
@@ -192,26 +140,32 @@ class Ours(RegistrationMethod):
         # a tiny partial repeats keypoints (padded) so all candidates batch together
         shared = dictionary_features(self.descriptor, self.layout, template, 2 * self.num_keypoints)
         complete = template.points[farthest_point_indices(template.points, self.chamfer_points)]
-        feats = _TemplateFeatures(shared.keypoints, shared.stacked, complete,
+        feats = TemplateFeatures(shared.keypoints, shared.stacked, complete,
                                   cell_grid.build(template.points, sel.refine_max_distance),
                                   cell_grid.build(template.points, sel.visibility_trunc), cKDTree(template.points))
         self._features.put(key, feats)
         return feats
 
     # ----------------------------------------------------------------- candidates
-    def _prepare(self, problem: RegistrationProblem, timings: dict[str, float]) -> _Prepared:
-        """Everything before the optimiser: keypoints, affinities, SVD poses."""
+    def input_features(self, problem: RegistrationProblem):
+        """The input's keypoints and descriptors (independent of the template)."""
+        inp = self.descriptor.keypoint_features(problem.points_camera, problem.normals_camera, self.num_keypoints,
+                                                problem.ground_normal_camera)
+        if len(inp.indices) < 3:
+            raise InvalidInputError(f"sample {problem.sample_id}: only {len(inp.indices)} points after voxel "
+                                    f"downsampling at {self.descriptor.voxel_size}; lower method.descriptor.voxel_size")
+        return inp
+
+    def _prepare(self, problem: RegistrationProblem, timings: dict[str, float], inp=None) -> Prepared:
+        """Everything before the optimiser: keypoints, affinities, SVD poses (``inp``: the input's
+        features when already computed, :meth:`input_features`)."""
         t0 = time.perf_counter()
         self.layout.dictionary(problem.template)
         timings["dictionary"] = time.perf_counter() - t0
 
         t0 = time.perf_counter()
         feats = self.template_features(problem.template)
-        inp = self.descriptor.keypoint_features(problem.points_camera, problem.normals_camera, self.num_keypoints,
-                                                problem.ground_normal_camera)
-        if len(inp.indices) < 3:
-            raise InvalidInputError(f"sample {problem.sample_id}: only {len(inp.indices)} points after voxel "
-                                    f"downsampling at {self.descriptor.voxel_size}; lower method.descriptor.voxel_size")
+        inp = self.input_features(problem) if inp is None else inp
         P_c = inp.keypoints
         timings["descriptors"] = time.perf_counter() - t0
 
@@ -227,12 +181,14 @@ class Ours(RegistrationMethod):
         T0 = kabsch(np.broadcast_to(P_c, (m,) + P_c.shape), A @ P_t)
         chamfer_src = inp.points[farthest_point_indices(inp.points, self.chamfer_points)]
         timings["initial_pose"] = time.perf_counter() - t0
-        return _Prepared(feats, inp.points, P_c, P_t, A, T0, chamfer_src)
+        return Prepared(feats, inp.points, P_c, P_t, A, T0, chamfer_src)
 
-    def candidates(self, problem: RegistrationProblem, timings: dict[str, float] | None = None) -> Candidates:
-        """Affinities, SVD poses and optimised poses of every candidate (no selection)."""
+    def candidates(self, problem: RegistrationProblem, timings: dict[str, float] | None = None,
+                   inp=None) -> Candidates:
+        """Affinities, SVD poses and optimised poses of every candidate (no selection); ``inp``:
+        the input's features when already computed (:meth:`input_features`)."""
         timings = {} if timings is None else timings
-        x = self._prepare(problem, timings)
+        x = self._prepare(problem, timings, inp)
         feats, P_c, P_t, A, T0, chamfer_src = x.feats, x.keypoints, x.P_t, x.A, x.T_svd, x.chamfer_src
         m = len(P_t)
         t0 = time.perf_counter()
@@ -252,25 +208,71 @@ class Ours(RegistrationMethod):
         timings["optimization"] = time.perf_counter() - t0
         return Candidates(x.points, P_c, chamfer_src, A, T0, T, losses, C, stage2)
 
-    def _criterion(self, problem: RegistrationProblem, feats: _TemplateFeatures, chamfer_src: np.ndarray,
-                   T: np.ndarray, losses: np.ndarray, allowed: np.ndarray):
-        """Chamfer distances, tilts (deg), kept mask and criterion (inf where not kept), all (m,)."""
-        dists = _chamfer(feats.tree, chamfer_src, T)
-        up = np.asarray(problem.template.up, dtype=np.float64) / np.linalg.norm(problem.template.up)
-        g_template = np.einsum("mij,j->mi", T[:, :3, :3], problem.ground_normal_camera)
-        tilt = np.degrees(np.arccos(np.clip(g_template @ up, -1.0, 1.0)))
-        keep = allowed.copy()
-        if self.selection.gravity_max_deg is not None:
-            keep &= tilt <= self.selection.gravity_max_deg
-            if not keep.any():  # nothing is consistent with gravity: fall back to all allowed
-                keep = allowed.copy()
-        crit = losses if self.selection.rule == "loss" else dists
-        return dists, tilt, keep, np.where(keep, crit, np.inf)
 
     # ----------------------------------------------------------------- main
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
         timings: dict[str, float] = {}
+        if self.uses_depth(problem):
+            return self._register_depth(problem, timings)
         return self._finish(problem, self.candidates(problem, timings), timings)
+
+    def uses_depth(self, problem: RegistrationProblem) -> bool:
+        """Whether ``problem`` is selected by the depth check: ``rule=depth``, a depth image with a
+        non-empty mask and a template mesh (otherwise the ``depth_fallback`` rule applies)."""
+        image = problem.depth_image
+        return (self.selection.rule == "depth" and image is not None and problem.template.has_mesh
+                and bool(image.mask.any()))
+
+    def _register_depth(self, problem: RegistrationProblem, timings: dict[str, float]) -> RegistrationResult:
+        """The depth check on the template's own up; the other gravity hypotheses when that does
+        not explain the image (fewer than ``resting.escalate_below`` of the mask's pixels); the
+        ``depth_poor_fit_rule`` among the own up's candidates when no hypothesis does (fewer than
+        ``selection.depth_min_inliers`` within ``depth_fit_tau``: a template unlike the object)
+        (:func:`catpose.methods.ours_depth.select_by_depth`)."""
+        from dataclasses import replace
+
+        from catpose.methods.ours_depth import select_by_depth
+        from catpose.methods.resting_hypotheses import hypotheses
+
+        t0 = time.perf_counter()
+        hyps = list(hypotheses(problem.template, self.resting))
+        timings["hypotheses"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        inp = self.input_features(problem)
+        timings["descriptors"] = time.perf_counter() - t0
+        cands, feats = [], []
+
+        def add(h) -> None:
+            part: dict[str, float] = {}
+            cands.append(self.candidates(replace(problem, template=h.template), part, inp))
+            feats.append(self.template_features(h.template))
+            for name, value in part.items():
+                timings[name] = timings.get(name, 0.0) + value
+
+        add(hyps[0])
+        result = select_by_depth(self.selection, problem, hyps[:1], cands, feats, timings)
+        escalated = len(hyps) > 1 and result.extras["depth_inliers"] < self.resting.escalate_below
+        if escalated:
+            for h in hyps[1:]:
+                add(h)
+            result = select_by_depth(self.selection, problem, hyps, cands, feats, timings)
+        extras = dict(result.extras, escalated=bool(escalated))
+        if result.extras["depth_inliers_loose"] < self.selection.depth_min_inliers:
+            # no hypothesis explains the image: the template is unlike the object (category level);
+            # the point rule chooses among the own up's candidates, scored by depth like the rest
+            from catpose.methods.depth_check import DepthVerifier
+
+            point = replace(self.selection, rule=self.selection.depth_poor_fit_rule)
+            fallback = finish(point, problem, cands[0], feats[0], timings)
+            verifier = DepthVerifier(problem.template, problem.depth_image, self.selection.depth_tau,
+                                     self.selection.depth_pixels, self.selection.depth_max_rays,
+                                     self.selection.depth_free_weight)
+            score = float(verifier.scores(fallback.T_target_source[None])[0])
+            extras.update(fallback.extras, depth_poor_fit=True, depth_score=score,
+                          timings={k: float(v) for k, v in timings.items()})
+            return RegistrationResult(T_target_source=fallback.T_target_source, score=score, extras=extras)
+        extras["depth_poor_fit"] = False
+        return RegistrationResult(T_target_source=result.T_target_source, score=result.score, extras=extras)
 
     def register_batch(self, problems: Sequence[RegistrationProblem]) -> list[RegistrationResult]:
         """:meth:`register` for several problems, with one solver launch for the candidates of all
@@ -285,10 +287,12 @@ class Ours(RegistrationMethod):
         opt = self.optimiser
         if opt.solver != "irls" or (opt.mode == "joint" and opt.stage2_top_k > 0):
             return [self.register(p) for p in problems]
+        if any(self.uses_depth(p) for p in problems):  # several hypotheses each: one by one
+            return [self.register(p) for p in problems]
         timings: list[dict[str, float]] = [{} for _ in problems]
         prepared = [self._prepare(p, tm) for p, tm in zip(problems, timings)]
         t0 = time.perf_counter()
-        solved = irls.solve_many([(x.keypoints, x.P_t, x.A, x.T_svd) for x in prepared], _IRLS_STAGES[opt.mode],
+        solved = irls.solve_many([(x.keypoints, x.P_t, x.A, x.T_svd) for x in prepared], IRLS_STAGES[opt.mode],
                                  opt.irls_beta, opt.irls_iterations, opt.irls_tol, opt.device,
                                  "float32" if opt.device.startswith("cuda") else "float64")
         share = (time.perf_counter() - t0) / max(len(problems), 1)
@@ -300,118 +304,18 @@ class Ours(RegistrationMethod):
         return results
 
     def _finish(self, problem: RegistrationProblem, c: Candidates, timings: dict[str, float]) -> RegistrationResult:
-        """Selection among the candidates and refinement of the selected one."""
-        feats = self.template_features(problem.template)
-        chamfer_src = c.chamfer_src
+        """Selection among the candidates and refinement of the selected one
+        (:func:`catpose.methods.ours_selection.finish`; ``rule=depth`` without a depth image: its
+        ``depth_fallback`` rule)."""
+        return finish(self._point_selection, problem, c, self.template_features(problem.template), timings)
 
-        t0 = time.perf_counter()
-        allowed = np.zeros(len(c.T), dtype=bool)
-        allowed[c.stage2] = True
-        dists, tilt_deg, keep, crit = self._criterion(problem, feats, chamfer_src, c.T, c.losses, allowed)
-        best = int(np.argmin(crit))
-        score = float(crit[best])
-        T_best = c.T[best]
-        timings["selection"] = time.perf_counter() - t0
+    def _criterion(self, problem: RegistrationProblem, feats: TemplateFeatures, chamfer_src: np.ndarray,
+                   T: np.ndarray, losses: np.ndarray, allowed: np.ndarray):
+        """Chamfer distances, tilts (deg), kept mask and criterion (inf where not kept), all (m,)
+        (:func:`catpose.methods.ours_selection.criterion`)."""
+        return criterion(self._point_selection, problem, feats, chamfer_src, T, losses, allowed)
 
-        t0 = time.perf_counter()
-        sel = self.selection
-        half_turn = None
-        template = problem.template
-        candidate_scores = crit
-
-        def refine(T: np.ndarray, points: np.ndarray = chamfer_src) -> np.ndarray:
-            """Poses (B, 4, 4) refined by point-to-plane ICP on ``points`` (all at once, compiled)."""
-            if not sel.refine:
-                return T
-            return refine_many(points, feats.pairing, template.normals, T, sel.refine_max_distance,
-                               sel.refine_iterations)
-
-        if sel.rule == "visibility":
-            from catpose.methods.selection import select_with_half_turns
-            from catpose.methods.selection_kernel import visibility_scores
-
-            input_grid = cell_grid.build(chamfer_src, sel.visibility_trunc)
-
-            def score_of(T: np.ndarray) -> np.ndarray:
-                return visibility_scores(chamfer_src, input_grid, T, feats.truncated, template.normals,
-                                         sel.visibility_trunc)
-
-            # scored and refined on the FPS subset of the Chamfer distances (4x fewer points: the
-            # 4 top_k alternatives cost about what one full refinement did), the winner on all points
-            T_best, score, info = select_with_half_turns(
-                c.T, keep, score_of, refine, problem.ground_normal_camera, np.asarray(template.up, float),
-                sel.gravity_max_deg, sel.top_k, sel.refine_top)
-            T_best = refine(T_best[None], c.points)[0]
-            best, half_turn = info["candidate"], info["half_turn"]
-            candidate_scores = np.asarray(info["scores"], dtype=float)
-        elif sel.refine:
-            T_best = refine(T_best[None], c.points)[0]
-            if sel.rule == "chamfer":  # the score of the pose actually returned
-                score = float(_chamfer(feats.tree, chamfer_src, T_best[None])[0])
-        timings["refinement"] = time.perf_counter() - t0
-
-        extras = {"template_index": best, "losses": [float(x) if np.isfinite(x) else None for x in c.losses],
-                  "chamfer": [float(x) for x in dists], "tilt_deg": [float(x) for x in tilt_deg],
-                  "kept": [bool(x) for x in keep], "timings": {k: float(v) for k, v in timings.items()},
-                  "num_input_points": int(len(c.points))}
-        extras["stage2_candidates"] = [int(i) for i in c.stage2]
-        if half_turn is not None:
-            extras["half_turn"] = half_turn  # 0: the candidate itself; 1, 2, 3: turned about x, y, z
-        return RegistrationResult(T_target_source=T_best, score=score, extras=extras, candidates_T=c.T.copy(),
-                                  candidate_scores=np.asarray(candidate_scores, dtype=float).copy())
-
-    # ----------------------------------------------------------------- optimisation
     def _optimize(self, P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray, chamfer_src: np.ndarray,
                   complete: np.ndarray, mode: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The solver on all candidates at once (``mode``: none, pose, joint or joint_only). Returns
-        poses (m, 4, 4), final losses (m,) as mean correspondence-weighted keypoint distances
-        (object-normalised units) and the final soft correspondences C (m, n, 2n)."""
-        opt = self.optimiser
-        if opt.solver == "irls":
-            from catpose.methods import irls
-
-            cuda = opt.device.startswith("cuda")
-            T, losses, C, _ = irls.solve_numpy(P_c, P_t, A, T0, _IRLS_STAGES[mode], opt.irls_beta,
-                                               opt.irls_iterations, opt.irls_tol, opt.device,
-                                               "float32" if cuda else "float64")
-            return T, losses, C
-        import torch
-
-        from catpose.methods.optim import BatchedProblem, _rot6d, optimize
-
-        dev = torch.device(self.optimiser.device)
-        dt = torch.float32
-
-        def tens(a):
-            return torch.as_tensor(np.ascontiguousarray(a), dtype=dt, device=dev)
-
-        w = self.optimiser.chamfer_weight
-        prob = BatchedProblem(tens(P_c), tens(P_t), tens(A), tens(chamfer_src) if w > 0 else None,
-                              tens(complete) if w > 0 else None, w)
-        n = len(P_c)
-        r6 = tens(np.concatenate([T0[:, :3, 0], T0[:, :3, 1]], axis=1))
-        t = tens(T0[:, :3, 3])
-        stages = []
-        if mode in ("pose", "joint"):
-            stages.append(("pose", self.optimiser.steps_pose))
-        if mode in ("joint", "joint_only"):
-            stages.append(("joint", self.optimiser.steps_joint))
-        final, logits = optimize(prob, r6, t, stages, self.optimiser.lr)
-        with torch.no_grad():
-            R = _rot6d(r6)[0].cpu().double().numpy()
-            tt = t.cpu().double().numpy()
-            C = A if logits is None else torch.softmax(logits, dim=2).cpu().double().numpy()
-        # re-orthonormalise in float64 so validate_pose accepts the result
-        U, _, Vt = np.linalg.svd(R)
-        R = U @ Vt
-        T = np.tile(np.eye(4), (len(R), 1, 1))
-        T[:, :3, :3], T[:, :3, 3] = R, tt
-        return T, final.detach().cpu().double().numpy() / n, C
-
-
-def _chamfer(tree, points: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """One-directional Chamfer distance (mean nearest-template-point distance) of ``points``
-    (N, 3) under each pose of ``T`` (B, 4, 4); (B,), object-normalised units. One KD-tree query
-    for all poses (unbounded distances: a KD-tree, not the grid, is the right structure)."""
-    moved = np.einsum("bij,nj->bni", T[:, :3, :3], points) + T[:, None, :3, 3]
-    return tree.query(moved.reshape(-1, 3))[0].reshape(len(T), len(points)).mean(axis=1)
+        """The solver on all candidates at once (:func:`catpose.methods.ours_solver.optimise`)."""
+        return optimise(self.optimiser, P_c, P_t, A, T0, chamfer_src, complete, mode)

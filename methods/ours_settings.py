@@ -73,7 +73,11 @@ class SelectionSettings:
     """Choosing one of the ``m`` candidates, then refining it.
 
     Attributes:
-        rule: ``visibility`` (default: the ``top_k`` candidates by the visibility-aware Chamfer,
+        rule: ``depth`` (where the problem has a depth image and the template a mesh: the
+            occlusion-aware depth check of :mod:`catpose.methods.depth_check` scores the
+            candidates of every resting hypothesis, the ``top_k`` best are expanded by their half
+            turns, refined and scored again, and the best wins; otherwise the ``depth_fallback``
+            rule), ``visibility`` (the ``top_k`` candidates by the visibility-aware Chamfer,
             each with its three half turns, refined, then the lowest visibility-aware Chamfer;
             :func:`catpose.methods.selection.select_with_half_turns`), ``chamfer`` (lowest
             one-directional Chamfer distance of the transformed input to the complete template)
@@ -87,9 +91,33 @@ class SelectionSettings:
         visibility_trunc: ``visibility``: truncation of both Chamfer directions (object-normalised).
         refine_top: ``visibility``: refine only this many of the ``4 top_k`` hypotheses, the best
             by their score before refinement (0: all of them).
+        depth_tau: ``depth``: depth tolerance (object-normalised unit).
+        depth_pixels: ``depth``: lattice pixels wanted inside the object's mask.
+        depth_max_rays: ``depth``: at most this many rays per pose (a coarser lattice otherwise).
+        depth_free_weight: ``depth``: cost of a free-space violation relative to an unexplained
+            mask pixel.
+        depth_fine_distance: ``depth``: after the refinement on all points, the last poses are
+            refined again pairing only within this distance (0: not).
+        depth_final_pixels: ``depth``: lattice pixels in the mask for the last comparison (of the
+            ``depth_final_refine`` poses; at most ``depth_pixels`` means the same lattice).
+        depth_top_k: ``depth``: candidates (of all gravity hypotheses, by their depth score) expanded
+            by their half turns and refined.
+        depth_final_refine: ``depth``: poses refined on all input points and scored again at the
+            end (the best by their score after the refinement on the Chamfer subset).
+        depth_rest_prior: ``depth``: cost added to a pose that rests other than on the template's
+            up (a tie-break towards the upright object; 0: none).
+        depth_prescreen: ``depth``: candidates of each gravity hypothesis scored by the depth check,
+            those of lowest one-directional Chamfer distance (0: all).
+        depth_min_inliers: ``depth``: when the best pose explains fewer of the mask's pixels than
+            this within ``depth_fit_tau``, the template is taken to be unlike the object and
+            ``depth_poor_fit_rule`` chooses among the candidates of the template's own up instead.
+        depth_fit_tau: ``depth``: the tolerance of that test (object-normalised unit).
+        depth_poor_fit_rule: that rule (``chamfer``, ``visibility`` or ``loss``).
+        depth_fallback: the rule used when ``rule=depth`` has no depth image or no template mesh
+            (``visibility``, ``chamfer`` or ``loss``).
     """
 
-    rule: str = "visibility"
+    rule: str = "depth"
     gravity_max_deg: float | None = 30.0
     refine: bool = True
     refine_max_distance: float = 0.05
@@ -97,10 +125,42 @@ class SelectionSettings:
     top_k: int = 3
     visibility_trunc: float = 0.1
     refine_top: int = 0
+    depth_tau: float = 0.1
+    depth_pixels: int = 300
+    depth_max_rays: int = 2500
+    depth_free_weight: float = 1.0
+    depth_prescreen: int = 6
+    depth_rest_prior: float = 0.03
+    depth_top_k: int = 5
+    depth_final_refine: int = 3
+    depth_final_pixels: int = 300
+    depth_fine_distance: float = 0.0
+    depth_min_inliers: float = 0.9
+    depth_fit_tau: float = 0.2
+    depth_poor_fit_rule: str = "chamfer"
+    depth_fallback: str = "visibility"
 
     def __post_init__(self) -> None:
         k, set_ = "method.selection.", object.__setattr__
-        set_(self, "rule", options.one_of(k + "rule", self.rule, ("visibility", "chamfer", "loss")))
+        set_(self, "rule", options.one_of(k + "rule", self.rule, ("depth", "visibility", "chamfer", "loss")))
+        set_(self, "depth_fallback", options.one_of(k + "depth_fallback", self.depth_fallback,
+                                                    ("visibility", "chamfer", "loss")))
+        set_(self, "depth_tau", options.positive(k + "depth_tau", self.depth_tau))
+        set_(self, "depth_pixels", options.positive(k + "depth_pixels", self.depth_pixels, integer=True))
+        set_(self, "depth_max_rays", options.positive(k + "depth_max_rays", self.depth_max_rays, integer=True))
+        set_(self, "depth_free_weight", options.non_negative(k + "depth_free_weight", self.depth_free_weight))
+        set_(self, "depth_min_inliers", options.non_negative(k + "depth_min_inliers", self.depth_min_inliers))
+        set_(self, "depth_fit_tau", options.positive(k + "depth_fit_tau", self.depth_fit_tau))
+        set_(self, "depth_poor_fit_rule", options.one_of(k + "depth_poor_fit_rule", self.depth_poor_fit_rule,
+                                                         ("visibility", "chamfer", "loss")))
+        set_(self, "depth_fine_distance", options.non_negative(k + "depth_fine_distance", self.depth_fine_distance))
+        set_(self, "depth_final_pixels", options.positive(k + "depth_final_pixels", self.depth_final_pixels,
+                                                          integer=True))
+        set_(self, "depth_top_k", options.positive(k + "depth_top_k", self.depth_top_k, integer=True))
+        set_(self, "depth_final_refine", options.positive(k + "depth_final_refine", self.depth_final_refine,
+                                                          integer=True))
+        set_(self, "depth_rest_prior", options.non_negative(k + "depth_rest_prior", self.depth_rest_prior))
+        set_(self, "depth_prescreen", options.non_negative(k + "depth_prescreen", self.depth_prescreen, integer=True))
         g = self.gravity_max_deg
         if g is not None and not options.is_number(g):
             raise ConfigError(f"{k}gravity_max_deg={g!r} must be a number of degrees or null (off)")
@@ -112,3 +172,36 @@ class SelectionSettings:
         set_(self, "top_k", options.positive(k + "top_k", self.top_k, integer=True))
         set_(self, "refine_top", options.non_negative(k + "refine_top", self.refine_top, integer=True))
         set_(self, "visibility_trunc", options.positive(k + "visibility_trunc", self.visibility_trunc))
+
+
+@dataclass(frozen=True)
+class RestingSettings:
+    """Gravity hypotheses beyond the template's own up axis (``rule=depth`` with a depth image).
+
+    The gravity filter, the LPS frames and the dictionary's viewpoints assume the object stands on
+    the template's up axis. An object on its side or upside down breaks all three. Each stable
+    resting direction of the template (:func:`catpose.resting.resting_ups`; classes merged under a
+    continuous symmetry) becomes a hypothesis: the pipeline runs on the template turned so that
+    direction is up, and every hypothesis' candidates compete in the depth check.
+
+    Attributes:
+        max_poses: resting directions tried besides the template's up (0: only the template's up),
+            the most probable first.
+        min_probability: directions less probable than this (drop-test probability of the
+            template's convex hull) are not tried.
+        merge_deg: resting directions closer than this are one.
+        escalate_below: the other resting directions are tried only when the best pose on the
+            template's own up explains fewer of the object mask's pixels than this (1: always).
+    """
+
+    max_poses: int = 3
+    min_probability: float = 0.05
+    merge_deg: float = 10.0
+    escalate_below: float = 0.95
+
+    def __post_init__(self) -> None:
+        k, set_ = "method.resting.", object.__setattr__
+        set_(self, "max_poses", options.non_negative(k + "max_poses", self.max_poses, integer=True))
+        set_(self, "min_probability", options.non_negative(k + "min_probability", self.min_probability))
+        set_(self, "merge_deg", options.positive(k + "merge_deg", self.merge_deg))
+        set_(self, "escalate_below", options.non_negative(k + "escalate_below", self.escalate_below))

@@ -19,11 +19,12 @@ from catpose.errors import CatposeError
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 RUN_GROUPS = ("method", "dataset", "protocol")
-NOT_HYDRA = {"regress"}  # plain YAML read by `bench regress`, not a Hydra group
+NOT_HYDRA = {"regress", "split"}  # plain YAML read by `bench regress` / `bench suite`, not Hydra groups
 
 #: dataset config -> folder under ../shared/data that holds a small copy of its layout
 SHARED_ROOTS = {"modelnet40": "ModelNet40", "modelnet40_resampled": "modelnet40_normal_resampled",
                 "modelnet40_aligned": "ModelNet40", "bop": "bop/tyol", "tyol": "bop/tyol", "ycbv": "bop/ycbv",
+                "clutter": "bop/ycbv",
                 "redwood": "redwood"}
 #: method config -> the optional module it needs (its absence must be a one-line error naming it)
 OPTIONAL_MODULES = {"teaserpp": "teaserpp_python"}

@@ -67,6 +67,14 @@ def test_frames_floor_object_and_trajectory(redwood_root):
         assert p_world[:, 2].min() > 0.015  # the floor is gone
         q = np.abs(p_world - [0, 0, BOX[2] / 2])
         assert np.all(q <= BOX / 2 + 0.03)  # only box points (voxel-averaged within 1.25 cm)
+        # the depth image (object unit) and the object's pixels: they back-project onto the box
+        di = obs.depth_image
+        assert di is not None and di.mask.any() and not di.mask.all()
+        rows, cols = np.nonzero(di.mask)
+        z = di.depth[rows, cols] * scale
+        x, y = (cols - CAM["cx"]) * z / CAM["fx"], (rows - CAM["cy"]) * z / CAM["fy"]
+        m_world = transform_points(T_world_camera(k), np.stack([x, y, z], axis=1))
+        assert np.all(np.abs(m_world - [0, 0, BOX[2] / 2]) <= BOX / 2 + 0.03)
         expected = T_world_camera(k).copy()
         expected[:3, 3] /= scale
         np.testing.assert_allclose(obs.T_object_camera, expected, atol=1e-9)

@@ -168,7 +168,7 @@ def test_config_composes_and_instantiates():
     assert d.pop("name") == "ours"
     method = instantiate(d, _convert_="all")
     assert isinstance(method, Ours) and isinstance(method.descriptor, PFH) and method.optimiser.lr == 0.05
-    assert method.layout.num_views == 18 and method.selection.rule == "visibility"
+    assert method.layout.num_views == 18 and method.selection.rule == "depth"
     assert isinstance(Ours().descriptor, LPS)
 
 

@@ -7,7 +7,7 @@ Two checks. The first runs the sample-making code under every code path this CPU
 NumPy without AVX-512) and compares hashes of everything a method or the scorer reads. The second
 reads the source: no BLAS product, 1-D ``np.linalg.norm`` or CPU-dispatched NumPy transcendental
 is left under ``datasets/`` and ``src/catpose/`` (Embree's path cannot be switched from here;
-:func:`catpose.datasets.render.cast_rays` recomputes every hit in float64, tested in
+:func:`catpose.raycast.cast_rays` recomputes every hit in float64, tested in
 ``test_render.py``).
 """
 

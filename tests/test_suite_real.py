@@ -66,3 +66,28 @@ def test_one_real_sample_runs_through_the_runner(shared_data, tmp_path, monkeypa
                                     log=lambda m: None)
     r = results[("ycbv", "icp")]
     assert r["n"] == 1 and r["failed"] == 0 and Path(r["run_dir"], "samples.jsonl").is_file()
+
+
+def test_sets_with_a_split_get_a_column_per_part(tmp_path):
+    import json
+
+    from catpose.bench.real.split import load_split
+    from catpose.bench.real.suite_parts import part_label, part_rows
+
+    run = tmp_path / "run"
+    run.mkdir()
+    ids = ["can/000001/000002/0", "bottle/000001/000004/1", "can/000002/000002/0"]
+    (run / "samples.jsonl").write_text("".join(json.dumps({"sample_id": i}) + "\n" for i in ids))
+    split = load_split("ycbv")
+    rows = part_rows(run, split, ["scene1", "scene2"], lambda d, chosen: {"n": len(chosen), "ids": chosen})
+    assert rows["scene1"]["ids"] == ids[:2] and rows["scene2"]["ids"] == ids[2:]
+    assert part_label("ycbv", split, "scene2") == "ycbv:scene2 (report A, choose B)"
+    results = {("ycbv", "ours"): {}, (part_label("ycbv", split, "scene1"), "ours"): {}, ("tyol", "ours"): {}}
+    assert sr.columns(results, ["ycbv", "tyol"]) == ["ycbv", part_label("ycbv", split, "scene1"), "tyol"]
+
+
+def test_the_clutter_suite_loads_only_its_report_scenes(tmp_path):
+    cfg, overrides = sr.compose(sr.CLUTTER_SETS["clutter"], sr.METHODS["ours"], tmp_path, 0, None,
+                                str(tmp_path / "out"), [])
+    assert cfg.dataset.name == "clutter" and list(cfg.dataset.scenes) == list(range(100, 200))
+    assert any(o.startswith("dataset.scenes=[100,") for o in overrides)

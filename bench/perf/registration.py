@@ -52,7 +52,8 @@ from catpose.errors import ConfigError
 
 log = logging.getLogger(__name__)
 
-STAGES = ("dictionary", "descriptors", "affinity", "initial_pose", "optimization", "selection", "refinement")
+STAGES = ("dictionary", "descriptors", "affinity", "initial_pose", "optimization", "selection", "refinement",
+          "hypotheses", "verification")
 REFERENCE = "fgr"
 
 

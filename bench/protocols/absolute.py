@@ -28,7 +28,7 @@ def make_sample(obs: Observation, template: Template, sample_id: str, group_id: 
     problem = RegistrationProblem(
         sample_id=sample_id, category=obs.category, points_camera=obs.points_camera,
         normals_camera=obs.normals_camera, ground_normal_camera=obs.ground_normal_camera,
-        template=template)
+        template=template, depth_image=obs.depth_image)
     gt = GroundTruth(T_template_camera=np.asarray(obs.T_object_camera, float), symmetry_axis=obs.symmetry_axis,
                      symmetries=tuple(np.asarray(S, float) for S in obs.symmetries))
     info = {"instance_id": obs.instance_id, "template_id": template.template_id, **dict(obs.info)}

@@ -17,6 +17,12 @@ their files (``summary.csv``). Protocol: ``gt_model`` (each view against its own
     bench suite real --sets ycbv --methods ours,icp --limit 5
     bench suite real --methods ours -o method.selection=loss   # a variant of one method
     bench suite real --write results/real/table.md    # also write the table
+    bench suite clutter                               # the cluttered synthetic set's report scenes
+
+A set with a development split (``configs/split/<name>.yaml``: YCB-V by scene, the clutter set
+by scene id) also gets one column per part, labelled with its role (choose / report;
+docs/choosing-defaults.md). ``bench suite clutter`` runs the ``report`` part of
+``configs/split/clutter.yaml`` (``--parts dev,report`` for both).
 """
 
 from __future__ import annotations
@@ -43,6 +49,8 @@ class RealSet:
     overrides: tuple[str, ...] = ()
     protocol: str = "gt_model"
     needs_trajectory: bool = False
+    split: str | None = None            # configs/split/<split>.yaml: one table column per part
+    parts: tuple[str, ...] = ()         # load only these parts' scenes (empty: every frame)
 
 
 @dataclass(frozen=True)
@@ -55,7 +63,7 @@ class MethodVariant:
 
 
 SETS: dict[str, RealSet] = {s.name: s for s in (
-    RealSet("ycbv", "ycbv", "bop/ycbv", ("dataset.root={shared}/bop/ycbv",)),
+    RealSet("ycbv", "ycbv", "bop/ycbv", ("dataset.root={shared}/bop/ycbv",), split="ycbv"),
     RealSet("tyol", "bop", "bop/tyol", ("dataset.root={shared}/bop/tyol",)),
     RealSet("modelnet40_resampled", "modelnet40_resampled", "modelnet40_normal_resampled",
             ("dataset.root={shared}/modelnet40_normal_resampled",)),
@@ -63,8 +71,17 @@ SETS: dict[str, RealSet] = {s.name: s for s in (
             needs_trajectory=True),
 )}
 
+#: the cluttered synthetic set of the real YCB-V meshes (datasets/clutter.py): where ours' choices are made
+CLUTTER_SETS: dict[str, RealSet] = {s.name: s for s in (
+    RealSet("clutter", "clutter", "bop/ycbv/models", ("dataset.root={shared}/bop/ycbv",), split="clutter",
+            parts=("report",)),
+)}
+
+SUITES: dict[str, dict[str, RealSet]] = {"real": SETS, "clutter": CLUTTER_SETS}
+
 METHODS: dict[str, MethodVariant] = {v.label: v for v in (
     MethodVariant("ours", "ours"),
+    MethodVariant("ours-visibility", "ours", ("method.selection.rule=visibility",)),  # the rule before issue 22
     MethodVariant("icp", "icp"),
     MethodVariant("fgr", "fgr"),
     MethodVariant("teaser", "teaser"),
@@ -91,9 +108,12 @@ def compose(real_set: RealSet, variant: MethodVariant, shared: Path, seed: int, 
     """The resolved run config of one (set, method) pair and its command-line overrides."""
     from catpose.bench.run import config
 
+    from catpose.bench.real.suite_parts import scenes_override
+
     overrides = [f"method={variant.method}", f"dataset={real_set.dataset}", f"protocol={real_set.protocol}",
                  f"seed={seed}", f"output_root={output_root}", "progress=false", "print_summary=false",
                  *[o.replace("{shared}", str(shared)) for o in real_set.overrides],
+                 *(scenes_override(real_set.split, real_set.parts) if real_set.split else []),
                  *variant.overrides, *(method_overrides if variant.method == "ours" else [])]
     if limit is not None:
         overrides.append(f"limit={limit}")
@@ -144,23 +164,30 @@ def format_table(results: dict[tuple[str, str], dict], sets: list[str], methods:
 
 def run_suite(sets: list[str], methods: list[str], shared: Path, seed: int = 0, limit: int | None = None,
               output_root: str = "outputs/real", method_overrides: list[str] | None = None,
-              log=print, table_only: bool = False) -> tuple[dict, dict]:
+              log=print, table_only: bool = False,
+              catalogue: dict[str, RealSet] | None = None) -> tuple[dict, dict]:
     """Run every (set, method) pair; returns ({(set, method): summary row}, {set: skip reason}).
+    A set with a split also gets rows ``(<set>:<part> (<role>), method)`` for each of its parts.
     With ``table_only`` nothing runs: the rows come from the run directories already written
-    (finished samples only; pairs never run are left out)."""
+    (finished samples only; pairs never run are left out). ``catalogue``: the sets by name
+    (default :data:`SETS`, the real suite)."""
+    from catpose.bench.real.split import load_split
+    from catpose.bench.real.suite_parts import part_label, part_rows
     from catpose.bench.run.rundir import SAMPLES_FILE, run_dir_for
     from catpose.bench.run.runner import run
 
+    catalogue = SETS if catalogue is None else catalogue
     results: dict[tuple[str, str], dict] = {}
     skipped: dict[str, str] = {}
     for s in sets:
-        why = skip_reason(SETS[s], shared)
+        why = skip_reason(catalogue[s], shared)
         if why:
             skipped[s] = why
             log(f"bench suite real: skipping {s}: {why}")
             continue
         for m in methods:
-            cfg, overrides = compose(SETS[s], METHODS[m], shared, seed, limit, output_root, method_overrides or [])
+            cfg, overrides = compose(catalogue[s], METHODS[m], shared, seed, limit, output_root,
+                                     method_overrides or [])
             if table_only:
                 run_dir = run_dir_for(cfg, overrides)
                 if not (run_dir / SAMPLES_FILE).is_file():
@@ -170,28 +197,63 @@ def run_suite(sets: list[str], methods: list[str], shared: Path, seed: int = 0, 
                 run_dir = run(cfg, overrides)
             results[(s, m)] = summary_row(run_dir)
             results[(s, m)]["run_dir"] = str(run_dir)
+            if catalogue[s].split:
+                split = load_split(catalogue[s].split)
+                for part, row in part_rows(run_dir, split, list(catalogue[s].parts or split.parts),
+                                           summary_row).items():
+                    results[(part_label(s, split, part), m)] = dict(row, run_dir=str(run_dir))
     return results, skipped
+
+
+def columns(results: dict, sets: list[str]) -> list[str]:
+    """Table columns: each set, then its parts' columns (in the order they were added)."""
+    out = []
+    for s in sets:
+        out.append(s)
+        out += [k for k in dict.fromkeys(key for key, _ in results) if k.startswith(f"{s}:")]
+    return out
 
 
 def main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="bench suite", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("suite", choices=["real"], help="the suite to run (only 'real' so far)")
-    parser.add_argument("--sets", default=",".join(SETS), help=f"comma-separated subset of {', '.join(SETS)}")
+    parser.add_argument("suite", choices=list(SUITES), help="real: the shared real data; clutter: the cluttered "
+                        "synthetic set of the real YCB-V meshes (its report scenes)")
+    parser.add_argument("--sets", default=None, help="comma-separated subset of the suite's sets "
+                        f"(real: {', '.join(SETS)}; clutter: {', '.join(CLUTTER_SETS)})")
+    parser.add_argument("--parts", default=None, help="clutter: comma-separated split parts to run "
+                        "(default: report; see configs/split/clutter.yaml)")
     parser.add_argument("--methods", default=",".join(METHODS),
                         help=f"comma-separated subset of {', '.join(METHODS)}")
     parser.add_argument("--limit", type=int, default=None, help="only the first N samples of each set")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--output-root", default="outputs/real", help="where run directories go")
+    parser.add_argument("--output-root", default=None, help="where run directories go (default outputs/<suite>)")
     parser.add_argument("-o", "--ours-override", action="append", default=[], metavar="KEY=VALUE",
                         help="an override applied to method=ours only (repeatable), e.g. -o method.selection=loss")
     parser.add_argument("--table-only", action="store_true",
                         help="run nothing: the table of the run directories already written")
     parser.add_argument("--write", type=Path, default=None, help="also write the Markdown table to this file")
+    parser.add_argument("--objects", type=Path, default=None,
+                        help="also write per-object tables of every split part to this Markdown file")
     args = parser.parse_args(argv)
 
-    sets, methods = args.sets.split(","), args.methods.split(",")
-    for name, chosen, known in (("--sets", sets, SETS), ("--methods", methods, METHODS)):
+    suite_sets = SUITES[args.suite]
+    if args.parts:
+        from dataclasses import replace
+
+        from catpose.bench.real.split import load_split
+
+        for name, rs in list(suite_sets.items()):
+            if rs.split:
+                wanted = tuple(args.parts.split(","))
+                unknown = sorted(set(wanted) - set(load_split(rs.split).parts))
+                if unknown:
+                    raise ConfigError(f"bench suite {args.suite}: --parts has unknown {unknown}; "
+                                      f"configs/split/{rs.split}.yaml has {', '.join(load_split(rs.split).parts)}")
+                suite_sets = {**suite_sets, name: replace(rs, parts=wanted)}
+    sets = (args.sets or ",".join(suite_sets)).split(",")
+    methods = args.methods.split(",")
+    for name, chosen, known in (("--sets", sets, suite_sets), ("--methods", methods, METHODS)):
         bad = [c for c in chosen if c not in known]
         if bad:
             raise ConfigError(f"bench suite real: {name} has unknown {bad}; choose from {', '.join(known)}")
@@ -199,13 +261,19 @@ def main(argv: list[str]) -> int:
     if not shared.is_dir():
         print(f"bench suite real: skipped: no shared real data at {shared} (set CATPOSE_SHARED_DATA)")
         return 0
-    results, skipped = run_suite(sets, methods, shared, args.seed, args.limit, args.output_root,
+    results, skipped = run_suite(sets, methods, shared, args.seed, args.limit,
+                                 args.output_root or f"outputs/{args.suite}",
                                  args.ours_override, log=log.info,
-                                 table_only=args.table_only)
-    table = format_table(results, [s for s in sets if s not in skipped], methods, skipped)
+                                 table_only=args.table_only, catalogue=suite_sets)
+    table = format_table(results, columns(results, [s for s in sets if s not in skipped]), methods, skipped)
     print(table)
-    if args.write:
-        from catpose import atomic
+    from catpose import atomic
 
+    if args.write:
         atomic.write_text(args.write, table + "\n")
+    if args.objects:
+        from catpose.bench.real.suite_parts import object_tables
+
+        atomic.write_text(args.objects, object_tables(results, suite_sets, [s for s in sets if s not in skipped],
+                                                      methods) + "\n")
     return 0

@@ -10,7 +10,10 @@ dataset overrides that made it and one record per sample (ids, category, templat
 axis, discrete symmetries, info); per sample ``i`` the arrays ``p{i}`` (N, 3) observed points and
 ``n{i}`` (N, 3) normals (camera frame), ``g{i}`` (3,) ground normal, ``T{i}`` (4, 4)
 ``T_template_camera``; per template ``j`` the arrays ``tp{j}``, ``tn{j}`` (M, 3) points and normals
-(template frame), ``tu{j}`` (3,) up axis. Units are the dataset's (object-normalised).
+(template frame), ``tu{j}`` (3,) up axis; per template with a mesh ``tv{j}`` (V, 3) vertices and
+``tf{j}`` (F, 3) int32 triangles; per sample with a depth image (:class:`~catpose.types.DepthImage`)
+``d{i}`` (H, W) depth, ``k{i}`` (3, 3) intrinsics and ``m{i}`` (H, W) mask. Files written before
+meshes and depth images were stored load without them. Units are the dataset's (object-normalised).
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ from typing import Sequence
 import numpy as np
 
 from catpose.errors import ConfigError, DatasetError
-from catpose.types import GroundTruth, RegistrationProblem, Sample, Template
+from catpose.types import DepthImage, GroundTruth, RegistrationProblem, Sample, Template
 
 FORMAT_VERSION = 1
 
@@ -43,10 +46,16 @@ def write_golden(path: Path, suite: str, overrides: Sequence[str], samples: Sequ
         if tpl.template_id not in templates:
             j = templates[tpl.template_id] = len(templates)
             arrays[f"tp{j}"], arrays[f"tn{j}"], arrays[f"tu{j}"] = _f32(tpl.points), _f32(tpl.normals), _f32(tpl.up)
+            if tpl.has_mesh:
+                arrays[f"tv{j}"] = _f32(tpl.vertices)
+                arrays[f"tf{j}"] = np.asarray(tpl.triangles, dtype=np.int32)
         arrays[f"p{i}"] = _f32(s.problem.points_camera)
         arrays[f"n{i}"] = _f32(s.problem.normals_camera)
         arrays[f"g{i}"] = _f32(s.problem.ground_normal_camera)
         arrays[f"T{i}"] = np.asarray(s.gt.T_template_camera, dtype=np.float64)
+        if s.problem.depth_image is not None:
+            di = s.problem.depth_image
+            arrays[f"d{i}"], arrays[f"k{i}"], arrays[f"m{i}"] = _f32(di.depth), np.asarray(di.K, float), di.mask
         axis = s.gt.symmetry_axis
         records.append({
             "sample_id": s.problem.sample_id, "category": s.problem.category, "group_id": s.group_id,
@@ -108,12 +117,16 @@ def read_golden(path: Path) -> GoldenSet:
         j = int(r["template_index"])
         if j not in templates:
             tax = r.get("template_symmetry_axis")
+            mesh = (f64(arrays[f"tv{j}"]), arrays[f"tf{j}"].astype(np.int64)) if f"tv{j}" in arrays else (None, None)
             templates[j] = Template(template_id=r["template_id"], category=r["template_category"],
                                     points=f64(arrays[f"tp{j}"]), normals=f64(arrays[f"tn{j}"]),
+                                    vertices=mesh[0], triangles=mesh[1],
                                     up=f64(arrays[f"tu{j}"]), symmetry_axis=None if tax is None else f64(tax))
         problem = RegistrationProblem(sample_id=r["sample_id"], category=r["category"],
                                       points_camera=f64(arrays[f"p{i}"]), normals_camera=f64(arrays[f"n{i}"]),
-                                      ground_normal_camera=f64(arrays[f"g{i}"]), template=templates[j])
+                                      ground_normal_camera=f64(arrays[f"g{i}"]), template=templates[j],
+                                      depth_image=DepthImage(f64(arrays[f"d{i}"]), arrays[f"k{i}"], arrays[f"m{i}"])
+                                      if f"d{i}" in arrays else None)
         axis = r.get("symmetry_axis")
         gt = GroundTruth(T_template_camera=f64(arrays[f"T{i}"]), symmetry_axis=None if axis is None else f64(axis),
                          symmetries=tuple(f64(S).reshape(4, 4) for S in r.get("symmetries") or ()))
@@ -128,13 +141,18 @@ def perturbed(sample: Sample, rel: float, seed: int) -> Sample:
     of the last bits of the input, far below any sensor's noise)."""
     rng = np.random.default_rng(seed)
     jitter = lambda a: np.asarray(a, float) * (1.0 + rel * rng.standard_normal(np.shape(a)))  # noqa: E731
+    rng_extra = np.random.default_rng([seed, 1])  # meshes and depth images: a stream of their own
+    extra = lambda a: np.asarray(a, float) * (1.0 + rel * rng_extra.standard_normal(np.shape(a)))  # noqa: E731
     p = sample.problem
     tpl = Template(template_id=p.template.template_id, category=p.template.category,
-                   points=jitter(p.template.points), normals=p.template.normals, up=p.template.up,
-                   symmetry_axis=p.template.symmetry_axis)
+                   points=jitter(p.template.points), normals=p.template.normals,
+                   vertices=None if p.template.vertices is None else extra(p.template.vertices),
+                   triangles=p.template.triangles, up=p.template.up, symmetry_axis=p.template.symmetry_axis)
+    di = p.depth_image
+    depth_image = None if di is None else DepthImage(extra(di.depth), di.K, di.mask)
     problem = RegistrationProblem(sample_id=p.sample_id, category=p.category, points_camera=jitter(p.points_camera),
                                   normals_camera=p.normals_camera, ground_normal_camera=p.ground_normal_camera,
-                                  template=tpl, meta=p.meta)
+                                  template=tpl, meta=p.meta, depth_image=depth_image)
     return Sample(problem=problem, gt=sample.gt, group_id=sample.group_id, info=sample.info)
 
 

@@ -113,6 +113,41 @@ class Template:
 
 
 @dataclass(frozen=True, eq=False)
+class DepthImage:
+    """The depth image an observed cloud was cut from, for occlusion-aware verification.
+
+    Attributes:
+        depth: (H, W) camera-frame z of every pixel, in the unit of the problem's
+            ``points_camera`` (the object-normalised unit); 0 where nothing was measured. It is the
+            whole scene: other objects, the table, the background.
+        K: (3, 3) pinhole intrinsics, pixels: pixel (row, col) sees the ray
+            ``((col - cx) / fx, (row - cy) / fy, 1)`` (OpenCV, as :func:`catpose.datasets.render.depth_to_points`).
+        mask: (H, W) bool, the object's visible pixels (the segmentation its points came from).
+    """
+
+    depth: np.ndarray
+    K: np.ndarray
+    mask: np.ndarray
+
+    def __post_init__(self) -> None:
+        d = np.asarray(self.depth, dtype=np.float64)
+        if d.ndim != 2 or d.size == 0:
+            raise InvalidInputError(f"depth image has shape {d.shape}; expected (H, W)")
+        if not np.isfinite(d).all() or (d < 0).any():
+            raise InvalidInputError("depth image has NaN, inf or negative values; use 0 for missing depth")
+        K = np.asarray(self.K, dtype=np.float64).reshape(3, 3)
+        if not np.isfinite(K).all() or K[0, 0] <= 0 or K[1, 1] <= 0:
+            raise InvalidInputError(f"depth image intrinsics K have focal lengths {K[0, 0]}, {K[1, 1]}; "
+                                    "they must be positive pixels")
+        m = np.asarray(self.mask, dtype=bool)
+        if m.shape != d.shape:
+            raise InvalidInputError(f"depth image mask is {m.shape} but the depth image is {d.shape}")
+        object.__setattr__(self, "depth", d)
+        object.__setattr__(self, "K", K)
+        object.__setattr__(self, "mask", m)
+
+
+@dataclass(frozen=True, eq=False)
 class RegistrationProblem:
     """What a method sees: a partial view in the camera frame and a template.
 
@@ -124,6 +159,9 @@ class RegistrationProblem:
         ground_normal_camera: (3,) unit up direction (the ground plane's normal) in the camera frame.
         template: the template to register to.
         meta: dataset-specific, method-independent facts (never ground truth).
+        depth_image: the depth image, intrinsics and object mask the cloud came from
+            (:class:`DepthImage`), or None (a point cloud without an image, e.g. ModelNet40's
+            resampled clouds). Methods may use it to verify poses; none needs it.
     """
 
     sample_id: str
@@ -133,8 +171,12 @@ class RegistrationProblem:
     ground_normal_camera: np.ndarray
     template: Template
     meta: Mapping[str, Any] = field(default_factory=dict)
+    depth_image: DepthImage | None = None
 
     def __post_init__(self) -> None:
+        if self.depth_image is not None and not isinstance(self.depth_image, DepthImage):
+            raise InvalidInputError(f"sample {self.sample_id}: depth_image is a {type(self.depth_image).__name__}; "
+                                    "pass a catpose.types.DepthImage or None")
         p, n = validate_cloud(f"sample {self.sample_id}: observed cloud", self.points_camera,
                               self.normals_camera)
         object.__setattr__(self, "points_camera", p)

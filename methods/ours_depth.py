@@ -1,0 +1,193 @@
+"""Ours' selection by the occlusion-aware depth check (``method.selection.rule=depth``).
+
+Input: the candidates of every gravity hypothesis (:mod:`catpose.methods.resting_hypotheses`; the
+first is the template's own up), each computed by the unchanged pipeline on the turned template.
+
+1. Gravity: each hypothesis keeps its candidates whose tilt (the measured ground normal against
+   the hypothesis' up; for a template with a continuous symmetry axis, against the angle of that
+   up to the axis: :func:`tilts_deg`) is within ``gravity_max_deg`` (all of them when none is).
+2. The ``depth_prescreen`` kept candidates of each hypothesis with the lowest one-directional
+   Chamfer distance (input -> template: blind to occlusion, cheap) are scored by the depth check
+   (:class:`catpose.methods.depth_check.DepthVerifier`), and the ``depth_top_k`` best of all
+   hypotheses go on.
+3. Each goes on with its three half turns about the turned frame's axes (a near-symmetric shape
+   converges to the true pose or to a half turn of it; a half turn may also rest the object
+   another of the allowed ways); poses that cannot come back within the gravity limit of any
+   hypothesis' up are dropped, the others refined by point-to-plane ICP against the turned
+   template (compiled, all at once), scored again, filtered by gravity (any hypothesis' up), and
+   the ``depth_final_refine`` of lowest depth cost go on.
+4. Those are refined on all input points and scored again; the lowest cost (the depth score plus
+   ``depth_rest_prior`` for a pose resting other than on the template's up) wins, and its depth
+   score is the result's ``score``.
+
+All poses are scored in the original template's frame; ``extras`` say which hypothesis,
+candidate and half turn won.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from catpose.geometry import compose_T
+from catpose.methods.depth_check import DepthVerifier
+from catpose.methods.ours_candidates import Candidates, TemplateFeatures
+from catpose.methods.ours_selection import chamfer_distances
+from catpose.methods.ours_settings import SelectionSettings
+from catpose.methods.resting_hypotheses import Hypothesis
+from catpose.methods.selection import REACH_DEG, half_turns
+from catpose.point_to_plane_kernel import refine_many
+from catpose.types import RegistrationProblem, RegistrationResult
+
+__all__ = ["select_by_depth"]
+
+
+def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: list[Hypothesis],
+                    cands: list[Candidates], feats: list[TemplateFeatures],
+                    timings: dict[str, float], debug: dict | None = None) -> RegistrationResult:
+    """Steps 1-5 of the module docstring; ``hyps``, ``cands`` and ``feats`` are parallel lists.
+    ``debug``, when given, receives the verifier, the pre-scored pool and every expanded
+    hypothesis (template-frame poses and scores) for diagnosis."""
+    timings.setdefault("verification", 0.0)
+    timings.setdefault("refinement", 0.0)
+    t0 = time.perf_counter()
+    verifier = DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, sel.depth_pixels,
+                             sel.depth_max_rays, sel.depth_free_weight)
+    g = problem.ground_normal_camera
+    ups = np.stack([h.up for h in hyps])
+    axis = problem.template.symmetry_axis
+    pool = _pool(sel, hyps, cands, feats, g, ups, axis)
+    pre = verifier.scores(np.stack([hyps[k].to_template(cands[k].T[i]) for k, i in pool]))
+    order = np.argsort(pre, kind="stable")[:sel.depth_top_k]
+    timings["verification"] += time.perf_counter() - t0
+
+    # step 3: half turns of the best, refined on the Chamfer subset, scored
+    t0 = time.perf_counter()
+    turns = half_turns()
+    expanded = [(pool[o][0], pool[o][1], j) for o in order for j in range(len(turns))]
+    T_exp = np.stack([compose_T(turns[j], cands[k].T[i]) for k, i, j in expanded])   # in each hypothesis' frame
+    chosen = np.arange(len(expanded))
+    if sel.gravity_max_deg is not None:
+        reachable = tilts_deg(_in_template(hyps, expanded, T_exp), g, ups, axis).min(axis=1) <= \
+            sel.gravity_max_deg + REACH_DEG
+        chosen = chosen[reachable] if reachable.any() else chosen
+    if sel.refine:
+        T_exp[chosen] = _refine(sel, hyps, cands, feats, [expanded[i][0] for i in chosen], T_exp[chosen], "chamfer_src")
+    timings["refinement"] += time.perf_counter() - t0
+    t0 = time.perf_counter()
+    final = np.full(len(expanded), np.inf)
+    final[chosen] = verifier.scores(_in_template(hyps, [expanded[i] for i in chosen], T_exp[chosen]))
+    cost, keep, _ = _costs(sel, final, _in_template(hyps, expanded, T_exp), g, ups, axis)
+    timings["verification"] += time.perf_counter() - t0
+
+    # step 4: the best few refined on every input point, scored again; the lowest cost wins
+    t0 = time.perf_counter()
+    top = np.argsort(np.where(keep, cost, np.inf), kind="stable")[:max(int(sel.depth_final_refine), 1)]
+    top = top[np.isfinite(cost[top])] if np.isfinite(cost[top]).any() else top[:1]
+    T_top = T_exp[top].copy()
+    if sel.refine:
+        T_top = _refine(sel, hyps, cands, feats, [expanded[i][0] for i in top], T_top, "points")
+        if sel.depth_fine_distance > 0:   # then pairing only within a tighter distance: bleed and noise let go
+            T_top = _refine(replace(sel, refine_max_distance=min(sel.depth_fine_distance, sel.refine_max_distance)),
+                            hyps, cands, feats, [expanded[i][0] for i in top], T_top, "points")
+    timings["refinement"] += time.perf_counter() - t0
+    t0 = time.perf_counter()
+    T_top_t = _in_template(hyps, [expanded[i] for i in top], T_top)
+    if sel.depth_final_pixels > sel.depth_pixels:   # the final comparison on a finer lattice
+        verifier = DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, sel.depth_final_pixels,
+                                 sel.depth_max_rays * sel.depth_final_pixels // sel.depth_pixels,
+                                 sel.depth_free_weight)
+    top_scores = verifier.scores(T_top_t)
+    top_cost, top_keep, rest_top = _costs(sel, top_scores, T_top_t, g, ups, axis)
+    b = int(np.argmin(np.where(top_keep, top_cost, np.inf))) if top_keep.any() else int(np.argmin(top_cost))
+    best, T_out, score = int(top[b]), T_top_t[b], float(top_scores[b])
+    fit = verifier.fit(T_out[None])[0]
+    fit_loose = verifier.fit(T_out[None], sel.depth_fit_tau)[0]
+    timings["verification"] += time.perf_counter() - t0
+    if debug is not None:
+        debug.update(verifier=verifier, hyps=hyps, cands=cands, pool=pool, prescores=pre, order=order,
+                     expanded=expanded, T_expanded=_in_template(hyps, expanded, T_exp), final=final, cost=cost,
+                     keep=keep, top=top, T_top=T_top_t, top_scores=top_scores, best=best)
+
+    k, i, j = expanded[best]
+    rest = int(rest_top[b])
+    extras = {"template_index": i, "hypothesis": k, "half_turn": j, "resting": rest,
+              "resting_up": [float(x) for x in hyps[rest].up], "num_hypotheses": len(hyps), "depth_score": score,
+              "depth_inliers": float(fit[0]), "depth_free": float(fit[1]),
+              "depth_inliers_loose": float(fit_loose[0]),
+              "depth_stride": verifier.lattice.stride, "depth_mask_pixels": verifier.mask_pixels,
+              "prescores": [float(x) for x in np.sort(pre)[:8]],
+              "timings": {name: float(v) for name, v in timings.items()},
+              "num_input_points": int(len(cands[0].points))}
+    # every half-turned candidate scored in step 3 (template frame) with its cost (inf: not kept)
+    return RegistrationResult(T_target_source=T_out, score=score, extras=extras,
+                              candidates_T=_in_template(hyps, expanded, T_exp),
+                              candidate_scores=np.where(keep, cost, np.inf).astype(float))
+
+
+def _pool(sel: SelectionSettings, hyps, cands, feats, g, ups, axis) -> list[tuple[int, int]]:
+    """Steps 1-2: (hypothesis, candidate) pairs that pass gravity, the ``depth_prescreen`` of
+    lowest Chamfer distance per hypothesis."""
+    pool: list[tuple[int, int]] = []
+    for k, (h, c, f) in enumerate(zip(hyps, cands, feats)):
+        allowed = np.zeros(len(c.T), dtype=bool)
+        allowed[c.stage2] = True
+        keep = allowed.copy()
+        if sel.gravity_max_deg is not None:
+            keep &= tilts_deg(h.to_template(c.T), g, ups[k:k + 1], axis)[:, 0] <= sel.gravity_max_deg
+            keep = keep if keep.any() else allowed
+        kept = np.nonzero(keep)[0]
+        if 0 < sel.depth_prescreen < len(kept):
+            dists = chamfer_distances(f.tree, c.chamfer_src, c.T[kept])
+            kept = np.sort(kept[np.argsort(dists, kind="stable")[:sel.depth_prescreen]])
+        pool += [(k, int(i)) for i in kept]
+    return pool
+
+
+def _in_template(hyps, expanded, T_hyp: np.ndarray) -> np.ndarray:
+    """(B, 4, 4) poses of the hypotheses' turned frames -> poses of the template."""
+    return np.stack([hyps[e[0]].to_template(T) for e, T in zip(expanded, T_hyp)]) if len(T_hyp) else T_hyp
+
+
+def _refine(sel: SelectionSettings, hyps, cands, feats, hyp_of: list[int], T: np.ndarray, points: str) -> np.ndarray:
+    """Poses (B, 4, 4) in their hypotheses' frames refined by point-to-plane ICP against each
+    hypothesis' turned template, on the input's ``chamfer_src`` or all ``points``."""
+    out = np.array(T, copy=True)
+    hyp_of = np.asarray(hyp_of)
+    for k in sorted(set(hyp_of.tolist())):
+        idx = np.nonzero(hyp_of == k)[0]
+        out[idx] = refine_many(getattr(cands[k], points), feats[k].pairing, hyps[k].template.normals, out[idx],
+                               sel.refine_max_distance, sel.refine_iterations)
+    return out
+
+
+def _costs(sel: SelectionSettings, scores: np.ndarray, T_template: np.ndarray, g, ups, axis):
+    """Depth scores plus the resting prior, the gravity mask (all finite ones when none passes)
+    and each pose's resting direction (index into ``ups``)."""
+    tilts = tilts_deg(T_template, g, ups, axis)
+    rest = tilts.argmin(axis=1)
+    cost = scores + sel.depth_rest_prior * (rest != 0)     # resting other than on the template's up
+    keep = np.isfinite(cost)
+    if sel.gravity_max_deg is not None:
+        upright = keep & (tilts.min(axis=1) <= sel.gravity_max_deg)
+        keep = upright if upright.any() else keep
+    return cost, keep, rest
+
+
+def tilts_deg(T_template_camera: np.ndarray, ground_normal_camera: np.ndarray, ups: np.ndarray,
+              symmetry_axis: np.ndarray | None = None) -> np.ndarray:
+    """(B, H) degrees between the ground normal mapped into the template frame by each pose and
+    each gravity hypothesis' up direction ``ups`` (H, 3). With a continuous ``symmetry_axis`` a
+    spin about it is invisible, so the angle is that between the two directions' angles to the
+    axis (a can on its side rests on any of its side lines)."""
+    gt = np.einsum("bij,j->bi", np.asarray(T_template_camera)[:, :3, :3], ground_normal_camera)
+    gt /= np.linalg.norm(gt, axis=1, keepdims=True)
+    u = ups / np.linalg.norm(ups, axis=1, keepdims=True)
+    if symmetry_axis is None:
+        return np.degrees(np.arccos(np.clip(gt @ u.T, -1.0, 1.0)))
+    a = np.asarray(symmetry_axis, float) / np.linalg.norm(symmetry_axis)
+    ga = np.degrees(np.arccos(np.clip(gt @ a, -1.0, 1.0)))
+    ua = np.degrees(np.arccos(np.clip(u @ a, -1.0, 1.0)))
+    return np.abs(ga[:, None] - ua[None, :])

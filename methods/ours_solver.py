@@ -1,0 +1,62 @@
+"""The optimiser stage of ``ours`` (paper Section III-D) on all candidates of one problem at once:
+``solver=irls`` (closed form, :mod:`catpose.methods.irls`) or ``solver=adam`` (the paper's Adam,
+:mod:`catpose.methods.optim`), chosen by :class:`~catpose.methods.ours_settings.OptimiserSettings`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from catpose.methods.ours_settings import OptimiserSettings
+
+__all__ = ["IRLS_STAGES", "optimise"]
+
+#: the IRLS stages of each optimiser mode
+IRLS_STAGES = {"none": (), "pose": ("pose",), "joint": ("pose", "joint"), "joint_only": ("joint",)}
+
+
+def optimise(opt: OptimiserSettings, P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray,
+             chamfer_src: np.ndarray, complete: np.ndarray, mode: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The solver on all candidates at once (``mode``: none, pose, joint or joint_only). Returns
+    poses (m, 4, 4), final losses (m,) as mean correspondence-weighted keypoint distances
+    (object-normalised units) and the final soft correspondences C (m, n, 2n)."""
+    if opt.solver == "irls":
+        from catpose.methods import irls
+
+        cuda = opt.device.startswith("cuda")
+        T, losses, C, _ = irls.solve_numpy(P_c, P_t, A, T0, IRLS_STAGES[mode], opt.irls_beta,
+                                           opt.irls_iterations, opt.irls_tol, opt.device,
+                                           "float32" if cuda else "float64")
+        return T, losses, C
+    import torch
+
+    from catpose.methods.optim import BatchedProblem, _rot6d, optimize
+
+    dev = torch.device(opt.device)
+    dt = torch.float32
+
+    def tens(a):
+        return torch.as_tensor(np.ascontiguousarray(a), dtype=dt, device=dev)
+
+    w = opt.chamfer_weight
+    prob = BatchedProblem(tens(P_c), tens(P_t), tens(A), tens(chamfer_src) if w > 0 else None,
+                          tens(complete) if w > 0 else None, w)
+    n = len(P_c)
+    r6 = tens(np.concatenate([T0[:, :3, 0], T0[:, :3, 1]], axis=1))
+    t = tens(T0[:, :3, 3])
+    stages = []
+    if mode in ("pose", "joint"):
+        stages.append(("pose", opt.steps_pose))
+    if mode in ("joint", "joint_only"):
+        stages.append(("joint", opt.steps_joint))
+    final, logits = optimize(prob, r6, t, stages, opt.lr)
+    with torch.no_grad():
+        R = _rot6d(r6)[0].cpu().double().numpy()
+        tt = t.cpu().double().numpy()
+        C = A if logits is None else torch.softmax(logits, dim=2).cpu().double().numpy()
+    # re-orthonormalise in float64 so validate_pose accepts the result
+    U, _, Vt = np.linalg.svd(R)
+    R = U @ Vt
+    T = np.tile(np.eye(4), (len(R), 1, 1))
+    T[:, :3, :3], T[:, :3, 3] = R, tt
+    return T, final.detach().cpu().double().numpy() / n, C
+

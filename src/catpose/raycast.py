@@ -1,0 +1,88 @@
+"""Ray casting against a triangle mesh, the same bits on every CPU.
+
+Open3D's ``RaycastingScene`` (Embree, float32) finds which triangle each ray hits; the hit
+distance is then recomputed in float64 from that triangle's plane (:meth:`RayCaster.cast`).
+Embree ships code paths for several instruction sets (SSE, AVX2, AVX-512) whose float32 hit
+distances differ in the last bits, so its own ``t_hit`` changes with the CPU; the plane of a
+given triangle does not (closed form, no BLAS).
+
+Both the datasets (depth rendering, :mod:`catpose.datasets.render`) and the methods (ours'
+depth-image verification, :mod:`catpose.methods.depth_check`) cast rays, so the helper lives here,
+where both may import it. :class:`RayCaster` keeps one scene per mesh for repeated casts (a
+method scoring many poses of one template); :func:`cast_rays` is the one-shot form.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from catpose.geometry import dot3, norm3
+
+__all__ = ["RayCaster", "cast_rays"]
+
+
+class RayCaster:
+    """One triangle mesh in an Open3D ``RaycastingScene``, for many casts.
+
+    Args:
+        vertices: (V, 3) mesh vertices (any frame, any unit); triangles: (F, 3) vertex indices.
+    """
+
+    def __init__(self, vertices: np.ndarray, triangles: np.ndarray) -> None:
+        from catpose.o3d import o3d
+
+        self.vertices = np.ascontiguousarray(vertices, dtype=np.float64)
+        self.triangles = np.ascontiguousarray(triangles, dtype=np.int64)
+        self._scene = o3d.t.geometry.RaycastingScene()
+        mesh = o3d.t.geometry.TriangleMesh()
+        mesh.vertex.positions = o3d.core.Tensor(self.vertices.astype(np.float32))
+        mesh.triangle.indices = o3d.core.Tensor(self.triangles.astype(np.int32))
+        self._scene.add_triangles(mesh)
+        self._invalid = int(o3d.t.geometry.RaycastingScene.INVALID_ID)
+
+    def cast(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """Ray parameter ``s`` of the first hit along ``origins + s * directions``, in float64.
+
+        ``s`` is recomputed from the hit triangle's plane, ``s = n . (v0 - o) / n . d``. Rays that
+        graze their triangle (``|n . d| < 1e-9 |n| |d|``) keep Embree's value.
+
+        Args:
+            origins, directions: (..., 3) rays in the vertices' frame (directions need not be
+                unit; broadcast against each other).
+
+        Returns:
+            (...) float64 ray parameters, ``inf`` where the ray hits nothing.
+        """
+        from catpose.o3d import o3d
+
+        o = np.asarray(origins, dtype=np.float64)
+        d = np.asarray(directions, dtype=np.float64)
+        shape = np.broadcast_shapes(o.shape, d.shape)[:-1]
+        o, d = np.broadcast_to(o, shape + (3,)).reshape(-1, 3), np.broadcast_to(d, shape + (3,)).reshape(-1, 3)
+        ans = self._scene.cast_rays(o3d.core.Tensor(np.ascontiguousarray(np.hstack([o, d]), dtype=np.float32)))
+        prim = ans["primitive_ids"].numpy().astype(np.int64)
+        t_embree = ans["t_hit"].numpy().astype(np.float64)
+        s = np.full(len(o), np.inf)
+        hit = (prim != self._invalid) & np.isfinite(t_embree)
+        tri = self.vertices[self.triangles[prim[hit]]]                             # (k, 3, 3)
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        nd = dot3(n, d[hit])
+        s_hit = dot3(n, tri[:, 0] - o[hit]) / np.where(nd == 0.0, 1.0, nd)
+        grazing = np.abs(nd) < 1e-9 * norm3(n) * norm3(d[hit])
+        s[hit] = np.where(grazing, t_embree[hit], s_hit)
+        return s.reshape(shape)
+
+
+def cast_rays(vertices: np.ndarray, triangles: np.ndarray, origins: np.ndarray,
+              directions: np.ndarray) -> np.ndarray:
+    """Ray parameter ``s`` of the first hit along ``origins + s * directions``, in float64
+    (:meth:`RayCaster.cast` on a scene built for this one call).
+
+    Args:
+        vertices: (V, 3) mesh vertices; triangles: (F, 3) vertex indices.
+        origins, directions: (..., 3) rays in the vertices' frame (directions need not be unit).
+
+    Returns:
+        (...) float64 ray parameters, ``inf`` where the ray hits nothing.
+    """
+    return RayCaster(vertices, triangles).cast(origins, directions)

@@ -1,0 +1,102 @@
+"""Stable resting poses of a rigid object on a table: which of its directions can point up.
+
+An object dropped on a plane comes to rest on a face of its convex hull. trimesh's
+``compute_stable_poses`` (quasi-static: the probability of a face is the solid angle of the
+orientations that roll onto it from a uniform random orientation, centre of mass of the solid hull)
+lists those faces with their probabilities. What a registration method and a scene generator need
+from each is one direction: ``up``, the unit vector in the object frame that points away from the
+table (the table normal seen from the object). :func:`resting_ups` returns them, merged where
+they differ by less than ``merge_deg``.
+
+Objects with a continuous symmetry axis (cans, bowls) rest on their side in a ring of equivalent
+poses; :func:`up_classes` merges ups that make the same angle with the axis, so a can has three
+classes: upright, upside down and on its side.
+
+The values are rounded (ups to 1e-6, probabilities to 1e-9) so that the last bits of the library's
+BLAS-dependent arithmetic cannot change them between CPUs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from catpose import libm
+from catpose.geometry import dot3, norm3, unit3
+
+__all__ = ["RestingUp", "resting_ups", "up_classes"]
+
+
+@dataclass(frozen=True)
+class RestingUp:
+    """One resting direction of an object.
+
+    Attributes:
+        up: (3,) unit vector in the object frame that points away from the table.
+        probability: probability of coming to rest this way (summed over merged faces).
+    """
+
+    up: tuple[float, float, float]
+    probability: float
+
+    @property
+    def vector(self) -> np.ndarray:
+        return np.array(self.up, dtype=np.float64)
+
+
+def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.degrees(libm.arccos(float(np.clip(dot3(a, b), -1.0, 1.0)))))
+
+
+def resting_ups(points: np.ndarray, merge_deg: float = 10.0) -> list[RestingUp]:
+    """Resting directions of the solid convex hull of ``points`` (N, 3), most probable first.
+
+    Args:
+        points: (N, 3) vertices or surface samples of the object (any unit, object frame).
+        merge_deg: faces whose ups differ by less than this merge into one (probabilities add,
+            the most probable face's up is kept).
+
+    Returns:
+        every distinct resting up with its probability (the probabilities sum to 1).
+    """
+    import trimesh
+
+    hull = trimesh.convex.convex_hull(np.asarray(points, dtype=np.float64))
+    transforms, probs = trimesh.poses.compute_stable_poses(hull, n_samples=1, sigma=0.0)
+    raw = []
+    for T, p in zip(transforms, probs):
+        up = np.round(np.asarray(T, dtype=np.float64)[2, :3], 6)   # R^T e_z: the table normal in the object frame
+        if norm3(up) > 0.5 and p > 0:
+            raw.append((round(float(p), 9), unit3(up)))
+    raw.sort(key=lambda r: (-r[0], tuple(r[1])))
+    merged: list[list] = []
+    for p, up in raw:
+        for m in merged:
+            if _angle_deg(m[1], up) < merge_deg:
+                m[0] += p
+                break
+        else:
+            merged.append([p, up])
+    total = sum(m[0] for m in merged) or 1.0
+    out = [RestingUp(tuple(float(x) for x in np.round(up, 6)), round(p / total, 9)) for p, up in merged]
+    return sorted(out, key=lambda r: (-r.probability, r.up))
+
+
+def up_classes(ups: list[RestingUp], symmetry_axis: np.ndarray | None, merge_deg: float = 10.0) -> list[RestingUp]:
+    """``ups`` with those equivalent under a continuous symmetry about ``symmetry_axis`` (3,)
+    merged: two ups are equivalent when they make the same angle with the axis (within
+    ``merge_deg``). Without an axis, ``ups`` unchanged. Most probable first."""
+    if symmetry_axis is None:
+        return list(ups)
+    axis = unit3(np.asarray(symmetry_axis, dtype=np.float64))
+    merged: list[list] = []
+    for r in sorted(ups, key=lambda r: (-r.probability, r.up)):
+        angle = _angle_deg(r.vector, axis)
+        for m in merged:
+            if abs(m[2] - angle) < merge_deg:
+                m[0] += r.probability
+                break
+        else:
+            merged.append([r.probability, r.up, angle])
+    return sorted((RestingUp(up, round(p, 9)) for p, up, _ in merged), key=lambda r: (-r.probability, r.up))

@@ -1,0 +1,126 @@
+"""Ours' depth-image verification and gravity hypotheses (``method.selection.rule=depth``)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _ours_fixtures import CAMERA, chair_template, rotation_error_deg  # noqa: E402
+
+from catpose.datasets.render import depth_to_points, estimate_normals, render_depth  # noqa: E402
+from catpose.geometry import compose_T, invert_T, look_at_T_camera_world, make_T  # noqa: E402
+from catpose.methods.ours import Ours, RestingSettings, SelectionSettings  # noqa: E402
+from catpose.methods.resting_hypotheses import rotation_between  # noqa: E402
+from catpose.types import DepthImage, RegistrationProblem  # noqa: E402
+
+pytestmark = pytest.mark.usefixtures("one_torch_thread", "private_cache_dir")
+
+
+@pytest.fixture(scope="module")
+def template():
+    return chair_template()
+
+
+def scene_problem(template, seed: int, up_object=(0.0, 0.0, 1.0), occlude: bool = False):
+    """The template standing on a table with ``up_object`` (object frame) pointing up, seen from a
+    seeded viewpoint, optionally half hidden by a box in front; returns the problem (with its depth
+    image) and the true ``T_template_camera``."""
+    import trimesh
+
+    rng = np.random.default_rng(seed)
+    R = rotation_between(np.asarray(up_object, float), np.array([0.0, 0.0, 1.0]))
+    v_world = template.vertices @ R.T
+    T_world_object = make_T(R, [0.0, 0.0, -v_world[:, 2].min()])
+    az, el = rng.uniform(0, 2 * np.pi), np.deg2rad(rng.uniform(25, 55))
+    eye = 3.2 * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)]) + [0, 0, 0.5]
+    T_camera_world = look_at_T_camera_world(eye, np.array([0.0, 0.0, 0.5]), np.array([0.0, 0.0, 1.0]))
+    T_camera_object = compose_T(T_camera_world, T_world_object)
+    parts = [render_depth(template.vertices, template.triangles, T_camera_object, CAMERA).astype(float)]
+    table = trimesh.creation.box(extents=[10.0, 10.0, 0.01], transform=np.diag([1.0, 1, 1, 1]))
+    table.apply_translation([0, 0, -0.006])
+    parts.append(render_depth(table.vertices, table.faces, T_camera_world, CAMERA).astype(float))
+    if occlude:
+        box = trimesh.creation.box(extents=[0.5, 0.5, 2.0])
+        box.apply_translation(0.45 * eye / np.linalg.norm(eye) * np.array([1, 1, 0]) + [0, 0, 1.0])
+        parts.append(render_depth(box.vertices, box.faces, T_camera_world, CAMERA).astype(float))
+    stack = np.stack(parts)
+    depth = np.where(stack > 0, stack, np.inf).min(axis=0)
+    depth = np.where(np.isfinite(depth), depth, 0.0)
+    mask = (parts[0] > 0) & (parts[0] <= depth + 1e-9)
+    pts, _ = depth_to_points(depth, CAMERA, mask)
+    g = T_camera_world[:3, 2]
+    problem = RegistrationProblem(f"seed{seed}", template.category, pts, estimate_normals(pts, 0.06), g, template,
+                                  depth_image=DepthImage(depth, CAMERA.K, mask))
+    return problem, invert_T(T_camera_object)
+
+
+def _ours(**sel) -> Ours:
+    return Ours(selection=SelectionSettings(rule="depth", **sel), resting=RestingSettings())
+
+
+def test_upright_views_are_right_and_the_extras_say_how(template):
+    method = _ours()
+    errs = []
+    for seed in range(4):
+        p, T = scene_problem(template, seed)
+        r = method.register(p)
+        errs.append(rotation_error_deg(r.T_target_source[:3, :3], T[:3, :3]))
+        extras = json.loads(json.dumps(r.extras))
+        assert {"hypothesis", "resting", "depth_score", "depth_inliers", "escalated"} <= set(extras)
+        assert {"verification", "refinement", "optimization"} <= set(extras["timings"])
+        assert r.score == pytest.approx(extras["depth_score"])
+    assert np.median(errs) < 3.0, errs
+
+
+def test_a_half_hidden_object_is_still_right(template):
+    method = _ours()
+    errs = [rotation_error_deg(method.register(p).T_target_source[:3, :3], T[:3, :3])
+            for p, T in (scene_problem(template, s, occlude=True) for s in range(3))]
+    assert np.median(errs) < 5.0, errs
+
+
+def test_an_object_on_its_back_needs_the_resting_hypotheses(template):
+    """The chair lies on its back (the back's outer face, -x, on the table): the template's own up
+    cannot explain the image, the other resting directions can."""
+    with_rests = _ours()
+    without = Ours(selection=SelectionSettings(rule="depth"), resting=RestingSettings(max_poses=0))
+    right, escalated, wrong_without = 0, 0, 0
+    for seed in range(3):
+        p, T = scene_problem(template, seed, up_object=(1.0, 0.0, 0.0))
+        r = with_rests.register(p)
+        right += rotation_error_deg(r.T_target_source[:3, :3], T[:3, :3]) < 10
+        escalated += bool(r.extras["escalated"])
+        wrong_without += rotation_error_deg(without.register(p).T_target_source[:3, :3], T[:3, :3]) > 10
+    assert right >= 2 and escalated == 3 and wrong_without >= 2
+
+
+def test_without_a_depth_image_the_fallback_rule_answers(template):
+    p, _ = scene_problem(template, 0)
+    plain = replace(p, depth_image=None)
+    a = _ours(depth_fallback="chamfer").register(plain)
+    b = Ours(selection=SelectionSettings(rule="chamfer")).register(plain)
+    np.testing.assert_array_equal(a.T_target_source, b.T_target_source)
+    assert "depth_score" not in a.extras
+
+
+def test_a_template_unlike_the_object_falls_back_to_the_point_rule(template):
+    p, _ = scene_problem(template, 1)
+    r = _ours(depth_min_inliers=1.01).register(p)        # no pose can explain more than every pixel
+    assert r.extras["depth_poor_fit"] is True and np.isfinite(r.score)
+    c = Ours(selection=SelectionSettings(rule="chamfer"), resting=RestingSettings()).register(p)
+    np.testing.assert_allclose(r.T_target_source, c.T_target_source, atol=1e-12)
+
+
+def test_depth_problems_register_one_by_one_in_a_batch(template):
+    problems = [scene_problem(template, s)[0] for s in range(2)]
+    method = _ours()
+    batch = method.register_batch(problems)
+    single = [method.register(p) for p in problems]
+    for a, b in zip(batch, single):
+        np.testing.assert_array_equal(a.T_target_source, b.T_target_source)

@@ -1,0 +1,85 @@
+"""Stable resting directions (catpose.resting) and ours' gravity hypotheses built from them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from catpose.methods.ours_settings import RestingSettings
+from catpose.methods.resting_hypotheses import hypotheses, rotation_between
+from catpose.resting import resting_ups, up_classes
+from catpose.types import Template
+
+
+def _box(extents) -> trimesh.Trimesh:
+    return trimesh.creation.box(extents=extents)
+
+
+def test_a_box_rests_on_its_six_faces_the_largest_most_often():
+    ups = resting_ups(_box([1.0, 2.0, 3.0]).vertices)
+    vectors = np.array([r.up for r in ups])
+    assert len(ups) == 6 and sum(r.probability for r in ups) == pytest.approx(1.0, abs=1e-6)
+    # every up is a face normal: a signed coordinate axis
+    assert np.allclose(np.sort(np.abs(vectors), axis=1), [[0, 0, 1]] * 6, atol=1e-6)
+    # lying on the 2 x 3 face (up = +-x) is the most probable, on the 1 x 2 face (up = +-z) the least
+    assert abs(ups[0].up[0]) == pytest.approx(1.0) and abs(ups[-1].up[2]) == pytest.approx(1.0)
+    assert ups[0].probability > ups[2].probability > ups[4].probability
+
+
+def test_a_cube_rests_on_each_face_alike():
+    probs = [r.probability for r in resting_ups(_box([1.0, 1.0, 1.0]).vertices)]
+    assert np.allclose(probs, 1 / 6, atol=1e-3)
+
+
+def test_a_cylinders_side_poses_merge_into_one_class_under_its_symmetry():
+    cyl = trimesh.creation.cylinder(radius=0.3, height=1.0, sections=32)
+    ups = resting_ups(cyl.vertices)
+    assert len(ups) > 3                                  # each side facet is its own face
+    classes = up_classes(ups, np.array([0.0, 0.0, 1.0]))
+    angles = sorted(round(float(np.degrees(np.arccos(np.clip(r.up[2], -1, 1))))) for r in classes)
+    assert angles == [0, 90, 180]                        # upright, on its side, upside down
+    side = next(r for r in classes if abs(r.up[2]) < 0.5)
+    assert side.probability == pytest.approx(sum(r.probability for r in ups if abs(r.up[2]) < 0.5), abs=1e-6)
+
+
+def test_rotation_between_takes_a_onto_b_including_opposite_vectors():
+    rng = np.random.default_rng(0)
+    for a, b in [(rng.normal(size=3), rng.normal(size=3)), ([0, 0, 1.0], [0, 0, -1.0]), ([1.0, 0, 0], [1.0, 0, 0])]:
+        R = rotation_between(np.asarray(a), np.asarray(b))
+        np.testing.assert_allclose(R @ (np.asarray(a) / np.linalg.norm(a)), np.asarray(b) / np.linalg.norm(b),
+                                   atol=1e-12)
+        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+        assert np.linalg.det(R) == pytest.approx(1.0)
+
+
+def _template(mesh: trimesh.Trimesh, axis=None) -> Template:
+    pts, idx = trimesh.sample.sample_surface_even(mesh, 600, seed=1)
+    return Template("test/box", "box", pts, mesh.face_normals[idx], vertices=mesh.vertices, triangles=mesh.faces,
+                    symmetry_axis=axis)
+
+
+def test_hypotheses_start_with_the_templates_up_and_turn_each_resting_direction_up():
+    tpl = _template(_box([0.6, 1.0, 1.4]))
+    hyps = hypotheses(tpl, RestingSettings(max_poses=3, min_probability=0.0))
+    assert len(hyps) == 4 and hyps[0].template is tpl and np.allclose(hyps[0].up, [0, 0, 1])
+    for h in hyps[1:]:
+        # the turned template's up axis is the resting direction of the original
+        np.testing.assert_allclose(h.R_turned_template @ h.up, tpl.up, atol=1e-9)
+        np.testing.assert_allclose(h.template.points, tpl.points @ h.R_turned_template.T, atol=1e-12)
+        # a pose of the turned template maps back onto the same camera-to-template transform
+        T = np.eye(4)
+        T[:3, 3] = [0.1, 0.2, 3.0]
+        p_turned = T[:3, :3] @ np.array([0.3, -0.2, 0.1]) + T[:3, 3]
+        T_t = h.to_template(T)
+        np.testing.assert_allclose(h.R_turned_template.T @ p_turned,
+                                   T_t[:3, :3] @ np.array([0.3, -0.2, 0.1]) + T_t[:3, 3], atol=1e-12)
+    only_own = hypotheses(tpl, RestingSettings(max_poses=0))
+    assert len(only_own) == 1 and only_own[0].template is tpl
+
+
+def test_hypotheses_of_a_symmetric_template_skip_what_its_symmetry_makes_equal():
+    cyl = trimesh.creation.cylinder(radius=0.3, height=1.0, sections=32)
+    hyps = hypotheses(_template(cyl, axis=np.array([0.0, 0.0, 1.0])), RestingSettings(max_poses=5, min_probability=0))
+    angles = sorted(round(float(np.degrees(np.arccos(np.clip(h.up[2], -1, 1))))) for h in hyps)
+    assert angles == [0, 90, 180]
