@@ -21,6 +21,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "perf": ("catpose.bench.perf", "main", "seconds per registration and per stage for ours and ICP"),
     "templates": ("catpose.bench.templates_select", "main", "choose K category templates by K-medoids over F-score"),
     "align": ("catpose.bench.align", "main", "estimate a canonical-alignment table for a ModelNet40 category"),
+    "category": ("catpose.bench.category_table", "main", "templates tables: chosen, oracle and random-template errors per method and K"),
     "export": ("catpose.bench.predictions", "export_main", "export a run's estimates as a BOP results CSV"),
     "score": ("catpose.bench.predictions", "score_main", "score an external predictions file (BOP CSV or per-sample CSV)"),
     "suite": ("catpose.bench.suite_real", "main", "every method on the shared real data, one table: bench suite real"),
