@@ -1,7 +1,8 @@
 # catpose: two commands.
 #   make demo   set up .venv (CPU torch, open3d-cpu) and run ICP and ours on the embedded data
 #   make test   the default test suite (slow tests excluded; `make test-slow` runs them)
-#   make cluster  the optional Hydra launchers (joblib, Slurm via submitit, Ray): README "Scale out"
+#   make cluster  the optional Hydra launchers (joblib, Slurm via submitit, Ray): docs/scale-out.md
+#   make results  every table and figure the docs quote, regenerated (hours), then copied into the docs
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV ?= .venv
@@ -9,7 +10,7 @@ PY := $(VENV)/bin/python
 BENCH := $(VENV)/bin/bench
 TORCH_PIN ?= torch==2.13.0
 
-.PHONY: setup demo test test-slow regress realcheck cluster slurm-check clean
+.PHONY: setup demo test test-slow regress realcheck results quotes cluster slurm-check clean
 
 setup: $(VENV)/.installed
 
@@ -40,6 +41,16 @@ regress: setup
 # CPU-heavy (about an hour on 2 cores): runs under nice and resumes where it stopped.
 realcheck: setup
 	nice $(BENCH) suite real --write results/real/table.md
+
+# Every table and figure the README and docs/ quote: results/make_results.sh (all sections; resumes
+# where it stopped; SECTIONS="category real" for some), then the docs' quotes copied from the new files.
+results: setup
+	bash results/make_results.sh $(SECTIONS)
+	$(PY) -m catpose.bench.report.doc_quotes
+
+# The docs' quotes copied from results/ (docs/developing.md, "Regenerating the results").
+quotes: setup
+	$(PY) -m catpose.bench.report.doc_quotes
 
 # The launchers extra (`pip install -e ".[cluster]"`), with the same pins as `make setup`.
 cluster: $(VENV)/.cluster

@@ -13,19 +13,20 @@ from pathlib import Path
 
 # command -> (module, function, one-line help)
 COMMANDS: dict[str, tuple[str, str, str]] = {
-    "run": ("catpose.bench.run_cmd", "main", "run a method on a dataset: bench run method=ours dataset=synthetic [-m sweeps]"),
-    "evaluate": ("catpose.bench.run_cmd", "evaluate_main", "recompute errors and summaries of run directories from their files"),
-    "table": ("catpose.bench.tables", "main", "the paper's tables (Markdown, LaTeX, CSV) from run directories"),
-    "merge": ("catpose.bench.merge", "main", "samples.jsonl and summaries of a sharded run (shards=N) from its shard files"),
-    "report": ("catpose.bench.report", "main", "tables and plots of run directories in one folder"),
-    "perf": ("catpose.bench.perf", "main", "seconds per registration and per stage for ours and ICP"),
-    "templates": ("catpose.bench.templates_select", "main", "choose K category templates by K-medoids over F-score"),
-    "align": ("catpose.bench.align", "main", "estimate a canonical-alignment table for a ModelNet40 category"),
-    "category": ("catpose.bench.category_table", "main", "templates tables: chosen, oracle and random-template errors per method and K"),
-    "export": ("catpose.bench.predictions", "export_main", "export a run's estimates as a BOP results CSV"),
-    "score": ("catpose.bench.predictions", "score_main", "score an external predictions file (BOP CSV or per-sample CSV)"),
-    "suite": ("catpose.bench.suite_real", "main", "every method on the shared real data, one table: bench suite real"),
-    "regress": ("catpose.bench.regress", "main", "CI regression: small subsets against committed reference metrics"),
+    "run": ("catpose.bench.run.command", "main", "run a method on a dataset: bench run method=ours dataset=synthetic [-m sweeps]"),
+    "evaluate": ("catpose.bench.run.command", "evaluate_main", "recompute errors and summaries of run directories from their files"),
+    "table": ("catpose.bench.report.tables", "main", "the paper's tables (Markdown, LaTeX, CSV) from run directories"),
+    "merge": ("catpose.bench.run.merge", "main", "samples.jsonl and summaries of a sharded run (shards=N) from its shard files"),
+    "report": ("catpose.bench.report.report", "main", "tables and plots of run directories in one folder"),
+    "perf": ("catpose.bench.perf.registration", "main", "seconds per registration and per stage for ours and ICP"),
+    "templates": ("catpose.bench.category.templates_select", "main", "choose K category templates by K-medoids over F-score"),
+    "align": ("catpose.bench.category.align", "main", "estimate a canonical-alignment table for a ModelNet40 category"),
+    "category": ("catpose.bench.report.category_table", "main", "templates tables: chosen, oracle and random-template errors per method and K"),
+    "export": ("catpose.bench.interop.bop_export", "main", "export a run's estimates as a BOP results CSV"),
+    "score": ("catpose.bench.interop.score", "main", "score an external predictions file (BOP CSV or per-sample CSV)"),
+    "suite": ("catpose.bench.real.suite", "main", "every method on the shared real data, one table: bench suite real"),
+    "data": ("catpose.bench.run.data_check", "main", "check a dataset root before a run: bench data check dataset=NAME dataset.root=PATH"),
+    "regress": ("catpose.bench.regress.regress", "main", "CI regression: small subsets against committed reference metrics"),
 }
 
 
@@ -72,13 +73,16 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     module_name, func_name, _ = COMMANDS[name]
-    from catpose.errors import CatposeError
+    from catpose import logs
+    from catpose.errors import CatposeError, command_error
+
+    logs.configure(name)  # catpose's loggers: one line each on stderr, "bench <name>: ..." (bench run: log_level=)
 
     try:
         func = getattr(importlib.import_module(module_name), func_name)
         return int(func(argv[1:]) or 0)
-    except CatposeError as e:
-        print(f"bench {name}: error: {e}", file=sys.stderr)
+    except CatposeError as e:  # every command's user errors: one line, exit status 2
+        print(command_error(name, e), file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"bench {name}: interrupted; finished samples are saved, re-run the same command to resume",

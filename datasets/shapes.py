@@ -1,11 +1,12 @@
 """Procedural, seeded category shapes for the embedded synthetic dataset.
 
 Each ``make_<category>(rng)`` builds one random instance of its category from trimesh
-primitives (boxes, cylinders, convex hulls, swept tubes, revolved profiles) and returns it as a
-``trimesh.Trimesh`` in the canonical frame: z up, front along +x (nose of the airplane, seat
+primitives (boxes, cylinders, convex hulls, swept tubes, revolved profiles:
+:mod:`catpose.datasets.shape_parts`) and returns it as a ``trimesh.Trimesh`` in the canonical frame: z up, front along +x (nose of the airplane, seat
 front of the chair, hood of the car, handle of the mug), centred at its bounding-box centre and
 scaled to a unit bounding sphere (:func:`catpose.geometry.normalize_to_unit_sphere`). Bottle,
-bowl, can and plate are rotationally symmetric about z.
+bowl, can and plate are rotationally symmetric about z (:mod:`catpose.datasets.shapes_symmetric`);
+this module holds the others and the registry :data:`SHAPES`.
 
 Instances differ in part proportions, counts and shapes (engine count, leg count or pedestal,
 armrests, handle shape, ...), so a template from the same category is not the instance.
@@ -22,97 +23,15 @@ import numpy as np
 import trimesh
 
 from catpose import libm
-from catpose.geometry import apply_R, axis_angle_to_R, make_T, norm3, normalize_to_unit_sphere, transform_points, unit3
+from catpose.datasets.shape_parts import align_z, box, cylinder, finish, hull, posed, revolve_z, tube
+from catpose.datasets.shapes_symmetric import make_bottle, make_bowl, make_can, make_plate
+from catpose.geometry import apply_R, axis_angle_to_R, make_T, norm3
 
 __all__ = ["SHAPES", "SYMMETRIC_CATEGORIES", "make_airplane", "make_chair", "make_car", "make_mug",
            "make_bottle", "make_bowl", "make_can", "make_plate", "make_shape"]
 
 #: Categories whose instances are rotationally symmetric about the z axis.
 SYMMETRIC_CATEGORIES = frozenset({"bottle", "bowl", "can", "plate"})
-
-
-# --------------------------------------------------------------------------- primitives
-
-def _posed(mesh: trimesh.Trimesh, T: np.ndarray) -> trimesh.Trimesh:
-    """``mesh`` moved by the (4, 4) rigid ``T``. The vertices are transformed in closed form
-    (:func:`catpose.geometry.transform_points`), not by trimesh's BLAS product, so the shapes
-    are the same bits on every CPU."""
-    return trimesh.Trimesh(transform_points(T, np.asarray(mesh.vertices, dtype=np.float64)),
-                           np.asarray(mesh.faces), process=False)
-
-
-def _align_z(direction: np.ndarray) -> np.ndarray:
-    """A rotation (3, 3) taking +z onto the unit ``direction`` (the shortest arc)."""
-    z = np.array([0.0, 0.0, 1.0])
-    d = unit3(direction)
-    axis = np.cross(z, d)
-    s, c = norm3(axis), float(d[2])
-    if s < 1e-12:
-        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
-    return axis_angle_to_R(axis, libm.arctan2(s, c))
-
-
-def _box(extents: tuple[float, float, float], center: tuple[float, float, float],
-         R: np.ndarray | None = None) -> trimesh.Trimesh:
-    """Axis-aligned box (optionally rotated by ``R`` about its centre)."""
-    T = make_T(np.eye(3) if R is None else R, np.asarray(center, dtype=np.float64))
-    return _posed(trimesh.creation.box(extents=extents), T)
-
-
-def _cylinder(p0: np.ndarray, p1: np.ndarray, radius: float, sections: int = 20) -> trimesh.Trimesh:
-    """Solid cylinder from point ``p0`` to ``p1``."""
-    p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
-    height = norm3(p1 - p0)
-    T = make_T(_align_z(p1 - p0), (p0 + p1) / 2)
-    return _posed(trimesh.creation.cylinder(radius=radius, height=height, sections=sections), T)
-
-
-def _hull(points: np.ndarray) -> trimesh.Trimesh:
-    """Convex hull of (K, 3) points (wings, fins, car bodies)."""
-    return trimesh.convex.convex_hull(np.asarray(points, dtype=np.float64))
-
-
-def _revolve_z(profile_rz: list[tuple[float, float]] | np.ndarray, sections: int = 48) -> trimesh.Trimesh:
-    """Surface of revolution about +z of a (K, 2) (radius, height) profile that starts and ends
-    on the axis (radius 0), running outward along the bottom and back inward along the top."""
-    return trimesh.creation.revolve(np.asarray(profile_rz, dtype=np.float64), sections=sections)
-
-
-def _tube(path: np.ndarray, radius: float, sections: int = 12) -> trimesh.Trimesh:
-    """Closed tube of circular cross-section swept along a (K, 3) polyline (mug handles)."""
-    path = np.asarray(path, dtype=np.float64)
-    tangents = np.gradient(path, axis=0)
-    tangents = unit3(tangents)
-    ref = np.array([0.0, 1.0, 0.0]) if abs(tangents[0, 1]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    angles = np.linspace(0.0, 2 * np.pi, sections, endpoint=False)
-    rings = []
-    for t in tangents:
-        u = unit3(np.cross(t, ref))
-        v = np.cross(t, u)
-        rings.append(np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v)
-    K = len(path)
-    verts = (path[:, None, :] + radius * np.asarray(rings)).reshape(-1, 3)
-    verts = np.vstack([verts, path[0], path[-1]])
-    faces = []
-    for k in range(K - 1):
-        for j in range(sections):
-            a, b = k * sections + j, k * sections + (j + 1) % sections
-            c, d = a + sections, b + sections
-            faces += [[a, b, d], [a, d, c]]
-    start, end = K * sections, K * sections + 1
-    for j in range(sections):
-        faces.append([start, (j + 1) % sections, j])
-        faces.append([end, (K - 1) * sections + j, (K - 1) * sections + (j + 1) % sections])
-    mesh = trimesh.Trimesh(verts, np.asarray(faces), process=False)
-    mesh.fix_normals()
-    return mesh
-
-
-def _finish(parts: list[trimesh.Trimesh]) -> trimesh.Trimesh:
-    """Concatenate parts and normalise to the unit bounding sphere."""
-    mesh = trimesh.util.concatenate(parts)
-    v, _, _ = normalize_to_unit_sphere(mesh.vertices)
-    return trimesh.Trimesh(v, np.asarray(mesh.faces), process=False)
 
 
 def _wing(root_le: np.ndarray, root_chord: float, tip_le: np.ndarray, tip_chord: float,
@@ -127,10 +46,11 @@ def _wing(root_le: np.ndarray, root_chord: float, tip_le: np.ndarray, tip_chord:
         te = le - np.array([chord, 0.0, 0.0])
         mid = le - np.array([0.3 * chord, 0.0, 0.0])
         pts += [le, te, mid + 0.5 * th * e, mid - 0.5 * th * e]
-    return _hull(np.asarray(pts))
+    return hull(np.asarray(pts))
 
 
 # --------------------------------------------------------------------------- asymmetric categories
+# (the symmetric ones are catpose.datasets.shapes_symmetric's)
 
 def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     """Airplane: nose at +x, wings along y, fin up (+z).
@@ -149,8 +69,8 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     for a in np.linspace(0.0, np.pi / 2, 6)[1:]:
         prof.append((r * np.cos(a), L - nose + nose * np.sin(a)))
     prof[-1] = (0.0, L)
-    fuselage = _revolve_z(prof, sections=24)
-    fuselage = _posed(fuselage, make_T(axis_angle_to_R(np.array([0.0, 1.0, 0.0]), np.pi / 2), np.zeros(3)))
+    fuselage = revolve_z(prof, sections=24)
+    fuselage = posed(fuselage, make_T(axis_angle_to_R(np.array([0.0, 1.0, 0.0]), np.pi / 2), np.zeros(3)))
     parts = [fuselage]
 
     # main wings: trapezoidal (airliner / light aircraft) or delta (fighter: no tailplane, no pods)
@@ -186,9 +106,9 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
         x_le_y = x_le + f * tip_dx
         z_y = z_w + f * tip_dz - 0.5 * thick - 0.9 * eng_r
         for s in (1.0, -1.0):
-            parts.append(_cylinder(np.array([x_le_y + 0.4 * eng_len, s * y, z_y]),
+            parts.append(cylinder(np.array([x_le_y + 0.4 * eng_len, s * y, z_y]),
                                    np.array([x_le_y - 0.6 * eng_len, s * y, z_y]), eng_r, sections=16))
-            parts.append(_box((0.4 * eng_len, 0.25 * eng_r, eng_r), (x_le_y - 0.2 * eng_len, s * y, z_y + 0.8 * eng_r)))
+            parts.append(box((0.4 * eng_len, 0.25 * eng_r, eng_r), (x_le_y - 0.2 * eng_len, s * y, z_y + 0.8 * eng_r)))
 
     # vertical fin at the tail
     fin_h = r * rng.uniform(2.0, 3.5)
@@ -213,7 +133,7 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     for s in (() if delta else (1.0, -1.0)):
         parts.append(_wing(h_le, h_chord, h_le + np.array([-h_sweep, s * h_span, 0.0]), h_chord * 0.5,
                            0.1 * h_chord, 0.05 * h_chord))
-    return _finish(parts)
+    return finish(parts)
 
 
 def make_chair(rng: np.random.Generator) -> trimesh.Trimesh:
@@ -226,7 +146,7 @@ def make_chair(rng: np.random.Generator) -> trimesh.Trimesh:
     d = rng.uniform(0.75, 1.0)      # seat depth (x)
     st = rng.uniform(0.05, 0.1)     # seat thickness
     h = rng.uniform(0.75, 1.0)      # seat top height
-    parts = [_box((d, w, st), (0.0, 0.0, h - st / 2))]
+    parts = [box((d, w, st), (0.0, 0.0, h - st / 2))]
     z_under = h - st
 
     kind = rng.choice(["legs", "legs", "legs", "pedestal"])
@@ -252,27 +172,27 @@ def make_chair(rng: np.random.Generator) -> trimesh.Trimesh:
                 direction = foot - top
                 length = norm3(direction)
                 zaxis = direction / length
-                R = _align_z(zaxis)
-                parts.append(_box((2 * leg_r, 2 * leg_r, length), tuple((top + foot) / 2), R))
+                R = align_z(zaxis)
+                parts.append(box((2 * leg_r, 2 * leg_r, length), tuple((top + foot) / 2), R))
             else:
-                parts.append(_cylinder(top, foot, leg_r, sections=12))
+                parts.append(cylinder(top, foot, leg_r, sections=12))
         if rng.random() < 0.4 and n_legs == 4:  # stretchers between the legs
             zs = rng.uniform(0.15, 0.35) * h
             for sy in (1, -1):
-                parts.append(_box((d - 0.2, 0.03, 0.03), (0.0, sy * (w / 2 - 0.08), zs)))
+                parts.append(box((d - 0.2, 0.03, 0.03), (0.0, sy * (w / 2 - 0.08), zs)))
     else:
         post_r = rng.uniform(0.04, 0.07)
         base_h = rng.uniform(0.08, 0.14)
-        parts.append(_cylinder(np.array([0.0, 0.0, base_h]), np.array([0.0, 0.0, z_under]), post_r))
+        parts.append(cylinder(np.array([0.0, 0.0, base_h]), np.array([0.0, 0.0, z_under]), post_r))
         n_arms = int(rng.choice([4, 5]))
         arm_len = rng.uniform(0.35, 0.5)
         off = rng.uniform(0.0, 2 * np.pi / n_arms)
         for k in range(n_arms):
             a = off + 2 * np.pi * k / n_arms
             R = axis_angle_to_R(np.array([0.0, 0.0, 1.0]), a)
-            parts.append(_box((arm_len, 0.06, 0.05), tuple(apply_R(R, np.array([arm_len / 2, 0.0, base_h]))), R))
+            parts.append(box((arm_len, 0.06, 0.05), tuple(apply_R(R, np.array([arm_len / 2, 0.0, base_h]))), R))
             tip = apply_R(R, np.array([arm_len, 0.0, 0.0]))
-            parts.append(_cylinder(tip + np.array([0, 0, base_h - 0.02]), tip, 0.03, sections=10))
+            parts.append(cylinder(tip + np.array([0, 0, base_h - 0.02]), tip, 0.03, sections=10))
 
     # back at -x, tilted backwards about y
     bh = rng.uniform(0.55, 1.1)
@@ -282,7 +202,7 @@ def make_chair(rng: np.random.Generator) -> trimesh.Trimesh:
     base = np.array([-d / 2 + bt / 2, 0.0, h])
 
     def back_part(extents: tuple[float, float, float], local_center: np.ndarray) -> trimesh.Trimesh:
-        return _box(extents, tuple(base + apply_R(R_tilt, local_center)), R_tilt)
+        return box(extents, tuple(base + apply_R(R_tilt, local_center)), R_tilt)
 
     if rng.random() < 0.5:
         bw = w * rng.uniform(0.8, 1.0)
@@ -303,9 +223,9 @@ def make_chair(rng: np.random.Generator) -> trimesh.Trimesh:
         alen = d * rng.uniform(0.75, 0.95)
         for sy in (1, -1):
             y = sy * (w / 2 - aw / 2)
-            parts.append(_box((alen, aw, 0.04), (-d / 2 + alen / 2, y, h + ah)))
-            parts.append(_box((0.04, 0.04, ah), (-d / 2 + alen - 0.05, y, h + ah / 2)))
-    return _finish(parts)
+            parts.append(box((alen, aw, 0.04), (-d / 2 + alen / 2, y, h + ah)))
+            parts.append(box((0.04, 0.04, ah), (-d / 2 + alen - 0.05, y, h + ah / 2)))
+    return finish(parts)
 
 
 def make_car(rng: np.random.Generator) -> trimesh.Trimesh:
@@ -331,7 +251,7 @@ def make_car(rng: np.random.Generator) -> trimesh.Trimesh:
             [L / 2, y * 0.9, clear + 0.12], [L / 2, yt * 0.9, ztop - nose_drop - 0.05],
             [L / 2 - 0.3, yt, ztop - 0.3 * nose_drop], [-L / 2 + 0.05, yt, ztop], [-L / 2, y * 0.95, ztop - 0.08],
         ]
-    parts = [_hull(np.asarray(body_pts))]
+    parts = [hull(np.asarray(body_pts))]
 
     cabin_len = L * (rng.uniform(0.38, 0.5) if style == "sedan" else rng.uniform(0.5, 0.62))
     cabin_h = rng.uniform(0.38, 0.5) + (0.08 if style == "suv" else 0.0)
@@ -345,20 +265,20 @@ def make_car(rng: np.random.Generator) -> trimesh.Trimesh:
     for s in (1, -1):
         cabin_pts += [[rear_x, s * cw / 2, ztop - 0.02], [front_x, s * cw / 2, ztop - 0.3 * nose_drop - 0.02],
                       [front_x - rake, s * rw / 2, ztop + cabin_h], [rear_x + rear_rake, s * rw / 2, ztop + cabin_h]]
-    parts.append(_hull(np.asarray(cabin_pts)))
+    parts.append(hull(np.asarray(cabin_pts)))
 
     front_over = rng.uniform(0.16, 0.24) * L
     rear_over = rng.uniform(0.13, 0.2) * L
     for x in (L / 2 - front_over, -L / 2 + rear_over):
         for s in (1, -1):
             y0 = s * (W / 2 - wheel_w / 2 + 0.03)
-            parts.append(_cylinder(np.array([x, y0 - wheel_w / 2, wheel_r]), np.array([x, y0 + wheel_w / 2, wheel_r]),
+            parts.append(cylinder(np.array([x, y0 - wheel_w / 2, wheel_r]), np.array([x, y0 + wheel_w / 2, wheel_r]),
                                    wheel_r, sections=24))
     if style == "sedan" and rng.random() < 0.3:  # rear spoiler
-        parts.append(_box((0.12, W * 0.8, 0.04), (-L / 2 + 0.12, 0.0, ztop + 0.12)))
+        parts.append(box((0.12, W * 0.8, 0.04), (-L / 2 + 0.12, 0.0, ztop + 0.12)))
         for s in (1, -1):
-            parts.append(_box((0.05, 0.04, 0.12), (-L / 2 + 0.12, s * W * 0.3, ztop + 0.06)))
-    return _finish(parts)
+            parts.append(box((0.05, 0.04, 0.12), (-L / 2 + 0.12, s * W * 0.3, ztop + 0.06)))
+    return finish(parts)
 
 
 def make_mug(rng: np.random.Generator) -> trimesh.Trimesh:
@@ -372,7 +292,7 @@ def make_mug(rng: np.random.Generator) -> trimesh.Trimesh:
     Rt = Rb * rng.uniform(0.95, 1.15)
     t = rng.uniform(0.03, 0.05)
     tb = rng.uniform(0.05, 0.1)
-    body = _revolve_z([(0.0, 0.0), (Rb, 0.0), (Rt, H), (Rt - t, H), (Rb - t + (Rt - Rb) * tb / H, tb), (0.0, tb)])
+    body = revolve_z([(0.0, 0.0), (Rb, 0.0), (Rt, H), (Rt - t, H), (Rb - t + (Rt - Rb) * tb / H, tb), (0.0, tb)])
     parts = [body]
 
     z_lo = H * rng.uniform(0.12, 0.3)
@@ -392,91 +312,8 @@ def make_mug(rng: np.random.Generator) -> trimesh.Trimesh:
 
     x = wall_r(z) - 0.5 * t + reach * xe
     path = np.stack([x, np.zeros_like(x), z], axis=1)
-    parts.append(_tube(path, tube_r))
-    return _finish(parts)
-
-
-# --------------------------------------------------------------------------- symmetric categories
-
-def make_bottle(rng: np.random.Generator) -> trimesh.Trimesh:
-    """Bottle (symmetric about z): varies body radius/height, shoulder length and curvature,
-    neck radius/height and cap."""
-    Rb = rng.uniform(0.25, 0.4)
-    Hb = rng.uniform(0.6, 1.2)
-    hs = rng.uniform(0.1, 0.35)
-    rn = Rb * rng.uniform(0.25, 0.45)
-    hn = rng.uniform(0.1, 0.35)
-    curve = rng.uniform(1.0, 3.0)  # 1: conical shoulder, 2: elliptic, 3: boxy
-    prof = [(0.0, 0.0), (Rb * 0.92, 0.0), (Rb, 0.04), (Rb, Hb)]
-    for u in np.linspace(0.0, 1.0, 8)[1:]:
-        prof.append((rn + (Rb - rn) * libm.power(1 - libm.power(u, curve), 1 / curve), Hb + hs * u))
-    z = Hb + hs + hn
-    prof.append((rn, z))
-    rc, hc = rn * rng.uniform(1.05, 1.25), rng.uniform(0.06, 0.14)
-    prof += [(rc, z), (rc, z + hc), (0.0, z + hc)]
-    return _finish([_revolve_z(prof)])
-
-
-def make_bowl(rng: np.random.Generator) -> trimesh.Trimesh:
-    """Bowl (symmetric about z): open shell; varies rim radius, depth, wall curvature,
-    thickness and the presence/size of a foot ring."""
-    R = rng.uniform(0.8, 1.0)
-    D = R * rng.uniform(0.25, 0.65)
-    t = rng.uniform(0.03, 0.05)
-    k = rng.uniform(1.5, 3.5)
-    rs = np.linspace(0.0, 1.0, 16)
-    prof: list[tuple[float, float]] = []
-    if rng.random() < 0.7:
-        Rf, fh = R * rng.uniform(0.3, 0.5), rng.uniform(0.04, 0.1)
-        prof += [(0.0, -fh), (Rf, -fh), (Rf * 0.97, 0.0)]
-        start = Rf * 0.97 / R
-    else:
-        prof += [(0.0, 0.0)]
-        start = 0.0
-    for u in rs[rs > start]:
-        prof.append((R * u, D * libm.power(u, k)))
-    Ri = R - t
-    for u in rs[::-1][:-1]:
-        prof.append((Ri * u, t + (D - t) * libm.power(u, k)))
-    prof.append((0.0, t))
-    return _finish([_revolve_z(prof)])
-
-
-def make_can(rng: np.random.Generator) -> trimesh.Trimesh:
-    """Can (symmetric about z): varies radius/height ratio (tuna tin to tall soda can), the
-    necked-in top, rim height and lid recess, and the bottom dome."""
-    R = rng.uniform(0.3, 0.45)
-    H = R * rng.uniform(0.8, 3.2)
-    neck = rng.uniform(0.85, 1.0)
-    neck_h = H * rng.uniform(0.03, 0.1)
-    lip = rng.uniform(0.01, 0.03)
-    recess = rng.uniform(0.015, 0.04)
-    dome = rng.uniform(0.0, 0.05)
-    rim_h = rng.uniform(0.005, 0.02)
-    Rt = R * neck
-    prof = [(0.0, dome), (R * 0.85, 0.0), (R * 0.97, 0.01), (R, 0.03), (R, H - neck_h), (Rt, H),
-            (Rt, H + rim_h), (Rt - lip, H + rim_h), (Rt - lip, H + rim_h - recess), (0.0, H + rim_h - recess)]
-    return _finish([_revolve_z(prof)])
-
-
-def make_plate(rng: np.random.Generator) -> trimesh.Trimesh:
-    """Plate (symmetric about z): varies the well radius, rim slope and width, thickness and
-    the foot ring."""
-    R = 1.0
-    Rw = R * rng.uniform(0.45, 0.8)
-    slope = np.deg2rad(rng.uniform(6.0, 35.0))
-    rise = (R - Rw) * libm.tan(slope)
-    t = rng.uniform(0.02, 0.05)
-    prof: list[tuple[float, float]] = []
-    if rng.random() < 0.6:
-        Rf, fh = Rw * rng.uniform(0.7, 0.95), rng.uniform(0.02, 0.05)
-        prof += [(0.0, 0.0), (Rf, 0.0), (Rf, fh)]
-        base = fh
-    else:
-        base = 0.0
-        prof += [(0.0, 0.0)]
-    prof += [(Rw, base), (R, base + rise), (R, base + rise + t), (Rw - t * libm.tan(slope / 2), base + t), (0.0, base + t)]
-    return _finish([_revolve_z(prof, sections=64)])
+    parts.append(tube(path, tube_r))
+    return finish(parts)
 
 
 #: Category name -> generator ``make_<category>(rng) -> trimesh.Trimesh``.

@@ -1,6 +1,6 @@
 """The matching pipeline shared by the correspondence-based baselines (FGR, RANSAC, TEASER).
 
-Two choices, both plain constructor arguments (paper Section IV-B, Table "optimizer"):
+Two choices, both plain constructor arguments (paper Section IV-B, Table "optimiser"):
 
 ``matching``
     ``"direct"``: the partial input against the complete template (one estimate).
@@ -308,4 +308,7 @@ class CorrespondenceRegistration(RegistrationMethod):
                   "num_candidates": len(candidates), "candidate_chamfer": [float(c[0]) for c in candidates],
                   "num_source_points": int(len(source.points)), **stages,
                   "total_s": time.perf_counter() - t_start, **info}
-        return RegistrationResult(T_target_source=T, score=cd, extras=extras)
+        posed = [(c[0], c[1]) for c in candidates if c[1] is not None]
+        return RegistrationResult(T_target_source=T, score=cd, extras=extras,
+                                  candidates_T=np.stack([np.asarray(t, float) for _, t in posed]),
+                                  candidate_scores=np.array([s for s, _ in posed], dtype=float))

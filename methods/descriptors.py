@@ -174,7 +174,7 @@ class PFH(Descriptor):
         max_nn: neighbour cap.
         eps: affinity epsilon.
         distance: ``marginal`` (sum of the 1D EMDs of the 3 marginals, fast) or ``exact``
-            (POT, ~1 ms a pair; needs ``pip install pot``).
+            (POT, ~1 ms a pair; needs the ``pfh`` extra, ``pip install 'catpose[pfh]'``).
         voxel_size: downsampling voxel before keypoints and histograms (0: none).
     """
 
@@ -196,8 +196,8 @@ class PFH(Descriptor):
             try:
                 import ot  # noqa: F401
             except ImportError:
-                raise ConfigError(f"{_KEY}distance='exact' needs POT (Python Optimal Transport): pip install pot; "
-                                  "or use distance=marginal") from None
+                raise ConfigError(f"{_KEY}distance='exact' needs POT (Python Optimal Transport): "
+                                  "pip install 'catpose[pfh]' (or pip install pot); or use distance=marginal") from None
 
     def describe(self, points, normals, kp_idx, up, tree):
         """(k, 125) histograms, each summing to 1 (``up`` is not used: PFH is rotation-invariant)."""

@@ -124,4 +124,5 @@ class ICP(RegistrationMethod):
         return RegistrationResult(
             T_target_source=T, score=1.0 - fitness,
             extras={"fitness": fitness, "inlier_rmse": rmse, "start_index": best,
-                    "starts_fitness": [s[0] for s in starts], "starts_rmse": [s[1] for s in starts]})
+                    "starts_fitness": [s[0] for s in starts], "starts_rmse": [s[1] for s in starts]},
+            candidates_T=np.stack([s[2] for s in starts]), candidate_scores=np.array([1.0 - s[0] for s in starts]))

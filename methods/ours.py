@@ -317,6 +317,7 @@ class Ours(RegistrationMethod):
         sel = self.selection
         half_turn = None
         template = problem.template
+        candidate_scores = crit
 
         def refine(T: np.ndarray, points: np.ndarray = chamfer_src) -> np.ndarray:
             """Poses (B, 4, 4) refined by point-to-plane ICP on ``points`` (all at once, compiled)."""
@@ -342,6 +343,7 @@ class Ours(RegistrationMethod):
                 sel.gravity_max_deg, sel.top_k, sel.refine_top)
             T_best = refine(T_best[None], c.points)[0]
             best, half_turn = info["candidate"], info["half_turn"]
+            candidate_scores = np.asarray(info["scores"], dtype=float)
         elif sel.refine:
             T_best = refine(T_best[None], c.points)[0]
             if sel.rule == "chamfer":  # the score of the pose actually returned
@@ -355,7 +357,8 @@ class Ours(RegistrationMethod):
         extras["stage2_candidates"] = [int(i) for i in c.stage2]
         if half_turn is not None:
             extras["half_turn"] = half_turn  # 0: the candidate itself; 1, 2, 3: turned about x, y, z
-        return RegistrationResult(T_target_source=T_best, score=score, extras=extras)
+        return RegistrationResult(T_target_source=T_best, score=score, extras=extras, candidates_T=c.T.copy(),
+                                  candidate_scores=np.asarray(candidate_scores, dtype=float).copy())
 
     # ----------------------------------------------------------------- optimisation
     def _optimize(self, P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray, chamfer_src: np.ndarray,

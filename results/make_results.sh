@@ -1,38 +1,193 @@
 #!/usr/bin/env bash
-# Reproduces the committed tables in results/ on the embedded synthetic set (seed 0): one sweep per
-# paper table (configs/experiment/<table>.yaml), then its tables from the sweep's files.
-# Usage: bash results/make_results.sh [tables]   (repository root, after `make setup`; `tables`: only
-# rebuild the tables and report from existing sweeps)
-# Runs resume: re-running skips finished samples. Takes ~20-30 min on 2 CPU cores; with the cluster
-# extra (`make cluster`) add e.g. LAUNCHER=hydra/launcher=local_procs, or =slurm on a cluster.
+# Every table and figure the README and docs/ quote, regenerated into results/ (or $RESULTS):
+#
+#   bash results/make_results.sh [SECTION ...]      (repository root, after `make setup`; `make results`
+#                                                    runs this, then copies the new figures into the docs)
+#
+# Sections (default: all of them, in this order; each resumes where it stopped: finished samples
+# are skipped):
+#   synthetic  the paper's tables on the embedded synthetic set (seed 0): one sweep per table
+#              (configs/experiment/<table>.yaml) under three code paths of the numerical libraries,
+#              results/tables/*.{md,tex,csv}, the report results/report/, and ours and the baselines
+#              with the Kinect sensor model (results/tables/synthetic_kinect.md). ~1-1.5 h on 2 cores.
+#   tables     the synthetic section's tables and report from its existing sweeps (no runs)
+#   category   category-level tables on the shared ModelNet40 resampled shapes (the aligned
+#              airplanes and chairs; one and three templates): results/category/. Minutes.
+#   real       every method on the shared real data (bench suite real: results/real/table.md), BOP
+#              metrics of ICP and ours on the YCB-V frames (results/real/bop_ycbv.md), the sensor
+#              model beside the real frames (results/real/sensor_stats.md). ~1 h.
+#   perf       seconds per registration (bench perf) on synthetic, YCB-V and ModelNet40 problems, and
+#              the speed tables made from those CSVs and the GPU check's (results/perf/*.md). Run it
+#              on an otherwise idle machine: it measures wall time.
+#   api        catpose.register without `up` (results/api/make_without_up.sh, when present). ~1.5 h.
+# The sections that need the shared data (../shared/data or $CATPOSE_SHARED_DATA) skip with a note
+# when it is absent.
+#
+# Environment: OUT (run directories, default outputs/results), RESULTS (where the tables go,
+# default results; point it at an empty folder to regenerate everything beside the committed
+# files), LAUNCHER (e.g. hydra/launcher=local_procs with the cluster extra, `make cluster`).
+#
+# Numbers that hold on any CPU: the synthetic tables are computed under the portable numeric profile
+# (catpose.bench.run.environment.portable_profile: OpenBLAS's Haswell kernel, NumPy without its AVX-512
+# loops, torch's AVX2 kernels, numba compiling for Haswell), which every x86-64 CPU with AVX2 runs,
+# AVX-512 ones included, so they come out the same there. The experiments then run again under other
+# code paths (OpenBLAS Sandybridge with torch's default kernels; where the CPU has AVX-512, its own
+# AVX-512 paths), each into its own output root, and the Markdown tables' notes say per row how many
+# views changed and the range of the overall figures (catpose.bench.report.stability): a difference between
+# methods smaller than that range is chaos of ambiguous views, not evidence.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 B=.venv/bin/bench
+PY=.venv/bin/python
 OUT=${OUT:-outputs/results}
+RESULTS=${RESULTS:-results}
 S=$OUT/multirun  # named sweep directories, so a re-run resumes into the same ones
-EXPERIMENTS=(optimizer ablation one_template templates relative_real tyol)
+V=$OUT-variants  # the same sweeps under other code paths
+EXPERIMENTS=(optimiser ablation one_template templates relative_real tyol)
+SHARED=$("$PY" -c 'from catpose.bench.run.config import shared_data_dir; print(shared_data_dir())')
+SECTIONS=("$@")
+[ ${#SECTIONS[@]} -gt 0 ] || SECTIONS=(synthetic category real perf api)
+eval "$("$PY" -m catpose.bench.run.environment portable)"
 
-if [ "${1:-}" != tables ]; then
+run_experiments() {  # $1: output root
   for e in "${EXPERIMENTS[@]}"; do
-    "$B" run -m +experiment=$e dataset=synthetic seed=0 output_root="$OUT" progress=false print_summary=false \
-      hydra.sweep.dir="$S/$e" ${LAUNCHER:-}
+    "$B" run -m +experiment=$e dataset=synthetic seed=0 output_root="$1" progress=false print_summary=false \
+      hydra.sweep.dir="$1/multirun/$e" ${LAUNCHER:-}
   done
-fi
+}
 
-T=results/tables
-mkdir -p "$T"
-for fmt in md latex csv; do
-  ext=$fmt; [ "$fmt" = latex ] && ext=tex
-  for e in optimizer ablation one_template templates tyol; do
-    "$B" table --sweep "$S/$e" --format $fmt --out "$T/$e.$ext"
+synthetic_runs() {
+  run_experiments "$OUT"
+  (export OPENBLAS_CORETYPE=Sandybridge ATEN_CPU_CAPABILITY=default; run_experiments "$V/sandybridge-torch-default")
+  if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then
+    (unset NPY_DISABLE_CPU_FEATURES NUMBA_CPU_NAME MKL_ENABLE_INSTRUCTIONS
+     export OPENBLAS_CORETYPE=SkylakeX ATEN_CPU_CAPABILITY=avx512; run_experiments "$V/avx512")
+  fi
+  # the embedded set with the Kinect sensor model (physical sizes, depth noise, flying pixels, bleed)
+  "$B" run -m method=ours,icp dataset=synthetic dataset.sensor=kinect dataset.instances_per_category=1 seed=0 \
+    output_root="$OUT/kinect" progress=false print_summary=false hydra.sweep.dir="$OUT/kinect/multirun" ${LAUNCHER:-}
+  for m in fgr ransac teaser; do  # one at a time: a sweep composes the default method first, which has no matching key
+    for matching in direct dictionary; do
+      "$B" run method=$m method.matching=$matching dataset=synthetic dataset.sensor=kinect \
+        dataset.instances_per_category=1 seed=0 output_root="$OUT/kinect" progress=false print_summary=false
+    done
   done
-  "$B" table --sweep "$S/optimizer" --layout generic --format $fmt --out "$T/gt_model_all.$ext"
-  "$B" table --sweep "$S/templates" --layout generic --format $fmt --error err_deg \
-    --title "Category templates (3 other instances; estimate chosen by the method's own score)" --out "$T/templates_selected.$ext"
-  "$B" table --sweep "$S/templates" --layout generic --format $fmt --error oracle_err_deg \
-    --title "Category templates: minimum error across templates (oracle, the paper's Table templatechair)" --out "$T/templates_oracle.$ext"
-  "$B" table --sweep "$S/relative_real" --layout generic --format $fmt \
-    --title "Relative pose between two views of one object, each registered to the category templates" --out "$T/relative.$ext"
+}
+
+synthetic_tables() {
+  local STAB=() T="$RESULTS/tables" G="$OUT/synthetic-gt_model" P="$OUT/synthetic-templates"
+  for root in "$V"/*/; do [ -d "$root" ] && STAB+=(--stability "${root%/}"); done
+  mkdir -p "$T"
+  rm -f "$T"/*.md "$T"/*.tex "$T"/*.csv  # only what this section writes is left
+  for fmt in md latex csv; do
+    ext=$fmt; [ "$fmt" = latex ] && ext=tex
+    ST=(); if [ "$fmt" = md ]; then ST=(${STAB[@]+"${STAB[@]}"}); fi  # the stability notes are Markdown text
+    for e in optimiser ablation one_template templates tyol; do
+      "$B" table --sweep "$S/$e" --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/$e.$ext"
+    done
+    "$B" table --sweep "$S/optimiser" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/gt_model_all.$ext"
+    "$B" table --sweep "$S/templates" --layout generic --format $fmt --error err_deg ${ST[@]+"${ST[@]}"} \
+      --title "Category templates (3 other instances; estimate chosen by the method's own score)" --out "$T/templates_selected.$ext"
+    "$B" table --sweep "$S/templates" --layout generic --format $fmt --error oracle_err_deg ${ST[@]+"${ST[@]}"} \
+      --title "Category templates: minimum error across templates (oracle, the paper's Table templatechair)" --out "$T/templates_oracle.$ext"
+    "$B" table --sweep "$S/relative_real" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} \
+      --title "Relative pose between two views of one object, each registered to the category templates" --out "$T/relative.$ext"
+    "$B" table "$OUT/kinect/synthetic-gt_model" --layout generic --categories all --format $fmt \
+      --metrics mean,median,acc10,acc30,trans --acc 5,10,30,5deg5cm,10deg10cm --auc 30 \
+      --title "Embedded set with the Kinect sensor model (8 categories x 1 instance x 2 views, seed 0)" --out "$T/synthetic_kinect.$ext"
+  done
+  # the report: every category, ours beside ICP and the three dictionary-matching baselines (own
+  # model), and ours beside ICP with 3 category templates
+  local runs=() labels=()
+  add() {  # $1: run directory glob, $2: label
+    local d; d=$(ls -d $1 2>/dev/null | head -1)
+    [ -n "$d" ] || { echo "make_results: no run directory $1; run the synthetic section first" >&2; exit 2; }
+    runs+=("$d"); labels+=(--label "$d=$2")
+  }
+  add "$G/icp/seed0-+row=icp-*" "ICP"
+  add "$G/fgr/seed0-+row=fgr_dictionary_fpfh-*" "FGR (dictionary FPFH)"
+  add "$G/teaser/seed0-+row=teaser_dictionary_lps-*" "TEASER (dictionary LPS)"
+  add "$G/ransac/seed0-+row=ransac_dictionary_fpfh-*" "RANSAC (dictionary FPFH)"
+  add "$G/ours/seed0-+row=ours-*" "Ours"
+  add "$P/icp/seed0-+row=icp,protocol.max_templates=null-*" "ICP"
+  add "$P/ours/seed0-+row=ours,protocol.max_templates=null-*" "Ours"
+  "$B" report "${runs[@]}" "${labels[@]}" --out "$RESULTS/report" --qualitative 1 \
+    --note "Made by results/make_results.sh (synthetic section): the embedded synthetic set, seed 0, 8 categories x 3 instances x 2 views; templates: 3 other instances of the category."
+}
+
+category() {
+  if [ ! -d "$SHARED/modelnet40_normal_resampled" ]; then
+    echo "make_results: category skipped: no $SHARED/modelnet40_normal_resampled" >&2; return 0
+  fi
+  local C="$OUT/category" T="$RESULTS/category"
+  mkdir -p "$T"
+  rm -f "$T"/*.md
+  for e in mn40r_airplane_1template mn40r_chair_1template mn40r_chair_ktemplates; do
+    for m in ours icp; do
+      "$B" run +experiment=$e method=$m output_root="$C/$e" progress=false print_summary=false
+    done
+    for m in fgr teaser; do  # one at a time: a sweep composes the default method first, which has no matching key
+      "$B" run +experiment=$e method=$m method.matching=dictionary output_root="$C/$e" progress=false print_summary=false
+    done
+  done
+  "$B" table "$C/mn40r_airplane_1template" --layout generic --categories airplane --metrics mean,median,acc10,acc30 \
+    --title "One category template (airplane_0536, the K=1 medoid): 17 other airplanes x 2 views, ModelNet40 resampled; FGR and TEASER with dictionary matching" \
+    --out "$T/airplane_1template.md"
+  "$B" table "$C/mn40r_chair_1template" --layout generic --categories chair --metrics mean,median,acc10,acc30 \
+    --title "One category template (chair_0624): 2 other chairs x 4 views, ModelNet40 resampled; FGR and TEASER with dictionary matching" --out "$T/chair_1template.md"
+  for err in err_deg oracle_err_deg; do
+    what="the estimate of the template the method scores best"; [ $err = oracle_err_deg ] && what="the minimum error across the templates (oracle)"
+    "$B" table "$C/mn40r_chair_ktemplates" --layout generic --categories chair --metrics mean,median,acc10,acc30 \
+      --error $err --title "Three category templates (chair_0391, chair_0624, chair_0848): 2 other chairs x 4 views, ModelNet40 resampled; $what" \
+      --out "$T/chair_3templates_${err%_deg}.md"
+  done
+}
+
+real() {
+  if [ ! -d "$SHARED" ]; then echo "make_results: real skipped: no shared data at $SHARED" >&2; return 0; fi
+  local R="$OUT/real"
+  mkdir -p "$RESULTS/real"
+  nice "$B" suite real --output-root "$R" --write "$RESULTS/real/table.md"
+  if [ -d "$SHARED/bop/ycbv" ]; then  # BOP's metrics of ICP and ours on the YCB-V frames
+    local scored=()
+    for m in icp ours; do
+      run=$(ls -d "$R"/ycbv-gt_model/$m/seed0-* | head -1)
+      rm -rf "$R/bop/$m" "$R/bop/${m}_ycbv-test.csv"*; mkdir -p "$R/bop"
+      "$B" export "$run" --out "$R/bop/${m}_ycbv-test.csv"
+      "$B" score "$R/bop/${m}_ycbv-test.csv" --gt "$run" --out "$R/bop/$m" > /dev/null
+      scored+=("$R/bop/$m")
+    done
+    "$B" table "${scored[@]}" --bop-metrics ar_mssd,ar_mspd,ar_vsd,adds@0.1,5deg5cm,10deg10cm --by object,category \
+      --out "$RESULTS/real/bop_ycbv.md"
+  fi
+  "$PY" -m catpose.bench.real.sensor_stats > "$RESULTS/real/sensor_stats.md"
+}
+
+perf() {
+  local P="$RESULTS/perf"
+  mkdir -p "$P"
+  local M=ours,adam=ours,icp,fgr,teaser,ransac
+  "$B" perf --n 12 --repeat 3 --methods $M --set adam:optimiser.solver=adam --out "$P/perf_synthetic.csv"
+  if [ -d "$SHARED/bop/ycbv" ]; then
+    "$B" perf --n 12 --repeat 3 --methods $M --set adam:optimiser.solver=adam --dataset ycbv \
+      --root "$SHARED/bop/ycbv" --out "$P/perf_ycbv.csv"
+  fi
+  if [ -d "$SHARED/ModelNet40" ]; then
+    "$B" perf --n 12 --repeat 3 --methods ours,fgr --dataset modelnet40 --root "$SHARED/ModelNet40" \
+      --out "$P/perf_modelnet40.csv"
+  fi
+  # gpu_solver_*.csv come from `python3 bench/perf/gpu.py --out results/perf/gpu_solver_<device>.csv` on a GPU machine
+  "$PY" -m catpose.bench.perf.summary --dir "$P"
+}
+
+for section in "${SECTIONS[@]}"; do
+  case $section in
+    synthetic) synthetic_runs; synthetic_tables ;;
+    tables) synthetic_tables ;;
+    category) category ;;
+    real) real ;;
+    perf) perf ;;
+    api) if [ -f results/api/make_without_up.sh ]; then bash results/api/make_without_up.sh; fi ;;
+    *) echo "make_results: unknown section '$section'; use synthetic, tables, category, real, perf, api" >&2; exit 2 ;;
+  esac
 done
-G="$OUT/synthetic-gt_model"
-"$B" report "$G/icp" "$G/ours" --label "$(ls -d "$G"/ours/seed0-+row=ours-*)=Ours" --out results/report --qualitative 1

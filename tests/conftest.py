@@ -7,7 +7,6 @@ folder is absent. ``CATPOSE_SHARED_DATA`` overrides the location.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
@@ -15,14 +14,11 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 
 
-def _shared_data_dir() -> Path:
-    env = os.environ.get("CATPOSE_SHARED_DATA")
-    return Path(env) if env else REPO.parent / "shared" / "data"
-
-
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
-    path = _shared_data_dir()
+    from catpose.bench.run.config import shared_data_dir  # the one definition the commands use too
+
+    path = shared_data_dir()
     if not path.is_dir():
         pytest.skip(f"real fixtures not found at {path} (set CATPOSE_SHARED_DATA to their folder)")
     return path

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.bench import align as align_cmd
+from catpose.bench.category import align as align_cmd
 from catpose.datasets.alignment import (FLIP, axis_aligned_rotations, chamfer_distance, estimate_alignment,
                                         estimate_table, read_alignment_table, rotation_candidates, synchronize,
                                         write_alignment_table, yaw_deg_of, yaw_flip_hypotheses, yaw_rotations)
@@ -162,10 +162,12 @@ def test_bench_align_writes_a_table_the_loader_applies(tmp_path, capsys):
 
 
 def test_bench_align_reports_a_bad_root_in_one_line(tmp_path, capsys):
-    assert align_cmd.main(["dataset=modelnet40", f"dataset.root={tmp_path / 'none'}", "--category", "x",
-                           "--out", str(tmp_path / "o.csv")]) == 2
+    from catpose.bench.cli import main
+
+    assert main(["align", "dataset=modelnet40", f"dataset.root={tmp_path / 'none'}", "--category", "x",
+                 "--out", str(tmp_path / "o.csv")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("error:") and "\n" not in err
+    assert err.startswith("bench align: error: ") and "\n" not in err
 
 
 COMMITTED = Path(__file__).resolve().parents[1] / "results" / "alignment"
@@ -225,7 +227,7 @@ def test_experiment_configs_compose_for_any_root_and_leave_the_templates_views_o
 def test_experiment_sample_ids_are_every_non_template_view(name, instances, shared_data, monkeypatch):
     from hydra import compose, initialize_config_module
 
-    from catpose.bench.build import build_from_config
+    from catpose.bench.run.build import build_from_config
 
     monkeypatch.chdir(COMMITTED.parents[1])  # the configs' paths are relative to the repository root
     with initialize_config_module("catpose.configs", version_base=None):

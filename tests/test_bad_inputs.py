@@ -21,10 +21,11 @@ import pytest
 from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
-from catpose.bench import rundir
-from catpose.bench.build import build_from_config
-from catpose.bench.rundir import LOCK_FILE, read_samples
-from catpose.bench.runner import run
+from catpose.bench.run import rundir
+from catpose.bench.run.build import build_from_config
+from catpose.bench.run.lock import LOCK_FILE
+from catpose.bench.run.rundir import read_rows
+from catpose.bench.run.runner import run
 from catpose.errors import RunAborted
 from catpose.errors import CatposeError, ConfigError, DatasetError
 
@@ -100,7 +101,7 @@ def test_run_options_are_checked_before_any_work(tmp_path, overrides, needle):
 
 def test_a_limit_keeps_exactly_that_many_samples(tmp_path):
     out = run(toy_cfg(tmp_path, ["limit=3"]))  # all three (limit=-1 used to drop the last one)
-    assert [r["sample_id"] for r in read_samples(out / "samples.jsonl")] == [f"block/0/v{i}" for i in range(3)]
+    assert [r["sample_id"] for r in read_rows(out / "samples.jsonl")] == [f"block/0/v{i}" for i in range(3)]
 
 
 _OPT = "catpose.methods.ours_settings.OptimiserSettings"
@@ -130,13 +131,13 @@ def test_wrong_option_values_name_the_key(group, options, needle):
     ("float", {"float"}), ("int | None", {"int", "None"}), ("Optional[float]", {"float", "None"}),
     (float, {"float"}), ("list[float]", None), ("tuple[float, ...] | list[float]", None), ("None", None)])
 def test_scalar_annotations_are_read(annotation, kinds):
-    from catpose.bench.build import _scalar_annotation
+    from catpose.bench.run.build import _scalar_annotation
 
     assert _scalar_annotation(annotation) == kinds
 
 
 def test_right_option_values_pass_the_check():
-    from catpose.bench.build import check_constructor_args
+    from catpose.bench.run.build import check_constructor_args
 
     # an int for a float, an integral float for an int, None for an optional, a number for a str
     check_constructor_args({"_target_": "catpose.methods.ours.Ours", "chamfer_points": 256.0,
@@ -145,8 +146,8 @@ def test_right_option_values_pass_the_check():
 
 
 def test_every_shipped_config_passes_the_type_check():
-    from catpose.bench.run_cmd import available
-    from catpose.bench.build import check_constructor_args
+    from catpose.bench.run.config import available
+    from catpose.bench.run.build import check_constructor_args
 
     for group in ("method", "dataset", "protocol"):
         for name in available(group):
@@ -272,7 +273,7 @@ def test_output_root_that_is_a_file(tmp_path):
 def test_unwritable_or_full_output_directory_aborts_without_recording(tmp_path, monkeypatch, code, needle):
     """Tests run as root here, so a read-only folder cannot be made with chmod: the OSError is
     injected where the runner writes a sample (as a full disk would raise it)."""
-    from catpose.bench import runner
+    from catpose.bench.run import runner
 
     out = run(toy_cfg(tmp_path, ["limit=1"]))
     real = rundir.SampleWriter.write
@@ -287,10 +288,10 @@ def test_unwritable_or_full_output_directory_aborts_without_recording(tmp_path, 
         run(toy_cfg(tmp_path))
     msg = one_line(info.value)
     assert needle in msg and str(out) in msg and "set output_root=" in msg
-    assert [r["sample_id"] for r in read_samples(out / "samples.jsonl")] == ["block/0/v0", "block/0/v1"]
+    assert [r["sample_id"] for r in read_rows(out / "samples.jsonl")] == ["block/0/v0", "block/0/v1"]
     monkeypatch.setattr(rundir.SampleWriter, "write", real)
     run(toy_cfg(tmp_path))  # with space again, the re-run finishes the rest
-    assert len(read_samples(out / "samples.jsonl")) == 3
+    assert len(read_rows(out / "samples.jsonl")) == 3
 
 
 @pytest.mark.skipif(os.geteuid() == 0, reason="root writes into a read-only folder anyway")
@@ -339,7 +340,7 @@ def test_a_held_run_directory_fails_in_one_line_naming_the_holder(tmp_path):
             assert "in use by pid 4242" in msg and str(out) in msg
     finally:
         os.close(fd)
-    assert len(read_samples(out / "samples.jsonl")) == 1  # the refused runs did nothing
+    assert len(read_rows(out / "samples.jsonl")) == 1  # the refused runs did nothing
 
 
 def test_a_second_run_waits_then_skips_what_the_first_did(tmp_path, capsys):
@@ -349,7 +350,7 @@ def test_a_second_run_waits_then_skips_what_the_first_did(tmp_path, capsys):
 
     def first_run_finishes():  # what the holder would have written, then its exit
         run(toy_cfg(tmp_path / "elsewhere"))  # (a separate directory: the lock is per directory)
-        rows = read_samples(next((tmp_path / "elsewhere" / "out").glob("*/*/*")) / "samples.jsonl")
+        rows = read_rows(next((tmp_path / "elsewhere" / "out").glob("*/*/*")) / "samples.jsonl")
         with open(out / "samples.jsonl", "w") as f:
             f.writelines(json.dumps(r) + "\n" for r in rows)
         os.close(fd)
@@ -362,7 +363,7 @@ def test_a_second_run_waits_then_skips_what_the_first_did(tmp_path, capsys):
         timer.join()
     assert "waiting for pid 4242" in capsys.readouterr().err
     assert json.loads((out / "run.json").read_text())["n_run_now"] == 0
-    assert len(read_samples(out / "samples.jsonl")) == 3
+    assert len(read_rows(out / "samples.jsonl")) == 3
 
 
 @pytest.mark.slow
@@ -376,7 +377,7 @@ def test_two_bench_runs_into_one_directory_do_each_sample_once(tmp_path):
     assert [p.returncode for p in procs] == [0, 0], [e[-2000:] for _, e in results]
     assert sum("waiting for pid" in e for _, e in results) == 1, [e for _, e in results]
     run_dir = next(tmp_path.glob("synthetic-gt_model/icp/*"))
-    rows = read_samples(run_dir / "samples.jsonl")
+    rows = read_rows(run_dir / "samples.jsonl")
     assert sorted(r["sample_id"] for r in rows) == ["car/000/v00", "car/000/v01"]
 
 
@@ -393,6 +394,23 @@ def test_bench_run_bad_limit_gives_one_line(tmp_path):
     r = _bench(tmp_path, "limit=-1")
     assert r.returncode == 2 and r.stderr.strip() == ("bench run: error: limit=-1 is not an integer >= 1; "
                                                       "set limit=<integer >= 1> (or drop it)"), r.stderr
+
+
+@pytest.mark.parametrize("argv,line", [
+    (["run", "method=ours", "method.optimizer.lr=0.01"],
+     "bench run: error: method.optimizer was renamed method.optimiser; write method.optimiser.lr=0.01"),
+    (["run", "-m", "+experiment=optimizer"],
+     "bench run: error: experiment optimizer was renamed optimiser; write +experiment=optimiser"),
+    (["score", "p.csv", "--dataset", "synthetic", "--override", "method.optimizer.lr=1", "--method", "m", "--out", "o"],
+     "bench score: error: method.optimizer was renamed method.optimiser; write method.optimiser.lr=1"),
+    (["templates", "dataset=synthetic", "method.optimizer.lr=1", "--category", "mug", "--out", "x.yaml"],
+     "bench templates: error: method.optimizer was renamed method.optimiser; write method.optimiser.lr=1"),
+])
+def test_old_optimizer_spelling_is_refused_in_one_line_naming_the_new_one(argv, line, capsys):
+    from catpose.bench.cli import main
+
+    assert main(argv) == 2
+    assert capsys.readouterr().err == line + "\n"
 
 
 CASES = {  # name -> (args, needle); the files are written by _prepare
@@ -430,7 +448,7 @@ def test_bench_run_gives_one_line(tmp_path, case):
     assert "Traceback" not in r.stderr, r.stderr[-3000:]
     if needle is None:  # a bad sample file: that sample fails with a one-line message, the run goes on
         assert r.returncode == 0, r.stderr[-3000:]
-        row = read_samples(next((tmp_path / "out").glob("*/*/*")) / "samples.jsonl")[0]
+        row = read_rows(next((tmp_path / "out").glob("*/*/*")) / "samples.jsonl")[0]
         assert row["status"] == "failed" and "line 4: a vertex needs 3 coordinates" in row["error"], row
         return
     lines = r.stderr.strip().splitlines()

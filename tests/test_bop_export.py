@@ -14,8 +14,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench import bop_eval, predictions
-from catpose.bench.predictions import export_bop, read_predictions, score_predictions, write_run
+from catpose.bench.scoring import bop_eval
+
+from catpose.bench.interop import score as score_cmd
+from catpose.bench.interop.bop_export import export_bop
+from catpose.bench.interop.prediction_io import read_predictions
+from catpose.bench.interop.score import score_predictions
+from catpose.bench.run.rundir import write_run
 from catpose.datasets.bop import BOP
 from catpose.errors import InvalidInputError
 from catpose.geometry import make_T
@@ -23,7 +28,7 @@ from catpose.geometry import make_T
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_loaders_bop import T_camera_model, bop_root  # noqa: E402, F401  (the rendered scene fixture)
 
-CFG = {"method": {"name": "ours", "_target_": "x.Y"}, "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.GtModel"},
+CFG = {"method": {"name": "ours", "_target_": "x.Y"}, "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"},
        "seed": 0}
 ALL_METRICS = ["ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "add@0.1", "mssd@0.1", "mspd@10", "5deg5cm", "10deg10cm"]
 
@@ -35,7 +40,7 @@ def _dataset_cfg(root: Path, categories: dict) -> dict:
 
 def _gt_rows(ds: BOP, runtimes: dict[int, float] | None = None) -> list[dict]:
     """Run rows whose estimate is the ground truth, from the dataset itself (gt_model protocol)."""
-    from catpose.bench.protocols import GtModel
+    from catpose.bench.protocols.absolute import GtModel
 
     rows = []
     for k, oid in enumerate(ds.observation_ids()):
@@ -91,7 +96,7 @@ def test_export_of_a_two_object_image_passes_the_toolkit_checks_and_scores_perfe
     assert df["time"].tolist() == [3.25, 3.25]  # the image's total, on every row
     assert all(df[c].dtype.kind == "i" for c in ("scene_id", "im_id", "obj_id"))
     scored = tmp_path / "scored"
-    assert predictions.score_main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
+    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
     objects = (scored / "summary_objects.md").read_text()
     assert "box/obj_000001" in objects and "can/obj_000002" in objects  # per-object rows of the run summary
     errs, header = bop_eval.read_errors(scored / bop_eval.ERRORS_FILE)
@@ -100,7 +105,7 @@ def test_export_of_a_two_object_image_passes_the_toolkit_checks_and_scores_perfe
     assert (table[ALL_METRICS].to_numpy() == 1.0).all()
     assert errs["mssd"].max() < 1e-3 and errs["mspd"].max() < 1e-3  # mm, px
     # bench table reads the same file: per-object and per-category rows, chosen metrics
-    from catpose.bench.tables import main as table_main
+    from catpose.bench.report.tables import main as table_main
 
     table_out = tmp_path / "t.md"
     assert table_main([str(scored), "--bop-metrics", "ar_mssd,10deg10cm", "--out", str(table_out)]) == 0
@@ -193,7 +198,7 @@ def test_tyol_frame_export_then_score_gives_recall_one(shared_data: Path, tmp_pa
     out = tmp_path / "gt_tyol-test.csv"
     assert export_bop(run, out) == 1 and bop_eval.check_results_csv(out) == 1
     scored = tmp_path / "scored"
-    assert predictions.score_main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
+    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
     errs, _ = bop_eval.read_errors(scored / bop_eval.ERRORS_FILE)
     assert (bop_eval.score_table(errs, ALL_METRICS)[ALL_METRICS].to_numpy() == 1.0).all()
     samples = [json.loads(x) for x in (scored / "samples.jsonl").read_text().splitlines()]
@@ -209,7 +214,7 @@ def test_ycbv_bench_export_then_bench_score_reproduces_the_ground_truth(shared_d
     out = tmp_path / "gt_ycbv-test.csv"
     assert export_bop(run, out) == 38 and bop_eval.check_results_csv(out) == 38
     scored = tmp_path / "scored"
-    assert predictions.score_main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
+    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
     errs, header = bop_eval.read_errors(scored / bop_eval.ERRORS_FILE)
     assert header["targets"] == 38 and header["matched"] == 38
     assert (bop_eval.score_table(errs, ALL_METRICS)[ALL_METRICS].to_numpy() == 1.0).all()

@@ -96,7 +96,7 @@ def test_bad_options_raise_one_line_errors_naming_the_key(make, match: str) -> N
 
 def test_exact_pfh_without_pot_says_how_to_install_it(monkeypatch) -> None:
     monkeypatch.setitem(sys.modules, "ot", None)      # `import ot` now raises ImportError
-    with pytest.raises(ConfigError, match="pip install pot") as info:
+    with pytest.raises(ConfigError, match=r"pip install 'catpose\[pfh\]'") as info:
         PFH(distance="exact")
     assert "\n" not in str(info.value)
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from catpose.bench.grasp import transfer_grasp
+from catpose.grasp import transfer_grasp
 from catpose.errors import InvalidInputError
 from catpose.geometry import invert_T, make_T, random_rotation, transform_points
 

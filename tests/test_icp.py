@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.bench.metrics import rotation_error_deg, translation_error
+from catpose.bench.scoring.metrics import rotation_error_deg, translation_error
 from catpose.errors import ConfigError
 from catpose.geometry import quat_to_R
 from catpose.methods.icp import ICP, so3_partition_centres

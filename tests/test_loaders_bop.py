@@ -324,7 +324,7 @@ def test_unseen_configured_ids_warn_with_the_ids_the_frames_show(bop_root):
 def test_tyol_config_composes_and_loads_the_shared_frame(shared_data):
     from hydra import compose, initialize_config_module
 
-    from catpose.bench.build import build_from_config
+    from catpose.bench.run.build import build_from_config
 
     with initialize_config_module("catpose.configs", version_base=None):
         cfg = compose("run", overrides=["dataset=tyol", f"dataset.root={shared_data / 'bop' / 'tyol'}",

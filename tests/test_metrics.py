@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench.metrics import (FAILED_ERROR_DEG, accuracy, axis_error_deg, rotation_error_deg, runtime_stats,
+from catpose.bench.scoring.metrics import (FAILED_ERROR_DEG, accuracy, axis_error_deg, rotation_error_deg, runtime_stats,
                                    sample_errors, summarize, translation_error)
 from catpose.geometry import axis_angle_to_R, make_T, random_rotation
 

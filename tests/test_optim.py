@@ -218,7 +218,7 @@ def test_both_solvers_recover_the_known_pose(chair_problems):
 def test_solver_options_are_checked_and_compose():
     from hydra import compose, initialize_config_module
 
-    from catpose.bench.build import build_from_config
+    from catpose.bench.run.build import build_from_config
     from catpose.errors import ConfigError
     from catpose.methods.ours import OptimiserSettings
 

@@ -31,6 +31,15 @@ def test_import_root_and_no_top_level_shadowing():
     assert r.returncode == 0, r.stdout + r.stderr
 
 
+def test_every_bench_wing_is_a_declared_package():
+    """pyproject lists the packages one by one; a wing missing there would still reach the wheel as
+    *data* (setuptools warns that this stops), so the list itself is checked."""
+    tomllib = pytest.importorskip("tomllib")
+    packages = set(tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    wings = {f"catpose.bench.{p.parent.name}" for p in (REPO / "bench").glob("*/__init__.py")}
+    assert wings and wings <= packages, sorted(wings - packages)
+
+
 def test_wheel_installs_and_hydra_finds_its_configs(tmp_path):
     r = _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-w", str(tmp_path / "w"),
               str(REPO)])
@@ -38,13 +47,20 @@ def test_wheel_installs_and_hydra_finds_its_configs(tmp_path):
     wheel = next((tmp_path / "w").glob("catpose-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "catpose/configs/run.yaml" in names and "catpose/configs/method/icp.yaml" in names
-    assert "catpose/bench/runner.py" in names and "catpose/datasets/render.py" in names
+    assert "catpose/bench/run/runner.py" in names and "catpose/datasets/render.py" in names
+    # every module of bench/ (its wings included: pyproject lists them one by one) is in the wheel
+    sources = sorted(f"catpose/bench/{p.relative_to(REPO / 'bench').as_posix()}" for p in (REPO / "bench").rglob("*.py")
+                     if "__pycache__" not in p.parts)
+    assert len(sources) > 40 and [s for s in sources if s not in names] == []
     assert not any(n.startswith(("datasets/", "methods/", "bench/")) for n in names)
     target = tmp_path / "site"
     r = _run([sys.executable, "-m", "pip", "install", "--no-deps", "--target", str(target), str(wheel)])
     assert r.returncode == 0, r.stderr[-2000:]
     probe = """
-import catpose, catpose.bench.run_cmd as rc
+import catpose, catpose.bench.run.config as rc
+import catpose.bench.cli, catpose.bench.protocols, catpose.bench.report.tables, catpose.bench.interop.score
+import catpose.bench.regress.regress, catpose.bench.perf.registration, catpose.bench.category.align
+import catpose.bench.real.suite, catpose.bench.scoring.bop_eval, catpose.grasp
 from hydra import compose, initialize_config_module
 assert catpose.__file__.startswith(TARGET), catpose.__file__
 assert 'icp' in rc.available('method') and 'gt_model' in rc.available('protocol')

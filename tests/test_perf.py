@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from catpose.bench import perf
+from catpose.bench.perf import registration as perf
 from catpose.errors import ConfigError
 from catpose.types import RegistrationResult
 
@@ -60,12 +60,12 @@ def test_batch_goes_through_register_batch_when_the_method_has_one():
 def test_summary_statistics_and_ratio_to_fgr():
     measured = {"fgr": {"times": [1.0, 2.0, 3.0], "warmup_s": 0.0},
                 "ours": {"times": [2.0, 4.0, 6.0, 100.0], "warmup_s": 0.0}}
-    rows = {r["method"]: r for r in perf.summarise(measured)}
+    rows = {r["method"]: r for r in perf.summarize(measured)}
     assert rows["fgr"]["ratio_to_fgr"] == 1.0
     assert rows["ours"]["median_s"] == 5.0 and rows["ours"]["ratio_to_fgr"] == 2.5
     assert rows["ours"]["mean_s"] == pytest.approx(28.0)
     assert rows["ours"]["p90_s"] == pytest.approx(np.percentile([2, 4, 6, 100], 90))
-    only = perf.summarise({"ours": measured["ours"]})
+    only = perf.summarize({"ours": measured["ours"]})
     assert np.isnan(only[0]["ratio_to_fgr"])
 
 
@@ -110,7 +110,7 @@ def test_bad_arguments_are_config_errors():
 
 
 def test_solvers_flag_delegates_to_the_solver_benchmark(monkeypatch):
-    import catpose.bench.perf_solvers as ps
+    import catpose.bench.perf.solvers as ps
 
     seen = []
     monkeypatch.setattr(ps, "main", lambda argv: seen.append(argv) or 0)
@@ -131,7 +131,7 @@ def test_labels_let_one_config_run_twice_with_its_own_options():
 
 def test_solver_only_gpu_check_runs_on_cpu(tmp_path):
     pytest.importorskip("torch")
-    from catpose.bench import perf_gpu
+    from catpose.bench.perf import gpu as perf_gpu
 
     out = tmp_path / "gpu.csv"
     assert perf_gpu.main(["--devices", "cpu", "--batches", "1,3", "--repeat", "1", "--out", str(out)]) == 0

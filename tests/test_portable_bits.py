@@ -3,7 +3,7 @@ which code paths the numerical libraries choose for the machine (OpenBLAS's kern
 AVX-512 or AVX2 loops, Embree's instruction set).
 
 Two checks. The first runs the sample-making code under every code path this CPU can take
-(:func:`catpose.bench.environment.numeric_variants`: SkylakeX, Haswell and Sandybridge kernels,
+(:func:`catpose.bench.run.environment.numeric_variants`: SkylakeX, Haswell and Sandybridge kernels,
 NumPy without AVX-512) and compares hashes of everything a method or the scorer reads. The second
 reads the source: no BLAS product, 1-D ``np.linalg.norm`` or CPU-dispatched NumPy transcendental
 is left under ``datasets/`` and ``src/catpose/`` (Embree's path cannot be switched from here;
@@ -21,15 +21,15 @@ from pathlib import Path
 
 import pytest
 
-from catpose.bench.environment import numeric_variants
+from catpose.bench.run.environment import numeric_variants
 
 REPO = Path(__file__).resolve().parents[1]
 
 SCRIPT = r"""
 import hashlib, json, os
 import numpy as np
-from catpose.bench.environment import numpy_blas_kernel
-from catpose.bench.protocols import GtModel
+from catpose.bench.run.environment import numpy_blas_kernel
+from catpose.bench.protocols.absolute import GtModel
 from catpose.datasets.render import cast_rays
 from catpose.datasets.shapes import make_shape
 from catpose.datasets.synthetic import SyntheticDataset
@@ -146,3 +146,26 @@ def test_no_cpu_dependent_arithmetic_in_sample_code(folder: str):
     bad = [f"{p.relative_to(REPO)}:{line}: {what}" for p in sorted((REPO / folder).rglob("*.py"))
            for line, what in portability_violations(p.read_text())]
     assert not bad, "CPU-dependent arithmetic where samples are made:\n" + "\n".join(bad)
+
+
+def test_golden_inputs_are_what_this_machine_renders():
+    """The committed golden inputs of ``bench regress`` (rendered on one machine) are bit for bit
+    what this machine renders from the suite's settings (float32 as stored): whatever CPU made
+    them, the problems are the same."""
+    import numpy as np
+
+    from catpose.bench.regress import regress
+    from catpose.bench.regress.golden import _f32
+
+    _, suites = regress.load_config()
+    suite = suites["synthetic"]
+    golden = np.load(suite.inputs)
+    live = regress.Suite(**{**suite.__dict__, "inputs": None})
+    dataset, protocol, ids = regress.suite_samples(live)
+    assert len(ids) == 24
+    for i, sid in enumerate(ids):
+        s = protocol.load(dataset, sid)
+        for key, a in (("p", s.problem.points_camera), ("n", s.problem.normals_camera),
+                       ("g", s.problem.ground_normal_camera)):
+            assert np.array_equal(golden[f"{key}{i}"], _f32(a)), f"{sid}: {key} differs from the golden inputs"
+        assert np.array_equal(golden[f"T{i}"], s.gt.T_template_camera), sid

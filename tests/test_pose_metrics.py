@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from catpose.bench import pose_metrics as pm
+from catpose.bench.scoring import pose_metrics as pm
 
 
 def _rot_z(deg: float) -> np.ndarray:

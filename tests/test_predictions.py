@@ -9,8 +9,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench import predictions
-from catpose.bench.predictions import export_bop, read_predictions, score_predictions, write_run
+from catpose.bench.interop import score as score_cmd
+from catpose.bench.interop.bop_export import export_bop
+from catpose.bench.interop.prediction_io import read_predictions
+from catpose.bench.interop.score import score_predictions
+from catpose.bench.run.rundir import write_run
 from catpose.errors import InvalidInputError
 from catpose.geometry import axis_angle_to_R, make_T, random_rotation
 
@@ -35,7 +38,7 @@ def _rows(info_fn=lambda i: {}) -> list[dict]:
 
 
 CFG = {"method": {"name": "ours", "_target_": "x.Y"}, "dataset": {"name": "toy"},
-       "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.GtModel"}, "seed": 0}
+       "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}, "seed": 0}
 
 
 @pytest.mark.parametrize("bop_info", [False, True])
@@ -58,13 +61,13 @@ def test_bop_round_trip(tmp_path: Path, bop_info: bool):
         assert list(mapping["obj_id"]) == [2, 2, 1] and list(mapping["im_id"]) == [0, 0, 0]
         assert list(mapping["scene_id"]) == [1, 2, 2]  # can/i3 is the 2nd can instance (i2 failed)
     scored = tmp_path / "scored"
-    assert predictions.score_main([str(out), "--gt", str(run), "--method", "ours_again", "--out", str(scored)]) == 0
+    assert score_cmd.main([str(out), "--gt", str(run), "--method", "ours_again", "--out", str(scored)]) == 0
     back = [json.loads(x) for x in (scored / "samples.jsonl").read_text().splitlines()]
     errs = {r["sample_id"]: r["err_deg"] for r in back}
     assert errs["mug/i0/v0"] == pytest.approx(5.0, abs=1e-3) and errs["can/i3/v0"] == pytest.approx(70.0, abs=1e-3)
     assert errs["can/i2/v0"] == 180.0 and back[2]["error"] == "no prediction"
     trans = {r["sample_id"]: r["trans_err"] for r in back if r["status"] == "ok"}
-    from catpose.bench.metrics import sample_errors
+    from catpose.bench.scoring.metrics import sample_errors
 
     r0 = _rows()[0]
     expected = sample_errors(np.reshape(r0["T_est"], (4, 4)), np.reshape(r0["T_gt"], (4, 4)))["trans_err"]
@@ -75,7 +78,7 @@ def test_bop_round_trip(tmp_path: Path, bop_info: bool):
     # without the .map.csv the ids are derived from the ground-truth rows: same result
     Path(str(out) + ".map.csv").unlink()
     again = tmp_path / "scored2"
-    assert predictions.score_main([str(out), "--gt", str(run), "--method", "m", "--out", str(again)]) == 0
+    assert score_cmd.main([str(out), "--gt", str(run), "--method", "m", "--out", str(again)]) == 0
     errs2 = {json.loads(x)["sample_id"]: json.loads(x)["err_deg"] for x in (again / "samples.jsonl").read_text().splitlines()}
     assert errs2 == pytest.approx(errs, abs=1e-9)
 
@@ -90,7 +93,7 @@ def test_per_sample_csv_and_best_score(tmp_path: Path):
     (tmp_path / "p.csv").write_text("\n".join(lines) + "\n")
     preds = read_predictions(tmp_path / "p.csv")
     assert preds.attrs["kind"] == "sample"
-    gt_rows, _ = predictions.gt_rows_from_run(run)
+    gt_rows, _ = score_cmd.gt_rows_from_run(run)
     out = score_predictions(preds, gt_rows, "ext")
     assert [r["status"] for r in out] == ["ok", "ok", "failed", "failed"]
     assert out[0]["err_deg"] < 1e-3 and out[0]["runtime_s"] == 2.0 and out[0]["score"] == 0.1
@@ -103,7 +106,9 @@ def test_bad_prediction_files(tmp_path: Path):
     (tmp_path / "m_toy-test.csv").write_text("sample_id,R,t\nx,1 0 0 0 1 0 0 0,0 0 0\n")
     with pytest.raises(InvalidInputError, match="m_toy-test.csv:2 R"):
         read_predictions(tmp_path / "m_toy-test.csv")
-    assert predictions.score_main([str(tmp_path / "m_toy-test.csv"), "--method", "m", "--out", str(tmp_path / "o")]) == 2
+    from catpose.bench.cli import main
+
+    assert main(["score", str(tmp_path / "m_toy-test.csv"), "--method", "m", "--out", str(tmp_path / "o")]) == 2
 
 
 def test_bop_export_matches_bop_pose_convention(tmp_path: Path):
@@ -139,7 +144,7 @@ def test_score_against_dataset_config(tmp_path: Path):
         lines.append(f"{obs_id},{' '.join(f'{x:.12g}' for x in T[:3, :3].ravel())},{' '.join(f'{x:.12g}' for x in T[:3, 3])}")
     (tmp_path / "p.csv").write_text("\n".join(lines) + "\n")
     out = tmp_path / "scored"
-    rc = predictions.score_main([str(tmp_path / "p.csv"), "--dataset", "synthetic", "--protocol", "gt_model",
+    rc = score_cmd.main([str(tmp_path / "p.csv"), "--dataset", "synthetic", "--protocol", "gt_model",
                                  "--override", "dataset.categories=[mug]", "--override", "dataset.instances_per_category=1",
                                  "--override", "dataset.views_per_instance=2", "--method", "ext", "--out", str(out)])
     assert rc == 0
@@ -151,7 +156,7 @@ def test_score_against_dataset_config(tmp_path: Path):
 @pytest.mark.data
 def test_bop_export_reproduces_scene_gt_on_real_tyol_frame(shared_data: Path, tmp_path: Path):
     """Exporting the ground truth of the shared TYO-L frame gives back BOP's own cam_R_m2c / cam_t_m2c."""
-    from catpose.bench.protocols import GtModel
+    from catpose.bench.protocols.absolute import GtModel
     from catpose.datasets.bop import BOP
 
     root = shared_data / "bop" / "tyol"

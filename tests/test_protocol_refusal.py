@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.bench.protocols import GtModel, Templates
-from catpose.bench.relative import Relative
+from catpose.bench.protocols.absolute import GtModel, Templates
+from catpose.bench.protocols.relative import Relative
 from catpose.datasets.modelnet40 import ModelNet40
 from catpose.errors import ConfigError
 
@@ -76,7 +76,7 @@ def test_other_datasets_declare_consistent_frames():
 
 
 def test_bench_run_stops_with_one_line(root, tmp_path, capsys):
-    from catpose.bench.run_cmd import main
+    from catpose.bench.run.command import main
 
     with pytest.raises(SystemExit) as e:
         main(["method=icp", "dataset=modelnet40", f"dataset.root={root}", "dataset.categories=[box]",

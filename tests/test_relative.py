@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench.relative import Relative, pair_indices, relative_errors
+from catpose.bench.protocols.relative import Relative, pair_indices, relative_errors
 from catpose.datasets.base import ObjectDataset, Observation
 from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R, make_T, random_rotation
@@ -152,7 +152,7 @@ def test_runner_end_to_end(tmp_path: Path):
     """The runner writes per-view rows; the summary counts view pairs of each instance."""
     from hydra import compose, initialize_config_module
 
-    from catpose.bench.runner import run
+    from catpose.bench.run.runner import run
 
     overrides = ["method=icp", "method.num_starts=2", "dataset=synthetic", "dataset.categories=[car]",
                  "dataset.instances_per_category=1", "dataset.views_per_instance=3", "protocol=relative",
@@ -163,7 +163,7 @@ def test_runner_end_to_end(tmp_path: Path):
     run_dir = run(cfg, overrides)
     summary = pd.read_csv(run_dir / "summary.csv").set_index("category")
     assert summary.loc["car", "n"] == 3  # pairs (v00, v01), (v00, v02), (v01, v02)
-    from catpose.bench.tables import load_run, scored_units
+    from catpose.bench.report.tables import load_run, scored_units
 
     units = scored_units(load_run(run_dir))
     assert sorted(units["sample_id"]) == ["car/000/v00~car/000/v01", "car/000/v00~car/000/v02",
@@ -184,7 +184,7 @@ def test_max_relative_angle_keeps_small_motions():
 def test_views_without_relative_ground_truth_are_not_scored():
     import pandas as pd
 
-    from catpose.bench.relative import Relative
+    from catpose.bench.protocols.relative import Relative
 
     T = np.eye(4).reshape(-1).tolist()
     rows = [dict(sample_id=f"chair/s1/v{k}", group_id=f"chair/s1/v{k}", obs_id=f"chair/s1/v{k}", category="chair",

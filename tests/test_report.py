@@ -10,13 +10,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench import tables
-from catpose.bench.predictions import write_run
-from catpose.bench.report import build_report, main as report_main, qualitative_picks
+from catpose.bench.report import tables
+from catpose.bench.run.rundir import write_run
+from catpose.bench.report.report import build_report, main as report_main, qualitative_picks
+from catpose.errors import DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 
-GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.GtModel"}
-TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.Templates", "max_templates": None}
+GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}
+TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.absolute.Templates", "max_templates": None}
 HASH = re.compile(r"\b[0-9a-f]{8}\b")
 
 
@@ -115,7 +116,7 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
             _run(tmp_path / "runs", "seed0-default-9c0d1e2f", {"name": "icp"}, TEMPLATES, overrides=["protocol=templates"]),
             _run(tmp_path / "runs", "seed0-default-0a0b0c0d", {"name": "ours"}, TEMPLATES, overrides=["protocol=templates"])]
     out = tmp_path / "report"
-    index = build_report([tmp_path / "runs"], out, layouts=["optimizer"], notes=["Made by the test."])
+    index = build_report([tmp_path / "runs"], out, layouts=["optimiser"], notes=["Made by the test."])
     md, page = index.read_text(), (out / "index.html").read_text()
     for text in (md, page):
         assert str(tmp_path) not in text and "/abs/" not in text
@@ -123,7 +124,7 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
             assert not link.startswith("/") and "://" not in link, link
             assert (out / link).is_file(), link
     for protocol in ("gt_model", "templates"):
-        for stem in ("summary", "per_category", "optimizer"):
+        for stem in ("summary", "per_category", "optimiser"):
             assert f"tables/{protocol}_{stem}.md" in md
         for fig in ("error_cdf", "accuracy", "runtime"):
             assert f"figures/{protocol}_{fig}.png" in md and (out / "figures" / f"{protocol}_{fig}.csv").is_file()
@@ -138,7 +139,11 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
     for csv in (out / "figures").glob("*.csv"):
         assert not HASH.search(csv.read_text().split("\n", 1)[1].split(",")[0]), csv
     assert "<table>" in page and '<img src="figures/gt_model_error_cdf.png"' in page
-    assert report_main([str(tmp_path / "missing"), "--out", str(tmp_path / "r2")]) == 2
+    from catpose.bench.cli import main
+
+    assert main(["report", str(tmp_path / "missing"), "--out", str(tmp_path / "r2")]) == 2
+    with pytest.raises(DatasetError, match="missing does not exist"):
+        report_main([str(tmp_path / "missing"), "--out", str(tmp_path / "r2")])
 
 
 @pytest.mark.slow
@@ -168,3 +173,42 @@ def test_report_pictures_from_synthetic_run(tmp_path: Path):
     for link in _links(md):
         assert (tmp_path / "report" / link).is_file(), link
     assert not list((tmp_path / "report" / "figures").glob("*.pdf"))
+
+
+def test_a_user_label_is_kept_beside_other_runs_of_the_method(tmp_path: Path):
+    """make_results.sh labels the row=ours run "Ours" beside other runs of ours: the label stays
+    "Ours" (it was "Ours (row=ours)"), the others are told apart from it."""
+    a = _run(tmp_path, "seed0-+row=ours-1a2b3c4d", {"name": "ours"}, overrides=["+row=ours"])
+    b = _run(tmp_path, "seed0-+row=ours_pfh-5e6f7a8b", {"name": "ours", "descriptor": "pfh"}, overrides=["+row=ours_pfh"])
+    runs = [tables.load_run(p) for p in (a, b)]
+    assert tables.run_labels(runs, tables.parse_labels([f"{a}=Ours"])) == ["Ours", "Ours (row=ours_pfh)"]
+
+
+def test_report_index_links_every_file_and_stale_files_go(tmp_path: Path):
+    runs = tmp_path / "runs"
+    a = _run(runs, "seed0-default-1a2b3c4d", {"name": "ours"}, overrides=[])
+    b = _run(runs, "seed0-default-9c0d1e2f", {"name": "icp"}, TEMPLATES, overrides=["protocol=templates"])
+    out = tmp_path / "report"
+    build_report([a, b], out, qualitative=0)
+    assert (out / "figures" / "templates_accuracy.png").is_file()
+    (out / "notes.txt").write_text("mine")  # not in the report's own folders: kept
+    index = build_report([a], out, qualitative=0, pdf=False)  # a second report, gt_model only, no PDFs
+    assert not (out / "figures" / "templates_accuracy.png").exists() and not list(out.glob("figures/*.pdf"))
+    assert (out / "notes.txt").read_text() == "mine"
+    assert unlinked_report_files(out, index.read_text()) == []
+
+
+def unlinked_report_files(folder: Path, index_text: str) -> list[str]:
+    """Files under a report folder's tables/ and figures/ that its index does not link."""
+    linked = set(_links(index_text))
+    return [f"{d}/{f.name}" for d in ("tables", "figures") for f in sorted((folder / d).glob("*"))
+            if f"{d}/{f.name}" not in linked]
+
+
+def test_committed_report_links_every_file(repo_root: Path):
+    """results/report (made by results/make_results.sh): its index links every table and figure."""
+    folder = repo_root / "results" / "report"
+    index = (folder / "index.md").read_text()
+    assert unlinked_report_files(folder, index) == []
+    for link in _links(index):
+        assert (folder / link).is_file(), link

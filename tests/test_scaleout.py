@@ -43,7 +43,7 @@ def table(root: Path, cwd: Path) -> str:
 
 def estimates(root: Path) -> dict[str, list]:
     """run directory name -> [(sample_id, T_est, status)] in file order."""
-    from catpose.bench.rundir import latest_rows
+    from catpose.bench.run.rundir import latest_rows
 
     out = {}
     for p in sorted(root.glob("synthetic-*/*/*/samples.jsonl")):
@@ -69,7 +69,7 @@ def serial(tmp_path_factory) -> Path:
 
 
 def test_shards_partition_the_ids_in_order():
-    from catpose.bench.merge import shard_ids
+    from catpose.bench.run.merge import shard_ids
 
     ids = [f"s{i:02d}" for i in range(11)]
     for n in (1, 2, 3, 4, 11, 12):
@@ -85,21 +85,21 @@ def test_shards_partition_the_ids_in_order():
     ("a", 2, "shard='a' is not an integer"), (0, 0, "N >= 1"),
 ])
 def test_bad_shard_values_name_the_key(shard, shards, needle):
-    from catpose.bench.merge import parse_shard
+    from catpose.bench.run.merge import parse_shard
 
     with pytest.raises(ConfigError, match=needle):
         parse_shard(shard, shards)
 
 
 def test_parse_shard_accepts_unsharded_and_sharded():
-    from catpose.bench.merge import parse_shard
+    from catpose.bench.run.merge import parse_shard
 
     assert parse_shard(None, 1) is None and parse_shard(0, 1) is None
     assert parse_shard(3, 4) == (3, 4) and parse_shard("1", "2") == (1, 2)
 
 
 def test_merge_restores_order_and_names_a_missing_shard(tmp_path):
-    from catpose.bench.merge import merged_rows, shard_ids, shard_meta_file, shard_samples_file, write_shard_meta
+    from catpose.bench.run.merge import merged_rows, shard_ids, shard_meta_file, shard_samples_file, write_shard_meta
 
     ids = [f"x{i}" for i in range(7)]
     for i in range(3):
@@ -152,10 +152,10 @@ def test_unknown_or_missing_launcher_is_one_line(tmp_path):
 def test_every_experiment_names_its_sweep_and_table():
     from hydra import compose, initialize_config_module
 
-    from catpose.bench.tables import LAYOUTS
+    from catpose.bench.report.tables import LAYOUTS
 
     # the paper's tables (other experiment files, e.g. mn40r_*, are single runs on shared data)
-    names = ["ablation", "one_template", "optimizer", "relative_real", "templates", "tyol"]
+    names = ["ablation", "one_template", "optimiser", "relative_real", "templates", "tyol"]
     folder = Path(__file__).resolve().parents[1] / "configs" / "experiment"
     assert all((folder / f"{n}.yaml").is_file() for n in names)
     with initialize_config_module("catpose.configs", version_base=None):
@@ -238,27 +238,4 @@ def test_submitit_local_sweep_equals_serial(serial, tmp_path):
     assert estimates(tmp_path) == estimates(serial)
 
 
-PRESETS = {"local_procs": "hydra_joblib_launcher", "slurm": "hydra_submitit_launcher", "ray_local": "hydra_ray_launcher"}
-
-
-@pytest.mark.parametrize("preset", sorted(PRESETS))
-def test_launcher_presets_compose(preset):
-    try:  # without any launcher plugin even the hydra_plugins namespace is absent
-        installed = importlib.util.find_spec(f"hydra_plugins.{PRESETS[preset]}") is not None
-    except ModuleNotFoundError:
-        installed = False
-    if not installed:
-        pytest.skip(f"{PRESETS[preset]} is not installed (the cluster extra: make cluster)")
-    from hydra import compose, initialize_config_module
-
-    with initialize_config_module("catpose.configs", version_base=None):
-        cfg = compose("run", overrides=[f"hydra/launcher={preset}"], return_hydra_config=True)
-    launcher = cfg.hydra.launcher
-    assert launcher._target_.startswith("hydra_plugins.")
-    if preset == "slurm":
-        assert launcher.timeout_min > 0 and launcher.cpus_per_task >= 1 and launcher.mem_gb > 0
-        assert "partition" in launcher
-    elif preset == "local_procs":
-        assert launcher.n_jobs == 2
-    else:
-        assert launcher.ray.init.num_cpus == 2
+# The launcher presets compose in tests/test_configs.py (without their plugins too).

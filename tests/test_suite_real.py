@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from catpose.bench import suite_real as sr
+from catpose.bench.real import suite as sr
 from catpose.errors import ConfigError
 
 
@@ -56,7 +56,7 @@ def test_table_marks_the_best_and_lists_skips():
 def test_cli_lists_the_suite_command():
     from catpose.bench.cli import COMMANDS
 
-    assert COMMANDS["suite"][0] == "catpose.bench.suite_real"
+    assert COMMANDS["suite"][0] == "catpose.bench.real.suite"
 
 
 @pytest.mark.slow

@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.bench import tables
-from catpose.bench.predictions import write_run
+from catpose.bench.report import tables
+from catpose.bench.run.rundir import write_run
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 
-GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.GtModel"}
-TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.Templates", "max_templates": None}
+GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}
+TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.absolute.Templates", "max_templates": None}
 
 
 def rows_with_errors(errors: dict[str, list[float | None]], method: str, protocol: str = "gt_model",
@@ -73,8 +73,8 @@ def test_golden_statistics(runs):
     assert s.loc["chair", "mean_trans_err"] == pytest.approx(0.1)
 
 
-def test_optimizer_layout_marks_best_and_second(runs):
-    t = tables.build_table([tables.load_run(p) for p in runs], "optimizer")
+def test_optimiser_layout_marks_best_and_second(runs):
+    t = tables.build_table([tables.load_run(p) for p in runs], "optimiser")
     assert [r for r in t.rows] == [("-", "ICP"), ("Direct match FPFH", "FGR"), ("Dictionary LPS", "Ours")]
     assert ("Airplane", "Mean° ↓") in t.columns and ("Chair", "L_T ↓") in t.columns
     ranks = t.ranks()
@@ -136,8 +136,14 @@ def test_cli_writes_file_and_user_labels(runs, tmp_path: Path, capsys):
                         "--label", f"{runs[2]}=ICP (20 starts)", "--metrics", "mean,median"]) == 0
     text = out.read_text()
     assert "ICP (20 starts)" in text and "All" in text
-    assert tables.main([str(tmp_path / "nope")]) == 2
-    assert "does not exist" in capsys.readouterr().err
+    from catpose.bench.cli import main
+
+    assert main(["table", str(runs[0]), "--layout", "optimizer"]) == 2  # the old spelling
+    assert capsys.readouterr().err == ("bench table: error: table layout optimizer was renamed optimiser; "
+                                       "write --layout optimiser\n")
+    assert main(["table", str(tmp_path / "nope")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bench table: error: ") and "does not exist" in err and err.count("\n") == 1
     with pytest.raises(ConfigError):
         tables.build_table([tables.load_run(runs[0])], "nope")
     with pytest.raises(DatasetError):
@@ -152,7 +158,7 @@ def test_truncated_jsonl_line_is_skipped_as_by_the_runner(tmp_path: Path):
 
 def test_rows_without_shown_categories_are_dropped(runs, tmp_path: Path):
     only_car = make_run(tmp_path, "car_only", {"car": [3.0]}, {"name": "teaser"})
-    t = tables.build_table([tables.load_run(p) for p in [*runs, only_car]], "optimizer", categories=["airplane"])
+    t = tables.build_table([tables.load_run(p) for p in [*runs, only_car]], "optimiser", categories=["airplane"])
     assert ("-", "TEASER (re-impl.)") not in t.rows and len(t.rows) == 3
     assert any("TEASER (re-impl.)" in n for n in t.notes)
 

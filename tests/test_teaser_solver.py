@@ -180,7 +180,7 @@ def test_bad_input() -> None:
 def test_perf_solvers_problems_and_table(capsys) -> None:
     """The ``perf_solvers`` problem class: the planted inliers form a clique the solver finds
     (timings are not asserted; ``bench perf`` reports them)."""
-    from catpose.bench import perf_solvers
+    from catpose.bench.perf import solvers as perf_solvers
 
     problems = perf_solvers.problem_set(problems=3, n=200, noise_bound=0.05, seed=5)
     assert [p.outlier_rate for p in problems] == pytest.approx([0.5, 0.745, 0.99])

@@ -17,7 +17,7 @@ import pytest
 
 pytest.importorskip("teaserpp_python", reason="TEASER++'s Python bindings (teaserpp_python) are not installed")
 
-from catpose.bench.perf_solvers import problem_set, synthetic_problem  # noqa: E402
+from catpose.bench.perf.solvers import problem_set, synthetic_problem  # noqa: E402
 from catpose.errors import InvalidInputError  # noqa: E402
 from catpose.methods import teaser_solver, teaserpp  # noqa: E402
 

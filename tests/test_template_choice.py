@@ -9,10 +9,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench import align_check
-from catpose.bench.category_table import error_stats, run_rows, to_markdown
+from catpose.bench.category import align_check
+from catpose.bench.report.category_table import error_stats, run_rows, to_markdown
 from catpose.bench.protocols import Templates
-from catpose.bench.template_choice import (CHOICES, DENSITY_WEIGHT, choose_index, is_excluded_view, support,
+from catpose.bench.protocols.template_choice import (CHOICES, DENSITY_WEIGHT, choose_index, is_excluded_view, support,
                                            template_spacing, with_template_facts)
 from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from catpose.bench import templates_select as ts
+from catpose.bench.category import templates_select as ts
 from catpose.errors import ConfigError
 from catpose.geometry import normalize_to_unit_sphere
 
@@ -145,16 +145,19 @@ def test_out_is_required_and_unaligned_data_is_refused(tmp_path, capsys):
     capsys.readouterr()
     root = tmp_path / "mn"
     (root / "chair" / "train").mkdir(parents=True)
-    assert ts.main(["dataset=modelnet40", f"dataset.root={root}", "--category", "chair",
-                    "--out", str(tmp_path / "t.yaml")]) == 2
+    from catpose.bench.cli import main
+
+    assert main(["templates", "dataset=modelnet40", f"dataset.root={root}", "--category", "chair",
+                 "--out", str(tmp_path / "t.yaml")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "bench align" in err[-1] and not (tmp_path / "t.yaml").exists()
+    assert len(err) == 1 and err[0].startswith("bench templates: error: ") and "bench align" in err[0]
+    assert not (tmp_path / "t.yaml").exists()
 
 
 def test_bad_dataset_root_is_one_line(tmp_path, capsys):
-    from catpose.bench.templates_select import main
+    from catpose.bench.cli import main
 
-    assert main(["--category", "chair", "dataset=modelnet40", f"dataset.root={tmp_path / 'nope'}",
+    assert main(["templates", "--category", "chair", "dataset=modelnet40", f"dataset.root={tmp_path / 'nope'}",
                  "--out", str(tmp_path / "t.yaml")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "nope" in err[0] and "Traceback" not in err[0]
+    assert len(err) == 1 and err[0].startswith("bench templates: error: ") and "nope" in err[0]

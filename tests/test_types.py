@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -46,7 +48,7 @@ def test_problem_validates_and_normalises():
 
 def test_result_is_frozen_and_pose_validation():
     r = RegistrationResult(T_target_source=np.eye(4))
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign to field 'score'"):
         r.score = 1.0  # frozen
     assert validate_pose("T", np.eye(4)).shape == (4, 4)
     bad = np.eye(4)

@@ -3,7 +3,7 @@
 # baseline (ICP; FGR, TEASER re-implementation and RANSAC with dictionary matching), each view
 # registered to its own model (template_source=own, the paper's dagger rows) or to the category
 # templates (template_source=category, the star rows; configs/experiment/mn40r_relative.yaml).
-# Output: results/category/relative.{md,csv}.
+# Output: results/category/paper/relative.{md,csv}.
 # Usage (repository root): bash results/category/make_relative.sh [tables]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -14,7 +14,7 @@ if [ "${1:-}" != tables ]; then
   "$B" run -m +experiment=mn40r_relative output_root="$OUT" progress=false print_summary=false \
     hydra.sweep.dir="$S" ${EXTRA:-}
 fi
-T=results/category
+T=results/category/paper; mkdir -p "$T"
 for fmt in md csv; do
   "$B" table --sweep "$S" --layout generic --categories airplane,chair --metrics mean,median,acc10,acc30,n,failed \
     --format $fmt --out "$T/relative.$fmt" \

@@ -3,7 +3,7 @@
 # (K = 5 would leave no test chair among the 5 shared ones): ours and every baseline (ICP; FGR,
 # TEASER re-implementation and RANSAC with dictionary matching, as in the paper), then `bench category`:
 # the chosen (rules score, density, agreement), oracle and random-template errors side by side
-# (results/category/templates_chair.{md,csv}).
+# (results/category/paper/templates_chair.{md,csv}).
 # Usage (repository root): bash results/category/make_templates_chair.sh [tables]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -15,7 +15,7 @@ if [ "${1:-}" != tables ]; then
       hydra.sweep.dir="$OUT/multirun/$e" ${EXTRA:-}
   done
 fi
-T=results/category
+T=results/category/paper; mkdir -p "$T"
 for fmt in md csv; do
   "$B" category "$OUT/multirun/mn40r_chair_1template" "$OUT/multirun/mn40r_chair_ktemplates" --category chair \
     --choices score,density,agreement --format $fmt --out "$T/templates_chair.$fmt" \

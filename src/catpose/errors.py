@@ -40,3 +40,11 @@ def one_line(e: BaseException) -> str:
     tb = traceback.extract_tb(e.__traceback__)
     where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno})" if tb else ""
     return f"{type(e).__name__}: {msg}{where}"
+
+
+def command_error(command: str, error: BaseException | str) -> str:
+    """The one line every ``bench`` command prints for a user error (exit status 2):
+    ``bench <command>: error: <message>``. The CLI prints it for every command
+    (:func:`catpose.bench.cli.main`); a command that must print it itself (inside Hydra's job,
+    or run as ``python -m``) uses this too, so every error reads the same."""
+    return f"bench {command}: error: {error}"

@@ -190,9 +190,17 @@ class RegistrationResult:
         runtime_s: wall-clock seconds of the registration (set by the runner).
         extras: method-specific, JSON-serialisable details (chosen template index, per-stage
             timings, per-template losses, ...).
+        candidates_T: (K, 4, 4) every hypothesis the method scored before choosing (ours: one
+            per partial template; ICP: one per start; correspondence baselines: one per target),
+            same frames as ``T_target_source``; None when the method has none. Kept in memory
+            only (``catpose.register`` returns them); run files do not store them.
+        candidate_scores: (K,) their scores in the method's own criterion (lower is better; inf:
+            excluded, e.g. by ours' gravity filter), or None.
     """
 
     T_target_source: np.ndarray
     score: float = float("nan")
     runtime_s: float = float("nan")
     extras: Mapping[str, Any] = field(default_factory=dict)
+    candidates_T: np.ndarray | None = None
+    candidate_scores: np.ndarray | None = None

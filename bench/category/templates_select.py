@@ -1,0 +1,204 @@
+"""Choose K category templates by K-medoids over a pairwise F-score distance (paper, Sec. IV-B).
+
+The training instances of a category are compared in their canonical frames (aligned, unit
+bounding sphere): the distance of two shapes is ``1 - F-score@tau`` of their complete point
+clouds (Tatarchenko et al., "What do single-view 3D reconstruction networks learn?", CVPR 2019):
+
+    precision = |{p in P : d(p, Q) < tau}| / |P|,  recall = |{q in Q : d(q, P) < tau}| / |Q|
+    F = 2 * precision * recall / (precision + recall)
+
+FasterPAM (``kmedoids`` package, GPL-3.0-or-later: the optional extra ``catpose[kmedoids]``)
+picks the K medoids; scikit-learn's silhouette score over the same precomputed distances is
+reported for every K (``--k auto`` takes the best). The instances
+must be in one frame: a dataset whose frames are not declared consistent (raw ModelNet40) is
+refused unless it has an alignment table (``bench align``)::
+
+    bench templates dataset=modelnet40_resampled dataset.root=/data/modelnet40_normal_resampled \
+        dataset.alignment_table=results/alignment/modelnet40_resampled_chair.csv \
+        --category chair --k 5 --out my_templates/templates/modelnet40_resampled_chair.yaml
+
+The YAML holds only ``{category: [instance ids]}`` (the shape of a dataset's ``templates``
+option) under the Hydra header ``# @package dataset.templates``, with the settings, silhouette
+scores and clusters as comments, so a file ``<dir>/templates/<name>.yaml`` is a config group that
+merges into the dataset's templates::
+
+    bench run method=ours dataset=modelnet40 protocol=templates +templates=<name> \
+        hydra.searchpath=[file://<dir>]
+
+Nothing is written into the installed package: ``--out`` is required.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from catpose.errors import ConfigError, DatasetError
+
+
+def fscore(P: np.ndarray, Q: np.ndarray, tau: float) -> float:
+    """F-score at distance ``tau`` between point clouds ``P`` (N, 3) and ``Q`` (M, 3), same frame and unit."""
+    from scipy.spatial import cKDTree
+
+    d_pq = cKDTree(Q).query(P, k=1)[0]
+    d_qp = cKDTree(P).query(Q, k=1)[0]
+    precision, recall = float((d_pq < tau).mean()), float((d_qp < tau).mean())
+    return 0.0 if precision + recall == 0 else 2 * precision * recall / (precision + recall)
+
+
+def fscore_distances(clouds: Sequence[np.ndarray], tau: float) -> np.ndarray:
+    """(N, N) symmetric matrix of ``1 - F-score@tau`` between N clouds (zero diagonal)."""
+    n = len(clouds)
+    D = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1, n):
+            D[i, j] = D[j, i] = 1.0 - fscore(clouds[i], clouds[j], tau)
+    return D
+
+
+def _kmedoids():
+    """The ``kmedoids`` package (GPL-3.0-or-later, an optional extra), or a one-line error."""
+    try:
+        import kmedoids
+    except ImportError:
+        raise ConfigError("bench templates needs kmedoids (GPL-3.0, optional): pip install 'catpose[kmedoids]'") from None
+    return kmedoids
+
+
+def select_medoids(D: np.ndarray, k: int, seed: int = 0) -> tuple[list[int], np.ndarray]:
+    """K medoids of a distance matrix with FasterPAM.
+
+    Returns (medoid indices sorted by cluster size, largest first, ties by index; (N,) labels
+    indexing that medoid list). Deterministic for a given ``seed``.
+    """
+    kmedoids = _kmedoids()
+    n = len(D)
+    if not 1 <= k <= n:
+        raise ConfigError(f"--k {k} must be between 1 and the number of instances ({n})")
+    if k == n:
+        medoids = np.arange(n)
+    else:
+        medoids = np.asarray(kmedoids.fasterpam(D, k, max_iter=100, init="build", random_state=seed).medoids)
+    labels = np.argmin(D[:, medoids], axis=1)
+    sizes = np.bincount(labels, minlength=len(medoids))
+    order = sorted(range(len(medoids)), key=lambda c: (-sizes[c], int(medoids[c])))
+    remap = np.empty(len(order), int)
+    remap[order] = np.arange(len(order))
+    return [int(medoids[c]) for c in order], remap[labels]
+
+
+def silhouette_by_k(D: np.ndarray, ks: Sequence[int], seed: int = 0) -> dict[int, float]:
+    """Mean silhouette (scikit-learn, ``metric="precomputed"``) of the K-medoids clustering of the
+    (N, N) distance matrix ``D`` for each K in ``ks`` with 2 <= K <= N - 1 (higher is better)."""
+    from sklearn.metrics import silhouette_score
+
+    n = len(D)
+    return {int(k): float(silhouette_score(D, select_medoids(D, int(k), seed)[1], metric="precomputed"))
+            for k in ks if 2 <= int(k) <= n - 1}
+
+
+def subsample(points: np.ndarray, n: int, seed: int) -> np.ndarray:
+    """At most ``n`` points of ``points`` (N, 3), chosen reproducibly."""
+    if n <= 0 or len(points) <= n:
+        return np.asarray(points, float)
+    rng = np.random.default_rng(seed)
+    return np.asarray(points, float)[np.sort(rng.choice(len(points), size=n, replace=False))]
+
+
+def choose_templates(clouds: dict[str, np.ndarray], k: int | str, tau: float = 0.05, n_points: int = 2048,
+                     seed: int = 0) -> dict:
+    """Pick ``k`` template ids among ``clouds`` (instance id -> (N, 3) complete cloud, canonical frame).
+
+    ``k="auto"`` takes the K (2..N-1) with the highest silhouette score.
+
+    Returns ``{"templates": [ids, largest cluster first], "clusters": {id: [members]},
+    "mean_distance": float, "silhouette": {K: score}, "distances": (N, N) array, "ids": [ids]}``
+    (``mean_distance``: mean distance of each instance to its medoid).
+    """
+    ids = list(clouds)
+    pts = [subsample(clouds[i], n_points, seed) for i in ids]
+    D = fscore_distances(pts, tau)
+    silhouette = silhouette_by_k(D, range(2, len(ids)), seed)
+    if k == "auto":
+        if not silhouette:
+            raise ConfigError(f"--k auto needs at least 3 instances; there are {len(ids)}")
+        k = max(silhouette, key=lambda kk: (silhouette[kk], -kk))
+    medoids, labels = select_medoids(D, int(k), seed)
+    clusters = {ids[m]: [ids[j] for j in np.flatnonzero(labels == c)] for c, m in enumerate(medoids)}
+    mean_d = float(np.mean([D[j, medoids[labels[j]]] for j in range(len(ids))]))
+    return {"templates": [ids[m] for m in medoids], "clusters": clusters, "mean_distance": mean_d,
+            "silhouette": silhouette, "distances": D, "ids": ids}
+
+
+def write_templates_yaml(path: str | Path, category: str, result: dict, settings: dict) -> Path:
+    """Write (or update) ``{category: [ids]}`` in ``path``; settings and clusters go in comments.
+
+    The file holds only ``category -> ids`` mappings, the shape of a dataset's ``templates``
+    option, so it can be used as that option as it is; other categories already in the file
+    are kept.
+    """
+    import yaml
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    doc = {}
+    if path.is_file():
+        old = yaml.safe_load(path.read_text()) or {}
+        if not isinstance(old, dict):
+            raise ConfigError(f"{path} is not a category -> template ids mapping; pass another --out")
+        doc = {str(k): v for k, v in old.items()}
+    doc[category] = list(result["templates"])
+    lines = ["# @package dataset.templates",
+             "# Category templates chosen by `bench templates`: K-medoids (FasterPAM) over 1 - F-score@tau",
+             f"# between complete canonical clouds. Last run ({category}): "
+             + ", ".join(f"{k}={v}" for k, v in settings.items()),
+             f"# mean distance to medoid {result['mean_distance']:.4f}; silhouette by K: "
+             + (", ".join(f"{k}: {v:.3f}" for k, v in result.get("silhouette", {}).items()) or "n/a"),
+             "# clusters (medoid: members):"]
+    lines += [f"#   {m}: {', '.join(members)}" for m, members in result["clusters"].items()]
+    path.write_text("\n".join(lines) + "\n" + yaml.safe_dump(doc, sort_keys=True))
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bench templates dataset=NAME [dataset.key=value ...] --category C --k K [--tau T] --out FILE``."""
+    ap = argparse.ArgumentParser(prog="bench templates",
+                                 description="Choose K category templates by K-medoids over F-score distance.")
+    ap.add_argument("overrides", nargs="*", help="Hydra overrides: dataset=NAME dataset.root=... seed=...")
+    ap.add_argument("--category", required=True)
+    ap.add_argument("--k", default="5", help="number of templates, or 'auto' (best silhouette)")
+    ap.add_argument("--tau", type=float, default=0.05, help="F-score distance threshold (object-normalised unit)")
+    ap.add_argument("--split", default="train", help="which instances to cluster (datasets with splits; catpose.bench.category.instances)")
+    ap.add_argument("--instances", default=None, help="comma-separated instance ids (default: the split's)")
+    ap.add_argument("--points", type=int, default=2048, help="points per cloud")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", required=True, help="YAML to write (e.g. <dir>/templates/<dataset>_<category>.yaml)")
+    args = ap.parse_args(argv)
+    _kmedoids()  # the optional extra is checked before the distance matrix is computed
+    if args.k != "auto" and not args.k.isdigit():
+        raise ConfigError(f"--k {args.k!r} is not a positive integer or 'auto'")
+    k = args.k if args.k == "auto" else int(args.k)
+    from catpose.bench.category.instances import instance_ids
+    from catpose.bench.protocols.absolute import require_consistent_frames
+    from catpose.bench.run.config import compose_and_build
+
+    _, ((name, dataset),) = compose_and_build(args.overrides, ("dataset",))  # one-line errors (missing root, ...)
+    require_consistent_frames(dataset, "bench templates")
+    ids = args.instances.split(",") if args.instances else instance_ids(dataset, args.category, args.split)
+    if len(ids) < (3 if k == "auto" else k):
+        raise DatasetError(f"dataset {name} has {len(ids)} {args.split} instances of {args.category!r}; "
+                           f"--k {args.k} needs more (check --category, --split, dataset.root)")
+    clouds = {i: dataset.instance_model(args.category, i).points for i in ids}
+    result = choose_templates(clouds, k, args.tau, args.points, args.seed)
+    out = Path(args.out)
+    write_templates_yaml(out, args.category, result, {"dataset": name, "split": args.split,
+                                                      "k": len(result["templates"]),
+                                                      "tau": args.tau, "points": args.points, "seed": args.seed,
+                                                      "n_instances": len(ids)})
+    sil = ", ".join(f"K={kk}: {v:.3f}" for kk, v in result["silhouette"].items()) or "n/a"
+    print(f"{args.category}: templates {result['templates']} (mean 1-F to medoid {result['mean_distance']:.3f}; "
+          f"silhouette {sil}); wrote {out}")
+    return 0

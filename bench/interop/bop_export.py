@@ -1,0 +1,138 @@
+"""``bench export``: a run's estimates as a BOP results CSV (bop_toolkit's format,
+:mod:`catpose.bench.interop.prediction_io`), with the sample -> BOP id mapping beside it.
+
+Mapping between samples and BOP ids. BOP datasets put ``scene_id``, ``im_id``, ``obj_id`` in each
+sample's ``info`` (from ``Observation.info``), with ``scale_mm`` (millimetres per
+object-normalised unit; ``mm_per_unit`` is read too) and optionally ``centre_mm`` (3,) and
+``R_object_model`` (9, row-major) of the normalisation ``p_object = (R_object_model p_model -
+centre_mm) / scale_mm`` (defaults: 0 and identity). With ``(R_co, t_co) = inv(T_template_camera_est)``:
+
+    R_camera_model = R_co @ R_object_model,    t_camera_model[mm] = scale_mm * t_co - R_co @ centre_mm
+
+Other datasets have no BOP ids; the export
+then uses this documented mapping and writes it to ``<out>.map.csv``: ``obj_id`` = 1-based index
+of the category in sorted order, ``scene_id`` = 1-based index of the instance within its
+category (sorted), ``im_id`` = 0-based index of the observation within the instance (sorted
+``obs_id``), ``scale_mm`` = 1 (translations stay in the object-normalised unit). ``bench score``
+reads ``<predictions>.map.csv`` when it is there (or ``--map FILE``) and otherwise derives the
+same ids from the ground-truth rows.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from catpose.bench.interop.prediction_io import BOP_COLUMNS
+
+
+def bop_ids(runs_rows: Sequence[dict]) -> tuple[list[tuple], list[dict]]:
+    """(scene_id, im_id, obj_id, scale_mm, centre_mm (3,), R_object_model (3, 3)) for each row,
+    and the rows of the mapping file."""
+    categories = sorted({str(r["category"]) for r in runs_rows})
+    instances: dict[str, list[str]] = {}
+    views: dict[tuple[str, str], list[str]] = {}
+    for r in runs_rows:
+        instances.setdefault(r["category"], [])
+        if str(r.get("instance_id")) not in instances[r["category"]]:
+            instances[r["category"]].append(str(r.get("instance_id")))
+        views.setdefault((r["category"], str(r.get("instance_id"))), []).append(str(r.get("obs_id")))
+    out, mapping = [], []
+    for r in runs_rows:
+        info = r.get("info") or {}
+        if all(k in info for k in ("scene_id", "im_id", "obj_id")):
+            ids = (int(info["scene_id"]), int(info["im_id"]), int(info["obj_id"]))
+            scale = float(info.get("scale_mm", info.get("mm_per_unit", 1.0)))
+            centre = np.asarray(info.get("centre_mm", info.get("model_centre_mm", [0.0, 0.0, 0.0])), float).reshape(3)
+            R_om = np.asarray(info.get("R_object_model", np.eye(3)), float).reshape(3, 3)
+        else:
+            inst = str(r.get("instance_id"))
+            ids = (sorted(instances[r["category"]]).index(inst) + 1,
+                   sorted(set(views[(r["category"], inst)])).index(str(r.get("obs_id"))),
+                   categories.index(r["category"]) + 1)
+            scale, centre, R_om = 1.0, np.zeros(3), np.eye(3)
+        out.append((*ids, scale, centre, R_om))
+        mapping.append({"sample_id": r["sample_id"], "obs_id": r.get("obs_id"), "scene_id": ids[0],
+                        "im_id": ids[1], "obj_id": ids[2], "scale_mm": scale})
+    return out, mapping
+
+
+def image_times(ids: Sequence[tuple], runtimes: Sequence[Any]) -> dict[tuple[int, int], float]:
+    """One time per image (bop_toolkit's ``check_consistent_timings``): the sum of the
+    runtimes (s) of the image's estimates, -1 when any of them is unknown. ``ids`` start with
+    ``(scene_id, im_id, ...)``."""
+    out: dict[tuple[int, int], float] = {}
+    for i, rt in zip(ids, runtimes):
+        key = (int(i[0]), int(i[1]))
+        known = rt is not None and math.isfinite(float(rt)) and float(rt) >= 0
+        if out.get(key, 0.0) < 0 or not known:
+            out[key] = -1.0
+        else:
+            out[key] = out.get(key, 0.0) + float(rt)
+    return out
+
+
+def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True) -> int:
+    """Write a run's estimates as a BOP results CSV; returns the number of rows written.
+
+    ``out_csv`` must be named ``METHOD_DATASET-SPLIT.csv`` (no ``_`` in METHOD) as the BOP
+    toolkit requires (``check_name=False`` skips this, e.g. for non-BOP datasets). ``time`` is
+    one value per image: the summed runtimes of all the image's estimates (-1 if one is unknown).
+
+    Uses the run's scoring units of one view each (for the templates protocol: the template the
+    method chose), skips failed samples, and writes ``<out_csv>.map.csv`` with the sample ->
+    BOP id mapping. ``score`` is ``exp(-max(method score, 0))``, a confidence in (0, 1] (1 when
+    the method has no score; every built-in method's score is a non-negative loss).
+    """
+    import pandas as pd
+
+    from catpose.bench.protocols.relative import Relative
+    from catpose.bench.report.tables import load_run, protocol_of
+    from catpose.bench.scoring.bop_eval import check_results_filename
+    from catpose.geometry import invert_T
+
+    if check_name:
+        check_results_filename(out_csv)
+    run = load_run(run_dir)
+    proto = protocol_of(run)
+    units = proto.view_rows(run.samples) if isinstance(proto, Relative) else proto.score_units(run.samples)
+    # ids over every view (failed ones too), so the mapping matches the scorer's, which sees all
+    everything = units.to_dict("records")
+    all_ids, all_mapping = bop_ids(everything)
+    keep = [k for k, r in enumerate(everything) if r.get("status") == "ok" and r.get("T_est") is not None]
+    rows, ids, mapping = [everything[k] for k in keep], [all_ids[k] for k in keep], [all_mapping[k] for k in keep]
+    times = image_times(ids, [r.get("runtime_s") for r in rows])
+    lines = [",".join(BOP_COLUMNS)]
+    for r, (scene, im, obj, scale, centre, R_om) in zip(rows, ids):
+        T_co = invert_T(np.asarray(r["T_est"], float).reshape(4, 4))
+        R = T_co[:3, :3] @ R_om
+        t = scale * T_co[:3, 3] - T_co[:3, :3] @ centre
+        s = r.get("score")
+        conf = 1.0 if s is None or not math.isfinite(float(s)) else math.exp(-max(float(s), 0.0))
+        rt = times[(scene, im)]
+        lines.append(f"{scene},{im},{obj},{conf:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"
+                     f"{' '.join(f'{x:.9g}' for x in t)},{rt:.6g}")
+    out_csv = Path(out_csv)
+    out_csv.parent.mkdir(parents=True, exist_ok=True)
+    out_csv.write_text("\n".join(lines) + "\n")
+    from catpose.bench.scoring.bop_eval import check_results_csv
+
+    check_results_csv(out_csv)  # what bop_toolkit's loader checks (header, ids, one time per image)
+    pd.DataFrame(mapping).to_csv(str(out_csv) + ".map.csv", index=False)
+    return len(rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bench export RUN_DIR --out METHOD_DATASET-SPLIT.csv``."""
+    ap = argparse.ArgumentParser(prog="bench export", description="Export a run's estimates as a BOP results CSV.")
+    ap.add_argument("run", help="a run directory written by `bench run`")
+    ap.add_argument("--out", required=True, help="CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the "
+                    "BOP toolkit requires; a <out>.map.csv with the id mapping is written beside it")
+    args = ap.parse_args(argv)
+    n = export_bop(args.run, args.out)
+    print(f"wrote {n} estimates to {args.out}")
+    return 0

@@ -1,0 +1,84 @@
+"""Prediction files: reading a BOP results CSV or a per-sample CSV, and an export's id mapping.
+
+Two file formats are read (detected from the header):
+
+- **BOP results CSV** (``scene_id,im_id,obj_id,score,R,t,time``; bop_toolkit's format). ``R`` is
+  ``R_camera_model`` (BOP's ``cam_R_m2c``), 9 space-separated row-major values; ``t`` is
+  ``t_camera_model`` in millimetres; ``score`` is a confidence (higher is better); ``time`` in
+  seconds, one value per image (-1 when unknown). Several rows of one image and object are
+  matched to that object's instances greedily by score (as bop_toolkit does); files must be
+  named ``METHOD_DATASET-SPLIT.csv`` for the toolkit. For BOP datasets ``bench score`` also
+  computes BOP's metrics (MSSD, MSPD, VSD, ADD(-S), n-degree m-cm; :mod:`catpose.bench.scoring.bop_eval`)
+  on the split's official targets with gt instances at ``visib_fract >= 0.1``.
+- **Per-sample CSV** (``sample_id,R,t[,score][,time]``): ``R``/``t`` of ``T_template_camera``
+  (this project's convention: camera points into the template frame) in the object-normalised
+  unit; ``sample_id`` is a run's sample id or observation id (``obs_id``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from catpose.errors import DatasetError, InvalidInputError
+
+BOP_COLUMNS = ["scene_id", "im_id", "obj_id", "score", "R", "t", "time"]
+
+
+def _floats(text: Any, n: int, where: str) -> np.ndarray:
+    try:
+        v = np.array([float(x) for x in str(text).replace(",", " ").split()], float)
+    except ValueError:
+        v = np.array([])
+    if v.shape != (n,) or not np.isfinite(v).all():
+        raise InvalidInputError(f"{where}: expected {n} space-separated numbers, got {str(text)[:60]!r}")
+    return v
+
+
+def read_predictions(path: str | Path):
+    """Read a BOP or per-sample predictions CSV into a DataFrame with a ``T`` column.
+
+    ``T`` is the file's (4, 4) pose as written (BOP: ``T_camera_model`` in mm; per-sample:
+    ``T_template_camera``); ``kind`` is ``"bop"`` or ``"sample"``.
+    """
+    import pandas as pd
+
+    path = Path(path)
+    if not path.is_file():
+        raise DatasetError(f"predictions file {path} does not exist")
+    df = pd.read_csv(path, dtype=str, keep_default_na=False)
+    cols = set(df.columns)
+    if {"scene_id", "im_id", "obj_id", "R", "t"} <= cols:
+        kind = "bop"
+    elif {"sample_id", "R", "t"} <= cols:
+        kind = "sample"
+    else:
+        raise InvalidInputError(f"{path}: header {list(df.columns)} is neither BOP (scene_id,im_id,obj_id,score,R,t,time) "
+                                "nor per-sample (sample_id,R,t[,score][,time])")
+    Ts = []
+    for k, r in enumerate(df.to_dict("records"), 2):
+        T = np.eye(4)
+        T[:3, :3] = _floats(r["R"], 9, f"{path}:{k} R").reshape(3, 3)
+        T[:3, 3] = _floats(r["t"], 3, f"{path}:{k} t")
+        Ts.append(T)
+    df["T"] = Ts
+    df["score"] = pd.to_numeric(df["score"], errors="coerce") if "score" in df else np.nan
+    df["time"] = pd.to_numeric(df["time"], errors="coerce") if "time" in df else np.nan
+    df.attrs["kind"] = kind
+    return df
+
+
+def read_mapping(path: str | Path) -> dict[tuple[int, int, int], str]:
+    """An export's ``<out>.map.csv``: (scene_id, im_id, obj_id) -> sample_id. Ids shared by
+    several samples (several instances of one object in an image) are left out: those are
+    matched greedily by score."""
+    import pandas as pd
+
+    df = pd.read_csv(path, dtype={"sample_id": str})
+    keys = [(int(r.scene_id), int(r.im_id), int(r.obj_id)) for r in df.itertuples()]
+    counts: dict[tuple, int] = {}
+    for k in keys:
+        counts[k] = counts.get(k, 0) + 1
+    return {k: str(sid) for k, sid in zip(keys, df["sample_id"]) if counts[k] == 1}

@@ -1,0 +1,287 @@
+"""``bench score``: predictions made elsewhere scored into a run directory like any run.
+
+Learning-based methods (RPM-Net, Equi-pose, ...) need not be reimplemented: run them in their
+own code on the same samples, write their poses to a file, and ``bench score`` turns the file
+into a run directory scored with the same metrics, so ``bench table`` / ``bench report`` put
+them beside ours.
+
+The file formats are :mod:`catpose.bench.interop.prediction_io`'s; BOP ids map to samples as
+:mod:`catpose.bench.interop.bop_export` documents.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from catpose.bench.interop.bop_export import bop_ids
+from catpose.bench.interop.prediction_io import read_mapping, read_predictions
+from catpose.bench.run.rundir import write_run
+from catpose.errors import DatasetError, InvalidInputError
+
+
+def _orthonormalise(R: np.ndarray) -> np.ndarray:
+    """Nearest rotation (files hold rounded values)."""
+    U, _, Vt = np.linalg.svd(R)
+    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
+
+
+def score_predictions(preds, gt_rows: Sequence[dict], method: str,
+                      mapping: dict[tuple[int, int, int], str] | None = None) -> list[dict]:
+    """Per-sample rows (``samples.jsonl`` schema) for the predictions against ground-truth rows.
+
+    ``gt_rows`` are rows with ``T_gt`` (a run's ``samples.jsonl``, one per view is enough). A
+    view without a prediction is recorded as failed ("no prediction"). For a BOP file,
+    ``mapping`` ((scene_id, im_id, obj_id) -> sample_id, from the export's ``.map.csv``) takes
+    precedence over the ids derived from the rows. Without it, where several gt rows share
+    (scene_id, im_id, obj_id) (several instances of one object in an image), the estimates are
+    matched greedily as bop_toolkit does: in descending score order, each takes the unmatched
+    instance with the smallest ``err_deg`` (then ``trans_err``); extra estimates are ignored.
+    """
+    from catpose.bench.scoring.metrics import sample_errors
+    from catpose.bench.scoring.rows import failed_row, scored_row
+    from catpose.geometry import invert_T, make_T
+
+    kind = preds.attrs.get("kind", "sample")
+    by_key: dict[Any, dict] = {}
+    all_by_key: dict[Any, list[dict]] = {}
+    for p in preds.to_dict("records"):
+        key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"])) if kind == "bop" else str(p["sample_id"])
+        all_by_key.setdefault(key, []).append(p)
+        old = by_key.get(key)
+        if old is None or (kind == "bop" and np.nan_to_num(p["score"], nan=-np.inf) > np.nan_to_num(old["score"], nan=-np.inf)):
+            by_key[key] = p
+    ids = bop_ids(gt_rows)[0] if kind == "bop" else None
+    if kind == "bop" and mapping:
+        by_sample = {mapping[k]: p for k, p in by_key.items() if k in mapping}
+
+    def estimate(p: dict, k: int) -> np.ndarray:
+        T = np.asarray(p["T"], float)
+        R = _orthonormalise(T[:3, :3])
+        if kind != "bop":
+            return make_T(R, T[:3, 3])
+        _, _, _, scale, centre, R_om = ids[k]  # T_camera_model[mm] -> T_template_camera[unit]
+        R_co = R @ R_om.T
+        return invert_T(make_T(R_co, (T[:3, 3] + R_co @ centre) / scale))
+
+    def errors_of(T_est: np.ndarray, g: dict) -> dict:
+        axis, symmetries = g.get("symmetry_axis"), g.get("symmetries")
+        return sample_errors(T_est, np.asarray(g["T_gt"], float).reshape(4, 4),
+                             None if axis is None else np.asarray(axis, float),
+                             symmetries if isinstance(symmetries, (list, tuple)) else ())
+
+    matched: dict[int, dict] = {}
+    if kind == "bop":
+        groups: dict[tuple, list[int]] = {}
+        for k in range(len(gt_rows)):
+            groups.setdefault(ids[k][:3], []).append(k)
+        for key, members in groups.items():
+            cands = sorted(all_by_key.get(key, []), key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
+            free = list(members)
+            for p in cands[:len(members)]:
+                errs = {k: errors_of(estimate(p, k), gt_rows[k]) for k in free}
+                best = min(free, key=lambda k: (round(errs[k]["err_deg"], 9), errs[k]["trans_err"]))
+                matched[best] = p
+                free.remove(best)
+    out = []
+    for k, g in enumerate(gt_rows):
+        row = {key: g.get(key) for key in ("sample_id", "group_id", "obs_id", "category", "instance_id", "template_id",
+                                           "dataset", "protocol", "seed", "symmetric", "T_gt", "symmetry_axis", "symmetries",
+                                           "info")}
+        row.update(method=method, extras={}, stage="")
+        if kind == "bop":
+            sid = str(g["sample_id"])
+            p = by_sample[sid] if mapping and sid in by_sample else matched.get(k)
+        else:
+            p = by_key.get(str(g["sample_id"])) or by_key.get(str(g.get("obs_id")))
+        if p is None:
+            out.append(failed_row(row, "no prediction", stage="register", score=None, runtime_s=None))
+            continue
+        T_est = estimate(p, k)
+        errs = errors_of(T_est, g)
+        score = p.get("score")
+        score = None if score is None or not math.isfinite(float(score)) else (-float(score) if kind == "bop" else float(score))
+        rt = p.get("time")
+        out.append(scored_row(row, T_est, errs, score=score,
+                              runtime_s=None if rt is None or not math.isfinite(float(rt)) or float(rt) < 0 else float(rt)))
+    return out
+
+
+def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
+    """Ground-truth rows (one per view) and the config of a run directory."""
+    from catpose.bench.report.tables import load_run
+
+    run = load_run(run_dir)
+    s = run.samples
+    if len(s) == 0 or "T_gt" not in s:
+        raise DatasetError(f"run {run_dir} has no ground truth rows; pass a run written by `bench run`")
+    s = s[s["T_gt"].notna()]
+    key = "group_id" if run.protocol in ("templates", "relative") else "sample_id"
+    return s.drop_duplicates(key).to_dict("records"), run.config
+
+
+def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Sequence[str] = ()) -> tuple[list[dict], dict]:
+    """Ground-truth rows built from ``configs/dataset/<dataset>.yaml`` + ``configs/protocol/<protocol>.yaml``."""
+    from omegaconf import OmegaConf
+
+    from catpose.bench.run.config import compose_and_build
+
+    # one-line errors for an unknown name, a missing root etc.
+    cfg, ((ds_name, ds), (pr_name, proto)) = compose_and_build(
+        [f"dataset={dataset}", f"protocol={protocol}", f"seed={seed}", *overrides], ("dataset", "protocol"))
+    config = OmegaConf.to_container(cfg, resolve=True)
+    rows, seen = [], set()
+    for sid in proto.sample_ids(ds):
+        sample = proto.load(ds, sid)
+        group = sample.group_id or sid
+        if group in seen and pr_name in ("templates", "relative"):
+            continue
+        seen.add(group)
+        info = dict(sample.info)
+        axis = sample.gt.symmetry_axis
+        rows.append({"sample_id": sid, "group_id": group, "obs_id": sid.split("|")[0], "category": sample.problem.category,
+                     "instance_id": info.get("instance_id"), "template_id": sample.problem.template.template_id,
+                     "dataset": ds_name, "protocol": pr_name, "seed": seed, "symmetric": axis is not None,
+                     "T_gt": np.asarray(sample.gt.T_template_camera, float).reshape(-1).tolist(),
+                     "symmetry_axis": None if axis is None else np.asarray(axis, float).tolist(),
+                     "symmetries": [np.asarray(S, float).reshape(-1).tolist() for S in sample.gt.symmetries] or None,
+                     "info": info})
+    return rows, config
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bench score PREDICTIONS.csv --gt RUN_DIR --method NAME --out DIR`` (or ``--dataset D --protocol P``)."""
+    ap = argparse.ArgumentParser(prog="bench score",
+                                 description="Score an external predictions file (BOP CSV, per-sample CSV, or a "
+                                 ".npy/.npz array of (B, 3, 4) or (B, 4, 4) transforms with --ids).")
+    ap.add_argument("predictions")
+    ap.add_argument("--gt", help="a run directory whose ground truth (and samples) to score against")
+    ap.add_argument("--dataset", help="or: a dataset config name (configs/dataset)")
+    ap.add_argument("--protocol", default="gt_model", help="with --dataset: a protocol config name")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--override", action="append", default=[], help="extra Hydra override for --dataset, repeatable")
+    ap.add_argument("--map", default=None, help="BOP id -> sample id CSV (default: <predictions>.map.csv if present)")
+    ap.add_argument("--method", default=None, help="name of the external method (row label in tables; default: "
+                    "METHOD of a METHOD_DATASET-SPLIT.csv file name)")
+    ap.add_argument("--out", required=True, help="run directory to write")
+    ap.add_argument("--metrics", default=",".join(DEFAULT_BOP_METRICS),
+                    help="BOP datasets: comma-separated recalls, e.g. ar,ar_mssd,ar_mspd,ar_vsd,adds@0.1,add@0.1,mssd@0.2,"
+                         "mspd@10,5deg5cm,10deg10cm")
+    ap.add_argument("--by", default="object,category", help="BOP datasets: rows per object and/or category")
+    ap.add_argument("--no-vsd", action="store_true", help="BOP datasets: skip VSD (it renders the model twice per estimate)")
+    ap.add_argument("--ids", default=None, help=".npy/.npz transforms: a text file of sample ids, one per line, in the "
+                    "arrays' order (not needed when the .npz has an 'ids' array)")
+    ap.add_argument("--inverse", action="store_true", help=".npy/.npz transforms: they map the template onto the "
+                    "observation (T_camera_template); invert them")
+    ap.add_argument("--acc", default=None, metavar="LIST", help="also print accuracies at these thresholds, "
+                    "degrees and n-degree m-cm, e.g. --acc 5,10,30,5deg5cm,10deg10cm (summary_thresholds.md)")
+    ap.add_argument("--auc", type=float, default=None, metavar="DEG",
+                    help="also print the area under the accuracy curve from 0 to DEG degrees, over DEG")
+    args = ap.parse_args(argv)
+    if args.method is None:
+        from catpose.bench.scoring.bop_eval import check_results_filename
+
+        try:
+            args.method = check_results_filename(args.predictions)[0]
+        except InvalidInputError:
+            raise InvalidInputError(f"pass --method NAME (the file name {Path(args.predictions).name!r} is not "
+                                    "METHOD_DATASET-SPLIT.csv)") from None
+    if bool(args.gt) == bool(args.dataset):
+        raise InvalidInputError("pass exactly one of --gt RUN_DIR or --dataset NAME")
+    gt_rows, config = gt_rows_from_run(args.gt) if args.gt else gt_rows_from_config(
+        args.dataset, args.protocol, args.seed, args.override)
+    from catpose.bench.interop.transform_arrays import is_transform_array, read_transform_arrays
+
+    preds = (read_transform_arrays(args.predictions, args.ids, args.inverse) if is_transform_array(args.predictions)
+             else read_predictions(args.predictions))
+    map_path = Path(args.map) if args.map else Path(str(args.predictions) + ".map.csv")
+    if args.map and not map_path.is_file():
+        raise InvalidInputError(f"--map {map_path} does not exist")
+    mapping = read_mapping(map_path) if preds.attrs["kind"] == "bop" and map_path.is_file() else None
+    rows = score_predictions(preds, gt_rows, args.method, mapping)
+    config = dict(config, method={"name": args.method, "external": str(args.predictions)})
+    out = write_run(args.out, rows, config, {"predictions": str(args.predictions)})
+    bop_text = None
+    if preds.attrs["kind"] == "bop" and _is_bop_dataset(config.get("dataset")):
+        bop_text = score_bop(preds, config["dataset"], out, args.method, args.metrics.split(","),
+                             args.by.split(","), vsd=not args.no_vsd)
+    n_ok = sum(r["status"] == "ok" for r in rows)
+    print(f"scored {n_ok}/{len(rows)} samples with predictions; run directory {out}")
+    print((out / "summary.md").read_text())
+    print(_object_summary(rows, out))
+    if args.acc or args.auc is not None:
+        print(_threshold_summary(rows, out, args.acc or "", args.auc))
+    if bop_text:
+        print(bop_text)
+    return 0
+
+
+def _object_summary(rows: Sequence[dict], out_dir: Path) -> str:
+    """Per-object rows of the same statistics as ``summary.md`` (written to ``summary_objects.md``)."""
+    import pandas as pd
+
+    from catpose.bench.scoring.metrics import summarize
+    from catpose.bench.run.evaluate import format_summary
+
+    df = pd.DataFrame(list(rows))
+    df["object"] = [f"{c}/{i}" for c, i in zip(df["category"], df["instance_id"])]
+    text = format_summary(summarize(df, by="object"))
+    (Path(out_dir) / "summary_objects.md").write_text(text + "\n")
+    return text
+
+
+def _threshold_summary(rows: Sequence[dict], out_dir: Path, acc: str, auc: float | None) -> str:
+    """``--acc`` / ``--auc``: per category, the accuracies and AUC of
+    :mod:`catpose.bench.scoring.curves` (written to ``summary_thresholds.md``)."""
+    import pandas as pd
+
+    from catpose.bench.scoring.curves import threshold_keys, threshold_table
+
+    keys = threshold_keys(acc, auc)
+    text = threshold_table(pd.DataFrame(list(rows)), keys).to_markdown(index=False, floatfmt=".3f")
+    (Path(out_dir) / "summary_thresholds.md").write_text(text + "\n")
+    return text
+
+
+DEFAULT_BOP_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
+
+
+def _is_bop_dataset(node: Any) -> bool:
+    return isinstance(node, dict) and str(node.get("_target_", "")).endswith("datasets.bop.BOP")
+
+
+def evaluation_models(dataset_cfg: dict) -> dict:
+    """The dataset config BOP's errors are computed with: ``models_dir: models_eval`` when the
+    dataset has that folder (the BOP toolkit's evaluation models, uniformly resampled surfaces),
+    whatever the run registered against; the config as it is otherwise."""
+    root = dataset_cfg.get("root")
+    if root and dataset_cfg.get("models_dir", "models") == "models" and (Path(str(root)) / "models_eval" / "models_info.json").is_file():
+        return dict(dataset_cfg, models_dir="models_eval")
+    return dataset_cfg
+
+
+def score_bop(preds, dataset_cfg: dict, out_dir: str | Path, method: str, metrics: Sequence[str],
+              by: Sequence[str], vsd: bool = True) -> str:
+    """BOP metrics of a BOP results CSV on the dataset of ``dataset_cfg`` (a resolved config
+    dict): writes ``bop_errors.jsonl`` and ``bop_summary.md`` into ``out_dir`` and returns the
+    summary (which states the target and visibility filters applied, and the models used: the
+    dataset's ``models_eval/`` when present, :func:`evaluation_models`)."""
+    from catpose.bench.scoring.bop_eval import ERRORS_FILE, compute_errors, format_scores, score_table, write_errors
+    from catpose.bench.run.build import build_from_config
+
+    dataset_cfg = evaluation_models(dataset_cfg)
+    _, ds = build_from_config(dict(dataset_cfg), "dataset")
+    errs = compute_errors(preds, ds, vsd=vsd)
+    filters = list(getattr(ds, "filters", [])) + [f"models: {dataset_cfg.get('models_dir', 'models')}/"]
+    header = {"method": method, "filters": filters, "targets": len(errs),
+              "matched": int(sum(r["matched"] for r in errs))}
+    write_errors(errs, Path(out_dir) / ERRORS_FILE, header)
+    import pandas as pd
+
+    text = f"BOP metrics ({method}):\n" + format_scores(score_table(pd.DataFrame(errs), metrics, by), header)
+    (Path(out_dir) / "bop_summary.md").write_text(text + "\n")
+    return text

@@ -1,0 +1,317 @@
+"""``bench perf``: seconds per registration of several methods on the same problems, interleaved.
+
+Problems come from any configured dataset through the runner's builder (``--dataset NAME``,
+``--root PATH`` for the real ones, ``--protocol``, default ``synthetic`` / ``gt_model``), the first
+``--n`` sample ids taken round-robin over categories. Methods are built from
+``configs/method/<name>.yaml`` exactly as ``bench run`` builds them (``--set key=value`` overrides
+an ``ours`` option; ``--methods adam=ours`` with ``--set adam:optimiser.solver=adam`` runs a second,
+differently configured copy in the same interleaved rounds).
+
+How it measures, so that the numbers can be trusted:
+
+- problems are taken in order; before a problem with a new template every method registers it
+  once, untimed: the one-off dictionary and template-descriptor build (cached afterwards) is
+  reported apart as ``warmup_s``, and the caches are warm for the timed calls whatever their size;
+- then ``--repeat`` rounds on that problem, each calling every method back to back (the method
+  order rotates per round), so load changes on a shared machine hit all methods alike; every
+  call is seeded as in ``bench run``;
+- per method: median, mean and p90 seconds per registration and the ratio of its median to FGR's
+  median from the same run; the process' peak RSS (``ru_maxrss``) and the load average before
+  and after are printed and written with the table;
+- the table is also written as CSV (``--out``, default ``outputs/perf/<parameters>.csv``) with the
+  raw per-registration times beside it (``*_times.csv``) and, for ``ours``, the per-stage medians.
+
+``--device cuda`` runs ours' solver on the GPU; ``--batch B`` feeds ours ``B`` problems per call of
+``register_batch`` (all candidates of all ``B`` problems in one solver launch) and counts the
+batch time divided by ``B`` per registration. ``--solvers`` runs the TEASER solver benchmark
+(:mod:`catpose.bench.perf.solvers`) with the remaining arguments instead.
+
+Usage::
+
+    bench perf                                    # 12 synthetic problems, ours, icp, fgr, 3 rounds
+    bench perf --n 24 --methods ours,adam=ours,fgr --repeat 5 --set adam:optimiser.solver=adam
+    bench perf --methods ransac,ransac2=ransac --set ransac2:num_threads=2
+    bench perf --dataset redwood --root ../shared/data/redwood --n 12
+    bench perf --methods ours,fgr --device cuda --batch 16 --n 48
+    bench perf --solvers --problems 20
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import logging
+import os
+import resource
+import statistics
+import time
+from pathlib import Path
+from typing import Any, Sequence
+
+from catpose.errors import ConfigError
+
+log = logging.getLogger(__name__)
+
+STAGES = ("dictionary", "descriptors", "affinity", "initial_pose", "optimization", "selection", "refinement")
+REFERENCE = "fgr"
+
+
+def load_problems(dataset: str, protocol: str, n: int, seed: int, root: str | None = None,
+                  overrides: Sequence[str] = ()) -> tuple[list, str]:
+    """The first ``n`` problems of ``dataset`` under ``protocol`` (round-robin over categories),
+    built exactly as ``bench run`` builds them, and a label saying where they come from."""
+    from catpose.bench.run.config import compose_and_build
+
+    ov = [f"dataset={dataset}", f"protocol={protocol}", f"seed={seed}", *overrides]
+    if root:
+        ov.append(f"dataset.root={root}")
+    _, ((name, ds), (_, proto)) = compose_and_build(ov, ("dataset", "protocol"),
+                                                    hint="check --dataset/--protocol/--dataset-set")
+    by_cat: dict[str, list[str]] = {}
+    for sid in proto.sample_ids(ds):
+        by_cat.setdefault(str(ds.category_of(sid.split("|")[0])), []).append(sid)
+    ids: list[str] = []
+    queues = [list(v) for v in by_cat.values()]
+    while len(ids) < n and any(queues):
+        for q in queues:
+            if q and len(ids) < n:
+                ids.append(q.pop(0))
+    if not ids:
+        raise ConfigError(f"dataset {name} ({protocol}) has no samples; check --root / --dataset-set")
+    return [proto.load(ds, sid).problem for sid in ids], f"{name} ({protocol}, seed {seed})"
+
+
+def build_method(name: str, seed: int, overrides: Sequence[str] = ()) -> Any:
+    """Build a method from its config exactly as the runner does (``overrides`` are ``key=value``
+    relative to the method node)."""
+    from catpose.bench.run.config import compose_and_build
+
+    _, ((_, method),) = compose_and_build([f"method={name}", f"seed={seed}", *[f"method.{kv}" for kv in overrides]],
+                                          ("method",), hint="check --methods/--set")
+    return method
+
+
+def parse_methods(spec: str) -> list[tuple[str, str]]:
+    """``ours,adam=ours,fgr`` -> [(label, config name)]: a label lets one config run twice with
+    different ``--set LABEL:KEY=VALUE`` options in the same interleaved run."""
+    out = []
+    for item in (s.strip() for s in spec.split(",")):
+        if item:
+            label, _, name = item.partition("=")
+            out.append((label.strip(), (name or label).strip()))
+    labels = [lab for lab, _ in out]
+    if len(set(labels)) != len(labels):
+        raise ConfigError(f"--methods {spec!r} repeats a label; name copies like adam=ours")
+    return out
+
+
+def method_overrides(label: str, name: str, sets: Sequence[str]) -> list[str]:
+    """The ``--set`` options for one method: ``LABEL:KEY=VALUE`` for that label, plain
+    ``KEY=VALUE`` for every ``ours``."""
+    out = []
+    for kv in sets:
+        target, sep, rest = kv.partition(":")
+        if sep and "=" not in target:
+            if target == label:
+                out.append(rest)
+        elif name == "ours":
+            out.append(kv)
+    return out
+
+
+def device_override(name: str, device: str) -> list[str]:
+    """The ``--set`` that puts ``name``'s solver on ``device`` (empty for cpu)."""
+    if device == "cpu":
+        return []
+    from catpose.bench.run.config import compose
+
+    cfg = compose([f"method={name}"])
+    key = "optimiser.device" if "optimiser" in cfg.method else "device"
+    return [f"{key}={device}"]
+
+
+def _percentile(xs: Sequence[float], q: float) -> float:
+    import numpy as np
+
+    return float(np.percentile(xs, q)) if xs else float("nan")
+
+
+def _peak_rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: KiB
+
+
+def _seeded(seed: int, sample_id: str) -> None:
+    from catpose.bench.run.sample_run import seed_everything
+    from catpose.geometry import stable_seed
+
+    seed_everything(stable_seed(seed, sample_id))
+
+
+def _out_path(args: argparse.Namespace) -> Path:
+    if args.out:
+        return Path(args.out)
+    tag = f"{args.dataset}-{args.protocol}-n{args.n}-r{args.repeat}-{args.device}"
+    if args.batch > 1:
+        tag += f"-b{args.batch}"
+    return Path("outputs") / "perf" / f"{tag}.csv"
+
+
+def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int, batch: int = 1) -> dict[str, dict]:
+    """Time every method on every problem, ``repeat`` times, interleaved call by call.
+
+    Problems (or batches of ``batch`` problems) are taken in order; before a problem whose
+    template is new, every method registers it once untimed (``warmup_s``: the dictionary and
+    template-descriptor build). Then ``repeat`` rounds on it, each calling every method back to
+    back, the method order rotating per round. The template caches therefore stay warm whatever
+    their size (ours keeps 8 templates' descriptors; a round-robin over more would time rebuilds).
+
+    Returns per method: ``times`` (s per registration, in call order), ``stages`` (stage -> list
+    of s, ours only) and ``warmup_s``.
+    """
+    out = {name: {"times": [], "stages": {s: [] for s in STAGES}, "warmup_s": 0.0} for name in methods}
+    names = list(methods)
+    seen: set = set()
+    chunks = [problems[i:i + batch] for i in range(0, len(problems), batch)]
+    for chunk in chunks:
+        for name, method in methods.items():
+            for p in chunk:  # one untimed call per new template builds its caches
+                if p.template.template_id not in seen:
+                    _seeded(seed, p.sample_id)
+                    t0 = time.perf_counter()
+                    method.register(p)
+                    out[name]["warmup_s"] += time.perf_counter() - t0
+        seen.update(p.template.template_id for p in chunk)
+        for r in range(repeat):
+            order = names[r % len(names):] + names[:r % len(names)]
+            for name in order:
+                method, rec = methods[name], out[name]
+                if batch > 1 and hasattr(method, "register_batch"):
+                    _seeded(seed, chunk[0].sample_id)
+                    t0 = time.perf_counter()
+                    results = method.register_batch(chunk)
+                    rec["times"] += [(time.perf_counter() - t0) / len(chunk)] * len(chunk)
+                else:
+                    results = []
+                    for p in chunk:
+                        _seeded(seed, p.sample_id)
+                        t0 = time.perf_counter()
+                        results.append(method.register(p))
+                        rec["times"].append(time.perf_counter() - t0)
+                for res in results:
+                    for s, v in dict(res.extras).get("timings", {}).items():
+                        if s in rec["stages"]:
+                            rec["stages"][s].append(float(v))
+    return out
+
+
+def summarize(measured: dict[str, dict]) -> list[dict]:
+    """One row per method: n, median/mean/p90 seconds, ratio to FGR's median, warm-up seconds."""
+    ref = measured.get(REFERENCE)
+    ref_median = statistics.median(ref["times"]) if ref and ref["times"] else None
+    rows = []
+    for name, rec in measured.items():
+        xs = rec["times"]
+        med = statistics.median(xs)
+        rows.append({"method": name, "n": len(xs), "median_s": med, "mean_s": statistics.fmean(xs),
+                     "p90_s": _percentile(xs, 90),
+                     f"ratio_to_{REFERENCE}": med / ref_median if ref_median else float("nan"),
+                     "warmup_s": rec["warmup_s"]})
+    return rows
+
+
+def _write_csv(path: Path, rows: list[dict]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    import sys
+
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if "--solvers" in argv:
+        from catpose.bench.perf.solvers import main as solvers_main
+
+        return solvers_main([a for a in argv if a != "--solvers"])
+    import yaml
+
+    ap = argparse.ArgumentParser(prog="bench perf", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, default=12, help="number of problems (default 12)")
+    ap.add_argument("--repeat", type=int, default=3, help="interleaved timing rounds (default 3)")
+    ap.add_argument("--methods", default="ours,icp,fgr",
+                    help="comma-separated method config names; LABEL=NAME runs a config under another label")
+    ap.add_argument("--dataset", default="synthetic", help="dataset config name (default synthetic)")
+    ap.add_argument("--root", default=None, help="dataset root (sets dataset.root)")
+    ap.add_argument("--protocol", default="gt_model", help="protocol config name (default gt_model)")
+    ap.add_argument("--dataset-set", action="append", default=[], metavar="KEY=VALUE",
+                    help="override a dataset option (e.g. instances_per_category=1)")
+    ap.add_argument("--categories", default=None, help="comma-separated categories (sets dataset.categories)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--threads", type=int, default=1, help="torch intra-op threads (default 1)")
+    ap.add_argument("--set", action="append", default=[], metavar="[LABEL:]KEY=VALUE",
+                    help="override an option of ours (KEY=VALUE) or of the method LABEL (LABEL:KEY=VALUE)")
+    ap.add_argument("--device", default="cpu", choices=("cpu", "cuda"), help="ours' solver device")
+    ap.add_argument("--batch", type=int, default=1, help="problems per ours register_batch call (default 1)")
+    ap.add_argument("--out", default=None, help="CSV path (default outputs/perf/<parameters>.csv)")
+    args = ap.parse_args(argv)
+    if args.n < 1 or args.repeat < 1 or args.batch < 1:
+        raise ConfigError("--n, --repeat and --batch must be at least 1")
+    for kv in args.set + args.dataset_set:
+        if "=" not in kv:
+            raise ConfigError(f"--set/--dataset-set {kv!r} is not KEY=VALUE")
+        yaml.safe_load(kv.partition("=")[2])  # a malformed value fails here, before any work
+    if args.device == "cuda":
+        import torch
+
+        if not torch.cuda.is_available():
+            raise ConfigError("--device cuda but torch has no CUDA device here; run it on a GPU "
+                              "machine with a CUDA build of torch, or use --device cpu")
+    import torch
+    from tabulate import tabulate
+
+    torch.set_num_threads(max(1, args.threads))
+    load_before = os.getloadavg()
+    ds_over = [f"dataset.{kv}" for kv in args.dataset_set]
+    if args.categories:
+        ds_over.append(f"dataset.categories=[{args.categories}]")
+    problems, source = load_problems(args.dataset, args.protocol, args.n, args.seed, args.root, ds_over)
+    methods: dict[str, Any] = {}
+    for label, name in parse_methods(args.methods):
+        over = method_overrides(label, name, args.set)
+        if name == "ours":
+            over += device_override(name, args.device)
+        try:
+            methods[label] = build_method(name, args.seed, over)
+        except Exception as e:  # a method whose module or config is missing or broken: skip it, say why
+            log.warning("skipping %s: %s: %s", label, type(e).__name__, str(e).splitlines()[0] if str(e) else "")
+    if not methods:
+        raise ConfigError(f"none of --methods {args.methods} could be built")
+    measured = measure(methods, problems, args.repeat, args.seed, args.batch)
+    load_after = os.getloadavg()
+    rows = summarize(measured)
+    peak_rss = _peak_rss_mb()
+    stage_rows = [{"method": name, "stage": s, "median_s": statistics.median(v), "mean_s": statistics.fmean(v)}
+                  for name, rec in measured.items() for s, v in rec["stages"].items() if v]
+
+    print(f"problems: {len(problems)} from {source}; {args.repeat} interleaved rounds; torch threads "
+          f"{torch.get_num_threads()}; ours on {args.device}, batch {args.batch}; load average "
+          f"{load_before[0]:.1f} before, {load_after[0]:.1f} after on {os.cpu_count()} CPUs; "
+          f"peak RSS {peak_rss:.0f} MiB (the process, all methods)")
+    print(tabulate(rows, headers="keys", tablefmt="github", floatfmt=".3f"))
+    if stage_rows:
+        print()
+        print(tabulate(stage_rows, headers="keys", tablefmt="github", floatfmt=".4f"))
+    out = _out_path(args)
+    meta = {"source": source, "repeat": args.repeat, "device": args.device, "batch": args.batch,
+            "threads": torch.get_num_threads(), "load_before": round(load_before[0], 2),
+            "load_after": round(load_after[0], 2), "cpus": os.cpu_count(), "peak_rss_mb": round(peak_rss, 1)}
+    _write_csv(out, [dict(r, **meta) for r in rows])
+    _write_csv(out.with_name(out.stem + "_times.csv"),
+               [{"method": name, "call": i, "seconds": x} for name, rec in measured.items()
+                for i, x in enumerate(rec["times"])])
+    if stage_rows:
+        _write_csv(out.with_name(out.stem + "_stages.csv"), stage_rows)
+    print(f"\nwrote {out} (and {out.stem}_times.csv{', ' + out.stem + '_stages.csv' if stage_rows else ''})")
+    return 0

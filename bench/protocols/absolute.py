@@ -1,0 +1,181 @@
+"""Evaluation protocols: which problems are built from a dataset's observations and how their
+per-sample errors are scored. The same protocol applies to every method, so every method is
+scored on the same problems (fixed by dataset, protocol and seed alone).
+
+- ``gt_model``: each partial view against its own complete model.
+- ``templates``: each view against each of the category's K templates (one problem each); the
+  estimate of a view is the one with the lowest method score (a real system has no ground truth),
+  and the paper's "minimum error across templates" is reported beside it as an oracle.
+- ``relative`` (:mod:`catpose.bench.protocols.relative`): relative pose between two views of one object.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+import numpy as np
+
+from catpose.bench.protocols.template_choice import check_choice, choose_row, is_excluded_view, with_template_facts
+from catpose.datasets.base import ObjectDataset, Observation
+from catpose.errors import ConfigError, DatasetError
+from catpose.types import GroundTruth, RegistrationProblem, Sample, Template
+
+
+def make_sample(obs: Observation, template: Template, sample_id: str, group_id: str) -> Sample:
+    """The problem of registering ``obs`` to ``template`` and its ground truth.
+
+    Category-level alignment puts the template and the instance in one canonical frame, so
+    ``T_template_camera = T_object_camera``.
+    """
+    problem = RegistrationProblem(
+        sample_id=sample_id, category=obs.category, points_camera=obs.points_camera,
+        normals_camera=obs.normals_camera, ground_normal_camera=obs.ground_normal_camera,
+        template=template)
+    gt = GroundTruth(T_template_camera=np.asarray(obs.T_object_camera, float), symmetry_axis=obs.symmetry_axis,
+                     symmetries=tuple(np.asarray(S, float) for S in obs.symmetries))
+    info = {"instance_id": obs.instance_id, "template_id": template.template_id, **dict(obs.info)}
+    return Sample(problem=problem, gt=gt, group_id=group_id, info=info)
+
+
+def require_consistent_frames(dataset: ObjectDataset, what: str) -> None:
+    """Refuse a category-level protocol on a dataset whose instances' frames are not declared
+    consistent (``dataset.frames_consistent``): a template's frame would differ from the
+    observed instance's by an unknown rotation, and the errors would measure that rotation.
+
+    Raises:
+        ConfigError: one line naming the fixes.
+    """
+    if getattr(dataset, "frames_consistent", True):
+        return
+    raise ConfigError(f"{dataset.name}: {what} compares instances, but their frames are not declared "
+                      "consistent and dataset.alignment_table is unset; use dataset=modelnet40_aligned (the "
+                      "aligned release), or run `bench align` and set dataset.alignment_table=<csv>")
+
+
+class Protocol(ABC):
+    """Builds samples from a dataset and turns per-sample rows into scored rows."""
+
+    name: str = "protocol"
+
+    @abstractmethod
+    def sample_ids(self, dataset: ObjectDataset) -> list[str]:
+        """Ids of every problem, in a fixed order."""
+
+    @abstractmethod
+    def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
+        """Build one problem (raises :class:`~catpose.errors.CatposeError` on bad data)."""
+
+    def score_units(self, samples):
+        """Per-sample rows (the ``samples.jsonl`` schema) -> the rows the statistics count.
+
+        Views whose dataset has no absolute ground truth (``info["absolute_gt"]`` False, e.g. a
+        Redwood scan: only relative poses are known) are left out; use ``protocol=relative``.
+        """
+        return absolute_gt_only(samples)
+
+
+def absolute_gt_only(samples):
+    """The rows whose ground truth is an absolute pose (see :meth:`Protocol.score_units`)."""
+    if len(samples) == 0 or "info" not in samples:
+        return samples
+    keep = samples["info"].map(lambda i: not (isinstance(i, dict) and i.get("absolute_gt") is False))
+    return samples[keep.astype(bool)].reset_index(drop=True)
+
+
+class _ObservationCache:
+    """Keeps the last observation, since consecutive samples often share one."""
+
+    def __init__(self) -> None:
+        self._key: tuple[int, str] | None = None
+        self._obs: Observation | None = None
+
+    def get(self, dataset: ObjectDataset, obs_id: str) -> Observation:
+        key = (id(dataset), obs_id)
+        if key != self._key:
+            self._obs, self._key = dataset.observation(obs_id), key
+        return self._obs
+
+
+class GtModel(Protocol):
+    """Each partial view registered to the observed instance's own complete model."""
+
+    name = "gt_model"
+
+    def __init__(self) -> None:
+        self._cache = _ObservationCache()
+
+    def sample_ids(self, dataset: ObjectDataset) -> list[str]:
+        return list(dataset.observation_ids())
+
+    def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
+        obs = self._cache.get(dataset, sample_id)
+        return make_sample(obs, dataset.instance_model(obs.category, obs.instance_id), sample_id, sample_id)
+
+
+class Templates(Protocol):
+    """Each view registered to each of its category's templates (``dataset.category_templates``).
+
+    Sample ids are ``"<obs_id>|<k>"`` with ``k`` the template's index; ``group_id`` is the
+    observation id. ``score_units`` keeps, per observation, the row with the lowest method
+    ``score`` (ties and NaN scores fall back to the first template) and adds ``oracle_err_deg``,
+    the minimum error across templates, which needs ground truth and is labelled an oracle.
+    """
+
+    name = "templates"
+
+    def __init__(self, max_templates: int | None = None, exclude_templates: bool = False,
+                 exclude_instances: list[str] | None = None, choice: str = "score") -> None:
+        self.max_templates = max_templates
+        self.exclude_templates = bool(exclude_templates)  # skip views of the template instances themselves
+        self.exclude_instances = [str(i) for i in (exclude_instances or [])]  # and of these instances
+        self.choice = check_choice(choice)  # how a view's template is chosen (catpose.bench.protocols.template_choice)
+        self._cache = _ObservationCache()
+
+    def _templates(self, dataset: ObjectDataset, category: str) -> list[Template]:
+        templates = list(dataset.category_templates(category))
+        if not templates:
+            raise DatasetError(f"dataset {dataset.name!r} has no templates for category {category!r}; "
+                               "list them in the dataset config")
+        return templates[: self.max_templates] if self.max_templates else templates
+
+    def sample_ids(self, dataset: ObjectDataset) -> list[str]:
+        require_consistent_frames(dataset, f"protocol={self.name}")
+        ids: list[str] = []
+        counts: dict[str, int] = {}
+        for obs_id in dataset.observation_ids():
+            category = dataset.category_of(obs_id)
+            n = counts.get(category)
+            if n is None:
+                n = counts[category] = len(self._templates(dataset, category))
+            if is_excluded_view(obs_id, self._templates(dataset, category) if self.exclude_templates else [],
+                                self.exclude_instances):
+                continue
+            ids.extend(f"{obs_id}|{k}" for k in range(n))
+        return ids
+
+    def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
+        require_consistent_frames(dataset, f"protocol={self.name}")
+        obs_id, _, k = sample_id.rpartition("|")
+        obs = self._cache.get(dataset, obs_id)
+        template = self._templates(dataset, obs.category)[int(k)]
+        return with_template_facts(make_sample(obs, template, sample_id, obs_id))
+
+    def score_units(self, samples):
+        return self.best_per_view(absolute_gt_only(samples))
+
+    def best_per_view(self, samples):
+        """One row per view (``group_id``): the template with the lowest method score, with
+        ``oracle_err_deg``, ``n_templates`` and the summed ``runtime_s`` of the group."""
+        import pandas as pd
+
+        if len(samples) == 0:
+            return samples
+        rows = []
+        for _, g in samples.groupby("group_id", sort=False):
+            row = choose_row(g, self.choice).copy()
+            err = pd.to_numeric(g["err_deg"], errors="coerce").where(g["status"] == "ok")
+            row["oracle_err_deg"] = float(err.min()) if err.notna().any() else 180.0
+            row["n_templates"] = len(g)
+            row["runtime_s"] = float(pd.to_numeric(g["runtime_s"], errors="coerce").sum())
+            rows.append(row)
+        return pd.DataFrame(rows).reset_index(drop=True)
+

@@ -1,0 +1,210 @@
+"""``bench suite real``: every method on the shared real development data, one table.
+
+The real development set is ``../shared/data`` beside the checkout (or ``$CATPOSE_SHARED_DATA``):
+
+- ``ycbv``: 19 real YCB-Video frames in BOP layout, 38 instances (``dataset=ycbv``);
+- ``tyol``: the one TYO-L frame (``dataset=bop``);
+- ``modelnet40_resampled``: 23 real ModelNet40 CAD shapes (PointNet++ resampled clouds) x 2
+  hidden-point-removal views (``dataset=modelnet40_resampled``);
+- ``redwood``: real Redwood frames; scored only when the scan has a camera trajectory (``*.log``)
+  under ``protocol=relative`` (the shared frames have none: the set is listed as skipped).
+
+Every (set, method) pair goes through the normal runner (:func:`catpose.bench.run.runner.run`), so
+run directories, resume and summaries are the ones ``bench run`` writes; the table is made from
+their files (``summary.csv``). Protocol: ``gt_model`` (each view against its own model).
+
+    bench suite real                                  # every set, every method
+    bench suite real --sets ycbv --methods ours,icp --limit 5
+    bench suite real --methods ours -o method.selection=loss   # a variant of one method
+    bench suite real --write results/real/table.md    # also write the table
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from catpose.bench.run.config import shared_data_dir
+from catpose.errors import ConfigError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class RealSet:
+    """One real data set: its dataset config, the overrides pointing it at the shared data
+    (``{shared}`` is replaced by the shared-data folder) and the path that must exist."""
+
+    name: str
+    dataset: str
+    requires: str
+    overrides: tuple[str, ...] = ()
+    protocol: str = "gt_model"
+    needs_trajectory: bool = False
+
+
+@dataclass(frozen=True)
+class MethodVariant:
+    """A table row: a method config and its overrides."""
+
+    label: str
+    method: str
+    overrides: tuple[str, ...] = field(default_factory=tuple)
+
+
+SETS: dict[str, RealSet] = {s.name: s for s in (
+    RealSet("ycbv", "ycbv", "bop/ycbv", ("dataset.root={shared}/bop/ycbv",)),
+    RealSet("tyol", "bop", "bop/tyol", ("dataset.root={shared}/bop/tyol",)),
+    RealSet("modelnet40_resampled", "modelnet40_resampled", "modelnet40_normal_resampled",
+            ("dataset.root={shared}/modelnet40_normal_resampled",)),
+    RealSet("redwood", "redwood", "redwood", ("dataset.root={shared}/redwood",), protocol="relative",
+            needs_trajectory=True),
+)}
+
+METHODS: dict[str, MethodVariant] = {v.label: v for v in (
+    MethodVariant("ours", "ours"),
+    MethodVariant("icp", "icp"),
+    MethodVariant("fgr", "fgr"),
+    MethodVariant("teaser", "teaser"),
+    MethodVariant("ransac", "ransac"),
+    MethodVariant("fgr-dict", "fgr", ("method.matching=dictionary",)),
+    MethodVariant("teaser-dict", "teaser", ("method.matching=dictionary",)),
+    MethodVariant("ransac-dict", "ransac", ("method.matching=dictionary",)),
+)}
+
+
+def skip_reason(real_set: RealSet, shared: Path) -> str | None:
+    """Why a set cannot be run and scored here (None: it can)."""
+    root = shared / real_set.requires
+    if not root.exists():
+        return f"{root} is absent"
+    if real_set.needs_trajectory and not any(root.rglob("*.log")):
+        return (f"no camera trajectory (*.log) under {root}: Redwood frames have no object pose, only "
+                "relative poses from a trajectory can be scored")
+    return None
+
+
+def compose(real_set: RealSet, variant: MethodVariant, shared: Path, seed: int, limit: int | None,
+            output_root: str, method_overrides: list[str]) -> tuple[object, list[str]]:
+    """The resolved run config of one (set, method) pair and its command-line overrides."""
+    from catpose.bench.run import config
+
+    overrides = [f"method={variant.method}", f"dataset={real_set.dataset}", f"protocol={real_set.protocol}",
+                 f"seed={seed}", f"output_root={output_root}", "progress=false", "print_summary=false",
+                 *[o.replace("{shared}", str(shared)) for o in real_set.overrides],
+                 *variant.overrides, *(method_overrides if variant.method == "ours" else [])]
+    if limit is not None:
+        overrides.append(f"limit={limit}")
+    return config.compose(overrides), overrides
+
+
+def summary_row(run_dir: Path, sample_ids: list[str] | None = None) -> dict:
+    """The pooled ``all`` row of a run's summary, from its files."""
+    from catpose.bench.run.evaluate import summarize_run
+
+    summary = summarize_run(run_dir, sample_ids)
+    rows = summary[summary["category"] == "all"]
+    return {} if len(rows) == 0 else rows.iloc[0].to_dict()
+
+
+def format_table(results: dict[tuple[str, str], dict], sets: list[str], methods: list[str],
+                 skipped: dict[str, str]) -> str:
+    """Markdown: one row per method, per set ``mean / median / @10 / @30`` (deg) and s per
+    registration (median); the best mean and @10 of each set in bold."""
+    header = ["method"] + [f"{s}: mean / med / @10 / @30 (s)" for s in sets]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    best: dict[str, tuple[float, float]] = {}
+    for s in sets:
+        rows = [results[(s, m)] for m in methods if results.get((s, m))]
+        if rows:
+            best[s] = (min(r["mean_err_deg"] for r in rows), max(r["acc10"] for r in rows))
+    for m in methods:
+        cells = [m]
+        for s in sets:
+            r = results.get((s, m))
+            if not r:
+                cells.append("-")
+                continue
+            mean = f"{r['mean_err_deg']:.2f}"
+            acc10 = f"{r['acc10']:.3f}"
+            if abs(r["mean_err_deg"] - best[s][0]) < 1e-9:
+                mean = f"**{mean}**"
+            if abs(r["acc10"] - best[s][1]) < 1e-9:
+                acc10 = f"**{acc10}**"
+            fail = f", {int(r['failed'])} failed" if r.get("failed") else ""
+            cells.append(f"{mean} / {r['median_err_deg']:.2f} / {acc10} / {r['acc30']:.3f} "
+                         f"({r['median_runtime_s']:.2f}{fail}) n={int(r['n'])}")
+        lines.append("| " + " | ".join(cells) + " |")
+    for s, why in skipped.items():
+        lines.append(f"\nskipped {s}: {why}")
+    return "\n".join(lines)
+
+
+def run_suite(sets: list[str], methods: list[str], shared: Path, seed: int = 0, limit: int | None = None,
+              output_root: str = "outputs/real", method_overrides: list[str] | None = None,
+              log=print, table_only: bool = False) -> tuple[dict, dict]:
+    """Run every (set, method) pair; returns ({(set, method): summary row}, {set: skip reason}).
+    With ``table_only`` nothing runs: the rows come from the run directories already written
+    (finished samples only; pairs never run are left out)."""
+    from catpose.bench.run.rundir import SAMPLES_FILE, run_dir_for
+    from catpose.bench.run.runner import run
+
+    results: dict[tuple[str, str], dict] = {}
+    skipped: dict[str, str] = {}
+    for s in sets:
+        why = skip_reason(SETS[s], shared)
+        if why:
+            skipped[s] = why
+            log(f"bench suite real: skipping {s}: {why}")
+            continue
+        for m in methods:
+            cfg, overrides = compose(SETS[s], METHODS[m], shared, seed, limit, output_root, method_overrides or [])
+            if table_only:
+                run_dir = run_dir_for(cfg, overrides)
+                if not (run_dir / SAMPLES_FILE).is_file():
+                    continue
+            else:
+                log(f"bench suite real: {m} on {s} ...")
+                run_dir = run(cfg, overrides)
+            results[(s, m)] = summary_row(run_dir)
+            results[(s, m)]["run_dir"] = str(run_dir)
+    return results, skipped
+
+
+def main(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(prog="bench suite", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("suite", choices=["real"], help="the suite to run (only 'real' so far)")
+    parser.add_argument("--sets", default=",".join(SETS), help=f"comma-separated subset of {', '.join(SETS)}")
+    parser.add_argument("--methods", default=",".join(METHODS),
+                        help=f"comma-separated subset of {', '.join(METHODS)}")
+    parser.add_argument("--limit", type=int, default=None, help="only the first N samples of each set")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--output-root", default="outputs/real", help="where run directories go")
+    parser.add_argument("-o", "--ours-override", action="append", default=[], metavar="KEY=VALUE",
+                        help="an override applied to method=ours only (repeatable), e.g. -o method.selection=loss")
+    parser.add_argument("--table-only", action="store_true",
+                        help="run nothing: the table of the run directories already written")
+    parser.add_argument("--write", type=Path, default=None, help="also write the Markdown table to this file")
+    args = parser.parse_args(argv)
+
+    sets, methods = args.sets.split(","), args.methods.split(",")
+    for name, chosen, known in (("--sets", sets, SETS), ("--methods", methods, METHODS)):
+        bad = [c for c in chosen if c not in known]
+        if bad:
+            raise ConfigError(f"bench suite real: {name} has unknown {bad}; choose from {', '.join(known)}")
+    shared = shared_data_dir()
+    if not shared.is_dir():
+        print(f"bench suite real: skipped: no shared real data at {shared} (set CATPOSE_SHARED_DATA)")
+        return 0
+    results, skipped = run_suite(sets, methods, shared, args.seed, args.limit, args.output_root,
+                                 args.ours_override, log=log.info,
+                                 table_only=args.table_only)
+    table = format_table(results, [s for s in sets if s not in skipped], methods, skipped)
+    print(table)
+    if args.write:
+        args.write.parent.mkdir(parents=True, exist_ok=True)
+        args.write.write_text(table + "\n")
+    return 0

@@ -1,0 +1,8 @@
+"""``python -m catpose.bench.regress``: the same as ``bench regress`` (also reachable as
+``python -m catpose.bench.regress.regress``, which the gate's second-kernel child process uses)."""
+
+import sys
+
+from catpose.bench.regress.regress import main
+
+sys.exit(main())

@@ -1,0 +1,431 @@
+"""``bench regress``: a per-sample regression gate for ours and the baselines.
+
+Each suite of ``configs/regress/default.yaml`` is a fixed set of problems and a list of methods.
+The embedded suite reads its problems from committed golden inputs (:mod:`catpose.bench.regress.golden`),
+so every machine registers the same bits; a suite on ``../shared/data`` renders them live.
+
+What is compared, per method (the reference is ``results/reference/<suite>.json``):
+
+- **every sample**: it fails when a sample that was ok now fails, or when a *stable* sample that
+  was within ``within_deg`` (10 deg) of the truth leaves it by more than ``chaos_deg``;
+  every sample whose answer moved more than ``chaos_deg`` is printed with how far;
+- **aggregates** per category and overall, over the stable samples only, within the
+  tolerances derived in the config (mean / median error, @10 / @30, translation error).
+
+A sample is *chaotic* when its answer is decided by the last bits: a ``1e-12`` relative
+perturbation of its input, or another code path of the numerical libraries, moves its estimate
+by more than ``chaos_deg``. ``bench regress --update`` measures that for every sample: a nominal
+run, a perturbed run, and one run in a child process per code path this CPU can take
+(:func:`catpose.bench.run.environment.numeric_variants`: every OpenBLAS kernel it runs, SkylakeX
+included where AVX-512 exists, NumPy without its AVX-512 loops, torch's default kernels). It
+stores the flag in the reference; chaotic samples are reported, never failed on.
+
+    bench regress                          # every suite (shared-data suites only when present)
+    bench regress --suite synthetic --methods icp,ours
+    bench regress --update                 # after an intended change; commit results/reference/
+    bench regress --write-inputs           # re-render the golden inputs (changes every answer)
+
+(One module of about 400 lines: the suites, running them, writing references and the command
+are one workflow that reads top to bottom; the judging rules are :mod:`catpose.bench.regress.regress_gate`.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from catpose.bench.regress.regress_gate import Finding, Gate, to_float, aggregates, compare_method, estimate_distance_deg
+from catpose.bench.run.config import compose, shared_data_dir
+from catpose.errors import CatposeError, ConfigError, command_error
+
+REPO = Path(__file__).resolve().parents[2]
+DEFAULT_CONFIG = REPO / "configs" / "regress" / "default.yaml"
+AGGREGATES = ("n", "failed", "mean_err_deg", "median_err_deg", "acc10", "acc30", "mean_trans_err")
+
+
+# --------------------------------------------------------------------------------------------
+# configuration
+
+
+@dataclass
+class Suite:
+    """One configured suite."""
+
+    name: str
+    methods: list[str]
+    reference: Path
+    dataset: str = "synthetic"
+    protocol: str = "gt_model"
+    seed: int = 0
+    overrides: list[str] = field(default_factory=list)
+    method_overrides: dict[str, list[str]] = field(default_factory=dict)
+    inputs: Path | None = None
+    requires_shared_data: bool = False
+
+
+def _repo_path(p: str | Path) -> Path:
+    p = Path(p)
+    return p if p.is_absolute() else REPO / p
+
+
+def load_config(path: str | Path = DEFAULT_CONFIG) -> tuple[Gate, dict[str, Suite]]:
+    """The gate thresholds and the suites (raises :class:`ConfigError` naming the key)."""
+    import yaml
+
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"regress config {path} does not exist; pass --config FILE")
+    cfg = yaml.safe_load(path.read_text()) or {}
+    if not isinstance(cfg.get("suites"), dict) or not cfg["suites"]:
+        raise ConfigError(f"{path} has no 'suites' mapping; see configs/regress/default.yaml")
+    g = dict(cfg.get("gate") or {})
+    unknown = set(g) - set(Gate.__dataclass_fields__)
+    if unknown:
+        raise ConfigError(f"{path}: unknown gate keys {sorted(unknown)}; valid: {sorted(Gate.__dataclass_fields__)}")
+    if "accuracy_thresholds" in g:
+        g["accuracy_thresholds"] = tuple(float(x) for x in g["accuracy_thresholds"])
+    gate = Gate(**g)
+    suites = {}
+    for name, s in cfg["suites"].items():
+        for key in ("dataset", "protocol", "methods", "reference"):
+            if key not in s:
+                raise ConfigError(f"{path}: suite {name!r} lacks {key!r}")
+        suites[name] = Suite(name=name, methods=list(s["methods"]), reference=_repo_path(s["reference"]),
+                             dataset=str(s["dataset"]), protocol=str(s["protocol"]), seed=int(s.get("seed", 0)),
+                             overrides=[str(o) for o in s.get("overrides") or []],
+                             method_overrides={k: list(v) for k, v in (s.get("method_overrides") or {}).items()},
+                             inputs=_repo_path(s["inputs"]) if s.get("inputs") else None,
+                             requires_shared_data=bool(s.get("requires_shared_data", False)))
+    return gate, suites
+
+
+def method_available(name: str, suite: "Suite | None" = None) -> str | None:
+    """None when ``configs/method/<name>.yaml`` exists and the method can be built (its module
+    and optional dependencies import), else why not."""
+    if not (REPO / "configs" / "method" / f"{name}.yaml").is_file():
+        return f"no configs/method/{name}.yaml"
+    from catpose.bench.run.build import build_from_config
+
+    try:
+        build_from_config(_compose(suite or Suite(name="-", methods=[], reference=Path("-")), name).method, "method")
+    except (CatposeError, ImportError) as e:
+        return " ".join(str(e).split())
+    return None
+
+
+# --------------------------------------------------------------------------------------------
+# running
+
+
+def _compose(suite: Suite, method: str | None) -> Any:
+    shared = str(shared_data_dir())
+    overrides = [f"dataset={suite.dataset}", f"protocol={suite.protocol}", f"seed={suite.seed}",
+                 *[o.replace("{shared_data}", shared) for o in suite.overrides]]
+    if method:
+        overrides += [f"method={method}", *suite.method_overrides.get(method, [])]
+    return compose(overrides)
+
+
+def suite_samples(suite: Suite, transform: Callable | None = None) -> tuple[Any, Any, list[str]]:
+    """(dataset, protocol, sample ids) of a suite: golden inputs when it has them, else its
+    dataset and protocol built from config. ``transform`` maps each loaded sample (golden only)."""
+    from catpose.bench.regress.golden import GoldenDataset, GoldenProtocol, read_golden
+    from catpose.bench.run.build import build_from_config
+
+    if suite.inputs is not None:
+        golden = read_golden(suite.inputs)
+        protocol = GoldenProtocol(golden, transform)
+        return GoldenDataset(golden), protocol, protocol.sample_ids()
+    cfg = _compose(suite, None)
+    name, dataset = build_from_config(cfg.dataset, "dataset")
+    dataset.name = name
+    _, protocol = build_from_config(cfg.protocol, "protocol")
+    return dataset, protocol, protocol.sample_ids(dataset)
+
+
+def run_method(suite: Suite, method_name: str, transform: Callable | None = None) -> dict[str, dict]:
+    """Register every problem of ``suite`` with one method; {sample_id: runner row}."""
+    from catpose.bench.run.build import build_from_config
+    from catpose.bench.run.sample_run import run_one
+
+    cfg = _compose(suite, method_name)
+    if cfg.get("threads"):
+        import torch
+
+        torch.set_num_threads(int(cfg.threads))
+    _, method = build_from_config(cfg.method, "method")
+    dataset, protocol, ids = suite_samples(suite, transform)
+    base = {"method": method_name, "dataset": suite.dataset, "protocol": suite.protocol, "seed": suite.seed}
+    return {sid: run_one(method, protocol, dataset, sid, base, suite.seed) for sid in ids}
+
+
+def slim_rows(suite: Suite, method: str, perturbation: float = 0.0) -> dict[str, dict]:
+    """{sample_id: slim row} of one method on a suite; with ``perturbation`` > 0 every golden
+    input is first perturbed by that relative amount (see :func:`catpose.bench.regress.golden.perturbed`).
+    A top-level function, so that worker processes can run it."""
+    transform = None
+    if perturbation > 0:
+        from catpose.bench.regress.golden import perturbed
+        from catpose.geometry import stable_seed
+
+        def transform(s):
+            return perturbed(s, perturbation, stable_seed("regress-perturb", s.problem.sample_id))
+    return {k: _slim(v) for k, v in run_method(suite, method, transform).items()}
+
+
+def map_jobs(tasks: Sequence[tuple], jobs: int) -> list:
+    """``[slim_rows(*t) for t in tasks]``, in ``jobs`` worker processes when ``jobs`` > 1 (each
+    method runs single-threaded, so workers never change a result, only the wall time)."""
+    if jobs <= 1 or len(tasks) <= 1:
+        return [slim_rows(*t) for t in tasks]
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=multiprocessing.get_context("spawn")) as ex:
+        return list(ex.map(slim_rows, *zip(*tasks)))
+
+
+def _slim(row: dict) -> dict:
+    """The part of a runner row the reference keeps."""
+    T = row.get("T_est")
+    return {"category": row.get("category"), "status": row.get("status"), "error": row.get("error") or "",
+            "err_deg": to_float(row.get("err_deg")), "trans_err": to_float(row.get("trans_err")),
+            "T_est": None if T is None else [float(x) for x in list(T)],
+            "T_gt": None if row.get("T_gt") is None else [float(x) for x in list(row["T_gt"])],
+            "symmetry_axis": None if row.get("symmetry_axis") is None else [float(x) for x in list(row["symmetry_axis"])],
+            "symmetries": [[float(x) for x in list(S)] for S in row.get("symmetries") or []]}
+
+
+# --------------------------------------------------------------------------------------------
+# aggregates and the comparison
+
+
+# --------------------------------------------------------------------------------------------
+# the reference
+
+
+def other_code_paths() -> dict[str, dict[str, str]]:
+    """The code paths of :func:`~catpose.bench.run.environment.numeric_variants` that differ from
+    this process's own (a variant already in effect is left out); without AVX2, another
+    OpenBLAS kernel and torch's default kernels."""
+    from catpose.bench.run.environment import numeric_variants, numpy_blas_kernel
+
+    variants = numeric_variants() or {"other-kernel": {"OPENBLAS_CORETYPE": "Sandybridge"},
+                                      "torch-default": {"ATEN_CPU_CAPABILITY": "default"}}
+    kernel = numpy_blas_kernel()
+    out = {}
+    for name, env in variants.items():
+        if all(os.environ.get(k) == v for k, v in env.items()):
+            continue
+        if set(env) == {"OPENBLAS_CORETYPE"} and env["OPENBLAS_CORETYPE"] == kernel:
+            continue
+        out[name] = env
+    return out
+
+
+def estimates_in_subprocess(config: Path, suite: str, methods: Sequence[str], env_extra: dict[str, str],
+                            jobs: int = 1) -> dict:
+    """{method: {sample_id: slim row}} from ``bench regress --emit-estimates`` in a child process
+    with ``env_extra`` set (another code path of the numerical libraries)."""
+    with tempfile.TemporaryDirectory(prefix="catpose-regress-") as tmp:
+        out = Path(tmp) / "estimates.json"
+        cmd = [sys.executable, "-m", "catpose.bench.regress.regress", "--config", str(config), "--suite", suite,
+               "--methods", ",".join(methods), "--emit-estimates", str(out), "--jobs", str(jobs)]
+        proc = subprocess.run(cmd, env=dict(os.environ, **env_extra), capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise CatposeError(f"run under another code path failed ({' '.join(f'{k}={v}' for k, v in env_extra.items())}): "
+                               f"{proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}")
+        return json.loads(out.read_text())
+
+
+def build_reference(suite: Suite, methods: Sequence[str], gate: Gate, config: Path, jobs: int = 1,
+                    log=print) -> dict:
+    """Run, perturb, re-run under every other code path of this CPU, and return the reference
+    entries per method (each sample records how far each of them moved it)."""
+    t0 = time.perf_counter()
+    others = {}
+    for name, env in other_code_paths().items():
+        log(f"  chaos detection under {name}: {' '.join(f'{k}={v}' for k, v in env.items())}")
+        others[name] = estimates_in_subprocess(config, suite.name, methods, env, jobs)
+    tasks = [(suite, m, 0.0) for m in methods]
+    if suite.inputs is not None:  # live inputs already differ in their last bits across kernels
+        tasks += [(suite, m, gate.perturbation) for m in methods]
+    results = map_jobs(tasks, jobs)
+    log(f"  {suite.name}: {len(tasks) + len(others) * len(methods)} runs in {time.perf_counter() - t0:.1f} s")
+    out = {}
+    for i, m in enumerate(methods):
+        nominal = results[i]
+        shaken = results[len(methods) + i] if suite.inputs is not None else {}
+        for sid, r in nominal.items():
+            d_p = estimate_distance_deg(r, shaken[sid]) if sid in shaken else float("nan")
+            d_k = {name: estimate_distance_deg(r, o[m][sid]) for name, o in others.items() if sid in o.get(m, {})}
+            r["perturbation_moves_deg"] = None if math.isnan(d_p) else round(d_p, 4)
+            r["code_path_moves_deg"] = {name: round(d, 4) for name, d in d_k.items()}
+            r["chaotic"] = bool(max([0.0 if math.isnan(d_p) else d_p, *d_k.values()]) > gate.chaos_deg)
+        stable = {sid for sid, r in nominal.items() if not r["chaotic"]}
+        out[m] = {"samples": nominal, "aggregates": aggregates(nominal, stable, gate)}
+        n_ch = len(nominal) - len(stable)
+        log(f"  {suite.name}/{m}: {n_ch} of {len(nominal)} samples chaotic"
+            + (f": {', '.join(sorted(set(nominal) - stable))}" if n_ch else ""))
+    return out
+
+
+def write_reference(suite: Suite, entries: dict, gate: Gate) -> None:
+    """Merge ``entries`` (per method) into the suite's reference file with this environment."""
+    from catpose.bench.run.environment import environment
+
+    old = json.loads(suite.reference.read_text()) if suite.reference.is_file() else {}
+    methods = dict(old.get("methods", {})) if old.get("format") == 2 else {}
+    methods.update(entries)
+    doc = {"format": 2, "suite": suite.name, "dataset": suite.dataset, "protocol": suite.protocol,
+           "seed": suite.seed, "overrides": suite.overrides, "method_overrides": suite.method_overrides,
+           "inputs": None if suite.inputs is None else str(suite.inputs.relative_to(REPO)),
+           "gate": gate.__dict__ | {"accuracy_thresholds": list(gate.accuracy_thresholds)},
+           "environment": environment(), "methods": {m: methods[m] for m in sorted(methods)}}
+    suite.reference.parent.mkdir(parents=True, exist_ok=True)
+    suite.reference.write_text(json.dumps(doc, indent=1, allow_nan=True) + "\n")
+
+
+def write_inputs(suite: Suite, log=print) -> None:
+    """Render the suite's problems from its dataset config and freeze them (golden inputs)."""
+    from catpose.bench.regress.golden import write_golden
+
+    if suite.inputs is None:
+        raise ConfigError(f"suite {suite.name!r} has no 'inputs' file configured; add inputs: <path>.npz")
+    cfg_suite = Suite(**{**suite.__dict__, "inputs": None})
+    dataset, protocol, ids = suite_samples(cfg_suite)
+    samples = [protocol.load(dataset, sid) for sid in ids]
+    write_golden(suite.inputs, suite.name, suite.overrides, samples)
+    log(f"  {suite.name}: {len(samples)} problems written to {suite.inputs} "
+        f"({suite.inputs.stat().st_size / 1024:.0f} KiB)")
+
+
+# --------------------------------------------------------------------------------------------
+# the command
+
+
+def _available_methods(suite: Suite, wanted: Sequence[str] | None, notes: list[str]) -> list[str]:
+    methods = []
+    for m in wanted or suite.methods:
+        why = method_available(m, suite)
+        if why:
+            notes.append(f"{suite.name}/{m}: skipped ({why})")
+        else:
+            methods.append(m)
+    return methods
+
+
+def check_suite(suite: Suite, methods: Sequence[str], gate: Gate, jobs: int = 1,
+                log=print) -> tuple[list[Finding], list[str]]:
+    """Run and judge one suite against its reference; (findings, notes)."""
+    from catpose.bench.run.environment import differences, environment
+
+    if not suite.reference.is_file():
+        return [Finding("-", suite.name, f"no reference file {suite.reference}; run `bench regress --update` "
+                                         "and commit it", True)], []
+    doc = json.loads(suite.reference.read_text())
+    if doc.get("format") != 2:
+        return [Finding("-", suite.name, f"{suite.reference} is of an older format; run `bench regress --update`",
+                        True)], []
+    findings, notes = [], []
+    for m in methods:
+        if m not in doc["methods"]:
+            notes.append(f"{suite.name}/{m}: no reference yet (run `bench regress --update` and commit it)")
+    methods = [m for m in methods if m in doc["methods"]]
+    t0 = time.perf_counter()
+    results = map_jobs([(suite, m, 0.0) for m in methods], jobs)
+    log(f"  {suite.name}: {len(methods)} methods in {time.perf_counter() - t0:.1f} s")
+    for m, current in zip(methods, results):
+        found = compare_method(m, doc["methods"][m], current, gate)
+        findings += found
+        n_ch = sum(bool(r.get("chaotic")) for r in doc["methods"][m]["samples"].values())
+        log(f"  {suite.name}/{m}: {len(current)} samples ({n_ch} chaotic), "
+            f"{sum(f.fails for f in found)} failing, {sum(not f.fails for f in found)} noted")
+    if any(f.fails for f in findings):
+        diff = differences(doc.get("environment"), environment())
+        notes += [f"{suite.name}: environment differs from the reference's: {d}" for d in diff] or \
+                 [f"{suite.name}: environment is the reference's"]
+    return findings, notes
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bench regress [--config F] [--suite S] [--methods a,b] [--update | --write-inputs]``."""
+    ap = argparse.ArgumentParser(prog="bench regress", description="Per-sample regression gate against committed references.")
+    ap.add_argument("--config", default=str(DEFAULT_CONFIG))
+    ap.add_argument("--suite", action="append", help="run only these suites (repeatable)")
+    ap.add_argument("--methods", default=None, help="comma-separated subset of each suite's methods")
+    ap.add_argument("--update", action="store_true", help="rewrite the reference (with chaos detection)")
+    ap.add_argument("--write-inputs", action="store_true", help="re-render the golden inputs of the suites")
+    ap.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1),
+                    help="worker processes, one method each (results do not depend on it)")
+    ap.add_argument("--emit-estimates", default=None, help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    try:
+        from catpose.bench.run.environment import numpy_blas_kernel
+
+        gate, suites = load_config(args.config)
+        names = args.suite or list(suites)
+        unknown = [s for s in names if s not in suites]
+        if unknown:
+            raise ConfigError(f"unknown suite(s) {unknown}; configured: {list(suites)}")
+        wanted = args.methods.split(",") if args.methods else None
+        findings: list[Finding] = []
+        notes: list[str] = []
+        emitted: dict = {}
+        for name in names:
+            suite = suites[name]
+            if suite.requires_shared_data and not shared_data_dir().is_dir():
+                notes.append(f"{name}: skipped (no shared data at {shared_data_dir()})")
+                continue
+            if args.write_inputs:
+                if suite.inputs is not None:
+                    write_inputs(suite)
+                continue
+            methods = _available_methods(suite, wanted, notes)
+            if args.emit_estimates:
+                emitted = dict(zip(methods, map_jobs([(suite, m, 0.0) for m in methods], args.jobs)))
+                continue
+            print(f"suite {name}: {suite.dataset} / {suite.protocol}, seed {suite.seed}, "
+                  f"{'golden inputs' if suite.inputs else 'rendered here'}, BLAS kernel {numpy_blas_kernel()}")
+            if args.update:
+                write_reference(suite, build_reference(suite, methods, gate, Path(args.config), args.jobs), gate)
+                notes.append(f"{name}: reference written to {suite.reference}")
+                continue
+            found, more = check_suite(suite, methods, gate, args.jobs)
+            findings += found
+            notes += more
+        if args.emit_estimates:
+            Path(args.emit_estimates).write_text(json.dumps(emitted))
+            return 0
+    except CatposeError as e:
+        print(command_error("regress", e), file=sys.stderr)
+        return 2
+    for f in findings:
+        if not f.fails:
+            print(f"moved: {f.method} {f.where}: {f.what}")
+    for n in notes:
+        print(f"note: {n}")
+    bad = [f for f in findings if f.fails]
+    if bad:
+        print("\nREGRESSION:", file=sys.stderr)
+        for f in bad:
+            print(f"  {f.method} {f.where}: {f.what}", file=sys.stderr)
+        print(f"\n{len(bad)} failing finding(s); if the change is intended run `bench regress --update` "
+              "and commit results/reference/", file=sys.stderr)
+        return 1
+    if not (args.update or args.write_inputs):
+        print(f"regress: passed ({len(findings)} samples moved within what the gate allows)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

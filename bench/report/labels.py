@@ -1,0 +1,173 @@
+"""What a run is called in a table or a legend: the method's display name, the pipeline and
+descriptor of a row, and labels made unique by only what tells runs apart (protocol, dataset,
+the overrides a user typed, differing config values; a run directory's hash only as a last resort).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from catpose.bench.report.runs import Run
+from catpose.errors import ConfigError
+
+
+DISPLAY_NAMES = {"ours": "Ours", "icp": "ICP", "fgr": "FGR", "teaser": "TEASER (re-impl.)", "teaserpp": "Teaser++",
+                 "teaser_pp": "Teaser++", "equipose": "Equi-pose", "equi_pose": "Equi-pose",
+                 "rpmnet": "RPM-Net", "rpm_net": "RPM-Net", "ransac": "RANSAC"}
+
+
+def _first(cfg: dict, keys: Sequence[str]) -> Any:
+    for k in keys:
+        if cfg.get(k) not in (None, ""):
+            return cfg[k]
+    return None
+
+
+def pipeline_label(run: Run) -> str:
+    """``"Dictionary LPS"``-style group label from the method's pipeline options, or ``"-"``."""
+    cfg = run.method_config
+    matching = _first(cfg, ("matching", "pipeline", "match"))
+    if matching is None and run.method.lower().startswith("ours"):
+        matching = "dictionary"  # our method always matches against the partial-template dictionary
+    # baselines name their features; ours' descriptor is a config group node ({_target_: ...LPS, ...})
+    descriptor = _first(cfg, ("features", "feature", "descriptor"))
+    if isinstance(descriptor, dict):
+        descriptor = str(descriptor.get("_target_", "")).rsplit(".", 1)[-1] or None
+    parts = []
+    if matching is not None:
+        parts.append({"direct": "Direct match", "dictionary": "Dictionary"}.get(str(matching), str(matching)))
+    if descriptor is not None:
+        parts.append(str(descriptor).upper())
+    return " ".join(parts) if parts else "-"
+
+
+def without_optimisation(run: Run) -> bool:
+    """Whether the method config switches the pose optimisation off (ablation runs)."""
+    for k, v in run.method_config.items():
+        if "optim" in k.lower() and isinstance(v, dict):  # ours: optimiser.mode
+            v = v.get("mode")
+        if "optim" in k.lower() and (v is False or str(v).lower() in ("none", "false", "off", "svd")):
+            return True
+        if k in ("steps", "n_steps", "opt_steps", "optim_steps", "iterations") and v == 0:
+            return True
+    return False
+
+
+def method_label(run: Run) -> str:
+    """Display name of the run's method (``Ours``, ``Teaser++``, ...), marking ablations."""
+    name = DISPLAY_NAMES.get(run.method.lower(), run.method)
+    return f"{name} (w/o optimization)" if without_optimisation(run) else name
+
+
+def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
+    """A nested config as ``{"method.descriptor": "pfh", ...}``."""
+    if not isinstance(d, dict):
+        return {prefix: d}
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        out.update(_flat(v, f"{prefix}.{k}" if prefix else str(k)))
+    return out
+
+
+def _overrides(run: Run) -> list[str]:
+    """The command-line overrides the runner recorded beside the run (``overrides.txt``)."""
+    f = run.path / "overrides.txt"
+    if not f.is_file():
+        return []
+    return [o.strip().lstrip("+~") for o in f.read_text().splitlines()
+            if o.strip() and not o.startswith(("output_root", "progress", "print_summary", "hydra."))]
+
+
+def _short(item: str) -> str:
+    """``method.descriptor=pfh`` -> ``descriptor=pfh`` (the method is already in the label)."""
+    return item[len("method."):] if item.startswith("method.") else item
+
+
+def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
+    """Label suffixes that tell ``members`` (runs sharing a label) apart, the fewest kinds first:
+    the protocol, the dataset, the recorded overrides not shared by all, the config values that
+    differ, and only when nothing else does, the run directory's name (which ends in a hash)."""
+    def dataset(r: Run) -> str:
+        d = r.config.get("dataset")
+        return str(d.get("name", "?")) if isinstance(d, dict) else str(r.info.get("dataset", "?"))
+
+    def unique(parts: list[list[str]]) -> bool:
+        return len({tuple(p) for p in parts}) == len(parts)
+
+    parts: list[list[str]] = [[] for _ in members]
+    if len({r.protocol for r in members}) > 1:
+        parts = [p + [r.protocol] for p, r in zip(parts, members)]
+    if not unique(parts) and len({dataset(r) for r in members}) > 1:
+        parts = [p + [dataset(r)] for p, r in zip(parts, members)]
+    if not unique(parts):
+        overrides = [[o for o in _overrides(r) if o.split("=", 1)[0] not in ("protocol", "dataset")] for r in members]
+        shared = set.intersection(*(set(o) for o in overrides))
+        parts = [p + [_short(o) for o in sorted(ov) if o not in shared] for p, ov in zip(parts, overrides)]
+    if not unique(parts):
+        flats = [_flat({k: r.config.get(k) for k in ("method", "dataset", "protocol", "seed")}) for r in members]
+        keys = sorted({k for f in flats for k in f if len({json.dumps(g.get(k), sort_keys=True, default=str) for g in flats}) > 1})
+        parts = [p + [_short(f"{k}={f.get(k)}") for k in keys] for p, f in zip(parts, flats)]
+    if not unique(parts):
+        parts = [p + [r.path.name] for p, r in zip(parts, members)]
+    return parts
+
+
+def run_labels(runs: Sequence[Run], labels: dict[str, str] | None = None,
+               group_of: Callable[[Run], str] = lambda r: "") -> list[str]:
+    """One label per run (in order), unique within each row group ``group_of(run)``.
+
+    The label is the user's (``labels``, see :func:`user_label`) or :func:`method_label`. Runs
+    sharing a label and group keep it, pooled into one row, when they have the same protocol and
+    disjoint categories (one run per category); otherwise each gets only what distinguishes it
+    (:func:`_distinguishing`), e.g. ``Ours`` and ``Ours (descriptor=pfh)``, never a hash unless
+    nothing else differs. A label the user gave to one of them is kept as given (``--label
+    RUN=Ours`` beside other runs of ours: ``Ours``, ``Ours (row=ours_pfh)``).
+    """
+    labels = labels or {}
+    base = [user_label(r, labels) or method_label(r) for r in runs]
+    keyed: dict[tuple[str, str], list[int]] = {}
+    for i, r in enumerate(runs):
+        keyed.setdefault((group_of(r), base[i]), []).append(i)
+    out = list(base)
+    for idx in keyed.values():
+        members = [runs[i] for i in idx]
+        cats = [set(r.samples["category"].astype(str)) if len(r.samples) else set() for r in members]
+        if len(members) == 1 or (sum(map(len, cats)) == len(set().union(*cats)) and len({r.protocol for r in members}) == 1):
+            continue
+        given = [i for i in idx if user_label(runs[i], labels)]
+        for i, extra in zip(idx, _distinguishing(members)):
+            if given == [i]:  # the one run the user named keeps that name; the others are told apart from it
+                continue
+            out[i] = f"{base[i]} ({', '.join(extra)})" if extra else base[i]
+    return out
+
+
+def template_count(run: Run) -> str:
+    """Number of templates per view of a templates run (from the rows, else the config)."""
+    s = run.samples
+    if run.protocol == "templates" and len(s) and "group_id" in s:
+        return str(int(s.groupby("group_id").size().max()))
+    p = run.config.get("protocol") if isinstance(run.config.get("protocol"), dict) else {}
+    return str(p.get("max_templates") or ("1" if run.protocol != "templates" else "?"))
+
+
+def user_label(run: Run, labels: dict[str, str]) -> str | None:
+    """The label given for ``run`` (by its path as given, resolved, or its folder name)."""
+    return labels.get(str(run.path)) or labels.get(str(run.path.resolve())) or labels.get(run.path.name)
+
+
+def parse_labels(items: Sequence[str]) -> dict[str, str]:
+    """``["runs/a=Ours (LPS)", ...]`` -> ``{"runs/a": "Ours (LPS)"}``.
+
+    Run directories contain ``=`` (``seed0-method.lr=0.01-<hash>``), labels rarely do, so the
+    item is split at its last ``=``."""
+    out = {}
+    for item in items:
+        key, sep, value = item.rpartition("=")
+        if not sep or not value:
+            raise ConfigError(f"--label {item!r} must be RUN_DIR=LABEL")
+        out[str(Path(key))] = value
+        out[str(Path(key).resolve())] = value  # the same run however its path is spelled
+    return out

@@ -1,0 +1,249 @@
+"""Figures from run directories (matplotlib, Agg backend), each with a CSV of what it plots.
+
+- :func:`plot_error_cdf`: cumulative distribution of the scored error per method, one panel
+  per category, on a log error axis so methods near zero stay visible (a point (x, y): a
+  fraction y of the samples has error <= x degrees). CSV: one row per step point.
+- :func:`plot_accuracy`: accuracy (error <= threshold) at a few thresholds, all categories
+  pooled, as grouped bars per method. CSV: one row per (method, threshold).
+- :func:`plot_runtime`: per-registration runtime per method (horizontal box plot, log scale,
+  method names on the y axis). CSV: one row per method with its runtime statistics.
+
+The qualitative picture of one registration is :mod:`catpose.bench.report.qualitative`'s.
+
+Inputs are per-method tables of scoring units (``{label: DataFrame}``, columns ``category``,
+``status``, ``err_deg``) as :func:`catpose.bench.report.tables.scored_units` returns them. Failed units
+count as :data:`~catpose.bench.scoring.metrics.FAILED_ERROR_DEG` (180 degrees) everywhere.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from catpose.bench.scoring.metrics import FAILED_ERROR_DEG
+
+#: The CDF's log axis starts at 0.01 degrees, or lower (down to 1e-4) when smaller errors occur;
+#: errors below the start are drawn at it (a log axis has no zero).
+CDF_FLOOR_DEG = 0.01
+CDF_MIN_FLOOR_DEG = 1e-4
+
+
+def cdf_floor(errors: np.ndarray) -> float:
+    """Where the CDF's log error axis starts (degrees): a power of ten at or below every
+    positive error, within [:data:`CDF_MIN_FLOOR_DEG`, :data:`CDF_FLOOR_DEG`]."""
+    e = np.asarray(errors, float)
+    e = e[np.isfinite(e) & (e > 0)]
+    if not len(e):
+        return CDF_FLOOR_DEG
+    return float(np.clip(10.0 ** np.floor(np.log10(e.min())), CDF_MIN_FLOOR_DEG, CDF_FLOOR_DEG))
+#: Thresholds (degrees) of the accuracy bars.
+ACCURACY_THRESHOLDS_DEG = (1.0, 2.0, 5.0, 10.0, 30.0)
+
+
+def pyplot():
+    """matplotlib.pyplot on the Agg backend (files only, no display)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save(fig, out_stem: str | Path, pdf: bool = True, dpi: int = 150) -> list[Path]:
+    """Write ``<out_stem>.png`` (and ``<out_stem>.pdf`` when ``pdf``); close the figure; return the paths."""
+    out_stem = Path(out_stem)
+    out_stem.parent.mkdir(parents=True, exist_ok=True)
+    paths = [out_stem.with_suffix(".png")] + ([out_stem.with_suffix(".pdf")] if pdf else [])
+    for path in paths:
+        fig.savefig(path, dpi=dpi, bbox_inches="tight")
+    pyplot().close(fig)
+    return paths
+
+
+def _colors(labels, colors: Mapping[str, str] | None) -> dict[str, str]:
+    """A colour per label: the given ones, else the default cycle in label order."""
+    colors = colors or {}
+    return {label: colors.get(label, f"C{m % 10}") for m, label in enumerate(labels)}
+
+
+def _write_csv(rows: list[dict], columns: list[str], out_stem: str | Path) -> Path:
+    import pandas as pd
+
+    path = Path(out_stem).with_suffix(".csv")
+    pd.DataFrame(rows, columns=columns).to_csv(path, index=False, float_format="%.6g")
+    return path
+
+
+def scored_errors(units) -> np.ndarray:
+    """Errors (degrees) of scoring units, failed ones as 180."""
+    import pandas as pd
+
+    err = pd.to_numeric(units["err_deg"], errors="coerce").to_numpy(float)
+    failed = (units["status"] != "ok").to_numpy()
+    return np.where(failed | np.isnan(err), FAILED_ERROR_DEG, err)
+
+
+def cdf_points(errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The empirical CDF's step points: sorted errors (degrees) and the fraction <= each, (N,) each."""
+    e = np.sort(np.asarray(errors, float))
+    return e, np.arange(1, len(e) + 1) / max(len(e), 1)
+
+
+def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, title: str = "",
+                   pdf: bool = True, colors: Mapping[str, str] | None = None) -> list[Path]:
+    """Cumulative distribution of the error per method, one panel per category (log error axis).
+
+    Writes ``<out_stem>.csv`` with columns ``method, category, n, error_deg, fraction`` (the
+    step points, errors as scored, not floored). Returns the PNG (, PDF) and CSV paths.
+    ``colors`` maps labels to matplotlib colours (default: the colour cycle in order).
+    """
+    plt = pyplot()
+    color = _colors(units_by_method, colors)
+    categories = sorted({c for u in units_by_method.values() for c in u["category"].astype(str)})
+    n = max(len(categories), 1)
+    cols = min(n, 4)
+    rows = int(np.ceil(n / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 3.0 * rows + 0.6), squeeze=False, sharey=True)
+    csv_rows: list[dict] = []
+    floor = cdf_floor(np.concatenate([scored_errors(u) for u in units_by_method.values()] or [np.zeros(0)]))
+    for ax, cat in zip(axes.ravel(), categories):
+        counts = []
+        for label, units in units_by_method.items():
+            u = units[units["category"].astype(str) == cat]
+            if len(u) == 0:
+                continue
+            e, y = cdf_points(scored_errors(u))
+            counts.append(len(e))
+            csv_rows += [{"method": label, "category": cat, "n": len(e), "error_deg": a, "fraction": b}
+                         for a, b in zip(e, y)]
+            x = np.clip(e, floor, FAILED_ERROR_DEG)
+            # One colour per method across panels; the curve starts at 0 on the left edge.
+            ax.step(np.concatenate([[floor], x, [FAILED_ERROR_DEG]]), np.concatenate([[0], y, [y[-1]]]),
+                    where="post", color=color[label], lw=1.6, alpha=0.9, label=label)
+        for t in (10, 30):
+            ax.axvline(t, color="grey", lw=0.7, ls="--")
+        ax.set_title(f"{cat} (n={'/'.join(map(str, sorted(set(counts))))})", fontsize=10)
+        ax.set_xscale("log")
+        ax.set_xlim(floor, FAILED_ERROR_DEG * 1.15)
+        ticks = [t for t in (1e-4, 1e-3, 0.01, 0.1, 1, 10, 180) if t >= floor]
+        ax.set_xticks(ticks, [f"{t:g}" for t in ticks])
+        ax.set_ylim(0, 1.02)
+        ax.grid(alpha=0.3)
+    for ax in axes[-1, :]:
+        ax.set_xlabel("error [deg], log")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("fraction <= error")
+    for ax in axes.ravel()[len(categories):]:
+        ax.axis("off")
+    handles: dict[str, object] = {}
+    for ax in axes.ravel():
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(lab, h)
+    fig.suptitle(title or "Cumulative error distribution per category (rotation; main axis for symmetric objects)",
+                 fontsize=11)
+    note = (f"errors below {floor:g} deg drawn at {floor:g};\nfailures count as "
+            f"{FAILED_ERROR_DEG:g} deg; dashed: 10 and 30 deg")
+    spare = axes.ravel()[len(categories):]
+    if len(spare):  # the legend goes into the first empty panel, beside the curves
+        spare[0].legend(list(handles.values()), list(handles), loc="upper left", fontsize=8, frameon=False,
+                        title=note, title_fontsize=7, alignment="left")
+        fig.tight_layout(rect=(0, 0, 1, 0.97))
+    else:
+        ncol = min(len(handles), 4) or 1
+        fig.legend(list(handles.values()), list(handles), loc="lower center", fontsize=8, ncol=ncol, frameon=False)
+        fig.text(0.99, 0.995, note.replace("\n", " "), ha="right", va="top", fontsize=7, color="grey")
+        fig.tight_layout(rect=(0, 0.03 + 0.035 * int(np.ceil(len(handles) / ncol)) / rows, 1, 0.97))
+    csv = _write_csv(csv_rows, ["method", "category", "n", "error_deg", "fraction"], out_stem)
+    return save(fig, out_stem, pdf) + [csv]
+
+
+def accuracy_at(errors: np.ndarray, thresholds=ACCURACY_THRESHOLDS_DEG) -> np.ndarray:
+    """Fraction of ``errors`` (degrees) <= each threshold (degrees)."""
+    e = np.asarray(errors, float)
+    return np.array([(e <= t).mean() if len(e) else np.nan for t in thresholds])
+
+
+def plot_accuracy(units_by_method: Mapping[str, object], out_stem: str | Path,
+                  thresholds=ACCURACY_THRESHOLDS_DEG, title: str = "", pdf: bool = True,
+                  colors: Mapping[str, str] | None = None) -> list[Path]:
+    """Accuracy (fraction with error <= threshold) at ``thresholds`` (degrees), categories pooled:
+    one group of bars per threshold, one bar per method, its value written above it.
+
+    Writes ``<out_stem>.csv`` with columns ``method, threshold_deg, n, accuracy``.
+    """
+    plt = pyplot()
+    color = _colors(units_by_method, colors)
+    items = [(label, scored_errors(u)) for label, u in units_by_method.items()]
+    items = [(label, e) for label, e in items if len(e)]
+    k = max(len(items), 1)
+    width = 0.8 / k
+    fig, ax = plt.subplots(figsize=(max(5.0, 1.2 * len(thresholds) * (0.6 + 0.25 * k)), 3.8))
+    x = np.arange(len(thresholds))
+    csv_rows = []
+    for m, (label, e) in enumerate(items):
+        acc = accuracy_at(e, thresholds)
+        bars = ax.bar(x - 0.4 + width * (m + 0.5), acc, width, color=color[label], label=label)
+        ax.bar_label(bars, [f"{a:.2f}" for a in acc], fontsize=6, padding=1, rotation=90 if k > 3 else 0)
+        csv_rows += [{"method": label, "threshold_deg": t, "n": len(e), "accuracy": a} for t, a in zip(thresholds, acc)]
+    ax.set_xticks(x, [f"<= {t:g} deg" for t in thresholds])
+    ax.set_ylim(0, 1.18)
+    ax.set_yticks(np.linspace(0, 1, 6))
+    ax.set_ylabel("fraction of samples")
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize=7, loc="upper left", ncol=min(k, 3), frameon=False)
+    ax.set_title(title or "Accuracy at thresholds (all categories; failures count as wrong)", fontsize=10)
+    fig.tight_layout()
+    csv = _write_csv(csv_rows, ["method", "threshold_deg", "n", "accuracy"], out_stem)
+    return save(fig, out_stem, pdf) + [csv]
+
+
+def runtime_rows(samples_by_method: Mapping[str, object]) -> list[dict]:
+    """Per method: ``n``, ``min_s``, ``q1_s``, ``median_s``, ``q3_s``, ``max_s``, ``mean_s`` of the
+    finite positive ``runtime_s`` values (seconds per registration)."""
+    import pandas as pd
+
+    out = []
+    for label, s in samples_by_method.items():
+        r = pd.to_numeric(s["runtime_s"], errors="coerce").to_numpy(float)
+        r = r[np.isfinite(r) & (r > 0)]
+        if len(r):
+            q = np.percentile(r, [0, 25, 50, 75, 100])
+            out.append({"method": label, "n": len(r), "min_s": q[0], "q1_s": q[1], "median_s": q[2], "q3_s": q[3],
+                        "max_s": q[4], "mean_s": float(r.mean()), "_values": r})
+    return out
+
+
+def plot_runtime(samples_by_method: Mapping[str, object], out_stem: str | Path, title: str = "",
+                 pdf: bool = True) -> list[Path]:
+    """Horizontal box plot of per-registration runtime (seconds, log scale) per method, from
+    per-sample rows; method labels on the y axis, the median written at the right.
+
+    Writes ``<out_stem>.csv`` with columns ``method, n, min_s, q1_s, median_s, q3_s, max_s, mean_s``.
+    """
+    plt = pyplot()
+    stats = runtime_rows(samples_by_method)
+    fig, ax = plt.subplots(figsize=(6.4, 0.9 + 0.45 * max(len(stats), 1)))
+    if stats:
+        pos = np.arange(len(stats), 0, -1)  # first method on top
+        import matplotlib
+
+        # ``vert`` is deprecated from matplotlib 3.10, which added ``orientation``.
+        horizontal = ({"orientation": "horizontal"} if tuple(int(x) for x in matplotlib.__version__.split(".")[:2]) >= (3, 10)
+                      else {"vert": False})
+        ax.boxplot([s["_values"] for s in stats], positions=pos, widths=0.6, showfliers=True,
+                   flierprops={"markersize": 3}, **horizontal)
+        ax.set_yticks(pos, [s["method"] for s in stats], fontsize=8)
+        ax.set_xscale("log")
+        for p, s in zip(pos, stats):
+            ax.annotate(f"median {s['median_s']:.3g} s", (1.01, p), xycoords=("axes fraction", "data"),
+                        va="center", fontsize=7)
+    ax.set_xlabel("seconds per registration (log)")
+    ax.grid(alpha=0.3, axis="x")
+    ax.set_title(title or "Runtime per registration", fontsize=10)
+    fig.tight_layout()
+    columns = ["method", "n", "min_s", "q1_s", "median_s", "q3_s", "max_s", "mean_s"]
+    csv = _write_csv([{k: s[k] for k in columns} for s in stats], columns, out_stem)
+    return save(fig, out_stem, pdf) + [csv]

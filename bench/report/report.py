@@ -1,0 +1,278 @@
+"""``bench report``: tables and figures of run directories in one folder a person can open.
+
+    bench report outputs/synthetic-gt_model --out report/ [--layout optimiser] [--qualitative 2]
+
+writes ``index.md`` and ``index.html`` (the same content; every link relative, so the folder can
+be moved or opened from disk), and per protocol (errors of different protocols answer different
+questions, so they never share a table or a figure):
+
+- ``tables/<protocol>_summary.{md,tex,csv}``: one row per method, all categories pooled;
+- ``tables/<protocol>_per_category.{md,tex,csv}``: (method, metric) rows x category columns;
+- ``tables/<protocol>_<layout>.*`` for each ``--layout``;
+- ``figures/<protocol>_{error_cdf,accuracy,runtime}.{png,pdf,csv}`` (the CSV holds the plotted data);
+- with ``--qualitative N``, up to ``N`` pictures per run: its worst registration and a typical
+  failure (:func:`qualitative_picks`), rebuilt from the run's config.
+
+Labels are unique per protocol (:func:`catpose.bench.report.tables.run_labels`). Everything is made
+from the run directories' files. The index links every file the report writes, and files under
+``tables/`` and ``figures/`` that it does not link (an earlier report's into the same folder) are
+removed (:func:`remove_stale_files`), so the folder holds one report.
+"""
+
+from __future__ import annotations
+
+import argparse
+import html
+import os
+import re
+from pathlib import Path
+from typing import Sequence
+
+from catpose.errors import CatposeError
+
+#: Errors (degrees) above which a registration counts as a failure for the qualitative examples.
+FAILURE_DEG = 10.0
+
+PROTOCOL_TEXT = {
+    "gt_model": "each partial view registered to its own complete model",
+    "templates": "each partial view registered to the category templates; the estimate is the one the method scores best",
+    "relative": "relative pose between two views of one object, each registered to the category templates",
+}
+
+
+def qualitative_picks(units, n: int = 2, failure_deg: float = FAILURE_DEG) -> list[tuple[str, str]]:
+    """``(kind, sample_id)`` of the units worth a picture, at most ``n``: the ``"worst"`` (largest
+    error among units with an estimate), then a ``"typical failure"``: among the other units with
+    error > ``failure_deg`` degrees, the one whose error is closest to their median (ties: the
+    first in error order). Units without an estimate (``status != "ok"``) cannot be drawn."""
+    import numpy as np
+
+    if n <= 0 or len(units) == 0 or "T_est" not in units:
+        return []
+    ok = units[(units["status"] == "ok") & units["T_est"].notna()]
+    if len(ok) == 0:
+        return []
+    ok = ok.sort_values("err_deg", kind="stable")
+    worst = ok.iloc[-1]
+    picks = [("worst", str(worst["sample_id"]))]
+    failures = ok.iloc[:-1]
+    failures = failures[failures["err_deg"].astype(float) > failure_deg]
+    if len(failures):
+        err = failures["err_deg"].to_numpy(float)
+        picks.append(("typical failure", str(failures.iloc[int(np.argmin(np.abs(err - np.median(err))))]["sample_id"])))
+    return picks[:n]
+
+
+def _units_by_label(labels: list[str], units: list) -> dict:
+    """Scoring units per label; runs that share a label (one run per category) are pooled."""
+    import pandas as pd
+
+    out: dict[str, list] = {}
+    for label, u in zip(labels, units):
+        out.setdefault(label, []).append(u)
+    return {k: pd.concat(v, ignore_index=True) for k, v in out.items()}
+
+
+def _relative_names(paths: Sequence[Path]) -> tuple[str, list[str]]:
+    """The runs' common folder (its name only) and each run's path below it."""
+    root = Path(os.path.commonpath([str(p.resolve().parent) for p in paths]))
+    return root.name, [str(p.resolve().relative_to(root)) for p in paths]
+
+
+def _git_rev(run) -> str:
+    f = run.path / "git_rev.txt"
+    return f.read_text().strip()[:10] if f.is_file() else "?"
+
+
+def _write_table(table, out: Path, stem: str) -> list[str]:
+    from catpose.bench.report import tables
+
+    for fmt, ext in (("md", "md"), ("latex", "tex"), ("csv", "csv")):
+        (out / "tables" / f"{stem}.{ext}").write_text(tables.RENDERERS[fmt](table))
+    return [tables.to_markdown(table),
+            f"Files: [md](tables/{stem}.md), [LaTeX](tables/{stem}.tex), [CSV](tables/{stem}.csv)", ""]
+
+
+def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Sequence[str] = (),
+                 qualitative: int = 0, labels: dict[str, str] | None = None, notes: Sequence[str] = (),
+                 pdf: bool = True) -> Path:
+    """Write the report folder (see the module docstring); returns the path of ``index.md``.
+
+    ``notes`` are paragraphs put under the title (how the runs were made); ``pdf`` adds a PDF
+    of each summary figure.
+    """
+    from catpose.bench.report import plots, tables
+    from catpose.bench.report.qualitative import plot_sample_from_run
+
+    out = Path(out)
+    (out / "tables").mkdir(parents=True, exist_ok=True)
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    runs = [tables.load_run(p) for p in tables.find_run_dirs(run_dirs)]
+    by_protocol = tables.split_by_protocol(runs)
+    label_of = {id(r): lab for group in by_protocol.values() for r, lab in zip(group, tables.run_labels(group, labels))}
+
+    # One colour per label across the protocols' figures.
+    colors = {lab: f"C{k % 10}" for k, lab in enumerate(dict.fromkeys(label_of[id(r)] for r in runs))}
+    root, rel = _relative_names([r.path for r in runs])
+    md = ["# catpose report", ""] + [x for n in notes for x in (n, "")]
+    md += [f"Built from these run directories (below their common folder `{root}/`; revision = the git "
+           "revision each run was made at):", "",
+           "| Label | Protocol | Run directory | Samples | Revision |", "|---|---|---|---|---|"]
+    for run, path in zip(runs, rel):
+        md.append(f"| {label_of[id(run)]} | {run.protocol} | `{path}` | {len(run.samples)} | `{_git_rev(run)}` |")
+    md.append("")
+
+    for protocol, group in by_protocol.items():
+        names = {str(r.path): label_of[id(r)] for r in group}
+        group_labels = [label_of[id(r)] for r in group]
+        md += [f"## Protocol `{protocol}`", "", f"{PROTOCOL_TEXT.get(protocol, protocol).capitalize()}.", "",
+               "### Tables", ""]
+        summary = tables.build_table(group, "generic", categories=["all"], labels=names,
+                                     metrics=["mean", "median", "acc10", "acc30", "trans", "runtime", "failed"],
+                                     title=f"All categories pooled ({protocol})")
+        # One category ("all"): the metric alone names each column.
+        summary.cells = {(r, c[1:]): v for (r, c), v in summary.cells.items()}
+        summary.columns = [c[1:] for c in summary.columns]
+        md += _write_table(summary, out, f"{protocol}_summary")
+        cats = sorted({str(c) for r in group for c in r.samples.get("category", [])})
+        if cats:
+            per_cat = tables.build_table(group, "tyol", categories=cats, labels=names,
+                                         metrics=["mean", "median", "acc10", "acc30"],
+                                         title=f"Per category ({protocol})")
+            md += _write_table(per_cat, out, f"{protocol}_per_category")
+        for layout in layouts:
+            md += _write_table(tables.build_table(group, layout, labels=names), out, f"{protocol}_{layout}")
+
+        run_units = [tables.scored_units(r) for r in group]
+        units = _units_by_label(group_labels, run_units)
+        samples = _units_by_label(group_labels, [r.samples for r in group])
+        fig = out / "figures"
+        figures = [
+            ("error_cdf", "Cumulative error distribution per category",
+             plots.plot_error_cdf(units, fig / f"{protocol}_error_cdf", pdf=pdf, colors=colors)),
+            ("accuracy", "Accuracy at thresholds", plots.plot_accuracy(units, fig / f"{protocol}_accuracy", pdf=pdf, colors=colors)),
+            ("runtime", "Runtime per registration", plots.plot_runtime(samples, fig / f"{protocol}_runtime", pdf=pdf)),
+        ]
+        md += ["### Figures", "", "Runtime: wall-clock seconds per registration, measured under whatever load the "
+               "machine had during the run; compare only runs made together."
+               + ("" if protocol == "gt_model" else " The tables' time is per scored unit (a view with all its "
+                  "templates, or a pair of views); the box plot shows single registrations."), ""]
+        for name, caption, paths in figures:
+            links = ", ".join(f"[{p.suffix[1:].upper()}](figures/{p.name})" for p in paths[1:])
+            md += [f"#### {caption}", "", f"![{caption}](figures/{paths[0].name})", "", f"Data and vector: {links}", ""]
+
+        if qualitative > 0:
+            md += ["### Examples: the worst registration and a typical failure per method", "",
+                   f"A typical failure is the one closest to the median error among those above {FAILURE_DEG:g} deg. "
+                   "Orange: the input carried into the template frame (left: by the estimate, right: by the truth); "
+                   "blue-grey: the template.", ""]
+            for run, label, u in zip(group, group_labels, run_units):
+                view_rows = run.samples if run.protocol == "relative" else u  # pairs have no single sample
+                picks = qualitative_picks(view_rows, qualitative)
+                if not picks:
+                    md += [f"**{label}**: no registration with an estimate to draw.", ""]
+                elif len(picks) == 1 and qualitative > 1:
+                    md += [f"**{label}**: no other registration with error above {FAILURE_DEG:g} deg.", ""]
+                for kind, sid in picks:
+                    err = float(view_rows.loc[view_rows["sample_id"] == sid, "err_deg"].iloc[-1])
+                    stem = fig / f"{protocol}_{re.sub(r'[^A-Za-z0-9]+', '_', label).strip('_')}_{kind.replace(' ', '_')}"
+                    try:
+                        plot_sample_from_run(run.path, sid, stem, f"{label} | {sid} | {kind}", pdf=False)
+                    except CatposeError as e:
+                        md += [f"**{label}**, {kind} `{sid}` ({err:.1f} deg): not drawn ({e})", ""]
+                        break
+                    md += [f"**{label}**, {kind}: `{sid}`, {err:.1f} deg", "", f"![{label} {kind}](figures/{stem.name}.png)", ""]
+
+    index = out / "index.md"
+    index.write_text("\n".join(md) + "\n")
+    (out / "index.html").write_text(_html(md))
+    remove_stale_files(out, md)
+    return index
+
+
+REPORT_FOLDERS = ("tables", "figures")
+
+
+def linked_files(md_lines: Sequence[str]) -> set[str]:
+    """The relative paths the index links (``[text](path)`` and ``![alt](path)``)."""
+    return set(re.findall(r"\]\(([^)\s]+)\)", "\n".join(md_lines)))
+
+
+def remove_stale_files(out: Path, md_lines: Sequence[str]) -> list[Path]:
+    """Delete the files under ``out/tables`` and ``out/figures`` that the index does not link:
+    an earlier report's into the same folder (other runs, labels or protocols). Those two
+    folders are the report's own; nothing else under ``out`` is touched. Returns what was removed."""
+    keep = linked_files(md_lines)
+    removed = []
+    for folder in REPORT_FOLDERS:
+        for f in sorted((out / folder).glob("*")):
+            if f.is_file() and f"{folder}/{f.name}" not in keep:
+                f.unlink()
+                removed.append(f)
+    return removed
+
+
+def _inline(text: str) -> str:
+    """Markdown inline marks (links, bold, code, the tables' <u>) as HTML, the rest escaped."""
+    text = html.escape(text, quote=False)
+    text = text.replace("&lt;u&gt;", "<u>").replace("&lt;/u&gt;", "</u>")
+    text = re.sub(r"\[([^\]]+)\]\(([^)]+)\)", r'<a href="\2">\1</a>', text)
+    text = re.sub(r"\*\*([^*]+)\*\*", r"<b>\1</b>", text)
+    return re.sub(r"`([^`]+)`", r"<code>\1</code>", text)
+
+
+def _html(md_lines: list[str]) -> str:
+    """The index as a self-contained HTML page (Markdown tables as HTML tables, images inline)."""
+    body: list[str] = []
+    table: list[list[str]] = []
+
+    def flush() -> None:
+        if table:
+            head, rows = table[0], table[1:]
+            body.append("<table><thead><tr>" + "".join(f"<th>{_inline(c)}</th>" for c in head) + "</tr></thead><tbody>")
+            body.extend("<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>" for r in rows)
+            body.append("</tbody></table>")
+            table.clear()
+
+    for line in "\n".join(md_lines).splitlines():
+        if line.startswith("|"):
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if not all(re.fullmatch(r":?-+:?", c) for c in cells):
+                table.append(cells)
+            continue
+        flush()
+        m = re.fullmatch(r"!\[(.*)\]\((.*)\)", line.strip())
+        if m:
+            body.append(f'<p><img src="{html.escape(m.group(2))}" alt="{html.escape(m.group(1))}"></p>')
+        elif line.startswith("#"):
+            level = len(line) - len(line.lstrip("#"))
+            body.append(f"<h{level}>{_inline(line.lstrip('#').strip())}</h{level}>")
+        elif line.strip():
+            body.append(f"<p>{_inline(line)}</p>")
+    flush()
+    style = ("body{font-family:sans-serif;max-width:1200px;margin:auto;padding:1em}img{max-width:100%}"
+             "table{border-collapse:collapse;font-size:13px;margin:.5em 0}td,th{border:1px solid #ccc;padding:2px 6px}"
+             "td{text-align:right}td:first-child,th:first-child{text-align:left}")
+    return ("<!doctype html><html><head><meta charset='utf-8'><title>catpose report</title>"
+            f"<style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bench report RUN_DIR... --out DIR [--layout L ...] [--qualitative N] [--note TEXT ...]``."""
+    from catpose.bench.report.tables import LAYOUTS, RENAMED_LAYOUTS, parse_labels
+
+    ap = argparse.ArgumentParser(prog="bench report", description="Tables and figures of run directories in one folder.")
+    ap.add_argument("runs", nargs="+", help="run directories, or folders searched for samples.jsonl")
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--layout", action="append", choices=sorted({*LAYOUTS, *RENAMED_LAYOUTS}),
+                    help="extra table layouts per protocol (always: a summary and a per-category table)")
+    ap.add_argument("--qualitative", type=int, default=0,
+                    help="pictures per run, at most 2: the worst and a typical failure (re-loads samples from the config)")
+    ap.add_argument("--label", action="append", default=[], help="RUN_DIR=LABEL, repeatable")
+    ap.add_argument("--note", action="append", default=[], help="a paragraph under the title (how the runs were made)")
+    ap.add_argument("--no-pdf", action="store_true", help="figures as PNG (+ CSV) only")
+    args = ap.parse_args(argv)
+    index = build_report(args.runs, args.out, args.layout or [], args.qualitative, parse_labels(args.label),
+                         args.note, pdf=not args.no_pdf)
+    print(f"report written: {index} (and index.html)")
+    return 0

@@ -1,0 +1,150 @@
+"""Run directories as a table sees them: their config, their per-sample rows (errors recomputed
+from the stored estimates), and the units their protocol scores. Tables, reports and plots read
+runs through this module only, from files, never from memory.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+from catpose.errors import ConfigError, DatasetError
+
+
+@dataclass
+class Run:
+    """One run directory read from disk.
+
+    Attributes:
+        path: the run directory.
+        config: the resolved config (``config.yaml``) as a plain dict ({} when absent).
+        info: ``run.json`` as a dict ({} when absent).
+        samples: per-sample rows (pandas DataFrame with the ``samples.jsonl`` columns).
+    """
+
+    path: Path
+    config: dict
+    info: dict
+    samples: Any
+
+    def _group_name(self, group: str) -> str | None:
+        """The name of config group ``group`` (``method``, ``protocol``) in ``config.yaml``, if any."""
+        g = self.config.get(group)
+        if isinstance(g, dict) and g.get("name"):
+            return str(g["name"])
+        return g if isinstance(g, str) else None
+
+    @property
+    def method(self) -> str:
+        name = self._group_name("method")
+        if name:
+            return name
+        if self.info.get("method"):
+            return str(self.info["method"])
+        if len(self.samples) and "method" in self.samples:
+            return str(self.samples["method"].iloc[0])
+        return self.path.name
+
+    @property
+    def protocol(self) -> str:
+        return self._group_name("protocol") or str(self.info.get("protocol", "gt_model"))
+
+    @property
+    def method_config(self) -> dict:
+        m = self.config.get("method")
+        return m if isinstance(m, dict) else {}
+
+
+def samples_frame(path: Path):
+    """A ``samples.jsonl`` as a DataFrame, one row per sample (the runner's reader: a truncated
+    line of a killed run is skipped, a retried sample's last row counts)."""
+    import pandas as pd
+
+    from catpose.bench.run.rundir import latest_rows
+
+    return pd.DataFrame(latest_rows(Path(path)))
+
+
+def recompute_frame_errors(samples):
+    """Errors of every row recomputed from its estimate and ground truth by the runner's
+    :func:`~catpose.bench.run.evaluate.recompute_row_errors` (symmetries included), so tables follow the
+    current metric definitions rather than the numbers stored at run time."""
+    import pandas as pd
+
+    from catpose.bench.run.evaluate import recompute_row_errors
+
+    if len(samples) == 0 or not {"T_est", "T_gt", "status"} <= set(samples.columns):
+        return samples
+    return pd.DataFrame([recompute_row_errors(r) for r in samples.to_dict("records")], index=samples.index)
+
+
+def load_run(path: str | Path) -> Run:
+    """Read a run directory (``samples.jsonl`` required, ``config.yaml`` and ``run.json`` optional).
+
+    Errors are recomputed from the stored poses (:func:`recompute_frame_errors`).
+    """
+    path = Path(path)
+    samples_path = path / "samples.jsonl"
+    if not samples_path.is_file():
+        raise DatasetError(f"{path} is not a run directory: {samples_path.name} is missing; pass a folder written by `bench run`")
+    config: dict = {}
+    if (path / "config.yaml").is_file():
+        from omegaconf import OmegaConf
+
+        config = OmegaConf.to_container(OmegaConf.load(path / "config.yaml"), resolve=False)  # type: ignore[assignment]
+    info = json.loads((path / "run.json").read_text()) if (path / "run.json").is_file() else {}
+    return Run(path=path, config=config, info=info, samples=recompute_frame_errors(samples_frame(samples_path)))
+
+
+def find_run_dirs(paths: Sequence[str | Path]) -> list[Path]:
+    """Run directories given directly or found below the given folders (sorted, no duplicates)."""
+    from catpose.bench.run.merge import ensure_merged, is_sharded
+
+    out: list[Path] = []
+    for p in map(Path, paths):
+        if p.is_dir():  # sharded runs: samples.jsonl from the shard files first (bench merge)
+            for d in sorted({p} | {q.parent for q in p.rglob("samples.shard-*-of-*.jsonl")}):
+                if is_sharded(d):
+                    ensure_merged(d)
+        if (p / "samples.jsonl").is_file():
+            out.append(p)
+        elif p.is_dir():
+            found = sorted(q.parent for q in p.rglob("samples.jsonl"))
+            if not found:
+                raise DatasetError(f"no samples.jsonl below {p}; pass run directories written by `bench run`")
+            out.extend(found)
+        else:
+            raise DatasetError(f"{p} does not exist; pass run directories written by `bench run`")
+    seen: set[Path] = set()
+    return [p for p in out if not (p.resolve() in seen or seen.add(p.resolve()))]
+
+
+def protocol_of(run: Run):
+    """The run's protocol, built from its ``config.yaml`` as the runner builds it; runs without a
+    protocol config (external predictions written by hand) get the built-in protocol of their
+    name."""
+    cfg = run.config.get("protocol") if isinstance(run.config.get("protocol"), dict) else None
+    if cfg and cfg.get("_target_"):
+        from catpose.bench.run.build import build_from_config
+
+        return build_from_config(dict(cfg), "protocol")[1]
+    from catpose.bench.protocols.absolute import GtModel, Templates
+
+    if run.protocol == "relative":
+        from catpose.bench.protocols.relative import Relative
+
+        return Relative()
+    return Templates() if run.protocol == "templates" else GtModel()
+
+
+def scored_units(run: Run, error: str = "err_deg"):
+    """The run's scoring units (protocol ``score_units``); ``error="oracle_err_deg"`` uses the
+    templates protocol's minimum error across templates as ``err_deg`` (an oracle)."""
+    units = protocol_of(run).score_units(run.samples)
+    if error != "err_deg":
+        if error not in units:
+            raise ConfigError(f"run {run.path} has no column {error!r}; the oracle exists only for the templates protocol")
+        units = units.assign(err_deg=units[error])
+    return units

@@ -1,0 +1,184 @@
+"""The one place that turns a config into objects: a group node (method, dataset, protocol)
+into its ``_target_`` built with plain typed arguments, and the run-level options checked.
+
+Methods, datasets and protocols never see a config object; everything that reads one goes
+through :func:`build_from_config`. Options are checked against the constructor's annotations
+before anything is built, so a wrong value is a one-line error that names its key
+(``method.optimiser.lr='abc' is not a float; set method.optimiser.lr=<number>``).
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import re
+from typing import Any
+
+from catpose.errors import CatposeError, ConfigError, one_line
+
+
+#: ``_target_``s that moved when ``bench/`` was split into wings: the name written into run
+#: directories' ``config.yaml`` before -> the class's name now. :func:`build_from_config` builds
+#: either, so old run directories still table and report; :func:`catpose.bench.run.rundir.run_dir_for`
+#: hashes the old name, so a configuration keeps its run directory (and its finished samples).
+MOVED_TARGETS = {"catpose.bench.relative.Relative": "catpose.bench.protocols.Relative"}
+
+
+def target_before_move(target: str) -> str:
+    """The name ``target`` had before it moved (itself when it did not move)."""
+    return next((old for old, new in MOVED_TARGETS.items() if new == target), target)
+
+
+def build_from_config(node: Any, what: str) -> tuple[str, Any]:
+    """Pop ``name`` from a config group node and build its ``_target_`` with the rest.
+
+    Every user mistake becomes a one-line :class:`ConfigError` naming the key: a missing
+    mandatory value, an option the target does not take, a value of the wrong type for a
+    constructor argument annotated ``float``/``int``/``bool``/``str`` (see
+    :func:`check_constructor_args`), and any other ``TypeError``/``ValueError`` of the constructor.
+    """
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    from omegaconf.errors import MissingMandatoryValue
+
+    check_missing(node, what)
+    try:
+        d = OmegaConf.to_container(node, resolve=True) if not isinstance(node, dict) else dict(node)
+    except MissingMandatoryValue as e:
+        raise ConfigError(f"{what}: a required value is missing ({e}); set it on the command line") from None
+    name = str(d.pop("name", what))
+    if d.get("_target_") in MOVED_TARGETS:
+        d["_target_"] = MOVED_TARGETS[d["_target_"]]
+    if "_target_" not in d:
+        raise ConfigError(f"config group '{what}' ({name}) has no _target_; add one to configs/{what}/{name}.yaml")
+    check_constructor_args(d, what, name)
+    try:
+        return name, instantiate(d, _convert_="all")
+    except CatposeError:
+        raise
+    except Exception as e:  # Hydra wraps constructor errors; surface the user-facing one
+        cause = e
+        while cause.__cause__ is not None:
+            cause = cause.__cause__
+        if isinstance(cause, CatposeError):
+            raise cause from None
+        named = [k for k in d if not k.startswith("_") and re.search(rf"\b{re.escape(k)}\b", str(cause))]
+        keys = ", ".join(f"{what}.{k}={d[k]!r}" for k in named) or f"the {what}.* values"
+        raise ConfigError(f"cannot build {what} '{name}' ({d['_target_']}): {one_line(cause)}; "
+                          f"check {keys} (bench run --cfg job shows them)") from None
+
+
+def check_missing(node: Any, what: str) -> None:
+    """A one-line :class:`ConfigError` naming the mandatory (``???``) keys of a group left unset."""
+    from omegaconf import OmegaConf
+
+    if isinstance(node, dict):
+        return
+    # missing_keys of a child node gives full paths ("dataset.root"); keep them relative
+    missing = sorted(k.removeprefix(f"{what}.") for k in OmegaConf.missing_keys(node))
+    if missing:
+        raise ConfigError(f"{what} needs {', '.join(f'{what}.{k}' for k in missing)}: "
+                          f"set it on the command line, e.g. {what}.{missing[0]}=<value>")
+
+
+# annotation (as written, `from __future__ import annotations` keeps it a string) -> what it accepts
+_SCALAR_HINTS = {"float": "<number>", "int": "<integer>", "bool": "<true|false>", "str": "<text>"}
+
+
+def _scalar_annotation(annotation: Any) -> set[str] | None:
+    """The scalar types an annotation allows (``"float | None"`` -> {"float", "None"}), or None
+    when it is anything else (containers, classes, unannotated): those are not checked."""
+    if annotation is inspect.Parameter.empty:
+        return None
+    text = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", str(annotation))
+    text = str(text).replace("typing.", "")
+    optional = text.startswith("Optional[")
+    if optional:
+        text = text.removeprefix("Optional[").removesuffix("]")
+    parts = {"None" if p.strip() in ("None", "NoneType") else p.strip() for p in text.split("|")}
+    if optional:
+        parts.add("None")
+    return parts if parts <= {*_SCALAR_HINTS, "None"} and parts - {"None"} else None
+
+
+def _accepts(kinds: set[str], value: Any) -> bool:
+    """Whether ``value`` (as Hydra parsed it) fits one of the scalar ``kinds``."""
+    if value is None:
+        return "None" in kinds
+    if isinstance(value, bool):
+        return "bool" in kinds
+    if isinstance(value, int):
+        return bool(kinds & {"int", "float", "str"}) or ("bool" in kinds and value in (0, 1))
+    if isinstance(value, float):
+        return "float" in kinds or "str" in kinds or ("int" in kinds and value.is_integer())
+    if isinstance(value, str):
+        return "str" in kinds
+    return False
+
+
+def check_constructor_args(d: dict, what: str, name: str) -> None:
+    """Check a group's options against its ``_target_``'s constructor before building it.
+
+    Raises a one-line :class:`ConfigError` for an option the constructor does not take (unless
+    it has ``**kwargs``) and for a value that does not fit a parameter annotated with scalar
+    types only (``float``, ``int``, ``bool``, ``str``, optionally ``| None``), e.g.
+    ``method.lr='abc' is not a float; set method.lr=<number>``. Anything the check cannot read
+    (an unimportable target, container annotations) is left to the constructor.
+    """
+    try:
+        module_name, _, attr = str(d["_target_"]).rpartition(".")
+        target = getattr(importlib.import_module(module_name), attr)
+        params = inspect.signature(target).parameters
+    except (ImportError, AttributeError, ValueError, TypeError):
+        return  # Hydra reports an unknown target itself
+    takes_kwargs = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
+    for key, value in d.items():
+        if key.startswith("_"):
+            continue
+        if isinstance(value, dict) and "_target_" in value:  # a nested settings object: its own keys
+            check_constructor_args(value, f"{what}.{key}", name)
+        if key not in params:
+            if not takes_kwargs:
+                options = ", ".join(k for k, p in params.items() if p.kind is not inspect.Parameter.VAR_POSITIONAL)
+                raise ConfigError(f"{what}.{key} is not an option of {what} '{name}' ({d['_target_']}); "
+                                  f"options: {options}")
+            continue
+        kinds = _scalar_annotation(params[key].annotation)
+        if kinds is not None and not _accepts(kinds, value):
+            main = next(k for k in ("float", "int", "bool", "str") if k in kinds)
+            article = "an" if main == "int" else "a"
+            or_null = " or null" if "None" in kinds else ""
+            raise ConfigError(f"{what}.{key}={value!r} is not {article} {main}{or_null}; "
+                              f"set {what}.{key}={_SCALAR_HINTS[main]}")
+
+
+def _run_option(cfg: Any, key: str, kind: str, minimum: int | float | None = None) -> Any:
+    """``cfg[key]`` validated as ``kind`` ("int" or "float", None allowed), at least ``minimum``;
+    a one-line :class:`ConfigError` naming the key and the fix otherwise (``limit=-1``,
+    ``limit=abc`` and ``seed=1.5`` must not become something else silently)."""
+    value = cfg.get(key)
+    if value is None:
+        return None
+    ok = not isinstance(value, bool) and (isinstance(value, int) or (kind == "float" and isinstance(value, float)))
+    if not ok or (minimum is not None and value < minimum):
+        need = "an integer" if kind == "int" else "a number"
+        bound = f" >= {minimum}" if minimum is not None else ""
+        raise ConfigError(f"{key}={value!r} is not {need}{bound}; set {key}=<{'integer' if kind == 'int' else 'number'}"
+                          f"{bound}> (or drop it)")
+    return value
+
+
+def validate_run_options(cfg: Any) -> None:
+    """Check the run-level keys (``seed``, ``limit``, ``threads``, ``batch``, ``lock_timeout``) and that no
+    mandatory group key (``dataset.root``) is unset, before any work."""
+    if cfg.get("seed") is None:
+        raise ConfigError("seed is not set; set seed=<integer>, e.g. seed=0")
+    _run_option(cfg, "seed", "int")
+    _run_option(cfg, "limit", "int", 1)
+    _run_option(cfg, "threads", "int", 1)
+    _run_option(cfg, "batch", "int", 1)
+    _run_option(cfg, "lock_timeout", "float", 0)
+    for group in ("method", "dataset", "protocol"):
+        if group in cfg:
+            check_missing(cfg[group], group)

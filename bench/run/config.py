@@ -1,0 +1,229 @@
+"""Hydra, composed in one place: the ``run`` config with command-line overrides, checked first.
+
+Every command that needs a config composes it through :func:`compose` (or
+:func:`compose_and_build`, which also builds groups with
+:func:`catpose.bench.run.build.build_from_config`): ``bench run``'s fail-fast check, ``bench
+perf``, ``bench align``, ``bench templates``, ``bench score --dataset``, ``bench suite``,
+``bench regress`` and the GPU check's input dump. ``bench run`` itself then goes through
+``hydra.main`` (:mod:`catpose.bench.run.command`), the one other place Hydra composes.
+
+What a user types is checked before Hydra sees it (:func:`check_overrides`): an unknown method,
+dataset, protocol or experiment name, or a key that was renamed, is one line that names the fix;
+a composition error is one line instead of Hydra's multi-line report.
+
+Renamed: ``method.optimizer`` is ``method.optimiser`` (the spelling of the config key, of
+``Ours(optimiser=...)`` and of the docs), and the experiment and table layout ``optimizer`` are
+``optimiser``; the old spellings are refused with the new one named.
+
+Also here: where the shared real data is (:func:`shared_data_dir`).
+"""
+
+from __future__ import annotations
+
+import os
+from importlib import resources
+from pathlib import Path
+from typing import Any, Sequence
+
+from catpose.errors import ConfigError
+
+REPO = Path(__file__).resolve().parents[2]
+
+#: config groups whose names a command line picks (``method=ours``); their names are checked
+GROUPS = ("method", "dataset", "protocol", "experiment")
+#: dotted keys renamed in the configs: old -> new (an override of the old key is refused)
+RENAMED_KEYS = {"method.optimizer": "method.optimiser"}
+#: config names renamed: (group, old name) -> new name
+RENAMED_NAMES = {("experiment", "optimizer"): "optimiser"}
+#: hydra/launcher option -> the plugin package it needs (the cluster extra, `make cluster`)
+LAUNCHER_PLUGINS = {"joblib": "hydra_joblib_launcher", "local_procs": "hydra_joblib_launcher",
+                    "submitit_local": "hydra_submitit_launcher", "submitit_slurm": "hydra_submitit_launcher",
+                    "slurm": "hydra_submitit_launcher", "ray": "hydra_ray_launcher",
+                    "ray_local": "hydra_ray_launcher"}
+#: what a composition error suggests by default
+HINT = "bench run --help lists the common keys"
+
+
+def shared_data_dir() -> Path:
+    """``$CATPOSE_SHARED_DATA`` or ``../shared/data`` beside the checkout (the real data)."""
+    env = os.environ.get("CATPOSE_SHARED_DATA")
+    return Path(env) if env else REPO.parent / "shared" / "data"
+
+
+def available(group: str) -> list[str]:
+    """Config names of a group (``configs/<group>/*.yaml``), read from the installed package."""
+    root = resources.files("catpose.configs") / group
+    return sorted(p.name[:-5] for p in root.iterdir() if p.name.endswith(".yaml"))
+
+
+def check_overrides(argv: Sequence[str], names: bool = True) -> None:
+    """Fail fast, in one line, on an unknown method, dataset, protocol or experiment name and on
+    a renamed key or name (``method.optimizer.lr=...``: "method.optimizer was renamed
+    method.optimiser; write method.optimiser.lr=...").
+
+    ``argv`` are plain overrides (:func:`split_hydra_args` takes Hydra's flags out first);
+    ``hydra.*`` and ``hydra/...`` overrides are Hydra's and pass untouched. ``names=False`` skips
+    the name check (configs from ``--config-dir`` are not in the package's lists)."""
+    for arg in argv:
+        raw, sep, value = arg.partition("=")
+        key = raw.lstrip("+~")
+        prefix = raw[:len(raw) - len(key)]  # "+" / "~" as typed
+        if key == "hydra" or key.startswith(("hydra.", "hydra/")):
+            continue
+        for old, new in RENAMED_KEYS.items():
+            if key == old or key.startswith(old + "."):
+                fixed = prefix + new + key[len(old):] + (f"={value}" if sep else "")
+                raise ConfigError(f"{old} was renamed {new}; write {fixed}")
+        if not sep or key not in GROUPS:
+            continue
+        available_names = available(key)
+        for v in value.split(","):
+            if (key, v) in RENAMED_NAMES:
+                new = RENAMED_NAMES[key, v]
+                raise ConfigError(f"{key} {v} was renamed {new}; write {prefix}{key}={new}")
+            if names and v and v not in available_names:
+                raise ConfigError(f"unknown {key} {v!r}; available: {', '.join(available_names)} "
+                                  f"(add configs/{key}/{v}.yaml to plug in a new one)")
+
+
+def check_launcher(argv: Sequence[str]) -> None:
+    """Fail fast, in one line, on a launcher whose Hydra plugin is not installed."""
+    import importlib.util
+
+    for arg in argv:
+        key, sep, value = arg.partition("=")
+        if key.lstrip("+~") != "hydra/launcher" or not sep or value == "basic":
+            continue
+        plugin = LAUNCHER_PLUGINS.get(value)
+        if plugin is None:
+            raise ConfigError(f"unknown hydra/launcher {value!r}; use one of basic, {', '.join(LAUNCHER_PLUGINS)}")
+        try:
+            found = importlib.util.find_spec(f"hydra_plugins.{plugin}") is not None
+        except ImportError:
+            found = False
+        if not found:
+            raise ConfigError(f"hydra/launcher={value} needs {plugin.replace('_', '-')}, which is not installed; "
+                              f"install the launchers with `make cluster` (pip install -e \".[cluster]\")")
+
+
+def compose(overrides: Sequence[str], hint: str = HINT) -> Any:
+    """The ``run`` config (``configs/run.yaml``) composed with ``overrides`` (Hydra's compose API).
+
+    The overrides are checked first (:func:`check_overrides`). Raises :class:`ConfigError` in one
+    line, ending with ``hint``, for an override that does not fit the config (a key that does
+    not exist, such as a misspelt ``datset=...`` or ``method.foo=1`` without ``+``; broken
+    override syntax).
+    """
+    overrides = list(overrides)
+    check_overrides(overrides)
+    from hydra import compose as hydra_compose, initialize_config_module
+    from hydra.errors import ConfigCompositionException, OverrideParseException
+
+    try:
+        with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
+            return hydra_compose(config_name="run", overrides=overrides)
+    except (ConfigCompositionException, OverrideParseException) as e:
+        parts = [str(e)] + ([str(e.__cause__).splitlines()[0]] if e.__cause__ is not None else [])
+        lines = [ln.strip().rstrip(".") for p in parts for ln in p.splitlines()
+                 if ln.strip() and not ln.startswith(("See https://", "Set the environment"))]
+        raise ConfigError("; ".join(lines) + f" ({hint})") from None
+
+
+def compose_and_build(overrides: Sequence[str], groups: Sequence[str],
+                      hint: str = HINT) -> tuple[Any, list[tuple[str, Any]]]:
+    """:func:`compose`, then each of ``groups`` (``"method"``, ``"dataset"``, ``"protocol"``)
+    built as ``bench run`` builds it: ``(cfg, [(name, object) per group])``; a dataset also gets
+    its config name as ``.name``. Every mistake is a one-line :class:`ConfigError` naming the key."""
+    from catpose.bench.run.build import build_from_config
+
+    cfg = compose(overrides, hint)
+    built = []
+    for group in groups:
+        name, obj = build_from_config(cfg[group], group)
+        if group == "dataset":
+            obj.name = name
+        built.append((name, obj))
+    return cfg, built
+
+
+def check_composition(argv: Sequence[str]) -> None:
+    """``bench run``'s fail-fast check: a single run's plain overrides compose, or a one-line
+    error (see :func:`compose`). A sweep (``-m``) or an experiment is left to Hydra, which
+    composes what this check cannot (sweep values, hydra keys); so is a command line that points
+    Hydra at other configs (``--config-dir``, ``--config-name``, ``--config-path``)."""
+    flags, overrides = split_hydra_args(argv)
+    if flag_names(flags) & {"--multirun", *OTHER_CONFIGS}:
+        return
+    if any(a.lstrip("+~").startswith(("hydra", "experiment")) for a in overrides):
+        return
+    compose(overrides)
+
+
+# --------------------------------------------------------------------------------------------
+# Hydra's own command-line flags (Hydra 1.3: hydra/_internal/utils.py get_args_parser)
+
+#: flags that take a value (``--cfg job`` or ``--cfg=job``), long and short spellings
+HYDRA_VALUE_FLAGS = {"--cfg": "--cfg", "-c": "--cfg", "--package": "--package", "-p": "--package",
+                     "--config-path": "--config-path", "-cp": "--config-path",
+                     "--config-name": "--config-name", "-cn": "--config-name",
+                     "--config-dir": "--config-dir", "-cd": "--config-dir",
+                     "--experimental-rerun": "--experimental-rerun"}
+#: ``--info`` takes an optional value, one of these (default ``all``)
+HYDRA_INFO_CHOICES = ("all", "config", "defaults", "defaults-tree", "plugins", "searchpath")
+#: flags without a value
+HYDRA_SWITCHES = {"--resolve": "--resolve", "--run": "--run", "-r": "--run", "--multirun": "--multirun",
+                  "-m": "--multirun", "--shell-completion": "--shell-completion", "-sc": "--shell-completion",
+                  "--hydra-help": "--hydra-help", "--version": "--version", "--info": "--info", "-i": "--info"}
+#: flags that make Hydra read other configs than the package's (names and composition unchecked)
+OTHER_CONFIGS = ("--config-path", "--config-name", "--config-dir", "--experimental-rerun")
+
+
+def split_hydra_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
+    """``(flags, overrides)``: Hydra's command-line flags with their values, as typed (``--cfg``,
+    ``job``, ``--info``, ``plugins``, ``--config-dir=DIR``, ...), and the plain overrides
+    (``key=value``, ``+key=value``, ``~key``). The flags go to Hydra untouched; only the
+    overrides are checked here. A flag Hydra does not know is left among the overrides, where
+    Hydra reports it."""
+    flags: list[str] = []
+    overrides: list[str] = []
+    args = list(argv)
+    k = 0
+    while k < len(args):
+        a = args[k]
+        name, eq, _ = a.partition("=")
+        if a.startswith("-") and name in HYDRA_VALUE_FLAGS:
+            flags.append(a)
+            if not eq and k + 1 < len(args):
+                flags.append(args[k + 1])
+                k += 1
+        elif a.startswith("-") and name in ("--info", "-i"):
+            flags.append(a)
+            if not eq and k + 1 < len(args) and args[k + 1] in HYDRA_INFO_CHOICES:
+                flags.append(args[k + 1])
+                k += 1
+        elif a.startswith("-") and a in HYDRA_SWITCHES:
+            flags.append(a)
+        else:
+            overrides.append(a)
+        k += 1
+    return flags, overrides
+
+
+def flag_names(flags: Sequence[str]) -> set[str]:
+    """The long names of the Hydra flags among ``flags`` (values dropped): ``{"--cfg", ...}``."""
+    out = set()
+    for f in flags:
+        name = f.partition("=")[0]
+        if f.startswith("-") and (name in HYDRA_VALUE_FLAGS or name in HYDRA_SWITCHES):
+            out.add(HYDRA_VALUE_FLAGS.get(name) or HYDRA_SWITCHES[name])
+    return out
+
+
+def check_run_args(argv: Sequence[str]) -> None:
+    """Every check ``bench run`` makes before Hydra, on the plain overrides only: names and
+    renamed keys (:func:`check_overrides`), the launcher's plugin (:func:`check_launcher`) and,
+    for a single run, the composition (:func:`check_composition`)."""
+    flags, overrides = split_hydra_args(argv)
+    check_overrides(overrides, names=not flag_names(flags) & set(OTHER_CONFIGS))
+    check_launcher(overrides)
+    check_composition(argv)

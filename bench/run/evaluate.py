@@ -1,0 +1,98 @@
+"""Errors and summaries from a run directory's files (never from in-memory state).
+
+Every table is scored through :func:`recompute_row_errors`: the errors of each row are recomputed
+from its stored estimate and ground truth with the current metric definitions, so a metric fix
+re-scores old runs without re-running them. :func:`summarize_run` writes ``samples.csv`` and
+``summary.csv`` / ``.md`` over every finished sample of a run directory.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+from catpose.bench.run.build import build_from_config
+from catpose.bench.run.rundir import SAMPLES_FILE, latest_rows
+
+
+def load_protocol(run_dir: Path) -> Any:
+    """Rebuild the protocol of a run from its ``config.yaml`` (for scoring from files)."""
+    from omegaconf import OmegaConf
+
+    cfg = OmegaConf.load(run_dir / "config.yaml")
+    return build_from_config(cfg.protocol, "protocol")[1]
+
+
+def recompute_row_errors(row: dict) -> dict:
+    """A per-sample row with its errors recomputed from ``T_est``, ``T_gt``, ``symmetry_axis``
+    and ``symmetries`` (the current metric definitions); a row without an estimate gets
+    :data:`~catpose.bench.scoring.metrics.FAILED_ERROR_DEG`. Every table is scored through this."""
+    from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, sample_errors
+
+    row = dict(row)
+    T_est, T_gt = row.get("T_est"), row.get("T_gt")
+    if row.get("status") == "ok" and isinstance(T_est, (list, np.ndarray)) and isinstance(T_gt, (list, np.ndarray)):
+        axis = row.get("symmetry_axis")
+        symmetries = row.get("symmetries")
+        row.update(sample_errors(np.reshape(T_est, (4, 4)), np.reshape(T_gt, (4, 4)),
+                                 np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
+                                 symmetries if isinstance(symmetries, (list, tuple)) else ()))
+    else:
+        row["err_deg"] = FAILED_ERROR_DEG
+    return row
+
+
+def summarize_run(run_dir: Path, sample_ids: Iterable[str] | None = None):
+    """Per-category summary of a run from its files.
+
+    Writes ``samples.csv`` and ``summary.csv``/``.md`` over every finished sample of the
+    directory, so they always agree with ``samples.jsonl``. Returns that summary, or, when
+    ``sample_ids`` is given (a ``limit``-ed run of a larger directory), the summary of those
+    samples only (not written). Errors are recomputed from the stored estimates and ground
+    truth, so the statistics never depend on in-memory state.
+    """
+    import pandas as pd
+
+    run_dir = Path(run_dir)
+    df = pd.DataFrame([recompute_row_errors(r) for r in latest_rows(run_dir / SAMPLES_FILE)])
+    protocol = load_protocol(run_dir)
+    if len(df):
+        flat = df.drop(columns=[c for c in ("info", "extras", "symmetries") if c in df.columns]).copy()
+        for c in ("T_est", "T_gt", "symmetry_axis"):
+            if c in flat.columns:
+                flat[c] = flat[c].map(lambda v: " ".join(f"{x:.9g}" for x in np.ravel(v)) if isinstance(v, list) else "")
+        flat.to_csv(run_dir / "samples.csv", index=False)
+    summary = _summary(df, protocol)
+    summary.to_csv(run_dir / "summary.csv", index=False)
+    (run_dir / "summary.md").write_text(format_summary(summary) + "\n")
+    if sample_ids is None or len(df) == 0:
+        return summary
+    wanted = set(sample_ids)
+    return _summary(df[df["sample_id"].isin(wanted)].reset_index(drop=True), protocol)
+
+
+def _summary(df, protocol):
+    """Per-category statistics of per-sample rows scored by ``protocol``, oracle columns added
+    for protocols that report one."""
+    import pandas as pd
+
+    from catpose.bench.scoring.metrics import summarize
+
+    units = protocol.score_units(df) if len(df) else df
+    if len(units) == 0:
+        return summarize(pd.DataFrame(columns=["category", "status", "err_deg", "trans_err", "runtime_s"]))
+    summary = summarize(units)
+    if "oracle_err_deg" in units.columns:
+        oracle = summarize(units.assign(err_deg=units["oracle_err_deg"], status="ok"))
+        summary["oracle_mean_err_deg"] = oracle["mean_err_deg"].to_numpy()
+        summary["oracle_median_err_deg"] = oracle["median_err_deg"].to_numpy()
+    return summary
+
+
+def format_summary(summary) -> str:
+    """The summary as a Markdown table (angles in degrees, translation in object-normalised units)."""
+    if len(summary) == 0:
+        return "(no scored samples: none finished, or none has the ground truth this protocol scores)"
+    return summary.to_markdown(index=False, floatfmt=".3f")

@@ -1,0 +1,206 @@
+"""Sharded runs: one run's samples split across jobs, merged back from files.
+
+``bench run ... shards=N shard=I`` runs the samples ``ids[I::N]`` of the run's fixed order
+(dataset, protocol, seed, ``limit``/``sample_ids``) into the run directory every shard shares, and
+writes its own files there, so concurrent shards never write to one file:
+
+- ``samples.shard-I-of-N.jsonl``: the shard's per-sample rows (the format of ``samples.jsonl``);
+- ``shard-I-of-N.json``: the shard's sample ids in run order, and when it finished.
+
+``bench merge RUNDIR`` (and ``bench table``, automatically) writes ``samples.jsonl`` from every
+shard's rows in the run's own order (shard I's j-th id is the run's ``j*N + I``-th), then the
+summaries, so a sharded run's files, summaries and tables are those of the serial run, bit for
+bit. A shard with samples still missing stops the merge with the command that finishes it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+from pathlib import Path
+from typing import Sequence
+
+from catpose.bench.run.rundir import SAMPLES_FILE
+from catpose.errors import ConfigError, DatasetError
+
+_SHARD_RE = re.compile(r"^samples\.shard-(\d+)-of-(\d+)\.jsonl$")
+
+
+def shard_samples_file(shard: int, shards: int) -> str:
+    """File name of shard ``shard`` of ``shards``'s per-sample rows."""
+    return f"samples.shard-{shard}-of-{shards}.jsonl"
+
+
+def shard_lock_file(shard: int, shards: int) -> str:
+    """The lock a shard holds while it writes (the run's own ``run.lock`` guards the merge)."""
+    return f"run.shard-{shard}-of-{shards}.lock"
+
+
+def shard_meta_file(shard: int, shards: int) -> str:
+    """File name of shard ``shard`` of ``shards``'s ids and state."""
+    return f"shard-{shard}-of-{shards}.json"
+
+
+def parse_shard(shard: object, shards: object) -> tuple[int, int] | None:
+    """``(shard, shards)`` from the run config, ``None`` for an unsharded run.
+
+    Raises ConfigError naming the key on a bad value."""
+    try:
+        n = int(shards) if shards is not None else 1
+    except (TypeError, ValueError):
+        raise ConfigError(f"shards={shards!r} is not an integer; use shards=N with N >= 1") from None
+    if n < 1:
+        raise ConfigError(f"shards={n}: use shards=N with N >= 1")
+    if shard is None:
+        if n > 1:
+            raise ConfigError(f"shards={n} needs shard=I (0 <= I < {n}); sweep them with: -m shards={n} shard=range({n})")
+        return None
+    try:
+        i = int(shard)
+    except (TypeError, ValueError):
+        raise ConfigError(f"shard={shard!r} is not an integer; use shard=I with 0 <= I < shards") from None
+    if not 0 <= i < n:
+        raise ConfigError(f"shard={i} is out of range for shards={n}; use 0 <= shard < {n}")
+    return (i, n) if n > 1 else None
+
+
+def shard_ids(ids: Sequence[str], shard: int, shards: int) -> list[str]:
+    """The ids of shard ``shard`` of ``shards``: every ``shards``-th id from position ``shard``
+    (strided, so each shard gets every category of an ordered list)."""
+    return list(ids[shard::shards])
+
+
+def write_shard_meta(run_dir: Path, shard: int, shards: int, ids: Sequence[str], finished: bool) -> None:
+    """Record a shard's ids (run order) and whether it went through all of them."""
+    path = Path(run_dir) / shard_meta_file(shard, shards)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps({"shard": shard, "shards": shards, "finished": finished,
+                               "sample_ids": list(ids)}) + "\n")
+    tmp.replace(path)
+
+
+def shard_files(run_dir: Path) -> dict[int, list[int]]:
+    """``{N: [I, ...]}`` of the shard sample files in a run directory."""
+    found: dict[int, list[int]] = {}
+    for p in Path(run_dir).glob("samples.shard-*-of-*.jsonl"):
+        m = _SHARD_RE.match(p.name)
+        if m:
+            found.setdefault(int(m.group(2)), []).append(int(m.group(1)))
+    return {n: sorted(v) for n, v in found.items()}
+
+
+def is_sharded(run_dir: Path) -> bool:
+    return bool(shard_files(run_dir))
+
+
+def needs_merge(run_dir: Path) -> bool:
+    """Whether a run directory has shard files newer than its ``samples.jsonl``."""
+    run_dir = Path(run_dir)
+    files = [run_dir / name for n, idx in shard_files(run_dir).items() for i in idx
+             for name in (shard_samples_file(i, n), shard_meta_file(i, n))]
+    if not files:
+        return False
+    merged = run_dir / SAMPLES_FILE
+    if not merged.exists():
+        return True
+    return max(p.stat().st_mtime_ns for p in files if p.exists()) > merged.stat().st_mtime_ns
+
+
+def merged_rows(run_dir: Path) -> list[dict]:
+    """Every shard's rows in the run's order (see the module docstring).
+
+    A sample missing from its shard file is taken from ``samples.jsonl`` when that has it (a
+    serial run that shards resumed); still missing, the merge fails with the shard to re-run."""
+    from catpose.bench.run.rundir import latest_rows
+
+    run_dir = Path(run_dir)
+    found = shard_files(run_dir)
+    if len(found) != 1:
+        raise DatasetError(f"{run_dir} holds shards of {sorted(found)} parts; keep one sharding per run directory "
+                           f"(delete the samples.shard-*-of-N.jsonl of the others)")
+    (n, present), = found.items()
+    metas = []
+    for i in range(n):
+        meta_path = run_dir / shard_meta_file(i, n)
+        if i not in present or not meta_path.exists():
+            raise DatasetError(f"{run_dir}: shard {i} of {n} has not run; run it with shards={n} shard={i}")
+        metas.append(json.loads(meta_path.read_text()))
+    serial = {r["sample_id"]: r for r in latest_rows(run_dir / SAMPLES_FILE)}
+    per_shard = []
+    for i, meta in enumerate(metas):
+        rows = {r["sample_id"]: r for r in latest_rows(run_dir / shard_samples_file(i, n))}
+        missing = [s for s in meta["sample_ids"] if s not in rows and s not in serial]
+        if missing:
+            raise DatasetError(f"{run_dir}: shard {i} of {n} lacks {len(missing)} of {len(meta['sample_ids'])} samples "
+                               f"(e.g. {missing[0]!r}); finish it with the same command (shards={n} shard={i})")
+        per_shard.append([rows.get(s) or serial[s] for s in meta["sample_ids"]])
+    out = []
+    for j in range(max(map(len, per_shard), default=0)):
+        out += [rows[j] for rows in per_shard if j < len(rows)]
+    return out
+
+
+def merge_run(run_dir: Path):
+    """Write ``samples.jsonl``, ``run.json`` and the summaries of a sharded run from its shard
+    files; returns the run's summary (:func:`~catpose.bench.run.evaluate.summarize_run`)."""
+    from catpose.bench.run.lock import RunLock
+
+    run_dir = Path(run_dir)
+    # under the run's own lock: shards finishing together merge one after the other, and a serial
+    # run into the same directory never interleaves with a merge
+    lock = RunLock(run_dir)
+    lock.acquire()
+    try:
+        return _merge_locked(run_dir)
+    finally:
+        lock.release()
+
+
+def _merge_locked(run_dir: Path):
+    from catpose.bench.run.evaluate import summarize_run
+    from catpose.bench.run.rundir import jsonable, write_run_json
+
+    rows = merged_rows(run_dir)
+    tmp = run_dir / f".{SAMPLES_FILE}.{os.getpid()}.tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        for r in rows:
+            f.write(json.dumps(jsonable(r)) + "\n")
+    tmp.replace(run_dir / SAMPLES_FILE)
+    (n, _), = shard_files(run_dir).items()
+    first = rows[0] if rows else {}
+    meta = {k: first.get(k) for k in ("method", "dataset", "protocol", "seed")}
+    meta.update(n_samples=len(rows), shards=n, merged_from=[shard_samples_file(i, n) for i in range(n)],
+                output_dir=str(run_dir))
+    write_run_json(run_dir, meta)
+    return summarize_run(run_dir)
+
+
+def ensure_merged(run_dir: Path) -> None:
+    """Merge a sharded run directory whose ``samples.jsonl`` is missing or older than a shard."""
+    if needs_merge(run_dir):
+        merge_run(run_dir)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bench merge RUNDIR...``: samples.jsonl and summaries of sharded runs from their shard files."""
+    ap = argparse.ArgumentParser(prog="bench merge", description=main.__doc__)
+    ap.add_argument("run_dirs", nargs="+", type=Path,
+                    help="run directories with samples.shard-I-of-N.jsonl files, or folders searched for them")
+    args = ap.parse_args(argv)
+    from catpose.bench.run.evaluate import format_summary
+
+    dirs: list[Path] = []
+    for d in args.run_dirs:
+        if not d.is_dir():
+            raise DatasetError(f"{d} does not exist; pass a run directory written by `bench run ... shards=N shard=I`")
+        found = [d] if is_sharded(d) else sorted({p.parent for p in d.rglob("samples.shard-*-of-*.jsonl")})
+        if not found:
+            raise DatasetError(f"no samples.shard-I-of-N.jsonl in or below {d}; nothing to merge")
+        dirs += found
+    for d in dirs:
+        summary = merge_run(d)
+        print(f"{d}: merged {', '.join(sorted(p.name for p in d.glob('samples.shard-*-of-*.jsonl')))}")
+        print(format_summary(summary) + "\n")
+    return 0

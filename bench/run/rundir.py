@@ -1,0 +1,227 @@
+"""The run directory: its name and its files.
+
+A run directory is ``<output_root>/<dataset>-<protocol>/<method>/seed<S>-<tag>-<hash>``: ``tag``
+spells the command-line overrides (readable), ``hash`` is a digest of the resolved method,
+dataset, protocol and seed (so two configurations never share a directory). It holds
+
+- ``samples.jsonl``: one :class:`~catpose.bench.scoring.rows.SampleRow` per finished sample, appended and fsynced as soon as
+  it is done (a truncated last line from a kill is dropped on resume);
+- ``config.yaml`` (resolved), ``overrides.txt``, ``git_rev.txt``, ``run.json`` (counts and the
+  environment, :mod:`catpose.bench.run.environment`), ``run.lock`` (:mod:`catpose.bench.run.lock`);
+- ``samples.csv``, ``summary.csv`` / ``.md``, written by :mod:`catpose.bench.run.evaluate` from the
+  files alone.
+
+:func:`write_run` writes a whole run directory from rows made elsewhere (external predictions,
+:mod:`catpose.bench.interop.score`).
+
+The rows themselves (:class:`~catpose.bench.scoring.rows.SampleRow`) are
+:mod:`catpose.bench.scoring.rows`'s.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import hashlib
+import json
+import math
+import os
+import re
+import subprocess
+from pathlib import Path
+from typing import Any, Iterable, Iterator, Sequence
+
+import numpy as np
+
+from catpose.errors import RunAborted
+
+
+SAMPLES_FILE = "samples.jsonl"
+
+
+_RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", "limit", "sample_ids", "output_root",
+                               "progress", "threads", "batch", "retry_failed", "print_summary", "lock_timeout", "log_level",
+                               # shards of one run share its directory; an experiment's rows name themselves
+                               "shard", "shards", "label", "experiment"}
+
+
+def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:
+    """The output directory of a configuration (see the module docstring)."""
+    from omegaconf import OmegaConf
+
+    from catpose.bench.run.build import target_before_move
+
+    identity = {k: OmegaConf.to_container(cfg[k], resolve=True) for k in ("method", "dataset", "protocol")}
+    for node in identity.values():  # a class that moved keeps its configurations' directories
+        if isinstance(node, dict) and "_target_" in node:
+            node["_target_"] = target_before_move(str(node["_target_"]))
+    identity["seed"] = int(cfg.seed)
+    digest = hashlib.sha1(json.dumps(identity, sort_keys=True, default=str).encode()).hexdigest()[:8]
+    parts = []
+    for o in overrides:
+        key = o.split("=", 1)[0].lstrip("+~")
+        if key.split(".")[0] in _RUN_KEYS_EXCLUDED_FROM_TAG and "." not in key:
+            continue
+        if key.startswith("hydra.") or key == "output_root":
+            continue
+        parts.append(re.sub(r"[^A-Za-z0-9_.=,+-]+", "_", o.replace("/", "_")))
+    tag = ",".join(sorted(parts))[:80] or "default"
+    name = f"seed{int(cfg.seed)}-{tag}-{digest}"
+    return Path(str(cfg.output_root)) / f"{cfg.dataset.name}-{cfg.protocol.name}" / str(cfg.method.name) / name
+
+
+def git_revision() -> str:
+    here = Path(__file__).resolve().parent
+    try:
+        rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=10)
+        if rev.returncode != 0:
+            return "unknown (not a git checkout)"
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return rev.stdout.strip() + (" (with uncommitted changes)" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        return "unknown (git not available)"
+
+
+def jsonable(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return jsonable(x.tolist())
+    if isinstance(x, (np.floating, float)):
+        f = float(x)
+        return f if math.isfinite(f) else None
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (np.bool_,)):
+        return bool(x)
+    if isinstance(x, (str, int, bool)) or x is None:
+        return x
+    return str(x)
+
+
+def read_rows(path: Path) -> list[dict]:
+    """Every row of a ``samples.jsonl`` in file order (a retried sample: each of its rows; one per
+    sample: :func:`latest_rows`); a truncated last line (a killed run) is skipped."""
+    rows = []
+    if not path.exists():
+        return rows
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            line = line.strip()
+            if not line:
+                continue
+            try:
+                rows.append(json.loads(line))
+            except json.JSONDecodeError:
+                continue
+    return rows
+
+
+class SampleWriter:
+    """Appends one JSON line per sample and makes it durable before the next sample starts."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        if path.exists():  # drop a partial last line left by a kill, keep every complete one
+            data = path.read_bytes()
+            if data and not data.endswith(b"\n"):
+                path.write_bytes(data[: data.rfind(b"\n") + 1])
+        self._f = open(path, "a", encoding="utf-8")
+
+    def write(self, row: dict) -> None:
+        self._f.write(json.dumps(jsonable(row), sort_keys=False) + "\n")
+        self._f.flush()
+        os.fsync(self._f.fileno())
+
+    def close(self) -> None:
+        self._f.close()
+
+
+def output_error(path: Path, e: OSError) -> RunAborted:
+    """A one-line error for an ``OSError`` while writing the run directory."""
+    if e.errno == errno.ENOSPC:
+        why = "the disk is full"
+    elif e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        why = "it is not writable"
+    elif e.errno in (errno.ENOTDIR, errno.EEXIST) or isinstance(e, (NotADirectoryError, FileExistsError)):
+        why = "a file is in the way of a folder on its path"
+    else:
+        why = e.strerror or type(e).__name__
+    filename = getattr(e, "filename", None)
+    where = f" ({filename})" if filename and Path(str(filename)) != path else ""
+    return RunAborted(f"cannot write the run directory {path}{where}: {why}; set output_root=<a writable "
+                      "folder with free space> (finished samples are kept, a re-run resumes)")
+
+
+@contextlib.contextmanager
+def writing(path: Path) -> Iterator[None]:
+    """Turn an ``OSError`` while writing the run directory ``path`` into :func:`output_error`."""
+    try:
+        yield
+    except OSError as e:
+        raise output_error(path, e) from None
+
+
+def latest_rows(path: Path) -> list[dict]:
+    """The rows of a ``samples.jsonl``, one per sample (a retried sample: its last row)."""
+    latest: dict[str, dict] = {}
+    for r in read_rows(path):
+        latest.pop(r["sample_id"], None)
+        latest[r["sample_id"]] = r
+    return list(latest.values())
+
+
+def write_run_files(out: Path, cfg: Any, overrides: Iterable[str]) -> None:
+    """``config.yaml`` (resolved), ``git_rev.txt`` and ``overrides.txt`` of a run."""
+    from omegaconf import OmegaConf
+
+    with writing(out):
+        OmegaConf.save(cfg, out / "config.yaml", resolve=True)
+        (out / "git_rev.txt").write_text(git_revision() + "\n")
+        (out / "overrides.txt").write_text("\n".join(overrides) + "\n")
+
+
+def write_run_json(out: Path, meta: dict) -> None:
+    """``run.json``: ``meta`` (counts) and the environment the numbers came from (library
+    versions, CPU, BLAS kernels; :func:`catpose.bench.run.environment.environment`)."""
+    from catpose.bench.run.environment import environment
+
+    with writing(out):
+        (out / "run.json").write_text(json.dumps(dict(meta, environment=environment()), indent=2) + "\n")
+
+
+def write_run(out_dir: str | Path, rows: Sequence[dict], config: dict, info: dict | None = None) -> Path:
+    """Write a run directory (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries).
+
+    ``rows`` follow the ``samples.jsonl`` schema; ``config`` is a plain dict with at least
+    ``method``, ``dataset``, ``protocol`` (config-group dicts with ``name`` and ``_target_``)
+    and ``seed``. Returns ``out_dir``.
+    """
+    from omegaconf import OmegaConf
+
+    from catpose.bench.run.evaluate import summarize_run
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / SAMPLES_FILE).unlink(missing_ok=True)
+    writer = SampleWriter(out / SAMPLES_FILE)
+    try:
+        for r in rows:
+            writer.write(r)
+    finally:
+        writer.close()
+    OmegaConf.save(OmegaConf.create(config), out / "config.yaml")
+    meta = {"method": _name(config.get("method")), "dataset": _name(config.get("dataset")),
+            "protocol": _name(config.get("protocol")), "seed": config.get("seed"), "n_samples": len(rows)}
+    (out / "run.json").write_text(json.dumps(dict(meta, **(info or {})), indent=2) + "\n")
+    (out / "git_rev.txt").write_text("external predictions\n")
+    if rows:
+        summarize_run(out)
+    return out
+
+
+def _name(node: Any) -> str:
+    return str(node.get("name")) if isinstance(node, dict) else str(node)

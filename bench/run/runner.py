@@ -1,0 +1,287 @@
+"""The runner: every sample of a dataset + protocol through one method, into one run directory.
+
+Stages with files between them (run -> estimates and errors -> tables):
+
+- ``samples.jsonl``: one JSON object per finished sample, appended and flushed as soon as it is
+  done, so a run killed midway loses nothing already written and a re-run skips finished
+  samples (resume). A truncated last line from a kill is ignored and rewritten.
+- ``config.yaml`` (the resolved config), ``git_rev.txt``, ``run.json`` (counts and the environment:
+  library versions, CPU, BLAS kernels).
+- ``samples.csv``, ``summary.csv``, ``summary.md``: made from ``samples.jsonl`` by
+  :func:`summarize_run`, never from in-memory state.
+
+``batch=N`` (default 1) hands the method ``N`` samples per call of its ``register_batch`` where
+it has one (ours: one solver launch for all their candidates, the GPU path with
+``method.optimiser.device=cuda``); each sample's ``runtime_s`` is then its share of the call.
+
+A sample whose data fails to load, whose method raises, or whose estimate is not a finite rigid
+transform is recorded with ``status="failed"`` and its message; the run goes on. What is not the
+sample's own fault aborts the run in one line and records nothing for the sample in progress, so
+a re-run redoes it: Ctrl-C (at any moment: the heavy libraries are imported before the first
+sample), an import error, ``MemoryError``, an ``OSError`` writing the run directory. A run holds
+a lock on its directory (``run.lock``); a second run of the same configuration waits for it.
+
+The run directory's name and files are :mod:`catpose.bench.run.rundir`'s, its lock
+:mod:`catpose.bench.run.lock`'s, the rows :mod:`catpose.bench.scoring.rows`'; configs become
+objects in :mod:`catpose.bench.run.build`; one sample's load, registration and scoring are
+:mod:`catpose.bench.run.sample_run`'s; errors and summaries are :mod:`catpose.bench.run.evaluate`'s.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib
+import logging
+import signal
+import sys
+import threading
+from pathlib import Path
+from typing import Any, Iterable
+
+from catpose.bench.run.build import build_from_config, validate_run_options
+from catpose.bench.run.evaluate import format_summary, summarize_run
+from catpose.bench.run.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
+from catpose.bench.run.lock import LOCK_FILE, RunLock
+from catpose.bench.run.rundir import (SAMPLES_FILE, SampleWriter, read_rows, run_dir_for,
+                                  write_run_files, write_run_json, writing)
+from catpose.bench.run.sample_run import run_batch, run_one
+from catpose.errors import CatposeError, ConfigError, RunAborted
+from catpose.errors import one_line as _one_line
+
+log = logging.getLogger(__name__)
+
+
+# ---------------------------------------------------------------------------------------------
+# what aborts a run (never a sample failure)
+
+# heavy libraries, imported before the first sample so that a Ctrl-C during their import
+# (seconds) stops the run instead of turning into an ImportError of every sample. trimesh wraps
+# its optional imports (scipy, networkx, PIL, its own submodules) in `except BaseException`, so
+# it and what it looks for are imported first, before the builders need them: once loaded, no
+# window is left where a Ctrl-C would be swallowed for long. torch and Open3D come after the
+# builds, so that a config mistake is reported without waiting for them.
+_EARLY_MODULES = ("numpy", "scipy.spatial", "scipy.sparse", "scipy.optimize", "scipy.ndimage", "PIL.Image",
+                  "trimesh")
+_LATE_MODULES = ("torch", "catpose.o3d")
+_OPTIONAL_MODULES = ("networkx",)  # trimesh uses it when present
+
+
+class _Interrupts:
+    """Ctrl-C that no library can swallow or turn into another exception.
+
+    While active (main thread only, and only when SIGINT has Python's default handler), SIGINT
+    raises ``KeyboardInterrupt`` as usual and also sets :attr:`seen`; :meth:`check` re-raises it
+    after code that may have caught it (trimesh's imports catch ``BaseException``; a C extension
+    may report it as an ``ImportError`` or ``RuntimeError``).
+    """
+
+    def __init__(self) -> None:
+        self.seen = False
+        self._previous: Any = None
+
+    def _handler(self, signum: int, frame: Any) -> None:
+        self.seen = True
+        raise KeyboardInterrupt
+
+    def __enter__(self) -> "_Interrupts":
+        if (threading.current_thread() is threading.main_thread()
+                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+            self._previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+    def check(self) -> None:
+        """Raise ``KeyboardInterrupt`` if a Ctrl-C arrived, whatever became of its exception."""
+        if self.seen:
+            raise KeyboardInterrupt
+
+
+def import_heavy_libraries(interrupts: _Interrupts | None = None,
+                           modules: tuple[str, ...] = _EARLY_MODULES + _LATE_MODULES) -> None:
+    """Import ``modules`` now (default: SciPy, trimesh, torch, Open3D; see :data:`_EARLY_MODULES`).
+
+    A missing or broken library raises :class:`RunAborted` in one line; a Ctrl-C during an
+    import raises ``KeyboardInterrupt`` even when the library swallowed it.
+    """
+    if "trimesh" in modules:
+        for name in _OPTIONAL_MODULES:
+            with contextlib.suppress(ImportError):
+                importlib.import_module(name)
+            if interrupts is not None:
+                interrupts.check()
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except Exception as e:  # noqa: BLE001 - a swallowed Ctrl-C can surface as anything (trimesh: TypeError)
+            if interrupts is not None:
+                interrupts.check()
+            raise RunAborted(f"cannot import {name} ({_one_line(e)}); the installation is broken: "
+                             "reinstall with `make install` (or pip install -e .)") from None
+        if interrupts is not None:
+            interrupts.check()
+
+
+def _short(value: Any) -> str:
+    """A number in a log line (3 decimals), or ``-``."""
+    return "-" if value is None else f"{float(value):.3f}"
+
+
+def _abort_message(e: BaseException, sample_id: str) -> str:
+    """One line for an exception that stops the run while ``sample_id`` was in progress."""
+    redo = f"sample {sample_id} was not recorded; re-run the same command to resume"
+    if isinstance(e, MemoryError):
+        return f"out of memory on sample {sample_id}; free memory or lower dataset.max_points, then re-run ({redo})"
+    name = getattr(e, "name", None) or "a module"
+    return (f"cannot import {name} on sample {sample_id} ({_one_line(e)}); the installation is broken: "
+            f"reinstall with `make install`, then re-run ({redo})")
+
+
+# ---------------------------------------------------------------------------------------------
+# run and summarize
+
+
+def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
+    """Run ``cfg.method`` on every sample of ``cfg.dataset`` under ``cfg.protocol``.
+
+    Returns the run directory. Finished samples already in its ``samples.jsonl`` are skipped.
+    Only a sample's own fault is recorded as its failure; Ctrl-C, a failed import, no memory
+    and an unwritable output directory abort the run (``KeyboardInterrupt`` or
+    :class:`RunAborted`) and record nothing for the sample in progress.
+    """
+    validate_run_options(cfg)
+    with _Interrupts() as interrupts:
+        try:
+            return _run(cfg, list(overrides), interrupts)
+        except CatposeError:
+            interrupts.check()  # a Ctrl-C that a library turned into a build or load error
+            raise
+
+
+def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
+    """Build the pieces, list the samples, lock the run directory and run (see :func:`run`)."""
+    import_heavy_libraries(interrupts, _EARLY_MODULES)
+    if cfg.get("threads"):
+        import torch
+
+        torch.set_num_threads(int(cfg.threads))
+    method_name, method = build_from_config(cfg.method, "method")
+    dataset_name, dataset = build_from_config(cfg.dataset, "dataset")
+    dataset.name = dataset_name
+    _, protocol = build_from_config(cfg.protocol, "protocol")
+    interrupts.check()
+    # after the builds (so that a config mistake is reported without waiting for torch) and
+    # before the first sample (so that a Ctrl-C during an import stops the run)
+    import_heavy_libraries(interrupts, _LATE_MODULES)
+
+    ids = protocol.sample_ids(dataset)
+    if cfg.get("sample_ids"):
+        wanted = list(cfg.sample_ids)
+        unknown = sorted(set(wanted) - set(ids))
+        if unknown:
+            raise ConfigError(f"sample_ids not in {dataset_name}/{cfg.protocol.name}: {unknown[:3]}; "
+                              f"valid ids look like {ids[:2]}")
+        ids = wanted
+    if cfg.get("limit") is not None:
+        ids = ids[: int(cfg.limit)]
+    sharding = parse_shard(cfg.get("shard"), cfg.get("shards", 1))
+    if sharding:  # this job's part of the run: its own files in the run directory (bench/run/merge.py)
+        ids = shard_ids(ids, *sharding)
+
+    out = run_dir_for(cfg, overrides)
+    with writing(out):
+        out.mkdir(parents=True, exist_ok=True)
+    # a shard locks its own files only, so the shards of one run go on side by side
+    lock = RunLock(out, cfg.get("lock_timeout"), name=shard_lock_file(*sharding) if sharding else LOCK_FILE)
+    with writing(out):
+        lock.acquire()
+    try:
+        return _run_locked(cfg, overrides, interrupts, out, ids, method_name, method, dataset_name, dataset,
+                           protocol, sharding)
+    finally:
+        lock.release()
+
+
+def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Path, ids: list[str],
+                method_name: str, method: Any, dataset_name: str, dataset: Any, protocol: Any,
+                sharding: tuple[int, int] | None = None) -> Path:
+    """The part of a run that writes ``out``, under its lock (samples read after locking, so a
+    run that waited for another skips what that one finished)."""
+
+    write_run_files(out, cfg, overrides)
+
+    samples_path = out / (shard_samples_file(*sharding) if sharding else SAMPLES_FILE)
+    retry = bool(cfg.get("retry_failed", False))
+    existing = read_rows(samples_path)
+    if sharding:  # samples already in the run's merged (or serial) file are done too
+        existing = read_rows(out / SAMPLES_FILE) + existing
+        write_shard_meta(out, *sharding, ids, finished=False)
+    done = {r["sample_id"] for r in existing if r.get("status") == "ok" or not retry}
+    todo = [s for s in ids if s not in done]
+    base = {"method": method_name, "dataset": dataset_name, "protocol": str(cfg.protocol.name),
+            "seed": int(cfg.seed)}
+
+    with writing(out):
+        writer = SampleWriter(samples_path)
+    log.debug("%s: %d samples, %d done before, %d to run", out, len(ids), len(ids) - len(todo), len(todo))
+    from tqdm import tqdm
+
+    bar = tqdm(total=len(ids), initial=len(ids) - len(todo), unit="sample", dynamic_ncols=True,
+               desc=f"{method_name} on {dataset_name}", disable=not cfg.get("progress", True), file=sys.stderr)
+    batch = int(cfg.get("batch") or 1)
+    try:
+        for start in range(0, len(todo), batch):
+            chunk = todo[start:start + batch]
+            try:
+                if batch == 1:
+                    rows = [run_one(method, protocol, dataset, chunk[0], base, int(cfg.seed))]
+                else:
+                    rows = run_batch(method, protocol, dataset, chunk, base, int(cfg.seed))
+            except (ImportError, MemoryError) as e:
+                interrupts.check()
+                raise RunAborted(_abort_message(e, ", ".join(chunk))) from None
+            interrupts.check()  # a Ctrl-C caught inside the sample is not the sample's failure
+            for row in rows:
+                with writing(out):
+                    writer.write(row)
+                bar.update(1)
+                if row["status"] != "ok":
+                    log.warning("sample %s failed: %s", row["sample_id"], row["error"])
+                else:
+                    log.debug("sample %s: ok, error %s deg, %s s", row["sample_id"], _short(row.get("err_deg")),
+                              _short(row.get("runtime_s")))
+    finally:
+        bar.close()
+        with contextlib.suppress(OSError):
+            writer.close()
+
+    if sharding:
+        write_shard_meta(out, *sharding, ids, finished=True)
+        return _finish_shard(out, sharding, cfg, base, len(ids), len(todo))
+    write_run_json(out, dict(base, n_samples=len(ids), n_run_now=len(todo), output_dir=str(out)))
+    with writing(out):
+        summary = summarize_run(out, ids)
+    if cfg.get("print_summary", True):
+        print(f"\n{method_name} on {dataset_name} ({cfg.protocol.name}), seed {int(cfg.seed)}: {out}")
+        print(format_summary(summary))
+    return out
+
+
+def _finish_shard(out: Path, sharding: tuple[int, int], cfg: Any, base: dict, n_ids: int, n_run_now: int) -> Path:
+    """After a shard: merge the run when every shard is done (the last shard to finish does it)."""
+    from catpose.bench.run.merge import merge_run
+
+    i, n = sharding
+    head = f"\n{base['method']} on {base['dataset']} ({base['protocol']}), seed {base['seed']}, shard {i} of {n}"
+    try:
+        summary = merge_run(out)
+    except CatposeError:  # other shards still running: the last one (or bench merge) merges
+        if cfg.get("print_summary", True):
+            print(f"{head}: {n_ids} samples ({n_run_now} run now) in {out}; the last shard to finish merges (or: bench merge {out})")
+        return out
+    if cfg.get("print_summary", True):
+        print(f"{head}: all {n} shards done, merged into {out}")
+        print(format_summary(summary))
+    return out

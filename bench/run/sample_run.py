@@ -1,0 +1,129 @@
+"""One sample (or a batch of samples) through a method: load, register, check and score, into
+its row of the run's table (:class:`catpose.bench.scoring.rows.SampleRow`).
+
+What is the sample's own fault (its data fails to load, the method raises on it, the estimate is
+not a finite rigid transform) becomes its row's ``error``; what is not (an import error, no
+memory) is raised for the runner (:mod:`catpose.bench.run.runner`) to abort the run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import random
+import sys
+import time
+from typing import Any
+
+import numpy as np
+
+from catpose.bench.scoring.rows import failed_row, new_row, scored_row
+from catpose.errors import one_line as _one_line
+from catpose.geometry import stable_seed
+
+
+def seed_everything(seed: int) -> None:
+    """Seed Python, NumPy, and (when loaded) torch and Open3D, for one sample."""
+    seed32 = seed % (2**32)
+    random.seed(seed32)
+    np.random.seed(seed32)
+    if "torch" in sys.modules:
+        sys.modules["torch"].manual_seed(seed32)
+    if "open3d" in sys.modules:
+        from catpose.o3d import o3d
+
+        o3d.utility.random.seed(seed32 % (2**31))
+
+
+# raised inside a sample but not its fault: the run aborts (see run()); KeyboardInterrupt and
+# other BaseExceptions pass through `except Exception` anyway
+_NOT_THE_SAMPLES_FAULT = (ImportError, MemoryError)
+
+
+def _load_one(protocol: Any, dataset: Any, sample_id: str, base: dict) -> tuple[dict, Any]:
+    """One sample's row and loaded sample; ``(failed row, None)`` when its data fails to load."""
+    try:
+        category = dataset.category_of(sample_id.split("|")[0])
+    except Exception:  # an id the dataset cannot parse still gets its failed row below
+        category = None
+    row = new_row(base, sample_id, category=category)
+    try:
+        sample = protocol.load(dataset, sample_id)
+    except _NOT_THE_SAMPLES_FAULT:
+        raise
+    except Exception as e:  # a bad sample is recorded, the run goes on
+        return failed_row(row, _one_line(e)), None
+    info = dict(sample.info)
+    row.update(group_id=sample.group_id or sample_id, category=sample.problem.category,
+               instance_id=info.get("instance_id"), template_id=sample.problem.template.template_id,
+               T_gt=np.asarray(sample.gt.T_template_camera, float).reshape(-1), symmetric=sample.gt.symmetry_axis is not None,
+               symmetry_axis=sample.gt.symmetry_axis,
+               symmetries=[np.asarray(S, float).reshape(-1) for S in sample.gt.symmetries] or None,
+               info=info, stage="register")
+    return row, sample
+
+
+def _scored(row: dict, sample: Any, result: Any, runtime: float) -> dict:
+    """The row of a registered sample: its estimate checked and scored."""
+    from catpose.bench.scoring.metrics import sample_errors
+
+    result = dataclasses.replace(result, runtime_s=runtime)
+    T = np.asarray(result.T_target_source, dtype=float)
+    row.update(runtime_s=runtime, score=result.score, extras=dict(result.extras))
+    if T.shape != (4, 4) or not np.isfinite(T).all():
+        return failed_row(row, f"method returned a non-finite or malformed pose (shape {T.shape})")
+    R = T[:3, :3]
+    if np.abs(R @ R.T - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
+        return failed_row(row, "method returned a matrix whose rotation part is not a rotation")
+    return scored_row(row, T, sample_errors(T, sample.gt.T_template_camera, sample.gt.symmetry_axis,
+                                            sample.gt.symmetries))
+
+
+def _register_one(method: Any, row: dict, sample: Any, seed: int) -> dict:
+    """Register one loaded sample (seeded by its id) and score it; a failure that is the sample's
+    own is its row's ``error``; what is not (an import error, no memory) is raised."""
+    seed_everything(stable_seed(seed, row["sample_id"]))
+    t0 = time.perf_counter()
+    try:
+        result = method.register(sample.problem)
+    except _NOT_THE_SAMPLES_FAULT:
+        raise
+    except Exception as e:
+        return failed_row(row, _one_line(e), runtime_s=time.perf_counter() - t0)
+    return _scored(row, sample, result, time.perf_counter() - t0)
+
+
+def run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dict, seed: int) -> dict:
+    """Load, register and score one sample; its row (see :class:`catpose.bench.scoring.rows.SampleRow`)."""
+    row, sample = _load_one(protocol, dataset, sample_id, base)
+    return row if sample is None else _register_one(method, row, sample, seed)
+
+
+def run_batch(method: Any, protocol: Any, dataset: Any, sample_ids: list[str], base: dict, seed: int) -> list[dict]:
+    """:func:`run_one` for several samples, registered with one ``method.register_batch`` call
+    when the method has one (ours: one solver launch for the candidates of all of them, the GPU
+    path); each sample's ``runtime_s`` is then its share of the call. A sample that fails to load
+    is recorded and left out of the call; when the call raises for one problem, every sample of
+    the batch registers alone, so that only the bad one is recorded as failed."""
+    loaded = [_load_one(protocol, dataset, sid, base) for sid in sample_ids]
+    ready = [(row, sample) for row, sample in loaded if sample is not None]
+    scored: dict[str, dict] = {}
+    if len(ready) > 1 and hasattr(method, "register_batch"):
+        seed_everything(stable_seed(seed, ready[0][0]["sample_id"]))
+        t0 = time.perf_counter()
+        try:
+            results = method.register_batch([sample.problem for _, sample in ready])
+        except _NOT_THE_SAMPLES_FAULT:
+            raise
+        except Exception:  # noqa: BLE001 - one bad problem: each registers alone below
+            results = None
+        if results is not None:
+            share = (time.perf_counter() - t0) / len(ready)
+            scored = {row["sample_id"]: _scored(row, sample, result, share)
+                      for (row, sample), result in zip(ready, results)}
+    rows = []
+    for row, sample in loaded:
+        if sample is None:
+            rows.append(row)
+        else:
+            rows.append(scored.get(row["sample_id"]) or _register_one(method, row, sample, seed))
+    return rows

@@ -1,0 +1,157 @@
+"""Accuracy at any threshold, n-degree m-cm and the area under the accuracy curve: statistics of
+per-unit errors beside :func:`catpose.bench.scoring.metrics.summarize`'s fixed @10 / @30.
+
+Metric keys (``bench table --metrics`` / ``--acc`` / ``--auc``, ``bench score --acc`` / ``--auc``):
+
+``acc<X>``
+    fraction of units whose error (``err_deg``: rotation, or main-axis angle for symmetric
+    objects) is at most ``X`` degrees. ``acc10`` and ``acc30`` equal the summaries' @10 / @30.
+``<n>deg<m>cm``
+    fraction with error at most ``n`` degrees **and** translation error at most ``m``
+    centimetres (``5deg5cm``, ``10deg10cm``: the category-level pose papers' metrics). The
+    translation error is that of the object's origin (the template frame's origin, the
+    bounding-box centre) in the camera frame, ``|| (-R_est^T t_est) - (-R_gt^T t_gt) ||`` of the
+    ``T_template_camera`` poses (NOCS's convention), turned into centimetres with the row's
+    ``info["scale_mm"]`` (millimetres per object unit). Only rows that carry that scale have
+    metric units: BOP datasets and the synthetic set with a sensor model
+    (``dataset.sensor=kinect|realsense``, physical sizes). Where a unit has none the statistic
+    is NaN (a table shows ``-``), never a guess. Rows without both poses (relative-pose pairs)
+    use their ``trans_err``.
+``auc<X>``
+    the area under the accuracy-vs-threshold curve from 0 to ``X`` degrees, divided by ``X``
+    (1 = every error is 0, 0 = none below ``X``). Computed exactly, not on a grid of
+    thresholds: ``(1/X) * integral_0^X acc(t) dt = mean(max(0, 1 - e / X))``.
+
+Failed units (``status != "ok"`` or no error) count as :data:`FAILED_ERROR_DEG` and as wrong in
+every statistic, as in the summaries.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import Any, Sequence
+
+import numpy as np
+
+from catpose.bench.scoring.metrics import FAILED_ERROR_DEG
+from catpose.errors import ConfigError
+
+_NUMBER = r"(\d+(?:\.\d+)?)"
+KEY_HELP = "acc<X> (degrees), auc<X> (area under the accuracy curve up to X degrees), <n>deg<m>cm"
+
+
+def parse_key(key: str) -> tuple[str, tuple[float, ...]] | None:
+    """``("acc", (X,))``, ``("auc", (X,))``, ``("ndegmcm", (n, m))`` of a metric key, or None
+    when ``key`` is none of those forms."""
+    m = re.fullmatch(rf"(acc|auc){_NUMBER}", key)
+    if m:
+        x = float(m.group(2))
+        return (m.group(1), (x,)) if x > 0 else None
+    m = re.fullmatch(rf"{_NUMBER}deg{_NUMBER}cm", key)
+    if m:
+        return "ndegmcm", (float(m.group(1)), float(m.group(2)))
+    return None
+
+
+def threshold_keys(spec: str | Sequence[str], auc: float | None = None) -> list[str]:
+    """``"5,10,30,5deg5cm"`` (what ``--acc`` takes) as metric keys ``["acc5", "acc10", "acc30",
+    "5deg5cm"]``, plus ``auc<X>`` when ``auc`` is given. A bad item is a one-line
+    :class:`ConfigError` naming it."""
+    items = [s.strip() for s in (spec.split(",") if isinstance(spec, str) else spec) if str(s).strip()]
+    keys = []
+    for item in items:
+        key = item if parse_key(item) else f"acc{item}"
+        if parse_key(key) is None:
+            raise ConfigError(f"--acc item {item!r} is not a threshold; give degrees or NdegMcm, e.g. --acc 5,10,30,5deg5cm")
+        keys.append(key)
+    if auc is not None:
+        if not (isinstance(auc, (int, float)) and auc > 0 and math.isfinite(auc)):
+            raise ConfigError(f"--auc {auc!r} must be a positive number of degrees, e.g. --auc 30")
+        keys.append(f"auc{auc:g}")
+    return keys
+
+
+def auc(errors_deg: Sequence[float], max_deg: float) -> float:
+    """Area under the accuracy curve on [0, ``max_deg``] degrees over ``max_deg`` (see the
+    module docstring); NaN for no errors."""
+    e = np.asarray(errors_deg, float)
+    if e.size == 0:
+        return float("nan")
+    return float(np.clip(1.0 - e / float(max_deg), 0.0, 1.0).mean())
+
+
+def _errors(units) -> np.ndarray:
+    import pandas as pd
+
+    err = pd.to_numeric(units["err_deg"], errors="coerce").to_numpy(float) if "err_deg" in units else np.full(len(units), np.nan)
+    failed = (units["status"] != "ok").to_numpy() if "status" in units else np.zeros(len(units), bool)
+    return np.where(failed | np.isnan(err), FAILED_ERROR_DEG, err)
+
+
+def _origin_error(T_est: Any, T_gt: Any, trans_err: Any) -> float:
+    """Object-origin distance in the camera frame (object units), or ``trans_err`` without poses."""
+    try:
+        Te, Tg = np.asarray(T_est, float).reshape(4, 4), np.asarray(T_gt, float).reshape(4, 4)
+    except (TypeError, ValueError):
+        return float("nan") if trans_err is None else float(trans_err)
+    oe, og = -Te[:3, :3].T @ Te[:3, 3], -Tg[:3, :3].T @ Tg[:3, 3]
+    return float(np.sqrt(((oe - og) ** 2).sum()))
+
+
+def translation_cm(units) -> np.ndarray:
+    """Per unit, the object-origin translation error in centimetres (NaN without a metric scale
+    or an estimate)."""
+    n = len(units)
+    out = np.full(n, np.nan)
+    infos = units["info"].tolist() if "info" in units else [None] * n
+    T_est = units["T_est"].tolist() if "T_est" in units else [None] * n
+    T_gt = units["T_gt"].tolist() if "T_gt" in units else [None] * n
+    trans = units["trans_err"].tolist() if "trans_err" in units else [None] * n
+    status = units["status"].tolist() if "status" in units else ["ok"] * n
+    for k in range(n):
+        info = infos[k] if isinstance(infos[k], dict) else {}
+        scale = info.get("scale_mm")
+        if scale is None or status[k] != "ok":
+            continue
+        out[k] = _origin_error(T_est[k], T_gt[k], trans[k]) * float(scale) / 10.0
+    return out
+
+
+def has_metric_scale(units) -> np.ndarray:
+    """Per unit, whether its row carries ``info["scale_mm"]``."""
+    if "info" not in units:
+        return np.zeros(len(units), bool)
+    return np.array([isinstance(i, dict) and i.get("scale_mm") is not None for i in units["info"]], bool)
+
+
+def statistic(units, key: str) -> float:
+    """The statistic ``key`` (see the module docstring) over the scoring units ``units`` (a
+    DataFrame with ``status``, ``err_deg`` and, for n-degree m-cm, ``info``, ``T_est``,
+    ``T_gt``, ``trans_err``). NaN for no units, or for n-degree m-cm when a unit has no metric
+    scale."""
+    parsed = parse_key(key)
+    if parsed is None:
+        raise ConfigError(f"unknown threshold metric {key!r}; use {KEY_HELP}")
+    if len(units) == 0:
+        return float("nan")
+    kind, params = parsed
+    err = _errors(units)
+    if kind == "acc":
+        return float((err <= params[0]).mean())
+    if kind == "auc":
+        return auc(err, params[0])
+    if not has_metric_scale(units).all():
+        return float("nan")
+    cm = translation_cm(units)
+    ok = (err <= params[0]) & np.nan_to_num(cm <= params[1], nan=False).astype(bool)
+    return float(ok.mean())
+
+
+def threshold_table(units, keys: Sequence[str], by: str = "category"):
+    """One row per ``by`` group and ``all``: ``n`` and each of ``keys`` (a pandas DataFrame)."""
+    import pandas as pd
+
+    rows = [[str(k), len(g), *[statistic(g, key) for key in keys]] for k, g in units.groupby(by, sort=True)]
+    rows.append(["all", len(units), *[statistic(units, key) for key in keys]])
+    return pd.DataFrame(rows, columns=[by, "n", *keys])

@@ -1,0 +1,27 @@
+"""``catpose.register``: one call from an observed cloud and a template to a camera pose.
+
+The application layer. This is the one package under ``src/catpose`` that imports
+``catpose.methods``, ``catpose.bench`` (the builder that turns ``configs/method/<name>.yaml``
+into a method, exactly as ``bench run`` does) and ``catpose.datasets`` (mesh reading, surface
+sampling, normal estimation); every other module under ``src/catpose`` stays below those
+packages. ``import catpose`` does not load it: ``catpose.register`` imports it on first use.
+
+Units and frames. The caller's two clouds share one unit (mm, m, ...). The methods work in the
+object-normalised unit (the template centred at its bounding-box centre ``c`` and divided by
+its radius ``s``, the distance of its farthest point from ``c``), so the template becomes
+``(R_up p - c) / s`` (``R_up`` turns the caller's ``template_up`` onto +z, the methods' up
+axis) and the observation ``p / s`` (camera frame, origin kept: ours scores visibility from
+the camera). A method's answer ``T_n`` maps back to the caller's frames and units as
+``R = R_up^T R_n``, ``t = R_up^T (s t_n + c)``.
+
+Example::
+
+    import catpose
+    result = catpose.register(points_mm, "mug.ply", up=[0.0, -0.8, -0.6])
+    print(result.T_template_camera)   # (4, 4), millimetres: p_template = R p_camera + t
+"""
+
+from catpose.api.build import build_method
+from catpose.api.register import UP_HYPOTHESES, Registration, register
+
+__all__ = ["Registration", "UP_HYPOTHESES", "build_method", "register"]

@@ -1,0 +1,175 @@
+"""The inputs of :func:`catpose.register`: argument checks (one-line errors naming the argument),
+the template as the methods' normalised :class:`~catpose.types.Template`, the observation's normals.
+
+Normalisation: the template is rotated so that its up axis is +z (``R_up``), centred at its
+bounding-box centre ``c`` and divided by its radius ``s`` (the farthest point's distance from
+``c``): ``p_normalised = (R_up p - c) / s``, the object-normalised unit every method works in.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from catpose.errors import CatposeError, InvalidInputError
+from catpose.geometry import apply_R, axis_angle_to_R, dot3, norm3, normalize_to_unit_sphere, unit3
+from catpose.types import Template
+
+__all__ = ["cloud_arg", "direction_arg", "estimated_normals", "normalised_template", "normals_arg",
+           "oriented_to_camera", "subsample"]
+
+
+def cloud_arg(name: str, value: Any, min_points: int = 10) -> np.ndarray:
+    """An (N, 3) float64 array from ``value``, or a one-line error naming the argument."""
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"{name} is a {type(value).__name__}, not an (N, 3) array of numbers") from None
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise InvalidInputError(f"{name} has shape {a.shape}; expected (N, 3)")
+    if not np.isfinite(a).all():
+        raise InvalidInputError(f"{name} has {int((~np.isfinite(a).all(axis=1)).sum())} rows with NaN or inf; "
+                                "drop them first")
+    if len(a) < min_points:
+        raise InvalidInputError(f"{name} has {len(a)} points; at least {min_points} are needed")
+    return a
+
+
+def normals_arg(name: str, value: Any, points: np.ndarray) -> np.ndarray | None:
+    """Unit normals (N, 3) matching ``points`` (N, 3), None for None, or a one-line error."""
+    if value is None:
+        return None
+    n = cloud_arg(name, value, min_points=0)
+    if n.shape != points.shape:
+        raise InvalidInputError(f"{name} has shape {n.shape}; expected {points.shape} (one normal per point)")
+    length = norm3(n)
+    if (length < 1e-12).any():
+        raise InvalidInputError(f"{name} has {int((length < 1e-12).sum())} zero-length normals; "
+                                "pass None to estimate them")
+    return n / length[:, None]
+
+
+def direction_arg(name: str, value: Any) -> np.ndarray:
+    """A unit 3-vector (3,) from ``value``, or a one-line error naming the argument."""
+    try:
+        v = np.asarray(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"{name}={value!r} is not a 3-vector of numbers") from None
+    if v.shape != (3,) or not np.isfinite(v).all() or norm3(v) < 1e-12:
+        raise InvalidInputError(f"{name}={value!r} is not a finite non-zero 3-vector")
+    return unit3(v)
+
+
+def _template_geometry(template: Any) -> tuple[np.ndarray, np.ndarray | None]:
+    """``(points or vertices (M, 3), triangles (F, 3) or None)`` of any accepted template form."""
+    if isinstance(template, (str, Path)):
+        from catpose.datasets.meshio import read_mesh
+
+        if not Path(template).is_file():
+            raise InvalidInputError(f"template: mesh file {template} does not exist; pass an existing .off, .obj or "
+                                    ".ply file, a mesh or an (M, 3) array")
+        try:
+            return read_mesh(template)
+        except CatposeError as e:
+            raise InvalidInputError(f"template: {e}") from None
+    if hasattr(template, "vertices") and hasattr(template, "faces"):  # a trimesh.Trimesh (or alike)
+        v, f = np.asarray(template.vertices), np.asarray(template.faces)
+        if f.size == 0:
+            return cloud_arg("template vertices", v), None
+        return cloud_arg("template vertices", v, 3), _triangles(f, len(v))
+    if isinstance(template, (tuple, list)) and len(template) == 2 and np.ndim(template[1]) == 2 \
+            and np.shape(template[1])[-1] == 3 and np.ndim(template[0]) == 2:
+        v = cloud_arg("template vertices", template[0], 3)
+        return v, _triangles(template[1], len(v))
+    return cloud_arg("template", template), None
+
+
+def _triangles(faces: Any, n_vertices: int) -> np.ndarray:
+    f = np.asarray(faces)
+    if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0 or not np.issubdtype(f.dtype, np.integer):
+        raise InvalidInputError(f"template faces have shape {f.shape} and dtype {f.dtype}; expected (F, 3) integers")
+    if f.min() < 0 or f.max() >= n_vertices:
+        raise InvalidInputError(f"template faces index vertices outside 0..{n_vertices - 1}")
+    return f.astype(np.int64)
+
+
+def _R_onto_z(up: np.ndarray) -> np.ndarray:
+    """The shortest-arc rotation (3, 3) taking unit ``up`` onto +z."""
+    from catpose import libm
+
+    z = np.array([0.0, 0.0, 1.0])
+    c = float(np.clip(dot3(up, z), -1.0, 1.0))
+    if c > 1.0 - 1e-12:
+        return np.eye(3)
+    if c < -1.0 + 1e-12:
+        return np.diag([1.0, -1.0, -1.0])  # a half turn about x
+    return axis_angle_to_R(np.cross(up, z), float(libm.arccos(c)))
+
+
+def subsample(n: int, max_points: int, key: str) -> np.ndarray | None:
+    """Sorted indices of a seeded random subset of ``max_points`` of ``n`` (None: keep all)."""
+    if not max_points or n <= max_points:
+        return None
+    from catpose.geometry import stable_seed
+
+    return np.sort(np.random.default_rng(stable_seed("catpose.register", key)).choice(n, max_points, replace=False))
+
+
+def normalised_template(template: Any, template_normals: Any, template_up: np.ndarray,
+                   template_points: int) -> tuple[Template, np.ndarray, np.ndarray, float]:
+    """The normalised :class:`Template` and ``(R_up (3, 3), centre (3,), scale)`` with
+    ``p_normalised = (R_up p - centre) / scale``."""
+    from catpose.datasets.meshio import sampled_template
+    from catpose.datasets.render import estimate_normals
+
+    geometry, triangles = _template_geometry(template)
+    normals = None if triangles is not None else normals_arg("template_normals", template_normals, geometry)
+    if triangles is not None and template_normals is not None:
+        raise InvalidInputError("template_normals applies to a point-cloud template; a mesh's normals come "
+                                "from its faces: drop template_normals")
+    R_up = _R_onto_z(template_up)
+    rotated = apply_R(R_up, geometry)
+    try:
+        points, centre, scale = normalize_to_unit_sphere(rotated)
+    except ValueError:
+        raise InvalidInputError("template has zero extent (all points equal)") from None
+    extent = np.linalg.svd(points - points.mean(axis=0), compute_uv=False)
+    if extent[1] <= 1e-9 * np.sqrt(len(points)):
+        raise InvalidInputError("template is degenerate: all points lie on one line")
+    if triangles is not None:
+        try:
+            t = sampled_template(points, triangles, "catpose.register/template", "object", template_points)
+        except CatposeError as e:
+            raise InvalidInputError(f"template: {e}") from None
+        return t, R_up, centre, scale
+    if normals is None:  # as the datasets do: local planes, radius 0.1 object unit, here oriented outwards
+        normals = estimate_normals(points, 0.1, viewpoint=np.zeros(3))
+        normals = -normals  # estimate_normals faces the viewpoint (the centre): outwards is the opposite
+    else:
+        normals = apply_R(R_up, normals)
+    keep = subsample(len(points), template_points, "template")
+    if keep is not None:
+        points, normals = points[keep], normals[keep]
+    try:
+        t = Template(template_id="catpose.register/template", category="object", points=points, normals=normals)
+    except CatposeError as e:
+        raise InvalidInputError(f"template: {e}") from None
+    return t, R_up, centre, scale
+
+
+def estimated_normals(points: np.ndarray) -> np.ndarray:
+    """Normals (N, 3) of camera-frame points (N, 3, object-normalised unit) by local plane fits of
+    radius 0.1, facing the camera, as the datasets estimate them."""
+    from catpose.datasets.render import estimate_normals
+
+    return estimate_normals(points, 0.1)
+
+
+def oriented_to_camera(points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """``normals`` (N, 3) flipped where they face away from the camera at the origin."""
+    flip = dot3(normals, points) > 0  # the camera sits at the origin
+    out = normals.copy()
+    out[flip] *= -1
+    return out

@@ -1,0 +1,141 @@
+"""catpose's import rules as data, and the checker that the import-rule test runs.
+
+Every module is in one *unit*: the core (``src/catpose``, imported as ``catpose.*``), ``datasets``,
+``methods``, ``configs``, one unit per bench wing (``bench/<wing>/``, imported as
+``catpose.bench.<wing>``) and the bench's loose modules (the CLI, ``catpose.bench.cli``). The
+checker reads every ``import`` (also those inside functions; relative ones resolved) with
+:mod:`ast`, so it sees what the code imports, not what a docstring mentions.
+
+The rules (docs/architecture.md explains them):
+
+- the core imports no other unit; the application layer ``catpose.api`` (``catpose.register``)
+  is its own unit and may import the core, configs, datasets, methods and the run wing, and the
+  package root exports it lazily (:data:`EXCEPTIONS`);
+- datasets import only the core; methods import only the core (never a loader, never the bench);
+- a bench wing imports the core, datasets, methods, itself and the wings listed in :data:`WINGS`;
+  no wing imports the CLI;
+- the CLI (the loose modules of ``bench/``) may import anything.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+from typing import NamedTuple
+
+#: source folder (relative to the repository root) -> its import prefix
+ROOTS = {"src/catpose": "catpose", "datasets": "catpose.datasets", "methods": "catpose.methods",
+         "configs": "catpose.configs", "bench": "catpose.bench"}
+
+#: bench wing -> the other wings it may import
+WINGS: dict[str, frozenset[str]] = {
+    "scoring": frozenset(),
+    "run": frozenset({"scoring"}),
+    "protocols": frozenset({"scoring"}),
+    "report": frozenset({"run", "protocols", "scoring"}),
+    "interop": frozenset({"run", "protocols", "scoring", "report"}),
+    "regress": frozenset({"run", "scoring"}),
+    "perf": frozenset({"run", "regress"}),
+    "category": frozenset({"run", "protocols"}),
+    "real": frozenset({"run", "protocols", "scoring"}),
+}
+
+#: unit -> the units it may import besides itself and third-party packages (the wings: see WINGS)
+LAYERS: dict[str, frozenset[str]] = {
+    "core": frozenset(),
+    "api": frozenset({"core", "configs", "datasets", "methods", "bench.run"}),
+    "configs": frozenset({"core"}),
+    "datasets": frozenset({"core"}),
+    "methods": frozenset({"core"}),
+}
+
+
+#: (importing module, imported unit) pairs allowed against the rules: the package root's lazy
+#: ``catpose.register`` (``catpose.__getattr__`` imports ``catpose.api`` on first use)
+EXCEPTIONS: frozenset[tuple[str, str]] = frozenset({("catpose", "api")})
+
+
+class Violation(NamedTuple):
+    path: str  #: file, relative to the root checked
+    line: int
+    source: str  #: the importing unit
+    target: str  #: the imported module
+
+    def __str__(self) -> str:
+        return f"{self.path}:{self.line}: {self.source} imports {self.target}"
+
+
+def unit_of(module: str) -> str | None:
+    """The unit of a dotted module name (None: not catpose's)."""
+    parts = module.split(".")
+    if parts[0] != "catpose":
+        return None
+    if len(parts) == 1:
+        return "core"
+    if parts[1] in ("datasets", "methods", "configs", "api"):
+        return parts[1]
+    if parts[1] == "bench":
+        return f"bench.{parts[2]}" if len(parts) > 2 and parts[2] in WINGS else "bench"
+    return "core"
+
+
+def allowed(source: str, target: str) -> bool:
+    """Whether unit ``source`` may import unit ``target``."""
+    if source == target:
+        return True
+    if source == "bench":  # the CLI
+        return True
+    if source.startswith("bench."):
+        if target.startswith("bench."):
+            return target.removeprefix("bench.") in WINGS[source.removeprefix("bench.")]
+        return target in ("core", "datasets", "methods", "configs")
+    return target in LAYERS[source]
+
+
+def module_name(root: Path, path: Path) -> str | None:
+    """The dotted name a file is imported as (None: outside the source folders)."""
+    rel = path.relative_to(root).with_suffix("")
+    for folder, prefix in ROOTS.items():
+        parts = Path(folder).parts
+        if rel.parts[:len(parts)] == parts:
+            rest = rel.parts[len(parts):]
+            if rest and rest[-1] == "__init__":
+                rest = rest[:-1]
+            return ".".join((prefix, *rest))
+    return None
+
+
+def imported_modules(tree: ast.AST, module: str, is_package: bool) -> list[tuple[int, str]]:
+    """(line, module) of every import in ``tree``; ``from X import y`` counts as ``X.y`` (y may be
+    a module: ``from catpose.bench.run import runner``); relative imports resolved against
+    ``module``."""
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                package = module.split(".") if is_package else module.split(".")[:-1]
+                package = package[:len(package) - (node.level - 1)]
+                base = ".".join([*package, base] if base else package)
+            out += [(node.lineno, f"{base}.{a.name}") for a in node.names]
+    return out
+
+
+def check_tree(root: Path) -> list[Violation]:
+    """Every import under ``root``'s source folders that breaks a rule."""
+    root = Path(root)
+    found = []
+    for folder in ROOTS:
+        for path in sorted((root / folder).rglob("*.py")):
+            module = module_name(root, path)
+            source = unit_of(module) if module else None
+            if source is None:
+                continue
+            tree = ast.parse(path.read_text(), filename=str(path))
+            for line, target_module in imported_modules(tree, module, path.name == "__init__.py"):
+                target = unit_of(target_module)
+                if target is not None and not allowed(source, target) and (module, target) not in EXCEPTIONS:
+                    found.append(Violation(path.relative_to(root).as_posix(), line, source, target_module))
+    return found
