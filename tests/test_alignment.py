@@ -137,8 +137,14 @@ def test_bench_align_writes_a_table_the_loader_applies(tmp_path, capsys):
     yaw90 = axis_angle_to_R(np.array([0, 0, 1.0]), np.pi / 2)
     write_off(root / "thing/train/thing_0002.off", v @ yaw90.T * 7.0 + 3.0, f)  # rotated, scaled, moved
     out = tmp_path / "align.csv"
+    verified = tmp_path / "verified.csv"  # in another frame (turned by 180 deg): agreement is up to one rotation
+    write_alignment_table(verified, [{"category": "thing", "instance_id": "thing_0001", "R": yaw_rotations(2)[1]},
+                                     {"category": "thing", "instance_id": "thing_0002", "R": yaw_rotations(2)[1] @ yaw90.T}])
     assert align_cmd.main(["dataset=modelnet40", f"dataset.root={root}", "dataset.categories=[thing]",
-                           "dataset.split=train", "--category", "thing", "--out", str(out), "--points", "600"]) == 0
+                           "dataset.split=train", "--category", "thing", "--out", str(out), "--points", "600",
+                           "--compare", str(verified)]) == 0
+    assert "agree 2/2" in capsys.readouterr().out
+    assert (tmp_path / "align_vs_verified.csv").read_text().count(",true,") == 2
     table = read_alignment_table(out)
     np.testing.assert_allclose(table[("thing", "thing_0001")], np.eye(3), atol=1e-12)
     np.testing.assert_allclose(table[("thing", "thing_0002")], yaw90.T, atol=1e-12)
