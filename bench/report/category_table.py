@@ -49,8 +49,8 @@ def _errors(rows) -> np.ndarray:
 
 
 def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
-    """One row per choice rule for a templates run: ``K``, ``views``, ``choice`` and
-    ``chosen_*``, ``oracle_*``, ``random_*`` statistics (:data:`STATS`)."""
+    """One row per choice rule for a templates run (one row when K = 1): ``K``, ``views``,
+    ``choice`` and ``chosen_*``, ``oracle_*``, ``random_*`` statistics (:data:`STATS`)."""
     from catpose.bench.protocols.absolute import Templates, absolute_gt_only
 
     samples = absolute_gt_only(run.samples)
@@ -60,7 +60,7 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
         return []
     K = int(samples.groupby("group_id").size().max())
     out = []
-    for choice in choices:
+    for choice in (choices[:1] if K == 1 else choices):  # one template: nothing to choose
         units = Templates(choice=choice).best_per_view(samples)
         row = {"K": K, "views": len(units), "choice": choice}
         row.update({f"chosen_{k}": v for k, v in error_stats(_errors(units)).items()})
@@ -97,8 +97,11 @@ def build(paths: Sequence[str | Path], category: str | None, choices: Sequence[s
     runs = [r for r in (load_run(p) for p in run_dirs(paths)) if r.protocol == "templates"]
     if not runs:
         raise ConfigError(f"no run of protocol=templates below {', '.join(map(str, paths))}")
+    def K_of(run) -> str:  # runs are labelled apart only within one K
+        return str(int(run.samples.groupby("group_id").size().max())) if len(run.samples) else "0"
+
     rows = []
-    for run, label in zip(runs, run_labels(runs)):
+    for run, label in zip(runs, run_labels(runs, group_of=K_of)):
         for r in run_rows(run, category, choices):
             rows.append({"method": label, **r})
     return sorted(rows, key=lambda r: (r["K"], r["method"], list(choices).index(r["choice"])))
