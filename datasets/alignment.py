@@ -11,10 +11,11 @@ flip), refines every hypothesis by ICP, scores it by symmetric Chamfer against e
 instance and picks a consensus over all pairs (:func:`synchronize`), with a confidence margin per
 instance; ``bench align`` draws a contact sheet to check the rows by eye. Chamfer alone cannot tell
 nose from tail between unlike shapes (with the biplane airplane_0001 as reference it turned 4 of 6
-OFF and 11 of 18 resampled airplanes round; the chairs were all right, 8/8), so by default
-(``cues="ends"``) the Chamfer costs only decide the main axis and the shape cues of
-:mod:`catpose.datasets.alignment_cues` (heights and spans at the ends) decide which end is the
-front; measured against the verified tables in ``results/alignment/estimated/``.
+OFF and 11 of 18 resampled airplanes round; the chairs were all right, 8/8), so for airplanes
+(``cues="ends"``, what :func:`resolve_cues` gives airplanes) the Chamfer costs only decide the main
+axis and the shape cues of :mod:`catpose.datasets.alignment_cues` (heights and spans at the ends)
+decide which end is the front; chairs keep Chamfer alone (``"none"``). Measured against the
+verified tables in ``results/alignment/estimated/``.
 
 Table format (CSV with a header): ``category,instance_id`` and either the nine entries
 ``r00,r01,r02,r10,r11,r12,r20,r21,r22`` of ``R_canonical_raw`` (row-major) or ``yaw_deg``
@@ -228,7 +229,18 @@ def pairwise_costs(clouds: list[np.ndarray], hypotheses: np.ndarray, refine: boo
     return C
 
 
-CUES = ("ends", "none")
+CUES = ("auto", "ends", "none")
+#: ``cues="auto"``: the cues of each category, chosen on its development shapes (docs/category-level.md):
+#: the end cues for airplanes (161 train airplanes); Chamfer alone elsewhere (chairs: right on the
+#: development chairs at every point count, where the end cues depended on the sampling)
+CATEGORY_CUES = {"airplane": "ends"}
+
+
+def resolve_cues(cues: str, category: str | None) -> str:
+    """``"ends"`` or ``"none"``: ``cues`` itself, or for ``"auto"`` the category's (:data:`CATEGORY_CUES`)."""
+    if cues not in CUES:
+        raise DatasetError(f"alignment cues {cues!r} are not one of {CUES}")
+    return CATEGORY_CUES.get(str(category), "none") if cues == "auto" else cues
 
 
 def estimate_table(clouds: list[np.ndarray], hypotheses: np.ndarray, reference: int = 0,
@@ -248,8 +260,8 @@ def estimate_table(clouds: list[np.ndarray], hypotheses: np.ndarray, reference: 
 
     Returns :func:`synchronize` of the pairwise costs.
     """
-    if cues not in CUES:
-        raise DatasetError(f"alignment cues {cues!r} are not one of {CUES}")
+    if cues not in CUES[1:]:
+        raise DatasetError(f"alignment cues {cues!r} are not one of {CUES[1:]} (resolve 'auto' with resolve_cues)")
     C_chamfer = pairwise_costs(clouds, hypotheses, refine, max_distance)
     if cues == "none":
         return synchronize(C_chamfer, hypotheses, reference)

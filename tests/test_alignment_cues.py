@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from catpose.datasets import alignment_cues as ac
-from catpose.datasets.alignment import _index_of, estimate_table, yaw_flip_hypotheses
+from catpose.datasets.alignment import _index_of, estimate_table, resolve_cues, yaw_flip_hypotheses
+from catpose.errors import DatasetError
 
 
 def _box(rng, n, centre, size):
@@ -84,3 +85,12 @@ def test_the_cues_find_the_front_of_unlike_airplanes_in_any_yaw():
     expected = [_index_of(G[truth[0]].T @ G[label], G) for label in truth]  # in the reference's frame
     np.testing.assert_array_equal(out["labels"], expected)
     assert (out["confidence"] > 0).all()
+
+
+def test_auto_cues_are_the_categorys():
+    assert resolve_cues("auto", "airplane") == "ends" and resolve_cues("auto", "chair") == "none"
+    assert resolve_cues("none", "airplane") == "none"
+    with pytest.raises(DatasetError, match="cues"):
+        resolve_cues("height", "chair")
+    with pytest.raises(DatasetError, match="resolve"):
+        estimate_table([np.zeros((5, 3))] * 2, yaw_flip_hypotheses(False), cues="auto")
