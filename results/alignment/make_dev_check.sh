@@ -6,13 +6,17 @@
 # fuselage is not on a 90-degree yaw, or that are rolled, were left out). Their files are not in this
 # repository: give the folder of a modelnet40_normal_resampled copy that holds them.
 # Settings as in development: 512 points, no ICP refinement (--no-refine), 4 and 8 hypotheses.
-# Output: results/alignment/dev/estimated*.csv, _vs_verified.csv and summary.md.
+# Output: results/alignment/dev/summary.md (agreement and confidence ROC per set). The per-shape rows
+# (estimated*.csv, _vs_verified.csv) describe shapes that are not in this repository and stay out of
+# it: they go to $OUT (default outputs/alignment/dev, ignored by git); contact sheets are not kept.
 # Usage (repository root): bash results/alignment/make_dev_check.sh /path/to/modelnet40_normal_resampled
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 SRC=${1:?give the modelnet40_normal_resampled folder that holds the ids of results/alignment/dev/ids.txt}
 B=.venv/bin/bench
 D=results/alignment/dev
+O=${OUT:-outputs/alignment/dev}
+mkdir -p "$O"
 ROOT=$(mktemp -d)
 trap 'rm -rf "$ROOT"' EXIT
 mkdir -p "$ROOT/airplane"
@@ -26,7 +30,8 @@ items=()
 for flip in "" --flip; do
   sfx=${flip:+_flip}
   "$B" align dataset=modelnet40_resampled dataset.root="$ROOT" "dataset.categories=[airplane]" --category airplane \
-    --points 512 --no-refine $flip --out "$D/estimated$sfx.csv" --compare "$D/modelnet40_resampled_airplane.csv"
-  items+=("development airplanes${flip:+ (8 hypotheses)}=$D/estimated${sfx}_vs_verified.csv")
+    --points 512 --no-refine $flip --out "$O/estimated$sfx.csv" --sheet "$ROOT/sheet$sfx.png" \
+    --compare "$D/modelnet40_resampled_airplane.csv"
+  items+=("development airplanes${flip:+ (8 hypotheses)}=$O/estimated${sfx}_vs_verified.csv")
 done
 .venv/bin/python -m catpose.bench.category.align_check "${items[@]}" --out "$D/summary.md"
