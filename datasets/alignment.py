@@ -19,8 +19,9 @@ verified tables in ``results/alignment/estimated/``.
 
 Table format (CSV with a header): ``category,instance_id`` and either the nine entries
 ``r00,r01,r02,r10,r11,r12,r20,r21,r22`` of ``R_canonical_raw`` (row-major) or ``yaw_deg``
-(a rotation about +z, the up axis). Empty cells mean "not given". Instances missing from the
-table are left as they are (identity). ``bench align`` also writes ``flip``, ``chamfer``,
+(a rotation about +z, the up axis). Empty cells mean "not given". A dataset refuses a table
+that misses an instance it uses (:func:`check_alignment_coverage`), has two rows for one
+instance, or holds a number that is not finite. ``bench align`` also writes ``flip``, ``chamfer``,
 ``confidence``, ``verified`` and ``note`` columns; the reader ignores them.
 """
 
@@ -39,24 +40,29 @@ from catpose.geometry import apply_R, axis_angle_to_R, dot3, matmul3
 R_COLUMNS = [f"r{i}{j}" for i in range(3) for j in range(3)]
 
 
-def read_alignment_table(path) -> dict[tuple[str, str], np.ndarray]:
+def read_alignment_table(path: str | Path | list) -> dict[tuple[str, str], np.ndarray]:
     """Read an alignment CSV into ``{(category, instance_id): R_canonical_raw (3, 3)}``.
 
     ``path`` may also be a list of CSVs, or their paths joined by commas (e.g. one verified table
     per category: ``dataset.alignment_table=a.csv,b.csv``), read in order; a later file's row
     replaces an earlier one's for the same instance.
-    """
+
+    Every row is checked: finite numbers (a ``yaw_deg`` of ``nan`` or ``inf`` is refused here,
+    naming the line, not later as a degenerate shape), a rotation, and one row per instance within
+    a file (a second row of an instance is refused with both lines). Whether the table covers the
+    instances a dataset uses is :func:`check_alignment_coverage`'s."""
     if isinstance(path, str) and "," in path and not Path(path).is_file():
         path = [p.strip() for p in path.split(",") if p.strip()]
     if not isinstance(path, (str, Path)):
-        table: dict[tuple[str, str], np.ndarray] = {}
+        merged: dict[tuple[str, str], np.ndarray] = {}
         for p in path:
-            table.update(read_alignment_table(p))
-        return table
+            merged.update(read_alignment_table(p))
+        return merged
     path = Path(path)
     if not path.is_file():
         raise DatasetError(f"alignment table {path} does not exist; write one with `bench align` or unset it")
     table: dict[tuple[str, str], np.ndarray] = {}
+    lines: dict[tuple[str, str], int] = {}
     with path.open(newline="") as fh:
         reader = csv.DictReader(fh)
         cols = set(reader.fieldnames or [])
@@ -64,20 +70,50 @@ def read_alignment_table(path) -> dict[tuple[str, str], np.ndarray]:
             raise DatasetError(f"alignment table {path} needs columns category,instance_id and "
                                f"r00..r22 or yaw_deg; it has {sorted(cols)}")
         for line, row in enumerate(reader, start=2):
-            key = (row["category"].strip(), row["instance_id"].strip())
+            key = ((row["category"] or "").strip(), (row["instance_id"] or "").strip())
+            if not all(key):
+                raise DatasetError(f"alignment table {path} line {line}: category and instance_id must not be empty")
+            if key in lines:
+                raise DatasetError(f"alignment table {path} lines {lines[key]} and {line}: two rows for {key[0]}/{key[1]}; "
+                                   "keep one row per instance")
+            lines[key] = line
             try:
-                if all((row.get(c) or "").strip() for c in R_COLUMNS):
-                    R = np.array([float(row[c]) for c in R_COLUMNS]).reshape(3, 3)
-                elif (row.get("yaw_deg") or "").strip():
-                    R = axis_angle_to_R(np.array([0.0, 0.0, 1.0]), np.deg2rad(float(row["yaw_deg"])))
-                else:
+                cells = R_COLUMNS if all((row.get(c) or "").strip() for c in R_COLUMNS) else ["yaw_deg"]
+                if not (row.get(cells[0]) or "").strip():
                     raise ValueError("no rotation")
+                values = np.array([float(row[c]) for c in cells])
             except ValueError:
                 raise DatasetError(f"alignment table {path} line {line}: needs 9 numbers r00..r22 or yaw_deg") from None
+            if not np.isfinite(values).all():  # before any use: a nan yaw is this line's fault, not the mesh's
+                bad = [c for c, v in zip(cells, values) if not np.isfinite(v)]
+                raise DatasetError(f"alignment table {path} line {line}: {', '.join(bad)} = {row[bad[0]].strip()} is not "
+                                   "a finite number; write finite numbers (yaw_deg in degrees, e.g. 90)")
+            if len(cells) == 1:
+                R = axis_angle_to_R(np.array([0.0, 0.0, 1.0]), np.deg2rad(values[0]))
+            else:
+                R = values.reshape(3, 3)
             if np.abs(matmul3(R, R.T) - np.eye(3)).max() > 1e-3 or dot3(np.cross(R[0], R[1]), R[2]) < 0:
                 raise DatasetError(f"alignment table {path} line {line}: r00..r22 is not a rotation")
             table[key] = R
     return table
+
+
+def check_alignment_coverage(table: dict[tuple[str, str], np.ndarray], path: str | Path,
+                             wanted: dict[str, list[str]]) -> None:
+    """Refuse, in one line, an alignment table that leaves out an instance the dataset uses.
+
+    ``wanted``: category -> the instance ids the dataset will load (its observed instances and its
+    instance-id templates). A table for another category, or with ids that match nothing, would
+    otherwise leave those instances in their raw frames while the dataset declares its frames
+    consistent."""
+    for category, ids in wanted.items():
+        missing = [i for i in ids if (category, i) not in table]
+        if missing:
+            have = sorted({c for c, _ in table})
+            raise DatasetError(f"alignment table {path} has no row for {len(missing)} of the {len(ids)} {category} "
+                               f"instances used (e.g. {missing[0]}; the table covers {', '.join(have) or 'nothing'}); "
+                               f"add them with `bench align --category {category}`, keep dataset.categories to the "
+                               "table's, or unset dataset.alignment_table")
 
 
 EXTRA_COLUMNS = ["yaw_deg", "flip", "chamfer", "confidence", "verified", "note"]
@@ -86,8 +122,9 @@ EXTRA_COLUMNS = ["yaw_deg", "flip", "chamfer", "confidence", "verified", "note"]
 def write_alignment_table(path: str | Path, rows: list[dict]) -> None:
     """Write rows ``{category, instance_id, R (3, 3)}`` plus any of the optional keys
     ``yaw_deg, flip, chamfer, confidence, verified, note`` (empty cells when missing)."""
+    from catpose import atomic
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
 
     def cell(v) -> str:
         if v is None:
@@ -96,7 +133,7 @@ def write_alignment_table(path: str | Path, rows: list[dict]) -> None:
             return "true" if v else "false"
         return f"{v:.6g}" if isinstance(v, float) else str(v)
 
-    with path.open("w", newline="") as fh:
+    with atomic.atomic_write(path, newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["category", "instance_id", *R_COLUMNS, *EXTRA_COLUMNS])
         for r in rows:

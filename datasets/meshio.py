@@ -366,12 +366,21 @@ class TemplateSet:
             self._cache[category] = [self._load(category, e) for e in self.entries.get(category, [])]
         return self._cache[category]
 
-    def _load(self, category: str, entry: object) -> Template:
-        instance = None
+    def instance_ids(self, category: str) -> list[str]:
+        """The dataset instance ids among ``category``'s template entries (meshes left out)."""
+        return [i for i in map(self._instance, self.entries.get(category, [])) if i is not None]
+
+    @staticmethod
+    def _instance(entry: object) -> str | None:
+        """The instance id an entry names (None: a mesh path or spec)."""
         if isinstance(entry, str) and not entry.lower().endswith(MESH_SUFFIXES):
-            instance = entry
-        elif not isinstance(entry, (str, Path)) and hasattr(entry, "keys") and "instance" in entry:
-            instance = str(entry["instance"])  # type: ignore[index]
+            return entry
+        if not isinstance(entry, (str, Path)) and hasattr(entry, "keys") and "instance" in entry:
+            return str(entry["instance"])  # type: ignore[index]
+        return None
+
+    def _load(self, category: str, entry: object) -> Template:
+        instance = self._instance(entry)
         if instance is not None:
             if self.instance_loader is None:
                 raise DatasetError(f"template {instance!r} for {category!r} is not a mesh path "

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from catpose.datasets.alignment import read_alignment_table
+from catpose.datasets.alignment import check_alignment_coverage, read_alignment_table
 from catpose.datasets.base import ObjectDataset, Observation
 from catpose.datasets.meshio import R_template_file, TemplateSet, read_off, sampled_template
 from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
@@ -99,16 +99,42 @@ class ModelNetBase(ObjectDataset):
         self.template_points = int(template_points)
         self.template_split = str(template_split)
         self.aligned = bool(aligned)
-        self.alignment = {} if aligned or not alignment_table else read_alignment_table(alignment_table)
+        self.alignment_table = None if aligned or not alignment_table else str(alignment_table)
+        self.alignment = {} if self.alignment_table is None else read_alignment_table(self.alignment_table)
         # raw ModelNet40 instances differ by multiples of 90 deg of yaw: consistent only when
-        # aligned (Sedaghat et al. release) or given a per-instance alignment table
-        self.frames_consistent = self.aligned or bool(self.alignment)
+        # aligned (Sedaghat et al. release) or given a per-instance alignment table that covers
+        # every instance in use (check_alignment_covers, at the end of the subclass's __init__)
+        self.frames_consistent = self.aligned or self.alignment_table is not None
         self.R_template_file = R_template_file(up, forward)
         self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
         self.seed = int(seed)
         self._templates = TemplateSet(templates, templates_root or self.root, self.template_points,
                                       self.seed, instance_loader=self.instance_model)
         self._ids: list[str] | None = None
+
+    def check_alignment_covers(self, wanted: dict[str, list[str]] | None = None) -> None:
+        """With an alignment table: refuse it in one line unless it has a row for every instance in
+        ``wanted`` (category -> ids; default: every instance the observations and the instance-id
+        templates of the dataset's categories use). See
+        :func:`catpose.datasets.alignment.check_alignment_coverage`."""
+        if self.alignment_table is None:
+            return
+        if wanted is None:
+            wanted = {}
+            try:
+                obs = self.observation_ids()
+            except DatasetError:  # no observations (a split without files): the templates still count
+                obs = []
+            for obs_id in obs:
+                category, instance_id, _ = obs_id.split("/")
+                wanted.setdefault(category, [])
+                if instance_id not in wanted[category]:
+                    wanted[category].append(instance_id)
+            for category in list(self.categories or wanted):
+                for i in self._templates.instance_ids(category):
+                    if i not in wanted.setdefault(category, []):
+                        wanted[category].append(i)
+        check_alignment_coverage(self.alignment, self.alignment_table, wanted)
 
     def canonical_rotation(self, category: str, instance_id: str) -> np.ndarray:
         """(3, 3) rotation from the file's frame into the canonical object frame (z up, x forward)."""
@@ -173,6 +199,7 @@ class ModelNet40(ModelNetBase):
         self.min_points = int(min_points)
         self._meshes: dict[tuple[str, str, str], tuple[np.ndarray, np.ndarray]] = {}
         self._models: dict[tuple[str, str], Template] = {}
+        self.check_alignment_covers()
 
     # ------------------------------------------------------------------ index
     def instance_ids(self, category: str, split: str | None = None) -> list[str]:

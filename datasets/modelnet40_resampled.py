@@ -98,6 +98,7 @@ class ModelNet40Resampled(ModelNetBase):
         self.hpr_radius_factor = float(hpr_radius_factor)
         self._clouds: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._models: dict[str, Template] = {}
+        self.check_alignment_covers()
 
     # ------------------------------------------------------------------ index
     def split_ids(self, split: str | None = None) -> list[str]:

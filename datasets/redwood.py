@@ -69,7 +69,9 @@ def read_log_trajectory(path: str | Path) -> dict[int, np.ndarray]:
 
 def write_log_trajectory(path: str | Path, poses: list[np.ndarray]) -> None:
     """Write ``T_world_camera`` (4, 4) poses, frame indices 0.., in the ``.log`` format."""
-    with Path(path).open("w") as fh:
+    from catpose import atomic
+
+    with atomic.atomic_write(path) as fh:
         for i, T in enumerate(poses):
             fh.write(f"{i} {i} {len(poses)}\n")
             for row in np.asarray(T, float):

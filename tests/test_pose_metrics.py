@@ -53,8 +53,29 @@ def _cylinder_points(r: float = 30.0, h: float = 50.0, offset=(0.0, 0.0, 0.0), n
 
 
 def _brute_adi(P_est: np.ndarray, P_gt: np.ndarray) -> float:
-    d = np.sqrt(((P_est[:, None, :] - P_gt[None, :, :]) ** 2).sum(-1))
-    return float(d.min(axis=1).mean())
+    """ADD-S by the definition: for each ground-truth point, the nearest estimated point."""
+    d = np.sqrt(((P_est[:, None, :] - P_gt[None, :, :]) ** 2).sum(-1))  # d[i, j] = |est_i - gt_j|
+    return float(d.min(axis=0).mean())
+
+
+def test_adi_goes_from_each_ground_truth_point_to_the_nearest_estimated_point():
+    """A case where the two directions differ, worked out by hand.
+
+    Model points on the y axis: p0 = (0,0,0), p1 = (0,1,0), p2 = (0,2,0). Ground truth: identity,
+    so the gt points are (0,0), (0,1), (0,2) (z = 0 throughout). Estimate: a quarter turn about z,
+    (x, y) -> (-y, x), then t = (1, 0, 0): p0 -> (1,0), p1 -> (0,0), p2 -> (-1,0), a segment on
+    the x axis.
+
+    ADD-S (Hinterstoisser et al. 2012; bop_toolkit pose_error.adi), gt -> nearest estimated:
+      (0,0) -> (0,0): 0;  (0,1) -> (0,0): 1;  (0,2) -> (0,0): 2;   mean = 3 / 3 = 1.
+    The other direction, estimated -> nearest gt (what this function computed before):
+      (1,0) -> (0,0): 1;  (0,0) -> (0,0): 0;  (-1,0) -> (0,0): 1;  mean = 2 / 3.
+    """
+    P = np.array([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 2.0, 0.0]])
+    quarter_turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    assert pm.adi(quarter_turn, [1.0, 0.0, 0.0], np.eye(3), np.zeros(3), P) == pytest.approx(1.0, abs=1e-12)
+    # swapping the roles of estimate and truth gives the other direction's value, 2/3
+    assert pm.adi(np.eye(3), np.zeros(3), quarter_turn, [1.0, 0.0, 0.0], P) == pytest.approx(2.0 / 3.0, abs=1e-12)
 
 
 def test_add_and_adi_on_a_cube_by_hand():

@@ -61,7 +61,7 @@ def test_gt_model_and_own_template_relative_are_unaffected(root):
 def test_aligned_release_or_an_alignment_table_declares_frames_consistent(root, tmp_path):
     assert _dataset(root, aligned=True).frames_consistent
     table = tmp_path / "t.csv"
-    table.write_text("category,instance_id,yaw_deg\nbox,box_0002,90\n")
+    table.write_text("category,instance_id,yaw_deg\nbox,box_0001,0\nbox,box_0002,90\n")  # every instance in use
     ds = _dataset(root, alignment_table=str(table))
     assert ds.frames_consistent
     assert Templates().sample_ids(ds) == ["box/box_0001/v00|0", "box/box_0002/v00|0"]

@@ -46,7 +46,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--points", type=int, default=1024, help="surface points per shape")
     p.add_argument("--low-confidence", type=float, default=0.05,
                    help="rows whose confidence is below this are marked on the sheet (default 0.05)")
-    p.add_argument("--out", required=True, help="CSV file to write")
+    p.add_argument("--out", required=True, help="CSV file to write (an existing one: see --force; one with rows "
+                   "marked verified is never overwritten: the estimate goes to <name>.new.csv)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out that has no verified row")
     p.add_argument("--sheet", default=None, help="contact sheet PNG (default: the CSV's name with .png)")
     p.add_argument("--draw-only", action="store_true",
                    help="estimate nothing: redraw the sheet of the table in --out as it is (after corrections)")
@@ -63,6 +65,12 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command; a user error raises :class:`~catpose.errors.CatposeError`, which the CLI prints
     as one line (exit status 2)."""
     args = build_parser().parse_args(argv)
+    if not args.draw_only:  # never over verified rows, nor over a table without --force (bench/run/overwrite.py)
+        from catpose.bench.run.overwrite import table_destination
+
+        args.out, note = table_destination(args.out, args.force)
+        if note:
+            log.warning("%s", note)
     rows = redraw(args) if args.draw_only else align(args)
     n_low = sum(1 for r in rows if r["low"])
     print(f"wrote {len(rows)} rows to {args.out} ({n_low} marked for a closer look) and {sheet_path(args)}")
@@ -198,9 +206,11 @@ def draw_contact_sheet(path: str | Path, ids: list[str], clouds: list, reference
                 ax.set_title(("side x,z", "side y,z")[v - 1], fontsize=5.5, loc="right", color="0.4")
     fig.suptitle(title + "  [top x,y | side x,z | side y,z; colour: height; red title: check]", fontsize=7)
     fig.tight_layout(pad=0.3, h_pad=0.4, w_pad=0.2, rect=(0, 0, 1, 1 - 0.3 / fig.get_figheight()))
+    from catpose import atomic
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=75)
+    with atomic.atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=75)
     plt.close(fig)
     return path
 

@@ -159,7 +159,9 @@ def write_templates_yaml(path: str | Path, category: str, result: dict, settings
              + (", ".join(f"{k}: {v:.3f}" for k, v in result.get("silhouette", {}).items()) or "n/a"),
              "# clusters (medoid: members):"]
     lines += [f"#   {m}: {', '.join(members)}" for m, members in result["clusters"].items()]
-    path.write_text("\n".join(lines) + "\n" + yaml.safe_dump(doc, sort_keys=True))
+    from catpose import atomic
+
+    atomic.write_text(path, "\n".join(lines) + "\n" + yaml.safe_dump(doc, sort_keys=True))
     return path
 
 
@@ -183,11 +185,17 @@ def main(argv: list[str] | None = None) -> int:
     k = args.k if args.k == "auto" else int(args.k)
     from catpose.bench.category.instances import instance_ids
     from catpose.bench.protocols.absolute import require_consistent_frames
-    from catpose.bench.run.config import compose_and_build
+    from catpose.bench.run.config import compose, compose_and_build
 
-    _, ((name, dataset),) = compose_and_build(args.overrides, ("dataset",))  # one-line errors (missing root, ...)
+    overrides = list(args.overrides)
+    if (not any(o.lstrip("+~").startswith("dataset.categories=") for o in overrides)
+            and "alignment_table" in compose(overrides).dataset):  # ModelNet40: the category at hand, whose table
+        overrides.append(f"dataset.categories=[{args.category}]")  # need not cover the others
+    _, ((name, dataset),) = compose_and_build(overrides, ("dataset",))  # one-line errors (missing root, ...)
     require_consistent_frames(dataset, "bench templates")
     ids = args.instances.split(",") if args.instances else instance_ids(dataset, args.category, args.split)
+    if hasattr(dataset, "check_alignment_covers"):  # the instances clustered here are in the table too
+        dataset.check_alignment_covers({args.category: ids})
     if len(ids) < (3 if k == "auto" else k):
         raise DatasetError(f"dataset {name} has {len(ids)} {args.split} instances of {args.category!r}; "
                            f"--k {args.k} needs more (check --category, --split, dataset.root)")

@@ -21,6 +21,7 @@ same ids from the ground-truth rows.
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 from pathlib import Path
 from typing import Any, Sequence
@@ -28,6 +29,8 @@ from typing import Any, Sequence
 import numpy as np
 
 from catpose.bench.interop.prediction_io import BOP_COLUMNS
+
+log = logging.getLogger(__name__)
 
 
 def bop_ids(runs_rows: Sequence[dict]) -> tuple[list[tuple], list[dict]]:
@@ -76,7 +79,8 @@ def image_times(ids: Sequence[tuple], runtimes: Sequence[Any]) -> dict[tuple[int
     return out
 
 
-def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True) -> int:
+def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True,
+               skipped: list[str] | None = None) -> int:
     """Write a run's estimates as a BOP results CSV; returns the number of rows written.
 
     ``out_csv`` must be named ``METHOD_DATASET-SPLIT.csv`` (no ``_`` in METHOD) as the BOP
@@ -87,6 +91,10 @@ def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True
     method chose), skips failed samples, and writes ``<out_csv>.map.csv`` with the sample ->
     BOP id mapping. ``score`` is ``exp(-max(method score, 0))``, a confidence in (0, 1] (1 when
     the method has no score; every built-in method's score is a non-negative loss).
+
+    What is left out is said: ``skipped`` (a list, optional) receives one line per reason. A run
+    with no estimate at all is refused (:class:`DatasetError`) instead of giving an empty file;
+    an ``out_csv`` that is a folder is refused. Both files are written atomically.
     """
     import pandas as pd
 
@@ -95,6 +103,11 @@ def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True
     from catpose.bench.scoring.bop_eval import check_results_filename
     from catpose.geometry import invert_T
 
+    from catpose.errors import DatasetError, InvalidInputError
+
+    if Path(out_csv).is_dir():
+        raise InvalidInputError(f"--out {out_csv} is a folder; pass the CSV file to write, e.g. "
+                                f"{Path(out_csv) / 'method_ycbv-test.csv'}")
     if check_name:
         check_results_filename(out_csv)
     run = load_run(run_dir)
@@ -105,6 +118,13 @@ def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True
     all_ids, all_mapping = bop_ids(everything)
     keep = [k for k, r in enumerate(everything) if r.get("status") == "ok" and r.get("T_est") is not None]
     rows, ids, mapping = [everything[k] for k in keep], [all_ids[k] for k in keep], [all_mapping[k] for k in keep]
+    failed = [r for r in everything if not (r.get("status") == "ok" and r.get("T_est") is not None)]
+    if not rows:
+        raise DatasetError(f"run {run_dir} has no sample with an estimate ({len(everything)} samples, all failed); "
+                           "nothing to export: re-run the method (bench run ... retry_failed=true)")
+    if failed and skipped is not None:
+        skipped.append(f"{len(failed)} of {len(everything)} samples have no estimate (failed) and are not in the "
+                       f"file, e.g. {failed[0].get('sample_id')}: {str(failed[0].get('error') or '')[:80]}")
     times = image_times(ids, [r.get("runtime_s") for r in rows])
     lines = [",".join(BOP_COLUMNS)]
     for r, (scene, im, obj, scale, centre, R_om) in zip(rows, ids):
@@ -116,13 +136,14 @@ def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True
         rt = times[(scene, im)]
         lines.append(f"{scene},{im},{obj},{conf:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"
                      f"{' '.join(f'{x:.9g}' for x in t)},{rt:.6g}")
-    out_csv = Path(out_csv)
-    out_csv.parent.mkdir(parents=True, exist_ok=True)
-    out_csv.write_text("\n".join(lines) + "\n")
+    from catpose import atomic
     from catpose.bench.scoring.bop_eval import check_results_csv
 
-    check_results_csv(out_csv)  # what bop_toolkit's loader checks (header, ids, one time per image)
-    pd.DataFrame(mapping).to_csv(str(out_csv) + ".map.csv", index=False)
+    out_csv = Path(out_csv)
+    with atomic.atomic_path(out_csv) as tmp:
+        tmp.write_text("\n".join(lines) + "\n")
+        check_results_csv(tmp)  # what bop_toolkit's loader checks (header, ids, one time per image)
+    atomic.write_text(str(out_csv) + ".map.csv", pd.DataFrame(mapping).to_csv(index=False))
     return len(rows)
 
 
@@ -133,6 +154,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", required=True, help="CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the "
                     "BOP toolkit requires; a <out>.map.csv with the id mapping is written beside it")
     args = ap.parse_args(argv)
-    n = export_bop(args.run, args.out)
+    skipped: list[str] = []
+    try:
+        n = export_bop(args.run, args.out, skipped=skipped)
+    except OSError as e:  # an unwritable or full --out folder: one line (the old file, if any, is kept)
+        from catpose.errors import InvalidInputError
+
+        raise InvalidInputError(f"cannot write --out {args.out} ({e.strerror or type(e).__name__}); pass a path in "
+                                "a writable folder with free space") from None
+    for line in skipped:
+        log.warning("skipped: %s", line)
     print(f"wrote {n} estimates to {args.out}")
     return 0

@@ -41,14 +41,18 @@ def read_predictions(path: str | Path):
     """Read a BOP or per-sample predictions CSV into a DataFrame with a ``T`` column.
 
     ``T`` is the file's (4, 4) pose as written (BOP: ``T_camera_model`` in mm; per-sample:
-    ``T_template_camera``); ``kind`` is ``"bop"`` or ``"sample"``.
+    ``T_template_camera``); ``kind`` is ``"bop"`` or ``"sample"``. Every row is checked
+    (:mod:`catpose.bench.interop.prediction_checks`: integer ids, a rotation, a finite
+    translation); a bad one is refused in one line naming the file and the line.
     """
     import pandas as pd
 
+    from catpose.bench.interop.prediction_checks import check_ids, check_pose, read_csv_text
+
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise DatasetError(f"predictions file {path} does not exist")
-    df = pd.read_csv(path, dtype=str, keep_default_na=False)
+    df = read_csv_text(path)
     cols = set(df.columns)
     if {"scene_id", "im_id", "obj_id", "R", "t"} <= cols:
         kind = "bop"
@@ -59,11 +63,14 @@ def read_predictions(path: str | Path):
                                 "nor per-sample (sample_id,R,t[,score][,time])")
     Ts = []
     for k, r in enumerate(df.to_dict("records"), 2):
+        check_ids(r, kind, f"{path}:{k}")
         T = np.eye(4)
         T[:3, :3] = _floats(r["R"], 9, f"{path}:{k} R").reshape(3, 3)
         T[:3, 3] = _floats(r["t"], 3, f"{path}:{k} t")
+        check_pose(T, f"{path}:{k}")
         Ts.append(T)
-    df["T"] = Ts
+    df["T"] = pd.Series(Ts, index=df.index, dtype=object)
+    df["line"] = list(range(2, len(df) + 2))  # the file's line of each row, for the counts people read
     df["score"] = pd.to_numeric(df["score"], errors="coerce") if "score" in df else np.nan
     df["time"] = pd.to_numeric(df["time"], errors="coerce") if "time" in df else np.nan
     df.attrs["kind"] = kind

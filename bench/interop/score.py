@@ -18,9 +18,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from catpose import atomic
 from catpose.bench.interop.bop_export import bop_ids
+from catpose.bench.interop.prediction_checks import key_text
 from catpose.bench.interop.prediction_io import read_mapping, read_predictions
-from catpose.bench.run.rundir import write_run
+from catpose.bench.run.overwrite import check_new_output
+from catpose.bench.run.rundir import write_run_into
 from catpose.errors import DatasetError, InvalidInputError
 
 
@@ -31,30 +34,38 @@ def _orthonormalise(R: np.ndarray) -> np.ndarray:
 
 
 def score_predictions(preds, gt_rows: Sequence[dict], method: str,
-                      mapping: dict[tuple[int, int, int], str] | None = None) -> list[dict]:
+                      mapping: dict[tuple[int, int, int], str] | None = None,
+                      stats: dict | None = None) -> list[dict]:
     """Per-sample rows (``samples.jsonl`` schema) for the predictions against ground-truth rows.
 
     ``gt_rows`` are rows with ``T_gt`` (a run's ``samples.jsonl``, one per view is enough). A
-    view without a prediction is recorded as failed ("no prediction"). For a BOP file,
+    view without a prediction is recorded as failed ("no prediction"): a miss. For a BOP file,
     ``mapping`` ((scene_id, im_id, obj_id) -> sample_id, from the export's ``.map.csv``) takes
     precedence over the ids derived from the rows. Without it, where several gt rows share
     (scene_id, im_id, obj_id) (several instances of one object in an image), the estimates are
     matched greedily as bop_toolkit does: in descending score order, each takes the unmatched
-    instance with the smallest ``err_deg`` (then ``trans_err``); extra estimates are ignored.
+    instance with the smallest ``err_deg`` (then ``trans_err``).
+
+    Duplicates, one rule each (docs/file-safety.md): in a per-sample file the LAST row of a
+    sample id counts, as a run's ``samples.jsonl`` keeps a retried sample's last row; in a BOP
+    file an (image, object) keeps its highest-scored estimates, one per gt instance (ties: file
+    order), and the others are extra and ignored. Predictions for ids that no gt row has are
+    unknown and ignored. ``stats`` (a dict, optional) receives the counts :func:`count_text` prints.
     """
     from catpose.bench.scoring.metrics import sample_errors
     from catpose.bench.scoring.rows import failed_row, scored_row
     from catpose.geometry import invert_T, make_T
 
     kind = preds.attrs.get("kind", "sample")
-    by_key: dict[Any, dict] = {}
     all_by_key: dict[Any, list[dict]] = {}
     for p in preds.to_dict("records"):
-        key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"])) if kind == "bop" else str(p["sample_id"])
+        key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"])) if kind == "bop" else str(p["sample_id"]).strip()
         all_by_key.setdefault(key, []).append(p)
-        old = by_key.get(key)
-        if old is None or (kind == "bop" and np.nan_to_num(p["score"], nan=-np.inf) > np.nan_to_num(old["score"], nan=-np.inf)):
-            by_key[key] = p
+
+    def by_score(cands: list[dict]) -> list[dict]:  # highest first, ties in file order (a stable sort)
+        return sorted(cands, key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
+
+    by_key = {k: (by_score(v)[0] if kind == "bop" else v[-1]) for k, v in all_by_key.items()}
     ids = bop_ids(gt_rows)[0] if kind == "bop" else None
     if kind == "bop" and mapping:
         by_sample = {mapping[k]: p for k, p in by_key.items() if k in mapping}
@@ -75,12 +86,12 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str,
                              symmetries if isinstance(symmetries, (list, tuple)) else ())
 
     matched: dict[int, dict] = {}
+    groups: dict[Any, list[int]] = {}
     if kind == "bop":
-        groups: dict[tuple, list[int]] = {}
         for k in range(len(gt_rows)):
             groups.setdefault(ids[k][:3], []).append(k)
         for key, members in groups.items():
-            cands = sorted(all_by_key.get(key, []), key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
+            cands = by_score(all_by_key.get(key, []))
             free = list(members)
             for p in cands[:len(members)]:
                 errs = {k: errors_of(estimate(p, k), gt_rows[k]) for k in free}
@@ -108,7 +119,43 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str,
         rt = p.get("time")
         out.append(scored_row(row, T_est, errs, score=score,
                               runtime_s=None if rt is None or not math.isfinite(float(rt)) or float(rt) < 0 else float(rt)))
+    if stats is not None:
+        stats.update(_counts(kind, all_by_key, gt_rows, groups, mapping, out))
     return out
+
+
+def _counts(kind: str, all_by_key: dict, gt_rows: Sequence[dict], groups: dict, mapping: dict | None,
+            out: Sequence[dict]) -> dict:
+    """The counts of :func:`score_predictions` (see :func:`count_text`)."""
+    if kind == "bop":
+        known = set(groups) | set(mapping or {})
+        wanted = {k: len(v) for k, v in groups.items()}
+        wanted.update({k: 1 for k in (mapping or {})})
+        ignored = sum(max(0, len(v) - wanted[k]) for k, v in all_by_key.items() if k in wanted)
+        rule = "an (image, object) keeps its highest-scored estimates, one per instance"
+    else:
+        known = {str(g["sample_id"]) for g in gt_rows} | {str(g.get("obs_id")) for g in gt_rows}
+        ignored = sum(len(v) - 1 for k, v in all_by_key.items() if k in known)
+        rule = "the last row of a sample id counts"
+    unknown = [k for k in all_by_key if k not in known]
+    return {"predictions": sum(map(len, all_by_key.values())), "targets": len(gt_rows),
+            "scored": sum(r["status"] == "ok" for r in out),
+            "missing": sum(r["status"] != "ok" for r in out),
+            "duplicates_ignored": ignored, "duplicate_rule": rule,
+            "unknown_ids": len(unknown), "unknown_rows": sum(len(all_by_key[k]) for k in unknown),
+            "unknown_examples": [key_text(k) for k in unknown[:5]]}
+
+
+def count_text(stats: dict) -> str:
+    """What a score counted, for people: scored, missing (misses), duplicates and unknown ids."""
+    lines = [f"{stats['predictions']} prediction rows; {stats['scored']} of {stats['targets']} samples scored, "
+             f"{stats['missing']} without a prediction (counted as misses: failed, 180 deg)"]
+    if stats["duplicates_ignored"]:
+        lines.append(f"{stats['duplicates_ignored']} duplicate row(s) ignored ({stats['duplicate_rule']})")
+    if stats["unknown_ids"]:
+        lines.append(f"{stats['unknown_rows']} row(s) with {stats['unknown_ids']} id(s) that no sample has, ignored: "
+                     + ", ".join(stats["unknown_examples"]) + (", ..." if stats["unknown_ids"] > 5 else ""))
+    return "\n".join(lines)
 
 
 def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
@@ -119,7 +166,11 @@ def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
     s = run.samples
     if len(s) == 0 or "T_gt" not in s:
         raise DatasetError(f"run {run_dir} has no ground truth rows; pass a run written by `bench run`")
-    s = s[s["T_gt"].notna()]
+    n_rows = len(s)
+    s = s[s["T_gt"].map(lambda v: isinstance(v, (list, np.ndarray)))]
+    if len(s) == 0:
+        raise DatasetError(f"run {run_dir} has no sample with ground truth ({n_rows} rows, all failed before their "
+                           "data loaded); pass a run whose samples loaded, or --dataset NAME")
     key = "group_id" if run.protocol in ("templates", "relative") else "sample_id"
     return s.drop_duplicates(key).to_dict("records"), run.config
 
@@ -167,7 +218,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--map", default=None, help="BOP id -> sample id CSV (default: <predictions>.map.csv if present)")
     ap.add_argument("--method", default=None, help="name of the external method (row label in tables; default: "
                     "METHOD of a METHOD_DATASET-SPLIT.csv file name)")
-    ap.add_argument("--out", required=True, help="run directory to write")
+    ap.add_argument("--out", required=True, help="run directory to write (new or empty; see --force)")
+    ap.add_argument("--force", action="store_true",
+                    help="replace an existing run or other files at --out (never the --gt run itself)")
     ap.add_argument("--metrics", default=",".join(DEFAULT_BOP_METRICS),
                     help="BOP datasets: comma-separated recalls, e.g. ar,ar_mssd,ar_mspd,ar_vsd,adds@0.1,add@0.1,mssd@0.2,"
                          "mspd@10,5deg5cm,10deg10cm")
@@ -192,6 +245,9 @@ def main(argv: list[str] | None = None) -> int:
                                     "METHOD_DATASET-SPLIT.csv)") from None
     if bool(args.gt) == bool(args.dataset):
         raise InvalidInputError("pass exactly one of --gt RUN_DIR or --dataset NAME")
+    out = Path(args.out)
+    # before any work: no run is written over (bench/run/overwrite.py), the --gt run never
+    check_new_output(out, args.force, protected=Path(args.gt) if args.gt else None)
     gt_rows, config = gt_rows_from_run(args.gt) if args.gt else gt_rows_from_config(
         args.dataset, args.protocol, args.seed, args.override)
     from catpose.bench.interop.transform_arrays import is_transform_array, read_transform_arrays
@@ -202,19 +258,32 @@ def main(argv: list[str] | None = None) -> int:
     if args.map and not map_path.is_file():
         raise InvalidInputError(f"--map {map_path} does not exist")
     mapping = read_mapping(map_path) if preds.attrs["kind"] == "bop" and map_path.is_file() else None
-    rows = score_predictions(preds, gt_rows, args.method, mapping)
+    stats: dict = {}
+    rows = score_predictions(preds, gt_rows, args.method, mapping, stats)
     config = dict(config, method={"name": args.method, "external": str(args.predictions)})
-    out = write_run(args.out, rows, config, {"predictions": str(args.predictions)})
     bop_text = None
-    if preds.attrs["kind"] == "bop" and _is_bop_dataset(config.get("dataset")):
-        bop_text = score_bop(preds, config["dataset"], out, args.method, args.metrics.split(","),
-                             args.by.split(","), vsd=not args.no_vsd)
-    n_ok = sum(r["status"] == "ok" for r in rows)
-    print(f"scored {n_ok}/{len(rows)} samples with predictions; run directory {out}")
-    print((out / "summary.md").read_text())
-    print(_object_summary(rows, out))
-    if args.acc or args.auc is not None:
-        print(_threshold_summary(rows, out, args.acc or "", args.auc))
+    # the whole run directory is built beside --out and moved there when complete: a failure
+    # leaves no half-written folder, and --force replaces the old one only then
+    thresholds = None
+    try:
+        with atomic.building_dir(out) as tmp:
+            write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
+            if preds.attrs["kind"] == "bop" and _is_bop_dataset(config.get("dataset")):
+                bop_text = score_bop(preds, config["dataset"], tmp, args.method, args.metrics.split(","),
+                                     args.by.split(","), vsd=not args.no_vsd)
+            objects = _object_summary(rows, tmp)
+            summary = (tmp / "summary.md").read_text() if (tmp / "summary.md").is_file() else ""
+            if args.acc or args.auc is not None:
+                thresholds = _threshold_summary(rows, tmp, args.acc or "", args.auc)
+    except OSError as e:  # an unwritable or full --out: one line, nothing left behind
+        raise InvalidInputError(f"cannot write --out {out} ({e.strerror or type(e).__name__}); pass a writable "
+                                "folder with free space") from None
+    print(count_text(stats))
+    print(f"run directory {out}")
+    print(summary)
+    print(objects)
+    if thresholds is not None:
+        print(thresholds)
     if bop_text:
         print(bop_text)
     return 0
@@ -230,7 +299,7 @@ def _object_summary(rows: Sequence[dict], out_dir: Path) -> str:
     df = pd.DataFrame(list(rows))
     df["object"] = [f"{c}/{i}" for c, i in zip(df["category"], df["instance_id"])]
     text = format_summary(summarize(df, by="object"))
-    (Path(out_dir) / "summary_objects.md").write_text(text + "\n")
+    atomic.write_text(Path(out_dir) / "summary_objects.md", text + "\n")
     return text
 
 
@@ -243,7 +312,7 @@ def _threshold_summary(rows: Sequence[dict], out_dir: Path, acc: str, auc: float
 
     keys = threshold_keys(acc, auc)
     text = threshold_table(pd.DataFrame(list(rows)), keys).to_markdown(index=False, floatfmt=".3f")
-    (Path(out_dir) / "summary_thresholds.md").write_text(text + "\n")
+    atomic.write_text(Path(out_dir) / "summary_thresholds.md", text + "\n")
     return text
 
 
@@ -276,12 +345,23 @@ def score_bop(preds, dataset_cfg: dict, out_dir: str | Path, method: str, metric
     dataset_cfg = evaluation_models(dataset_cfg)
     _, ds = build_from_config(dict(dataset_cfg), "dataset")
     errs = compute_errors(preds, ds, vsd=vsd)
+    instances: dict[tuple, int] = {}
+    for r in errs:
+        key = (int(r["scene_id"]), int(r["im_id"]), int(r["obj_id"]))
+        instances[key] = instances.get(key, 0) + 1
+    estimates: dict[tuple, int] = {}
+    for p in preds.to_dict("records"):
+        key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"]))
+        estimates[key] = estimates.get(key, 0) + 1
     filters = list(getattr(ds, "filters", [])) + [f"models: {dataset_cfg.get('models_dir', 'models')}/"]
     header = {"method": method, "filters": filters, "targets": len(errs),
-              "matched": int(sum(r["matched"] for r in errs))}
+              "matched": int(sum(r["matched"] for r in errs)),
+              # ignored, and said so: estimates of no target, and those beyond an (image, object)'s instances
+              "unknown_estimates": sum(n for k, n in estimates.items() if k not in instances),
+              "extra_estimates": sum(max(0, n - instances[k]) for k, n in estimates.items() if k in instances)}
     write_errors(errs, Path(out_dir) / ERRORS_FILE, header)
     import pandas as pd
 
     text = f"BOP metrics ({method}):\n" + format_scores(score_table(pd.DataFrame(errs), metrics, by), header)
-    (Path(out_dir) / "bop_summary.md").write_text(text + "\n")
+    atomic.write_text(Path(out_dir) / "bop_summary.md", text + "\n")
     return text

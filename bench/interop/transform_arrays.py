@@ -23,6 +23,7 @@ is a run's ``sample_id`` or ``obs_id``, as in a per-sample CSV.
 
 from __future__ import annotations
 
+import zipfile
 from pathlib import Path
 from typing import Sequence
 
@@ -112,7 +113,8 @@ def read_transform_arrays(path: str | Path, ids: str | Path | Sequence[str] | No
                 T = as_transforms(arr, str(path))
                 file_ids = _first(data, ID_KEYS)
                 scores, times = _first(data, ("scores", "score")), _first(data, ("times", "time"))
-    except (ValueError, OSError) as e:  # not a NumPy file, or an object array (pickles are refused)
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as e:  # not a NumPy file (or cut off), or an
+        # object array (pickles are refused)
         raise InvalidInputError(f"{path}: not a readable NumPy array file ({str(e).splitlines()[0]}); "
                                 "write it with np.save / np.savez, without object arrays") from None
     if file_ids is not None:
@@ -128,6 +130,11 @@ def read_transform_arrays(path: str | Path, ids: str | Path | Sequence[str] | No
         raise InvalidInputError(f"{path}: {len(T)} transforms but {len(id_list)} sample ids; give one id per transform")
     if inverse:
         T = np.stack([invert_T(x) for x in T])
+    from catpose.bench.interop.prediction_checks import check_ids, check_pose
+
+    for k, (sid, T_k) in enumerate(zip(id_list, T)):  # only poses are scored, each with an id (issue 23)
+        check_ids({"sample_id": sid}, "sample", f"{path}: transform {k}")
+        check_pose(T_k, f"{path}: transform {k} ({sid})")
 
     def per_sample(values, name: str) -> list[float]:
         if values is None:

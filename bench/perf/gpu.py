@@ -74,7 +74,10 @@ def dump_inputs(path: Path, golden: Path | None = None) -> int:
     for i, s in enumerate(samples):
         x = ours._prepare(s.problem, {})
         arrays.update({f"p{i}": x.keypoints, f"q{i}": x.P_t, f"A{i}": x.A, f"T{i}": x.T_svd})
-    np.savez_compressed(path, **arrays)
+    from catpose import atomic
+
+    with atomic.atomic_path(path) as tmp:
+        np.savez_compressed(tmp, **arrays)
     return len(samples)
 
 
@@ -148,11 +151,14 @@ def main(argv: list[str] | None = None) -> int:
                          "dtype": dtype, "name": name, "torch": torch.__version__})
             print(rows[-1], flush=True)
     if args.out:
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        with open(args.out, "w", newline="") as f:
+        out = Path(args.out)  # a bare checkout has no catpose.atomic: the same temp file + os.replace here
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = out.with_name(f".{out.name}.tmp")
+        with open(tmp, "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
             w.writeheader()
             w.writerows(rows)
+        tmp.replace(out)
     return 0
 
 

@@ -93,7 +93,9 @@ def write_tables(folder: Path) -> list[Path]:
     for name, text in (("speed.md", speed_table(folder) if _sets(folder) else ""),
                        ("stages.md", stages_table(folder)), ("gpu.md", gpu_table(folder))):
         if text:
-            (folder / name).write_text(text)
+            from catpose import atomic
+
+            atomic.write_text(folder / name, text)
             written.append(folder / name)
     return written
 

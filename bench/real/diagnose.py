@@ -193,8 +193,10 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
                            fit_gt_mm=d_gt * scale_mm if scale_mm else None,
                            n_points=int(len(prob.points_camera)))
                 if save_dir is not None:  # inputs and candidates, to score selection rules offline
-                    save_dir.mkdir(parents=True, exist_ok=True)
-                    np.savez_compressed(save_dir / f"{sid.replace('/', '_')}__{which}.npz",
+                    from catpose import atomic
+
+                    with atomic.atomic_path(save_dir / f"{sid.replace('/', '_')}__{which}.npz") as tmp:
+                        np.savez_compressed(tmp,
                                         points=prob.points_camera, normals=prob.normals_camera,
                                         ground=prob.ground_normal_camera, candidates=cand, T_est=T_est,
                                         T_gt=np.asarray(gt.T_template_camera, float), template_id=tpl.template_id,

@@ -205,6 +205,7 @@ def main(argv: list[str]) -> int:
     table = format_table(results, [s for s in sets if s not in skipped], methods, skipped)
     print(table)
     if args.write:
-        args.write.parent.mkdir(parents=True, exist_ok=True)
-        args.write.write_text(table + "\n")
+        from catpose import atomic
+
+        atomic.write_text(args.write, table + "\n")
     return 0

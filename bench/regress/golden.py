@@ -16,6 +16,7 @@ axis, discrete symmetries, info); per sample ``i`` the arrays ``p{i}`` (N, 3) ob
 from __future__ import annotations
 
 import json
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -59,7 +60,10 @@ def write_golden(path: Path, suite: str, overrides: Sequence[str], samples: Sequ
     meta = {"format": FORMAT_VERSION, "suite": suite, "overrides": list(overrides), "samples": records}
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(path, meta=np.array(json.dumps(meta)), **arrays)
+    from catpose import atomic
+
+    with atomic.atomic_path(path) as tmp:
+        np.savez_compressed(tmp, meta=np.array(json.dumps(meta)), **arrays)
     return path
 
 
@@ -91,7 +95,7 @@ def read_golden(path: Path) -> GoldenSet:
         with np.load(path, allow_pickle=False) as z:
             meta = json.loads(str(z["meta"]))
             arrays = {k: z[k] for k in z.files if k != "meta"}
-    except (OSError, ValueError, KeyError) as e:
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:  # a cut-off file: one line
         raise ConfigError(f"golden inputs {path} cannot be read ({e}); rewrite them with "
                           "`bench regress --write-inputs`") from None
     if meta.get("format") != FORMAT_VERSION:

@@ -283,7 +283,7 @@ def write_reference(suite: Suite, entries: dict, gate: Gate) -> None:
     """Merge ``entries`` (per method) into the suite's reference file with this environment."""
     from catpose.bench.run.environment import environment
 
-    old = json.loads(suite.reference.read_text()) if suite.reference.is_file() else {}
+    old = read_reference(suite.reference) if suite.reference.is_file() else {}
     methods = dict(old.get("methods", {})) if old.get("format") == 2 else {}
     methods.update(entries)
     doc = {"format": 2, "suite": suite.name, "dataset": suite.dataset, "protocol": suite.protocol,
@@ -291,8 +291,23 @@ def write_reference(suite: Suite, entries: dict, gate: Gate) -> None:
            "inputs": None if suite.inputs is None else str(suite.inputs.relative_to(REPO)),
            "gate": gate.__dict__ | {"accuracy_thresholds": list(gate.accuracy_thresholds)},
            "environment": environment(), "methods": {m: methods[m] for m in sorted(methods)}}
-    suite.reference.parent.mkdir(parents=True, exist_ok=True)
-    suite.reference.write_text(json.dumps(doc, indent=1, allow_nan=True) + "\n")
+    from catpose import atomic
+
+    atomic.write_text(suite.reference, json.dumps(doc, indent=1, allow_nan=True) + "\n")
+
+
+def read_reference(path: Path) -> dict:
+    """A suite's reference JSON; a cut-off or damaged file is a :class:`ConfigError` in one line
+    (exit status 2: exit 1 means the gate found a regression, never a file it cannot read)."""
+    try:
+        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ConfigError(f"reference {path} cannot be read ({type(e).__name__}: {' '.join(str(e).split())[:80]}); "
+                          "restore it (git checkout -- it) or rewrite it with `bench regress --update`") from None
+    if not isinstance(doc, dict):
+        raise ConfigError(f"reference {path} is not a JSON object; restore it (git checkout -- it) or rewrite it "
+                          "with `bench regress --update`")
+    return doc
 
 
 def write_inputs(suite: Suite, log=print) -> None:
@@ -332,7 +347,7 @@ def check_suite(suite: Suite, methods: Sequence[str], gate: Gate, jobs: int = 1,
     if not suite.reference.is_file():
         return [Finding("-", suite.name, f"no reference file {suite.reference}; run `bench regress --update` "
                                          "and commit it", True)], []
-    doc = json.loads(suite.reference.read_text())
+    doc = read_reference(suite.reference)
     if doc.get("format") != 2:
         return [Finding("-", suite.name, f"{suite.reference} is of an older format; run `bench regress --update`",
                         True)], []
@@ -404,7 +419,9 @@ def main(argv: list[str] | None = None) -> int:
             findings += found
             notes += more
         if args.emit_estimates:
-            Path(args.emit_estimates).write_text(json.dumps(emitted))
+            from catpose import atomic
+
+            atomic.write_text(args.emit_estimates, json.dumps(emitted))
             return 0
     except CatposeError as e:
         print(command_error("regress", e), file=sys.stderr)

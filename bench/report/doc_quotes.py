@@ -126,7 +126,9 @@ def refresh(repo: Path = REPO) -> list[Path]:
             lines[q.start + 1:q.end] = expected(q, repo)
         text = "\n".join(lines) + "\n"
         if text != doc.read_text():
-            doc.write_text(text)
+            from catpose import atomic
+
+            atomic.write_text(doc, text)
             changed.append(doc)
     return changed
 

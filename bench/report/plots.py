@@ -57,8 +57,11 @@ def save(fig, out_stem: str | Path, pdf: bool = True, dpi: int = 150) -> list[Pa
     out_stem = Path(out_stem)
     out_stem.parent.mkdir(parents=True, exist_ok=True)
     paths = [out_stem.with_suffix(".png")] + ([out_stem.with_suffix(".pdf")] if pdf else [])
+    from catpose import atomic
+
     for path in paths:
-        fig.savefig(path, dpi=dpi, bbox_inches="tight")
+        with atomic.atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=dpi, bbox_inches="tight")
     pyplot().close(fig)
     return paths
 
@@ -73,7 +76,9 @@ def _write_csv(rows: list[dict], columns: list[str], out_stem: str | Path) -> Pa
     import pandas as pd
 
     path = Path(out_stem).with_suffix(".csv")
-    pd.DataFrame(rows, columns=columns).to_csv(path, index=False, float_format="%.6g")
+    from catpose import atomic
+
+    atomic.write_text(path, pd.DataFrame(rows, columns=columns).to_csv(index=False, float_format="%.6g"))
     return path
 
 

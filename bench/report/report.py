@@ -28,6 +28,7 @@ import re
 from pathlib import Path
 from typing import Sequence
 
+from catpose import atomic
 from catpose.errors import CatposeError
 
 #: Errors (degrees) above which a registration counts as a failure for the qualitative examples.
@@ -88,18 +89,19 @@ def _write_table(table, out: Path, stem: str) -> list[str]:
     from catpose.bench.report import tables
 
     for fmt, ext in (("md", "md"), ("latex", "tex"), ("csv", "csv")):
-        (out / "tables" / f"{stem}.{ext}").write_text(tables.RENDERERS[fmt](table))
+        atomic.write_text(out / "tables" / f"{stem}.{ext}", tables.RENDERERS[fmt](table))
     return [tables.to_markdown(table),
             f"Files: [md](tables/{stem}.md), [LaTeX](tables/{stem}.tex), [CSV](tables/{stem}.csv)", ""]
 
 
 def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Sequence[str] = (),
                  qualitative: int = 0, labels: dict[str, str] | None = None, notes: Sequence[str] = (),
-                 pdf: bool = True) -> Path:
+                 pdf: bool = True, left_out: list[str] | None = None) -> Path:
     """Write the report folder (see the module docstring); returns the path of ``index.md``.
 
     ``notes`` are paragraphs put under the title (how the runs were made); ``pdf`` adds a PDF
-    of each summary figure.
+    of each summary figure. A run that cannot be read is left out, said so in the index and in
+    one line on stderr, and its reason appended to ``left_out`` (the command then exits 2).
     """
     from catpose.bench.report import plots, tables
     from catpose.bench.report.qualitative import plot_sample_from_run
@@ -107,7 +109,12 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
     out = Path(out)
     (out / "tables").mkdir(parents=True, exist_ok=True)
     (out / "figures").mkdir(parents=True, exist_ok=True)
-    runs = [tables.load_run(p) for p in tables.find_run_dirs(run_dirs)]
+    from catpose.bench.report.runs import load_runs, print_left_out
+
+    runs, reasons = load_runs(run_dirs)
+    print_left_out("report", runs, reasons)
+    if left_out is not None:
+        left_out.extend(reasons)
     by_protocol = tables.split_by_protocol(runs)
     label_of = {id(r): lab for group in by_protocol.values() for r, lab in zip(group, tables.run_labels(group, labels))}
 
@@ -121,6 +128,8 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
     for run, path in zip(runs, rel):
         md.append(f"| {label_of[id(run)]} | {run.protocol} | `{path}` | {len(run.samples)} | `{_git_rev(run)}` |")
     md.append("")
+    if reasons:
+        md += ["Left out (unreadable):", ""] + [f"- {why}" for why in reasons] + [""]
 
     for protocol, group in by_protocol.items():
         names = {str(r.path): label_of[id(r)] for r in group}
@@ -184,8 +193,8 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
                     md += [f"**{label}**, {kind}: `{sid}`, {err:.1f} deg", "", f"![{label} {kind}](figures/{stem.name}.png)", ""]
 
     index = out / "index.md"
-    index.write_text("\n".join(md) + "\n")
-    (out / "index.html").write_text(_html(md))
+    atomic.write_text(index, "\n".join(md) + "\n")
+    atomic.write_text(out / "index.html", _html(md))
     remove_stale_files(out, md)
     return index
 
@@ -272,7 +281,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--note", action="append", default=[], help="a paragraph under the title (how the runs were made)")
     ap.add_argument("--no-pdf", action="store_true", help="figures as PNG (+ CSV) only")
     args = ap.parse_args(argv)
+    left_out: list[str] = []
     index = build_report(args.runs, args.out, args.layout or [], args.qualitative, parse_labels(args.label),
-                         args.note, pdf=not args.no_pdf)
-    print(f"report written: {index} (and index.html)")
-    return 0
+                         args.note, pdf=not args.no_pdf, left_out=left_out)
+    print(f"report written: {index} (and index.html)" + (f"; {len(left_out)} run(s) left out" if left_out else ""))
+    return 2 if left_out else 0

@@ -5,7 +5,6 @@ runs through this module only, from files, never from memory.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -58,8 +57,9 @@ class Run:
 
 
 def samples_frame(path: Path):
-    """A ``samples.jsonl`` as a DataFrame, one row per sample (the runner's reader: a truncated
-    line of a killed run is skipped, a retried sample's last row counts)."""
+    """A ``samples.jsonl`` as a DataFrame, one row per sample (the runner's reader,
+    :mod:`catpose.bench.run.rows_file`: a damaged line is an error naming it, a cut-off last line
+    of a killed run is skipped with a warning, a retried sample's last row counts)."""
     import pandas as pd
 
     from catpose.bench.run.rundir import latest_rows
@@ -83,41 +83,84 @@ def recompute_frame_errors(samples):
 def load_run(path: str | Path) -> Run:
     """Read a run directory (``samples.jsonl`` required, ``config.yaml`` and ``run.json`` optional).
 
-    Errors are recomputed from the stored poses (:func:`recompute_frame_errors`).
+    Errors are recomputed from the stored poses (:func:`recompute_frame_errors`). An unreadable
+    ``config.yaml`` or ``run.json``, or a damaged ``samples.jsonl`` line, raises
+    :class:`DatasetError` naming the run (:mod:`catpose.bench.run.run_meta`).
     """
+    from catpose.bench.run.run_meta import read_config, read_run_json
+
     path = Path(path)
     samples_path = path / "samples.jsonl"
     if not samples_path.is_file():
         raise DatasetError(f"{path} is not a run directory: {samples_path.name} is missing; pass a folder written by `bench run`")
-    config: dict = {}
-    if (path / "config.yaml").is_file():
-        from omegaconf import OmegaConf
-
-        config = OmegaConf.to_container(OmegaConf.load(path / "config.yaml"), resolve=False)  # type: ignore[assignment]
-    info = json.loads((path / "run.json").read_text()) if (path / "run.json").is_file() else {}
+    config = read_config(path)
+    info = read_run_json(path)
     return Run(path=path, config=config, info=info, samples=recompute_frame_errors(samples_frame(samples_path)))
 
 
-def find_run_dirs(paths: Sequence[str | Path]) -> list[Path]:
-    """Run directories given directly or found below the given folders (sorted, no duplicates)."""
+def load_runs(paths: Sequence[str | Path]) -> tuple[list[Run], list[str]]:
+    """Every run directory given or found below ``paths`` (:func:`find_run_dirs`), read with
+    :func:`load_run`; a run that cannot be read or merged is left out and its one-line reason
+    returned, so one damaged run does not stop the others: ``(runs, reasons)``."""
+    from catpose.errors import CatposeError
+
+    reasons: list[str] = []
+    runs = []
+    for d in find_run_dirs(paths, reasons):
+        try:
+            runs.append(load_run(d))
+        except CatposeError as e:
+            reasons.append(str(e))
+    return runs, reasons
+
+
+def print_left_out(command: str, runs: Sequence[Run], reasons: Sequence[str]) -> None:
+    """Each run left out by :func:`load_runs`, one ``bench <command>: error: left out: ...`` line each
+    (stderr); the command then exits with status 2 after doing what it can with the others. With
+    no run left at all it raises instead (one line when one run was given)."""
+    import sys
+
+    from catpose.errors import command_error
+
+    if not runs and len(reasons) == 1:
+        raise DatasetError(reasons[0])
+    for why in reasons:
+        print(command_error(command, f"left out: {why}"), file=sys.stderr)
+    if not runs:
+        raise DatasetError(f"no run could be read ({len(reasons)} left out, see above)")
+
+
+def find_run_dirs(paths: Sequence[str | Path], merge_failures: list[str] | None = None) -> list[Path]:
+    """Run directories given directly or found below the given folders (sorted, no duplicates).
+
+    Sharded runs are merged first; a merge that fails raises, or, with a ``merge_failures`` list,
+    is appended to it as one line and the run is left out."""
     from catpose.bench.run.merge import ensure_merged, is_sharded
+    from catpose.errors import CatposeError
 
     out: list[Path] = []
+    unmerged: set[Path] = set()
     for p in map(Path, paths):
         if p.is_dir():  # sharded runs: samples.jsonl from the shard files first (bench merge)
             for d in sorted({p} | {q.parent for q in p.rglob("samples.shard-*-of-*.jsonl")}):
                 if is_sharded(d):
-                    ensure_merged(d)
+                    try:
+                        ensure_merged(d)
+                    except CatposeError as e:
+                        if merge_failures is None:
+                            raise
+                        merge_failures.append(f"{e}")
+                        unmerged.add(d.resolve())
         if (p / "samples.jsonl").is_file():
             out.append(p)
         elif p.is_dir():
             found = sorted(q.parent for q in p.rglob("samples.jsonl"))
-            if not found:
+            if not found and not any(u.is_relative_to(p.resolve()) for u in unmerged):
                 raise DatasetError(f"no samples.jsonl below {p}; pass run directories written by `bench run`")
             out.extend(found)
         else:
             raise DatasetError(f"{p} does not exist; pass run directories written by `bench run`")
-    seen: set[Path] = set()
+    seen: set[Path] = set(unmerged)
     return [p for p in out if not (p.resolve() in seen or seen.add(p.resolve()))]
 
 

@@ -33,9 +33,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from catpose import atomic
 from catpose.bench.report.labels import parse_labels, pipeline_label, run_labels, template_count
 from catpose.bench.report.table_format import METRICS, Metric, Table, metric, prune, to_csv, to_latex, to_markdown
-from catpose.bench.report.runs import Run, find_run_dirs, load_run, protocol_of, scored_units
+from catpose.bench.report.runs import Run, find_run_dirs, load_run, load_runs, print_left_out, protocol_of, scored_units
 from catpose.errors import ConfigError, DatasetError
 
 # tables.load_run, tables.scored_units, tables.protocol_of, tables.to_markdown ... stay reachable here:
@@ -381,7 +382,7 @@ def main(argv: list[str] | None = None) -> int:
 
         text = table_main_from_runs(find_run_dirs([*args.runs, *run_paths]), args.bop_metrics.split(","),
                                     args.by.split(",")) + "\n"
-        Path(args.out).write_text(text) if args.out else sys.stdout.write(text)
+        atomic.write_text(args.out, text) if args.out else sys.stdout.write(text)
         return 0
     if args.layout not in (None, defaults.get("layout")):
         defaults = {}  # another layout than the experiment's: none of its settings apply
@@ -389,7 +390,8 @@ def main(argv: list[str] | None = None) -> int:
         if getattr(args, key) is None and value:
             setattr(args, key, ",".join(map(str, value)) if isinstance(value, list) else str(value))
     args.layout = args.layout or "generic"
-    runs = [load_run(p) for p in find_run_dirs([*args.runs, *run_paths])]
+    runs, left_out = load_runs([*args.runs, *run_paths])
+    print_left_out("table", runs, left_out)  # one damaged run does not stop the others; the exit status says so
     table = build_table(runs, args.layout, args.categories.split(",") if args.categories else None,
                         args.metrics.split(",") if args.metrics else None,
                         {**sweep_labels, **parse_labels(args.label)}, args.error, args.title,
@@ -397,8 +399,7 @@ def main(argv: list[str] | None = None) -> int:
                         threshold_keys(args.acc or [], args.auc) if (args.acc or args.auc is not None) else ())
     text = RENDERERS[args.format](table)
     if args.out:
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(text)
+        atomic.write_text(args.out, text)
     else:
         sys.stdout.write(text)
-    return 0
+    return 2 if left_out else 0

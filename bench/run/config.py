@@ -219,11 +219,29 @@ def flag_names(flags: Sequence[str]) -> set[str]:
     return out
 
 
+#: Hydra's modes: one per command line (Hydra refuses two, with a traceback)
+HYDRA_MODES = {"--multirun": "-m", "--run": "--run", "--cfg": "--cfg", "--info": "--info",
+               "--shell-completion": "--shell-completion"}
+
+
+def check_modes(flags: Sequence[str]) -> None:
+    """Fail fast, in one line, on two of Hydra's modes together (``-m`` with ``--cfg job``);
+    ``flags`` as :func:`split_hydra_args` returns them."""
+    names = flag_names(flags)
+    modes = [shown for name, shown in HYDRA_MODES.items() if name in names]
+    if len(modes) > 1:
+        hint = (" (show one job's config: drop -m and give one value per key, e.g. bench run method=icp --cfg job)"
+                if "-m" in modes and "--cfg" in modes else "")
+        raise ConfigError(f"{' and '.join(modes)} cannot be combined: pass one of -m, --run, --cfg, --info, "
+                          f"--shell-completion{hint}")
+
+
 def check_run_args(argv: Sequence[str]) -> None:
     """Every check ``bench run`` makes before Hydra, on the plain overrides only: names and
     renamed keys (:func:`check_overrides`), the launcher's plugin (:func:`check_launcher`) and,
     for a single run, the composition (:func:`check_composition`)."""
     flags, overrides = split_hydra_args(argv)
+    check_modes(flags)
     check_overrides(overrides, names=not flag_names(flags) & set(OTHER_CONFIGS))
     check_launcher(overrides)
     check_composition(argv)

@@ -21,7 +21,14 @@ def load_protocol(run_dir: Path) -> Any:
     """Rebuild the protocol of a run from its ``config.yaml`` (for scoring from files)."""
     from omegaconf import OmegaConf
 
-    cfg = OmegaConf.load(run_dir / "config.yaml")
+    from catpose.bench.run.run_meta import read_config
+
+    cfg = OmegaConf.create(read_config(Path(run_dir), required=True))
+    if "protocol" not in cfg:
+        from catpose.errors import DatasetError
+
+        raise DatasetError(f"run {run_dir}: config.yaml has no protocol; re-run the same `bench run` command to "
+                           "rewrite it")
     return build_from_config(cfg.protocol, "protocol")[1]
 
 
@@ -55,6 +62,8 @@ def summarize_run(run_dir: Path, sample_ids: Iterable[str] | None = None):
     """
     import pandas as pd
 
+    from catpose import atomic
+
     run_dir = Path(run_dir)
     df = pd.DataFrame([recompute_row_errors(r) for r in latest_rows(run_dir / SAMPLES_FILE)])
     protocol = load_protocol(run_dir)
@@ -63,10 +72,10 @@ def summarize_run(run_dir: Path, sample_ids: Iterable[str] | None = None):
         for c in ("T_est", "T_gt", "symmetry_axis"):
             if c in flat.columns:
                 flat[c] = flat[c].map(lambda v: " ".join(f"{x:.9g}" for x in np.ravel(v)) if isinstance(v, list) else "")
-        flat.to_csv(run_dir / "samples.csv", index=False)
+        atomic.write_text(run_dir / "samples.csv", flat.to_csv(index=False))
     summary = _summary(df, protocol)
-    summary.to_csv(run_dir / "summary.csv", index=False)
-    (run_dir / "summary.md").write_text(format_summary(summary) + "\n")
+    atomic.write_text(run_dir / "summary.csv", summary.to_csv(index=False))
+    atomic.write_text(run_dir / "summary.md", format_summary(summary) + "\n")
     if sample_ids is None or len(df) == 0:
         return summary
     wanted = set(sample_ids)

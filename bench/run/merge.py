@@ -11,13 +11,16 @@ writes its own files there, so concurrent shards never write to one file:
 shard's rows in the run's own order (shard I's j-th id is the run's ``j*N + I``-th), then the
 summaries, so a sharded run's files, summaries and tables are those of the serial run, bit for
 bit. A shard with samples still missing stops the merge with the command that finishes it.
+
+Every shard records its config; shards of different configs or different counts are refused
+(:mod:`catpose.bench.run.shard_check`), and a merge never drops rows it did not write
+(:mod:`catpose.bench.run.overwrite`).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
 from pathlib import Path
 from typing import Sequence
@@ -26,6 +29,10 @@ from catpose.bench.run.rundir import SAMPLES_FILE
 from catpose.errors import ConfigError, DatasetError
 
 _SHARD_RE = re.compile(r"^samples\.shard-(\d+)-of-(\d+)\.jsonl$")
+
+
+class ShardsNotDone(DatasetError):
+    """A merge before every shard has finished (not a fault: the last shard to finish merges)."""
 
 
 def shard_samples_file(shard: int, shards: int) -> str:
@@ -72,13 +79,16 @@ def shard_ids(ids: Sequence[str], shard: int, shards: int) -> list[str]:
     return list(ids[shard::shards])
 
 
-def write_shard_meta(run_dir: Path, shard: int, shards: int, ids: Sequence[str], finished: bool) -> None:
-    """Record a shard's ids (run order) and whether it went through all of them."""
-    path = Path(run_dir) / shard_meta_file(shard, shards)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps({"shard": shard, "shards": shards, "finished": finished,
-                               "sample_ids": list(ids)}) + "\n")
-    tmp.replace(path)
+def write_shard_meta(run_dir: Path, shard: int, shards: int, ids: Sequence[str], finished: bool,
+                     config: dict | None = None) -> None:
+    """Record a shard's ids (run order), whether it went through all of them, and its config
+    (:func:`catpose.bench.run.shard_check.comparable_config`), which merges compare."""
+    from catpose import atomic
+
+    meta = {"shard": shard, "shards": shards, "finished": finished, "sample_ids": list(ids)}
+    if config is not None:
+        meta["config"] = config
+    atomic.write_text(Path(run_dir) / shard_meta_file(shard, shards), json.dumps(meta, default=str) + "\n")
 
 
 def shard_files(run_dir: Path) -> dict[int, list[int]]:
@@ -121,19 +131,21 @@ def merged_rows(run_dir: Path) -> list[dict]:
         raise DatasetError(f"{run_dir} holds shards of {sorted(found)} parts; keep one sharding per run directory "
                            f"(delete the samples.shard-*-of-N.jsonl of the others)")
     (n, present), = found.items()
-    metas = []
+    from catpose.bench.run.shard_check import _metas, check_shard_configs
+
+    read = _metas(run_dir, n)
     for i in range(n):
-        meta_path = run_dir / shard_meta_file(i, n)
-        if i not in present or not meta_path.exists():
-            raise DatasetError(f"{run_dir}: shard {i} of {n} has not run; run it with shards={n} shard={i}")
-        metas.append(json.loads(meta_path.read_text()))
+        if i not in present or i not in read:
+            raise ShardsNotDone(f"{run_dir}: shard {i} of {n} has not run; run it with shards={n} shard={i}")
+    metas = [read[i] for i in range(n)]
+    check_shard_configs(run_dir, metas)
     serial = {r["sample_id"]: r for r in latest_rows(run_dir / SAMPLES_FILE)}
     per_shard = []
     for i, meta in enumerate(metas):
         rows = {r["sample_id"]: r for r in latest_rows(run_dir / shard_samples_file(i, n))}
         missing = [s for s in meta["sample_ids"] if s not in rows and s not in serial]
         if missing:
-            raise DatasetError(f"{run_dir}: shard {i} of {n} lacks {len(missing)} of {len(meta['sample_ids'])} samples "
+            raise ShardsNotDone(f"{run_dir}: shard {i} of {n} lacks {len(missing)} of {len(meta['sample_ids'])} samples "
                                f"(e.g. {missing[0]!r}); finish it with the same command (shards={n} shard={i})")
         per_shard.append([rows.get(s) or serial[s] for s in meta["sample_ids"]])
     out = []
@@ -142,9 +154,12 @@ def merged_rows(run_dir: Path) -> list[dict]:
     return out
 
 
-def merge_run(run_dir: Path):
+def merge_run(run_dir: Path, force: bool = False):
     """Write ``samples.jsonl``, ``run.json`` and the summaries of a sharded run from its shard
-    files; returns the run's summary (:func:`~catpose.bench.run.evaluate.summarize_run`)."""
+    files; returns the run's summary (:func:`~catpose.bench.run.evaluate.summarize_run`).
+
+    A ``samples.jsonl`` with samples that no shard lists (a run the merge did not make) is
+    refused unless ``force`` (:mod:`catpose.bench.run.overwrite`)."""
     from catpose.bench.run.lock import RunLock
 
     run_dir = Path(run_dir)
@@ -153,21 +168,26 @@ def merge_run(run_dir: Path):
     lock = RunLock(run_dir)
     lock.acquire()
     try:
-        return _merge_locked(run_dir)
+        return _merge_locked(run_dir, force)
     finally:
         lock.release()
 
 
-def _merge_locked(run_dir: Path):
+def _merge_locked(run_dir: Path, force: bool = False):
+    from catpose import atomic
     from catpose.bench.run.evaluate import summarize_run
-    from catpose.bench.run.rundir import jsonable, write_run_json
+    from catpose.bench.run.rundir import jsonable, read_rows, write_run_json
 
     rows = merged_rows(run_dir)
-    tmp = run_dir / f".{SAMPLES_FILE}.{os.getpid()}.tmp"
-    with open(tmp, "w", encoding="utf-8") as f:
+    kept = {r["sample_id"] for r in rows}
+    lost = [s for s in dict.fromkeys(r["sample_id"] for r in read_rows(run_dir / SAMPLES_FILE)) if s not in kept]
+    if lost and not force:
+        raise DatasetError(f"{run_dir / SAMPLES_FILE} holds {len(lost)} sample(s) that no shard lists (e.g. {lost[0]!r}): "
+                           f"a run this merge did not make; move it away, or `bench merge --force {run_dir}` to replace "
+                           "it with the shards' rows (those samples are dropped)")
+    with atomic.atomic_write(run_dir / SAMPLES_FILE) as f:
         for r in rows:
             f.write(json.dumps(jsonable(r)) + "\n")
-    tmp.replace(run_dir / SAMPLES_FILE)
     (n, _), = shard_files(run_dir).items()
     first = rows[0] if rows else {}
     meta = {k: first.get(k) for k in ("method", "dataset", "protocol", "seed")}
@@ -188,6 +208,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="bench merge", description=main.__doc__)
     ap.add_argument("run_dirs", nargs="+", type=Path,
                     help="run directories with samples.shard-I-of-N.jsonl files, or folders searched for them")
+    ap.add_argument("--force", action="store_true",
+                    help="replace a samples.jsonl that holds samples no shard lists (they are dropped)")
     args = ap.parse_args(argv)
     from catpose.bench.run.evaluate import format_summary
 
@@ -200,7 +222,7 @@ def main(argv: list[str] | None = None) -> int:
             raise DatasetError(f"no samples.shard-I-of-N.jsonl in or below {d}; nothing to merge")
         dirs += found
     for d in dirs:
-        summary = merge_run(d)
+        summary = merge_run(d, force=args.force)
         print(f"{d}: merged {', '.join(sorted(p.name for p in d.glob('samples.shard-*-of-*.jsonl')))}")
         print(format_summary(summary) + "\n")
     return 0

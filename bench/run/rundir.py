@@ -104,20 +104,12 @@ def jsonable(x: Any) -> Any:
 
 def read_rows(path: Path) -> list[dict]:
     """Every row of a ``samples.jsonl`` in file order (a retried sample: each of its rows; one per
-    sample: :func:`latest_rows`); a truncated last line (a killed run) is skipped."""
-    rows = []
-    if not path.exists():
-        return rows
-    with open(path, encoding="utf-8") as f:
-        for line in f:
-            line = line.strip()
-            if not line:
-                continue
-            try:
-                rows.append(json.loads(line))
-            except json.JSONDecodeError:
-                continue
-    return rows
+    sample: :func:`latest_rows`). Nothing is skipped in silence (:mod:`catpose.bench.run.rows_file`):
+    a damaged line is a :class:`~catpose.errors.DatasetError` naming the file and the line; a cut-off
+    last line (what a kill leaves) is skipped with a warning, and its sample is re-run on resume."""
+    from catpose.bench.run.rows_file import parse_rows
+
+    return parse_rows(path)
 
 
 class SampleWriter:
@@ -126,9 +118,9 @@ class SampleWriter:
     def __init__(self, path: Path) -> None:
         self.path = path
         if path.exists():  # drop a partial last line left by a kill, keep every complete one
-            data = path.read_bytes()
-            if data and not data.endswith(b"\n"):
-                path.write_bytes(data[: data.rfind(b"\n") + 1])
+            from catpose.bench.run.rows_file import repair_last_line
+
+            repair_last_line(path)
         self._f = open(path, "a", encoding="utf-8")
 
     def write(self, row: dict) -> None:
@@ -175,52 +167,66 @@ def latest_rows(path: Path) -> list[dict]:
 
 
 def write_run_files(out: Path, cfg: Any, overrides: Iterable[str]) -> None:
-    """``config.yaml`` (resolved), ``git_rev.txt`` and ``overrides.txt`` of a run."""
+    """``config.yaml`` (resolved), ``git_rev.txt`` and ``overrides.txt`` of a run (each atomically,
+    :mod:`catpose.atomic`)."""
     from omegaconf import OmegaConf
 
+    from catpose import atomic
+
     with writing(out):
-        OmegaConf.save(cfg, out / "config.yaml", resolve=True)
-        (out / "git_rev.txt").write_text(git_revision() + "\n")
-        (out / "overrides.txt").write_text("\n".join(overrides) + "\n")
+        atomic.write_text(out / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
+        atomic.write_text(out / "git_rev.txt", git_revision() + "\n")
+        atomic.write_text(out / "overrides.txt", "\n".join(overrides) + "\n")
 
 
 def write_run_json(out: Path, meta: dict) -> None:
     """``run.json``: ``meta`` (counts) and the environment the numbers came from (library
     versions, CPU, BLAS kernels; :func:`catpose.bench.run.environment.environment`)."""
+    from catpose import atomic
     from catpose.bench.run.environment import environment
 
     with writing(out):
-        (out / "run.json").write_text(json.dumps(dict(meta, environment=environment()), indent=2) + "\n")
+        atomic.write_text(out / "run.json", json.dumps(dict(meta, environment=environment()), indent=2) + "\n")
 
 
-def write_run(out_dir: str | Path, rows: Sequence[dict], config: dict, info: dict | None = None) -> Path:
+def write_run(out_dir: str | Path, rows: Sequence[dict], config: dict, info: dict | None = None,
+              force: bool = False) -> Path:
     """Write a run directory (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries).
 
     ``rows`` follow the ``samples.jsonl`` schema; ``config`` is a plain dict with at least
     ``method``, ``dataset``, ``protocol`` (config-group dicts with ``name`` and ``_target_``)
-    and ``seed``. Returns ``out_dir``.
+    and ``seed``. The folder is built beside ``out_dir`` and moved into place when complete
+    (:func:`catpose.atomic.building_dir`); an existing run or other non-empty folder at ``out_dir``
+    is refused unless ``force`` (:func:`catpose.bench.run.overwrite.check_new_output`). Returns
+    ``out_dir``.
     """
-    from omegaconf import OmegaConf
-
-    from catpose.bench.run.evaluate import summarize_run
+    from catpose import atomic
+    from catpose.bench.run.overwrite import check_new_output
 
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / SAMPLES_FILE).unlink(missing_ok=True)
-    writer = SampleWriter(out / SAMPLES_FILE)
-    try:
+    check_new_output(out, force)
+    with atomic.building_dir(out) as tmp:
+        write_run_into(tmp, rows, config, info)
+    return out
+
+
+def write_run_into(out: Path, rows: Sequence[dict], config: dict, info: dict | None = None) -> None:
+    """The files of :func:`write_run` into the existing, empty folder ``out``."""
+    from omegaconf import OmegaConf
+
+    from catpose import atomic
+    from catpose.bench.run.evaluate import summarize_run
+
+    with atomic.atomic_write(out / SAMPLES_FILE) as f:
         for r in rows:
-            writer.write(r)
-    finally:
-        writer.close()
-    OmegaConf.save(OmegaConf.create(config), out / "config.yaml")
+            f.write(json.dumps(jsonable(r), sort_keys=False) + "\n")
+    atomic.write_text(out / "config.yaml", OmegaConf.to_yaml(OmegaConf.create(config)))
     meta = {"method": _name(config.get("method")), "dataset": _name(config.get("dataset")),
             "protocol": _name(config.get("protocol")), "seed": config.get("seed"), "n_samples": len(rows)}
-    (out / "run.json").write_text(json.dumps(dict(meta, **(info or {})), indent=2) + "\n")
-    (out / "git_rev.txt").write_text("external predictions\n")
+    atomic.write_text(out / "run.json", json.dumps(dict(meta, **(info or {})), indent=2) + "\n")
+    atomic.write_text(out / "git_rev.txt", "external predictions\n")
     if rows:
         summarize_run(out)
-    return out
 
 
 def _name(node: Any) -> str:

@@ -191,6 +191,10 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
         ids = shard_ids(ids, *sharding)
 
     out = run_dir_for(cfg, overrides)
+    if sharding:  # every shard of a run has one config and one shard count (bench/run/shard_check.py)
+        from catpose.bench.run.shard_check import check_shard_start, comparable_config
+
+        check_shard_start(out, *sharding, comparable_config(cfg))
     with writing(out):
         out.mkdir(parents=True, exist_ok=True)
     # a shard locks its own files only, so the shards of one run go on side by side
@@ -210,6 +214,11 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
     """The part of a run that writes ``out``, under its lock (samples read after locking, so a
     run that waited for another skips what that one finished)."""
 
+    shard_config = None
+    if sharding:  # checked by _run before the lock; recorded in the shard's meta file
+        from catpose.bench.run.shard_check import comparable_config
+
+        shard_config = comparable_config(cfg)
     write_run_files(out, cfg, overrides)
 
     samples_path = out / (shard_samples_file(*sharding) if sharding else SAMPLES_FILE)
@@ -217,7 +226,7 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
     existing = read_rows(samples_path)
     if sharding:  # samples already in the run's merged (or serial) file are done too
         existing = read_rows(out / SAMPLES_FILE) + existing
-        write_shard_meta(out, *sharding, ids, finished=False)
+        write_shard_meta(out, *sharding, ids, finished=False, config=shard_config)
     done = {r["sample_id"] for r in existing if r.get("status") == "ok" or not retry}
     todo = [s for s in ids if s not in done]
     base = {"method": method_name, "dataset": dataset_name, "protocol": str(cfg.protocol.name),
@@ -258,7 +267,7 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
             writer.close()
 
     if sharding:
-        write_shard_meta(out, *sharding, ids, finished=True)
+        write_shard_meta(out, *sharding, ids, finished=True, config=shard_config)
         return _finish_shard(out, sharding, cfg, base, len(ids), len(todo))
     write_run_json(out, dict(base, n_samples=len(ids), n_run_now=len(todo), output_dir=str(out)))
     with writing(out):
@@ -271,15 +280,17 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
 
 def _finish_shard(out: Path, sharding: tuple[int, int], cfg: Any, base: dict, n_ids: int, n_run_now: int) -> Path:
     """After a shard: merge the run when every shard is done (the last shard to finish does it)."""
-    from catpose.bench.run.merge import merge_run
+    from catpose.bench.run.merge import ShardsNotDone, merge_run
 
     i, n = sharding
     head = f"\n{base['method']} on {base['dataset']} ({base['protocol']}), seed {base['seed']}, shard {i} of {n}"
     try:
         summary = merge_run(out)
-    except CatposeError:  # other shards still running: the last one (or bench merge) merges
+    except CatposeError as e:  # other shards still running: the last one (or bench merge) merges
         if cfg.get("print_summary", True):
             print(f"{head}: {n_ids} samples ({n_run_now} run now) in {out}; the last shard to finish merges (or: bench merge {out})")
+        if not isinstance(e, ShardsNotDone):  # a merge refused (bench/run/shard_check.py, overwrite.py): say why
+            log.error("shard %d of %d is done but the run was not merged: %s", i, n, e)
         return out
     if cfg.get("print_summary", True):
         print(f"{head}: all {n} shards done, merged into {out}")

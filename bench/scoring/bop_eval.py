@@ -10,11 +10,14 @@
    metrics and thresholds, without recomputing errors.
 
 Matching (several instances of one object in an image): the estimates of an (image, object) are
-sorted by score, the top ``n`` are kept (``n`` = instances to find), and each, in that order,
+sorted by score (ties: file order), the top ``n`` are kept (``n`` = instances to find; the others
+are counted as extra estimates and ignored), and each, in that order,
 takes the still unmatched gt instance with the smallest error, separately for every error type
 (bop_toolkit's greedy ``match_poses``; it also requires the error to be below the threshold,
 which only changes the outcome when an estimate's best instance is beyond every threshold).
-A target without an estimate has infinite errors.
+A target without an estimate has infinite errors: a miss at every threshold, as in bop_toolkit.
+Estimates of an (image, object) that is not a target are counted (``unknown_estimates`` in the
+header of ``bop_errors.jsonl``) and ignored.
 """
 
 from __future__ import annotations
@@ -149,8 +152,8 @@ ERROR_KEYS = ("mssd", "mspd", "add", "adds", "re_deg", "te_mm", "5deg5cm", "10de
 
 def _match(errors: list[list[dict]], key: str, n_gt: int) -> list[Any]:
     """Greedy matching for one error type: ``errors[e][g]`` of estimate ``e`` (score order)
-    against the ``n_gt`` gt instances ``g``; returns each gt's matched error (None when
-    unmatched, e.g. an image and object without an estimate)."""
+    against each of the ``n_gt`` gt instances ``g``; returns each gt's matched error (None when
+    unmatched: no estimate left for it, which scores as a miss, as in bop_toolkit)."""
     taken: list[Any] = [None] * n_gt
 
     def scalar(v: Any) -> float:
@@ -232,9 +235,12 @@ def compute_errors(preds, dataset, vsd: bool = True, max_points: int = 0, seed: 
 
 
 def write_errors(rows: Sequence[dict], path: str | Path, header: dict | None = None) -> Path:
-    """``bop_errors.jsonl``: a first line ``{"filters": [...], ...}`` then one row per target."""
+    """``bop_errors.jsonl``: a first line ``{"filters": [...], ...}`` then one row per target
+    (written atomically, :mod:`catpose.atomic`)."""
+    from catpose import atomic
+
     path = Path(path)
-    with open(path, "w", encoding="utf-8") as f:
+    with atomic.atomic_write(path) as f:
         f.write(json.dumps({"header": header or {}}) + "\n")
         for r in rows:
             f.write(json.dumps(r) + "\n")
@@ -333,7 +339,13 @@ def format_scores(table, header: dict | None = None) -> str:
     for note in (header or {}).get("filters", []):
         lines.append(f"- {note}")
     if header and header.get("targets") is not None:
-        lines.append(f"- {header['targets']} targets, {header.get('matched', 0)} with an estimate")
+        lines.append(f"- {header['targets']} targets, {header.get('matched', 0)} with an estimate (the others count "
+                     "as misses)")
+    if header and header.get("extra_estimates"):
+        lines.append(f"- {header['extra_estimates']} estimates beyond an (image, object)'s instances ignored (the "
+                     "highest-scored are kept)")
+    if header and header.get("unknown_estimates"):
+        lines.append(f"- {header['unknown_estimates']} estimates of an (image, object) that is no target ignored")
     body = table.to_markdown(index=False, floatfmt=".3f")
     return ("\n".join(lines) + "\n\n" if lines else "") + body
 

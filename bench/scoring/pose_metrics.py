@@ -106,12 +106,15 @@ def add(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarray
 
 
 def adi(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarray, points: np.ndarray) -> float:
-    """ADD-S (ADI): mean distance from each estimated model point to the nearest gt model point,
-    ``mean_i min_j ||T_est p_i - T_gt p_j||`` (model units). Nearest neighbours by a k-d tree
-    (scipy), exact."""
+    """ADD-S (ADI): mean distance from each ground-truth model point to the nearest estimated model
+    point, ``mean_i min_j ||T_gt p_i - T_est p_j||`` (model units), as Hinterstoisser et al. (ACCV
+    2012) define it and bop_toolkit's ``pose_error.adi`` computes it (a k-d tree over the
+    estimated points, queried with the ground-truth points). The direction matters when the
+    model points are not spread evenly: the mean runs over the ground-truth points. Nearest
+    neighbours by a k-d tree (scipy), exact."""
     from scipy.spatial import cKDTree
 
-    d, _ = cKDTree(_transform(R_gt, t_gt, points)).query(_transform(R_est, t_est, points), k=1)
+    d, _ = cKDTree(_transform(R_est, t_est, points)).query(_transform(R_gt, t_gt, points), k=1)
     return float(np.mean(d))
 
 

@@ -30,7 +30,7 @@ items=()
 for flip in "" --flip; do
   sfx=${flip:+_flip}
   "$B" align dataset=modelnet40_resampled dataset.root="$ROOT" "dataset.categories=[airplane]" --category airplane \
-    --points 512 --no-refine $flip --out "$O/estimated$sfx.csv" --sheet "$ROOT/sheet$sfx.png" \
+    --points 512 --no-refine $flip --force --out "$O/estimated$sfx.csv" --sheet "$ROOT/sheet$sfx.png" \
     --compare "$D/modelnet40_resampled_airplane.csv"
   items+=("development airplanes${flip:+ (8 hypotheses)}=$O/estimated${sfx}_vs_verified.csv")
 done

@@ -17,10 +17,10 @@ for flip in "" --flip; do
   sfx=${flip:+_flip}
   for cat in airplane chair; do
     "$B" align dataset=modelnet40 dataset.root="$D/ModelNet40" "dataset.categories=[$cat]" --category $cat \
-      --reference ${cat}_0001 $flip --out "$E/modelnet40_$cat$sfx.csv" --compare results/alignment/modelnet40_$cat.csv
+      --reference ${cat}_0001 $flip --force --out "$E/modelnet40_$cat$sfx.csv" --compare results/alignment/modelnet40_$cat.csv
     ref=$([ $cat = airplane ] && echo airplane_0001 || echo chair_0391)
     "$B" align dataset=modelnet40_resampled dataset.root="$D/modelnet40_normal_resampled" "dataset.categories=[$cat]" \
-      --category $cat --reference $ref $flip --out "$E/modelnet40_resampled_$cat$sfx.csv" \
+      --category $cat --reference $ref $flip --force --out "$E/modelnet40_resampled_$cat$sfx.csv" \
       --compare results/alignment/modelnet40_resampled_$cat.csv
     items+=("OFF $cat${flip:+ (8 hypotheses)}=$E/modelnet40_${cat}${sfx}_vs_verified.csv"
             "resampled $cat${flip:+ (8 hypotheses)}=$E/modelnet40_resampled_${cat}${sfx}_vs_verified.csv")

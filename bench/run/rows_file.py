@@ -1,0 +1,103 @@
+"""Reading a ``samples.jsonl`` without skipping anything in silence.
+
+A ``samples.jsonl`` is appended one line per finished sample, each line flushed and fsynced
+before the next sample starts (:class:`~catpose.bench.run.rundir.SampleWriter`). The only damage
+a kill can do is therefore a cut-off LAST line: the file's last line does not parse (a kill
+leaves it without its newline). That line is skipped with a warning that gives the count, and the
+runner re-runs its sample on resume (:func:`repair_last_line` drops it before appending).
+
+Anything else is damage no run makes (a line edited by hand, a disk error, two files joined): it
+is a :class:`~catpose.errors.DatasetError` naming the file and the line, so a table is never made
+from a run with rows silently missing.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+from catpose.errors import DatasetError
+
+
+class CutOffLineWarning(UserWarning):
+    """A ``samples.jsonl`` whose last line was cut off (a killed run); its sample is re-run on resume."""
+
+
+def _damaged(path: Path, line: int, why: str) -> DatasetError:
+    return DatasetError(f"{path}:{line}: {why}; the file is damaged: restore it from a copy, or delete that line "
+                        "and re-run the same command (the sample is run again)")
+
+
+def _row(text: str, path: Path, line: int) -> dict:
+    """One line as a row, or the one-line error naming it."""
+    try:
+        row = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise _damaged(path, line, f"not a JSON row ({e.msg} at column {e.colno})") from None
+    if not isinstance(row, dict) or not isinstance(row.get("sample_id"), str):
+        raise _damaged(path, line, "not a sample row (a JSON object with a 'sample_id')")
+    return row
+
+
+def _complete(text: str) -> bool:
+    """Whether a last line is a whole row (a row is a JSON object: cut anywhere, it does not parse)."""
+    try:
+        row = json.loads(text)
+    except json.JSONDecodeError:
+        return False
+    return isinstance(row, dict) and isinstance(row.get("sample_id"), str)
+
+
+def _last_line_start(data: bytes) -> int:
+    """Offset of the last non-empty line of ``data`` (0 when it is the first)."""
+    end = len(data.rstrip(b"\r\n\t "))
+    return data.rfind(b"\n", 0, end) + 1
+
+
+def parse_rows(path: Path) -> list[dict]:
+    """Every row of ``path`` in file order (see the module docstring); [] when it does not exist.
+
+    Raises :class:`DatasetError` naming the file and line of a damaged line; warns
+    (:class:`CutOffLineWarning`) about a cut-off last line, which is skipped.
+    """
+    path = Path(path)
+    if not path.is_file():
+        return []
+    data = path.read_bytes()
+    cut = _last_line_start(data)
+    head, tail = data[:cut], data[cut:].strip()
+    rows = []
+    lines = head.split(b"\n")[:-1] if head else []
+    for k, raw in enumerate(lines, 1):
+        try:
+            text = raw.decode("utf-8").strip()
+        except UnicodeDecodeError:
+            raise _damaged(path, k, "not UTF-8 text") from None
+        if text:
+            rows.append(_row(text, path, k))
+    if tail:
+        text = tail.decode("utf-8", errors="replace")
+        if _complete(text):
+            rows.append(json.loads(text))
+        else:
+            warnings.warn(f"{path}: its last line ({len(lines) + 1}) is cut off, as a killed run leaves it; skipped 1 "
+                          "sample row (a resumed run does that sample again)", CutOffLineWarning, stacklevel=2)
+    return rows
+
+
+def repair_last_line(path: Path) -> None:
+    """Before appending to ``path``: drop a cut-off last line (its sample is re-run), or end a whole
+    last row that lacks its newline, so that the next row starts on a line of its own."""
+    data = path.read_bytes()
+    cut = _last_line_start(data)
+    tail = data[cut:].strip()
+    if not tail:
+        return
+    if _complete(tail.decode("utf-8", errors="replace")):
+        if not data.endswith(b"\n"):
+            with open(path, "ab") as f:
+                f.write(b"\n")
+        return
+    with open(path, "r+b") as f:
+        f.truncate(cut)

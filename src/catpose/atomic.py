@@ -1,0 +1,123 @@
+"""Files written whole or not at all.
+
+Every file catpose writes (a run's ``config.yaml`` and ``run.json``, its summaries, tables,
+exports, regression references, alignment tables, a score's outputs) goes through this module:
+the bytes are written to a temporary file in the destination's own folder, flushed to disk, and
+moved over the destination with ``os.replace``, which is atomic on one file system. A full disk,
+a kill or an exception while writing leaves the old file as it was (or no file), never a
+truncated one; the temporary file is removed on an exception. Readers therefore see either the
+previous version or the new one.
+
+``samples.jsonl`` is the one exception: it is appended a line at a time, flushed and fsynced
+per line (:class:`catpose.bench.run.rundir.SampleWriter`), and its readers know that a kill
+can cut its last line.
+
+A whole folder (a run made from external predictions) is built beside its destination and
+moved into place when complete (:func:`building_dir`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import uuid
+from pathlib import Path
+from typing import IO, Iterator
+
+
+def _temp_name(path: Path) -> Path:
+    """A hidden temporary name beside ``path`` that keeps its suffix (libraries that pick a format
+    from the suffix, such as matplotlib and ``numpy.savez``, write the right one)."""
+    return path.with_name(f".{path.stem}.{os.getpid()}-{uuid.uuid4().hex[:8]}.tmp{path.suffix}")
+
+
+def fsync_dir(folder: Path) -> None:
+    """Make a rename in ``folder`` durable (best effort: some file systems refuse it)."""
+    with contextlib.suppress(OSError):
+        fd = os.open(folder, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path, mkdir: bool = True) -> Iterator[Path]:
+    """A temporary path beside ``path`` for a library that writes to a path itself
+    (``fig.savefig(tmp)``, ``np.savez_compressed(tmp, ...)``, ``OmegaConf.save(cfg, tmp)``); on a
+    clean exit it replaces ``path``, on an exception it is removed and ``path`` is untouched."""
+    path = Path(path)
+    if mkdir:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    if path.is_dir():
+        raise IsADirectoryError(21, "Is a directory", str(path))
+    tmp = _temp_name(path)
+    try:
+        yield tmp
+        with contextlib.suppress(OSError):  # durable before it takes the name
+            with open(tmp, "rb+") as f:
+                os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    fsync_dir(path.parent)
+
+
+@contextlib.contextmanager
+def atomic_write(path: str | Path, mode: str = "w", encoding: str | None = "utf-8",
+                 newline: str | None = None) -> Iterator[IO]:
+    """``open(path, mode)`` whose content replaces ``path`` only when the block ends without an
+    exception (see the module docstring). ``mode`` is ``"w"`` or ``"wb"``."""
+    if mode not in ("w", "wb"):
+        raise ValueError(f"atomic_write writes whole files: mode 'w' or 'wb', not {mode!r}")
+    with atomic_path(path) as tmp:
+        binary = mode == "wb"
+        with open(tmp, mode, encoding=None if binary else encoding, newline=None if binary else newline) as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+
+
+def write_text(path: str | Path, text: str, encoding: str = "utf-8") -> Path:
+    """Write ``text`` to ``path`` atomically; returns ``path``."""
+    with atomic_write(path, "w", encoding=encoding) as f:
+        f.write(text)
+    return Path(path)
+
+
+def write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically; returns ``path``."""
+    with atomic_write(path, "wb") as f:
+        f.write(data)
+    return Path(path)
+
+
+@contextlib.contextmanager
+def building_dir(final: str | Path) -> Iterator[Path]:
+    """A fresh hidden folder beside ``final`` to build a whole folder in; on a clean exit it takes
+    ``final``'s place (an existing ``final`` is moved aside first and deleted after the swap), on
+    an exception it is deleted and ``final`` is untouched. Whether ``final`` may be replaced at
+    all is the caller's decision (:mod:`catpose.bench.run.overwrite`)."""
+    final = Path(final)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    tmp = final.with_name(f".{final.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.tmp")
+    tmp.mkdir()
+    try:
+        yield tmp
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    old = None
+    if final.exists() and not (final.is_dir() and not any(final.iterdir())):
+        old = final.with_name(f".{final.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.old")
+        os.replace(final, old)
+    os.replace(tmp, final)  # onto a missing or empty folder
+    fsync_dir(final.parent)
+    if old is not None:
+        if old.is_dir():
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            old.unlink(missing_ok=True)
