@@ -21,6 +21,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "perf": ("catpose.bench.perf.registration", "main", "seconds per registration and per stage for ours and ICP"),
     "templates": ("catpose.bench.category.templates_select", "main", "choose K category templates by K-medoids over F-score"),
     "align": ("catpose.bench.category.align", "main", "estimate a canonical-alignment table for a ModelNet40 category"),
+    "category": ("catpose.bench.report.category_table", "main", "templates tables: chosen, oracle and random-template errors per method and K"),
     "export": ("catpose.bench.interop.bop_export", "main", "export a run's estimates as a BOP results CSV"),
     "score": ("catpose.bench.interop.score", "main", "score an external predictions file (BOP CSV or per-sample CSV)"),
     "suite": ("catpose.bench.real.suite", "main", "every method on the shared real data, one table: bench suite real"),

@@ -3,18 +3,19 @@
 Raw ModelNet40 instances are not consistently oriented (airplanes differ by multiples of 90
 degrees of yaw), so category-level ground truth needs a per-instance rotation
 ``R_canonical_raw`` that takes each instance's (normalised) raw frame into the category's
-canonical frame. This module reads and writes that table and estimates it by Chamfer distance
-against a reference instance.
+canonical frame. This module reads and writes that table
+and estimates it.
 
-The estimate is a proposal for a person to confirm: :func:`estimate_table` searches the
-multiples of 90 degrees of yaw (optionally with an up-axis flip), refines every hypothesis by ICP,
-scores it by symmetric Chamfer against every other instance (a consensus: instances that look
-alike stay consistent with each other) and reports a confidence margin; ``bench align`` draws a
-contact sheet to check the rows by eye. Chamfer cannot tell nose from tail between unlike
-shapes: on the shared airplanes it found every fuselage axis (24/24) but turned the jets
-180 degrees against the propeller planes (with the biplane airplane_0001 as reference, 4 of 6 OFF
-and 11 of 18 resampled rows wrong, all corrected by eye in ``results/alignment/``); the chairs
-were all right (8/8).
+:func:`estimate_table` searches the multiples of 90 degrees of yaw (optionally with an up-axis
+flip), refines every hypothesis by ICP, scores it by symmetric Chamfer against every other
+instance and picks a consensus over all pairs (:func:`synchronize`), with a confidence margin per
+instance; ``bench align`` draws a contact sheet to check the rows by eye. Chamfer alone cannot tell
+nose from tail between unlike shapes (with the biplane airplane_0001 as reference it turned 4 of 6
+OFF and 11 of 18 resampled airplanes round; the chairs were all right, 8/8), so for airplanes
+(``cues="ends"``, what :func:`resolve_cues` gives airplanes) the Chamfer costs only decide the main
+axis and the shape cues of :mod:`catpose.datasets.alignment_cues` (heights and spans at the ends)
+decide which end is the front; chairs keep Chamfer alone (``"none"``). Measured against the
+verified tables in ``results/alignment/estimated/``.
 
 Table format (CSV with a header): ``category,instance_id`` and either the nine entries
 ``r00,r01,r02,r10,r11,r12,r20,r21,r22`` of ``R_canonical_raw`` (row-major) or ``yaw_deg``
@@ -39,13 +40,24 @@ from catpose.geometry import apply_R, axis_angle_to_R, dot3, matmul3
 R_COLUMNS = [f"r{i}{j}" for i in range(3) for j in range(3)]
 
 
-def read_alignment_table(path: str | Path) -> dict[tuple[str, str], np.ndarray]:
+def read_alignment_table(path: str | Path | list) -> dict[tuple[str, str], np.ndarray]:
     """Read an alignment CSV into ``{(category, instance_id): R_canonical_raw (3, 3)}``.
 
+    ``path`` may also be a list of CSVs, or their paths joined by commas (e.g. one verified table
+    per category: ``dataset.alignment_table=a.csv,b.csv``), read in order; a later file's row
+    replaces an earlier one's for the same instance.
+
     Every row is checked: finite numbers (a ``yaw_deg`` of ``nan`` or ``inf`` is refused here,
-    naming the line, not later as a degenerate shape), a rotation, and one row per instance (a
-    second row of an instance is refused with both lines). Whether the table covers the
+    naming the line, not later as a degenerate shape), a rotation, and one row per instance within
+    a file (a second row of an instance is refused with both lines). Whether the table covers the
     instances a dataset uses is :func:`check_alignment_coverage`'s."""
+    if isinstance(path, str) and "," in path and not Path(path).is_file():
+        path = [p.strip() for p in path.split(",") if p.strip()]
+    if not isinstance(path, (str, Path)):
+        merged: dict[tuple[str, str], np.ndarray] = {}
+        for p in path:
+            merged.update(read_alignment_table(p))
+        return merged
     path = Path(path)
     if not path.is_file():
         raise DatasetError(f"alignment table {path} does not exist; write one with `bench align` or unset it")
@@ -254,8 +266,22 @@ def pairwise_costs(clouds: list[np.ndarray], hypotheses: np.ndarray, refine: boo
     return C
 
 
+CUES = ("auto", "ends", "none")
+#: ``cues="auto"``: the cues of each category, chosen on its development shapes (docs/category-level.md):
+#: the end cues for airplanes (161 train airplanes); Chamfer alone elsewhere (chairs: right on the
+#: development chairs at every point count, where the end cues depended on the sampling)
+CATEGORY_CUES = {"airplane": "ends"}
+
+
+def resolve_cues(cues: str, category: str | None) -> str:
+    """``"ends"`` or ``"none"``: ``cues`` itself, or for ``"auto"`` the category's (:data:`CATEGORY_CUES`)."""
+    if cues not in CUES:
+        raise DatasetError(f"alignment cues {cues!r} are not one of {CUES}")
+    return CATEGORY_CUES.get(str(category), "none") if cues == "auto" else cues
+
+
 def estimate_table(clouds: list[np.ndarray], hypotheses: np.ndarray, reference: int = 0,
-                   refine: bool = True, max_distance: float = 0.05) -> dict:
+                   refine: bool = True, max_distance: float = 0.05, cues: str = "ends") -> dict:
     """Per-instance hypothesis that puts every cloud in the reference's frame.
 
     Args:
@@ -263,10 +289,26 @@ def estimate_table(clouds: list[np.ndarray], hypotheses: np.ndarray, reference: 
         hypotheses: (H, 3, 3) rotation group (:func:`yaw_flip_hypotheses`).
         reference: index of the instance that defines the frame.
         refine, max_distance: ICP refinement of each hypothesis (:func:`pair_costs`).
+        cues: ``"ends"`` (default): the Chamfer costs decide the main axis and the shape cues
+            of :mod:`catpose.datasets.alignment_cues` (heights and spans at the ends) decide which
+            end is the front
+            (:func:`~catpose.datasets.alignment_cues.combined_costs`); ``"none"``: Chamfer alone
+            (before issue 25; it turns nose against tail between unlike airplanes).
 
     Returns :func:`synchronize` of the pairwise costs.
     """
-    return synchronize(pairwise_costs(clouds, hypotheses, refine, max_distance), hypotheses, reference)
+    if cues not in CUES[1:]:
+        raise DatasetError(f"alignment cues {cues!r} are not one of {CUES[1:]} (resolve 'auto' with resolve_cues)")
+    C_chamfer = pairwise_costs(clouds, hypotheses, refine, max_distance)
+    if cues == "none":
+        return synchronize(C_chamfer, hypotheses, reference)
+    from catpose.datasets.alignment_cues import combined_costs, cue_costs
+
+    out = synchronize(combined_costs(C_chamfer, cue_costs(clouds, hypotheses), hypotheses), hypotheses, reference)
+    # ``chamfer`` stays the Chamfer distance to the reference (``cost`` and ``confidence`` are the combined ones)
+    out["chamfer"] = np.array([0.0 if i == reference else C_chamfer[i, reference, out["labels"][i]]
+                               for i in range(len(clouds))])
+    return out
 
 
 def synchronize(C: np.ndarray, hypotheses: np.ndarray, reference: int = 0, max_rounds: int = 50) -> dict:
@@ -287,13 +329,15 @@ def synchronize(C: np.ndarray, hypotheses: np.ndarray, reference: int = 0, max_r
     N, H = C.shape[0], len(hypotheses)
     # rel[a, b]: the g turning instance i (label a) onto instance j (label b): G[b]^T G[a]
     rel = np.array([[_index_of(matmul3(hypotheses[b].T, hypotheses[a]), hypotheses) for b in range(H)] for a in range(H)])
-    others = [[j for j in range(N) if j != i] for i in range(N)]
+    others = [np.array([j for j in range(N) if j != i], dtype=int) for i in range(N)]
+    off_i, off_j = np.nonzero(~np.eye(N, dtype=bool))
 
     def row_cost(labels: np.ndarray, i: int) -> np.ndarray:
-        return np.array([np.mean([C[i, j, rel[a, labels[j]]] for j in others[i]]) for a in range(H)])
+        j = others[i]  # (N-1,); C[i, j, rel[a, labels[j]]] for every a: (H, N-1)
+        return C[i][j[None, :], rel[:, labels[j]]].mean(axis=1)
 
     def total(labels: np.ndarray) -> float:
-        return float(sum(C[i, j, rel[labels[i], labels[j]]] for i in range(N) for j in others[i]))
+        return float(C[off_i, off_j, rel[labels[off_i], labels[off_j]]].sum())
 
     best = None
     for anchor in range(N):

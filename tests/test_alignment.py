@@ -137,8 +137,14 @@ def test_bench_align_writes_a_table_the_loader_applies(tmp_path, capsys):
     yaw90 = axis_angle_to_R(np.array([0, 0, 1.0]), np.pi / 2)
     write_off(root / "thing/train/thing_0002.off", v @ yaw90.T * 7.0 + 3.0, f)  # rotated, scaled, moved
     out = tmp_path / "align.csv"
+    verified = tmp_path / "verified.csv"  # in another frame (turned by 180 deg): agreement is up to one rotation
+    write_alignment_table(verified, [{"category": "thing", "instance_id": "thing_0001", "R": yaw_rotations(2)[1]},
+                                     {"category": "thing", "instance_id": "thing_0002", "R": yaw_rotations(2)[1] @ yaw90.T}])
     assert align_cmd.main(["dataset=modelnet40", f"dataset.root={root}", "dataset.categories=[thing]",
-                           "dataset.split=train", "--category", "thing", "--out", str(out), "--points", "600"]) == 0
+                           "dataset.split=train", "--category", "thing", "--out", str(out), "--points", "600",
+                           "--compare", str(verified)]) == 0
+    assert "agree 2/2" in capsys.readouterr().out
+    assert (tmp_path / "align_vs_verified.csv").read_text().count(",true,") == 2
     table = read_alignment_table(out)
     np.testing.assert_allclose(table[("thing", "thing_0001")], np.eye(3), atol=1e-12)
     np.testing.assert_allclose(table[("thing", "thing_0002")], yaw90.T, atol=1e-12)
@@ -201,38 +207,45 @@ def test_shared_airplanes_fuselage_axis_matches_the_verified_table(shared_data, 
         assert np.allclose(R, verified[key], atol=1e-9) or np.allclose(R, yaw_rotations(2)[1] @ verified[key], atol=1e-9)
 
 
-@pytest.mark.parametrize("name", ["mn40r_airplane_1template", "mn40r_chair_ktemplates", "mn40r_chair_1template"])
-def test_experiment_configs_compose_and_leave_the_templates_views_out(name):
+EXPERIMENTS = ["mn40r_airplane_1template", "mn40r_chair_ktemplates", "mn40r_chair_1template", "mn40r_airplane_ktemplates",
+               "mn40r_relative"]
+
+
+@pytest.mark.parametrize("name", EXPERIMENTS)
+def test_experiment_configs_compose_for_any_root_and_leave_the_templates_views_out(name):
     from hydra import compose, initialize_config_module
 
+    from catpose.datasets.alignment import read_alignment_table
+
     with initialize_config_module("catpose.configs", version_base=None):
-        cfg = compose("run", overrides=[f"+experiment={name}", "method=fgr", "method.matching=dictionary"])
-    assert cfg.protocol.name == "templates" and cfg.dataset.name == "modelnet40_resampled"
-    (category,) = cfg.dataset.categories
-    templates = set(cfg.dataset.templates[category])
-    instances = {s.split("/")[1] for s in cfg.sample_ids}
-    assert instances and not instances & templates
-    assert (COMMITTED.parents[1] / cfg.dataset.alignment_table).is_file()
+        cfg = compose("run", overrides=[f"+experiment={name}", "+row=ours", "dataset.root=/any/root"])
+    assert cfg.dataset.name == "modelnet40_resampled" and cfg.dataset.root == "/any/root"
+    assert cfg.protocol.exclude_templates is True and not cfg.sample_ids  # no list of one root's views
+    tables = read_alignment_table([str(COMMITTED.parents[1] / p) for p in cfg.dataset.alignment_table.split(",")])
+    for category in cfg.dataset.categories:
+        assert {(category, t) for t in cfg.dataset.templates[category]} <= set(tables)
 
 
 @pytest.mark.data
-@pytest.mark.parametrize("name, every", [("mn40r_airplane_1template", True), ("mn40r_chair_ktemplates", True),
-                                         ("mn40r_chair_1template", False)])  # the K=3 run's test views
-def test_experiment_sample_ids_are_every_non_template_view(name, every, shared_data, monkeypatch):
+@pytest.mark.parametrize("name, instances", [
+    ("mn40r_airplane_1template", None),  # every airplane but the template
+    ("mn40r_chair_ktemplates", ["chair_0454", "chair_0858"]), ("mn40r_chair_1template", ["chair_0454", "chair_0858"])])
+def test_experiment_sample_ids_are_every_non_template_view(name, instances, shared_data, monkeypatch):
     from hydra import compose, initialize_config_module
 
     from catpose.bench.run.build import build_from_config
 
     monkeypatch.chdir(COMMITTED.parents[1])  # the configs' paths are relative to the repository root
     with initialize_config_module("catpose.configs", version_base=None):
-        cfg = compose("run", overrides=[f"+experiment={name}", f"dataset.root={shared_data / 'modelnet40_normal_resampled'}"])
+        cfg = compose("run", overrides=[f"+experiment={name}", "+row=ours",
+                                        f"dataset.root={shared_data / 'modelnet40_normal_resampled'}"])
     _, dataset = build_from_config(cfg.dataset, "dataset")
     dataset.name = "modelnet40_resampled"
     _, protocol = build_from_config(cfg.protocol, "protocol")
     (category,) = cfg.dataset.categories
-    templates = set(cfg.dataset.templates[category])
-    candidates = [s for s in protocol.sample_ids(dataset) if s.split("/")[1] not in templates]
-    if every:
-        assert list(cfg.sample_ids) == candidates
-    else:
-        assert set(cfg.sample_ids) < set(candidates)
+    K = len(cfg.dataset.templates[category])
+    ids = protocol.sample_ids(dataset)
+    shown = sorted({s.split("/")[1] for s in ids})
+    every = sorted({o.split("/")[1] for o in dataset.observation_ids()} - set(cfg.dataset.templates[category]))
+    assert shown == (instances or every)
+    assert len(ids) == len(shown) * cfg.dataset.views_per_instance * K

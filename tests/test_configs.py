@@ -150,6 +150,11 @@ def test_config_composes_and_builds(group: str, name: str, tmp_path: Path, monke
         cfg = _compose([f"+row={name}"])
         assert build_from_config(cfg.method, "method")[0] == cfg.method.name
         return
+    if top == "category_templates":  # templates and test-view exclusions of the mn40r experiments
+        cfg = _compose([f"+category_templates={name}", "dataset=modelnet40_resampled", "protocol=templates"])
+        (category,) = [c for c in ("airplane", "chair") if name.startswith(f"mn40r_{c}")]
+        assert set(cfg.dataset.templates[category]) <= set(cfg.protocol.exclude_instances)
+        return
     if top == "hydra":  # a launcher preset composes whether or not its plugin is installed
         _check_launcher_preset(group, name, monkeypatch)
         return

@@ -2,11 +2,14 @@
 
 Raw ModelNet40 instances differ by multiples of 90 degrees of yaw, so a category-level protocol
 needs a rotation ``R_canonical_raw`` per instance (or the aligned release,
-``dataset=modelnet40_aligned``). This command proposes one: every instance is compared with
-every other under each hypothesis (4 yaws, times an up-axis flip with ``--flip``), each hypothesis
-refined by ICP and scored by symmetric Chamfer distance; a consensus over all pairs picks each
-instance's hypothesis in the reference instance's frame
-(:func:`catpose.datasets.alignment.estimate_table`). It writes
+``dataset=modelnet40_aligned``). This command estimates one with no person in the loop: every instance is compared with every
+other under each hypothesis (4 yaws, times an up-axis flip with ``--flip``), each hypothesis
+refined by ICP and scored by symmetric Chamfer distance (which finds the main axis) plus shape cues
+at the ends (which find the front of airplanes: ``--cues ends``, what the default ``auto`` gives
+airplanes; :mod:`catpose.datasets.alignment_cues`);
+a consensus over all pairs picks each instance's hypothesis in the reference instance's frame
+(:func:`catpose.datasets.alignment.estimate_table`). ``--compare VERIFIED.csv`` then measures the
+written estimate against a verified table (:mod:`catpose.bench.category.align_check`). It writes
 
 - a CSV (``--out``) that ``dataset.alignment_table=<csv>`` applies, with ``confidence`` (relative
   margin between the best and second-best hypothesis) and ``verified`` (false: set it to true,
@@ -49,6 +52,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sheet", default=None, help="contact sheet PNG (default: the CSV's name with .png)")
     p.add_argument("--draw-only", action="store_true",
                    help="estimate nothing: redraw the sheet of the table in --out as it is (after corrections)")
+    p.add_argument("--cues", choices=("auto", "ends", "none"), default="auto",
+                   help="ends: shape cues at the ends decide nose/tail, Chamfer the main axis; none: Chamfer only; "
+                        "auto (default): the category's (ends for airplanes, none otherwise)")
+    p.add_argument("--compare", default=None, metavar="VERIFIED_CSV",
+                   help="after writing --out, compare it with this verified table (agreement, confidence ROC); "
+                        "writes <out>_vs_verified.csv")
     return p
 
 
@@ -65,6 +74,12 @@ def main(argv: list[str] | None = None) -> int:
     rows = redraw(args) if args.draw_only else align(args)
     n_low = sum(1 for r in rows if r["low"])
     print(f"wrote {len(rows)} rows to {args.out} ({n_low} marked for a closer look) and {sheet_path(args)}")
+    if args.compare:
+        from catpose.bench.category.align_check import compare_tables, summary_line, write_comparison
+
+        result = compare_tables(args.out, args.compare, args.category)  # a user error: one line from the CLI
+        out = write_comparison(Path(args.out).with_name(Path(args.out).stem + "_vs_verified.csv"), result)
+        print(f"against {args.compare}: {summary_line(result)}; rows in {out}")
     return 0
 
 
@@ -123,12 +138,13 @@ def redraw(args: argparse.Namespace) -> list[dict]:
 
 
 def align(args: argparse.Namespace) -> list[dict]:
-    from catpose.datasets.alignment import estimate_table, write_alignment_table, yaw_deg_of, yaw_flip_hypotheses
+    from catpose.datasets.alignment import (estimate_table, resolve_cues, write_alignment_table, yaw_deg_of,
+                                            yaw_flip_hypotheses)
 
     name, ids, ref, clouds = load_clouds(args)
     hyps = yaw_flip_hypotheses(args.flip)
     est = estimate_table(clouds, hyps, reference=ids.index(ref), refine=not args.no_refine,
-                         max_distance=args.icp_distance)
+                         max_distance=args.icp_distance, cues=resolve_cues(args.cues, args.category))
     rows = []
     for k, instance_id in enumerate(ids):
         a = int(est["labels"][k])

@@ -14,6 +14,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 import numpy as np
 
+from catpose.bench.protocols.template_choice import check_choice, choose_row, is_excluded_view, with_template_facts
 from catpose.datasets.base import ObjectDataset, Observation
 from catpose.errors import ConfigError, DatasetError
 from catpose.types import GroundTruth, RegistrationProblem, Sample, Template
@@ -121,8 +122,12 @@ class Templates(Protocol):
 
     name = "templates"
 
-    def __init__(self, max_templates: int | None = None) -> None:
+    def __init__(self, max_templates: int | None = None, exclude_templates: bool = False,
+                 exclude_instances: list[str] | None = None, choice: str = "score") -> None:
         self.max_templates = max_templates
+        self.exclude_templates = bool(exclude_templates)  # skip views of the template instances themselves
+        self.exclude_instances = [str(i) for i in (exclude_instances or [])]  # and of these instances
+        self.choice = check_choice(choice)  # how a view's template is chosen (catpose.bench.protocols.template_choice)
         self._cache = _ObservationCache()
 
     def _templates(self, dataset: ObjectDataset, category: str) -> list[Template]:
@@ -141,6 +146,9 @@ class Templates(Protocol):
             n = counts.get(category)
             if n is None:
                 n = counts[category] = len(self._templates(dataset, category))
+            if is_excluded_view(obs_id, self._templates(dataset, category) if self.exclude_templates else [],
+                                self.exclude_instances):
+                continue
             ids.extend(f"{obs_id}|{k}" for k in range(n))
         return ids
 
@@ -149,7 +157,7 @@ class Templates(Protocol):
         obs_id, _, k = sample_id.rpartition("|")
         obs = self._cache.get(dataset, obs_id)
         template = self._templates(dataset, obs.category)[int(k)]
-        return make_sample(obs, template, sample_id, obs_id)
+        return with_template_facts(make_sample(obs, template, sample_id, obs_id))
 
     def score_units(self, samples):
         return self.best_per_view(absolute_gt_only(samples))
@@ -163,13 +171,7 @@ class Templates(Protocol):
             return samples
         rows = []
         for _, g in samples.groupby("group_id", sort=False):
-            ok = g[g["status"] == "ok"]
-            if len(ok):
-                score = pd.to_numeric(ok["score"], errors="coerce")
-                best = ok.loc[score.idxmin()] if score.notna().any() else ok.iloc[0]
-            else:
-                best = g.iloc[0]
-            row = best.copy()
+            row = choose_row(g, self.choice).copy()
             err = pd.to_numeric(g["err_deg"], errors="coerce").where(g["status"] == "ok")
             row["oracle_err_deg"] = float(err.min()) if err.notna().any() else 180.0
             row["n_templates"] = len(g)

@@ -27,6 +27,7 @@ import numpy as np
 from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, axis_error_deg, rotation_error_deg, translation_error
 from catpose.bench.protocols.absolute import GtModel, Protocol, Templates, require_consistent_frames
 from catpose.bench.scoring.rows import failed_row, scored_row
+from catpose.bench.protocols.template_choice import is_excluded_view
 from catpose.datasets.base import ObjectDataset
 from catpose.errors import ConfigError
 from catpose.geometry import invert_T
@@ -132,13 +133,18 @@ class Relative(Protocol):
         max_templates: with ``template_source="category"``, use only the first K templates.
         max_relative_angle_deg: keep only pairs whose true relative rotation is at most this
             (the paper's "< 45 deg" testing range), or None for all.
+        exclude_templates: leave out the views of the category templates' own instances (with
+            either source, so that ``own`` and ``category`` are scored on the same pairs).
+        choice: with ``template_source="category"``, how a view's template is chosen
+            (:mod:`catpose.bench.protocols.template_choice`).
     """
 
     name = "relative"
 
     def __init__(self, template_source: str = "category", pairs: str = "consecutive",
                  max_pairs_per_instance: int | None = None, max_templates: int | None = None,
-                 max_relative_angle_deg: float | None = None) -> None:
+                 max_relative_angle_deg: float | None = None, exclude_templates: bool = False,
+                 choice: str = "score") -> None:
         if template_source not in TEMPLATE_SOURCES:
             raise ConfigError(f"protocol.template_source={template_source!r} is unknown; use one of {TEMPLATE_SOURCES}")
         if pairs not in PAIRINGS:
@@ -149,12 +155,17 @@ class Relative(Protocol):
         self.pairs = pairs
         self.max_relative_angle_deg = None if max_relative_angle_deg is None else float(max_relative_angle_deg)
         self.max_pairs_per_instance = None if max_pairs_per_instance is None else int(max_pairs_per_instance)
-        self._views: Protocol = GtModel() if template_source == "own" else Templates(max_templates=max_templates)
+        self.exclude_templates = bool(exclude_templates)
+        self._views: Protocol = (GtModel() if template_source == "own" else
+                                 Templates(max_templates=max_templates, exclude_templates=exclude_templates, choice=choice))
 
     def sample_ids(self, dataset: ObjectDataset) -> list[str]:
         """One registration per view (``"own"``) or per (view, template) (``"category"``)."""
         self._check_frames(dataset)
-        return self._views.sample_ids(dataset)
+        ids = self._views.sample_ids(dataset)
+        if self.exclude_templates and self.template_source == "own":
+            ids = [i for i in ids if not is_excluded_view(i, dataset.category_templates(dataset.category_of(i)) or [])]
+        return ids
 
     def _check_frames(self, dataset: ObjectDataset) -> None:
         # a constant template-to-instance rotation cancels in a relative pose, but two views that

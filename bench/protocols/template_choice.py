@@ -1,0 +1,158 @@
+"""Choosing one of a view's K template registrations without ground truth (``protocol.choice``).
+
+The ``templates`` protocol registers every view to each of its category's K templates; a real
+system then has to keep one estimate. The rules (``protocol.choice=<name>``):
+
+- ``score`` (default before issue 25, still selectable): the registration with the lowest method
+  ``score``; views whose scores are all NaN keep the first template's.
+- ``density``: the score less ``DENSITY_WEIGHT`` times the template's point spacing (median
+  distance of a template point to its nearest neighbour, ``info["template_spacing"]``, written by
+  the protocol): a Chamfer-type score cannot fall below what the template's sampling density
+  leaves, and sparser templates would otherwise lose for their density alone (the fit
+  normalised by template density; all templates share the unit-sphere size).
+- ``agreement``: the templates share the category's canonical frame, so the K estimates of a
+  view should agree when they are right, while wrong ones scatter. Each registration's support is
+  the number of the view's other registrations whose rotation lies within ``AGREE_DEG`` of its
+  own; the most supported wins, ties broken by the lowest score (with no agreement at all this is
+  the ``score`` rule).
+
+Failed registrations are never chosen unless every registration of the view failed (then the
+first row, a 180-degree error, is kept). Measurements behind the rules and their settings are in
+docs/category-level.md.
+
+Also here: :func:`is_excluded_view` (``protocol.exclude_templates``: a template instance's own
+views are not test views; ``protocol.exclude_instances``) and :func:`random_choice_rows` (what a random choice would score).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import numpy as np
+
+from catpose.errors import ConfigError
+
+CHOICES = ("score", "density", "agreement")
+#: two registrations of a view agree when their rotations differ by at most this (degrees)
+AGREE_DEG = 20.0
+#: ``density``: score - DENSITY_WEIGHT * template spacing (chosen on airplanes, docs/category-level.md)
+DENSITY_WEIGHT = 1.5
+
+
+def check_choice(choice: str) -> str:
+    """``choice`` if it names a rule, else a one-line :class:`ConfigError`."""
+    if choice not in CHOICES:
+        raise ConfigError(f"protocol.choice={choice!r} is unknown; use one of {', '.join(CHOICES)}")
+    return choice
+
+
+def is_excluded_view(obs_id: str, templates: Sequence[Any], instances: Sequence[str] = ()) -> bool:
+    """Whether the view ``obs_id`` (``<category>/<instance_id>/v<k>``, the ModelNet loaders'
+    ids) shows one of ``templates`` (template ids ``<dataset>/<instance_id>``) or one of
+    ``instances`` (instance ids). Ids of another form never match."""
+    parts = obs_id.split("/")
+    if len(parts) != 3:
+        return False
+    return parts[1] in instances or any(str(t.template_id).rsplit("/", 1)[-1] == parts[1] for t in templates)
+
+
+def _rotation(T_est: Any) -> np.ndarray | None:
+    if T_est is None or (isinstance(T_est, float) and np.isnan(T_est)):
+        return None
+    return np.asarray(T_est, float).reshape(4, 4)[:3, :3]
+
+
+def rotation_angle_deg(R_a: np.ndarray, R_b: np.ndarray) -> float:
+    """Geodesic angle (degrees) between two rotations (3, 3)."""
+    c = (np.trace(R_a.T @ R_b) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+
+
+def support(rotations: Sequence[np.ndarray], agree_deg: float = AGREE_DEG) -> np.ndarray:
+    """(K,) for each rotation, how many of the others lie within ``agree_deg`` of it."""
+    K = len(rotations)
+    out = np.zeros(K, int)
+    for a in range(K):
+        for b in range(K):
+            if a != b and rotation_angle_deg(rotations[a], rotations[b]) <= agree_deg:
+                out[a] += 1
+    return out
+
+
+def choose_index(scores: Sequence[float], rotations: Sequence[np.ndarray | None], choice: str,
+                 agree_deg: float = AGREE_DEG, spacings: Sequence[float] | None = None) -> int:
+    """Index of the chosen registration among K (``rotations[k]`` None: failed; ``spacings``:
+    the templates' point spacings, needed by ``density``).
+
+    Raises:
+        ConfigError: unknown ``choice``, or ``density`` without spacings.
+    """
+    check_choice(choice)
+    ok = [k for k, R in enumerate(rotations) if R is not None]
+    if not ok:
+        return 0
+    s = np.array([scores[k] for k in ok], float)
+    if choice == "density":
+        sp = np.array([np.nan if spacings is None else spacings[k] for k in ok], float)
+        if not np.isfinite(sp).all():
+            raise ConfigError("protocol.choice=density needs info.template_spacing in every row; these rows "
+                              "were written before it existed: re-run them, or use protocol.choice=score")
+        s = s - DENSITY_WEIGHT * sp
+    s = np.where(np.isfinite(s), s, np.inf)
+    if choice == "agreement":
+        sup = support([rotations[k] for k in ok], agree_deg)
+        order = sorted(range(len(ok)), key=lambda a: (-sup[a], s[a], a))
+    else:
+        order = sorted(range(len(ok)), key=lambda a: (s[a], a))
+    return ok[order[0]]
+
+
+def choose_row(group, choice: str = "score"):
+    """The chosen row (a pandas Series) of one view's registrations (``group``: the view's rows of
+    ``samples.jsonl`` as a DataFrame, one per template)."""
+    import pandas as pd
+
+    status_ok = (group["status"] == "ok").to_numpy()
+    scores = pd.to_numeric(group["score"], errors="coerce").to_numpy(float)
+    if choice == "score" and "T_est" not in group:  # rows from files without estimates
+        rotations = [np.eye(3) if good else None for good in status_ok]
+    else:
+        rotations = [(_rotation(T) if good else None) for T, good in zip(group["T_est"], status_ok)]
+    spacings = None
+    if choice == "density":
+        infos = group["info"] if "info" in group else [{}] * len(group)
+        spacings = [float(i.get("template_spacing", np.nan)) if isinstance(i, dict) else np.nan for i in infos]
+    return group.iloc[choose_index(list(scores), rotations, choice, spacings=spacings)]
+
+
+_SPACING: dict[str, float] = {}
+
+
+def template_spacing(template: Any) -> float:
+    """Median distance (object-normalised unit) from each point of ``template.points`` (M, 3) to
+    its nearest neighbour, cached by template id."""
+    key = f"{template.template_id}#{len(template.points)}"
+    if key not in _SPACING:
+        from scipy.spatial import cKDTree
+
+        pts = np.asarray(template.points, float)
+        _SPACING[key] = float(np.median(cKDTree(pts).query(pts, k=2)[0][:, 1])) if len(pts) > 1 else float("nan")
+    return _SPACING[key]
+
+
+def with_template_facts(sample: Any) -> Any:
+    """``sample`` with ``info["template_spacing"]`` (:func:`template_spacing` of its template)."""
+    import dataclasses
+
+    info = dict(sample.info)
+    info["template_spacing"] = template_spacing(sample.problem.template)
+    return dataclasses.replace(sample, info=info)
+
+
+def random_choice_rows(samples):
+    """The rows a uniformly random choice could return: every registration of every view that
+    has at least one, each weighted ``1 / K_view`` (a DataFrame with a ``weight`` column), so
+    weighted statistics are the expected statistics of choosing a template at random."""
+    out = samples.copy()
+    out["weight"] = 1.0 / out.groupby("group_id")["group_id"].transform("size")
+    return out

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# K = 1, 3, 5 category templates on any modelnet40_normal_resampled root: the K-medoids of the
+# root's aligned instances (`bench templates`), every instance that is a template for no K as test
+# views (2 views each), each view registered to each template, then `bench category` (chosen /
+# oracle / random, rules score, density, agreement). Nothing is downloaded: give a root you have.
+# Usage (repository root):
+#   bash results/category/make_any_root_ktemplates.sh ROOT ALIGNMENT_CSV CATEGORY OUT.md
+#   (ROWS="ours icp" for more methods; default ours; OUT gets OUT.csv beside it)
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+ROOT=${1:?root}; TABLE=${2:?alignment table}; CAT=${3:?category}; MD=${4:?output .md}
+B=.venv/bin/bench
+OUT=${OUT:-outputs/category/any_root}
+W="$OUT/templates"
+D=(dataset=modelnet40_resampled dataset.root="$ROOT" dataset.alignment_table="$TABLE" "dataset.categories=[$CAT]")
+for K in 1 3 5; do
+  [ -f "$W/k$K/templates/any.yaml" ] || "$B" templates "${D[@]}" --category "$CAT" --k $K --out "$W/k$K/templates/any.yaml"
+done
+union=$(.venv/bin/python -c "import sys, yaml; print(','.join(sorted({i for p in sys.argv[2:] for i in yaml.safe_load(open(p))[sys.argv[1]]})))" \
+  "$CAT" "$W"/k{1,3,5}/templates/any.yaml)
+rows=$(echo ${ROWS:-ours} | tr ' ' ',')
+for K in 1 3 5; do
+  "$B" run -m "+row=$rows" "${D[@]}" protocol=templates protocol.exclude_templates=true "protocol.exclude_instances=[$union]" \
+    +templates=any "hydra.searchpath=[file://$(cd "$W/k$K" && pwd)]" output_root="$OUT" progress=false print_summary=false \
+    hydra.sweep.dir="$OUT/multirun/k$K"
+done
+for fmt in md csv; do
+  "$B" category "$OUT/multirun/k1" "$OUT/multirun/k3" "$OUT/multirun/k5" --category "$CAT" --choices score,density,agreement \
+    --format $fmt --out "${MD%.md}.$fmt" --title "$CAT, K templates ($ROOT)"
+done

@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# The paper's "one template, airplane" table on the shared resampled ModelNet40 train airplanes:
+# ours and every baseline (ICP; FGR, TEASER re-implementation and RANSAC, direct and dictionary
+# matching) in one sweep (configs/experiment/mn40r_airplane_1template.yaml), then the table and the
+# per-view errors of ours (results/category/paper/one_template_airplane.{md,csv},
+# paper/one_template_airplane_views.csv).
+# Usage (repository root, after `make setup`): bash results/category/make_one_template_airplane.sh [tables]
+# Extra Hydra overrides go in EXTRA (e.g. EXTRA="dataset.root=/data/modelnet40_normal_resampled ...").
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+B=.venv/bin/bench
+OUT=${OUT:-outputs/category}
+S=$OUT/multirun/mn40r_airplane_1template
+if [ "${1:-}" != tables ]; then
+  "$B" run -m +experiment=mn40r_airplane_1template output_root="$OUT" progress=false print_summary=false \
+    hydra.sweep.dir="$S" ${EXTRA:-}
+fi
+T=results/category/paper; mkdir -p "$T"
+for fmt in md csv; do
+  "$B" table --sweep "$S" --layout one_template --format $fmt --metrics mean,median,acc10,acc30,trans,n,failed \
+    --title "One template (airplane_0536), shared resampled airplanes (17 x 2 views)" --out "$T/one_template_airplane.$fmt"
+done
+.venv/bin/python -m catpose.bench.report.category_views "$S" --row ours --out "$T/one_template_airplane_views.csv"

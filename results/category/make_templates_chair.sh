@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# The paper's "templates, chair" table on the shared resampled ModelNet40 train chairs, K = 1 and 3
+# (K = 5 would leave no test chair among the 5 shared ones): ours and every baseline (ICP; FGR,
+# TEASER re-implementation and RANSAC with dictionary matching, as in the paper), then `bench category`:
+# the chosen (rules score, density, agreement), oracle and random-template errors side by side
+# (results/category/paper/templates_chair.{md,csv}).
+# Usage (repository root): bash results/category/make_templates_chair.sh [tables]
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+B=.venv/bin/bench
+OUT=${OUT:-outputs/category}
+if [ "${1:-}" != tables ]; then
+  for e in mn40r_chair_1template mn40r_chair_ktemplates; do
+    "$B" run -m +experiment=$e output_root="$OUT" progress=false print_summary=false \
+      hydra.sweep.dir="$OUT/multirun/$e" ${EXTRA:-}
+  done
+fi
+T=results/category/paper; mkdir -p "$T"
+for fmt in md csv; do
+  "$B" category "$OUT/multirun/mn40r_chair_1template" "$OUT/multirun/mn40r_chair_ktemplates" --category chair \
+    --choices score,density,agreement --format $fmt --out "$T/templates_chair.$fmt" \
+    --title "Chair, K templates (shared resampled chairs; test views chair_0454, chair_0858 x 4)"
+done

@@ -1,0 +1,143 @@
+"""Choosing a view's template without ground truth (protocol.choice), excluded views, the
+chosen/oracle/random table and the alignment comparison (issue 25)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from catpose.bench.category import align_check
+from catpose.bench.report.category_table import error_stats, run_rows, to_markdown
+from catpose.bench.protocols import Templates
+from catpose.bench.protocols.template_choice import (CHOICES, DENSITY_WEIGHT, choose_index, is_excluded_view, support,
+                                           template_spacing, with_template_facts)
+from catpose.errors import ConfigError
+from catpose.geometry import axis_angle_to_R
+
+
+def _T(deg: float) -> list[float]:
+    T = np.eye(4)
+    T[:3, :3] = axis_angle_to_R(np.array([0.0, 0.0, 1.0]), np.deg2rad(deg))
+    return T.reshape(-1).tolist()
+
+
+def view_rows(view: str, yaws, scores, errs, status=None, spacings=None) -> pd.DataFrame:
+    K = len(yaws)
+    return pd.DataFrame({
+        "group_id": [view] * K, "category": ["chair"] * K, "status": status or ["ok"] * K,
+        "score": scores, "err_deg": errs, "trans_err": [0.1] * K, "runtime_s": [1.0] * K,
+        "T_est": [_T(y) for y in yaws], "template_id": [f"t{k}" for k in range(K)],
+        "info": [{"template_spacing": s} for s in (spacings or [0.01] * K)]})
+
+
+def test_score_rule_takes_the_lowest_score_and_skips_failures():
+    R = [np.eye(3)] * 3
+    assert choose_index([0.3, 0.1, 0.2], R, "score") == 1
+    assert choose_index([0.3, 0.1, 0.2], [np.eye(3), None, np.eye(3)], "score") == 2
+    assert choose_index([np.nan, np.nan], [np.eye(3), np.eye(3)], "score") == 0
+    assert choose_index([0.1, 0.2], [None, None], "score") == 0
+    with pytest.raises(ConfigError, match="protocol.choice"):
+        choose_index([0.1], R[:1], "best")
+
+
+def test_agreement_rule_prefers_the_estimate_the_others_support():
+    Rs = [axis_angle_to_R(np.array([0, 0, 1.0]), np.deg2rad(d)) for d in (0.0, 170.0, 5.0, 12.0)]
+    np.testing.assert_array_equal(support(Rs, 20.0), [2, 0, 2, 2])
+    # the lowest score (index 1) stands alone; of the three that agree, the lowest score wins
+    assert choose_index([0.2, 0.1, 0.15, 0.3], Rs, "agreement") == 2
+    assert choose_index([0.2, 0.1, 0.15, 0.3], Rs, "score") == 1
+
+
+def test_density_rule_discounts_sparse_templates_and_needs_their_spacing():
+    R = [np.eye(3)] * 2
+    # 0.10 - 1.5 * 0.01 = 0.085 against 0.11 - 1.5 * 0.03 = 0.065: the sparser template wins
+    assert choose_index([0.10, 0.11], R, "density", spacings=[0.01, 0.03]) == 1
+    assert DENSITY_WEIGHT == 1.5
+    with pytest.raises(ConfigError, match="template_spacing"):
+        choose_index([0.10, 0.11], R, "density", spacings=[0.01, float("nan")])
+
+
+def test_templates_protocol_applies_the_configured_rule():
+    rows = view_rows("chair/a/v00", [0, 170, 5], [0.2, 0.1, 0.15], [3.0, 170.0, 4.0])
+    assert Templates(choice="score").score_units(rows)["err_deg"].tolist() == [170.0]
+    agreed = Templates(choice="agreement").score_units(rows)
+    assert agreed["err_deg"].tolist() == [4.0] and agreed["oracle_err_deg"].tolist() == [3.0]
+    with pytest.raises(ConfigError):
+        Templates(choice="nope")
+
+
+def test_excluded_views_and_template_facts():
+    t = [SimpleNamespace(template_id="modelnet40_resampled/chair_0624")]
+    assert is_excluded_view("chair/chair_0624/v01", t)
+    assert not is_excluded_view("chair/chair_0454/v01", t)
+    assert is_excluded_view("chair/chair_0454/v01", [], ["chair_0454"])
+    assert not is_excluded_view("scene/000001/12", t)  # ids of another form never match
+
+    rng = np.random.default_rng(0)
+    grid = np.stack(np.meshgrid(*[np.arange(5) * 0.1] * 3), -1).reshape(-1, 3)
+    tmpl = SimpleNamespace(template_id="g", points=grid + rng.normal(0, 1e-6, grid.shape))
+    assert template_spacing(tmpl) == pytest.approx(0.1, abs=1e-4)
+    sample = SimpleNamespace(problem=SimpleNamespace(template=tmpl), info={"instance_id": "x"})
+    import dataclasses
+
+    @dataclasses.dataclass(frozen=True)
+    class S:
+        problem: object
+        info: dict
+
+    out = with_template_facts(S(sample.problem, {"instance_id": "x"}))
+    assert out.info["template_spacing"] == pytest.approx(0.1, abs=1e-4) and out.info["instance_id"] == "x"
+
+
+def test_category_table_reports_chosen_oracle_and_random_side_by_side():
+    rows = pd.concat([view_rows("chair/a/v00", [0, 170, 5], [0.2, 0.1, 0.15], [3.0, 170.0, 4.0]),
+                      view_rows("chair/b/v00", [0, 90, 3], [0.1, 0.2, 0.3], [2.0, 90.0, 40.0])], ignore_index=True)
+    out = run_rows(SimpleNamespace(samples=rows), "chair", ["score", "agreement"])
+    score, agree = out
+    assert score["K"] == 3 and score["views"] == 2
+    assert score["chosen_mean"] == pytest.approx((170.0 + 2.0) / 2)
+    assert agree["chosen_mean"] == pytest.approx((4.0 + 2.0) / 2)
+    assert score["oracle_mean"] == pytest.approx(2.5) and score["oracle_acc10"] == 1.0
+    every = [3.0, 170.0, 4.0, 2.0, 90.0, 40.0]  # a random template: all registrations pooled
+    assert score["random_mean"] == pytest.approx(np.mean(every))
+    assert score["random_acc30"] == pytest.approx(3 / 6)
+    assert error_stats(np.array([]))["mean"] != error_stats(np.array([]))["mean"]  # NaN
+    md = to_markdown([{"method": "Ours", **r} for r in out], "t")
+    assert "| 3 | Ours | agreement | 2 | 3.00 |" in md and md.count("\n") == 6
+    assert set(CHOICES) == {"score", "density", "agreement"}
+
+
+def test_alignment_agreement_is_up_to_one_common_rotation_and_roc_separates():
+    yaw = [axis_angle_to_R(np.array([0, 0, 1.0]), np.deg2rad(90 * k)) for k in range(4)]
+    verified = {"a": yaw[0], "b": yaw[1], "c": yaw[2], "d": yaw[3]}
+    G = yaw[1]  # the estimate lives in a frame turned by 90 deg, and gets "d" wrong
+    est = {"a": G @ yaw[0], "b": G @ yaw[1], "c": G @ yaw[2], "d": G @ yaw[1]}
+    offset, ok = align_check.agreement(est, verified)
+    np.testing.assert_allclose(offset, G, atol=1e-12)
+    assert ok == {"a": True, "b": True, "c": True, "d": False}
+    r = align_check.roc([0.5, 0.4, 0.3, 0.1], [True, True, True, False])
+    assert r["separates"] and r["auc"] == 1.0
+    r = align_check.roc([0.5, 0.2, 0.3, 0.25], [True, True, True, False])
+    assert not r["separates"] and r["auc"] == pytest.approx(2 / 3)
+    assert align_check.roc([0.5], [True])["separates"]
+
+
+def test_compare_tables_and_summary(tmp_path):
+    from catpose.datasets.alignment import write_alignment_table
+
+    yaw = [axis_angle_to_R(np.array([0, 0, 1.0]), np.deg2rad(90 * k)) for k in range(4)]
+    write_alignment_table(tmp_path / "v.csv", [{"category": "c", "instance_id": i, "R": yaw[k]}
+                                               for i, k in (("a", 0), ("b", 1), ("c", 2))])
+    write_alignment_table(tmp_path / "e.csv", [{"category": "c", "instance_id": i, "R": yaw[k], "confidence": c}
+                                               for i, k, c in (("a", 0, 0.4), ("b", 3, 0.05), ("c", 2, 0.3))])
+    res = align_check.compare_tables(tmp_path / "e.csv", tmp_path / "v.csv", "c")
+    assert res["agree"] == 2 and res["roc"]["separates"]
+    path = align_check.write_comparison(tmp_path / "e_vs_verified.csv", res)
+    assert align_check.read_comparison(path)["agree"] == 2
+    assert "agree 2/3" in align_check.summary_line(res)
+    assert align_check.main([f"x={path}", "--out", str(tmp_path / "s.md")]) == 0
+    assert "| x | 2/3 | 1.000 | yes |" in (tmp_path / "s.md").read_text()
+    assert align_check.main(["x=missing.csv"]) == 2
