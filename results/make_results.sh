@@ -11,9 +11,17 @@
 #              results/tables/*.{md,tex,csv}, the report results/report/, and ours and the baselines
 #              with the Kinect sensor model (results/tables/synthetic_kinect.md). ~1-1.5 h on 2 cores.
 #   tables     the synthetic section's tables and report from its existing sweeps (no runs)
-#   category   category-level tables on the shared ModelNet40 resampled shapes (the aligned
-#              airplanes and chairs; one and three templates): results/category/. Minutes.
-#   real       every method on the shared real data (bench suite real: results/real/table.md), BOP
+#   category   the paper's category tables on the shared ModelNet40 resampled shapes (the aligned
+#              airplanes and chairs), every method (results/category/make_*.sh: one template airplane,
+#              K = 1, 3, 5 templates of airplanes and chairs with chosen / oracle / random template,
+#              relative pose): results/category/paper/; the alignment estimates against the verified
+#              tables (results/alignment/make_estimates.sh). ~1 h.
+#   clutter    every method on the report scenes of the cluttered synthetic set of the real YCB-V
+#              meshes, and ours before / after with ICP on the dev scenes that chose ours' defaults
+#              (results/clutter/make_clutter.sh: results/clutter/). ~1 h.
+#   real       every method on the shared real data (bench suite real: results/real/table.md, a column
+#              per YCB-V scene as configs/split/ycbv.yaml names them, per-object tables in
+#              results/real/objects.md), BOP
 #              metrics of ICP and ours on the YCB-V frames (results/real/bop_ycbv.md), the sensor
 #              model beside the real frames (results/real/sensor_stats.md). ~1 h.
 #   perf       seconds per registration (bench perf) on synthetic, YCB-V and ModelNet40 problems, and
@@ -46,7 +54,7 @@ V=$OUT-variants  # the same sweeps under other code paths
 EXPERIMENTS=(optimiser ablation one_template templates relative_real tyol)
 SHARED=$("$PY" -c 'from catpose.bench.run.config import shared_data_dir; print(shared_data_dir())')
 SECTIONS=("$@")
-[ ${#SECTIONS[@]} -gt 0 ] || SECTIONS=(synthetic category real perf api)
+[ ${#SECTIONS[@]} -gt 0 ] || SECTIONS=(synthetic category clutter real perf api)
 eval "$("$PY" -m catpose.bench.run.environment portable)"
 
 run_experiments() {  # $1: output root
@@ -119,35 +127,18 @@ category() {
   if [ ! -d "$SHARED/modelnet40_normal_resampled" ]; then
     echo "make_results: category skipped: no $SHARED/modelnet40_normal_resampled" >&2; return 0
   fi
-  local C="$OUT/category" T="$RESULTS/category"
-  mkdir -p "$T"
-  rm -f "$T"/*.md
-  for e in mn40r_airplane_1template mn40r_chair_1template mn40r_chair_ktemplates; do
-    for m in ours icp; do
-      "$B" run +experiment=$e method=$m output_root="$C/$e" progress=false print_summary=false
-    done
-    for m in fgr teaser; do  # one at a time: a sweep composes the default method first, which has no matching key
-      "$B" run +experiment=$e method=$m method.matching=dictionary output_root="$C/$e" progress=false print_summary=false
-    done
+  local C="$OUT/category"
+  for script in make_one_template_airplane make_templates_airplane make_templates_chair make_relative; do
+    OUT="$C" bash results/category/$script.sh
   done
-  "$B" table "$C/mn40r_airplane_1template" --layout generic --categories airplane --metrics mean,median,acc10,acc30 \
-    --title "One category template (airplane_0536, the K=1 medoid): 17 other airplanes x 2 views, ModelNet40 resampled; FGR and TEASER with dictionary matching" \
-    --out "$T/airplane_1template.md"
-  "$B" table "$C/mn40r_chair_1template" --layout generic --categories chair --metrics mean,median,acc10,acc30 \
-    --title "One category template (chair_0624): 2 other chairs x 4 views, ModelNet40 resampled; FGR and TEASER with dictionary matching" --out "$T/chair_1template.md"
-  for err in err_deg oracle_err_deg; do
-    what="the estimate of the template the method scores best"; [ $err = oracle_err_deg ] && what="the minimum error across the templates (oracle)"
-    "$B" table "$C/mn40r_chair_ktemplates" --layout generic --categories chair --metrics mean,median,acc10,acc30 \
-      --error $err --title "Three category templates (chair_0391, chair_0624, chair_0848): 2 other chairs x 4 views, ModelNet40 resampled; $what" \
-      --out "$T/chair_3templates_${err%_deg}.md"
-  done
+  bash results/alignment/make_estimates.sh
 }
 
 real() {
   if [ ! -d "$SHARED" ]; then echo "make_results: real skipped: no shared data at $SHARED" >&2; return 0; fi
   local R="$OUT/real"
   mkdir -p "$RESULTS/real"
-  nice "$B" suite real --output-root "$R" --write "$RESULTS/real/table.md"
+  nice "$B" suite real --output-root "$R" --write "$RESULTS/real/table.md" --objects "$RESULTS/real/objects.md"
   if [ -d "$SHARED/bop/ycbv" ]; then  # BOP's metrics of ICP and ours on the YCB-V frames
     local scored=()
     for m in icp ours; do
@@ -185,9 +176,11 @@ for section in "${SECTIONS[@]}"; do
     synthetic) synthetic_runs; synthetic_tables ;;
     tables) synthetic_tables ;;
     category) category ;;
+    clutter) if [ -d "$SHARED/bop/ycbv/models" ]; then RUNS="$OUT/clutter" RESULTS="$RESULTS" bash results/clutter/make_clutter.sh
+             else echo "make_results: clutter skipped: no $SHARED/bop/ycbv/models" >&2; fi ;;
     real) real ;;
     perf) perf ;;
     api) if [ -f results/api/make_without_up.sh ]; then bash results/api/make_without_up.sh; fi ;;
-    *) echo "make_results: unknown section '$section'; use synthetic, tables, category, real, perf, api" >&2; exit 2 ;;
+    *) echo "make_results: unknown section '$section'; use synthetic, tables, category, clutter, real, perf, api" >&2; exit 2 ;;
   esac
 done

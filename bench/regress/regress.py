@@ -25,8 +25,8 @@ stores the flag in the reference; chaotic samples are reported, never failed on.
     bench regress --update                 # after an intended change; commit results/reference/
     bench regress --write-inputs           # re-render the golden inputs (changes every answer)
 
-(One module of about 400 lines: the suites, running them, writing references and the command
-are one workflow that reads top to bottom; the judging rules are :mod:`catpose.bench.regress.regress_gate`.)
+(Kept whole because the suites, running them, writing references and the command are one
+workflow that reads top to bottom; the judging rules are :mod:`catpose.bench.regress.regress_gate`.)
 """
 
 from __future__ import annotations

@@ -37,7 +37,7 @@ from catpose import atomic
 from catpose.bench.report.labels import parse_labels, pipeline_label, run_labels, template_count
 from catpose.bench.report.table_format import METRICS, Metric, Table, metric, prune, to_csv, to_latex, to_markdown
 from catpose.bench.report.runs import Run, find_run_dirs, load_run, load_runs, print_left_out, protocol_of, scored_units
-from catpose.errors import ConfigError, DatasetError
+from catpose.errors import ConfigError
 
 # tables.load_run, tables.scored_units, tables.protocol_of, tables.to_markdown ... stay reachable here:
 # reports and plots read runs and render tables through this module's names
@@ -304,43 +304,6 @@ def _group_order(group: str) -> int:
     return order.index(group) if group in order else len(order)
 
 
-def sweep_runs(sweep_dirs: Sequence[str | Path]) -> tuple[list[Path], dict[str, str], dict[str, Any]]:
-    """Run directories, labels and table settings of sweeps (``bench run -m``).
-
-    Reads each job's ``job.json`` (:mod:`catpose.bench.run.sweep`) and the sweep's ``multirun.yaml``,
-    whose ``table`` node (set by ``configs/experiment/*.yaml``) gives ``layout``, ``categories``,
-    ``metrics``, ``error`` and ``title``. A failed or unfinished job stops the table with a
-    one-line error naming it."""
-    from catpose.bench.run.sweep import read_sweep
-
-    paths: list[Path] = []
-    labels: dict[str, str] = {}
-    settings: dict[str, Any] = {}
-    for d in map(Path, sweep_dirs):
-        records = read_sweep(d)
-        if not records:
-            raise DatasetError(f"{d} is not a sweep directory (no */job.json); pass <output_root>/multirun/<name>/<time> "
-                               f"of a `bench run -m` that has finished")
-        bad = [r for r in records if r.get("status") != "ok" or not r.get("run_dir")]
-        if bad:
-            raise DatasetError(f"sweep {d}: job {bad[0].get('job')} ({' '.join(bad[0].get('overrides') or [])}) failed: "
-                               f"{bad[0].get('error')}; re-run the sweep (finished samples are skipped)")
-        for r in records:
-            run_dir = Path(r["run_dir"])
-            if run_dir not in paths:
-                paths.append(run_dir)
-            if r.get("label"):
-                labels.update({str(run_dir): r["label"], str(run_dir.resolve()): r["label"]})
-        if (d / "multirun.yaml").is_file() and not settings:
-            from omegaconf import OmegaConf
-
-            table = OmegaConf.to_container(OmegaConf.load(d / "multirun.yaml"), resolve=False).get("table") or {}
-            settings = {k: v for k, v in table.items() if k in ("layout", "categories", "metrics", "error", "title")}
-    if settings.get("layout") not in (None, *LAYOUTS):
-        raise ConfigError(f"the sweep's table.layout {settings['layout']!r} is not one of {sorted(LAYOUTS)}")
-    return paths, labels, settings
-
-
 def main(argv: list[str] | None = None) -> int:
     """``bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE]``."""
     ap = argparse.ArgumentParser(prog="bench table", description="Paper tables from run directories.")
@@ -373,6 +336,8 @@ def main(argv: list[str] | None = None) -> int:
                          "and the range of the overall figures (repeatable)")
     args = ap.parse_args(argv)
     from catpose.bench.scoring.curves import threshold_keys
+
+    from catpose.bench.report.sweep_runs import sweep_runs
 
     run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
     if not args.runs and not run_paths:

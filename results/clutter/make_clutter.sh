@@ -3,12 +3,14 @@
 # every method on the report scenes, and ours before/after issue 22 with ICP on the dev scenes that
 # chose ours' defaults (configs/split/clutter.yaml). Needs ../shared/data/bop/ycbv/models (or
 # $CATPOSE_SHARED_DATA); generates the 200 scenes into $CATPOSE_CACHE_DIR or ~/.cache/catpose first.
-# Run from the repository root; resumes (finished samples are skipped).
+# Run from the repository root; resumes (finished samples are skipped). Environment: RUNS (run
+# directories, default outputs/clutter), RESULTS (where the tables go, default results).
 set -euo pipefail
 BENCH=${BENCH:-.venv/bin/bench}
-OUT=results/clutter
+OUT=${RESULTS:-results}/clutter
+RUNS=${RUNS:-outputs/clutter}
 $BENCH clutter
 # every method (ours-visibility: ours with the rule before issue 22), report scenes 100-199 (304 instances)
-$BENCH suite clutter --write $OUT/table.md --objects $OUT/objects.md
+$BENCH suite clutter --output-root "$RUNS" --write $OUT/table.md --objects $OUT/objects.md
 # the dev scenes 0-99 (326 instances), where ours' choices were made: ours before/after and ICP
-$BENCH suite clutter --parts dev --methods ours,ours-visibility,icp --write $OUT/table_dev.md --objects $OUT/objects_dev.md
+$BENCH suite clutter --output-root "$RUNS" --parts dev --methods ours,ours-visibility,icp --write $OUT/table_dev.md --objects $OUT/objects_dev.md
