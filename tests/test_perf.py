@@ -138,3 +138,24 @@ def test_solver_only_gpu_check_runs_on_cpu(tmp_path):
     rows = list(csv.DictReader(open(out)))
     assert [r["batch"] for r in rows] == ["1", "3"]
     assert all(float(r["max_rot_diff_deg_vs_cpu64"]) < 1e-6 and float(r["ms_per_problem"]) > 0 for r in rows)
+
+
+class _NoPoseOn:
+    """A method that gives no pose (InvalidInputError, as TEASER on a degenerate clique) on some samples."""
+
+    def __init__(self, bad: set[str]) -> None:
+        self.bad = bad
+
+    def register(self, problem):
+        from catpose.errors import InvalidInputError
+
+        if problem.sample_id in self.bad:
+            raise InvalidInputError(f"{problem.sample_id}: no pose")
+        return RegistrationResult(T_target_source=np.eye(4), score=0.0, extras={})
+
+
+def test_a_registration_without_pose_is_timed_and_counted_not_fatal():
+    out = perf.measure({"m": _NoPoseOn({"s1"}), "fgr": _Recorder("fgr", [])}, _problems(3), repeat=2, seed=0)
+    assert len(out["m"]["times"]) == 6 and out["m"]["failed"] == 2 and out["fgr"]["failed"] == 0
+    rows = {r["method"]: r for r in perf.summarize(out)}
+    assert rows["m"]["failed"] == 2 and rows["m"]["n"] == 6

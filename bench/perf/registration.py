@@ -157,6 +157,16 @@ def _out_path(args: argparse.Namespace) -> Path:
     return Path("outputs") / "perf" / f"{tag}.csv"
 
 
+def _register(method: Any, problem: Any) -> Any:
+    """``method.register(problem)``, or None when the method gives no pose for it."""
+    from catpose.errors import InvalidInputError
+
+    try:
+        return method.register(problem)
+    except InvalidInputError:
+        return None
+
+
 def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int, batch: int = 1) -> dict[str, dict]:
     """Time every method on every problem, ``repeat`` times, interleaved call by call.
 
@@ -166,10 +176,15 @@ def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int, bat
     back, the method order rotating per round. The template caches therefore stay warm whatever
     their size (ours keeps 8 templates' descriptors; a round-robin over more would time rebuilds).
 
+    A registration that gives no pose (the method raises :class:`InvalidInputError`, e.g. TEASER on
+    a degenerate clique) is timed like any other and counted in ``failed``; as in a run, it is the
+    method's answer on that problem, not a reason to stop measuring.
+
     Returns per method: ``times`` (s per registration, in call order), ``stages`` (stage -> list
-    of s, ours only) and ``warmup_s``.
+    of s, ours only), ``warmup_s`` and ``failed`` (timed calls that gave no pose).
     """
-    out = {name: {"times": [], "stages": {s: [] for s in STAGES}, "warmup_s": 0.0} for name in methods}
+    out = {name: {"times": [], "stages": {s: [] for s in STAGES}, "warmup_s": 0.0, "failed": 0}
+           for name in methods}
     names = list(methods)
     seen: set = set()
     chunks = [problems[i:i + batch] for i in range(0, len(problems), batch)]
@@ -179,7 +194,7 @@ def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int, bat
                 if p.template.template_id not in seen:
                     _seeded(seed, p.sample_id)
                     t0 = time.perf_counter()
-                    method.register(p)
+                    _register(method, p)
                     out[name]["warmup_s"] += time.perf_counter() - t0
         seen.update(p.template.template_id for p in chunk)
         for r in range(repeat):
@@ -196,8 +211,12 @@ def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int, bat
                     for p in chunk:
                         _seeded(seed, p.sample_id)
                         t0 = time.perf_counter()
-                        results.append(method.register(p))
+                        res = _register(method, p)
                         rec["times"].append(time.perf_counter() - t0)
+                        if res is None:
+                            rec["failed"] += 1
+                        else:
+                            results.append(res)
                 for res in results:
                     for s, v in dict(res.extras).get("timings", {}).items():
                         if s in rec["stages"]:
@@ -216,7 +235,7 @@ def summarize(measured: dict[str, dict]) -> list[dict]:
         rows.append({"method": name, "n": len(xs), "median_s": med, "mean_s": statistics.fmean(xs),
                      "p90_s": _percentile(xs, 90),
                      f"ratio_to_{REFERENCE}": med / ref_median if ref_median else float("nan"),
-                     "warmup_s": rec["warmup_s"]})
+                     "warmup_s": rec["warmup_s"], "failed": rec.get("failed", 0)})
     return rows
 
 
