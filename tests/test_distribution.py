@@ -39,7 +39,7 @@ def test_exactly_one_open3d_on_every_platform(platform):
 
 def test_licence_citation_and_declared_imports():
     assert (REPO / "LICENSE").read_text().startswith("MIT License")
-    assert PROJECT["license"] == {"text": "MIT"}
+    assert PROJECT["license"] == "MIT" and PROJECT["license-files"] == ["LICENSE"]  # SPDX expression (PEP 639)
     cff = (REPO / "CITATION.cff").read_text()
     assert "cff-version: 1.2.0" in cff and "arXiv:2209.14419" in cff and "preferred-citation:" in cff
     core = {d.split(">")[0].split("=")[0].split(";")[0].strip().lower() for d in PROJECT["dependencies"]}
