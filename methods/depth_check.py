@@ -175,17 +175,20 @@ class DepthVerifier:
         """(B, 2) per pose: the fraction of mask pixels explained within ``tolerance`` (default
         ``tau``) and the free-space violations (by more than ``tolerance``) per mask pixel: how
         well a pose fits, in units that do not depend on the object's size."""
-        tol = self.tau if tolerance is None else float(tolerance)
+        return self.fits(T_template_camera, (self.tau if tolerance is None else float(tolerance),))[0]
+
+    def fits(self, T_template_camera: np.ndarray, tolerances: tuple[float, ...]) -> np.ndarray:
+        """(len(tolerances), B, 2): :meth:`fit` at each tolerance, the poses rendered once."""
         L = self.lattice
         n_mask = max(self.mask_pixels, 1)
-        out = []
-        for win, r in self.render(T_template_camera):
+        out = np.zeros((len(tolerances), len(np.asarray(T_template_camera).reshape(-1, 4, 4)), 2))
+        for b, (win, r) in enumerate(self.render(T_template_camera)):
             if win is None:
-                out.append((0.0, 0.0))
                 continue
             o, m = L.depth[win], L.mask[win]
             hit = r > 0
-            inliers = (m & hit & (np.abs(r - o) <= tol)).sum()
-            free = (~m & hit & (o > 0) & (o - r > tol)).sum()
-            out.append((inliers / n_mask, free / n_mask))
-        return np.asarray(out, dtype=np.float64).reshape(-1, 2)
+            for t, tol in enumerate(tolerances):
+                inliers = (m & hit & (np.abs(r - o) <= tol)).sum()
+                free = (~m & hit & (o > 0) & (o - r > tol)).sum()
+                out[t, b] = (inliers / n_mask, free / n_mask)
+        return out

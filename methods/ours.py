@@ -231,7 +231,7 @@ class Ours(RegistrationMethod):
         (:func:`catpose.methods.ours_depth.select_by_depth`)."""
         from dataclasses import replace
 
-        from catpose.methods.ours_depth import select_by_depth
+        from catpose.methods.ours_depth import depth_verifier, select_by_depth
         from catpose.methods.resting_hypotheses import hypotheses
 
         t0 = time.perf_counter()
@@ -250,23 +250,19 @@ class Ours(RegistrationMethod):
                 timings[name] = timings.get(name, 0.0) + value
 
         add(hyps[0])
-        result = select_by_depth(self.selection, problem, hyps[:1], cands, feats, timings)
+        verifier = depth_verifier(self.selection, problem)  # one per problem: every call below shares it
+        result = select_by_depth(self.selection, problem, hyps[:1], cands, feats, timings, verifier=verifier)
         escalated = len(hyps) > 1 and result.extras["depth_inliers"] < self.resting.escalate_below
         if escalated:
             for h in hyps[1:]:
                 add(h)
-            result = select_by_depth(self.selection, problem, hyps, cands, feats, timings)
+            result = select_by_depth(self.selection, problem, hyps, cands, feats, timings, verifier=verifier)
         extras = dict(result.extras, escalated=bool(escalated))
         if result.extras["depth_inliers_loose"] < self.selection.depth_min_inliers:
             # no hypothesis explains the image: the template is unlike the object (category level);
             # the point rule chooses among the own up's candidates, scored by depth like the rest
-            from catpose.methods.depth_check import DepthVerifier
-
             point = replace(self.selection, rule=self.selection.depth_poor_fit_rule)
             fallback = finish(point, problem, cands[0], feats[0], timings)
-            verifier = DepthVerifier(problem.template, problem.depth_image, self.selection.depth_tau,
-                                     self.selection.depth_pixels, self.selection.depth_max_rays,
-                                     self.selection.depth_free_weight)
             score = float(verifier.scores(fallback.T_target_source[None])[0])
             extras.update(fallback.extras, depth_poor_fit=True, depth_score=score,
                           timings={k: float(v) for k, v in timings.items()})

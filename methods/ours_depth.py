@@ -41,20 +41,21 @@ from catpose.methods.selection import REACH_DEG, half_turns
 from catpose.point_to_plane_kernel import refine_many
 from catpose.types import RegistrationProblem, RegistrationResult
 
-__all__ = ["select_by_depth"]
+__all__ = ["depth_verifier", "select_by_depth"]
 
 
 def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: list[Hypothesis],
                     cands: list[Candidates], feats: list[TemplateFeatures],
-                    timings: dict[str, float], debug: dict | None = None) -> RegistrationResult:
+                    timings: dict[str, float], debug: dict | None = None,
+                    verifier: DepthVerifier | None = None) -> RegistrationResult:
     """Steps 1-5 of the module docstring; ``hyps``, ``cands`` and ``feats`` are parallel lists.
     ``debug``, when given, receives the verifier, the pre-scored pool and every expanded
-    hypothesis (template-frame poses and scores) for diagnosis."""
+    hypothesis (template-frame poses and scores) for diagnosis. ``verifier``: the problem's
+    :func:`depth_verifier`, when the caller has made it already."""
     timings.setdefault("verification", 0.0)
     timings.setdefault("refinement", 0.0)
     t0 = time.perf_counter()
-    verifier = DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, sel.depth_pixels,
-                             sel.depth_max_rays, sel.depth_free_weight)
+    verifier = depth_verifier(sel, problem) if verifier is None else verifier
     g = problem.ground_normal_camera
     ups = np.stack([h.up for h in hyps])
     axis = problem.template.symmetry_axis
@@ -103,8 +104,7 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
     top_cost, top_keep, rest_top = _costs(sel, top_scores, T_top_t, g, ups, axis)
     b = int(np.argmin(np.where(top_keep, top_cost, np.inf))) if top_keep.any() else int(np.argmin(top_cost))
     best, T_out, score = int(top[b]), T_top_t[b], float(top_scores[b])
-    fit = verifier.fit(T_out[None])[0]
-    fit_loose = verifier.fit(T_out[None], sel.depth_fit_tau)[0]
+    fit, fit_loose = verifier.fits(T_out[None], (verifier.tau, sel.depth_fit_tau))[:, 0]
     timings["verification"] += time.perf_counter() - t0
     if debug is not None:
         debug.update(verifier=verifier, hyps=hyps, cands=cands, pool=pool, prescores=pre, order=order,
@@ -125,6 +125,12 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
     return RegistrationResult(T_target_source=T_out, score=score, extras=extras,
                               candidates_T=_in_template(hyps, expanded, T_exp),
                               candidate_scores=np.where(keep, cost, np.inf).astype(float))
+
+
+def depth_verifier(sel: SelectionSettings, problem: RegistrationProblem) -> DepthVerifier:
+    """The depth check of ``problem``'s template against its depth image, with ``sel``'s settings."""
+    return DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, sel.depth_pixels,
+                         sel.depth_max_rays, sel.depth_free_weight)
 
 
 def _pool(sel: SelectionSettings, hyps, cands, feats, g, ups, axis) -> list[tuple[int, int]]:
