@@ -24,6 +24,9 @@
 #              results/real/objects.md), BOP
 #              metrics of ICP and ours on the YCB-V frames (results/real/bop_ycbv.md), the sensor
 #              model beside the real frames (results/real/sensor_stats.md). ~1 h.
+#   ambiguity  why ours' wrong estimates won, search miss or ambiguous to its depth check, from the runs
+#              of the synthetic, clutter and real sections (results/ambiguity/make_ambiguity.sh:
+#              results/ambiguity/). ~2 min.
 #   perf       seconds per registration (bench perf) on synthetic, YCB-V and ModelNet40 problems, and
 #              the speed tables made from those CSVs and the GPU check's (results/perf/*.md). Run it
 #              on an otherwise idle machine: it measures wall time.
@@ -54,7 +57,7 @@ V=$OUT-variants  # the same sweeps under other code paths
 EXPERIMENTS=(optimiser ablation one_template templates relative_real tyol)
 SHARED=$("$PY" -c 'from catpose.bench.run.config import shared_data_dir; print(shared_data_dir())')
 SECTIONS=("$@")
-[ ${#SECTIONS[@]} -gt 0 ] || SECTIONS=(synthetic category clutter real perf api)
+[ ${#SECTIONS[@]} -gt 0 ] || SECTIONS=(synthetic category clutter real ambiguity perf api)
 eval "$("$PY" -m catpose.bench.run.environment portable)"
 
 run_experiments() {  # $1: output root
@@ -179,8 +182,10 @@ for section in "${SECTIONS[@]}"; do
     clutter) if [ -d "$SHARED/bop/ycbv/models" ]; then RUNS="$OUT/clutter" RESULTS="$RESULTS" bash results/clutter/make_clutter.sh
              else echo "make_results: clutter skipped: no $SHARED/bop/ycbv/models" >&2; fi ;;
     real) real ;;
+    ambiguity) if [ -d "$SHARED/bop/ycbv/models" ]; then OUT="$OUT" RESULTS="$RESULTS" bash results/ambiguity/make_ambiguity.sh
+               else echo "make_results: ambiguity skipped: no $SHARED/bop/ycbv/models" >&2; fi ;;
     perf) perf ;;
     api) if [ -f results/api/make_without_up.sh ]; then bash results/api/make_without_up.sh; fi ;;
-    *) echo "make_results: unknown section '$section'; use synthetic, tables, category, clutter, real, perf, api" >&2; exit 2 ;;
+    *) echo "make_results: unknown section '$section'; use synthetic, tables, category, clutter, real, ambiguity, perf, api" >&2; exit 2 ;;
   esac
 done

@@ -1,0 +1,175 @@
+"""Why a wrong estimate won: a search miss, or a pose the depth image cannot tell from the truth.
+
+For every wrong registration (``err_deg >= wrong_deg``, failed samples left out) of finished
+``gt_model`` or ``templates`` runs on data with depth images (with category templates every
+registration of a view is judged, the template at the truth against the template at its estimate), the sample's template is rendered at the estimate and at the
+ground truth and both are scored with ours' occlusion-aware depth check
+(:class:`catpose.methods.depth_check.DepthVerifier`, with the settings of ours' final comparison
+read from the run's config):
+
+- **ambiguous**: the estimate explains the image at least as well as the truth
+  (``cost(estimate) <= cost(truth)``). No search fixes it under this verifier: it needs another
+  cue (colour, a finer verifier), or the object is (nearly) symmetric in that view;
+- **search miss**: the truth explains the image better, but ours did not find or keep it.
+
+Ground truth is read here for diagnosis only, never by a method. Rows are grouped by object
+(BOP ``obj_id``, else the category) and, where the run's dataset has a split
+(``configs/split/<name>.yaml``), by its part, so that figures of the scenes a default was chosen on
+stay apart from the others.
+
+    python -m catpose.bench.real.ambiguity RUN_DIR [RUN_DIR ...] --out results/ambiguity/table.md [--split clutter]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from catpose.errors import CatposeError, ConfigError
+
+#: an estimate at least this far (degrees, the run's ``err_deg``) from the truth is wrong
+WRONG_DEG = 10.0
+
+
+def _run_parts(run_dir: Path):
+    """(method settings for the verifier, dataset, protocol) rebuilt from a run's ``config.yaml``."""
+    from omegaconf import OmegaConf
+
+    from catpose.bench.run.build import build_from_config
+    from catpose.bench.run.run_meta import read_config
+    from catpose.methods.ours_settings import SelectionSettings
+
+    cfg = OmegaConf.create(read_config(run_dir, required=True))
+    if str(cfg.protocol.name) not in ("gt_model", "templates"):
+        raise ConfigError(f"run {run_dir}: protocol {cfg.protocol.name!r}; this check needs a protocol=gt_model "
+                          "or protocol=templates run")
+    sel = SelectionSettings()
+    if "selection" in cfg.method:
+        sel = build_from_config(cfg.method.selection, "method.selection")[1]
+    name, dataset = build_from_config(cfg.dataset, "dataset")
+    dataset.name = name
+    return sel, dataset, build_from_config(cfg.protocol, "protocol")[1]
+
+
+def verifier_costs(sel, problem, T_est: np.ndarray, T_gt: np.ndarray) -> tuple[float, float]:
+    """Depth-check costs (lower is better) of the estimate and the truth, (4, 4) ``T_template_camera``
+    each, on the lattice of ours' final comparison (``sel``: :class:`SelectionSettings`)."""
+    from catpose.methods.depth_check import DepthVerifier
+
+    pixels = max(sel.depth_final_pixels, sel.depth_pixels)
+    verifier = DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, pixels,
+                             sel.depth_max_rays * pixels // sel.depth_pixels, sel.depth_free_weight)
+    est, gt = verifier.scores(np.stack([T_est, T_gt]))
+    return float(est), float(gt)
+
+
+def wrong_rows(run_dir: Path, wrong_deg: float = WRONG_DEG) -> tuple[list[dict], int]:
+    """One row per wrong sample of ``run_dir`` (see the module doc) and the number of samples
+    judged (ok rows)."""
+    from catpose.bench.run.evaluate import recompute_row_errors
+    from catpose.bench.run.rundir import latest_rows
+
+    sel, dataset, protocol = _run_parts(run_dir)
+    rows = [recompute_row_errors(r) for r in latest_rows(Path(run_dir) / "samples.jsonl") if r.get("status") == "ok"]
+    out = []
+    for r in rows:
+        if float(r["err_deg"]) < wrong_deg:
+            out.append({"sample_id": r["sample_id"], "object": _object(r), "wrong": False})
+            continue
+        sample = protocol.load(dataset, r["sample_id"])
+        if sample.problem.depth_image is None:
+            raise ConfigError(f"run {run_dir}: sample {r['sample_id']} has no depth image; this check needs "
+                              "data with depth images (BOP, clutter, the renderer)")
+        T_est = np.asarray(r["T_est"], float).reshape(4, 4)
+        est, gt = verifier_costs(sel, sample.problem, T_est, np.asarray(sample.gt.T_template_camera, float))
+        out.append({"sample_id": r["sample_id"], "object": _object(r), "wrong": True, "err_deg": float(r["err_deg"]),
+                    "cost_est": est, "cost_gt": gt, "ambiguous": bool(est <= gt)})
+    return out, len(rows)
+
+
+def _object(row: dict) -> str:
+    info = row.get("info") or {}
+    return f"obj {int(info['obj_id'])}" if info.get("obj_id") is not None else str(row.get("category"))
+
+
+def table(rows: list[dict], part_of) -> list[dict]:
+    """Per (part, object) and per part overall: samples, wrong, ambiguous, search misses and the
+    median cost of the truth and the estimate over the wrong samples."""
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in rows:
+        part = part_of(r["sample_id"])
+        groups.setdefault((part, r["object"]), []).append(r)
+        groups.setdefault((part, "all"), []).append(r)
+    out = []
+    def order(key: tuple[str, str]) -> tuple:
+        part, obj = key
+        number = obj.split()[-1]
+        return part, obj == "all", int(number) if obj.startswith("obj ") and number.isdigit() else -1, obj
+
+    for (part, obj), g in sorted(groups.items(), key=lambda kv: order(kv[0])):
+        wrong = [r for r in g if r["wrong"]]
+        amb = [r for r in wrong if r["ambiguous"]]
+        out.append({"part": part, "object": obj, "samples": len(g), "wrong": len(wrong), "ambiguous": len(amb),
+                    "search_miss": len(wrong) - len(amb),
+                    "median_cost_gt": float(np.median([r["cost_gt"] for r in wrong])) if wrong else float("nan"),
+                    "median_cost_est": float(np.median([r["cost_est"] for r in wrong])) if wrong else float("nan")})
+    return out
+
+
+def markdown(title: str, rows: list[dict]) -> str:
+    head = ["part", "object", "samples", "wrong (>= 10 deg)", "ambiguous", "search miss",
+            "median cost truth", "median cost estimate"]
+    lines = [f"**{title}**", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        cells = [r["part"], r["object"], r["samples"], r["wrong"], r["ambiguous"], r["search_miss"],
+                 f"{r['median_cost_gt']:.3f}", f"{r['median_cost_est']:.3f}"]
+        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+    lines += ["", "ambiguous: the wrong estimate's depth-check cost is at most the truth's (the image "
+              "cannot tell them apart under ours' verifier); search miss: the truth's cost is lower."]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    from catpose import atomic
+    from catpose.bench.real.split import load_split
+
+    parser = argparse.ArgumentParser(prog="python -m catpose.bench.real.ambiguity", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("runs", nargs="+", type=Path, help="gt_model run directories (their rows are pooled)")
+    parser.add_argument("--out", type=Path, required=True, help="Markdown table to write (a .csv is written beside it)")
+    parser.add_argument("--split", help="configs/split/<name>.yaml: one block of rows per part")
+    parser.add_argument("--title", default="Wrong estimates: search miss or ambiguous to the depth check")
+    parser.add_argument("--wrong-deg", type=float, default=WRONG_DEG)
+    args = parser.parse_args(argv)
+    try:
+        split = load_split(args.split) if args.split else None
+        rows: list[dict] = []
+        for run in args.runs:
+            rows += wrong_rows(run, args.wrong_deg)[0]
+        if not rows:
+            raise ConfigError(f"no finished samples in {', '.join(map(str, args.runs))}; run them first")
+
+        def part_of(sid: str) -> str:
+            if split is None:
+                return "all"
+            return next((p for p in split.parts if split.sample_ids(p, [sid])), "other")
+
+        summary = table(rows, part_of)
+        import pandas as pd
+
+        with atomic.atomic_path(args.out.with_suffix(".csv")) as tmp:
+            pd.DataFrame(summary).to_csv(tmp, index=False, float_format="%.4f")
+        with atomic.atomic_path(args.out) as tmp:
+            Path(tmp).write_text(markdown(args.title, summary))
+    except CatposeError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

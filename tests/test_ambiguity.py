@@ -1,0 +1,63 @@
+"""``python -m catpose.bench.real.ambiguity``: a wrong estimate is a search miss when the truth
+explains the depth image better under ours' verifier, ambiguous otherwise."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from catpose.bench.real import ambiguity
+from catpose.geometry import compose_T, make_T
+from catpose.methods.ours_settings import SelectionSettings
+from catpose.types import RegistrationProblem
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_depth_check import _template, _view  # noqa: E402  (the depth check's test scene)
+
+
+def _problem(tpl, image):
+    pts = np.random.default_rng(0).normal(size=(50, 3)) * 0.1 + [0.0, 0.0, 3.0]  # the check reads only the image
+    return RegistrationProblem("s", "box", pts, np.tile([0.0, 0.0, -1.0], (50, 1)), [0.0, -1.0, 0.0], tpl,
+                               depth_image=image)
+
+
+def test_truth_costs_less_than_a_half_turn_of_an_asymmetric_object():
+    tpl = _template()
+    image, T_gt = _view(tpl)
+    half_turn = compose_T(make_T(np.diag([-1.0, -1.0, 1.0]), np.zeros(3)), T_gt)  # 180 deg about the template's z
+    est, gt = ambiguity.verifier_costs(SelectionSettings(), _problem(tpl, image), half_turn, T_gt)
+    assert gt < 0.05 < est
+
+
+def test_an_occluded_truth_still_explains_the_visible_mask():
+    tpl = _template()
+    image, T_gt = _view(tpl, occluder=True)
+    est, gt = ambiguity.verifier_costs(SelectionSettings(), _problem(tpl, image), T_gt, T_gt)
+    assert est == gt and gt < 0.05
+
+
+def test_table_counts_ambiguous_and_search_misses_per_part_and_object():
+    rows = [{"sample_id": "a/1", "object": "obj 9", "wrong": True, "err_deg": 179.0, "cost_est": 0.3, "cost_gt": 0.4,
+             "ambiguous": True},
+            {"sample_id": "a/2", "object": "obj 9", "wrong": True, "err_deg": 90.0, "cost_est": 0.5, "cost_gt": 0.2,
+             "ambiguous": False},
+            {"sample_id": "b/1", "object": "obj 9", "wrong": False},
+            {"sample_id": "b/2", "object": "obj 14", "wrong": False}]
+    out = ambiguity.table(rows, lambda sid: sid.split("/")[0])
+    by = {(r["part"], r["object"]): r for r in out}
+    assert (by["a", "obj 9"]["samples"], by["a", "obj 9"]["wrong"]) == (2, 2)
+    assert (by["a", "obj 9"]["ambiguous"], by["a", "obj 9"]["search_miss"]) == (1, 1)
+    assert by["a", "obj 9"]["median_cost_gt"] == pytest.approx(0.3)
+    assert by["b", "all"]["samples"] == 2 and by["b", "all"]["wrong"] == 0 and np.isnan(by["b", "all"]["median_cost_gt"])
+    assert [r["object"] for r in out if r["part"] == "a"][-1] == "all"
+    assert "| a | obj 9 | 2 | 2 | 1 | 1 |" in ambiguity.markdown("t", out)
+
+
+def test_a_folder_that_is_not_a_run_is_one_line_and_exit_2(tmp_path, capsys):
+    assert ambiguity.main([str(tmp_path), "--out", str(tmp_path / "t.md")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: run ") and "config.yaml" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "t.md").exists()
