@@ -251,7 +251,8 @@ class Ours(RegistrationMethod):
 
         add(hyps[0])
         verifier = depth_verifier(self.selection, problem)  # one per problem: every call below shares it
-        result = select_by_depth(self.selection, problem, hyps[:1], cands, feats, timings, verifier=verifier)
+        first = replace(self.selection, depth_yaw_turns=0)  # yaw turns: in the escalated pass only
+        result = select_by_depth(first, problem, hyps[:1], cands, feats, timings, verifier=verifier)
         escalated = len(hyps) > 1 and result.extras["depth_inliers"] < self.resting.escalate_below
         if escalated:
             for h in hyps[1:]:

@@ -12,7 +12,9 @@ first is the template's own up), each computed by the unchanged pipeline on the 
    hypotheses go on.
 3. Each goes on with its three half turns about the turned frame's axes (a near-symmetric shape
    converges to the true pose or to a half turn of it; a half turn may also rest the object
-   another of the allowed ways); poses that cannot come back within the gravity limit of any
+   another of the allowed ways) and, with ``depth_yaw_turns`` (the caller sets it for the
+   escalated pass only), its turns about the up by multiples of ``360 / depth_yaw_turns``
+   degrees (not for a template with a symmetry axis); poses that cannot come back within the gravity limit of any
    hypothesis' up are dropped, the others refined by point-to-plane ICP against the turned
    template (compiled, all at once), scored again, filtered by gravity (any hypothesis' up), and
    the ``depth_final_refine`` of lowest depth cost go on.
@@ -37,7 +39,7 @@ from catpose.methods.ours_candidates import Candidates, TemplateFeatures
 from catpose.methods.ours_selection import chamfer_distances
 from catpose.methods.ours_settings import SelectionSettings
 from catpose.methods.resting_hypotheses import Hypothesis
-from catpose.methods.selection import REACH_DEG, half_turns
+from catpose.methods.selection import REACH_DEG, yaw_and_half_turns
 from catpose.point_to_plane_kernel import refine_many
 from catpose.types import RegistrationProblem, RegistrationResult
 
@@ -66,7 +68,8 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
 
     # step 3: half turns of the best, refined on the Chamfer subset, scored
     t0 = time.perf_counter()
-    turns = half_turns()
+    yaws = 0 if problem.template.symmetry_axis is not None else sel.depth_yaw_turns   # no yaw about a symmetry axis
+    turns = yaw_and_half_turns(np.asarray(problem.template.up, dtype=np.float64), yaws)
     expanded = [(pool[o][0], pool[o][1], j) for o in order for j in range(len(turns))]
     T_exp = np.stack([compose_T(turns[j], cands[k].T[i]) for k, i, j in expanded])   # in each hypothesis' frame
     chosen = np.arange(len(expanded))

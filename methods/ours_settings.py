@@ -104,6 +104,10 @@ class SelectionSettings:
             by their half turns and refined.
         depth_final_refine: ``depth``: poses refined on all input points and scored again at the
             end (the best by their score after the refinement on the Chamfer subset).
+        depth_yaw_turns: ``depth``: in the escalated pass (``resting.escalate_below``), each
+            expanded candidate is also tried turned about the template's up by every multiple of
+            ``360 / depth_yaw_turns`` degrees (:func:`catpose.methods.selection.yaw_and_half_turns`;
+            none for a template with a symmetry axis; 0 or 1: half turns only).
         depth_rest_prior: ``depth``: cost added to a pose that rests other than on the template's
             up (a tie-break towards the upright object; 0: none).
         depth_prescreen: ``depth``: candidates of each gravity hypothesis scored by the depth check,
@@ -133,6 +137,7 @@ class SelectionSettings:
     depth_rest_prior: float = 0.03
     depth_top_k: int = 5
     depth_final_refine: int = 3
+    depth_yaw_turns: int = 12
     depth_final_pixels: int = 300
     depth_fine_distance: float = 0.0
     depth_min_inliers: float = 0.9
@@ -159,6 +164,7 @@ class SelectionSettings:
         set_(self, "depth_top_k", options.positive(k + "depth_top_k", self.depth_top_k, integer=True))
         set_(self, "depth_final_refine", options.positive(k + "depth_final_refine", self.depth_final_refine,
                                                           integer=True))
+        set_(self, "depth_yaw_turns", options.non_negative(k + "depth_yaw_turns", self.depth_yaw_turns, integer=True))
         set_(self, "depth_rest_prior", options.non_negative(k + "depth_rest_prior", self.depth_rest_prior))
         set_(self, "depth_prescreen", options.non_negative(k + "depth_prescreen", self.depth_prescreen, integer=True))
         g = self.gravity_max_deg
@@ -194,7 +200,7 @@ class RestingSettings:
             template's own up explains fewer of the object mask's pixels than this (1: always).
     """
 
-    max_poses: int = 3
+    max_poses: int = 5
     min_probability: float = 0.05
     merge_deg: float = 10.0
     escalate_below: float = 0.95

@@ -88,6 +88,31 @@ def half_turns() -> np.ndarray:
     return np.stack(out)
 
 
+def yaw_and_half_turns(up: np.ndarray, n: int) -> np.ndarray:
+    """(M, 4, 4): :func:`half_turns`, then (``n`` > 1) the turns by ``360 k / n`` degrees about the
+    unit ``up`` (3,) through the template origin, every rotation once (M = n + 2 when ``up`` is a
+    template axis and ``n`` is even). Angles use the C library's sine and cosine, the same bits on
+    every CPU."""
+    import math
+
+    from catpose.geometry import small_matmul, unit3
+
+    out = list(half_turns())
+    if n <= 1:
+        return np.stack(out)
+    a = unit3(np.asarray(up, dtype=np.float64))
+    K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    KK = small_matmul(K, K)
+    for k in range(1, n):
+        angle = 2.0 * math.pi * k / n
+        R = np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * KK
+        if all(np.abs(R - F[:3, :3]).max() > 1e-9 for F in out):
+            F = np.eye(4)
+            F[:3, :3] = R
+            out.append(F)
+    return np.stack(out)
+
+
 def tilt_deg(T_template_camera: np.ndarray, ground_normal_camera: np.ndarray, up: np.ndarray) -> np.ndarray:
     """(B,) angle (deg) between the ground normal mapped into the template frame and the template up."""
     g = np.einsum("bij,j->bi", T_template_camera[:, :3, :3], ground_normal_camera)

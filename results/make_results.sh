@@ -111,7 +111,7 @@ synthetic_tables() {
   # model), and ours beside ICP with 3 category templates
   local runs=() labels=()
   add() {  # $1: run directory glob, $2: label
-    local d; d=$(ls -d $1 2>/dev/null | head -1)
+    local d; d=$(ls -dt $1 2>/dev/null | head -1)
     [ -n "$d" ] || { echo "make_results: no run directory $1; run the synthetic section first" >&2; exit 2; }
     runs+=("$d"); labels+=(--label "$d=$2")
   }
@@ -145,7 +145,11 @@ real() {
   if [ -d "$SHARED/bop/ycbv" ]; then  # BOP's metrics of ICP and ours on the YCB-V frames
     local scored=()
     for m in icp ours; do
-      run=$(ls -d "$R"/ycbv-gt_model/$m/seed0-* | head -1)
+      run=""  # the method's default run (no method.* override; the newest), not ours-visibility's
+      for d in $(ls -dt "$R"/ycbv-gt_model/$m/seed0-*); do
+        grep -q '^method\.' "$d/overrides.txt" || { run=$d; break; }
+      done
+      [ -n "$run" ] || { echo "make_results: no default run of $m in $R/ycbv-gt_model" >&2; exit 2; }
       rm -rf "$R/bop/$m" "$R/bop/${m}_ycbv-test.csv"*; mkdir -p "$R/bop"
       "$B" export "$run" --out "$R/bop/${m}_ycbv-test.csv"
       "$B" score "$R/bop/${m}_ycbv-test.csv" --gt "$run" --out "$R/bop/$m" > /dev/null

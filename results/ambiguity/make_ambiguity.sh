@@ -17,10 +17,14 @@ PY=.venv/bin/python
 OUT=${OUT:-outputs/results}
 CLUTTER_RUNS=${CLUTTER_RUNS:-$OUT/clutter}
 T=${RESULTS:-results}/ambiguity
-default_runs() {  # ours' runs in $1 made with its default settings (no method.* override)
-  local d
-  for d in "$1"/*/; do
-    [ -f "$d/overrides.txt" ] && ! grep -q '^method\.' "$d/overrides.txt" && echo "${d%/}"
+default_runs() {  # ours' runs in $1 made with its default settings (no method.* override); of runs
+  # with the same overrides (an older default's run beside today's), the newest
+  local d seen=""
+  for d in $(ls -dt "$1"/*/ 2>/dev/null); do
+    [ -f "$d/overrides.txt" ] && ! grep -q '^method\.' "$d/overrides.txt" || continue
+    key=$(md5sum < "$d/overrides.txt" | cut -c1-12)
+    case " $seen " in *" $key "*) continue ;; esac
+    seen="$seen $key"; echo "${d%/}"
   done
 }
 need() { [ -n "$2" ] || { echo "make_ambiguity: no runs of ours' default in $1; run results/make_results.sh first" >&2; exit 2; }; }
@@ -30,9 +34,9 @@ mapfile -t clutter < <(default_runs "$CLUTTER_RUNS/clutter-gt_model/ours"); need
 mapfile -t ycbv < <(default_runs "$OUT/real/ycbv-gt_model/ours"); need "$OUT/real" "${ycbv[*]:-}"
 "$PY" -m catpose.bench.real.ambiguity "${ycbv[@]}" --split ycbv --out "$T/ycbv.md" \
   --title "Shared real YCB-V frames: ours' wrong estimates, search miss or ambiguous"
-own=$(ls -d "$OUT"/synthetic-gt_model/ours/seed0-+row=ours-* 2>/dev/null | head -1); need "$OUT" "$own"
+own=$(ls -dt "$OUT"/synthetic-gt_model/ours/seed0-+row=ours-* 2>/dev/null | head -1); need "$OUT" "$own"
 "$PY" -m catpose.bench.real.ambiguity "$own" --out "$T/embedded_own.md" \
   --title "Embedded set, own model: ours' wrong estimates, search miss or ambiguous"
-cat=$(ls -d "$OUT"/synthetic-templates/ours/seed0-+row=ours,protocol.max_templates=null-* 2>/dev/null | head -1); need "$OUT" "$cat"
+cat=$(ls -dt "$OUT"/synthetic-templates/ours/seed0-+row=ours,protocol.max_templates=null-* 2>/dev/null | head -1); need "$OUT" "$cat"
 "$PY" -m catpose.bench.real.ambiguity "$cat" --out "$T/embedded_templates.md" \
   --title "Embedded set, 3 category templates (every registration): wrong estimates, search miss or ambiguous"
