@@ -267,9 +267,11 @@ class Ours(RegistrationMethod):
             score = float(verifier.scores(fallback.T_target_source[None])[0])
             extras.update(fallback.extras, depth_poor_fit=True, depth_score=score,
                           timings={k: float(v) for k, v in timings.items()})
-            return RegistrationResult(T_target_source=fallback.T_target_source, score=score, extras=extras)
+            return RegistrationResult(T_target_source=fallback.T_target_source, score=score, extras=extras,
+                                      candidates_T=fallback.candidates_T, candidate_scores=fallback.candidate_scores)
         extras["depth_poor_fit"] = False
-        return RegistrationResult(T_target_source=result.T_target_source, score=result.score, extras=extras)
+        return RegistrationResult(T_target_source=result.T_target_source, score=result.score, extras=extras,
+                                  candidates_T=result.candidates_T, candidate_scores=result.candidate_scores)
 
     def register_batch(self, problems: Sequence[RegistrationProblem]) -> list[RegistrationResult]:
         """:meth:`register` for several problems, with one solver launch for the candidates of all

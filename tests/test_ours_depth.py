@@ -75,6 +75,10 @@ def test_upright_views_are_right_and_the_extras_say_how(template):
         assert {"hypothesis", "resting", "depth_score", "depth_inliers", "escalated"} <= set(extras)
         assert {"verification", "refinement", "optimization"} <= set(extras["timings"])
         assert r.score == pytest.approx(extras["depth_score"])
+        # the candidates it chose among come back (catpose.register and the diagnosis read them)
+        C = np.asarray(r.candidates_T)
+        assert C.ndim == 3 and C.shape[1:] == (4, 4) and len(r.candidate_scores) == len(C)
+        assert min(rotation_error_deg(c[:3, :3], r.T_target_source[:3, :3]) for c in C) < 10.0
     assert np.median(errs) < 3.0, errs
 
 

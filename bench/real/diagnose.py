@@ -74,6 +74,12 @@ class _CloudDistance:
         return d, self.points[j], self.normals[j]
 
 
+def _angle_deg(R_a: np.ndarray, R_b: np.ndarray) -> float:
+    """Geodesic angle (degrees) between two (3, 3) rotations."""
+    c = (np.trace(R_a.T @ R_b) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+
+
 def _transform(T: np.ndarray, p: np.ndarray) -> np.ndarray:
     return p @ T[:3, :3].T + T[:3, 3]
 
@@ -172,14 +178,19 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
                 seed_everything(stable_seed(0, sid))
                 res = rec.register(prob)
                 T_est = np.asarray(res.T_target_source, float)
-                cand = rec.candidates
+                ex = res.extras
 
                 def err(T):
                     return sample_errors(T, gt.T_template_camera, gt.symmetry_axis, gt.symmetries)["err_deg"]
 
+                if "depth_score" in ex and res.candidates_T is not None:
+                    # the depth rule: every gravity hypothesis' expanded candidates (template frame);
+                    # "selected" is the one nearest the answer (the answer is it, refined)
+                    cand = np.asarray(res.candidates_T, float)
+                    sel = int(np.argmin([_angle_deg(T[:3, :3], T_est[:3, :3]) for T in cand]))
+                else:
+                    cand, sel = rec.candidates, int(ex["template_index"])
                 cand_err = [float(err(T)) for T in cand]
-                ex = res.extras
-                sel = int(ex["template_index"])
                 best = int(np.argmin(cand_err))
                 # depth-only ambiguity: observed points to the posed model, at the estimate and the truth
                 d_est = float(mesh.query(_transform(T_est, prob.points_camera))[0].mean())
@@ -187,8 +198,9 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
                 row = dict(base, ablation=which, err_deg=float(err(T_est)), selected=sel,
                            selected_cand_err=cand_err[sel], oracle=best, oracle_err=cand_err[best],
                            correct_exists=bool(min(cand_err) < 10), n_correct=int(sum(e < 10 for e in cand_err)),
-                           cand_err=cand_err, chamfer=ex["chamfer"], tilt_deg=ex["tilt_deg"], kept=ex["kept"],
-                           losses=ex["losses"], fit_est=d_est, fit_gt=d_gt,
+                           cand_err=cand_err, chamfer=ex.get("chamfer"), tilt_deg=ex.get("tilt_deg"),
+                           kept=ex.get("kept"), losses=ex.get("losses"), depth_score=ex.get("depth_score"),
+                           escalated=ex.get("escalated"), fit_est=d_est, fit_gt=d_gt,
                            fit_est_mm=d_est * scale_mm if scale_mm else None,
                            fit_gt_mm=d_gt * scale_mm if scale_mm else None,
                            n_points=int(len(prob.points_camera)))
@@ -201,8 +213,10 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
                                         ground=prob.ground_normal_camera, candidates=cand, T_est=T_est,
                                         T_gt=np.asarray(gt.T_template_camera, float), template_id=tpl.template_id,
                                         up=np.asarray(prob.template.up, float), cand_err=np.array(cand_err),
-                                        chamfer=np.array(ex["chamfer"]), tilt=np.array(ex["tilt_deg"]),
-                                        losses=np.array([np.nan if x is None else x for x in ex["losses"]]),
+                                        chamfer=np.array(ex.get("chamfer", []), float),
+                                        tilt=np.array(ex.get("tilt_deg", []), float),
+                                        losses=np.array([np.nan if x is None else x for x in ex.get("losses", [])],
+                                                        float),
                                         scale_mm=np.nan if scale_mm is None else float(scale_mm))
                 f.write(json.dumps(row) + "\n")
                 f.flush()
@@ -223,9 +237,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--save-dir", type=Path, default=None, help="save inputs and candidate poses (npz)")
     args = parser.parse_args(argv)
     from catpose import logs
+    from catpose.bench.real.suite import SETS
+    from catpose.errors import CatposeError
 
     logs.configure("", prefix="diagnose")  # its progress lines on stderr
-    diagnose(args.set, args.ablate.split(","), args.limit, args.out, args.bleed_mm, args.ours_override, args.save_dir)
+    ablations = args.ablate.split(",")
+    unknown = [a for a in ablations if a not in ABLATIONS]
+    try:
+        if args.set not in SETS:
+            raise CatposeError(f"--set {args.set!r} is unknown; use one of {', '.join(SETS)}")
+        if unknown:
+            raise CatposeError(f"--ablate {','.join(unknown)} unknown; use a comma-separated subset of "
+                               f"{', '.join(ABLATIONS)}")
+        diagnose(args.set, ablations, args.limit, args.out, args.bleed_mm, args.ours_override, args.save_dir)
+    except CatposeError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
     return 0
 
 
