@@ -43,7 +43,7 @@ from catpose.methods.selection import REACH_DEG, yaw_and_half_turns
 from catpose.point_to_plane_kernel import refine_many
 from catpose.types import RegistrationProblem, RegistrationResult
 
-__all__ = ["depth_verifier", "select_by_depth"]
+__all__ = ["depth_verifier", "final_verifier", "select_by_depth"]
 
 
 def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: list[Hypothesis],
@@ -99,10 +99,7 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
     timings["refinement"] += time.perf_counter() - t0
     t0 = time.perf_counter()
     T_top_t = _in_template(hyps, [expanded[i] for i in top], T_top)
-    if sel.depth_final_pixels > sel.depth_pixels:   # the final comparison on a finer lattice
-        verifier = DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, sel.depth_final_pixels,
-                                 sel.depth_max_rays * sel.depth_final_pixels // sel.depth_pixels,
-                                 sel.depth_free_weight)
+    verifier = final_verifier(sel, problem, verifier)
     top_scores = verifier.scores(T_top_t)
     top_cost, top_keep, rest_top = _costs(sel, top_scores, T_top_t, g, ups, axis)
     b = int(np.argmin(np.where(top_keep, top_cost, np.inf))) if top_keep.any() else int(np.argmin(top_cost))
@@ -134,6 +131,16 @@ def depth_verifier(sel: SelectionSettings, problem: RegistrationProblem) -> Dept
     """The depth check of ``problem``'s template against its depth image, with ``sel``'s settings."""
     return DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, sel.depth_pixels,
                          sel.depth_max_rays, sel.depth_free_weight)
+
+
+def final_verifier(sel: SelectionSettings, problem: RegistrationProblem,
+                   verifier: DepthVerifier | None = None) -> DepthVerifier:
+    """The depth check of the final comparison: on a finer lattice when ``sel.depth_final_pixels``
+    exceeds ``sel.depth_pixels``, else ``verifier`` (the problem's :func:`depth_verifier`)."""
+    if sel.depth_final_pixels > sel.depth_pixels:
+        return DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, sel.depth_final_pixels,
+                             sel.depth_max_rays * sel.depth_final_pixels // sel.depth_pixels, sel.depth_free_weight)
+    return depth_verifier(sel, problem) if verifier is None else verifier
 
 
 def _pool(sel: SelectionSettings, hyps, cands, feats, g, ups, axis) -> list[tuple[int, int]]:

@@ -92,7 +92,7 @@ def yaw_and_half_turns(up: np.ndarray, n: int) -> np.ndarray:
     """(M, 4, 4): :func:`half_turns`, then (``n`` > 1) the turns by ``360 k / n`` degrees about the
     unit ``up`` (3,) through the template origin, every rotation once (M = n + 2 when ``up`` is a
     template axis and ``n`` is even). Angles use the C library's sine and cosine, the same bits on
-    every CPU."""
+    every CPU (not :func:`catpose.geometry.axis_angle_to_R`, whose NumPy sine is chosen per CPU)."""
     import math
 
     from catpose.geometry import small_matmul, unit3

@@ -59,6 +59,7 @@ SHARED=$("$PY" -c 'from catpose.bench.run.config import shared_data_dir; print(s
 SECTIONS=("$@")
 [ ${#SECTIONS[@]} -gt 0 ] || SECTIONS=(synthetic category clutter real ambiguity perf api)
 eval "$("$PY" -m catpose.bench.run.environment portable)"
+source results/default_runs.sh
 
 run_experiments() {  # $1: output root
   for e in "${EXPERIMENTS[@]}"; do
@@ -145,10 +146,7 @@ real() {
   if [ -d "$SHARED/bop/ycbv" ]; then  # BOP's metrics of ICP and ours on the YCB-V frames
     local scored=()
     for m in icp ours; do
-      run=""  # the method's default run (no method.* override; the newest), not ours-visibility's
-      for d in $(ls -dt "$R"/ycbv-gt_model/$m/seed0-*); do
-        grep -q '^method\.' "$d/overrides.txt" || { run=$d; break; }
-      done
+      run=$(default_runs "$R/ycbv-gt_model/$m" 1)  # the method's default run, not ours-visibility's
       [ -n "$run" ] || { echo "make_results: no default run of $m in $R/ycbv-gt_model" >&2; exit 2; }
       rm -rf "$R/bop/$m" "$R/bop/${m}_ycbv-test.csv"*; mkdir -p "$R/bop"
       "$B" export "$run" --out "$R/bop/${m}_ycbv-test.csv"

@@ -57,12 +57,9 @@ def _run_parts(run_dir: Path):
 def verifier_costs(sel, problem, T_est: np.ndarray, T_gt: np.ndarray) -> tuple[float, float]:
     """Depth-check costs (lower is better) of the estimate and the truth, (4, 4) ``T_template_camera``
     each, on the lattice of ours' final comparison (``sel``: :class:`SelectionSettings`)."""
-    from catpose.methods.depth_check import DepthVerifier
+    from catpose.methods.ours_depth import final_verifier
 
-    pixels = max(sel.depth_final_pixels, sel.depth_pixels)
-    verifier = DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, pixels,
-                             sel.depth_max_rays * pixels // sel.depth_pixels, sel.depth_free_weight)
-    est, gt = verifier.scores(np.stack([T_est, T_gt]))
+    est, gt = final_verifier(sel, problem).scores(np.stack([T_est, T_gt]))
     return float(est), float(gt)
 
 

@@ -74,12 +74,6 @@ class _CloudDistance:
         return d, self.points[j], self.normals[j]
 
 
-def _angle_deg(R_a: np.ndarray, R_b: np.ndarray) -> float:
-    """Geodesic angle (degrees) between two (3, 3) rotations."""
-    c = (np.trace(R_a.T @ R_b) - 1.0) / 2.0
-    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
-
-
 def _transform(T: np.ndarray, p: np.ndarray) -> np.ndarray:
     return p @ T[:3, :3].T + T[:3, 3]
 
@@ -136,6 +130,7 @@ def ablate(problem, sample, mesh: _MeshDistance, which: str, bleed: float):
 
 def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, bleed_mm: float,
              ours_overrides: list[str], save_dir: Path | None = None) -> None:
+    from catpose.bench.protocols.template_choice import rotation_angle_deg
     from catpose.bench.scoring.metrics import sample_errors
     from catpose.bench.run.build import build_from_config
     from catpose.bench.run.sample_run import seed_everything
@@ -187,7 +182,7 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
                     # the depth rule: every gravity hypothesis' expanded candidates (template frame);
                     # "selected" is the one nearest the answer (the answer is it, refined)
                     cand = np.asarray(res.candidates_T, float)
-                    sel = int(np.argmin([_angle_deg(T[:3, :3], T_est[:3, :3]) for T in cand]))
+                    sel = int(np.argmin([rotation_angle_deg(T[:3, :3], T_est[:3, :3]) for T in cand]))
                 else:
                     cand, sel = rec.candidates, int(ex["template_index"])
                 cand_err = [float(err(T)) for T in cand]

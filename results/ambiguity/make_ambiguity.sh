@@ -17,16 +17,7 @@ PY=.venv/bin/python
 OUT=${OUT:-outputs/results}
 CLUTTER_RUNS=${CLUTTER_RUNS:-$OUT/clutter}
 T=${RESULTS:-results}/ambiguity
-default_runs() {  # ours' runs in $1 made with its default settings (no method.* override); of runs
-  # with the same overrides (an older default's run beside today's), the newest
-  local d seen=""
-  for d in $(ls -dt "$1"/*/ 2>/dev/null); do
-    [ -f "$d/overrides.txt" ] && ! grep -q '^method\.' "$d/overrides.txt" || continue
-    key=$(md5sum < "$d/overrides.txt" | cut -c1-12)
-    case " $seen " in *" $key "*) continue ;; esac
-    seen="$seen $key"; echo "${d%/}"
-  done
-}
+source results/default_runs.sh
 need() { [ -n "$2" ] || { echo "make_ambiguity: no runs of ours' default in $1; run results/make_results.sh first" >&2; exit 2; }; }
 mapfile -t clutter < <(default_runs "$CLUTTER_RUNS/clutter-gt_model/ours"); need "$CLUTTER_RUNS" "${clutter[*]:-}"
 "$PY" -m catpose.bench.real.ambiguity "${clutter[@]}" --split clutter --out "$T/clutter.md" \
