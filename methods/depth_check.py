@@ -39,6 +39,8 @@ from catpose.types import DepthImage, Template
 __all__ = ["DepthVerifier", "caster_for"]
 
 _CASTERS: LRUCache[str, tuple[RayCaster, float]] = LRUCache(16)
+#: renderings a verifier keeps, keyed by the pose's bytes (the newest; each at most the window's size)
+RENDERS_KEPT = 16
 
 
 def caster_for(template: Template) -> tuple[RayCaster, float]:
@@ -95,6 +97,7 @@ class DepthVerifier:
         window_px = 2.0 * max(self.fx, self.fy) * self.radius / max(z - self.radius, 0.25 * z)
         stride = max(1.0, np.sqrt(n_mask / max(target_pixels, 1)), window_px / np.sqrt(max(max_rays, 1)))
         self.lattice = self._lattice(int(np.ceil(stride)))
+        self._renders: dict[bytes, tuple[tuple[slice, slice] | None, np.ndarray]] = {}
 
     def _lattice(self, stride: int) -> _Lattice:
         h, w = self.image.depth.shape
@@ -130,8 +133,21 @@ class DepthVerifier:
 
     def render(self, T_template_camera: np.ndarray) -> list[tuple[tuple[slice, slice] | None, np.ndarray]]:
         """Per pose, its window and the rendered depth (window-shaped, 0 where the template is
-        not hit), all poses cast in one call."""
+        not hit), the poses not rendered lately cast in one call (the last ``RENDERS_KEPT``
+        renderings are kept: a pose scored and then measured by :meth:`fits` is cast once)."""
         T_all = np.asarray(T_template_camera, dtype=np.float64).reshape(-1, 4, 4)
+        keys = [T.tobytes() for T in T_all]
+        new = [i for i, k in enumerate(keys) if k not in self._renders]
+        cast = dict(zip(new, self._cast(T_all[new]))) if new else {}
+        out = [cast[i] if i in cast else self._renders[k] for i, k in enumerate(keys)]
+        for i in new[-RENDERS_KEPT:]:
+            self._renders[keys[i]] = cast[i]
+        while len(self._renders) > RENDERS_KEPT:
+            del self._renders[next(iter(self._renders))]   # the oldest first
+        return out
+
+    def _cast(self, T_all: np.ndarray) -> list[tuple[tuple[slice, slice] | None, np.ndarray]]:
+        """:meth:`render` of poses (B, 4, 4), all cast in one call."""
         wins = self.windows(T_all)
         origins, dirs, sizes = [], [], []
         for T, win in zip(T_all, wins):

@@ -18,9 +18,15 @@ first is the template's own up), each computed by the unchanged pipeline on the 
    hypothesis' up are dropped, the others refined by point-to-plane ICP against the turned
    template (compiled, all at once), scored again, filtered by gravity (any hypothesis' up), and
    the ``depth_final_refine`` of lowest depth cost go on.
-4. Those are refined on all input points and scored again; the lowest cost (the depth score plus
-   ``depth_rest_prior`` for a pose resting other than on the template's up) wins, and its depth
-   score is the result's ``score``.
+4. Those are refined on all input points and scored again on the final lattice
+   (``depth_final_pixels``); the lowest cost (the depth score plus ``depth_rest_prior`` for a pose
+   resting other than on the template's up) wins.
+5. With ``depth_final_turns``, the winner meets the one of its three half turns about the
+   template's axes that the coarse lattice scores best (of those gravity allows), refined on all
+   input points and compared on the final lattice by the same cost: a near-symmetric object's
+   half turn explains the image almost as well as the truth, and the coarse lattice of step 3
+   often drops the right one of the two before step 4 sees it. The lower cost wins, and its
+   depth score is the result's ``score``.
 
 All poses are scored in the original template's frame; ``extras`` say which hypothesis,
 candidate and half turn won.
@@ -39,7 +45,7 @@ from catpose.methods.ours_candidates import Candidates, TemplateFeatures
 from catpose.methods.ours_selection import chamfer_distances
 from catpose.methods.ours_settings import SelectionSettings
 from catpose.methods.resting_hypotheses import Hypothesis
-from catpose.methods.selection import REACH_DEG, yaw_and_half_turns
+from catpose.methods.selection import REACH_DEG, half_turns, yaw_and_half_turns
 from catpose.point_to_plane_kernel import refine_many
 from catpose.types import RegistrationProblem, RegistrationResult
 
@@ -92,18 +98,23 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
     top = top[np.isfinite(cost[top])] if np.isfinite(cost[top]).any() else top[:1]
     T_top = T_exp[top].copy()
     if sel.refine:
-        T_top = _refine(sel, hyps, cands, feats, [expanded[i][0] for i in top], T_top, "points")
-        if sel.depth_fine_distance > 0:   # then pairing only within a tighter distance: bleed and noise let go
-            T_top = _refine(replace(sel, refine_max_distance=min(sel.depth_fine_distance, sel.refine_max_distance)),
-                            hyps, cands, feats, [expanded[i][0] for i in top], T_top, "points")
+        T_top = _refine_points(sel, hyps, cands, feats, [expanded[i][0] for i in top], T_top)
     timings["refinement"] += time.perf_counter() - t0
     t0 = time.perf_counter()
     T_top_t = _in_template(hyps, [expanded[i] for i in top], T_top)
-    verifier = final_verifier(sel, problem, verifier)
+    coarse, verifier = verifier, final_verifier(sel, problem, verifier)
     top_scores = verifier.scores(T_top_t)
     top_cost, top_keep, rest_top = _costs(sel, top_scores, T_top_t, g, ups, axis)
     b = int(np.argmin(np.where(top_keep, top_cost, np.inf))) if top_keep.any() else int(np.argmin(top_cost))
-    best, T_out, score = int(top[b]), T_top_t[b], float(top_scores[b])
+    best, T_out, score, rest = int(top[b]), T_top_t[b], float(top_scores[b]), int(rest_top[b])
+    timings["verification"] += time.perf_counter() - t0
+
+    # step 5: the winner against its own half turns on the final lattice
+    final_turn = 0
+    if sel.depth_final_turns:
+        T_out, score, rest, final_turn = _against_half_turns(sel, hyps, cands, feats, (coarse, verifier), T_out,
+                                                             score, rest, (g, ups, axis), timings)
+    t0 = time.perf_counter()
     fit, fit_loose = verifier.fits(T_out[None], (verifier.tau, sel.depth_fit_tau))[:, 0]
     timings["verification"] += time.perf_counter() - t0
     if debug is not None:
@@ -112,8 +123,7 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
                      keep=keep, top=top, T_top=T_top_t, top_scores=top_scores, best=best)
 
     k, i, j = expanded[best]
-    rest = int(rest_top[b])
-    extras = {"template_index": i, "hypothesis": k, "half_turn": j, "resting": rest,
+    extras = {"template_index": i, "hypothesis": k, "half_turn": j, "final_turn": final_turn, "resting": rest,
               "resting_up": [float(x) for x in hyps[rest].up], "num_hypotheses": len(hyps), "depth_score": score,
               "depth_inliers": float(fit[0]), "depth_free": float(fit[1]),
               "depth_inliers_loose": float(fit_loose[0]),
@@ -160,6 +170,45 @@ def _pool(sel: SelectionSettings, hyps, cands, feats, g, ups, axis) -> list[tupl
             kept = np.sort(kept[np.argsort(dists, kind="stable")[:sel.depth_prescreen]])
         pool += [(k, int(i)) for i in kept]
     return pool
+
+
+def _against_half_turns(sel: SelectionSettings, hyps, cands, feats, verifiers, T_win: np.ndarray, score: float,
+                        rest: int, gravity, timings: dict[str, float]) -> tuple[np.ndarray, float, int, int]:
+    """Step 5: the winner ``T_win`` (4, 4, template frame) against the one of its three half turns
+    about the template's axes that the coarse lattice scores best (of those the gravity filter
+    keeps; by the same cost as every comparison, :func:`_costs`), refined on all input points and
+    scored with the winner on the final lattice. ``verifiers``: (coarse, final); ``gravity``:
+    (ground normal, hypotheses' ups, symmetry axis). Returns the pose that costs less, its depth
+    score, its resting direction and which turn it is (0: the winner itself, 1-3: about x, y, z)."""
+    coarse, final = verifiers
+    t0 = time.perf_counter()
+    T_turns = np.stack([compose_T(F, T_win) for F in half_turns()[1:]])   # template frame = hypothesis 0's
+    cost, keep, _ = _costs(sel, coarse.scores(T_turns), T_turns, *gravity)
+    timings["verification"] += time.perf_counter() - t0
+    if not keep.any():
+        return T_win, score, rest, 0
+    t = int(np.argmin(np.where(keep, cost, np.inf)))
+    t0 = time.perf_counter()
+    T_turn = _refine_points(sel, hyps, cands, feats, [0], T_turns[t:t + 1]) if sel.refine else T_turns[t:t + 1]
+    timings["refinement"] += time.perf_counter() - t0
+    t0 = time.perf_counter()
+    T_two = np.concatenate([T_win[None], T_turn])
+    scores = np.array([score, final.scores(T_turn)[0]])
+    cost, keep, rests = _costs(sel, scores, T_two, *gravity)
+    timings["verification"] += time.perf_counter() - t0
+    if keep[1] and (cost[1] < cost[0] or not keep[0]):
+        return T_two[1], float(scores[1]), int(rests[1]), t + 1
+    return T_win, score, rest, 0
+
+
+def _refine_points(sel: SelectionSettings, hyps, cands, feats, hyp_of: list[int], T: np.ndarray) -> np.ndarray:
+    """Step 4's refinement of poses (B, 4, 4) in their hypotheses' frames on all input points, then
+    (``depth_fine_distance`` > 0) pairing only within that tighter distance: bleed and noise let go."""
+    T = _refine(sel, hyps, cands, feats, hyp_of, T, "points")
+    if sel.depth_fine_distance > 0:
+        T = _refine(replace(sel, refine_max_distance=min(sel.depth_fine_distance, sel.refine_max_distance)),
+                    hyps, cands, feats, hyp_of, T, "points")
+    return T
 
 
 def _in_template(hyps, expanded, T_hyp: np.ndarray) -> np.ndarray:

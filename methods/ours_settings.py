@@ -98,8 +98,12 @@ class SelectionSettings:
             mask pixel.
         depth_fine_distance: ``depth``: after the refinement on all points, the last poses are
             refined again pairing only within this distance (0: not).
-        depth_final_pixels: ``depth``: lattice pixels in the mask for the last comparison (of the
-            ``depth_final_refine`` poses; at most ``depth_pixels`` means the same lattice).
+        depth_final_pixels: ``depth``: lattice pixels in the mask for the last comparisons (of the
+            ``depth_final_refine`` poses, and of the winner with its half turns; at most
+            ``depth_pixels`` means the same lattice).
+        depth_final_turns: ``depth``: the winner meets the one of its three half turns about the
+            template's axes that the coarse lattice scores best, refined on all input points and
+            compared on the final lattice (false: not).
         depth_top_k: ``depth``: candidates (of all gravity hypotheses, by their depth score) expanded
             by their half turns and refined.
         depth_final_refine: ``depth``: poses refined on all input points and scored again at the
@@ -136,9 +140,10 @@ class SelectionSettings:
     depth_prescreen: int = 6
     depth_rest_prior: float = 0.03
     depth_top_k: int = 5
-    depth_final_refine: int = 3
+    depth_final_refine: int = 1
     depth_yaw_turns: int = 12
-    depth_final_pixels: int = 300
+    depth_final_pixels: int = 2400
+    depth_final_turns: bool = True
     depth_fine_distance: float = 0.0
     depth_min_inliers: float = 0.9
     depth_fit_tau: float = 0.2
@@ -172,6 +177,7 @@ class SelectionSettings:
             raise ConfigError(f"{k}gravity_max_deg={g!r} must be a number of degrees or null (off)")
         set_(self, "gravity_max_deg", None if g is None or g <= 0 else float(g))
         set_(self, "refine", options.flag(k + "refine", self.refine))
+        set_(self, "depth_final_turns", options.flag(k + "depth_final_turns", self.depth_final_turns))
         set_(self, "refine_max_distance", options.positive(k + "refine_max_distance", self.refine_max_distance))
         set_(self, "refine_iterations", options.non_negative(k + "refine_iterations", self.refine_iterations,
                                                              integer=True))

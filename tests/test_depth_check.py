@@ -113,3 +113,24 @@ def test_an_empty_mask_is_refused():
     image, _ = _view(tpl)
     with pytest.raises(ValueError, match="mask"):
         DepthVerifier(tpl, DepthImage(image.depth, image.K, np.zeros_like(image.mask)))
+
+
+def test_a_pose_rendered_lately_is_not_cast_again(monkeypatch):
+    """Scoring a pose and then measuring its fit casts it once; a batch larger than the kept
+    renderings still scores every pose, the same as one by one."""
+    from catpose.methods import depth_check
+
+    tpl = _template()
+    image, T_gt = _view(tpl)
+    v = DepthVerifier(tpl, image, tau=0.1, target_pixels=300)
+    casts = []
+    real_cast = v.caster.cast
+    monkeypatch.setattr(v.caster, "cast", lambda o, d: casts.append(len(o)) or real_cast(o, d))
+    s = v.scores(T_gt[None])
+    f = v.fit(T_gt[None])
+    assert len(casts) == 1 and s[0] < 0.05 and f[0, 0] > 0.9
+    shifted = [compose_T(make_T(np.eye(3), [0.01 * k, 0.0, 0.0]), T_gt) for k in range(depth_check.RENDERS_KEPT + 4)]
+    many = v.scores(np.stack(shifted))
+    fresh = DepthVerifier(tpl, image, tau=0.1, target_pixels=300)
+    np.testing.assert_array_equal(many, [fresh.scores(T[None])[0] for T in shifted])
+    assert v.scores(T_gt[None])[0] == s[0]
