@@ -35,7 +35,6 @@ candidate and half turn won.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 
 import numpy as np
 
@@ -49,7 +48,7 @@ from catpose.methods.selection import REACH_DEG, half_turns, yaw_and_half_turns
 from catpose.point_to_plane_kernel import refine_many
 from catpose.types import RegistrationProblem, RegistrationResult
 
-__all__ = ["depth_verifier", "final_verifier", "select_by_depth"]
+__all__ = ["depth_verifier", "final_verifier", "refine_last", "select_by_depth"]
 
 
 def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: list[Hypothesis],
@@ -202,12 +201,26 @@ def _against_half_turns(sel: SelectionSettings, hyps, cands, feats, verifiers, T
 
 
 def _refine_points(sel: SelectionSettings, hyps, cands, feats, hyp_of: list[int], T: np.ndarray) -> np.ndarray:
-    """Step 4's refinement of poses (B, 4, 4) in their hypotheses' frames on all input points, then
-    (``depth_fine_distance`` > 0) pairing only within that tighter distance: bleed and noise let go."""
-    T = _refine(sel, hyps, cands, feats, hyp_of, T, "points")
+    """Step 4's refinement (:func:`refine_last`) of poses (B, 4, 4) in their hypotheses' frames,
+    each against its hypothesis' turned template on all input points."""
+    out = np.array(T, copy=True)
+    hyp_of = np.asarray(hyp_of)
+    for k in sorted(set(hyp_of.tolist())):
+        idx = np.nonzero(hyp_of == k)[0]
+        out[idx] = refine_last(sel, cands[k].points, feats[k].pairing, hyps[k].template.normals, out[idx])
+    return out
+
+
+def refine_last(sel: SelectionSettings, points: np.ndarray, grid, normals: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """How ours refines its last poses: point-to-plane ICP of ``points`` (N, 3, camera frame) against
+    the template (``grid``: a :class:`~catpose.cell_grid.CellGrid` of its points with reach at least
+    ``sel.refine_max_distance``; ``normals`` (M, 3)) from each pose ``T`` (B, 4, 4), within
+    ``refine_max_distance``, then (``depth_fine_distance`` > 0) pairing only within that tighter
+    distance: bleed and noise let go."""
+    T = refine_many(points, grid, normals, T, sel.refine_max_distance, sel.refine_iterations)
     if sel.depth_fine_distance > 0:
-        T = _refine(replace(sel, refine_max_distance=min(sel.depth_fine_distance, sel.refine_max_distance)),
-                    hyps, cands, feats, hyp_of, T, "points")
+        T = refine_many(points, grid, normals, T, min(sel.depth_fine_distance, sel.refine_max_distance),
+                        sel.refine_iterations)
     return T
 
 

@@ -9,8 +9,8 @@ with the settings of ours' final comparison read from the run's config).
 
 The estimate has been refined by ours; the annotated truth has not, and real annotations are a
 few millimetres off the depth image. So the truth is also refined the way ours refines its last
-poses (point-to-plane ICP on every input point from the truth, ``selection.refine_max_distance``,
-then ``depth_fine_distance`` when set) and the truth's cost is the lower of the two:
+poses (:func:`catpose.methods.ours_depth.refine_last`, on every input point) and the truth's cost
+is the lower of the two:
 
 - **ambiguous**: the estimate explains the image at least as well as the truth
   (``cost(estimate) <= min(cost(truth), cost(refined truth))``). No search fixes it under this
@@ -76,21 +76,17 @@ def verifier_costs(sel, problem, T_est: np.ndarray, T_gt: np.ndarray) -> tuple[f
 
 
 def refined_truth(sel, problem, T_gt: np.ndarray) -> np.ndarray:
-    """``T_gt`` (4, 4) ``T_template_camera`` refined as ours refines its last poses: point-to-plane
-    ICP of every input point against the template, within ``sel.refine_max_distance``, then within
-    ``sel.depth_fine_distance`` when set; ``T_gt`` itself with ``sel.refine`` off."""
+    """``T_gt`` (4, 4) ``T_template_camera`` refined as ours refines its last poses
+    (:func:`catpose.methods.ours_depth.refine_last`) on every input point; ``T_gt`` itself with
+    ``sel.refine`` off."""
     from catpose import cell_grid
-    from catpose.point_to_plane_kernel import refine_many
+    from catpose.methods.ours_depth import refine_last
 
     if not sel.refine:
         return np.asarray(T_gt, float)
     tpl = problem.template
     grid = cell_grid.build(tpl.points, sel.refine_max_distance)
-    T = np.asarray(T_gt, float)[None]
-    for dist in [sel.refine_max_distance] + ([min(sel.depth_fine_distance, sel.refine_max_distance)]
-                                            if sel.depth_fine_distance > 0 else []):
-        T = refine_many(problem.points_camera, grid, tpl.normals, T, dist, sel.refine_iterations)
-    return T[0]
+    return refine_last(sel, problem.points_camera, grid, tpl.normals, np.asarray(T_gt, float)[None])[0]
 
 
 def wrong_rows(run_dir: Path, wrong_deg: float = WRONG_DEG) -> tuple[list[dict], int]:
