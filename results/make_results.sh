@@ -14,7 +14,8 @@
 #   category   the paper's category tables on the shared ModelNet40 resampled shapes (the aligned
 #              airplanes and chairs), every method (results/category/make_*.sh: one template airplane,
 #              K = 1, 3, 5 templates of airplanes and chairs with chosen / oracle / random template,
-#              relative pose): results/category/paper/; the alignment estimates against the verified
+#              relative pose): results/category/paper/; the development tables that chose the cross
+#              template choice (results/category/dev/); the alignment estimates against the verified
 #              tables (results/alignment/make_estimates.sh). ~1 h.
 #   clutter    every method on the report scenes of the cluttered synthetic set of the real YCB-V
 #              meshes, and ours before / after with ICP on the dev scenes that chose ours' defaults
@@ -134,6 +135,9 @@ category() {
   local C="$OUT/category"
   for script in make_one_template_airplane make_templates_airplane make_templates_chair make_relative; do
     OUT="$C" bash results/category/$script.sh
+  done
+  for script in make_chair_dev make_embedded_choice; do  # the template choice's development tables
+    OUT="$C" bash results/category/dev/$script.sh
   done
   bash results/alignment/make_estimates.sh
 }

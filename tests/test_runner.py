@@ -165,7 +165,7 @@ def test_templates_protocol_selects_by_score_and_reports_oracle(tmp_path):
         "group_id": ["o1", "o1", "o2", "o2"], "category": ["c"] * 4, "status": ["ok", "ok", "ok", "failed"],
         "score": [2.0, 1.0, 5.0, None], "err_deg": [3.0, 50.0, 7.0, 180.0], "trans_err": [0.1, 0.2, 0.3, None],
         "runtime_s": [1.0, 1.0, 2.0, 2.0]})
-    units = Templates().score_units(df).set_index("group_id")
+    units = Templates(choice="score").score_units(df).set_index("group_id")
     assert units.loc["o1", "err_deg"] == 50.0 and units.loc["o1", "oracle_err_deg"] == 3.0
     assert units.loc["o2", "err_deg"] == 7.0 and units.loc["o2", "runtime_s"] == 4.0
 

@@ -107,7 +107,7 @@ def test_category_table_reports_chosen_oracle_and_random_side_by_side():
     assert error_stats(np.array([]))["mean"] != error_stats(np.array([]))["mean"]  # NaN
     md = to_markdown([{"method": "Ours", **r} for r in out], "t")
     assert "| 3 | Ours | agreement | 2 | 3.00 |" in md and md.count("\n") == 6
-    assert set(CHOICES) == {"score", "density", "agreement"}
+    assert set(CHOICES) == {"score", "density", "agreement", "cross"}
 
 
 def test_alignment_agreement_is_up_to_one_common_rotation_and_roc_separates():

@@ -4,8 +4,8 @@ scored on the same problems (fixed by dataset, protocol and seed alone).
 
 - ``gt_model``: each partial view against its own complete model.
 - ``templates``: each view against each of the category's K templates (one problem each); the
-  estimate of a view is the one with the lowest method score (a real system has no ground truth),
-  and the paper's "minimum error across templates" is reported beside it as an oracle.
+  estimate of a view is chosen without ground truth (``protocol.choice``, default ``score``), and
+  the paper's "minimum error across templates" is reported beside it as an oracle.
 - ``relative`` (:mod:`catpose.bench.protocols.relative`): relative pose between two views of one object.
 """
 
@@ -115,9 +115,10 @@ class Templates(Protocol):
     """Each view registered to each of its category's templates (``dataset.category_templates``).
 
     Sample ids are ``"<obs_id>|<k>"`` with ``k`` the template's index; ``group_id`` is the
-    observation id. ``score_units`` keeps, per observation, the row with the lowest method
-    ``score`` (ties and NaN scores fall back to the first template) and adds ``oracle_err_deg``,
-    the minimum error across templates, which needs ground truth and is labelled an oracle.
+    observation id. After each registration :meth:`estimate_facts` checks the estimate on every
+    template of the view; ``score_units`` keeps, per observation, the row ``choice`` picks
+    (:mod:`catpose.bench.protocols.template_choice`) and adds ``oracle_err_deg``, the minimum
+    error across templates, which needs ground truth and is labelled an oracle.
     """
 
     name = "templates"
@@ -159,12 +160,29 @@ class Templates(Protocol):
         template = self._templates(dataset, obs.category)[int(k)]
         return with_template_facts(make_sample(obs, template, sample_id, obs_id))
 
+    def estimate_facts(self, dataset: ObjectDataset, sample: Sample, T_template_camera: np.ndarray) -> dict:
+        """Facts of a finished estimate for the row's ``info``: ``cross_costs``, its cost on each
+        of the view's K templates (:func:`catpose.bench.protocols.cross_check.cross_costs`), and
+        ``cross_check_s``, the seconds they took; nothing when K = 1 (there is nothing to choose)."""
+        import time
+
+        from catpose.bench.protocols.cross_check import cross_costs
+
+        templates = self._templates(dataset, sample.problem.category)
+        if len(templates) < 2:
+            return {}
+        t0 = time.perf_counter()
+        own = int(sample.problem.sample_id.rpartition("|")[2])
+        costs = cross_costs(sample.problem.points_camera, T_template_camera, templates, own)
+        return {"cross_costs": costs, "template_index": own, "cross_check_s": time.perf_counter() - t0}
+
     def score_units(self, samples):
         return self.best_per_view(absolute_gt_only(samples))
 
     def best_per_view(self, samples):
-        """One row per view (``group_id``): the template with the lowest method score, with
-        ``oracle_err_deg``, ``n_templates`` and the summed ``runtime_s`` of the group."""
+        """One row per view (``group_id``): the registration ``protocol.choice`` keeps, with
+        ``oracle_err_deg``, ``n_templates`` and the summed ``runtime_s`` of the group (with the
+        ``cross`` rule's checks)."""
         import pandas as pd
 
         if len(samples) == 0:
@@ -175,7 +193,13 @@ class Templates(Protocol):
             err = pd.to_numeric(g["err_deg"], errors="coerce").where(g["status"] == "ok")
             row["oracle_err_deg"] = float(err.min()) if err.notna().any() else 180.0
             row["n_templates"] = len(g)
-            row["runtime_s"] = float(pd.to_numeric(g["runtime_s"], errors="coerce").sum())
+            row["runtime_s"] = float(pd.to_numeric(g["runtime_s"], errors="coerce").sum()) + self._choice_s(g)
             rows.append(row)
         return pd.DataFrame(rows).reset_index(drop=True)
+
+    def _choice_s(self, group) -> float:
+        """Seconds the view's choice itself took: the ``cross`` rule's checks (0 for the others)."""
+        if self.choice != "cross" or "info" not in group:
+            return 0.0
+        return float(sum(i.get("cross_check_s", 0.0) for i in group["info"] if isinstance(i, dict)))
 

@@ -3,7 +3,7 @@
 The ``templates`` protocol registers every view to each of its category's K templates; a real
 system then has to keep one estimate. The rules (``protocol.choice=<name>``):
 
-- ``score`` (default before issue 25, still selectable): the registration with the lowest method
+- ``score``: the registration with the lowest method
   ``score``; views whose scores are all NaN keep the first template's.
 - ``density``: the score less ``DENSITY_WEIGHT`` times the template's point spacing (median
   distance of a template point to its nearest neighbour, ``info["template_spacing"]``, written by
@@ -15,6 +15,14 @@ system then has to keep one estimate. The rules (``protocol.choice=<name>``):
   the number of the view's other registrations whose rotation lies within ``AGREE_DEG`` of its
   own; the most supported wins, ties broken by the lowest score (with no agreement at all this is
   the ``score`` rule).
+
+- ``cross`` (default): each registration's estimate is also checked on the view's other
+  templates (:mod:`catpose.bench.protocols.cross_check`, ``info["cross_costs"]``, written by the
+  protocol after each registration): its cost is its own template's visibility-aware Chamfer
+  distance plus ``CROSS_WEIGHT`` times the mean over the other templates (each after a short ICP);
+  the lowest wins. A right pose fits every template of the category; a turned pose that fits its
+  own template by a shape coincidence does not. Registrations without costs (their check failed)
+  are chosen only when no registration of the view has them (then by ``score``).
 
 Failed registrations are never chosen unless every registration of the view failed (then the
 first row, a 180-degree error, is kept). Measurements behind the rules and their settings are in
@@ -32,7 +40,10 @@ import numpy as np
 
 from catpose.errors import ConfigError
 
-CHOICES = ("score", "density", "agreement")
+CHOICES = ("score", "density", "agreement", "cross")
+#: ``cross``: own-template cost + CROSS_WEIGHT x mean cost on the other templates (chosen on the
+#: development chairs and airplanes, docs/category-level.md)
+CROSS_WEIGHT = 0.75
 #: two registrations of a view agree when their rotations differ by at most this (degrees)
 AGREE_DEG = 20.0
 #: ``density``: score - DENSITY_WEIGHT * template spacing (chosen on airplanes, docs/category-level.md)
@@ -80,9 +91,12 @@ def support(rotations: Sequence[np.ndarray], agree_deg: float = AGREE_DEG) -> np
 
 
 def choose_index(scores: Sequence[float], rotations: Sequence[np.ndarray | None], choice: str,
-                 agree_deg: float = AGREE_DEG, spacings: Sequence[float] | None = None) -> int:
+                 agree_deg: float = AGREE_DEG, spacings: Sequence[float] | None = None,
+                 cross: Sequence[float] | None = None) -> int:
     """Index of the chosen registration among K (``rotations[k]`` None: failed; ``spacings``:
-    the templates' point spacings, needed by ``density``).
+    the templates' point spacings, needed by ``density``; ``cross``: each registration's
+    :func:`~catpose.bench.protocols.cross_check.cross_cost`, NaN where it has none, needed by
+    ``cross``).
 
     Raises:
         ConfigError: unknown ``choice``, or ``density`` without spacings.
@@ -92,6 +106,10 @@ def choose_index(scores: Sequence[float], rotations: Sequence[np.ndarray | None]
     if not ok:
         return 0
     s = np.array([scores[k] for k in ok], float)
+    if choice == "cross":
+        c = np.array([np.nan if cross is None else cross[k] for k in ok], float)
+        if np.isfinite(c).any():
+            s = np.where(np.isfinite(c), c, np.inf)
     if choice == "density":
         sp = np.array([np.nan if spacings is None else spacings[k] for k in ok], float)
         if not np.isfinite(sp).all():
@@ -114,15 +132,39 @@ def choose_row(group, choice: str = "score"):
 
     status_ok = (group["status"] == "ok").to_numpy()
     scores = pd.to_numeric(group["score"], errors="coerce").to_numpy(float)
-    if choice == "score" and "T_est" not in group:  # rows from files without estimates
+    if choice != "agreement" and "T_est" not in group:  # rows from files without estimates
         rotations = [np.eye(3) if good else None for good in status_ok]
     else:
         rotations = [(_rotation(T) if good else None) for T, good in zip(group["T_est"], status_ok)]
-    spacings = None
+    spacings = cross = None
+    if choice == "cross" and len(group) > 1:  # one template: nothing to choose, no costs written
+        cross = cross_costs_of(group)
     if choice == "density":
         infos = group["info"] if "info" in group else [{}] * len(group)
         spacings = [float(i.get("template_spacing", np.nan)) if isinstance(i, dict) else np.nan for i in infos]
-    return group.iloc[choose_index(list(scores), rotations, choice, spacings=spacings)]
+    return group.iloc[choose_index(list(scores), rotations, choice, spacings=spacings, cross=cross)]
+
+
+def cross_costs_of(group) -> list[float]:
+    """Each row's ``cross`` cost (NaN where its ``info`` has no ``cross_costs``).
+
+    Raises:
+        ConfigError: no row of the group has them (rows written before the check existed).
+    """
+    from catpose.bench.protocols.cross_check import cross_cost
+
+    infos = group["info"] if "info" in group else [{}] * len(group)
+    out = []
+    for info in infos:
+        info = info if isinstance(info, dict) else {}
+        costs = info.get("cross_costs")
+        out.append(cross_cost(costs, int(info["template_index"]), CROSS_WEIGHT) if costs else np.nan)
+    status_ok = (group["status"] == "ok").to_numpy() if "status" in group else np.ones(len(group), bool)
+    if status_ok.any() and not np.isfinite(np.asarray(out, float)[status_ok]).any() and \
+            not any(isinstance(i, dict) and "estimate_facts_error" in i for i in infos):
+        raise ConfigError("protocol.choice=cross needs info.cross_costs (written by the templates protocol "
+                          "since the rule exists); these rows predate it: re-run them, or use protocol.choice=score")
+    return out
 
 
 _SPACING: dict[str, float] = {}

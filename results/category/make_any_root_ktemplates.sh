@@ -2,7 +2,7 @@
 # K = 1, 3, 5 category templates on any modelnet40_normal_resampled root: the K-medoids of the
 # root's aligned instances (`bench templates`), every instance that is a template for no K as test
 # views (2 views each), each view registered to each template, then `bench category` (chosen /
-# oracle / random, rules score, density, agreement). Nothing is downloaded: give a root you have.
+# oracle / random, rules cross (the run's), score, density, agreement). Nothing is downloaded: give a root you have.
 # Usage (repository root):
 #   bash results/category/make_any_root_ktemplates.sh ROOT ALIGNMENT_CSV CATEGORY OUT.md
 #   (ROWS="ours icp" for more methods; default ours; OUT gets OUT.csv beside it)
@@ -20,11 +20,11 @@ union=$(.venv/bin/python -c "import sys, yaml; print(','.join(sorted({i for p in
   "$CAT" "$W"/k{1,3,5}/templates/any.yaml)
 rows=$(echo ${ROWS:-ours} | tr ' ' ',')
 for K in 1 3 5; do
-  "$B" run -m "+row=$rows" "${D[@]}" protocol=templates protocol.exclude_templates=true "protocol.exclude_instances=[$union]" \
+  "$B" run -m "+row=$rows" "${D[@]}" protocol=templates protocol.choice=cross protocol.exclude_templates=true "protocol.exclude_instances=[$union]" \
     +templates=any "hydra.searchpath=[file://$(cd "$W/k$K" && pwd)]" output_root="$OUT" progress=false print_summary=false \
     hydra.sweep.dir="$OUT/multirun/k$K"
 done
 for fmt in md csv; do
-  "$B" category "$OUT/multirun/k1" "$OUT/multirun/k3" "$OUT/multirun/k5" --category "$CAT" --choices score,density,agreement \
+  "$B" category "$OUT/multirun/k1" "$OUT/multirun/k3" "$OUT/multirun/k5" --category "$CAT" --choices cross,score,density,agreement \
     --format $fmt --out "${MD%.md}.$fmt" --title "$CAT, K templates ($ROOT)"
 done

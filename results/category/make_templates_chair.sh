@@ -18,6 +18,6 @@ fi
 T=results/category/paper; mkdir -p "$T"
 for fmt in md csv; do
   "$B" category "$OUT/multirun/mn40r_chair_1template" "$OUT/multirun/mn40r_chair_ktemplates" --category chair \
-    --choices score,density,agreement --format $fmt --out "$T/templates_chair.$fmt" \
+    --choices cross,score,density,agreement --format $fmt --out "$T/templates_chair.$fmt" \
     --title "Chair, K templates (shared resampled chairs; test views chair_0454, chair_0858 x 4)"
 done

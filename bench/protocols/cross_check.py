@@ -1,0 +1,86 @@
+"""How well one view's estimate fits each of its category's K templates (``info["cross_costs"]``,
+read by the ``cross`` choice rule of :mod:`catpose.bench.protocols.template_choice`).
+
+The K templates share the category's canonical frame, so a right estimate from any template is
+a pose the other templates also fit, after a small correction for their different shapes; an
+estimate that is a quarter or half turn off fits its own template by a shape coincidence that the
+other templates do not share. For the estimate ``T`` (camera -> template ``k``) of a view:
+
+- on its own template ``k`` the cost is the visibility-aware two-directional Chamfer distance
+  (:func:`catpose.methods.selection.visibility_chamfer`, truncated at ``TRUNC``) at ``T`` itself;
+- on every other template ``j`` it is the same distance after point-to-plane ICP of the view
+  against template ``j`` from ``T`` (Open3D, within ``ICP_DISTANCE``, at most ``ICP_ITERATIONS``).
+
+The same costs are computed for every method, so the rule is the method's own only through its
+estimates. The settings are those of the development runs that chose the rule
+(docs/category-level.md).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import numpy as np
+
+#: truncation of both Chamfer directions (object-normalised unit, ours' ``visibility_trunc``)
+TRUNC = 0.1
+#: ICP correspondence distance on another template (object-normalised unit)
+ICP_DISTANCE = 0.05
+#: ICP iterations on another template
+ICP_ITERATIONS = 30
+
+_TARGETS: dict[str, tuple[Any, Any]] = {}
+
+
+def _target(template: Any) -> tuple[Any, Any]:
+    """(Open3D cloud with normals, cKDTree) of ``template``'s points, cached by its id and size."""
+    key = f"{template.template_id}#{len(template.points)}"
+    if key not in _TARGETS:
+        from scipy.spatial import cKDTree
+
+        from catpose.o3d import o3d
+
+        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(template.points, float)))
+        pcd.normals = o3d.utility.Vector3dVector(np.asarray(template.normals, float))
+        _TARGETS[key] = (pcd, cKDTree(np.asarray(template.points, float)))
+    return _TARGETS[key]
+
+
+def refine_on(points_camera: np.ndarray, template: Any, T_template_camera: np.ndarray) -> np.ndarray:
+    """(4, 4) ``T_template_camera`` refined by point-to-plane ICP of ``points_camera`` (N, 3)
+    against ``template`` (single-threaded: Open3D's parallel sums differ run to run)."""
+    from catpose.o3d import max_threads, o3d
+
+    reg = o3d.pipelines.registration
+    pcd, _ = _target(template)
+    src = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points_camera, float)))
+    with max_threads(1):
+        result = reg.registration_icp(src, pcd, ICP_DISTANCE, np.asarray(T_template_camera, float),
+                                      reg.TransformationEstimationPointToPlane(),
+                                      reg.ICPConvergenceCriteria(max_iteration=ICP_ITERATIONS))
+    return np.asarray(result.transformation).copy()
+
+
+def cross_costs(points_camera: np.ndarray, T_template_camera: np.ndarray, templates: Sequence[Any],
+                own: int) -> list[float]:
+    """(K,) the cost of the estimate ``T_template_camera`` (4, 4) of the view ``points_camera``
+    (N, 3, camera frame, object-normalised unit) on each of ``templates``; ``own`` is the index
+    of the template it was estimated against (its cost is taken at the estimate unrefined)."""
+    from catpose.methods.selection import visibility_chamfer
+
+    P = np.asarray(points_camera, float)
+    out = []
+    for j, template in enumerate(templates):
+        T = np.asarray(T_template_camera, float) if j == own else refine_on(P, template, T_template_camera)
+        _, tree = _target(template)
+        out.append(float(visibility_chamfer(P, T[None], np.asarray(template.points, float),
+                                            np.asarray(template.normals, float), tree, TRUNC)[0]))
+    return out
+
+
+def cross_cost(costs: Sequence[float], own: int, weight: float) -> float:
+    """One registration's ``cross`` cost from its :func:`cross_costs` row: its own template's cost
+    plus ``weight`` times the mean of the other templates' (the own cost alone when K = 1)."""
+    c = np.asarray(costs, float)
+    others = np.delete(c, own)
+    return float(c[own] + (weight * others.mean() if len(others) else 0.0))

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# The development table of the template choice (issue 25; docs/category-level.md): 4 chairs that
+# are not among the shared resampled ones (chair_dev_root.py builds their root in $DEV_ROOT,
+# outside the repository, from the shared data), 12 views each, registered by ours and ICP to the
+# K = 3 chair templates of the paper table (chair_0391, chair_0624, chair_0848); `bench category`
+# writes chosen (rules cross, score, density, agreement) / oracle / random side by side to
+# results/category/dev/chair_dev_k3.{md,csv}. The cross rule's weight was chosen on these runs
+# (and on development airplanes that cannot be shared); the paper table's chairs only report it.
+# Usage (repository root): bash results/category/dev/make_chair_dev.sh
+set -euo pipefail
+cd "$(dirname "$0")/../../.."
+B=.venv/bin/bench
+SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
+DEV_ROOT=${DEV_ROOT:-$HOME/.cache/catpose/chair_dev}
+OUT=${OUT:-outputs/category_dev}
+.venv/bin/python results/category/dev/chair_dev_root.py "$SHARED" "$DEV_ROOT"
+"$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours,icp" dataset.root="$DEV_ROOT" \
+  dataset.alignment_table="$DEV_ROOT/alignment_chair.csv" dataset.views_per_instance=12 output_root="$OUT" \
+  progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/chair_dev_k3"
+for fmt in md csv; do
+  "$B" category "$OUT/multirun/chair_dev_k3" --category chair --choices cross,score,density,agreement --format $fmt \
+    --out results/category/dev/chair_dev_k3.$fmt \
+    --title "Chair development set, K = 3 (chair_0001, chair_0002, chair_0059, ShapeNet chair x 12 views)"
+done

@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Where the cross template choice loses (docs/category-level.md): the embedded set's depth images
+# with 3 category templates (+experiment=templates, K = 3 rows), seed 1 (the development seed of the
+# embedded set; the committed embedded tables are seed 0), ours and ICP, every choice rule side by
+# side: results/category/dev/embedded_seed1_k3.{md,csv}.
+# Usage (repository root): bash results/category/dev/make_embedded_choice.sh
+set -euo pipefail
+cd "$(dirname "$0")/../../.."
+B=.venv/bin/bench
+OUT=${OUT:-outputs/category_dev}
+"$B" run -m +experiment=templates "+row=ours,icp" protocol.max_templates=null seed=1 output_root="$OUT" \
+  progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/embedded_seed1_k3"
+for fmt in md csv; do
+  "$B" category "$OUT/multirun/embedded_seed1_k3" --choices cross,score,density,agreement --format $fmt \
+    --out results/category/dev/embedded_seed1_k3.$fmt \
+    --title "Embedded set (depth images), 3 category templates, seed 1: every choice rule"
+done
