@@ -163,7 +163,8 @@ def cross_costs_of(group) -> list[float]:
     if status_ok.any() and not np.isfinite(np.asarray(out, float)[status_ok]).any() and \
             not any(isinstance(i, dict) and "estimate_facts_error" in i for i in infos):
         raise ConfigError("protocol.choice=cross needs info.cross_costs (written by the templates protocol "
-                          "since the rule exists); these rows predate it: re-run them, or use protocol.choice=score")
+                          "since the rule exists); these rows predate it: run them again into a new output_root (a run "
+                          "resumes its finished rows), or use protocol.choice=score")
     return out
 
 
