@@ -49,7 +49,7 @@ def _errors(rows) -> np.ndarray:
 
 
 def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
-    """One row per choice rule for a templates run (one row when K = 1): ``K``, ``views``,
+    """One row per choice rule for a templates run (one row, choice ``-``, when K = 1): ``K``, ``views``,
     ``choice`` and ``chosen_*``, ``oracle_*``, ``random_*`` statistics (:data:`STATS`)."""
     from catpose.bench.protocols.absolute import Templates, absolute_gt_only
 
@@ -62,7 +62,7 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
     out = []
     for choice in (choices[:1] if K == 1 else choices):  # one template: nothing to choose
         units = Templates(choice=choice).best_per_view(samples)
-        row = {"K": K, "views": len(units), "choice": choice}
+        row = {"K": K, "views": len(units), "choice": choice if K > 1 else "-"}
         row.update({f"chosen_{k}": v for k, v in error_stats(_errors(units)).items()})
         row.update({f"oracle_{k}": v for k, v in error_stats(units["oracle_err_deg"].to_numpy(float)).items()})
         row.update({f"random_{k}": v for k, v in error_stats(_errors(samples)).items()})
@@ -104,7 +104,8 @@ def build(paths: Sequence[str | Path], category: str | None, choices: Sequence[s
     for run, label in zip(runs, run_labels(runs, group_of=K_of)):
         for r in run_rows(run, category, choices):
             rows.append({"method": label, **r})
-    return sorted(rows, key=lambda r: (r["K"], r["method"], list(choices).index(r["choice"])))
+    order = {c: i for i, c in enumerate(choices)}
+    return sorted(rows, key=lambda r: (r["K"], r["method"], order.get(r["choice"], -1)))
 
 
 def to_markdown(rows: list[dict], title: str = "") -> str:
