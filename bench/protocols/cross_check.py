@@ -25,7 +25,7 @@ import numpy as np
 #: truncation of both Chamfer directions (object-normalised unit, ours' ``visibility_trunc``)
 TRUNC = 0.1
 #: ICP correspondence distance on another template (object-normalised unit)
-ICP_DISTANCE = 0.05
+ICP_DISTANCE = 0.03
 #: ICP iterations on another template
 ICP_ITERATIONS = 30
 
