@@ -94,9 +94,9 @@ def test_a_turned_estimate_costs_more_on_the_other_templates():
 def _rows(costs, scores, errs, status=None):
     K = len(scores)
     return pd.DataFrame({
-        "group_id": ["chair/a/v00"] * K, "status": status or ["ok"] * K, "score": scores, "err_deg": errs,
+        "group_id": ["chair/a/v00"] * K, "sample_id": [f"chair/a/v00|{k}" for k in range(K)], "status": status or ["ok"] * K, "score": scores, "err_deg": errs,
         "runtime_s": [1.0] * K, "T_est": [np.eye(4).reshape(-1).tolist()] * K,
-        "info": [({"cross_costs": c, "template_index": k} if c is not None else {}) for k, c in enumerate(costs)]})
+        "info": [({"cross_costs": c} if c is not None else {}) for c in costs]})
 
 
 def test_cross_rule_takes_the_lowest_cross_cost():

@@ -174,7 +174,7 @@ class Templates(Protocol):
         t0 = time.perf_counter()
         own = int(sample.problem.sample_id.rpartition("|")[2])
         costs = cross_costs(sample.problem.points_camera, T_template_camera, templates, own)
-        return {"cross_costs": costs, "template_index": own, "cross_check_s": time.perf_counter() - t0}
+        return {"cross_costs": costs, "cross_check_s": time.perf_counter() - t0}
 
     def score_units(self, samples):
         return self.best_per_view(absolute_gt_only(samples))

@@ -29,31 +29,41 @@ ICP_DISTANCE = 0.03
 #: ICP iterations on another template
 ICP_ITERATIONS = 30
 
-_TARGETS: dict[str, tuple[Any, Any]] = {}
+_TARGETS: dict[str, tuple[Any, Any, np.ndarray, np.ndarray]] = {}
 
 
-def _target(template: Any) -> tuple[Any, Any]:
-    """(Open3D cloud with normals, cKDTree) of ``template``'s points, cached by its id and size."""
+def _target(template: Any) -> tuple[Any, Any, np.ndarray, np.ndarray]:
+    """(Open3D cloud with normals, cKDTree, points (M, 3), normals (M, 3)) of ``template``, cached
+    by its id and size."""
     key = f"{template.template_id}#{len(template.points)}"
     if key not in _TARGETS:
         from scipy.spatial import cKDTree
 
         from catpose.o3d import o3d
 
-        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(template.points, float)))
-        pcd.normals = o3d.utility.Vector3dVector(np.asarray(template.normals, float))
-        _TARGETS[key] = (pcd, cKDTree(np.asarray(template.points, float)))
+        points, normals = np.asarray(template.points, float), np.asarray(template.normals, float)
+        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+        pcd.normals = o3d.utility.Vector3dVector(normals)
+        _TARGETS[key] = (pcd, cKDTree(points), points, normals)
     return _TARGETS[key]
 
 
-def refine_on(points_camera: np.ndarray, template: Any, T_template_camera: np.ndarray) -> np.ndarray:
+def _cloud(points_camera: np.ndarray):
+    """The view (N, 3) as an Open3D cloud."""
+    from catpose.o3d import o3d
+
+    return o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points_camera, float)))
+
+
+def refine_on(points_camera: np.ndarray, template: Any, T_template_camera: np.ndarray, source: Any = None) -> np.ndarray:
     """(4, 4) ``T_template_camera`` refined by point-to-plane ICP of ``points_camera`` (N, 3)
-    against ``template`` (single-threaded: Open3D's parallel sums differ run to run)."""
+    against ``template`` (single-threaded: Open3D's parallel sums differ run to run); ``source``:
+    the view already as an Open3D cloud (built here when None)."""
     from catpose.o3d import max_threads, o3d
 
     reg = o3d.pipelines.registration
-    pcd, _ = _target(template)
-    src = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points_camera, float)))
+    pcd = _target(template)[0]
+    src = _cloud(points_camera) if source is None else source
     with max_threads(1):
         result = reg.registration_icp(src, pcd, ICP_DISTANCE, np.asarray(T_template_camera, float),
                                       reg.TransformationEstimationPointToPlane(),
@@ -69,12 +79,13 @@ def cross_costs(points_camera: np.ndarray, T_template_camera: np.ndarray, templa
     from catpose.methods.selection import visibility_chamfer
 
     P = np.asarray(points_camera, float)
+    T_est = np.asarray(T_template_camera, float)
+    source = _cloud(P) if len(templates) > 1 else None   # one cloud for the K - 1 refinements
     out = []
     for j, template in enumerate(templates):
-        T = np.asarray(T_template_camera, float) if j == own else refine_on(P, template, T_template_camera)
-        _, tree = _target(template)
-        out.append(float(visibility_chamfer(P, T[None], np.asarray(template.points, float),
-                                            np.asarray(template.normals, float), tree, TRUNC)[0]))
+        T = T_est if j == own else refine_on(P, template, T_est, source)
+        _, tree, points, normals = _target(template)
+        out.append(float(visibility_chamfer(P, T[None], points, normals, tree, TRUNC)[0]))
     return out
 
 

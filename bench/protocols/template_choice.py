@@ -16,7 +16,7 @@ system then has to keep one estimate. The rules (``protocol.choice=<name>``):
   own; the most supported wins, ties broken by the lowest score (with no agreement at all this is
   the ``score`` rule).
 
-- ``cross`` (default): each registration's estimate is also checked on the view's other
+- ``cross`` (the ModelNet40 category experiments' rule): each registration's estimate is also checked on the view's other
   templates (:mod:`catpose.bench.protocols.cross_check`, ``info["cross_costs"]``, written by the
   protocol after each registration): its cost is its own template's visibility-aware Chamfer
   distance plus ``CROSS_WEIGHT`` times the mean over the other templates (each after a short ICP);
@@ -155,10 +155,10 @@ def cross_costs_of(group) -> list[float]:
 
     infos = group["info"] if "info" in group else [{}] * len(group)
     out = []
-    for info in infos:
-        info = info if isinstance(info, dict) else {}
-        costs = info.get("cross_costs")
-        out.append(cross_cost(costs, int(info["template_index"]), CROSS_WEIGHT) if costs else np.nan)
+    for info, sample_id in zip(infos, group["sample_id"]):
+        costs = info.get("cross_costs") if isinstance(info, dict) else None
+        own = int(str(sample_id).rpartition("|")[2]) if costs else 0   # ids are "<obs_id>|<template index>"
+        out.append(cross_cost(costs, own, CROSS_WEIGHT) if costs else np.nan)
     status_ok = (group["status"] == "ok").to_numpy() if "status" in group else np.ones(len(group), bool)
     if status_ok.any() and not np.isfinite(np.asarray(out, float)[status_ok]).any() and \
             not any(isinstance(i, dict) and "estimate_facts_error" in i for i in infos):
