@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench.protocols.cross_check import TRUNC, cross_cost, cross_costs, refine_on
+from catpose.bench.protocols.cross_check import (SILHOUETTE_CELL, SILHOUETTE_WEIGHT, TRUNC, cross_cost, cross_costs,
+                                                 refine_on, silhouette_cells, silhouette_iou)
 from catpose.bench.protocols.template_choice import CROSS_WEIGHT, choose_index, choose_row
 from catpose.bench.run import sample_run
 from catpose.errors import ConfigError
@@ -55,16 +56,47 @@ def _view(template, camera_template: np.ndarray):
     return template.points[vis] - camera_template, T_template_camera
 
 
-def test_own_cost_is_the_visibility_chamfer_at_the_estimate():
+def _cells_reference(points_camera, cell):
+    """Independent reference of the silhouette cells: a Python loop over the points."""
+    import math
+
+    return {(math.floor(x / z / cell), math.floor(y / z / cell)) for x, y, z in points_camera.tolist() if z > 1e-9}
+
+
+def test_own_cost_is_the_visibility_chamfer_plus_the_silhouette_term_at_the_estimate():
     tmpl = _chair_like(0.7, 0.8, 0)
     P, T = _view(tmpl, np.array([0.3, 2.5, 1.5]))
-    own = cross_costs(P, T, [tmpl], 0)[0]
+    # the camera looks along +z of its frame: turn the view so the object lies in front of it
+    R = axis_angle_to_R(np.array([1.0, 0.0, 0.0]), np.deg2rad(-90.0))
+    T_turn = np.eye(4)
+    T_turn[:3, :3] = R
+    P_cam = P @ R.T
+    T = T @ np.linalg.inv(T_turn)
+    own = cross_costs(P_cam, T, [tmpl], 0)[0]
     # independent reference: brute-force distances, the same truncation, no refinement
-    src = P + T[:3, 3]
+    src = P_cam @ T[:3, :3].T + T[:3, 3]
     d_in = np.minimum(np.linalg.norm(src[:, None] - tmpl.points[None], axis=2).min(1), TRUNC).mean()
     vis = tmpl.points[np.einsum("ij,ij->i", tmpl.normals, T[:3, 3][None] - tmpl.points) > 0]
     d_vis = np.minimum(np.linalg.norm(vis[:, None] - src[None], axis=2).min(1), TRUNC).mean()
-    assert own == pytest.approx(d_in + d_vis, rel=1e-9)
+    cell = SILHOUETTE_CELL / np.median(P_cam[:, 2])
+    a = _cells_reference(P_cam, cell)
+    b = _cells_reference((tmpl.points - T[:3, 3]) @ T[:3, :3], cell)
+    assert 0.5 < len(a & b) / len(a | b) < 1.0   # the hidden side widens the outline a little
+    assert own == pytest.approx(d_in + d_vis + SILHOUETTE_WEIGHT * (1 - len(a & b) / len(a | b)), rel=1e-9)
+
+
+def test_silhouette_cells_and_iou():
+    rng = np.random.default_rng(0)
+    P = rng.uniform([-0.5, -0.5, 2.0], [0.5, 0.5, 3.0], (500, 3))
+    behind = np.vstack([P, [[0.1, 0.1, -1.0], [0.0, 0.0, 0.0]]])   # at or behind the camera: left out
+    assert silhouette_cells(behind, 0.02) == _cells_reference(P, 0.02)
+    cells = silhouette_cells(P, 0.02)
+    assert silhouette_iou(cells, P, 0.02) == 1.0
+    shifted = P + [1.0, 0.0, 0.0]   # moved sideways by its own width: the outlines barely meet
+    ref = _cells_reference(shifted, 0.02)
+    assert silhouette_iou(cells, shifted, 0.02) == pytest.approx(len(cells & ref) / len(cells | ref))
+    assert silhouette_iou(cells, shifted, 0.02) < 0.1
+    assert silhouette_iou(set(), np.zeros((0, 3)), 0.02) == 0.0
 
 
 def test_refinement_on_another_template_recovers_a_small_offset():

@@ -9,7 +9,11 @@ other templates do not share. For the estimate ``T`` (camera -> template ``k``) 
 - on its own template ``k`` the cost is the visibility-aware two-directional Chamfer distance
   (:func:`catpose.methods.selection.visibility_chamfer`, truncated at ``TRUNC``) at ``T`` itself;
 - on every other template ``j`` it is the same distance after point-to-plane ICP of the view
-  against template ``j`` from ``T`` (Open3D, within ``ICP_DISTANCE``, at most ``ICP_ITERATIONS``).
+  against template ``j`` from ``T`` (Open3D, within ``ICP_DISTANCE``, at most ``ICP_ITERATIONS``);
+- each of those poses also pays ``SILHOUETTE_WEIGHT x (1 - IoU)`` of the view's and the posed
+  template's silhouettes (:func:`silhouette_iou`): a chair turned a quarter shows the camera a
+  seat as wide as it is deep and a back seen edge-on, an outline the view does not have even where
+  the Chamfer distances tie.
 
 The same costs are computed for every method, so the rule is the method's own only through its
 estimates. The settings are those of the development runs that chose the rule
@@ -28,6 +32,10 @@ TRUNC = 0.1
 ICP_DISTANCE = 0.03
 #: ICP iterations on another template
 ICP_ITERATIONS = 30
+#: silhouette cell side (object-normalised unit at the view's median depth)
+SILHOUETTE_CELL = 0.05
+#: weight of ``1 - IoU`` of the silhouettes in each cost
+SILHOUETTE_WEIGHT = 0.2
 
 _TARGETS: dict[str, tuple[Any, Any, np.ndarray, np.ndarray]] = {}
 
@@ -71,21 +79,44 @@ def refine_on(points_camera: np.ndarray, template: Any, T_template_camera: np.nd
     return np.asarray(result.transformation).copy()
 
 
+def silhouette_cells(points_camera: np.ndarray, cell: float) -> set[tuple[int, int]]:
+    """The image cells (side ``cell`` in normalised image coordinates ``x / z``, ``y / z``) hit by
+    ``points_camera`` (N, 3, camera frame); points at or behind the camera centre are left out."""
+    P = np.asarray(points_camera, float)
+    P = P[P[:, 2] > 1e-9]
+    ij = np.floor(np.stack([P[:, 0] / P[:, 2], P[:, 1] / P[:, 2]], 1) / cell).astype(np.int64)
+    return set(map(tuple, np.unique(ij, axis=0).tolist()))
+
+
+def silhouette_iou(view_cells: set, template_points_camera: np.ndarray, cell: float) -> float:
+    """Intersection over union of the view's silhouette cells and those of a posed template's
+    points (M, 3, camera frame: every point, the outline of the whole shape is the outline of
+    its visible side); 0 when either is empty."""
+    cells = silhouette_cells(template_points_camera, cell)
+    union = len(view_cells | cells)
+    return len(view_cells & cells) / union if union else 0.0
+
+
 def cross_costs(points_camera: np.ndarray, T_template_camera: np.ndarray, templates: Sequence[Any],
                 own: int) -> list[float]:
     """(K,) the cost of the estimate ``T_template_camera`` (4, 4) of the view ``points_camera``
     (N, 3, camera frame, object-normalised unit) on each of ``templates``; ``own`` is the index
     of the template it was estimated against (its cost is taken at the estimate unrefined)."""
+    from catpose.geometry import invert_T, transform_points
     from catpose.methods.selection import visibility_chamfer
 
     P = np.asarray(points_camera, float)
     T_est = np.asarray(T_template_camera, float)
     source = _cloud(P) if len(templates) > 1 else None   # one cloud for the K - 1 refinements
+    cell = SILHOUETTE_CELL / float(np.median(P[:, 2]))   # the cell's side at the view's depth
+    view_cells = silhouette_cells(P, cell)
     out = []
     for j, template in enumerate(templates):
         T = T_est if j == own else refine_on(P, template, T_est, source)
         _, tree, points, normals = _target(template)
-        out.append(float(visibility_chamfer(P, T[None], points, normals, tree, TRUNC)[0]))
+        iou = silhouette_iou(view_cells, transform_points(invert_T(T), points), cell)
+        out.append(float(visibility_chamfer(P, T[None], points, normals, tree, TRUNC)[0])
+                   + SILHOUETTE_WEIGHT * (1.0 - iou))
     return out
 
 

@@ -18,9 +18,9 @@ system then has to keep one estimate. The rules (``protocol.choice=<name>``):
 
 - ``cross`` (the ModelNet40 category experiments' rule): each registration's estimate is also checked on the view's other
   templates (:mod:`catpose.bench.protocols.cross_check`, ``info["cross_costs"]``, written by the
-  protocol after each registration): its cost is its own template's visibility-aware Chamfer
-  distance plus ``CROSS_WEIGHT`` times the mean over the other templates (each after a short ICP);
-  the lowest wins. A right pose fits every template of the category; a turned pose that fits its
+  protocol after each registration): its cost is its own template's cost (visibility-aware Chamfer
+  distance plus a silhouette term) plus ``CROSS_WEIGHT`` times the mean over the other templates
+  (each after a short ICP); the lowest wins. A right pose fits every template of the category; a turned pose that fits its
   own template by a shape coincidence does not. Registrations without costs (their check failed)
   are chosen only when no registration of the view has them (then by ``score``).
 
@@ -43,7 +43,7 @@ from catpose.errors import ConfigError
 CHOICES = ("score", "density", "agreement", "cross")
 #: ``cross``: own-template cost + CROSS_WEIGHT x mean cost on the other templates (chosen on the
 #: development chairs and airplanes, docs/category-level.md)
-CROSS_WEIGHT = 0.75
+CROSS_WEIGHT = 0.25
 #: two registrations of a view agree when their rotations differ by at most this (degrees)
 AGREE_DEG = 20.0
 #: ``density``: score - DENSITY_WEIGHT * template spacing (chosen on airplanes, docs/category-level.md)

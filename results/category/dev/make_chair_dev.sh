@@ -22,3 +22,16 @@ for fmt in md csv; do
     --out results/category/dev/chair_dev_k3.$fmt \
     --title "Chair development set, K = 3 (chair_0001, chair_0002, chair_0059, ShapeNet chair x 12 views)"
 done
+SWAPS=(chair_0001,chair_0059,chair_9001 chair_0002,chair_0391,chair_0848 chair_0059,chair_0624,chair_9001
+       chair_0001,chair_0002,chair_0624)
+for i in "${!SWAPS[@]}"; do
+  "$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours,icp" dataset.root="$DEV_ROOT" \
+    dataset.alignment_table="$DEV_ROOT/alignment_chair.csv" dataset.views_per_instance=12 output_root="$OUT" \
+    "dataset.templates.chair=[${SWAPS[$i]}]" "protocol.exclude_instances=[]" \
+    progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/chair_dev_swap$i"
+done
+for fmt in md csv; do
+  "$B" category "$OUT"/multirun/chair_dev_swap{0,1,2,3} --category chair --choices cross,score,density,agreement \
+    --format $fmt --out results/category/dev/chair_dev_swaps.$fmt \
+    --title "Chair development set, roles swapped: 4 template sets of K = 3 from the 7 non-report chairs, the other 4 chairs x 12 views"
+done
