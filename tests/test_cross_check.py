@@ -174,3 +174,16 @@ def test_runner_hook_adds_facts_and_keeps_the_estimate_when_they_fail():
     assert sample_run._with_estimate_facts(_Protocol({"x": 1}), None, failed, None) is failed
     with pytest.raises(ImportError):  # not the sample's fault: the run stops
         sample_run._with_estimate_facts(_Protocol(error=ImportError("x")), None, ok, None)
+
+
+def test_costs_do_not_depend_on_the_estimates_last_bits():
+    # estimates differ in their last bits between CPUs' BLAS kernels; the ICPs start from the
+    # estimate rounded to 1e-9, so such a difference leaves every cost bit for bit the same
+    templates = [_chair_like(0.7, 0.8, 0), _chair_like(0.6, 0.9, 10), _chair_like(0.8, 0.7, 20)]
+    inst = _chair_like(0.65, 0.85, 30)
+    P, T = _view(inst, np.array([0.8, 2.0, 1.5]))
+    T = _pose(7.3, (0.0123, -0.0071, 0.0)) @ T
+    nudged = T.copy()
+    nudged[:3, :] += np.random.default_rng(0).choice([-1.0, 1.0], (3, 4)) * 4e-16 * np.maximum(np.abs(T[:3, :]), 1.0)
+    assert not np.array_equal(nudged, T)
+    assert cross_costs(P, nudged, templates, 0)[1:] == cross_costs(P, T, templates, 0)[1:]

@@ -111,8 +111,11 @@ def cross_costs(points_camera: np.ndarray, T_template_camera: np.ndarray, templa
     cell = SILHOUETTE_CELL / float(np.median(P[:, 2]))   # the cell's side at the view's depth
     view_cells = silhouette_cells(P, cell)
     out = []
+    # the ICPs start from the estimate rounded to 1e-9: its last bits differ between CPUs' BLAS
+    # kernels, and an ICP can turn such a difference into another correspondence set
+    T_start = np.round(T_est, 9)
     for j, template in enumerate(templates):
-        T = T_est if j == own else refine_on(P, template, T_est, source)
+        T = T_est if j == own else refine_on(P, template, T_start, source)
         _, tree, points, normals = _target(template)
         iou = silhouette_iou(view_cells, transform_points(invert_T(T), points), cell)
         out.append(float(visibility_chamfer(P, T[None], points, normals, tree, TRUNC)[0])
