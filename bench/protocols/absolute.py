@@ -14,7 +14,8 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 import numpy as np
 
-from catpose.bench.protocols.template_choice import check_choice, choose_row, is_excluded_view, with_template_facts
+from catpose.bench.protocols.template_choice import (check_choice, choose_row, is_excluded_view, split_template_sample_id,
+                                                    template_sample_id, with_template_facts)
 from catpose.datasets.base import ObjectDataset, Observation
 from catpose.errors import ConfigError, DatasetError
 from catpose.types import GroundTruth, RegistrationProblem, Sample, Template
@@ -150,14 +151,14 @@ class Templates(Protocol):
             if is_excluded_view(obs_id, self._templates(dataset, category) if self.exclude_templates else [],
                                 self.exclude_instances):
                 continue
-            ids.extend(f"{obs_id}|{k}" for k in range(n))
+            ids.extend(template_sample_id(obs_id, k) for k in range(n))
         return ids
 
     def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
         require_consistent_frames(dataset, f"protocol={self.name}")
-        obs_id, _, k = sample_id.rpartition("|")
+        obs_id, k = split_template_sample_id(sample_id)
         obs = self._cache.get(dataset, obs_id)
-        template = self._templates(dataset, obs.category)[int(k)]
+        template = self._templates(dataset, obs.category)[k]
         return with_template_facts(make_sample(obs, template, sample_id, obs_id))
 
     def estimate_facts(self, dataset: ObjectDataset, sample: Sample, T_template_camera: np.ndarray) -> dict:
@@ -172,7 +173,7 @@ class Templates(Protocol):
         if len(templates) < 2:
             return {}
         t0 = time.perf_counter()
-        own = int(sample.problem.sample_id.rpartition("|")[2])
+        own = split_template_sample_id(sample.problem.sample_id)[1]
         costs = cross_costs(sample.problem.points_camera, T_template_camera, templates, own)
         return {"cross_costs": costs, "cross_check_s": time.perf_counter() - t0}
 

@@ -85,7 +85,7 @@ def silhouette_cells(points_camera: np.ndarray, cell: float) -> set[tuple[int, i
     P = np.asarray(points_camera, float)
     P = P[P[:, 2] > 1e-9]
     ij = np.floor(np.stack([P[:, 0] / P[:, 2], P[:, 1] / P[:, 2]], 1) / cell).astype(np.int64)
-    return set(map(tuple, np.unique(ij, axis=0).tolist()))
+    return set(map(tuple, ij.tolist()))
 
 
 def silhouette_iou(view_cells: set, template_points_camera: np.ndarray, cell: float) -> float:

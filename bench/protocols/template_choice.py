@@ -50,6 +50,17 @@ AGREE_DEG = 20.0
 DENSITY_WEIGHT = 1.5
 
 
+def template_sample_id(obs_id: str, k: int) -> str:
+    """The templates protocol's sample id of view ``obs_id`` against its ``k``-th template."""
+    return f"{obs_id}|{k}"
+
+
+def split_template_sample_id(sample_id: str) -> tuple[str, int]:
+    """(view id, template index) of a :func:`template_sample_id`."""
+    obs_id, _, k = str(sample_id).rpartition("|")
+    return obs_id, int(k)
+
+
 def check_choice(choice: str) -> str:
     """``choice`` if it names a rule, else a one-line :class:`ConfigError`."""
     if choice not in CHOICES:
@@ -157,7 +168,7 @@ def cross_costs_of(group) -> list[float]:
     out = []
     for info, sample_id in zip(infos, group["sample_id"]):
         costs = info.get("cross_costs") if isinstance(info, dict) else None
-        own = int(str(sample_id).rpartition("|")[2]) if costs else 0   # ids are "<obs_id>|<template index>"
+        own = split_template_sample_id(sample_id)[1] if costs else 0
         out.append(cross_cost(costs, own, CROSS_WEIGHT) if costs else np.nan)
     status_ok = (group["status"] == "ok").to_numpy() if "status" in group else np.ones(len(group), bool)
     if status_ok.any() and not np.isfinite(np.asarray(out, float)[status_ok]).any() and \
