@@ -9,9 +9,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench.protocols.cross_check import (SILHOUETTE_CELL, SILHOUETTE_WEIGHT, TRUNC, cross_cost, cross_costs,
-                                                 refine_on, silhouette_cells, silhouette_iou)
-from catpose.bench.protocols.template_choice import CROSS_WEIGHT, choose_index, choose_row
+from catpose.bench.protocols.absolute import Templates
+from catpose.bench.protocols.cross_check import (SILHOUETTE_CELL, SILHOUETTE_WEIGHT, TOP_FRACTION, TRUNC, cross_cost,
+                                                 cross_costs, refine_on, silhouette_cells, silhouette_iou,
+                                                 top_centroid, top_offset)
+from catpose.bench.protocols.template_choice import CROSS_WEIGHT, TOP_WEIGHT, choose_index, choose_row
 from catpose.bench.run import sample_run
 from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R
@@ -38,7 +40,7 @@ def _chair_like(seat_depth: float, back_height: float, seed: int):
     sp, sn = _box_surface([0.8, seat_depth, 0.1], 1500, seed)
     bp, bn = _box_surface([0.8, 0.1, back_height], 1000, seed + 1)
     bp = bp + np.array([0.0, -seat_depth / 2, back_height / 2])
-    return SimpleNamespace(template_id=f"chair{seed}", points=np.vstack([sp, bp]), normals=np.vstack([sn, bn]))
+    return SimpleNamespace(template_id=f"chair{seed}", points=np.vstack([sp, bp]), normals=np.vstack([sn, bn]), up=Z)
 
 
 def _pose(deg: float, t=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -123,12 +125,13 @@ def test_a_turned_estimate_costs_more_on_the_other_templates():
     assert cross_cost([0.2], 0, 0.75) == pytest.approx(0.2)
 
 
-def _rows(costs, scores, errs, status=None):
+def _rows(costs, scores, errs, status=None, tops=None):
     K = len(scores)
+    tops = tops or [0.0] * K
     return pd.DataFrame({
         "group_id": ["chair/a/v00"] * K, "sample_id": [f"chair/a/v00|{k}" for k in range(K)], "status": status or ["ok"] * K, "score": scores, "err_deg": errs,
         "runtime_s": [1.0] * K, "T_est": [np.eye(4).reshape(-1).tolist()] * K,
-        "info": [({"cross_costs": c} if c is not None else {}) for c in costs]})
+        "info": [({"cross_costs": c, "top_offset": t} if c is not None else {}) for c, t in zip(costs, tops)]})
 
 
 def test_cross_rule_takes_the_lowest_cross_cost():
@@ -136,7 +139,7 @@ def test_cross_rule_takes_the_lowest_cross_cost():
     costs = [[0.12, 0.13, 0.12], [0.20, 0.10, 0.30], [0.13, 0.14, 0.11]]
     rows = _rows(costs, [0.12, 0.10, 0.11], [4.0, 85.0, 6.0])
     assert choose_row(rows, "score")["err_deg"] == 85.0
-    # own + 0.75 x others: 0.12 + 0.09375, 0.10 + 0.1875, 0.11 + 0.10125
+    # own + 0.25 x others: 0.12 + 0.03125, 0.10 + 0.0625, 0.11 + 0.03125
     assert choose_row(rows, "cross")["err_deg"] == 6.0
     assert choose_index([0.1, 0.2], [np.eye(3)] * 2, "cross", cross=[0.3, np.nan]) == 0
 
@@ -149,6 +152,12 @@ def test_cross_rule_without_costs():
     # rows written before the check existed: one line that says to re-run
     with pytest.raises(ConfigError, match="cross_costs"):
         choose_row(_rows([None, None], [0.2, 0.1], [5.0, 50.0]), "cross")
+    # rows written before the top offset existed: cross still reads them, cross_top says to re-run
+    old = _rows([[0.3, 0.3], [0.3, 0.2]], [0.2, 0.1], [5.0, 50.0])
+    old["info"] = [{"cross_costs": i["cross_costs"]} for i in old["info"]]
+    assert choose_row(old, "cross")["err_deg"] == 50.0
+    with pytest.raises(ConfigError, match="cross_top needs info.cross_costs and info.top_offset"):
+        choose_row(old, "cross_top")
     # one template: nothing to choose, no costs needed
     assert choose_row(_rows([None], [0.2], [5.0]), "cross")["err_deg"] == 5.0
 
@@ -187,3 +196,59 @@ def test_costs_do_not_depend_on_the_estimates_last_bits():
     nudged[:3, :] += np.random.default_rng(0).choice([-1.0, 1.0], (3, 4)) * 4e-16 * np.maximum(np.abs(T[:3, :]), 1.0)
     assert not np.array_equal(nudged, T)
     assert cross_costs(P, nudged, templates, 0)[1:] == cross_costs(P, T, templates, 0)[1:]
+
+
+def test_top_centroid_against_a_sorted_reference():
+    rng = np.random.default_rng(3)
+    P = rng.normal(size=(200, 3))
+    up = np.array([0.3, -0.5, 0.8])
+    u = up / np.linalg.norm(up)
+    top = P[np.argsort(P @ u)[-int(round(TOP_FRACTION * 200)):]].mean(axis=0)   # the 20 highest points
+    assert top_centroid(P, up) == pytest.approx(top - (top @ u) * u, abs=1e-12)
+    assert abs(top_centroid(P, up) @ u) < 1e-12
+
+
+def test_top_offset_places_a_turned_chairs_back():
+    # the templates' backs stand at -y; the right pose puts the view's back there, a quarter turn
+    # about up puts it at the side, a half turn at +y
+    templates = [_chair_like(0.7, 0.8, 0), _chair_like(0.6, 0.9, 10), _chair_like(0.8, 0.7, 20)]
+    inst = _chair_like(0.65, 0.85, 30)
+    P, T = _view(inst, np.array([0.8, 2.0, 1.5]))
+    right = top_offset(P, T, templates, 0)
+    quarter, half = top_offset(P, _pose(90.0) @ T, templates, 0), top_offset(P, _pose(180.0) @ T, templates, 0)
+    assert right < 0.15 < quarter < half
+    # independent reference for the right pose: the 10 % highest posed points against the mean
+    # of the templates' 10 % highest, compared across z
+    def top_xy(X):
+        return X[X[:, 2] >= np.quantile(X[:, 2], 0.9)][:, :2].mean(axis=0)
+    X = P @ T[:3, :3].T + T[:3, 3]
+    ref = np.linalg.norm(top_xy(X) - np.mean([top_xy(t.points) for t in templates], axis=0))
+    assert right == pytest.approx(ref, abs=1e-12)
+    # the same shapes in a frame whose up is +y give the same offsets
+    R = axis_angle_to_R(np.array([1.0, 0.0, 0.0]), np.deg2rad(-90.0))
+    turned = [SimpleNamespace(template_id=t.template_id + "y", points=t.points @ R.T, normals=t.normals @ R.T,
+                              up=R @ Z) for t in templates]
+    T_y = np.eye(4)
+    T_y[:3, :3] = R
+    assert top_offset(P, T_y @ _pose(90.0) @ T, turned, 0) == pytest.approx(quarter, abs=1e-9)
+
+
+def test_cross_top_breaks_a_tie_of_the_cross_costs_by_the_top_offset():
+    costs = [[0.20, 0.25], [0.25, 0.20]]
+    rows = _rows(costs, [0.2, 0.2], [80.0, 5.0], tops=[0.7, 0.05])
+    assert choose_row(rows, "cross")["err_deg"] == 80.0   # cross alone: the tie goes to the first
+    assert choose_row(rows, "cross_top")["err_deg"] == 5.0
+    assert cross_cost(costs[0], 0, CROSS_WEIGHT, 0.7, TOP_WEIGHT) == pytest.approx(0.20 + CROSS_WEIGHT * 0.25 + TOP_WEIGHT * 0.7)
+
+
+def test_templates_protocol_writes_the_costs_and_the_top_offset():
+    templates = [_chair_like(0.7, 0.8, 0), _chair_like(0.6, 0.9, 10)]
+    P, T = _view(_chair_like(0.65, 0.85, 30), np.array([0.8, 2.0, 1.5]))
+    dataset = SimpleNamespace(category_templates=lambda category: templates)
+    sample = SimpleNamespace(problem=SimpleNamespace(points_camera=P, category="chair", sample_id="chair/c/v00|1"))
+    facts = Templates(choice="cross").estimate_facts(dataset, sample, T)
+    assert facts["cross_costs"] == cross_costs(P, T, templates, 1)
+    assert facts["top_offset"] == top_offset(P, T, templates, 1)
+    assert facts["cross_check_s"] >= 0.0
+    one = SimpleNamespace(category_templates=lambda category: templates[:1])
+    assert Templates(choice="cross").estimate_facts(one, sample, T) == {}

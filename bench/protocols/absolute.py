@@ -163,11 +163,12 @@ class Templates(Protocol):
 
     def estimate_facts(self, dataset: ObjectDataset, sample: Sample, T_template_camera: np.ndarray) -> dict:
         """Facts of a finished estimate for the row's ``info``: ``cross_costs``, its cost on each
-        of the view's K templates (:func:`catpose.bench.protocols.cross_check.cross_costs`), and
+        of the view's K templates (:func:`catpose.bench.protocols.cross_check.cross_costs`),
+        ``top_offset`` (:func:`~catpose.bench.protocols.cross_check.top_offset`), and
         ``cross_check_s``, the seconds they took; nothing when K = 1 (there is nothing to choose)."""
         import time
 
-        from catpose.bench.protocols.cross_check import cross_costs
+        from catpose.bench.protocols.cross_check import cross_costs, top_offset
 
         templates = self._templates(dataset, sample.problem.category)
         if len(templates) < 2:
@@ -175,7 +176,8 @@ class Templates(Protocol):
         t0 = time.perf_counter()
         own = split_template_sample_id(sample.problem.sample_id)[1]
         costs = cross_costs(sample.problem.points_camera, T_template_camera, templates, own)
-        return {"cross_costs": costs, "cross_check_s": time.perf_counter() - t0}
+        top = top_offset(sample.problem.points_camera, T_template_camera, templates, own)
+        return {"cross_costs": costs, "top_offset": top, "cross_check_s": time.perf_counter() - t0}
 
     def score_units(self, samples):
         return self.best_per_view(absolute_gt_only(samples))
@@ -199,8 +201,9 @@ class Templates(Protocol):
         return pd.DataFrame(rows).reset_index(drop=True)
 
     def _choice_s(self, group) -> float:
-        """Seconds the view's choice itself took: the ``cross`` rule's checks (0 for the others)."""
-        if self.choice != "cross" or "info" not in group:
+        """Seconds the view's choice itself took: the ``cross`` and ``cross_top`` rules' checks (0
+        for the others)."""
+        if self.choice not in ("cross", "cross_top") or "info" not in group:
             return 0.0
         return float(sum(i.get("cross_check_s", 0.0) for i in group["info"] if isinstance(i, dict)))
 

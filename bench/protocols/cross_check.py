@@ -15,6 +15,13 @@ other templates do not share. For the estimate ``T`` (camera -> template ``k``) 
   seat as wide as it is deep and a back seen edge-on, an outline the view does not have even where
   the Chamfer distances tie.
 
+Beside the K costs, :func:`top_offset` (read by the ``cross_top`` rule) places the estimate's top part: the horizontal distance
+(across the template frame's up) between the centroid of the view's highest ``TOP_FRACTION``
+points, posed by the estimate, and the mean of the K templates' own top centroids. The templates
+share the category's frame, so they agree where a category's highest part stands (a chair's back,
+an airplane's tail fin); a quarter-turned chair puts its back at the side, a nose/tail-swapped
+airplane its fin at the nose, even where the Chamfer distances and silhouettes tie.
+
 The same costs are computed for every method, so the rule is the method's own only through its
 estimates. The settings are those of the development runs that chose the rule
 (docs/category-level.md).
@@ -36,6 +43,8 @@ ICP_ITERATIONS = 30
 SILHOUETTE_CELL = 0.05
 #: weight of ``1 - IoU`` of the silhouettes in each cost
 SILHOUETTE_WEIGHT = 0.2
+#: :func:`top_offset`: the fraction of a shape's points, highest along up, whose centroid is its top
+TOP_FRACTION = 0.1
 
 _TARGETS: dict[str, tuple[Any, Any, np.ndarray, np.ndarray]] = {}
 
@@ -123,9 +132,48 @@ def cross_costs(points_camera: np.ndarray, T_template_camera: np.ndarray, templa
     return out
 
 
-def cross_cost(costs: Sequence[float], own: int, weight: float) -> float:
+def top_centroid(points_template: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """(3,) the centroid of the highest ``TOP_FRACTION`` of ``points_template`` (N, 3) along the
+    unit vector ``up`` (3,), less its component along ``up``: where the shape's top part stands
+    in the plane across up (the points' unit)."""
+    P = np.asarray(points_template, float)
+    u = np.asarray(up, float) / np.linalg.norm(up)
+    h = P @ u
+    c = P[h >= np.quantile(h, 1.0 - TOP_FRACTION)].mean(axis=0)
+    return c - (c @ u) * u
+
+
+_TOPS: dict[str, np.ndarray] = {}
+
+
+def _template_top(template: Any) -> np.ndarray:
+    """:func:`top_centroid` of ``template``'s points along its ``up``, cached by id and size."""
+    key = f"{template.template_id}#{len(template.points)}#{tuple(np.asarray(template.up, float))}"
+    if key not in _TOPS:
+        _TOPS[key] = top_centroid(template.points, template.up)
+    return _TOPS[key]
+
+
+def top_offset(points_camera: np.ndarray, T_template_camera: np.ndarray, templates: Sequence[Any],
+               own: int) -> float:
+    """Horizontal distance (object-normalised unit) between the top centroid of the view
+    ``points_camera`` (N, 3, camera frame) posed by ``T_template_camera`` (4, 4, camera -> template
+    ``own``) and the mean top centroid of ``templates`` (:func:`top_centroid`, along the own
+    template's ``up``; the templates share one frame)."""
+    from catpose.geometry import transform_points
+
+    up = np.asarray(templates[own].up, float)
+    view_top = top_centroid(transform_points(np.asarray(T_template_camera, float), np.asarray(points_camera, float)), up)
+    category_top = np.mean([_template_top(t) for t in templates], axis=0)
+    d = view_top - category_top
+    d = d - (d @ up) * up / (up @ up)
+    return float(np.linalg.norm(d))
+
+
+def cross_cost(costs: Sequence[float], own: int, weight: float, top: float = 0.0, top_weight: float = 0.0) -> float:
     """One registration's ``cross`` cost from its :func:`cross_costs` row: its own template's cost
-    plus ``weight`` times the mean of the other templates' (the own cost alone when K = 1)."""
+    plus ``weight`` times the mean of the other templates' (the own cost alone when K = 1), plus
+    ``top_weight`` times its :func:`top_offset` ``top``."""
     c = np.asarray(costs, float)
     others = np.delete(c, own)
-    return float(c[own] + (weight * others.mean() if len(others) else 0.0))
+    return float(c[own] + (weight * others.mean() if len(others) else 0.0) + top_weight * float(top))

@@ -16,13 +16,20 @@ system then has to keep one estimate. The rules (``protocol.choice=<name>``):
   own; the most supported wins, ties broken by the lowest score (with no agreement at all this is
   the ``score`` rule).
 
-- ``cross`` (the ModelNet40 category experiments' rule): each registration's estimate is also checked on the view's other
+- ``cross`` (the ModelNet40 airplane and any-root experiments' rule): each registration's estimate is also checked on the view's other
   templates (:mod:`catpose.bench.protocols.cross_check`, ``info["cross_costs"]``, written by the
   protocol after each registration): its cost is its own template's cost (visibility-aware Chamfer
   distance plus a silhouette term) plus ``CROSS_WEIGHT`` times the mean over the other templates
   (each after a short ICP); the lowest wins. A right pose fits every template of the category; a turned pose that fits its
   own template by a shape coincidence does not. Registrations without costs (their check failed)
   are chosen only when no registration of the view has them (then by ``score``).
+- ``cross_top`` (the ModelNet40 chair experiments' rule): the ``cross`` cost plus ``TOP_WEIGHT``
+  times the estimate's top offset (``info["top_offset"]``,
+  :func:`~catpose.bench.protocols.cross_check.top_offset`: how far across the vertical the view's
+  highest part, posed by the estimate, stands from where the K templates put theirs). A chair
+  turned a quarter puts its back at its side. It needs a category whose templates agree on where
+  their top part stands: on the shared airplanes (biplanes' upper wings, high wings, tail fins)
+  it chooses worse than ``cross``.
 
 Failed registrations are never chosen unless every registration of the view failed (then the
 first row, a 180-degree error, is kept). Measurements behind the rules and their settings are in
@@ -40,10 +47,12 @@ import numpy as np
 
 from catpose.errors import ConfigError
 
-CHOICES = ("score", "density", "agreement", "cross")
+CHOICES = ("score", "density", "agreement", "cross", "cross_top")
 #: ``cross``: own-template cost + CROSS_WEIGHT x mean cost on the other templates (chosen on the
 #: development chairs and airplanes, docs/category-level.md)
 CROSS_WEIGHT = 0.25
+#: ``cross_top``: weight of the top offset (chosen on the development chairs, docs/category-level.md)
+TOP_WEIGHT = 0.05
 #: two registrations of a view agree when their rotations differ by at most this (degrees)
 AGREE_DEG = 20.0
 #: ``density``: score - DENSITY_WEIGHT * template spacing (chosen on airplanes, docs/category-level.md)
@@ -117,7 +126,7 @@ def choose_index(scores: Sequence[float], rotations: Sequence[np.ndarray | None]
     if not ok:
         return 0
     s = np.array([scores[k] for k in ok], float)
-    if choice == "cross":
+    if choice in ("cross", "cross_top"):
         c = np.array([np.nan if cross is None else cross[k] for k in ok], float)
         if np.isfinite(c).any():
             s = np.where(np.isfinite(c), c, np.inf)
@@ -148,16 +157,18 @@ def choose_row(group, choice: str = "score"):
     else:
         rotations = [(_rotation(T) if good else None) for T, good in zip(group["T_est"], status_ok)]
     spacings = cross = None
-    if choice == "cross" and len(group) > 1:  # one template: nothing to choose, no costs written
-        cross = cross_costs_of(group)
+    if choice in ("cross", "cross_top") and len(group) > 1:  # one template: nothing to choose, no costs written
+        cross = cross_costs_of(group, top=choice == "cross_top")
     if choice == "density":
         infos = group["info"] if "info" in group else [{}] * len(group)
         spacings = [float(i.get("template_spacing", np.nan)) if isinstance(i, dict) else np.nan for i in infos]
     return group.iloc[choose_index(list(scores), rotations, choice, spacings=spacings, cross=cross)]
 
 
-def cross_costs_of(group) -> list[float]:
-    """Each row's ``cross`` cost (NaN where its ``info`` has no ``cross_costs``).
+def cross_costs_of(group, top: bool = False, top_weight: float = TOP_WEIGHT) -> list[float]:
+    """Each row's ``cross`` cost (NaN where its ``info`` has no ``cross_costs``); ``top``: the
+    ``cross_top`` cost with the top offset weighted ``top_weight`` (NaN also where it has no
+    ``top_offset``).
 
     Raises:
         ConfigError: no row of the group has them (rows written before the check existed).
@@ -168,13 +179,16 @@ def cross_costs_of(group) -> list[float]:
     out = []
     for info, sample_id in zip(infos, group["sample_id"]):
         costs = info.get("cross_costs") if isinstance(info, dict) else None
+        offset = (info.get("top_offset") if top else 0.0) if costs else None
         own = split_template_sample_id(sample_id)[1] if costs else 0
-        out.append(cross_cost(costs, own, CROSS_WEIGHT) if costs else np.nan)
+        out.append(cross_cost(costs, own, CROSS_WEIGHT, offset, top_weight if top else 0.0)
+                   if costs and offset is not None else np.nan)
     status_ok = (group["status"] == "ok").to_numpy() if "status" in group else np.ones(len(group), bool)
     if status_ok.any() and not np.isfinite(np.asarray(out, float)[status_ok]).any() and \
             not any(isinstance(i, dict) and "estimate_facts_error" in i for i in infos):
-        raise ConfigError("protocol.choice=cross needs info.cross_costs (written by the templates protocol "
-                          "since the rule exists); these rows predate it: run them again into a new output_root (a run "
+        needs = "info.cross_costs and info.top_offset" if top else "info.cross_costs"
+        raise ConfigError(f"protocol.choice={'cross_top' if top else 'cross'} needs {needs} (written by the templates "
+                          "protocol after each registration); these rows predate them: run them again into a new output_root (a run "
                           "resumes its finished rows), or use protocol.choice=score")
     return out
 

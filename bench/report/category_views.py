@@ -74,8 +74,10 @@ def main(argv: list[str] | None = None) -> int:
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    from catpose.atomic import atomic_write
+
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    with open(args.out, "w", newline="") as fh:
+    with atomic_write(args.out, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         for r in rows:

@@ -25,6 +25,6 @@ for K in 1 3 5; do
     hydra.sweep.dir="$OUT/multirun/k$K"
 done
 for fmt in md csv; do
-  "$B" category "$OUT/multirun/k1" "$OUT/multirun/k3" "$OUT/multirun/k5" --category "$CAT" --choices cross,score,density,agreement \
+  "$B" category "$OUT/multirun/k1" "$OUT/multirun/k3" "$OUT/multirun/k5" --category "$CAT" --choices cross,cross_top,score,density,agreement \
     --format $fmt --out "${MD%.md}.$fmt" --title "$CAT, K templates ($ROOT)"
 done

@@ -3,9 +3,10 @@
 # are not among the shared resampled ones (chair_dev_root.py builds their root in $DEV_ROOT,
 # outside the repository, from the shared data), 12 views each, registered by ours and ICP to the
 # K = 3 chair templates of the paper table (chair_0391, chair_0624, chair_0848); `bench category`
-# writes chosen (rules cross, score, density, agreement) / oracle / random side by side to
+# writes chosen (rules cross, cross_top, score, density, agreement) / oracle / random side by side to
 # results/category/dev/chair_dev_k3.{md,csv}. The cross rule's weight was chosen on these runs
-# (and on development airplanes that cannot be shared); the paper table's chairs only report it.
+# (and on development airplanes that cannot be shared), cross_top's top-offset weight on these runs
+# alone (top_weight_grid.py -> chair_dev_top_weight.md); the paper table's chairs only report them.
 # Usage (repository root): bash results/category/dev/make_chair_dev.sh
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
@@ -18,7 +19,7 @@ OUT=${OUT:-outputs/category_dev}
   dataset.alignment_table="$DEV_ROOT/alignment_chair.csv" dataset.views_per_instance=12 output_root="$OUT" \
   progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/chair_dev_k3"
 for fmt in md csv; do
-  "$B" category "$OUT/multirun/chair_dev_k3" --category chair --choices cross,score,density,agreement --format $fmt \
+  "$B" category "$OUT/multirun/chair_dev_k3" --category chair --choices cross,cross_top,score,density,agreement --format $fmt \
     --out results/category/dev/chair_dev_k3.$fmt \
     --title "Chair development set, K = 3 (chair_0001, chair_0002, chair_0059, ShapeNet chair x 12 views)"
 done
@@ -31,7 +32,10 @@ for i in "${!SWAPS[@]}"; do
     progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/chair_dev_swap$i"
 done
 for fmt in md csv; do
-  "$B" category "$OUT"/multirun/chair_dev_swap{0,1,2,3} --category chair --choices cross,score,density,agreement \
+  "$B" category "$OUT"/multirun/chair_dev_swap{0,1,2,3} --category chair --choices cross,cross_top,score,density,agreement \
     --format $fmt --out results/category/dev/chair_dev_swaps.$fmt \
     --title "Chair development set, roles swapped: 4 template sets of K = 3 from the 7 non-report chairs, the other 4 chairs x 12 views"
 done
+# the cross_top rule's top-offset weight on the same runs (reads their stored costs)
+.venv/bin/python results/category/dev/top_weight_grid.py "$OUT"/multirun/chair_dev_k3 "$OUT"/multirun/chair_dev_swap{0,1,2,3} \
+  --out results/category/dev/chair_dev_top_weight.md
