@@ -203,7 +203,9 @@ class Templates(Protocol):
     def _choice_s(self, group) -> float:
         """Seconds the view's choice itself took: the ``cross`` and ``cross_top`` rules' checks (0
         for the others)."""
-        if self.choice not in ("cross", "cross_top") or "info" not in group:
+        from catpose.bench.protocols.template_choice import CROSS_RULES
+
+        if self.choice not in CROSS_RULES or "info" not in group:
             return 0.0
         return float(sum(i.get("cross_check_s", 0.0) for i in group["info"] if isinstance(i, dict)))
 

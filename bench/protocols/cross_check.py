@@ -165,9 +165,7 @@ def top_offset(points_camera: np.ndarray, T_template_camera: np.ndarray, templat
     up = np.asarray(templates[own].up, float)
     view_top = top_centroid(transform_points(np.asarray(T_template_camera, float), np.asarray(points_camera, float)), up)
     category_top = np.mean([_template_top(t) for t in templates], axis=0)
-    d = view_top - category_top
-    d = d - (d @ up) * up / (up @ up)
-    return float(np.linalg.norm(d))
+    return float(np.linalg.norm(view_top - category_top))   # both already across up
 
 
 def cross_cost(costs: Sequence[float], own: int, weight: float, top: float = 0.0, top_weight: float = 0.0) -> float:

@@ -53,6 +53,8 @@ CHOICES = ("score", "density", "agreement", "cross", "cross_top")
 CROSS_WEIGHT = 0.25
 #: ``cross_top``: weight of the top offset (chosen on the development chairs, docs/category-level.md)
 TOP_WEIGHT = 0.05
+#: the rules that read the cross check, and the weight each gives the top offset (None: not read)
+CROSS_RULES = {"cross": None, "cross_top": TOP_WEIGHT}
 #: two registrations of a view agree when their rotations differ by at most this (degrees)
 AGREE_DEG = 20.0
 #: ``density``: score - DENSITY_WEIGHT * template spacing (chosen on airplanes, docs/category-level.md)
@@ -126,7 +128,7 @@ def choose_index(scores: Sequence[float], rotations: Sequence[np.ndarray | None]
     if not ok:
         return 0
     s = np.array([scores[k] for k in ok], float)
-    if choice in ("cross", "cross_top"):
+    if choice in CROSS_RULES:
         c = np.array([np.nan if cross is None else cross[k] for k in ok], float)
         if np.isfinite(c).any():
             s = np.where(np.isfinite(c), c, np.inf)
@@ -145,9 +147,10 @@ def choose_index(scores: Sequence[float], rotations: Sequence[np.ndarray | None]
     return ok[order[0]]
 
 
-def choose_row(group, choice: str = "score"):
+def choose_row(group, choice: str = "score", top_weight: float | None = None):
     """The chosen row (a pandas Series) of one view's registrations (``group``: the view's rows of
-    ``samples.jsonl`` as a DataFrame, one per template)."""
+    ``samples.jsonl`` as a DataFrame, one per template); ``top_weight``: another weight of the top
+    offset than ``cross_top``'s (the development grid)."""
     import pandas as pd
 
     status_ok = (group["status"] == "ok").to_numpy()
@@ -157,18 +160,19 @@ def choose_row(group, choice: str = "score"):
     else:
         rotations = [(_rotation(T) if good else None) for T, good in zip(group["T_est"], status_ok)]
     spacings = cross = None
-    if choice in ("cross", "cross_top") and len(group) > 1:  # one template: nothing to choose, no costs written
-        cross = cross_costs_of(group, top=choice == "cross_top")
+    if choice in CROSS_RULES and len(group) > 1:  # one template: nothing to choose, no costs written
+        weight = CROSS_RULES[choice]
+        cross = cross_costs_of(group, top_weight if weight is not None and top_weight is not None else weight)
     if choice == "density":
         infos = group["info"] if "info" in group else [{}] * len(group)
         spacings = [float(i.get("template_spacing", np.nan)) if isinstance(i, dict) else np.nan for i in infos]
     return group.iloc[choose_index(list(scores), rotations, choice, spacings=spacings, cross=cross)]
 
 
-def cross_costs_of(group, top: bool = False, top_weight: float = TOP_WEIGHT) -> list[float]:
-    """Each row's ``cross`` cost (NaN where its ``info`` has no ``cross_costs``); ``top``: the
-    ``cross_top`` cost with the top offset weighted ``top_weight`` (NaN also where it has no
-    ``top_offset``).
+def cross_costs_of(group, top_weight: float | None = None) -> list[float]:
+    """Each row's ``cross`` cost (NaN where its ``info`` has no ``cross_costs``); with a
+    ``top_weight``, the ``cross_top`` cost with the top offset weighted so (NaN also where the row
+    has no ``top_offset``).
 
     Raises:
         ConfigError: no row of the group has them (rows written before the check existed).
@@ -179,13 +183,14 @@ def cross_costs_of(group, top: bool = False, top_weight: float = TOP_WEIGHT) -> 
     out = []
     for info, sample_id in zip(infos, group["sample_id"]):
         costs = info.get("cross_costs") if isinstance(info, dict) else None
-        offset = (info.get("top_offset") if top else 0.0) if costs else None
+        offset = (0.0 if top_weight is None else info.get("top_offset")) if costs else None
         own = split_template_sample_id(sample_id)[1] if costs else 0
-        out.append(cross_cost(costs, own, CROSS_WEIGHT, offset, top_weight if top else 0.0)
+        out.append(cross_cost(costs, own, CROSS_WEIGHT, offset, top_weight or 0.0)
                    if costs and offset is not None else np.nan)
     status_ok = (group["status"] == "ok").to_numpy() if "status" in group else np.ones(len(group), bool)
     if status_ok.any() and not np.isfinite(np.asarray(out, float)[status_ok]).any() and \
             not any(isinstance(i, dict) and "estimate_facts_error" in i for i in infos):
+        top = top_weight is not None
         needs = "info.cross_costs and info.top_offset" if top else "info.cross_costs"
         raise ConfigError(f"protocol.choice={'cross_top' if top else 'cross'} needs {needs} (written by the templates "
                           "protocol after each registration); these rows predate them: run them again into a new output_root (a run "

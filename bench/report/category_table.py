@@ -39,7 +39,8 @@ def error_stats(err: np.ndarray) -> dict[str, float]:
             "acc30": float((err < 30).mean())}
 
 
-def _errors(rows) -> np.ndarray:
+def row_errors(rows) -> np.ndarray:
+    """(n,) each row's error in degrees, a failed row (or one without an error) counting 180."""
     import pandas as pd
 
     from catpose.bench.scoring.metrics import FAILED_ERROR_DEG
@@ -63,9 +64,9 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
     for choice in (choices[:1] if K == 1 else choices):  # one template: nothing to choose
         units = Templates(choice=choice).best_per_view(samples)
         row = {"K": K, "views": len(units), "choice": choice if K > 1 else "-"}
-        row.update({f"chosen_{k}": v for k, v in error_stats(_errors(units)).items()})
+        row.update({f"chosen_{k}": v for k, v in error_stats(row_errors(units)).items()})
         row.update({f"oracle_{k}": v for k, v in error_stats(units["oracle_err_deg"].to_numpy(float)).items()})
-        row.update({f"random_{k}": v for k, v in error_stats(_errors(samples)).items()})
+        row.update({f"random_{k}": v for k, v in error_stats(row_errors(samples)).items()})
         out.append(row)
     return out
 

@@ -18,29 +18,18 @@ import numpy as np
 WEIGHTS = (0.0, 0.025, 0.05, 0.075, 0.1, 0.15, 0.2)
 
 
-def chosen_errors(samples, weight: float) -> np.ndarray:
-    """(views,) the error of each view's registration with the lowest ``cross_top`` cost at
-    ``weight`` (a failed registration is never chosen while another is ok; failed counts 180)."""
+def gap(samples, weight: float) -> float:
+    """The chosen mean error less the oracle's (degrees) over the views of ``samples`` (one
+    template run's rows) when ``cross_top`` weighs the top offset ``weight``."""
     import pandas as pd
 
-    from catpose.bench.protocols.template_choice import cross_costs_of
+    from catpose.bench.protocols.absolute import Templates
+    from catpose.bench.protocols.template_choice import choose_row
+    from catpose.bench.report.category_table import row_errors
 
-    out = []
-    for _, g in samples.groupby("group_id", sort=False):
-        ok = (g["status"] == "ok").to_numpy()
-        cost = np.where(ok, np.nan_to_num(np.asarray(cross_costs_of(g, top=True, top_weight=weight), float),
-                                          nan=np.inf), np.inf)
-        err = pd.to_numeric(g["err_deg"], errors="coerce").to_numpy(float)
-        out.append(err[int(np.argmin(cost))] if ok.any() else 180.0)
-    return np.asarray(out, float)
-
-
-def oracle_errors(samples) -> np.ndarray:
-    """(views,) the lowest error over each view's ok registrations (180 when none is ok)."""
-    import pandas as pd
-
-    err = pd.to_numeric(samples["err_deg"], errors="coerce").where(samples["status"] == "ok")
-    return err.groupby(samples["group_id"], sort=False).min().fillna(180.0).to_numpy(float)
+    chosen = pd.DataFrame([choose_row(g, "cross_top", top_weight=weight) for _, g in samples.groupby("group_id")])
+    oracle = Templates(choice="cross").best_per_view(samples)["oracle_err_deg"].to_numpy(float)
+    return float(row_errors(chosen).mean() - oracle.mean())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -57,8 +46,7 @@ def main(argv: list[str] | None = None) -> int:
     for sweep in args.sweeps:
         for run in (load_run(p) for p in run_dirs([sweep])):
             samples = absolute_gt_only(run.samples)
-            orc = oracle_errors(samples).mean()
-            gaps.setdefault(run.method, []).append([chosen_errors(samples, w).mean() - orc for w in WEIGHTS])
+            gaps.setdefault(run.method, []).append([gap(samples, w) for w in WEIGHTS])
     sets = len(args.sweeps)
     lines = [f"**Chair development runs: chosen mean error less the oracle's (degrees) by the top-offset "
              f"weight of `cross_top` ({sets} template sets; weight 0 is `cross`)**", "",
