@@ -10,9 +10,9 @@ import pandas as pd
 import pytest
 
 from catpose.bench.protocols.absolute import Templates
-from catpose.bench.protocols.cross_check import (SILHOUETTE_CELL, SILHOUETTE_WEIGHT, TOP_FRACTION, TRUNC, cross_cost,
+from catpose.bench.protocols.cross_check import (SILHOUETTE_CELL, SILHOUETTE_WEIGHT, TOP_FRACTION, TRUNC, TURNS_DEG, cross_cost,
                                                  cross_costs, refine_on, silhouette_cells, silhouette_iou,
-                                                 top_centroid, top_offset)
+                                                 top_centroid, top_offset, turn_candidates, turned)
 from catpose.bench.protocols.template_choice import CROSS_WEIGHT, TOP_WEIGHT, choose_index, choose_row
 from catpose.bench.run import sample_run
 from catpose.errors import ConfigError
@@ -252,3 +252,67 @@ def test_templates_protocol_writes_the_costs_and_the_top_offset():
     assert facts["cross_check_s"] >= 0.0
     one = SimpleNamespace(category_templates=lambda category: templates[:1])
     assert Templates(choice="cross").estimate_facts(one, sample, T) == {}
+
+
+def test_turned_is_a_turn_about_up_after_the_estimate():
+    T = _pose(20.0, (0.1, -0.2, 2.0))
+    assert turned(T, Z, 90.0) == pytest.approx(_pose(90.0) @ T, abs=1e-12)
+    assert turned(T, 3 * Z, -30.0) == pytest.approx(_pose(-30.0) @ T, abs=1e-12)   # up need not be unit
+
+
+def test_turn_candidates_recover_a_quarter_turned_estimate():
+    # the estimate is the right pose turned a quarter; turning it back (270) and refining finds
+    # the right pose again, at a lower cross_top cost than the estimate's own
+    templates = [_chair_like(0.7, 0.8, 0), _chair_like(0.6, 0.9, 10), _chair_like(0.8, 0.7, 20)]
+    P, T = _view(_chair_like(0.65, 0.85, 30), np.array([0.8, 2.0, 1.5]))
+    wrong = _pose(90.0) @ T
+    cands = turn_candidates(P, wrong, templates, 0, (90.0, 270.0))
+    assert [c["turn_deg"] for c in cands] == [90.0, 270.0]
+    back = np.asarray(cands[1]["T_template_camera"])
+    angle = np.degrees(np.arccos(np.clip((np.trace(back[:3, :3].T @ T[:3, :3]) - 1) / 2, -1, 1)))
+    assert angle < 2.0
+    assert cands[1]["cross_costs"] == cross_costs(P, back, templates, 0)
+    assert cands[1]["top_offset"] == top_offset(P, back, templates, 0)
+    own = cross_cost(cross_costs(P, wrong, templates, 0), 0, CROSS_WEIGHT, top_offset(P, wrong, templates, 0), TOP_WEIGHT)
+    assert cross_cost(cands[1]["cross_costs"], 0, CROSS_WEIGHT, cands[1]["top_offset"], TOP_WEIGHT) < own
+
+
+def test_cross_top_turns_keeps_the_best_candidate_with_its_pose_and_errors():
+    costs = [[0.20, 0.25], [0.22, 0.24]]
+    rows = _rows(costs, [0.2, 0.2], [90.0, 88.0], tops=[0.5, 0.5])
+    T_gt = np.eye(4)
+    rows["T_gt"] = [T_gt.tolist()] * 2
+    rows["T_est"] = [_pose(90.0).tolist(), _pose(88.0).tolist()]
+    back = _pose(4.0)   # row 1's estimate turned back, 4 degrees from the truth
+    rows["info"] = [{**rows["info"][0], "turns": [{"turn_deg": 90.0, "T_template_camera": _pose(180.0).tolist(),
+                                                    "cross_costs": [0.4, 0.4], "top_offset": 0.9}]},
+                    {**rows["info"][1], "turns": [{"turn_deg": 270.0, "T_template_camera": back.tolist(),
+                                                    "cross_costs": [0.19, 0.20], "top_offset": 0.05}]}]
+    before = [dict(i) for i in rows["info"]]
+    chosen = choose_row(rows, "cross_top_turns")
+    assert chosen["sample_id"] == "chair/a/v00|1" and chosen["info"]["turn_deg"] == 270.0
+    assert np.asarray(chosen["T_est"]) == pytest.approx(back)
+    assert chosen["err_deg"] == pytest.approx(4.0) and chosen["rot_err_deg"] == pytest.approx(4.0)
+    assert list(rows["info"]) == before   # the run's rows are not changed
+    assert choose_row(rows, "cross_top")["err_deg"] == 90.0   # without the turns: the registrations only
+    # candidates that cost more than the registration's own estimate leave it as it is
+    rows["info"] = [{**before[0], "turns": [{**before[0]["turns"][0]}]}, {**before[1], "turns": []}]
+    kept = choose_row(rows, "cross_top_turns")
+    assert kept["info"]["turn_deg"] == 0.0 and kept["err_deg"] == 90.0
+    # rows written without turns
+    rows["info"] = [{"cross_costs": c, "top_offset": 0.5} for c in costs]
+    with pytest.raises(ConfigError, match="protocol.choice=cross_top_turns needs info.turns"):
+        choose_row(rows, "cross_top_turns")
+
+
+def test_templates_protocol_writes_the_turns_unless_told_not_to():
+    templates = [_chair_like(0.7, 0.8, 0), _chair_like(0.6, 0.9, 10)]
+    P, T = _view(_chair_like(0.65, 0.85, 30), np.array([0.8, 2.0, 1.5]))
+    dataset = SimpleNamespace(category_templates=lambda category: templates)
+    sample = SimpleNamespace(problem=SimpleNamespace(points_camera=P, category="chair", sample_id="chair/c/v00|1"))
+    facts = Templates(choice="cross_top_turns").estimate_facts(dataset, sample, T)
+    assert facts["turns"] == turn_candidates(P, T, templates, 1, TURNS_DEG) and facts["turns_s"] >= 0.0
+    assert "turns" not in Templates(turns=[]).estimate_facts(dataset, sample, T)
+    assert [c["turn_deg"] for c in Templates(turns=[180]).estimate_facts(dataset, sample, T)["turns"]] == [180.0]
+    with pytest.raises(ConfigError, match="protocol.turns"):
+        Templates(turns="90")

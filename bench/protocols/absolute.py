@@ -125,11 +125,13 @@ class Templates(Protocol):
     name = "templates"
 
     def __init__(self, max_templates: int | None = None, exclude_templates: bool = False,
-                 exclude_instances: list[str] | None = None, choice: str = "score") -> None:
+                 exclude_instances: list[str] | None = None, choice: str = "score",
+                 turns: list[float] | None = None) -> None:
         self.max_templates = max_templates
         self.exclude_templates = bool(exclude_templates)  # skip views of the template instances themselves
         self.exclude_instances = [str(i) for i in (exclude_instances or [])]  # and of these instances
         self.choice = check_choice(choice)  # how a view's template is chosen (catpose.bench.protocols.template_choice)
+        self.turns = _turns(turns)  # turns about up tried from each estimate (cross_check.turn_candidates)
         self._cache = _ObservationCache()
 
     def _templates(self, dataset: ObjectDataset, category: str) -> list[Template]:
@@ -165,10 +167,12 @@ class Templates(Protocol):
         """Facts of a finished estimate for the row's ``info``: ``cross_costs``, its cost on each
         of the view's K templates (:func:`catpose.bench.protocols.cross_check.cross_costs`),
         ``top_offset`` (:func:`~catpose.bench.protocols.cross_check.top_offset`), and
-        ``cross_check_s``, the seconds they took; nothing when K = 1 (there is nothing to choose)."""
+        ``cross_check_s``, the seconds they took; ``turns``, the estimate's turned candidates
+        (:func:`~catpose.bench.protocols.cross_check.turn_candidates`, unless ``turns`` is empty),
+        and ``turns_s``, their seconds; nothing when K = 1 (there is nothing to choose)."""
         import time
 
-        from catpose.bench.protocols.cross_check import cross_costs, top_offset
+        from catpose.bench.protocols.cross_check import cross_costs, top_offset, turn_candidates
 
         templates = self._templates(dataset, sample.problem.category)
         if len(templates) < 2:
@@ -177,7 +181,12 @@ class Templates(Protocol):
         own = split_template_sample_id(sample.problem.sample_id)[1]
         costs = cross_costs(sample.problem.points_camera, T_template_camera, templates, own)
         top = top_offset(sample.problem.points_camera, T_template_camera, templates, own)
-        return {"cross_costs": costs, "top_offset": top, "cross_check_s": time.perf_counter() - t0}
+        facts = {"cross_costs": costs, "top_offset": top, "cross_check_s": time.perf_counter() - t0}
+        if self.turns:
+            t0 = time.perf_counter()
+            facts["turns"] = turn_candidates(sample.problem.points_camera, T_template_camera, templates, own, self.turns)
+            facts["turns_s"] = time.perf_counter() - t0
+        return facts
 
     def score_units(self, samples):
         return self.best_per_view(absolute_gt_only(samples))
@@ -201,11 +210,31 @@ class Templates(Protocol):
         return pd.DataFrame(rows).reset_index(drop=True)
 
     def _choice_s(self, group) -> float:
-        """Seconds the view's choice itself took: the ``cross`` and ``cross_top`` rules' checks (0
-        for the others)."""
-        from catpose.bench.protocols.template_choice import CROSS_RULES
+        """Seconds the view's choice itself took: the ``cross`` rules' checks, with the turned
+        candidates' for ``cross_top_turns`` (0 for the other rules)."""
+        from catpose.bench.protocols.template_choice import CROSS_RULES, TURN_RULES
 
         if self.choice not in CROSS_RULES or "info" not in group:
             return 0.0
-        return float(sum(i.get("cross_check_s", 0.0) for i in group["info"] if isinstance(i, dict)))
+        keys = ("cross_check_s", "turns_s") if self.choice in TURN_RULES else ("cross_check_s",)
+        return float(sum(i.get(k, 0.0) for i in group["info"] if isinstance(i, dict) for k in keys))
+
+
+def _turns(turns: list[float] | None) -> tuple[float, ...]:
+    """The turns (degrees) of ``protocol.turns``: None is the default set
+    (:data:`~catpose.bench.protocols.cross_check.TURNS_DEG`), ``[]`` none.
+
+    Raises:
+        ConfigError: a turn that is not a number.
+    """
+    from catpose.bench.protocols.cross_check import TURNS_DEG
+
+    if turns is None:
+        return TURNS_DEG
+    try:
+        if isinstance(turns, str):
+            raise TypeError(turns)
+        return tuple(float(t) for t in turns)
+    except (TypeError, ValueError):
+        raise ConfigError(f"protocol.turns={list(turns)!r} must be a list of degrees, e.g. [90, 270], or [] for none") from None
 

@@ -22,6 +22,12 @@ share the category's frame, so they agree where a category's highest part stands
 an airplane's tail fin); a quarter-turned chair puts its back at the side, a nose/tail-swapped
 airplane its fin at the nose, even where the Chamfer distances and silhouettes tie.
 
+:func:`turn_candidates` (read by the ``cross_top_turns`` rule) proposes more poses from each
+estimate: the estimate turned by each of ``TURNS_DEG`` about the template frame's up, refined by
+the same ICP on its own template, each with its own costs and top offset. A chair's seat is often
+as wide as it is deep, so a registration can settle a quarter turn off on every template; its
+turned pose is then a candidate the cross check can prefer.
+
 The same costs are computed for every method, so the rule is the method's own only through its
 estimates. The settings are those of the development runs that chose the rule
 (docs/category-level.md).
@@ -45,6 +51,9 @@ SILHOUETTE_CELL = 0.05
 SILHOUETTE_WEIGHT = 0.2
 #: :func:`top_offset`: the fraction of a shape's points, highest along up, whose centroid is its top
 TOP_FRACTION = 0.1
+#: :func:`turn_candidates`: the turns about the template's up tried from each estimate (degrees;
+#: chosen on the development chairs, docs/category-level.md)
+TURNS_DEG = (90.0, 270.0)
 
 _TARGETS: dict[str, tuple[Any, Any, np.ndarray, np.ndarray]] = {}
 
@@ -166,6 +175,35 @@ def top_offset(points_camera: np.ndarray, T_template_camera: np.ndarray, templat
     view_top = top_centroid(transform_points(np.asarray(T_template_camera, float), np.asarray(points_camera, float)), up)
     category_top = np.mean([_template_top(t) for t in templates], axis=0)
     return float(np.linalg.norm(view_top - category_top))   # both already across up
+
+
+def turned(T_template_camera: np.ndarray, up: np.ndarray, turn_deg: float) -> np.ndarray:
+    """(4, 4) ``T_template_camera`` followed by a turn of ``turn_deg`` degrees about the unit
+    vector ``up`` (3,) through the template frame's origin (right-handed)."""
+    from scipy.spatial.transform import Rotation
+
+    u = np.asarray(up, float) / np.linalg.norm(up)
+    turn = np.eye(4)
+    turn[:3, :3] = Rotation.from_rotvec(np.radians(float(turn_deg)) * u).as_matrix()
+    return turn @ np.asarray(T_template_camera, float)
+
+
+def turn_candidates(points_camera: np.ndarray, T_template_camera: np.ndarray, templates: Sequence[Any], own: int,
+                    turns_deg: Sequence[float] = TURNS_DEG) -> list[dict]:
+    """For each turn of ``turns_deg``: the estimate ``T_template_camera`` (4, 4, camera -> template
+    ``own``) :func:`turned` about the own template's ``up`` and refined on it (:func:`refine_on`),
+    with its :func:`cross_costs` and :func:`top_offset`. Returns dicts ``turn_deg``,
+    ``T_template_camera`` (4 x 4 nested lists), ``cross_costs`` (K,), ``top_offset``."""
+    P = np.asarray(points_camera, float)
+    up = np.asarray(templates[own].up, float)
+    source = _cloud(P)
+    out = []
+    for deg in turns_deg:
+        # from the estimate rounded to 1e-9, as in cross_costs: its last bits differ between kernels
+        T = refine_on(P, templates[own], turned(np.round(np.asarray(T_template_camera, float), 9), up, deg), source)
+        out.append({"turn_deg": float(deg), "T_template_camera": T.tolist(),
+                    "cross_costs": cross_costs(P, T, templates, own), "top_offset": top_offset(P, T, templates, own)})
+    return out
 
 
 def cross_cost(costs: Sequence[float], own: int, weight: float, top: float = 0.0, top_weight: float = 0.0) -> float:

@@ -31,6 +31,13 @@ system then has to keep one estimate. The rules (``protocol.choice=<name>``):
   their top part stands: on the shared airplanes (biplanes' upper wings, high wings, tail fins)
   it chooses worse than ``cross``.
 
+- ``cross_top_turns``: the ``cross_top`` cost, now over each registration and its turned
+  candidates (``info["turns"]``, :func:`~catpose.bench.protocols.cross_check.turn_candidates`:
+  the estimate turned a quarter each way about the template's up and refined on its own template).
+  The chosen row is the registration's, its ``T_est`` and errors those of the candidate kept, and
+  ``info["turn_deg"]`` the turn (0: the registration's own estimate); so, unlike the other rules,
+  it can end better than the oracle (the best of the K registrations' own estimates).
+
 Failed registrations are never chosen unless every registration of the view failed (then the
 first row, a 180-degree error, is kept). Measurements behind the rules and their settings are in
 docs/category-level.md.
@@ -47,14 +54,16 @@ import numpy as np
 
 from catpose.errors import ConfigError
 
-CHOICES = ("score", "density", "agreement", "cross", "cross_top")
+CHOICES = ("score", "density", "agreement", "cross", "cross_top", "cross_top_turns")
 #: ``cross``: own-template cost + CROSS_WEIGHT x mean cost on the other templates (chosen on the
 #: development chairs and airplanes, docs/category-level.md)
 CROSS_WEIGHT = 0.25
 #: ``cross_top``: weight of the top offset (chosen on the development chairs, docs/category-level.md)
 TOP_WEIGHT = 0.05
 #: the rules that read the cross check, and the weight each gives the top offset (None: not read)
-CROSS_RULES = {"cross": None, "cross_top": TOP_WEIGHT}
+CROSS_RULES = {"cross": None, "cross_top": TOP_WEIGHT, "cross_top_turns": TOP_WEIGHT}
+#: the rules that also choose among each registration's turned candidates (``info["turns"]``)
+TURN_RULES = ("cross_top_turns",)
 #: two registrations of a view agree when their rotations differ by at most this (degrees)
 AGREE_DEG = 20.0
 #: ``density``: score - DENSITY_WEIGHT * template spacing (chosen on airplanes, docs/category-level.md)
@@ -166,7 +175,61 @@ def choose_row(group, choice: str = "score", top_weight: float | None = None):
     if choice == "density":
         infos = group["info"] if "info" in group else [{}] * len(group)
         spacings = [float(i.get("template_spacing", np.nan)) if isinstance(i, dict) else np.nan for i in infos]
+    if choice in TURN_RULES and len(group) > 1:
+        row = _with_best_turn(group, status_ok, top_weight if top_weight is not None else CROSS_RULES[choice])
+        if row is not None:
+            return row
     return group.iloc[choose_index(list(scores), rotations, choice, spacings=spacings, cross=cross)]
+
+
+def _with_best_turn(group, status_ok: np.ndarray, top_weight: float):
+    """``cross_top_turns``: the row whose registration or turned candidate has the lowest
+    ``cross_top`` cost, carrying that candidate's ``T_est``, errors and ``info["turn_deg"]``; None
+    when no row has costs (its check failed: the rule falls back to the score).
+
+    Raises:
+        ConfigError: no ok row has ``info.turns`` (rows written before them, or ``protocol.turns=[]``).
+    """
+    from catpose.bench.protocols.cross_check import cross_cost
+    from catpose.bench.scoring.metrics import sample_errors
+
+    best: tuple[float, int, int] | None = None   # (cost, row position, candidate: -1 own estimate)
+    seen_turns = False
+    for pos, (info, sample_id, good) in enumerate(zip(group["info"] if "info" in group else [{}] * len(group),
+                                                      group["sample_id"], status_ok)):
+        if not good or not isinstance(info, dict) or not info.get("cross_costs") or info.get("top_offset") is None:
+            continue
+        own = split_template_sample_id(sample_id)[1]
+        candidates = [(info["cross_costs"], info["top_offset"])]
+        turns = info.get("turns") or []
+        seen_turns = seen_turns or bool(turns)
+        candidates += [(t["cross_costs"], t["top_offset"]) for t in turns]
+        for c, (costs, top) in enumerate(candidates):
+            key = (cross_cost(costs, own, CROSS_WEIGHT, top, top_weight), pos, c - 1)
+            if np.isfinite(key[0]) and (best is None or key < best):
+                best = key
+    if status_ok.any() and not seen_turns and not any(isinstance(i, dict) and "estimate_facts_error" in i
+                                                        for i in (group["info"] if "info" in group else [])):
+        raise ConfigError("protocol.choice=cross_top_turns needs info.turns (written by the templates protocol after "
+                          "each registration unless protocol.turns=[]); these rows have none: run them again into a "
+                          "new output_root, or use protocol.choice=cross_top")
+    if best is None:
+        return None
+    _, pos, cand = best
+    row = group.iloc[pos].copy()
+    info = dict(row["info"])
+    info["turn_deg"] = 0.0 if cand < 0 else float(info["turns"][cand]["turn_deg"])
+    row["info"] = info
+    if cand >= 0:
+        T_est = np.asarray(info["turns"][cand]["T_template_camera"], float)
+        row["T_est"] = T_est.tolist()
+        if isinstance(row.get("T_gt"), (list, np.ndarray)):
+            axis, syms = row.get("symmetry_axis"), row.get("symmetries")
+            for key, value in sample_errors(T_est, np.reshape(row["T_gt"], (4, 4)),
+                                            np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
+                                            syms if isinstance(syms, (list, tuple)) else ()).items():
+                row[key] = value
+    return row
 
 
 def cross_costs_of(group, top_weight: float | None = None) -> list[float]:

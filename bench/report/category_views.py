@@ -5,7 +5,9 @@ For every scored view (the ``templates`` protocol's chosen registration) it writ
 view, chosen template, error, the oracle error, and the residual rotation ``R_gt^T R_est`` as an
 angle and the angle of its axis from the template's up axis (z): a residual near 180 degrees about
 the vertical axis is a nose/tail (front/back) swap, one about a horizontal axis an upside-down
-turn. This is the "per view, why not" of docs/category-level.md.
+turn; ``turn_deg``, under the ``cross_top_turns`` rule, the turn of the registration's estimate
+that was kept (0: the estimate itself; empty under the other rules). This is the "per view, why
+not" of docs/category-level.md.
 """
 
 from __future__ import annotations
@@ -59,7 +61,8 @@ def view_rows(sweep: str | Path, row: str) -> list[dict]:
                 else (float("nan"), float("nan"))
             out.append({"view": r["group_id"], "instance_id": r.get("instance_id"), "template_id": r.get("template_id"),
                         "err_deg": float(r["err_deg"]), "oracle_err_deg": float(r.get("oracle_err_deg", r["err_deg"])),
-                        "score": r.get("score"), "residual_axis_tilt_deg": tilt, "kind": kind(angle, tilt) if ok else "failed"})
+                        "score": r.get("score"), "residual_axis_tilt_deg": tilt, "kind": kind(angle, tilt) if ok else "failed",
+                        "turn_deg": info.get("turn_deg", "") if isinstance(info := r.get("info"), dict) else ""})
     return sorted(out, key=lambda r: r["view"])
 
 

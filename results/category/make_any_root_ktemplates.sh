@@ -5,7 +5,8 @@
 # oracle / random, rules cross (the run's), score, density, agreement). Nothing is downloaded: give a root you have.
 # Usage (repository root):
 #   bash results/category/make_any_root_ktemplates.sh ROOT ALIGNMENT_CSV CATEGORY OUT.md
-#   (ROWS="ours icp" for more methods; default ours; OUT gets OUT.csv beside it)
+#   (ROWS="ours icp" for more methods; default ours; TITLE="..." for the table's title, default the
+#   category and ROOT; OUT gets OUT.csv beside it)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 ROOT=${1:?root}; TABLE=${2:?alignment table}; CAT=${3:?category}; MD=${4:?output .md}
@@ -14,7 +15,9 @@ OUT=${OUT:-outputs/category/any_root}
 W="$OUT/templates"
 D=(dataset=modelnet40_resampled dataset.root="$ROOT" dataset.alignment_table="$TABLE" "dataset.categories=[$CAT]")
 for K in 1 3 5; do
-  [ -f "$W/k$K/templates/any.yaml" ] || "$B" templates "${D[@]}" --category "$CAT" --k $K --out "$W/k$K/templates/any.yaml"
+  # the dataset config's own templates need not be in ROOT: the medoids are chosen among ROOT's instances
+  [ -f "$W/k$K/templates/any.yaml" ] || "$B" templates "${D[@]}" "dataset.templates.$CAT=[]" --category "$CAT" --k $K \
+    --out "$W/k$K/templates/any.yaml"
 done
 union=$(.venv/bin/python -c "import sys, yaml; print(','.join(sorted({i for p in sys.argv[2:] for i in yaml.safe_load(open(p))[sys.argv[1]]})))" \
   "$CAT" "$W"/k{1,3,5}/templates/any.yaml)
@@ -25,6 +28,6 @@ for K in 1 3 5; do
     hydra.sweep.dir="$OUT/multirun/k$K"
 done
 for fmt in md csv; do
-  "$B" category "$OUT/multirun/k1" "$OUT/multirun/k3" "$OUT/multirun/k5" --category "$CAT" --choices cross,cross_top,score,density,agreement \
-    --format $fmt --out "${MD%.md}.$fmt" --title "$CAT, K templates ($ROOT)"
+  "$B" category "$OUT/multirun/k1" "$OUT/multirun/k3" "$OUT/multirun/k5" --category "$CAT" --choices cross,cross_top,cross_top_turns,score,density,agreement \
+    --format $fmt --out "${MD%.md}.$fmt" --title "${TITLE:-$CAT, K templates ($ROOT)}"
 done

@@ -2,7 +2,7 @@
 # The paper's "templates, chair" table on the shared resampled ModelNet40 train chairs, K = 1 and 3
 # (K = 5 would leave no test chair among the 5 shared ones): ours and every baseline (ICP; FGR,
 # TEASER re-implementation and RANSAC with dictionary matching, as in the paper), then `bench category`:
-# the chosen (rules cross_top, the experiment's, cross, score, density, agreement), oracle and
+# the chosen (rules cross_top_turns, the experiment's, cross, cross_top, score, density, agreement), oracle and
 # random-template errors side by side (results/category/paper/templates_chair.{md,csv}), and ours'
 # K = 3 views one by one (templates_chair_views.csv).
 # Usage (repository root): bash results/category/make_templates_chair.sh [tables]
@@ -19,7 +19,7 @@ fi
 T=results/category/paper; mkdir -p "$T"
 for fmt in md csv; do
   "$B" category "$OUT/multirun/mn40r_chair_1template" "$OUT/multirun/mn40r_chair_ktemplates" --category chair \
-    --choices cross,cross_top,score,density,agreement --format $fmt --out "$T/templates_chair.$fmt" \
+    --choices cross,cross_top,cross_top_turns,score,density,agreement --format $fmt --out "$T/templates_chair.$fmt" \
     --title "Chair, K templates (shared resampled chairs; test views chair_0454, chair_0858 x 4)"
 done
 # ours' K = 3 views one by one: the chosen template's error beside the oracle's

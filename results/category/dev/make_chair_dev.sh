@@ -19,7 +19,7 @@ OUT=${OUT:-outputs/category_dev}
   dataset.alignment_table="$DEV_ROOT/alignment_chair.csv" dataset.views_per_instance=12 output_root="$OUT" \
   progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/chair_dev_k3"
 for fmt in md csv; do
-  "$B" category "$OUT/multirun/chair_dev_k3" --category chair --choices cross,cross_top,score,density,agreement --format $fmt \
+  "$B" category "$OUT/multirun/chair_dev_k3" --category chair --choices cross,cross_top,cross_top_turns,score,density,agreement --format $fmt \
     --out results/category/dev/chair_dev_k3.$fmt \
     --title "Chair development set, K = 3 (chair_0001, chair_0002, chair_0059, ShapeNet chair x 12 views)"
 done
@@ -32,10 +32,13 @@ for i in "${!SWAPS[@]}"; do
     progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/chair_dev_swap$i"
 done
 for fmt in md csv; do
-  "$B" category "$OUT"/multirun/chair_dev_swap{0,1,2,3} --category chair --choices cross,cross_top,score,density,agreement \
+  "$B" category "$OUT"/multirun/chair_dev_swap{0,1,2,3} --category chair --choices cross,cross_top,cross_top_turns,score,density,agreement \
     --format $fmt --out results/category/dev/chair_dev_swaps.$fmt \
     --title "Chair development set, roles swapped: 4 template sets of K = 3 from the 7 non-report chairs, the other 4 chairs x 12 views"
 done
 # the cross_top rule's top-offset weight on the same runs (reads their stored costs)
 .venv/bin/python results/category/dev/top_weight_grid.py "$OUT"/multirun/chair_dev_k3 "$OUT"/multirun/chair_dev_swap{0,1,2,3} \
   --out results/category/dev/chair_dev_top_weight.md
+# and with the quarter turns (cross_top_turns, chosen on the procedural chairs: make_chair_procedural.sh)
+.venv/bin/python results/category/dev/top_weight_grid.py "$OUT"/multirun/chair_dev_k3 "$OUT"/multirun/chair_dev_swap{0,1,2,3} \
+  --turn-sets "none;90,270" --out results/category/dev/chair_dev_turns.md --title "Chair development runs, by turn set"

@@ -1,11 +1,17 @@
 """The ``cross_top`` rule's top-offset weight on the chair development runs: for each weight, each
-method's chosen mean error less the oracle's, per template set and averaged over the sets.
+method's chosen mean error less the oracle's, per template set and averaged over the sets; with
+``--turn-sets``, also for the ``cross_top_turns`` rule over each set of the turned candidates the
+runs stored.
 
     .venv/bin/python results/category/dev/top_weight_grid.py OUT/multirun/chair_dev_k3 \
         OUT/multirun/chair_dev_swap{0,1,2,3} --out results/category/dev/chair_dev_top_weight.md
+    .venv/bin/python results/category/dev/top_weight_grid.py OUT/multirun/procedural_k3_turns \
+        --turn-sets "none;90,270;90,180,270" --out ...
 
-Reads the runs' stored ``info.cross_costs`` and ``info.top_offset`` (no registration is run);
-weight 0 is the ``cross`` rule. Written by results/category/dev/make_chair_dev.sh.
+Reads the runs' stored ``info.cross_costs``, ``info.top_offset`` and ``info.turns`` (no
+registration is run); weight 0 without turns is the ``cross`` rule. The oracle is the best of the
+K registrations' own estimates, so with turns the gap can fall below 0. Written by
+results/category/dev/make_chair_dev.sh and make_chair_procedural.sh.
 """
 
 from __future__ import annotations
@@ -18,18 +24,34 @@ import numpy as np
 WEIGHTS = (0.0, 0.025, 0.05, 0.075, 0.1, 0.15, 0.2)
 
 
-def gap(samples, weight: float) -> float:
+def with_turns(samples, turns: tuple[float, ...]):
+    """``samples`` whose rows keep only the turned candidates at ``turns`` (degrees)."""
+    samples = samples.copy()
+    samples["info"] = [{**i, "turns": [t for t in i.get("turns", []) if t["turn_deg"] in turns]}
+                       if isinstance(i, dict) else i for i in samples["info"]]
+    return samples
+
+
+def gap(samples, weight: float, turns: tuple[float, ...] | None = None) -> float:
     """The chosen mean error less the oracle's (degrees) over the views of ``samples`` (one
-    template run's rows) when ``cross_top`` weighs the top offset ``weight``."""
+    template run's rows) when ``cross_top`` weighs the top offset ``weight``; with ``turns``, the
+    ``cross_top_turns`` rule over those turned candidates."""
     import pandas as pd
 
     from catpose.bench.protocols.absolute import Templates
     from catpose.bench.protocols.template_choice import choose_row
     from catpose.bench.report.category_table import row_errors
 
-    chosen = pd.DataFrame([choose_row(g, "cross_top", top_weight=weight) for _, g in samples.groupby("group_id")])
+    rule = "cross_top" if not turns else "cross_top_turns"
+    rows = samples if not turns else with_turns(samples, turns)
+    chosen = pd.DataFrame([choose_row(g, rule, top_weight=weight) for _, g in rows.groupby("group_id")])
     oracle = Templates(choice="cross").best_per_view(samples)["oracle_err_deg"].to_numpy(float)
     return float(row_errors(chosen).mean() - oracle.mean())
+
+
+def parse_turn_sets(text: str) -> list[tuple[float, ...]]:
+    """``"none;90,270"`` -> [(), (90.0, 270.0)]."""
+    return [() if part.strip() == "none" else tuple(float(x) for x in part.split(",")) for part in text.split(";")]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -41,21 +63,31 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("sweeps", nargs="+", help="one sweep directory per template set")
     ap.add_argument("--out", required=True)
+    ap.add_argument("--title", default="Chair development runs", help="what the runs are")
+    ap.add_argument("--turn-sets", default="none", help="';'-separated sets of turns (degrees), 'none' for none")
     args = ap.parse_args(argv)
-    gaps: dict[str, list[list[float]]] = {}
+    turn_sets = parse_turn_sets(args.turn_sets)
+    gaps: dict[tuple[str, tuple], list[list[float]]] = {}
     for sweep in args.sweeps:
         for run in (load_run(p) for p in run_dirs([sweep])):
             samples = absolute_gt_only(run.samples)
-            gaps.setdefault(run.method, []).append([gap(samples, w) for w in WEIGHTS])
+            for turns in turn_sets:
+                gaps.setdefault((run.method, turns), []).append([gap(samples, w, turns) for w in WEIGHTS])
     sets = len(args.sweeps)
-    lines = [f"**Chair development runs: chosen mean error less the oracle's (degrees) by the top-offset "
+    show_turns = turn_sets != [()]
+    lines = [f"**{args.title}: chosen mean error less the oracle's (degrees) by the top-offset "
              f"weight of `cross_top` ({sets} template sets; weight 0 is `cross`)**", "",
-             "| method | weight | " + " | ".join(f"set {i + 1}" for i in range(sets)) + " | mean over sets |",
-             "|---|---:|" + "---:|" * (sets + 1)]
-    for method in sorted(gaps):
-        g = np.asarray(gaps[method], float)
+             "| method | " + ("turns | " if show_turns else "") + "weight | "
+             + " | ".join(f"set {i + 1}" for i in range(sets)) + " | mean over sets |",
+             "|---|" + ("---|" if show_turns else "") + "---:|" + "---:|" * (sets + 1)]
+    if show_turns:
+        lines[0] = lines[0][:-3] + "; turns: the `cross_top_turns` candidates, none: `cross_top`)**"
+    for method, turns in sorted(gaps, key=lambda k: (k[0], turn_sets.index(k[1]))):
+        g = np.asarray(gaps[(method, turns)], float)
+        label = (",".join(f"{t:g}" for t in turns) or "none") + " | " if show_turns else ""
         for j, w in enumerate(WEIGHTS):
-            lines.append(f"| {method} | {w:g} | " + " | ".join(f"{x:.2f}" for x in g[:, j]) + f" | {g[:, j].mean():.2f} |")
+            lines.append(f"| {method} | {label}{w:g} | " + " | ".join(f"{x:.2f}" for x in g[:, j])
+                         + f" | {g[:, j].mean():.2f} |")
     write_text(Path(args.out), "\n".join(lines) + "\n")
     print(f"wrote {len(lines) - 4} rows to {args.out}")
     return 0

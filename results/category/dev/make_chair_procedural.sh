@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# The template choice on procedural chairs (issue 25; docs/category-level.md): 40 chairs drawn part
+# by part (procedural_chairs.py, seed 0, root in $PROC_ROOT outside the repository), none of them
+# a ModelNet40 shape, 6 views each.
+#  1. Registered by ours and ICP to the paper table's K = 3 chair templates (chair_0391,
+#     chair_0624, chair_0848, linked from the shared data): `bench category` writes chosen (every
+#     rule) / oracle / random to chair_procedural_k3.{md,csv}, and top_weight_grid.py the
+#     cross_top weight grid to chair_procedural_top_weight.md. cross_top's weight was chosen
+#     before this set existed, on the real development chairs (make_chair_dev.sh).
+#     The turn set of cross_top_turns (none, 90/270, 90/180/270) by the same grid, from a run of
+#     ours that also stores the half turn: chair_procedural_turns.md.
+#  2. K = 1, 3, 5 templates drawn from the procedural chairs themselves (make_any_root_ktemplates.sh
+#     on a second root of the same 40 chairs without the shared ones): chair_procedural_any_root.{md,csv}.
+# Usage (repository root): bash results/category/dev/make_chair_procedural.sh
+set -euo pipefail
+cd "$(dirname "$0")/../../.."
+B=.venv/bin/bench
+SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
+PROC_ROOT=${PROC_ROOT:-$HOME/.cache/catpose/chair_procedural}
+OUT=${OUT:-outputs/category_procedural}
+DEV=results/category/dev
+.venv/bin/python $DEV/procedural_chairs.py "$PROC_ROOT/with_templates" --n 40 --seed 0 \
+  --templates "$SHARED/modelnet40_normal_resampled/chair" chair_0391,chair_0624,chair_0848
+"$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours,icp" dataset.root="$PROC_ROOT/with_templates" \
+  dataset.alignment_table="$PROC_ROOT/with_templates/alignment_chair.csv" dataset.views_per_instance=6 \
+  output_root="$OUT" progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/procedural_k3"
+for fmt in md csv; do
+  "$B" category "$OUT/multirun/procedural_k3" --category chair --choices cross,cross_top,cross_top_turns,score,density,agreement \
+    --format $fmt --out $DEV/chair_procedural_k3.$fmt \
+    --title "Procedural chairs, K = 3 (40 chairs x 6 views; the paper table's templates)"
+done
+.venv/bin/python $DEV/top_weight_grid.py "$OUT/multirun/procedural_k3" --out $DEV/chair_procedural_top_weight.md \
+  --title "Procedural chairs (40 x 6 views, K = 3, chosen nothing)"
+# the turn set of cross_top_turns: ours again with the half turn as well, then the grid over
+# no turns (cross_top), the quarter turns (the default) and all three
+"$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours" dataset.root="$PROC_ROOT/with_templates" \
+  dataset.alignment_table="$PROC_ROOT/with_templates/alignment_chair.csv" dataset.views_per_instance=6 \
+  "protocol.turns=[90,180,270]" output_root="$OUT" progress=false print_summary=false \
+  hydra.sweep.dir="$OUT/multirun/procedural_k3_turns3"
+.venv/bin/python $DEV/top_weight_grid.py "$OUT/multirun/procedural_k3_turns3" --turn-sets "none;90,270;90,180,270" \
+  --out $DEV/chair_procedural_turns.md --title "Procedural chairs (40 x 6 views, K = 3), ours, by turn set"
+.venv/bin/python $DEV/procedural_chairs.py "$PROC_ROOT/alone" --n 40 --seed 0
+OUT="$OUT/any_root" ROWS="ours icp" TITLE="Procedural chairs, K templates drawn from them (40 chairs, 2 views of each non-template)" bash results/category/make_any_root_ktemplates.sh "$PROC_ROOT/alone" \
+  "$PROC_ROOT/alone/alignment_chair.csv" chair $DEV/chair_procedural_any_root.md
