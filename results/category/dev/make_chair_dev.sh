@@ -7,6 +7,8 @@
 # results/category/dev/chair_dev_k3.{md,csv}. The cross rule's weight was chosen on these runs
 # (and on development airplanes that cannot be shared), cross_top's top-offset weight on these runs
 # alone (top_weight_grid.py -> chair_dev_top_weight.md); the paper table's chairs only report them.
+# Finer turn sets of cross_top_turns (ours, turns every 30 degrees stored): chair_dev_turns_fine.md;
+# the spread of the gap to the oracle over 8-view draws: chair_dev_gap_spread.md (gap_spread.py).
 # Usage (repository root): bash results/category/dev/make_chair_dev.sh
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
@@ -42,3 +44,20 @@ done
 # and with the quarter turns (cross_top_turns, chosen on the procedural chairs: make_chair_procedural.sh)
 .venv/bin/python results/category/dev/top_weight_grid.py "$OUT"/multirun/chair_dev_k3 "$OUT"/multirun/chair_dev_swap{0,1,2,3} \
   --turn-sets "none;90,270" --out results/category/dev/chair_dev_turns.md --title "Chair development runs, by turn set"
+# finer turn sets (none kept): ours again on the same 5 template sets with turns every 30 degrees
+T30="[30,60,90,120,150,180,210,240,270,300,330]"
+"$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours" dataset.root="$DEV_ROOT" \
+  dataset.alignment_table="$DEV_ROOT/alignment_chair.csv" dataset.views_per_instance=12 output_root="$OUT" \
+  "protocol.turns=$T30" progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/chair_dev_k3_turns30"
+for i in "${!SWAPS[@]}"; do
+  "$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours" dataset.root="$DEV_ROOT" \
+    dataset.alignment_table="$DEV_ROOT/alignment_chair.csv" dataset.views_per_instance=12 output_root="$OUT" \
+    "dataset.templates.chair=[${SWAPS[$i]}]" "protocol.exclude_instances=[]" "protocol.turns=$T30" \
+    progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/chair_dev_swap${i}_turns30"
+done
+.venv/bin/python results/category/dev/top_weight_grid.py "$OUT"/multirun/chair_dev_k3_turns30 "$OUT"/multirun/chair_dev_swap{0,1,2,3}_turns30 \
+  --turn-sets "none;90,270;60,300;60,90,120,240,270,300;30,60,90,270,300,330;30,60,90,120,150,180,210,240,270,300,330" \
+  --weights 0.05 --out results/category/dev/chair_dev_turns_fine.md --title "Chair development runs, ours, finer turn sets"
+# how far 8 views (2 chairs x 4, as in the paper table) can stand from the oracle by chance
+.venv/bin/python results/category/dev/gap_spread.py "$OUT"/multirun/chair_dev_k3 "$OUT"/multirun/chair_dev_swap{0,1,2,3} \
+  --out results/category/dev/chair_dev_gap_spread.md --title "Chair development runs (5 template sets)"

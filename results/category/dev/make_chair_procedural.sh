@@ -8,7 +8,9 @@
 #     cross_top weight grid to chair_procedural_top_weight.md. cross_top's weight was chosen
 #     before this set existed, on the real development chairs (make_chair_dev.sh).
 #     The turn set of cross_top_turns (none, 90/270, 90/180/270) by the same grid, from a run of
-#     ours that also stores the half turn: chair_procedural_turns.md.
+#     ours that stores turns every 30 degrees: chair_procedural_turns.md; finer sets from the same
+#     run: chair_procedural_turns_fine.md. The spread of the gap over 8-view draws (2 chairs x 4,
+#     as in the paper table): chair_procedural_gap_spread.md.
 #  2. K = 1, 3, 5 templates drawn from the procedural chairs themselves (make_any_root_ktemplates.sh
 #     on a second root of the same 40 chairs without the shared ones): chair_procedural_any_root.{md,csv}.
 # Usage (repository root): bash results/category/dev/make_chair_procedural.sh
@@ -19,6 +21,7 @@ SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
 PROC_ROOT=${PROC_ROOT:-$HOME/.cache/catpose/chair_procedural}
 OUT=${OUT:-outputs/category_procedural}
 DEV=results/category/dev
+FINE_TURNS="none;90,270;60,300;60,90,120,240,270,300;30,60,90,270,300,330;30,60,90,120,150,180,210,240,270,300,330"
 .venv/bin/python $DEV/procedural_chairs.py "$PROC_ROOT/with_templates" --n 40 --seed 0 \
   --templates "$SHARED/modelnet40_normal_resampled/chair" chair_0391,chair_0624,chair_0848
 "$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours,icp" dataset.root="$PROC_ROOT/with_templates" \
@@ -31,14 +34,20 @@ for fmt in md csv; do
 done
 .venv/bin/python $DEV/top_weight_grid.py "$OUT/multirun/procedural_k3" --out $DEV/chair_procedural_top_weight.md \
   --title "Procedural chairs (40 x 6 views, K = 3, chosen nothing)"
-# the turn set of cross_top_turns: ours again with the half turn as well, then the grid over
-# no turns (cross_top), the quarter turns (the default) and all three
+# the turn set of cross_top_turns: ours again with turns every 30 degrees stored, then the grid
+# over no turns (cross_top), the quarter turns (the default) and with the half turn; then finer
+# sets at the chosen weight (chair_procedural_turns_fine.md; none kept)
 "$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours" dataset.root="$PROC_ROOT/with_templates" \
   dataset.alignment_table="$PROC_ROOT/with_templates/alignment_chair.csv" dataset.views_per_instance=6 \
-  "protocol.turns=[90,180,270]" output_root="$OUT" progress=false print_summary=false \
-  hydra.sweep.dir="$OUT/multirun/procedural_k3_turns3"
-.venv/bin/python $DEV/top_weight_grid.py "$OUT/multirun/procedural_k3_turns3" --turn-sets "none;90,270;90,180,270" \
+  "protocol.turns=[30,60,90,120,150,180,210,240,270,300,330]" output_root="$OUT" progress=false print_summary=false \
+  hydra.sweep.dir="$OUT/multirun/procedural_k3_turns30"
+.venv/bin/python $DEV/top_weight_grid.py "$OUT/multirun/procedural_k3_turns30" --turn-sets "none;90,270;90,180,270" \
   --out $DEV/chair_procedural_turns.md --title "Procedural chairs (40 x 6 views, K = 3), ours, by turn set"
+.venv/bin/python $DEV/top_weight_grid.py "$OUT/multirun/procedural_k3_turns30" --turn-sets "$FINE_TURNS" --weights 0.05 \
+  --out $DEV/chair_procedural_turns_fine.md --title "Procedural chairs (40 x 6 views, K = 3), ours, finer turn sets"
+# how far 8 views (2 chairs x 4) can stand from the oracle by chance under the rule (gap_spread.py)
+.venv/bin/python $DEV/gap_spread.py "$OUT/multirun/procedural_k3_turns30" --out $DEV/chair_procedural_gap_spread.md \
+  --title "Procedural chairs (40 x 6 views, K = 3)"
 .venv/bin/python $DEV/procedural_chairs.py "$PROC_ROOT/alone" --n 40 --seed 0
 OUT="$OUT/any_root" ROWS="ours icp" TITLE="Procedural chairs, K templates drawn from them (40 chairs, 2 views of each non-template)" bash results/category/make_any_root_ktemplates.sh "$PROC_ROOT/alone" \
   "$PROC_ROOT/alone/alignment_chair.csv" chair $DEV/chair_procedural_any_root.md

@@ -65,14 +65,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", required=True)
     ap.add_argument("--title", default="Chair development runs", help="what the runs are")
     ap.add_argument("--turn-sets", default="none", help="';'-separated sets of turns (degrees), 'none' for none")
+    ap.add_argument("--weights", default=",".join(f"{w:g}" for w in WEIGHTS), help="','-separated top-offset weights")
     args = ap.parse_args(argv)
     turn_sets = parse_turn_sets(args.turn_sets)
+    weights = tuple(float(w) for w in args.weights.split(","))
     gaps: dict[tuple[str, tuple], list[list[float]]] = {}
     for sweep in args.sweeps:
         for run in (load_run(p) for p in run_dirs([sweep])):
             samples = absolute_gt_only(run.samples)
             for turns in turn_sets:
-                gaps.setdefault((run.method, turns), []).append([gap(samples, w, turns) for w in WEIGHTS])
+                gaps.setdefault((run.method, turns), []).append([gap(samples, w, turns) for w in weights])
     sets = len(args.sweeps)
     show_turns = turn_sets != [()]
     lines = [f"**{args.title}: chosen mean error less the oracle's (degrees) by the top-offset "
@@ -85,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     for method, turns in sorted(gaps, key=lambda k: (k[0], turn_sets.index(k[1]))):
         g = np.asarray(gaps[(method, turns)], float)
         label = (",".join(f"{t:g}" for t in turns) or "none") + " | " if show_turns else ""
-        for j, w in enumerate(WEIGHTS):
+        for j, w in enumerate(weights):
             lines.append(f"| {method} | {label}{w:g} | " + " | ".join(f"{x:.2f}" for x in g[:, j])
                          + f" | {g[:, j].mean():.2f} |")
     write_text(Path(args.out), "\n".join(lines) + "\n")

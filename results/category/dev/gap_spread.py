@@ -1,0 +1,101 @@
+"""How far an 8-view chair table's chosen mean can stand from its oracle by chance: the spread of
+the gap (chosen mean error less the oracle's, degrees) over view sets drawn like the paper table's
+(2 test chairs x 4 views) from development runs, under one choice rule.
+
+    .venv/bin/python results/category/dev/gap_spread.py OUT/multirun/chair_dev_k3 \
+        OUT/multirun/chair_dev_swap{0,1,2,3} --row ours --out results/category/dev/chair_dev_gap_spread.md
+
+Per template set (one sweep) and method row: each view's gap under ``--choice`` (default
+``cross_top_turns``; for it, only the turns in ``--turns`` are read, default the protocol's
+90 and 270), then ``--draws`` draws (seeded) of ``--chairs`` test chairs without replacement and
+``--views`` of each one's views without replacement; a draw's gap is the mean over its views. Views
+of one chair are drawn together because they are not independent. Reads the runs' stored costs
+(no registration is run). Written by results/category/dev/make_chair_dev.sh and
+make_chair_procedural.sh.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+
+def view_gaps(samples, choice: str, turns: tuple[float, ...]):
+    """(instance ids, gaps): per view of one template run's rows, the chosen error less the
+    oracle's (degrees), by the view's instance."""
+    import pandas as pd
+
+    from catpose.bench.protocols.template_choice import TURN_RULES, choose_row
+    from catpose.bench.report.category_table import row_errors
+
+    if choice in TURN_RULES:
+        samples = samples.copy()
+        samples["info"] = [{**i, "turns": [t for t in i.get("turns", []) if t["turn_deg"] in turns]}
+                           if isinstance(i, dict) else i for i in samples["info"]]
+    inst, gaps = [], []
+    for _, g in samples.groupby("group_id", sort=True):
+        chosen = float(np.asarray(row_errors(pd.DataFrame([choose_row(g, choice)])), float)[0])
+        err = pd.to_numeric(g["err_deg"], errors="coerce").where(g["status"] == "ok")
+        oracle = float(err.min()) if err.notna().any() else 180.0
+        inst.append(str(g["instance_id"].iloc[0]))
+        gaps.append(chosen - oracle)
+    return np.asarray(inst), np.asarray(gaps, float)
+
+
+def drawn_gaps(inst: np.ndarray, gaps: np.ndarray, chairs: int, views: int, draws: int,
+               rng: np.random.Generator) -> np.ndarray:
+    """(draws,) mean gap of ``chairs`` instances x ``views`` views each, drawn without replacement
+    (instances with fewer views than ``views`` are not drawn)."""
+    by = {i: gaps[inst == i] for i in np.unique(inst)}
+    names = sorted(i for i, g in by.items() if len(g) >= views)
+    if len(names) < chairs:
+        raise SystemExit(f"gap_spread: only {len(names)} instances have {views} views; need {chairs}")
+    out = np.empty(draws)
+    for d in range(draws):
+        picked = rng.choice(len(names), chairs, replace=False)
+        out[d] = np.mean([rng.choice(by[names[p]], views, replace=False) for p in picked])
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    from catpose.atomic import write_text
+    from catpose.bench.protocols.absolute import absolute_gt_only
+    from catpose.bench.report.category_table import run_dirs
+    from catpose.bench.report.runs import load_run
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("sweeps", nargs="+", help="one sweep directory per template set")
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--row", action="append", help="method rows to read (default: all)")
+    ap.add_argument("--choice", default="cross_top_turns")
+    ap.add_argument("--turns", default="90,270", help="turned candidates the rule reads (degrees)")
+    ap.add_argument("--chairs", type=int, default=2)
+    ap.add_argument("--views", type=int, default=4)
+    ap.add_argument("--draws", type=int, default=10000)
+    ap.add_argument("--threshold", type=float, default=10.0, help="the gap a target allows (degrees)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--title", default="Chair development runs")
+    args = ap.parse_args(argv)
+    turns = tuple(float(t) for t in args.turns.split(",") if t.strip())
+    rng = np.random.default_rng(args.seed)
+    lines = [f"**{args.title}: gap of `{args.choice}` to the oracle (chosen mean less oracle mean, degrees) "
+             f"over {args.draws} draws of {args.chairs} chairs x {args.views} views per template set**", "",
+             "| method | set | views | gap, all views | draws: median | draws: 90th pct | "
+             f"draws: share over {args.threshold:g} |", "|---|---:|---:|---:|---:|---:|---:|"]
+    for s, sweep in enumerate(args.sweeps, 1):
+        for run in sorted((load_run(p) for p in run_dirs([sweep])), key=lambda r: r.method):
+            if args.row and run.method.lower() not in [r.lower() for r in args.row]:
+                continue
+            inst, gaps = view_gaps(absolute_gt_only(run.samples), args.choice, turns)
+            d = drawn_gaps(inst, gaps, args.chairs, args.views, args.draws, rng)
+            lines.append(f"| {run.method} | {s} | {len(gaps)} | {gaps.mean():.2f} | {np.median(d):.2f} | "
+                         f"{np.percentile(d, 90):.2f} | {np.mean(d > args.threshold):.3f} |")
+    write_text(Path(args.out), "\n".join(lines) + "\n")
+    print(f"wrote {len(lines) - 4} rows to {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
