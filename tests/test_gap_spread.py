@@ -38,7 +38,7 @@ def test_too_few_chairs_is_a_clear_stop(spread):
 
 def _row(view, k, err, score, inst):
     return {"group_id": view, "sample_id": f"{view}|{k}", "instance_id": inst, "status": "ok", "err_deg": err,
-            "score": score, "info": {}, "T_est": None}
+            "score": score, "info": {}, "T_est": None, "runtime_s": 0.0}
 
 
 def test_a_view_gap_is_chosen_less_oracle(spread):

@@ -17,31 +17,25 @@ make_chair_procedural.sh.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from top_weight_grid import with_turns  # noqa: E402  (the sibling script's turn filter)
 
 
 def view_gaps(samples, choice: str, turns: tuple[float, ...]):
     """(instance ids, gaps): per view of one template run's rows, the chosen error less the
     oracle's (degrees), by the view's instance."""
-    import pandas as pd
-
-    from catpose.bench.protocols.template_choice import TURN_RULES, choose_row
+    from catpose.bench.protocols.absolute import Templates
+    from catpose.bench.protocols.template_choice import TURN_RULES
     from catpose.bench.report.category_table import row_errors
 
-    if choice in TURN_RULES:
-        samples = samples.copy()
-        samples["info"] = [{**i, "turns": [t for t in i.get("turns", []) if t["turn_deg"] in turns]}
-                           if isinstance(i, dict) else i for i in samples["info"]]
-    inst, gaps = [], []
-    for _, g in samples.groupby("group_id", sort=True):
-        chosen = float(np.asarray(row_errors(pd.DataFrame([choose_row(g, choice)])), float)[0])
-        err = pd.to_numeric(g["err_deg"], errors="coerce").where(g["status"] == "ok")
-        oracle = float(err.min()) if err.notna().any() else 180.0
-        inst.append(str(g["instance_id"].iloc[0]))
-        gaps.append(chosen - oracle)
-    return np.asarray(inst), np.asarray(gaps, float)
+    views = Templates(choice=choice).best_per_view(with_turns(samples, turns) if choice in TURN_RULES else samples)
+    gaps = np.asarray(row_errors(views), float) - views["oracle_err_deg"].to_numpy(float)
+    return views["instance_id"].astype(str).to_numpy(), gaps
 
 
 def drawn_gaps(inst: np.ndarray, gaps: np.ndarray, chairs: int, views: int, draws: int,

@@ -16,10 +16,14 @@ B=.venv/bin/bench
 SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
 DEV_ROOT=${DEV_ROOT:-$HOME/.cache/catpose/chair_dev}
 OUT=${OUT:-outputs/category_dev}
+# dev_run ROWS SWEEP [OVERRIDE ...]: the chair experiment on the development root, 12 views per chair
+dev_run() {
+  "$B" run -m +experiment=mn40r_chair_ktemplates "+row=$1" dataset.root="$DEV_ROOT" \
+    dataset.alignment_table="$DEV_ROOT/alignment_chair.csv" dataset.views_per_instance=12 output_root="$OUT" \
+    progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/$2" "${@:3}"
+}
 .venv/bin/python results/category/dev/chair_dev_root.py "$SHARED" "$DEV_ROOT"
-"$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours,icp" dataset.root="$DEV_ROOT" \
-  dataset.alignment_table="$DEV_ROOT/alignment_chair.csv" dataset.views_per_instance=12 output_root="$OUT" \
-  progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/chair_dev_k3"
+dev_run ours,icp chair_dev_k3
 for fmt in md csv; do
   "$B" category "$OUT/multirun/chair_dev_k3" --category chair --choices cross,cross_top,cross_top_turns,score,density,agreement --format $fmt \
     --out results/category/dev/chair_dev_k3.$fmt \
@@ -28,10 +32,7 @@ done
 SWAPS=(chair_0001,chair_0059,chair_9001 chair_0002,chair_0391,chair_0848 chair_0059,chair_0624,chair_9001
        chair_0001,chair_0002,chair_0624)
 for i in "${!SWAPS[@]}"; do
-  "$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours,icp" dataset.root="$DEV_ROOT" \
-    dataset.alignment_table="$DEV_ROOT/alignment_chair.csv" dataset.views_per_instance=12 output_root="$OUT" \
-    "dataset.templates.chair=[${SWAPS[$i]}]" "protocol.exclude_instances=[]" \
-    progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/chair_dev_swap$i"
+  dev_run ours,icp chair_dev_swap$i "dataset.templates.chair=[${SWAPS[$i]}]" "protocol.exclude_instances=[]"
 done
 for fmt in md csv; do
   "$B" category "$OUT"/multirun/chair_dev_swap{0,1,2,3} --category chair --choices cross,cross_top,cross_top_turns,score,density,agreement \
@@ -46,14 +47,9 @@ done
   --turn-sets "none;90,270" --out results/category/dev/chair_dev_turns.md --title "Chair development runs, by turn set"
 # finer turn sets (none kept): ours again on the same 5 template sets with turns every 30 degrees
 T30="[30,60,90,120,150,180,210,240,270,300,330]"
-"$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours" dataset.root="$DEV_ROOT" \
-  dataset.alignment_table="$DEV_ROOT/alignment_chair.csv" dataset.views_per_instance=12 output_root="$OUT" \
-  "protocol.turns=$T30" progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/chair_dev_k3_turns30"
+dev_run ours chair_dev_k3_turns30 "protocol.turns=$T30"
 for i in "${!SWAPS[@]}"; do
-  "$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours" dataset.root="$DEV_ROOT" \
-    dataset.alignment_table="$DEV_ROOT/alignment_chair.csv" dataset.views_per_instance=12 output_root="$OUT" \
-    "dataset.templates.chair=[${SWAPS[$i]}]" "protocol.exclude_instances=[]" "protocol.turns=$T30" \
-    progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/chair_dev_swap${i}_turns30"
+  dev_run ours chair_dev_swap${i}_turns30 "dataset.templates.chair=[${SWAPS[$i]}]" "protocol.exclude_instances=[]" "protocol.turns=$T30"
 done
 .venv/bin/python results/category/dev/top_weight_grid.py "$OUT"/multirun/chair_dev_k3_turns30 "$OUT"/multirun/chair_dev_swap{0,1,2,3}_turns30 \
   --turn-sets "none;90,270;60,300;60,90,120,240,270,300;30,60,90,270,300,330;30,60,90,120,150,180,210,240,270,300,330" \
