@@ -169,13 +169,15 @@ class Templates(Protocol):
         ``top_offset`` (:func:`~catpose.bench.protocols.cross_check.top_offset`), and
         ``cross_check_s``, the seconds they took; ``turns``, the estimate's turned candidates
         (:func:`~catpose.bench.protocols.cross_check.turn_candidates`, unless ``turns`` is empty),
-        and ``turns_s``, their seconds; nothing when K = 1 (there is nothing to choose)."""
+        and ``turns_s``, their seconds. With K = 1 nothing, unless the rule is ``cross_top_turns``
+        (it then chooses among the estimate and its turns on the one template)."""
         import time
 
         from catpose.bench.protocols.cross_check import cross_costs, top_offset, turn_candidates
+        from catpose.bench.protocols.template_choice import TURN_RULES
 
         templates = self._templates(dataset, sample.problem.category)
-        if len(templates) < 2:
+        if len(templates) < 2 and self.choice not in TURN_RULES:
             return {}
         t0 = time.perf_counter()
         own = split_template_sample_id(sample.problem.sample_id)[1]

@@ -3,7 +3,10 @@
 # ours and every baseline (ICP; FGR, TEASER re-implementation and RANSAC, direct and dictionary
 # matching) in one sweep (configs/experiment/mn40r_airplane_1template.yaml), then the table and the
 # per-view errors of ours (results/category/paper/one_template_airplane.{md,csv},
-# paper/one_template_airplane_views.csv).
+# paper/one_template_airplane_views.csv). Then the same sweep under the one-template turn check
+# (protocol.choice=cross_top_turns, protocol.turns=[180]: each estimate or its half turn about up,
+# chosen on procedural airplanes, docs/category-level.md): one_template_airplane_turns.{md,csv},
+# one_template_airplane_turns_views.csv.
 # Usage (repository root, after `make setup`): bash results/category/make_one_template_airplane.sh [tables]
 # Extra Hydra overrides go in EXTRA (e.g. EXTRA="dataset.root=/data/modelnet40_normal_resampled ...").
 set -euo pipefail
@@ -11,9 +14,13 @@ cd "$(dirname "$0")/../.."
 B=.venv/bin/bench
 OUT=${OUT:-outputs/category}
 S=$OUT/multirun/mn40r_airplane_1template
+ST=$OUT/multirun/mn40r_airplane_1template_turns
+TURNS=(protocol.choice=cross_top_turns "protocol.turns=[180]")
 if [ "${1:-}" != tables ]; then
   "$B" run -m +experiment=mn40r_airplane_1template output_root="$OUT" progress=false print_summary=false \
     hydra.sweep.dir="$S" ${EXTRA:-}
+  "$B" run -m +experiment=mn40r_airplane_1template "${TURNS[@]}" output_root="$OUT" progress=false print_summary=false \
+    hydra.sweep.dir="$ST" ${EXTRA:-}
 fi
 T=results/category/paper; mkdir -p "$T"
 for fmt in md csv; do
@@ -21,3 +28,9 @@ for fmt in md csv; do
     --title "One template (airplane_0536), shared resampled airplanes (17 x 2 views)" --out "$T/one_template_airplane.$fmt"
 done
 .venv/bin/python -m catpose.bench.report.category_views "$S" --row ours --out "$T/one_template_airplane_views.csv"
+for fmt in md csv; do
+  "$B" table --sweep "$ST" --layout one_template --format $fmt --metrics mean,median,acc10,acc30,trans,n,failed \
+    --title "One template (airplane_0536) with the half-turn check (cross_top_turns, turns 180), shared resampled airplanes (17 x 2 views)" \
+    --out "$T/one_template_airplane_turns.$fmt"
+done
+.venv/bin/python -m catpose.bench.report.category_views "$ST" --row ours --out "$T/one_template_airplane_turns_views.csv"

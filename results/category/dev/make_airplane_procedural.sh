@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# The one-template airplane choice on procedural airplanes (issue 25; docs/category-level.md): 80
+# airplanes drawn part by part (procedural_airplanes.py, seed 0, root in $PROC_ROOT outside the
+# repository: airliners, propeller planes, fighters, biplanes, gliders), none of them a ModelNet40
+# shape, 4 views each, registered by ours and ICP to the one-template experiment's template
+# (airplane_0536, linked from the shared data with its verified alignment row). The run stores each
+# estimate's turns about up by 90, 180 and 270 degrees (protocol.turns), so one_template_turns.py
+# reads cross_top_turns over every subset and top-offset weight without registering again. The
+# setting was chosen on airplanes 8000-8039 and confirmed on 8040-8079:
+# airplane_procedural_one_template.md.
+# Usage (repository root): bash results/category/dev/make_airplane_procedural.sh
+set -euo pipefail
+cd "$(dirname "$0")/../../.."
+B=.venv/bin/bench
+SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
+PROC_ROOT=${PROC_ROOT:-$HOME/.cache/catpose/airplane_procedural/n80}
+OUT=${OUT:-outputs/airplane_procedural}
+DEV=results/category/dev
+.venv/bin/python $DEV/procedural_airplanes.py "$PROC_ROOT" --n 80 --seed 0 \
+  --templates "$SHARED/modelnet40_normal_resampled/airplane" airplane_0536 results/alignment/modelnet40_resampled_airplane.csv
+"$B" run -m +experiment=mn40r_airplane_1template "+row=ours,icp" dataset.root="$PROC_ROOT" \
+  dataset.alignment_table="$PROC_ROOT/alignment_airplane.csv" dataset.views_per_instance=4 \
+  protocol.choice=cross_top_turns "protocol.turns=[90,180,270]" output_root="$OUT" progress=false print_summary=false \
+  hydra.sweep.dir="$OUT/multirun/k1_turns_n80"
+.venv/bin/python $DEV/one_template_turns.py "$OUT/multirun/k1_turns_n80" --alignment "$PROC_ROOT/alignment_airplane.csv" \
+  --split-at airplane_8040 --keep "180@0.05" --out $DEV/airplane_procedural_one_template.md \
+  --title "Procedural airplanes (80 x 4 views), one template (airplane_0536)"

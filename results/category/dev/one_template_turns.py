@@ -1,0 +1,108 @@
+"""The ``cross_top_turns`` rule with one template, on the procedural airplanes: for each turn set
+and top-offset weight, each method's mean error with the rule against the registration's own
+estimate, on the airplanes that chose the setting and on those that only confirm it; then, for
+the kept setting, the same per kind of airplane (where it gains and where it loses).
+
+    .venv/bin/python results/category/dev/one_template_turns.py OUT/multirun/airplane_procedural_k1 \
+        --alignment ROOT/alignment_airplane.csv --split-at airplane_8040 --keep "180@0.05" --out ...
+
+Reads the runs' stored ``info.cross_costs``, ``info.top_offset`` and ``info.turns`` (no
+registration is run). With one template the oracle is the registration's own estimate, so a gap
+below 0 is what the turns gain. The kinds come from the ``note`` column that
+procedural_airplanes.py writes. Written by results/category/dev/make_airplane_procedural.sh.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from top_weight_grid import WEIGHTS, parse_turn_sets, with_turns  # noqa: E402  (sibling development script)
+
+
+def chosen_errors(samples, turns: tuple[float, ...], weight: float) -> np.ndarray:
+    """(V,) the error of each view's row kept by ``cross_top_turns`` over ``turns`` at top-offset
+    ``weight`` (the registration's own estimate when ``turns`` is empty), in ``group_id`` order."""
+    import pandas as pd
+
+    from catpose.bench.protocols.template_choice import choose_row
+    from catpose.bench.report.category_table import row_errors
+
+    if not turns:
+        return np.asarray(row_errors(samples.sort_values("group_id")), float)
+    rows = with_turns(samples, turns)
+    chosen = pd.DataFrame([choose_row(g, "cross_top_turns", top_weight=weight) for _, g in rows.groupby("group_id")])
+    return np.asarray(row_errors(chosen), float)
+
+
+def kinds_of(alignment_csv: Path) -> dict[str, str]:
+    """instance id -> kind, from procedural_airplanes.py's ``note`` ("procedural <kind>: ...")."""
+    with open(alignment_csv, newline="") as f:
+        return {r["instance_id"]: r["note"].split(":")[0].removeprefix("procedural ").strip()
+                for r in csv.DictReader(f) if r["note"].startswith("procedural")}
+
+
+def main(argv: list[str] | None = None) -> int:
+    from catpose.atomic import write_text
+    from catpose.bench.protocols.absolute import absolute_gt_only
+    from catpose.bench.report.category_table import run_dirs
+    from catpose.bench.report.runs import load_run
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("sweep")
+    ap.add_argument("--alignment", required=True, help="the root's alignment_airplane.csv (kinds)")
+    ap.add_argument("--split-at", required=True, help="first instance id of the confirming part")
+    ap.add_argument("--turn-sets", default="180;90,270;90,180,270")
+    ap.add_argument("--weights", default=",".join(f"{w:g}" for w in WEIGHTS))
+    ap.add_argument("--keep", required=True, help="the kept setting, TURNS@WEIGHT, e.g. 180@0.05")
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--title", default="Procedural airplanes, one template")
+    args = ap.parse_args(argv)
+    kinds = kinds_of(Path(args.alignment))
+    turn_sets = [t for t in parse_turn_sets(args.turn_sets) if t]
+    weights = [float(w) for w in args.weights.split(",")]
+    keep_turns, keep_weight = parse_turn_sets(args.keep.split("@")[0])[0], float(args.keep.split("@")[1])
+    grid = ["| method | turns | weight | chose: mean | chose: @30 | chose: gain | confirm: mean | confirm: @30 | confirm: gain |",
+            "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    per_kind = ["| method | kind | views | own estimate: mean | own estimate: @30 | kept: mean | kept: @30 |",
+                "|---|---|---:|---:|---:|---:|---:|"]
+    counts = {}
+    for run in sorted((load_run(p) for p in run_dirs([args.sweep])), key=lambda r: r.method):
+        samples = absolute_gt_only(run.samples).sort_values("group_id").reset_index(drop=True)
+        instance = samples["group_id"].str.split("/").str[1]
+        parts = {"chose": samples[instance < args.split_at], "confirm": samples[instance >= args.split_at]}
+        counts = {k: len(v) for k, v in parts.items()}
+        own = {k: chosen_errors(v, (), 0.0) for k, v in parts.items()}
+        cells = [f"{own[k].mean():.2f} | {np.mean(own[k] < 30):.3f} | - " for k in parts]
+        grid.append(f"| {run.method} | none | - | " + " | ".join(cells) + " |")
+        for turns in turn_sets:
+            for w in weights:
+                cells = []
+                for k, v in parts.items():
+                    e = chosen_errors(v, turns, w)
+                    cells.append(f"{e.mean():.2f} | {np.mean(e < 30):.3f} | {e.mean() - own[k].mean():.2f}")
+                grid.append(f"| {run.method} | {','.join(f'{t:g}' for t in turns)} | {w:g} | " + " | ".join(cells) + " |")
+        kept = chosen_errors(samples, keep_turns, keep_weight)
+        base = chosen_errors(samples, (), 0.0)
+        kind = instance.map(kinds).to_numpy()
+        for name in sorted(set(kind)):
+            m = kind == name
+            per_kind.append(f"| {run.method} | {name} | {m.sum()} | {base[m].mean():.2f} | {np.mean(base[m] < 30):.3f} | "
+                            f"{kept[m].mean():.2f} | {np.mean(kept[m] < 30):.3f} |")
+    head = (f"**{args.title}: mean error (degrees) and @30 of `cross_top_turns` over the estimate and its turns, "
+            f"against the registration's own estimate (gain: the difference); chose: the {counts.get('chose', 0)} views "
+            f"before {args.split_at}, confirm: the {counts.get('confirm', 0)} from it**")
+    kind_head = (f"**{args.title}, by kind, all views: the registration's own estimate against the kept setting "
+                 f"(turns {args.keep.split('@')[0]}, weight {keep_weight:g})**")
+    write_text(Path(args.out), "\n".join([head, "", *grid, "", kind_head, "", *per_kind]) + "\n")
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
