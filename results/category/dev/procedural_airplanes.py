@@ -32,7 +32,7 @@ import numpy as np
 import trimesh
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from procedural_chairs import HEADER, resampled, rod  # noqa: E402  (sibling development script)
+from procedural_chairs import HEADER, link_templates, resampled, rod, write_lists  # noqa: E402  (sibling development script)
 
 FIRST_ID = 8000
 KINDS = ("airliner", "prop", "fighter", "biplane", "glider")
@@ -212,17 +212,10 @@ def main(argv: list[str] | None = None) -> int:
         mesh = airplane(rng)
         np.savetxt(root / "airplane" / f"{name}.txt", resampled(mesh, args.seed * 100003 + i), delimiter=",", fmt="%.6f")
         rows.append(f"airplane,{name},1,0,0,0,1,0,0,0,1,0,false,,,true,procedural {mesh.metadata['kind']}: built in the category frame\n")
-    linked = []
-    if args.templates:
-        linked = args.templates[1].split(",")
-        for name in linked:
-            link = root / "airplane" / f"{name}.txt"
-            if not link.exists():
-                link.symlink_to((Path(args.templates[0]) / f"{name}.txt").resolve())
+    linked = link_templates(root, "airplane", *args.templates[:2]) if args.templates else []
+    if linked:
         rows += template_rows(Path(args.templates[2]), linked)
-    (root / "modelnet40_train.txt").write_text("".join(f"{n}\n" for n in sorted([*names, *linked])))
-    (root / "modelnet40_test.txt").write_text("")
-    (root / "alignment_airplane.csv").write_text(HEADER + "".join(rows))
+    write_lists(root, "airplane", [*names, *linked], rows)
     print(f"wrote {args.n} procedural airplanes to {root}")
     return 0
 

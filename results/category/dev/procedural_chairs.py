@@ -175,6 +175,25 @@ def resampled(mesh: trimesh.Trimesh, seed: int) -> np.ndarray:
     return np.hstack([pts, mesh.face_normals[face]])
 
 
+def link_templates(root: Path, category: str, folder: str, ids: str) -> list[str]:
+    """Link the files ``<folder>/<id>.txt`` of the comma-separated ``ids`` into ``root/<category>``
+    (links already there are kept); returns the ids."""
+    linked = ids.split(",")
+    for name in linked:
+        link = root / category / f"{name}.txt"
+        if not link.exists():
+            link.symlink_to((Path(folder) / f"{name}.txt").resolve())
+    return linked
+
+
+def write_lists(root: Path, category: str, ids: list[str], rows: list[str]) -> None:
+    """The root's split lists (every id in train, test empty) and ``alignment_<category>.csv``
+    (``HEADER`` and ``rows``, CSV lines)."""
+    (root / "modelnet40_train.txt").write_text("".join(f"{n}\n" for n in sorted(ids)))
+    (root / "modelnet40_test.txt").write_text("")
+    (root / f"alignment_{category}.csv").write_text(HEADER + "".join(rows))
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("out_root")
@@ -190,17 +209,9 @@ def main(argv: list[str] | None = None) -> int:
         np.savetxt(root / "chair" / f"{name}.txt", resampled(chair(rng), args.seed * 100003 + i),
                    delimiter=",", fmt="%.6f")
     rows = [f"chair,{n},1,0,0,0,1,0,0,0,1,0,false,,,true,procedural: built in the category frame\n" for n in names]
-    linked = []
-    if args.templates:
-        linked = args.templates[1].split(",")
-        for name in linked:
-            link = root / "chair" / f"{name}.txt"
-            if not link.exists():
-                link.symlink_to((Path(args.templates[0]) / f"{name}.txt").resolve())
-            rows.append(f"chair,{name},1,0,0,0,1,0,0,0,1,0,false,,,true,shared template (results/alignment/)\n")
-    (root / "modelnet40_train.txt").write_text("".join(f"{n}\n" for n in sorted([*names, *linked])))
-    (root / "modelnet40_test.txt").write_text("")
-    (root / "alignment_chair.csv").write_text(HEADER + "".join(rows))
+    linked = link_templates(root, "chair", *args.templates) if args.templates else []
+    rows += [f"chair,{name},1,0,0,0,1,0,0,0,1,0,false,,,true,shared template (results/alignment/)\n" for name in linked]
+    write_lists(root, "chair", [*names, *linked], rows)
     print(f"wrote {args.n} procedural chairs to {root}")
     return 0
 
