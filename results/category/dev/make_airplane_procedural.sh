@@ -8,7 +8,7 @@
 # reads cross_top_turns over every subset and top-offset weight without registering again. The
 # setting was chosen on airplanes 8000-8039 and confirmed on 8040-8079:
 # airplane_procedural_one_template.md.
-# Usage (repository root): bash results/category/dev/make_airplane_procedural.sh
+# Usage (repository root): bash results/category/dev/make_airplane_procedural.sh (about 10 minutes on 2 cores)
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
 B=.venv/bin/bench
@@ -25,3 +25,19 @@ DEV=results/category/dev
 .venv/bin/python $DEV/one_template_turns.py "$OUT/multirun/k1_turns_n80" --alignment "$PROC_ROOT/alignment_airplane.csv" \
   --split-at airplane_8040 --keep "180@0.05" --out $DEV/airplane_procedural_one_template.md \
   --title "Procedural airplanes (80 x 4 views), one template (airplane_0536)"
+# The same 80 airplanes against the shared K = 3 airplane templates (configs/category_templates/
+# mn40r_airplane_k3.yaml), 2 views each, ours, turns stored: every rule of `bench category` and the
+# top-offset / turn-set grid (airplane_procedural_k3.md, airplane_procedural_k3_grid.md). Not used to
+# change the airplane experiments' rule (docs/category-level.md).
+K3_ROOT=${K3_ROOT:-$PROC_ROOT-k3}
+.venv/bin/python $DEV/procedural_airplanes.py "$K3_ROOT" --n 80 --seed 0 --templates "$SHARED/modelnet40_normal_resampled/airplane" \
+  airplane_0002,airplane_0256,airplane_0432 results/alignment/modelnet40_resampled_airplane.csv
+"$B" run -m +experiment=mn40r_airplane_ktemplates "+row=ours" +category_templates=mn40r_airplane_k3 \
+  "protocol.exclude_instances=[airplane_0002,airplane_0256,airplane_0432]" dataset.root="$K3_ROOT" \
+  dataset.alignment_table="$K3_ROOT/alignment_airplane.csv" dataset.views_per_instance=2 "protocol.turns=[90,180,270]" \
+  output_root="$OUT/k3" progress=false print_summary=false hydra.sweep.dir="$OUT/k3/multirun/k3"
+"$B" category "$OUT/k3/multirun/k3" --category airplane --choices cross,cross_top,cross_top_turns,score,density,agreement \
+  --format md --out $DEV/airplane_procedural_k3.md \
+  --title "Procedural airplanes, K = 3 (80 airplanes x 2 views; the shared airplane K = 3 templates)"
+.venv/bin/python $DEV/top_weight_grid.py "$OUT/k3/multirun/k3" --turn-sets "none;180;90,270;90,180,270" --weights 0,0.05 \
+  --out $DEV/airplane_procedural_k3_grid.md --title "Procedural airplanes (80 x 2 views, K = 3), ours, by turn set"
