@@ -319,15 +319,16 @@ def test_templates_protocol_writes_the_turns_unless_told_not_to():
 
 
 def test_one_template_cross_top_turns_chooses_among_the_estimate_and_its_turns():
-    # K = 1: the protocol writes the facts only for the turn rule, and the rule keeps the turn
+    # K = 1: the protocol writes the facts only when asked, for the turn rule, and the rule keeps the turn
     # whose own cost and top offset are lowest; a K = 1 row without turns is simply kept
     templates = [_chair_like(0.7, 0.8, 0)]
     P, T = _view(_chair_like(0.65, 0.85, 30), np.array([0.8, 2.0, 1.5]))
     one = SimpleNamespace(category_templates=lambda category: templates)
     sample = SimpleNamespace(problem=SimpleNamespace(points_camera=P, category="chair", sample_id="chair/c/v00|0"))
-    assert Templates(choice="cross_top").estimate_facts(one, sample, T) == {}
+    assert Templates(choice="cross_top", one_template_turns=True).estimate_facts(one, sample, T) == {}
+    assert Templates(choice="cross_top_turns").estimate_facts(one, sample, T) == {}   # not asked for
     wrong = _pose(90.0) @ T
-    facts = Templates(choice="cross_top_turns", turns=[90, 180, 270]).estimate_facts(one, sample, wrong)
+    facts = Templates(choice="cross_top_turns", turns=[90, 180, 270], one_template_turns=True).estimate_facts(one, sample, wrong)
     assert facts["cross_costs"] == cross_costs(P, wrong, templates, 0) and len(facts["cross_costs"]) == 1
     assert [t["turn_deg"] for t in facts["turns"]] == [90.0, 180.0, 270.0]
     rows = _rows([facts["cross_costs"]], [0.1], [90.0])

@@ -112,6 +112,25 @@ def test_category_table_reports_chosen_oracle_and_random_side_by_side():
     assert [(r["K"], r["choice"], r["chosen_mean"]) for r in one] == [(1, "-", 7.0)]  # one template: nothing chosen
 
 
+def test_category_table_one_template_row_takes_the_runs_turn_rule_where_turns_were_stored():
+    rows = view_rows("chair/c/v00", [90], [0.2], [90.0])
+    rows["sample_id"] = ["chair/c/v00|0"]
+    rows["T_gt"] = [np.eye(4).tolist()]
+    rows["info"] = [{"cross_costs": [0.3], "top_offset": 0.0,
+                     "turns": [{"turn_deg": 270.0, "T_template_camera": np.eye(4).tolist(), "cross_costs": [0.1],
+                                "top_offset": 0.0}]}]
+    [row] = run_rows(SimpleNamespace(samples=rows, config={"protocol": {"choice": "cross_top_turns"}}), "chair",
+                     ["cross", "score"])
+    assert row["choice"] == "cross_top_turns" and row["chosen_mean"] == pytest.approx(0.0, abs=1e-6)
+    assert row["oracle_mean"] == 90.0   # the registration's own estimate
+    # a run under another rule keeps the own estimate, as does a turn-rule run that stored no turns
+    plain = run_rows(SimpleNamespace(samples=rows, config={"protocol": {"choice": "score"}}), "chair", ["cross"])
+    assert [(r["choice"], r["chosen_mean"]) for r in plain] == [("-", 90.0)]
+    rows["info"] = [{}]
+    bare = run_rows(SimpleNamespace(samples=rows, config={"protocol": {"choice": "cross_top_turns"}}), "chair", ["cross"])
+    assert [(r["choice"], r["chosen_mean"]) for r in bare] == [("-", 90.0)]
+
+
 def test_alignment_agreement_is_up_to_one_common_rotation_and_roc_separates():
     yaw = [axis_angle_to_R(np.array([0, 0, 1.0]), np.deg2rad(90 * k)) for k in range(4)]
     verified = {"a": yaw[0], "b": yaw[1], "c": yaw[2], "d": yaw[3]}

@@ -126,12 +126,14 @@ class Templates(Protocol):
 
     def __init__(self, max_templates: int | None = None, exclude_templates: bool = False,
                  exclude_instances: list[str] | None = None, choice: str = "score",
-                 turns: list[float] | None = None) -> None:
+                 turns: list[float] | None = None, one_template_turns: bool = False) -> None:
         self.max_templates = max_templates
         self.exclude_templates = bool(exclude_templates)  # skip views of the template instances themselves
         self.exclude_instances = [str(i) for i in (exclude_instances or [])]  # and of these instances
         self.choice = check_choice(choice)  # how a view's template is chosen (catpose.bench.protocols.template_choice)
         self.turns = _turns(turns)  # turns about up tried from each estimate (cross_check.turn_candidates)
+        # with K = 1 too, under cross_top_turns: the estimate or one of its turns on the one template
+        self.one_template_turns = bool(one_template_turns)
         self._cache = _ObservationCache()
 
     def _templates(self, dataset: ObjectDataset, category: str) -> list[Template]:
@@ -169,15 +171,16 @@ class Templates(Protocol):
         ``top_offset`` (:func:`~catpose.bench.protocols.cross_check.top_offset`), and
         ``cross_check_s``, the seconds they took; ``turns``, the estimate's turned candidates
         (:func:`~catpose.bench.protocols.cross_check.turn_candidates`, unless ``turns`` is empty),
-        and ``turns_s``, their seconds. With K = 1 nothing, unless the rule is ``cross_top_turns``
-        (it then chooses among the estimate and its turns on the one template)."""
+        and ``turns_s``, their seconds. With K = 1 nothing (there is nothing to choose), unless
+        ``one_template_turns`` is set and the rule is ``cross_top_turns``: it then chooses between
+        the estimate and its turns on the one template."""
         import time
 
         from catpose.bench.protocols.cross_check import cross_costs, top_offset, turn_candidates
         from catpose.bench.protocols.template_choice import TURN_RULES
 
         templates = self._templates(dataset, sample.problem.category)
-        if len(templates) < 2 and self.choice not in TURN_RULES:
+        if len(templates) < 2 and not (self.one_template_turns and self.choice in TURN_RULES):
             return {}
         t0 = time.perf_counter()
         own = split_template_sample_id(sample.problem.sample_id)[1]

@@ -50,9 +50,12 @@ def row_errors(rows) -> np.ndarray:
 
 
 def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
-    """One row per choice rule for a templates run (one row, choice ``-``, when K = 1): ``K``, ``views``,
-    ``choice`` and ``chosen_*``, ``oracle_*``, ``random_*`` statistics (:data:`STATS`)."""
+    """One row per choice rule for a templates run: ``K``, ``views``, ``choice`` and ``chosen_*``,
+    ``oracle_*``, ``random_*`` statistics (:data:`STATS`). When K = 1, one row: choice ``-`` (the
+    registration's own estimate), or the run's own turn rule where the run stored the turns
+    (``protocol.one_template_turns``)."""
     from catpose.bench.protocols.absolute import Templates, absolute_gt_only
+    from catpose.bench.protocols.template_choice import TURN_RULES
 
     samples = absolute_gt_only(run.samples)
     if category is not None:
@@ -61,9 +64,16 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
         return []
     K = int(samples.groupby("group_id").size().max())
     out = []
-    for choice in (choices[:1] if K == 1 else choices):  # one template: nothing to choose
+    own_rule = str(((getattr(run, "config", None) or {}).get("protocol") or {}).get("choice", ""))
+    one_template_turns = K == 1 and own_rule in TURN_RULES and any(
+        isinstance(i, dict) and i.get("turns") for i in samples.get("info", []))
+    if K > 1:
+        rules = list(choices)
+    else:  # one template: nothing to choose, unless between the estimate and its stored turns
+        rules = [own_rule] if one_template_turns else list(choices[:1])
+    for choice in rules:
         units = Templates(choice=choice).best_per_view(samples)
-        row = {"K": K, "views": len(units), "choice": choice if K > 1 else "-"}
+        row = {"K": K, "views": len(units), "choice": choice if K > 1 or one_template_turns else "-"}
         row.update({f"chosen_{k}": v for k, v in error_stats(row_errors(units)).items()})
         row.update({f"oracle_{k}": v for k, v in error_stats(units["oracle_err_deg"].to_numpy(float)).items()})
         row.update({f"random_{k}": v for k, v in error_stats(row_errors(samples)).items()})

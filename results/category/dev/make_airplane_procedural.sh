@@ -20,7 +20,7 @@ DEV=results/category/dev
   --templates "$SHARED/modelnet40_normal_resampled/airplane" airplane_0536 results/alignment/modelnet40_resampled_airplane.csv
 "$B" run -m +experiment=mn40r_airplane_1template "+row=ours,icp" dataset.root="$PROC_ROOT" \
   dataset.alignment_table="$PROC_ROOT/alignment_airplane.csv" dataset.views_per_instance=4 \
-  protocol.choice=cross_top_turns "protocol.turns=[90,180,270]" output_root="$OUT" progress=false print_summary=false \
+  protocol.choice=cross_top_turns "protocol.turns=[90,180,270]" protocol.one_template_turns=true output_root="$OUT" progress=false print_summary=false \
   hydra.sweep.dir="$OUT/multirun/k1_turns_n80"
 .venv/bin/python $DEV/one_template_turns.py "$OUT/multirun/k1_turns_n80" --alignment "$PROC_ROOT/alignment_airplane.csv" \
   --split-at airplane_8040 --keep "180@0.05" --out $DEV/airplane_procedural_one_template.md \
