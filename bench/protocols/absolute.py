@@ -14,8 +14,8 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 import numpy as np
 
-from catpose.bench.protocols.template_choice import (check_choice, choose_row, is_excluded_view, split_template_sample_id,
-                                                    template_sample_id, with_template_facts)
+from catpose.bench.protocols.template_choice import (TURN_RULES, check_choice, choose_row, is_excluded_view,
+                                                    split_template_sample_id, template_sample_id, with_template_facts)
 from catpose.datasets.base import ObjectDataset, Observation
 from catpose.errors import ConfigError, DatasetError
 from catpose.types import GroundTruth, RegistrationProblem, Sample, Template
@@ -133,7 +133,7 @@ class Templates(Protocol):
         self.choice = check_choice(choice)  # how a view's template is chosen (catpose.bench.protocols.template_choice)
         self.turns = _turns(turns)  # turns about up tried from each estimate (cross_check.turn_candidates)
         # with K = 1 too, under cross_top_turns: the estimate or one of its turns on the one template
-        self.one_template_turns = bool(one_template_turns)
+        self.one_template_turns = bool(one_template_turns) and self.choice in TURN_RULES
         self._cache = _ObservationCache()
 
     def _templates(self, dataset: ObjectDataset, category: str) -> list[Template]:
@@ -177,10 +177,9 @@ class Templates(Protocol):
         import time
 
         from catpose.bench.protocols.cross_check import cross_costs, top_offset, turn_candidates
-        from catpose.bench.protocols.template_choice import TURN_RULES
 
         templates = self._templates(dataset, sample.problem.category)
-        if len(templates) < 2 and not (self.one_template_turns and self.choice in TURN_RULES):
+        if len(templates) < 2 and not self.one_template_turns:
             return {}
         t0 = time.perf_counter()
         own = split_template_sample_id(sample.problem.sample_id)[1]
@@ -217,7 +216,7 @@ class Templates(Protocol):
     def _choice_s(self, group) -> float:
         """Seconds the view's choice itself took: the ``cross`` rules' checks, with the turned
         candidates' for ``cross_top_turns`` (0 for the other rules)."""
-        from catpose.bench.protocols.template_choice import CROSS_RULES, TURN_RULES
+        from catpose.bench.protocols.template_choice import CROSS_RULES
 
         if self.choice not in CROSS_RULES or "info" not in group:
             return 0.0

@@ -176,15 +176,15 @@ def choose_row(group, choice: str = "score", top_weight: float | None = None):
         infos = group["info"] if "info" in group else [{}] * len(group)
         spacings = [float(i.get("template_spacing", np.nan)) if isinstance(i, dict) else np.nan for i in infos]
     # one template: the estimate or one of its turns, where the run stored them (else nothing to choose)
-    if choice in TURN_RULES and (len(group) > 1 or _has_turns(group)):
+    if choice in TURN_RULES and (len(group) > 1 or has_turns(group)):
         row = _with_best_turn(group, status_ok, top_weight if top_weight is not None else CROSS_RULES[choice])
         if row is not None:
             return row
     return group.iloc[choose_index(list(scores), rotations, choice, spacings=spacings, cross=cross)]
 
 
-def _has_turns(group) -> bool:
-    """Whether any row of ``group`` carries ``info["turns"]``."""
+def has_turns(group) -> bool:
+    """Whether any row of ``group`` (rows of ``samples.jsonl``) carries ``info["turns"]``."""
     return "info" in group and any(isinstance(i, dict) and i.get("turns") for i in group["info"])
 
 

@@ -55,7 +55,7 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
     registration's own estimate), or the run's own turn rule where the run stored the turns
     (``protocol.one_template_turns``)."""
     from catpose.bench.protocols.absolute import Templates, absolute_gt_only
-    from catpose.bench.protocols.template_choice import TURN_RULES
+    from catpose.bench.protocols.template_choice import TURN_RULES, has_turns
 
     samples = absolute_gt_only(run.samples)
     if category is not None:
@@ -65,8 +65,7 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
     K = int(samples.groupby("group_id").size().max())
     out = []
     own_rule = str(((getattr(run, "config", None) or {}).get("protocol") or {}).get("choice", ""))
-    one_template_turns = K == 1 and own_rule in TURN_RULES and any(
-        isinstance(i, dict) and i.get("turns") for i in samples.get("info", []))
+    one_template_turns = K == 1 and own_rule in TURN_RULES and has_turns(samples)
     if K > 1:
         rules = list(choices)
     else:  # one template: nothing to choose, unless between the estimate and its stored turns

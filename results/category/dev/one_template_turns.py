@@ -22,22 +22,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from top_weight_grid import WEIGHTS, parse_turn_sets, with_turns  # noqa: E402  (sibling development script)
-
-
-def chosen_errors(samples, turns: tuple[float, ...], weight: float) -> np.ndarray:
-    """(V,) the error of each view's row kept by ``cross_top_turns`` over ``turns`` at top-offset
-    ``weight`` (the registration's own estimate when ``turns`` is empty), in ``group_id`` order."""
-    import pandas as pd
-
-    from catpose.bench.protocols.template_choice import choose_row
-    from catpose.bench.report.category_table import row_errors
-
-    if not turns:
-        return np.asarray(row_errors(samples.sort_values("group_id")), float)
-    rows = with_turns(samples, turns)
-    chosen = pd.DataFrame([choose_row(g, "cross_top_turns", top_weight=weight) for _, g in rows.groupby("group_id")])
-    return np.asarray(row_errors(chosen), float)
+from top_weight_grid import WEIGHTS, chosen_errors, parse_turn_sets  # noqa: E402  (sibling development script)
 
 
 def kinds_of(alignment_csv: Path) -> dict[str, str]:
@@ -74,22 +59,21 @@ def main(argv: list[str] | None = None) -> int:
     counts = {}
     for run in sorted((load_run(p) for p in run_dirs([args.sweep])), key=lambda r: r.method):
         samples = absolute_gt_only(run.samples).sort_values("group_id").reset_index(drop=True)
-        instance = samples["group_id"].str.split("/").str[1]
-        parts = {"chose": samples[instance < args.split_at], "confirm": samples[instance >= args.split_at]}
-        counts = {k: len(v) for k, v in parts.items()}
-        own = {k: chosen_errors(v, (), 0.0) for k, v in parts.items()}
-        cells = [f"{own[k].mean():.2f} | {np.mean(own[k] < 30):.3f} | - " for k in parts]
-        grid.append(f"| {run.method} | none | - | " + " | ".join(cells) + " |")
-        for turns in turn_sets:
-            for w in weights:
-                cells = []
-                for k, v in parts.items():
-                    e = chosen_errors(v, turns, w)
-                    cells.append(f"{e.mean():.2f} | {np.mean(e < 30):.3f} | {e.mean() - own[k].mean():.2f}")
-                grid.append(f"| {run.method} | {','.join(f'{t:g}' for t in turns)} | {w:g} | " + " | ".join(cells) + " |")
-        kept = chosen_errors(samples, keep_turns, keep_weight)
+        # one row per view (K = 1), so the views' errors below line up with ``instance``
+        instance = samples["group_id"].str.split("/").str[1].to_numpy()
+        parts = {"chose": instance < args.split_at, "confirm": instance >= args.split_at}
+        counts = {k: int(m.sum()) for k, m in parts.items()}
         base = chosen_errors(samples, (), 0.0)
-        kind = instance.map(kinds).to_numpy()
+        cells = [f"{base[m].mean():.2f} | {np.mean(base[m] < 30):.3f} | - " for m in parts.values()]
+        grid.append(f"| {run.method} | none | - | " + " | ".join(cells) + " |")
+        errors = {(turns, w): chosen_errors(samples, turns, w) for turns in turn_sets for w in weights}
+        for (turns, w), e in errors.items():
+            cells = [f"{e[m].mean():.2f} | {np.mean(e[m] < 30):.3f} | {e[m].mean() - base[m].mean():.2f}"
+                     for m in parts.values()]
+            grid.append(f"| {run.method} | {','.join(f'{t:g}' for t in turns)} | {w:g} | " + " | ".join(cells) + " |")
+        kept = errors.get((keep_turns, keep_weight))
+        kept = chosen_errors(samples, keep_turns, keep_weight) if kept is None else kept
+        kind = np.array([kinds.get(i, "?") for i in instance])
         for name in sorted(set(kind)):
             m = kind == name
             per_kind.append(f"| {run.method} | {name} | {m.sum()} | {base[m].mean():.2f} | {np.mean(base[m] < 30):.3f} | "

@@ -32,21 +32,29 @@ def with_turns(samples, turns: tuple[float, ...]):
     return samples
 
 
-def gap(samples, weight: float, turns: tuple[float, ...] | None = None) -> float:
-    """The chosen mean error less the oracle's (degrees) over the views of ``samples`` (one
-    template run's rows) when ``cross_top`` weighs the top offset ``weight``; with ``turns``, the
-    ``cross_top_turns`` rule over those turned candidates."""
+def chosen_errors(samples, turns: tuple[float, ...] | None, weight: float) -> np.ndarray:
+    """(V,) the error (degrees) of each view's row, in ``group_id`` order, that ``cross_top`` keeps
+    among ``samples`` (one template run's rows) when it weighs the top offset ``weight``; with
+    ``turns``, that the ``cross_top_turns`` rule keeps over those turned candidates. With one
+    template and no turns: each view's own estimate."""
     import pandas as pd
 
-    from catpose.bench.protocols.absolute import Templates
     from catpose.bench.protocols.template_choice import choose_row
     from catpose.bench.report.category_table import row_errors
 
     rule = "cross_top" if not turns else "cross_top_turns"
     rows = samples if not turns else with_turns(samples, turns)
     chosen = pd.DataFrame([choose_row(g, rule, top_weight=weight) for _, g in rows.groupby("group_id")])
+    return np.asarray(row_errors(chosen), float)
+
+
+def gap(samples, weight: float, turns: tuple[float, ...] | None = None) -> float:
+    """The chosen mean error (:func:`chosen_errors`) less the oracle's (degrees) over the views of
+    ``samples``."""
+    from catpose.bench.protocols.absolute import Templates
+
     oracle = Templates(choice="cross").best_per_view(samples)["oracle_err_deg"].to_numpy(float)
-    return float(row_errors(chosen).mean() - oracle.mean())
+    return float(chosen_errors(samples, turns, weight).mean() - oracle.mean())
 
 
 def parse_turn_sets(text: str) -> list[tuple[float, ...]]:
