@@ -107,7 +107,7 @@ def test_category_table_reports_chosen_oracle_and_random_side_by_side():
     assert error_stats(np.array([]))["mean"] != error_stats(np.array([]))["mean"]  # NaN
     md = to_markdown([{"method": "Ours", **r} for r in out], "t")
     assert "| 3 | Ours | agreement | 2 | 3.00 |" in md and md.count("\n") == 6
-    assert set(CHOICES) == {"score", "density", "agreement", "cross", "cross_top", "cross_top_turns"}
+    assert set(CHOICES) == {"score", "density", "agreement", "cross", "cross_top", "cross_top_turns", "fused"}
     one = run_rows(SimpleNamespace(samples=view_rows("chair/c/v00", [0], [0.2], [7.0])), "chair", ["cross", "score"])
     assert [(r["K"], r["choice"], r["chosen_mean"]) for r in one] == [(1, "-", 7.0)]  # one template: nothing chosen
 

@@ -37,6 +37,15 @@ system then has to keep one estimate. The rules (``protocol.choice=<name>``):
   The chosen row is the registration's, its ``T_est`` and errors those of the candidate kept, and
   ``info["turn_deg"]`` the turn (0: the registration's own estimate); so, unlike the other rules,
   it can end better than the oracle (the best of the K registrations' own estimates).
+- ``fused`` (the ModelNet40 chair K-template experiment's rule): the ``cross_top_turns`` choice,
+  then its pose averaged with those of the other templates that agree with it
+  (:func:`fuse_agreeing`): for each other template, its lowest-cost candidate (registration or
+  turn) whose rotation lies within ``AGREE_DEG`` of the chosen one's; the rotations are averaged
+  (:meth:`scipy.spatial.transform.Rotation.mean`) and so are the translations. Each template's
+  shape pulls a right registration a few degrees its own way; the average of the agreeing ones
+  stands nearer the category's frame. ``info["fused_templates"]`` is how many poses were averaged
+  (1: none agreed, the ``cross_top_turns`` pose is kept). Like ``cross_top_turns``, it can end
+  better than the oracle.
 
 Failed registrations are never chosen unless every registration of the view failed (then the
 first row, a 180-degree error, is kept). Measurements behind the rules and their settings are in
@@ -54,17 +63,20 @@ import numpy as np
 
 from catpose.errors import ConfigError
 
-CHOICES = ("score", "density", "agreement", "cross", "cross_top", "cross_top_turns")
+CHOICES = ("score", "density", "agreement", "cross", "cross_top", "cross_top_turns", "fused")
 #: ``cross``: own-template cost + CROSS_WEIGHT x mean cost on the other templates (chosen on the
 #: development chairs and airplanes, docs/category-level.md)
 CROSS_WEIGHT = 0.25
 #: ``cross_top``: weight of the top offset (chosen on the development chairs, docs/category-level.md)
 TOP_WEIGHT = 0.05
 #: the rules that read the cross check, and the weight each gives the top offset (None: not read)
-CROSS_RULES = {"cross": None, "cross_top": TOP_WEIGHT, "cross_top_turns": TOP_WEIGHT}
+CROSS_RULES = {"cross": None, "cross_top": TOP_WEIGHT, "cross_top_turns": TOP_WEIGHT, "fused": TOP_WEIGHT}
 #: the rules that also choose among each registration's turned candidates (``info["turns"]``)
-TURN_RULES = ("cross_top_turns",)
-#: two registrations of a view agree when their rotations differ by at most this (degrees)
+TURN_RULES = ("cross_top_turns", "fused")
+#: the rules that average the chosen pose with the agreeing poses of the other templates
+FUSE_RULES = ("fused",)
+#: two registrations of a view agree when their rotations differ by at most this (degrees; also
+#: ``fused``'s, chosen on the procedural chairs, docs/category-level.md)
 AGREE_DEG = 20.0
 #: ``density``: score - DENSITY_WEIGHT * template spacing (chosen on airplanes, docs/category-level.md)
 DENSITY_WEIGHT = 1.5
@@ -156,10 +168,11 @@ def choose_index(scores: Sequence[float], rotations: Sequence[np.ndarray | None]
     return ok[order[0]]
 
 
-def choose_row(group, choice: str = "score", top_weight: float | None = None):
+def choose_row(group, choice: str = "score", top_weight: float | None = None, fuse_deg: float | None = None):
     """The chosen row (a pandas Series) of one view's registrations (``group``: the view's rows of
     ``samples.jsonl`` as a DataFrame, one per template); ``top_weight``: another weight of the top
-    offset than ``cross_top``'s (the development grid)."""
+    offset than ``cross_top``'s, ``fuse_deg``: another agreement angle than ``fused``'s
+    ``AGREE_DEG`` (the development grids)."""
     import pandas as pd
 
     status_ok = (group["status"] == "ok").to_numpy()
@@ -177,7 +190,8 @@ def choose_row(group, choice: str = "score", top_weight: float | None = None):
         spacings = [float(i.get("template_spacing", np.nan)) if isinstance(i, dict) else np.nan for i in infos]
     # one template: the estimate or one of its turns, where the run stored them (else nothing to choose)
     if choice in TURN_RULES and (len(group) > 1 or has_turns(group)):
-        row = _with_best_turn(group, status_ok, top_weight if top_weight is not None else CROSS_RULES[choice])
+        row = _with_best_turn(group, status_ok, top_weight if top_weight is not None else CROSS_RULES[choice], choice,
+                              (AGREE_DEG if fuse_deg is None else fuse_deg) if choice in FUSE_RULES else None)
         if row is not None:
             return row
     return group.iloc[choose_index(list(scores), rotations, choice, spacings=spacings, cross=cross)]
@@ -188,54 +202,97 @@ def has_turns(group) -> bool:
     return "info" in group and any(isinstance(i, dict) and i.get("turns") for i in group["info"])
 
 
-def _with_best_turn(group, status_ok: np.ndarray, top_weight: float):
+def _with_best_turn(group, status_ok: np.ndarray, top_weight: float, choice: str = "cross_top_turns",
+                    fuse_deg: float | None = None):
     """``cross_top_turns``: the row whose registration or turned candidate has the lowest
-    ``cross_top`` cost, carrying that candidate's ``T_est``, errors and ``info["turn_deg"]``; None
-    when no row has costs (its check failed: the rule falls back to the score).
+    ``cross_top`` cost, carrying that candidate's ``T_est``, errors and ``info["turn_deg"]``; with
+    ``fuse_deg`` (``fused``), its pose then averaged with the agreeing candidates of the other rows
+    (:func:`fuse_agreeing`, ``info["fused_templates"]``). None when no row has costs (its check
+    failed: the rule falls back to the score).
 
     Raises:
         ConfigError: no ok row has ``info.turns`` (rows written before them, or ``protocol.turns=[]``).
     """
     from catpose.bench.protocols.cross_check import cross_cost
-    from catpose.bench.scoring.metrics import sample_errors
 
-    best: tuple[float, int, int] | None = None   # (cost, row position, candidate: -1 own estimate)
+    # (cost, row position, candidate: -1 own estimate), with the row's template index and the pose
+    candidates: list[tuple[tuple[float, int, int], int, Any]] = []
     seen_turns = False
-    for pos, (info, sample_id, good) in enumerate(zip(group["info"] if "info" in group else [{}] * len(group),
-                                                      group["sample_id"], status_ok)):
+    for pos, (info, sample_id, good, T_est) in enumerate(zip(
+            group["info"] if "info" in group else [{}] * len(group), group["sample_id"], status_ok,
+            group["T_est"] if "T_est" in group else [None] * len(group))):
         if not good or not isinstance(info, dict) or not info.get("cross_costs") or info.get("top_offset") is None:
             continue
         own = split_template_sample_id(sample_id)[1]
-        candidates = [(info["cross_costs"], info["top_offset"])]
         turns = info.get("turns") or []
         seen_turns = seen_turns or bool(turns)
-        candidates += [(t["cross_costs"], t["top_offset"]) for t in turns]
-        for c, (costs, top) in enumerate(candidates):
+        for c, (costs, top, T) in enumerate([(info["cross_costs"], info["top_offset"], T_est)]
+                                            + [(t["cross_costs"], t["top_offset"], t["T_template_camera"]) for t in turns]):
             key = (cross_cost(costs, own, CROSS_WEIGHT, top, top_weight), pos, c - 1)
-            if np.isfinite(key[0]) and (best is None or key < best):
-                best = key
+            if np.isfinite(key[0]):
+                candidates.append((key, own, T))
     if status_ok.any() and not seen_turns and not any(isinstance(i, dict) and "estimate_facts_error" in i
                                                         for i in (group["info"] if "info" in group else [])):
-        raise ConfigError("protocol.choice=cross_top_turns needs info.turns (written by the templates protocol after "
+        raise ConfigError(f"protocol.choice={choice} needs info.turns (written by the templates protocol after "
                           "each registration unless protocol.turns=[]); these rows have none: run them again into a "
                           "new output_root, or use protocol.choice=cross_top")
-    if best is None:
+    if not candidates:
         return None
-    _, pos, cand = best
+    (_, pos, cand), own, T_best = min(candidates, key=lambda c: c[0])
     row = group.iloc[pos].copy()
     info = dict(row["info"])
     info["turn_deg"] = 0.0 if cand < 0 else float(info["turns"][cand]["turn_deg"])
+    T_est = None if cand < 0 else np.asarray(T_best, float)
+    if fuse_deg is not None and _rotation(T_best) is not None:
+        others = [(k, key[0], np.asarray(T, float)) for key, k, T in candidates
+                  if key[1] != pos and _rotation(T) is not None]
+        T_fused, n = fuse_agreeing(np.asarray(T_best, float).reshape(4, 4), others, fuse_deg)
+        info["fused_templates"] = n
+        if n > 1:
+            T_est = T_fused
     row["info"] = info
-    if cand >= 0:
-        T_est = np.asarray(info["turns"][cand]["T_template_camera"], float)
-        row["T_est"] = T_est.tolist()
-        if isinstance(row.get("T_gt"), (list, np.ndarray)):
-            axis, syms = row.get("symmetry_axis"), row.get("symmetries")
-            for key, value in sample_errors(T_est, np.reshape(row["T_gt"], (4, 4)),
-                                            np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
-                                            syms if isinstance(syms, (list, tuple)) else ()).items():
-                row[key] = value
+    if T_est is not None:
+        _set_estimate(row, T_est)
     return row
+
+
+def _set_estimate(row, T_est: np.ndarray) -> None:
+    """Give the chosen ``row`` the estimate ``T_est`` (4, 4) and its errors (where it has a ``T_gt``)."""
+    from catpose.bench.scoring.metrics import sample_errors
+
+    T_est = np.asarray(T_est, float).reshape(4, 4)
+    row["T_est"] = T_est.tolist()
+    if isinstance(row.get("T_gt"), (list, np.ndarray)):
+        axis, syms = row.get("symmetry_axis"), row.get("symmetries")
+        for key, value in sample_errors(T_est, np.reshape(row["T_gt"], (4, 4)),
+                                        np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
+                                        syms if isinstance(syms, (list, tuple)) else ()).items():
+            row[key] = value
+
+
+def fuse_agreeing(T_chosen: np.ndarray, others: Sequence[tuple[int, float, np.ndarray]],
+                  agree_deg: float = AGREE_DEG) -> tuple[np.ndarray, int]:
+    """The chosen pose ``T_chosen`` (4, 4, camera -> the category's template frame) averaged with,
+    for each other template, its lowest-cost pose among ``others`` ((template index, cost, (4, 4)
+    pose) each) whose rotation lies within ``agree_deg`` degrees of the chosen one's. Rotations
+    are averaged by :meth:`scipy.spatial.transform.Rotation.mean` (the chordal mean of unit
+    quaternions), translations by their arithmetic mean. Returns the pose (4, 4) and how many
+    poses were averaged (1: none agreed, and the pose is ``T_chosen``)."""
+    from scipy.spatial.transform import Rotation
+
+    T_chosen = np.asarray(T_chosen, float).reshape(4, 4)
+    best: dict[int, tuple[float, np.ndarray]] = {}
+    for k, cost, T in others:
+        T = np.asarray(T, float).reshape(4, 4)
+        if rotation_angle_deg(T_chosen[:3, :3], T[:3, :3]) <= agree_deg and (k not in best or cost < best[k][0]):
+            best[k] = (float(cost), T)
+    if not best:
+        return T_chosen.copy(), 1
+    poses = [T_chosen] + [best[k][1] for k in sorted(best)]
+    out = np.eye(4)
+    out[:3, :3] = Rotation.from_matrix(np.stack([T[:3, :3] for T in poses])).mean().as_matrix()
+    out[:3, 3] = np.mean([T[:3, 3] for T in poses], axis=0)
+    return out, len(poses)
 
 
 def cross_costs_of(group, top_weight: float | None = None) -> list[float]:

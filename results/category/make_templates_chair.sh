@@ -19,7 +19,7 @@ fi
 T=results/category/paper; mkdir -p "$T"
 for fmt in md csv; do
   "$B" category "$OUT/multirun/mn40r_chair_1template" "$OUT/multirun/mn40r_chair_ktemplates" --category chair \
-    --choices cross,cross_top,cross_top_turns,score,density,agreement --format $fmt --out "$T/templates_chair.$fmt" \
+    --choices cross,cross_top,cross_top_turns,fused,score,density,agreement --format $fmt --out "$T/templates_chair.$fmt" \
     --title "Chair, K templates (shared resampled chairs; test views chair_0454, chair_0858 x 4)"
 done
 # ours' K = 3 views one by one: the chosen template's error beside the oracle's

@@ -7,6 +7,7 @@
 # results/category/dev/chair_dev_k3.{md,csv}. The cross rule's weight was chosen on these runs
 # (and on development airplanes that cannot be shared), cross_top's top-offset weight on these runs
 # alone (top_weight_grid.py -> chair_dev_top_weight.md); the paper table's chairs only report them.
+# The agreement angle of fused (fuse_grid.py): chair_dev_fuse.md.
 # Finer turn sets of cross_top_turns (ours, turns every 30 degrees stored): chair_dev_turns_fine.md;
 # the spread of the gap to the oracle over 8-view draws: chair_dev_gap_spread.md (gap_spread.py).
 # Usage (repository root): bash results/category/dev/make_chair_dev.sh
@@ -25,7 +26,7 @@ dev_run() {
 .venv/bin/python results/category/dev/chair_dev_root.py "$SHARED" "$DEV_ROOT"
 dev_run ours,icp chair_dev_k3
 for fmt in md csv; do
-  "$B" category "$OUT/multirun/chair_dev_k3" --category chair --choices cross,cross_top,cross_top_turns,score,density,agreement --format $fmt \
+  "$B" category "$OUT/multirun/chair_dev_k3" --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement --format $fmt \
     --out results/category/dev/chair_dev_k3.$fmt \
     --title "Chair development set, K = 3 (chair_0001, chair_0002, chair_0059, ShapeNet chair x 12 views)"
 done
@@ -35,7 +36,7 @@ for i in "${!SWAPS[@]}"; do
   dev_run ours,icp chair_dev_swap$i "dataset.templates.chair=[${SWAPS[$i]}]" "protocol.exclude_instances=[]"
 done
 for fmt in md csv; do
-  "$B" category "$OUT"/multirun/chair_dev_swap{0,1,2,3} --category chair --choices cross,cross_top,cross_top_turns,score,density,agreement \
+  "$B" category "$OUT"/multirun/chair_dev_swap{0,1,2,3} --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement \
     --format $fmt --out results/category/dev/chair_dev_swaps.$fmt \
     --title "Chair development set, roles swapped: 4 template sets of K = 3 from the 7 non-report chairs, the other 4 chairs x 12 views"
 done
@@ -45,6 +46,9 @@ done
 # and with the quarter turns (cross_top_turns, chosen on the procedural chairs: make_chair_procedural.sh)
 .venv/bin/python results/category/dev/top_weight_grid.py "$OUT"/multirun/chair_dev_k3 "$OUT"/multirun/chair_dev_swap{0,1,2,3} \
   --turn-sets "none;90,270" --out results/category/dev/chair_dev_turns.md --title "Chair development runs, by turn set"
+# the fused rule's agreement angle (chosen on the procedural chairs: make_chair_procedural.sh)
+.venv/bin/python results/category/dev/fuse_grid.py "$OUT"/multirun/chair_dev_k3 "$OUT"/multirun/chair_dev_swap{0,1,2,3} \
+  --out results/category/dev/chair_dev_fuse.md --title "Chair development runs, by agreement angle"
 # finer turn sets (none kept): ours again on the same 5 template sets with turns every 30 degrees
 T30="[30,60,90,120,150,180,210,240,270,300,330]"
 dev_run ours chair_dev_k3_turns30 "protocol.turns=$T30"

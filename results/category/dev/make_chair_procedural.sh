@@ -9,8 +9,9 @@
 #     before this set existed, on the real development chairs (make_chair_dev.sh).
 #     The turn set of cross_top_turns (none, 90/270, 90/180/270) by the same grid, from a run of
 #     ours that stores turns every 30 degrees: chair_procedural_turns.md; finer sets from the same
-#     run: chair_procedural_turns_fine.md. The spread of the gap over 8-view draws (2 chairs x 4,
-#     as in the paper table): chair_procedural_gap_spread.md.
+#     run: chair_procedural_turns_fine.md. The agreement angle of fused (fuse_grid.py):
+#     chair_procedural_fuse.md. The spread of the gap over 8-view draws (2 chairs x 4, as in the
+#     paper table): chair_procedural_gap_spread.md.
 #  2. K = 1, 3, 5 templates drawn from the procedural chairs themselves (make_any_root_ktemplates.sh
 #     on a second root of the same 40 chairs without the shared ones): chair_procedural_any_root.{md,csv}.
 # Usage (repository root): bash results/category/dev/make_chair_procedural.sh
@@ -28,12 +29,15 @@ FINE_TURNS="none;90,270;60,300;60,90,120,240,270,300;30,60,90,270,300,330;30,60,
   dataset.alignment_table="$PROC_ROOT/with_templates/alignment_chair.csv" dataset.views_per_instance=6 \
   output_root="$OUT" progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/procedural_k3"
 for fmt in md csv; do
-  "$B" category "$OUT/multirun/procedural_k3" --category chair --choices cross,cross_top,cross_top_turns,score,density,agreement \
+  "$B" category "$OUT/multirun/procedural_k3" --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement \
     --format $fmt --out $DEV/chair_procedural_k3.$fmt \
     --title "Procedural chairs, K = 3 (40 chairs x 6 views; the paper table's templates)"
 done
 .venv/bin/python $DEV/top_weight_grid.py "$OUT/multirun/procedural_k3" --out $DEV/chair_procedural_top_weight.md \
   --title "Procedural chairs (40 x 6 views, K = 3, chosen nothing)"
+# the fused rule's agreement angle (fuse_grid.py; the quarter turns read): chair_procedural_fuse.md
+.venv/bin/python $DEV/fuse_grid.py "$OUT/multirun/procedural_k3" --out $DEV/chair_procedural_fuse.md \
+  --title "Procedural chairs (40 x 6 views, K = 3), by agreement angle"
 # the turn set of cross_top_turns: ours again with turns every 30 degrees stored, then the grid
 # over no turns (cross_top), the quarter turns (the default) and with the half turn; then finer
 # sets at the chosen weight (chair_procedural_turns_fine.md; none kept)
