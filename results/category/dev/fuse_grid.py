@@ -14,14 +14,13 @@ Written by results/category/dev/make_chair_dev.sh and make_chair_procedural.sh.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from top_weight_grid import with_turns  # noqa: E402  (the sibling script's turn filter)
+from top_weight_grid import set_runs, sweeps_parser, with_turns  # noqa: E402  (the sibling development script)
 
 ANGLES = (10.0, 15.0, 20.0, 30.0)
 
@@ -41,13 +40,9 @@ def chosen(samples, fuse_deg: float | None):
 def main(argv: list[str] | None = None) -> int:
     from catpose.atomic import write_text
     from catpose.bench.protocols.absolute import Templates, absolute_gt_only
-    from catpose.bench.report.category_table import row_errors, run_dirs
-    from catpose.bench.report.runs import load_run
+    from catpose.bench.report.category_table import row_errors
 
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("sweeps", nargs="+", help="one sweep directory per template set")
-    ap.add_argument("--out", required=True)
-    ap.add_argument("--title", default="Chair development runs", help="what the runs are")
+    ap = sweeps_parser(__doc__)
     ap.add_argument("--turns", default="90,270", help="','-separated turns (degrees) read from the runs")
     ap.add_argument("--angles", default=",".join(f"{a:g}" for a in ANGLES), help="','-separated agreement angles")
     args = ap.parse_args(argv)
@@ -56,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     gaps: dict[str, list[list[float]]] = {}
     fused: dict[str, list[list[float]]] = {}
     for sweep in args.sweeps:
-        for run in (load_run(p) for p in run_dirs([sweep])):
+        for run in set_runs(sweep):
             samples = with_turns(absolute_gt_only(run.samples), turns)
             oracle = Templates(choice="cross").best_per_view(samples)["oracle_err_deg"].to_numpy(float).mean()
             rows = [chosen(samples, a) for a in settings]

@@ -16,14 +16,13 @@ make_chair_procedural.sh.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from top_weight_grid import with_turns  # noqa: E402  (the sibling script's turn filter)
+from top_weight_grid import set_runs, sweeps_parser, with_turns  # noqa: E402  (the sibling development script)
 
 
 def view_gaps(samples, choice: str, turns: tuple[float, ...]):
@@ -56,12 +55,8 @@ def drawn_gaps(inst: np.ndarray, gaps: np.ndarray, chairs: int, views: int, draw
 def main(argv: list[str] | None = None) -> int:
     from catpose.atomic import write_text
     from catpose.bench.protocols.absolute import absolute_gt_only
-    from catpose.bench.report.category_table import run_dirs
-    from catpose.bench.report.runs import load_run
 
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("sweeps", nargs="+", help="one sweep directory per template set")
-    ap.add_argument("--out", required=True)
+    ap = sweeps_parser(__doc__)
     ap.add_argument("--row", action="append", help="method rows to read (default: all)")
     ap.add_argument("--choice", default="cross_top_turns")
     ap.add_argument("--turns", default="90,270", help="turned candidates the rule reads (degrees)")
@@ -70,7 +65,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--draws", type=int, default=10000)
     ap.add_argument("--threshold", type=float, default=10.0, help="the gap a target allows (degrees)")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--title", default="Chair development runs")
     args = ap.parse_args(argv)
     turns = tuple(float(t) for t in args.turns.split(",") if t.strip())
     rng = np.random.default_rng(args.seed)
@@ -79,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
              "| method | set | views | gap, all views | draws: median | draws: 90th pct | "
              f"draws: share over {args.threshold:g} |", "|---|---:|---:|---:|---:|---:|---:|"]
     for s, sweep in enumerate(args.sweeps, 1):
-        for run in sorted((load_run(p) for p in run_dirs([sweep])), key=lambda r: r.method):
+        for run in set_runs(sweep):
             if args.row and run.method.lower() not in [r.lower() for r in args.row]:
                 continue
             inst, gaps = view_gaps(absolute_gt_only(run.samples), args.choice, turns)

@@ -62,16 +62,29 @@ def parse_turn_sets(text: str) -> list[tuple[float, ...]]:
     return [() if part.strip() == "none" else tuple(float(x) for x in part.split(",")) for part in text.split(";")]
 
 
-def main(argv: list[str] | None = None) -> int:
-    from catpose.bench.protocols.absolute import absolute_gt_only
-    from catpose.bench.report.category_table import run_dirs
-    from catpose.bench.report.runs import load_run
-    from catpose.atomic import write_text
-
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def sweeps_parser(doc: str, title: str = "Chair development runs") -> argparse.ArgumentParser:
+    """The development grids' common arguments: one sweep directory per template set, ``--out``
+    (the table written) and ``--title`` (what the runs are); ``doc``: the script's docstring."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     ap.add_argument("sweeps", nargs="+", help="one sweep directory per template set")
     ap.add_argument("--out", required=True)
-    ap.add_argument("--title", default="Chair development runs", help="what the runs are")
+    ap.add_argument("--title", default=title, help="what the runs are")
+    return ap
+
+
+def set_runs(sweep: str | Path) -> list:
+    """The runs (:func:`catpose.bench.report.runs.load_run`) of one sweep directory, by method name."""
+    from catpose.bench.report.category_table import run_dirs
+    from catpose.bench.report.runs import load_run
+
+    return sorted((load_run(p) for p in run_dirs([sweep])), key=lambda r: r.method)
+
+
+def main(argv: list[str] | None = None) -> int:
+    from catpose.bench.protocols.absolute import absolute_gt_only
+    from catpose.atomic import write_text
+
+    ap = sweeps_parser(__doc__)
     ap.add_argument("--turn-sets", default="none", help="';'-separated sets of turns (degrees), 'none' for none")
     ap.add_argument("--weights", default=",".join(f"{w:g}" for w in WEIGHTS), help="','-separated top-offset weights")
     args = ap.parse_args(argv)
@@ -79,7 +92,7 @@ def main(argv: list[str] | None = None) -> int:
     weights = tuple(float(w) for w in args.weights.split(","))
     gaps: dict[tuple[str, tuple], list[list[float]]] = {}
     for sweep in args.sweeps:
-        for run in (load_run(p) for p in run_dirs([sweep])):
+        for run in set_runs(sweep):
             samples = absolute_gt_only(run.samples)
             for turns in turn_sets:
                 gaps.setdefault((run.method, turns), []).append([gap(samples, w, turns) for w in weights])
