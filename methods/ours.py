@@ -125,6 +125,12 @@ class Ours(RegistrationMethod):
         # is a template of its own, so the clutter set's 8 objects need up to 32
         self._features: LRUCache[tuple, TemplateFeatures] = LRUCache(32)
 
+    @property
+    def point_selection(self) -> SelectionSettings:
+        """The selection settings of problems without a depth image (``rule=depth`` falls back to
+        its ``depth_fallback`` rule; every other rule is its own)."""
+        return self._point_selection
+
     def template_features(self, template: Template) -> TemplateFeatures:
         """Keypoints and descriptors of every partial template, cached per template and parameters."""
         from scipy.spatial import cKDTree

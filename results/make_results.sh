@@ -14,7 +14,7 @@
 #   category   the paper's category tables on the shared ModelNet40 resampled shapes (the aligned
 #              airplanes and chairs), every method (results/category/make_*.sh: one template airplane,
 #              K = 1, 3, 5 templates of airplanes and chairs with chosen / oracle / random template,
-#              relative pose): results/category/paper/; the development tables that chose the cross
+#              relative pose, ours' selection breadth top_k 3 and 18): results/category/paper/; the development tables that chose the cross
 #              template choice (results/category/dev/); the alignment estimates against the verified
 #              tables (results/alignment/make_estimates.sh). ~1 h.
 #   clutter    every method on the report scenes of the cluttered synthetic set of the real YCB-V
@@ -133,7 +133,7 @@ category() {
     echo "make_results: category skipped: no $SHARED/modelnet40_normal_resampled" >&2; return 0
   fi
   local C="$OUT/category"
-  for script in make_one_template_airplane make_templates_airplane make_templates_chair make_relative; do
+  for script in make_one_template_airplane make_templates_airplane make_templates_chair make_relative make_selection_report; do
     OUT="$C" bash results/category/$script.sh
   done
   for script in make_chair_dev make_embedded_choice; do  # the template choice's development tables

@@ -190,7 +190,7 @@ def choose_row(group, choice: str = "score", top_weight: float | None = None, fu
         spacings = [float(i.get("template_spacing", np.nan)) if isinstance(i, dict) else np.nan for i in infos]
     # one template: the estimate or one of its turns, where the run stored them (else nothing to choose)
     if choice in TURN_RULES and (len(group) > 1 or has_turns(group)):
-        row = _with_best_turn(group, status_ok, top_weight if top_weight is not None else CROSS_RULES[choice], choice,
+        row = _with_best_turn(group, top_weight if top_weight is not None else CROSS_RULES[choice], choice,
                               (AGREE_DEG if fuse_deg is None else fuse_deg) if choice in FUSE_RULES else None)
         if row is not None:
             return row
@@ -202,20 +202,19 @@ def has_turns(group) -> bool:
     return "info" in group and any(isinstance(i, dict) and i.get("turns") for i in group["info"])
 
 
-def _with_best_turn(group, status_ok: np.ndarray, top_weight: float, choice: str = "cross_top_turns",
-                    fuse_deg: float | None = None):
-    """``cross_top_turns``: the row whose registration or turned candidate has the lowest
-    ``cross_top`` cost, carrying that candidate's ``T_est``, errors and ``info["turn_deg"]``; with
-    ``fuse_deg`` (``fused``), its pose then averaged with the agreeing candidates of the other rows
-    (:func:`fuse_agreeing`, ``info["fused_templates"]``). None when no row has costs (its check
-    failed: the rule falls back to the score).
+def rule_candidates(group, top_weight: float, choice: str = "cross_top_turns") -> list[tuple[tuple[float, int, int], int, Any]]:
+    """Every candidate a turn rule chooses among in one view's rows (``group``): each ok row's
+    registration and its turned candidates (``info["turns"]``) with a finite ``cross_top`` cost
+    (top offset weighted ``top_weight``). Returns ``((cost, row position, candidate: -1 the
+    registration's own estimate, else the turn's index), own template index, pose)`` tuples, the
+    pose as stored ((4, 4) or nested lists).
 
     Raises:
         ConfigError: no ok row has ``info.turns`` (rows written before them, or ``protocol.turns=[]``).
     """
     from catpose.bench.protocols.cross_check import cross_cost
 
-    # (cost, row position, candidate: -1 own estimate), with the row's template index and the pose
+    status_ok = (group["status"] == "ok").to_numpy()
     candidates: list[tuple[tuple[float, int, int], int, Any]] = []
     seen_turns = False
     for pos, (info, sample_id, good, T_est) in enumerate(zip(
@@ -236,6 +235,21 @@ def _with_best_turn(group, status_ok: np.ndarray, top_weight: float, choice: str
         raise ConfigError(f"protocol.choice={choice} needs info.turns (written by the templates protocol after "
                           "each registration unless protocol.turns=[]); these rows have none: run them again into a "
                           "new output_root, or use protocol.choice=cross_top")
+    return candidates
+
+
+def _with_best_turn(group, top_weight: float, choice: str = "cross_top_turns",
+                    fuse_deg: float | None = None):
+    """``cross_top_turns``: the row whose registration or turned candidate has the lowest
+    ``cross_top`` cost (:func:`rule_candidates`), carrying that candidate's ``T_est``, errors and
+    ``info["turn_deg"]``; with ``fuse_deg`` (``fused``), its pose then averaged with the agreeing
+    candidates of the other rows (:func:`fuse_agreeing`, ``info["fused_templates"]``). None when
+    no row has costs (its check failed: the rule falls back to the score).
+
+    Raises:
+        ConfigError: no ok row has ``info.turns`` (rows written before them, or ``protocol.turns=[]``).
+    """
+    candidates = rule_candidates(group, top_weight, choice)
     if not candidates:
         return None
     (_, pos, cand), own, T_best = min(candidates, key=lambda c: c[0])

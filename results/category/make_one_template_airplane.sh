@@ -6,7 +6,8 @@
 # paper/one_template_airplane_views.csv). Then the same sweep under the one-template turn check
 # (protocol.choice=cross_top_turns, protocol.turns=[180], protocol.one_template_turns=true: each estimate or its half turn about up,
 # chosen on procedural airplanes, docs/category-level.md): one_template_airplane_turns.{md,csv},
-# one_template_airplane_turns_views.csv.
+# one_template_airplane_turns_views.csv. Last, why each of ours' wrong views is wrong, at the step that chose
+# it (catpose.bench.category.why_wrong): one_template_airplane_why.{md,csv}.
 # Usage (repository root, after `make setup`): bash results/category/make_one_template_airplane.sh [tables]
 # Extra Hydra overrides go in EXTRA (e.g. EXTRA="dataset.root=/data/modelnet40_normal_resampled ...").
 set -euo pipefail
@@ -34,3 +35,6 @@ for fmt in md csv; do
     --out "$T/one_template_airplane_turns.$fmt"
 done
 .venv/bin/python -m catpose.bench.report.category_views "$ST" --row ours --out "$T/one_template_airplane_turns_views.csv"
+# why ours' wrong views are wrong: its own score of the estimate against the truth's (docs/category-level.md)
+.venv/bin/python -m catpose.bench.category.why_wrong "$S" --row ours --out "$T/one_template_airplane_why.md" \
+  --title "Why ours' wrong views are wrong: one template (airplane_0536), shared resampled airplanes"

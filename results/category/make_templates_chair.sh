@@ -4,7 +4,8 @@
 # TEASER re-implementation and RANSAC with dictionary matching, as in the paper), then `bench category`:
 # the chosen (rules cross_top_turns, the experiment's, cross, cross_top, score, density, agreement), oracle and
 # random-template errors side by side (results/category/paper/templates_chair.{md,csv}), and ours'
-# K = 3 views one by one (templates_chair_views.csv).
+# K = 3 views one by one (templates_chair_views.csv), and why each of its wrong views is wrong, at the
+# registration and at the choice (catpose.bench.category.why_wrong: templates_chair_why.{md,csv}).
 # Usage (repository root): bash results/category/make_templates_chair.sh [tables]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -25,3 +26,6 @@ done
 # ours' K = 3 views one by one: the chosen template's error beside the oracle's
 .venv/bin/python -m catpose.bench.report.category_views "$OUT/multirun/mn40r_chair_ktemplates" --row ours \
   --out "$T/templates_chair_views.csv"
+# why ours' wrong K = 3 views are wrong: the registration's score and the rule's cost against the truth's
+.venv/bin/python -m catpose.bench.category.why_wrong "$OUT/multirun/mn40r_chair_ktemplates" --row ours \
+  --out "$T/templates_chair_why.md" --title "Why ours' wrong views are wrong: chair, K = 3 (fused), shared resampled chairs"
