@@ -14,7 +14,8 @@
 #     x 6 views against chair_0624 (selection_chair_procedural_k1.md), and the 4 real development chairs
 #     x 12 views against each of chair_0624, chair_0391 and chair_0848 (selection_chair_dev_k1.md);
 #     settings 3 and 18 only.
-# why_wrong then sorts the airplanes' wrong views at 3 and 18 (selection_airplane_procedural_why_{3,18}.md).
+# why_wrong then sorts the airplanes' wrong views at 3 and 18 (selection_airplane_procedural_why_{3,18}.md),
+# and the K = 3 chairs' at 3, the default (chair_procedural_why.md, chair_dev_why.md).
 # Usage (repository root): bash results/category/dev/make_selection_dev.sh (about 35 minutes on 2 cores)
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
@@ -64,3 +65,9 @@ for k in 3 18; do
   .venv/bin/python -m catpose.bench.category.why_wrong "$OUT/multirun/airplanes" --row ours --override method.selection.top_k=$k \
     --out $DEV/selection_airplane_procedural_why_$k.md --title "Procedural airplanes, one template (airplane_0536), ours, top_k $k"
 done
+# the K = 3 chairs' wrong views at the default (fused), sorted the same way: where the chair rule misses
+# on development shapes (chair_procedural_why.md, chair_dev_why.md)
+.venv/bin/python -m catpose.bench.category.why_wrong "$OUT/multirun/chairs" --row ours --override method.selection.top_k=3 \
+  --out $DEV/chair_procedural_why.md --title "Procedural chairs (40 x 6 views), K = 3 (fused), ours"
+.venv/bin/python -m catpose.bench.category.why_wrong "$OUT/multirun/chair_dev" --row ours --override method.selection.top_k=3 \
+  --out $DEV/chair_dev_why.md --title "Real development chairs (4 x 12 views), K = 3 (fused), ours"
