@@ -105,7 +105,8 @@ def wrong_rows(run_dir: Path, wrong_deg: float = WRONG_DEG) -> tuple[list[dict],
         sample = protocol.load(dataset, r["sample_id"])
         if sample.problem.depth_image is None:
             raise ConfigError(f"run {run_dir}: sample {r['sample_id']} has no depth image; this check needs "
-                              "data with depth images (BOP, clutter, the renderer)")
+                              "data with depth images (BOP, clutter, the renderer); for point clouds of a "
+                              "templates run use python -m catpose.bench.category.why_wrong")
         T_est = np.asarray(r["T_est"], float).reshape(4, 4)
         est, gt, gt_refined = verifier_costs(sel, sample.problem, T_est, np.asarray(sample.gt.T_template_camera, float))
         out.append({"sample_id": r["sample_id"], "object": _object(r), "wrong": True, "err_deg": float(r["err_deg"]),
