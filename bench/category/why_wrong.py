@@ -202,22 +202,19 @@ def _run_parts(run_dir: Path):
     """(method name, method, dataset, protocol) rebuilt from a templates run's ``config.yaml``."""
     from omegaconf import OmegaConf
 
-    from catpose.bench.run.build import build_from_config
+    from catpose.bench.run.build import build_parts
     from catpose.bench.run.run_meta import read_config
 
     cfg = OmegaConf.create(read_config(run_dir, required=True))
     if str(cfg.protocol.name) != "templates":
         raise ConfigError(f"run {run_dir}: protocol {cfg.protocol.name!r}; this check needs a protocol=templates run")
-    method_name, method = build_from_config(cfg.method, "method")
-    name, dataset = build_from_config(cfg.dataset, "dataset")
-    dataset.name = name
-    return method_name, method, dataset, build_from_config(cfg.protocol, "protocol")[1]
+    return build_parts(cfg)
 
 
-def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_DEG) -> list[dict]:
+def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_DEG) -> tuple[list[dict], int]:
     """One row per view of ``run_dir`` whose kept estimate (under the run's ``protocol.choice``, or
     ``choice``) is wrong: its errors, the kept template and turn, step 1 (``ours`` runs) and step 2
-    (``cross`` rules) of the module doc."""
+    (``cross`` rules) of the module doc; and how many views the run holds."""
     import pandas as pd
 
     from catpose.bench.protocols.template_choice import CROSS_RULES, check_choice, has_turns
@@ -232,8 +229,9 @@ def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_
     if not rows:
         raise ConfigError(f"run {run_dir} has no finished samples; run it first")
     frame = pd.DataFrame(rows)
+    units = protocol.score_units(frame)
     out = []
-    for kept in protocol.score_units(frame).to_dict("records"):
+    for kept in units.to_dict("records"):
         if kept.get("status") != "ok" or float(kept["err_deg"]) < wrong_deg:
             continue
         group = frame[frame["group_id"] == kept["group_id"]]
@@ -243,7 +241,9 @@ def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_
              "oracle_err_deg": float(kept["oracle_err_deg"]), "turn_deg": info.get("turn_deg", ""),
              "fused_templates": info.get("fused_templates", ""), "method": method_name,
              "registration_err_deg": float(own["err_deg"])}
-        sample = protocol.load(dataset, kept["sample_id"])
+        # the view against each of its templates, in template order (the kept one among them)
+        loaded = {sid: protocol.load(dataset, sid) for sid in sorted(group["sample_id"], key=_template_index)}
+        sample = loaded[kept["sample_id"]]
         if isinstance(method, Ours) and not method.uses_depth(sample.problem):  # depth: bench/real/ambiguity
             costs = registration_costs(method, sample.problem, np.reshape(own["T_est"], (4, 4)),
                                        sample.gt.T_template_camera)
@@ -251,17 +251,17 @@ def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_
         else:
             r["registration"] = "-"
         if protocol.choice in CROSS_RULES and (len(group) > 1 or has_turns(group)):
-            loaded = [protocol.load(dataset, sid) for sid in sorted(group["sample_id"], key=_template_index)]
             poses = rule_poses(group, protocol.choice)
             if poses:
-                c = choice_costs(sample.problem.points_camera, [s.problem.template for s in loaded],
-                                 [s.gt.T_template_camera for s in loaded], poses, protocol.choice)
-                c["rule_truth_template"] = loaded[c["rule_truth_template"]].problem.template.template_id
+                views = list(loaded.values())
+                c = choice_costs(sample.problem.points_camera, [v.problem.template for v in views],
+                                 [v.gt.T_template_camera for v in views], poses, protocol.choice)
+                c["rule_truth_template"] = views[c["rule_truth_template"]].problem.template.template_id
                 r.update(c, choice=protocol.choice, choice_verdict=choice_verdict(r["err_deg"], c))
         r.setdefault("choice", protocol.choice if len(group) > 1 else "-")
         r.setdefault("choice_verdict", "-")
         out.append(r)
-    return sorted(out, key=lambda r: r["view"])
+    return sorted(out, key=lambda r: r["view"]), len(units)
 
 
 def _template_index(sample_id: str) -> int:
@@ -337,8 +337,9 @@ def main(argv: list[str] | None = None) -> int:
         rows: list[dict] = []
         views = 0
         for run in run_dirs(args.runs, args.row, tuple(args.override)):
-            rows += why_rows(run, args.choice, args.wrong_deg)
-            views += _views(run)
+            judged, n = why_rows(run, args.choice, args.wrong_deg)
+            rows += judged
+            views += n
         with atomic.atomic_path(args.out.with_suffix(".csv")) as tmp:
             pd.DataFrame(rows, columns=COLUMNS).to_csv(tmp, index=False, float_format="%.4f")
         with atomic.atomic_path(args.out) as tmp:
@@ -348,13 +349,6 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(args.out)
     return 0
-
-
-def _views(run_dir: Path) -> int:
-    """How many views ``run_dir`` holds (distinct ``group_id`` of its rows)."""
-    from catpose.bench.run.rundir import latest_rows
-
-    return len({r.get("group_id") for r in latest_rows(Path(run_dir) / "samples.jsonl")})
 
 
 if __name__ == "__main__":

@@ -132,17 +132,14 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
              ours_overrides: list[str], save_dir: Path | None = None) -> None:
     from catpose.bench.protocols.template_choice import rotation_angle_deg
     from catpose.bench.scoring.metrics import sample_errors
-    from catpose.bench.run.build import build_from_config
+    from catpose.bench.run.build import build_parts
     from catpose.bench.run.sample_run import seed_everything
     from catpose.bench.real.suite import METHODS, SETS, compose
     from catpose.bench.run.config import shared_data_dir
     from catpose.geometry import stable_seed
 
     cfg, _ = compose(SETS[set_name], METHODS["ours"], shared_data_dir(), 0, limit, "outputs/real", ours_overrides)
-    _, ours = build_from_config(cfg.method, "method")
-    name, dataset = build_from_config(cfg.dataset, "dataset")
-    dataset.name = name
-    _, protocol = build_from_config(cfg.protocol, "protocol")
+    _, ours, dataset, protocol = build_parts(cfg)
     rec = RecordingOurs(ours)
     ids = protocol.sample_ids(dataset)[: limit or None]
     meshes: dict[str, _MeshDistance] = {}

@@ -69,6 +69,21 @@ def build_from_config(node: Any, what: str) -> tuple[str, Any]:
                           f"check {keys} (bench run --cfg job shows them)") from None
 
 
+def build_dataset(node: Any) -> Any:
+    """The dataset of a config's ``dataset`` node (:func:`build_from_config`), named as the config
+    names it (``dataset.name``: run directories and tables use it)."""
+    name, dataset = build_from_config(node, "dataset")
+    dataset.name = name
+    return dataset
+
+
+def build_parts(cfg: Any) -> tuple[str, Any, Any, Any]:
+    """(method name, method, dataset, protocol) of a composed run config, built as a run builds them."""
+    method_name, method = build_from_config(cfg.method, "method")
+    dataset = build_dataset(cfg.dataset)
+    return method_name, method, dataset, build_from_config(cfg.protocol, "protocol")[1]
+
+
 def check_missing(node: Any, what: str) -> None:
     """A one-line :class:`ConfigError` naming the mandatory (``???``) keys of a group left unset."""
     from omegaconf import OmegaConf

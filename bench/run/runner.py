@@ -38,7 +38,7 @@ import threading
 from pathlib import Path
 from typing import Any, Iterable
 
-from catpose.bench.run.build import build_from_config, validate_run_options
+from catpose.bench.run.build import build_parts, validate_run_options
 from catpose.bench.run.evaluate import format_summary, summarize_run
 from catpose.bench.run.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
 from catpose.bench.run.lock import LOCK_FILE, RunLock
@@ -167,10 +167,8 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
         import torch
 
         torch.set_num_threads(int(cfg.threads))
-    method_name, method = build_from_config(cfg.method, "method")
-    dataset_name, dataset = build_from_config(cfg.dataset, "dataset")
-    dataset.name = dataset_name
-    _, protocol = build_from_config(cfg.protocol, "protocol")
+    method_name, method, dataset, protocol = build_parts(cfg)
+    dataset_name = dataset.name
     interrupts.check()
     # after the builds (so that a config mistake is reported without waiting for torch) and
     # before the first sample (so that a Ctrl-C during an import stops the run)

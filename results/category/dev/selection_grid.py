@@ -62,13 +62,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--split-at", help="first instance id of the confirming part (ids sort as strings)")
     args = ap.parse_args(argv)
     rows = []
-    for sweep in args.sweeps:
+    for order, sweep in enumerate(args.sweeps):
         for run in set_runs(sweep):
             ids, kept, oracle, seconds = view_table(run)
             chose = ids < args.split_at if args.split_at else np.ones(len(ids), bool)
-            rows.append((run.method, setting(run.config, args.key), Path(sweep).name, kept, oracle, chose, seconds))
-    rows.sort(key=lambda r: (r[0], float(r[1]) if isinstance(r[1], (int, float)) else str(r[1]), args.sweeps.index(
-        next(s for s in args.sweeps if Path(s).name == r[2]))))
+            value = setting(run.config, args.key)
+            by = (run.method, float(value) if isinstance(value, (int, float)) else str(value), order)
+            rows.append((by, (run.method, value, Path(sweep).name, kept, oracle, chose, seconds)))
+    rows = [row for _, row in sorted(rows, key=lambda r: r[0])]
     split, sets = bool(args.split_at), len(args.sweeps) > 1
     head = ["method", args.key] + (["runs"] if sets else []) + ["views"] \
         + (["chose: mean", "chose: @30", "confirm: mean", "confirm: @30"] if split else []) \
