@@ -43,3 +43,12 @@ def test_each_setting_fuses_within_its_angle(grid):
     assert wide["err_deg"].tolist() == pytest.approx([1.0, 3.0])
     assert [i["fused_templates"] for i in wide["info"]] == [2, 1]
     assert all("fused_templates" not in i for i in plain["info"])
+
+
+def test_each_weight_weighs_the_top_offset(grid):
+    # template 1 (90 degrees off) costs less but puts its top 0.5 further out: a weight of 0.1
+    # keeps template 0, one of 0.01 does not
+    rows = pd.DataFrame(_view("v0", [2.0, 90.0], [[0.30, 0.30], [0.30, 0.27]]))
+    rows["info"] = [{**rows["info"][0], "top_offset": 0.1}, {**rows["info"][1], "top_offset": 0.6}]
+    assert grid["chosen"](rows, None, 0.01)["err_deg"].tolist() == [90.0]
+    assert grid["chosen"](rows, None, 0.1)["err_deg"].tolist() == [2.0]

@@ -91,3 +91,22 @@ def test_templates_protocol_accepts_the_fused_rule_and_its_turns():
     rows["info"] = [{"cross_costs": c, "top_offset": 0.1} for c in ([0.10, 0.12], [0.13, 0.11])]   # no turns stored
     with pytest.raises(ConfigError, match="protocol.choice=fused needs info.turns"):
         protocol.best_per_view(rows)
+
+
+def test_fused_weighs_the_top_offset_by_its_own_weight():
+    # template 1's quarter-turned estimate fits a little better but puts the back at the side (top
+    # offset 0.6 against 0.1): at cross_top_turns' TOP_WEIGHT it wins, at fused's FUSED_TOP_WEIGHT it does not
+    from catpose.bench.protocols.cross_check import cross_cost
+    from catpose.bench.protocols.template_choice import CROSS_RULES, CROSS_WEIGHT, FUSED_TOP_WEIGHT, TOP_WEIGHT
+
+    assert CROSS_RULES["fused"] == FUSED_TOP_WEIGHT and CROSS_RULES["cross_top_turns"] == TOP_WEIGHT
+    far = {"turn_deg": 90.0, "T_template_camera": _pose(180.0).tolist(), "cross_costs": [1.0, 1.0], "top_offset": 1.0}
+    rows = _rows([_pose(2.0), _pose(90.0)], [[0.30, 0.30], [0.30, 0.27]], [[far], [far]])
+    rows["info"] = [{**rows["info"][0], "top_offset": 0.1}, {**rows["info"][1], "top_offset": 0.6}]
+    costs = {w: [cross_cost([0.30, 0.30], 0, CROSS_WEIGHT, 0.1, w), cross_cost([0.30, 0.27], 1, CROSS_WEIGHT, 0.6, w)]
+             for w in (TOP_WEIGHT, FUSED_TOP_WEIGHT)}
+    assert costs[TOP_WEIGHT][1] < costs[TOP_WEIGHT][0] and costs[FUSED_TOP_WEIGHT][0] < costs[FUSED_TOP_WEIGHT][1]
+    assert choose_row(rows, "cross_top_turns")["sample_id"] == "chair/a/v00|1"
+    kept = choose_row(rows, "fused")
+    assert kept["sample_id"] == "chair/a/v00|0" and kept["err_deg"] == pytest.approx(2.0)
+    assert choose_row(rows, "fused", top_weight=TOP_WEIGHT)["sample_id"] == "chair/a/v00|1"

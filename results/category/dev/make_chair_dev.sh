@@ -7,7 +7,7 @@
 # results/category/dev/chair_dev_k3.{md,csv}. The cross rule's weight was chosen on these runs
 # (and on development airplanes that cannot be shared), cross_top's top-offset weight on these runs
 # alone (top_weight_grid.py -> chair_dev_top_weight.md); the paper table's chairs only report them.
-# The agreement angle of fused (fuse_grid.py): chair_dev_fuse.md.
+# The agreement angle of fused (fuse_grid.py): chair_dev_fuse.md; its top-offset weight: chair_dev_fuse_weight.md.
 # Finer turn sets of cross_top_turns (ours, turns every 30 degrees stored): chair_dev_turns_fine.md;
 # the spread of the gap to the oracle over 8-view draws: chair_dev_gap_spread.md (gap_spread.py).
 # Usage (repository root): bash results/category/dev/make_chair_dev.sh
@@ -49,6 +49,10 @@ done
 # the fused rule's agreement angle (chosen on the procedural chairs: make_chair_procedural.sh)
 .venv/bin/python results/category/dev/fuse_grid.py "$OUT"/multirun/chair_dev_k3 "$OUT"/multirun/chair_dev_swap{0,1,2,3} \
   --out results/category/dev/chair_dev_fuse.md --title "Chair development runs, by agreement angle"
+# and its top-offset weight at that angle (chosen on the procedural chairs: make_chair_procedural.sh)
+.venv/bin/python results/category/dev/fuse_grid.py "$OUT"/multirun/chair_dev_k3 "$OUT"/multirun/chair_dev_swap{0,1,2,3} \
+  --angles 20 --weights 0.025,0.05,0.075,0.1,0.15,0.2 --out results/category/dev/chair_dev_fuse_weight.md \
+  --title "Chair development runs, by top-offset weight"
 # finer turn sets (none kept): ours again on the same 5 template sets with turns every 30 degrees
 T30="[30,60,90,120,150,180,210,240,270,300,330]"
 dev_run ours chair_dev_k3_turns30 "protocol.turns=$T30"

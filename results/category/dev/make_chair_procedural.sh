@@ -10,7 +10,7 @@
 #     The turn set of cross_top_turns (none, 90/270, 90/180/270) by the same grid, from a run of
 #     ours that stores turns every 30 degrees: chair_procedural_turns.md; finer sets from the same
 #     run: chair_procedural_turns_fine.md. The agreement angle of fused (fuse_grid.py):
-#     chair_procedural_fuse.md. The spread of the gap over 8-view draws (2 chairs x 4, as in the
+#     chair_procedural_fuse.md; its own top-offset weight: chair_procedural_fuse_weight.md. The spread of the gap over 8-view draws (2 chairs x 4, as in the
 #     paper table): chair_procedural_gap_spread.md.
 #  2. K = 1, 3, 5 templates drawn from the procedural chairs themselves (make_any_root_ktemplates.sh
 #     on a second root of the same 40 chairs without the shared ones): chair_procedural_any_root.{md,csv}.
@@ -38,6 +38,10 @@ done
 # the fused rule's agreement angle (fuse_grid.py; the quarter turns read): chair_procedural_fuse.md
 .venv/bin/python $DEV/fuse_grid.py "$OUT/multirun/procedural_k3" --out $DEV/chair_procedural_fuse.md \
   --title "Procedural chairs (40 x 6 views, K = 3), by agreement angle"
+# and the fused rule's own top-offset weight at that angle (chair_procedural_fuse_weight.md; 0.075 kept,
+# confirmed on the real development chairs: make_chair_dev.sh -> chair_dev_fuse_weight.md)
+.venv/bin/python $DEV/fuse_grid.py "$OUT/multirun/procedural_k3" --angles 20 --weights 0.025,0.05,0.075,0.1,0.15,0.2 \
+  --out $DEV/chair_procedural_fuse_weight.md --title "Procedural chairs (40 x 6 views, K = 3), by top-offset weight"
 # the turn set of cross_top_turns: ours again with turns every 30 degrees stored, then the grid
 # over no turns (cross_top), the quarter turns (the default) and with the half turn; then finer
 # sets at the chosen weight (chair_procedural_turns_fine.md; none kept)
