@@ -4,12 +4,13 @@
 # embedded set; the committed embedded tables are seed 0), ours and ICP, every choice rule side by
 # side: results/category/dev/embedded_seed1_k3.{md,csv}.
 # Usage (repository root): bash results/category/dev/make_embedded_choice.sh
-# The choices here turn on near ties that the BLAS kernel moves: ours' depth-image registrations
-# differ by up to a degree between OpenBLAS's Haswell and SkylakeX kernels, and some choices flip,
-# so the table is made under the Haswell kernel (any AVX2 CPU) unless OPENBLAS_CORETYPE says otherwise.
+# The choices here turn on near ties that the numeric code path moves: ours' depth-image
+# registrations differ by up to a degree between OpenBLAS's Haswell and SkylakeX kernels, and some
+# choices flip, so the table is made under the portable profile (catpose.bench.run.environment,
+# as results/make_results.sh does: every AVX2 or AVX-512 CPU computes the same bits under it).
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
-export OPENBLAS_CORETYPE=${OPENBLAS_CORETYPE:-Haswell}
+eval "$(.venv/bin/python -m catpose.bench.run.environment portable)"
 B=.venv/bin/bench
 OUT=${OUT:-outputs/category_dev}
 "$B" run -m +experiment=templates "+row=ours,icp" protocol.max_templates=null seed=1 output_root="$OUT" \
