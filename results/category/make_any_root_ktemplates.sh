@@ -9,6 +9,8 @@
 #   category and ROOT; OUT gets OUT.csv beside it)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
+# the portable numeric profile, as results/make_results.sh sets it: the same bits on any AVX2 or AVX-512 CPU
+eval "$(.venv/bin/python -m catpose.bench.run.environment portable)"
 ROOT=${1:?root}; TABLE=${2:?alignment table}; CAT=${3:?category}; MD=${4:?output .md}
 B=.venv/bin/bench
 OUT=${OUT:-outputs/category/any_root}

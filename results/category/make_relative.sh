@@ -7,6 +7,8 @@
 # Usage (repository root): bash results/category/make_relative.sh [tables]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
+# the portable numeric profile, as results/make_results.sh sets it: the same bits on any AVX2 or AVX-512 CPU
+eval "$(.venv/bin/python -m catpose.bench.run.environment portable)"
 B=.venv/bin/bench
 OUT=${OUT:-outputs/category}
 S=$OUT/multirun/mn40r_relative

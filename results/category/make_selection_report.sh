@@ -8,6 +8,8 @@
 # Usage (repository root, after `make setup`): bash results/category/make_selection_report.sh
 set -euo pipefail
 cd "$(dirname "$0")/../.."
+# the portable numeric profile, as results/make_results.sh sets it: the same bits on any AVX2 or AVX-512 CPU
+eval "$(.venv/bin/python -m catpose.bench.run.environment portable)"
 B=.venv/bin/bench
 OUT=${OUT:-outputs/category_selection}
 T=results/category/paper

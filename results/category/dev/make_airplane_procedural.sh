@@ -11,6 +11,8 @@
 # Usage (repository root): bash results/category/dev/make_airplane_procedural.sh (about 10 minutes on 2 cores)
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
+# the portable numeric profile, as results/make_results.sh sets it: the same bits on any AVX2 or AVX-512 CPU
+eval "$(.venv/bin/python -m catpose.bench.run.environment portable)"
 B=.venv/bin/bench
 SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
 PROC_ROOT=${PROC_ROOT:-$HOME/.cache/catpose/airplane_procedural/n80}

@@ -13,6 +13,8 @@
 # Usage (repository root): bash results/category/dev/make_chair_dev.sh
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
+# the portable numeric profile, as results/make_results.sh sets it: the same bits on any AVX2 or AVX-512 CPU
+eval "$(.venv/bin/python -m catpose.bench.run.environment portable)"
 B=.venv/bin/bench
 SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
 DEV_ROOT=${DEV_ROOT:-$HOME/.cache/catpose/chair_dev}

@@ -17,6 +17,8 @@
 # Usage (repository root): bash results/category/dev/make_chair_procedural.sh
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
+# the portable numeric profile, as results/make_results.sh sets it: the same bits on any AVX2 or AVX-512 CPU
+eval "$(.venv/bin/python -m catpose.bench.run.environment portable)"
 B=.venv/bin/bench
 SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
 PROC_ROOT=${PROC_ROOT:-$HOME/.cache/catpose/chair_procedural}
