@@ -89,6 +89,7 @@ def registration_costs(ours: Any, problem: Any, T_est: np.ndarray, T_gt: np.ndar
     when none stays near); and the angle (degrees) from the truth to the nearest of those
     candidates. ``ours``: a :class:`~catpose.methods.ours.Ours`."""
     from catpose import cell_grid
+    from catpose.bench.protocols.cross_check import turned
     from catpose.bench.protocols.template_choice import rotation_angle_deg
     from catpose.methods.ours_selection import chamfer_distances
     from catpose.methods.selection import half_turns
@@ -117,7 +118,7 @@ def registration_costs(ours: Any, problem: Any, T_est: np.ndarray, T_gt: np.ndar
     nearest = min(rotation_angle_deg(T[:3, :3], T_gt[:3, :3]) for T in near)
     # where ours' refinement goes from the truth, from the truth nudged by NUDGE_DEG about each axis, and
     # from each of its own candidates (half turns too) that came within NEAR_DEG of the truth
-    starts = [T_gt] + [_nudged(T_gt, axis, sign * NUDGE_DEG) for axis in range(3) for sign in (-1, 1)]
+    starts = [T_gt] + [turned(T_gt, np.eye(3)[axis], sign * NUDGE_DEG) for axis in range(3) for sign in (-1, 1)]
     starts += [T for T in near if rotation_angle_deg(T[:3, :3], T_gt[:3, :3]) < NEAR_DEG]
     T_ref = np.stack(starts)
     if sel.refine:  # as ours refines a candidate (Chamfer points), then its winner (every input point)
@@ -129,16 +130,6 @@ def registration_costs(ours: Any, problem: Any, T_est: np.ndarray, T_gt: np.ndar
     return {"cost_estimate": float(est), "cost_truth": float(gt),
             "cost_truth_refined": float(np.min(np.where(still_near, refined, np.inf))),
             "nearest_candidate_deg": float(nearest)}
-
-
-def _nudged(T: np.ndarray, axis: int, deg: float) -> np.ndarray:
-    """(4, 4) ``T`` followed by a turn of ``deg`` degrees about the template frame's ``axis`` (0, 1, 2)
-    through its origin."""
-    from scipy.spatial.transform import Rotation
-
-    F = np.eye(4)
-    F[:3, :3] = Rotation.from_rotvec(np.radians(deg) * np.eye(3)[axis]).as_matrix()
-    return F @ T
 
 
 def registration_verdict(err_deg: float, costs: dict, wrong_deg: float = WRONG_DEG) -> str:
@@ -340,10 +331,9 @@ def main(argv: list[str] | None = None) -> int:
             judged, n = why_rows(run, args.choice, args.wrong_deg)
             rows += judged
             views += n
-        with atomic.atomic_path(args.out.with_suffix(".csv")) as tmp:
-            pd.DataFrame(rows, columns=COLUMNS).to_csv(tmp, index=False, float_format="%.4f")
-        with atomic.atomic_path(args.out) as tmp:
-            Path(tmp).write_text(markdown(args.title, rows, views, args.wrong_deg))
+        atomic.write_text(args.out.with_suffix(".csv"),
+                          pd.DataFrame(rows, columns=COLUMNS).to_csv(index=False, float_format="%.4f"))
+        atomic.write_text(args.out, markdown(args.title, rows, views, args.wrong_deg))
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

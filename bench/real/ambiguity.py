@@ -189,10 +189,8 @@ def main(argv: list[str] | None = None) -> int:
         summary = table(rows, part_of)
         import pandas as pd
 
-        with atomic.atomic_path(args.out.with_suffix(".csv")) as tmp:
-            pd.DataFrame(summary).to_csv(tmp, index=False, float_format="%.4f")
-        with atomic.atomic_path(args.out) as tmp:
-            Path(tmp).write_text(markdown(args.title, summary))
+        atomic.write_text(args.out.with_suffix(".csv"), pd.DataFrame(summary).to_csv(index=False, float_format="%.4f"))
+        atomic.write_text(args.out, markdown(args.title, summary))
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
