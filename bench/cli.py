@@ -13,33 +13,77 @@ from pathlib import Path
 
 # command -> (module, function, one-line help)
 COMMANDS: dict[str, tuple[str, str, str]] = {
-    "run": ("catpose.bench.run.command", "main", "run a method on a dataset: bench run method=ours dataset=synthetic [-m sweeps]"),
-    "evaluate": ("catpose.bench.run.command", "evaluate_main", "recompute errors and summaries of run directories from their files"),
-    "table": ("catpose.bench.report.tables", "main", "the paper's tables (Markdown, LaTeX, CSV) from run directories"),
-    "merge": ("catpose.bench.run.merge", "main", "samples.jsonl and summaries of a sharded run (shards=N) from its shard files"),
-    "report": ("catpose.bench.report.report", "main", "tables and plots of run directories in one folder"),
+    "run": (
+        "catpose.bench.run.command",
+        "main",
+        "run a method on a dataset: bench run method=ours dataset=synthetic [-m sweeps]",
+    ),
+    "evaluate": (
+        "catpose.bench.run.command",
+        "evaluate_main",
+        "recompute errors and summaries of run directories from their files",
+    ),
+    "table": (
+        "catpose.bench.report.table_command",
+        "main",
+        "the paper's tables (Markdown, LaTeX, CSV) from run directories",
+    ),
+    "merge": (
+        "catpose.bench.run.merge",
+        "main",
+        "samples.jsonl and summaries of a sharded run (shards=N) from its shard files",
+    ),
+    "report": ("catpose.bench.report.report_folder", "main", "tables and plots of run directories in one folder"),
     "perf": ("catpose.bench.perf.registration", "main", "seconds per registration and per stage for ours and ICP"),
-    "templates": ("catpose.bench.category.templates_select", "main", "choose K category templates by K-medoids over F-score"),
+    "templates": (
+        "catpose.bench.category.template_medoids",
+        "main",
+        "choose K category templates by K-medoids over F-score",
+    ),
     "align": ("catpose.bench.category.align", "main", "estimate a canonical-alignment table for a ModelNet40 category"),
-    "category": ("catpose.bench.report.category_table", "main", "templates tables: chosen, oracle and random-template errors per method and K"),
+    "category": (
+        "catpose.bench.report.category_table",
+        "main",
+        "templates tables: chosen, oracle and random-template errors per method and K",
+    ),
     "export": ("catpose.bench.interop.bop_export", "main", "export a run's estimates as a BOP results CSV"),
     "score": ("catpose.bench.interop.score", "main", "score an external predictions file (BOP CSV or per-sample CSV)"),
     "suite": ("catpose.bench.real.suite", "main", "every method on the shared real data, one table: bench suite real"),
-    "clutter": ("catpose.bench.real.clutter", "main", "generate the cluttered synthetic set (dataset=clutter) and print its folder"),
-    "data": ("catpose.bench.run.data_check", "main", "check a dataset root before a run: bench data check dataset=NAME dataset.root=PATH"),
-    "regress": ("catpose.bench.regress.regress", "main", "CI regression: small subsets against committed reference metrics"),
+    "clutter": (
+        "catpose.bench.real.clutter_cache",
+        "main",
+        "generate the cluttered synthetic set (dataset=clutter) and print its folder",
+    ),
+    "data": (
+        "catpose.bench.run.data_check",
+        "main",
+        "check a dataset root before a run: bench data check dataset=NAME dataset.root=PATH",
+    ),
+    "regress": (
+        "catpose.bench.regress.run_suites",
+        "main",
+        "CI regression: small subsets against committed reference metrics",
+    ),
 }
 
 
 def _usage() -> str:
     width = max(map(len, COMMANDS))
-    lines = ["usage: bench <command> [args]", "", "Category-level camera pose estimation benchmark (catpose).", "",
-             "commands:"]
+    lines = [
+        "usage: bench <command> [args]",
+        "",
+        "Category-level camera pose estimation benchmark (catpose).",
+        "",
+        "commands:",
+    ]
     lines += [f"  {name:<{width}}  {help_}" for name, (_, _, help_) in COMMANDS.items()]
-    lines += ["", "Run `bench <command> --help` for a command's options. Examples:",
-              "  bench run method=icp dataset=synthetic",
-              "  bench run -m method=icp,ours dataset=synthetic protocol=gt_model,templates",
-              "  bench run method=ours dataset=modelnet40 dataset.root=/data/ModelNet40"]
+    lines += [
+        "",
+        "Run `bench <command> --help` for a command's options. Examples:",
+        "  bench run method=icp dataset=synthetic",
+        "  bench run -m method=icp,ours dataset=synthetic protocol=gt_model,templates",
+        "  bench run method=ours dataset=modelnet40 dataset.root=/data/ModelNet40",
+    ]
     return "\n".join(lines)
 
 
@@ -70,8 +114,10 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     name = argv[0]
     if name not in COMMANDS:
-        print(f"bench: error: unknown command {name!r}; choose one of: {', '.join(COMMANDS)} (see bench --help)",
-              file=sys.stderr)
+        print(
+            f"bench: error: unknown command {name!r}; choose one of: {', '.join(COMMANDS)} (see bench --help)",
+            file=sys.stderr,
+        )
         return 2
     module_name, func_name, _ = COMMANDS[name]
     from catpose import logs
@@ -86,8 +132,9 @@ def main(argv: list[str] | None = None) -> int:
         print(command_error(name, e), file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"bench {name}: interrupted; finished samples are saved, re-run the same command to resume",
-              file=sys.stderr)
+        print(
+            f"bench {name}: interrupted; finished samples are saved, re-run the same command to resume", file=sys.stderr
+        )
         return 130
 
 

@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from catpose.errors import DatasetError
 from catpose import libm
+from catpose.errors import DatasetError
 from catpose.geometry import apply_R, axis_angle_to_R, dot3, matmul3
 
 R_COLUMNS = [f"r{i}{j}" for i in range(3) for j in range(3)]
@@ -67,15 +67,19 @@ def read_alignment_table(path: str | Path | list) -> dict[tuple[str, str], np.nd
         reader = csv.DictReader(fh)
         cols = set(reader.fieldnames or [])
         if not {"category", "instance_id"} <= cols or not (set(R_COLUMNS) <= cols or "yaw_deg" in cols):
-            raise DatasetError(f"alignment table {path} needs columns category,instance_id and "
-                               f"r00..r22 or yaw_deg; it has {sorted(cols)}")
+            raise DatasetError(
+                f"alignment table {path} needs columns category,instance_id and "
+                f"r00..r22 or yaw_deg; it has {sorted(cols)}"
+            )
         for line, row in enumerate(reader, start=2):
             key = ((row["category"] or "").strip(), (row["instance_id"] or "").strip())
             if not all(key):
                 raise DatasetError(f"alignment table {path} line {line}: category and instance_id must not be empty")
             if key in lines:
-                raise DatasetError(f"alignment table {path} lines {lines[key]} and {line}: two rows for {key[0]}/{key[1]}; "
-                                   "keep one row per instance")
+                raise DatasetError(
+                    f"alignment table {path} lines {lines[key]} and {line}: two rows for {key[0]}/{key[1]}; "
+                    "keep one row per instance"
+                )
             lines[key] = line
             try:
                 cells = R_COLUMNS if all((row.get(c) or "").strip() for c in R_COLUMNS) else ["yaw_deg"]
@@ -86,8 +90,10 @@ def read_alignment_table(path: str | Path | list) -> dict[tuple[str, str], np.nd
                 raise DatasetError(f"alignment table {path} line {line}: needs 9 numbers r00..r22 or yaw_deg") from None
             if not np.isfinite(values).all():  # before any use: a nan yaw is this line's fault, not the mesh's
                 bad = [c for c, v in zip(cells, values) if not np.isfinite(v)]
-                raise DatasetError(f"alignment table {path} line {line}: {', '.join(bad)} = {row[bad[0]].strip()} is not "
-                                   "a finite number; write finite numbers (yaw_deg in degrees, e.g. 90)")
+                raise DatasetError(
+                    f"alignment table {path} line {line}: {', '.join(bad)} = {row[bad[0]].strip()} is not "
+                    "a finite number; write finite numbers (yaw_deg in degrees, e.g. 90)"
+                )
             if len(cells) == 1:
                 R = axis_angle_to_R(np.array([0.0, 0.0, 1.0]), np.deg2rad(values[0]))
             else:
@@ -98,8 +104,9 @@ def read_alignment_table(path: str | Path | list) -> dict[tuple[str, str], np.nd
     return table
 
 
-def check_alignment_coverage(table: dict[tuple[str, str], np.ndarray], path: str | Path,
-                             wanted: dict[str, list[str]]) -> None:
+def check_alignment_coverage(
+    table: dict[tuple[str, str], np.ndarray], path: str | Path, wanted: dict[str, list[str]]
+) -> None:
     """Refuse, in one line, an alignment table that leaves out an instance the dataset uses.
 
     ``wanted``: category -> the instance ids the dataset will load (its observed instances and its
@@ -110,10 +117,12 @@ def check_alignment_coverage(table: dict[tuple[str, str], np.ndarray], path: str
         missing = [i for i in ids if (category, i) not in table]
         if missing:
             have = sorted({c for c, _ in table})
-            raise DatasetError(f"alignment table {path} has no row for {len(missing)} of the {len(ids)} {category} "
-                               f"instances used (e.g. {missing[0]}; the table covers {', '.join(have) or 'nothing'}); "
-                               f"add them with `bench align --category {category}`, keep dataset.categories to the "
-                               "table's, or unset dataset.alignment_table")
+            raise DatasetError(
+                f"alignment table {path} has no row for {len(missing)} of the {len(ids)} {category} "
+                f"instances used (e.g. {missing[0]}; the table covers {', '.join(have) or 'nothing'}); "
+                f"add them with `bench align --category {category}`, keep dataset.categories to the "
+                "table's, or unset dataset.alignment_table"
+            )
 
 
 EXTRA_COLUMNS = ["yaw_deg", "flip", "chamfer", "confidence", "verified", "note"]
@@ -138,8 +147,14 @@ def write_alignment_table(path: str | Path, rows: list[dict]) -> None:
         w.writerow(["category", "instance_id", *R_COLUMNS, *EXTRA_COLUMNS])
         for r in rows:
             R = np.asarray(r["R"], float)
-            w.writerow([r["category"], r["instance_id"], *(f"{x:.9g}" for x in R.reshape(-1)),
-                        *(cell(r.get(c)) for c in EXTRA_COLUMNS)])
+            w.writerow(
+                [
+                    r["category"],
+                    r["instance_id"],
+                    *(f"{x:.9g}" for x in R.reshape(-1)),
+                    *(cell(r.get(c)) for c in EXTRA_COLUMNS),
+                ]
+            )
 
 
 def axis_aligned_rotations() -> np.ndarray:
@@ -166,8 +181,9 @@ def chamfer_distance(a: np.ndarray, b: np.ndarray) -> float:
     return float(cKDTree(b).query(a)[0].mean() + cKDTree(a).query(b)[0].mean())
 
 
-def estimate_alignment(reference: np.ndarray, points: np.ndarray,
-                       candidates: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+def estimate_alignment(
+    reference: np.ndarray, points: np.ndarray, candidates: np.ndarray | None = None
+) -> tuple[np.ndarray, float]:
     """The candidate rotation that best aligns ``points`` to ``reference``.
 
     Both clouds (N, 3) are centred shapes in their normalised frames; returns
@@ -213,10 +229,11 @@ def _index_of(R: np.ndarray, group: np.ndarray) -> int:
     return int(np.argmin(np.abs(group - R).reshape(len(group), -1).max(axis=1)))
 
 
-def icp_refine(source: np.ndarray, target: np.ndarray, R_init: np.ndarray, max_distance: float,
-               iterations: int = 30) -> np.ndarray:
+def icp_refine(
+    source: np.ndarray, target: np.ndarray, R_init: np.ndarray, max_distance: float, iterations: int = 30
+) -> np.ndarray:
     """Open3D point-to-point ICP of ``source`` (N, 3) onto ``target`` (M, 3) from rotation
-    ``R_init`` (no initial translation); returns ``T_target_source`` (4, 4)."""
+    ``R_init`` (no initial translation); returns the (4, 4) transform that maps ``source`` onto ``target``."""
     from catpose.o3d import o3d
 
     reg = o3d.pipelines.registration
@@ -224,15 +241,22 @@ def icp_refine(source: np.ndarray, target: np.ndarray, R_init: np.ndarray, max_d
     T0[:3, :3] = R_init
     src = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(source, float)))
     tgt = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(target, float)))
-    result = reg.registration_icp(src, tgt, max_distance, T0, reg.TransformationEstimationPointToPoint(),
-                                  reg.ICPConvergenceCriteria(max_iteration=iterations))
+    result = reg.registration_icp(
+        src,
+        tgt,
+        max_distance,
+        T0,
+        reg.TransformationEstimationPointToPoint(),
+        reg.ICPConvergenceCriteria(max_iteration=iterations),
+    )
     return np.asarray(result.transformation, float)
 
 
-def pair_costs(source: np.ndarray, target: np.ndarray, hypotheses: np.ndarray, max_distance: float = 0.05,
-               refine: bool = True) -> np.ndarray:
+def pair_costs(
+    source: np.ndarray, target: np.ndarray, hypotheses: np.ndarray, max_distance: float = 0.05, refine: bool = True
+) -> np.ndarray:
     """(H,) symmetric Chamfer distance between ``target`` and ``source`` turned by each hypothesis
-    ``R_target_source`` (H, 3, 3), after ICP refinement from it.
+    (H, 3, 3), each mapping ``source`` onto ``target``, after ICP refinement from it.
 
     ``max_distance`` is ICP's correspondence distance (object-normalised unit): two different
     instances are never an exact fit, and a loose one (0.2) let ICP slide 30-50 deg to partial
@@ -253,8 +277,9 @@ def pair_costs(source: np.ndarray, target: np.ndarray, hypotheses: np.ndarray, m
     return costs
 
 
-def pairwise_costs(clouds: list[np.ndarray], hypotheses: np.ndarray, refine: bool = True,
-                   max_distance: float = 0.05) -> np.ndarray:
+def pairwise_costs(
+    clouds: list[np.ndarray], hypotheses: np.ndarray, refine: bool = True, max_distance: float = 0.05
+) -> np.ndarray:
     """(N, N, H) costs ``C[i, j, g]`` of hypothesis ``g`` turning cloud ``i`` onto cloud ``j``
     (:func:`pair_costs`; zero on the diagonal)."""
     N, H = len(clouds), len(hypotheses)
@@ -280,8 +305,14 @@ def resolve_cues(cues: str, category: str | None) -> str:
     return CATEGORY_CUES.get(str(category), "none") if cues == "auto" else cues
 
 
-def estimate_table(clouds: list[np.ndarray], hypotheses: np.ndarray, reference: int = 0,
-                   refine: bool = True, max_distance: float = 0.05, cues: str = "ends") -> dict:
+def estimate_table(
+    clouds: list[np.ndarray],
+    hypotheses: np.ndarray,
+    reference: int = 0,
+    refine: bool = True,
+    max_distance: float = 0.05,
+    cues: str = "ends",
+) -> dict:
     """Per-instance hypothesis that puts every cloud in the reference's frame.
 
     Args:
@@ -306,8 +337,9 @@ def estimate_table(clouds: list[np.ndarray], hypotheses: np.ndarray, reference: 
 
     out = synchronize(combined_costs(C_chamfer, cue_costs(clouds, hypotheses), hypotheses), hypotheses, reference)
     # ``chamfer`` stays the Chamfer distance to the reference (``cost`` and ``confidence`` are the combined ones)
-    out["chamfer"] = np.array([0.0 if i == reference else C_chamfer[i, reference, out["labels"][i]]
-                               for i in range(len(clouds))])
+    out["chamfer"] = np.array(
+        [0.0 if i == reference else C_chamfer[i, reference, out["labels"][i]] for i in range(len(clouds))]
+    )
     return out
 
 
@@ -328,7 +360,9 @@ def synchronize(C: np.ndarray, hypotheses: np.ndarray, reference: int = 0, max_r
     """
     N, H = C.shape[0], len(hypotheses)
     # rel[a, b]: the g turning instance i (label a) onto instance j (label b): G[b]^T G[a]
-    rel = np.array([[_index_of(matmul3(hypotheses[b].T, hypotheses[a]), hypotheses) for b in range(H)] for a in range(H)])
+    rel = np.array(
+        [[_index_of(matmul3(hypotheses[b].T, hypotheses[a]), hypotheses) for b in range(H)] for a in range(H)]
+    )
     others = [np.array([j for j in range(N) if j != i], dtype=int) for i in range(N)]
     off_i, off_j = np.nonzero(~np.eye(N, dtype=bool))
 
@@ -361,5 +395,11 @@ def synchronize(C: np.ndarray, hypotheses: np.ndarray, reference: int = 0, max_r
     confidence = ((srt[:, 1] - srt[:, 0]) / np.maximum(srt[:, 1], 1e-12)) if H > 1 else np.ones(N)
     labels_ref = np.array([0 if i == reference else int(np.argmin(C[i, reference])) for i in range(N)])
     chamfer = np.array([0.0 if i == reference else C[i, reference, labels[i]] for i in range(N)])
-    return {"labels": labels, "labels_reference": labels_ref, "cost": cost, "confidence": confidence,
-            "chamfer": chamfer, "total": t}
+    return {
+        "labels": labels,
+        "labels_reference": labels_ref,
+        "cost": cost,
+        "confidence": confidence,
+        "chamfer": chamfer,
+        "total": t,
+    }

@@ -139,8 +139,9 @@ def median_scaled(C: np.ndarray) -> np.ndarray:
     return C / (m if m > 0 else 1.0)
 
 
-def combined_costs(C_chamfer: np.ndarray, cues: dict[str, np.ndarray], hypotheses: np.ndarray,
-                   weights: dict[str, float] | None = None) -> np.ndarray:
+def combined_costs(
+    C_chamfer: np.ndarray, cues: dict[str, np.ndarray], hypotheses: np.ndarray, weights: dict[str, float] | None = None
+) -> np.ndarray:
     """The costs :func:`catpose.datasets.alignment.synchronize` minimises with the cues:
     ``w_chamfer * coset_min(Chamfer) + sum_cue w_cue * cue``, each term scaled by its median
     (:func:`median_scaled`; the Chamfer term before :func:`coset_min`). ``cues`` is

@@ -33,10 +33,10 @@ from typing import Any
 
 import numpy as np
 
-from catpose.datasets.base import ObjectDataset
 from catpose.datasets.bop_frames import BopFrames
 from catpose.datasets.bop_layout import BopLayout, camera_K, gt_obj_id, read_json, read_targets, visible_fractions
 from catpose.datasets.bop_models import BopModels
+from catpose.datasets.dataset import ObjectDataset
 from catpose.datasets.meshio import TemplateSet
 from catpose.errors import DatasetError
 from catpose.types import Template
@@ -76,21 +76,39 @@ class BOP(BopModels, BopFrames, ObjectDataset):
 
     name = "bop"
 
-    def __init__(self, root: str, split: str = "test", scenes: list[int] | None = None,
-                 categories: dict[int | str, str] | None = None, templates: dict[str, list] | None = None,
-                 templates_root: str | None = None, symmetric: dict[str, list[float]] | None = None,
-                 model_up: str = "+z", model_forward: str = "+x",
-                 object_axes: dict[int | str, dict[str, str]] | None = None, mask: str = "auto",
-                 depth_tolerance_mm: float = 15.0, min_visible_pixels: int = 50,
-                 plane_distance_mm: float = 10.0, plane_iterations: int = 1000,
-                 plane_max_points: int = 20000, normal_radius: float = 0.1, max_points: int = 2048,
-                 template_points: int = 2048, seed: int = 0, models_dir: str = "models",
-                 depth_ext: str = ".png", sensor: str | None = None, min_visib_fract: float = 0.1,
-                 targets: str | None = "test_targets_bop19.json") -> None:
+    def __init__(
+        self,
+        root: str,
+        split: str = "test",
+        scenes: list[int] | None = None,
+        categories: dict[int | str, str] | None = None,
+        templates: dict[str, list] | None = None,
+        templates_root: str | None = None,
+        symmetric: dict[str, list[float]] | None = None,
+        model_up: str = "+z",
+        model_forward: str = "+x",
+        object_axes: dict[int | str, dict[str, str]] | None = None,
+        mask: str = "auto",
+        depth_tolerance_mm: float = 15.0,
+        min_visible_pixels: int = 50,
+        plane_distance_mm: float = 10.0,
+        plane_iterations: int = 1000,
+        plane_max_points: int = 20000,
+        normal_radius: float = 0.1,
+        max_points: int = 2048,
+        template_points: int = 2048,
+        seed: int = 0,
+        models_dir: str = "models",
+        depth_ext: str = ".png",
+        sensor: str | None = None,
+        min_visib_fract: float = 0.1,
+        targets: str | None = "test_targets_bop19.json",
+    ) -> None:
         self.root = Path(root)
         if not self.root.is_dir():
-            raise DatasetError(f"BOP root {self.root} is not a folder; set dataset.root to the folder with "
-                               "models/ and <split>/")
+            raise DatasetError(
+                f"BOP root {self.root} is not a folder; set dataset.root to the folder with models/ and <split>/"
+            )
         if mask not in ("auto", "mask_visib", "render"):
             raise DatasetError(f"dataset.mask {mask!r} is not auto, mask_visib or render")
         self.split = str(split)
@@ -102,8 +120,10 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         self.categories = None if categories is None else {int(k): str(v) for k, v in categories.items()}
         self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
         self.model_axes = (str(model_up), str(model_forward))
-        self.object_axes = {int(k): (str(v.get("up", model_up)), str(v.get("forward", model_forward)))
-                            for k, v in (object_axes or {}).items()}
+        self.object_axes = {
+            int(k): (str(v.get("up", model_up)), str(v.get("forward", model_forward)))
+            for k, v in (object_axes or {}).items()
+        }
         self.mask = mask
         self.depth_tolerance_mm = float(depth_tolerance_mm)
         self.min_visible_pixels = int(min_visible_pixels)
@@ -114,8 +134,9 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         self.max_points = int(max_points)
         self.template_points = int(template_points)
         self.seed = int(seed)
-        self._templates = TemplateSet(templates, templates_root or self.root, self.template_points,
-                                      self.seed, instance_loader=self.instance_model)
+        self._templates = TemplateSet(
+            templates, templates_root or self.root, self.template_points, self.seed, instance_loader=self.instance_model
+        )
         self._json: dict[Path, Any] = {}
         self._models_mm: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._norm: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
@@ -188,19 +209,26 @@ class BOP(BopModels, BopFrames, ObjectDataset):
             unseen = sorted(set(self.categories) - seen_objects)
             unmapped = sorted(seen_objects - set(self.categories))
             if unseen:  # e.g. unverified ids in configs/dataset/tyol.yaml
-                warnings.warn(f"BOP {split_dir}: dataset.categories lists object ids {unseen} that no frame shows; "
-                              f"the frames show object ids {self.seen_objects} (unmapped: {unmapped})", stacklevel=2)
+                warnings.warn(
+                    f"BOP {split_dir}: dataset.categories lists object ids {unseen} that no frame shows; "
+                    f"the frames show object ids {self.seen_objects} (unmapped: {unmapped})",
+                    stacklevel=2,
+                )
         self.filters = []
         if targets is not None:
             self.filters.append(f"targets from {self.targets} ({n_not_target} instances not listed left out)")
         if visib_files:
             self.filters.append(f"visib_fract >= {self.min_visib_fract:g} ({n_low_visib} instances left out)")
         if not ids and self.categories is not None:
-            raise DatasetError(f"no depth frames with configured objects under {split_dir}; the frames show "
-                               f"object ids {self.seen_objects}: map them in dataset.categories")
+            raise DatasetError(
+                f"no depth frames with configured objects under {split_dir}; the frames show "
+                f"object ids {self.seen_objects}: map them in dataset.categories"
+            )
         if not ids:
-            raise DatasetError(f"no depth frames with configured objects under {split_dir}; check "
-                               "dataset.split, dataset.scenes and dataset.categories")
+            raise DatasetError(
+                f"no depth frames with configured objects under {split_dir}; check "
+                "dataset.split, dataset.scenes and dataset.categories"
+            )
         self._ids = ids
         return ids
 

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from catpose import libm
-from catpose.datasets.base import Observation
 from catpose.datasets.bop_layout import camera_K
+from catpose.datasets.dataset import Observation
 from catpose.datasets.depthio import fit_ground_plane, read_depth, read_mask_png
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
 from catpose.errors import DatasetError
@@ -65,8 +65,10 @@ class BopFrames:
         mask &= depth_mm > 0
         n_pix = int(mask.sum())
         if n_pix < self.min_visible_pixels:
-            raise DatasetError(f"object {obj_id} has {n_pix} visible pixels in {depth_path} (mask: {source}); "
-                               f"at least {self.min_visible_pixels} are needed")
+            raise DatasetError(
+                f"object {obj_id} has {n_pix} visible pixels in {depth_path} (mask: {source}); "
+                f"at least {self.min_visible_pixels} are needed"
+            )
 
         R_obj_model, centre, scale = self.normalisation(obj_id)
         points_mm, _ = depth_to_points(depth_mm, camera, mask)
@@ -82,8 +84,9 @@ class BopFrames:
             bg_points = bg_points[rng.choice(len(bg_points), size=self.plane_max_points, replace=False)]
         if len(bg_points) < 100:
             raise DatasetError(f"{depth_path}: only {len(bg_points)} background pixels; cannot fit the ground plane")
-        ground, _, n_inliers = fit_ground_plane(bg_points, self.plane_distance_mm, self.plane_iterations,
-                                             stable_seed(self.seed, "plane", obs_id))
+        ground, _, n_inliers = fit_ground_plane(
+            bg_points, self.plane_distance_mm, self.plane_iterations, stable_seed(self.seed, "plane", obs_id)
+        )
 
         normals = estimate_normals(points, self.normal_radius)
         if self.max_points and len(points) > self.max_points:
@@ -96,13 +99,28 @@ class BopFrames:
         up_camera = apply_R(R_object_camera.T, np.array([0.0, 0.0, 1.0]))
         ground_err = float(np.degrees(libm.arccos(np.clip(dot3(ground, up_camera), -1.0, 1.0))))
         return Observation(
-            obs_id=obs_id, category=category, instance_id=f"obj_{obj_id:06d}", points_camera=points,
-            normals_camera=normals, ground_normal_camera=ground, T_object_camera=T_object_camera,
+            obs_id=obs_id,
+            category=category,
+            instance_id=f"obj_{obj_id:06d}",
+            points_camera=points,
+            normals_camera=normals,
+            ground_normal_camera=ground,
+            T_object_camera=T_object_camera,
             symmetry_axis=self.symmetry_axis(obj_id, category),
             symmetries=self.discrete_symmetries(obj_id),
             depth_image=DepthImage(depth_mm / scale, K, mask),
-            info={"scene_id": scene_id, "im_id": im_id, "gt_idx": gt_idx, "obj_id": obj_id,
-                  "mask_source": source, "visible_pixels": n_pix, "ground_inliers": n_inliers,
-                  "ground_vs_object_up_deg": ground_err, "scale_mm": scale,
-                  "centre_mm": [float(x) for x in centre], "R_object_model": [float(x) for x in R_obj_model.ravel()],
-                  "bop_filters": "; ".join(self.filters) or "none"})
+            info={
+                "scene_id": scene_id,
+                "im_id": im_id,
+                "gt_idx": gt_idx,
+                "obj_id": obj_id,
+                "mask_source": source,
+                "visible_pixels": n_pix,
+                "ground_inliers": n_inliers,
+                "ground_vs_object_up_deg": ground_err,
+                "scale_mm": scale,
+                "centre_mm": [float(x) for x in centre],
+                "R_object_model": [float(x) for x in R_obj_model.ravel()],
+                "bop_filters": "; ".join(self.filters) or "none",
+            },
+        )

@@ -40,8 +40,10 @@ def camera_K(cam_path: Path, cameras: Any, im_id: int | str) -> tuple[np.ndarray
         raise DatasetError(f"{cam_path} has no valid cam_K for image {im_id}") from None
     fx, fy = float(K[0, 0]), float(K[1, 1])
     if not (np.isfinite(fx) and np.isfinite(fy) and fx > 0 and fy > 0):
-        raise DatasetError(f"{cam_path}: cam_K of image {im_id} has focal lengths fx={fx:g}, fy={fy:g}; they must "
-                           "be positive pixels: fix cam_K (row-major [fx, 0, cx, 0, fy, cy, 0, 0, 1])")
+        raise DatasetError(
+            f"{cam_path}: cam_K of image {im_id} has focal lengths fx={fx:g}, fy={fy:g}; they must "
+            "be positive pixels: fix cam_K (row-major [fx, 0, cx, 0, fy, cy, 0, 0, 1])"
+        )
     return K, depth_scale
 
 
@@ -51,8 +53,10 @@ def gt_obj_id(gt_path: Path, im_key: str, gt_idx: int, entry: Any) -> int:
     try:
         return int(entry["obj_id"])
     except (KeyError, TypeError, ValueError):
-        raise DatasetError(f"{gt_path}: entry {gt_idx} of image {im_key} has no integer obj_id; every entry "
-                           "needs obj_id, cam_R_m2c and cam_t_m2c (BOP format)") from None
+        raise DatasetError(
+            f"{gt_path}: entry {gt_idx} of image {im_key} has no integer obj_id; every entry "
+            "needs obj_id, cam_R_m2c and cam_t_m2c (BOP format)"
+        ) from None
 
 
 class BopLayout:
@@ -67,8 +71,14 @@ class BopLayout:
             ``scene_camera_<sensor>.json``, ...); None for the classic layout.
     """
 
-    def __init__(self, root: str | Path, split: str = "test", models_dir: str = "models",
-                 depth_ext: str = ".png", sensor: str | None = None) -> None:
+    def __init__(
+        self,
+        root: str | Path,
+        split: str = "test",
+        models_dir: str = "models",
+        depth_ext: str = ".png",
+        sensor: str | None = None,
+    ) -> None:
         self.root = Path(root)
         self.split = str(split)
         self.models_dir = str(models_dir)
@@ -144,8 +154,10 @@ def continuous_symmetry_origin(entries: list[dict], near: np.ndarray) -> np.ndar
     if not entries:
         return None
     near = np.asarray(near, float).reshape(3)
-    lines = [(unit3(np.asarray(e["axis"], float).reshape(3)),
-              np.asarray(e.get("offset", (0.0, 0.0, 0.0)), float).reshape(3)) for e in entries]
+    lines = [
+        (unit3(np.asarray(e["axis"], float).reshape(3)), np.asarray(e.get("offset", (0.0, 0.0, 0.0)), float).reshape(3))
+        for e in entries
+    ]
     if len(lines) == 1:  # the foot of the perpendicular, in closed form (the same bits on every CPU)
         d, o = lines[0]
         return o + d * dot3(d, near - o)

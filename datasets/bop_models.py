@@ -44,8 +44,13 @@ class BopModels:
             _, centre, scale = normalize_to_unit_sphere(vr)
             cont = self.continuous_symmetries(obj_id)
             if cont:
-                rotated = [{"axis": apply_R(R, np.asarray(e["axis"], float)), "offset": apply_R(R, np.asarray(e["offset"], float))}
-                           for e in cont]
+                rotated = [
+                    {
+                        "axis": apply_R(R, np.asarray(e["axis"], float)),
+                        "offset": apply_R(R, np.asarray(e["offset"], float)),
+                    }
+                    for e in cont
+                ]
                 centre = continuous_symmetry_origin(rotated, centre)
                 scale = float(norm3(vr - centre).max())
             self._norm[obj_id] = (R, centre, scale)
@@ -70,11 +75,15 @@ class BopModels:
                 axis = np.asarray(e["axis"], float).reshape(3)
                 offset = np.asarray(e.get("offset", (0.0, 0.0, 0.0)), float).reshape(3)
             except (KeyError, TypeError, ValueError):
-                raise DatasetError(f"{self.layout.models_info()}: symmetries_continuous[{k}] of object {obj_id} "
-                                   "needs axis and offset (3 numbers each)") from None
+                raise DatasetError(
+                    f"{self.layout.models_info()}: symmetries_continuous[{k}] of object {obj_id} "
+                    "needs axis and offset (3 numbers each)"
+                ) from None
             if not np.isfinite(axis).all() or norm3(axis) == 0 or not np.isfinite(offset).all():
-                raise DatasetError(f"{self.layout.models_info()}: symmetries_continuous[{k}] of object {obj_id} "
-                                   "has a zero or non-finite axis or offset")
+                raise DatasetError(
+                    f"{self.layout.models_info()}: symmetries_continuous[{k}] of object {obj_id} "
+                    "has a zero or non-finite axis or offset"
+                )
             out.append({"axis": axis.tolist(), "offset": offset.tolist()})
         return out
 
@@ -92,9 +101,11 @@ class BopModels:
         """Warn once per object that ``models_info.json`` lacks it (then it is non-symmetric)."""
         if obj_id not in self._warned_no_info:
             self._warned_no_info.add(obj_id)
-            warnings.warn(f"{info_path} has no entry for object {obj_id}; it is scored as non-symmetric: add "
-                          f"\"{obj_id}\" there, or set dataset.symmetric.<category>=[x, y, z] if it is symmetric",
-                          stacklevel=2)
+            warnings.warn(
+                f"{info_path} has no entry for object {obj_id}; it is scored as non-symmetric: add "
+                f'"{obj_id}" there, or set dataset.symmetric.<category>=[x, y, z] if it is symmetric',
+                stacklevel=2,
+            )
 
     def discrete_symmetries(self, obj_id: int) -> tuple[np.ndarray, ...]:
         """``symmetries_discrete`` of ``models_info.json`` as (4, 4) transforms of the normalised
@@ -126,7 +137,13 @@ class BopModels:
             v_mm, f = self.model_mm(obj_id)
             R, centre, scale = self.normalisation(obj_id)
             v = (apply_R(R, v_mm) - centre) / scale
-            self._instances[obj_id] = sampled_template(v, f, f"bop/obj_{obj_id:06d}", category,
-                                                       self.template_points, self.seed,
-                                                       self.symmetry_axis(obj_id, category))
+            self._instances[obj_id] = sampled_template(
+                v,
+                f,
+                f"bop/obj_{obj_id:06d}",
+                category,
+                self.template_points,
+                self.seed,
+                self.symmetry_axis(obj_id, category),
+            )
         return self._instances[obj_id]

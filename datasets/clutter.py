@@ -26,9 +26,9 @@ import json
 import logging
 import os
 import shutil
+from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
-from typing import Sequence
 
 from catpose.datasets.bop import BOP
 from catpose.datasets.clutter_layout import YCBV_K, YCBV_OBJECTS, ClutterSpec, layout_scene
@@ -53,9 +53,11 @@ def _model_files(models_root: Path, obj_ids: Sequence[int]) -> list[Path]:
     files = [models_root / f"obj_{o:06d}.ply" for o in obj_ids] + [models_root / "models_info.json"]
     missing = [str(f) for f in files if not f.is_file()]
     if missing:
-        raise ConfigError(f"dataset.root: {models_root} lacks {missing[0]}"
-                          + (f" and {len(missing) - 1} more" if len(missing) > 1 else "")
-                          + "; set dataset.root to a BOP dataset whose models/ has obj_XXXXXX.ply and models_info.json")
+        raise ConfigError(
+            f"dataset.root: {models_root} lacks {missing[0]}"
+            + (f" and {len(missing) - 1} more" if len(missing) > 1 else "")
+            + "; set dataset.root to a BOP dataset whose models/ has obj_XXXXXX.ply and models_info.json"
+        )
     return files
 
 
@@ -86,8 +88,13 @@ def prepare_root(spec: ClutterSpec, models_root: Path, root: Path) -> None:
         (root / "spec.json").write_text(json.dumps({"version": GENERATOR_VERSION, **asdict(spec)}, indent=1))
 
 
-def generate(spec: ClutterSpec, models_root: str | Path, scenes: Sequence[int] | None = None,
-             cache_dir: str | Path | None = None, log=None) -> Path:
+def generate(
+    spec: ClutterSpec,
+    models_root: str | Path,
+    scenes: Sequence[int] | None = None,
+    cache_dir: str | Path | None = None,
+    log=None,
+) -> Path:
     """Write the scenes ``scenes`` (default all) of ``spec`` made from the models in
     ``models_root`` that are not there yet; returns the set's root (:func:`clutter_root`)."""
     from catpose.raycast import RayCaster
@@ -136,23 +143,53 @@ class Clutter(BOP):
 
     name = "clutter"
 
-    def __init__(self, root: str, cache_dir: str | None = None, scene_seed: int = 0, num_scenes: int = 200,
-                 obj_ids: Sequence[int] = YCBV_OBJECTS, objects_per_scene: Sequence[int] = (3, 6),
-                 upright_prior: float = 0.5, table_radius_mm: float = 100.0,
-                 distance_mm: Sequence[float] = (750.0, 1150.0), elevation_deg: Sequence[float] = (15.0, 55.0),
-                 width: int = 640, height: int = 480, K: Sequence[Sequence[float]] = YCBV_K, sensor: str = "kinect",
-                 scenes: list[int] | None = None, generate_missing: bool = True,
-                 categories: dict[int | str, str] | None = None, templates: dict[str, list] | None = None,
-                 templates_root: str | None = None, symmetric: dict[str, list[float]] | None = None,
-                 mask: str = "mask_visib", min_visible_pixels: int = 50, plane_distance_mm: float = 10.0,
-                 plane_iterations: int = 1000, plane_max_points: int = 20000, normal_radius: float = 0.1,
-                 max_points: int = 2048, template_points: int = 2048, seed: int = 0,
-                 min_visib_fract: float = 0.1) -> None:
-        spec = ClutterSpec(scene_seed=int(scene_seed), num_scenes=int(num_scenes), obj_ids=tuple(obj_ids),
-                           objects_per_scene=tuple(objects_per_scene), upright_prior=float(upright_prior),
-                           table_radius_mm=float(table_radius_mm), distance_mm=tuple(distance_mm),
-                           elevation_deg=tuple(elevation_deg), width=int(width), height=int(height), K=K,
-                           sensor=str(sensor))
+    def __init__(
+        self,
+        root: str,
+        cache_dir: str | None = None,
+        scene_seed: int = 0,
+        num_scenes: int = 200,
+        obj_ids: Sequence[int] = YCBV_OBJECTS,
+        objects_per_scene: Sequence[int] = (3, 6),
+        upright_prior: float = 0.5,
+        table_radius_mm: float = 100.0,
+        distance_mm: Sequence[float] = (750.0, 1150.0),
+        elevation_deg: Sequence[float] = (15.0, 55.0),
+        width: int = 640,
+        height: int = 480,
+        K: Sequence[Sequence[float]] = YCBV_K,
+        sensor: str = "kinect",
+        scenes: list[int] | None = None,
+        generate_missing: bool = True,
+        categories: dict[int | str, str] | None = None,
+        templates: dict[str, list] | None = None,
+        templates_root: str | None = None,
+        symmetric: dict[str, list[float]] | None = None,
+        mask: str = "mask_visib",
+        min_visible_pixels: int = 50,
+        plane_distance_mm: float = 10.0,
+        plane_iterations: int = 1000,
+        plane_max_points: int = 20000,
+        normal_radius: float = 0.1,
+        max_points: int = 2048,
+        template_points: int = 2048,
+        seed: int = 0,
+        min_visib_fract: float = 0.1,
+    ) -> None:
+        spec = ClutterSpec(
+            scene_seed=int(scene_seed),
+            num_scenes=int(num_scenes),
+            obj_ids=tuple(obj_ids),
+            objects_per_scene=tuple(objects_per_scene),
+            upright_prior=float(upright_prior),
+            table_radius_mm=float(table_radius_mm),
+            distance_mm=tuple(distance_mm),
+            elevation_deg=tuple(elevation_deg),
+            width=int(width),
+            height=int(height),
+            K=K,
+            sensor=str(sensor),
+        )
         self.spec = spec
         self.models_root = Path(root) / "models"
         self.cache_dir = Path(cache_dir) if cache_dir else None
@@ -163,21 +200,36 @@ class Clutter(BOP):
         if bad:
             raise ConfigError(f"dataset.scenes lists {bad[:5]}, outside 0..{spec.num_scenes - 1} (dataset.num_scenes)")
         prepare_root(spec, self.models_root, cache_root)
-        super().__init__(root=str(cache_root), split="test", scenes=self.wanted_scenes,
-                         categories=YCBV_CATEGORIES if categories is None else categories, templates=templates,
-                         templates_root=templates_root, symmetric=symmetric, mask=mask,
-                         min_visible_pixels=min_visible_pixels, plane_distance_mm=plane_distance_mm,
-                         plane_iterations=plane_iterations, plane_max_points=plane_max_points,
-                         normal_radius=normal_radius, max_points=max_points, template_points=template_points,
-                         seed=seed, min_visib_fract=min_visib_fract, targets=None)
+        super().__init__(
+            root=str(cache_root),
+            split="test",
+            scenes=self.wanted_scenes,
+            categories=YCBV_CATEGORIES if categories is None else categories,
+            templates=templates,
+            templates_root=templates_root,
+            symmetric=symmetric,
+            mask=mask,
+            min_visible_pixels=min_visible_pixels,
+            plane_distance_mm=plane_distance_mm,
+            plane_iterations=plane_iterations,
+            plane_max_points=plane_max_points,
+            normal_radius=normal_radius,
+            max_points=max_points,
+            template_points=template_points,
+            seed=seed,
+            min_visib_fract=min_visib_fract,
+            targets=None,
+        )
 
     def observation_ids(self) -> list[str]:
         """The ids of the loaded scenes' instances; missing scenes are generated first."""
         if self._ids is None:
             missing = [s for s in self.wanted_scenes if not scene_done(self.root, s)]
             if missing and not self.generate_missing:
-                raise DatasetError(f"clutter scenes {missing[:5]} are not generated under {self.root}; run "
-                                   "`bench clutter` or set dataset.generate_missing=true")
+                raise DatasetError(
+                    f"clutter scenes {missing[:5]} are not generated under {self.root}; run "
+                    "`bench clutter` or set dataset.generate_missing=true"
+                )
             if missing:
                 generate(self.spec, self.models_root, missing, self.cache_dir)
         return super().observation_ids()

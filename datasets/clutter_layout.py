@@ -30,8 +30,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from catpose.errors import ConfigError
-from catpose.geometry import (apply_R, axis_angle_to_R, compose_T, look_at_T_camera_world, make_T, matmul3, norm3,
-                              stable_seed, unit3)
+from catpose.geometry import (
+    apply_R,
+    axis_angle_to_R,
+    compose_T,
+    look_at_T_camera_world,
+    make_T,
+    matmul3,
+    norm3,
+    stable_seed,
+    unit3,
+)
 from catpose.resting import RestingUp
 
 #: the eight YCB-Video objects whose meshes the shared data has (BOP obj_ids)
@@ -83,8 +92,10 @@ class ClutterSpec:
         set_(self, "K", tuple(tuple(float(x) for x in row) for row in np.asarray(self.K, float).reshape(3, 3)))
         lo, hi = self.objects_per_scene
         if not 1 <= lo <= hi <= len(self.obj_ids):
-            raise ConfigError(f"{k}objects_per_scene={list(self.objects_per_scene)} must be [min, max] with "
-                              f"1 <= min <= max <= {len(self.obj_ids)} (the number of obj_ids)")
+            raise ConfigError(
+                f"{k}objects_per_scene={list(self.objects_per_scene)} must be [min, max] with "
+                f"1 <= min <= max <= {len(self.obj_ids)} (the number of obj_ids)"
+            )
         if int(self.num_scenes) < 1:
             raise ConfigError(f"{k}num_scenes={self.num_scenes} must be a positive number of scenes")
         if not 0.0 <= float(self.upright_prior) <= 1.0:
@@ -148,7 +159,7 @@ def polygons_overlap(a: np.ndarray, b: np.ndarray, gap: float = 0.0) -> bool:
         normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
         lengths = np.sqrt(normals[:, 0] * normals[:, 0] + normals[:, 1] * normals[:, 1])
         normals = normals[lengths > 0] / lengths[lengths > 0, None]
-        pa = a[:, 0:1] * normals[:, 0] + a[:, 1:2] * normals[:, 1]          # (K, axes)
+        pa = a[:, 0:1] * normals[:, 0] + a[:, 1:2] * normals[:, 1]  # (K, axes)
         pb = b[:, 0:1] * normals[:, 0] + b[:, 1:2] * normals[:, 1]
         separated = (pa.max(axis=0) + gap <= pb.min(axis=0)) | (pb.max(axis=0) + gap <= pa.min(axis=0))
         if separated.any():
@@ -156,8 +167,9 @@ def polygons_overlap(a: np.ndarray, b: np.ndarray, gap: float = 0.0) -> bool:
     return True
 
 
-def layout_scene(spec: ClutterSpec, scene_id: int, vertices_mm: dict[int, np.ndarray],
-                 rests: dict[int, list[RestingUp]]) -> SceneLayout:
+def layout_scene(
+    spec: ClutterSpec, scene_id: int, vertices_mm: dict[int, np.ndarray], rests: dict[int, list[RestingUp]]
+) -> SceneLayout:
     """The objects and camera of scene ``scene_id`` (see the module docstring).
 
     Args:
@@ -203,8 +215,9 @@ def layout_scene(spec: ClutterSpec, scene_id: int, vertices_mm: dict[int, np.nda
     distance = float(rng.uniform(*spec.distance_mm))
     elevation = np.deg2rad(float(rng.uniform(*spec.elevation_deg)))
     azimuth = float(rng.uniform(0.0, 2.0 * np.pi))
-    eye = centre + distance * np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth),
-                                        np.sin(elevation)])
+    eye = centre + distance * np.array(
+        [np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)]
+    )
     T_camera_world = look_at_T_camera_world(eye, centre, np.array([0.0, 0.0, 1.0]))
     return SceneLayout(int(scene_id), tuple(placed), T_camera_world)
 

@@ -66,19 +66,19 @@ def object_depth(caster: RayCaster, T_camera_model: np.ndarray, camera: PinholeC
     r0, r1 = max(int(np.floor(w.min())) - margin, 0), min(int(np.ceil(w.max())) + margin, camera.height - 1)
     if c0 > c1 or r0 > r1:
         return out
-    rows, cols = np.mgrid[r0:r1 + 1, c0:c1 + 1]
+    rows, cols = np.mgrid[r0 : r1 + 1, c0 : c1 + 1]
     R_model_camera = T_camera_model[:3, :3].T
-    origin = -apply_R(R_model_camera, T_camera_model[:3, 3])       # the camera centre, model frame
+    origin = -apply_R(R_model_camera, T_camera_model[:3, 3])  # the camera centre, model frame
     s = caster.cast(origin, apply_R(R_model_camera, pixel_rays(camera, rows, cols)))
-    out[r0:r1 + 1, c0:c1 + 1] = np.where(np.isfinite(s) & (s > 0), s, 0.0)
+    out[r0 : r1 + 1, c0 : c1 + 1] = np.where(np.isfinite(s) & (s > 0), s, 0.0)
     return out
 
 
 def table_depth(T_camera_world: np.ndarray, camera: PinholeCamera) -> np.ndarray:
     """(H, W) depth (mm) of the table plane ``z_world = 0`` in closed form, 0 above the horizon."""
-    rows, cols = np.mgrid[0:camera.height, 0:camera.width]
+    rows, cols = np.mgrid[0 : camera.height, 0 : camera.width]
     d = pixel_rays(camera, rows, cols)
-    n = T_camera_world[:3, 2]                      # the world's z axis in the camera frame
+    n = T_camera_world[:3, 2]  # the world's z axis in the camera frame
     nd = dot3(d, np.broadcast_to(n, d.shape))
     s = dot3(n, T_camera_world[:3, 3]) / np.where(nd == 0.0, 1.0, nd)
     return np.where((nd != 0.0) & (s > 0), s, 0.0)
@@ -91,7 +91,7 @@ def render_scene(spec: ClutterSpec, layout: SceneLayout, casters: dict[int, RayC
     K = np.asarray(spec.K)
     camera = PinholeCamera.from_K(K, spec.width, spec.height)
     depths = [object_depth(casters[o.obj_id], T_camera_model(layout, o), camera) for o in layout.objects]
-    stack = np.stack([table_depth(layout.T_camera_world, camera)] + depths)       # (1 + n, H, W)
+    stack = np.stack([table_depth(layout.T_camera_world, camera)] + depths)  # (1 + n, H, W)
     nearest = np.where(stack > 0, stack, np.inf).min(axis=0)
     clean = np.where(np.isfinite(nearest), nearest, 0.0)
     full = [d > 0 for d in depths]
@@ -136,17 +136,34 @@ def write_scene(split_dir: Path, spec: ClutterSpec, layout: SceneLayout, image: 
         _write_png(tmp / "mask" / f"000000_{k:06d}.png", (full * 255).astype(np.uint8))
         _write_png(tmp / "mask_visib" / f"000000_{k:06d}.png", (seg * 255).astype(np.uint8))
         T = T_camera_model(layout, obj)
-        gts.append({"cam_R_m2c": [float(x) for x in T[:3, :3].ravel()], "cam_t_m2c": [float(x) for x in T[:3, 3]],
-                    "obj_id": int(obj.obj_id)})
+        gts.append(
+            {
+                "cam_R_m2c": [float(x) for x in T[:3, :3].ravel()],
+                "cam_t_m2c": [float(x) for x in T[:3, 3]],
+                "obj_id": int(obj.obj_id),
+            }
+        )
         n_all, n_vis = int(full.sum()), int(vis.sum())
-        infos.append({"bbox_obj": _bbox(full), "bbox_visib": _bbox(vis), "px_count_all": n_all,
-                      "px_count_valid": int((full & (image.depth_mm > 0)).sum()), "px_count_visib": n_vis,
-                      "visib_fract": float(n_vis / n_all) if n_all else 0.0,
-                      "rest_up": [float(x) for x in obj.rest_up]})
+        infos.append(
+            {
+                "bbox_obj": _bbox(full),
+                "bbox_visib": _bbox(vis),
+                "px_count_all": n_all,
+                "px_count_valid": int((full & (image.depth_mm > 0)).sum()),
+                "px_count_visib": n_vis,
+                "visib_fract": float(n_vis / n_all) if n_all else 0.0,
+                "rest_up": [float(x) for x in obj.rest_up],
+            }
+        )
     K = np.asarray(spec.K)
-    camera = {"0": {"cam_K": [float(x) for x in K.ravel()], "depth_scale": float(spec.depth_scale),
-                    "cam_R_w2c": [float(x) for x in layout.T_camera_world[:3, :3].ravel()],
-                    "cam_t_w2c": [float(x) for x in layout.T_camera_world[:3, 3]]}}
+    camera = {
+        "0": {
+            "cam_K": [float(x) for x in K.ravel()],
+            "depth_scale": float(spec.depth_scale),
+            "cam_R_w2c": [float(x) for x in layout.T_camera_world[:3, :3].ravel()],
+            "cam_t_w2c": [float(x) for x in layout.T_camera_world[:3, 3]],
+        }
+    }
     (tmp / "scene_gt.json").write_text(json.dumps({"0": gts}, indent=1))
     (tmp / "scene_gt_info.json").write_text(json.dumps({"0": infos}, indent=1))
     (tmp / "scene_camera.json").write_text(json.dumps(camera, indent=1))
@@ -155,4 +172,3 @@ def write_scene(split_dir: Path, spec: ClutterSpec, layout: SceneLayout, image: 
     except OSError:  # another process wrote the scene first: theirs is the same scene
         shutil.rmtree(tmp, ignore_errors=True)
     return final
-

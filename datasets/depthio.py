@@ -29,8 +29,7 @@ def read_depth_png(path: Path) -> np.ndarray:
     except Exception as exc:  # PIL raises several types for a broken file
         raise DatasetError(f"{path} cannot be read as an image ({type(exc).__name__})") from None
     if arr.ndim != 2 or arr.dtype not in (np.uint16, np.int32, np.int16):
-        raise DatasetError(f"{path} is {arr.dtype} with shape {arr.shape}; depth must be a single-channel "
-                           "16-bit PNG")
+        raise DatasetError(f"{path} is {arr.dtype} with shape {arr.shape}; depth must be a single-channel 16-bit PNG")
     if arr.dtype != np.uint16:  # PIL opens some 16-bit PNGs as mode "I" (int32)
         if arr.min() < 0 or arr.max() > 65535:
             raise DatasetError(f"{path} has values outside 0..65535; depth must be a 16-bit PNG")
@@ -69,8 +68,7 @@ def read_depth(path: Path) -> np.ndarray:
     return arr
 
 
-def fit_ground_plane(points: np.ndarray, distance: float, iterations: int,
-                     seed: int) -> tuple[np.ndarray, float, int]:
+def fit_ground_plane(points: np.ndarray, distance: float, iterations: int, seed: int) -> tuple[np.ndarray, float, int]:
     """Dominant plane ``n . p + d = 0`` of ``points`` (N, 3) by RANSAC, refined by least squares.
 
     The same three-point RANSAC as Open3D's ``segment_plane``, but run here with a seeded NumPy
@@ -96,7 +94,7 @@ def fit_ground_plane(points: np.ndarray, distance: float, iterations: int,
     normals, offsets = normals[ok] / norms[ok, None], -np.einsum("ij,ij->i", normals[ok] / norms[ok, None], a[ok])
     best, best_count = 0, -1
     for s in range(0, len(normals), 64):
-        counts = (np.abs(dot3(p[:, None, :], normals[None, s:s + 64]) + offsets[s:s + 64]) < distance).sum(axis=0)
+        counts = (np.abs(dot3(p[:, None, :], normals[None, s : s + 64]) + offsets[s : s + 64]) < distance).sum(axis=0)
         k = int(counts.argmax())
         if counts[k] > best_count:
             best, best_count = s + k, int(counts[k])

@@ -30,6 +30,7 @@ _AXES = {"x": 0, "y": 1, "z": 2}
 
 # --------------------------------------------------------------------------- reading
 
+
 def read_off(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """Read an OFF mesh; returns vertices (V, 3) float64 and triangles (F, 3) int64.
 
@@ -57,29 +58,37 @@ def read_off(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     except ValueError:
         raise DatasetError(f"{path} is a malformed OFF file: counts line {head!r} is not 'V F E'") from None
     if len(body) < n_v + n_f:
-        raise DatasetError(f"{path} is a truncated OFF file: header says {n_v} vertices and {n_f} faces "
-                           f"but only {len(body)} lines follow")
+        raise DatasetError(
+            f"{path} is a truncated OFF file: header says {n_v} vertices and {n_f} faces "
+            f"but only {len(body)} lines follow"
+        )
     vertex_fields = [ln.split()[:3] for ln in body[:n_v]]
     for i, fields in enumerate(vertex_fields):
         if len(fields) < 3:
-            raise DatasetError(f"{path} line {body_numbers[i]}: a vertex needs 3 coordinates, found "
-                               f"{len(fields)} ({body[i][:60]!r}); fix or re-export the file")
+            raise DatasetError(
+                f"{path} line {body_numbers[i]}: a vertex needs 3 coordinates, found "
+                f"{len(fields)} ({body[i][:60]!r}); fix or re-export the file"
+            )
     try:
         vertices = np.array(vertex_fields, dtype=np.float64)
     except ValueError:
         bad = next(i for i, f in enumerate(vertex_fields) if not _all_floats(f))
-        raise DatasetError(f"{path} line {body_numbers[bad]}: vertex coordinates {body[bad][:60]!r} are not "
-                           "numbers; fix or re-export the file") from None
+        raise DatasetError(
+            f"{path} line {body_numbers[bad]}: vertex coordinates {body[bad][:60]!r} are not "
+            "numbers; fix or re-export the file"
+        ) from None
     tris: list[list[int]] = []
     for i in range(n_v, n_v + n_f):
         try:
             vals = [int(v) for v in body[i].split()]
-            k, idx = vals[0], vals[1:1 + vals[0]]
+            k, idx = vals[0], vals[1 : 1 + vals[0]]
             if k < 3 or len(idx) != k:
                 raise ValueError(body[i])
         except (ValueError, IndexError):
-            raise DatasetError(f"{path} line {body_numbers[i]}: face {body[i][:60]!r} is not 'k i1 ... ik' "
-                               "with k >= 3 integer vertex indices; fix or re-export the file") from None
+            raise DatasetError(
+                f"{path} line {body_numbers[i]}: face {body[i][:60]!r} is not 'k i1 ... ik' "
+                "with k >= 3 integer vertex indices; fix or re-export the file"
+            ) from None
         tris.extend([idx[0], idx[j], idx[j + 1]] for j in range(1, k - 1))
     triangles = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
     _check_mesh(path, vertices, triangles)
@@ -127,6 +136,7 @@ def _check_mesh(path: Path, vertices: np.ndarray, triangles: np.ndarray) -> None
 
 # --------------------------------------------------------------------------- axes
 
+
 def axis_vector(spec: str) -> np.ndarray:
     """``"+y"``, ``"-z"``, ``"x"`` -> the unit vector (3,)."""
     s = str(spec).strip().lower()
@@ -150,6 +160,7 @@ def R_template_file(up: str = "+z", forward: str = "+x") -> np.ndarray:
 
 # --------------------------------------------------------------------------- sampling
 
+
 def fibonacci_sphere(n: int, radius: float = 1.0) -> np.ndarray:
     """(n, 3) points spread near-uniformly on a sphere of ``radius`` (golden-angle spiral)."""
     i = np.arange(n) + 0.5
@@ -159,9 +170,15 @@ def fibonacci_sphere(n: int, radius: float = 1.0) -> np.ndarray:
     return radius * np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
 
 
-def sample_outer_surface(vertices: np.ndarray, triangles: np.ndarray, n_points: int,
-                         seed: int | np.random.Generator, n_views: int = 40, view_distance: float = 3.0,
-                         oversample: int = 4) -> tuple[np.ndarray, np.ndarray]:
+def sample_outer_surface(
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    n_points: int,
+    seed: int | np.random.Generator,
+    n_views: int = 40,
+    view_distance: float = 3.0,
+    oversample: int = 4,
+) -> tuple[np.ndarray, np.ndarray]:
     """Uniform samples of the part of a mesh's surface seen from outside, with outward normals.
 
     Works for meshes made of concatenated parts with interior faces: draws
@@ -225,7 +242,7 @@ def sample_outer_surface(vertices: np.ndarray, triangles: np.ndarray, n_points: 
     points, normals = points[keep], normals[keep]
     # orient each normal towards the most frontal viewpoint that sees its sample (a sample on a
     # face's border may also be grazed from behind the face)
-    to_eye = eyes[:, None, :] - points[None]                                     # (views, M, 3)
+    to_eye = eyes[:, None, :] - points[None]  # (views, M, 3)
     cos = np.einsum("vmk,mk->vm", to_eye, normals) / np.linalg.norm(to_eye, axis=2)
     best = np.argmax(np.where(visible[:, keep], np.abs(cos), -1.0), axis=0)
     normals[cos[best, np.arange(len(keep))] < 0] *= -1
@@ -233,6 +250,7 @@ def sample_outer_surface(vertices: np.ndarray, triangles: np.ndarray, n_points: 
 
 
 # --------------------------------------------------------------------------- templates
+
 
 @dataclass(frozen=True)
 class TemplateSpec:
@@ -258,10 +276,19 @@ class TemplateSpec:
     symmetry_axis: tuple[float, float, float] | None = None
 
 
-def mesh_to_template(vertices: np.ndarray, triangles: np.ndarray, template_id: str, category: str,
-                     n_points: int = 2048, seed: int = 0, up: str = "+z", forward: str = "+x",
-                     scale: float = 1.0, normalize: bool = True,
-                     symmetry_axis: np.ndarray | None = None) -> Template:
+def mesh_to_template(
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    template_id: str,
+    category: str,
+    n_points: int = 2048,
+    seed: int = 0,
+    up: str = "+z",
+    forward: str = "+x",
+    scale: float = 1.0,
+    normalize: bool = True,
+    symmetry_axis: np.ndarray | None = None,
+) -> Template:
     """Rotate a mesh into the template frame, normalise it and sample its outer surface.
 
     Args:
@@ -282,9 +309,15 @@ def mesh_to_template(vertices: np.ndarray, triangles: np.ndarray, template_id: s
     return sampled_template(v, triangles, template_id, category, n_points, seed, symmetry_axis)
 
 
-def sampled_template(vertices: np.ndarray, triangles: np.ndarray, template_id: str, category: str,
-                     n_points: int = 2048, seed: int = 0,
-                     symmetry_axis: np.ndarray | None = None) -> Template:
+def sampled_template(
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    template_id: str,
+    category: str,
+    n_points: int = 2048,
+    seed: int = 0,
+    symmetry_axis: np.ndarray | None = None,
+) -> Template:
     """A template (mesh plus outer-surface samples) of a mesh already in the template frame.
 
     Args:
@@ -296,12 +329,20 @@ def sampled_template(vertices: np.ndarray, triangles: np.ndarray, template_id: s
     """
     pts, nrm = sample_outer_surface(vertices, triangles, n_points, stable_seed(seed, template_id))
     axis = None if symmetry_axis is None else np.asarray(symmetry_axis, np.float64)
-    return Template(template_id=template_id, category=category, points=pts, normals=nrm,
-                    vertices=vertices, triangles=np.asarray(triangles, np.int64), symmetry_axis=axis)
+    return Template(
+        template_id=template_id,
+        category=category,
+        points=pts,
+        normals=nrm,
+        vertices=vertices,
+        triangles=np.asarray(triangles, np.int64),
+        symmetry_axis=axis,
+    )
 
 
-def load_template(spec: TemplateSpec, n_points: int = 2048, seed: int = 0,
-                  base_dir: str | Path | None = None) -> Template:
+def load_template(
+    spec: TemplateSpec, n_points: int = 2048, seed: int = 0, base_dir: str | Path | None = None
+) -> Template:
     """Load a :class:`TemplateSpec` into a :class:`~catpose.types.Template` (z up, x forward,
     unit sphere); a relative ``spec.path`` is resolved against ``base_dir``."""
     path = Path(spec.path)
@@ -309,9 +350,18 @@ def load_template(spec: TemplateSpec, n_points: int = 2048, seed: int = 0,
         path = Path(base_dir) / path
     vertices, triangles = read_mesh(path)
     tid = spec.template_id or f"{spec.category}/{path.stem}"
-    return mesh_to_template(vertices, triangles, tid, spec.category, n_points=n_points, seed=seed,
-                            up=spec.up, forward=spec.forward, scale=spec.scale,
-                            symmetry_axis=spec.symmetry_axis)
+    return mesh_to_template(
+        vertices,
+        triangles,
+        tid,
+        spec.category,
+        n_points=n_points,
+        seed=seed,
+        up=spec.up,
+        forward=spec.forward,
+        scale=spec.scale,
+        symmetry_axis=spec.symmetry_axis,
+    )
 
 
 def template_spec_from_dict(category: str, entry: object) -> TemplateSpec:
@@ -327,13 +377,19 @@ def template_spec_from_dict(category: str, entry: object) -> TemplateSpec:
     allowed = {"path", "up", "forward", "scale", "template_id", "symmetry_axis"}
     unknown = set(d) - allowed
     if unknown:
-        raise DatasetError(f"template entry for {category!r} has unknown keys {sorted(unknown)}; "
-                           f"allowed: {sorted(allowed)}")
+        raise DatasetError(
+            f"template entry for {category!r} has unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}"
+        )
     sym = d.get("symmetry_axis")
-    return TemplateSpec(path=str(d["path"]), category=category, up=str(d.get("up", "+z")),
-                        forward=str(d.get("forward", "+x")), scale=float(d.get("scale", 1.0)),
-                        template_id=str(d.get("template_id", "")),
-                        symmetry_axis=None if sym is None else tuple(float(x) for x in sym))
+    return TemplateSpec(
+        path=str(d["path"]),
+        category=category,
+        up=str(d.get("up", "+z")),
+        forward=str(d.get("forward", "+x")),
+        scale=float(d.get("scale", 1.0)),
+        template_id=str(d.get("template_id", "")),
+        symmetry_axis=None if sym is None else tuple(float(x) for x in sym),
+    )
 
 
 MESH_SUFFIXES = (".off", ".obj", ".ply")
@@ -351,8 +407,14 @@ class TemplateSet:
       loaded with ``instance_loader(category, instance_id)`` (e.g. ModelNet40 training shapes).
     """
 
-    def __init__(self, entries: dict | None, base_dir: str | Path | None, n_points: int = 2048,
-                 seed: int = 0, instance_loader=None) -> None:
+    def __init__(
+        self,
+        entries: dict | None,
+        base_dir: str | Path | None,
+        n_points: int = 2048,
+        seed: int = 0,
+        instance_loader=None,
+    ) -> None:
         self.entries = {str(k): list(v or []) for k, v in (entries or {}).items()}
         self.base_dir = None if base_dir is None else Path(base_dir)
         self.n_points = int(n_points)
@@ -383,8 +445,10 @@ class TemplateSet:
         instance = self._instance(entry)
         if instance is not None:
             if self.instance_loader is None:
-                raise DatasetError(f"template {instance!r} for {category!r} is not a mesh path "
-                                   "(.off/.obj/.ply) and this dataset has no instances to use as templates")
+                raise DatasetError(
+                    f"template {instance!r} for {category!r} is not a mesh path "
+                    "(.off/.obj/.ply) and this dataset has no instances to use as templates"
+                )
             return self.instance_loader(category, instance)
         spec = template_spec_from_dict(category, entry)
         return load_template(spec, n_points=self.n_points, seed=self.seed, base_dir=self.base_dir)

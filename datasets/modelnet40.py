@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from catpose.datasets.alignment import check_alignment_coverage, read_alignment_table
-from catpose.datasets.base import ObjectDataset, Observation
+from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.datasets.meshio import R_template_file, TemplateSet, read_off, sampled_template
 from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
 from catpose.datasets.views import pinhole_camera
@@ -33,10 +33,18 @@ from catpose.geometry import apply_R, invert_T, matmul3, normalize_to_unit_spher
 from catpose.types import DepthImage, Template
 
 
-def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_object: np.ndarray,
-                        camera: PinholeCamera, rng: np.random.Generator, depth_noise_std: float,
-                        normal_radius: float, max_points: int, what: str,
-                        min_points: int = 10) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def render_partial_view(
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    T_camera_object: np.ndarray,
+    camera: PinholeCamera,
+    rng: np.random.Generator,
+    depth_noise_std: float,
+    normal_radius: float,
+    max_points: int,
+    what: str,
+    min_points: int = 10,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Render a mesh's depth, add Gaussian depth noise, back-project, subsample and estimate normals.
 
     Args:
@@ -58,8 +66,9 @@ def render_partial_view(vertices: np.ndarray, triangles: np.ndarray, T_camera_ob
         depth[hit] += rng.normal(0.0, depth_noise_std, size=int(hit.sum())).astype(depth.dtype)
     points, _ = depth_to_points(depth, camera)
     if len(points) < min_points:
-        raise DatasetError(f"{what}: only {len(points)} pixels see the object; "
-                           "move the camera closer (distance) or enlarge the image")
+        raise DatasetError(
+            f"{what}: only {len(points)} pixels see the object; move the camera closer (distance) or enlarge the image"
+        )
     if max_points and len(points) > max_points:
         keep = np.sort(rng.choice(len(points), size=max_points, replace=False))
         points = points[keep]
@@ -71,8 +80,10 @@ def _check_counts(**counts: int | None) -> None:
     ``views_per_instance=0`` there would be no sample, and the error would blame ``dataset.root``."""
     for key, n in counts.items():
         if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
-            raise ConfigError(f"dataset.{key}={n!r} must be an integer >= 1; set dataset.{key}=<N>"
-                              + (" (or null for all)" if key == "instances_per_category" else ""))
+            raise ConfigError(
+                f"dataset.{key}={n!r} must be an integer >= 1; set dataset.{key}=<N>"
+                + (" (or null for all)" if key == "instances_per_category" else "")
+            )
 
 
 class ModelNetBase(ObjectDataset):
@@ -80,12 +91,30 @@ class ModelNetBase(ObjectDataset):
     instance, the file-to-canonical rotation (file axes, then the optional per-instance alignment
     table), templates and symmetric categories. Subclasses read their own file format."""
 
-    def _init_common(self, root: str, missing_root: str, split: str, instances_per_category: int | None,
-                     views_per_instance: int, distance: float, elevation_min_deg: float,
-                     elevation_max_deg: float, roll_max_deg: float, depth_noise_std: float, max_points: int,
-                     template_points: int, templates: dict[str, list] | None, template_split: str,
-                     templates_root: str | None, aligned: bool, alignment_table: str | None, up: str,
-                     forward: str, symmetric: dict[str, list[float]] | None, seed: int) -> None:
+    def _init_common(
+        self,
+        root: str,
+        missing_root: str,
+        split: str,
+        instances_per_category: int | None,
+        views_per_instance: int,
+        distance: float,
+        elevation_min_deg: float,
+        elevation_max_deg: float,
+        roll_max_deg: float,
+        depth_noise_std: float,
+        max_points: int,
+        template_points: int,
+        templates: dict[str, list] | None,
+        template_split: str,
+        templates_root: str | None,
+        aligned: bool,
+        alignment_table: str | None,
+        up: str,
+        forward: str,
+        symmetric: dict[str, list[float]] | None,
+        seed: int,
+    ) -> None:
         _check_counts(views_per_instance=views_per_instance, instances_per_category=instances_per_category)
         self.root = Path(root)
         if not self.root.is_dir():
@@ -93,8 +122,9 @@ class ModelNetBase(ObjectDataset):
         self.split = str(split)
         self.instances_per_category = instances_per_category
         self.views_per_instance = int(views_per_instance)
-        self.sampler = ViewSampler(float(distance), float(elevation_min_deg), float(elevation_max_deg),
-                                   float(roll_max_deg))
+        self.sampler = ViewSampler(
+            float(distance), float(elevation_min_deg), float(elevation_max_deg), float(roll_max_deg)
+        )
         self.depth_noise_std = float(depth_noise_std)
         self.max_points = int(max_points)
         self.template_points = int(template_points)
@@ -109,8 +139,9 @@ class ModelNetBase(ObjectDataset):
         self.R_template_file = R_template_file(up, forward)
         self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
         self.seed = int(seed)
-        self._templates = TemplateSet(templates, templates_root or self.root, self.template_points,
-                                      self.seed, instance_loader=self.instance_model)
+        self._templates = TemplateSet(
+            templates, templates_root or self.root, self.template_points, self.seed, instance_loader=self.instance_model
+        )
         self._ids: list[str] | None = None
 
     def check_alignment_covers(self, wanted: dict[str, list[str]] | None = None) -> None:
@@ -177,24 +208,65 @@ class ModelNet40(ModelNetBase):
 
     name = "modelnet40"
 
-    def __init__(self, root: str, categories: list[str] | None = None, split: str = "test",
-                 instances_per_category: int | None = None, views_per_instance: int = 5,
-                 width: int = 320, height: int = 240, fx: float = 300.0, fy: float = 300.0,
-                 cx: float | None = None, cy: float | None = None, distance: float = 3.0,
-                 elevation_min_deg: float = 10.0, elevation_max_deg: float = 60.0,
-                 roll_max_deg: float = 0.0, depth_noise_std: float = 0.0, normal_radius: float = 0.1,
-                 max_points: int = 2048, min_points: int = 50, template_points: int = 2048,
-                 templates: dict[str, list] | None = None, template_split: str = "train",
-                 templates_root: str | None = None, aligned: bool = False,
-                 alignment_table: str | None = None, up: str = "+z", forward: str = "+x",
-                 symmetric: dict[str, list[float]] | None = None, seed: int = 0) -> None:
-        self._init_common(root, "ModelNet40 root {root} is not a folder; set dataset.root to the folder that "
-                          "holds <category>/<split>/*.off", split, instances_per_category, views_per_instance,
-                          distance, elevation_min_deg, elevation_max_deg, roll_max_deg, depth_noise_std,
-                          max_points, template_points, templates, template_split, templates_root, aligned,
-                          alignment_table, up, forward, symmetric, seed)
-        self.categories = sorted(categories) if categories else sorted(
-            p.name for p in self.root.iterdir() if p.is_dir())
+    def __init__(
+        self,
+        root: str,
+        categories: list[str] | None = None,
+        split: str = "test",
+        instances_per_category: int | None = None,
+        views_per_instance: int = 5,
+        width: int = 320,
+        height: int = 240,
+        fx: float = 300.0,
+        fy: float = 300.0,
+        cx: float | None = None,
+        cy: float | None = None,
+        distance: float = 3.0,
+        elevation_min_deg: float = 10.0,
+        elevation_max_deg: float = 60.0,
+        roll_max_deg: float = 0.0,
+        depth_noise_std: float = 0.0,
+        normal_radius: float = 0.1,
+        max_points: int = 2048,
+        min_points: int = 50,
+        template_points: int = 2048,
+        templates: dict[str, list] | None = None,
+        template_split: str = "train",
+        templates_root: str | None = None,
+        aligned: bool = False,
+        alignment_table: str | None = None,
+        up: str = "+z",
+        forward: str = "+x",
+        symmetric: dict[str, list[float]] | None = None,
+        seed: int = 0,
+    ) -> None:
+        self._init_common(
+            root,
+            "ModelNet40 root {root} is not a folder; set dataset.root to the folder that "
+            "holds <category>/<split>/*.off",
+            split,
+            instances_per_category,
+            views_per_instance,
+            distance,
+            elevation_min_deg,
+            elevation_max_deg,
+            roll_max_deg,
+            depth_noise_std,
+            max_points,
+            template_points,
+            templates,
+            template_split,
+            templates_root,
+            aligned,
+            alignment_table,
+            up,
+            forward,
+            symmetric,
+            seed,
+        )
+        self.categories = (
+            sorted(categories) if categories else sorted(p.name for p in self.root.iterdir() if p.is_dir())
+        )
         self.camera = pinhole_camera(width, height, fx, fy, cx, cy)
         self.normal_radius = float(normal_radius)
         self.min_points = int(min_points)
@@ -214,11 +286,17 @@ class ModelNet40(ModelNetBase):
 
     def observation_ids(self) -> list[str]:
         if self._ids is None:
-            ids = [f"{c}/{i}/v{k:02d}" for c in self.categories for i in self.instance_ids(c)
-                   for k in range(self.views_per_instance)]
+            ids = [
+                f"{c}/{i}/v{k:02d}"
+                for c in self.categories
+                for i in self.instance_ids(c)
+                for k in range(self.views_per_instance)
+            ]
             if not ids:
-                raise DatasetError(f"no {self.split}-split OFF files under {self.root} for categories "
-                                   f"{self.categories}; check dataset.root, dataset.split and dataset.categories")
+                raise DatasetError(
+                    f"no {self.split}-split OFF files under {self.root} for categories "
+                    f"{self.categories}; check dataset.root, dataset.split and dataset.categories"
+                )
             self._ids = ids
         return self._ids
 
@@ -228,8 +306,10 @@ class ModelNet40(ModelNetBase):
             path = self.root / category / split / f"{instance_id}.off"
             if path.is_file():
                 return path, split
-        raise DatasetError(f"no ModelNet40 file for {category}/{instance_id} under {self.root}/{category}/"
-                           f"{{train,test}}; check the instance id")
+        raise DatasetError(
+            f"no ModelNet40 file for {category}/{instance_id} under {self.root}/{category}/"
+            f"{{train,test}}; check the instance id"
+        )
 
     def canonical_mesh(self, category: str, instance_id: str) -> tuple[np.ndarray, np.ndarray]:
         """Vertices (V, 3) in the canonical object frame (z up, x forward, unit sphere) and triangles."""
@@ -249,8 +329,15 @@ class ModelNet40(ModelNetBase):
         key = (category, instance_id)
         if key not in self._models:
             v, f = self.canonical_mesh(category, instance_id)
-            self._models[key] = sampled_template(v, f, f"modelnet40/{instance_id}", category,
-                                                 self.template_points, self.seed, self.symmetric.get(category))
+            self._models[key] = sampled_template(
+                v,
+                f,
+                f"modelnet40/{instance_id}",
+                category,
+                self.template_points,
+                self.seed,
+                self.symmetric.get(category),
+            )
         return self._models[key]
 
     # ------------------------------------------------------------------ views
@@ -262,13 +349,31 @@ class ModelNet40(ModelNetBase):
         v, f = self.canonical_mesh(category, instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "modelnet40", obs_id))
         T_camera_object = self.sampler.sample(rng)
-        points, normals, depth = render_partial_view(v, f, T_camera_object, self.camera, rng,
-                                                     self.depth_noise_std, self.normal_radius, self.max_points,
-                                                     f"ModelNet40 {obs_id}", self.min_points)
-        return Observation(obs_id=obs_id, category=category, instance_id=instance_id, points_camera=points,
-                           normals_camera=normals, ground_normal_camera=T_camera_object[:3, 2].copy(),
-                           T_object_camera=invert_T(T_camera_object),
-                           symmetry_axis=self.symmetric.get(category),
-                           depth_image=DepthImage(depth, self.camera.K, depth > 0),
-                           info={"view": view, "split": self.split, "aligned": self.aligned
-                                 or (category, instance_id) in self.alignment})
+        points, normals, depth = render_partial_view(
+            v,
+            f,
+            T_camera_object,
+            self.camera,
+            rng,
+            self.depth_noise_std,
+            self.normal_radius,
+            self.max_points,
+            f"ModelNet40 {obs_id}",
+            self.min_points,
+        )
+        return Observation(
+            obs_id=obs_id,
+            category=category,
+            instance_id=instance_id,
+            points_camera=points,
+            normals_camera=normals,
+            ground_normal_camera=T_camera_object[:3, 2].copy(),
+            T_object_camera=invert_T(T_camera_object),
+            symmetry_axis=self.symmetric.get(category),
+            depth_image=DepthImage(depth, self.camera.K, depth > 0),
+            info={
+                "view": view,
+                "split": self.split,
+                "aligned": self.aligned or (category, instance_id) in self.alignment,
+            },
+        )

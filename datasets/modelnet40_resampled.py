@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from catpose.datasets.base import Observation
+from catpose.datasets.dataset import Observation
 from catpose.datasets.modelnet40 import ModelNetBase
 from catpose.errors import DatasetError
 from catpose.geometry import apply_R, invert_T, normalize_to_unit_sphere, stable_seed, transform_points
@@ -41,8 +41,9 @@ def read_resampled_txt(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     except ValueError as exc:
         raise DatasetError(f"{path} is malformed: expected lines 'x,y,z,nx,ny,nz' ({str(exc)[:60]})") from None
     if data.shape[1] != 6 or len(data) < 10:
-        raise DatasetError(f"{path} has {data.shape[1]} columns and {len(data)} rows; expected >= 10 lines "
-                           "of 'x,y,z,nx,ny,nz'")
+        raise DatasetError(
+            f"{path} has {data.shape[1]} columns and {len(data)} rows; expected >= 10 lines of 'x,y,z,nx,ny,nz'"
+        )
     if not np.isfinite(data).all():
         raise DatasetError(f"{path} has non-finite values")
     normals = data[:, 3:]
@@ -80,20 +81,54 @@ class ModelNet40Resampled(ModelNetBase):
 
     name = "modelnet40_resampled"
 
-    def __init__(self, root: str, categories: list[str] | None = None, split: str = "test",
-                 instances_per_category: int | None = None, views_per_instance: int = 5,
-                 distance: float = 3.0, elevation_min_deg: float = 10.0, elevation_max_deg: float = 60.0,
-                 roll_max_deg: float = 0.0, hpr_radius_factor: float = 100.0, depth_noise_std: float = 0.0,
-                 max_points: int = 2048, template_points: int = 2048,
-                 templates: dict[str, list] | None = None, template_split: str = "train",
-                 templates_root: str | None = None, aligned: bool = False,
-                 alignment_table: str | None = None, up: str = "+y", forward: str = "-x",
-                 symmetric: dict[str, list[float]] | None = None, seed: int = 0) -> None:
-        self._init_common(root, "modelnet40_normal_resampled root {root} is not a folder; set dataset.root",
-                          split, instances_per_category, views_per_instance, distance, elevation_min_deg,
-                          elevation_max_deg, roll_max_deg, depth_noise_std, max_points, template_points,
-                          templates, template_split, templates_root, aligned, alignment_table, up, forward,
-                          symmetric, seed)
+    def __init__(
+        self,
+        root: str,
+        categories: list[str] | None = None,
+        split: str = "test",
+        instances_per_category: int | None = None,
+        views_per_instance: int = 5,
+        distance: float = 3.0,
+        elevation_min_deg: float = 10.0,
+        elevation_max_deg: float = 60.0,
+        roll_max_deg: float = 0.0,
+        hpr_radius_factor: float = 100.0,
+        depth_noise_std: float = 0.0,
+        max_points: int = 2048,
+        template_points: int = 2048,
+        templates: dict[str, list] | None = None,
+        template_split: str = "train",
+        templates_root: str | None = None,
+        aligned: bool = False,
+        alignment_table: str | None = None,
+        up: str = "+y",
+        forward: str = "-x",
+        symmetric: dict[str, list[float]] | None = None,
+        seed: int = 0,
+    ) -> None:
+        self._init_common(
+            root,
+            "modelnet40_normal_resampled root {root} is not a folder; set dataset.root",
+            split,
+            instances_per_category,
+            views_per_instance,
+            distance,
+            elevation_min_deg,
+            elevation_max_deg,
+            roll_max_deg,
+            depth_noise_std,
+            max_points,
+            template_points,
+            templates,
+            template_split,
+            templates_root,
+            aligned,
+            alignment_table,
+            up,
+            forward,
+            symmetric,
+            seed,
+        )
         self.categories = list(categories) if categories else None
         self.hpr_radius_factor = float(hpr_radius_factor)
         self._clouds: dict[str, tuple[np.ndarray, np.ndarray]] = {}
@@ -119,11 +154,17 @@ class ModelNet40Resampled(ModelNetBase):
                 per_cat.setdefault(self.category_of_instance(iid), []).append(iid)
             cats = self.categories if self.categories is not None else sorted(per_cat)
             n = self.instances_per_category
-            ids = [f"{c}/{i}/v{k:02d}" for c in cats for i in sorted(per_cat.get(c, []))[:n or None]
-                   for k in range(self.views_per_instance)]
+            ids = [
+                f"{c}/{i}/v{k:02d}"
+                for c in cats
+                for i in sorted(per_cat.get(c, []))[: n or None]
+                for k in range(self.views_per_instance)
+            ]
             if not ids:
-                raise DatasetError(f"modelnet40_{self.split}.txt in {self.root} lists no instances of "
-                                   f"{cats}; check dataset.split and dataset.categories")
+                raise DatasetError(
+                    f"modelnet40_{self.split}.txt in {self.root} lists no instances of "
+                    f"{cats}; check dataset.split and dataset.categories"
+                )
             self._ids = ids
         return self._ids
 
@@ -150,9 +191,13 @@ class ModelNet40Resampled(ModelNetBase):
                 rng = np.random.default_rng(stable_seed(self.seed, "resampled-model", instance_id))
                 keep = np.sort(rng.choice(len(pts), size=n, replace=False))
                 pts, nrm = pts[keep], nrm[keep]
-            self._models[instance_id] = Template(template_id=f"modelnet40_resampled/{instance_id}",
-                                                 category=category, points=pts, normals=nrm,
-                                                 symmetry_axis=self.symmetric.get(category))
+            self._models[instance_id] = Template(
+                template_id=f"modelnet40_resampled/{instance_id}",
+                category=category,
+                points=pts,
+                normals=nrm,
+                symmetry_axis=self.symmetric.get(category),
+            )
         return self._models[instance_id]
 
     # ------------------------------------------------------------------ views
@@ -177,8 +222,19 @@ class ModelNet40Resampled(ModelNetBase):
             points = points + rays * rng.normal(0.0, self.depth_noise_std, size=(len(points), 1))
         flip = np.einsum("ij,ij->i", normals, points) > 0  # make them face the camera (origin)
         normals[flip] *= -1
-        return Observation(obs_id=obs_id, category=category, instance_id=instance_id, points_camera=points,
-                           normals_camera=normals, ground_normal_camera=T_camera_object[:3, 2].copy(),
-                           T_object_camera=T_object_camera, symmetry_axis=self.symmetric.get(category),
-                           info={"view": view, "split": self.split, "normals_flipped": int(flip.sum()),
-                                 "aligned": self.aligned or (category, instance_id) in self.alignment})
+        return Observation(
+            obs_id=obs_id,
+            category=category,
+            instance_id=instance_id,
+            points_camera=points,
+            normals_camera=normals,
+            ground_normal_camera=T_camera_object[:3, 2].copy(),
+            T_object_camera=T_object_camera,
+            symmetry_axis=self.symmetric.get(category),
+            info={
+                "view": view,
+                "split": self.split,
+                "normals_flipped": int(flip.sum()),
+                "aligned": self.aligned or (category, instance_id) in self.alignment,
+            },
+        )

@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from catpose.datasets.base import ObjectDataset, Observation
+from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.datasets.depthio import fit_ground_plane, read_depth_png
 from catpose.datasets.meshio import TemplateSet
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals
@@ -52,15 +52,19 @@ def read_log_trajectory(path: str | Path) -> dict[int, np.ndarray]:
         raise DatasetError(f"trajectory {path} does not exist")
     lines = [ln.split() for ln in path.read_text().splitlines() if ln.strip()]
     if len(lines) % 5:
-        raise DatasetError(f"{path} is malformed: {len(lines)} non-empty lines is not a multiple of 5 "
-                           "(a metadata line and 4 matrix rows per frame)")
+        raise DatasetError(
+            f"{path} is malformed: {len(lines)} non-empty lines is not a multiple of 5 "
+            "(a metadata line and 4 matrix rows per frame)"
+        )
     poses: dict[int, np.ndarray] = {}
     for k in range(0, len(lines), 5):
         try:
             frame = int(lines[k][0])
-            T = np.array([[float(x) for x in row] for row in lines[k + 1:k + 5]])
+            T = np.array([[float(x) for x in row] for row in lines[k + 1 : k + 5]])
         except (ValueError, IndexError):
-            raise DatasetError(f"{path} is malformed near line {k + 1}: expected 'i j n' and 4 rows of 4 numbers") from None
+            raise DatasetError(
+                f"{path} is malformed near line {k + 1}: expected 'i j n' and 4 rows of 4 numbers"
+            ) from None
         if T.shape != (4, 4) or not np.isfinite(T).all():
             raise DatasetError(f"{path} line {k + 2}: the pose is not 4 rows of 4 finite numbers")
         poses[frame] = T
@@ -88,8 +92,10 @@ def check_intrinsics(group: str, **values: float) -> None:
         except (TypeError, ValueError):
             ok = False
         if not ok:
-            raise ConfigError(f"{group}.{key}={value!r} must be a positive number of pixels; "
-                              f"set {group}.{key}=<pixels> (e.g. the PrimeSense fx=fy=525)")
+            raise ConfigError(
+                f"{group}.{key}={value!r} must be a positive number of pixels; "
+                f"set {group}.{key}=<pixels> (e.g. the PrimeSense fx=fy=525)"
+            )
 
 
 class Redwood(ObjectDataset):
@@ -122,21 +128,43 @@ class Redwood(ObjectDataset):
 
     name = "redwood"
 
-    def __init__(self, root: str, scans: list[str] | None = None, scan_categories: dict[str, str] | None = None,
-                 frames: list[int] | None = None, frame_stride: int = 1, max_frames: int | None = None,
-                 width: int = 640, height: int = 480, fx: float = 525.0, fy: float = 525.0,
-                 cx: float = 319.5, cy: float = 239.5, depth_scale: float = 1000.0,
-                 depth_range: tuple[float, float] = (0.3, 3.0), trajectory: str | None = "auto",
-                 plane_distance: float = 0.02, plane_iterations: int = 1000, plane_max_points: int = 30000,
-                 min_height: float = 0.02, max_height: float = 2.0, cluster_eps: float = 0.05,
-                 object_size: float | None = None, normal_radius: float = 0.1, max_points: int = 2048,
-                 templates: dict[str, list] | None = None, templates_root: str | None = None,
-                 template_points: int = 2048, symmetric: dict[str, list[float]] | None = None,
-                 seed: int = 0) -> None:
+    def __init__(
+        self,
+        root: str,
+        scans: list[str] | None = None,
+        scan_categories: dict[str, str] | None = None,
+        frames: list[int] | None = None,
+        frame_stride: int = 1,
+        max_frames: int | None = None,
+        width: int = 640,
+        height: int = 480,
+        fx: float = 525.0,
+        fy: float = 525.0,
+        cx: float = 319.5,
+        cy: float = 239.5,
+        depth_scale: float = 1000.0,
+        depth_range: tuple[float, float] = (0.3, 3.0),
+        trajectory: str | None = "auto",
+        plane_distance: float = 0.02,
+        plane_iterations: int = 1000,
+        plane_max_points: int = 30000,
+        min_height: float = 0.02,
+        max_height: float = 2.0,
+        cluster_eps: float = 0.05,
+        object_size: float | None = None,
+        normal_radius: float = 0.1,
+        max_points: int = 2048,
+        templates: dict[str, list] | None = None,
+        templates_root: str | None = None,
+        template_points: int = 2048,
+        symmetric: dict[str, list[float]] | None = None,
+        seed: int = 0,
+    ) -> None:
         self.root = Path(root)
         if not self.root.is_dir():
-            raise DatasetError(f"Redwood root {self.root} is not a folder; set dataset.root to the folder "
-                               "with <scan>/depth/*.png")
+            raise DatasetError(
+                f"Redwood root {self.root} is not a folder; set dataset.root to the folder with <scan>/depth/*.png"
+            )
         check_intrinsics("dataset", width=width, height=height, fx=fx, fy=fy)
         self.scans = None if scans is None else [str(s) for s in scans]
         self.scan_categories = {str(k): str(v) for k, v in (scan_categories or {}).items()}
@@ -189,8 +217,10 @@ class Redwood(ObjectDataset):
             for category, ids in index.items():
                 if scan in ids:
                     return str(category)
-        raise DatasetError(f"no category for scan {scan!r}: name it <category>_<id>, list it in "
-                           "dataset.scan_categories, or provide <root>/meta/categories.json")
+        raise DatasetError(
+            f"no category for scan {scan!r}: name it <category>_<id>, list it in "
+            "dataset.scan_categories, or provide <root>/meta/categories.json"
+        )
 
     def frame_files(self, scan: str) -> list[Path]:
         if scan not in self._frames:
@@ -208,8 +238,11 @@ class Redwood(ObjectDataset):
 
     def observation_ids(self) -> list[str]:
         if self._ids is None:
-            ids = [f"{self.category_of_scan(d.name)}/{d.name}/{i:04d}" for d in self.scan_dirs()
-                   for i in self.frame_indices(d.name)]
+            ids = [
+                f"{self.category_of_scan(d.name)}/{d.name}/{i:04d}"
+                for d in self.scan_dirs()
+                for i in self.frame_indices(d.name)
+            ]
             if not ids:
                 raise DatasetError(f"no depth frames under {self.root}/<scan>/depth; check dataset.root")
             self._ids = ids
@@ -222,8 +255,10 @@ class Redwood(ObjectDataset):
             if self.trajectory == "auto":
                 logs = sorted((self.root / scan).glob("*.log"))
                 if len(logs) > 1:
-                    raise DatasetError(f"{self.root / scan} has several .log files {[p.name for p in logs]}; "
-                                       "name one in dataset.trajectory")
+                    raise DatasetError(
+                        f"{self.root / scan} has several .log files {[p.name for p in logs]}; "
+                        "name one in dataset.trajectory"
+                    )
                 path = logs[0] if logs else None
             elif self.trajectory:
                 path = self.root / scan / self.trajectory
@@ -236,8 +271,10 @@ class Redwood(ObjectDataset):
         path = self.frame_files(scan)[index]
         depth = read_depth_png(path).astype(np.float64) / self.depth_scale
         if depth.shape != (self.camera.height, self.camera.width):
-            raise DatasetError(f"{path} is {depth.shape[1]}x{depth.shape[0]} but the intrinsics are for "
-                               f"{self.camera.width}x{self.camera.height}; set dataset.width/height/fx/fy/cx/cy")
+            raise DatasetError(
+                f"{path} is {depth.shape[1]}x{depth.shape[0]} but the intrinsics are for "
+                f"{self.camera.width}x{self.camera.height}; set dataset.width/height/fx/fy/cx/cy"
+            )
         points, _ = depth_to_points(depth, self.camera, depth_range=self.depth_range)
         if len(points) < 100:
             raise DatasetError(f"{path} has only {len(points)} pixels in depth_range {self.depth_range} m")
@@ -245,15 +282,17 @@ class Redwood(ObjectDataset):
         fit = points
         if self.plane_max_points and len(points) > self.plane_max_points:
             fit = points[rng.choice(len(points), size=self.plane_max_points, replace=False)]
-        normal, offset, n_inliers = fit_ground_plane(fit, self.plane_distance, self.plane_iterations,
-                                                     stable_seed(self.seed, "floor", scan, index))
+        normal, offset, n_inliers = fit_ground_plane(
+            fit, self.plane_distance, self.plane_iterations, stable_seed(self.seed, "floor", scan, index)
+        )
         height = dot3(points, normal) + offset
         obj = points[(height > self.min_height) & (height < self.max_height)]
         if self.cluster_eps > 0 and len(obj) >= 10:
             obj = self._object_cluster(obj)
         if len(obj) < 10:
-            raise DatasetError(f"{path}: only {len(obj)} points above the floor plane; check depth_range and "
-                               "min_height/max_height")
+            raise DatasetError(
+                f"{path}: only {len(obj)} points above the floor plane; check depth_range and min_height/max_height"
+            )
         return obj, normal, {"floor_inliers": n_inliers, "object_points_raw": len(obj)}
 
     def object_mask(self, scan: str, index: int, obj_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -286,8 +325,11 @@ class Redwood(ObjectDataset):
         v = cam.fy * pts[:, 1] / pts[:, 2] + cam.cy
         central = (np.abs(u - cam.width / 2) < cam.width / 4) & (np.abs(v - cam.height / 2) < cam.height / 4)
         ok = labels >= 0
-        votes = np.bincount(labels[ok & central], minlength=labels.max() + 1) if (ok & central).any() \
+        votes = (
+            np.bincount(labels[ok & central], minlength=labels.max() + 1)
+            if (ok & central).any()
             else np.bincount(labels[ok])
+        )
         return pts[labels == votes.argmax()]
 
     def scale_m(self, scan: str) -> float:
@@ -327,18 +369,32 @@ class Redwood(ObjectDataset):
         T = np.eye(4) if poses is None else poses[index].copy()
         T[:3, 3] /= scale
         return Observation(
-            obs_id=obs_id, category=category, instance_id=scan, points_camera=points, normals_camera=normals,
-            ground_normal_camera=ground, T_object_camera=T, symmetry_axis=self.symmetric.get(category),
+            obs_id=obs_id,
+            category=category,
+            instance_id=scan,
+            points_camera=points,
+            normals_camera=normals,
+            ground_normal_camera=ground,
+            T_object_camera=T,
+            symmetry_axis=self.symmetric.get(category),
             depth_image=DepthImage(depth_m / scale, self.camera.K, mask),
-            info={"scan": scan, "frame": index, "file": self.frame_files(scan)[index].name,
-                  "absolute_gt": False, "relative_gt": poses is not None,
-                  "pose_source": "none" if poses is None else "trajectory",
-                  "scale_m": scale, "scale_source": "config" if self.object_size is not None else "first_frame",
-                  **facts})
+            info={
+                "scan": scan,
+                "frame": index,
+                "file": self.frame_files(scan)[index].name,
+                "absolute_gt": False,
+                "relative_gt": poses is not None,
+                "pose_source": "none" if poses is None else "trajectory",
+                "scale_m": scale,
+                "scale_source": "config" if self.object_size is not None else "first_frame",
+                **facts,
+            },
+        )
 
     def instance_model(self, category: str, instance_id: str) -> Template:
-        raise DatasetError(f"Redwood scan {instance_id} has no complete model; use protocol=templates or "
-                           "protocol=relative")
+        raise DatasetError(
+            f"Redwood scan {instance_id} has no complete model; use protocol=templates or protocol=relative"
+        )
 
     def category_templates(self, category: str) -> list[Template]:
         return self._templates.get(category)

@@ -34,13 +34,14 @@ class PinholeCamera:
         return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
 
     @classmethod
-    def from_K(cls, K: np.ndarray, width: int, height: int) -> "PinholeCamera":
+    def from_K(cls, K: np.ndarray, width: int, height: int) -> PinholeCamera:
         K = np.asarray(K, dtype=np.float64).reshape(3, 3)
         return cls(int(width), int(height), float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2]))
 
 
-def render_depth(vertices: np.ndarray, triangles: np.ndarray, T_camera_object: np.ndarray,
-                 camera: PinholeCamera) -> np.ndarray:
+def render_depth(
+    vertices: np.ndarray, triangles: np.ndarray, T_camera_object: np.ndarray, camera: PinholeCamera
+) -> np.ndarray:
     """Render the depth image of a triangle mesh, the same bits on every CPU.
 
     Pixel (row, col) is cast through image point (col, row), the OpenCV convention that
@@ -58,14 +59,18 @@ def render_depth(vertices: np.ndarray, triangles: np.ndarray, T_camera_object: n
         (H, W) float32 depth (camera-frame z), 0 where the ray hits nothing.
     """
     v_camera = transform_points(np.asarray(T_camera_object, dtype=np.float64), np.asarray(vertices, dtype=np.float64))
-    rows, cols = np.mgrid[0:camera.height, 0:camera.width].astype(np.float64)
+    rows, cols = np.mgrid[0 : camera.height, 0 : camera.width].astype(np.float64)
     dirs = np.stack([(cols - camera.cx) / camera.fx, (rows - camera.cy) / camera.fy, np.ones_like(cols)], axis=-1)
     z = cast_rays(v_camera, triangles, np.zeros(3), dirs)
     return np.where(np.isfinite(z), z, 0.0).astype(np.float32)
 
 
-def depth_to_points(depth: np.ndarray, camera: PinholeCamera, mask: np.ndarray | None = None,
-                    depth_range: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+def depth_to_points(
+    depth: np.ndarray,
+    camera: PinholeCamera,
+    mask: np.ndarray | None = None,
+    depth_range: tuple[float, float] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Back-project a depth image to camera-frame points.
 
     Args:
@@ -79,8 +84,10 @@ def depth_to_points(depth: np.ndarray, camera: PinholeCamera, mask: np.ndarray |
     """
     depth = np.asarray(depth, dtype=np.float64)
     if depth.shape != (camera.height, camera.width):
-        raise InvalidInputError(f"depth image is {depth.shape[1]}x{depth.shape[0]} but the camera is "
-                                f"{camera.width}x{camera.height}; fix the intrinsics or image size")
+        raise InvalidInputError(
+            f"depth image is {depth.shape[1]}x{depth.shape[0]} but the camera is "
+            f"{camera.width}x{camera.height}; fix the intrinsics or image size"
+        )
     valid = np.isfinite(depth) & (depth > 0)
     if mask is not None:
         valid &= np.asarray(mask, dtype=bool)
@@ -93,8 +100,9 @@ def depth_to_points(depth: np.ndarray, camera: PinholeCamera, mask: np.ndarray |
     return np.stack([x, y, z], axis=1), np.stack([rows, cols], axis=1)
 
 
-def estimate_normals(points: np.ndarray, radius: float, max_nn: int = 30,
-                     viewpoint: np.ndarray | None = None) -> np.ndarray:
+def estimate_normals(
+    points: np.ndarray, radius: float, max_nn: int = 30, viewpoint: np.ndarray | None = None
+) -> np.ndarray:
     """Unit normals by local plane fitting (Open3D hybrid KNN/radius search), flipped to face
     ``viewpoint`` (the camera origin by default)."""
     from catpose.o3d import o3d

@@ -47,8 +47,14 @@ from catpose.errors import ConfigError
 #: tall and 0.12 m wide with its handle); the airplane and car are desk-sized scale models, and the
 #: chair a real chair, so every category stays inside a depth camera's working range.
 CATEGORY_SIZE_M: dict[str, float] = {
-    "mug": 0.07, "can": 0.07, "bottle": 0.11, "bowl": 0.085, "plate": 0.13,
-    "airplane": 0.25, "car": 0.2, "chair": 0.55,
+    "mug": 0.07,
+    "can": 0.07,
+    "bottle": 0.11,
+    "bowl": 0.085,
+    "plate": 0.13,
+    "airplane": 0.25,
+    "car": 0.2,
+    "chair": 0.55,
 }
 
 
@@ -96,8 +102,10 @@ class SensorModel:
         """Axial noise std (m) at depth ``z`` (m) and incidence angle ``theta`` (radians)."""
         z = np.asarray(z, float)
         theta = np.clip(np.asarray(theta, float), 0.0, np.deg2rad(89.0))
-        angle = theta ** 2 / (np.pi / 2 - theta) ** 2
-        return self.axial_a + self.axial_b * (z - self.axial_z0) ** 2 + self.axial_c / np.sqrt(np.maximum(z, 1e-6)) * angle
+        angle = theta**2 / (np.pi / 2 - theta) ** 2
+        return (
+            self.axial_a + self.axial_b * (z - self.axial_z0) ** 2 + self.axial_c / np.sqrt(np.maximum(z, 1e-6)) * angle
+        )
 
     def lateral_sigma_px(self, theta: np.ndarray | float = 0.0) -> np.ndarray:
         """Lateral noise std (pixels) at incidence angle ``theta`` (radians)."""
@@ -124,16 +132,46 @@ class SensorModel:
 
 #: Kinect v1 (structured light): Nguyen et al. 2012 noise, 580 px disparity focal length,
 #: 7.5 cm baseline, 1/8-pixel disparity steps (2.9 mm at 1 m).
-KINECT = SensorModel(name="kinect", axial_a=0.0012, axial_b=0.0019, axial_z0=0.4, axial_c=0.0001,
-                     lateral_px=0.8, lateral_angle=0.035, edge_jump_m=0.02, flying_pixel_prob=0.3,
-                     disparity_focal_px=580.0, baseline_m=0.075, subpixel_steps=8.0,
-                     dropout_start_deg=70.0, dropout_end_deg=88.0, near_m=0.4, far_m=4.0, mask_bleed_px=1)
+KINECT = SensorModel(
+    name="kinect",
+    axial_a=0.0012,
+    axial_b=0.0019,
+    axial_z0=0.4,
+    axial_c=0.0001,
+    lateral_px=0.8,
+    lateral_angle=0.035,
+    edge_jump_m=0.02,
+    flying_pixel_prob=0.3,
+    disparity_focal_px=580.0,
+    baseline_m=0.075,
+    subpixel_steps=8.0,
+    dropout_start_deg=70.0,
+    dropout_end_deg=88.0,
+    near_m=0.4,
+    far_m=4.0,
+    mask_bleed_px=1,
+)
 #: RealSense D435 (active stereo): 0.08 px subpixel RMS, ~430 px focal length at 848x480, 5 cm
 #: baseline (RMS 3.7 mm at 1 m), 1/32-pixel disparity steps, 0.2 m minimum range.
-REALSENSE = SensorModel(name="realsense", axial_a=0.0, axial_b=0.08 / (430.0 * 0.05), axial_z0=0.0, axial_c=0.0001,
-                        lateral_px=1.0, lateral_angle=0.035, edge_jump_m=0.02, flying_pixel_prob=0.5,
-                        disparity_focal_px=430.0, baseline_m=0.05, subpixel_steps=32.0,
-                        dropout_start_deg=65.0, dropout_end_deg=85.0, near_m=0.2, far_m=4.0, mask_bleed_px=1)
+REALSENSE = SensorModel(
+    name="realsense",
+    axial_a=0.0,
+    axial_b=0.08 / (430.0 * 0.05),
+    axial_z0=0.0,
+    axial_c=0.0001,
+    lateral_px=1.0,
+    lateral_angle=0.035,
+    edge_jump_m=0.02,
+    flying_pixel_prob=0.5,
+    disparity_focal_px=430.0,
+    baseline_m=0.05,
+    subpixel_steps=32.0,
+    dropout_start_deg=65.0,
+    dropout_end_deg=85.0,
+    near_m=0.2,
+    far_m=4.0,
+    mask_bleed_px=1,
+)
 
 PRESETS: dict[str, SensorModel] = {"kinect": KINECT, "realsense": REALSENSE}
 
@@ -197,8 +235,16 @@ def _valid_next_to_invalid(depth: np.ndarray) -> np.ndarray:
     return binary_dilation(invalid) & ~invalid
 
 
-def apply_sensor(depth: np.ndarray, object_mask: np.ndarray, fx: float, fy: float, cx: float, cy: float,
-                 sensor: SensorModel, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def apply_sensor(
+    depth: np.ndarray,
+    object_mask: np.ndarray,
+    fx: float,
+    fy: float,
+    cx: float,
+    cy: float,
+    sensor: SensorModel,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray]:
     """Clean rendered depth and true mask -> sensor depth and segmentation mask.
 
     Args:

@@ -21,8 +21,9 @@ def posed(mesh: trimesh.Trimesh, T: np.ndarray) -> trimesh.Trimesh:
     """``mesh`` moved by the (4, 4) rigid ``T``. The vertices are transformed in closed form
     (:func:`catpose.geometry.transform_points`), not by trimesh's BLAS product, so the shapes
     are the same bits on every CPU."""
-    return trimesh.Trimesh(transform_points(T, np.asarray(mesh.vertices, dtype=np.float64)),
-                           np.asarray(mesh.faces), process=False)
+    return trimesh.Trimesh(
+        transform_points(T, np.asarray(mesh.vertices, dtype=np.float64)), np.asarray(mesh.faces), process=False
+    )
 
 
 def align_z(direction: np.ndarray) -> np.ndarray:
@@ -36,8 +37,9 @@ def align_z(direction: np.ndarray) -> np.ndarray:
     return axis_angle_to_R(axis, libm.arctan2(s, c))
 
 
-def box(extents: tuple[float, float, float], center: tuple[float, float, float],
-         R: np.ndarray | None = None) -> trimesh.Trimesh:
+def box(
+    extents: tuple[float, float, float], center: tuple[float, float, float], R: np.ndarray | None = None
+) -> trimesh.Trimesh:
     """Axis-aligned box (optionally rotated by ``R`` about its centre)."""
     T = make_T(np.eye(3) if R is None else R, np.asarray(center, dtype=np.float64))
     return posed(trimesh.creation.box(extents=extents), T)

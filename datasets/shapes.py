@@ -17,7 +17,7 @@ Parts are concatenated, not booleaned, so the mesh has interior faces; use
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 import trimesh
@@ -27,15 +27,33 @@ from catpose.datasets.shape_parts import align_z, box, cylinder, finish, hull, p
 from catpose.datasets.shapes_symmetric import make_bottle, make_bowl, make_can, make_plate
 from catpose.geometry import apply_R, axis_angle_to_R, make_T, norm3
 
-__all__ = ["SHAPES", "SYMMETRIC_CATEGORIES", "make_airplane", "make_chair", "make_car", "make_mug",
-           "make_bottle", "make_bowl", "make_can", "make_plate", "make_shape"]
+__all__ = [
+    "SHAPES",
+    "SYMMETRIC_CATEGORIES",
+    "make_airplane",
+    "make_chair",
+    "make_car",
+    "make_mug",
+    "make_bottle",
+    "make_bowl",
+    "make_can",
+    "make_plate",
+    "make_shape",
+]
 
 #: Categories whose instances are rotationally symmetric about the z axis.
 SYMMETRIC_CATEGORIES = frozenset({"bottle", "bowl", "can", "plate"})
 
 
-def _wing(root_le: np.ndarray, root_chord: float, tip_le: np.ndarray, tip_chord: float,
-          root_thick: float, tip_thick: float, thick_axis: int = 2) -> trimesh.Trimesh:
+def _wing(
+    root_le: np.ndarray,
+    root_chord: float,
+    tip_le: np.ndarray,
+    tip_chord: float,
+    root_thick: float,
+    tip_thick: float,
+    thick_axis: int = 2,
+) -> trimesh.Trimesh:
     """Trapezoidal lifting surface: hull of root and tip chords (along -x from the leading
     edges), thickened along ``thick_axis``."""
     e = np.zeros(3)
@@ -51,6 +69,7 @@ def _wing(root_le: np.ndarray, root_chord: float, tip_le: np.ndarray, tip_chord:
 
 # --------------------------------------------------------------------------- asymmetric categories
 # (the symmetric ones are catpose.datasets.shapes_symmetric's)
+
 
 def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     """Airplane: nose at +x, wings along y, fin up (+z).
@@ -92,9 +111,16 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     tip_dx = -half_span * libm.tan(sweep)
     tip_dz = half_span * libm.tan(dihedral)
     for s in (1.0, -1.0):
-        parts.append(_wing(np.array([x_le, 0.0, z_w]), root_chord,
-                           np.array([x_le + tip_dx, s * half_span, z_w + tip_dz]), tip_chord,
-                           thick, thick * 0.5))
+        parts.append(
+            _wing(
+                np.array([x_le, 0.0, z_w]),
+                root_chord,
+                np.array([x_le + tip_dx, s * half_span, z_w + tip_dz]),
+                tip_chord,
+                thick,
+                thick * 0.5,
+            )
+        )
 
     # engines under the wings: 0, 2 or 4
     n_eng = 0 if delta else int(rng.choice([0, 2, 4], p=[0.25, 0.5, 0.25]))
@@ -106,8 +132,14 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
         x_le_y = x_le + f * tip_dx
         z_y = z_w + f * tip_dz - 0.5 * thick - 0.9 * eng_r
         for s in (1.0, -1.0):
-            parts.append(cylinder(np.array([x_le_y + 0.4 * eng_len, s * y, z_y]),
-                                   np.array([x_le_y - 0.6 * eng_len, s * y, z_y]), eng_r, sections=16))
+            parts.append(
+                cylinder(
+                    np.array([x_le_y + 0.4 * eng_len, s * y, z_y]),
+                    np.array([x_le_y - 0.6 * eng_len, s * y, z_y]),
+                    eng_r,
+                    sections=16,
+                )
+            )
             parts.append(box((0.4 * eng_len, 0.25 * eng_r, eng_r), (x_le_y - 0.2 * eng_len, s * y, z_y + 0.8 * eng_r)))
 
     # vertical fin at the tail
@@ -117,8 +149,7 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     fin_sweep = fin_h * libm.tan(np.deg2rad(rng.uniform(20.0, 50.0)))
     fin_le = np.array([0.05 * L + fin_chord, 0.0, 0.5 * r])
     fin_tip = np.array([fin_le[0] - fin_sweep, 0.0, 0.5 * r + fin_h])
-    parts.append(_wing(fin_le, fin_chord, fin_tip, fin_tip_chord, 0.12 * fin_chord, 0.06 * fin_chord,
-                       thick_axis=1))
+    parts.append(_wing(fin_le, fin_chord, fin_tip, fin_tip_chord, 0.12 * fin_chord, 0.06 * fin_chord, thick_axis=1))
 
     # horizontal stabiliser: conventional (on the fuselage) or T-tail (on top of the fin)
     t_tail = rng.random() < 0.3
@@ -130,9 +161,17 @@ def make_airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     else:
         h_le = np.array([0.04 * L + h_chord, 0.0, 0.2 * r])
     h_sweep = h_span * libm.tan(sweep * rng.uniform(0.8, 1.2))
-    for s in (() if delta else (1.0, -1.0)):
-        parts.append(_wing(h_le, h_chord, h_le + np.array([-h_sweep, s * h_span, 0.0]), h_chord * 0.5,
-                           0.1 * h_chord, 0.05 * h_chord))
+    for s in () if delta else (1.0, -1.0):
+        parts.append(
+            _wing(
+                h_le,
+                h_chord,
+                h_le + np.array([-h_sweep, s * h_span, 0.0]),
+                h_chord * 0.5,
+                0.1 * h_chord,
+                0.05 * h_chord,
+            )
+        )
     return finish(parts)
 
 
@@ -142,10 +181,10 @@ def make_chair(rng: np.random.Generator) -> trimesh.Trimesh:
     Varies seat size/thickness/height, legs (3, 4 or 5, round or square, splayed) or a pedestal
     with a star base, back height/tilt/style (solid panel or posts with slats), and armrests.
     """
-    w = rng.uniform(0.8, 1.1)       # seat width (y)
-    d = rng.uniform(0.75, 1.0)      # seat depth (x)
-    st = rng.uniform(0.05, 0.1)     # seat thickness
-    h = rng.uniform(0.75, 1.0)      # seat top height
+    w = rng.uniform(0.8, 1.1)  # seat width (y)
+    d = rng.uniform(0.75, 1.0)  # seat depth (x)
+    st = rng.uniform(0.05, 0.1)  # seat thickness
+    h = rng.uniform(0.75, 1.0)  # seat top height
     parts = [box((d, w, st), (0.0, 0.0, h - st / 2))]
     z_under = h - st
 
@@ -157,13 +196,16 @@ def make_chair(rng: np.random.Generator) -> trimesh.Trimesh:
         square = rng.random() < 0.5
         if n_legs == 4:
             inset = rng.uniform(0.04, 0.12)
-            tops = [np.array([sx * (d / 2 - inset), sy * (w / 2 - inset), z_under])
-                    for sx in (1, -1) for sy in (1, -1)]
+            tops = [np.array([sx * (d / 2 - inset), sy * (w / 2 - inset), z_under]) for sx in (1, -1) for sy in (1, -1)]
         else:
             off = rng.uniform(0.0, 2 * np.pi / n_legs)
             rad = 0.4 * min(d, w)
-            tops = [np.array([rad * np.cos(off + 2 * np.pi * k / n_legs), rad * np.sin(off + 2 * np.pi * k / n_legs),
-                              z_under]) for k in range(n_legs)]
+            tops = [
+                np.array(
+                    [rad * np.cos(off + 2 * np.pi * k / n_legs), rad * np.sin(off + 2 * np.pi * k / n_legs), z_under]
+                )
+                for k in range(n_legs)
+            ]
         for top in tops:
             out = np.array([top[0], top[1], 0.0])
             out /= max(norm3(out), 1e-9)
@@ -247,9 +289,14 @@ def make_car(rng: np.random.Generator) -> trimesh.Trimesh:
     for y in (W / 2, -W / 2):
         yt = y * 0.94
         body_pts += [
-            [-L / 2, y * 0.97, clear + 0.05], [-L / 2 + 0.1, y, clear], [L / 2 - 0.25, y, clear],
-            [L / 2, y * 0.9, clear + 0.12], [L / 2, yt * 0.9, ztop - nose_drop - 0.05],
-            [L / 2 - 0.3, yt, ztop - 0.3 * nose_drop], [-L / 2 + 0.05, yt, ztop], [-L / 2, y * 0.95, ztop - 0.08],
+            [-L / 2, y * 0.97, clear + 0.05],
+            [-L / 2 + 0.1, y, clear],
+            [L / 2 - 0.25, y, clear],
+            [L / 2, y * 0.9, clear + 0.12],
+            [L / 2, yt * 0.9, ztop - nose_drop - 0.05],
+            [L / 2 - 0.3, yt, ztop - 0.3 * nose_drop],
+            [-L / 2 + 0.05, yt, ztop],
+            [-L / 2, y * 0.95, ztop - 0.08],
         ]
     parts = [hull(np.asarray(body_pts))]
 
@@ -257,14 +304,18 @@ def make_car(rng: np.random.Generator) -> trimesh.Trimesh:
     cabin_h = rng.uniform(0.38, 0.5) + (0.08 if style == "suv" else 0.0)
     rear_x = -L / 2 + (L * rng.uniform(0.15, 0.25) if style == "sedan" else rng.uniform(0.08, 0.2))
     front_x = rear_x + cabin_len
-    rake = rng.uniform(0.35, 0.6) * cabin_len          # windshield run
+    rake = rng.uniform(0.35, 0.6) * cabin_len  # windshield run
     rear_rake = (rng.uniform(0.15, 0.35) if style == "sedan" else rng.uniform(0.02, 0.12)) * cabin_len
     cw = W * 0.9
     rw = W * rng.uniform(0.72, 0.82)
     cabin_pts = []
     for s in (1, -1):
-        cabin_pts += [[rear_x, s * cw / 2, ztop - 0.02], [front_x, s * cw / 2, ztop - 0.3 * nose_drop - 0.02],
-                      [front_x - rake, s * rw / 2, ztop + cabin_h], [rear_x + rear_rake, s * rw / 2, ztop + cabin_h]]
+        cabin_pts += [
+            [rear_x, s * cw / 2, ztop - 0.02],
+            [front_x, s * cw / 2, ztop - 0.3 * nose_drop - 0.02],
+            [front_x - rake, s * rw / 2, ztop + cabin_h],
+            [rear_x + rear_rake, s * rw / 2, ztop + cabin_h],
+        ]
     parts.append(hull(np.asarray(cabin_pts)))
 
     front_over = rng.uniform(0.16, 0.24) * L
@@ -272,8 +323,14 @@ def make_car(rng: np.random.Generator) -> trimesh.Trimesh:
     for x in (L / 2 - front_over, -L / 2 + rear_over):
         for s in (1, -1):
             y0 = s * (W / 2 - wheel_w / 2 + 0.03)
-            parts.append(cylinder(np.array([x, y0 - wheel_w / 2, wheel_r]), np.array([x, y0 + wheel_w / 2, wheel_r]),
-                                   wheel_r, sections=24))
+            parts.append(
+                cylinder(
+                    np.array([x, y0 - wheel_w / 2, wheel_r]),
+                    np.array([x, y0 + wheel_w / 2, wheel_r]),
+                    wheel_r,
+                    sections=24,
+                )
+            )
     if style == "sedan" and rng.random() < 0.3:  # rear spoiler
         parts.append(box((0.12, W * 0.8, 0.04), (-L / 2 + 0.12, 0.0, ztop + 0.12)))
         for s in (1, -1):
@@ -318,8 +375,14 @@ def make_mug(rng: np.random.Generator) -> trimesh.Trimesh:
 
 #: Category name -> generator ``make_<category>(rng) -> trimesh.Trimesh``.
 SHAPES: dict[str, Callable[[np.random.Generator], trimesh.Trimesh]] = {
-    "airplane": make_airplane, "chair": make_chair, "car": make_car, "mug": make_mug,
-    "bottle": make_bottle, "bowl": make_bowl, "can": make_can, "plate": make_plate,
+    "airplane": make_airplane,
+    "chair": make_chair,
+    "car": make_car,
+    "mug": make_mug,
+    "bottle": make_bottle,
+    "bowl": make_bowl,
+    "can": make_can,
+    "plate": make_plate,
 }
 
 
@@ -328,5 +391,6 @@ def make_shape(category: str, rng: np.random.Generator) -> trimesh.Trimesh:
     unknown category."""
     if category not in SHAPES:
         from catpose.errors import ConfigError
+
         raise ConfigError(f"unknown synthetic category {category!r}; choose from {sorted(SHAPES)}")
     return SHAPES[category](rng)

@@ -71,8 +71,18 @@ def make_can(rng: np.random.Generator) -> trimesh.Trimesh:
     dome = rng.uniform(0.0, 0.05)
     rim_h = rng.uniform(0.005, 0.02)
     Rt = R * neck
-    prof = [(0.0, dome), (R * 0.85, 0.0), (R * 0.97, 0.01), (R, 0.03), (R, H - neck_h), (Rt, H),
-            (Rt, H + rim_h), (Rt - lip, H + rim_h), (Rt - lip, H + rim_h - recess), (0.0, H + rim_h - recess)]
+    prof = [
+        (0.0, dome),
+        (R * 0.85, 0.0),
+        (R * 0.97, 0.01),
+        (R, 0.03),
+        (R, H - neck_h),
+        (Rt, H),
+        (Rt, H + rim_h),
+        (Rt - lip, H + rim_h),
+        (Rt - lip, H + rim_h - recess),
+        (0.0, H + rim_h - recess),
+    ]
     return finish([revolve_z(prof)])
 
 
@@ -92,5 +102,11 @@ def make_plate(rng: np.random.Generator) -> trimesh.Trimesh:
     else:
         base = 0.0
         prof += [(0.0, 0.0)]
-    prof += [(Rw, base), (R, base + rise), (R, base + rise + t), (Rw - t * libm.tan(slope / 2), base + t), (0.0, base + t)]
+    prof += [
+        (Rw, base),
+        (R, base + rise),
+        (R, base + rise + t),
+        (Rw - t * libm.tan(slope / 2), base + t),
+        (0.0, base + t),
+    ]
     return finish([revolve_z(prof, sections=64)])

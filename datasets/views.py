@@ -10,8 +10,9 @@ from __future__ import annotations
 from catpose.datasets.render import PinholeCamera
 
 
-def pinhole_camera(width: int, height: int, fx: float, fy: float, cx: float | None = None,
-                   cy: float | None = None) -> PinholeCamera:
+def pinhole_camera(
+    width: int, height: int, fx: float, fy: float, cx: float | None = None, cy: float | None = None
+) -> PinholeCamera:
     """A pinhole camera whose principal point defaults to the image centre.
 
     Args:
@@ -21,6 +22,11 @@ def pinhole_camera(width: int, height: int, fx: float, fy: float, cx: float | No
             ``(height - 1) / 2`` (the centre of the pixel grid).
     """
     width, height = int(width), int(height)
-    return PinholeCamera(width, height, float(fx), float(fy),
-                         float((width - 1) / 2 if cx is None else cx),
-                         float((height - 1) / 2 if cy is None else cy))
+    return PinholeCamera(
+        width,
+        height,
+        float(fx),
+        float(fy),
+        float((width - 1) / 2 if cx is None else cx),
+        float((height - 1) / 2 if cy is None else cy),
+    )

@@ -40,10 +40,10 @@ from catpose.errors import ConfigError, InvalidInputError
 from catpose.geometry import stable_seed, transform_points
 from catpose.lru import LRUCache
 from catpose.methods import options
-from catpose.methods.base import RegistrationMethod
 from catpose.methods.descriptors import LPS, Descriptor
 from catpose.methods.dictionary import DictionaryLayout
 from catpose.methods.dictionary_features import DictionaryFeatures, describe_clouds, dictionary_features
+from catpose.methods.method import RegistrationMethod
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
 MATCHINGS = ("direct", "dictionary")
@@ -108,8 +108,9 @@ class MatchInput:
         return corr.astype(np.int64)
 
 
-def _make_cloud(points: np.ndarray, normals: np.ndarray, voxel_size: float, fpfh_radius: float,
-                fpfh_max_nn: int, with_fpfh: bool) -> Cloud:
+def _make_cloud(
+    points: np.ndarray, normals: np.ndarray, voxel_size: float, fpfh_radius: float, fpfh_max_nn: int, with_fpfh: bool
+) -> Cloud:
     """Voxel-downsample (averaging normals) and optionally compute FPFH."""
     from catpose.o3d import o3d
 
@@ -121,7 +122,8 @@ def _make_cloud(points: np.ndarray, normals: np.ndarray, voxel_size: float, fpfh
     fpfh = feature = None
     if with_fpfh:
         feature = o3d.pipelines.registration.compute_fpfh_feature(
-            pcd, o3d.geometry.KDTreeSearchParamHybrid(radius=fpfh_radius, max_nn=fpfh_max_nn))
+            pcd, o3d.geometry.KDTreeSearchParamHybrid(radius=fpfh_radius, max_nn=fpfh_max_nn)
+        )
         fpfh = np.asarray(feature.data).T.copy()
     return Cloud(np.asarray(pcd.points).copy(), np.asarray(pcd.normals).copy(), pcd, fpfh, feature)
 
@@ -159,10 +161,20 @@ class CorrespondenceRegistration(RegistrationMethod):
         seed: base seed of the randomised parts (mixed with the sample id).
     """
 
-    def __init__(self, matching: str = "direct", features: str = "fpfh", voxel_size: float = 0.05,
-                 fpfh_radius: float = 0.25, fpfh_max_nn: int = 100, descriptor: Descriptor | None = None,
-                 dictionary: DictionaryLayout | None = None, refine_icp: bool = False,
-                 icp_max_distance: float = 0.1, icp_max_iterations: int = 30, seed: int = 0) -> None:
+    def __init__(
+        self,
+        matching: str = "direct",
+        features: str = "fpfh",
+        voxel_size: float = 0.05,
+        fpfh_radius: float = 0.25,
+        fpfh_max_nn: int = 100,
+        descriptor: Descriptor | None = None,
+        dictionary: DictionaryLayout | None = None,
+        refine_icp: bool = False,
+        icp_max_distance: float = 0.1,
+        icp_max_iterations: int = 30,
+        seed: int = 0,
+    ) -> None:
         self.matching = options.one_of("method.matching", matching, MATCHINGS)
         self.features = options.one_of("method.features", features, FEATURES)
         options.instance_of("method.descriptor", descriptor, Descriptor)
@@ -170,8 +182,10 @@ class CorrespondenceRegistration(RegistrationMethod):
         self.descriptor = descriptor or LPS()
         self.layout = dictionary or DictionaryLayout()
         if self.features != "fpfh" and self.features != self.descriptor.name:
-            raise ConfigError(f"method.features={features!r} but method.descriptor is {self.descriptor.name}; "
-                              f"select it with descriptor@method.descriptor={features}")
+            raise ConfigError(
+                f"method.features={features!r} but method.descriptor is {self.descriptor.name}; "
+                f"select it with descriptor@method.descriptor={features}"
+            )
         self.voxel_size = options.non_negative("method.voxel_size", voxel_size)
         self.fpfh_radius = options.positive("method.fpfh_radius", fpfh_radius)
         self.fpfh_max_nn = options.positive("method.fpfh_max_nn", fpfh_max_nn, integer=True)
@@ -186,7 +200,7 @@ class CorrespondenceRegistration(RegistrationMethod):
 
     @abstractmethod
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray | None, dict[str, Any]]:
-        """Estimate ``T_target_source`` (4, 4) for one pair; return it with JSON-able details,
+        """Estimate ``T_template_camera`` (4, 4) for one pair; return it with JSON-able details,
         or ``None`` when the pair cannot give an estimate (fewer than 3 correspondences)."""
 
     # -- the pipeline ---------------------------------------------------------------------------
@@ -202,8 +216,9 @@ class CorrespondenceRegistration(RegistrationMethod):
             return hit
         with_fpfh = self.features == "fpfh"
         direct = self.matching == "direct"
-        complete = _make_cloud(template.points, template.normals, self.voxel_size, self.fpfh_radius,
-                               self.fpfh_max_nn, with_fpfh and direct)
+        complete = _make_cloud(
+            template.points, template.normals, self.voxel_size, self.fpfh_radius, self.fpfh_max_nn, with_fpfh and direct
+        )
         if direct:
             parts = [(template.points, template.normals)]
         else:
@@ -214,17 +229,20 @@ class CorrespondenceRegistration(RegistrationMethod):
             k2 = 2 * self.num_keypoints
             up = np.asarray(template.up, dtype=np.float64)
             # the dictionary's keypoints and descriptors are the ones ours computes: one shared cache
-            described = (describe_clouds(self.descriptor, parts, up, k2) if direct
-                         else dictionary_features(self.descriptor, self.layout, template, k2))
-            targets = [_keypoint_cloud(kp[:c], nm[:c])
-                       for kp, nm, c in zip(described.keypoints, described.normals, described.counts)]
+            described = (
+                describe_clouds(self.descriptor, parts, up, k2)
+                if direct
+                else dictionary_features(self.descriptor, self.layout, template, k2)
+            )
+            targets = [
+                _keypoint_cloud(kp[:c], nm[:c])
+                for kp, nm, c in zip(described.keypoints, described.normals, described.counts)
+            ]
         elif direct:
             targets = [complete]
         else:
-            targets = [_make_cloud(p, n, self.voxel_size, self.fpfh_radius, self.fpfh_max_nn, True)
-                       for p, n in parts]
-        data = {"complete": complete, "tree": cKDTree(template.points), "targets": targets,
-                "described": described}
+            targets = [_make_cloud(p, n, self.voxel_size, self.fpfh_radius, self.fpfh_max_nn, True) for p, n in parts]
+        data = {"complete": complete, "tree": cKDTree(template.points), "targets": targets, "described": described}
         self._target_cache.put(key, data)
         return data
 
@@ -232,8 +250,9 @@ class CorrespondenceRegistration(RegistrationMethod):
         """The descriptor's keypoints of a cloud: ``k`` FPS keypoints of its voxel downsampling
         (as a :class:`Cloud`, same frame) and their descriptors (``up``: the up direction in that
         frame)."""
-        f = self.descriptor.keypoint_features(np.asarray(points, dtype=np.float64),
-                                              np.asarray(normals, dtype=np.float64), k, up)
+        f = self.descriptor.keypoint_features(
+            np.asarray(points, dtype=np.float64), np.asarray(normals, dtype=np.float64), k, up
+        )
         return _keypoint_cloud(f.keypoints, f.normals[f.indices]), f.features
 
     def _correspondences(self, source_desc: Any, described: DictionaryFeatures) -> list[np.ndarray]:
@@ -241,9 +260,11 @@ class CorrespondenceRegistration(RegistrationMethod):
         affinity (one batched affinity for all targets; a padded target's repeated keypoints are
         left out); row normalisation does not change the argmax, so the unnormalised affinity is
         used."""
-        A = self.descriptor.batched_affinity(source_desc, described.stacked)    # (m, n, 2n)
-        return [np.stack([np.arange(A.shape[1]), np.argmax(A[i][:, :c], axis=1)], axis=1).astype(np.int64)
-                for i, c in enumerate(described.counts)]
+        A = self.descriptor.batched_affinity(source_desc, described.stacked)  # (m, n, 2n)
+        return [
+            np.stack([np.arange(A.shape[1]), np.argmax(A[i][:, :c], axis=1)], axis=1).astype(np.int64)
+            for i, c in enumerate(described.counts)
+        ]
 
     def _refine(self, source: Cloud, complete: Cloud, T: np.ndarray) -> np.ndarray:
         from catpose.o3d import max_threads, o3d
@@ -251,8 +272,13 @@ class CorrespondenceRegistration(RegistrationMethod):
         reg = o3d.pipelines.registration
         with max_threads(1):  # Open3D's parallel ICP sums differ in the last digits run to run
             result = reg.registration_icp(
-                source.pcd, complete.pcd, self.icp_max_distance, T, reg.TransformationEstimationPointToPlane(),
-                reg.ICPConvergenceCriteria(max_iteration=self.icp_max_iterations))
+                source.pcd,
+                complete.pcd,
+                self.icp_max_distance,
+                T,
+                reg.TransformationEstimationPointToPlane(),
+                reg.ICPConvergenceCriteria(max_iteration=self.icp_max_iterations),
+            )
         return np.asarray(result.transformation).copy()
 
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
@@ -265,14 +291,26 @@ class CorrespondenceRegistration(RegistrationMethod):
 
         t_start = time.perf_counter()
         data = self._targets(problem.template)
-        source = _make_cloud(problem.points_camera, problem.normals_camera, self.voxel_size, self.fpfh_radius,
-                             self.fpfh_max_nn, self.features == "fpfh")
+        source = _make_cloud(
+            problem.points_camera,
+            problem.normals_camera,
+            self.voxel_size,
+            self.fpfh_radius,
+            self.fpfh_max_nn,
+            self.features == "fpfh",
+        )
         keypoint_features = self.features != "fpfh"
         if keypoint_features:
-            source_kp, source_desc = self._keypoints(problem.points_camera, problem.normals_camera,
-                                                     problem.ground_normal_camera, self.num_keypoints)
-        stages = {"prepare_s": time.perf_counter() - t_start, "match_s": 0.0, "estimate_s": 0.0,
-                  "refine_s": 0.0, "select_s": 0.0}
+            source_kp, source_desc = self._keypoints(
+                problem.points_camera, problem.normals_camera, problem.ground_normal_camera, self.num_keypoints
+            )
+        stages = {
+            "prepare_s": time.perf_counter() - t_start,
+            "match_s": 0.0,
+            "estimate_s": 0.0,
+            "refine_s": 0.0,
+            "select_s": 0.0,
+        }
         candidates = []
         t0 = time.perf_counter()
         pairs = self._correspondences(source_desc, data["described"]) if keypoint_features else None
@@ -292,7 +330,9 @@ class CorrespondenceRegistration(RegistrationMethod):
                 T = self._refine(source, data["complete"], T)
             t3 = time.perf_counter()
             # an estimator without an estimate (too few correspondences) cannot be selected
-            cd = float("inf") if T is None else one_directional_chamfer(transform_points(T, source.points), data["tree"])
+            cd = (
+                float("inf") if T is None else one_directional_chamfer(transform_points(T, source.points), data["tree"])
+            )
             stages["match_s"] += t1 - t0
             stages["estimate_s"] += t2 - t1
             stages["refine_s"] += t3 - t2
@@ -302,13 +342,26 @@ class CorrespondenceRegistration(RegistrationMethod):
         cd, T, info = candidates[best]
         if T is None:
             why = next((c[2]["no_pose_reason"] for c in candidates if c[2].get("no_pose_reason")), None)
-            raise InvalidInputError(f"sample {problem.sample_id}: no pose from any of {len(candidates)} targets: "
-                                    + (why or f"no {self.features} correspondence set of 3 or more"))
-        extras = {"matching": self.matching, "features": self.features, "chosen_index": best,
-                  "num_candidates": len(candidates), "candidate_chamfer": [float(c[0]) for c in candidates],
-                  "num_source_points": int(len(source.points)), **stages,
-                  "total_s": time.perf_counter() - t_start, **info}
+            raise InvalidInputError(
+                f"sample {problem.sample_id}: no pose from any of {len(candidates)} targets: "
+                + (why or f"no {self.features} correspondence set of 3 or more")
+            )
+        extras = {
+            "matching": self.matching,
+            "features": self.features,
+            "chosen_index": best,
+            "num_candidates": len(candidates),
+            "candidate_chamfer": [float(c[0]) for c in candidates],
+            "num_source_points": int(len(source.points)),
+            **stages,
+            "total_s": time.perf_counter() - t_start,
+            **info,
+        }
         posed = [(c[0], c[1]) for c in candidates if c[1] is not None]
-        return RegistrationResult(T_target_source=T, score=cd, extras=extras,
-                                  candidates_T=np.stack([np.asarray(t, float) for _, t in posed]),
-                                  candidate_scores=np.array([s for s, _ in posed], dtype=float))
+        return RegistrationResult(
+            T_template_camera=T,
+            score=cd,
+            extras=extras,
+            candidates_T=np.stack([np.asarray(t, float) for _, t in posed]),
+            candidate_scores=np.array([s for s, _ in posed], dtype=float),
+        )

@@ -14,7 +14,7 @@ render the template at that pose into the camera and compare, pixel by pixel, th
 
 The score is the summed cost divided by the mask's pixel count (lower is better; 0 = every mask
 pixel explained within noise and no free space violated). Unlike the visibility-aware Chamfer
-(:func:`catpose.methods.selection.visibility_chamfer`), a side of the template that another
+(:func:`catpose.methods.pose_scores.visibility_chamfer`), a side of the template that another
 object hides is not held against the pose.
 
 Cost is kept small by scoring on a lattice of pixels (every ``stride``-th row and column, the
@@ -60,11 +60,11 @@ class _Lattice:
     """The scored pixels: every ``stride``-th row and column of the image."""
 
     stride: int
-    rows: np.ndarray        # (Hs,) image rows of the lattice
-    cols: np.ndarray        # (Ws,) image columns
-    depth: np.ndarray       # (Hs, Ws) observed depth
-    mask: np.ndarray        # (Hs, Ws) object mask
-    dirs: np.ndarray        # (Hs, Ws, 3) camera-frame rays with z = 1
+    rows: np.ndarray  # (Hs,) image rows of the lattice
+    cols: np.ndarray  # (Ws,) image columns
+    depth: np.ndarray  # (Hs, Ws) observed depth
+    mask: np.ndarray  # (Hs, Ws) object mask
+    dirs: np.ndarray  # (Hs, Ws, 3) camera-frame rays with z = 1
 
 
 class DepthVerifier:
@@ -80,8 +80,15 @@ class DepthVerifier:
         free_weight: cost of one free-space violation relative to one unexplained mask pixel.
     """
 
-    def __init__(self, template: Template, image: DepthImage, tau: float = 0.1, target_pixels: int = 300,
-                 max_rays: int = 2500, free_weight: float = 1.0) -> None:
+    def __init__(
+        self,
+        template: Template,
+        image: DepthImage,
+        tau: float = 0.1,
+        target_pixels: int = 300,
+        max_rays: int = 2500,
+        free_weight: float = 1.0,
+    ) -> None:
         self.caster, self.radius = caster_for(template)
         self.image = image
         self.tau = float(tau)
@@ -104,8 +111,9 @@ class DepthVerifier:
         rows, cols = np.arange(0, h, stride), np.arange(0, w, stride)
         rr, cc = np.meshgrid(rows, cols, indexing="ij")
         dirs = np.stack([(cc - self.cx) / self.fx, (rr - self.cy) / self.fy, np.ones(rr.shape)], axis=-1)
-        return _Lattice(stride, rows, cols, self.image.depth[np.ix_(rows, cols)], self.image.mask[np.ix_(rows, cols)],
-                        dirs)
+        return _Lattice(
+            stride, rows, cols, self.image.depth[np.ix_(rows, cols)], self.image.mask[np.ix_(rows, cols)], dirs
+        )
 
     @property
     def mask_pixels(self) -> int:
@@ -119,7 +127,7 @@ class DepthVerifier:
         out: list[tuple[slice, slice] | None] = []
         for T in np.asarray(T_template_camera, dtype=np.float64).reshape(-1, 4, 4):
             R, t = T[:3, :3], T[:3, 3]
-            c = -(R.T @ t)                                  # template origin in the camera frame
+            c = -(R.T @ t)  # template origin in the camera frame
             if c[2] <= 1.05 * self.radius:
                 out.append(None)
                 continue
@@ -143,7 +151,7 @@ class DepthVerifier:
         for i in new[-RENDERS_KEPT:]:
             self._renders[keys[i]] = cast[i]
         while len(self._renders) > RENDERS_KEPT:
-            del self._renders[next(iter(self._renders))]   # the oldest first
+            del self._renders[next(iter(self._renders))]  # the oldest first
         return out
 
     def _cast(self, T_all: np.ndarray) -> list[tuple[tuple[slice, slice] | None, np.ndarray]]:
@@ -155,7 +163,7 @@ class DepthVerifier:
                 sizes.append(0)
                 continue
             d = self.lattice.dirs[win].reshape(-1, 3)
-            dirs.append(d @ T[:3, :3].T)                    # ray directions in the template frame
+            dirs.append(d @ T[:3, :3].T)  # ray directions in the template frame
             origins.append(np.broadcast_to(T[:3, 3], d.shape))  # the camera centre in the template frame
             sizes.append(len(d))
         s = self.caster.cast(np.concatenate(origins), np.concatenate(dirs)) if origins else np.zeros(0)
@@ -164,7 +172,7 @@ class DepthVerifier:
             if win is None:
                 out.append((None, np.zeros(0)))
                 continue
-            part = s[k:k + n]
+            part = s[k : k + n]
             k += n
             shape = self.lattice.depth[win].shape
             out.append((win, np.where(np.isfinite(part) & (part > 0), part, 0.0).reshape(shape)))
@@ -182,7 +190,7 @@ class DepthVerifier:
             o, m = L.depth[win], L.mask[win]
             hit = r > 0
             mask_cost = np.where(hit, np.minimum(np.abs(r - o), self.tau) / self.tau, 1.0)[m].sum()
-            mask_cost += self.mask_pixels - int(m.sum())     # mask pixels outside the window: unexplained
+            mask_cost += self.mask_pixels - int(m.sum())  # mask pixels outside the window: unexplained
             free = (~m & hit & (o > 0) & (o - r > self.tau)).sum()
             out.append((mask_cost + self.free_weight * free) / n_mask)
         return np.asarray(out, dtype=np.float64)

@@ -57,8 +57,9 @@ class Descriptor(ABC):
     name: str = ""
     voxel_size: float = 0.0
 
-    def keypoint_features(self, points: np.ndarray, normals: np.ndarray, num_keypoints: int, up: np.ndarray,
-                          pad: bool = False) -> KeypointFeatures:
+    def keypoint_features(
+        self, points: np.ndarray, normals: np.ndarray, num_keypoints: int, up: np.ndarray, pad: bool = False
+    ) -> KeypointFeatures:
         """Downsample, pick ``num_keypoints`` keypoints (FPS from index 0) and describe them.
 
         Args:
@@ -151,9 +152,14 @@ class LPS(Descriptor):
         from catpose.methods.lps import VoxelPatches
 
         # Fortran order: fscore_voxel multiplies by the transposes, which are then C-contiguous
-        return (len(sets), VoxelPatches(np.asfortranarray(np.concatenate([s.counts for s in sets])),
-                                        np.asfortranarray(np.concatenate([s.dilated for s in sets])),
-                                        np.concatenate([s.n for s in sets])))
+        return (
+            len(sets),
+            VoxelPatches(
+                np.asfortranarray(np.concatenate([s.counts for s in sets])),
+                np.asfortranarray(np.concatenate([s.dilated for s in sets])),
+                np.concatenate([s.n for s in sets]),
+            ),
+        )
 
     def batched_affinity(self, a, stacked) -> np.ndarray:
         if self.fscore == "exact":
@@ -161,7 +167,7 @@ class LPS(Descriptor):
         from catpose.methods.lps import fscore_voxel
 
         m, b = stacked
-        f = fscore_voxel(a, b, np.float32)                        # (Ka, m k), the grids' precision
+        f = fscore_voxel(a, b, np.float32)  # (Ka, m k), the grids' precision
         return f.reshape(len(f), m, -1).transpose(1, 0, 2)
 
 
@@ -196,8 +202,10 @@ class PFH(Descriptor):
             try:
                 import ot  # noqa: F401
             except ImportError:
-                raise ConfigError(f"{_KEY}distance='exact' needs POT (Python Optimal Transport): "
-                                  "pip install 'catpose[pfh]' (or pip install pot); or use distance=marginal") from None
+                raise ConfigError(
+                    f"{_KEY}distance='exact' needs POT (Python Optimal Transport): "
+                    "pip install 'catpose[pfh]' (or pip install pot); or use distance=marginal"
+                ) from None
 
     def describe(self, points, normals, kp_idx, up, tree):
         """(k, 125) histograms, each summing to 1 (``up`` is not used: PFH is rotation-invariant)."""
@@ -215,7 +223,7 @@ class PFH(Descriptor):
             return list(sets)
         from catpose.methods.pfh import marginal_cdfs
 
-        return len(sets), marginal_cdfs(np.concatenate(sets))     # (m k, 15)
+        return len(sets), marginal_cdfs(np.concatenate(sets))  # (m k, 15)
 
     def batched_affinity(self, a, stacked) -> np.ndarray:
         if self.distance == "exact":

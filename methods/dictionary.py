@@ -43,10 +43,16 @@ from catpose.types import Template
 _VERSION = "1"
 # process-wide, so ``ours`` and the dictionary baselines share it; an own-model run sees a new
 # template per instance
-_MEMORY: LRUCache[str, "PartialDictionary"] = LRUCache(32)
+_MEMORY: LRUCache[str, PartialDictionary] = LRUCache(32)
 
-__all__ = ["DictionaryLayout", "PartialDictionary", "clear_memory_cache", "get_dictionary", "viewpoint_layout",
-           "visible_indices"]
+__all__ = [
+    "DictionaryLayout",
+    "PartialDictionary",
+    "clear_memory_cache",
+    "get_dictionary",
+    "viewpoint_layout",
+    "visible_indices",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,9 +80,12 @@ class PartialDictionary:
         return len(self.indices)
 
 
-def viewpoint_layout(num_views: int = 18, layout: str = "rings",
-                     elevations_deg: tuple[float, ...] = (0.0, 30.0, 60.0),
-                     distance: float = 3.0) -> np.ndarray:
+def viewpoint_layout(
+    num_views: int = 18,
+    layout: str = "rings",
+    elevations_deg: tuple[float, ...] = (0.0, 30.0, 60.0),
+    distance: float = 3.0,
+) -> np.ndarray:
     """Camera positions (num_views, 3) around the template origin, template frame (z up).
 
     ``rings``: ``len(elevations_deg)`` rings (degrees above the xy plane), each with
@@ -88,8 +97,10 @@ def viewpoint_layout(num_views: int = 18, layout: str = "rings",
     if layout == "rings":
         rings = len(elevations_deg)
         if rings == 0 or num_views % rings:
-            raise ConfigError(f"method.dictionary.num_views={num_views} is not a multiple of the "
-                              f"{rings} elevation rings {list(elevations_deg)}; change one of them")
+            raise ConfigError(
+                f"method.dictionary.num_views={num_views} is not a multiple of the "
+                f"{rings} elevation rings {list(elevations_deg)}; change one of them"
+            )
         per = num_views // rings
         out = []
         for j, el in enumerate(elevations_deg):
@@ -103,7 +114,7 @@ def viewpoint_layout(num_views: int = 18, layout: str = "rings",
         i = np.arange(num_views) + 0.5
         z = 1 - 2 * i / num_views
         r = np.sqrt(1 - z * z)
-        phi = np.pi * (1 + 5 ** 0.5) * i
+        phi = np.pi * (1 + 5**0.5) * i
         dirs = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
     else:
         raise ConfigError(f"method.dictionary.layout={layout!r} is unknown; use 'rings' or 'fibonacci'")
@@ -116,18 +127,38 @@ def cache_dir() -> Path:
     return Path(env) if env else Path.home() / ".cache" / "catpose"
 
 
-def dictionary_key(template: Template, num_views: int, layout: str, elevations_deg: tuple[float, ...],
-                   distance: float, hpr_radius_factor: float) -> str:
+def dictionary_key(
+    template: Template,
+    num_views: int,
+    layout: str,
+    elevations_deg: tuple[float, ...],
+    distance: float,
+    hpr_radius_factor: float,
+) -> str:
     """Cache key: safe template id + blake2b of the template points and every parameter."""
-    params = repr((_VERSION, num_views, layout, tuple(float(e) for e in elevations_deg),
-                   float(distance), float(hpr_radius_factor)))
+    params = repr(
+        (
+            _VERSION,
+            num_views,
+            layout,
+            tuple(float(e) for e in elevations_deg),
+            float(distance),
+            float(hpr_radius_factor),
+        )
+    )
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", template.template_id)[-80:]
     return f"{safe}-{content_hash(template.points, template.normals, extra=params, digest_size=10)}"
 
 
-def get_dictionary(template: Template, num_views: int = 18, layout: str = "rings",
-                   elevations_deg: tuple[float, ...] = (0.0, 30.0, 60.0), distance: float = 3.0,
-                   hpr_radius_factor: float = 100.0, use_disk_cache: bool = True) -> PartialDictionary:
+def get_dictionary(
+    template: Template,
+    num_views: int = 18,
+    layout: str = "rings",
+    elevations_deg: tuple[float, ...] = (0.0, 30.0, 60.0),
+    distance: float = 3.0,
+    hpr_radius_factor: float = 100.0,
+    use_disk_cache: bool = True,
+) -> PartialDictionary:
     """The partial-template dictionary of ``template``, built once and cached.
 
     Args:
@@ -155,7 +186,7 @@ def get_dictionary(template: Template, num_views: int = 18, layout: str = "rings
         try:
             with np.load(path) as z:
                 flat, offsets = z["indices"], z["offsets"]
-            indices = [flat[offsets[i]:offsets[i + 1]].astype(np.int64) for i in range(num_views)]
+            indices = [flat[offsets[i] : offsets[i + 1]].astype(np.int64) for i in range(num_views)]
             if len(indices) != num_views or any(len(i) and i.max() >= len(template.points) for i in indices):
                 indices = None
         except Exception:  # a corrupt cache file is rebuilt, never fatal
@@ -172,8 +203,13 @@ def get_dictionary(template: Template, num_views: int = 18, layout: str = "rings
             except OSError:  # a read-only cache folder only costs the rebuild next time
                 pass
     d = PartialDictionary(
-        template_id=template.template_id, key=key, viewpoints=viewpoints, indices=indices,
-        points=[template.points[i] for i in indices], normals=[template.normals[i] for i in indices])
+        template_id=template.template_id,
+        key=key,
+        viewpoints=viewpoints,
+        indices=indices,
+        points=[template.points[i] for i in indices],
+        normals=[template.normals[i] for i in indices],
+    )
     _MEMORY.put(key, d)
     return d
 
@@ -230,5 +266,6 @@ class DictionaryLayout:
 
     def dictionary(self, template: Template) -> PartialDictionary:
         """The partial-template dictionary of ``template`` (cached in memory and on disk)."""
-        return get_dictionary(template, self.num_views, self.layout, self.elevations_deg, self.view_distance,
-                              self.hpr_radius_factor)
+        return get_dictionary(
+            template, self.num_views, self.layout, self.elevations_deg, self.view_distance, self.hpr_radius_factor
+        )

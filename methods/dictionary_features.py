@@ -10,8 +10,9 @@ an entry exactly when they would compute the same thing.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -24,7 +25,7 @@ from catpose.types import Template
 #: turn a template into up to four (methods/resting_hypotheses.py), each with its own entry
 CACHE_SIZE = 32
 
-_CACHE: LRUCache[tuple, "DictionaryFeatures"] = LRUCache(CACHE_SIZE)
+_CACHE: LRUCache[tuple, DictionaryFeatures] = LRUCache(CACHE_SIZE)
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,28 +48,33 @@ class DictionaryFeatures:
     stacked: Any
 
 
-def describe_clouds(descriptor: Descriptor, clouds: Sequence[tuple[np.ndarray, np.ndarray]], up: np.ndarray,
-                    num_keypoints: int) -> DictionaryFeatures:
+def describe_clouds(
+    descriptor: Descriptor, clouds: Sequence[tuple[np.ndarray, np.ndarray]], up: np.ndarray, num_keypoints: int
+) -> DictionaryFeatures:
     """:class:`DictionaryFeatures` of ``clouds`` ((points (N, 3), normals (N, 3)) pairs, one frame with
     up direction ``up``), ``num_keypoints`` keypoints each; not cached."""
     parts = [descriptor.keypoint_features(p, n, num_keypoints, up, pad=True) for p, n in clouds]
     counts = np.array([len(np.unique(f.indices)) for f in parts], dtype=np.int64)
-    return DictionaryFeatures(np.stack([f.keypoints for f in parts]),
-                              np.stack([f.normals[f.indices] for f in parts]), counts,
-                              descriptor.stack([f.features for f in parts]))
+    return DictionaryFeatures(
+        np.stack([f.keypoints for f in parts]),
+        np.stack([f.normals[f.indices] for f in parts]),
+        counts,
+        descriptor.stack([f.features for f in parts]),
+    )
 
 
-def dictionary_features(descriptor: Descriptor, layout: DictionaryLayout, template: Template,
-                        num_keypoints: int) -> DictionaryFeatures:
+def dictionary_features(
+    descriptor: Descriptor, layout: DictionaryLayout, template: Template, num_keypoints: int
+) -> DictionaryFeatures:
     """The partial templates of ``template`` under ``layout`` described by ``descriptor`` with
     ``num_keypoints`` keypoints each (template frame, ``template.up`` as up), from the shared
     cache or computed and cached."""
     dictionary = layout.dictionary(template)
     up = np.asarray(template.up, dtype=np.float64)
     key = (dictionary.key, tuple(np.round(up, 12)), descriptor.cache_key(), int(num_keypoints))
-    return _CACHE.get_or_build(key, lambda: describe_clouds(descriptor, list(zip(dictionary.points,
-                                                                                 dictionary.normals)),
-                                                             up, num_keypoints))
+    return _CACHE.get_or_build(
+        key, lambda: describe_clouds(descriptor, list(zip(dictionary.points, dictionary.normals)), up, num_keypoints)
+    )
 
 
 def clear() -> None:

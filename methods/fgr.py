@@ -35,23 +35,37 @@ class FGR(CorrespondenceRegistration):
         **pipeline: :class:`CorrespondenceRegistration` arguments (matching, features, ...).
     """
 
-    def __init__(self, division_factor: float = 1.4, decrease_mu: bool = True,
-                 maximum_correspondence_distance: float = 0.025, iteration_number: int = 64,
-                 tuple_scale: float = 0.95, maximum_tuple_count: int = 1000, tuple_test: bool = True,
-                 **pipeline: Any) -> None:
+    def __init__(
+        self,
+        division_factor: float = 1.4,
+        decrease_mu: bool = True,
+        maximum_correspondence_distance: float = 0.025,
+        iteration_number: int = 64,
+        tuple_scale: float = 0.95,
+        maximum_tuple_count: int = 1000,
+        tuple_test: bool = True,
+        **pipeline: Any,
+    ) -> None:
         super().__init__(**pipeline)
         if not division_factor > 1:
             raise ConfigError(f"fgr division_factor={division_factor} must be > 1 (e.g. 1.4)")
         if not maximum_correspondence_distance > 0:
             raise ConfigError(f"fgr maximum_correspondence_distance={maximum_correspondence_distance} must be > 0")
         if not 0 < tuple_scale < 1 or iteration_number < 1 or maximum_tuple_count < 1:
-            raise ConfigError(f"fgr tuple_scale={tuple_scale} must be in (0, 1) and iteration_number="
-                              f"{iteration_number}, maximum_tuple_count={maximum_tuple_count} >= 1")
-        self.option_kwargs = dict(division_factor=float(division_factor), use_absolute_scale=False,
-                                  decrease_mu=bool(decrease_mu),
-                                  maximum_correspondence_distance=float(maximum_correspondence_distance),
-                                  iteration_number=int(iteration_number), tuple_scale=float(tuple_scale),
-                                  maximum_tuple_count=int(maximum_tuple_count), tuple_test=bool(tuple_test))
+            raise ConfigError(
+                f"fgr tuple_scale={tuple_scale} must be in (0, 1) and iteration_number="
+                f"{iteration_number}, maximum_tuple_count={maximum_tuple_count} >= 1"
+            )
+        self.option_kwargs = dict(
+            division_factor=float(division_factor),
+            use_absolute_scale=False,
+            decrease_mu=bool(decrease_mu),
+            maximum_correspondence_distance=float(maximum_correspondence_distance),
+            iteration_number=int(iteration_number),
+            tuple_scale=float(tuple_scale),
+            maximum_tuple_count=int(maximum_tuple_count),
+            tuple_test=bool(tuple_test),
+        )
 
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
         from catpose.o3d import o3d
@@ -60,10 +74,15 @@ class FGR(CorrespondenceRegistration):
         option = reg.FastGlobalRegistrationOption(**self.option_kwargs)
         if match.correspondences is None:
             result = reg.registration_fgr_based_on_feature_matching(
-                match.source.pcd, match.target.pcd, match.source.feature, match.target.feature, option)
+                match.source.pcd, match.target.pcd, match.source.feature, match.target.feature, option
+            )
         else:
             result = reg.registration_fgr_based_on_correspondence(
-                match.source.pcd, match.target.pcd, o3d.utility.Vector2iVector(match.correspondences), option)
-        info = {"num_correspondences": int(len(match.correspondences)) if match.correspondences is not None
-                else int(len(match.source.points))}
+                match.source.pcd, match.target.pcd, o3d.utility.Vector2iVector(match.correspondences), option
+            )
+        info = {
+            "num_correspondences": int(len(match.correspondences))
+            if match.correspondences is not None
+            else int(len(match.source.points))
+        }
         return np.asarray(result.transformation).copy(), info

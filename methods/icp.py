@@ -19,13 +19,14 @@ from catpose.content_hash import template_key
 from catpose.errors import ConfigError
 from catpose.geometry import make_T, quat_to_R
 from catpose.lru import LRUCache
-from catpose.methods.base import RegistrationMethod
+from catpose.methods.method import RegistrationMethod
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
 
 @lru_cache(maxsize=8)
-def so3_partition_centres(num_cells: int = 20, num_samples: int = 20000, iterations: int = 30,
-                          seed: int = 0) -> np.ndarray:
+def so3_partition_centres(
+    num_cells: int = 20, num_samples: int = 20000, iterations: int = 30, seed: int = 0
+) -> np.ndarray:
     """Centres (num_cells, 3, 3) of a k-means partition of SO(3) into ``num_cells`` cells.
 
     Rotations are unit quaternions with q ~ -q; the similarity is |<q, c>| (the rotation angle
@@ -63,16 +64,30 @@ class ICP(RegistrationMethod):
             choice between two near-equal starts), None leaves Open3D's default.
     """
 
-    def __init__(self, num_starts: int = 20, voxel_size: float = 0.03,
-                 max_correspondence_distances: tuple[float, ...] = (0.4, 0.1), max_iterations: int = 30, estimation: str = "point_to_plane", center_source: bool = True,
-                 num_threads: int | None = 1) -> None:
+    def __init__(
+        self,
+        num_starts: int = 20,
+        voxel_size: float = 0.03,
+        max_correspondence_distances: tuple[float, ...] = (0.4, 0.1),
+        max_iterations: int = 30,
+        estimation: str = "point_to_plane",
+        center_source: bool = True,
+        num_threads: int | None = 1,
+    ) -> None:
         if estimation not in ("point_to_plane", "point_to_point"):
             raise ConfigError(f"icp: estimation={estimation!r}; use point_to_plane or point_to_point")
-        distances = [float(d) for d in (max_correspondence_distances if isinstance(
-            max_correspondence_distances, (list, tuple)) else [max_correspondence_distances])]
+        distances = [
+            float(d)
+            for d in (
+                max_correspondence_distances
+                if isinstance(max_correspondence_distances, (list, tuple))
+                else [max_correspondence_distances]
+            )
+        ]
         if num_starts < 1 or not distances or min(distances) <= 0 or max_iterations < 1 or voxel_size < 0:
-            raise ConfigError("icp: num_starts, max_iterations and max_correspondence_distances must be positive "
-                              "and voxel_size >= 0")
+            raise ConfigError(
+                "icp: num_starts, max_iterations and max_correspondence_distances must be positive and voxel_size >= 0"
+            )
         self.num_starts = int(num_starts)
         self.voxel_size = float(voxel_size)
         self.max_correspondence_distances = distances
@@ -95,8 +110,9 @@ class ICP(RegistrationMethod):
     def _target(self, template: Template):
         # the template cloud is downsampled once, not once per sample; ids alone can repeat
         # across datasets (synthetic ids do not name the seed), so the key hashes the content
-        return self._targets.get_or_build(template_key(template),
-                                          lambda: self._cloud(template.points, template.normals))
+        return self._targets.get_or_build(
+            template_key(template), lambda: self._cloud(template.points, template.normals)
+        )
 
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
         from catpose.o3d import max_threads, o3d
@@ -106,8 +122,11 @@ class ICP(RegistrationMethod):
         target = self._target(problem.template)
         c_src = np.asarray(source.points).mean(axis=0) if self.center_source else np.zeros(3)
         c_tgt = np.asarray(target.points).mean(axis=0) if self.center_source else np.zeros(3)
-        estimation = (reg.TransformationEstimationPointToPlane() if self.estimation == "point_to_plane"
-                      else reg.TransformationEstimationPointToPoint())
+        estimation = (
+            reg.TransformationEstimationPointToPlane()
+            if self.estimation == "point_to_plane"
+            else reg.TransformationEstimationPointToPoint()
+        )
         criteria = reg.ICPConvergenceCriteria(max_iteration=self.max_iterations)
         starts = []
         for R in so3_partition_centres(self.num_starts):
@@ -122,7 +141,15 @@ class ICP(RegistrationMethod):
         # score (lower is better, compared across templates): the fraction of input points
         # left without a template point within the correspondence distance
         return RegistrationResult(
-            T_target_source=T, score=1.0 - fitness,
-            extras={"fitness": fitness, "inlier_rmse": rmse, "start_index": best,
-                    "starts_fitness": [s[0] for s in starts], "starts_rmse": [s[1] for s in starts]},
-            candidates_T=np.stack([s[2] for s in starts]), candidate_scores=np.array([1.0 - s[0] for s in starts]))
+            T_template_camera=T,
+            score=1.0 - fitness,
+            extras={
+                "fitness": fitness,
+                "inlier_rmse": rmse,
+                "start_index": best,
+                "starts_fitness": [s[0] for s in starts],
+                "starts_rmse": [s[1] for s in starts],
+            },
+            candidates_T=np.stack([s[2] for s in starts]),
+            candidate_scores=np.array([1.0 - s[0] for s in starts]),
+        )

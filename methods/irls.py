@@ -73,7 +73,7 @@ def _distances(P, Q, R, t):
     """d (B, n, 2n) between R p_j + t and q_k, with P (B, n, 3), Q (B, 2n, 3), R (B, 3, 3), t (B, 3)."""
     import torch
 
-    x = torch.baddbmm(t[:, None, :], P, R.transpose(1, 2))                # (B, n, 3)
+    x = torch.baddbmm(t[:, None, :], P, R.transpose(1, 2))  # (B, n, 3)
     return torch.cdist(x, Q, compute_mode="donot_use_mm_for_euclid_dist")
 
 
@@ -86,10 +86,10 @@ def weighted_kabsch(P, Q, W):
     """
     import torch
 
-    w = W.sum(2)                                                           # (B, n)
-    qbar = torch.bmm(W, Q) / w.clamp_min(1e-30)[..., None]                 # (B, n, 3)
+    w = W.sum(2)  # (B, n)
+    qbar = torch.bmm(W, Q) / w.clamp_min(1e-30)[..., None]  # (B, n, 3)
     omega = w / w.sum(1, keepdim=True).clamp_min(1e-30)
-    mp = (omega[..., None] * P).sum(1)                                     # (B, 3)
+    mp = (omega[..., None] * P).sum(1)  # (B, 3)
     mq = (omega[..., None] * qbar).sum(1)
     H = torch.bmm((P - mp[:, None]).transpose(1, 2), omega[..., None] * (qbar - mq[:, None]))
     U, S, Vt = torch.linalg.svd(H)
@@ -108,8 +108,17 @@ def weighted_kabsch(P, Q, W):
     return R, t
 
 
-def solve(P, Q, A, R0, t0, stages: tuple[str, ...] = ("pose", "joint"), beta: float = 10.0,
-          max_iter: int = 50, tol: float = 1e-6) -> IRLSResult:
+def solve(
+    P,
+    Q,
+    A,
+    R0,
+    t0,
+    stages: tuple[str, ...] = ("pose", "joint"),
+    beta: float = 10.0,
+    max_iter: int = 50,
+    tol: float = 1e-6,
+) -> IRLSResult:
     """Run the stages in order on a batch of candidates (tensors on one device, one dtype).
 
     Args:
@@ -162,10 +171,19 @@ def solve(P, Q, A, R0, t0, stages: tuple[str, ...] = ("pose", "joint"), beta: fl
     return IRLSResult(R, t, loss, C, iters)
 
 
-def solve_numpy(P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray, stages: tuple[str, ...],
-                beta: float = 10.0, max_iter: int = 50, tol: float = 1e-6, device: str = "cpu",
-                dtype: str = "float64", compiled: bool | None = None
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def solve_numpy(
+    P_c: np.ndarray,
+    P_t: np.ndarray,
+    A: np.ndarray,
+    T0: np.ndarray,
+    stages: tuple[str, ...],
+    beta: float = 10.0,
+    max_iter: int = 50,
+    tol: float = 1e-6,
+    device: str = "cpu",
+    dtype: str = "float64",
+    compiled: bool | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`solve` for one problem's ``m`` candidates from NumPy arrays.
 
     Args:
@@ -191,10 +209,17 @@ def solve_numpy(P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray,
         R = np.ascontiguousarray(T0[:, :3, :3], dtype=np.float64).copy()
         t = np.ascontiguousarray(T0[:, :3, 3], dtype=np.float64).copy()
         codes = np.array([_STAGE_CODES[s] for s in stages], dtype=np.int64)
-        loss, C, iters = kernel.solve(np.ascontiguousarray(P_c, dtype=np.float64),
-                                      np.ascontiguousarray(P_t, dtype=np.float64),
-                                      np.ascontiguousarray(A, dtype=np.float64), R, t, codes,
-                                      float(beta), int(max_iter), float(tol))
+        loss, C, iters = kernel.solve(
+            np.ascontiguousarray(P_c, dtype=np.float64),
+            np.ascontiguousarray(P_t, dtype=np.float64),
+            np.ascontiguousarray(A, dtype=np.float64),
+            R,
+            t,
+            codes,
+            float(beta),
+            int(max_iter),
+            float(tol),
+        )
         U, _, Vt = np.linalg.svd(R)
         T = np.tile(np.eye(4), (len(R), 1, 1))
         T[:, :3, :3], T[:, :3, 3] = U @ Vt, t
@@ -209,8 +234,12 @@ def solve_numpy(P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray,
     m = len(P_t)
     P = tens(P_c)[None].expand(m, -1, -1)
     res = solve(P, tens(P_t), tens(A), tens(T0[:, :3, :3]), tens(T0[:, :3, 3]), stages, beta, max_iter, tol)
-    return (to_poses(res.R, res.t), res.loss.double().cpu().numpy() / len(P_c),
-            res.C.double().cpu().numpy(), res.iterations.cpu().numpy())
+    return (
+        to_poses(res.R, res.t),
+        res.loss.double().cpu().numpy() / len(P_c),
+        res.C.double().cpu().numpy(),
+        res.iterations.cpu().numpy(),
+    )
 
 
 def _kernel():
@@ -222,9 +251,15 @@ def _kernel():
     return irls_kernel
 
 
-def solve_many(problems: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]], stages: tuple[str, ...],
-               beta: float = 10.0, max_iter: int = 50, tol: float = 1e-6, device: str = "cpu",
-               dtype: str = "float64") -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+def solve_many(
+    problems: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+    stages: tuple[str, ...],
+    beta: float = 10.0,
+    max_iter: int = 50,
+    tol: float = 1e-6,
+    device: str = "cpu",
+    dtype: str = "float64",
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
     """:func:`solve_numpy` for several problems in one launch per shape: the candidates of all
     problems with the same (m, n) are stacked into one batch (the GPU path; on the CPU it is the
     same code). Each candidate converges and freezes on its own, so every problem gets the answer
@@ -245,11 +280,20 @@ def solve_many(problems: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarr
         groups.setdefault((len(P_c),) + tuple(P_t.shape), []).append(i)
     out: list = [None] * len(problems)
     for idx in groups.values():
-        P = np.concatenate([np.broadcast_to(problems[i][0], (len(problems[i][1]),) + problems[i][0].shape)
-                            for i in idx])
+        P = np.concatenate(
+            [np.broadcast_to(problems[i][0], (len(problems[i][1]),) + problems[i][0].shape) for i in idx]
+        )
         Q, A, T0 = (np.concatenate([problems[i][k] for i in idx]) for k in (1, 2, 3))
-        res = solve(*(torch.as_tensor(np.ascontiguousarray(a), dtype=dt, device=dev)
-                      for a in (P, Q, A, T0[:, :3, :3], T0[:, :3, 3])), stages, beta, max_iter, tol)
+        res = solve(
+            *(
+                torch.as_tensor(np.ascontiguousarray(a), dtype=dt, device=dev)
+                for a in (P, Q, A, T0[:, :3, :3], T0[:, :3, 3])
+            ),
+            stages,
+            beta,
+            max_iter,
+            tol,
+        )
         T, loss = to_poses(res.R, res.t), res.loss.double().cpu().numpy()
         C, iters = res.C.double().cpu().numpy(), res.iterations.cpu().numpy()
         start = 0

@@ -47,8 +47,15 @@ class Patches:
     frames: np.ndarray
 
 
-def local_frames(points: np.ndarray, normals: np.ndarray, centres_idx: np.ndarray, ground_normal: np.ndarray,
-                 nb_idx: np.ndarray, nb_mask: np.ndarray, parallel_deg: float = 10.0) -> np.ndarray:
+def local_frames(
+    points: np.ndarray,
+    normals: np.ndarray,
+    centres_idx: np.ndarray,
+    ground_normal: np.ndarray,
+    nb_idx: np.ndarray,
+    nb_mask: np.ndarray,
+    parallel_deg: float = 10.0,
+) -> np.ndarray:
     """Local frames (K, 3, 3), columns (x, y, z), for keypoints ``points[centres_idx]``.
 
     Args:
@@ -82,8 +89,16 @@ def local_frames(points: np.ndarray, normals: np.ndarray, centres_idx: np.ndarra
     return np.stack([x, y, z], axis=2)
 
 
-def lps_patches(points: np.ndarray, normals: np.ndarray, centres_idx: np.ndarray, ground_normal: np.ndarray,
-                radius: float, max_points: int = 128, parallel_deg: float = 10.0, tree=None) -> Patches:
+def lps_patches(
+    points: np.ndarray,
+    normals: np.ndarray,
+    centres_idx: np.ndarray,
+    ground_normal: np.ndarray,
+    radius: float,
+    max_points: int = 128,
+    parallel_deg: float = 10.0,
+    tree=None,
+) -> Patches:
     """Crop and express the patches of keypoints ``points[centres_idx]`` in their local frames."""
     nb_idx, nb_mask = neighbourhoods(points, points[centres_idx], radius, max_points, tree)
     frames = local_frames(points, normals, centres_idx, ground_normal, nb_idx, nb_mask, parallel_deg)
@@ -106,7 +121,7 @@ def fscore_exact(a: Patches, b: Patches, tau: float) -> np.ndarray:
 
     Kb = len(b.points)
     pb = b.points[b.mask]
-    lb = np.nonzero(b.mask)[0]                     # patch label of every b point
+    lb = np.nonzero(b.mask)[0]  # patch label of every b point
     nb = np.maximum(b.mask.sum(1), 1).astype(np.float64)
     tb = cKDTree(pb)
     out = np.zeros((len(a.points), Kb))
@@ -120,7 +135,7 @@ def fscore_exact(a: Patches, b: Patches, tau: float) -> np.ndarray:
         if len(ia) == 0:
             continue
         hit_a = sparse.coo_matrix((np.ones(len(ia)), (ia, lb[jb])), shape=(len(pa), Kb)).tocsr()
-        hit_a.data[:] = 1.0                         # any match in that patch
+        hit_a.data[:] = 1.0  # any match in that patch
         prec = np.asarray(hit_a.sum(0)).ravel() / len(pa)
         matched_b = np.zeros(len(pb))
         matched_b[np.unique(jb)] = 1.0
@@ -147,14 +162,17 @@ def voxelize(p: Patches, radius: float, tau: float, subdiv: int = 1) -> VoxelPat
     cell = tau / subdiv
     G = int(np.ceil(2 * radius / cell))
     ijk = np.clip(np.floor((p.points + radius) / cell).astype(np.int64), 0, G - 1)
-    flat = (ijk[..., 0] * G + ijk[..., 1]) * G + ijk[..., 2] + (np.arange(len(p.points)) * G ** 3)[:, None]
-    counts = np.bincount(flat[p.mask], minlength=len(p.points) * G ** 3).reshape(len(p.points), G, G, G)
+    flat = (ijk[..., 0] * G + ijk[..., 1]) * G + ijk[..., 2] + (np.arange(len(p.points)) * G**3)[:, None]
+    counts = np.bincount(flat[p.mask], minlength=len(p.points) * G**3).reshape(len(p.points), G, G, G)
     r = np.arange(-subdiv, subdiv + 1)
-    ball = (r[:, None, None] ** 2 + r[None, :, None] ** 2 + r[None, None, :] ** 2) <= subdiv ** 2 + 1e-9
+    ball = (r[:, None, None] ** 2 + r[None, :, None] ** 2 + r[None, None, :] ** 2) <= subdiv**2 + 1e-9
     dil = binary_dilation(counts > 0, structure=ball[None])
     K = len(p.points)
-    return VoxelPatches(counts=counts.reshape(K, -1).astype(np.float32),
-                        dilated=dil.reshape(K, -1).astype(np.float32), n=p.mask.sum(1).astype(np.float32))
+    return VoxelPatches(
+        counts=counts.reshape(K, -1).astype(np.float32),
+        dilated=dil.reshape(K, -1).astype(np.float32),
+        n=p.mask.sum(1).astype(np.float32),
+    )
 
 
 def fscore_voxel(a: VoxelPatches, b: VoxelPatches, dtype: type = np.float64) -> np.ndarray:

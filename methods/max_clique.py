@@ -62,8 +62,8 @@ def _greedy_clique(adj, nbr, starts):
         for w in range(nbr.shape[1]):
             deg[u] += _popcount(nbr[u, w])
     best = np.empty(0, dtype=np.int64)
-    cl = np.empty(n, dtype=np.int64)     # candidates (common neighbours), ascending
-    cdeg = np.empty(n, dtype=np.int64)   # candidate neighbours of each candidate
+    cl = np.empty(n, dtype=np.int64)  # candidates (common neighbours), ascending
+    cdeg = np.empty(n, dtype=np.int64)  # candidate neighbours of each candidate
     gone = np.empty(n, dtype=np.int64)
     for s in starts:
         if deg[s] + 1 <= len(best):  # cannot beat the best so far (nor can any later start)
@@ -227,8 +227,9 @@ def _bitsets(adj: np.ndarray) -> np.ndarray:
     return np.packbits(padded, axis=1, bitorder="little").view("<u8").astype(np.uint64)
 
 
-def max_clique(adj: np.ndarray, node_budget: int = 200_000,
-               time_budget_s: float | None = None) -> tuple[np.ndarray, bool]:
+def max_clique(
+    adj: np.ndarray, node_budget: int = 200_000, time_budget_s: float | None = None
+) -> tuple[np.ndarray, bool]:
     """Maximum clique of an undirected graph.
 
     Args:
@@ -285,8 +286,7 @@ def max_clique(adj: np.ndarray, node_budget: int = 200_000,
         node_stop = min(int(meta[2]) + _CHUNK_NODES, node_budget + 1)
         if _branch_and_bound(nbr, P, ordr, colr, pos, cur, best_local, meta, U, Q, node_stop) == 0:
             break
-        if meta[2] > node_budget or (time_budget_s is not None
-                                     and time.perf_counter() - t_start > time_budget_s):
+        if meta[2] > node_budget or (time_budget_s is not None and time.perf_counter() - t_start > time_budget_s):
             exact = False
             break
     return np.sort(local_to_global[best_local[: meta[1]]]), exact

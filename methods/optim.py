@@ -44,7 +44,7 @@ def _rot6d_backward(gR, cache):
 
     a2, n1, b1, nu, b2 = cache
     g1, g2, g3 = gR[:, :, 0], gR[:, :, 1], gR[:, :, 2]
-    g1 = g1 + torch.cross(b2, g3, dim=1)            # b3 = b1 x b2
+    g1 = g1 + torch.cross(b2, g3, dim=1)  # b3 = b1 x b2
     g2 = g2 + torch.cross(g3, b1, dim=1)
     gu = (g2 - (g2 * b2).sum(1, keepdim=True) * b2) / nu
     ga2 = gu - (gu * b1).sum(1, keepdim=True) * b1
@@ -102,8 +102,8 @@ class _Adam:
         self.k += 1
         self.m.mul_(b1).add_(g, alpha=1 - b1)
         self.v.mul_(b2).addcmul_(g, g, value=1 - b2)
-        denom = (self.v / (1 - b2 ** self.k)).sqrt_().add_(eps)
-        p.addcdiv_(self.m, denom, value=-self.lr / (1 - b1 ** self.k))
+        denom = (self.v / (1 - b2**self.k)).sqrt_().add_(eps)
+        p.addcdiv_(self.m, denom, value=-self.lr / (1 - b1**self.k))
 
 
 class BatchedProblem:
@@ -112,8 +112,8 @@ class BatchedProblem:
 
     def __init__(self, p, q, A, s=None, c=None, chamfer_weight: float = 0.0) -> None:
         self.p, self.q, self.A = p, q, A
-        self.q2 = (q * q).sum(-1)[:, None, :]                 # (m, 1, 2n)
-        self.qT = q.transpose(1, 2).contiguous()              # (m, 3, 2n)
+        self.q2 = (q * q).sum(-1)[:, None, :]  # (m, 1, 2n)
+        self.qT = q.transpose(1, 2).contiguous()  # (m, 3, 2n)
         self.w = float(chamfer_weight)
         self.s, self.c = s, c
         if self.w > 0:
@@ -130,21 +130,21 @@ class BatchedProblem:
             R = torch.from_numpy(R_np)
         else:
             R, cache = _rot6d(r6)
-        x = torch.matmul(self.p, R.transpose(1, 2)) + t[:, None]          # (m, n, 3)
+        x = torch.matmul(self.p, R.transpose(1, 2)) + t[:, None]  # (m, n, 3)
         d2 = (x * x).sum(-1, keepdim=True) + self.q2 - 2 * torch.bmm(x, self.qT)
-        d = d2.clamp_min_(1e-12).sqrt_()                                   # (m, n, 2n)
+        d = d2.clamp_min_(1e-12).sqrt_()  # (m, n, 2n)
         C = self.A if logits is None else torch.softmax(logits, dim=2)
         Cd = C * d
         loss = Cd.sum((1, 2))
         if self.w > 0:
-            xs = torch.matmul(self.s, R.transpose(1, 2)) + t[:, None]       # (m, ns, 3)
+            xs = torch.matmul(self.s, R.transpose(1, 2)) + t[:, None]  # (m, ns, 3)
             e2 = (xs * xs).sum(-1, keepdim=True) + self.c2 - 2 * torch.matmul(xs, self.c.T)
             e2min, nn = e2.min(dim=2)
             e = e2min.clamp_min(1e-12).sqrt()
             loss = loss + self.w * self.n * e.mean(1)
         if not need_grad:
             return loss, None, None, None
-        G = C / d                                                          # dL/dx = sum_k G (x - q)
+        G = C / d  # dL/dx = sum_k G (x - q)
         gx = x * G.sum(2, keepdim=True) - torch.bmm(G, self.q)
         gR = torch.bmm(gx.transpose(1, 2), self.p.expand(len(x), -1, -1))
         gt = gx.sum(1)
@@ -155,7 +155,7 @@ class BatchedProblem:
         gr6 = torch.from_numpy(_rot6d_backward_np(gR.numpy(), cache)) if cpu else _rot6d_backward(gR, cache)
         gL = None
         if logits is not None:
-            gL = Cd - C * Cd.sum(2, keepdim=True)                          # softmax backward of sum(C d)
+            gL = Cd - C * Cd.sum(2, keepdim=True)  # softmax backward of sum(C d)
         return loss, gr6, gt, gL
 
 
@@ -166,7 +166,7 @@ def optimize(prob: BatchedProblem, r6, t, stages: list[tuple[str, int]], lr: flo
 
     logits = None
     with torch.no_grad():
-        theta = torch.cat([r6, t], dim=1)                  # one Adam over (a1, a2, t): fewer ops a step
+        theta = torch.cat([r6, t], dim=1)  # one Adam over (a1, a2, t): fewer ops a step
         for stage, steps in stages:
             opt_p = _Adam(lr)
             opt_l = None

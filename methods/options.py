@@ -7,7 +7,8 @@ type, so constructors read ``self.lr = positive("method.optimiser.lr", lr)``.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 from catpose.errors import ConfigError
 
@@ -60,6 +61,8 @@ def instance_of(key: str, value: Any, cls: type) -> None:
         return
     group = key.rsplit(".", 1)[-1]
     if isinstance(value, str):
-        raise ConfigError(f"{key}={value!r} is a name, not a {cls.__name__}; select the config with "
-                          f"{group}@{key}={value} (configs/{group}/{value}.yaml)")
+        raise ConfigError(
+            f"{key}={value!r} is a name, not a {cls.__name__}; select the config with "
+            f"{group}@{key}={value} (configs/{group}/{value}.yaml)"
+        )
     raise ConfigError(f"{key} must be a {cls.__name__} (configs/{group}/), not {type(value).__name__}")

@@ -24,7 +24,7 @@ Pipeline for one problem (input cloud ``X_c`` in the camera frame, template ``X*
    one-directional Chamfer term (input points -> complete template) of weight ``chamfer_weight``.
 7. Selection among the ``m`` candidates: ``visibility`` (default: the best ``top_k`` by the
    visibility-aware Chamfer, each with its three half turns, refined, and the best of those;
-   :func:`catpose.methods.selection.select_with_half_turns`), ``loss`` (the paper's rule: lowest
+   :func:`catpose.methods.pose_scores.select_with_half_turns`), ``loss`` (the paper's rule: lowest
    final loss) or ``chamfer`` (lowest one-directional Chamfer distance of the transformed input to
    the complete template), after a gravity filter dropping candidates whose rotation maps the
    known ground normal more than ``gravity_max_deg`` away from the template's up axis.
@@ -33,7 +33,7 @@ Pipeline for one problem (input cloud ``X_c`` in the camera frame, template ``X*
 Steps 7 and 8 ask hundreds of nearest-neighbour questions per problem; they run as compiled
 kernels on a grid of the template (:mod:`catpose.cell_grid`, exact like a KD-tree):
 :mod:`catpose.point_to_plane_kernel` refines all hypotheses in one call and
-:mod:`catpose.methods.selection_kernel` scores all poses in one call.
+:mod:`catpose.methods.pose_scores_kernel` scores all poses in one call.
 
 ``score`` is the selection criterion of the selected candidate: its final loss divided by ``n``
 (the mean correspondence-weighted keypoint distance) for ``selection="loss"``, or the
@@ -65,7 +65,7 @@ candidates (the GPU path).
 from __future__ import annotations
 
 import time
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -74,11 +74,11 @@ from catpose.errors import InvalidInputError
 from catpose.kabsch import kabsch
 from catpose.lru import LRUCache
 from catpose.methods import options
-from catpose.methods.base import RegistrationMethod
 from catpose.methods.descriptors import LPS, Descriptor
 from catpose.methods.dictionary import DictionaryLayout
 from catpose.methods.dictionary_features import dictionary_features
 from catpose.methods.keypoints import farthest_point_indices
+from catpose.methods.method import RegistrationMethod
 from catpose.methods.ours_candidates import Candidates, Prepared, TemplateFeatures
 from catpose.methods.ours_selection import criterion, finish
 from catpose.methods.ours_settings import OptimiserSettings, RestingSettings, SelectionSettings
@@ -102,12 +102,22 @@ class Ours(RegistrationMethod):
             with a depth image only).
     """
 
-    def __init__(self, descriptor: Descriptor | None = None, dictionary: DictionaryLayout | None = None,
-                 optimiser: OptimiserSettings | None = None, selection: SelectionSettings | None = None,
-                 chamfer_points: int = 256, resting: RestingSettings | None = None) -> None:
-        for key, value, cls in (("descriptor", descriptor, Descriptor), ("dictionary", dictionary, DictionaryLayout),
-                                ("optimiser", optimiser, OptimiserSettings),
-                                ("selection", selection, SelectionSettings), ("resting", resting, RestingSettings)):
+    def __init__(
+        self,
+        descriptor: Descriptor | None = None,
+        dictionary: DictionaryLayout | None = None,
+        optimiser: OptimiserSettings | None = None,
+        selection: SelectionSettings | None = None,
+        chamfer_points: int = 256,
+        resting: RestingSettings | None = None,
+    ) -> None:
+        for key, value, cls in (
+            ("descriptor", descriptor, Descriptor),
+            ("dictionary", dictionary, DictionaryLayout),
+            ("optimiser", optimiser, OptimiserSettings),
+            ("selection", selection, SelectionSettings),
+            ("resting", resting, RestingSettings),
+        ):
             options.instance_of(f"method.{key}", value, cls)
         from dataclasses import replace
 
@@ -117,8 +127,11 @@ class Ours(RegistrationMethod):
         self.selection = selection or SelectionSettings()
         self.resting = resting or RestingSettings()
         # the rule for problems without a depth image (rule=depth falls back to depth_fallback)
-        self._point_selection = (replace(self.selection, rule=self.selection.depth_fallback)
-                                 if self.selection.rule == "depth" else self.selection)
+        self._point_selection = (
+            replace(self.selection, rule=self.selection.depth_fallback)
+            if self.selection.rule == "depth"
+            else self.selection
+        )
         self.chamfer_points = options.positive("method.chamfer_points", chamfer_points, integer=True)
         self.num_keypoints = self.layout.num_keypoints
         # holds the shared LPS grids (~25 MB a template); a template turned for a gravity hypothesis
@@ -138,28 +151,43 @@ class Ours(RegistrationMethod):
         dictionary = self.layout.dictionary(template)
         up = np.asarray(template.up, dtype=np.float64)
         sel = self.selection
-        key = (dictionary.key, tuple(np.round(up, 12)), self.descriptor.cache_key(), self.num_keypoints,
-               self.chamfer_points, sel.refine_max_distance, sel.visibility_trunc)
+        key = (
+            dictionary.key,
+            tuple(np.round(up, 12)),
+            self.descriptor.cache_key(),
+            self.num_keypoints,
+            self.chamfer_points,
+            sel.refine_max_distance,
+            sel.visibility_trunc,
+        )
         hit = self._features.get(key)
         if hit is not None:
             return hit
         # a tiny partial repeats keypoints (padded) so all candidates batch together
         shared = dictionary_features(self.descriptor, self.layout, template, 2 * self.num_keypoints)
         complete = template.points[farthest_point_indices(template.points, self.chamfer_points)]
-        feats = TemplateFeatures(shared.keypoints, shared.stacked, complete,
-                                  cell_grid.build(template.points, sel.refine_max_distance),
-                                  cell_grid.build(template.points, sel.visibility_trunc), cKDTree(template.points))
+        feats = TemplateFeatures(
+            shared.keypoints,
+            shared.stacked,
+            complete,
+            cell_grid.build(template.points, sel.refine_max_distance),
+            cell_grid.build(template.points, sel.visibility_trunc),
+            cKDTree(template.points),
+        )
         self._features.put(key, feats)
         return feats
 
     # ----------------------------------------------------------------- candidates
     def input_features(self, problem: RegistrationProblem):
         """The input's keypoints and descriptors (independent of the template)."""
-        inp = self.descriptor.keypoint_features(problem.points_camera, problem.normals_camera, self.num_keypoints,
-                                                problem.ground_normal_camera)
+        inp = self.descriptor.keypoint_features(
+            problem.points_camera, problem.normals_camera, self.num_keypoints, problem.ground_normal_camera
+        )
         if len(inp.indices) < 3:
-            raise InvalidInputError(f"sample {problem.sample_id}: only {len(inp.indices)} points after voxel "
-                                    f"downsampling at {self.descriptor.voxel_size}; lower method.descriptor.voxel_size")
+            raise InvalidInputError(
+                f"sample {problem.sample_id}: only {len(inp.indices)} points after voxel "
+                f"downsampling at {self.descriptor.voxel_size}; lower method.descriptor.voxel_size"
+            )
         return inp
 
     def _prepare(self, problem: RegistrationProblem, timings: dict[str, float], inp=None) -> Prepared:
@@ -176,21 +204,20 @@ class Ours(RegistrationMethod):
         timings["descriptors"] = time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        A = self.descriptor.batched_affinity(inp.features, feats.stacked)        # (m, n, 2n)
+        A = self.descriptor.batched_affinity(inp.features, feats.stacked)  # (m, n, 2n)
         A = np.maximum(A, 0.0) + 1e-12
         A /= A.sum(axis=2, keepdims=True)
         timings["affinity"] = time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        P_t = feats.keypoints                                                     # (m, 2n, 3)
+        P_t = feats.keypoints  # (m, 2n, 3)
         m = len(P_t)
         T0 = kabsch(np.broadcast_to(P_c, (m,) + P_c.shape), A @ P_t)
         chamfer_src = inp.points[farthest_point_indices(inp.points, self.chamfer_points)]
         timings["initial_pose"] = time.perf_counter() - t0
         return Prepared(feats, inp.points, P_c, P_t, A, T0, chamfer_src)
 
-    def candidates(self, problem: RegistrationProblem, timings: dict[str, float] | None = None,
-                   inp=None) -> Candidates:
+    def candidates(self, problem: RegistrationProblem, timings: dict[str, float] | None = None, inp=None) -> Candidates:
         """Affinities, SVD poses and optimised poses of every candidate (no selection); ``inp``:
         the input's features when already computed (:meth:`input_features`)."""
         timings = {} if timings is None else timings
@@ -204,16 +231,16 @@ class Ours(RegistrationMethod):
             # stage 1 on all candidates, stage 2 only on the best top_k by the selection criterion
             T1, l1, _ = self._optimize(P_c, P_t, A, T0, chamfer_src, feats.complete_points, "pose")
             crit = self._criterion(problem, feats, chamfer_src, T1, l1, np.ones(m, bool))[3]
-            stage2 = np.sort(np.argsort(crit, kind="stable")[:opt.stage2_top_k])
-            T2, l2, C2 = self._optimize(P_c, P_t[stage2], A[stage2], T1[stage2], chamfer_src,
-                                        feats.complete_points, "joint_only")
+            stage2 = np.sort(np.argsort(crit, kind="stable")[: opt.stage2_top_k])
+            T2, l2, C2 = self._optimize(
+                P_c, P_t[stage2], A[stage2], T1[stage2], chamfer_src, feats.complete_points, "joint_only"
+            )
             T, losses, C = T1, np.full(m, np.inf), A.copy()
             T[stage2], losses[stage2], C[stage2] = T2, l2, C2
         else:
             T, losses, C = self._optimize(P_c, P_t, A, T0, chamfer_src, feats.complete_points, opt.mode)
         timings["optimization"] = time.perf_counter() - t0
         return Candidates(x.points, P_c, chamfer_src, A, T0, T, losses, C, stage2)
-
 
     # ----------------------------------------------------------------- main
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
@@ -226,8 +253,12 @@ class Ours(RegistrationMethod):
         """Whether ``problem`` is selected by the depth check: ``rule=depth``, a depth image with a
         non-empty mask and a template mesh (otherwise the ``depth_fallback`` rule applies)."""
         image = problem.depth_image
-        return (self.selection.rule == "depth" and image is not None and problem.template.has_mesh
-                and bool(image.mask.any()))
+        return (
+            self.selection.rule == "depth"
+            and image is not None
+            and problem.template.has_mesh
+            and bool(image.mask.any())
+        )
 
     def _register_depth(self, problem: RegistrationProblem, timings: dict[str, float]) -> RegistrationResult:
         """The depth check on the template's own up; the other gravity hypotheses when that does
@@ -270,14 +301,28 @@ class Ours(RegistrationMethod):
             # the point rule chooses among the own up's candidates, scored by depth like the rest
             point = replace(self.selection, rule=self.selection.depth_poor_fit_rule)
             fallback = finish(point, problem, cands[0], feats[0], timings)
-            score = float(verifier.scores(fallback.T_target_source[None])[0])
-            extras.update(fallback.extras, depth_poor_fit=True, depth_score=score,
-                          timings={k: float(v) for k, v in timings.items()})
-            return RegistrationResult(T_target_source=fallback.T_target_source, score=score, extras=extras,
-                                      candidates_T=fallback.candidates_T, candidate_scores=fallback.candidate_scores)
+            score = float(verifier.scores(fallback.T_template_camera[None])[0])
+            extras.update(
+                fallback.extras,
+                depth_poor_fit=True,
+                depth_score=score,
+                timings={k: float(v) for k, v in timings.items()},
+            )
+            return RegistrationResult(
+                T_template_camera=fallback.T_template_camera,
+                score=score,
+                extras=extras,
+                candidates_T=fallback.candidates_T,
+                candidate_scores=fallback.candidate_scores,
+            )
         extras["depth_poor_fit"] = False
-        return RegistrationResult(T_target_source=result.T_target_source, score=result.score, extras=extras,
-                                  candidates_T=result.candidates_T, candidate_scores=result.candidate_scores)
+        return RegistrationResult(
+            T_template_camera=result.T_template_camera,
+            score=result.score,
+            extras=extras,
+            candidates_T=result.candidates_T,
+            candidate_scores=result.candidate_scores,
+        )
 
     def register_batch(self, problems: Sequence[RegistrationProblem]) -> list[RegistrationResult]:
         """:meth:`register` for several problems, with one solver launch for the candidates of all
@@ -297,9 +342,15 @@ class Ours(RegistrationMethod):
         timings: list[dict[str, float]] = [{} for _ in problems]
         prepared = [self._prepare(p, tm) for p, tm in zip(problems, timings)]
         t0 = time.perf_counter()
-        solved = irls.solve_many([(x.keypoints, x.P_t, x.A, x.T_svd) for x in prepared], IRLS_STAGES[opt.mode],
-                                 opt.irls_beta, opt.irls_iterations, opt.irls_tol, opt.device,
-                                 "float32" if opt.device.startswith("cuda") else "float64")
+        solved = irls.solve_many(
+            [(x.keypoints, x.P_t, x.A, x.T_svd) for x in prepared],
+            IRLS_STAGES[opt.mode],
+            opt.irls_beta,
+            opt.irls_iterations,
+            opt.irls_tol,
+            opt.device,
+            "float32" if opt.device.startswith("cuda") else "float64",
+        )
         share = (time.perf_counter() - t0) / max(len(problems), 1)
         results = []
         for p, x, (T, losses, C, _), tm in zip(problems, prepared, solved, timings):
@@ -314,13 +365,28 @@ class Ours(RegistrationMethod):
         ``depth_fallback`` rule)."""
         return finish(self._point_selection, problem, c, self.template_features(problem.template), timings)
 
-    def _criterion(self, problem: RegistrationProblem, feats: TemplateFeatures, chamfer_src: np.ndarray,
-                   T: np.ndarray, losses: np.ndarray, allowed: np.ndarray):
+    def _criterion(
+        self,
+        problem: RegistrationProblem,
+        feats: TemplateFeatures,
+        chamfer_src: np.ndarray,
+        T: np.ndarray,
+        losses: np.ndarray,
+        allowed: np.ndarray,
+    ):
         """Chamfer distances, tilts (deg), kept mask and criterion (inf where not kept), all (m,)
         (:func:`catpose.methods.ours_selection.criterion`)."""
         return criterion(self._point_selection, problem, feats, chamfer_src, T, losses, allowed)
 
-    def _optimize(self, P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray, chamfer_src: np.ndarray,
-                  complete: np.ndarray, mode: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _optimize(
+        self,
+        P_c: np.ndarray,
+        P_t: np.ndarray,
+        A: np.ndarray,
+        T0: np.ndarray,
+        chamfer_src: np.ndarray,
+        complete: np.ndarray,
+        mode: str,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The solver on all candidates at once (:func:`catpose.methods.ours_solver.optimise`)."""
         return optimise(self.optimiser, P_c, P_t, A, T0, chamfer_src, complete, mode)

@@ -24,11 +24,11 @@ class TemplateFeatures:
     and what the selection searches."""
 
     keypoints: np.ndarray
-    stacked: object              # the partials' descriptors, stacked for one batched affinity
+    stacked: object  # the partials' descriptors, stacked for one batched affinity
     complete_points: np.ndarray  # (M', 3) FPS subset of the complete template for Chamfer terms
-    pairing: CellGrid            # the full template points, searched within refine_max_distance (ICP)
-    truncated: CellGrid          # the same, searched within visibility_trunc (visibility scores)
-    tree: object                 # cKDTree of the same points (unbounded queries)
+    pairing: CellGrid  # the full template points, searched within refine_max_distance (ICP)
+    truncated: CellGrid  # the same, searched within visibility_trunc (visibility scores)
+    tree: object  # cKDTree of the same points (unbounded queries)
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,4 +72,3 @@ class Candidates:
     losses: np.ndarray
     C: np.ndarray
     stage2: np.ndarray
-

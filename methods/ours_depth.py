@@ -43,18 +43,24 @@ from catpose.methods.depth_check import DepthVerifier
 from catpose.methods.ours_candidates import Candidates, TemplateFeatures
 from catpose.methods.ours_selection import chamfer_distances
 from catpose.methods.ours_settings import SelectionSettings
+from catpose.methods.pose_scores import REACH_DEG, half_turns, yaw_and_half_turns
 from catpose.methods.resting_hypotheses import Hypothesis
-from catpose.methods.selection import REACH_DEG, half_turns, yaw_and_half_turns
 from catpose.point_to_plane_kernel import refine_many
 from catpose.types import RegistrationProblem, RegistrationResult
 
 __all__ = ["depth_verifier", "final_verifier", "refine_last", "select_by_depth"]
 
 
-def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: list[Hypothesis],
-                    cands: list[Candidates], feats: list[TemplateFeatures],
-                    timings: dict[str, float], debug: dict | None = None,
-                    verifier: DepthVerifier | None = None) -> RegistrationResult:
+def select_by_depth(
+    sel: SelectionSettings,
+    problem: RegistrationProblem,
+    hyps: list[Hypothesis],
+    cands: list[Candidates],
+    feats: list[TemplateFeatures],
+    timings: dict[str, float],
+    debug: dict | None = None,
+    verifier: DepthVerifier | None = None,
+) -> RegistrationResult:
     """Steps 1-5 of the module docstring; ``hyps``, ``cands`` and ``feats`` are parallel lists.
     ``debug``, when given, receives the verifier, the pre-scored pool and every expanded
     hypothesis (template-frame poses and scores) for diagnosis. ``verifier``: the problem's
@@ -68,19 +74,20 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
     axis = problem.template.symmetry_axis
     pool = _pool(sel, hyps, cands, feats, g, ups, axis)
     pre = verifier.scores(np.stack([hyps[k].to_template(cands[k].T[i]) for k, i in pool]))
-    order = np.argsort(pre, kind="stable")[:sel.depth_top_k]
+    order = np.argsort(pre, kind="stable")[: sel.depth_top_k]
     timings["verification"] += time.perf_counter() - t0
 
     # step 3: half turns of the best, refined on the Chamfer subset, scored
     t0 = time.perf_counter()
-    yaws = 0 if problem.template.symmetry_axis is not None else sel.depth_yaw_turns   # no yaw about a symmetry axis
+    yaws = 0 if problem.template.symmetry_axis is not None else sel.depth_yaw_turns  # no yaw about a symmetry axis
     turns = yaw_and_half_turns(np.asarray(problem.template.up, dtype=np.float64), yaws)
     expanded = [(pool[o][0], pool[o][1], j) for o in order for j in range(len(turns))]
-    T_exp = np.stack([compose_T(turns[j], cands[k].T[i]) for k, i, j in expanded])   # in each hypothesis' frame
+    T_exp = np.stack([compose_T(turns[j], cands[k].T[i]) for k, i, j in expanded])  # in each hypothesis' frame
     chosen = np.arange(len(expanded))
     if sel.gravity_max_deg is not None:
-        reachable = tilts_deg(_in_template(hyps, expanded, T_exp), g, ups, axis).min(axis=1) <= \
-            sel.gravity_max_deg + REACH_DEG
+        reachable = (
+            tilts_deg(_in_template(hyps, expanded, T_exp), g, ups, axis).min(axis=1) <= sel.gravity_max_deg + REACH_DEG
+        )
         chosen = chosen[reachable] if reachable.any() else chosen
     if sel.refine:
         T_exp[chosen] = _refine(sel, hyps, cands, feats, [expanded[i][0] for i in chosen], T_exp[chosen], "chamfer_src")
@@ -93,7 +100,7 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
 
     # step 4: the best few refined on every input point, scored again; the lowest cost wins
     t0 = time.perf_counter()
-    top = np.argsort(np.where(keep, cost, np.inf), kind="stable")[:max(int(sel.depth_final_refine), 1)]
+    top = np.argsort(np.where(keep, cost, np.inf), kind="stable")[: max(int(sel.depth_final_refine), 1)]
     top = top[np.isfinite(cost[top])] if np.isfinite(cost[top]).any() else top[:1]
     T_top = T_exp[top].copy()
     if sel.refine:
@@ -111,44 +118,86 @@ def select_by_depth(sel: SelectionSettings, problem: RegistrationProblem, hyps: 
     # step 5: the winner against its own half turns on the final lattice
     final_turn = 0
     if sel.depth_final_turns:
-        T_out, score, rest, final_turn = _against_half_turns(sel, hyps, cands, feats, (coarse, verifier), T_out,
-                                                             score, rest, (g, ups, axis), timings)
+        T_out, score, rest, final_turn = _against_half_turns(
+            sel, hyps, cands, feats, (coarse, verifier), T_out, score, rest, (g, ups, axis), timings
+        )
     t0 = time.perf_counter()
     fit, fit_loose = verifier.fits(T_out[None], (verifier.tau, sel.depth_fit_tau))[:, 0]
     timings["verification"] += time.perf_counter() - t0
     if debug is not None:
-        debug.update(verifier=verifier, hyps=hyps, cands=cands, pool=pool, prescores=pre, order=order,
-                     expanded=expanded, T_expanded=_in_template(hyps, expanded, T_exp), final=final, cost=cost,
-                     keep=keep, top=top, T_top=T_top_t, top_scores=top_scores, best=best)
+        debug.update(
+            verifier=verifier,
+            hyps=hyps,
+            cands=cands,
+            pool=pool,
+            prescores=pre,
+            order=order,
+            expanded=expanded,
+            T_expanded=_in_template(hyps, expanded, T_exp),
+            final=final,
+            cost=cost,
+            keep=keep,
+            top=top,
+            T_top=T_top_t,
+            top_scores=top_scores,
+            best=best,
+        )
 
     k, i, j = expanded[best]
-    extras = {"template_index": i, "hypothesis": k, "half_turn": j, "final_turn": final_turn, "resting": rest,
-              "resting_up": [float(x) for x in hyps[rest].up], "num_hypotheses": len(hyps), "depth_score": score,
-              "depth_inliers": float(fit[0]), "depth_free": float(fit[1]),
-              "depth_inliers_loose": float(fit_loose[0]),
-              "depth_stride": verifier.lattice.stride, "depth_mask_pixels": verifier.mask_pixels,
-              "prescores": [float(x) for x in np.sort(pre)[:8]],
-              "timings": {name: float(v) for name, v in timings.items()},
-              "num_input_points": int(len(cands[0].points))}
+    extras = {
+        "template_index": i,
+        "hypothesis": k,
+        "half_turn": j,
+        "final_turn": final_turn,
+        "resting": rest,
+        "resting_up": [float(x) for x in hyps[rest].up],
+        "num_hypotheses": len(hyps),
+        "depth_score": score,
+        "depth_inliers": float(fit[0]),
+        "depth_free": float(fit[1]),
+        "depth_inliers_loose": float(fit_loose[0]),
+        "depth_stride": verifier.lattice.stride,
+        "depth_mask_pixels": verifier.mask_pixels,
+        "prescores": [float(x) for x in np.sort(pre)[:8]],
+        "timings": {name: float(v) for name, v in timings.items()},
+        "num_input_points": int(len(cands[0].points)),
+    }
     # every half-turned candidate scored in step 3 (template frame) with its cost (inf: not kept)
-    return RegistrationResult(T_target_source=T_out, score=score, extras=extras,
-                              candidates_T=_in_template(hyps, expanded, T_exp),
-                              candidate_scores=np.where(keep, cost, np.inf).astype(float))
+    return RegistrationResult(
+        T_template_camera=T_out,
+        score=score,
+        extras=extras,
+        candidates_T=_in_template(hyps, expanded, T_exp),
+        candidate_scores=np.where(keep, cost, np.inf).astype(float),
+    )
 
 
 def depth_verifier(sel: SelectionSettings, problem: RegistrationProblem) -> DepthVerifier:
     """The depth check of ``problem``'s template against its depth image, with ``sel``'s settings."""
-    return DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, sel.depth_pixels,
-                         sel.depth_max_rays, sel.depth_free_weight)
+    return DepthVerifier(
+        problem.template,
+        problem.depth_image,
+        sel.depth_tau,
+        sel.depth_pixels,
+        sel.depth_max_rays,
+        sel.depth_free_weight,
+    )
 
 
-def final_verifier(sel: SelectionSettings, problem: RegistrationProblem,
-                   verifier: DepthVerifier | None = None) -> DepthVerifier:
+def final_verifier(
+    sel: SelectionSettings, problem: RegistrationProblem, verifier: DepthVerifier | None = None
+) -> DepthVerifier:
     """The depth check of the final comparison: on a finer lattice when ``sel.depth_final_pixels``
     exceeds ``sel.depth_pixels``, else ``verifier`` (the problem's :func:`depth_verifier`)."""
     if sel.depth_final_pixels > sel.depth_pixels:
-        return DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, sel.depth_final_pixels,
-                             sel.depth_max_rays * sel.depth_final_pixels // sel.depth_pixels, sel.depth_free_weight)
+        return DepthVerifier(
+            problem.template,
+            problem.depth_image,
+            sel.depth_tau,
+            sel.depth_final_pixels,
+            sel.depth_max_rays * sel.depth_final_pixels // sel.depth_pixels,
+            sel.depth_free_weight,
+        )
     return depth_verifier(sel, problem) if verifier is None else verifier
 
 
@@ -161,18 +210,28 @@ def _pool(sel: SelectionSettings, hyps, cands, feats, g, ups, axis) -> list[tupl
         allowed[c.stage2] = True
         keep = allowed.copy()
         if sel.gravity_max_deg is not None:
-            keep &= tilts_deg(h.to_template(c.T), g, ups[k:k + 1], axis)[:, 0] <= sel.gravity_max_deg
+            keep &= tilts_deg(h.to_template(c.T), g, ups[k : k + 1], axis)[:, 0] <= sel.gravity_max_deg
             keep = keep if keep.any() else allowed
         kept = np.nonzero(keep)[0]
         if 0 < sel.depth_prescreen < len(kept):
             dists = chamfer_distances(f.tree, c.chamfer_src, c.T[kept])
-            kept = np.sort(kept[np.argsort(dists, kind="stable")[:sel.depth_prescreen]])
+            kept = np.sort(kept[np.argsort(dists, kind="stable")[: sel.depth_prescreen]])
         pool += [(k, int(i)) for i in kept]
     return pool
 
 
-def _against_half_turns(sel: SelectionSettings, hyps, cands, feats, verifiers, T_win: np.ndarray, score: float,
-                        rest: int, gravity, timings: dict[str, float]) -> tuple[np.ndarray, float, int, int]:
+def _against_half_turns(
+    sel: SelectionSettings,
+    hyps,
+    cands,
+    feats,
+    verifiers,
+    T_win: np.ndarray,
+    score: float,
+    rest: int,
+    gravity,
+    timings: dict[str, float],
+) -> tuple[np.ndarray, float, int, int]:
     """Step 5: the winner ``T_win`` (4, 4, template frame) against the one of its three half turns
     about the template's axes that the coarse lattice scores best (of those the gravity filter
     keeps; by the same cost as every comparison, :func:`_costs`), refined on all input points and
@@ -181,14 +240,14 @@ def _against_half_turns(sel: SelectionSettings, hyps, cands, feats, verifiers, T
     score, its resting direction and which turn it is (0: the winner itself, 1-3: about x, y, z)."""
     coarse, final = verifiers
     t0 = time.perf_counter()
-    T_turns = np.stack([compose_T(F, T_win) for F in half_turns()[1:]])   # template frame = hypothesis 0's
+    T_turns = np.stack([compose_T(F, T_win) for F in half_turns()[1:]])  # template frame = hypothesis 0's
     cost, keep, _ = _costs(sel, coarse.scores(T_turns), T_turns, *gravity)
     timings["verification"] += time.perf_counter() - t0
     if not keep.any():
         return T_win, score, rest, 0
     t = int(np.argmin(np.where(keep, cost, np.inf)))
     t0 = time.perf_counter()
-    T_turn = _refine_points(sel, hyps, cands, feats, [0], T_turns[t:t + 1]) if sel.refine else T_turns[t:t + 1]
+    T_turn = _refine_points(sel, hyps, cands, feats, [0], T_turns[t : t + 1]) if sel.refine else T_turns[t : t + 1]
     timings["refinement"] += time.perf_counter() - t0
     t0 = time.perf_counter()
     T_two = np.concatenate([T_win[None], T_turn])
@@ -219,8 +278,9 @@ def refine_last(sel: SelectionSettings, points: np.ndarray, grid, normals: np.nd
     distance: bleed and noise let go."""
     T = refine_many(points, grid, normals, T, sel.refine_max_distance, sel.refine_iterations)
     if sel.depth_fine_distance > 0:
-        T = refine_many(points, grid, normals, T, min(sel.depth_fine_distance, sel.refine_max_distance),
-                        sel.refine_iterations)
+        T = refine_many(
+            points, grid, normals, T, min(sel.depth_fine_distance, sel.refine_max_distance), sel.refine_iterations
+        )
     return T
 
 
@@ -236,8 +296,14 @@ def _refine(sel: SelectionSettings, hyps, cands, feats, hyp_of: list[int], T: np
     hyp_of = np.asarray(hyp_of)
     for k in sorted(set(hyp_of.tolist())):
         idx = np.nonzero(hyp_of == k)[0]
-        out[idx] = refine_many(getattr(cands[k], points), feats[k].pairing, hyps[k].template.normals, out[idx],
-                               sel.refine_max_distance, sel.refine_iterations)
+        out[idx] = refine_many(
+            getattr(cands[k], points),
+            feats[k].pairing,
+            hyps[k].template.normals,
+            out[idx],
+            sel.refine_max_distance,
+            sel.refine_iterations,
+        )
     return out
 
 
@@ -246,7 +312,7 @@ def _costs(sel: SelectionSettings, scores: np.ndarray, T_template: np.ndarray, g
     and each pose's resting direction (index into ``ups``)."""
     tilts = tilts_deg(T_template, g, ups, axis)
     rest = tilts.argmin(axis=1)
-    cost = scores + sel.depth_rest_prior * (rest != 0)     # resting other than on the template's up
+    cost = scores + sel.depth_rest_prior * (rest != 0)  # resting other than on the template's up
     keep = np.isfinite(cost)
     if sel.gravity_max_deg is not None:
         upright = keep & (tilts.min(axis=1) <= sel.gravity_max_deg)
@@ -254,8 +320,12 @@ def _costs(sel: SelectionSettings, scores: np.ndarray, T_template: np.ndarray, g
     return cost, keep, rest
 
 
-def tilts_deg(T_template_camera: np.ndarray, ground_normal_camera: np.ndarray, ups: np.ndarray,
-              symmetry_axis: np.ndarray | None = None) -> np.ndarray:
+def tilts_deg(
+    T_template_camera: np.ndarray,
+    ground_normal_camera: np.ndarray,
+    ups: np.ndarray,
+    symmetry_axis: np.ndarray | None = None,
+) -> np.ndarray:
     """(B, H) degrees between the ground normal mapped into the template frame by each pose and
     each gravity hypothesis' up direction ``ups`` (H, 3). With a continuous ``symmetry_axis`` a
     spin about it is invisible, so the angle is that between the two directions' angles to the

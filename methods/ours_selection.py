@@ -18,8 +18,15 @@ from catpose.types import RegistrationProblem, RegistrationResult
 __all__ = ["chamfer_distances", "criterion", "finish"]
 
 
-def criterion(sel: SelectionSettings, problem: RegistrationProblem, feats: TemplateFeatures, chamfer_src: np.ndarray,
-              T: np.ndarray, losses: np.ndarray, allowed: np.ndarray):
+def criterion(
+    sel: SelectionSettings,
+    problem: RegistrationProblem,
+    feats: TemplateFeatures,
+    chamfer_src: np.ndarray,
+    T: np.ndarray,
+    losses: np.ndarray,
+    allowed: np.ndarray,
+):
     """Chamfer distances, tilts (deg), kept mask and criterion (inf where not kept), all (m,)."""
     dists = chamfer_distances(feats.tree, chamfer_src, T)
     up = np.asarray(problem.template.up, dtype=np.float64) / np.linalg.norm(problem.template.up)
@@ -34,8 +41,13 @@ def criterion(sel: SelectionSettings, problem: RegistrationProblem, feats: Templ
     return dists, tilt, keep, np.where(keep, crit, np.inf)
 
 
-def finish(sel: SelectionSettings, problem: RegistrationProblem, c: Candidates, feats: TemplateFeatures,
-           timings: dict[str, float]) -> RegistrationResult:
+def finish(
+    sel: SelectionSettings,
+    problem: RegistrationProblem,
+    c: Candidates,
+    feats: TemplateFeatures,
+    timings: dict[str, float],
+) -> RegistrationResult:
     """Selection among the candidates and refinement of the selected one."""
     chamfer_src = c.chamfer_src
 
@@ -57,24 +69,32 @@ def finish(sel: SelectionSettings, problem: RegistrationProblem, c: Candidates, 
         """Poses (B, 4, 4) refined by point-to-plane ICP on ``points`` (all at once, compiled)."""
         if not sel.refine:
             return T
-        return refine_many(points, feats.pairing, template.normals, T, sel.refine_max_distance,
-                           sel.refine_iterations)
+        return refine_many(points, feats.pairing, template.normals, T, sel.refine_max_distance, sel.refine_iterations)
 
     if sel.rule == "visibility":
-        from catpose.methods.selection import select_with_half_turns
-        from catpose.methods.selection_kernel import visibility_scores
+        from catpose.methods.pose_scores import select_with_half_turns
+        from catpose.methods.pose_scores_kernel import visibility_scores
 
         input_grid = cell_grid.build(chamfer_src, sel.visibility_trunc)
 
         def score_of(T: np.ndarray) -> np.ndarray:
-            return visibility_scores(chamfer_src, input_grid, T, feats.truncated, template.normals,
-                                     sel.visibility_trunc)
+            return visibility_scores(
+                chamfer_src, input_grid, T, feats.truncated, template.normals, sel.visibility_trunc
+            )
 
         # scored and refined on the FPS subset of the Chamfer distances (4x fewer points: the
         # 4 top_k alternatives cost about what one full refinement did), the winner on all points
         T_best, score, info = select_with_half_turns(
-            c.T, keep, score_of, refine, problem.ground_normal_camera, np.asarray(template.up, float),
-            sel.gravity_max_deg, sel.top_k, sel.refine_top)
+            c.T,
+            keep,
+            score_of,
+            refine,
+            problem.ground_normal_camera,
+            np.asarray(template.up, float),
+            sel.gravity_max_deg,
+            sel.top_k,
+            sel.refine_top,
+        )
         T_best = refine(T_best[None], c.points)[0]
         best, half_turn = info["candidate"], info["half_turn"]
         candidate_scores = np.asarray(info["scores"], dtype=float)
@@ -84,15 +104,25 @@ def finish(sel: SelectionSettings, problem: RegistrationProblem, c: Candidates, 
             score = float(chamfer_distances(feats.tree, chamfer_src, T_best[None])[0])
     timings["refinement"] = time.perf_counter() - t0
 
-    extras = {"template_index": best, "losses": [float(x) if np.isfinite(x) else None for x in c.losses],
-              "chamfer": [float(x) for x in dists], "tilt_deg": [float(x) for x in tilt_deg],
-              "kept": [bool(x) for x in keep], "timings": {k: float(v) for k, v in timings.items()},
-              "num_input_points": int(len(c.points))}
+    extras = {
+        "template_index": best,
+        "losses": [float(x) if np.isfinite(x) else None for x in c.losses],
+        "chamfer": [float(x) for x in dists],
+        "tilt_deg": [float(x) for x in tilt_deg],
+        "kept": [bool(x) for x in keep],
+        "timings": {k: float(v) for k, v in timings.items()},
+        "num_input_points": int(len(c.points)),
+    }
     extras["stage2_candidates"] = [int(i) for i in c.stage2]
     if half_turn is not None:
         extras["half_turn"] = half_turn  # 0: the candidate itself; 1, 2, 3: turned about x, y, z
-    return RegistrationResult(T_target_source=T_best, score=score, extras=extras, candidates_T=c.T.copy(),
-                              candidate_scores=np.asarray(candidate_scores, dtype=float).copy())
+    return RegistrationResult(
+        T_template_camera=T_best,
+        score=score,
+        extras=extras,
+        candidates_T=c.T.copy(),
+        candidate_scores=np.asarray(candidate_scores, dtype=float).copy(),
+    )
 
 
 def chamfer_distances(tree, points: np.ndarray, T: np.ndarray) -> np.ndarray:

@@ -57,8 +57,9 @@ class OptimiserSettings:
         set_(self, "irls_tol", options.non_negative(k + "irls_tol", self.irls_tol))
         set_(self, "chamfer_weight", options.non_negative(k + "chamfer_weight", self.chamfer_weight))
         if self.chamfer_weight > 0 and self.solver == "irls":
-            raise ConfigError(f"{k}chamfer_weight={self.chamfer_weight} needs {k}solver=adam "
-                              "(the IRLS solver has no Chamfer term)")
+            raise ConfigError(
+                f"{k}chamfer_weight={self.chamfer_weight} needs {k}solver=adam (the IRLS solver has no Chamfer term)"
+            )
         if str(self.device).startswith("cuda"):
             import torch
 
@@ -79,7 +80,7 @@ class SelectionSettings:
             turns, refined and scored again, and the best wins; otherwise the ``depth_fallback``
             rule), ``visibility`` (the ``top_k`` candidates by the visibility-aware Chamfer,
             each with its three half turns, refined, then the lowest visibility-aware Chamfer;
-            :func:`catpose.methods.selection.select_with_half_turns`), ``chamfer`` (lowest
+            :func:`catpose.methods.pose_scores.select_with_half_turns`), ``chamfer`` (lowest
             one-directional Chamfer distance of the transformed input to the complete template)
             or ``loss`` (lowest final loss; the paper's rule).
         gravity_max_deg: drop candidates tilting the ground normal more than this (degrees) from
@@ -110,7 +111,7 @@ class SelectionSettings:
             end (the best by their score after the refinement on the Chamfer subset).
         depth_yaw_turns: ``depth``: in the escalated pass (``resting.escalate_below``), each
             expanded candidate is also tried turned about the template's up by every multiple of
-            ``360 / depth_yaw_turns`` degrees (:func:`catpose.methods.selection.yaw_and_half_turns`;
+            ``360 / depth_yaw_turns`` degrees (:func:`catpose.methods.pose_scores.yaw_and_half_turns`;
             none for a template with a symmetry axis; 0 or 1: half turns only).
         depth_rest_prior: ``depth``: cost added to a pose that rests other than on the template's
             up (a tie-break towards the upright object; 0: none).
@@ -153,22 +154,34 @@ class SelectionSettings:
     def __post_init__(self) -> None:
         k, set_ = "method.selection.", object.__setattr__
         set_(self, "rule", options.one_of(k + "rule", self.rule, ("depth", "visibility", "chamfer", "loss")))
-        set_(self, "depth_fallback", options.one_of(k + "depth_fallback", self.depth_fallback,
-                                                    ("visibility", "chamfer", "loss")))
+        set_(
+            self,
+            "depth_fallback",
+            options.one_of(k + "depth_fallback", self.depth_fallback, ("visibility", "chamfer", "loss")),
+        )
         set_(self, "depth_tau", options.positive(k + "depth_tau", self.depth_tau))
         set_(self, "depth_pixels", options.positive(k + "depth_pixels", self.depth_pixels, integer=True))
         set_(self, "depth_max_rays", options.positive(k + "depth_max_rays", self.depth_max_rays, integer=True))
         set_(self, "depth_free_weight", options.non_negative(k + "depth_free_weight", self.depth_free_weight))
         set_(self, "depth_min_inliers", options.non_negative(k + "depth_min_inliers", self.depth_min_inliers))
         set_(self, "depth_fit_tau", options.positive(k + "depth_fit_tau", self.depth_fit_tau))
-        set_(self, "depth_poor_fit_rule", options.one_of(k + "depth_poor_fit_rule", self.depth_poor_fit_rule,
-                                                         ("visibility", "chamfer", "loss")))
+        set_(
+            self,
+            "depth_poor_fit_rule",
+            options.one_of(k + "depth_poor_fit_rule", self.depth_poor_fit_rule, ("visibility", "chamfer", "loss")),
+        )
         set_(self, "depth_fine_distance", options.non_negative(k + "depth_fine_distance", self.depth_fine_distance))
-        set_(self, "depth_final_pixels", options.positive(k + "depth_final_pixels", self.depth_final_pixels,
-                                                          integer=True))
+        set_(
+            self,
+            "depth_final_pixels",
+            options.positive(k + "depth_final_pixels", self.depth_final_pixels, integer=True),
+        )
         set_(self, "depth_top_k", options.positive(k + "depth_top_k", self.depth_top_k, integer=True))
-        set_(self, "depth_final_refine", options.positive(k + "depth_final_refine", self.depth_final_refine,
-                                                          integer=True))
+        set_(
+            self,
+            "depth_final_refine",
+            options.positive(k + "depth_final_refine", self.depth_final_refine, integer=True),
+        )
         set_(self, "depth_yaw_turns", options.non_negative(k + "depth_yaw_turns", self.depth_yaw_turns, integer=True))
         set_(self, "depth_rest_prior", options.non_negative(k + "depth_rest_prior", self.depth_rest_prior))
         set_(self, "depth_prescreen", options.non_negative(k + "depth_prescreen", self.depth_prescreen, integer=True))
@@ -179,8 +192,11 @@ class SelectionSettings:
         set_(self, "refine", options.flag(k + "refine", self.refine))
         set_(self, "depth_final_turns", options.flag(k + "depth_final_turns", self.depth_final_turns))
         set_(self, "refine_max_distance", options.positive(k + "refine_max_distance", self.refine_max_distance))
-        set_(self, "refine_iterations", options.non_negative(k + "refine_iterations", self.refine_iterations,
-                                                             integer=True))
+        set_(
+            self,
+            "refine_iterations",
+            options.non_negative(k + "refine_iterations", self.refine_iterations, integer=True),
+        )
         set_(self, "top_k", options.positive(k + "top_k", self.top_k, integer=True))
         set_(self, "refine_top", options.non_negative(k + "refine_top", self.refine_top, integer=True))
         set_(self, "visibility_trunc", options.positive(k + "visibility_trunc", self.visibility_trunc))

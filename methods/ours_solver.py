@@ -14,8 +14,16 @@ __all__ = ["IRLS_STAGES", "optimise"]
 IRLS_STAGES = {"none": (), "pose": ("pose",), "joint": ("pose", "joint"), "joint_only": ("joint",)}
 
 
-def optimise(opt: OptimiserSettings, P_c: np.ndarray, P_t: np.ndarray, A: np.ndarray, T0: np.ndarray,
-             chamfer_src: np.ndarray, complete: np.ndarray, mode: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def optimise(
+    opt: OptimiserSettings,
+    P_c: np.ndarray,
+    P_t: np.ndarray,
+    A: np.ndarray,
+    T0: np.ndarray,
+    chamfer_src: np.ndarray,
+    complete: np.ndarray,
+    mode: str,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The solver on all candidates at once (``mode``: none, pose, joint or joint_only). Returns
     poses (m, 4, 4), final losses (m,) as mean correspondence-weighted keypoint distances
     (object-normalised units) and the final soft correspondences C (m, n, 2n)."""
@@ -23,9 +31,18 @@ def optimise(opt: OptimiserSettings, P_c: np.ndarray, P_t: np.ndarray, A: np.nda
         from catpose.methods import irls
 
         cuda = opt.device.startswith("cuda")
-        T, losses, C, _ = irls.solve_numpy(P_c, P_t, A, T0, IRLS_STAGES[mode], opt.irls_beta,
-                                           opt.irls_iterations, opt.irls_tol, opt.device,
-                                           "float32" if cuda else "float64")
+        T, losses, C, _ = irls.solve_numpy(
+            P_c,
+            P_t,
+            A,
+            T0,
+            IRLS_STAGES[mode],
+            opt.irls_beta,
+            opt.irls_iterations,
+            opt.irls_tol,
+            opt.device,
+            "float32" if cuda else "float64",
+        )
         return T, losses, C
     import torch
 
@@ -38,8 +55,9 @@ def optimise(opt: OptimiserSettings, P_c: np.ndarray, P_t: np.ndarray, A: np.nda
         return torch.as_tensor(np.ascontiguousarray(a), dtype=dt, device=dev)
 
     w = opt.chamfer_weight
-    prob = BatchedProblem(tens(P_c), tens(P_t), tens(A), tens(chamfer_src) if w > 0 else None,
-                          tens(complete) if w > 0 else None, w)
+    prob = BatchedProblem(
+        tens(P_c), tens(P_t), tens(A), tens(chamfer_src) if w > 0 else None, tens(complete) if w > 0 else None, w
+    )
     n = len(P_c)
     r6 = tens(np.concatenate([T0[:, :3, 0], T0[:, :3, 1]], axis=1))
     t = tens(T0[:, :3, 3])
@@ -59,4 +77,3 @@ def optimise(opt: OptimiserSettings, P_c: np.ndarray, P_t: np.ndarray, A: np.nda
     T = np.tile(np.eye(4), (len(R), 1, 1))
     T[:, :3, :3], T[:, :3, 3] = R, tt
     return T, final.detach().cpu().double().numpy() / n, C
-

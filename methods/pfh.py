@@ -24,8 +24,9 @@ import numpy as np
 BINS = 5
 
 
-def neighbourhoods(points: np.ndarray, centres: np.ndarray, radius: float, max_nn: int,
-                   tree=None) -> tuple[np.ndarray, np.ndarray]:
+def neighbourhoods(
+    points: np.ndarray, centres: np.ndarray, radius: float, max_nn: int, tree=None
+) -> tuple[np.ndarray, np.ndarray]:
     """The up to ``max_nn`` nearest points of ``points`` (N, 3) within ``radius`` of each centre.
 
     Returns (K, max_nn) int indices into ``points`` (padded with 0) and a (K, max_nn) bool mask.
@@ -65,13 +66,14 @@ def pair_features(p1: np.ndarray, n1: np.ndarray, p2: np.ndarray, n2: np.ndarray
     return theta, alpha, phi, valid
 
 
-def pfh_descriptors(points: np.ndarray, normals: np.ndarray, centres: np.ndarray, radius: float,
-                    max_nn: int = 32, tree=None) -> np.ndarray:
+def pfh_descriptors(
+    points: np.ndarray, normals: np.ndarray, centres: np.ndarray, radius: float, max_nn: int = 32, tree=None
+) -> np.ndarray:
     """PFH histograms (K, 125) of keypoints ``centres`` (K, 3) over the cloud ``points`` (N, 3)
     with unit ``normals`` (N, 3); each row sums to 1 (uniform when a keypoint has no valid pair).
     Bin index = 25 * bin(theta) + 5 * bin(alpha) + bin(phi)."""
     idx, mask = neighbourhoods(points, centres, radius, max_nn, tree)
-    P, N = points[idx], normals[idx]                        # (K, k, 3)
+    P, N = points[idx], normals[idx]  # (K, k, 3)
     k = idx.shape[1]
     iu, ju = np.triu_indices(k, 1)
     theta, alpha, phi, valid = pair_features(P[:, iu], N[:, iu], P[:, ju], N[:, ju])
@@ -79,11 +81,11 @@ def pfh_descriptors(points: np.ndarray, normals: np.ndarray, centres: np.ndarray
     bt = np.clip(((theta + np.pi) / (2 * np.pi) * BINS).astype(np.int64), 0, BINS - 1)
     ba = np.clip(((alpha + 1) / 2 * BINS).astype(np.int64), 0, BINS - 1)
     bp = np.clip(((phi + 1) / 2 * BINS).astype(np.int64), 0, BINS - 1)
-    flat = bt * BINS * BINS + ba * BINS + bp + (np.arange(len(idx)) * BINS ** 3)[:, None]
-    hist = np.bincount(flat[valid], minlength=len(idx) * BINS ** 3).reshape(len(idx), BINS ** 3)
+    flat = bt * BINS * BINS + ba * BINS + bp + (np.arange(len(idx)) * BINS**3)[:, None]
+    hist = np.bincount(flat[valid], minlength=len(idx) * BINS**3).reshape(len(idx), BINS**3)
     hist = hist.astype(np.float64)
     total = hist.sum(axis=1, keepdims=True)
-    return np.where(total > 0, hist / np.maximum(total, 1), 1.0 / BINS ** 3)
+    return np.where(total > 0, hist / np.maximum(total, 1), 1.0 / BINS**3)
 
 
 def marginal_cdfs(hist: np.ndarray) -> np.ndarray:
@@ -104,7 +106,7 @@ def marginal_emd(hist_a: np.ndarray, hist_b: np.ndarray) -> np.ndarray:
 
 def grid_ground_distance() -> np.ndarray:
     """(125, 125) L1 distance between the 3D bin centres, in bin units."""
-    g = np.stack(np.unravel_index(np.arange(BINS ** 3), (BINS,) * 3), axis=1).astype(np.float64)
+    g = np.stack(np.unravel_index(np.arange(BINS**3), (BINS,) * 3), axis=1).astype(np.float64)
     return np.abs(g[:, None] - g[None]).sum(-1)
 
 

@@ -36,21 +36,33 @@ class RANSAC(CorrespondenceRegistration):
         **pipeline: :class:`CorrespondenceRegistration` arguments (matching, features, ...).
     """
 
-    def __init__(self, max_correspondence_distance: float = 0.075, mutual_filter: bool = True,
-                 ransac_n: int = 3, edge_length_similarity: float = 0.9, normal_angle_deg: float = 0.0,
-                 max_iteration: int = 100000, confidence: float = 0.999, num_threads: int = 1,
-                 **pipeline: Any) -> None:
+    def __init__(
+        self,
+        max_correspondence_distance: float = 0.075,
+        mutual_filter: bool = True,
+        ransac_n: int = 3,
+        edge_length_similarity: float = 0.9,
+        normal_angle_deg: float = 0.0,
+        max_iteration: int = 100000,
+        confidence: float = 0.999,
+        num_threads: int = 1,
+        **pipeline: Any,
+    ) -> None:
         super().__init__(**pipeline)
         if not max_correspondence_distance > 0:
             raise ConfigError(f"ransac max_correspondence_distance={max_correspondence_distance} must be > 0")
         if ransac_n < 3 or max_iteration < 1 or not 0 < confidence <= 1:
-            raise ConfigError(f"ransac ransac_n={ransac_n} (>= 3), max_iteration={max_iteration} (>= 1), "
-                              f"confidence={confidence} (in (0, 1]) out of range")
+            raise ConfigError(
+                f"ransac ransac_n={ransac_n} (>= 3), max_iteration={max_iteration} (>= 1), "
+                f"confidence={confidence} (in (0, 1]) out of range"
+            )
         if num_threads < 0:
             raise ConfigError(f"ransac num_threads={num_threads} must be >= 0 (1: deterministic, 0: Open3D default)")
         if not 0 < edge_length_similarity < 1 or not 0 <= normal_angle_deg < 180:
-            raise ConfigError(f"ransac edge_length_similarity={edge_length_similarity} must be in (0, 1) "
-                              f"and normal_angle_deg={normal_angle_deg} in [0, 180)")
+            raise ConfigError(
+                f"ransac edge_length_similarity={edge_length_similarity} must be in (0, 1) "
+                f"and normal_angle_deg={normal_angle_deg} in [0, 180)"
+            )
         self.max_correspondence_distance = float(max_correspondence_distance)
         self.mutual_filter = bool(mutual_filter)
         self.ransac_n = int(ransac_n)
@@ -64,8 +76,10 @@ class RANSAC(CorrespondenceRegistration):
         from catpose.o3d import o3d
 
         reg = o3d.pipelines.registration
-        checkers = [reg.CorrespondenceCheckerBasedOnEdgeLength(self.edge_length_similarity),
-                    reg.CorrespondenceCheckerBasedOnDistance(self.max_correspondence_distance)]
+        checkers = [
+            reg.CorrespondenceCheckerBasedOnEdgeLength(self.edge_length_similarity),
+            reg.CorrespondenceCheckerBasedOnDistance(self.max_correspondence_distance),
+        ]
         if self.normal_angle_deg > 0:
             checkers.append(reg.CorrespondenceCheckerBasedOnNormal(np.deg2rad(self.normal_angle_deg)))
         criteria = reg.RANSACConvergenceCriteria(self.max_iteration, self.confidence)
@@ -76,16 +90,34 @@ class RANSAC(CorrespondenceRegistration):
         try:
             if match.correspondences is None:
                 result = reg.registration_ransac_based_on_feature_matching(
-                    match.source.pcd, match.target.pcd, match.source.feature, match.target.feature,
-                    self.mutual_filter, self.max_correspondence_distance, estimation, self.ransac_n, checkers,
-                    criteria)
+                    match.source.pcd,
+                    match.target.pcd,
+                    match.source.feature,
+                    match.target.feature,
+                    self.mutual_filter,
+                    self.max_correspondence_distance,
+                    estimation,
+                    self.ransac_n,
+                    checkers,
+                    criteria,
+                )
             else:
                 result = reg.registration_ransac_based_on_correspondence(
-                    match.source.pcd, match.target.pcd, o3d.utility.Vector2iVector(match.correspondences),
-                    self.max_correspondence_distance, estimation, self.ransac_n, checkers, criteria)
+                    match.source.pcd,
+                    match.target.pcd,
+                    o3d.utility.Vector2iVector(match.correspondences),
+                    self.max_correspondence_distance,
+                    estimation,
+                    self.ransac_n,
+                    checkers,
+                    criteria,
+                )
         finally:
             if self.num_threads:
                 o3d.utility.set_max_threads(previous_threads)
-        info = {"num_inliers": int(len(result.correspondence_set)), "fitness": float(result.fitness),
-                "inlier_rmse": float(result.inlier_rmse)}
+        info = {
+            "num_inliers": int(len(result.correspondence_set)),
+            "fitness": float(result.fitness),
+            "inlier_rmse": float(result.inlier_rmse),
+        }
         return np.asarray(result.transformation).copy(), info

@@ -28,7 +28,7 @@ from catpose.types import Template
 
 __all__ = ["Hypothesis", "hypotheses", "rotation_between"]
 
-_CACHE: LRUCache[tuple, tuple["Hypothesis", ...]] = LRUCache(32)
+_CACHE: LRUCache[tuple, tuple[Hypothesis, ...]] = LRUCache(32)
 
 
 def rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -75,11 +75,16 @@ class Hypothesis:
 
 def _turned(template: Template, R: np.ndarray, up: np.ndarray) -> Template:
     tag = ",".join(f"{x:.3f}" for x in up)
-    return Template(template_id=f"{template.template_id}@up({tag})", category=template.category,
-                    points=template.points @ R.T, normals=template.normals @ R.T,
-                    vertices=None if template.vertices is None else np.asarray(template.vertices, float) @ R.T,
-                    triangles=template.triangles, up=template.up,
-                    symmetry_axis=None if template.symmetry_axis is None else R @ np.asarray(template.symmetry_axis, float))
+    return Template(
+        template_id=f"{template.template_id}@up({tag})",
+        category=template.category,
+        points=template.points @ R.T,
+        normals=template.normals @ R.T,
+        vertices=None if template.vertices is None else np.asarray(template.vertices, float) @ R.T,
+        triangles=template.triangles,
+        up=template.up,
+        symmetry_axis=None if template.symmetry_axis is None else R @ np.asarray(template.symmetry_axis, float),
+    )
 
 
 def hypotheses(template: Template, settings: RestingSettings) -> tuple[Hypothesis, ...]:
@@ -90,9 +95,15 @@ def hypotheses(template: Template, settings: RestingSettings) -> tuple[Hypothesi
     if settings.max_poses == 0:
         return (own,)
     geometry = template.vertices if template.has_mesh else template.points
-    key = (template.template_id, content_hash(np.asarray(geometry, float)), tuple(np.round(up0, 9)),
-           None if template.symmetry_axis is None else tuple(np.round(template.symmetry_axis, 9)),
-           settings.max_poses, settings.min_probability, settings.merge_deg)
+    key = (
+        template.template_id,
+        content_hash(np.asarray(geometry, float)),
+        tuple(np.round(up0, 9)),
+        None if template.symmetry_axis is None else tuple(np.round(template.symmetry_axis, 9)),
+        settings.max_poses,
+        settings.min_probability,
+        settings.merge_deg,
+    )
     hit = _CACHE.get(key)
     if hit is not None:
         return hit
@@ -113,6 +124,7 @@ def hypotheses(template: Template, settings: RestingSettings) -> tuple[Hypothesi
 def _same_class(a: np.ndarray, b: np.ndarray, axis: np.ndarray | None, merge_deg: float) -> bool:
     """Whether resting directions ``a`` and ``b`` are one (within ``merge_deg``; under a continuous
     symmetry about ``axis``: the same angle to it)."""
+
     def angle(u, v):
         return float(np.degrees(np.arccos(np.clip(u @ v / (np.linalg.norm(u) * np.linalg.norm(v)), -1.0, 1.0))))
 

@@ -34,22 +34,37 @@ class TEASER(CorrespondenceRegistration):
         **pipeline: :class:`CorrespondenceRegistration` arguments (matching, features, ...).
     """
 
-    def __init__(self, noise_bound: float = 0.05, cbar2: float = 1.0, gnc_factor: float = 1.4,
-                 max_iterations: int = 100, cost_threshold: float = 1e-6, mutual_filter: bool = True,
-                 max_correspondences: int = 1000, clique_node_budget: int = 200_000,
-                 rotation_tim_graph: str = "chain", clique_time_budget_s: float = 10.0,
-                 **pipeline: Any) -> None:
+    def __init__(
+        self,
+        noise_bound: float = 0.05,
+        cbar2: float = 1.0,
+        gnc_factor: float = 1.4,
+        max_iterations: int = 100,
+        cost_threshold: float = 1e-6,
+        mutual_filter: bool = True,
+        max_correspondences: int = 1000,
+        clique_node_budget: int = 200_000,
+        rotation_tim_graph: str = "chain",
+        clique_time_budget_s: float = 10.0,
+        **pipeline: Any,
+    ) -> None:
         super().__init__(**pipeline)
         if not noise_bound > 0:
             raise ConfigError(f"teaser noise_bound={noise_bound} must be > 0 (object-normalised units, e.g. 0.05)")
         if not cbar2 > 0 or not gnc_factor > 1 or max_iterations < 1:
-            raise ConfigError(f"teaser cbar2={cbar2} (> 0), gnc_factor={gnc_factor} (> 1), "
-                              f"max_iterations={max_iterations} (>= 1) out of range")
+            raise ConfigError(
+                f"teaser cbar2={cbar2} (> 0), gnc_factor={gnc_factor} (> 1), "
+                f"max_iterations={max_iterations} (>= 1) out of range"
+            )
         if not clique_time_budget_s >= 0:
-            raise ConfigError(f"teaser clique_time_budget_s={clique_time_budget_s} must be >= 0 (seconds; 0 = no limit)")
+            raise ConfigError(
+                f"teaser clique_time_budget_s={clique_time_budget_s} must be >= 0 (seconds; 0 = no limit)"
+            )
         if max_correspondences < 0 or clique_node_budget < 1:
-            raise ConfigError(f"teaser max_correspondences={max_correspondences} (>= 0) or "
-                              f"clique_node_budget={clique_node_budget} (>= 1) out of range")
+            raise ConfigError(
+                f"teaser max_correspondences={max_correspondences} (>= 0) or "
+                f"clique_node_budget={clique_node_budget} (>= 1) out of range"
+            )
         if rotation_tim_graph not in ("chain", "complete"):
             raise ConfigError(f"teaser rotation_tim_graph={rotation_tim_graph!r} is unknown; use 'chain' or 'complete'")
         self.rotation_tim_graph = str(rotation_tim_graph)
@@ -68,13 +83,27 @@ class TEASER(CorrespondenceRegistration):
         if len(corr) < 3:
             return None, {"num_correspondences": int(len(corr)), "clique_size": 0}
         try:
-            r = teaser_solver.solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]],
-                                    self.noise_bound, self.cbar2, self.gnc_factor, self.max_iterations,
-                                    self.cost_threshold, self.clique_node_budget, self.rotation_tim_graph,
-                                    seed=match.seed, clique_time_budget_s=self.clique_time_budget_s or None)
+            r = teaser_solver.solve(
+                match.source.points[corr[:, 0]],
+                match.target.points[corr[:, 1]],
+                self.noise_bound,
+                self.cbar2,
+                self.gnc_factor,
+                self.max_iterations,
+                self.cost_threshold,
+                self.clique_node_budget,
+                self.rotation_tim_graph,
+                seed=match.seed,
+                clique_time_budget_s=self.clique_time_budget_s or None,
+            )
         except InvalidInputError as e:  # a degenerate clique: this target gives no pose (others may)
             return None, {"num_correspondences": int(len(corr)), "clique_size": 0, "no_pose_reason": str(e)}
-        info = {"num_correspondences": int(len(corr)), "clique_size": int(len(r.clique)),
-                "clique_exact": r.clique_exact, "translation_inliers": int(len(r.translation_inliers)),
-                "gnc_iterations": r.gnc_iterations, **{f"teaser_{k}": v for k, v in r.timings.items()}}
+        info = {
+            "num_correspondences": int(len(corr)),
+            "clique_size": int(len(r.clique)),
+            "clique_exact": r.clique_exact,
+            "translation_inliers": int(len(r.translation_inliers)),
+            "gnc_iterations": r.gnc_iterations,
+            **{f"teaser_{k}": v for k, v in r.timings.items()},
+        }
         return r.T, info

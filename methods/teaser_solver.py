@@ -94,8 +94,9 @@ def consistency_graph(src: np.ndarray, dst: np.ndarray, noise_bound: float) -> n
     return adj
 
 
-def max_clique(adj: np.ndarray, node_budget: int = 200_000,
-               time_budget_s: float | None = None) -> tuple[np.ndarray, bool]:
+def max_clique(
+    adj: np.ndarray, node_budget: int = 200_000, time_budget_s: float | None = None
+) -> tuple[np.ndarray, bool]:
     """Maximum clique of an undirected graph: :func:`catpose.methods.max_clique.max_clique`
     (compiled MCQ branch and bound on the k-core a greedy clique implies, as TEASER++'s PMC).
 
@@ -111,8 +112,10 @@ def max_clique(adj: np.ndarray, node_budget: int = 200_000,
     try:  # numba is imported here, not with this module, so `bench --help` stays instant
         from catpose.methods import max_clique as mc
     except ImportError as e:
-        raise ConfigError(f"the TEASER max-clique search needs numba ({e}); install it with "
-                          "`pip install 'numba>=0.60'` or reinstall catpose (`pip install -e .`)") from None
+        raise ConfigError(
+            f"the TEASER max-clique search needs numba ({e}); install it with "
+            "`pip install 'numba>=0.60'` or reinstall catpose (`pip install -e .`)"
+        ) from None
     return mc.max_clique(adj, node_budget, time_budget_s)
 
 
@@ -132,9 +135,15 @@ def weighted_kabsch(src: np.ndarray, dst: np.ndarray, w: np.ndarray) -> tuple[np
     return R[0], bool(degenerate[0])
 
 
-def gnc_tls_rotation(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1.0,
-                     gnc_factor: float = 1.4, max_iterations: int = 100,
-                     cost_threshold: float = 1e-6) -> tuple[np.ndarray, np.ndarray, int]:
+def gnc_tls_rotation(
+    src: np.ndarray,
+    dst: np.ndarray,
+    noise_bound: float,
+    cbar2: float = 1.0,
+    gnc_factor: float = 1.4,
+    max_iterations: int = 100,
+    cost_threshold: float = 1e-6,
+) -> tuple[np.ndarray, np.ndarray, int]:
     """GNC-TLS rotation: ``min_R sum_k min(||dst_k - R src_k||^2 / c^2, cbar2)``.
 
     Follows TEASER++'s ``GNCTLSRotationSolver``: each iteration solves a weighted Kabsch
@@ -219,8 +228,9 @@ def adaptive_voting(values: np.ndarray, bound: float) -> tuple[float, np.ndarray
     return float(x[best_mask].mean()), best_mask
 
 
-def checked_inputs(src: np.ndarray, dst: np.ndarray, noise_bound: float, rotation_tim_graph: str,
-                   solver: str = "TEASER") -> tuple[np.ndarray, np.ndarray]:
+def checked_inputs(
+    src: np.ndarray, dst: np.ndarray, noise_bound: float, rotation_tim_graph: str, solver: str = "TEASER"
+) -> tuple[np.ndarray, np.ndarray]:
     """``src``, ``dst`` as float64 after the checks every TEASER solver makes (matched (N, 3)
     arrays, a positive noise bound, a known TIM graph), each failure in one line naming ``solver``."""
     src = np.asarray(src, dtype=np.float64)
@@ -234,11 +244,20 @@ def checked_inputs(src: np.ndarray, dst: np.ndarray, noise_bound: float, rotatio
     return src, dst
 
 
-def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1.0,
-          gnc_factor: float = 1.4, max_iterations: int = 100, cost_threshold: float = 1e-6,
-          clique_node_budget: int = 200_000, rotation_tim_graph: str = "chain",
-          max_rotation_tims: int = 20_000, seed: int = 0,
-          clique_time_budget_s: float | None = None) -> SolverResult:
+def solve(
+    src: np.ndarray,
+    dst: np.ndarray,
+    noise_bound: float,
+    cbar2: float = 1.0,
+    gnc_factor: float = 1.4,
+    max_iterations: int = 100,
+    cost_threshold: float = 1e-6,
+    clique_node_budget: int = 200_000,
+    rotation_tim_graph: str = "chain",
+    max_rotation_tims: int = 20_000,
+    seed: int = 0,
+    clique_time_budget_s: float | None = None,
+) -> SolverResult:
     """Robust registration ``dst ~ R src + t`` from putative correspondences (TEASER, scale 1).
 
     Args:
@@ -277,8 +296,10 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
     clique, exact = max_clique(adj, clique_node_budget, clique_time_budget_s)
     timings["clique_s"] = time.perf_counter() - t0
     if len(clique) < MIN_CLIQUE_SIZE:
-        raise InvalidInputError(f"TEASER max clique has {len(clique)} of {len(src)} correspondences "
-                                f"(fewer than {MIN_CLIQUE_SIZE}): degenerate, no reliable pose")
+        raise InvalidInputError(
+            f"TEASER max clique has {len(clique)} of {len(src)} correspondences "
+            f"(fewer than {MIN_CLIQUE_SIZE}): degenerate, no reliable pose"
+        )
 
     t0 = time.perf_counter()
     if rotation_tim_graph == "chain":
@@ -292,11 +313,14 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
         pick = np.random.default_rng(seed).choice(len(i), max_rotation_tims, replace=False)
         i, j = i[pick], j[pick]
     a, b = src[clique], dst[clique]
-    R, w, iters, degenerate = gnc_tls_rotation(a[j] - a[i], b[j] - b[i], 2.0 * noise_bound, cbar2, gnc_factor,
-                                               max_iterations, cost_threshold)
+    R, w, iters, degenerate = gnc_tls_rotation(
+        a[j] - a[i], b[j] - b[i], 2.0 * noise_bound, cbar2, gnc_factor, max_iterations, cost_threshold
+    )
     if degenerate:
-        raise InvalidInputError(f"TEASER: the {int((w > 0.5).sum())} rotation inliers of the {len(clique)}-point "
-                                "max clique lie on one line: the rotation about it is not determined, no pose")
+        raise InvalidInputError(
+            f"TEASER: the {int((w > 0.5).sum())} rotation inliers of the {len(clique)}-point "
+            "max clique lie on one line: the rotation about it is not determined, no pose"
+        )
     timings["rotation_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()

@@ -30,7 +30,8 @@ import contextlib
 import os
 import sys
 import time
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 
@@ -39,11 +40,12 @@ from catpose.methods.correspondence import MatchInput
 from catpose.methods.teaser import TEASER
 from catpose.methods.teaser_solver import MIN_CLIQUE_SIZE, SolverResult, checked_inputs
 
-
-_MISSING = ("method=teaserpp needs the teaserpp_python module (TEASER++'s Python bindings), which is not "
-            "importable: build and install it into this environment as TEASER++'s own README says "
-            "(github.com/MIT-SPARK/TEASER-plusplus, 'Minimal Python 3 example'; it builds on Python 3.11 too), "
-            "or use method=teaser")
+_MISSING = (
+    "method=teaserpp needs the teaserpp_python module (TEASER++'s Python bindings), which is not "
+    "importable: build and install it into this environment as TEASER++'s own README says "
+    "(github.com/MIT-SPARK/TEASER-plusplus, 'Minimal Python 3 example'; it builds on Python 3.11 too), "
+    "or use method=teaser"
+)
 
 
 def _import_teaserpp():
@@ -69,9 +71,17 @@ def _stdout_silenced() -> Iterator[None]:
         os.close(saved)
 
 
-def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1.0,
-          gnc_factor: float = 1.4, max_iterations: int = 100, cost_threshold: float = 1e-6,
-          rotation_tim_graph: str = "chain", min_clique_size: int = MIN_CLIQUE_SIZE) -> SolverResult:
+def solve(
+    src: np.ndarray,
+    dst: np.ndarray,
+    noise_bound: float,
+    cbar2: float = 1.0,
+    gnc_factor: float = 1.4,
+    max_iterations: int = 100,
+    cost_threshold: float = 1e-6,
+    rotation_tim_graph: str = "chain",
+    min_clique_size: int = MIN_CLIQUE_SIZE,
+) -> SolverResult:
     """``dst ~ R src + t`` by TEASER++ (scale fixed, exact max clique, GNC-TLS rotation), with
     the arguments of :func:`catpose.methods.teaser_solver.solve` (see the module docstring).
 
@@ -106,15 +116,24 @@ def solve(src: np.ndarray, dst: np.ndarray, noise_bound: float, cbar2: float = 1
         solve_s = time.perf_counter() - t0
     clique = np.sort(np.asarray(solver.getInlierMaxClique(), dtype=np.int64))  # as returned (may repeat)
     if len(np.unique(clique)) < min_clique_size:
-        raise InvalidInputError(f"TEASER++ max clique has {len(np.unique(clique))} of {len(src)} correspondences "
-                                f"(fewer than {min_clique_size}): degenerate, no reliable pose")
+        raise InvalidInputError(
+            f"TEASER++ max clique has {len(np.unique(clique))} of {len(src)} correspondences "
+            f"(fewer than {min_clique_size}): degenerate, no reliable pose"
+        )
     sol = solver.getSolution()
     R = np.asarray(sol.rotation, dtype=np.float64).reshape(3, 3)
     t = np.asarray(sol.translation, dtype=np.float64).reshape(3)
     translation_inliers = np.asarray(solver.getTranslationInliers(), dtype=np.int64)
-    return SolverResult(R, t, clique, True, np.asarray(solver.getRotationInliersMask(), dtype=bool).reshape(-1),
-                        clique[translation_inliers[translation_inliers < len(clique)]], -1,
-                        {"solve_s": solve_s})
+    return SolverResult(
+        R,
+        t,
+        clique,
+        True,
+        np.asarray(solver.getRotationInliersMask(), dtype=bool).reshape(-1),
+        clique[translation_inliers[translation_inliers < len(clique)]],
+        -1,
+        {"solve_s": solve_s},
+    )
 
 
 class TEASERPlusPlus(TEASER):
@@ -130,13 +149,24 @@ class TEASERPlusPlus(TEASER):
         if len(corr) < 3:
             return None, {"num_correspondences": int(len(corr)), "clique_size": 0}
         try:
-            r = solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]], self.noise_bound,
-                      self.cbar2, self.gnc_factor, self.max_iterations, self.cost_threshold,
-                      self.rotation_tim_graph)
+            r = solve(
+                match.source.points[corr[:, 0]],
+                match.target.points[corr[:, 1]],
+                self.noise_bound,
+                self.cbar2,
+                self.gnc_factor,
+                self.max_iterations,
+                self.cost_threshold,
+                self.rotation_tim_graph,
+            )
         except InvalidInputError as e:  # a degenerate clique: this target gives no pose (others may)
             return None, {"num_correspondences": int(len(corr)), "clique_size": 0, "no_pose_reason": str(e)}
         # PMC's exact solver has been seen to list a vertex twice: count distinct members
-        info = {"num_correspondences": int(len(corr)), "clique_size": int(len(np.unique(r.clique))),
-                "clique_exact": r.clique_exact, "translation_inliers": int(len(r.translation_inliers)),
-                **{f"teaserpp_{k}": v for k, v in r.timings.items()}}
+        info = {
+            "num_correspondences": int(len(corr)),
+            "clique_size": int(len(np.unique(r.clique))),
+            "clique_exact": r.clique_exact,
+            "translation_inliers": int(len(r.translation_inliers)),
+            **{f"teaserpp_{k}": v for k, v in r.timings.items()},
+        }
         return r.T, info

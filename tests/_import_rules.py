@@ -24,8 +24,13 @@ from pathlib import Path
 from typing import NamedTuple
 
 #: source folder (relative to the repository root) -> its import prefix
-ROOTS = {"src/catpose": "catpose", "datasets": "catpose.datasets", "methods": "catpose.methods",
-         "configs": "catpose.configs", "bench": "catpose.bench"}
+ROOTS = {
+    "src/catpose": "catpose",
+    "datasets": "catpose.datasets",
+    "methods": "catpose.methods",
+    "configs": "catpose.configs",
+    "bench": "catpose.bench",
+}
 
 #: bench wing -> the other wings it may import
 WINGS: dict[str, frozenset[str]] = {
@@ -97,8 +102,8 @@ def module_name(root: Path, path: Path) -> str | None:
     rel = path.relative_to(root).with_suffix("")
     for folder, prefix in ROOTS.items():
         parts = Path(folder).parts
-        if rel.parts[:len(parts)] == parts:
-            rest = rel.parts[len(parts):]
+        if rel.parts[: len(parts)] == parts:
+            rest = rel.parts[len(parts) :]
             if rest and rest[-1] == "__init__":
                 rest = rest[:-1]
             return ".".join((prefix, *rest))
@@ -117,7 +122,7 @@ def imported_modules(tree: ast.AST, module: str, is_package: bool) -> list[tuple
             base = node.module or ""
             if node.level:
                 package = module.split(".") if is_package else module.split(".")[:-1]
-                package = package[:len(package) - (node.level - 1)]
+                package = package[: len(package) - (node.level - 1)]
                 base = ".".join([*package, base] if base else package)
             out += [(node.lineno, f"{base}.{a.name}") for a in node.names]
     return out

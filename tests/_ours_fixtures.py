@@ -15,12 +15,18 @@ def chair_mesh() -> tuple[np.ndarray, np.ndarray]:
     """An asymmetric chair-like union of boxes (seat, back, four legs, an arm on one side)."""
     import trimesh
 
-    parts = [((0.8, 0.8, 0.1), (0, 0, 0)), ((0.1, 0.8, 0.8), (-0.35, 0, 0.45)),
-             ((0.08, 0.08, 0.5), (0.35, 0.35, -0.3)), ((0.08, 0.08, 0.5), (0.35, -0.35, -0.3)),
-             ((0.08, 0.08, 0.5), (-0.35, 0.35, -0.3)), ((0.08, 0.08, 0.5), (-0.35, -0.35, -0.3)),
-             ((0.6, 0.08, 0.25), (0.0, 0.36, 0.15))]
-    meshes = [trimesh.creation.box(extents=e, transform=trimesh.transformations.translation_matrix(c))
-              for e, c in parts]
+    parts = [
+        ((0.8, 0.8, 0.1), (0, 0, 0)),
+        ((0.1, 0.8, 0.8), (-0.35, 0, 0.45)),
+        ((0.08, 0.08, 0.5), (0.35, 0.35, -0.3)),
+        ((0.08, 0.08, 0.5), (0.35, -0.35, -0.3)),
+        ((0.08, 0.08, 0.5), (-0.35, 0.35, -0.3)),
+        ((0.08, 0.08, 0.5), (-0.35, -0.35, -0.3)),
+        ((0.6, 0.08, 0.25), (0.0, 0.36, 0.15)),
+    ]
+    meshes = [
+        trimesh.creation.box(extents=e, transform=trimesh.transformations.translation_matrix(c)) for e, c in parts
+    ]
     m = trimesh.util.concatenate(meshes)
     return np.asarray(m.vertices, np.float64), np.asarray(m.faces, np.int64)
 

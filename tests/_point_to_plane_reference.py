@@ -15,9 +15,16 @@ import numpy as np
 from catpose.geometry import axis_angle_to_R, make_T
 
 
-def refine_point_to_plane(points: np.ndarray, target_points: np.ndarray, target_normals: np.ndarray,
-                          tree, T_init: np.ndarray, max_distance: float, iterations: int) -> np.ndarray:
-    """Refine ``T_target_source`` (4, 4) from ``T_init``.
+def refine_point_to_plane(
+    points: np.ndarray,
+    target_points: np.ndarray,
+    target_normals: np.ndarray,
+    tree,
+    T_init: np.ndarray,
+    max_distance: float,
+    iterations: int,
+) -> np.ndarray:
+    """Refine the (4, 4) source-to-target transform from ``T_init``.
 
     Args:
         points: (N, 3) source points, source frame.
@@ -38,7 +45,7 @@ def refine_point_to_plane(points: np.ndarray, target_points: np.ndarray, target_
         if ok.sum() < 6:
             break
         s, q, n = src[ok], target_points[j[ok]], target_normals[j[ok]]
-        J = np.concatenate([np.cross(s, n), n], axis=1)            # (k, 6)
+        J = np.concatenate([np.cross(s, n), n], axis=1)  # (k, 6)
         r = np.einsum("ij,ij->i", q - s, n)
         H = J.T @ J + 1e-9 * np.eye(6)
         x = np.linalg.solve(H, J.T @ r)

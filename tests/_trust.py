@@ -5,8 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 
-CFG = {"method": {"name": "ours", "_target_": "x.Y"}, "dataset": {"name": "toy"},
-       "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}, "seed": 0}
+CFG = {
+    "method": {"name": "ours", "_target_": "x.Y"},
+    "dataset": {"name": "toy"},
+    "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"},
+    "seed": 0,
+}
 
 
 def one_error_line(capsys, command: str) -> str:
@@ -23,11 +27,28 @@ def rows(errors_deg: list[float], category: str = "mug") -> list[dict]:
     for k, e in enumerate(errors_deg):
         c, s = np.cos(np.radians(e)), np.sin(np.radians(e))
         T_est = np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
-        out.append({"sample_id": f"{category}/i{k}/v0", "group_id": f"{category}/i{k}/v0", "obs_id": f"{category}/i{k}/v0",
-                    "category": category, "instance_id": f"i{k}", "method": "ours", "dataset": "toy",
-                    "protocol": "gt_model", "seed": 0, "status": "ok", "error": "", "symmetry_axis": None,
-                    "T_est": T_est.ravel().tolist(), "T_gt": np.eye(4).ravel().tolist(), "err_deg": e,
-                    "trans_err": 0.0, "score": 0.1, "runtime_s": 0.5, "info": {}, "extras": {}})
+        out.append(
+            {
+                "sample_id": f"{category}/i{k}/v0",
+                "group_id": f"{category}/i{k}/v0",
+                "obs_id": f"{category}/i{k}/v0",
+                "category": category,
+                "instance_id": f"i{k}",
+                "method": "ours",
+                "dataset": "toy",
+                "protocol": "gt_model",
+                "seed": 0,
+                "status": "ok",
+                "error": "",
+                "symmetry_axis": None,
+                "T_est": T_est.ravel().tolist(),
+                "T_gt": np.eye(4).ravel().tolist(),
+                "err_deg": e,
+                "trans_err": 0.0,
+                "score": 0.1,
+                "runtime_s": 0.5,
+                "info": {},
+                "extras": {},
+            }
+        )
     return out
-
-

@@ -8,10 +8,20 @@ import numpy as np
 import pytest
 
 from catpose.bench.category import align as align_cmd
-from catpose.datasets.alignment import (FLIP, axis_aligned_rotations, chamfer_distance, estimate_alignment,
-                                        estimate_table, read_alignment_table, rotation_candidates, synchronize,
-                                        write_alignment_table, yaw_deg_of, yaw_flip_hypotheses, yaw_rotations)
-from catpose.datasets.meshio import read_off
+from catpose.datasets.alignment import (
+    FLIP,
+    axis_aligned_rotations,
+    chamfer_distance,
+    estimate_alignment,
+    estimate_table,
+    read_alignment_table,
+    rotation_candidates,
+    synchronize,
+    write_alignment_table,
+    yaw_deg_of,
+    yaw_flip_hypotheses,
+    yaw_rotations,
+)
 from catpose.datasets.modelnet40 import ModelNet40
 from catpose.errors import DatasetError
 from catpose.geometry import axis_angle_to_R
@@ -34,8 +44,12 @@ def l_shape_mesh() -> tuple[np.ndarray, np.ndarray]:
 
 def write_off(path: Path, v: np.ndarray, f: np.ndarray) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join([f"OFF{len(v)} {len(f)} 0"] + [" ".join(map(str, x)) for x in v]
-                              + [f"3 {a} {b} {c}" for a, b, c in f]) + "\n")
+    path.write_text(
+        "\n".join(
+            [f"OFF{len(v)} {len(f)} 0"] + [" ".join(map(str, x)) for x in v] + [f"3 {a} {b} {c}" for a, b, c in f]
+        )
+        + "\n"
+    )
 
 
 def test_24_axis_aligned_rotations_are_distinct_and_proper():
@@ -50,8 +64,10 @@ def test_24_axis_aligned_rotations_are_distinct_and_proper():
 
 def test_table_round_trip_with_matrices_and_yaw(tmp_path):
     R = axis_angle_to_R(np.array([0, 0, 1.0]), np.pi / 2)
-    write_alignment_table(tmp_path / "t.csv", [{"category": "airplane", "instance_id": "airplane_0002", "R": R,
-                                                "yaw_deg": yaw_deg_of(R), "chamfer": 0.1}])
+    write_alignment_table(
+        tmp_path / "t.csv",
+        [{"category": "airplane", "instance_id": "airplane_0002", "R": R, "yaw_deg": yaw_deg_of(R), "chamfer": 0.1}],
+    )
     with (tmp_path / "t.csv").open("a") as fh:
         fh.write("airplane,airplane_0003,,,,,,,,,,180,\n")
     table = read_alignment_table(tmp_path / "t.csv")
@@ -60,12 +76,19 @@ def test_table_round_trip_with_matrices_and_yaw(tmp_path):
     assert yaw_deg_of(R) == pytest.approx(90.0)
 
 
-@pytest.mark.parametrize("text, words", [
-    ("category,instance_id,foo\n", "needs columns"),
-    ("category,instance_id,yaw_deg\nairplane,a,abc\n", "line 2"),
-    ("category,instance_id," + ",".join(f"r{i}{j}" for i in range(3) for j in range(3))
-     + "\nairplane,a,1,0,0,0,1,0,0,0,2\n", "not a rotation"),
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("category,instance_id,foo\n", "needs columns"),
+        ("category,instance_id,yaw_deg\nairplane,a,abc\n", "line 2"),
+        (
+            "category,instance_id,"
+            + ",".join(f"r{i}{j}" for i in range(3) for j in range(3))
+            + "\nairplane,a,1,0,0,0,1,0,0,0,2\n",
+            "not a rotation",
+        ),
+    ],
+)
 def test_bad_tables_raise(tmp_path, text, words):
     (tmp_path / "t.csv").write_text(text)
     with pytest.raises(DatasetError, match=words):
@@ -138,11 +161,32 @@ def test_bench_align_writes_a_table_the_loader_applies(tmp_path, capsys):
     write_off(root / "thing/train/thing_0002.off", v @ yaw90.T * 7.0 + 3.0, f)  # rotated, scaled, moved
     out = tmp_path / "align.csv"
     verified = tmp_path / "verified.csv"  # in another frame (turned by 180 deg): agreement is up to one rotation
-    write_alignment_table(verified, [{"category": "thing", "instance_id": "thing_0001", "R": yaw_rotations(2)[1]},
-                                     {"category": "thing", "instance_id": "thing_0002", "R": yaw_rotations(2)[1] @ yaw90.T}])
-    assert align_cmd.main(["dataset=modelnet40", f"dataset.root={root}", "dataset.categories=[thing]",
-                           "dataset.split=train", "--category", "thing", "--out", str(out), "--points", "600",
-                           "--compare", str(verified)]) == 0
+    write_alignment_table(
+        verified,
+        [
+            {"category": "thing", "instance_id": "thing_0001", "R": yaw_rotations(2)[1]},
+            {"category": "thing", "instance_id": "thing_0002", "R": yaw_rotations(2)[1] @ yaw90.T},
+        ],
+    )
+    assert (
+        align_cmd.main(
+            [
+                "dataset=modelnet40",
+                f"dataset.root={root}",
+                "dataset.categories=[thing]",
+                "dataset.split=train",
+                "--category",
+                "thing",
+                "--out",
+                str(out),
+                "--points",
+                "600",
+                "--compare",
+                str(verified),
+            ]
+        )
+        == 0
+    )
     assert "agree 2/2" in capsys.readouterr().out
     assert (tmp_path / "align_vs_verified.csv").read_text().count(",true,") == 2
     table = read_alignment_table(out)
@@ -161,17 +205,44 @@ def test_bench_align_writes_a_table_the_loader_applies(tmp_path, capsys):
     assert ds.observation("thing/thing_0002/v00").info["aligned"] is True
 
     sheet = tmp_path / "redrawn.png"  # --draw-only redraws the table as it is
-    assert align_cmd.main(["dataset=modelnet40", f"dataset.root={root}", "dataset.categories=[thing]",
-                           "dataset.split=train", "--category", "thing", "--out", str(out), "--draw-only",
-                           "--sheet", str(sheet)]) == 0
+    assert (
+        align_cmd.main(
+            [
+                "dataset=modelnet40",
+                f"dataset.root={root}",
+                "dataset.categories=[thing]",
+                "dataset.split=train",
+                "--category",
+                "thing",
+                "--out",
+                str(out),
+                "--draw-only",
+                "--sheet",
+                str(sheet),
+            ]
+        )
+        == 0
+    )
     assert sheet.stat().st_size > 1000
 
 
 def test_bench_align_reports_a_bad_root_in_one_line(tmp_path, capsys):
     from catpose.bench.cli import main
 
-    assert main(["align", "dataset=modelnet40", f"dataset.root={tmp_path / 'none'}", "--category", "x",
-                 "--out", str(tmp_path / "o.csv")]) == 2
+    assert (
+        main(
+            [
+                "align",
+                "dataset=modelnet40",
+                f"dataset.root={tmp_path / 'none'}",
+                "--category",
+                "x",
+                "--out",
+                str(tmp_path / "o.csv"),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip()
     assert err.startswith("bench align: error: ") and "\n" not in err
 
@@ -179,8 +250,15 @@ def test_bench_align_reports_a_bad_root_in_one_line(tmp_path, capsys):
 COMMITTED = Path(__file__).resolve().parents[1] / "results" / "alignment"
 
 
-@pytest.mark.parametrize("name, n_rows", [("modelnet40_airplane", 6), ("modelnet40_chair", 3),
-                                          ("modelnet40_resampled_airplane", 18), ("modelnet40_resampled_chair", 5)])
+@pytest.mark.parametrize(
+    "name, n_rows",
+    [
+        ("modelnet40_airplane", 6),
+        ("modelnet40_chair", 3),
+        ("modelnet40_resampled_airplane", 18),
+        ("modelnet40_resampled_chair", 5),
+    ],
+)
 def test_committed_tables_are_verified_yaw_tables_with_small_sheets(name, n_rows):
     import csv
 
@@ -197,18 +275,38 @@ def test_committed_tables_are_verified_yaw_tables_with_small_sheets(name, n_rows
 @pytest.mark.slow
 def test_shared_airplanes_fuselage_axis_matches_the_verified_table(shared_data, tmp_path):
     out = tmp_path / "airplane.csv"
-    assert align_cmd.main(["dataset=modelnet40", f"dataset.root={shared_data / 'ModelNet40'}",
-                           "--category", "airplane", "--out", str(out), "--points", "512"]) == 0
+    assert (
+        align_cmd.main(
+            [
+                "dataset=modelnet40",
+                f"dataset.root={shared_data / 'ModelNet40'}",
+                "--category",
+                "airplane",
+                "--out",
+                str(out),
+                "--points",
+                "512",
+            ]
+        )
+        == 0
+    )
     est, verified = read_alignment_table(out), read_alignment_table(COMMITTED / "modelnet40_airplane.csv")
     assert set(est) == set(verified)
     np.testing.assert_allclose(est[("airplane", "airplane_0001")], np.eye(3))
     for key, R in est.items():
         # the fuselage axis is found; nose against tail (180 deg) is what the person checks
-        assert np.allclose(R, verified[key], atol=1e-9) or np.allclose(R, yaw_rotations(2)[1] @ verified[key], atol=1e-9)
+        assert np.allclose(R, verified[key], atol=1e-9) or np.allclose(
+            R, yaw_rotations(2)[1] @ verified[key], atol=1e-9
+        )
 
 
-EXPERIMENTS = ["mn40r_airplane_1template", "mn40r_chair_ktemplates", "mn40r_chair_1template", "mn40r_airplane_ktemplates",
-               "mn40r_relative"]
+EXPERIMENTS = [
+    "mn40r_airplane_1template",
+    "mn40r_chair_ktemplates",
+    "mn40r_chair_1template",
+    "mn40r_airplane_ktemplates",
+    "mn40r_relative",
+]
 
 
 @pytest.mark.parametrize("name", EXPERIMENTS)
@@ -227,9 +325,14 @@ def test_experiment_configs_compose_for_any_root_and_leave_the_templates_views_o
 
 
 @pytest.mark.data
-@pytest.mark.parametrize("name, instances", [
-    ("mn40r_airplane_1template", None),  # every airplane but the template
-    ("mn40r_chair_ktemplates", ["chair_0454", "chair_0858"]), ("mn40r_chair_1template", ["chair_0454", "chair_0858"])])
+@pytest.mark.parametrize(
+    "name, instances",
+    [
+        ("mn40r_airplane_1template", None),  # every airplane but the template
+        ("mn40r_chair_ktemplates", ["chair_0454", "chair_0858"]),
+        ("mn40r_chair_1template", ["chair_0454", "chair_0858"]),
+    ],
+)
 def test_experiment_sample_ids_are_every_non_template_view(name, instances, shared_data, monkeypatch):
     from hydra import compose, initialize_config_module
 
@@ -237,8 +340,14 @@ def test_experiment_sample_ids_are_every_non_template_view(name, instances, shar
 
     monkeypatch.chdir(COMMITTED.parents[1])  # the configs' paths are relative to the repository root
     with initialize_config_module("catpose.configs", version_base=None):
-        cfg = compose("run", overrides=[f"+experiment={name}", "+row=ours",
-                                        f"dataset.root={shared_data / 'modelnet40_normal_resampled'}"])
+        cfg = compose(
+            "run",
+            overrides=[
+                f"+experiment={name}",
+                "+row=ours",
+                f"dataset.root={shared_data / 'modelnet40_normal_resampled'}",
+            ],
+        )
     _, dataset = build_from_config(cfg.dataset, "dataset")
     dataset.name = "modelnet40_resampled"
     _, protocol = build_from_config(cfg.protocol, "protocol")

@@ -26,9 +26,11 @@ def toy_airplane(kind: str, seed: int, n: int = 900) -> np.ndarray:
     at the nose, so the wing sits where a jet's would be once turned round."""
     rng = np.random.default_rng(seed)
     s = 1.0 + 0.05 * rng.uniform(-1, 1)
-    parts = [((0, 0, 0), (2.0 * s, 0.22, 0.22), 0.35),                      # fuselage
-             ((-0.95 * s, 0, 0.30), (0.22, 0.04, 0.45), 0.08),              # fin, up only
-             ((-0.92 * s, 0, 0.05), (0.2, 0.7, 0.04), 0.1)]                 # stabiliser
+    parts = [
+        ((0, 0, 0), (2.0 * s, 0.22, 0.22), 0.35),  # fuselage
+        ((-0.95 * s, 0, 0.30), (0.22, 0.04, 0.45), 0.08),  # fin, up only
+        ((-0.92 * s, 0, 0.05), (0.2, 0.7, 0.04), 0.1),
+    ]  # stabiliser
     if kind == "jet":
         parts.append(((-0.15, 0, 0), (0.5, 1.8, 0.05), 0.47))
     else:

@@ -24,8 +24,9 @@ def _problem(tpl, image):
     z = image.depth[v, u]
     K = np.asarray(image.K, float)
     pts = np.stack([(u - K[0, 2]) * z / K[0, 0], (v - K[1, 2]) * z / K[1, 1], z], axis=1)
-    return RegistrationProblem("s", "box", pts, np.tile([0.0, 0.0, -1.0], (len(pts), 1)), [0.0, -1.0, 0.0], tpl,
-                               depth_image=image)
+    return RegistrationProblem(
+        "s", "box", pts, np.tile([0.0, 0.0, -1.0], (len(pts), 1)), [0.0, -1.0, 0.0], tpl, depth_image=image
+    )
 
 
 def test_truth_costs_less_than_a_half_turn_of_an_asymmetric_object():
@@ -50,8 +51,9 @@ def test_an_annotation_a_little_off_is_refined_before_it_is_judged():
     assert gt_refined < gt and gt_refined < 0.05
     R_err = ambiguity.refined_truth(SelectionSettings(), problem, T_annotated)[:3, :3].T @ T_gt[:3, :3]
     assert np.degrees(np.arccos(np.clip((np.trace(R_err) - 1) / 2, -1, 1))) < 1.0
-    np.testing.assert_array_equal(ambiguity.refined_truth(SelectionSettings(refine=False), problem, T_annotated),
-                                  T_annotated)
+    np.testing.assert_array_equal(
+        ambiguity.refined_truth(SelectionSettings(refine=False), problem, T_annotated), T_annotated
+    )
 
 
 def test_an_occluded_truth_still_explains_the_visible_mask():
@@ -62,12 +64,30 @@ def test_an_occluded_truth_still_explains_the_visible_mask():
 
 
 def test_table_counts_ambiguous_and_search_misses_per_part_and_object():
-    rows = [{"sample_id": "a/1", "object": "obj 9", "wrong": True, "err_deg": 179.0, "cost_est": 0.3, "cost_gt": 0.4,
-             "cost_gt_refined": 0.35, "ambiguous": True},
-            {"sample_id": "a/2", "object": "obj 9", "wrong": True, "err_deg": 90.0, "cost_est": 0.5, "cost_gt": 0.2,
-             "cost_gt_refined": 0.1, "ambiguous": False},
-            {"sample_id": "b/1", "object": "obj 9", "wrong": False},
-            {"sample_id": "b/2", "object": "obj 14", "wrong": False}]
+    rows = [
+        {
+            "sample_id": "a/1",
+            "object": "obj 9",
+            "wrong": True,
+            "err_deg": 179.0,
+            "cost_est": 0.3,
+            "cost_gt": 0.4,
+            "cost_gt_refined": 0.35,
+            "ambiguous": True,
+        },
+        {
+            "sample_id": "a/2",
+            "object": "obj 9",
+            "wrong": True,
+            "err_deg": 90.0,
+            "cost_est": 0.5,
+            "cost_gt": 0.2,
+            "cost_gt_refined": 0.1,
+            "ambiguous": False,
+        },
+        {"sample_id": "b/1", "object": "obj 9", "wrong": False},
+        {"sample_id": "b/2", "object": "obj 14", "wrong": False},
+    ]
     out = ambiguity.table(rows, lambda sid: sid.split("/")[0])
     by = {(r["part"], r["object"]): r for r in out}
     assert (by["a", "obj 9"]["samples"], by["a", "obj 9"]["wrong"]) == (2, 2)
@@ -75,7 +95,9 @@ def test_table_counts_ambiguous_and_search_misses_per_part_and_object():
     assert by["a", "obj 9"]["median_cost_gt"] == pytest.approx(0.3)
     assert by["a", "obj 9"]["median_cost_gt_refined"] == pytest.approx(0.225)
     assert by["a", "obj 9"]["flips"] == 1
-    assert by["b", "all"]["samples"] == 2 and by["b", "all"]["wrong"] == 0 and np.isnan(by["b", "all"]["median_cost_gt"])
+    assert (
+        by["b", "all"]["samples"] == 2 and by["b", "all"]["wrong"] == 0 and np.isnan(by["b", "all"]["median_cost_gt"])
+    )
     assert [r["object"] for r in out if r["part"] == "a"][-1] == "all"
     assert "| a | obj 9 | 2 | 2 | 1 | 1 | 1 | 0.300 | 0.225 | 0.400 |" in ambiguity.markdown("t", out)
 

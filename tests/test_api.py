@@ -17,7 +17,7 @@ import catpose
 from catpose.errors import InvalidInputError
 from catpose.geometry import invert_T, look_at_T_camera_world, make_T
 
-MM_PER_UNIT = 450.0                       # the chair's radius, mm
+MM_PER_UNIT = 450.0  # the chair's radius, mm
 OFFSET_MM = np.array([120.0, -35.0, 260.0])  # template-frame origin away from the chair's centre
 
 
@@ -42,9 +42,14 @@ def scene():
     T_unit_camera = invert_T(T_camera_unit)
     # p_template_mm = S p_unit + o, p_unit = R p_camera_unit + t, p_camera_unit = p_camera_mm / S
     T_gt = make_T(T_unit_camera[:3, :3], MM_PER_UNIT * T_unit_camera[:3, 3] + OFFSET_MM)
-    return {"vertices": mesh.vertices * MM_PER_UNIT + OFFSET_MM, "faces": np.asarray(mesh.faces),
-            "observation": points_unit * MM_PER_UNIT, "T_gt": T_gt, "up": T_camera_unit[:3, 2].copy(),
-            "mesh": mesh}
+    return {
+        "vertices": mesh.vertices * MM_PER_UNIT + OFFSET_MM,
+        "faces": np.asarray(mesh.faces),
+        "observation": points_unit * MM_PER_UNIT,
+        "T_gt": T_gt,
+        "up": T_camera_unit[:3, 2].copy(),
+        "mesh": mesh,
+    }
 
 
 def _errors(T: np.ndarray, T_gt: np.ndarray) -> tuple[float, float]:
@@ -121,24 +126,27 @@ def test_options_reach_the_builder():
     assert catpose.build_method("icp", num_starts=4) is catpose.build_method("icp", num_starts=4)  # cached
 
 
-@pytest.mark.parametrize("kwargs, needle", [
-    ({"observation": np.zeros(5)}, "observation has shape (5,); expected (N, 3)"),
-    ({"observation": np.full((20, 3), np.nan)}, "observation has 20 rows with NaN or inf"),
-    ({"observation": np.zeros((3, 3))}, "observation has 3 points; at least 10 are needed"),
-    ({"observation": "points.ply"}, "observation is a str, not an (N, 3) array"),
-    ({"template": "/nonexistent/chair.ply"}, "template: mesh file /nonexistent/chair.ply does not exist"),
-    ({"template": (np.eye(3), np.array([[0, 1, 5]]))}, "template faces index vertices outside 0..2"),
-    ({"template": np.zeros((50, 3))}, "template has zero extent"),
-    ({"up": [0.0, 0.0, 0.0]}, "up=[0.0, 0.0, 0.0] is not a finite non-zero 3-vector"),
-    ({"up": [1.0, 2.0]}, "up=[1.0, 2.0] is not a finite non-zero 3-vector"),
-    ({"method": "nope"}, "method='nope' is not a method config; choose one of"),
-    ({"method": 3}, "method is a int; pass a config name"),
-    ({"method": "icp", "foo": 1}, "options ['foo'] do not fit method 'icp'"),
-    ({"method": "icp", "num_starts": "many"}, "options of method 'icp': method.num_starts='many' is not an int"),
-    ({"observation_normals": np.ones((4, 3))}, "observation_normals has shape (4, 3); expected (200, 3)"),
-    ({"template_up": [0, 0, 0]}, "template_up=[0, 0, 0] is not a finite non-zero 3-vector"),
-    ({"max_points": -1}, "max_points=-1 is not a positive integer"),
-])
+@pytest.mark.parametrize(
+    "kwargs, needle",
+    [
+        ({"observation": np.zeros(5)}, "observation has shape (5,); expected (N, 3)"),
+        ({"observation": np.full((20, 3), np.nan)}, "observation has 20 rows with NaN or inf"),
+        ({"observation": np.zeros((3, 3))}, "observation has 3 points; at least 10 are needed"),
+        ({"observation": "points.ply"}, "observation is a str, not an (N, 3) array"),
+        ({"template": "/nonexistent/chair.ply"}, "template: mesh file /nonexistent/chair.ply does not exist"),
+        ({"template": (np.eye(3), np.array([[0, 1, 5]]))}, "template faces index vertices outside 0..2"),
+        ({"template": np.zeros((50, 3))}, "template has zero extent"),
+        ({"up": [0.0, 0.0, 0.0]}, "up=[0.0, 0.0, 0.0] is not a finite non-zero 3-vector"),
+        ({"up": [1.0, 2.0]}, "up=[1.0, 2.0] is not a finite non-zero 3-vector"),
+        ({"method": "nope"}, "method='nope' is not a method config; choose one of"),
+        ({"method": 3}, "method is a int; pass a config name"),
+        ({"method": "icp", "foo": 1}, "options ['foo'] do not fit method 'icp'"),
+        ({"method": "icp", "num_starts": "many"}, "options of method 'icp': method.num_starts='many' is not an int"),
+        ({"observation_normals": np.ones((4, 3))}, "observation_normals has shape (4, 3); expected (200, 3)"),
+        ({"template_up": [0, 0, 0]}, "template_up=[0, 0, 0] is not a finite non-zero 3-vector"),
+        ({"max_points": -1}, "max_points=-1 is not a positive integer"),
+    ],
+)
 def test_bad_inputs_raise_one_line_errors_naming_the_argument(kwargs, needle):
     rng = np.random.default_rng(0)
     args = {"observation": rng.normal(size=(200, 3)), "template": rng.normal(size=(300, 3)), "method": "icp"}
@@ -157,8 +165,10 @@ def test_instance_methods_take_no_options(scene):
 
 
 def test_import_catpose_stays_light():
-    probe = ("import sys, catpose; heavy = [m for m in ('catpose.api', 'torch', 'hydra', 'open3d', 'trimesh') "
-             "if m in sys.modules]; assert not heavy, heavy; assert callable(catpose.register); "
-             "assert 'catpose.api' in sys.modules; assert 'register' in dir(catpose)")
+    probe = (
+        "import sys, catpose; heavy = [m for m in ('catpose.api', 'torch', 'hydra', 'open3d', 'trimesh') "
+        "if m in sys.modules]; assert not heavy, heavy; assert callable(catpose.register); "
+        "assert 'catpose.api' in sys.modules; assert 'register' in dir(catpose)"
+    )
     r = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]

@@ -26,8 +26,7 @@ from catpose.bench.run.build import build_from_config
 from catpose.bench.run.lock import LOCK_FILE
 from catpose.bench.run.rundir import read_rows
 from catpose.bench.run.runner import run
-from catpose.errors import RunAborted
-from catpose.errors import CatposeError, ConfigError, DatasetError
+from catpose.errors import ConfigError, DatasetError, RunAborted
 
 TESTS = Path(__file__).resolve().parent
 BENCH = [sys.executable, "-m", "catpose.bench.cli"]
@@ -42,8 +41,9 @@ def toy_cfg(tmp_path: Path, overrides=(), output_root: Path | None = None):
     """The run config with the tiny toy dataset and oracle method of ``toy_dataset.py``."""
     root = output_root if output_root is not None else tmp_path / "out"
     with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
-        cfg = compose(config_name="run", overrides=[f"output_root={root}", "progress=false",
-                                                    "print_summary=false", *overrides])
+        cfg = compose(
+            config_name="run", overrides=[f"output_root={root}", "progress=false", "print_summary=false", *overrides]
+        )
     OmegaConf.set_struct(cfg, False)
     cfg.dataset = OmegaConf.create({"name": "toy", "_target_": "toy_dataset.ToyDataset", "seed": 0, "num_views": 3})
     cfg.method = OmegaConf.create({"name": "oracle", "_target_": "toy_dataset.Oracle"})
@@ -59,15 +59,17 @@ def one_line(exc: BaseException) -> str:
 # ------------------------------------------------------------------ fixtures on disk
 
 
-def write_bop(root: Path, cam_K=(300.0, 0, 159.5, 0, 300.0, 119.5, 0, 0, 1), gt_entry=None,
-              models_info=None) -> Path:
+def write_bop(root: Path, cam_K=(300.0, 0, 159.5, 0, 300.0, 119.5, 0, 0, 1), gt_entry=None, models_info=None) -> Path:
     """A BOP tree just complete enough to be indexed (the depth PNG only has to exist)."""
     scene = root / "test" / "000001"
     (scene / "depth").mkdir(parents=True)
     (root / "models").mkdir(parents=True)
     (scene / "depth" / "000000.png").write_bytes(b"not read when indexing")
-    entry = gt_entry if gt_entry is not None else {"obj_id": 19, "cam_R_m2c": [1, 0, 0, 0, 1, 0, 0, 0, 1],
-                                                   "cam_t_m2c": [0, 0, 500]}
+    entry = (
+        gt_entry
+        if gt_entry is not None
+        else {"obj_id": 19, "cam_R_m2c": [1, 0, 0, 0, 1, 0, 0, 0, 1], "cam_t_m2c": [0, 0, 500]}
+    )
     (scene / "scene_gt.json").write_text(json.dumps({"0": [entry]}))
     (scene / "scene_camera.json").write_text(json.dumps({"0": {"cam_K": list(cam_K), "depth_scale": 1.0}}))
     (root / "models" / "models_info.json").write_text(json.dumps(models_info if models_info is not None else {}))
@@ -83,15 +85,18 @@ def write_off(path: Path, vertex_lines: list[str]) -> Path:
 # ------------------------------------------------------------------ in-process cases
 
 
-@pytest.mark.parametrize("overrides, needle", [
-    (["limit=-1"], "limit=-1 is not an integer >= 1; set limit=<integer >= 1>"),
-    (["limit=0"], "limit=0 is not an integer >= 1"),
-    (["limit=abc"], "limit='abc' is not an integer >= 1"),
-    (["seed=1.5"], "seed=1.5 is not an integer; set seed=<integer>"),
-    (["seed=abc"], "seed='abc' is not an integer"),
-    (["threads=0"], "threads=0 is not an integer >= 1"),
-    (["lock_timeout=-2"], "lock_timeout=-2 is not a number >= 0"),
-])
+@pytest.mark.parametrize(
+    "overrides, needle",
+    [
+        (["limit=-1"], "limit=-1 is not an integer >= 1; set limit=<integer >= 1>"),
+        (["limit=0"], "limit=0 is not an integer >= 1"),
+        (["limit=abc"], "limit='abc' is not an integer >= 1"),
+        (["seed=1.5"], "seed=1.5 is not an integer; set seed=<integer>"),
+        (["seed=abc"], "seed='abc' is not an integer"),
+        (["threads=0"], "threads=0 is not an integer >= 1"),
+        (["lock_timeout=-2"], "lock_timeout=-2 is not a number >= 0"),
+    ],
+)
 def test_run_options_are_checked_before_any_work(tmp_path, overrides, needle):
     with pytest.raises(ConfigError) as info:
         run(toy_cfg(tmp_path, overrides))
@@ -108,18 +113,33 @@ _OPT = "catpose.methods.ours_settings.OptimiserSettings"
 _SEL = "catpose.methods.ours_settings.SelectionSettings"
 
 
-@pytest.mark.parametrize("group, options, needle", [
-    ("method", {"optimiser": {"_target_": _OPT, "lr": "abc"}},
-     "method.optimiser.lr='abc' is not a float; set method.optimiser.lr=<number>"),
-    ("method", {"optimiser": {"_target_": _OPT, "steps_pose": 1.5}},
-     "method.optimiser.steps_pose=1.5 is not an int; set method.optimiser.steps_pose=<integer>"),
-    ("method", {"selection": {"_target_": _SEL, "refine": "maybe"}},
-     "method.selection.refine='maybe' is not a bool; set method.selection.refine=<true|false>"),
-    ("method", {"selection": {"_target_": _SEL, "gravity_max_deg": "x"}},
-     "method.selection.gravity_max_deg='x' is not a float or null"),
-    ("method", {"no_such_option": 1}, "method.no_such_option is not an option of method 'ours'"),
-    ("method", {"optimiser": {"_target_": _OPT, "lr_typo": 1}}, "method.optimiser.lr_typo is not an option"),
-])
+@pytest.mark.parametrize(
+    "group, options, needle",
+    [
+        (
+            "method",
+            {"optimiser": {"_target_": _OPT, "lr": "abc"}},
+            "method.optimiser.lr='abc' is not a float; set method.optimiser.lr=<number>",
+        ),
+        (
+            "method",
+            {"optimiser": {"_target_": _OPT, "steps_pose": 1.5}},
+            "method.optimiser.steps_pose=1.5 is not an int; set method.optimiser.steps_pose=<integer>",
+        ),
+        (
+            "method",
+            {"selection": {"_target_": _SEL, "refine": "maybe"}},
+            "method.selection.refine='maybe' is not a bool; set method.selection.refine=<true|false>",
+        ),
+        (
+            "method",
+            {"selection": {"_target_": _SEL, "gravity_max_deg": "x"}},
+            "method.selection.gravity_max_deg='x' is not a float or null",
+        ),
+        ("method", {"no_such_option": 1}, "method.no_such_option is not an option of method 'ours'"),
+        ("method", {"optimiser": {"_target_": _OPT, "lr_typo": 1}}, "method.optimiser.lr_typo is not an option"),
+    ],
+)
 def test_wrong_option_values_name_the_key(group, options, needle):
     node = OmegaConf.create({"name": "ours", "_target_": "catpose.methods.ours.Ours", **options})
     with pytest.raises(ConfigError) as info:
@@ -127,9 +147,18 @@ def test_wrong_option_values_name_the_key(group, options, needle):
     assert needle in one_line(info.value)
 
 
-@pytest.mark.parametrize("annotation, kinds", [
-    ("float", {"float"}), ("int | None", {"int", "None"}), ("Optional[float]", {"float", "None"}),
-    (float, {"float"}), ("list[float]", None), ("tuple[float, ...] | list[float]", None), ("None", None)])
+@pytest.mark.parametrize(
+    "annotation, kinds",
+    [
+        ("float", {"float"}),
+        ("int | None", {"int", "None"}),
+        ("Optional[float]", {"float", "None"}),
+        (float, {"float"}),
+        ("list[float]", None),
+        ("tuple[float, ...] | list[float]", None),
+        ("None", None),
+    ],
+)
 def test_scalar_annotations_are_read(annotation, kinds):
     from catpose.bench.run.build import _scalar_annotation
 
@@ -140,14 +169,21 @@ def test_right_option_values_pass_the_check():
     from catpose.bench.run.build import check_constructor_args
 
     # an int for a float, an integral float for an int, None for an optional, a number for a str
-    check_constructor_args({"_target_": "catpose.methods.ours.Ours", "chamfer_points": 256.0,
-                            "optimiser": {"_target_": _OPT, "lr": 1, "steps_pose": 300.0, "device": "cpu"},
-                            "selection": {"_target_": _SEL, "gravity_max_deg": None}}, "method", "ours")
+    check_constructor_args(
+        {
+            "_target_": "catpose.methods.ours.Ours",
+            "chamfer_points": 256.0,
+            "optimiser": {"_target_": _OPT, "lr": 1, "steps_pose": 300.0, "device": "cpu"},
+            "selection": {"_target_": _SEL, "gravity_max_deg": None},
+        },
+        "method",
+        "ours",
+    )
 
 
 def test_every_shipped_config_passes_the_type_check():
-    from catpose.bench.run.config import available
     from catpose.bench.run.build import check_constructor_args
+    from catpose.bench.run.config import available
 
     for group in ("method", "dataset", "protocol"):
         for name in available(group):
@@ -169,11 +205,14 @@ def test_missing_dataset_root_hint_is_a_working_override(tmp_path):
     assert "dataset.root=<value>" in msg and "dataset.dataset" not in msg
 
 
-@pytest.mark.parametrize("cam_K, needle", [
-    ((-300.0, 0, 159.5, 0, 300.0, 119.5, 0, 0, 1), "fx=-300, fy=300"),
-    ((300.0, 0, 159.5, 0, 0.0, 119.5, 0, 0, 1), "fx=300, fy=0"),
-    ((0.0, 0, 159.5, 0, 0.0, 119.5, 0, 0, 1), "fx=0, fy=0"),
-])
+@pytest.mark.parametrize(
+    "cam_K, needle",
+    [
+        ((-300.0, 0, 159.5, 0, 300.0, 119.5, 0, 0, 1), "fx=-300, fy=300"),
+        ((300.0, 0, 159.5, 0, 0.0, 119.5, 0, 0, 1), "fx=300, fy=0"),
+        ((0.0, 0, 159.5, 0, 0.0, 119.5, 0, 0, 1), "fx=0, fy=0"),
+    ],
+)
 def test_bop_non_positive_focal_length_fails_when_indexing(tmp_path, cam_K, needle):
     from catpose.datasets.bop import BOP
 
@@ -184,8 +223,10 @@ def test_bop_non_positive_focal_length_fails_when_indexing(tmp_path, cam_K, need
     assert needle in msg and "scene_camera.json" in msg and "fix cam_K" in msg
 
 
-@pytest.mark.parametrize("entry", [{"cam_R_m2c": [1, 0, 0, 0, 1, 0, 0, 0, 1], "cam_t_m2c": [0, 0, 1]},
-                                   {"obj_id": "nineteen"}, "not an object"])
+@pytest.mark.parametrize(
+    "entry",
+    [{"cam_R_m2c": [1, 0, 0, 0, 1, 0, 0, 0, 1], "cam_t_m2c": [0, 0, 1]}, {"obj_id": "nineteen"}, "not an object"],
+)
 def test_bop_scene_gt_entry_without_obj_id_names_the_file(tmp_path, entry):
     from catpose.datasets.bop import BOP
 
@@ -216,8 +257,10 @@ def test_bench_shows_catpose_warnings_in_one_line(monkeypatch):
 
     monkeypatch.setattr(warnings, "formatwarning", warnings.formatwarning)  # restored afterwards
     _one_line_catpose_warnings()
-    assert warnings.formatwarning("no entry for object 19", UserWarning, bop.__file__, 1) == \
-        "bench: warning: no entry for object 19\n"
+    assert (
+        warnings.formatwarning("no entry for object 19", UserWarning, bop.__file__, 1)
+        == "bench: warning: no entry for object 19\n"
+    )
     assert warnings.formatwarning("other", UserWarning, warnings.__file__, 1).count("UserWarning") == 1
 
 
@@ -231,8 +274,9 @@ def test_redwood_non_positive_focal_length(tmp_path, key, value):
     assert f"dataset.{key}=" in msg and f"set dataset.{key}=<pixels>" in msg
 
 
-@pytest.mark.parametrize("key, value", [("views_per_instance", 0), ("views_per_instance", -1),
-                                        ("instances_per_category", 0)])
+@pytest.mark.parametrize(
+    "key, value", [("views_per_instance", 0), ("views_per_instance", -1), ("instances_per_category", 0)]
+)
 def test_modelnet40_zero_counts_name_the_key_not_the_root(tmp_path, key, value):
     from catpose.datasets.modelnet40 import ModelNet40
 
@@ -242,10 +286,13 @@ def test_modelnet40_zero_counts_name_the_key_not_the_root(tmp_path, key, value):
     assert f"dataset.{key}={value}" in msg and "root" not in msg
 
 
-@pytest.mark.parametrize("lines, needle", [
-    (["0 0 0", "1 0", "0 1 0"], "line 4: a vertex needs 3 coordinates, found 2"),
-    (["0 0 0", "1 0 0", "0 one 0"], "line 5: vertex coordinates '0 one 0' are not numbers"),
-])
+@pytest.mark.parametrize(
+    "lines, needle",
+    [
+        (["0 0 0", "1 0", "0 1 0"], "line 4: a vertex needs 3 coordinates, found 2"),
+        (["0 0 0", "1 0 0", "0 one 0"], "line 5: vertex coordinates '0 one 0' are not numbers"),
+    ],
+)
 def test_off_vertex_errors_give_the_line_number(tmp_path, lines, needle):
     from catpose.datasets.meshio import read_off
 
@@ -268,12 +315,12 @@ def test_output_root_that_is_a_file(tmp_path):
     assert str(blocker) in msg and "set output_root=" in msg
 
 
-@pytest.mark.parametrize("code, needle", [(errno.EACCES, "not writable"), (errno.EROFS, "not writable"),
-                                          (errno.ENOSPC, "the disk is full")])
+@pytest.mark.parametrize(
+    "code, needle", [(errno.EACCES, "not writable"), (errno.EROFS, "not writable"), (errno.ENOSPC, "the disk is full")]
+)
 def test_unwritable_or_full_output_directory_aborts_without_recording(tmp_path, monkeypatch, code, needle):
     """Tests run as root here, so a read-only folder cannot be made with chmod: the OSError is
     injected where the runner writes a sample (as a full disk would raise it)."""
-    from catpose.bench.run import runner
 
     out = run(toy_cfg(tmp_path, ["limit=1"]))
     real = rundir.SampleWriter.write
@@ -368,11 +415,21 @@ def test_a_second_run_waits_then_skips_what_the_first_did(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_two_bench_runs_into_one_directory_do_each_sample_once(tmp_path):
-    args = [*BENCH, "run", "method=icp", "dataset=synthetic", "dataset.categories=[car]",
-            "dataset.instances_per_category=1", "dataset.views_per_instance=2", "progress=false",
-            f"output_root={tmp_path}"]
-    procs = [subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-             for _ in range(2)]
+    args = [
+        *BENCH,
+        "run",
+        "method=icp",
+        "dataset=synthetic",
+        "dataset.categories=[car]",
+        "dataset.instances_per_category=1",
+        "dataset.views_per_instance=2",
+        "progress=false",
+        f"output_root={tmp_path}",
+    ]
+    procs = [
+        subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        for _ in range(2)
+    ]
     results = [p.communicate(timeout=300) for p in procs]
     assert [p.returncode for p in procs] == [0, 0], [e[-2000:] for _, e in results]
     assert sum("waiting for pid" in e for _, e in results) == 1, [e for _, e in results]
@@ -386,26 +443,55 @@ def test_two_bench_runs_into_one_directory_do_each_sample_once(tmp_path):
 
 def _bench(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
     env = dict(os.environ, HYDRA_FULL_ERROR="0")
-    return subprocess.run([*BENCH, "run", f"output_root={tmp_path / 'out'}", "progress=false", *args],
-                          capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env)
+    return subprocess.run(
+        [*BENCH, "run", f"output_root={tmp_path / 'out'}", "progress=false", *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=tmp_path,
+        env=env,
+    )
 
 
 def test_bench_run_bad_limit_gives_one_line(tmp_path):
     r = _bench(tmp_path, "limit=-1")
-    assert r.returncode == 2 and r.stderr.strip() == ("bench run: error: limit=-1 is not an integer >= 1; "
-                                                      "set limit=<integer >= 1> (or drop it)"), r.stderr
+    assert r.returncode == 2 and r.stderr.strip() == (
+        "bench run: error: limit=-1 is not an integer >= 1; set limit=<integer >= 1> (or drop it)"
+    ), r.stderr
 
 
-@pytest.mark.parametrize("argv,line", [
-    (["run", "method=ours", "method.optimizer.lr=0.01"],
-     "bench run: error: method.optimizer was renamed method.optimiser; write method.optimiser.lr=0.01"),
-    (["run", "-m", "+experiment=optimizer"],
-     "bench run: error: experiment optimizer was renamed optimiser; write +experiment=optimiser"),
-    (["score", "p.csv", "--dataset", "synthetic", "--override", "method.optimizer.lr=1", "--method", "m", "--out", "o"],
-     "bench score: error: method.optimizer was renamed method.optimiser; write method.optimiser.lr=1"),
-    (["templates", "dataset=synthetic", "method.optimizer.lr=1", "--category", "mug", "--out", "x.yaml"],
-     "bench templates: error: method.optimizer was renamed method.optimiser; write method.optimiser.lr=1"),
-])
+@pytest.mark.parametrize(
+    "argv,line",
+    [
+        (
+            ["run", "method=ours", "method.optimizer.lr=0.01"],
+            "bench run: error: method.optimizer was renamed method.optimiser; write method.optimiser.lr=0.01",
+        ),
+        (
+            ["run", "-m", "+experiment=optimizer"],
+            "bench run: error: experiment optimizer was renamed optimiser; write +experiment=optimiser",
+        ),
+        (
+            [
+                "score",
+                "p.csv",
+                "--dataset",
+                "synthetic",
+                "--override",
+                "method.optimizer.lr=1",
+                "--method",
+                "m",
+                "--out",
+                "o",
+            ],
+            "bench score: error: method.optimizer was renamed method.optimiser; write method.optimiser.lr=1",
+        ),
+        (
+            ["templates", "dataset=synthetic", "method.optimizer.lr=1", "--category", "mug", "--out", "x.yaml"],
+            "bench templates: error: method.optimizer was renamed method.optimiser; write method.optimiser.lr=1",
+        ),
+    ],
+)
 def test_old_optimizer_spelling_is_refused_in_one_line_naming_the_new_one(argv, line, capsys):
     from catpose.bench.cli import main
 
@@ -416,16 +502,29 @@ def test_old_optimizer_spelling_is_refused_in_one_line_naming_the_new_one(argv, 
 CASES = {  # name -> (args, needle); the files are written by _prepare
     "limit=abc": (["limit=abc"], "limit='abc' is not an integer"),
     "seed=1.5": (["seed=1.5"], "seed=1.5 is not an integer"),
-    "lr=abc": (["method=ours", "method.optimiser.lr=abc"],
-               "method.optimiser.lr='abc' is not a float; set method.optimiser.lr=<number>"),
+    "lr=abc": (
+        ["method=ours", "method.optimiser.lr=abc"],
+        "method.optimiser.lr='abc' is not a float; set method.optimiser.lr=<number>",
+    ),
     "no root": (["dataset=bop"], "e.g. dataset.root=<value>"),
     "bop fx<0": (["dataset=bop", "dataset.root={bop_fx}"], "fx=-300, fy=300"),
     "bop no obj_id": (["dataset=bop", "dataset.root={bop_gt}"], "has no integer obj_id"),
     "redwood fx=0": (["dataset=redwood", "dataset.root={tmp}", "dataset.fx=0"], "dataset.fx=0 must be a positive"),
-    "views=0": (["dataset=modelnet40", "dataset.root={tmp}", "dataset.views_per_instance=0"],
-                "dataset.views_per_instance=0 must be an integer >= 1"),
-    "off 2 coords": (["dataset=modelnet40", "dataset.root={mn}", "dataset.categories=[box]",
-                      "dataset.templates={{}}", "limit=1", "method=icp"], None),
+    "views=0": (
+        ["dataset=modelnet40", "dataset.root={tmp}", "dataset.views_per_instance=0"],
+        "dataset.views_per_instance=0 must be an integer >= 1",
+    ),
+    "off 2 coords": (
+        [
+            "dataset=modelnet40",
+            "dataset.root={mn}",
+            "dataset.categories=[box]",
+            "dataset.templates={{}}",
+            "limit=1",
+            "method=icp",
+        ],
+        None,
+    ),
     "output_root file": (["output_root={tmp}/a_file", "limit=1"], "a file is in the way"),
 }
 
@@ -435,8 +534,12 @@ def _prepare(tmp_path: Path) -> dict[str, str]:
     write_bop(tmp_path / "bop_gt", gt_entry={"cam_R_m2c": [1, 0, 0, 0, 1, 0, 0, 0, 1]})
     write_off(tmp_path / "mn" / "box" / "train" / "box_0001.off", ["0 0 0", "1 0", "0 1 0"])
     (tmp_path / "a_file").write_text("")
-    return {"tmp": str(tmp_path), "bop_fx": str(tmp_path / "bop_fx"), "bop_gt": str(tmp_path / "bop_gt"),
-            "mn": str(tmp_path / "mn")}
+    return {
+        "tmp": str(tmp_path),
+        "bop_fx": str(tmp_path / "bop_fx"),
+        "bop_gt": str(tmp_path / "bop_gt"),
+        "mn": str(tmp_path / "mn"),
+    }
 
 
 @pytest.mark.slow

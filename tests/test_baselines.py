@@ -19,9 +19,8 @@ def _easy_problem(seed: int, template: Template | None = None, view_seed: int | 
     """A rendered partial view of a procedural chair against its own complete model.
 
     Returns (problem, true T_template_camera)."""
-    from catpose.datasets.render import (PinholeCamera, ViewSampler, depth_to_points, estimate_normals,
-                                         render_depth)
     from catpose.datasets.meshio import sample_outer_surface
+    from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
     from catpose.datasets.shapes import make_shape
 
     rng = np.random.default_rng(seed)
@@ -47,11 +46,14 @@ def easy():
     return _easy_problem(0)
 
 
-@pytest.mark.parametrize("cls_path,kwargs", [
-    ("catpose.methods.fgr.FGR", dict(matching="dictionary", features="fpfh")),
-    ("catpose.methods.ransac.RANSAC", dict(matching="dictionary", features="fpfh", max_iteration=20000)),
-    ("catpose.methods.teaser.TEASER", dict(matching="dictionary", features="fpfh")),
-])
+@pytest.mark.parametrize(
+    "cls_path,kwargs",
+    [
+        ("catpose.methods.fgr.FGR", dict(matching="dictionary", features="fpfh")),
+        ("catpose.methods.ransac.RANSAC", dict(matching="dictionary", features="fpfh", max_iteration=20000)),
+        ("catpose.methods.teaser.TEASER", dict(matching="dictionary", features="fpfh")),
+    ],
+)
 def test_recovers_known_pose(easy, cls_path: str, kwargs: dict) -> None:
     from hydra.utils import get_class
 
@@ -60,10 +62,10 @@ def test_recovers_known_pose(easy, cls_path: str, kwargs: dict) -> None:
     # success is the paper's @10 criterion: these are global registrations of a partial view
     # against partial templates without refinement (refine_icp off), which land 5-8 deg from
     # the truth on this chair
-    assert _rot_err_deg(result.T_target_source, T_gt) < 10.0
+    assert _rot_err_deg(result.T_template_camera, T_gt) < 10.0
     # the camera's position in the template frame, 3 units from the object: a 10-degree rotation
     # error alone moves it by up to 2 * 3 * sin(5 deg) = 0.52
-    assert np.linalg.norm(result.T_target_source[:3, 3] - T_gt[:3, 3]) < 0.55
+    assert np.linalg.norm(result.T_template_camera[:3, 3] - T_gt[:3, 3]) < 0.55
     assert np.isfinite(result.score) and result.score < 0.05
     n_expected = 18 if kwargs["matching"] == "dictionary" else 1
     assert result.extras["num_candidates"] == n_expected == len(result.extras["candidate_chamfer"])
@@ -86,9 +88,10 @@ def test_dictionary_lps_with_icp(three_easy, cls_name: str) -> None:
 
     from catpose.methods.dictionary import DictionaryLayout
 
-    method = get_class(f"catpose.methods.{cls_name}")(matching="dictionary", features="lps", refine_icp=True,
-                                                          dictionary=DictionaryLayout(num_keypoints=64))
-    errors = [_rot_err_deg(method.register(problem).T_target_source, T_gt) for problem, T_gt in three_easy]
+    method = get_class(f"catpose.methods.{cls_name}")(
+        matching="dictionary", features="lps", refine_icp=True, dictionary=DictionaryLayout(num_keypoints=64)
+    )
+    errors = [_rot_err_deg(method.register(problem).T_template_camera, T_gt) for problem, T_gt in three_easy]
     assert sum(e < 5.0 for e in errors) >= 2, errors
 
 
@@ -97,8 +100,8 @@ def test_ransac_is_deterministic(easy) -> None:
 
     problem, _ = easy
     method = RANSAC(matching="direct", features="fpfh", max_iteration=20000)
-    T1 = method.register(problem).T_target_source
-    T2 = method.register(problem).T_target_source
+    T1 = method.register(problem).T_template_camera
+    T2 = method.register(problem).T_template_camera
     np.testing.assert_array_equal(T1, T2)
 
 
@@ -128,20 +131,23 @@ def test_dictionary_is_shared_with_ours(monkeypatch, tmp_path) -> None:
     assert len(calls) == 18
 
 
-@pytest.mark.parametrize("cls_path,kwargs,match", [
-    ("catpose.methods.fgr.FGR", dict(matching="nearest"), "matching='nearest'"),
-    ("catpose.methods.ransac.RANSAC", dict(features="shot"), "features='shot'"),
-    ("catpose.methods.teaser.TEASER", dict(noise_bound=-0.1), "noise_bound=-0.1"),
-    ("catpose.methods.teaser.TEASER", dict(noise_bound=0.0), "noise_bound=0.0"),
-    ("catpose.methods.fgr.FGR", dict(voxel_size=-1.0), "voxel_size"),
-    ("catpose.methods.fgr.FGR", dict(features="pfh"), "descriptor@method.descriptor=pfh"),
-    ("catpose.methods.fgr.FGR", dict(descriptor="lps"), "descriptor@method.descriptor=lps"),
-    ("catpose.methods.fgr.FGR", dict(division_factor=0.5), "division_factor"),
-    ("catpose.methods.ransac.RANSAC", dict(confidence=2.0), "confidence"),
-    ("catpose.methods.ransac.RANSAC", dict(num_threads=-1), "num_threads"),
-    ("catpose.methods.teaser.TEASER", dict(rotation_tim_graph="star"), "rotation_tim_graph"),
-    ("catpose.methods.teaser.TEASER", dict(matching="dictionary", dictionary={"num_views": 17}), "dictionary"),
-])
+@pytest.mark.parametrize(
+    "cls_path,kwargs,match",
+    [
+        ("catpose.methods.fgr.FGR", dict(matching="nearest"), "matching='nearest'"),
+        ("catpose.methods.ransac.RANSAC", dict(features="shot"), "features='shot'"),
+        ("catpose.methods.teaser.TEASER", dict(noise_bound=-0.1), "noise_bound=-0.1"),
+        ("catpose.methods.teaser.TEASER", dict(noise_bound=0.0), "noise_bound=0.0"),
+        ("catpose.methods.fgr.FGR", dict(voxel_size=-1.0), "voxel_size"),
+        ("catpose.methods.fgr.FGR", dict(features="pfh"), "descriptor@method.descriptor=pfh"),
+        ("catpose.methods.fgr.FGR", dict(descriptor="lps"), "descriptor@method.descriptor=lps"),
+        ("catpose.methods.fgr.FGR", dict(division_factor=0.5), "division_factor"),
+        ("catpose.methods.ransac.RANSAC", dict(confidence=2.0), "confidence"),
+        ("catpose.methods.ransac.RANSAC", dict(num_threads=-1), "num_threads"),
+        ("catpose.methods.teaser.TEASER", dict(rotation_tim_graph="star"), "rotation_tim_graph"),
+        ("catpose.methods.teaser.TEASER", dict(matching="dictionary", dictionary={"num_views": 17}), "dictionary"),
+    ],
+)
 def test_bad_options_fail_at_construction(cls_path: str, kwargs: dict, match: str) -> None:
     from hydra.utils import get_class
 
@@ -154,6 +160,7 @@ def test_teaserpp_without_bindings_says_how_to_get_them() -> None:
     pytest.importorskip("catpose.methods.teaserpp")
     try:
         import teaserpp_python  # noqa: F401
+
         pytest.skip("teaserpp_python is installed")
     except ImportError:
         pass
@@ -201,26 +208,30 @@ def test_lps_pairs_are_the_top1_of_ours_affinity(easy) -> None:
     problem, _ = easy
     ours = Ours()  # defaults; the baselines get the same descriptor and dictionary configs
     feats = ours.template_features(problem.template)
-    inp = ours.descriptor.keypoint_features(problem.points_camera, problem.normals_camera, ours.num_keypoints,
-                                            problem.ground_normal_camera)
+    inp = ours.descriptor.keypoint_features(
+        problem.points_camera, problem.normals_camera, ours.num_keypoints, problem.ground_normal_camera
+    )
 
     method = TEASER(matching="dictionary", features="lps")
     assert method.descriptor.cache_key() == ours.descriptor.cache_key() and method.layout == ours.layout
     data = method._targets(problem.template)
-    assert data["described"].stacked is feats.stacked               # one shared cache
-    source_kp, source_desc = method._keypoints(problem.points_camera, problem.normals_camera,
-                                               problem.ground_normal_camera, method.num_keypoints)
+    assert data["described"].stacked is feats.stacked  # one shared cache
+    source_kp, source_desc = method._keypoints(
+        problem.points_camera, problem.normals_camera, problem.ground_normal_camera, method.num_keypoints
+    )
     np.testing.assert_allclose(source_kp.points, inp.keypoints)
     dictionary = ours.layout.dictionary(problem.template)
     assert len(data["targets"]) == len(dictionary.points) == len(feats.keypoints)
     pairs = method._correspondences(source_desc, data["described"])
     for i, target in enumerate(data["targets"]):
-        part = ours.descriptor.keypoint_features(dictionary.points[i], dictionary.normals[i], 2 * ours.num_keypoints,
-                                                 np.asarray(problem.template.up, float))
+        part = ours.descriptor.keypoint_features(
+            dictionary.points[i], dictionary.normals[i], 2 * ours.num_keypoints, np.asarray(problem.template.up, float)
+        )
         A_i = ours.descriptor.affinity(inp.features, part.features)  # (n, distinct keypoints)
         np.testing.assert_array_equal(target.points, part.keypoints)
         np.testing.assert_array_equal(pairs[i][:, 0], np.arange(len(inp.indices)))
         np.testing.assert_array_equal(pairs[i][:, 1], np.argmax(A_i, axis=1))
+
 
 def test_dictionary_features_are_cached_once_per_descriptor_and_bounded(easy) -> None:
     from catpose.methods import dictionary_features as DF
@@ -232,8 +243,8 @@ def test_dictionary_features_are_cached_once_per_descriptor_and_bounded(easy) ->
     DF.clear()
     layout = DictionaryLayout()
     a = DF.dictionary_features(LPS(), layout, template, 64)
-    assert DF.dictionary_features(LPS(), DictionaryLayout(), template, 64) is a      # equal parameters: shared
-    b = DF.dictionary_features(LPS(tau=0.02), layout, template, 64)                    # other parameters: not
+    assert DF.dictionary_features(LPS(), DictionaryLayout(), template, 64) is a  # equal parameters: shared
+    b = DF.dictionary_features(LPS(tau=0.02), layout, template, 64)  # other parameters: not
     assert b is not a and len(DF._CACHE) == 2
     assert a.keypoints.shape == (len(layout.dictionary(template).points), 64, 3) and np.all(a.counts <= 64)
     for k in range(DF.CACHE_SIZE + 2):

@@ -14,13 +14,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench.scoring import bop_eval
-
 from catpose.bench.interop import score as score_cmd
 from catpose.bench.interop.bop_export import export_bop
 from catpose.bench.interop.prediction_io import read_predictions
 from catpose.bench.interop.score import score_predictions
 from catpose.bench.run.rundir import write_run
+from catpose.bench.scoring import bop_eval
 from catpose.datasets.bop import BOP
 from catpose.errors import InvalidInputError
 from catpose.geometry import make_T
@@ -28,14 +27,33 @@ from catpose.geometry import make_T
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_loaders_bop import T_camera_model, bop_root  # noqa: E402, F401  (the rendered scene fixture)
 
-CFG = {"method": {"name": "ours", "_target_": "x.Y"}, "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"},
-       "seed": 0}
-ALL_METRICS = ["ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "add@0.1", "mssd@0.1", "mspd@10", "5deg5cm", "10deg10cm"]
+CFG = {
+    "method": {"name": "ours", "_target_": "x.Y"},
+    "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"},
+    "seed": 0,
+}
+ALL_METRICS = [
+    "ar",
+    "ar_mssd",
+    "ar_mspd",
+    "ar_vsd",
+    "adds@0.1",
+    "add@0.1",
+    "mssd@0.1",
+    "mspd@10",
+    "5deg5cm",
+    "10deg10cm",
+]
 
 
 def _dataset_cfg(root: Path, categories: dict) -> dict:
-    return {"name": "bop", "_target_": "catpose.datasets.bop.BOP", "root": str(root), "categories": categories,
-            "templates": {}}
+    return {
+        "name": "bop",
+        "_target_": "catpose.datasets.bop.BOP",
+        "root": str(root),
+        "categories": categories,
+        "templates": {},
+    }
 
 
 def _gt_rows(ds: BOP, runtimes: dict[int, float] | None = None) -> list[dict]:
@@ -47,12 +65,25 @@ def _gt_rows(ds: BOP, runtimes: dict[int, float] | None = None) -> list[dict]:
         sample = GtModel().load(ds, oid)
         T = np.asarray(sample.gt.T_template_camera, float)
         axis = sample.gt.symmetry_axis
-        rows.append({"sample_id": oid, "group_id": oid, "obs_id": oid, "category": sample.problem.category,
-                     "instance_id": sample.info.get("instance_id"), "status": "ok", "error": "", "err_deg": 0.0,
-                     "T_est": T.reshape(-1).tolist(), "T_gt": T.reshape(-1).tolist(),
-                     "symmetry_axis": None if axis is None else np.asarray(axis).tolist(),
-                     "symmetries": [np.asarray(S).reshape(-1).tolist() for S in sample.gt.symmetries] or None,
-                     "score": 0.1, "runtime_s": (runtimes or {}).get(k, 1.0), "info": dict(sample.info)})
+        rows.append(
+            {
+                "sample_id": oid,
+                "group_id": oid,
+                "obs_id": oid,
+                "category": sample.problem.category,
+                "instance_id": sample.info.get("instance_id"),
+                "status": "ok",
+                "error": "",
+                "err_deg": 0.0,
+                "T_est": T.reshape(-1).tolist(),
+                "T_gt": T.reshape(-1).tolist(),
+                "symmetry_axis": None if axis is None else np.asarray(axis).tolist(),
+                "symmetries": [np.asarray(S).reshape(-1).tolist() for S in sample.gt.symmetries] or None,
+                "score": 0.1,
+                "runtime_s": (runtimes or {}).get(k, 1.0),
+                "info": dict(sample.info),
+            }
+        )
     return rows
 
 
@@ -72,10 +103,12 @@ def test_toolkit_csv_checks_reject_what_the_toolkit_rejects(tmp_path: Path):
     ok = tmp_path / "a_b-test.csv"
     ok.write_text(f"{bop_eval.BOP_HEADER}\n1,2,3,0.5,{R},{t},1.5\n1,2,4,0.5,{R},{t},1.5\n1,3,3,0.5,{R},{t},0.2\n")
     assert bop_eval.check_results_csv(ok) == 3
-    cases = {f"{bop_eval.BOP_HEADER}\n1,2,3,0.5,{R},{t},1.5\n1,2,4,0.5,{R},{t},0.7\n": "one time per image",
-             f"scene_id,im_id,obj_id,score,R,t\n1,2,3,0.5,{R},{t}\n": "header",
-             f"{bop_eval.BOP_HEADER}\n1,2.5,3,0.5,{R},{t},1\n": "integers",
-             f"{bop_eval.BOP_HEADER}\n1,2,3,0.5,1 0 0,{t},1\n": "R needs 9"}
+    cases = {
+        f"{bop_eval.BOP_HEADER}\n1,2,3,0.5,{R},{t},1.5\n1,2,4,0.5,{R},{t},0.7\n": "one time per image",
+        f"scene_id,im_id,obj_id,score,R,t\n1,2,3,0.5,{R},{t}\n": "header",
+        f"{bop_eval.BOP_HEADER}\n1,2.5,3,0.5,{R},{t},1\n": "integers",
+        f"{bop_eval.BOP_HEADER}\n1,2,3,0.5,1 0 0,{t},1\n": "R needs 9",
+    }
     for text, msg in cases.items():
         ok.write_text(text)
         with pytest.raises(InvalidInputError, match=msg):
@@ -105,7 +138,7 @@ def test_export_of_a_two_object_image_passes_the_toolkit_checks_and_scores_perfe
     assert (table[ALL_METRICS].to_numpy() == 1.0).all()
     assert errs["mssd"].max() < 1e-3 and errs["mspd"].max() < 1e-3  # mm, px
     # bench table reads the same file: per-object and per-category rows, chosen metrics
-    from catpose.bench.report.tables import main as table_main
+    from catpose.bench.report.table_command import main as table_main
 
     table_out = tmp_path / "t.md"
     assert table_main([str(scored), "--bop-metrics", "ar_mssd,10deg10cm", "--out", str(table_out)]) == 0
@@ -123,12 +156,23 @@ def test_several_instances_of_one_object_are_matched_greedily_by_score(bop_root)
     assert ds.observation_ids() == ["box/000001/000000/0", "box/000001/000000/2"]
 
     def line(T: np.ndarray, score: float) -> str:
-        return (f"1,0,1,{score},{' '.join(f'{x:.12g}' for x in T[:3, :3].ravel())},"
-                f"{' '.join(f'{x:.12g}' for x in T[:3, 3])},1")
+        return (
+            f"1,0,1,{score},{' '.join(f'{x:.12g}' for x in T[:3, :3].ravel())},"
+            f"{' '.join(f'{x:.12g}' for x in T[:3, 3])},1"
+        )
 
     # the better-scored estimate is the second instance, a third (worst) estimate is extra
-    text = "\n".join([bop_eval.BOP_HEADER, line(shifted, 0.9), line(T_camera_model(1), 0.8),
-                      line(T_camera_model(1) @ make_T(np.eye(3), [0, 0, 300.0]), 0.1)]) + "\n"
+    text = (
+        "\n".join(
+            [
+                bop_eval.BOP_HEADER,
+                line(shifted, 0.9),
+                line(T_camera_model(1), 0.8),
+                line(T_camera_model(1) @ make_T(np.eye(3), [0, 0, 300.0]), 0.1),
+            ]
+        )
+        + "\n"
+    )
     path = bop_root.parent / "m_toy-test.csv"
     path.write_text(text)
     preds = read_predictions(path)
@@ -149,8 +193,10 @@ def _gt_csv(ds: BOP, path: Path, shift_mm=(0.0, 0.0, 0.0)) -> Path:
         _, scene, im, g = oid.split("/")
         e = json.loads(ds.layout.scene_gt(int(scene)).read_text())[str(int(im))][int(g)]
         t = np.asarray(e["cam_t_m2c"], float) + shift_mm
-        lines.append(f"{int(scene)},{int(im)},{e['obj_id']},1,{' '.join(f'{x:.12g}' for x in e['cam_R_m2c'])},"
-                     f"{' '.join(f'{x:.12g}' for x in t)},1")
+        lines.append(
+            f"{int(scene)},{int(im)},{e['obj_id']},1,{' '.join(f'{x:.12g}' for x in e['cam_R_m2c'])},"
+            f"{' '.join(f'{x:.12g}' for x in t)},1"
+        )
     path.write_text("\n".join(lines) + "\n")
     return path
 
@@ -172,8 +218,9 @@ def test_ycbv_ground_truth_scores_recall_one_and_a_shift_scores_its_errors(share
     assert (table[ALL_METRICS].to_numpy() == 1.0).all(), table.to_string()
 
     shift = np.array([10.0, 0.0, 0.0])  # 1 cm sideways
-    errs = pd.DataFrame(bop_eval.compute_errors(read_predictions(_gt_csv(ds, tmp_path / "s_ycbv-test.csv", shift)), ds,
-                                                vsd=False))
+    errs = pd.DataFrame(
+        bop_eval.compute_errors(read_predictions(_gt_csv(ds, tmp_path / "s_ycbv-test.csv", shift)), ds, vsd=False)
+    )
     assert (errs["im_width"] == 640).all()  # from the depth header, also without VSD
     np.testing.assert_allclose(errs["add"], 10.0, atol=1e-4)  # R in scene_gt is rounded
     np.testing.assert_allclose(errs["te_mm"], 10.0, atol=1e-4)

@@ -31,8 +31,12 @@ class _SplitFile:
 class _Observed:
     """No splits, and ids that do not spell the instance (BOP-like scene/image/object)."""
 
-    ids = {"000048/000001/obj_05": ("bottle", "05"), "000048/000002/obj_05": ("bottle", "05"),
-           "000048/000001/obj_02": ("box", "02"), "000049/000007/obj_12": ("bottle", "12")}
+    ids = {
+        "000048/000001/obj_05": ("bottle", "05"),
+        "000048/000002/obj_05": ("bottle", "05"),
+        "000048/000001/obj_02": ("box", "02"),
+        "000049/000007/obj_12": ("bottle", "12"),
+    }
 
     def observation_ids(self):
         return list(self.ids)

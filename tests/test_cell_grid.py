@@ -27,10 +27,14 @@ def _shell(rng: np.random.Generator, n: int) -> np.ndarray:
 def test_nearest_matches_a_kd_tree_within_the_reach(reach: float) -> None:
     rng = np.random.default_rng(0)
     points = _shell(rng, 1500)
-    queries = np.concatenate([rng.normal(scale=0.7, size=(2000, 3)),          # inside and around
-                              points[:300] + rng.normal(scale=0.005, size=(300, 3)),  # on the surface
-                              points[300:600] + rng.normal(scale=reach, size=(300, 3)),  # near the reach
-                              rng.normal(scale=50.0, size=(20, 3))])          # far outside the grid
+    queries = np.concatenate(
+        [
+            rng.normal(scale=0.7, size=(2000, 3)),  # inside and around
+            points[:300] + rng.normal(scale=0.005, size=(300, 3)),  # on the surface
+            points[300:600] + rng.normal(scale=reach, size=(300, 3)),  # near the reach
+            rng.normal(scale=50.0, size=(20, 3)),
+        ]
+    )  # far outside the grid
     grid = cell_grid.build(points, reach)
     tree = cKDTree(points)
     for radius in (reach / 3, reach):
@@ -38,7 +42,7 @@ def test_nearest_matches_a_kd_tree_within_the_reach(reach: float) -> None:
         d_ref, j_ref = tree.query(queries, distance_upper_bound=radius)
         found = np.isfinite(d_ref)
         np.testing.assert_array_equal(np.isfinite(d), found)
-        np.testing.assert_array_equal(d[found], d_ref[found])       # the same bits: exact search
+        np.testing.assert_array_equal(d[found], d_ref[found])  # the same bits: exact search
         np.testing.assert_array_equal(j[found], j_ref[found])
         assert np.all(j[~found] == -1) and 0 < found.sum() < len(queries)
     with pytest.raises(ValueError, match="exceeds the grid's reach"):
@@ -48,12 +52,13 @@ def test_nearest_matches_a_kd_tree_within_the_reach(reach: float) -> None:
 def test_nearest_edge_cases() -> None:
     points = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
     grid = cell_grid.build(points, 0.3)
-    d, j = cell_grid.nearest(grid, np.array([[0.9, 0.0, 0.0], [np.nan, 0.0, 0.0], [0.5, 0.0, 0.0],
-                                             [0.0, 2.0, 0.3], [np.inf, 0.0, 0.0]]), 0.3)
-    assert j[0] == 1                                   # a tie between duplicates: the lowest index
-    assert j[1] == -1 and np.isinf(d[1])               # a non-finite query finds nothing
-    assert j[2] == -1 and np.isinf(d[2])               # 0.5 away, beyond the radius: nothing
-    assert j[3] == 3 and d[3] == pytest.approx(0.3)    # on the radius: found (inclusive)
+    d, j = cell_grid.nearest(
+        grid, np.array([[0.9, 0.0, 0.0], [np.nan, 0.0, 0.0], [0.5, 0.0, 0.0], [0.0, 2.0, 0.3], [np.inf, 0.0, 0.0]]), 0.3
+    )
+    assert j[0] == 1  # a tie between duplicates: the lowest index
+    assert j[1] == -1 and np.isinf(d[1])  # a non-finite query finds nothing
+    assert j[2] == -1 and np.isinf(d[2])  # 0.5 away, beyond the radius: nothing
+    assert j[3] == 3 and d[3] == pytest.approx(0.3)  # on the radius: found (inclusive)
     assert j[4] == -1
     with pytest.raises(ValueError, match="points must be"):
         cell_grid.build(np.zeros((0, 3)), 0.1)
@@ -84,15 +89,21 @@ def _box_cloud(rng: np.random.Generator, n: int = 3000) -> tuple[np.ndarray, np.
 
 def test_refine_many_matches_the_numpy_icp_from_every_start() -> None:
     from _point_to_plane_reference import refine_point_to_plane
+
     from catpose.point_to_plane_kernel import refine_many
 
     rng = np.random.default_rng(3)
     tgt, tgt_n = _box_cloud(rng)
     T_gt = make_T(Rotation.from_rotvec([0.05, -0.03, 0.04]).as_matrix(), [0.02, -0.03, 0.01])
-    src = (tgt[::4] - T_gt[:3, 3]) @ T_gt[:3, :3]            # T_gt maps src onto the target
-    starts = np.stack([np.eye(4), make_T(Rotation.from_rotvec([0.1, 0.0, -0.1]).as_matrix(), [0.03, 0.0, 0.0]),
-                       make_T(Rotation.from_rotvec([0.0, 2.5, 0.0]).as_matrix(), [0.0, 0.0, 0.2]),
-                       make_T(np.eye(3), [5.0, 0.0, 0.0])])   # no pair within reach: unchanged
+    src = (tgt[::4] - T_gt[:3, 3]) @ T_gt[:3, :3]  # T_gt maps src onto the target
+    starts = np.stack(
+        [
+            np.eye(4),
+            make_T(Rotation.from_rotvec([0.1, 0.0, -0.1]).as_matrix(), [0.03, 0.0, 0.0]),
+            make_T(Rotation.from_rotvec([0.0, 2.5, 0.0]).as_matrix(), [0.0, 0.0, 0.2]),
+            make_T(np.eye(3), [5.0, 0.0, 0.0]),
+        ]
+    )  # no pair within reach: unchanged
     tree, grid = cKDTree(tgt), cell_grid.build(tgt, 0.1)
     for iterations in (1, 3, 30):
         T, steps = refine_many(src, grid, tgt_n, starts, 0.1, iterations, return_steps=True)
@@ -101,26 +112,27 @@ def test_refine_many_matches_the_numpy_icp_from_every_start() -> None:
             np.testing.assert_allclose(T[b], T_ref, atol=1e-9)
         assert np.all(steps <= iterations) and steps[3] == 1
     np.testing.assert_allclose(T[0], T_gt, atol=1e-6)
-    assert steps[0] < 30                                     # stopped on convergence
-    np.testing.assert_allclose(np.einsum("bij,bkj->bik", T[:, :3, :3], T[:, :3, :3]), np.tile(np.eye(3), (4, 1, 1)),
-                               atol=1e-12)
+    assert steps[0] < 30  # stopped on convergence
+    np.testing.assert_allclose(
+        np.einsum("bij,bkj->bik", T[:, :3, :3], T[:, :3, :3]), np.tile(np.eye(3), (4, 1, 1)), atol=1e-12
+    )
 
 
 def test_visibility_scores_match_the_numpy_score() -> None:
-    from catpose.methods import selection as S
-    from catpose.methods.selection_kernel import visibility_scores
+    from catpose.methods import pose_scores as S
+    from catpose.methods.pose_scores_kernel import visibility_scores
 
     rng = np.random.default_rng(4)
     points, normals = _box_cloud(rng)
     R = Rotation.from_rotvec([2.2, 0.3, -0.4]).as_matrix()
-    T = make_T(R, [0.1, -0.2, 2.5])                           # T_template_camera
+    T = make_T(R, [0.1, -0.2, 2.5])  # T_template_camera
     visible = S.visible_mask(points, normals, T[:3, 3])
-    observed = (points[visible] - T[:3, 3]) @ R               # camera frame
+    observed = (points[visible] - T[:3, 3]) @ R  # camera frame
     observed = observed[::5] + rng.normal(scale=0.003, size=observed[::5].shape)
-    poses = np.stack([T, S.half_turns()[1] @ T, S.half_turns()[3] @ T,
-                      make_T(R, [0.1, -0.2, 9.0])])            # far away: everything truncated
+    poses = np.stack(
+        [T, S.half_turns()[1] @ T, S.half_turns()[3] @ T, make_T(R, [0.1, -0.2, 9.0])]
+    )  # far away: everything truncated
     ref = S.visibility_chamfer(observed, poses, points, normals, cKDTree(points), 0.1)
-    got = visibility_scores(observed, cell_grid.build(observed, 0.1), poses, cell_grid.build(points, 0.1), normals,
-                            0.1)
+    got = visibility_scores(observed, cell_grid.build(observed, 0.1), poses, cell_grid.build(points, 0.1), normals, 0.1)
     np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-15)
     assert got[0] < min(got[1], got[2])

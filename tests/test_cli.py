@@ -6,14 +6,18 @@ import json
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import pandas as pd
 import pytest
 
 BENCH = [sys.executable, "-m", "catpose.bench.cli"]
-TINY = ["dataset=synthetic", "dataset.categories=[car,bottle]", "dataset.instances_per_category=1",
-        "dataset.views_per_instance=2", "progress=false"]
+TINY = [
+    "dataset=synthetic",
+    "dataset.categories=[car,bottle]",
+    "dataset.instances_per_category=1",
+    "dataset.views_per_instance=2",
+    "progress=false",
+]
 
 
 def bench(*args, cwd):
@@ -46,16 +50,22 @@ def test_multirun_sweep(tmp_path):
     assert sorted(p.name.split("-")[0] for p in tmp_path.glob("synthetic-gt_model/icp/*")) == ["seed0", "seed1"]
 
 
-@pytest.mark.parametrize("args, needle", [
-    (["run", "method=nosuch"], "unknown method 'nosuch'; available:"),
-    (["run", "dataset=nosuch"], "unknown dataset 'nosuch'; available:"),
-    (["run", "protocol=nosuch"], "unknown protocol 'nosuch'; available:"),
-    (["nosuch"], "unknown command 'nosuch'"),
-    (["evaluate", "/nonexistent/run"], "is not a run directory"),
-    (["run", "method=ours", "method.foo=1"], "Could not override 'method.foo'; To append to your config use +method.foo=1"),
-    (["run", "datset=synthetic"], "Could not override 'datset'"),
-    (["run", "seed=[1"], "no viable alternative at input '[1'"),
-])
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["run", "method=nosuch"], "unknown method 'nosuch'; available:"),
+        (["run", "dataset=nosuch"], "unknown dataset 'nosuch'; available:"),
+        (["run", "protocol=nosuch"], "unknown protocol 'nosuch'; available:"),
+        (["nosuch"], "unknown command 'nosuch'"),
+        (["evaluate", "/nonexistent/run"], "is not a run directory"),
+        (
+            ["run", "method=ours", "method.foo=1"],
+            "Could not override 'method.foo'; To append to your config use +method.foo=1",
+        ),
+        (["run", "datset=synthetic"], "Could not override 'datset'"),
+        (["run", "seed=[1"], "no viable alternative at input '[1'"),
+    ],
+)
 def test_bad_names_give_one_line(tmp_path, args, needle):
     r = bench(*args, cwd=tmp_path)
     assert r.returncode == 2

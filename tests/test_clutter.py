@@ -26,15 +26,27 @@ def models(tmp_path_factory):
     (root / "models").mkdir()
     trimesh.creation.box(extents=[60.0, 40.0, 90.0]).export(root / "models" / "obj_000001.ply")
     trimesh.creation.cylinder(radius=30.0, height=80.0, sections=24).export(root / "models" / "obj_000002.ply")
-    (root / "models" / "models_info.json").write_text(json.dumps({
-        "1": {"diameter": 118.0}, "2": {"diameter": 110.0, "symmetries_continuous": [{"axis": [0, 0, 1],
-                                                                                        "offset": [0, 0, 0]}]}}))
+    (root / "models" / "models_info.json").write_text(
+        json.dumps(
+            {
+                "1": {"diameter": 118.0},
+                "2": {"diameter": 110.0, "symmetries_continuous": [{"axis": [0, 0, 1], "offset": [0, 0, 0]}]},
+            }
+        )
+    )
     return root
 
 
 def _spec(**kw) -> ClutterSpec:
-    base = dict(num_scenes=4, obj_ids=(1, 2), objects_per_scene=(2, 2), width=160, height=120,
-                K=((300.0, 0.0, 79.5), (0.0, 300.0, 59.5), (0.0, 0.0, 1.0)), distance_mm=(500.0, 600.0))
+    base = dict(
+        num_scenes=4,
+        obj_ids=(1, 2),
+        objects_per_scene=(2, 2),
+        width=160,
+        height=120,
+        K=((300.0, 0.0, 79.5), (0.0, 300.0, 59.5), (0.0, 0.0, 1.0)),
+        distance_mm=(500.0, 600.0),
+    )
     return ClutterSpec(**{**base, **kw})
 
 
@@ -52,7 +64,7 @@ def test_layout_rests_objects_on_the_table_without_overlap(models):
         shapes = []
         for obj in layout.objects:
             v = apply_R(obj.T_world_model[:3, :3], meshes[obj.obj_id][0]) + obj.T_world_model[:3, 3]
-            assert v[:, 2].min() == pytest.approx(0.0, abs=1e-6)          # standing on the table z = 0
+            assert v[:, 2].min() == pytest.approx(0.0, abs=1e-6)  # standing on the table z = 0
             shapes.append(footprint(v[:, :2]))
         for a in range(len(shapes)):
             for b in range(a + 1, len(shapes)):
@@ -65,7 +77,9 @@ def test_layout_rests_objects_on_the_table_without_overlap(models):
 def test_rendered_masks_match_a_full_image_rendering(models):
     meshes = _meshes(models)
     spec = _spec(sensor="none")
-    layout = layout_scene(spec, 1, {o: v for o, (v, _) in meshes.items()}, {o: resting_ups(v) for o, (v, _) in meshes.items()})
+    layout = layout_scene(
+        spec, 1, {o: v for o, (v, _) in meshes.items()}, {o: resting_ups(v) for o, (v, _) in meshes.items()}
+    )
     image = render_scene(spec, layout, {o: RayCaster(v, f) for o, (v, f) in meshes.items()})
     cam = PinholeCamera.from_K(np.asarray(spec.K), spec.width, spec.height)
     for obj, full in zip(layout.objects, image.full):
@@ -82,10 +96,15 @@ def test_generated_files_are_bop_and_deterministic(models, tmp_path):
     again = generate(spec, models / "models", [0, 2], cache_dir=tmp_path / "b", log=lambda m: None)
     assert root.name == again.name == clutter_root(spec, models / "models", tmp_path / "a").name
     for scene in ("000000", "000002"):
-        for rel in ("depth/000000.png", "scene_gt.json", "scene_gt_info.json", "scene_camera.json",
-                    "mask_visib/000000_000000.png"):
+        for rel in (
+            "depth/000000.png",
+            "scene_gt.json",
+            "scene_gt_info.json",
+            "scene_camera.json",
+            "mask_visib/000000_000000.png",
+        ):
             assert (root / "test" / scene / rel).read_bytes() == (again / "test" / scene / rel).read_bytes()
-    assert not (root / "test" / "000001").exists()                      # only what was asked for
+    assert not (root / "test" / "000001").exists()  # only what was asked for
     info = json.loads((root / "test" / "000000" / "scene_gt_info.json").read_text())["0"]
     assert all(0.0 <= x["visib_fract"] <= 1.0 for x in info)
     # another setting, another folder
@@ -93,10 +112,21 @@ def test_generated_files_are_bop_and_deterministic(models, tmp_path):
 
 
 def test_the_bop_loader_reads_the_set_with_depth_images(models, tmp_path):
-    ds = Clutter(str(models), cache_dir=str(tmp_path), num_scenes=4, obj_ids=[1, 2], objects_per_scene=[2, 2],
-                 width=160, height=120, K=[[300.0, 0, 79.5], [0, 300.0, 59.5], [0, 0, 1]],
-                 distance_mm=[500.0, 600.0], scenes=[0, 1], categories={1: "box", 2: "can"}, min_visible_pixels=20,
-                 min_visib_fract=0.0)
+    ds = Clutter(
+        str(models),
+        cache_dir=str(tmp_path),
+        num_scenes=4,
+        obj_ids=[1, 2],
+        objects_per_scene=[2, 2],
+        width=160,
+        height=120,
+        K=[[300.0, 0, 79.5], [0, 300.0, 59.5], [0, 0, 1]],
+        distance_mm=[500.0, 600.0],
+        scenes=[0, 1],
+        categories={1: "box", 2: "can"},
+        min_visible_pixels=20,
+        min_visib_fract=0.0,
+    )
     ids = ds.observation_ids()
     assert ids and {int(i.split("/")[1]) for i in ids} <= {0, 1}
     obs = ds.observation(ids[0])
@@ -106,7 +136,9 @@ def test_the_bop_loader_reads_the_set_with_depth_images(models, tmp_path):
     from catpose.datasets.render import depth_to_points
 
     pts, _ = depth_to_points(di.depth, PinholeCamera.from_K(di.K, 160, 120), di.mask)
-    assert np.abs(np.sort(pts[:, 2])[len(pts) // 2] - np.sort(obs.points_camera[:, 2])[len(obs.points_camera) // 2]) < 0.05
+    assert (
+        np.abs(np.sort(pts[:, 2])[len(pts) // 2] - np.sort(obs.points_camera[:, 2])[len(obs.points_camera) // 2]) < 0.05
+    )
 
 
 def test_bad_settings_fail_in_one_line(models, tmp_path):
@@ -115,8 +147,9 @@ def test_bad_settings_fail_in_one_line(models, tmp_path):
     with pytest.raises(ConfigError, match="dataset.root"):
         Clutter(str(tmp_path), cache_dir=str(tmp_path))
     with pytest.raises(ConfigError, match="dataset.scenes"):
-        Clutter(str(models), cache_dir=str(tmp_path), num_scenes=4, obj_ids=[1, 2], objects_per_scene=[1, 2],
-                scenes=[7])
+        Clutter(
+            str(models), cache_dir=str(tmp_path), num_scenes=4, obj_ids=[1, 2], objects_per_scene=[1, 2], scenes=[7]
+        )
 
 
 def test_split_files_name_disjoint_parts():
@@ -132,6 +165,8 @@ def test_split_files_name_disjoint_parts():
 
 
 def test_a_split_whose_folds_overlap_is_refused(tmp_path):
-    (tmp_path / "bad.yaml").write_text("dataset: x\nparts:\n  a: [[0, 5]]\n  b: [[5, 9]]\nfolds:\n  - {choose: a, report: b}\n")
+    (tmp_path / "bad.yaml").write_text(
+        "dataset: x\nparts:\n  a: [[0, 5]]\n  b: [[5, 9]]\nfolds:\n  - {choose: a, report: b}\n"
+    )
     with pytest.raises(ConfigError, match="share scenes"):
         load_split("bad", tmp_path)

@@ -22,10 +22,16 @@ RUN_GROUPS = ("method", "dataset", "protocol")
 NOT_HYDRA = {"regress", "split"}  # plain YAML read by `bench regress` / `bench suite`, not Hydra groups
 
 #: dataset config -> folder under ../shared/data that holds a small copy of its layout
-SHARED_ROOTS = {"modelnet40": "ModelNet40", "modelnet40_resampled": "modelnet40_normal_resampled",
-                "modelnet40_aligned": "ModelNet40", "bop": "bop/tyol", "tyol": "bop/tyol", "ycbv": "bop/ycbv",
-                "clutter": "bop/ycbv",
-                "redwood": "redwood"}
+SHARED_ROOTS = {
+    "modelnet40": "ModelNet40",
+    "modelnet40_resampled": "modelnet40_normal_resampled",
+    "modelnet40_aligned": "ModelNet40",
+    "bop": "bop/tyol",
+    "tyol": "bop/tyol",
+    "ycbv": "bop/ycbv",
+    "clutter": "bop/ycbv",
+    "redwood": "redwood",
+}
 #: method config -> the optional module it needs (its absence must be a one-line error naming it)
 OPTIONAL_MODULES = {"teaserpp": "teaserpp_python"}
 
@@ -68,9 +74,16 @@ def _defaults_of(path: Path) -> set[tuple[str, str]]:
 
 #: launcher preset -> (its plugin, the plugin's config the preset extends, that config's _target_)
 LAUNCHERS = {
-    "local_procs": ("hydra_joblib_launcher", "joblib", "hydra_plugins.hydra_joblib_launcher.joblib_launcher.JoblibLauncher"),
-    "slurm": ("hydra_submitit_launcher", "submitit_slurm",
-              "hydra_plugins.hydra_submitit_launcher.submitit_launcher.SlurmLauncher"),
+    "local_procs": (
+        "hydra_joblib_launcher",
+        "joblib",
+        "hydra_plugins.hydra_joblib_launcher.joblib_launcher.JoblibLauncher",
+    ),
+    "slurm": (
+        "hydra_submitit_launcher",
+        "submitit_slurm",
+        "hydra_plugins.hydra_submitit_launcher.submitit_launcher.SlurmLauncher",
+    ),
     "ray_local": ("hydra_ray_launcher", "ray", "hydra_plugins.hydra_ray_launcher.ray_launcher.RayLauncher"),
 }
 

@@ -10,9 +10,22 @@ import pandas as pd
 import pytest
 
 from catpose.bench.protocols.absolute import Templates
-from catpose.bench.protocols.cross_check import (SILHOUETTE_CELL, SILHOUETTE_WEIGHT, TOP_FRACTION, TRUNC, TURNS_DEG, cross_cost,
-                                                 cross_costs, refine_on, silhouette_cells, silhouette_iou,
-                                                 top_centroid, top_offset, turn_candidates, turned)
+from catpose.bench.protocols.cross_check import (
+    SILHOUETTE_CELL,
+    SILHOUETTE_WEIGHT,
+    TOP_FRACTION,
+    TRUNC,
+    TURNS_DEG,
+    cross_cost,
+    cross_costs,
+    refine_on,
+    silhouette_cells,
+    silhouette_iou,
+    top_centroid,
+    top_offset,
+    turn_candidates,
+    turned,
+)
 from catpose.bench.protocols.template_choice import CROSS_WEIGHT, TOP_WEIGHT, choose_index, choose_row
 from catpose.bench.run import sample_run
 from catpose.errors import ConfigError
@@ -83,18 +96,18 @@ def test_own_cost_is_the_visibility_chamfer_plus_the_silhouette_term_at_the_esti
     cell = SILHOUETTE_CELL / np.median(P_cam[:, 2])
     a = _cells_reference(P_cam, cell)
     b = _cells_reference((tmpl.points - T[:3, 3]) @ T[:3, :3], cell)
-    assert 0.5 < len(a & b) / len(a | b) < 1.0   # the hidden side widens the outline a little
+    assert 0.5 < len(a & b) / len(a | b) < 1.0  # the hidden side widens the outline a little
     assert own == pytest.approx(d_in + d_vis + SILHOUETTE_WEIGHT * (1 - len(a & b) / len(a | b)), rel=1e-9)
 
 
 def test_silhouette_cells_and_iou():
     rng = np.random.default_rng(0)
     P = rng.uniform([-0.5, -0.5, 2.0], [0.5, 0.5, 3.0], (500, 3))
-    behind = np.vstack([P, [[0.1, 0.1, -1.0], [0.0, 0.0, 0.0]]])   # at or behind the camera: left out
+    behind = np.vstack([P, [[0.1, 0.1, -1.0], [0.0, 0.0, 0.0]]])  # at or behind the camera: left out
     assert silhouette_cells(behind, 0.02) == _cells_reference(P, 0.02)
     cells = silhouette_cells(P, 0.02)
     assert silhouette_iou(cells, P, 0.02) == 1.0
-    shifted = P + [1.0, 0.0, 0.0]   # moved sideways by its own width: the outlines barely meet
+    shifted = P + [1.0, 0.0, 0.0]  # moved sideways by its own width: the outlines barely meet
     ref = _cells_reference(shifted, 0.02)
     assert silhouette_iou(cells, shifted, 0.02) == pytest.approx(len(cells & ref) / len(cells | ref))
     assert silhouette_iou(cells, shifted, 0.02) < 0.1
@@ -128,10 +141,18 @@ def test_a_turned_estimate_costs_more_on_the_other_templates():
 def _rows(costs, scores, errs, status=None, tops=None):
     K = len(scores)
     tops = tops or [0.0] * K
-    return pd.DataFrame({
-        "group_id": ["chair/a/v00"] * K, "sample_id": [f"chair/a/v00|{k}" for k in range(K)], "status": status or ["ok"] * K, "score": scores, "err_deg": errs,
-        "runtime_s": [1.0] * K, "T_est": [np.eye(4).reshape(-1).tolist()] * K,
-        "info": [({"cross_costs": c, "top_offset": t} if c is not None else {}) for c, t in zip(costs, tops)]})
+    return pd.DataFrame(
+        {
+            "group_id": ["chair/a/v00"] * K,
+            "sample_id": [f"chair/a/v00|{k}" for k in range(K)],
+            "status": status or ["ok"] * K,
+            "score": scores,
+            "err_deg": errs,
+            "runtime_s": [1.0] * K,
+            "T_est": [np.eye(4).reshape(-1).tolist()] * K,
+            "info": [({"cross_costs": c, "top_offset": t} if c is not None else {}) for c, t in zip(costs, tops)],
+        }
+    )
 
 
 def test_cross_rule_takes_the_lowest_cross_cost():
@@ -203,7 +224,7 @@ def test_top_centroid_against_a_sorted_reference():
     P = rng.normal(size=(200, 3))
     up = np.array([0.3, -0.5, 0.8])
     u = up / np.linalg.norm(up)
-    top = P[np.argsort(P @ u)[-int(round(TOP_FRACTION * 200)):]].mean(axis=0)   # the 20 highest points
+    top = P[np.argsort(P @ u)[-int(round(TOP_FRACTION * 200)) :]].mean(axis=0)  # the 20 highest points
     assert top_centroid(P, up) == pytest.approx(top - (top @ u) * u, abs=1e-12)
     assert abs(top_centroid(P, up) @ u) < 1e-12
 
@@ -217,17 +238,21 @@ def test_top_offset_places_a_turned_chairs_back():
     right = top_offset(P, T, templates, 0)
     quarter, half = top_offset(P, _pose(90.0) @ T, templates, 0), top_offset(P, _pose(180.0) @ T, templates, 0)
     assert right < 0.15 < quarter < half
+
     # independent reference for the right pose: the 10 % highest posed points against the mean
     # of the templates' 10 % highest, compared across z
     def top_xy(X):
         return X[X[:, 2] >= np.quantile(X[:, 2], 0.9)][:, :2].mean(axis=0)
+
     X = P @ T[:3, :3].T + T[:3, 3]
     ref = np.linalg.norm(top_xy(X) - np.mean([top_xy(t.points) for t in templates], axis=0))
     assert right == pytest.approx(ref, abs=1e-12)
     # the same shapes in a frame whose up is +y give the same offsets
     R = axis_angle_to_R(np.array([1.0, 0.0, 0.0]), np.deg2rad(-90.0))
-    turned = [SimpleNamespace(template_id=t.template_id + "y", points=t.points @ R.T, normals=t.normals @ R.T,
-                              up=R @ Z) for t in templates]
+    turned = [
+        SimpleNamespace(template_id=t.template_id + "y", points=t.points @ R.T, normals=t.normals @ R.T, up=R @ Z)
+        for t in templates
+    ]
     T_y = np.eye(4)
     T_y[:3, :3] = R
     assert top_offset(P, T_y @ _pose(90.0) @ T, turned, 0) == pytest.approx(quarter, abs=1e-9)
@@ -236,9 +261,11 @@ def test_top_offset_places_a_turned_chairs_back():
 def test_cross_top_breaks_a_tie_of_the_cross_costs_by_the_top_offset():
     costs = [[0.20, 0.25], [0.25, 0.20]]
     rows = _rows(costs, [0.2, 0.2], [80.0, 5.0], tops=[0.7, 0.05])
-    assert choose_row(rows, "cross")["err_deg"] == 80.0   # cross alone: the tie goes to the first
+    assert choose_row(rows, "cross")["err_deg"] == 80.0  # cross alone: the tie goes to the first
     assert choose_row(rows, "cross_top")["err_deg"] == 5.0
-    assert cross_cost(costs[0], 0, CROSS_WEIGHT, 0.7, TOP_WEIGHT) == pytest.approx(0.20 + CROSS_WEIGHT * 0.25 + TOP_WEIGHT * 0.7)
+    assert cross_cost(costs[0], 0, CROSS_WEIGHT, 0.7, TOP_WEIGHT) == pytest.approx(
+        0.20 + CROSS_WEIGHT * 0.25 + TOP_WEIGHT * 0.7
+    )
 
 
 def test_templates_protocol_writes_the_costs_and_the_top_offset():
@@ -257,7 +284,7 @@ def test_templates_protocol_writes_the_costs_and_the_top_offset():
 def test_turned_is_a_turn_about_up_after_the_estimate():
     T = _pose(20.0, (0.1, -0.2, 2.0))
     assert turned(T, Z, 90.0) == pytest.approx(_pose(90.0) @ T, abs=1e-12)
-    assert turned(T, 3 * Z, -30.0) == pytest.approx(_pose(-30.0) @ T, abs=1e-12)   # up need not be unit
+    assert turned(T, 3 * Z, -30.0) == pytest.approx(_pose(-30.0) @ T, abs=1e-12)  # up need not be unit
 
 
 def test_turn_candidates_recover_a_quarter_turned_estimate():
@@ -273,7 +300,9 @@ def test_turn_candidates_recover_a_quarter_turned_estimate():
     assert angle < 2.0
     assert cands[1]["cross_costs"] == cross_costs(P, back, templates, 0)
     assert cands[1]["top_offset"] == top_offset(P, back, templates, 0)
-    own = cross_cost(cross_costs(P, wrong, templates, 0), 0, CROSS_WEIGHT, top_offset(P, wrong, templates, 0), TOP_WEIGHT)
+    own = cross_cost(
+        cross_costs(P, wrong, templates, 0), 0, CROSS_WEIGHT, top_offset(P, wrong, templates, 0), TOP_WEIGHT
+    )
     assert cross_cost(cands[1]["cross_costs"], 0, CROSS_WEIGHT, cands[1]["top_offset"], TOP_WEIGHT) < own
 
 
@@ -283,18 +312,33 @@ def test_cross_top_turns_keeps_the_best_candidate_with_its_pose_and_errors():
     T_gt = np.eye(4)
     rows["T_gt"] = [T_gt.tolist()] * 2
     rows["T_est"] = [_pose(90.0).tolist(), _pose(88.0).tolist()]
-    back = _pose(4.0)   # row 1's estimate turned back, 4 degrees from the truth
-    rows["info"] = [{**rows["info"][0], "turns": [{"turn_deg": 90.0, "T_template_camera": _pose(180.0).tolist(),
-                                                    "cross_costs": [0.4, 0.4], "top_offset": 0.9}]},
-                    {**rows["info"][1], "turns": [{"turn_deg": 270.0, "T_template_camera": back.tolist(),
-                                                    "cross_costs": [0.19, 0.20], "top_offset": 0.05}]}]
+    back = _pose(4.0)  # row 1's estimate turned back, 4 degrees from the truth
+    rows["info"] = [
+        {
+            **rows["info"][0],
+            "turns": [
+                {
+                    "turn_deg": 90.0,
+                    "T_template_camera": _pose(180.0).tolist(),
+                    "cross_costs": [0.4, 0.4],
+                    "top_offset": 0.9,
+                }
+            ],
+        },
+        {
+            **rows["info"][1],
+            "turns": [
+                {"turn_deg": 270.0, "T_template_camera": back.tolist(), "cross_costs": [0.19, 0.20], "top_offset": 0.05}
+            ],
+        },
+    ]
     before = [dict(i) for i in rows["info"]]
     chosen = choose_row(rows, "cross_top_turns")
     assert chosen["sample_id"] == "chair/a/v00|1" and chosen["info"]["turn_deg"] == 270.0
     assert np.asarray(chosen["T_est"]) == pytest.approx(back)
     assert chosen["err_deg"] == pytest.approx(4.0) and chosen["rot_err_deg"] == pytest.approx(4.0)
-    assert list(rows["info"]) == before   # the run's rows are not changed
-    assert choose_row(rows, "cross_top")["err_deg"] == 90.0   # without the turns: the registrations only
+    assert list(rows["info"]) == before  # the run's rows are not changed
+    assert choose_row(rows, "cross_top")["err_deg"] == 90.0  # without the turns: the registrations only
     # candidates that cost more than the registration's own estimate leave it as it is
     rows["info"] = [{**before[0], "turns": [{**before[0]["turns"][0]}]}, {**before[1], "turns": []}]
     kept = choose_row(rows, "cross_top_turns")
@@ -326,9 +370,11 @@ def test_one_template_cross_top_turns_chooses_among_the_estimate_and_its_turns()
     one = SimpleNamespace(category_templates=lambda category: templates)
     sample = SimpleNamespace(problem=SimpleNamespace(points_camera=P, category="chair", sample_id="chair/c/v00|0"))
     assert Templates(choice="cross_top", one_template_turns=True).estimate_facts(one, sample, T) == {}
-    assert Templates(choice="cross_top_turns").estimate_facts(one, sample, T) == {}   # not asked for
+    assert Templates(choice="cross_top_turns").estimate_facts(one, sample, T) == {}  # not asked for
     wrong = _pose(90.0) @ T
-    facts = Templates(choice="cross_top_turns", turns=[90, 180, 270], one_template_turns=True).estimate_facts(one, sample, wrong)
+    facts = Templates(choice="cross_top_turns", turns=[90, 180, 270], one_template_turns=True).estimate_facts(
+        one, sample, wrong
+    )
     assert facts["cross_costs"] == cross_costs(P, wrong, templates, 0) and len(facts["cross_costs"]) == 1
     assert [t["turn_deg"] for t in facts["turns"]] == [90.0, 180.0, 270.0]
     rows = _rows([facts["cross_costs"]], [0.1], [90.0])

@@ -35,12 +35,19 @@ def test_empty_folder_fails_in_at_most_two_lines(name, tmp_path, capsys):
 
 def test_cli_exit_code_and_lines_on_an_empty_folder(tmp_path):
     env = dict(os.environ, HYDRA_FULL_ERROR="0")
-    r = subprocess.run([*BENCH, "data", "check", "dataset=ycbv", f"dataset.root={tmp_path}"], capture_output=True,
-                       text=True, timeout=300, env=env)
+    r = subprocess.run(
+        [*BENCH, "data", "check", "dataset=ycbv", f"dataset.root={tmp_path}"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+    )
     assert r.returncode == 2
     lines = (r.stdout + r.stderr).strip().splitlines()
-    assert lines == [f"problem: {tmp_path}/models does not exist: unzip ycbv_models.zip into {tmp_path}",
-                     f"problem: {tmp_path}/test does not exist: unzip ycbv_test_bop19.zip into {tmp_path}"]
+    assert lines == [
+        f"problem: {tmp_path}/models does not exist: unzip ycbv_models.zip into {tmp_path}",
+        f"problem: {tmp_path}/test does not exist: unzip ycbv_test_bop19.zip into {tmp_path}",
+    ]
 
 
 def test_missing_root_and_synthetic(capsys, tmp_path):
@@ -62,9 +69,15 @@ def test_shared_ycbv_passes(shared_data, capsys):
 
 
 @pytest.mark.data
-@pytest.mark.parametrize("name, folder", [("tyol", "bop/tyol"), ("modelnet40", "ModelNet40"),
-                                          ("modelnet40_resampled", "modelnet40_normal_resampled"),
-                                          ("redwood", "redwood")])
+@pytest.mark.parametrize(
+    "name, folder",
+    [
+        ("tyol", "bop/tyol"),
+        ("modelnet40", "ModelNet40"),
+        ("modelnet40_resampled", "modelnet40_normal_resampled"),
+        ("redwood", "redwood"),
+    ],
+)
 def test_other_shared_roots_pass(shared_data, capsys, name, folder):
     code, lines = _check(capsys, f"dataset={name}", f"dataset.root={shared_data / folder}")
     assert code == 0, lines
@@ -84,8 +97,10 @@ def test_a_broken_copy_of_ycbv_names_each_problem(shared_data, tmp_path, capsys)
     assert "000002/scene_camera.json is not valid JSON" in lines[0] and "re-download it" in lines[0]
     shutil.copy(src / "test" / "000002" / "scene_camera.json", root / "test" / "000002")
     code, lines = _check(capsys, "dataset=ycbv", f"dataset.root={root}")
-    assert code == 2 and lines == [f"problem: 2 objects the frames show have no model in {root / 'models'} "
-                                   f"(obj_000005.ply, ...): unzip ycbv_models.zip into {root}"]
+    assert code == 2 and lines == [
+        f"problem: 2 objects the frames show have no model in {root / 'models'} "
+        f"(obj_000005.ply, ...): unzip ycbv_models.zip into {root}"
+    ]
 
 
 def test_bop_split_and_models_dir_hints(tmp_path, capsys):
@@ -93,18 +108,21 @@ def test_bop_split_and_models_dir_hints(tmp_path, capsys):
     (tmp_path / "test_primesense").mkdir()
     code, lines = _check(capsys, "dataset=bop", f"dataset.root={tmp_path}")
     assert code == 2
-    assert lines == [f"problem: {tmp_path}/models does not exist: unzip <dataset>_models.zip into {tmp_path} or set "
-                     "dataset.models_dir to one of ['models_eval']",
-                     f"problem: {tmp_path}/test does not exist: unzip <dataset>_test_bop19.zip into {tmp_path} or set "
-                     "dataset.split to one of ['test_primesense']"]
+    assert lines == [
+        f"problem: {tmp_path}/models does not exist: unzip <dataset>_models.zip into {tmp_path} or set "
+        "dataset.models_dir to one of ['models_eval']",
+        f"problem: {tmp_path}/test does not exist: unzip <dataset>_test_bop19.zip into {tmp_path} or set "
+        "dataset.split to one of ['test_primesense']",
+    ]
 
 
 def test_bop_scene_gt_without_depth(tmp_path, capsys):
     scene = tmp_path / "test" / "000001"
     scene.mkdir(parents=True)
     (tmp_path / "models").mkdir()
-    (scene / "scene_gt.json").write_text(json.dumps({"0": [{"obj_id": 1, "cam_R_m2c": [1, 0, 0, 0, 1, 0, 0, 0, 1],
-                                                            "cam_t_m2c": [0, 0, 500]}]}))
+    (scene / "scene_gt.json").write_text(
+        json.dumps({"0": [{"obj_id": 1, "cam_R_m2c": [1, 0, 0, 0, 1, 0, 0, 0, 1], "cam_t_m2c": [0, 0, 500]}]})
+    )
     (scene / "scene_camera.json").write_text(json.dumps({"0": {"cam_K": [300, 0, 160, 0, 300, 120, 0, 0, 1]}}))
     code, lines = _check(capsys, "dataset=bop", f"dataset.root={tmp_path}")
     assert code == 2 and len(lines) == 1 and "no depth images under" in lines[0] and "000000.png" in lines[0]

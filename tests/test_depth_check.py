@@ -10,7 +10,7 @@ import trimesh
 from catpose.datasets.render import PinholeCamera, render_depth
 from catpose.geometry import compose_T, invert_T, make_T
 from catpose.methods.depth_check import DepthVerifier
-from catpose.methods.selection import half_turns
+from catpose.methods.pose_scores import half_turns
 from catpose.types import DepthImage, Template
 
 CAM = PinholeCamera(160, 120, 150.0, 150.0, 79.5, 59.5)
@@ -60,10 +60,11 @@ def _reference(tpl: Template, image: DepthImage, T_template_camera: np.ndarray, 
 def test_scores_equal_a_full_image_rendering():
     tpl = _template()
     image, T_true = _view(tpl, occluder=True)
-    v = DepthVerifier(tpl, image, tau=0.05, target_pixels=10 ** 6, max_rays=10 ** 6)
+    v = DepthVerifier(tpl, image, tau=0.05, target_pixels=10**6, max_rays=10**6)
     assert v.lattice.stride == 1
-    poses = [T_true, compose_T(make_T(np.eye(3), [0.05, -0.03, 0.02]), T_true)] + \
-            [compose_T(F, T_true) for F in half_turns()[1:]]
+    poses = [T_true, compose_T(make_T(np.eye(3), [0.05, -0.03, 0.02]), T_true)] + [
+        compose_T(F, T_true) for F in half_turns()[1:]
+    ]
     got = v.scores(np.stack(poses))
     want = [_reference(tpl, image, T, 0.05, 1) for T in poses]
     np.testing.assert_allclose(got, want, atol=1e-5)  # render_depth returns float32 depth
@@ -73,8 +74,13 @@ def test_the_true_pose_wins_over_its_half_turns_and_a_shift():
     tpl = _template()
     image, T_true = _view(tpl)
     v = DepthVerifier(tpl, image, tau=0.05)
-    s = v.scores(np.stack([T_true] + [compose_T(F, T_true) for F in half_turns()[1:]]
-                          + [compose_T(make_T(np.eye(3), [0.0, 0.0, 0.15]), T_true)]))
+    s = v.scores(
+        np.stack(
+            [T_true]
+            + [compose_T(F, T_true) for F in half_turns()[1:]]
+            + [compose_T(make_T(np.eye(3), [0.0, 0.0, 0.15]), T_true)]
+        )
+    )
     assert s[0] < 0.02 and (s[1:] > 0.1).all()
 
 
@@ -91,8 +97,8 @@ def test_a_hidden_side_costs_the_true_pose_nothing():
 def test_surface_in_front_of_the_observation_is_a_free_space_violation():
     tpl = _template()
     image, T_true = _view(tpl)
-    T_near = invert_T(compose_T(make_T(np.eye(3), [0.0, 0.0, -0.3]), invert_T(T_true)))   # 0.3 nearer the camera
-    v = DepthVerifier(tpl, image, tau=0.05, target_pixels=10 ** 6, max_rays=10 ** 6)
+    T_near = invert_T(compose_T(make_T(np.eye(3), [0.0, 0.0, -0.3]), invert_T(T_true)))  # 0.3 nearer the camera
+    v = DepthVerifier(tpl, image, tau=0.05, target_pixels=10**6, max_rays=10**6)
     win, r = v.render(T_near[None])[0]
     o, m = v.lattice.depth[win], v.lattice.mask[win]
     assert ((~m) & (r > 0) & (o - r > 0.05)).sum() > 0

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from catpose.bench.regress.golden import perturbed, read_golden, write_golden
 from catpose.bench.protocols import GtModel
+from catpose.bench.regress.golden import perturbed, read_golden, write_golden
 from catpose.datasets.render import PinholeCamera, depth_to_points
 from catpose.datasets.synthetic import SyntheticDataset
 from catpose.errors import InvalidInputError
@@ -16,13 +16,16 @@ from catpose.types import DepthImage
 K = np.array([[100.0, 0, 15.5], [0, 100.0, 11.5], [0, 0, 1]])
 
 
-@pytest.mark.parametrize("depth,mask,K_,needle", [
-    (np.full((4, 4), np.nan), np.ones((4, 4), bool), K, "NaN"),
-    (-np.ones((4, 4)), np.ones((4, 4), bool), K, "negative"),
-    (np.ones((4, 4)), np.ones((3, 4), bool), K, "mask"),
-    (np.ones((4, 4)), np.ones((4, 4), bool), np.diag([0.0, 1.0, 1.0]), "focal"),
-    (np.ones(4), np.ones(4, bool), K, "shape"),
-])
+@pytest.mark.parametrize(
+    "depth,mask,K_,needle",
+    [
+        (np.full((4, 4), np.nan), np.ones((4, 4), bool), K, "NaN"),
+        (-np.ones((4, 4)), np.ones((4, 4), bool), K, "negative"),
+        (np.ones((4, 4)), np.ones((3, 4), bool), K, "mask"),
+        (np.ones((4, 4)), np.ones((4, 4), bool), np.diag([0.0, 1.0, 1.0]), "focal"),
+        (np.ones(4), np.ones(4, bool), K, "shape"),
+    ],
+)
 def test_bad_depth_images_are_refused_in_one_line(depth, mask, K_, needle):
     with pytest.raises(InvalidInputError, match=needle):
         DepthImage(depth, K_, mask)
@@ -30,8 +33,9 @@ def test_bad_depth_images_are_refused_in_one_line(depth, mask, K_, needle):
 
 @pytest.mark.parametrize("sensor", ["none", "kinect"])
 def test_synthetic_views_carry_the_image_their_points_came_from(sensor):
-    ds = SyntheticDataset(seed=0, categories=["mug"], instances_per_category=1, views_per_instance=1, max_points=10 ** 6,
-                          sensor=sensor)
+    ds = SyntheticDataset(
+        seed=0, categories=["mug"], instances_per_category=1, views_per_instance=1, max_points=10**6, sensor=sensor
+    )
     s = GtModel().load(ds, ds.observation_ids()[0])
     di = s.problem.depth_image
     assert di is not None and di.mask.any()

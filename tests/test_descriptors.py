@@ -24,7 +24,7 @@ def _cloud(seed: int = 0, n: int = 1500) -> tuple[np.ndarray, np.ndarray]:
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     r = 1.0 + 0.3 * np.exp(-np.sum((d - [0.6, 0.0, 0.8]) ** 2, axis=1) / 0.1)
     p = d * r[:, None] * np.array([0.9, 0.6, 0.5])
-    nrm = p / np.array([0.9, 0.6, 0.5]) ** 2            # ellipsoid normal (approximate on the bump)
+    nrm = p / np.array([0.9, 0.6, 0.5]) ** 2  # ellipsoid normal (approximate on the bump)
     return p, nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
 
 
@@ -65,7 +65,7 @@ def test_affinity_is_invariant_to_a_rigid_motion(desc: Descriptor) -> None:
     up = np.array([0.0, 0.0, 1.0])
     R = random_rotation(np.random.default_rng(9))
     a = desc.keypoint_features(p, n, 16, up)
-    moved = a.points @ R.T + 0.5                          # the same downsampled cloud, moved
+    moved = a.points @ R.T + 0.5  # the same downsampled cloud, moved
     b = desc.describe(moved, a.normals @ R.T, a.indices, R @ up, cKDTree(moved))
     np.testing.assert_allclose(desc.affinity(a.features, b), desc.affinity(a.features, a.features), atol=1e-6)
 
@@ -78,16 +78,19 @@ def test_cache_keys_name_every_parameter() -> None:
     assert ("voxel_size", 0.025) in LPS().cache_key()
 
 
-@pytest.mark.parametrize("make,match", [
-    (lambda: LPS(tau="abc"), "method.descriptor.tau='abc' must be a positive number"),
-    (lambda: LPS(max_points=0), "method.descriptor.max_points=0 must be a positive integer"),
-    (lambda: LPS(fscore="dense"), "method.descriptor.fscore='dense' is unknown"),
-    (lambda: PFH(distance="l2"), "method.descriptor.distance='l2' is unknown"),
-    (lambda: PFH(voxel_size=-1), "method.descriptor.voxel_size=-1 must be a number >= 0"),
-    (lambda: DictionaryLayout(num_views=17), "method.dictionary.num_views=17 is not a multiple of the 3"),
-    (lambda: DictionaryLayout(num_keypoints=2), "method.dictionary.num_keypoints=2 must be an integer >= 3"),
-    (lambda: DictionaryLayout(layout="cube"), "method.dictionary.layout='cube' is unknown"),
-])
+@pytest.mark.parametrize(
+    "make,match",
+    [
+        (lambda: LPS(tau="abc"), "method.descriptor.tau='abc' must be a positive number"),
+        (lambda: LPS(max_points=0), "method.descriptor.max_points=0 must be a positive integer"),
+        (lambda: LPS(fscore="dense"), "method.descriptor.fscore='dense' is unknown"),
+        (lambda: PFH(distance="l2"), "method.descriptor.distance='l2' is unknown"),
+        (lambda: PFH(voxel_size=-1), "method.descriptor.voxel_size=-1 must be a number >= 0"),
+        (lambda: DictionaryLayout(num_views=17), "method.dictionary.num_views=17 is not a multiple of the 3"),
+        (lambda: DictionaryLayout(num_keypoints=2), "method.dictionary.num_keypoints=2 must be an integer >= 3"),
+        (lambda: DictionaryLayout(layout="cube"), "method.dictionary.layout='cube' is unknown"),
+    ],
+)
 def test_bad_options_raise_one_line_errors_naming_the_key(make, match: str) -> None:
     with pytest.raises(ConfigError, match=match.replace("(", r"\(").replace(".", r"\.")) as info:
         make()
@@ -95,7 +98,7 @@ def test_bad_options_raise_one_line_errors_naming_the_key(make, match: str) -> N
 
 
 def test_exact_pfh_without_pot_says_how_to_install_it(monkeypatch) -> None:
-    monkeypatch.setitem(sys.modules, "ot", None)      # `import ot` now raises ImportError
+    monkeypatch.setitem(sys.modules, "ot", None)  # `import ot` now raises ImportError
     with pytest.raises(ConfigError, match=r"pip install 'catpose\[pfh\]'") as info:
         PFH(distance="exact")
     assert "\n" not in str(info.value)
@@ -108,7 +111,7 @@ def test_exact_pfh_with_pot_bounds_the_marginal_distance() -> None:
     h = PFH().keypoint_features(p, n, 6, up).features
     exact = PFH(distance="exact").affinity(h, h[::-1])
     marginal = PFH().affinity(h, h[::-1])
-    assert np.all(marginal >= exact - 1e-9)               # marginal EMD <= exact EMD
+    assert np.all(marginal >= exact - 1e-9)  # marginal EMD <= exact EMD
     np.testing.assert_allclose(1 / exact - 0.01, pfh.exact_emd(h, h[::-1]), atol=1e-9)
 
 

@@ -13,7 +13,7 @@ def test_one_ycbv_sample_under_the_depth_rule(shared_data: Path, tmp_path: Path)
     out = tmp_path / "diag.jsonl"
     assert diagnose.main(["--set", "ycbv", "--limit", "1", "--out", str(out), "--save-dir", str(tmp_path / "npz")]) == 0
     (row,) = [json.loads(line) for line in out.read_text().splitlines()]
-    assert row["depth_score"] is not None and row["chamfer"] is None     # the depth rule's fields, not the point rules'
+    assert row["depth_score"] is not None and row["chamfer"] is None  # the depth rule's fields, not the point rules'
     assert len(row["cand_err"]) > 1 and 0 <= row["selected"] < len(row["cand_err"])
     assert row["oracle_err"] == min(row["cand_err"]) <= row["selected_cand_err"]
     assert row["err_deg"] < 10.0 and row["fit_gt"] >= 0.0

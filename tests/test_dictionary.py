@@ -14,11 +14,13 @@ def _sphere_template(tid: str = "test/sphere", n: int = 800) -> Template:
     i = np.arange(n) + 0.5
     z = 1 - 2 * i / n
     r = np.sqrt(1 - z * z)
-    phi = np.pi * (1 + 5 ** 0.5) * i
+    phi = np.pi * (1 + 5**0.5) * i
     p = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
     p[:, 0] *= 0.8  # an ellipsoid x^2/0.64 + y^2 + z^2 = 1; normal ~ (x/0.64, y, z)
     nrm = p * np.array([1 / 0.64, 1.0, 1.0])
-    return Template(template_id=tid, category="ball", points=p, normals=nrm / np.linalg.norm(nrm, axis=1, keepdims=True))
+    return Template(
+        template_id=tid, category="ball", points=p, normals=nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+    )
 
 
 def test_layout_rings_and_fibonacci():
@@ -49,15 +51,15 @@ def test_partials_are_visible_subsets_and_cached(tmp_path, monkeypatch):
         # at the silhouette (measured 0.88-0.89 on a sphere)
         facing = np.einsum("ij,ij->i", nrm, vp - pts) > 0
         assert facing.mean() > 0.8
-    assert dmod.get_dictionary(t) is d                      # memory cache
+    assert dmod.get_dictionary(t) is d  # memory cache
     files = list((tmp_path / "dictionary").glob("*.npz"))
     assert len(files) == 1 and files[0].name.startswith("test_sphere-")
     dmod.clear_memory_cache()
-    d2 = dmod.get_dictionary(t)                             # from disk
+    d2 = dmod.get_dictionary(t)  # from disk
     assert d2 is not d
     for a, b in zip(d.indices, d2.indices):
         np.testing.assert_array_equal(a, b)
-    d3 = dmod.get_dictionary(t, num_views=12)               # other parameters: another entry
+    d3 = dmod.get_dictionary(t, num_views=12)  # other parameters: another entry
     assert len(d3) == 12 and d3.key != d.key
     dmod.clear_memory_cache()
 

@@ -13,8 +13,14 @@ from catpose.bench.report import doc_quotes
 REPO = Path(__file__).resolve().parents[1]
 DOCS = ("methods.md", "evaluation.md", "results.md", "speed.md", "scale-out.md", "developing.md", "architecture.md")
 #: docs written on other branches; links to them are checked once they exist
-PENDING = {"docs/api.md": "frontdoor", "docs/data.md": "frontdoor", "docs/install.md": "frontdoor",
-           "docs/choosing-defaults.md": "real", "LICENSE": "frontdoor", "CITATION.cff": "frontdoor"}
+PENDING = {
+    "docs/api.md": "frontdoor",
+    "docs/data.md": "frontdoor",
+    "docs/install.md": "frontdoor",
+    "docs/choosing-defaults.md": "real",
+    "LICENSE": "frontdoor",
+    "CITATION.cff": "frontdoor",
+}
 
 
 def test_every_quote_is_its_file():
@@ -61,28 +67,37 @@ def test_no_history_in_user_docs(name):
     doc = REPO / name
     lines = doc.read_text().splitlines()
     for q in reversed(doc_quotes.find_quotes(doc)):
-        del lines[q.start:q.end + 1]
+        del lines[q.start : q.end + 1]
     text = "\n".join(lines)
     for pattern, what in HISTORY:
         m = pattern.search(text)
-        assert m is None, f"{name}: {what}: {text[max(0, m.start() - 40):m.end() + 40]!r}"
+        assert m is None, f"{name}: {what}: {text[max(0, m.start() - 40) : m.end() + 40]!r}"
 
 
 def test_quote_tool(tmp_path: Path):
     (tmp_path / "docs").mkdir()
     (tmp_path / "results").mkdir()
-    (tmp_path / "results" / "t.md").write_text("**Title**\n\n| a | b |\n|---|---|\n| 1 | 2 |\n\nA note.\n\n| c |\n|---|\n| 3 |\n")
-    (tmp_path / "README.md").write_text("# x\n\n<!-- quote: results/t.md (table) -->\nold\n<!-- end quote -->\n\n"
-                                        "<!-- quote: results/t.md (table 2) -->\n<!-- end quote -->\n"
-                                        "<!-- quote: results/none.md -->\n| 9 |\n<!-- end quote -->\n")
-    (tmp_path / "docs" / "a.md").write_text("<!-- quote: results/t.md -->\n<!-- end quote -->\n"
-                                            "<!-- quote: other/t.md -->\n<!-- end quote -->\n"
-                                            "```text\n<!-- quote: results/t.md -->\n...\n<!-- end quote -->\n```\n")
+    (tmp_path / "results" / "t.md").write_text(
+        "**Title**\n\n| a | b |\n|---|---|\n| 1 | 2 |\n\nA note.\n\n| c |\n|---|\n| 3 |\n"
+    )
+    (tmp_path / "README.md").write_text(
+        "# x\n\n<!-- quote: results/t.md (table) -->\nold\n<!-- end quote -->\n\n"
+        "<!-- quote: results/t.md (table 2) -->\n<!-- end quote -->\n"
+        "<!-- quote: results/none.md -->\n| 9 |\n<!-- end quote -->\n"
+    )
+    (tmp_path / "docs" / "a.md").write_text(
+        "<!-- quote: results/t.md -->\n<!-- end quote -->\n"
+        "<!-- quote: other/t.md -->\n<!-- end quote -->\n"
+        "```text\n<!-- quote: results/t.md -->\n...\n<!-- end quote -->\n```\n"
+    )
     bad = doc_quotes.differing(tmp_path)
     assert len(bad) == 5 and "docs/a.md:3: quotes other/t.md, which is not under results/" in bad
     doc_quotes.refresh(tmp_path)
     readme = (tmp_path / "README.md").read_text()
-    assert "<!-- quote: results/t.md (table) -->\n**Title**\n\n| a | b |\n|---|---|\n| 1 | 2 |\n<!-- end quote -->" in readme
+    assert (
+        "<!-- quote: results/t.md (table) -->\n**Title**\n\n| a | b |\n|---|---|\n| 1 | 2 |\n<!-- end quote -->"
+        in readme
+    )
     assert "(table 2) -->\n| c |\n|---|\n| 3 |\n<!-- end quote -->" in readme
     assert "*(not generated yet: `make results` writes `results/none.md`)*" in readme and "| 9 |" not in readme
     assert (tmp_path / "docs" / "a.md").read_text().startswith("<!-- quote: results/t.md -->\n**Title**\n\n| a | b |")
@@ -91,7 +106,11 @@ def test_quote_tool(tmp_path: Path):
     bad = doc_quotes.differing(tmp_path)
     assert "README.md:3: the quote of results/t.md differs from the file" in bad
     assert "README.md:11: results/t.md: the file has 1 Markdown table(s), the quote asks for table 2" in bad
-    assert (tmp_path / "docs" / "a.md").read_text().endswith("```text\n<!-- quote: results/t.md -->\n...\n<!-- end quote -->\n```\n")
+    assert (
+        (tmp_path / "docs" / "a.md")
+        .read_text()
+        .endswith("```text\n<!-- quote: results/t.md -->\n...\n<!-- end quote -->\n```\n")
+    )
     (tmp_path / "README.md").write_text("<!-- quote: results/t.md -->\nno end\n")
     with pytest.raises(ValueError, match="README.md:1: quote of results/t.md has no"):
         doc_quotes.find_quotes(tmp_path / "README.md")

@@ -26,7 +26,6 @@ sys.path.insert(0, str(TESTS))
 
 from _trust import CFG, one_error_line, rows  # noqa: E402
 
-
 # ---------------------------------------------------------------------------------------------
 # 2. atomic writes
 
@@ -155,20 +154,26 @@ def test_table_leaves_out_a_damaged_run_names_it_and_exits_2(two_runs, capsys, t
     assert "ICP," in out and "Ours," not in out  # the table of the other run is still made
 
 
-@pytest.mark.parametrize("damage, needle", [
-    (("run.json", b""), "run.json is unreadable (an empty file)"),
-    (("run.json", b'{"method": "ours", "n_sa'), "run.json is unreadable (JSONDecodeError"),
-    (("config.yaml", b"method: {name: [unclosed\n"), "config.yaml is unreadable"),
-    (("config.yaml", b""), "config.yaml is empty or not a mapping"),
-])
+@pytest.mark.parametrize(
+    "damage, needle",
+    [
+        (("run.json", b""), "run.json is unreadable (an empty file)"),
+        (("run.json", b'{"method": "ours", "n_sa'), "run.json is unreadable (JSONDecodeError"),
+        (("config.yaml", b"method: {name: [unclosed\n"), "config.yaml is unreadable"),
+        (("config.yaml", b""), "config.yaml is empty or not a mapping"),
+    ],
+)
 @pytest.mark.parametrize("command", ["table", "report", "export"])
-def test_unreadable_metadata_fails_that_run_in_one_line_not_the_others(two_runs, tmp_path, capsys, damage, needle,
-                                                                       command):
+def test_unreadable_metadata_fails_that_run_in_one_line_not_the_others(
+    two_runs, tmp_path, capsys, damage, needle, command
+):
     a, b = two_runs
     (a / damage[0]).write_bytes(damage[1])
-    args = {"table": ["table", str(tmp_path / "runs")],
-            "report": ["report", str(tmp_path / "runs"), "--out", str(tmp_path / "rep"), "--no-pdf"],
-            "export": ["export", str(a), "--out", str(tmp_path / "m_toy-test.csv")]}[command]
+    args = {
+        "table": ["table", str(tmp_path / "runs")],
+        "report": ["report", str(tmp_path / "runs"), "--out", str(tmp_path / "rep"), "--no-pdf"],
+        "export": ["export", str(a), "--out", str(tmp_path / "m_toy-test.csv")],
+    }[command]
     rc = bench(args)
     line = one_error_line(capsys, command)
     assert rc == 2 and f"run {a}: {needle}" in line, line
@@ -184,8 +189,10 @@ def test_a_table_of_only_unreadable_runs_is_one_line(two_runs, capsys):
     a, _ = two_runs
     (a / "run.json").write_bytes(b"")
     assert bench(["table", str(a)]) == 2
-    assert one_error_line(capsys, "table") == f"bench table: error: run {a}: run.json is unreadable (an empty file); " \
+    assert (
+        one_error_line(capsys, "table") == f"bench table: error: run {a}: run.json is unreadable (an empty file); "
         "re-run the same `bench run` command to rewrite it (finished samples are skipped), or restore it from a copy"
+    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -195,7 +202,9 @@ def test_a_table_of_only_unreadable_runs_is_one_line(two_runs, capsys):
 def test_write_run_refuses_an_existing_run_unless_forced(tmp_path):
     run = write_run(tmp_path / "run", rows([5.0]), CFG)
     before = (run / "samples.jsonl").read_bytes()
-    with pytest.raises(InvalidInputError, match=r"already holds a run \(.*samples.jsonl.*\); pass a new --out, or add --force"):
+    with pytest.raises(
+        InvalidInputError, match=r"already holds a run \(.*samples.jsonl.*\); pass a new --out, or add --force"
+    ):
         write_run(run, rows([90.0, 90.0]), CFG)
     assert (run / "samples.jsonl").read_bytes() == before
     write_run(run, rows([90.0, 90.0]), CFG, force=True)
@@ -246,8 +255,10 @@ def test_a_full_disk_while_scoring_or_exporting_is_one_line_and_leaves_nothing(t
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(atomic.os, "replace", full)
-    args = {"score": ["score", str(preds), "--gt", str(gt), "--method", "ext", "--out", str(tmp_path / "o")],
-            "export": ["export", str(gt), "--out", str(tmp_path / "m_toy-test.csv")]}[command]
+    args = {
+        "score": ["score", str(preds), "--gt", str(gt), "--method", "ext", "--out", str(tmp_path / "o")],
+        "export": ["export", str(gt), "--out", str(tmp_path / "m_toy-test.csv")],
+    }[command]
     assert bench(args) == 2
     assert "No space left on device); pass a" in one_error_line(capsys, command)
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # no half-written folder or file
@@ -262,8 +273,9 @@ def test_table_destination_never_overwrites_verified_rows(tmp_path):
     with pytest.raises(InvalidInputError, match=r"--out .*airplane.csv exists; .*--force"):
         table_destination(t)
     assert table_destination(t, force=True) == (t, None)
-    t.write_text("category,instance_id,yaw_deg,verified,note\nairplane,a1,0,true,checked by eye\n"
-                 "airplane,a2,90,false,\n")
+    t.write_text(
+        "category,instance_id,yaw_deg,verified,note\nairplane,a1,0,true,checked by eye\nairplane,a2,90,false,\n"
+    )
     for force in (False, True):
         path, note = table_destination(t, force)
         assert path == tmp_path / "airplane.new.csv" and "1 row(s) marked verified" in note and str(path) in note
@@ -280,10 +292,24 @@ def test_bench_align_writes_a_new_file_beside_a_verified_table(tmp_path, capsys)
     write_off(root / "thing/train/thing_0001.off", v, f)
     write_off(root / "thing/train/thing_0002.off", v * 3.0, f)
     table = tmp_path / "thing.csv"
-    text = "category,instance_id,yaw_deg,verified,note\nthing,thing_0001,0,true,checked\nthing,thing_0002,0,true,checked\n"
+    text = (
+        "category,instance_id,yaw_deg,verified,note\nthing,thing_0001,0,true,checked\nthing,thing_0002,0,true,checked\n"
+    )
     table.write_text(text)
-    args = ["align", "dataset=modelnet40", f"dataset.root={root}", "dataset.categories=[thing]", "dataset.split=train",
-            "--category", "thing", "--out", str(table), "--points", "300", "--no-refine"]
+    args = [
+        "align",
+        "dataset=modelnet40",
+        f"dataset.root={root}",
+        "dataset.categories=[thing]",
+        "dataset.split=train",
+        "--category",
+        "thing",
+        "--out",
+        str(table),
+        "--points",
+        "300",
+        "--no-refine",
+    ]
     assert bench(args + ["--force"]) == 0
     err = capsys.readouterr().err
     assert table.read_text() == text  # untouched, even with --force

@@ -27,17 +27,34 @@ def _pose(deg: float) -> list:
 
 
 def _view(view: str, degs, costs):
-    return [{"group_id": view, "sample_id": f"{view}|{k}", "status": "ok", "score": 0.1, "err_deg": abs(d),
-             "T_est": _pose(d), "T_gt": np.eye(4).tolist(), "runtime_s": 0.0,
-             "info": {"cross_costs": c, "top_offset": 0.0, "turns": [{"turn_deg": 90.0, "T_template_camera": _pose(d + 90),
-                                                                      "cross_costs": [1.0, 1.0], "top_offset": 0.0}]}}
-            for k, (d, c) in enumerate(zip(degs, costs))]
+    return [
+        {
+            "group_id": view,
+            "sample_id": f"{view}|{k}",
+            "status": "ok",
+            "score": 0.1,
+            "err_deg": abs(d),
+            "T_est": _pose(d),
+            "T_gt": np.eye(4).tolist(),
+            "runtime_s": 0.0,
+            "info": {
+                "cross_costs": c,
+                "top_offset": 0.0,
+                "turns": [
+                    {"turn_deg": 90.0, "T_template_camera": _pose(d + 90), "cross_costs": [1.0, 1.0], "top_offset": 0.0}
+                ],
+            },
+        }
+        for k, (d, c) in enumerate(zip(degs, costs))
+    ]
 
 
 def test_each_setting_fuses_within_its_angle(grid):
     # v0: template 0 chosen at 8 degrees, template 1 at -6 agrees within 15 but not within 10;
     # v1: the two are 100 degrees apart, never averaged
-    rows = pd.DataFrame(_view("v0", [8.0, -6.0], [[0.1, 0.1], [0.2, 0.2]]) + _view("v1", [3.0, 103.0], [[0.1, 0.1], [0.2, 0.2]]))
+    rows = pd.DataFrame(
+        _view("v0", [8.0, -6.0], [[0.1, 0.1], [0.2, 0.2]]) + _view("v1", [3.0, 103.0], [[0.1, 0.1], [0.2, 0.2]])
+    )
     plain, narrow, wide = grid["chosen"](rows, None), grid["chosen"](rows, 10.0), grid["chosen"](rows, 15.0)
     assert list(plain["err_deg"]) == [8.0, 3.0] and list(narrow["err_deg"]) == [8.0, 3.0]
     assert wide["err_deg"].tolist() == pytest.approx([1.0, 3.0])

@@ -26,9 +26,11 @@ def _angle(R_a, R_b) -> float:
 
 def test_fuse_agreeing_averages_the_cheapest_agreeing_pose_of_each_other_template():
     chosen = _pose(10.0, (0.0, 0.0, 1.0))
-    others = [(1, 0.3, _pose(20.0, (0.0, 0.0, 3.0))),   # agrees, but template 1 has a cheaper one
-              (1, 0.2, _pose(14.0, (0.0, 0.0, 2.0))),
-              (2, 0.1, _pose(90.0, (5.0, 0.0, 0.0)))]   # a quarter turn off: left out
+    others = [
+        (1, 0.3, _pose(20.0, (0.0, 0.0, 3.0))),  # agrees, but template 1 has a cheaper one
+        (1, 0.2, _pose(14.0, (0.0, 0.0, 2.0))),
+        (2, 0.1, _pose(90.0, (5.0, 0.0, 0.0))),
+    ]  # a quarter turn off: left out
     T, n = fuse_agreeing(chosen, others)
     assert n == 2
     # two rotations about one axis: the chordal quaternion mean is the midpoint angle
@@ -55,21 +57,36 @@ def _rows(ests, costs, turns=None):
     """One view's rows against len(ests) templates, ground truth the identity."""
     K = len(ests)
     turns = turns or [[] for _ in range(K)]
-    return pd.DataFrame({
-        "group_id": ["chair/a/v00"] * K, "sample_id": [f"chair/a/v00|{k}" for k in range(K)], "status": ["ok"] * K,
-        "score": [0.1] * K, "err_deg": [_angle(np.eye(3), T[:3, :3]) for T in ests], "runtime_s": [1.0] * K,
-        "T_est": [T.tolist() for T in ests], "T_gt": [np.eye(4).tolist()] * K,
-        "info": [{"cross_costs": c, "top_offset": 0.1, "turns": t} for c, t in zip(costs, turns)]})
+    return pd.DataFrame(
+        {
+            "group_id": ["chair/a/v00"] * K,
+            "sample_id": [f"chair/a/v00|{k}" for k in range(K)],
+            "status": ["ok"] * K,
+            "score": [0.1] * K,
+            "err_deg": [_angle(np.eye(3), T[:3, :3]) for T in ests],
+            "runtime_s": [1.0] * K,
+            "T_est": [T.tolist() for T in ests],
+            "T_gt": [np.eye(4).tolist()] * K,
+            "info": [{"cross_costs": c, "top_offset": 0.1, "turns": t} for c, t in zip(costs, turns)],
+        }
+    )
 
 
 def test_fused_rule_averages_the_chosen_estimate_with_the_agreeing_templates():
     assert "fused" in FUSE_RULES and "fused" in TURN_RULES
     # template 0 is chosen (lowest cost, 6 degrees off); template 1 agrees (-4 degrees); template 2
     # is a quarter turn off; template 2's turned candidate agrees but costs more than 2's own
-    turn_back = {"turn_deg": 270.0, "T_template_camera": _pose(-2.0).tolist(), "cross_costs": [0.30, 0.31, 0.32],
-                 "top_offset": 0.1}
-    rows = _rows([_pose(6.0), _pose(-4.0), _pose(90.0)], [[0.10, 0.12, 0.12], [0.13, 0.11, 0.13], [0.20, 0.20, 0.20]],
-                 [[], [], [turn_back]])
+    turn_back = {
+        "turn_deg": 270.0,
+        "T_template_camera": _pose(-2.0).tolist(),
+        "cross_costs": [0.30, 0.31, 0.32],
+        "top_offset": 0.1,
+    }
+    rows = _rows(
+        [_pose(6.0), _pose(-4.0), _pose(90.0)],
+        [[0.10, 0.12, 0.12], [0.13, 0.11, 0.13], [0.20, 0.20, 0.20]],
+        [[], [], [turn_back]],
+    )
     plain = choose_row(rows, "cross_top_turns")
     assert plain["sample_id"] == "chair/a/v00|0" and plain["err_deg"] == pytest.approx(6.0)
     fused = choose_row(rows, "fused")
@@ -78,7 +95,7 @@ def test_fused_rule_averages_the_chosen_estimate_with_the_agreeing_templates():
     q = Rotation.from_matrix(np.stack([_pose(d)[:3, :3] for d in (6.0, -4.0, -2.0)])).mean().as_matrix()
     assert np.asarray(fused["T_est"])[:3, :3] == pytest.approx(q, abs=1e-12)
     assert fused["err_deg"] == pytest.approx(_angle(np.eye(3), q)) and fused["err_deg"] < 0.1
-    assert "fused_templates" not in rows["info"][0]   # the run's rows are not changed
+    assert "fused_templates" not in rows["info"][0]  # the run's rows are not changed
     # within 5 degrees of the chosen 6, neither -4 nor -2 agrees: the chosen pose is kept
     alone = choose_row(rows, "fused", fuse_deg=5.0)
     assert alone["info"]["fused_templates"] == 1 and alone["err_deg"] == pytest.approx(6.0)
@@ -88,7 +105,7 @@ def test_templates_protocol_accepts_the_fused_rule_and_its_turns():
     protocol = Templates(choice="fused", turns=[90, 270])
     assert protocol.choice == "fused" and protocol.turns == (90.0, 270.0)
     rows = _rows([_pose(6.0), _pose(-4.0)], [[0.10, 0.12], [0.13, 0.11]], [[], []])
-    rows["info"] = [{"cross_costs": c, "top_offset": 0.1} for c in ([0.10, 0.12], [0.13, 0.11])]   # no turns stored
+    rows["info"] = [{"cross_costs": c, "top_offset": 0.1} for c in ([0.10, 0.12], [0.13, 0.11])]  # no turns stored
     with pytest.raises(ConfigError, match="protocol.choice=fused needs info.turns"):
         protocol.best_per_view(rows)
 
@@ -103,8 +120,10 @@ def test_fused_weighs_the_top_offset_by_its_own_weight():
     far = {"turn_deg": 90.0, "T_template_camera": _pose(180.0).tolist(), "cross_costs": [1.0, 1.0], "top_offset": 1.0}
     rows = _rows([_pose(2.0), _pose(90.0)], [[0.30, 0.30], [0.30, 0.27]], [[far], [far]])
     rows["info"] = [{**rows["info"][0], "top_offset": 0.1}, {**rows["info"][1], "top_offset": 0.6}]
-    costs = {w: [cross_cost([0.30, 0.30], 0, CROSS_WEIGHT, 0.1, w), cross_cost([0.30, 0.27], 1, CROSS_WEIGHT, 0.6, w)]
-             for w in (TOP_WEIGHT, FUSED_TOP_WEIGHT)}
+    costs = {
+        w: [cross_cost([0.30, 0.30], 0, CROSS_WEIGHT, 0.1, w), cross_cost([0.30, 0.27], 1, CROSS_WEIGHT, 0.6, w)]
+        for w in (TOP_WEIGHT, FUSED_TOP_WEIGHT)
+    }
     assert costs[TOP_WEIGHT][1] < costs[TOP_WEIGHT][0] and costs[FUSED_TOP_WEIGHT][0] < costs[FUSED_TOP_WEIGHT][1]
     assert choose_row(rows, "cross_top_turns")["sample_id"] == "chair/a/v00|1"
     kept = choose_row(rows, "fused")

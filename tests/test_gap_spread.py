@@ -37,15 +37,28 @@ def test_too_few_chairs_is_a_clear_stop(spread):
 
 
 def _row(view, k, err, score, inst):
-    return {"group_id": view, "sample_id": f"{view}|{k}", "instance_id": inst, "status": "ok", "err_deg": err,
-            "score": score, "info": {}, "T_est": None, "runtime_s": 0.0}
+    return {
+        "group_id": view,
+        "sample_id": f"{view}|{k}",
+        "instance_id": inst,
+        "status": "ok",
+        "err_deg": err,
+        "score": score,
+        "info": {},
+        "T_est": None,
+        "runtime_s": 0.0,
+    }
 
 
 def test_a_view_gap_is_chosen_less_oracle(spread):
     # score rule: the lowest score is chosen; view v0 keeps its 30-degree registration (oracle 5),
     # view v1 its best one
-    rows = [_row("v0", 0, 30.0, 0.1, "a"), _row("v0", 1, 5.0, 0.2, "a"),
-            _row("v1", 0, 2.0, 0.1, "b"), _row("v1", 1, 9.0, 0.3, "b")]
+    rows = [
+        _row("v0", 0, 30.0, 0.1, "a"),
+        _row("v0", 1, 5.0, 0.2, "a"),
+        _row("v1", 0, 2.0, 0.1, "b"),
+        _row("v1", 1, 9.0, 0.3, "b"),
+    ]
     inst, gaps = spread["view_gaps"](pd.DataFrame(rows), "score", ())
     assert list(inst) == ["a", "b"]
     np.testing.assert_allclose(gaps, [25.0, 0.0])

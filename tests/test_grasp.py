@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from catpose.grasp import transfer_grasp
 from catpose.errors import InvalidInputError
 from catpose.geometry import invert_T, make_T, random_rotation, transform_points
+from catpose.grasp import transfer_grasp
 
 
 def test_transfer_grasp_known_pose():

@@ -18,21 +18,34 @@ from catpose.bench.run.config import check_run_args, split_hydra_args
 from catpose.errors import ConfigError
 
 
-@pytest.mark.parametrize("argv, flags, overrides", [
-    (["--cfg", "job"], ["--cfg", "job"], []),
-    (["--cfg=all", "method=ours"], ["--cfg=all"], ["method=ours"]),
-    (["-c", "hydra", "--resolve", "-p", "method", "seed=1"], ["-c", "hydra", "--resolve", "-p", "method"], ["seed=1"]),
-    (["--info", "plugins"], ["--info", "plugins"], []),
-    (["--info", "method=icp"], ["--info"], ["method=icp"]),  # --info's value is optional
-    (["-i", "defaults-tree"], ["-i", "defaults-tree"], []),
-    (["--config-dir", "/x", "--config-name", "mine", "method=a"], ["--config-dir", "/x", "--config-name", "mine"],
-     ["method=a"]),
-    (["-cd", "/x", "-cn=mine"], ["-cd", "/x", "-cn=mine"], []),
-    (["-m", "method=icp,ours", "hydra.job.name=x", "+experiment=optimiser"], ["-m"],
-     ["method=icp,ours", "hydra.job.name=x", "+experiment=optimiser"]),
-    (["--hydra-help"], ["--hydra-help"], []),
-    (["~method.foo", "--nosuchflag"], [], ["~method.foo", "--nosuchflag"]),  # Hydra reports unknown flags
-])
+@pytest.mark.parametrize(
+    "argv, flags, overrides",
+    [
+        (["--cfg", "job"], ["--cfg", "job"], []),
+        (["--cfg=all", "method=ours"], ["--cfg=all"], ["method=ours"]),
+        (
+            ["-c", "hydra", "--resolve", "-p", "method", "seed=1"],
+            ["-c", "hydra", "--resolve", "-p", "method"],
+            ["seed=1"],
+        ),
+        (["--info", "plugins"], ["--info", "plugins"], []),
+        (["--info", "method=icp"], ["--info"], ["method=icp"]),  # --info's value is optional
+        (["-i", "defaults-tree"], ["-i", "defaults-tree"], []),
+        (
+            ["--config-dir", "/x", "--config-name", "mine", "method=a"],
+            ["--config-dir", "/x", "--config-name", "mine"],
+            ["method=a"],
+        ),
+        (["-cd", "/x", "-cn=mine"], ["-cd", "/x", "-cn=mine"], []),
+        (
+            ["-m", "method=icp,ours", "hydra.job.name=x", "+experiment=optimiser"],
+            ["-m"],
+            ["method=icp,ours", "hydra.job.name=x", "+experiment=optimiser"],
+        ),
+        (["--hydra-help"], ["--hydra-help"], []),
+        (["~method.foo", "--nosuchflag"], [], ["~method.foo", "--nosuchflag"]),  # Hydra reports unknown flags
+    ],
+)
 def test_split_hydra_args(argv, flags, overrides):
     assert split_hydra_args(argv) == (flags, overrides)
 
@@ -89,13 +102,20 @@ def test_a_bad_override_beside_cfg_is_one_line(capsys):
 def test_info_plugins_lists_the_launchers():
     """In a subprocess: Hydra's plugin discovery is process-wide. The launchers of the cluster
     extra are listed when it is installed (``make cluster``)."""
-    r = subprocess.run([sys.executable, "-m", "catpose.bench.cli", "run", "--info", "plugins"], capture_output=True,
-                       text=True, timeout=300, env=dict(os.environ, HYDRA_FULL_ERROR="0"))
+    r = subprocess.run(
+        [sys.executable, "-m", "catpose.bench.cli", "run", "--info", "plugins"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=dict(os.environ, HYDRA_FULL_ERROR="0"),
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     assert "Installed Hydra Plugins" in r.stdout and "Launcher:" in r.stdout and "BasicLauncher" in r.stdout
-    for module, launcher in (("hydra_plugins.hydra_joblib_launcher", "JoblibLauncher"),
-                             ("hydra_plugins.hydra_submitit_launcher", "SlurmLauncher"),
-                             ("hydra_plugins.hydra_ray_launcher", "RayLauncher")):
+    for module, launcher in (
+        ("hydra_plugins.hydra_joblib_launcher", "JoblibLauncher"),
+        ("hydra_plugins.hydra_submitit_launcher", "SlurmLauncher"),
+        ("hydra_plugins.hydra_ray_launcher", "RayLauncher"),
+    ):
         try:
             installed = importlib.util.find_spec(module) is not None
         except ImportError:

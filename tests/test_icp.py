@@ -37,10 +37,11 @@ def test_icp_recovers_the_pose_of_a_view_against_its_own_model():
     method = ICP()
     for obs_id in ds.observation_ids():
         obs = ds.observation(obs_id)
-        problem = RegistrationProblem(obs_id, obs.category, obs.points_camera, obs.normals_camera,
-                                      obs.ground_normal_camera, ds.template)
+        problem = RegistrationProblem(
+            obs_id, obs.category, obs.points_camera, obs.normals_camera, obs.ground_normal_camera, ds.template
+        )
         res = method.register(problem)
-        T = res.T_target_source
+        T = res.T_template_camera
         assert rotation_error_deg(T[:3, :3], obs.T_object_camera[:3, :3]) < 2.0
         assert translation_error(T[:3, 3], obs.T_object_camera[:3, 3]) < 0.05
         assert res.extras["fitness"] > 0.9 and len(res.extras["starts_fitness"]) == 20

@@ -41,22 +41,27 @@ def _plant(root: Path, files: dict[str, str]) -> None:
 
 
 def test_checker_finds_planted_violations(tmp_path):
-    _plant(tmp_path, {
-        "datasets/bad_loader.py": "from catpose.methods.icp import ICP\n",
-        "methods/bad_method.py": "def f():\n    import catpose.bench.run.runner\n",  # inside a function
-        "methods/bad_loader_use.py": "from catpose.datasets import synthetic\n",
-        "src/catpose/bad_core.py": "from catpose.datasets.render import cast_rays\n",
-        "bench/scoring/__init__.py": "",
-        "bench/scoring/bad_up.py": "from catpose.bench.run import runner\n",  # scoring imports no wing
-        "bench/run/__init__.py": "",
-        "bench/run/bad_relative.py": "from ..report import tables\n",  # relative: catpose.bench.report.tables
-        "bench/run/bad_cli.py": "from catpose.bench.cli import main\n",  # no wing imports the CLI
-        "bench/report/__init__.py": "",
-        "bench/report/fine.py": ("from catpose.bench.run.rundir import read_rows\nfrom catpose.bench import scoring\n"
-                                 "import numpy\nfrom catpose.datasets import render\nfrom . import fine\n"),
-        "bench/cli.py": "from catpose.bench.report import fine\nimport catpose.bench.perf\n",  # the CLI: anything
-        "datasets/fine.py": "from catpose.geometry import dot3\nfrom catpose.datasets import render\n",
-    })
+    _plant(
+        tmp_path,
+        {
+            "datasets/bad_loader.py": "from catpose.methods.icp import ICP\n",
+            "methods/bad_method.py": "def f():\n    import catpose.bench.run.runner\n",  # inside a function
+            "methods/bad_loader_use.py": "from catpose.datasets import synthetic\n",
+            "src/catpose/bad_core.py": "from catpose.datasets.render import cast_rays\n",
+            "bench/scoring/__init__.py": "",
+            "bench/scoring/bad_up.py": "from catpose.bench.run import runner\n",  # scoring imports no wing
+            "bench/run/__init__.py": "",
+            "bench/run/bad_relative.py": "from ..report import tables\n",  # relative: catpose.bench.report.tables
+            "bench/run/bad_cli.py": "from catpose.bench.cli import main\n",  # no wing imports the CLI
+            "bench/report/__init__.py": "",
+            "bench/report/fine.py": (
+                "from catpose.bench.run.rundir import read_rows\nfrom catpose.bench import scoring\n"
+                "import numpy\nfrom catpose.datasets import render\nfrom . import fine\n"
+            ),
+            "bench/cli.py": "from catpose.bench.report import fine\nimport catpose.bench.perf\n",  # the CLI: anything
+            "datasets/fine.py": "from catpose.geometry import dot3\nfrom catpose.datasets import render\n",
+        },
+    )
     found = {(v.path, v.target) for v in check_tree(tmp_path)}
     assert found == {
         ("datasets/bad_loader.py", "catpose.methods.icp.ICP"),
@@ -69,34 +74,50 @@ def test_checker_finds_planted_violations(tmp_path):
     }
 
 
-@pytest.mark.parametrize("source,target,ok", [
-    ("bench.report", "bench.run", True), ("bench.run", "bench.report", False),
-    ("bench.protocols", "bench.run", False), ("bench.perf", "bench.regress", True),
-    ("bench.regress", "bench.perf", False), ("bench.interop", "bench.report", True),
-    ("methods", "datasets", False), ("datasets", "methods", False), ("core", "bench.run", False),
-    ("bench", "bench.real", True), ("bench.real", "bench", False),
-])
+@pytest.mark.parametrize(
+    "source,target,ok",
+    [
+        ("bench.report", "bench.run", True),
+        ("bench.run", "bench.report", False),
+        ("bench.protocols", "bench.run", False),
+        ("bench.perf", "bench.regress", True),
+        ("bench.regress", "bench.perf", False),
+        ("bench.interop", "bench.report", True),
+        ("methods", "datasets", False),
+        ("datasets", "methods", False),
+        ("core", "bench.run", False),
+        ("bench", "bench.real", True),
+        ("bench.real", "bench", False),
+    ],
+)
 def test_rules_as_documented(source, target, ok):
     assert allowed(source, target) is ok
 
 
 def test_violation_reads_as_one_line():
-    assert str(Violation("bench/run/x.py", 3, "bench.run", "catpose.bench.report.tables")) == \
-        "bench/run/x.py:3: bench.run imports catpose.bench.report.tables"
+    assert (
+        str(Violation("bench/run/x.py", 3, "bench.run", "catpose.bench.report.tables"))
+        == "bench/run/x.py:3: bench.run imports catpose.bench.report.tables"
+    )
 
 
 def test_the_application_layer_and_its_lazy_export(tmp_path):
     """``catpose.api`` may use the bench's run wing, datasets and methods; no other core module may
     import it (only the package root's lazy ``catpose.register``), and it may not import the CLI
     or another wing."""
-    _plant(tmp_path, {
-        "src/catpose/__init__.py": "def __getattr__(name):\n    from catpose import api\n",
-        "src/catpose/geometry.py": "import catpose.api\n",  # the core below the application layer
-        "src/catpose/api/__init__.py": "from catpose.bench.run.build import build_from_config\n"
-                                       "from catpose.methods.ours import Ours\nfrom catpose.datasets import render\n",
-        "src/catpose/api/bad.py": "from catpose.bench.report import tables\nfrom catpose.bench import cli\n",
-    })
+    _plant(
+        tmp_path,
+        {
+            "src/catpose/__init__.py": "def __getattr__(name):\n    from catpose import api\n",
+            "src/catpose/geometry.py": "import catpose.api\n",  # the core below the application layer
+            "src/catpose/api/__init__.py": "from catpose.bench.run.build import build_from_config\n"
+            "from catpose.methods.ours import Ours\nfrom catpose.datasets import render\n",
+            "src/catpose/api/bad.py": "from catpose.bench.report import tables\nfrom catpose.bench import cli\n",
+        },
+    )
     found = {(v.path, v.target) for v in check_tree(tmp_path)}
-    assert found == {("src/catpose/geometry.py", "catpose.api"),
-                     ("src/catpose/api/bad.py", "catpose.bench.report.tables"),
-                     ("src/catpose/api/bad.py", "catpose.bench.cli")}
+    assert found == {
+        ("src/catpose/geometry.py", "catpose.api"),
+        ("src/catpose/api/bad.py", "catpose.bench.report.tables"),
+        ("src/catpose/api/bad.py", "catpose.bench.cli"),
+    }

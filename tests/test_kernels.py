@@ -111,7 +111,7 @@ def test_point_to_plane_matches_a_brute_force_reference_and_recovers_the_pose() 
     rng = np.random.default_rng(3)
     tgt, tgt_n = _box_cloud(rng)
     T_gt = make_T(Rotation.from_rotvec([0.05, -0.03, 0.04]).as_matrix(), [0.02, -0.03, 0.01])
-    src = (tgt[::3] - T_gt[:3, 3]) @ T_gt[:3, :3]             # T_gt maps src onto the target
+    src = (tgt[::3] - T_gt[:3, 3]) @ T_gt[:3, :3]  # T_gt maps src onto the target
     for iterations in (1, 3, 30):
         T = refine_point_to_plane(src, tgt, tgt_n, cKDTree(tgt), np.eye(4), 0.2, iterations)
         T_ref = _refine_reference(src, tgt, tgt_n, np.eye(4), 0.2, iterations)
@@ -152,8 +152,8 @@ def test_lru_cache_evicts_the_least_recently_used() -> None:
     c: LRUCache[str, int] = LRUCache(2)
     c.put("a", 1)
     c.put("b", 2)
-    assert c.get("a") == 1                 # a is now the most recent
-    c.put("c", 3)                          # evicts b, not a
+    assert c.get("a") == 1  # a is now the most recent
+    c.put("c", 3)  # evicts b, not a
     assert "b" not in c and c.get("b") is None
     assert c.keys() == ["a", "c"] and len(c) == 2
     built = []

@@ -19,8 +19,9 @@ from catpose.geometry import invert_T, look_at_T_camera_world, make_T, transform
 CAMERA = PinholeCamera(320, 240, 300.0, 300.0, 159.5, 119.5)
 BOX = (100.0, 60.0, 40.0)  # mm; obj 1 stands on z = 0 of its model frame
 CYL_AT = np.array([150.0, 0.0, 0.0])  # obj 2 (cylinder, radius 30, height 80) placement on the table
-T_CAMERA_WORLD = look_at_T_camera_world(np.array([350.0, -450.0, 500.0]), np.array([60.0, 0.0, 20.0]),
-                                        np.array([0.0, 0.0, 1.0]))
+T_CAMERA_WORLD = look_at_T_camera_world(
+    np.array([350.0, -450.0, 500.0]), np.array([60.0, 0.0, 20.0]), np.array([0.0, 0.0, 1.0])
+)
 
 
 def models() -> dict[int, tuple[np.ndarray, np.ndarray]]:
@@ -30,8 +31,7 @@ def models() -> dict[int, tuple[np.ndarray, np.ndarray]]:
     box.apply_translation([0, 0, BOX[2] / 2])
     cyl = trimesh.creation.cylinder(radius=30.0, height=80.0, sections=48)
     cyl.apply_translation([0, 0, 40.0])
-    return {1: (np.asarray(box.vertices), np.asarray(box.faces)),
-            2: (np.asarray(cyl.vertices), np.asarray(cyl.faces))}
+    return {1: (np.asarray(box.vertices), np.asarray(box.faces)), 2: (np.asarray(cyl.vertices), np.asarray(cyl.faces))}
 
 
 def T_camera_model(obj_id: int) -> np.ndarray:
@@ -55,13 +55,20 @@ def bop_root(tmp_path) -> Path:
     for obj_id, (v, f) in ms.items():
         trimesh.Trimesh(v, f, process=False).export(root / "models" / f"obj_{obj_id:06d}.ply")
     shutil.copy(root / "models/obj_000001.ply", root / "models/obj_000003.ply")
-    (root / "models/models_info.json").write_text(json.dumps({
-        "1": {"diameter": 124.0}, "2": {"diameter": 100.0, "symmetries_continuous": [{"axis": [0, 0, 1], "offset": [0, 0, 0]}]},
-        "3": {"diameter": 124.0}}))
+    (root / "models/models_info.json").write_text(
+        json.dumps(
+            {
+                "1": {"diameter": 124.0},
+                "2": {"diameter": 100.0, "symmetries_continuous": [{"axis": [0, 0, 1], "offset": [0, 0, 0]}]},
+                "3": {"diameter": 124.0},
+            }
+        )
+    )
     # the scene: a 2 m table at z = 0 with both objects on it
     table_v = np.array([[-1000, -1000, 0], [1000, -1000, 0], [1000, 1000, 0], [-1000, 1000, 0]], float)
     parts = [(table_v, np.array([[0, 1, 2], [0, 2, 3]]))] + [
-        (transform_points(make_T(np.eye(3), CYL_AT if k == 2 else np.zeros(3)), v), f) for k, (v, f) in ms.items()]
+        (transform_points(make_T(np.eye(3), CYL_AT if k == 2 else np.zeros(3)), v), f) for k, (v, f) in ms.items()
+    ]
     verts, tris, off = [], [], 0
     for v, f in parts:
         verts.append(v)
@@ -75,9 +82,14 @@ def bop_root(tmp_path) -> Path:
         return {"obj_id": obj_id, "cam_R_m2c": T[:3, :3].ravel().tolist(), "cam_t_m2c": T[:3, 3].tolist()}
 
     far = make_T(np.eye(3), [5000.0, 0.0, 1000.0])  # obj 3: outside the image
-    (scene / "scene_gt.json").write_text(json.dumps({
-        "0": [gt(1, T_camera_model(1)), gt(2, T_camera_model(2)), gt(3, far), gt(4, T_camera_model(1))],
-        "1": [gt(1, T_camera_model(1))]}))  # image 1 has no depth file: not listed
+    (scene / "scene_gt.json").write_text(
+        json.dumps(
+            {
+                "0": [gt(1, T_camera_model(1)), gt(2, T_camera_model(2)), gt(3, far), gt(4, T_camera_model(1))],
+                "1": [gt(1, T_camera_model(1))],
+            }
+        )
+    )  # image 1 has no depth file: not listed
     cam = {"cam_K": CAMERA.K.ravel().tolist(), "depth_scale": 1.0}
     (scene / "scene_camera.json").write_text(json.dumps({"0": cam, "1": cam}))
     return root
@@ -162,8 +174,12 @@ def test_mask_visib_is_used_when_present(bop_root):
 
 
 def test_templates_from_mesh_files_and_models(bop_root):
-    ds = BOP(str(bop_root), categories=CATS, template_points=200,
-             templates={"box": ["obj_000001", {"path": "models/obj_000002.ply", "up": "+z"}]})
+    ds = BOP(
+        str(bop_root),
+        categories=CATS,
+        template_points=200,
+        templates={"box": ["obj_000001", {"path": "models/obj_000002.ply", "up": "+z"}]},
+    )
     a, b = ds.category_templates("box")
     assert a.template_id == "bop/obj_000001" and b.template_id == "box/obj_000002"
     np.testing.assert_allclose(np.linalg.norm(a.vertices, axis=1).max(), 1.0)
@@ -260,14 +276,16 @@ def test_visib_fract_and_test_targets_filters(bop_root):
     scene = bop_root / "test" / "000001"
     all_ids = BOP(str(bop_root), categories=CATS).observation_ids()
     assert all_ids == ["box/000001/000000/0", "can/000001/000000/1", "box/000001/000000/2"]
-    (scene / "scene_gt_info.json").write_text(json.dumps(
-        {"0": [{"visib_fract": 0.9}, {"visib_fract": 0.6}, {"visib_fract": 0.0}, {"visib_fract": 0.9}]}))
+    (scene / "scene_gt_info.json").write_text(
+        json.dumps({"0": [{"visib_fract": 0.9}, {"visib_fract": 0.6}, {"visib_fract": 0.0}, {"visib_fract": 0.9}]})
+    )
     ds = BOP(str(bop_root), categories=CATS)
     assert ds.observation_ids() == all_ids[:2]
     assert any("visib_fract >= 0.1 (1 instances left out)" in f for f in ds.filters)
     assert BOP(str(bop_root), categories=CATS, min_visib_fract=0).observation_ids() == all_ids
-    (bop_root / "test_targets_bop19.json").write_text(json.dumps(
-        [{"scene_id": 1, "im_id": 0, "obj_id": 2, "inst_count": 1}]))
+    (bop_root / "test_targets_bop19.json").write_text(
+        json.dumps([{"scene_id": 1, "im_id": 0, "obj_id": 2, "inst_count": 1}])
+    )
     ds = BOP(str(bop_root), categories=CATS)
     assert ds.observation_ids() == ["can/000001/000000/1"]
     assert any("test_targets_bop19.json" in f for f in ds.filters)
@@ -284,8 +302,9 @@ def test_continuous_symmetry_origin_uses_every_axis_and_offset():
 
     one = continuous_symmetry_origin([{"axis": [0, 0, 2], "offset": [5, -3, 0]}], np.array([0.0, 0.0, 40.0]))
     np.testing.assert_allclose(one, [5, -3, 40])
-    two = continuous_symmetry_origin([{"axis": [0, 0, 1], "offset": [5, -3, 0]},
-                                      {"axis": [1, 0, 0], "offset": [0, -3, 7]}], np.zeros(3))
+    two = continuous_symmetry_origin(
+        [{"axis": [0, 0, 1], "offset": [5, -3, 0]}, {"axis": [1, 0, 0], "offset": [0, -3, 7]}], np.zeros(3)
+    )
     np.testing.assert_allclose(two, [5, -3, 7], atol=1e-9)  # where the two axes cross
     assert continuous_symmetry_origin([], np.zeros(3)) is None
 
@@ -312,7 +331,9 @@ def test_object_centre_lies_on_the_offset_symmetry_axis(bop_root):
 
 
 def test_unseen_configured_ids_warn_with_the_ids_the_frames_show(bop_root):
-    with pytest.warns(UserWarning, match=r"object ids \[7\] that no frame shows; the frames show object ids \[1, 2, 3, 4\]"):
+    with pytest.warns(
+        UserWarning, match=r"object ids \[7\] that no frame shows; the frames show object ids \[1, 2, 3, 4\]"
+    ):
         ds = BOP(str(bop_root), categories={1: "box", 7: "mug"})
         ids = ds.observation_ids()
     # the configured object that the frames do show is still listed, and only it
@@ -327,8 +348,14 @@ def test_tyol_config_composes_and_loads_the_shared_frame(shared_data):
     from catpose.bench.run.build import build_from_config
 
     with initialize_config_module("catpose.configs", version_base=None):
-        cfg = compose("run", overrides=["dataset=tyol", f"dataset.root={shared_data / 'bop' / 'tyol'}",
-                                        f"dataset.templates_root={shared_data / 'templates'}"])
+        cfg = compose(
+            "run",
+            overrides=[
+                "dataset=tyol",
+                f"dataset.root={shared_data / 'bop' / 'tyol'}",
+                f"dataset.templates_root={shared_data / 'templates'}",
+            ],
+        )
     name, ds = build_from_config(cfg.dataset, "dataset")
     assert name == "tyol" and ds.observation_ids() == ["basket/000019/000010/0"]
     assert ds.filters == []  # the shared frame has neither targets nor scene_gt_info

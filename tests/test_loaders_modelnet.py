@@ -23,8 +23,14 @@ def box_mesh(extents=(4.0, 2.0, 1.0), offset=(10.0, -5.0, 3.0)) -> tuple[np.ndar
 
 def write_quirky_off(path: Path, v: np.ndarray, f: np.ndarray) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\r\n".join([f"OFF{len(v)} {len(f)} 0"] + [" ".join(f"{x:g}" for x in p) for p in v]
-                                + [f"3 {a} {b} {c}" for a, b, c in f]) + "\r\n")
+    path.write_text(
+        "\r\n".join(
+            [f"OFF{len(v)} {len(f)} 0"]
+            + [" ".join(f"{x:g}" for x in p) for p in v]
+            + [f"3 {a} {b} {c}" for a, b, c in f]
+        )
+        + "\r\n"
+    )
 
 
 @pytest.fixture()
@@ -80,8 +86,14 @@ def test_views_are_deterministic_in_seed_and_id(modelnet_root):
 
 
 def test_templates_from_training_instances_and_instance_model(modelnet_root):
-    ds = ModelNet40(str(modelnet_root), split="test", categories=["box"], templates={"box": ["box_0001"]},
-                    symmetric={"box": [0, 0, 1]}, **small())
+    ds = ModelNet40(
+        str(modelnet_root),
+        split="test",
+        categories=["box"],
+        templates={"box": ["box_0001"]},
+        symmetric={"box": [0, 0, 1]},
+        **small(),
+    )
     (t,) = ds.category_templates("box")
     assert t.template_id == "modelnet40/box_0001" and t.points.shape == (300, 3)
     model = ds.instance_model("box", "box_0101")
@@ -108,6 +120,7 @@ def test_too_small_a_view_raises(modelnet_root):
 
 # ----------------------------------------------------------------------------- resampled
 
+
 @pytest.fixture()
 def resampled_root(tmp_path) -> Path:
     """A PointNet++-style folder: a y-up box cloud (4 x 1 x 2 in file x, y, z) with normals."""
@@ -126,8 +139,9 @@ def resampled_root(tmp_path) -> Path:
 
 
 def test_resampled_views_are_visible_subsets_with_the_files_normals(resampled_root):
-    ds = ModelNet40Resampled(str(resampled_root), split="train", views_per_instance=2, max_points=400,
-                             templates={"box": ["box_0001"]})
+    ds = ModelNet40Resampled(
+        str(resampled_root), split="train", views_per_instance=2, max_points=400, templates={"box": ["box_0001"]}
+    )
     assert ds.observation_ids() == ["box/box_0001/v00", "box/box_0001/v01", "box/box_0002/v00", "box/box_0002/v01"]
     pts, nrm = ds.canonical_cloud("box_0001")
     ext = np.ptp(pts, axis=0)

@@ -139,9 +139,12 @@ def test_bad_input_raises_dataset_errors(redwood_root):
 
 @pytest.mark.data
 def test_shared_redwood_chair_frames(shared_data):
-    ds = Redwood(str(shared_data / "redwood"), max_points=1000,
-                 templates={"chair": [{"path": "../shapenet/chair/models/model_normalized.obj", "up": "+y"}]},
-                 template_points=256)
+    ds = Redwood(
+        str(shared_data / "redwood"),
+        max_points=1000,
+        templates={"chair": [{"path": "../shapenet/chair/models/model_normalized.obj", "up": "+y"}]},
+        template_points=256,
+    )
     ids = ds.observation_ids()
     assert ids == ["chair/chair_00286/0000", "chair/chair_00286/0001", "chair/chair_00286/0002"]
     obs = ds.observation(ids[1])

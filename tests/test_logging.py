@@ -13,8 +13,16 @@ from catpose import logs
 from catpose.errors import ConfigError
 
 REPO = Path(__file__).resolve().parents[1]
-TINY = ["method=icp", "dataset=synthetic", "dataset.categories=[car]", "dataset.instances_per_category=1",
-        "dataset.views_per_instance=1", "method.num_starts=2", "progress=false", "print_summary=false"]
+TINY = [
+    "method=icp",
+    "dataset=synthetic",
+    "dataset.categories=[car]",
+    "dataset.instances_per_category=1",
+    "dataset.views_per_instance=1",
+    "method.num_starts=2",
+    "progress=false",
+    "print_summary=false",
+]
 
 
 @pytest.fixture(autouse=True)
@@ -33,8 +41,11 @@ def test_one_line_per_record_in_the_cli_format(capsys):
     log.debug("detail")
     logging.getLogger("catpose.x").error("broken")
     assert capsys.readouterr().err.splitlines() == [
-        "bench run: started 3", "bench run: warning: sample a/1 failed: bad",
-        "bench run: debug: [catpose.bench.run.runner] detail", "bench run: error: broken"]
+        "bench run: started 3",
+        "bench run: warning: sample a/1 failed: bad",
+        "bench run: debug: [catpose.bench.run.runner] detail",
+        "bench run: error: broken",
+    ]
     logs.configure("table", "WARNING")  # replaces the handler, does not add a second one
     log.info("hidden")
     log.warning("shown")
@@ -45,8 +56,8 @@ def test_one_line_per_record_in_the_cli_format(capsys):
 def test_levels_of_a_run():
     logs.configure("run")
     assert logs.configure_run("warning") == logging.WARNING
-    assert logs.configure_run("ERROR", verbose=True) == logging.DEBUG          # hydra.verbose=true
-    assert logs.configure_run("ERROR", verbose=["catpose"]) == logging.DEBUG   # hydra.verbose=catpose
+    assert logs.configure_run("ERROR", verbose=True) == logging.DEBUG  # hydra.verbose=true
+    assert logs.configure_run("ERROR", verbose=["catpose"]) == logging.DEBUG  # hydra.verbose=catpose
     assert logs.configure_run("ERROR", verbose="torch") == logging.ERROR
     with pytest.raises(ConfigError, match="log_level=loud is not a log level; use one of DEBUG, INFO"):
         logs.configure_run("loud")

@@ -34,7 +34,7 @@ def test_local_frames_are_rotations_and_equivariant():
     F = _frames(P, N, g, idx)
     np.testing.assert_allclose(np.einsum("kji,kjl->kil", F, F), np.broadcast_to(np.eye(3), F.shape), atol=1e-9)
     np.testing.assert_allclose(np.linalg.det(F), 1.0)
-    np.testing.assert_allclose(F[:, :, 0], N[idx])                 # x = point normal
+    np.testing.assert_allclose(F[:, :, 0], N[idx])  # x = point normal
     R = random_rotation(np.random.default_rng(1))
     F2 = _frames(P @ R.T + 0.5, N @ R.T, R @ g, idx)
     np.testing.assert_allclose(F2, np.einsum("ij,kjl->kil", R, F), atol=1e-9)
@@ -49,7 +49,7 @@ def test_pca_fallback_is_equivariant_and_deterministic():
     g = np.array([0.0, 0.0, 1.0])
     idx = np.arange(0, 400, 50)
     F = _frames(P, N, g, idx, radius=0.25)
-    assert np.all(np.abs(F[:, :, 0] @ g) > 0.9)                    # x ~ the surface normal
+    assert np.all(np.abs(F[:, :, 0] @ g) > 0.9)  # x ~ the surface normal
     R = random_rotation(np.random.default_rng(5))
     F2 = _frames(P @ R.T, N @ R.T, R @ g, idx, radius=0.25)
     np.testing.assert_allclose(F2, np.einsum("ij,kjl->kil", R, F), atol=1e-6)

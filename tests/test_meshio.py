@@ -7,8 +7,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.datasets.meshio import (R_template_file, TemplateSet, TemplateSpec, load_template, read_mesh,
-                                     read_off, sample_outer_surface)
+from catpose.datasets.meshio import (
+    R_template_file,
+    TemplateSet,
+    TemplateSpec,
+    load_template,
+    read_mesh,
+    read_off,
+    sample_outer_surface,
+)
 from catpose.errors import DatasetError
 
 # an asymmetric box: 4 x 2 x 1 (x, y, z), corner at the origin
@@ -16,12 +23,12 @@ BOX_V = np.array([[0, 0, 0], [4, 0, 0], [4, 2, 0], [0, 2, 0], [0, 0, 1], [4, 0, 
 BOX_QUADS = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]]
 
 
-def write_off(path: Path, vertices: np.ndarray, faces: list[list[int]], quirk: bool = False,
-              crlf: bool = False) -> Path:
+def write_off(
+    path: Path, vertices: np.ndarray, faces: list[list[int]], quirk: bool = False, crlf: bool = False
+) -> Path:
     """OFF writer; ``quirk`` puts 'OFF' and the counts on one line as some ModelNet40 files do."""
     head = [f"OFF{len(vertices)} {len(faces)} 0"] if quirk else ["OFF", f"{len(vertices)} {len(faces)} 0"]
-    lines = head + [" ".join(f"{x:g}" for x in v) for v in vertices] + [
-        " ".join(map(str, [len(f), *f])) for f in faces]
+    lines = head + [" ".join(f"{x:g}" for x in v) for v in vertices] + [" ".join(map(str, [len(f), *f])) for f in faces]
     path.write_text(("\r\n" if crlf else "\n").join(lines) + "\n")
     return path
 
@@ -35,16 +42,19 @@ def test_off_quirk_and_crlf_parse_like_a_plain_off(tmp_path):
     np.testing.assert_array_equal(plain[1], quirky[1])
 
 
-@pytest.mark.parametrize("text, words", [
-    ("PLY\n3 1 0\n", "not an OFF file"),
-    ("OFF\nthree 1 0\n0 0 0\n", "counts line"),
-    ("OFF\n8 6 0\n0 0 0\n", "truncated"),
-    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "outside"),
-    ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 x 2\n", "line 6: face '3 0 x 2'"),
-    ("OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n", "line 4: a vertex needs 3 coordinates, found 2"),
-    ("OFF\n# comment\n\n3 1 0\n0 0 0\n1 0 0\n0 y 0\n3 0 1 2\n", "line 7: vertex coordinates '0 y 0'"),
-    ("OFF3 1 0\r\n0 0 0\r\n1 0\r\n0 1 0\r\n3 0 1 2\r\n", "line 3: a vertex needs 3"),
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("PLY\n3 1 0\n", "not an OFF file"),
+        ("OFF\nthree 1 0\n0 0 0\n", "counts line"),
+        ("OFF\n8 6 0\n0 0 0\n", "truncated"),
+        ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "outside"),
+        ("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 x 2\n", "line 6: face '3 0 x 2'"),
+        ("OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n", "line 4: a vertex needs 3 coordinates, found 2"),
+        ("OFF\n# comment\n\n3 1 0\n0 0 0\n1 0 0\n0 y 0\n3 0 1 2\n", "line 7: vertex coordinates '0 y 0'"),
+        ("OFF3 1 0\r\n0 0 0\r\n1 0\r\n0 1 0\r\n3 0 1 2\r\n", "line 3: a vertex needs 3"),
+    ],
+)
 def test_malformed_off_raises_one_line_naming_the_file(tmp_path, text, words):
     path = tmp_path / "bad.off"
     path.write_text(text)
@@ -126,11 +136,16 @@ def test_template_set_resolves_paths_instances_and_bad_entries(tmp_path):
 
     def loader(category, instance_id):
         calls.append((category, instance_id))
-        return load_template(TemplateSpec(path=str(tmp_path / "box.off"), category=category,
-                                          template_id=instance_id), n_points=100)
+        return load_template(
+            TemplateSpec(path=str(tmp_path / "box.off"), category=category, template_id=instance_id), n_points=100
+        )
 
-    ts = TemplateSet({"box": ["box.off", {"path": "box.off", "up": "+x", "forward": "+y"}, "inst_1"]},
-                     tmp_path, n_points=100, instance_loader=loader)
+    ts = TemplateSet(
+        {"box": ["box.off", {"path": "box.off", "up": "+x", "forward": "+y"}, "inst_1"]},
+        tmp_path,
+        n_points=100,
+        instance_loader=loader,
+    )
     got = ts.get("box")
     assert [t.template_id for t in got] == ["box/box", "box/box", "inst_1"] and calls == [("box", "inst_1")]
     assert ts.get("box")[0] is got[0]  # loaded once
@@ -144,10 +159,15 @@ def test_template_set_resolves_paths_instances_and_bad_entries(tmp_path):
 @pytest.mark.data
 def test_real_meshes_load(shared_data):
     for path in sorted((shared_data / "ModelNet40").glob("*/train/*.off"))[:3] + [
-            shared_data / "templates/robosuite/bottle.obj", shared_data / "templates/pyvista/airplane.ply"]:
+        shared_data / "templates/robosuite/bottle.obj",
+        shared_data / "templates/pyvista/airplane.ply",
+    ]:
         v, f = read_mesh(path)
         assert len(v) > 3 and len(f) > 1
-    chair = load_template(TemplateSpec(path="shapenet/chair/models/model_normalized.obj", category="chair",
-                                       up="+y", forward="+z"), n_points=256, base_dir=shared_data)
+    chair = load_template(
+        TemplateSpec(path="shapenet/chair/models/model_normalized.obj", category="chair", up="+y", forward="+z"),
+        n_points=256,
+        base_dir=shared_data,
+    )
     ext = np.ptp(chair.vertices, axis=0)
     assert ext[2] > ext[0]  # the ShapeNet chair is taller than wide once y-up becomes z-up

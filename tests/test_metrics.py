@@ -6,8 +6,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench.scoring.metrics import (FAILED_ERROR_DEG, accuracy, axis_error_deg, rotation_error_deg, runtime_stats,
-                                   sample_errors, summarize, translation_error)
+from catpose.bench.scoring.metrics import (
+    FAILED_ERROR_DEG,
+    accuracy,
+    axis_error_deg,
+    rotation_error_deg,
+    runtime_stats,
+    sample_errors,
+    summarize,
+    translation_error,
+)
 from catpose.geometry import axis_angle_to_R, make_T, random_rotation
 
 
@@ -75,13 +83,15 @@ def test_accuracy_and_runtime_stats():
 
 
 def test_summarize_counts_failed_as_180_and_reports_them():
-    df = pd.DataFrame({
-        "category": ["a", "a", "a", "b"],
-        "status": ["ok", "ok", "failed", "ok"],
-        "err_deg": [5.0, 20.0, None, 40.0],
-        "trans_err": [0.1, 0.3, None, 0.5],
-        "runtime_s": [1.0, 3.0, None, 2.0],
-    })
+    df = pd.DataFrame(
+        {
+            "category": ["a", "a", "a", "b"],
+            "status": ["ok", "ok", "failed", "ok"],
+            "err_deg": [5.0, 20.0, None, 40.0],
+            "trans_err": [0.1, 0.3, None, 0.5],
+            "runtime_s": [1.0, 3.0, None, 2.0],
+        }
+    )
     s = summarize(df).set_index("category")
     assert s.loc["a", "n"] == 3 and s.loc["a", "failed"] == 1
     assert s.loc["a", "mean_err_deg"] == pytest.approx((5 + 20 + FAILED_ERROR_DEG) / 3)

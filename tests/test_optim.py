@@ -31,7 +31,7 @@ def _random_problem(seed: int, m: int = 4, n: int = 12, noise: float = 0.02):
         perm = rng.permutation(2 * n)
         qi = np.concatenate([match, extra])[perm]
         Ai = rng.random((n, 2 * n)) * 0.3
-        Ai[np.arange(n), np.argsort(perm)[:n]] += 1.0            # the true match carries most mass
+        Ai[np.arange(n), np.argsort(perm)[:n]] += 1.0  # the true match carries most mass
         q.append(qi)
         A.append(Ai / Ai.sum(1, keepdims=True))
         Ti = np.eye(4)
@@ -85,6 +85,7 @@ def test_stage1_reaches_the_minimum_found_by_scipy(compiled):
     T0[:, :3, 3] = q.mean(1) - p.mean(0)
     T_est, loss, _, iters = irls.solve_numpy(p, q, A, T0, ("pose",), max_iter=500, tol=1e-12, compiled=compiled)
     for i in range(len(q)):
+
         def f(x):
             return _stage1_loss(p, q[i], A[i], Rotation.from_rotvec(x[:3]).as_matrix(), x[3:])
 
@@ -129,7 +130,7 @@ def test_a_candidate_does_not_depend_on_its_batch(compiled):
     T0 = np.tile(np.eye(4), (5, 1, 1))
     full = irls.solve_numpy(p, q, A, T0, ("pose", "joint"), compiled=compiled)
     for i in (0, 3):
-        one = irls.solve_numpy(p, q[i:i + 1], A[i:i + 1], T0[i:i + 1], ("pose", "joint"), compiled=compiled)
+        one = irls.solve_numpy(p, q[i : i + 1], A[i : i + 1], T0[i : i + 1], ("pose", "joint"), compiled=compiled)
         np.testing.assert_allclose(one[0][0], full[0][i], atol=1e-12)
         assert one[3][0] == full[3][i]
 
@@ -152,7 +153,7 @@ def test_unknown_stage_is_a_clear_error():
 
 def test_many_problems_in_one_launch_give_each_problem_its_own_answer():
     probs = []
-    for seed, n in ((10, 12), (11, 12), (12, 9)):        # two shapes: two launches
+    for seed, n in ((10, 12), (11, 12), (12, 9)):  # two shapes: two launches
         p, q, A, _ = _random_problem(seed, m=3, n=n)
         probs.append((p, q, A, np.tile(np.eye(4), (3, 1, 1))))
     many = irls.solve_many(probs, ("pose", "joint"))
@@ -196,22 +197,22 @@ def test_ours_register_batch_gives_what_register_gives(chair_problems):
     method = Ours()
     problems = [p for p, _ in chair_problems]
     single = [method.register(p) for p in problems]
-    batch = method.register_batch(problems)       # torch solver, all candidates in one launch
+    batch = method.register_batch(problems)  # torch solver, all candidates in one launch
     for a, b in zip(single, batch):
         assert a.extras["template_index"] == b.extras["template_index"]
-        np.testing.assert_allclose(b.T_target_source, a.T_target_source, atol=1e-6)
+        np.testing.assert_allclose(b.T_template_camera, a.T_template_camera, atol=1e-6)
         assert set(b.extras["timings"]) == set(a.extras["timings"])
 
 
 def test_both_solvers_recover_the_known_pose(chair_problems):
     from _ours_fixtures import rotation_error_deg
 
-    from catpose.methods.ours import Ours, OptimiserSettings
+    from catpose.methods.ours import OptimiserSettings, Ours
 
     for solver in ("irls", "adam"):
         method = Ours(optimiser=OptimiserSettings(solver=solver, steps_pose=100, steps_joint=100, lr=2e-2))
         for p, T in chair_problems:
-            R = method.register(p).T_target_source[:3, :3]
+            R = method.register(p).T_template_camera[:3, :3]
             assert rotation_error_deg(R, T[:3, :3]) < 10.0, solver
 
 

@@ -14,7 +14,7 @@ from _ours_fixtures import chair_template, partial_problem, rotation_error_deg  
 
 from catpose.errors import ConfigError  # noqa: E402
 from catpose.methods.descriptors import LPS, PFH  # noqa: E402
-from catpose.methods.ours import Ours, OptimiserSettings, SelectionSettings  # noqa: E402
+from catpose.methods.ours import OptimiserSettings, Ours, SelectionSettings  # noqa: E402
 from catpose.types import validate_pose  # noqa: E402
 
 FAST = dict(solver="adam", steps_pose=100, steps_joint=100, lr=2e-2)  # the Adam path (irls: tests/test_optim.py)
@@ -22,8 +22,11 @@ FAST = dict(solver="adam", steps_pose=100, steps_joint=100, lr=2e-2)  # the Adam
 
 def _ours(optimiser: dict | None = None, selection: dict | None = None, **kw) -> Ours:
     """Ours with FAST optimiser settings updated by ``optimiser`` and selection settings."""
-    return Ours(optimiser=OptimiserSettings(**{**FAST, **(optimiser or {})}),
-                selection=SelectionSettings(**(selection or {})), **kw)
+    return Ours(
+        optimiser=OptimiserSettings(**{**FAST, **(optimiser or {})}),
+        selection=SelectionSettings(**(selection or {})),
+        **kw,
+    )
 
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread", "private_cache_dir")
@@ -41,19 +44,26 @@ def problems(template):
 
 def test_partial_view_to_own_model_is_accurate(problems):
     method = Ours()  # the defaults of configs/method/ours.yaml
-    errs = [rotation_error_deg(method.register(p).T_target_source[:3, :3], T[:3, :3]) for p, T in problems]
+    errs = [rotation_error_deg(method.register(p).T_template_camera[:3, :3], T[:3, :3]) for p, T in problems]
     assert np.median(errs) < 2.0, errs
 
 
 def test_same_problem_gives_same_pose_and_json_extras(problems):
     p, _ = problems[0]
     a, b = _ours().register(p), _ours().register(p)
-    np.testing.assert_array_equal(a.T_target_source, b.T_target_source)
+    np.testing.assert_array_equal(a.T_template_camera, b.T_template_camera)
     assert a.score == b.score and np.isfinite(a.score)
     extras = json.loads(json.dumps(a.extras))
     assert len(extras["losses"]) == 18 and 0 <= extras["template_index"] < 18
-    assert set(extras["timings"]) == {"dictionary", "descriptors", "affinity", "initial_pose", "optimization",
-                                      "selection", "refinement"}
+    assert set(extras["timings"]) == {
+        "dictionary",
+        "descriptors",
+        "affinity",
+        "initial_pose",
+        "optimization",
+        "selection",
+        "refinement",
+    }
 
 
 # ------------------------------------------------------------------ the ablations assert what they ablate
@@ -65,7 +75,7 @@ def test_svd_only_leaves_every_pose_at_the_svd_solution(problems):
     np.testing.assert_allclose(c.T, c.T_svd, atol=1e-6)
     np.testing.assert_array_equal(c.C, c.A)
     r = method.register(p)
-    np.testing.assert_array_equal(r.T_target_source, c.T[r.extras["template_index"]])
+    np.testing.assert_array_equal(r.T_template_camera, c.T[r.extras["template_index"]])
 
 
 def test_stage1_only_leaves_c_equal_to_a_and_lowers_the_loss(problems):
@@ -73,11 +83,11 @@ def test_stage1_only_leaves_c_equal_to_a_and_lowers_the_loss(problems):
     svd = _ours({"mode": "none"}).candidates(p)
     pose = _ours({"mode": "pose"}).candidates(p)
     joint = _ours({"mode": "joint"}).candidates(p)
-    np.testing.assert_array_equal(pose.A, svd.A)                  # same candidates, same affinities
-    np.testing.assert_array_equal(pose.C, pose.A)                 # stage 1 never touches C
-    assert np.abs(joint.C - joint.A).max() > 1e-3                 # stage 2 does
+    np.testing.assert_array_equal(pose.A, svd.A)  # same candidates, same affinities
+    np.testing.assert_array_equal(pose.C, pose.A)  # stage 1 never touches C
+    assert np.abs(joint.C - joint.A).max() > 1e-3  # stage 2 does
     np.testing.assert_allclose(joint.C.sum(2), 1.0, atol=1e-5)
-    assert np.all(pose.losses <= svd.losses + 1e-6)               # stage 1 lowers every candidate's loss
+    assert np.all(pose.losses <= svd.losses + 1e-6)  # stage 1 lowers every candidate's loss
     assert np.abs(pose.T - svd.T).max() > 1e-4
 
 
@@ -95,7 +105,7 @@ def test_pfh_descriptor_gives_the_pfh_affinity(problems):
         np.testing.assert_allclose(c.A[i], A / A.sum(1, keepdims=True), rtol=1e-12)
     lps = _ours().candidates(p)
     assert np.abs(lps.A - c.A).max() > 1e-2
-    validate_pose("estimate", method.register(p).T_target_source)
+    validate_pose("estimate", method.register(p).T_template_camera)
 
 
 def test_gravity_filter_drops_tilted_candidates_and_chamfer_term_changes_the_loss(problems):
@@ -116,11 +126,11 @@ def test_no_refinement_returns_the_selected_candidate(problems):
     p, _ = problems[1]
     c = _ours(selection={"refine": False, "rule": "chamfer"}).candidates(p)
     r = _ours(selection={"refine": False, "rule": "chamfer"}).register(p)
-    np.testing.assert_array_equal(r.T_target_source, c.T[r.extras["template_index"]])
+    np.testing.assert_array_equal(r.T_template_camera, c.T[r.extras["template_index"]])
     refined = _ours(selection={"rule": "chamfer"}).register(p)
     assert refined.extras["template_index"] == r.extras["template_index"]
-    assert np.abs(refined.T_target_source - r.T_target_source).max() > 0
-    assert refined.score <= r.score + 1e-9                     # ICP lowers the Chamfer score
+    assert np.abs(refined.T_template_camera - r.T_template_camera).max() > 0
+    assert refined.score <= r.score + 1e-9  # ICP lowers the Chamfer score
 
 
 def test_stage2_top_k_optimises_only_the_best_k(problems):
@@ -129,7 +139,7 @@ def test_stage2_top_k_optimises_only_the_best_k(problems):
     stage1 = _ours({"mode": "pose"}).candidates(p)
     assert len(c.stage2) == 4 and np.isfinite(c.losses).sum() == 4
     others = np.setdiff1d(np.arange(18), c.stage2)
-    np.testing.assert_array_equal(c.T[others], stage1.T[others])   # stage 1 only
+    np.testing.assert_array_equal(c.T[others], stage1.T[others])  # stage 1 only
     np.testing.assert_array_equal(c.C[others], c.A[others])
     assert np.abs(c.C[c.stage2] - c.A[c.stage2]).max() > 1e-3
     r = _ours({"stage2_top_k": 4}).register(p)
@@ -146,12 +156,14 @@ def test_loss_selection_without_gravity_picks_the_lowest_loss(problems):
 
 # ------------------------------------------------------------------ construction
 def test_bad_options_raise_one_line_config_errors():
-    for make, match in ((lambda: OptimiserSettings(lr="abc"), "method.optimiser.lr='abc' must be a positive number"),
-                        (lambda: OptimiserSettings(mode="lbfgs"), "method.optimiser.mode='lbfgs' is unknown"),
-                        (lambda: SelectionSettings(rule="best"), "method.selection.rule='best' is unknown"),
-                        (lambda: SelectionSettings(refine="yes"), "method.selection.refine='yes' must be true"),
-                        (lambda: Ours(chamfer_points=0), "method.chamfer_points=0 must be a positive integer"),
-                        (lambda: Ours(descriptor="pfh"), "descriptor@method.descriptor=pfh")):
+    for make, match in (
+        (lambda: OptimiserSettings(lr="abc"), "method.optimiser.lr='abc' must be a positive number"),
+        (lambda: OptimiserSettings(mode="lbfgs"), "method.optimiser.mode='lbfgs' is unknown"),
+        (lambda: SelectionSettings(rule="best"), "method.selection.rule='best' is unknown"),
+        (lambda: SelectionSettings(refine="yes"), "method.selection.refine='yes' must be true"),
+        (lambda: Ours(chamfer_points=0), "method.chamfer_points=0 must be a positive integer"),
+        (lambda: Ours(descriptor="pfh"), "descriptor@method.descriptor=pfh"),
+    ):
         with pytest.raises(ConfigError, match=match.replace(".", r"\.")) as info:
             make()
         assert "\n" not in str(info.value)
@@ -181,8 +193,14 @@ def test_analytic_gradients_match_autograd():
     m, n = 3, 6
     kw = dict(dtype=torch.float64)
     A = torch.softmax(torch.randn(m, n, 2 * n, generator=g, **kw), 2)
-    prob = BatchedProblem(torch.randn(n, 3, generator=g, **kw), torch.randn(m, 2 * n, 3, generator=g, **kw), A,
-                          torch.randn(10, 3, generator=g, **kw), torch.randn(15, 3, generator=g, **kw), 0.5)
+    prob = BatchedProblem(
+        torch.randn(n, 3, generator=g, **kw),
+        torch.randn(m, 2 * n, 3, generator=g, **kw),
+        A,
+        torch.randn(10, 3, generator=g, **kw),
+        torch.randn(15, 3, generator=g, **kw),
+        0.5,
+    )
     r6 = torch.randn(m, 6, generator=g, **kw).requires_grad_(True)
     t = torch.randn(m, 3, generator=g, **kw).requires_grad_(True)
     L = torch.randn(m, n, 2 * n, generator=g, **kw).requires_grad_(True)
@@ -211,7 +229,7 @@ def test_modelnet40_airplanes_own_model(shared_data):
         t = mesh_to_template(v, tri, Path(f).stem, "airplane", n_points=2048)
         for s in range(3):
             p, T = partial_problem(t, s)
-            errs.append(rotation_error_deg(method.register(p).T_target_source[:3, :3], T[:3, :3]))
+            errs.append(rotation_error_deg(method.register(p).T_template_camera[:3, :3], T[:3, :3]))
     assert np.median(errs) < 2.0, errs
 
 
@@ -225,13 +243,13 @@ def test_bench_perf_prints_a_table(capsys):
 
 
 def test_visibility_selection_returns_a_refined_half_turn_of_a_gravity_kept_candidate(problems):
-    from catpose.methods.selection import half_turns
+    from catpose.methods.pose_scores import half_turns
 
     p, _ = problems[1]
     unrefined = _ours(selection={"refine": False}).register(p)
     c = _ours().candidates(p)
     i, k = unrefined.extras["template_index"], unrefined.extras["half_turn"]
-    np.testing.assert_allclose(unrefined.T_target_source, half_turns()[k] @ c.T[i], atol=1e-12)
+    np.testing.assert_allclose(unrefined.T_template_camera, half_turns()[k] @ c.T[i], atol=1e-12)
     r = _ours().register(p)
     assert r.extras["half_turn"] in (0, 1, 2, 3) and np.isfinite(r.score)
-    np.testing.assert_array_equal(_ours().register(p).T_target_source, r.T_target_source)  # deterministic
+    np.testing.assert_array_equal(_ours().register(p).T_template_camera, r.T_template_camera)  # deterministic

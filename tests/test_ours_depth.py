@@ -55,8 +55,15 @@ def scene_problem(template, seed: int, up_object=(0.0, 0.0, 1.0), occlude: bool 
     mask = (parts[0] > 0) & (parts[0] <= depth + 1e-9)
     pts, _ = depth_to_points(depth, CAMERA, mask)
     g = T_camera_world[:3, 2]
-    problem = RegistrationProblem(f"seed{seed}", template.category, pts, estimate_normals(pts, 0.06), g, template,
-                                  depth_image=DepthImage(depth, CAMERA.K, mask))
+    problem = RegistrationProblem(
+        f"seed{seed}",
+        template.category,
+        pts,
+        estimate_normals(pts, 0.06),
+        g,
+        template,
+        depth_image=DepthImage(depth, CAMERA.K, mask),
+    )
     return problem, invert_T(T_camera_object)
 
 
@@ -70,7 +77,7 @@ def test_upright_views_are_right_and_the_extras_say_how(template):
     for seed in range(4):
         p, T = scene_problem(template, seed)
         r = method.register(p)
-        errs.append(rotation_error_deg(r.T_target_source[:3, :3], T[:3, :3]))
+        errs.append(rotation_error_deg(r.T_template_camera[:3, :3], T[:3, :3]))
         extras = json.loads(json.dumps(r.extras))
         assert {"hypothesis", "resting", "depth_score", "depth_inliers", "escalated", "final_turn"} <= set(extras)
         assert {"verification", "refinement", "optimization"} <= set(extras["timings"])
@@ -78,14 +85,16 @@ def test_upright_views_are_right_and_the_extras_say_how(template):
         # the candidates it chose among come back (catpose.register and the diagnosis read them)
         C = np.asarray(r.candidates_T)
         assert C.ndim == 3 and C.shape[1:] == (4, 4) and len(r.candidate_scores) == len(C)
-        assert min(rotation_error_deg(c[:3, :3], r.T_target_source[:3, :3]) for c in C) < 10.0
+        assert min(rotation_error_deg(c[:3, :3], r.T_template_camera[:3, :3]) for c in C) < 10.0
     assert np.median(errs) < 3.0, errs
 
 
 def test_a_half_hidden_object_is_still_right(template):
     method = _ours()
-    errs = [rotation_error_deg(method.register(p).T_target_source[:3, :3], T[:3, :3])
-            for p, T in (scene_problem(template, s, occlude=True) for s in range(3))]
+    errs = [
+        rotation_error_deg(method.register(p).T_template_camera[:3, :3], T[:3, :3])
+        for p, T in (scene_problem(template, s, occlude=True) for s in range(3))
+    ]
     assert np.median(errs) < 5.0, errs
 
 
@@ -98,9 +107,9 @@ def test_an_object_on_its_back_needs_the_resting_hypotheses(template):
     for seed in range(3):
         p, T = scene_problem(template, seed, up_object=(1.0, 0.0, 0.0))
         r = with_rests.register(p)
-        right += rotation_error_deg(r.T_target_source[:3, :3], T[:3, :3]) < 10
+        right += rotation_error_deg(r.T_template_camera[:3, :3], T[:3, :3]) < 10
         escalated += bool(r.extras["escalated"])
-        wrong_without += rotation_error_deg(without.register(p).T_target_source[:3, :3], T[:3, :3]) > 10
+        wrong_without += rotation_error_deg(without.register(p).T_template_camera[:3, :3], T[:3, :3]) > 10
     assert right >= 2 and escalated == 3 and wrong_without >= 2
 
 
@@ -109,16 +118,16 @@ def test_without_a_depth_image_the_fallback_rule_answers(template):
     plain = replace(p, depth_image=None)
     a = _ours(depth_fallback="chamfer").register(plain)
     b = Ours(selection=SelectionSettings(rule="chamfer")).register(plain)
-    np.testing.assert_array_equal(a.T_target_source, b.T_target_source)
+    np.testing.assert_array_equal(a.T_template_camera, b.T_template_camera)
     assert "depth_score" not in a.extras
 
 
 def test_a_template_unlike_the_object_falls_back_to_the_point_rule(template):
     p, _ = scene_problem(template, 1)
-    r = _ours(depth_min_inliers=1.01).register(p)        # no pose can explain more than every pixel
+    r = _ours(depth_min_inliers=1.01).register(p)  # no pose can explain more than every pixel
     assert r.extras["depth_poor_fit"] is True and np.isfinite(r.score)
     c = Ours(selection=SelectionSettings(rule="chamfer"), resting=RestingSettings()).register(p)
-    np.testing.assert_allclose(r.T_target_source, c.T_target_source, atol=1e-12)
+    np.testing.assert_allclose(r.T_template_camera, c.T_template_camera, atol=1e-12)
 
 
 def test_depth_problems_register_one_by_one_in_a_batch(template):
@@ -127,7 +136,7 @@ def test_depth_problems_register_one_by_one_in_a_batch(template):
     batch = method.register_batch(problems)
     single = [method.register(p) for p in problems]
     for a, b in zip(batch, single):
-        np.testing.assert_array_equal(a.T_target_source, b.T_target_source)
+        np.testing.assert_array_equal(a.T_template_camera, b.T_template_camera)
 
 
 def test_a_winner_turned_half_way_round_meets_its_half_turn_and_loses(template):
@@ -144,12 +153,13 @@ def test_a_winner_turned_half_way_round_meets_its_half_turn_and_loses(template):
     cands, feats = [method.candidates(p)], [method.template_features(template)]
     verifiers = (ours_depth.depth_verifier(sel, p), ours_depth.final_verifier(sel, p))
     gravity = (p.ground_normal_camera, np.stack([h.up for h in hyps]), None)
-    T_flip = compose_T(make_T(np.diag([-1.0, -1.0, 1.0]), np.zeros(3)), T_true)   # 180 deg about the template's z
+    T_flip = compose_T(make_T(np.diag([-1.0, -1.0, 1.0]), np.zeros(3)), T_true)  # 180 deg about the template's z
     timings = {"verification": 0.0, "refinement": 0.0}
     for T_win, turn in ((T_flip, 3), (T_true, 0)):
         score = float(verifiers[1].scores(T_win[None])[0])
-        T, s, rest, got = ours_depth._against_half_turns(sel, hyps, cands, feats, verifiers, T_win, score, 0,
-                                                         gravity, timings)
+        T, s, rest, got = ours_depth._against_half_turns(
+            sel, hyps, cands, feats, verifiers, T_win, score, 0, gravity, timings
+        )
         assert got == turn and rest == 0
         assert rotation_error_deg(T[:3, :3], T_true[:3, :3]) < 3.0
         assert s <= score

@@ -24,9 +24,11 @@ def test_import_root_and_no_top_level_shadowing():
 
     assert Path(catpose.datasets.__file__).parent.name == "datasets"
     # the repo's top-level folders are not importable as `datasets` / `methods` / `bench`
-    probe = ("import importlib.util, sys; bad = [m for m in ('datasets', 'methods', 'bench', 'configs') "
-             "if (s := importlib.util.find_spec(m)) and str(s.origin or s.submodule_search_locations)"
-             f".startswith({str(REPO)!r})]; print(bad); sys.exit(1 if bad else 0)")
+    probe = (
+        "import importlib.util, sys; bad = [m for m in ('datasets', 'methods', 'bench', 'configs') "
+        "if (s := importlib.util.find_spec(m)) and str(s.origin or s.submodule_search_locations)"
+        f".startswith({str(REPO)!r})]; print(bad); sys.exit(1 if bad else 0)"
+    )
     r = _run([sys.executable, "-c", probe], cwd="/")
     assert r.returncode == 0, r.stdout + r.stderr
 
@@ -41,16 +43,30 @@ def test_every_bench_wing_is_a_declared_package():
 
 
 def test_wheel_installs_and_hydra_finds_its_configs(tmp_path):
-    r = _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-w", str(tmp_path / "w"),
-              str(REPO)])
+    r = _run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--no-deps",
+            "--no-build-isolation",
+            "-w",
+            str(tmp_path / "w"),
+            str(REPO),
+        ]
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     wheel = next((tmp_path / "w").glob("catpose-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "catpose/configs/run.yaml" in names and "catpose/configs/method/icp.yaml" in names
     assert "catpose/bench/run/runner.py" in names and "catpose/datasets/render.py" in names
     # every module of bench/ (its wings included: pyproject lists them one by one) is in the wheel
-    sources = sorted(f"catpose/bench/{p.relative_to(REPO / 'bench').as_posix()}" for p in (REPO / "bench").rglob("*.py")
-                     if "__pycache__" not in p.parts)
+    sources = sorted(
+        f"catpose/bench/{p.relative_to(REPO / 'bench').as_posix()}"
+        for p in (REPO / "bench").rglob("*.py")
+        if "__pycache__" not in p.parts
+    )
     assert len(sources) > 40 and [s for s in sources if s not in names] == []
     assert not any(n.startswith(("datasets/", "methods/", "bench/")) for n in names)
     target = tmp_path / "site"
@@ -59,7 +75,7 @@ def test_wheel_installs_and_hydra_finds_its_configs(tmp_path):
     probe = """
 import catpose, catpose.bench.run.config as rc
 import catpose.bench.cli, catpose.bench.protocols, catpose.bench.report.tables, catpose.bench.interop.score
-import catpose.bench.regress.regress, catpose.bench.perf.registration, catpose.bench.category.align
+import catpose.bench.regress.run_suites, catpose.bench.perf.registration, catpose.bench.category.align
 import catpose.bench.real.suite, catpose.bench.scoring.bop_eval, catpose.grasp
 from hydra import compose, initialize_config_module
 assert catpose.__file__.startswith(TARGET), catpose.__file__
@@ -78,9 +94,11 @@ print('ok')
 
 
 def test_help_is_instant_and_imports_nothing_heavy():
-    probe = ("import sys; from catpose.bench.cli import main; main(['--help']); "
-             "heavy = [m for m in ('torch', 'open3d', 'hydra', 'pandas', 'matplotlib') if m in sys.modules]; "
-             "print(heavy); sys.exit(1 if heavy else 0)")
+    probe = (
+        "import sys; from catpose.bench.cli import main; main(['--help']); "
+        "heavy = [m for m in ('torch', 'open3d', 'hydra', 'pandas', 'matplotlib') if m in sys.modules]; "
+        "print(heavy); sys.exit(1 if heavy else 0)"
+    )
     r = _run([sys.executable, "-c", probe])
     assert r.returncode == 0, r.stdout + r.stderr
     assert "bench run" in r.stdout

@@ -24,13 +24,13 @@ class _Recorder:
 
     def register(self, problem):
         self.log.append((self.name, problem.sample_id))
-        return RegistrationResult(T_target_source=np.eye(4), score=0.0,
-                                  extras={"timings": {"optimization": 0.001}})
+        return RegistrationResult(T_template_camera=np.eye(4), score=0.0, extras={"timings": {"optimization": 0.001}})
 
 
 def _problems(k: int, templates: int = 2):
-    return [SimpleNamespace(sample_id=f"s{i}", template=SimpleNamespace(template_id=f"t{i % templates}"))
-            for i in range(k)]
+    return [
+        SimpleNamespace(sample_id=f"s{i}", template=SimpleNamespace(template_id=f"t{i % templates}")) for i in range(k)
+    ]
 
 
 def test_methods_are_interleaved_per_call_and_rotate_per_round():
@@ -58,8 +58,10 @@ def test_batch_goes_through_register_batch_when_the_method_has_one():
 
 
 def test_summary_statistics_and_ratio_to_fgr():
-    measured = {"fgr": {"times": [1.0, 2.0, 3.0], "warmup_s": 0.0},
-                "ours": {"times": [2.0, 4.0, 6.0, 100.0], "warmup_s": 0.0}}
+    measured = {
+        "fgr": {"times": [1.0, 2.0, 3.0], "warmup_s": 0.0},
+        "ours": {"times": [2.0, 4.0, 6.0, 100.0], "warmup_s": 0.0},
+    }
     rows = {r["method"]: r for r in perf.summarize(measured)}
     assert rows["fgr"]["ratio_to_fgr"] == 1.0
     assert rows["ours"]["median_s"] == 5.0 and rows["ours"]["ratio_to_fgr"] == 2.5
@@ -70,18 +72,39 @@ def test_summary_statistics_and_ratio_to_fgr():
 
 
 def test_problems_are_taken_round_robin_over_categories():
-    problems, label = perf.load_problems("synthetic", "gt_model", 4, 0,
-                                         overrides=["dataset.instances_per_category=1",
-                                                    "dataset.views_per_instance=2",
-                                                    "dataset.categories=[chair,mug]"])
+    problems, label = perf.load_problems(
+        "synthetic",
+        "gt_model",
+        4,
+        0,
+        overrides=[
+            "dataset.instances_per_category=1",
+            "dataset.views_per_instance=2",
+            "dataset.categories=[chair,mug]",
+        ],
+    )
     assert [p.category for p in problems] == ["chair", "mug", "chair", "mug"]
     assert "synthetic" in label
 
 
 def test_cli_writes_the_table_and_csvs(tmp_path, capsys):
     out = tmp_path / "perf.csv"
-    rc = perf.main(["--methods", "fgr", "--n", "2", "--repeat", "2", "--categories", "chair",
-                    "--dataset-set", "instances_per_category=1", "--out", str(out)])
+    rc = perf.main(
+        [
+            "--methods",
+            "fgr",
+            "--n",
+            "2",
+            "--repeat",
+            "2",
+            "--categories",
+            "chair",
+            "--dataset-set",
+            "instances_per_category=1",
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     text = capsys.readouterr().out
     assert "| fgr" in text and "load average" in text
@@ -151,7 +174,7 @@ class _NoPoseOn:
 
         if problem.sample_id in self.bad:
             raise InvalidInputError(f"{problem.sample_id}: no pose")
-        return RegistrationResult(T_target_source=np.eye(4), score=0.0, extras={})
+        return RegistrationResult(T_template_camera=np.eye(4), score=0.0, extras={})
 
 
 def test_a_registration_without_pose_is_timed_and_counted_not_fatal():

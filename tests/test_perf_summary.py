@@ -10,13 +10,17 @@ import pytest
 from catpose.bench.perf import summary
 from catpose.errors import DatasetError
 
-PERF = ("method,n,median_s,mean_s,p90_s,ratio_to_fgr,warmup_s,source,repeat,device,batch,threads,load_before,"
-        "load_after,cpus,peak_rss_mb\n"
-        'ours,36,0.04806,0.0483,0.05825,1.2314,3.0,"synthetic (gt_model, seed 0)",3,cpu,1,1,0.63,1.12,2,758.0\n'
-        'fgr,36,0.03903,0.0399,0.06001,1.0,0.56,"synthetic (gt_model, seed 0)",3,cpu,1,1,0.63,1.12,2,758.0\n')
+PERF = (
+    "method,n,median_s,mean_s,p90_s,ratio_to_fgr,warmup_s,source,repeat,device,batch,threads,load_before,"
+    "load_after,cpus,peak_rss_mb\n"
+    'ours,36,0.04806,0.0483,0.05825,1.2314,3.0,"synthetic (gt_model, seed 0)",3,cpu,1,1,0.63,1.12,2,758.0\n'
+    'fgr,36,0.03903,0.0399,0.06001,1.0,0.56,"synthetic (gt_model, seed 0)",3,cpu,1,1,0.63,1.12,2,758.0\n'
+)
 STAGES = "method,stage,median_s,mean_s\nours,descriptors,0.00882,0.0081\nours,refinement,0.01512,0.016\n"
-GPU = ("device,batch,ms_per_problem,problems_per_s,max_rot_diff_deg_vs_cpu64,dtype,name,torch\n"
-       "cuda,16,1.6534,604.8,0.00317,float32,NVIDIA H200,2.11.0\n")
+GPU = (
+    "device,batch,ms_per_problem,problems_per_s,max_rot_diff_deg_vs_cpu64,dtype,name,torch\n"
+    "cuda,16,1.6534,604.8,0.00317,float32,NVIDIA H200,2.11.0\n"
+)
 
 
 def test_tables_from_the_csvs(tmp_path: Path):
@@ -31,7 +35,10 @@ def test_tables_from_the_csvs(tmp_path: Path):
     assert "| synthetic (gt_model, seed 0) | fgr | 36 | 0.039 | 0.060 | 1.00 |" in speed
     stages = (tmp_path / "stages.md").read_text()
     assert "| stage | synthetic |" in stages and "| refinement | 0.0151 |" in stages
-    assert "| gpu_solver_h200.csv | NVIDIA H200 | 16 | 1.65 | 0.00317 | float32 | 2.11.0 |" in (tmp_path / "gpu.md").read_text()
+    assert (
+        "| gpu_solver_h200.csv | NVIDIA H200 | 16 | 1.65 | 0.00317 | float32 | 2.11.0 |"
+        in (tmp_path / "gpu.md").read_text()
+    )
 
 
 def test_no_csv_is_one_line(tmp_path: Path):

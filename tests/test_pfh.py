@@ -46,7 +46,7 @@ def test_marginal_emd_lower_bounds_and_ranks_like_exact_emd():
     for name, H in (("random", rand), ("real", real)):
         exact = pfh.exact_emd(H, H)
         marg = pfh.marginal_emd(H, H)
-        assert (marg <= exact + 1e-7).all(), name          # lower bound (L1 ground distance)
+        assert (marg <= exact + 1e-7).all(), name  # lower bound (L1 ground distance)
         iu = np.triu_indices(len(H), 1)
         rho = spearmanr(marg[iu], exact[iu]).correlation
         # measured on 30 histograms: Spearman 0.79 (random Dirichlet), 0.995 (real PFH of a

@@ -22,8 +22,11 @@ RUNTIMES = {"ICP": [0.1, 0.2, 0.4, 0.3, 0.25, 0.15], "Ours": [1.0, 2.0, 0.5, 3.0
 
 
 def _units(errors: dict[str, list[float | None]], runtimes: list[float]) -> pd.DataFrame:
-    rows = [{"category": c, "status": "ok" if e is not None else "failed", "err_deg": e}
-            for c, es in errors.items() for e in es]
+    rows = [
+        {"category": c, "status": "ok" if e is not None else "failed", "err_deg": e}
+        for c, es in errors.items()
+        for e in es
+    ]
     return pd.DataFrame(rows).assign(runtime_s=runtimes[: len(rows)])
 
 
@@ -117,8 +120,11 @@ def test_accuracy_bars_match_counting(units, captured, tmp_path: Path):
 
 
 def test_runtime_stats_and_labels_do_not_overlap(captured, tmp_path: Path):
-    long = {"Ours (descriptor=pfh, max_templates=1)": RUNTIMES["Ours"], "ICP (templates)": RUNTIMES["ICP"],
-            "FGR (matching=dictionary, features=lps)": RUNTIMES["Ours"][:5]}
+    long = {
+        "Ours (descriptor=pfh, max_templates=1)": RUNTIMES["Ours"],
+        "ICP (templates)": RUNTIMES["ICP"],
+        "FGR (matching=dictionary, features=lps)": RUNTIMES["Ours"][:5],
+    }
     samples = {m: pd.DataFrame({"runtime_s": r}) for m, r in long.items()}
     paths = plots.plot_runtime(samples, tmp_path / "rt")
     csv = pd.read_csv(paths[-1]).set_index("method")

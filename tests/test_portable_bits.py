@@ -66,8 +66,9 @@ print(json.dumps(out))
 
 def _digests(env_extra: dict[str, str]) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
-    proc = subprocess.run([sys.executable, "-c", SCRIPT], env=dict(env, **env_extra), capture_output=True,
-                          text=True, timeout=600)
+    proc = subprocess.run(
+        [sys.executable, "-c", SCRIPT], env=dict(env, **env_extra), capture_output=True, text=True, timeout=600
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     import json
 
@@ -97,9 +98,29 @@ def test_samples_are_bit_identical_under_every_code_path_of_this_cpu():
 
 #: NumPy ufuncs whose float64 loops are dispatched per CPU and round differently on AVX-512
 #: (measured with NPY_DISABLE_CPU_FEATURES); use catpose.libm instead.
-DISPATCHED_UFUNCS = {"exp", "exp2", "expm1", "log", "log2", "log10", "log1p", "arccos", "arcsin", "arctan",
-                     "arctan2", "tan", "power", "float_power", "cbrt", "sinh", "cosh", "tanh", "arcsinh",
-                     "arccosh", "arctanh"}
+DISPATCHED_UFUNCS = {
+    "exp",
+    "exp2",
+    "expm1",
+    "log",
+    "log2",
+    "log10",
+    "log1p",
+    "arccos",
+    "arcsin",
+    "arctan",
+    "arctan2",
+    "tan",
+    "power",
+    "float_power",
+    "cbrt",
+    "sinh",
+    "cosh",
+    "tanh",
+    "arcsinh",
+    "arccosh",
+    "arctanh",
+}
 BLAS_CALLS = {"dot", "matmul", "inner", "vdot", "tensordot"}
 
 
@@ -122,29 +143,35 @@ def portability_violations(source: str) -> list[tuple[int, str]]:
                 out.append((node.lineno, f"1-D {ast.unparse(node)} (use catpose.geometry.norm3)"))
             elif name.startswith(("np.", "numpy.")) and last in DISPATCHED_UFUNCS:
                 out.append((node.lineno, f"{name} (use catpose.libm.{last})"))
-            elif (name.startswith(("np.", "numpy.")) and last in BLAS_CALLS) or \
-                    (isinstance(node.func, ast.Attribute) and node.func.attr == "dot"):
+            elif (name.startswith(("np.", "numpy.")) and last in BLAS_CALLS) or (
+                isinstance(node.func, ast.Attribute) and node.func.attr == "dot"
+            ):
                 out.append((node.lineno, f"BLAS {name}"))
     return sorted(out)
 
 
 def test_the_rule_finds_each_kind_of_violation():
-    src = ("import numpy as np\n"
-           "a = R @ v\n"
-           "b = np.linalg.norm(v)\n"
-           "c = np.linalg.norm(V, axis=1)\n"
-           "d = np.arccos(x)\n"
-           "e = np.cos(x)\n"
-           "f = x ** 2 + x ** k\n"
-           "g = np.dot(a, b) + a.dot(b)\n")
+    src = (
+        "import numpy as np\n"
+        "a = R @ v\n"
+        "b = np.linalg.norm(v)\n"
+        "c = np.linalg.norm(V, axis=1)\n"
+        "d = np.arccos(x)\n"
+        "e = np.cos(x)\n"
+        "f = x ** 2 + x ** k\n"
+        "g = np.dot(a, b) + a.dot(b)\n"
+    )
     lines = [line for line, _ in portability_violations(src)]
     assert lines == [2, 3, 5, 7, 8, 8]
 
 
 @pytest.mark.parametrize("folder", ["datasets", "src/catpose"])
 def test_no_cpu_dependent_arithmetic_in_sample_code(folder: str):
-    bad = [f"{p.relative_to(REPO)}:{line}: {what}" for p in sorted((REPO / folder).rglob("*.py"))
-           for line, what in portability_violations(p.read_text())]
+    bad = [
+        f"{p.relative_to(REPO)}:{line}: {what}"
+        for p in sorted((REPO / folder).rglob("*.py"))
+        for line, what in portability_violations(p.read_text())
+    ]
     assert not bad, "CPU-dependent arithmetic where samples are made:\n" + "\n".join(bad)
 
 
@@ -154,18 +181,21 @@ def test_golden_inputs_are_what_this_machine_renders():
     them, the problems are the same."""
     import numpy as np
 
-    from catpose.bench.regress import regress
+    from catpose.bench.regress import run_suites
     from catpose.bench.regress.golden import _f32
 
-    _, suites = regress.load_config()
+    _, suites = run_suites.load_config()
     suite = suites["synthetic"]
     golden = np.load(suite.inputs)
-    live = regress.Suite(**{**suite.__dict__, "inputs": None})
-    dataset, protocol, ids = regress.suite_samples(live)
+    live = run_suites.Suite(**{**suite.__dict__, "inputs": None})
+    dataset, protocol, ids = run_suites.suite_samples(live)
     assert len(ids) == 24
     for i, sid in enumerate(ids):
         s = protocol.load(dataset, sid)
-        for key, a in (("p", s.problem.points_camera), ("n", s.problem.normals_camera),
-                       ("g", s.problem.ground_normal_camera)):
+        for key, a in (
+            ("p", s.problem.points_camera),
+            ("n", s.problem.normals_camera),
+            ("g", s.problem.ground_normal_camera),
+        ):
             assert np.array_equal(golden[f"{key}{i}"], _f32(a)), f"{sid}: {key} differs from the golden inputs"
         assert np.array_equal(golden[f"T{i}"], s.gt.T_template_camera), sid

@@ -96,9 +96,13 @@ def test_adi_and_mssd_match_brute_force():
         q = rng.normal(size=4)
         q /= np.linalg.norm(q)
         w, x, y, zq = q
-        R = np.array([[1 - 2 * (y * y + zq * zq), 2 * (x * y - zq * w), 2 * (x * zq + y * w)],
-                      [2 * (x * y + zq * w), 1 - 2 * (x * x + zq * zq), 2 * (y * zq - x * w)],
-                      [2 * (x * zq - y * w), 2 * (y * zq + x * w), 1 - 2 * (x * x + y * y)]])
+        R = np.array(
+            [
+                [1 - 2 * (y * y + zq * zq), 2 * (x * y - zq * w), 2 * (x * zq + y * w)],
+                [2 * (x * y + zq * w), 1 - 2 * (x * x + zq * zq), 2 * (y * zq - x * w)],
+                [2 * (x * zq - y * w), 2 * (y * zq + x * w), 1 - 2 * (x * x + y * y)],
+            ]
+        )
         t_est, t_gt = rng.normal(size=3) * 10, rng.normal(size=3) * 10
         R_gt = _rot_x(rng.uniform(0, 360)) @ _rot_z(rng.uniform(0, 360))
         P_est, P_gt = P @ R.T + t_est, P @ R_gt.T + t_gt
@@ -157,7 +161,9 @@ def test_cylinder_spin_about_its_offset_axis_is_free(offset):
     bound = 2 * r * math.sin(step / 4) + 1e-9  # half a discretisation step, worst case
     assert pm.mssd(R_est, t_est, np.eye(3), np.zeros(3), P, syms) <= bound
     # hand value without symmetries: a rim point moves by the chord 2 r sin(37/2)
-    assert pm.mssd(R_est, t_est, np.eye(3), np.zeros(3), P) == pytest.approx(2 * r * math.sin(math.radians(18.5)), rel=1e-9)
+    assert pm.mssd(R_est, t_est, np.eye(3), np.zeros(3), P) == pytest.approx(
+        2 * r * math.sin(math.radians(18.5)), rel=1e-9
+    )
     if any(offset):  # the axis through the origin (offset ignored) is not a symmetry
         wrong = pm.symmetry_transforms(continuous=[{"axis": [0, 0, 1]}])
         assert pm.mssd(R_est, t_est, np.eye(3), np.zeros(3), P, wrong) > 5.0
@@ -178,8 +184,9 @@ def test_symmetry_enumeration_matches_explicit_cos_sin_spins():
         assert np.allclose(S[:3, :3], expected) and np.allclose(S[:3, 3], 0)
     # discrete x continuous: a can flipped upside down (x-axis half turn) combines with every spin
     flip = np.diag([1.0, -1.0, -1.0, 1.0])
-    both = pm.symmetry_transforms(discrete=[flip.reshape(-1)], continuous=[{"axis": [0, 0, 1], "offset": [0, 0, 0]}],
-                                  max_sym_disc_step=0.5)
+    both = pm.symmetry_transforms(
+        discrete=[flip.reshape(-1)], continuous=[{"axis": [0, 0, 1], "offset": [0, 0, 0]}], max_sym_disc_step=0.5
+    )
     assert len(both) == 2 * n
     assert any(np.allclose(S, flip) for S in both)
 

@@ -23,29 +23,65 @@ def _rows(info_fn=lambda i: {}) -> list[dict]:
     rows = []
     for i, (cat, err) in enumerate([("mug", 5.0), ("mug", 25.0), ("can", None), ("can", 70.0)]):
         T_gt = make_T(random_rotation(rng), rng.normal(size=3) + [0, 0, 3])
-        row = {"sample_id": f"{cat}/i{i}/v0", "group_id": f"{cat}/i{i}/v0", "obs_id": f"{cat}/i{i}/v0",
-               "category": cat, "instance_id": f"i{i}", "template_id": "own", "method": "ours", "dataset": "toy",
-               "protocol": "gt_model", "seed": 0, "symmetric": False, "symmetry_axis": None,
-               "T_gt": T_gt.reshape(-1).tolist(), "runtime_s": 0.25, "info": info_fn(i), "extras": {}}
+        row = {
+            "sample_id": f"{cat}/i{i}/v0",
+            "group_id": f"{cat}/i{i}/v0",
+            "obs_id": f"{cat}/i{i}/v0",
+            "category": cat,
+            "instance_id": f"i{i}",
+            "template_id": "own",
+            "method": "ours",
+            "dataset": "toy",
+            "protocol": "gt_model",
+            "seed": 0,
+            "symmetric": False,
+            "symmetry_axis": None,
+            "T_gt": T_gt.reshape(-1).tolist(),
+            "runtime_s": 0.25,
+            "info": info_fn(i),
+            "extras": {},
+        }
         if err is None:
             row.update(status="failed", error="boom", err_deg=180.0, T_est=None, score=None)
         else:
             T_est = make_T(axis_angle_to_R(np.array([0, 0, 1.0]), np.radians(err)), [0.01, 0, 0]) @ T_gt
-            row.update(status="ok", error="", T_est=T_est.reshape(-1).tolist(), score=0.5, err_deg=err,
-                       rot_err_deg=err, trans_err=None)
+            row.update(
+                status="ok",
+                error="",
+                T_est=T_est.reshape(-1).tolist(),
+                score=0.5,
+                err_deg=err,
+                rot_err_deg=err,
+                trans_err=None,
+            )
         rows.append(row)
     return rows
 
 
-CFG = {"method": {"name": "ours", "_target_": "x.Y"}, "dataset": {"name": "toy"},
-       "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}, "seed": 0}
+CFG = {
+    "method": {"name": "ours", "_target_": "x.Y"},
+    "dataset": {"name": "toy"},
+    "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"},
+    "seed": 0,
+}
 
 
 @pytest.mark.parametrize("bop_info", [False, True])
 def test_bop_round_trip(tmp_path: Path, bop_info: bool):
-    info_fn = (lambda i: {"scene_id": 19, "im_id": 10 + i, "obj_id": 1 + i, "scale_mm": 120.0,
-                          "centre_mm": [1.0, 2.0, 3.0],
-                          "R_object_model": axis_angle_to_R(np.array([1.0, 2, 3]), 0.4).ravel().tolist()}) if bop_info else (lambda i: {})
+    info_fn = (
+        (
+            lambda i: {
+                "scene_id": 19,
+                "im_id": 10 + i,
+                "obj_id": 1 + i,
+                "scale_mm": 120.0,
+                "centre_mm": [1.0, 2.0, 3.0],
+                "R_object_model": axis_angle_to_R(np.array([1.0, 2, 3]), 0.4).ravel().tolist(),
+            }
+        )
+        if bop_info
+        else (lambda i: {})
+    )
     run = write_run(tmp_path / "run", _rows(info_fn), CFG)
     out = tmp_path / "ours_toy-test.csv"
     assert export_bop(run, out) == 3  # the failed sample has no estimate
@@ -79,7 +115,9 @@ def test_bop_round_trip(tmp_path: Path, bop_info: bool):
     Path(str(out) + ".map.csv").unlink()
     again = tmp_path / "scored2"
     assert score_cmd.main([str(out), "--gt", str(run), "--method", "m", "--out", str(again)]) == 0
-    errs2 = {json.loads(x)["sample_id"]: json.loads(x)["err_deg"] for x in (again / "samples.jsonl").read_text().splitlines()}
+    errs2 = {
+        json.loads(x)["sample_id"]: json.loads(x)["err_deg"] for x in (again / "samples.jsonl").read_text().splitlines()
+    }
     assert errs2 == pytest.approx(errs, abs=1e-9)
 
 
@@ -118,12 +156,29 @@ def test_bop_export_matches_bop_pose_convention(tmp_path: Path):
     R_om, centre, scale = axis_angle_to_R(np.array([0, 1.0, 0]), 0.3), np.array([5.0, -4.0, 2.0]), 90.0
     R_oc = R_om @ R_cm.T  # as datasets/bop.py builds T_object_camera
     T_object_camera = make_T(R_oc, -(R_oc @ t_cm + centre) / scale)
-    row = {"sample_id": "mug/000001/000002/0", "group_id": "mug/000001/000002/0", "obs_id": "mug/000001/000002/0",
-           "category": "mug", "instance_id": "obj_000003", "status": "ok", "error": "", "err_deg": 0.0,
-           "T_est": T_object_camera.reshape(-1).tolist(), "T_gt": T_object_camera.reshape(-1).tolist(),
-           "symmetry_axis": None, "score": None, "runtime_s": 1.0,
-           "info": {"scene_id": 1, "im_id": 2, "obj_id": 3, "scale_mm": scale, "centre_mm": centre.tolist(),
-                    "R_object_model": R_om.ravel().tolist()}}
+    row = {
+        "sample_id": "mug/000001/000002/0",
+        "group_id": "mug/000001/000002/0",
+        "obs_id": "mug/000001/000002/0",
+        "category": "mug",
+        "instance_id": "obj_000003",
+        "status": "ok",
+        "error": "",
+        "err_deg": 0.0,
+        "T_est": T_object_camera.reshape(-1).tolist(),
+        "T_gt": T_object_camera.reshape(-1).tolist(),
+        "symmetry_axis": None,
+        "score": None,
+        "runtime_s": 1.0,
+        "info": {
+            "scene_id": 1,
+            "im_id": 2,
+            "obj_id": 3,
+            "scale_mm": scale,
+            "centre_mm": centre.tolist(),
+            "R_object_model": R_om.ravel().tolist(),
+        },
+    }
     run = write_run(tmp_path / "run", [row], CFG)
     export_bop(run, tmp_path / "m_toy-test.csv")
     p = read_predictions(tmp_path / "m_toy-test.csv").iloc[0]
@@ -141,12 +196,30 @@ def test_score_against_dataset_config(tmp_path: Path):
     for k, obs_id in enumerate(ds.observation_ids()):
         T = np.asarray(ds.observation(obs_id).T_object_camera, float)
         T = make_T(axis_angle_to_R(np.array([1.0, 0, 0]), np.radians(7.0 * k)), np.zeros(3)) @ T
-        lines.append(f"{obs_id},{' '.join(f'{x:.12g}' for x in T[:3, :3].ravel())},{' '.join(f'{x:.12g}' for x in T[:3, 3])}")
+        lines.append(
+            f"{obs_id},{' '.join(f'{x:.12g}' for x in T[:3, :3].ravel())},{' '.join(f'{x:.12g}' for x in T[:3, 3])}"
+        )
     (tmp_path / "p.csv").write_text("\n".join(lines) + "\n")
     out = tmp_path / "scored"
-    rc = score_cmd.main([str(tmp_path / "p.csv"), "--dataset", "synthetic", "--protocol", "gt_model",
-                                 "--override", "dataset.categories=[mug]", "--override", "dataset.instances_per_category=1",
-                                 "--override", "dataset.views_per_instance=2", "--method", "ext", "--out", str(out)])
+    rc = score_cmd.main(
+        [
+            str(tmp_path / "p.csv"),
+            "--dataset",
+            "synthetic",
+            "--protocol",
+            "gt_model",
+            "--override",
+            "dataset.categories=[mug]",
+            "--override",
+            "dataset.instances_per_category=1",
+            "--override",
+            "dataset.views_per_instance=2",
+            "--method",
+            "ext",
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     rows = [json.loads(x) for x in (out / "samples.jsonl").read_text().splitlines()]
     assert [r["status"] for r in rows] == ["ok", "ok"]
@@ -168,9 +241,22 @@ def test_bop_export_reproduces_scene_gt_on_real_tyol_frame(shared_data: Path, tm
     info.setdefault("centre_mm", np.asarray(centre).tolist())
     info.setdefault("R_object_model", np.asarray(R_om).ravel().tolist())
     T = np.asarray(sample.gt.T_template_camera, float)
-    row = {"sample_id": obs_id, "group_id": obs_id, "obs_id": obs_id, "category": "basket", "instance_id": "obj_000019",
-           "status": "ok", "error": "", "err_deg": 0.0, "T_est": T.reshape(-1).tolist(), "T_gt": T.reshape(-1).tolist(),
-           "symmetry_axis": None, "score": None, "runtime_s": 1.0, "info": info}
+    row = {
+        "sample_id": obs_id,
+        "group_id": obs_id,
+        "obs_id": obs_id,
+        "category": "basket",
+        "instance_id": "obj_000019",
+        "status": "ok",
+        "error": "",
+        "err_deg": 0.0,
+        "T_est": T.reshape(-1).tolist(),
+        "T_gt": T.reshape(-1).tolist(),
+        "symmetry_axis": None,
+        "score": None,
+        "runtime_s": 1.0,
+        "info": info,
+    }
     run = write_run(tmp_path / "run", [row], CFG)
     export_bop(run, tmp_path / "m_toy-test.csv")
     p = read_predictions(tmp_path / "m_toy-test.csv").iloc[0]

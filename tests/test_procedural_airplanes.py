@@ -29,19 +29,32 @@ def test_a_root_the_loader_reads_with_linked_templates(generator, tmp_path):
 
     shared = tmp_path / "shared"
     shared.mkdir()
-    build(generator, tmp_path / "planes", 1, 0)   # a stand-in for the shared airplane_0536
+    build(generator, tmp_path / "planes", 1, 0)  # a stand-in for the shared airplane_0536
     (tmp_path / "planes" / "airplane" / "airplane_8000.txt").rename(shared / "airplane_0536.txt")
     root = tmp_path / "root"
-    build(generator, root, 2, 0, "--templates", str(shared), "airplane_0536",
-          str(REPO / "results" / "alignment" / "modelnet40_resampled_airplane.csv"))
+    build(
+        generator,
+        root,
+        2,
+        0,
+        "--templates",
+        str(shared),
+        "airplane_0536",
+        str(REPO / "results" / "alignment" / "modelnet40_resampled_airplane.csv"),
+    )
     assert (root / "modelnet40_train.txt").read_text().split() == ["airplane_0536", "airplane_8000", "airplane_8001"]
     pts, nrm = read_resampled_txt(root / "airplane" / "airplane_8001.txt")
     assert pts.shape == (10000, 3) and np.linalg.norm(pts, axis=1).max() <= 1.0 + 1e-5
     np.testing.assert_allclose(np.linalg.norm(nrm, axis=1), 1.0, atol=1e-5)
     rows = (root / "alignment_airplane.csv").read_text().splitlines()
-    assert rows[-1].startswith("airplane,airplane_0536,-1,0,0,0,-1,0,0,0,1,180,")   # the verified row, as it is
-    ds = ModelNet40Resampled(str(root), categories=["airplane"], split="train", views_per_instance=1,
-                             alignment_table=str(root / "alignment_airplane.csv"))
+    assert rows[-1].startswith("airplane,airplane_0536,-1,0,0,0,-1,0,0,0,1,180,")  # the verified row, as it is
+    ds = ModelNet40Resampled(
+        str(root),
+        categories=["airplane"],
+        split="train",
+        views_per_instance=1,
+        alignment_table=str(root / "alignment_airplane.csv"),
+    )
     assert len(ds.observation_ids()) == 3
 
 
@@ -78,14 +91,37 @@ def test_one_template_turns_reads_the_stored_turns_of_each_view():
     import pandas as pd
 
     turns_mod = runpy.run_path(str(DEV / "one_template_turns.py"))
-    half = np.diag([-1.0, -1.0, 1.0, 1.0])   # a half turn about z
+    half = np.diag([-1.0, -1.0, 1.0, 1.0])  # a half turn about z
     rows = []
-    for view, own_cost, turn_cost in (("airplane/airplane_8000/v00", 0.30, 0.10), ("airplane/airplane_8001/v00", 0.10, 0.30)):
-        rows.append({"group_id": view, "sample_id": f"{view}|0", "status": "ok", "score": own_cost, "err_deg": 180.0,
-                     "rot_err_deg": 180.0, "runtime_s": 1.0, "T_gt": half.tolist(), "T_est": np.eye(4).tolist(),
-                     "info": {"cross_costs": [own_cost], "top_offset": 0.0,
-                              "turns": [{"turn_deg": 180.0, "T_template_camera": half.tolist(),
-                                         "cross_costs": [turn_cost], "top_offset": 0.0}]}})
+    for view, own_cost, turn_cost in (
+        ("airplane/airplane_8000/v00", 0.30, 0.10),
+        ("airplane/airplane_8001/v00", 0.10, 0.30),
+    ):
+        rows.append(
+            {
+                "group_id": view,
+                "sample_id": f"{view}|0",
+                "status": "ok",
+                "score": own_cost,
+                "err_deg": 180.0,
+                "rot_err_deg": 180.0,
+                "runtime_s": 1.0,
+                "T_gt": half.tolist(),
+                "T_est": np.eye(4).tolist(),
+                "info": {
+                    "cross_costs": [own_cost],
+                    "top_offset": 0.0,
+                    "turns": [
+                        {
+                            "turn_deg": 180.0,
+                            "T_template_camera": half.tolist(),
+                            "cross_costs": [turn_cost],
+                            "top_offset": 0.0,
+                        }
+                    ],
+                },
+            }
+        )
     samples = pd.DataFrame(rows)
     np.testing.assert_allclose(turns_mod["chosen_errors"](samples, (), 0.05), [180.0, 180.0])
     np.testing.assert_allclose(turns_mod["chosen_errors"](samples, (180.0,), 0.05), [0.0, 180.0], atol=1e-6)

@@ -32,8 +32,13 @@ def test_a_root_the_loader_reads(generator, tmp_path):
     pts, nrm = read_resampled_txt(tmp_path / "chair" / "chair_8000.txt")
     assert pts.shape == (10000, 3)
     np.testing.assert_allclose(np.linalg.norm(nrm, axis=1), 1.0, atol=1e-5)
-    ds = ModelNet40Resampled(str(tmp_path), categories=["chair"], split="train", views_per_instance=1,
-                             alignment_table=str(tmp_path / "alignment_chair.csv"))
+    ds = ModelNet40Resampled(
+        str(tmp_path),
+        categories=["chair"],
+        split="train",
+        views_per_instance=1,
+        alignment_table=str(tmp_path / "alignment_chair.csv"),
+    )
     assert len(ds.observation_ids()) == 3
 
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from catpose.bench.protocols.absolute import GtModel, Templates
@@ -18,9 +17,14 @@ def _box_off(path: Path, dims: tuple[float, float, float]) -> None:
 
     m = trimesh.creation.box(extents=dims)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join([f"OFF\n{len(m.vertices)} {len(m.faces)} 0"]
-                              + [" ".join(map(str, v)) for v in m.vertices]
-                              + [f"3 {a} {b} {c}" for a, b, c in m.faces]) + "\n")
+    path.write_text(
+        "\n".join(
+            [f"OFF\n{len(m.vertices)} {len(m.faces)} 0"]
+            + [" ".join(map(str, v)) for v in m.vertices]
+            + [f"3 {a} {b} {c}" for a, b, c in m.faces]
+        )
+        + "\n"
+    )
 
 
 @pytest.fixture()
@@ -31,8 +35,15 @@ def root(tmp_path: Path) -> Path:
 
 
 def _dataset(root: Path, **kw) -> ModelNet40:
-    ds = ModelNet40(str(root), categories=["box"], split="train", views_per_instance=1,
-                    templates={"box": ["box_0001"]}, template_points=200, **kw)
+    ds = ModelNet40(
+        str(root),
+        categories=["box"],
+        split="train",
+        views_per_instance=1,
+        templates={"box": ["box_0001"]},
+        template_points=200,
+        **kw,
+    )
     ds.name = "modelnet40"
     return ds
 
@@ -79,9 +90,17 @@ def test_bench_run_stops_with_one_line(root, tmp_path, capsys):
     from catpose.bench.run.command import main
 
     with pytest.raises(SystemExit) as e:
-        main(["method=icp", "dataset=modelnet40", f"dataset.root={root}", "dataset.categories=[box]",
-              "protocol=templates", f"output_root={tmp_path / 'out'}",
-              "progress=false"])
+        main(
+            [
+                "method=icp",
+                "dataset=modelnet40",
+                f"dataset.root={root}",
+                "dataset.categories=[box]",
+                "protocol=templates",
+                f"output_root={tmp_path / 'out'}",
+                "progress=false",
+            ]
+        )
     assert e.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "modelnet40_aligned" in err[0]

@@ -9,18 +9,40 @@ import pandas as pd
 import pytest
 
 from catpose.bench.protocols.relative import Relative, pair_indices, relative_errors
-from catpose.datasets.base import ObjectDataset, Observation
+from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R, make_T, random_rotation
 from catpose.types import Template
 
 
-def _row(obs_id: str, instance: str, T_gt: np.ndarray, T_est: np.ndarray | None, *, status: str = "ok",
-         axis=None, category: str = "chair", score: float = 1.0, template: str = "0") -> dict:
-    return {"sample_id": f"{obs_id}|{template}", "group_id": obs_id, "obs_id": obs_id, "category": category,
-            "instance_id": instance, "status": status, "error": "" if status == "ok" else "boom",
-            "T_est": None if T_est is None else T_est.reshape(-1).tolist(), "T_gt": T_gt.reshape(-1).tolist(),
-            "symmetry_axis": axis, "runtime_s": 0.5, "score": score, "err_deg": 0.0, "trans_err": 0.0}
+def _row(
+    obs_id: str,
+    instance: str,
+    T_gt: np.ndarray,
+    T_est: np.ndarray | None,
+    *,
+    status: str = "ok",
+    axis=None,
+    category: str = "chair",
+    score: float = 1.0,
+    template: str = "0",
+) -> dict:
+    return {
+        "sample_id": f"{obs_id}|{template}",
+        "group_id": obs_id,
+        "obs_id": obs_id,
+        "category": category,
+        "instance_id": instance,
+        "status": status,
+        "error": "" if status == "ok" else "boom",
+        "T_est": None if T_est is None else T_est.reshape(-1).tolist(),
+        "T_gt": T_gt.reshape(-1).tolist(),
+        "symmetry_axis": axis,
+        "runtime_s": 0.5,
+        "score": score,
+        "err_deg": 0.0,
+        "trans_err": 0.0,
+    }
 
 
 def test_pair_indices():
@@ -63,9 +85,13 @@ def test_score_units_pairs_and_failures():
     rng = np.random.default_rng(2)
     gts = [make_T(random_rotation(rng), rng.normal(size=3)) for _ in range(3)]
     off = make_T(axis_angle_to_R(np.array([0, 1.0, 0]), np.radians(30)), np.zeros(3))
-    rows = [_row("chair/a/v0", "a", gts[0], gts[0]), _row("chair/a/v1", "a", gts[1], gts[1] @ off),
-            _row("chair/a/v2", "a", gts[2], gts[2]),
-            _row("chair/b/v0", "b", gts[0], None, status="failed"), _row("chair/b/v1", "b", gts[1], gts[1])]
+    rows = [
+        _row("chair/a/v0", "a", gts[0], gts[0]),
+        _row("chair/a/v1", "a", gts[1], gts[1] @ off),
+        _row("chair/a/v2", "a", gts[2], gts[2]),
+        _row("chair/b/v0", "b", gts[0], None, status="failed"),
+        _row("chair/b/v1", "b", gts[1], gts[1]),
+    ]
     df = pd.DataFrame(rows).sample(frac=1.0, random_state=0)  # order of the file does not matter
     units = Relative(template_source="own", pairs="consecutive").score_units(df)
     units = units.set_index("sample_id")
@@ -87,10 +113,12 @@ def test_score_units_category_templates_picks_lowest_score():
     rng = np.random.default_rng(3)
     g1, g2 = make_T(random_rotation(rng), np.zeros(3)), make_T(random_rotation(rng), np.zeros(3))
     bad = make_T(axis_angle_to_R(np.array([1.0, 0, 0]), np.radians(90)), np.zeros(3))
-    rows = [_row("car/x/v0", "x", g1, g1, category="car", score=0.1, template="0"),
-            _row("car/x/v0", "x", g1, g1 @ bad, category="car", score=0.9, template="1"),
-            _row("car/x/v1", "x", g2, g2 @ bad, category="car", score=0.5, template="0"),
-            _row("car/x/v1", "x", g2, g2, category="car", score=0.2, template="1")]
+    rows = [
+        _row("car/x/v0", "x", g1, g1, category="car", score=0.1, template="0"),
+        _row("car/x/v0", "x", g1, g1 @ bad, category="car", score=0.9, template="1"),
+        _row("car/x/v1", "x", g2, g2 @ bad, category="car", score=0.5, template="0"),
+        _row("car/x/v1", "x", g2, g2, category="car", score=0.2, template="1"),
+    ]
     units = Relative(template_source="category").score_units(pd.DataFrame(rows))
     assert len(units) == 1 and units.iloc[0]["err_deg"] == pytest.approx(0.0, abs=1e-4)
 
@@ -108,8 +136,9 @@ class _TinyDataset(ObjectDataset):
 
     def observation(self, obs_id: str) -> Observation:
         n = self._pts / np.linalg.norm(self._pts, axis=1, keepdims=True)
-        return Observation(obs_id, "mug", "i0", self._pts, n, np.array([0, -1.0, 0]), self._T[obs_id],
-                           info={"absolute_gt": False})
+        return Observation(
+            obs_id, "mug", "i0", self._pts, n, np.array([0, -1.0, 0]), self._T[obs_id], info={"absolute_gt": False}
+        )
 
     def _template(self, tid: str) -> Template:
         n = self._pts / np.linalg.norm(self._pts, axis=1, keepdims=True)
@@ -154,10 +183,20 @@ def test_runner_end_to_end(tmp_path: Path):
 
     from catpose.bench.run.runner import run
 
-    overrides = ["method=icp", "method.num_starts=2", "dataset=synthetic", "dataset.categories=[car]",
-                 "dataset.instances_per_category=1", "dataset.views_per_instance=3", "protocol=relative",
-                 "protocol.template_source=own", "protocol.pairs=all", f"output_root={tmp_path}", "progress=false",
-                 "print_summary=false"]
+    overrides = [
+        "method=icp",
+        "method.num_starts=2",
+        "dataset=synthetic",
+        "dataset.categories=[car]",
+        "dataset.instances_per_category=1",
+        "dataset.views_per_instance=3",
+        "protocol=relative",
+        "protocol.template_source=own",
+        "protocol.pairs=all",
+        f"output_root={tmp_path}",
+        "progress=false",
+        "print_summary=false",
+    ]
     with initialize_config_module("catpose.configs", version_base=None):
         cfg = compose("run", overrides=overrides)
     run_dir = run(cfg, overrides)
@@ -166,8 +205,11 @@ def test_runner_end_to_end(tmp_path: Path):
     from catpose.bench.report.tables import load_run, scored_units
 
     units = scored_units(load_run(run_dir))
-    assert sorted(units["sample_id"]) == ["car/000/v00~car/000/v01", "car/000/v00~car/000/v02",
-                                          "car/000/v01~car/000/v02"]
+    assert sorted(units["sample_id"]) == [
+        "car/000/v00~car/000/v01",
+        "car/000/v00~car/000/v02",
+        "car/000/v01~car/000/v02",
+    ]
     assert np.isfinite(units["err_deg"]).all()
 
 
@@ -187,9 +229,25 @@ def test_views_without_relative_ground_truth_are_not_scored():
     from catpose.bench.protocols.relative import Relative
 
     T = np.eye(4).reshape(-1).tolist()
-    rows = [dict(sample_id=f"chair/s1/v{k}", group_id=f"chair/s1/v{k}", obs_id=f"chair/s1/v{k}", category="chair",
-                 instance_id="s1", status="ok", T_est=T, T_gt=T, symmetry_axis=None, runtime_s=1.0, score=0.0,
-                 err_deg=0.0, trans_err=0.0, info={"relative_gt": False}) for k in range(3)]
+    rows = [
+        dict(
+            sample_id=f"chair/s1/v{k}",
+            group_id=f"chair/s1/v{k}",
+            obs_id=f"chair/s1/v{k}",
+            category="chair",
+            instance_id="s1",
+            status="ok",
+            T_est=T,
+            T_gt=T,
+            symmetry_axis=None,
+            runtime_s=1.0,
+            score=0.0,
+            err_deg=0.0,
+            trans_err=0.0,
+            info={"relative_gt": False},
+        )
+        for k in range(3)
+    ]
     assert len(Relative(template_source="own").score_units(pd.DataFrame(rows))) == 0
     for r in rows:  # a Redwood scan with a trajectory: relative but no absolute ground truth
         r["info"] = {"relative_gt": True, "absolute_gt": False}

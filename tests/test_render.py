@@ -62,7 +62,7 @@ def test_known_pixel_depth_is_analytic() -> None:
     R = axis_angle_to_R(np.array([0.0, 1.0, 0.0]), np.deg2rad(30.0))
     T_camera_object = make_T(R, np.array([0.0, 0.0, 3.0]))
     depth = render_depth(mesh.vertices, mesh.faces, T_camera_object, CAMERA)
-    n_camera = R @ np.array([0.0, 0.0, -1.0])        # front face (z = -0.2) normal, camera frame
+    n_camera = R @ np.array([0.0, 0.0, -1.0])  # front face (z = -0.2) normal, camera frame
     p_camera = transform_points(T_camera_object, np.array([[0.0, 0.0, -HALF[2]]]))[0]
     for row, col in [(60, 80), (70, 95), (52, 66)]:
         ray = np.array([(col - CAMERA.cx) / CAMERA.fx, (row - CAMERA.cy) / CAMERA.fy, 1.0])

@@ -11,8 +11,9 @@ import pandas as pd
 import pytest
 
 from catpose.bench.report import tables
+from catpose.bench.report.report_folder import build_report, qualitative_picks
+from catpose.bench.report.report_folder import main as report_main
 from catpose.bench.run.rundir import write_run
-from catpose.bench.report.report import build_report, main as report_main, qualitative_picks
 from catpose.errors import DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 
@@ -28,32 +29,62 @@ def _rows(errors: dict[str, list[float]], method: str, protocol: str) -> list[di
             obs = f"{cat}/{i:03d}/v00"
             T_gt = make_T(np.eye(3), np.array([0.0, 0.0, 2.0]))
             T_est = make_T(axis_angle_to_R(np.array([1.0, 0, 0]), np.radians(e)), np.array([0.0, 0.0, 2.0]))
-            rows.append({"sample_id": obs if protocol == "gt_model" else f"{obs}|0", "group_id": obs, "obs_id": obs,
-                         "category": cat, "instance_id": f"{i:03d}", "template_id": "t0", "method": method,
-                         "status": "ok", "error": "", "err_deg": e, "rot_err_deg": e, "trans_err": 0.0,
-                         "T_est": T_est.reshape(-1).tolist(), "T_gt": T_gt.reshape(-1).tolist(),
-                         "symmetric": False, "symmetry_axis": None, "score": 0.0, "runtime_s": 0.1 * (i + 1),
-                         "info": {}, "extras": {}})
+            rows.append(
+                {
+                    "sample_id": obs if protocol == "gt_model" else f"{obs}|0",
+                    "group_id": obs,
+                    "obs_id": obs,
+                    "category": cat,
+                    "instance_id": f"{i:03d}",
+                    "template_id": "t0",
+                    "method": method,
+                    "status": "ok",
+                    "error": "",
+                    "err_deg": e,
+                    "rot_err_deg": e,
+                    "trans_err": 0.0,
+                    "T_est": T_est.reshape(-1).tolist(),
+                    "T_gt": T_gt.reshape(-1).tolist(),
+                    "symmetric": False,
+                    "symmetry_axis": None,
+                    "score": 0.0,
+                    "runtime_s": 0.1 * (i + 1),
+                    "info": {},
+                    "extras": {},
+                }
+            )
     return rows
 
 
-def _run(root: Path, name: str, method: dict, protocol: dict = GT_MODEL, errors: dict | None = None,
-         overrides: list[str] | None = None) -> Path:
+def _run(
+    root: Path,
+    name: str,
+    method: dict,
+    protocol: dict = GT_MODEL,
+    errors: dict | None = None,
+    overrides: list[str] | None = None,
+) -> Path:
     """A frozen run directory named like the runner's (``<tag>-<hash>``), with its overrides file."""
     errors = errors or {"airplane": [1.0, 2.0, 40.0], "chair": [0.5, 90.0]}
     cfg = {"method": dict(method, _target_="x.Y"), "dataset": {"name": "toy"}, "protocol": protocol, "seed": 0}
-    out = write_run(root / f"toy-{protocol['name']}" / method["name"] / name,
-                    _rows(errors, method["name"], protocol["name"]), cfg)
+    out = write_run(
+        root / f"toy-{protocol['name']}" / method["name"] / name, _rows(errors, method["name"], protocol["name"]), cfg
+    )
     if overrides is not None:
-        (out / "overrides.txt").write_text("\n".join(["dataset=toy", "seed=0", "output_root=/abs/out",
-                                                      f"method={method['name']}"] + overrides) + "\n")
+        (out / "overrides.txt").write_text(
+            "\n".join(["dataset=toy", "seed=0", "output_root=/abs/out", f"method={method['name']}"] + overrides) + "\n"
+        )
     return out
 
 
 def test_labels_unique_by_the_distinguishing_override(tmp_path: Path):
     a = _run(tmp_path, "seed0-default-1a2b3c4d", {"name": "ours", "descriptor": "lps"}, overrides=[])
-    b = _run(tmp_path, "seed0-method.descriptor=pfh-5e6f7a8b", {"name": "ours", "descriptor": "pfh"},
-             overrides=["method.descriptor=pfh"])
+    b = _run(
+        tmp_path,
+        "seed0-method.descriptor=pfh-5e6f7a8b",
+        {"name": "ours", "descriptor": "pfh"},
+        overrides=["method.descriptor=pfh"],
+    )
     c = _run(tmp_path, "seed0-default-9c0d1e2f", {"name": "icp"}, overrides=[])
     runs = [tables.load_run(p) for p in (a, b, c)]
     assert tables.run_labels(runs) == ["Ours", "Ours (descriptor=pfh)", "ICP"]
@@ -86,10 +117,14 @@ def test_labels_pool_one_run_per_category(tmp_path: Path):
 
 
 def _picks_units(errors: list[float | None]) -> pd.DataFrame:
-    return pd.DataFrame({"sample_id": [f"s{i}" for i in range(len(errors))],
-                         "status": ["ok" if e is not None else "failed" for e in errors],
-                         "err_deg": [180.0 if e is None else e for e in errors],
-                         "T_est": [[0.0] if e is not None else None for e in errors]})
+    return pd.DataFrame(
+        {
+            "sample_id": [f"s{i}" for i in range(len(errors))],
+            "status": ["ok" if e is not None else "failed" for e in errors],
+            "err_deg": [180.0 if e is None else e for e in errors],
+            "T_est": [[0.0] if e is not None else None for e in errors],
+        }
+    )
 
 
 def test_qualitative_picks_worst_and_typical_failure():
@@ -110,11 +145,19 @@ def _links(text: str) -> list[str]:
 
 
 def test_report_per_protocol_relative_links(tmp_path: Path):
-    runs = [_run(tmp_path / "runs", "seed0-default-1a2b3c4d", {"name": "ours"}, overrides=[]),
-            _run(tmp_path / "runs", "seed0-method.descriptor=pfh-5e6f7a8b", {"name": "ours", "descriptor": "pfh"},
-                 overrides=["method.descriptor=pfh"]),
-            _run(tmp_path / "runs", "seed0-default-9c0d1e2f", {"name": "icp"}, TEMPLATES, overrides=["protocol=templates"]),
-            _run(tmp_path / "runs", "seed0-default-0a0b0c0d", {"name": "ours"}, TEMPLATES, overrides=["protocol=templates"])]
+    _runs = [
+        _run(tmp_path / "runs", "seed0-default-1a2b3c4d", {"name": "ours"}, overrides=[]),
+        _run(
+            tmp_path / "runs",
+            "seed0-method.descriptor=pfh-5e6f7a8b",
+            {"name": "ours", "descriptor": "pfh"},
+            overrides=["method.descriptor=pfh"],
+        ),
+        _run(tmp_path / "runs", "seed0-default-9c0d1e2f", {"name": "icp"}, TEMPLATES, overrides=["protocol=templates"]),
+        _run(
+            tmp_path / "runs", "seed0-default-0a0b0c0d", {"name": "ours"}, TEMPLATES, overrides=["protocol=templates"]
+        ),
+    ]
     out = tmp_path / "report"
     index = build_report([tmp_path / "runs"], out, layouts=["optimiser"], notes=["Made by the test."])
     md, page = index.read_text(), (out / "index.html").read_text()
@@ -135,7 +178,7 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
     assert "ICP" in tpl and "pfh" not in tpl
     assert len(gt[0].split(",")) <= 10  # methods + 7 pooled metrics, not categories x metrics
     # Hashes only in the list of run directories, nowhere in tables, legends or captions.
-    assert "Made by the test." in md and not HASH.search(md[md.index("## Protocol"):])
+    assert "Made by the test." in md and not HASH.search(md[md.index("## Protocol") :])
     for csv in (out / "figures").glob("*.csv"):
         assert not HASH.search(csv.read_text().split("\n", 1)[1].split(",")[0]), csv
     assert "<table>" in page and '<img src="figures/gt_model_error_cdf.png"' in page
@@ -151,18 +194,43 @@ def test_report_pictures_from_synthetic_run(tmp_path: Path):
     """The examples are rebuilt from the run's config (one rendered synthetic mug view, 2 views)."""
     from catpose.datasets.synthetic import SyntheticDataset
 
-    ds_cfg = {"name": "synthetic", "_target_": "catpose.datasets.synthetic.SyntheticDataset", "seed": 0,
-              "categories": ["mug"], "instances_per_category": 1, "views_per_instance": 3, "num_templates": 1,
-              "template_points": 512}
+    ds_cfg = {
+        "name": "synthetic",
+        "_target_": "catpose.datasets.synthetic.SyntheticDataset",
+        "seed": 0,
+        "categories": ["mug"],
+        "instances_per_category": 1,
+        "views_per_instance": 3,
+        "num_templates": 1,
+        "template_points": 512,
+    }
     ds = SyntheticDataset(**{k: v for k, v in ds_cfg.items() if k not in ("name", "_target_")})
     rows = []
     for k, obs_id in enumerate(ds.observation_ids()):
         T_gt = np.asarray(ds.observation(obs_id).T_object_camera, float)
         T_est = make_T(axis_angle_to_R(np.array([0, 0, 1.0]), np.radians(40 * k)), np.zeros(3)) @ T_gt
-        rows.append({"sample_id": obs_id, "group_id": obs_id, "obs_id": obs_id, "category": "mug", "instance_id": "000",
-                     "method": "ours", "status": "ok", "error": "", "err_deg": 40.0 * k, "rot_err_deg": 40.0 * k,
-                     "trans_err": 0.0, "T_est": T_est.reshape(-1).tolist(), "T_gt": T_gt.reshape(-1).tolist(),
-                     "symmetry_axis": None, "score": 0.1, "runtime_s": 0.2, "info": {}, "extras": {}})
+        rows.append(
+            {
+                "sample_id": obs_id,
+                "group_id": obs_id,
+                "obs_id": obs_id,
+                "category": "mug",
+                "instance_id": "000",
+                "method": "ours",
+                "status": "ok",
+                "error": "",
+                "err_deg": 40.0 * k,
+                "rot_err_deg": 40.0 * k,
+                "trans_err": 0.0,
+                "T_est": T_est.reshape(-1).tolist(),
+                "T_gt": T_gt.reshape(-1).tolist(),
+                "symmetry_axis": None,
+                "score": 0.1,
+                "runtime_s": 0.2,
+                "info": {},
+                "extras": {},
+            }
+        )
     cfg = {"method": {"name": "ours", "_target_": "x.Y"}, "dataset": ds_cfg, "protocol": GT_MODEL, "seed": 0}
     run = write_run(tmp_path / "run_ours", rows, cfg)
     index = build_report([run], tmp_path / "report", qualitative=2, pdf=False)
@@ -179,7 +247,9 @@ def test_a_user_label_is_kept_beside_other_runs_of_the_method(tmp_path: Path):
     """make_results.sh labels the row=ours run "Ours" beside other runs of ours: the label stays
     "Ours" (it was "Ours (row=ours)"), the others are told apart from it."""
     a = _run(tmp_path, "seed0-+row=ours-1a2b3c4d", {"name": "ours"}, overrides=["+row=ours"])
-    b = _run(tmp_path, "seed0-+row=ours_pfh-5e6f7a8b", {"name": "ours", "descriptor": "pfh"}, overrides=["+row=ours_pfh"])
+    b = _run(
+        tmp_path, "seed0-+row=ours_pfh-5e6f7a8b", {"name": "ours", "descriptor": "pfh"}, overrides=["+row=ours_pfh"]
+    )
     runs = [tables.load_run(p) for p in (a, b)]
     assert tables.run_labels(runs, tables.parse_labels([f"{a}=Ours"])) == ["Ours", "Ours (row=ours_pfh)"]
 
@@ -201,8 +271,12 @@ def test_report_index_links_every_file_and_stale_files_go(tmp_path: Path):
 def unlinked_report_files(folder: Path, index_text: str) -> list[str]:
     """Files under a report folder's tables/ and figures/ that its index does not link."""
     linked = set(_links(index_text))
-    return [f"{d}/{f.name}" for d in ("tables", "figures") for f in sorted((folder / d).glob("*"))
-            if f"{d}/{f.name}" not in linked]
+    return [
+        f"{d}/{f.name}"
+        for d in ("tables", "figures")
+        for f in sorted((folder / d).glob("*"))
+        if f"{d}/{f.name}" not in linked
+    ]
 
 
 def test_committed_report_links_every_file(repo_root: Path):

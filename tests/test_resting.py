@@ -35,10 +35,10 @@ def test_a_cube_rests_on_each_face_alike():
 def test_a_cylinders_side_poses_merge_into_one_class_under_its_symmetry():
     cyl = trimesh.creation.cylinder(radius=0.3, height=1.0, sections=32)
     ups = resting_ups(cyl.vertices)
-    assert len(ups) > 3                                  # each side facet is its own face
+    assert len(ups) > 3  # each side facet is its own face
     classes = up_classes(ups, np.array([0.0, 0.0, 1.0]))
     angles = sorted(round(float(np.degrees(np.arccos(np.clip(r.up[2], -1, 1))))) for r in classes)
-    assert angles == [0, 90, 180]                        # upright, on its side, upside down
+    assert angles == [0, 90, 180]  # upright, on its side, upside down
     side = next(r for r in classes if abs(r.up[2]) < 0.5)
     assert side.probability == pytest.approx(sum(r.probability for r in ups if abs(r.up[2]) < 0.5), abs=1e-6)
 
@@ -47,16 +47,18 @@ def test_rotation_between_takes_a_onto_b_including_opposite_vectors():
     rng = np.random.default_rng(0)
     for a, b in [(rng.normal(size=3), rng.normal(size=3)), ([0, 0, 1.0], [0, 0, -1.0]), ([1.0, 0, 0], [1.0, 0, 0])]:
         R = rotation_between(np.asarray(a), np.asarray(b))
-        np.testing.assert_allclose(R @ (np.asarray(a) / np.linalg.norm(a)), np.asarray(b) / np.linalg.norm(b),
-                                   atol=1e-12)
+        np.testing.assert_allclose(
+            R @ (np.asarray(a) / np.linalg.norm(a)), np.asarray(b) / np.linalg.norm(b), atol=1e-12
+        )
         np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
         assert np.linalg.det(R) == pytest.approx(1.0)
 
 
 def _template(mesh: trimesh.Trimesh, axis=None) -> Template:
     pts, idx = trimesh.sample.sample_surface_even(mesh, 600, seed=1)
-    return Template("test/box", "box", pts, mesh.face_normals[idx], vertices=mesh.vertices, triangles=mesh.faces,
-                    symmetry_axis=axis)
+    return Template(
+        "test/box", "box", pts, mesh.face_normals[idx], vertices=mesh.vertices, triangles=mesh.faces, symmetry_axis=axis
+    )
 
 
 def test_hypotheses_start_with_the_templates_up_and_turn_each_resting_direction_up():
@@ -72,8 +74,9 @@ def test_hypotheses_start_with_the_templates_up_and_turn_each_resting_direction_
         T[:3, 3] = [0.1, 0.2, 3.0]
         p_turned = T[:3, :3] @ np.array([0.3, -0.2, 0.1]) + T[:3, 3]
         T_t = h.to_template(T)
-        np.testing.assert_allclose(h.R_turned_template.T @ p_turned,
-                                   T_t[:3, :3] @ np.array([0.3, -0.2, 0.1]) + T_t[:3, 3], atol=1e-12)
+        np.testing.assert_allclose(
+            h.R_turned_template.T @ p_turned, T_t[:3, :3] @ np.array([0.3, -0.2, 0.1]) + T_t[:3, 3], atol=1e-12
+        )
     only_own = hypotheses(tpl, RestingSettings(max_poses=0))
     assert len(only_own) == 1 and only_own[0].template is tpl
 
@@ -86,11 +89,11 @@ def test_hypotheses_of_a_symmetric_template_skip_what_its_symmetry_makes_equal()
 
 
 def test_yaw_turns_are_rotations_about_the_up_after_the_half_turns():
-    from catpose.methods.selection import half_turns, yaw_and_half_turns
+    from catpose.methods.pose_scores import half_turns, yaw_and_half_turns
 
     assert np.array_equal(yaw_and_half_turns(np.array([0.0, 0.0, 1.0]), 0), half_turns())
     turns = yaw_and_half_turns(np.array([0.0, 0.0, 2.0]), 12)
-    assert len(turns) == 4 + 12 - 2                      # identity and the 180-degree turn are half turns already
+    assert len(turns) == 4 + 12 - 2  # identity and the 180-degree turn are half turns already
     assert np.array_equal(turns[:4], half_turns())
     up = np.array([0.0, 0.0, 1.0])
     angles = []

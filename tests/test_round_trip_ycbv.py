@@ -36,10 +36,27 @@ LIMIT = 3
 def run_and_export(method: str, shared_data: Path, tmp_path: Path) -> tuple[Path, Path]:
     """``bench run`` (a child process, as a user runs it) and ``bench export``: (run dir, CSV)."""
     root = shared_data / "bop" / "ycbv"
-    r = subprocess.run([sys.executable, "-m", "catpose.bench.cli", "run", f"method={method}", "dataset=ycbv",
-                        f"dataset.root={root}", f"limit={LIMIT}", "progress=false", "print_summary=false", "threads=1",
-                        f"output_root={tmp_path / 'out'}"], capture_output=True, text=True, cwd=tmp_path, timeout=900,
-                       env=dict(os.environ, HYDRA_FULL_ERROR="0"))
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "catpose.bench.cli",
+            "run",
+            f"method={method}",
+            "dataset=ycbv",
+            f"dataset.root={root}",
+            f"limit={LIMIT}",
+            "progress=false",
+            "print_summary=false",
+            "threads=1",
+            f"output_root={tmp_path / 'out'}",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=900,
+        env=dict(os.environ, HYDRA_FULL_ERROR="0"),
+    )
     if r.returncode == 2 and "is not importable" in r.stderr:  # teaserpp without TEASER++'s bindings
         pytest.skip(r.stderr.strip().splitlines()[-1])
     assert r.returncode == 0, r.stderr[-3000:]
@@ -87,14 +104,18 @@ def check_score_command_with_a_missing_target(run_dir: Path, csv: Path, tmp_path
     part.write_text("\n".join([header, *rest]) + "\n")
     out = tmp_path / "scored"
     capsys.readouterr()
-    assert bench(["score", str(part), "--gt", str(run_dir), "--out", str(out), "--no-vsd",
-                  "--metrics", "adds@0.1,5deg5cm"]) == 0
+    assert (
+        bench(
+            ["score", str(part), "--gt", str(run_dir), "--out", str(out), "--no-vsd", "--metrics", "adds@0.1,5deg5cm"]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     n_run = len(read_rows(run_dir / "samples.jsonl"))
     assert f"{len(rest)} prediction rows; {len(rest)} of {n_run} samples scored" in text
     header_line = json.loads((out / "bop_errors.jsonl").read_text().splitlines()[0])["header"]
     assert header_line["matched"] == len(rest)  # every estimate matched its target, the missing one is a miss
-    assert header_line["targets"] > len(rest)   # the split's other targets: misses too, as in bop_toolkit
+    assert header_line["targets"] > len(rest)  # the split's other targets: misses too, as in bop_toolkit
     misses = [json.loads(x) for x in (out / "bop_errors.jsonl").read_text().splitlines()[1:]]
     assert all(r["adds"] == float("inf") for r in misses if not r["matched"])
 
@@ -107,8 +128,7 @@ def test_icp_round_trip_with_every_subset_of_targets_missing(shared_data: Path, 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["ours", "fgr", "ransac", "teaser", "teaserpp"])
-def test_every_method_round_trips_with_every_subset_of_targets_missing(method: str, shared_data: Path,
-                                                                       tmp_path: Path):
+def test_every_method_round_trips_with_every_subset_of_targets_missing(method: str, shared_data: Path, tmp_path: Path):
     run_dir, csv = run_and_export(method, shared_data, tmp_path)
     n_lines = len(csv.read_text().splitlines()) - 1
-    assert check_every_subset(run_dir, csv, tmp_path) == 2 ** n_lines
+    assert check_every_subset(run_dir, csv, tmp_path) == 2**n_lines

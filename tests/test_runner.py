@@ -9,7 +9,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 import pytest
 from hydra import compose, initialize_config_module
@@ -28,13 +27,22 @@ def _toy_on_path(monkeypatch):
 
 def make_cfg(tmp_path: Path, special=(), method_kwargs=None, overrides=()):
     with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
-        cfg = compose(config_name="run", overrides=[f"output_root={tmp_path / 'out'}", "progress=false",
-                                                    "print_summary=false", *overrides])
+        cfg = compose(
+            config_name="run",
+            overrides=[f"output_root={tmp_path / 'out'}", "progress=false", "print_summary=false", *overrides],
+        )
     OmegaConf.set_struct(cfg, False)
-    cfg.dataset = OmegaConf.create({"name": "toy", "_target_": "toy_dataset.ToyDataset", "seed": 0,
-                                    "num_views": 4, "special": list(special)})
-    cfg.method = OmegaConf.create({"name": "oracle", "_target_": "toy_dataset.Oracle",
-                                   "count_file": str(tmp_path / "calls.txt"), **(method_kwargs or {})})
+    cfg.dataset = OmegaConf.create(
+        {"name": "toy", "_target_": "toy_dataset.ToyDataset", "seed": 0, "num_views": 4, "special": list(special)}
+    )
+    cfg.method = OmegaConf.create(
+        {
+            "name": "oracle",
+            "_target_": "toy_dataset.Oracle",
+            "count_file": str(tmp_path / "calls.txt"),
+            **(method_kwargs or {}),
+        }
+    )
     return cfg
 
 
@@ -44,8 +52,11 @@ def calls(tmp_path: Path) -> list[str]:
 
 
 def test_run_writes_the_long_table_and_records_failures(tmp_path):
-    cfg = make_cfg(tmp_path, special=["load_error", "empty", "nan", "collinear"],
-                   method_kwargs={"fail_on": ["v1"], "nan_on": ["v2"]})
+    cfg = make_cfg(
+        tmp_path,
+        special=["load_error", "empty", "nan", "collinear"],
+        method_kwargs={"fail_on": ["v1"], "nan_on": ["v2"]},
+    )
     out = run(cfg)
     rows = {r["sample_id"]: r for r in read_rows(out / "samples.jsonl")}
     assert len(rows) == 8
@@ -107,17 +118,21 @@ def test_batched_runs_give_the_same_table_and_isolate_a_bad_sample(tmp_path):
     cfg.method._target_ = "toy_dataset.BatchOracle"
     out = run(cfg)
     rows_3 = {r["sample_id"]: r for r in read_rows(out / "samples.jsonl")}
-    assert run_dir_for(cfg, ["batch=3"]) == run_dir_for(cfg, []) == out   # batch is not part of the name
+    assert run_dir_for(cfg, ["batch=3"]) == run_dir_for(cfg, []) == out  # batch is not part of the name
     assert rows_3.keys() == rows_1.keys()
     for sid, r in rows_1.items():
-        assert (r["status"], r["error"], r.get("T_est")) == (rows_3[sid]["status"], rows_3[sid]["error"],
-                                                              rows_3[sid].get("T_est")), sid
+        assert (r["status"], r["error"], r.get("T_est")) == (
+            rows_3[sid]["status"],
+            rows_3[sid]["error"],
+            rows_3[sid].get("T_est"),
+        ), sid
     log = calls(tmp_path / "b")
     # samples v0 v1 v2 | v3 load_error: the first batch fails (v1) and registers one by one; the
     # second has one loadable sample and registers alone
     assert log[0] == "batch:3" and "batch:2" not in log
     assert sorted(x for x in log if not x.startswith("batch")) == sorted(
-        s for s, r in rows_1.items() if r["stage"] != "load")
+        s for s, r in rows_1.items() if r["stage"] != "load"
+    )
     with pytest.raises(Exception, match="batch=0 is not an integer >= 1"):
         run(make_cfg(tmp_path / "c", overrides=["batch=0"]))
 
@@ -161,10 +176,17 @@ def test_same_seed_same_table(tmp_path):
 def test_templates_protocol_selects_by_score_and_reports_oracle(tmp_path):
     from catpose.bench.protocols.absolute import Templates
 
-    df = pd.DataFrame({
-        "group_id": ["o1", "o1", "o2", "o2"], "category": ["c"] * 4, "status": ["ok", "ok", "ok", "failed"],
-        "score": [2.0, 1.0, 5.0, None], "err_deg": [3.0, 50.0, 7.0, 180.0], "trans_err": [0.1, 0.2, 0.3, None],
-        "runtime_s": [1.0, 1.0, 2.0, 2.0]})
+    df = pd.DataFrame(
+        {
+            "group_id": ["o1", "o1", "o2", "o2"],
+            "category": ["c"] * 4,
+            "status": ["ok", "ok", "ok", "failed"],
+            "score": [2.0, 1.0, 5.0, None],
+            "err_deg": [3.0, 50.0, 7.0, 180.0],
+            "trans_err": [0.1, 0.2, 0.3, None],
+            "runtime_s": [1.0, 1.0, 2.0, 2.0],
+        }
+    )
     units = Templates(choice="score").score_units(df).set_index("group_id")
     assert units.loc["o1", "err_deg"] == 50.0 and units.loc["o1", "oracle_err_deg"] == 3.0
     assert units.loc["o2", "err_deg"] == 7.0 and units.loc["o2", "runtime_s"] == 4.0
@@ -173,9 +195,18 @@ def test_templates_protocol_selects_by_score_and_reports_oracle(tmp_path):
 def test_views_without_absolute_ground_truth_are_not_scored():
     from catpose.bench.protocols.absolute import GtModel, Templates
 
-    df = pd.DataFrame({"group_id": ["a", "b"], "category": ["c", "c"], "status": ["ok", "ok"], "score": [1.0, 1.0],
-                       "err_deg": [3.0, 100.0], "trans_err": [0.1, 0.1], "runtime_s": [1.0, 1.0],
-                       "info": [{}, {"absolute_gt": False}]})
+    df = pd.DataFrame(
+        {
+            "group_id": ["a", "b"],
+            "category": ["c", "c"],
+            "status": ["ok", "ok"],
+            "score": [1.0, 1.0],
+            "err_deg": [3.0, 100.0],
+            "trans_err": [0.1, 0.1],
+            "runtime_s": [1.0, 1.0],
+            "info": [{}, {"absolute_gt": False}],
+        }
+    )
     assert GtModel().score_units(df)["err_deg"].tolist() == [3.0]
     assert Templates().score_units(df)["err_deg"].tolist() == [3.0]
 
@@ -204,8 +235,11 @@ def test_import_and_memory_errors_abort_the_run_and_record_nothing(tmp_path, mon
     out = run(cfg)
     (out / "samples.jsonl").unlink()
     real = toy_dataset.Oracle.register
-    for exc, needle in [(ModuleNotFoundError("No module named 'nosuch'", name="nosuch"), "cannot import nosuch"),
-                        (MemoryError(), "out of memory on sample block/0/v1")]:
+    for exc, needle in [
+        (ModuleNotFoundError("No module named 'nosuch'", name="nosuch"), "cannot import nosuch"),
+        (MemoryError(), "out of memory on sample block/0/v1"),
+    ]:
+
         def register(self, problem, exc=exc):
             if problem.sample_id.endswith("v1"):
                 raise exc
@@ -299,25 +333,47 @@ sys.exit(1)
 
 
 def test_ctrl_c_swallowed_by_trimesh_during_its_import_still_stops_the_run():
-    r = subprocess.run([sys.executable, "-c", _SWALLOWED_IN_TRIMESH], capture_output=True, text=True, timeout=300,
-                       preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    r = subprocess.run(
+        [sys.executable, "-c", _SWALLOWED_IN_TRIMESH],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     # trimesh did swallow it (its Path3D became an ExceptionWrapper, and then its import failed with a
     # TypeError), and the run stopped with KeyboardInterrupt anyway
-    assert r.returncode == 0 and r.stdout.startswith("Ctrl-C;") and r.stdout.strip().endswith("stopped"), (r.stdout, r.stderr[-2000:])
+    assert r.returncode == 0 and r.stdout.startswith("Ctrl-C;") and r.stdout.strip().endswith("stopped"), (
+        r.stdout,
+        r.stderr[-2000:],
+    )
 
 
 BENCH = [sys.executable, "-m", "catpose.bench.cli"]
-TINY_RUN = ["run", "method=icp", "dataset=synthetic", "dataset.categories=[car,bottle]",
-            "dataset.instances_per_category=1", "dataset.views_per_instance=2", "limit=3", "progress=false"]
+TINY_RUN = [
+    "run",
+    "method=icp",
+    "dataset=synthetic",
+    "dataset.categories=[car,bottle]",
+    "dataset.instances_per_category=1",
+    "dataset.views_per_instance=2",
+    "limit=3",
+    "progress=false",
+]
 
 
 def _start_bench(tmp_path: Path, env_extra: dict[str, str] | None = None) -> subprocess.Popen:
     # SIGINT at its default even where the test runner was started with it ignored (nohup, CI)
     import os
 
-    return subprocess.Popen([*BENCH, *TINY_RUN, f"output_root={tmp_path}"], cwd=tmp_path, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=dict(os.environ, **(env_extra or {})),
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    return subprocess.Popen(
+        [*BENCH, *TINY_RUN, f"output_root={tmp_path}"],
+        cwd=tmp_path,
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=dict(os.environ, **(env_extra or {})),
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
 
 
 def _interrupt(p: subprocess.Popen) -> tuple[str, float]:
@@ -343,7 +399,7 @@ def _check_clean_abort(p: subprocess.Popen, err: str, tmp_path: Path) -> None:
 #: whatever the machine's speed (the KeyboardInterrupt surfaces from that import, as a real Ctrl-C
 #: there would).
 _HOLD_IMPORT = """
-import sys, time
+import sys, threading
 
 class _HoldImport:
     def __init__(self, target):
@@ -354,8 +410,7 @@ class _HoldImport:
             self.fired = True
             sys.stderr.write("catpose-test: importing " + name + "\\n")
             sys.stderr.flush()
-            while True:
-                time.sleep(0.05)
+            threading.Event().wait()  # hold the import until the test's signal ends the process
         return None
 
 sys.meta_path.insert(0, _HoldImport(TARGET))
@@ -386,13 +441,17 @@ def test_ctrl_c_mid_loop_then_rerun_completes(tmp_path):
     p = _start_bench(tmp_path)
     deadline = time.monotonic() + 120
     while not _rows(tmp_path) and time.monotonic() < deadline and p.poll() is None:
-        time.sleep(0.05)
+        try:  # wait for the process a moment, then look for its first row again
+            p.wait(timeout=0.05)
+        except subprocess.TimeoutExpired:
+            pass
     err, _ = _interrupt(p)
     _check_clean_abort(p, err, tmp_path)
     n_before = len(_rows(tmp_path))
     assert 1 <= n_before < 3
-    r = subprocess.run([*BENCH, *TINY_RUN, f"output_root={tmp_path}"], cwd=tmp_path, capture_output=True,
-                       text=True, timeout=300)
+    r = subprocess.run(
+        [*BENCH, *TINY_RUN, f"output_root={tmp_path}"], cwd=tmp_path, capture_output=True, text=True, timeout=300
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     run_dir = next(tmp_path.glob("*/*/*"))
     assert json.loads((run_dir / "run.json").read_text())["n_run_now"] == 3 - n_before
@@ -408,9 +467,19 @@ def test_run_json_records_the_environment(tmp_path):
     from catpose.bench.run.runner import run
 
     with initialize_config_module("catpose.configs", version_base=None):
-        cfg = compose("run", overrides=["method=icp", "method.num_starts=1", "dataset.categories=[bowl]",
-                                        "dataset.instances_per_category=1", "dataset.views_per_instance=1",
-                                        f"output_root={tmp_path}", "progress=false", "print_summary=false"])
+        cfg = compose(
+            "run",
+            overrides=[
+                "method=icp",
+                "method.num_starts=1",
+                "dataset.categories=[bowl]",
+                "dataset.instances_per_category=1",
+                "dataset.views_per_instance=1",
+                f"output_root={tmp_path}",
+                "progress=false",
+                "print_summary=false",
+            ],
+        )
     env = json.loads((run(cfg) / "run.json").read_text())["environment"]
     assert {"numpy", "scipy", "torch", "trimesh"} <= set(env["versions"])
     assert env["cpu"] and isinstance(env["blas"], list)

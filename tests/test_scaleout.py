@@ -19,8 +19,15 @@ import pytest
 from catpose.errors import ConfigError, DatasetError
 
 BENCH = [sys.executable, "-m", "catpose.bench.cli"]
-TINY = ["dataset=synthetic", "dataset.categories=[car,bottle]", "dataset.instances_per_category=1",
-        "dataset.views_per_instance=2", "progress=false", "print_summary=false", "threads=1"]
+TINY = [
+    "dataset=synthetic",
+    "dataset.categories=[car,bottle]",
+    "dataset.instances_per_category=1",
+    "dataset.views_per_instance=2",
+    "progress=false",
+    "print_summary=false",
+    "threads=1",
+]
 GRID = ["method=icp,fgr", "seed=0,1"]  # 2 methods x 2 seeds
 
 
@@ -30,8 +37,10 @@ def bench(*args: str, cwd: Path, timeout: int = 900) -> subprocess.CompletedProc
 
 
 def needs(plugin: str):
-    found = importlib.util.find_spec("hydra_plugins") is not None and \
-        importlib.util.find_spec(f"hydra_plugins.{plugin}") is not None
+    found = (
+        importlib.util.find_spec("hydra_plugins") is not None
+        and importlib.util.find_spec(f"hydra_plugins.{plugin}") is not None
+    )
     return pytest.mark.skipif(not found, reason=f"{plugin} is not installed (the cluster extra: make cluster)")
 
 
@@ -47,7 +56,9 @@ def estimates(root: Path) -> dict[str, list]:
 
     out = {}
     for p in sorted(root.glob("synthetic-*/*/*/samples.jsonl")):
-        out[f"{p.parent.parent.name}/{p.parent.name}"] = [(r["sample_id"], r["T_est"], r["status"]) for r in latest_rows(p)]
+        out[f"{p.parent.parent.name}/{p.parent.name}"] = [
+            (r["sample_id"], r["T_est"], r["status"]) for r in latest_rows(p)
+        ]
     return out
 
 
@@ -80,10 +91,16 @@ def test_shards_partition_the_ids_in_order():
         assert interleaved == ids  # round-robin restores the run order (what merge relies on)
 
 
-@pytest.mark.parametrize("shard, shards, needle", [
-    (None, 4, "shards=4 needs shard=I"), (4, 4, "out of range"), (-1, 2, "out of range"),
-    ("a", 2, "shard='a' is not an integer"), (0, 0, "N >= 1"),
-])
+@pytest.mark.parametrize(
+    "shard, shards, needle",
+    [
+        (None, 4, "shards=4 needs shard=I"),
+        (4, 4, "out of range"),
+        (-1, 2, "out of range"),
+        ("a", 2, "shard='a' is not an integer"),
+        (0, 0, "N >= 1"),
+    ],
+)
 def test_bad_shard_values_name_the_key(shard, shards, needle):
     from catpose.bench.run.merge import parse_shard
 
@@ -106,7 +123,9 @@ def test_merge_restores_order_and_names_a_missing_shard(tmp_path):
         mine = shard_ids(ids, i, 3)
         write_shard_meta(tmp_path, i, 3, mine, finished=True)
         # written in reverse order, and one sample twice (a retry): the last row counts
-        rows = [{"sample_id": s, "status": "ok", "v": 1} for s in reversed(mine)] + [{"sample_id": mine[0], "status": "ok", "v": 2}]
+        rows = [{"sample_id": s, "status": "ok", "v": 1} for s in reversed(mine)] + [
+            {"sample_id": mine[0], "status": "ok", "v": 2}
+        ]
         (tmp_path / shard_samples_file(i, 3)).write_text("".join(json.dumps(r) + "\n" for r in rows))
     merged = merged_rows(tmp_path)
     assert [r["sample_id"] for r in merged] == ids
@@ -134,9 +153,7 @@ def test_each_sweep_gets_its_own_directory_and_a_failed_job_fails_it(tmp_path):
     r = bench("table", "--sweep", str(first), cwd=tmp_path)
     assert r.returncode == 2 and "job 1" in r.stderr and "failed" in r.stderr
 
-    import time
-
-    time.sleep(1.1)  # sweep directories are named to the second
+    # a second sweep at once: sweep directories are named to the microsecond, so it gets its own
     r = bench("run", "-m", "method=icp", "limit=1", *TINY, f"output_root={tmp_path}", cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]
     second = [d for d in sweep_dirs(tmp_path) if d != first]
@@ -178,8 +195,16 @@ def test_sharded_run_equals_serial_bit_for_bit(tmp_path, shards):
     serial_root, sharded_root = tmp_path / "serial", tmp_path / "sharded"
     r = bench("run", "method=icp", *TINY, f"output_root={serial_root}", cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]
-    r = bench("run", "-m", "method=icp", *TINY, f"shards={shards}", f"shard=range({shards})",
-              f"output_root={sharded_root}", cwd=tmp_path)
+    r = bench(
+        "run",
+        "-m",
+        "method=icp",
+        *TINY,
+        f"shards={shards}",
+        f"shard=range({shards})",
+        f"output_root={sharded_root}",
+        cwd=tmp_path,
+    )
     assert r.returncode == 0, r.stderr[-3000:]
     (run_dir,) = sharded_root.glob("synthetic-gt_model/icp/*")
     assert len(list(run_dir.glob("samples.shard-*-of-*.jsonl"))) == shards
@@ -212,8 +237,17 @@ def test_joblib_sweep_equals_serial(serial, tmp_path):
 @pytest.mark.slow
 @needs("hydra_joblib_launcher")
 def test_joblib_sweep_with_a_failed_job_exits_non_zero(tmp_path):
-    r = bench("run", "-m", "hydra/launcher=local_procs", "method=icp", "dataset=synthetic,modelnet40", "limit=1",
-              *TINY[1:], f"output_root={tmp_path}", cwd=tmp_path)
+    r = bench(
+        "run",
+        "-m",
+        "hydra/launcher=local_procs",
+        "method=icp",
+        "dataset=synthetic,modelnet40",
+        "limit=1",
+        *TINY[1:],
+        f"output_root={tmp_path}",
+        cwd=tmp_path,
+    )
     assert r.returncode == 2 and "1 of 2 jobs ok, 1 failed" in r.stderr, r.stderr[-3000:]
 
 
@@ -222,8 +256,17 @@ def test_joblib_sweep_with_a_failed_job_exits_non_zero(tmp_path):
 def test_local_ray_sweep_equals_serial(serial, tmp_path):
     # a local Ray with 2 CPUs (configs/hydra/launcher/ray_local.yaml); a failed job fails the sweep
     _assert_sweep_equals_serial("ray_local", serial, tmp_path)
-    r = bench("run", "-m", "hydra/launcher=ray_local", "method=icp", "dataset=synthetic,modelnet40", "limit=1",
-              *TINY[1:], f"output_root={tmp_path / 'failing'}", cwd=tmp_path)
+    r = bench(
+        "run",
+        "-m",
+        "hydra/launcher=ray_local",
+        "method=icp",
+        "dataset=synthetic,modelnet40",
+        "limit=1",
+        *TINY[1:],
+        f"output_root={tmp_path / 'failing'}",
+        cwd=tmp_path,
+    )
     assert r.returncode == 2 and "1 failed" in r.stderr, r.stderr[-3000:]
 
 
@@ -231,8 +274,16 @@ def test_local_ray_sweep_equals_serial(serial, tmp_path):
 @needs("hydra_submitit_launcher")
 def test_submitit_local_sweep_equals_serial(serial, tmp_path):
     # submitit's local executor: the Slurm path without Slurm (`make slurm-check` runs a real one)
-    r = bench("run", "-m", "hydra/launcher=submitit_local", "hydra.launcher.timeout_min=20", *GRID, *TINY,
-              f"output_root={tmp_path}", cwd=tmp_path)
+    r = bench(
+        "run",
+        "-m",
+        "hydra/launcher=submitit_local",
+        "hydra.launcher.timeout_min=20",
+        *GRID,
+        *TINY,
+        f"output_root={tmp_path}",
+        cwd=tmp_path,
+    )
     assert r.returncode == 0, r.stderr[-3000:]
     assert table(tmp_path, tmp_path) == table(serial, tmp_path)
     assert estimates(tmp_path) == estimates(serial)

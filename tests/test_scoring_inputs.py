@@ -40,12 +40,15 @@ def gt(tmp_path) -> Path:
 # 5. scoring only what is a pose
 
 
-@pytest.mark.parametrize("R, why", [
-    ("0 0 0 0 0 0 0 0 0", "det R = 0"),                       # all zeros: was scored as the identity
-    ("5 0 0 0 5 0 0 0 5", "max |R^T R - I| = 24"),            # 5 R: was scored as perfect
-    ("1 0 0 0 1 0 0 0 -1", "det R = -1"),                      # a reflection: was scored as a rotation
-    ("1 0 0 0 1 0 0 0 1.01", "max |R^T R - I| = 0.0201"),     # 1e-2 off: beyond the 1e-3 tolerance
-])
+@pytest.mark.parametrize(
+    "R, why",
+    [
+        ("0 0 0 0 0 0 0 0 0", "det R = 0"),  # all zeros: was scored as the identity
+        ("5 0 0 0 5 0 0 0 5", "max |R^T R - I| = 24"),  # 5 R: was scored as perfect
+        ("1 0 0 0 1 0 0 0 -1", "det R = -1"),  # a reflection: was scored as a rotation
+        ("1 0 0 0 1 0 0 0 1.01", "max |R^T R - I| = 0.0201"),  # 1e-2 off: beyond the 1e-3 tolerance
+    ],
+)
 def test_a_matrix_that_is_not_a_rotation_is_refused_with_its_line(tmp_path, gt, capsys, R, why):
     path = tmp_path / "p.csv"
     path.write_text(f"sample_id,R,t\nmug/i0/v0,{ROT},0 0 0\nmug/i1/v0,{R},0 0 0\n")
@@ -70,11 +73,13 @@ def test_per_sample_duplicates_keep_the_last_row_as_runs_do_and_are_counted(tmp_
     def turned(deg: float) -> str:  # R of an estimate turned by deg about z
         return " ".join(map(str, np.reshape(rows([deg])[0]["T_est"], (4, 4))[:3, :3].ravel()))
 
-    (tmp_path / "p.csv").write_text("sample_id,R,t,score\n"
-                                    f"mug/i0/v0,{turned(30.0)},0 0 0,0.1\n"
-                                    f"mug/i0/v0,{turned(3.0)},0 0 0,0.9\n"
-                                    f"mug/i9/v0,{ROT},0 0 0,0.1\n"
-                                    f"nosuch,{ROT},0 0 0,0.1\n")
+    (tmp_path / "p.csv").write_text(
+        "sample_id,R,t,score\n"
+        f"mug/i0/v0,{turned(30.0)},0 0 0,0.1\n"
+        f"mug/i0/v0,{turned(3.0)},0 0 0,0.9\n"
+        f"mug/i9/v0,{ROT},0 0 0,0.1\n"
+        f"nosuch,{ROT},0 0 0,0.1\n"
+    )
     stats: dict = {}
     out = score_predictions(read_predictions(tmp_path / "p.csv"), gt_rows_from_run(gt)[0], "m", stats=stats)
     assert out[0]["err_deg"] == pytest.approx(3.0, abs=1e-6)  # the last row of mug/i0/v0
@@ -106,8 +111,9 @@ def test_bop_duplicates_keep_the_highest_score_and_missing_targets_are_misses(tm
     worse[3], worse[4] = "0.01", ROT  # a lower-scored second estimate of image 0: ignored, counted
     unknown = lines[1].split(",")
     unknown[2] = "77"  # an object no sample has
-    (tmp_path / "x_toy-test.csv").write_text("\n".join([lines[0], lines[1], ",".join(worse), lines[3],
-                                                        ",".join(unknown)]) + "\n")  # image 1 (line 3) missing
+    (tmp_path / "x_toy-test.csv").write_text(
+        "\n".join([lines[0], lines[1], ",".join(worse), lines[3], ",".join(unknown)]) + "\n"
+    )  # image 1 (line 3) missing
     stats: dict = {}
     out = score_predictions(read_predictions(tmp_path / "x_toy-test.csv"), gt_rows_from_run(run)[0], "m", stats=stats)
     assert [r["status"] for r in out] == ["ok", "failed", "ok"] and out[1]["error"] == "no prediction"
@@ -135,18 +141,39 @@ def _write(path: Path, content: bytes | str) -> Path:
     return path
 
 
-@pytest.mark.parametrize("name, content, needle", [
-    ("m_toy-test.csv", b"", "is empty; write a header"),
-    ("m_toy-test.csv", b"\x93NUMPY\x01\x00v\x00{'descr': '<f8', 'fortran_order': False, 'shape': (1, 4, 4), }",
-     "is not a text CSV (binary data, e.g. a .npy)"),
-    ("m_toy-test.npy", b"\x93NUMPY\x01\x00v\x00{'descr': '<f8', 'fortran_order': False, 'shape': (1, 4, 4), }",
-     "m_toy-test.npy: not a readable NumPy array file"),  # cut off
-    ("m_toy-test.csv", f"{BOP_HEAD}\n,0,3,1,{ROT},0 0 0,1\n", "m_toy-test.csv:2: scene_id must be an integer, got ''"),
-    ("m_toy-test.csv", f"{BOP_HEAD}\n1,0.5,3,1,{ROT},0 0 0,1\n", "m_toy-test.csv:2: im_id must be an integer, got '0.5'"),
-    ("m_toy-test.csv", f"{BOP_HEAD}\n1,0,x,1,{ROT},0 0 0,1\n", "m_toy-test.csv:2: obj_id must be an integer, got 'x'"),
-    ("m_toy-test.csv", f"sample_id,R,t\n ,{ROT},0 0 0\n", "m_toy-test.csv:2: sample_id is empty"),
-    ("m_toy-test.csv", f"sample_id,R,t\nmug/i0/v0,{ROT},0 nan 0\n", "m_toy-test.csv:2 t: expected 3"),
-])
+@pytest.mark.parametrize(
+    "name, content, needle",
+    [
+        ("m_toy-test.csv", b"", "is empty; write a header"),
+        (
+            "m_toy-test.csv",
+            b"\x93NUMPY\x01\x00v\x00{'descr': '<f8', 'fortran_order': False, 'shape': (1, 4, 4), }",
+            "is not a text CSV (binary data, e.g. a .npy)",
+        ),
+        (
+            "m_toy-test.npy",
+            b"\x93NUMPY\x01\x00v\x00{'descr': '<f8', 'fortran_order': False, 'shape': (1, 4, 4), }",
+            "m_toy-test.npy: not a readable NumPy array file",
+        ),  # cut off
+        (
+            "m_toy-test.csv",
+            f"{BOP_HEAD}\n,0,3,1,{ROT},0 0 0,1\n",
+            "m_toy-test.csv:2: scene_id must be an integer, got ''",
+        ),
+        (
+            "m_toy-test.csv",
+            f"{BOP_HEAD}\n1,0.5,3,1,{ROT},0 0 0,1\n",
+            "m_toy-test.csv:2: im_id must be an integer, got '0.5'",
+        ),
+        (
+            "m_toy-test.csv",
+            f"{BOP_HEAD}\n1,0,x,1,{ROT},0 0 0,1\n",
+            "m_toy-test.csv:2: obj_id must be an integer, got 'x'",
+        ),
+        ("m_toy-test.csv", f"sample_id,R,t\n ,{ROT},0 0 0\n", "m_toy-test.csv:2: sample_id is empty"),
+        ("m_toy-test.csv", f"sample_id,R,t\nmug/i0/v0,{ROT},0 nan 0\n", "m_toy-test.csv:2 t: expected 3"),
+    ],
+)
 def test_bad_prediction_files_are_one_line(tmp_path, gt, capsys, name, content, needle):
     path = _write(tmp_path / name, content)
     rc = bench(["score", str(path), "--gt", str(gt), "--method", "m", "--out", str(tmp_path / "o")])
@@ -163,15 +190,34 @@ def _npy(path: Path, T: np.ndarray, **arrays) -> Path:
     return path
 
 
-@pytest.mark.parametrize("make, ids, needle", [
-    (lambda p: _npy(p / "t.npy", np.eye(4)[None]), None, "holds no sample ids: pass --ids FILE"),
-    (lambda p: _npy(p / "t.npy", np.zeros((1, 4, 4))), ["mug/i0/v0"], "t.npy: transform 0 (mug/i0/v0): R is not a rotation"),
-    (lambda p: _npy(p / "t.npz", np.stack([np.eye(4), np.diag([1.0, 1, -1, 1])]), ids=np.array(["mug/i0/v0", "mug/i1/v0"])),
-     None, "t.npz: transform 1 (mug/i1/v0): R is not a rotation (max |R^T R - I| = 0, det R = -1)"),
-    (lambda p: _npy(p / "t.npz", np.eye(4)[None], ids=np.array([" "])), None, "t.npz: transform 0: sample_id is empty"),
-    (lambda p: _write(p / "t.npz", _npy(p / "x.npz", np.eye(4)[None], ids=np.array(["a"])).read_bytes()[:100]), None,
-     "t.npz: not a readable NumPy array file"),
-])
+@pytest.mark.parametrize(
+    "make, ids, needle",
+    [
+        (lambda p: _npy(p / "t.npy", np.eye(4)[None]), None, "holds no sample ids: pass --ids FILE"),
+        (
+            lambda p: _npy(p / "t.npy", np.zeros((1, 4, 4))),
+            ["mug/i0/v0"],
+            "t.npy: transform 0 (mug/i0/v0): R is not a rotation",
+        ),
+        (
+            lambda p: _npy(
+                p / "t.npz", np.stack([np.eye(4), np.diag([1.0, 1, -1, 1])]), ids=np.array(["mug/i0/v0", "mug/i1/v0"])
+            ),
+            None,
+            "t.npz: transform 1 (mug/i1/v0): R is not a rotation (max |R^T R - I| = 0, det R = -1)",
+        ),
+        (
+            lambda p: _npy(p / "t.npz", np.eye(4)[None], ids=np.array([" "])),
+            None,
+            "t.npz: transform 0: sample_id is empty",
+        ),
+        (
+            lambda p: _write(p / "t.npz", _npy(p / "x.npz", np.eye(4)[None], ids=np.array(["a"])).read_bytes()[:100]),
+            None,
+            "t.npz: not a readable NumPy array file",
+        ),
+    ],
+)
 def test_bad_transform_arrays_are_one_line(tmp_path, gt, capsys, make, ids, needle):
     path = make(tmp_path)
     extra = []
@@ -196,7 +242,9 @@ def test_a_gt_run_without_ground_truth_is_one_line(tmp_path, capsys):
     run = write_run(tmp_path / "run", failed, CFG)
     path = _write(tmp_path / "p.csv", f"sample_id,R,t\nmug/i0/v0,{ROT},0 0 0\n")
     assert bench(["score", str(path), "--gt", str(run), "--method", "m", "--out", str(tmp_path / "o")]) == 2
-    assert "has no sample with ground truth (2 rows, all failed before their data loaded)" in one_error_line(capsys, "score")
+    assert "has no sample with ground truth (2 rows, all failed before their data loaded)" in one_error_line(
+        capsys, "score"
+    )
 
 
 def test_export_into_a_folder_or_of_a_run_without_estimates_is_one_line(tmp_path, gt, capsys):
@@ -207,7 +255,9 @@ def test_export_into_a_folder_or_of_a_run_without_estimates_is_one_line(tmp_path
     run = write_run(tmp_path / "failed", failed, CFG)
     out = tmp_path / "f_toy-test.csv"
     assert bench(["export", str(run), "--out", str(out)]) == 2
-    assert "has no sample with an estimate (2 samples, all failed); nothing to export" in one_error_line(capsys, "export")
+    assert "has no sample with an estimate (2 samples, all failed); nothing to export" in one_error_line(
+        capsys, "export"
+    )
     assert not out.exists() and not Path(str(out) + ".map.csv").exists()
 
 
@@ -218,13 +268,25 @@ def test_export_says_what_it_skipped(tmp_path, capsys):
     assert bench(["export", str(run), "--out", str(tmp_path / "m_toy-test.csv")]) == 0
     out, err = capsys.readouterr()
     assert "wrote 2 estimates" in out
-    assert "bench export: warning: skipped: 1 of 3 samples have no estimate (failed) and are not in the file, e.g. mug/i1/v0: " \
-           "no convergence" in err
+    assert (
+        "bench export: warning: skipped: 1 of 3 samples have no estimate (failed) and are not in the file, e.g. mug/i1/v0: "
+        "no convergence" in err
+    )
 
 
 def _regress_config(tmp_path: Path, reference: Path, inputs: Path | None = None) -> Path:
-    cfg = {"gate": {}, "suites": {"s": {"dataset": "synthetic", "protocol": "gt_model", "methods": ["icp"],
-                                        "reference": str(reference), **({"inputs": str(inputs)} if inputs else {})}}}
+    cfg = {
+        "gate": {},
+        "suites": {
+            "s": {
+                "dataset": "synthetic",
+                "protocol": "gt_model",
+                "methods": ["icp"],
+                "reference": str(reference),
+                **({"inputs": str(inputs)} if inputs else {}),
+            }
+        },
+    }
     path = tmp_path / "regress.yaml"
     path.write_text(json.dumps(cfg))  # JSON is YAML
     return path
@@ -238,8 +300,8 @@ def test_regress_on_a_cut_off_reference_is_exit_2_not_1(tmp_path, capsys):
 
 
 def test_regress_on_a_cut_off_golden_npz_is_exit_2_not_1(tmp_path, capsys):
-    from catpose.bench.regress.golden import write_golden
     from catpose.bench.protocols.absolute import GtModel
+    from catpose.bench.regress.golden import write_golden
     from catpose.datasets.synthetic import SyntheticDataset
 
     ds = SyntheticDataset(categories=["mug"], instances_per_category=1, views_per_instance=1)
@@ -271,19 +333,31 @@ def _box_dataset(root: Path, table: Path, categories=("box",)):
     for name in ("box_0001", "box_0002"):
         if not (root / f"box/train/{name}.off").exists():
             _box_off(root / f"box/train/{name}.off", (2.0, 1.0, 0.5))
-    return ModelNet40(str(root), categories=list(categories), split="train", views_per_instance=1,
-                      templates={"box": ["box_0001"]}, template_points=200, alignment_table=str(table))
+    return ModelNet40(
+        str(root),
+        categories=list(categories),
+        split="train",
+        views_per_instance=1,
+        templates={"box": ["box_0001"]},
+        template_points=200,
+        alignment_table=str(table),
+    )
 
 
-@pytest.mark.parametrize("body, needle", [
-    ("box,box_0001,0\nbox,box_0002,nan\n", "line 3: yaw_deg = nan is not a finite number"),
-    ("box,box_0001,inf\nbox,box_0002,0\n", "line 2: yaw_deg = inf is not a finite number"),
-    ("box,box_0001,0\nbox,box_0002,90\nbox,box_0001,180\n", "lines 2 and 4: two rows for box/box_0001"),
-    ("box,box_0001,0\n", "has no row for 1 of the 2 box instances used (e.g. box_0002; the table covers box)"),
-    ("chair,chair_0001,0\nchair,chair_0002,90\n", "has no row for 2 of the 2 box instances used (e.g. box_0001; "
-                                                  "the table covers chair)"),
-    ("box,nosuch_1,0\nbox,nosuch_2,90\n", "has no row for 2 of the 2 box instances used"),
-])
+@pytest.mark.parametrize(
+    "body, needle",
+    [
+        ("box,box_0001,0\nbox,box_0002,nan\n", "line 3: yaw_deg = nan is not a finite number"),
+        ("box,box_0001,inf\nbox,box_0002,0\n", "line 2: yaw_deg = inf is not a finite number"),
+        ("box,box_0001,0\nbox,box_0002,90\nbox,box_0001,180\n", "lines 2 and 4: two rows for box/box_0001"),
+        ("box,box_0001,0\n", "has no row for 1 of the 2 box instances used (e.g. box_0002; the table covers box)"),
+        (
+            "chair,chair_0001,0\nchair,chair_0002,90\n",
+            "has no row for 2 of the 2 box instances used (e.g. box_0001; the table covers chair)",
+        ),
+        ("box,nosuch_1,0\nbox,nosuch_2,90\n", "has no row for 2 of the 2 box instances used"),
+    ],
+)
 def test_an_alignment_table_that_does_not_check_is_refused_in_one_line(tmp_path, body, needle):
     """Finding 4 and 12: any table unlocked protocol=templates; a nan yaw was blamed on the mesh."""
     from catpose.errors import DatasetError
@@ -295,13 +369,30 @@ def test_an_alignment_table_that_does_not_check_is_refused_in_one_line(tmp_path,
 
 
 def test_bench_run_with_another_categorys_table_is_one_line(tmp_path):
-    _box_dataset(tmp_path / "mn", _write(tmp_path / "ok.csv", "category,instance_id,yaw_deg\nbox,box_0001,0\n"
-                                                               "box,box_0002,0\n"))  # writes the OFF files
+    _box_dataset(
+        tmp_path / "mn", _write(tmp_path / "ok.csv", "category,instance_id,yaw_deg\nbox,box_0001,0\nbox,box_0002,0\n")
+    )  # writes the OFF files
     table = _write(tmp_path / "chair.csv", "category,instance_id,yaw_deg\nchair,chair_0001,0\n")
-    r = subprocess.run([sys.executable, "-m", "catpose.bench.cli", "run", "method=icp", "dataset=modelnet40",
-                        f"dataset.root={tmp_path / 'mn'}", "dataset.categories=[box]", f"dataset.alignment_table={table}",
-                        "protocol=templates", "+dataset.templates.box=[box_0001]", f"output_root={tmp_path / 'out'}"],
-                       capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "catpose.bench.cli",
+            "run",
+            "method=icp",
+            "dataset=modelnet40",
+            f"dataset.root={tmp_path / 'mn'}",
+            "dataset.categories=[box]",
+            f"dataset.alignment_table={table}",
+            "protocol=templates",
+            "+dataset.templates.box=[box_0001]",
+            f"output_root={tmp_path / 'out'}",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=300,
+    )
     err = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert r.returncode == 2 and len(err) == 1, r.stderr[-2000:]
     assert err[0].startswith("bench run: error: ") and "has no row for 2 of the 2 box instances used" in err[0]

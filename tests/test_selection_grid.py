@@ -23,9 +23,21 @@ def grid():
 
 def _rows(instance: str, errs, scores, seconds=0.02):
     view = f"chair/{instance}/v00"
-    return [{"group_id": view, "sample_id": f"{view}|{k}", "instance_id": instance, "status": "ok", "score": s,
-             "err_deg": e, "T_est": np.eye(4).tolist(), "T_gt": np.eye(4).tolist(), "runtime_s": seconds, "info": {}}
-            for k, (e, s) in enumerate(zip(errs, scores))]
+    return [
+        {
+            "group_id": view,
+            "sample_id": f"{view}|{k}",
+            "instance_id": instance,
+            "status": "ok",
+            "score": s,
+            "err_deg": e,
+            "T_est": np.eye(4).tolist(),
+            "T_gt": np.eye(4).tolist(),
+            "runtime_s": seconds,
+            "info": {},
+        }
+        for k, (e, s) in enumerate(zip(errs, scores))
+    ]
 
 
 def test_setting_reads_a_dotted_key(grid):
@@ -41,5 +53,5 @@ def test_view_table_keeps_the_runs_own_choice_with_the_oracle(grid):
     ids, kept, oracle, seconds = grid["view_table"](run)
     assert list(ids) == ["chair_a", "chair_b"]
     assert kept.tolist() == [40.0, 2.0] and oracle.tolist() == [5.0, 2.0]
-    assert sorted(seconds.tolist()) == [0.02, 0.02, 0.04, 0.04]   # every registration, not every view
+    assert sorted(seconds.tolist()) == [0.02, 0.02, 0.04, 0.04]  # every registration, not every view
     assert grid["part_stats"](kept) == "21.00 | 0.500" and grid["part_stats"](kept[:0]) == "- | -"

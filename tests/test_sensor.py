@@ -18,7 +18,7 @@ CAM = PinholeCamera(160, 120, 150.0, 150.0, 79.5, 59.5)
 def plane_depth(z: float, tilt_deg: float) -> np.ndarray:
     """Depth (m) of a large plane through (0, 0, z) tilted by ``tilt_deg`` about the camera's y
     axis (0: fronto-parallel), rendered through the same ray caster as the datasets."""
-    v, f = table_mesh(0.0, half_size=20.0)                      # the plane z = 0, normal +z
+    v, f = table_mesh(0.0, half_size=20.0)  # the plane z = 0, normal +z
     R = axis_angle_to_R(np.array([0.0, 1.0, 0.0]), np.deg2rad(180.0 + tilt_deg))  # normal towards the camera
     return render_depth(v, f, make_T(R, np.array([0.0, 0.0, z])), CAM).astype(np.float64)
 
@@ -52,8 +52,9 @@ def test_axial_noise_std_matches_nguyen(z):
     sensor = dataclasses.replace(KINECT, subpixel_steps=0.0, dropout_start_deg=89.0, dropout_end_deg=90.0)
     assert sensor.axial_sigma(z) == pytest.approx(0.0012 + 0.0019 * (z - 0.4) ** 2)
     depth = plane_depth(z, 0.0)
-    out, _ = apply_sensor(depth, np.zeros_like(depth, bool), CAM.fx, CAM.fy, CAM.cx, CAM.cy, sensor,
-                          np.random.default_rng(0))
+    out, _ = apply_sensor(
+        depth, np.zeros_like(depth, bool), CAM.fx, CAM.fy, CAM.cx, CAM.cy, sensor, np.random.default_rng(0)
+    )
     diff = interior(out - depth)
     assert abs(diff.mean()) < 4 * sensor.axial_sigma(z) / np.sqrt(diff.size)
     assert diff.std() == pytest.approx(float(sensor.axial_sigma(z)), rel=0.05)
@@ -80,8 +81,9 @@ def test_dropout_grows_with_grazing_angle():
     missing = []
     for tilt in (0.0, 50.0, 75.0, 82.0, 86.0):
         depth = plane_depth(1.5, tilt)
-        out, _ = apply_sensor(depth, np.zeros_like(depth, bool), CAM.fx, CAM.fy, CAM.cx, CAM.cy, sensor,
-                              np.random.default_rng(1))
+        out, _ = apply_sensor(
+            depth, np.zeros_like(depth, bool), CAM.fx, CAM.fy, CAM.cx, CAM.cy, sensor, np.random.default_rng(1)
+        )
         valid = interior(depth) > 0
         missing.append(float((interior(out)[valid] == 0).mean()))
     # the image spans +-28 deg, so a 50-degree plane has a few pixels past the 70-degree onset
@@ -94,12 +96,12 @@ def test_mask_bleeds_into_background_and_edges_get_noise():
     depth = plane_depth(1.5, 0.0)
     mask = np.zeros_like(depth, bool)
     mask[40:80, 60:100] = True
-    depth[mask] -= 0.2                                   # a box standing in front of the plane
+    depth[mask] -= 0.2  # a box standing in front of the plane
     sensor = dataclasses.replace(KINECT, flying_pixel_prob=1.0)
     out, observed = apply_sensor(depth, mask, CAM.fx, CAM.fy, CAM.cx, CAM.cy, sensor, np.random.default_rng(2))
     bleed = observed & ~mask
     assert bleed.sum() > 0 and np.all(np.abs(depth[bleed] - 1.5) < 1e-6)
-    edge_rows = out[40, 62:98]                            # the box's top edge: flying pixels between layers
+    edge_rows = out[40, 62:98]  # the box's top edge: flying pixels between layers
     assert ((edge_rows > 1.3 + 0.02) & (edge_rows < 1.5 - 0.02)).any()
 
 
@@ -113,7 +115,7 @@ def test_synthetic_sensor_observation_is_deterministic_and_metric():
     assert np.array_equal(a.ground_normal_camera, b.ground_normal_camera)
     assert a.info["sensor"] == "kinect" and a.info["scale_mm"] == pytest.approx(70.0)
     assert 0.4 <= a.info["distance_m"] <= 1.2
-    assert a.info["ground_vs_object_up_deg"] < 3.0        # the table-plane fit recovers gravity
+    assert a.info["ground_vs_object_up_deg"] < 3.0  # the table-plane fit recovers gravity
     # the clean default is untouched by the sensor option
     clean = SyntheticDataset(**dict(kw, sensor="none")).observation("mug/000/v00")
     assert "sensor" not in clean.info

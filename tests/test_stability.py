@@ -22,8 +22,8 @@ def _run(root: Path, method: str, errors: dict) -> Path:
 
 def test_changed_views_and_ranges_are_counted(tmp_path: Path):
     own = _run(tmp_path / "own", "icp", {"mug": [2.0, 150.0, 5.0], "can": [1.0]})
-    _run(tmp_path / "v1", "icp", {"mug": [2.5, 20.0, 5.0], "can": [1.0]})       # one view flips 150 -> 20
-    _run(tmp_path / "v2", "icp", {"mug": [2.0, 150.0, 5.0], "can": [1.0]})      # identical
+    _run(tmp_path / "v1", "icp", {"mug": [2.5, 20.0, 5.0], "can": [1.0]})  # one view flips 150 -> 20
+    _run(tmp_path / "v2", "icp", {"mug": [2.0, 150.0, 5.0], "can": [1.0]})  # identical
     s = stability([load_run(own)], [tmp_path / "v1", tmp_path / "v2"])
     assert s.n == 4 and s.changed == 1  # the 0.5 deg move is below the 1 deg threshold
     assert s.mean_deg[0] == pytest.approx(158.0 / 4) and min(s.mean_deg) == pytest.approx(28.5 / 4)

@@ -45,8 +45,9 @@ def test_unknown_method_is_a_config_error(monkeypatch, tmp_path):
 def test_table_marks_the_best_and_lists_skips():
     row = dict(n=2, failed=0, mean_err_deg=10.0, median_err_deg=5.0, acc10=0.5, acc30=1.0, median_runtime_s=1.0)
     better = dict(row, mean_err_deg=2.0, acc10=1.0)
-    table = sr.format_table({("ycbv", "ours"): better, ("ycbv", "icp"): row}, ["ycbv"], ["ours", "icp"],
-                            {"redwood": "no trajectory"})
+    table = sr.format_table(
+        {("ycbv", "ours"): better, ("ycbv", "icp"): row}, ["ycbv"], ["ours", "icp"], {"redwood": "no trajectory"}
+    )
     lines = table.splitlines()
     assert lines[2].startswith("| ours | **2.00** / 5.00 / **1.000**")
     assert lines[3].startswith("| icp | 10.00 / 5.00 / 0.500")
@@ -62,8 +63,9 @@ def test_cli_lists_the_suite_command():
 @pytest.mark.slow
 def test_one_real_sample_runs_through_the_runner(shared_data, tmp_path, monkeypatch):
     monkeypatch.setenv("CATPOSE_SHARED_DATA", str(shared_data))
-    results, skipped = sr.run_suite(["ycbv"], ["icp"], Path(shared_data), limit=1, output_root=str(tmp_path),
-                                    log=lambda m: None)
+    results, skipped = sr.run_suite(
+        ["ycbv"], ["icp"], Path(shared_data), limit=1, output_root=str(tmp_path), log=lambda m: None
+    )
     r = results[("ycbv", "icp")]
     assert r["n"] == 1 and r["failed"] == 0 and Path(r["run_dir"], "samples.jsonl").is_file()
 
@@ -87,7 +89,8 @@ def test_sets_with_a_split_get_a_column_per_part(tmp_path):
 
 
 def test_the_clutter_suite_loads_only_its_report_scenes(tmp_path):
-    cfg, overrides = sr.compose(sr.CLUTTER_SETS["clutter"], sr.METHODS["ours"], tmp_path, 0, None,
-                                str(tmp_path / "out"), [])
+    cfg, overrides = sr.compose(
+        sr.CLUTTER_SETS["clutter"], sr.METHODS["ours"], tmp_path, 0, None, str(tmp_path / "out"), []
+    )
     assert cfg.dataset.name == "clutter" and list(cfg.dataset.scenes) == list(range(100, 200))
     assert any(o.startswith("dataset.scenes=[100,") for o in overrides)

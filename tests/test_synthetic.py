@@ -17,8 +17,18 @@ from catpose.geometry import invert_T, stable_seed, transform_points
 
 CATEGORIES = ["airplane", "chair", "car", "mug", "bottle", "bowl", "can", "plate"]
 # a small, fast configuration (the default config is exercised once, below)
-SMALL = dict(categories=["chair", "mug", "bowl"], instances_per_category=2, views_per_instance=2, num_templates=1,
-             template_points=1024, width=160, height=120, fx=150.0, fy=150.0, max_points=1024)
+SMALL = dict(
+    categories=["chair", "mug", "bowl"],
+    instances_per_category=2,
+    views_per_instance=2,
+    num_templates=1,
+    template_points=1024,
+    width=160,
+    height=120,
+    fx=150.0,
+    fy=150.0,
+    max_points=1024,
+)
 
 
 def mesh_distance(points: np.ndarray, vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -26,7 +36,9 @@ def mesh_distance(points: np.ndarray, vertices: np.ndarray, triangles: np.ndarra
     from catpose.o3d import o3d
 
     scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(np.asarray(vertices, np.float32)), o3d.core.Tensor(np.asarray(triangles, np.uint32)))
+    scene.add_triangles(
+        o3d.core.Tensor(np.asarray(vertices, np.float32)), o3d.core.Tensor(np.asarray(triangles, np.uint32))
+    )
     return scene.compute_distance(o3d.core.Tensor(np.asarray(points, np.float32))).numpy()
 
 
@@ -36,6 +48,7 @@ def small() -> SyntheticDataset:
 
 
 # ------------------------------------------------------------------ shapes
+
 
 @pytest.mark.parametrize("category", CATEGORIES)
 def test_every_category_builds_normalised(category: str) -> None:
@@ -62,13 +75,13 @@ def test_asymmetric_categories_face_plus_x() -> None:
     rng = np.random.default_rng(11)
     for _ in range(5):
         v = np.asarray(SHAPES["airplane"](rng).vertices)
-        assert abs(v[np.argmax(v[:, 0]), 1]) < 0.05          # the most forward point is the nose, on the axis
+        assert abs(v[np.argmax(v[:, 0]), 1]) < 0.05  # the most forward point is the nose, on the axis
         v = np.asarray(SHAPES["chair"](rng).vertices)
-        assert v[v[:, 2] > 0.6, 0].mean() < 0.0               # the back (top part) is at -x
+        assert v[v[:, 2] > 0.6, 0].mean() < 0.0  # the back (top part) is at -x
         v = np.asarray(SHAPES["car"](rng).vertices)
         assert v[v[:, 2] > v[:, 2].max() - 0.05, 0].mean() < 0.0  # the roof is set back from the hood
         v = np.asarray(SHAPES["mug"](rng).vertices)
-        rim_x = v[v[:, 2] > v[:, 2].max() - 1e-6, 0].mean()   # the top rim ring is centred on the cup axis
+        rim_x = v[v[:, 2] > v[:, 2].max() - 1e-6, 0].mean()  # the top rim ring is centred on the cup axis
         assert v[:, 0].max() - rim_x > rim_x - v[:, 0].min() + 0.1  # the handle sticks out along +x
 
 
@@ -86,6 +99,7 @@ def test_outer_surface_sampling_drops_interior_faces_of_concatenated_parts() -> 
 
 
 # ------------------------------------------------------------------ dataset
+
 
 def test_ids_are_fixed_and_parseable(small: SyntheticDataset) -> None:
     ids = small.observation_ids()
@@ -107,7 +121,7 @@ def test_unknown_category_is_a_config_error() -> None:
 def test_same_seed_is_bit_identical_and_order_free(small: SyntheticDataset) -> None:
     a, b = "chair/001/v01", "bowl/000/v00"
     other = SyntheticDataset(seed=7, **SMALL)
-    ob = other.observation(b)   # B first, then A, on a fresh dataset
+    ob = other.observation(b)  # B first, then A, on a fresh dataset
     oa = other.observation(a)
     for fresh, ref in ((oa, small.observation(a)), (ob, small.observation(b))):
         assert fresh.points_camera.tobytes() == ref.points_camera.tobytes()
@@ -120,22 +134,31 @@ def test_same_seed_is_bit_identical_and_order_free(small: SyntheticDataset) -> N
     different = SyntheticDataset(seed=8, **SMALL).observation(a)
     assert not np.array_equal(different.T_object_camera, oa.T_object_camera)
     assert different.points_camera.shape != oa.points_camera.shape or not np.array_equal(
-        different.points_camera, oa.points_camera)
+        different.points_camera, oa.points_camera
+    )
 
 
 def test_instances_differ_from_each_other_and_from_templates(small: SyntheticDataset) -> None:
     for category in small.categories:
-        models = [small.instance_model(category, "000"), small.instance_model(category, "001"),
-                  *small.category_templates(category)]
-        assert [m.template_id for m in models] == [f"synthetic/{category}/000", f"synthetic/{category}/001",
-                                                  f"synthetic/{category}/t0"]
+        models = [
+            small.instance_model(category, "000"),
+            small.instance_model(category, "001"),
+            *small.category_templates(category),
+        ]
+        assert [m.template_id for m in models] == [
+            f"synthetic/{category}/000",
+            f"synthetic/{category}/001",
+            f"synthetic/{category}/t0",
+        ]
         for i, a in enumerate(models):
             # a model's own cloud lies on its mesh ...
             assert mesh_distance(a.points, a.vertices, a.triangles).max() < 1e-4
-            for b in models[i + 1:]:
+            for b in models[i + 1 :]:
                 # ... while another instance's is clearly off it (symmetric mean distance)
-                d = 0.5 * (mesh_distance(a.points, b.vertices, b.triangles).mean()
-                           + mesh_distance(b.points, a.vertices, a.triangles).mean())
+                d = 0.5 * (
+                    mesh_distance(a.points, b.vertices, b.triangles).mean()
+                    + mesh_distance(b.points, a.vertices, a.triangles).mean()
+                )
                 assert d > 0.005, (a.template_id, b.template_id, d)
 
 
@@ -178,9 +201,19 @@ def test_noise_options() -> None:
 
 
 def test_empty_view_is_a_dataset_error() -> None:
-    far = SyntheticDataset(seed=0, categories=["can"], instances_per_category=1, views_per_instance=1,
-                           num_templates=0, template_points=256, width=16, height=12, fx=10.0, fy=10.0,
-                           distance=20.0)
+    far = SyntheticDataset(
+        seed=0,
+        categories=["can"],
+        instances_per_category=1,
+        views_per_instance=1,
+        num_templates=0,
+        template_points=256,
+        width=16,
+        height=12,
+        fx=10.0,
+        fy=10.0,
+        distance=20.0,
+    )
     with pytest.raises(DatasetError, match="can/000/v00"):
         far.observation("can/000/v00")
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.bench.report import tables
+from catpose.bench.report import table_command, tables
 from catpose.bench.run.rundir import write_run
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
@@ -16,8 +16,13 @@ GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.Gt
 TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.absolute.Templates", "max_templates": None}
 
 
-def rows_with_errors(errors: dict[str, list[float | None]], method: str, protocol: str = "gt_model",
-                     templates: int = 1, trans: float = 0.1) -> list[dict]:
+def rows_with_errors(
+    errors: dict[str, list[float | None]],
+    method: str,
+    protocol: str = "gt_model",
+    templates: int = 1,
+    trans: float = 0.1,
+) -> list[dict]:
     """One row per (category, view, template): the estimate is the truth rotated by the error
     about x (err None: failed); template k > 0 adds 10*k degrees and a higher score."""
     rows = []
@@ -27,17 +32,40 @@ def rows_with_errors(errors: dict[str, list[float | None]], method: str, protoco
             for k in range(templates):
                 sid = obs if templates == 1 and protocol == "gt_model" else f"{obs}|{k}"
                 T_gt = make_T(np.eye(3), np.array([0.0, 0.0, 2.0]))
-                row = {"sample_id": sid, "group_id": obs, "obs_id": obs, "category": cat, "instance_id": f"i{i}",
-                       "template_id": f"t{k}", "method": method, "dataset": "toy", "protocol": protocol, "seed": 0,
-                       "symmetric": False, "symmetry_axis": None, "T_gt": T_gt.reshape(-1).tolist(),
-                       "runtime_s": 0.5, "info": {}, "extras": {}}
+                row = {
+                    "sample_id": sid,
+                    "group_id": obs,
+                    "obs_id": obs,
+                    "category": cat,
+                    "instance_id": f"i{i}",
+                    "template_id": f"t{k}",
+                    "method": method,
+                    "dataset": "toy",
+                    "protocol": protocol,
+                    "seed": 0,
+                    "symmetric": False,
+                    "symmetry_axis": None,
+                    "T_gt": T_gt.reshape(-1).tolist(),
+                    "runtime_s": 0.5,
+                    "info": {},
+                    "extras": {},
+                }
                 if e is None:
                     row.update(status="failed", error="boom", stage="register", err_deg=180.0, T_est=None, score=None)
                 else:
                     ang = e + 10.0 * k
                     T_est = make_T(axis_angle_to_R(np.array([1.0, 0, 0]), np.radians(ang)), np.array([trans, 0, 2.0]))
-                    row.update(status="ok", error="", stage="", T_est=T_est.reshape(-1).tolist(), score=float(k),
-                               err_deg=ang, rot_err_deg=ang, axis_err_deg=None, trans_err=trans)
+                    row.update(
+                        status="ok",
+                        error="",
+                        stage="",
+                        T_est=T_est.reshape(-1).tolist(),
+                        score=float(k),
+                        err_deg=ang,
+                        rot_err_deg=ang,
+                        axis_err_deg=None,
+                        trans_err=trans,
+                    )
                 rows.append(row)
     return rows
 
@@ -50,11 +78,23 @@ def make_run(root: Path, name: str, errors: dict, method_cfg: dict, protocol: di
 
 @pytest.fixture()
 def runs(tmp_path: Path) -> list[Path]:
-    a = make_run(tmp_path, "ours", {"airplane": [1, 2, 3, 40], "chair": [5, 50, None]},
-                 {"name": "ours", "matching": "dictionary", "descriptor": "lps"}, trans=0.1)
-    b = make_run(tmp_path, "fgr", {"airplane": [10, 20, 30, 40], "chair": [4, 60, 70]},
-                 {"name": "fgr", "matching": "direct", "descriptor": "fpfh"}, trans=0.3)
-    c = make_run(tmp_path, "icp", {"airplane": [0.5, 100, 120, 150], "chair": [90, 100, 110]}, {"name": "icp"}, trans=0.2)
+    a = make_run(
+        tmp_path,
+        "ours",
+        {"airplane": [1, 2, 3, 40], "chair": [5, 50, None]},
+        {"name": "ours", "matching": "dictionary", "descriptor": "lps"},
+        trans=0.1,
+    )
+    b = make_run(
+        tmp_path,
+        "fgr",
+        {"airplane": [10, 20, 30, 40], "chair": [4, 60, 70]},
+        {"name": "fgr", "matching": "direct", "descriptor": "fpfh"},
+        trans=0.3,
+    )
+    c = make_run(
+        tmp_path, "icp", {"airplane": [0.5, 100, 120, 150], "chair": [90, 100, 110]}, {"name": "icp"}, trans=0.2
+    )
     return [a, b, c]
 
 
@@ -132,15 +172,32 @@ def test_ablation_labels(tmp_path: Path):
 
 def test_cli_writes_file_and_user_labels(runs, tmp_path: Path, capsys):
     out = tmp_path / "t.tex"
-    assert tables.main([str(runs[0].parent), "--layout", "generic", "--format", "latex", "--out", str(out),
-                        "--label", f"{runs[2]}=ICP (20 starts)", "--metrics", "mean,median"]) == 0
+    assert (
+        table_command.main(
+            [
+                str(runs[0].parent),
+                "--layout",
+                "generic",
+                "--format",
+                "latex",
+                "--out",
+                str(out),
+                "--label",
+                f"{runs[2]}=ICP (20 starts)",
+                "--metrics",
+                "mean,median",
+            ]
+        )
+        == 0
+    )
     text = out.read_text()
     assert "ICP (20 starts)" in text and "All" in text
     from catpose.bench.cli import main
 
     assert main(["table", str(runs[0]), "--layout", "optimizer"]) == 2  # the old spelling
-    assert capsys.readouterr().err == ("bench table: error: table layout optimizer was renamed optimiser; "
-                                       "write --layout optimiser\n")
+    assert capsys.readouterr().err == (
+        "bench table: error: table layout optimizer was renamed optimiser; write --layout optimiser\n"
+    )
     assert main(["table", str(tmp_path / "nope")]) == 2
     err = capsys.readouterr().err
     assert err.startswith("bench table: error: ") and "does not exist" in err and err.count("\n") == 1

@@ -95,8 +95,10 @@ def _random_graph(rng: np.random.Generator, n: int, p: float, planted: int = 0) 
     return adj
 
 
-@pytest.mark.parametrize("n,p,planted", [(40, 0.3, 0), (60, 0.5, 0), (50, 0.7, 0), (70, 0.1, 0),
-                                         (130, 0.2, 25), (200, 0.1, 60), (150, 0.3, 0)])
+@pytest.mark.parametrize(
+    "n,p,planted",
+    [(40, 0.3, 0), (60, 0.5, 0), (50, 0.7, 0), (70, 0.1, 0), (130, 0.2, 25), (200, 0.1, 60), (150, 0.3, 0)],
+)
 @pytest.mark.parametrize("seed", range(3))
 def test_max_clique_size_equals_networkx(n: int, p: float, planted: int, seed: int) -> None:
     """Against networkx's exact max_weight_clique (unit weights) as the independent reference;
@@ -125,7 +127,7 @@ def test_max_clique_time_budget_falls_back_to_a_clique() -> None:
     adj = _random_graph(np.random.default_rng(0), 300, 0.8)
     clique, exact = teaser_solver.max_clique(adj, time_budget_s=0.0)
     assert not exact
-    greedy = mc.greedy_clique(adj, np.argsort(-adj.sum(axis=1), kind="stable")[:mc.GREEDY_STARTS])
+    greedy = mc.greedy_clique(adj, np.argsort(-adj.sum(axis=1), kind="stable")[: mc.GREEDY_STARTS])
     assert len(clique) >= len(greedy)
     assert all(adj[i, j] for i, j in itertools.combinations(clique.tolist(), 2))
 

@@ -79,8 +79,10 @@ def test_teaser_and_teaserpp_agree() -> None:
         if err is not None:
             assert err < ROTATION_TOL_DEG, f"{name}: same clique, rotations differ by {err:.2e} deg"
             worst = max(worst, err)
-    print(f"agreement: { {k: len(v) for k, v in causes.items()} }; worst rotation gap {worst:.1e} deg; "
-          f"differences: { {k: v for k, v in causes.items() if k != 'same'} }")
+    print(
+        f"agreement: { {k: len(v) for k, v in causes.items()} }; worst rotation gap {worst:.1e} deg; "
+        f"differences: { {k: v for k, v in causes.items() if k != 'same'} }"
+    )
     # every difference has a named cause (else _compare failed); most problems agree exactly,
     # and the all-outlier inputs are recognised as degenerate
     assert len(causes.get("same", [])) >= 20, causes

@@ -10,10 +10,17 @@ import pandas as pd
 import pytest
 
 from catpose.bench.category import align_check
-from catpose.bench.report.category_table import error_stats, run_rows, to_markdown
 from catpose.bench.protocols import Templates
-from catpose.bench.protocols.template_choice import (CHOICES, DENSITY_WEIGHT, choose_index, is_excluded_view, support,
-                                           template_spacing, with_template_facts)
+from catpose.bench.protocols.template_choice import (
+    CHOICES,
+    DENSITY_WEIGHT,
+    choose_index,
+    is_excluded_view,
+    support,
+    template_spacing,
+    with_template_facts,
+)
+from catpose.bench.report.category_table import error_stats, run_rows, to_markdown
 from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R
 
@@ -26,11 +33,20 @@ def _T(deg: float) -> list[float]:
 
 def view_rows(view: str, yaws, scores, errs, status=None, spacings=None) -> pd.DataFrame:
     K = len(yaws)
-    return pd.DataFrame({
-        "group_id": [view] * K, "category": ["chair"] * K, "status": status or ["ok"] * K,
-        "score": scores, "err_deg": errs, "trans_err": [0.1] * K, "runtime_s": [1.0] * K,
-        "T_est": [_T(y) for y in yaws], "template_id": [f"t{k}" for k in range(K)],
-        "info": [{"template_spacing": s} for s in (spacings or [0.01] * K)]})
+    return pd.DataFrame(
+        {
+            "group_id": [view] * K,
+            "category": ["chair"] * K,
+            "status": status or ["ok"] * K,
+            "score": scores,
+            "err_deg": errs,
+            "trans_err": [0.1] * K,
+            "runtime_s": [1.0] * K,
+            "T_est": [_T(y) for y in yaws],
+            "template_id": [f"t{k}" for k in range(K)],
+            "info": [{"template_spacing": s} for s in (spacings or [0.01] * K)],
+        }
+    )
 
 
 def test_score_rule_takes_the_lowest_score_and_skips_failures():
@@ -93,8 +109,13 @@ def test_excluded_views_and_template_facts():
 
 
 def test_category_table_reports_chosen_oracle_and_random_side_by_side():
-    rows = pd.concat([view_rows("chair/a/v00", [0, 170, 5], [0.2, 0.1, 0.15], [3.0, 170.0, 4.0]),
-                      view_rows("chair/b/v00", [0, 90, 3], [0.1, 0.2, 0.3], [2.0, 90.0, 40.0])], ignore_index=True)
+    rows = pd.concat(
+        [
+            view_rows("chair/a/v00", [0, 170, 5], [0.2, 0.1, 0.15], [3.0, 170.0, 4.0]),
+            view_rows("chair/b/v00", [0, 90, 3], [0.1, 0.2, 0.3], [2.0, 90.0, 40.0]),
+        ],
+        ignore_index=True,
+    )
     out = run_rows(SimpleNamespace(samples=rows), "chair", ["score", "agreement"])
     score, agree = out
     assert score["K"] == 3 and score["views"] == 2
@@ -116,18 +137,27 @@ def test_category_table_one_template_row_takes_the_runs_turn_rule_where_turns_we
     rows = view_rows("chair/c/v00", [90], [0.2], [90.0])
     rows["sample_id"] = ["chair/c/v00|0"]
     rows["T_gt"] = [np.eye(4).tolist()]
-    rows["info"] = [{"cross_costs": [0.3], "top_offset": 0.0,
-                     "turns": [{"turn_deg": 270.0, "T_template_camera": np.eye(4).tolist(), "cross_costs": [0.1],
-                                "top_offset": 0.0}]}]
-    [row] = run_rows(SimpleNamespace(samples=rows, config={"protocol": {"choice": "cross_top_turns"}}), "chair",
-                     ["cross", "score"])
+    rows["info"] = [
+        {
+            "cross_costs": [0.3],
+            "top_offset": 0.0,
+            "turns": [
+                {"turn_deg": 270.0, "T_template_camera": np.eye(4).tolist(), "cross_costs": [0.1], "top_offset": 0.0}
+            ],
+        }
+    ]
+    [row] = run_rows(
+        SimpleNamespace(samples=rows, config={"protocol": {"choice": "cross_top_turns"}}), "chair", ["cross", "score"]
+    )
     assert row["choice"] == "cross_top_turns" and row["chosen_mean"] == pytest.approx(0.0, abs=1e-6)
-    assert row["oracle_mean"] == 90.0   # the registration's own estimate
+    assert row["oracle_mean"] == 90.0  # the registration's own estimate
     # a run under another rule keeps the own estimate, as does a turn-rule run that stored no turns
     plain = run_rows(SimpleNamespace(samples=rows, config={"protocol": {"choice": "score"}}), "chair", ["cross"])
     assert [(r["choice"], r["chosen_mean"]) for r in plain] == [("-", 90.0)]
     rows["info"] = [{}]
-    bare = run_rows(SimpleNamespace(samples=rows, config={"protocol": {"choice": "cross_top_turns"}}), "chair", ["cross"])
+    bare = run_rows(
+        SimpleNamespace(samples=rows, config={"protocol": {"choice": "cross_top_turns"}}), "chair", ["cross"]
+    )
     assert [(r["choice"], r["chosen_mean"]) for r in bare] == [("-", 90.0)]
 
 
@@ -150,10 +180,17 @@ def test_compare_tables_and_summary(tmp_path):
     from catpose.datasets.alignment import write_alignment_table
 
     yaw = [axis_angle_to_R(np.array([0, 0, 1.0]), np.deg2rad(90 * k)) for k in range(4)]
-    write_alignment_table(tmp_path / "v.csv", [{"category": "c", "instance_id": i, "R": yaw[k]}
-                                               for i, k in (("a", 0), ("b", 1), ("c", 2))])
-    write_alignment_table(tmp_path / "e.csv", [{"category": "c", "instance_id": i, "R": yaw[k], "confidence": c}
-                                               for i, k, c in (("a", 0, 0.4), ("b", 3, 0.05), ("c", 2, 0.3))])
+    write_alignment_table(
+        tmp_path / "v.csv",
+        [{"category": "c", "instance_id": i, "R": yaw[k]} for i, k in (("a", 0), ("b", 1), ("c", 2))],
+    )
+    write_alignment_table(
+        tmp_path / "e.csv",
+        [
+            {"category": "c", "instance_id": i, "R": yaw[k], "confidence": c}
+            for i, k, c in (("a", 0, 0.4), ("b", 3, 0.05), ("c", 2, 0.3))
+        ],
+    )
     res = align_check.compare_tables(tmp_path / "e.csv", tmp_path / "v.csv", "c")
     assert res["agree"] == 2 and res["roc"]["separates"]
     path = align_check.write_comparison(tmp_path / "e_vs_verified.csv", res)

@@ -21,8 +21,9 @@ GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.Gt
 
 def _units(errors, status=None, info=None):
     n = len(errors)
-    return pd.DataFrame({"category": ["a"] * n, "err_deg": errors, "status": status or ["ok"] * n,
-                         "info": info or [{}] * n})
+    return pd.DataFrame(
+        {"category": ["a"] * n, "err_deg": errors, "status": status or ["ok"] * n, "info": info or [{}] * n}
+    )
 
 
 def test_auc_is_the_integral_of_the_accuracy_curve():
@@ -56,8 +57,17 @@ def test_n_degree_m_cm_uses_the_object_origin_in_metres():
         T_est = invert_T(moved)
         T_est[:3, :3] = R_fix @ T_est[:3, :3]
         T_est[:3, 3] = -T_est[:3, :3] @ moved[:3, 3]  # keeps the origin where `moved` put it
-        rows.append({"category": "a", "status": "ok", "err_deg": err_deg, "trans_err": None,
-                     "T_est": T_est.reshape(-1).tolist(), "T_gt": T_gt.reshape(-1).tolist(), "info": {"scale_mm": 100.0}})
+        rows.append(
+            {
+                "category": "a",
+                "status": "ok",
+                "err_deg": err_deg,
+                "trans_err": None,
+                "T_est": T_est.reshape(-1).tolist(),
+                "T_gt": T_gt.reshape(-1).tolist(),
+                "info": {"scale_mm": 100.0},
+            }
+        )
     units = pd.DataFrame(rows)
     np.testing.assert_allclose(curves.translation_cm(units), [3.0, 6.0, 3.0], atol=1e-9)
     assert curves.statistic(units, "5deg5cm") == pytest.approx(1 / 3)
@@ -77,8 +87,14 @@ def test_threshold_keys_and_bad_items():
 
 
 def test_with_thresholds_replaces_the_accuracies_in_place():
-    assert tables.with_thresholds(["mean", "median", "acc10", "acc30", "trans"], ["acc5", "acc10", "auc30"]) == \
-        ["mean", "median", "acc5", "acc10", "auc30", "trans"]
+    assert tables.with_thresholds(["mean", "median", "acc10", "acc30", "trans"], ["acc5", "acc10", "auc30"]) == [
+        "mean",
+        "median",
+        "acc5",
+        "acc10",
+        "auc30",
+        "trans",
+    ]
     assert tables.with_thresholds(["mean", "median", "trans"], ["acc5"]) == ["mean", "median", "acc5", "trans"]
 
 
@@ -87,11 +103,28 @@ def _run(root: Path, name: str, errors: list[float], scale_mm: float | None = No
     rows = []
     for i, e in enumerate(errors):
         T_est = make_T(axis_angle_to_R(np.array([1.0, 0, 0]), np.radians(e)), np.array([0.0, 0.0, 2.0]))
-        rows.append({"sample_id": f"car/i{i}/v0", "group_id": f"car/i{i}/v0", "obs_id": f"car/i{i}/v0",
-                     "category": "car", "instance_id": f"i{i}", "template_id": "own", "method": name, "status": "ok",
-                     "error": "", "err_deg": e, "T_est": T_est.reshape(-1).tolist(), "T_gt": T_gt.reshape(-1).tolist(),
-                     "symmetric": False, "symmetry_axis": None, "score": 0.0, "runtime_s": 0.1,
-                     "info": {} if scale_mm is None else {"scale_mm": scale_mm}, "extras": {}})
+        rows.append(
+            {
+                "sample_id": f"car/i{i}/v0",
+                "group_id": f"car/i{i}/v0",
+                "obs_id": f"car/i{i}/v0",
+                "category": "car",
+                "instance_id": f"i{i}",
+                "template_id": "own",
+                "method": name,
+                "status": "ok",
+                "error": "",
+                "err_deg": e,
+                "T_est": T_est.reshape(-1).tolist(),
+                "T_gt": T_gt.reshape(-1).tolist(),
+                "symmetric": False,
+                "symmetry_axis": None,
+                "score": 0.0,
+                "runtime_s": 0.1,
+                "info": {} if scale_mm is None else {"scale_mm": scale_mm},
+                "extras": {},
+            }
+        )
     cfg = {"method": {"name": name, "_target_": "x.Y"}, "dataset": {"name": "toy"}, "protocol": GT_MODEL, "seed": 0}
     return write_run(root / name, rows, cfg)
 
@@ -104,9 +137,21 @@ def test_bench_table_acc_and_auc(tmp_path: Path, capsys):
     frame = pd.read_csv(__import__("io").StringIO(capsys.readouterr().out))
     row = frame.iloc[0]
     # 5deg5cm is left out: these rows have no metric scale
-    assert list(frame.columns) == ["Methods", "Car/Mean° ↓", "Car/Med.° ↓", "Car/@5 ↑", "Car/@10 ↑", "Car/AUC@10 ↑",
-                                   "Car/L_T ↓", "All/Mean° ↓", "All/Med.° ↓", "All/@5 ↑", "All/@10 ↑", "All/AUC@10 ↑",
-                                   "All/L_T ↓"]
+    assert list(frame.columns) == [
+        "Methods",
+        "Car/Mean° ↓",
+        "Car/Med.° ↓",
+        "Car/@5 ↑",
+        "Car/@10 ↑",
+        "Car/AUC@10 ↑",
+        "Car/L_T ↓",
+        "All/Mean° ↓",
+        "All/Med.° ↓",
+        "All/@5 ↑",
+        "All/@10 ↑",
+        "All/AUC@10 ↑",
+        "All/L_T ↓",
+    ]
     assert row["All/@5 ↑"] == 0.5 and row["All/@10 ↑"] == 0.75
     assert row["All/AUC@10 ↑"] == pytest.approx(np.mean([0.9, 0.6, 0.2, 0.0]))
     assert main(["table", str(a), "--acc", "5deg5cm"]) == 0

@@ -16,8 +16,12 @@ from catpose.bench.run.rundir import write_run
 from catpose.errors import DatasetError, InvalidInputError
 from catpose.geometry import axis_angle_to_R, invert_T, make_T, random_rotation
 
-CFG = {"method": {"name": "ours", "_target_": "x.Y"}, "dataset": {"name": "toy"},
-       "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}, "seed": 0}
+CFG = {
+    "method": {"name": "ours", "_target_": "x.Y"},
+    "dataset": {"name": "toy"},
+    "protocol": {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"},
+    "seed": 0,
+}
 ERRORS = [3.0, 12.0, 40.0]
 
 
@@ -27,17 +31,34 @@ def _gt_run(tmp_path: Path) -> tuple[Path, list[np.ndarray]]:
     for i in range(3):
         T_gt = make_T(random_rotation(rng), rng.normal(size=3) + [0, 0, 3])
         T_gts.append(T_gt)
-        rows.append({"sample_id": f"mug/i{i}/v0", "group_id": f"mug/i{i}/v0", "obs_id": f"mug/i{i}/v0",
-                     "category": "mug", "instance_id": f"i{i}", "template_id": "own", "status": "ok", "error": "",
-                     "T_est": T_gt.reshape(-1).tolist(), "T_gt": T_gt.reshape(-1).tolist(), "err_deg": 0.0,
-                     "symmetric": False, "symmetry_axis": None, "score": 0.0, "runtime_s": 0.1, "info": {}})
+        rows.append(
+            {
+                "sample_id": f"mug/i{i}/v0",
+                "group_id": f"mug/i{i}/v0",
+                "obs_id": f"mug/i{i}/v0",
+                "category": "mug",
+                "instance_id": f"i{i}",
+                "template_id": "own",
+                "status": "ok",
+                "error": "",
+                "T_est": T_gt.reshape(-1).tolist(),
+                "T_gt": T_gt.reshape(-1).tolist(),
+                "err_deg": 0.0,
+                "symmetric": False,
+                "symmetry_axis": None,
+                "score": 0.0,
+                "runtime_s": 0.1,
+                "info": {},
+            }
+        )
     return write_run(tmp_path / "gt", rows, CFG), T_gts
 
 
 def _estimates(T_gts: list[np.ndarray]) -> np.ndarray:
     """(3, 4, 4): the truths turned by ERRORS degrees about z."""
-    return np.stack([make_T(axis_angle_to_R(np.array([0, 0, 1.0]), np.radians(e)), np.zeros(3)) @ T
-                     for e, T in zip(ERRORS, T_gts)])
+    return np.stack(
+        [make_T(axis_angle_to_R(np.array([0, 0, 1.0]), np.radians(e)), np.zeros(3)) @ T for e, T in zip(ERRORS, T_gts)]
+    )
 
 
 def _scored(out: Path) -> list[dict]:
@@ -49,8 +70,26 @@ def test_npy_of_3x4_with_an_id_file(tmp_path: Path, capsys):
     np.save(tmp_path / "pred.npy", _estimates(T_gts)[:, :3, :].astype(np.float32))  # RPM-Net's pred_transforms
     (tmp_path / "ids.txt").write_text("# sample ids in the arrays' order\nmug/i0/v0\nmug/i1/v0\n\nmug/i2/v0\n")
     out = tmp_path / "scored"
-    assert score_cmd.main([str(tmp_path / "pred.npy"), "--ids", str(tmp_path / "ids.txt"), "--gt", str(run),
-                           "--method", "rpmnet", "--out", str(out), "--acc", "5,15", "--auc", "30"]) == 0
+    assert (
+        score_cmd.main(
+            [
+                str(tmp_path / "pred.npy"),
+                "--ids",
+                str(tmp_path / "ids.txt"),
+                "--gt",
+                str(run),
+                "--method",
+                "rpmnet",
+                "--out",
+                str(out),
+                "--acc",
+                "5,15",
+                "--auc",
+                "30",
+            ]
+        )
+        == 0
+    )
     rows = _scored(out)
     np.testing.assert_allclose([r["err_deg"] for r in rows], ERRORS, atol=1e-3)  # float32 files
     printed = capsys.readouterr().out
@@ -81,7 +120,9 @@ def test_npz_forms_ids_scores_and_inverse(tmp_path: Path):
 
 def test_bad_transform_arrays_are_one_line(tmp_path: Path):
     np.save(tmp_path / "a.npy", np.zeros((2, 3, 3)))
-    with pytest.raises(InvalidInputError, match=r"a.npy: expected transforms of shape \(B, 3, 4\) or \(B, 4, 4\), got \(2, 3, 3\)"):
+    with pytest.raises(
+        InvalidInputError, match=r"a.npy: expected transforms of shape \(B, 3, 4\) or \(B, 4, 4\), got \(2, 3, 3\)"
+    ):
         read_transform_arrays(tmp_path / "a.npy", ids=["x", "y"])
     np.save(tmp_path / "b.npy", np.tile(np.eye(4), (2, 1, 1)))
     with pytest.raises(InvalidInputError, match="holds no sample ids: pass --ids FILE"):
@@ -134,17 +175,22 @@ def test_bop_scoring_reads_models_eval(shared_data: Path, tmp_path: Path):
         if f.suffix == ".ply":
             (root / "models_eval" / f.name).symlink_to(f)
     (root / "models_eval" / "models_info.json").write_text(
-        json.dumps({k: dict(v, diameter=2 * v["diameter"]) for k, v in info.items()}))
+        json.dumps({k: dict(v, diameter=2 * v["diameter"]) for k, v in info.items()})
+    )
     scene = sorted((src / "test").iterdir())[0]
     im, entries = next(iter(json.loads((scene / "scene_gt.json").read_text()).items()))
     e = entries[0]
     (tmp_path / "gt_ycbv-test.csv").write_text(
         "scene_id,im_id,obj_id,score,R,t,time\n"
-        f"{int(scene.name)},{im},{e['obj_id']},1,{' '.join(map(str, e['cam_R_m2c']))},{' '.join(map(str, e['cam_t_m2c']))},1\n")
+        f"{int(scene.name)},{im},{e['obj_id']},1,{' '.join(map(str, e['cam_R_m2c']))},{' '.join(map(str, e['cam_t_m2c']))},1\n"
+    )
     cfg = OmegaConf.to_container(compose(["dataset=ycbv", f"dataset.root={root}"]).dataset, resolve=True)
-    text = score_cmd.score_bop(read_predictions(tmp_path / "gt_ycbv-test.csv"), cfg, tmp_path, "gt",
-                               ["ar_mssd"], ["object"], vsd=False)
+    text = score_cmd.score_bop(
+        read_predictions(tmp_path / "gt_ycbv-test.csv"), cfg, tmp_path, "gt", ["ar_mssd"], ["object"], vsd=False
+    )
     assert "models: models_eval/" in text
     errs = pd.DataFrame([json.loads(x) for x in (tmp_path / "bop_errors.jsonl").read_text().splitlines()[1:]])
     hit = errs[errs["matched"]].iloc[0]
-    assert hit["diameter"] == pytest.approx(2 * info[str(e["obj_id"])]["diameter"]) and hit["mssd"] < 1e-3  # mm: the ground truth, as rounded in scene_gt.json
+    assert (
+        hit["diameter"] == pytest.approx(2 * info[str(e["obj_id"])]["diameter"]) and hit["mssd"] < 1e-3
+    )  # mm: the ground truth, as rounded in scene_gt.json

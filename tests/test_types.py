@@ -17,17 +17,20 @@ def cloud(n=100, seed=0):
     return p, p / np.linalg.norm(p, axis=1, keepdims=True)
 
 
-@pytest.mark.parametrize("points, normals, needle", [
-    (np.zeros((0, 3)), None, "has no points"),
-    (np.ones((50, 3)), None, "all 50 points are equal"),
-    (np.outer(np.arange(50.0), [1, 2, 3]), None, "lie on one line"),
-    (np.where(np.arange(300).reshape(100, 3) == 7, np.nan, 1.0) + cloud()[0], None, "NaN or inf"),
-    (cloud()[0], np.where(np.arange(300).reshape(100, 3) == 7, np.nan, 1.0), "normals has 1 rows with NaN"),
-    (cloud()[0], np.zeros((100, 3)), "zero-length normals"),
-    (cloud()[0], cloud(50)[1], "normals have shape (50, 3)"),
-    (np.zeros((10, 2)), None, "expected (N, 3)"),
-    (cloud(5)[0], None, "only 5 points"),
-])
+@pytest.mark.parametrize(
+    "points, normals, needle",
+    [
+        (np.zeros((0, 3)), None, "has no points"),
+        (np.ones((50, 3)), None, "all 50 points are equal"),
+        (np.outer(np.arange(50.0), [1, 2, 3]), None, "lie on one line"),
+        (np.where(np.arange(300).reshape(100, 3) == 7, np.nan, 1.0) + cloud()[0], None, "NaN or inf"),
+        (cloud()[0], np.where(np.arange(300).reshape(100, 3) == 7, np.nan, 1.0), "normals has 1 rows with NaN"),
+        (cloud()[0], np.zeros((100, 3)), "zero-length normals"),
+        (cloud()[0], cloud(50)[1], "normals have shape (50, 3)"),
+        (np.zeros((10, 2)), None, "expected (N, 3)"),
+        (cloud(5)[0], None, "only 5 points"),
+    ],
+)
 def test_bad_clouds(points, normals, needle):
     with pytest.raises(InvalidInputError) as e:
         validate_cloud("input cloud", points, normals)
@@ -47,7 +50,7 @@ def test_problem_validates_and_normalises():
 
 
 def test_result_is_frozen_and_pose_validation():
-    r = RegistrationResult(T_target_source=np.eye(4))
+    r = RegistrationResult(T_template_camera=np.eye(4))
     with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign to field 'score'"):
         r.score = 1.0  # frozen
     assert validate_pose("T", np.eye(4)).shape == (4, 4)

@@ -38,7 +38,7 @@ def test_an_asymmetric_chairs_quarter_turn_scores_worse_than_the_truth_it_could_
     assert costs["cost_truth_refined"] <= costs["cost_truth"] < costs["cost_estimate"]
     assert why_wrong.registration_verdict(90.0, costs) in ("not kept", "not found")
     # the candidates are ours' own: the nearest is where ours' search went (its answer here is right)
-    answer = ours.register(problem).T_target_source
+    answer = ours.register(problem).T_template_camera
     assert costs["nearest_candidate_deg"] <= rotation_angle_deg(answer[:3, :3], T_gt[:3, :3]) + 5.0
     same = why_wrong.registration_costs(ours, problem, T_gt, T_gt)
     assert same["cost_estimate"] == same["cost_truth"] and why_wrong.registration_verdict(0.0, same) == "right"
@@ -47,8 +47,8 @@ def test_an_asymmetric_chairs_quarter_turn_scores_worse_than_the_truth_it_could_
 def test_registration_verdicts():
     costs = {"cost_estimate": 0.10, "cost_truth": 0.20, "cost_truth_refined": 0.12, "nearest_candidate_deg": 12.0}
     assert why_wrong.registration_verdict(5.0, costs) == "right"
-    assert why_wrong.registration_verdict(20.0, costs) == "imprecise"     # inside the truth's basin
-    assert why_wrong.registration_verdict(90.0, costs) == "ambiguous"     # the estimate scores lowest
+    assert why_wrong.registration_verdict(20.0, costs) == "imprecise"  # inside the truth's basin
+    assert why_wrong.registration_verdict(90.0, costs) == "ambiguous"  # the estimate scores lowest
     lower = dict(costs, cost_truth_refined=0.08)
     assert why_wrong.registration_verdict(90.0, lower) == "not kept"
     assert why_wrong.registration_verdict(90.0, dict(lower, nearest_candidate_deg=45.0)) == "not found"
@@ -61,8 +61,9 @@ def test_the_truth_costs_less_under_the_rule_than_a_quarter_turned_chair():
     wrong = _pose(90.0) @ T
 
     def rule_cost(pose, k):
-        return cross_cost(cross_costs(P, pose, templates, k), k, CROSS_WEIGHT, top_offset(P, pose, templates, k),
-                          TOP_WEIGHT)
+        return cross_cost(
+            cross_costs(P, pose, templates, k), k, CROSS_WEIGHT, top_offset(P, pose, templates, k), TOP_WEIGHT
+        )
 
     poses = [(rule_cost(wrong, 0), 0, wrong), (rule_cost(_pose(270.0) @ T, 1), 1, _pose(270.0) @ T)]
     c = why_wrong.choice_costs(P, templates, [T, T], poses, "cross_top_turns")
@@ -77,11 +78,21 @@ def test_the_truth_costs_less_under_the_rule_than_a_quarter_turned_chair():
 
 def test_rule_poses_are_the_registrations_and_their_turns_under_a_turn_rule():
     T = np.eye(4)
-    info = {"cross_costs": [0.2, 0.3], "top_offset": 0.1,
-            "turns": [{"turn_deg": 90.0, "cross_costs": [0.1, 0.2], "top_offset": 0.0,
-                       "T_template_camera": _pose(90.0).tolist()}]}
-    group = pd.DataFrame({"sample_id": ["v|0", "v|1"], "status": ["ok", "ok"], "T_est": [T.tolist(), T.tolist()],
-                          "info": [info, {"cross_costs": [0.4, 0.5], "top_offset": 0.2, "turns": []}]})
+    info = {
+        "cross_costs": [0.2, 0.3],
+        "top_offset": 0.1,
+        "turns": [
+            {"turn_deg": 90.0, "cross_costs": [0.1, 0.2], "top_offset": 0.0, "T_template_camera": _pose(90.0).tolist()}
+        ],
+    }
+    group = pd.DataFrame(
+        {
+            "sample_id": ["v|0", "v|1"],
+            "status": ["ok", "ok"],
+            "T_est": [T.tolist(), T.tolist()],
+            "info": [info, {"cross_costs": [0.4, 0.5], "top_offset": 0.2, "turns": []}],
+        }
+    )
     turn = why_wrong.rule_poses(group, "cross_top_turns")
     assert [own for _, own, _ in turn] == [0, 0, 1] and len(turn) == 3
     np.testing.assert_array_equal(turn[1][2], _pose(90.0))
@@ -93,11 +104,28 @@ def test_rule_poses_are_the_registrations_and_their_turns_under_a_turn_rule():
 
 def test_a_templates_run_gets_a_row_per_judged_view(tmp_path):
     out = tmp_path / "out"
-    subprocess.run([sys.executable, "-m", "catpose.bench.cli", "run", "method=ours", "dataset=synthetic",
-                    "dataset.categories=[chair]", "dataset.instances_per_category=1", "dataset.views_per_instance=2",
-                    "protocol=templates", "protocol.choice=cross_top_turns", "method.selection.rule=visibility",
-                    f"output_root={out}", "progress=false", "print_summary=false"], check=True, capture_output=True,
-                   timeout=600)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "catpose.bench.cli",
+            "run",
+            "method=ours",
+            "dataset=synthetic",
+            "dataset.categories=[chair]",
+            "dataset.instances_per_category=1",
+            "dataset.views_per_instance=2",
+            "protocol=templates",
+            "protocol.choice=cross_top_turns",
+            "method.selection.rule=visibility",
+            f"output_root={out}",
+            "progress=false",
+            "print_summary=false",
+        ],
+        check=True,
+        capture_output=True,
+        timeout=600,
+    )
     run = next(out.glob("*/ours/*"))
     md = tmp_path / "why.md"
     # every view judged (a threshold of 0 degrees): each gets its registration's and its choice's costs

@@ -8,16 +8,15 @@ exercise the failure paths: ``load_error`` (the loader raises), ``empty`` (no po
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import numpy as np
 import trimesh
 
-from catpose.datasets.base import ObjectDataset, Observation
+from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
 from catpose.errors import DatasetError
 from catpose.geometry import invert_T, normalize_to_unit_sphere, stable_seed
-from catpose.methods.base import RegistrationMethod
+from catpose.methods.method import RegistrationMethod
 from catpose.types import RegistrationResult, Template
 
 
@@ -35,8 +34,14 @@ class ToyDataset(ObjectDataset):
         self.seed, self.num_views, self.special = seed, num_views, list(special or [])
         self.mesh = l_block()
         pts, fi = trimesh.sample.sample_surface(self.mesh, 3000, seed=0)
-        self.template = Template("toy/block/0", "block", pts, self.mesh.face_normals[fi],
-                                 np.asarray(self.mesh.vertices), np.asarray(self.mesh.faces))
+        self.template = Template(
+            "toy/block/0",
+            "block",
+            pts,
+            self.mesh.face_normals[fi],
+            np.asarray(self.mesh.vertices),
+            np.asarray(self.mesh.faces),
+        )
         self.camera = PinholeCamera(160, 120, 110.0, 110.0, 79.5, 59.5)
 
     def observation_ids(self) -> list[str]:
@@ -47,8 +52,9 @@ class ToyDataset(ObjectDataset):
         if kind == "load_error":
             raise DatasetError(f"{obs_id}: file is malformed on purpose")
         T_camera_object = ViewSampler(distance=3.0).sample(np.random.default_rng(stable_seed(self.seed, obs_id)))
-        points, _ = depth_to_points(render_depth(self.mesh.vertices, self.mesh.faces, T_camera_object, self.camera),
-                                    self.camera)
+        points, _ = depth_to_points(
+            render_depth(self.mesh.vertices, self.mesh.faces, T_camera_object, self.camera), self.camera
+        )
         normals = estimate_normals(points, radius=0.1)
         if kind == "empty":
             points, normals = points[:0], normals[:0]
@@ -58,8 +64,9 @@ class ToyDataset(ObjectDataset):
         elif kind == "collinear":
             points = np.outer(np.linspace(0, 1, 50), [1.0, 2.0, 3.0])
             normals = np.tile([0.0, 0.0, -1.0], (50, 1))
-        return Observation(obs_id, "block", "0", points, normals, T_camera_object[:3, :3] @ [0.0, 0.0, 1.0],
-                           invert_T(T_camera_object))
+        return Observation(
+            obs_id, "block", "0", points, normals, T_camera_object[:3, :3] @ [0.0, 0.0, 1.0], invert_T(T_camera_object)
+        )
 
     def instance_model(self, category: str, instance_id: str) -> Template:
         return self.template
@@ -86,7 +93,7 @@ class Oracle(RegistrationMethod):
         T = np.eye(4)
         if any(problem.sample_id.endswith(s) for s in self.nan_on):
             T[0, 0] = np.nan
-        return RegistrationResult(T_target_source=T, score=float(len(problem.points_camera)))
+        return RegistrationResult(T_template_camera=T, score=float(len(problem.points_camera)))
 
 
 class BatchOracle(Oracle):

@@ -34,30 +34,54 @@ log = logging.getLogger(__name__)
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="bench align", description=__doc__.split("\n\n")[0])
-    p.add_argument("overrides", nargs="*",
-                   help="Hydra dataset overrides: dataset=modelnet40|modelnet40_resampled dataset.root=...")
+    p.add_argument(
+        "overrides", nargs="*", help="Hydra dataset overrides: dataset=modelnet40|modelnet40_resampled dataset.root=..."
+    )
     p.add_argument("--category", required=True, help="category to align")
     p.add_argument("--reference", default=None, help="reference instance id (default: the first instance)")
     p.add_argument("--split", default=None, help="split whose instances are aligned (default: dataset.split)")
     p.add_argument("--flip", action="store_true", help="also try the up axis turned over (8 hypotheses)")
     p.add_argument("--no-refine", action="store_true", help="score the hypotheses without ICP")
-    p.add_argument("--icp-distance", type=float, default=0.05,
-                   help="ICP correspondence distance, object-normalised unit (default 0.05)")
+    p.add_argument(
+        "--icp-distance",
+        type=float,
+        default=0.05,
+        help="ICP correspondence distance, object-normalised unit (default 0.05)",
+    )
     p.add_argument("--points", type=int, default=1024, help="surface points per shape")
-    p.add_argument("--low-confidence", type=float, default=0.05,
-                   help="rows whose confidence is below this are marked on the sheet (default 0.05)")
-    p.add_argument("--out", required=True, help="CSV file to write (an existing one: see --force; one with rows "
-                   "marked verified is never overwritten: the estimate goes to <name>.new.csv)")
+    p.add_argument(
+        "--low-confidence",
+        type=float,
+        default=0.05,
+        help="rows whose confidence is below this are marked on the sheet (default 0.05)",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        help="CSV file to write (an existing one: see --force; one with rows "
+        "marked verified is never overwritten: the estimate goes to <name>.new.csv)",
+    )
     p.add_argument("--force", action="store_true", help="overwrite an existing --out that has no verified row")
     p.add_argument("--sheet", default=None, help="contact sheet PNG (default: the CSV's name with .png)")
-    p.add_argument("--draw-only", action="store_true",
-                   help="estimate nothing: redraw the sheet of the table in --out as it is (after corrections)")
-    p.add_argument("--cues", choices=("auto", "ends", "none"), default="auto",
-                   help="ends: shape cues at the ends decide nose/tail, Chamfer the main axis; none: Chamfer only; "
-                        "auto (default): the category's (ends for airplanes, none otherwise)")
-    p.add_argument("--compare", default=None, metavar="VERIFIED_CSV",
-                   help="after writing --out, compare it with this verified table (agreement, confidence ROC); "
-                        "writes <out>_vs_verified.csv")
+    p.add_argument(
+        "--draw-only",
+        action="store_true",
+        help="estimate nothing: redraw the sheet of the table in --out as it is (after corrections)",
+    )
+    p.add_argument(
+        "--cues",
+        choices=("auto", "ends", "none"),
+        default="auto",
+        help="ends: shape cues at the ends decide nose/tail, Chamfer the main axis; none: Chamfer only; "
+        "auto (default): the category's (ends for airplanes, none otherwise)",
+    )
+    p.add_argument(
+        "--compare",
+        default=None,
+        metavar="VERIFIED_CSV",
+        help="after writing --out, compare it with this verified table (agreement, confidence ROC); "
+        "writes <out>_vs_verified.csv",
+    )
     return p
 
 
@@ -101,8 +125,10 @@ def load_clouds(args: argparse.Namespace) -> tuple[str, list[str], str, list]:
     _, ((name, ds),) = compose_and_build(overrides, ("dataset",))
     ids = instance_ids(ds, args.category, args.split)
     if len(ids) < 2:
-        raise DatasetError(f"dataset {name} has {len(ids)} instances of {args.category!r}; alignment needs at "
-                           "least 2 (check --category, --split and dataset.root)")
+        raise DatasetError(
+            f"dataset {name} has {len(ids)} instances of {args.category!r}; alignment needs at "
+            "least 2 (check --category, --split and dataset.root)"
+        )
     ref = args.reference or ids[0]
     if ref not in ids:
         raise ConfigError(f"--reference {ref} is not among the {len(ids)} {args.category} instances ({ids[0]}, ...)")
@@ -130,44 +156,95 @@ def redraw(args: argparse.Namespace) -> list[dict]:
         conf = float(m["confidence"]) if (m.get("confidence") or "").strip() else float("nan")
         rows.append({"instance_id": i, "R": table[(args.category, i)], "confidence": conf, "low": not verified})
     n_ok = sum(not r["low"] for r in rows)
-    draw_contact_sheet(sheet_path(args), ids, clouds, ids.index(ref), [r["R"] for r in rows],
-                       [r["confidence"] for r in rows], [r["low"] for r in rows],
-                       f"{name} {args.category}: table {Path(args.out).name} ({n_ok}/{len(rows)} verified), "
-                       f"reference {ref} (grey)")
+    draw_contact_sheet(
+        sheet_path(args),
+        ids,
+        clouds,
+        ids.index(ref),
+        [r["R"] for r in rows],
+        [r["confidence"] for r in rows],
+        [r["low"] for r in rows],
+        f"{name} {args.category}: table {Path(args.out).name} ({n_ok}/{len(rows)} verified), reference {ref} (grey)",
+    )
     return rows
 
 
 def align(args: argparse.Namespace) -> list[dict]:
-    from catpose.datasets.alignment import (estimate_table, resolve_cues, write_alignment_table, yaw_deg_of,
-                                            yaw_flip_hypotheses)
+    from catpose.datasets.alignment import (
+        estimate_table,
+        resolve_cues,
+        write_alignment_table,
+        yaw_deg_of,
+        yaw_flip_hypotheses,
+    )
 
     name, ids, ref, clouds = load_clouds(args)
     hyps = yaw_flip_hypotheses(args.flip)
-    est = estimate_table(clouds, hyps, reference=ids.index(ref), refine=not args.no_refine,
-                         max_distance=args.icp_distance, cues=resolve_cues(args.cues, args.category))
+    est = estimate_table(
+        clouds,
+        hyps,
+        reference=ids.index(ref),
+        refine=not args.no_refine,
+        max_distance=args.icp_distance,
+        cues=resolve_cues(args.cues, args.category),
+    )
     rows = []
     for k, instance_id in enumerate(ids):
         a = int(est["labels"][k])
         R = hyps[a]
         disagree = a != int(est["labels_reference"][k])
         low = bool(est["confidence"][k] < args.low_confidence or disagree)
-        rows.append({"category": args.category, "instance_id": instance_id, "R": R,
-                     "yaw_deg": float(round((a % 4) * 90.0)), "flip": a >= 4, "chamfer": float(est["chamfer"][k]),
-                     "confidence": float(est["confidence"][k]), "verified": False,
-                     "note": "consensus differs from the reference-only estimate" if disagree else "", "low": low})
-        log.info("%s/%s: yaw %d%s, chamfer %.4f, confidence %.3f%s", args.category, instance_id, (a % 4) * 90,
-                 " flip" if a >= 4 else "", est["chamfer"][k], est["confidence"][k], "  <- check" if low else "")
+        rows.append(
+            {
+                "category": args.category,
+                "instance_id": instance_id,
+                "R": R,
+                "yaw_deg": float(round((a % 4) * 90.0)),
+                "flip": a >= 4,
+                "chamfer": float(est["chamfer"][k]),
+                "confidence": float(est["confidence"][k]),
+                "verified": False,
+                "note": "consensus differs from the reference-only estimate" if disagree else "",
+                "low": low,
+            }
+        )
+        log.info(
+            "%s/%s: yaw %d%s, chamfer %.4f, confidence %.3f%s",
+            args.category,
+            instance_id,
+            (a % 4) * 90,
+            " flip" if a >= 4 else "",
+            est["chamfer"][k],
+            est["confidence"][k],
+            "  <- check" if low else "",
+        )
     assert all(yaw_deg_of(r["R"]) is not None or r["flip"] for r in rows)
     write_alignment_table(args.out, rows)
-    draw_contact_sheet(sheet_path(args), ids, clouds, ids.index(ref), [r["R"] for r in rows],
-                       [r["confidence"] for r in rows], [r["low"] for r in rows],
-                       f"{name} {args.category}: estimated alignment to {ref} (grey)")
+    draw_contact_sheet(
+        sheet_path(args),
+        ids,
+        clouds,
+        ids.index(ref),
+        [r["R"] for r in rows],
+        [r["confidence"] for r in rows],
+        [r["low"] for r in rows],
+        f"{name} {args.category}: estimated alignment to {ref} (grey)",
+    )
     return rows
 
 
-def draw_contact_sheet(path: str | Path, ids: list[str], clouds: list, reference: int, R_ref_instance: list,
-                       confidence: list[float], low: list[bool], title: str, per_row: int = 2,
-                       max_points: int = 700) -> Path:
+def draw_contact_sheet(
+    path: str | Path,
+    ids: list[str],
+    clouds: list,
+    reference: int,
+    R_ref_instance: list,
+    confidence: list[float],
+    low: list[bool],
+    title: str,
+    per_row: int = 2,
+    max_points: int = 700,
+) -> Path:
     """A PNG grid: per instance, its cloud turned by ``R_ref_instance`` (3, 3) over the reference's
     (grey) in three views: top (x right, y up), side (x right, z up) and side (y right, z up),
     coloured by height (z); ``low`` rows titled in red."""
@@ -200,8 +277,12 @@ def draw_contact_sheet(path: str | Path, ids: list[str], clouds: list, reference
             ax.set_xticks([])
             ax.set_yticks([])
             if v == 0:
-                ax.set_title(f"{ids[k]} c={confidence[k]:.2f}" + (" CHECK" if low[k] else ""), fontsize=6.5, loc="left",
-                             color="red" if low[k] else "black")
+                ax.set_title(
+                    f"{ids[k]} c={confidence[k]:.2f}" + (" CHECK" if low[k] else ""),
+                    fontsize=6.5,
+                    loc="left",
+                    color="red" if low[k] else "black",
+                )
             else:
                 ax.set_title(("side x,z", "side y,z")[v - 1], fontsize=5.5, loc="right", color="0.4")
     fig.suptitle(title + "  [top x,y | side x,z | side y,z; colour: height; red title: check]", fontsize=7)

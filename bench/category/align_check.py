@@ -55,14 +55,25 @@ def roc(confidence: list[float], right: list[bool]) -> dict:
     ok = np.asarray(right, bool)
     min_right = float(c[ok].min()) if ok.any() else float("nan")
     max_wrong = float(c[~ok].max()) if (~ok).any() else float("nan")
-    out = {"min_right": min_right, "max_wrong": max_wrong, "separates": bool((~ok).sum() == 0 or min_right > max_wrong),
-           "auc": float("nan"), "fpr": [], "tpr": [], "thresholds": []}
+    out = {
+        "min_right": min_right,
+        "max_wrong": max_wrong,
+        "separates": bool((~ok).sum() == 0 or min_right > max_wrong),
+        "auc": float("nan"),
+        "fpr": [],
+        "tpr": [],
+        "thresholds": [],
+    }
     if ok.any() and (~ok).any():
         from sklearn.metrics import roc_auc_score, roc_curve
 
         fpr, tpr, thr = roc_curve(ok.astype(int), c)
-        out.update(auc=float(roc_auc_score(ok.astype(int), c)), fpr=fpr.tolist(), tpr=tpr.tolist(),
-                   thresholds=[float(t) for t in thr])
+        out.update(
+            auc=float(roc_auc_score(ok.astype(int), c)),
+            fpr=fpr.tolist(),
+            tpr=tpr.tolist(),
+            thresholds=[float(t) for t in thr],
+        )
     return out
 
 
@@ -82,11 +93,23 @@ def compare_tables(estimated_csv: str | Path, verified_csv: str | Path, category
     for i, agrees in ok.items():
         conf = meta[i].get("confidence") or ""
         R_ver_in_est = G @ ver[i]
-        rows.append({"instance_id": i, "agrees": agrees, "confidence": float(conf) if conf.strip() else float("nan"),
-                     "yaw_deg": _yaw(est[i]), "flip": bool(est[i][2, 2] < 0),
-                     "verified_yaw_deg": _yaw(R_ver_in_est), "verified_flip": bool(R_ver_in_est[2, 2] < 0)})
-    return {"n": len(rows), "agree": sum(r["agrees"] for r in rows), "rows": rows,
-            "roc": roc([r["confidence"] for r in rows], [r["agrees"] for r in rows])}
+        rows.append(
+            {
+                "instance_id": i,
+                "agrees": agrees,
+                "confidence": float(conf) if conf.strip() else float("nan"),
+                "yaw_deg": _yaw(est[i]),
+                "flip": bool(est[i][2, 2] < 0),
+                "verified_yaw_deg": _yaw(R_ver_in_est),
+                "verified_flip": bool(R_ver_in_est[2, 2] < 0),
+            }
+        )
+    return {
+        "n": len(rows),
+        "agree": sum(r["agrees"] for r in rows),
+        "rows": rows,
+        "roc": roc([r["confidence"] for r in rows], [r["agrees"] for r in rows]),
+    }
 
 
 def _yaw(R: np.ndarray) -> float:
@@ -105,8 +128,14 @@ def write_comparison(path: str | Path, result: dict) -> Path:
         w = csv.writer(fh)
         w.writerow(cols)
         for r in result["rows"]:
-            w.writerow([("true" if r[c] else "false") if isinstance(r[c], bool) else
-                        (f"{r[c]:.6g}" if isinstance(r[c], float) else r[c]) for c in cols])
+            w.writerow(
+                [
+                    ("true" if r[c] else "false")
+                    if isinstance(r[c], bool)
+                    else (f"{r[c]:.6g}" if isinstance(r[c], float) else r[c])
+                    for c in cols
+                ]
+            )
     return path
 
 
@@ -115,17 +144,25 @@ def summary_line(result: dict) -> str:
     r = result["roc"]
     auc = "n/a (no wrong row)" if not np.isfinite(r["auc"]) else f"{r['auc']:.3f}"
     wrong = "none" if not np.isfinite(r["max_wrong"]) else f"{r['max_wrong']:.3f}"
-    return (f"agree {result['agree']}/{result['n']}; confidence ROC AUC {auc}, separates right from wrong: "
-            f"{'yes' if r['separates'] else 'no'} (lowest right {r['min_right']:.3f}, highest wrong {wrong})")
+    return (
+        f"agree {result['agree']}/{result['n']}; confidence ROC AUC {auc}, separates right from wrong: "
+        f"{'yes' if r['separates'] else 'no'} (lowest right {r['min_right']:.3f}, highest wrong {wrong})"
+    )
 
 
 def read_comparison(path: str | Path) -> dict:
     """A comparison CSV written by :func:`write_comparison`, back as :func:`compare_tables`' dict."""
     with open(path, newline="") as fh:
-        rows = [{"instance_id": r["instance_id"], "agrees": r["agrees"] == "true",
-                 "confidence": float(r["confidence"])} for r in csv.DictReader(fh)]
-    return {"n": len(rows), "agree": sum(r["agrees"] for r in rows), "rows": rows,
-            "roc": roc([r["confidence"] for r in rows], [r["agrees"] for r in rows])}
+        rows = [
+            {"instance_id": r["instance_id"], "agrees": r["agrees"] == "true", "confidence": float(r["confidence"])}
+            for r in csv.DictReader(fh)
+        ]
+    return {
+        "n": len(rows),
+        "agree": sum(r["agrees"] for r in rows),
+        "rows": rows,
+        "roc": roc([r["confidence"] for r in rows], [r["agrees"] for r in rows]),
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -138,8 +175,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("items", nargs="+", help="NAME=<estimate>_vs_verified.csv")
     ap.add_argument("--out", default=None)
     args = ap.parse_args(argv)
-    lines = ["| set | agree | confidence ROC AUC | separates | lowest right | highest wrong | wrong rows |",
-             "|---|---:|---:|---|---:|---:|---|"]
+    lines = [
+        "| set | agree | confidence ROC AUC | separates | lowest right | highest wrong | wrong rows |",
+        "|---|---:|---:|---|---:|---:|---|",
+    ]
     for item in args.items:
         name, _, path = item.partition("=")
         if not path or not Path(path).is_file():
@@ -150,8 +189,10 @@ def main(argv: list[str] | None = None) -> int:
         auc = "n/a" if not np.isfinite(roc_["auc"]) else f"{roc_['auc']:.3f}"
         wrong = ", ".join(x["instance_id"] for x in r["rows"] if not x["agrees"]) or "-"
         hw = "-" if not np.isfinite(roc_["max_wrong"]) else f"{roc_['max_wrong']:.3f}"
-        lines.append(f"| {name} | {r['agree']}/{r['n']} | {auc} | {'yes' if roc_['separates'] else 'no'} | "
-                     f"{roc_['min_right']:.3f} | {hw} | {wrong} |")
+        lines.append(
+            f"| {name} | {r['agree']}/{r['n']} | {auc} | {'yes' if roc_['separates'] else 'no'} | "
+            f"{roc_['min_right']:.3f} | {hw} | {wrong} |"
+        )
     text = "\n".join(lines) + "\n"
     if args.out:
         Path(args.out).write_text(text)

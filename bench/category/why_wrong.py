@@ -74,8 +74,10 @@ def run_dirs(paths: list[Path], row: str, overrides: tuple[str, ...] = ()) -> li
             continue
         jobs = [j for j in read_sweep(p) if wanted <= set(j.get("overrides", [])) and j.get("run_dir")]
         if not jobs:
-            raise ConfigError(f"{p} is neither a run directory (no config.yaml) nor a sweep with a finished job of "
-                              f"{' '.join(sorted(wanted))}; pass a `bench run` folder or a `bench run -m` sweep folder")
+            raise ConfigError(
+                f"{p} is neither a run directory (no config.yaml) nor a sweep with a finished job of "
+                f"{' '.join(sorted(wanted))}; pass a `bench run` folder or a `bench run -m` sweep folder"
+            )
         out += [Path(j["run_dir"]) for j in jobs]
     return out
 
@@ -92,14 +94,16 @@ def registration_costs(ours: Any, problem: Any, T_est: np.ndarray, T_gt: np.ndar
     from catpose.bench.protocols.cross_check import turned
     from catpose.bench.protocols.template_choice import rotation_angle_deg
     from catpose.methods.ours_selection import chamfer_distances
-    from catpose.methods.selection import half_turns
-    from catpose.methods.selection_kernel import visibility_scores
+    from catpose.methods.pose_scores import half_turns
+    from catpose.methods.pose_scores_kernel import visibility_scores
     from catpose.point_to_plane_kernel import refine_many
 
     sel = ours.point_selection
     if sel.rule not in ("visibility", "chamfer"):
-        raise ConfigError(f"method.selection.rule={sel.rule!r} scores no pose but its own candidates; this check "
-                          "needs ours' visibility or chamfer rule")
+        raise ConfigError(
+            f"method.selection.rule={sel.rule!r} scores no pose but its own candidates; this check "
+            "needs ours' visibility or chamfer rule"
+        )
     c = ours.candidates(problem)
     feats = ours.template_features(problem.template)
     normals = problem.template.normals
@@ -110,6 +114,7 @@ def registration_costs(ours: Any, problem: Any, T_est: np.ndarray, T_gt: np.ndar
         def score(T: np.ndarray) -> np.ndarray:
             return visibility_scores(src, grid, T, feats.truncated, normals, sel.visibility_trunc)
     else:
+
         def score(T: np.ndarray) -> np.ndarray:
             return chamfer_distances(feats.tree, src, T)
 
@@ -127,9 +132,12 @@ def registration_costs(ours: Any, problem: Any, T_est: np.ndarray, T_gt: np.ndar
     still_near = [rotation_angle_deg(T[:3, :3], T_gt[:3, :3]) < NEAR_DEG for T in T_ref]
     est, gt = score(np.stack([np.asarray(T_est, float), T_gt]))
     refined = score(T_ref)
-    return {"cost_estimate": float(est), "cost_truth": float(gt),
-            "cost_truth_refined": float(np.min(np.where(still_near, refined, np.inf))),
-            "nearest_candidate_deg": float(nearest)}
+    return {
+        "cost_estimate": float(est),
+        "cost_truth": float(gt),
+        "cost_truth_refined": float(np.min(np.where(still_near, refined, np.inf))),
+        "nearest_candidate_deg": float(nearest),
+    }
 
 
 def registration_verdict(err_deg: float, costs: dict, wrong_deg: float = WRONG_DEG) -> str:
@@ -147,16 +155,25 @@ def registration_verdict(err_deg: float, costs: dict, wrong_deg: float = WRONG_D
 def rule_poses(group, choice: str) -> list[tuple[float, int, np.ndarray]]:
     """(cost, own template index, pose (4, 4)) of every candidate ``choice`` (a ``cross`` rule)
     chose among in one view's rows ``group``: the registrations, and their turns under the turn rules."""
-    from catpose.bench.protocols.template_choice import (CROSS_RULES, TURN_RULES, cross_costs_of, rule_candidates,
-                                                         split_template_sample_id)
+    from catpose.bench.protocols.template_choice import (
+        CROSS_RULES,
+        TURN_RULES,
+        cross_costs_of,
+        rule_candidates,
+        split_template_sample_id,
+    )
 
     weight = CROSS_RULES[choice]
     if choice in TURN_RULES:
-        return [(key[0], own, np.asarray(T, float).reshape(4, 4)) for key, own, T in rule_candidates(group, weight, choice)]
+        return [
+            (key[0], own, np.asarray(T, float).reshape(4, 4)) for key, own, T in rule_candidates(group, weight, choice)
+        ]
     costs = cross_costs_of(group, weight)
-    return [(float(c), split_template_sample_id(sid)[1], np.asarray(T, float).reshape(4, 4))
-            for c, sid, T, status in zip(costs, group["sample_id"], group["T_est"], group["status"])
-            if status == "ok" and np.isfinite(c)]
+    return [
+        (float(c), split_template_sample_id(sid)[1], np.asarray(T, float).reshape(4, 4))
+        for c, sid, T, status in zip(costs, group["sample_id"], group["T_est"], group["status"])
+        if status == "ok" and np.isfinite(c)
+    ]
 
 
 def choice_costs(points_camera: np.ndarray, templates: list, T_gts: list[np.ndarray], poses: list, choice: str) -> dict:
@@ -173,12 +190,22 @@ def choice_costs(points_camera: np.ndarray, templates: list, T_gts: list[np.ndar
     for k, (template, T_gt) in enumerate(zip(templates, T_gts)):
         T_gt = np.asarray(T_gt, float)
         for T in (T_gt, refine_on(P, template, np.round(T_gt, 9))):
-            truth.append((cross_cost(cross_costs(P, T, templates, k), k, CROSS_WEIGHT,
-                                     top_offset(P, T, templates, k), top_weight), k))
+            truth.append(
+                (
+                    cross_cost(
+                        cross_costs(P, T, templates, k), k, CROSS_WEIGHT, top_offset(P, T, templates, k), top_weight
+                    ),
+                    k,
+                )
+            )
     best_truth = min(truth)
     nearest = min(rotation_angle_deg(T[:3, :3], np.asarray(T_gts[own], float)[:3, :3]) for _, own, T in poses)
-    return {"rule_cost_kept": float(min(c for c, _, _ in poses)), "rule_cost_truth": float(best_truth[0]),
-            "rule_truth_template": int(best_truth[1]), "rule_nearest_deg": float(nearest)}
+    return {
+        "rule_cost_kept": float(min(c for c, _, _ in poses)),
+        "rule_cost_truth": float(best_truth[0]),
+        "rule_truth_template": int(best_truth[1]),
+        "rule_nearest_deg": float(nearest),
+    }
 
 
 def choice_verdict(err_deg: float, costs: dict) -> str:
@@ -228,16 +255,23 @@ def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_
         group = frame[frame["group_id"] == kept["group_id"]]
         own = frame[frame["sample_id"] == kept["sample_id"]].iloc[0]
         info = kept.get("info") if isinstance(kept.get("info"), dict) else {}
-        r = {"view": kept["group_id"], "template_id": kept.get("template_id"), "err_deg": float(kept["err_deg"]),
-             "oracle_err_deg": float(kept["oracle_err_deg"]), "turn_deg": info.get("turn_deg", ""),
-             "fused_templates": info.get("fused_templates", ""), "method": method_name,
-             "registration_err_deg": float(own["err_deg"])}
+        r = {
+            "view": kept["group_id"],
+            "template_id": kept.get("template_id"),
+            "err_deg": float(kept["err_deg"]),
+            "oracle_err_deg": float(kept["oracle_err_deg"]),
+            "turn_deg": info.get("turn_deg", ""),
+            "fused_templates": info.get("fused_templates", ""),
+            "method": method_name,
+            "registration_err_deg": float(own["err_deg"]),
+        }
         # the view against each of its templates, in template order (the kept one among them)
         loaded = {sid: protocol.load(dataset, sid) for sid in sorted(group["sample_id"], key=_template_index)}
         sample = loaded[kept["sample_id"]]
         if isinstance(method, Ours) and not method.uses_depth(sample.problem):  # depth: bench/real/ambiguity
-            costs = registration_costs(method, sample.problem, np.reshape(own["T_est"], (4, 4)),
-                                       sample.gt.T_template_camera)
+            costs = registration_costs(
+                method, sample.problem, np.reshape(own["T_est"], (4, 4)), sample.gt.T_template_camera
+            )
             r.update(costs, registration=registration_verdict(r["registration_err_deg"], costs, wrong_deg))
         else:
             r["registration"] = "-"
@@ -245,8 +279,13 @@ def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_
             poses = rule_poses(group, protocol.choice)
             if poses:
                 views = list(loaded.values())
-                c = choice_costs(sample.problem.points_camera, [v.problem.template for v in views],
-                                 [v.gt.T_template_camera for v in views], poses, protocol.choice)
+                c = choice_costs(
+                    sample.problem.points_camera,
+                    [v.problem.template for v in views],
+                    [v.gt.T_template_camera for v in views],
+                    poses,
+                    protocol.choice,
+                )
                 c["rule_truth_template"] = views[c["rule_truth_template"]].problem.template.template_id
                 r.update(c, choice=protocol.choice, choice_verdict=choice_verdict(r["err_deg"], c))
         r.setdefault("choice", protocol.choice if len(group) > 1 else "-")
@@ -261,62 +300,141 @@ def _template_index(sample_id: str) -> int:
     return split_template_sample_id(sample_id)[1]
 
 
-COLUMNS = ["view", "method", "template_id", "err_deg", "oracle_err_deg", "turn_deg", "fused_templates",
-           "registration_err_deg", "cost_estimate", "cost_truth", "cost_truth_refined", "nearest_candidate_deg",
-           "registration", "choice", "rule_cost_kept", "rule_cost_truth", "rule_truth_template", "rule_nearest_deg",
-           "choice_verdict"]
+COLUMNS = [
+    "view",
+    "method",
+    "template_id",
+    "err_deg",
+    "oracle_err_deg",
+    "turn_deg",
+    "fused_templates",
+    "registration_err_deg",
+    "cost_estimate",
+    "cost_truth",
+    "cost_truth_refined",
+    "nearest_candidate_deg",
+    "registration",
+    "choice",
+    "rule_cost_kept",
+    "rule_cost_truth",
+    "rule_truth_template",
+    "rule_nearest_deg",
+    "choice_verdict",
+]
 
 
 def markdown(title: str, rows: list[dict], views: int, wrong_deg: float = WRONG_DEG) -> str:
     """The rows as a Markdown table under ``title`` (``views``: how many views the runs hold,
     ``wrong_deg``: the threshold they were judged at), with the counts of each verdict."""
-    def f(v: Any, fmt: str = ".3f") -> str:
-        return "-" if v is None or v == "" or (isinstance(v, float) and not np.isfinite(v)) else \
-            (format(v, fmt) if isinstance(v, float) else str(v))
 
-    head = ["view", "kept template", "error", "oracle", "turn", "registration error", "registration",
-            "score estimate / truth / truth refined", "nearest candidate", "choice", "rule cost kept / truth (template)",
-            "nearest rule candidate"]
-    lines = [f"**{title}**", "", f"{len(rows)} of {views} views kept an estimate {wrong_deg:g} degrees or more "
-             "from the truth.", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    def f(v: Any, fmt: str = ".3f") -> str:
+        return (
+            "-"
+            if v is None or v == "" or (isinstance(v, float) and not np.isfinite(v))
+            else (format(v, fmt) if isinstance(v, float) else str(v))
+        )
+
+    head = [
+        "view",
+        "kept template",
+        "error",
+        "oracle",
+        "turn",
+        "registration error",
+        "registration",
+        "score estimate / truth / truth refined",
+        "nearest candidate",
+        "choice",
+        "rule cost kept / truth (template)",
+        "nearest rule candidate",
+    ]
+    lines = [
+        f"**{title}**",
+        "",
+        f"{len(rows)} of {views} views kept an estimate {wrong_deg:g} degrees or more from the truth.",
+        "",
+        "| " + " | ".join(head) + " |",
+        "|" + "---|" * len(head),
+    ]
     for r in rows:
-        scores = " / ".join(f(r.get(k), ".4f") for k in ("cost_estimate", "cost_truth", "cost_truth_refined")) \
-            if "cost_estimate" in r else "-"
-        rule = (f"{f(r.get('rule_cost_kept'), '.4f')} / {f(r.get('rule_cost_truth'), '.4f')} "
-                f"({str(r.get('rule_truth_template')).rsplit('/', 1)[-1]})") if "rule_cost_kept" in r else "-"
-        lines.append("| " + " | ".join([
-            r["view"], str(r["template_id"]).rsplit("/", 1)[-1], f(r["err_deg"], ".2f"), f(r["oracle_err_deg"], ".2f"),
-            f(r["turn_deg"], "g"), f(r["registration_err_deg"], ".2f"), r["registration"], scores,
-            f(r.get("nearest_candidate_deg"), ".1f"), f"{r['choice']}: {r['choice_verdict']}" if r["choice_verdict"] != "-"
-            else r["choice"], rule, f(r.get("rule_nearest_deg"), ".1f")]) + " |")
+        scores = (
+            " / ".join(f(r.get(k), ".4f") for k in ("cost_estimate", "cost_truth", "cost_truth_refined"))
+            if "cost_estimate" in r
+            else "-"
+        )
+        rule = (
+            (
+                f"{f(r.get('rule_cost_kept'), '.4f')} / {f(r.get('rule_cost_truth'), '.4f')} "
+                f"({str(r.get('rule_truth_template')).rsplit('/', 1)[-1]})"
+            )
+            if "rule_cost_kept" in r
+            else "-"
+        )
+        lines.append(
+            "| "
+            + " | ".join(
+                [
+                    r["view"],
+                    str(r["template_id"]).rsplit("/", 1)[-1],
+                    f(r["err_deg"], ".2f"),
+                    f(r["oracle_err_deg"], ".2f"),
+                    f(r["turn_deg"], "g"),
+                    f(r["registration_err_deg"], ".2f"),
+                    r["registration"],
+                    scores,
+                    f(r.get("nearest_candidate_deg"), ".1f"),
+                    f"{r['choice']}: {r['choice_verdict']}" if r["choice_verdict"] != "-" else r["choice"],
+                    rule,
+                    f(r.get("rule_nearest_deg"), ".1f"),
+                ]
+            )
+            + " |"
+        )
     counts = {}
     for key in ("registration", "choice_verdict"):
         for r in rows:
             if r[key] != "-":
                 counts[(key, r[key])] = counts.get((key, r[key]), 0) + 1
     if counts:
-        lines += ["", "Verdicts: " + "; ".join(f"{'registration' if k == 'registration' else 'choice'} {v}: {n}"
-                                             for (k, v), n in sorted(counts.items()))]
-    lines += ["", f"imprecise: {wrong_deg:g} to {NEAR_DEG:g} degrees off, in the truth's basin. registration (ours' "
-              "own selection score on the kept template, lower is better): right, its own estimate was within "
-              f"{wrong_deg:g} degrees; ambiguous, the estimate scores at most the truth's, as given or refined inside "
-              f"the basin ({NEAR_DEG:g} degrees); not kept, the refined truth scores lower and one of ours' candidates "
-              "lay inside the basin; not found, none did. choice (the rule's cost over the K templates): ambiguous, "
-              "the kept candidate costs at most the truth's lowest; missed, the truth costs less. Angles in degrees; "
-              "scores in the object-normalised unit (docs/category-level.md, \"Why a view is wrong\")."]
+        lines += [
+            "",
+            "Verdicts: "
+            + "; ".join(
+                f"{'registration' if k == 'registration' else 'choice'} {v}: {n}"
+                for (k, v), n in sorted(counts.items())
+            ),
+        ]
+    lines += [
+        "",
+        f"imprecise: {wrong_deg:g} to {NEAR_DEG:g} degrees off, in the truth's basin. registration (ours' "
+        "own selection score on the kept template, lower is better): right, its own estimate was within "
+        f"{wrong_deg:g} degrees; ambiguous, the estimate scores at most the truth's, as given or refined inside "
+        f"the basin ({NEAR_DEG:g} degrees); not kept, the refined truth scores lower and one of ours' candidates "
+        "lay inside the basin; not found, none did. choice (the rule's cost over the K templates): ambiguous, "
+        "the kept candidate costs at most the truth's lowest; missed, the truth costs less. Angles in degrees; "
+        'scores in the object-normalised unit (docs/category-level.md, "Why a view is wrong").',
+    ]
     return "\n".join(lines) + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:
     from catpose import atomic
 
-    parser = argparse.ArgumentParser(prog="python -m catpose.bench.category.why_wrong",
-                                     description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m catpose.bench.category.why_wrong",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("runs", nargs="+", type=Path, help="templates run directories or `bench run -m` sweep folders")
-    parser.add_argument("--row", default="ours", help="in a sweep folder, the +row of the jobs to judge (default: ours)")
-    parser.add_argument("--override", action="append", default=[],
-                        help="in a sweep folder, judge only the jobs with this override too (key=value; repeatable)")
+    parser.add_argument(
+        "--row", default="ours", help="in a sweep folder, the +row of the jobs to judge (default: ours)"
+    )
+    parser.add_argument(
+        "--override",
+        action="append",
+        default=[],
+        help="in a sweep folder, judge only the jobs with this override too (key=value; repeatable)",
+    )
     parser.add_argument("--out", type=Path, required=True, help="Markdown table to write (a .csv is written beside it)")
     parser.add_argument("--choice", help="judge the choice of this protocol.choice rule (default: the run's)")
     parser.add_argument("--title", default="Why each wrong view is wrong")
@@ -331,8 +449,9 @@ def main(argv: list[str] | None = None) -> int:
             judged, n = why_rows(run, args.choice, args.wrong_deg)
             rows += judged
             views += n
-        atomic.write_text(args.out.with_suffix(".csv"),
-                          pd.DataFrame(rows, columns=COLUMNS).to_csv(index=False, float_format="%.4f"))
+        atomic.write_text(
+            args.out.with_suffix(".csv"), pd.DataFrame(rows, columns=COLUMNS).to_csv(index=False, float_format="%.4f")
+        )
         atomic.write_text(args.out, markdown(args.title, rows, views, args.wrong_deg))
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)

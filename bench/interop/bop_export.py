@@ -23,8 +23,9 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -54,13 +55,23 @@ def bop_ids(runs_rows: Sequence[dict]) -> tuple[list[tuple], list[dict]]:
             R_om = np.asarray(info.get("R_object_model", np.eye(3)), float).reshape(3, 3)
         else:
             inst = str(r.get("instance_id"))
-            ids = (sorted(instances[r["category"]]).index(inst) + 1,
-                   sorted(set(views[(r["category"], inst)])).index(str(r.get("obs_id"))),
-                   categories.index(r["category"]) + 1)
+            ids = (
+                sorted(instances[r["category"]]).index(inst) + 1,
+                sorted(set(views[(r["category"], inst)])).index(str(r.get("obs_id"))),
+                categories.index(r["category"]) + 1,
+            )
             scale, centre, R_om = 1.0, np.zeros(3), np.eye(3)
         out.append((*ids, scale, centre, R_om))
-        mapping.append({"sample_id": r["sample_id"], "obs_id": r.get("obs_id"), "scene_id": ids[0],
-                        "im_id": ids[1], "obj_id": ids[2], "scale_mm": scale})
+        mapping.append(
+            {
+                "sample_id": r["sample_id"],
+                "obs_id": r.get("obs_id"),
+                "scene_id": ids[0],
+                "im_id": ids[1],
+                "obj_id": ids[2],
+                "scale_mm": scale,
+            }
+        )
     return out, mapping
 
 
@@ -79,8 +90,9 @@ def image_times(ids: Sequence[tuple], runtimes: Sequence[Any]) -> dict[tuple[int
     return out
 
 
-def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True,
-               skipped: list[str] | None = None) -> int:
+def export_bop(
+    run_dir: str | Path, out_csv: str | Path, check_name: bool = True, skipped: list[str] | None = None
+) -> int:
     """Write a run's estimates as a BOP results CSV; returns the number of rows written.
 
     ``out_csv`` must be named ``METHOD_DATASET-SPLIT.csv`` (no ``_`` in METHOD) as the BOP
@@ -101,13 +113,13 @@ def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True
     from catpose.bench.protocols.relative import Relative
     from catpose.bench.report.tables import load_run, protocol_of
     from catpose.bench.scoring.bop_eval import check_results_filename
+    from catpose.errors import DatasetError, InvalidInputError
     from catpose.geometry import invert_T
 
-    from catpose.errors import DatasetError, InvalidInputError
-
     if Path(out_csv).is_dir():
-        raise InvalidInputError(f"--out {out_csv} is a folder; pass the CSV file to write, e.g. "
-                                f"{Path(out_csv) / 'method_ycbv-test.csv'}")
+        raise InvalidInputError(
+            f"--out {out_csv} is a folder; pass the CSV file to write, e.g. {Path(out_csv) / 'method_ycbv-test.csv'}"
+        )
     if check_name:
         check_results_filename(out_csv)
     run = load_run(run_dir)
@@ -120,11 +132,15 @@ def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True
     rows, ids, mapping = [everything[k] for k in keep], [all_ids[k] for k in keep], [all_mapping[k] for k in keep]
     failed = [r for r in everything if not (r.get("status") == "ok" and r.get("T_est") is not None)]
     if not rows:
-        raise DatasetError(f"run {run_dir} has no sample with an estimate ({len(everything)} samples, all failed); "
-                           "nothing to export: re-run the method (bench run ... retry_failed=true)")
+        raise DatasetError(
+            f"run {run_dir} has no sample with an estimate ({len(everything)} samples, all failed); "
+            "nothing to export: re-run the method (bench run ... retry_failed=true)"
+        )
     if failed and skipped is not None:
-        skipped.append(f"{len(failed)} of {len(everything)} samples have no estimate (failed) and are not in the "
-                       f"file, e.g. {failed[0].get('sample_id')}: {str(failed[0].get('error') or '')[:80]}")
+        skipped.append(
+            f"{len(failed)} of {len(everything)} samples have no estimate (failed) and are not in the "
+            f"file, e.g. {failed[0].get('sample_id')}: {str(failed[0].get('error') or '')[:80]}"
+        )
     times = image_times(ids, [r.get("runtime_s") for r in rows])
     lines = [",".join(BOP_COLUMNS)]
     for r, (scene, im, obj, scale, centre, R_om) in zip(rows, ids):
@@ -134,8 +150,10 @@ def export_bop(run_dir: str | Path, out_csv: str | Path, check_name: bool = True
         s = r.get("score")
         conf = 1.0 if s is None or not math.isfinite(float(s)) else math.exp(-max(float(s), 0.0))
         rt = times[(scene, im)]
-        lines.append(f"{scene},{im},{obj},{conf:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"
-                     f"{' '.join(f'{x:.9g}' for x in t)},{rt:.6g}")
+        lines.append(
+            f"{scene},{im},{obj},{conf:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"
+            f"{' '.join(f'{x:.9g}' for x in t)},{rt:.6g}"
+        )
     from catpose import atomic
     from catpose.bench.scoring.bop_eval import check_results_csv
 
@@ -151,8 +169,12 @@ def main(argv: list[str] | None = None) -> int:
     """``bench export RUN_DIR --out METHOD_DATASET-SPLIT.csv``."""
     ap = argparse.ArgumentParser(prog="bench export", description="Export a run's estimates as a BOP results CSV.")
     ap.add_argument("run", help="a run directory written by `bench run`")
-    ap.add_argument("--out", required=True, help="CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the "
-                    "BOP toolkit requires; a <out>.map.csv with the id mapping is written beside it")
+    ap.add_argument(
+        "--out",
+        required=True,
+        help="CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the "
+        "BOP toolkit requires; a <out>.map.csv with the id mapping is written beside it",
+    )
     args = ap.parse_args(argv)
     skipped: list[str] = []
     try:
@@ -160,8 +182,10 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as e:  # an unwritable or full --out folder: one line (the old file, if any, is kept)
         from catpose.errors import InvalidInputError
 
-        raise InvalidInputError(f"cannot write --out {args.out} ({e.strerror or type(e).__name__}); pass a path in "
-                                "a writable folder with free space") from None
+        raise InvalidInputError(
+            f"cannot write --out {args.out} ({e.strerror or type(e).__name__}); pass a path in "
+            "a writable folder with free space"
+        ) from None
     for line in skipped:
         log.warning("skipped: %s", line)
     print(f"wrote {n} estimates to {args.out}")

@@ -38,14 +38,19 @@ def read_csv_text(path: Path):
     try:
         return pd.read_csv(path, dtype=str, keep_default_na=False)
     except pd.errors.EmptyDataError:
-        raise InvalidInputError(f"predictions file {path} is empty; write a header (BOP: scene_id,im_id,obj_id,"
-                                "score,R,t,time; per sample: sample_id,R,t) and one row per estimate") from None
+        raise InvalidInputError(
+            f"predictions file {path} is empty; write a header (BOP: scene_id,im_id,obj_id,"
+            "score,R,t,time; per sample: sample_id,R,t) and one row per estimate"
+        ) from None
     except UnicodeDecodeError:
-        raise InvalidInputError(f"predictions file {path} is not a text CSV (binary data, e.g. a .npy); write the "
-                                "estimates as a BOP results CSV or a per-sample CSV (sample_id,R,t)") from None
+        raise InvalidInputError(
+            f"predictions file {path} is not a text CSV (binary data, e.g. a .npy); write the "
+            "estimates as a BOP results CSV or a per-sample CSV (sample_id,R,t)"
+        ) from None
     except pd.errors.ParserError as e:
-        raise InvalidInputError(f"predictions file {path} is not a well-formed CSV ({' '.join(str(e).split())[:100]})"
-                                ) from None
+        raise InvalidInputError(
+            f"predictions file {path} is not a well-formed CSV ({' '.join(str(e).split())[:100]})"
+        ) from None
 
 
 def check_ids(record: dict, kind: str, where: str) -> None:
@@ -56,8 +61,9 @@ def check_ids(record: dict, kind: str, where: str) -> None:
             if not _INT.match(value):
                 raise InvalidInputError(f"{where}: {col} must be an integer, got {value[:20]!r}")
     elif not str(record.get("sample_id", "")).strip():
-        raise InvalidInputError(f"{where}: sample_id is empty; give each row the sample id (or observation id) it "
-                                "estimates")
+        raise InvalidInputError(
+            f"{where}: sample_id is empty; give each row the sample id (or observation id) it estimates"
+        )
 
 
 def rotation_problem(R: np.ndarray, tol: float = ROTATION_TOL) -> str | None:
@@ -74,8 +80,10 @@ def check_pose(T: np.ndarray, where: str) -> None:
     """``T`` (4, 4): a rotation within :data:`ROTATION_TOL` and a finite translation."""
     why = rotation_problem(T[:3, :3])
     if why:
-        raise InvalidInputError(f"{where}: R is not a rotation ({why}); write R as 9 row-major numbers of an "
-                                f"orthonormal matrix with det +1 (within {ROTATION_TOL:g})")
+        raise InvalidInputError(
+            f"{where}: R is not a rotation ({why}); write R as 9 row-major numbers of an "
+            f"orthonormal matrix with det +1 (within {ROTATION_TOL:g})"
+        )
     if not np.isfinite(T[:3, 3]).all():
         raise InvalidInputError(f"{where}: t is not finite; write 3 finite numbers")
 

@@ -59,8 +59,10 @@ def read_predictions(path: str | Path):
     elif {"sample_id", "R", "t"} <= cols:
         kind = "sample"
     else:
-        raise InvalidInputError(f"{path}: header {list(df.columns)} is neither BOP (scene_id,im_id,obj_id,score,R,t,time) "
-                                "nor per-sample (sample_id,R,t[,score][,time])")
+        raise InvalidInputError(
+            f"{path}: header {list(df.columns)} is neither BOP (scene_id,im_id,obj_id,score,R,t,time) "
+            "nor per-sample (sample_id,R,t[,score][,time])"
+        )
     Ts = []
     for k, r in enumerate(df.to_dict("records"), 2):
         check_ids(r, kind, f"{path}:{k}")

@@ -13,8 +13,9 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -33,9 +34,13 @@ def _orthonormalise(R: np.ndarray) -> np.ndarray:
     return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
 
 
-def score_predictions(preds, gt_rows: Sequence[dict], method: str,
-                      mapping: dict[tuple[int, int, int], str] | None = None,
-                      stats: dict | None = None) -> list[dict]:
+def score_predictions(
+    preds,
+    gt_rows: Sequence[dict],
+    method: str,
+    mapping: dict[tuple[int, int, int], str] | None = None,
+    stats: dict | None = None,
+) -> list[dict]:
     """Per-sample rows (``samples.jsonl`` schema) for the predictions against ground-truth rows.
 
     ``gt_rows`` are rows with ``T_gt`` (a run's ``samples.jsonl``, one per view is enough). A
@@ -81,9 +86,12 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str,
 
     def errors_of(T_est: np.ndarray, g: dict) -> dict:
         axis, symmetries = g.get("symmetry_axis"), g.get("symmetries")
-        return sample_errors(T_est, np.asarray(g["T_gt"], float).reshape(4, 4),
-                             None if axis is None else np.asarray(axis, float),
-                             symmetries if isinstance(symmetries, (list, tuple)) else ())
+        return sample_errors(
+            T_est,
+            np.asarray(g["T_gt"], float).reshape(4, 4),
+            None if axis is None else np.asarray(axis, float),
+            symmetries if isinstance(symmetries, (list, tuple)) else (),
+        )
 
     matched: dict[int, dict] = {}
     groups: dict[Any, list[int]] = {}
@@ -93,16 +101,32 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str,
         for key, members in groups.items():
             cands = by_score(all_by_key.get(key, []))
             free = list(members)
-            for p in cands[:len(members)]:
+            for p in cands[: len(members)]:
                 errs = {k: errors_of(estimate(p, k), gt_rows[k]) for k in free}
                 best = min(free, key=lambda k: (round(errs[k]["err_deg"], 9), errs[k]["trans_err"]))
                 matched[best] = p
                 free.remove(best)
     out = []
     for k, g in enumerate(gt_rows):
-        row = {key: g.get(key) for key in ("sample_id", "group_id", "obs_id", "category", "instance_id", "template_id",
-                                           "dataset", "protocol", "seed", "symmetric", "T_gt", "symmetry_axis", "symmetries",
-                                           "info")}
+        row = {
+            key: g.get(key)
+            for key in (
+                "sample_id",
+                "group_id",
+                "obs_id",
+                "category",
+                "instance_id",
+                "template_id",
+                "dataset",
+                "protocol",
+                "seed",
+                "symmetric",
+                "T_gt",
+                "symmetry_axis",
+                "symmetries",
+                "info",
+            )
+        }
         row.update(method=method, extras={}, stage="")
         if kind == "bop":
             sid = str(g["sample_id"])
@@ -115,17 +139,29 @@ def score_predictions(preds, gt_rows: Sequence[dict], method: str,
         T_est = estimate(p, k)
         errs = errors_of(T_est, g)
         score = p.get("score")
-        score = None if score is None or not math.isfinite(float(score)) else (-float(score) if kind == "bop" else float(score))
+        score = (
+            None
+            if score is None or not math.isfinite(float(score))
+            else (-float(score) if kind == "bop" else float(score))
+        )
         rt = p.get("time")
-        out.append(scored_row(row, T_est, errs, score=score,
-                              runtime_s=None if rt is None or not math.isfinite(float(rt)) or float(rt) < 0 else float(rt)))
+        out.append(
+            scored_row(
+                row,
+                T_est,
+                errs,
+                score=score,
+                runtime_s=None if rt is None or not math.isfinite(float(rt)) or float(rt) < 0 else float(rt),
+            )
+        )
     if stats is not None:
         stats.update(_counts(kind, all_by_key, gt_rows, groups, mapping, out))
     return out
 
 
-def _counts(kind: str, all_by_key: dict, gt_rows: Sequence[dict], groups: dict, mapping: dict | None,
-            out: Sequence[dict]) -> dict:
+def _counts(
+    kind: str, all_by_key: dict, gt_rows: Sequence[dict], groups: dict, mapping: dict | None, out: Sequence[dict]
+) -> dict:
     """The counts of :func:`score_predictions` (see :func:`count_text`)."""
     if kind == "bop":
         known = set(groups) | set(mapping or {})
@@ -138,23 +174,33 @@ def _counts(kind: str, all_by_key: dict, gt_rows: Sequence[dict], groups: dict, 
         ignored = sum(len(v) - 1 for k, v in all_by_key.items() if k in known)
         rule = "the last row of a sample id counts"
     unknown = [k for k in all_by_key if k not in known]
-    return {"predictions": sum(map(len, all_by_key.values())), "targets": len(gt_rows),
-            "scored": sum(r["status"] == "ok" for r in out),
-            "missing": sum(r["status"] != "ok" for r in out),
-            "duplicates_ignored": ignored, "duplicate_rule": rule,
-            "unknown_ids": len(unknown), "unknown_rows": sum(len(all_by_key[k]) for k in unknown),
-            "unknown_examples": [key_text(k) for k in unknown[:5]]}
+    return {
+        "predictions": sum(map(len, all_by_key.values())),
+        "targets": len(gt_rows),
+        "scored": sum(r["status"] == "ok" for r in out),
+        "missing": sum(r["status"] != "ok" for r in out),
+        "duplicates_ignored": ignored,
+        "duplicate_rule": rule,
+        "unknown_ids": len(unknown),
+        "unknown_rows": sum(len(all_by_key[k]) for k in unknown),
+        "unknown_examples": [key_text(k) for k in unknown[:5]],
+    }
 
 
 def count_text(stats: dict) -> str:
     """What a score counted, for people: scored, missing (misses), duplicates and unknown ids."""
-    lines = [f"{stats['predictions']} prediction rows; {stats['scored']} of {stats['targets']} samples scored, "
-             f"{stats['missing']} without a prediction (counted as misses: failed, 180 deg)"]
+    lines = [
+        f"{stats['predictions']} prediction rows; {stats['scored']} of {stats['targets']} samples scored, "
+        f"{stats['missing']} without a prediction (counted as misses: failed, 180 deg)"
+    ]
     if stats["duplicates_ignored"]:
         lines.append(f"{stats['duplicates_ignored']} duplicate row(s) ignored ({stats['duplicate_rule']})")
     if stats["unknown_ids"]:
-        lines.append(f"{stats['unknown_rows']} row(s) with {stats['unknown_ids']} id(s) that no sample has, ignored: "
-                     + ", ".join(stats["unknown_examples"]) + (", ..." if stats["unknown_ids"] > 5 else ""))
+        lines.append(
+            f"{stats['unknown_rows']} row(s) with {stats['unknown_ids']} id(s) that no sample has, ignored: "
+            + ", ".join(stats["unknown_examples"])
+            + (", ..." if stats["unknown_ids"] > 5 else "")
+        )
     return "\n".join(lines)
 
 
@@ -169,13 +215,17 @@ def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
     n_rows = len(s)
     s = s[s["T_gt"].map(lambda v: isinstance(v, (list, np.ndarray)))]
     if len(s) == 0:
-        raise DatasetError(f"run {run_dir} has no sample with ground truth ({n_rows} rows, all failed before their "
-                           "data loaded); pass a run whose samples loaded, or --dataset NAME")
+        raise DatasetError(
+            f"run {run_dir} has no sample with ground truth ({n_rows} rows, all failed before their "
+            "data loaded); pass a run whose samples loaded, or --dataset NAME"
+        )
     key = "group_id" if run.protocol in ("templates", "relative") else "sample_id"
     return s.drop_duplicates(key).to_dict("records"), run.config
 
 
-def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Sequence[str] = ()) -> tuple[list[dict], dict]:
+def gt_rows_from_config(
+    dataset: str, protocol: str, seed: int, overrides: Sequence[str] = ()
+) -> tuple[list[dict], dict]:
     """Ground-truth rows built from ``configs/dataset/<dataset>.yaml`` + ``configs/protocol/<protocol>.yaml``."""
     from omegaconf import OmegaConf
 
@@ -183,7 +233,8 @@ def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Seque
 
     # one-line errors for an unknown name, a missing root etc.
     cfg, ((ds_name, ds), (pr_name, proto)) = compose_and_build(
-        [f"dataset={dataset}", f"protocol={protocol}", f"seed={seed}", *overrides], ("dataset", "protocol"))
+        [f"dataset={dataset}", f"protocol={protocol}", f"seed={seed}", *overrides], ("dataset", "protocol")
+    )
     config = OmegaConf.to_container(cfg, resolve=True)
     rows, seen = [], set()
     for sid in proto.sample_ids(ds):
@@ -194,21 +245,34 @@ def gt_rows_from_config(dataset: str, protocol: str, seed: int, overrides: Seque
         seen.add(group)
         info = dict(sample.info)
         axis = sample.gt.symmetry_axis
-        rows.append({"sample_id": sid, "group_id": group, "obs_id": sid.split("|")[0], "category": sample.problem.category,
-                     "instance_id": info.get("instance_id"), "template_id": sample.problem.template.template_id,
-                     "dataset": ds_name, "protocol": pr_name, "seed": seed, "symmetric": axis is not None,
-                     "T_gt": np.asarray(sample.gt.T_template_camera, float).reshape(-1).tolist(),
-                     "symmetry_axis": None if axis is None else np.asarray(axis, float).tolist(),
-                     "symmetries": [np.asarray(S, float).reshape(-1).tolist() for S in sample.gt.symmetries] or None,
-                     "info": info})
+        rows.append(
+            {
+                "sample_id": sid,
+                "group_id": group,
+                "obs_id": sid.split("|")[0],
+                "category": sample.problem.category,
+                "instance_id": info.get("instance_id"),
+                "template_id": sample.problem.template.template_id,
+                "dataset": ds_name,
+                "protocol": pr_name,
+                "seed": seed,
+                "symmetric": axis is not None,
+                "T_gt": np.asarray(sample.gt.T_template_camera, float).reshape(-1).tolist(),
+                "symmetry_axis": None if axis is None else np.asarray(axis, float).tolist(),
+                "symmetries": [np.asarray(S, float).reshape(-1).tolist() for S in sample.gt.symmetries] or None,
+                "info": info,
+            }
+        )
     return rows, config
 
 
 def main(argv: list[str] | None = None) -> int:
     """``bench score PREDICTIONS.csv --gt RUN_DIR --method NAME --out DIR`` (or ``--dataset D --protocol P``)."""
-    ap = argparse.ArgumentParser(prog="bench score",
-                                 description="Score an external predictions file (BOP CSV, per-sample CSV, or a "
-                                 ".npy/.npz array of (B, 3, 4) or (B, 4, 4) transforms with --ids).")
+    ap = argparse.ArgumentParser(
+        prog="bench score",
+        description="Score an external predictions file (BOP CSV, per-sample CSV, or a "
+        ".npy/.npz array of (B, 3, 4) or (B, 4, 4) transforms with --ids).",
+    )
     ap.add_argument("predictions")
     ap.add_argument("--gt", help="a run directory whose ground truth (and samples) to score against")
     ap.add_argument("--dataset", help="or: a dataset config name (configs/dataset)")
@@ -216,24 +280,53 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--override", action="append", default=[], help="extra Hydra override for --dataset, repeatable")
     ap.add_argument("--map", default=None, help="BOP id -> sample id CSV (default: <predictions>.map.csv if present)")
-    ap.add_argument("--method", default=None, help="name of the external method (row label in tables; default: "
-                    "METHOD of a METHOD_DATASET-SPLIT.csv file name)")
+    ap.add_argument(
+        "--method",
+        default=None,
+        help="name of the external method (row label in tables; default: "
+        "METHOD of a METHOD_DATASET-SPLIT.csv file name)",
+    )
     ap.add_argument("--out", required=True, help="run directory to write (new or empty; see --force)")
-    ap.add_argument("--force", action="store_true",
-                    help="replace an existing run or other files at --out (never the --gt run itself)")
-    ap.add_argument("--metrics", default=",".join(DEFAULT_BOP_METRICS),
-                    help="BOP datasets: comma-separated recalls, e.g. ar,ar_mssd,ar_mspd,ar_vsd,adds@0.1,add@0.1,mssd@0.2,"
-                         "mspd@10,5deg5cm,10deg10cm")
+    ap.add_argument(
+        "--force",
+        action="store_true",
+        help="replace an existing run or other files at --out (never the --gt run itself)",
+    )
+    ap.add_argument(
+        "--metrics",
+        default=",".join(DEFAULT_BOP_METRICS),
+        help="BOP datasets: comma-separated recalls, e.g. ar,ar_mssd,ar_mspd,ar_vsd,adds@0.1,add@0.1,mssd@0.2,"
+        "mspd@10,5deg5cm,10deg10cm",
+    )
     ap.add_argument("--by", default="object,category", help="BOP datasets: rows per object and/or category")
-    ap.add_argument("--no-vsd", action="store_true", help="BOP datasets: skip VSD (it renders the model twice per estimate)")
-    ap.add_argument("--ids", default=None, help=".npy/.npz transforms: a text file of sample ids, one per line, in the "
-                    "arrays' order (not needed when the .npz has an 'ids' array)")
-    ap.add_argument("--inverse", action="store_true", help=".npy/.npz transforms: they map the template onto the "
-                    "observation (T_camera_template); invert them")
-    ap.add_argument("--acc", default=None, metavar="LIST", help="also print accuracies at these thresholds, "
-                    "degrees and n-degree m-cm, e.g. --acc 5,10,30,5deg5cm,10deg10cm (summary_thresholds.md)")
-    ap.add_argument("--auc", type=float, default=None, metavar="DEG",
-                    help="also print the area under the accuracy curve from 0 to DEG degrees, over DEG")
+    ap.add_argument(
+        "--no-vsd", action="store_true", help="BOP datasets: skip VSD (it renders the model twice per estimate)"
+    )
+    ap.add_argument(
+        "--ids",
+        default=None,
+        help=".npy/.npz transforms: a text file of sample ids, one per line, in the "
+        "arrays' order (not needed when the .npz has an 'ids' array)",
+    )
+    ap.add_argument(
+        "--inverse",
+        action="store_true",
+        help=".npy/.npz transforms: they map the template onto the observation (T_camera_template); invert them",
+    )
+    ap.add_argument(
+        "--acc",
+        default=None,
+        metavar="LIST",
+        help="also print accuracies at these thresholds, "
+        "degrees and n-degree m-cm, e.g. --acc 5,10,30,5deg5cm,10deg10cm (summary_thresholds.md)",
+    )
+    ap.add_argument(
+        "--auc",
+        type=float,
+        default=None,
+        metavar="DEG",
+        help="also print the area under the accuracy curve from 0 to DEG degrees, over DEG",
+    )
     args = ap.parse_args(argv)
     if args.method is None:
         from catpose.bench.scoring.bop_eval import check_results_filename
@@ -241,19 +334,26 @@ def main(argv: list[str] | None = None) -> int:
         try:
             args.method = check_results_filename(args.predictions)[0]
         except InvalidInputError:
-            raise InvalidInputError(f"pass --method NAME (the file name {Path(args.predictions).name!r} is not "
-                                    "METHOD_DATASET-SPLIT.csv)") from None
+            raise InvalidInputError(
+                f"pass --method NAME (the file name {Path(args.predictions).name!r} is not METHOD_DATASET-SPLIT.csv)"
+            ) from None
     if bool(args.gt) == bool(args.dataset):
         raise InvalidInputError("pass exactly one of --gt RUN_DIR or --dataset NAME")
     out = Path(args.out)
     # before any work: no run is written over (bench/run/overwrite.py), the --gt run never
     check_new_output(out, args.force, protected=Path(args.gt) if args.gt else None)
-    gt_rows, config = gt_rows_from_run(args.gt) if args.gt else gt_rows_from_config(
-        args.dataset, args.protocol, args.seed, args.override)
+    gt_rows, config = (
+        gt_rows_from_run(args.gt)
+        if args.gt
+        else gt_rows_from_config(args.dataset, args.protocol, args.seed, args.override)
+    )
     from catpose.bench.interop.transform_arrays import is_transform_array, read_transform_arrays
 
-    preds = (read_transform_arrays(args.predictions, args.ids, args.inverse) if is_transform_array(args.predictions)
-             else read_predictions(args.predictions))
+    preds = (
+        read_transform_arrays(args.predictions, args.ids, args.inverse)
+        if is_transform_array(args.predictions)
+        else read_predictions(args.predictions)
+    )
     map_path = Path(args.map) if args.map else Path(str(args.predictions) + ".map.csv")
     if args.map and not map_path.is_file():
         raise InvalidInputError(f"--map {map_path} does not exist")
@@ -269,15 +369,23 @@ def main(argv: list[str] | None = None) -> int:
         with atomic.building_dir(out) as tmp:
             write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
             if preds.attrs["kind"] == "bop" and _is_bop_dataset(config.get("dataset")):
-                bop_text = score_bop(preds, config["dataset"], tmp, args.method, args.metrics.split(","),
-                                     args.by.split(","), vsd=not args.no_vsd)
+                bop_text = score_bop(
+                    preds,
+                    config["dataset"],
+                    tmp,
+                    args.method,
+                    args.metrics.split(","),
+                    args.by.split(","),
+                    vsd=not args.no_vsd,
+                )
             objects = _object_summary(rows, tmp)
             summary = (tmp / "summary.md").read_text() if (tmp / "summary.md").is_file() else ""
             if args.acc or args.auc is not None:
                 thresholds = _threshold_summary(rows, tmp, args.acc or "", args.auc)
     except OSError as e:  # an unwritable or full --out: one line, nothing left behind
-        raise InvalidInputError(f"cannot write --out {out} ({e.strerror or type(e).__name__}); pass a writable "
-                                "folder with free space") from None
+        raise InvalidInputError(
+            f"cannot write --out {out} ({e.strerror or type(e).__name__}); pass a writable folder with free space"
+        ) from None
     print(count_text(stats))
     print(f"run directory {out}")
     print(summary)
@@ -293,8 +401,8 @@ def _object_summary(rows: Sequence[dict], out_dir: Path) -> str:
     """Per-object rows of the same statistics as ``summary.md`` (written to ``summary_objects.md``)."""
     import pandas as pd
 
-    from catpose.bench.scoring.metrics import summarize
     from catpose.bench.run.evaluate import format_summary
+    from catpose.bench.scoring.metrics import summarize
 
     df = pd.DataFrame(list(rows))
     df["object"] = [f"{c}/{i}" for c, i in zip(df["category"], df["instance_id"])]
@@ -328,19 +436,30 @@ def evaluation_models(dataset_cfg: dict) -> dict:
     dataset has that folder (the BOP toolkit's evaluation models, uniformly resampled surfaces),
     whatever the run registered against; the config as it is otherwise."""
     root = dataset_cfg.get("root")
-    if root and dataset_cfg.get("models_dir", "models") == "models" and (Path(str(root)) / "models_eval" / "models_info.json").is_file():
+    if (
+        root
+        and dataset_cfg.get("models_dir", "models") == "models"
+        and (Path(str(root)) / "models_eval" / "models_info.json").is_file()
+    ):
         return dict(dataset_cfg, models_dir="models_eval")
     return dataset_cfg
 
 
-def score_bop(preds, dataset_cfg: dict, out_dir: str | Path, method: str, metrics: Sequence[str],
-              by: Sequence[str], vsd: bool = True) -> str:
+def score_bop(
+    preds,
+    dataset_cfg: dict,
+    out_dir: str | Path,
+    method: str,
+    metrics: Sequence[str],
+    by: Sequence[str],
+    vsd: bool = True,
+) -> str:
     """BOP metrics of a BOP results CSV on the dataset of ``dataset_cfg`` (a resolved config
     dict): writes ``bop_errors.jsonl`` and ``bop_summary.md`` into ``out_dir`` and returns the
     summary (which states the target and visibility filters applied, and the models used: the
     dataset's ``models_eval/`` when present, :func:`evaluation_models`)."""
-    from catpose.bench.scoring.bop_eval import ERRORS_FILE, compute_errors, format_scores, score_table, write_errors
     from catpose.bench.run.build import build_from_config
+    from catpose.bench.scoring.bop_eval import ERRORS_FILE, compute_errors, format_scores, score_table, write_errors
 
     dataset_cfg = evaluation_models(dataset_cfg)
     _, ds = build_from_config(dict(dataset_cfg), "dataset")
@@ -354,11 +473,15 @@ def score_bop(preds, dataset_cfg: dict, out_dir: str | Path, method: str, metric
         key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"]))
         estimates[key] = estimates.get(key, 0) + 1
     filters = list(getattr(ds, "filters", [])) + [f"models: {dataset_cfg.get('models_dir', 'models')}/"]
-    header = {"method": method, "filters": filters, "targets": len(errs),
-              "matched": int(sum(r["matched"] for r in errs)),
-              # ignored, and said so: estimates of no target, and those beyond an (image, object)'s instances
-              "unknown_estimates": sum(n for k, n in estimates.items() if k not in instances),
-              "extra_estimates": sum(max(0, n - instances[k]) for k, n in estimates.items() if k in instances)}
+    header = {
+        "method": method,
+        "filters": filters,
+        "targets": len(errs),
+        "matched": int(sum(r["matched"] for r in errs)),
+        # ignored, and said so: estimates of no target, and those beyond an (image, object)'s instances
+        "unknown_estimates": sum(n for k, n in estimates.items() if k not in instances),
+        "extra_estimates": sum(max(0, n - instances[k]) for k, n in estimates.items() if k in instances),
+    }
     write_errors(errs, Path(out_dir) / ERRORS_FILE, header)
     import pandas as pd
 

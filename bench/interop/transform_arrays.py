@@ -24,8 +24,8 @@ is a run's ``sample_id`` or ``obs_id``, as in a per-sample CSV.
 from __future__ import annotations
 
 import zipfile
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -57,8 +57,10 @@ def as_transforms(array: np.ndarray, where: str) -> np.ndarray:
     if a.ndim == 2:
         a = a[None]
     if a.ndim != 3 or a.shape[1:] not in ((3, 4), (4, 4)) or not np.issubdtype(a.dtype, np.number):
-        raise InvalidInputError(f"{where}: expected transforms of shape (B, 3, 4) or (B, 4, 4), got {a.shape} "
-                                f"{a.dtype}; save e.g. np.save(file, pred_transforms) with pred_transforms (B, 3, 4)")
+        raise InvalidInputError(
+            f"{where}: expected transforms of shape (B, 3, 4) or (B, 4, 4), got {a.shape} "
+            f"{a.dtype}; save e.g. np.save(file, pred_transforms) with pred_transforms (B, 3, 4)"
+        )
     T = np.zeros((len(a), 4, 4))
     T[:, :3, :] = a[:, :3, :].astype(float)
     T[:, 3, 3] = 1.0
@@ -103,25 +105,32 @@ def read_transform_arrays(path: str | Path, ids: str | Path | Sequence[str] | No
                 if arr is None:
                     R, t = _first(data, ROTATION_KEYS), _first(data, TRANSLATION_KEYS)
                     if R is None or t is None:
-                        raise InvalidInputError(f"{path}: no transforms; name the array one of {', '.join(TRANSFORM_KEYS)} "
-                                                f"(or R and t), found {', '.join(data.files) or 'nothing'}")
+                        raise InvalidInputError(
+                            f"{path}: no transforms; name the array one of {', '.join(TRANSFORM_KEYS)} "
+                            f"(or R and t), found {', '.join(data.files) or 'nothing'}"
+                        )
                     R, t = np.asarray(R), np.asarray(t)
                     if R.ndim != 3 or R.shape[1:] != (3, 3) or t.reshape(len(R), -1).shape[1] != 3:
-                        raise InvalidInputError(f"{path}: rotations {R.shape} and translations {t.shape} must be (B, 3, 3) "
-                                                "and (B, 3)")
+                        raise InvalidInputError(
+                            f"{path}: rotations {R.shape} and translations {t.shape} must be (B, 3, 3) and (B, 3)"
+                        )
                     arr = np.concatenate([R, t.reshape(len(R), 3, 1)], axis=2)
                 T = as_transforms(arr, str(path))
                 file_ids = _first(data, ID_KEYS)
                 scores, times = _first(data, ("scores", "score")), _first(data, ("times", "time"))
     except (ValueError, OSError, EOFError, zipfile.BadZipFile) as e:  # not a NumPy file (or cut off), or an
         # object array (pickles are refused)
-        raise InvalidInputError(f"{path}: not a readable NumPy array file ({str(e).splitlines()[0]}); "
-                                "write it with np.save / np.savez, without object arrays") from None
+        raise InvalidInputError(
+            f"{path}: not a readable NumPy array file ({str(e).splitlines()[0]}); "
+            "write it with np.save / np.savez, without object arrays"
+        ) from None
     if file_ids is not None:
         id_list = [str(i) for i in np.asarray(file_ids).reshape(-1)]
     elif ids is None:
-        raise InvalidInputError(f"{path} holds no sample ids: pass --ids FILE (one sample id per line, in the "
-                                "arrays' order) or save an 'ids' array in the .npz")
+        raise InvalidInputError(
+            f"{path} holds no sample ids: pass --ids FILE (one sample id per line, in the "
+            "arrays' order) or save an 'ids' array in the .npz"
+        )
     elif isinstance(ids, (str, Path)):
         id_list = read_ids(ids)
     else:
@@ -144,7 +153,8 @@ def read_transform_arrays(path: str | Path, ids: str | Path | Sequence[str] | No
             raise InvalidInputError(f"{path}: {name} has {len(v)} values for {len(T)} transforms")
         return v.tolist()
 
-    df = pd.DataFrame({"sample_id": id_list, "T": list(T), "score": per_sample(scores, "scores"),
-                       "time": per_sample(times, "times")})
+    df = pd.DataFrame(
+        {"sample_id": id_list, "T": list(T), "score": per_sample(scores, "scores"), "time": per_sample(times, "times")}
+    )
     df.attrs["kind"] = "sample"
     return df

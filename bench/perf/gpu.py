@@ -49,8 +49,10 @@ def make_problems(count: int, m: int = 18, n: int = 32, seed: int = 0) -> list:
         p = rng.normal(size=(n, 3)) * 0.4
         R = np.linalg.qr(rng.normal(size=(m, 3, 3)))[0]
         R *= np.sign(np.linalg.det(R))[:, None, None]
-        q = np.concatenate([np.einsum("mij,nj->mni", R, p) + rng.normal(size=(m, n, 3)) * 0.02,
-                            rng.normal(size=(m, n, 3)) * 0.5], axis=1)
+        q = np.concatenate(
+            [np.einsum("mij,nj->mni", R, p) + rng.normal(size=(m, n, 3)) * 0.02, rng.normal(size=(m, n, 3)) * 0.5],
+            axis=1,
+        )
         A = rng.random((m, n, 2 * n)) * 0.3
         A[:, np.arange(n), np.arange(n)] += 1.0
         A /= A.sum(2, keepdims=True)
@@ -100,10 +102,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=10)
     ap.add_argument("--iterations", type=int, default=5, help="IRLS iterations per stage (default 5)")
     ap.add_argument("--out", default=None, help="CSV path")
-    ap.add_argument("--inputs", default=None, help="real solver inputs (.npz from --dump-inputs) instead of "
-                                                   "generated problems (cycled to fill larger batches)")
-    ap.add_argument("--dump-inputs", default=None, help="write ours' solver inputs on the golden problems to this "
-                                                        ".npz and exit (needs the installed project)")
+    ap.add_argument(
+        "--inputs",
+        default=None,
+        help="real solver inputs (.npz from --dump-inputs) instead of "
+        "generated problems (cycled to fill larger batches)",
+    )
+    ap.add_argument(
+        "--dump-inputs",
+        default=None,
+        help="write ours' solver inputs on the golden problems to this .npz and exit (needs the installed project)",
+    )
     args = ap.parse_args(argv)
     if args.dump_inputs:
         print(f"perf_gpu: {dump_inputs(Path(args.dump_inputs))} problems written to {args.dump_inputs}")
@@ -146,9 +155,19 @@ def main(argv: list[str] | None = None) -> int:
                 times.append(time.perf_counter() - t0)
             ms = statistics.median(times) * 1e3 / b
             diff = max(_rot_diff_deg(r[0], ref[0]) for r, ref in zip(res, reference))
-            rows.append({"problems": f"real ({len(real)} golden views, cycled)" if args.inputs else "generated", "device": dev, "batch": b, "ms_per_problem": round(ms, 4),
-                         "problems_per_s": round(1e3 / ms, 1), "max_rot_diff_deg_vs_cpu64": round(diff, 5),
-                         "dtype": dtype, "name": name, "torch": torch.__version__})
+            rows.append(
+                {
+                    "problems": f"real ({len(real)} golden views, cycled)" if args.inputs else "generated",
+                    "device": dev,
+                    "batch": b,
+                    "ms_per_problem": round(ms, 4),
+                    "problems_per_s": round(1e3 / ms, 1),
+                    "max_rot_diff_deg_vs_cpu64": round(diff, 5),
+                    "dtype": dtype,
+                    "name": name,
+                    "torch": torch.__version__,
+                }
+            )
             print(rows[-1], flush=True)
     if args.out:
         out = Path(args.out)  # a bare checkout has no catpose.atomic: the same temp file + os.replace here

@@ -45,20 +45,31 @@ import os
 import resource
 import statistics
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from catpose.errors import ConfigError
 
 log = logging.getLogger(__name__)
 
-STAGES = ("dictionary", "descriptors", "affinity", "initial_pose", "optimization", "selection", "refinement",
-          "hypotheses", "verification")
+STAGES = (
+    "dictionary",
+    "descriptors",
+    "affinity",
+    "initial_pose",
+    "optimization",
+    "selection",
+    "refinement",
+    "hypotheses",
+    "verification",
+)
 REFERENCE = "fgr"
 
 
-def load_problems(dataset: str, protocol: str, n: int, seed: int, root: str | None = None,
-                  overrides: Sequence[str] = ()) -> tuple[list, str]:
+def load_problems(
+    dataset: str, protocol: str, n: int, seed: int, root: str | None = None, overrides: Sequence[str] = ()
+) -> tuple[list, str]:
     """The first ``n`` problems of ``dataset`` under ``protocol`` (round-robin over categories),
     built exactly as ``bench run`` builds them, and a label saying where they come from."""
     from catpose.bench.run.config import compose_and_build
@@ -66,8 +77,9 @@ def load_problems(dataset: str, protocol: str, n: int, seed: int, root: str | No
     ov = [f"dataset={dataset}", f"protocol={protocol}", f"seed={seed}", *overrides]
     if root:
         ov.append(f"dataset.root={root}")
-    _, ((name, ds), (_, proto)) = compose_and_build(ov, ("dataset", "protocol"),
-                                                    hint="check --dataset/--protocol/--dataset-set")
+    _, ((name, ds), (_, proto)) = compose_and_build(
+        ov, ("dataset", "protocol"), hint="check --dataset/--protocol/--dataset-set"
+    )
     by_cat: dict[str, list[str]] = {}
     for sid in proto.sample_ids(ds):
         by_cat.setdefault(str(ds.category_of(sid.split("|")[0])), []).append(sid)
@@ -87,8 +99,11 @@ def build_method(name: str, seed: int, overrides: Sequence[str] = ()) -> Any:
     relative to the method node)."""
     from catpose.bench.run.config import compose_and_build
 
-    _, ((_, method),) = compose_and_build([f"method={name}", f"seed={seed}", *[f"method.{kv}" for kv in overrides]],
-                                          ("method",), hint="check --methods/--set")
+    _, ((_, method),) = compose_and_build(
+        [f"method={name}", f"seed={seed}", *[f"method.{kv}" for kv in overrides]],
+        ("method",),
+        hint="check --methods/--set",
+    )
     return method
 
 
@@ -183,11 +198,10 @@ def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int, bat
     Returns per method: ``times`` (s per registration, in call order), ``stages`` (stage -> list
     of s, ours only), ``warmup_s`` and ``failed`` (timed calls that gave no pose).
     """
-    out = {name: {"times": [], "stages": {s: [] for s in STAGES}, "warmup_s": 0.0, "failed": 0}
-           for name in methods}
+    out = {name: {"times": [], "stages": {s: [] for s in STAGES}, "warmup_s": 0.0, "failed": 0} for name in methods}
     names = list(methods)
     seen: set = set()
-    chunks = [problems[i:i + batch] for i in range(0, len(problems), batch)]
+    chunks = [problems[i : i + batch] for i in range(0, len(problems), batch)]
     for chunk in chunks:
         for name, method in methods.items():
             for p in chunk:  # one untimed call per new template builds its caches
@@ -198,7 +212,7 @@ def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int, bat
                     out[name]["warmup_s"] += time.perf_counter() - t0
         seen.update(p.template.template_id for p in chunk)
         for r in range(repeat):
-            order = names[r % len(names):] + names[:r % len(names)]
+            order = names[r % len(names) :] + names[: r % len(names)]
             for name in order:
                 method, rec = methods[name], out[name]
                 if batch > 1 and hasattr(method, "register_batch"):
@@ -232,10 +246,18 @@ def summarize(measured: dict[str, dict]) -> list[dict]:
     for name, rec in measured.items():
         xs = rec["times"]
         med = statistics.median(xs)
-        rows.append({"method": name, "n": len(xs), "median_s": med, "mean_s": statistics.fmean(xs),
-                     "p90_s": _percentile(xs, 90),
-                     f"ratio_to_{REFERENCE}": med / ref_median if ref_median else float("nan"),
-                     "warmup_s": rec["warmup_s"], "failed": rec.get("failed", 0)})
+        rows.append(
+            {
+                "method": name,
+                "n": len(xs),
+                "median_s": med,
+                "mean_s": statistics.fmean(xs),
+                "p90_s": _percentile(xs, 90),
+                f"ratio_to_{REFERENCE}": med / ref_median if ref_median else float("nan"),
+                "warmup_s": rec["warmup_s"],
+                "failed": rec.get("failed", 0),
+            }
+        )
     return rows
 
 
@@ -261,18 +283,31 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="bench perf", description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=12, help="number of problems (default 12)")
     ap.add_argument("--repeat", type=int, default=3, help="interleaved timing rounds (default 3)")
-    ap.add_argument("--methods", default="ours,icp,fgr",
-                    help="comma-separated method config names; LABEL=NAME runs a config under another label")
+    ap.add_argument(
+        "--methods",
+        default="ours,icp,fgr",
+        help="comma-separated method config names; LABEL=NAME runs a config under another label",
+    )
     ap.add_argument("--dataset", default="synthetic", help="dataset config name (default synthetic)")
     ap.add_argument("--root", default=None, help="dataset root (sets dataset.root)")
     ap.add_argument("--protocol", default="gt_model", help="protocol config name (default gt_model)")
-    ap.add_argument("--dataset-set", action="append", default=[], metavar="KEY=VALUE",
-                    help="override a dataset option (e.g. instances_per_category=1)")
+    ap.add_argument(
+        "--dataset-set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a dataset option (e.g. instances_per_category=1)",
+    )
     ap.add_argument("--categories", default=None, help="comma-separated categories (sets dataset.categories)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=1, help="torch intra-op threads (default 1)")
-    ap.add_argument("--set", action="append", default=[], metavar="[LABEL:]KEY=VALUE",
-                    help="override an option of ours (KEY=VALUE) or of the method LABEL (LABEL:KEY=VALUE)")
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="[LABEL:]KEY=VALUE",
+        help="override an option of ours (KEY=VALUE) or of the method LABEL (LABEL:KEY=VALUE)",
+    )
     ap.add_argument("--device", default="cpu", choices=("cpu", "cuda"), help="ours' solver device")
     ap.add_argument("--batch", type=int, default=1, help="problems per ours register_batch call (default 1)")
     ap.add_argument("--out", default=None, help="CSV path (default outputs/perf/<parameters>.csv)")
@@ -287,8 +322,10 @@ def main(argv: list[str] | None = None) -> int:
         import torch
 
         if not torch.cuda.is_available():
-            raise ConfigError("--device cuda but torch has no CUDA device here; run it on a GPU "
-                              "machine with a CUDA build of torch, or use --device cpu")
+            raise ConfigError(
+                "--device cuda but torch has no CUDA device here; run it on a GPU "
+                "machine with a CUDA build of torch, or use --device cpu"
+            )
     import torch
     from tabulate import tabulate
 
@@ -313,25 +350,44 @@ def main(argv: list[str] | None = None) -> int:
     load_after = os.getloadavg()
     rows = summarize(measured)
     peak_rss = _peak_rss_mb()
-    stage_rows = [{"method": name, "stage": s, "median_s": statistics.median(v), "mean_s": statistics.fmean(v)}
-                  for name, rec in measured.items() for s, v in rec["stages"].items() if v]
+    stage_rows = [
+        {"method": name, "stage": s, "median_s": statistics.median(v), "mean_s": statistics.fmean(v)}
+        for name, rec in measured.items()
+        for s, v in rec["stages"].items()
+        if v
+    ]
 
-    print(f"problems: {len(problems)} from {source}; {args.repeat} interleaved rounds; torch threads "
-          f"{torch.get_num_threads()}; ours on {args.device}, batch {args.batch}; load average "
-          f"{load_before[0]:.1f} before, {load_after[0]:.1f} after on {os.cpu_count()} CPUs; "
-          f"peak RSS {peak_rss:.0f} MiB (the process, all methods)")
+    print(
+        f"problems: {len(problems)} from {source}; {args.repeat} interleaved rounds; torch threads "
+        f"{torch.get_num_threads()}; ours on {args.device}, batch {args.batch}; load average "
+        f"{load_before[0]:.1f} before, {load_after[0]:.1f} after on {os.cpu_count()} CPUs; "
+        f"peak RSS {peak_rss:.0f} MiB (the process, all methods)"
+    )
     print(tabulate(rows, headers="keys", tablefmt="github", floatfmt=".3f"))
     if stage_rows:
         print()
         print(tabulate(stage_rows, headers="keys", tablefmt="github", floatfmt=".4f"))
     out = _out_path(args)
-    meta = {"source": source, "repeat": args.repeat, "device": args.device, "batch": args.batch,
-            "threads": torch.get_num_threads(), "load_before": round(load_before[0], 2),
-            "load_after": round(load_after[0], 2), "cpus": os.cpu_count(), "peak_rss_mb": round(peak_rss, 1)}
+    meta = {
+        "source": source,
+        "repeat": args.repeat,
+        "device": args.device,
+        "batch": args.batch,
+        "threads": torch.get_num_threads(),
+        "load_before": round(load_before[0], 2),
+        "load_after": round(load_after[0], 2),
+        "cpus": os.cpu_count(),
+        "peak_rss_mb": round(peak_rss, 1),
+    }
     _write_csv(out, [dict(r, **meta) for r in rows])
-    _write_csv(out.with_name(out.stem + "_times.csv"),
-               [{"method": name, "call": i, "seconds": x} for name, rec in measured.items()
-                for i, x in enumerate(rec["times"])])
+    _write_csv(
+        out.with_name(out.stem + "_times.csv"),
+        [
+            {"method": name, "call": i, "seconds": x}
+            for name, rec in measured.items()
+            for i, x in enumerate(rec["times"])
+        ],
+    )
     if stage_rows:
         _write_csv(out.with_name(out.stem + "_stages.csv"), stage_rows)
     print(f"\nwrote {out} (and {out.stem}_times.csv{', ' + out.stem + '_stages.csv' if stage_rows else ''})")

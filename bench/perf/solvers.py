@@ -51,8 +51,9 @@ def _in_ball(rng: np.random.Generator, k: int) -> np.ndarray:
     return x / np.linalg.norm(x, axis=1, keepdims=True) * rng.uniform(0, 1, (k, 1)) ** (1 / 3)
 
 
-def synthetic_problem(seed: int, outlier_rate: float, n: int = 1000,
-                      noise_bound: float = 0.05) -> CorrespondenceProblem:
+def synthetic_problem(
+    seed: int, outlier_rate: float, n: int = 1000, noise_bound: float = 0.05
+) -> CorrespondenceProblem:
     """One correspondence set (see the module docstring); deterministic in ``seed``."""
     from scipy.spatial.transform import Rotation
 
@@ -67,12 +68,14 @@ def synthetic_problem(seed: int, outlier_rate: float, n: int = 1000,
     dst[:n_in] += e
     dst[n_in:] = _in_ball(rng, n - n_in) @ R.T + t
     perm = rng.permutation(n)
-    return CorrespondenceProblem(src[perm], dst[perm], R, t, np.sort(np.argsort(perm)[:n_in]),
-                                 float(outlier_rate), float(noise_bound))
+    return CorrespondenceProblem(
+        src[perm], dst[perm], R, t, np.sort(np.argsort(perm)[:n_in]), float(outlier_rate), float(noise_bound)
+    )
 
 
-def problem_set(problems: int = 50, n: int = 1000, noise_bound: float = 0.05,
-                seed: int = 0) -> list[CorrespondenceProblem]:
+def problem_set(
+    problems: int = 50, n: int = 1000, noise_bound: float = 0.05, seed: int = 0
+) -> list[CorrespondenceProblem]:
     """``problems`` sets with outlier rates evenly spaced over [0.5, 0.99]."""
     rates = np.linspace(0.5, 0.99, problems)
     return [synthetic_problem(seed + i, float(r), n, noise_bound) for i, r in enumerate(rates)]
@@ -109,9 +112,14 @@ def measure(problems: list[CorrespondenceProblem], with_teaserpp: bool | None = 
     for i, p in enumerate(problems):
         t0 = time.perf_counter()
         ours = teaser_solver.solve(p.src, p.dst, p.noise_bound)
-        row = {"problem": i, "outlier_rate": p.outlier_rate, "inliers": len(p.inliers),
-               "clique_ours": len(ours.clique), "exact_ours": ours.clique_exact,
-               "seconds_ours": time.perf_counter() - t0}
+        row = {
+            "problem": i,
+            "outlier_rate": p.outlier_rate,
+            "inliers": len(p.inliers),
+            "clique_ours": len(ours.clique),
+            "exact_ours": ours.clique_exact,
+            "seconds_ours": time.perf_counter() - t0,
+        }
         if with_teaserpp:
             from catpose.methods import teaserpp
 
@@ -119,8 +127,12 @@ def measure(problems: list[CorrespondenceProblem], with_teaserpp: bool | None = 
             tpp = teaserpp.solve(p.src, p.dst, p.noise_bound, min_clique_size=0)
             seconds = time.perf_counter() - t0
             same = np.array_equal(ours.clique, tpp.clique)
-            row.update(clique_teaserpp=len(tpp.clique), seconds_teaserpp=seconds, same_clique=same,
-                       rotation_gap_deg=_angle_deg(ours.R, tpp.R) if same else float("nan"))
+            row.update(
+                clique_teaserpp=len(tpp.clique),
+                seconds_teaserpp=seconds,
+                same_clique=same,
+                rotation_gap_deg=_angle_deg(ours.R, tpp.R) if same else float("nan"),
+            )
         rows.append(row)
     return rows
 
@@ -154,8 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     from tabulate import tabulate
 
-    rows = measure(problem_set(args.problems, args.n, args.noise_bound, args.seed),
-                   False if args.no_teaserpp else None)
+    rows = measure(problem_set(args.problems, args.n, args.noise_bound, args.seed), False if args.no_teaserpp else None)
     print(tabulate(rows, headers="keys", floatfmt=".4g"))
     print()
     print(tabulate(summary(rows), headers="keys", floatfmt=".4g"))

@@ -24,24 +24,30 @@ from catpose.errors import DatasetError
 
 
 def _sets(folder: Path) -> list[str]:
-    return sorted(p.stem[len("perf_"):] for p in folder.glob("perf_*.csv")
-                  if not p.stem.endswith(("_stages", "_times")))
+    return sorted(
+        p.stem[len("perf_") :] for p in folder.glob("perf_*.csv") if not p.stem.endswith(("_stages", "_times"))
+    )
 
 
 def speed_table(folder: Path) -> str:
     """``speed.md``'s Markdown (see the module docstring)."""
     import pandas as pd
 
-    lines = ["**Seconds per registration** (`bench perf`, interleaved rounds; "
-             "median and 90th percentile of the timed calls; a method label names a config, e.g. `adam` = ours with `method.optimiser.solver=adam`)", "",
-             "| problems | method | timed calls | median s | p90 s | median / FGR's | load before / after | CPUs | peak RSS MiB |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    lines = [
+        "**Seconds per registration** (`bench perf`, interleaved rounds; "
+        "median and 90th percentile of the timed calls; a method label names a config, e.g. `adam` = ours with `method.optimiser.solver=adam`)",
+        "",
+        "| problems | method | timed calls | median s | p90 s | median / FGR's | load before / after | CPUs | peak RSS MiB |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
     for name in _sets(folder):
         df = pd.read_csv(folder / f"perf_{name}.csv")
         for r in df.to_dict("records"):
-            lines.append(f"| {r['source']} | {r['method']} | {int(r['n'])} | {r['median_s']:.3f} | "
-                         f"{r['p90_s']:.3f} | {r['ratio_to_fgr']:.2f} | {r['load_before']:.2f} / {r['load_after']:.2f} | "
-                         f"{int(r['cpus'])} | {r['peak_rss_mb']:.0f} |")
+            lines.append(
+                f"| {r['source']} | {r['method']} | {int(r['n'])} | {r['median_s']:.3f} | "
+                f"{r['p90_s']:.3f} | {r['ratio_to_fgr']:.2f} | {r['load_before']:.2f} / {r['load_after']:.2f} | "
+                f"{int(r['cpus'])} | {r['peak_rss_mb']:.0f} |"
+            )
     return "\n".join(lines) + "\n"
 
 
@@ -58,8 +64,12 @@ def stages_table(folder: Path) -> str:
     if not frames:
         return ""
     stages = list(dict.fromkeys(s for f in frames.values() for s in f.index))
-    lines = ["**Ours by stage** (median seconds per registration, `bench perf`)", "",
-             "| stage | " + " | ".join(frames) + " |", "|---|" + "---:|" * len(frames)]
+    lines = [
+        "**Ours by stage** (median seconds per registration, `bench perf`)",
+        "",
+        "| stage | " + " | ".join(frames) + " |",
+        "|---|" + "---:|" * len(frames),
+    ]
     for s in stages:
         cells = [f"{frames[n][s]:.4f}" if s in frames[n].index else "-" for n in frames]
         lines.append(f"| {s} | " + " | ".join(cells) + " |")
@@ -74,24 +84,33 @@ def gpu_table(folder: Path) -> str:
     for path in sorted(folder.glob("gpu_solver_*.csv")):
         df = pd.read_csv(path)
         if not lines:
-            lines = ["**The solver alone** (`bench/perf/gpu.py`: ours' candidates solved in one launch; "
-                     "rotation difference to the CPU float64 solver)", "",
-                     "| file | device | problems per launch | ms per problem | max rotation difference (deg) | dtype | torch |",
-                     "|---|---|---:|---:|---:|---|---|"]
+            lines = [
+                "**The solver alone** (`bench/perf/gpu.py`: ours' candidates solved in one launch; "
+                "rotation difference to the CPU float64 solver)",
+                "",
+                "| file | device | problems per launch | ms per problem | max rotation difference (deg) | dtype | torch |",
+                "|---|---|---:|---:|---:|---|---|",
+            ]
         for r in df.to_dict("records"):
-            lines.append(f"| {path.name} | {r['name']} | {int(r['batch'])} | {r['ms_per_problem']:.2f} | "
-                         f"{r['max_rot_diff_deg_vs_cpu64']:g} | {r['dtype']} | {r['torch']} |")
+            lines.append(
+                f"| {path.name} | {r['name']} | {int(r['batch'])} | {r['ms_per_problem']:.2f} | "
+                f"{r['max_rot_diff_deg_vs_cpu64']:g} | {r['dtype']} | {r['torch']} |"
+            )
     return "\n".join(lines) + "\n" if lines else ""
 
 
 def write_tables(folder: Path) -> list[Path]:
     """Write the tables that have data into ``folder``; returns their paths."""
     if not folder.is_dir() or not _sets(folder) and not list(folder.glob("gpu_solver_*.csv")):
-        raise DatasetError(f"{folder} has no perf_<set>.csv or gpu_solver_*.csv; run `bench perf --out "
-                           f"{folder}/perf_<set>.csv` first")
+        raise DatasetError(
+            f"{folder} has no perf_<set>.csv or gpu_solver_*.csv; run `bench perf --out {folder}/perf_<set>.csv` first"
+        )
     written = []
-    for name, text in (("speed.md", speed_table(folder) if _sets(folder) else ""),
-                       ("stages.md", stages_table(folder)), ("gpu.md", gpu_table(folder))):
+    for name, text in (
+        ("speed.md", speed_table(folder) if _sets(folder) else ""),
+        ("stages.md", stages_table(folder)),
+        ("gpu.md", gpu_table(folder)),
+    ):
         if text:
             from catpose import atomic
 

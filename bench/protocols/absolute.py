@@ -12,11 +12,19 @@ scored on the same problems (fixed by dataset, protocol and seed alone).
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+
 import numpy as np
 
-from catpose.bench.protocols.template_choice import (TURN_RULES, check_choice, choose_row, is_excluded_view,
-                                                    split_template_sample_id, template_sample_id, with_template_facts)
-from catpose.datasets.base import ObjectDataset, Observation
+from catpose.bench.protocols.template_choice import (
+    TURN_RULES,
+    check_choice,
+    choose_row,
+    is_excluded_view,
+    split_template_sample_id,
+    template_sample_id,
+    with_template_facts,
+)
+from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.errors import ConfigError, DatasetError
 from catpose.types import GroundTruth, RegistrationProblem, Sample, Template
 
@@ -28,11 +36,19 @@ def make_sample(obs: Observation, template: Template, sample_id: str, group_id: 
     ``T_template_camera = T_object_camera``.
     """
     problem = RegistrationProblem(
-        sample_id=sample_id, category=obs.category, points_camera=obs.points_camera,
-        normals_camera=obs.normals_camera, ground_normal_camera=obs.ground_normal_camera,
-        template=template, depth_image=obs.depth_image)
-    gt = GroundTruth(T_template_camera=np.asarray(obs.T_object_camera, float), symmetry_axis=obs.symmetry_axis,
-                     symmetries=tuple(np.asarray(S, float) for S in obs.symmetries))
+        sample_id=sample_id,
+        category=obs.category,
+        points_camera=obs.points_camera,
+        normals_camera=obs.normals_camera,
+        ground_normal_camera=obs.ground_normal_camera,
+        template=template,
+        depth_image=obs.depth_image,
+    )
+    gt = GroundTruth(
+        T_template_camera=np.asarray(obs.T_object_camera, float),
+        symmetry_axis=obs.symmetry_axis,
+        symmetries=tuple(np.asarray(S, float) for S in obs.symmetries),
+    )
     info = {"instance_id": obs.instance_id, "template_id": template.template_id, **dict(obs.info)}
     return Sample(problem=problem, gt=gt, group_id=group_id, info=info)
 
@@ -47,9 +63,11 @@ def require_consistent_frames(dataset: ObjectDataset, what: str) -> None:
     """
     if getattr(dataset, "frames_consistent", True):
         return
-    raise ConfigError(f"{dataset.name}: {what} compares instances, but their frames are not declared "
-                      "consistent and dataset.alignment_table is unset; use dataset=modelnet40_aligned (the "
-                      "aligned release), or run `bench align` and set dataset.alignment_table=<csv>")
+    raise ConfigError(
+        f"{dataset.name}: {what} compares instances, but their frames are not declared "
+        "consistent and dataset.alignment_table is unset; use dataset=modelnet40_aligned (the "
+        "aligned release), or run `bench align` and set dataset.alignment_table=<csv>"
+    )
 
 
 class Protocol(ABC):
@@ -124,9 +142,15 @@ class Templates(Protocol):
 
     name = "templates"
 
-    def __init__(self, max_templates: int | None = None, exclude_templates: bool = False,
-                 exclude_instances: list[str] | None = None, choice: str = "score",
-                 turns: list[float] | None = None, one_template_turns: bool = False) -> None:
+    def __init__(
+        self,
+        max_templates: int | None = None,
+        exclude_templates: bool = False,
+        exclude_instances: list[str] | None = None,
+        choice: str = "score",
+        turns: list[float] | None = None,
+        one_template_turns: bool = False,
+    ) -> None:
         self.max_templates = max_templates
         self.exclude_templates = bool(exclude_templates)  # skip views of the template instances themselves
         self.exclude_instances = [str(i) for i in (exclude_instances or [])]  # and of these instances
@@ -139,8 +163,9 @@ class Templates(Protocol):
     def _templates(self, dataset: ObjectDataset, category: str) -> list[Template]:
         templates = list(dataset.category_templates(category))
         if not templates:
-            raise DatasetError(f"dataset {dataset.name!r} has no templates for category {category!r}; "
-                               "list them in the dataset config")
+            raise DatasetError(
+                f"dataset {dataset.name!r} has no templates for category {category!r}; list them in the dataset config"
+            )
         return templates[: self.max_templates] if self.max_templates else templates
 
     def sample_ids(self, dataset: ObjectDataset) -> list[str]:
@@ -152,8 +177,9 @@ class Templates(Protocol):
             n = counts.get(category)
             if n is None:
                 n = counts[category] = len(self._templates(dataset, category))
-            if is_excluded_view(obs_id, self._templates(dataset, category) if self.exclude_templates else [],
-                                self.exclude_instances):
+            if is_excluded_view(
+                obs_id, self._templates(dataset, category) if self.exclude_templates else [], self.exclude_instances
+            ):
                 continue
             ids.extend(template_sample_id(obs_id, k) for k in range(n))
         return ids
@@ -188,7 +214,9 @@ class Templates(Protocol):
         facts = {"cross_costs": costs, "top_offset": top, "cross_check_s": time.perf_counter() - t0}
         if self.turns:
             t0 = time.perf_counter()
-            facts["turns"] = turn_candidates(sample.problem.points_camera, T_template_camera, templates, own, self.turns)
+            facts["turns"] = turn_candidates(
+                sample.problem.points_camera, T_template_camera, templates, own, self.turns
+            )
             facts["turns_s"] = time.perf_counter() - t0
         return facts
 
@@ -240,5 +268,6 @@ def _turns(turns: list[float] | None) -> tuple[float, ...]:
             raise TypeError(turns)
         return tuple(float(t) for t in turns)
     except (TypeError, ValueError):
-        raise ConfigError(f"protocol.turns={list(turns)!r} must be a list of degrees, e.g. [90, 270], or [] for none") from None
-
+        raise ConfigError(
+            f"protocol.turns={list(turns)!r} must be a list of degrees, e.g. [90, 270], or [] for none"
+        ) from None

@@ -7,7 +7,7 @@ estimate that is a quarter or half turn off fits its own template by a shape coi
 other templates do not share. For the estimate ``T`` (camera -> template ``k``) of a view:
 
 - on its own template ``k`` the cost is the visibility-aware two-directional Chamfer distance
-  (:func:`catpose.methods.selection.visibility_chamfer`, truncated at ``TRUNC``) at ``T`` itself;
+  (:func:`catpose.methods.pose_scores.visibility_chamfer`, truncated at ``TRUNC``) at ``T`` itself;
 - on every other template ``j`` it is the same distance after point-to-plane ICP of the view
   against template ``j`` from ``T`` (Open3D, within ``ICP_DISTANCE``, at most ``ICP_ITERATIONS``);
 - each of those poses also pays ``SILHOUETTE_WEIGHT x (1 - IoU)`` of the view's and the posed
@@ -35,7 +35,8 @@ estimates. The settings are those of the development runs that chose the rule
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -81,7 +82,9 @@ def _cloud(points_camera: np.ndarray):
     return o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points_camera, float)))
 
 
-def refine_on(points_camera: np.ndarray, template: Any, T_template_camera: np.ndarray, source: Any = None) -> np.ndarray:
+def refine_on(
+    points_camera: np.ndarray, template: Any, T_template_camera: np.ndarray, source: Any = None
+) -> np.ndarray:
     """(4, 4) ``T_template_camera`` refined by point-to-plane ICP of ``points_camera`` (N, 3)
     against ``template`` (single-threaded: Open3D's parallel sums differ run to run); ``source``:
     the view already as an Open3D cloud (built here when None)."""
@@ -91,9 +94,14 @@ def refine_on(points_camera: np.ndarray, template: Any, T_template_camera: np.nd
     pcd = _target(template)[0]
     src = _cloud(points_camera) if source is None else source
     with max_threads(1):
-        result = reg.registration_icp(src, pcd, ICP_DISTANCE, np.asarray(T_template_camera, float),
-                                      reg.TransformationEstimationPointToPlane(),
-                                      reg.ICPConvergenceCriteria(max_iteration=ICP_ITERATIONS))
+        result = reg.registration_icp(
+            src,
+            pcd,
+            ICP_DISTANCE,
+            np.asarray(T_template_camera, float),
+            reg.TransformationEstimationPointToPlane(),
+            reg.ICPConvergenceCriteria(max_iteration=ICP_ITERATIONS),
+        )
     return np.asarray(result.transformation).copy()
 
 
@@ -115,18 +123,19 @@ def silhouette_iou(view_cells: set, template_points_camera: np.ndarray, cell: fl
     return len(view_cells & cells) / union if union else 0.0
 
 
-def cross_costs(points_camera: np.ndarray, T_template_camera: np.ndarray, templates: Sequence[Any],
-                own: int) -> list[float]:
+def cross_costs(
+    points_camera: np.ndarray, T_template_camera: np.ndarray, templates: Sequence[Any], own: int
+) -> list[float]:
     """(K,) the cost of the estimate ``T_template_camera`` (4, 4) of the view ``points_camera``
     (N, 3, camera frame, object-normalised unit) on each of ``templates``; ``own`` is the index
     of the template it was estimated against (its cost is taken at the estimate unrefined)."""
     from catpose.geometry import invert_T, transform_points
-    from catpose.methods.selection import visibility_chamfer
+    from catpose.methods.pose_scores import visibility_chamfer
 
     P = np.asarray(points_camera, float)
     T_est = np.asarray(T_template_camera, float)
-    source = _cloud(P) if len(templates) > 1 else None   # one cloud for the K - 1 refinements
-    cell = SILHOUETTE_CELL / float(np.median(P[:, 2]))   # the cell's side at the view's depth
+    source = _cloud(P) if len(templates) > 1 else None  # one cloud for the K - 1 refinements
+    cell = SILHOUETTE_CELL / float(np.median(P[:, 2]))  # the cell's side at the view's depth
     view_cells = silhouette_cells(P, cell)
     out = []
     # the ICPs start from the estimate rounded to 1e-9: its last bits differ between CPUs' BLAS
@@ -136,8 +145,9 @@ def cross_costs(points_camera: np.ndarray, T_template_camera: np.ndarray, templa
         T = T_est if j == own else refine_on(P, template, T_start, source)
         _, tree, points, normals = _target(template)
         iou = silhouette_iou(view_cells, transform_points(invert_T(T), points), cell)
-        out.append(float(visibility_chamfer(P, T[None], points, normals, tree, TRUNC)[0])
-                   + SILHOUETTE_WEIGHT * (1.0 - iou))
+        out.append(
+            float(visibility_chamfer(P, T[None], points, normals, tree, TRUNC)[0]) + SILHOUETTE_WEIGHT * (1.0 - iou)
+        )
     return out
 
 
@@ -163,8 +173,7 @@ def _template_top(template: Any) -> np.ndarray:
     return _TOPS[key]
 
 
-def top_offset(points_camera: np.ndarray, T_template_camera: np.ndarray, templates: Sequence[Any],
-               own: int) -> float:
+def top_offset(points_camera: np.ndarray, T_template_camera: np.ndarray, templates: Sequence[Any], own: int) -> float:
     """Horizontal distance (object-normalised unit) between the top centroid of the view
     ``points_camera`` (N, 3, camera frame) posed by ``T_template_camera`` (4, 4, camera -> template
     ``own``) and the mean top centroid of ``templates`` (:func:`top_centroid`, along the own
@@ -172,9 +181,11 @@ def top_offset(points_camera: np.ndarray, T_template_camera: np.ndarray, templat
     from catpose.geometry import transform_points
 
     up = np.asarray(templates[own].up, float)
-    view_top = top_centroid(transform_points(np.asarray(T_template_camera, float), np.asarray(points_camera, float)), up)
+    view_top = top_centroid(
+        transform_points(np.asarray(T_template_camera, float), np.asarray(points_camera, float)), up
+    )
     category_top = np.mean([_template_top(t) for t in templates], axis=0)
-    return float(np.linalg.norm(view_top - category_top))   # both already across up
+    return float(np.linalg.norm(view_top - category_top))  # both already across up
 
 
 def turned(T_template_camera: np.ndarray, up: np.ndarray, turn_deg: float) -> np.ndarray:
@@ -188,8 +199,13 @@ def turned(T_template_camera: np.ndarray, up: np.ndarray, turn_deg: float) -> np
     return turn @ np.asarray(T_template_camera, float)
 
 
-def turn_candidates(points_camera: np.ndarray, T_template_camera: np.ndarray, templates: Sequence[Any], own: int,
-                    turns_deg: Sequence[float] = TURNS_DEG) -> list[dict]:
+def turn_candidates(
+    points_camera: np.ndarray,
+    T_template_camera: np.ndarray,
+    templates: Sequence[Any],
+    own: int,
+    turns_deg: Sequence[float] = TURNS_DEG,
+) -> list[dict]:
     """For each turn of ``turns_deg``: the estimate ``T_template_camera`` (4, 4, camera -> template
     ``own``) :func:`turned` about the own template's ``up`` and refined on it (:func:`refine_on`),
     with its :func:`cross_costs` and :func:`top_offset`. Returns dicts ``turn_deg``,
@@ -201,8 +217,14 @@ def turn_candidates(points_camera: np.ndarray, T_template_camera: np.ndarray, te
     for deg in turns_deg:
         # from the estimate rounded to 1e-9, as in cross_costs: its last bits differ between kernels
         T = refine_on(P, templates[own], turned(np.round(np.asarray(T_template_camera, float), 9), up, deg), source)
-        out.append({"turn_deg": float(deg), "T_template_camera": T.tolist(),
-                    "cross_costs": cross_costs(P, T, templates, own), "top_offset": top_offset(P, T, templates, own)})
+        out.append(
+            {
+                "turn_deg": float(deg),
+                "T_template_camera": T.tolist(),
+                "cross_costs": cross_costs(P, T, templates, own),
+                "top_offset": top_offset(P, T, templates, own),
+            }
+        )
     return out
 
 

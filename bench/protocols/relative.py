@@ -24,11 +24,11 @@ from typing import Any
 
 import numpy as np
 
-from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, axis_error_deg, rotation_error_deg, translation_error
 from catpose.bench.protocols.absolute import GtModel, Protocol, Templates, require_consistent_frames
-from catpose.bench.scoring.rows import failed_row, scored_row
 from catpose.bench.protocols.template_choice import is_excluded_view
-from catpose.datasets.base import ObjectDataset
+from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, axis_error_deg, rotation_error_deg, translation_error
+from catpose.bench.scoring.rows import failed_row, scored_row
+from catpose.datasets.dataset import ObjectDataset
 from catpose.errors import ConfigError
 from catpose.geometry import invert_T
 from catpose.types import Sample
@@ -61,8 +61,13 @@ def evenly_spaced(items: list, n: int | None) -> list:
     return [items[k] for k in keep]
 
 
-def relative_errors(T_est1: np.ndarray, T_est2: np.ndarray, T_gt1: np.ndarray, T_gt2: np.ndarray,
-                    symmetry_axis: np.ndarray | None = None) -> dict[str, float]:
+def relative_errors(
+    T_est1: np.ndarray,
+    T_est2: np.ndarray,
+    T_gt1: np.ndarray,
+    T_gt2: np.ndarray,
+    symmetry_axis: np.ndarray | None = None,
+) -> dict[str, float]:
     """Errors of the relative pose of two views.
 
     Args:
@@ -93,10 +98,15 @@ def relative_errors(T_est1: np.ndarray, T_est2: np.ndarray, T_gt1: np.ndarray, T
         # unlike the relative translation, this ignores each view's unobservable spin
         T2 = np.asarray(T_gt2, float)
         o_c2 = -T2[:3, :3].T @ T2[:3, 3]
-        trans = translation_error(T_c1_c2_est[:3, :3] @ o_c2 + T_c1_c2_est[:3, 3],
-                                  T_c1_c2_gt[:3, :3] @ o_c2 + T_c1_c2_gt[:3, 3])
-    return {"rot_err_deg": rot, "axis_err_deg": axis, "trans_err": trans,
-            "err_deg": rot if symmetry_axis is None else axis}
+        trans = translation_error(
+            T_c1_c2_est[:3, :3] @ o_c2 + T_c1_c2_est[:3, 3], T_c1_c2_gt[:3, :3] @ o_c2 + T_c1_c2_gt[:3, 3]
+        )
+    return {
+        "rot_err_deg": rot,
+        "axis_err_deg": axis,
+        "trans_err": trans,
+        "err_deg": rot if symmetry_axis is None else axis,
+    }
 
 
 def _matrix(value: Any) -> np.ndarray | None:
@@ -141,10 +151,16 @@ class Relative(Protocol):
 
     name = "relative"
 
-    def __init__(self, template_source: str = "category", pairs: str = "consecutive",
-                 max_pairs_per_instance: int | None = None, max_templates: int | None = None,
-                 max_relative_angle_deg: float | None = None, exclude_templates: bool = False,
-                 choice: str = "score") -> None:
+    def __init__(
+        self,
+        template_source: str = "category",
+        pairs: str = "consecutive",
+        max_pairs_per_instance: int | None = None,
+        max_templates: int | None = None,
+        max_relative_angle_deg: float | None = None,
+        exclude_templates: bool = False,
+        choice: str = "score",
+    ) -> None:
         if template_source not in TEMPLATE_SOURCES:
             raise ConfigError(f"protocol.template_source={template_source!r} is unknown; use one of {TEMPLATE_SOURCES}")
         if pairs not in PAIRINGS:
@@ -156,8 +172,11 @@ class Relative(Protocol):
         self.max_relative_angle_deg = None if max_relative_angle_deg is None else float(max_relative_angle_deg)
         self.max_pairs_per_instance = None if max_pairs_per_instance is None else int(max_pairs_per_instance)
         self.exclude_templates = bool(exclude_templates)
-        self._views: Protocol = (GtModel() if template_source == "own" else
-                                 Templates(max_templates=max_templates, exclude_templates=exclude_templates, choice=choice))
+        self._views: Protocol = (
+            GtModel()
+            if template_source == "own"
+            else Templates(max_templates=max_templates, exclude_templates=exclude_templates, choice=choice)
+        )
 
     def sample_ids(self, dataset: ObjectDataset) -> list[str]:
         """One registration per view (``"own"``) or per (view, template) (``"category"``)."""
@@ -218,16 +237,22 @@ class Relative(Protocol):
         rows = []
         for r in views[views["instance_id"].isna()].to_dict("records"):
             why = r.get("error") or "no estimate"
-            rows.append(failed_row(dict(r, sample_id=r["_view"]),
-                                   f"view {r['_view']} failed ({why}) and its instance is unknown"))
+            rows.append(
+                failed_row(
+                    dict(r, sample_id=r["_view"]), f"view {r['_view']} failed ({why}) and its instance is unknown"
+                )
+            )
         known = views.dropna(subset=["instance_id"])
         for (category, instance), g in known.groupby(["category", "instance_id"], sort=True):
             g = g.drop_duplicates("_view")
             records = g.to_dict("records")
             candidates = pair_indices(len(records), self.pairs, None)
             if self.max_relative_angle_deg is not None:
-                candidates = [(i, j) for i, j in candidates
-                              if _relative_angle_deg(records[i], records[j]) <= self.max_relative_angle_deg]
+                candidates = [
+                    (i, j)
+                    for i, j in candidates
+                    if _relative_angle_deg(records[i], records[j]) <= self.max_relative_angle_deg
+                ]
             for i, j in evenly_spaced(candidates, self.max_pairs_per_instance):
                 rows.append(self._pair_row(records[i], records[j], str(category), str(instance)))
         out = pd.DataFrame(rows)
@@ -235,18 +260,34 @@ class Relative(Protocol):
 
     def _pair_row(self, r1: dict, r2: dict, category: str, instance: str) -> dict:
         row = {k: v for k, v in r1.items() if k not in ("oracle_err_deg", "n_templates")}  # per view, not per pair
-        row.update(sample_id=f"{r1['_view']}~{r2['_view']}", group_id=f"{category}/{instance}",
-                   obs_id=f"{r1['_view']}~{r2['_view']}", view1=r1["_view"], view2=r2["_view"],
-                   runtime_s=float(np.nansum([r1.get("runtime_s", np.nan), r2.get("runtime_s", np.nan)])),
-                   score=float(np.nansum([r1.get("score", np.nan), r2.get("score", np.nan)])))
+        row.update(
+            sample_id=f"{r1['_view']}~{r2['_view']}",
+            group_id=f"{category}/{instance}",
+            obs_id=f"{r1['_view']}~{r2['_view']}",
+            view1=r1["_view"],
+            view2=r2["_view"],
+            runtime_s=float(np.nansum([r1.get("runtime_s", np.nan), r2.get("runtime_s", np.nan)])),
+            score=float(np.nansum([r1.get("score", np.nan), r2.get("score", np.nan)])),
+        )
         failed = [r for r in (r1, r2) if r.get("status") != "ok" or _matrix(r.get("T_est")) is None]
         if failed:
-            return failed_row(row, f"view {failed[0]['_view']} failed: {failed[0].get('error') or 'no estimate'}",
-                              rot_err_deg=FAILED_ERROR_DEG, axis_err_deg=float("nan"), trans_err=float("nan"))
+            return failed_row(
+                row,
+                f"view {failed[0]['_view']} failed: {failed[0].get('error') or 'no estimate'}",
+                rot_err_deg=FAILED_ERROR_DEG,
+                axis_err_deg=float("nan"),
+                trans_err=float("nan"),
+            )
         T_gt1, T_gt2 = _matrix(r1.get("T_gt")), _matrix(r2.get("T_gt"))
         axis = _axis(r1.get("symmetry_axis"))
         errors = relative_errors(_matrix(r1["T_est"]), _matrix(r2["T_est"]), T_gt1, T_gt2, axis)
         T_rel_est = invert_T(_matrix(r1["T_est"])) @ _matrix(r2["T_est"])
         T_rel_gt = invert_T(T_gt1) @ T_gt2
-        return scored_row(row, T_rel_est, errors, stage=row.get("stage", ""), T_gt=T_rel_gt.reshape(-1).tolist(),
-                          symmetric=axis is not None)
+        return scored_row(
+            row,
+            T_rel_est,
+            errors,
+            stage=row.get("stage", ""),
+            T_gt=T_rel_gt.reshape(-1).tolist(),
+            symmetric=axis is not None,
+        )

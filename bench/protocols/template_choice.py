@@ -58,7 +58,8 @@ views are not test views; ``protocol.exclude_instances``) and :func:`random_choi
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -138,9 +139,14 @@ def support(rotations: Sequence[np.ndarray], agree_deg: float = AGREE_DEG) -> np
     return out
 
 
-def choose_index(scores: Sequence[float], rotations: Sequence[np.ndarray | None], choice: str,
-                 agree_deg: float = AGREE_DEG, spacings: Sequence[float] | None = None,
-                 cross: Sequence[float] | None = None) -> int:
+def choose_index(
+    scores: Sequence[float],
+    rotations: Sequence[np.ndarray | None],
+    choice: str,
+    agree_deg: float = AGREE_DEG,
+    spacings: Sequence[float] | None = None,
+    cross: Sequence[float] | None = None,
+) -> int:
     """Index of the chosen registration among K (``rotations[k]`` None: failed; ``spacings``:
     the templates' point spacings, needed by ``density``; ``cross``: each registration's
     :func:`~catpose.bench.protocols.cross_check.cross_cost`, NaN where it has none, needed by
@@ -161,8 +167,10 @@ def choose_index(scores: Sequence[float], rotations: Sequence[np.ndarray | None]
     if choice == "density":
         sp = np.array([np.nan if spacings is None else spacings[k] for k in ok], float)
         if not np.isfinite(sp).all():
-            raise ConfigError("protocol.choice=density needs info.template_spacing in every row; these rows "
-                              "were written before it existed: re-run them, or use protocol.choice=score")
+            raise ConfigError(
+                "protocol.choice=density needs info.template_spacing in every row; these rows "
+                "were written before it existed: re-run them, or use protocol.choice=score"
+            )
         s = s - DENSITY_WEIGHT * sp
     s = np.where(np.isfinite(s), s, np.inf)
     if choice == "agreement":
@@ -195,8 +203,12 @@ def choose_row(group, choice: str = "score", top_weight: float | None = None, fu
         spacings = [float(i.get("template_spacing", np.nan)) if isinstance(i, dict) else np.nan for i in infos]
     # one template: the estimate or one of its turns, where the run stored them (else nothing to choose)
     if choice in TURN_RULES and (len(group) > 1 or has_turns(group)):
-        row = _with_best_turn(group, top_weight if top_weight is not None else CROSS_RULES[choice], choice,
-                              (AGREE_DEG if fuse_deg is None else fuse_deg) if choice in FUSE_RULES else None)
+        row = _with_best_turn(
+            group,
+            top_weight if top_weight is not None else CROSS_RULES[choice],
+            choice,
+            (AGREE_DEG if fuse_deg is None else fuse_deg) if choice in FUSE_RULES else None,
+        )
         if row is not None:
             return row
     return group.iloc[choose_index(list(scores), rotations, choice, spacings=spacings, cross=cross)]
@@ -207,7 +219,9 @@ def has_turns(group) -> bool:
     return "info" in group and any(isinstance(i, dict) and i.get("turns") for i in group["info"])
 
 
-def rule_candidates(group, top_weight: float, choice: str = "cross_top_turns") -> list[tuple[tuple[float, int, int], int, Any]]:
+def rule_candidates(
+    group, top_weight: float, choice: str = "cross_top_turns"
+) -> list[tuple[tuple[float, int, int], int, Any]]:
     """Every candidate a turn rule chooses among in one view's rows (``group``): each ok row's
     registration and its turned candidates (``info["turns"]``) with a finite ``cross_top`` cost
     (top offset weighted ``top_weight``). Returns ``((cost, row position, candidate: -1 the
@@ -222,29 +236,42 @@ def rule_candidates(group, top_weight: float, choice: str = "cross_top_turns") -
     status_ok = (group["status"] == "ok").to_numpy()
     candidates: list[tuple[tuple[float, int, int], int, Any]] = []
     seen_turns = False
-    for pos, (info, sample_id, good, T_est) in enumerate(zip(
-            group["info"] if "info" in group else [{}] * len(group), group["sample_id"], status_ok,
-            group["T_est"] if "T_est" in group else [None] * len(group))):
+    for pos, (info, sample_id, good, T_est) in enumerate(
+        zip(
+            group["info"] if "info" in group else [{}] * len(group),
+            group["sample_id"],
+            status_ok,
+            group["T_est"] if "T_est" in group else [None] * len(group),
+        )
+    ):
         if not good or not isinstance(info, dict) or not info.get("cross_costs") or info.get("top_offset") is None:
             continue
         own = split_template_sample_id(sample_id)[1]
         turns = info.get("turns") or []
         seen_turns = seen_turns or bool(turns)
-        for c, (costs, top, T) in enumerate([(info["cross_costs"], info["top_offset"], T_est)]
-                                            + [(t["cross_costs"], t["top_offset"], t["T_template_camera"]) for t in turns]):
+        for c, (costs, top, T) in enumerate(
+            [(info["cross_costs"], info["top_offset"], T_est)]
+            + [(t["cross_costs"], t["top_offset"], t["T_template_camera"]) for t in turns]
+        ):
             key = (cross_cost(costs, own, CROSS_WEIGHT, top, top_weight), pos, c - 1)
             if np.isfinite(key[0]):
                 candidates.append((key, own, T))
-    if status_ok.any() and not seen_turns and not any(isinstance(i, dict) and "estimate_facts_error" in i
-                                                        for i in (group["info"] if "info" in group else [])):
-        raise ConfigError(f"protocol.choice={choice} needs info.turns (written by the templates protocol after "
-                          "each registration unless protocol.turns=[]); these rows have none: run them again into a "
-                          "new output_root, or use protocol.choice=cross_top")
+    if (
+        status_ok.any()
+        and not seen_turns
+        and not any(
+            isinstance(i, dict) and "estimate_facts_error" in i for i in (group["info"] if "info" in group else [])
+        )
+    ):
+        raise ConfigError(
+            f"protocol.choice={choice} needs info.turns (written by the templates protocol after "
+            "each registration unless protocol.turns=[]); these rows have none: run them again into a "
+            "new output_root, or use protocol.choice=cross_top"
+        )
     return candidates
 
 
-def _with_best_turn(group, top_weight: float, choice: str = "cross_top_turns",
-                    fuse_deg: float | None = None):
+def _with_best_turn(group, top_weight: float, choice: str = "cross_top_turns", fuse_deg: float | None = None):
     """``cross_top_turns``: the row whose registration or turned candidate has the lowest
     ``cross_top`` cost (:func:`rule_candidates`), carrying that candidate's ``T_est``, errors and
     ``info["turn_deg"]``; with ``fuse_deg`` (``fused``), its pose then averaged with the agreeing
@@ -263,8 +290,9 @@ def _with_best_turn(group, top_weight: float, choice: str = "cross_top_turns",
     info["turn_deg"] = 0.0 if cand < 0 else float(info["turns"][cand]["turn_deg"])
     T_est = None if cand < 0 else np.asarray(T_best, float)
     if fuse_deg is not None and _rotation(T_best) is not None:
-        others = [(k, key[0], np.asarray(T, float)) for key, k, T in candidates
-                  if key[1] != pos and _rotation(T) is not None]
+        others = [
+            (k, key[0], np.asarray(T, float)) for key, k, T in candidates if key[1] != pos and _rotation(T) is not None
+        ]
         T_fused, n = fuse_agreeing(np.asarray(T_best, float).reshape(4, 4), others, fuse_deg)
         info["fused_templates"] = n
         if n > 1:
@@ -283,14 +311,18 @@ def _set_estimate(row, T_est: np.ndarray) -> None:
     row["T_est"] = T_est.tolist()
     if isinstance(row.get("T_gt"), (list, np.ndarray)):
         axis, syms = row.get("symmetry_axis"), row.get("symmetries")
-        for key, value in sample_errors(T_est, np.reshape(row["T_gt"], (4, 4)),
-                                        np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
-                                        syms if isinstance(syms, (list, tuple)) else ()).items():
+        for key, value in sample_errors(
+            T_est,
+            np.reshape(row["T_gt"], (4, 4)),
+            np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
+            syms if isinstance(syms, (list, tuple)) else (),
+        ).items():
             row[key] = value
 
 
-def fuse_agreeing(T_chosen: np.ndarray, others: Sequence[tuple[int, float, np.ndarray]],
-                  agree_deg: float = AGREE_DEG) -> tuple[np.ndarray, int]:
+def fuse_agreeing(
+    T_chosen: np.ndarray, others: Sequence[tuple[int, float, np.ndarray]], agree_deg: float = AGREE_DEG
+) -> tuple[np.ndarray, int]:
     """The chosen pose ``T_chosen`` (4, 4, camera -> the category's template frame) averaged with,
     for each other template, its lowest-cost pose among ``others`` ((template index, cost, (4, 4)
     pose) each) whose rotation lies within ``agree_deg`` degrees of the chosen one's. Rotations
@@ -330,16 +362,22 @@ def cross_costs_of(group, top_weight: float | None = None) -> list[float]:
         costs = info.get("cross_costs") if isinstance(info, dict) else None
         offset = (0.0 if top_weight is None else info.get("top_offset")) if costs else None
         own = split_template_sample_id(sample_id)[1] if costs else 0
-        out.append(cross_cost(costs, own, CROSS_WEIGHT, offset, top_weight or 0.0)
-                   if costs and offset is not None else np.nan)
+        out.append(
+            cross_cost(costs, own, CROSS_WEIGHT, offset, top_weight or 0.0) if costs and offset is not None else np.nan
+        )
     status_ok = (group["status"] == "ok").to_numpy() if "status" in group else np.ones(len(group), bool)
-    if status_ok.any() and not np.isfinite(np.asarray(out, float)[status_ok]).any() and \
-            not any(isinstance(i, dict) and "estimate_facts_error" in i for i in infos):
+    if (
+        status_ok.any()
+        and not np.isfinite(np.asarray(out, float)[status_ok]).any()
+        and not any(isinstance(i, dict) and "estimate_facts_error" in i for i in infos)
+    ):
         top = top_weight is not None
         needs = "info.cross_costs and info.top_offset" if top else "info.cross_costs"
-        raise ConfigError(f"protocol.choice={'cross_top' if top else 'cross'} needs {needs} (written by the templates "
-                          "protocol after each registration); these rows predate them: run them again into a new output_root (a run "
-                          "resumes its finished rows), or use protocol.choice=score")
+        raise ConfigError(
+            f"protocol.choice={'cross_top' if top else 'cross'} needs {needs} (written by the templates "
+            "protocol after each registration); these rows predate them: run them again into a new output_root (a run "
+            "resumes its finished rows), or use protocol.choice=score"
+        )
     return out
 
 

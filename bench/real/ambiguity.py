@@ -55,8 +55,10 @@ def _run_parts(run_dir: Path):
 
     cfg = OmegaConf.create(read_config(run_dir, required=True))
     if str(cfg.protocol.name) not in ("gt_model", "templates"):
-        raise ConfigError(f"run {run_dir}: protocol {cfg.protocol.name!r}; this check needs a protocol=gt_model "
-                          "or protocol=templates run")
+        raise ConfigError(
+            f"run {run_dir}: protocol {cfg.protocol.name!r}; this check needs a protocol=gt_model "
+            "or protocol=templates run"
+        )
     sel = SelectionSettings()
     if "selection" in cfg.method:
         sel = build_from_config(cfg.method.selection, "method.selection")[1]
@@ -69,7 +71,9 @@ def verifier_costs(sel, problem, T_est: np.ndarray, T_gt: np.ndarray) -> tuple[f
     comparison (``sel``: :class:`SelectionSettings`)."""
     from catpose.methods.ours_depth import final_verifier
 
-    est, gt, gt_refined = final_verifier(sel, problem).scores(np.stack([T_est, T_gt, refined_truth(sel, problem, T_gt)]))
+    est, gt, gt_refined = final_verifier(sel, problem).scores(
+        np.stack([T_est, T_gt, refined_truth(sel, problem, T_gt)])
+    )
     return float(est), float(gt), float(gt_refined)
 
 
@@ -102,14 +106,25 @@ def wrong_rows(run_dir: Path, wrong_deg: float = WRONG_DEG) -> tuple[list[dict],
             continue
         sample = protocol.load(dataset, r["sample_id"])
         if sample.problem.depth_image is None:
-            raise ConfigError(f"run {run_dir}: sample {r['sample_id']} has no depth image; this check needs "
-                              "data with depth images (BOP, clutter, the renderer); for point clouds of a "
-                              "templates run use python -m catpose.bench.category.why_wrong")
+            raise ConfigError(
+                f"run {run_dir}: sample {r['sample_id']} has no depth image; this check needs "
+                "data with depth images (BOP, clutter, the renderer); for point clouds of a "
+                "templates run use python -m catpose.bench.category.why_wrong"
+            )
         T_est = np.asarray(r["T_est"], float).reshape(4, 4)
         est, gt, gt_refined = verifier_costs(sel, sample.problem, T_est, np.asarray(sample.gt.T_template_camera, float))
-        out.append({"sample_id": r["sample_id"], "object": _object(r), "wrong": True, "err_deg": float(r["err_deg"]),
-                    "cost_est": est, "cost_gt": gt, "cost_gt_refined": gt_refined,
-                    "ambiguous": bool(est <= min(gt, gt_refined))})
+        out.append(
+            {
+                "sample_id": r["sample_id"],
+                "object": _object(r),
+                "wrong": True,
+                "err_deg": float(r["err_deg"]),
+                "cost_est": est,
+                "cost_gt": gt,
+                "cost_gt_refined": gt_refined,
+                "ambiguous": bool(est <= min(gt, gt_refined)),
+            }
+        )
     return out, len(rows)
 
 
@@ -128,6 +143,7 @@ def table(rows: list[dict], part_of) -> list[dict]:
         groups.setdefault((part, r["object"]), []).append(r)
         groups.setdefault((part, "all"), []).append(r)
     out = []
+
     def order(key: tuple[str, str]) -> tuple:
         part, obj = key
         number = obj.split()[-1]
@@ -140,24 +156,57 @@ def table(rows: list[dict], part_of) -> list[dict]:
         def median(key: str) -> float:
             return float(np.median([r[key] for r in wrong])) if wrong else float("nan")
 
-        out.append({"part": part, "object": obj, "samples": len(g), "wrong": len(wrong),
-                    "flips": sum(r["err_deg"] >= FLIP_DEG for r in wrong), "ambiguous": len(amb),
-                    "search_miss": len(wrong) - len(amb), "median_cost_gt": median("cost_gt"),
-                    "median_cost_gt_refined": median("cost_gt_refined"), "median_cost_est": median("cost_est")})
+        out.append(
+            {
+                "part": part,
+                "object": obj,
+                "samples": len(g),
+                "wrong": len(wrong),
+                "flips": sum(r["err_deg"] >= FLIP_DEG for r in wrong),
+                "ambiguous": len(amb),
+                "search_miss": len(wrong) - len(amb),
+                "median_cost_gt": median("cost_gt"),
+                "median_cost_gt_refined": median("cost_gt_refined"),
+                "median_cost_est": median("cost_est"),
+            }
+        )
     return out
 
 
 def markdown(title: str, rows: list[dict]) -> str:
-    head = ["part", "object", "samples", "wrong (>= 10 deg)", f"of them flips (>= {FLIP_DEG:g} deg)", "ambiguous",
-            "search miss", "median cost truth", "median cost truth refined", "median cost estimate"]
+    head = [
+        "part",
+        "object",
+        "samples",
+        "wrong (>= 10 deg)",
+        f"of them flips (>= {FLIP_DEG:g} deg)",
+        "ambiguous",
+        "search miss",
+        "median cost truth",
+        "median cost truth refined",
+        "median cost estimate",
+    ]
     lines = [f"**{title}**", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
-        cells = [r["part"], r["object"], r["samples"], r["wrong"], r["flips"], r["ambiguous"], r["search_miss"],
-                 f"{r['median_cost_gt']:.3f}", f"{r['median_cost_gt_refined']:.3f}", f"{r['median_cost_est']:.3f}"]
+        cells = [
+            r["part"],
+            r["object"],
+            r["samples"],
+            r["wrong"],
+            r["flips"],
+            r["ambiguous"],
+            r["search_miss"],
+            f"{r['median_cost_gt']:.3f}",
+            f"{r['median_cost_gt_refined']:.3f}",
+            f"{r['median_cost_est']:.3f}",
+        ]
         lines.append("| " + " | ".join(str(c) for c in cells) + " |")
-    lines += ["", "ambiguous: the wrong estimate's depth-check cost is at most the truth's, the truth as annotated "
-              "or refined by ours' ICP, whichever costs less (the image cannot tell them apart under ours' "
-              "verifier); search miss: the truth's cost is lower."]
+    lines += [
+        "",
+        "ambiguous: the wrong estimate's depth-check cost is at most the truth's, the truth as annotated "
+        "or refined by ours' ICP, whichever costs less (the image cannot tell them apart under ours' "
+        "verifier); search miss: the truth's cost is lower.",
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -165,8 +214,11 @@ def main(argv: list[str] | None = None) -> int:
     from catpose import atomic
     from catpose.bench.real.split import load_split
 
-    parser = argparse.ArgumentParser(prog="python -m catpose.bench.real.ambiguity", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m catpose.bench.real.ambiguity",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("runs", nargs="+", type=Path, help="gt_model run directories (their rows are pooled)")
     parser.add_argument("--out", type=Path, required=True, help="Markdown table to write (a .csv is written beside it)")
     parser.add_argument("--split", help="configs/split/<name>.yaml: one block of rows per part")

@@ -47,8 +47,9 @@ class _MeshDistance:
         from catpose.o3d import o3d
 
         self.scene = o3d.t.geometry.RaycastingScene()
-        self.scene.add_triangles(o3d.core.Tensor(np.asarray(vertices, np.float32)),
-                                 o3d.core.Tensor(np.asarray(triangles, np.uint32)))
+        self.scene.add_triangles(
+            o3d.core.Tensor(np.asarray(vertices, np.float32)), o3d.core.Tensor(np.asarray(triangles, np.uint32))
+        )
 
     def query(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(distances (N,), closest points (N, 3), unit normals of the closest triangles (N, 3))."""
@@ -124,18 +125,24 @@ def ablate(problem, sample, mesh: _MeshDistance, which: str, bleed: float):
         keep = d < bleed
         if keep.sum() >= 20:
             p, n = p[keep], n[keep]
-    return dataclasses.replace(problem, points_camera=p, normals_camera=n, ground_normal_camera=g,
-                               template=template)
+    return dataclasses.replace(problem, points_camera=p, normals_camera=n, ground_normal_camera=g, template=template)
 
 
-def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, bleed_mm: float,
-             ours_overrides: list[str], save_dir: Path | None = None) -> None:
+def diagnose(
+    set_name: str,
+    ablations: list[str],
+    limit: int | None,
+    out: Path,
+    bleed_mm: float,
+    ours_overrides: list[str],
+    save_dir: Path | None = None,
+) -> None:
     from catpose.bench.protocols.template_choice import rotation_angle_deg
-    from catpose.bench.scoring.metrics import sample_errors
-    from catpose.bench.run.build import build_parts
-    from catpose.bench.run.sample_run import seed_everything
     from catpose.bench.real.suite import METHODS, SETS, compose
+    from catpose.bench.run.build import build_parts
     from catpose.bench.run.config import shared_data_dir
+    from catpose.bench.run.sample_run import seed_everything
+    from catpose.bench.scoring.metrics import sample_errors
     from catpose.geometry import stable_seed
 
     cfg, _ = compose(SETS[set_name], METHODS["ours"], shared_data_dir(), 0, limit, "outputs/real", ours_overrides)
@@ -149,8 +156,11 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
             problem, gt = sample.problem, sample.gt
             tpl = problem.template
             if tpl.template_id not in meshes:
-                meshes[tpl.template_id] = (_MeshDistance(tpl.vertices, tpl.triangles) if tpl.has_mesh
-                                           else _CloudDistance(tpl.points, tpl.normals))
+                meshes[tpl.template_id] = (
+                    _MeshDistance(tpl.vertices, tpl.triangles)
+                    if tpl.has_mesh
+                    else _CloudDistance(tpl.points, tpl.normals)
+                )
             mesh = meshes[tpl.template_id]
             scale_mm = sample.info.get("scale_mm")
             bleed = bleed_mm / scale_mm if scale_mm else bleed_mm / 100.0  # ModelNet: 1 unit ~ 100 mm
@@ -160,16 +170,22 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
             nerr = np.degrees(np.arccos(np.clip(np.abs(np.einsum("ij,ij->i", n_obj, mn)), 0, 1)))
             up_cam = np.linalg.inv(T_oc)[:3, :3] @ np.asarray(tpl.up, float)
             ground_err = float(np.degrees(np.arccos(np.clip(up_cam @ problem.ground_normal_camera, -1, 1))))
-            base = {"set": set_name, "sample_id": sid, "scale_mm": scale_mm,
-                    "residual_median": float(np.median(d_obs)), "residual_mean": float(d_obs.mean()),
-                    "bleed_fraction": float((d_obs > bleed).mean()),
-                    "normal_err_median_deg": float(np.median(nerr)), "normal_err_mean_deg": float(nerr.mean()),
-                    "ground_vs_up_deg": ground_err}
+            base = {
+                "set": set_name,
+                "sample_id": sid,
+                "scale_mm": scale_mm,
+                "residual_median": float(np.median(d_obs)),
+                "residual_mean": float(d_obs.mean()),
+                "bleed_fraction": float((d_obs > bleed).mean()),
+                "normal_err_median_deg": float(np.median(nerr)),
+                "normal_err_mean_deg": float(nerr.mean()),
+                "ground_vs_up_deg": ground_err,
+            }
             for which in ablations:
                 prob = problem if which == "none" else ablate(problem, sample, mesh, which, bleed)
                 seed_everything(stable_seed(0, sid))
                 res = rec.register(prob)
-                T_est = np.asarray(res.T_target_source, float)
+                T_est = np.asarray(res.T_template_camera, float)
                 ex = res.extras
 
                 def err(T):
@@ -187,39 +203,64 @@ def diagnose(set_name: str, ablations: list[str], limit: int | None, out: Path, 
                 # depth-only ambiguity: observed points to the posed model, at the estimate and the truth
                 d_est = float(mesh.query(_transform(T_est, prob.points_camera))[0].mean())
                 d_gt = float(mesh.query(_transform(T_oc, prob.points_camera))[0].mean())
-                row = dict(base, ablation=which, err_deg=float(err(T_est)), selected=sel,
-                           selected_cand_err=cand_err[sel], oracle=best, oracle_err=cand_err[best],
-                           correct_exists=bool(min(cand_err) < 10), n_correct=int(sum(e < 10 for e in cand_err)),
-                           cand_err=cand_err, chamfer=ex.get("chamfer"), tilt_deg=ex.get("tilt_deg"),
-                           kept=ex.get("kept"), losses=ex.get("losses"), depth_score=ex.get("depth_score"),
-                           escalated=ex.get("escalated"), fit_est=d_est, fit_gt=d_gt,
-                           fit_est_mm=d_est * scale_mm if scale_mm else None,
-                           fit_gt_mm=d_gt * scale_mm if scale_mm else None,
-                           n_points=int(len(prob.points_camera)))
+                row = dict(
+                    base,
+                    ablation=which,
+                    err_deg=float(err(T_est)),
+                    selected=sel,
+                    selected_cand_err=cand_err[sel],
+                    oracle=best,
+                    oracle_err=cand_err[best],
+                    correct_exists=bool(min(cand_err) < 10),
+                    n_correct=int(sum(e < 10 for e in cand_err)),
+                    cand_err=cand_err,
+                    chamfer=ex.get("chamfer"),
+                    tilt_deg=ex.get("tilt_deg"),
+                    kept=ex.get("kept"),
+                    losses=ex.get("losses"),
+                    depth_score=ex.get("depth_score"),
+                    escalated=ex.get("escalated"),
+                    fit_est=d_est,
+                    fit_gt=d_gt,
+                    fit_est_mm=d_est * scale_mm if scale_mm else None,
+                    fit_gt_mm=d_gt * scale_mm if scale_mm else None,
+                    n_points=int(len(prob.points_camera)),
+                )
                 if save_dir is not None:  # inputs and candidates, to score selection rules offline
                     from catpose import atomic
 
                     with atomic.atomic_path(save_dir / f"{sid.replace('/', '_')}__{which}.npz") as tmp:
-                        np.savez_compressed(tmp,
-                                        points=prob.points_camera, normals=prob.normals_camera,
-                                        ground=prob.ground_normal_camera, candidates=cand, T_est=T_est,
-                                        T_gt=np.asarray(gt.T_template_camera, float), template_id=tpl.template_id,
-                                        up=np.asarray(prob.template.up, float), cand_err=np.array(cand_err),
-                                        chamfer=np.array(ex.get("chamfer", []), float),
-                                        tilt=np.array(ex.get("tilt_deg", []), float),
-                                        losses=np.array([np.nan if x is None else x for x in ex.get("losses", [])],
-                                                        float),
-                                        scale_mm=np.nan if scale_mm is None else float(scale_mm))
+                        np.savez_compressed(
+                            tmp,
+                            points=prob.points_camera,
+                            normals=prob.normals_camera,
+                            ground=prob.ground_normal_camera,
+                            candidates=cand,
+                            T_est=T_est,
+                            T_gt=np.asarray(gt.T_template_camera, float),
+                            template_id=tpl.template_id,
+                            up=np.asarray(prob.template.up, float),
+                            cand_err=np.array(cand_err),
+                            chamfer=np.array(ex.get("chamfer", []), float),
+                            tilt=np.array(ex.get("tilt_deg", []), float),
+                            losses=np.array([np.nan if x is None else x for x in ex.get("losses", [])], float),
+                            scale_mm=np.nan if scale_mm is None else float(scale_mm),
+                        )
                 f.write(json.dumps(row) + "\n")
                 f.flush()
-                log.info(f"{sid} [{which}] err {row['err_deg']:.1f} sel {cand_err[sel]:.1f} oracle {cand_err[best]:.1f} "
-                         f"n_ok {row['n_correct']} bleed {base['bleed_fraction']:.2f} nerr {base['normal_err_median_deg']:.1f} "
-                         f"up {ground_err:.1f} fit est/gt {d_est:.4f}/{d_gt:.4f}")
+                log.info(
+                    f"{sid} [{which}] err {row['err_deg']:.1f} sel {cand_err[sel]:.1f} oracle {cand_err[best]:.1f} "
+                    f"n_ok {row['n_correct']} bleed {base['bleed_fraction']:.2f} nerr {base['normal_err_median_deg']:.1f} "
+                    f"up {ground_err:.1f} fit est/gt {d_est:.4f}/{d_gt:.4f}"
+                )
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m catpose.bench.real.diagnose", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m catpose.bench.real.diagnose",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("--set", default="ycbv")
     parser.add_argument("--ablate", default="none", help=f"comma-separated subset of {', '.join(ABLATIONS)}")
     parser.add_argument("--limit", type=int, default=None)
@@ -239,8 +280,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.set not in SETS:
             raise CatposeError(f"--set {args.set!r} is unknown; use one of {', '.join(SETS)}")
         if unknown:
-            raise CatposeError(f"--ablate {','.join(unknown)} unknown; use a comma-separated subset of "
-                               f"{', '.join(ABLATIONS)}")
+            raise CatposeError(
+                f"--ablate {','.join(unknown)} unknown; use a comma-separated subset of {', '.join(ABLATIONS)}"
+            )
         diagnose(args.set, ablations, args.limit, args.out, args.bleed_mm, args.ours_override, args.save_dir)
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)

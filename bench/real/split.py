@@ -68,15 +68,19 @@ def load_split(name: str, folder: Path = SPLIT_DIR) -> Split:
         folds = tuple((str(f["choose"]), str(f["report"])) for f in raw.get("folds") or ())
         dataset = str(raw["dataset"])
     except (KeyError, TypeError, ValueError, AttributeError):
-        raise ConfigError(f"{path}: needs dataset, parts (name: [[first, last], ...]) and folds "
-                          "([{choose: part, report: part}])") from None
+        raise ConfigError(
+            f"{path}: needs dataset, parts (name: [[first, last], ...]) and folds ([{{choose: part, report: part}}])"
+        ) from None
     unknown = sorted({p for f in folds for p in f} - set(parts))
     if unknown:
         raise ConfigError(f"{path}: folds name parts {unknown} that parts does not define")
     for choose, report in folds:
         overlap = set(Split(name, dataset, parts, folds).scene_ids(choose)) & set(
-            Split(name, dataset, parts, folds).scene_ids(report))
+            Split(name, dataset, parts, folds).scene_ids(report)
+        )
         if overlap:
-            raise ConfigError(f"{path}: parts {choose} and {report} share scenes {sorted(overlap)[:5]}; a fold must "
-                              "report on scenes it did not choose on")
+            raise ConfigError(
+                f"{path}: parts {choose} and {report} share scenes {sorted(overlap)[:5]}; a fold must "
+                "report on scenes it did not choose on"
+            )
     return Split(name, dataset, parts, folds)

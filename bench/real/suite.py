@@ -49,8 +49,8 @@ class RealSet:
     overrides: tuple[str, ...] = ()
     protocol: str = "gt_model"
     needs_trajectory: bool = False
-    split: str | None = None            # configs/split/<split>.yaml: one table column per part
-    parts: tuple[str, ...] = ()         # load only these parts' scenes (empty: every frame)
+    split: str | None = None  # configs/split/<split>.yaml: one table column per part
+    parts: tuple[str, ...] = ()  # load only these parts' scenes (empty: every frame)
 
 
 @dataclass(frozen=True)
@@ -62,34 +62,59 @@ class MethodVariant:
     overrides: tuple[str, ...] = field(default_factory=tuple)
 
 
-SETS: dict[str, RealSet] = {s.name: s for s in (
-    RealSet("ycbv", "ycbv", "bop/ycbv", ("dataset.root={shared}/bop/ycbv",), split="ycbv"),
-    RealSet("tyol", "bop", "bop/tyol", ("dataset.root={shared}/bop/tyol",)),
-    RealSet("modelnet40_resampled", "modelnet40_resampled", "modelnet40_normal_resampled",
-            ("dataset.root={shared}/modelnet40_normal_resampled",)),
-    RealSet("redwood", "redwood", "redwood", ("dataset.root={shared}/redwood",), protocol="relative",
-            needs_trajectory=True),
-)}
+SETS: dict[str, RealSet] = {
+    s.name: s
+    for s in (
+        RealSet("ycbv", "ycbv", "bop/ycbv", ("dataset.root={shared}/bop/ycbv",), split="ycbv"),
+        RealSet("tyol", "bop", "bop/tyol", ("dataset.root={shared}/bop/tyol",)),
+        RealSet(
+            "modelnet40_resampled",
+            "modelnet40_resampled",
+            "modelnet40_normal_resampled",
+            ("dataset.root={shared}/modelnet40_normal_resampled",),
+        ),
+        RealSet(
+            "redwood",
+            "redwood",
+            "redwood",
+            ("dataset.root={shared}/redwood",),
+            protocol="relative",
+            needs_trajectory=True,
+        ),
+    )
+}
 
 #: the cluttered synthetic set of the real YCB-V meshes (datasets/clutter.py): where ours' choices are made
-CLUTTER_SETS: dict[str, RealSet] = {s.name: s for s in (
-    RealSet("clutter", "clutter", "bop/ycbv/models", ("dataset.root={shared}/bop/ycbv",), split="clutter",
-            parts=("report",)),
-)}
+CLUTTER_SETS: dict[str, RealSet] = {
+    s.name: s
+    for s in (
+        RealSet(
+            "clutter",
+            "clutter",
+            "bop/ycbv/models",
+            ("dataset.root={shared}/bop/ycbv",),
+            split="clutter",
+            parts=("report",),
+        ),
+    )
+}
 
 SUITES: dict[str, dict[str, RealSet]] = {"real": SETS, "clutter": CLUTTER_SETS}
 
-METHODS: dict[str, MethodVariant] = {v.label: v for v in (
-    MethodVariant("ours", "ours"),
-    MethodVariant("ours-visibility", "ours", ("method.selection.rule=visibility",)),  # the rule before issue 22
-    MethodVariant("icp", "icp"),
-    MethodVariant("fgr", "fgr"),
-    MethodVariant("teaser", "teaser"),
-    MethodVariant("ransac", "ransac"),
-    MethodVariant("fgr-dict", "fgr", ("method.matching=dictionary",)),
-    MethodVariant("teaser-dict", "teaser", ("method.matching=dictionary",)),
-    MethodVariant("ransac-dict", "ransac", ("method.matching=dictionary",)),
-)}
+METHODS: dict[str, MethodVariant] = {
+    v.label: v
+    for v in (
+        MethodVariant("ours", "ours"),
+        MethodVariant("ours-visibility", "ours", ("method.selection.rule=visibility",)),  # the rule before issue 22
+        MethodVariant("icp", "icp"),
+        MethodVariant("fgr", "fgr"),
+        MethodVariant("teaser", "teaser"),
+        MethodVariant("ransac", "ransac"),
+        MethodVariant("fgr-dict", "fgr", ("method.matching=dictionary",)),
+        MethodVariant("teaser-dict", "teaser", ("method.matching=dictionary",)),
+        MethodVariant("ransac-dict", "ransac", ("method.matching=dictionary",)),
+    )
+}
 
 
 def skip_reason(real_set: RealSet, shared: Path) -> str | None:
@@ -98,23 +123,39 @@ def skip_reason(real_set: RealSet, shared: Path) -> str | None:
     if not root.exists():
         return f"{root} is absent"
     if real_set.needs_trajectory and not any(root.rglob("*.log")):
-        return (f"no camera trajectory (*.log) under {root}: Redwood frames have no object pose, only "
-                "relative poses from a trajectory can be scored")
+        return (
+            f"no camera trajectory (*.log) under {root}: Redwood frames have no object pose, only "
+            "relative poses from a trajectory can be scored"
+        )
     return None
 
 
-def compose(real_set: RealSet, variant: MethodVariant, shared: Path, seed: int, limit: int | None,
-            output_root: str, method_overrides: list[str]) -> tuple[object, list[str]]:
+def compose(
+    real_set: RealSet,
+    variant: MethodVariant,
+    shared: Path,
+    seed: int,
+    limit: int | None,
+    output_root: str,
+    method_overrides: list[str],
+) -> tuple[object, list[str]]:
     """The resolved run config of one (set, method) pair and its command-line overrides."""
+    from catpose.bench.real.suite_parts import scenes_override
     from catpose.bench.run import config
 
-    from catpose.bench.real.suite_parts import scenes_override
-
-    overrides = [f"method={variant.method}", f"dataset={real_set.dataset}", f"protocol={real_set.protocol}",
-                 f"seed={seed}", f"output_root={output_root}", "progress=false", "print_summary=false",
-                 *[o.replace("{shared}", str(shared)) for o in real_set.overrides],
-                 *(scenes_override(real_set.split, real_set.parts) if real_set.split else []),
-                 *variant.overrides, *(method_overrides if variant.method == "ours" else [])]
+    overrides = [
+        f"method={variant.method}",
+        f"dataset={real_set.dataset}",
+        f"protocol={real_set.protocol}",
+        f"seed={seed}",
+        f"output_root={output_root}",
+        "progress=false",
+        "print_summary=false",
+        *[o.replace("{shared}", str(shared)) for o in real_set.overrides],
+        *(scenes_override(real_set.split, real_set.parts) if real_set.split else []),
+        *variant.overrides,
+        *(method_overrides if variant.method == "ours" else []),
+    ]
     if limit is not None:
         overrides.append(f"limit={limit}")
     return config.compose(overrides), overrides
@@ -129,8 +170,9 @@ def summary_row(run_dir: Path, sample_ids: list[str] | None = None) -> dict:
     return {} if len(rows) == 0 else rows.iloc[0].to_dict()
 
 
-def format_table(results: dict[tuple[str, str], dict], sets: list[str], methods: list[str],
-                 skipped: dict[str, str]) -> str:
+def format_table(
+    results: dict[tuple[str, str], dict], sets: list[str], methods: list[str], skipped: dict[str, str]
+) -> str:
     """Markdown: one row per method, per set ``mean / median / @10 / @30`` (deg) and s per
     registration (median); the best mean and @10 of each set in bold."""
     header = ["method"] + [f"{s}: mean / med / @10 / @30 (s)" for s in sets]
@@ -154,18 +196,28 @@ def format_table(results: dict[tuple[str, str], dict], sets: list[str], methods:
             if abs(r["acc10"] - best[s][1]) < 1e-9:
                 acc10 = f"**{acc10}**"
             fail = f", {int(r['failed'])} failed" if r.get("failed") else ""
-            cells.append(f"{mean} / {r['median_err_deg']:.2f} / {acc10} / {r['acc30']:.3f} "
-                         f"({r['median_runtime_s']:.2f}{fail}) n={int(r['n'])}")
+            cells.append(
+                f"{mean} / {r['median_err_deg']:.2f} / {acc10} / {r['acc30']:.3f} "
+                f"({r['median_runtime_s']:.2f}{fail}) n={int(r['n'])}"
+            )
         lines.append("| " + " | ".join(cells) + " |")
     for s, why in skipped.items():
         lines.append(f"\nskipped {s}: {why}")
     return "\n".join(lines)
 
 
-def run_suite(sets: list[str], methods: list[str], shared: Path, seed: int = 0, limit: int | None = None,
-              output_root: str = "outputs/real", method_overrides: list[str] | None = None,
-              log=print, table_only: bool = False,
-              catalogue: dict[str, RealSet] | None = None) -> tuple[dict, dict]:
+def run_suite(
+    sets: list[str],
+    methods: list[str],
+    shared: Path,
+    seed: int = 0,
+    limit: int | None = None,
+    output_root: str = "outputs/real",
+    method_overrides: list[str] | None = None,
+    log=print,
+    table_only: bool = False,
+    catalogue: dict[str, RealSet] | None = None,
+) -> tuple[dict, dict]:
     """Run every (set, method) pair; returns ({(set, method): summary row}, {set: skip reason}).
     A set with a split also gets rows ``(<set>:<part> (<role>), method)`` for each of its parts.
     With ``table_only`` nothing runs: the rows come from the run directories already written
@@ -186,8 +238,7 @@ def run_suite(sets: list[str], methods: list[str], shared: Path, seed: int = 0, 
             log(f"bench suite real: skipping {s}: {why}")
             continue
         for m in methods:
-            cfg, overrides = compose(catalogue[s], METHODS[m], shared, seed, limit, output_root,
-                                     method_overrides or [])
+            cfg, overrides = compose(catalogue[s], METHODS[m], shared, seed, limit, output_root, method_overrides or [])
             if table_only:
                 run_dir = run_dir_for(cfg, overrides)
                 if not (run_dir / SAMPLES_FILE).is_file():
@@ -199,8 +250,9 @@ def run_suite(sets: list[str], methods: list[str], shared: Path, seed: int = 0, 
             results[(s, m)]["run_dir"] = str(run_dir)
             if catalogue[s].split:
                 split = load_split(catalogue[s].split)
-                for part, row in part_rows(run_dir, split, list(catalogue[s].parts or split.parts),
-                                           summary_row).items():
+                for part, row in part_rows(
+                    run_dir, split, list(catalogue[s].parts or split.parts), summary_row
+                ).items():
                     results[(part_label(s, split, part), m)] = dict(row, run_dir=str(run_dir))
     return results, skipped
 
@@ -215,26 +267,48 @@ def columns(results: dict, sets: list[str]) -> list[str]:
 
 
 def main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="bench suite", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("suite", choices=list(SUITES), help="real: the shared real data; clutter: the cluttered "
-                        "synthetic set of the real YCB-V meshes (its report scenes)")
-    parser.add_argument("--sets", default=None, help="comma-separated subset of the suite's sets "
-                        f"(real: {', '.join(SETS)}; clutter: {', '.join(CLUTTER_SETS)})")
-    parser.add_argument("--parts", default=None, help="clutter: comma-separated split parts to run "
-                        "(default: report; see configs/split/clutter.yaml)")
-    parser.add_argument("--methods", default=",".join(METHODS),
-                        help=f"comma-separated subset of {', '.join(METHODS)}")
+    parser = argparse.ArgumentParser(
+        prog="bench suite", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "suite",
+        choices=list(SUITES),
+        help="real: the shared real data; clutter: the cluttered "
+        "synthetic set of the real YCB-V meshes (its report scenes)",
+    )
+    parser.add_argument(
+        "--sets",
+        default=None,
+        help="comma-separated subset of the suite's sets "
+        f"(real: {', '.join(SETS)}; clutter: {', '.join(CLUTTER_SETS)})",
+    )
+    parser.add_argument(
+        "--parts",
+        default=None,
+        help="clutter: comma-separated split parts to run (default: report; see configs/split/clutter.yaml)",
+    )
+    parser.add_argument("--methods", default=",".join(METHODS), help=f"comma-separated subset of {', '.join(METHODS)}")
     parser.add_argument("--limit", type=int, default=None, help="only the first N samples of each set")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--output-root", default=None, help="where run directories go (default outputs/<suite>)")
-    parser.add_argument("-o", "--ours-override", action="append", default=[], metavar="KEY=VALUE",
-                        help="an override applied to method=ours only (repeatable), e.g. -o method.selection=loss")
-    parser.add_argument("--table-only", action="store_true",
-                        help="run nothing: the table of the run directories already written")
+    parser.add_argument(
+        "-o",
+        "--ours-override",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="an override applied to method=ours only (repeatable), e.g. -o method.selection=loss",
+    )
+    parser.add_argument(
+        "--table-only", action="store_true", help="run nothing: the table of the run directories already written"
+    )
     parser.add_argument("--write", type=Path, default=None, help="also write the Markdown table to this file")
-    parser.add_argument("--objects", type=Path, default=None,
-                        help="also write per-object tables of every split part to this Markdown file")
+    parser.add_argument(
+        "--objects",
+        type=Path,
+        default=None,
+        help="also write per-object tables of every split part to this Markdown file",
+    )
     args = parser.parse_args(argv)
 
     suite_sets = SUITES[args.suite]
@@ -248,8 +322,10 @@ def main(argv: list[str]) -> int:
                 wanted = tuple(args.parts.split(","))
                 unknown = sorted(set(wanted) - set(load_split(rs.split).parts))
                 if unknown:
-                    raise ConfigError(f"bench suite {args.suite}: --parts has unknown {unknown}; "
-                                      f"configs/split/{rs.split}.yaml has {', '.join(load_split(rs.split).parts)}")
+                    raise ConfigError(
+                        f"bench suite {args.suite}: --parts has unknown {unknown}; "
+                        f"configs/split/{rs.split}.yaml has {', '.join(load_split(rs.split).parts)}"
+                    )
                 suite_sets = {**suite_sets, name: replace(rs, parts=wanted)}
     sets = (args.sets or ",".join(suite_sets)).split(",")
     methods = args.methods.split(",")
@@ -261,10 +337,18 @@ def main(argv: list[str]) -> int:
     if not shared.is_dir():
         print(f"bench suite real: skipped: no shared real data at {shared} (set CATPOSE_SHARED_DATA)")
         return 0
-    results, skipped = run_suite(sets, methods, shared, args.seed, args.limit,
-                                 args.output_root or f"outputs/{args.suite}",
-                                 args.ours_override, log=log.info,
-                                 table_only=args.table_only, catalogue=suite_sets)
+    results, skipped = run_suite(
+        sets,
+        methods,
+        shared,
+        args.seed,
+        args.limit,
+        args.output_root or f"outputs/{args.suite}",
+        args.ours_override,
+        log=log.info,
+        table_only=args.table_only,
+        catalogue=suite_sets,
+    )
     table = format_table(results, columns(results, [s for s in sets if s not in skipped]), methods, skipped)
     print(table)
     from catpose import atomic
@@ -274,6 +358,7 @@ def main(argv: list[str]) -> int:
     if args.objects:
         from catpose.bench.real.suite_parts import object_tables
 
-        atomic.write_text(args.objects, object_tables(results, suite_sets, [s for s in sets if s not in skipped],
-                                                      methods) + "\n")
+        atomic.write_text(
+            args.objects, object_tables(results, suite_sets, [s for s in sets if s not in skipped], methods) + "\n"
+        )
     return 0

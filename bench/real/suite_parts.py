@@ -68,9 +68,17 @@ def object_rows(run_dirs: dict[str, Path], split: Split, part: str) -> list[dict
                 by.setdefault(int((r.get("info") or {}).get("obj_id", -1)), []).append(float(r["err_deg"]))
         for obj_id, errs in sorted(by.items()):
             e = np.asarray(errs)
-            out.append({"method": method, "obj_id": obj_id, "n": len(e), "mean_err_deg": float(e.mean()),
-                        "median_err_deg": float(np.median(e)), "acc10": float((e < 10).mean()),
-                        "acc30": float((e < 30).mean())})
+            out.append(
+                {
+                    "method": method,
+                    "obj_id": obj_id,
+                    "n": len(e),
+                    "mean_err_deg": float(e.mean()),
+                    "median_err_deg": float(np.median(e)),
+                    "acc10": float((e < 10).mean()),
+                    "acc30": float((e < 30).mean()),
+                }
+            )
     return out
 
 
@@ -84,19 +92,25 @@ def object_tables(results: dict, catalogue: dict, sets: list[str], methods: list
             continue
         split = load_split(rs.split)
         run_dirs = {m: Path(results[(s, m)]["run_dir"]) for m in methods if (s, m) in results}
-        for part in (rs.parts or tuple(split.parts)):
+        for part in rs.parts or tuple(split.parts):
             rows = object_rows(run_dirs, split, part)
             if not rows:
                 continue
             objects = sorted({r["obj_id"] for r in rows})
-            lines += [f"\n{part_label(s, split, part)}: mean / median / @10 / @30 (n) per object\n",
-                      "| method | " + " | ".join(f"obj {o}" for o in objects) + " |",
-                      "|---|" + "---|" * len(objects)]
+            lines += [
+                f"\n{part_label(s, split, part)}: mean / median / @10 / @30 (n) per object\n",
+                "| method | " + " | ".join(f"obj {o}" for o in objects) + " |",
+                "|---|" + "---|" * len(objects),
+            ]
             for m in run_dirs:
                 cells = []
                 for o in objects:
                     r = next((x for x in rows if x["method"] == m and x["obj_id"] == o), None)
-                    cells.append("-" if r is None else f"{r['mean_err_deg']:.1f} / {r['median_err_deg']:.1f} / "
-                                 f"{r['acc10']:.2f} / {r['acc30']:.2f} ({r['n']})")
+                    cells.append(
+                        "-"
+                        if r is None
+                        else f"{r['mean_err_deg']:.1f} / {r['median_err_deg']:.1f} / "
+                        f"{r['acc10']:.2f} / {r['acc30']:.2f} ({r['n']})"
+                    )
                 lines.append(f"| {m} | " + " | ".join(cells) + " |")
     return "\n".join(lines)

@@ -20,9 +20,9 @@ from __future__ import annotations
 
 import json
 import zipfile
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -57,15 +57,24 @@ def write_golden(path: Path, suite: str, overrides: Sequence[str], samples: Sequ
             di = s.problem.depth_image
             arrays[f"d{i}"], arrays[f"k{i}"], arrays[f"m{i}"] = _f32(di.depth), np.asarray(di.K, float), di.mask
         axis = s.gt.symmetry_axis
-        records.append({
-            "sample_id": s.problem.sample_id, "category": s.problem.category, "group_id": s.group_id,
-            "template_id": tpl.template_id, "template_index": templates[tpl.template_id],
-            "template_category": tpl.category,
-            "template_symmetry_axis": None if tpl.symmetry_axis is None else np.asarray(tpl.symmetry_axis, float).tolist(),
-            "symmetry_axis": None if axis is None else np.asarray(axis, float).tolist(),
-            "symmetries": [np.asarray(S, float).reshape(-1).tolist() for S in s.gt.symmetries],
-            "info": {str(k): v for k, v in dict(s.info).items() if isinstance(v, (str, int, float, bool, type(None)))},
-        })
+        records.append(
+            {
+                "sample_id": s.problem.sample_id,
+                "category": s.problem.category,
+                "group_id": s.group_id,
+                "template_id": tpl.template_id,
+                "template_index": templates[tpl.template_id],
+                "template_category": tpl.category,
+                "template_symmetry_axis": None
+                if tpl.symmetry_axis is None
+                else np.asarray(tpl.symmetry_axis, float).tolist(),
+                "symmetry_axis": None if axis is None else np.asarray(axis, float).tolist(),
+                "symmetries": [np.asarray(S, float).reshape(-1).tolist() for S in s.gt.symmetries],
+                "info": {
+                    str(k): v for k, v in dict(s.info).items() if isinstance(v, (str, int, float, bool, type(None)))
+                },
+            }
+        )
     meta = {"format": FORMAT_VERSION, "suite": suite, "overrides": list(overrides), "samples": records}
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -105,11 +114,14 @@ def read_golden(path: Path) -> GoldenSet:
             meta = json.loads(str(z["meta"]))
             arrays = {k: z[k] for k in z.files if k != "meta"}
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:  # a cut-off file: one line
-        raise ConfigError(f"golden inputs {path} cannot be read ({e}); rewrite them with "
-                          "`bench regress --write-inputs`") from None
+        raise ConfigError(
+            f"golden inputs {path} cannot be read ({e}); rewrite them with `bench regress --write-inputs`"
+        ) from None
     if meta.get("format") != FORMAT_VERSION:
-        raise ConfigError(f"golden inputs {path} have format {meta.get('format')}, this code reads "
-                          f"{FORMAT_VERSION}; rewrite them with `bench regress --write-inputs`")
+        raise ConfigError(
+            f"golden inputs {path} have format {meta.get('format')}, this code reads "
+            f"{FORMAT_VERSION}; rewrite them with `bench regress --write-inputs`"
+        )
     f64 = lambda a: np.asarray(a, dtype=np.float64)  # noqa: E731
     templates: dict[int, Template] = {}
     samples = []
@@ -118,20 +130,36 @@ def read_golden(path: Path) -> GoldenSet:
         if j not in templates:
             tax = r.get("template_symmetry_axis")
             mesh = (f64(arrays[f"tv{j}"]), arrays[f"tf{j}"].astype(np.int64)) if f"tv{j}" in arrays else (None, None)
-            templates[j] = Template(template_id=r["template_id"], category=r["template_category"],
-                                    points=f64(arrays[f"tp{j}"]), normals=f64(arrays[f"tn{j}"]),
-                                    vertices=mesh[0], triangles=mesh[1],
-                                    up=f64(arrays[f"tu{j}"]), symmetry_axis=None if tax is None else f64(tax))
-        problem = RegistrationProblem(sample_id=r["sample_id"], category=r["category"],
-                                      points_camera=f64(arrays[f"p{i}"]), normals_camera=f64(arrays[f"n{i}"]),
-                                      ground_normal_camera=f64(arrays[f"g{i}"]), template=templates[j],
-                                      depth_image=DepthImage(f64(arrays[f"d{i}"]), arrays[f"k{i}"], arrays[f"m{i}"])
-                                      if f"d{i}" in arrays else None)
+            templates[j] = Template(
+                template_id=r["template_id"],
+                category=r["template_category"],
+                points=f64(arrays[f"tp{j}"]),
+                normals=f64(arrays[f"tn{j}"]),
+                vertices=mesh[0],
+                triangles=mesh[1],
+                up=f64(arrays[f"tu{j}"]),
+                symmetry_axis=None if tax is None else f64(tax),
+            )
+        problem = RegistrationProblem(
+            sample_id=r["sample_id"],
+            category=r["category"],
+            points_camera=f64(arrays[f"p{i}"]),
+            normals_camera=f64(arrays[f"n{i}"]),
+            ground_normal_camera=f64(arrays[f"g{i}"]),
+            template=templates[j],
+            depth_image=DepthImage(f64(arrays[f"d{i}"]), arrays[f"k{i}"], arrays[f"m{i}"])
+            if f"d{i}" in arrays
+            else None,
+        )
         axis = r.get("symmetry_axis")
-        gt = GroundTruth(T_template_camera=f64(arrays[f"T{i}"]), symmetry_axis=None if axis is None else f64(axis),
-                         symmetries=tuple(f64(S).reshape(4, 4) for S in r.get("symmetries") or ()))
-        samples.append(Sample(problem=problem, gt=gt, group_id=r.get("group_id") or r["sample_id"],
-                              info=dict(r.get("info") or {})))
+        gt = GroundTruth(
+            T_template_camera=f64(arrays[f"T{i}"]),
+            symmetry_axis=None if axis is None else f64(axis),
+            symmetries=tuple(f64(S).reshape(4, 4) for S in r.get("symmetries") or ()),
+        )
+        samples.append(
+            Sample(problem=problem, gt=gt, group_id=r.get("group_id") or r["sample_id"], info=dict(r.get("info") or {}))
+        )
     return GoldenSet(path=path, meta=meta, samples=tuple(samples))
 
 
@@ -144,15 +172,28 @@ def perturbed(sample: Sample, rel: float, seed: int) -> Sample:
     rng_extra = np.random.default_rng([seed, 1])  # meshes and depth images: a stream of their own
     extra = lambda a: np.asarray(a, float) * (1.0 + rel * rng_extra.standard_normal(np.shape(a)))  # noqa: E731
     p = sample.problem
-    tpl = Template(template_id=p.template.template_id, category=p.template.category,
-                   points=jitter(p.template.points), normals=p.template.normals,
-                   vertices=None if p.template.vertices is None else extra(p.template.vertices),
-                   triangles=p.template.triangles, up=p.template.up, symmetry_axis=p.template.symmetry_axis)
+    tpl = Template(
+        template_id=p.template.template_id,
+        category=p.template.category,
+        points=jitter(p.template.points),
+        normals=p.template.normals,
+        vertices=None if p.template.vertices is None else extra(p.template.vertices),
+        triangles=p.template.triangles,
+        up=p.template.up,
+        symmetry_axis=p.template.symmetry_axis,
+    )
     di = p.depth_image
     depth_image = None if di is None else DepthImage(extra(di.depth), di.K, di.mask)
-    problem = RegistrationProblem(sample_id=p.sample_id, category=p.category, points_camera=jitter(p.points_camera),
-                                  normals_camera=p.normals_camera, ground_normal_camera=p.ground_normal_camera,
-                                  template=tpl, meta=p.meta, depth_image=depth_image)
+    problem = RegistrationProblem(
+        sample_id=p.sample_id,
+        category=p.category,
+        points_camera=jitter(p.points_camera),
+        normals_camera=p.normals_camera,
+        ground_normal_camera=p.ground_normal_camera,
+        template=tpl,
+        meta=p.meta,
+        depth_image=depth_image,
+    )
     return Sample(problem=problem, gt=sample.gt, group_id=sample.group_id, info=sample.info)
 
 

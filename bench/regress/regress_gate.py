@@ -1,5 +1,5 @@
 """The regression gate's rules: how one method's per-sample answers are judged against its
-reference (see :mod:`catpose.bench.regress.regress` for the suites and the command, and
+reference (see :mod:`catpose.bench.regress.run_suites` for the suites and the command, and
 ``configs/regress/default.yaml`` for how every threshold is derived).
 
 - A sample that was ok and now fails, fails the gate.
@@ -56,14 +56,18 @@ def estimate_distance_deg(a: dict, b: dict) -> float:
     if a.get("T_est") is None:
         return 0.0
     axis = a.get("symmetry_axis")
-    err = sample_errors(np.reshape(a["T_est"], (4, 4)), np.reshape(b["T_est"], (4, 4)),
-                        None if axis is None else np.asarray(axis, float),
-                        [np.reshape(S, (4, 4)) for S in a.get("symmetries") or []])
+    err = sample_errors(
+        np.reshape(a["T_est"], (4, 4)),
+        np.reshape(b["T_est"], (4, 4)),
+        None if axis is None else np.asarray(axis, float),
+        [np.reshape(S, (4, 4)) for S in a.get("symmetries") or []],
+    )
     return float(err["err_deg"])
 
 
-def aggregates(rows: dict[str, dict], stable: set[str], gate: Gate,
-               right: set[str] | None = None) -> dict[str, dict[str, float]]:
+def aggregates(
+    rows: dict[str, dict], stable: set[str], gate: Gate, right: set[str] | None = None
+) -> dict[str, dict[str, float]]:
     """Per-category (and ``all``) statistics over the stable samples of ``rows``, plus the
     derived accuracy tolerances: the fraction of those samples within ``chaos_deg`` of each
     accuracy threshold (they may cross it without having moved beyond noise).
@@ -87,9 +91,13 @@ def aggregates(rows: dict[str, dict], stable: set[str], gate: Gate,
         err = np.array([r["err_deg"] if r["status"] == "ok" else 180.0 for r in rs], float)
         clipped = np.minimum(err, gate.wrong_deg)
         trans = np.array([r["trans_err"] if r["status"] == "ok" else np.nan for sid, r in items if sid in right], float)
-        stats = {"n": float(len(rs)), "failed": float(sum(r["status"] != "ok" for r in rs)),
-                 "mean_err_deg": float(clipped.mean()), "median_err_deg": float(np.median(clipped)),
-                 "mean_trans_err": float(np.nanmean(trans)) if np.isfinite(trans).any() else float("nan")}
+        stats = {
+            "n": float(len(rs)),
+            "failed": float(sum(r["status"] != "ok" for r in rs)),
+            "mean_err_deg": float(clipped.mean()),
+            "median_err_deg": float(np.median(clipped)),
+            "mean_trans_err": float(np.nanmean(trans)) if np.isfinite(trans).any() else float("nan"),
+        }
         for thr in gate.accuracy_thresholds:
             stats[f"acc{thr:g}"] = float((err <= thr).mean())
             stats[f"acc{thr:g}_tolerance"] = float((np.abs(err - thr) <= gate.chaos_deg).mean())
@@ -102,7 +110,7 @@ class Finding:
     """One line of the gate's report."""
 
     method: str
-    where: str          # a sample id or a "category/statistic"
+    where: str  # a sample id or a "category/statistic"
     what: str
     fails: bool
 
@@ -122,7 +130,9 @@ def compare_method(method: str, ref: dict, current: dict[str, dict], gate: Gate)
         moved = estimate_distance_deg(r, c)
         tag = "chaotic" if sid in chaotic else "stable"
         if r["status"] == "ok" and c["status"] != "ok":
-            findings.append(Finding(method, sid, f"failed now ({c.get('error')}); was ok at {r['err_deg']:.2f} deg", True))
+            findings.append(
+                Finding(method, sid, f"failed now ({c.get('error')}); was ok at {r['err_deg']:.2f} deg", True)
+            )
             continue
         if moved <= gate.chaos_deg:
             continue
@@ -142,8 +152,13 @@ def compare_method(method: str, ref: dict, current: dict[str, dict], gate: Gate)
     right = {sid for sid, r in ref_rows.items() if r["status"] == "ok" and r["err_deg"] <= gate.wrong_deg}
     ref_agg = ref["aggregates"]
     cur_agg = aggregates({k: v for k, v in current.items() if k in ref_rows}, stable, gate, right)
-    tolerances = {"n": 0.0, "failed": 0.0, "mean_err_deg": gate.mean_err_deg, "median_err_deg": gate.median_err_deg,
-                  "mean_trans_err": gate.mean_trans_err}
+    tolerances = {
+        "n": 0.0,
+        "failed": 0.0,
+        "mean_err_deg": gate.mean_err_deg,
+        "median_err_deg": gate.median_err_deg,
+        "mean_trans_err": gate.mean_trans_err,
+    }
     for cat in sorted(set(ref_agg) | set(cur_agg)):
         rs, cs = ref_agg.get(cat, {}), cur_agg.get(cat, {})
         for stat in [*tolerances, *(f"acc{t:g}" for t in gate.accuracy_thresholds)]:

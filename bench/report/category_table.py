@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -35,8 +35,12 @@ def error_stats(err: np.ndarray) -> dict[str, float]:
     err = np.asarray(err, float)
     if err.size == 0:
         return {k: float("nan") for k in STATS}
-    return {"mean": float(err.mean()), "median": float(np.median(err)), "acc10": float((err < 10).mean()),
-            "acc30": float((err < 30).mean())}
+    return {
+        "mean": float(err.mean()),
+        "median": float(np.median(err)),
+        "acc10": float((err < 10).mean()),
+        "acc30": float((err < 30).mean()),
+    }
 
 
 def row_errors(rows) -> np.ndarray:
@@ -98,15 +102,16 @@ def run_dirs(paths: Sequence[str | Path]) -> list[Path]:
 
 def build(paths: Sequence[str | Path], category: str | None, choices: Sequence[str]) -> list[dict]:
     """Rows for every templates run below ``paths`` (others are skipped), sorted by K then label."""
+    from catpose.bench.protocols.template_choice import check_choice
     from catpose.bench.report.labels import run_labels
     from catpose.bench.report.runs import load_run
-    from catpose.bench.protocols.template_choice import check_choice
 
     for c in choices:
         check_choice(c)
     runs = [r for r in (load_run(p) for p in run_dirs(paths)) if r.protocol == "templates"]
     if not runs:
         raise ConfigError(f"no run of protocol=templates below {', '.join(map(str, paths))}")
+
     def K_of(run) -> str:  # runs are labelled apart only within one K
         return str(int(run.samples.groupby("group_id").size().max())) if len(run.samples) else "0"
 
@@ -120,15 +125,22 @@ def build(paths: Sequence[str | Path], category: str | None, choices: Sequence[s
 
 def to_markdown(rows: list[dict], title: str = "") -> str:
     """A Markdown table: K, method, choice, then chosen | oracle | random mean / median / @10 / @30."""
-    head = ["K", "method", "choice", "views"] + [f"{w} {s}" for w in ("chosen", "oracle", "random")
-                                                  for s in ("mean", "median", "@10", "@30")]
-    lines = ([f"**{title}**", ""] if title else []) + ["| " + " | ".join(head) + " |",
-                                                        "|" + "|".join(["---"] * 4 + ["---:"] * 12) + "|"]
+    head = ["K", "method", "choice", "views"] + [
+        f"{w} {s}" for w in ("chosen", "oracle", "random") for s in ("mean", "median", "@10", "@30")
+    ]
+    lines = ([f"**{title}**", ""] if title else []) + [
+        "| " + " | ".join(head) + " |",
+        "|" + "|".join(["---"] * 4 + ["---:"] * 12) + "|",
+    ]
     for r in rows:
         cells = [str(r["K"]), r["method"], r["choice"], str(r["views"])]
         for w in ("chosen", "oracle", "random"):
-            cells += [f"{r[f'{w}_mean']:.2f}", f"{r[f'{w}_median']:.2f}", f"{r[f'{w}_acc10']:.3f}",
-                      f"{r[f'{w}_acc30']:.3f}"]
+            cells += [
+                f"{r[f'{w}_mean']:.2f}",
+                f"{r[f'{w}_median']:.2f}",
+                f"{r[f'{w}_acc10']:.3f}",
+                f"{r[f'{w}_acc30']:.3f}",
+            ]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 

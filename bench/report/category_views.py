@@ -57,17 +57,31 @@ def view_rows(sweep: str | Path, row: str) -> list[dict]:
         for r in units.to_dict("records"):
             T_est, T_gt = r.get("T_est"), r.get("T_gt")
             ok = r.get("status") == "ok" and T_est is not None
-            angle, tilt = residual(np.asarray(T_est, float).reshape(4, 4), np.asarray(T_gt, float).reshape(4, 4)) if ok \
+            angle, tilt = (
+                residual(np.asarray(T_est, float).reshape(4, 4), np.asarray(T_gt, float).reshape(4, 4))
+                if ok
                 else (float("nan"), float("nan"))
-            out.append({"view": r["group_id"], "instance_id": r.get("instance_id"), "template_id": r.get("template_id"),
-                        "err_deg": float(r["err_deg"]), "oracle_err_deg": float(r.get("oracle_err_deg", r["err_deg"])),
-                        "score": r.get("score"), "residual_axis_tilt_deg": tilt, "kind": kind(angle, tilt) if ok else "failed",
-                        "turn_deg": info.get("turn_deg", "") if isinstance(info := r.get("info"), dict) else ""})
+            )
+            out.append(
+                {
+                    "view": r["group_id"],
+                    "instance_id": r.get("instance_id"),
+                    "template_id": r.get("template_id"),
+                    "err_deg": float(r["err_deg"]),
+                    "oracle_err_deg": float(r.get("oracle_err_deg", r["err_deg"])),
+                    "score": r.get("score"),
+                    "residual_axis_tilt_deg": tilt,
+                    "kind": kind(angle, tilt) if ok else "failed",
+                    "turn_deg": info.get("turn_deg", "") if isinstance(info := r.get("info"), dict) else "",
+                }
+            )
     return sorted(out, key=lambda r: r["view"])
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m catpose.bench.report.category_views", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(
+        prog="python -m catpose.bench.report.category_views", description=__doc__.split("\n\n")[0]
+    )
     ap.add_argument("sweep", help="a sweep directory of `bench run -m +experiment=...`")
     ap.add_argument("--row", default="ours", help="the +row of the jobs to list (default: ours)")
     ap.add_argument("--out", required=True, help="CSV to write")

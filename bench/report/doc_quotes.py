@@ -63,7 +63,7 @@ def find_quotes(doc: Path) -> list[Quote]:
                 end = next(j for j in range(k + 1, len(lines)) if lines[j].strip() == END)
             except StopIteration:
                 raise ValueError(f"{doc}:{k + 1}: quote of {m.group('path')} has no '{END}'") from None
-            out.append(Quote(doc, m.group("path"), (m.group("sel") or "").strip(), k, end, lines[k + 1:end]))
+            out.append(Quote(doc, m.group("path"), (m.group("sel") or "").strip(), k, end, lines[k + 1 : end]))
             k = end
         k += 1
     return out
@@ -111,7 +111,9 @@ def differing(repo: Path = REPO) -> list[str]:
             else:
                 try:
                     if q.body != expected(q, repo):
-                        bad.append(f"{doc.relative_to(repo)}:{q.start + 1}: the quote of {q.path} differs from the file")
+                        bad.append(
+                            f"{doc.relative_to(repo)}:{q.start + 1}: the quote of {q.path} differs from the file"
+                        )
                 except ValueError as e:  # the selector asks for a table the file does not have
                     bad.append(f"{doc.relative_to(repo)}:{q.start + 1}: {q.path}: {e}")
     return bad
@@ -123,7 +125,7 @@ def refresh(repo: Path = REPO) -> list[Path]:
     for doc in doc_files(repo):
         lines = doc.read_text().splitlines()
         for q in reversed(find_quotes(doc)):
-            lines[q.start + 1:q.end] = expected(q, repo)
+            lines[q.start + 1 : q.end] = expected(q, repo)
         text = "\n".join(lines) + "\n"
         if text != doc.read_text():
             from catpose import atomic

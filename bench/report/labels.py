@@ -6,16 +6,26 @@ the overrides a user typed, differing config values; a run directory's hash only
 from __future__ import annotations
 
 import json
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 from catpose.bench.report.runs import Run
 from catpose.errors import ConfigError
 
-
-DISPLAY_NAMES = {"ours": "Ours", "icp": "ICP", "fgr": "FGR", "teaser": "TEASER (re-impl.)", "teaserpp": "Teaser++",
-                 "teaser_pp": "Teaser++", "equipose": "Equi-pose", "equi_pose": "Equi-pose",
-                 "rpmnet": "RPM-Net", "rpm_net": "RPM-Net", "ransac": "RANSAC"}
+DISPLAY_NAMES = {
+    "ours": "Ours",
+    "icp": "ICP",
+    "fgr": "FGR",
+    "teaser": "TEASER (re-impl.)",
+    "teaserpp": "Teaser++",
+    "teaser_pp": "Teaser++",
+    "equipose": "Equi-pose",
+    "equi_pose": "Equi-pose",
+    "rpmnet": "RPM-Net",
+    "rpm_net": "RPM-Net",
+    "ransac": "RANSAC",
+}
 
 
 def _first(cfg: dict, keys: Sequence[str]) -> Any:
@@ -76,19 +86,23 @@ def _overrides(run: Run) -> list[str]:
     f = run.path / "overrides.txt"
     if not f.is_file():
         return []
-    return [o.strip().lstrip("+~") for o in f.read_text().splitlines()
-            if o.strip() and not o.startswith(("output_root", "progress", "print_summary", "hydra."))]
+    return [
+        o.strip().lstrip("+~")
+        for o in f.read_text().splitlines()
+        if o.strip() and not o.startswith(("output_root", "progress", "print_summary", "hydra."))
+    ]
 
 
 def _short(item: str) -> str:
     """``method.descriptor=pfh`` -> ``descriptor=pfh`` (the method is already in the label)."""
-    return item[len("method."):] if item.startswith("method.") else item
+    return item[len("method.") :] if item.startswith("method.") else item
 
 
 def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
     """Label suffixes that tell ``members`` (runs sharing a label) apart, the fewest kinds first:
     the protocol, the dataset, the recorded overrides not shared by all, the config values that
     differ, and only when nothing else does, the run directory's name (which ends in a hash)."""
+
     def dataset(r: Run) -> str:
         d = r.config.get("dataset")
         return str(d.get("name", "?")) if isinstance(d, dict) else str(r.info.get("dataset", "?"))
@@ -107,15 +121,18 @@ def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
         parts = [p + [_short(o) for o in sorted(ov) if o not in shared] for p, ov in zip(parts, overrides)]
     if not unique(parts):
         flats = [_flat({k: r.config.get(k) for k in ("method", "dataset", "protocol", "seed")}) for r in members]
-        keys = sorted({k for f in flats for k in f if len({json.dumps(g.get(k), sort_keys=True, default=str) for g in flats}) > 1})
+        keys = sorted(
+            {k for f in flats for k in f if len({json.dumps(g.get(k), sort_keys=True, default=str) for g in flats}) > 1}
+        )
         parts = [p + [_short(f"{k}={f.get(k)}") for k in keys] for p, f in zip(parts, flats)]
     if not unique(parts):
         parts = [p + [r.path.name] for p, r in zip(parts, members)]
     return parts
 
 
-def run_labels(runs: Sequence[Run], labels: dict[str, str] | None = None,
-               group_of: Callable[[Run], str] = lambda r: "") -> list[str]:
+def run_labels(
+    runs: Sequence[Run], labels: dict[str, str] | None = None, group_of: Callable[[Run], str] = lambda r: ""
+) -> list[str]:
     """One label per run (in order), unique within each row group ``group_of(run)``.
 
     The label is the user's (``labels``, see :func:`user_label`) or :func:`method_label`. Runs
@@ -134,7 +151,9 @@ def run_labels(runs: Sequence[Run], labels: dict[str, str] | None = None,
     for idx in keyed.values():
         members = [runs[i] for i in idx]
         cats = [set(r.samples["category"].astype(str)) if len(r.samples) else set() for r in members]
-        if len(members) == 1 or (sum(map(len, cats)) == len(set().union(*cats)) and len({r.protocol for r in members}) == 1):
+        if len(members) == 1 or (
+            sum(map(len, cats)) == len(set().union(*cats)) and len({r.protocol for r in members}) == 1
+        ):
             continue
         given = [i for i in idx if user_label(runs[i], labels)]
         for i, extra in zip(idx, _distinguishing(members)):

@@ -17,8 +17,8 @@ count as :data:`~catpose.bench.scoring.metrics.FAILED_ERROR_DEG` (180 degrees) e
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 
@@ -38,6 +38,8 @@ def cdf_floor(errors: np.ndarray) -> float:
     if not len(e):
         return CDF_FLOOR_DEG
     return float(np.clip(10.0 ** np.floor(np.log10(e.min())), CDF_MIN_FLOOR_DEG, CDF_FLOOR_DEG))
+
+
 #: Thresholds (degrees) of the accuracy bars.
 ACCURACY_THRESHOLDS_DEG = (1.0, 2.0, 5.0, 10.0, 30.0)
 
@@ -97,8 +99,13 @@ def cdf_points(errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e, np.arange(1, len(e) + 1) / max(len(e), 1)
 
 
-def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, title: str = "",
-                   pdf: bool = True, colors: Mapping[str, str] | None = None) -> list[Path]:
+def plot_error_cdf(
+    units_by_method: Mapping[str, object],
+    out_stem: str | Path,
+    title: str = "",
+    pdf: bool = True,
+    colors: Mapping[str, str] | None = None,
+) -> list[Path]:
     """Cumulative distribution of the error per method, one panel per category (log error axis).
 
     Writes ``<out_stem>.csv`` with columns ``method, category, n, error_deg, fraction`` (the
@@ -122,12 +129,20 @@ def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, 
                 continue
             e, y = cdf_points(scored_errors(u))
             counts.append(len(e))
-            csv_rows += [{"method": label, "category": cat, "n": len(e), "error_deg": a, "fraction": b}
-                         for a, b in zip(e, y)]
+            csv_rows += [
+                {"method": label, "category": cat, "n": len(e), "error_deg": a, "fraction": b} for a, b in zip(e, y)
+            ]
             x = np.clip(e, floor, FAILED_ERROR_DEG)
             # One colour per method across panels; the curve starts at 0 on the left edge.
-            ax.step(np.concatenate([[floor], x, [FAILED_ERROR_DEG]]), np.concatenate([[0], y, [y[-1]]]),
-                    where="post", color=color[label], lw=1.6, alpha=0.9, label=label)
+            ax.step(
+                np.concatenate([[floor], x, [FAILED_ERROR_DEG]]),
+                np.concatenate([[0], y, [y[-1]]]),
+                where="post",
+                color=color[label],
+                lw=1.6,
+                alpha=0.9,
+                label=label,
+            )
         for t in (10, 30):
             ax.axvline(t, color="grey", lw=0.7, ls="--")
         ax.set_title(f"{cat} (n={'/'.join(map(str, sorted(set(counts))))})", fontsize=10)
@@ -141,20 +156,31 @@ def plot_error_cdf(units_by_method: Mapping[str, object], out_stem: str | Path, 
         ax.set_xlabel("error [deg], log")
     for ax in axes[:, 0]:
         ax.set_ylabel("fraction <= error")
-    for ax in axes.ravel()[len(categories):]:
+    for ax in axes.ravel()[len(categories) :]:
         ax.axis("off")
     handles: dict[str, object] = {}
     for ax in axes.ravel():
         for h, lab in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(lab, h)
-    fig.suptitle(title or "Cumulative error distribution per category (rotation; main axis for symmetric objects)",
-                 fontsize=11)
-    note = (f"errors below {floor:g} deg drawn at {floor:g};\nfailures count as "
-            f"{FAILED_ERROR_DEG:g} deg; dashed: 10 and 30 deg")
-    spare = axes.ravel()[len(categories):]
+    fig.suptitle(
+        title or "Cumulative error distribution per category (rotation; main axis for symmetric objects)", fontsize=11
+    )
+    note = (
+        f"errors below {floor:g} deg drawn at {floor:g};\nfailures count as "
+        f"{FAILED_ERROR_DEG:g} deg; dashed: 10 and 30 deg"
+    )
+    spare = axes.ravel()[len(categories) :]
     if len(spare):  # the legend goes into the first empty panel, beside the curves
-        spare[0].legend(list(handles.values()), list(handles), loc="upper left", fontsize=8, frameon=False,
-                        title=note, title_fontsize=7, alignment="left")
+        spare[0].legend(
+            list(handles.values()),
+            list(handles),
+            loc="upper left",
+            fontsize=8,
+            frameon=False,
+            title=note,
+            title_fontsize=7,
+            alignment="left",
+        )
         fig.tight_layout(rect=(0, 0, 1, 0.97))
     else:
         ncol = min(len(handles), 4) or 1
@@ -171,9 +197,14 @@ def accuracy_at(errors: np.ndarray, thresholds=ACCURACY_THRESHOLDS_DEG) -> np.nd
     return np.array([(e <= t).mean() if len(e) else np.nan for t in thresholds])
 
 
-def plot_accuracy(units_by_method: Mapping[str, object], out_stem: str | Path,
-                  thresholds=ACCURACY_THRESHOLDS_DEG, title: str = "", pdf: bool = True,
-                  colors: Mapping[str, str] | None = None) -> list[Path]:
+def plot_accuracy(
+    units_by_method: Mapping[str, object],
+    out_stem: str | Path,
+    thresholds=ACCURACY_THRESHOLDS_DEG,
+    title: str = "",
+    pdf: bool = True,
+    colors: Mapping[str, str] | None = None,
+) -> list[Path]:
     """Accuracy (fraction with error <= threshold) at ``thresholds`` (degrees), categories pooled:
     one group of bars per threshold, one bar per method, its value written above it.
 
@@ -216,13 +247,25 @@ def runtime_rows(samples_by_method: Mapping[str, object]) -> list[dict]:
         r = r[np.isfinite(r) & (r > 0)]
         if len(r):
             q = np.percentile(r, [0, 25, 50, 75, 100])
-            out.append({"method": label, "n": len(r), "min_s": q[0], "q1_s": q[1], "median_s": q[2], "q3_s": q[3],
-                        "max_s": q[4], "mean_s": float(r.mean()), "_values": r})
+            out.append(
+                {
+                    "method": label,
+                    "n": len(r),
+                    "min_s": q[0],
+                    "q1_s": q[1],
+                    "median_s": q[2],
+                    "q3_s": q[3],
+                    "max_s": q[4],
+                    "mean_s": float(r.mean()),
+                    "_values": r,
+                }
+            )
     return out
 
 
-def plot_runtime(samples_by_method: Mapping[str, object], out_stem: str | Path, title: str = "",
-                 pdf: bool = True) -> list[Path]:
+def plot_runtime(
+    samples_by_method: Mapping[str, object], out_stem: str | Path, title: str = "", pdf: bool = True
+) -> list[Path]:
     """Horizontal box plot of per-registration runtime (seconds, log scale) per method, from
     per-sample rows; method labels on the y axis, the median written at the right.
 
@@ -236,15 +279,25 @@ def plot_runtime(samples_by_method: Mapping[str, object], out_stem: str | Path, 
         import matplotlib
 
         # ``vert`` is deprecated from matplotlib 3.10, which added ``orientation``.
-        horizontal = ({"orientation": "horizontal"} if tuple(int(x) for x in matplotlib.__version__.split(".")[:2]) >= (3, 10)
-                      else {"vert": False})
-        ax.boxplot([s["_values"] for s in stats], positions=pos, widths=0.6, showfliers=True,
-                   flierprops={"markersize": 3}, **horizontal)
+        horizontal = (
+            {"orientation": "horizontal"}
+            if tuple(int(x) for x in matplotlib.__version__.split(".")[:2]) >= (3, 10)
+            else {"vert": False}
+        )
+        ax.boxplot(
+            [s["_values"] for s in stats],
+            positions=pos,
+            widths=0.6,
+            showfliers=True,
+            flierprops={"markersize": 3},
+            **horizontal,
+        )
         ax.set_yticks(pos, [s["method"] for s in stats], fontsize=8)
         ax.set_xscale("log")
         for p, s in zip(pos, stats):
-            ax.annotate(f"median {s['median_s']:.3g} s", (1.01, p), xycoords=("axes fraction", "data"),
-                        va="center", fontsize=7)
+            ax.annotate(
+                f"median {s['median_s']:.3g} s", (1.01, p), xycoords=("axes fraction", "data"), va="center", fontsize=7
+            )
     ax.set_xlabel("seconds per registration (log)")
     ax.grid(alpha=0.3, axis="x")
     ax.set_title(title or "Runtime per registration", fontsize=10)

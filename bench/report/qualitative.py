@@ -24,9 +24,16 @@ def _scatter(ax, points: np.ndarray, color: str, size: float, label: str, max_po
     ax.scatter(points[:, 0], points[:, 1], points[:, 2], s=size, c=color, label=label, depthshade=False)
 
 
-def plot_registration(points_camera: np.ndarray, template_points: np.ndarray, T_est: np.ndarray | None,
-                      T_gt: np.ndarray | None, out_stem: str | Path, title: str = "",
-                      err_deg: float | None = None, pdf: bool = True) -> list[Path]:
+def plot_registration(
+    points_camera: np.ndarray,
+    template_points: np.ndarray,
+    T_est: np.ndarray | None,
+    T_gt: np.ndarray | None,
+    out_stem: str | Path,
+    title: str = "",
+    err_deg: float | None = None,
+    pdf: bool = True,
+) -> list[Path]:
     """The input (orange) carried into the template frame over the template (blue-grey).
 
     Args:
@@ -60,8 +67,9 @@ def plot_registration(points_camera: np.ndarray, template_points: np.ndarray, T_
     return plots.save(fig, out_stem, pdf, dpi=110)
 
 
-def plot_sample_from_run(run_dir: str | Path, sample_id: str, out_stem: str | Path, title: str | None = None,
-                         pdf: bool = True) -> list[Path]:
+def plot_sample_from_run(
+    run_dir: str | Path, sample_id: str, out_stem: str | Path, title: str | None = None, pdf: bool = True
+) -> list[Path]:
     """Re-load ``sample_id`` from the run's config (dataset + protocol) and plot its registration
     (``title`` defaults to ``method | sample | status``).
 
@@ -90,5 +98,13 @@ def plot_sample_from_run(run_dir: str | Path, sample_id: str, out_stem: str | Pa
     T_est = None if row.get("T_est") is None else np.asarray(row["T_est"], float).reshape(4, 4)
     err = None if row.get("status") != "ok" else float(row["err_deg"])
     title = title or f"{run.method} | {sample_id} | {row.get('status')}"
-    return plot_registration(sample.problem.points_camera, sample.problem.template.points, T_est,
-                             sample.gt.T_template_camera, out_stem, title, err, pdf)
+    return plot_registration(
+        sample.problem.points_camera,
+        sample.problem.template.points,
+        T_est,
+        sample.gt.T_template_camera,
+        out_stem,
+        title,
+        err,
+        pdf,
+    )

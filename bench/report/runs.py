@@ -5,9 +5,10 @@ runs through this module only, from files, never from memory.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from catpose.errors import ConfigError, DatasetError
 
@@ -92,7 +93,9 @@ def load_run(path: str | Path) -> Run:
     path = Path(path)
     samples_path = path / "samples.jsonl"
     if not samples_path.is_file():
-        raise DatasetError(f"{path} is not a run directory: {samples_path.name} is missing; pass a folder written by `bench run`")
+        raise DatasetError(
+            f"{path} is not a run directory: {samples_path.name} is missing; pass a folder written by `bench run`"
+        )
     config = read_config(path)
     info = read_run_json(path)
     return Run(path=path, config=config, info=info, samples=recompute_frame_errors(samples_frame(samples_path)))
@@ -188,6 +191,8 @@ def scored_units(run: Run, error: str = "err_deg"):
     units = protocol_of(run).score_units(run.samples)
     if error != "err_deg":
         if error not in units:
-            raise ConfigError(f"run {run.path} has no column {error!r}; the oracle exists only for the templates protocol")
+            raise ConfigError(
+                f"run {run.path} has no column {error!r}; the oracle exists only for the templates protocol"
+            )
         units = units.assign(err_deg=units[error])
     return units

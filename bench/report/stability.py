@@ -15,9 +15,9 @@ not evidence that one is better.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Sequence
 
 from catpose.errors import DatasetError
 
@@ -74,16 +74,17 @@ def _pooled_errors(runs: Sequence, root: Path | None, error_of: Callable):
         if root is not None:
             path = twin(run.path, root)
             if not (path / "samples.jsonl").is_file():
-                raise DatasetError(f"{path} is missing: the variant root {root} has no twin of {run.path}; "
-                                   "re-run results/make_results.sh to complete it")
+                raise DatasetError(
+                    f"{path} is missing: the variant root {root} has no twin of {run.path}; "
+                    "re-run results/make_results.sh to complete it"
+                )
             run = load_run(path)
         e = _unit_errors(run, error_of(run))
         parts.append(pd.Series(e.to_numpy(), index=[f"{Path(run.path).parts[-2]}/{k}" for k in e.index]))
     return pd.concat(parts) if parts else pd.Series(dtype=float)
 
 
-def stability(runs: Sequence, variant_roots: Sequence[Path],
-              error_of: Callable = lambda run: "err_deg") -> Stability:
+def stability(runs: Sequence, variant_roots: Sequence[Path], error_of: Callable = lambda run: "err_deg") -> Stability:
     """Compare the pooled units of ``runs`` (:class:`~catpose.bench.report.runs.Run`, one table row) with
     their twins under each of ``variant_roots``.
 
@@ -99,14 +100,19 @@ def stability(runs: Sequence, variant_roots: Sequence[Path],
         other = _pooled_errors(runs, Path(root), error_of)
         missing = sorted(set(base.index) - set(other.index))
         if missing:
-            raise DatasetError(f"the variant root {root} lacks {len(missing)} of {len(base)} units "
-                               f"(e.g. {missing[0]}); re-run results/make_results.sh to complete it")
+            raise DatasetError(
+                f"the variant root {root} lacks {len(missing)} of {len(base)} units "
+                f"(e.g. {missing[0]}); re-run results/make_results.sh to complete it"
+            )
         series.append(other.reindex(base.index))
     moves = np.max([np.abs(x.to_numpy() - base.to_numpy()) for x in series], axis=0) if len(base) else np.zeros(0)
-    return Stability(n=len(base), changed=int((moves > CHANGED_DEG).sum()),
-                     mean_deg=tuple(float(x.mean()) for x in series),
-                     acc10=tuple(float((x <= 10.0).mean()) for x in series),
-                     acc30=tuple(float((x <= 30.0).mean()) for x in series))
+    return Stability(
+        n=len(base),
+        changed=int((moves > CHANGED_DEG).sum()),
+        mean_deg=tuple(float(x.mean()) for x in series),
+        acc10=tuple(float((x <= 10.0).mean()) for x in series),
+        acc30=tuple(float((x <= 30.0).mean()) for x in series),
+    )
 
 
 def _range(values: tuple[float, ...], fmt: str) -> str:
@@ -114,21 +120,26 @@ def _range(values: tuple[float, ...], fmt: str) -> str:
     return format(values[0], fmt) if lo == hi else f"{format(values[0], fmt)} ({format(lo, fmt)}-{format(hi, fmt)})"
 
 
-def stability_notes(runs: Sequence, labels: Sequence[str], variant_roots: Sequence[Path],
-                    error_of: Callable = lambda run: "err_deg") -> list[str]:
+def stability_notes(
+    runs: Sequence, labels: Sequence[str], variant_roots: Sequence[Path], error_of: Callable = lambda run: "err_deg"
+) -> list[str]:
     """Lines for a table's notes: per row label (runs sharing a label pooled), units changed under the variants and the ranges of the
     overall mean error, @10 and @30 (the run's own value first, the range over all code paths in
     parentheses when it is not a single value)."""
     roots = [Path(r) for r in variant_roots]
-    lines = [f"Stability under {len(roots)} other code path(s) of the numerical libraries "
-             f"({', '.join(r.name for r in roots)}): views whose error moved by more than {CHANGED_DEG:g} deg, "
-             "and each overall figure as 'own value (min-max over all code paths)'. A difference between "
-             "methods smaller than these ranges is chaos of ambiguous views, not evidence."]
+    lines = [
+        f"Stability under {len(roots)} other code path(s) of the numerical libraries "
+        f"({', '.join(r.name for r in roots)}): views whose error moved by more than {CHANGED_DEG:g} deg, "
+        "and each overall figure as 'own value (min-max over all code paths)'. A difference between "
+        "methods smaller than these ranges is chaos of ambiguous views, not evidence."
+    ]
     groups: dict[str, list] = {}
     for run, label in zip(runs, labels):
         groups.setdefault(label, []).append(run)
     for label, members in groups.items():
         s = stability(members, roots, error_of)
-        lines.append(f"- {label}: {s.changed} of {s.n} changed; mean {_range(s.mean_deg, '.2f')} deg, "
-                     f"@10 {_range(s.acc10, '.3f')}, @30 {_range(s.acc30, '.3f')}")
+        lines.append(
+            f"- {label}: {s.changed} of {s.n} changed; mean {_range(s.mean_deg, '.2f')} deg, "
+            f"@10 {_range(s.acc10, '.3f')}, @30 {_range(s.acc30, '.3f')}"
+        )
     return lines

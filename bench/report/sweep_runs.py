@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from catpose.errors import ConfigError, DatasetError
 
@@ -23,12 +24,16 @@ def sweep_runs(sweep_dirs: Sequence[str | Path]) -> tuple[list[Path], dict[str, 
     for d in map(Path, sweep_dirs):
         records = read_sweep(d)
         if not records:
-            raise DatasetError(f"{d} is not a sweep directory (no */job.json); pass <output_root>/multirun/<name>/<time> "
-                               f"of a `bench run -m` that has finished")
+            raise DatasetError(
+                f"{d} is not a sweep directory (no */job.json); pass <output_root>/multirun/<name>/<time> "
+                f"of a `bench run -m` that has finished"
+            )
         bad = [r for r in records if r.get("status") != "ok" or not r.get("run_dir")]
         if bad:
-            raise DatasetError(f"sweep {d}: job {bad[0].get('job')} ({' '.join(bad[0].get('overrides') or [])}) failed: "
-                               f"{bad[0].get('error')}; re-run the sweep (finished samples are skipped)")
+            raise DatasetError(
+                f"sweep {d}: job {bad[0].get('job')} ({' '.join(bad[0].get('overrides') or [])}) failed: "
+                f"{bad[0].get('error')}; re-run the sweep (finished samples are skipped)"
+            )
         for r in records:
             run_dir = Path(r["run_dir"])
             if run_dir not in paths:

@@ -110,8 +110,14 @@ def to_latex(table: Table) -> str:
     n_lead = len(table.row_header)
     two_level = any(len(c) > 1 for c in table.columns)
     spec = "l" * n_lead + " " + " ".join("c" for _ in table.columns)
-    out = [r"\begin{table}[t]", r"\centering", rf"\caption{{{_tex_escape(table.title)}}}",
-           r"\resizebox{\columnwidth}{!}{%", rf"\begin{{tabular}}{{{spec}}}", r"\toprule"]
+    out = [
+        r"\begin{table}[t]",
+        r"\centering",
+        rf"\caption{{{_tex_escape(table.title)}}}",
+        r"\resizebox{\columnwidth}{!}{%",
+        rf"\begin{{tabular}}{{{spec}}}",
+        r"\toprule",
+    ]
     if two_level:
         spans: list[tuple[str, int]] = []
         for c in table.columns:
@@ -127,8 +133,7 @@ def to_latex(table: Table) -> str:
     for r in table.rows:
         if prev and n_lead > 1 and prev[0] != r[0]:
             out.append(r"\midrule")
-        shown = [_tex_label(x) if (k == len(r) - 1 or prev[: k + 1] != r[: k + 1]) else ""
-                 for k, x in enumerate(r)]
+        shown = [_tex_label(x) if (k == len(r) - 1 or prev[: k + 1] != r[: k + 1]) else "" for k, x in enumerate(r)]
         prev = r
         cells = _ranked_cells(table, ranks, r, r"\textbf{{{}}}", r"\underline{{{}}}")
         out.append(" & ".join(shown + cells) + r" \\")
@@ -155,6 +160,7 @@ def to_csv(table: Table) -> str:
 
 def prune(table: Table) -> Table:
     """Drop rows, then columns, with no finite value (runs without the shown categories)."""
+
     def finite(r, c) -> bool:
         v = table.cells.get((r, c), (float("nan"), ""))[0]
         return v is not None and math.isfinite(v)

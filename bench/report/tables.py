@@ -27,23 +27,38 @@ was spelt ``optimizer`` before; that name is refused with the new one named.)
 
 from __future__ import annotations
 
-import argparse
-import sys
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
-from catpose import atomic
 from catpose.bench.report.labels import parse_labels, pipeline_label, run_labels, template_count
+from catpose.bench.report.runs import Run, find_run_dirs, load_run, protocol_of, scored_units
 from catpose.bench.report.table_format import METRICS, Metric, Table, metric, prune, to_csv, to_latex, to_markdown
-from catpose.bench.report.runs import Run, find_run_dirs, load_run, load_runs, print_left_out, protocol_of, scored_units
 from catpose.errors import ConfigError
 
 # tables.load_run, tables.scored_units, tables.protocol_of, tables.to_markdown ... stay reachable here:
 # reports and plots read runs and render tables through this module's names
-__all__ = ["LAYOUTS", "build_table", "collect", "split_by_protocol", "main", "load_run", "scored_units",
-           "protocol_of", "find_run_dirs", "run_labels", "pipeline_label", "parse_labels", "to_markdown",
-           "to_latex", "to_csv", "Run", "Table", "Metric", "METRICS"]
+__all__ = [
+    "LAYOUTS",
+    "build_table",
+    "collect",
+    "split_by_protocol",
+    "load_run",
+    "scored_units",
+    "protocol_of",
+    "find_run_dirs",
+    "run_labels",
+    "pipeline_label",
+    "parse_labels",
+    "to_markdown",
+    "to_latex",
+    "to_csv",
+    "Run",
+    "Table",
+    "Metric",
+    "METRICS",
+]
 
 
 RENDERERS: dict[str, Callable[[Table], str]] = {"md": to_markdown, "latex": to_latex, "csv": to_csv}
@@ -63,8 +78,12 @@ class Entry:
     units: Any = None  # the pooled scoring units (DataFrame): statistics beyond the summary's (curves)
 
 
-def collect(runs: Sequence[Run], group_of: Callable[[Run], str], labels: dict[str, str] | None = None,
-            error_of: Callable[[Run], str] = lambda r: "err_deg") -> list[Entry]:
+def collect(
+    runs: Sequence[Run],
+    group_of: Callable[[Run], str],
+    labels: dict[str, str] | None = None,
+    error_of: Callable[[Run], str] = lambda r: "err_deg",
+) -> list[Entry]:
     """Pool the scoring units of runs with the same (group, label) and summarize per category.
 
     ``labels`` maps a run directory (as given, or its name) to a user label; labels are made
@@ -101,8 +120,9 @@ def _value(entry: Entry, category: str, key: str) -> float:
     return float(entry.summary.loc[category, col])
 
 
-def _categories(entries: Sequence[Entry], wanted: Sequence[str] | None = None,
-                defaults: Sequence[str] | None = None) -> list[str]:
+def _categories(
+    entries: Sequence[Entry], wanted: Sequence[str] | None = None, defaults: Sequence[str] | None = None
+) -> list[str]:
     """User-given categories as they are; else the layout's defaults that some run has; else
     every category present (sorted)."""
     if wanted:
@@ -114,8 +134,14 @@ def _categories(entries: Sequence[Entry], wanted: Sequence[str] | None = None,
     return chosen or sorted(seen)
 
 
-def grid_table(entries: Sequence[Entry], categories: Sequence[str], metrics: Sequence[str], title: str,
-               grouped: bool = True, group_header: str = "Pipeline / Descriptor") -> Table:
+def grid_table(
+    entries: Sequence[Entry],
+    categories: Sequence[str],
+    metrics: Sequence[str],
+    title: str,
+    grouped: bool = True,
+    group_header: str = "Pipeline / Descriptor",
+) -> Table:
     """Rows (group, method) x columns (category, metric); ranks per column."""
     rows = [(e.group, e.label) if grouped else (e.label,) for e in entries]
     cols = [(c.capitalize(), metric(m).md) for c in categories for m in metrics]
@@ -154,48 +180,98 @@ def with_thresholds(metrics: Sequence[str], keys: Sequence[str]) -> list[str]:
     return kept[:pos] + [k for k in keys if k not in kept] + kept[pos:]
 
 
-def layout_generic(entries: Sequence[Entry], categories: Sequence[str] | None = None,
-                   metrics: Sequence[str] | None = None, title: str | None = "Results") -> Table:
+def layout_generic(
+    entries: Sequence[Entry],
+    categories: Sequence[str] | None = None,
+    metrics: Sequence[str] | None = None,
+    title: str | None = "Results",
+) -> Table:
     cats = _categories(entries, categories) + ([] if categories else ["all"])
-    return grid_table(entries, cats, metrics or DEFAULT_METRICS["generic"], title,
-                      grouped=any(e.group not in ("", "-") for e in entries))
+    return grid_table(
+        entries,
+        cats,
+        metrics or DEFAULT_METRICS["generic"],
+        title,
+        grouped=any(e.group not in ("", "-") for e in entries),
+    )
 
 
-def layout_optimiser(entries: Sequence[Entry], categories: Sequence[str] | None = None,
-                     metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
-    return grid_table(entries, _categories(entries, categories, ["airplane", "chair", "car"]),
-                      metrics or DEFAULT_METRICS["optimiser"],
-                      title or "Partial point cloud registration with the ground-truth complete shape")
+def layout_optimiser(
+    entries: Sequence[Entry],
+    categories: Sequence[str] | None = None,
+    metrics: Sequence[str] | None = None,
+    title: str | None = None,
+) -> Table:
+    return grid_table(
+        entries,
+        _categories(entries, categories, ["airplane", "chair", "car"]),
+        metrics or DEFAULT_METRICS["optimiser"],
+        title or "Partial point cloud registration with the ground-truth complete shape",
+    )
 
 
-def layout_one_template(entries: Sequence[Entry], categories: Sequence[str] | None = None,
-                        metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
-    return grid_table(entries, _categories(entries, categories, ["airplane"]), metrics or DEFAULT_METRICS["one_template"],
-                      title or "Registration with one category-level template (airplane)")
+def layout_one_template(
+    entries: Sequence[Entry],
+    categories: Sequence[str] | None = None,
+    metrics: Sequence[str] | None = None,
+    title: str | None = None,
+) -> Table:
+    return grid_table(
+        entries,
+        _categories(entries, categories, ["airplane"]),
+        metrics or DEFAULT_METRICS["one_template"],
+        title or "Registration with one category-level template (airplane)",
+    )
 
 
-def layout_templates(entries: Sequence[Entry], categories: Sequence[str] | None = None,
-                     metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
-    return grid_table(entries, _categories(entries, categories, ["chair"]), metrics or DEFAULT_METRICS["templates"],
-                      title or "Registration with several category-level templates (chair)",
-                      group_header="Number of templates")
+def layout_templates(
+    entries: Sequence[Entry],
+    categories: Sequence[str] | None = None,
+    metrics: Sequence[str] | None = None,
+    title: str | None = None,
+) -> Table:
+    return grid_table(
+        entries,
+        _categories(entries, categories, ["chair"]),
+        metrics or DEFAULT_METRICS["templates"],
+        title or "Registration with several category-level templates (chair)",
+        group_header="Number of templates",
+    )
 
 
-def layout_ablation(entries: Sequence[Entry], categories: Sequence[str] | None = None,
-                    metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
-    return grid_table(entries, _categories(entries, categories, ["airplane"]), metrics or DEFAULT_METRICS["ablation"],
-                      title or "Registration with and without the pose optimisation (airplane)", group_header="Setting")
+def layout_ablation(
+    entries: Sequence[Entry],
+    categories: Sequence[str] | None = None,
+    metrics: Sequence[str] | None = None,
+    title: str | None = None,
+) -> Table:
+    return grid_table(
+        entries,
+        _categories(entries, categories, ["airplane"]),
+        metrics or DEFAULT_METRICS["ablation"],
+        title or "Registration with and without the pose optimisation (airplane)",
+        group_header="Setting",
+    )
 
 
-def layout_real(entries: Sequence[Entry], categories: Sequence[str] | None = None,
-                metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
+def layout_real(
+    entries: Sequence[Entry],
+    categories: Sequence[str] | None = None,
+    metrics: Sequence[str] | None = None,
+    title: str | None = None,
+) -> Table:
     """Rows (category, metric) x one column per method; ranks across methods within a row."""
     cats = _categories(entries, categories, ["airplane", "chair", "car"])
     metrics = metrics or DEFAULT_METRICS["real"]
     cols = [(e.label,) for e in entries]
     rows = [(c.capitalize(), metric(m).md) for c in cats for m in metrics]
-    t = Table(title or "Pairwise relative pose between two partial views of real scans",
-              ["Category", "Metric"], rows, cols, rank_by="row")
+    t = Table(
+        title or "Pairwise relative pose between two partial views of real scans",
+        ["Category", "Metric"],
+        rows,
+        cols,
+        rank_by="row",
+    )
     for e, col in zip(entries, cols):
         for c in cats:
             for m in metrics:
@@ -203,15 +279,24 @@ def layout_real(entries: Sequence[Entry], categories: Sequence[str] | None = Non
     return t
 
 
-def layout_tyol(entries: Sequence[Entry], categories: Sequence[str] | None = None,
-                metrics: Sequence[str] | None = None, title: str | None = None) -> Table:
+def layout_tyol(
+    entries: Sequence[Entry],
+    categories: Sequence[str] | None = None,
+    metrics: Sequence[str] | None = None,
+    title: str | None = None,
+) -> Table:
     """Rows (method, metric) x one column per category; ranks across methods per column and metric."""
     cats = _categories(entries, categories, ["bottle", "bowl", "can", "plate", "mug"])
     metrics = metrics or DEFAULT_METRICS["tyol"]
     rows = [(e.label, metric(m).md) for e in entries for m in metrics]
     cols = [(c.capitalize(),) for c in cats]
-    t = Table(title or "Camera pose estimation on TYO-L (symmetric objects by main-axis error)",
-              ["Methods", "Metric"], rows, cols, rank_by="column")
+    t = Table(
+        title or "Camera pose estimation on TYO-L (symmetric objects by main-axis error)",
+        ["Methods", "Metric"],
+        rows,
+        cols,
+        rank_by="column",
+    )
     for e in entries:
         for m in metrics:
             for c in cats:
@@ -235,10 +320,17 @@ LAYOUTS: dict[str, tuple[Callable[..., Table], Callable[[Run], str], str]] = {
 RENAMED_LAYOUTS = {"optimizer": "optimiser"}
 
 
-def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequence[str] | None = None,
-                metrics: Sequence[str] | None = None, labels: dict[str, str] | None = None,
-                error: str | None = None, title: str | None = None,
-                stability_roots: Sequence[Path] = (), thresholds: Sequence[str] = ()) -> Table:
+def build_table(
+    runs: Sequence[Run],
+    layout: str = "generic",
+    categories: Sequence[str] | None = None,
+    metrics: Sequence[str] | None = None,
+    labels: dict[str, str] | None = None,
+    error: str | None = None,
+    title: str | None = None,
+    stability_roots: Sequence[Path] = (),
+    thresholds: Sequence[str] = (),
+) -> Table:
     """Lay out ``runs`` as one of :data:`LAYOUTS`.
 
     ``error`` picks the per-unit error: ``"err_deg"`` (the method's own choice) or
@@ -252,8 +344,9 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     (:func:`with_thresholds`).
     """
     if layout in RENAMED_LAYOUTS:
-        raise ConfigError(f"table layout {layout} was renamed {RENAMED_LAYOUTS[layout]}; "
-                          f"write --layout {RENAMED_LAYOUTS[layout]}")
+        raise ConfigError(
+            f"table layout {layout} was renamed {RENAMED_LAYOUTS[layout]}; write --layout {RENAMED_LAYOUTS[layout]}"
+        )
     if layout not in LAYOUTS:
         raise ConfigError(f"unknown table layout {layout!r}; use one of {sorted(LAYOUTS)}")
     if thresholds:
@@ -264,6 +357,7 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     error = error or default_error
     # Only templates runs have an oracle; other runs in the same table keep their own error.
     oracle = error == "oracle_err_deg"
+
     def error_of(r: Run) -> str:
         return "oracle_err_deg" if oracle and r.protocol == "templates" else "err_deg"
 
@@ -271,15 +365,24 @@ def build_table(runs: Sequence[Run], layout: str = "generic", categories: Sequen
     # Paper order: pipelines from plain to ours, and within one, our method last.
     entries.sort(key=lambda e: (_group_order(e.group), e.group, e.label.startswith("Ours")))
     kwargs = {"title": title} if title else {}
-    table = fn(entries, categories=list(categories) if categories else None, metrics=list(metrics) if metrics else None, **kwargs)
+    table = fn(
+        entries,
+        categories=list(categories) if categories else None,
+        metrics=list(metrics) if metrics else None,
+        **kwargs,
+    )
     prune(table)
     shown = {c[-1] for c in table.columns} | {r[-1] for r in table.rows}
     cm = [m for m in metrics or [] if m not in METRICS and m.endswith("cm") and metric(m).md not in shown]
     if cm:
-        table.notes.append(f"Left out: {', '.join(cm)} (no run here has rows with a metric scale, info.scale_mm: "
-                           "their errors are in object-normalised units).")
+        table.notes.append(
+            f"Left out: {', '.join(cm)} (no run here has rows with a metric scale, info.scale_mm: "
+            "their errors are in object-normalised units)."
+        )
     if oracle and any(r.protocol == "templates" for r in runs):
-        table.notes.append("Errors of templates runs are the minimum across templates (an oracle that needs ground truth).")
+        table.notes.append(
+            "Errors of templates runs are the minimum across templates (an oracle that needs ground truth)."
+        )
     if stability_roots:
         from catpose.bench.report.stability import stability_notes
 
@@ -302,69 +405,3 @@ def _group_order(group: str) -> int:
     if group.isdigit():
         return int(group)
     return order.index(group) if group in order else len(order)
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE]``."""
-    ap = argparse.ArgumentParser(prog="bench table", description="Paper tables from run directories.")
-    ap.add_argument("runs", nargs="*", help="run directories, or folders searched for samples.jsonl")
-    ap.add_argument("--sweep", action="append", default=[], metavar="DIR",
-                    help="a sweep directory of `bench run -m` (<output_root>/multirun/<name>/<time>): its jobs' "
-                         "runs and labels, and the experiment's table settings (repeatable)")
-    ap.add_argument("--layout", default=None, choices=sorted({*LAYOUTS, *RENAMED_LAYOUTS}), help="default: the sweep's, else generic")
-    ap.add_argument("--format", default="md", choices=sorted(RENDERERS))
-    ap.add_argument("--categories", default=None, help="comma-separated categories (default: the layout's)")
-    ap.add_argument("--metrics", default=None, help=f"comma-separated, of {','.join(METRICS)} or acc<X>, auc<X>, "
-                    "<n>deg<m>cm (catpose.bench.scoring.curves)")
-    ap.add_argument("--acc", default=None, metavar="LIST",
-                    help="accuracy thresholds replacing @10/@30: degrees and n-degree m-cm, e.g. --acc 5,10,30,5deg5cm "
-                         "(cm only where rows carry a metric scale: BOP, synthetic with a sensor model)")
-    ap.add_argument("--auc", type=float, default=None, metavar="DEG",
-                    help="add the area under the accuracy-vs-threshold curve from 0 to DEG degrees, over DEG")
-    ap.add_argument("--label", action="append", default=[], help="RUN_DIR=LABEL, repeatable")
-    ap.add_argument("--error", default=None, choices=["err_deg", "oracle_err_deg"],
-                    help="the method's own choice or the minimum across templates (oracle)")
-    ap.add_argument("--title", default=None)
-    ap.add_argument("--out", default=None, help="write here instead of stdout")
-    ap.add_argument("--bop-metrics", default=None,
-                    help="BOP recalls of runs scored by `bench score` (bop_errors.jsonl), e.g. "
-                         "ar_mssd,ar_mspd,adds@0.1,5deg5cm (see catpose.bench.scoring.bop_eval.parse_metric)")
-    ap.add_argument("--by", default="object,category", help="with --bop-metrics: rows per object and/or category")
-    ap.add_argument("--stability", action="append", default=[], metavar="ROOT",
-                    help="an output root with the same runs made under another code path of the numerical "
-                         "libraries (results/make_results.sh); notes say per row how many views changed "
-                         "and the range of the overall figures (repeatable)")
-    args = ap.parse_args(argv)
-    from catpose.bench.scoring.curves import threshold_keys
-
-    from catpose.bench.report.sweep_runs import sweep_runs
-
-    run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
-    if not args.runs and not run_paths:
-        raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
-    if args.bop_metrics:
-        from catpose.bench.scoring.bop_eval import table_main_from_runs
-
-        text = table_main_from_runs(find_run_dirs([*args.runs, *run_paths]), args.bop_metrics.split(","),
-                                    args.by.split(",")) + "\n"
-        atomic.write_text(args.out, text) if args.out else sys.stdout.write(text)
-        return 0
-    if args.layout not in (None, defaults.get("layout")):
-        defaults = {}  # another layout than the experiment's: none of its settings apply
-    for key, value in defaults.items():  # the experiment's settings, unless given here
-        if getattr(args, key) is None and value:
-            setattr(args, key, ",".join(map(str, value)) if isinstance(value, list) else str(value))
-    args.layout = args.layout or "generic"
-    runs, left_out = load_runs([*args.runs, *run_paths])
-    print_left_out("table", runs, left_out)  # one damaged run does not stop the others; the exit status says so
-    table = build_table(runs, args.layout, args.categories.split(",") if args.categories else None,
-                        args.metrics.split(",") if args.metrics else None,
-                        {**sweep_labels, **parse_labels(args.label)}, args.error, args.title,
-                        [Path(p) for p in args.stability],
-                        threshold_keys(args.acc or [], args.auc) if (args.acc or args.auc is not None) else ())
-    text = RENDERERS[args.format](table)
-    if args.out:
-        atomic.write_text(args.out, text)
-    else:
-        sys.stdout.write(text)
-    return 2 if left_out else 0

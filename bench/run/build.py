@@ -16,7 +16,6 @@ from typing import Any
 
 from catpose.errors import CatposeError, ConfigError, one_line
 
-
 #: ``_target_``s that moved when ``bench/`` was split into wings: the name written into run
 #: directories' ``config.yaml`` before -> the class's name now. :func:`build_from_config` builds
 #: either, so old run directories still table and report; :func:`catpose.bench.run.rundir.run_dir_for`
@@ -39,7 +38,6 @@ def build_from_config(node: Any, what: str) -> tuple[str, Any]:
     """
     from hydra.utils import instantiate
     from omegaconf import OmegaConf
-
     from omegaconf.errors import MissingMandatoryValue
 
     check_missing(node, what)
@@ -65,8 +63,10 @@ def build_from_config(node: Any, what: str) -> tuple[str, Any]:
             raise cause from None
         named = [k for k in d if not k.startswith("_") and re.search(rf"\b{re.escape(k)}\b", str(cause))]
         keys = ", ".join(f"{what}.{k}={d[k]!r}" for k in named) or f"the {what}.* values"
-        raise ConfigError(f"cannot build {what} '{name}' ({d['_target_']}): {one_line(cause)}; "
-                          f"check {keys} (bench run --cfg job shows them)") from None
+        raise ConfigError(
+            f"cannot build {what} '{name}' ({d['_target_']}): {one_line(cause)}; "
+            f"check {keys} (bench run --cfg job shows them)"
+        ) from None
 
 
 def build_dataset(node: Any) -> Any:
@@ -93,8 +93,10 @@ def check_missing(node: Any, what: str) -> None:
     # missing_keys of a child node gives full paths ("dataset.root"); keep them relative
     missing = sorted(k.removeprefix(f"{what}.") for k in OmegaConf.missing_keys(node))
     if missing:
-        raise ConfigError(f"{what} needs {', '.join(f'{what}.{k}' for k in missing)}: "
-                          f"set it on the command line, e.g. {what}.{missing[0]}=<value>")
+        raise ConfigError(
+            f"{what} needs {', '.join(f'{what}.{k}' for k in missing)}: "
+            f"set it on the command line, e.g. {what}.{missing[0]}=<value>"
+        )
 
 
 # annotation (as written, `from __future__ import annotations` keeps it a string) -> what it accepts
@@ -156,16 +158,18 @@ def check_constructor_args(d: dict, what: str, name: str) -> None:
         if key not in params:
             if not takes_kwargs:
                 options = ", ".join(k for k, p in params.items() if p.kind is not inspect.Parameter.VAR_POSITIONAL)
-                raise ConfigError(f"{what}.{key} is not an option of {what} '{name}' ({d['_target_']}); "
-                                  f"options: {options}")
+                raise ConfigError(
+                    f"{what}.{key} is not an option of {what} '{name}' ({d['_target_']}); options: {options}"
+                )
             continue
         kinds = _scalar_annotation(params[key].annotation)
         if kinds is not None and not _accepts(kinds, value):
             main = next(k for k in ("float", "int", "bool", "str") if k in kinds)
             article = "an" if main == "int" else "a"
             or_null = " or null" if "None" in kinds else ""
-            raise ConfigError(f"{what}.{key}={value!r} is not {article} {main}{or_null}; "
-                              f"set {what}.{key}={_SCALAR_HINTS[main]}")
+            raise ConfigError(
+                f"{what}.{key}={value!r} is not {article} {main}{or_null}; set {what}.{key}={_SCALAR_HINTS[main]}"
+            )
 
 
 def _run_option(cfg: Any, key: str, kind: str, minimum: int | float | None = None) -> Any:
@@ -179,8 +183,10 @@ def _run_option(cfg: Any, key: str, kind: str, minimum: int | float | None = Non
     if not ok or (minimum is not None and value < minimum):
         need = "an integer" if kind == "int" else "a number"
         bound = f" >= {minimum}" if minimum is not None else ""
-        raise ConfigError(f"{key}={value!r} is not {need}{bound}; set {key}=<{'integer' if kind == 'int' else 'number'}"
-                          f"{bound}> (or drop it)")
+        raise ConfigError(
+            f"{key}={value!r} is not {need}{bound}; set {key}=<{'integer' if kind == 'int' else 'number'}"
+            f"{bound}> (or drop it)"
+        )
     return value
 
 

@@ -22,15 +22,17 @@ def main(argv: list[str]) -> int:
 
     @hydra.main(version_base="1.3", config_path="pkg://catpose.configs", config_name="run")
     def _job(cfg) -> dict:
+        from catpose import logs
         from catpose.bench.run.runner import run
         from catpose.errors import RunAborted
 
-        from catpose import logs
-
         hc = HydraConfig.get()
         try:
-            logs.configure_run(cfg.get("log_level", "INFO"), hc.verbose,
-                               hydra_logging=bool(hc.job_logging) and hc.job_logging.get("root") is not None)
+            logs.configure_run(
+                cfg.get("log_level", "INFO"),
+                hc.verbose,
+                hydra_logging=bool(hc.job_logging) and hc.job_logging.get("root") is not None,
+            )
             out = run(cfg, list(hc.overrides.task))
         except RunAborted as e:  # not this job's fault (disk full, broken install): stop the sweep too
             print(command_error("run", e), file=sys.stderr)

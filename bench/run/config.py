@@ -21,9 +21,10 @@ Also here: where the shared real data is (:func:`shared_data_dir`).
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from importlib import resources
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from catpose.errors import ConfigError
 
@@ -36,10 +37,15 @@ RENAMED_KEYS = {"method.optimizer": "method.optimiser"}
 #: config names renamed: (group, old name) -> new name
 RENAMED_NAMES = {("experiment", "optimizer"): "optimiser"}
 #: hydra/launcher option -> the plugin package it needs (the cluster extra, `make cluster`)
-LAUNCHER_PLUGINS = {"joblib": "hydra_joblib_launcher", "local_procs": "hydra_joblib_launcher",
-                    "submitit_local": "hydra_submitit_launcher", "submitit_slurm": "hydra_submitit_launcher",
-                    "slurm": "hydra_submitit_launcher", "ray": "hydra_ray_launcher",
-                    "ray_local": "hydra_ray_launcher"}
+LAUNCHER_PLUGINS = {
+    "joblib": "hydra_joblib_launcher",
+    "local_procs": "hydra_joblib_launcher",
+    "submitit_local": "hydra_submitit_launcher",
+    "submitit_slurm": "hydra_submitit_launcher",
+    "slurm": "hydra_submitit_launcher",
+    "ray": "hydra_ray_launcher",
+    "ray_local": "hydra_ray_launcher",
+}
 #: what a composition error suggests by default
 HINT = "bench run --help lists the common keys"
 
@@ -67,12 +73,12 @@ def check_overrides(argv: Sequence[str], names: bool = True) -> None:
     for arg in argv:
         raw, sep, value = arg.partition("=")
         key = raw.lstrip("+~")
-        prefix = raw[:len(raw) - len(key)]  # "+" / "~" as typed
+        prefix = raw[: len(raw) - len(key)]  # "+" / "~" as typed
         if key == "hydra" or key.startswith(("hydra.", "hydra/")):
             continue
         for old, new in RENAMED_KEYS.items():
             if key == old or key.startswith(old + "."):
-                fixed = prefix + new + key[len(old):] + (f"={value}" if sep else "")
+                fixed = prefix + new + key[len(old) :] + (f"={value}" if sep else "")
                 raise ConfigError(f"{old} was renamed {new}; write {fixed}")
         if not sep or key not in GROUPS:
             continue
@@ -82,8 +88,10 @@ def check_overrides(argv: Sequence[str], names: bool = True) -> None:
                 new = RENAMED_NAMES[key, v]
                 raise ConfigError(f"{key} {v} was renamed {new}; write {prefix}{key}={new}")
             if names and v and v not in available_names:
-                raise ConfigError(f"unknown {key} {v!r}; available: {', '.join(available_names)} "
-                                  f"(add configs/{key}/{v}.yaml to plug in a new one)")
+                raise ConfigError(
+                    f"unknown {key} {v!r}; available: {', '.join(available_names)} "
+                    f"(add configs/{key}/{v}.yaml to plug in a new one)"
+                )
 
 
 def check_launcher(argv: Sequence[str]) -> None:
@@ -102,8 +110,10 @@ def check_launcher(argv: Sequence[str]) -> None:
         except ImportError:
             found = False
         if not found:
-            raise ConfigError(f"hydra/launcher={value} needs {plugin.replace('_', '-')}, which is not installed; "
-                              f"install the launchers with `make cluster` (pip install -e \".[cluster]\")")
+            raise ConfigError(
+                f"hydra/launcher={value} needs {plugin.replace('_', '-')}, which is not installed; "
+                f'install the launchers with `make cluster` (pip install -e ".[cluster]")'
+            )
 
 
 def compose(overrides: Sequence[str], hint: str = HINT) -> Any:
@@ -116,7 +126,8 @@ def compose(overrides: Sequence[str], hint: str = HINT) -> Any:
     """
     overrides = list(overrides)
     check_overrides(overrides)
-    from hydra import compose as hydra_compose, initialize_config_module
+    from hydra import compose as hydra_compose
+    from hydra import initialize_config_module
     from hydra.errors import ConfigCompositionException, OverrideParseException
 
     try:
@@ -124,13 +135,18 @@ def compose(overrides: Sequence[str], hint: str = HINT) -> Any:
             return hydra_compose(config_name="run", overrides=overrides)
     except (ConfigCompositionException, OverrideParseException) as e:
         parts = [str(e)] + ([str(e.__cause__).splitlines()[0]] if e.__cause__ is not None else [])
-        lines = [ln.strip().rstrip(".") for p in parts for ln in p.splitlines()
-                 if ln.strip() and not ln.startswith(("See https://", "Set the environment"))]
+        lines = [
+            ln.strip().rstrip(".")
+            for p in parts
+            for ln in p.splitlines()
+            if ln.strip() and not ln.startswith(("See https://", "Set the environment"))
+        ]
         raise ConfigError("; ".join(lines) + f" ({hint})") from None
 
 
-def compose_and_build(overrides: Sequence[str], groups: Sequence[str],
-                      hint: str = HINT) -> tuple[Any, list[tuple[str, Any]]]:
+def compose_and_build(
+    overrides: Sequence[str], groups: Sequence[str], hint: str = HINT
+) -> tuple[Any, list[tuple[str, Any]]]:
     """:func:`compose`, then each of ``groups`` (``"method"``, ``"dataset"``, ``"protocol"``)
     built as ``bench run`` builds it: ``(cfg, [(name, object) per group])``; a dataset also gets
     its config name as ``.name``. Every mistake is a one-line :class:`ConfigError` naming the key."""
@@ -163,17 +179,35 @@ def check_composition(argv: Sequence[str]) -> None:
 # Hydra's own command-line flags (Hydra 1.3: hydra/_internal/utils.py get_args_parser)
 
 #: flags that take a value (``--cfg job`` or ``--cfg=job``), long and short spellings
-HYDRA_VALUE_FLAGS = {"--cfg": "--cfg", "-c": "--cfg", "--package": "--package", "-p": "--package",
-                     "--config-path": "--config-path", "-cp": "--config-path",
-                     "--config-name": "--config-name", "-cn": "--config-name",
-                     "--config-dir": "--config-dir", "-cd": "--config-dir",
-                     "--experimental-rerun": "--experimental-rerun"}
+HYDRA_VALUE_FLAGS = {
+    "--cfg": "--cfg",
+    "-c": "--cfg",
+    "--package": "--package",
+    "-p": "--package",
+    "--config-path": "--config-path",
+    "-cp": "--config-path",
+    "--config-name": "--config-name",
+    "-cn": "--config-name",
+    "--config-dir": "--config-dir",
+    "-cd": "--config-dir",
+    "--experimental-rerun": "--experimental-rerun",
+}
 #: ``--info`` takes an optional value, one of these (default ``all``)
 HYDRA_INFO_CHOICES = ("all", "config", "defaults", "defaults-tree", "plugins", "searchpath")
 #: flags without a value
-HYDRA_SWITCHES = {"--resolve": "--resolve", "--run": "--run", "-r": "--run", "--multirun": "--multirun",
-                  "-m": "--multirun", "--shell-completion": "--shell-completion", "-sc": "--shell-completion",
-                  "--hydra-help": "--hydra-help", "--version": "--version", "--info": "--info", "-i": "--info"}
+HYDRA_SWITCHES = {
+    "--resolve": "--resolve",
+    "--run": "--run",
+    "-r": "--run",
+    "--multirun": "--multirun",
+    "-m": "--multirun",
+    "--shell-completion": "--shell-completion",
+    "-sc": "--shell-completion",
+    "--hydra-help": "--hydra-help",
+    "--version": "--version",
+    "--info": "--info",
+    "-i": "--info",
+}
 #: flags that make Hydra read other configs than the package's (names and composition unchecked)
 OTHER_CONFIGS = ("--config-path", "--config-name", "--config-dir", "--experimental-rerun")
 
@@ -220,8 +254,13 @@ def flag_names(flags: Sequence[str]) -> set[str]:
 
 
 #: Hydra's modes: one per command line (Hydra refuses two, with a traceback)
-HYDRA_MODES = {"--multirun": "-m", "--run": "--run", "--cfg": "--cfg", "--info": "--info",
-               "--shell-completion": "--shell-completion"}
+HYDRA_MODES = {
+    "--multirun": "-m",
+    "--run": "--run",
+    "--cfg": "--cfg",
+    "--info": "--info",
+    "--shell-completion": "--shell-completion",
+}
 
 
 def check_modes(flags: Sequence[str]) -> None:
@@ -230,10 +269,14 @@ def check_modes(flags: Sequence[str]) -> None:
     names = flag_names(flags)
     modes = [shown for name, shown in HYDRA_MODES.items() if name in names]
     if len(modes) > 1:
-        hint = (" (show one job's config: drop -m and give one value per key, e.g. bench run method=icp --cfg job)"
-                if "-m" in modes and "--cfg" in modes else "")
-        raise ConfigError(f"{' and '.join(modes)} cannot be combined: pass one of -m, --run, --cfg, --info, "
-                          f"--shell-completion{hint}")
+        hint = (
+            " (show one job's config: drop -m and give one value per key, e.g. bench run method=icp --cfg job)"
+            if "-m" in modes and "--cfg" in modes
+            else ""
+        )
+        raise ConfigError(
+            f"{' and '.join(modes)} cannot be combined: pass one of -m, --run, --cfg, --info, --shell-completion{hint}"
+        )
 
 
 def check_run_args(argv: Sequence[str]) -> None:

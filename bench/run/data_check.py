@@ -27,8 +27,12 @@ Check that a dataset root has the layout its loader expects (docs/data.md), in s
 line per problem with the fix and exits 2 when there is any, 0 when the root is good."""
 
 #: BOP dataset config name -> (prefix of its archives, its test archive) (docs/data.md)
-_BOP_ARCHIVES = {"ycbv": ("ycbv", "ycbv_test_bop19.zip"), "tyol": ("tyol", "tyol_test_bop19.zip"),
-                 "lmo": ("lmo", "lmo_test_bop19.zip"), "tless": ("tless", "tless_test_primesense_bop19.zip")}
+_BOP_ARCHIVES = {
+    "ycbv": ("ycbv", "ycbv_test_bop19.zip"),
+    "tyol": ("tyol", "tyol_test_bop19.zip"),
+    "lmo": ("lmo", "lmo_test_bop19.zip"),
+    "tless": ("tless", "tless_test_primesense_bop19.zip"),
+}
 
 
 @dataclass
@@ -104,8 +108,12 @@ def check(name: str, node: Any) -> Report:
     except CatposeError as e:
         report.problem(f"{e}")
         return report
-    walk = {"BOP": _check_bop, "ModelNet40": _check_modelnet40, "ModelNet40Resampled": _check_resampled,
-            "Redwood": _check_redwood}.get(type(dataset).__name__)
+    walk = {
+        "BOP": _check_bop,
+        "ModelNet40": _check_modelnet40,
+        "ModelNet40Resampled": _check_resampled,
+        "Redwood": _check_redwood,
+    }.get(type(dataset).__name__)
     if walk is not None:
         walk(name, dataset, report)
     if not report.problems:
@@ -141,8 +149,10 @@ def _check_templates(dataset: Any, report: Report, instance_exists) -> None:
         for entry in entries:
             if isinstance(entry, str) and not entry.lower().endswith(MESH_SUFFIXES):
                 if not instance_exists(category, entry):
-                    report.warn(f"template {entry} of {category} does not exist; protocol=templates needs it: fix "
-                                f"dataset.templates.{category}")
+                    report.warn(
+                        f"template {entry} of {category} does not exist; protocol=templates needs it: fix "
+                        f"dataset.templates.{category}"
+                    )
                 continue
             try:
                 path = Path(template_spec_from_dict(category, entry).path)
@@ -151,11 +161,14 @@ def _check_templates(dataset: Any, report: Report, instance_exists) -> None:
                 continue
             full = path if path.is_absolute() or tset.base_dir is None else tset.base_dir / path
             if not full.is_file():
-                report.warn(f"template mesh {full} of {category} does not exist; protocol=templates needs it: set "
-                            "dataset.templates_root to the folder of the template meshes")
+                report.warn(
+                    f"template mesh {full} of {category} does not exist; protocol=templates needs it: set "
+                    "dataset.templates_root to the folder of the template meshes"
+                )
 
 
 # --------------------------------------------------------------------------- BOP
+
 
 def _check_bop(name: str, ds: Any, report: Report) -> None:
     from catpose.datasets.bop_layout import camera_K, gt_obj_id, read_json, read_targets, visible_fractions
@@ -184,16 +197,20 @@ def _check_bop(name: str, ds: Any, report: Report) -> None:
             if path.is_file():
                 report.facts.append(f"{path.name}: {len(read_targets(path))} (scene, image, object) targets")
             else:
-                report.warn(f"{path} is missing: every frame is used, not BOP's target list (unzip {prefix}_base.zip "
-                            f"into {layout.root})")
+                report.warn(
+                    f"{path} is missing: every frame is used, not BOP's target list (unzip {prefix}_base.zip "
+                    f"into {layout.root})"
+                )
     except CatposeError as e:
         report.problem(str(e))
     scenes = sorted(p for p in split_dir.iterdir() if p.is_dir() and p.name.isdigit())
     if ds.scenes is not None:
         scenes = [s for s in scenes if int(s.name) in ds.scenes]
     if not scenes:
-        report.problem(f"{split_dir} has no scene folders (000001, ...): unzip {test_zip} into "
-                       f"{layout.root}, or check dataset.split and dataset.scenes")
+        report.problem(
+            f"{split_dir} has no scene folders (000001, ...): unzip {test_zip} into "
+            f"{layout.root}, or check dataset.split and dataset.scenes"
+        )
         return
     frames, objects, missing_depth, first_depth, expected = 0, set(), 0, None, None
     for scene in scenes:
@@ -222,15 +239,19 @@ def _check_bop(name: str, ds: Any, report: Report) -> None:
     if report.problems:
         return
     if frames == 0:
-        report.problem(f"no depth images under {split_dir} (e.g. {expected} for the first frame of scene_gt.json): "
-                       f"unzip {test_zip} into {layout.root}, or set dataset.depth_ext / dataset.sensor")
+        report.problem(
+            f"no depth images under {split_dir} (e.g. {expected} for the first frame of scene_gt.json): "
+            f"unzip {test_zip} into {layout.root}, or set dataset.depth_ext / dataset.sensor"
+        )
         return
     if missing_depth:
         report.warn(f"{missing_depth} frames of scene_gt.json have no depth image (skipped by the loader)")
     models = [o for o in sorted(objects) if not layout.model(o).is_file()]
     if models:
-        report.problem(f"{len(models)} objects the frames show have no model in {models_dir} "
-                       f"(obj_{models[0]:06d}.ply, ...): unzip {prefix}_models.zip into {layout.root}")
+        report.problem(
+            f"{len(models)} objects the frames show have no model in {models_dir} "
+            f"(obj_{models[0]:06d}.ply, ...): unzip {prefix}_models.zip into {layout.root}"
+        )
     try:
         read_depth(first_depth)
     except CatposeError as e:
@@ -248,13 +269,16 @@ def _check_bop(name: str, ds: Any, report: Report) -> None:
 
 # --------------------------------------------------------------------------- ModelNet40
 
+
 def _check_modelnet40(name: str, ds: Any, report: Report) -> None:
     from catpose.datasets.meshio import read_off
 
     present = {c: ds.instance_ids(c) for c in ds.categories}
     if not any(present.values()):
-        report.problem(f"no {ds.split}-split OFF files under {ds.root}/<category>/{ds.split}/ for {ds.categories}: set "
-                       "dataset.root to the unpacked ModelNet40 folder (it holds airplane/, chair/, ...)")
+        report.problem(
+            f"no {ds.split}-split OFF files under {ds.root}/<category>/{ds.split}/ for {ds.categories}: set "
+            "dataset.root to the unpacked ModelNet40 folder (it holds airplane/, chair/, ...)"
+        )
         return
     for c, ids in present.items():
         if not ids:
@@ -285,8 +309,10 @@ def _check_resampled(name: str, ds: Any, report: Report) -> None:
         return
     missing = [i for i in wanted if not (ds.root / ds.category_of_instance(i) / f"{i}.txt").is_file()]
     if missing:
-        report.problem(f"{len(missing)} of {len(wanted)} shapes listed in modelnet40_{ds.split}.txt are missing "
-                       f"(first: {ds.root / ds.category_of_instance(missing[0]) / (missing[0] + '.txt')}): re-unzip")
+        report.problem(
+            f"{len(missing)} of {len(wanted)} shapes listed in modelnet40_{ds.split}.txt are missing "
+            f"(first: {ds.root / ds.category_of_instance(missing[0]) / (missing[0] + '.txt')}): re-unzip"
+        )
         return
     try:
         read_resampled_txt(ds.root / ds.category_of_instance(wanted[0]) / f"{wanted[0]}.txt")
@@ -298,6 +324,7 @@ def _check_resampled(name: str, ds: Any, report: Report) -> None:
 
 # --------------------------------------------------------------------------- Redwood
 
+
 def _check_redwood(name: str, ds: Any, report: Report) -> None:
     from catpose.datasets.depthio import read_depth_png
 
@@ -307,8 +334,10 @@ def _check_redwood(name: str, ds: Any, report: Report) -> None:
         report.problem(str(e))
         return
     if not scans:
-        report.problem(f"no scan folders with depth/ under {ds.root}: unzip each scan <id>.zip into "
-                       f"{ds.root}/<category>_<id>/ (docs/data.md)")
+        report.problem(
+            f"no scan folders with depth/ under {ds.root}: unzip each scan <id>.zip into "
+            f"{ds.root}/<category>_<id>/ (docs/data.md)"
+        )
         return
     no_trajectory = []
     for scan in scans:
@@ -322,13 +351,17 @@ def _check_redwood(name: str, ds: Any, report: Report) -> None:
         if poses is None:
             no_trajectory.append(scan.name)
         elif len(poses) < len(files):
-            report.warn(f"the trajectory of {scan.name} has {len(poses)} poses for {len(files)} depth images; frames "
-                        "without a pose fail under protocol=relative")
+            report.warn(
+                f"the trajectory of {scan.name} has {len(poses)} poses for {len(files)} depth images; frames "
+                "without a pose fail under protocol=relative"
+            )
     if report.problems:
         return
     if no_trajectory:
-        report.warn(f"{len(no_trajectory)} scans have no trajectory (*.log), e.g. {no_trajectory[0]}: "
-                    "protocol=relative cannot score them (docs/data.md says how to make one)")
+        report.warn(
+            f"{len(no_trajectory)} scans have no trajectory (*.log), e.g. {no_trajectory[0]}: "
+            "protocol=relative cannot score them (docs/data.md says how to make one)"
+        )
     try:
         read_depth_png(ds.frame_files(scans[0].name)[0])
     except CatposeError as e:

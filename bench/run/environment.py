@@ -22,8 +22,13 @@ from typing import Any
 
 PACKAGES = ("numpy", "scipy", "open3d-cpu", "open3d", "torch", "trimesh", "hydra-core", "numba")
 #: environment variables that choose a library's code path (recorded with every run)
-NUMERIC_ENV = ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES", "ATEN_CPU_CAPABILITY", "NUMBA_CPU_NAME",
-               "MKL_ENABLE_INSTRUCTIONS")
+NUMERIC_ENV = (
+    "OPENBLAS_CORETYPE",
+    "NPY_DISABLE_CPU_FEATURES",
+    "ATEN_CPU_CAPABILITY",
+    "NUMBA_CPU_NAME",
+    "MKL_ENABLE_INSTRUCTIONS",
+)
 _CACHE: dict[str, Any] = {}
 
 
@@ -68,8 +73,10 @@ def blas_kernels() -> list[dict]:
     for lib in threadpool_info():
         if lib.get("user_api") != "blas":
             continue
-        out.append({k: lib.get(k) for k in ("internal_api", "version", "architecture", "num_threads")}
-                   | {"library": os.path.basename(str(lib.get("filepath", "")))})
+        out.append(
+            {k: lib.get(k) for k in ("internal_api", "version", "architecture", "num_threads")}
+            | {"library": os.path.basename(str(lib.get("filepath", "")))}
+        )
     return out
 
 
@@ -98,8 +105,12 @@ def portable_profile() -> dict[str, str]:
     starts; the libraries read it when they load). Empty on CPUs without AVX2."""
     if "avx2" not in cpu_flags():
         return {}
-    env = {"OPENBLAS_CORETYPE": "Haswell", "ATEN_CPU_CAPABILITY": "avx2", "NUMBA_CPU_NAME": "haswell",
-           "MKL_ENABLE_INSTRUCTIONS": "AVX2"}
+    env = {
+        "OPENBLAS_CORETYPE": "Haswell",
+        "ATEN_CPU_CAPABILITY": "avx2",
+        "NUMBA_CPU_NAME": "haswell",
+        "MKL_ENABLE_INSTRUCTIONS": "AVX2",
+    }
     targets = numpy_avx512_targets()
     if targets:
         env["NPY_DISABLE_CPU_FEATURES"] = " ".join(targets)
@@ -127,10 +138,16 @@ def environment() -> dict:
     """Versions, CPU and BLAS kernels of this process (computed once per process)."""
     if "env" not in _CACHE:
         versions = {p: v for p in PACKAGES if (v := _version(p))}
-        env = {"python": platform.python_version(), "platform": platform.platform(), "versions": versions,
-               "cpu": cpu_model(), "cpu_flags": cpu_flags(), "blas": blas_kernels(),
-               "OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE"),
-               "numeric_env": {k: os.environ[k] for k in NUMERIC_ENV if k in os.environ}}
+        env = {
+            "python": platform.python_version(),
+            "platform": platform.platform(),
+            "versions": versions,
+            "cpu": cpu_model(),
+            "cpu_flags": cpu_flags(),
+            "blas": blas_kernels(),
+            "OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE"),
+            "numeric_env": {k: os.environ[k] for k in NUMERIC_ENV if k in os.environ},
+        }
         try:
             import torch
 

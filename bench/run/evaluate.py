@@ -8,8 +8,9 @@ re-scores old runs without re-running them. :func:`summarize_run` writes ``sampl
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 
@@ -27,8 +28,9 @@ def load_protocol(run_dir: Path) -> Any:
     if "protocol" not in cfg:
         from catpose.errors import DatasetError
 
-        raise DatasetError(f"run {run_dir}: config.yaml has no protocol; re-run the same `bench run` command to "
-                           "rewrite it")
+        raise DatasetError(
+            f"run {run_dir}: config.yaml has no protocol; re-run the same `bench run` command to rewrite it"
+        )
     return build_from_config(cfg.protocol, "protocol")[1]
 
 
@@ -43,9 +45,14 @@ def recompute_row_errors(row: dict) -> dict:
     if row.get("status") == "ok" and isinstance(T_est, (list, np.ndarray)) and isinstance(T_gt, (list, np.ndarray)):
         axis = row.get("symmetry_axis")
         symmetries = row.get("symmetries")
-        row.update(sample_errors(np.reshape(T_est, (4, 4)), np.reshape(T_gt, (4, 4)),
-                                 np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
-                                 symmetries if isinstance(symmetries, (list, tuple)) else ()))
+        row.update(
+            sample_errors(
+                np.reshape(T_est, (4, 4)),
+                np.reshape(T_gt, (4, 4)),
+                np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
+                symmetries if isinstance(symmetries, (list, tuple)) else (),
+            )
+        )
     else:
         row["err_deg"] = FAILED_ERROR_DEG
     return row
@@ -71,7 +78,9 @@ def summarize_run(run_dir: Path, sample_ids: Iterable[str] | None = None):
         flat = df.drop(columns=[c for c in ("info", "extras", "symmetries") if c in df.columns]).copy()
         for c in ("T_est", "T_gt", "symmetry_axis"):
             if c in flat.columns:
-                flat[c] = flat[c].map(lambda v: " ".join(f"{x:.9g}" for x in np.ravel(v)) if isinstance(v, list) else "")
+                flat[c] = flat[c].map(
+                    lambda v: " ".join(f"{x:.9g}" for x in np.ravel(v)) if isinstance(v, list) else ""
+                )
         atomic.write_text(run_dir / "samples.csv", flat.to_csv(index=False))
     summary = _summary(df, protocol)
     atomic.write_text(run_dir / "summary.csv", summary.to_csv(index=False))

@@ -24,8 +24,7 @@ class RunLock:
     The lock file holds the pid of the holder; the kernel drops the lock when the holder exits.
     """
 
-    def __init__(self, run_dir: Path, timeout: float | None = None, poll_s: float = 0.2,
-                 name: str = LOCK_FILE) -> None:
+    def __init__(self, run_dir: Path, timeout: float | None = None, poll_s: float = 0.2, name: str = LOCK_FILE) -> None:
         self.path = run_dir / name
         self.timeout = timeout
         self.poll_s = poll_s
@@ -59,10 +58,14 @@ class RunLock:
 
         holder = self.holder()
         if self.timeout is not None and self.timeout <= 0:
-            raise RunAborted(f"run directory {self.path.parent} is in use by pid {holder}; wait for that run "
-                             "to finish or stop it")
-        log.warning("waiting for pid %s, which is running into %s (it finishes the same samples; Ctrl-C to stop)",
-                    holder, self.path.parent)
+            raise RunAborted(
+                f"run directory {self.path.parent} is in use by pid {holder}; wait for that run to finish or stop it"
+            )
+        log.warning(
+            "waiting for pid %s, which is running into %s (it finishes the same samples; Ctrl-C to stop)",
+            holder,
+            self.path.parent,
+        )
         deadline = None if self.timeout is None else time.monotonic() + self.timeout
         while True:
             try:
@@ -70,9 +73,11 @@ class RunLock:
                 return
             except BlockingIOError:
                 if deadline is not None and time.monotonic() > deadline:
-                    raise RunAborted(f"run directory {self.path.parent} is still in use by pid {self.holder()} "
-                                     f"after {self.timeout:g} s; wait for that run to finish or stop it, or "
-                                     "raise lock_timeout") from None
+                    raise RunAborted(
+                        f"run directory {self.path.parent} is still in use by pid {self.holder()} "
+                        f"after {self.timeout:g} s; wait for that run to finish or stop it, or "
+                        "raise lock_timeout"
+                    ) from None
                 time.sleep(self.poll_s)
 
     def release(self) -> None:

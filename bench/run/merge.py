@@ -22,8 +22,8 @@ from __future__ import annotations
 import argparse
 import json
 import re
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from catpose.bench.run.rundir import SAMPLES_FILE
 from catpose.errors import ConfigError, DatasetError
@@ -62,7 +62,9 @@ def parse_shard(shard: object, shards: object) -> tuple[int, int] | None:
         raise ConfigError(f"shards={n}: use shards=N with N >= 1")
     if shard is None:
         if n > 1:
-            raise ConfigError(f"shards={n} needs shard=I (0 <= I < {n}); sweep them with: -m shards={n} shard=range({n})")
+            raise ConfigError(
+                f"shards={n} needs shard=I (0 <= I < {n}); sweep them with: -m shards={n} shard=range({n})"
+            )
         return None
     try:
         i = int(shard)
@@ -79,8 +81,9 @@ def shard_ids(ids: Sequence[str], shard: int, shards: int) -> list[str]:
     return list(ids[shard::shards])
 
 
-def write_shard_meta(run_dir: Path, shard: int, shards: int, ids: Sequence[str], finished: bool,
-                     config: dict | None = None) -> None:
+def write_shard_meta(
+    run_dir: Path, shard: int, shards: int, ids: Sequence[str], finished: bool, config: dict | None = None
+) -> None:
     """Record a shard's ids (run order), whether it went through all of them, and its config
     (:func:`catpose.bench.run.shard_check.comparable_config`), which merges compare."""
     from catpose import atomic
@@ -108,8 +111,12 @@ def is_sharded(run_dir: Path) -> bool:
 def needs_merge(run_dir: Path) -> bool:
     """Whether a run directory has shard files newer than its ``samples.jsonl``."""
     run_dir = Path(run_dir)
-    files = [run_dir / name for n, idx in shard_files(run_dir).items() for i in idx
-             for name in (shard_samples_file(i, n), shard_meta_file(i, n))]
+    files = [
+        run_dir / name
+        for n, idx in shard_files(run_dir).items()
+        for i in idx
+        for name in (shard_samples_file(i, n), shard_meta_file(i, n))
+    ]
     if not files:
         return False
     merged = run_dir / SAMPLES_FILE
@@ -128,9 +135,11 @@ def merged_rows(run_dir: Path) -> list[dict]:
     run_dir = Path(run_dir)
     found = shard_files(run_dir)
     if len(found) != 1:
-        raise DatasetError(f"{run_dir} holds shards of {sorted(found)} parts; keep one sharding per run directory "
-                           f"(delete the samples.shard-*-of-N.jsonl of the others)")
-    (n, present), = found.items()
+        raise DatasetError(
+            f"{run_dir} holds shards of {sorted(found)} parts; keep one sharding per run directory "
+            f"(delete the samples.shard-*-of-N.jsonl of the others)"
+        )
+    ((n, present),) = found.items()
     from catpose.bench.run.shard_check import _metas, check_shard_configs
 
     read = _metas(run_dir, n)
@@ -145,8 +154,10 @@ def merged_rows(run_dir: Path) -> list[dict]:
         rows = {r["sample_id"]: r for r in latest_rows(run_dir / shard_samples_file(i, n))}
         missing = [s for s in meta["sample_ids"] if s not in rows and s not in serial]
         if missing:
-            raise ShardsNotDone(f"{run_dir}: shard {i} of {n} lacks {len(missing)} of {len(meta['sample_ids'])} samples "
-                               f"(e.g. {missing[0]!r}); finish it with the same command (shards={n} shard={i})")
+            raise ShardsNotDone(
+                f"{run_dir}: shard {i} of {n} lacks {len(missing)} of {len(meta['sample_ids'])} samples "
+                f"(e.g. {missing[0]!r}); finish it with the same command (shards={n} shard={i})"
+            )
         per_shard.append([rows.get(s) or serial[s] for s in meta["sample_ids"]])
     out = []
     for j in range(max(map(len, per_shard), default=0)):
@@ -182,17 +193,20 @@ def _merge_locked(run_dir: Path, force: bool = False):
     kept = {r["sample_id"] for r in rows}
     lost = [s for s in dict.fromkeys(r["sample_id"] for r in read_rows(run_dir / SAMPLES_FILE)) if s not in kept]
     if lost and not force:
-        raise DatasetError(f"{run_dir / SAMPLES_FILE} holds {len(lost)} sample(s) that no shard lists (e.g. {lost[0]!r}): "
-                           f"a run this merge did not make; move it away, or `bench merge --force {run_dir}` to replace "
-                           "it with the shards' rows (those samples are dropped)")
+        raise DatasetError(
+            f"{run_dir / SAMPLES_FILE} holds {len(lost)} sample(s) that no shard lists (e.g. {lost[0]!r}): "
+            f"a run this merge did not make; move it away, or `bench merge --force {run_dir}` to replace "
+            "it with the shards' rows (those samples are dropped)"
+        )
     with atomic.atomic_write(run_dir / SAMPLES_FILE) as f:
         for r in rows:
             f.write(json.dumps(jsonable(r)) + "\n")
-    (n, _), = shard_files(run_dir).items()
+    ((n, _),) = shard_files(run_dir).items()
     first = rows[0] if rows else {}
     meta = {k: first.get(k) for k in ("method", "dataset", "protocol", "seed")}
-    meta.update(n_samples=len(rows), shards=n, merged_from=[shard_samples_file(i, n) for i in range(n)],
-                output_dir=str(run_dir))
+    meta.update(
+        n_samples=len(rows), shards=n, merged_from=[shard_samples_file(i, n) for i in range(n)], output_dir=str(run_dir)
+    )
     write_run_json(run_dir, meta)
     return summarize_run(run_dir)
 
@@ -206,10 +220,17 @@ def ensure_merged(run_dir: Path) -> None:
 def main(argv: list[str] | None = None) -> int:
     """``bench merge RUNDIR...``: samples.jsonl and summaries of sharded runs from their shard files."""
     ap = argparse.ArgumentParser(prog="bench merge", description=main.__doc__)
-    ap.add_argument("run_dirs", nargs="+", type=Path,
-                    help="run directories with samples.shard-I-of-N.jsonl files, or folders searched for them")
-    ap.add_argument("--force", action="store_true",
-                    help="replace a samples.jsonl that holds samples no shard lists (they are dropped)")
+    ap.add_argument(
+        "run_dirs",
+        nargs="+",
+        type=Path,
+        help="run directories with samples.shard-I-of-N.jsonl files, or folders searched for them",
+    )
+    ap.add_argument(
+        "--force",
+        action="store_true",
+        help="replace a samples.jsonl that holds samples no shard lists (they are dropped)",
+    )
     args = ap.parse_args(argv)
     from catpose.bench.run.evaluate import format_summary
 

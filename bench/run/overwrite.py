@@ -32,8 +32,7 @@ def _describe(folder: Path) -> str:
     return f"{len(entries)} other file(s) ({', '.join(entries[:3])}{', ...' if len(entries) > 3 else ''})"
 
 
-def check_new_output(out: str | Path, force: bool = False, flag: str = "--out",
-                     protected: Path | None = None) -> None:
+def check_new_output(out: str | Path, force: bool = False, flag: str = "--out", protected: Path | None = None) -> None:
     """Refuse to write a new run directory at ``out`` over something (see the module docstring).
 
     ``protected``: a run that must never be replaced (``bench score``'s ``--gt``)."""
@@ -41,11 +40,14 @@ def check_new_output(out: str | Path, force: bool = False, flag: str = "--out",
     if out.exists() and not out.is_dir():
         raise InvalidInputError(f"{flag} {out} is a file; pass a folder (new or empty) for the run directory")
     if protected is not None and out.exists() and out.resolve() == Path(protected).resolve():
-        raise InvalidInputError(f"{flag} {out} is the --gt run itself; pass another {flag} (the ground truth is "
-                                "never overwritten, not even with --force)")
+        raise InvalidInputError(
+            f"{flag} {out} is the --gt run itself; pass another {flag} (the ground truth is "
+            "never overwritten, not even with --force)"
+        )
     if out.is_dir() and any(out.iterdir()) and not force:
-        raise InvalidInputError(f"{flag} {out} already holds {_describe(out)}; pass a new {flag}, or add --force "
-                                "to replace it")
+        raise InvalidInputError(
+            f"{flag} {out} already holds {_describe(out)}; pass a new {flag}, or add --force to replace it"
+        )
 
 
 def _verified_rows(path: Path) -> int:
@@ -74,9 +76,12 @@ def table_destination(out: str | Path, force: bool = False) -> tuple[Path, str |
     n = _verified_rows(out)
     if n:
         new = free_name(out)
-        return new, (f"{out} has {n} row(s) marked verified, which bench align never overwrites; the new estimate "
-                     f"goes to {new}: compare the two and copy rows across by hand")
+        return new, (
+            f"{out} has {n} row(s) marked verified, which bench align never overwrites; the new estimate "
+            f"goes to {new}: compare the two and copy rows across by hand"
+        )
     if not force:
-        raise InvalidInputError(f"--out {out} exists; pass another --out, or add --force to overwrite it (it has no "
-                                "row marked verified)")
+        raise InvalidInputError(
+            f"--out {out} exists; pass another --out, or add --force to overwrite it (it has no row marked verified)"
+        )
     return out, None

@@ -25,8 +25,10 @@ class CutOffLineWarning(UserWarning):
 
 
 def _damaged(path: Path, line: int, why: str) -> DatasetError:
-    return DatasetError(f"{path}:{line}: {why}; the file is damaged: restore it from a copy, or delete that line "
-                        "and re-run the same command (the sample is run again)")
+    return DatasetError(
+        f"{path}:{line}: {why}; the file is damaged: restore it from a copy, or delete that line "
+        "and re-run the same command (the sample is run again)"
+    )
 
 
 def _row(text: str, path: Path, line: int) -> dict:
@@ -81,8 +83,12 @@ def parse_rows(path: Path) -> list[dict]:
         if _complete(text):
             rows.append(json.loads(text))
         else:
-            warnings.warn(f"{path}: its last line ({len(lines) + 1}) is cut off, as a killed run leaves it; skipped 1 "
-                          "sample row (a resumed run does that sample again)", CutOffLineWarning, stacklevel=2)
+            warnings.warn(
+                f"{path}: its last line ({len(lines) + 1}) is cut off, as a killed run leaves it; skipped 1 "
+                "sample row (a resumed run does that sample again)",
+                CutOffLineWarning,
+                stacklevel=2,
+            )
     return rows
 
 

@@ -9,8 +9,7 @@ from pathlib import Path
 
 from catpose.errors import DatasetError
 
-_FIX = ("re-run the same `bench run` command to rewrite it (finished samples are skipped), or restore it "
-        "from a copy")
+_FIX = "re-run the same `bench run` command to rewrite it (finished samples are skipped), or restore it from a copy"
 
 
 def read_config(run_dir: Path, required: bool = False) -> dict:

@@ -28,21 +28,38 @@ import math
 import os
 import re
 import subprocess
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Sequence
+from typing import Any
 
 import numpy as np
 
 from catpose.errors import RunAborted
 
-
 SAMPLES_FILE = "samples.jsonl"
 
 
-_RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", "limit", "sample_ids", "output_root",
-                               "progress", "threads", "batch", "retry_failed", "print_summary", "lock_timeout", "log_level",
-                               # shards of one run share its directory; an experiment's rows name themselves
-                               "shard", "shards", "label", "experiment"}
+_RUN_KEYS_EXCLUDED_FROM_TAG = {
+    "method",
+    "dataset",
+    "protocol",
+    "seed",
+    "limit",
+    "sample_ids",
+    "output_root",
+    "progress",
+    "threads",
+    "batch",
+    "retry_failed",
+    "print_summary",
+    "lock_timeout",
+    "log_level",
+    # shards of one run share its directory; an experiment's rows name themselves
+    "shard",
+    "shards",
+    "label",
+    "experiment",
+}
 
 
 def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:
@@ -76,8 +93,13 @@ def git_revision() -> str:
         rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=10)
         if rev.returncode != 0:
             return "unknown (not a git checkout)"
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
-                               capture_output=True, text=True, timeout=10).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=here,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        ).stdout.strip()
         return rev.stdout.strip() + (" (with uncommitted changes)" if dirty else "")
     except (OSError, subprocess.SubprocessError):
         return "unknown (git not available)"
@@ -144,8 +166,10 @@ def output_error(path: Path, e: OSError) -> RunAborted:
         why = e.strerror or type(e).__name__
     filename = getattr(e, "filename", None)
     where = f" ({filename})" if filename and Path(str(filename)) != path else ""
-    return RunAborted(f"cannot write the run directory {path}{where}: {why}; set output_root=<a writable "
-                      "folder with free space> (finished samples are kept, a re-run resumes)")
+    return RunAborted(
+        f"cannot write the run directory {path}{where}: {why}; set output_root=<a writable "
+        "folder with free space> (finished samples are kept, a re-run resumes)"
+    )
 
 
 @contextlib.contextmanager
@@ -189,8 +213,9 @@ def write_run_json(out: Path, meta: dict) -> None:
         atomic.write_text(out / "run.json", json.dumps(dict(meta, environment=environment()), indent=2) + "\n")
 
 
-def write_run(out_dir: str | Path, rows: Sequence[dict], config: dict, info: dict | None = None,
-              force: bool = False) -> Path:
+def write_run(
+    out_dir: str | Path, rows: Sequence[dict], config: dict, info: dict | None = None, force: bool = False
+) -> Path:
     """Write a run directory (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries).
 
     ``rows`` follow the ``samples.jsonl`` schema; ``config`` is a plain dict with at least
@@ -221,8 +246,13 @@ def write_run_into(out: Path, rows: Sequence[dict], config: dict, info: dict | N
         for r in rows:
             f.write(json.dumps(jsonable(r), sort_keys=False) + "\n")
     atomic.write_text(out / "config.yaml", OmegaConf.to_yaml(OmegaConf.create(config)))
-    meta = {"method": _name(config.get("method")), "dataset": _name(config.get("dataset")),
-            "protocol": _name(config.get("protocol")), "seed": config.get("seed"), "n_samples": len(rows)}
+    meta = {
+        "method": _name(config.get("method")),
+        "dataset": _name(config.get("dataset")),
+        "protocol": _name(config.get("protocol")),
+        "seed": config.get("seed"),
+        "n_samples": len(rows),
+    }
     atomic.write_text(out / "run.json", json.dumps(dict(meta, **(info or {})), indent=2) + "\n")
     atomic.write_text(out / "git_rev.txt", "external predictions\n")
     if rows:

@@ -35,15 +35,23 @@ import logging
 import signal
 import sys
 import threading
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 from catpose.bench.run.build import build_parts, validate_run_options
 from catpose.bench.run.evaluate import format_summary, summarize_run
-from catpose.bench.run.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
 from catpose.bench.run.lock import LOCK_FILE, RunLock
-from catpose.bench.run.rundir import (SAMPLES_FILE, SampleWriter, read_rows, run_dir_for,
-                                  write_run_files, write_run_json, writing)
+from catpose.bench.run.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
+from catpose.bench.run.rundir import (
+    SAMPLES_FILE,
+    SampleWriter,
+    read_rows,
+    run_dir_for,
+    write_run_files,
+    write_run_json,
+    writing,
+)
 from catpose.bench.run.sample_run import run_batch, run_one
 from catpose.errors import CatposeError, ConfigError, RunAborted
 from catpose.errors import one_line as _one_line
@@ -60,8 +68,7 @@ log = logging.getLogger(__name__)
 # it and what it looks for are imported first, before the builders need them: once loaded, no
 # window is left where a Ctrl-C would be swallowed for long. torch and Open3D come after the
 # builds, so that a config mistake is reported without waiting for them.
-_EARLY_MODULES = ("numpy", "scipy.spatial", "scipy.sparse", "scipy.optimize", "scipy.ndimage", "PIL.Image",
-                  "trimesh")
+_EARLY_MODULES = ("numpy", "scipy.spatial", "scipy.sparse", "scipy.optimize", "scipy.ndimage", "PIL.Image", "trimesh")
 _LATE_MODULES = ("torch", "catpose.o3d")
 _OPTIONAL_MODULES = ("networkx",)  # trimesh uses it when present
 
@@ -83,9 +90,11 @@ class _Interrupts:
         self.seen = True
         raise KeyboardInterrupt
 
-    def __enter__(self) -> "_Interrupts":
-        if (threading.current_thread() is threading.main_thread()
-                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+    def __enter__(self) -> _Interrupts:
+        if (
+            threading.current_thread() is threading.main_thread()
+            and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        ):
             self._previous = signal.signal(signal.SIGINT, self._handler)
         return self
 
@@ -99,8 +108,9 @@ class _Interrupts:
             raise KeyboardInterrupt
 
 
-def import_heavy_libraries(interrupts: _Interrupts | None = None,
-                           modules: tuple[str, ...] = _EARLY_MODULES + _LATE_MODULES) -> None:
+def import_heavy_libraries(
+    interrupts: _Interrupts | None = None, modules: tuple[str, ...] = _EARLY_MODULES + _LATE_MODULES
+) -> None:
     """Import ``modules`` now (default: SciPy, trimesh, torch, Open3D; see :data:`_EARLY_MODULES`).
 
     A missing or broken library raises :class:`RunAborted` in one line; a Ctrl-C during an
@@ -118,8 +128,10 @@ def import_heavy_libraries(interrupts: _Interrupts | None = None,
         except Exception as e:  # noqa: BLE001 - a swallowed Ctrl-C can surface as anything (trimesh: TypeError)
             if interrupts is not None:
                 interrupts.check()
-            raise RunAborted(f"cannot import {name} ({_one_line(e)}); the installation is broken: "
-                             "reinstall with `make install` (or pip install -e .)") from None
+            raise RunAborted(
+                f"cannot import {name} ({_one_line(e)}); the installation is broken: "
+                "reinstall with `make install` (or pip install -e .)"
+            ) from None
         if interrupts is not None:
             interrupts.check()
 
@@ -135,8 +147,10 @@ def _abort_message(e: BaseException, sample_id: str) -> str:
     if isinstance(e, MemoryError):
         return f"out of memory on sample {sample_id}; free memory or lower dataset.max_points, then re-run ({redo})"
     name = getattr(e, "name", None) or "a module"
-    return (f"cannot import {name} on sample {sample_id} ({_one_line(e)}); the installation is broken: "
-            f"reinstall with `make install`, then re-run ({redo})")
+    return (
+        f"cannot import {name} on sample {sample_id} ({_one_line(e)}); the installation is broken: "
+        f"reinstall with `make install`, then re-run ({redo})"
+    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -179,8 +193,9 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
         wanted = list(cfg.sample_ids)
         unknown = sorted(set(wanted) - set(ids))
         if unknown:
-            raise ConfigError(f"sample_ids not in {dataset_name}/{cfg.protocol.name}: {unknown[:3]}; "
-                              f"valid ids look like {ids[:2]}")
+            raise ConfigError(
+                f"sample_ids not in {dataset_name}/{cfg.protocol.name}: {unknown[:3]}; valid ids look like {ids[:2]}"
+            )
         ids = wanted
     if cfg.get("limit") is not None:
         ids = ids[: int(cfg.limit)]
@@ -200,15 +215,26 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
     with writing(out):
         lock.acquire()
     try:
-        return _run_locked(cfg, overrides, interrupts, out, ids, method_name, method, dataset_name, dataset,
-                           protocol, sharding)
+        return _run_locked(
+            cfg, overrides, interrupts, out, ids, method_name, method, dataset_name, dataset, protocol, sharding
+        )
     finally:
         lock.release()
 
 
-def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Path, ids: list[str],
-                method_name: str, method: Any, dataset_name: str, dataset: Any, protocol: Any,
-                sharding: tuple[int, int] | None = None) -> Path:
+def _run_locked(
+    cfg: Any,
+    overrides: list[str],
+    interrupts: _Interrupts,
+    out: Path,
+    ids: list[str],
+    method_name: str,
+    method: Any,
+    dataset_name: str,
+    dataset: Any,
+    protocol: Any,
+    sharding: tuple[int, int] | None = None,
+) -> Path:
     """The part of a run that writes ``out``, under its lock (samples read after locking, so a
     run that waited for another skips what that one finished)."""
 
@@ -227,20 +253,26 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
         write_shard_meta(out, *sharding, ids, finished=False, config=shard_config)
     done = {r["sample_id"] for r in existing if r.get("status") == "ok" or not retry}
     todo = [s for s in ids if s not in done]
-    base = {"method": method_name, "dataset": dataset_name, "protocol": str(cfg.protocol.name),
-            "seed": int(cfg.seed)}
+    base = {"method": method_name, "dataset": dataset_name, "protocol": str(cfg.protocol.name), "seed": int(cfg.seed)}
 
     with writing(out):
         writer = SampleWriter(samples_path)
     log.debug("%s: %d samples, %d done before, %d to run", out, len(ids), len(ids) - len(todo), len(todo))
     from tqdm import tqdm
 
-    bar = tqdm(total=len(ids), initial=len(ids) - len(todo), unit="sample", dynamic_ncols=True,
-               desc=f"{method_name} on {dataset_name}", disable=not cfg.get("progress", True), file=sys.stderr)
+    bar = tqdm(
+        total=len(ids),
+        initial=len(ids) - len(todo),
+        unit="sample",
+        dynamic_ncols=True,
+        desc=f"{method_name} on {dataset_name}",
+        disable=not cfg.get("progress", True),
+        file=sys.stderr,
+    )
     batch = int(cfg.get("batch") or 1)
     try:
         for start in range(0, len(todo), batch):
-            chunk = todo[start:start + batch]
+            chunk = todo[start : start + batch]
             try:
                 if batch == 1:
                     rows = [run_one(method, protocol, dataset, chunk[0], base, int(cfg.seed))]
@@ -257,8 +289,12 @@ def _run_locked(cfg: Any, overrides: list[str], interrupts: _Interrupts, out: Pa
                 if row["status"] != "ok":
                     log.warning("sample %s failed: %s", row["sample_id"], row["error"])
                 else:
-                    log.debug("sample %s: ok, error %s deg, %s s", row["sample_id"], _short(row.get("err_deg")),
-                              _short(row.get("runtime_s")))
+                    log.debug(
+                        "sample %s: ok, error %s deg, %s s",
+                        row["sample_id"],
+                        _short(row.get("err_deg")),
+                        _short(row.get("runtime_s")),
+                    )
     finally:
         bar.close()
         with contextlib.suppress(OSError):
@@ -286,7 +322,9 @@ def _finish_shard(out: Path, sharding: tuple[int, int], cfg: Any, base: dict, n_
         summary = merge_run(out)
     except CatposeError as e:  # other shards still running: the last one (or bench merge) merges
         if cfg.get("print_summary", True):
-            print(f"{head}: {n_ids} samples ({n_run_now} run now) in {out}; the last shard to finish merges (or: bench merge {out})")
+            print(
+                f"{head}: {n_ids} samples ({n_run_now} run now) in {out}; the last shard to finish merges (or: bench merge {out})"
+            )
         if not isinstance(e, ShardsNotDone):  # a merge refused (bench/run/shard_check.py, overwrite.py): say why
             log.error("shard %d of %d is done but the run was not merged: %s", i, n, e)
         return out

@@ -53,12 +53,18 @@ def _load_one(protocol: Any, dataset: Any, sample_id: str, base: dict) -> tuple[
     except Exception as e:  # a bad sample is recorded, the run goes on
         return failed_row(row, _one_line(e)), None
     info = dict(sample.info)
-    row.update(group_id=sample.group_id or sample_id, category=sample.problem.category,
-               instance_id=info.get("instance_id"), template_id=sample.problem.template.template_id,
-               T_gt=np.asarray(sample.gt.T_template_camera, float).reshape(-1), symmetric=sample.gt.symmetry_axis is not None,
-               symmetry_axis=sample.gt.symmetry_axis,
-               symmetries=[np.asarray(S, float).reshape(-1) for S in sample.gt.symmetries] or None,
-               info=info, stage="register")
+    row.update(
+        group_id=sample.group_id or sample_id,
+        category=sample.problem.category,
+        instance_id=info.get("instance_id"),
+        template_id=sample.problem.template.template_id,
+        T_gt=np.asarray(sample.gt.T_template_camera, float).reshape(-1),
+        symmetric=sample.gt.symmetry_axis is not None,
+        symmetry_axis=sample.gt.symmetry_axis,
+        symmetries=[np.asarray(S, float).reshape(-1) for S in sample.gt.symmetries] or None,
+        info=info,
+        stage="register",
+    )
     return row, sample
 
 
@@ -67,15 +73,16 @@ def _scored(row: dict, sample: Any, result: Any, runtime: float) -> dict:
     from catpose.bench.scoring.metrics import sample_errors
 
     result = dataclasses.replace(result, runtime_s=runtime)
-    T = np.asarray(result.T_target_source, dtype=float)
+    T = np.asarray(result.T_template_camera, dtype=float)
     row.update(runtime_s=runtime, score=result.score, extras=dict(result.extras))
     if T.shape != (4, 4) or not np.isfinite(T).all():
         return failed_row(row, f"method returned a non-finite or malformed pose (shape {T.shape})")
     R = T[:3, :3]
     if np.abs(R @ R.T - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
         return failed_row(row, "method returned a matrix whose rotation part is not a rotation")
-    return scored_row(row, T, sample_errors(T, sample.gt.T_template_camera, sample.gt.symmetry_axis,
-                                            sample.gt.symmetries))
+    return scored_row(
+        row, T, sample_errors(T, sample.gt.T_template_camera, sample.gt.symmetry_axis, sample.gt.symmetries)
+    )
 
 
 def _register_one(method: Any, row: dict, sample: Any, seed: int) -> dict:
@@ -111,8 +118,11 @@ def _with_estimate_facts(protocol: Any, dataset: Any, row: dict, sample: Any) ->
 def run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dict, seed: int) -> dict:
     """Load, register and score one sample; its row (see :class:`catpose.bench.scoring.rows.SampleRow`)."""
     row, sample = _load_one(protocol, dataset, sample_id, base)
-    return row if sample is None else _with_estimate_facts(protocol, dataset, _register_one(method, row, sample, seed),
-                                                           sample)
+    return (
+        row
+        if sample is None
+        else _with_estimate_facts(protocol, dataset, _register_one(method, row, sample, seed), sample)
+    )
 
 
 def run_batch(method: Any, protocol: Any, dataset: Any, sample_ids: list[str], base: dict, seed: int) -> list[dict]:
@@ -135,14 +145,17 @@ def run_batch(method: Any, protocol: Any, dataset: Any, sample_ids: list[str], b
             results = None
         if results is not None:
             share = (time.perf_counter() - t0) / len(ready)
-            scored = {row["sample_id"]: _scored(row, sample, result, share)
-                      for (row, sample), result in zip(ready, results)}
+            scored = {
+                row["sample_id"]: _scored(row, sample, result, share) for (row, sample), result in zip(ready, results)
+            }
     rows = []
     for row, sample in loaded:
         if sample is None:
             rows.append(row)
         else:
-            rows.append(_with_estimate_facts(protocol, dataset,
-                                             scored.get(row["sample_id"]) or _register_one(method, row, sample, seed),
-                                             sample))
+            rows.append(
+                _with_estimate_facts(
+                    protocol, dataset, scored.get(row["sample_id"]) or _register_one(method, row, sample, seed), sample
+                )
+            )
     return rows

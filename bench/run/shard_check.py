@@ -54,8 +54,10 @@ def _metas(run_dir: Path, shards: int) -> dict[int, dict]:
             try:
                 out[i] = json.loads(path.read_text())
             except (OSError, json.JSONDecodeError) as e:
-                raise DatasetError(f"{path} is unreadable ({type(e).__name__}); re-run shard {i} with the same "
-                                   f"command (shards={shards} shard={i})") from None
+                raise DatasetError(
+                    f"{path} is unreadable ({type(e).__name__}); re-run shard {i} with the same "
+                    f"command (shards={shards} shard={i})"
+                ) from None
     return out
 
 
@@ -66,15 +68,19 @@ def check_shard_start(run_dir: Path, shard: int, shards: int, config: dict) -> N
 
     other = sorted(n for n in shard_files(run_dir) if n != shards)
     if other:
-        raise ConfigError(f"{run_dir} already holds a run in {other[0]} shards (samples.shard-*-of-{other[0]}.jsonl); "
-                          f"run it with shards={other[0]}, or delete those files to re-shard it")
+        raise ConfigError(
+            f"{run_dir} already holds a run in {other[0]} shards (samples.shard-*-of-{other[0]}.jsonl); "
+            f"run it with shards={other[0]}, or delete those files to re-shard it"
+        )
     for i, meta in _metas(run_dir, shards).items():
         if i == shard or "config" not in meta:
             continue
         diff = first_difference(meta["config"], config)
         if diff:
-            raise ConfigError(f"{run_dir}: shard {i} of {shards} was run with another config ({diff} in this job); "
-                              "run every shard of a run with one config (or give this one another output_root)")
+            raise ConfigError(
+                f"{run_dir}: shard {i} of {shards} was run with another config ({diff} in this job); "
+                "run every shard of a run with one config (or give this one another output_root)"
+            )
 
 
 def check_shard_configs(run_dir: Path, metas: list[dict]) -> None:
@@ -83,5 +89,7 @@ def check_shard_configs(run_dir: Path, metas: list[dict]) -> None:
     for i, cfg in recorded[1:]:
         diff = first_difference(recorded[0][1], cfg)
         if diff:
-            raise DatasetError(f"{run_dir}: shards {recorded[0][0]} and {i} of {len(metas)} were run with different "
-                               f"configs ({diff}); re-run the odd one with the others' config, or delete its files")
+            raise DatasetError(
+                f"{run_dir}: shards {recorded[0][0]} and {i} of {len(metas)} were run with different "
+                f"configs ({diff}); re-run the odd one with the others' config, or delete its files"
+            )

@@ -33,11 +33,23 @@ last_sweep: dict[str, Any] = {}
 def job_record(num: int, overrides: list[str], result: Any, error: BaseException | None) -> dict:
     """The ``job.json`` of one job from the task function's return value or its exception."""
     if error is not None:
-        return {"job": num, "overrides": overrides, "status": "failed",
-                "error": " ".join(f"{type(error).__name__}: {error}".split()), "run_dir": None, "label": None}
+        return {
+            "job": num,
+            "overrides": overrides,
+            "status": "failed",
+            "error": " ".join(f"{type(error).__name__}: {error}".split()),
+            "run_dir": None,
+            "label": None,
+        }
     result = result if isinstance(result, dict) else {}
-    return {"job": num, "overrides": overrides, "status": result.get("status", "failed"),
-            "error": result.get("error"), "run_dir": result.get("run_dir"), "label": result.get("label")}
+    return {
+        "job": num,
+        "overrides": overrides,
+        "status": result.get("status", "failed"),
+        "error": result.get("error"),
+        "run_dir": result.get("run_dir"),
+        "label": result.get("label"),
+    }
 
 
 def read_sweep(sweep_dir: str | Path) -> list[dict]:
@@ -70,9 +82,12 @@ class SweepStatus(Callback):  # type: ignore[misc]
         if hc.mode != RunMode.MULTIRUN:
             return
         failed = job_return.status == JobStatus.FAILED
-        record = job_record(int(hc.job.num), list(hc.overrides.task),
-                            None if failed else job_return._return_value,
-                            job_return._return_value if failed else None)
+        record = job_record(
+            int(hc.job.num),
+            list(hc.overrides.task),
+            None if failed else job_return._return_value,
+            job_return._return_value if failed else None,
+        )
         out = Path(hc.runtime.output_dir)
         out.mkdir(parents=True, exist_ok=True)
         tmp = out / f".{JOB_FILE}.tmp"
@@ -85,7 +100,12 @@ class SweepStatus(Callback):  # type: ignore[misc]
         failed = [r for r in records if r.get("status") != "ok"]
         last_sweep.clear()
         last_sweep.update(sweep_dir=str(sweep_dir), jobs=len(records), failed=failed)
-        text = (f"sweep {sweep_dir}: {len(records) - len(failed)} of {len(records)} jobs ok"
-                + (f", {len(failed)} failed" if failed else "") + f"; table: bench table --sweep {sweep_dir}")
-        text += "".join(f"\n  job {r.get('job')} {' '.join(r.get('overrides') or [])}: {r.get('error')}" for r in failed)
+        text = (
+            f"sweep {sweep_dir}: {len(records) - len(failed)} of {len(records)} jobs ok"
+            + (f", {len(failed)} failed" if failed else "")
+            + f"; table: bench table --sweep {sweep_dir}"
+        )
+        text += "".join(
+            f"\n  job {r.get('job')} {' '.join(r.get('overrides') or [])}: {r.get('error')}" for r in failed
+        )
         (log.error if failed else log.info)(text)

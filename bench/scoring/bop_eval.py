@@ -25,8 +25,9 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -52,10 +53,15 @@ def check_results_filename(path: str | Path) -> tuple[str, str, str]:
     m = re.fullmatch(r"([^_]+)_([^_-]+)-([^_]+?)\.csv", name)
     if not m:
         parts = re.fullmatch(r"(.+)_([^_-]+)-([^_]+?)\.csv", name)
-        example = (f"{parts.group(1).replace('_', '-')}_{parts.group(2)}-{parts.group(3)}.csv" if parts
-                   else f"{re.sub(r'[^A-Za-z0-9-]', '-', Path(name).stem) or 'method'}_ycbv-test.csv")
-        raise InvalidInputError(f"results file {name!r}: the BOP toolkit needs METHOD_DATASET-SPLIT.csv with no '_' "
-                                f"in METHOD, e.g. {example}")
+        example = (
+            f"{parts.group(1).replace('_', '-')}_{parts.group(2)}-{parts.group(3)}.csv"
+            if parts
+            else f"{re.sub(r'[^A-Za-z0-9-]', '-', Path(name).stem) or 'method'}_ycbv-test.csv"
+        )
+        raise InvalidInputError(
+            f"results file {name!r}: the BOP toolkit needs METHOD_DATASET-SPLIT.csv with no '_' "
+            f"in METHOD, e.g. {example}"
+        )
     return m.group(1), m.group(2), m.group(3)
 
 
@@ -80,7 +86,9 @@ def check_results_csv(path: str | Path) -> int:
             float(parts[3])
             t_run = float(parts[6])
         except ValueError:
-            raise InvalidInputError(f"{path}:{k}: scene_id, im_id, obj_id must be integers, score and time numbers") from None
+            raise InvalidInputError(
+                f"{path}:{k}: scene_id, im_id, obj_id must be integers, score and time numbers"
+            ) from None
         for col, n in ((4, 9), (5, 3)):
             vals = parts[col].split()
             try:
@@ -90,8 +98,10 @@ def check_results_csv(path: str | Path) -> int:
             if not ok:
                 raise InvalidInputError(f"{path}:{k}: {BOP_HEADER.split(',')[col]} needs {n} space-separated numbers")
         if (scene, im) in times and times[(scene, im)] != t_run:
-            raise InvalidInputError(f"{path}:{k}: scene {scene} image {im} has times {times[(scene, im)]:g} and "
-                                    f"{t_run:g}; the BOP toolkit needs one time per image (the whole image's)")
+            raise InvalidInputError(
+                f"{path}:{k}: scene {scene} image {im} has times {times[(scene, im)]:g} and "
+                f"{t_run:g}; the BOP toolkit needs one time per image (the whole image's)"
+            )
         times[(scene, im)] = t_run
     return len(lines) - 1
 
@@ -136,11 +146,16 @@ def _image_width(dataset, depth_path: Path, K: np.ndarray) -> int:
 
 def _pair_errors(R_e, t_e, R_g, t_g, K, pts, syms, depth_mm, mesh, diameter) -> dict[str, Any]:
     re_, te_ = min(pm.rt_errors(R_e, t_e, R_g, t_g, syms), key=lambda x: (x[0], x[1]))
-    out = {"mssd": pm.mssd(R_e, t_e, R_g, t_g, pts, syms), "mspd": pm.mspd(R_e, t_e, R_g, t_g, K, pts, syms),
-           "add": pm.add(R_e, t_e, R_g, t_g, pts), "adds": pm.adi(R_e, t_e, R_g, t_g, pts),
-           "re_deg": re_, "te_mm": te_,
-           "5deg5cm": float(not pm.n_deg_m_cm(R_e, t_e, R_g, t_g, 5, 5, 1.0, syms)),
-           "10deg10cm": float(not pm.n_deg_m_cm(R_e, t_e, R_g, t_g, 10, 10, 1.0, syms))}
+    out = {
+        "mssd": pm.mssd(R_e, t_e, R_g, t_g, pts, syms),
+        "mspd": pm.mspd(R_e, t_e, R_g, t_g, K, pts, syms),
+        "add": pm.add(R_e, t_e, R_g, t_g, pts),
+        "adds": pm.adi(R_e, t_e, R_g, t_g, pts),
+        "re_deg": re_,
+        "te_mm": te_,
+        "5deg5cm": float(not pm.n_deg_m_cm(R_e, t_e, R_g, t_g, 5, 5, 1.0, syms)),
+        "10deg10cm": float(not pm.n_deg_m_cm(R_e, t_e, R_g, t_g, 10, 10, 1.0, syms)),
+    }
     if depth_mm is not None:
         out["vsd"] = pm.vsd(R_e, t_e, R_g, t_g, depth_mm, K, mesh[0], mesh[1], diameter=diameter)
     return out
@@ -208,26 +223,42 @@ def compute_errors(preds, dataset, vsd: bool = True, max_points: int = 0, seed: 
             depth_mm = read_depth(depth_path).astype(np.float64) * float(cam.get("depth_scale", 1.0))
         width = depth_mm.shape[1] if depth_mm is not None else _image_width(dataset, depth_path, K)
         scene_gt = dataset._read_json(dataset.layout.scene_gt(scene))[str(im)]
-        gt_poses = [(np.asarray(scene_gt[g]["cam_R_m2c"], float).reshape(3, 3),
-                     np.asarray(scene_gt[g]["cam_t_m2c"], float).reshape(3)) for g, _ in gts]
+        gt_poses = [
+            (
+                np.asarray(scene_gt[g]["cam_R_m2c"], float).reshape(3, 3),
+                np.asarray(scene_gt[g]["cam_t_m2c"], float).reshape(3),
+            )
+            for g, _ in gts
+        ]
         ests = sorted(by_key.get((scene, im, obj), []), key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
-        ests = ests[:len(gts)]
+        ests = ests[: len(gts)]
         errors = []
         for p in ests:
             T = np.asarray(p["T"], float)
             U, _, Vt = np.linalg.svd(T[:3, :3])
             R_e = U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
-            errors.append([_pair_errors(R_e, T[:3, 3], R_g, t_g, K, pts, syms, depth_mm, mesh, diameter)
-                           for R_g, t_g in gt_poses])
+            errors.append(
+                [_pair_errors(R_e, T[:3, 3], R_g, t_g, K, pts, syms, depth_mm, mesh, diameter) for R_g, t_g in gt_poses]
+            )
         matched = {key: _match(errors, key, len(gts)) for key in ERROR_KEYS}
         for k, (g, category) in enumerate(gts):
-            row = {"scene_id": scene, "im_id": im, "obj_id": obj, "gt_idx": g, "category": category,
-                   "diameter": diameter, "im_width": width, "matched": matched["mssd"][k] is not None,
-                   "n_estimates": len(by_key.get((scene, im, obj), []))}
+            row = {
+                "scene_id": scene,
+                "im_id": im,
+                "obj_id": obj,
+                "gt_idx": g,
+                "category": category,
+                "diameter": diameter,
+                "im_width": width,
+                "matched": matched["mssd"][k] is not None,
+                "n_estimates": len(by_key.get((scene, im, obj), [])),
+            }
             for key in ERROR_KEYS:
                 val = matched[key][k]
                 if key == "vsd":
-                    row[key] = None if depth_mm is None else (val if val is not None else [math.inf] * len(pm.BOP19_VSD_TAUS))
+                    row[key] = (
+                        None if depth_mm is None else (val if val is not None else [math.inf] * len(pm.BOP19_VSD_TAUS))
+                    )
                 else:
                     row[key] = math.inf if val is None else float(val)
             rows.append(row)
@@ -279,8 +310,10 @@ def parse_metric(name: str) -> tuple[str, Any]:
     m = re.fullmatch(r"([0-9.]+)deg([0-9.]+)cm", name)
     if m:
         return "ndegmcm", (float(m.group(1)), float(m.group(2)))
-    raise InvalidInputError(f"unknown metric {name!r}; use ar, ar_mssd, ar_mspd, ar_vsd, mssd@0.1, adds@0.1, add@0.1, "
-                            "mspd@10 or NdegMcm (e.g. 5deg5cm)")
+    raise InvalidInputError(
+        f"unknown metric {name!r}; use ar, ar_mssd, ar_mspd, ar_vsd, mssd@0.1, adds@0.1, add@0.1, "
+        "mspd@10 or NdegMcm (e.g. 5deg5cm)"
+    )
 
 
 def metric_value(df, name: str) -> float:
@@ -324,8 +357,14 @@ def score_table(df, metrics: Iterable[str] = DEFAULT_METRICS, by: Sequence[str] 
     rows = []
     if "object" in by:
         for obj, g in df.groupby("obj_id", sort=True):
-            rows.append(["object", f"obj_{int(obj):06d} ({g['category'].iloc[0]})", len(g),
-                         *[metric_value(g, m) for m in metrics]])
+            rows.append(
+                [
+                    "object",
+                    f"obj_{int(obj):06d} ({g['category'].iloc[0]})",
+                    len(g),
+                    *[metric_value(g, m) for m in metrics],
+                ]
+            )
     if "category" in by:
         for cat, g in df.groupby("category", sort=True):
             rows.append(["category", str(cat), len(g), *[metric_value(g, m) for m in metrics]])
@@ -339,11 +378,14 @@ def format_scores(table, header: dict | None = None) -> str:
     for note in (header or {}).get("filters", []):
         lines.append(f"- {note}")
     if header and header.get("targets") is not None:
-        lines.append(f"- {header['targets']} targets, {header.get('matched', 0)} with an estimate (the others count "
-                     "as misses)")
+        lines.append(
+            f"- {header['targets']} targets, {header.get('matched', 0)} with an estimate (the others count as misses)"
+        )
     if header and header.get("extra_estimates"):
-        lines.append(f"- {header['extra_estimates']} estimates beyond an (image, object)'s instances ignored (the "
-                     "highest-scored are kept)")
+        lines.append(
+            f"- {header['extra_estimates']} estimates beyond an (image, object)'s instances ignored (the "
+            "highest-scored are kept)"
+        )
     if header and header.get("unknown_estimates"):
         lines.append(f"- {header['unknown_estimates']} estimates of an (image, object) that is no target ignored")
     body = table.to_markdown(index=False, floatfmt=".3f")
@@ -366,11 +408,20 @@ def table_main_from_runs(run_dirs: Sequence[str | Path], metrics: Sequence[str],
         t = score_table(df, metrics, by)
         t.insert(0, "method", method)
         tables.append(t)
-        notes.append(f"- {method}: " + "; ".join([*header.get("filters", []),
-                                                 f"{header.get('matched', 0)}/{header.get('targets', len(df))} targets with an estimate"]))
+        notes.append(
+            f"- {method}: "
+            + "; ".join(
+                [
+                    *header.get("filters", []),
+                    f"{header.get('matched', 0)}/{header.get('targets', len(df))} targets with an estimate",
+                ]
+            )
+        )
     if not tables:
         raise DatasetError(f"none of {', '.join(map(str, run_dirs))} has a {ERRORS_FILE}; write one with `bench score`")
-    table = pd.concat(tables, ignore_index=True).sort_values(["group", "name", "method"], kind="stable",
-                                                             key=lambda c: c.map({"object": 0, "category": 1, "all": 2})
-                                                             if c.name == "group" else c)
+    table = pd.concat(tables, ignore_index=True).sort_values(
+        ["group", "name", "method"],
+        kind="stable",
+        key=lambda c: c.map({"object": 0, "category": 1, "all": 2}) if c.name == "group" else c,
+    )
     return "\n".join(notes) + "\n\n" + table.to_markdown(index=False, floatfmt=".3f")

@@ -30,7 +30,8 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -63,7 +64,9 @@ def threshold_keys(spec: str | Sequence[str], auc: float | None = None) -> list[
     for item in items:
         key = item if parse_key(item) else f"acc{item}"
         if parse_key(key) is None:
-            raise ConfigError(f"--acc item {item!r} is not a threshold; give degrees or NdegMcm, e.g. --acc 5,10,30,5deg5cm")
+            raise ConfigError(
+                f"--acc item {item!r} is not a threshold; give degrees or NdegMcm, e.g. --acc 5,10,30,5deg5cm"
+            )
         keys.append(key)
     if auc is not None:
         if not (isinstance(auc, (int, float)) and auc > 0 and math.isfinite(auc)):
@@ -84,7 +87,11 @@ def auc(errors_deg: Sequence[float], max_deg: float) -> float:
 def _errors(units) -> np.ndarray:
     import pandas as pd
 
-    err = pd.to_numeric(units["err_deg"], errors="coerce").to_numpy(float) if "err_deg" in units else np.full(len(units), np.nan)
+    err = (
+        pd.to_numeric(units["err_deg"], errors="coerce").to_numpy(float)
+        if "err_deg" in units
+        else np.full(len(units), np.nan)
+    )
     failed = (units["status"] != "ok").to_numpy() if "status" in units else np.zeros(len(units), bool)
     return np.where(failed | np.isnan(err), FAILED_ERROR_DEG, err)
 

@@ -17,7 +17,7 @@ paper's ``|| t_gt - t_est ||`` would charge the unobservable spin to the transla
 
 from __future__ import annotations
 
-from typing import Iterable
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -50,8 +50,9 @@ def axis_error_deg(R_est: np.ndarray, R_gt: np.ndarray, axis: np.ndarray) -> flo
     return float(np.degrees(np.arccos(np.clip(u @ v / (np.linalg.norm(u) * np.linalg.norm(v)), -1.0, 1.0))))
 
 
-def sample_errors(T_est: np.ndarray, T_gt: np.ndarray, symmetry_axis: np.ndarray | None = None,
-                  symmetries: Iterable[np.ndarray] = ()) -> dict[str, float]:
+def sample_errors(
+    T_est: np.ndarray, T_gt: np.ndarray, symmetry_axis: np.ndarray | None = None, symmetries: Iterable[np.ndarray] = ()
+) -> dict[str, float]:
     """Every error of one estimate of ``T_template_camera`` (both (4, 4)).
 
     ``symmetries`` are discrete symmetries ``S`` (4, 4) of the template frame (BOP
@@ -93,12 +94,25 @@ def runtime_stats(runtimes_s: Iterable[float]) -> dict[str, float]:
     r = np.asarray([x for x in runtimes_s if x is not None and np.isfinite(x)], float)
     if r.size == 0:
         return {"mean_s": float("nan"), "median_s": float("nan"), "p90_s": float("nan"), "total_s": 0.0}
-    return {"mean_s": float(r.mean()), "median_s": float(np.median(r)),
-            "p90_s": float(np.percentile(r, 90)), "total_s": float(r.sum())}
+    return {
+        "mean_s": float(r.mean()),
+        "median_s": float(np.median(r)),
+        "p90_s": float(np.percentile(r, 90)),
+        "total_s": float(r.sum()),
+    }
 
 
-SUMMARY_COLUMNS = ["category", "n", "failed", "mean_err_deg", "median_err_deg", "acc10", "acc30",
-                   "mean_trans_err", "median_runtime_s"]
+SUMMARY_COLUMNS = [
+    "category",
+    "n",
+    "failed",
+    "mean_err_deg",
+    "median_err_deg",
+    "acc10",
+    "acc30",
+    "mean_trans_err",
+    "median_runtime_s",
+]
 
 
 def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0, 30.0)):
@@ -113,8 +127,17 @@ def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0,
     import pandas as pd
 
     lo, hi = thresholds
-    names = [by, "n", "failed", "mean_err_deg", "median_err_deg", f"acc{lo:g}", f"acc{hi:g}",
-             "mean_trans_err", "median_runtime_s"]
+    names = [
+        by,
+        "n",
+        "failed",
+        "mean_err_deg",
+        "median_err_deg",
+        f"acc{lo:g}",
+        f"acc{hi:g}",
+        "mean_trans_err",
+        "median_runtime_s",
+    ]
 
     def stats(key: str, g) -> list:
         failed = (g["status"] != "ok").to_numpy()
@@ -122,10 +145,17 @@ def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0,
         err = np.where(np.isnan(err), FAILED_ERROR_DEG, err)
         trans = pd.to_numeric(g["trans_err"], errors="coerce").to_numpy(float)[~failed]
         trans = trans[np.isfinite(trans)]
-        return [key, len(g), int(failed.sum()), float(err.mean()), float(np.median(err)),
-                accuracy(err, lo), accuracy(err, hi),
-                float(trans.mean()) if trans.size else float("nan"),
-                runtime_stats(pd.to_numeric(g["runtime_s"], errors="coerce"))["median_s"]]
+        return [
+            key,
+            len(g),
+            int(failed.sum()),
+            float(err.mean()),
+            float(np.median(err)),
+            accuracy(err, lo),
+            accuracy(err, hi),
+            float(trans.mean()) if trans.size else float("nan"),
+            runtime_stats(pd.to_numeric(g["runtime_s"], errors="coerce"))["median_s"],
+        ]
 
     if len(df) == 0:
         return pd.DataFrame(columns=names)

@@ -24,7 +24,7 @@ References:
 from __future__ import annotations
 
 import math
-from typing import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -53,8 +53,9 @@ def _axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
     return np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * K @ K
 
 
-def symmetry_transforms(discrete: Iterable[Sequence[float]] = (), continuous: Iterable[Mapping] = (),
-                        max_sym_disc_step: float = 0.01) -> list[np.ndarray]:
+def symmetry_transforms(
+    discrete: Iterable[Sequence[float]] = (), continuous: Iterable[Mapping] = (), max_sym_disc_step: float = 0.01
+) -> list[np.ndarray]:
     """Every symmetry transform (4, 4) of the model frame, identity first.
 
     ``discrete``: BOP ``symmetries_discrete`` entries (16 numbers, row-major 4x4, t in model
@@ -121,8 +122,14 @@ def adi(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarray
 add_s = adi
 
 
-def mssd(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarray, points: np.ndarray,
-         symmetries: Iterable[np.ndarray] | None = None) -> float:
+def mssd(
+    R_est: np.ndarray,
+    t_est: np.ndarray,
+    R_gt: np.ndarray,
+    t_gt: np.ndarray,
+    points: np.ndarray,
+    symmetries: Iterable[np.ndarray] | None = None,
+) -> float:
     """Maximum Symmetry-Aware Surface Distance (BOP19), model units:
 
         e = min_{S in symmetries} max_i || T_est p_i - T_gt S p_i ||
@@ -139,8 +146,15 @@ def mssd(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarra
     return best
 
 
-def mspd(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarray, K: np.ndarray,
-         points: np.ndarray, symmetries: Iterable[np.ndarray] | None = None) -> float:
+def mspd(
+    R_est: np.ndarray,
+    t_est: np.ndarray,
+    R_gt: np.ndarray,
+    t_gt: np.ndarray,
+    K: np.ndarray,
+    points: np.ndarray,
+    symmetries: Iterable[np.ndarray] | None = None,
+) -> float:
     """Maximum Symmetry-Aware Projection Distance (BOP19), pixels:
 
         e = min_{S} max_i || proj(T_est p_i) - proj(T_gt S p_i) ||
@@ -172,8 +186,13 @@ def te(t_est: np.ndarray, t_gt: np.ndarray) -> float:
     return translation_error(t_est, t_gt)
 
 
-def rt_errors(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarray,
-              symmetries: Iterable[np.ndarray] | None = None) -> list[tuple[float, float]]:
+def rt_errors(
+    R_est: np.ndarray,
+    t_est: np.ndarray,
+    R_gt: np.ndarray,
+    t_gt: np.ndarray,
+    symmetries: Iterable[np.ndarray] | None = None,
+) -> list[tuple[float, float]]:
     """``(rotation error deg, translation error)`` against every symmetric gt pose ``T_gt S``."""
     out = []
     R_gt = np.asarray(R_gt, float).reshape(3, 3)
@@ -182,8 +201,16 @@ def rt_errors(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.n
     return out
 
 
-def n_deg_m_cm(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarray, n_deg: float, m_cm: float,
-               unit_mm: float = 1.0, symmetries: Iterable[np.ndarray] | None = None) -> bool:
+def n_deg_m_cm(
+    R_est: np.ndarray,
+    t_est: np.ndarray,
+    R_gt: np.ndarray,
+    t_gt: np.ndarray,
+    n_deg: float,
+    m_cm: float,
+    unit_mm: float = 1.0,
+    symmetries: Iterable[np.ndarray] | None = None,
+) -> bool:
     """n-degree m-cm accuracy (Shotton et al. 2013; NOCS 2019): True when some symmetric gt pose
     has rotation error <= ``n_deg`` degrees and translation error <= ``m_cm`` centimetres.
 
@@ -214,8 +241,14 @@ def _visible(d_test: np.ndarray, d_model: np.ndarray, delta: float) -> np.ndarra
     return (d_model > 0) & ((d_model - d_test <= delta) | (d_test == 0))
 
 
-def vsd_from_depths(dist_est: np.ndarray, dist_gt: np.ndarray, dist_test: np.ndarray, delta: float,
-                    taus: Sequence[float], diameter: float | None = None) -> list[float]:
+def vsd_from_depths(
+    dist_est: np.ndarray,
+    dist_gt: np.ndarray,
+    dist_test: np.ndarray,
+    delta: float,
+    taus: Sequence[float],
+    diameter: float | None = None,
+) -> list[float]:
     """Visible Surface Discrepancy from rendered distance images (BOP19 variant), one per tau.
 
     ``dist_*`` (H, W): distance from the camera centre (0 = no surface) of the model rendered
@@ -240,8 +273,9 @@ def vsd_from_depths(dist_est: np.ndarray, dist_gt: np.ndarray, dist_test: np.nda
     return [float(n_union - int((diff < tau).sum())) / n_union for tau in taus]
 
 
-def render_depth(vertices: np.ndarray, triangles: np.ndarray, R: np.ndarray, t: np.ndarray, K: np.ndarray,
-                 width: int, height: int) -> np.ndarray:
+def render_depth(
+    vertices: np.ndarray, triangles: np.ndarray, R: np.ndarray, t: np.ndarray, K: np.ndarray, width: int, height: int
+) -> np.ndarray:
     """z-depth (H, W) float64 of a mesh (vertices (V, 3), triangles (F, 3)) at pose ``R, t``, one
     ray per pixel centre cast by :func:`catpose.datasets.render.cast_rays` (the renderer of the
     datasets: Embree finds the hit triangle, the depth is recomputed from it in float64, the same
@@ -255,9 +289,19 @@ def render_depth(vertices: np.ndarray, triangles: np.ndarray, R: np.ndarray, t: 
     return np.where(np.isfinite(z), z, 0.0)
 
 
-def vsd(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarray, depth_test: np.ndarray,
-        K: np.ndarray, vertices: np.ndarray, triangles: np.ndarray, delta: float = BOP19_VSD_DELTA_MM,
-        taus: Sequence[float] = BOP19_VSD_TAUS, diameter: float | None = None) -> list[float]:
+def vsd(
+    R_est: np.ndarray,
+    t_est: np.ndarray,
+    R_gt: np.ndarray,
+    t_gt: np.ndarray,
+    depth_test: np.ndarray,
+    K: np.ndarray,
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    delta: float = BOP19_VSD_DELTA_MM,
+    taus: Sequence[float] = BOP19_VSD_TAUS,
+    diameter: float | None = None,
+) -> list[float]:
     """VSD (BOP19) of an estimate against a measured depth image, one error per tau.
 
     ``depth_test`` (H, W) z-depth in model units (mm), 0 = missing; ``K`` (3, 3); the model
@@ -267,8 +311,9 @@ def vsd(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarray
     h, w = np.asarray(depth_test).shape
     d_est = render_depth(vertices, triangles, R_est, t_est, K, w, h)
     d_gt = render_depth(vertices, triangles, R_gt, t_gt, K, w, h)
-    return vsd_from_depths(depth_to_distance(d_est, K), depth_to_distance(d_gt, K),
-                           depth_to_distance(depth_test, K), delta, taus, diameter)
+    return vsd_from_depths(
+        depth_to_distance(d_est, K), depth_to_distance(d_gt, K), depth_to_distance(depth_test, K), delta, taus, diameter
+    )
 
 
 # --------------------------------------------------------------------------------------------

@@ -62,17 +62,31 @@ class SampleRow:
 def new_row(base: dict, sample_id: str, **fields: Any) -> dict:
     """A fresh row (status failed at stage load until told otherwise) for ``sample_id``;
     ``base`` holds method, dataset, protocol and seed."""
-    row = SampleRow(method=str(base["method"]), dataset=str(base["dataset"]), protocol=str(base["protocol"]),
-                    seed=int(base["seed"]), sample_id=sample_id, group_id=sample_id,
-                    obs_id=sample_id.split("|")[0]).as_dict()
+    row = SampleRow(
+        method=str(base["method"]),
+        dataset=str(base["dataset"]),
+        protocol=str(base["protocol"]),
+        seed=int(base["seed"]),
+        sample_id=sample_id,
+        group_id=sample_id,
+        obs_id=sample_id.split("|")[0],
+    ).as_dict()
     row.update(fields)
     return row
 
 
 def failed_row(row: dict, error: str, stage: str | None = None, **fields: Any) -> dict:
     """``row`` marked failed with ``error`` (one line): no estimate, counted as 180 degrees."""
-    out = dict(row, status="failed", error=error, T_est=None, err_deg=FAILED_ERROR_DEG, rot_err_deg=None,
-               axis_err_deg=None, trans_err=None)
+    out = dict(
+        row,
+        status="failed",
+        error=error,
+        T_est=None,
+        err_deg=FAILED_ERROR_DEG,
+        rot_err_deg=None,
+        axis_err_deg=None,
+        trans_err=None,
+    )
     if stage is not None:
         out["stage"] = stage
     out.update(fields)

@@ -10,8 +10,8 @@ import sys
 import numpy as np
 
 import catpose.datasets.synthetic as synthetic
-from catpose.bench.scoring.metrics import sample_errors
 from catpose.bench.protocols import Templates
+from catpose.bench.scoring.metrics import sample_errors
 from catpose.methods.ours import OptimiserSettings, Ours, SelectionSettings
 
 
@@ -45,12 +45,16 @@ def main() -> None:
     rng_a, rng_b = np.random.default_rng(0), np.random.default_rng(0)
     a, b = old["mug"](rng_a), synthetic.SHAPES["mug"](rng_b)
     same = a.vertices.shape == b.vertices.shape and np.array_equal(a.vertices, b.vertices)
-    print(f"mug meshes of the two generators (same seed): bit-identical: {same}; "
-          f"max vertex difference {np.abs(a.vertices - b.vertices).max() if a.vertices.shape == b.vertices.shape else 'n/a'}")
+    print(
+        f"mug meshes of the two generators (same seed): bit-identical: {same}; "
+        f"max vertex difference {np.abs(a.vertices - b.vertices).max() if a.vertices.shape == b.vertices.shape else 'n/a'}"
+    )
     for solver, rule in [("adam", "chamfer"), ("irls", "chamfer"), ("irls", "visibility")]:
         for name, shapes in (("old generator", old), ("today's generator", synthetic.SHAPES)):
             errs = run(shapes, solver, rule)
-            print(f"{name}, solver={solver}, rule={rule}: mean {np.mean(errs):.2f} deg, views {[round(x, 1) for x in errs]}")
+            print(
+                f"{name}, solver={solver}, rule={rule}: mean {np.mean(errs):.2f} deg, views {[round(x, 1) for x in errs]}"
+            )
 
 
 if __name__ == "__main__":

@@ -22,8 +22,9 @@ import contextlib
 import os
 import shutil
 import uuid
+from collections.abc import Iterator
 from pathlib import Path
-from typing import IO, Iterator
+from typing import IO
 
 
 def _temp_name(path: Path) -> Path:
@@ -67,8 +68,9 @@ def atomic_path(path: str | Path, mkdir: bool = True) -> Iterator[Path]:
 
 
 @contextlib.contextmanager
-def atomic_write(path: str | Path, mode: str = "w", encoding: str | None = "utf-8",
-                 newline: str | None = None) -> Iterator[IO]:
+def atomic_write(
+    path: str | Path, mode: str = "w", encoding: str | None = "utf-8", newline: str | None = None
+) -> Iterator[IO]:
     """``open(path, mode)`` whose content replaces ``path`` only when the block ends without an
     exception (see the module docstring). ``mode`` is ``"w"`` or ``"wb"``."""
     if mode not in ("w", "wb"):

@@ -147,7 +147,6 @@ def nearest_one(points, origin, cell, dims, start, cand, x, y, z, radius):  # pr
 @numba.njit(cache=True, nogil=True)
 def _nearest_into(points, origin, cell, dims, start, cand, queries, radius, out_d, out_j):  # pragma: no cover
     for q in range(queries.shape[0]):
-        d, j = nearest_one(points, origin, cell, dims, start, cand, queries[q, 0], queries[q, 1], queries[q, 2],
-                           radius)
+        d, j = nearest_one(points, origin, cell, dims, start, cand, queries[q, 0], queries[q, 1], queries[q, 2], radius)
         out_d[q] = d
         out_j[q] = j

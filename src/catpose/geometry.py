@@ -97,8 +97,14 @@ def axis_angle_to_R(axis: np.ndarray, angle_rad: float) -> np.ndarray:
 def random_rotation(rng: np.random.Generator) -> np.ndarray:
     """A rotation drawn uniformly from SO(3) (Shoemake's unit-quaternion method)."""
     u1, u2, u3 = rng.random(3)
-    q = np.array([np.sqrt(1 - u1) * np.sin(2 * np.pi * u2), np.sqrt(1 - u1) * np.cos(2 * np.pi * u2),
-                  np.sqrt(u1) * np.sin(2 * np.pi * u3), np.sqrt(u1) * np.cos(2 * np.pi * u3)])
+    q = np.array(
+        [
+            np.sqrt(1 - u1) * np.sin(2 * np.pi * u2),
+            np.sqrt(1 - u1) * np.cos(2 * np.pi * u2),
+            np.sqrt(u1) * np.sin(2 * np.pi * u3),
+            np.sqrt(u1) * np.cos(2 * np.pi * u3),
+        ]
+    )
     return quat_to_R(q)
 
 
@@ -107,11 +113,20 @@ def quat_to_R(q: np.ndarray) -> np.ndarray:
     q = np.asarray(q, dtype=np.float64)
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
     x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    R = np.stack([
-        1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
-        2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
-        2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y),
-    ], axis=-1)
+    R = np.stack(
+        [
+            1 - 2 * (y * y + z * z),
+            2 * (x * y - z * w),
+            2 * (x * z + y * w),
+            2 * (x * y + z * w),
+            1 - 2 * (x * x + z * z),
+            2 * (y * z - x * w),
+            2 * (x * z - y * w),
+            2 * (y * z + x * w),
+            1 - 2 * (x * x + y * y),
+        ],
+        axis=-1,
+    )
     return R.reshape(q.shape[:-1] + (3, 3))
 
 
@@ -146,8 +161,11 @@ def smallest_eigenvector_sym3(C: np.ndarray) -> np.ndarray:
         return np.array([0.0, 0.0, 1.0])
     p = math.sqrt(p2 / 6.0)
     B = (C - q * np.eye(3)) / p
-    det_B = (B[0, 0] * (B[1, 1] * B[2, 2] - B[1, 2] * B[2, 1]) - B[0, 1] * (B[1, 0] * B[2, 2] - B[1, 2] * B[2, 0])
-             + B[0, 2] * (B[1, 0] * B[2, 1] - B[1, 1] * B[2, 0]))
+    det_B = (
+        B[0, 0] * (B[1, 1] * B[2, 2] - B[1, 2] * B[2, 1])
+        - B[0, 1] * (B[1, 0] * B[2, 2] - B[1, 2] * B[2, 0])
+        + B[0, 2] * (B[1, 0] * B[2, 1] - B[1, 1] * B[2, 0])
+    )
     phi = math.acos(min(max(det_B / 2.0, -1.0), 1.0)) / 3.0
     lam_min = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)
     M = C - lam_min * np.eye(3)

@@ -23,14 +23,18 @@ from catpose.geometry import compose_T, invert_T
 from catpose.types import validate_pose
 
 
-def transfer_grasp(T_template_grasp: np.ndarray, T_template_camera_est: np.ndarray,
-                   T_gripper_camera: np.ndarray | None = None, scale: float = 1.0) -> np.ndarray:
+def transfer_grasp(
+    T_template_grasp: np.ndarray,
+    T_template_camera_est: np.ndarray,
+    T_gripper_camera: np.ndarray | None = None,
+    scale: float = 1.0,
+) -> np.ndarray:
     """Map a grasp defined on the template into the camera (or current gripper) frame.
 
     Args:
         T_template_grasp: (4, 4) grasp pose in the template frame.
         T_template_camera_est: (4, 4) estimated camera pose in the template frame (a method's
-            ``RegistrationResult.T_target_source``).
+            ``RegistrationResult.T_template_camera``).
         T_gripper_camera: optional (4, 4) hand-eye transform (camera pose in the gripper frame,
             translation in metres). When given, the result is ``T_gripper_grasp``.
         scale: metres per template unit; multiplies the translations of the two template-frame

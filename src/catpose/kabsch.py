@@ -86,9 +86,11 @@ def rank_one_rotation(H: np.ndarray) -> np.ndarray:
 
 def _det3(M: np.ndarray) -> np.ndarray:
     """Determinants (B,) of (B, 3, 3) matrices by cofactor expansion (no LAPACK)."""
-    return (M[:, 0, 0] * (M[:, 1, 1] * M[:, 2, 2] - M[:, 1, 2] * M[:, 2, 1])
-            - M[:, 0, 1] * (M[:, 1, 0] * M[:, 2, 2] - M[:, 1, 2] * M[:, 2, 0])
-            + M[:, 0, 2] * (M[:, 1, 0] * M[:, 2, 1] - M[:, 1, 1] * M[:, 2, 0]))
+    return (
+        M[:, 0, 0] * (M[:, 1, 1] * M[:, 2, 2] - M[:, 1, 2] * M[:, 2, 1])
+        - M[:, 0, 1] * (M[:, 1, 0] * M[:, 2, 2] - M[:, 1, 2] * M[:, 2, 0])
+        + M[:, 0, 2] * (M[:, 1, 0] * M[:, 2, 1] - M[:, 1, 1] * M[:, 2, 0])
+    )
 
 
 def rotations_from_covariance(H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -22,9 +22,16 @@ from catpose.cell_grid import CellGrid
 from catpose.geometry import matmul3
 
 
-def refine_many(points: np.ndarray, grid: CellGrid, target_normals: np.ndarray, T_init: np.ndarray,
-                max_distance: float, iterations: int, return_steps: bool = False):
-    """Refine every start ``T_init`` (B, 4, 4) (``T_target_source``) on ``points`` (N, 3, source
+def refine_many(
+    points: np.ndarray,
+    grid: CellGrid,
+    target_normals: np.ndarray,
+    T_init: np.ndarray,
+    max_distance: float,
+    iterations: int,
+    return_steps: bool = False,
+):
+    """Refine every start ``T_init`` (B, 4, 4) (each maps ``points`` into the target frame) on ``points`` (N, 3, source
     frame) against the grid's points with unit ``target_normals`` (M, 3, target frame).
 
     Args:
@@ -39,9 +46,15 @@ def refine_many(points: np.ndarray, grid: CellGrid, target_normals: np.ndarray, 
         raise ValueError(f"refine_many: max_distance {max_distance} exceeds the grid's reach {grid.reach}")
     T = np.array(T_init, dtype=np.float64, copy=True).reshape(-1, 4, 4)
     steps = np.zeros(len(T), dtype=np.int64)
-    _refine_into(np.ascontiguousarray(points, dtype=np.float64), *cell_grid.arrays(grid),
-                 np.ascontiguousarray(target_normals, dtype=np.float64), T, float(max_distance), int(iterations),
-                 steps)
+    _refine_into(
+        np.ascontiguousarray(points, dtype=np.float64),
+        *cell_grid.arrays(grid),
+        np.ascontiguousarray(target_normals, dtype=np.float64),
+        T,
+        float(max_distance),
+        int(iterations),
+        steps,
+    )
 
     for b in range(len(T)):  # re-orthonormalise (LAPACK once per start, outside the kernel)
         U, _, Vt = np.linalg.svd(T[b, :3, :3])
@@ -54,9 +67,11 @@ def transform_point(T, b, points, i):  # pragma: no cover - compiled
     """``T[b] @ points[i]`` for poses ``T`` (B, 4, 4) and points (N, 3): the (x, y, z) of the moved
     point, in one fixed order of operations (the compiled kernels share it)."""
     px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-    return (T[b, 0, 0] * px + T[b, 0, 1] * py + T[b, 0, 2] * pz + T[b, 0, 3],
-            T[b, 1, 0] * px + T[b, 1, 1] * py + T[b, 1, 2] * pz + T[b, 1, 3],
-            T[b, 2, 0] * px + T[b, 2, 1] * py + T[b, 2, 2] * pz + T[b, 2, 3])
+    return (
+        T[b, 0, 0] * px + T[b, 0, 1] * py + T[b, 0, 2] * pz + T[b, 0, 3],
+        T[b, 1, 0] * px + T[b, 1, 1] * py + T[b, 1, 2] * pz + T[b, 1, 3],
+        T[b, 2, 0] * px + T[b, 2, 1] * py + T[b, 2, 2] * pz + T[b, 2, 3],
+    )
 
 
 @numba.njit(cache=True, nogil=True)
@@ -89,8 +104,9 @@ def _solve6(H, g, x):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _refine_into(points, tp, origin, cell, dims, start, cand, normals, T, max_distance,
-                 iterations, steps):  # pragma: no cover - compiled
+def _refine_into(
+    points, tp, origin, cell, dims, start, cand, normals, T, max_distance, iterations, steps
+):  # pragma: no cover - compiled
     H = np.zeros((6, 6))
     g = np.zeros(6)
     J = np.zeros(6)

@@ -64,7 +64,7 @@ class RayCaster:
         t_embree = ans["t_hit"].numpy().astype(np.float64)
         s = np.full(len(o), np.inf)
         hit = (prim != self._invalid) & np.isfinite(t_embree)
-        tri = self.vertices[self.triangles[prim[hit]]]                             # (k, 3, 3)
+        tri = self.vertices[self.triangles[prim[hit]]]  # (k, 3, 3)
         n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         nd = dot3(n, d[hit])
         s_hit = dot3(n, tri[:, 0] - o[hit]) / np.where(nd == 0.0, 1.0, nd)
@@ -73,8 +73,7 @@ class RayCaster:
         return s.reshape(shape)
 
 
-def cast_rays(vertices: np.ndarray, triangles: np.ndarray, origins: np.ndarray,
-              directions: np.ndarray) -> np.ndarray:
+def cast_rays(vertices: np.ndarray, triangles: np.ndarray, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """Ray parameter ``s`` of the first hit along ``origins + s * directions``, in float64
     (:meth:`RayCaster.cast` on a scene built for this one call).
 

@@ -66,7 +66,7 @@ def resting_ups(points: np.ndarray, merge_deg: float = 10.0) -> list[RestingUp]:
     transforms, probs = trimesh.poses.compute_stable_poses(hull, n_samples=1, sigma=0.0)
     raw = []
     for T, p in zip(transforms, probs):
-        up = np.round(np.asarray(T, dtype=np.float64)[2, :3], 6)   # R^T e_z: the table normal in the object frame
+        up = np.round(np.asarray(T, dtype=np.float64)[2, :3], 6)  # R^T e_z: the table normal in the object frame
         if norm3(up) > 0.5 and p > 0:
             raw.append((round(float(p), 9), unit3(up)))
     raw.sort(key=lambda r: (-r[0], tuple(r[1])))

@@ -13,8 +13,9 @@ errors are in that unit.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -36,8 +37,9 @@ def _as_points(name: str, array: np.ndarray | None, *, allow_empty: bool = False
     return a
 
 
-def validate_cloud(name: str, points: np.ndarray, normals: np.ndarray | None = None,
-                   min_points: int = 10) -> tuple[np.ndarray, np.ndarray | None]:
+def validate_cloud(
+    name: str, points: np.ndarray, normals: np.ndarray | None = None, min_points: int = 10
+) -> tuple[np.ndarray, np.ndarray | None]:
     """Check a cloud (and its normals) and return them as float64 arrays.
 
     Raises :class:`InvalidInputError` with one line naming ``name`` when the cloud is empty,
@@ -137,8 +139,9 @@ class DepthImage:
             raise InvalidInputError("depth image has NaN, inf or negative values; use 0 for missing depth")
         K = np.asarray(self.K, dtype=np.float64).reshape(3, 3)
         if not np.isfinite(K).all() or K[0, 0] <= 0 or K[1, 1] <= 0:
-            raise InvalidInputError(f"depth image intrinsics K have focal lengths {K[0, 0]}, {K[1, 1]}; "
-                                    "they must be positive pixels")
+            raise InvalidInputError(
+                f"depth image intrinsics K have focal lengths {K[0, 0]}, {K[1, 1]}; they must be positive pixels"
+            )
         m = np.asarray(self.mask, dtype=bool)
         if m.shape != d.shape:
             raise InvalidInputError(f"depth image mask is {m.shape} but the depth image is {d.shape}")
@@ -175,10 +178,11 @@ class RegistrationProblem:
 
     def __post_init__(self) -> None:
         if self.depth_image is not None and not isinstance(self.depth_image, DepthImage):
-            raise InvalidInputError(f"sample {self.sample_id}: depth_image is a {type(self.depth_image).__name__}; "
-                                    "pass a catpose.types.DepthImage or None")
-        p, n = validate_cloud(f"sample {self.sample_id}: observed cloud", self.points_camera,
-                              self.normals_camera)
+            raise InvalidInputError(
+                f"sample {self.sample_id}: depth_image is a {type(self.depth_image).__name__}; "
+                "pass a catpose.types.DepthImage or None"
+            )
+        p, n = validate_cloud(f"sample {self.sample_id}: observed cloud", self.points_camera, self.normals_camera)
         object.__setattr__(self, "points_camera", p)
         object.__setattr__(self, "normals_camera", n)
         g = np.asarray(self.ground_normal_camera, dtype=np.float64).reshape(-1)
@@ -225,8 +229,8 @@ class RegistrationResult:
     """A method's answer.
 
     Attributes:
-        T_target_source: (4, 4) estimated transform from the source (camera) frame into the
-            target (template) frame, i.e. the estimate of ``T_template_camera``.
+        T_template_camera: (4, 4) the estimated pose: it maps camera-frame points into the
+            template frame, ``p_template = R @ p_camera + t``.
         score: the method's own final loss (lower is better) used to choose among templates;
             NaN when the method has none.
         runtime_s: wall-clock seconds of the registration (set by the runner).
@@ -234,13 +238,13 @@ class RegistrationResult:
             timings, per-template losses, ...).
         candidates_T: (K, 4, 4) every hypothesis the method scored before choosing (ours: one
             per partial template; ICP: one per start; correspondence baselines: one per target),
-            same frames as ``T_target_source``; None when the method has none. Kept in memory
+            same frames as ``T_template_camera``; None when the method has none. Kept in memory
             only (``catpose.register`` returns them); run files do not store them.
         candidate_scores: (K,) their scores in the method's own criterion (lower is better; inf:
             excluded, e.g. by ours' gravity filter), or None.
     """
 
-    T_target_source: np.ndarray
+    T_template_camera: np.ndarray
     score: float = float("nan")
     runtime_s: float = float("nan")
     extras: Mapping[str, Any] = field(default_factory=dict)

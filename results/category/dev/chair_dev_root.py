@@ -18,8 +18,12 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-DEV = {"chair_0001": "ModelNet40/chair/train/chair_0001.off", "chair_0002": "ModelNet40/chair/train/chair_0002.off",
-       "chair_0059": "ModelNet40/chair/train/chair_0059.off", "chair_9001": "shapenet/chair/models/model_normalized.obj"}
+DEV = {
+    "chair_0001": "ModelNet40/chair/train/chair_0001.off",
+    "chair_0002": "ModelNet40/chair/train/chair_0002.off",
+    "chair_0059": "ModelNet40/chair/train/chair_0059.off",
+    "chair_9001": "shapenet/chair/models/model_normalized.obj",
+}
 TEMPLATES = ("chair_0391", "chair_0624", "chair_0848")
 HEADER = "category,instance_id,r00,r01,r02,r10,r11,r12,r20,r21,r22,yaw_deg,flip,chamfer,confidence,verified,note\n"
 
@@ -44,7 +48,9 @@ def main(shared: str, out: str) -> None:
     for name, rel in DEV.items():
         mesh = trimesh.load(shared_p / rel, force="mesh")
         np.savetxt(root / "chair" / f"{name}.txt", resampled(mesh, rel.endswith(".off")), delimiter=",", fmt="%.6f")
-        rows.append(f"chair,{name},1,0,0,0,1,0,0,0,1,0,false,,,true,dev: checked by eye on bench align's contact sheet\n")
+        rows.append(
+            f"chair,{name},1,0,0,0,1,0,0,0,1,0,false,,,true,dev: checked by eye on bench align's contact sheet\n"
+        )
     for name in TEMPLATES:
         link = root / "chair" / f"{name}.txt"
         if not link.exists():

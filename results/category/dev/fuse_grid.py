@@ -37,8 +37,9 @@ def chosen(samples, fuse_deg: float | None, top_weight: float | None = None):
     from catpose.bench.protocols.template_choice import choose_row
 
     rule = "cross_top_turns" if fuse_deg is None else "fused"
-    return pd.DataFrame([choose_row(g, rule, top_weight=top_weight, fuse_deg=fuse_deg)
-                         for _, g in samples.groupby("group_id")])
+    return pd.DataFrame(
+        [choose_row(g, rule, top_weight=top_weight, fuse_deg=fuse_deg) for _, g in samples.groupby("group_id")]
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -50,13 +51,17 @@ def main(argv: list[str] | None = None) -> int:
     ap = sweeps_parser(__doc__)
     ap.add_argument("--turns", default="90,270", help="','-separated turns (degrees) read from the runs")
     ap.add_argument("--angles", default=",".join(f"{a:g}" for a in ANGLES), help="','-separated agreement angles")
-    ap.add_argument("--weights", default=None,
-                    help="','-separated top-offset weights (default: the fused rule's alone, no weight column)")
+    ap.add_argument(
+        "--weights",
+        default=None,
+        help="','-separated top-offset weights (default: the fused rule's alone, no weight column)",
+    )
     args = ap.parse_args(argv)
     turns = tuple(float(t) for t in args.turns.split(","))
     weights = [FUSED_TOP_WEIGHT] if args.weights is None else [float(w) for w in args.weights.split(",")]
     settings: list[tuple[float, float | None]] = [
-        (w, a) for w in weights for a in [None] + [float(a) for a in args.angles.split(",")]]
+        (w, a) for w in weights for a in [None] + [float(a) for a in args.angles.split(",")]
+    ]
     gaps: dict[str, list[list[float]]] = {}
     fused: dict[str, list[list[float]]] = {}
     for sweep in args.sweeps:
@@ -66,23 +71,33 @@ def main(argv: list[str] | None = None) -> int:
             rows = [chosen(samples, a, w) for w, a in settings]
             gaps.setdefault(run.method, []).append([float(row_errors(r).mean() - oracle) for r in rows])
             fused.setdefault(run.method, []).append(
-                [float(np.mean([i.get("fused_templates", 1) for i in r["info"]])) for r in rows])
+                [float(np.mean([i.get("fused_templates", 1) for i in r["info"]])) for r in rows]
+            )
     sets = len(args.sweeps)
     by_weight = args.weights is not None
-    lines = [f"**{args.title}: chosen mean error less the oracle's (degrees) by the agreement angle of `fused` "
-             + ("and the top-offset weight " if by_weight else f"at top-offset weight {FUSED_TOP_WEIGHT:g} ")
-             + f"({sets} template sets; `cross_top_turns` is the same choice unaveraged; turns read: "
-             f"{', '.join(f'{t:g}' for t in turns)}; poses: mean number averaged per view, over the sets)**", "",
-             "| method | " + ("weight | " if by_weight else "") + "rule | angle | "
-             + " | ".join(f"set {i + 1}" for i in range(sets)) + " | mean over sets | poses |",
-             "|---|" + ("---:|" if by_weight else "") + "---|---:|" + "---:|" * (sets + 2)]
+    lines = [
+        f"**{args.title}: chosen mean error less the oracle's (degrees) by the agreement angle of `fused` "
+        + ("and the top-offset weight " if by_weight else f"at top-offset weight {FUSED_TOP_WEIGHT:g} ")
+        + f"({sets} template sets; `cross_top_turns` is the same choice unaveraged; turns read: "
+        f"{', '.join(f'{t:g}' for t in turns)}; poses: mean number averaged per view, over the sets)**",
+        "",
+        "| method | "
+        + ("weight | " if by_weight else "")
+        + "rule | angle | "
+        + " | ".join(f"set {i + 1}" for i in range(sets))
+        + " | mean over sets | poses |",
+        "|---|" + ("---:|" if by_weight else "") + "---|---:|" + "---:|" * (sets + 2),
+    ]
     for method in sorted(gaps):
         g, n = np.asarray(gaps[method], float), np.asarray(fused[method], float)
         for j, (w, a) in enumerate(settings):
-            label = ("cross_top_turns | -" if a is None else f"fused | {a:g}")
+            label = "cross_top_turns | -" if a is None else f"fused | {a:g}"
             label = f"{w:g} | {label}" if by_weight else label
-            lines.append(f"| {method} | {label} | " + " | ".join(f"{x:.2f}" for x in g[:, j])
-                         + f" | {g[:, j].mean():.2f} | {n[:, j].mean():.2f} |")
+            lines.append(
+                f"| {method} | {label} | "
+                + " | ".join(f"{x:.2f}" for x in g[:, j])
+                + f" | {g[:, j].mean():.2f} | {n[:, j].mean():.2f} |"
+            )
     write_text(Path(args.out), "\n".join(lines) + "\n")
     print(f"wrote {len(lines) - 4} rows to {args.out}")
     return 0

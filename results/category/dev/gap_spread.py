@@ -37,8 +37,9 @@ def view_gaps(samples, choice: str, turns: tuple[float, ...]):
     return views["instance_id"].astype(str).to_numpy(), gaps
 
 
-def drawn_gaps(inst: np.ndarray, gaps: np.ndarray, chairs: int, views: int, draws: int,
-               rng: np.random.Generator) -> np.ndarray:
+def drawn_gaps(
+    inst: np.ndarray, gaps: np.ndarray, chairs: int, views: int, draws: int, rng: np.random.Generator
+) -> np.ndarray:
     """(draws,) mean gap of ``chairs`` instances x ``views`` views each, drawn without replacement
     (instances with fewer views than ``views`` are not drawn)."""
     by = {i: gaps[inst == i] for i in np.unique(inst)}
@@ -68,18 +69,24 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     turns = tuple(float(t) for t in args.turns.split(",") if t.strip())
     rng = np.random.default_rng(args.seed)
-    lines = [f"**{args.title}: gap of `{args.choice}` to the oracle (chosen mean less oracle mean, degrees) "
-             f"over {args.draws} draws of {args.chairs} chairs x {args.views} views per template set**", "",
-             "| method | set | views | gap, all views | draws: median | draws: 90th pct | "
-             f"draws: share over {args.threshold:g} |", "|---|---:|---:|---:|---:|---:|---:|"]
+    lines = [
+        f"**{args.title}: gap of `{args.choice}` to the oracle (chosen mean less oracle mean, degrees) "
+        f"over {args.draws} draws of {args.chairs} chairs x {args.views} views per template set**",
+        "",
+        "| method | set | views | gap, all views | draws: median | draws: 90th pct | "
+        f"draws: share over {args.threshold:g} |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
     for s, sweep in enumerate(args.sweeps, 1):
         for run in set_runs(sweep):
             if args.row and run.method.lower() not in [r.lower() for r in args.row]:
                 continue
             inst, gaps = view_gaps(absolute_gt_only(run.samples), args.choice, turns)
             d = drawn_gaps(inst, gaps, args.chairs, args.views, args.draws, rng)
-            lines.append(f"| {run.method} | {s} | {len(gaps)} | {gaps.mean():.2f} | {np.median(d):.2f} | "
-                         f"{np.percentile(d, 90):.2f} | {np.mean(d > args.threshold):.3f} |")
+            lines.append(
+                f"| {run.method} | {s} | {len(gaps)} | {gaps.mean():.2f} | {np.median(d):.2f} | "
+                f"{np.percentile(d, 90):.2f} | {np.mean(d > args.threshold):.3f} |"
+            )
     write_text(Path(args.out), "\n".join(lines) + "\n")
     print(f"wrote {len(lines) - 4} rows to {args.out}")
     return 0

@@ -28,8 +28,11 @@ from top_weight_grid import WEIGHTS, chosen_errors, parse_turn_sets  # noqa: E40
 def kinds_of(alignment_csv: Path) -> dict[str, str]:
     """instance id -> kind, from procedural_airplanes.py's ``note`` ("procedural <kind>: ...")."""
     with open(alignment_csv, newline="") as f:
-        return {r["instance_id"]: r["note"].split(":")[0].removeprefix("procedural ").strip()
-                for r in csv.DictReader(f) if r["note"].startswith("procedural")}
+        return {
+            r["instance_id"]: r["note"].split(":")[0].removeprefix("procedural ").strip()
+            for r in csv.DictReader(f)
+            if r["note"].startswith("procedural")
+        }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -52,10 +55,14 @@ def main(argv: list[str] | None = None) -> int:
     turn_sets = [t for t in parse_turn_sets(args.turn_sets) if t]
     weights = [float(w) for w in args.weights.split(",")]
     keep_turns, keep_weight = parse_turn_sets(args.keep.split("@")[0])[0], float(args.keep.split("@")[1])
-    grid = ["| method | turns | weight | chose: mean | chose: @30 | chose: gain | confirm: mean | confirm: @30 | confirm: gain |",
-            "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
-    per_kind = ["| method | kind | views | own estimate: mean | own estimate: @30 | kept: mean | kept: @30 |",
-                "|---|---|---:|---:|---:|---:|---:|"]
+    grid = [
+        "| method | turns | weight | chose: mean | chose: @30 | chose: gain | confirm: mean | confirm: @30 | confirm: gain |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    per_kind = [
+        "| method | kind | views | own estimate: mean | own estimate: @30 | kept: mean | kept: @30 |",
+        "|---|---|---:|---:|---:|---:|---:|",
+    ]
     counts = {}
     for run in sorted((load_run(p) for p in run_dirs([args.sweep])), key=lambda r: r.method):
         samples = absolute_gt_only(run.samples).sort_values("group_id").reset_index(drop=True)
@@ -68,21 +75,29 @@ def main(argv: list[str] | None = None) -> int:
         grid.append(f"| {run.method} | none | - | " + " | ".join(cells) + " |")
         errors = {(turns, w): chosen_errors(samples, turns, w) for turns in turn_sets for w in weights}
         for (turns, w), e in errors.items():
-            cells = [f"{e[m].mean():.2f} | {np.mean(e[m] < 30):.3f} | {e[m].mean() - base[m].mean():.2f}"
-                     for m in parts.values()]
+            cells = [
+                f"{e[m].mean():.2f} | {np.mean(e[m] < 30):.3f} | {e[m].mean() - base[m].mean():.2f}"
+                for m in parts.values()
+            ]
             grid.append(f"| {run.method} | {','.join(f'{t:g}' for t in turns)} | {w:g} | " + " | ".join(cells) + " |")
         kept = errors.get((keep_turns, keep_weight))
         kept = chosen_errors(samples, keep_turns, keep_weight) if kept is None else kept
         kind = np.array([kinds.get(i, "?") for i in instance])
         for name in sorted(set(kind)):
             m = kind == name
-            per_kind.append(f"| {run.method} | {name} | {m.sum()} | {base[m].mean():.2f} | {np.mean(base[m] < 30):.3f} | "
-                            f"{kept[m].mean():.2f} | {np.mean(kept[m] < 30):.3f} |")
-    head = (f"**{args.title}: mean error (degrees) and @30 of `cross_top_turns` over the estimate and its turns, "
-            f"against the registration's own estimate (gain: the difference); chose: the {counts.get('chose', 0)} views "
-            f"before {args.split_at}, confirm: the {counts.get('confirm', 0)} from it**")
-    kind_head = (f"**{args.title}, by kind, all views: the registration's own estimate against the kept setting "
-                 f"(turns {args.keep.split('@')[0]}, weight {keep_weight:g})**")
+            per_kind.append(
+                f"| {run.method} | {name} | {m.sum()} | {base[m].mean():.2f} | {np.mean(base[m] < 30):.3f} | "
+                f"{kept[m].mean():.2f} | {np.mean(kept[m] < 30):.3f} |"
+            )
+    head = (
+        f"**{args.title}: mean error (degrees) and @30 of `cross_top_turns` over the estimate and its turns, "
+        f"against the registration's own estimate (gain: the difference); chose: the {counts.get('chose', 0)} views "
+        f"before {args.split_at}, confirm: the {counts.get('confirm', 0)} from it**"
+    )
+    kind_head = (
+        f"**{args.title}, by kind, all views: the registration's own estimate against the kept setting "
+        f"(turns {args.keep.split('@')[0]}, weight {keep_weight:g})**"
+    )
     write_text(Path(args.out), "\n".join([head, "", *grid, "", kind_head, "", *per_kind]) + "\n")
     print(f"wrote {args.out}")
     return 0

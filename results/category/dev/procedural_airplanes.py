@@ -39,8 +39,14 @@ KINDS = ("airliner", "prop", "fighter", "biplane", "glider")
 KIND_P = (0.35, 0.2, 0.2, 0.12, 0.13)
 
 
-def panel(root_le: np.ndarray, chord_root: float, tip_le: np.ndarray, chord_tip: float,
-          thickness: float, vertical: bool = False) -> trimesh.Trimesh:
+def panel(
+    root_le: np.ndarray,
+    chord_root: float,
+    tip_le: np.ndarray,
+    chord_tip: float,
+    thickness: float,
+    vertical: bool = False,
+) -> trimesh.Trimesh:
     """A thin tapered panel: leading edges ``root_le`` and ``tip_le`` (3,), chords along -z (towards
     the tail) of ``chord_root`` and ``chord_tip``; ``thickness`` along y, or along x when
     ``vertical`` (a fin)."""
@@ -51,8 +57,16 @@ def panel(root_le: np.ndarray, chord_root: float, tip_le: np.ndarray, chord_tip:
     return trimesh.convex.convex_hull(np.array(pts))
 
 
-def wing_pair(y: float, z_root: float, half_span: float, chord_root: float, taper: float, sweep: float,
-              dihedral: float, thickness: float) -> list[trimesh.Trimesh]:
+def wing_pair(
+    y: float,
+    z_root: float,
+    half_span: float,
+    chord_root: float,
+    taper: float,
+    sweep: float,
+    dihedral: float,
+    thickness: float,
+) -> list[trimesh.Trimesh]:
     """Two mirrored panels from the centre line at height ``y``, root leading edge at ``z_root``,
     tips at +-``half_span`` along x, swept back by ``sweep`` (z at the tip) and raised by ``dihedral``."""
     out = []
@@ -73,15 +87,16 @@ def fuselage(length: float, radius: float, nose: float, tail: float, tail_rise: 
     back = trimesh.creation.cone(radius=radius, height=tail, sections=16)
     back.apply_transform(trimesh.transformations.rotation_matrix(np.pi, [1, 0, 0]))
     shear = np.eye(4)
-    shear[1, 2] = -tail_rise / tail        # the apex (z = -tail) rises by tail_rise
+    shear[1, 2] = -tail_rise / tail  # the apex (z = -tail) rises by tail_rise
     back.apply_transform(shear)
     back.apply_translation([0, 0, z0])
     parts.append(back)
     return parts
 
 
-def tail_parts(rng: np.random.Generator, z_tail: float, radius: float, span: float, t_tail: bool,
-               twin: bool, y_base: float) -> list[trimesh.Trimesh]:
+def tail_parts(
+    rng: np.random.Generator, z_tail: float, radius: float, span: float, t_tail: bool, twin: bool, y_base: float
+) -> list[trimesh.Trimesh]:
     """Horizontal stabilisers and one or two fins whose leading edges start at ``z_tail``."""
     fin_h = rng.uniform(0.18, 0.32)
     fin_c = rng.uniform(0.18, 0.3)
@@ -90,11 +105,27 @@ def tail_parts(rng: np.random.Generator, z_tail: float, radius: float, span: flo
     xs = (-0.6 * radius, 0.6 * radius) if twin else (0.0,)
     for x in xs:
         lean = rng.uniform(0.08, 0.18)
-        fins.append(panel(np.array([x, y_base, z_tail]), fin_c, np.array([x * 1.5, y_base + fin_h, z_tail - lean]),
-                          fin_c * rng.uniform(0.4, 0.7), th, vertical=True))
+        fins.append(
+            panel(
+                np.array([x, y_base, z_tail]),
+                fin_c,
+                np.array([x * 1.5, y_base + fin_h, z_tail - lean]),
+                fin_c * rng.uniform(0.4, 0.7),
+                th,
+                vertical=True,
+            )
+        )
     y_stab = y_base + (fin_h if t_tail else 0.0)
-    stab = wing_pair(y_stab, z_tail - (0.1 if t_tail else 0.02), span * rng.uniform(0.28, 0.4),
-                     fin_c * rng.uniform(0.7, 1.0), 0.55, rng.uniform(0.03, 0.1), 0.0, th)
+    stab = wing_pair(
+        y_stab,
+        z_tail - (0.1 if t_tail else 0.02),
+        span * rng.uniform(0.28, 0.4),
+        fin_c * rng.uniform(0.7, 1.0),
+        0.55,
+        rng.uniform(0.03, 0.1),
+        0.0,
+        th,
+    )
     return fins + stab
 
 
@@ -120,15 +151,26 @@ def airplane(rng: np.random.Generator) -> trimesh.Trimesh:
         half_span = rng.uniform(0.8, 1.05)
         wing_y, wing_z = -0.5 * r, rng.uniform(0.0, 0.2)
         parts = fuselage(L, r, nose, tail, 0.6 * r)
-        parts += wing_pair(wing_y, wing_z, half_span, rng.uniform(0.35, 0.5), rng.uniform(0.25, 0.4),
-                           rng.uniform(0.35, 0.6), rng.uniform(0.02, 0.08), 0.03)
+        parts += wing_pair(
+            wing_y,
+            wing_z,
+            half_span,
+            rng.uniform(0.35, 0.5),
+            rng.uniform(0.25, 0.4),
+            rng.uniform(0.35, 0.6),
+            rng.uniform(0.02, 0.08),
+            0.03,
+        )
         n_eng = 2 if rng.random() < 0.75 else 4
         for i in range(n_eng // 2):
             x = half_span * (0.35 + 0.3 * i)
             for s in (-1, 1):
                 z = wing_z - 0.45 * x + 0.15
-                parts.append(trimesh.creation.cylinder(radius=r * 0.45, segment=[[s * x, wing_y - 0.7 * r, z],
-                                                                                [s * x, wing_y - 0.7 * r, z - 0.3]]))
+                parts.append(
+                    trimesh.creation.cylinder(
+                        radius=r * 0.45, segment=[[s * x, wing_y - 0.7 * r, z], [s * x, wing_y - 0.7 * r, z - 0.3]]
+                    )
+                )
         t_tail = rng.random() < 0.25
         parts += tail_parts(rng, -L / 2 + tail * 0.9, r, half_span, t_tail, False, 0.5 * r)
     elif kind == "prop":
@@ -137,8 +179,16 @@ def airplane(rng: np.random.Generator) -> trimesh.Trimesh:
         wing_y = (0.9 if rng.random() < 0.5 else -0.6) * r
         wing_z = L / 2 - nose - rng.uniform(0.3, 0.5)
         parts = fuselage(L, r, nose, tail, 0.4 * r)
-        parts += wing_pair(wing_y, wing_z, half_span, rng.uniform(0.25, 0.35), rng.uniform(0.6, 1.0),
-                           rng.uniform(0.0, 0.08), rng.uniform(0.0, 0.06), 0.03)
+        parts += wing_pair(
+            wing_y,
+            wing_z,
+            half_span,
+            rng.uniform(0.25, 0.35),
+            rng.uniform(0.6, 1.0),
+            rng.uniform(0.0, 0.08),
+            rng.uniform(0.0, 0.06),
+            0.03,
+        )
         parts += propeller(rng, L / 2 + 0.02, r)
         parts += tail_parts(rng, -L / 2 + tail * 0.5, r, half_span, False, False, 0.4 * r)
     elif kind == "fighter":
@@ -148,8 +198,16 @@ def airplane(rng: np.random.Generator) -> trimesh.Trimesh:
         delta = rng.random() < 0.4
         root = rng.uniform(0.7, 0.9) if delta else rng.uniform(0.4, 0.6)
         wing_z = -L / 2 + tail + root + rng.uniform(0.0, 0.15)
-        parts += wing_pair(0.0, wing_z, half_span, root, 0.1 if delta else rng.uniform(0.2, 0.4),
-                           root * 0.9 if delta else rng.uniform(0.3, 0.5), rng.uniform(-0.03, 0.02), 0.03)
+        parts += wing_pair(
+            0.0,
+            wing_z,
+            half_span,
+            root,
+            0.1 if delta else rng.uniform(0.2, 0.4),
+            root * 0.9 if delta else rng.uniform(0.3, 0.5),
+            rng.uniform(-0.03, 0.02),
+            0.03,
+        )
         parts += tail_parts(rng, -L / 2 + tail + 0.3, r, half_span * 1.6, False, rng.random() < 0.5, 0.6 * r)
     elif kind == "biplane":
         r, nose, tail = L * rng.uniform(0.05, 0.07), rng.uniform(0.1, 0.15), rng.uniform(0.6, 0.8)
@@ -159,12 +217,25 @@ def airplane(rng: np.random.Generator) -> trimesh.Trimesh:
         gap = rng.uniform(0.3, 0.45)
         parts = fuselage(L, r, nose, tail, 0.3 * r)
         parts += wing_pair(-0.8 * r, wing_z, half_span, chord, 1.0, 0.0, 0.0, 0.03)
-        parts += wing_pair(-0.8 * r + gap, wing_z + rng.uniform(0.0, 0.1), half_span * rng.uniform(1.0, 1.1),
-                           chord, 1.0, 0.0, 0.0, 0.03)
+        parts += wing_pair(
+            -0.8 * r + gap,
+            wing_z + rng.uniform(0.0, 0.1),
+            half_span * rng.uniform(1.0, 1.1),
+            chord,
+            1.0,
+            0.0,
+            0.0,
+            0.03,
+        )
         for s in (-1, 1):
             for x in (0.35, 0.75):
-                parts.append(rod(np.array([s * x * half_span, -0.8 * r, wing_z - chord / 2]),
-                                 np.array([s * x * half_span, -0.8 * r + gap, wing_z - chord / 2]), 0.012))
+                parts.append(
+                    rod(
+                        np.array([s * x * half_span, -0.8 * r, wing_z - chord / 2]),
+                        np.array([s * x * half_span, -0.8 * r + gap, wing_z - chord / 2]),
+                        0.012,
+                    )
+                )
         parts += propeller(rng, L / 2 + 0.02, r)
         parts += tail_parts(rng, -L / 2 + tail * 0.45, r, half_span, False, False, 0.3 * r)
     else:  # glider
@@ -172,8 +243,16 @@ def airplane(rng: np.random.Generator) -> trimesh.Trimesh:
         half_span = rng.uniform(1.3, 1.7)
         wing_z = L / 2 - nose - rng.uniform(0.3, 0.45)
         parts = fuselage(L, r, nose, tail, 0.0)
-        parts += wing_pair(0.6 * r, wing_z, half_span, rng.uniform(0.16, 0.22), rng.uniform(0.4, 0.6),
-                           rng.uniform(0.0, 0.06), rng.uniform(0.02, 0.1), 0.025)
+        parts += wing_pair(
+            0.6 * r,
+            wing_z,
+            half_span,
+            rng.uniform(0.16, 0.22),
+            rng.uniform(0.4, 0.6),
+            rng.uniform(0.0, 0.06),
+            rng.uniform(0.02, 0.1),
+            0.025,
+        )
         parts += tail_parts(rng, -L / 2 + 0.25, r, half_span * 0.6, rng.random() < 0.5, False, 0.3 * r)
     mesh = trimesh.util.concatenate(parts)
     c = mesh.bounding_box.centroid
@@ -200,8 +279,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("out_root")
     ap.add_argument("--n", type=int, default=40, help="number of airplanes")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--templates", nargs=3, metavar=("DIR", "IDS", "ALIGNMENT_CSV"),
-                    help="link these airplanes of DIR into the root, with their rows of ALIGNMENT_CSV")
+    ap.add_argument(
+        "--templates",
+        nargs=3,
+        metavar=("DIR", "IDS", "ALIGNMENT_CSV"),
+        help="link these airplanes of DIR into the root, with their rows of ALIGNMENT_CSV",
+    )
     args = ap.parse_args(argv)
     root = Path(args.out_root)
     (root / "airplane").mkdir(parents=True, exist_ok=True)
@@ -210,8 +293,12 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for i, name in enumerate(names):
         mesh = airplane(rng)
-        np.savetxt(root / "airplane" / f"{name}.txt", resampled(mesh, args.seed * 100003 + i), delimiter=",", fmt="%.6f")
-        rows.append(f"airplane,{name},1,0,0,0,1,0,0,0,1,0,false,,,true,procedural {mesh.metadata['kind']}: built in the category frame\n")
+        np.savetxt(
+            root / "airplane" / f"{name}.txt", resampled(mesh, args.seed * 100003 + i), delimiter=",", fmt="%.6f"
+        )
+        rows.append(
+            f"airplane,{name},1,0,0,0,1,0,0,0,1,0,false,,,true,procedural {mesh.metadata['kind']}: built in the category frame\n"
+        )
     linked = link_templates(root, "airplane", *args.templates[:2]) if args.templates else []
     if linked:
         rows += template_rows(Path(args.templates[2]), linked)

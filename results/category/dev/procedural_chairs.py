@@ -65,8 +65,13 @@ def base_parts(rng: np.random.Generator, w: float, d: float, h_seat: float) -> l
             f = 1 - y / h_seat
             for sx in (-1, 1):
                 x = sx * (w / 2 - inset - t + splay * f)
-                parts.append(rod(np.array([x, y, -(d / 2 - inset - t + splay * f)]),
-                                 np.array([x, y, d / 2 - inset - t + splay * f]), t / 3))
+                parts.append(
+                    rod(
+                        np.array([x, y, -(d / 2 - inset - t + splay * f)]),
+                        np.array([x, y, d / 2 - inset - t + splay * f]),
+                        t / 3,
+                    )
+                )
             if rng.random() < 0.5:
                 z = -(d / 2 - inset - t + splay * f)
                 parts.append(rod(np.array([-(w / 2 - inset - t), y, z]), np.array([w / 2 - inset - t, y, z]), t / 3))
@@ -80,7 +85,9 @@ def base_parts(rng: np.random.Generator, w: float, d: float, h_seat: float) -> l
             a = phase + 2 * np.pi * k / 5
             end = np.array([spoke * np.cos(a), 0.04, spoke * np.sin(a)])
             parts.append(rod(np.array([0, foot_y, 0]), end, 0.025))
-            parts.append(trimesh.creation.icosphere(subdivisions=1, radius=0.035).apply_translation(end - [0, 0.005, 0]))
+            parts.append(
+                trimesh.creation.icosphere(subdivisions=1, radius=0.035).apply_translation(end - [0, 0.005, 0])
+            )
     elif kind == "panels":
         t = rng.uniform(0.03, 0.06)
         for sx in (-1, 1):
@@ -110,14 +117,20 @@ def back_parts(rng: np.random.Generator, w: float, d: float, y0: float, h_back: 
         parts.append(box(np.array([-bw / 2, y0 + gap, z0 - t / 2]), np.array([bw / 2, y0 + h_back, z0 + t / 2])))
         if gap > 0:
             for sx in (-1, 1):
-                parts.append(box(np.array([sx * bw / 2 - 0.03, y0, z0 - t / 2]), np.array([sx * bw / 2, y0 + gap, z0 + t / 2])))
+                parts.append(
+                    box(np.array([sx * bw / 2 - 0.03, y0, z0 - t / 2]), np.array([sx * bw / 2, y0 + gap, z0 + t / 2]))
+                )
     else:
         post = rng.uniform(0.03, 0.05)
         for sx in (-1, 1):
             x = sx * (bw / 2 - post / 2)
-            parts.append(box(np.array([x - post / 2, y0, z0 - post / 2]), np.array([x + post / 2, y0 + h_back, z0 + post / 2])))
+            parts.append(
+                box(np.array([x - post / 2, y0, z0 - post / 2]), np.array([x + post / 2, y0 + h_back, z0 + post / 2]))
+            )
         top = rng.uniform(0.05, 0.15)
-        parts.append(box(np.array([-bw / 2, y0 + h_back - top, z0 - t / 2]), np.array([bw / 2, y0 + h_back, z0 + t / 2])))
+        parts.append(
+            box(np.array([-bw / 2, y0 + h_back - top, z0 - t / 2]), np.array([bw / 2, y0 + h_back, z0 + t / 2]))
+        )
         inner = bw - 2 * post
         if kind == "slats":
             n = int(rng.integers(2, 6))
@@ -147,7 +160,9 @@ def arm_parts(rng: np.random.Generator, w: float, d: float, y_seat: float) -> li
     parts = []
     for sx in (-1, 1):
         x = sx * (w / 2 - t / 2)
-        parts.append(box(np.array([x - t / 2, y_seat + h - 0.04, -d / 2 + 0.05]), np.array([x + t / 2, y_seat + h, d / 2])))
+        parts.append(
+            box(np.array([x - t / 2, y_seat + h - 0.04, -d / 2 + 0.05]), np.array([x + t / 2, y_seat + h, d / 2]))
+        )
         parts.append(box(np.array([x - 0.02, y_seat, -d / 2 + 0.08]), np.array([x + 0.02, y_seat + h, -d / 2 + 0.12])))
     return parts
 
@@ -161,7 +176,9 @@ def chair(rng: np.random.Generator) -> trimesh.Trimesh:
     parts = [box(np.array([-w / 2, y_top - t_seat, -d / 2]), np.array([w / 2, y_top, d / 2]))]
     if rng.random() < 0.3:  # a cushion
         c = rng.uniform(0.04, 0.1)
-        parts.append(box(np.array([-w / 2 + 0.03, y_top, -d / 2 + 0.03]), np.array([w / 2 - 0.03, y_top + c, d / 2 - 0.08])))
+        parts.append(
+            box(np.array([-w / 2 + 0.03, y_top, -d / 2 + 0.03]), np.array([w / 2 - 0.03, y_top + c, d / 2 - 0.08]))
+        )
     parts += base_parts(rng, w, d, y_top - t_seat)
     parts += back_parts(rng, w, d, y_top, height - y_top)
     if rng.random() < 0.3:
@@ -206,8 +223,9 @@ def main(argv: list[str] | None = None) -> int:
     rng = np.random.default_rng(args.seed)
     names = [f"chair_{FIRST_ID + i}" for i in range(args.n)]
     for i, name in enumerate(names):
-        np.savetxt(root / "chair" / f"{name}.txt", resampled(chair(rng), args.seed * 100003 + i),
-                   delimiter=",", fmt="%.6f")
+        np.savetxt(
+            root / "chair" / f"{name}.txt", resampled(chair(rng), args.seed * 100003 + i), delimiter=",", fmt="%.6f"
+        )
     rows = [f"chair,{n},1,0,0,0,1,0,0,0,1,0,false,,,true,procedural: built in the category frame\n" for n in names]
     linked = link_templates(root, "chair", *args.templates) if args.templates else []
     rows += [f"chair,{name},1,0,0,0,1,0,0,0,1,0,false,,,true,shared template (results/alignment/)\n" for name in linked]

@@ -45,8 +45,12 @@ def view_table(run):
     samples = absolute_gt_only(run.samples)
     kept = protocol_of(run).best_per_view(samples)
     seconds = pd.to_numeric(samples["runtime_s"], errors="coerce").to_numpy(float)
-    return (kept["instance_id"].astype(str).to_numpy(), row_errors(kept),
-            kept["oracle_err_deg"].to_numpy(float), seconds)
+    return (
+        kept["instance_id"].astype(str).to_numpy(),
+        row_errors(kept),
+        kept["oracle_err_deg"].to_numpy(float),
+        seconds,
+    )
 
 
 def part_stats(errors: np.ndarray) -> str:
@@ -71,27 +75,43 @@ def main(argv: list[str] | None = None) -> int:
             rows.append((by, (run.method, value, Path(sweep).name, kept, oracle, chose, seconds)))
     rows = [row for _, row in sorted(rows, key=lambda r: r[0])]
     split, sets = bool(args.split_at), len(args.sweeps) > 1
-    head = ["method", args.key] + (["runs"] if sets else []) + ["views"] \
-        + (["chose: mean", "chose: @30", "confirm: mean", "confirm: @30"] if split else []) \
+    head = (
+        ["method", args.key]
+        + (["runs"] if sets else [])
+        + ["views"]
+        + (["chose: mean", "chose: @30", "confirm: mean", "confirm: @30"] if split else [])
         + ["all: mean", "all: median", "all: @30", "oracle mean", "median s"]
-    lines = [f"**{args.title}: the kept estimates by `{args.key}`"
-             + (f"; chose: instances before {args.split_at}, confirm: from it" if split else "")
-             + ("; mean over runs: the runs' means averaged" if sets else "") + "**", "",
-             "| " + " | ".join(head) + " |", "|---|---|" + ("---|" if sets else "") + "---:|" * (len(head) - 2 - sets)]
+    )
+    lines = [
+        f"**{args.title}: the kept estimates by `{args.key}`"
+        + (f"; chose: instances before {args.split_at}, confirm: from it" if split else "")
+        + ("; mean over runs: the runs' means averaged" if sets else "")
+        + "**",
+        "",
+        "| " + " | ".join(head) + " |",
+        "|---|---|" + ("---|" if sets else "") + "---:|" * (len(head) - 2 - sets),
+    ]
     for i, (method, value, name, kept, oracle, chose, seconds) in enumerate(rows):
         cells = [method, str(value)] + ([name] if sets else []) + [str(len(kept))]
         if split:
             cells += [part_stats(kept[chose]), part_stats(kept[~chose])]
-        cells += [f"{kept.mean():.2f}", f"{np.median(kept):.2f}", f"{np.mean(kept < 30.0):.3f}", f"{oracle.mean():.2f}",
-                  f"{np.nanmedian(seconds):.3f}"]
+        cells += [
+            f"{kept.mean():.2f}",
+            f"{np.median(kept):.2f}",
+            f"{np.mean(kept < 30.0):.3f}",
+            f"{oracle.mean():.2f}",
+            f"{np.nanmedian(seconds):.3f}",
+        ]
         lines.append("| " + " | ".join(cells) + " |")
         last = i + 1 == len(rows) or rows[i + 1][:2] != (method, value)
         if sets and last:
             same = [r for r in rows if r[:2] == (method, value)]
-            lines.append(f"| {method} | {value} | mean over runs | {sum(len(r[3]) for r in same)} | "
-                         + ("- | - | - | - | " if split else "")
-                         + f"{np.mean([r[3].mean() for r in same]):.2f} | - | {np.mean([np.mean(r[3] < 30.0) for r in same]):.3f} | "
-                         + f"{np.mean([r[4].mean() for r in same]):.2f} | - |")
+            lines.append(
+                f"| {method} | {value} | mean over runs | {sum(len(r[3]) for r in same)} | "
+                + ("- | - | - | - | " if split else "")
+                + f"{np.mean([r[3].mean() for r in same]):.2f} | - | {np.mean([np.mean(r[3] < 30.0) for r in same]):.3f} | "
+                + f"{np.mean([r[4].mean() for r in same]):.2f} | - |"
+            )
     write_text(Path(args.out), "\n".join(lines) + "\n")
     print(f"wrote {len(rows)} rows to {args.out}")
     return 0

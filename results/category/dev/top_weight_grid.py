@@ -27,8 +27,10 @@ WEIGHTS = (0.0, 0.025, 0.05, 0.075, 0.1, 0.15, 0.2)
 def with_turns(samples, turns: tuple[float, ...]):
     """``samples`` whose rows keep only the turned candidates at ``turns`` (degrees)."""
     samples = samples.copy()
-    samples["info"] = [{**i, "turns": [t for t in i.get("turns", []) if t["turn_deg"] in turns]}
-                       if isinstance(i, dict) else i for i in samples["info"]]
+    samples["info"] = [
+        {**i, "turns": [t for t in i.get("turns", []) if t["turn_deg"] in turns]} if isinstance(i, dict) else i
+        for i in samples["info"]
+    ]
     return samples
 
 
@@ -81,8 +83,8 @@ def set_runs(sweep: str | Path) -> list:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from catpose.bench.protocols.absolute import absolute_gt_only
     from catpose.atomic import write_text
+    from catpose.bench.protocols.absolute import absolute_gt_only
 
     ap = sweeps_parser(__doc__)
     ap.add_argument("--turn-sets", default="none", help="';'-separated sets of turns (degrees), 'none' for none")
@@ -98,19 +100,26 @@ def main(argv: list[str] | None = None) -> int:
                 gaps.setdefault((run.method, turns), []).append([gap(samples, w, turns) for w in weights])
     sets = len(args.sweeps)
     show_turns = turn_sets != [()]
-    lines = [f"**{args.title}: chosen mean error less the oracle's (degrees) by the top-offset "
-             f"weight of `cross_top` ({sets} template sets; weight 0 is `cross`)**", "",
-             "| method | " + ("turns | " if show_turns else "") + "weight | "
-             + " | ".join(f"set {i + 1}" for i in range(sets)) + " | mean over sets |",
-             "|---|" + ("---|" if show_turns else "") + "---:|" + "---:|" * (sets + 1)]
+    lines = [
+        f"**{args.title}: chosen mean error less the oracle's (degrees) by the top-offset "
+        f"weight of `cross_top` ({sets} template sets; weight 0 is `cross`)**",
+        "",
+        "| method | "
+        + ("turns | " if show_turns else "")
+        + "weight | "
+        + " | ".join(f"set {i + 1}" for i in range(sets))
+        + " | mean over sets |",
+        "|---|" + ("---|" if show_turns else "") + "---:|" + "---:|" * (sets + 1),
+    ]
     if show_turns:
         lines[0] = lines[0][:-3] + "; turns: the `cross_top_turns` candidates, none: `cross_top`)**"
     for method, turns in sorted(gaps, key=lambda k: (k[0], turn_sets.index(k[1]))):
         g = np.asarray(gaps[(method, turns)], float)
         label = (",".join(f"{t:g}" for t in turns) or "none") + " | " if show_turns else ""
         for j, w in enumerate(weights):
-            lines.append(f"| {method} | {label}{w:g} | " + " | ".join(f"{x:.2f}" for x in g[:, j])
-                         + f" | {g[:, j].mean():.2f} |")
+            lines.append(
+                f"| {method} | {label}{w:g} | " + " | ".join(f"{x:.2f}" for x in g[:, j]) + f" | {g[:, j].mean():.2f} |"
+            )
     write_text(Path(args.out), "\n".join(lines) + "\n")
     print(f"wrote {len(lines) - 4} rows to {args.out}")
     return 0

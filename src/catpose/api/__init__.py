@@ -21,7 +21,7 @@ Example::
     print(result.T_template_camera)   # (4, 4), millimetres: p_template = R p_camera + t
 """
 
-from catpose.api.build import build_method
+from catpose.api.method_cache import build_method
 from catpose.api.register import UP_HYPOTHESES, Registration, register
 
 __all__ = ["Registration", "UP_HYPOTHESES", "build_method", "register"]

@@ -17,8 +17,15 @@ from catpose.errors import CatposeError, InvalidInputError
 from catpose.geometry import apply_R, axis_angle_to_R, dot3, norm3, normalize_to_unit_sphere, unit3
 from catpose.types import Template
 
-__all__ = ["cloud_arg", "direction_arg", "estimated_normals", "normalised_template", "normals_arg",
-           "oriented_to_camera", "subsample"]
+__all__ = [
+    "cloud_arg",
+    "direction_arg",
+    "estimated_normals",
+    "normalised_template",
+    "normals_arg",
+    "oriented_to_camera",
+    "subsample",
+]
 
 
 def cloud_arg(name: str, value: Any, min_points: int = 10) -> np.ndarray:
@@ -30,8 +37,9 @@ def cloud_arg(name: str, value: Any, min_points: int = 10) -> np.ndarray:
     if a.ndim != 2 or a.shape[1] != 3:
         raise InvalidInputError(f"{name} has shape {a.shape}; expected (N, 3)")
     if not np.isfinite(a).all():
-        raise InvalidInputError(f"{name} has {int((~np.isfinite(a).all(axis=1)).sum())} rows with NaN or inf; "
-                                "drop them first")
+        raise InvalidInputError(
+            f"{name} has {int((~np.isfinite(a).all(axis=1)).sum())} rows with NaN or inf; drop them first"
+        )
     if len(a) < min_points:
         raise InvalidInputError(f"{name} has {len(a)} points; at least {min_points} are needed")
     return a
@@ -46,8 +54,9 @@ def normals_arg(name: str, value: Any, points: np.ndarray) -> np.ndarray | None:
         raise InvalidInputError(f"{name} has shape {n.shape}; expected {points.shape} (one normal per point)")
     length = norm3(n)
     if (length < 1e-12).any():
-        raise InvalidInputError(f"{name} has {int((length < 1e-12).sum())} zero-length normals; "
-                                "pass None to estimate them")
+        raise InvalidInputError(
+            f"{name} has {int((length < 1e-12).sum())} zero-length normals; pass None to estimate them"
+        )
     return n / length[:, None]
 
 
@@ -68,8 +77,10 @@ def _template_geometry(template: Any) -> tuple[np.ndarray, np.ndarray | None]:
         from catpose.datasets.meshio import read_mesh
 
         if not Path(template).is_file():
-            raise InvalidInputError(f"template: mesh file {template} does not exist; pass an existing .off, .obj or "
-                                    ".ply file, a mesh or an (M, 3) array")
+            raise InvalidInputError(
+                f"template: mesh file {template} does not exist; pass an existing .off, .obj or "
+                ".ply file, a mesh or an (M, 3) array"
+            )
         try:
             return read_mesh(template)
         except CatposeError as e:
@@ -79,8 +90,13 @@ def _template_geometry(template: Any) -> tuple[np.ndarray, np.ndarray | None]:
         if f.size == 0:
             return cloud_arg("template vertices", v), None
         return cloud_arg("template vertices", v, 3), _triangles(f, len(v))
-    if isinstance(template, (tuple, list)) and len(template) == 2 and np.ndim(template[1]) == 2 \
-            and np.shape(template[1])[-1] == 3 and np.ndim(template[0]) == 2:
+    if (
+        isinstance(template, (tuple, list))
+        and len(template) == 2
+        and np.ndim(template[1]) == 2
+        and np.shape(template[1])[-1] == 3
+        and np.ndim(template[0]) == 2
+    ):
         v = cloud_arg("template vertices", template[0], 3)
         return v, _triangles(template[1], len(v))
     return cloud_arg("template", template), None
@@ -117,8 +133,9 @@ def subsample(n: int, max_points: int, key: str) -> np.ndarray | None:
     return np.sort(np.random.default_rng(stable_seed("catpose.register", key)).choice(n, max_points, replace=False))
 
 
-def normalised_template(template: Any, template_normals: Any, template_up: np.ndarray,
-                   template_points: int) -> tuple[Template, np.ndarray, np.ndarray, float]:
+def normalised_template(
+    template: Any, template_normals: Any, template_up: np.ndarray, template_points: int
+) -> tuple[Template, np.ndarray, np.ndarray, float]:
     """The normalised :class:`Template` and ``(R_up (3, 3), centre (3,), scale)`` with
     ``p_normalised = (R_up p - centre) / scale``."""
     from catpose.datasets.meshio import sampled_template
@@ -127,8 +144,10 @@ def normalised_template(template: Any, template_normals: Any, template_up: np.nd
     geometry, triangles = _template_geometry(template)
     normals = None if triangles is not None else normals_arg("template_normals", template_normals, geometry)
     if triangles is not None and template_normals is not None:
-        raise InvalidInputError("template_normals applies to a point-cloud template; a mesh's normals come "
-                                "from its faces: drop template_normals")
+        raise InvalidInputError(
+            "template_normals applies to a point-cloud template; a mesh's normals come "
+            "from its faces: drop template_normals"
+        )
     R_up = _R_onto_z(template_up)
     rotated = apply_R(R_up, geometry)
     try:

@@ -6,14 +6,22 @@ from __future__ import annotations
 
 import time
 import warnings
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
-from catpose.api.build import build_method, uses_up
-from catpose.api.inputs import (cloud_arg, direction_arg, estimated_normals, normalised_template, normals_arg,
-                                oriented_to_camera, subsample)
+from catpose.api.inputs import (
+    cloud_arg,
+    direction_arg,
+    estimated_normals,
+    normalised_template,
+    normals_arg,
+    oriented_to_camera,
+    subsample,
+)
+from catpose.api.method_cache import build_method, uses_up
 from catpose.errors import CatposeError, InvalidInputError
 from catpose.geometry import apply_R, make_T, matmul3, norm3, unit3
 from catpose.types import RegistrationProblem, RegistrationResult, Template
@@ -61,12 +69,20 @@ class Registration:
     runtime_s: float = float("nan")
 
 
-
-
-def register(observation: Any, template: Any, method: str | Any = "ours", up: Sequence[float] | None = None, *,
-             observation_normals: Any = None, template_normals: Any = None,
-             template_up: Sequence[float] = (0.0, 0.0, 1.0), max_points: int = 2048, template_points: int = 2048,
-             up_hypotheses: int = UP_HYPOTHESES, **options: Any) -> Registration:
+def register(
+    observation: Any,
+    template: Any,
+    method: str | Any = "ours",
+    up: Sequence[float] | None = None,
+    *,
+    observation_normals: Any = None,
+    template_normals: Any = None,
+    template_up: Sequence[float] = (0.0, 0.0, 1.0),
+    max_points: int = 2048,
+    template_points: int = 2048,
+    up_hypotheses: int = UP_HYPOTHESES,
+    **options: Any,
+) -> Registration:
     """Estimate the camera pose ``T_template_camera`` of a partial view of an object.
 
     Args:
@@ -77,7 +93,7 @@ def register(observation: Any, template: Any, method: str | Any = "ours", up: Se
             OFF, OBJ or PLY mesh. A mesh is sampled on its outer surface (``template_points``).
         method: a config name, ``ours`` (the paper's method), ``icp``, ``fgr``, ``ransac``,
             ``teaser`` (``configs/method/<name>.yaml``, built as ``bench run`` builds it), or a
-            :class:`~catpose.methods.base.RegistrationMethod` instance.
+            :class:`~catpose.methods.method.RegistrationMethod` instance.
         up: the template's up direction (``template_up``) seen in the camera frame, i.e. the
             ground plane's normal pointing away from the ground (3,). ICP and the FPFH/PFH
             baselines do not use it. Ours does (LPS descriptor frames and its gravity filter):
@@ -113,8 +129,11 @@ def register(observation: Any, template: Any, method: str | Any = "ours", up: Se
     obs_normals = normals_arg("observation_normals", observation_normals, pts)
     t_up = direction_arg("template_up", template_up)
     up_camera = None if up is None else direction_arg("up", up)
-    for name, value in (("max_points", max_points), ("template_points", template_points),
-                        ("up_hypotheses", up_hypotheses)):
+    for name, value in (
+        ("max_points", max_points),
+        ("template_points", template_points),
+        ("up_hypotheses", up_hypotheses),
+    ):
         least = 0 if name == "max_points" else 1
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
             raise InvalidInputError(f"{name}={value!r} is not a positive integer")
@@ -122,19 +141,25 @@ def register(observation: Any, template: Any, method: str | Any = "ours", up: Se
         method_name, impl = method, build_method(method, **options)
     else:
         if not callable(getattr(method, "register", None)):
-            raise InvalidInputError(f"method is a {type(method).__name__}; pass a config name "
-                                    "(ours, icp, fgr, ransac, teaser) or a RegistrationMethod instance")
+            raise InvalidInputError(
+                f"method is a {type(method).__name__}; pass a config name "
+                "(ours, icp, fgr, ransac, teaser) or a RegistrationMethod instance"
+            )
         if options:
-            raise InvalidInputError(f"options {sorted(options)} apply to a method config name, not to an instance; "
-                                    "set them on the instance")
+            raise InvalidInputError(
+                f"options {sorted(options)} apply to a method config name, not to an instance; set them on the instance"
+            )
         method_name, impl = type(method).__name__, method
 
     tmpl, R_up, centre, scale = normalised_template(template, template_normals, t_up, int(template_points))
     points = pts / scale
     radius = float(norm3(points - 0.5 * (points.min(axis=0) + points.max(axis=0))).max())
     if radius > 2.0:
-        warnings.warn(f"catpose.register: the observation spans {radius:.1f} template radii; check that both clouds "
-                      "use the same unit and that the observation holds only the object", stacklevel=2)
+        warnings.warn(
+            f"catpose.register: the observation spans {radius:.1f} template radii; check that both clouds "
+            "use the same unit and that the observation holds only the object",
+            stacklevel=2,
+        )
     normals = oriented_to_camera(points, obs_normals) if obs_normals is not None else estimated_normals(points)
     keep = subsample(len(points), int(max_points), "observation")
     if keep is not None:
@@ -167,23 +192,38 @@ def register(observation: Any, template: Any, method: str | Any = "ours", up: Se
         best = min(range(len(tried)), key=lambda i: (not np.isfinite(tried[i][1].score), tried[i][1].score))
         chosen_up, result = tried[best]
         extras = dict(result.extras)
-        extras["up_search"] = {"hypotheses": [[float(x) for x in g] for g, _ in tried],
-                               "scores": [float(r.score) for _, r in tried], "chosen": best}
+        extras["up_search"] = {
+            "hypotheses": [[float(x) for x in g] for g, _ in tried],
+            "scores": [float(r.score) for _, r in tried],
+            "chosen": best,
+        }
         parts = [_candidates(r) for _, r in tried]
         cands, scores = np.concatenate([c for c, _ in parts]), np.concatenate([s for _, s in parts])
 
     to_caller = lambda T: _to_caller(T, R_up, centre, scale)  # noqa: E731
-    return Registration(T_template_camera=to_caller(np.asarray(result.T_target_source, float)),
-                        score=float(result.score), candidates=np.stack([to_caller(T) for T in cands]),
-                        candidate_scores=scores, method=method_name, scale=float(scale),
-                        up_camera=None if chosen_up is None else np.asarray(chosen_up, float),
-                        extras=extras, runtime_s=runtime)
+    return Registration(
+        T_template_camera=to_caller(np.asarray(result.T_template_camera, float)),
+        score=float(result.score),
+        candidates=np.stack([to_caller(T) for T in cands]),
+        candidate_scores=scores,
+        method=method_name,
+        scale=float(scale),
+        up_camera=None if chosen_up is None else np.asarray(chosen_up, float),
+        extras=extras,
+        runtime_s=runtime,
+    )
 
 
 def _problem(points: np.ndarray, normals: np.ndarray, g: np.ndarray, template: Template) -> RegistrationProblem:
     try:
-        return RegistrationProblem(sample_id="catpose.register", category="object", points_camera=points,
-                                   normals_camera=normals, ground_normal_camera=g, template=template)
+        return RegistrationProblem(
+            sample_id="catpose.register",
+            category="object",
+            points_camera=points,
+            normals_camera=normals,
+            ground_normal_camera=g,
+            template=template,
+        )
     except CatposeError as e:
         raise InvalidInputError(str(e).replace("sample catpose.register: observed cloud", "observation")) from None
 
@@ -198,7 +238,7 @@ def _call(method: Any, problem: RegistrationProblem) -> RegistrationResult:
 
 def _candidates(result: RegistrationResult) -> tuple[np.ndarray, np.ndarray]:
     if result.candidates_T is None or len(result.candidates_T) == 0:
-        return np.asarray(result.T_target_source, float)[None], np.array([float(result.score)])
+        return np.asarray(result.T_template_camera, float)[None], np.array([float(result.score)])
     return np.asarray(result.candidates_T, float), np.asarray(result.candidate_scores, float)
 
 

@@ -31,8 +31,8 @@ Nothing is written into the installed package: ``--out`` is required.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -64,7 +64,9 @@ def _kmedoids():
     try:
         import kmedoids
     except ImportError:
-        raise ConfigError("bench templates needs kmedoids (GPL-3.0, optional): pip install 'catpose[kmedoids]'") from None
+        raise ConfigError(
+            "bench templates needs kmedoids (GPL-3.0, optional): pip install 'catpose[kmedoids]'"
+        ) from None
     return kmedoids
 
 
@@ -96,8 +98,11 @@ def silhouette_by_k(D: np.ndarray, ks: Sequence[int], seed: int = 0) -> dict[int
     from sklearn.metrics import silhouette_score
 
     n = len(D)
-    return {int(k): float(silhouette_score(D, select_medoids(D, int(k), seed)[1], metric="precomputed"))
-            for k in ks if 2 <= int(k) <= n - 1}
+    return {
+        int(k): float(silhouette_score(D, select_medoids(D, int(k), seed)[1], metric="precomputed"))
+        for k in ks
+        if 2 <= int(k) <= n - 1
+    }
 
 
 def subsample(points: np.ndarray, n: int, seed: int) -> np.ndarray:
@@ -108,8 +113,9 @@ def subsample(points: np.ndarray, n: int, seed: int) -> np.ndarray:
     return np.asarray(points, float)[np.sort(rng.choice(len(points), size=n, replace=False))]
 
 
-def choose_templates(clouds: dict[str, np.ndarray], k: int | str, tau: float = 0.05, n_points: int = 2048,
-                     seed: int = 0) -> dict:
+def choose_templates(
+    clouds: dict[str, np.ndarray], k: int | str, tau: float = 0.05, n_points: int = 2048, seed: int = 0
+) -> dict:
     """Pick ``k`` template ids among ``clouds`` (instance id -> (N, 3) complete cloud, canonical frame).
 
     ``k="auto"`` takes the K (2..N-1) with the highest silhouette score.
@@ -129,8 +135,14 @@ def choose_templates(clouds: dict[str, np.ndarray], k: int | str, tau: float = 0
     medoids, labels = select_medoids(D, int(k), seed)
     clusters = {ids[m]: [ids[j] for j in np.flatnonzero(labels == c)] for c, m in enumerate(medoids)}
     mean_d = float(np.mean([D[j, medoids[labels[j]]] for j in range(len(ids))]))
-    return {"templates": [ids[m] for m in medoids], "clusters": clusters, "mean_distance": mean_d,
-            "silhouette": silhouette, "distances": D, "ids": ids}
+    return {
+        "templates": [ids[m] for m in medoids],
+        "clusters": clusters,
+        "mean_distance": mean_d,
+        "silhouette": silhouette,
+        "distances": D,
+        "ids": ids,
+    }
 
 
 def write_templates_yaml(path: str | Path, category: str, result: dict, settings: dict) -> Path:
@@ -151,13 +163,15 @@ def write_templates_yaml(path: str | Path, category: str, result: dict, settings
             raise ConfigError(f"{path} is not a category -> template ids mapping; pass another --out")
         doc = {str(k): v for k, v in old.items()}
     doc[category] = list(result["templates"])
-    lines = ["# @package dataset.templates",
-             "# Category templates chosen by `bench templates`: K-medoids (FasterPAM) over 1 - F-score@tau",
-             f"# between complete canonical clouds. Last run ({category}): "
-             + ", ".join(f"{k}={v}" for k, v in settings.items()),
-             f"# mean distance to medoid {result['mean_distance']:.4f}; silhouette by K: "
-             + (", ".join(f"{k}: {v:.3f}" for k, v in result.get("silhouette", {}).items()) or "n/a"),
-             "# clusters (medoid: members):"]
+    lines = [
+        "# @package dataset.templates",
+        "# Category templates chosen by `bench templates`: K-medoids (FasterPAM) over 1 - F-score@tau",
+        f"# between complete canonical clouds. Last run ({category}): "
+        + ", ".join(f"{k}={v}" for k, v in settings.items()),
+        f"# mean distance to medoid {result['mean_distance']:.4f}; silhouette by K: "
+        + (", ".join(f"{k}: {v:.3f}" for k, v in result.get("silhouette", {}).items()) or "n/a"),
+        "# clusters (medoid: members):",
+    ]
     lines += [f"#   {m}: {', '.join(members)}" for m, members in result["clusters"].items()]
     from catpose import atomic
 
@@ -167,13 +181,18 @@ def write_templates_yaml(path: str | Path, category: str, result: dict, settings
 
 def main(argv: list[str] | None = None) -> int:
     """``bench templates dataset=NAME [dataset.key=value ...] --category C --k K [--tau T] --out FILE``."""
-    ap = argparse.ArgumentParser(prog="bench templates",
-                                 description="Choose K category templates by K-medoids over F-score distance.")
+    ap = argparse.ArgumentParser(
+        prog="bench templates", description="Choose K category templates by K-medoids over F-score distance."
+    )
     ap.add_argument("overrides", nargs="*", help="Hydra overrides: dataset=NAME dataset.root=... seed=...")
     ap.add_argument("--category", required=True)
     ap.add_argument("--k", default="5", help="number of templates, or 'auto' (best silhouette)")
     ap.add_argument("--tau", type=float, default=0.05, help="F-score distance threshold (object-normalised unit)")
-    ap.add_argument("--split", default="train", help="which instances to cluster (datasets with splits; catpose.bench.category.instances)")
+    ap.add_argument(
+        "--split",
+        default="train",
+        help="which instances to cluster (datasets with splits; catpose.bench.category.instances)",
+    )
     ap.add_argument("--instances", default=None, help="comma-separated instance ids (default: the split's)")
     ap.add_argument("--points", type=int, default=2048, help="points per cloud")
     ap.add_argument("--seed", type=int, default=0)
@@ -188,8 +207,10 @@ def main(argv: list[str] | None = None) -> int:
     from catpose.bench.run.config import compose, compose_and_build
 
     overrides = list(args.overrides)
-    if (not any(o.lstrip("+~").startswith("dataset.categories=") for o in overrides)
-            and "alignment_table" in compose(overrides).dataset):  # ModelNet40: the category at hand, whose table
+    if (
+        not any(o.lstrip("+~").startswith("dataset.categories=") for o in overrides)
+        and "alignment_table" in compose(overrides).dataset
+    ):  # ModelNet40: the category at hand, whose table
         overrides.append(f"dataset.categories=[{args.category}]")  # need not cover the others
     _, ((name, dataset),) = compose_and_build(overrides, ("dataset",))  # one-line errors (missing root, ...)
     require_consistent_frames(dataset, "bench templates")
@@ -197,16 +218,30 @@ def main(argv: list[str] | None = None) -> int:
     if hasattr(dataset, "check_alignment_covers"):  # the instances clustered here are in the table too
         dataset.check_alignment_covers({args.category: ids})
     if len(ids) < (3 if k == "auto" else k):
-        raise DatasetError(f"dataset {name} has {len(ids)} {args.split} instances of {args.category!r}; "
-                           f"--k {args.k} needs more (check --category, --split, dataset.root)")
+        raise DatasetError(
+            f"dataset {name} has {len(ids)} {args.split} instances of {args.category!r}; "
+            f"--k {args.k} needs more (check --category, --split, dataset.root)"
+        )
     clouds = {i: dataset.instance_model(args.category, i).points for i in ids}
     result = choose_templates(clouds, k, args.tau, args.points, args.seed)
     out = Path(args.out)
-    write_templates_yaml(out, args.category, result, {"dataset": name, "split": args.split,
-                                                      "k": len(result["templates"]),
-                                                      "tau": args.tau, "points": args.points, "seed": args.seed,
-                                                      "n_instances": len(ids)})
+    write_templates_yaml(
+        out,
+        args.category,
+        result,
+        {
+            "dataset": name,
+            "split": args.split,
+            "k": len(result["templates"]),
+            "tau": args.tau,
+            "points": args.points,
+            "seed": args.seed,
+            "n_instances": len(ids),
+        },
+    )
     sil = ", ".join(f"K={kk}: {v:.3f}" for kk, v in result["silhouette"].items()) or "n/a"
-    print(f"{args.category}: templates {result['templates']} (mean 1-F to medoid {result['mean_distance']:.3f}; "
-          f"silhouette {sil}); wrote {out}")
+    print(
+        f"{args.category}: templates {result['templates']} (mean 1-F to medoid {result['mean_distance']:.3f}; "
+        f"silhouette {sil}); wrote {out}"
+    )
     return 0

@@ -20,8 +20,9 @@ def main(argv: list[str]) -> int:
     from catpose.bench.real.split import load_split
     from catpose.bench.run.config import compose_and_build, shared_data_dir
 
-    parser = argparse.ArgumentParser(prog="bench clutter", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="bench clutter", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("overrides", nargs="*", help="dataset overrides, e.g. dataset.num_scenes=40")
     parser.add_argument("--part", default=None, help="only the scenes of this part of configs/split/clutter.yaml")
     args = parser.parse_args(argv)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from catpose.bench.category import templates_select as ts
+from catpose.bench.category import template_medoids as ts
 from catpose.errors import ConfigError
 from catpose.geometry import normalize_to_unit_sphere
 
@@ -89,8 +89,7 @@ def test_silhouette_picks_the_three_families():
     assert len(result["templates"]) == 3 and max(result["silhouette"], key=result["silhouette"].get) == 3
     assert set(result["silhouette"]) == set(range(2, len(clouds)))
     labels = ts.select_medoids(result["distances"], 3, 0)[1]
-    assert result["silhouette"][3] == pytest.approx(silhouette_score(result["distances"], labels,
-                                                                     metric="precomputed"))
+    assert result["silhouette"][3] == pytest.approx(silhouette_score(result["distances"], labels, metric="precomputed"))
 
 
 def test_write_yaml_keeps_other_categories(tmp_path: Path):
@@ -108,8 +107,21 @@ def test_write_yaml_keeps_other_categories(tmp_path: Path):
 
 def test_cli_on_synthetic_dataset(tmp_path: Path):
     out = tmp_path / "t.yaml"
-    rc = ts.main(["dataset=synthetic", "dataset.categories=[mug]", "dataset.instances_per_category=3",
-                  "--category", "mug", "--k", "2", "--points", "300", "--out", str(out)])
+    rc = ts.main(
+        [
+            "dataset=synthetic",
+            "dataset.categories=[mug]",
+            "dataset.instances_per_category=3",
+            "--category",
+            "mug",
+            "--k",
+            "2",
+            "--points",
+            "300",
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     doc = yaml.safe_load(out.read_text())
     assert list(doc) == ["mug"] and len(doc["mug"]) == 2
@@ -119,8 +131,21 @@ def test_cli_on_synthetic_dataset(tmp_path: Path):
 def test_cli_on_shared_modelnet40_airplanes(shared_data: Path, tmp_path: Path):
     out = tmp_path / "airplane.yaml"
     table = Path(__file__).resolve().parents[1] / "results/alignment/modelnet40_airplane.csv"
-    rc = ts.main(["dataset=modelnet40", f"dataset.root={shared_data / 'ModelNet40'}", f"dataset.alignment_table={table}",
-                  "--category", "airplane", "--k", "2", "--points", "512", "--out", str(out)])
+    rc = ts.main(
+        [
+            "dataset=modelnet40",
+            f"dataset.root={shared_data / 'ModelNet40'}",
+            f"dataset.alignment_table={table}",
+            "--category",
+            "airplane",
+            "--k",
+            "2",
+            "--points",
+            "512",
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     chosen = yaml.safe_load(out.read_text())["airplane"]
     assert len(set(chosen)) == 2 and all(c.startswith("airplane_000") for c in chosen)
@@ -129,13 +154,16 @@ def test_cli_on_shared_modelnet40_airplanes(shared_data: Path, tmp_path: Path):
 def test_written_file_is_a_hydra_group_for_dataset_templates(tmp_path: Path):
     from hydra import compose, initialize_config_module
 
-    result = {"templates": ["chair_0002", "chair_0001"], "clusters": {"chair_0002": ["chair_0002"],
-                                                                      "chair_0001": ["chair_0001"]},
-              "mean_distance": 0.0}
+    result = {
+        "templates": ["chair_0002", "chair_0001"],
+        "clusters": {"chair_0002": ["chair_0002"], "chair_0001": ["chair_0001"]},
+        "mean_distance": 0.0,
+    }
     ts.write_templates_yaml(tmp_path / "templates" / "mn_chair.yaml", "chair", result, {"k": 2})
     with initialize_config_module("catpose.configs", version_base=None):
-        cfg = compose("run", overrides=["dataset=modelnet40", "+templates=mn_chair",
-                                        f"hydra.searchpath=[file://{tmp_path}]"])
+        cfg = compose(
+            "run", overrides=["dataset=modelnet40", "+templates=mn_chair", f"hydra.searchpath=[file://{tmp_path}]"]
+        )
     assert list(cfg.dataset.templates.chair) == ["chair_0002", "chair_0001"]
 
 
@@ -147,8 +175,20 @@ def test_out_is_required_and_unaligned_data_is_refused(tmp_path, capsys):
     (root / "chair" / "train").mkdir(parents=True)
     from catpose.bench.cli import main
 
-    assert main(["templates", "dataset=modelnet40", f"dataset.root={root}", "--category", "chair",
-                 "--out", str(tmp_path / "t.yaml")]) == 2
+    assert (
+        main(
+            [
+                "templates",
+                "dataset=modelnet40",
+                f"dataset.root={root}",
+                "--category",
+                "chair",
+                "--out",
+                str(tmp_path / "t.yaml"),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("bench templates: error: ") and "bench align" in err[0]
     assert not (tmp_path / "t.yaml").exists()
@@ -157,7 +197,19 @@ def test_out_is_required_and_unaligned_data_is_refused(tmp_path, capsys):
 def test_bad_dataset_root_is_one_line(tmp_path, capsys):
     from catpose.bench.cli import main
 
-    assert main(["templates", "--category", "chair", "dataset=modelnet40", f"dataset.root={tmp_path / 'nope'}",
-                 "--out", str(tmp_path / "t.yaml")]) == 2
+    assert (
+        main(
+            [
+                "templates",
+                "--category",
+                "chair",
+                "dataset=modelnet40",
+                f"dataset.root={tmp_path / 'nope'}",
+                "--out",
+                str(tmp_path / "t.yaml"),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("bench templates: error: ") and "nope" in err[0]

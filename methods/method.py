@@ -18,4 +18,4 @@ class RegistrationMethod(ABC):
 
     @abstractmethod
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
-        """Return the estimate of ``T_template_camera`` as ``T_target_source``."""
+        """Return the estimate of ``T_template_camera``."""

@@ -25,8 +25,8 @@ import argparse
 import html
 import os
 import re
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from catpose import atomic
 from catpose.errors import CatposeError
@@ -90,13 +90,23 @@ def _write_table(table, out: Path, stem: str) -> list[str]:
 
     for fmt, ext in (("md", "md"), ("latex", "tex"), ("csv", "csv")):
         atomic.write_text(out / "tables" / f"{stem}.{ext}", tables.RENDERERS[fmt](table))
-    return [tables.to_markdown(table),
-            f"Files: [md](tables/{stem}.md), [LaTeX](tables/{stem}.tex), [CSV](tables/{stem}.csv)", ""]
+    return [
+        tables.to_markdown(table),
+        f"Files: [md](tables/{stem}.md), [LaTeX](tables/{stem}.tex), [CSV](tables/{stem}.csv)",
+        "",
+    ]
 
 
-def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Sequence[str] = (),
-                 qualitative: int = 0, labels: dict[str, str] | None = None, notes: Sequence[str] = (),
-                 pdf: bool = True, left_out: list[str] | None = None) -> Path:
+def build_report(
+    run_dirs: Sequence[str | Path],
+    out: str | Path,
+    layouts: Sequence[str] = (),
+    qualitative: int = 0,
+    labels: dict[str, str] | None = None,
+    notes: Sequence[str] = (),
+    pdf: bool = True,
+    left_out: list[str] | None = None,
+) -> Path:
     """Write the report folder (see the module docstring); returns the path of ``index.md``.
 
     ``notes`` are paragraphs put under the title (how the runs were made); ``pdf`` adds a PDF
@@ -122,9 +132,13 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
     colors = {lab: f"C{k % 10}" for k, lab in enumerate(dict.fromkeys(label_of[id(r)] for r in runs))}
     root, rel = _relative_names([r.path for r in runs])
     md = ["# catpose report", ""] + [x for n in notes for x in (n, "")]
-    md += [f"Built from these run directories (below their common folder `{root}/`; revision = the git "
-           "revision each run was made at):", "",
-           "| Label | Protocol | Run directory | Samples | Revision |", "|---|---|---|---|---|"]
+    md += [
+        f"Built from these run directories (below their common folder `{root}/`; revision = the git "
+        "revision each run was made at):",
+        "",
+        "| Label | Protocol | Run directory | Samples | Revision |",
+        "|---|---|---|---|---|",
+    ]
     for run, path in zip(runs, rel):
         md.append(f"| {label_of[id(run)]} | {run.protocol} | `{path}` | {len(run.samples)} | `{_git_rev(run)}` |")
     md.append("")
@@ -134,20 +148,36 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
     for protocol, group in by_protocol.items():
         names = {str(r.path): label_of[id(r)] for r in group}
         group_labels = [label_of[id(r)] for r in group]
-        md += [f"## Protocol `{protocol}`", "", f"{PROTOCOL_TEXT.get(protocol, protocol).capitalize()}.", "",
-               "### Tables", ""]
-        summary = tables.build_table(group, "generic", categories=["all"], labels=names,
-                                     metrics=["mean", "median", "acc10", "acc30", "trans", "runtime", "failed"],
-                                     title=f"All categories pooled ({protocol})")
+        md += [
+            f"## Protocol `{protocol}`",
+            "",
+            f"{PROTOCOL_TEXT.get(protocol, protocol).capitalize()}.",
+            "",
+            "### Tables",
+            "",
+        ]
+        summary = tables.build_table(
+            group,
+            "generic",
+            categories=["all"],
+            labels=names,
+            metrics=["mean", "median", "acc10", "acc30", "trans", "runtime", "failed"],
+            title=f"All categories pooled ({protocol})",
+        )
         # One category ("all"): the metric alone names each column.
         summary.cells = {(r, c[1:]): v for (r, c), v in summary.cells.items()}
         summary.columns = [c[1:] for c in summary.columns]
         md += _write_table(summary, out, f"{protocol}_summary")
         cats = sorted({str(c) for r in group for c in r.samples.get("category", [])})
         if cats:
-            per_cat = tables.build_table(group, "tyol", categories=cats, labels=names,
-                                         metrics=["mean", "median", "acc10", "acc30"],
-                                         title=f"Per category ({protocol})")
+            per_cat = tables.build_table(
+                group,
+                "tyol",
+                categories=cats,
+                labels=names,
+                metrics=["mean", "median", "acc10", "acc30"],
+                title=f"Per category ({protocol})",
+            )
             md += _write_table(per_cat, out, f"{protocol}_per_category")
         for layout in layouts:
             md += _write_table(tables.build_table(group, layout, labels=names), out, f"{protocol}_{layout}")
@@ -157,24 +187,44 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
         samples = _units_by_label(group_labels, [r.samples for r in group])
         fig = out / "figures"
         figures = [
-            ("error_cdf", "Cumulative error distribution per category",
-             plots.plot_error_cdf(units, fig / f"{protocol}_error_cdf", pdf=pdf, colors=colors)),
-            ("accuracy", "Accuracy at thresholds", plots.plot_accuracy(units, fig / f"{protocol}_accuracy", pdf=pdf, colors=colors)),
+            (
+                "error_cdf",
+                "Cumulative error distribution per category",
+                plots.plot_error_cdf(units, fig / f"{protocol}_error_cdf", pdf=pdf, colors=colors),
+            ),
+            (
+                "accuracy",
+                "Accuracy at thresholds",
+                plots.plot_accuracy(units, fig / f"{protocol}_accuracy", pdf=pdf, colors=colors),
+            ),
             ("runtime", "Runtime per registration", plots.plot_runtime(samples, fig / f"{protocol}_runtime", pdf=pdf)),
         ]
-        md += ["### Figures", "", "Runtime: wall-clock seconds per registration, measured under whatever load the "
-               "machine had during the run; compare only runs made together."
-               + ("" if protocol == "gt_model" else " The tables' time is per scored unit (a view with all its "
-                  "templates, or a pair of views); the box plot shows single registrations."), ""]
-        for name, caption, paths in figures:
+        md += [
+            "### Figures",
+            "",
+            "Runtime: wall-clock seconds per registration, measured under whatever load the "
+            "machine had during the run; compare only runs made together."
+            + (
+                ""
+                if protocol == "gt_model"
+                else " The tables' time is per scored unit (a view with all its "
+                "templates, or a pair of views); the box plot shows single registrations."
+            ),
+            "",
+        ]
+        for _name, caption, paths in figures:
             links = ", ".join(f"[{p.suffix[1:].upper()}](figures/{p.name})" for p in paths[1:])
             md += [f"#### {caption}", "", f"![{caption}](figures/{paths[0].name})", "", f"Data and vector: {links}", ""]
 
         if qualitative > 0:
-            md += ["### Examples: the worst registration and a typical failure per method", "",
-                   f"A typical failure is the one closest to the median error among those above {FAILURE_DEG:g} deg. "
-                   "Orange: the input carried into the template frame (left: by the estimate, right: by the truth); "
-                   "blue-grey: the template.", ""]
+            md += [
+                "### Examples: the worst registration and a typical failure per method",
+                "",
+                f"A typical failure is the one closest to the median error among those above {FAILURE_DEG:g} deg. "
+                "Orange: the input carried into the template frame (left: by the estimate, right: by the truth); "
+                "blue-grey: the template.",
+                "",
+            ]
             for run, label, u in zip(group, group_labels, run_units):
                 view_rows = run.samples if run.protocol == "relative" else u  # pairs have no single sample
                 picks = qualitative_picks(view_rows, qualitative)
@@ -184,13 +234,20 @@ def build_report(run_dirs: Sequence[str | Path], out: str | Path, layouts: Seque
                     md += [f"**{label}**: no other registration with error above {FAILURE_DEG:g} deg.", ""]
                 for kind, sid in picks:
                     err = float(view_rows.loc[view_rows["sample_id"] == sid, "err_deg"].iloc[-1])
-                    stem = fig / f"{protocol}_{re.sub(r'[^A-Za-z0-9]+', '_', label).strip('_')}_{kind.replace(' ', '_')}"
+                    stem = (
+                        fig / f"{protocol}_{re.sub(r'[^A-Za-z0-9]+', '_', label).strip('_')}_{kind.replace(' ', '_')}"
+                    )
                     try:
                         plot_sample_from_run(run.path, sid, stem, f"{label} | {sid} | {kind}", pdf=False)
                     except CatposeError as e:
                         md += [f"**{label}**, {kind} `{sid}` ({err:.1f} deg): not drawn ({e})", ""]
                         break
-                    md += [f"**{label}**, {kind}: `{sid}`, {err:.1f} deg", "", f"![{label} {kind}](figures/{stem.name}.png)", ""]
+                    md += [
+                        f"**{label}**, {kind}: `{sid}`, {err:.1f} deg",
+                        "",
+                        f"![{label} {kind}](figures/{stem.name}.png)",
+                        "",
+                    ]
 
     index = out / "index.md"
     atomic.write_text(index, "\n".join(md) + "\n")
@@ -259,30 +316,52 @@ def _html(md_lines: list[str]) -> str:
         elif line.strip():
             body.append(f"<p>{_inline(line)}</p>")
     flush()
-    style = ("body{font-family:sans-serif;max-width:1200px;margin:auto;padding:1em}img{max-width:100%}"
-             "table{border-collapse:collapse;font-size:13px;margin:.5em 0}td,th{border:1px solid #ccc;padding:2px 6px}"
-             "td{text-align:right}td:first-child,th:first-child{text-align:left}")
-    return ("<!doctype html><html><head><meta charset='utf-8'><title>catpose report</title>"
-            f"<style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
+    style = (
+        "body{font-family:sans-serif;max-width:1200px;margin:auto;padding:1em}img{max-width:100%}"
+        "table{border-collapse:collapse;font-size:13px;margin:.5em 0}td,th{border:1px solid #ccc;padding:2px 6px}"
+        "td{text-align:right}td:first-child,th:first-child{text-align:left}"
+    )
+    return (
+        "<!doctype html><html><head><meta charset='utf-8'><title>catpose report</title>"
+        f"<style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
     """``bench report RUN_DIR... --out DIR [--layout L ...] [--qualitative N] [--note TEXT ...]``."""
     from catpose.bench.report.tables import LAYOUTS, RENAMED_LAYOUTS, parse_labels
 
-    ap = argparse.ArgumentParser(prog="bench report", description="Tables and figures of run directories in one folder.")
+    ap = argparse.ArgumentParser(
+        prog="bench report", description="Tables and figures of run directories in one folder."
+    )
     ap.add_argument("runs", nargs="+", help="run directories, or folders searched for samples.jsonl")
     ap.add_argument("--out", required=True)
-    ap.add_argument("--layout", action="append", choices=sorted({*LAYOUTS, *RENAMED_LAYOUTS}),
-                    help="extra table layouts per protocol (always: a summary and a per-category table)")
-    ap.add_argument("--qualitative", type=int, default=0,
-                    help="pictures per run, at most 2: the worst and a typical failure (re-loads samples from the config)")
+    ap.add_argument(
+        "--layout",
+        action="append",
+        choices=sorted({*LAYOUTS, *RENAMED_LAYOUTS}),
+        help="extra table layouts per protocol (always: a summary and a per-category table)",
+    )
+    ap.add_argument(
+        "--qualitative",
+        type=int,
+        default=0,
+        help="pictures per run, at most 2: the worst and a typical failure (re-loads samples from the config)",
+    )
     ap.add_argument("--label", action="append", default=[], help="RUN_DIR=LABEL, repeatable")
     ap.add_argument("--note", action="append", default=[], help="a paragraph under the title (how the runs were made)")
     ap.add_argument("--no-pdf", action="store_true", help="figures as PNG (+ CSV) only")
     args = ap.parse_args(argv)
     left_out: list[str] = []
-    index = build_report(args.runs, args.out, args.layout or [], args.qualitative, parse_labels(args.label),
-                         args.note, pdf=not args.no_pdf, left_out=left_out)
+    index = build_report(
+        args.runs,
+        args.out,
+        args.layout or [],
+        args.qualitative,
+        parse_labels(args.label),
+        args.note,
+        pdf=not args.no_pdf,
+        left_out=left_out,
+    )
     print(f"report written: {index} (and index.html)" + (f"; {len(left_out)} run(s) left out" if left_out else ""))
     return 2 if left_out else 0

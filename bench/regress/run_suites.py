@@ -39,11 +39,19 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
-from catpose.bench.regress.regress_gate import Finding, Gate, to_float, aggregates, compare_method, estimate_distance_deg
+from catpose.bench.regress.regress_gate import (
+    Finding,
+    Gate,
+    aggregates,
+    compare_method,
+    estimate_distance_deg,
+    to_float,
+)
 from catpose.bench.run.config import compose, shared_data_dir
 from catpose.errors import CatposeError, ConfigError, command_error
 
@@ -99,16 +107,22 @@ def load_config(path: str | Path = DEFAULT_CONFIG) -> tuple[Gate, dict[str, Suit
         for key in ("dataset", "protocol", "methods", "reference"):
             if key not in s:
                 raise ConfigError(f"{path}: suite {name!r} lacks {key!r}")
-        suites[name] = Suite(name=name, methods=list(s["methods"]), reference=_repo_path(s["reference"]),
-                             dataset=str(s["dataset"]), protocol=str(s["protocol"]), seed=int(s.get("seed", 0)),
-                             overrides=[str(o) for o in s.get("overrides") or []],
-                             method_overrides={k: list(v) for k, v in (s.get("method_overrides") or {}).items()},
-                             inputs=_repo_path(s["inputs"]) if s.get("inputs") else None,
-                             requires_shared_data=bool(s.get("requires_shared_data", False)))
+        suites[name] = Suite(
+            name=name,
+            methods=list(s["methods"]),
+            reference=_repo_path(s["reference"]),
+            dataset=str(s["dataset"]),
+            protocol=str(s["protocol"]),
+            seed=int(s.get("seed", 0)),
+            overrides=[str(o) for o in s.get("overrides") or []],
+            method_overrides={k: list(v) for k, v in (s.get("method_overrides") or {}).items()},
+            inputs=_repo_path(s["inputs"]) if s.get("inputs") else None,
+            requires_shared_data=bool(s.get("requires_shared_data", False)),
+        )
     return gate, suites
 
 
-def method_available(name: str, suite: "Suite | None" = None) -> str | None:
+def method_available(name: str, suite: Suite | None = None) -> str | None:
     """None when ``configs/method/<name>.yaml`` exists and the method can be built (its module
     and optional dependencies import), else why not."""
     if not (REPO / "configs" / "method" / f"{name}.yaml").is_file():
@@ -128,8 +142,12 @@ def method_available(name: str, suite: "Suite | None" = None) -> str | None:
 
 def _compose(suite: Suite, method: str | None) -> Any:
     shared = str(shared_data_dir())
-    overrides = [f"dataset={suite.dataset}", f"protocol={suite.protocol}", f"seed={suite.seed}",
-                 *[o.replace("{shared_data}", shared) for o in suite.overrides]]
+    overrides = [
+        f"dataset={suite.dataset}",
+        f"protocol={suite.protocol}",
+        f"seed={suite.seed}",
+        *[o.replace("{shared_data}", shared) for o in suite.overrides],
+    ]
     if method:
         overrides += [f"method={method}", *suite.method_overrides.get(method, [])]
     return compose(overrides)
@@ -178,6 +196,7 @@ def slim_rows(suite: Suite, method: str, perturbation: float = 0.0) -> dict[str,
 
         def transform(s):
             return perturbed(s, perturbation, stable_seed("regress-perturb", s.problem.sample_id))
+
     return {k: _slim(v) for k, v in run_method(suite, method, transform).items()}
 
 
@@ -196,12 +215,17 @@ def map_jobs(tasks: Sequence[tuple], jobs: int) -> list:
 def _slim(row: dict) -> dict:
     """The part of a runner row the reference keeps."""
     T = row.get("T_est")
-    return {"category": row.get("category"), "status": row.get("status"), "error": row.get("error") or "",
-            "err_deg": to_float(row.get("err_deg")), "trans_err": to_float(row.get("trans_err")),
-            "T_est": None if T is None else [float(x) for x in list(T)],
-            "T_gt": None if row.get("T_gt") is None else [float(x) for x in list(row["T_gt"])],
-            "symmetry_axis": None if row.get("symmetry_axis") is None else [float(x) for x in list(row["symmetry_axis"])],
-            "symmetries": [[float(x) for x in list(S)] for S in row.get("symmetries") or []]}
+    return {
+        "category": row.get("category"),
+        "status": row.get("status"),
+        "error": row.get("error") or "",
+        "err_deg": to_float(row.get("err_deg")),
+        "trans_err": to_float(row.get("trans_err")),
+        "T_est": None if T is None else [float(x) for x in list(T)],
+        "T_gt": None if row.get("T_gt") is None else [float(x) for x in list(row["T_gt"])],
+        "symmetry_axis": None if row.get("symmetry_axis") is None else [float(x) for x in list(row["symmetry_axis"])],
+        "symmetries": [[float(x) for x in list(S)] for S in row.get("symmetries") or []],
+    }
 
 
 # --------------------------------------------------------------------------------------------
@@ -218,8 +242,10 @@ def other_code_paths() -> dict[str, dict[str, str]]:
     OpenBLAS kernel and torch's default kernels."""
     from catpose.bench.run.environment import numeric_variants, numpy_blas_kernel
 
-    variants = numeric_variants() or {"other-kernel": {"OPENBLAS_CORETYPE": "Sandybridge"},
-                                      "torch-default": {"ATEN_CPU_CAPABILITY": "default"}}
+    variants = numeric_variants() or {
+        "other-kernel": {"OPENBLAS_CORETYPE": "Sandybridge"},
+        "torch-default": {"ATEN_CPU_CAPABILITY": "default"},
+    }
     kernel = numpy_blas_kernel()
     out = {}
     for name, env in variants.items():
@@ -231,23 +257,38 @@ def other_code_paths() -> dict[str, dict[str, str]]:
     return out
 
 
-def estimates_in_subprocess(config: Path, suite: str, methods: Sequence[str], env_extra: dict[str, str],
-                            jobs: int = 1) -> dict:
+def estimates_in_subprocess(
+    config: Path, suite: str, methods: Sequence[str], env_extra: dict[str, str], jobs: int = 1
+) -> dict:
     """{method: {sample_id: slim row}} from ``bench regress --emit-estimates`` in a child process
     with ``env_extra`` set (another code path of the numerical libraries)."""
     with tempfile.TemporaryDirectory(prefix="catpose-regress-") as tmp:
         out = Path(tmp) / "estimates.json"
-        cmd = [sys.executable, "-m", "catpose.bench.regress.regress", "--config", str(config), "--suite", suite,
-               "--methods", ",".join(methods), "--emit-estimates", str(out), "--jobs", str(jobs)]
+        cmd = [
+            sys.executable,
+            "-m",
+            "catpose.bench.regress.run_suites",
+            "--config",
+            str(config),
+            "--suite",
+            suite,
+            "--methods",
+            ",".join(methods),
+            "--emit-estimates",
+            str(out),
+            "--jobs",
+            str(jobs),
+        ]
         proc = subprocess.run(cmd, env=dict(os.environ, **env_extra), capture_output=True, text=True)
         if proc.returncode != 0:
-            raise CatposeError(f"run under another code path failed ({' '.join(f'{k}={v}' for k, v in env_extra.items())}): "
-                               f"{proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}")
+            raise CatposeError(
+                f"run under another code path failed ({' '.join(f'{k}={v}' for k, v in env_extra.items())}): "
+                f"{proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}"
+            )
         return json.loads(out.read_text())
 
 
-def build_reference(suite: Suite, methods: Sequence[str], gate: Gate, config: Path, jobs: int = 1,
-                    log=print) -> dict:
+def build_reference(suite: Suite, methods: Sequence[str], gate: Gate, config: Path, jobs: int = 1, log=print) -> dict:
     """Run, perturb, re-run under every other code path of this CPU, and return the reference
     entries per method (each sample records how far each of them moved it)."""
     t0 = time.perf_counter()
@@ -273,8 +314,10 @@ def build_reference(suite: Suite, methods: Sequence[str], gate: Gate, config: Pa
         stable = {sid for sid, r in nominal.items() if not r["chaotic"]}
         out[m] = {"samples": nominal, "aggregates": aggregates(nominal, stable, gate)}
         n_ch = len(nominal) - len(stable)
-        log(f"  {suite.name}/{m}: {n_ch} of {len(nominal)} samples chaotic"
-            + (f": {', '.join(sorted(set(nominal) - stable))}" if n_ch else ""))
+        log(
+            f"  {suite.name}/{m}: {n_ch} of {len(nominal)} samples chaotic"
+            + (f": {', '.join(sorted(set(nominal) - stable))}" if n_ch else "")
+        )
     return out
 
 
@@ -285,11 +328,19 @@ def write_reference(suite: Suite, entries: dict, gate: Gate) -> None:
     old = read_reference(suite.reference) if suite.reference.is_file() else {}
     methods = dict(old.get("methods", {})) if old.get("format") == 2 else {}
     methods.update(entries)
-    doc = {"format": 2, "suite": suite.name, "dataset": suite.dataset, "protocol": suite.protocol,
-           "seed": suite.seed, "overrides": suite.overrides, "method_overrides": suite.method_overrides,
-           "inputs": None if suite.inputs is None else str(suite.inputs.relative_to(REPO)),
-           "gate": gate.__dict__ | {"accuracy_thresholds": list(gate.accuracy_thresholds)},
-           "environment": environment(), "methods": {m: methods[m] for m in sorted(methods)}}
+    doc = {
+        "format": 2,
+        "suite": suite.name,
+        "dataset": suite.dataset,
+        "protocol": suite.protocol,
+        "seed": suite.seed,
+        "overrides": suite.overrides,
+        "method_overrides": suite.method_overrides,
+        "inputs": None if suite.inputs is None else str(suite.inputs.relative_to(REPO)),
+        "gate": gate.__dict__ | {"accuracy_thresholds": list(gate.accuracy_thresholds)},
+        "environment": environment(),
+        "methods": {m: methods[m] for m in sorted(methods)},
+    }
     from catpose import atomic
 
     atomic.write_text(suite.reference, json.dumps(doc, indent=1, allow_nan=True) + "\n")
@@ -301,11 +352,15 @@ def read_reference(path: Path) -> dict:
     try:
         doc = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise ConfigError(f"reference {path} cannot be read ({type(e).__name__}: {' '.join(str(e).split())[:80]}); "
-                          "restore it (git checkout -- it) or rewrite it with `bench regress --update`") from None
+        raise ConfigError(
+            f"reference {path} cannot be read ({type(e).__name__}: {' '.join(str(e).split())[:80]}); "
+            "restore it (git checkout -- it) or rewrite it with `bench regress --update`"
+        ) from None
     if not isinstance(doc, dict):
-        raise ConfigError(f"reference {path} is not a JSON object; restore it (git checkout -- it) or rewrite it "
-                          "with `bench regress --update`")
+        raise ConfigError(
+            f"reference {path} is not a JSON object; restore it (git checkout -- it) or rewrite it "
+            "with `bench regress --update`"
+        )
     return doc
 
 
@@ -319,8 +374,10 @@ def write_inputs(suite: Suite, log=print) -> None:
     dataset, protocol, ids = suite_samples(cfg_suite)
     samples = [protocol.load(dataset, sid) for sid in ids]
     write_golden(suite.inputs, suite.name, suite.overrides, samples)
-    log(f"  {suite.name}: {len(samples)} problems written to {suite.inputs} "
-        f"({suite.inputs.stat().st_size / 1024:.0f} KiB)")
+    log(
+        f"  {suite.name}: {len(samples)} problems written to {suite.inputs} "
+        f"({suite.inputs.stat().st_size / 1024:.0f} KiB)"
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -338,18 +395,26 @@ def _available_methods(suite: Suite, wanted: Sequence[str] | None, notes: list[s
     return methods
 
 
-def check_suite(suite: Suite, methods: Sequence[str], gate: Gate, jobs: int = 1,
-                log=print) -> tuple[list[Finding], list[str]]:
+def check_suite(
+    suite: Suite, methods: Sequence[str], gate: Gate, jobs: int = 1, log=print
+) -> tuple[list[Finding], list[str]]:
     """Run and judge one suite against its reference; (findings, notes)."""
     from catpose.bench.run.environment import differences, environment
 
     if not suite.reference.is_file():
-        return [Finding("-", suite.name, f"no reference file {suite.reference}; run `bench regress --update` "
-                                         "and commit it", True)], []
+        return [
+            Finding(
+                "-",
+                suite.name,
+                f"no reference file {suite.reference}; run `bench regress --update` and commit it",
+                True,
+            )
+        ], []
     doc = read_reference(suite.reference)
     if doc.get("format") != 2:
-        return [Finding("-", suite.name, f"{suite.reference} is of an older format; run `bench regress --update`",
-                        True)], []
+        return [
+            Finding("-", suite.name, f"{suite.reference} is of an older format; run `bench regress --update`", True)
+        ], []
     findings, notes = [], []
     for m in methods:
         if m not in doc["methods"]:
@@ -362,25 +427,34 @@ def check_suite(suite: Suite, methods: Sequence[str], gate: Gate, jobs: int = 1,
         found = compare_method(m, doc["methods"][m], current, gate)
         findings += found
         n_ch = sum(bool(r.get("chaotic")) for r in doc["methods"][m]["samples"].values())
-        log(f"  {suite.name}/{m}: {len(current)} samples ({n_ch} chaotic), "
-            f"{sum(f.fails for f in found)} failing, {sum(not f.fails for f in found)} noted")
+        log(
+            f"  {suite.name}/{m}: {len(current)} samples ({n_ch} chaotic), "
+            f"{sum(f.fails for f in found)} failing, {sum(not f.fails for f in found)} noted"
+        )
     if any(f.fails for f in findings):
         diff = differences(doc.get("environment"), environment())
-        notes += [f"{suite.name}: environment differs from the reference's: {d}" for d in diff] or \
-                 [f"{suite.name}: environment is the reference's"]
+        notes += [f"{suite.name}: environment differs from the reference's: {d}" for d in diff] or [
+            f"{suite.name}: environment is the reference's"
+        ]
     return findings, notes
 
 
 def main(argv: list[str] | None = None) -> int:
     """``bench regress [--config F] [--suite S] [--methods a,b] [--update | --write-inputs]``."""
-    ap = argparse.ArgumentParser(prog="bench regress", description="Per-sample regression gate against committed references.")
+    ap = argparse.ArgumentParser(
+        prog="bench regress", description="Per-sample regression gate against committed references."
+    )
     ap.add_argument("--config", default=str(DEFAULT_CONFIG))
     ap.add_argument("--suite", action="append", help="run only these suites (repeatable)")
     ap.add_argument("--methods", default=None, help="comma-separated subset of each suite's methods")
     ap.add_argument("--update", action="store_true", help="rewrite the reference (with chaos detection)")
     ap.add_argument("--write-inputs", action="store_true", help="re-render the golden inputs of the suites")
-    ap.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1),
-                    help="worker processes, one method each (results do not depend on it)")
+    ap.add_argument(
+        "--jobs",
+        type=int,
+        default=min(2, os.cpu_count() or 1),
+        help="worker processes, one method each (results do not depend on it)",
+    )
     ap.add_argument("--emit-estimates", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     try:
@@ -408,8 +482,10 @@ def main(argv: list[str] | None = None) -> int:
             if args.emit_estimates:
                 emitted = dict(zip(methods, map_jobs([(suite, m, 0.0) for m in methods], args.jobs)))
                 continue
-            print(f"suite {name}: {suite.dataset} / {suite.protocol}, seed {suite.seed}, "
-                  f"{'golden inputs' if suite.inputs else 'rendered here'}, BLAS kernel {numpy_blas_kernel()}")
+            print(
+                f"suite {name}: {suite.dataset} / {suite.protocol}, seed {suite.seed}, "
+                f"{'golden inputs' if suite.inputs else 'rendered here'}, BLAS kernel {numpy_blas_kernel()}"
+            )
             if args.update:
                 write_reference(suite, build_reference(suite, methods, gate, Path(args.config), args.jobs), gate)
                 notes.append(f"{name}: reference written to {suite.reference}")
@@ -435,8 +511,11 @@ def main(argv: list[str] | None = None) -> int:
         print("\nREGRESSION:", file=sys.stderr)
         for f in bad:
             print(f"  {f.method} {f.where}: {f.what}", file=sys.stderr)
-        print(f"\n{len(bad)} failing finding(s); if the change is intended run `bench regress --update` "
-              "and commit results/reference/", file=sys.stderr)
+        print(
+            f"\n{len(bad)} failing finding(s); if the change is intended run `bench regress --update` "
+            "and commit results/reference/",
+            file=sys.stderr,
+        )
         return 1
     if not (args.update or args.write_inputs):
         print(f"regress: passed ({len(findings)} samples moved within what the gate allows)")

@@ -3,7 +3,8 @@ as ``bench run`` (:func:`catpose.bench.run.build.build_from_config`), keyword op
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -28,8 +29,9 @@ def _override_value(value: Any) -> str:
         return "'" + value.replace("\\", "\\\\").replace("'", "\\'") + "'"
     if isinstance(value, (list, tuple)):
         return "[" + ",".join(_override_value(v) for v in value) + "]"
-    raise InvalidInputError(f"option value {value!r} ({type(value).__name__}) is not a number, string, bool, "
-                            "None or list")
+    raise InvalidInputError(
+        f"option value {value!r} ({type(value).__name__}) is not a number, string, bool, None or list"
+    )
 
 
 def _overrides(options: Mapping[str, Any], prefix: str = "method") -> list[str]:
@@ -65,8 +67,10 @@ def build_method(name: str, **options: Any) -> Any:
 
     names = available("method")
     if name not in names:
-        raise InvalidInputError(f"method={name!r} is not a method config; choose one of {', '.join(names)} "
-                                "or pass a RegistrationMethod instance")
+        raise InvalidInputError(
+            f"method={name!r} is not a method config; choose one of {', '.join(names)} "
+            "or pass a RegistrationMethod instance"
+        )
     try:
         cfg = compose([f"method={name}", *_overrides(options)], hint="see configs/method/" + name + ".yaml")
     except CatposeError as e:

@@ -22,7 +22,7 @@ The paper's rule (lowest final loss) and the earlier one-directional Chamfer sta
 through ``method.selection.rule`` (``loss`` | ``chamfer`` | ``visibility``).
 
 These NumPy scores are the readable references; ours calls the compiled twin of
-:func:`visibility_chamfer` (:mod:`catpose.methods.selection_kernel`) and passes it, with the
+:func:`visibility_chamfer` (:mod:`catpose.methods.pose_scores_kernel`) and passes it, with the
 compiled refinement, to :func:`select_with_half_turns` as callables.
 """
 
@@ -45,8 +45,12 @@ def chamfer(points_camera: np.ndarray, T_template_camera: np.ndarray, tree) -> n
 
 def outlier_ratio(points_camera: np.ndarray, T_template_camera: np.ndarray, tree, threshold: float) -> np.ndarray:
     """(B,) fraction of input points further than ``threshold`` from the template, per pose."""
-    return np.array([(tree.query(transform(T, points_camera), distance_upper_bound=threshold)[0] > threshold).mean()
-                     for T in T_template_camera])
+    return np.array(
+        [
+            (tree.query(transform(T, points_camera), distance_upper_bound=threshold)[0] > threshold).mean()
+            for T in T_template_camera
+        ]
+    )
 
 
 def visible_mask(points: np.ndarray, normals: np.ndarray, camera_centre: np.ndarray) -> np.ndarray:
@@ -54,8 +58,14 @@ def visible_mask(points: np.ndarray, normals: np.ndarray, camera_centre: np.ndar
     return np.einsum("ij,ij->i", normals, camera_centre[None] - points) > 0
 
 
-def visibility_chamfer(points_camera: np.ndarray, T_template_camera: np.ndarray, template_points: np.ndarray,
-                       template_normals: np.ndarray, tree, trunc: float) -> np.ndarray:
+def visibility_chamfer(
+    points_camera: np.ndarray,
+    T_template_camera: np.ndarray,
+    template_points: np.ndarray,
+    template_normals: np.ndarray,
+    tree,
+    trunc: float,
+) -> np.ndarray:
     """(B,) truncated two-directional Chamfer between the input and the template's visible side.
 
     For pose ``T`` (camera -> template), the camera centre in the template frame is ``T[:3, 3]``;
@@ -126,9 +136,17 @@ def tilt_deg(T_template_camera: np.ndarray, ground_normal_camera: np.ndarray, up
 REACH_DEG = 90.0
 
 
-def select_with_half_turns(candidates: np.ndarray, allowed: np.ndarray, score, refine,
-                           ground_normal_camera: np.ndarray, up: np.ndarray, gravity_max_deg: float | None,
-                           top_k: int = 1, refine_top: int | None = None) -> tuple[np.ndarray, float, dict]:
+def select_with_half_turns(
+    candidates: np.ndarray,
+    allowed: np.ndarray,
+    score,
+    refine,
+    ground_normal_camera: np.ndarray,
+    up: np.ndarray,
+    gravity_max_deg: float | None,
+    top_k: int = 1,
+    refine_top: int | None = None,
+) -> tuple[np.ndarray, float, dict]:
     """Visibility-aware selection with explicit 180-degree alternatives (the "flip class").
 
     Candidates of a near-symmetric shape (an airplane seen from above or below, a mustard
@@ -161,7 +179,7 @@ def select_with_half_turns(candidates: np.ndarray, allowed: np.ndarray, score, r
     scores = np.full(len(candidates), np.inf)
     if allowed.any():
         scores[allowed] = score(candidates[allowed])
-    order = np.argsort(scores, kind="stable")[:max(int(top_k), 1)]
+    order = np.argsort(scores, kind="stable")[: max(int(top_k), 1)]
     turns = half_turns()
     expanded = np.stack([compose_T(F, candidates[i]) for i in order for F in turns])
     if refine_top is not None and 0 < refine_top < len(expanded):
@@ -182,6 +200,9 @@ def select_with_half_turns(candidates: np.ndarray, allowed: np.ndarray, score, r
         if not keep.any():
             keep = np.isfinite(final)
     best = int(np.argmin(np.where(keep, final, np.inf)))
-    info = {"candidate": int(order[best // len(turns)]), "half_turn": int(best % len(turns)),
-            "scores": [float(s) for s in scores]}
+    info = {
+        "candidate": int(order[best // len(turns)]),
+        "half_turn": int(best % len(turns)),
+        "scores": [float(s) for s in scores],
+    }
     return expanded[best], float(final[best]), info

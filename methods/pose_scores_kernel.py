@@ -1,4 +1,4 @@
-"""The visibility-aware Chamfer score of :func:`catpose.methods.selection.visibility_chamfer` as one
+"""The visibility-aware Chamfer score of :func:`catpose.methods.pose_scores.visibility_chamfer` as one
 compiled call for many poses (numba).
 
 Same score (``mean_i min(d(T x_i, template), trunc) + mean_{v in V} min(d(v, T X), trunc)``, ``V``
@@ -20,25 +20,55 @@ from catpose.cell_grid import CellGrid
 from catpose.point_to_plane_kernel import transform_point
 
 
-def visibility_scores(points_camera: np.ndarray, input_grid: CellGrid, T_template_camera: np.ndarray,
-                      template_grid: CellGrid, template_normals: np.ndarray, trunc: float) -> np.ndarray:
+def visibility_scores(
+    points_camera: np.ndarray,
+    input_grid: CellGrid,
+    T_template_camera: np.ndarray,
+    template_grid: CellGrid,
+    template_normals: np.ndarray,
+    trunc: float,
+) -> np.ndarray:
     """(B,) truncated two-directional visible Chamfer of ``points_camera`` (N, 3; ``input_grid``
     is its grid) under each pose ``T_template_camera`` (B, 4, 4), against the template of
     ``template_grid`` with unit ``template_normals`` (M, 3); object-normalised unit."""
     if not (trunc <= input_grid.reach and trunc <= template_grid.reach):
-        raise ValueError(f"visibility_scores: trunc {trunc} exceeds a grid's reach "
-                         f"({input_grid.reach}, {template_grid.reach})")
+        raise ValueError(
+            f"visibility_scores: trunc {trunc} exceeds a grid's reach ({input_grid.reach}, {template_grid.reach})"
+        )
     T = np.ascontiguousarray(T_template_camera, dtype=np.float64).reshape(-1, 4, 4)
     out = np.empty(len(T))
-    _scores_into(np.ascontiguousarray(points_camera, dtype=np.float64), *cell_grid.arrays(input_grid),
-                 *cell_grid.arrays(template_grid), np.ascontiguousarray(template_normals, dtype=np.float64), T,
-                 float(trunc), out)
+    _scores_into(
+        np.ascontiguousarray(points_camera, dtype=np.float64),
+        *cell_grid.arrays(input_grid),
+        *cell_grid.arrays(template_grid),
+        np.ascontiguousarray(template_normals, dtype=np.float64),
+        T,
+        float(trunc),
+        out,
+    )
     return out
 
 
 @numba.njit(cache=True, nogil=True)
-def _scores_into(points, ip, i_origin, i_cell, i_dims, i_start, i_cand, tp, t_origin, t_cell, t_dims, t_start,
-                 t_cand, normals, T, trunc, out):  # pragma: no cover - compiled
+def _scores_into(
+    points,
+    ip,
+    i_origin,
+    i_cell,
+    i_dims,
+    i_start,
+    i_cand,
+    tp,
+    t_origin,
+    t_cell,
+    t_dims,
+    t_start,
+    t_cand,
+    normals,
+    T,
+    trunc,
+    out,
+):  # pragma: no cover - compiled
     for b in range(T.shape[0]):
         d_in = 0.0
         for i in range(points.shape[0]):

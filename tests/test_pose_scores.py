@@ -1,4 +1,4 @@
-"""Selection scores of ours (catpose.methods.selection) on a toy shape with a known pose."""
+"""Selection scores of ours (catpose.methods.pose_scores) on a toy shape with a known pose."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from catpose.geometry import axis_angle_to_R, make_T
-from catpose.methods import selection as S
+from catpose.methods import pose_scores as S
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _clouds import box_cloud  # noqa: E402
@@ -18,7 +18,7 @@ from _clouds import box_cloud  # noqa: E402
 def toy_problem():
     rng = np.random.default_rng(0)
     body, nb = box_cloud((1.2, 0.6, 0.3), (0, 0, 0), 3000, rng)
-    bump, nu = box_cloud((0.2, 0.2, 0.3), (0.4, 0.0, 0.3), 600, rng)   # breaks the half-turn symmetry
+    bump, nu = box_cloud((0.2, 0.2, 0.3), (0.4, 0.0, 0.3), 600, rng)  # breaks the half-turn symmetry
     keep = ~((np.abs(body[:, 0] - 0.4) < 0.1) & (np.abs(body[:, 1]) < 0.1) & (body[:, 2] > 0.14))
     points, normals = np.concatenate([body[keep], bump]), np.concatenate([nb[keep], nu])
     # camera 3 units away, looking down at 45 degrees: T_template_camera
@@ -59,9 +59,15 @@ def test_select_with_half_turns_recovers_a_flipped_candidate():
     tree = cKDTree(points)
     ground = np.linalg.inv(T)[:3, :3] @ np.array([0.0, 0.0, 1.0])
     cands = np.stack([S.half_turns()[3] @ T, S.half_turns()[1] @ T])
-    best, score, info = S.select_with_half_turns(cands, np.array([True, True]),
-                                                 _numpy_score(observed, points, normals, tree), lambda X: X,
-                                                 ground, np.array([0.0, 0.0, 1.0]), 30.0)
+    best, score, info = S.select_with_half_turns(
+        cands,
+        np.array([True, True]),
+        _numpy_score(observed, points, normals, tree),
+        lambda X: X,
+        ground,
+        np.array([0.0, 0.0, 1.0]),
+        30.0,
+    )
     assert np.allclose(best, T, atol=1e-9) and score < 0.02
     assert info["half_turn"] in (1, 3) and len(info["scores"]) == 2
     assert np.allclose(S.tilt_deg(best[None], ground, np.array([0.0, 0.0, 1.0])), 0.0, atol=1e-6)
@@ -86,8 +92,9 @@ def test_select_with_half_turns_refines_only_what_can_pass_gravity():
         refined.append(S.tilt_deg(X, ground, up))
         return X
 
-    best, _, info = S.select_with_half_turns(cands, np.array([True, False, True]), score, refine, ground, up, 30.0,
-                                             top_k=2)
+    best, _, info = S.select_with_half_turns(
+        cands, np.array([True, False, True]), score, refine, ground, up, 30.0, top_k=2
+    )
     assert scored[0] == 2 and np.isinf(info["scores"][1])
     # top 2 allowed candidates x 4 half turns = 8 hypotheses; the turns about x and y of the
     # upright ones are tilted ~180 degrees and are skipped

@@ -1,0 +1,126 @@
+"""``bench table``: the command line of :mod:`catpose.bench.report.tables`.
+
+bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from catpose import atomic
+from catpose.bench.report.labels import parse_labels
+from catpose.bench.report.runs import find_run_dirs, load_runs, print_left_out
+from catpose.bench.report.table_format import METRICS
+from catpose.bench.report.tables import LAYOUTS, RENAMED_LAYOUTS, RENDERERS, build_table
+from catpose.errors import ConfigError
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE]``."""
+    ap = argparse.ArgumentParser(prog="bench table", description="Paper tables from run directories.")
+    ap.add_argument("runs", nargs="*", help="run directories, or folders searched for samples.jsonl")
+    ap.add_argument(
+        "--sweep",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="a sweep directory of `bench run -m` (<output_root>/multirun/<name>/<time>): its jobs' "
+        "runs and labels, and the experiment's table settings (repeatable)",
+    )
+    ap.add_argument(
+        "--layout",
+        default=None,
+        choices=sorted({*LAYOUTS, *RENAMED_LAYOUTS}),
+        help="default: the sweep's, else generic",
+    )
+    ap.add_argument("--format", default="md", choices=sorted(RENDERERS))
+    ap.add_argument("--categories", default=None, help="comma-separated categories (default: the layout's)")
+    ap.add_argument(
+        "--metrics",
+        default=None,
+        help=f"comma-separated, of {','.join(METRICS)} or acc<X>, auc<X>, <n>deg<m>cm (catpose.bench.scoring.curves)",
+    )
+    ap.add_argument(
+        "--acc",
+        default=None,
+        metavar="LIST",
+        help="accuracy thresholds replacing @10/@30: degrees and n-degree m-cm, e.g. --acc 5,10,30,5deg5cm "
+        "(cm only where rows carry a metric scale: BOP, synthetic with a sensor model)",
+    )
+    ap.add_argument(
+        "--auc",
+        type=float,
+        default=None,
+        metavar="DEG",
+        help="add the area under the accuracy-vs-threshold curve from 0 to DEG degrees, over DEG",
+    )
+    ap.add_argument("--label", action="append", default=[], help="RUN_DIR=LABEL, repeatable")
+    ap.add_argument(
+        "--error",
+        default=None,
+        choices=["err_deg", "oracle_err_deg"],
+        help="the method's own choice or the minimum across templates (oracle)",
+    )
+    ap.add_argument("--title", default=None)
+    ap.add_argument("--out", default=None, help="write here instead of stdout")
+    ap.add_argument(
+        "--bop-metrics",
+        default=None,
+        help="BOP recalls of runs scored by `bench score` (bop_errors.jsonl), e.g. "
+        "ar_mssd,ar_mspd,adds@0.1,5deg5cm (see catpose.bench.scoring.bop_eval.parse_metric)",
+    )
+    ap.add_argument("--by", default="object,category", help="with --bop-metrics: rows per object and/or category")
+    ap.add_argument(
+        "--stability",
+        action="append",
+        default=[],
+        metavar="ROOT",
+        help="an output root with the same runs made under another code path of the numerical "
+        "libraries (results/make_results.sh); notes say per row how many views changed "
+        "and the range of the overall figures (repeatable)",
+    )
+    args = ap.parse_args(argv)
+    from catpose.bench.report.sweep_runs import sweep_runs
+    from catpose.bench.scoring.curves import threshold_keys
+
+    run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
+    if not args.runs and not run_paths:
+        raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
+    if args.bop_metrics:
+        from catpose.bench.scoring.bop_eval import table_main_from_runs
+
+        text = (
+            table_main_from_runs(
+                find_run_dirs([*args.runs, *run_paths]), args.bop_metrics.split(","), args.by.split(",")
+            )
+            + "\n"
+        )
+        atomic.write_text(args.out, text) if args.out else sys.stdout.write(text)
+        return 0
+    if args.layout not in (None, defaults.get("layout")):
+        defaults = {}  # another layout than the experiment's: none of its settings apply
+    for key, value in defaults.items():  # the experiment's settings, unless given here
+        if getattr(args, key) is None and value:
+            setattr(args, key, ",".join(map(str, value)) if isinstance(value, list) else str(value))
+    args.layout = args.layout or "generic"
+    runs, left_out = load_runs([*args.runs, *run_paths])
+    print_left_out("table", runs, left_out)  # one damaged run does not stop the others; the exit status says so
+    table = build_table(
+        runs,
+        args.layout,
+        args.categories.split(",") if args.categories else None,
+        args.metrics.split(",") if args.metrics else None,
+        {**sweep_labels, **parse_labels(args.label)},
+        args.error,
+        args.title,
+        [Path(p) for p in args.stability],
+        threshold_keys(args.acc or [], args.auc) if (args.acc or args.auc is not None) else (),
+    )
+    text = RENDERERS[args.format](table)
+    if args.out:
+        atomic.write_text(args.out, text)
+    else:
+        sys.stdout.write(text)
+    return 2 if left_out else 0
