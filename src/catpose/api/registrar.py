@@ -226,7 +226,8 @@ class Registrar:
         try:
             return self.method.register(problem)
         except CatposeError as e:
-            raise RegistrationFailed(f"method {self.method_name!r} gave no pose: {e}") from None
+            why = str(e).replace(f"sample {obs.sample_id}: ", "")
+            raise RegistrationFailed(f"method {self.method_name!r} gave no pose: {why}") from None
 
 
 def _ups(up: Any, n: int) -> list[np.ndarray | None]:
