@@ -10,7 +10,7 @@ model are read as ``bench run`` reads them (:func:`catpose.api.bop.bop_instance`
 ``catpose.register`` takes the frame the way the benchmark does: the table plane fitted outside the
 mask, ours' depth check against the whole image. Prints the pose in the model frame (mm), the
 rotation error against the ground truth (for a rotationally symmetric object, the angle between the
-symmetry axes) and the translation error in mm.
+symmetry axes) and the error of the object's position in the camera frame, mm.
 """
 
 from __future__ import annotations
@@ -33,7 +33,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("obj", type=int, help="BOP object id")
     ap.add_argument("--instance", type=int, default=0, help="which instance of OBJ in the image (default 0)")
     ap.add_argument("--method", default="ours")
-    ap.add_argument("--dataset", default="bop", help="dataset config whose settings apply (bop, ycbv, tyol)")
+    ap.add_argument(
+        "--dataset",
+        default=None,
+        help="dataset config whose settings apply (bop, ycbv, tyol; default: the root folder's name if a config has it, else bop)",
+    )
     args = ap.parse_args(argv)
     try:
         inst = bop_instance(args.root, args.scene, args.im, args.obj, instance=args.instance, dataset=args.dataset)
@@ -53,7 +57,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{inst.obs_id} ({args.method}, {result.runtime_s:.2f} s, up from {result.extras['ground_source']})")
     print("T_model_camera (mm):")
     print(T)
-    print(f"{what}: {err:.2f} deg; translation error: {np.linalg.norm(T[:3, 3] - T_gt[:3, 3]):.1f} mm")
+    # where the object is: the model origin in the camera frame, t of T_camera_model = -R^T t
+    position = -T[:3, :3].T @ T[:3, 3] + T_gt[:3, :3].T @ T_gt[:3, 3]
+    print(f"{what}: {err:.2f} deg; object position error: {np.linalg.norm(position):.1f} mm")
     return 0
 
 

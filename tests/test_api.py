@@ -135,7 +135,7 @@ def test_options_reach_the_builder():
         ({"observation": "points.ply"}, "observation is a str, not an (N, 3) array"),
         ({"template": "/nonexistent/chair.ply"}, "template: mesh file /nonexistent/chair.ply does not exist"),
         ({"template": (np.eye(3), np.array([[0, 1, 5]]))}, "template faces index vertices outside 0..2"),
-        ({"template": np.zeros((50, 3))}, "template has zero extent"),
+        ({"template": np.zeros((50, 3))}, "template has zero extent (all 50 points equal)"),
         ({"up": [0.0, 0.0, 0.0]}, "up=[0.0, 0.0, 0.0] is not a finite non-zero 3-vector"),
         ({"up": [1.0, 2.0]}, "up=[1.0, 2.0] is not a finite non-zero 3-vector"),
         ({"method": "nope"}, "method='nope' is not a method config; choose one of"),

@@ -36,6 +36,7 @@ from pathlib import Path
 from catpose.errors import ConfigError
 
 PHASES = ("import_s", "build_s", "load_s", "jit_start_s")
+TIMES = ("first_s", "second_s", "first_cpu_s", "second_cpu_s")
 
 
 def child(argv: list[str]) -> int:
@@ -74,18 +75,27 @@ def child(argv: list[str]) -> int:
             break
     out["load_s"] = time.perf_counter() - t
     out["source"] = f"{name} (gt_model, seed {a.seed})"
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     _jit_start()
-    out["jit_start_s"] = time.perf_counter() - t
+    out["jit_start_s"], out["jit_start_cpu_s"] = time.perf_counter() - t, time.process_time() - c
     out["templates"] = []
     for p in firsts:
-        times = []
+        wall, cpu = [], []
         for _ in range(2):
             seed_everything(stable_seed(a.seed, p.sample_id))
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             method.register(p)
-            times.append(time.perf_counter() - t)
-        out["templates"].append({"template": p.template.template_id, "first_s": times[0], "second_s": times[1]})
+            wall.append(time.perf_counter() - t)
+            cpu.append(time.process_time() - c)
+        out["templates"].append(
+            {
+                "template": p.template.template_id,
+                "first_s": wall[0],
+                "second_s": wall[1],
+                "first_cpu_s": cpu[0],
+                "second_cpu_s": cpu[1],
+            }
+        )
     print(json.dumps(out))
     return 0
 
@@ -128,8 +138,8 @@ def measure(args: argparse.Namespace) -> list[dict]:
                             "template_order": k + 1,
                             "template": tpl["template"],
                             **{ph: m[ph] for ph in PHASES},
-                            "first_s": tpl["first_s"],
-                            "second_s": tpl["second_s"],
+                            "jit_start_cpu_s": m["jit_start_cpu_s"],
+                            **{k: tpl[k] for k in TIMES},
                             "source": m["source"],
                         }
                     )
@@ -137,24 +147,34 @@ def measure(args: argparse.Namespace) -> list[dict]:
 
 
 def medians(rows: list[dict]) -> list[dict]:
-    """Per state and template order: the median of each phase over the runs. ``first_sample_s``
-    (jit start-up + the first template's first registration, or a later template's first
+    """Per state and template order: the median of each measure over the runs. ``first_sample_s``
+    (numba's start-up + the first template's first registration, or a later template's first
     registration) is what a new process waits for its first pose of that template once the
-    method is built and the sample loaded."""
+    method is built and the sample loaded; ``*_cpu_s`` are the process' CPU seconds of the same
+    spans (what a busy machine's waiting for a core leaves out)."""
     out = []
     keys = sorted({(r["state"], r["template_order"]) for r in rows}, key=lambda k: (k[0] != "cold", k[1]))
     for state, order in keys:
         group = [r for r in rows if r["state"] == state and r["template_order"] == order]
-        med = {c: statistics.median(r[c] for r in group) for c in (*PHASES, "first_s", "second_s")}
-        first = med["first_s"] + (med["jit_start_s"] if order == 1 else 0.0)
+        med = {c: statistics.median(r[c] for r in group) for c in (*PHASES, "jit_start_cpu_s", *TIMES)}
+        jit, jit_cpu = (med["jit_start_s"], med["jit_start_cpu_s"]) if order == 1 else (0.0, 0.0)
         out.append(
             {
                 "state": state,
                 "template_order": order,
                 "template": group[0]["template"],
                 "runs": len(group),
-                **{c: med[c] for c in (*PHASES, "first_s", "second_s")},
-                "first_sample_s": first,
+                "jit_start_s": jit,
+                "first_s": med["first_s"],
+                "second_s": med["second_s"],
+                "first_sample_s": statistics.median(
+                    r["first_s"] + (r["jit_start_s"] if order == 1 else 0.0) for r in group
+                ),
+                "first_sample_cpu_s": statistics.median(
+                    r["first_cpu_s"] + (r["jit_start_cpu_s"] if order == 1 else 0.0) for r in group
+                ),
+                "second_cpu_s": med["second_cpu_s"],
+                **{c: med[c] for c in PHASES[:3]},
             }
         )
     return out
@@ -184,10 +204,13 @@ def main(argv: list[str]) -> int:
     table = medians(rows)
     method = args.methods.split(",")[0]
     head = (
-        f"first sample of a template in a new process: {method} on {rows[0]['source']}; {args.repeat} cold-then-warm "
-        f"process pairs, medians; load average {load_before:.1f} before, {load_after:.1f} after on {os.cpu_count()} CPUs"
+        f"**First sample of a template in a new process**: {method} on {rows[0]['source']}; {args.repeat} cold-then-warm "
+        f"process pairs, medians (s wall-clock; cpu: the process' CPU seconds); load average {load_before:.1f} "
+        f"before, {load_after:.1f} after on {os.cpu_count()} CPUs"
     )
-    md = tabulate(table, headers="keys", tablefmt="github", floatfmt=".3f")
+    shown = ["state", "template_order", "template", "jit_start_s", "first_s", "second_s", "first_sample_s"]
+    shown += ["first_sample_cpu_s", "second_cpu_s"]
+    md = tabulate([{k: r[k] for k in shown} for r in table], headers="keys", tablefmt="github", floatfmt=".3f")
     print(head)
     print(md)
     out = Path(args.out) if args.out else Path("outputs") / "perf" / f"first-sample-{args.dataset}.csv"

@@ -20,8 +20,12 @@ from catpose.api.inputs import NormalisedTemplate
 from catpose.depth_frame import DepthFrame
 from catpose.errors import InvalidInputError
 from catpose.geometry import invert_T
+from catpose.lru import LRUCache
 
 __all__ = ["BopInstance", "bop_instance"]
+
+#: datasets built by earlier calls (their models, normalisations and templates stay loaded)
+_DATASETS: LRUCache[tuple, Any] = LRUCache(4)
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,7 +60,7 @@ def bop_instance(
     obj_id: int,
     *,
     instance: int = 0,
-    dataset: str = "bop",
+    dataset: str | None = None,
     seed: int = 0,
     overrides: tuple[str, ...] = (),
 ) -> BopInstance:
@@ -64,23 +68,33 @@ def bop_instance(
 
     Args:
         root: the BOP dataset folder (``models/``, ``test/``).
-        dataset: the dataset config (``bop``, ``ycbv``, ``tyol``); its model axes, mask and plane
-            settings apply.
+        dataset: the dataset config (``bop``, ``ycbv``, ``tyol``) whose model axes, categories, mask
+            and plane settings apply; None: the config named like ``root``'s folder if there is one
+            (``.../ycbv``: ``ycbv``, so the observation id and its seeds are ``bench run
+            dataset=ycbv``'s), else ``bop``.
         seed: the run seed (``bench run seed=...``), which seeds the frame's random subsets.
         overrides: more ``dataset.<key>=<value>`` overrides.
 
     Raises:
         InvalidInputError: no such scene, image or object (one line, with what the frame shows).
     """
-    from catpose.bench.run.config import compose_and_build
+    from pathlib import Path
+
+    from catpose.bench.run.config import available, compose_and_build
     from catpose.datasets.bop_layout import read_json
     from catpose.datasets.frame_view import FrameSettings
     from catpose.errors import CatposeError
 
+    if dataset is None:
+        dataset = Path(root).name if Path(root).name in available("dataset") else "bop"
     try:
-        _, ((_, ds),) = compose_and_build(
-            [f"dataset={dataset}", f"dataset.root={root}", f"seed={int(seed)}", *overrides], ("dataset",)
-        )
+        key = (dataset, str(Path(root).resolve()), int(seed), tuple(overrides))
+        ds = _DATASETS.get(key)
+        if ds is None:
+            _, ((_, ds),) = compose_and_build(
+                [f"dataset={dataset}", f"dataset.root={root}", f"seed={int(seed)}", *overrides], ("dataset",)
+            )
+            _DATASETS.put(key, ds)
         gt_path = ds.layout.scene_gt(int(scene_id))
         entries = read_json(gt_path).get(str(int(im_id)))
     except CatposeError as e:

@@ -16,6 +16,7 @@ import numpy as np
 
 from catpose.errors import CatposeError, InvalidInputError
 from catpose.geometry import apply_R, axis_angle_to_R, dot3, norm3, normalize_to_unit_sphere, unit3
+from catpose.lru import LRUCache
 from catpose.types import Template
 
 __all__ = [
@@ -195,13 +196,50 @@ def normalised_template(
             f"template_points={template_points} is more than {MAX_TEMPLATE_POINTS}; the methods use 2048 "
             "(more only costs time and memory)"
         )
+    key = _template_key(template, template_normals, template_up, template_points)
+    hit = None if key is None else _PREPARED.get(key)
+    if hit is not None:
+        return hit
     try:
-        return _normalised_template(template, template_normals, template_up, template_points)
+        prepared = _normalised_template(template, template_normals, template_up, template_points)
     except MemoryError:
         raise InvalidInputError(
             f"template: out of memory preparing it with template_points={template_points}; "
             "pass a smaller mesh or cloud, or fewer template_points"
         ) from None
+    if key is not None:
+        _PREPARED.put(key, prepared)
+    return prepared
+
+
+#: templates prepared by earlier calls (a mesh is sampled once, not per ``register`` call)
+_PREPARED: LRUCache[str, NormalisedTemplate] = LRUCache(8)
+
+
+def _template_key(template: Any, normals: Any, up: np.ndarray, points: int) -> str | None:
+    """What identifies a template argument: a file's path, size and modification time, or the
+    content hash of its arrays; with the preparation's parameters. None: not cached."""
+    from catpose.content_hash import content_hash
+
+    params = f"{np.round(up, 12).tolist()}|{points}"
+    try:
+        if isinstance(template, (str, Path)):
+            st = Path(template).stat()
+            return f"file:{Path(template).resolve()}:{st.st_size}:{st.st_mtime_ns}|{params}|{normals is None}"
+        if hasattr(template, "vertices") and hasattr(template, "faces"):
+            arrays = [np.asarray(template.vertices), np.asarray(template.faces)]
+        elif isinstance(template, (tuple, list)) and len(template) == 2:
+            arrays = [np.asarray(template[0]), np.asarray(template[1])]
+        else:
+            arrays = [np.asarray(template)]
+        if normals is not None:
+            arrays.append(np.asarray(normals))
+        if any(a.dtype.kind not in "uif" for a in arrays):
+            return None
+        shapes = "|".join(str(a.shape) for a in arrays)
+        return f"arrays:{content_hash(*arrays)}:{shapes}|{params}|{normals is None}"
+    except (OSError, TypeError, ValueError):
+        return None
 
 
 def _normalised_template(
@@ -271,7 +309,11 @@ def check_position(name: str, points: np.ndarray) -> None:
     lo, hi = points.min(axis=0), points.max(axis=0)
     extent = float(np.linalg.norm(hi - lo))
     distance = float(np.abs(points).max())
-    if extent > 0 and extent < 1e-9 * distance:
+    if extent == 0:
+        raise InvalidInputError(f"{name} has zero extent (all {len(points)} points equal)")
+    if not np.isfinite(extent):
+        raise InvalidInputError(f"{name} spans more than float64 holds; pass coordinates in a smaller unit")
+    if extent < 1e-9 * distance:
         raise InvalidInputError(
             f"{name} spans {extent:.3g} but lies {distance:.3g} from the origin, beyond float64's resolution "
             "there; pass coordinates near the origin (an observation in the camera frame, the camera at the origin)"
@@ -284,12 +326,14 @@ def unit_warning(radius: float, what: str = "observation") -> str | None:
     the object); None when it looks right. A partial view spans about 0.3 to 1.2 template radii."""
     if radius > 2.0:
         return (
-            f"catpose.register: the {what} spans {radius:.1f} template radii; check that both use the same "
-            "unit and that the observation holds only the object"
+            f"catpose.register: the {what} span{'s' if what == 'observation' else ''} {radius:.1f} template radii; "
+            "check that both use the same unit and that the observation holds only the object (a mask's stray "
+            "pixels: ours' depth check copes with a few)"
         )
-    if radius < 0.1:
+    if 0 < radius < 0.1:
         return (
-            f"catpose.register: the {what} spans {radius:.3g} template radii, {1.0 / radius:.3g} times smaller "
+            f"catpose.register: the {what} span{'s' if what == 'observation' else ''} {radius:.3g} template radii, "
+            f"{1.0 / radius:.3g} times smaller "
             "than the template: are they in different units (metres against millimetres: 1000)? pass both in "
             "one unit (a DepthFrame: set depth_scale)"
         )

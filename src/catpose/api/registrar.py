@@ -120,7 +120,7 @@ class Registrar:
             max_points=max_points,
             plane_distance=plane_distance,
         )
-        message = unit_warning(obs.radius)
+        message = unit_warning(obs.radius, "observation" if obs.depth_image is None else "mask's points")
         if message:
             warnings.warn(message, stacklevel=_stacklevel + 1)
         return self._register(obs, up_hypotheses)
