@@ -60,3 +60,29 @@ def test_register_a_depth_frame_equals_bench_run_on_every_shared_ycbv_instance(s
         T_model[:3, 3] = R.T @ (scale * bench.T_template_camera[:3, 3] + centre)
         assert np.allclose(api.T_template_camera, T_model, atol=1e-6)
     assert worst <= 1e-6, worst
+
+
+def test_the_bop_example_prints_a_pose_within_5_degrees_of_the_truth(shared_data, repo_root, tmp_path):
+    import os
+    import re
+    import subprocess
+    import sys
+
+    root = shared_data / "bop" / "ycbv"
+    script = repo_root / "examples" / "register_bop_frame.py"
+    env = dict(os.environ, CATPOSE_CACHE_DIR=str(tmp_path))
+    for scene, im, obj in ((1, 2, 1), (2, 8, 5)):  # the master chef can (symmetric: axis error), the mustard bottle
+        r = subprocess.run(
+            [sys.executable, str(script), str(root), str(scene), str(im), str(obj)],
+            capture_output=True,
+            text=True,
+            timeout=900,
+            env=env,
+        )
+        assert r.returncode == 0, r.stderr[-2000:]
+        err = float(re.search(r"error: ([0-9.]+) deg", r.stdout).group(1))
+        assert err < 5.0, r.stdout
+    bad = subprocess.run(
+        [sys.executable, str(script), str(root), "1", "2", "14"], capture_output=True, text=True, timeout=600
+    )
+    assert bad.returncode == 2 and "shows 0 instance(s) of object 14 (objects shown: [1, 5" in bad.stderr
