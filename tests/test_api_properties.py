@@ -116,7 +116,7 @@ def test_register_takes_points_or_refuses_them_in_one_line(observation, template
 
 
 @SETTINGS
-@given(frame_args(), st.one_of(st.none(), st.floats(allow_nan=True, allow_infinity=True)))
+@given(frame_args(), st.one_of(st.none(), st.floats(allow_nan=True, allow_infinity=True), st.just("10"), st.just(True)))
 def test_register_takes_a_frame_or_refuses_it_in_one_line(args, plane_distance):
     depth, K, mask, scale = args
     frame = _refused_in_one_line(lambda: catpose.DepthFrame(depth, K, mask, scale))

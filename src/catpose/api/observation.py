@@ -111,7 +111,12 @@ def _from_frame(
     decides (no pixel is known to be the table)."""
     from catpose.datasets.frame_view import FrameSettings, NoGroundPlane, frame_view
 
-    if plane_distance is not None and not (np.isfinite(plane_distance) and plane_distance > 0):
+    if plane_distance is not None and not (
+        isinstance(plane_distance, (int, float, np.integer, np.floating))
+        and not isinstance(plane_distance, bool)
+        and np.isfinite(plane_distance)
+        and plane_distance > 0
+    ):
         raise InvalidInputError(f"plane_distance={plane_distance!r} must be a positive length in the frame's unit")
     settings = FrameSettings(max_points=int(max_points), plane_distance=plane_distance)
     search = up is None and frame.mask is None
