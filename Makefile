@@ -15,13 +15,14 @@ TORCH_PIN ?= torch==2.13.0
 setup: $(VENV)/.installed
 
 # torch is pinned here (the CPU wheel on this machine): an unpinned torch pulls a multi-GB CUDA
-# build. open3d-cpu's missing libusb-1.0.so.0 comes from the PyPI package libusb-package,
-# loaded by catpose.o3d before Open3D.
+# build. open3d-cpu's missing libusb-1.0.so.0 comes from the PyPI package libusb-package, linked
+# into Open3D's folder (catpose.open3d_libusb) so that `import open3d` works before or without catpose.
 $(VENV)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet $(TORCH_PIN)
 	$(PY) -m pip install --quiet -c constraints.txt -e ".[test]"
+	$(PY) -m catpose.open3d_libusb
 	touch $@
 
 demo: setup

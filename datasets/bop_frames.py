@@ -10,22 +10,65 @@ JSON cache, mask and plane settings and the model normalisation of
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import NamedTuple
+
 import numpy as np
 
 from catpose import libm
 from catpose.datasets.bop_layout import camera_K
 from catpose.datasets.dataset import Observation
-from catpose.datasets.depthio import fit_ground_plane, read_depth, read_mask_png
-from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
-from catpose.errors import DatasetError
-from catpose.geometry import apply_R, dot3, make_T, matmul3, stable_seed
-from catpose.types import DepthImage
+from catpose.datasets.depthio import read_depth, read_mask_png
+from catpose.datasets.frame_view import FrameSettings, NoGroundPlane, frame_view
+from catpose.datasets.render import PinholeCamera, render_depth
+from catpose.depth_frame import DepthFrame, scaled_depth
+from catpose.errors import DatasetError, InvalidInputError
+from catpose.geometry import apply_R, dot3, make_T, matmul3
+
+
+class BopFrame(NamedTuple):
+    """One instance of a BOP frame as the loader reads it (:meth:`BopFrames.instance_frame`).
+
+    Attributes:
+        frame: the :class:`~catpose.depth_frame.DepthFrame` (raw depth, ``cam_K``, the
+            instance's mask, ``depth_scale`` to mm; ``frame_id`` the observation id).
+        exclude: (H, W) bool, the rendered model's pixels, left out of the plane fit (mask made by
+            rendering), or None.
+        category, scene_id, im_id, gt_idx, obj_id: the instance.
+        T_camera_model: (4, 4) its ground-truth pose, BOP model frame, mm.
+        depth_path: the depth file; mask_source: ``mask_visib`` or ``render``.
+    """
+
+    frame: DepthFrame
+    exclude: np.ndarray | None
+    category: str
+    scene_id: int
+    im_id: int
+    gt_idx: int
+    obj_id: int
+    T_camera_model: np.ndarray
+    depth_path: Path
+    mask_source: str
 
 
 class BopFrames:
     """Observations of a BOP dataset's frames (mixin of ``BOP``)."""
 
-    def observation(self, obs_id: str) -> Observation:
+    def frame_settings(self) -> FrameSettings:
+        """The dataset config's frame -> view settings (``normal_radius``, ``max_points``, the
+        ``plane_*`` keys), as :func:`~catpose.datasets.frame_view.frame_view` takes them."""
+        return FrameSettings(
+            normal_radius=self.normal_radius,
+            max_points=self.max_points,
+            plane_distance=self.plane_distance_mm,
+            plane_iterations=self.plane_iterations,
+            plane_max_points=self.plane_max_points,
+        )
+
+    def instance_frame(self, obs_id: str) -> BopFrame:
+        """The instance's depth frame (raw depth, ``cam_K``, its mask, ``depth_scale`` to mm, named
+        by ``obs_id`` and the run's seed) and what the loader knows beside it (:class:`BopFrame`);
+        a bad file or entry raises :class:`DatasetError` naming it."""
         try:
             category, scene_s, im_s, gt_s = obs_id.split("/")
             scene_id, im_id, gt_idx = int(scene_s), int(im_s), int(gt_s)
@@ -44,7 +87,8 @@ class BopFrames:
             raise DatasetError(f"object {obj_id} in {gt_path} is not in dataset.categories; add it there")
 
         depth_path = self.layout.depth(scene_id, im_id)
-        depth_mm = read_depth(depth_path).astype(np.float64) * depth_scale
+        raw_depth = read_depth(depth_path)
+        depth_mm = scaled_depth(raw_depth, depth_scale)
         h, w = depth_mm.shape
         camera = PinholeCamera.from_K(K, w, h)
         T_camera_model = make_T(R_cam_model, t_cam_model)
@@ -64,59 +108,63 @@ class BopFrames:
             source = "render"
         mask &= depth_mm > 0
         n_pix = int(mask.sum())
-        if n_pix < self.min_visible_pixels:
+        if n_pix < max(self.min_visible_pixels, 1):
             raise DatasetError(
                 f"object {obj_id} has {n_pix} visible pixels in {depth_path} (mask: {source}); "
                 f"at least {self.min_visible_pixels} are needed"
             )
-
-        R_obj_model, centre, scale = self.normalisation(obj_id)
-        points_mm, _ = depth_to_points(depth_mm, camera, mask)
-        points = points_mm / scale
-
-        # background for the ground plane: everything not the object (nor where the model is)
-        background = (depth_mm > 0) & ~mask
-        if rendered is not None:
-            background &= rendered <= 0
-        bg_points, _ = depth_to_points(depth_mm, camera, background)
-        rng = np.random.default_rng(stable_seed(self.seed, "bop", obs_id))
-        if self.plane_max_points and len(bg_points) > self.plane_max_points:
-            bg_points = bg_points[rng.choice(len(bg_points), size=self.plane_max_points, replace=False)]
-        if len(bg_points) < 100:
-            raise DatasetError(f"{depth_path}: only {len(bg_points)} background pixels; cannot fit the ground plane")
-        ground, _, n_inliers = fit_ground_plane(
-            bg_points, self.plane_distance_mm, self.plane_iterations, stable_seed(self.seed, "plane", obs_id)
+        try:
+            frame = DepthFrame(raw_depth, K, mask, depth_scale, frame_id=obs_id, seed=self.seed)
+        except InvalidInputError as e:
+            raise DatasetError(f"{depth_path}: {e}") from None
+        return BopFrame(
+            frame,
+            None if rendered is None else rendered > 0,
+            category,
+            scene_id,
+            im_id,
+            gt_idx,
+            obj_id,
+            T_camera_model,
+            depth_path,
+            source,
         )
 
-        normals = estimate_normals(points, self.normal_radius)
-        if self.max_points and len(points) > self.max_points:
-            keep = np.sort(rng.choice(len(points), size=self.max_points, replace=False))
-            points, normals = points[keep], normals[keep]
+    def observation(self, obs_id: str) -> Observation:
+        bf = self.instance_frame(obs_id)
+        category, scene_id, im_id, gt_idx, obj_id = bf.category, bf.scene_id, bf.im_id, bf.gt_idx, bf.obj_id
+        R_cam_model, t_cam_model = bf.T_camera_model[:3, :3], bf.T_camera_model[:3, 3]
+        R_obj_model, centre, scale = self.normalisation(obj_id)
+        # the same frame -> view path as catpose.register(DepthFrame(...)) (datasets/frame_view.py)
+        try:
+            view = frame_view(bf.frame, scale, self.frame_settings(), exclude=bf.exclude, source=str(bf.depth_path))
+        except NoGroundPlane as e:
+            raise DatasetError(str(e)) from None
 
         # p_object = R_obj_model R^T (p_cam - t) / s - centre / s, with p_cam in mm
         R_object_camera = matmul3(R_obj_model, R_cam_model.T)
         T_object_camera = make_T(R_object_camera, -(apply_R(R_object_camera, t_cam_model) + centre) / scale)
         up_camera = apply_R(R_object_camera.T, np.array([0.0, 0.0, 1.0]))
-        ground_err = float(np.degrees(libm.arccos(np.clip(dot3(ground, up_camera), -1.0, 1.0))))
+        ground_err = float(np.degrees(libm.arccos(np.clip(dot3(view.ground_normal_camera, up_camera), -1.0, 1.0))))
         return Observation(
             obs_id=obs_id,
             category=category,
             instance_id=f"obj_{obj_id:06d}",
-            points_camera=points,
-            normals_camera=normals,
-            ground_normal_camera=ground,
+            points_camera=view.points_camera,
+            normals_camera=view.normals_camera,
+            ground_normal_camera=view.ground_normal_camera,
             T_object_camera=T_object_camera,
             symmetry_axis=self.symmetry_axis(obj_id, category),
             symmetries=self.discrete_symmetries(obj_id),
-            depth_image=DepthImage(depth_mm / scale, K, mask),
+            depth_image=view.depth_image,
             info={
                 "scene_id": scene_id,
                 "im_id": im_id,
                 "gt_idx": gt_idx,
                 "obj_id": obj_id,
-                "mask_source": source,
-                "visible_pixels": n_pix,
-                "ground_inliers": n_inliers,
+                "mask_source": bf.mask_source,
+                "visible_pixels": view.visible_pixels,
+                "ground_inliers": view.ground_inliers,
                 "ground_vs_object_up_deg": ground_err,
                 "scale_mm": scale,
                 "centre_mm": [float(x) for x in centre],

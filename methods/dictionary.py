@@ -13,9 +13,10 @@ from the origin. The rings match where a depth camera looks at an upright object
 ``layout="fibonacci"`` spreads ``num_views`` directions evenly over the whole sphere instead.
 
 Built once per template and parameters and cached in memory and on disk: the key is the
-template id, a hash of the template points and normals and every parameter. The disk folder is
-``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose`` (subfolder ``dictionary``); only indices are
-stored, points and normals are looked up from the template.
+template id, a hash of the template points and normals and every parameter. The disk cache
+(:mod:`catpose.disk_cache`: ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``, written atomically, a
+corrupt entry rebuilt, keyed also by this code) holds only indices; points and normals are looked
+up from the template.
 
 Usage::
 
@@ -26,10 +27,8 @@ Usage::
 
 from __future__ import annotations
 
-import os
 import re
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -121,12 +120,6 @@ def viewpoint_layout(
     return distance * dirs
 
 
-def cache_dir() -> Path:
-    """``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``."""
-    env = os.environ.get("CATPOSE_CACHE_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "catpose"
-
-
 def dictionary_key(
     template: Template,
     num_views: int,
@@ -169,7 +162,7 @@ def get_dictionary(
         distance: camera distance from the origin, object-normalised unit.
         hpr_radius_factor: hidden point removal radius as a multiple of the cloud's extent seen
             from the viewpoint (Open3D's usual choice is 100).
-        use_disk_cache: also read/write ``cache_dir()/dictionary/<key>.npz``.
+        use_disk_cache: also read/write the disk cache (:mod:`catpose.disk_cache`, kind ``dictionary``).
 
     Returns:
         A :class:`PartialDictionary`; the same object for repeated calls with equal inputs.
@@ -180,28 +173,27 @@ def get_dictionary(
     if hit is not None:
         return hit
     viewpoints = viewpoint_layout(num_views, layout, elevations_deg, distance)
-    path = cache_dir() / "dictionary" / f"{key}.npz"
-    indices: list[np.ndarray] | None = None
-    if use_disk_cache and path.is_file():
-        try:
-            with np.load(path) as z:
-                flat, offsets = z["indices"], z["offsets"]
-            indices = [flat[offsets[i] : offsets[i + 1]].astype(np.int64) for i in range(num_views)]
-            if len(indices) != num_views or any(len(i) and i.max() >= len(template.points) for i in indices):
-                indices = None
-        except Exception:  # a corrupt cache file is rebuilt, never fatal
-            indices = None
-    if indices is None:
-        indices = [visible_indices(template.points, v, hpr_radius_factor) for v in viewpoints]
-        if use_disk_cache:
-            try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                offsets = np.cumsum([0] + [len(i) for i in indices])
-                tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
-                np.savez(tmp, indices=np.concatenate(indices), offsets=offsets, viewpoints=viewpoints)
-                os.replace(tmp, path)
-            except OSError:  # a read-only cache folder only costs the rebuild next time
-                pass
+
+    def build() -> list[np.ndarray]:
+        return [visible_indices(template.points, v, hpr_radius_factor) for v in viewpoints]
+
+    def from_arrays(z) -> list[np.ndarray]:
+        flat, offsets = z["indices"], z["offsets"]
+        out = [flat[offsets[i] : offsets[i + 1]].astype(np.int64) for i in range(num_views)]
+        if len(offsets) != num_views + 1 or any(len(i) and i.max() >= len(template.points) for i in out):
+            raise ValueError("indices do not fit the template")
+        return out
+
+    def to_arrays(indices: list[np.ndarray]) -> dict[str, np.ndarray]:
+        return {"indices": np.concatenate(indices), "offsets": np.cumsum([0] + [len(i) for i in indices])}
+
+    if use_disk_cache:
+        from catpose import disk_cache
+
+        disk_key = f"{key}|{disk_cache.fingerprint('catpose.methods.dictionary', 'catpose.hpr')}"
+        indices = disk_cache.cached("dictionary", disk_key, build, to_arrays, from_arrays, label=key)
+    else:
+        indices = build()
     d = PartialDictionary(
         template_id=template.template_id,
         key=key,

@@ -23,7 +23,7 @@ import numpy as np
 from catpose.content_hash import content_hash
 from catpose.lru import LRUCache
 from catpose.methods.ours_settings import RestingSettings
-from catpose.resting import resting_ups, up_classes
+from catpose.resting import resting_ups_cached, up_classes
 from catpose.types import Template
 
 __all__ = ["Hypothesis", "hypotheses", "rotation_between"]
@@ -107,7 +107,7 @@ def hypotheses(template: Template, settings: RestingSettings) -> tuple[Hypothesi
     hit = _CACHE.get(key)
     if hit is not None:
         return hit
-    classes = up_classes(resting_ups(geometry, settings.merge_deg), template.symmetry_axis, settings.merge_deg)
+    classes = up_classes(resting_ups_cached(geometry, settings.merge_deg), template.symmetry_axis, settings.merge_deg)
     out = [own]
     for r in classes:
         if len(out) > settings.max_poses or r.probability < settings.min_probability:

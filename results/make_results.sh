@@ -172,6 +172,10 @@ perf() {
     "$B" perf --n 12 --repeat 3 --methods $M --set adam:optimiser.solver=adam --dataset ycbv \
       --root "$SHARED/bop/ycbv" --out "$P/perf_ycbv.csv"
   fi
+  if [ -d "$SHARED/bop/ycbv" ]; then  # the first registration of a template in a new process, cache cold and warm
+    "$B" perf --first-sample --dataset ycbv --root "$SHARED/bop/ycbv" --templates 3 --repeat 3 \
+      --out "$P/first_sample_ycbv.csv"
+  fi
   if [ -d "$SHARED/ModelNet40" ]; then
     "$B" perf --n 12 --repeat 3 --methods ours,fgr --dataset modelnet40 --root "$SHARED/ModelNet40" \
       --out "$P/perf_modelnet40.csv"

@@ -34,6 +34,7 @@ Usage::
     bench perf --dataset redwood --root ../shared/data/redwood --n 12
     bench perf --methods ours,fgr --device cuda --batch 16 --n 48
     bench perf --solvers --problems 20
+    bench perf --first-sample --dataset ycbv --root ../shared/data/bop/ycbv   # cold / warm first sample
 """
 
 from __future__ import annotations
@@ -278,6 +279,10 @@ def main(argv: list[str] | None = None) -> int:
         from catpose.bench.perf.solvers import main as solvers_main
 
         return solvers_main([a for a in argv if a != "--solvers"])
+    if "--first-sample" in argv:  # cold and warm first-sample latency, in new processes
+        from catpose.bench.perf.first_sample import main as first_main
+
+        return first_main([a for a in argv if a != "--first-sample"])
     import yaml
 
     ap = argparse.ArgumentParser(prog="bench perf", description=__doc__.split("\n\n")[0])

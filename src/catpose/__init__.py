@@ -5,15 +5,25 @@ Import root for ``catpose.bench`` (CLI, runner, metrics, tables), ``catpose.meth
 (Hydra configs). Shared types live in :mod:`catpose.types`.
 
 ``catpose.register(observation, template, method="ours", up=None, **options)`` registers one
-cloud to a template in one call (:mod:`catpose.api`, imported on first use so that
-``import catpose`` stays light).
+view (an (N, 3) cloud or a ``catpose.DepthFrame``) to a template in one call;
+``catpose.Registrar(template)`` holds a template between calls (:mod:`catpose.api`, imported on
+first use so that ``import catpose`` stays light).
 """
 
 from typing import Any
 
 __version__ = "0.1.0"
 
-_API = ("register", "Registration", "build_method")
+_API = (
+    "DepthFrame",
+    "InvalidInputError",
+    "NormalisedTemplate",
+    "Registrar",
+    "Registration",
+    "RegistrationFailed",
+    "build_method",
+    "register",
+)
 
 
 def __getattr__(name: str) -> Any:

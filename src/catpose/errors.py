@@ -48,3 +48,8 @@ def command_error(command: str, error: BaseException | str) -> str:
     (:func:`catpose.bench.cli.main`); a command that must print it itself (inside Hydra's job,
     or run as ``python -m``) uses this too, so every error reads the same."""
     return f"bench {command}: error: {error}"
+
+
+class RegistrationFailed(CatposeError):
+    """A method gave no pose for an input that passed every check (e.g. TEASER found no
+    consistent correspondences): the method failed, not the input (``catpose.register``)."""

@@ -25,7 +25,7 @@ import numpy as np
 from catpose import libm
 from catpose.geometry import dot3, norm3, unit3
 
-__all__ = ["RestingUp", "resting_ups", "up_classes"]
+__all__ = ["RestingUp", "resting_ups", "resting_ups_cached", "up_classes"]
 
 
 @dataclass(frozen=True)
@@ -81,6 +81,27 @@ def resting_ups(points: np.ndarray, merge_deg: float = 10.0) -> list[RestingUp]:
     total = sum(m[0] for m in merged) or 1.0
     out = [RestingUp(tuple(float(x) for x in np.round(up, 6)), round(p / total, 9)) for p, up in merged]
     return sorted(out, key=lambda r: (-r.probability, r.up))
+
+
+def resting_ups_cached(points: np.ndarray, merge_deg: float = 10.0) -> list[RestingUp]:
+    """:func:`resting_ups` through the disk cache (:mod:`catpose.disk_cache`, kind ``resting``,
+    keyed by the points' content, ``merge_deg`` and this module's code): trimesh's stable poses
+    take about a second for a YCB-Video model; the values come back with the same bits."""
+    from catpose import disk_cache
+    from catpose.content_hash import content_hash
+
+    p = np.asarray(points, dtype=np.float64)
+    key = f"{content_hash(p)}|{float(merge_deg)!r}|{disk_cache.fingerprint('catpose.resting')}"
+    return disk_cache.cached(
+        "resting",
+        key,
+        lambda: resting_ups(p, merge_deg),
+        lambda ups: {
+            "up": np.array([r.up for r in ups], float).reshape(-1, 3),
+            "p": np.array([r.probability for r in ups]),
+        },
+        lambda z: [RestingUp(tuple(float(x) for x in u), float(q)) for u, q in zip(z["up"], z["p"], strict=True)],
+    )
 
 
 def up_classes(ups: list[RestingUp], symmetry_axis: np.ndarray | None, merge_deg: float = 10.0) -> list[RestingUp]:

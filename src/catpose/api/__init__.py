@@ -1,4 +1,5 @@
-"""``catpose.register``: one call from an observed cloud and a template to a camera pose.
+"""``catpose.register``: one call from an observed view (points or a depth frame) and a template to
+a camera pose; ``catpose.Registrar``: a template held between calls.
 
 The application layer. This is the one package under ``src/catpose`` that imports
 ``catpose.methods``, ``catpose.bench`` (the builder that turns ``configs/method/<name>.yaml``
@@ -14,6 +15,13 @@ axis) and the observation ``p / s`` (camera frame, origin kept: ours scores visi
 the camera). A method's answer ``T_n`` maps back to the caller's frames and units as
 ``R = R_up^T R_n``, ``t = R_up^T (s t_n + c)``.
 
+A depth frame (:class:`~catpose.depth_frame.DepthFrame`) goes through
+:func:`catpose.datasets.frame_view.frame_view`, the function ``bench run``'s BOP loader calls for
+every instance, so the API and the benchmark see the same problem (modules: ``inputs`` argument
+checks and the normalised template, ``observation`` points or a frame in the methods' unit,
+``registrar`` the call itself, ``parallel`` ``Registrar.many`` over processes, ``bop`` a BOP
+frame and its model as the bench loads them, ``method_cache`` methods built from configs).
+
 Example::
 
     import catpose
@@ -21,7 +29,22 @@ Example::
     print(result.T_template_camera)   # (4, 4), millimetres: p_template = R p_camera + t
 """
 
+from catpose.api.inputs import NormalisedTemplate
 from catpose.api.method_cache import build_method
-from catpose.api.register import UP_HYPOTHESES, Registration, register
+from catpose.api.register import register
+from catpose.api.registrar import UP_HYPOTHESES, Registrar
+from catpose.api.result import Registration
+from catpose.depth_frame import DepthFrame
+from catpose.errors import InvalidInputError, RegistrationFailed
 
-__all__ = ["Registration", "UP_HYPOTHESES", "build_method", "register"]
+__all__ = [
+    "DepthFrame",
+    "InvalidInputError",
+    "NormalisedTemplate",
+    "Registrar",
+    "Registration",
+    "RegistrationFailed",
+    "UP_HYPOTHESES",
+    "build_method",
+    "register",
+]

@@ -8,6 +8,7 @@ bounding-box centre ``c`` and divided by its radius ``s`` (the farthest point's 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -15,9 +16,13 @@ import numpy as np
 
 from catpose.errors import CatposeError, InvalidInputError
 from catpose.geometry import apply_R, axis_angle_to_R, dot3, norm3, normalize_to_unit_sphere, unit3
+from catpose.lru import LRUCache
 from catpose.types import Template
 
 __all__ = [
+    "MAX_TEMPLATE_POINTS",
+    "NormalisedTemplate",
+    "check_position",
     "cloud_arg",
     "direction_arg",
     "estimated_normals",
@@ -25,7 +30,46 @@ __all__ = [
     "normals_arg",
     "oriented_to_camera",
     "subsample",
+    "unit_warning",
 ]
+
+#: the most points ``template_points`` may ask for: a mesh is sampled 4x over and each sample
+#: ray-cast from 40 views (16 M rays here, seconds; the methods use 2048)
+MAX_TEMPLATE_POINTS = 100_000
+
+
+@dataclass(frozen=True, eq=False)
+class NormalisedTemplate:
+    """A template as the methods see it and the map back to the caller's frame and unit.
+
+    ``p_normalised = (R_up p - centre) / scale`` for a point ``p`` of the caller's template frame.
+
+    Attributes:
+        template: the :class:`~catpose.types.Template` in the object-normalised frame and unit
+            (up axis +z, unit bounding sphere).
+        R_up: (3, 3) turns the caller's template frame into the normalised one (``template_up``
+            onto +z; the BOP loader's model axes).
+        centre: (3,) the template's centre after ``R_up``, caller's unit.
+        scale: the template's radius, caller's unit (one object-normalised unit).
+    """
+
+    template: Template
+    R_up: np.ndarray
+    centre: np.ndarray
+    scale: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.template, Template):
+            raise InvalidInputError(f"NormalisedTemplate.template is a {type(self.template).__name__}, not a Template")
+        R = np.asarray(self.R_up, dtype=np.float64).reshape(3, 3)
+        if np.abs(R @ R.T - np.eye(3)).max() > 1e-9 or np.linalg.det(R) < 0:
+            raise InvalidInputError("NormalisedTemplate.R_up is not a rotation")
+        scale = float(self.scale)
+        if not (np.isfinite(scale) and scale > 0):
+            raise InvalidInputError(f"NormalisedTemplate.scale={self.scale!r} must be a positive length")
+        object.__setattr__(self, "R_up", R)
+        object.__setattr__(self, "centre", np.asarray(self.centre, dtype=np.float64).reshape(3))
+        object.__setattr__(self, "scale", scale)
 
 
 def cloud_arg(name: str, value: Any, min_points: int = 10) -> np.ndarray:
@@ -135,9 +179,72 @@ def subsample(n: int, max_points: int, key: str) -> np.ndarray | None:
 
 def normalised_template(
     template: Any, template_normals: Any, template_up: np.ndarray, template_points: int
-) -> tuple[Template, np.ndarray, np.ndarray, float]:
-    """The normalised :class:`Template` and ``(R_up (3, 3), centre (3,), scale)`` with
-    ``p_normalised = (R_up p - centre) / scale``."""
+) -> NormalisedTemplate:
+    """The template in the object-normalised frame and unit, with the map back
+    (:class:`NormalisedTemplate`); a :class:`NormalisedTemplate` is returned as it is (then
+    ``template_normals`` must be None).
+
+    Raises:
+        InvalidInputError: one line naming the argument (no file, degenerate, too many points).
+    """
+    if isinstance(template, NormalisedTemplate):
+        if template_normals is not None:
+            raise InvalidInputError("template_normals applies to a cloud template, not to a NormalisedTemplate")
+        return template
+    if template_points > MAX_TEMPLATE_POINTS:
+        raise InvalidInputError(
+            f"template_points={template_points} is more than {MAX_TEMPLATE_POINTS}; the methods use 2048 "
+            "(more only costs time and memory)"
+        )
+    key = _template_key(template, template_normals, template_up, template_points)
+    hit = None if key is None else _PREPARED.get(key)
+    if hit is not None:
+        return hit
+    try:
+        prepared = _normalised_template(template, template_normals, template_up, template_points)
+    except MemoryError:
+        raise InvalidInputError(
+            f"template: out of memory preparing it with template_points={template_points}; "
+            "pass a smaller mesh or cloud, or fewer template_points"
+        ) from None
+    if key is not None:
+        _PREPARED.put(key, prepared)
+    return prepared
+
+
+#: templates prepared by earlier calls (a mesh is sampled once, not per ``register`` call)
+_PREPARED: LRUCache[str, NormalisedTemplate] = LRUCache(8)
+
+
+def _template_key(template: Any, normals: Any, up: np.ndarray, points: int) -> str | None:
+    """What identifies a template argument: a file's path, size and modification time, or the
+    content hash of its arrays; with the preparation's parameters. None: not cached."""
+    from catpose.content_hash import content_hash
+
+    params = f"{np.round(up, 12).tolist()}|{points}"
+    try:
+        if isinstance(template, (str, Path)):
+            st = Path(template).stat()
+            return f"file:{Path(template).resolve()}:{st.st_size}:{st.st_mtime_ns}|{params}|{normals is None}"
+        if hasattr(template, "vertices") and hasattr(template, "faces"):
+            arrays = [np.asarray(template.vertices), np.asarray(template.faces)]
+        elif isinstance(template, (tuple, list)) and len(template) == 2:
+            arrays = [np.asarray(template[0]), np.asarray(template[1])]
+        else:
+            arrays = [np.asarray(template)]
+        if normals is not None:
+            arrays.append(np.asarray(normals))
+        if any(a.dtype.kind not in "uif" for a in arrays):
+            return None
+        shapes = "|".join(str(a.shape) for a in arrays)
+        return f"arrays:{content_hash(*arrays)}:{shapes}|{params}|{normals is None}"
+    except (OSError, TypeError, ValueError):
+        return None
+
+
+def _normalised_template(
+    template: Any, template_normals: Any, template_up: np.ndarray, template_points: int
+) -> NormalisedTemplate:
     from catpose.datasets.meshio import sampled_template
     from catpose.datasets.render import estimate_normals
 
@@ -150,6 +257,7 @@ def normalised_template(
         )
     R_up = _R_onto_z(template_up)
     rotated = apply_R(R_up, geometry)
+    check_position("template", rotated)
     try:
         points, centre, scale = normalize_to_unit_sphere(rotated)
     except ValueError:
@@ -162,7 +270,7 @@ def normalised_template(
             t = sampled_template(points, triangles, "catpose.register/template", "object", template_points)
         except CatposeError as e:
             raise InvalidInputError(f"template: {e}") from None
-        return t, R_up, centre, scale
+        return NormalisedTemplate(t, R_up, centre, scale)
     if normals is None:  # as the datasets do: local planes, radius 0.1 object unit, here oriented outwards
         normals = estimate_normals(points, 0.1, viewpoint=np.zeros(3))
         normals = -normals  # estimate_normals faces the viewpoint (the centre): outwards is the opposite
@@ -175,7 +283,7 @@ def normalised_template(
         t = Template(template_id="catpose.register/template", category="object", points=points, normals=normals)
     except CatposeError as e:
         raise InvalidInputError(f"template: {e}") from None
-    return t, R_up, centre, scale
+    return NormalisedTemplate(t, R_up, centre, scale)
 
 
 def estimated_normals(points: np.ndarray) -> np.ndarray:
@@ -192,3 +300,41 @@ def oriented_to_camera(points: np.ndarray, normals: np.ndarray) -> np.ndarray:
     out = normals.copy()
     out[flip] *= -1
     return out
+
+
+def check_position(name: str, points: np.ndarray) -> None:
+    """Refuse a cloud (N, 3) whose extent is below float64's resolution at its distance from the
+    origin (coordinates at 1e12 for an object of size 1): its points are not all equal, but every
+    check and method would see them so. One line naming ``name``."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    extent = float(np.linalg.norm(hi - lo))
+    distance = float(np.abs(points).max())
+    if extent == 0:
+        raise InvalidInputError(f"{name} has zero extent (all {len(points)} points equal)")
+    if not np.isfinite(extent):
+        raise InvalidInputError(f"{name} spans more than float64 holds; pass coordinates in a smaller unit")
+    if extent < 1e-9 * distance:
+        raise InvalidInputError(
+            f"{name} spans {extent:.3g} but lies {distance:.3g} from the origin, beyond float64's resolution "
+            "there; pass coordinates near the origin (an observation in the camera frame, the camera at the origin)"
+        )
+
+
+def unit_warning(radius: float, what: str = "observation") -> str | None:
+    """The warning for an observation whose radius (bounding-box half diagonal) is ``radius``
+    template radii, when that says the two are in different units (or the observation is not only
+    the object); None when it looks right. A partial view spans about 0.3 to 1.2 template radii."""
+    if radius > 2.0:
+        return (
+            f"catpose.register: the {what} span{'s' if what == 'observation' else ''} {radius:.1f} template radii; "
+            "check that both use the same unit and that the observation holds only the object (a mask's stray "
+            "pixels: ours' depth check copes with a few)"
+        )
+    if 0 < radius < 0.1:
+        return (
+            f"catpose.register: the {what} span{'s' if what == 'observation' else ''} {radius:.3g} template radii, "
+            f"{1.0 / radius:.3g} times smaller "
+            "than the template: are they in different units (metres against millimetres: 1000)? pass both in "
+            "one unit (a DepthFrame: set depth_scale)"
+        )
+    return None

@@ -11,7 +11,7 @@ import numpy as np
 from catpose.errors import CatposeError, InvalidInputError
 from catpose.lru import LRUCache
 
-__all__ = ["build_method", "uses_up"]
+__all__ = ["build_method", "prepare_template", "uses_up"]
 
 #: Methods built from configs, reused across calls (their template caches with them).
 _METHODS: LRUCache[tuple, Any] = LRUCache(4)
@@ -53,6 +53,29 @@ def _overrides(options: Mapping[str, Any], prefix: str = "method") -> list[str]:
     return out
 
 
+def _check_keys(name: str, node: Any, options: Mapping[str, Any], path: str = "") -> None:
+    """Refuse an option that ``configs/method/<name>.yaml`` does not have, in the API's words
+    (keyword arguments, not Hydra's ``+method.x`` overrides), listing the options that exist."""
+    from omegaconf import DictConfig
+
+    for key, value in options.items():
+        dotted = f"{path}{key}"
+        known = sorted(k for k in node if k not in ("_target_", "name")) if isinstance(node, DictConfig) else []
+        if not isinstance(node, DictConfig) or key not in node:
+            where = f"{path[:-1]} " if path else ""
+            raise InvalidInputError(
+                f"{dotted} is not an option of method {name!r}; its {where}options are: {', '.join(known)} "
+                f"(configs/method/{name}.yaml)"
+            )
+        child = node[key]
+        if isinstance(value, Mapping):
+            if not isinstance(child, DictConfig):
+                raise InvalidInputError(
+                    f"option {dotted} of method {name!r} is a value, not a group: pass {key}=<value>"
+                )
+            _check_keys(name, child, value, f"{dotted}.")
+
+
 def build_method(name: str, **options: Any) -> Any:
     """The method ``configs/method/<name>.yaml`` with ``options`` as overrides, built by the same
     builder as ``bench run`` (cached: the same name and options give the same object, whose
@@ -71,6 +94,8 @@ def build_method(name: str, **options: Any) -> Any:
             f"method={name!r} is not a method config; choose one of {', '.join(names)} "
             "or pass a RegistrationMethod instance"
         )
+    if options:
+        _check_keys(name, compose([f"method={name}"]).method, options)
     try:
         cfg = compose([f"method={name}", *_overrides(options)], hint="see configs/method/" + name + ".yaml")
     except CatposeError as e:
@@ -91,3 +116,24 @@ def uses_up(method: Any) -> bool:
     if isinstance(method, Ours):
         return True
     return getattr(method, "features", None) == "lps"
+
+
+def prepare_template(method: Any, template: Any) -> None:
+    """Build ``method``'s per-template data for ``template`` (object-normalised) now instead of on
+    the first registration. Ours: the partial-view dictionary and descriptors of the template and
+    of each of its gravity hypotheses (:mod:`catpose.methods.resting_hypotheses`), loaded from the
+    disk cache when there, and the depth check's ray caster of its mesh. Other methods build
+    theirs on their first call (FPFH features take milliseconds; the dictionary baselines share
+    ours' disk-cached dictionary features)."""
+    from catpose.methods.ours import Ours
+
+    if not isinstance(method, Ours):
+        return
+    from catpose.methods.resting_hypotheses import hypotheses
+
+    for h in hypotheses(template, method.resting):
+        method.template_features(h.template)
+    if template.has_mesh and method.selection.rule == "depth":
+        from catpose.methods.depth_check import caster_for
+
+        caster_for(template)

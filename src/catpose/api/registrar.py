@@ -1,0 +1,255 @@
+"""``catpose.Registrar``: one template held between calls, its dictionary and features built once.
+
+``Registrar(template, method="ours", **options)`` normalises the template, builds the method (as
+``bench run`` builds it) and, for ours, its per-template data (every gravity hypothesis' partial-
+view dictionary, keypoints and descriptors, the depth check's ray caster), which also lands in the
+disk cache (``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``), so that the same template in another
+process loads instead of rebuilding. ``registrar(observation)`` registers one view (an (N, 3)
+array or a :class:`~catpose.depth_frame.DepthFrame`); ``registrar.many([...], processes=N)`` a list,
+optionally over ``N`` worker processes (each loads the template's data from the disk cache), in
+order, with the same answers as one by one. :func:`catpose.register` is a one-off Registrar.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from catpose.api.inputs import NormalisedTemplate, direction_arg, normalised_template, unit_warning
+from catpose.api.method_cache import build_method, prepare_template, uses_up
+from catpose.api.observation import Observed, observed
+from catpose.api.result import Registration
+from catpose.errors import CatposeError, InvalidInputError, RegistrationFailed
+from catpose.geometry import apply_R, make_T, matmul3, unit3
+from catpose.types import RegistrationProblem, RegistrationResult
+
+__all__ = ["Registrar", "UP_HYPOTHESES"]
+
+#: Up directions tried (a Fibonacci sphere in the camera frame) when ``up`` is not given and the
+#: method needs one (ours; a correspondence baseline with LPS features). Chosen on the synthetic
+#: set, seed 0, by ``results/api/make_without_up.sh`` (``results/api/without_up_seed0_dev.md``).
+UP_HYPOTHESES = 24
+
+
+def _count(name: str, value: Any, least: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+        raise InvalidInputError(f"{name}={value!r} is not a positive integer")
+    return int(value)
+
+
+class Registrar:
+    """A template and a method, ready to register views of the template's object.
+
+    Args:
+        template: the template in its own frame (see :func:`catpose.register`), or a
+            :class:`~catpose.api.inputs.NormalisedTemplate` (a template already normalised, with
+            the map back to the caller's frame: what the BOP loader's models are).
+        method: a config name (``ours``, ``icp``, ``fgr``, ``ransac``, ``teaser``) or a
+            :class:`~catpose.methods.method.RegistrationMethod` instance.
+        template_normals, template_up, template_points: as :func:`catpose.register`.
+        prepare: build the method's per-template data now (ours: dictionaries, descriptors, ray
+            caster; loaded from the disk cache when there); False: on the first call.
+        **options: method options as in ``bench run`` (``method.<key>=<value>``).
+
+    Raises:
+        InvalidInputError: a bad argument or option, in one line naming it.
+    """
+
+    def __init__(
+        self,
+        template: Any,
+        method: str | Any = "ours",
+        *,
+        template_normals: Any = None,
+        template_up: Sequence[float] = (0.0, 0.0, 1.0),
+        template_points: int = 2048,
+        prepare: bool = True,
+        **options: Any,
+    ) -> None:
+        if isinstance(method, str):
+            self.method_name, self.method = method, build_method(method, **options)
+        else:
+            if not callable(getattr(method, "register", None)):
+                raise InvalidInputError(
+                    f"method is a {type(method).__name__}; pass a config name "
+                    "(ours, icp, fgr, ransac, teaser) or a RegistrationMethod instance"
+                )
+            if options:
+                raise InvalidInputError(
+                    f"options {sorted(options)} apply to a method config name, not to an instance; "
+                    "set them on the instance"
+                )
+            self.method_name, self.method = type(method).__name__, method
+        self.options = dict(options)
+        t_up = direction_arg("template_up", template_up)
+        points = _count("template_points", template_points, 1)
+        self.template: NormalisedTemplate = normalised_template(template, template_normals, t_up, points)
+        self.needs_up = uses_up(self.method)
+        self.prepare_s = 0.0
+        if prepare:
+            t0 = time.perf_counter()
+            prepare_template(self.method, self.template.template)
+            self.prepare_s = time.perf_counter() - t0
+
+    def __call__(
+        self,
+        observation: Any,
+        up: Sequence[float] | None = None,
+        *,
+        observation_normals: Any = None,
+        max_points: int = 2048,
+        up_hypotheses: int = UP_HYPOTHESES,
+        plane_distance: float | None = None,
+        _stacklevel: int = 2,
+    ) -> Registration:
+        """Register one view; arguments as :func:`catpose.register`."""
+        up_camera = None if up is None else direction_arg("up", up)
+        max_points = _count("max_points", max_points, 0)
+        up_hypotheses = _count("up_hypotheses", up_hypotheses, 1)
+        if up_hypotheses > 1000:
+            raise InvalidInputError(f"up_hypotheses={up_hypotheses} is more than 1000; 24 is the default")
+        obs = observed(
+            observation,
+            self.template,
+            up=up_camera,
+            observation_normals=observation_normals,
+            max_points=max_points,
+            plane_distance=plane_distance,
+        )
+        message = unit_warning(obs.radius, "observation" if obs.depth_image is None else "mask's points")
+        if message:
+            warnings.warn(message, stacklevel=_stacklevel + 1)
+        return self._register(obs, up_hypotheses)
+
+    def many(
+        self,
+        observations: Sequence[Any],
+        up: Sequence[float] | Sequence[Sequence[float] | None] | None = None,
+        *,
+        processes: int = 1,
+        **kwargs: Any,
+    ) -> list[Registration]:
+        """Register every view of ``observations``, in order (the same answers as one by one).
+
+        Args:
+            observations: (N, 3) arrays or :class:`~catpose.depth_frame.DepthFrame` objects.
+            up: one up direction (3,) for all, or one entry (3,) or None per observation.
+            processes: worker processes (each builds the method and loads the template's data,
+                from the disk cache when there); 1 registers here.
+            **kwargs: the keyword arguments of a call (``max_points``, ``plane_distance``, ...).
+        """
+        from catpose.api.parallel import register_in_processes
+
+        views = list(observations)
+        ups = _ups(up, len(views))
+        processes = _count("processes", processes, 1)
+        if processes == 1 or len(views) < 2:
+            return [self(v, u, _stacklevel=3, **kwargs) for v, u in zip(views, ups)]
+        return register_in_processes(self, views, ups, kwargs, min(processes, len(views)))
+
+    # ------------------------------------------------------------------ internals
+    def _register(self, obs: Observed, up_hypotheses: int) -> Registration:
+        tmpl = self.template
+        if obs.ground is not None or not self.needs_up:
+            g = obs.ground if obs.ground is not None else np.array([0.0, -1.0, 0.0])  # unused by this method
+            t0 = time.perf_counter()
+            result = self._call(obs, g)
+            runtime = time.perf_counter() - t0
+            chosen_up = obs.ground
+            extras = dict(result.extras)
+            cands, scores = _candidates(result)
+        else:
+            from catpose.datasets.meshio import fibonacci_sphere
+
+            t0 = time.perf_counter()
+            tried = []
+            for g in fibonacci_sphere(int(up_hypotheses)):
+                try:
+                    tried.append((g, self._call(obs, unit3(g))))
+                except RegistrationFailed:  # a hypothesis without an answer: the others decide
+                    continue
+            runtime = time.perf_counter() - t0
+            if not tried:
+                raise RegistrationFailed(
+                    f"method {self.method_name!r}: no up hypothesis gave a pose; pass up (the ground normal)"
+                )
+            best = min(range(len(tried)), key=lambda i: (not np.isfinite(tried[i][1].score), tried[i][1].score))
+            chosen_up, result = tried[best]
+            extras = dict(result.extras)
+            extras["up_search"] = {
+                "hypotheses": [[float(x) for x in g] for g, _ in tried],
+                "scores": [float(r.score) for _, r in tried],
+                "chosen": best,
+            }
+            parts = [_candidates(r) for _, r in tried]
+            cands, scores = np.concatenate([c for c, _ in parts]), np.concatenate([s for _, s in parts])
+        extras.update({k: v for k, v in obs.facts.items() if k != "ground"}, ground_source=obs.facts["ground"])
+
+        def to_caller(T: np.ndarray) -> np.ndarray:
+            return _to_caller(T, tmpl.R_up, tmpl.centre, tmpl.scale)
+
+        return Registration(
+            T_template_camera=to_caller(np.asarray(result.T_template_camera, float)),
+            score=float(result.score),
+            candidates=np.stack([to_caller(T) for T in cands]),
+            candidate_scores=scores,
+            method=self.method_name,
+            scale=float(tmpl.scale),
+            up_camera=None if chosen_up is None else np.asarray(chosen_up, float),
+            extras=extras,
+            runtime_s=runtime,
+            T_normalised=np.asarray(result.T_template_camera, float),
+        )
+
+    def _call(self, obs: Observed, g: np.ndarray) -> RegistrationResult:
+        """The method on one problem, seeded as ``bench run`` seeds a sample; a method's failure
+        on valid input is :class:`RegistrationFailed` (the input was checked above)."""
+        from catpose.bench.run.sample_run import seed_everything
+
+        try:
+            problem = RegistrationProblem(
+                sample_id=obs.sample_id,
+                category=self.template.template.category,
+                points_camera=obs.points,
+                normals_camera=obs.normals,
+                ground_normal_camera=g,
+                template=self.template.template,
+                depth_image=obs.depth_image,
+            )
+        except CatposeError as e:
+            raise InvalidInputError(str(e).replace(f"sample {obs.sample_id}: observed cloud", "observation")) from None
+        seed_everything(obs.seed)
+        try:
+            return self.method.register(problem)
+        except CatposeError as e:
+            why = str(e).replace(f"sample {obs.sample_id}: ", "")
+            raise RegistrationFailed(f"method {self.method_name!r} gave no pose: {why}") from None
+
+
+def _ups(up: Any, n: int) -> list[np.ndarray | None]:
+    """One up direction (or None) per observation from ``many``'s ``up``: None, one direction
+    (3,) for all, or a sequence of ``n`` entries, each (3,) or None."""
+    if up is None:
+        return [None] * n
+    if (isinstance(up, (list, tuple)) and any(u is None for u in up)) or np.ndim(up) == 2:
+        if len(up) != n:
+            raise InvalidInputError(f"up has {len(up)} entries for {n} observations; pass one each, or one for all")
+        return [None if u is None else direction_arg(f"up[{i}]", u) for i, u in enumerate(up)]
+    g = direction_arg("up", up)
+    return [g] * n
+
+
+def _candidates(result: RegistrationResult) -> tuple[np.ndarray, np.ndarray]:
+    if result.candidates_T is None or len(result.candidates_T) == 0:
+        return np.asarray(result.T_template_camera, float)[None], np.array([float(result.score)])
+    return np.asarray(result.candidates_T, float), np.asarray(result.candidate_scores, float)
+
+
+def _to_caller(T_n: np.ndarray, R_up: np.ndarray, centre: np.ndarray, scale: float) -> np.ndarray:
+    """``T_template_camera`` in the caller's frame and unit from the normalised estimate ``T_n``:
+    ``R = R_up^T R_n``, ``t = R_up^T (s t_n + c)``."""
+    return make_T(matmul3(R_up.T, T_n[:3, :3]), apply_R(R_up.T, scale * T_n[:3, 3] + centre))
