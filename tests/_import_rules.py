@@ -14,7 +14,10 @@ The rules (docs/architecture.md explains them):
 - datasets import only the core; methods import only the core (never a loader, never the bench);
 - a bench wing imports the core, datasets, methods, itself and the wings listed in :data:`WINGS`;
   no wing imports the CLI;
-- the CLI (the loose modules of ``bench/``) may import anything.
+- the CLI (the loose modules of ``bench/``) may import anything;
+- the protocols run no registration code (:data:`REGISTRATION_FREE`): they list problems and score
+  answers, so of the methods they import only the choice rules (arithmetic over stored facts), and
+  never Open3D, ``catpose.o3d`` or the ICP kernel.
 """
 
 from __future__ import annotations
@@ -53,6 +56,32 @@ LAYERS: dict[str, frozenset[str]] = {
     "datasets": frozenset({"core"}),
     "methods": frozenset({"core"}),
 }
+
+
+#: unit -> (the only ``catpose.methods`` modules it may import, module prefixes it may never import):
+#: the units that run no registration code. ``bench.protocols`` reads the choice rules
+#: (``catpose.methods.choice_rules``: NumPy and SciPy over the facts the runner stored) and nothing
+#: that registers: no other method module, no Open3D, no ICP kernel.
+REGISTRATION_FREE: dict[str, tuple[frozenset[str], tuple[str, ...]]] = {
+    "bench.protocols": (
+        frozenset({"catpose.methods.choice_rules"}),
+        ("open3d", "catpose.o3d", "catpose.point_to_plane_kernel", "teaserpp_python"),
+    ),
+}
+
+
+def registration_free(source: str, module: str) -> bool:
+    """Whether unit ``source`` may import ``module`` under :data:`REGISTRATION_FREE` (units not listed: yes)."""
+    if source not in REGISTRATION_FREE:
+        return True
+    methods, forbidden = REGISTRATION_FREE[source]
+
+    def under(prefix: str) -> bool:
+        return module == prefix or module.startswith(prefix + ".")
+
+    if any(under(p) for p in forbidden):
+        return False
+    return not under("catpose.methods") or any(under(m) for m in methods)
 
 
 #: (importing module, imported unit) pairs allowed against the rules: the package root's lazy
@@ -141,6 +170,8 @@ def check_tree(root: Path) -> list[Violation]:
             tree = ast.parse(path.read_text(), filename=str(path))
             for line, target_module in imported_modules(tree, module, path.name == "__init__.py"):
                 target = unit_of(target_module)
-                if target is not None and not allowed(source, target) and (module, target) not in EXCEPTIONS:
+                if (
+                    target is not None and not allowed(source, target) and (module, target) not in EXCEPTIONS
+                ) or not registration_free(source, target_module):
                     found.append(Violation(path.relative_to(root).as_posix(), line, source, target_module))
     return found

@@ -1,6 +1,6 @@
 """Every config of every group composes and instantiates (a new file is covered without edits).
 
-Method, dataset and protocol configs are composed through the ``run`` config, exactly as
+Method, dataset, protocol and choice configs are composed through the ``run`` config, exactly as
 ``bench run`` does, and built by the same builder. Datasets that need real data are built on
 ``../shared/data`` when it is present; without it, or for files not shipped there, they must stop
 with a one-line error that names ``dataset.root``. Experiment files are composed as
@@ -18,7 +18,7 @@ import pytest
 from catpose.errors import CatposeError
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
-RUN_GROUPS = ("method", "dataset", "protocol")
+RUN_GROUPS = ("method", "dataset", "protocol", "choice")
 NOT_HYDRA = {"regress", "split"}  # plain YAML read by `bench regress` / `bench suite`, not Hydra groups
 
 #: dataset config -> folder under ../shared/data that holds a small copy of its layout
@@ -154,6 +154,8 @@ def test_config_composes_and_builds(group: str, name: str, tmp_path: Path, monke
             assert callable(getattr(obj, "register", None))
         elif group == "protocol":
             assert callable(getattr(obj, "sample_ids", None))
+        elif group == "choice":  # the method side's template choice: facts after a registration, then a rule
+            assert callable(getattr(obj, "estimate_facts", None)) and obj.rule.rule == name
         return
     if top == "experiment":
         cfg = _compose([f"+experiment={name}"])

@@ -1,5 +1,6 @@
-"""The ``cross`` template choice (issue 25): an estimate's cost on each of the view's templates,
-the rule that reads them, and the runner hook that writes them into the row's ``info``."""
+"""The ``cross`` template choice (issue 25): an estimate's cost on each of the view's templates
+(:mod:`catpose.methods.cross_check`), the rule that reads them, and the runner hook that writes them
+into the row's ``info``."""
 
 from __future__ import annotations
 
@@ -10,28 +11,34 @@ import pandas as pd
 import pytest
 
 from catpose.bench.protocols.absolute import Templates
-from catpose.bench.protocols.cross_check import (
+from catpose.bench.protocols.template_rows import choose_row
+from catpose.bench.run import sample_run
+from catpose.bench.run.choice_facts import ChoiceFacts, facts_hook
+from catpose.errors import ConfigError
+from catpose.geometry import axis_angle_to_R
+from catpose.methods.choice_rules import CROSS_WEIGHT, TOP_WEIGHT, choose_index, cross_cost
+from catpose.methods.cross_check import (
     SILHOUETTE_CELL,
     SILHOUETTE_WEIGHT,
     TOP_FRACTION,
     TRUNC,
     TURNS_DEG,
-    cross_cost,
-    cross_costs,
-    refine_on,
+    CrossCheck,
     silhouette_cells,
     silhouette_iou,
     top_centroid,
-    top_offset,
-    turn_candidates,
     turned,
 )
-from catpose.bench.protocols.template_choice import CROSS_WEIGHT, TOP_WEIGHT, choose_index, choose_row
-from catpose.bench.run import sample_run
-from catpose.errors import ConfigError
-from catpose.geometry import axis_angle_to_R
+from catpose.methods.template_choice import TemplateChoice
 
 Z = np.array([0.0, 0.0, 1.0])
+CHECK = CrossCheck()  # the defaults (configs/choice/score.yaml)
+cross_costs, refine_on, top_offset, turn_candidates = (
+    CHECK.cross_costs,
+    CHECK.refine_on,
+    CHECK.top_offset,
+    CHECK.turn_candidates,
+)
 
 
 def _box_surface(size, n: int, seed: int):
@@ -183,7 +190,7 @@ def test_cross_rule_without_costs():
     assert choose_row(_rows([None], [0.2], [5.0]), "cross")["err_deg"] == 5.0
 
 
-class _Protocol:
+class _Hook:
     def __init__(self, facts=None, error=None):
         self.facts, self.error = facts, error
 
@@ -196,14 +203,14 @@ class _Protocol:
 
 def test_runner_hook_adds_facts_and_keeps_the_estimate_when_they_fail():
     ok = {"status": "ok", "T_est": np.eye(4).reshape(-1).tolist(), "info": {"view": "v00"}}
-    out = sample_run._with_estimate_facts(_Protocol({"cross_costs": [0.1, 0.2]}), None, ok, None)
+    out = sample_run._with_estimate_facts(_Hook({"cross_costs": [0.1, 0.2]}), None, ok, None)
     assert out["info"] == {"view": "v00", "cross_costs": [0.1, 0.2]} and ok["info"] == {"view": "v00"}
-    bad = sample_run._with_estimate_facts(_Protocol(error=ValueError("no normals\nhere")), None, ok, None)
+    bad = sample_run._with_estimate_facts(_Hook(error=ValueError("no normals\nhere")), None, ok, None)
     assert bad["status"] == "ok" and "ValueError: no normals here" in bad["info"]["estimate_facts_error"]
     failed = {"status": "failed", "T_est": None, "info": {}}
-    assert sample_run._with_estimate_facts(_Protocol({"x": 1}), None, failed, None) is failed
+    assert sample_run._with_estimate_facts(_Hook({"x": 1}), None, failed, None) is failed
     with pytest.raises(ImportError):  # not the sample's fault: the run stops
-        sample_run._with_estimate_facts(_Protocol(error=ImportError("x")), None, ok, None)
+        sample_run._with_estimate_facts(_Hook(error=ImportError("x")), None, ok, None)
 
 
 def test_costs_do_not_depend_on_the_estimates_last_bits():
@@ -268,17 +275,24 @@ def test_cross_top_breaks_a_tie_of_the_cross_costs_by_the_top_offset():
     )
 
 
-def test_templates_protocol_writes_the_costs_and_the_top_offset():
+def test_the_runners_hook_writes_the_costs_and_the_top_offset_on_the_protocols_templates():
+    # the protocol gives the view's templates (and the sample's own index), the method side's
+    # choice computes the facts; a protocol that lists no view templates, or no choice, gets no hook
     templates = [_chair_like(0.7, 0.8, 0), _chair_like(0.6, 0.9, 10)]
     P, T = _view(_chair_like(0.65, 0.85, 30), np.array([0.8, 2.0, 1.5]))
     dataset = SimpleNamespace(category_templates=lambda category: templates)
     sample = SimpleNamespace(problem=SimpleNamespace(points_camera=P, category="chair", sample_id="chair/c/v00|1"))
-    facts = Templates(choice="cross").estimate_facts(dataset, sample, T)
+    assert Templates().view_templates(dataset, sample) == (templates, 1)
+    hook = facts_hook(Templates(), TemplateChoice(rule="cross"))
+    facts = hook.estimate_facts(dataset, sample, T)
     assert facts["cross_costs"] == cross_costs(P, T, templates, 1)
     assert facts["top_offset"] == top_offset(P, T, templates, 1)
     assert facts["cross_check_s"] >= 0.0
     one = SimpleNamespace(category_templates=lambda category: templates[:1])
-    assert Templates(choice="cross").estimate_facts(one, sample, T) == {}
+    assert ChoiceFacts(Templates(), TemplateChoice(rule="cross")).estimate_facts(one, sample, T) == {}
+    from catpose.bench.protocols.absolute import GtModel
+
+    assert facts_hook(GtModel(), TemplateChoice()) is None and facts_hook(Templates(), None) is None
 
 
 def test_turned_is_a_turn_about_up_after_the_estimate():
@@ -345,35 +359,34 @@ def test_cross_top_turns_keeps_the_best_candidate_with_its_pose_and_errors():
     assert kept["info"]["turn_deg"] == 0.0 and kept["err_deg"] == 90.0
     # rows written without turns
     rows["info"] = [{"cross_costs": c, "top_offset": 0.5} for c in costs]
-    with pytest.raises(ConfigError, match="protocol.choice=cross_top_turns needs info.turns"):
+    with pytest.raises(ConfigError, match="choice=cross_top_turns needs info.turns"):
         choose_row(rows, "cross_top_turns")
 
 
-def test_templates_protocol_writes_the_turns_unless_told_not_to():
+def test_the_choice_writes_the_turns_unless_told_not_to():
     templates = [_chair_like(0.7, 0.8, 0), _chair_like(0.6, 0.9, 10)]
     P, T = _view(_chair_like(0.65, 0.85, 30), np.array([0.8, 2.0, 1.5]))
-    dataset = SimpleNamespace(category_templates=lambda category: templates)
-    sample = SimpleNamespace(problem=SimpleNamespace(points_camera=P, category="chair", sample_id="chair/c/v00|1"))
-    facts = Templates(choice="cross_top_turns").estimate_facts(dataset, sample, T)
+    facts = TemplateChoice(rule="cross_top_turns").estimate_facts(P, templates, 1, T)
     assert facts["turns"] == turn_candidates(P, T, templates, 1, TURNS_DEG) and facts["turns_s"] >= 0.0
-    assert "turns" not in Templates(turns=[]).estimate_facts(dataset, sample, T)
-    assert [c["turn_deg"] for c in Templates(turns=[180]).estimate_facts(dataset, sample, T)["turns"]] == [180.0]
-    with pytest.raises(ConfigError, match="protocol.turns"):
-        Templates(turns="90")
+    assert "turns" not in TemplateChoice(turns_deg=[]).estimate_facts(P, templates, 1, T)
+    assert [c["turn_deg"] for c in TemplateChoice(turns_deg=[180]).estimate_facts(P, templates, 1, T)["turns"]] == [
+        180.0
+    ]
+    for bad in ("90", None, ["a"]):
+        with pytest.raises(ConfigError, match="choice.turns_deg"):
+            TemplateChoice(turns_deg=bad)
 
 
 def test_one_template_cross_top_turns_chooses_among_the_estimate_and_its_turns():
-    # K = 1: the protocol writes the facts only when asked, for the turn rule, and the rule keeps the turn
+    # K = 1: the choice computes the facts only when asked, for the turn rule, and the rule keeps the turn
     # whose own cost and top offset are lowest; a K = 1 row without turns is simply kept
     templates = [_chair_like(0.7, 0.8, 0)]
     P, T = _view(_chair_like(0.65, 0.85, 30), np.array([0.8, 2.0, 1.5]))
-    one = SimpleNamespace(category_templates=lambda category: templates)
-    sample = SimpleNamespace(problem=SimpleNamespace(points_camera=P, category="chair", sample_id="chair/c/v00|0"))
-    assert Templates(choice="cross_top", one_template_turns=True).estimate_facts(one, sample, T) == {}
-    assert Templates(choice="cross_top_turns").estimate_facts(one, sample, T) == {}  # not asked for
+    assert TemplateChoice(rule="cross_top", one_template_turns=True).estimate_facts(P, templates, 0, T) == {}
+    assert TemplateChoice(rule="cross_top_turns").estimate_facts(P, templates, 0, T) == {}  # not asked for
     wrong = _pose(90.0) @ T
-    facts = Templates(choice="cross_top_turns", turns=[90, 180, 270], one_template_turns=True).estimate_facts(
-        one, sample, wrong
+    facts = TemplateChoice(rule="cross_top_turns", turns_deg=[90, 180, 270], one_template_turns=True).estimate_facts(
+        P, templates, 0, wrong
     )
     assert facts["cross_costs"] == cross_costs(P, wrong, templates, 0) and len(facts["cross_costs"]) == 1
     assert [t["turn_deg"] for t in facts["turns"]] == [90.0, 180.0, 270.0]

@@ -9,8 +9,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from catpose.bench.protocols.absolute import Templates
-from catpose.bench.protocols.template_choice import AGREE_DEG, FUSE_RULES, TURN_RULES, choose_row, fuse_agreeing
+from catpose.bench.protocols.template_rows import choose_row
 from catpose.errors import ConfigError
+from catpose.methods.choice_rules import AGREE_DEG, FUSE_RULES, TURN_RULES, ChoiceRule, fuse_agreeing
 
 
 def _pose(deg: float, t=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0)) -> np.ndarray:
@@ -101,22 +102,24 @@ def test_fused_rule_averages_the_chosen_estimate_with_the_agreeing_templates():
     assert alone["info"]["fused_templates"] == 1 and alone["err_deg"] == pytest.approx(6.0)
 
 
-def test_templates_protocol_accepts_the_fused_rule_and_its_turns():
-    protocol = Templates(choice="fused", turns=[90, 270])
-    assert protocol.choice == "fused" and protocol.turns == (90.0, 270.0)
+def test_templates_protocol_accepts_the_fused_rule_by_name_or_with_its_weights():
+    protocol = Templates(choice="fused")
+    assert protocol.choice == ChoiceRule(rule="fused") and protocol.choice.offset_weight == 0.075
+    assert Templates(choice=ChoiceRule(rule="fused", fused_top_weight=0.2)).choice.offset_weight == 0.2
     rows = _rows([_pose(6.0), _pose(-4.0)], [[0.10, 0.12], [0.13, 0.11]], [[], []])
     rows["info"] = [{"cross_costs": c, "top_offset": 0.1} for c in ([0.10, 0.12], [0.13, 0.11])]  # no turns stored
-    with pytest.raises(ConfigError, match="protocol.choice=fused needs info.turns"):
+    with pytest.raises(ConfigError, match="choice=fused needs info.turns"):
         protocol.best_per_view(rows)
 
 
 def test_fused_weighs_the_top_offset_by_its_own_weight():
     # template 1's quarter-turned estimate fits a little better but puts the back at the side (top
     # offset 0.6 against 0.1): at cross_top_turns' TOP_WEIGHT it wins, at fused's FUSED_TOP_WEIGHT it does not
-    from catpose.bench.protocols.cross_check import cross_cost
-    from catpose.bench.protocols.template_choice import CROSS_RULES, CROSS_WEIGHT, FUSED_TOP_WEIGHT, TOP_WEIGHT
+    from catpose.methods.choice_rules import CROSS_WEIGHT, FUSED_TOP_WEIGHT, TOP_WEIGHT, cross_cost
 
-    assert CROSS_RULES["fused"] == FUSED_TOP_WEIGHT and CROSS_RULES["cross_top_turns"] == TOP_WEIGHT
+    assert ChoiceRule(rule="fused").offset_weight == FUSED_TOP_WEIGHT
+    assert ChoiceRule(rule="cross_top_turns").offset_weight == TOP_WEIGHT
+    assert ChoiceRule(rule="cross").offset_weight is None
     far = {"turn_deg": 90.0, "T_template_camera": _pose(180.0).tolist(), "cross_costs": [1.0, 1.0], "top_offset": 1.0}
     rows = _rows([_pose(2.0), _pose(90.0)], [[0.30, 0.30], [0.30, 0.27]], [[far], [far]])
     rows["info"] = [{**rows["info"][0], "top_offset": 0.1}, {**rows["info"][1], "top_offset": 0.6}]
@@ -129,3 +132,4 @@ def test_fused_weighs_the_top_offset_by_its_own_weight():
     kept = choose_row(rows, "fused")
     assert kept["sample_id"] == "chair/a/v00|0" and kept["err_deg"] == pytest.approx(2.0)
     assert choose_row(rows, "fused", top_weight=TOP_WEIGHT)["sample_id"] == "chair/a/v00|1"
+    assert choose_row(rows, ChoiceRule(rule="fused", fused_top_weight=TOP_WEIGHT))["sample_id"] == "chair/a/v00|1"

@@ -94,6 +94,46 @@ def test_rules_as_documented(source, target, ok):
     assert allowed(source, target) is ok
 
 
+def test_protocols_import_no_registration_code(tmp_path):
+    """The protocols list problems and score answers: of the methods only the choice rules, and no
+    Open3D, catpose.o3d or ICP kernel, even inside a function; other wings may (the runner computes
+    the choice's facts through the method side)."""
+    _plant(
+        tmp_path,
+        {
+            "bench/protocols/__init__.py": "",
+            "bench/protocols/fine.py": "from catpose.methods.choice_rules import choose\nfrom catpose.methods import choice_rules\n",
+            "bench/protocols/bad.py": (
+                "import open3d\nfrom catpose.o3d import o3d\nfrom catpose.methods.cross_check import CrossCheck\n"
+                "def f():\n    from catpose.methods.template_choice import TemplateChoice\n"
+                "    from catpose.point_to_plane_kernel import refine_many\n    import catpose.methods\n"
+            ),
+            "bench/run/__init__.py": "",
+            "bench/run/fine.py": "from catpose.methods.template_choice import TemplateChoice\nimport open3d\n",
+        },
+    )
+    found = {(v.path, v.target) for v in check_tree(tmp_path)}
+    assert found == {
+        ("bench/protocols/bad.py", "open3d"),
+        ("bench/protocols/bad.py", "catpose.o3d.o3d"),
+        ("bench/protocols/bad.py", "catpose.methods.cross_check.CrossCheck"),
+        ("bench/protocols/bad.py", "catpose.methods.template_choice.TemplateChoice"),
+        ("bench/protocols/bad.py", "catpose.point_to_plane_kernel.refine_many"),
+        ("bench/protocols/bad.py", "catpose.methods"),
+    }
+
+
+def test_no_registration_words_in_the_protocols():
+    """``grep -rn "o3d\\|icp" bench/protocols`` finds nothing: not even a docstring names them."""
+    hits = [
+        f"{p.relative_to(REPO)}:{n}"
+        for p in sorted((REPO / "bench" / "protocols").rglob("*.py"))
+        for n, line in enumerate(p.read_text().splitlines(), 1)
+        if "o3d" in line or "icp" in line
+    ]
+    assert not hits, hits
+
+
 def test_violation_reads_as_one_line():
     assert (
         str(Violation("bench/run/x.py", 3, "bench.run", "catpose.bench.report.tables"))

@@ -158,6 +158,7 @@ def test_a_moved_protocol_class_keeps_its_run_directory_and_old_configs_build(tm
     assert cfg.protocol._target_ == "catpose.bench.protocols.Relative"
     identity = {k: OmegaConf.to_container(cfg[k], resolve=True) for k in ("method", "dataset", "protocol")}
     identity["protocol"]["_target_"] = "catpose.bench.relative.Relative"  # as configs wrote it before
+    identity["protocol"]["choice"] = "score"  # as it held it before the choice group (configs/choice)
     identity["seed"] = int(cfg.seed)
     digest = hashlib.sha1(json.dumps(identity, sort_keys=True, default=str).encode()).hexdigest()[:8]
     assert run_dir_for(cfg).name == f"seed0-default-{digest}"

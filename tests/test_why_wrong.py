@@ -12,8 +12,8 @@ import pandas as pd
 import pytest
 
 from catpose.bench.category import why_wrong
-from catpose.bench.protocols.cross_check import cross_cost, cross_costs, top_offset
-from catpose.bench.protocols.template_choice import CROSS_WEIGHT, TOP_WEIGHT, rotation_angle_deg
+from catpose.methods.choice_rules import CROSS_WEIGHT, TOP_WEIGHT, ChoiceRule, cross_cost, rotation_angle_deg
+from catpose.methods.cross_check import CrossCheck
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _ours_fixtures import chair_template, partial_problem  # noqa: E402
@@ -59,6 +59,8 @@ def test_the_truth_costs_less_under_the_rule_than_a_quarter_turned_chair():
     templates = [_chair_like(0.7, 0.8, 0), _chair_like(0.6, 0.9, 10)]
     P, T = _view(_chair_like(0.65, 0.85, 30), np.array([0.8, 2.0, 1.5]))
     wrong = _pose(90.0) @ T
+    check = CrossCheck()
+    cross_costs, top_offset = check.cross_costs, check.top_offset
 
     def rule_cost(pose, k):
         return cross_cost(
@@ -66,7 +68,7 @@ def test_the_truth_costs_less_under_the_rule_than_a_quarter_turned_chair():
         )
 
     poses = [(rule_cost(wrong, 0), 0, wrong), (rule_cost(_pose(270.0) @ T, 1), 1, _pose(270.0) @ T)]
-    c = why_wrong.choice_costs(P, templates, [T, T], poses, "cross_top_turns")
+    c = why_wrong.choice_costs(P, templates, [T, T], poses, ChoiceRule(rule="cross_top_turns"), check)
     assert c["rule_cost_kept"] == min(p[0] for p in poses)
     # the truth's cost is the lowest of both templates, as given and refined: at most the unrefined ones
     assert c["rule_cost_truth"] <= min(rule_cost(T, 0), rule_cost(T, 1)) < c["rule_cost_kept"]
@@ -93,11 +95,11 @@ def test_rule_poses_are_the_registrations_and_their_turns_under_a_turn_rule():
             "info": [info, {"cross_costs": [0.4, 0.5], "top_offset": 0.2, "turns": []}],
         }
     )
-    turn = why_wrong.rule_poses(group, "cross_top_turns")
+    turn = why_wrong.rule_poses(group, ChoiceRule(rule="cross_top_turns"))
     assert [own for _, own, _ in turn] == [0, 0, 1] and len(turn) == 3
     np.testing.assert_array_equal(turn[1][2], _pose(90.0))
     assert turn[1][0] == pytest.approx(cross_cost([0.1, 0.2], 0, CROSS_WEIGHT, 0.0, TOP_WEIGHT))
-    plain = why_wrong.rule_poses(group, "cross")
+    plain = why_wrong.rule_poses(group, ChoiceRule(rule="cross"))
     assert [own for _, own, _ in plain] == [0, 1]
     assert plain[0][0] == pytest.approx(cross_cost([0.2, 0.3], 0, CROSS_WEIGHT))
 
@@ -116,7 +118,7 @@ def test_a_templates_run_gets_a_row_per_judged_view(tmp_path):
             "dataset.instances_per_category=1",
             "dataset.views_per_instance=2",
             "protocol=templates",
-            "protocol.choice=cross_top_turns",
+            "choice=cross_top_turns",
             "method.selection.rule=visibility",
             f"output_root={out}",
             "progress=false",

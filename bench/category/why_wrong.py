@@ -2,7 +2,7 @@
 (``python -m catpose.bench.category.why_wrong RUN_OR_SWEEP --row ours --out why.md``).
 
 A ``templates`` run keeps, per view, one estimate: a registration on one of the K templates, and
-under the ``cross`` rules (:mod:`catpose.bench.protocols.template_choice`) that registration or one
+under the ``cross`` rules (:mod:`catpose.methods.choice_rules`) that registration or one
 of its turns, perhaps averaged with the other templates' agreeing poses. Every view whose kept
 estimate is at least ``WRONG_DEG`` from the truth gets a row. One between ``WRONG_DEG`` and
 ``NEAR_DEG`` is ``imprecise``: in the truth's basin, pulled off by a template that is another
@@ -30,7 +30,8 @@ truth's basin (the poses within ``NEAR_DEG`` of the truth) put in the estimate's
 2. **The choice** among the K templates' registrations and their turns (the ``cross`` rules, from the
    costs the run stored). The kept candidate's rule cost (before ``fused`` averages it) is set
    against the truth's, on each template as given and after the cross check's ICP
-   (:func:`~catpose.bench.protocols.cross_check.refine_on`), the lowest over the templates:
+   (:meth:`~catpose.methods.cross_check.CrossCheck.refine_on`, the run's ``choice`` settings), the
+   lowest over the templates:
 
    - ``ambiguous``: the kept candidate costs at most the truth: the rule prefers the wrong pose;
    - ``missed``: the truth costs less; no candidate the rule chose among stood near enough
@@ -91,8 +92,8 @@ def registration_costs(ours: Any, problem: Any, T_est: np.ndarray, T_gt: np.ndar
     when none stays near); and the angle (degrees) from the truth to the nearest of those
     candidates. ``ours``: a :class:`~catpose.methods.ours.Ours`."""
     from catpose import cell_grid
-    from catpose.bench.protocols.cross_check import turned
-    from catpose.bench.protocols.template_choice import rotation_angle_deg
+    from catpose.methods.choice_rules import rotation_angle_deg
+    from catpose.methods.cross_check import turned
     from catpose.methods.ours_selection import chamfer_distances
     from catpose.methods.pose_scores import half_turns
     from catpose.methods.pose_scores_kernel import visibility_scores
@@ -152,48 +153,52 @@ def registration_verdict(err_deg: float, costs: dict, wrong_deg: float = WRONG_D
     return "not kept" if costs["nearest_candidate_deg"] < NEAR_DEG else "not found"
 
 
-def rule_poses(group, choice: str) -> list[tuple[float, int, np.ndarray]]:
-    """(cost, own template index, pose (4, 4)) of every candidate ``choice`` (a ``cross`` rule)
-    chose among in one view's rows ``group``: the registrations, and their turns under the turn rules."""
-    from catpose.bench.protocols.template_choice import (
-        CROSS_RULES,
-        TURN_RULES,
-        cross_costs_of,
-        rule_candidates,
-        split_template_sample_id,
-    )
+def rule_poses(group, rule: Any) -> list[tuple[float, int, np.ndarray]]:
+    """(cost, own template index, pose (4, 4)) of every candidate ``rule`` (a ``cross`` rule's
+    :class:`~catpose.methods.choice_rules.ChoiceRule`) chose among in one view's rows ``group``:
+    the registrations, and their turns under the turn rules."""
+    from catpose.bench.protocols.template_rows import estimates_of
+    from catpose.methods.choice_rules import TURN_RULES, cross_costs_of, turn_candidates_of
 
-    weight = CROSS_RULES[choice]
-    if choice in TURN_RULES:
+    estimates = estimates_of(group)
+    if rule.rule in TURN_RULES:
         return [
-            (key[0], own, np.asarray(T, float).reshape(4, 4)) for key, own, T in rule_candidates(group, weight, choice)
+            (key[0], own, np.asarray(T, float).reshape(4, 4))
+            for key, own, T in turn_candidates_of(estimates, rule.cross_weight, rule.offset_weight, rule.rule)
         ]
-    costs = cross_costs_of(group, weight)
+    costs = cross_costs_of(estimates, rule.cross_weight, rule.offset_weight)
     return [
-        (float(c), split_template_sample_id(sid)[1], np.asarray(T, float).reshape(4, 4))
-        for c, sid, T, status in zip(costs, group["sample_id"], group["T_est"], group["status"])
-        if status == "ok" and np.isfinite(c)
+        (float(c), e.template_index, np.asarray(e.T_template_camera, float).reshape(4, 4))
+        for c, e in zip(costs, estimates)
+        if e.ok and np.isfinite(c)
     ]
 
 
-def choice_costs(points_camera: np.ndarray, templates: list, T_gts: list[np.ndarray], poses: list, choice: str) -> dict:
+def choice_costs(
+    points_camera: np.ndarray, templates: list, T_gts: list[np.ndarray], poses: list, rule: Any, check: Any
+) -> dict:
     """The kept candidate's rule cost (the lowest of ``poses``, :func:`rule_poses`) and the truth's
     (the lowest over the K ``templates``, each at its ``T_gts[k]`` (4, 4) as given and after the cross
     check's ICP), with the template index of that lowest and the angle (degrees) from the truth to
-    the nearest candidate. ``points_camera``: the view (N, 3)."""
-    from catpose.bench.protocols.cross_check import cross_cost, cross_costs, refine_on, top_offset
-    from catpose.bench.protocols.template_choice import CROSS_RULES, CROSS_WEIGHT, rotation_angle_deg
+    the nearest candidate. ``points_camera``: the view (N, 3); ``rule``: the
+    :class:`~catpose.methods.choice_rules.ChoiceRule`, ``check``: the run's
+    :class:`~catpose.methods.cross_check.CrossCheck`."""
+    from catpose.methods.choice_rules import cross_cost, rotation_angle_deg
 
-    top_weight = CROSS_RULES[choice] or 0.0
+    top_weight = rule.offset_weight or 0.0
     P = np.asarray(points_camera, float)
     truth = []
     for k, (template, T_gt) in enumerate(zip(templates, T_gts)):
         T_gt = np.asarray(T_gt, float)
-        for T in (T_gt, refine_on(P, template, np.round(T_gt, 9))):
+        for T in (T_gt, check.refine_on(P, template, np.round(T_gt, 9))):
             truth.append(
                 (
                     cross_cost(
-                        cross_costs(P, T, templates, k), k, CROSS_WEIGHT, top_offset(P, T, templates, k), top_weight
+                        check.cross_costs(P, T, templates, k),
+                        k,
+                        rule.cross_weight,
+                        check.top_offset(P, T, templates, k),
+                        top_weight,
                     ),
                     k,
                 )
@@ -217,32 +222,36 @@ def choice_verdict(err_deg: float, costs: dict) -> str:
 
 
 def _run_parts(run_dir: Path):
-    """(method name, method, dataset, protocol) rebuilt from a templates run's ``config.yaml``."""
+    """(method name, method, dataset, protocol, cross check) rebuilt from a templates run's ``config.yaml``."""
     from omegaconf import OmegaConf
 
-    from catpose.bench.run.build import build_parts
+    from catpose.bench.run.build import build_choice, build_parts
     from catpose.bench.run.run_meta import read_config
 
     cfg = OmegaConf.create(read_config(run_dir, required=True))
     if str(cfg.protocol.name) != "templates":
         raise ConfigError(f"run {run_dir}: protocol {cfg.protocol.name!r}; this check needs a protocol=templates run")
-    return build_parts(cfg)
+    return (*build_parts(cfg), build_choice(cfg).cross_check)
 
 
 def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_DEG) -> tuple[list[dict], int]:
-    """One row per view of ``run_dir`` whose kept estimate (under the run's ``protocol.choice``, or
-    ``choice``) is wrong: its errors, the kept template and turn, step 1 (``ours`` runs) and step 2
+    """One row per view of ``run_dir`` whose kept estimate (under the run's ``choice`` rule, or the
+    rule ``choice`` with the run's weights) is wrong: its errors, the kept template and turn, step 1 (``ours`` runs) and step 2
     (``cross`` rules) of the module doc; and how many views the run holds."""
+    import dataclasses
+
     import pandas as pd
 
-    from catpose.bench.protocols.template_choice import CROSS_RULES, check_choice, has_turns
+    from catpose.bench.protocols.template_rows import has_turns
     from catpose.bench.run.evaluate import recompute_row_errors
     from catpose.bench.run.rundir import latest_rows
+    from catpose.methods.choice_rules import CROSS_RULES, check_rule
     from catpose.methods.ours import Ours
 
-    method_name, method, dataset, protocol = _run_parts(run_dir)
+    method_name, method, dataset, protocol, check = _run_parts(run_dir)
     if choice is not None:
-        protocol.choice = check_choice(choice)
+        protocol.choice = dataclasses.replace(protocol.choice, rule=check_rule(choice))
+    rule = protocol.choice
     rows = [recompute_row_errors(r) for r in latest_rows(Path(run_dir) / "samples.jsonl")]
     if not rows:
         raise ConfigError(f"run {run_dir} has no finished samples; run it first")
@@ -275,8 +284,8 @@ def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_
             r.update(costs, registration=registration_verdict(r["registration_err_deg"], costs, wrong_deg))
         else:
             r["registration"] = "-"
-        if protocol.choice in CROSS_RULES and (len(group) > 1 or has_turns(group)):
-            poses = rule_poses(group, protocol.choice)
+        if rule.rule in CROSS_RULES and (len(group) > 1 or has_turns(group)):
+            poses = rule_poses(group, rule)
             if poses:
                 views = list(loaded.values())
                 c = choice_costs(
@@ -284,18 +293,19 @@ def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_
                     [v.problem.template for v in views],
                     [v.gt.T_template_camera for v in views],
                     poses,
-                    protocol.choice,
+                    rule,
+                    check,
                 )
                 c["rule_truth_template"] = views[c["rule_truth_template"]].problem.template.template_id
-                r.update(c, choice=protocol.choice, choice_verdict=choice_verdict(r["err_deg"], c))
-        r.setdefault("choice", protocol.choice if len(group) > 1 else "-")
+                r.update(c, choice=rule.rule, choice_verdict=choice_verdict(r["err_deg"], c))
+        r.setdefault("choice", rule.rule if len(group) > 1 else "-")
         r.setdefault("choice_verdict", "-")
         out.append(r)
     return sorted(out, key=lambda r: r["view"]), len(units)
 
 
 def _template_index(sample_id: str) -> int:
-    from catpose.bench.protocols.template_choice import split_template_sample_id
+    from catpose.bench.protocols.template_rows import split_template_sample_id
 
     return split_template_sample_id(sample_id)[1]
 
@@ -436,7 +446,9 @@ def main(argv: list[str] | None = None) -> int:
         help="in a sweep folder, judge only the jobs with this override too (key=value; repeatable)",
     )
     parser.add_argument("--out", type=Path, required=True, help="Markdown table to write (a .csv is written beside it)")
-    parser.add_argument("--choice", help="judge the choice of this protocol.choice rule (default: the run's)")
+    parser.add_argument(
+        "--choice", help="judge the choice of this choice rule, with the run's weights (default: the run's rule)"
+    )
     parser.add_argument("--title", default="Why each wrong view is wrong")
     parser.add_argument("--wrong-deg", type=float, default=WRONG_DEG)
     args = parser.parse_args(argv)

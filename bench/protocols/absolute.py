@@ -4,8 +4,10 @@ scored on the same problems (fixed by dataset, protocol and seed alone).
 
 - ``gt_model``: each partial view against its own complete model.
 - ``templates``: each view against each of the category's K templates (one problem each); the
-  estimate of a view is chosen without ground truth (``protocol.choice``, default ``score``), and
-  the paper's "minimum error across templates" is reported beside it as an oracle.
+  estimate of a view is the one the method side's choice keeps without ground truth (``choice=<rule>``,
+  default ``score``: :mod:`catpose.methods.template_choice`, applied to the facts the rows store by
+  :mod:`~catpose.bench.protocols.template_rows`), and the paper's "minimum error across templates" is
+  reported beside it as an oracle.
 - ``relative`` (:mod:`catpose.bench.protocols.relative`): relative pose between two views of one object.
 """
 
@@ -15,9 +17,8 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from catpose.bench.protocols.template_choice import (
-    TURN_RULES,
-    check_choice,
+from catpose.bench.protocols.template_rows import (
+    as_rule,
     choose_row,
     is_excluded_view,
     split_template_sample_id,
@@ -26,6 +27,7 @@ from catpose.bench.protocols.template_choice import (
 )
 from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.errors import ConfigError, DatasetError
+from catpose.methods.choice_rules import CROSS_RULES, TURN_RULES, ChoiceRule
 from catpose.types import GroundTruth, RegistrationProblem, Sample, Template
 
 
@@ -134,10 +136,20 @@ class Templates(Protocol):
     """Each view registered to each of its category's templates (``dataset.category_templates``).
 
     Sample ids are ``"<obs_id>|<k>"`` with ``k`` the template's index; ``group_id`` is the
-    observation id. After each registration :meth:`estimate_facts` checks the estimate on every
-    template of the view; ``score_units`` keeps, per observation, the row ``choice`` picks
-    (:mod:`catpose.bench.protocols.template_choice`) and adds ``oracle_err_deg``, the minimum
-    error across templates, which needs ground truth and is labelled an oracle.
+    observation id. :meth:`view_templates` gives a sample's view templates, which the runner hands
+    to the method side's choice (:class:`catpose.methods.template_choice.TemplateChoice`) after each
+    registration; ``score_units`` keeps, per observation, the row the rule ``choice`` keeps given the
+    facts the rows store (:func:`~catpose.bench.protocols.template_rows.choose_row`) and adds
+    ``oracle_err_deg``, the minimum error across templates, which needs ground truth and is
+    labelled an oracle.
+
+    Args:
+        max_templates: use only the first K templates (None: all listed).
+        exclude_templates: a template instance's own views are not test views.
+        exclude_instances: instance ids whose views are not test views.
+        choice: the rule that keeps a view's row: a :class:`~catpose.methods.choice_rules.ChoiceRule`
+            (the builder makes it from the ``choice`` config group) or a rule name with its default
+            weights (run directories written before the group existed).
     """
 
     name = "templates"
@@ -147,17 +159,12 @@ class Templates(Protocol):
         max_templates: int | None = None,
         exclude_templates: bool = False,
         exclude_instances: list[str] | None = None,
-        choice: str = "score",
-        turns: list[float] | None = None,
-        one_template_turns: bool = False,
+        choice: str | ChoiceRule = "score",
     ) -> None:
         self.max_templates = max_templates
         self.exclude_templates = bool(exclude_templates)  # skip views of the template instances themselves
         self.exclude_instances = [str(i) for i in (exclude_instances or [])]  # and of these instances
-        self.choice = check_choice(choice)  # how a view's template is chosen (catpose.bench.protocols.template_choice)
-        self.turns = _turns(turns)  # turns about up tried from each estimate (cross_check.turn_candidates)
-        # with K = 1 too, under cross_top_turns: the estimate or one of its turns on the one template
-        self.one_template_turns = bool(one_template_turns) and self.choice in TURN_RULES
+        self.choice = as_rule(choice)  # how a view's row is kept (catpose.methods.choice_rules)
         self._cache = _ObservationCache()
 
     def _templates(self, dataset: ObjectDataset, category: str) -> list[Template]:
@@ -191,40 +198,15 @@ class Templates(Protocol):
         template = self._templates(dataset, obs.category)[k]
         return with_template_facts(make_sample(obs, template, sample_id, obs_id))
 
-    def estimate_facts(self, dataset: ObjectDataset, sample: Sample, T_template_camera: np.ndarray) -> dict:
-        """Facts of a finished estimate for the row's ``info``: ``cross_costs``, its cost on each
-        of the view's K templates (:func:`catpose.bench.protocols.cross_check.cross_costs`),
-        ``top_offset`` (:func:`~catpose.bench.protocols.cross_check.top_offset`), and
-        ``cross_check_s``, the seconds they took; ``turns``, the estimate's turned candidates
-        (:func:`~catpose.bench.protocols.cross_check.turn_candidates`, unless ``turns`` is empty),
-        and ``turns_s``, their seconds. With K = 1 nothing (there is nothing to choose), unless
-        ``one_template_turns`` is set and the rule is ``cross_top_turns``: it then chooses between
-        the estimate and its turns on the one template."""
-        import time
-
-        from catpose.bench.protocols.cross_check import cross_costs, top_offset, turn_candidates
-
-        templates = self._templates(dataset, sample.problem.category)
-        if len(templates) < 2 and not self.one_template_turns:
-            return {}
-        t0 = time.perf_counter()
-        own = split_template_sample_id(sample.problem.sample_id)[1]
-        costs = cross_costs(sample.problem.points_camera, T_template_camera, templates, own)
-        top = top_offset(sample.problem.points_camera, T_template_camera, templates, own)
-        facts = {"cross_costs": costs, "top_offset": top, "cross_check_s": time.perf_counter() - t0}
-        if self.turns:
-            t0 = time.perf_counter()
-            facts["turns"] = turn_candidates(
-                sample.problem.points_camera, T_template_camera, templates, own, self.turns
-            )
-            facts["turns_s"] = time.perf_counter() - t0
-        return facts
+    def view_templates(self, dataset: ObjectDataset, sample: Sample) -> tuple[list[Template], int]:
+        """The K templates of ``sample``'s view, in order, and the index of its own among them."""
+        return self._templates(dataset, sample.problem.category), split_template_sample_id(sample.problem.sample_id)[1]
 
     def score_units(self, samples):
         return self.best_per_view(absolute_gt_only(samples))
 
     def best_per_view(self, samples):
-        """One row per view (``group_id``): the registration ``protocol.choice`` keeps, with
+        """One row per view (``group_id``): the registration the rule ``choice`` keeps, with
         ``oracle_err_deg``, ``n_templates`` and the summed ``runtime_s`` of the group (with the
         ``cross`` rule's checks)."""
         import pandas as pd
@@ -242,32 +224,9 @@ class Templates(Protocol):
         return pd.DataFrame(rows).reset_index(drop=True)
 
     def _choice_s(self, group) -> float:
-        """Seconds the view's choice itself took: the ``cross`` rules' checks, with the turned
-        candidates' for ``cross_top_turns`` (0 for the other rules)."""
-        from catpose.bench.protocols.template_choice import CROSS_RULES
-
-        if self.choice not in CROSS_RULES or "info" not in group:
+        """Seconds the view's choice itself took: the cross rules' checks, with the turned
+        candidates' for the turn rules (0 for the other rules)."""
+        if self.choice.rule not in CROSS_RULES or "info" not in group:
             return 0.0
-        keys = ("cross_check_s", "turns_s") if self.choice in TURN_RULES else ("cross_check_s",)
+        keys = ("cross_check_s", "turns_s") if self.choice.rule in TURN_RULES else ("cross_check_s",)
         return float(sum(i.get(k, 0.0) for i in group["info"] if isinstance(i, dict) for k in keys))
-
-
-def _turns(turns: list[float] | None) -> tuple[float, ...]:
-    """The turns (degrees) of ``protocol.turns``: None is the default set
-    (:data:`~catpose.bench.protocols.cross_check.TURNS_DEG`), ``[]`` none.
-
-    Raises:
-        ConfigError: a turn that is not a number.
-    """
-    from catpose.bench.protocols.cross_check import TURNS_DEG
-
-    if turns is None:
-        return TURNS_DEG
-    try:
-        if isinstance(turns, str):
-            raise TypeError(turns)
-        return tuple(float(t) for t in turns)
-    except (TypeError, ValueError):
-        raise ConfigError(
-            f"protocol.turns={list(turns)!r} must be a list of degrees, e.g. [90, 270], or [] for none"
-        ) from None

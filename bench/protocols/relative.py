@@ -25,12 +25,13 @@ from typing import Any
 import numpy as np
 
 from catpose.bench.protocols.absolute import GtModel, Protocol, Templates, require_consistent_frames
-from catpose.bench.protocols.template_choice import is_excluded_view
+from catpose.bench.protocols.template_rows import is_excluded_view
 from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, axis_error_deg, rotation_error_deg, translation_error
 from catpose.bench.scoring.rows import failed_row, scored_row
 from catpose.datasets.dataset import ObjectDataset
 from catpose.errors import ConfigError
 from catpose.geometry import invert_T
+from catpose.methods.choice_rules import ChoiceRule
 from catpose.types import Sample
 
 TEMPLATE_SOURCES = ("own", "category")
@@ -136,7 +137,7 @@ class Relative(Protocol):
         template_source: ``"own"``: each view against the instance's own complete model
             (``dataset.instance_model``); ``"category"``: against the category templates
             (``dataset.category_templates``; with several, a view's estimate is the template
-            with the lowest method score, as in the ``templates`` protocol).
+            the ``choice`` rule keeps, as in the ``templates`` protocol).
         pairs: ``"consecutive"`` (view k with view k+1, in sorted ``obs_id`` order) or ``"all"``.
         max_pairs_per_instance: keep at most this many pairs per instance (evenly spaced), or
             None for all.
@@ -145,8 +146,8 @@ class Relative(Protocol):
             (the paper's "< 45 deg" testing range), or None for all.
         exclude_templates: leave out the views of the category templates' own instances (with
             either source, so that ``own`` and ``category`` are scored on the same pairs).
-        choice: with ``template_source="category"``, how a view's template is chosen
-            (:mod:`catpose.bench.protocols.template_choice`).
+        choice: with ``template_source="category"``, the rule that keeps a view's template (the
+            ``choice`` config group, :class:`~catpose.methods.choice_rules.ChoiceRule`, or a rule name).
     """
 
     name = "relative"
@@ -159,7 +160,7 @@ class Relative(Protocol):
         max_templates: int | None = None,
         max_relative_angle_deg: float | None = None,
         exclude_templates: bool = False,
-        choice: str = "score",
+        choice: str | ChoiceRule = "score",
     ) -> None:
         if template_source not in TEMPLATE_SOURCES:
             raise ConfigError(f"protocol.template_source={template_source!r} is unknown; use one of {TEMPLATE_SOURCES}")

@@ -49,7 +49,7 @@ def _run_parts(run_dir: Path):
     """(method settings for the verifier, dataset, protocol) rebuilt from a run's ``config.yaml``."""
     from omegaconf import OmegaConf
 
-    from catpose.bench.run.build import build_dataset, build_from_config
+    from catpose.bench.run.build import build_dataset, build_from_config, build_protocol
     from catpose.bench.run.run_meta import read_config
     from catpose.methods.ours_settings import SelectionSettings
 
@@ -62,7 +62,7 @@ def _run_parts(run_dir: Path):
     sel = SelectionSettings()
     if "selection" in cfg.method:
         sel = build_from_config(cfg.method.selection, "method.selection")[1]
-    return sel, build_dataset(cfg.dataset), build_from_config(cfg.protocol, "protocol")[1]
+    return sel, build_dataset(cfg.dataset), build_protocol(cfg)
 
 
 def verifier_costs(sel, problem, T_est: np.ndarray, T_gt: np.ndarray) -> tuple[float, float, float]:

@@ -137,13 +137,13 @@ def diagnose(
     ours_overrides: list[str],
     save_dir: Path | None = None,
 ) -> None:
-    from catpose.bench.protocols.template_choice import rotation_angle_deg
     from catpose.bench.real.suite import METHODS, SETS, compose
     from catpose.bench.run.build import build_parts
     from catpose.bench.run.config import shared_data_dir
     from catpose.bench.run.sample_run import seed_everything
     from catpose.bench.scoring.metrics import sample_errors
     from catpose.geometry import stable_seed
+    from catpose.methods.choice_rules import rotation_angle_deg
 
     cfg, _ = compose(SETS[set_name], METHODS["ours"], shared_data_dir(), 0, limit, "outputs/real", ours_overrides)
     _, ours, dataset, protocol = build_parts(cfg)

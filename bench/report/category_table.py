@@ -3,8 +3,8 @@ side by side, for every method, number of templates K and choice rule.
 
 For a run of the ``templates`` protocol (each view registered to each of K templates):
 
-- *chosen*: the registration the rule keeps without ground truth (``protocol.choice``; every rule
-  of :data:`catpose.bench.protocols.template_choice.CHOICES` with ``--choices``);
+- *chosen*: the registration the rule keeps without ground truth (the run's ``choice`` weights;
+  every rule of :data:`catpose.methods.choice_rules.RULES` with ``--choices``);
 - *oracle*: the lowest error over the K registrations (the paper's "minimum error across
   templates"; it needs ground truth);
 - *random*: a template drawn uniformly at random, as expected statistics: every registration of
@@ -53,13 +53,30 @@ def row_errors(rows) -> np.ndarray:
     return np.where((rows["status"] != "ok").to_numpy() | ~np.isfinite(err), FAILED_ERROR_DEG, err)
 
 
+def rule_of(run):
+    """The rule and weights (:class:`~catpose.methods.choice_rules.ChoiceRule`) a templates run keeps
+    its views by: its ``config.yaml``'s ``choice`` group, or its protocol's old ``choice`` key; the
+    ``score`` rule when it names none (predictions scored from files)."""
+    from catpose.bench.run.build import build_protocol
+    from catpose.methods.choice_rules import ChoiceRule
+
+    config = getattr(run, "config", None) or {}
+    protocol = config.get("protocol")
+    if isinstance(protocol, dict) and protocol.get("_target_"):
+        return build_protocol(config).choice
+    return ChoiceRule(rule=str(protocol.get("choice", "score")) if isinstance(protocol, dict) else "score")
+
+
 def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
     """One row per choice rule for a templates run: ``K``, ``views``, ``choice`` and ``chosen_*``,
     ``oracle_*``, ``random_*`` statistics (:data:`STATS`). When K = 1, one row: choice ``-`` (the
     registration's own estimate), or the run's own turn rule where the run stored the turns
-    (``protocol.one_template_turns``)."""
+    (``choice.one_template_turns``). Each rule weighs as the run's ``choice`` group does."""
+    import dataclasses
+
     from catpose.bench.protocols.absolute import Templates, absolute_gt_only
-    from catpose.bench.protocols.template_choice import TURN_RULES, has_turns
+    from catpose.bench.protocols.template_rows import has_turns
+    from catpose.methods.choice_rules import TURN_RULES
 
     samples = absolute_gt_only(run.samples)
     if category is not None:
@@ -68,14 +85,15 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
         return []
     K = int(samples.groupby("group_id").size().max())
     out = []
-    own_rule = str(((getattr(run, "config", None) or {}).get("protocol") or {}).get("choice", ""))
+    run_rule = rule_of(run)
+    own_rule = run_rule.rule
     one_template_turns = K == 1 and own_rule in TURN_RULES and has_turns(samples)
     if K > 1:
         rules = list(choices)
     else:  # one template: nothing to choose, unless between the estimate and its stored turns
         rules = [own_rule] if one_template_turns else list(choices[:1])
     for choice in rules:
-        units = Templates(choice=choice).best_per_view(samples)
+        units = Templates(choice=dataclasses.replace(run_rule, rule=choice)).best_per_view(samples)
         row = {"K": K, "views": len(units), "choice": choice if K > 1 or one_template_turns else "-"}
         row.update({f"chosen_{k}": v for k, v in error_stats(row_errors(units)).items()})
         row.update({f"oracle_{k}": v for k, v in error_stats(units["oracle_err_deg"].to_numpy(float)).items()})
@@ -102,12 +120,12 @@ def run_dirs(paths: Sequence[str | Path]) -> list[Path]:
 
 def build(paths: Sequence[str | Path], category: str | None, choices: Sequence[str]) -> list[dict]:
     """Rows for every templates run below ``paths`` (others are skipped), sorted by K then label."""
-    from catpose.bench.protocols.template_choice import check_choice
     from catpose.bench.report.labels import run_labels
     from catpose.bench.report.runs import load_run
+    from catpose.methods.choice_rules import check_rule
 
     for c in choices:
-        check_choice(c)
+        check_rule(c)
     runs = [r for r in (load_run(p) for p in run_dirs(paths)) if r.protocol == "templates"]
     if not runs:
         raise ConfigError(f"no run of protocol=templates below {', '.join(map(str, paths))}")

@@ -120,7 +120,9 @@ def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
         shared = set.intersection(*(set(o) for o in overrides))
         parts = [p + [_short(o) for o in sorted(ov) if o not in shared] for p, ov in zip(parts, overrides)]
     if not unique(parts):
-        flats = [_flat({k: r.config.get(k) for k in ("method", "dataset", "protocol", "seed")}) for r in members]
+        flats = [
+            _flat({k: r.config.get(k) for k in ("method", "dataset", "protocol", "choice", "seed")}) for r in members
+        ]
         keys = sorted(
             {k for f in flats for k in f if len({json.dumps(g.get(k), sort_keys=True, default=str) for g in flats}) > 1}
         )

@@ -86,11 +86,11 @@ def plot_sample_from_run(
     cfg = run.config
     if not isinstance(cfg.get("dataset"), dict) or not isinstance(cfg.get("protocol"), dict):
         raise ConfigError(f"{run_dir}/config.yaml has no dataset/protocol to re-load samples from")
-    from catpose.bench.run.build import build_from_config
+    from catpose.bench.run.build import build_from_config, build_protocol
 
     try:
         ds_name, dataset = build_from_config(dict(cfg["dataset"]), "dataset")
-        protocol = build_from_config(dict(cfg["protocol"]), "protocol")[1]
+        protocol = build_protocol(cfg)
     except CatposeError as e:
         raise DatasetError(f"cannot rebuild the dataset from {run_dir}/config.yaml: {e}") from None
     dataset.name = ds_name

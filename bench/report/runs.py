@@ -173,9 +173,9 @@ def protocol_of(run: Run):
     name."""
     cfg = run.config.get("protocol") if isinstance(run.config.get("protocol"), dict) else None
     if cfg and cfg.get("_target_"):
-        from catpose.bench.run.build import build_from_config
+        from catpose.bench.run.build import build_protocol
 
-        return build_from_config(dict(cfg), "protocol")[1]
+        return build_protocol(run.config)
     from catpose.bench.protocols.absolute import GtModel, Templates
 
     if run.protocol == "relative":

@@ -81,7 +81,113 @@ def build_parts(cfg: Any) -> tuple[str, Any, Any, Any]:
     """(method name, method, dataset, protocol) of a composed run config, built as a run builds them."""
     method_name, method = build_from_config(cfg.method, "method")
     dataset = build_dataset(cfg.dataset)
-    return method_name, method, dataset, build_from_config(cfg.protocol, "protocol")[1]
+    return method_name, method, dataset, build_protocol(cfg)
+
+
+#: the templates protocol's keys that moved into the ``choice`` group (configs/choice): protocol key
+#: -> choice key. A run directory's ``config.yaml`` written before the move still has them:
+#: :func:`build_choice` reads them, :func:`build_protocol` leaves ``turns`` and ``one_template_turns`` out.
+MOVED_PROTOCOL_KEYS = {"choice": "rule", "turns": "turns_deg", "one_template_turns": "one_template_turns"}
+
+
+def _node(cfg: Any, key: str) -> dict | None:
+    """``cfg[key]`` (a composed config or a ``config.yaml`` read as a dict) as a plain dict, or None."""
+    from omegaconf import DictConfig, OmegaConf
+
+    node = cfg.get(key) if hasattr(cfg, "get") else None
+    if isinstance(node, DictConfig):
+        return OmegaConf.to_container(node, resolve=True)
+    return dict(node) if isinstance(node, dict) else None
+
+
+def takes_choice(protocol: Any) -> bool:
+    """Whether a protocol config node's class keeps one of a view's template registrations (its
+    constructor takes ``choice``: templates, relative), so the ``choice`` group applies to it."""
+    target = str(protocol.get("_target_", "")) if hasattr(protocol, "get") else ""
+    module_name, _, attr = MOVED_TARGETS.get(target, target).rpartition(".")
+    try:
+        return "choice" in inspect.signature(getattr(importlib.import_module(module_name), attr)).parameters
+    except (ImportError, AttributeError, ValueError, TypeError):
+        return False
+
+
+def build_choice(cfg: Any) -> Any | None:
+    """The run's template choice (:class:`catpose.methods.template_choice.TemplateChoice`) from its
+    ``choice`` group, or, for a ``config.yaml`` written before the group existed, from the
+    protocol's old keys (:data:`MOVED_PROTOCOL_KEYS`; the defaults for the rest). None when the
+    protocol keeps no choice (``gt_model``)."""
+    protocol = _node(cfg, "protocol") or {}
+    if not takes_choice(protocol):
+        return None
+    choice = _node(cfg, "choice")
+    if choice is None:
+        old = {new: protocol[key] for key, new in MOVED_PROTOCOL_KEYS.items() if protocol.get(key) is not None}
+        choice = {"name": str(old.get("rule", "score")), "_target_": CHOICE_TARGET, **old}
+    return build_from_config(choice, "choice")[1]
+
+
+#: the keys each protocol's config held before the ``choice`` group took them (by protocol name)
+PROTOCOL_KEYS_BEFORE_CHOICE = {"templates": ("choice", "turns", "one_template_turns"), "relative": ("choice",)}
+
+
+def identity_before_choice(protocol: dict, choice: dict) -> tuple[dict, dict]:
+    """A run's protocol and choice nodes as its run directory's digest hashes them
+    (:func:`catpose.bench.run.rundir.run_dir_for`): the choice's rule (for ``templates`` also its
+    turns) folded back into the protocol node as configs wrote them before the ``choice`` group, so a
+    configuration that existed before keeps its run directory and finished samples; what else of the
+    choice differs from its defaults stays apart (the second node, empty when nothing does)."""
+    from catpose.methods.template_choice import TemplateChoice
+
+    keys = PROTOCOL_KEYS_BEFORE_CHOICE.get(str(protocol.get("name")))
+    if keys is None:
+        return protocol, dict(choice)
+    defaults = {k: p.default for k, p in inspect.signature(TemplateChoice).parameters.items()}
+    rest = {k: v for k, v in choice.items() if k not in ("name", "_target_")}
+    protocol = dict(protocol, choice=rest.pop("rule", defaults["rule"]))
+    if "turns" in keys:  # null was the default set
+        turns = rest.pop("turns_deg", None)
+        protocol["turns"] = None if turns is None or _same(turns, defaults["turns_deg"]) else turns
+        protocol["one_template_turns"] = rest.pop("one_template_turns", False)
+    return protocol, {k: v for k, v in rest.items() if not (k in defaults and _same(v, defaults[k]))}
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Whether two config values are equal as numbers (``[90, 270]`` and ``(90.0, 270.0)``), or at all."""
+    try:
+        if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+            return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+        if isinstance(a, bool) or isinstance(b, bool):
+            return a is b
+        return float(a) == float(b)
+    except (TypeError, ValueError):
+        return a == b
+
+
+#: the class of the ``choice`` group (configs/choice/*.yaml) and the rule the protocols read of it
+CHOICE_TARGET = "catpose.methods.template_choice.TemplateChoice"
+RULE_TARGET = "catpose.methods.choice_rules.ChoiceRule"
+
+
+def build_protocol(cfg: Any) -> Any:
+    """The protocol of a composed run config or a run directory's ``config.yaml``; one that keeps a
+    view's template (:func:`takes_choice`) gets the ``choice`` group's rule and weights
+    (:class:`catpose.methods.choice_rules.ChoiceRule`), or, in a ``config.yaml`` written before the
+    group existed, its own old ``choice`` key (the rule's default weights)."""
+    from dataclasses import fields
+
+    from catpose.methods.choice_rules import ChoiceRule
+
+    node = _node(cfg, "protocol")
+    if node is None:
+        raise ConfigError("the config has no protocol; set protocol=<name> (bench run --help)")
+    choice = _node(cfg, "choice")
+    if takes_choice(node):
+        for key in ("turns", "one_template_turns"):  # the choice's now (build_choice reads them)
+            node.pop(key, None)
+        if choice is not None and "choice" not in node:
+            rule_keys = {f.name for f in fields(ChoiceRule)}
+            node["choice"] = {"_target_": RULE_TARGET, **{k: v for k, v in choice.items() if k in rule_keys}}
+    return build_from_config(node, "protocol")[1]
 
 
 def check_missing(node: Any, what: str) -> None:
@@ -200,6 +306,6 @@ def validate_run_options(cfg: Any) -> None:
     _run_option(cfg, "threads", "int", 1)
     _run_option(cfg, "batch", "int", 1)
     _run_option(cfg, "lock_timeout", "float", 0)
-    for group in ("method", "dataset", "protocol"):
+    for group in ("method", "dataset", "protocol", "choice"):
         if group in cfg:
             check_missing(cfg[group], group)

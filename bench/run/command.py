@@ -66,6 +66,8 @@ Run a method over every sample of a dataset under a protocol (Hydra overrides).
   method=NAME      one of configs/method/*.yaml (icp, ours, fgr, ransac, teaser, ...)
   dataset=NAME     one of configs/dataset/*.yaml (synthetic, modelnet40, bop, redwood, ...)
   protocol=NAME    gt_model | templates | relative
+  choice=RULE      templates, relative: which of a view's K registrations is kept, one of
+                   configs/choice/*.yaml (score, cross, fused, ...); choice.KEY=VAL its weights
   seed=INT         fixes the samples and the methods' randomness (default 0)
   limit=INT        only the first INT samples (INT >= 1)
   lock_timeout=S   a second run into a busy run directory waits for the first; give up after S seconds

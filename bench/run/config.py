@@ -13,7 +13,9 @@ a composition error is one line instead of Hydra's multi-line report.
 
 Renamed: ``method.optimizer`` is ``method.optimiser`` (the spelling of the config key, of
 ``Ours(optimiser=...)`` and of the docs), and the experiment and table layout ``optimizer`` are
-``optimiser``; the old spellings are refused with the new one named.
+``optimiser``; ``protocol.choice``, ``protocol.turns`` and ``protocol.one_template_turns`` are
+``choice=<rule>``, ``choice.turns_deg`` and ``choice.one_template_turns`` (the ``choice`` group);
+the old spellings are refused with the new one named.
 
 Also here: where the shared real data is (:func:`shared_data_dir`).
 """
@@ -31,9 +33,15 @@ from catpose.errors import ConfigError
 REPO = Path(__file__).resolve().parents[2]
 
 #: config groups whose names a command line picks (``method=ours``); their names are checked
-GROUPS = ("method", "dataset", "protocol", "experiment")
-#: dotted keys renamed in the configs: old -> new (an override of the old key is refused)
-RENAMED_KEYS = {"method.optimizer": "method.optimiser"}
+GROUPS = ("method", "dataset", "protocol", "choice", "experiment")
+#: dotted keys renamed in the configs: old -> new (an override of the old key is refused); the
+#: templates protocol's choice moved into its own group (configs/choice, the method side's)
+RENAMED_KEYS = {
+    "method.optimizer": "method.optimiser",
+    "protocol.choice": "choice",
+    "protocol.turns": "choice.turns_deg",
+    "protocol.one_template_turns": "choice.one_template_turns",
+}
 #: config names renamed: (group, old name) -> new name
 RENAMED_NAMES = {("experiment", "optimizer"): "optimiser"}
 #: hydra/launcher option -> the plugin package it needs (the cluster extra, `make cluster`)

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from catpose.bench.run.build import build_from_config
+from catpose.bench.run.build import build_protocol
 from catpose.bench.run.rundir import SAMPLES_FILE, latest_rows
 
 
@@ -31,7 +31,7 @@ def load_protocol(run_dir: Path) -> Any:
         raise DatasetError(
             f"run {run_dir}: config.yaml has no protocol; re-run the same `bench run` command to rewrite it"
         )
-    return build_from_config(cfg.protocol, "protocol")[1]
+    return build_protocol(cfg)
 
 
 def recompute_row_errors(row: dict) -> dict:

@@ -66,9 +66,15 @@ def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     """The output directory of a configuration (see the module docstring)."""
     from omegaconf import OmegaConf
 
-    from catpose.bench.run.build import target_before_move
+    from catpose.bench.run.build import identity_before_choice, takes_choice, target_before_move
 
     identity = {k: OmegaConf.to_container(cfg[k], resolve=True) for k in ("method", "dataset", "protocol")}
+    if cfg.get("choice") is not None and takes_choice(identity["protocol"]):  # the protocols that keep a choice
+        identity["protocol"], choice = identity_before_choice(
+            identity["protocol"], OmegaConf.to_container(cfg.choice, resolve=True)
+        )
+        if choice:
+            identity["choice"] = choice
     for node in identity.values():  # a class that moved keeps its configurations' directories
         if isinstance(node, dict) and "_target_" in node:
             node["_target_"] = target_before_move(str(node["_target_"]))

@@ -39,7 +39,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from catpose.bench.run.build import build_parts, validate_run_options
+from catpose.bench.run.build import build_choice, build_parts, validate_run_options
+from catpose.bench.run.choice_facts import facts_hook
 from catpose.bench.run.evaluate import format_summary, summarize_run
 from catpose.bench.run.lock import LOCK_FILE, RunLock
 from catpose.bench.run.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
@@ -182,6 +183,7 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
 
         torch.set_num_threads(int(cfg.threads))
     method_name, method, dataset, protocol = build_parts(cfg)
+    facts = facts_hook(protocol, build_choice(cfg))  # a templates run's choice facts after each registration
     dataset_name = dataset.name
     interrupts.check()
     # after the builds (so that a config mistake is reported without waiting for torch) and
@@ -216,7 +218,7 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
         lock.acquire()
     try:
         return _run_locked(
-            cfg, overrides, interrupts, out, ids, method_name, method, dataset_name, dataset, protocol, sharding
+            cfg, overrides, interrupts, out, ids, method_name, method, dataset_name, dataset, protocol, sharding, facts
         )
     finally:
         lock.release()
@@ -234,6 +236,7 @@ def _run_locked(
     dataset: Any,
     protocol: Any,
     sharding: tuple[int, int] | None = None,
+    facts: Any = None,
 ) -> Path:
     """The part of a run that writes ``out``, under its lock (samples read after locking, so a
     run that waited for another skips what that one finished)."""
@@ -275,9 +278,9 @@ def _run_locked(
             chunk = todo[start : start + batch]
             try:
                 if batch == 1:
-                    rows = [run_one(method, protocol, dataset, chunk[0], base, int(cfg.seed))]
+                    rows = [run_one(method, protocol, dataset, chunk[0], base, int(cfg.seed), facts)]
                 else:
-                    rows = run_batch(method, protocol, dataset, chunk, base, int(cfg.seed))
+                    rows = run_batch(method, protocol, dataset, chunk, base, int(cfg.seed), facts)
             except (ImportError, MemoryError) as e:
                 interrupts.check()
                 raise RunAborted(_abort_message(e, ", ".join(chunk))) from None

@@ -99,15 +99,15 @@ def _register_one(method: Any, row: dict, sample: Any, seed: int) -> dict:
     return _scored(row, sample, result, time.perf_counter() - t0)
 
 
-def _with_estimate_facts(protocol: Any, dataset: Any, row: dict, sample: Any) -> dict:
-    """``row`` with the protocol's facts about its finished estimate added to ``info``
-    (``protocol.estimate_facts``, e.g. the templates protocol's cross costs); a failed row, or a
-    protocol without the hook, is returned as it is. An error there is the sample's own: the
+def _with_estimate_facts(facts_hook: Any, dataset: Any, row: dict, sample: Any) -> dict:
+    """``row`` with the facts about its finished estimate added to ``info``
+    (``facts_hook.estimate_facts``: a templates run's choice facts, :mod:`catpose.bench.run.choice_facts`);
+    a failed row, or no hook, is returned as it is. An error there is the sample's own: the
     estimate stays, and ``info["estimate_facts_error"]`` says why its facts are missing."""
-    if row.get("status") != "ok" or not hasattr(protocol, "estimate_facts"):
+    if row.get("status") != "ok" or not hasattr(facts_hook, "estimate_facts"):
         return row
     try:
-        facts = protocol.estimate_facts(dataset, sample, np.asarray(row["T_est"], float).reshape(4, 4))
+        facts = facts_hook.estimate_facts(dataset, sample, np.asarray(row["T_est"], float).reshape(4, 4))
     except _NOT_THE_SAMPLES_FAULT:
         raise
     except Exception as e:  # noqa: BLE001 - recorded with the sample, the run goes on
@@ -115,17 +115,20 @@ def _with_estimate_facts(protocol: Any, dataset: Any, row: dict, sample: Any) ->
     return dict(row, info={**dict(row.get("info") or {}), **facts}) if facts else row
 
 
-def run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dict, seed: int) -> dict:
-    """Load, register and score one sample; its row (see :class:`catpose.bench.scoring.rows.SampleRow`)."""
+def run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dict, seed: int, facts: Any = None) -> dict:
+    """Load, register and score one sample; its row (see :class:`catpose.bench.scoring.rows.SampleRow`),
+    with ``facts``' facts about the estimate (:func:`_with_estimate_facts`)."""
     row, sample = _load_one(protocol, dataset, sample_id, base)
     return (
         row
         if sample is None
-        else _with_estimate_facts(protocol, dataset, _register_one(method, row, sample, seed), sample)
+        else _with_estimate_facts(facts, dataset, _register_one(method, row, sample, seed), sample)
     )
 
 
-def run_batch(method: Any, protocol: Any, dataset: Any, sample_ids: list[str], base: dict, seed: int) -> list[dict]:
+def run_batch(
+    method: Any, protocol: Any, dataset: Any, sample_ids: list[str], base: dict, seed: int, facts: Any = None
+) -> list[dict]:
     """:func:`run_one` for several samples, registered with one ``method.register_batch`` call
     when the method has one (ours: one solver launch for the candidates of all of them, the GPU
     path); each sample's ``runtime_s`` is then its share of the call. A sample that fails to load
@@ -155,7 +158,7 @@ def run_batch(method: Any, protocol: Any, dataset: Any, sample_ids: list[str], b
         else:
             rows.append(
                 _with_estimate_facts(
-                    protocol, dataset, scored.get(row["sample_id"]) or _register_one(method, row, sample, seed), sample
+                    facts, dataset, scored.get(row["sample_id"]) or _register_one(method, row, sample, seed), sample
                 )
             )
     return rows

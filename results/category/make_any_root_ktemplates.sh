@@ -25,7 +25,7 @@ union=$(.venv/bin/python -c "import sys, yaml; print(','.join(sorted({i for p in
   "$CAT" "$W"/k{1,3,5}/templates/any.yaml)
 rows=$(echo ${ROWS:-ours} | tr ' ' ',')
 for K in 1 3 5; do
-  "$B" run -m "+row=$rows" "${D[@]}" protocol=templates protocol.choice=cross protocol.exclude_templates=true "protocol.exclude_instances=[$union]" \
+  "$B" run -m "+row=$rows" "${D[@]}" protocol=templates choice=cross protocol.exclude_templates=true "protocol.exclude_instances=[$union]" \
     +templates=any "hydra.searchpath=[file://$(cd "$W/k$K" && pwd)]" output_root="$OUT" progress=false print_summary=false \
     hydra.sweep.dir="$OUT/multirun/k$K"
 done

@@ -4,7 +4,7 @@
 # matching) in one sweep (configs/experiment/mn40r_airplane_1template.yaml), then the table and the
 # per-view errors of ours (results/category/paper/one_template_airplane.{md,csv},
 # paper/one_template_airplane_views.csv). Then the same sweep under the one-template turn check
-# (protocol.choice=cross_top_turns, protocol.turns=[180], protocol.one_template_turns=true: each estimate or its half turn about up,
+# (choice=cross_top_turns, choice.turns_deg=[180], choice.one_template_turns=true: each estimate or its half turn about up,
 # chosen on procedural airplanes, docs/category-level.md): one_template_airplane_turns.{md,csv},
 # one_template_airplane_turns_views.csv. Last, why each of ours' wrong views is wrong, at the step that chose
 # it (catpose.bench.category.why_wrong): one_template_airplane_why.{md,csv}.
@@ -18,7 +18,7 @@ B=.venv/bin/bench
 OUT=${OUT:-outputs/category}
 S=$OUT/multirun/mn40r_airplane_1template
 ST=$OUT/multirun/mn40r_airplane_1template_turns
-TURNS=(protocol.choice=cross_top_turns "protocol.turns=[180]" protocol.one_template_turns=true)
+TURNS=(choice=cross_top_turns "choice.turns_deg=[180]" choice.one_template_turns=true)
 if [ "${1:-}" != tables ]; then
   "$B" run -m +experiment=mn40r_airplane_1template output_root="$OUT" progress=false print_summary=false \
     hydra.sweep.dir="$S" ${EXTRA:-}

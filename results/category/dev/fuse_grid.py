@@ -34,7 +34,7 @@ def chosen(samples, fuse_deg: float | None, top_weight: float | None = None):
     ``fuse_deg`` degrees (``fused``) unless None."""
     import pandas as pd
 
-    from catpose.bench.protocols.template_choice import choose_row
+    from catpose.bench.protocols.template_rows import choose_row
 
     rule = "cross_top_turns" if fuse_deg is None else "fused"
     return pd.DataFrame(
@@ -45,8 +45,8 @@ def chosen(samples, fuse_deg: float | None, top_weight: float | None = None):
 def main(argv: list[str] | None = None) -> int:
     from catpose.atomic import write_text
     from catpose.bench.protocols.absolute import Templates, absolute_gt_only
-    from catpose.bench.protocols.template_choice import FUSED_TOP_WEIGHT
     from catpose.bench.report.category_table import row_errors
+    from catpose.methods.choice_rules import FUSED_TOP_WEIGHT
 
     ap = sweeps_parser(__doc__)
     ap.add_argument("--turns", default="90,270", help="','-separated turns (degrees) read from the runs")

@@ -4,7 +4,7 @@
 # repository: airliners, propeller planes, fighters, biplanes, gliders), none of them a ModelNet40
 # shape, 4 views each, registered by ours and ICP to the one-template experiment's template
 # (airplane_0536, linked from the shared data with its verified alignment row). The run stores each
-# estimate's turns about up by 90, 180 and 270 degrees (protocol.turns), so one_template_turns.py
+# estimate's turns about up by 90, 180 and 270 degrees (choice.turns_deg), so one_template_turns.py
 # reads cross_top_turns over every subset and top-offset weight without registering again. The
 # setting was chosen on airplanes 8000-8039 and confirmed on 8040-8079:
 # airplane_procedural_one_template.md.
@@ -22,7 +22,7 @@ DEV=results/category/dev
   --templates "$SHARED/modelnet40_normal_resampled/airplane" airplane_0536 results/alignment/modelnet40_resampled_airplane.csv
 "$B" run -m +experiment=mn40r_airplane_1template "+row=ours,icp" dataset.root="$PROC_ROOT" \
   dataset.alignment_table="$PROC_ROOT/alignment_airplane.csv" dataset.views_per_instance=4 \
-  protocol.choice=cross_top_turns "protocol.turns=[90,180,270]" protocol.one_template_turns=true output_root="$OUT" progress=false print_summary=false \
+  choice=cross_top_turns "choice.turns_deg=[90,180,270]" choice.one_template_turns=true output_root="$OUT" progress=false print_summary=false \
   hydra.sweep.dir="$OUT/multirun/k1_turns_n80"
 .venv/bin/python $DEV/one_template_turns.py "$OUT/multirun/k1_turns_n80" --alignment "$PROC_ROOT/alignment_airplane.csv" \
   --split-at airplane_8040 --keep "180@0.05" --out $DEV/airplane_procedural_one_template.md \
@@ -36,7 +36,7 @@ K3_ROOT=${K3_ROOT:-$PROC_ROOT-k3}
   airplane_0002,airplane_0256,airplane_0432 results/alignment/modelnet40_resampled_airplane.csv
 "$B" run -m +experiment=mn40r_airplane_ktemplates "+row=ours" +category_templates=mn40r_airplane_k3 \
   "protocol.exclude_instances=[airplane_0002,airplane_0256,airplane_0432]" dataset.root="$K3_ROOT" \
-  dataset.alignment_table="$K3_ROOT/alignment_airplane.csv" dataset.views_per_instance=2 "protocol.turns=[90,180,270]" \
+  dataset.alignment_table="$K3_ROOT/alignment_airplane.csv" dataset.views_per_instance=2 "choice.turns_deg=[90,180,270]" \
   output_root="$OUT/k3" progress=false print_summary=false hydra.sweep.dir="$OUT/k3/multirun/k3"
 "$B" category "$OUT/k3/multirun/k3" --category airplane --choices cross,cross_top,cross_top_turns,score,density,agreement \
   --format md --out $DEV/airplane_procedural_k3.md \

@@ -57,9 +57,9 @@ done
   --title "Chair development runs, by top-offset weight"
 # finer turn sets (none kept): ours again on the same 5 template sets with turns every 30 degrees
 T30="[30,60,90,120,150,180,210,240,270,300,330]"
-dev_run ours chair_dev_k3_turns30 "protocol.turns=$T30"
+dev_run ours chair_dev_k3_turns30 "choice.turns_deg=$T30"
 for i in "${!SWAPS[@]}"; do
-  dev_run ours chair_dev_swap${i}_turns30 "dataset.templates.chair=[${SWAPS[$i]}]" "protocol.exclude_instances=[]" "protocol.turns=$T30"
+  dev_run ours chair_dev_swap${i}_turns30 "dataset.templates.chair=[${SWAPS[$i]}]" "protocol.exclude_instances=[]" "choice.turns_deg=$T30"
 done
 .venv/bin/python results/category/dev/top_weight_grid.py "$OUT"/multirun/chair_dev_k3_turns30 "$OUT"/multirun/chair_dev_swap{0,1,2,3}_turns30 \
   --turn-sets "none;90,270;60,300;60,90,120,240,270,300;30,60,90,270,300,330;30,60,90,120,150,180,210,240,270,300,330" \

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The one-template turn check (cross_top_turns with protocol.one_template_turns=true; chosen for
+# The one-template turn check (cross_top_turns with choice.one_template_turns=true; chosen for
 # airplanes on procedural airplanes, make_airplane_procedural.sh) tried on another category, chairs
 # (docs/category-level.md): ours and ICP at K = 1, each estimate's turns about up by 90, 180 and 270
 # degrees stored, then top_weight_grid.py over turn sets at weights 0 and 0.05 (with one template
@@ -20,7 +20,7 @@ PROC_ROOT=${PROC_ROOT:-$HOME/.cache/catpose/chair_procedural/one_template}
 DEV_ROOT=${DEV_ROOT:-$HOME/.cache/catpose/chair_dev}
 OUT=${OUT:-outputs/category_chair_one_template}
 DEV=results/category/dev
-CHECK=(protocol.choice=cross_top_turns "protocol.turns=[90,180,270]" protocol.one_template_turns=true
+CHECK=(choice=cross_top_turns "choice.turns_deg=[90,180,270]" choice.one_template_turns=true
        "+row=ours,icp" output_root="$OUT" progress=false print_summary=false)
 SETS="none;90,270;180;90,180,270"
 .venv/bin/python $DEV/procedural_chairs.py "$PROC_ROOT" --n 40 --seed 0 \

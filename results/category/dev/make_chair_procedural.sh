@@ -49,7 +49,7 @@ done
 # sets at the chosen weight (chair_procedural_turns_fine.md; none kept)
 "$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours" dataset.root="$PROC_ROOT/with_templates" \
   dataset.alignment_table="$PROC_ROOT/with_templates/alignment_chair.csv" dataset.views_per_instance=6 \
-  "protocol.turns=[30,60,90,120,150,180,210,240,270,300,330]" output_root="$OUT" progress=false print_summary=false \
+  "choice.turns_deg=[30,60,90,120,150,180,210,240,270,300,330]" output_root="$OUT" progress=false print_summary=false \
   hydra.sweep.dir="$OUT/multirun/procedural_k3_turns30"
 .venv/bin/python $DEV/top_weight_grid.py "$OUT/multirun/procedural_k3_turns30" --turn-sets "none;90,270;90,180,270" \
   --out $DEV/chair_procedural_turns.md --title "Procedural chairs (40 x 6 views, K = 3), ours, by turn set"

@@ -7,7 +7,7 @@ instance id of the confirming part), with the median seconds per registration.
     .venv/bin/python results/category/dev/selection_grid.py OUT/multirun/airplanes_top_k \
         --key method.selection.top_k --split-at airplane_8040 --out results/category/dev/....md
 
-Reads the runs' files only (the kept estimate is the run's own ``protocol.choice``; with K = 1 the
+Reads the runs' files only (the kept estimate is the run's own ``choice`` rule; with K = 1 the
 registration's own estimate, and the oracle is the same). Written by
 results/category/dev/make_selection_dev.sh.
 """

@@ -1,0 +1,256 @@
+"""How well one view's estimate fits each of its category's K templates: the facts the cross rules
+of :mod:`catpose.methods.choice_rules` choose by (:class:`CrossCheck`).
+
+The K templates share the category's canonical frame, so a right estimate from any template is
+a pose the other templates also fit, after a small correction for their different shapes; an
+estimate that is a quarter or half turn off fits its own template by a shape coincidence that the
+other templates do not share. For the estimate ``T`` (camera -> template ``k``) of a view:
+
+- on its own template ``k`` the cost is the visibility-aware two-directional Chamfer distance
+  (:func:`catpose.methods.pose_scores.visibility_chamfer`, truncated at ``trunc``) at ``T`` itself;
+- on every other template ``j`` it is the same distance after point-to-plane ICP of the view
+  against template ``j`` from ``T`` (Open3D, within ``icp_distance``, at most ``icp_iterations``);
+- each of those poses also pays ``silhouette_weight x (1 - IoU)`` of the view's and the posed
+  template's silhouettes (:func:`silhouette_iou`): a chair turned a quarter shows the camera a
+  seat as wide as it is deep and a back seen edge-on, an outline the view does not have even where
+  the Chamfer distances tie.
+
+Beside the K costs, :meth:`CrossCheck.top_offset` (read by the ``cross_top`` rules) places the
+estimate's top part: the horizontal distance (across the template frame's up) between the centroid
+of the view's highest ``top_fraction`` points, posed by the estimate, and the mean of the K
+templates' own top centroids. The templates share the category's frame, so they agree where a
+category's highest part stands (a chair's back, an airplane's tail fin); a quarter-turned chair puts
+its back at the side, a nose/tail-swapped airplane its fin at the nose, even where the Chamfer
+distances and silhouettes tie.
+
+:meth:`CrossCheck.turn_candidates` (read by the turn rules) proposes more poses from each estimate:
+the estimate turned by each of the given turns about the template frame's up, refined by the same
+ICP on its own template, each with its own costs and top offset. A chair's seat is often as wide as
+it is deep, so a registration can settle a quarter turn off on every template; its turned pose is
+then a candidate the cross check can prefer.
+
+The settings are constructor arguments; ``configs/choice/score.yaml`` holds their values (the
+defaults here equal them, ``tests/test_choice_config.py``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+#: the Python defaults of :class:`CrossCheck`; configs/choice/score.yaml is the source (a test
+#: asserts they agree)
+TRUNC = 0.1
+ICP_DISTANCE = 0.03
+ICP_ITERATIONS = 30
+SILHOUETTE_CELL = 0.05
+SILHOUETTE_WEIGHT = 0.2
+TOP_FRACTION = 0.1
+#: the turns about the template's up tried from each estimate (degrees)
+TURNS_DEG = (90.0, 270.0)
+
+_TARGETS: dict[str, tuple[Any, Any, np.ndarray, np.ndarray]] = {}
+
+
+def _target(template: Any) -> tuple[Any, Any, np.ndarray, np.ndarray]:
+    """(Open3D cloud with normals, cKDTree, points (M, 3), normals (M, 3)) of ``template``, cached
+    by its id and size."""
+    key = f"{template.template_id}#{len(template.points)}"
+    if key not in _TARGETS:
+        from scipy.spatial import cKDTree
+
+        from catpose.o3d import o3d
+
+        points, normals = np.asarray(template.points, float), np.asarray(template.normals, float)
+        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+        pcd.normals = o3d.utility.Vector3dVector(normals)
+        _TARGETS[key] = (pcd, cKDTree(points), points, normals)
+    return _TARGETS[key]
+
+
+def _cloud(points_camera: np.ndarray):
+    """The view (N, 3) as an Open3D cloud."""
+    from catpose.o3d import o3d
+
+    return o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points_camera, float)))
+
+
+def silhouette_cells(points_camera: np.ndarray, cell: float) -> set[tuple[int, int]]:
+    """The image cells (side ``cell`` in normalised image coordinates ``x / z``, ``y / z``) hit by
+    ``points_camera`` (N, 3, camera frame); points at or behind the camera centre are left out."""
+    P = np.asarray(points_camera, float)
+    P = P[P[:, 2] > 1e-9]
+    ij = np.floor(np.stack([P[:, 0] / P[:, 2], P[:, 1] / P[:, 2]], 1) / cell).astype(np.int64)
+    return set(map(tuple, ij.tolist()))
+
+
+def silhouette_iou(view_cells: set, template_points_camera: np.ndarray, cell: float) -> float:
+    """Intersection over union of the view's silhouette cells and those of a posed template's
+    points (M, 3, camera frame: every point, the outline of the whole shape is the outline of
+    its visible side); 0 when either is empty."""
+    cells = silhouette_cells(template_points_camera, cell)
+    union = len(view_cells | cells)
+    return len(view_cells & cells) / union if union else 0.0
+
+
+def top_centroid(points_template: np.ndarray, up: np.ndarray, fraction: float = TOP_FRACTION) -> np.ndarray:
+    """(3,) the centroid of the highest ``fraction`` of ``points_template`` (N, 3) along the
+    unit vector ``up`` (3,), less its component along ``up``: where the shape's top part stands
+    in the plane across up (the points' unit)."""
+    P = np.asarray(points_template, float)
+    u = np.asarray(up, float) / np.linalg.norm(up)
+    h = P @ u
+    c = P[h >= np.quantile(h, 1.0 - fraction)].mean(axis=0)
+    return c - (c @ u) * u
+
+
+_TOPS: dict[str, np.ndarray] = {}
+
+
+def _template_top(template: Any, fraction: float) -> np.ndarray:
+    """:func:`top_centroid` of ``template``'s points along its ``up``, cached by id, size and fraction."""
+    key = f"{template.template_id}#{len(template.points)}#{tuple(np.asarray(template.up, float))}#{fraction!r}"
+    if key not in _TOPS:
+        _TOPS[key] = top_centroid(template.points, template.up, fraction)
+    return _TOPS[key]
+
+
+def turned(T_template_camera: np.ndarray, up: np.ndarray, turn_deg: float) -> np.ndarray:
+    """(4, 4) ``T_template_camera`` followed by a turn of ``turn_deg`` degrees about the unit
+    vector ``up`` (3,) through the template frame's origin (right-handed)."""
+    from scipy.spatial.transform import Rotation
+
+    u = np.asarray(up, float) / np.linalg.norm(up)
+    turn = np.eye(4)
+    turn[:3, :3] = Rotation.from_rotvec(np.radians(float(turn_deg)) * u).as_matrix()
+    return turn @ np.asarray(T_template_camera, float)
+
+
+class CrossCheck:
+    """The cross check's costs, top offset and turned candidates of one estimate (module doc).
+
+    Args:
+        trunc: truncation of both Chamfer directions (object-normalised unit).
+        icp_distance: ICP correspondence distance on another template (object-normalised unit).
+        icp_iterations: ICP iterations on another template.
+        silhouette_cell: silhouette cell side (object-normalised unit at the view's median depth).
+        silhouette_weight: weight of ``1 - IoU`` of the silhouettes in each cost.
+        top_fraction: the fraction of a shape's points, highest along up, whose centroid is its top.
+    """
+
+    def __init__(
+        self,
+        trunc: float = TRUNC,
+        icp_distance: float = ICP_DISTANCE,
+        icp_iterations: int = ICP_ITERATIONS,
+        silhouette_cell: float = SILHOUETTE_CELL,
+        silhouette_weight: float = SILHOUETTE_WEIGHT,
+        top_fraction: float = TOP_FRACTION,
+    ) -> None:
+        self.trunc = float(trunc)
+        self.icp_distance = float(icp_distance)
+        self.icp_iterations = int(icp_iterations)
+        self.silhouette_cell = float(silhouette_cell)
+        self.silhouette_weight = float(silhouette_weight)
+        self.top_fraction = float(top_fraction)
+
+    def refine_on(
+        self, points_camera: np.ndarray, template: Any, T_template_camera: np.ndarray, source: Any = None
+    ) -> np.ndarray:
+        """(4, 4) ``T_template_camera`` refined by point-to-plane ICP of ``points_camera`` (N, 3)
+        against ``template`` (single-threaded: Open3D's parallel sums differ run to run); ``source``:
+        the view already as an Open3D cloud (built here when None)."""
+        from catpose.o3d import max_threads, o3d
+
+        reg = o3d.pipelines.registration
+        pcd = _target(template)[0]
+        src = _cloud(points_camera) if source is None else source
+        with max_threads(1):
+            result = reg.registration_icp(
+                src,
+                pcd,
+                self.icp_distance,
+                np.asarray(T_template_camera, float),
+                reg.TransformationEstimationPointToPlane(),
+                reg.ICPConvergenceCriteria(max_iteration=self.icp_iterations),
+            )
+        return np.asarray(result.transformation).copy()
+
+    def cross_costs(
+        self, points_camera: np.ndarray, T_template_camera: np.ndarray, templates: Sequence[Any], own: int
+    ) -> list[float]:
+        """(K,) the cost of the estimate ``T_template_camera`` (4, 4) of the view ``points_camera``
+        (N, 3, camera frame, object-normalised unit) on each of ``templates``; ``own`` is the index
+        of the template it was estimated against (its cost is taken at the estimate unrefined)."""
+        from catpose.geometry import invert_T, transform_points
+        from catpose.methods.pose_scores import visibility_chamfer
+
+        P = np.asarray(points_camera, float)
+        T_est = np.asarray(T_template_camera, float)
+        source = _cloud(P) if len(templates) > 1 else None  # one cloud for the K - 1 refinements
+        cell = self.silhouette_cell / float(np.median(P[:, 2]))  # the cell's side at the view's depth
+        view_cells = silhouette_cells(P, cell)
+        out = []
+        # the ICPs start from the estimate rounded to 1e-9: its last bits differ between CPUs' BLAS
+        # kernels, and an ICP can turn such a difference into another correspondence set
+        T_start = np.round(T_est, 9)
+        for j, template in enumerate(templates):
+            T = T_est if j == own else self.refine_on(P, template, T_start, source)
+            _, tree, points, normals = _target(template)
+            iou = silhouette_iou(view_cells, transform_points(invert_T(T), points), cell)
+            out.append(
+                float(visibility_chamfer(P, T[None], points, normals, tree, self.trunc)[0])
+                + self.silhouette_weight * (1.0 - iou)
+            )
+        return out
+
+    def top_offset(
+        self, points_camera: np.ndarray, T_template_camera: np.ndarray, templates: Sequence[Any], own: int
+    ) -> float:
+        """Horizontal distance (object-normalised unit) between the top centroid of the view
+        ``points_camera`` (N, 3, camera frame) posed by ``T_template_camera`` (4, 4, camera -> template
+        ``own``) and the mean top centroid of ``templates`` (:func:`top_centroid`, along the own
+        template's ``up``; the templates share one frame)."""
+        from catpose.geometry import transform_points
+
+        up = np.asarray(templates[own].up, float)
+        view_top = top_centroid(
+            transform_points(np.asarray(T_template_camera, float), np.asarray(points_camera, float)),
+            up,
+            self.top_fraction,
+        )
+        category_top = np.mean([_template_top(t, self.top_fraction) for t in templates], axis=0)
+        return float(np.linalg.norm(view_top - category_top))  # both already across up
+
+    def turn_candidates(
+        self,
+        points_camera: np.ndarray,
+        T_template_camera: np.ndarray,
+        templates: Sequence[Any],
+        own: int,
+        turns_deg: Sequence[float] = TURNS_DEG,
+    ) -> list[dict]:
+        """For each turn of ``turns_deg`` (degrees): the estimate ``T_template_camera`` (4, 4, camera
+        -> template ``own``) :func:`turned` about the own template's ``up`` and refined on it
+        (:meth:`refine_on`), with its :meth:`cross_costs` and :meth:`top_offset`. Returns dicts
+        ``turn_deg``, ``T_template_camera`` (4 x 4 nested lists), ``cross_costs`` (K,), ``top_offset``."""
+        P = np.asarray(points_camera, float)
+        up = np.asarray(templates[own].up, float)
+        source = _cloud(P)
+        out = []
+        for deg in turns_deg:
+            # from the estimate rounded to 1e-9, as in cross_costs: its last bits differ between kernels
+            T = self.refine_on(
+                P, templates[own], turned(np.round(np.asarray(T_template_camera, float), 9), up, deg), source
+            )
+            out.append(
+                {
+                    "turn_deg": float(deg),
+                    "T_template_camera": T.tolist(),
+                    "cross_costs": self.cross_costs(P, T, templates, own),
+                    "top_offset": self.top_offset(P, T, templates, own),
+                }
+            )
+        return out

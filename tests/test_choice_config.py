@@ -1,0 +1,144 @@
+"""The ``choice`` config group (configs/choice): every weight and angle a key, its value the one
+default, the old ``protocol.choice`` keys refused in one line, and run directories written before
+the group still building their protocol and choice."""
+
+from __future__ import annotations
+
+import inspect
+import re
+from pathlib import Path
+
+import pytest
+from omegaconf import OmegaConf
+
+from catpose.errors import ConfigError
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+
+
+def _compose(overrides: list[str]):
+    from catpose.bench.run.config import compose
+
+    return compose(overrides)
+
+
+def test_every_key_of_the_choice_is_in_the_base_file_with_its_python_default_and_a_comment():
+    from catpose.methods.template_choice import TemplateChoice
+
+    path = CONFIGS / "choice" / "score.yaml"
+    node = OmegaConf.to_container(OmegaConf.load(path))
+    params = {k: p.default for k, p in inspect.signature(TemplateChoice).parameters.items()}
+    keys = {k for k in node if k not in ("name", "_target_")}
+    assert keys == set(params), "configs/choice/score.yaml and TemplateChoice take the same keys"
+    for key in keys:  # one default: the YAML's value is the constructor's
+        default = list(params[key]) if isinstance(params[key], tuple) else params[key]
+        assert node[key] == default, f"choice.{key}: YAML {node[key]!r}, Python {default!r}"
+    for line in path.read_text().splitlines():  # one comment line per key, with its unit or range
+        key = line.split(":", 1)[0]
+        if key in keys:
+            assert "#" in line and re.search(r"\((.*)\)", line.split("#", 1)[1]), line
+
+
+def test_each_rule_file_sets_its_rule_only():
+    from catpose.methods.choice_rules import RULES
+
+    assert sorted(p.stem for p in (CONFIGS / "choice").glob("*.yaml")) == sorted(RULES)
+    for rule in RULES:
+        if rule == "score":
+            continue
+        node = OmegaConf.to_container(OmegaConf.load(CONFIGS / "choice" / f"{rule}.yaml"))
+        assert node == {"defaults": ["score", "_self_"], "name": rule, "rule": rule}
+        cfg = _compose(["protocol=templates", f"choice={rule}"])
+        assert cfg.choice.rule == rule and cfg.choice.cross_weight == 0.25
+
+
+def test_the_builder_hands_the_choice_to_the_runner_and_its_rule_to_the_protocol():
+    from catpose.bench.run.build import build_choice, build_protocol
+    from catpose.methods.choice_rules import ChoiceRule
+
+    cfg = _compose(["protocol=templates", "choice=fused", "choice.fused_top_weight=0.1", "choice.turns_deg=[180]"])
+    chooser = build_choice(cfg)
+    assert chooser.rule == ChoiceRule(rule="fused", fused_top_weight=0.1) and chooser.turns_deg == (180.0,)
+    assert build_protocol(cfg).choice == chooser.rule
+    relative = build_protocol(_compose(["protocol=relative", "choice=density"]))
+    assert relative._views.choice == ChoiceRule(rule="density")
+    gt = _compose(["protocol=gt_model", "choice=fused"])
+    assert build_choice(gt) is None and not hasattr(build_protocol(gt), "choice")
+    with pytest.raises(ConfigError, match=r"choice.turns_deg=.*must be a list of degrees"):
+        build_choice(_compose(["protocol=templates", "choice.turns_deg=abc"]))
+    with pytest.raises(ConfigError, match="choice.cross_weight='x' is not a float"):
+        build_choice(_compose(["protocol=templates", "choice.cross_weight=x"]))
+
+
+@pytest.mark.parametrize(
+    "override,fix",
+    [
+        ("protocol.choice=fused", "write choice=fused"),
+        ("protocol.turns=[180]", "write choice.turns_deg=[180]"),
+        ("protocol.one_template_turns=true", "write choice.one_template_turns=true"),
+        ("choice=fuse", "unknown choice 'fuse'"),
+    ],
+)
+def test_the_old_protocol_keys_and_an_unknown_rule_are_refused_in_one_line(override, fix):
+    with pytest.raises(ConfigError, match=re.escape(fix)):
+        _compose(["protocol=templates", override])
+
+
+def test_a_run_directory_written_before_the_group_still_builds():
+    """config.yaml of a templates run before the move: the protocol holds choice, turns and
+    one_template_turns, and there is no choice group."""
+    from catpose.bench.run.build import build_choice, build_protocol
+    from catpose.methods.choice_rules import ChoiceRule
+
+    old = {
+        "protocol": {
+            "name": "templates",
+            "_target_": "catpose.bench.protocols.Templates",
+            "max_templates": 1,
+            "exclude_templates": False,
+            "exclude_instances": [],
+            "choice": "cross_top_turns",
+            "turns": [180],
+            "one_template_turns": True,
+        }
+    }
+    protocol = build_protocol(old)
+    assert protocol.choice == ChoiceRule(rule="cross_top_turns") and protocol.max_templates == 1
+    chooser = build_choice(old)
+    assert chooser.rule.rule == "cross_top_turns" and chooser.turns_deg == (180.0,) and chooser.one_template_turns
+    default = {"protocol": {**old["protocol"], "choice": "fused", "turns": None, "one_template_turns": False}}
+    assert build_choice(default).turns_deg == (90.0, 270.0) and build_protocol(default).choice.rule == "fused"
+    relative = {"protocol": {"name": "relative", "_target_": "catpose.bench.protocols.Relative", "choice": "density"}}
+    assert build_protocol(relative)._views.choice.rule == "density"
+    assert build_choice(relative).rule.rule == "density"
+
+
+def test_the_choice_is_part_of_a_templates_runs_identity_and_old_configurations_keep_their_directory():
+    import hashlib
+    import json
+
+    from catpose.bench.run.rundir import run_dir_for
+
+    def digest(overrides):
+        return run_dir_for(_compose(overrides)).name.rsplit("-", 1)[1]
+
+    assert digest(["protocol=gt_model"]) == digest(["protocol=gt_model", "choice.cross_weight=0.3"])
+    assert digest(["protocol=templates"]) != digest(["protocol=templates", "choice.cross_weight=0.3"])
+    assert digest(["protocol=templates", "choice=cross"]) != digest(["protocol=templates", "choice=fused"])
+    assert digest(["protocol=relative"]) != digest(["protocol=relative", "choice=density"])
+
+    # a configuration written before the choice group (the protocol held choice, turns and
+    # one_template_turns) hashes as it did then, so its run directory and finished samples stay
+    def old_digest(overrides, **protocol_keys):
+        cfg = _compose(overrides)
+        identity = {k: OmegaConf.to_container(cfg[k], resolve=True) for k in ("method", "dataset", "protocol")}
+        identity["protocol"].update(protocol_keys)
+        identity["seed"] = int(cfg.seed)
+        return hashlib.sha1(json.dumps(identity, sort_keys=True, default=str).encode()).hexdigest()[:8]
+
+    one = ["protocol=templates", "choice=cross_top_turns", "choice.turns_deg=[180]", "choice.one_template_turns=true"]
+    assert digest(one) == old_digest(one, choice="cross_top_turns", turns=[180], one_template_turns=True)
+    fused = ["protocol=templates", "choice=fused"]
+    assert digest(fused) == old_digest(fused, choice="fused", turns=None, one_template_turns=False)
+    relative = {"choice": "score", "_target_": "catpose.bench.relative.Relative"}  # the class's name before its move
+    assert digest(["protocol=relative"]) == old_digest(["protocol=relative"], **relative)
