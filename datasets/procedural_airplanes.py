@@ -1,40 +1,25 @@
-"""Build a root of procedural airplanes, a synthetic development set for the one-template airplane
-experiment (issue 25; docs/category-level.md), in a folder outside the repository.
+"""Procedural airplanes, drawn part by part from a random generator (``dataset=procedural
+dataset.category=airplane``; :mod:`catpose.datasets.procedural` writes and reads them).
 
-The 18 shared airplanes are the report set, and the train airplanes that chose ``bench align``'s
-cues are not at hand; these airplanes are drawn part by part from a seed instead, in the kinds
-the shared set mixes: airliners (swept low wings, two or four engine pods, a conventional or a
-T tail), propeller planes (straight high or low wings, a propeller at the nose), fighters (a long
-slim nose, swept or delta wings set aft, one or two fins), biplanes (two straight wings joined by
-struts, a propeller) and gliders (long thin straight wings). The fuselage is a cylinder with a
-cone at each end; wings, stabilisers and fins are thin tapered panels (the convex hull of their
-eight corners). Every size is drawn from a range around the shared airplanes' proportions. Each
-airplane is centred and scaled into the unit sphere, then sampled to 10,000 points with face
-normals in PointNet++'s resampled layout: y up, the nose towards +z, the tail towards -z (the
-frame the verified alignment table puts every shared airplane in), so every row of the alignment
-table is the identity.
-
-Usage: python results/category/dev/procedural_airplanes.py OUT_ROOT [--n 40] [--seed 0] \
-           [--templates SHARED_RESAMPLED_AIRPLANE_DIR airplane_0536 ALIGNMENT_CSV]
-Ids are airplane_8000, airplane_8001, ...; the seed fixes every airplane. ``--templates`` links
-those shared resampled airplanes into the root with their rows of the verified alignment table,
-so that they can be the templates of its views.
+The kinds the shared ModelNet40 airplanes mix: airliners (swept low wings, two or four engine pods,
+a conventional or a T tail), propeller planes (straight high or low wings, a propeller at the nose),
+fighters (a long slim nose, swept or delta wings set aft, one or two fins), biplanes (two straight
+wings joined by struts, a propeller) and gliders (long thin straight wings). The fuselage is a
+cylinder with a cone at each end; wings, stabilisers and fins are thin tapered panels (the convex
+hull of their eight corners). Every size is drawn from a range around the shared airplanes'
+proportions. Each airplane is centred and scaled into the unit sphere in PointNet++'s resampled
+layout: y up, the nose towards +z, the tail towards -z (the frame the verified alignment table puts
+every shared airplane in), so its alignment row is the identity. Its kind is in
+``mesh.metadata["kind"]``.
 """
 
 from __future__ import annotations
 
-import argparse
-import csv
-import sys
-from pathlib import Path
-
 import numpy as np
 import trimesh
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from procedural_chairs import HEADER, link_templates, resampled, rod, write_lists  # noqa: E402  (sibling development script)
+from catpose.datasets.procedural_chairs import rod
 
-FIRST_ID = 8000
 KINDS = ("airliner", "prop", "fighter", "biplane", "glider")
 KIND_P = (0.35, 0.2, 0.2, 0.12, 0.13)
 
@@ -260,52 +245,3 @@ def airplane(rng: np.random.Generator) -> trimesh.Trimesh:
     mesh.apply_scale(1.0 / np.linalg.norm(mesh.vertices, axis=1).max())
     mesh.metadata["kind"] = str(kind)
     return mesh
-
-
-def template_rows(csv_path: Path, ids: list[str]) -> list[str]:
-    """The alignment table rows of ``ids`` from ``csv_path``, as CSV lines."""
-    with open(csv_path, newline="") as f:
-        rows = {r["instance_id"]: r for r in csv.DictReader(f)}
-    out = []
-    for i in ids:
-        r = rows[i]
-        vals = [r[k] for k in HEADER.strip().split(",")]
-        out.append(",".join(f'"{v}"' if "," in v else v for v in vals) + "\n")
-    return out
-
-
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("out_root")
-    ap.add_argument("--n", type=int, default=40, help="number of airplanes")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument(
-        "--templates",
-        nargs=3,
-        metavar=("DIR", "IDS", "ALIGNMENT_CSV"),
-        help="link these airplanes of DIR into the root, with their rows of ALIGNMENT_CSV",
-    )
-    args = ap.parse_args(argv)
-    root = Path(args.out_root)
-    (root / "airplane").mkdir(parents=True, exist_ok=True)
-    rng = np.random.default_rng(args.seed)
-    names = [f"airplane_{FIRST_ID + i}" for i in range(args.n)]
-    rows = []
-    for i, name in enumerate(names):
-        mesh = airplane(rng)
-        np.savetxt(
-            root / "airplane" / f"{name}.txt", resampled(mesh, args.seed * 100003 + i), delimiter=",", fmt="%.6f"
-        )
-        rows.append(
-            f"airplane,{name},1,0,0,0,1,0,0,0,1,0,false,,,true,procedural {mesh.metadata['kind']}: built in the category frame\n"
-        )
-    linked = link_templates(root, "airplane", *args.templates[:2]) if args.templates else []
-    if linked:
-        rows += template_rows(Path(args.templates[2]), linked)
-    write_lists(root, "airplane", [*names, *linked], rows)
-    print(f"wrote {args.n} procedural airplanes to {root}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

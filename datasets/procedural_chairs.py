@@ -1,33 +1,20 @@
-"""Build a root of procedural chairs, a synthetic development set for the template choice
-(issue 25; docs/category-level.md), in a folder outside the repository.
+"""Procedural chairs, drawn part by part from a random generator (``dataset=procedural
+dataset.category=chair``; :mod:`catpose.datasets.procedural` writes and reads them).
 
-The seven non-report chairs of the shared data give 240 correlated development views; these
-chairs are drawn part by part from a seed instead: a seat (box, optional cushion), one of four
-bases (four legs, optionally splayed and joined by stretchers; an office pedestal on a five-spoke
-star; two side panels; a cantilever sled), one of four backs (solid panel, vertical slats or
-horizontal rails between two posts, a ladder frame), tilted back 0-20 deg, and arms on some. Every
-size is drawn from a range around the shared ModelNet40 chairs' proportions (seat top at 0.40-0.55
-of the height, back 0.35-0.60 of it). Each chair is sampled to 10,000 points with face normals in
-PointNet++'s resampled layout: y up, the back towards +z as in the shared chairs, so every row of
-the alignment table is the identity.
-
-Usage: python results/category/dev/procedural_chairs.py OUT_ROOT [--n 40] [--seed 0] \
-           [--templates SHARED_RESAMPLED_CHAIR_DIR chair_0391,chair_0624,chair_0848]
-Ids are chair_8000, chair_8001, ...; the seed fixes every chair. ``--templates`` links those
-shared resampled chairs into the root (their alignment rows the identity too, as verified in
-results/alignment/), so that they can be the K templates of its views.
+A seat (box, optional cushion), one of four bases (four legs, optionally splayed and joined by
+stretchers; an office pedestal on a five-spoke star; two side panels; a cantilever sled), one of
+four backs (solid panel, vertical slats or horizontal rails between two posts, a ladder frame),
+tilted back 0-20 deg, and arms on some. Every size is drawn from a range around the shared
+ModelNet40 chairs' proportions (seat top at 0.40-0.55 of the height, back 0.35-0.60 of it). The
+chair stands in PointNet++'s resampled layout: y up, the back towards +z as in the shared chairs, so
+its alignment row is the identity. None is a ModelNet40 shape, so a development set of them can be
+as large as a choice needs (docs/choosing-defaults.md).
 """
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
-
 import numpy as np
 import trimesh
-
-HEADER = "category,instance_id,r00,r01,r02,r10,r11,r12,r20,r21,r22,yaw_deg,flip,chamfer,confidence,verified,note\n"
-FIRST_ID = 8000
 
 
 def box(lo: np.ndarray, hi: np.ndarray) -> trimesh.Trimesh:
@@ -184,55 +171,3 @@ def chair(rng: np.random.Generator) -> trimesh.Trimesh:
     if rng.random() < 0.3:
         parts += arm_parts(rng, w, d, y_top)
     return trimesh.util.concatenate(parts)
-
-
-def resampled(mesh: trimesh.Trimesh, seed: int) -> np.ndarray:
-    """(10000, 6) points and face normals on ``mesh``, area-uniform."""
-    pts, face = trimesh.sample.sample_surface(mesh, 10000, seed=seed)
-    return np.hstack([pts, mesh.face_normals[face]])
-
-
-def link_templates(root: Path, category: str, folder: str, ids: str) -> list[str]:
-    """Link the files ``<folder>/<id>.txt`` of the comma-separated ``ids`` into ``root/<category>``
-    (links already there are kept); returns the ids."""
-    linked = ids.split(",")
-    for name in linked:
-        link = root / category / f"{name}.txt"
-        if not link.exists():
-            link.symlink_to((Path(folder) / f"{name}.txt").resolve())
-    return linked
-
-
-def write_lists(root: Path, category: str, ids: list[str], rows: list[str]) -> None:
-    """The root's split lists (every id in train, test empty) and ``alignment_<category>.csv``
-    (``HEADER`` and ``rows``, CSV lines)."""
-    (root / "modelnet40_train.txt").write_text("".join(f"{n}\n" for n in sorted(ids)))
-    (root / "modelnet40_test.txt").write_text("")
-    (root / f"alignment_{category}.csv").write_text(HEADER + "".join(rows))
-
-
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("out_root")
-    ap.add_argument("--n", type=int, default=40, help="number of chairs")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--templates", nargs=2, metavar=("DIR", "IDS"), help="link these chairs of DIR into the root")
-    args = ap.parse_args(argv)
-    root = Path(args.out_root)
-    (root / "chair").mkdir(parents=True, exist_ok=True)
-    rng = np.random.default_rng(args.seed)
-    names = [f"chair_{FIRST_ID + i}" for i in range(args.n)]
-    for i, name in enumerate(names):
-        np.savetxt(
-            root / "chair" / f"{name}.txt", resampled(chair(rng), args.seed * 100003 + i), delimiter=",", fmt="%.6f"
-        )
-    rows = [f"chair,{n},1,0,0,0,1,0,0,0,1,0,false,,,true,procedural: built in the category frame\n" for n in names]
-    linked = link_templates(root, "chair", *args.templates) if args.templates else []
-    rows += [f"chair,{name},1,0,0,0,1,0,0,0,1,0,false,,,true,shared template (results/alignment/)\n" for name in linked]
-    write_lists(root, "chair", [*names, *linked], rows)
-    print(f"wrote {args.n} procedural chairs to {root}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # A single-node Slurm on this machine, for checking the submitit path for real.
-#   bash scripts/slurm_local.sh start   munged + slurmctld + slurmd, config in $SLURM_DIR
-#   bash scripts/slurm_local.sh check   start, a 2-job sweep through hydra/launcher=slurm, stop
-#   bash scripts/slurm_local.sh stop    stop the daemons this script started
+#   bash tools/slurm_local.sh start   munged + slurmctld + slurmd, config in $SLURM_DIR
+#   bash tools/slurm_local.sh check   start, a 2-job sweep through hydra/launcher=slurm, stop
+#   bash tools/slurm_local.sh stop    stop the daemons this script started
 # Needs root and Debian's slurm-wlm and munge (installed here with apt-get when missing).
 # Slurm commands find this cluster through SLURM_CONF=$SLURM_DIR/slurm.conf.
 set -euo pipefail
@@ -24,7 +24,7 @@ start() {
   need
   mkdir -p "$SLURM_DIR"/{state,spool,log}
   cat > "$SLURM_CONF" <<CONF
-# written by scripts/slurm_local.sh: one node ($HOST), one partition, no accounting, no cgroups
+# written by tools/slurm_local.sh: one node ($HOST), one partition, no accounting, no cgroups
 ClusterName=catpose
 SlurmctldHost=$HOST
 SlurmUser=root
@@ -108,5 +108,5 @@ case "${1:-check}" in
   start) start ;;
   stop) stop ;;
   check) check ;;
-  *) echo "usage: bash scripts/slurm_local.sh start|check|stop" >&2; exit 2 ;;
+  *) echo "usage: bash tools/slurm_local.sh start|check|stop" >&2; exit 2 ;;
 esac

@@ -9,7 +9,7 @@
 # Output: results/alignment/dev/summary.md (agreement and confidence ROC per set). The per-shape rows
 # (estimated*.csv, _vs_verified.csv) describe shapes that are not in this repository and stay out of
 # it: they go to $OUT (default outputs/alignment/dev, ignored by git); contact sheets are not kept.
-# Usage (repository root): bash results/alignment/make_dev_check.sh /path/to/modelnet40_normal_resampled
+# Usage (repository root): bash experiments/alignment/make_dev_check.sh /path/to/modelnet40_normal_resampled
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 SRC=${1:?give the modelnet40_normal_resampled folder that holds the ids of results/alignment/dev/ids.txt}

@@ -5,7 +5,7 @@
 # of the confidence as a detector of right rows). The verified tables are read only by --compare,
 # after the estimate is written. Output: results/alignment/estimated/ (<set>[_flip].csv, .png,
 # _vs_verified.csv) and summary.md.
-# Usage (repository root, after `make setup`): bash results/alignment/make_estimates.sh
+# Usage (repository root, after `make setup`): bash experiments/alignment/make_estimates.sh
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 B=.venv/bin/bench

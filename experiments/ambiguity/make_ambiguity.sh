@@ -8,7 +8,7 @@
 #   ambiguity/ycbv.md      the shared real YCB-V frames, per scene (configs/split/ycbv.yaml)
 #   ambiguity/embedded_own.md, embedded_templates.md  the embedded set: own model; the 3 category
 #                          templates (every registration of every view)
-# Usage (repository root): bash results/ambiguity/make_ambiguity.sh
+# Usage (repository root): bash experiments/ambiguity/make_ambiguity.sh
 #   OUT: make_results' run folder (default outputs/results); CLUTTER_RUNS: the clutter runs
 #   (default $OUT/clutter); RESULTS: where the tables go (default results).
 set -euo pipefail
@@ -17,7 +17,7 @@ PY=.venv/bin/python
 OUT=${OUT:-outputs/results}
 CLUTTER_RUNS=${CLUTTER_RUNS:-$OUT/clutter}
 T=${RESULTS:-results}/ambiguity
-source results/default_runs.sh
+source experiments/default_runs.sh
 need() { [ -n "$2" ] || { echo "make_ambiguity: no runs of ours' default in $1; run results/make_results.sh first" >&2; exit 2; }; }
 mapfile -t clutter < <(default_runs "$CLUTTER_RUNS/clutter-gt_model/ours"); need "$CLUTTER_RUNS" "${clutter[*]:-}"
 "$PY" -m catpose.bench.real.ambiguity "${clutter[@]}" --split clutter --out "$T/clutter.md" \

@@ -14,7 +14,7 @@ registered through :func:`catpose.register` with method ``ours``:
 Errors are ``err_deg`` of :func:`catpose.bench.scoring.metrics.sample_errors` (main-axis error for
 symmetric categories). Seconds are the method calls' wall-clock time per view (1 thread).
 
-    python scripts/api_without_up.py --seed 0 --hypotheses 12,24,48 --out results/api/without_up_seed0.md
+    python experiments/api_without_up/api_without_up.py --seed 0 --hypotheses 12,24,48 --out results/api/without_up_seed0.md
 """
 
 from __future__ import annotations
@@ -110,7 +110,7 @@ def main() -> None:
     where = " ".join([f"dataset={args.dataset}", f"seed={args.seed}", *shown])
     args.out.write_text(
         f"`catpose.register` without `up`: {where}, protocol=gt_model, {len(samples)} views "
-        f"(written by scripts/api_without_up.py)\n\n"
+        f"(written by experiments/api_without_up/api_without_up.py)\n\n"
         "| setting | views | mean err (deg) | median err (deg) | @10 | @30 | s / view |\n"
         "|---|---|---|---|---|---|---|\n" + "\n".join(table) + "\n"
     )

@@ -7,7 +7,7 @@ templates, a split file and an alignment table (every dev chair needs no turn: c
 ``bench align``'s contact sheet, and ``bench align`` with reference chair_0391 estimates yaw 0
 for all four).
 
-Usage: python results/category/dev/chair_dev_root.py SHARED_DATA OUT_ROOT
+Usage: python experiments/category_choice/chair_dev_root.py SHARED_DATA OUT_ROOT
 """
 
 from __future__ import annotations
@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from catpose.datasets.procedural import HEADER
+
 DEV = {
     "chair_0001": "ModelNet40/chair/train/chair_0001.off",
     "chair_0002": "ModelNet40/chair/train/chair_0002.off",
@@ -25,7 +27,6 @@ DEV = {
     "chair_9001": "shapenet/chair/models/model_normalized.obj",
 }
 TEMPLATES = ("chair_0391", "chair_0624", "chair_0848")
-HEADER = "category,instance_id,r00,r01,r02,r10,r11,r12,r20,r21,r22,yaw_deg,flip,chamfer,confidence,verified,note\n"
 
 
 def resampled(mesh: trimesh.Trimesh, off: bool) -> np.ndarray:
@@ -64,5 +65,5 @@ def main(shared: str, out: str) -> None:
 
 if __name__ == "__main__":
     if len(sys.argv) != 3:
-        sys.exit("usage: python results/category/dev/chair_dev_root.py SHARED_DATA OUT_ROOT")
+        sys.exit("usage: python experiments/category_choice/chair_dev_root.py SHARED_DATA OUT_ROOT")
     main(sys.argv[1], sys.argv[2])

@@ -2,7 +2,7 @@
 mean error less the oracle's (degrees), per template set and averaged over the sets, beside
 ``cross_top_turns`` (the same choice, its pose not averaged).
 
-    .venv/bin/python results/category/dev/fuse_grid.py OUT/multirun/procedural_k3_turns30 \
+    .venv/bin/python experiments/category_choice/fuse_grid.py OUT/multirun/procedural_k3_turns30 \
         --out results/category/dev/chair_procedural_fuse.md --title "Procedural chairs ..."
 
 Only the turned candidates in ``--turns`` are read (default the protocol's 90 and 270, the chair
@@ -11,7 +11,7 @@ rule's). Both rules weigh the top offset as ``fused`` does (``FUSED_TOP_WEIGHT``
 of those weights instead (a ``weight`` column). Reads the runs' stored ``info.cross_costs``, ``info.top_offset`` and ``info.turns``
 (no registration is run). The oracle is the best of the K registrations' own estimates, so a gap
 below 0 is possible. Also written: for each angle, the mean number of poses averaged per view.
-Written by results/category/dev/make_chair_dev.sh and make_chair_procedural.sh.
+Written by experiments/category_choice/make_chair_dev.sh and make_chair_procedural.sh.
 """
 
 from __future__ import annotations

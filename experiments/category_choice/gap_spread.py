@@ -2,7 +2,7 @@
 the gap (chosen mean error less the oracle's, degrees) over view sets drawn like the paper table's
 (2 test chairs x 4 views) from development runs, under one choice rule.
 
-    .venv/bin/python results/category/dev/gap_spread.py OUT/multirun/chair_dev_k3 \
+    .venv/bin/python experiments/category_choice/gap_spread.py OUT/multirun/chair_dev_k3 \
         OUT/multirun/chair_dev_swap{0,1,2,3} --row ours --out results/category/dev/chair_dev_gap_spread.md
 
 Per template set (one sweep) and method row: each view's gap under ``--choice`` (default
@@ -10,7 +10,7 @@ Per template set (one sweep) and method row: each view's gap under ``--choice`` 
 90 and 270), then ``--draws`` draws (seeded) of ``--chairs`` test chairs without replacement and
 ``--views`` of each one's views without replacement; a draw's gap is the mean over its views. Views
 of one chair are drawn together because they are not independent. Reads the runs' stored costs
-(no registration is run). Written by results/category/dev/make_chair_dev.sh and
+(no registration is run). Written by experiments/category_choice/make_chair_dev.sh and
 make_chair_procedural.sh.
 """
 

@@ -3,13 +3,13 @@
 # with 3 category templates (+experiment=templates, K = 3 rows), seed 1 (the development seed of the
 # embedded set; the committed embedded tables are seed 0), ours and ICP, every choice rule side by
 # side: results/category/dev/embedded_seed1_k3.{md,csv}.
-# Usage (repository root): bash results/category/dev/make_embedded_choice.sh
+# Usage (repository root): bash experiments/category_choice/make_embedded_choice.sh
 # The choices here turn on near ties that the numeric code path moves: ours' depth-image
 # registrations differ by up to a degree between OpenBLAS's Haswell and SkylakeX kernels, and some
 # choices flip, so the table is made under the portable profile (catpose.bench.run.environment,
 # as results/make_results.sh does: every AVX2 or AVX-512 CPU computes the same bits under it).
 set -euo pipefail
-cd "$(dirname "$0")/../../.."
+cd "$(dirname "$0")/../.."
 eval "$(.venv/bin/python -m catpose.bench.run.environment portable)"
 B=.venv/bin/bench
 OUT=${OUT:-outputs/category_dev}

@@ -3,19 +3,18 @@ and top-offset weight, each method's mean error with the rule against the regist
 estimate, on the airplanes that chose the setting and on those that only confirm it; then, for
 the kept setting, the same per kind of airplane (where it gains and where it loses).
 
-    .venv/bin/python results/category/dev/one_template_turns.py OUT/multirun/airplane_procedural_k1 \
+    .venv/bin/python experiments/category_choice/one_template_turns.py OUT/multirun/airplane_procedural_k1 \
         --alignment ROOT/alignment_airplane.csv --split-at airplane_8040 --keep "180@0.05" --out ...
 
 Reads the runs' stored ``info.cross_costs``, ``info.top_offset`` and ``info.turns`` (no
 registration is run). With one template the oracle is the registration's own estimate, so a gap
 below 0 is what the turns gain. The kinds come from the ``note`` column that
-procedural_airplanes.py writes. Written by results/category/dev/make_airplane_procedural.sh.
+the procedural dataset writes (``catpose.datasets.procedural.kinds``). Written by experiments/category_choice/make_airplane_procedural.sh.
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 from pathlib import Path
 
@@ -25,21 +24,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from top_weight_grid import WEIGHTS, chosen_errors, parse_turn_sets  # noqa: E402  (sibling development script)
 
 
-def kinds_of(alignment_csv: Path) -> dict[str, str]:
-    """instance id -> kind, from procedural_airplanes.py's ``note`` ("procedural <kind>: ...")."""
-    with open(alignment_csv, newline="") as f:
-        return {
-            r["instance_id"]: r["note"].split(":")[0].removeprefix("procedural ").strip()
-            for r in csv.DictReader(f)
-            if r["note"].startswith("procedural")
-        }
-
-
 def main(argv: list[str] | None = None) -> int:
     from catpose.atomic import write_text
     from catpose.bench.protocols.absolute import absolute_gt_only
     from catpose.bench.report.category_table import run_dirs
     from catpose.bench.report.runs import load_run
+    from catpose.datasets.procedural import kinds as kinds_of
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("sweep")

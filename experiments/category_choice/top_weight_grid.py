@@ -3,15 +3,15 @@ method's chosen mean error less the oracle's, per template set and averaged over
 ``--turn-sets``, also for the ``cross_top_turns`` rule over each set of the turned candidates the
 runs stored.
 
-    .venv/bin/python results/category/dev/top_weight_grid.py OUT/multirun/chair_dev_k3 \
+    .venv/bin/python experiments/category_choice/top_weight_grid.py OUT/multirun/chair_dev_k3 \
         OUT/multirun/chair_dev_swap{0,1,2,3} --out results/category/dev/chair_dev_top_weight.md
-    .venv/bin/python results/category/dev/top_weight_grid.py OUT/multirun/procedural_k3_turns \
+    .venv/bin/python experiments/category_choice/top_weight_grid.py OUT/multirun/procedural_k3_turns \
         --turn-sets "none;90,270;90,180,270" --out ...
 
 Reads the runs' stored ``info.cross_costs``, ``info.top_offset`` and ``info.turns`` (no
 registration is run); weight 0 without turns is the ``cross`` rule. The oracle is the best of the
 K registrations' own estimates, so with turns the gap can fall below 0. Written by
-results/category/dev/make_chair_dev.sh and make_chair_procedural.sh.
+experiments/category_choice/make_chair_dev.sh and make_chair_procedural.sh.
 """
 
 from __future__ import annotations

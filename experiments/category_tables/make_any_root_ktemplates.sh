@@ -4,7 +4,7 @@
 # views (2 views each), each view registered to each template, then `bench category` (chosen /
 # oracle / random, rules cross (the run's), score, density, agreement). Nothing is downloaded: give a root you have.
 # Usage (repository root):
-#   bash results/category/make_any_root_ktemplates.sh ROOT ALIGNMENT_CSV CATEGORY OUT.md
+#   bash experiments/category_tables/make_any_root_ktemplates.sh ROOT ALIGNMENT_CSV CATEGORY OUT.md
 #   (ROWS="ours icp" for more methods; default ours; TITLE="..." for the table's title, default the
 #   category and ROOT; OUT gets OUT.csv beside it)
 set -euo pipefail

@@ -8,7 +8,7 @@
 # chosen on procedural airplanes, docs/category-level.md): one_template_airplane_turns.{md,csv},
 # one_template_airplane_turns_views.csv. Last, why each of ours' wrong views is wrong, at the step that chose
 # it (catpose.bench.category.why_wrong): one_template_airplane_why.{md,csv}.
-# Usage (repository root, after `make setup`): bash results/category/make_one_template_airplane.sh [tables]
+# Usage (repository root, after `make setup`): bash experiments/category_tables/make_one_template_airplane.sh [tables]
 # Extra Hydra overrides go in EXTRA (e.g. EXTRA="dataset.root=/data/modelnet40_normal_resampled ...").
 set -euo pipefail
 cd "$(dirname "$0")/../.."

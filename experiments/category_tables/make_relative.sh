@@ -4,7 +4,7 @@
 # registered to its own model (template_source=own, the paper's dagger rows) or to the category
 # templates (template_source=category, the star rows; configs/experiment/mn40r_relative.yaml).
 # Output: results/category/paper/relative.{md,csv}.
-# Usage (repository root): bash results/category/make_relative.sh [tables]
+# Usage (repository root): bash experiments/category_tables/make_relative.sh [tables]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 # the portable numeric profile, as results/make_results.sh sets it: the same bits on any AVX2 or AVX-512 CPU

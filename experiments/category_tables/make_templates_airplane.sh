@@ -2,7 +2,7 @@
 # Airplanes against K = 1, 3, 5 templates on the shared resampled train airplanes (same 22 test views
 # for every K; configs/experiment/mn40r_airplane_ktemplates.yaml): ours, ICP, FGR and TEASER
 # (dictionary), chosen / oracle / random side by side (results/category/paper/templates_airplane.{md,csv}).
-# Usage (repository root): bash results/category/make_templates_airplane.sh [tables]
+# Usage (repository root): bash experiments/category_tables/make_templates_airplane.sh [tables]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 # the portable numeric profile, as results/make_results.sh sets it: the same bits on any AVX2 or AVX-512 CPU

@@ -6,7 +6,7 @@
 # random-template errors side by side (results/category/paper/templates_chair.{md,csv}), and ours'
 # K = 3 views one by one (templates_chair_views.csv), and why each of its wrong views is wrong, at the
 # registration and at the choice (catpose.bench.category.why_wrong: templates_chair_why.{md,csv}).
-# Usage (repository root): bash results/category/make_templates_chair.sh [tables]
+# Usage (repository root): bash experiments/category_tables/make_templates_chair.sh [tables]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 # the portable numeric profile, as results/make_results.sh sets it: the same bits on any AVX2 or AVX-512 CPU

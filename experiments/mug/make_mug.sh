@@ -16,4 +16,4 @@ $BENCH table $OUT/synthetic-templates --layout generic --format md --categories 
   --title "Oracle: the best of the 3 category templates' estimates per view" --out results/mug/table_oracle.md
 # the same runs with the mug meshes of the shape generator of revision 8236609 (git history)
 git show 8236609:datasets/shapes.py > $OUT/old_shapes.py
-$PY results/mug/old_shapes_check.py $OUT/old_shapes.py > results/mug/old_shapes.txt
+$PY experiments/mug/old_shapes_check.py $OUT/old_shapes.py > results/mug/old_shapes.txt

@@ -33,7 +33,7 @@ def run(shapes, solver: str, rule: str) -> list[float]:
         for sid in proto.sample_ids(ds):
             s = proto.load(ds, sid)
             r = method.register(s.problem)
-            e = sample_errors(r.T_target_source, s.gt.T_template_camera, s.gt.symmetry_axis, s.gt.symmetries)
+            e = sample_errors(r.T_template_camera, s.gt.T_template_camera, s.gt.symmetry_axis, s.gt.symmetries)
             groups.setdefault(s.group_id, []).append((r.score, e["err_deg"]))
         return [min(v)[1] for v in groups.values()]
     finally:

@@ -3,9 +3,9 @@
 # the shared shapes of the paper's category tables: one template airplane, chairs K = 1 and K = 3,
 # ours only (results/category/paper/selection_top_k_{airplane,chair_k3,chair_k1}.md; why_wrong on the airplanes
 # at 18: selection_top_k_airplane_why.md). The setting was
-# studied on development shapes only (results/category/dev/make_selection_dev.sh) and is not a default:
+# studied on development shapes only (experiments/selection_breadth/make_selection_dev.sh) and is not a default:
 # these runs report it, they chose nothing (docs/category-level.md, "Why a view is wrong").
-# Usage (repository root, after `make setup`): bash results/category/make_selection_report.sh
+# Usage (repository root, after `make setup`): bash experiments/selection_breadth/make_selection_report.sh
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 # the portable numeric profile, as results/make_results.sh sets it: the same bits on any AVX2 or AVX-512 CPU
@@ -17,7 +17,7 @@ for e in mn40r_airplane_1template mn40r_chair_ktemplates mn40r_chair_1template; 
   "$B" run -m +experiment=$e "+row=ours" "method.selection.top_k=3,18" output_root="$OUT" progress=false \
     print_summary=false hydra.sweep.dir="$OUT/multirun/selection_$e"
 done
-G=results/category/dev/selection_grid.py
+G=experiments/selection_breadth/selection_grid.py
 .venv/bin/python $G "$OUT/multirun/selection_mn40r_airplane_1template" --key method.selection.top_k --out $T/selection_top_k_airplane.md \
   --title "One template (airplane_0536), shared resampled airplanes (17 x 2 views), ours"
 .venv/bin/python $G "$OUT/multirun/selection_mn40r_chair_ktemplates" --key method.selection.top_k --out $T/selection_top_k_chair_k3.md \

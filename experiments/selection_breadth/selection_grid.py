@@ -4,12 +4,12 @@ expands by their half turns and refines), the kept estimates' mean error, @30 an
 on the instances that chose the setting and on those that only confirm it (``--split-at``: the first
 instance id of the confirming part), with the median seconds per registration.
 
-    .venv/bin/python results/category/dev/selection_grid.py OUT/multirun/airplanes_top_k \
+    .venv/bin/python experiments/selection_breadth/selection_grid.py OUT/multirun/airplanes_top_k \
         --key method.selection.top_k --split-at airplane_8040 --out results/category/dev/....md
 
 Reads the runs' files only (the kept estimate is the run's own ``protocol.choice``; with K = 1 the
 registration's own estimate, and the oracle is the same). Written by
-results/category/dev/make_selection_dev.sh.
+experiments/selection_breadth/make_selection_dev.sh.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from top_weight_grid import set_runs, sweeps_parser  # noqa: E402  (sibling development script)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "category_choice"))
+from top_weight_grid import set_runs, sweeps_parser  # noqa: E402  (the template choice study's grid helpers)
 
 
 def setting(config: dict, key: str):
