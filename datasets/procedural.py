@@ -7,7 +7,9 @@ shapes are a development set of any size in the same category frame
 ``i`` of a set is drawn by ``numpy.random.default_rng(shape_seed)`` after shapes ``0..i-1`` and
 sampled to 10,000 points with face normals (area-uniform, seed ``shape_seed * 100003 + i``), written
 ``%.6f`` in PointNet++'s resampled layout (``<root>/<category>/<category>_<8000 + i>.txt``, lines
-``x,y,z,nx,ny,nz``, y up); so a set is fixed by its category, count and seed.
+``x,y,z,nx,ny,nz``, y up); so a set is fixed by its category, count and seed, and, in the last printed
+digit of a few points, by the BLAS kernel (:func:`blas_kernel`; the portable numeric profile gives
+every AVX2 CPU the same set).
 
 A root also has the split files (every id in ``modelnet40_train.txt``, ``modelnet40_test.txt``
 empty), ``alignment_<category>.csv`` (the identity for every drawn shape, its note
@@ -82,12 +84,34 @@ class ProceduralSpec:
             )
 
     def record(self) -> dict:
-        """The spec as ``spec.json`` stores it, with the generator version and the template
-        table's content hash (its rows are copied into the root)."""
+        """The spec as ``spec.json`` stores it, with the generator version, the template table's
+        content hash (its rows are copied into the root) and the BLAS kernel (:func:`blas_kernel`)."""
         table = None
         if self.template_alignment is not None:
             table = hashlib.blake2b(Path(self.template_alignment).read_bytes(), digest_size=8).hexdigest()
-        return {"version": GENERATOR_VERSION, **asdict(self), "template_ids": list(self.template_ids), "table": table}
+        return {
+            "version": GENERATOR_VERSION,
+            **asdict(self),
+            "template_ids": list(self.template_ids),
+            "table": table,
+            "blas": blas_kernel(),
+        }
+
+
+def blas_kernel() -> str:
+    """The BLAS libraries' kernels this process uses (threadpoolctl), e.g. ``openblas:Haswell``.
+    The generators place their parts with trimesh's matrix products, whose last bits depend on the
+    kernel: a few points' last printed digit and the sign of a zero normal component differ between
+    OpenBLAS's Haswell and Sandybridge kernels. So a set is one kernel's bits, and the kernel is part
+    of its spec; under the portable numeric profile (``python -m catpose.bench.run.environment
+    portable``, Haswell) every AVX2 CPU writes the same set."""
+    import numpy  # noqa: F401  (loads the BLAS that threadpoolctl reports)
+    from threadpoolctl import threadpool_info
+
+    found = sorted(
+        {f"{i.get('internal_api')}:{i.get('architecture')}" for i in threadpool_info() if i.get("user_api") == "blas"}
+    )
+    return ",".join(found) or "unknown"
 
 
 def shape_ids(category: str, count: int) -> list[str]:

@@ -75,6 +75,20 @@ def test_a_root_is_written_once_and_reused(cache):
     assert not [p for p in cache.iterdir() if p.name.startswith(".")]  # no building folder left behind
 
 
+def test_a_set_is_one_blas_kernels_bits(cache, monkeypatch):
+    """The kernel moves a few points' last digit, so it is part of the spec: another kernel's set
+    gets its own cache folder, and a named root written under one kernel is not taken for another's."""
+    import catpose.datasets.procedural as procedural
+
+    spec = ProceduralSpec(category="chair", count=1, shape_seed=0)
+    root = build_root(cache / "r", spec)
+    here = procedural_root(spec, cache)
+    monkeypatch.setattr(procedural, "blas_kernel", lambda: "openblas:Elsewhere")
+    assert procedural_root(spec, cache) != here
+    with pytest.raises(DatasetError, match="does not hold this procedural set"):
+        build_root(root, spec)
+
+
 def test_a_failed_build_leaves_nothing(cache, monkeypatch):
     import catpose.datasets.procedural as procedural
 
