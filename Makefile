@@ -1,6 +1,6 @@
 # catpose: two commands.
 #   make demo   set up .venv (CPU torch, open3d-cpu) and run ICP and ours on the embedded data
-#   make test   the default test suite (slow tests excluded; `make test-slow` runs them)
+#   make test   the default test suite (slow and experiment tests excluded; `make test-slow`, `make test-experiments` run them)
 #   make cluster  the optional Hydra launchers (joblib, Slurm via submitit, Ray): docs/scale-out.md
 #   make results  every table and figure the docs quote, regenerated (hours), then copied into the docs
 SHELL := /bin/bash
@@ -10,7 +10,7 @@ PY := $(VENV)/bin/python
 BENCH := $(VENV)/bin/bench
 TORCH_PIN ?= torch==2.13.0
 
-.PHONY: setup demo test test-slow regress realcheck results quotes cluster slurm-check clean
+.PHONY: setup demo test test-slow test-experiments regress realcheck results quotes cluster slurm-check clean
 
 setup: $(VENV)/.installed
 
@@ -30,10 +30,14 @@ demo: setup
 	$(BENCH) run method=ours dataset=synthetic
 
 test: setup
-	$(VENV)/bin/pytest -m "not slow" -q
+	$(VENV)/bin/pytest -m "not slow and not experiment" -q
 
 test-slow: setup
 	$(VENV)/bin/pytest -m slow -q
+
+# the tests of the studies' scripts (experiments/: grids read from stored runs)
+test-experiments: setup
+	$(VENV)/bin/pytest -m experiment -q
 
 regress: setup
 	$(BENCH) regress
@@ -44,7 +48,8 @@ realcheck: setup
 	nice $(BENCH) suite real --write results/real/table.md
 
 # Every table and figure the README and docs/ quote: results/make_results.sh (all sections; resumes
-# where it stopped; SECTIONS="category real" for some), then the docs' quotes copied from the new files.
+# where it stopped; SECTIONS="category real" for some), which runs the studies' scripts in experiments/,
+# then the docs' quotes copied from the new files.
 results: setup
 	bash results/make_results.sh $(SECTIONS)
 	$(PY) -m catpose.bench.report.doc_quotes
@@ -62,7 +67,7 @@ $(VENV)/.cluster: $(VENV)/.installed pyproject.toml
 # A real single-node Slurm on this machine (Debian's slurm-wlm and munge, root only), then a
 # 2-job sweep through hydra-submitit-launcher; not part of `make test`.
 slurm-check: cluster
-	bash scripts/slurm_local.sh check
+	bash tools/slurm_local.sh check
 
 clean:
 	rm -rf outputs build dist *.egg-info

@@ -12,26 +12,26 @@
 #              with the Kinect sensor model (results/tables/synthetic_kinect.md). ~1-1.5 h on 2 cores.
 #   tables     the synthetic section's tables and report from its existing sweeps (no runs)
 #   category   the paper's category tables on the shared ModelNet40 resampled shapes (the aligned
-#              airplanes and chairs), every method (results/category/make_*.sh: one template airplane,
+#              airplanes and chairs), every method (experiments/category_tables/make_*.sh: one template airplane,
 #              K = 1, 3, 5 templates of airplanes and chairs with chosen / oracle / random template,
 #              relative pose, ours' selection breadth top_k 3 and 18): results/category/paper/; the development tables that chose the cross
-#              template choice (results/category/dev/); the alignment estimates against the verified
-#              tables (results/alignment/make_estimates.sh). ~1 h.
+#              template choice (experiments/category_choice/ -> results/category/dev/); the alignment estimates against the verified
+#              tables (experiments/alignment/make_estimates.sh). ~1 h.
 #   clutter    every method on the report scenes of the cluttered synthetic set of the real YCB-V
 #              meshes, and ours before / after with ICP on the dev scenes that chose ours' defaults
-#              (results/clutter/make_clutter.sh: results/clutter/). ~1 h.
+#              (experiments/real_defaults/make_clutter.sh: results/clutter/). ~1 h.
 #   real       every method on the shared real data (bench suite real: results/real/table.md, a column
 #              per YCB-V scene as configs/split/ycbv.yaml names them, per-object tables in
 #              results/real/objects.md), BOP
 #              metrics of ICP and ours on the YCB-V frames (results/real/bop_ycbv.md), the sensor
 #              model beside the real frames (results/real/sensor_stats.md). ~1 h.
 #   ambiguity  why ours' wrong estimates won, search miss or ambiguous to its depth check, from the runs
-#              of the synthetic, clutter and real sections (results/ambiguity/make_ambiguity.sh:
+#              of the synthetic, clutter and real sections (experiments/ambiguity/make_ambiguity.sh:
 #              results/ambiguity/). ~2 min.
 #   perf       seconds per registration (bench perf) on synthetic, YCB-V and ModelNet40 problems, and
 #              the speed tables made from those CSVs and the GPU check's (results/perf/*.md). Run it
 #              on an otherwise idle machine: it measures wall time.
-#   api        catpose.register without `up` (results/api/make_without_up.sh, when present). ~1.5 h.
+#   api        catpose.register without `up` (experiments/api_without_up/make_without_up.sh, when present). ~1.5 h.
 # The sections that need the shared data (../shared/data or $CATPOSE_SHARED_DATA) skip with a note
 # when it is absent.
 #
@@ -60,7 +60,7 @@ SHARED=$("$PY" -c 'from catpose.bench.run.config import shared_data_dir; print(s
 SECTIONS=("$@")
 [ ${#SECTIONS[@]} -gt 0 ] || SECTIONS=(synthetic category clutter real ambiguity perf api)
 eval "$("$PY" -m catpose.bench.run.environment portable)"
-source results/default_runs.sh
+source experiments/default_runs.sh
 
 run_experiments() {  # $1: output root
   for e in "${EXPERIMENTS[@]}"; do
@@ -133,13 +133,14 @@ category() {
     echo "make_results: category skipped: no $SHARED/modelnet40_normal_resampled" >&2; return 0
   fi
   local C="$OUT/category"
-  for script in make_one_template_airplane make_templates_airplane make_templates_chair make_relative make_selection_report; do
-    OUT="$C" bash results/category/$script.sh
+  for script in make_one_template_airplane make_templates_airplane make_templates_chair make_relative; do
+    OUT="$C" bash experiments/category_tables/$script.sh
   done
+  OUT="$C" bash experiments/selection_breadth/make_selection_report.sh
   for script in make_chair_dev make_embedded_choice; do  # the template choice's development tables
-    OUT="$C" bash results/category/dev/$script.sh
+    OUT="$C" bash experiments/category_choice/$script.sh
   done
-  bash results/alignment/make_estimates.sh
+  bash experiments/alignment/make_estimates.sh
 }
 
 real() {
@@ -189,13 +190,13 @@ for section in "${SECTIONS[@]}"; do
     synthetic) synthetic_runs; synthetic_tables ;;
     tables) synthetic_tables ;;
     category) category ;;
-    clutter) if [ -d "$SHARED/bop/ycbv/models" ]; then RUNS="$OUT/clutter" RESULTS="$RESULTS" bash results/clutter/make_clutter.sh
+    clutter) if [ -d "$SHARED/bop/ycbv/models" ]; then RUNS="$OUT/clutter" RESULTS="$RESULTS" bash experiments/real_defaults/make_clutter.sh
              else echo "make_results: clutter skipped: no $SHARED/bop/ycbv/models" >&2; fi ;;
     real) real ;;
-    ambiguity) if [ -d "$SHARED/bop/ycbv/models" ]; then OUT="$OUT" RESULTS="$RESULTS" bash results/ambiguity/make_ambiguity.sh
+    ambiguity) if [ -d "$SHARED/bop/ycbv/models" ]; then OUT="$OUT" RESULTS="$RESULTS" bash experiments/ambiguity/make_ambiguity.sh
                else echo "make_results: ambiguity skipped: no $SHARED/bop/ycbv/models" >&2; fi ;;
     perf) perf ;;
-    api) if [ -f results/api/make_without_up.sh ]; then bash results/api/make_without_up.sh; fi ;;
+    api) if [ -f experiments/api_without_up/make_without_up.sh ]; then bash experiments/api_without_up/make_without_up.sh; fi ;;
     *) echo "make_results: unknown section '$section'; use synthetic, tables, category, clutter, real, ambiguity, perf, api" >&2; exit 2 ;;
   esac
 done

@@ -1,4 +1,4 @@
-"""results/category/dev/fuse_grid.py: each setting's rows are the ``cross_top_turns`` choice, or
+"""experiments/category_choice/fuse_grid.py: each setting's rows are the ``cross_top_turns`` choice, or
 that choice averaged with the agreeing templates within the setting's angle."""
 
 from __future__ import annotations
@@ -11,8 +11,10 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
+pytestmark = pytest.mark.experiment
+
 REPO = Path(__file__).resolve().parents[1]
-SCRIPT = REPO / "results" / "category" / "dev" / "fuse_grid.py"
+SCRIPT = REPO / "experiments" / "category_choice" / "fuse_grid.py"
 
 
 @pytest.fixture(scope="module")

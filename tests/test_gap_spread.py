@@ -1,4 +1,4 @@
-"""results/category/dev/gap_spread.py: views of one chair are drawn together, without replacement,
+"""experiments/category_choice/gap_spread.py: views of one chair are drawn together, without replacement,
 and a view's gap is its chosen error less the best of its K registrations."""
 
 from __future__ import annotations
@@ -10,8 +10,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+pytestmark = pytest.mark.experiment
+
 REPO = Path(__file__).resolve().parents[1]
-SCRIPT = REPO / "results" / "category" / "dev" / "gap_spread.py"
+SCRIPT = REPO / "experiments" / "category_choice" / "gap_spread.py"
 
 
 @pytest.fixture(scope="module")

@@ -1,61 +1,57 @@
-"""results/category/dev/procedural_chairs.py: the procedural development chairs are a root the
-resampled loader reads, fixed by their seed, and built in the category frame the shared chairs
-use (y up, the back towards +z), so their identity alignment rows are right."""
+"""The procedural chairs (``dataset=procedural dataset.category=chair``): a root the resampled loader
+reads, fixed by its seed, and built in the category frame the shared chairs use (y up, the back
+towards +z), so their identity alignment rows are right."""
 
 from __future__ import annotations
 
-import runpy
 from pathlib import Path
 
 import numpy as np
-import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-SCRIPT = REPO / "results" / "category" / "dev" / "procedural_chairs.py"
+from catpose.datasets.procedural import ProceduralSpec, build_root
 
 
-@pytest.fixture(scope="module")
-def generator():
-    return runpy.run_path(str(SCRIPT))
+def build(root: Path, count: int, seed: int) -> Path:
+    return build_root(root, ProceduralSpec(category="chair", count=count, shape_seed=seed))
 
 
-def build(generator, root: Path, n: int, seed: int) -> None:
-    assert generator["main"]([str(root), "--n", str(n), "--seed", str(seed)]) == 0
-
-
-def test_a_root_the_loader_reads(generator, tmp_path):
+def test_a_root_the_loader_reads(tmp_path):
     from catpose.datasets.modelnet40_resampled import ModelNet40Resampled, read_resampled_txt
 
-    build(generator, tmp_path, 3, 0)
-    ids = (tmp_path / "modelnet40_train.txt").read_text().split()
+    build(tmp_path / "root", 3, 0)
+    root = tmp_path / "root"
+    ids = (root / "modelnet40_train.txt").read_text().split()
     assert ids == ["chair_8000", "chair_8001", "chair_8002"]
-    pts, nrm = read_resampled_txt(tmp_path / "chair" / "chair_8000.txt")
+    assert (root / "modelnet40_test.txt").read_text() == ""
+    pts, nrm = read_resampled_txt(root / "chair" / "chair_8000.txt")
     assert pts.shape == (10000, 3)
     np.testing.assert_allclose(np.linalg.norm(nrm, axis=1), 1.0, atol=1e-5)
+    rows = (root / "alignment_chair.csv").read_text().splitlines()
+    assert rows[1] == "chair,chair_8000,1,0,0,0,1,0,0,0,1,0,false,,,true,procedural: built in the category frame"
     ds = ModelNet40Resampled(
-        str(tmp_path),
+        str(root),
         categories=["chair"],
         split="train",
         views_per_instance=1,
-        alignment_table=str(tmp_path / "alignment_chair.csv"),
+        alignment_table=str(root / "alignment_chair.csv"),
     )
     assert len(ds.observation_ids()) == 3
 
 
-def test_the_seed_fixes_every_chair(generator, tmp_path):
-    build(generator, tmp_path / "a", 2, 5)
-    build(generator, tmp_path / "b", 2, 5)
-    build(generator, tmp_path / "c", 2, 6)
+def test_the_seed_fixes_every_chair(tmp_path):
+    build(tmp_path / "a", 2, 5)
+    build(tmp_path / "b", 2, 5)
+    build(tmp_path / "c", 2, 6)
     a, b, c = ((tmp_path / d / "chair" / "chair_8001.txt").read_bytes() for d in "abc")
     assert a == b
     assert a != c
 
 
-def test_chairs_stand_in_the_shared_chairs_frame(generator, tmp_path):
+def test_chairs_stand_in_the_shared_chairs_frame(tmp_path):
     """Every chair is taller than wide, and its highest tenth (the back's top) stands behind the
     seat's centre (+z) and on its middle (x), as in the shared resampled chairs."""
-    build(generator, tmp_path, 12, 1)
-    for path in sorted((tmp_path / "chair").glob("*.txt")):
+    build(tmp_path / "root", 12, 1)
+    for path in sorted((tmp_path / "root" / "chair").glob("*.txt")):
         P = np.loadtxt(path, delimiter=",")[:, :3]
         P = P - (P.max(0) + P.min(0)) / 2
         extent = P.max(0) - P.min(0)

@@ -1,4 +1,4 @@
-"""results/category/dev/selection_grid.py: a sweep's runs of the same views, each setting's kept
+"""experiments/selection_breadth/selection_grid.py: a sweep's runs of the same views, each setting's kept
 estimates and oracle, split into the instances that chose the setting and those that confirm it."""
 
 from __future__ import annotations
@@ -11,8 +11,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+pytestmark = pytest.mark.experiment
+
 REPO = Path(__file__).resolve().parents[1]
-SCRIPT = REPO / "results" / "category" / "dev" / "selection_grid.py"
+SCRIPT = REPO / "experiments" / "selection_breadth" / "selection_grid.py"
 TEMPLATES = {"_target_": "catpose.bench.protocols.Templates", "name": "templates", "choice": "score"}
 
 

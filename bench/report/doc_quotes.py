@@ -1,4 +1,5 @@
-"""Figures in the README and ``docs/`` are quotes of files under ``results/``, kept identical.
+"""Figures in the README, ``docs/`` and the studies' READMEs are quotes of files under ``results/``,
+kept identical.
 
 A quote in a Markdown file is a block between two markers naming the file (and, optionally, which
 of its Markdown tables)::
@@ -46,8 +47,13 @@ class Quote:
 
 
 def doc_files(repo: Path = REPO) -> list[Path]:
-    """The Markdown files whose figures must be quotes: README.md and docs/*.md."""
-    return [repo / "README.md", *sorted((repo / "docs").glob("*.md"))]
+    """The Markdown files whose figures must be quotes: README.md, docs/*.md and the studies'
+    READMEs (experiments/*/README.md)."""
+    return [
+        repo / "README.md",
+        *sorted((repo / "docs").glob("*.md")),
+        *sorted((repo / "experiments").glob("*/README.md")),
+    ]
 
 
 def find_quotes(doc: Path) -> list[Quote]:

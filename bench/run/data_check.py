@@ -94,6 +94,9 @@ def check(name: str, node: Any) -> Report:
     if target.endswith(".SyntheticDataset"):
         report.facts.append(f"dataset={name} is generated (no files, no root to check)")
         return report
+    if target.endswith(".Procedural"):
+        report.facts.append(f"dataset={name} is generated into the cache on first use (no root to check)")
+        return report
     if "root" in list(node.keys()) and OmegaConf.is_missing(node, "root"):
         report.problem(f"dataset.root is not set: bench data check dataset={name} dataset.root=PATH")
         return report

@@ -31,7 +31,7 @@ __all__ = ["Registrar", "UP_HYPOTHESES"]
 
 #: Up directions tried (a Fibonacci sphere in the camera frame) when ``up`` is not given and the
 #: method needs one (ours; a correspondence baseline with LPS features). Chosen on the synthetic
-#: set, seed 0, by ``results/api/make_without_up.sh`` (``results/api/without_up_seed0_dev.md``).
+#: set, seed 0, by ``experiments/api_without_up/make_without_up.sh`` (``results/api/without_up_seed0_dev.md``).
 UP_HYPOTHESES = 24
 
 

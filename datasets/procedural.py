@@ -1,0 +1,349 @@
+"""``dataset=procedural``: chairs or airplanes drawn part by part from a seed, read like
+``modelnet40_resampled``.
+
+The shared ModelNet40 shapes are few (5 chairs, 18 airplanes) and report results; the procedural
+shapes are a development set of any size in the same category frame
+(:mod:`catpose.datasets.procedural_chairs`, :mod:`catpose.datasets.procedural_airplanes`). Shape
+``i`` of a set is drawn by ``numpy.random.default_rng(shape_seed)`` after shapes ``0..i-1`` and
+sampled to 10,000 points with face normals (area-uniform, seed ``shape_seed * 100003 + i``), written
+``%.6f`` in PointNet++'s resampled layout (``<root>/<category>/<category>_<8000 + i>.txt``, lines
+``x,y,z,nx,ny,nz``, y up); so a set is fixed by its category, count and seed, and, in the last printed
+digit of a few points, by the BLAS kernel (:func:`blas_kernel`; the portable numeric profile gives
+every AVX2 CPU the same set).
+
+A root also has the split files (every id in ``modelnet40_train.txt``, ``modelnet40_test.txt``
+empty), ``alignment_<category>.csv`` (the identity for every drawn shape, its note
+``procedural[ <kind>]: built in the category frame``) and ``spec.json`` (what made it). Shapes of
+another root, e.g. the shared resampled chairs, can be linked in as templates
+(``template_root``, ``templates``), with their rows of a verified alignment table
+(``template_alignment``) or, without one, the identity.
+
+The dataset writes its root once into a cache folder outside the repository (``cache_dir``,
+default ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``, ``/procedural/<category>-<hash>``; the
+hash covers the spec) and reads it with :class:`~catpose.datasets.modelnet40_resampled.ModelNet40Resampled`:
+views by hidden point removal, drawn by ``seed`` as for every resampled root. A root appears whole
+or not at all (:func:`catpose.atomic.building_dir`). Outside a run::
+
+    python -m catpose.datasets.procedural OUT_ROOT --category chair --count 40 --shape-seed 0 \\
+        [--template-root SHARED/modelnet40_normal_resampled --template-ids chair_0391,chair_0624 \\
+         [--template-alignment results/alignment/modelnet40_resampled_chair.csv]]
+
+writes the same root into ``OUT_ROOT`` (again: nothing to do), for ``dataset=modelnet40_resampled
+dataset.root=OUT_ROOT dataset.alignment_table=OUT_ROOT/alignment_<category>.csv``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import hashlib
+import json
+import os
+import sys
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from catpose.datasets.modelnet40_resampled import ModelNet40Resampled
+from catpose.errors import CatposeError, ConfigError, DatasetError
+
+#: bumped whenever the written files change for the same spec
+GENERATOR_VERSION = "1"
+#: the first drawn shape's number (``chair_8000``): above every ModelNet40 id of both categories
+FIRST_ID = 8000
+POINTS = 10000
+CATEGORIES = ("chair", "airplane")
+HEADER = "category,instance_id,r00,r01,r02,r10,r11,r12,r20,r21,r22,yaw_deg,flip,chamfer,confidence,verified,note\n"
+IDENTITY = "1,0,0,0,1,0,0,0,1,0,false,,,true"
+
+
+@dataclass(frozen=True)
+class ProceduralSpec:
+    """What a procedural root holds: ``count`` shapes of ``category`` drawn from ``shape_seed``,
+    and the templates ``template_ids`` linked from ``template_root`` (a resampled root; resolved
+    path) with their rows of ``template_alignment`` (None: identity rows)."""
+
+    category: str
+    count: int
+    shape_seed: int
+    template_ids: tuple[str, ...] = ()
+    template_root: str | None = None
+    template_alignment: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.category not in CATEGORIES:
+            raise ConfigError(f"dataset.category: {self.category!r} is not one of {', '.join(CATEGORIES)}")
+        if int(self.count) < 1:
+            raise ConfigError(f"dataset.count: {self.count} shapes; draw at least 1")
+        if self.template_ids and self.template_root is None:
+            raise ConfigError(
+                f"templates {', '.join(self.template_ids)} are not drawn shapes; set dataset.template_root "
+                "to the resampled root that holds them"
+            )
+
+    def record(self) -> dict:
+        """The spec as ``spec.json`` stores it, with the generator version, the template table's
+        content hash (its rows are copied into the root) and the BLAS kernel (:func:`blas_kernel`)."""
+        table = None
+        if self.template_alignment is not None:
+            table = hashlib.blake2b(Path(self.template_alignment).read_bytes(), digest_size=8).hexdigest()
+        return {
+            "version": GENERATOR_VERSION,
+            **asdict(self),
+            "template_ids": list(self.template_ids),
+            "table": table,
+            "blas": blas_kernel(),
+        }
+
+
+def blas_kernel() -> str:
+    """The BLAS libraries' kernels this process uses (threadpoolctl), e.g. ``openblas:Haswell``.
+    The generators place their parts with trimesh's matrix products, whose last bits depend on the
+    kernel: a few points' last printed digit and the sign of a zero normal component differ between
+    OpenBLAS's Haswell and Sandybridge kernels. So a set is one kernel's bits, and the kernel is part
+    of its spec; under the portable numeric profile (``python -m catpose.bench.run.environment
+    portable``, Haswell) every AVX2 CPU writes the same set."""
+    import numpy  # noqa: F401  (loads the BLAS that threadpoolctl reports)
+    from threadpoolctl import threadpool_info
+
+    found = sorted(
+        {f"{i.get('internal_api')}:{i.get('architecture')}" for i in threadpool_info() if i.get("user_api") == "blas"}
+    )
+    return ",".join(found) or "unknown"
+
+
+def shape_ids(category: str, count: int) -> list[str]:
+    """The drawn shapes' instance ids: ``<category>_8000`` ... in drawing order."""
+    return [f"{category}_{FIRST_ID + i}" for i in range(count)]
+
+
+def resampled(mesh, seed: int) -> np.ndarray:
+    """(10000, 6) points on ``mesh`` (area-uniform, ``seed``) and their faces' normals."""
+    import trimesh
+
+    pts, face = trimesh.sample.sample_surface(mesh, POINTS, seed=seed)
+    return np.hstack([pts, mesh.face_normals[face]])
+
+
+def draw(category: str, rng: np.random.Generator):
+    """The next shape of ``category`` from ``rng`` (a trimesh mesh; airplanes carry their kind in
+    ``metadata["kind"]``)."""
+    if category == "chair":
+        from catpose.datasets.procedural_chairs import chair
+
+        return chair(rng)
+    from catpose.datasets.procedural_airplanes import airplane
+
+    return airplane(rng)
+
+
+def template_rows(alignment_csv: Path, ids: Sequence[str]) -> list[str]:
+    """The rows of ``ids`` in the alignment table ``alignment_csv``, as CSV lines in ``HEADER``'s
+    columns (a value with a comma quoted)."""
+    with open(alignment_csv, newline="") as f:
+        rows = {r["instance_id"]: r for r in csv.DictReader(f)}
+    missing = [i for i in ids if i not in rows]
+    if missing:
+        raise DatasetError(
+            f"{alignment_csv} has no row for {', '.join(missing)}; give the table of dataset.template_root"
+        )
+    out = []
+    for i in ids:
+        vals = [rows[i][k] for k in HEADER.strip().split(",")]
+        out.append(",".join(f'"{v}"' if "," in v else v for v in vals) + "\n")
+    return out
+
+
+def write_root(root: Path, spec: ProceduralSpec) -> None:
+    """Write ``spec``'s shapes, links, split files and alignment table into the existing folder
+    ``root`` (see the module docstring); :func:`build_root` is the atomic caller."""
+    folder = root / spec.category
+    folder.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(spec.shape_seed)
+    names = shape_ids(spec.category, spec.count)
+    rows = []
+    for i, name in enumerate(names):
+        mesh = draw(spec.category, rng)
+        np.savetxt(folder / f"{name}.txt", resampled(mesh, spec.shape_seed * 100003 + i), delimiter=",", fmt="%.6f")
+        kind = mesh.metadata.get("kind")
+        rows.append(
+            f"{spec.category},{name},{IDENTITY},procedural{f' {kind}' if kind else ''}: built in the category frame\n"
+        )
+    for name in spec.template_ids:
+        source = Path(spec.template_root) / spec.category / f"{name}.txt"
+        if not source.is_file():
+            raise DatasetError(f"template {source} does not exist; check dataset.template_root and dataset.templates")
+        (folder / f"{name}.txt").symlink_to(source.resolve())
+    if spec.template_alignment is not None:
+        rows += template_rows(Path(spec.template_alignment), spec.template_ids)
+    else:
+        rows += [f"{spec.category},{n},{IDENTITY},shared template (results/alignment/)\n" for n in spec.template_ids]
+    (root / "modelnet40_train.txt").write_text("".join(f"{n}\n" for n in sorted([*names, *spec.template_ids])))
+    (root / "modelnet40_test.txt").write_text("")
+    (root / f"alignment_{spec.category}.csv").write_text(HEADER + "".join(rows))
+    (root / "spec.json").write_text(json.dumps(spec.record(), indent=1) + "\n")
+
+
+def build_root(root: str | Path, spec: ProceduralSpec) -> Path:
+    """``root`` holding ``spec``'s set: written whole (:func:`catpose.atomic.building_dir`) where
+    it is missing or an empty folder, kept where ``spec.json`` says it holds ``spec``; any other
+    existing folder is refused (nothing is written into what this did not create)."""
+    from catpose.atomic import building_dir
+
+    root = Path(root)
+    if root.exists() and not (root.is_dir() and not any(root.iterdir())):
+        try:
+            found = json.loads((root / "spec.json").read_text())
+        except (OSError, ValueError):
+            found = None
+        if found == spec.record():
+            return root
+        raise DatasetError(
+            f"{root} exists and does not hold this procedural set (its spec.json differs or is missing); "
+            "remove it or choose another folder"
+        )
+    with building_dir(root) as tmp:
+        write_root(tmp, spec)
+    return root
+
+
+def default_cache_dir() -> Path:
+    """``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``."""
+    env = os.environ.get("CATPOSE_CACHE_DIR")
+    return Path(env) if env else Path.home() / ".cache" / "catpose"
+
+
+def procedural_root(spec: ProceduralSpec, cache_dir: str | Path | None = None) -> Path:
+    """The cache folder of ``spec``: ``<cache_dir>/procedural/<category>-<hash of the spec>``."""
+    h = hashlib.blake2b(json.dumps(spec.record(), sort_keys=True).encode(), digest_size=8).hexdigest()
+    return Path(cache_dir or default_cache_dir()) / "procedural" / f"{spec.category}-{h}"
+
+
+def kinds(alignment_csv: str | Path) -> dict[str, str]:
+    """instance id -> kind of every drawn airplane of a root's alignment table (its note
+    ``procedural <kind>: ...``; chairs have none)."""
+    with open(alignment_csv, newline="") as f:
+        return {
+            r["instance_id"]: r["note"].split(":")[0].removeprefix("procedural ").strip()
+            for r in csv.DictReader(f)
+            if r["note"].startswith("procedural ")
+        }
+
+
+class Procedural(ModelNet40Resampled):
+    """Procedural chairs or airplanes (see the module docstring), built into the cache on first
+    use and read as a ``modelnet40_resampled`` root.
+
+    Args:
+        category: ``"chair"`` or ``"airplane"``: which generator draws the shapes.
+        count: shapes drawn (ids ``<category>_8000`` ...).
+        shape_seed: fixes every shape (the views are drawn by ``seed``).
+        templates: category -> template instance ids: drawn ones, or ids of ``template_root``
+            linked into the root (None: the first drawn shape).
+        template_root: a ``modelnet40_normal_resampled`` folder that holds the templates that are not
+            drawn shapes (``<category>/<id>.txt``).
+        template_alignment: its alignment table, whose rows of the linked templates are copied
+            (None: identity rows, right for the shared chairs, not for the shared airplanes).
+        cache_dir: where the roots live (None: ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``).
+        Every other argument is :class:`~catpose.datasets.modelnet40_resampled.ModelNet40Resampled`'s.
+    """
+
+    name = "procedural"
+
+    def __init__(
+        self,
+        category: str = "chair",
+        count: int = 40,
+        shape_seed: int = 0,
+        templates: dict[str, list] | None = None,
+        template_root: str | None = None,
+        template_alignment: str | None = None,
+        cache_dir: str | None = None,
+        instances_per_category: int | None = None,
+        views_per_instance: int = 2,
+        distance: float = 3.0,
+        elevation_min_deg: float = 10.0,
+        elevation_max_deg: float = 60.0,
+        roll_max_deg: float = 0.0,
+        hpr_radius_factor: float = 100.0,
+        depth_noise_std: float = 0.0,
+        max_points: int = 2048,
+        template_points: int = 2048,
+        symmetric: dict[str, list[float]] | None = None,
+        seed: int = 0,
+    ) -> None:
+        category = str(category)
+        drawn = shape_ids(category, int(count)) if category in CATEGORIES and int(count) > 0 else []
+        templates = {category: drawn[:1]} if templates is None else {k: list(v) for k, v in templates.items()}
+        other = [k for k in templates if k != category]
+        if other:
+            raise ConfigError(f"dataset.templates names {other[0]}; a procedural set has one category, {category}")
+        linked = tuple(t for t in templates.get(category, []) if t not in drawn)
+        spec = ProceduralSpec(
+            category=category,
+            count=int(count),
+            shape_seed=int(shape_seed),
+            template_ids=linked,
+            template_root=str(Path(template_root).resolve()) if template_root and linked else None,
+            template_alignment=str(Path(template_alignment).resolve()) if template_alignment and linked else None,
+        )
+        self.spec = spec
+        root = build_root(procedural_root(spec, cache_dir), spec)
+        super().__init__(
+            root=str(root),
+            categories=[category],
+            split="train",
+            instances_per_category=instances_per_category,
+            views_per_instance=views_per_instance,
+            distance=distance,
+            elevation_min_deg=elevation_min_deg,
+            elevation_max_deg=elevation_max_deg,
+            roll_max_deg=roll_max_deg,
+            hpr_radius_factor=hpr_radius_factor,
+            depth_noise_std=depth_noise_std,
+            max_points=max_points,
+            template_points=template_points,
+            templates=templates,
+            template_split="train",
+            alignment_table=str(root / f"alignment_{category}.csv"),
+            symmetric=symmetric,
+            seed=seed,
+        )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m catpose.datasets.procedural OUT_ROOT ...``: write a procedural root (see the
+    module docstring); a bad argument is one line and exit status 2."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("out_root")
+    ap.add_argument("--category", choices=CATEGORIES, required=True)
+    ap.add_argument("--count", type=int, default=40, help="shapes drawn")
+    ap.add_argument("--shape-seed", type=int, default=0, help="fixes every shape")
+    ap.add_argument("--template-root", help="a modelnet40_normal_resampled folder holding the linked templates")
+    ap.add_argument("--template-ids", default="", help="','-separated ids of --template-root linked in as templates")
+    ap.add_argument("--template-alignment", help="its alignment table (default: identity rows for the templates)")
+    args = ap.parse_args(argv)
+    ids = tuple(i for i in args.template_ids.split(",") if i)
+    try:
+        spec = ProceduralSpec(
+            category=args.category,
+            count=args.count,
+            shape_seed=args.shape_seed,
+            template_ids=ids,
+            template_root=str(Path(args.template_root).resolve()) if args.template_root and ids else None,
+            template_alignment=str(Path(args.template_alignment).resolve())
+            if args.template_alignment and ids
+            else None,
+        )
+        root = build_root(args.out_root, spec)
+    except CatposeError as e:
+        print(f"python -m catpose.datasets.procedural: error: {e}", file=sys.stderr)
+        return 2
+    print(f"{root}: {spec.count} procedural {spec.category}s (seed {spec.shape_seed}), {len(ids)} linked templates")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
