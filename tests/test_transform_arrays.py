@@ -140,7 +140,7 @@ def test_bad_transform_arrays_are_one_line(tmp_path: Path):
     with pytest.raises(InvalidInputError, match="no transforms; name the array one of transforms"):
         read_transform_arrays(tmp_path / "d.npz", ids=["x"])
     (tmp_path / "e.npy").write_text("not numpy")
-    with pytest.raises(InvalidInputError, match="not a readable NumPy array file"):
+    with pytest.raises(InvalidInputError, match=r"e.npy: not a NumPy .npy file \(no NumPy header\)"):
         read_transform_arrays(tmp_path / "e.npy", ids=["x"])
 
 

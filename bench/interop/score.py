@@ -23,7 +23,7 @@ from catpose import atomic
 from catpose.bench.interop.bop_export import bop_ids
 from catpose.bench.interop.prediction_checks import key_text
 from catpose.bench.interop.prediction_io import read_mapping, read_predictions
-from catpose.bench.run.overwrite import check_new_output
+from catpose.bench.run.overwrite import Input, check_output, write_error_text
 from catpose.bench.run.rundir import write_run_into
 from catpose.errors import DatasetError, InvalidInputError
 
@@ -209,6 +209,10 @@ def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
     from catpose.bench.report.tables import load_run
 
     run = load_run(run_dir)
+    if run.incomplete:  # its missing samples cannot be scored: said, not hidden
+        import warnings
+
+        warnings.warn(f"--gt: {run.incomplete}", stacklevel=2)
     s = run.samples
     if len(s) == 0 or "T_gt" not in s:
         raise DatasetError(f"run {run_dir} has no ground truth rows; pass a run written by `bench run`")
@@ -311,7 +315,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--inverse",
         action="store_true",
-        help=".npy/.npz transforms: they map the template onto the observation (T_camera_template); invert them",
+        help=".npy/.npz transforms or a per-sample CSV: they map the template onto the observation "
+        "(T_camera_template); invert them (not for a BOP CSV, whose convention is fixed)",
     )
     ap.add_argument(
         "--acc",
@@ -339,20 +344,27 @@ def main(argv: list[str] | None = None) -> int:
             ) from None
     if bool(args.gt) == bool(args.dataset):
         raise InvalidInputError("pass exactly one of --gt RUN_DIR or --dataset NAME")
-    out = Path(args.out)
-    # before any work: no run is written over (bench/run/overwrite.py), the --gt run never
-    check_new_output(out, args.force, protected=Path(args.gt) if args.gt else None)
+    # before any work: no input and no other run is written over (bench/run/overwrite.py), the --gt run never
+    inputs = [Input(Path(args.predictions), "the predictions file")]
+    inputs += [Input(Path(p), what) for p, what in ((args.gt, "the --gt run"), (args.map, "the --map file")) if p]
+    if args.ids:
+        inputs.append(Input(Path(args.ids), "the --ids file"))
+    out = check_output(args.out, "folder", inputs, args.force, replaces="run")
+    from catpose.bench.interop.transform_arrays import is_transform_array
+
+    if args.inverse and not is_transform_array(args.predictions):
+        check_inverse_csv(args.predictions)
     gt_rows, config = (
         gt_rows_from_run(args.gt)
         if args.gt
         else gt_rows_from_config(args.dataset, args.protocol, args.seed, args.override)
     )
-    from catpose.bench.interop.transform_arrays import is_transform_array, read_transform_arrays
+    from catpose.bench.interop.transform_arrays import read_transform_arrays
 
     preds = (
         read_transform_arrays(args.predictions, args.ids, args.inverse)
         if is_transform_array(args.predictions)
-        else read_predictions(args.predictions)
+        else read_predictions(args.predictions, inverse=args.inverse)
     )
     map_path = Path(args.map) if args.map else Path(str(args.predictions) + ".map.csv")
     if args.map and not map_path.is_file():
@@ -383,9 +395,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.acc or args.auc is not None:
                 thresholds = _threshold_summary(rows, tmp, args.acc or "", args.auc)
     except OSError as e:  # an unwritable or full --out: one line, nothing left behind
-        raise InvalidInputError(
-            f"cannot write --out {out} ({e.strerror or type(e).__name__}); pass a writable folder with free space"
-        ) from None
+        raise InvalidInputError(write_error_text(args.out, e)) from None
     print(count_text(stats))
     print(f"run directory {out}")
     print(summary)
@@ -395,6 +405,20 @@ def main(argv: list[str] | None = None) -> int:
     if bop_text:
         print(bop_text)
     return 0
+
+
+def check_inverse_csv(path: str | Path) -> None:
+    """``--inverse`` applies to per-sample files only: a BOP results CSV's poses are
+    ``T_camera_model`` by definition, so inverting them is refused rather than ignored."""
+    first = ""
+    if Path(path).is_file():
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            first = next((ln for ln in fh if ln.strip()), "")
+    if {"scene_id", "im_id", "obj_id"} <= {c.strip() for c in first.split(",")}:
+        raise InvalidInputError(
+            f"--inverse: {path} is a BOP results CSV, whose R, t are T_camera_model by definition; drop "
+            "--inverse (it applies to per-sample CSVs and .npy/.npz transforms)"
+        )
 
 
 def _object_summary(rows: Sequence[dict], out_dir: Path) -> str:
