@@ -39,7 +39,26 @@ def _row(text: str, path: Path, line: int) -> dict:
         raise _damaged(path, line, f"not a JSON row ({e.msg} at column {e.colno})") from None
     if not isinstance(row, dict) or not isinstance(row.get("sample_id"), str):
         raise _damaged(path, line, "not a sample row (a JSON object with a 'sample_id')")
+    for key, n in POSE_FIELDS.items():
+        why = _numbers_problem(row.get(key), n)
+        if why:
+            raise _damaged(path, line, f"{key} {why}")
     return row
+
+
+POSE_FIELDS = {"T_est": 16, "T_gt": 16, "symmetry_axis": 3}
+"""Fields of a row that hold numbers, and how many: a (4, 4) pose row-major, an axis (3,)."""
+
+
+def _numbers_problem(value, n: int) -> str | None:
+    """Why ``value`` (a row's field) is not ``n`` numbers, None when it is or when it is absent (null)."""
+    if value is None:
+        return None
+    if not isinstance(value, list):
+        return f"is not a list of {n} numbers (a {type(value).__name__})"
+    if len(value) != n or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+        return f"is not {n} numbers ({len(value)} values)"
+    return None
 
 
 def _complete(text: str) -> bool:
@@ -81,7 +100,7 @@ def parse_rows(path: Path) -> list[dict]:
     if tail:
         text = tail.decode("utf-8", errors="replace")
         if _complete(text):
-            rows.append(json.loads(text))
+            rows.append(_row(text, path, len(lines) + 1))
         else:
             warnings.warn(
                 f"{path}: its last line ({len(lines) + 1}) is cut off, as a killed run leaves it; skipped 1 "
