@@ -298,9 +298,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument(
         "--metrics",
-        default=",".join(DEFAULT_BOP_METRICS),
+        default=None,
         help="BOP datasets: comma-separated recalls, e.g. ar,ar_mssd,ar_mspd,ar_vsd,adds@0.1,add@0.1,mssd@0.2,"
-        "mspd@10,5deg5cm,10deg10cm",
+        "mspd@10,5deg5cm,10deg10cm (default: " + ",".join(DEFAULT_BOP_METRICS) + "; without ar, ar_vsd with --no-vsd)",
     )
     ap.add_argument("--by", default="object,category", help="BOP datasets: rows per object and/or category")
     ap.add_argument(
@@ -333,6 +333,7 @@ def main(argv: list[str] | None = None) -> int:
         help="also print the area under the accuracy curve from 0 to DEG degrees, over DEG",
     )
     args = ap.parse_args(argv)
+    args.metrics = bop_metrics(args.metrics, args.no_vsd)
     if args.method is None:
         from catpose.bench.scoring.bop_eval import check_results_filename
 
@@ -405,6 +406,20 @@ def main(argv: list[str] | None = None) -> int:
     if bop_text:
         print(bop_text)
     return 0
+
+
+def bop_metrics(asked: str | None, no_vsd: bool) -> str:
+    """The BOP recalls to print: ``--metrics`` or :data:`DEFAULT_BOP_METRICS`; with ``--no-vsd``
+    the defaults lose ``ar`` and ``ar_vsd`` (BOP's AR needs VSD), and asking for them is refused."""
+    if asked is None:
+        return ",".join(m for m in DEFAULT_BOP_METRICS if not (no_vsd and m in ("ar", "ar_vsd")))
+    needs_vsd = [m for m in asked.split(",") if m.strip().lower() in ("ar", "ar_vsd")]
+    if no_vsd and needs_vsd:
+        raise InvalidInputError(
+            f"--metrics {','.join(needs_vsd)} needs VSD, which --no-vsd skips (BOP's AR is the mean of ar_mssd, "
+            "ar_mspd and ar_vsd); drop --no-vsd, or ask for ar_mssd,ar_mspd"
+        )
+    return asked
 
 
 def check_inverse_csv(path: str | Path) -> None:
