@@ -111,9 +111,16 @@ def check_outputs(args: argparse.Namespace) -> None:
     never over verified rows (the estimate goes to ``<name>.new.csv``) nor over another table
     without ``--force``; the sheet a picture file that is no verified table's picture (unless it is
     the table's own, redrawn by ``--draw-only``) and that exists only with ``--force``; never an input."""
-    from catpose.bench.run.overwrite import Input, check_output, check_sheet_suffix, table_destination
+    from catpose.bench.run.overwrite import (
+        Input,
+        check_not_input,
+        check_output,
+        check_sheet_suffix,
+        table_destination,
+    )
 
     inputs = [Input(Path(args.compare), "the --compare table")] if args.compare else []
+    check_not_input(args.out, inputs)  # never an input, not even by way of <name>.new.csv
     if args.draw_only:
         inputs.append(Input(Path(args.out), "the --out table"))
     else:

@@ -119,6 +119,30 @@ def _run_above(path: Path) -> Path | None:
     return None
 
 
+def check_not_input(out: str | Path, inputs: Sequence[Input] = (), flag: str = "--out") -> Path:
+    """The first part of :func:`check_output`: ``out`` is no input, holds none and lies inside none
+    (a folder only searched for runs may hold it); returns it as an absolute path."""
+    if str(out).strip() == "":
+        raise InvalidInputError(f"{flag} is empty; pass the file or folder to write")
+    target = _abs(out)
+    shown = f"{flag} {out}"
+    for path, what, searched in (Input(*i) for i in inputs):
+        inp = _abs(path)
+        if inp == target:
+            raise InvalidInputError(
+                f"{shown} is {what} itself; pass another {flag} (an input is never overwritten, not even with --force)"
+            )
+        if inp.is_relative_to(target):
+            raise InvalidInputError(
+                f"{shown} contains {what} {path}; pass an {flag} outside it (writing it would replace an input)"
+            )
+        if target.is_relative_to(inp) and not searched:
+            raise InvalidInputError(
+                f"{shown} lies inside {what} {path}; pass an {flag} outside it (no command writes into an input)"
+            )
+    return target
+
+
 def check_output(
     out: str | Path,
     kind: str = "file",
@@ -145,24 +169,8 @@ def check_output(
     Raises:
         InvalidInputError: one line naming ``out``, what is in the way and the fix.
     """
-    if str(out).strip() == "":
-        raise InvalidInputError(f"{flag} is empty; pass the {kind} to write")
-    target = _abs(out)
+    target = check_not_input(out, inputs, flag)
     shown = f"{flag} {out}"
-    for path, what, searched in (Input(*i) for i in inputs):
-        inp = _abs(path)
-        if inp == target:
-            raise InvalidInputError(
-                f"{shown} is {what} itself; pass another {flag} (an input is never overwritten, not even with --force)"
-            )
-        if inp.is_relative_to(target):
-            raise InvalidInputError(
-                f"{shown} contains {what} {path}; pass an {flag} outside it (writing it would replace an input)"
-            )
-        if target.is_relative_to(inp) and not searched:
-            raise InvalidInputError(
-                f"{shown} lies inside {what} {path}; pass an {flag} outside it (no command writes into an input)"
-            )
     run = _run_above(target)
     if run is not None:
         raise InvalidInputError(

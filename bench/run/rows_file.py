@@ -2,8 +2,8 @@
 
 A ``samples.jsonl`` is appended one line per finished sample, each line flushed and fsynced
 before the next sample starts (:class:`~catpose.bench.run.rundir.SampleWriter`). The only damage
-a kill can do is therefore a cut-off LAST line: the file's last line does not parse (a kill
-leaves it without its newline). That line is skipped with a warning that gives the count, and the
+a kill can do is therefore a cut-off LAST line: the start of a JSON object that does not parse (a
+kill leaves it without its newline). That line is skipped with a warning that gives the count, and the
 runner re-runs its sample on resume (:func:`repair_last_line` drops it before appending).
 
 Anything else is damage no run makes (a line edited by hand, a disk error, two files joined): it
@@ -70,6 +70,19 @@ def _complete(text: str) -> bool:
     return isinstance(row, dict) and isinstance(row.get("sample_id"), str)
 
 
+def _cut_off(text: str) -> bool:
+    """Whether a last line that is no whole row can be what a kill leaves: the start of a JSON
+    object cut before its end (it does not parse). Anything else (``[1, 2]``, ``nan``, an object
+    without ``sample_id``) is damage a kill cannot make."""
+    if not text.lstrip().startswith("{"):
+        return False
+    try:
+        json.loads(text)
+    except json.JSONDecodeError:
+        return True
+    return False
+
+
 def _last_line_start(data: bytes) -> int:
     """Offset of the last non-empty line of ``data`` (0 when it is the first)."""
     end = len(data.rstrip(b"\r\n\t "))
@@ -99,7 +112,7 @@ def parse_rows(path: Path) -> list[dict]:
             rows.append(_row(text, path, k))
     if tail:
         text = tail.decode("utf-8", errors="replace")
-        if _complete(text):
+        if _complete(text) or not _cut_off(text):  # a whole row, or damage no kill makes: read, or refused
             rows.append(_row(text, path, len(lines) + 1))
         else:
             warnings.warn(
