@@ -198,14 +198,15 @@ def pose_problem(T: Any) -> str | None:
 
 def check_dataset_name(out_csv: str | Path, run: Any) -> None:
     """The ``DATASET`` of ``METHOD_DATASET-SPLIT.csv`` must be the run's dataset (the BOP toolkit
-    scores the file against the dataset it names)."""
+    scores the file against the dataset it names); a run of the generic ``dataset=bop`` config,
+    whose name says nothing of the dataset, may be named as its user knows it."""
     from catpose.bench.scoring.bop_eval import check_results_filename
     from catpose.errors import InvalidInputError
 
     _, named, split = check_results_filename(out_csv)
     node = run.config.get("dataset")
     dataset = str(node.get("name")) if isinstance(node, dict) and node.get("name") else str(run.info.get("dataset", ""))
-    if dataset and named != dataset:
+    if dataset and dataset != "bop" and named != dataset:
         method = Path(out_csv).name.split("_", 1)[0]
         raise InvalidInputError(
             f"--out {Path(out_csv).name} names dataset {named!r}, but run {run.path} is of dataset {dataset!r}; "

@@ -297,13 +297,16 @@ def _check_bop_files(layout: Any, scenes: list[Path], objects: set[int], report:
     from catpose.bench.run.file_headers import ply_problem, png_problem, png_size
 
     size = _camera_size(layout.root)
-    depth_problems, mask_problems = [], []
-    for scene in scenes:
-        for pattern, problems, depth16 in (
-            ("depth*/*.png", depth_problems, True),
-            ("mask_visib*/*.png", mask_problems, False),
-        ):
-            for png in sorted(scene.glob(pattern)):
+    depth_problems, mask_problems, counts = [], [], [0, 0]
+    for scene in scenes:  # the folders of the configured sensor only (their images share one size)
+        sid = int(scene.name)
+        folders = (
+            (layout.depth(sid, 0).parent, depth_problems, True),
+            (layout.mask_visib(sid, 0, 0).parent, mask_problems, False),
+        )
+        for k, (folder, problems, depth16) in enumerate(folders):
+            for png in sorted(folder.glob("*.png")):
+                counts[k] += 1
                 size = size or png_size(png)
                 why = png_problem(png, size, depth16)
                 if why:
@@ -313,8 +316,7 @@ def _check_bop_files(layout: Any, scenes: list[Path], objects: set[int], report:
     models = [layout.model(o) for o in sorted(objects) if layout.model(o).is_file()]
     _note_files(report, [w for w in map(ply_problem, models) if w], "models")
     report.facts.append(
-        f"headers: {sum(len(list(s.glob('depth*/*.png'))) for s in scenes)} depth images, "
-        f"{sum(len(list(s.glob('mask_visib*/*.png'))) for s in scenes)} masks and {len(models)} models whole"
+        f"headers: {counts[0]} depth PNGs, {counts[1]} masks and {len(models)} models whole"
         + (f", images {size[0]}x{size[1]}" if size else "")
     )
 

@@ -133,7 +133,9 @@ def evaluate_dir(run_dir: Path):
 
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
-        raise DatasetError(f"{run_dir} does not exist; pass a run directory written by `bench run`")
+        raise DatasetError(
+            f"{run_dir} is not a run directory (it does not exist); pass a folder written by `bench run`"
+        )
     if is_sharded(run_dir):
         ensure_merged(run_dir)  # a missing shard: "shard 1 of 2 has not run; run it with shards=2 shard=1"
     if not (run_dir / SAMPLES_FILE).is_file():
