@@ -152,6 +152,30 @@ def _binary_length(data: bytes, pos: int, elements: list, big: bool) -> int | st
     return pos
 
 
+def _ascii_problem(rows: list[list[bytes]], elements: list) -> str | None:
+    """Why the data lines of an ASCII PLY do not hold its elements (a line per element, each with
+    its properties' values: a list's count and as many items), None when they do."""
+    want = sum(n for _, n, _ in elements)
+    if len(rows) < want:
+        return f"{len(rows)} data lines where its header promises {want}"
+    k = 0
+    for name, count, props in elements:
+        for _ in range(count):
+            tokens, need, pos = rows[k], 0, 0
+            for p in props:
+                if len(p) == 1:
+                    need, pos = need + 1, pos + 1
+                    continue
+                n = int(tokens[pos]) if pos < len(tokens) and tokens[pos].isdigit() else -1
+                if n < 0:
+                    return f"its {name} line {k + 1} of the data has no list count"
+                need, pos = need + 1 + n, pos + 1 + n
+            if len(tokens) < need:
+                return f"its {name} line {k + 1} of the data has {len(tokens)} values, not {need}"
+            k += 1
+    return None
+
+
 def ply_problem(path: Path) -> str | None:
     """Why the PLY at ``path`` is not whole (no header, a body shorter or longer than its element
     counts say), None when it is whole."""
@@ -165,11 +189,8 @@ def ply_problem(path: Path) -> str | None:
     fmt, elements, body = header
     counts = ", ".join(f"element {name} {n}" for name, n, _ in elements)
     if fmt == "ascii":
-        lines = sum(1 for ln in data[body:].splitlines() if ln.strip())
-        want = sum(n for _, n, _ in elements)
-        if lines < want:
-            return f"{path} has {lines} data lines where its header promises {want} ({counts}): cut off; {_REFETCH}"
-        return None
+        why = _ascii_problem([ln.split() for ln in data[body:].splitlines() if ln.strip()], elements)
+        return None if why is None else f"{path}: {why} ({counts}): cut off; {_REFETCH}"
     end = _binary_length(data, body, elements, fmt == "binary_big_endian")
     if isinstance(end, str):
         return f"{path} is not a whole PLY model: {end} ({counts}); {_REFETCH}"
