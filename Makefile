@@ -45,7 +45,7 @@ regress: setup
 # every method on ../shared/data (YCB-V, TYO-L, ModelNet40 resampled), one table; skips without the data.
 # CPU-heavy (about an hour on 2 cores): runs under nice and resumes where it stopped.
 realcheck: setup
-	nice $(BENCH) suite real --write results/real/table.md
+	nice $(BENCH) suite real --force --write results/real/table.md
 
 # Every table and figure the README and docs/ quote: results/make_results.sh (all sections; resumes
 # where it stopped; SECTIONS="category real" for some), which runs the studies' scripts in experiments/,

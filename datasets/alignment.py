@@ -81,27 +81,60 @@ def read_alignment_table(path: str | Path | list) -> dict[tuple[str, str], np.nd
                     "keep one row per instance"
                 )
             lines[key] = line
-            try:
-                cells = R_COLUMNS if all((row.get(c) or "").strip() for c in R_COLUMNS) else ["yaw_deg"]
-                if not (row.get(cells[0]) or "").strip():
-                    raise ValueError("no rotation")
-                values = np.array([float(row[c]) for c in cells])
-            except ValueError:
-                raise DatasetError(f"alignment table {path} line {line}: needs 9 numbers r00..r22 or yaw_deg") from None
-            if not np.isfinite(values).all():  # before any use: a nan yaw is this line's fault, not the mesh's
-                bad = [c for c, v in zip(cells, values) if not np.isfinite(v)]
-                raise DatasetError(
-                    f"alignment table {path} line {line}: {', '.join(bad)} = {row[bad[0]].strip()} is not "
-                    "a finite number; write finite numbers (yaw_deg in degrees, e.g. 90)"
-                )
-            if len(cells) == 1:
-                R = axis_angle_to_R(np.array([0.0, 0.0, 1.0]), np.deg2rad(values[0]))
-            else:
-                R = values.reshape(3, 3)
-            if np.abs(matmul3(R, R.T) - np.eye(3)).max() > 1e-3 or dot3(np.cross(R[0], R[1]), R[2]) < 0:
-                raise DatasetError(f"alignment table {path} line {line}: r00..r22 is not a rotation")
-            table[key] = R
+            table[key] = _row_rotation(row, f"alignment table {path} line {line}")
     return table
+
+
+def _cell(row: dict, column: str) -> str:
+    return (row.get(column) or "").strip()
+
+
+def _row_rotation(row: dict, where: str) -> np.ndarray:
+    """``R_canonical_raw`` (3, 3) of one table row, or one :class:`DatasetError` line naming ``where``.
+
+    ``r00..r22`` (all nine) or ``yaw_deg`` give it, with ``flip`` (``true``: the up axis turned
+    over, ``R = R_z(yaw) diag(1, -1, -1)``). Where a row has both, they must agree: ``bench align``
+    writes both, and a person who fixes a row by editing ``yaw_deg`` (or ``flip``) must clear or
+    edit ``r00..r22`` too, so that neither the edit nor the old matrix is silently ignored."""
+    given = [c for c in R_COLUMNS if _cell(row, c)]
+    if given and len(given) != 9:
+        raise DatasetError(f"{where}: has {len(given)} of r00..r22; give all nine, or clear them and give yaw_deg")
+    yaw_text, flip_text = _cell(row, "yaw_deg"), _cell(row, "flip").lower()
+    if not given and not yaw_text:
+        raise DatasetError(f"{where}: needs 9 numbers r00..r22 or yaw_deg")
+    if flip_text not in ("", "true", "false"):
+        raise DatasetError(f"{where}: flip = {_cell(row, 'flip')!r} is not true or false")
+    values = {}
+    for c in (*given, *(["yaw_deg"] if yaw_text else [])):
+        try:
+            values[c] = float(_cell(row, c))
+        except ValueError:
+            raise DatasetError(
+                f"{where}: {c} = {_cell(row, c)[:20]!r} is not a number; needs 9 numbers r00..r22 or yaw_deg"
+            ) from None
+        if not np.isfinite(values[c]):  # before any use: a nan yaw is this line's fault, not the mesh's
+            raise DatasetError(
+                f"{where}: {c} = {_cell(row, c)} is not a finite number; write finite numbers (yaw_deg in degrees, e.g. 90)"
+            )
+    from_yaw = None
+    if yaw_text:
+        from_yaw = axis_angle_to_R(np.array([0.0, 0.0, 1.0]), np.deg2rad(values["yaw_deg"]))
+        if flip_text == "true":
+            from_yaw = matmul3(from_yaw, FLIP)
+    if not given:
+        return from_yaw
+    R = np.array([values[c] for c in R_COLUMNS]).reshape(3, 3)
+    if np.abs(matmul3(R, R.T) - np.eye(3)).max() > 1e-3 or dot3(np.cross(R[0], R[1]), R[2]) < 0:
+        raise DatasetError(f"{where}: r00..r22 is not a rotation")
+    if from_yaw is not None and np.abs(R - from_yaw).max() > 1e-3:
+        yaw = yaw_deg_of(R)
+        matrix = f"a yaw of {yaw:g} deg" if yaw is not None else "not a yaw about +z"
+        raise DatasetError(
+            f"{where}: yaw_deg = {yaw_text} (flip {flip_text or 'false'}) and r00..r22 ({matrix}) disagree; "
+            "edit one and clear the other: keep yaw_deg (and flip) and empty r00..r22, or write r00..r22 "
+            "and empty yaw_deg"
+        )
+    return R
 
 
 def check_alignment_coverage(

@@ -169,8 +169,18 @@ class BOP(BopModels, BopFrames, ObjectDataset):
             targets = read_targets(self.layout.targets(self.targets))
         ids: list[str] = []
         seen_objects: set[int] = set()
-        n_low_visib, n_not_target, visib_files = 0, 0, 0
-        for scene_dir in sorted(p for p in split_dir.iterdir() if p.is_dir() and p.name.isdigit()):
+        n_low_visib, n_not_target, visib_files, n_no_depth = 0, 0, 0, 0
+        no_depth_targets: list[str] = []
+        scene_dirs = sorted(p for p in split_dir.iterdir() if p.is_dir() and p.name.isdigit())
+        if self.scenes is not None:  # a scene named that has no folder is a typo, not an empty scene
+            absent = sorted(self.scenes - {int(p.name) for p in scene_dirs})
+            if absent:
+                raise DatasetError(
+                    f"dataset.scenes lists {absent}, which {'has' if len(absent) == 1 else 'have'} no folder under "
+                    f"{split_dir} (its scenes: {', '.join(str(int(p.name)) for p in scene_dirs) or 'none'}); "
+                    "fix dataset.scenes"
+                )
+        for scene_dir in scene_dirs:
             scene_id = int(scene_dir.name)
             if self.scenes is not None and scene_id not in self.scenes:
                 continue
@@ -183,9 +193,11 @@ class BOP(BopModels, BopFrames, ObjectDataset):
             visib_files += visib is not None
             for im_key in sorted(scene_gt, key=int):
                 im_id = int(im_key)
-                if not self.layout.depth(scene_id, im_id).is_file():
+                has_depth = self.layout.depth(scene_id, im_id).is_file()
+                if not has_depth and targets is None:  # a partial download: frames without depth are left out, and said
+                    n_no_depth += 1
                     continue
-                if cameras is not None:  # a bad focal length fails the run here, not every sample
+                if cameras is not None and has_depth:  # a bad focal length fails the run here, not every sample
                     camera_K(cam_path, cameras, im_key)
                 entries = scene_gt[im_key]
                 if not isinstance(entries, list):
@@ -204,6 +216,8 @@ class BOP(BopModels, BopFrames, ObjectDataset):
                         n_low_visib += 1
                         continue
                     ids.append(f"{category}/{scene_id:06d}/{im_id:06d}/{gt_idx}")
+                    if not has_depth:  # a listed target: its sample fails with the missing file, it is not dropped
+                        no_depth_targets.append(ids[-1])
         self.seen_objects = sorted(seen_objects)
         if self.categories is not None:
             unseen = sorted(set(self.categories) - seen_objects)
@@ -217,6 +231,13 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         self.filters = []
         if targets is not None:
             self.filters.append(f"targets from {self.targets} ({n_not_target} instances not listed left out)")
+        if no_depth_targets:
+            self.filters.append(
+                f"{len(no_depth_targets)} targets have no depth image (e.g. {no_depth_targets[0]}): kept, they fail "
+                "as samples with that reason"
+            )
+        if n_no_depth:
+            self.filters.append(f"{n_no_depth} frames of scene_gt.json without a depth image left out (no target list)")
         if visib_files:
             self.filters.append(f"visib_fract >= {self.min_visib_fract:g} ({n_low_visib} instances left out)")
         if not ids and self.categories is not None:

@@ -131,6 +131,17 @@ class ViewSampler:
     elevation_max_deg: float = 60.0
     roll_max_deg: float = 0.0
 
+    def __post_init__(self) -> None:
+        # checked once here, not discovered as every sample failing (issue 42, case 20)
+        if not 0.0 <= float(self.elevation_min_deg) <= float(self.elevation_max_deg) < 90.0:
+            from catpose.errors import ConfigError
+
+            raise ConfigError(
+                f"dataset.elevation_min_deg={self.elevation_min_deg} and dataset.elevation_max_deg="
+                f"{self.elevation_max_deg}: they must satisfy 0 <= elevation_min_deg <= elevation_max_deg < 90 "
+                "(degrees above the ground plane)"
+            )
+
     def sample(self, rng: np.random.Generator) -> np.ndarray:
         """Draw one viewpoint; returns ``T_camera_object`` (4, 4)."""
         az = np.deg2rad(rng.uniform(0.0, 360.0))

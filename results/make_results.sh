@@ -96,16 +96,16 @@ synthetic_tables() {
     ext=$fmt; [ "$fmt" = latex ] && ext=tex
     ST=(); if [ "$fmt" = md ]; then ST=(${STAB[@]+"${STAB[@]}"}); fi  # the stability notes are Markdown text
     for e in optimiser ablation one_template templates tyol; do
-      "$B" table --sweep "$S/$e" --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/$e.$ext"
+      "$B" table --force --sweep "$S/$e" --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/$e.$ext"
     done
-    "$B" table --sweep "$S/optimiser" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/gt_model_all.$ext"
-    "$B" table --sweep "$S/templates" --layout generic --format $fmt --error err_deg ${ST[@]+"${ST[@]}"} \
+    "$B" table --force --sweep "$S/optimiser" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/gt_model_all.$ext"
+    "$B" table --force --sweep "$S/templates" --layout generic --format $fmt --error err_deg ${ST[@]+"${ST[@]}"} \
       --title "Category templates (3 other instances; estimate chosen by the method's own score)" --out "$T/templates_selected.$ext"
-    "$B" table --sweep "$S/templates" --layout generic --format $fmt --error oracle_err_deg ${ST[@]+"${ST[@]}"} \
+    "$B" table --force --sweep "$S/templates" --layout generic --format $fmt --error oracle_err_deg ${ST[@]+"${ST[@]}"} \
       --title "Category templates: minimum error across templates (oracle, the paper's Table templatechair)" --out "$T/templates_oracle.$ext"
-    "$B" table --sweep "$S/relative_real" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} \
+    "$B" table --force --sweep "$S/relative_real" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} \
       --title "Relative pose between two views of one object, each registered to the category templates" --out "$T/relative.$ext"
-    "$B" table "$OUT/kinect/synthetic-gt_model" --layout generic --categories all --format $fmt \
+    "$B" table --force "$OUT/kinect/synthetic-gt_model" --layout generic --categories all --format $fmt \
       --metrics mean,median,acc10,acc30,trans --acc 5,10,30,5deg5cm,10deg10cm --auc 30 \
       --title "Embedded set with the Kinect sensor model (8 categories x 1 instance x 2 views, seed 0)" --out "$T/synthetic_kinect.$ext"
   done
@@ -124,7 +124,7 @@ synthetic_tables() {
   add "$G/ours/seed0-+row=ours-*" "Ours"
   add "$P/icp/seed0-+row=icp,protocol.max_templates=null-*" "ICP"
   add "$P/ours/seed0-+row=ours,protocol.max_templates=null-*" "Ours"
-  "$B" report "${runs[@]}" "${labels[@]}" --out "$RESULTS/report" --qualitative 1 \
+  "$B" report --force "${runs[@]}" "${labels[@]}" --out "$RESULTS/report" --qualitative 1 \
     --note "Made by results/make_results.sh (synthetic section): the embedded synthetic set, seed 0, 8 categories x 3 instances x 2 views; templates: 3 other instances of the category."
 }
 
@@ -147,18 +147,18 @@ real() {
   if [ ! -d "$SHARED" ]; then echo "make_results: real skipped: no shared data at $SHARED" >&2; return 0; fi
   local R="$OUT/real"
   mkdir -p "$RESULTS/real"
-  nice "$B" suite real --output-root "$R" --write "$RESULTS/real/table.md" --objects "$RESULTS/real/objects.md"
+  nice "$B" suite real --force --output-root "$R" --write "$RESULTS/real/table.md" --objects "$RESULTS/real/objects.md"
   if [ -d "$SHARED/bop/ycbv" ]; then  # BOP's metrics of ICP and ours on the YCB-V frames
     local scored=()
     for m in icp ours; do
       run=$(default_runs "$R/ycbv-gt_model/$m" 1)  # the method's default run, not ours-visibility's
       [ -n "$run" ] || { echo "make_results: no default run of $m in $R/ycbv-gt_model" >&2; exit 2; }
       rm -rf "$R/bop/$m" "$R/bop/${m}_ycbv-test.csv"*; mkdir -p "$R/bop"
-      "$B" export "$run" --out "$R/bop/${m}_ycbv-test.csv"
-      "$B" score "$R/bop/${m}_ycbv-test.csv" --gt "$run" --out "$R/bop/$m" > /dev/null
+      "$B" export --force "$run" --out "$R/bop/${m}_ycbv-test.csv"
+      "$B" score --force "$R/bop/${m}_ycbv-test.csv" --gt "$run" --out "$R/bop/$m" > /dev/null
       scored+=("$R/bop/$m")
     done
-    "$B" table "${scored[@]}" --bop-metrics ar_mssd,ar_mspd,ar_vsd,adds@0.1,5deg5cm,10deg10cm --by object,category \
+    "$B" table --force "${scored[@]}" --bop-metrics ar_mssd,ar_mspd,ar_vsd,adds@0.1,5deg5cm,10deg10cm --by object,category \
       --out "$RESULTS/real/bop_ycbv.md"
   fi
   "$PY" -m catpose.bench.real.sensor_stats > "$RESULTS/real/sensor_stats.md"

@@ -358,5 +358,6 @@ def test_tyol_config_composes_and_loads_the_shared_frame(shared_data):
         )
     name, ds = build_from_config(cfg.dataset, "dataset")
     assert name == "tyol" and ds.observation_ids() == ["basket/000019/000010/0"]
-    assert ds.filters == []  # the shared frame has neither targets nor scene_gt_info
+    # the shared frame has neither targets nor scene_gt_info; its 74 other frames have no depth image
+    assert ds.filters == ["74 frames of scene_gt.json without a depth image left out (no target list)"]
     assert len(ds.category_templates("mug")) == 1 and len(ds.category_templates("bottle")) == 1

@@ -254,18 +254,19 @@ def test_a_user_label_is_kept_beside_other_runs_of_the_method(tmp_path: Path):
     assert tables.run_labels(runs, tables.parse_labels([f"{a}=Ours"])) == ["Ours", "Ours (row=ours_pfh)"]
 
 
-def test_report_index_links_every_file_and_stale_files_go(tmp_path: Path):
+def test_report_index_links_every_file_and_a_second_report_replaces_the_folder_whole(tmp_path: Path):
     runs = tmp_path / "runs"
     a = _run(runs, "seed0-default-1a2b3c4d", {"name": "ours"}, overrides=[])
     b = _run(runs, "seed0-default-9c0d1e2f", {"name": "icp"}, TEMPLATES, overrides=["protocol=templates"])
     out = tmp_path / "report"
     build_report([a, b], out, qualitative=0)
     assert (out / "figures" / "templates_accuracy.png").is_file()
-    (out / "notes.txt").write_text("mine")  # not in the report's own folders: kept
-    index = build_report([a], out, qualitative=0, pdf=False)  # a second report, gt_model only, no PDFs
+    (out / "notes.txt").write_text("mine")
+    index = build_report([a], out, qualitative=0, pdf=False)  # a second report (bench report --force), gt_model only
     assert not (out / "figures" / "templates_accuracy.png").exists() and not list(out.glob("figures/*.pdf"))
-    assert (out / "notes.txt").read_text() == "mine"
+    assert not (out / "notes.txt").exists()  # the folder is built aside and replaces the old one whole
     assert unlinked_report_files(out, index.read_text()) == []
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # nothing left beside it
 
 
 def unlinked_report_files(folder: Path, index_text: str) -> list[str]:

@@ -195,7 +195,7 @@ def _npy(path: Path, T: np.ndarray, **arrays) -> Path:
     [
         (lambda p: _npy(p / "t.npy", np.eye(4)[None]), None, "holds no sample ids: pass --ids FILE"),
         (
-            lambda p: _npy(p / "t.npy", np.zeros((1, 4, 4))),
+            lambda p: _npy(p / "t.npy", np.zeros((1, 3, 4))),
             ["mug/i0/v0"],
             "t.npy: transform 0 (mug/i0/v0): R is not a rotation",
         ),
@@ -250,7 +250,7 @@ def test_a_gt_run_without_ground_truth_is_one_line(tmp_path, capsys):
 def test_export_into_a_folder_or_of_a_run_without_estimates_is_one_line(tmp_path, gt, capsys):
     (tmp_path / "m_toy-test.csv").mkdir()
     assert bench(["export", str(gt), "--out", str(tmp_path / "m_toy-test.csv")]) == 2
-    assert "is a folder; pass the CSV file to write" in one_error_line(capsys, "export")
+    assert "is a folder; pass the file to write, e.g. " in one_error_line(capsys, "export")
     failed = [dict(r, status="failed", T_est=None, error="no convergence") for r in rows([1.0, 2.0])]
     run = write_run(tmp_path / "failed", failed, CFG)
     out = tmp_path / "f_toy-test.csv"

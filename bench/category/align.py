@@ -89,22 +89,57 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command; a user error raises :class:`~catpose.errors.CatposeError`, which the CLI prints
     as one line (exit status 2)."""
     args = build_parser().parse_args(argv)
-    if not args.draw_only:  # never over verified rows, nor over a table without --force (bench/run/overwrite.py)
-        from catpose.bench.run.overwrite import table_destination
+    check_outputs(args)
+    from catpose.bench.run.overwrite import output_errors
 
-        args.out, note = table_destination(args.out, args.force)
-        if note:
-            log.warning("%s", note)
-    rows = redraw(args) if args.draw_only else align(args)
+    with output_errors(args.out):  # a read-only folder or a full disk: one line, no file half-written
+        rows = redraw(args) if args.draw_only else align(args)
     n_low = sum(1 for r in rows if r["low"])
     print(f"wrote {len(rows)} rows to {args.out} ({n_low} marked for a closer look) and {sheet_path(args)}")
     if args.compare:
         from catpose.bench.category.align_check import compare_tables, summary_line, write_comparison
 
         result = compare_tables(args.out, args.compare, args.category)  # a user error: one line from the CLI
-        out = write_comparison(Path(args.out).with_name(Path(args.out).stem + "_vs_verified.csv"), result)
+        with output_errors(comparison_path(args)):
+            out = write_comparison(comparison_path(args), result)
         print(f"against {args.compare}: {summary_line(result)}; rows in {out}")
     return 0
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Before any work, where the command may write (:mod:`catpose.bench.run.overwrite`): the table
+    never over verified rows (the estimate goes to ``<name>.new.csv``) nor over another table
+    without ``--force``; the sheet a picture file that is no verified table's picture (unless it is
+    the table's own, redrawn by ``--draw-only``) and that exists only with ``--force``; never an input."""
+    from catpose.bench.run.overwrite import (
+        Input,
+        check_not_input,
+        check_output,
+        check_sheet_suffix,
+        table_destination,
+    )
+
+    inputs = [Input(Path(args.compare), "the --compare table")] if args.compare else []
+    check_not_input(args.out, inputs)  # never an input, not even by way of <name>.new.csv
+    if args.draw_only:
+        inputs.append(Input(Path(args.out), "the --out table"))
+    else:
+        args.out, note = table_destination(args.out, args.force)
+        check_output(args.out, "file", inputs, force=True, example="category.csv")  # existence: table_destination's
+        if note:
+            log.warning("%s", note)
+        inputs.append(Input(Path(args.out), "the --out table"))
+    sheet = sheet_path(args)
+    check_sheet_suffix(sheet)
+    own = Path(args.out).with_suffix(".png") if args.draw_only and not args.sheet else None
+    check_output(sheet, "file", inputs, args.force or own is not None, "--sheet", allow=own, example="sheet.png")
+    if args.compare:
+        check_output(comparison_path(args), "file", inputs, args.force, example="x_vs_verified.csv")
+
+
+def comparison_path(args: argparse.Namespace) -> Path:
+    """Where ``--compare`` writes its rows: ``<out>_vs_verified.csv``."""
+    return Path(args.out).with_name(Path(args.out).stem + "_vs_verified.csv")
 
 
 def sheet_path(args: argparse.Namespace) -> Path:

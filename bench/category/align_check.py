@@ -121,10 +121,11 @@ def write_comparison(path: str | Path, result: dict) -> Path:
     """Per-row CSV (``instance_id, agrees, confidence, yaw_deg, flip, verified_yaw_deg,
     verified_flip``, yaws in the estimate's frame) followed by no summary: the summary is
     :func:`summary_line`."""
+    from catpose import atomic
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     cols = ["instance_id", "agrees", "confidence", "yaw_deg", "flip", "verified_yaw_deg", "verified_flip"]
-    with path.open("w", newline="") as fh:
+    with atomic.atomic_write(path, newline="") as fh:
         w = csv.writer(fh)
         w.writerow(cols)
         for r in result["rows"]:

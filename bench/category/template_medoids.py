@@ -156,15 +156,10 @@ def write_templates_yaml(path: str | Path, category: str, result: dict, settings
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    doc = {}
-    if path.is_file():
-        old = yaml.safe_load(path.read_text()) or {}
-        if not isinstance(old, dict):
-            raise ConfigError(f"{path} is not a category -> template ids mapping; pass another --out")
-        doc = {str(k): v for k, v in old.items()}
+    doc = read_templates_yaml(path) if path.is_file() else {}
     doc[category] = list(result["templates"])
     lines = [
-        "# @package dataset.templates",
+        HEADER,
         "# Category templates chosen by `bench templates`: K-medoids (FasterPAM) over 1 - F-score@tau",
         f"# between complete canonical clouds. Last run ({category}): "
         + ", ".join(f"{k}={v}" for k, v in settings.items()),
@@ -177,6 +172,49 @@ def write_templates_yaml(path: str | Path, category: str, result: dict, settings
 
     atomic.write_text(path, "\n".join(lines) + "\n" + yaml.safe_dump(doc, sort_keys=True))
     return path
+
+
+HEADER = "# @package dataset.templates"
+
+
+def read_templates_yaml(path: str | Path) -> dict[str, list[str]]:
+    """A templates file (what :func:`write_templates_yaml` writes): ``{category: [instance ids]}``.
+    Anything else (a file that is not YAML, another config whose values are not lists of ids) is
+    refused in one line: ``bench templates`` updates templates files only."""
+    import yaml
+
+    path = Path(path)
+    fix = "pass another --out (bench templates updates templates files only: {category: [ids]})"
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise ConfigError(f"{path} cannot be read as a templates file ({type(e).__name__}); {fix}") from None
+    try:
+        doc = yaml.safe_load(text) or {}
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark is not None else ""
+        raise ConfigError(
+            f"{path}{where} is not valid YAML ({getattr(e, 'problem', None) or type(e).__name__}); {fix}"
+        ) from None
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{path} is not a category -> template ids mapping; {fix}")
+    for k, v in doc.items():
+        if not isinstance(v, list) or not v or not all(isinstance(i, (str, int)) for i in v):
+            raise ConfigError(f"{path}: {k!r} is not a category with a list of template ids ({v!r:.40}); {fix}")
+    return {str(k): [str(i) for i in v] for k, v in doc.items()}
+
+
+def check_options(args) -> None:
+    """``--tau`` a distance > 0 (object-normalised unit), ``--points`` >= 0, ``--out`` a ``.yaml``."""
+    import math
+
+    if not (math.isfinite(args.tau) and args.tau > 0):
+        raise ConfigError(f"--tau {args.tau:g} must be a distance > 0 (object-normalised unit, e.g. 0.05)")
+    if args.points < 0:
+        raise ConfigError(f"--points {args.points} must be >= 0 (0: every point)")
+    if Path(args.out).suffix.lower() not in (".yaml", ".yml"):
+        raise ConfigError(f"--out {args.out}: a templates file is a Hydra config: end its name in .yaml")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -197,7 +235,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--points", type=int, default=2048, help="points per cloud")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", required=True, help="YAML to write (e.g. <dir>/templates/<dataset>_<category>.yaml)")
+    ap.add_argument(
+        "--force",
+        action="store_true",
+        help="update an existing --out (a file of bench templates: its other categories stay)",
+    )
     args = ap.parse_args(argv)
+    check_options(args)
+    from catpose.bench.run.overwrite import check_output
+
+    check_output(args.out, "file", (), args.force, example="templates.yaml")  # before any work
+    if Path(args.out).is_file():
+        read_templates_yaml(args.out)  # its own kind of file only, refused before the distances are computed
     _kmedoids()  # the optional extra is checked before the distance matrix is computed
     if args.k != "auto" and not args.k.isdigit():
         raise ConfigError(f"--k {args.k!r} is not a positive integer or 'auto'")
@@ -225,20 +274,23 @@ def main(argv: list[str] | None = None) -> int:
     clouds = {i: dataset.instance_model(args.category, i).points for i in ids}
     result = choose_templates(clouds, k, args.tau, args.points, args.seed)
     out = Path(args.out)
-    write_templates_yaml(
-        out,
-        args.category,
-        result,
-        {
-            "dataset": name,
-            "split": args.split,
-            "k": len(result["templates"]),
-            "tau": args.tau,
-            "points": args.points,
-            "seed": args.seed,
-            "n_instances": len(ids),
-        },
-    )
+    from catpose.bench.run.overwrite import output_errors
+
+    with output_errors(out):
+        write_templates_yaml(
+            out,
+            args.category,
+            result,
+            {
+                "dataset": name,
+                "split": args.split,
+                "k": len(result["templates"]),
+                "tau": args.tau,
+                "points": args.points,
+                "seed": args.seed,
+                "n_instances": len(ids),
+            },
+        )
     sil = ", ".join(f"K={kk}: {v:.3f}" for kk, v in result["silhouette"].items()) or "n/a"
     print(
         f"{args.category}: templates {result['templates']} (mean 1-F to medoid {result['mean_distance']:.3f}; "

@@ -123,6 +123,10 @@ def export_bop(
     if check_name:
         check_results_filename(out_csv)
     run = load_run(run_dir)
+    if check_name:
+        check_dataset_name(out_csv, run)
+    if run.incomplete:  # exported all the same, and said
+        log.warning("%s", run.incomplete)
     proto = protocol_of(run)
     units = proto.view_rows(run.samples) if isinstance(proto, Relative) else proto.score_units(run.samples)
     # ids over every view (failed ones too), so the mapping matches the scorer's, which sees all
@@ -141,6 +145,13 @@ def export_bop(
             f"{len(failed)} of {len(everything)} samples have no estimate (failed) and are not in the "
             f"file, e.g. {failed[0].get('sample_id')}: {str(failed[0].get('error') or '')[:80]}"
         )
+    for r in rows:  # only poses are exported (a hand-edited samples.jsonl can hold anything)
+        why = pose_problem(r["T_est"])
+        if why:
+            raise DatasetError(
+                f"run {run_dir}: sample {r.get('sample_id')}: T_est {why}; its samples.jsonl is damaged: "
+                "re-run that sample (delete its line and re-run the same command)"
+            )
     times = image_times(ids, [r.get("runtime_s") for r in rows])
     lines = [",".join(BOP_COLUMNS)]
     for r, (scene, im, obj, scale, centre, R_om) in zip(rows, ids):
@@ -165,6 +176,44 @@ def export_bop(
     return len(rows)
 
 
+def pose_problem(T: Any) -> str | None:
+    """Why a stored ``T_est`` is not a rigid transform (16 numbers, a rotation within
+    :data:`~catpose.bench.interop.prediction_checks.ROTATION_TOL`, a finite translation, last row
+    ``[0, 0, 0, 1]``), None when it is one."""
+    from catpose.bench.interop.prediction_checks import rotation_problem
+
+    a = np.asarray(T, dtype=object).reshape(-1)
+    try:
+        M = np.asarray(a, float)
+    except (TypeError, ValueError):
+        return "is not 16 numbers"
+    if M.size != 16 or not np.isfinite(M).all():
+        return f"is not 16 finite numbers ({M.size} values)"
+    M = M.reshape(4, 4)
+    if np.abs(M[3] - [0, 0, 0, 1]).max() > 1e-9:
+        return f"has the last row {M[3].tolist()}, not [0, 0, 0, 1]"
+    why = rotation_problem(M[:3, :3])
+    return None if why is None else f"is not a rotation and translation ({why})"
+
+
+def check_dataset_name(out_csv: str | Path, run: Any) -> None:
+    """The ``DATASET`` of ``METHOD_DATASET-SPLIT.csv`` must be the run's dataset (the BOP toolkit
+    scores the file against the dataset it names); a run of the generic ``dataset=bop`` config,
+    whose name says nothing of the dataset, may be named as its user knows it."""
+    from catpose.bench.scoring.bop_eval import check_results_filename
+    from catpose.errors import InvalidInputError
+
+    _, named, split = check_results_filename(out_csv)
+    node = run.config.get("dataset")
+    dataset = str(node.get("name")) if isinstance(node, dict) and node.get("name") else str(run.info.get("dataset", ""))
+    if dataset and dataset != "bop" and named != dataset:
+        method = Path(out_csv).name.split("_", 1)[0]
+        raise InvalidInputError(
+            f"--out {Path(out_csv).name} names dataset {named!r}, but run {run.path} is of dataset {dataset!r}; "
+            f"name it {method}_{dataset}-{split}.csv"
+        )
+
+
 def main(argv: list[str] | None = None) -> int:
     """``bench export RUN_DIR --out METHOD_DATASET-SPLIT.csv``."""
     ap = argparse.ArgumentParser(prog="bench export", description="Export a run's estimates as a BOP results CSV.")
@@ -175,17 +224,16 @@ def main(argv: list[str] | None = None) -> int:
         help="CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the "
         "BOP toolkit requires; a <out>.map.csv with the id mapping is written beside it",
     )
+    ap.add_argument("--force", action="store_true", help="replace an existing --out (and its .map.csv)")
     args = ap.parse_args(argv)
-    skipped: list[str] = []
-    try:
-        n = export_bop(args.run, args.out, skipped=skipped)
-    except OSError as e:  # an unwritable or full --out folder: one line (the old file, if any, is kept)
-        from catpose.errors import InvalidInputError
+    from catpose.bench.run.overwrite import Input, check_output, output_errors
 
-        raise InvalidInputError(
-            f"cannot write --out {args.out} ({e.strerror or type(e).__name__}); pass a path in "
-            "a writable folder with free space"
-        ) from None
+    inputs = [Input(Path(args.run), "the input run")]  # before any work (docs/file-safety.md)
+    check_output(args.out, "file", inputs, args.force, example="method_ycbv-test.csv")
+    check_output(str(args.out) + ".map.csv", "file", inputs, args.force)
+    skipped: list[str] = []
+    with output_errors(args.out):  # a read-only folder or a full disk: one line, the old file, if any, kept
+        n = export_bop(args.run, args.out, skipped=skipped)
     for line in skipped:
         log.warning("skipped: %s", line)
     print(f"wrote {n} estimates to {args.out}")

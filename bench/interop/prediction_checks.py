@@ -30,27 +30,74 @@ _INT = re.compile(r"^[+-]?\d+$")
 
 
 def read_csv_text(path: Path):
-    """The CSV at ``path`` as a DataFrame of strings, or one line saying why it is not one."""
+    """The CSV at ``path`` as a DataFrame of strings with a ``line`` column (each row's line in the
+    file, blank lines counted), or one line saying why it is not one: an empty or binary file, a
+    header naming a column twice, a row with more or fewer fields than the header."""
+    import csv
+    import io
+
     import pandas as pd
 
     if path.is_dir():
         raise InvalidInputError(f"predictions file {path} is a folder; pass the CSV file")
+    data = path.read_bytes()
     try:
-        return pd.read_csv(path, dtype=str, keep_default_na=False)
-    except pd.errors.EmptyDataError:
-        raise InvalidInputError(
-            f"predictions file {path} is empty; write a header (BOP: scene_id,im_id,obj_id,"
-            "score,R,t,time; per sample: sample_id,R,t) and one row per estimate"
-        ) from None
+        text = data.decode("utf-8-sig")
+        if "\x00" in text:
+            raise UnicodeDecodeError("utf-8", data, 0, 1, "NUL byte")
     except UnicodeDecodeError:
         raise InvalidInputError(
             f"predictions file {path} is not a text CSV (binary data, e.g. a .npy); write the "
             "estimates as a BOP results CSV or a per-sample CSV (sample_id,R,t)"
         ) from None
-    except pd.errors.ParserError as e:
+    reader = csv.reader(io.StringIO(text, newline=""))
+    header, rows, last = None, [], 0
+    try:
+        for fields in reader:
+            line, last = last + 1, reader.line_num
+            if not fields or all(not f.strip() for f in fields):
+                continue  # a blank line: skipped, but counted
+            if header is None:
+                header = [f.strip() for f in fields]
+                twice = sorted({c for c in header if header.count(c) > 1})
+                if twice:
+                    raise InvalidInputError(
+                        f"{path}:{line}: the header names {', '.join(twice)} twice; name each column once"
+                    )
+                continue
+            if len(fields) != len(header):
+                raise InvalidInputError(
+                    f"{path}:{line}: {len(fields)} fields, but the header has {len(header)} ({','.join(header)}); "
+                    "write one value per column (R and t: numbers separated by spaces, not commas)"
+                )
+            rows.append([*fields, line])
+    except csv.Error as e:
         raise InvalidInputError(
-            f"predictions file {path} is not a well-formed CSV ({' '.join(str(e).split())[:100]})"
+            f"predictions file {path} is not a well-formed CSV (line {reader.line_num}: {e})"
         ) from None
+    if header is None:
+        raise InvalidInputError(
+            f"predictions file {path} is empty; write a header (BOP: scene_id,im_id,obj_id,"
+            "score,R,t,time; per sample: sample_id,R,t) and one row per estimate"
+        )
+    if "line" in header:
+        raise InvalidInputError(f"{path}:1: a column named 'line' is not part of either format; remove it")
+    df = pd.DataFrame(rows, columns=[*header, "line"], dtype=object)
+    df["line"] = df["line"].astype(int)
+    return df
+
+
+def number_or_empty(value: Any, column: str, where: str, required: bool = False) -> float:
+    """A ``score`` or ``time`` cell as a float: NaN when empty (and not ``required``), one line
+    naming the cell otherwise."""
+    text = str(value if value is not None else "").strip()
+    if not text and not required:
+        return float("nan")
+    try:
+        return float(text)
+    except ValueError:
+        need = "a number" if required else "a number or empty"
+        raise InvalidInputError(f"{where}: {column} must be {need}, got {text[:20]!r}") from None
 
 
 def check_ids(record: dict, kind: str, where: str) -> None:

@@ -37,17 +37,20 @@ def _floats(text: Any, n: int, where: str) -> np.ndarray:
     return v
 
 
-def read_predictions(path: str | Path):
+def read_predictions(path: str | Path, inverse: bool = False):
     """Read a BOP or per-sample predictions CSV into a DataFrame with a ``T`` column.
 
     ``T`` is the file's (4, 4) pose as written (BOP: ``T_camera_model`` in mm; per-sample:
-    ``T_template_camera``); ``kind`` is ``"bop"`` or ``"sample"``. Every row is checked
-    (:mod:`catpose.bench.interop.prediction_checks`: integer ids, a rotation, a finite
-    translation); a bad one is refused in one line naming the file and the line.
+    ``T_template_camera``; with ``inverse``, a per-sample file holds ``T_camera_template`` and
+    each pose is inverted); ``kind`` is ``"bop"`` or ``"sample"``; ``line`` is each row's line in
+    the file. Every row is checked (:mod:`catpose.bench.interop.prediction_checks`: as many fields
+    as the header, integer ids, a rotation, a finite translation, numeric ``score`` and ``time``);
+    a bad one is refused in one line naming the file and the line.
     """
     import pandas as pd
 
-    from catpose.bench.interop.prediction_checks import check_ids, check_pose, read_csv_text
+    from catpose.bench.interop.prediction_checks import check_ids, check_pose, number_or_empty, read_csv_text
+    from catpose.geometry import invert_T
 
     path = Path(path)
     if not path.exists():
@@ -60,21 +63,27 @@ def read_predictions(path: str | Path):
         kind = "sample"
     else:
         raise InvalidInputError(
-            f"{path}: header {list(df.columns)} is neither BOP (scene_id,im_id,obj_id,score,R,t,time) "
+            f"{path}: header {[c for c in df.columns if c != 'line']} is neither BOP (scene_id,im_id,obj_id,score,R,t,time) "
             "nor per-sample (sample_id,R,t[,score][,time])"
         )
-    Ts = []
-    for k, r in enumerate(df.to_dict("records"), 2):
-        check_ids(r, kind, f"{path}:{k}")
+    if inverse and kind == "bop":
+        raise InvalidInputError(
+            f"--inverse: {path} is a BOP results CSV, whose poses are T_camera_model; drop --inverse"
+        )
+    Ts, scores, times = [], [], []
+    for r in df.to_dict("records"):
+        where = f"{path}:{r['line']}"
+        check_ids(r, kind, where)
         T = np.eye(4)
-        T[:3, :3] = _floats(r["R"], 9, f"{path}:{k} R").reshape(3, 3)
-        T[:3, 3] = _floats(r["t"], 3, f"{path}:{k} t")
-        check_pose(T, f"{path}:{k}")
-        Ts.append(T)
+        T[:3, :3] = _floats(r["R"], 9, f"{where} R").reshape(3, 3)
+        T[:3, 3] = _floats(r["t"], 3, f"{where} t")
+        check_pose(T, where)
+        Ts.append(invert_T(T) if inverse else T)
+        scores.append(number_or_empty(r.get("score"), "score", where, required=kind == "bop" and "score" in r))
+        times.append(number_or_empty(r.get("time"), "time", where, required=kind == "bop" and "time" in r))
     df["T"] = pd.Series(Ts, index=df.index, dtype=object)
-    df["line"] = list(range(2, len(df) + 2))  # the file's line of each row, for the counts people read
-    df["score"] = pd.to_numeric(df["score"], errors="coerce") if "score" in df else np.nan
-    df["time"] = pd.to_numeric(df["time"], errors="coerce") if "time" in df else np.nan
+    df["score"] = pd.Series(scores, index=df.index, dtype=float)
+    df["time"] = pd.Series(times, index=df.index, dtype=float)
     df.attrs["kind"] = kind
     return df
 

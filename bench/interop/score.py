@@ -21,9 +21,10 @@ import numpy as np
 
 from catpose import atomic
 from catpose.bench.interop.bop_export import bop_ids
+from catpose.bench.interop.bop_score import DEFAULT_BOP_METRICS, bop_metrics, is_bop_dataset, score_bop
 from catpose.bench.interop.prediction_checks import key_text
 from catpose.bench.interop.prediction_io import read_mapping, read_predictions
-from catpose.bench.run.overwrite import check_new_output
+from catpose.bench.run.overwrite import Input, check_output, write_error_text
 from catpose.bench.run.rundir import write_run_into
 from catpose.errors import DatasetError, InvalidInputError
 
@@ -209,6 +210,10 @@ def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
     from catpose.bench.report.tables import load_run
 
     run = load_run(run_dir)
+    if run.incomplete:  # its missing samples cannot be scored: said, not hidden
+        import warnings
+
+        warnings.warn(f"--gt: {run.incomplete}", stacklevel=2)
     s = run.samples
     if len(s) == 0 or "T_gt" not in s:
         raise DatasetError(f"run {run_dir} has no ground truth rows; pass a run written by `bench run`")
@@ -294,9 +299,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument(
         "--metrics",
-        default=",".join(DEFAULT_BOP_METRICS),
+        default=None,
         help="BOP datasets: comma-separated recalls, e.g. ar,ar_mssd,ar_mspd,ar_vsd,adds@0.1,add@0.1,mssd@0.2,"
-        "mspd@10,5deg5cm,10deg10cm",
+        "mspd@10,5deg5cm,10deg10cm (default: " + ",".join(DEFAULT_BOP_METRICS) + "; without ar, ar_vsd with --no-vsd)",
     )
     ap.add_argument("--by", default="object,category", help="BOP datasets: rows per object and/or category")
     ap.add_argument(
@@ -311,7 +316,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--inverse",
         action="store_true",
-        help=".npy/.npz transforms: they map the template onto the observation (T_camera_template); invert them",
+        help=".npy/.npz transforms or a per-sample CSV: they map the template onto the observation "
+        "(T_camera_template); invert them (not for a BOP CSV, whose convention is fixed)",
     )
     ap.add_argument(
         "--acc",
@@ -328,6 +334,7 @@ def main(argv: list[str] | None = None) -> int:
         help="also print the area under the accuracy curve from 0 to DEG degrees, over DEG",
     )
     args = ap.parse_args(argv)
+    args.metrics = bop_metrics(args.metrics, args.no_vsd)
     if args.method is None:
         from catpose.bench.scoring.bop_eval import check_results_filename
 
@@ -339,20 +346,27 @@ def main(argv: list[str] | None = None) -> int:
             ) from None
     if bool(args.gt) == bool(args.dataset):
         raise InvalidInputError("pass exactly one of --gt RUN_DIR or --dataset NAME")
-    out = Path(args.out)
-    # before any work: no run is written over (bench/run/overwrite.py), the --gt run never
-    check_new_output(out, args.force, protected=Path(args.gt) if args.gt else None)
+    # before any work: no input and no other run is written over (bench/run/overwrite.py), the --gt run never
+    inputs = [Input(Path(args.predictions), "the predictions file")]
+    inputs += [Input(Path(p), what) for p, what in ((args.gt, "the --gt run"), (args.map, "the --map file")) if p]
+    if args.ids:
+        inputs.append(Input(Path(args.ids), "the --ids file"))
+    out = check_output(args.out, "folder", inputs, args.force, replaces="run")
+    from catpose.bench.interop.transform_arrays import is_transform_array
+
+    if args.inverse and not is_transform_array(args.predictions):
+        check_inverse_csv(args.predictions)
     gt_rows, config = (
         gt_rows_from_run(args.gt)
         if args.gt
         else gt_rows_from_config(args.dataset, args.protocol, args.seed, args.override)
     )
-    from catpose.bench.interop.transform_arrays import is_transform_array, read_transform_arrays
+    from catpose.bench.interop.transform_arrays import read_transform_arrays
 
     preds = (
         read_transform_arrays(args.predictions, args.ids, args.inverse)
         if is_transform_array(args.predictions)
-        else read_predictions(args.predictions)
+        else read_predictions(args.predictions, inverse=args.inverse)
     )
     map_path = Path(args.map) if args.map else Path(str(args.predictions) + ".map.csv")
     if args.map and not map_path.is_file():
@@ -368,7 +382,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with atomic.building_dir(out) as tmp:
             write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
-            if preds.attrs["kind"] == "bop" and _is_bop_dataset(config.get("dataset")):
+            if preds.attrs["kind"] == "bop" and is_bop_dataset(config.get("dataset")):
                 bop_text = score_bop(
                     preds,
                     config["dataset"],
@@ -383,9 +397,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.acc or args.auc is not None:
                 thresholds = _threshold_summary(rows, tmp, args.acc or "", args.auc)
     except OSError as e:  # an unwritable or full --out: one line, nothing left behind
-        raise InvalidInputError(
-            f"cannot write --out {out} ({e.strerror or type(e).__name__}); pass a writable folder with free space"
-        ) from None
+        raise InvalidInputError(write_error_text(args.out, e)) from None
     print(count_text(stats))
     print(f"run directory {out}")
     print(summary)
@@ -395,6 +407,20 @@ def main(argv: list[str] | None = None) -> int:
     if bop_text:
         print(bop_text)
     return 0
+
+
+def check_inverse_csv(path: str | Path) -> None:
+    """``--inverse`` applies to per-sample files only: a BOP results CSV's poses are
+    ``T_camera_model`` by definition, so inverting them is refused rather than ignored."""
+    first = ""
+    if Path(path).is_file():
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            first = next((ln for ln in fh if ln.strip()), "")
+    if {"scene_id", "im_id", "obj_id"} <= {c.strip() for c in first.split(",")}:
+        raise InvalidInputError(
+            f"--inverse: {path} is a BOP results CSV, whose R, t are T_camera_model by definition; drop "
+            "--inverse (it applies to per-sample CSVs and .npy/.npz transforms)"
+        )
 
 
 def _object_summary(rows: Sequence[dict], out_dir: Path) -> str:
@@ -421,70 +447,4 @@ def _threshold_summary(rows: Sequence[dict], out_dir: Path, acc: str, auc: float
     keys = threshold_keys(acc, auc)
     text = threshold_table(pd.DataFrame(list(rows)), keys).to_markdown(index=False, floatfmt=".3f")
     atomic.write_text(Path(out_dir) / "summary_thresholds.md", text + "\n")
-    return text
-
-
-DEFAULT_BOP_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
-
-
-def _is_bop_dataset(node: Any) -> bool:
-    return isinstance(node, dict) and str(node.get("_target_", "")).endswith("datasets.bop.BOP")
-
-
-def evaluation_models(dataset_cfg: dict) -> dict:
-    """The dataset config BOP's errors are computed with: ``models_dir: models_eval`` when the
-    dataset has that folder (the BOP toolkit's evaluation models, uniformly resampled surfaces),
-    whatever the run registered against; the config as it is otherwise."""
-    root = dataset_cfg.get("root")
-    if (
-        root
-        and dataset_cfg.get("models_dir", "models") == "models"
-        and (Path(str(root)) / "models_eval" / "models_info.json").is_file()
-    ):
-        return dict(dataset_cfg, models_dir="models_eval")
-    return dataset_cfg
-
-
-def score_bop(
-    preds,
-    dataset_cfg: dict,
-    out_dir: str | Path,
-    method: str,
-    metrics: Sequence[str],
-    by: Sequence[str],
-    vsd: bool = True,
-) -> str:
-    """BOP metrics of a BOP results CSV on the dataset of ``dataset_cfg`` (a resolved config
-    dict): writes ``bop_errors.jsonl`` and ``bop_summary.md`` into ``out_dir`` and returns the
-    summary (which states the target and visibility filters applied, and the models used: the
-    dataset's ``models_eval/`` when present, :func:`evaluation_models`)."""
-    from catpose.bench.run.build import build_from_config
-    from catpose.bench.scoring.bop_eval import ERRORS_FILE, compute_errors, format_scores, score_table, write_errors
-
-    dataset_cfg = evaluation_models(dataset_cfg)
-    _, ds = build_from_config(dict(dataset_cfg), "dataset")
-    errs = compute_errors(preds, ds, vsd=vsd)
-    instances: dict[tuple, int] = {}
-    for r in errs:
-        key = (int(r["scene_id"]), int(r["im_id"]), int(r["obj_id"]))
-        instances[key] = instances.get(key, 0) + 1
-    estimates: dict[tuple, int] = {}
-    for p in preds.to_dict("records"):
-        key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"]))
-        estimates[key] = estimates.get(key, 0) + 1
-    filters = list(getattr(ds, "filters", [])) + [f"models: {dataset_cfg.get('models_dir', 'models')}/"]
-    header = {
-        "method": method,
-        "filters": filters,
-        "targets": len(errs),
-        "matched": int(sum(r["matched"] for r in errs)),
-        # ignored, and said so: estimates of no target, and those beyond an (image, object)'s instances
-        "unknown_estimates": sum(n for k, n in estimates.items() if k not in instances),
-        "extra_estimates": sum(max(0, n - instances[k]) for k, n in estimates.items() if k in instances),
-    }
-    write_errors(errs, Path(out_dir) / ERRORS_FILE, header)
-    import pandas as pd
-
-    text = f"BOP metrics ({method}):\n" + format_scores(score_table(pd.DataFrame(errs), metrics, by), header)
-    atomic.write_text(Path(out_dir) / "bop_summary.md", text + "\n")
     return text

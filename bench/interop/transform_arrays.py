@@ -50,23 +50,47 @@ def _first(data, keys: Sequence[str]):
     return None
 
 
+def _real(a: np.ndarray, where: str, what: str) -> np.ndarray:
+    """``a`` as float64 if it holds real numbers (ints or floats); one line naming its type otherwise
+    (bool, complex, strings: a wrong array saved, not a pose)."""
+    kind = np.asarray(a).dtype.kind
+    if kind not in "iuf":
+        name = {"b": "true/false values", "c": "complex numbers", "U": "text", "S": "bytes", "O": "objects"}.get(
+            kind, str(np.asarray(a).dtype)
+        )
+        raise InvalidInputError(f"{where}: {what} holds {name} ({np.asarray(a).dtype}); save real numbers (float64)")
+    return np.asarray(a, float)
+
+
 def as_transforms(array: np.ndarray, where: str) -> np.ndarray:
     """``(B, 3, 4)`` or ``(B, 4, 4)`` (a single ``(3, 4)`` / ``(4, 4)`` too) as ``(B, 4, 4)``
-    float64 homogeneous transforms; one line naming ``where`` and the shape otherwise."""
+    float64 homogeneous transforms; one line naming ``where`` and what is wrong otherwise (the
+    shape, the type, a NaN, a last row of a ``(4, 4)`` that is not ``[0, 0, 0, 1]``)."""
     a = np.asarray(array)
     if a.ndim == 2:
         a = a[None]
-    if a.ndim != 3 or a.shape[1:] not in ((3, 4), (4, 4)) or not np.issubdtype(a.dtype, np.number):
+    if a.ndim != 3 or a.shape[1:] not in ((3, 4), (4, 4)):
         raise InvalidInputError(
-            f"{where}: expected transforms of shape (B, 3, 4) or (B, 4, 4), got {a.shape} "
-            f"{a.dtype}; save e.g. np.save(file, pred_transforms) with pred_transforms (B, 3, 4)"
+            f"{where}: expected transforms of shape (B, 3, 4) or (B, 4, 4), got {a.shape}; "
+            "save e.g. np.save(file, pred_transforms) with pred_transforms (B, 3, 4)"
         )
-    T = np.zeros((len(a), 4, 4))
-    T[:, :3, :] = a[:, :3, :].astype(float)
-    T[:, 3, 3] = 1.0
-    bad = np.flatnonzero(~np.isfinite(T).all(axis=(1, 2)))
+    if len(a) == 0:
+        raise InvalidInputError(f"{where}: holds no transforms (shape {a.shape}); save at least one")
+    a = _real(a, where, "the transforms")
+    bad = np.flatnonzero(~np.isfinite(a).all(axis=(1, 2)))
     if bad.size:
         raise InvalidInputError(f"{where}: transform {int(bad[0])} has a NaN or infinite value")
+    if a.shape[1] == 4:  # the last row of a homogeneous transform is fixed: anything else is not a pose
+        off = np.flatnonzero(np.abs(a[:, 3, :] - [0.0, 0.0, 0.0, 1.0]).max(axis=1) > 1e-6)
+        if off.size:
+            k = int(off[0])
+            raise InvalidInputError(
+                f"{where}: transform {k} has the last row {a[k, 3].tolist()}, not [0, 0, 0, 1]; save (B, 4, 4) "
+                "homogeneous transforms [[R, t], [0, 0, 0, 1]] (t in the last column), or (B, 3, 4) [R | t]"
+            )
+    T = np.zeros((len(a), 4, 4))
+    T[:, :3, :] = a[:, :3, :]
+    T[:, 3, 3] = 1.0
     return T
 
 
@@ -96,6 +120,14 @@ def read_transform_arrays(path: str | Path, ids: str | Path | Sequence[str] | No
     if not path.is_file():
         raise DatasetError(f"predictions file {path} does not exist")
     scores = times = file_ids = None
+    magic = {".npy": b"\x93NUMPY", ".npz": b"PK"}[path.suffix.lower()]
+    with open(path, "rb") as fh:
+        head = fh.read(len(magic))
+    if head != magic:
+        raise InvalidInputError(
+            f"{path}: not a NumPy {path.suffix.lower()} file ({'an empty file' if not head else 'no NumPy header'}); "
+            "write it with np.save (.npy) or np.savez (.npz)"
+        )
     try:
         if path.suffix.lower() == ".npy":
             T = as_transforms(np.load(path, allow_pickle=False), str(path))
@@ -110,22 +142,36 @@ def read_transform_arrays(path: str | Path, ids: str | Path | Sequence[str] | No
                             f"(or R and t), found {', '.join(data.files) or 'nothing'}"
                         )
                     R, t = np.asarray(R), np.asarray(t)
-                    if R.ndim != 3 or R.shape[1:] != (3, 3) or t.reshape(len(R), -1).shape[1] != 3:
+                    if R.ndim != 3 or R.shape[1:] != (3, 3) or t.shape not in ((len(R), 3), (len(R), 3, 1)):
                         raise InvalidInputError(
                             f"{path}: rotations {R.shape} and translations {t.shape} must be (B, 3, 3) and (B, 3)"
                         )
-                    arr = np.concatenate([R, t.reshape(len(R), 3, 1)], axis=2)
+                    arr = np.concatenate([_real(R, str(path), "R"), _real(t, str(path), "t").reshape(len(R), 3, 1)], 2)
                 T = as_transforms(arr, str(path))
                 file_ids = _first(data, ID_KEYS)
                 scores, times = _first(data, ("scores", "score")), _first(data, ("times", "time"))
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as e:  # not a NumPy file (or cut off), or an
-        # object array (pickles are refused)
+    except InvalidInputError:
+        raise
+    except ValueError as e:  # np.load refuses pickles: an object array (a list of arrays, None, dicts)
+        why = str(e).splitlines()[0] if str(e) else type(e).__name__
+        if "allow_pickle" in why or "Object arrays" in why:
+            raise InvalidInputError(
+                f"{path}: holds an object array (pickled Python objects), which is not read; save numeric arrays "
+                "with np.save / np.savez (e.g. np.stack the transforms into one (B, 3, 4) array)"
+            ) from None
         raise InvalidInputError(
-            f"{path}: not a readable NumPy array file ({str(e).splitlines()[0]}); "
-            "write it with np.save / np.savez, without object arrays"
+            f"{path}: not a readable NumPy array file ({why}); write it with np.save / np.savez"
+        ) from None
+    except (OSError, EOFError, zipfile.BadZipFile) as e:  # not a NumPy file, or cut off
+        why = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise InvalidInputError(
+            f"{path}: not a readable NumPy array file ({why}); write it with np.save / np.savez (a cut-off file: "
+            "write it again)"
         ) from None
     if file_ids is not None:
-        id_list = [str(i) for i in np.asarray(file_ids).reshape(-1)]
+        id_list = [
+            i.decode("utf-8", "replace") if isinstance(i, bytes) else str(i) for i in np.asarray(file_ids).reshape(-1)
+        ]
     elif ids is None:
         raise InvalidInputError(
             f"{path} holds no sample ids: pass --ids FILE (one sample id per line, in the "
@@ -148,9 +194,11 @@ def read_transform_arrays(path: str | Path, ids: str | Path | Sequence[str] | No
     def per_sample(values, name: str) -> list[float]:
         if values is None:
             return [float("nan")] * len(T)
-        v = np.asarray(values, float).reshape(-1)
+        v = _real(values, str(path), name).reshape(-1)
         if len(v) != len(T):
-            raise InvalidInputError(f"{path}: {name} has {len(v)} values for {len(T)} transforms")
+            raise InvalidInputError(
+                f"{path}: {name} has {len(v)} values for {len(T)} transforms; give one per transform"
+            )
         return v.tolist()
 
     df = pd.DataFrame(

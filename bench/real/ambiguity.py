@@ -224,8 +224,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--split", help="configs/split/<name>.yaml: one block of rows per part")
     parser.add_argument("--title", default="Wrong estimates: search miss or ambiguous to the depth check")
     parser.add_argument("--wrong-deg", type=float, default=WRONG_DEG)
+    parser.add_argument("--force", action="store_true", help="replace an existing --out (and the .csv beside it)")
     args = parser.parse_args(argv)
     try:
+        from catpose.bench.run.overwrite import check_output, input_runs, output_errors
+
+        for path in (args.out, args.out.with_suffix(".csv")):  # before any work (docs/file-safety.md)
+            check_output(path, "file", input_runs(args.runs), args.force)
         split = load_split(args.split) if args.split else None
         rows: list[dict] = []
         for run in args.runs:
@@ -241,8 +246,11 @@ def main(argv: list[str] | None = None) -> int:
         summary = table(rows, part_of)
         import pandas as pd
 
-        atomic.write_text(args.out.with_suffix(".csv"), pd.DataFrame(summary).to_csv(index=False, float_format="%.4f"))
-        atomic.write_text(args.out, markdown(args.title, summary))
+        with output_errors(args.out):
+            atomic.write_text(
+                args.out.with_suffix(".csv"), pd.DataFrame(summary).to_csv(index=False, float_format="%.4f")
+            )
+            atomic.write_text(args.out, markdown(args.title, summary))
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

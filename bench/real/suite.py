@@ -309,7 +309,13 @@ def main(argv: list[str]) -> int:
         default=None,
         help="also write per-object tables of every split part to this Markdown file",
     )
+    parser.add_argument("--force", action="store_true", help="replace an existing --write / --objects file")
     args = parser.parse_args(argv)
+    from catpose.bench.run.overwrite import check_output, input_runs, output_errors
+
+    for flag, path in (("--write", args.write), ("--objects", args.objects)):  # before any work (docs/file-safety.md)
+        if path is not None:
+            check_output(path, "file", input_runs([args.output_root]) if args.output_root else (), args.force, flag)
 
     suite_sets = SUITES[args.suite]
     if args.parts:
@@ -354,11 +360,13 @@ def main(argv: list[str]) -> int:
     from catpose import atomic
 
     if args.write:
-        atomic.write_text(args.write, table + "\n")
+        with output_errors(args.write, "--write"):
+            atomic.write_text(args.write, table + "\n")
     if args.objects:
         from catpose.bench.real.suite_parts import object_tables
 
-        atomic.write_text(
-            args.objects, object_tables(results, suite_sets, [s for s in sets if s not in skipped], methods) + "\n"
-        )
+        with output_errors(args.objects, "--objects"):
+            atomic.write_text(
+                args.objects, object_tables(results, suite_sets, [s for s in sets if s not in skipped], methods) + "\n"
+            )
     return 0

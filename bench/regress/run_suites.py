@@ -465,7 +465,16 @@ def main(argv: list[str] | None = None) -> int:
         unknown = [s for s in names if s not in suites]
         if unknown:
             raise ConfigError(f"unknown suite(s) {unknown}; configured: {list(suites)}")
-        wanted = args.methods.split(",") if args.methods else None
+        wanted = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods is not None else None
+        if wanted is not None:  # a name no selected suite lists would be skipped and the gate "pass"
+            known = sorted({m for n in names for m in suites[n].methods})
+            unknown = [m for m in wanted if m not in known]
+            if unknown or not wanted:
+                raise ConfigError(
+                    f"--methods {','.join(unknown) or repr(args.methods)}: not a method of the suites run "
+                    f"({', '.join(names)}); choose among {', '.join(known)}"
+                )
+        checked = 0
         findings: list[Finding] = []
         notes: list[str] = []
         emitted: dict = {}
@@ -493,6 +502,7 @@ def main(argv: list[str] | None = None) -> int:
             found, more = check_suite(suite, methods, gate, args.jobs)
             findings += found
             notes += more
+            checked += sum(not any(n.startswith(f"{name}/{m}: no reference") for n in more) for m in methods)
         if args.emit_estimates:
             from catpose import atomic
 
@@ -518,7 +528,13 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 1
     if not (args.update or args.write_inputs):
-        print(f"regress: passed ({len(findings)} samples moved within what the gate allows)")
+        if checked == 0:  # every suite or method skipped: nothing passed
+            print(
+                command_error("regress", "nothing was checked (every suite or method was skipped, see the notes)"),
+                file=sys.stderr,
+            )
+            return 2
+        print(f"regress: passed ({len(findings)} samples moved within what the gate allows; {checked} methods checked)")
     return 0
 
 

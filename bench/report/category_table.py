@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from catpose.errors import CatposeError, ConfigError
+from catpose.errors import ConfigError
 
 STATS = ("mean", "median", "acc10", "acc30")
 
@@ -83,7 +83,9 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
         samples = samples[samples["category"].astype(str) == category]
     if len(samples) == 0:
         return []
-    K = int(samples.groupby("group_id").size().max())
+    sizes = samples.groupby("group_id").size()
+    K = max(int(sizes.max()), templates_per_view(samples))
+    incomplete = int((sizes < K).sum())  # views registered to fewer than their K templates (a limit, a kill)
     out = []
     run_rule = rule_of(run)
     own_rule = run_rule.rule
@@ -95,11 +97,34 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
     for choice in rules:
         units = Templates(choice=dataclasses.replace(run_rule, rule=choice)).best_per_view(samples)
         row = {"K": K, "views": len(units), "choice": choice if K > 1 or one_template_turns else "-"}
+        row["incomplete_views"] = incomplete
         row.update({f"chosen_{k}": v for k, v in error_stats(row_errors(units)).items()})
         row.update({f"oracle_{k}": v for k, v in error_stats(units["oracle_err_deg"].to_numpy(float)).items()})
         row.update({f"random_{k}": v for k, v in error_stats(row_errors(samples)).items()})
         out.append(row)
     return out
+
+
+def templates_per_view(samples) -> int:
+    """The K a templates run registered each view to, as its rows record it: the number of
+    templates each estimate was checked on (``info.cross_costs``, one cost per template of the
+    view; stored when K > 1); 0 when no row says."""
+    counts = [len(i["cross_costs"]) for i in samples.get("info", []) if isinstance(i, dict) and i.get("cross_costs")]
+    return max(counts, default=0)
+
+
+def notes(rows: list[dict], runs_incomplete: Sequence[str] = ()) -> list[str]:
+    """What the table's figures leave out: views registered to fewer templates than their K (one
+    line per method and K), and runs that did not finish."""
+    out: dict[tuple, str] = {}
+    for r in rows:
+        if r.get("incomplete_views"):
+            out[(r["method"], r["K"])] = (
+                f"{r['method']} (K = {r['K']}): {r['incomplete_views']} of {r['views']} views were registered to "
+                f"fewer than {r['K']} templates (an incomplete run: limit=, or stopped); their chosen and oracle "
+                "errors are over the templates they have"
+            )
+    return list(out.values()) + [f"Incomplete: {why}" for why in dict.fromkeys(runs_incomplete)]
 
 
 def run_dirs(paths: Sequence[str | Path]) -> list[Path]:
@@ -118,8 +143,11 @@ def run_dirs(paths: Sequence[str | Path]) -> list[Path]:
     return list(dict.fromkeys(out))
 
 
-def build(paths: Sequence[str | Path], category: str | None, choices: Sequence[str]) -> list[dict]:
-    """Rows for every templates run below ``paths`` (others are skipped), sorted by K then label."""
+def build(
+    paths: Sequence[str | Path], category: str | None, choices: Sequence[str], incomplete: list[str] | None = None
+) -> list[dict]:
+    """Rows for every templates run below ``paths`` (others are skipped), sorted by K then label;
+    ``incomplete`` (a list, optional) receives why a run did not finish, for each such run."""
     from catpose.bench.report.labels import run_labels
     from catpose.bench.report.runs import load_run
     from catpose.methods.choice_rules import check_rule
@@ -131,18 +159,25 @@ def build(paths: Sequence[str | Path], category: str | None, choices: Sequence[s
         raise ConfigError(f"no run of protocol=templates below {', '.join(map(str, paths))}")
 
     def K_of(run) -> str:  # runs are labelled apart only within one K
-        return str(int(run.samples.groupby("group_id").size().max())) if len(run.samples) else "0"
+        s = run.samples
+        return str(max(int(s.groupby("group_id").size().max()), templates_per_view(s))) if len(s) else "0"
 
+    if incomplete is not None:
+        incomplete += [r.incomplete for r in runs if r.incomplete]
     rows = []
     for run, label in zip(runs, run_labels(runs, group_of=K_of)):
         for r in run_rows(run, category, choices):
             rows.append({"method": label, **r})
+    if not rows and category is not None:
+        have = sorted({str(c) for r in runs for c in r.samples.get("category", [])})
+        raise ConfigError(f"--category {category}: no templates run here has it; they have {', '.join(have) or 'none'}")
     order = {c: i for i, c in enumerate(choices)}
     return sorted(rows, key=lambda r: (r["K"], r["method"], order.get(r["choice"], -1)))
 
 
-def to_markdown(rows: list[dict], title: str = "") -> str:
-    """A Markdown table: K, method, choice, then chosen | oracle | random mean / median / @10 / @30."""
+def to_markdown(rows: list[dict], title: str = "", notes_: Sequence[str] = ()) -> str:
+    """A Markdown table: K, method, choice, then chosen | oracle | random mean / median / @10 / @30;
+    ``notes_`` (:func:`notes`) below it."""
     head = ["K", "method", "choice", "views"] + [
         f"{w} {s}" for w in ("chosen", "oracle", "random") for s in ("mean", "median", "@10", "@30")
     ]
@@ -160,13 +195,18 @@ def to_markdown(rows: list[dict], title: str = "") -> str:
                 f"{r[f'{w}_acc30']:.3f}",
             ]
         lines.append("| " + " | ".join(cells) + " |")
+    if notes_:
+        lines += [""] + [f"Note: {n}" for n in notes_]
     return "\n".join(lines) + "\n"
 
 
 def to_csv(rows: list[dict]) -> str:
     import pandas as pd
 
-    return pd.DataFrame(rows).to_csv(index=False, float_format="%.4f")
+    df = pd.DataFrame(rows)
+    if "incomplete_views" in df and not df["incomplete_views"].any():  # the column is there when it says something
+        df = df.drop(columns="incomplete_views")
+    return df.to_csv(index=False, float_format="%.4f")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -178,17 +218,25 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--choices", default="score", help="comma-separated choice rules (default: score)")
     ap.add_argument("--format", choices=("md", "csv"), default="md")
     ap.add_argument("--title", default="")
-    ap.add_argument("--out", default=None, help="write here instead of printing")
+    ap.add_argument("--out", default=None, help="write here instead of printing (a new file; see --force)")
+    ap.add_argument("--force", action="store_true", help="replace an existing --out (never an input)")
     args = ap.parse_args(argv)
-    try:
-        rows = build(args.paths, args.category, [c.strip() for c in args.choices.split(",") if c.strip()])
-    except CatposeError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    text = to_markdown(rows, args.title) if args.format == "md" else to_csv(rows)
+    if args.out:  # before any work (docs/file-safety.md)
+        from catpose.bench.run.overwrite import check_output, input_runs
+
+        check_output(args.out, "file", input_runs(args.paths), args.force)
+    incomplete: list[str] = []
+    rows = build(args.paths, args.category, [c.strip() for c in args.choices.split(",") if c.strip()], incomplete)
+    said = notes(rows, incomplete)
+    for line in said:  # on stderr too: a CSV has no place for them
+        print(f"bench category: warning: {line}", file=sys.stderr)
+    text = to_markdown(rows, args.title, said) if args.format == "md" else to_csv(rows)
     if args.out:
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(text)
+        from catpose import atomic
+        from catpose.bench.run.overwrite import output_errors
+
+        with output_errors(args.out):
+            atomic.write_text(args.out, text)
         print(f"wrote {len(rows)} rows to {args.out}")
     else:
         print(text, end="")

@@ -81,16 +81,32 @@ def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
     return out
 
 
+#: run-level keys that do not change what a run directory holds (its name leaves them out): the
+#: last command's ``limit=3`` into a run of 12 samples is no label of those 12
+RUN_LEVEL_KEYS = (
+    "output_root",
+    "progress",
+    "print_summary",
+    "limit",
+    "sample_ids",
+    "threads",
+    "batch",
+    "retry_failed",
+    "lock_timeout",
+    "log_level",
+    "shard",
+    "shards",
+)
+
+
 def _overrides(run: Run) -> list[str]:
-    """The command-line overrides the runner recorded beside the run (``overrides.txt``)."""
+    """The command-line overrides the runner recorded beside the run (``overrides.txt``), less the
+    run-level keys (:data:`RUN_LEVEL_KEYS`) and Hydra's own."""
     f = run.path / "overrides.txt"
     if not f.is_file():
         return []
-    return [
-        o.strip().lstrip("+~")
-        for o in f.read_text().splitlines()
-        if o.strip() and not o.startswith(("output_root", "progress", "print_summary", "hydra."))
-    ]
+    out = [o.strip().lstrip("+~") for o in f.read_text().splitlines() if o.strip()]
+    return [o for o in out if o.split("=", 1)[0] not in RUN_LEVEL_KEYS and not o.startswith("hydra.")]
 
 
 def _short(item: str) -> str:
@@ -128,8 +144,23 @@ def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
         )
         parts = [p + [_short(f"{k}={f.get(k)}") for k in keys] for p, f in zip(parts, flats)]
     if not unique(parts):
-        parts = [p + [r.path.name] for p, r in zip(parts, members)]
+        parts = [p + [where] for p, where in zip(parts, _path_labels([r.path for r in members]))]
     return parts
+
+
+def _path_labels(paths: Sequence[Path]) -> list[str]:
+    """What tells run directories apart by their paths: their names (which end in a hash), or, for
+    runs of one configuration under different output roots (the same name), the parts of their
+    paths that differ (``A`` and ``B`` for ``A/.../seed0-default-H`` and ``B/.../seed0-default-H``)."""
+    names = [p.name for p in paths]
+    if len(set(names)) == len(names):
+        return names
+    parts = [Path(p).resolve().parts for p in paths]
+    depth = max(map(len, parts))
+    padded = [tuple(x) + ("",) * (depth - len(x)) for x in parts]
+    differ = [k for k in range(depth) if len({x[k] for x in padded}) > 1]
+    labels = ["/".join(x[k] for k in differ if x[k]) for x in padded]
+    return labels if len(set(labels)) == len(labels) else [str(Path(p).resolve()) for p in paths]
 
 
 def run_labels(

@@ -14,9 +14,9 @@ questions, so they never share a table or a figure):
   failure (:func:`qualitative_picks`), rebuilt from the run's config.
 
 Labels are unique per protocol (:func:`catpose.bench.report.tables.run_labels`). Everything is made
-from the run directories' files. The index links every file the report writes, and files under
-``tables/`` and ``figures/`` that it does not link (an earlier report's into the same folder) are
-removed (:func:`remove_stale_files`), so the folder holds one report.
+from the run directories' files. The folder is built beside ``--out`` and moved into place whole,
+so it holds one report and a failure leaves none; an existing ``--out`` needs ``--force``, and no
+``--out`` may hold, or lie inside, a run it reads (:func:`catpose.bench.run.overwrite.check_output`).
 """
 
 from __future__ import annotations
@@ -112,19 +112,30 @@ def build_report(
     ``notes`` are paragraphs put under the title (how the runs were made); ``pdf`` adds a PDF
     of each summary figure. A run that cannot be read is left out, said so in the index and in
     one line on stderr, and its reason appended to ``left_out`` (the command then exits 2).
+    The folder is built beside ``out`` and moved into place when complete
+    (:func:`catpose.atomic.building_dir`): a failure leaves no half-built report, and an existing
+    ``out`` is replaced whole (whether it may be is :func:`main`'s question,
+    :func:`catpose.bench.run.overwrite.check_output`).
     """
-    from catpose.bench.report import plots, tables
-    from catpose.bench.report.qualitative import plot_sample_from_run
-
-    out = Path(out)
-    (out / "tables").mkdir(parents=True, exist_ok=True)
-    (out / "figures").mkdir(parents=True, exist_ok=True)
     from catpose.bench.report.runs import load_runs, print_left_out
 
     runs, reasons = load_runs(run_dirs)
     print_left_out("report", runs, reasons)
     if left_out is not None:
         left_out.extend(reasons)
+    final = Path(out)
+    with atomic.building_dir(final) as out:  # built aside, moved into place whole (docs/file-safety.md)
+        _write_report(runs, reasons, out, layouts, qualitative, labels, notes, pdf)
+    return final / "index.md"
+
+
+def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes, pdf) -> None:
+    """The files of :func:`build_report` into the new, empty folder ``out``."""
+    from catpose.bench.report import plots, tables
+    from catpose.bench.report.qualitative import plot_sample_from_run
+
+    (out / "tables").mkdir(parents=True, exist_ok=True)
+    (out / "figures").mkdir(parents=True, exist_ok=True)
     by_protocol = tables.split_by_protocol(runs)
     label_of = {id(r): lab for group in by_protocol.values() for r, lab in zip(group, tables.run_labels(group, labels))}
 
@@ -249,33 +260,8 @@ def build_report(
                         "",
                     ]
 
-    index = out / "index.md"
-    atomic.write_text(index, "\n".join(md) + "\n")
+    atomic.write_text(out / "index.md", "\n".join(md) + "\n")
     atomic.write_text(out / "index.html", _html(md))
-    remove_stale_files(out, md)
-    return index
-
-
-REPORT_FOLDERS = ("tables", "figures")
-
-
-def linked_files(md_lines: Sequence[str]) -> set[str]:
-    """The relative paths the index links (``[text](path)`` and ``![alt](path)``)."""
-    return set(re.findall(r"\]\(([^)\s]+)\)", "\n".join(md_lines)))
-
-
-def remove_stale_files(out: Path, md_lines: Sequence[str]) -> list[Path]:
-    """Delete the files under ``out/tables`` and ``out/figures`` that the index does not link:
-    an earlier report's into the same folder (other runs, labels or protocols). Those two
-    folders are the report's own; nothing else under ``out`` is touched. Returns what was removed."""
-    keep = linked_files(md_lines)
-    removed = []
-    for folder in REPORT_FOLDERS:
-        for f in sorted((out / folder).glob("*")):
-            if f.is_file() and f"{folder}/{f.name}" not in keep:
-                f.unlink()
-                removed.append(f)
-    return removed
 
 
 def _inline(text: str) -> str:
@@ -335,7 +321,8 @@ def main(argv: list[str] | None = None) -> int:
         prog="bench report", description="Tables and figures of run directories in one folder."
     )
     ap.add_argument("runs", nargs="+", help="run directories, or folders searched for samples.jsonl")
-    ap.add_argument("--out", required=True)
+    ap.add_argument("--out", required=True, help="the report folder to write (new or empty; see --force)")
+    ap.add_argument("--force", action="store_true", help="replace an existing --out (never a run or an input)")
     ap.add_argument(
         "--layout",
         action="append",
@@ -352,16 +339,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--note", action="append", default=[], help="a paragraph under the title (how the runs were made)")
     ap.add_argument("--no-pdf", action="store_true", help="figures as PNG (+ CSV) only")
     args = ap.parse_args(argv)
+    from catpose.bench.run.overwrite import check_output, input_runs, output_errors
+
+    check_output(args.out, "folder", input_runs(args.runs), args.force)  # before any work
     left_out: list[str] = []
-    index = build_report(
-        args.runs,
-        args.out,
-        args.layout or [],
-        args.qualitative,
-        parse_labels(args.label),
-        args.note,
-        pdf=not args.no_pdf,
-        left_out=left_out,
-    )
+    with output_errors(args.out):
+        index = build_report(
+            args.runs,
+            args.out,
+            args.layout or [],
+            args.qualitative,
+            parse_labels(args.label),
+            args.note,
+            pdf=not args.no_pdf,
+            left_out=left_out,
+        )
     print(f"report written: {index} (and index.html)" + (f"; {len(left_out)} run(s) left out" if left_out else ""))
     return 2 if left_out else 0

@@ -22,12 +22,15 @@ class Run:
         config: the resolved config (``config.yaml``) as a plain dict ({} when absent).
         info: ``run.json`` as a dict ({} when absent).
         samples: per-sample rows (pandas DataFrame with the ``samples.jsonl`` columns).
+        incomplete: why the run is not a finished run (killed, or still running), None when it is
+            (:func:`catpose.bench.run.run_meta.incomplete_reason`); tables, reports and exports say it.
     """
 
     path: Path
     config: dict
     info: dict
     samples: Any
+    incomplete: str | None = None
 
     def _group_name(self, group: str) -> str | None:
         """The name of config group ``group`` (``method``, ``protocol``) in ``config.yaml``, if any."""
@@ -85,10 +88,10 @@ def load_run(path: str | Path) -> Run:
     """Read a run directory (``samples.jsonl`` required, ``config.yaml`` and ``run.json`` optional).
 
     Errors are recomputed from the stored poses (:func:`recompute_frame_errors`). An unreadable
-    ``config.yaml`` or ``run.json``, or a damaged ``samples.jsonl`` line, raises
-    :class:`DatasetError` naming the run (:mod:`catpose.bench.run.run_meta`).
+    ``config.yaml`` or ``run.json``, a damaged ``samples.jsonl`` line, or a ``samples.jsonl``
+    without any row raises :class:`DatasetError` naming the run (:mod:`catpose.bench.run.run_meta`).
     """
-    from catpose.bench.run.run_meta import read_config, read_run_json
+    from catpose.bench.run.run_meta import incomplete_reason, read_config, read_run_json
 
     path = Path(path)
     samples_path = path / "samples.jsonl"
@@ -98,7 +101,19 @@ def load_run(path: str | Path) -> Run:
         )
     config = read_config(path)
     info = read_run_json(path)
-    return Run(path=path, config=config, info=info, samples=recompute_frame_errors(samples_frame(samples_path)))
+    samples = samples_frame(samples_path)
+    if len(samples) == 0:
+        raise DatasetError(
+            f"run {path} has no sample rows ({samples_path.name} is empty: its `bench run` finished no sample); "
+            "re-run it, or leave it out"
+        )
+    return Run(
+        path=path,
+        config=config,
+        info=info,
+        samples=recompute_frame_errors(samples),
+        incomplete=incomplete_reason(path, info, len(samples)),
+    )
 
 
 def load_runs(paths: Sequence[str | Path]) -> tuple[list[Run], list[str]]:
@@ -131,6 +146,17 @@ def print_left_out(command: str, runs: Sequence[Run], reasons: Sequence[str]) ->
         print(command_error(command, f"left out: {why}"), file=sys.stderr)
     if not runs:
         raise DatasetError(f"no run could be read ({len(reasons)} left out, see above)")
+
+
+def warn_incomplete(command: str, runs: Sequence[Run]) -> list[str]:
+    """One ``bench <command>: warning: run ... is incomplete`` line on stderr per incomplete run
+    (:attr:`Run.incomplete`); returns those lines' reasons (tables and reports note them too)."""
+    import sys
+
+    reasons = [r.incomplete for r in runs if r.incomplete]
+    for why in reasons:
+        print(f"bench {command}: warning: {why}", file=sys.stderr)
+    return reasons
 
 
 def find_run_dirs(paths: Sequence[str | Path], merge_failures: list[str] | None = None) -> list[Path]:

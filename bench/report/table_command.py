@@ -11,7 +11,7 @@ from pathlib import Path
 
 from catpose import atomic
 from catpose.bench.report.labels import parse_labels
-from catpose.bench.report.runs import find_run_dirs, load_runs, print_left_out
+from catpose.bench.report.runs import find_run_dirs, load_runs, print_left_out, warn_incomplete
 from catpose.bench.report.table_format import METRICS
 from catpose.bench.report.tables import LAYOUTS, RENAMED_LAYOUTS, RENDERERS, build_table
 from catpose.errors import ConfigError
@@ -64,7 +64,10 @@ def main(argv: list[str] | None = None) -> int:
         help="the method's own choice or the minimum across templates (oracle)",
     )
     ap.add_argument("--title", default=None)
-    ap.add_argument("--out", default=None, help="write here instead of stdout")
+    ap.add_argument("--out", default=None, help="write here instead of stdout (a new file; see --force)")
+    ap.add_argument(
+        "--force", action="store_true", help="replace an existing --out (never an input or a verified table)"
+    )
     ap.add_argument(
         "--bop-metrics",
         default=None,
@@ -88,6 +91,10 @@ def main(argv: list[str] | None = None) -> int:
     run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
     if not args.runs and not run_paths:
         raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
+    if args.out:  # before any work (docs/file-safety.md)
+        from catpose.bench.run.overwrite import check_output, input_runs
+
+        check_output(args.out, "file", input_runs([*args.runs, *run_paths, *args.sweep, *args.stability]), args.force)
     if args.bop_metrics:
         from catpose.bench.scoring.bop_eval import table_main_from_runs
 
@@ -97,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
             )
             + "\n"
         )
-        atomic.write_text(args.out, text) if args.out else sys.stdout.write(text)
+        _write(args.out, text)
         return 0
     if args.layout not in (None, defaults.get("layout")):
         defaults = {}  # another layout than the experiment's: none of its settings apply
@@ -107,6 +114,9 @@ def main(argv: list[str] | None = None) -> int:
     args.layout = args.layout or "generic"
     runs, left_out = load_runs([*args.runs, *run_paths])
     print_left_out("table", runs, left_out)  # one damaged run does not stop the others; the exit status says so
+    warn_incomplete("table", runs)  # and the table's notes say it
+    if args.categories:
+        check_categories(runs, args.categories.split(","))
     table = build_table(
         runs,
         args.layout,
@@ -118,9 +128,27 @@ def main(argv: list[str] | None = None) -> int:
         [Path(p) for p in args.stability],
         threshold_keys(args.acc or [], args.auc) if (args.acc or args.auc is not None) else (),
     )
-    text = RENDERERS[args.format](table)
-    if args.out:
-        atomic.write_text(args.out, text)
-    else:
-        sys.stdout.write(text)
+    _write(args.out, RENDERERS[args.format](table))
     return 2 if left_out else 0
+
+
+def _write(out: str | None, text: str) -> None:
+    """The table to ``out`` (atomically, one line on a full disk or a read-only folder), or stdout."""
+    if not out:
+        sys.stdout.write(text)
+        return
+    from catpose.bench.run.overwrite import output_errors
+
+    with output_errors(out):
+        atomic.write_text(out, text)
+
+
+def check_categories(runs, wanted) -> None:
+    """Refuse ``--categories`` that no run has (an empty table otherwise), naming those it has."""
+    have = sorted({str(c) for r in runs for c in r.samples.get("category", [])})
+    unknown = [c for c in wanted if c not in have and c != "all"]
+    if unknown:
+        raise ConfigError(
+            f"--categories {','.join(unknown)}: no run here has {'that category' if len(unknown) == 1 else 'those'}; "
+            f"they have {', '.join(have) or 'none'} (and 'all')"
+        )

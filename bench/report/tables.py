@@ -383,6 +383,7 @@ def build_table(
         table.notes.append(
             "Errors of templates runs are the minimum across templates (an oracle that needs ground truth)."
         )
+    table.notes += [f"Incomplete: {r.incomplete}" for r in runs if getattr(r, "incomplete", None)]
     if stability_roots:
         from catpose.bench.report.stability import stability_notes
 

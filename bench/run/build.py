@@ -306,6 +306,12 @@ def validate_run_options(cfg: Any) -> None:
     _run_option(cfg, "threads", "int", 1)
     _run_option(cfg, "batch", "int", 1)
     _run_option(cfg, "lock_timeout", "float", 0)
+    ids = cfg.get("sample_ids")
+    if ids is not None and (isinstance(ids, str) or not hasattr(ids, "__len__") or len(ids) == 0):
+        raise ConfigError(
+            f"sample_ids={ids!r} lists no sample; give a list of sample ids (sample_ids=[mug/000/v00]), or drop it "
+            "to run every sample"
+        )
     for group in ("method", "dataset", "protocol", "choice"):
         if group in cfg:
             check_missing(cfg[group], group)

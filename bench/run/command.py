@@ -3,12 +3,11 @@
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 from catpose.bench.run import config
-from catpose.errors import CatposeError, ConfigError, command_error
+from catpose.errors import CatposeError, command_error
 
 
 def main(argv: list[str]) -> int:
@@ -92,15 +91,7 @@ and exits non-zero when a job failed."""
 
 
 def evaluate_main(argv: list[str]) -> int:
-    """Recompute errors and summaries of run directories from their files."""
-    parser = argparse.ArgumentParser(prog="bench evaluate", description=evaluate_main.__doc__)
-    parser.add_argument("run_dirs", nargs="+", type=Path, help="run directories (with samples.jsonl)")
-    args = parser.parse_args(argv)
-    from catpose.bench.run.evaluate import format_summary, summarize_run
-    from catpose.bench.run.rundir import SAMPLES_FILE
+    """Recompute errors and summaries of run directories from their files (:mod:`catpose.bench.run.evaluate`)."""
+    from catpose.bench.run.evaluate import main
 
-    for d in args.run_dirs:
-        if not (d / SAMPLES_FILE).exists():
-            raise ConfigError(f"{d} is not a run directory (no {SAMPLES_FILE}); pass a folder written by bench run")
-        print(f"{d}:\n{format_summary(summarize_run(d))}\n")
-    return 0
+    return main(argv)

@@ -248,13 +248,17 @@ def _check_bop(name: str, ds: Any, report: Report) -> None:
         )
         return
     if missing_depth:
-        report.warn(f"{missing_depth} frames of scene_gt.json have no depth image (skipped by the loader)")
+        report.warn(
+            f"{missing_depth} frames of scene_gt.json have no depth image (left out by the loader, or failed samples "
+            "where the target list names them)"
+        )
     models = [o for o in sorted(objects) if not layout.model(o).is_file()]
     if models:
         report.problem(
             f"{len(models)} objects the frames show have no model in {models_dir} "
             f"(obj_{models[0]:06d}.ply, ...): unzip {prefix}_models.zip into {layout.root}"
         )
+    _check_bop_files(layout, scenes, objects, report)
     try:
         read_depth(first_depth)
     except CatposeError as e:
@@ -268,6 +272,56 @@ def _check_bop(name: str, ds: Any, report: Report) -> None:
             return False
 
     _check_templates(ds, report, model_exists)
+
+
+def _camera_size(root: Path) -> tuple[int, int] | None:
+    """``(width, height)`` of a BOP dataset's ``camera.json``, None without one."""
+    import json
+
+    try:
+        cam = json.loads((Path(root) / "camera.json").read_text())
+        return int(cam["width"]), int(cam["height"])
+    except (OSError, KeyError, TypeError, ValueError):
+        return None
+
+
+def _note_files(report: Report, problems: list[str], kind: str) -> None:
+    """The first problems of one kind of file, and how many more."""
+    for line in problems[:3]:
+        report.problem(line)
+    if len(problems) > 3:
+        report.problem(f"... and {len(problems) - 3} more {kind} like those")
+
+
+def _check_bop_files(layout: Any, scenes: list[Path], objects: set[int], report: Report) -> None:
+    """Every depth image and visible-object mask (PNG: 16-bit and one channel for depth, whole,
+    one size: camera.json's or the first image's) and every model the frames show (PLY: as long as
+    its header says), from headers and sizes (:mod:`catpose.bench.run.file_headers`)."""
+    from catpose.bench.run.file_headers import ply_problem, png_problem, png_size
+
+    size = _camera_size(layout.root)
+    depth_problems, mask_problems, counts = [], [], [0, 0]
+    for scene in scenes:  # the folders of the configured sensor only (their images share one size)
+        sid = int(scene.name)
+        folders = (
+            (layout.depth(sid, 0).parent, depth_problems, True),
+            (layout.mask_visib(sid, 0, 0).parent, mask_problems, False),
+        )
+        for k, (folder, problems, depth16) in enumerate(folders):
+            for png in sorted(folder.glob("*.png")):
+                counts[k] += 1
+                size = size or png_size(png)
+                why = png_problem(png, size, depth16)
+                if why:
+                    problems.append(why)
+    _note_files(report, depth_problems, "depth images")
+    _note_files(report, mask_problems, "masks")
+    models = [layout.model(o) for o in sorted(objects) if layout.model(o).is_file()]
+    _note_files(report, [w for w in map(ply_problem, models) if w], "models")
+    report.facts.append(
+        f"headers: {counts[0]} depth PNGs, {counts[1]} masks and {len(models)} models whole"
+        + (f", images {size[0]}x{size[1]}" if size else "")
+    )
 
 
 # --------------------------------------------------------------------------- ModelNet40
@@ -369,7 +423,12 @@ def _check_redwood(name: str, ds: Any, report: Report) -> None:
         read_depth_png(ds.frame_files(scans[0].name)[0])
     except CatposeError as e:
         report.problem(str(e))
-    report.facts.append(f"{len(scans)} scans with depth/")
+    from catpose.bench.run.file_headers import png_problem, png_size
+
+    files = [f for scan in scans for f in ds.frame_files(scan.name)]
+    size = png_size(files[0]) if files else None
+    _note_files(report, [w for w in (png_problem(f, size, True) for f in files) if w], "depth images")
+    report.facts.append(f"{len(scans)} scans with depth/, {len(files)} depth images whole")
     _check_templates(ds, report, lambda _c, _i: False)
 
 

@@ -114,3 +114,53 @@ def format_summary(summary) -> str:
     if len(summary) == 0:
         return "(no scored samples: none finished, or none has the ground truth this protocol scores)"
     return summary.to_markdown(index=False, floatfmt=".3f")
+
+
+def evaluate_dir(run_dir: Path):
+    """``bench evaluate`` of one run directory: its errors and summaries recomputed from its files
+    (``samples.csv``, ``summary.csv`` / ``.md`` rewritten); returns the summary.
+
+    A sharded run is merged first (a shard that has not run is named); a folder that is no run,
+    an unreadable ``run.json`` or ``config.yaml``, or a ``samples.jsonl`` without rows is one
+    :class:`~catpose.errors.DatasetError` line; a run that is still incomplete is summarized and
+    said to be (a warning)."""
+    import warnings
+
+    from catpose.bench.run.merge import ensure_merged, is_sharded
+    from catpose.bench.run.overwrite import output_errors
+    from catpose.bench.run.run_meta import incomplete_reason, read_config, read_run_json
+    from catpose.errors import DatasetError
+
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise DatasetError(
+            f"{run_dir} is not a run directory (it does not exist); pass a folder written by `bench run`"
+        )
+    if is_sharded(run_dir):
+        ensure_merged(run_dir)  # a missing shard: "shard 1 of 2 has not run; run it with shards=2 shard=1"
+    if not (run_dir / SAMPLES_FILE).is_file():
+        raise DatasetError(
+            f"{run_dir} is not a run directory (no {SAMPLES_FILE}); pass a folder written by `bench run`"
+        )
+    info = read_run_json(run_dir)  # an unreadable run.json or config.yaml: one line naming the run
+    read_config(run_dir, required=True)
+    rows = latest_rows(run_dir / SAMPLES_FILE)
+    if not rows:
+        raise DatasetError(f"run {run_dir} has no sample rows ({SAMPLES_FILE} is empty); re-run its `bench run`")
+    why = incomplete_reason(run_dir, info, len(rows))
+    if why:
+        warnings.warn(why, stacklevel=2)
+    with output_errors(run_dir, "the run directory"):
+        return summarize_run(run_dir)
+
+
+def main(argv: list[str]) -> int:
+    """``bench evaluate RUN_DIR...``: recompute errors and summaries of run directories from their files."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="bench evaluate", description=main.__doc__)
+    parser.add_argument("run_dirs", nargs="+", type=Path, help="run directories (with samples.jsonl)")
+    args = parser.parse_args(argv)
+    for d in args.run_dirs:
+        print(f"{d}:\n{format_summary(evaluate_dir(d))}\n")
+    return 0

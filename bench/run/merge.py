@@ -242,8 +242,11 @@ def main(argv: list[str] | None = None) -> int:
         if not found:
             raise DatasetError(f"no samples.shard-I-of-N.jsonl in or below {d}; nothing to merge")
         dirs += found
+    from catpose.bench.run.overwrite import output_errors
+
     for d in dirs:
-        summary = merge_run(d, force=args.force)
+        with output_errors(d, "the run directory"):  # read-only or full: one line, the old files kept whole
+            summary = merge_run(d, force=args.force)
         print(f"{d}: merged {', '.join(sorted(p.name for p in d.glob('samples.shard-*-of-*.jsonl')))}")
         print(format_summary(summary) + "\n")
     return 0

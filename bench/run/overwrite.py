@@ -1,27 +1,49 @@
-"""No command writes into a run or a table it did not create.
+"""No command writes into what it did not create: the one output rule (docs/file-safety.md).
 
-The rules (docs/file-safety.md):
+Every command that writes a file or a folder it is told to (``--out``, ``--sheet``,
+``--write``) asks :func:`check_output` first, before any work:
 
-- ``bench score --out DIR`` (and :func:`~catpose.bench.run.rundir.write_run`) writes a new run
-  directory. An existing non-empty ``DIR`` is refused unless ``--force``, which replaces it
-  whole (the new run is built beside it and swapped in when complete); ``--out`` equal to the
-  ``--gt`` run is refused even with ``--force``; an ``--out`` that is a file is refused.
-- ``bench merge`` (and the automatic merge of ``bench table``) writes a sharded run's
-  ``samples.jsonl``. It refuses, unless ``--force``, to replace a ``samples.jsonl`` holding rows
-  the merge would drop (a serial run's samples that no shard lists).
-- ``bench align --out TABLE`` refuses an existing table unless ``--force``; a table with rows
-  marked ``verified`` is never overwritten, even with ``--force``: the estimate goes to a new
-  file beside it (``<name>.new.csv``, ``<name>.new2.csv``, ...) and the command says so.
+- ``--out`` may not equal, contain or lie inside any input (a run directory the command reads, an
+  input file, a table marked verified), nor lie inside any other run directory, nor be or hold the
+  current folder; not even with ``--force``;
+- a file may not replace a folder and a folder may not replace a file;
+- an existing target needs ``--force``; a table with rows marked ``verified`` (and its contact
+  sheet) is never replaced, and a folder that holds run directories or verified tables below it
+  is never replaced either;
+- the folder it goes into must exist or be creatable (no file in the way) and be writable.
+
+Files are then written atomically (:mod:`catpose.atomic`) and folders built beside their
+destination and moved into place (:func:`catpose.atomic.building_dir`); :func:`output_errors`
+turns an ``OSError`` while writing (a read-only folder, a full disk) into one line.
+
+Besides: ``bench merge`` (and the automatic merge of ``bench table``) refuses, unless ``--force``,
+to replace a ``samples.jsonl`` holding rows the merge would drop; ``bench align --out TABLE``
+sends its estimate to ``<name>.new.csv`` when ``TABLE`` has verified rows (:func:`table_destination`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import errno
+import os
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 from catpose.errors import InvalidInputError
 
 RUN_FILES = ("samples.jsonl", "run.json", "config.yaml")
+SHEET_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
+
+
+class Input(NamedTuple):
+    """An input of a command: its path, what it is as the error names it (``the input run``), and
+    whether it is only a folder searched for runs (an output may then lie inside it, beside them)."""
+
+    path: Path
+    what: str
+    searched: bool = False
 
 
 def _describe(folder: Path) -> str:
@@ -32,27 +54,228 @@ def _describe(folder: Path) -> str:
     return f"{len(entries)} other file(s) ({', '.join(entries[:3])}{', ...' if len(entries) > 3 else ''})"
 
 
+def is_run_dir(path: Path) -> bool:
+    """Whether ``path`` is a run directory (``samples.jsonl`` or a shard's samples file in it)."""
+    path = Path(path)
+    return path.is_dir() and ((path / "samples.jsonl").is_file() or any(path.glob("samples.shard-*-of-*.jsonl")))
+
+
+def runs_below(paths: Sequence[str | Path]) -> list[Path]:
+    """The run directories given, or found below the folders given (read only: nothing merged)."""
+    out: list[Path] = []
+    for p in map(Path, paths):
+        if is_run_dir(p):
+            out.append(p)
+        elif p.is_dir():
+            found = {q.parent for q in p.rglob("samples.jsonl")} | {q.parent for q in p.rglob("samples.shard-*.jsonl")}
+            out += sorted(found)
+    return out
+
+
+def input_runs(paths: Sequence[str | Path], what: str = "the input run") -> list[Input]:
+    """The inputs of a command that reads run directories: every run given or found below the
+    folders given (:func:`runs_below`), and the folders themselves."""
+    found = [Input(p, what) for p in runs_below(paths)]
+    given = [Input(Path(p), "the input folder", True) for p in paths if Path(p).is_dir() and not is_run_dir(Path(p))]
+    return found + given
+
+
+def _abs(path: str | Path) -> Path:
+    """``path`` absolute, ``..`` and symbolic links resolved where they exist."""
+    return Path(os.path.abspath(Path(path).expanduser())).resolve()
+
+
+def verified_rows(path: Path) -> int:
+    """Rows of a CSV marked ``verified=true`` (0 for anything that is not such a CSV)."""
+    path = Path(path)
+    if path.suffix.lower() != ".csv" or not path.is_file():
+        return 0
+    try:
+        with open(path, newline="", encoding="utf-8", errors="replace") as fh:
+            return sum(str(r.get("verified") or "").strip().lower() == "true" for r in csv.DictReader(fh))
+    except (OSError, csv.Error):
+        return 0
+
+
+def _verified_below(folder: Path) -> Path | None:
+    for p in sorted(folder.rglob("*.csv")):
+        if verified_rows(p):
+            return p
+    return None
+
+
+def _sheet_of_verified(path: Path) -> Path | None:
+    """The verified table whose picture ``path`` is (``<stem>.csv`` beside it), if any."""
+    if path.suffix.lower() not in SHEET_SUFFIXES:
+        return None
+    table = path.with_suffix(".csv")
+    return table if verified_rows(table) else None
+
+
+def _run_above(path: Path) -> Path | None:
+    for parent in path.parents:
+        if is_run_dir(parent):
+            return parent
+    return None
+
+
+def check_not_input(out: str | Path, inputs: Sequence[Input] = (), flag: str = "--out") -> Path:
+    """The first part of :func:`check_output`: ``out`` is no input, holds none and lies inside none
+    (a folder only searched for runs may hold it); returns it as an absolute path."""
+    if str(out).strip() == "":
+        raise InvalidInputError(f"{flag} is empty; pass the file or folder to write")
+    target = _abs(out)
+    shown = f"{flag} {out}"
+    for path, what, searched in (Input(*i) for i in inputs):
+        inp = _abs(path)
+        if inp == target:
+            raise InvalidInputError(
+                f"{shown} is {what} itself; pass another {flag} (an input is never overwritten, not even with --force)"
+            )
+        if inp.is_relative_to(target):
+            raise InvalidInputError(
+                f"{shown} contains {what} {path}; pass an {flag} outside it (writing it would replace an input)"
+            )
+        if target.is_relative_to(inp) and not searched:
+            raise InvalidInputError(
+                f"{shown} lies inside {what} {path}; pass an {flag} outside it (no command writes into an input)"
+            )
+    return target
+
+
+def check_output(
+    out: str | Path,
+    kind: str = "file",
+    inputs: Sequence[Input] = (),
+    force: bool = False,
+    flag: str = "--out",
+    replaces: str = "",
+    allow: Path | None = None,
+    example: str = "out.md",
+) -> Path:
+    """The output rule (see the module docstring) for writing ``out``; returns it as an absolute path.
+
+    Args:
+        out: what the command was told to write.
+        kind: ``"file"`` or ``"folder"``.
+        inputs: what the command reads (:data:`Input`; :func:`input_runs` for run directories).
+        force: ``--force`` was given (an existing target may be replaced).
+        flag: the option's name in messages (``--out``, ``--sheet``, ``--write``).
+        replaces: for a folder, ``"run"`` when a run directory at ``out`` itself may be replaced
+            with ``--force`` (``bench score`` writes runs); otherwise a run is never replaced.
+        allow: a verified table's picture this command may redraw (``bench align --draw-only``).
+        example: a file name the message suggests when a file's ``out`` is a folder.
+
+    Raises:
+        InvalidInputError: one line naming ``out``, what is in the way and the fix.
+    """
+    target = check_not_input(out, inputs, flag)
+    shown = f"{flag} {out}"
+    run = _run_above(target)
+    if run is not None:
+        raise InvalidInputError(
+            f"{shown} lies inside the run directory {run}; pass an {flag} outside it "
+            "(no command writes into a run it did not create)"
+        )
+    cwd = _abs(Path.cwd())
+    if kind == "folder" and cwd.is_relative_to(target):
+        raise InvalidInputError(
+            f"{shown} is the current folder or holds it; pass a new folder for the {flag} (replacing it would "
+            "delete where you stand)"
+        )
+    for parent in reversed(target.parents):
+        if parent.exists() and not parent.is_dir():
+            raise InvalidInputError(f"{shown}: {parent} is a file, not a folder; pass an {flag} in a folder")
+    if target.exists():
+        _check_existing(target, shown, kind, force, flag, replaces, allow, example)
+    existing = next(p for p in (target, *target.parents) if p.exists())
+    folder = existing if existing.is_dir() and existing != target else existing.parent
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InvalidInputError(f"cannot write {shown}: the folder {folder} is not writable; pass a writable folder")
+    return target
+
+
+def _check_existing(
+    target: Path, shown: str, kind: str, force: bool, flag: str, replaces: str, allow, example: str
+) -> None:
+    """The part of :func:`check_output` for a ``target`` that exists."""
+    if kind == "file":
+        if target.is_dir():
+            raise InvalidInputError(f"{shown} is a folder; pass the file to write, e.g. {target / example}")
+        n = verified_rows(target)
+        if n:
+            raise InvalidInputError(
+                f"{shown} has {n} row(s) marked verified, which no command overwrites, not even with --force; "
+                f"pass another {flag}"
+            )
+        table = _sheet_of_verified(target)
+        if table is not None and (allow is None or _abs(allow) != target):
+            raise InvalidInputError(
+                f"{shown} is the contact sheet of {table}, which has {verified_rows(table)} row(s) marked "
+                f"verified; pass another {flag} (a verified table's picture is never overwritten)"
+            )
+        if not force:
+            raise InvalidInputError(f"{shown} exists; pass another {flag}, or add --force to replace it")
+        return
+    if not target.is_dir():
+        raise InvalidInputError(f"{shown} is a file; pass a folder (new or empty) to write")
+    if not any(target.iterdir()):
+        return
+    if is_run_dir(target) and replaces != "run":
+        raise InvalidInputError(f"{shown} holds a run directory, which this command never replaces; pass a new {flag}")
+    if not force:
+        raise InvalidInputError(
+            f"{shown} already holds {_describe(target)}; pass a new {flag}, or add --force to replace it"
+        )
+    nested = [p for p in runs_below([target]) if _abs(p) != target]
+    if nested:
+        raise InvalidInputError(
+            f"{shown} holds run directories below it (e.g. {nested[0]}); replacing it would delete them, "
+            f"not even --force does that: pass a new {flag}"
+        )
+    table = _verified_below(target)
+    if table is not None:
+        raise InvalidInputError(
+            f"{shown} holds {table}, a table with rows marked verified; replacing it would delete them, "
+            f"not even --force does that: pass a new {flag}"
+        )
+
+
+def check_sheet_suffix(path: str | Path, flag: str = "--sheet") -> None:
+    """A picture's name must end in a format matplotlib writes (:data:`SHEET_SUFFIXES`)."""
+    if Path(path).suffix.lower() not in SHEET_SUFFIXES:
+        raise InvalidInputError(
+            f"{flag} {path} is not a picture file name; end it in {', '.join(SHEET_SUFFIXES)} (e.g. "
+            f"{Path(path).with_suffix('.png')})"
+        )
+
+
+def write_error_text(out: str | Path, e: OSError, flag: str = "--out") -> str:
+    """One line for an ``OSError`` while writing ``out``: what happened and the fix."""
+    if e.errno in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT):
+        why = "the disk is full"
+    elif e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        why = "the folder is not writable"
+    else:
+        why = e.strerror or type(e).__name__
+    return f"cannot write {flag} {out} ({why}: {e.strerror or e}); pass a writable folder with free space"
+
+
+@contextlib.contextmanager
+def output_errors(out: str | Path, flag: str = "--out") -> Iterator[None]:
+    """Turn an ``OSError`` while writing ``out`` into one :class:`InvalidInputError` line
+    (:func:`write_error_text`); what was written is left whole or not at all (:mod:`catpose.atomic`)."""
+    try:
+        yield
+    except OSError as e:
+        raise InvalidInputError(write_error_text(out, e, flag)) from None
+
+
 def check_new_output(out: str | Path, force: bool = False, flag: str = "--out", protected: Path | None = None) -> None:
-    """Refuse to write a new run directory at ``out`` over something (see the module docstring).
-
-    ``protected``: a run that must never be replaced (``bench score``'s ``--gt``)."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InvalidInputError(f"{flag} {out} is a file; pass a folder (new or empty) for the run directory")
-    if protected is not None and out.exists() and out.resolve() == Path(protected).resolve():
-        raise InvalidInputError(
-            f"{flag} {out} is the --gt run itself; pass another {flag} (the ground truth is "
-            "never overwritten, not even with --force)"
-        )
-    if out.is_dir() and any(out.iterdir()) and not force:
-        raise InvalidInputError(
-            f"{flag} {out} already holds {_describe(out)}; pass a new {flag}, or add --force to replace it"
-        )
-
-
-def _verified_rows(path: Path) -> int:
-    with open(path, newline="", encoding="utf-8", errors="replace") as fh:
-        return sum(str(r.get("verified") or "").strip().lower() == "true" for r in csv.DictReader(fh))
+    """Refuse to write a new run directory at ``out`` over something: :func:`check_output` for a
+    folder that may replace a run (``protected``: a run never replaced, ``bench score``'s ``--gt``)."""
+    inputs = [Input(Path(protected), "the --gt run")] if protected is not None else []
+    check_output(out, "folder", inputs, force, flag, replaces="run")
 
 
 def free_name(path: Path) -> Path:
@@ -73,7 +296,7 @@ def table_destination(out: str | Path, force: bool = False) -> tuple[Path, str |
         return out, None
     if out.is_dir():
         raise InvalidInputError(f"--out {out} is a folder; pass the CSV file to write")
-    n = _verified_rows(out)
+    n = verified_rows(out)
     if n:
         new = free_name(out)
         return new, (

@@ -2,8 +2,8 @@
 
 A ``samples.jsonl`` is appended one line per finished sample, each line flushed and fsynced
 before the next sample starts (:class:`~catpose.bench.run.rundir.SampleWriter`). The only damage
-a kill can do is therefore a cut-off LAST line: the file's last line does not parse (a kill
-leaves it without its newline). That line is skipped with a warning that gives the count, and the
+a kill can do is therefore a cut-off LAST line: the start of a JSON object that does not parse (a
+kill leaves it without its newline). That line is skipped with a warning that gives the count, and the
 runner re-runs its sample on resume (:func:`repair_last_line` drops it before appending).
 
 Anything else is damage no run makes (a line edited by hand, a disk error, two files joined): it
@@ -39,7 +39,26 @@ def _row(text: str, path: Path, line: int) -> dict:
         raise _damaged(path, line, f"not a JSON row ({e.msg} at column {e.colno})") from None
     if not isinstance(row, dict) or not isinstance(row.get("sample_id"), str):
         raise _damaged(path, line, "not a sample row (a JSON object with a 'sample_id')")
+    for key, n in POSE_FIELDS.items():
+        why = _numbers_problem(row.get(key), n)
+        if why:
+            raise _damaged(path, line, f"{key} {why}")
     return row
+
+
+POSE_FIELDS = {"T_est": 16, "T_gt": 16, "symmetry_axis": 3}
+"""Fields of a row that hold numbers, and how many: a (4, 4) pose row-major, an axis (3,)."""
+
+
+def _numbers_problem(value, n: int) -> str | None:
+    """Why ``value`` (a row's field) is not ``n`` numbers, None when it is or when it is absent (null)."""
+    if value is None:
+        return None
+    if not isinstance(value, list):
+        return f"is not a list of {n} numbers (a {type(value).__name__})"
+    if len(value) != n or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+        return f"is not {n} numbers ({len(value)} values)"
+    return None
 
 
 def _complete(text: str) -> bool:
@@ -49,6 +68,19 @@ def _complete(text: str) -> bool:
     except json.JSONDecodeError:
         return False
     return isinstance(row, dict) and isinstance(row.get("sample_id"), str)
+
+
+def _cut_off(text: str) -> bool:
+    """Whether a last line that is no whole row can be what a kill leaves: the start of a JSON
+    object cut before its end (it does not parse). Anything else (``[1, 2]``, ``nan``, an object
+    without ``sample_id``) is damage a kill cannot make."""
+    if not text.lstrip().startswith("{"):
+        return False
+    try:
+        json.loads(text)
+    except json.JSONDecodeError:
+        return True
+    return False
 
 
 def _last_line_start(data: bytes) -> int:
@@ -80,8 +112,8 @@ def parse_rows(path: Path) -> list[dict]:
             rows.append(_row(text, path, k))
     if tail:
         text = tail.decode("utf-8", errors="replace")
-        if _complete(text):
-            rows.append(json.loads(text))
+        if _complete(text) or not _cut_off(text):  # a whole row, or damage no kill makes: read, or refused
+            rows.append(_row(text, path, len(lines) + 1))
         else:
             warnings.warn(
                 f"{path}: its last line ({len(lines) + 1}) is cut off, as a killed run leaves it; skipped 1 "

@@ -46,3 +46,25 @@ def read_run_json(run_dir: Path) -> dict:
     if not isinstance(info, dict):
         raise DatasetError(f"run {run_dir}: run.json is not a JSON object; {_FIX}")
     return info
+
+
+def incomplete_reason(run_dir: Path, info: dict, n_rows: int) -> str | None:
+    """Why the run directory ``run_dir`` does not hold a finished run, in one line (None when it does).
+
+    ``bench run`` records ``state: running`` in ``run.json`` before its first sample and
+    ``state: finished`` after its last; a run killed (``kill -9``), or still running, is left
+    ``running``. A run of an older catpose, which wrote ``run.json`` only when it finished, is
+    incomplete when it has the files ``bench run`` writes first (``overrides.txt``) but no
+    ``run.json``. ``info``: its ``run.json`` (:func:`read_run_json`); ``n_rows``: its samples."""
+    fix = "re-run the same `bench run` command to finish it (finished samples are skipped)"
+    if info.get("state") == "running":
+        planned = info.get("n_samples")
+        of = f" of the {planned} its last `bench run` was to do" if isinstance(planned, int) else ""
+        return f"run {run_dir} is incomplete: it holds {n_rows} samples{of}, and that run was stopped or is still running; {fix}"
+    shards = any(Path(run_dir).glob("shard-*-of-*.json"))
+    if not info and not shards and (Path(run_dir) / "overrides.txt").is_file():
+        return (
+            f"run {run_dir} is incomplete: it holds {n_rows} samples and no run.json, which `bench run` writes "
+            f"when it finishes; {fix}"
+        )
+    return None

@@ -47,6 +47,7 @@ from catpose.bench.run.merge import parse_shard, shard_ids, shard_lock_file, sha
 from catpose.bench.run.rundir import (
     SAMPLES_FILE,
     SampleWriter,
+    latest_rows,
     read_rows,
     run_dir_for,
     write_run_files,
@@ -260,6 +261,8 @@ def _run_locked(
 
     with writing(out):
         writer = SampleWriter(samples_path)
+        if not sharding:  # until the last sample is done the run says it is running (bench table: incomplete)
+            write_run_json(out, dict(base, n_samples=len(ids), state="running", output_dir=str(out)))
     log.debug("%s: %d samples, %d done before, %d to run", out, len(ids), len(ids) - len(todo), len(todo))
     from tqdm import tqdm
 
@@ -306,11 +309,18 @@ def _run_locked(
     if sharding:
         write_shard_meta(out, *sharding, ids, finished=True, config=shard_config)
         return _finish_shard(out, sharding, cfg, base, len(ids), len(todo))
-    write_run_json(out, dict(base, n_samples=len(ids), n_run_now=len(todo), output_dir=str(out)))
+    held = len(latest_rows(out / SAMPLES_FILE))
+    meta = dict(base, n_samples=len(ids), n_run_now=len(todo), n_in_directory=held, state="finished")
+    write_run_json(out, dict(meta, output_dir=str(out)))
     with writing(out):
-        summary = summarize_run(out, ids)
+        summary = summarize_run(out)  # the directory's, as summary.md and bench table have it
     if cfg.get("print_summary", True):
         print(f"\n{method_name} on {dataset_name} ({cfg.protocol.name}), seed {int(cfg.seed)}: {out}")
+        if held != len(ids):
+            print(
+                f"this command's {len(ids)} samples ({len(todo)} run now) are {len(ids)} of the {held} the run "
+                f"directory holds; the summary (summary.md, bench table) is of all {held}:"
+            )
         print(format_summary(summary))
     return out
 

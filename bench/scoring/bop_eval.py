@@ -329,10 +329,9 @@ def metric_value(df, name: str) -> float:
         if "vsd" not in df or df["vsd"].isna().any():
             return float("nan")
         return pm.average_recall_vsd(df["vsd"].tolist())
-    if col == "ar":
+    if col == "ar":  # BOP's AR is the mean of all three: without VSD there is no AR (not a mean of two)
         parts = [metric_value(df, m) for m in ("ar_mssd", "ar_mspd", "ar_vsd")]
-        parts = [p for p in parts if np.isfinite(p)]
-        return float(np.mean(parts)) if parts else float("nan")
+        return float(np.mean(parts)) if all(np.isfinite(parts)) else float("nan")
     if col == "ndegmcm":
         n, m = spec
         stored = f"{n:g}deg{m:g}cm"
@@ -388,6 +387,12 @@ def format_scores(table, header: dict | None = None) -> str:
         )
     if header and header.get("unknown_estimates"):
         lines.append(f"- {header['unknown_estimates']} estimates of an (image, object) that is no target ignored")
+    no_vsd = [m for m in table.columns if m in ("ar", "ar_vsd") and table[m].isna().all()]
+    if no_vsd:
+        lines.append(
+            f"- no VSD (scored with --no-vsd, or without depth images): {', '.join(no_vsd)} not computed (nan); "
+            "ar_mssd and ar_mspd are BOP's"
+        )
     body = table.to_markdown(index=False, floatfmt=".3f")
     return ("\n".join(lines) + "\n\n" if lines else "") + body
 

@@ -41,7 +41,7 @@ K3_ROOT=${K3_ROOT:-$PROC_ROOT-k3}
   "protocol.exclude_instances=[airplane_0002,airplane_0256,airplane_0432]" dataset.root="$K3_ROOT" \
   dataset.alignment_table="$K3_ROOT/alignment_airplane.csv" dataset.views_per_instance=2 "choice.turns_deg=[90,180,270]" \
   output_root="$OUT/k3" progress=false print_summary=false hydra.sweep.dir="$OUT/k3/multirun/k3"
-"$B" category "$OUT/k3/multirun/k3" --category airplane --choices cross,cross_top,cross_top_turns,score,density,agreement \
+"$B" category --force "$OUT/k3/multirun/k3" --category airplane --choices cross,cross_top,cross_top_turns,score,density,agreement \
   --format md --out $DEV/airplane_procedural_k3.md \
   --title "Procedural airplanes, K = 3 (80 airplanes x 2 views; the shared airplane K = 3 templates)"
 .venv/bin/python $E/top_weight_grid.py "$OUT/k3/multirun/k3" --turn-sets "none;180;90,270;90,180,270" --weights 0,0.05 \

@@ -28,7 +28,7 @@ dev_run() {
 .venv/bin/python experiments/category_choice/chair_dev_root.py "$SHARED" "$DEV_ROOT"
 dev_run ours,icp chair_dev_k3
 for fmt in md csv; do
-  "$B" category "$OUT/multirun/chair_dev_k3" --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement --format $fmt \
+  "$B" category --force "$OUT/multirun/chair_dev_k3" --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement --format $fmt \
     --out results/category/dev/chair_dev_k3.$fmt \
     --title "Chair development set, K = 3 (chair_0001, chair_0002, chair_0059, ShapeNet chair x 12 views)"
 done
@@ -38,7 +38,7 @@ for i in "${!SWAPS[@]}"; do
   dev_run ours,icp chair_dev_swap$i "dataset.templates.chair=[${SWAPS[$i]}]" "protocol.exclude_instances=[]"
 done
 for fmt in md csv; do
-  "$B" category "$OUT"/multirun/chair_dev_swap{0,1,2,3} --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement \
+  "$B" category --force "$OUT"/multirun/chair_dev_swap{0,1,2,3} --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement \
     --format $fmt --out results/category/dev/chair_dev_swaps.$fmt \
     --title "Chair development set, roles swapped: 4 template sets of K = 3 from the 7 non-report chairs, the other 4 chairs x 12 views"
 done

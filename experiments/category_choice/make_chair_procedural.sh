@@ -32,7 +32,7 @@ FINE_TURNS="none;90,270;60,300;60,90,120,240,270,300;30,60,90,270,300,330;30,60,
   dataset.alignment_table="$PROC_ROOT/with_templates/alignment_chair.csv" dataset.views_per_instance=6 \
   output_root="$OUT" progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/procedural_k3"
 for fmt in md csv; do
-  "$B" category "$OUT/multirun/procedural_k3" --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement \
+  "$B" category --force "$OUT/multirun/procedural_k3" --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement \
     --format $fmt --out $DEV/chair_procedural_k3.$fmt \
     --title "Procedural chairs, K = 3 (40 chairs x 6 views; the paper table's templates)"
 done

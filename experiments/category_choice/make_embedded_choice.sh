@@ -16,7 +16,7 @@ OUT=${OUT:-outputs/category_dev}
 "$B" run -m +experiment=templates "+row=ours,icp" protocol.max_templates=null seed=1 output_root="$OUT" \
   progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/embedded_seed1_k3"
 for fmt in md csv; do
-  "$B" category "$OUT/multirun/embedded_seed1_k3" --choices cross,cross_top,cross_top_turns,fused,score,density,agreement --format $fmt \
+  "$B" category --force "$OUT/multirun/embedded_seed1_k3" --choices cross,cross_top,cross_top_turns,fused,score,density,agreement --format $fmt \
     --out results/category/dev/embedded_seed1_k3.$fmt \
     --title "Embedded set (depth images), 3 category templates, seed 1: every choice rule"
 done

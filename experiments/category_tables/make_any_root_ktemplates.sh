@@ -30,6 +30,6 @@ for K in 1 3 5; do
     hydra.sweep.dir="$OUT/multirun/k$K"
 done
 for fmt in md csv; do
-  "$B" category "$OUT/multirun/k1" "$OUT/multirun/k3" "$OUT/multirun/k5" --category "$CAT" --choices cross,cross_top,cross_top_turns,score,density,agreement \
+  "$B" category --force "$OUT/multirun/k1" "$OUT/multirun/k3" "$OUT/multirun/k5" --category "$CAT" --choices cross,cross_top,cross_top_turns,score,density,agreement \
     --format $fmt --out "${MD%.md}.$fmt" --title "${TITLE:-$CAT, K templates ($ROOT)}"
 done

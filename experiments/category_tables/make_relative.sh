@@ -18,7 +18,7 @@ if [ "${1:-}" != tables ]; then
 fi
 T=results/category/paper; mkdir -p "$T"
 for fmt in md csv; do
-  "$B" table --sweep "$S" --layout generic --categories airplane,chair --metrics mean,median,acc10,acc30,n,failed \
+  "$B" table --force --sweep "$S" --layout generic --categories airplane,chair --metrics mean,median,acc10,acc30,n,failed \
     --format $fmt --out "$T/relative.$fmt" \
     --title "Relative pose of two views (consecutive pairs, 17 airplanes and 2 chairs x 3 views)"
 done

@@ -21,7 +21,7 @@ if [ "${1:-}" != tables ]; then
 fi
 T=results/category/paper; mkdir -p "$T"
 for fmt in md csv; do
-  "$B" category "$OUT/multirun/mn40r_chair_1template" "$OUT/multirun/mn40r_chair_ktemplates" --category chair \
+  "$B" category --force "$OUT/multirun/mn40r_chair_1template" "$OUT/multirun/mn40r_chair_ktemplates" --category chair \
     --choices cross,cross_top,cross_top_turns,fused,score,density,agreement --format $fmt --out "$T/templates_chair.$fmt" \
     --title "Chair, K templates (shared resampled chairs; test views chair_0454, chair_0858 x 4)"
 done
@@ -29,5 +29,5 @@ done
 .venv/bin/python -m catpose.bench.report.category_views "$OUT/multirun/mn40r_chair_ktemplates" --row ours \
   --out "$T/templates_chair_views.csv"
 # why ours' wrong K = 3 views are wrong: the registration's score and the rule's cost against the truth's
-.venv/bin/python -m catpose.bench.category.why_wrong "$OUT/multirun/mn40r_chair_ktemplates" --row ours \
+.venv/bin/python -m catpose.bench.category.why_wrong --force "$OUT/multirun/mn40r_chair_ktemplates" --row ours \
   --out "$T/templates_chair_why.md" --title "Why ours' wrong views are wrong: chair, K = 3 (fused), shared resampled chairs"

@@ -10,10 +10,10 @@ PY=${PY:-.venv/bin/python}
 OUT=outputs/mug
 $BENCH run -m method=ours dataset=synthetic protocol=templates 'dataset.categories=[mug]' \
   method.optimiser.solver=irls,adam method.selection.rule=visibility,chamfer,depth output_root=$OUT progress=false
-$BENCH table $OUT/synthetic-templates --layout generic --format md --categories mug \
+$BENCH table --force $OUT/synthetic-templates --layout generic --format md --categories mug \
   --title "Embedded mugs, 3 category templates, seed 0: the estimate ours' own score chooses" --out results/mug/table.md
 # the same runs scored by the best of the three templates' estimates (the oracle): what the choice costs
-$BENCH table $OUT/synthetic-templates --layout generic --format md --categories mug --error oracle_err_deg \
+$BENCH table --force $OUT/synthetic-templates --layout generic --format md --categories mug --error oracle_err_deg \
   --title "Oracle: the best of the 3 category templates' estimates per view" --out results/mug/table_oracle.md
 # the same runs with the mug meshes of the shape generator of revision 8236609 (git history), under the
 # portable numeric profile: the old generator moves vertices by BLAS products, whose last bits depend on
