@@ -91,9 +91,12 @@ def test_log_level_and_hydra_verbose_in_bench_run(tmp_path: Path, capsys):
 
 def test_no_print_in_methods_datasets_and_the_core():
     """The library logs; only commands print their results (bench/: tables, regress's report; a
-    module's ``if __name__ == "__main__":`` block, such as ``python -m catpose.open3d_libusb``)."""
+    module's command: its ``main()`` or ``if __name__ == "__main__":`` block, such as
+    ``python -m catpose.open3d_libusb``)."""
 
-    def is_main_block(node: ast.AST) -> bool:
+    def is_main_block(node: ast.AST) -> bool:  # a module's command: its main() or its __main__ block
+        if isinstance(node, ast.FunctionDef) and node.name == "main":
+            return True
         return (
             isinstance(node, ast.If) and "__main__" in ast.unparse(node.test) and "__name__" in ast.unparse(node.test)
         )

@@ -177,7 +177,7 @@ def pack(obj: Any) -> dict[str, np.ndarray]:
             if x.size >= SPARSE_MIN_SIZE and np.count_nonzero(x) < x.size // 4:
                 flat = x.ravel(order=order)
                 where = np.flatnonzero(flat)
-                arrays[name + "i"] = where.astype(np.int32 if x.size < 2**31 else np.int64)
+                arrays[name + "i"] = where.astype(np.int32 if x.size < np.iinfo(np.int32).max else np.int64)
                 arrays[name + "v"] = flat[where]
                 return {"sparse": name, "shape": list(x.shape), "dtype": x.dtype.str, "order": order}
             arrays[name] = x

@@ -19,7 +19,7 @@ import numpy as np
 from catpose.api.inputs import NormalisedTemplate
 from catpose.depth_frame import DepthFrame
 from catpose.errors import InvalidInputError
-from catpose.geometry import invert_T
+from catpose.geometry import apply_R, invert_T
 from catpose.lru import LRUCache
 
 __all__ = ["BopInstance", "bop_instance"]
@@ -130,6 +130,6 @@ def bop_instance(
         template=NormalisedTemplate(template, R, centre, scale),
         options={"max_points": settings.max_points, "plane_distance": settings.plane_distance},
         T_model_camera=invert_T(bf.T_camera_model),
-        symmetry_axis=None if axis is None else R.T @ np.asarray(axis, float),
+        symmetry_axis=None if axis is None else apply_R(R.T, np.asarray(axis, float)),
         obs_id=obs_id,
     )

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import CatposeError, InvalidInputError
-from catpose.geometry import apply_R, axis_angle_to_R, dot3, norm3, normalize_to_unit_sphere, unit3
+from catpose.geometry import apply_R, axis_angle_to_R, dot3, matmul3, norm3, normalize_to_unit_sphere, unit3
 from catpose.lru import LRUCache
 from catpose.types import Template
 
@@ -62,7 +62,7 @@ class NormalisedTemplate:
         if not isinstance(self.template, Template):
             raise InvalidInputError(f"NormalisedTemplate.template is a {type(self.template).__name__}, not a Template")
         R = np.asarray(self.R_up, dtype=np.float64).reshape(3, 3)
-        if np.abs(R @ R.T - np.eye(3)).max() > 1e-9 or np.linalg.det(R) < 0:
+        if np.abs(matmul3(R, R.T) - np.eye(3)).max() > 1e-9 or np.linalg.det(R) < 0:
             raise InvalidInputError("NormalisedTemplate.R_up is not a rotation")
         scale = float(self.scale)
         if not (np.isfinite(scale) and scale > 0):
@@ -307,7 +307,7 @@ def check_position(name: str, points: np.ndarray) -> None:
     origin (coordinates at 1e12 for an object of size 1): its points are not all equal, but every
     check and method would see them so. One line naming ``name``."""
     lo, hi = points.min(axis=0), points.max(axis=0)
-    extent = float(np.linalg.norm(hi - lo))
+    extent = float(norm3(hi - lo))
     distance = float(np.abs(points).max())
     if extent == 0:
         raise InvalidInputError(f"{name} has zero extent (all {len(points)} points equal)")
