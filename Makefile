@@ -1,5 +1,6 @@
 # catpose: two commands.
-#   make demo   set up .venv (CPU torch, open3d-cpu) and run ICP and ours on the embedded data
+#   make demo   set up .venv (CPU torch, open3d-cpu) and run ICP and ours on the embedded data under the
+#               portable numeric profile the README's tables were made under, then print their table
 #   make test   the default test suite (slow tests excluded; `make test-slow` runs them)
 #   make cluster  the optional Hydra launchers (joblib, Slurm via submitit, Ray): docs/scale-out.md
 #   make results  every table and figure the docs quote, regenerated (hours), then copied into the docs
@@ -14,19 +15,22 @@ TORCH_PIN ?= torch==2.13.0
 
 setup: $(VENV)/.installed
 
-# torch is pinned here (the CPU wheel on this machine): an unpinned torch pulls a multi-GB CUDA
-# build. open3d-cpu's missing libusb-1.0.so.0 comes from the PyPI package libusb-package,
-# loaded by catpose.o3d before Open3D.
+# torch is the `torch` extra, pinned here (TORCH_PIN; the CPU wheel on this machine): an unpinned
+# torch pulls a multi-GB CUDA build on Linux (docs/install.md: the CPU wheel elsewhere).
+# open3d-cpu's missing libusb-1.0.so.0 comes from the PyPI package libusb-package, loaded by
+# catpose.o3d before Open3D. No GPL package is installed (K-medoids is catpose's own FasterPAM).
 $(VENV)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet $(TORCH_PIN)
-	$(PY) -m pip install --quiet -c constraints.txt -e ".[test]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[torch,test]"
 	touch $@
 
+# ICP and ours on the embedded set (outputs/demo/portable/) under the portable numeric profile, their
+# table, and how it compares with the README's (python -m catpose.bench.report.demo --native: this
+# CPU's own code paths instead).
 demo: setup
-	$(BENCH) run method=icp dataset=synthetic
-	$(BENCH) run method=ours dataset=synthetic
+	$(PY) -m catpose.bench.report.demo
 
 test: setup
 	$(VENV)/bin/pytest -m "not slow" -q
@@ -55,7 +59,7 @@ quotes: setup
 # The launchers extra (`pip install -e ".[cluster]"`), with the same pins as `make setup`.
 cluster: $(VENV)/.cluster
 $(VENV)/.cluster: $(VENV)/.installed pyproject.toml
-	$(PY) -m pip install --quiet -c constraints.txt -e ".[test,cluster]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[torch,test,cluster]"
 	touch $@
 
 # A real single-node Slurm on this machine (Debian's slurm-wlm and munge, root only), then a

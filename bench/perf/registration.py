@@ -49,6 +49,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from catpose import extras
 from catpose.errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -319,17 +320,15 @@ def main(argv: list[str] | None = None) -> int:
             raise ConfigError(f"--set/--dataset-set {kv!r} is not KEY=VALUE")
         yaml.safe_load(kv.partition("=")[2])  # a malformed value fails here, before any work
     if args.device == "cuda":
-        import torch
-
+        torch = extras.require("torch", "--device cuda")
         if not torch.cuda.is_available():
             raise ConfigError(
                 "--device cuda but torch has no CUDA device here; run it on a GPU "
                 "machine with a CUDA build of torch, or use --device cpu"
             )
-    import torch
     from tabulate import tabulate
 
-    torch.set_num_threads(max(1, args.threads))
+    extras.set_torch_threads(max(1, args.threads))
     load_before = os.getloadavg()
     ds_over = [f"dataset.{kv}" for kv in args.dataset_set]
     if args.categories:
