@@ -358,7 +358,7 @@ def main(argv: list[str] | None = None) -> int:
 
     print(
         f"problems: {len(problems)} from {source}; {args.repeat} interleaved rounds; torch threads "
-        f"{torch.get_num_threads()}; ours on {args.device}, batch {args.batch}; load average "
+        f"{extras.torch_threads() or 'n/a (no torch)'}; ours on {args.device}, batch {args.batch}; load average "
         f"{load_before[0]:.1f} before, {load_after[0]:.1f} after on {os.cpu_count()} CPUs; "
         f"peak RSS {peak_rss:.0f} MiB (the process, all methods)"
     )
@@ -372,7 +372,7 @@ def main(argv: list[str] | None = None) -> int:
         "repeat": args.repeat,
         "device": args.device,
         "batch": args.batch,
-        "threads": torch.get_num_threads(),
+        "threads": extras.torch_threads(),
         "load_before": round(load_before[0], 2),
         "load_after": round(load_after[0], 2),
         "cpus": os.cpu_count(),

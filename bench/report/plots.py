@@ -301,7 +301,7 @@ def plot_runtime(
     plt = pyplot()
     stats = runtime_rows(samples_by_method)
     warm = [(k, w) for k, s in enumerate(stats) for w in s["_warmup"]]
-    legend_in = 0.35 if warm else 0.0  # a line below the axes explaining the crosses
+    legend_in = 0.28 if warm else 0.0  # a line below the axes explaining the crosses
     height = 0.9 + 0.45 * max(len(stats), 1) + legend_in
     fig, ax = plt.subplots(figsize=(6.4, height))
     if stats:

@@ -78,6 +78,15 @@ def missing_extra(error: BaseException) -> MissingExtra | None:
     return None
 
 
+def torch_threads() -> int | None:
+    """torch's intra-op threads, or None without torch."""
+    if not installed("torch"):
+        return None
+    import torch
+
+    return int(torch.get_num_threads())
+
+
 def set_torch_threads(n: int | None) -> None:
     """torch's intra-op threads (the runs' ``threads`` key), where torch is installed; without
     torch nothing uses them."""
