@@ -51,24 +51,35 @@ def output_overrides(flags: list[str], overrides: list[str]) -> tuple[list[str],
     names = config.flag_names(flags)
     if names & {"--cfg", "--info", "--shell-completion", "--hydra-help", "--version"}:
         return [], False
-    keys = {o.partition("=")[0].lstrip("+~"): o.partition("=")[2] for o in overrides}
+    keys = {o.partition("=")[0].lstrip("+~"): o.partition("=")[2].strip("'\"") for o in overrides}
     subdir = [] if "hydra.output_subdir" in keys else ["hydra.output_subdir=.hydra"]
     if "--multirun" in names:
         return subdir, False
     plain = [o for o in overrides if not o.lstrip("+~").startswith("hydra")]
     if "hydra.run.dir" in keys:
-        if "${" not in keys["hydra.run.dir"] and not names & set(config.OTHER_CONFIGS):
-            # before Hydra writes its .hydra/ there (the job checks an interpolated folder itself)
-            check_named_run_dir(Path(keys["hydra.run.dir"]), config.compose(plain), "run.log")
+        cfg = _composed(plain) if "${" not in keys["hydra.run.dir"] and not names & set(config.OTHER_CONFIGS) else None
+        if cfg is not None:  # before Hydra writes its .hydra/ there (the job checks the folder again)
+            check_named_run_dir(Path(keys["hydra.run.dir"]), cfg, "run.log")
         return subdir + ([] if "hydra.job.name" in keys else ["hydra.job.name=run"]), True
     logging_config = keys.get("hydra/job_logging")
     if logging_config is None or logging_config in CONSOLE_ONLY_LOGGING or names & set(config.OTHER_CONFIGS):
         return [], False
     from catpose.bench.run.rundir import run_dir_for
 
-    out = run_dir_for(config.compose(plain), plain)
+    cfg = _composed(plain)
+    if cfg is None:  # composed by Hydra alone (an experiment): its logging stays Hydra's folder
+        return [], False
+    out = run_dir_for(cfg, plain)
     name = [] if "hydra.job.name" in keys else ["hydra.job.name=run"]
     return subdir + name + [f"hydra.run.dir='{out}'"], True  # quoted: a run's tag holds = , [ ]
+
+
+def _composed(overrides: list[str]):
+    """The run config of a single run's plain overrides, or None where only Hydra composes it
+    (``+experiment=...``)."""
+    if any(o.lstrip("+~").startswith("experiment") for o in overrides):
+        return None
+    return config.compose(overrides)
 
 
 def check_named_run_dir(out: Path, cfg, log_name: str) -> None:
