@@ -242,7 +242,8 @@ def test_report_pictures_from_synthetic_run(tmp_path: Path):
         assert (tmp_path / "report" / link).is_file(), link
     assert not list((tmp_path / "report" / "figures").glob("*.pdf"))
     capped = build_report([run], tmp_path / "capped", qualitative=2, pdf=False, max_pictures=1).read_text()
-    assert f"worst: `{ids[2]}`" in capped and "typical failure" not in capped.split("### Examples")[1]
+    assert f"worst: `{ids[2]}`" in capped and "typical failure: `" not in capped
+    assert "**Ours**: 1 picture(s): the report stops at 1 (--max-pictures)." in capped
     assert len(list((tmp_path / "capped" / "figures").glob("*_worst.png"))) == 1
 
 

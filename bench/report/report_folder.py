@@ -264,11 +264,14 @@ def build_report(
                 if drawn >= max_pictures:
                     md += [f"**{label}**: not drawn: the report stops at {max_pictures} pictures (--max-pictures).", ""]
                     continue
-                picks = qualitative_picks(view_rows, min(qualitative, max_pictures - drawn))
+                limit = min(qualitative, max_pictures - drawn)
+                picks = qualitative_picks(view_rows, limit)
                 if not picks:
                     md += [f"**{label}**: no registration with an estimate to draw.", ""]
-                elif len(picks) == 1 and qualitative > 1:
+                elif len(picks) == 1 and limit > 1:
                     md += [f"**{label}**: no other registration with error above {FAILURE_DEG:g} deg.", ""]
+                elif limit < qualitative:
+                    md += [f"**{label}**: {limit} picture(s): the report stops at {max_pictures} (--max-pictures).", ""]
                 for kind, sid in picks:
                     err = float(view_rows.loc[view_rows["sample_id"] == sid, "err_deg"].iloc[-1])
                     stem = (
