@@ -1,5 +1,6 @@
 # catpose: two commands.
-#   make demo   set up .venv (CPU torch, open3d-cpu) and run ICP and ours on the embedded data
+#   make demo   set up .venv (CPU torch, open3d-cpu) and run ICP and ours on the embedded data under the
+#               portable numeric profile the README's tables were made under, then print their table
 #   make test   the default test suite (slow and experiment tests excluded; `make test-slow`, `make test-experiments` run them)
 #   make cluster  the optional Hydra launchers (joblib, Slurm via submitit, Ray): docs/scale-out.md
 #   make results  every table and figure the docs quote, regenerated (hours), then copied into the docs
@@ -14,20 +15,24 @@ TORCH_PIN ?= torch==2.13.0
 
 setup: $(VENV)/.installed
 
-# torch is pinned here (the CPU wheel on this machine): an unpinned torch pulls a multi-GB CUDA
-# build. open3d-cpu's missing libusb-1.0.so.0 comes from the PyPI package libusb-package, linked
-# into Open3D's folder (catpose.open3d_libusb) so that `import open3d` works before or without catpose.
+# torch is the `torch` extra, pinned here (TORCH_PIN; the CPU wheel on this machine): an unpinned
+# torch pulls a multi-GB CUDA build on Linux (docs/install.md: the CPU wheel elsewhere).
+# open3d-cpu's missing libusb-1.0.so.0 comes from the PyPI package libusb-package, linked into
+# Open3D's folder (catpose.open3d_libusb) so that `import open3d` works before or without catpose.
+# No GPL package is installed (K-medoids is catpose's own FasterPAM).
 $(VENV)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet $(TORCH_PIN)
-	$(PY) -m pip install --quiet -c constraints.txt -e ".[test]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[torch,test]"
 	$(PY) -m catpose.open3d_libusb
 	touch $@
 
+# ICP and ours on the embedded set (outputs/demo/portable/) under the portable numeric profile, their
+# table, and how it compares with the README's (python -m catpose.bench.report.demo --native: this
+# CPU's own code paths instead).
 demo: setup
-	$(BENCH) run method=icp dataset=synthetic
-	$(BENCH) run method=ours dataset=synthetic
+	$(PY) -m catpose.bench.report.demo
 
 test: setup
 	$(VENV)/bin/pytest -m "not slow and not experiment" -q
@@ -61,7 +66,7 @@ quotes: setup
 # The launchers extra (`pip install -e ".[cluster]"`), with the same pins as `make setup`.
 cluster: $(VENV)/.cluster
 $(VENV)/.cluster: $(VENV)/.installed pyproject.toml
-	$(PY) -m pip install --quiet -c constraints.txt -e ".[test,cluster]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[torch,test,cluster]"
 	touch $@
 
 # A real single-node Slurm on this machine (Debian's slurm-wlm and munge, root only), then a

@@ -131,6 +131,14 @@ def main(argv: list[str] | None = None) -> int:
     except CatposeError as e:  # every command's user errors: one line, exit status 2
         print(command_error(name, e), file=sys.stderr)
         return 2
+    except ImportError as e:  # an optional extra this command needs (torch, POT): one line naming it
+        from catpose.extras import missing_extra
+
+        missing = missing_extra(e)
+        if missing is None:
+            raise
+        print(command_error(name, missing), file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(
             f"bench {name}: interrupted; finished samples are saved, re-run the same command to resume", file=sys.stderr

@@ -32,6 +32,9 @@
 #              the speed tables made from those CSVs and the GPU check's (results/perf/*.md). Run it
 #              on an otherwise idle machine: it measures wall time.
 #   api        catpose.register without `up` (experiments/api_without_up/make_without_up.sh, when present). ~1.5 h.
+#   figures    a figure of each table the README quotes, from the committed tables alone
+#              (python -m catpose.bench.report.table_figure: @10 and @30 per method, the mean error
+#              beside): results/figures/*.{png,pdf,csv}. Seconds.
 # The sections that need the shared data (../shared/data or $CATPOSE_SHARED_DATA) skip with a note
 # when it is absent.
 #
@@ -58,7 +61,7 @@ V=$OUT-variants  # the same sweeps under other code paths
 EXPERIMENTS=(optimiser ablation one_template templates relative_real tyol)
 SHARED=$("$PY" -c 'from catpose.bench.run.config import shared_data_dir; print(shared_data_dir())')
 SECTIONS=("$@")
-[ ${#SECTIONS[@]} -gt 0 ] || SECTIONS=(synthetic category clutter real ambiguity perf api)
+[ ${#SECTIONS[@]} -gt 0 ] || SECTIONS=(synthetic category clutter real ambiguity perf api figures)
 eval "$("$PY" -m catpose.bench.run.environment portable)"
 source experiments/default_runs.sh
 
@@ -185,6 +188,20 @@ perf() {
   "$PY" -m catpose.bench.perf.summary --dir "$P"
 }
 
+figures() {  # one per table the README quotes: table|figure stem|title
+  local F="$RESULTS/figures"
+  mkdir -p "$F"
+  while IFS='|' read -r table stem title; do
+    [ -f "$RESULTS/$table" ] || { echo "make_results: figures: no $RESULTS/$table; skipped" >&2; continue; }
+    "$PY" -m catpose.bench.report.table_figure "$RESULTS/$table" --out "$F/$stem" --title "$title" > /dev/null
+  done <<'TABLES'
+report/tables/gt_model_summary.md|embedded_gt_model|Embedded synthetic set, each view against its own model (48 views, seed 0)
+real/table.md|real|Real frames (YCB-Video scenes, TYO-L) and ModelNet40 resampled shapes, own model
+clutter/table.md|clutter|Cluttered synthetic scenes of the YCB-Video objects (report scenes)
+category/paper/one_template_airplane.md|one_template_airplane|ModelNet40 airplanes, another instance as the only template
+TABLES
+}
+
 for section in "${SECTIONS[@]}"; do
   case $section in
     synthetic) synthetic_runs; synthetic_tables ;;
@@ -198,5 +215,7 @@ for section in "${SECTIONS[@]}"; do
     perf) perf ;;
     api) if [ -f experiments/api_without_up/make_without_up.sh ]; then bash experiments/api_without_up/make_without_up.sh; fi ;;
     *) echo "make_results: unknown section '$section'; use synthetic, tables, category, clutter, real, ambiguity, perf, api" >&2; exit 2 ;;
+    figures) figures ;;
+    *) echo "make_results: unknown section '$section'; use synthetic, tables, category, clutter, real, ambiguity, perf, api, figures" >&2; exit 2 ;;
   esac
 done

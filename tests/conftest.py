@@ -33,6 +33,11 @@ def repo_root() -> Path:
 def one_torch_thread():
     """The runner's ``threads=1`` (what configs/regress and bench perf use): ours' per-step
     overhead dominates and extra threads only contend on a shared machine."""
+    from catpose import extras
+
+    if not extras.installed("torch"):  # the torch extra is absent: nothing uses its threads
+        yield
+        return
     import torch
 
     before = torch.get_num_threads()

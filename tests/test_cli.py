@@ -58,11 +58,10 @@ def test_multirun_sweep(tmp_path):
         (["run", "protocol=nosuch"], "unknown protocol 'nosuch'; available:"),
         (["nosuch"], "unknown command 'nosuch'"),
         (["evaluate", "/nonexistent/run"], "is not a run directory"),
-        (
-            ["run", "method=ours", "method.foo=1"],
-            "Could not override 'method.foo'; To append to your config use +method.foo=1",
-        ),
-        (["run", "datset=synthetic"], "Could not override 'datset'"),
+        (["run", "method=ours", "method.foo=1"], "unknown key 'method.foo' (method.foo=1): method has "),
+        (["run", "datset=synthetic"], "unknown key 'datset' (datset=synthetic); did you mean `dataset=synthetic`?"),
+        (["run", "metod=ours"], "did you mean `method=ours`?"),
+        (["run", "method=our"], "unknown method 'our'; did you mean `method=ours`? available:"),
         (["run", "seed=[1"], "no viable alternative at input '[1'"),
     ],
 )

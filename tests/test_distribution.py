@@ -3,13 +3,12 @@ optional extras that say how to install them, one CLI under two names."""
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 
 import pytest
 import tomllib
-
-from catpose.errors import ConfigError
 
 REPO = Path(__file__).resolve().parents[1]
 PROJECT = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]
@@ -43,17 +42,57 @@ def test_licence_citation_and_declared_imports():
     assert "cff-version: 1.2.0" in cff and "arXiv:2209.14419" in cff and "preferred-citation:" in cff
     core = {d.split(">")[0].split("=")[0].split(";")[0].strip().lower() for d in PROJECT["dependencies"]}
     assert "pyyaml" in core  # `import yaml` in bench (templates, perf, regress)
-    assert "kmedoids" not in core  # GPL-3.0: optional
     extras = PROJECT["optional-dependencies"]
-    assert any(d.startswith("kmedoids") for d in extras["kmedoids"]) and any(d.startswith("pot") for d in extras["pfh"])
-    assert any(d.startswith("kmedoids") for d in extras["test"]) and any(d.startswith("pot") for d in extras["test"])
+    assert any(d.startswith("pot") for d in extras["pfh"]) and any(d.startswith("pot") for d in extras["test"])
     assert PROJECT["scripts"]["catpose"] == PROJECT["scripts"]["bench"] == "catpose.bench.cli:main"
 
 
-def test_templates_without_kmedoids_says_how_to_install_it(monkeypatch, tmp_path):
+def _names(requirements: list[str]) -> set[str]:
+    from packaging.requirements import Requirement
+
+    return {Requirement(r).name.lower() for r in requirements}
+
+
+def test_a_plain_install_pulls_no_torch_and_nothing_gpl():
+    """torch is the `torch` extra (its Linux wheel on PyPI is the CUDA build, with nvidia-* and
+    triton); no extra that `make setup` installs brings GPL code (kmedoids was one: K-medoids is
+    catpose's own FasterPAM now)."""
+    core, extras = _names(PROJECT["dependencies"]), PROJECT["optional-dependencies"]
+    assert "torch" not in core and _names(extras["torch"]) == {"torch"}
+    setup_extras = re.search(r'-e "\.\[([a-z,]+)\]"', (REPO / "Makefile").read_text()).group(1).split(",")
+    assert {"torch", "test"} <= set(setup_extras)
+    installed_by_setup = core.union(*(_names(extras[e]) for e in setup_extras))
+    assert not {"kmedoids", "triton"} & installed_by_setup and not any(
+        n.startswith("nvidia") for n in installed_by_setup
+    )
+
+
+def test_templates_need_no_optional_package(monkeypatch, tmp_path):
+    """`bench templates` runs without kmedoids (which make setup no longer installs)."""
     from catpose.bench.category import template_medoids
 
     monkeypatch.setitem(sys.modules, "kmedoids", None)  # `import kmedoids` now raises ImportError
-    with pytest.raises(ConfigError, match=r"pip install 'catpose\[kmedoids\]'") as info:
-        template_medoids.main(["dataset=synthetic", "--category", "chair", "--out", str(tmp_path / "t.yaml")])
-    assert "\n" not in str(info.value) and not (tmp_path / "t.yaml").exists()
+    out = tmp_path / "t.yaml"
+    args = ["dataset=synthetic", "dataset.categories=[mug]", "dataset.instances_per_category=3"]
+    assert template_medoids.main([*args, "--category", "mug", "--k", "2", "--points", "200", "--out", str(out)]) == 0
+    assert out.is_file()
+
+
+def test_missing_torch_is_one_line_naming_the_extra(monkeypatch):
+    """Without torch: the configurations that need it stop in one line naming `catpose[torch]`,
+    and the runner imports nothing of it for the ones that do not."""
+    from catpose import extras
+    from catpose.bench.run import runner
+
+    monkeypatch.setitem(sys.modules, "torch", None)  # `import torch` now raises ImportError
+    monkeypatch.setattr(extras, "installed", lambda module: module != "torch" and module in sys.modules)
+    with pytest.raises(extras.MissingExtra, match=r"pip install 'catpose\[torch\]'") as info:
+        extras.require("torch", "batch>1")
+    assert "\n" not in str(info.value) and str(info.value).startswith("batch>1 needs torch")
+    try:
+        import torch  # noqa: F401
+    except ImportError as e:
+        message = runner._abort_message(e, "mug/000/v00")
+    assert "catpose[torch]" in message and "install it, then re-run the same command" in message
+    runner.import_heavy_libraries(modules=("torch",))  # skipped, not an abort
+    extras.set_torch_threads(1)  # nothing to set

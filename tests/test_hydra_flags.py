@@ -53,7 +53,7 @@ def test_split_hydra_args(argv, flags, overrides):
 def test_plain_overrides_still_checked_beside_flags():
     with pytest.raises(ConfigError, match="unknown method 'nosuch'"):
         check_run_args(["--cfg", "job", "method=nosuch"])
-    with pytest.raises(ConfigError, match="Could not override 'datset'"):
+    with pytest.raises(ConfigError, match="unknown key 'datset'"):
         check_run_args(["--cfg", "job", "datset=x"])
     with pytest.raises(ConfigError, match="method.optimizer was renamed method.optimiser"):
         check_run_args(["--info", "method.optimizer.lr=1"])

@@ -142,6 +142,23 @@ def test_runtime_stats_and_labels_do_not_overlap(captured, tmp_path: Path):
             assert not boxes[i].overlaps(boxes[j]), (ticks[i].get_text(), ticks[j].get_text())
 
 
+def test_runtime_leaves_each_runs_warmup_out_of_the_box(captured, tmp_path: Path):
+    """The first registration of a run (imports, compilation) is drawn as a cross, outside the
+    box and its statistics; the CSV says how many and the largest."""
+    steady = [0.1, 0.2, 0.4, 0.3, 0.25]
+    rows = pd.DataFrame({"runtime_s": [18.0, *steady, 9.0, 0.2], "first_in_run": [True] + [False] * 5 + [True, False]})
+    paths = plots.plot_runtime({"Ours": rows, "ICP": pd.DataFrame({"runtime_s": steady})}, tmp_path / "rt")
+    csv = pd.read_csv(paths[-1]).set_index("method")
+    assert csv.loc["Ours", "n"] == 6 and csv.loc["Ours", "max_s"] == pytest.approx(0.4)
+    assert csv.loc["Ours", "median_s"] == pytest.approx(statistics.median([*steady, 0.2]))
+    assert csv.loc["Ours", "n_warmup"] == 2 and csv.loc["Ours", "warmup_s"] == pytest.approx(18.0)
+    assert csv.loc["ICP", "n_warmup"] == 0 and np.isnan(csv.loc["ICP", "warmup_s"])
+    fig = captured[0]
+    (crosses,) = [c for c in fig.axes[0].collections if c.get_offsets().shape[0] == 2]
+    assert sorted(crosses.get_offsets()[:, 0]) == pytest.approx([9.0, 18.0])
+    assert "first registration" in fig.legends[0].get_texts()[0].get_text()
+
+
 def test_files_written(units, tmp_path: Path):
     for fn, name in ((plots.plot_error_cdf, "cdf"), (plots.plot_accuracy, "acc"), (plots.plot_runtime, "rt")):
         paths = fn(units, tmp_path / name)

@@ -14,7 +14,7 @@ from catpose.bench.report import tables
 from catpose.bench.report.report_folder import build_report, qualitative_picks
 from catpose.bench.report.report_folder import main as report_main
 from catpose.bench.run.rundir import write_run
-from catpose.errors import DatasetError
+from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 
 GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}
@@ -241,6 +241,24 @@ def test_report_pictures_from_synthetic_run(tmp_path: Path):
     for link in _links(md):
         assert (tmp_path / "report" / link).is_file(), link
     assert not list((tmp_path / "report" / "figures").glob("*.pdf"))
+    capped = build_report([run], tmp_path / "capped", qualitative=2, pdf=False, max_pictures=1).read_text()
+    assert f"worst: `{ids[2]}`" in capped and "typical failure: `" not in capped
+    assert "**Ours**: 1 picture(s): the report stops at 1 (--max-pictures)." in capped
+    assert len(list((tmp_path / "capped" / "figures").glob("*_worst.png"))) == 1
+
+
+def test_pictures_are_on_by_default_and_capped(monkeypatch, tmp_path: Path):
+    from catpose.bench.report import report_folder
+
+    seen = {}
+    monkeypatch.setattr(report_folder, "build_report", lambda *a, **k: seen.update(args=a, kw=k) or tmp_path / "i.md")
+    assert report_main(["some/run", "--out", str(tmp_path / "r")]) == 0
+    assert seen["args"][3] == report_folder.QUALITATIVE_PER_RUN == 2
+    assert seen["kw"]["max_pictures"] == report_folder.MAX_PICTURES
+    report_main(["some/run", "--out", str(tmp_path / "r"), "--qualitative", "0", "--max-pictures", "4"])
+    assert seen["args"][3] == 0 and seen["kw"]["max_pictures"] == 4
+    with pytest.raises(ConfigError, match="--qualitative and --max-pictures take 0 or more"):
+        report_main(["some/run", "--out", str(tmp_path / "r"), "--max-pictures", "-1"])
 
 
 def test_a_user_label_is_kept_beside_other_runs_of_the_method(tmp_path: Path):

@@ -7,9 +7,10 @@ clouds (Tatarchenko et al., "What do single-view 3D reconstruction networks lear
     precision = |{p in P : d(p, Q) < tau}| / |P|,  recall = |{q in Q : d(q, P) < tau}| / |Q|
     F = 2 * precision * recall / (precision + recall)
 
-FasterPAM (``kmedoids`` package, GPL-3.0-or-later: the optional extra ``catpose[kmedoids]``)
-picks the K medoids; scikit-learn's silhouette score over the same precomputed distances is
-reported for every K (``--k auto`` takes the best). The instances
+FasterPAM (:mod:`catpose.bench.category.fasterpam`, BUILD then eager swaps in index order, in
+NumPy; the GPL-licensed ``kmedoids`` package is its test reference, not a dependency) picks the K
+medoids; scikit-learn's silhouette score over the same precomputed distances is reported for
+every K (``--k auto`` takes the best). The instances
 must be in one frame: a dataset whose frames are not declared consistent (raw ModelNet40) is
 refused unless it has an alignment table (``bench align``)::
 
@@ -59,31 +60,22 @@ def fscore_distances(clouds: Sequence[np.ndarray], tau: float) -> np.ndarray:
     return D
 
 
-def _kmedoids():
-    """The ``kmedoids`` package (GPL-3.0-or-later, an optional extra), or a one-line error."""
-    try:
-        import kmedoids
-    except ImportError:
-        raise ConfigError(
-            "bench templates needs kmedoids (GPL-3.0, optional): pip install 'catpose[kmedoids]'"
-        ) from None
-    return kmedoids
-
-
 def select_medoids(D: np.ndarray, k: int, seed: int = 0) -> tuple[list[int], np.ndarray]:
-    """K medoids of a distance matrix with FasterPAM.
+    """K medoids of a distance matrix with FasterPAM (:func:`catpose.bench.category.fasterpam.fasterpam`).
 
     Returns (medoid indices sorted by cluster size, largest first, ties by index; (N,) labels
-    indexing that medoid list). Deterministic for a given ``seed``.
+    indexing that medoid list). Deterministic; ``seed`` is kept for the callers' signature
+    (FasterPAM here visits the points in a fixed order from BUILD's start and draws nothing).
     """
-    kmedoids = _kmedoids()
+    from catpose.bench.category.fasterpam import fasterpam
+
     n = len(D)
     if not 1 <= k <= n:
         raise ConfigError(f"--k {k} must be between 1 and the number of instances ({n})")
     if k == n:
         medoids = np.arange(n)
     else:
-        medoids = np.asarray(kmedoids.fasterpam(D, k, max_iter=100, init="build", random_state=seed).medoids)
+        medoids = fasterpam(D, k, max_iter=100)[0]
     labels = np.argmin(D[:, medoids], axis=1)
     sizes = np.bincount(labels, minlength=len(medoids))
     order = sorted(range(len(medoids)), key=lambda c: (-sizes[c], int(medoids[c])))
@@ -247,7 +239,6 @@ def main(argv: list[str] | None = None) -> int:
     check_output(args.out, "file", (), args.force, example="templates.yaml")  # before any work
     if Path(args.out).is_file():
         read_templates_yaml(args.out)  # its own kind of file only, refused before the distances are computed
-    _kmedoids()  # the optional extra is checked before the distance matrix is computed
     if args.k != "auto" and not args.k.isdigit():
         raise ConfigError(f"--k {args.k!r} is not a positive integer or 'auto'")
     k = args.k if args.k == "auto" else int(args.k)

@@ -117,7 +117,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.dump_inputs:
         print(f"perf_gpu: {dump_inputs(Path(args.dump_inputs))} problems written to {args.dump_inputs}")
         return 0
-    import torch
+    try:
+        import torch
+    except ImportError:  # the torch extra: one line naming it, as catpose.extras words it
+        print(
+            "perf_gpu: error: the solver check needs torch: pip install 'catpose[torch]' (or pip install torch)",
+            file=sys.stderr,
+        )
+        return 2
 
     irls = _irls()
     torch.set_num_threads(1)

@@ -50,6 +50,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from catpose import extras
 from catpose.errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -324,17 +325,15 @@ def main(argv: list[str] | None = None) -> int:
             raise ConfigError(f"--set/--dataset-set {kv!r} is not KEY=VALUE")
         yaml.safe_load(kv.partition("=")[2])  # a malformed value fails here, before any work
     if args.device == "cuda":
-        import torch
-
+        torch = extras.require("torch", "--device cuda")
         if not torch.cuda.is_available():
             raise ConfigError(
                 "--device cuda but torch has no CUDA device here; run it on a GPU "
                 "machine with a CUDA build of torch, or use --device cpu"
             )
-    import torch
     from tabulate import tabulate
 
-    torch.set_num_threads(max(1, args.threads))
+    extras.set_torch_threads(max(1, args.threads))
     load_before = os.getloadavg()
     ds_over = [f"dataset.{kv}" for kv in args.dataset_set]
     if args.categories:
@@ -364,7 +363,7 @@ def main(argv: list[str] | None = None) -> int:
 
     print(
         f"problems: {len(problems)} from {source}; {args.repeat} interleaved rounds; torch threads "
-        f"{torch.get_num_threads()}; ours on {args.device}, batch {args.batch}; load average "
+        f"{extras.torch_threads() or 'n/a (no torch)'}; ours on {args.device}, batch {args.batch}; load average "
         f"{load_before[0]:.1f} before, {load_after[0]:.1f} after on {os.cpu_count()} CPUs; "
         f"peak RSS {peak_rss:.0f} MiB (the process, all methods)"
     )
@@ -378,7 +377,7 @@ def main(argv: list[str] | None = None) -> int:
         "repeat": args.repeat,
         "device": args.device,
         "batch": args.batch,
-        "threads": torch.get_num_threads(),
+        "threads": extras.torch_threads(),
         "load_before": round(load_before[0], 2),
         "load_after": round(load_after[0], 2),
         "cpus": os.cpu_count(),

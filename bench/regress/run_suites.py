@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from catpose import extras
 from catpose.bench.regress.regress_gate import (
     Finding,
     Gate,
@@ -175,10 +176,7 @@ def run_method(suite: Suite, method_name: str, transform: Callable | None = None
     from catpose.bench.run.sample_run import run_one
 
     cfg = _compose(suite, method_name)
-    if cfg.get("threads"):
-        import torch
-
-        torch.set_num_threads(int(cfg.threads))
+    extras.set_torch_threads(cfg.get("threads"))
     _, method = build_from_config(cfg.method, "method")
     dataset, protocol, ids = suite_samples(suite, transform)
     base = {"method": method_name, "dataset": suite.dataset, "protocol": suite.protocol, "seed": suite.seed}

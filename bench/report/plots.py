@@ -6,7 +6,10 @@
 - :func:`plot_accuracy`: accuracy (error <= threshold) at a few thresholds, all categories
   pooled, as grouped bars per method. CSV: one row per (method, threshold).
 - :func:`plot_runtime`: per-registration runtime per method (horizontal box plot, log scale,
-  method names on the y axis). CSV: one row per method with its runtime statistics.
+  method names on the y axis). The first registration of each run (column ``first_in_run``, set
+  by the report) pays for imports, numba's compilation and first-touch caches (seconds, where a
+  registration takes a tenth of that); it is left out of the box and its statistics and drawn as
+  a red cross. CSV: one row per method with its runtime statistics and that warm-up.
 
 The qualitative picture of one registration is :mod:`catpose.bench.report.qualitative`'s.
 
@@ -175,18 +178,27 @@ def plot_error_cdf(
             list(handles.values()),
             list(handles),
             loc="upper left",
-            fontsize=8,
+            fontsize=9,
             frameon=False,
             title=note,
-            title_fontsize=7,
+            title_fontsize=9,
             alignment="left",
         )
         fig.tight_layout(rect=(0, 0, 1, 0.97))
-    else:
+    else:  # the legend and the note below the panels, in the figure's text size
         ncol = min(len(handles), 4) or 1
-        fig.legend(list(handles.values()), list(handles), loc="lower center", fontsize=8, ncol=ncol, frameon=False)
-        fig.text(0.99, 0.995, note.replace("\n", " "), ha="right", va="top", fontsize=7, color="grey")
-        fig.tight_layout(rect=(0, 0.03 + 0.035 * int(np.ceil(len(handles) / ncol)) / rows, 1, 0.97))
+        legend_rows = int(np.ceil(len(handles) / ncol))
+        fig.legend(
+            list(handles.values()),
+            list(handles),
+            loc="lower center",
+            fontsize=9,
+            ncol=ncol,
+            frameon=False,
+            bbox_to_anchor=(0.5, 0.02 / rows),
+        )
+        fig.text(0.5, 0.003, note.replace("\n", " "), ha="center", va="bottom", fontsize=9, color="0.25")
+        fig.tight_layout(rect=(0, (0.05 + 0.04 * legend_rows) / rows, 1, 0.97))
     csv = _write_csv(csv_rows, ["method", "category", "n", "error_deg", "fraction"], out_stem)
     return save(fig, out_stem, pdf) + [csv]
 
@@ -222,29 +234,39 @@ def plot_accuracy(
     for m, (label, e) in enumerate(items):
         acc = accuracy_at(e, thresholds)
         bars = ax.bar(x - 0.4 + width * (m + 0.5), acc, width, color=color[label], label=label)
-        ax.bar_label(bars, [f"{a:.2f}" for a in acc], fontsize=6, padding=1, rotation=90 if k > 3 else 0)
+        ax.bar_label(bars, [f"{a:.2f}" for a in acc], fontsize=7, padding=1, rotation=90 if k > 3 else 0)
         csv_rows += [{"method": label, "threshold_deg": t, "n": len(e), "accuracy": a} for t, a in zip(thresholds, acc)]
-    ax.set_xticks(x, [f"<= {t:g} deg" for t in thresholds])
+    ax.set_xticks(x, [f"<= {t:g} deg" for t in thresholds], fontsize=9)
     ax.set_ylim(0, 1.18)
     ax.set_yticks(np.linspace(0, 1, 6))
     ax.set_ylabel("fraction of samples")
     ax.grid(alpha=0.3, axis="y")
-    ax.legend(fontsize=7, loc="upper left", ncol=min(k, 3), frameon=False)
+    ax.legend(fontsize=8, loc="upper left", ncol=min(k, 3), frameon=False)
     ax.set_title(title or "Accuracy at thresholds (all categories; failures count as wrong)", fontsize=10)
     fig.tight_layout()
     csv = _write_csv(csv_rows, ["method", "threshold_deg", "n", "accuracy"], out_stem)
     return save(fig, out_stem, pdf) + [csv]
 
 
+#: the column marking the first registration of a run (the warm-up), when present
+WARMUP_COLUMN = "first_in_run"
+
+
 def runtime_rows(samples_by_method: Mapping[str, object]) -> list[dict]:
     """Per method: ``n``, ``min_s``, ``q1_s``, ``median_s``, ``q3_s``, ``max_s``, ``mean_s`` of the
-    finite positive ``runtime_s`` values (seconds per registration)."""
+    finite positive ``runtime_s`` values (seconds per registration) other than the warm-ups
+    (rows with :data:`WARMUP_COLUMN` true), ``n_warmup`` and ``warmup_s`` (their largest value,
+    NaN without one); ``_warmup`` holds those values."""
     import pandas as pd
 
     out = []
     for label, s in samples_by_method.items():
         r = pd.to_numeric(s["runtime_s"], errors="coerce").to_numpy(float)
-        r = r[np.isfinite(r) & (r > 0)]
+        first = s[WARMUP_COLUMN].fillna(False).to_numpy(bool) if WARMUP_COLUMN in s else np.zeros(len(r), bool)
+        keep = np.isfinite(r) & (r > 0)
+        warm, r = r[keep & first], r[keep & ~first]
+        if not len(r) and len(warm):  # one registration per run: nothing but warm-ups to show
+            r, warm = warm, warm[:0]
         if len(r):
             q = np.percentile(r, [0, 25, 50, 75, 100])
             out.append(
@@ -257,7 +279,10 @@ def runtime_rows(samples_by_method: Mapping[str, object]) -> list[dict]:
                     "q3_s": q[3],
                     "max_s": q[4],
                     "mean_s": float(r.mean()),
+                    "n_warmup": len(warm),
+                    "warmup_s": float(warm.max()) if len(warm) else float("nan"),
                     "_values": r,
+                    "_warmup": warm,
                 }
             )
     return out
@@ -267,13 +292,18 @@ def plot_runtime(
     samples_by_method: Mapping[str, object], out_stem: str | Path, title: str = "", pdf: bool = True
 ) -> list[Path]:
     """Horizontal box plot of per-registration runtime (seconds, log scale) per method, from
-    per-sample rows; method labels on the y axis, the median written at the right.
+    per-sample rows; method labels on the y axis, the median written at the right. Warm-ups
+    (:data:`WARMUP_COLUMN`) are red crosses beside the box, not part of it.
 
-    Writes ``<out_stem>.csv`` with columns ``method, n, min_s, q1_s, median_s, q3_s, max_s, mean_s``.
+    Writes ``<out_stem>.csv`` with columns ``method, n, min_s, q1_s, median_s, q3_s, max_s,
+    mean_s, n_warmup, warmup_s``.
     """
     plt = pyplot()
     stats = runtime_rows(samples_by_method)
-    fig, ax = plt.subplots(figsize=(6.4, 0.9 + 0.45 * max(len(stats), 1)))
+    warm = [(k, w) for k, s in enumerate(stats) for w in s["_warmup"]]
+    legend_in = 0.28 if warm else 0.0  # a line below the axes explaining the crosses
+    height = 0.9 + 0.45 * max(len(stats), 1) + legend_in
+    fig, ax = plt.subplots(figsize=(6.4, height))
     if stats:
         pos = np.arange(len(stats), 0, -1)  # first method on top
         import matplotlib
@@ -292,16 +322,27 @@ def plot_runtime(
             flierprops={"markersize": 3},
             **horizontal,
         )
-        ax.set_yticks(pos, [s["method"] for s in stats], fontsize=8)
+        ax.set_yticks(pos, [s["method"] for s in stats], fontsize=9)
         ax.set_xscale("log")
+        if warm:
+            ax.scatter(
+                [w for _, w in warm],
+                [pos[k] for k, _ in warm],
+                marker="x",
+                color="C3",
+                s=30,
+                zorder=3,
+                label="first registration of each run (imports, compilation): drawn, not in the box",
+            )
+            fig.legend(loc="lower center", fontsize=8, frameon=False)
         for p, s in zip(pos, stats):
             ax.annotate(
-                f"median {s['median_s']:.3g} s", (1.01, p), xycoords=("axes fraction", "data"), va="center", fontsize=7
+                f"median {s['median_s']:.3g} s", (1.01, p), xycoords=("axes fraction", "data"), va="center", fontsize=8
             )
-    ax.set_xlabel("seconds per registration (log)")
+    ax.set_xlabel("seconds per registration (log)", fontsize=9)
     ax.grid(alpha=0.3, axis="x")
     ax.set_title(title or "Runtime per registration", fontsize=10)
-    fig.tight_layout()
-    columns = ["method", "n", "min_s", "q1_s", "median_s", "q3_s", "max_s", "mean_s"]
+    fig.tight_layout(rect=(0, legend_in / height, 1, 1))
+    columns = ["method", "n", "min_s", "q1_s", "median_s", "q3_s", "max_s", "mean_s", "n_warmup", "warmup_s"]
     csv = _write_csv([{k: s[k] for k in columns} for s in stats], columns, out_stem)
     return save(fig, out_stem, pdf) + [csv]

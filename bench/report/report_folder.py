@@ -10,8 +10,12 @@ questions, so they never share a table or a figure):
 - ``tables/<protocol>_per_category.{md,tex,csv}``: (method, metric) rows x category columns;
 - ``tables/<protocol>_<layout>.*`` for each ``--layout``;
 - ``figures/<protocol>_{error_cdf,accuracy,runtime}.{png,pdf,csv}`` (the CSV holds the plotted data);
-- with ``--qualitative N``, up to ``N`` pictures per run: its worst registration and a typical
-  failure (:func:`qualitative_picks`), rebuilt from the run's config.
+- pictures of failures, on by default (``--qualitative N``, default 2, 0: none): per run its
+  worst registration and a typical failure (:func:`qualitative_picks`), rebuilt from the run's
+  config, at most ``--max-pictures`` (default :data:`MAX_PICTURES`) in the whole report.
+
+The runtime figure leaves each run's first registration (imports, numba's compilation: seconds)
+out of its boxes and marks it (:data:`catpose.bench.report.plots.WARMUP_COLUMN`).
 
 Labels are unique per protocol (:func:`catpose.bench.report.tables.run_labels`). Everything is made
 from the run directories' files. The folder is built beside ``--out`` and moved into place whole,
@@ -29,10 +33,14 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from catpose import atomic
-from catpose.errors import CatposeError
+from catpose.errors import CatposeError, ConfigError
 
 #: Errors (degrees) above which a registration counts as a failure for the qualitative examples.
 FAILURE_DEG = 10.0
+#: pictures per run by default (the worst registration and a typical failure)
+QUALITATIVE_PER_RUN = 2
+#: pictures in a whole report at most (each is a registration rebuilt from its run's config)
+MAX_PICTURES = 16
 
 PROTOCOL_TEXT = {
     "gt_model": "each partial view registered to its own complete model",
@@ -74,6 +82,16 @@ def _units_by_label(labels: list[str], units: list) -> dict:
     return {k: pd.concat(v, ignore_index=True) for k, v in out.items()}
 
 
+def _with_warmup(samples):
+    """A run's rows with :data:`~catpose.bench.report.plots.WARMUP_COLUMN` true on its first
+    registration (file order), the one that paid for imports and compilation."""
+    import numpy as np
+
+    from catpose.bench.report.plots import WARMUP_COLUMN
+
+    return samples.assign(**{WARMUP_COLUMN: np.arange(len(samples)) == 0})
+
+
 def _relative_names(paths: Sequence[Path]) -> tuple[str, list[str]]:
     """The runs' common folder (its name only) and each run's path below it."""
     root = Path(os.path.commonpath([str(p.resolve().parent) for p in paths]))
@@ -97,6 +115,30 @@ def _write_table(table, out: Path, stem: str) -> list[str]:
     ]
 
 
+#: the summary table's columns (all categories pooled), as the README quotes it
+SUMMARY_METRICS = ("mean", "median", "acc10", "acc30", "trans", "runtime", "failed")
+
+
+def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str):
+    """One row per run, all categories pooled, the columns of :data:`SUMMARY_METRICS` named by
+    the metric alone: ``tables/<protocol>_summary.*`` of a report (the README's first table),
+    and what ``make demo`` prints (:mod:`catpose.bench.report.demo`)."""
+    from catpose.bench.report import tables
+
+    summary = tables.build_table(
+        runs,
+        "generic",
+        categories=["all"],
+        labels=labels,
+        metrics=list(SUMMARY_METRICS),
+        title=f"All categories pooled ({protocol})",
+    )
+    # One category ("all"): the metric alone names each column.
+    summary.cells = {(r, c[1:]): v for (r, c), v in summary.cells.items()}
+    summary.columns = [c[1:] for c in summary.columns]
+    return summary
+
+
 def build_report(
     run_dirs: Sequence[str | Path],
     out: str | Path,
@@ -106,12 +148,13 @@ def build_report(
     notes: Sequence[str] = (),
     pdf: bool = True,
     left_out: list[str] | None = None,
+    max_pictures: int = MAX_PICTURES,
 ) -> Path:
     """Write the report folder (see the module docstring); returns the path of ``index.md``.
 
     ``notes`` are paragraphs put under the title (how the runs were made); ``pdf`` adds a PDF
-    of each summary figure. A run that cannot be read is left out, said so in the index and in
-    one line on stderr, and its reason appended to ``left_out`` (the command then exits 2).
+    of each summary figure; ``qualitative`` pictures per run, ``max_pictures`` in all. A run that
+    cannot be read is left out, said so in the index and in one line on stderr, and its reason appended to ``left_out`` (the command then exits 2).
     The folder is built beside ``out`` and moved into place when complete
     (:func:`catpose.atomic.building_dir`): a failure leaves no half-built report, and an existing
     ``out`` is replaced whole (whether it may be is :func:`main`'s question,
@@ -125,11 +168,11 @@ def build_report(
         left_out.extend(reasons)
     final = Path(out)
     with atomic.building_dir(final) as out:  # built aside, moved into place whole (docs/file-safety.md)
-        _write_report(runs, reasons, out, layouts, qualitative, labels, notes, pdf)
+        _write_report(runs, reasons, out, layouts, qualitative, labels, notes, pdf, max_pictures)
     return final / "index.md"
 
 
-def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes, pdf) -> None:
+def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes, pdf, max_pictures: int) -> None:
     """The files of :func:`build_report` into the new, empty folder ``out``."""
     from catpose.bench.report import plots, tables
     from catpose.bench.report.qualitative import plot_sample_from_run
@@ -156,6 +199,7 @@ def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes,
     if reasons:
         md += ["Left out (unreadable):", ""] + [f"- {why}" for why in reasons] + [""]
 
+    drawn = 0  # pictures so far (max_pictures in all)
     for protocol, group in by_protocol.items():
         names = {str(r.path): label_of[id(r)] for r in group}
         group_labels = [label_of[id(r)] for r in group]
@@ -167,18 +211,7 @@ def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes,
             "### Tables",
             "",
         ]
-        summary = tables.build_table(
-            group,
-            "generic",
-            categories=["all"],
-            labels=names,
-            metrics=["mean", "median", "acc10", "acc30", "trans", "runtime", "failed"],
-            title=f"All categories pooled ({protocol})",
-        )
-        # One category ("all"): the metric alone names each column.
-        summary.cells = {(r, c[1:]): v for (r, c), v in summary.cells.items()}
-        summary.columns = [c[1:] for c in summary.columns]
-        md += _write_table(summary, out, f"{protocol}_summary")
+        md += _write_table(summary_table(group, names, protocol), out, f"{protocol}_summary")
         cats = sorted({str(c) for r in group for c in r.samples.get("category", [])})
         if cats:
             per_cat = tables.build_table(
@@ -195,7 +228,7 @@ def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes,
 
         run_units = [tables.scored_units(r) for r in group]
         units = _units_by_label(group_labels, run_units)
-        samples = _units_by_label(group_labels, [r.samples for r in group])
+        samples = _units_by_label(group_labels, [_with_warmup(r.samples) for r in group])
         fig = out / "figures"
         figures = [
             (
@@ -214,7 +247,8 @@ def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes,
             "### Figures",
             "",
             "Runtime: wall-clock seconds per registration, measured under whatever load the "
-            "machine had during the run; compare only runs made together."
+            "machine had during the run; compare only runs made together. Each run's first "
+            "registration (imports, compilation) is a red cross, not part of the boxes."
             + (
                 ""
                 if protocol == "gt_model"
@@ -238,11 +272,17 @@ def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes,
             ]
             for run, label, u in zip(group, group_labels, run_units):
                 view_rows = run.samples if run.protocol == "relative" else u  # pairs have no single sample
-                picks = qualitative_picks(view_rows, qualitative)
+                if drawn >= max_pictures:
+                    md += [f"**{label}**: not drawn: the report stops at {max_pictures} pictures (--max-pictures).", ""]
+                    continue
+                limit = min(qualitative, max_pictures - drawn)
+                picks = qualitative_picks(view_rows, limit)
                 if not picks:
                     md += [f"**{label}**: no registration with an estimate to draw.", ""]
-                elif len(picks) == 1 and qualitative > 1:
+                elif len(picks) == 1 and limit > 1:
                     md += [f"**{label}**: no other registration with error above {FAILURE_DEG:g} deg.", ""]
+                elif limit < qualitative:
+                    md += [f"**{label}**: {limit} picture(s): the report stops at {max_pictures} (--max-pictures).", ""]
                 for kind, sid in picks:
                     err = float(view_rows.loc[view_rows["sample_id"] == sid, "err_deg"].iloc[-1])
                     stem = (
@@ -253,6 +293,7 @@ def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes,
                     except CatposeError as e:
                         md += [f"**{label}**, {kind} `{sid}` ({err:.1f} deg): not drawn ({e})", ""]
                         break
+                    drawn += 1
                     md += [
                         f"**{label}**, {kind}: `{sid}`, {err:.1f} deg",
                         "",
@@ -332,13 +373,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--qualitative",
         type=int,
-        default=0,
-        help="pictures per run, at most 2: the worst and a typical failure (re-loads samples from the config)",
+        default=QUALITATIVE_PER_RUN,
+        help="pictures per run, at most 2: the worst and a typical failure (re-loads samples from the "
+        f"config; default {QUALITATIVE_PER_RUN}, 0: none)",
+    )
+    ap.add_argument(
+        "--max-pictures",
+        type=int,
+        default=MAX_PICTURES,
+        help=f"pictures in the whole report at most (default {MAX_PICTURES})",
     )
     ap.add_argument("--label", action="append", default=[], help="RUN_DIR=LABEL, repeatable")
     ap.add_argument("--note", action="append", default=[], help="a paragraph under the title (how the runs were made)")
     ap.add_argument("--no-pdf", action="store_true", help="figures as PNG (+ CSV) only")
     args = ap.parse_args(argv)
+    if args.qualitative < 0 or args.max_pictures < 0:
+        raise ConfigError("--qualitative and --max-pictures take 0 or more (0: no pictures)")
     from catpose.bench.run.overwrite import check_output, input_runs, output_errors
 
     check_output(args.out, "folder", input_runs(args.runs), args.force)  # before any work
@@ -353,6 +403,7 @@ def main(argv: list[str] | None = None) -> int:
             args.note,
             pdf=not args.no_pdf,
             left_out=left_out,
+            max_pictures=args.max_pictures,
         )
     print(f"report written: {index} (and index.html)" + (f"; {len(left_out)} run(s) left out" if left_out else ""))
     return 2 if left_out else 0

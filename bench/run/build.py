@@ -14,6 +14,7 @@ import inspect
 import re
 from typing import Any
 
+from catpose import extras
 from catpose.errors import CatposeError, ConfigError, one_line
 
 #: ``_target_``s that moved when ``bench/`` was split into wings: the name written into run
@@ -61,6 +62,9 @@ def build_from_config(node: Any, what: str) -> tuple[str, Any]:
             cause = cause.__cause__
         if isinstance(cause, CatposeError):
             raise cause from None
+        missing = extras.missing_extra(cause)
+        if missing is not None:  # an optional dependency the configuration needs (catpose.extras)
+            raise missing from None
         named = [k for k in d if not k.startswith("_") and re.search(rf"\b{re.escape(k)}\b", str(cause))]
         keys = ", ".join(f"{what}.{k}={d[k]!r}" for k in named) or f"the {what}.* values"
         raise ConfigError(

@@ -9,7 +9,11 @@ perf``, ``bench align``, ``bench templates``, ``bench score --dataset``, ``bench
 
 What a user types is checked before Hydra sees it (:func:`check_overrides`): an unknown method,
 dataset, protocol or experiment name, or a key that was renamed, is one line that names the fix;
-a composition error is one line instead of Hydra's multi-line report.
+a composition error is one line instead of Hydra's multi-line report. A name or key that does not
+exist is answered with the closest valid ones (``difflib``: "did you mean `method=ours`?"), and a
+key that only another config of its group has with that config (``method.optimiser.lr`` under
+the default ICP: "method ours has it: `method=ours method.optimiser.lr=0.001`"); a sweep's group
+combinations are checked the same way before its first job starts (:func:`check_sweep_composition`).
 
 Renamed: ``method.optimizer`` is ``method.optimiser`` (the spelling of the config key, of
 ``Ours(optimiser=...)`` and of the docs), and the experiment and table layout ``optimizer`` are
@@ -22,8 +26,10 @@ Also here: where the shared real data is (:func:`shared_data_dir`).
 
 from __future__ import annotations
 
+import difflib
 import os
-from collections.abc import Sequence
+import re
+from collections.abc import Iterable, Sequence
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -70,6 +76,13 @@ def available(group: str) -> list[str]:
     return sorted(p.name[:-5] for p in root.iterdir() if p.name.endswith(".yaml"))
 
 
+def did_you_mean(word: str, candidates: Iterable[str], spell=lambda c: c) -> str:
+    """``did you mean `a` or `b`?`` for the candidates closest to ``word`` (difflib), each
+    written by ``spell``; empty when none is close."""
+    close = difflib.get_close_matches(word, sorted(set(candidates)), n=3, cutoff=0.6)
+    return f"did you mean {' or '.join(f'`{spell(c)}`' for c in close)}?" if close else ""
+
+
 def check_overrides(argv: Sequence[str], names: bool = True) -> None:
     """Fail fast, in one line, on an unknown method, dataset, protocol or experiment name and on
     a renamed key or name (``method.optimizer.lr=...``: "method.optimizer was renamed
@@ -96,8 +109,9 @@ def check_overrides(argv: Sequence[str], names: bool = True) -> None:
                 new = RENAMED_NAMES[key, v]
                 raise ConfigError(f"{key} {v} was renamed {new}; write {prefix}{key}={new}")
             if names and v and v not in available_names:
+                guess = did_you_mean(v, available_names, lambda c: f"{prefix}{key}={c}")
                 raise ConfigError(
-                    f"unknown {key} {v!r}; available: {', '.join(available_names)} "
+                    f"unknown {key} {v!r}; {guess + ' ' if guess else ''}available: {', '.join(available_names)} "
                     f"(add configs/{key}/{v}.yaml to plug in a new one)"
                 )
 
@@ -134,14 +148,14 @@ def compose(overrides: Sequence[str], hint: str = HINT) -> Any:
     """
     overrides = list(overrides)
     check_overrides(overrides)
-    from hydra import compose as hydra_compose
-    from hydra import initialize_config_module
     from hydra.errors import ConfigCompositionException, OverrideParseException
 
     try:
-        with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
-            return hydra_compose(config_name="run", overrides=overrides)
+        return _compose(overrides)
     except (ConfigCompositionException, OverrideParseException) as e:
+        bad = re.match(r"Could not override '([^']+)'", str(e))
+        if bad:
+            raise ConfigError(unknown_key_message(overrides, bad.group(1), hint)) from None
         parts = [str(e)] + ([str(e.__cause__).splitlines()[0]] if e.__cause__ is not None else [])
         lines = [
             ln.strip().rstrip(".")
@@ -150,6 +164,128 @@ def compose(overrides: Sequence[str], hint: str = HINT) -> Any:
             if ln.strip() and not ln.startswith(("See https://", "Set the environment"))
         ]
         raise ConfigError("; ".join(lines) + f" ({hint})") from None
+
+
+def _compose(overrides: Sequence[str]) -> Any:
+    """Hydra's compose API on the package's ``run`` config (errors as Hydra raises them)."""
+    from hydra import compose as hydra_compose
+    from hydra import initialize_config_module
+
+    with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
+        return hydra_compose(config_name="run", overrides=list(overrides))
+
+
+def _override_key(override: str) -> str:
+    return override.partition("=")[0].lstrip("+~")
+
+
+def _has_path(cfg: Any, parts: Sequence[str]) -> bool:
+    from omegaconf import DictConfig
+
+    node = cfg
+    for p in parts:
+        if not isinstance(node, DictConfig) or p not in node:
+            return False
+        node = node[p]
+    return True
+
+
+def unknown_key_message(overrides: Sequence[str], key: str, hint: str = HINT) -> str:
+    """One line for an override of a key the composed config does not have: the closest keys at
+    the level where the path stops (``metod`` -> `method=...`), or, for a key of a config group
+    (``method.optimiser.lr`` under ``method=icp``), the group's configs that have it."""
+    from omegaconf import DictConfig
+
+    typed = next((o for o in overrides if _override_key(o) == key), key)
+    value = typed.partition("=")[2]
+    others = [o for o in overrides if _override_key(o) != key]
+    head = f"unknown key '{key}' ({typed})"
+    tail = f"(+{key}={value} adds a new key; {hint})" if value else f"({hint})"
+    try:
+        cfg = _compose(others)
+    except Exception:  # noqa: BLE001 - the other overrides are broken too: no suggestion, Hydra's words
+        return f"{head} {tail}"
+    parts = key.split(".")
+    node, depth = cfg, 0
+    while depth < len(parts) and isinstance(node, DictConfig) and parts[depth] in node:
+        node, depth = node[parts[depth]], depth + 1
+    if not isinstance(node, DictConfig):  # a value, not a node: nothing below it
+        return f"{head}: {'.'.join(parts[:depth])} is a value, not a group of keys ({hint})"
+    rest = ".".join(parts[depth + 1 :])
+    guess = did_you_mean(
+        parts[depth],
+        [str(k) for k in node.keys()],
+        lambda c: ".".join([*parts[:depth], c] + ([rest] if rest else [])) + (f"={value}" if value else ""),
+    )
+    if guess:
+        return f"{head}; {guess} {tail}"
+    group = parts[0] if parts[0] in GROUPS[:3] and depth >= 1 else None
+    if group:  # another config of the group has the key: name it
+        current = str(cfg[group].get("name", ""))
+        having = []
+        for name in available(group):
+            if name == current:
+                continue
+            try:
+                if _has_path(_compose([o for o in others if _override_key(o) != group] + [f"{group}={name}"]), parts):
+                    having.append(name)
+            except Exception:  # noqa: BLE001 - a config that needs other settings (a dataset root) proves nothing
+                continue
+        if having:
+            has = f"{group} {', '.join(having)} {'has' if len(having) == 1 else 'have'} it"
+            return (
+                f"{head}: {group} {current} has no {'.'.join(parts[: depth + 1])}; {has}: `{group}={having[0]} {typed}`"
+            )
+    where = ".".join(parts[:depth]) or "the run config"
+    keys = sorted(str(k) for k in node.keys() if not str(k).startswith("_"))
+    shown = ", ".join(keys[:10]) + (f" and {len(keys) - 10} more" if len(keys) > 10 else "")
+    add = f"; +{key}={value} adds a new key" if value else ""
+    return f"{head}: {where} has {shown} (bench run --cfg job shows them{add})"
+
+
+#: at most this many group combinations of a sweep are composed before it starts
+SWEEP_CHECK_LIMIT = 24
+
+
+def check_sweep_composition(overrides: Sequence[str]) -> None:
+    """``bench run -m``'s fail-fast check: every combination of the swept method, dataset and
+    protocol names (the other keys at their first value) composes, or the one-line error of
+    :func:`compose`, naming the job's choices. Sweeps that compose their own rows (``+experiment``,
+    ``+row``) or that set Hydra keys are left to Hydra, as are more than
+    :data:`SWEEP_CHECK_LIMIT` combinations."""
+    import itertools
+
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.errors import HydraException
+
+    plain = [o for o in overrides if not _override_key(o).startswith("hydra")]
+    if any(_override_key(o) in ("experiment", "row") for o in plain):
+        return
+    try:
+        parsed = OverridesParser.create().parse_overrides(plain)
+    except HydraException as e:
+        raise ConfigError(f"{' '.join(str(e).split())} ({HINT})") from None
+    choices: list[list[str]] = []
+    for o in parsed:
+        element = o.get_key_element()
+        if o.is_sweep_override():
+            try:
+                values = [str(v) for v in o.sweep_string_iterator()]
+            except Exception:  # noqa: BLE001 - an interval or a sweep Hydra expands itself: its first job tells
+                return
+            values = values if o.key_or_group in GROUPS[:3] else values[:1]
+            choices.append([f"{element}={v}" for v in values])
+        else:
+            choices.append([element if o.value_type is None else f"{element}={o.get_value_element_as_str()}"])
+    combos = list(itertools.islice(itertools.product(*choices), SWEEP_CHECK_LIMIT + 1))
+    if len(combos) > SWEEP_CHECK_LIMIT:
+        return
+    for combo in combos:
+        try:
+            compose(combo)
+        except ConfigError as e:
+            groups = [c for c in combo if _override_key(c) in GROUPS[:3]]
+            raise ConfigError(f"in the sweep's job {' '.join(groups) or '(defaults)'}: {e}") from None
 
 
 def compose_and_build(
@@ -296,3 +432,5 @@ def check_run_args(argv: Sequence[str]) -> None:
     check_overrides(overrides, names=not flag_names(flags) & set(OTHER_CONFIGS))
     check_launcher(overrides)
     check_composition(argv)
+    if "--multirun" in flag_names(flags) and not flag_names(flags) & set(OTHER_CONFIGS):
+        check_sweep_composition(overrides)

@@ -39,6 +39,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from catpose import extras
 from catpose.bench.run.build import build_choice, build_parts, validate_run_options
 from catpose.bench.run.choice_facts import facts_hook
 from catpose.bench.run.evaluate import format_summary, summarize_run
@@ -73,6 +74,7 @@ log = logging.getLogger(__name__)
 _EARLY_MODULES = ("numpy", "scipy.spatial", "scipy.sparse", "scipy.optimize", "scipy.ndimage", "PIL.Image", "trimesh")
 _LATE_MODULES = ("torch", "catpose.o3d")
 _OPTIONAL_MODULES = ("networkx",)  # trimesh uses it when present
+_IF_INSTALLED = ("torch",)  # the torch extra: imported early where it is installed
 
 
 class _Interrupts:
@@ -125,6 +127,8 @@ def import_heavy_libraries(
             if interrupts is not None:
                 interrupts.check()
     for name in modules:
+        if name in _IF_INSTALLED and not extras.installed(name):
+            continue  # an extra (catpose.extras): a configuration that needs it says so when it does
         try:
             importlib.import_module(name)
         except Exception as e:  # noqa: BLE001 - a swallowed Ctrl-C can surface as anything (trimesh: TypeError)
@@ -132,7 +136,7 @@ def import_heavy_libraries(
                 interrupts.check()
             raise RunAborted(
                 f"cannot import {name} ({_one_line(e)}); the installation is broken: "
-                "reinstall with `make install` (or pip install -e .)"
+                "reinstall with `make setup` (or pip install -e .)"
             ) from None
         if interrupts is not None:
             interrupts.check()
@@ -146,12 +150,15 @@ def _short(value: Any) -> str:
 def _abort_message(e: BaseException, sample_id: str) -> str:
     """One line for an exception that stops the run while ``sample_id`` was in progress."""
     redo = f"sample {sample_id} was not recorded; re-run the same command to resume"
+    missing = extras.missing_extra(e)
+    if missing is not None:
+        return f"{missing}; nothing was recorded for sample {sample_id}: install it, then re-run the same command"
     if isinstance(e, MemoryError):
         return f"out of memory on sample {sample_id}; free memory or lower dataset.max_points, then re-run ({redo})"
     name = getattr(e, "name", None) or "a module"
     return (
         f"cannot import {name} on sample {sample_id} ({_one_line(e)}); the installation is broken: "
-        f"reinstall with `make install`, then re-run ({redo})"
+        f"reinstall with `make setup` (or pip install -e .), then re-run ({redo})"
     )
 
 
@@ -159,10 +166,11 @@ def _abort_message(e: BaseException, sample_id: str) -> str:
 # run and summarize
 
 
-def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
+def run(cfg: Any, overrides: Iterable[str] = (), run_dir: Path | None = None) -> Path:
     """Run ``cfg.method`` on every sample of ``cfg.dataset`` under ``cfg.protocol``.
 
-    Returns the run directory. Finished samples already in its ``samples.jsonl`` are skipped.
+    Returns the run directory: ``run_dir`` where the caller names one (``bench run
+    hydra.run.dir=DIR``), else the one named from the parameters (:func:`run_dir_for`). Finished samples already in its ``samples.jsonl`` are skipped.
     Only a sample's own fault is recorded as its failure; Ctrl-C, a failed import, no memory
     and an unwritable output directory abort the run (``KeyboardInterrupt`` or
     :class:`RunAborted`) and record nothing for the sample in progress.
@@ -170,19 +178,16 @@ def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     validate_run_options(cfg)
     with _Interrupts() as interrupts:
         try:
-            return _run(cfg, list(overrides), interrupts)
+            return _run(cfg, list(overrides), interrupts, run_dir)
         except CatposeError:
             interrupts.check()  # a Ctrl-C that a library turned into a build or load error
             raise
 
 
-def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
+def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts, run_dir: Path | None = None) -> Path:
     """Build the pieces, list the samples, lock the run directory and run (see :func:`run`)."""
     import_heavy_libraries(interrupts, _EARLY_MODULES)
-    if cfg.get("threads"):
-        import torch
-
-        torch.set_num_threads(int(cfg.threads))
+    extras.set_torch_threads(cfg.get("threads"))
     method_name, method, dataset, protocol = build_parts(cfg)
     facts = facts_hook(protocol, build_choice(cfg))  # a templates run's choice facts after each registration
     dataset_name = dataset.name
@@ -206,7 +211,7 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
     if sharding:  # this job's part of the run: its own files in the run directory (bench/run/merge.py)
         ids = shard_ids(ids, *sharding)
 
-    out = run_dir_for(cfg, overrides)
+    out = run_dir if run_dir is not None else run_dir_for(cfg, overrides)
     if sharding:  # every shard of a run has one config and one shard count (bench/run/shard_check.py)
         from catpose.bench.run.shard_check import check_shard_start, comparable_config
 

@@ -1,0 +1,96 @@
+"""Optional dependencies: which extra installs a module, and one line naming it when it is missing.
+
+``pip install catpose`` (or ``pip install .`` from a clone) installs what ``bench run`` needs for
+every method's default settings; the rest are extras (``pyproject.toml``, docs/install.md):
+
+- ``torch``: PyTorch, for ours' Adam solver (``method.optimiser.solver=adam``), the GPU path
+  (``method.optimiser.device=cuda``) and the batched solver (``batch>1`` on clouds without a
+  depth image); left out of the core so that a plain install pulls no CUDA build;
+- ``pfh``: POT, for the exact EMD of the PFH descriptor;
+- ``cluster``: Hydra's launchers (joblib, Slurm, Ray).
+
+Code that needs one imports it through :func:`require`, and the places that catch a failed import
+(the runner, the builder, the CLI) turn it into :class:`MissingExtra` with :func:`missing_extra`,
+so that a missing extra reads as one line that says what to install.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+from types import ModuleType
+
+from catpose.errors import CatposeError
+
+#: import name -> (extra, what needs it)
+EXTRAS: dict[str, tuple[str, str]] = {
+    "torch": (
+        "torch",
+        "ours' Adam solver (method.optimiser.solver=adam), its GPU path (method.optimiser.device=cuda) "
+        "and its batched solver (batch>1 on clouds without a depth image)",
+    ),
+    "ot": ("pfh", "the exact EMD of the PFH descriptor (method.descriptor.distance=exact)"),
+}
+
+
+class MissingExtra(CatposeError, ImportError):
+    """An optional dependency that is not installed; the message names the extra to install.
+
+    An :class:`ImportError` too, so that a run stops on it (not the sample's fault) instead of
+    recording every sample as failed."""
+
+    def __init__(self, module: str, purpose: str | None = None) -> None:
+        extra, needs = EXTRAS.get(module, (module, ""))
+        super().__init__(
+            f"{purpose or needs or module} needs {module}, which is not installed: "
+            f"pip install 'catpose[{extra}]' (from a clone: pip install -e '.[{extra}]'; docs/install.md)"
+        )
+        self.name = module
+
+
+def installed(module: str) -> bool:
+    """Whether ``module`` can be imported (found on the path; not imported)."""
+    try:
+        return importlib.util.find_spec(module) is not None
+    except (ImportError, ValueError):
+        return False
+
+
+def require(module: str, purpose: str | None = None) -> ModuleType:
+    """``module`` imported, or :class:`MissingExtra` naming its extra and ``purpose``."""
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as e:
+        if e.name != module and not str(e.name or "").startswith(module + "."):
+            raise  # the module is there but one of its own imports is broken: not an extra's absence
+        raise MissingExtra(module, purpose) from None
+
+
+def missing_extra(error: BaseException) -> MissingExtra | None:
+    """The :class:`MissingExtra` an import error stands for (a module of :data:`EXTRAS` not
+    found), or None for any other error."""
+    if isinstance(error, MissingExtra):
+        return error
+    if isinstance(error, ModuleNotFoundError) and error.name:
+        top = error.name.split(".")[0]
+        if top in EXTRAS:
+            return MissingExtra(top)
+    return None
+
+
+def torch_threads() -> int | None:
+    """torch's intra-op threads, or None without torch."""
+    if not installed("torch"):
+        return None
+    import torch
+
+    return int(torch.get_num_threads())
+
+
+def set_torch_threads(n: int | None) -> None:
+    """torch's intra-op threads (the runs' ``threads`` key), where torch is installed; without
+    torch nothing uses them."""
+    if n and installed("torch"):
+        import torch
+
+        torch.set_num_threads(int(n))

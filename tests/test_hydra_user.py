@@ -1,0 +1,136 @@
+"""What a Hydra user expects of ``bench run``: the closest valid names and keys for a typo,
+``hydra.run.dir`` / ``hydra.sweep.dir`` with ``.hydra/``, shell completion, quiet runs without a
+progress bar, ``hydra/job_logging`` writing into the run directory."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from catpose.bench.run.config import check_run_args, did_you_mean
+from catpose.errors import ConfigError
+
+BENCH = [sys.executable, "-m", "catpose.bench.cli"]
+TINY = [
+    "dataset=synthetic",
+    "dataset.categories=[car]",
+    "dataset.instances_per_category=1",
+    "dataset.views_per_instance=1",
+]
+
+
+def bench(*args: str, cwd: Path, env: dict | None = None) -> subprocess.CompletedProcess:
+    env = dict(os.environ, HYDRA_FULL_ERROR="0", **(env or {}))
+    return subprocess.run([*BENCH, *args], capture_output=True, text=True, timeout=600, cwd=cwd, env=env)
+
+
+def test_did_you_mean():
+    assert did_you_mean("metod", ["method", "dataset", "seed"], lambda c: f"{c}=ours") == "did you mean `method=ours`?"
+    assert did_you_mean("zzz", ["method"]) == ""
+
+
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["metod=ours"], "unknown key 'metod' (metod=ours); did you mean `method=ours`?"),
+        (["method=our"], "unknown method 'our'; did you mean `method=ours`? available:"),
+        (["protocol=gt_modle"], "did you mean `protocol=gt_model`?"),
+        (["method=ours", "method.optimiser.lrr=0.1"], "did you mean `method.optimiser.lr=0.1`?"),
+        (["method=ours", "method.optimisr.lr=0.1"], "did you mean `method.optimiser.lr=0.1`?"),
+        # the key exists, in another config of the group than the default ICP: name it
+        (["method.optimiser.lr=0.001"], "method icp has no method.optimiser; method ours has it: `method=ours"),
+        (["dataset.nosuch=1"], "dataset has categories, "),
+        (["seed.x=1"], "seed is a value, not a group of keys"),
+        # a sweep: every combination of the swept group names is composed before the first job
+        (["-m", "metod=ours,icp"], "did you mean `method=ours`?"),
+        (["-m", "method=icp,ours", "method.optimiser.lr=0.001"], "in the sweep's job method=icp: unknown key"),
+    ],
+)
+def test_unknown_names_and_keys_get_the_closest_valid_ones(argv, needle):
+    with pytest.raises(ConfigError) as info:
+        check_run_args(argv)
+    assert needle in str(info.value) and "\n" not in str(info.value), str(info.value)
+
+
+def test_valid_sweeps_and_other_configs_pass_the_check():
+    check_run_args(["-m", "method=icp,ours", "seed=0,1", "shard=range(2)", "shards=2"])
+    check_run_args(["-m", "+experiment=optimiser"])  # rows compose themselves: Hydra judges them
+    check_run_args(["-m", "method=ours", "method.optimiser.lr=0.001,0.01"])
+
+
+def test_hydra_run_dir_holds_the_run_and_its_hydra_folder(tmp_path: Path):
+    r = bench("run", "method=icp", *TINY, "hydra.run.dir=out/x", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-2000:]
+    x = tmp_path / "out" / "x"
+    assert {"samples.jsonl", "config.yaml", "summary.md", "run.json"} <= {p.name for p in x.iterdir()}
+    assert {p.name for p in (x / ".hydra").iterdir()} == {"config.yaml", "hydra.yaml", "overrides.yaml"}
+    assert yaml.safe_load((x / ".hydra" / "config.yaml").read_text())["method"]["name"] == "icp"
+    assert not (tmp_path / "outputs").exists() and f"seed 0: out{os.sep}x" in r.stdout
+    again = bench("run", "method=icp", *TINY, "hydra.run.dir=out/x", "print_summary=false", cwd=tmp_path)
+    assert again.returncode == 0 and len((x / "samples.jsonl").read_text().splitlines()) == 1  # resumed
+    # another configuration into the same folder: refused in one line, before Hydra rewrites .hydra/
+    other = bench("run", "method=ours", *TINY, "hydra.run.dir=out/x", cwd=tmp_path)
+    assert other.returncode == 2 and len(other.stderr.strip().splitlines()) == 1, other.stderr
+    assert "holds a run of another configuration (icp on synthetic (gt_model), seed 0)" in other.stderr
+    assert yaml.safe_load((x / ".hydra" / "config.yaml").read_text())["method"]["name"] == "icp"
+    (tmp_path / "notes").mkdir()
+    (tmp_path / "notes" / "todo.txt").write_text("mine\n")
+    mine = bench("run", "method=icp", *TINY, "hydra.run.dir=notes", cwd=tmp_path)
+    assert mine.returncode == 2 and "holds 1 file(s) of no run (todo.txt)" in mine.stderr
+    assert sorted(p.name for p in (tmp_path / "notes").iterdir()) == ["todo.txt"]
+
+
+def test_hydra_sweep_dir_gets_hydra_folders_and_job_files(tmp_path: Path):
+    r = bench("run", "-m", "method=icp", *TINY, "seed=0,1", "hydra.sweep.dir=sw", "print_summary=false", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-2000:]
+    for job in ("0", "1"):
+        record = json.loads((tmp_path / "sw" / job / "job.json").read_text())
+        assert record["status"] == "ok" and Path(record["run_dir"]).is_dir()
+        assert (tmp_path / "sw" / job / ".hydra" / "overrides.yaml").is_file()
+    assert "table: bench table --sweep sw" in r.stderr
+
+
+def test_job_logging_writes_into_the_run_directory(tmp_path: Path):
+    r = bench("run", "method=icp", *TINY, "hydra/job_logging=default", "log_level=DEBUG", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-2000:]
+    (run_dir,) = list(tmp_path.glob("outputs/*/*/*"))
+    assert "sample car/000/v00: ok" in (run_dir / "run.log").read_text()
+    assert (run_dir / ".hydra" / "config.yaml").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["outputs"]  # no log file in the working directory
+
+
+def test_log_level_error_silences_the_progress_bar(tmp_path: Path):
+    quiet = bench("run", "method=icp", *TINY, "log_level=ERROR", cwd=tmp_path)
+    assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr
+    shown = bench("run", "method=icp", *TINY, "seed=1", "log_level=ERROR", "progress=true", cwd=tmp_path)
+    assert shown.returncode == 0 and "icp on synthetic" in shown.stderr  # asked for: kept
+
+
+def test_shell_completion_installs_and_completes(tmp_path: Path):
+    r = bench("run", "-sc", "install=bash", cwd=tmp_path)
+    assert r.returncode == 0 and "complete -o nospace -o default -F _catpose_bench_completion bench catpose" in r.stdout
+    assert bench("run", "-sc", "uninstall=bash", cwd=tmp_path).returncode == 0
+    bad = bench("run", "-sc", "install=fish", cwd=tmp_path)
+    assert bad.returncode == 2 and "-sc takes install=SHELL" in bad.stderr
+    query = bench("run", "-sc", "query=bash", cwd=tmp_path, env={"COMP_LINE": "bench run method=", "COMP_POINT": "17"})
+    assert query.returncode == 0 and "method=ours" in query.stdout.split(), query.stderr
+    bash = shutil.which("bash")
+    if bash is None:
+        return
+    # the script in a real bash: `bench <Tab>` gives the commands, `bench run method=o<Tab>` the method
+    bindir = Path(sys.executable).parent
+    script = r.stdout + (
+        'COMP_LINE="bench ru"; COMP_POINT=8; COMP_CWORD=1; _catpose_bench_completion; echo "1:${COMPREPLY[*]}"\n'
+        'COMP_LINE="bench run method=o"; COMP_POINT=18; COMP_CWORD=2; _catpose_bench_completion; echo "2:${COMPREPLY[*]}"\n'
+    )
+    env = dict(os.environ, PATH=f"{bindir}{os.pathsep}{os.environ.get('PATH', '')}")
+    out = subprocess.run([bash, "-c", script], capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env)
+    lines = dict(line.split(":", 1) for line in out.stdout.splitlines() if line[:2] in ("1:", "2:"))
+    assert lines.get("1") == "run" and lines.get("2") == "method=ours", (out.stdout, out.stderr)
