@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from catpose.bench.run import config
-from catpose.errors import CatposeError, command_error
+from catpose.errors import CatposeError, ConfigError, command_error
 
 
 def main(argv: list[str]) -> int:
