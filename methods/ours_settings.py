@@ -102,9 +102,10 @@ class SelectionSettings:
         depth_final_pixels: ``depth``: lattice pixels in the mask for the last comparisons (of the
             ``depth_final_refine`` poses, and of the winner with its half turns; at most
             ``depth_pixels`` means the same lattice).
-        depth_final_turns: ``depth``: the winner meets the one of its three half turns about the
-            template's axes that the coarse lattice scores best, refined on all input points and
-            compared on the final lattice (false: not).
+        depth_final_turns: ``depth``: the winner meets this many of its (three, two for a
+            template with a symmetry axis) half turns about the template's axes, those the coarse
+            lattice scores best, each refined on all input points and compared on the final
+            lattice (0: none; true / false read as 1 / 0).
         depth_top_k: ``depth``: candidates (of all gravity hypotheses, by their depth score) expanded
             by their half turns and refined.
         depth_final_refine: ``depth``: poses refined on all input points and scored again at the
@@ -144,7 +145,7 @@ class SelectionSettings:
     depth_final_refine: int = 1
     depth_yaw_turns: int = 12
     depth_final_pixels: int = 2400
-    depth_final_turns: bool = True
+    depth_final_turns: int = 1
     depth_fine_distance: float = 0.0
     depth_min_inliers: float = 0.9
     depth_fit_tau: float = 0.2
@@ -190,7 +191,9 @@ class SelectionSettings:
             raise ConfigError(f"{k}gravity_max_deg={g!r} must be a number of degrees or null (off)")
         set_(self, "gravity_max_deg", None if g is None or g <= 0 else float(g))
         set_(self, "refine", options.flag(k + "refine", self.refine))
-        set_(self, "depth_final_turns", options.flag(k + "depth_final_turns", self.depth_final_turns))
+        turns = self.depth_final_turns
+        turns = int(turns) if isinstance(turns, bool) else turns  # true / false: 1 / 0 (the key was a flag)
+        set_(self, "depth_final_turns", options.non_negative(k + "depth_final_turns", turns, integer=True))
         set_(self, "refine_max_distance", options.positive(k + "refine_max_distance", self.refine_max_distance))
         set_(
             self,
@@ -218,14 +221,23 @@ class RestingSettings:
         min_probability: directions less probable than this (drop-test probability of the
             template's convex hull) are not tried.
         merge_deg: resting directions closer than this are one.
-        escalate_below: the other resting directions are tried only when the best pose on the
-            template's own up explains fewer of the object mask's pixels than this (1: always).
+        escalate_below: the dictionary runs on the other resting directions too only when the
+            best pose explains fewer of the object mask's pixels than this (1: always; 0: never).
+        grid_yaws: the coarse search (:mod:`catpose.methods.rest_grid`): yaws per resting
+            direction (0: off).
+        grid_iterations: its ICP steps per pose.
+        grid_max_distance: its ICP pairing distance (object-normalised unit).
+        grid_keep: its poses of lowest depth cost that join the dictionary's candidates.
     """
 
     max_poses: int = 5
     min_probability: float = 0.05
     merge_deg: float = 10.0
     escalate_below: float = 0.95
+    grid_yaws: int = 0
+    grid_iterations: int = 10
+    grid_max_distance: float = 0.15
+    grid_keep: int = 8
 
     def __post_init__(self) -> None:
         k, set_ = "method.resting.", object.__setattr__
@@ -233,3 +245,7 @@ class RestingSettings:
         set_(self, "min_probability", options.non_negative(k + "min_probability", self.min_probability))
         set_(self, "merge_deg", options.positive(k + "merge_deg", self.merge_deg))
         set_(self, "escalate_below", options.non_negative(k + "escalate_below", self.escalate_below))
+        set_(self, "grid_yaws", options.non_negative(k + "grid_yaws", self.grid_yaws, integer=True))
+        set_(self, "grid_iterations", options.non_negative(k + "grid_iterations", self.grid_iterations, integer=True))
+        set_(self, "grid_max_distance", options.positive(k + "grid_max_distance", self.grid_max_distance))
+        set_(self, "grid_keep", options.non_negative(k + "grid_keep", self.grid_keep, integer=True))

@@ -79,7 +79,7 @@ def test_upright_views_are_right_and_the_extras_say_how(template):
         r = method.register(p)
         errs.append(rotation_error_deg(r.T_template_camera[:3, :3], T[:3, :3]))
         extras = json.loads(json.dumps(r.extras))
-        assert {"hypothesis", "resting", "depth_score", "depth_inliers", "escalated", "final_turn"} <= set(extras)
+        assert {"pool_index", "resting", "depth_score", "depth_inliers", "escalated", "final_turn"} <= set(extras)
         assert {"verification", "refinement", "optimization"} <= set(extras["timings"])
         assert r.score == pytest.approx(extras["depth_score"])
         # the candidates it chose among come back (catpose.register and the diagnosis read them)
@@ -140,7 +140,7 @@ def test_depth_problems_register_one_by_one_in_a_batch(template):
 
 
 def test_a_winner_turned_half_way_round_meets_its_half_turn_and_loses(template):
-    """Step 5 (``depth_final_turns``): a winner that is the truth turned 180 deg about the up meets
+    """Step 4 (``depth_final_turns``): a winner that is the truth turned 180 deg about the up meets
     its half turns; the one about the up comes back to the truth after the refinement and costs
     less on the final lattice. The truth itself stays."""
     from catpose.methods import ours_depth
@@ -150,7 +150,7 @@ def test_a_winner_turned_half_way_round_meets_its_half_turn_and_loses(template):
     sel = method.selection
     p, T_true = scene_problem(template, 1)
     hyps = list(hypotheses(template, RestingSettings(max_poses=0)))
-    cands, feats = [method.candidates(p)], [method.template_features(template)]
+    cands, feats = method.candidates(p), method.template_features(template)
     verifiers = (ours_depth.depth_verifier(sel, p), ours_depth.final_verifier(sel, p))
     gravity = (p.ground_normal_camera, np.stack([h.up for h in hyps]), None)
     T_flip = compose_T(make_T(np.diag([-1.0, -1.0, 1.0]), np.zeros(3)), T_true)  # 180 deg about the template's z
@@ -158,7 +158,7 @@ def test_a_winner_turned_half_way_round_meets_its_half_turn_and_loses(template):
     for T_win, turn in ((T_flip, 3), (T_true, 0)):
         score = float(verifiers[1].scores(T_win[None])[0])
         T, s, rest, got = ours_depth._against_half_turns(
-            sel, hyps, cands, feats, verifiers, T_win, score, 0, gravity, timings
+            sel, cands, feats, p, verifiers, T_win, score, 0, gravity, timings
         )
         assert got == turn and rest == 0
         assert rotation_error_deg(T[:3, :3], T_true[:3, :3]) < 3.0
