@@ -370,15 +370,40 @@ class Ours(RegistrationMethod):
             rs.grid_yaws,
             tpl.symmetry_axis,
         )
-        key = (tpl.template_id, content_hash(np.asarray(tpl.points, float)), rs.grid_max_distance)
-        grid = self._grids.get(key)
-        if grid is None:
-            grid = cell_grid.build(tpl.points, rs.grid_max_distance)
-            self._grids.put(key, grid)
-        if rs.grid_iterations > 0:
-            T = refine_many(cands.chamfer_src, grid, tpl.normals, T, rs.grid_max_distance, rs.grid_iterations)
+        key = (
+            tpl.template_id,
+            content_hash(np.asarray(tpl.points, float)),
+            rs.grid_max_distance,
+            rs.grid_template_points,
+        )
+        hit = self._grids.get(key)
+        if hit is None:  # a farthest-point subset of the template: fewer pairs to search at the long reach
+            keep = farthest_point_indices(tpl.points, min(rs.grid_template_points, len(tpl.points)))
+            hit = (cell_grid.build(tpl.points[keep], rs.grid_max_distance), tpl.normals[keep])
+            self._grids.put(key, hit)
+        if rs.grid_iterations > 0 and 0 < rs.grid_beam < len(T):
+            # a few steps on the head of the Chamfer subset (farthest-point order: a subset of it
+            # too), the grid_beam of lowest one-directional Chamfer distance go on in full
+            from catpose.methods.ours_selection import chamfer_distances
+
+            src = cands.chamfer_src[: rs.grid_points]
+            T = refine_many(src, hit[0], hit[1], T, rs.grid_max_distance, rs.grid_first_iterations)
+            feats = self.template_features(tpl)
+            T = T[np.sort(np.argsort(chamfer_distances(feats.tree, src, T), kind="stable")[: rs.grid_beam])]
+            T = refine_many(cands.chamfer_src, hit[0], hit[1], T, rs.grid_max_distance, rs.grid_iterations)
+        elif rs.grid_iterations > 0:  # the Chamfer subset is in farthest-point order: its head is one too
+            src = cands.chamfer_src[: rs.grid_points]
+            T = refine_many(src, hit[0], hit[1], T, rs.grid_max_distance, rs.grid_iterations)
         timings["rest_grid"] = timings.get("rest_grid", 0.0) + time.perf_counter() - t0
         t0 = time.perf_counter()
+        if rs.grid_pixels < self.selection.depth_pixels:  # a coarser lattice for the many grid poses
+            from dataclasses import replace
+
+            from catpose.methods.ours_depth import depth_verifier
+
+            sel = self.selection
+            rays = max(sel.depth_max_rays * rs.grid_pixels // sel.depth_pixels, 1)
+            verifier = depth_verifier(replace(sel, depth_pixels=rs.grid_pixels, depth_max_rays=rays), problem)
         scores = verifier.scores(T)
         timings["verification"] = timings.get("verification", 0.0) + time.perf_counter() - t0
         return T[np.argsort(scores, kind="stable")[: rs.grid_keep]]

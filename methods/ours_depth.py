@@ -88,6 +88,8 @@ def select_by_depth(
     yaws = 0 if axis is not None else yaw_turns  # no yaw about a symmetry axis
     rests = tilts_deg(pool[order], g, ups, axis).argmin(axis=1)
     turn_sets = {int(k): _visible(yaw_and_half_turns(ups[k], yaws), axis) for k in sorted(set(rests.tolist()))}
+    if not sel.depth_half_turns and not yaws:  # the coarse search has every resting pose and yaw already
+        turn_sets = {k: F[:1] for k, F in turn_sets.items()}
     expanded = [(int(o), j) for o, k in zip(order, rests) for j in range(len(turn_sets[int(k)]))]
     T_exp = np.stack([compose_T(F, pool[o]) for o, k in zip(order, rests) for F in turn_sets[int(k)]])
     chosen = np.arange(len(T_exp))
@@ -258,8 +260,11 @@ def _against_half_turns(
     best = [t for t in best if keep[t]]
     t0 = time.perf_counter()
     T_turn = T_turns[best]
-    if sel.refine:
-        T_turn = refine_last(sel, cands.points, feats.pairing, problem.template.normals, T_turn)
+    if sel.refine:  # each refined on all points, and as it was (ICP can make a right pose worse)
+        T_turn = np.concatenate(
+            [refine_last(sel, cands.points, feats.pairing, problem.template.normals, T_turn), T_turn]
+        )
+        best = best + best
     timings["refinement"] += time.perf_counter() - t0
     t0 = time.perf_counter()
     T_all = np.concatenate([T_win[None], T_turn])

@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from catpose.geometry import apply_R, dot3, norm3, small_matmul, unit3
+from catpose.geometry import norm3, small_matmul, unit3
 from catpose.methods.resting_hypotheses import rotation_between
 
 __all__ = ["grid_poses", "grid_rotations"]
@@ -80,10 +80,10 @@ def grid_poses(
     view = -m / max(norm3(m), 1e-12)  # towards the camera, camera frame
     P = np.asarray(template_points, dtype=np.float64)
     v = np.einsum("bij,j->bi", R, view)  # towards the camera, template frame, per pose
-    facing = dot3(np.asarray(template_normals, dtype=np.float64)[:, None, :], v[None]) > 0.0  # (M, B)
+    facing = (np.einsum("mj,bj->mb", np.asarray(template_normals, dtype=np.float64), v) > 0.0).astype(np.float64)
+    count = facing.sum(axis=0)
+    front = np.einsum("mb,mj->bj", facing, P) / np.maximum(count, 1.0)[:, None]  # einsum's loops: no BLAS
     T = np.tile(np.eye(4), (len(R), 1, 1))
     T[:, :3, :3] = R
-    for b in range(len(R)):
-        front = P[facing[:, b]].mean(axis=0) if facing[:, b].any() else np.zeros(3)
-        T[b, :3, 3] = front - apply_R(R[b], m)
+    T[:, :3, 3] = front - np.einsum("bij,j->bi", R, m)
     return T, rest
