@@ -30,6 +30,8 @@ from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 
+import numpy as np
+
 from catpose.datasets.bop import BOP
 from catpose.datasets.clutter_layout import YCBV_K, YCBV_OBJECTS, ClutterSpec, layout_scene
 from catpose.datasets.clutter_render import render_scene, write_scene
@@ -37,7 +39,7 @@ from catpose.datasets.meshio import read_mesh
 from catpose.errors import ConfigError, DatasetError
 
 #: bumped whenever generated files change for the same settings
-GENERATOR_VERSION = "1"
+GENERATOR_VERSION = "2"
 
 #: the YCB-Video categories (BOP obj_id -> category), as configs/dataset/ycbv.yaml
 YCBV_CATEGORIES = {1: "can", 4: "can", 5: "bottle", 6: "can", 9: "can", 12: "bottle", 13: "bowl", 14: "mug"}
@@ -88,6 +90,16 @@ def prepare_root(spec: ClutterSpec, models_root: Path, root: Path) -> None:
         (root / "spec.json").write_text(json.dumps({"version": GENERATOR_VERSION, **asdict(spec)}, indent=1))
 
 
+def symmetry_axes(models_root: Path, obj_ids: Sequence[int]) -> dict[int, np.ndarray | None]:
+    """obj_id -> the first continuous symmetry axis of ``models_info.json`` (model frame), or None."""
+    info = json.loads((Path(models_root) / "models_info.json").read_text())
+    out: dict[int, np.ndarray | None] = {}
+    for o in obj_ids:
+        sym = (info.get(str(o)) or {}).get("symmetries_continuous") or []
+        out[int(o)] = np.asarray(sym[0]["axis"], dtype=np.float64) if sym else None
+    return out
+
+
 def generate(
     spec: ClutterSpec,
     models_root: str | Path,
@@ -113,12 +125,13 @@ def generate(
     meshes = {o: read_mesh(models_root / f"obj_{o:06d}.ply") for o in spec.obj_ids}
     casters = {o: RayCaster(v, f) for o, (v, f) in meshes.items()}
     rests = {o: resting_ups(v) for o, (v, _) in meshes.items()}
+    axes = symmetry_axes(models_root, spec.obj_ids)
     split_dir = root / "test"
     split_dir.mkdir(parents=True, exist_ok=True)
     log = log or logging.getLogger(__name__).info
     log(f"clutter: generating {len(todo)} scenes into {root}")
     for i, s in enumerate(todo):
-        layout = layout_scene(spec, s, {o: v for o, (v, _) in meshes.items()}, rests)
+        layout = layout_scene(spec, s, {o: v for o, (v, _) in meshes.items()}, rests, axes)
         write_scene(split_dir, spec, layout, render_scene(spec, layout, casters))
         if (i + 1) % 20 == 0:
             log(f"clutter: {i + 1}/{len(todo)} scenes")
@@ -132,8 +145,9 @@ class Clutter(BOP):
         root: a BOP dataset folder whose ``models/`` holds the meshes (``obj_XXXXXX.ply`` in mm,
             ``models_info.json``), e.g. ``../shared/data/bop/ycbv``; nothing else of it is read.
         cache_dir: where the generated sets live (None: ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``).
-        scene_seed, num_scenes, obj_ids, objects_per_scene, upright_prior, table_radius_mm,
-            distance_mm, elevation_deg, width, height, K, sensor: the generation settings
+        scene_seed, num_scenes, obj_ids, objects_per_scene, upright_prior, resting,
+            rest_min_probability, table_radius_mm, distance_mm, elevation_deg, width, height, K,
+            sensor, dropout_blobs, mask_shift_px, annotation_mm, annotation_deg: the generation settings
             (:class:`~catpose.datasets.clutter_layout.ClutterSpec`).
         scenes: the scene ids loaded (and generated if missing); None: all.
         generate_missing: generate missing scenes when the ids are first listed (false: a missing
@@ -151,14 +165,20 @@ class Clutter(BOP):
         num_scenes: int = 200,
         obj_ids: Sequence[int] = YCBV_OBJECTS,
         objects_per_scene: Sequence[int] = (3, 6),
-        upright_prior: float = 0.5,
+        upright_prior: float = 0.0,
+        resting: str = "uniform",
+        rest_min_probability: float = 0.01,
         table_radius_mm: float = 100.0,
-        distance_mm: Sequence[float] = (750.0, 1150.0),
-        elevation_deg: Sequence[float] = (15.0, 55.0),
+        distance_mm: Sequence[float] = (900.0, 1250.0),
+        elevation_deg: Sequence[float] = (28.0, 48.0),
         width: int = 640,
         height: int = 480,
         K: Sequence[Sequence[float]] = YCBV_K,
         sensor: str = "kinect",
+        dropout_blobs: Sequence[float] = (0.0, 0.15),
+        mask_shift_px: Sequence[float] = (1.0, 3.0),
+        annotation_mm: Sequence[float] = (0.0, 1.5),
+        annotation_deg: Sequence[float] = (0.0, 0.5),
         scenes: list[int] | None = None,
         generate_missing: bool = True,
         categories: dict[int | str, str] | None = None,
@@ -182,6 +202,8 @@ class Clutter(BOP):
             obj_ids=tuple(obj_ids),
             objects_per_scene=tuple(objects_per_scene),
             upright_prior=float(upright_prior),
+            resting=str(resting),
+            rest_min_probability=float(rest_min_probability),
             table_radius_mm=float(table_radius_mm),
             distance_mm=tuple(distance_mm),
             elevation_deg=tuple(elevation_deg),
@@ -189,6 +211,10 @@ class Clutter(BOP):
             height=int(height),
             K=K,
             sensor=str(sensor),
+            dropout_blobs=tuple(dropout_blobs),
+            mask_shift_px=tuple(mask_shift_px),
+            annotation_mm=tuple(annotation_mm),
+            annotation_deg=tuple(annotation_deg),
         )
         self.spec = spec
         self.models_root = Path(root) / "models"

@@ -6,11 +6,16 @@ subset of scenes, in any order, is the same scene by scene.
 
 - **Objects**: ``objects_per_scene`` (a range) distinct models drawn from ``obj_ids``.
 - **Resting pose**: with probability ``upright_prior`` the model's +z points up (the YCB-Video
-  meshes stand on +z); otherwise a stable resting direction drawn with its probability from
-  :func:`catpose.resting.resting_ups` (on a side, upside down, upright again). Then a uniform
-  yaw about the table normal. The drop-test probabilities alone put most objects on a side (the
-  mustard bottle stands upright with probability 0.04), while people set things down upright;
-  the prior mixes the two.
+  meshes stand on +z); otherwise a stable resting direction of the model
+  (:func:`catpose.resting.resting_ups`: upright, upside down, on a side). ``resting=uniform``
+  (the default) draws one of the model's resting classes with equal chance, a class being the
+  directions a continuous symmetry makes one (a can on any side line;
+  :func:`catpose.resting.rest_classes`) that a dropped object takes with probability at least
+  ``rest_min_probability``, then one of the class's directions with equal chance: people set
+  things down lid-up, lid-down and on each side, and no development prior should come from a
+  drop test. ``resting=drop`` draws each direction with its drop-test probability (which puts
+  most objects on a side: the mustard bottle stands upright with probability 0.04). Then a
+  uniform yaw about the table normal.
 - **Placement**: the footprint of each rested object is the convex hull of its vertices on the
   table; centres are drawn uniformly in a disc of radius ``table_radius_mm`` and a draw is
   rejected when its footprint comes within :data:`GAP_MM` of a placed one (separating axes; at
@@ -41,7 +46,7 @@ from catpose.geometry import (
     stable_seed,
     unit3,
 )
-from catpose.resting import RestingUp
+from catpose.resting import RestingUp, rest_classes
 
 #: the eight YCB-Video objects whose meshes the shared data has (BOP obj_ids)
 YCBV_OBJECTS = (1, 4, 5, 6, 9, 12, 13, 14)
@@ -60,12 +65,21 @@ class ClutterSpec:
         obj_ids: models to draw from.
         objects_per_scene: (min, max) objects per scene, inclusive.
         upright_prior: probability of the model's +z up instead of a drawn resting direction.
+        resting: ``uniform`` (each resting class alike) or ``drop`` (drop-test probabilities).
+        rest_min_probability: ``uniform``: classes a dropped object takes less often than this
+            are not drawn (knife-edge poses).
         table_radius_mm: objects' centres lie within this distance of the scene origin.
         distance_mm: (min, max) camera distance from the scene centre.
         elevation_deg: (min, max) camera elevation above the table.
         width, height, K: image size and pinhole intrinsics (pixels).
         sensor: depth-sensor model (:mod:`catpose.datasets.sensor`): ``kinect``, ``realsense``
             or ``none``.
+        dropout_blobs: (min, max) fraction of each object's visible pixels whose depth is lost in
+            patches (dark or shiny parts), drawn per object (:mod:`catpose.datasets.clutter_render`).
+        mask_shift_px: (min, max) distance in pixels, drawn per scene with a uniform direction,
+            between the segmentation and the depth image (depth-to-colour registration).
+        annotation_mm, annotation_deg: (min, max) of the per-scene spread (standard deviation per
+            axis) of the written ground truth's error: translation (mm) and rotation (degrees).
         depth_scale: written depth unit in mm (uint16 value times this; YCB-Video: 0.1).
     """
 
@@ -73,14 +87,20 @@ class ClutterSpec:
     num_scenes: int = 200
     obj_ids: tuple[int, ...] = YCBV_OBJECTS
     objects_per_scene: tuple[int, int] = (3, 6)
-    upright_prior: float = 0.5
+    upright_prior: float = 0.0
+    resting: str = "uniform"
+    rest_min_probability: float = 0.01
     table_radius_mm: float = 100.0
-    distance_mm: tuple[float, float] = (750.0, 1150.0)
-    elevation_deg: tuple[float, float] = (15.0, 55.0)
+    distance_mm: tuple[float, float] = (900.0, 1250.0)
+    elevation_deg: tuple[float, float] = (28.0, 48.0)
     width: int = 640
     height: int = 480
     K: tuple[tuple[float, ...], ...] = field(default=YCBV_K)
     sensor: str = "kinect"
+    dropout_blobs: tuple[float, float] = (0.0, 0.15)
+    mask_shift_px: tuple[float, float] = (1.0, 3.0)
+    annotation_mm: tuple[float, float] = (0.0, 1.5)
+    annotation_deg: tuple[float, float] = (0.0, 0.5)
     depth_scale: float = 0.1
 
     def __post_init__(self) -> None:
@@ -89,6 +109,11 @@ class ClutterSpec:
         set_(self, "objects_per_scene", tuple(int(n) for n in self.objects_per_scene))
         set_(self, "distance_mm", tuple(float(x) for x in self.distance_mm))
         set_(self, "elevation_deg", tuple(float(x) for x in self.elevation_deg))
+        for key in ("dropout_blobs", "mask_shift_px", "annotation_mm", "annotation_deg"):
+            lo, hi = (float(x) for x in getattr(self, key))
+            if not 0.0 <= lo <= hi or (key == "dropout_blobs" and hi >= 1.0):
+                raise ConfigError(f"{k}{key}={list(getattr(self, key))} must be [min, max] with 0 <= min <= max")
+            set_(self, key, (lo, hi))
         set_(self, "K", tuple(tuple(float(x) for x in row) for row in np.asarray(self.K, float).reshape(3, 3)))
         lo, hi = self.objects_per_scene
         if not 1 <= lo <= hi <= len(self.obj_ids):
@@ -98,6 +123,10 @@ class ClutterSpec:
             )
         if int(self.num_scenes) < 1:
             raise ConfigError(f"{k}num_scenes={self.num_scenes} must be a positive number of scenes")
+        if self.resting not in ("uniform", "drop"):
+            raise ConfigError(f"{k}resting={self.resting!r} is unknown; use uniform or drop")
+        if not 0.0 <= float(self.rest_min_probability) < 1.0:
+            raise ConfigError(f"{k}rest_min_probability={self.rest_min_probability} must be in [0, 1)")
         if not 0.0 <= float(self.upright_prior) <= 1.0:
             raise ConfigError(f"{k}upright_prior={self.upright_prior} must be a probability in [0, 1]")
         if not 0 < self.distance_mm[0] <= self.distance_mm[1]:
@@ -167,8 +196,25 @@ def polygons_overlap(a: np.ndarray, b: np.ndarray, gap: float = 0.0) -> bool:
     return True
 
 
+def _draw_up(
+    spec: ClutterSpec, rng: np.random.Generator, rests: list[RestingUp], axis: np.ndarray | None
+) -> np.ndarray:
+    """One resting direction (3,) of a model (see the module docstring's resting poses)."""
+    if spec.resting == "drop":
+        options = [r for r in rests if r.probability > 0]
+        p = np.array([r.probability for r in options])
+        return options[int(rng.choice(len(options), p=p / p.sum()))].vector
+    classes = [members for rep, members in rest_classes(rests, axis) if rep.probability >= spec.rest_min_probability]
+    members = classes[int(rng.integers(len(classes)))]
+    return members[int(rng.integers(len(members)))].vector
+
+
 def layout_scene(
-    spec: ClutterSpec, scene_id: int, vertices_mm: dict[int, np.ndarray], rests: dict[int, list[RestingUp]]
+    spec: ClutterSpec,
+    scene_id: int,
+    vertices_mm: dict[int, np.ndarray],
+    rests: dict[int, list[RestingUp]],
+    axes: dict[int, np.ndarray | None] | None = None,
 ) -> SceneLayout:
     """The objects and camera of scene ``scene_id`` (see the module docstring).
 
@@ -176,7 +222,10 @@ def layout_scene(
         spec: the generation settings.
         vertices_mm: obj_id -> (V, 3) model vertices, mm, model frame.
         rests: obj_id -> its resting directions (:func:`catpose.resting.resting_ups`).
+        axes: obj_id -> its continuous symmetry axis (model frame) or None (``resting=uniform``
+            merges the resting directions a symmetry makes one).
     """
+    axes = axes or {}
     rng = np.random.default_rng(stable_seed(spec.scene_seed, "clutter", int(scene_id)))
     lo, hi = spec.objects_per_scene
     count = int(rng.integers(lo, hi + 1))
@@ -188,9 +237,7 @@ def layout_scene(
         if rng.random() < spec.upright_prior:
             up = np.array([0.0, 0.0, 1.0])
         else:
-            options = [r for r in rests[obj_id] if r.probability > 0]
-            p = np.array([r.probability for r in options])
-            up = options[int(rng.choice(len(options), p=p / p.sum()))].vector
+            up = _draw_up(spec, rng, rests[obj_id], axes.get(obj_id))
         yaw = float(rng.uniform(0.0, 2.0 * np.pi))
         R = matmul3(axis_angle_to_R(np.array([0.0, 0.0, 1.0]), yaw), R_up_to_z(up))
         v = apply_R(R, vertices_mm[obj_id])

@@ -9,6 +9,14 @@ all; its visible mask where it is the nearest surface. The depth-sensor model
 the whole scene; each object's ``mask_visib`` is its visible mask dilated by the sensor's mask
 bleed and restricted to measured depth, the segmentation a real pipeline would hand over.
 
+With a sensor model, three effects measured on the real YCB-Video frames
+(``python -m catpose.bench.real.sensor_stats``) follow, each in a strength drawn per scene or
+object from the spec's range (:func:`scene_effects`): depth lost in patches of an object (dark or
+shiny parts: a smooth random field over the object's pixels, thresholded at the drawn fraction),
+the segmentation shifted against the depth by a pixel or two (depth-to-colour registration), and
+a written ground truth a few millimetres and a fraction of a degree off the pose that was
+rendered (annotations).
+
 Files of one scene (one image, ``im_id`` 0), as the BOP toolkit writes them::
 
     <split>/<scene_id:06d>/depth/000000.png            uint16, value * depth_scale = mm
@@ -33,7 +41,7 @@ import numpy as np
 from catpose.datasets.clutter_layout import ClutterSpec, SceneLayout, T_camera_model
 from catpose.datasets.render import PinholeCamera
 from catpose.datasets.sensor import apply_sensor, get_sensor
-from catpose.geometry import apply_R, dot3, stable_seed, transform_points
+from catpose.geometry import apply_R, axis_angle_to_R, compose_T, dot3, make_T, norm3, stable_seed, transform_points
 from catpose.raycast import RayCaster
 
 
@@ -46,6 +54,7 @@ class SceneImage:
     full: list[np.ndarray]
     visible: list[np.ndarray]
     mask_visib: list[np.ndarray]
+    annotation: list[np.ndarray] | None = None  # per object (4, 4) T_written_true (mm); None: exact
 
 
 def pixel_rays(camera: PinholeCamera, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
@@ -103,8 +112,45 @@ def render_scene(spec: ClutterSpec, layout: SceneLayout, casters: dict[int, RayC
     any_object = np.any(np.stack(visible), axis=0) if visible else np.zeros(clean.shape, bool)
     depth_m, _ = apply_sensor(clean / 1000.0, any_object, camera.fx, camera.fy, camera.cx, camera.cy, sensor, rng)
     bleed = int(sensor.mask_bleed_px)
-    masks = [(binary_dilation(v, iterations=bleed) if bleed > 0 and v.any() else v) & (depth_m > 0) for v in visible]
-    return SceneImage(depth_m * 1000.0, full, visible, masks)
+    masks = [binary_dilation(v, iterations=bleed) if bleed > 0 and v.any() else v for v in visible]
+    effects = np.random.default_rng(stable_seed(spec.scene_seed, "clutter-effects", layout.scene_id))
+    depth_m, masks, annotation = scene_effects(spec, effects, depth_m, visible, masks)
+    return SceneImage(depth_m * 1000.0, full, visible, [m & (depth_m > 0) for m in masks], annotation)
+
+
+#: spatial scale (pixels, Gaussian sigma) of the patches of lost depth
+BLOB_SIGMA_PX = 4.0
+
+
+def scene_effects(
+    spec: ClutterSpec, rng: np.random.Generator, depth_m: np.ndarray, visible: list[np.ndarray], masks: list[np.ndarray]
+) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
+    """The measured effects the sensor model lacks (module docstring): returns the depth with
+    patches lost, the segmentations shifted against it, and per object ``T_written_true`` (4, 4,
+    mm: the written ground truth is ``T_written_true @ T_camera_model``)."""
+    from scipy.ndimage import gaussian_filter, shift
+
+    depth = np.array(depth_m, copy=True)
+    for v in visible:
+        f = float(rng.uniform(*spec.dropout_blobs))
+        rows, cols = np.nonzero(v)
+        if f <= 0 or len(rows) == 0:
+            continue
+        r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
+        field = gaussian_filter(rng.normal(size=(r1 - r0, c1 - c0)), BLOB_SIGMA_PX)
+        box = v[r0:r1, c0:c1]
+        lost = box & (field <= np.quantile(field[box], f))
+        depth[r0:r1, c0:c1][lost] = 0.0
+    length, angle = float(rng.uniform(*spec.mask_shift_px)), float(rng.uniform(0.0, 2.0 * np.pi))
+    dy, dx = int(np.rint(length * np.sin(angle))), int(np.rint(length * np.cos(angle)))
+    masks = [shift(m, (dy, dx), order=0, mode="constant", cval=False) if (dx or dy) else m for m in masks]
+    sigma_t, sigma_r = float(rng.uniform(*spec.annotation_mm)), float(rng.uniform(*spec.annotation_deg))
+    annotation = []
+    for _ in visible:
+        axis = rng.normal(size=3)
+        R = axis_angle_to_R(axis / max(norm3(axis), 1e-12), np.deg2rad(sigma_r * float(rng.normal())))
+        annotation.append(make_T(R, sigma_t * rng.normal(size=3)))
+    return depth, masks, annotation
 
 
 def _bbox(mask: np.ndarray) -> list[int]:
@@ -136,6 +182,8 @@ def write_scene(split_dir: Path, spec: ClutterSpec, layout: SceneLayout, image: 
         _write_png(tmp / "mask" / f"000000_{k:06d}.png", (full * 255).astype(np.uint8))
         _write_png(tmp / "mask_visib" / f"000000_{k:06d}.png", (seg * 255).astype(np.uint8))
         T = T_camera_model(layout, obj)
+        if image.annotation is not None:  # the annotation's error, as on real frames
+            T = compose_T(image.annotation[k], T)
         gts.append(
             {
                 "cam_R_m2c": [float(x) for x in T[:3, :3].ravel()],

@@ -70,6 +70,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from catpose import cell_grid
+from catpose.content_hash import content_hash
 from catpose.errors import InvalidInputError
 from catpose.kabsch import kabsch
 from catpose.lru import LRUCache
@@ -137,6 +138,7 @@ class Ours(RegistrationMethod):
         # holds the shared LPS grids (~25 MB a template); a template turned for a gravity hypothesis
         # is a template of its own, so the clutter set's 8 objects need up to 32
         self._features: LRUCache[tuple, TemplateFeatures] = LRUCache(32)
+        self._grids: LRUCache[tuple, object] = LRUCache(16)  # the coarse search's ICP grids
 
     @property
     def point_selection(self) -> SelectionSettings:
@@ -261,18 +263,21 @@ class Ours(RegistrationMethod):
         )
 
     def _register_depth(self, problem: RegistrationProblem, timings: dict[str, float]) -> RegistrationResult:
-        """The depth check on the template's own up; the other gravity hypotheses when that does
-        not explain the image (fewer than ``resting.escalate_below`` of the mask's pixels); the
-        ``depth_poor_fit_rule`` among the own up's candidates when no hypothesis does (fewer than
-        ``selection.depth_min_inliers`` within ``depth_fit_tau``: a template unlike the object)
-        (:func:`catpose.methods.ours_depth.select_by_depth`)."""
+        """The depth check (:func:`catpose.methods.ours_depth.select_by_depth`) over a pool of the
+        dictionary's candidates on the template's own up and the coarse search over every resting
+        pose x yaw (:mod:`catpose.methods.rest_grid`, ``resting.grid_yaws`` > 0); the dictionary
+        on the other resting directions too when the winner explains fewer than
+        ``resting.escalate_below`` of the mask's pixels; the ``depth_poor_fit_rule`` among the own
+        up's candidates when no pose does (fewer than ``selection.depth_min_inliers`` within
+        ``depth_fit_tau``: a template unlike the object)."""
         from dataclasses import replace
 
-        from catpose.methods.ours_depth import depth_verifier, select_by_depth
+        from catpose.methods.ours_depth import depth_verifier, dictionary_pool, select_by_depth, stage_lists
         from catpose.methods.resting_hypotheses import hypotheses
 
         t0 = time.perf_counter()
         hyps = list(hypotheses(problem.template, self.resting))
+        ups = np.stack([h.up for h in hyps])
         timings["hypotheses"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         inp = self.input_features(problem)
@@ -288,14 +293,34 @@ class Ours(RegistrationMethod):
 
         add(hyps[0])
         verifier = depth_verifier(self.selection, problem)  # one per problem: every call below shares it
+        grid = self._rest_grid(problem, ups, cands[0], verifier, timings)
+        pool = np.concatenate([dictionary_pool(self.selection, problem, hyps[:1], cands, feats, ups), grid])
         first = replace(self.selection, depth_yaw_turns=0)  # yaw turns: in the escalated pass only
-        result = select_by_depth(first, problem, hyps[:1], cands, feats, timings, verifier=verifier)
+        first_ups = ups if len(grid) else ups[:1]  # without the coarse search, the own up only
+        result = select_by_depth(first, problem, pool, cands[0], feats[0], first_ups, timings, verifier=verifier)
         escalated = len(hyps) > 1 and result.extras["depth_inliers"] < self.resting.escalate_below
         if escalated:
             for h in hyps[1:]:
                 add(h)
-            result = select_by_depth(self.selection, problem, hyps, cands, feats, timings, verifier=verifier)
+            pool = np.concatenate([dictionary_pool(self.selection, problem, hyps, cands, feats, ups), grid])
+            result = select_by_depth(
+                self.selection,
+                problem,
+                pool,
+                cands[0],
+                feats[0],
+                ups,
+                timings,
+                verifier=verifier,
+                yaw_turns=self.selection.depth_yaw_turns,
+            )
+        stages = stage_lists(
+            candidates=np.concatenate([h.to_template(c.T) for h, c in zip(hyps, cands)]),
+            **({"rest_grid": grid} if len(grid) else {}),
+            pool=pool,
+        )
         extras = dict(result.extras, escalated=bool(escalated))
+        extras["hypothesis_stages"] = {**stages, **result.extras["hypothesis_stages"]}
         if result.extras["depth_inliers_loose"] < self.selection.depth_min_inliers:
             # no hypothesis explains the image: the template is unlike the object (category level);
             # the point rule chooses among the own up's candidates, scored by depth like the rest
@@ -303,7 +328,7 @@ class Ours(RegistrationMethod):
             fallback = finish(point, problem, cands[0], feats[0], timings)
             score = float(verifier.scores(fallback.T_template_camera[None])[0])
             extras.update(
-                fallback.extras,
+                {k: v for k, v in fallback.extras.items() if k != "hypothesis_stages"},
                 depth_poor_fit=True,
                 depth_score=score,
                 timings={k: float(v) for k, v in timings.items()},
@@ -323,6 +348,65 @@ class Ours(RegistrationMethod):
             candidates_T=result.candidates_T,
             candidate_scores=result.candidate_scores,
         )
+
+    def _rest_grid(self, problem: RegistrationProblem, ups: np.ndarray, cands: Candidates, verifier, timings):
+        """The ``resting.grid_keep`` poses (template frame) of lowest depth cost of the coarse search
+        over every resting direction ``ups`` x ``resting.grid_yaws`` yaws, each refined by
+        ``grid_iterations`` ICP steps (:mod:`catpose.methods.rest_grid`); (0, 4, 4) when off."""
+        from catpose.methods.rest_grid import grid_poses
+        from catpose.point_to_plane_kernel import refine_many
+
+        rs = self.resting
+        if rs.grid_yaws <= 0 or rs.grid_keep <= 0:
+            return np.zeros((0, 4, 4))
+        t0 = time.perf_counter()
+        tpl = problem.template
+        T, _ = grid_poses(
+            ups,
+            problem.ground_normal_camera,
+            problem.points_camera,
+            tpl.points,
+            tpl.normals,
+            rs.grid_yaws,
+            tpl.symmetry_axis,
+        )
+        key = (
+            tpl.template_id,
+            content_hash(np.asarray(tpl.points, float)),
+            rs.grid_max_distance,
+            rs.grid_template_points,
+        )
+        hit = self._grids.get(key)
+        if hit is None:  # a farthest-point subset of the template: fewer pairs to search at the long reach
+            keep = farthest_point_indices(tpl.points, min(rs.grid_template_points, len(tpl.points)))
+            hit = (cell_grid.build(tpl.points[keep], rs.grid_max_distance), tpl.normals[keep])
+            self._grids.put(key, hit)
+        if rs.grid_iterations > 0 and 0 < rs.grid_beam < len(T):
+            # a few steps on the head of the Chamfer subset (farthest-point order: a subset of it
+            # too), the grid_beam of lowest one-directional Chamfer distance go on in full
+            from catpose.methods.ours_selection import chamfer_distances
+
+            src = cands.chamfer_src[: rs.grid_points]
+            T = refine_many(src, hit[0], hit[1], T, rs.grid_max_distance, rs.grid_first_iterations)
+            feats = self.template_features(tpl)
+            T = T[np.sort(np.argsort(chamfer_distances(feats.tree, src, T), kind="stable")[: rs.grid_beam])]
+            T = refine_many(cands.chamfer_src, hit[0], hit[1], T, rs.grid_max_distance, rs.grid_iterations)
+        elif rs.grid_iterations > 0:  # the Chamfer subset is in farthest-point order: its head is one too
+            src = cands.chamfer_src[: rs.grid_points]
+            T = refine_many(src, hit[0], hit[1], T, rs.grid_max_distance, rs.grid_iterations)
+        timings["rest_grid"] = timings.get("rest_grid", 0.0) + time.perf_counter() - t0
+        t0 = time.perf_counter()
+        if rs.grid_pixels < self.selection.depth_pixels:  # a coarser lattice for the many grid poses
+            from dataclasses import replace
+
+            from catpose.methods.ours_depth import depth_verifier
+
+            sel = self.selection
+            rays = max(sel.depth_max_rays * rs.grid_pixels // sel.depth_pixels, 1)
+            verifier = depth_verifier(replace(sel, depth_pixels=rs.grid_pixels, depth_max_rays=rays), problem)
+        scores = verifier.scores(T)
+        timings["verification"] = timings.get("verification", 0.0) + time.perf_counter() - t0
+        return T[np.argsort(scores, kind="stable")[: rs.grid_keep]]
 
     def register_batch(self, problems: Sequence[RegistrationProblem]) -> list[RegistrationResult]:
         """:meth:`register` for several problems, with one solver launch for the candidates of all

@@ -1,35 +1,34 @@
 """Ours' selection by the occlusion-aware depth check (``method.selection.rule=depth``).
 
-Input: the candidates of every gravity hypothesis (:mod:`catpose.methods.resting_hypotheses`; the
-first is the template's own up), each computed by the unchanged pipeline on the turned template.
+Input: a pool of candidate poses ``T_template_camera`` in the template's frame, from two searches
+(:meth:`catpose.methods.ours.Ours.register`): the paper's dictionary candidates of the template's
+own up (those the gravity filter keeps, the ``depth_prescreen`` of lowest one-directional Chamfer
+distance: :func:`dictionary_pool`), and the coarse search over every stable resting pose x yaw
+(:mod:`catpose.methods.rest_grid`: the ``resting.grid_keep`` of lowest depth cost).
 
-1. Gravity: each hypothesis keeps its candidates whose tilt (the measured ground normal against
-   the hypothesis' up; for a template with a continuous symmetry axis, against the angle of that
-   up to the axis: :func:`tilts_deg`) is within ``gravity_max_deg`` (all of them when none is).
-2. The ``depth_prescreen`` kept candidates of each hypothesis with the lowest one-directional
-   Chamfer distance (input -> template: blind to occlusion, cheap) are scored by the depth check
-   (:class:`catpose.methods.depth_check.DepthVerifier`), and the ``depth_top_k`` best of all
-   hypotheses go on.
-3. Each goes on with its three half turns about the turned frame's axes (a near-symmetric shape
+1. Every pose of the pool is scored by the depth check
+   (:class:`catpose.methods.depth_check.DepthVerifier`) and the ``depth_top_k`` best go on.
+2. Each goes on with its three half turns about the template's axes (a near-symmetric shape
    converges to the true pose or to a half turn of it; a half turn may also rest the object
-   another of the allowed ways) and, with ``depth_yaw_turns`` (the caller sets it for the
-   escalated pass only), its turns about the up by multiples of ``360 / depth_yaw_turns``
-   degrees (not for a template with a symmetry axis); poses that cannot come back within the gravity limit of any
-   hypothesis' up are dropped, the others refined by point-to-plane ICP against the turned
-   template (compiled, all at once), scored again, filtered by gravity (any hypothesis' up), and
-   the ``depth_final_refine`` of lowest depth cost go on.
-4. Those are refined on all input points and scored again on the final lattice
+   another of its ways) and, with ``yaw_turns`` (the escalated pass of the dictionary search
+   only), its turns about its resting direction by multiples of ``360 / yaw_turns`` degrees (not
+   for a template with a symmetry axis); poses that cannot come back within the gravity limit of
+   any resting direction are dropped, the others refined by point-to-plane ICP on the input's
+   Chamfer subset (compiled, all at once), scored again, filtered by gravity (any resting
+   direction), and the ``depth_final_refine`` of lowest depth cost go on.
+3. Those are refined on all input points and scored again on the final lattice
    (``depth_final_pixels``); the lowest cost (the depth score plus ``depth_rest_prior`` for a pose
    resting other than on the template's up) wins.
-5. With ``depth_final_turns``, the winner meets the one of its three half turns about the
+4. With ``depth_final_turns``, the winner meets the one of its three half turns about the
    template's axes that the coarse lattice scores best (of those gravity allows), refined on all
    input points and compared on the final lattice by the same cost: a near-symmetric object's
-   half turn explains the image almost as well as the truth, and the coarse lattice of step 3
-   often drops the right one of the two before step 4 sees it. The lower cost wins, and its
+   half turn explains the image almost as well as the truth, and the coarse lattice of step 2
+   often drops the right one of the two before step 3 sees it. The lower cost wins, and its
    depth score is the result's ``score``.
 
-All poses are scored in the original template's frame; ``extras`` say which hypothesis,
-candidate and half turn won.
+The result's ``extras["hypothesis_stages"]`` holds the poses held after each step (the runner
+scores them against the truth: hypothesis recall), ``extras`` say which resting direction and half
+turn won.
 """
 
 from __future__ import annotations
@@ -48,110 +47,103 @@ from catpose.methods.resting_hypotheses import Hypothesis
 from catpose.point_to_plane_kernel import refine_many
 from catpose.types import RegistrationProblem, RegistrationResult
 
-__all__ = ["depth_verifier", "final_verifier", "refine_last", "select_by_depth"]
+__all__ = [
+    "depth_verifier",
+    "dictionary_pool",
+    "final_verifier",
+    "refine_last",
+    "select_by_depth",
+    "stage_lists",
+    "tilts_deg",
+]
 
 
 def select_by_depth(
     sel: SelectionSettings,
     problem: RegistrationProblem,
-    hyps: list[Hypothesis],
-    cands: list[Candidates],
-    feats: list[TemplateFeatures],
+    pool: np.ndarray,
+    cands: Candidates,
+    feats: TemplateFeatures,
+    ups: np.ndarray,
     timings: dict[str, float],
-    debug: dict | None = None,
     verifier: DepthVerifier | None = None,
+    yaw_turns: int = 0,
 ) -> RegistrationResult:
-    """Steps 1-5 of the module docstring; ``hyps``, ``cands`` and ``feats`` are parallel lists.
-    ``debug``, when given, receives the verifier, the pre-scored pool and every expanded
-    hypothesis (template-frame poses and scores) for diagnosis. ``verifier``: the problem's
-    :func:`depth_verifier`, when the caller has made it already."""
+    """Steps 1-4 of the module docstring on ``pool`` (P, 4, 4), template frame. ``cands``: the
+    own up's candidates (their input points, ``points`` and ``chamfer_src``, are refined);
+    ``feats``: the template's features; ``ups`` (H, 3): the resting directions, template frame,
+    the template's up first. ``verifier``: the problem's :func:`depth_verifier`, when made already."""
     timings.setdefault("verification", 0.0)
     timings.setdefault("refinement", 0.0)
     t0 = time.perf_counter()
     verifier = depth_verifier(sel, problem) if verifier is None else verifier
-    g = problem.ground_normal_camera
-    ups = np.stack([h.up for h in hyps])
-    axis = problem.template.symmetry_axis
-    pool = _pool(sel, hyps, cands, feats, g, ups, axis)
-    pre = verifier.scores(np.stack([hyps[k].to_template(cands[k].T[i]) for k, i in pool]))
+    g, axis = problem.ground_normal_camera, problem.template.symmetry_axis
+    gravity = (g, ups, axis)
+    pre = verifier.scores(pool)
     order = np.argsort(pre, kind="stable")[: sel.depth_top_k]
     timings["verification"] += time.perf_counter() - t0
 
-    # step 3: half turns of the best, refined on the Chamfer subset, scored
+    # step 2: half (and yaw) turns of the best, refined on the Chamfer subset, scored
     t0 = time.perf_counter()
-    yaws = 0 if problem.template.symmetry_axis is not None else sel.depth_yaw_turns  # no yaw about a symmetry axis
-    turns = yaw_and_half_turns(np.asarray(problem.template.up, dtype=np.float64), yaws)
-    expanded = [(pool[o][0], pool[o][1], j) for o in order for j in range(len(turns))]
-    T_exp = np.stack([compose_T(turns[j], cands[k].T[i]) for k, i, j in expanded])  # in each hypothesis' frame
-    chosen = np.arange(len(expanded))
+    yaws = 0 if axis is not None else yaw_turns  # no yaw about a symmetry axis
+    rests = tilts_deg(pool[order], g, ups, axis).argmin(axis=1)
+    turn_sets = {int(k): _visible(yaw_and_half_turns(ups[k], yaws), axis) for k in sorted(set(rests.tolist()))}
+    if not sel.depth_half_turns and not yaws:  # the coarse search has every resting pose and yaw already
+        turn_sets = {k: F[:1] for k, F in turn_sets.items()}
+    expanded = [(int(o), j) for o, k in zip(order, rests) for j in range(len(turn_sets[int(k)]))]
+    T_exp = np.stack([compose_T(F, pool[o]) for o, k in zip(order, rests) for F in turn_sets[int(k)]])
+    chosen = np.arange(len(T_exp))
     if sel.gravity_max_deg is not None:
-        reachable = (
-            tilts_deg(_in_template(hyps, expanded, T_exp), g, ups, axis).min(axis=1) <= sel.gravity_max_deg + REACH_DEG
-        )
+        reachable = tilts_deg(T_exp, g, ups, axis).min(axis=1) <= sel.gravity_max_deg + REACH_DEG
         chosen = chosen[reachable] if reachable.any() else chosen
     if sel.refine:
-        T_exp[chosen] = _refine(sel, hyps, cands, feats, [expanded[i][0] for i in chosen], T_exp[chosen], "chamfer_src")
+        T_exp[chosen] = _refine(sel, cands.chamfer_src, feats, problem.template.normals, T_exp[chosen])
     timings["refinement"] += time.perf_counter() - t0
     t0 = time.perf_counter()
-    final = np.full(len(expanded), np.inf)
-    final[chosen] = verifier.scores(_in_template(hyps, [expanded[i] for i in chosen], T_exp[chosen]))
-    cost, keep, _ = _costs(sel, final, _in_template(hyps, expanded, T_exp), g, ups, axis)
+    final = np.full(len(T_exp), np.inf)
+    final[chosen] = verifier.scores(T_exp[chosen])
+    # the pool's poses as they were go on too: ICP on the few points of a mostly hidden object can
+    # slide a right pose into free space
+    T_exp, final = np.concatenate([T_exp, pool[order]]), np.concatenate([final, pre[order]])
+    expanded += [(int(o), -1) for o in order]
+    cost, keep, _ = _costs(sel, final, T_exp, *gravity)
     timings["verification"] += time.perf_counter() - t0
 
-    # step 4: the best few refined on every input point, scored again; the lowest cost wins
+    # step 3: the best few refined on every input point, scored again; the lowest cost wins
     t0 = time.perf_counter()
     top = np.argsort(np.where(keep, cost, np.inf), kind="stable")[: max(int(sel.depth_final_refine), 1)]
     top = top[np.isfinite(cost[top])] if np.isfinite(cost[top]).any() else top[:1]
     T_top = T_exp[top].copy()
-    if sel.refine:
-        T_top = _refine_points(sel, hyps, cands, feats, [expanded[i][0] for i in top], T_top)
+    if sel.refine:  # each refined on all points, and as it was (whichever costs less on the final lattice)
+        T_top = np.concatenate([refine_last(sel, cands.points, feats.pairing, problem.template.normals, T_top), T_top])
+        top = np.concatenate([top, top])
     timings["refinement"] += time.perf_counter() - t0
     t0 = time.perf_counter()
-    T_top_t = _in_template(hyps, [expanded[i] for i in top], T_top)
     coarse, verifier = verifier, final_verifier(sel, problem, verifier)
-    top_scores = verifier.scores(T_top_t)
-    top_cost, top_keep, rest_top = _costs(sel, top_scores, T_top_t, g, ups, axis)
+    top_scores = verifier.scores(T_top)
+    top_cost, top_keep, rest_top = _costs(sel, top_scores, T_top, *gravity)
     b = int(np.argmin(np.where(top_keep, top_cost, np.inf))) if top_keep.any() else int(np.argmin(top_cost))
-    best, T_out, score, rest = int(top[b]), T_top_t[b], float(top_scores[b]), int(rest_top[b])
+    T_out, score, rest = T_top[b], float(top_scores[b]), int(rest_top[b])
     timings["verification"] += time.perf_counter() - t0
 
-    # step 5: the winner against its own half turns on the final lattice
+    # step 4: the winner against its own half turns on the final lattice
     final_turn = 0
-    if sel.depth_final_turns:
+    if sel.depth_final_turns > 0:
         T_out, score, rest, final_turn = _against_half_turns(
-            sel, hyps, cands, feats, (coarse, verifier), T_out, score, rest, (g, ups, axis), timings
+            sel, cands, feats, problem, (coarse, verifier), T_out, score, rest, gravity, timings
         )
     t0 = time.perf_counter()
     fit, fit_loose = verifier.fits(T_out[None], (verifier.tau, sel.depth_fit_tau))[:, 0]
     timings["verification"] += time.perf_counter() - t0
-    if debug is not None:
-        debug.update(
-            verifier=verifier,
-            hyps=hyps,
-            cands=cands,
-            pool=pool,
-            prescores=pre,
-            order=order,
-            expanded=expanded,
-            T_expanded=_in_template(hyps, expanded, T_exp),
-            final=final,
-            cost=cost,
-            keep=keep,
-            top=top,
-            T_top=T_top_t,
-            top_scores=top_scores,
-            best=best,
-        )
 
-    k, i, j = expanded[best]
     extras = {
-        "template_index": i,
-        "hypothesis": k,
-        "half_turn": j,
+        "pool_index": expanded[int(top[b])][0],
+        "half_turn": expanded[int(top[b])][1],
         "final_turn": final_turn,
         "resting": rest,
-        "resting_up": [float(x) for x in hyps[rest].up],
-        "num_hypotheses": len(hyps),
+        "resting_up": [float(x) for x in ups[rest]],
+        "num_hypotheses": len(ups),
+        "pool_size": len(pool),
         "depth_score": score,
         "depth_inliers": float(fit[0]),
         "depth_free": float(fit[1]),
@@ -160,16 +152,23 @@ def select_by_depth(
         "depth_mask_pixels": verifier.mask_pixels,
         "prescores": [float(x) for x in np.sort(pre)[:8]],
         "timings": {name: float(v) for name, v in timings.items()},
-        "num_input_points": int(len(cands[0].points)),
+        "num_input_points": int(len(cands.points)),
+        "hypothesis_stages": stage_lists(top_k=pool[order], expanded=T_exp, final_refine=T_top),
     }
-    # every half-turned candidate scored in step 3 (template frame) with its cost (inf: not kept)
+    # every turned pose scored in step 2 (template frame) with its cost (inf: not kept)
     return RegistrationResult(
         T_template_camera=T_out,
         score=score,
         extras=extras,
-        candidates_T=_in_template(hyps, expanded, T_exp),
+        candidates_T=T_exp,
         candidate_scores=np.where(keep, cost, np.inf).astype(float),
     )
+
+
+def stage_lists(**stages: np.ndarray) -> dict[str, list]:
+    """``extras["hypothesis_stages"]``: each stage's poses (B, 4, 4) as nested lists (JSON), in
+    the order given (the search's order)."""
+    return {name: np.asarray(T, dtype=np.float64).reshape(-1, 4, 4).tolist() for name, T in stages.items()}
 
 
 def depth_verifier(sel: SelectionSettings, problem: RegistrationProblem) -> DepthVerifier:
@@ -201,10 +200,20 @@ def final_verifier(
     return depth_verifier(sel, problem) if verifier is None else verifier
 
 
-def _pool(sel: SelectionSettings, hyps, cands, feats, g, ups, axis) -> list[tuple[int, int]]:
-    """Steps 1-2: (hypothesis, candidate) pairs that pass gravity, the ``depth_prescreen`` of
-    lowest Chamfer distance per hypothesis."""
-    pool: list[tuple[int, int]] = []
+def dictionary_pool(
+    sel: SelectionSettings,
+    problem: RegistrationProblem,
+    hyps: list[Hypothesis],
+    cands: list[Candidates],
+    feats: list[TemplateFeatures],
+    ups: np.ndarray,
+) -> np.ndarray:
+    """(P, 4, 4) template-frame poses of the dictionary candidates of ``hyps`` (parallel lists with
+    ``cands`` and ``feats``): per hypothesis, those the gravity filter keeps (tilt against its up;
+    all of them when none passes), the ``depth_prescreen`` of lowest one-directional Chamfer
+    distance among them."""
+    g, axis = problem.ground_normal_camera, problem.template.symmetry_axis
+    out = []
     for k, (h, c, f) in enumerate(zip(hyps, cands, feats)):
         allowed = np.zeros(len(c.T), dtype=bool)
         allowed[c.stage2] = True
@@ -216,15 +225,15 @@ def _pool(sel: SelectionSettings, hyps, cands, feats, g, ups, axis) -> list[tupl
         if 0 < sel.depth_prescreen < len(kept):
             dists = chamfer_distances(f.tree, c.chamfer_src, c.T[kept])
             kept = np.sort(kept[np.argsort(dists, kind="stable")[: sel.depth_prescreen]])
-        pool += [(k, int(i)) for i in kept]
-    return pool
+        out.append(h.to_template(c.T[kept]))
+    return np.concatenate(out) if out else np.zeros((0, 4, 4))
 
 
 def _against_half_turns(
     sel: SelectionSettings,
-    hyps,
-    cands,
-    feats,
+    cands: Candidates,
+    feats: TemplateFeatures,
+    problem: RegistrationProblem,
     verifiers,
     T_win: np.ndarray,
     score: float,
@@ -232,42 +241,56 @@ def _against_half_turns(
     gravity,
     timings: dict[str, float],
 ) -> tuple[np.ndarray, float, int, int]:
-    """Step 5: the winner ``T_win`` (4, 4, template frame) against the one of its three half turns
+    """Step 4: the winner ``T_win`` (4, 4, template frame) against the one of its three half turns
     about the template's axes that the coarse lattice scores best (of those the gravity filter
     keeps; by the same cost as every comparison, :func:`_costs`), refined on all input points and
     scored with the winner on the final lattice. ``verifiers``: (coarse, final); ``gravity``:
-    (ground normal, hypotheses' ups, symmetry axis). Returns the pose that costs less, its depth
-    score, its resting direction and which turn it is (0: the winner itself, 1-3: about x, y, z)."""
+    (ground normal, resting directions, symmetry axis). Returns the pose that costs less, its
+    depth score, its resting direction and which turn it is (0: the winner itself, 1-3: about x,
+    y, z)."""
     coarse, final = verifiers
     t0 = time.perf_counter()
-    T_turns = np.stack([compose_T(F, T_win) for F in half_turns()[1:]])  # template frame = hypothesis 0's
+    turns = [(j, F) for j, F in enumerate(half_turns()) if j > 0 and not _spin(F, gravity[2])]
+    T_turns = np.stack([compose_T(F, T_win) for _, F in turns])
     cost, keep, _ = _costs(sel, coarse.scores(T_turns), T_turns, *gravity)
     timings["verification"] += time.perf_counter() - t0
     if not keep.any():
         return T_win, score, rest, 0
-    t = int(np.argmin(np.where(keep, cost, np.inf)))
+    best = [int(t) for t in np.argsort(np.where(keep, cost, np.inf), kind="stable")[: int(sel.depth_final_turns)]]
+    best = [t for t in best if keep[t]]
     t0 = time.perf_counter()
-    T_turn = _refine_points(sel, hyps, cands, feats, [0], T_turns[t : t + 1]) if sel.refine else T_turns[t : t + 1]
+    T_turn = T_turns[best]
+    if sel.refine:  # each refined on all points, and as it was (ICP can make a right pose worse)
+        T_turn = np.concatenate(
+            [refine_last(sel, cands.points, feats.pairing, problem.template.normals, T_turn), T_turn]
+        )
+        best = best + best
     timings["refinement"] += time.perf_counter() - t0
     t0 = time.perf_counter()
-    T_two = np.concatenate([T_win[None], T_turn])
-    scores = np.array([score, final.scores(T_turn)[0]])
-    cost, keep, rests = _costs(sel, scores, T_two, *gravity)
+    T_all = np.concatenate([T_win[None], T_turn])
+    scores = np.concatenate([[score], final.scores(T_turn)])
+    cost, keep, rests = _costs(sel, scores, T_all, *gravity)
     timings["verification"] += time.perf_counter() - t0
-    if keep[1] and (cost[1] < cost[0] or not keep[0]):
-        return T_two[1], float(scores[1]), int(rests[1]), t + 1
-    return T_win, score, rest, 0
+    if not keep.any():
+        return T_win, score, rest, 0
+    w = int(np.argmin(np.where(keep, cost, np.inf)))
+    if w == 0:
+        return T_win, score, rest, 0
+    return T_all[w], float(scores[w]), int(rests[w]), turns[best[w - 1]][0]
 
 
-def _refine_points(sel: SelectionSettings, hyps, cands, feats, hyp_of: list[int], T: np.ndarray) -> np.ndarray:
-    """Step 4's refinement (:func:`refine_last`) of poses (B, 4, 4) in their hypotheses' frames,
-    each against its hypothesis' turned template on all input points."""
-    out = np.array(T, copy=True)
-    hyp_of = np.asarray(hyp_of)
-    for k in sorted(set(hyp_of.tolist())):
-        idx = np.nonzero(hyp_of == k)[0]
-        out[idx] = refine_last(sel, cands[k].points, feats[k].pairing, hyps[k].template.normals, out[idx])
-    return out
+def _spin(F: np.ndarray, axis: np.ndarray | None) -> bool:
+    """Whether the turn ``F`` (4, 4) is a rotation about a continuous symmetry ``axis`` (3,) (it
+    changes nothing the depth image shows)."""
+    if axis is None:
+        return False
+    a = np.asarray(axis, dtype=np.float64) / np.linalg.norm(axis)
+    return bool(np.abs(F[:3, :3] @ a - a).max() < 1e-6 and np.abs(F[:3, :3] - np.eye(3)).max() > 1e-9)
+
+
+def _visible(turns: np.ndarray, axis: np.ndarray | None) -> np.ndarray:
+    """``turns`` (M, 4, 4) less the spins about a continuous symmetry ``axis`` (:func:`_spin`)."""
+    return turns[[not _spin(F, axis) for F in turns]]
 
 
 def refine_last(sel: SelectionSettings, points: np.ndarray, grid, normals: np.ndarray, T: np.ndarray) -> np.ndarray:
@@ -284,27 +307,14 @@ def refine_last(sel: SelectionSettings, points: np.ndarray, grid, normals: np.nd
     return T
 
 
-def _in_template(hyps, expanded, T_hyp: np.ndarray) -> np.ndarray:
-    """(B, 4, 4) poses of the hypotheses' turned frames -> poses of the template."""
-    return np.stack([hyps[e[0]].to_template(T) for e, T in zip(expanded, T_hyp)]) if len(T_hyp) else T_hyp
-
-
-def _refine(sel: SelectionSettings, hyps, cands, feats, hyp_of: list[int], T: np.ndarray, points: str) -> np.ndarray:
-    """Poses (B, 4, 4) in their hypotheses' frames refined by point-to-plane ICP against each
-    hypothesis' turned template, on the input's ``chamfer_src`` or all ``points``."""
-    out = np.array(T, copy=True)
-    hyp_of = np.asarray(hyp_of)
-    for k in sorted(set(hyp_of.tolist())):
-        idx = np.nonzero(hyp_of == k)[0]
-        out[idx] = refine_many(
-            getattr(cands[k], points),
-            feats[k].pairing,
-            hyps[k].template.normals,
-            out[idx],
-            sel.refine_max_distance,
-            sel.refine_iterations,
-        )
-    return out
+def _refine(
+    sel: SelectionSettings, points: np.ndarray, feats: TemplateFeatures, normals: np.ndarray, T: np.ndarray
+) -> np.ndarray:
+    """Poses (B, 4, 4), template frame, refined by point-to-plane ICP of ``points`` against the
+    template (all at once, compiled)."""
+    if len(T) == 0:
+        return np.array(T, copy=True)
+    return refine_many(points, feats.pairing, normals, T, sel.refine_max_distance, sel.refine_iterations)
 
 
 def _costs(sel: SelectionSettings, scores: np.ndarray, T_template: np.ndarray, g, ups, axis):

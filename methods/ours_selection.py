@@ -114,6 +114,7 @@ def finish(
         "num_input_points": int(len(c.points)),
     }
     extras["stage2_candidates"] = [int(i) for i in c.stage2]
+    extras["hypothesis_stages"] = {"candidates": c.T.tolist(), "kept": c.T[keep].tolist()}
     if half_turn is not None:
         extras["half_turn"] = half_turn  # 0: the candidate itself; 1, 2, 3: turned about x, y, z
     return RegistrationResult(

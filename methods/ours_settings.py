@@ -102,11 +102,14 @@ class SelectionSettings:
         depth_final_pixels: ``depth``: lattice pixels in the mask for the last comparisons (of the
             ``depth_final_refine`` poses, and of the winner with its half turns; at most
             ``depth_pixels`` means the same lattice).
-        depth_final_turns: ``depth``: the winner meets the one of its three half turns about the
-            template's axes that the coarse lattice scores best, refined on all input points and
-            compared on the final lattice (false: not).
+        depth_final_turns: ``depth``: the winner meets this many of its (three, two for a
+            template with a symmetry axis) half turns about the template's axes, those the coarse
+            lattice scores best, each refined on all input points and compared on the final
+            lattice (0: none; true / false read as 1 / 0).
         depth_top_k: ``depth``: candidates (of all gravity hypotheses, by their depth score) expanded
             by their half turns and refined.
+        depth_half_turns: ``depth``: the ``depth_top_k`` candidates go on with their three half turns
+            (false: alone; the coarse search holds every resting pose and yaw).
         depth_final_refine: ``depth``: poses refined on all input points and scored again at the
             end (the best by their score after the refinement on the Chamfer subset).
         depth_yaw_turns: ``depth``: in the escalated pass (``resting.escalate_below``), each
@@ -139,12 +142,13 @@ class SelectionSettings:
     depth_max_rays: int = 2500
     depth_free_weight: float = 1.0
     depth_prescreen: int = 6
-    depth_rest_prior: float = 0.03
+    depth_rest_prior: float = 0.0
     depth_top_k: int = 5
-    depth_final_refine: int = 1
+    depth_final_refine: int = 2
     depth_yaw_turns: int = 12
     depth_final_pixels: int = 2400
-    depth_final_turns: bool = True
+    depth_final_turns: int = 1
+    depth_half_turns: bool = False
     depth_fine_distance: float = 0.0
     depth_min_inliers: float = 0.9
     depth_fit_tau: float = 0.2
@@ -190,7 +194,10 @@ class SelectionSettings:
             raise ConfigError(f"{k}gravity_max_deg={g!r} must be a number of degrees or null (off)")
         set_(self, "gravity_max_deg", None if g is None or g <= 0 else float(g))
         set_(self, "refine", options.flag(k + "refine", self.refine))
-        set_(self, "depth_final_turns", options.flag(k + "depth_final_turns", self.depth_final_turns))
+        set_(self, "depth_half_turns", options.flag(k + "depth_half_turns", self.depth_half_turns))
+        turns = self.depth_final_turns
+        turns = int(turns) if isinstance(turns, bool) else turns  # true / false: 1 / 0 (the key was a flag)
+        set_(self, "depth_final_turns", options.non_negative(k + "depth_final_turns", turns, integer=True))
         set_(self, "refine_max_distance", options.positive(k + "refine_max_distance", self.refine_max_distance))
         set_(
             self,
@@ -218,14 +225,36 @@ class RestingSettings:
         min_probability: directions less probable than this (drop-test probability of the
             template's convex hull) are not tried.
         merge_deg: resting directions closer than this are one.
-        escalate_below: the other resting directions are tried only when the best pose on the
-            template's own up explains fewer of the object mask's pixels than this (1: always).
+        escalate_below: the dictionary runs on the other resting directions too only when the
+            best pose explains fewer of the object mask's pixels than this (1: always; 0: never).
+        grid_yaws: the coarse search (:mod:`catpose.methods.rest_grid`): yaws per resting
+            direction (0: off).
+        grid_iterations: its ICP steps of the full pass (on the input's Chamfer subset).
+        grid_max_distance: its ICP pairing distance (object-normalised unit).
+        grid_keep: its poses of lowest depth cost that join the dictionary's candidates.
+        grid_points: input points (the head of the Chamfer subset, itself in farthest-point
+            order) of its first ICP pass (of its one pass when ``grid_beam`` is 0).
+        grid_template_points: template points (farthest-point subset) its ICP pairs them with.
+        grid_beam: poses of lowest one-directional Chamfer distance after the first pass
+            (``grid_first_iterations`` steps) that go on to the full pass (0: one pass, all).
+        grid_first_iterations: ICP steps of the first pass.
+        grid_pixels: lattice pixels in the mask its depth check scores (at most
+            ``selection.depth_pixels``: the same lattice).
     """
 
-    max_poses: int = 5
-    min_probability: float = 0.05
+    max_poses: int = 10
+    min_probability: float = 0.01
     merge_deg: float = 10.0
-    escalate_below: float = 0.95
+    escalate_below: float = 0.0
+    grid_yaws: int = 8
+    grid_iterations: int = 10
+    grid_max_distance: float = 0.15
+    grid_keep: int = 8
+    grid_points: int = 64
+    grid_template_points: int = 2048
+    grid_beam: int = 16
+    grid_first_iterations: int = 3
+    grid_pixels: int = 300
 
     def __post_init__(self) -> None:
         k, set_ = "method.resting.", object.__setattr__
@@ -233,3 +262,20 @@ class RestingSettings:
         set_(self, "min_probability", options.non_negative(k + "min_probability", self.min_probability))
         set_(self, "merge_deg", options.positive(k + "merge_deg", self.merge_deg))
         set_(self, "escalate_below", options.non_negative(k + "escalate_below", self.escalate_below))
+        set_(self, "grid_yaws", options.non_negative(k + "grid_yaws", self.grid_yaws, integer=True))
+        set_(self, "grid_iterations", options.non_negative(k + "grid_iterations", self.grid_iterations, integer=True))
+        set_(self, "grid_max_distance", options.positive(k + "grid_max_distance", self.grid_max_distance))
+        set_(self, "grid_keep", options.non_negative(k + "grid_keep", self.grid_keep, integer=True))
+        set_(self, "grid_points", options.positive(k + "grid_points", self.grid_points, integer=True))
+        set_(self, "grid_beam", options.non_negative(k + "grid_beam", self.grid_beam, integer=True))
+        set_(
+            self,
+            "grid_first_iterations",
+            options.non_negative(k + "grid_first_iterations", self.grid_first_iterations, integer=True),
+        )
+        set_(
+            self,
+            "grid_template_points",
+            options.positive(k + "grid_template_points", self.grid_template_points, integer=True),
+        )
+        set_(self, "grid_pixels", options.positive(k + "grid_pixels", self.grid_pixels, integer=True))

@@ -74,6 +74,7 @@ def test_table_counts_ambiguous_and_search_misses_per_part_and_object():
             "cost_gt": 0.4,
             "cost_gt_refined": 0.35,
             "ambiguous": True,
+            "found": True,
         },
         {
             "sample_id": "a/2",
@@ -84,14 +85,16 @@ def test_table_counts_ambiguous_and_search_misses_per_part_and_object():
             "cost_gt": 0.2,
             "cost_gt_refined": 0.1,
             "ambiguous": False,
+            "found": False,
         },
         {"sample_id": "b/1", "object": "obj 9", "wrong": False},
         {"sample_id": "b/2", "object": "obj 14", "wrong": False},
     ]
-    out = ambiguity.table(rows, lambda sid: sid.split("/")[0])
+    out = ambiguity.table(rows, lambda row: row["sample_id"].split("/")[0])
     by = {(r["part"], r["object"]): r for r in out}
     assert (by["a", "obj 9"]["samples"], by["a", "obj 9"]["wrong"]) == (2, 2)
     assert (by["a", "obj 9"]["ambiguous"], by["a", "obj 9"]["search_miss"]) == (1, 1)
+    assert by["a", "obj 9"]["found_not_chosen"] == 1  # the other one was never found
     assert by["a", "obj 9"]["median_cost_gt"] == pytest.approx(0.3)
     assert by["a", "obj 9"]["median_cost_gt_refined"] == pytest.approx(0.225)
     assert by["a", "obj 9"]["flips"] == 1
@@ -99,7 +102,7 @@ def test_table_counts_ambiguous_and_search_misses_per_part_and_object():
         by["b", "all"]["samples"] == 2 and by["b", "all"]["wrong"] == 0 and np.isnan(by["b", "all"]["median_cost_gt"])
     )
     assert [r["object"] for r in out if r["part"] == "a"][-1] == "all"
-    assert "| a | obj 9 | 2 | 2 | 1 | 1 | 1 | 0.300 | 0.225 | 0.400 |" in ambiguity.markdown("t", out)
+    assert "| a | obj 9 | 2 | 2 | 1 | 1 | 1 | 1 | 0.300 | 0.225 | 0.400 |" in ambiguity.markdown("t", out)
 
 
 def test_a_folder_that_is_not_a_run_is_one_line_and_exit_2(tmp_path, capsys):

@@ -170,3 +170,64 @@ def test_a_split_whose_folds_overlap_is_refused(tmp_path):
     )
     with pytest.raises(ConfigError, match="share scenes"):
         load_split("bad", tmp_path)
+
+
+def test_uniform_resting_draws_each_class_alike(models):
+    """resting=uniform: the cylinder (symmetric about z) lies upright, upside down and on its side
+    a third of the time each; the box rests on each of its six faces alike. resting=drop follows
+    the drop test (the cylinder mostly on its side)."""
+    meshes = _meshes(models)
+    verts = {o: v for o, (v, _) in meshes.items()}
+    rests = {o: resting_ups(v) for o, v in verts.items()}
+    axes = {1: None, 2: np.array([0.0, 0.0, 1.0])}
+
+    def classes(spec) -> dict[int, list]:
+        out: dict[int, list] = {1: [], 2: []}
+        for scene in range(150):
+            for obj in layout_scene(spec, scene, verts, rests, axes).objects:
+                u = np.round(obj.rest_up, 3)
+                out[obj.obj_id].append(int(np.sign(u[2])) if obj.obj_id == 2 else tuple(u))
+        return out
+
+    uniform = classes(_spec(num_scenes=150))
+    can = np.bincount(np.asarray(uniform[2]) + 1, minlength=3) / len(uniform[2])  # down, side, up
+    assert np.abs(can - 1 / 3).max() < 0.12, can
+    faces = {u: uniform[1].count(u) / len(uniform[1]) for u in set(uniform[1])}
+    assert len(faces) == 6 and max(abs(f - 1 / 6) for f in faces.values()) < 0.08, faces
+    drop = classes(_spec(num_scenes=150, resting="drop"))
+    assert np.mean(np.asarray(drop[2]) == 0) > 0.6  # the drop test puts a cylinder on its side
+
+
+def test_the_measured_effects_are_drawn_per_scene_and_reproducible(models):
+    """dropout patches take a drawn share of each object's pixels, the segmentation is shifted
+    against the depth, and the written truth is off the rendered pose by the drawn spread."""
+    from catpose.datasets.clutter_render import scene_effects
+
+    spec = _spec(dropout_blobs=(0.2, 0.2), mask_shift_px=(2.0, 2.0), annotation_mm=(1.0, 1.0), annotation_deg=(0, 0))
+    depth = np.full((120, 160), 0.8)
+    visible = [np.zeros((120, 160), bool)]
+    visible[0][30:90, 40:120] = True
+    runs = [scene_effects(spec, np.random.default_rng(5), depth, visible, [m.copy() for m in visible]) for _ in "ab"]
+    (d, masks, ann), (d2, masks2, ann2) = runs
+    assert np.array_equal(d, d2) and np.array_equal(masks[0], masks2[0]) and np.array_equal(ann[0], ann2[0])
+    lost = (d == 0) & visible[0]
+    assert lost.sum() / visible[0].sum() == pytest.approx(0.2, abs=0.01) and not ((d == 0) & ~visible[0]).any()
+    rows, cols = np.nonzero(masks[0])
+    shift = np.hypot(rows.mean() - 59.5, cols.mean() - 79.5)
+    assert 1.0 <= shift <= 3.0 and masks[0].sum() == visible[0].sum()
+    assert ann[0][:3, :3] == pytest.approx(np.eye(3)) and 0 < np.linalg.norm(ann[0][:3, 3]) < 6.0
+
+
+def test_a_split_by_object_filters_rows_by_their_obj_id():
+    split = load_split("clutter_objects")
+    rows = [
+        {"sample_id": "can/000003/000000/1", "info": {"obj_id": 1}},
+        {"sample_id": "mug/000003/000000/2", "info": {"obj_id": 14}},
+        {"sample_id": "can/000150/000000/0", "info": {"obj_id": 6}},
+    ]
+    assert split.row_ids("dev_A", rows) == ["can/000003/000000/1"]
+    assert split.row_ids("dev_B", rows) == ["mug/000003/000000/2"]
+    assert split.row_ids("report_A", rows) == ["can/000150/000000/0"] and split.row_ids("report_B", rows) == []
+    assert split.role("report_B") == "report A" and split.role("dev_B") == "choose B"
+    with pytest.raises(ConfigError, match="obj_id"):
+        split.sample_ids("dev_A", ["can/000003/000000/1"])

@@ -107,3 +107,31 @@ class BatchOracle(Oracle):
         if any(p.sample_id.endswith(s) for p in problems for s in self.fail_on):
             raise RuntimeError("one problem of the batch blew up on purpose")
         return [Oracle.register(self, p) for p in problems]
+
+
+class Planted(RegistrationMethod):
+    """Answers 90 degrees off the truth, after a search whose ``candidates`` stage holds the truth
+    (``plant=True``) or only a pose 45 degrees off it (``extras["hypothesis_stages"]``). The truth
+    comes from the dataset's own view sampler (seeded by the sample id), as a test's knowledge, not
+    a method's: it checks that the runner scores hypothesis recall, found or never found."""
+
+    def __init__(self, seed: int = 0, plant: bool = True) -> None:
+        self.seed, self.plant = seed, bool(plant)
+
+    def register(self, problem):
+        from catpose.geometry import axis_angle_to_R, compose_T, make_T
+
+        T_camera_object = ViewSampler(distance=3.0).sample(
+            np.random.default_rng(stable_seed(self.seed, problem.sample_id))
+        )
+        truth = invert_T(T_camera_object)
+
+        def turned(deg: float) -> np.ndarray:
+            return compose_T(make_T(axis_angle_to_R(np.array([1.0, 0.0, 0.0]), np.radians(deg)), np.zeros(3)), truth)
+
+        stages = {"candidates": [turned(45.0)] + ([truth] if self.plant else []), "final": [turned(90.0)]}
+        return RegistrationResult(
+            T_template_camera=turned(90.0),
+            score=0.0,
+            extras={"hypothesis_stages": {k: np.stack(v).tolist() for k, v in stages.items()}},
+        )

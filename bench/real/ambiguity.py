@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from catpose.bench.scoring.metrics import FOUND_DEG
 from catpose.errors import CatposeError, ConfigError
 
 #: an estimate at least this far (degrees, the run's ``err_deg``) from the truth is wrong
@@ -102,7 +103,7 @@ def wrong_rows(run_dir: Path, wrong_deg: float = WRONG_DEG) -> tuple[list[dict],
     out = []
     for r in rows:
         if float(r["err_deg"]) < wrong_deg:
-            out.append({"sample_id": r["sample_id"], "object": _object(r), "wrong": False})
+            out.append({"sample_id": r["sample_id"], "object": _object(r), "wrong": False, "obj_id": _obj_id(r)})
             continue
         sample = protocol.load(dataset, r["sample_id"])
         if sample.problem.depth_image is None:
@@ -117,15 +118,21 @@ def wrong_rows(run_dir: Path, wrong_deg: float = WRONG_DEG) -> tuple[list[dict],
             {
                 "sample_id": r["sample_id"],
                 "object": _object(r),
+                "obj_id": _obj_id(r),
                 "wrong": True,
                 "err_deg": float(r["err_deg"]),
                 "cost_est": est,
                 "cost_gt": gt,
                 "cost_gt_refined": gt_refined,
                 "ambiguous": bool(est <= min(gt, gt_refined)),
+                "found": None if r.get("found_err_deg") is None else bool(float(r["found_err_deg"]) < FOUND_DEG),
             }
         )
     return out, len(rows)
+
+
+def _obj_id(row: dict) -> int:
+    return int((row.get("info") or {}).get("obj_id", -1))
 
 
 def _object(row: dict) -> str:
@@ -139,7 +146,7 @@ def table(rows: list[dict], part_of) -> list[dict]:
     over the wrong samples."""
     groups: dict[tuple[str, str], list[dict]] = {}
     for r in rows:
-        part = part_of(r["sample_id"])
+        part = part_of(r)
         groups.setdefault((part, r["object"]), []).append(r)
         groups.setdefault((part, "all"), []).append(r)
     out = []
@@ -165,6 +172,9 @@ def table(rows: list[dict], part_of) -> list[dict]:
                 "flips": sum(r["err_deg"] >= FLIP_DEG for r in wrong),
                 "ambiguous": len(amb),
                 "search_miss": len(wrong) - len(amb),
+                "found_not_chosen": (
+                    None if any(r.get("found") is None for r in wrong) else sum(bool(r["found"]) for r in wrong)
+                ),
                 "median_cost_gt": median("cost_gt"),
                 "median_cost_gt_refined": median("cost_gt_refined"),
                 "median_cost_est": median("cost_est"),
@@ -182,6 +192,7 @@ def markdown(title: str, rows: list[dict]) -> str:
         f"of them flips (>= {FLIP_DEG:g} deg)",
         "ambiguous",
         "search miss",
+        "found, not chosen",
         "median cost truth",
         "median cost truth refined",
         "median cost estimate",
@@ -196,6 +207,7 @@ def markdown(title: str, rows: list[dict]) -> str:
             r["flips"],
             r["ambiguous"],
             r["search_miss"],
+            "-" if r["found_not_chosen"] is None else r["found_not_chosen"],
             f"{r['median_cost_gt']:.3f}",
             f"{r['median_cost_gt_refined']:.3f}",
             f"{r['median_cost_est']:.3f}",
@@ -205,7 +217,9 @@ def markdown(title: str, rows: list[dict]) -> str:
         "",
         "ambiguous: the wrong estimate's depth-check cost is at most the truth's, the truth as annotated "
         "or refined by ours' ICP, whichever costs less (the image cannot tell them apart under ours' "
-        "verifier); search miss: the truth's cost is lower.",
+        "verifier); search miss: the truth's cost is lower. found, not chosen: ours held a hypothesis "
+        f"within {FOUND_DEG:g} deg of the truth at some stage of its search (the rest were never found; "
+        "- : the run stored no hypothesis recall).",
     ]
     return "\n".join(lines) + "\n"
 
@@ -238,10 +252,11 @@ def main(argv: list[str] | None = None) -> int:
         if not rows:
             raise ConfigError(f"no finished samples in {', '.join(map(str, args.runs))}; run them first")
 
-        def part_of(sid: str) -> str:
+        def part_of(row: dict) -> str:
             if split is None:
                 return "all"
-            return next((p for p in split.parts if split.sample_ids(p, [sid])), "other")
+            obj_of = {row["sample_id"]: row["obj_id"]}
+            return next((p for p in split.parts if split.sample_ids(p, [row["sample_id"]], obj_of)), "other")
 
         summary = table(rows, part_of)
         import pandas as pd

@@ -96,6 +96,14 @@ CLUTTER_SETS: dict[str, RealSet] = {
             split="clutter",
             parts=("report",),
         ),
+        RealSet(
+            "clutter_objects",
+            "clutter",
+            "bop/ycbv/models",
+            ("dataset.root={shared}/bop/ycbv",),
+            split="clutter_objects",
+            parts=("report_A", "report_B"),
+        ),
     )
 }
 
@@ -173,9 +181,10 @@ def summary_row(run_dir: Path, sample_ids: list[str] | None = None) -> dict:
 def format_table(
     results: dict[tuple[str, str], dict], sets: list[str], methods: list[str], skipped: dict[str, str]
 ) -> str:
-    """Markdown: one row per method, per set ``mean / median / @10 / @30`` (deg) and s per
-    registration (median); the best mean and @10 of each set in bold."""
-    header = ["method"] + [f"{s}: mean / med / @10 / @30 (s)" for s in sets]
+    """Markdown: one row per method, per set ``mean / median / @10 / found@10 / @30`` (deg; found@10:
+    a hypothesis within 10 deg existed at some stage of the method's search, ``-`` for a method that
+    names none) and s per registration (median); the best mean and @10 of each set in bold."""
+    header = ["method"] + [f"{s}: mean / med / @10 / found@10 / @30 (s)" for s in sets]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     best: dict[str, tuple[float, float]] = {}
     for s in sets:
@@ -196,8 +205,10 @@ def format_table(
             if abs(r["acc10"] - best[s][1]) < 1e-9:
                 acc10 = f"**{acc10}**"
             fail = f", {int(r['failed'])} failed" if r.get("failed") else ""
+            found = r.get("found10")
+            found = "-" if found is None or found != found else f"{found:.3f}"
             cells.append(
-                f"{mean} / {r['median_err_deg']:.2f} / {acc10} / {r['acc30']:.3f} "
+                f"{mean} / {r['median_err_deg']:.2f} / {acc10} / {found} / {r['acc30']:.3f} "
                 f"({r['median_runtime_s']:.2f}{fail}) n={int(r['n'])}"
             )
         lines.append("| " + " | ".join(cells) + " |")
@@ -323,16 +334,20 @@ def main(argv: list[str]) -> int:
 
         from catpose.bench.real.split import load_split
 
-        for name, rs in list(suite_sets.items()):
-            if rs.split:
-                wanted = tuple(args.parts.split(","))
-                unknown = sorted(set(wanted) - set(load_split(rs.split).parts))
-                if unknown:
-                    raise ConfigError(
-                        f"bench suite {args.suite}: --parts has unknown {unknown}; "
-                        f"configs/split/{rs.split}.yaml has {', '.join(load_split(rs.split).parts)}"
-                    )
-                suite_sets = {**suite_sets, name: replace(rs, parts=wanted)}
+        wanted = tuple(args.parts.split(","))
+        known = {name: load_split(rs.split).parts for name, rs in suite_sets.items() if rs.split}
+        unknown = sorted(set(wanted) - {p for parts in known.values() for p in parts})
+        if unknown:
+            raise ConfigError(
+                f"bench suite {args.suite}: --parts has unknown {unknown}; the splits have "
+                + "; ".join(f"{suite_sets[n].split}: {', '.join(parts)}" for n, parts in known.items())
+            )
+        # each set with a split runs the wanted parts it has; a set with none of them is left out
+        suite_sets = {
+            name: replace(rs, parts=tuple(p for p in wanted if p in known[name]))
+            for name, rs in suite_sets.items()
+            if not rs.split or any(p in known[name] for p in wanted)
+        }
     sets = (args.sets or ",".join(suite_sets)).split(",")
     methods = args.methods.split(",")
     for name, chosen, known in (("--sets", sets, suite_sets), ("--methods", methods, METHODS)):

@@ -9,18 +9,9 @@ from :func:`object_rows`.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from catpose.bench.real.split import Split, load_split
-
-
-def run_sample_ids(run_dir: Path) -> list[str]:
-    """Every sample id written to a run directory's ``samples.jsonl`` (finished samples)."""
-    path = Path(run_dir) / "samples.jsonl"
-    if not path.is_file():
-        return []
-    return [json.loads(line)["sample_id"] for line in path.read_text().splitlines() if line.strip()]
 
 
 def part_label(set_name: str, split: Split, part: str) -> str:
@@ -31,10 +22,13 @@ def part_label(set_name: str, split: Split, part: str) -> str:
 def part_rows(run_dir: Path, split: Split, parts: list[str], summary_row) -> dict[str, dict]:
     """``{part: the pooled summary row of the run's samples in that part}`` (parts without samples
     are left out); ``summary_row(run_dir, sample_ids)`` makes a row."""
-    ids = run_sample_ids(run_dir)
+    from catpose.bench.run.rundir import latest_rows
+
+    path = Path(run_dir) / "samples.jsonl"
+    rows = latest_rows(path) if path.is_file() else []
     out = {}
     for part in parts:
-        chosen = split.sample_ids(part, ids)
+        chosen = split.row_ids(part, rows)
         if chosen:
             out[part] = summary_row(run_dir, chosen)
     return out
@@ -61,7 +55,7 @@ def object_rows(run_dirs: dict[str, Path], split: Split, part: str) -> list[dict
     out = []
     for method, run_dir in run_dirs.items():
         rows = [recompute_row_errors(r) for r in latest_rows(Path(run_dir) / "samples.jsonl")]
-        keep = set(split.sample_ids(part, [r["sample_id"] for r in rows]))
+        keep = set(split.row_ids(part, rows))
         by: dict[int, list[float]] = {}
         for r in rows:
             if r["sample_id"] in keep:  # a failed sample has err_deg 180 (recompute_row_errors)

@@ -70,19 +70,25 @@ def _load_one(protocol: Any, dataset: Any, sample_id: str, base: dict) -> tuple[
 
 def _scored(row: dict, sample: Any, result: Any, runtime: float) -> dict:
     """The row of a registered sample: its estimate checked and scored."""
-    from catpose.bench.scoring.metrics import sample_errors
+    from catpose.bench.scoring.metrics import sample_errors, stage_errors
 
     result = dataclasses.replace(result, runtime_s=runtime)
     T = np.asarray(result.T_template_camera, dtype=float)
-    row.update(runtime_s=runtime, score=result.score, extras=dict(result.extras))
+    extras = dict(result.extras)
+    stages = extras.pop("hypothesis_stages", None)  # poses, scored here and not stored
+    row.update(runtime_s=runtime, score=result.score, extras=extras)
     if T.shape != (4, 4) or not np.isfinite(T).all():
         return failed_row(row, f"method returned a non-finite or malformed pose (shape {T.shape})")
     R = T[:3, :3]
     if np.abs(R @ R.T - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
         return failed_row(row, "method returned a matrix whose rotation part is not a rotation")
-    return scored_row(
-        row, T, sample_errors(T, sample.gt.T_template_camera, sample.gt.symmetry_axis, sample.gt.symmetries)
-    )
+    gt = sample.gt
+    errors = sample_errors(T, gt.T_template_camera, gt.symmetry_axis, gt.symmetries)
+    if stages:  # hypothesis recall: the best pose the method held at each stage of its search
+        found = stage_errors(stages, gt.T_template_camera, gt.symmetry_axis, gt.symmetries)
+        row["info"] = {**dict(row.get("info") or {}), "hypothesis_errors": found}
+        errors["found_err_deg"] = float(np.nanmin([errors["err_deg"], *found.values()]))
+    return scored_row(row, T, errors)
 
 
 def _register_one(method: Any, row: dict, sample: Any, seed: int) -> dict:

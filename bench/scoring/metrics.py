@@ -83,6 +83,52 @@ def sample_errors(
     }
 
 
+def pose_errors_deg(
+    T_est: np.ndarray, T_gt: np.ndarray, symmetry_axis: np.ndarray | None = None, symmetries: Iterable[np.ndarray] = ()
+) -> np.ndarray:
+    """``err_deg`` of :func:`sample_errors` for many estimates at once: (B,) degrees for ``T_est``
+    (B, 4, 4) against one ``T_gt`` (4, 4), each the smallest over the discrete ``symmetries``.
+    Only the angle: the rotation error, or the main-axis error of a symmetric object."""
+    T_est = np.asarray(T_est, float).reshape(-1, 4, 4)
+    if len(T_est) == 0:
+        return np.zeros(0)
+    R = T_est[:, :3, :3]
+    best = np.full(len(T_est), np.inf)
+    for S in [np.eye(4), *[np.asarray(S, float).reshape(4, 4) for S in symmetries]]:
+        R_gt = (S @ np.asarray(T_gt, float))[:3, :3]
+        if symmetry_axis is None:
+            cos = (np.einsum("ij,bij->b", R_gt, R) - 1.0) / 2.0  # tr(R_gt^T R)
+        else:
+            a = np.asarray(symmetry_axis, float).reshape(3)
+            a = a / np.linalg.norm(a)
+            u, v = np.einsum("bji,j->bi", R, a), R_gt.T @ a
+            cos = (u @ v) / (np.linalg.norm(u, axis=1) * np.linalg.norm(v))
+        best = np.minimum(best, np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+    return best
+
+
+def stage_errors(
+    stages: dict[str, np.ndarray],
+    T_gt: np.ndarray,
+    symmetry_axis: np.ndarray | None = None,
+    symmetries: Iterable[np.ndarray] = (),
+) -> dict[str, float]:
+    """Hypothesis recall of one sample: for each stage of a method's search (name -> the poses
+    ``T_template_camera`` (B, 4, 4) it still held there), the error (degrees, as ``err_deg``) of the
+    best of them; NaN for a stage that held none. The method names its stages
+    (``RegistrationResult.extras["hypothesis_stages"]``); ground truth enters only here."""
+    symmetries = list(symmetries)
+    out = {}
+    for name, T in stages.items():
+        e = pose_errors_deg(T, T_gt, symmetry_axis, symmetries)
+        out[str(name)] = float(e.min()) if e.size else float("nan")
+    return out
+
+
+FOUND_DEG = 10.0
+"""``found10``: a hypothesis within this many degrees of the truth existed at some stage."""
+
+
 def accuracy(errors_deg: Iterable[float], threshold_deg: float) -> float:
     """Fraction of errors at or below ``threshold_deg`` (NaN for an empty set)."""
     e = np.asarray(list(errors_deg), float)
@@ -122,7 +168,10 @@ def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0,
     Failed rows count as :data:`FAILED_ERROR_DEG` in the angle statistics, are counted in
     ``failed`` and are left out of the translation mean (they have no estimate). The last row,
     ``all``, pools every sample. Returns a pandas DataFrame with :data:`SUMMARY_COLUMNS`
-    (``acc10``/``acc30`` named after ``thresholds``).
+    (``acc10``/``acc30`` named after ``thresholds``), and ``found10`` after ``acc10`` when the rows
+    have a ``found_err_deg`` (hypothesis recall: the fraction of samples where the method held a
+    hypothesis within :data:`FOUND_DEG` of the truth at some stage; a row without one is found
+    when its own answer is within it, a failed row never).
     """
     import pandas as pd
 
@@ -138,6 +187,9 @@ def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0,
         "mean_trans_err",
         "median_runtime_s",
     ]
+    found = "found_err_deg" in df.columns and pd.to_numeric(df["found_err_deg"], errors="coerce").notna().any()
+    if found:
+        names.insert(names.index(f"acc{lo:g}") + 1, f"found{FOUND_DEG:g}")
 
     def stats(key: str, g) -> list:
         failed = (g["status"] != "ok").to_numpy()
@@ -145,7 +197,7 @@ def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0,
         err = np.where(np.isnan(err), FAILED_ERROR_DEG, err)
         trans = pd.to_numeric(g["trans_err"], errors="coerce").to_numpy(float)[~failed]
         trans = trans[np.isfinite(trans)]
-        return [
+        out = [
             key,
             len(g),
             int(failed.sum()),
@@ -156,6 +208,10 @@ def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0,
             float(trans.mean()) if trans.size else float("nan"),
             runtime_stats(pd.to_numeric(g["runtime_s"], errors="coerce"))["median_s"],
         ]
+        if found:
+            f = pd.to_numeric(g["found_err_deg"], errors="coerce").to_numpy(float)
+            out.insert(6, accuracy(np.where(failed, FAILED_ERROR_DEG, np.fmin(f, err)), FOUND_DEG))
+        return out
 
     if len(df) == 0:
         return pd.DataFrame(columns=names)

@@ -24,7 +24,9 @@ class SampleRow:
     translations in the dataset's unit (object-normalised for the built-in sets); errors in
     degrees (``rot_err_deg``, ``axis_err_deg``, ``err_deg`` the one the statistics use) and in that
     unit (``trans_err``); ``runtime_s`` in seconds. ``status`` is ``ok`` or ``failed`` (then
-    ``error`` says why, ``stage`` where, and ``err_deg`` is 180).
+    ``error`` says why, ``stage`` where, and ``err_deg`` is 180). ``found_err_deg`` is the error of
+    the best hypothesis the method held at any stage of its search, the chosen one included
+    (None: the method names no stages); ``info["hypothesis_errors"]`` has it per stage.
     """
 
     method: str
@@ -44,6 +46,7 @@ class SampleRow:
     axis_err_deg: float | None = None
     trans_err: float | None = None
     err_deg: float = FAILED_ERROR_DEG
+    found_err_deg: float | None = None
     symmetric: bool | None = None
     score: float | None = None
     runtime_s: float | None = None

@@ -10,7 +10,7 @@ they differ by less than ``merge_deg``.
 
 Objects with a continuous symmetry axis (cans, bowls) rest on their side in a ring of equivalent
 poses; :func:`up_classes` merges ups that make the same angle with the axis, so a can has three
-classes: upright, upside down and on its side.
+classes: upright, upside down and on its side (:func:`rest_classes` keeps each class's members).
 
 The values are rounded (ups to 1e-6, probabilities to 1e-9) so that the last bits of the library's
 BLAS-dependent arithmetic cannot change them between CPUs.
@@ -25,7 +25,7 @@ import numpy as np
 from catpose import libm
 from catpose.geometry import dot3, norm3, unit3
 
-__all__ = ["RestingUp", "resting_ups", "resting_ups_cached", "up_classes"]
+__all__ = ["RestingUp", "rest_classes", "resting_ups", "resting_ups_cached", "up_classes"]
 
 
 @dataclass(frozen=True)
@@ -104,12 +104,16 @@ def resting_ups_cached(points: np.ndarray, merge_deg: float = 10.0) -> list[Rest
     )
 
 
-def up_classes(ups: list[RestingUp], symmetry_axis: np.ndarray | None, merge_deg: float = 10.0) -> list[RestingUp]:
-    """``ups`` with those equivalent under a continuous symmetry about ``symmetry_axis`` (3,)
-    merged: two ups are equivalent when they make the same angle with the axis (within
-    ``merge_deg``). Without an axis, ``ups`` unchanged. Most probable first."""
+def rest_classes(
+    ups: list[RestingUp], symmetry_axis: np.ndarray | None, merge_deg: float = 10.0
+) -> list[tuple[RestingUp, list[RestingUp]]]:
+    """``ups`` grouped into classes equivalent under a continuous symmetry about
+    ``symmetry_axis`` (3,): two ups are equivalent when they make the same angle with the axis
+    (within ``merge_deg``; a can on any of its side lines is one class). Each class is
+    ``(representative, members)``: the representative has the most probable member's up and the
+    class's summed probability. Without an axis every up is its own class. Most probable first."""
     if symmetry_axis is None:
-        return list(ups)
+        return [(r, [r]) for r in ups]
     axis = unit3(np.asarray(symmetry_axis, dtype=np.float64))
     merged: list[list] = []
     for r in sorted(ups, key=lambda r: (-r.probability, r.up)):
@@ -117,7 +121,18 @@ def up_classes(ups: list[RestingUp], symmetry_axis: np.ndarray | None, merge_deg
         for m in merged:
             if abs(m[2] - angle) < merge_deg:
                 m[0] += r.probability
+                m[3].append(r)
                 break
         else:
-            merged.append([r.probability, r.up, angle])
-    return sorted((RestingUp(up, round(p, 9)) for p, up, _ in merged), key=lambda r: (-r.probability, r.up))
+            merged.append([r.probability, r.up, angle, [r]])
+    out = [(RestingUp(up, round(p, 9)), members) for p, up, _, members in merged]
+    return sorted(out, key=lambda c: (-c[0].probability, c[0].up))
+
+
+def up_classes(ups: list[RestingUp], symmetry_axis: np.ndarray | None, merge_deg: float = 10.0) -> list[RestingUp]:
+    """``ups`` with those equivalent under a continuous symmetry about ``symmetry_axis`` (3,)
+    merged (the representatives of :func:`rest_classes`). Without an axis, ``ups`` unchanged.
+    Most probable first."""
+    if symmetry_axis is None:
+        return list(ups)
+    return [r for r, _ in rest_classes(ups, symmetry_axis, merge_deg)]

@@ -1,0 +1,89 @@
+"""The coarse search of ours' depth rule: every stable resting pose x yaw, placed on the observation.
+
+The paper's dictionary finds candidates from local correspondences, and for an object that does not
+stand on the template's up it needs the template turned so that it does (one pipeline per resting
+direction). Where the ground normal ``g`` is known (a tabletop), the rotation of an object lying
+in one of its stable resting poses has one free parameter, the yaw about ``g``. So for every
+resting direction ``u`` of the template (:mod:`catpose.methods.resting_hypotheses`, the template's
+own up first) and every yaw ``psi = 360 k / yaws`` degrees, the rotation ``R`` maps ``g`` onto
+``u`` (the shortest arc, then the yaw about ``u``); a direction along a continuous symmetry axis
+(an upright or upside-down can) needs one yaw only.
+
+The translation puts the template's front on the observation: the template points whose normals
+face the camera (the viewing direction at the observation's centroid ``m``, in the template frame
+``v = -R m / |m|``) have centroid ``f``; ``t = f - R m`` maps ``m`` onto ``f``. Every pose is then
+refined by point-to-plane ICP on the input's Chamfer subset (``grid_iterations`` steps, pairs
+within ``grid_max_distance``; compiled, all at once), scored by the depth check, and the
+``grid_keep`` of lowest cost join the dictionary's candidates (:mod:`catpose.methods.ours_depth`).
+Every resting pose gets the same budget on every problem; which of them the object rests in is the
+depth check's choice alone.
+
+Angles use the C library's sine and cosine and products :func:`catpose.geometry.small_matmul`, the
+same bits on every CPU.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from catpose.geometry import norm3, small_matmul, unit3
+from catpose.methods.resting_hypotheses import rotation_between
+
+__all__ = ["grid_poses", "grid_rotations"]
+
+
+def _about(axis: np.ndarray, angle: float) -> np.ndarray:
+    """(3, 3) rotation by ``angle`` (radians) about unit ``axis`` (Rodrigues, C library sine)."""
+    a = unit3(np.asarray(axis, dtype=np.float64))
+    K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * small_matmul(K, K)
+
+
+def grid_rotations(
+    ups: np.ndarray, ground_normal_camera: np.ndarray, yaws: int, symmetry_axis: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rotations ``R_template_camera`` (B, 3, 3) resting the template on each of ``ups`` (H, 3,
+    template frame) at ``yaws`` yaws each (one for an up along ``symmetry_axis``), and the index
+    of each one's up (B,)."""
+    g = unit3(np.asarray(ground_normal_camera, dtype=np.float64))
+    axis = None if symmetry_axis is None else unit3(np.asarray(symmetry_axis, dtype=np.float64))
+    out, rest = [], []
+    for k, u in enumerate(np.asarray(ups, dtype=np.float64)):
+        u = unit3(u)
+        R0 = rotation_between(g, u)  # R0 g = u
+        n = max(int(yaws), 1)
+        if axis is not None and abs(float(u @ axis)) > math.cos(math.radians(10.0)):
+            n = 1  # a spin about the symmetry axis is invisible
+        for j in range(n):
+            out.append(small_matmul(_about(u, 2.0 * math.pi * j / n), R0))
+            rest.append(k)
+    return np.stack(out), np.asarray(rest, dtype=np.int64)
+
+
+def grid_poses(
+    ups: np.ndarray,
+    ground_normal_camera: np.ndarray,
+    points_camera: np.ndarray,
+    template_points: np.ndarray,
+    template_normals: np.ndarray,
+    yaws: int,
+    symmetry_axis: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Poses ``T_template_camera`` (B, 4, 4) of :func:`grid_rotations`, each translated so the
+    template's camera-facing points (``template_points`` (M, 3) with unit ``template_normals``)
+    have the centroid of ``points_camera`` (N, 3) (see the module docstring); and each pose's up
+    index (B,)."""
+    R, rest = grid_rotations(ups, ground_normal_camera, yaws, symmetry_axis)
+    m = np.asarray(points_camera, dtype=np.float64).mean(axis=0)
+    view = -m / max(norm3(m), 1e-12)  # towards the camera, camera frame
+    P = np.asarray(template_points, dtype=np.float64)
+    v = np.einsum("bij,j->bi", R, view)  # towards the camera, template frame, per pose
+    facing = (np.einsum("mj,bj->mb", np.asarray(template_normals, dtype=np.float64), v) > 0.0).astype(np.float64)
+    count = facing.sum(axis=0)
+    front = np.einsum("mb,mj->bj", facing, P) / np.maximum(count, 1.0)[:, None]  # einsum's loops: no BLAS
+    T = np.tile(np.eye(4), (len(R), 1, 1))
+    T[:, :3, :3] = R
+    T[:, :3, 3] = front - np.einsum("bij,j->bi", R, m)
+    return T, rest
