@@ -25,6 +25,7 @@ from catpose.bench.interop.prediction_checks import key_text
 from catpose.bench.interop.prediction_io import read_mapping, read_predictions
 from catpose.bench.run.overwrite import check_new_output
 from catpose.bench.run.rundir import write_run_into
+from catpose.bench.scoring.bop_rows import evaluation_models, is_bop_layout
 from catpose.errors import DatasetError, InvalidInputError
 
 
@@ -368,7 +369,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with atomic.building_dir(out) as tmp:
             write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
-            if preds.attrs["kind"] == "bop" and _is_bop_dataset(config.get("dataset")):
+            if preds.attrs["kind"] == "bop" and is_bop_layout(config.get("dataset")):
                 bop_text = score_bop(
                     preds,
                     config["dataset"],
@@ -425,24 +426,6 @@ def _threshold_summary(rows: Sequence[dict], out_dir: Path, acc: str, auc: float
 
 
 DEFAULT_BOP_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
-
-
-def _is_bop_dataset(node: Any) -> bool:
-    return isinstance(node, dict) and str(node.get("_target_", "")).endswith("datasets.bop.BOP")
-
-
-def evaluation_models(dataset_cfg: dict) -> dict:
-    """The dataset config BOP's errors are computed with: ``models_dir: models_eval`` when the
-    dataset has that folder (the BOP toolkit's evaluation models, uniformly resampled surfaces),
-    whatever the run registered against; the config as it is otherwise."""
-    root = dataset_cfg.get("root")
-    if (
-        root
-        and dataset_cfg.get("models_dir", "models") == "models"
-        and (Path(str(root)) / "models_eval" / "models_info.json").is_file()
-    ):
-        return dict(dataset_cfg, models_dir="models_eval")
-    return dataset_cfg
 
 
 def score_bop(
