@@ -174,11 +174,12 @@ class PPF(RegistrationMethod):
     # ------------------------------------------------------------------ refinement
     def _refine(self, pose: Any, problem: RegistrationProblem) -> Any:
         """OpenCV's ICP from one detected ``Pose3D``: the template's points whose normals face the
-        camera under that pose (``icp_model=visible``; all of them for ``all``) onto the observation."""
+        camera under that pose (``icp_model=visible``; all of them for ``all``, and for an
+        observation not all in front of the camera, which no camera saw) onto the observation."""
         ppf = import_ppf()
         template = problem.template
         points, normals = template.points, template.normals
-        if self.icp_model == "visible":
+        if self.icp_model == "visible" and (problem.points_camera[:, 2] > 0).all():  # else no camera saw it
             T = np.asarray(pose.pose, dtype=np.float64)
             facing = np.einsum("ij,ij->i", normals @ T[:3, :3].T, transform_points(T, points)) < 0
             if facing.sum() >= MIN_ICP_POINTS:
