@@ -97,6 +97,16 @@ def test_table_and_suite_ar_equal_bench_score(clutter_run) -> None:
     assert "clutter: AR (VSD / MSSD / MSPD)" in text
     assert f"**{expected['ar']:.3f}** ({expected['ar_vsd']:.3f} / {expected['ar_mssd']:.3f}" in text
 
+    # bench suite --objects: per object, the AR of bench score's per-object rows
+    from catpose.bench.real.split import load_split
+    from catpose.bench.real.suite_parts import object_rows
+    from catpose.bench.scoring.bop_eval import read_errors, score_table
+
+    scored, _ = read_errors(tmp / "scored" / "bop_errors.jsonl")
+    by_object = score_table(scored, ["ar"], ["object"])
+    rows = object_rows({"icp": run_dir}, load_split("clutter"), "dev")  # scenes 0 and 1 are dev scenes
+    assert [r["ar"] for r in rows] == pytest.approx(list(by_object[by_object["group"] == "object"]["ar"]), abs=1e-12)
+
     # bench table: AR columns after the layout's own metrics, the "all" column equal to bench score
     runs, _ = load_runs([str(run_dir)])
     table = build_table(runs)
