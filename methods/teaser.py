@@ -3,6 +3,13 @@
 Correspondences: mutual FPFH nearest neighbours (``features="fpfh"``, as in TEASER++'s examples)
 or the top-1 LPS keypoint pairs (``features="lps"``). ``noise_bound`` is the inlier bound in
 object-normalised units (on the order of the voxel size).
+
+No pose is given only where TEASER++ gives none: a max clique of 0 or 1 correspondences
+(``teaser::RobustRegistrationSolver::solve``, teaser/src/registration.cc: "Clique size too small.
+Abort." when ``max_clique_.size() <= 1``; :data:`catpose.methods.teaser_solver.MIN_CLIQUE_SIZE`).
+Cliques of 2 or 3 are solved as TEASER++ solves them, ``rotation_degenerate`` in the details
+saying when their rotation is not fixed by the data. A target without a pose gives no candidate;
+a sample none of whose targets gives one is recorded as failed, its error naming the clique.
 """
 
 from __future__ import annotations
@@ -14,6 +21,7 @@ import numpy as np
 from catpose.errors import ConfigError, InvalidInputError
 from catpose.methods import teaser_solver
 from catpose.methods.correspondence import CorrespondenceRegistration, MatchInput
+from catpose.methods.teaser_solver import MIN_CLIQUE_SIZE
 
 
 class TEASER(CorrespondenceRegistration):
@@ -80,8 +88,8 @@ class TEASER(CorrespondenceRegistration):
 
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
         corr = match.fpfh_correspondences(self.mutual_filter, self.max_correspondences)
-        if len(corr) < 3:
-            return None, {"num_correspondences": int(len(corr)), "clique_size": 0}
+        if len(corr) < MIN_CLIQUE_SIZE:
+            return None, {"num_correspondences": int(len(corr)), "clique_size": 0, "no_pose_reason": no_pose(len(corr))}
         try:
             r = teaser_solver.solve(
                 match.source.points[corr[:, 0]],
@@ -104,6 +112,15 @@ class TEASER(CorrespondenceRegistration):
             "clique_exact": r.clique_exact,
             "translation_inliers": int(len(r.translation_inliers)),
             "gnc_iterations": r.gnc_iterations,
+            "rotation_degenerate": r.rotation_degenerate,
             **{f"teaser_{k}": v for k, v in r.timings.items()},
         }
         return r.T, info
+
+
+def no_pose(num_correspondences: int) -> str:
+    """Why a target with ``num_correspondences`` (fewer than :data:`MIN_CLIQUE_SIZE`) gives no pose."""
+    return (
+        f"TEASER got {num_correspondences} correspondences: no pose under a max clique of {MIN_CLIQUE_SIZE}, "
+        "as TEASER++ (registration.cc, RobustRegistrationSolver::solve)"
+    )

@@ -38,9 +38,14 @@ from catpose.errors import ConfigError, InvalidInputError
 from catpose.geometry import apply_R
 from catpose.kabsch import rotations_from_covariance
 
-#: A max clique smaller than this gives no pose (both solvers): 3 or fewer mutually consistent
-#: correspondences arise by chance among outliers, and 2 leave the rotation about their line free.
-MIN_CLIQUE_SIZE = 4
+#: A max clique smaller than this gives no pose (both solvers), TEASER++'s own rule:
+#: ``teaser::RobustRegistrationSolver::solve`` (teaser/src/registration.cc) aborts with
+#: ``solution_.valid = false`` when ``max_clique_.size() <= 1`` ("Clique size too small. Abort.")
+#: and solves every larger clique. A clique of 2 or 3 is solved as TEASER++ solves it; where its
+#: measurements span one direction the rotation about it is the closed-form shortest arc
+#: (:func:`catpose.kabsch.rank_one_rotation`, where TEASER++ takes whatever its SVD returns) and
+#: ``SolverResult.rotation_degenerate`` says so.
+MIN_CLIQUE_SIZE = 2
 
 
 @dataclass(frozen=True)
@@ -56,6 +61,8 @@ class SolverResult:
         translation_inliers: indices (into the input rows) that voted for ``t`` on all axes.
         gnc_iterations: number of GNC iterations run.
         timings: seconds per stage.
+        rotation_degenerate: the rotation inliers span one direction (or none), so the rotation
+            about it is not fixed by the data (the closed-form shortest arc was taken).
     """
 
     R: np.ndarray
@@ -66,6 +73,7 @@ class SolverResult:
     translation_inliers: np.ndarray
     gnc_iterations: int
     timings: dict = field(default_factory=dict)
+    rotation_degenerate: bool = False
 
     @property
     def T(self) -> np.ndarray:
@@ -280,16 +288,19 @@ def solve(
         :class:`SolverResult`.
 
     Raises:
-        InvalidInputError: fewer than 3 correspondences, a max clique smaller than
-            :data:`MIN_CLIQUE_SIZE`, or rotation inliers that span one direction (the rotation
-            about it would be whatever LAPACK's CPU kernel returns): no pose.
+        InvalidInputError: a max clique smaller than :data:`MIN_CLIQUE_SIZE` (of 0 or 1
+            correspondences), where TEASER++ returns no valid solution
+            (``RobustRegistrationSolver::solve`` in teaser/src/registration.cc): no pose.
     """
     import time
 
     src, dst = checked_inputs(src, dst, noise_bound, rotation_tim_graph)
     timings: dict[str, float] = {}
-    if len(src) < 3:
-        raise InvalidInputError(f"TEASER needs at least 3 correspondences; got {len(src)}")
+    if len(src) < MIN_CLIQUE_SIZE:
+        raise InvalidInputError(
+            f"TEASER got {len(src)} correspondences; a max clique of {MIN_CLIQUE_SIZE} or more is needed "
+            "(TEASER++ gives no pose under it)"
+        )
 
     t0 = time.perf_counter()
     adj = consistency_graph(src, dst, noise_bound)
@@ -297,8 +308,8 @@ def solve(
     timings["clique_s"] = time.perf_counter() - t0
     if len(clique) < MIN_CLIQUE_SIZE:
         raise InvalidInputError(
-            f"TEASER max clique has {len(clique)} of {len(src)} correspondences "
-            f"(fewer than {MIN_CLIQUE_SIZE}): degenerate, no reliable pose"
+            f"TEASER max clique has {len(clique)} of {len(src)} correspondences: no pose under "
+            f"{MIN_CLIQUE_SIZE}, as TEASER++ (registration.cc, RobustRegistrationSolver::solve)"
         )
 
     t0 = time.perf_counter()
@@ -316,11 +327,6 @@ def solve(
     R, w, iters, degenerate = gnc_tls_rotation(
         a[j] - a[i], b[j] - b[i], 2.0 * noise_bound, cbar2, gnc_factor, max_iterations, cost_threshold
     )
-    if degenerate:
-        raise InvalidInputError(
-            f"TEASER: the {int((w > 0.5).sum())} rotation inliers of the {len(clique)}-point "
-            "max clique lie on one line: the rotation about it is not determined, no pose"
-        )
     timings["rotation_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -331,4 +337,4 @@ def solve(
         t[axis], mask = adaptive_voting(t_meas[:, axis], noise_bound * np.sqrt(cbar2))
         voted &= mask
     timings["translation_s"] = time.perf_counter() - t0
-    return SolverResult(R, t, clique, exact, w > 0.5, clique[voted], iters, timings)
+    return SolverResult(R, t, clique, exact, w > 0.5, clique[voted], iters, timings, bool(degenerate))

@@ -17,9 +17,11 @@ The arguments mean the same for both solvers:
   still fractional when the points are small, as they are here.)
 - the exact max clique (``PMC_EXACT``), ``gnc_factor``, ``max_iterations``, the TIM graph.
 
-A max clique of 3 correspondences or fewer fixes no reliable rotation (and for 0 or 1 TEASER++
-returns an unset pose that changes from run to run): :func:`solve` raises
-:class:`~catpose.errors.InvalidInputError` then. Such a target gives no candidate; with
+A max clique of 0 or 1 correspondences gives no pose in TEASER++ itself
+(``RobustRegistrationSolver::solve`` sets ``solution_.valid = false``; the pose it still returns
+is unset and changes from run to run): :func:`solve` raises
+:class:`~catpose.errors.InvalidInputError` then, as ``method=teaser`` does
+(:data:`~catpose.methods.teaser_solver.MIN_CLIQUE_SIZE`). Such a target gives no candidate; with
 dictionary matching the other partial templates still can, and a sample with no candidate at
 all is recorded as failed with that reason instead of scoring a meaningless pose.
 """
@@ -37,7 +39,7 @@ import numpy as np
 
 from catpose.errors import ConfigError, InvalidInputError
 from catpose.methods.correspondence import MatchInput
-from catpose.methods.teaser import TEASER
+from catpose.methods.teaser import TEASER, no_pose
 from catpose.methods.teaser_solver import MIN_CLIQUE_SIZE, SolverResult, checked_inputs
 
 _MISSING = (
@@ -115,12 +117,12 @@ def solve(
         solver.solve(np.ascontiguousarray(src.T), np.ascontiguousarray(dst.T))
         solve_s = time.perf_counter() - t0
     clique = np.sort(np.asarray(solver.getInlierMaxClique(), dtype=np.int64))  # as returned (may repeat)
-    if len(np.unique(clique)) < min_clique_size:
-        raise InvalidInputError(
-            f"TEASER++ max clique has {len(np.unique(clique))} of {len(src)} correspondences "
-            f"(fewer than {min_clique_size}): degenerate, no reliable pose"
-        )
     sol = solver.getSolution()
+    if len(np.unique(clique)) < min_clique_size or (min_clique_size and not sol.valid):
+        raise InvalidInputError(
+            f"TEASER++ max clique has {len(np.unique(clique))} of {len(src)} correspondences: degenerate, "
+            f"no valid solution under {min_clique_size} (registration.cc, RobustRegistrationSolver::solve)"
+        )
     R = np.asarray(sol.rotation, dtype=np.float64).reshape(3, 3)
     t = np.asarray(sol.translation, dtype=np.float64).reshape(3)
     translation_inliers = np.asarray(solver.getTranslationInliers(), dtype=np.int64)
@@ -146,8 +148,8 @@ class TEASERPlusPlus(TEASER):
 
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
         corr = match.fpfh_correspondences(self.mutual_filter, self.max_correspondences)
-        if len(corr) < 3:
-            return None, {"num_correspondences": int(len(corr)), "clique_size": 0}
+        if len(corr) < MIN_CLIQUE_SIZE:
+            return None, {"num_correspondences": int(len(corr)), "clique_size": 0, "no_pose_reason": no_pose(len(corr))}
         try:
             r = solve(
                 match.source.points[corr[:, 0]],

@@ -23,7 +23,7 @@
 #   real       every method on the shared real data (bench suite real: results/real/table.md, a column
 #              per YCB-V scene as configs/split/ycbv.yaml names them, per-object tables in
 #              results/real/objects.md), BOP
-#              metrics of ICP and ours on the YCB-V frames (results/real/bop_ycbv.md), the sensor
+#              metrics of ICP, PPF and ours on the YCB-V frames (results/real/bop_ycbv.md), the sensor
 #              model beside the real frames (results/real/sensor_stats.md). ~1 h.
 #   ambiguity  why ours' wrong estimates won, search miss or ambiguous to its depth check, from the runs
 #              of the synthetic, clutter and real sections (experiments/ambiguity/make_ambiguity.sh:
@@ -88,6 +88,8 @@ synthetic_runs() {
         dataset.instances_per_category=1 seed=0 output_root="$OUT/kinect" progress=false print_summary=false
     done
   done
+  "$B" run method=ppf dataset=synthetic dataset.sensor=kinect dataset.instances_per_category=1 seed=0 \
+    output_root="$OUT/kinect" progress=false print_summary=false
 }
 
 synthetic_tables() {
@@ -124,6 +126,7 @@ synthetic_tables() {
   add "$G/fgr/seed0-+row=fgr_dictionary_fpfh-*" "FGR (dictionary FPFH)"
   add "$G/teaser/seed0-+row=teaser_dictionary_lps-*" "TEASER (dictionary LPS)"
   add "$G/ransac/seed0-+row=ransac_dictionary_fpfh-*" "RANSAC (dictionary FPFH)"
+  add "$G/ppf/seed0-+row=ppf-*" "PPF"
   add "$G/ours/seed0-+row=ours-*" "Ours"
   add "$P/icp/seed0-+row=icp,protocol.max_templates=null-*" "ICP"
   add "$P/ours/seed0-+row=ours,protocol.max_templates=null-*" "Ours"
@@ -151,9 +154,9 @@ real() {
   local R="$OUT/real"
   mkdir -p "$RESULTS/real"
   nice "$B" suite real --force --output-root "$R" --write "$RESULTS/real/table.md" --objects "$RESULTS/real/objects.md"
-  if [ -d "$SHARED/bop/ycbv" ]; then  # BOP's metrics of ICP and ours on the YCB-V frames
+  if [ -d "$SHARED/bop/ycbv" ]; then  # BOP's metrics of ICP, PPF and ours on the YCB-V frames
     local scored=()
-    for m in icp ours; do
+    for m in icp ppf ours; do
       run=$(default_runs "$R/ycbv-gt_model/$m" 1)  # the method's default run, not ours-visibility's
       [ -n "$run" ] || { echo "make_results: no default run of $m in $R/ycbv-gt_model" >&2; exit 2; }
       rm -rf "$R/bop/$m" "$R/bop/${m}_ycbv-test.csv"*; mkdir -p "$R/bop"
@@ -170,7 +173,7 @@ real() {
 perf() {
   local P="$RESULTS/perf"
   mkdir -p "$P"
-  local M=ours,adam=ours,icp,fgr,teaser,ransac
+  local M=ours,adam=ours,icp,fgr,teaser,ransac,ppf
   "$B" perf --n 12 --repeat 3 --methods $M --set adam:optimiser.solver=adam --out "$P/perf_synthetic.csv"
   if [ -d "$SHARED/bop/ycbv" ]; then
     "$B" perf --n 12 --repeat 3 --methods $M --set adam:optimiser.solver=adam --dataset ycbv \

@@ -94,3 +94,17 @@ def test_the_clutter_suite_loads_only_its_report_scenes(tmp_path):
     )
     assert cfg.dataset.name == "clutter" and list(cfg.dataset.scenes) == list(range(100, 200))
     assert any(o.startswith("dataset.scenes=[100,") for o in overrides)
+
+
+def test_a_method_without_its_extra_is_skipped_with_the_install_line(tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "cv2", None)  # OpenCV's contrib build not installed
+    assert "pip install -e '.[ppf]'" in sr.missing_extra(sr.METHODS["ppf"])
+    assert sr.missing_extra(sr.METHODS["icp"]) is None
+    lines: list[str] = []
+    (tmp_path / "bop" / "tyol").mkdir(parents=True)  # a set that exists but has no frames: nothing runs
+    results, skipped = sr.run_suite(["tyol"], ["ppf"], tmp_path, log=lines.append, table_only=True)
+    assert results == {} and "ppf" not in skipped  # a table from run directories needs no extra
+    results, skipped = sr.run_suite(["modelnet40_resampled"], ["ppf"], tmp_path, log=lines.append)
+    assert "pip install" in skipped["ppf"] and any("skipping ppf" in line for line in lines)

@@ -204,3 +204,27 @@ def test_teaser_method_checks_the_clique_time_budget() -> None:
         TEASER(clique_time_budget_s=-1)
     assert "\n" not in str(info.value)
     assert TEASER(clique_time_budget_s=0).clique_time_budget_s == 0.0  # 0 = no limit
+
+
+def test_small_cliques_follow_teaserpp() -> None:
+    """TEASER++ (teaser/src/registration.cc, ``RobustRegistrationSolver::solve``) aborts only on a
+    max clique of 0 or 1 and solves every larger one; so does the re-implementation."""
+    rng = np.random.default_rng(3)
+    R, t = random_rotation(rng), np.array([0.2, -0.1, 0.3])
+    src = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [0.0, 0.7, 0.1]])
+    # three exact correspondences, not on a line: a 3-clique fixes the pose
+    r = teaser_solver.solve(src, src @ R.T + t, 0.01)
+    assert len(r.clique) == 3 and not r.rotation_degenerate
+    assert _rot_err_deg(r.R, R) < 1e-6 and np.allclose(r.t, t, atol=1e-9)
+    # two: a pose (TEASER++ gives one too) mapping their segment exactly, flagged as not fixing
+    # the rotation about it
+    r = teaser_solver.solve(src[:2], src[:2] @ R.T + t, 0.01)
+    assert len(r.clique) == 2 and r.rotation_degenerate
+    assert np.allclose(src[:2] @ r.R.T + r.t, src[:2] @ R.T + t, atol=1e-9)
+    # no two pairs agree in length: every max clique is one correspondence, no pose
+    dst = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 7.0, 0.0]])
+    with pytest.raises(InvalidInputError, match="registration.cc") as info:
+        teaser_solver.solve(src, dst, 0.01)
+    assert "max clique has 1 of 3" in str(info.value) and "\n" not in str(info.value)
+    with pytest.raises(InvalidInputError, match="1 correspondences"):
+        teaser_solver.solve(src[:1], dst[:1], 0.01)

@@ -7,30 +7,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from catpose import atomic
+from catpose.bench.scoring.bop_rows import evaluation_models
 from catpose.errors import InvalidInputError
 
 DEFAULT_BOP_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
-
-
-def is_bop_dataset(node: Any) -> bool:
-    return isinstance(node, dict) and str(node.get("_target_", "")).endswith("datasets.bop.BOP")
-
-
-def evaluation_models(dataset_cfg: dict) -> dict:
-    """The dataset config BOP's errors are computed with: ``models_dir: models_eval`` when the
-    dataset has that folder (the BOP toolkit's evaluation models, uniformly resampled surfaces),
-    whatever the run registered against; the config as it is otherwise."""
-    root = dataset_cfg.get("root")
-    if (
-        root
-        and dataset_cfg.get("models_dir", "models") == "models"
-        and (Path(str(root)) / "models_eval" / "models_info.json").is_file()
-    ):
-        return dict(dataset_cfg, models_dir="models_eval")
-    return dataset_cfg
 
 
 def score_bop(

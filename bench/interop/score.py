@@ -21,11 +21,12 @@ import numpy as np
 
 from catpose import atomic
 from catpose.bench.interop.bop_export import bop_ids
-from catpose.bench.interop.bop_score import DEFAULT_BOP_METRICS, bop_metrics, is_bop_dataset, score_bop
+from catpose.bench.interop.bop_score import DEFAULT_BOP_METRICS, bop_metrics, score_bop
 from catpose.bench.interop.prediction_checks import key_text
 from catpose.bench.interop.prediction_io import read_mapping, read_predictions
 from catpose.bench.run.overwrite import Input, check_output, write_error_text
 from catpose.bench.run.rundir import write_run_into
+from catpose.bench.scoring.bop_rows import is_bop_layout
 from catpose.errors import DatasetError, InvalidInputError
 
 
@@ -382,7 +383,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with atomic.building_dir(out) as tmp:
             write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
-            if preds.attrs["kind"] == "bop" and is_bop_dataset(config.get("dataset")):
+            if preds.attrs["kind"] == "bop" and is_bop_layout(config.get("dataset")):
                 bop_text = score_bop(
                     preds,
                     config["dataset"],

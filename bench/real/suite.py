@@ -21,7 +21,9 @@ their files (``summary.csv``). Protocol: ``gt_model`` (each view against its own
 
 A set with a development split (``configs/split/<name>.yaml``: YCB-V by scene, the clutter set
 by scene id) also gets one column per part, labelled with its role (choose / report;
-docs/choosing-defaults.md). ``bench suite clutter`` runs the ``report`` part of
+docs/choosing-defaults.md). A set in the BOP layout (YCB-V, TYO-L, clutter) also gets BOP'19's
+average recall beside each column, ``AR (VSD / MSSD / MSPD)``, computed from the same run
+directories by ``bench score``'s code (:mod:`catpose.bench.run.bop_ar`). ``bench suite clutter`` runs the ``report`` part of
 ``configs/split/clutter.yaml`` (``--parts dev,report`` for both).
 """
 
@@ -60,6 +62,7 @@ class MethodVariant:
     label: str
     method: str
     overrides: tuple[str, ...] = field(default_factory=tuple)
+    requires: str | None = None  # an optional module (an extra) without which the row is skipped, said why
 
 
 SETS: dict[str, RealSet] = {
@@ -121,8 +124,22 @@ METHODS: dict[str, MethodVariant] = {
         MethodVariant("fgr-dict", "fgr", ("method.matching=dictionary",)),
         MethodVariant("teaser-dict", "teaser", ("method.matching=dictionary",)),
         MethodVariant("ransac-dict", "ransac", ("method.matching=dictionary",)),
+        MethodVariant("ppf", "ppf", requires="cv2.ppf_match_3d"),  # OpenCV's contrib build: the extra ppf
     )
 }
+
+
+def missing_extra(variant: MethodVariant) -> str | None:
+    """Why a method row cannot run here (its optional module is not importable), or None."""
+    if not variant.requires:
+        return None
+    import importlib
+
+    try:
+        importlib.import_module(variant.requires)
+    except ImportError:
+        return f"{variant.requires} is not importable (install the extra: pip install -e '.[{variant.method}]')"
+    return None
 
 
 def skip_reason(real_set: RealSet, shared: Path) -> str | None:
@@ -178,25 +195,44 @@ def summary_row(run_dir: Path, sample_ids: list[str] | None = None) -> dict:
     return {} if len(rows) == 0 else rows.iloc[0].to_dict()
 
 
+def with_ar(row: dict, errors, sample_ids: list[str] | None = None) -> dict:
+    """``row`` with BOP's AR and its parts (:data:`~catpose.bench.scoring.bop_rows.AR_KEYS`) of the
+    per-target ``errors`` of ``sample_ids`` (all of them when None); ``row`` as it is without errors."""
+    if errors is None or len(errors) == 0:
+        return row
+    from catpose.bench.scoring.bop_rows import ar_scores
+
+    chosen = errors if sample_ids is None else errors[errors["sample_id"].isin(set(sample_ids))]
+    return {**row, **ar_scores(chosen)} if len(chosen) else row
+
+
 def format_table(
     results: dict[tuple[str, str], dict], sets: list[str], methods: list[str], skipped: dict[str, str]
 ) -> str:
     """Markdown: one row per method, per set ``mean / median / @10 / found@10 / @30`` (deg; found@10:
     a hypothesis within 10 deg existed at some stage of the method's search, ``-`` for a method that
-    names none) and s per registration (median); the best mean and @10 of each set in bold."""
-    header = ["method"] + [f"{s}: mean / med / @10 / found@10 / @30 (s)" for s in sets]
+    names none) and s per registration (median); the best mean and @10 of each set in bold. Where the
+    set's rows have BOP scores, a second column ``AR (VSD / MSSD / MSPD)`` per set, the best AR in bold."""
+    ar_sets = {s for s in sets if any("ar" in (results.get((s, m)) or {}) for m in methods)}
+    header = ["method"]
+    for s in sets:
+        header.append(f"{s}: mean / med / @10 / found@10 / @30 (s)")
+        if s in ar_sets:
+            header.append(f"{s}: AR (VSD / MSSD / MSPD)")
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     best: dict[str, tuple[float, float]] = {}
+    best_ar: dict[str, float] = {}
     for s in sets:
         rows = [results[(s, m)] for m in methods if results.get((s, m))]
         if rows:
             best[s] = (min(r["mean_err_deg"] for r in rows), max(r["acc10"] for r in rows))
+            best_ar[s] = max((r["ar"] for r in rows if "ar" in r), default=float("nan"))
     for m in methods:
         cells = [m]
         for s in sets:
             r = results.get((s, m))
             if not r:
-                cells.append("-")
+                cells += ["-", "-"] if s in ar_sets else ["-"]
                 continue
             mean = f"{r['mean_err_deg']:.2f}"
             acc10 = f"{r['acc10']:.3f}"
@@ -211,10 +247,22 @@ def format_table(
                 f"{mean} / {r['median_err_deg']:.2f} / {acc10} / {found} / {r['acc30']:.3f} "
                 f"({r['median_runtime_s']:.2f}{fail}) n={int(r['n'])}"
             )
+            if s in ar_sets:
+                cells.append(ar_cell(r, best_ar[s]))
         lines.append("| " + " | ".join(cells) + " |")
     for s, why in skipped.items():
         lines.append(f"\nskipped {s}: {why}")
     return "\n".join(lines)
+
+
+def ar_cell(row: dict, best: float) -> str:
+    """``AR (VSD / MSSD / MSPD)`` of a row, AR in bold when it is ``best``; ``-`` without it."""
+    if "ar" not in row:
+        return "-"
+    ar = f"{row['ar']:.3f}"
+    if abs(row["ar"] - best) < 1e-9:
+        ar = f"**{ar}**"
+    return f"{ar} ({row['ar_vsd']:.3f} / {row['ar_mssd']:.3f} / {row['ar_mspd']:.3f})"
 
 
 def run_suite(
@@ -229,19 +277,27 @@ def run_suite(
     table_only: bool = False,
     catalogue: dict[str, RealSet] | None = None,
 ) -> tuple[dict, dict]:
-    """Run every (set, method) pair; returns ({(set, method): summary row}, {set: skip reason}).
+    """Run every (set, method) pair; returns ({(set, method): summary row}, {set or method: skip reason}).
     A set with a split also gets rows ``(<set>:<part> (<role>), method)`` for each of its parts.
     With ``table_only`` nothing runs: the rows come from the run directories already written
     (finished samples only; pairs never run are left out). ``catalogue``: the sets by name
     (default :data:`SETS`, the real suite)."""
     from catpose.bench.real.split import load_split
     from catpose.bench.real.suite_parts import part_label, part_rows
+    from catpose.bench.run.bop_ar import target_errors
     from catpose.bench.run.rundir import SAMPLES_FILE, run_dir_for
     from catpose.bench.run.runner import run
 
     catalogue = SETS if catalogue is None else catalogue
     results: dict[tuple[str, str], dict] = {}
     skipped: dict[str, str] = {}
+    if not table_only:
+        for m in methods:
+            why = missing_extra(METHODS[m])
+            if why:
+                skipped[m] = why
+                log(f"bench suite real: skipping {m}: {why}")
+        methods = [m for m in methods if m not in skipped]
     for s in sets:
         why = skip_reason(catalogue[s], shared)
         if why:
@@ -257,12 +313,16 @@ def run_suite(
             else:
                 log(f"bench suite real: {m} on {s} ...")
                 run_dir = run(cfg, overrides)
-            results[(s, m)] = summary_row(run_dir)
+            errors = target_errors(run_dir)  # None unless the set is in the BOP layout
+            results[(s, m)] = with_ar(summary_row(run_dir), errors)
             results[(s, m)]["run_dir"] = str(run_dir)
             if catalogue[s].split:
                 split = load_split(catalogue[s].split)
                 for part, row in part_rows(
-                    run_dir, split, list(catalogue[s].parts or split.parts), summary_row
+                    run_dir,
+                    split,
+                    list(catalogue[s].parts or split.parts),
+                    lambda d, ids: with_ar(summary_row(d, ids), errors, ids),
                 ).items():
                     results[(part_label(s, split, part), m)] = dict(row, run_dir=str(run_dir))
     return results, skipped

@@ -45,17 +45,23 @@ def scenes_override(split_name: str, parts: tuple[str, ...]) -> list[str]:
 
 def object_rows(run_dirs: dict[str, Path], split: Split, part: str) -> list[dict]:
     """Per-object rows (BOP ``obj_id`` of each sample's info) of several methods' runs on ``part``:
-    ``{method, obj_id, n, mean_err_deg, median_err_deg, acc10, acc30}``; failed samples count as
-    180 degrees, as everywhere."""
+    ``{method, obj_id, n, mean_err_deg, median_err_deg, acc10, acc30}`` and, for runs on BOP-layout
+    data, ``ar`` (BOP'19's AR of the object's targets); failed samples count as 180 degrees and a
+    miss, as everywhere."""
     import numpy as np
 
+    from catpose.bench.run.bop_ar import target_errors
     from catpose.bench.run.evaluate import recompute_row_errors
     from catpose.bench.run.rundir import latest_rows
+    from catpose.bench.scoring.bop_eval import metric_value
 
     out = []
     for method, run_dir in run_dirs.items():
         rows = [recompute_row_errors(r) for r in latest_rows(Path(run_dir) / "samples.jsonl")]
         keep = set(split.row_ids(part, rows))
+        errors = target_errors(run_dir)
+        if errors is not None:
+            errors = errors[errors["sample_id"].isin(keep)]
         by: dict[int, list[float]] = {}
         for r in rows:
             if r["sample_id"] in keep:  # a failed sample has err_deg 180 (recompute_row_errors)
@@ -71,6 +77,11 @@ def object_rows(run_dirs: dict[str, Path], split: Split, part: str) -> list[dict
                     "median_err_deg": float(np.median(e)),
                     "acc10": float((e < 10).mean()),
                     "acc30": float((e < 30).mean()),
+                    **(
+                        {"ar": metric_value(errors[errors["obj_id"] == obj_id], "ar")}
+                        if errors is not None and (errors["obj_id"] == obj_id).any()
+                        else {}
+                    ),
                 }
             )
     return out
@@ -78,7 +89,8 @@ def object_rows(run_dirs: dict[str, Path], split: Split, part: str) -> list[dict
 
 def object_tables(results: dict, catalogue: dict, sets: list[str], methods: list[str]) -> str:
     """Markdown: for every set with a split and each of its parts, one row per object and method
-    (``mean / median / @10 / @30 (n)``), from the run directories of ``results``."""
+    (``mean / median / @10 / @30 (n)``, and ``AR`` after @30 for BOP-layout data), from the run
+    directories of ``results``."""
     lines: list[str] = []
     for s in sets:
         rs = catalogue[s]
@@ -91,8 +103,9 @@ def object_tables(results: dict, catalogue: dict, sets: list[str], methods: list
             if not rows:
                 continue
             objects = sorted({r["obj_id"] for r in rows})
+            ar = any("ar" in r for r in rows)
             lines += [
-                f"\n{part_label(s, split, part)}: mean / median / @10 / @30 (n) per object\n",
+                f"\n{part_label(s, split, part)}: mean / median / @10 / @30{' / AR' if ar else ''} (n) per object\n",
                 "| method | " + " | ".join(f"obj {o}" for o in objects) + " |",
                 "|---|" + "---|" * len(objects),
             ]
@@ -104,7 +117,12 @@ def object_tables(results: dict, catalogue: dict, sets: list[str], methods: list
                         "-"
                         if r is None
                         else f"{r['mean_err_deg']:.1f} / {r['median_err_deg']:.1f} / "
-                        f"{r['acc10']:.2f} / {r['acc30']:.2f} ({r['n']})"
+                        f"{r['acc10']:.2f} / {r['acc30']:.2f}{_ar_text(r)} ({r['n']})"
                     )
                 lines.append(f"| {m} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _ar_text(row: dict) -> str:
+    """`` / AR`` of an object row with BOP's AR, else nothing."""
+    return f" / {row['ar']:.2f}" if "ar" in row else ""

@@ -25,6 +25,7 @@ DISPLAY_NAMES = {
     "rpmnet": "RPM-Net",
     "rpm_net": "RPM-Net",
     "ransac": "RANSAC",
+    "ppf": "PPF",
 }
 
 

@@ -184,6 +184,11 @@ METRICS: dict[str, Metric] = {
     "runtime": Metric("median_runtime_s", "time [s] ↓", r"time [s]$\downarrow$", True, 2),
     "n": Metric("n", "n", "n", False, 0),
     "failed": Metric("failed", "failed ↓", r"failed$\downarrow$", True, 0),
+    # BOP'19 average recall and its parts (runs on BOP-layout data: catpose.bench.run.bop_ar)
+    "ar": Metric("ar", "AR ↑", r"AR$\uparrow$", False),
+    "ar_vsd": Metric("ar_vsd", "AR_VSD ↑", r"AR$_{VSD}\uparrow$", False),
+    "ar_mssd": Metric("ar_mssd", "AR_MSSD ↑", r"AR$_{MSSD}\uparrow$", False),
+    "ar_mspd": Metric("ar_mspd", "AR_MSPD ↑", r"AR$_{MSPD}\uparrow$", False),
 }
 
 #: metrics made from a key on first use (:func:`metric`): ``acc5``, ``auc30``, ``5deg5cm``, ...

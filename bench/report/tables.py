@@ -21,6 +21,10 @@ generic         any runs x categories x metrics
 Best values are bold and second best underlined per column (or per row for ``real``), with the
 direction of each metric (errors lower, accuracies higher). Output: Markdown, LaTeX or CSV.
 
+Runs on BOP-layout data (YCB-V, TYO-L, ``dataset=clutter``) also get BOP'19's average recall and
+its parts (``ar``, ``ar_vsd``, ``ar_mssd``, ``ar_mspd``) after the layout's own metrics, from the
+per-target errors of ``bench score``'s code (:func:`catpose.bench.run.bop_ar.target_errors`).
+
 Usage: ``bench table outputs/modelnet40-gt_model --layout optimiser --format latex``. (The layout
 was spelt ``optimizer`` before; that name is refused with the new one named.)
 """
@@ -76,6 +80,7 @@ class Entry:
     label: str
     summary: Any  # DataFrame from metrics.summarize, indexed by category
     units: Any = None  # the pooled scoring units (DataFrame): statistics beyond the summary's (curves)
+    bop: Any = None  # the pooled per-target BOP errors (DataFrame) of runs on BOP-layout data, or None
 
 
 def collect(
@@ -83,30 +88,55 @@ def collect(
     group_of: Callable[[Run], str],
     labels: dict[str, str] | None = None,
     error_of: Callable[[Run], str] = lambda r: "err_deg",
+    with_bop: bool = False,
 ) -> list[Entry]:
     """Pool the scoring units of runs with the same (group, label) and summarize per category.
 
     ``labels`` maps a run directory (as given, or its name) to a user label; labels are made
     unique within a group by :func:`run_labels`. ``error_of`` names the error column each run is
-    scored by (see :func:`scored_units`).
+    scored by (see :func:`scored_units`). ``with_bop``: also pool the runs' per-target BOP errors
+    (runs on BOP-layout data; :func:`catpose.bench.run.bop_ar.target_errors`).
     """
     import pandas as pd
 
+    from catpose.bench.run.bop_ar import target_errors
     from catpose.bench.scoring.metrics import summarize
 
     pooled: dict[tuple[str, str], list] = {}
+    bop: dict[tuple[str, str], list] = {}
     for run, label in zip(runs, run_labels(runs, labels, group_of)):
-        pooled.setdefault((group_of(run), label), []).append(scored_units(run, error_of(run)))
+        key = (group_of(run), label)
+        pooled.setdefault(key, []).append(scored_units(run, error_of(run)))
+        errors = target_errors(run.path) if with_bop else None
+        if errors is not None and len(errors):
+            bop.setdefault(key, []).append(errors)
     entries = []
-    for (group, label), parts in pooled.items():
+    for key, parts in pooled.items():
         units = pd.concat(parts, ignore_index=True)
-        entries.append(Entry(group, label, summarize(units).set_index("category"), units))
+        errors = pd.concat(bop[key], ignore_index=True) if key in bop else None
+        entries.append(Entry(*key, summarize(units).set_index("category"), units, errors))
     return entries
+
+
+def is_bop_run(run: Run) -> bool:
+    """Whether a run is on BOP-layout data (its table rows can show BOP's AR)."""
+    from catpose.bench.scoring.bop_rows import is_bop_layout
+
+    return is_bop_layout(run.config.get("dataset"))
 
 
 def _value(entry: Entry, category: str, key: str) -> float:
     """A summary statistic, or a threshold statistic (``acc5``, ``auc30``, ``5deg5cm``:
     :mod:`catpose.bench.scoring.curves`) of the entry's units of ``category`` (``all``: every unit)."""
+    from catpose.bench.scoring.bop_rows import AR_KEYS
+
+    if key in AR_KEYS:
+        if entry.bop is None:
+            return float("nan")
+        from catpose.bench.scoring.bop_eval import metric_value
+
+        errors = entry.bop if category == "all" else entry.bop[entry.bop["category"].astype(str) == category]
+        return metric_value(errors, key) if len(errors) else float("nan")
     if key not in METRICS:
         from catpose.bench.scoring.curves import statistic
 
@@ -349,8 +379,13 @@ def build_table(
         )
     if layout not in LAYOUTS:
         raise ConfigError(f"unknown table layout {layout!r}; use one of {sorted(LAYOUTS)}")
+    from catpose.bench.scoring.bop_rows import AR_KEYS
+
+    chosen = metrics is not None
     if thresholds:
         metrics = with_thresholds(metrics or DEFAULT_METRICS[layout], thresholds)
+    if not chosen and any(is_bop_run(r) for r in runs):  # BOP's AR after the layout's metrics
+        metrics = list(metrics or DEFAULT_METRICS[layout]) + list(AR_KEYS)
     for m in metrics or []:
         metric(m)  # an unknown key: one line naming the choices
     fn, group_of, default_error = LAYOUTS[layout]
@@ -361,7 +396,7 @@ def build_table(
     def error_of(r: Run) -> str:
         return "oracle_err_deg" if oracle and r.protocol == "templates" else "err_deg"
 
-    entries = collect(runs, group_of, labels, error_of)
+    entries = collect(runs, group_of, labels, error_of, with_bop=any(m in AR_KEYS for m in metrics or []))
     # Paper order: pipelines from plain to ours, and within one, our method last.
     entries.sort(key=lambda e: (_group_order(e.group), e.group, e.label.startswith("Ours")))
     kwargs = {"title": title} if title else {}

@@ -286,17 +286,37 @@ def _normalised_template(
     return NormalisedTemplate(t, R_up, centre, scale)
 
 
+def seen_by_a_camera(points: np.ndarray) -> bool:
+    """Whether a camera at the origin looking along +z can have seen ``points`` (N, 3): every
+    point in front of it. A cloud around the origin (a complete scan, or the template itself
+    passed as the observation: issue 42, case 19) was not, and "towards the camera" would turn
+    its normals inwards, against the template's outward ones (FPFH and PPF compare them)."""
+    return bool((points[:, 2] > 0).all())
+
+
+def _facing(points: np.ndarray) -> np.ndarray:
+    """(N, 3) the directions normals should face: towards the camera at the origin, or, for a
+    cloud no camera saw, away from its bounding-box centre (outwards, as a template's)."""
+    if seen_by_a_camera(points):
+        return -points
+    return points - 0.5 * (points.min(axis=0) + points.max(axis=0))
+
+
 def estimated_normals(points: np.ndarray) -> np.ndarray:
     """Normals (N, 3) of camera-frame points (N, 3, object-normalised unit) by local plane fits of
-    radius 0.1, facing the camera, as the datasets estimate them."""
+    radius 0.1, facing the camera, as the datasets estimate them (outwards for a cloud no camera
+    saw, :func:`seen_by_a_camera`)."""
     from catpose.datasets.render import estimate_normals
 
-    return estimate_normals(points, 0.1)
+    if seen_by_a_camera(points):
+        return estimate_normals(points, 0.1)
+    return oriented_to_camera(points, estimate_normals(points, 0.1))
 
 
 def oriented_to_camera(points: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """``normals`` (N, 3) flipped where they face away from the camera at the origin."""
-    flip = dot3(normals, points) > 0  # the camera sits at the origin
+    """``normals`` (N, 3) flipped where they face away from the camera at the origin; for a cloud
+    no camera saw (:func:`seen_by_a_camera`), where they face its bounding-box centre."""
+    flip = dot3(normals, _facing(points)) < 0
     out = normals.copy()
     out[flip] *= -1
     return out
