@@ -217,7 +217,6 @@ for section in "${SECTIONS[@]}"; do
                else echo "make_results: ambiguity skipped: no $SHARED/bop/ycbv/models" >&2; fi ;;
     perf) perf ;;
     api) if [ -f experiments/api_without_up/make_without_up.sh ]; then bash experiments/api_without_up/make_without_up.sh; fi ;;
-    *) echo "make_results: unknown section '$section'; use synthetic, tables, category, clutter, real, ambiguity, perf, api" >&2; exit 2 ;;
     figures) figures ;;
     *) echo "make_results: unknown section '$section'; use synthetic, tables, category, clutter, real, ambiguity, perf, api, figures" >&2; exit 2 ;;
   esac
