@@ -153,7 +153,8 @@ real() {
   if [ ! -d "$SHARED" ]; then echo "make_results: real skipped: no shared data at $SHARED" >&2; return 0; fi
   local R="$OUT/real"
   mkdir -p "$RESULTS/real"
-  nice "$B" suite real --force --output-root "$R" --write "$RESULTS/real/table.md" --objects "$RESULTS/real/objects.md"
+  nice "$B" suite real --force --output-root "$R" --write "$RESULTS/real/table.md" --objects "$RESULTS/real/objects.md" \
+    --headline "$RESULTS/real/headline.md"
   if [ -d "$SHARED/bop/ycbv" ]; then  # BOP's metrics of ICP, PPF and ours on the YCB-V frames
     local scored=()
     for m in icp ppf ours; do

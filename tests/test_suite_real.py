@@ -109,3 +109,16 @@ def test_a_method_without_its_extra_is_skipped_with_the_install_line(tmp_path, m
     assert results == {} and "ppf" not in skipped  # a table from run directories needs no extra
     results, skipped = sr.run_suite(["modelnet40_resampled"], ["ppf"], tmp_path, log=lines.append)
     assert "pip install" in skipped["ppf"] and any("skipping ppf" in line for line in lines)
+
+
+def test_headline_holds_the_whole_sets_and_write_every_part(tmp_path, monkeypatch):
+    row = dict(n=2, failed=0, mean_err_deg=3.0, median_err_deg=2.0, acc10=1.0, acc30=1.0, median_runtime_s=0.1)
+    part = "ycbv:scene1 (choose A, report B)"
+    fake = {("ycbv", "ours"): dict(row, ar=0.9, ar_vsd=0.8, ar_mssd=0.95, ar_mspd=0.95), (part, "ours"): row}
+    monkeypatch.setattr(sr, "run_suite", lambda *a, **k: (fake, {}))
+    monkeypatch.setenv("CATPOSE_SHARED_DATA", str(tmp_path))
+    full, head = tmp_path / "table.md", tmp_path / "headline.md"
+    assert sr.main(["real", "--sets", "ycbv", "--methods", "ours", "--write", str(full), "--headline", str(head)]) == 0
+    assert part in full.read_text() and part not in head.read_text()
+    assert head.read_text().splitlines()[0] == "| method | ycbv: mean / med / @10 / found@10 / @30 (s) | ycbv: AR (VSD / MSSD / MSPD) |"
+    assert "**0.900** (0.800 / 0.950 / 0.950)" in head.read_text()

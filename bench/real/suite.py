@@ -380,11 +380,23 @@ def main(argv: list[str]) -> int:
         default=None,
         help="also write per-object tables of every split part to this Markdown file",
     )
-    parser.add_argument("--force", action="store_true", help="replace an existing --write / --objects file")
+    parser.add_argument(
+        "--headline",
+        type=Path,
+        default=None,
+        help="also write the table of the whole sets only (no split-part columns) to this file: the README's",
+    )
+    parser.add_argument(
+        "--force", action="store_true", help="replace an existing --write / --objects / --headline file"
+    )
     args = parser.parse_args(argv)
     from catpose.bench.run.overwrite import check_output, input_runs, output_errors
 
-    for flag, path in (("--write", args.write), ("--objects", args.objects)):  # before any work (docs/file-safety.md)
+    for flag, path in (
+        ("--write", args.write),
+        ("--objects", args.objects),
+        ("--headline", args.headline),
+    ):  # before any work (docs/file-safety.md)
         if path is not None:
             check_output(path, "file", input_runs([args.output_root]) if args.output_root else (), args.force, flag)
 
@@ -430,13 +442,17 @@ def main(argv: list[str]) -> int:
         table_only=args.table_only,
         catalogue=suite_sets,
     )
-    table = format_table(results, columns(results, [s for s in sets if s not in skipped]), methods, skipped)
+    whole_sets = [s for s in sets if s not in skipped]
+    table = format_table(results, columns(results, whole_sets), methods, skipped)
     print(table)
     from catpose import atomic
 
     if args.write:
         with output_errors(args.write, "--write"):
             atomic.write_text(args.write, table + "\n")
+    if args.headline:
+        with output_errors(args.headline, "--headline"):
+            atomic.write_text(args.headline, format_table(results, whole_sets, methods, skipped) + "\n")
     if args.objects:
         from catpose.bench.real.suite_parts import object_tables
 
