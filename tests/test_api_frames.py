@@ -55,6 +55,7 @@ def test_ours_from_a_frame_fits_the_table_and_finds_the_pose(example):
     assert np.array_equal(again.T_template_camera, r.T_template_camera)  # deterministic
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 def test_a_registrar_holds_the_template_and_registers_many(example):
     reg = catpose.Registrar(example["ply"], method="icp")
     frames = [_frame(example), _frame(example, frame_id="second")]

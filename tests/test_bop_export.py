@@ -204,6 +204,7 @@ def _gt_csv(ds: BOP, path: Path, shift_mm=(0.0, 0.0, 0.0)) -> Path:
 YCBV = {1: "can", 5: "bottle", 9: "can"}
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 @pytest.mark.data
 def test_ycbv_ground_truth_scores_recall_one_and_a_shift_scores_its_errors(shared_data: Path, tmp_path: Path):
     root = shared_data / "bop" / "ycbv"

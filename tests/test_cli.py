@@ -25,6 +25,7 @@ def bench(*args, cwd):
     return subprocess.run([*BENCH, *args], capture_output=True, text=True, timeout=600, cwd=cwd, env=env)
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 def test_tiny_run_then_rerun_does_no_work(tmp_path):
     r = bench("run", "method=icp", *TINY, f"output_root={tmp_path}", cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -44,6 +45,7 @@ def test_tiny_run_then_rerun_does_no_work(tmp_path):
     assert r.returncode == 0 and "| all" in r.stdout, r.stderr
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 def test_multirun_sweep(tmp_path):
     r = bench("run", "-m", "method=icp", *TINY, "limit=1", "seed=0,1", f"output_root={tmp_path}", cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]

@@ -65,6 +65,7 @@ def test_valid_sweeps_and_other_configs_pass_the_check():
     check_run_args(["-m", "method=ours", "method.optimiser.lr=0.001,0.01"])
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 def test_hydra_run_dir_holds_the_run_and_its_hydra_folder(tmp_path: Path):
     r = bench("run", "method=icp", *TINY, "hydra.run.dir=out/x", cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
@@ -87,6 +88,7 @@ def test_hydra_run_dir_holds_the_run_and_its_hydra_folder(tmp_path: Path):
     assert sorted(p.name for p in (tmp_path / "notes").iterdir()) == ["todo.txt"]
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 def test_hydra_sweep_dir_gets_hydra_folders_and_job_files(tmp_path: Path):
     r = bench("run", "-m", "method=icp", *TINY, "seed=0,1", "hydra.sweep.dir=sw", "print_summary=false", cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
@@ -97,6 +99,7 @@ def test_hydra_sweep_dir_gets_hydra_folders_and_job_files(tmp_path: Path):
     assert "table: bench table --sweep sw" in r.stderr
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 def test_job_logging_writes_into_the_run_directory(tmp_path: Path):
     r = bench("run", "method=icp", *TINY, "hydra/job_logging=default", "log_level=DEBUG", cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
@@ -106,6 +109,7 @@ def test_job_logging_writes_into_the_run_directory(tmp_path: Path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["outputs"]  # no log file in the working directory
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 def test_log_level_error_silences_the_progress_bar(tmp_path: Path):
     quiet = bench("run", "method=icp", *TINY, "log_level=ERROR", cwd=tmp_path)
     assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr

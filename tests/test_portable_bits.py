@@ -75,6 +75,7 @@ def _digests(env_extra: dict[str, str]) -> dict[str, str]:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 def test_samples_are_bit_identical_under_every_code_path_of_this_cpu():
     """8 categories, 2 sensor-model views (table, noise, ground-plane fit), category templates and
     20,000 cast rays hash the same under each OpenBLAS kernel and NumPy dispatch level."""

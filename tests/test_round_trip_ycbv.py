@@ -120,6 +120,7 @@ def check_score_command_with_a_missing_target(run_dir: Path, csv: Path, tmp_path
     assert all(r["adds"] == float("inf") for r in misses if not r["matched"])
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 def test_icp_round_trip_with_every_subset_of_targets_missing(shared_data: Path, tmp_path: Path, capsys):
     run_dir, csv = run_and_export("icp", shared_data, tmp_path)
     assert check_every_subset(run_dir, csv, tmp_path) == 2 ** len(csv.read_text().splitlines()[1:])

@@ -140,6 +140,7 @@ def test_merge_restores_order_and_names_a_missing_shard(tmp_path):
 # sweeps: directories, status files, exit codes
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 def test_each_sweep_gets_its_own_directory_and_a_failed_job_fails_it(tmp_path):
     # dataset=modelnet40 without dataset.root fails its job; the other job still runs
     args = ["-m", "method=icp", "dataset=synthetic,modelnet40", "limit=1", *TINY[1:], f"output_root={tmp_path}"]
@@ -166,6 +167,7 @@ def test_unknown_or_missing_launcher_is_one_line(tmp_path):
     assert len(r.stderr.strip().splitlines()) == 1, r.stderr
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 def test_every_experiment_names_its_sweep_and_table():
     from hydra import compose, initialize_config_module
 

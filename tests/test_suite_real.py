@@ -120,5 +120,8 @@ def test_headline_holds_the_whole_sets_and_write_every_part(tmp_path, monkeypatc
     full, head = tmp_path / "table.md", tmp_path / "headline.md"
     assert sr.main(["real", "--sets", "ycbv", "--methods", "ours", "--write", str(full), "--headline", str(head)]) == 0
     assert part in full.read_text() and part not in head.read_text()
-    assert head.read_text().splitlines()[0] == "| method | ycbv: mean / med / @10 / found@10 / @30 (s) | ycbv: AR (VSD / MSSD / MSPD) |"
+    assert (
+        head.read_text().splitlines()[0]
+        == "| method | ycbv: mean / med / @10 / found@10 / @30 (s) | ycbv: AR (VSD / MSSD / MSPD) |"
+    )
     assert "**0.900** (0.800 / 0.950 / 0.950)" in head.read_text()

@@ -104,6 +104,7 @@ def test_rule_poses_are_the_registrations_and_their_turns_under_a_turn_rule():
     assert plain[0][0] == pytest.approx(cross_cost([0.2, 0.3], 0, CROSS_WEIGHT))
 
 
+@pytest.mark.slow  # > 5 s: make test-slow
 def test_a_templates_run_gets_a_row_per_judged_view(tmp_path):
     out = tmp_path / "out"
     subprocess.run(
