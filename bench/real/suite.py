@@ -296,13 +296,13 @@ def run_suite(
             why = missing_extra(METHODS[m])
             if why:
                 skipped[m] = why
-                log(f"bench suite real: skipping {m}: {why}")
+                log(f"skipping {m}: {why}")
         methods = [m for m in methods if m not in skipped]
     for s in sets:
         why = skip_reason(catalogue[s], shared)
         if why:
             skipped[s] = why
-            log(f"bench suite real: skipping {s}: {why}")
+            log(f"skipping {s}: {why}")
             continue
         for m in methods:
             cfg, overrides = compose(catalogue[s], METHODS[m], shared, seed, limit, output_root, method_overrides or [])
@@ -311,7 +311,7 @@ def run_suite(
                 if not (run_dir / SAMPLES_FILE).is_file():
                     continue
             else:
-                log(f"bench suite real: {m} on {s} ...")
+                log(f"{m} on {s} ...")
                 run_dir = run(cfg, overrides)
             errors = target_errors(run_dir)  # None unless the set is in the BOP layout
             results[(s, m)] = with_ar(summary_row(run_dir), errors)
@@ -425,10 +425,10 @@ def main(argv: list[str]) -> int:
     for name, chosen, known in (("--sets", sets, suite_sets), ("--methods", methods, METHODS)):
         bad = [c for c in chosen if c not in known]
         if bad:
-            raise ConfigError(f"bench suite real: {name} has unknown {bad}; choose from {', '.join(known)}")
+            raise ConfigError(f"bench suite {args.suite}: {name} has unknown {bad}; choose from {', '.join(known)}")
     shared = shared_data_dir()
     if not shared.is_dir():
-        print(f"bench suite real: skipped: no shared real data at {shared} (set CATPOSE_SHARED_DATA)")
+        print(f"bench suite {args.suite}: skipped: no shared real data at {shared} (set CATPOSE_SHARED_DATA)")
         return 0
     results, skipped = run_suite(
         sets,
