@@ -204,3 +204,22 @@ def test_committed_reference_passes_under_every_blas_kernel(repo_root: Path):
             cwd=repo_root,
         )
         assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_methods_of_one_suite_leave_the_other_suites_out(tmp_path: Path, repo_root: Path, monkeypatch, capsys):
+    """``--methods teaser`` with a suite that has no TEASER: that suite is skipped with a note (it
+    was run with no methods, and ``--update``'s chaos detection then failed on it)."""
+    cfg = yaml.safe_load((repo_root / "configs" / "regress" / "default.yaml").read_text())
+    suite = cfg["suites"]["synthetic"]
+    suite["inputs"] = str(repo_root / suite["inputs"])
+    suite["reference"] = str(repo_root / suite["reference"])
+    cfg["suites"] = {"synthetic": suite, "icp_only": dict(suite, methods=["icp"])}
+    path = tmp_path / "regress.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    calls = []
+    monkeypatch.setattr(
+        run_suites, "check_suite", lambda s, methods, gate, jobs: (calls.append(list(methods)), ([], []))[1]
+    )
+    assert run_suites.main(["--config", str(path), "--methods", "teaser"]) == 0
+    assert calls == [["teaser"]]
+    assert "icp_only: skipped (none of --methods teaser is among its methods)" in capsys.readouterr().out

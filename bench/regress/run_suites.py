@@ -481,6 +481,9 @@ def main(argv: list[str] | None = None) -> int:
             if suite.requires_shared_data and not shared_data_dir().is_dir():
                 notes.append(f"{name}: skipped (no shared data at {shared_data_dir()})")
                 continue
+            if wanted is not None and not any(m in suite.methods for m in wanted):
+                notes.append(f"{name}: skipped (none of --methods {','.join(wanted)} is among its methods)")
+                continue
             if args.write_inputs:
                 if suite.inputs is not None:
                     write_inputs(suite)
