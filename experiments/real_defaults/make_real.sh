@@ -6,4 +6,4 @@
 # Run from the repository root; resumes (finished samples are skipped).
 set -euo pipefail
 BENCH=${BENCH:-.venv/bin/bench}
-$BENCH suite real --force --write results/real/table.md --objects results/real/objects.md
+$BENCH suite real --force --write results/real/table.md --objects results/real/objects.md --headline results/real/headline.md
