@@ -41,6 +41,20 @@ def test_suite_tables(tmp_path: Path):
     ]
 
 
+SUITE_FOUND = """| method | ycbv: mean / med / @10 / found@10 / @30 (s) | ycbv: AR (VSD / MSSD / MSPD) |
+|---|---|---|
+| ours | **53.00** / 2.22 / **0.711** / 1.000 / 0.711 (0.09) n=38 | **0.793** (0.964 / 0.711 / 0.703) |
+| icp | 118.67 / 178.40 / 0.342 / - / 0.352 (1.25) n=38 | 0.543 (0.951 / 0.342 / 0.334) |
+"""
+
+
+def test_suite_tables_with_found_and_ar_columns(tmp_path: Path):
+    (tmp_path / "t.md").write_text(SUITE_FOUND)
+    _, bars = read_table(tmp_path / "t.md")
+    got = [(b.group, b.label, b.acc10, b.acc30, b.mean_deg, b.n) for b in bars]
+    assert got == [("ycbv", "ours", 0.711, 0.711, 53.0, 38), ("ycbv", "icp", 0.342, 0.352, 118.67, 38)]
+
+
 def test_metric_tables_carry_the_pipeline_down(tmp_path: Path):
     (tmp_path / "t.md").write_text(METRICS)
     title, bars = read_table(tmp_path / "t.md")
@@ -68,8 +82,8 @@ def test_a_file_without_a_table_is_one_line(tmp_path: Path):
     "table, stem",
     [
         ("report/tables/gt_model_summary.md", "embedded_gt_model"),
-        ("real/table.md", "real"),
-        ("clutter/table.md", "clutter"),
+        ("real/headline.md", "real"),
+        ("clutter/headline.md", "clutter"),
         ("category/paper/one_template_airplane.md", "one_template_airplane"),
     ],
 )

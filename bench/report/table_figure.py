@@ -11,7 +11,9 @@ one per table the README quotes, from the committed tables alone (no run needed)
 Two table shapes are read:
 
 - suite tables (``bench suite``): a ``method`` column, then one column per part whose header
-  ends ``mean / med / @10 / @30 (s)`` and whose cells read ``11.18 / 1.78 / 0.947 / 0.947 (0.27) n=38``;
+  ends ``mean / med / @10 / @30 (s)`` and whose cells read ``11.18 / 1.78 / 0.947 / 0.947 (0.27) n=38``
+  (or ``mean / med / @10 / found@10 / @30 (s)``, cells ``53.00 / 2.22 / 0.711 / 1.000 / 0.711 ...``;
+  found@10 is not drawn; the AR columns beside them are not read);
 - metric tables (``bench table``, ``bench report``): one column per metric (``Mean° ↓``, ``@10 ↑``,
   ``@30 ↑``, ...), prefixed by a category where there are several (``Airplane @10 ↑``), rows named
   by ``Methods`` (and a ``Pipeline / Descriptor`` column, carried down over its blank cells).
@@ -30,8 +32,12 @@ import numpy as np
 
 from catpose.errors import DatasetError
 
-SUITE_HEADER = re.compile(r"^(?P<group>.*?):?\s*mean / med / @10 / @30 \(s\)$")
+SUITE_HEADER = re.compile(r"^(?P<group>.*?):?\s*mean / med / @10 / (?P<found>found@10 / )?@30 \(s\)$")
 SUITE_CELL = re.compile(r"^(?P<mean>[-\d.]+) / (?P<med>[-\d.]+) / (?P<a10>[-\d.]+) / (?P<a30>[-\d.]+)")
+#: the cell under a header with found@10: ``mean / med / @10 / found@10 (or -) / @30``
+SUITE_FOUND_CELL = re.compile(
+    r"^(?P<mean>[-\d.]+) / (?P<med>[-\d.]+) / (?P<a10>[-\d.]+) / (?P<found>[-\d.]+|-) / (?P<a30>[-\d.]+)"
+)
 METRIC_HEADER = re.compile(r"^(?P<group>.*?)\s*(?P<metric>Mean°|@10|@30)\s*[↑↓]?$")
 
 
@@ -79,7 +85,8 @@ def read_table(path: str | Path) -> tuple[str, list[Bar]]:
     if any(suite.values()):
         for row in body:
             for k, m in suite.items():
-                cell = SUITE_CELL.match(_plain(row[k])) if m else None
+                pattern = SUITE_FOUND_CELL if m and m.group("found") else SUITE_CELL
+                cell = pattern.match(_plain(row[k])) if m else None
                 if cell:
                     n = re.search(r"\bn=(\d+)", row[k])
                     values = (float(cell.group(g)) for g in ("a10", "a30", "mean"))
