@@ -24,7 +24,7 @@ $(VENV)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet $(TORCH_PIN)
-	$(PY) -m pip install --quiet -c constraints.txt -e ".[torch,test]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[torch,test,ppf]"
 	$(PY) -m catpose.open3d_libusb
 	touch $@
 
@@ -66,7 +66,7 @@ quotes: setup
 # The launchers extra (`pip install -e ".[cluster]"`), with the same pins as `make setup`.
 cluster: $(VENV)/.cluster
 $(VENV)/.cluster: $(VENV)/.installed pyproject.toml
-	$(PY) -m pip install --quiet -c constraints.txt -e ".[torch,test,cluster]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[torch,test,ppf,cluster]"
 	touch $@
 
 # A real single-node Slurm on this machine (Debian's slurm-wlm and munge, root only), then a
