@@ -192,3 +192,18 @@ def test_given_colours_are_used(units, captured, tmp_path: Path):
     assert lines and all(to_rgba(ln.get_color()) == to_rgba("red") for ln in lines)
     ours_bars = [c for c in captured[1].axes[0].containers if c.get_label() == "Ours"][0]
     assert all(b.get_facecolor() == to_rgba("red") for b in ours_bars)
+
+
+def test_the_same_figure_is_the_same_bytes(tmp_path: Path, monkeypatch):
+    """No creation date in the PDF (nor anything else that changes between runs), so regenerated
+    results/ figures are byte for byte the committed ones."""
+    from catpose.bench.report import plots
+
+    outs = []
+    for k in range(2):
+        monkeypatch.setenv("SOURCE_DATE_EPOCH", str(1_700_000_000 + 86_400 * k))  # another day's run
+        fig, ax = plots.pyplot().subplots()
+        ax.plot([0, 1, 2], [2, 0, 1])
+        outs.append(plots.save(fig, tmp_path / f"f{k}"))
+    for a, b in zip(*outs):
+        assert a.read_bytes() == b.read_bytes(), a.suffix

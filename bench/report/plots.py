@@ -66,7 +66,9 @@ def save(fig, out_stem: str | Path, pdf: bool = True, dpi: int = 150) -> list[Pa
 
     for path in paths:
         with atomic.atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=dpi, bbox_inches="tight")
+            # no creation date in a PDF: the same figure is the same bytes (results/ regenerate byte for byte)
+            meta = {"CreationDate": None} if path.suffix == ".pdf" else None
+            fig.savefig(tmp, dpi=dpi, bbox_inches="tight", format=path.suffix[1:], metadata=meta)
     pyplot().close(fig)
     return paths
 
