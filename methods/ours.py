@@ -355,6 +355,7 @@ class Ours(RegistrationMethod):
         ``grid_iterations`` ICP steps (:mod:`catpose.methods.rest_grid`); (0, 4, 4) when off."""
         from catpose.methods.rest_grid import grid_poses
         from catpose.point_to_plane_kernel import refine_many
+        from catpose.yaw_icp_kernel import refine_yaw_many
 
         rs = self.resting
         if rs.grid_yaws <= 0 or rs.grid_keep <= 0:
@@ -381,19 +382,33 @@ class Ours(RegistrationMethod):
             keep = farthest_point_indices(tpl.points, min(rs.grid_template_points, len(tpl.points)))
             hit = (cell_grid.build(tpl.points[keep], rs.grid_max_distance), tpl.normals[keep])
             self._grids.put(key, hit)
-        if rs.grid_iterations > 0 and 0 < rs.grid_beam < len(T):
-            # a few steps on the head of the Chamfer subset (farthest-point order: a subset of it
-            # too), the grid_beam of lowest one-directional Chamfer distance go on in full
-            from catpose.methods.ours_selection import chamfer_distances
+        g = np.asarray(problem.ground_normal_camera, dtype=np.float64)
+        g = g / np.linalg.norm(g)
 
-            src = cands.chamfer_src[: rs.grid_points]
-            T = refine_many(src, hit[0], hit[1], T, rs.grid_max_distance, rs.grid_first_iterations)
-            feats = self.template_features(tpl)
-            T = T[np.sort(np.argsort(chamfer_distances(feats.tree, src, T), kind="stable")[: rs.grid_beam])]
-            T = refine_many(cands.chamfer_src, hit[0], hit[1], T, rs.grid_max_distance, rs.grid_iterations)
-        elif rs.grid_iterations > 0:  # the Chamfer subset is in farthest-point order: its head is one too
-            src = cands.chamfer_src[: rs.grid_points]
-            T = refine_many(src, hit[0], hit[1], T, rs.grid_max_distance, rs.grid_iterations)
+        def icp(points: np.ndarray, T: np.ndarray, iterations: int, yaw: bool) -> np.ndarray:
+            if yaw:  # about each pose's up: the ground normal in the template frame
+                up = np.einsum("bij,j->bi", T[:, :3, :3], g)
+                return refine_yaw_many(points, hit[0], hit[1], T, up, rs.grid_max_distance, iterations)
+            return refine_many(points, hit[0], hit[1], T, rs.grid_max_distance, iterations)
+
+        def search(T: np.ndarray, yaw: bool) -> np.ndarray:
+            if rs.grid_iterations > 0 and 0 < rs.grid_beam < len(T):
+                # a few steps on the head of the Chamfer subset (farthest-point order: a subset of it
+                # too), the grid_beam of lowest one-directional Chamfer distance go on in full
+                from catpose.methods.ours_selection import chamfer_distances
+
+                src = cands.chamfer_src[: rs.grid_points]
+                T = icp(src, T, rs.grid_first_iterations, yaw)
+                feats = self.template_features(tpl)
+                T = T[np.sort(np.argsort(chamfer_distances(feats.tree, src, T), kind="stable")[: rs.grid_beam])]
+                return icp(cands.chamfer_src, T, rs.grid_iterations, yaw)
+            if rs.grid_iterations > 0:  # the Chamfer subset is in farthest-point order: its head is one too
+                return icp(cands.chamfer_src[: rs.grid_points], T, rs.grid_iterations, yaw)
+            return T
+
+        T = np.concatenate(
+            [search(T, yaw) for yaw in {"yaw": (True,), "full": (False,), "union": (True, False)}[rs.grid_icp]]
+        )
         timings["rest_grid"] = timings.get("rest_grid", 0.0) + time.perf_counter() - t0
         t0 = time.perf_counter()
         if rs.grid_pixels < self.selection.depth_pixels:  # a coarser lattice for the many grid poses

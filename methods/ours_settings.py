@@ -240,6 +240,10 @@ class RestingSettings:
         grid_first_iterations: ICP steps of the first pass.
         grid_pixels: lattice pixels in the mask its depth check scores (at most
             ``selection.depth_pixels``: the same lattice).
+        grid_icp: its ICP's freedom: ``yaw`` (a turn about the ground normal and a translation:
+            the pose keeps the resting direction it was put in, :mod:`catpose.yaw_icp_kernel`),
+            ``full`` (every rotation and translation: it can tilt into a rest the template lacks,
+            and drift out of a right one) or ``union`` (both searches, their poses pooled).
     """
 
     max_poses: int = 10
@@ -252,9 +256,10 @@ class RestingSettings:
     grid_keep: int = 8
     grid_points: int = 64
     grid_template_points: int = 2048
-    grid_beam: int = 16
+    grid_beam: int = 32
     grid_first_iterations: int = 3
     grid_pixels: int = 300
+    grid_icp: str = "union"
 
     def __post_init__(self) -> None:
         k, set_ = "method.resting.", object.__setattr__
@@ -279,3 +284,4 @@ class RestingSettings:
             options.positive(k + "grid_template_points", self.grid_template_points, integer=True),
         )
         set_(self, "grid_pixels", options.positive(k + "grid_pixels", self.grid_pixels, integer=True))
+        set_(self, "grid_icp", options.one_of(k + "grid_icp", self.grid_icp, ("yaw", "full", "union")))

@@ -13,7 +13,8 @@ The translation puts the template's front on the observation: the template point
 face the camera (the viewing direction at the observation's centroid ``m``, in the template frame
 ``v = -R m / |m|``) have centroid ``f``; ``t = f - R m`` maps ``m`` onto ``f``. Every pose is then
 refined by point-to-plane ICP on the input's Chamfer subset (``grid_iterations`` steps, pairs
-within ``grid_max_distance``; compiled, all at once), scored by the depth check, and the
+within ``grid_max_distance``; compiled, all at once; ``grid_icp``: turning about the ground normal
+only, which keeps the resting pose, every way, or both pooled), scored by the depth check, and the
 ``grid_keep`` of lowest cost join the dictionary's candidates (:mod:`catpose.methods.ours_depth`).
 Every resting pose gets the same budget on every problem; which of them the object rests in is the
 depth check's choice alone.

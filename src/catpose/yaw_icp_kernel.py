@@ -1,0 +1,144 @@
+"""Point-to-plane ICP restricted to a yaw and a translation, as one compiled call for many starts.
+
+An object resting on a known ground (a tabletop) has one rotational degree of freedom left: the
+yaw about the ground normal. For a start ``T`` (mapping source points into the target frame) and
+that normal's direction ``a`` in the target frame, each step solves
+``min_(w, t) sum ((q - s) . n - w (a x s) . n - t . n)^2`` over the pairs within ``max_distance``
+(``s``: the moved source point, ``q``, ``n``: its nearest target point and normal), rotates by
+``w`` about ``a`` (applied on the left, so the resting direction stays where it was) and
+translates by ``t``. Stops on a step below 1e-7 or with fewer than 4 pairs. Same pairing
+(:class:`~catpose.cell_grid.CellGrid`, exact within ``max_distance``) and the same one-thread,
+fixed-order float64 arithmetic as :mod:`catpose.point_to_plane_kernel`; tested against a NumPy
+reference in ``tests/test_yaw_icp_kernel.py``.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from catpose import cell_grid
+from catpose.cell_grid import CellGrid
+from catpose.point_to_plane_kernel import transform_point
+
+__all__ = ["refine_yaw_many"]
+
+
+def refine_yaw_many(
+    points: np.ndarray,
+    grid: CellGrid,
+    target_normals: np.ndarray,
+    T_init: np.ndarray,
+    axes: np.ndarray,
+    max_distance: float,
+    iterations: int,
+) -> np.ndarray:
+    """Refine every start ``T_init`` (B, 4, 4) by yaw about its unit axis ``axes`` (B, 3, target
+    frame) and translation, pairing ``points`` (N, 3, source frame) with the grid's points (unit
+    ``target_normals`` (M, 3)) within ``max_distance`` (the points' unit), at most ``iterations``
+    Gauss-Newton steps each. Returns (B, 4, 4); each rotation is the start's turned about its axis."""
+    if not max_distance <= grid.reach:
+        raise ValueError(f"refine_yaw_many: max_distance {max_distance} exceeds the grid's reach {grid.reach}")
+    T = np.array(T_init, dtype=np.float64, copy=True).reshape(-1, 4, 4)
+    A = np.ascontiguousarray(axes, dtype=np.float64).reshape(-1, 3)
+    A = A / np.linalg.norm(A, axis=1, keepdims=True)
+    if len(A) != len(T):
+        raise ValueError(f"refine_yaw_many: {len(T)} starts but {len(A)} axes")
+    _refine_yaw_into(
+        np.ascontiguousarray(points, dtype=np.float64),
+        *cell_grid.arrays(grid),
+        np.ascontiguousarray(target_normals, dtype=np.float64),
+        T,
+        A,
+        float(max_distance),
+        int(iterations),
+    )
+    return T
+
+
+@numba.njit(cache=True, nogil=True)
+def _solve4(H, g, x):  # pragma: no cover - compiled
+    """x = H^-1 g for symmetric positive definite H (4, 4), by Cholesky; False if not SPD."""
+    L = np.zeros((4, 4))
+    for i in range(4):
+        for j in range(i + 1):
+            s = H[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            if i == j:
+                if s <= 0.0:
+                    return False
+                L[i, i] = np.sqrt(s)
+            else:
+                L[i, j] = s / L[j, j]
+    y = np.zeros(4)
+    for i in range(4):
+        s = g[i]
+        for k in range(i):
+            s -= L[i, k] * y[k]
+        y[i] = s / L[i, i]
+    for i in range(3, -1, -1):
+        s = y[i]
+        for k in range(i + 1, 4):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _refine_yaw_into(
+    points, tp, origin, cell, dims, start, cand, normals, T, A, max_distance, iterations
+):  # pragma: no cover - compiled
+    H = np.zeros((4, 4))
+    g = np.zeros(4)
+    J = np.zeros(4)
+    x = np.zeros(4)
+    dR = np.zeros((3, 3))
+    for b in range(T.shape[0]):
+        ax, ay, az = A[b, 0], A[b, 1], A[b, 2]
+        for _ in range(iterations):
+            H[:, :] = 0.0
+            g[:] = 0.0
+            pairs = 0
+            for i in range(points.shape[0]):
+                sx, sy, sz = transform_point(T, b, points, i)
+                d, j = cell_grid.nearest_one(tp, origin, cell, dims, start, cand, sx, sy, sz, max_distance)
+                if j < 0:
+                    continue
+                pairs += 1
+                nx, ny, nz = normals[j, 0], normals[j, 1], normals[j, 2]
+                # (a x s) . n
+                J[0] = (ay * sz - az * sy) * nx + (az * sx - ax * sz) * ny + (ax * sy - ay * sx) * nz
+                J[1], J[2], J[3] = nx, ny, nz
+                r = (tp[j, 0] - sx) * nx + (tp[j, 1] - sy) * ny + (tp[j, 2] - sz) * nz
+                for a in range(4):
+                    g[a] += J[a] * r
+                    for c in range(a + 1):
+                        H[a, c] += J[a] * J[c]
+            if pairs < 4:
+                break
+            for a in range(4):
+                H[a, a] += 1e-9
+                for c in range(a):
+                    H[c, a] = H[a, c]
+            if not _solve4(H, g, x):
+                break
+            w = x[0]
+            s, c1 = np.sin(w), 1.0 - np.cos(w)
+            dR[0, 0] = 1.0 + c1 * (-ay * ay - az * az)
+            dR[0, 1] = -s * az + c1 * ax * ay
+            dR[0, 2] = s * ay + c1 * ax * az
+            dR[1, 0] = s * az + c1 * ax * ay
+            dR[1, 1] = 1.0 + c1 * (-ax * ax - az * az)
+            dR[1, 2] = -s * ax + c1 * ay * az
+            dR[2, 0] = -s * ay + c1 * ax * az
+            dR[2, 1] = s * ax + c1 * ay * az
+            dR[2, 2] = 1.0 + c1 * (-ax * ax - ay * ay)
+            for col in range(4):
+                v0, v1, v2 = T[b, 0, col], T[b, 1, col], T[b, 2, col]
+                for a in range(3):
+                    T[b, a, col] = dR[a, 0] * v0 + dR[a, 1] * v1 + dR[a, 2] * v2
+            for a in range(3):
+                T[b, a, 3] += x[1 + a]
+            if abs(w) < 1e-7 and np.sqrt(x[1] * x[1] + x[2] * x[2] + x[3] * x[3]) < 1e-7:
+                break
