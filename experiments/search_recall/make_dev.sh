@@ -3,7 +3,8 @@
 # configs/split/clutter_objects.yaml `dev_A` / `dev_B`): each variant of the search over the same
 # problems, loaded once -> results/search_recall/dev_variants.md (README.md). Needs
 # ../shared/data/bop/ycbv/models (or $CATPOSE_SHARED_DATA). Environment: OUT (pickles and per-sample
-# lines, default outputs/search_recall), PY. Run from the repository root; ~1 h on two cores.
+# lines, default outputs/search_recall), PY, BENCH. Then the coarse search's ICP each way on the embedded set's
+# development seed 1 -> results/search_recall/embedded_dev.md. Run from the repository root; ~1 h on two cores.
 set -euo pipefail
 PY=${PY:-.venv/bin/python}
 OUT=${OUT:-outputs/search_recall}
@@ -14,19 +15,28 @@ mkdir -p "$OUT"
 [ -f "$OUT/dev.pkl" ] || $PY $HERE/problems.py "$OUT/dev.pkl" dataset=clutter "dataset.root=$SHARED/bop/ycbv" \
   "dataset.scenes=[$(seq -s, 0 99)]"
 BEFORE="resting.grid_yaws=0 resting.max_poses=5 resting.min_probability=0.05 resting.escalate_below=0.95 selection.depth_rest_prior=0.03 selection.depth_half_turns=true"
-FULL="resting.grid_yaws=12 resting.grid_beam=0 resting.grid_points=256"
+FULL="resting.grid_icp=\"full\" resting.grid_yaws=12 resting.grid_beam=0 resting.grid_points=256"
+ISSUE44="resting.grid_icp=\"full\" resting.grid_beam=16"  # the coarse search as issue 44 first landed it
+YAW="resting.grid_icp=\"yaw\""
 declare -A V=(
   [issue22]="$BEFORE"
   [grid12_turns]="$FULL selection.depth_half_turns=true"
   [grid12]="$FULL"
   [grid12_prior]="$FULL selection.depth_rest_prior=0.03"
-  [grid12_beam24]="resting.grid_yaws=12 resting.grid_beam=24"
+  [grid12_beam24]="resting.grid_icp=\"full\" resting.grid_yaws=12 resting.grid_beam=24"
+  [issue44]="$ISSUE44"
+  [issue44_tpl512]="$ISSUE44 resting.grid_template_points=512"
+  [issue44_final3]="$ISSUE44 selection.depth_final_turns=3"
+  [issue44_escalate]="$ISSUE44 resting.escalate_below=0.95"
+  [yaw_beam16]="$YAW resting.grid_beam=16"
+  [yaw_beam24]="$YAW resting.grid_beam=24"
+  [yaw_beam32]="$YAW"
+  [yaw_beam32_first5]="$YAW resting.grid_first_iterations=5"
+  [yaw_grid12_beam24]="$YAW resting.grid_yaws=12 resting.grid_beam=24"
   [default]=""
-  [default_tpl512]="resting.grid_template_points=512"
-  [default_final3]="selection.depth_final_turns=3"
-  [default_escalate]="resting.escalate_below=0.95"
 )
-ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 default default_tpl512 default_final3 default_escalate)
+ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tpl512 issue44_final3 issue44_escalate
+  yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 default)
 for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
   if [ ! -s "$OUT/$v.jsonl" ]; then
     # shellcheck disable=SC2086  # the settings are words
@@ -35,3 +45,17 @@ for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
   fi
 done
 $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORDER[@]}"; do echo "$v=$OUT/$v.jsonl"; done)
+# The embedded set's development seed (1), own model: the coarse search's ICP, each way
+EMB="$OUT/embedded_dev"
+ROWS=("full:resting.grid_icp=full resting.grid_beam=16" "yaw:resting.grid_icp=yaw" "union:resting.grid_icp=union")
+LABELS=()
+for row in "${ROWS[@]}"; do
+  name=${row%%:*}; set --
+  for kv in ${row#*:}; do set -- "$@" "method.$kv"; done
+  "${BENCH:-.venv/bin/bench}" run method=ours dataset=synthetic protocol=gt_model seed=1 output_root="$EMB/$name" \
+    progress=false print_summary=false "$@"
+  LABELS+=(--label "$(dirname "$(find "$EMB/$name" -name samples.jsonl | head -1)")=ICP $name, ${row#*:}")
+done
+"${BENCH:-.venv/bin/bench}" table --force "$EMB/full" "$EMB/yaw" "$EMB/union" "${LABELS[@]}" --layout generic --categories all \
+  --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, own model: the coarse search's ICP" \
+  --out results/search_recall/embedded_dev.md

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Seconds per registration (bench perf, warm caches, interleaved rounds) of ours at its defaults beside
-# issue 22's search (no coarse search, the dictionary on other resting poses below 0.95 inliers, the
+# its coarse search with the ground-normal ICP alone (yaw), issue 44's first coarse search (free ICP,
+# beam 16), issue 22's search (no coarse search, the dictionary on other resting poses below 0.95 inliers, the
 # upright prior) and FGR, on the shared YCB-V frames and the embedded set -> results/search_recall/perf_*.csv
 # (README.md). The median / FGR's column compares machines; the absolute seconds are this machine's.
 set -euo pipefail
@@ -10,7 +11,8 @@ SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
 eval "$($PY -m catpose.bench.run.environment portable)"
 OLD=(--set issue22:resting.grid_yaws=0 --set issue22:resting.max_poses=5 --set issue22:resting.min_probability=0.05
   --set issue22:resting.escalate_below=0.95 --set issue22:selection.depth_rest_prior=0.03
-  --set issue22:selection.depth_half_turns=true --set issue22:selection.depth_final_refine=1)
-$BENCH perf --n 12 --repeat 3 --methods ours,issue22=ours,fgr "${OLD[@]}" --out results/search_recall/perf_synthetic.csv
-$BENCH perf --n 12 --repeat 3 --methods ours,issue22=ours,fgr "${OLD[@]}" --dataset ycbv --root "$SHARED/bop/ycbv" \
+  --set issue22:selection.depth_half_turns=true --set issue22:selection.depth_final_refine=1
+  --set issue44:resting.grid_icp=full --set issue44:resting.grid_beam=16 --set yaw:resting.grid_icp=yaw)
+$BENCH perf --n 12 --repeat 3 --methods ours,yaw=ours,issue44=ours,issue22=ours,fgr "${OLD[@]}" --out results/search_recall/perf_synthetic.csv
+$BENCH perf --n 12 --repeat 3 --methods ours,yaw=ours,issue44=ours,issue22=ours,fgr "${OLD[@]}" --dataset ycbv --root "$SHARED/bop/ycbv" \
   --out results/search_recall/perf_ycbv.csv

@@ -4,7 +4,7 @@
 #   results/search_recall/clutter_ours.md (+ _objects): clutter report scenes, both object halves;
 #   results/search_recall/clutter_ours_dev.md: the dev scenes the choice was made on (a record);
 #   results/search_recall/real_ours.md (+ _objects): the shared real frames, TYO-L, ModelNet40;
-#   results/search_recall/ambiguity_clutter.md, ambiguity_ycbv.md.
+#   results/search_recall/ambiguity_clutter.md, ambiguity_ycbv.md, ambiguity_tyol.md.
 # Run from the repository root; resumes. Environment: RUNS (default outputs), PY, BENCH.
 set -euo pipefail
 BENCH=${BENCH:-.venv/bin/bench}
@@ -12,14 +12,17 @@ PY=${PY:-.venv/bin/python}
 RUNS=${RUNS:-outputs}
 R=results/search_recall
 eval "$($PY -m catpose.bench.run.environment portable)"
-$BENCH suite clutter --methods ours --parts report,report_A,report_B --output-root "$RUNS/clutter" \
+$BENCH suite clutter --force --methods ours --parts report,report_A,report_B --output-root "$RUNS/clutter" \
   --write $R/clutter_ours.md --objects $R/clutter_ours_objects.md
-$BENCH suite clutter --methods ours --parts dev,dev_A,dev_B --output-root "$RUNS/clutter" --write $R/clutter_ours_dev.md
-$BENCH suite real --methods ours --output-root "$RUNS/real" --write $R/real_ours.md --objects $R/real_ours_objects.md
-runs_of() { find "$1" -name samples.jsonl -path "*/ours/*" -printf '%h\n' | sort; }
+$BENCH suite clutter --force --methods ours --parts dev,dev_A,dev_B --output-root "$RUNS/clutter" --write $R/clutter_ours_dev.md
+$BENCH suite real --force --methods ours --output-root "$RUNS/real" --write $R/real_ours.md --objects $R/real_ours_objects.md
+source experiments/default_runs.sh  # ours' default runs only (no method.* override), the newest of each
 # shellcheck disable=SC2046  # one argument per run directory
-$PY -m catpose.bench.real.ambiguity $(runs_of "$RUNS/clutter/clutter-gt_model") --split clutter_objects \
+$PY -m catpose.bench.real.ambiguity $(default_runs "$RUNS/clutter/clutter-gt_model/ours") --split clutter_objects --force \
   --out $R/ambiguity_clutter.md --title "Clutter report and dev scenes, uniform resting poses: ours' wrong estimates"
 # shellcheck disable=SC2046
-$PY -m catpose.bench.real.ambiguity $(runs_of "$RUNS/real/ycbv-gt_model") --split ycbv \
+$PY -m catpose.bench.real.ambiguity $(default_runs "$RUNS/real/ycbv-gt_model/ours") --split ycbv --force \
   --out $R/ambiguity_ycbv.md --title "Shared real YCB-V frames: ours' wrong estimates"
+# shellcheck disable=SC2046
+$PY -m catpose.bench.real.ambiguity $(default_runs "$RUNS/real/bop-gt_model/ours") --force \
+  --out $R/ambiguity_tyol.md --title "The TYO-L frame: ours' wrong estimate"
