@@ -182,3 +182,18 @@ def test_a_registration_without_pose_is_timed_and_counted_not_fatal():
     assert len(out["m"]["times"]) == 6 and out["m"]["failed"] == 2 and out["fgr"]["failed"] == 0
     rows = {r["method"]: r for r in perf.summarize(out)}
     assert rows["m"]["failed"] == 2 and rows["m"]["n"] == 6
+
+
+def test_every_stage_ours_times_is_one_bench_perf_reports():
+    """The stage table accounts for ours' time: each key ours writes into its ``timings`` (read
+    from the source of its modules) is one of ``STAGES``."""
+    import re
+    from pathlib import Path
+
+    import catpose.methods.ours as ours
+
+    keys = set()
+    for path in Path(ours.__file__).parent.glob("ours*.py"):
+        keys |= set(re.findall(r'timings(?:\.get\(|\[)"([a-z_]+)"', path.read_text()))
+    assert {"rest_grid", "verification", "refinement"} <= keys
+    assert keys <= set(perf.STAGES), sorted(keys - set(perf.STAGES))

@@ -64,6 +64,7 @@ STAGES = (
     "selection",
     "refinement",
     "hypotheses",
+    "rest_grid",
     "verification",
 )
 REFERENCE = "fgr"
