@@ -75,10 +75,11 @@ def transform_point(T, b, points, i):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True)
-def _solve6(H, g, x):  # pragma: no cover - compiled
-    """x = H^-1 g for symmetric positive definite H (6, 6), by Cholesky; False if not SPD."""
-    L = np.zeros((6, 6))
-    for i in range(6):
+def solve_spd(H, g, x):  # pragma: no cover - compiled
+    """x = H^-1 g for symmetric positive definite H (n, n), by Cholesky; False if not SPD."""
+    n = H.shape[0]
+    L = np.zeros((n, n))
+    for i in range(n):
         for j in range(i + 1):
             s = H[i, j]
             for k in range(j):
@@ -89,18 +90,64 @@ def _solve6(H, g, x):  # pragma: no cover - compiled
                 L[i, i] = np.sqrt(s)
             else:
                 L[i, j] = s / L[j, j]
-    y = np.zeros(6)
-    for i in range(6):
+    y = np.zeros(n)
+    for i in range(n):
         s = g[i]
         for k in range(i):
             s -= L[i, k] * y[k]
         y[i] = s / L[i, i]
-    for i in range(5, -1, -1):
+    for i in range(n - 1, -1, -1):
         s = y[i]
-        for k in range(i + 1, 6):
+        for k in range(i + 1, n):
             s -= L[k, i] * x[k]
         x[i] = s / L[i, i]
     return True
+
+
+@numba.njit(cache=True, nogil=True)
+def add_pair(H, g, J, r):  # pragma: no cover - compiled
+    """Add one pair's row ``J`` (n,) and residual ``r`` to the normal equations: ``g += J r`` and
+    the lower triangle of ``H += J J^T``."""
+    for a in range(J.shape[0]):
+        g[a] += J[a] * r
+        for c in range(a + 1):
+            H[a, c] += J[a] * J[c]
+
+
+@numba.njit(cache=True, nogil=True)
+def damp_and_mirror(H):  # pragma: no cover - compiled
+    """``H += 1e-9 I`` and its upper triangle copied from the lower one."""
+    for a in range(H.shape[0]):
+        H[a, a] += 1e-9
+        for c in range(a):
+            H[c, a] = H[a, c]
+
+
+@numba.njit(cache=True, nogil=True)
+def rodrigues_into(dR, ax, ay, az, s, c1):  # pragma: no cover - compiled
+    """Rodrigues: ``dR`` (3, 3) = I + sin K + (1 - cos) K K, K the cross-product matrix of the unit
+    axis (ax, ay, az); ``s`` = sin, ``c1`` = 1 - cos of the angle."""
+    dR[0, 0] = 1.0 + c1 * (-ay * ay - az * az)
+    dR[0, 1] = -s * az + c1 * ax * ay
+    dR[0, 2] = s * ay + c1 * ax * az
+    dR[1, 0] = s * az + c1 * ax * ay
+    dR[1, 1] = 1.0 + c1 * (-ax * ax - az * az)
+    dR[1, 2] = -s * ax + c1 * ay * az
+    dR[2, 0] = -s * ay + c1 * ax * az
+    dR[2, 1] = s * ax + c1 * ay * az
+    dR[2, 2] = 1.0 + c1 * (-ax * ax - ay * ay)
+
+
+@numba.njit(cache=True, nogil=True)
+def turn_and_shift(T, b, dR, tx, ty, tz):  # pragma: no cover - compiled
+    """``T[b] <- [dR, t] T[b]``: the rotation applied on the left, then the shift (tx, ty, tz)."""
+    for col in range(4):
+        v0, v1, v2 = T[b, 0, col], T[b, 1, col], T[b, 2, col]
+        for a in range(3):
+            T[b, a, col] = dR[a, 0] * v0 + dR[a, 1] * v1 + dR[a, 2] * v2
+    T[b, 0, 3] += tx
+    T[b, 1, 3] += ty
+    T[b, 2, 3] += tz
 
 
 @numba.njit(cache=True, nogil=True)
@@ -130,40 +177,19 @@ def _refine_into(
                 J[2] = sx * ny - sy * nx
                 J[3], J[4], J[5] = nx, ny, nz
                 r = (tp[j, 0] - sx) * nx + (tp[j, 1] - sy) * ny + (tp[j, 2] - sz) * nz
-                for a in range(6):
-                    g[a] += J[a] * r
-                    for c in range(a + 1):
-                        H[a, c] += J[a] * J[c]
+                add_pair(H, g, J, r)
             if pairs < 6:
                 break
-            for a in range(6):
-                H[a, a] += 1e-9
-                for c in range(a):
-                    H[c, a] = H[a, c]
-            if not _solve6(H, g, x):
+            damp_and_mirror(H)
+            if not solve_spd(H, g, x):
                 break
             angle = np.sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2])
             if angle > 1e-12:
                 ax, ay, az = x[0] / angle, x[1] / angle, x[2] / angle
-                s, c1 = np.sin(angle), 1.0 - np.cos(angle)
-                # Rodrigues: I + sin K + (1 - cos) K K, K the cross-product matrix of the axis
-                dR[0, 0] = 1.0 + c1 * (-ay * ay - az * az)
-                dR[0, 1] = -s * az + c1 * ax * ay
-                dR[0, 2] = s * ay + c1 * ax * az
-                dR[1, 0] = s * az + c1 * ax * ay
-                dR[1, 1] = 1.0 + c1 * (-ax * ax - az * az)
-                dR[1, 2] = -s * ax + c1 * ay * az
-                dR[2, 0] = -s * ay + c1 * ax * az
-                dR[2, 1] = s * ax + c1 * ay * az
-                dR[2, 2] = 1.0 + c1 * (-ax * ax - ay * ay)
+                rodrigues_into(dR, ax, ay, az, np.sin(angle), 1.0 - np.cos(angle))
             else:
                 dR[:, :] = 0.0
                 dR[0, 0] = dR[1, 1] = dR[2, 2] = 1.0
-            for col in range(4):
-                v0, v1, v2 = T[b, 0, col], T[b, 1, col], T[b, 2, col]
-                for a in range(3):
-                    T[b, a, col] = dR[a, 0] * v0 + dR[a, 1] * v1 + dR[a, 2] * v2
-            for a in range(3):
-                T[b, a, 3] += x[3 + a]
+            turn_and_shift(T, b, dR, x[3], x[4], x[5])
             if angle < 1e-7 and np.sqrt(x[3] * x[3] + x[4] * x[4] + x[5] * x[5]) < 1e-7:
                 break

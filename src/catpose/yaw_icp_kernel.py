@@ -19,7 +19,14 @@ import numpy as np
 
 from catpose import cell_grid
 from catpose.cell_grid import CellGrid
-from catpose.point_to_plane_kernel import transform_point
+from catpose.point_to_plane_kernel import (
+    add_pair,
+    damp_and_mirror,
+    rodrigues_into,
+    solve_spd,
+    transform_point,
+    turn_and_shift,
+)
 
 __all__ = ["refine_yaw_many"]
 
@@ -57,35 +64,6 @@ def refine_yaw_many(
 
 
 @numba.njit(cache=True, nogil=True)
-def _solve4(H, g, x):  # pragma: no cover - compiled
-    """x = H^-1 g for symmetric positive definite H (4, 4), by Cholesky; False if not SPD."""
-    L = np.zeros((4, 4))
-    for i in range(4):
-        for j in range(i + 1):
-            s = H[i, j]
-            for k in range(j):
-                s -= L[i, k] * L[j, k]
-            if i == j:
-                if s <= 0.0:
-                    return False
-                L[i, i] = np.sqrt(s)
-            else:
-                L[i, j] = s / L[j, j]
-    y = np.zeros(4)
-    for i in range(4):
-        s = g[i]
-        for k in range(i):
-            s -= L[i, k] * y[k]
-        y[i] = s / L[i, i]
-    for i in range(3, -1, -1):
-        s = y[i]
-        for k in range(i + 1, 4):
-            s -= L[k, i] * x[k]
-        x[i] = s / L[i, i]
-    return True
-
-
-@numba.njit(cache=True, nogil=True)
 def _refine_yaw_into(
     points, tp, origin, cell, dims, start, cand, normals, T, A, max_distance, iterations
 ):  # pragma: no cover - compiled
@@ -111,34 +89,14 @@ def _refine_yaw_into(
                 J[0] = (ay * sz - az * sy) * nx + (az * sx - ax * sz) * ny + (ax * sy - ay * sx) * nz
                 J[1], J[2], J[3] = nx, ny, nz
                 r = (tp[j, 0] - sx) * nx + (tp[j, 1] - sy) * ny + (tp[j, 2] - sz) * nz
-                for a in range(4):
-                    g[a] += J[a] * r
-                    for c in range(a + 1):
-                        H[a, c] += J[a] * J[c]
+                add_pair(H, g, J, r)
             if pairs < 4:
                 break
-            for a in range(4):
-                H[a, a] += 1e-9
-                for c in range(a):
-                    H[c, a] = H[a, c]
-            if not _solve4(H, g, x):
+            damp_and_mirror(H)
+            if not solve_spd(H, g, x):
                 break
             w = x[0]
-            s, c1 = np.sin(w), 1.0 - np.cos(w)
-            dR[0, 0] = 1.0 + c1 * (-ay * ay - az * az)
-            dR[0, 1] = -s * az + c1 * ax * ay
-            dR[0, 2] = s * ay + c1 * ax * az
-            dR[1, 0] = s * az + c1 * ax * ay
-            dR[1, 1] = 1.0 + c1 * (-ax * ax - az * az)
-            dR[1, 2] = -s * ax + c1 * ay * az
-            dR[2, 0] = -s * ay + c1 * ax * az
-            dR[2, 1] = s * ax + c1 * ay * az
-            dR[2, 2] = 1.0 + c1 * (-ax * ax - ay * ay)
-            for col in range(4):
-                v0, v1, v2 = T[b, 0, col], T[b, 1, col], T[b, 2, col]
-                for a in range(3):
-                    T[b, a, col] = dR[a, 0] * v0 + dR[a, 1] * v1 + dR[a, 2] * v2
-            for a in range(3):
-                T[b, a, 3] += x[1 + a]
+            rodrigues_into(dR, ax, ay, az, np.sin(w), 1.0 - np.cos(w))
+            turn_and_shift(T, b, dR, x[1], x[2], x[3])
             if abs(w) < 1e-7 and np.sqrt(x[1] * x[1] + x[2] * x[2] + x[3] * x[3]) < 1e-7:
                 break
