@@ -4,7 +4,7 @@
 # problems, loaded once -> results/search_recall/dev_variants.md (README.md). Needs
 # ../shared/data/bop/ycbv/models (or $CATPOSE_SHARED_DATA). Environment: OUT (pickles and per-sample
 # lines, default outputs/search_recall), PY, BENCH. Then the coarse search's ICP each way on the embedded set's
-# development seed 1 -> results/search_recall/embedded_dev.md. Run from the repository root; ~1 h on two cores.
+# development seed 1 -> results/search_recall/embedded_dev.md. Run from the repository root; ~20 min on two cores.
 set -euo pipefail
 PY=${PY:-.venv/bin/python}
 OUT=${OUT:-outputs/search_recall}
@@ -34,9 +34,18 @@ declare -A V=(
   [yaw_beam32_first5]="$YAW resting.grid_first_iterations=5"
   [yaw_grid12_beam24]="$YAW resting.grid_yaws=12 resting.grid_beam=24"
   [default]=""
+  # the selection around its defaults, after this round's coarse search (measured, not changed)
+  [sel_final_pixels300]="selection.depth_final_pixels=300"
+  [sel_final_turns0]="selection.depth_final_turns=0"
+  [sel_top_k8]="selection.depth_top_k=8"
+  [sel_tau015]="selection.depth_tau=0.15"
+  [sel_free2]="selection.depth_free_weight=2.0"
+  [sel_free2_tau015]="selection.depth_free_weight=2.0 selection.depth_tau=0.15"
+  [grid_keep12]="resting.grid_keep=12"
 )
 ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tpl512 issue44_final3 issue44_escalate
-  yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 default)
+  yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 default
+  sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau015 sel_free2 sel_free2_tau015 grid_keep12)
 for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
   if [ ! -s "$OUT/$v.jsonl" ]; then
     # shellcheck disable=SC2086  # the settings are words
