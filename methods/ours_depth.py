@@ -25,6 +25,9 @@ distance: :func:`dictionary_pool`), and the coarse search over every stable rest
    half turn explains the image almost as well as the truth, and the coarse lattice of step 2
    often drops the right one of the two before step 3 sees it. The lower cost wins, and its
    depth score is the result's ``score``.
+5. With ``depth_polish_levels`` (off by default), the winner and its half turns about the
+   template's axes (those gravity allows) are each polished on the final lattice's cost itself
+   (:func:`catpose.methods.depth_polish.polish`), and the lowest cost wins.
 
 The result's ``extras["hypothesis_stages"]`` holds the poses held after each step (the runner
 scores them against the truth: hypothesis recall), ``extras`` say which resting direction and half
@@ -132,6 +135,11 @@ def select_by_depth(
         T_out, score, rest, final_turn = _against_half_turns(
             sel, cands, feats, problem, (coarse, verifier), T_out, score, rest, gravity, timings
         )
+    polish_turn = -1
+    if sel.depth_polish_levels > 0:
+        t0 = time.perf_counter()
+        T_out, score, rest, polish_turn = _polished(sel, verifier, T_out, score, rest, gravity)
+        timings["verification"] += time.perf_counter() - t0
     t0 = time.perf_counter()
     fit, fit_loose = verifier.fits(T_out[None], (verifier.tau, sel.depth_fit_tau))[:, 0]
     timings["verification"] += time.perf_counter() - t0
@@ -155,6 +163,8 @@ def select_by_depth(
         "num_input_points": int(len(cands.points)),
         "hypothesis_stages": stage_lists(top_k=pool[order], expanded=T_exp, final_refine=T_top),
     }
+    if sel.depth_polish_levels > 0:
+        extras["polish_turn"] = polish_turn
     # every turned pose scored in step 2 (template frame) with its cost (inf: not kept)
     return RegistrationResult(
         T_template_camera=T_out,
@@ -277,6 +287,29 @@ def _against_half_turns(
     if w == 0:
         return T_win, score, rest, 0
     return T_all[w], float(scores[w]), int(rests[w]), turns[best[w - 1]][0]
+
+
+def _polished(sel: SelectionSettings, final: DepthVerifier, T_win: np.ndarray, score: float, rest: int, gravity):
+    """Step 5: ``T_win`` (4, 4, template frame, its final-lattice ``score``) and its half turns
+    about the template's axes (not the spins about a continuous symmetry axis) each polished on
+    ``final``'s cost; the one of lowest cost that gravity keeps (:func:`_costs`) wins. Returns it,
+    its depth score, its resting direction and which turn it came from (0: the winner itself, 1-3:
+    about x, y, z)."""
+    from catpose.methods.depth_polish import polish
+
+    turns = [j for j, F in enumerate(half_turns()) if j == 0 or not _spin(F, gravity[2])]
+    starts = np.stack([compose_T(half_turns()[j], T_win) for j in turns])
+    scores = np.concatenate([[score], final.scores(starts[1:])])
+    out = [
+        polish(final, T, s, sel.depth_polish_levels, sel.depth_polish_deg, sel.depth_polish_shift)
+        for T, s in zip(starts, scores)
+    ]
+    T_all, polished = np.stack([T for T, _ in out]), np.array([s for _, s in out])
+    cost, keep, rests = _costs(sel, polished, T_all, *gravity)
+    if not keep.any():
+        return T_win, score, rest, 0
+    w = int(np.argmin(np.where(keep, cost, np.inf)))
+    return T_all[w], float(polished[w]), int(rests[w]), turns[w]
 
 
 def _spin(F: np.ndarray, axis: np.ndarray | None) -> bool:

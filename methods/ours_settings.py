@@ -106,6 +106,12 @@ class SelectionSettings:
             template with a symmetry axis) half turns about the template's axes, those the coarse
             lattice scores best, each refined on all input points and compared on the final
             lattice (0: none; true / false read as 1 / 0).
+        depth_polish_levels: ``depth``: after the last comparison, the winner and its half turns
+            about the template's axes are each polished by a local search on the final lattice's
+            depth cost (:func:`catpose.methods.depth_polish.polish`) with this many levels, and the
+            one that costs least wins (0: off).
+        depth_polish_deg, depth_polish_shift: that search's first turn (degrees) and shift
+            (object-normalised unit), halved at each level.
         depth_top_k: ``depth``: candidates (of all gravity hypotheses, by their depth score) expanded
             by their half turns and refined.
         depth_half_turns: ``depth``: the ``depth_top_k`` candidates go on with their three half turns
@@ -148,6 +154,9 @@ class SelectionSettings:
     depth_yaw_turns: int = 12
     depth_final_pixels: int = 2400
     depth_final_turns: int = 1
+    depth_polish_levels: int = 0
+    depth_polish_deg: float = 4.0
+    depth_polish_shift: float = 0.04
     depth_half_turns: bool = False
     depth_fine_distance: float = 0.0
     depth_min_inliers: float = 0.9
@@ -198,6 +207,13 @@ class SelectionSettings:
         turns = self.depth_final_turns
         turns = int(turns) if isinstance(turns, bool) else turns  # true / false: 1 / 0 (the key was a flag)
         set_(self, "depth_final_turns", options.non_negative(k + "depth_final_turns", turns, integer=True))
+        set_(
+            self,
+            "depth_polish_levels",
+            options.non_negative(k + "depth_polish_levels", self.depth_polish_levels, integer=True),
+        )
+        set_(self, "depth_polish_deg", options.positive(k + "depth_polish_deg", self.depth_polish_deg))
+        set_(self, "depth_polish_shift", options.positive(k + "depth_polish_shift", self.depth_polish_shift))
         set_(self, "refine_max_distance", options.positive(k + "refine_max_distance", self.refine_max_distance))
         set_(
             self,

@@ -178,3 +178,14 @@ def test_a_winner_turned_half_way_round_meets_its_half_turn_and_loses(template):
         assert rotation_error_deg(T[:3, :3], T_true[:3, :3]) < 3.0
         assert s <= score
     assert timings["refinement"] > 0.0 and timings["verification"] > 0.0
+
+
+def test_polish_costs_no_more_than_the_winner_and_keeps_the_truth(template):
+    """Step 5 (``depth_polish_levels``, off by default): the polished answer's depth score is at most
+    the unpolished one's, it stays near the truth, and the extras say which turn it came from."""
+    p, T_true = scene_problem(template, 2)
+    plain = _ours().register(p)
+    polished = _ours(depth_polish_levels=2).register(p)
+    assert "polish_turn" not in plain.extras and polished.extras["polish_turn"] in (0, 1, 2, 3)
+    assert polished.score <= plain.score
+    assert rotation_error_deg(polished.T_template_camera[:3, :3], T_true[:3, :3]) < 5.0

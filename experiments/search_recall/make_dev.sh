@@ -3,7 +3,7 @@
 # configs/split/clutter_objects.yaml `dev_A` / `dev_B`): each variant of the search over the same
 # problems, loaded once -> results/search_recall/dev_variants.md (README.md). Needs
 # ../shared/data/bop/ycbv/models (or $CATPOSE_SHARED_DATA). Environment: OUT (pickles and per-sample
-# lines, default outputs/search_recall), PY, BENCH. Then the coarse search's ICP each way on the embedded set's
+# lines, default outputs/search_recall), PY, BENCH. Then the coarse search's ICP each way, and the polish, on the embedded set's
 # development seed 1 -> results/search_recall/embedded_dev.md. Run from the repository root; ~20 min on two cores.
 set -euo pipefail
 PY=${PY:-.venv/bin/python}
@@ -42,10 +42,14 @@ declare -A V=(
   [sel_free2]="selection.depth_free_weight=2.0"
   [sel_free2_tau015]="selection.depth_free_weight=2.0 selection.depth_tau=0.15"
   [grid_keep12]="resting.grid_keep=12"
+  # the winner and its half turns polished on the final lattice's cost (step 5; off by default)
+  [sel_polish3]="selection.depth_polish_levels=3"
+  [sel_polish2_small]="selection.depth_polish_levels=2 selection.depth_polish_deg=2.0 selection.depth_polish_shift=0.02"
 )
 ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tpl512 issue44_final3 issue44_escalate
   yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 default
-  sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau015 sel_free2 sel_free2_tau015 grid_keep12)
+  sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau015 sel_free2 sel_free2_tau015 grid_keep12
+  sel_polish3 sel_polish2_small)
 for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
   if [ ! -s "$OUT/$v.jsonl" ]; then
     # shellcheck disable=SC2086  # the settings are words
@@ -56,7 +60,8 @@ done
 $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORDER[@]}"; do echo "$v=$OUT/$v.jsonl"; done)
 # The embedded set's development seed (1), own model: the coarse search's ICP, each way
 EMB="$OUT/embedded_dev"
-ROWS=("full:resting.grid_icp=full resting.grid_beam=16" "yaw:resting.grid_icp=yaw" "union:resting.grid_icp=union")
+ROWS=("full:resting.grid_icp=full resting.grid_beam=16" "yaw:resting.grid_icp=yaw" "union:resting.grid_icp=union"
+  "polish:selection.depth_polish_levels=3")
 LABELS=()
 for row in "${ROWS[@]}"; do
   name=${row%%:*}; set --
@@ -65,6 +70,6 @@ for row in "${ROWS[@]}"; do
     progress=false print_summary=false "$@"
   LABELS+=(--label "$(dirname "$(find "$EMB/$name" -name samples.jsonl | head -1)")=ICP $name, ${row#*:}")
 done
-"${BENCH:-.venv/bin/bench}" table --force "$EMB/full" "$EMB/yaw" "$EMB/union" "${LABELS[@]}" --layout generic --categories all \
-  --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, own model: the coarse search's ICP" \
+"${BENCH:-.venv/bin/bench}" table --force "$EMB/full" "$EMB/yaw" "$EMB/union" "$EMB/polish" "${LABELS[@]}" --layout generic --categories all \
+  --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, own model: the coarse search's ICP; the polish" \
   --out results/search_recall/embedded_dev.md
