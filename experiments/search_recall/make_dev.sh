@@ -3,7 +3,7 @@
 # configs/split/clutter_objects.yaml `dev_A` / `dev_B`): each variant of the search over the same
 # problems, loaded once -> results/search_recall/dev_variants.md (README.md). Needs
 # ../shared/data/bop/ycbv/models (or $CATPOSE_SHARED_DATA). Environment: OUT (pickles and per-sample
-# lines, default outputs/search_recall), PY, BENCH. Then the coarse search's ICP each way, and the polish, on the embedded set's
+# lines, default outputs/search_recall), PY, BENCH. Then the coarse search's ICP each way, and the selection's settings, on the embedded set's
 # development seed 1 -> results/search_recall/embedded_dev.md. Run from the repository root; ~20 min on two cores.
 set -euo pipefail
 PY=${PY:-.venv/bin/python}
@@ -61,7 +61,8 @@ $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORD
 # The embedded set's development seed (1), own model: the coarse search's ICP, each way
 EMB="$OUT/embedded_dev"
 ROWS=("full:resting.grid_icp=full resting.grid_beam=16" "yaw:resting.grid_icp=yaw" "union:resting.grid_icp=union"
-  "polish:selection.depth_polish_levels=3")
+  "polish:selection.depth_polish_levels=3" "top_k8:selection.depth_top_k=8" "tau015:selection.depth_tau=0.15"
+  "free2:selection.depth_free_weight=2.0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15")
 LABELS=()
 for row in "${ROWS[@]}"; do
   name=${row%%:*}; set --
@@ -70,6 +71,7 @@ for row in "${ROWS[@]}"; do
     progress=false print_summary=false "$@"
   LABELS+=(--label "$(dirname "$(find "$EMB/$name" -name samples.jsonl | head -1)")=ICP $name, ${row#*:}")
 done
-"${BENCH:-.venv/bin/bench}" table --force "$EMB/full" "$EMB/yaw" "$EMB/union" "$EMB/polish" "${LABELS[@]}" --layout generic --categories all \
-  --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, own model: the coarse search's ICP; the polish" \
+"${BENCH:-.venv/bin/bench}" table --force "$EMB/full" "$EMB/yaw" "$EMB/union" "$EMB/polish" "$EMB/top_k8" "$EMB/tau015" "$EMB/free2" "$EMB/free2_tau015" \
+  "${LABELS[@]}" --layout generic --categories all \
+  --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, own model: the coarse search's ICP; the selection's settings" \
   --out results/search_recall/embedded_dev.md
