@@ -38,7 +38,9 @@ declare -A V=(
   [sel_final_pixels300]="selection.depth_final_pixels=300"
   [sel_final_turns0]="selection.depth_final_turns=0"
   [sel_top_k8]="selection.depth_top_k=8"
+  [sel_tau0125]="selection.depth_tau=0.125"
   [sel_tau015]="selection.depth_tau=0.15"
+  [sel_tau02]="selection.depth_tau=0.2"
   [sel_free2]="selection.depth_free_weight=2.0"
   [sel_free2_tau015]="selection.depth_free_weight=2.0 selection.depth_tau=0.15"
   [grid_keep12]="resting.grid_keep=12"
@@ -48,7 +50,7 @@ declare -A V=(
 )
 ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tpl512 issue44_final3 issue44_escalate
   yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 default
-  sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau015 sel_free2 sel_free2_tau015 grid_keep12
+  sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015 grid_keep12
   sel_polish3 sel_polish2_small)
 for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
   if [ ! -s "$OUT/$v.jsonl" ]; then
@@ -61,7 +63,8 @@ $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORD
 # The embedded set's development seed (1), own model: the coarse search's ICP, each way
 EMB="$OUT/embedded_dev"
 ROWS=("full:resting.grid_icp=full resting.grid_beam=16" "yaw:resting.grid_icp=yaw" "union:resting.grid_icp=union"
-  "polish:selection.depth_polish_levels=3" "top_k8:selection.depth_top_k=8" "tau015:selection.depth_tau=0.15"
+  "polish:selection.depth_polish_levels=3" "top_k8:selection.depth_top_k=8" "tau0125:selection.depth_tau=0.125"
+  "tau015:selection.depth_tau=0.15" "tau02:selection.depth_tau=0.2"
   "free2:selection.depth_free_weight=2.0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15")
 LABELS=()
 for row in "${ROWS[@]}"; do
@@ -71,7 +74,7 @@ for row in "${ROWS[@]}"; do
     progress=false print_summary=false "$@"
   LABELS+=(--label "$(dirname "$(find "$EMB/$name" -name samples.jsonl | head -1)")=ICP $name, ${row#*:}")
 done
-"${BENCH:-.venv/bin/bench}" table --force "$EMB/full" "$EMB/yaw" "$EMB/union" "$EMB/polish" "$EMB/top_k8" "$EMB/tau015" "$EMB/free2" "$EMB/free2_tau015" \
+"${BENCH:-.venv/bin/bench}" table --force "$EMB/full" "$EMB/yaw" "$EMB/union" "$EMB/polish" "$EMB/top_k8" "$EMB/tau0125" "$EMB/tau015" "$EMB/tau02" "$EMB/free2" "$EMB/free2_tau015" \
   "${LABELS[@]}" --layout generic --categories all \
   --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, own model: the coarse search's ICP; the selection's settings" \
   --out results/search_recall/embedded_dev.md
