@@ -135,10 +135,10 @@ def select_by_depth(
         T_out, score, rest, final_turn = _against_half_turns(
             sel, cands, feats, problem, (coarse, verifier), T_out, score, rest, gravity, timings
         )
-    polish_turn = -1
+    polished = {}
     if sel.depth_polish_levels > 0:
         t0 = time.perf_counter()
-        T_out, score, rest, polish_turn = _polished(sel, verifier, T_out, score, rest, gravity)
+        T_out, score, rest, polished["polish_turn"] = _polished(sel, verifier, T_out, score, rest, gravity)
         timings["verification"] += time.perf_counter() - t0
     t0 = time.perf_counter()
     fit, fit_loose = verifier.fits(T_out[None], (verifier.tau, sel.depth_fit_tau))[:, 0]
@@ -163,8 +163,7 @@ def select_by_depth(
         "num_input_points": int(len(cands.points)),
         "hypothesis_stages": stage_lists(top_k=pool[order], expanded=T_exp, final_refine=T_top),
     }
-    if sel.depth_polish_levels > 0:
-        extras["polish_turn"] = polish_turn
+    extras.update(polished)
     # every turned pose scored in step 2 (template frame) with its cost (inf: not kept)
     return RegistrationResult(
         T_template_camera=T_out,
@@ -297,8 +296,9 @@ def _polished(sel: SelectionSettings, final: DepthVerifier, T_win: np.ndarray, s
     about x, y, z)."""
     from catpose.methods.depth_polish import polish
 
-    turns = [j for j, F in enumerate(half_turns()) if j == 0 or not _spin(F, gravity[2])]
-    starts = np.stack([compose_T(half_turns()[j], T_win) for j in turns])
+    F = half_turns()
+    turns = [j for j in range(len(F)) if j == 0 or not _spin(F[j], gravity[2])]
+    starts = np.stack([compose_T(F[j], T_win) for j in turns])
     scores = np.concatenate([[score], final.scores(starts[1:])])
     out = [
         polish(final, T, s, sel.depth_polish_levels, sel.depth_polish_deg, sel.depth_polish_shift)

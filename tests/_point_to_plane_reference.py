@@ -15,6 +15,18 @@ import numpy as np
 from catpose.geometry import axis_angle_to_R, make_T
 
 
+def pairs(points, T, target_points, target_normals, tree, max_distance: float, min_pairs: int):
+    """``points`` (N, 3) moved by ``T`` (4, 4) and paired with their nearest target points within
+    ``max_distance``: (moved points, their targets, the targets' normals), each (k, 3); None with
+    fewer than ``min_pairs`` pairs."""
+    src = points @ T[:3, :3].T + T[:3, 3]
+    d, j = tree.query(src, distance_upper_bound=max_distance)
+    ok = np.isfinite(d)
+    if ok.sum() < min_pairs:
+        return None
+    return src[ok], target_points[j[ok]], target_normals[j[ok]]
+
+
 def refine_point_to_plane(
     points: np.ndarray,
     target_points: np.ndarray,
@@ -39,12 +51,10 @@ def refine_point_to_plane(
     """
     T = np.array(T_init, dtype=np.float64, copy=True)
     for _ in range(iterations):
-        src = points @ T[:3, :3].T + T[:3, 3]
-        d, j = tree.query(src, distance_upper_bound=max_distance)
-        ok = np.isfinite(d)
-        if ok.sum() < 6:
+        paired = pairs(points, T, target_points, target_normals, tree, max_distance, 6)
+        if paired is None:
             break
-        s, q, n = src[ok], target_points[j[ok]], target_normals[j[ok]]
+        s, q, n = paired
         J = np.concatenate([np.cross(s, n), n], axis=1)  # (k, 6)
         r = np.einsum("ij,ij->i", q - s, n)
         H = J.T @ J + 1e-9 * np.eye(6)

@@ -18,6 +18,7 @@ from catpose.yaw_icp_kernel import refine_yaw_many
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _clouds import box_cloud  # noqa: E402
+from _point_to_plane_reference import pairs  # noqa: E402
 
 
 def _reference(points, tgt, normals, tree, T_init, axis, max_distance, iterations) -> np.ndarray:
@@ -26,12 +27,10 @@ def _reference(points, tgt, normals, tree, T_init, axis, max_distance, iteration
     a = axis / np.linalg.norm(axis)
     T = np.array(T_init, dtype=np.float64, copy=True)
     for _ in range(iterations):
-        s = points @ T[:3, :3].T + T[:3, 3]
-        d, j = tree.query(s, distance_upper_bound=max_distance)
-        ok = np.isfinite(d)
-        if ok.sum() < 4:
+        paired = pairs(points, T, tgt, normals, tree, max_distance, 4)
+        if paired is None:
             break
-        s, q, n = s[ok], tgt[j[ok]], normals[j[ok]]
+        s, q, n = paired
         J = np.concatenate([np.einsum("ij,ij->i", np.cross(a, s), n)[:, None], n], axis=1)
         r = np.einsum("ij,ij->i", q - s, n)
         x = np.linalg.solve(J.T @ J + 1e-9 * np.eye(4), J.T @ r)

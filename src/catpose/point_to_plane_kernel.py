@@ -104,23 +104,48 @@ def solve_spd(H, g, x):  # pragma: no cover - compiled
     return True
 
 
-@numba.njit(cache=True, nogil=True)
-def add_pair(H, g, J, r):  # pragma: no cover - compiled
-    """Add one pair's row ``J`` (n,) and residual ``r`` to the normal equations: ``g += J r`` and
-    the lower triangle of ``H += J J^T``."""
-    for a in range(J.shape[0]):
-        g[a] += J[a] * r
-        for c in range(a + 1):
-            H[a, c] += J[a] * J[c]
+NO_AXIS = np.zeros(3)  # normal_equations' axis when the rotation is free
 
 
 @numba.njit(cache=True, nogil=True)
-def damp_and_mirror(H):  # pragma: no cover - compiled
-    """``H += 1e-9 I`` and its upper triangle copied from the lower one."""
-    for a in range(H.shape[0]):
+def normal_equations(
+    points, tp, origin, cell, dims, start, cand, normals, T, b, max_distance, axis, H, g, J
+):  # pragma: no cover - compiled
+    """The damped normal equations ``H x = g`` of one point-to-plane step of pose ``T[b]``: each
+    point of ``points`` moved by it and paired with its nearest grid point within
+    ``max_distance``. ``J`` (n,) chooses the unknowns: n = 6, a small rotation and a shift (row
+    ``[s x n, n]``); n = 4, a turn about the unit ``axis`` (3,) and a shift (row ``[(a x s) . n,
+    n]``). Fills ``H`` (n, n, + 1e-9 I, symmetric) and ``g`` (n,); returns the number of pairs."""
+    n = J.shape[0]
+    ax, ay, az = axis[0], axis[1], axis[2]
+    H[:, :] = 0.0
+    g[:] = 0.0
+    pairs = 0
+    for i in range(points.shape[0]):
+        sx, sy, sz = transform_point(T, b, points, i)
+        d, j = cell_grid.nearest_one(tp, origin, cell, dims, start, cand, sx, sy, sz, max_distance)
+        if j < 0:
+            continue
+        pairs += 1
+        nx, ny, nz = normals[j, 0], normals[j, 1], normals[j, 2]
+        if n == 6:
+            J[0] = sy * nz - sz * ny
+            J[1] = sz * nx - sx * nz
+            J[2] = sx * ny - sy * nx
+            J[3], J[4], J[5] = nx, ny, nz
+        else:  # (a x s) . n
+            J[0] = (ay * sz - az * sy) * nx + (az * sx - ax * sz) * ny + (ax * sy - ay * sx) * nz
+            J[1], J[2], J[3] = nx, ny, nz
+        r = (tp[j, 0] - sx) * nx + (tp[j, 1] - sy) * ny + (tp[j, 2] - sz) * nz
+        for a in range(n):
+            g[a] += J[a] * r
+            for c in range(a + 1):
+                H[a, c] += J[a] * J[c]
+    for a in range(n):
         H[a, a] += 1e-9
         for c in range(a):
             H[c, a] = H[a, c]
+    return pairs
 
 
 @numba.njit(cache=True, nogil=True)
@@ -162,25 +187,11 @@ def _refine_into(
     for b in range(T.shape[0]):
         for _ in range(iterations):
             steps[b] += 1
-            H[:, :] = 0.0
-            g[:] = 0.0
-            pairs = 0
-            for i in range(points.shape[0]):
-                sx, sy, sz = transform_point(T, b, points, i)
-                d, j = cell_grid.nearest_one(tp, origin, cell, dims, start, cand, sx, sy, sz, max_distance)
-                if j < 0:
-                    continue
-                pairs += 1
-                nx, ny, nz = normals[j, 0], normals[j, 1], normals[j, 2]
-                J[0] = sy * nz - sz * ny
-                J[1] = sz * nx - sx * nz
-                J[2] = sx * ny - sy * nx
-                J[3], J[4], J[5] = nx, ny, nz
-                r = (tp[j, 0] - sx) * nx + (tp[j, 1] - sy) * ny + (tp[j, 2] - sz) * nz
-                add_pair(H, g, J, r)
+            pairs = normal_equations(
+                points, tp, origin, cell, dims, start, cand, normals, T, b, max_distance, NO_AXIS, H, g, J
+            )
             if pairs < 6:
                 break
-            damp_and_mirror(H)
             if not solve_spd(H, g, x):
                 break
             angle = np.sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2])

@@ -20,11 +20,9 @@ import numpy as np
 from catpose import cell_grid
 from catpose.cell_grid import CellGrid
 from catpose.point_to_plane_kernel import (
-    add_pair,
-    damp_and_mirror,
+    normal_equations,
     rodrigues_into,
     solve_spd,
-    transform_point,
     turn_and_shift,
 )
 
@@ -75,24 +73,11 @@ def _refine_yaw_into(
     for b in range(T.shape[0]):
         ax, ay, az = A[b, 0], A[b, 1], A[b, 2]
         for _ in range(iterations):
-            H[:, :] = 0.0
-            g[:] = 0.0
-            pairs = 0
-            for i in range(points.shape[0]):
-                sx, sy, sz = transform_point(T, b, points, i)
-                d, j = cell_grid.nearest_one(tp, origin, cell, dims, start, cand, sx, sy, sz, max_distance)
-                if j < 0:
-                    continue
-                pairs += 1
-                nx, ny, nz = normals[j, 0], normals[j, 1], normals[j, 2]
-                # (a x s) . n
-                J[0] = (ay * sz - az * sy) * nx + (az * sx - ax * sz) * ny + (ax * sy - ay * sx) * nz
-                J[1], J[2], J[3] = nx, ny, nz
-                r = (tp[j, 0] - sx) * nx + (tp[j, 1] - sy) * ny + (tp[j, 2] - sz) * nz
-                add_pair(H, g, J, r)
+            pairs = normal_equations(
+                points, tp, origin, cell, dims, start, cand, normals, T, b, max_distance, A[b], H, g, J
+            )
             if pairs < 4:
                 break
-            damp_and_mirror(H)
             if not solve_spd(H, g, x):
                 break
             w = x[0]
