@@ -143,10 +143,10 @@ class SelectionSettings:
     top_k: int = 3
     visibility_trunc: float = 0.1
     refine_top: int = 0
-    depth_tau: float = 0.1
+    depth_tau: float = 0.15
     depth_pixels: int = 300
     depth_max_rays: int = 2500
-    depth_free_weight: float = 1.0
+    depth_free_weight: float = 2.0
     depth_prescreen: int = 6
     depth_rest_prior: float = 0.0
     depth_top_k: int = 5

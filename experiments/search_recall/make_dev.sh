@@ -18,40 +18,47 @@ BEFORE="resting.grid_yaws=0 resting.max_poses=5 resting.min_probability=0.05 res
 FULL="resting.grid_icp=\"full\" resting.grid_yaws=12 resting.grid_beam=0 resting.grid_points=256"
 ISSUE44="resting.grid_icp=\"full\" resting.grid_beam=16"  # the coarse search as issue 44 first landed it
 YAW="resting.grid_icp=\"yaw\""
+# the selection before depth_tau / depth_free_weight were chosen (below): every row measured then pins it
+TAU01="selection.depth_tau=0.1"
+FREE1="selection.depth_free_weight=1.0"
+OLD="$TAU01 $FREE1"
 declare -A V=(
-  [issue22]="$BEFORE"
-  [grid12_turns]="$FULL selection.depth_half_turns=true"
-  [grid12]="$FULL"
-  [grid12_prior]="$FULL selection.depth_rest_prior=0.03"
-  [grid12_beam24]="resting.grid_icp=\"full\" resting.grid_yaws=12 resting.grid_beam=24"
-  [issue44]="$ISSUE44"
-  [issue44_tpl512]="$ISSUE44 resting.grid_template_points=512"
-  [issue44_final3]="$ISSUE44 selection.depth_final_turns=3"
-  [issue44_escalate]="$ISSUE44 resting.escalate_below=0.95"
-  [yaw_beam16]="$YAW resting.grid_beam=16"
-  [yaw_beam24]="$YAW resting.grid_beam=24"
-  [yaw_beam32]="$YAW"
-  [yaw_beam32_first5]="$YAW resting.grid_first_iterations=5"
-  [yaw_grid12_beam24]="$YAW resting.grid_yaws=12 resting.grid_beam=24"
-  [default]=""
-  # the selection around its defaults, after this round's coarse search (measured, not changed)
-  [sel_final_pixels300]="selection.depth_final_pixels=300"
-  [sel_final_turns0]="selection.depth_final_turns=0"
-  [sel_top_k8]="selection.depth_top_k=8"
-  [sel_tau0125]="selection.depth_tau=0.125"
-  [sel_tau015]="selection.depth_tau=0.15"
-  [sel_tau02]="selection.depth_tau=0.2"
-  [sel_free2]="selection.depth_free_weight=2.0"
-  [sel_free2_tau015]="selection.depth_free_weight=2.0 selection.depth_tau=0.15"
-  [grid_keep12]="resting.grid_keep=12"
+  [issue22]="$OLD $BEFORE"
+  [grid12_turns]="$OLD $FULL selection.depth_half_turns=true"
+  [grid12]="$OLD $FULL"
+  [grid12_prior]="$OLD $FULL selection.depth_rest_prior=0.03"
+  [grid12_beam24]="$OLD resting.grid_icp=\"full\" resting.grid_yaws=12 resting.grid_beam=24"
+  [issue44]="$OLD $ISSUE44"
+  [issue44_tpl512]="$OLD $ISSUE44 resting.grid_template_points=512"
+  [issue44_final3]="$OLD $ISSUE44 selection.depth_final_turns=3"
+  [issue44_escalate]="$OLD $ISSUE44 resting.escalate_below=0.95"
+  [yaw_beam16]="$OLD $YAW resting.grid_beam=16"
+  [yaw_beam24]="$OLD $YAW resting.grid_beam=24"
+  [yaw_beam32]="$OLD $YAW"
+  [yaw_beam32_first5]="$OLD $YAW resting.grid_first_iterations=5"
+  [yaw_grid12_beam24]="$OLD $YAW resting.grid_yaws=12 resting.grid_beam=24"
+  [union]="$OLD"  # issue 44's coarse search as landed (grid_icp union, beam 32), the selection before
+  # the selection around its defaults, after issue 44's coarse search
+  [sel_final_pixels300]="$OLD selection.depth_final_pixels=300"
+  [sel_final_turns0]="$OLD selection.depth_final_turns=0"
+  [sel_top_k8]="$OLD selection.depth_top_k=8"
+  [sel_tau0125]="$FREE1 selection.depth_tau=0.125"
+  [sel_tau015]="$FREE1 selection.depth_tau=0.15"
+  [sel_tau02]="$FREE1 selection.depth_tau=0.2"
+  [sel_free2]="$TAU01 selection.depth_free_weight=2.0"
+  [sel_free2_tau015]="selection.depth_free_weight=2.0 selection.depth_tau=0.15"  # the choice (README.md)
+  [grid_keep12]="$OLD resting.grid_keep=12"
   # the winner and its half turns polished on the final lattice's cost (step 5; off by default)
-  [sel_polish3]="selection.depth_polish_levels=3"
-  [sel_polish2_small]="selection.depth_polish_levels=2 selection.depth_polish_deg=2.0 selection.depth_polish_shift=0.02"
+  [sel_polish3]="$OLD selection.depth_polish_levels=3"
+  [sel_polish2_small]="$OLD selection.depth_polish_levels=2 selection.depth_polish_deg=2.0 selection.depth_polish_shift=0.02"
+  [default]=""  # today's defaults
+  # around today's defaults
+  [sel_final_refine3]="selection.depth_final_refine=3"
 )
 ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tpl512 issue44_final3 issue44_escalate
-  yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 default
+  yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 union
   sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015 grid_keep12
-  sel_polish3 sel_polish2_small)
+  sel_polish3 sel_polish2_small default sel_final_refine3)
 for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
   if [ ! -s "$OUT/$v.jsonl" ]; then
     # shellcheck disable=SC2086  # the settings are words
@@ -62,10 +69,10 @@ done
 $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORDER[@]}"; do echo "$v=$OUT/$v.jsonl"; done)
 # The embedded set's development seed (1), own model: the coarse search's ICP, each way
 EMB="$OUT/embedded_dev"
-ROWS=("full:resting.grid_icp=full resting.grid_beam=16" "yaw:resting.grid_icp=yaw" "union:resting.grid_icp=union"
-  "polish:selection.depth_polish_levels=3" "top_k8:selection.depth_top_k=8" "tau0125:selection.depth_tau=0.125"
-  "tau015:selection.depth_tau=0.15" "tau02:selection.depth_tau=0.2"
-  "free2:selection.depth_free_weight=2.0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15")
+ROWS=("full:resting.grid_icp=full resting.grid_beam=16 $OLD" "yaw:resting.grid_icp=yaw $OLD" "union:resting.grid_icp=union $OLD"
+  "polish:selection.depth_polish_levels=3 $OLD" "top_k8:selection.depth_top_k=8 $OLD" "tau0125:selection.depth_tau=0.125 $FREE1"
+  "tau015:selection.depth_tau=0.15 $FREE1" "tau02:selection.depth_tau=0.2 $FREE1"
+  "free2:selection.depth_free_weight=2.0 $TAU01" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15")
 LABELS=()
 for row in "${ROWS[@]}"; do
   name=${row%%:*}; set --
