@@ -54,11 +54,13 @@ declare -A V=(
   [default]=""  # today's defaults
   # around today's defaults
   [sel_final_refine3]="selection.depth_final_refine=3"
+  [sel_final_turns3]="selection.depth_final_turns=3"
+  [sel_final_refine3_turns3]="selection.depth_final_refine=3 selection.depth_final_turns=3"
 )
 ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tpl512 issue44_final3 issue44_escalate
   yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 union
   sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015 grid_keep12
-  sel_polish3 sel_polish2_small default sel_final_refine3)
+  sel_polish3 sel_polish2_small default sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3)
 for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
   if [ ! -s "$OUT/$v.jsonl" ]; then
     # shellcheck disable=SC2086  # the settings are words
