@@ -4,7 +4,8 @@
         --split clutter_objects LABEL=RUN.jsonl[:SETTINGS] ...
 
 One row per variant: @10, found@10 and mean error over every sample, over each choose part of the
-split (objects A, objects B), per object (@10 / found@10), and the median CPU seconds.
+split (objects A, objects B), per object (@10 / found@10), the median CPU seconds, and how many views
+went to ours' poor-fit fallback (where the run recorded it).
 """
 
 from __future__ import annotations
@@ -19,6 +20,15 @@ import numpy as np
 def rows_of(path: str) -> list[dict]:
     with open(path) as f:
         return [json.loads(line) for line in f if line.strip()]
+
+
+def poor_fit_cell(rows: list[dict], err: np.ndarray) -> str:
+    """How many views ours answered by its poor-fit fallback (``depth_poor_fit``) and how many of
+    them within 10 degrees; ``-`` for a run that did not record it."""
+    if not rows or "poor_fit" not in rows[0]:
+        return "-"
+    fell = np.array([bool(r["poor_fit"]) for r in rows])
+    return f"{int(fell.sum())} ({int(np.sum(fell & (err < 10)))})"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -52,10 +62,11 @@ def main(argv: list[str] | None = None) -> int:
         cells += [cell(np.array([r["sample_id"] in wanted[p] for r in rows])) for p in parts]
         cells += [f"{np.mean(err[obj == o] < 10):.2f} / {np.mean(found[obj == o] < 10):.2f}" for o in objects]
         cells.append(f"{np.median([r['cpu_s'] for r in rows]):.3f}")
+        cells.append(poor_fit_cell(rows, err))
         lines.append("| " + " | ".join(cells) + " |")
     head = ["variant", "n", "all: @10 / found@10 / mean"]
     head += [f"{p} ({split.role(p)}): @10 / found / mean" for p in parts]
-    head += [f"obj {o}: @10 / found" for o in objects or []] + ["CPU s (median)"]
+    head += [f"obj {o}: @10 / found" for o in objects or []] + ["CPU s (median)", "poor-fit fallback: views (right)"]
     text = "\n".join([f"**{args.title}**", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head), *lines, ""])
     atomic.write_text(args.out, text)
     print(text)

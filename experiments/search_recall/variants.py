@@ -51,6 +51,7 @@ def main(argv: list[str]) -> int:
                     "found_err_deg": min([err["err_deg"], *stages.values()]),
                     "stages": stages,
                     "cpu_s": cpu,
+                    "poor_fit": bool(r.extras.get("depth_poor_fit", False)),
                 }
                 f.write(json.dumps(row) + "\n")
                 f.flush()
