@@ -2,8 +2,8 @@
 
 ICP moves a pose to fit the input points; the depth check then judges it by what the camera
 would see. The two disagree on a near-symmetric object: ICP can move a right pose to where its
-half turn costs less (the TYO-L basket: the truth costs 0.518 on the final lattice, refined by
-ICP 0.661, its half turn 0.655). :func:`polish` instead walks a pose downhill on the depth cost
+half turn costs less (the TYO-L basket under the earlier depth tolerance 0.1: the truth cost 0.518
+on the final lattice, refined by ICP 0.661, its half turn 0.655). :func:`polish` instead walks a pose downhill on the depth cost
 itself: at each level it tries the 12 moves of :func:`moves` (a turn by ``+-deg`` about each
 template axis through the template origin, a shift by ``+-shift`` along each), takes the best
 while it lowers the cost (at most :data:`STEPS` per level), then halves both steps.

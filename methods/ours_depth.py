@@ -42,6 +42,7 @@ import numpy as np
 
 from catpose.geometry import compose_T
 from catpose.methods.depth_check import DepthVerifier
+from catpose.methods.depth_polish import polish
 from catpose.methods.ours_candidates import Candidates, TemplateFeatures
 from catpose.methods.ours_selection import chamfer_distances
 from catpose.methods.ours_settings import SelectionSettings
@@ -294,8 +295,6 @@ def _polished(sel: SelectionSettings, final: DepthVerifier, T_win: np.ndarray, s
     ``final``'s cost; the one of lowest cost that gravity keeps (:func:`_costs`) wins. Returns it,
     its depth score, its resting direction and which turn it came from (0: the winner itself, 1-3:
     about x, y, z)."""
-    from catpose.methods.depth_polish import polish
-
     F = half_turns()
     turns = [j for j in range(len(F)) if j == 0 or not _spin(F[j], gravity[2])]
     starts = np.stack([compose_T(F[j], T_win) for j in turns])

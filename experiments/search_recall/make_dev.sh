@@ -4,7 +4,8 @@
 # problems, loaded once -> results/search_recall/dev_variants.md (README.md). Needs
 # ../shared/data/bop/ycbv/models (or $CATPOSE_SHARED_DATA). Environment: OUT (pickles and per-sample
 # lines, default outputs/search_recall), PY, BENCH. Then the coarse search's ICP each way, and the selection's settings, on the embedded set's
-# development seed 1 -> results/search_recall/embedded_dev.md. Run from the repository root; ~20 min on two cores.
+# development seed 1 -> results/search_recall/embedded_dev.md. Run from the repository root; ~1 h on two
+# cores from nothing (each finished variant is kept and not run again).
 set -euo pipefail
 PY=${PY:-.venv/bin/python}
 OUT=${OUT:-outputs/search_recall}
@@ -75,15 +76,15 @@ ROWS=("full:resting.grid_icp=full resting.grid_beam=16 $OLD" "yaw:resting.grid_i
   "polish:selection.depth_polish_levels=3 $OLD" "top_k8:selection.depth_top_k=8 $OLD" "tau0125:selection.depth_tau=0.125 $FREE1"
   "tau015:selection.depth_tau=0.15 $FREE1" "tau02:selection.depth_tau=0.2 $FREE1"
   "free2:selection.depth_free_weight=2.0 $TAU01" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15")
-LABELS=()
+LABELS=() DIRS=()
 for row in "${ROWS[@]}"; do
   name=${row%%:*}; set --
   for kv in ${row#*:}; do set -- "$@" "method.$kv"; done
   "${BENCH:-.venv/bin/bench}" run method=ours dataset=synthetic protocol=gt_model seed=1 output_root="$EMB/$name" \
     progress=false print_summary=false "$@"
   LABELS+=(--label "$(dirname "$(find "$EMB/$name" -name samples.jsonl | head -1)")=ICP $name, ${row#*:}")
+  DIRS+=("$EMB/$name")
 done
-"${BENCH:-.venv/bin/bench}" table --force "$EMB/full" "$EMB/yaw" "$EMB/union" "$EMB/polish" "$EMB/top_k8" "$EMB/tau0125" "$EMB/tau015" "$EMB/tau02" "$EMB/free2" "$EMB/free2_tau015" \
-  "${LABELS[@]}" --layout generic --categories all \
+"${BENCH:-.venv/bin/bench}" table --force "${DIRS[@]}" "${LABELS[@]}" --layout generic --categories all \
   --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, own model: the coarse search's ICP; the selection's settings" \
   --out results/search_recall/embedded_dev.md
