@@ -15,7 +15,9 @@ distance: :func:`dictionary_pool`), and the coarse search over every stable rest
    for a template with a symmetry axis); poses that cannot come back within the gravity limit of
    any resting direction are dropped, the others refined by point-to-plane ICP on the input's
    Chamfer subset (compiled, all at once), scored again, filtered by gravity (any resting
-   direction), and the ``depth_final_refine`` of lowest depth cost go on.
+   direction), and the ``depth_final_refine`` of lowest depth cost go on, each differing from
+   those before it by more than ``depth_final_distinct_deg`` (the pool holds each pose refined and
+   as it was, and its best two were most often one pose twice).
 3. Those are refined on all input points and scored again on the final lattice
    (``depth_final_pixels``); the lowest cost (the depth score plus ``depth_rest_prior`` for a pose
    resting other than on the template's up) wins.
@@ -36,11 +38,12 @@ turn won.
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
 
-from catpose.geometry import compose_T
+from catpose.geometry import compose_T, norm3
 from catpose.methods.depth_check import DepthVerifier
 from catpose.methods.depth_polish import polish
 from catpose.methods.ours_candidates import Candidates, TemplateFeatures
@@ -115,7 +118,8 @@ def select_by_depth(
 
     # step 3: the best few refined on every input point, scored again; the lowest cost wins
     t0 = time.perf_counter()
-    top = np.argsort(np.where(keep, cost, np.inf), kind="stable")[: max(int(sel.depth_final_refine), 1)]
+    ranked = np.argsort(np.where(keep, cost, np.inf), kind="stable")
+    top = distinct_best(ranked, T_exp, max(int(sel.depth_final_refine), 1), sel.depth_final_distinct_deg, axis)
     top = top[np.isfinite(cost[top])] if np.isfinite(cost[top]).any() else top[:1]
     T_top = T_exp[top].copy()
     if sel.refine:  # each refined on all points, and as it was (whichever costs less on the final lattice)
@@ -173,6 +177,32 @@ def select_by_depth(
         candidates_T=T_exp,
         candidate_scores=np.where(keep, cost, np.inf).astype(float),
     )
+
+
+def distinct_best(ranked: np.ndarray, T: np.ndarray, k: int, min_deg: float, axis: np.ndarray | None) -> np.ndarray:
+    """The first ``k`` of ``ranked`` (indices into poses ``T`` (B, 4, 4), best first) whose
+    rotation differs from each one taken before it by more than ``min_deg`` degrees; for a
+    template with a continuous symmetry ``axis`` (3,) by the angle between the axis' directions
+    in the camera frame (a spin about it is invisible). ``min_deg`` 0: the first ``k``. Fewer
+    than ``k`` when fewer differ; never none."""
+    ranked = np.asarray(ranked, dtype=np.int64)
+    if min_deg <= 0:
+        return ranked[:k]
+    R = np.asarray(T, dtype=np.float64)[:, :3, :3]
+    if axis is None:
+        rows = R.reshape(len(R), 9)  # cos of the angle between R_i and R_j: (sum(R_i * R_j) - 1) / 2
+        lim = 2.0 * math.cos(math.radians(min_deg)) + 1.0
+    else:
+        a = np.asarray(axis, dtype=np.float64) / norm3(np.asarray(axis, dtype=np.float64))
+        rows = np.einsum("bji,j->bi", R, a)  # the axis in the camera frame, per pose
+        lim = math.cos(math.radians(min_deg))
+    taken: list[int] = []
+    for i in ranked:
+        if all(float(np.einsum("i,i->", rows[i], rows[j])) < lim for j in taken):
+            taken.append(int(i))
+            if len(taken) == k:
+                break
+    return np.asarray(taken or [int(ranked[0])], dtype=np.int64)
 
 
 def stage_lists(**stages: np.ndarray) -> dict[str, list]:

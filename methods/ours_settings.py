@@ -118,6 +118,10 @@ class SelectionSettings:
             (false: alone; the coarse search holds every resting pose and yaw).
         depth_final_refine: ``depth``: poses refined on all input points and scored again at the
             end (the best by their score after the refinement on the Chamfer subset).
+        depth_final_distinct_deg: ``depth``: those poses differ pairwise by more than this
+            rotation, degrees (for a template with a symmetry axis: the axis' direction; a spin
+            about it is no difference): a pose and its own refined or unrefined copy do not take
+            two places (0: the best regardless).
         depth_yaw_turns: ``depth``: in the escalated pass (``resting.escalate_below``), each
             expanded candidate is also tried turned about the template's up by every multiple of
             ``360 / depth_yaw_turns`` degrees (:func:`catpose.methods.pose_scores.yaw_and_half_turns`;
@@ -151,6 +155,7 @@ class SelectionSettings:
     depth_rest_prior: float = 0.0
     depth_top_k: int = 5
     depth_final_refine: int = 2
+    depth_final_distinct_deg: float = 10.0
     depth_yaw_turns: int = 12
     depth_final_pixels: int = 2400
     depth_final_turns: int = 1
@@ -194,6 +199,11 @@ class SelectionSettings:
             self,
             "depth_final_refine",
             options.positive(k + "depth_final_refine", self.depth_final_refine, integer=True),
+        )
+        set_(
+            self,
+            "depth_final_distinct_deg",
+            options.non_negative(k + "depth_final_distinct_deg", self.depth_final_distinct_deg),
         )
         set_(self, "depth_yaw_turns", options.non_negative(k + "depth_yaw_turns", self.depth_yaw_turns, integer=True))
         set_(self, "depth_rest_prior", options.non_negative(k + "depth_rest_prior", self.depth_rest_prior))

@@ -189,3 +189,29 @@ def test_polish_costs_no_more_than_the_winner_and_keeps_the_truth(template):
     assert "polish_turn" not in plain.extras and polished.extras["polish_turn"] in (0, 1, 2, 3)
     assert polished.score <= plain.score
     assert rotation_error_deg(polished.T_template_camera[:3, :3], T_true[:3, :3]) < 5.0
+
+
+def _turned(deg: float, axis=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """(4, 4) a turn by ``deg`` about ``axis`` (template frame), no shift."""
+    from scipy.spatial.transform import Rotation
+
+    return make_T(Rotation.from_rotvec(np.deg2rad(deg) * np.asarray(axis, float)).as_matrix(), [0.0, 0.0, 0.0])
+
+
+def test_the_last_comparison_takes_distinct_poses_not_one_pose_twice():
+    from catpose.methods.ours_depth import distinct_best
+
+    # ranked best first: a pose, its copy 2 deg away, a half turn, another 40 deg away
+    T = np.stack([_turned(0.0), _turned(2.0), _turned(180.0, (1.0, 0.0, 0.0)), _turned(40.0)])
+    ranked = np.arange(4)
+    assert distinct_best(ranked, T, 2, 0.0, None).tolist() == [0, 1]  # off: the best two, a pose twice
+    assert distinct_best(ranked, T, 2, 10.0, None).tolist() == [0, 2]
+    assert distinct_best(ranked, T, 3, 10.0, None).tolist() == [0, 2, 3]
+    assert distinct_best(ranked, T, 3, 50.0, None).tolist() == [0, 2]  # fewer when fewer differ
+    # about a symmetry axis (z) the 40-deg spin is the same pose, the half turn about x is not
+    assert distinct_best(ranked, T, 3, 10.0, np.array([0.0, 0.0, 2.0])).tolist() == [0, 2]
+    # the rotation decides, not the shift; never none
+    shifted = T.copy()
+    shifted[1, :3, 3] = [0.5, 0.0, 0.0]
+    assert distinct_best(ranked, shifted, 2, 10.0, None).tolist() == [0, 2]
+    assert distinct_best(np.array([3]), T, 2, 10.0, None).tolist() == [3]

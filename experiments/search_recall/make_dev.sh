@@ -4,7 +4,8 @@
 # problems, loaded once -> results/search_recall/dev_variants.md (README.md). Needs
 # ../shared/data/bop/ycbv/models (or $CATPOSE_SHARED_DATA). Environment: OUT (pickles and per-sample
 # lines, default outputs/search_recall), PY, BENCH. Then the coarse search's ICP each way, and the selection's settings, on the embedded set's
-# development seed 1 -> results/search_recall/embedded_dev.md. Run from the repository root; ~1 h on two
+# development seed 1 -> results/search_recall/embedded_dev.md, and the poor-fit fallback with category templates on
+# that seed -> results/search_recall/embedded_dev_templates.md. Run from the repository root; ~1 h on two
 # cores from nothing (each finished variant is kept and not run again).
 set -euo pipefail
 PY=${PY:-.venv/bin/python}
@@ -22,7 +23,9 @@ YAW="resting.grid_icp=\"yaw\""
 # the selection before depth_tau / depth_free_weight were chosen (below): every row measured then pins it
 TAU01="selection.depth_tau=0.1"
 FREE1="selection.depth_free_weight=1.0"
-OLD="$TAU01 $FREE1"
+# the last comparison before it took distinct poses (depth_final_distinct_deg, chosen after them)
+D0="selection.depth_final_distinct_deg=0"
+OLD="$TAU01 $FREE1 $D0"
 declare -A V=(
   [issue22]="$OLD $BEFORE"
   [grid12_turns]="$OLD $FULL selection.depth_half_turns=true"
@@ -43,25 +46,31 @@ declare -A V=(
   [sel_final_pixels300]="$OLD selection.depth_final_pixels=300"
   [sel_final_turns0]="$OLD selection.depth_final_turns=0"
   [sel_top_k8]="$OLD selection.depth_top_k=8"
-  [sel_tau0125]="$FREE1 selection.depth_tau=0.125"
-  [sel_tau015]="$FREE1 selection.depth_tau=0.15"
-  [sel_tau02]="$FREE1 selection.depth_tau=0.2"
-  [sel_free2]="$TAU01 selection.depth_free_weight=2.0"
-  [sel_free2_tau015]="selection.depth_free_weight=2.0 selection.depth_tau=0.15"  # the choice (README.md)
+  [sel_tau0125]="$D0 $FREE1 selection.depth_tau=0.125"
+  [sel_tau015]="$D0 $FREE1 selection.depth_tau=0.15"
+  [sel_tau02]="$D0 $FREE1 selection.depth_tau=0.2"
+  [sel_free2]="$D0 $TAU01 selection.depth_free_weight=2.0"
+  [sel_free2_tau015]="$D0 selection.depth_free_weight=2.0 selection.depth_tau=0.15"  # the choice then (README.md)
   [grid_keep12]="$OLD resting.grid_keep=12"
   # the winner and its half turns polished on the final lattice's cost (step 5; off by default)
   [sel_polish3]="$OLD selection.depth_polish_levels=3"
   [sel_polish2_small]="$OLD selection.depth_polish_levels=2 selection.depth_polish_deg=2.0 selection.depth_polish_shift=0.02"
+  # around the tolerance's defaults, before the last comparison took distinct poses
+  [sel_final_refine3]="$D0 selection.depth_final_refine=3"
+  [sel_final_turns3]="$D0 selection.depth_final_turns=3"
+  [sel_final_refine3_turns3]="$D0 selection.depth_final_refine=3 selection.depth_final_turns=3"
+  # the last comparison's poses distinct by more than 5 / 10 (the choice) / 20 / 30 deg
+  [sel_distinct5]="selection.depth_final_distinct_deg=5.0"
+  [sel_distinct20]="selection.depth_final_distinct_deg=20.0"
+  [sel_distinct30]="selection.depth_final_distinct_deg=30.0"
   [default]=""  # today's defaults
-  # around today's defaults
-  [sel_final_refine3]="selection.depth_final_refine=3"
-  [sel_final_turns3]="selection.depth_final_turns=3"
-  [sel_final_refine3_turns3]="selection.depth_final_refine=3 selection.depth_final_turns=3"
+  [no_fallback]="selection.depth_min_inliers=0.0"  # today's defaults without the poor-fit fallback
 )
 ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tpl512 issue44_final3 issue44_escalate
   yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 union
   sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015 grid_keep12
-  sel_polish3 sel_polish2_small default sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3)
+  sel_polish3 sel_polish2_small sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3
+  sel_distinct5 sel_distinct20 sel_distinct30 default no_fallback)
 for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
   if [ ! -s "$OUT/$v.jsonl" ]; then
     # shellcheck disable=SC2086  # the settings are words
@@ -73,18 +82,35 @@ $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORD
 # The embedded set's development seed (1), own model: the coarse search's ICP, each way
 EMB="$OUT/embedded_dev"
 ROWS=("full:resting.grid_icp=full resting.grid_beam=16 $OLD" "yaw:resting.grid_icp=yaw $OLD" "union:resting.grid_icp=union $OLD"
-  "polish:selection.depth_polish_levels=3 $OLD" "top_k8:selection.depth_top_k=8 $OLD" "tau0125:selection.depth_tau=0.125 $FREE1"
-  "tau015:selection.depth_tau=0.15 $FREE1" "tau02:selection.depth_tau=0.2 $FREE1"
-  "free2:selection.depth_free_weight=2.0 $TAU01" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15")
+  "polish:selection.depth_polish_levels=3 $OLD" "top_k8:selection.depth_top_k=8 $OLD" "tau0125:selection.depth_tau=0.125 $FREE1 $D0"
+  "tau015:selection.depth_tau=0.15 $FREE1 $D0" "tau02:selection.depth_tau=0.2 $FREE1 $D0"
+  "free2:selection.depth_free_weight=2.0 $TAU01 $D0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15 $D0"
+  "default:" "no_fallback:selection.depth_min_inliers=0.0")
 LABELS=() DIRS=()
 for row in "${ROWS[@]}"; do
   name=${row%%:*}; set --
   for kv in ${row#*:}; do set -- "$@" "method.$kv"; done
   "${BENCH:-.venv/bin/bench}" run method=ours dataset=synthetic protocol=gt_model seed=1 output_root="$EMB/$name" \
     progress=false print_summary=false "$@"
-  LABELS+=(--label "$(dirname "$(find "$EMB/$name" -name samples.jsonl | head -1)")=ICP $name, ${row#*:}")
+  s=${row#*:}  # a label holds no "=" (bench table splits RUN_DIR=LABEL at the last one)
+  LABELS+=(--label "$(dirname "$(find "$EMB/$name" -name samples.jsonl | head -1)")=$name${s:+: ${s//=/ }}")
   DIRS+=("$EMB/$name")
 done
 "${BENCH:-.venv/bin/bench}" table --force "${DIRS[@]}" "${LABELS[@]}" --layout generic --categories all \
   --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, own model: the coarse search's ICP; the selection's settings" \
   --out results/search_recall/embedded_dev.md
+# The same seed with the category templates (protocol templates): the poor-fit fallback, with and without
+TPL="$OUT/embedded_dev_templates"
+LABELS=() DIRS=()
+for row in "default:" "no_fallback:selection.depth_min_inliers=0.0"; do
+  name=${row%%:*}; set --
+  for kv in ${row#*:}; do set -- "$@" "method.$kv"; done
+  "${BENCH:-.venv/bin/bench}" run method=ours dataset=synthetic protocol=templates seed=1 output_root="$TPL/$name" \
+    progress=false print_summary=false "$@"
+  s=${row#*:}  # a label holds no "=" (bench table splits RUN_DIR=LABEL at the last one)
+  LABELS+=(--label "$(dirname "$(find "$TPL/$name" -name samples.jsonl | head -1)")=$name${s:+: ${s//=/ }}")
+  DIRS+=("$TPL/$name")
+done
+"${BENCH:-.venv/bin/bench}" table --force "${DIRS[@]}" "${LABELS[@]}" --layout generic --categories all \
+  --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, category templates: the poor-fit fallback" \
+  --out results/search_recall/embedded_dev_templates.md

@@ -14,7 +14,9 @@ OLD=(--set issue22:resting.grid_yaws=0 --set issue22:resting.max_poses=5 --set i
   --set issue22:selection.depth_half_turns=true --set issue22:selection.depth_final_refine=1
   --set issue22:selection.depth_tau=0.1 --set issue22:selection.depth_free_weight=1.0
   --set issue44:resting.grid_icp=full --set issue44:resting.grid_beam=16
-  --set issue44:selection.depth_tau=0.1 --set issue44:selection.depth_free_weight=1.0 --set yaw:resting.grid_icp=yaw)
+  --set issue22:selection.depth_final_distinct_deg=0
+  --set issue44:selection.depth_tau=0.1 --set issue44:selection.depth_free_weight=1.0
+  --set issue44:selection.depth_final_distinct_deg=0 --set yaw:resting.grid_icp=yaw)
 $BENCH perf --n 12 --repeat 3 --methods ours,yaw=ours,issue44=ours,issue22=ours,fgr "${OLD[@]}" --out results/search_recall/perf_synthetic.csv
 $BENCH perf --n 12 --repeat 3 --methods ours,yaw=ours,issue44=ours,issue22=ours,fgr "${OLD[@]}" --dataset ycbv --root "$SHARED/bop/ycbv" \
   --out results/search_recall/perf_ycbv.csv
