@@ -230,3 +230,14 @@ def test_errors_come_from_poses_not_stored_numbers(runs):
     path.write_text("".join(json.dumps(r) + "\n" for r in rows))
     s = tables.load_run(runs[0]).samples
     assert s.loc[s["status"] == "ok", "err_deg"].max() < 100.0
+
+
+def test_a_label_that_names_no_run_is_an_error_not_dropped(runs, capsys):
+    from catpose.bench.cli import main
+
+    # the item splits at its last "=": "<run>=ICP: a" would name no run, and the label was lost
+    assert main(["table", str(runs[0].parent), "--label", f"{runs[2]}=ICP: a=b"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bench table: error: --label ") and "none of the runs" in err and err.count("\n") == 1
+    assert main(["table", str(runs[0].parent), "--label", f"{runs[2].name}=ICP by name"]) == 0
+    assert "ICP by name" in capsys.readouterr().out

@@ -211,6 +211,21 @@ def user_label(run: Run, labels: dict[str, str]) -> str | None:
     return labels.get(str(run.path)) or labels.get(str(run.path.resolve())) or labels.get(run.path.name)
 
 
+def check_labels(items: Sequence[str], runs: Sequence[Run]) -> None:
+    """Raise :class:`ConfigError` for a ``--label RUN_DIR=LABEL`` whose RUN_DIR names none of
+    ``runs`` (by path, resolved path or folder name) and no folder: a label holding ``=`` is
+    split inside the label (at its last ``=``) and would otherwise be dropped without a word."""
+    names = {str(r.path) for r in runs} | {str(r.path.resolve()) for r in runs} | {r.path.name for r in runs}
+    for item in items:
+        key = item.rpartition("=")[0]
+        if key in names or str(Path(key).resolve()) in names or Path(key).is_dir():
+            continue
+        raise ConfigError(
+            f"--label {item!r}: {key!r} is none of the runs; write --label RUN_DIR=LABEL with a run "
+            "directory of the table (the item is split at its last '=', so a label may hold none)"
+        )
+
+
 def parse_labels(items: Sequence[str]) -> dict[str, str]:
     """``["runs/a=Ours (LPS)", ...]`` -> ``{"runs/a": "Ours (LPS)"}``.
 

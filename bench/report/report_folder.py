@@ -149,8 +149,11 @@ def build_report(
     pdf: bool = True,
     left_out: list[str] | None = None,
     max_pictures: int = MAX_PICTURES,
+    label_items: Sequence[str] = (),
 ) -> Path:
     """Write the report folder (see the module docstring); returns the path of ``index.md``.
+    ``label_items``: the ``--label RUN_DIR=LABEL`` items ``labels`` came from, each checked to
+    name one of the runs (:func:`catpose.bench.report.labels.check_labels`).
 
     ``notes`` are paragraphs put under the title (how the runs were made); ``pdf`` adds a PDF
     of each summary figure; ``qualitative`` pictures per run, ``max_pictures`` in all. A run that
@@ -160,9 +163,11 @@ def build_report(
     ``out`` is replaced whole (whether it may be is :func:`main`'s question,
     :func:`catpose.bench.run.overwrite.check_output`).
     """
+    from catpose.bench.report.labels import check_labels
     from catpose.bench.report.runs import load_runs, print_left_out
 
     runs, reasons = load_runs(run_dirs)
+    check_labels(label_items, runs)
     print_left_out("report", runs, reasons)
     if left_out is not None:
         left_out.extend(reasons)
@@ -404,6 +409,7 @@ def main(argv: list[str] | None = None) -> int:
             pdf=not args.no_pdf,
             left_out=left_out,
             max_pictures=args.max_pictures,
+            label_items=args.label,
         )
     print(f"report written: {index} (and index.html)" + (f"; {len(left_out)} run(s) left out" if left_out else ""))
     return 2 if left_out else 0

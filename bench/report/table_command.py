@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from catpose import atomic
-from catpose.bench.report.labels import parse_labels
+from catpose.bench.report.labels import check_labels, parse_labels
 from catpose.bench.report.runs import find_run_dirs, load_runs, print_left_out, warn_incomplete
 from catpose.bench.report.table_format import METRICS
 from catpose.bench.report.tables import LAYOUTS, RENAMED_LAYOUTS, RENDERERS, build_table
@@ -113,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
             setattr(args, key, ",".join(map(str, value)) if isinstance(value, list) else str(value))
     args.layout = args.layout or "generic"
     runs, left_out = load_runs([*args.runs, *run_paths])
+    check_labels(args.label, runs)
     print_left_out("table", runs, left_out)  # one damaged run does not stop the others; the exit status says so
     warn_incomplete("table", runs)  # and the table's notes say it
     if args.categories:
