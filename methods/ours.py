@@ -323,23 +323,29 @@ class Ours(RegistrationMethod):
         extras["hypothesis_stages"] = {**stages, **result.extras["hypothesis_stages"]}
         if result.extras["depth_inliers_loose"] < self.selection.depth_min_inliers:
             # no hypothesis explains the image: the template is unlike the object (category level);
-            # the point rule chooses among the own up's candidates, scored by depth like the rest
+            # the point rule chooses among the own up's candidates, scored by depth like the rest,
+            # unless its answer explains the image far worse than the winner (a wrong pose)
             point = replace(self.selection, rule=self.selection.depth_poor_fit_rule)
             fallback = finish(point, problem, cands[0], feats[0], timings)
-            score = float(verifier.scores(fallback.T_template_camera[None])[0])
-            extras.update(
-                {k: v for k, v in fallback.extras.items() if k != "hypothesis_stages"},
-                depth_poor_fit=True,
-                depth_score=score,
-                timings={k: float(v) for k, v in timings.items()},
+            score, winner = (
+                float(x) for x in verifier.scores(np.stack([fallback.T_template_camera, result.T_template_camera]))
             )
-            return RegistrationResult(
-                T_template_camera=fallback.T_template_camera,
-                score=score,
-                extras=extras,
-                candidates_T=fallback.candidates_T,
-                candidate_scores=fallback.candidate_scores,
-            )
+            ratio = self.selection.depth_poor_fit_max_ratio
+            if ratio <= 0 or score <= ratio * winner:  # both on the pool's lattice
+                extras.update(
+                    {k: v for k, v in fallback.extras.items() if k != "hypothesis_stages"},
+                    depth_poor_fit=True,
+                    depth_score=score,
+                    timings={k: float(v) for k, v in timings.items()},
+                )
+                return RegistrationResult(
+                    T_template_camera=fallback.T_template_camera,
+                    score=score,
+                    extras=extras,
+                    candidates_T=fallback.candidates_T,
+                    candidate_scores=fallback.candidate_scores,
+                )
+            extras["depth_poor_fit_declined"] = True
         extras["depth_poor_fit"] = False
         return RegistrationResult(
             T_template_camera=result.T_template_camera,

@@ -15,9 +15,9 @@ distance: :func:`dictionary_pool`), and the coarse search over every stable rest
    for a template with a symmetry axis); poses that cannot come back within the gravity limit of
    any resting direction are dropped, the others refined by point-to-plane ICP on the input's
    Chamfer subset (compiled, all at once), scored again, filtered by gravity (any resting
-   direction), and the ``depth_final_refine`` of lowest depth cost go on, each differing from
-   those before it by more than ``depth_final_distinct_deg`` (the pool holds each pose refined and
-   as it was, and its best two were most often one pose twice).
+   direction), and the ``depth_final_refine`` of lowest depth cost go on (with
+   ``depth_final_distinct_deg`` > 0, each differing from those before it by more than that: the
+   pool holds each pose refined and as it was, and its best two are most often one pose twice).
 3. Those are refined on all input points and scored again on the final lattice
    (``depth_final_pixels``); the lowest cost (the depth score plus ``depth_rest_prior`` for a pose
    resting other than on the template's up) wins.

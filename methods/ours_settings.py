@@ -135,6 +135,9 @@ class SelectionSettings:
             ``depth_poor_fit_rule`` chooses among the candidates of the template's own up instead.
         depth_fit_tau: ``depth``: the tolerance of that test (object-normalised unit).
         depth_poor_fit_rule: that rule (``chamfer``, ``visibility`` or ``loss``).
+        depth_poor_fit_max_ratio: that rule's answer is taken only when its depth score is at
+            most this many times the depth check's winner's (an answer that explains the image
+            far worse is a wrong pose, not a sign of a template unlike the object); 0: always.
         depth_fallback: the rule used when ``rule=depth`` has no depth image or no template mesh
             (``visibility``, ``chamfer`` or ``loss``).
     """
@@ -155,7 +158,7 @@ class SelectionSettings:
     depth_rest_prior: float = 0.0
     depth_top_k: int = 5
     depth_final_refine: int = 2
-    depth_final_distinct_deg: float = 10.0
+    depth_final_distinct_deg: float = 0.0
     depth_yaw_turns: int = 12
     depth_final_pixels: int = 2400
     depth_final_turns: int = 1
@@ -167,6 +170,7 @@ class SelectionSettings:
     depth_min_inliers: float = 0.9
     depth_fit_tau: float = 0.2
     depth_poor_fit_rule: str = "chamfer"
+    depth_poor_fit_max_ratio: float = 1.5
     depth_fallback: str = "visibility"
 
     def __post_init__(self) -> None:
@@ -187,6 +191,11 @@ class SelectionSettings:
             self,
             "depth_poor_fit_rule",
             options.one_of(k + "depth_poor_fit_rule", self.depth_poor_fit_rule, ("visibility", "chamfer", "loss")),
+        )
+        set_(
+            self,
+            "depth_poor_fit_max_ratio",
+            options.non_negative(k + "depth_poor_fit_max_ratio", self.depth_poor_fit_max_ratio),
         )
         set_(self, "depth_fine_distance", options.non_negative(k + "depth_fine_distance", self.depth_fine_distance))
         set_(

@@ -23,9 +23,11 @@ YAW="resting.grid_icp=\"yaw\""
 # the selection before depth_tau / depth_free_weight were chosen (below): every row measured then pins it
 TAU01="selection.depth_tau=0.1"
 FREE1="selection.depth_free_weight=1.0"
-# the last comparison before it took distinct poses (depth_final_distinct_deg, chosen after them)
+# the last comparison's poses not kept apart (depth_final_distinct_deg, tried after them; off), and the
+# poor-fit fallback's answer always taken (depth_poor_fit_max_ratio, chosen after them)
 D0="selection.depth_final_distinct_deg=0"
-OLD="$TAU01 $FREE1 $D0"
+R0="selection.depth_poor_fit_max_ratio=0"
+OLD="$TAU01 $FREE1 $D0 $R0"
 declare -A V=(
   [issue22]="$OLD $BEFORE"
   [grid12_turns]="$OLD $FULL selection.depth_half_turns=true"
@@ -46,31 +48,36 @@ declare -A V=(
   [sel_final_pixels300]="$OLD selection.depth_final_pixels=300"
   [sel_final_turns0]="$OLD selection.depth_final_turns=0"
   [sel_top_k8]="$OLD selection.depth_top_k=8"
-  [sel_tau0125]="$D0 $FREE1 selection.depth_tau=0.125"
-  [sel_tau015]="$D0 $FREE1 selection.depth_tau=0.15"
-  [sel_tau02]="$D0 $FREE1 selection.depth_tau=0.2"
-  [sel_free2]="$D0 $TAU01 selection.depth_free_weight=2.0"
-  [sel_free2_tau015]="$D0 selection.depth_free_weight=2.0 selection.depth_tau=0.15"  # the choice then (README.md)
+  [sel_tau0125]="$D0 $R0 $FREE1 selection.depth_tau=0.125"
+  [sel_tau015]="$D0 $R0 $FREE1 selection.depth_tau=0.15"
+  [sel_tau02]="$D0 $R0 $FREE1 selection.depth_tau=0.2"
+  [sel_free2]="$D0 $R0 $TAU01 selection.depth_free_weight=2.0"
+  [sel_free2_tau015]="$D0 $R0 selection.depth_free_weight=2.0 selection.depth_tau=0.15"  # the choice then (README.md)
   [grid_keep12]="$OLD resting.grid_keep=12"
   # the winner and its half turns polished on the final lattice's cost (step 5; off by default)
   [sel_polish3]="$OLD selection.depth_polish_levels=3"
   [sel_polish2_small]="$OLD selection.depth_polish_levels=2 selection.depth_polish_deg=2.0 selection.depth_polish_shift=0.02"
   # around the tolerance's defaults, before the last comparison took distinct poses
-  [sel_final_refine3]="$D0 selection.depth_final_refine=3"
-  [sel_final_turns3]="$D0 selection.depth_final_turns=3"
-  [sel_final_refine3_turns3]="$D0 selection.depth_final_refine=3 selection.depth_final_turns=3"
-  # the last comparison's poses distinct by more than 5 / 10 (the choice) / 20 / 30 deg
-  [sel_distinct5]="selection.depth_final_distinct_deg=5.0"
-  [sel_distinct20]="selection.depth_final_distinct_deg=20.0"
-  [sel_distinct30]="selection.depth_final_distinct_deg=30.0"
+  [sel_final_refine3]="$D0 $R0 selection.depth_final_refine=3"
+  [sel_final_turns3]="$D0 $R0 selection.depth_final_turns=3"
+  [sel_final_refine3_turns3]="$D0 $R0 selection.depth_final_refine=3 selection.depth_final_turns=3"
+  # the last comparison's poses distinct by more than 5 / 10 / 20 / 30 deg (not taken: dev2 below)
+  [sel_distinct5]="$R0 selection.depth_final_distinct_deg=5.0"
+  [sel_distinct10]="$R0 selection.depth_final_distinct_deg=10.0"
+  [sel_distinct20]="$R0 selection.depth_final_distinct_deg=20.0"
+  [sel_distinct30]="$R0 selection.depth_final_distinct_deg=30.0"
+  # the poor-fit fallback's answer declined when its depth cost is over 1.25 / 1.5 (the choice) / 2 x the
+  # winner's (sel_free2_tau015: always taken), or no fallback at all
+  [fit_ratio125]="selection.depth_poor_fit_max_ratio=1.25"
   [default]=""  # today's defaults
-  [no_fallback]="selection.depth_min_inliers=0.0"  # today's defaults without the poor-fit fallback
+  [fit_ratio2]="selection.depth_poor_fit_max_ratio=2.0"
+  [no_fallback]="selection.depth_min_inliers=0.0"
 )
 ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tpl512 issue44_final3 issue44_escalate
   yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 union
   sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015 grid_keep12
   sel_polish3 sel_polish2_small sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3
-  sel_distinct5 sel_distinct20 sel_distinct30 default no_fallback)
+  sel_distinct5 sel_distinct10 sel_distinct20 sel_distinct30 fit_ratio125 default fit_ratio2 no_fallback)
 for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
   if [ ! -s "$OUT/$v.jsonl" ]; then
     # shellcheck disable=SC2086  # the settings are words
@@ -79,13 +86,37 @@ for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
   fi
 done
 $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORDER[@]}"; do echo "$v=$OUT/$v.jsonl"; done)
+# More development scenes (200-399; configs/split/clutter_objects_dev2.yaml): the choices of the last round
+# (the settings before it, the distinct poses, the fallback's ratio, no fallback) on 635 more views
+[ -f "$OUT/dev2.pkl" ] || $PY $HERE/problems.py "$OUT/dev2.pkl" dataset=clutter "dataset.root=$SHARED/bop/ycbv" \
+  dataset.num_scenes=400 "dataset.scenes=[$(seq -s, 200 399)]"
+declare -A V2=(
+  [before]="$R0"  # the defaults before this round
+  [sel_distinct10]="$R0 selection.depth_final_distinct_deg=10.0"
+  [fit_ratio125]="selection.depth_poor_fit_max_ratio=1.25"
+  [default]=""
+  [fit_ratio2]="selection.depth_poor_fit_max_ratio=2.0"
+  [no_fallback]="selection.depth_min_inliers=0.0"
+)
+ORDER2=(before sel_distinct10 fit_ratio125 default fit_ratio2 no_fallback)
+mkdir -p "$OUT/dev2"
+for v in "${ORDER2[@]}"; do
+  if [ ! -s "$OUT/dev2/$v.jsonl" ]; then
+    # shellcheck disable=SC2086  # the settings are words
+    $PY $HERE/variants.py "$OUT/dev2/$v.jsonl.tmp" "$OUT/dev2.pkl" ${V2[$v]}
+    mv "$OUT/dev2/$v.jsonl.tmp" "$OUT/dev2/$v.jsonl"
+  fi
+done
+$PY $HERE/table.py --out results/search_recall/dev2_variants.md --split clutter_objects_dev2 \
+  --title "Ours on more clutter dev scenes (200-399), uniform resting poses" \
+  $(for v in "${ORDER2[@]}"; do echo "$v=$OUT/dev2/$v.jsonl"; done)
 # The embedded set's development seed (1), own model: the coarse search's ICP, each way
 EMB="$OUT/embedded_dev"
 ROWS=("full:resting.grid_icp=full resting.grid_beam=16 $OLD" "yaw:resting.grid_icp=yaw $OLD" "union:resting.grid_icp=union $OLD"
-  "polish:selection.depth_polish_levels=3 $OLD" "top_k8:selection.depth_top_k=8 $OLD" "tau0125:selection.depth_tau=0.125 $FREE1 $D0"
-  "tau015:selection.depth_tau=0.15 $FREE1 $D0" "tau02:selection.depth_tau=0.2 $FREE1 $D0"
-  "free2:selection.depth_free_weight=2.0 $TAU01 $D0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15 $D0"
-  "default:" "no_fallback:selection.depth_min_inliers=0.0")
+  "polish:selection.depth_polish_levels=3 $OLD" "top_k8:selection.depth_top_k=8 $OLD" "tau0125:selection.depth_tau=0.125 $FREE1 $D0 $R0"
+  "tau015:selection.depth_tau=0.15 $FREE1 $D0 $R0" "tau02:selection.depth_tau=0.2 $FREE1 $D0 $R0"
+  "free2:selection.depth_free_weight=2.0 $TAU01 $D0 $R0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15 $D0 $R0"
+  "distinct10:selection.depth_final_distinct_deg=10.0 $R0" "default:" "no_fallback:selection.depth_min_inliers=0.0")
 LABELS=() DIRS=()
 for row in "${ROWS[@]}"; do
   name=${row%%:*}; set --
@@ -99,10 +130,12 @@ done
 "${BENCH:-.venv/bin/bench}" table --force "${DIRS[@]}" "${LABELS[@]}" --layout generic --categories all \
   --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, own model: the coarse search's ICP; the selection's settings" \
   --out results/search_recall/embedded_dev.md
-# The same seed with the category templates (protocol templates): the poor-fit fallback, with and without
+# The same seed with the category templates (protocol templates): the poor-fit fallback always taken, with
+# today's ratio, and none
 TPL="$OUT/embedded_dev_templates"
 LABELS=() DIRS=()
-for row in "default:" "no_fallback:selection.depth_min_inliers=0.0"; do
+for row in "always:$R0" "ratio125:selection.depth_poor_fit_max_ratio=1.25" "default:" \
+  "ratio2:selection.depth_poor_fit_max_ratio=2.0" "no_fallback:selection.depth_min_inliers=0.0"; do
   name=${row%%:*}; set --
   for kv in ${row#*:}; do set -- "$@" "method.$kv"; done
   "${BENCH:-.venv/bin/bench}" run method=ours dataset=synthetic protocol=templates seed=1 output_root="$TPL/$name" \
