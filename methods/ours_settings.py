@@ -170,7 +170,7 @@ class SelectionSettings:
     depth_min_inliers: float = 0.9
     depth_fit_tau: float = 0.2
     depth_poor_fit_rule: str = "chamfer"
-    depth_poor_fit_max_ratio: float = 1.5
+    depth_poor_fit_max_ratio: float = 0.0
     depth_fallback: str = "visibility"
 
     def __post_init__(self) -> None:

@@ -147,9 +147,10 @@ def test_a_template_unlike_the_object_falls_back_to_the_point_rule(template):
 def test_the_fallback_is_declined_when_its_answer_explains_the_image_far_worse(template):
     """The point rule chooses among the own up's candidates: on a chair lying on its back its
     answer explains the depth image far worse than the depth check's winner, so with
-    ``depth_poor_fit_max_ratio`` (1.5) the winner stays; with 0 the point rule's answer is taken."""
+    ``depth_poor_fit_max_ratio`` 1.5 the winner stays; with 0 (the default) the point rule's answer
+    is taken."""
     p, T = scene_problem(template, 0, up_object=(1.0, 0.0, 0.0))
-    guarded = _ours(depth_min_inliers=1.01).register(p)
+    guarded = _ours(depth_min_inliers=1.01, depth_poor_fit_max_ratio=1.5).register(p)
     taken = _ours(depth_min_inliers=1.01, depth_poor_fit_max_ratio=0.0).register(p)
     assert taken.extras["depth_poor_fit"] is True and "depth_poor_fit_declined" not in taken.extras
     assert guarded.extras["depth_poor_fit"] is False and guarded.extras["depth_poor_fit_declined"] is True

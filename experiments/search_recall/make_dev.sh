@@ -24,7 +24,7 @@ YAW="resting.grid_icp=\"yaw\""
 TAU01="selection.depth_tau=0.1"
 FREE1="selection.depth_free_weight=1.0"
 # the last comparison's poses not kept apart (depth_final_distinct_deg, tried after them; off), and the
-# poor-fit fallback's answer always taken (depth_poor_fit_max_ratio, chosen after them)
+# poor-fit fallback's answer always taken (depth_poor_fit_max_ratio, tried after them; off)
 D0="selection.depth_final_distinct_deg=0"
 R0="selection.depth_poor_fit_max_ratio=0"
 OLD="$TAU01 $FREE1 $D0 $R0"
@@ -66,10 +66,11 @@ declare -A V=(
   [sel_distinct10]="$R0 selection.depth_final_distinct_deg=10.0"
   [sel_distinct20]="$R0 selection.depth_final_distinct_deg=20.0"
   [sel_distinct30]="$R0 selection.depth_final_distinct_deg=30.0"
-  # the poor-fit fallback's answer declined when its depth cost is over 1.25 / 1.5 (the choice) / 2 x the
-  # winner's (sel_free2_tau015: always taken), or no fallback at all
-  [fit_ratio125]="selection.depth_poor_fit_max_ratio=1.25"
+  # the poor-fit fallback's answer declined when its depth cost is over 1.25 / 1.5 / 2 x the winner's
+  # (today's default: always taken), or no fallback at all
   [default]=""  # today's defaults
+  [fit_ratio125]="selection.depth_poor_fit_max_ratio=1.25"
+  [fit_ratio15]="selection.depth_poor_fit_max_ratio=1.5"
   [fit_ratio2]="selection.depth_poor_fit_max_ratio=2.0"
   [no_fallback]="selection.depth_min_inliers=0.0"
 )
@@ -77,7 +78,7 @@ ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tp
   yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 union
   sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015 grid_keep12
   sel_polish3 sel_polish2_small sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3
-  sel_distinct5 sel_distinct10 sel_distinct20 sel_distinct30 fit_ratio125 default fit_ratio2 no_fallback)
+  sel_distinct5 sel_distinct10 sel_distinct20 sel_distinct30 default fit_ratio125 fit_ratio15 fit_ratio2 no_fallback)
 for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
   if [ ! -s "$OUT/$v.jsonl" ]; then
     # shellcheck disable=SC2086  # the settings are words
@@ -87,18 +88,18 @@ for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
 done
 $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORDER[@]}"; do echo "$v=$OUT/$v.jsonl"; done)
 # More development scenes (200-399; configs/split/clutter_objects_dev2.yaml): the choices of the last round
-# (the settings before it, the distinct poses, the fallback's ratio, no fallback) on 635 more views
+# (today's defaults, the distinct poses, the fallback's ratio, no fallback) on 635 more views
 [ -f "$OUT/dev2.pkl" ] || $PY $HERE/problems.py "$OUT/dev2.pkl" dataset=clutter "dataset.root=$SHARED/bop/ycbv" \
   dataset.num_scenes=400 "dataset.scenes=[$(seq -s, 200 399)]"
 declare -A V2=(
-  [before]="$R0"  # the defaults before this round
-  [sel_distinct10]="$R0 selection.depth_final_distinct_deg=10.0"
-  [fit_ratio125]="selection.depth_poor_fit_max_ratio=1.25"
   [default]=""
+  [sel_distinct10]="selection.depth_final_distinct_deg=10.0"
+  [fit_ratio125]="selection.depth_poor_fit_max_ratio=1.25"
+  [fit_ratio15]="selection.depth_poor_fit_max_ratio=1.5"
   [fit_ratio2]="selection.depth_poor_fit_max_ratio=2.0"
   [no_fallback]="selection.depth_min_inliers=0.0"
 )
-ORDER2=(before sel_distinct10 fit_ratio125 default fit_ratio2 no_fallback)
+ORDER2=(default sel_distinct10 fit_ratio125 fit_ratio15 fit_ratio2 no_fallback)
 mkdir -p "$OUT/dev2"
 for v in "${ORDER2[@]}"; do
   if [ ! -s "$OUT/dev2/$v.jsonl" ]; then
@@ -116,7 +117,8 @@ ROWS=("full:resting.grid_icp=full resting.grid_beam=16 $OLD" "yaw:resting.grid_i
   "polish:selection.depth_polish_levels=3 $OLD" "top_k8:selection.depth_top_k=8 $OLD" "tau0125:selection.depth_tau=0.125 $FREE1 $D0 $R0"
   "tau015:selection.depth_tau=0.15 $FREE1 $D0 $R0" "tau02:selection.depth_tau=0.2 $FREE1 $D0 $R0"
   "free2:selection.depth_free_weight=2.0 $TAU01 $D0 $R0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15 $D0 $R0"
-  "distinct10:selection.depth_final_distinct_deg=10.0 $R0" "default:" "no_fallback:selection.depth_min_inliers=0.0")
+  "distinct10:selection.depth_final_distinct_deg=10.0 $R0" "default:" "ratio15:selection.depth_poor_fit_max_ratio=1.5"
+  "no_fallback:selection.depth_min_inliers=0.0")
 LABELS=() DIRS=()
 for row in "${ROWS[@]}"; do
   name=${row%%:*}; set --
@@ -130,20 +132,25 @@ done
 "${BENCH:-.venv/bin/bench}" table --force "${DIRS[@]}" "${LABELS[@]}" --layout generic --categories all \
   --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, own model: the coarse search's ICP; the selection's settings" \
   --out results/search_recall/embedded_dev.md
-# The same seed with the category templates (protocol templates): the poor-fit fallback always taken, with
-# today's ratio, and none
+# The category templates (protocol templates) on the development seeds 1-3: the poor-fit fallback always
+# taken (today), declined over 1.25 / 1.5 / 2 x the winner's depth cost, none
 TPL="$OUT/embedded_dev_templates"
 LABELS=() DIRS=()
-for row in "always:$R0" "ratio125:selection.depth_poor_fit_max_ratio=1.25" "default:" \
-  "ratio2:selection.depth_poor_fit_max_ratio=2.0" "no_fallback:selection.depth_min_inliers=0.0"; do
-  name=${row%%:*}; set --
-  for kv in ${row#*:}; do set -- "$@" "method.$kv"; done
-  "${BENCH:-.venv/bin/bench}" run method=ours dataset=synthetic protocol=templates seed=1 output_root="$TPL/$name" \
-    progress=false print_summary=false "$@"
-  s=${row#*:}  # a label holds no "=" (bench table splits RUN_DIR=LABEL at the last one)
-  LABELS+=(--label "$(dirname "$(find "$TPL/$name" -name samples.jsonl | head -1)")=$name${s:+: ${s//=/ }}")
-  DIRS+=("$TPL/$name")
+R15="ratio15:selection.depth_poor_fit_max_ratio=1.5"
+for sd in 1 2 3; do
+  rows=("default:" "$R15")  # seeds 2 and 3: today's and the ratio 1.5 only
+  [ "$sd" = 1 ] && rows=("default:" "ratio125:selection.depth_poor_fit_max_ratio=1.25" "$R15"
+    "ratio2:selection.depth_poor_fit_max_ratio=2.0" "no_fallback:selection.depth_min_inliers=0.0")
+  for row in "${rows[@]}"; do
+    name=${row%%:*}; set --
+    for kv in ${row#*:}; do set -- "$@" "method.$kv"; done
+    "${BENCH:-.venv/bin/bench}" run method=ours dataset=synthetic protocol=templates seed=$sd output_root="$TPL/$name-seed$sd" \
+      progress=false print_summary=false "$@"
+    s=${row#*:}  # a label holds no "=" (bench table splits RUN_DIR=LABEL at the last one)
+    LABELS+=(--label "$(dirname "$(find "$TPL/$name-seed$sd" -name samples.jsonl | head -1)")=seed $sd, $name${s:+: ${s//=/ }}")
+    DIRS+=("$TPL/$name-seed$sd")
+  done
 done
 "${BENCH:-.venv/bin/bench}" table --force "${DIRS[@]}" "${LABELS[@]}" --layout generic --categories all \
-  --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, category templates: the poor-fit fallback" \
+  --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seeds 1-3, category templates: the poor-fit fallback" \
   --out results/search_recall/embedded_dev_templates.md
