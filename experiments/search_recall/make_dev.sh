@@ -79,35 +79,25 @@ ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tp
   sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015 grid_keep12
   sel_polish3 sel_polish2_small sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3
   sel_distinct5 sel_distinct10 sel_distinct20 sel_distinct30 default fit_ratio125 fit_ratio15 fit_ratio2 no_fallback)
-for v in "${ORDER[@]}"; do  # resumes: a finished variant is not run again
-  if [ ! -s "$OUT/$v.jsonl" ]; then
-    # shellcheck disable=SC2086  # the settings are words
-    $PY $HERE/variants.py "$OUT/$v.jsonl.tmp" "$OUT/dev.pkl" ${V[$v]}
-    mv "$OUT/$v.jsonl.tmp" "$OUT/$v.jsonl"
-  fi
-done
+variants() {  # $1: problems pickle, $2: folder of the per-sample lines, then the variants (rows of V)
+  local pkl=$1 dir=$2 v; shift 2
+  for v in "$@"; do  # resumes: a finished variant is not run again
+    if [ ! -s "$dir/$v.jsonl" ]; then
+      # shellcheck disable=SC2086  # the settings are words
+      $PY $HERE/variants.py "$dir/$v.jsonl.tmp" "$pkl" ${V[$v]}
+      mv "$dir/$v.jsonl.tmp" "$dir/$v.jsonl"
+    fi
+  done
+}
+variants "$OUT/dev.pkl" "$OUT" "${ORDER[@]}"
 $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORDER[@]}"; do echo "$v=$OUT/$v.jsonl"; done)
 # More development scenes (200-399; configs/split/clutter_objects_dev2.yaml): the choices of the last round
 # (today's defaults, the distinct poses, the fallback's ratio, no fallback) on 635 more views
 [ -f "$OUT/dev2.pkl" ] || $PY $HERE/problems.py "$OUT/dev2.pkl" dataset=clutter "dataset.root=$SHARED/bop/ycbv" \
   dataset.num_scenes=400 "dataset.scenes=[$(seq -s, 200 399)]"
-declare -A V2=(
-  [default]=""
-  [sel_distinct10]="selection.depth_final_distinct_deg=10.0"
-  [fit_ratio125]="selection.depth_poor_fit_max_ratio=1.25"
-  [fit_ratio15]="selection.depth_poor_fit_max_ratio=1.5"
-  [fit_ratio2]="selection.depth_poor_fit_max_ratio=2.0"
-  [no_fallback]="selection.depth_min_inliers=0.0"
-)
-ORDER2=(default sel_distinct10 fit_ratio125 fit_ratio15 fit_ratio2 no_fallback)
+ORDER2=(default sel_distinct10 fit_ratio125 fit_ratio15 fit_ratio2 no_fallback)  # rows of V
 mkdir -p "$OUT/dev2"
-for v in "${ORDER2[@]}"; do
-  if [ ! -s "$OUT/dev2/$v.jsonl" ]; then
-    # shellcheck disable=SC2086  # the settings are words
-    $PY $HERE/variants.py "$OUT/dev2/$v.jsonl.tmp" "$OUT/dev2.pkl" ${V2[$v]}
-    mv "$OUT/dev2/$v.jsonl.tmp" "$OUT/dev2/$v.jsonl"
-  fi
-done
+variants "$OUT/dev2.pkl" "$OUT/dev2" "${ORDER2[@]}"
 $PY $HERE/table.py --out results/search_recall/dev2_variants.md --split clutter_objects_dev2 \
   --title "Ours on more clutter dev scenes (200-399), uniform resting poses" \
   $(for v in "${ORDER2[@]}"; do echo "$v=$OUT/dev2/$v.jsonl"; done)
@@ -119,16 +109,18 @@ ROWS=("full:resting.grid_icp=full resting.grid_beam=16 $OLD" "yaw:resting.grid_i
   "free2:selection.depth_free_weight=2.0 $TAU01 $D0 $R0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15 $D0 $R0"
   "distinct10:selection.depth_final_distinct_deg=10.0 $R0" "default:" "ratio15:selection.depth_poor_fit_max_ratio=1.5"
   "no_fallback:selection.depth_min_inliers=0.0")
-LABELS=() DIRS=()
-for row in "${ROWS[@]}"; do
-  name=${row%%:*}; set --
+bench_row() {  # $1: protocol, $2: seed, $3: output folder, $4: label prefix, $5: NAME:SETTINGS -> LABELS, DIRS
+  local protocol=$1 seed=$2 dir=$3 prefix=$4 row=$5 kv s
+  local name=${row%%:*}; set --
   for kv in ${row#*:}; do set -- "$@" "method.$kv"; done
-  "${BENCH:-.venv/bin/bench}" run method=ours dataset=synthetic protocol=gt_model seed=1 output_root="$EMB/$name" \
+  "${BENCH:-.venv/bin/bench}" run method=ours dataset=synthetic protocol=$protocol seed=$seed output_root="$dir" \
     progress=false print_summary=false "$@"
   s=${row#*:}  # a label holds no "=" (bench table splits RUN_DIR=LABEL at the last one)
-  LABELS+=(--label "$(dirname "$(find "$EMB/$name" -name samples.jsonl | head -1)")=$name${s:+: ${s//=/ }}")
-  DIRS+=("$EMB/$name")
-done
+  LABELS+=(--label "$(dirname "$(find "$dir" -name samples.jsonl | head -1)")=$prefix$name${s:+: ${s//=/ }}")
+  DIRS+=("$dir")
+}
+LABELS=() DIRS=()
+for row in "${ROWS[@]}"; do bench_row gt_model 1 "$EMB/${row%%:*}" "" "$row"; done
 "${BENCH:-.venv/bin/bench}" table --force "${DIRS[@]}" "${LABELS[@]}" --layout generic --categories all \
   --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, own model: the coarse search's ICP; the selection's settings" \
   --out results/search_recall/embedded_dev.md
@@ -141,15 +133,7 @@ for sd in 1 2 3; do
   rows=("default:" "$R15")  # seeds 2 and 3: today's and the ratio 1.5 only
   [ "$sd" = 1 ] && rows=("default:" "ratio125:selection.depth_poor_fit_max_ratio=1.25" "$R15"
     "ratio2:selection.depth_poor_fit_max_ratio=2.0" "no_fallback:selection.depth_min_inliers=0.0")
-  for row in "${rows[@]}"; do
-    name=${row%%:*}; set --
-    for kv in ${row#*:}; do set -- "$@" "method.$kv"; done
-    "${BENCH:-.venv/bin/bench}" run method=ours dataset=synthetic protocol=templates seed=$sd output_root="$TPL/$name-seed$sd" \
-      progress=false print_summary=false "$@"
-    s=${row#*:}  # a label holds no "=" (bench table splits RUN_DIR=LABEL at the last one)
-    LABELS+=(--label "$(dirname "$(find "$TPL/$name-seed$sd" -name samples.jsonl | head -1)")=seed $sd, $name${s:+: ${s//=/ }}")
-    DIRS+=("$TPL/$name-seed$sd")
-  done
+  for row in "${rows[@]}"; do bench_row templates "$sd" "$TPL/${row%%:*}-seed$sd" "seed $sd, " "$row"; done
 done
 "${BENCH:-.venv/bin/bench}" table --force "${DIRS[@]}" "${LABELS[@]}" --layout generic --categories all \
   --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seeds 1-3, category templates: the poor-fit fallback" \
