@@ -41,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from catpose import kernel_threads
 from catpose.kabsch import DEGENERATE_RATIO, rank_one_rotation
 
 #: distances below this are clamped in the IRLS weights (object-normalised units)
@@ -191,7 +192,8 @@ def solve_numpy(
         A: (m, n, 2n) affinities; T0: (m, 4, 4) initial ``T_template_camera``.
         compiled: run the compiled CPU kernel (:mod:`catpose.methods.irls_kernel`, the same
             steps in float64) instead of torch; None: it on ``cpu`` in float64 when numba
-            imports, torch otherwise.
+            imports, torch otherwise. Its candidates are split over the run's ``threads``
+            (:mod:`catpose.kernel_threads`; the same bits on any count).
 
     Returns:
         poses (m, 4, 4) float64 (re-orthonormalised), losses (m,) ``sum C d / n`` (mean
@@ -209,17 +211,16 @@ def solve_numpy(
         R = np.ascontiguousarray(T0[:, :3, :3], dtype=np.float64).copy()
         t = np.ascontiguousarray(T0[:, :3, 3], dtype=np.float64).copy()
         codes = np.array([_STAGE_CODES[s] for s in stages], dtype=np.int64)
-        loss, C, iters = kernel.solve(
-            np.ascontiguousarray(P_c, dtype=np.float64),
-            np.ascontiguousarray(P_t, dtype=np.float64),
-            np.ascontiguousarray(A, dtype=np.float64),
-            R,
-            t,
-            codes,
-            float(beta),
-            int(max_iter),
-            float(tol),
-        )
+        P = np.ascontiguousarray(P_c, dtype=np.float64)
+        Q, A64 = np.ascontiguousarray(P_t, dtype=np.float64), np.ascontiguousarray(A, dtype=np.float64)
+
+        def run(lo: int, hi: int):  # candidates lo..hi-1 (R, t in place), one by one as in one call
+            return kernel.solve(
+                P, Q[lo:hi], A64[lo:hi], R[lo:hi], t[lo:hi], codes, float(beta), int(max_iter), float(tol)
+            )
+
+        parts = kernel_threads.split(run, len(R))
+        loss, C, iters = (np.concatenate([p[k] for p in parts]) for k in range(3))
         U, _, Vt = np.linalg.svd(R)
         T = np.tile(np.eye(4), (len(R), 1, 1))
         T[:, :3, :3], T[:, :3, 3] = U @ Vt, t

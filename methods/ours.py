@@ -172,8 +172,8 @@ class Ours(RegistrationMethod):
             shared.keypoints,
             shared.stacked,
             complete,
-            cell_grid.build(template.points, sel.refine_max_distance),
-            cell_grid.build(template.points, sel.visibility_trunc),
+            cell_grid.build(template.points, sel.refine_max_distance, cell_grid.CACHED_CELLS_PER_REACH),
+            cell_grid.build(template.points, sel.visibility_trunc, cell_grid.CACHED_CELLS_PER_REACH),
             cKDTree(template.points),
         )
         self._features.put(key, feats)
@@ -386,7 +386,8 @@ class Ours(RegistrationMethod):
         hit = self._grids.get(key)
         if hit is None:  # a farthest-point subset of the template: fewer pairs to search at the long reach
             keep = farthest_point_indices(tpl.points, min(rs.grid_template_points, len(tpl.points)))
-            hit = (cell_grid.build(tpl.points[keep], rs.grid_max_distance), tpl.normals[keep])
+            grid = cell_grid.build(tpl.points[keep], rs.grid_max_distance, cell_grid.CACHED_CELLS_PER_REACH)
+            hit = (grid, tpl.normals[keep])
             self._grids.put(key, hit)
         g = np.asarray(problem.ground_normal_camera, dtype=np.float64)
         g = g / np.linalg.norm(g)

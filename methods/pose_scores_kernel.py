@@ -6,8 +6,9 @@ the template points whose outward normal faces the camera centre ``T[:3, 3]``), 
 neighbour searches on :class:`~catpose.cell_grid.CellGrid` s (reach ``trunc`` at least) instead of
 KD-trees: the template's grid for the first term; for the second the visible template points are mapped back into the
 camera frame (``d(v, T X) = d(T^-1 v, X)`` for a rigid ``T``) and searched in one grid of the
-input, built once per problem instead of one KD-tree per pose. The NumPy version is the reference
-in ``tests/test_cell_grid.py``.
+input, built once per problem instead of one KD-tree per pose. The poses are split over the run's
+``threads`` (:mod:`catpose.kernel_threads`). The NumPy version is the reference in
+``tests/test_cell_grid.py``.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from catpose import cell_grid
+from catpose import cell_grid, kernel_threads
 from catpose.cell_grid import CellGrid
 from catpose.point_to_plane_kernel import transform_point
 
@@ -37,15 +38,14 @@ def visibility_scores(
         )
     T = np.ascontiguousarray(T_template_camera, dtype=np.float64).reshape(-1, 4, 4)
     out = np.empty(len(T))
-    _scores_into(
-        np.ascontiguousarray(points_camera, dtype=np.float64),
-        *cell_grid.arrays(input_grid),
-        *cell_grid.arrays(template_grid),
-        np.ascontiguousarray(template_normals, dtype=np.float64),
-        T,
-        float(trunc),
-        out,
-    )
+    points = np.ascontiguousarray(points_camera, dtype=np.float64)
+    grids = (*cell_grid.arrays(input_grid), *cell_grid.arrays(template_grid))
+    normals = np.ascontiguousarray(template_normals, dtype=np.float64)
+
+    def run(lo: int, hi: int) -> None:  # poses lo..hi-1, each on one thread (the same bits on any count)
+        _scores_into(points, *grids, normals, T[lo:hi], float(trunc), out[lo:hi])
+
+    kernel_threads.split(run, len(T))
     return out
 
 

@@ -180,6 +180,12 @@ perf() {
     "$B" perf --n 12 --repeat 3 --methods $M --set adam:optimiser.solver=adam --dataset ycbv \
       --root "$SHARED/bop/ycbv" --out "$P/perf_ycbv.csv"
   fi
+  # ours with its compiled search split over both CPUs (threads=2; the same results as threads=1)
+  "$B" perf --n 12 --repeat 3 --methods ours,fgr --threads 2 --out "$P/perf_synthetic_threads2.csv"
+  if [ -d "$SHARED/bop/ycbv" ]; then
+    "$B" perf --n 12 --repeat 3 --methods ours,fgr --threads 2 --dataset ycbv --root "$SHARED/bop/ycbv" \
+      --out "$P/perf_ycbv_threads2.csv"
+  fi
   if [ -d "$SHARED/bop/ycbv" ]; then  # the first registration of a template in a new process, cache cold and warm
     "$B" perf --first-sample --dataset ycbv --root "$SHARED/bop/ycbv" --templates 3 --repeat 3 \
       --out "$P/first_sample_ycbv.csv"

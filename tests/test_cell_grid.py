@@ -23,8 +23,9 @@ def _shell(rng: np.random.Generator, n: int) -> np.ndarray:
     return p / np.linalg.norm(p, axis=1, keepdims=True) * rng.uniform(0.6, 1.0, (n, 1))
 
 
+@pytest.mark.parametrize("cells_per_reach", [1, 2, 3])
 @pytest.mark.parametrize("reach", [0.03, 0.05, 0.2])
-def test_nearest_matches_a_kd_tree_within_the_reach(reach: float) -> None:
+def test_nearest_matches_a_kd_tree_within_the_reach(reach: float, cells_per_reach: int) -> None:
     rng = np.random.default_rng(0)
     points = _shell(rng, 1500)
     queries = np.concatenate(
@@ -35,7 +36,8 @@ def test_nearest_matches_a_kd_tree_within_the_reach(reach: float) -> None:
             rng.normal(scale=50.0, size=(20, 3)),
         ]
     )  # far outside the grid
-    grid = cell_grid.build(points, reach)
+    grid = cell_grid.build(points, reach, cells_per_reach)
+    assert grid.cell in {reach / cells_per_reach * 2.0**k for k in range(3)}  # coarser past MAX_CELLS
     tree = cKDTree(points)
     for radius in (reach / 3, reach):
         d, j = cell_grid.nearest(grid, queries, radius)
@@ -66,6 +68,8 @@ def test_nearest_edge_cases() -> None:
         cell_grid.build(np.array([[0.0, np.nan, 0.0]]), 0.1)
     with pytest.raises(ValueError, match="reach must be > 0"):
         cell_grid.build(points, 0.0)
+    with pytest.raises(ValueError, match="cells_per_reach must be"):
+        cell_grid.build(points, 0.3, 0)
 
 
 def test_huge_extent_coarsens_the_grid_and_stays_exact() -> None:

@@ -3,6 +3,7 @@ nothing measured (catpose.bench.perf.summary)."""
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import pytest
@@ -31,14 +32,26 @@ def test_tables_from_the_csvs(tmp_path: Path):
     written = summary.write_tables(tmp_path)
     assert [p.name for p in written] == ["speed.md", "stages.md", "gpu.md"]
     speed = (tmp_path / "speed.md").read_text()
-    assert "| synthetic (gt_model, seed 0) | ours | 36 | 0.048 | 0.058 | 1.23 | 0.63 / 1.12 | 2 | 758 |" in speed
-    assert "| synthetic (gt_model, seed 0) | fgr | 36 | 0.039 | 0.060 | 1.00 |" in speed
+    assert "| synthetic (gt_model, seed 0) | ours | 1 | 36 | 0.048 | 0.058 | 1.23 | 0.63 / 1.12 | 2 | 758 |" in speed
+    assert "| synthetic (gt_model, seed 0) | fgr | 1 | 36 | 0.039 | 0.060 | 1.00 |" in speed
     stages = (tmp_path / "stages.md").read_text()
     assert "| stage | synthetic |" in stages and "| refinement | 0.0151 |" in stages
     assert (
         "| gpu_solver_h200.csv | NVIDIA H200 | 16 | 1.65 | 0.00317 | float32 | 2.11.0 |"
         in (tmp_path / "gpu.md").read_text()
     )
+
+
+def test_the_threads_column_labels_each_row(tmp_path: Path):
+    """A row measured with ``bench perf --threads 2`` says 2; a CSV without the column says ``-``."""
+    import pandas as pd
+
+    (tmp_path / "perf_synthetic.csv").write_text(PERF.replace(",cpu,1,1,", ",cpu,1,2,"))
+    old = pd.read_csv(io.StringIO(PERF.replace("synthetic", "ycbv"))).drop(columns="threads")
+    old.to_csv(tmp_path / "perf_ycbv.csv", index=False)
+    speed = summary.speed_table(tmp_path)
+    assert "| synthetic (gt_model, seed 0) | ours | 2 | 36 | 0.048 |" in speed
+    assert "| ycbv (gt_model, seed 0) | ours | - | 36 | 0.048 |" in speed
 
 
 def test_no_csv_is_one_line(tmp_path: Path):

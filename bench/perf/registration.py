@@ -16,8 +16,9 @@ How it measures, so that the numbers can be trusted:
   order rotates per round), so load changes on a shared machine hit all methods alike; every
   call is seeded as in ``bench run``;
 - per method: median, mean and p90 seconds per registration and the ratio of its median to FGR's
-  median from the same run; the process' peak RSS (``ru_maxrss``) and the load average before
-  and after are printed and written with the table;
+  median from the same run; the process' peak RSS (``ru_maxrss``), the load average before
+  and after and the ``--threads`` used (the runs' ``threads`` key: ours' compiled kernels and
+  torch) are printed and written with the table;
 - the table is also written as CSV (``--out``, default ``outputs/perf/<parameters>.csv``) with the
   raw per-registration times beside it (``*_times.csv``) and, for ``ours``, the per-stage medians.
 
@@ -50,7 +51,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from catpose import extras
+from catpose import extras, kernel_threads
 from catpose.errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -307,7 +308,13 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--categories", default=None, help="comma-separated categories (sets dataset.categories)")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--threads", type=int, default=1, help="torch intra-op threads (default 1)")
+    ap.add_argument(
+        "--threads",
+        type=int,
+        default=1,
+        help="the runs' threads key: ours' compiled kernels split over this many threads, and torch's intra-op "
+        "threads (default 1)",
+    )
     ap.add_argument(
         "--set",
         action="append",
@@ -319,8 +326,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--batch", type=int, default=1, help="problems per ours register_batch call (default 1)")
     ap.add_argument("--out", default=None, help="CSV path (default outputs/perf/<parameters>.csv)")
     args = ap.parse_args(argv)
-    if args.n < 1 or args.repeat < 1 or args.batch < 1:
-        raise ConfigError("--n, --repeat and --batch must be at least 1")
+    if args.n < 1 or args.repeat < 1 or args.batch < 1 or args.threads < 1:
+        raise ConfigError("--n, --repeat, --batch and --threads must be at least 1")
     for kv in args.set + args.dataset_set:
         if "=" not in kv:
             raise ConfigError(f"--set/--dataset-set {kv!r} is not KEY=VALUE")
@@ -334,7 +341,7 @@ def main(argv: list[str] | None = None) -> int:
             )
     from tabulate import tabulate
 
-    extras.set_torch_threads(max(1, args.threads))
+    kernel_threads.set_threads(args.threads)
     load_before = os.getloadavg()
     ds_over = [f"dataset.{kv}" for kv in args.dataset_set]
     if args.categories:
@@ -363,10 +370,10 @@ def main(argv: list[str] | None = None) -> int:
     ]
 
     print(
-        f"problems: {len(problems)} from {source}; {args.repeat} interleaved rounds; torch threads "
-        f"{extras.torch_threads() or 'n/a (no torch)'}; ours on {args.device}, batch {args.batch}; load average "
-        f"{load_before[0]:.1f} before, {load_after[0]:.1f} after on {os.cpu_count()} CPUs; "
-        f"peak RSS {peak_rss:.0f} MiB (the process, all methods)"
+        f"problems: {len(problems)} from {source}; {args.repeat} interleaved rounds; threads "
+        f"{kernel_threads.threads()} (torch: {extras.torch_threads() or 'n/a, not installed'}); "
+        f"ours on {args.device}, batch {args.batch}; load average {load_before[0]:.1f} before, "
+        f"{load_after[0]:.1f} after on {os.cpu_count()} CPUs; peak RSS {peak_rss:.0f} MiB (the process, all methods)"
     )
     print(tabulate(rows, headers="keys", tablefmt="github", floatfmt=".3f"))
     if stage_rows:
@@ -378,7 +385,7 @@ def main(argv: list[str] | None = None) -> int:
         "repeat": args.repeat,
         "device": args.device,
         "batch": args.batch,
-        "threads": extras.torch_threads(),
+        "threads": kernel_threads.threads(),
         "load_before": round(load_before[0], 2),
         "load_after": round(load_after[0], 2),
         "cpus": os.cpu_count(),

@@ -5,9 +5,10 @@
 reads ``perf_<set>.csv`` and ``perf_<set>_stages.csv`` (``bench perf --out results/perf/perf_<set>.csv``)
 and ``gpu_solver_*.csv`` (``bench/perf/gpu.py --out``) in ``--dir`` and writes there:
 
-- ``speed.md``: per problem set and method, the median and 90th-percentile seconds per
-  registration, the ratio to FGR's median in the same run, the load average before and after
-  and the process's peak RSS;
+- ``speed.md``: per problem set and method, the threads it ran on (``bench perf --threads``: ours'
+  compiled kernels and torch), the median and 90th-percentile seconds per registration, the
+  ratio to FGR's median in the same run, the load average before and after and the process's
+  peak RSS;
 - ``stages.md``: ours' stages, median seconds, one column per problem set;
 - ``gpu.md``: the solver alone per device and batch (ms per problem, largest rotation
   difference to the CPU float64 solver).
@@ -29,6 +30,13 @@ def _sets(folder: Path) -> list[str]:
     )
 
 
+def _threads(value: object) -> str:
+    """A CSV's ``threads`` cell: the count, or ``-`` where there is none (no column, an empty cell)."""
+    if isinstance(value, (int, float)) and value == value:  # NaN != NaN: an empty cell
+        return str(int(value))
+    return "-"
+
+
 def speed_table(folder: Path) -> str:
     """``speed.md``'s Markdown (see the module docstring)."""
     import pandas as pd
@@ -37,14 +45,15 @@ def speed_table(folder: Path) -> str:
         "**Seconds per registration** (`bench perf`, interleaved rounds; "
         "median and 90th percentile of the timed calls; a method label names a config, e.g. `adam` = ours with `method.optimiser.solver=adam`)",
         "",
-        "| problems | method | timed calls | median s | p90 s | median / FGR's | load before / after | CPUs | peak RSS MiB |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|",
+        "| problems | method | threads | timed calls | median s | p90 s | median / FGR's | load before / after | CPUs "
+        "| peak RSS MiB |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for name in _sets(folder):
         df = pd.read_csv(folder / f"perf_{name}.csv")
         for r in df.to_dict("records"):
             lines.append(
-                f"| {r['source']} | {r['method']} | {int(r['n'])} | {r['median_s']:.3f} | "
+                f"| {r['source']} | {r['method']} | {_threads(r.get('threads'))} | {int(r['n'])} | {r['median_s']:.3f} | "
                 f"{r['p90_s']:.3f} | {r['ratio_to_fgr']:.2f} | {r['load_before']:.2f} / {r['load_after']:.2f} | "
                 f"{int(r['cpus'])} | {r['peak_rss_mb']:.0f} |"
             )

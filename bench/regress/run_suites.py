@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from catpose import extras
+from catpose import kernel_threads
 from catpose.bench.regress.regress_gate import (
     Finding,
     Gate,
@@ -176,7 +176,7 @@ def run_method(suite: Suite, method_name: str, transform: Callable | None = None
     from catpose.bench.run.sample_run import run_one
 
     cfg = _compose(suite, method_name)
-    extras.set_torch_threads(cfg.get("threads"))
+    kernel_threads.set_threads(cfg.get("threads"))
     _, method = build_from_config(cfg.method, "method")
     dataset, protocol, ids = suite_samples(suite, transform)
     base = {"method": method_name, "dataset": suite.dataset, "protocol": suite.protocol, "seed": suite.seed}

@@ -39,7 +39,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from catpose import extras
+from catpose import extras, kernel_threads
 from catpose.bench.run.build import build_choice, build_parts, validate_run_options
 from catpose.bench.run.choice_facts import facts_hook
 from catpose.bench.run.evaluate import format_summary, summarize_run
@@ -187,7 +187,7 @@ def run(cfg: Any, overrides: Iterable[str] = (), run_dir: Path | None = None) ->
 def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts, run_dir: Path | None = None) -> Path:
     """Build the pieces, list the samples, lock the run directory and run (see :func:`run`)."""
     import_heavy_libraries(interrupts, _EARLY_MODULES)
-    extras.set_torch_threads(cfg.get("threads"))
+    kernel_threads.set_threads(cfg.get("threads"))
     method_name, method, dataset, protocol = build_parts(cfg)
     facts = facts_hook(protocol, build_choice(cfg))  # a templates run's choice facts after each registration
     dataset_name = dataset.name

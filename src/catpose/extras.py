@@ -88,8 +88,8 @@ def torch_threads() -> int | None:
 
 
 def set_torch_threads(n: int | None) -> None:
-    """torch's intra-op threads (the runs' ``threads`` key), where torch is installed; without
-    torch nothing uses them."""
+    """torch's intra-op threads, where torch is installed; without torch nothing uses them. The
+    runs' ``threads`` key sets them with the kernels' count (:func:`catpose.kernel_threads.set_threads`)."""
     if n and installed("torch"):
         import torch
 

@@ -8,8 +8,9 @@ that normal's direction ``a`` in the target frame, each step solves
 ``w`` about ``a`` (applied on the left, so the resting direction stays where it was) and
 translates by ``t``. Stops on a step below 1e-7 or with fewer than 4 pairs. Same pairing
 (:class:`~catpose.cell_grid.CellGrid`, exact within ``max_distance``) and the same one-thread,
-fixed-order float64 arithmetic as :mod:`catpose.point_to_plane_kernel`; tested against a NumPy
-reference in ``tests/test_yaw_icp_kernel.py``.
+fixed-order float64 arithmetic as :mod:`catpose.point_to_plane_kernel` (starts split over the
+run's ``threads`` the same way); tested against a NumPy reference in
+``tests/test_yaw_icp_kernel.py``.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from catpose import cell_grid
+from catpose import cell_grid, kernel_threads
 from catpose.cell_grid import CellGrid
 from catpose.point_to_plane_kernel import (
     normal_equations,
@@ -49,15 +50,14 @@ def refine_yaw_many(
     A = A / np.linalg.norm(A, axis=1, keepdims=True)
     if len(A) != len(T):
         raise ValueError(f"refine_yaw_many: {len(T)} starts but {len(A)} axes")
-    _refine_yaw_into(
-        np.ascontiguousarray(points, dtype=np.float64),
-        *cell_grid.arrays(grid),
-        np.ascontiguousarray(target_normals, dtype=np.float64),
-        T,
-        A,
-        float(max_distance),
-        int(iterations),
-    )
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    arrays = cell_grid.arrays(grid)
+    normals = np.ascontiguousarray(target_normals, dtype=np.float64)
+
+    def run(lo: int, hi: int) -> None:  # the starts lo..hi-1, in place
+        _refine_yaw_into(points, *arrays, normals, T[lo:hi], A[lo:hi], float(max_distance), int(iterations))
+
+    kernel_threads.split(run, len(T))
     return T
 
 

@@ -5,7 +5,8 @@ OpenBLAS is inherited half-way through a fork). Each builds the same method and 
 parent's recipe (the normalised template travels whole, so no worker re-samples a mesh) and
 prepares it, loading the template's dictionary and descriptors from the disk cache that the
 parent's preparation filled. Every call is seeded as in the parent, so the answers equal those of
-one process; they come back in the order of the views. Torch uses one thread per worker.
+one process; they come back in the order of the views. Each worker uses one thread (the runs'
+``threads`` key at 1: ours' compiled kernels and torch).
 """
 
 from __future__ import annotations
@@ -41,11 +42,10 @@ def _config_name(registrar: Any) -> str | None:
 
 def _start(recipe: bytes) -> None:
     global _WORKER
-    import torch
-
+    from catpose import kernel_threads
     from catpose.api.registrar import Registrar
 
-    torch.set_num_threads(1)
+    kernel_threads.set_threads(1)  # the processes are the parallelism: one thread each, torch's too
     template, method, options = pickle.loads(recipe)
     _WORKER = Registrar(template, method, **options)
 
