@@ -201,18 +201,30 @@ class DepthVerifier:
         well a pose fits, in units that do not depend on the object's size."""
         return self.fits(T_template_camera, (self.tau if tolerance is None else float(tolerance),))[0]
 
-    def fits(self, T_template_camera: np.ndarray, tolerances: tuple[float, ...]) -> np.ndarray:
-        """(len(tolerances), B, 2): :meth:`fit` at each tolerance, the poses rendered once."""
+    def fits(self, T_template_camera: np.ndarray, tolerances: tuple[float, ...], erode_px: int = 0) -> np.ndarray:
+        """(len(tolerances), B, 2): :meth:`fit` at each tolerance, the poses rendered once. With
+        ``erode_px`` > 0 the explained fraction counts only the mask pixels at least that many
+        image pixels inside the mask's edge (the whole mask where none are)."""
         L = self.lattice
-        n_mask = max(self.mask_pixels, 1)
+        inner = self._inner_mask(int(erode_px)) if erode_px > 0 else L.mask
+        n_mask = max(int(inner.sum()), 1)
         out = np.zeros((len(tolerances), len(np.asarray(T_template_camera).reshape(-1, 4, 4)), 2))
         for b, (win, r) in enumerate(self.render(T_template_camera)):
             if win is None:
                 continue
-            o, m = L.depth[win], L.mask[win]
+            o, m, mi = L.depth[win], L.mask[win], inner[win]
             hit = r > 0
             for t, tol in enumerate(tolerances):
-                inliers = (m & hit & (np.abs(r - o) <= tol)).sum()
+                inliers = (mi & hit & (np.abs(r - o) <= tol)).sum()
                 free = (~m & hit & (o > 0) & (o - r > tol)).sum()
                 out[t, b] = (inliers / n_mask, free / n_mask)
         return out
+
+    def _inner_mask(self, erode_px: int) -> np.ndarray:
+        """The lattice's mask pixels at least ``erode_px`` image pixels inside the mask's edge
+        (the whole lattice mask where erosion leaves none)."""
+        from scipy.ndimage import binary_erosion
+
+        L = self.lattice
+        inner = binary_erosion(self.image.mask, iterations=erode_px)[np.ix_(L.rows, L.cols)]
+        return inner if inner.any() else L.mask

@@ -134,6 +134,9 @@ class SelectionSettings:
             this within ``depth_fit_tau``, the template is taken to be unlike the object and
             ``depth_poor_fit_rule`` chooses among the candidates of the template's own up instead.
         depth_fit_tau: ``depth``: the tolerance of that test (object-normalised unit).
+        depth_fit_erode_px: ``depth``: that test counts only the mask pixels at least this many
+            image pixels inside the mask's edge (0: the whole mask): a mask that bleeds onto
+            its neighbours or misses its own rim leaves the inside explained by a right pose.
         depth_poor_fit_rule: that rule (``chamfer``, ``visibility`` or ``loss``).
         depth_poor_fit_max_ratio: that rule's answer is taken only when its depth score is at
             most this many times the depth check's winner's (an answer that explains the image
@@ -167,8 +170,9 @@ class SelectionSettings:
     depth_polish_shift: float = 0.04
     depth_half_turns: bool = False
     depth_fine_distance: float = 0.0
-    depth_min_inliers: float = 0.9
+    depth_min_inliers: float = 0.95
     depth_fit_tau: float = 0.2
+    depth_fit_erode_px: int = 3
     depth_poor_fit_rule: str = "chamfer"
     depth_poor_fit_max_ratio: float = 0.0
     depth_fallback: str = "visibility"
@@ -187,6 +191,11 @@ class SelectionSettings:
         set_(self, "depth_free_weight", options.non_negative(k + "depth_free_weight", self.depth_free_weight))
         set_(self, "depth_min_inliers", options.non_negative(k + "depth_min_inliers", self.depth_min_inliers))
         set_(self, "depth_fit_tau", options.positive(k + "depth_fit_tau", self.depth_fit_tau))
+        set_(
+            self,
+            "depth_fit_erode_px",
+            options.non_negative(k + "depth_fit_erode_px", self.depth_fit_erode_px, integer=True),
+        )
         set_(
             self,
             "depth_poor_fit_rule",

@@ -140,3 +140,27 @@ def test_a_pose_rendered_lately_is_not_cast_again(monkeypatch):
     fresh = DepthVerifier(tpl, image, tau=0.1, target_pixels=300)
     np.testing.assert_array_equal(many, [fresh.scores(T[None])[0] for T in shifted])
     assert v.scores(T_gt[None])[0] == s[0]
+
+
+def test_the_inner_fit_ignores_a_mask_that_bleeds_over_its_edge():
+    """A segmentation grown by 2 px onto the backdrop (real masks' edges are off by a pixel or two)
+    leaves the true pose's whole-mask fit at about 0.9; counted 3 px inside the mask's edge it is
+    over 0.99 again, while a pose half a turn off stays short inside too (the erosion is a reference:
+    scipy.ndimage, pixel by pixel)."""
+    from scipy.ndimage import binary_dilation, binary_erosion
+
+    tpl = _template()
+    image, T_true = _view(tpl)
+    bled = DepthImage(image.depth, image.K, binary_dilation(image.mask, iterations=2) & (image.depth > 0))
+    v = DepthVerifier(tpl, bled, tau=0.05, target_pixels=10**6, max_rays=10**6)  # stride 1: every pixel
+    whole, inner = v.fits(T_true[None], (0.05,))[0, 0, 0], v.fits(T_true[None], (0.05,), 3)[0, 0, 0]
+    assert whole < 0.95 and inner > 0.99
+    # the denominator is the eroded mask's pixel count
+    n_inner = int(binary_erosion(bled.mask, iterations=3).sum())
+    win, r = v.render(T_true[None])[0]
+    inside = binary_erosion(bled.mask, iterations=3)[win]
+    assert inner == pytest.approx(((r > 0) & (np.abs(r - bled.depth[win]) <= 0.05) & inside).sum() / n_inner)
+    T_turned = compose_T(half_turns()[1], T_true)
+    assert v.fits(T_turned[None], (0.05,), 3)[0, 0, 0] < 0.9
+    # an erosion that leaves nothing falls back to the whole mask
+    assert v.fits(T_true[None], (0.05,), 10**4)[0, 0, 0] == pytest.approx(whole)

@@ -136,6 +136,24 @@ def test_without_a_depth_image_the_fallback_rule_answers(template):
     assert "depth_score" not in a.extras
 
 
+def test_a_mask_bleeding_over_its_edge_is_not_a_poor_fit(template):
+    """The poor-fit test counts the mask's pixels 3 px inside its edge (``depth_fit_erode_px``):
+    a segmentation grown by 2 px onto the table leaves the right template's fit whole there, where
+    the whole mask's would send the view to the point rule."""
+    from scipy.ndimage import binary_dilation
+
+    p, T_true = scene_problem(template, 1)
+    img = p.depth_image
+    bled = replace(
+        p, depth_image=DepthImage(img.depth, img.K, binary_dilation(img.mask, iterations=2) & (img.depth > 0))
+    )
+    inner = _ours().register(bled)  # the defaults: 3 px inside the edge, 0.95
+    whole = _ours(depth_fit_erode_px=0).register(bled)
+    assert whole.extras["depth_inliers_loose"] < 0.95 <= inner.extras["depth_inliers_loose"]
+    assert whole.extras["depth_poor_fit"] is True and inner.extras["depth_poor_fit"] is False
+    assert rotation_error_deg(inner.T_template_camera[:3, :3], T_true[:3, :3]) < 10
+
+
 def test_a_template_unlike_the_object_falls_back_to_the_point_rule(template):
     p, _ = scene_problem(template, 1)
     r = _ours(depth_min_inliers=1.01).register(p)  # no pose can explain more than every pixel

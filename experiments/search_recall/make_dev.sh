@@ -27,7 +27,9 @@ FREE1="selection.depth_free_weight=1.0"
 # poor-fit fallback's answer always taken (depth_poor_fit_max_ratio, tried after them; off)
 D0="selection.depth_final_distinct_deg=0"
 R0="selection.depth_poor_fit_max_ratio=0"
-OLD="$TAU01 $FREE1 $D0 $R0"
+# the poor-fit test on the whole mask at 0.9 (before depth_fit_erode_px 3 / depth_min_inliers 0.95 were chosen)
+E0="selection.depth_fit_erode_px=0 selection.depth_min_inliers=0.9"
+OLD="$TAU01 $FREE1 $D0 $R0 $E0"
 declare -A V=(
   [issue22]="$OLD $BEFORE"
   [grid12_turns]="$OLD $FULL selection.depth_half_turns=true"
@@ -48,37 +50,45 @@ declare -A V=(
   [sel_final_pixels300]="$OLD selection.depth_final_pixels=300"
   [sel_final_turns0]="$OLD selection.depth_final_turns=0"
   [sel_top_k8]="$OLD selection.depth_top_k=8"
-  [sel_tau0125]="$D0 $R0 $FREE1 selection.depth_tau=0.125"
-  [sel_tau015]="$D0 $R0 $FREE1 selection.depth_tau=0.15"
-  [sel_tau02]="$D0 $R0 $FREE1 selection.depth_tau=0.2"
-  [sel_free2]="$D0 $R0 $TAU01 selection.depth_free_weight=2.0"
-  [sel_free2_tau015]="$D0 $R0 selection.depth_free_weight=2.0 selection.depth_tau=0.15"  # the choice then (README.md)
+  [sel_tau0125]="$E0 $D0 $R0 $FREE1 selection.depth_tau=0.125"
+  [sel_tau015]="$E0 $D0 $R0 $FREE1 selection.depth_tau=0.15"
+  [sel_tau02]="$E0 $D0 $R0 $FREE1 selection.depth_tau=0.2"
+  [sel_free2]="$E0 $D0 $R0 $TAU01 selection.depth_free_weight=2.0"
+  [sel_free2_tau015]="$E0 $D0 $R0 selection.depth_free_weight=2.0 selection.depth_tau=0.15"  # the choice then (README.md)
   [grid_keep12]="$OLD resting.grid_keep=12"
   # the winner and its half turns polished on the final lattice's cost (step 5; off by default)
   [sel_polish3]="$OLD selection.depth_polish_levels=3"
   [sel_polish2_small]="$OLD selection.depth_polish_levels=2 selection.depth_polish_deg=2.0 selection.depth_polish_shift=0.02"
   # around the tolerance's defaults, before the last comparison took distinct poses
-  [sel_final_refine3]="$D0 $R0 selection.depth_final_refine=3"
-  [sel_final_turns3]="$D0 $R0 selection.depth_final_turns=3"
-  [sel_final_refine3_turns3]="$D0 $R0 selection.depth_final_refine=3 selection.depth_final_turns=3"
+  [sel_final_refine3]="$E0 $D0 $R0 selection.depth_final_refine=3"
+  [sel_final_turns3]="$E0 $D0 $R0 selection.depth_final_turns=3"
+  [sel_final_refine3_turns3]="$E0 $D0 $R0 selection.depth_final_refine=3 selection.depth_final_turns=3"
   # the last comparison's poses distinct by more than 5 / 10 / 20 / 30 deg (not taken: dev2 below)
-  [sel_distinct5]="$R0 selection.depth_final_distinct_deg=5.0"
-  [sel_distinct10]="$R0 selection.depth_final_distinct_deg=10.0"
-  [sel_distinct20]="$R0 selection.depth_final_distinct_deg=20.0"
-  [sel_distinct30]="$R0 selection.depth_final_distinct_deg=30.0"
+  [sel_distinct5]="$E0 $R0 selection.depth_final_distinct_deg=5.0"
+  [sel_distinct10]="$E0 $R0 selection.depth_final_distinct_deg=10.0"
+  [sel_distinct20]="$E0 $R0 selection.depth_final_distinct_deg=20.0"
+  [sel_distinct30]="$E0 $R0 selection.depth_final_distinct_deg=30.0"
   # the poor-fit fallback's answer declined when its depth cost is over 1.25 / 1.5 / 2 x the winner's
-  # (today's default: always taken), or no fallback at all
-  [default]=""  # today's defaults
-  [fit_ratio125]="selection.depth_poor_fit_max_ratio=1.25"
-  [fit_ratio15]="selection.depth_poor_fit_max_ratio=1.5"
-  [fit_ratio2]="selection.depth_poor_fit_max_ratio=2.0"
+  # (its default: always taken), or no fallback at all
+  [whole_mask]="$E0"  # the defaults before the poor-fit test counted the mask's inner pixels
+  [fit_ratio125]="$E0 selection.depth_poor_fit_max_ratio=1.25"
+  [fit_ratio15]="$E0 selection.depth_poor_fit_max_ratio=1.5"
+  [fit_ratio2]="$E0 selection.depth_poor_fit_max_ratio=2.0"
   [no_fallback]="selection.depth_min_inliers=0.0"
+  # the poor-fit test on the mask's pixels 2 / 3 / 4 / 6 px inside its edge, below 0.9 / 0.95 / 0.98
+  [inner3_t90]="selection.depth_fit_erode_px=3 selection.depth_min_inliers=0.9"
+  [inner6_t90]="selection.depth_fit_erode_px=6 selection.depth_min_inliers=0.9"
+  [inner3_t98]="selection.depth_fit_erode_px=3 selection.depth_min_inliers=0.98"
+  [inner2_t98]="selection.depth_fit_erode_px=2 selection.depth_min_inliers=0.98"
+  [inner4_t98]="selection.depth_fit_erode_px=4 selection.depth_min_inliers=0.98"
+  [default]=""  # today's defaults (3 px inside, 0.95)
 )
 ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tpl512 issue44_final3 issue44_escalate
   yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 union
   sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015 grid_keep12
   sel_polish3 sel_polish2_small sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3
-  sel_distinct5 sel_distinct10 sel_distinct20 sel_distinct30 default fit_ratio125 fit_ratio15 fit_ratio2 no_fallback)
+  sel_distinct5 sel_distinct10 sel_distinct20 sel_distinct30 whole_mask fit_ratio125 fit_ratio15 fit_ratio2 no_fallback
+  inner3_t90 inner6_t90 inner3_t98 inner2_t98 inner4_t98 default)
 variants() {  # $1: problems pickle, $2: folder of the per-sample lines, then the variants (rows of V)
   local pkl=$1 dir=$2 v; shift 2
   for v in "$@"; do  # resumes: a finished variant is not run again
@@ -91,11 +101,12 @@ variants() {  # $1: problems pickle, $2: folder of the per-sample lines, then th
 }
 variants "$OUT/dev.pkl" "$OUT" "${ORDER[@]}"
 $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORDER[@]}"; do echo "$v=$OUT/$v.jsonl"; done)
-# More development scenes (200-399; configs/split/clutter_objects_dev2.yaml): the choices of the last round
-# (today's defaults, the distinct poses, the fallback's ratio, no fallback) on 635 more views
+# More development scenes (200-399; configs/split/clutter_objects_dev2.yaml): the choices since they were drawn
+# (the distinct poses, the fallback's ratio, no fallback, the inner poor-fit test) on 635 more views
 [ -f "$OUT/dev2.pkl" ] || $PY $HERE/problems.py "$OUT/dev2.pkl" dataset=clutter "dataset.root=$SHARED/bop/ycbv" \
   dataset.num_scenes=400 "dataset.scenes=[$(seq -s, 200 399)]"
-ORDER2=(default sel_distinct10 fit_ratio125 fit_ratio15 fit_ratio2 no_fallback)  # rows of V
+ORDER2=(whole_mask sel_distinct10 fit_ratio125 fit_ratio15 fit_ratio2 no_fallback inner3_t90 inner6_t90 inner3_t98
+  inner2_t98 inner4_t98 default)  # rows of V
 mkdir -p "$OUT/dev2"
 variants "$OUT/dev2.pkl" "$OUT/dev2" "${ORDER2[@]}"
 $PY $HERE/table.py --out results/search_recall/dev2_variants.md --split clutter_objects_dev2 \
@@ -104,11 +115,11 @@ $PY $HERE/table.py --out results/search_recall/dev2_variants.md --split clutter_
 # The embedded set's development seed (1), own model: the coarse search's ICP, each way
 EMB="$OUT/embedded_dev"
 ROWS=("full:resting.grid_icp=full resting.grid_beam=16 $OLD" "yaw:resting.grid_icp=yaw $OLD" "union:resting.grid_icp=union $OLD"
-  "polish:selection.depth_polish_levels=3 $OLD" "top_k8:selection.depth_top_k=8 $OLD" "tau0125:selection.depth_tau=0.125 $FREE1 $D0 $R0"
-  "tau015:selection.depth_tau=0.15 $FREE1 $D0 $R0" "tau02:selection.depth_tau=0.2 $FREE1 $D0 $R0"
-  "free2:selection.depth_free_weight=2.0 $TAU01 $D0 $R0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15 $D0 $R0"
-  "distinct10:selection.depth_final_distinct_deg=10.0 $R0" "default:" "ratio15:selection.depth_poor_fit_max_ratio=1.5"
-  "no_fallback:selection.depth_min_inliers=0.0")
+  "polish:selection.depth_polish_levels=3 $OLD" "top_k8:selection.depth_top_k=8 $OLD" "tau0125:selection.depth_tau=0.125 $FREE1 $D0 $R0 $E0"
+  "tau015:selection.depth_tau=0.15 $FREE1 $D0 $R0 $E0" "tau02:selection.depth_tau=0.2 $FREE1 $D0 $R0 $E0"
+  "free2:selection.depth_free_weight=2.0 $TAU01 $D0 $R0 $E0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15 $D0 $R0 $E0"
+  "distinct10:selection.depth_final_distinct_deg=10.0 $R0 $E0" "whole_mask:$E0" "ratio15:selection.depth_poor_fit_max_ratio=1.5 $E0"
+  "no_fallback:selection.depth_min_inliers=0.0" "default:")
 bench_row() {  # $1: protocol, $2: seed, $3: output folder, $4: label prefix, $5: NAME:SETTINGS -> LABELS, DIRS
   local protocol=$1 seed=$2 dir=$3 prefix=$4 row=$5 kv s
   local name=${row%%:*}; set --
@@ -124,15 +135,18 @@ for row in "${ROWS[@]}"; do bench_row gt_model 1 "$EMB/${row%%:*}" "" "$row"; do
 "${BENCH:-.venv/bin/bench}" table --force "${DIRS[@]}" "${LABELS[@]}" --layout generic --categories all \
   --metrics n,mean,median,acc10,acc30 --title "Ours on the embedded set, development seed 1, own model: the coarse search's ICP; the selection's settings" \
   --out results/search_recall/embedded_dev.md
-# The category templates (protocol templates) on the development seeds 1-3: the poor-fit fallback always
-# taken (today), declined over 1.25 / 1.5 / 2 x the winner's depth cost, none
+# The category templates (protocol templates) on the development seeds 1-3: the poor-fit test on the whole
+# mask (the fallback's answer always taken, declined over 1.25 / 1.5 / 2 x the winner's depth cost), none,
+# the test 3 px inside the mask's edge below 0.9 / 0.98, and today's (3 px, 0.95)
 TPL="$OUT/embedded_dev_templates"
 LABELS=() DIRS=()
-R15="ratio15:selection.depth_poor_fit_max_ratio=1.5"
+R15="ratio15:selection.depth_poor_fit_max_ratio=1.5 $E0"
+IN="inner3_t90:selection.depth_fit_erode_px=3 selection.depth_min_inliers=0.9"
+IN98="inner3_t98:selection.depth_fit_erode_px=3 selection.depth_min_inliers=0.98"
 for sd in 1 2 3; do
-  rows=("default:" "$R15")  # seeds 2 and 3: today's and the ratio 1.5 only
-  [ "$sd" = 1 ] && rows=("default:" "ratio125:selection.depth_poor_fit_max_ratio=1.25" "$R15"
-    "ratio2:selection.depth_poor_fit_max_ratio=2.0" "no_fallback:selection.depth_min_inliers=0.0")
+  rows=("whole_mask:$E0" "$R15" "$IN" "$IN98" "default:")
+  [ "$sd" = 1 ] && rows=("whole_mask:$E0" "ratio125:selection.depth_poor_fit_max_ratio=1.25 $E0" "$R15"
+    "ratio2:selection.depth_poor_fit_max_ratio=2.0 $E0" "no_fallback:selection.depth_min_inliers=0.0" "$IN" "$IN98" "default:")
   for row in "${rows[@]}"; do bench_row templates "$sd" "$TPL/${row%%:*}-seed$sd" "seed $sd, " "$row"; done
 done
 "${BENCH:-.venv/bin/bench}" table --force "${DIRS[@]}" "${LABELS[@]}" --layout generic --categories all \
