@@ -105,6 +105,7 @@ class DepthVerifier:
         stride = max(1.0, np.sqrt(n_mask / max(target_pixels, 1)), window_px / np.sqrt(max(max_rays, 1)))
         self.lattice = self._lattice(int(np.ceil(stride)))
         self._renders: dict[bytes, tuple[tuple[slice, slice] | None, np.ndarray]] = {}
+        self._inner: dict[int, np.ndarray] = {}  # the lattice's inner mask per erosion (fits)
 
     def _lattice(self, stride: int) -> _Lattice:
         h, w = self.image.depth.shape
@@ -225,6 +226,15 @@ class DepthVerifier:
         (the whole lattice mask where erosion leaves none)."""
         from scipy.ndimage import binary_erosion
 
-        L = self.lattice
-        inner = binary_erosion(self.image.mask, iterations=erode_px)[np.ix_(L.rows, L.cols)]
-        return inner if inner.any() else L.mask
+        hit = self._inner.get(erode_px)
+        if hit is None:
+            L, mask = self.lattice, self.image.mask
+            rows, cols = np.nonzero(mask.any(axis=1))[0], np.nonzero(mask.any(axis=0))[0]
+            # the mask's box grown by the erosion's reach: outside it nothing erodes differently
+            r0, r1 = max(rows[0] - erode_px - 1, 0), min(rows[-1] + erode_px + 2, mask.shape[0])
+            c0, c1 = max(cols[0] - erode_px - 1, 0), min(cols[-1] + erode_px + 2, mask.shape[1])
+            eroded = np.zeros_like(mask)
+            eroded[r0:r1, c0:c1] = binary_erosion(mask[r0:r1, c0:c1], iterations=erode_px)
+            inner = eroded[np.ix_(L.rows, L.cols)]
+            hit = self._inner[erode_px] = inner if inner.any() else L.mask
+        return hit

@@ -39,6 +39,11 @@ class RayCaster:
         mesh.triangle.indices = o3d.core.Tensor(self.triangles.astype(np.int32))
         self._scene.add_triangles(mesh)
         self._invalid = int(o3d.t.geometry.RaycastingScene.INVALID_ID)
+        # per triangle, once: its first vertex, its plane's normal (unnormalised) and that normal's length
+        tri = self.vertices[self.triangles]  # (F, 3, 3)
+        self._v0 = np.ascontiguousarray(tri[:, 0])
+        self._normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        self._normal_lengths = norm3(self._normals)
 
     def cast(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
         """Ray parameter ``s`` of the first hit along ``origins + s * directions``, in float64.
@@ -59,16 +64,18 @@ class RayCaster:
         d = np.asarray(directions, dtype=np.float64)
         shape = np.broadcast_shapes(o.shape, d.shape)[:-1]
         o, d = np.broadcast_to(o, shape + (3,)).reshape(-1, 3), np.broadcast_to(d, shape + (3,)).reshape(-1, 3)
-        ans = self._scene.cast_rays(o3d.core.Tensor(np.ascontiguousarray(np.hstack([o, d]), dtype=np.float32)))
+        rays = np.empty((len(o), 6), dtype=np.float32)
+        rays[:, :3], rays[:, 3:] = o, d
+        ans = self._scene.cast_rays(o3d.core.Tensor(rays))
         prim = ans["primitive_ids"].numpy().astype(np.int64)
         t_embree = ans["t_hit"].numpy().astype(np.float64)
         s = np.full(len(o), np.inf)
         hit = (prim != self._invalid) & np.isfinite(t_embree)
-        tri = self.vertices[self.triangles[prim[hit]]]  # (k, 3, 3)
-        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        k = prim[hit]
+        n = self._normals[k]
         nd = dot3(n, d[hit])
-        s_hit = dot3(n, tri[:, 0] - o[hit]) / np.where(nd == 0.0, 1.0, nd)
-        grazing = np.abs(nd) < 1e-9 * norm3(n) * norm3(d[hit])
+        s_hit = dot3(n, self._v0[k] - o[hit]) / np.where(nd == 0.0, 1.0, nd)
+        grazing = np.abs(nd) < 1e-9 * self._normal_lengths[k] * norm3(d[hit])
         s[hit] = np.where(grazing, t_embree[hit], s_hit)
         return s.reshape(shape)
 
