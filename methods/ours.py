@@ -327,11 +327,10 @@ class Ours(RegistrationMethod):
             # unless its answer explains the image far worse than the winner (a wrong pose)
             point = replace(self.selection, rule=self.selection.depth_poor_fit_rule)
             fallback = finish(point, problem, cands[0], feats[0], timings)
-            score, winner = (
-                float(x) for x in verifier.scores(np.stack([fallback.T_template_camera, result.T_template_camera]))
-            )
             ratio = self.selection.depth_poor_fit_max_ratio
-            if ratio <= 0 or score <= ratio * winner:  # both on the pool's lattice
+            poses = [fallback.T_template_camera] + ([result.T_template_camera] if ratio > 0 else [])
+            score, *winner = (float(x) for x in verifier.scores(np.stack(poses)))  # the winner only if compared
+            if ratio <= 0 or score <= ratio * winner[0]:  # both on the pool's lattice
                 extras.update(
                     {k: v for k, v in fallback.extras.items() if k != "hypothesis_stages"},
                     depth_poor_fit=True,

@@ -146,9 +146,9 @@ def select_by_depth(
         T_out, score, rest, polished["polish_turn"] = _polished(sel, verifier, T_out, score, rest, gravity)
         timings["verification"] += time.perf_counter() - t0
     t0 = time.perf_counter()
-    fit, fit_loose = verifier.fits(T_out[None], (verifier.tau, sel.depth_fit_tau))[:, 0]
-    if sel.depth_fit_erode_px > 0:  # the poor-fit test inside the mask's edge
-        fit_loose = verifier.fits(T_out[None], (sel.depth_fit_tau,), sel.depth_fit_erode_px)[0, 0]
+    fit = verifier.fits(T_out[None], (verifier.tau,))[0, 0]  # the whole mask
+    # the poor-fit test's, depth_fit_erode_px inside the mask's edge (the rendering is kept)
+    fit_loose = verifier.fits(T_out[None], (sel.depth_fit_tau,), sel.depth_fit_erode_px)[0, 0]
     timings["verification"] += time.perf_counter() - t0
 
     extras = {
