@@ -22,7 +22,8 @@ stride chosen so that the mask has about ``target_pixels`` lattice pixels and a 
 window at most ``max_rays``), casting only inside each hypothesis' window (the projection of the
 template's bounding sphere), all hypotheses in one call of one cached ray-casting scene per
 template (:class:`catpose.raycast.RayCaster`: Open3D ``RaycastingScene``, hits recomputed in
-float64). Lengths are in the unit of the depth image and the template (object-normalised).
+float64), each window's costs in one compiled call (:mod:`catpose.methods.depth_cost_kernel`, the
+NumPy sums' bits). Lengths are in the unit of the depth image and the template (object-normalised).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ import numpy as np
 
 from catpose.content_hash import content_hash
 from catpose.lru import LRUCache
+from catpose.methods.depth_cost_kernel import window_cost, window_fit
 from catpose.raycast import RayCaster
 from catpose.types import DepthImage, Template
 
@@ -168,31 +170,28 @@ class DepthVerifier:
             origins.append(np.broadcast_to(T[:3, 3], d.shape))  # the camera centre in the template frame
             sizes.append(len(d))
         s = self.caster.cast(np.concatenate(origins), np.concatenate(dirs)) if origins else np.zeros(0)
+        s = np.where(np.isfinite(s) & (s > 0), s, 0.0)
         out, k = [], 0
         for win, n in zip(wins, sizes):
             if win is None:
                 out.append((None, np.zeros(0)))
                 continue
-            part = s[k : k + n]
+            out.append((win, s[k : k + n].reshape(len(self.lattice.rows[win[0]]), len(self.lattice.cols[win[1]]))))
             k += n
-            shape = self.lattice.depth[win].shape
-            out.append((win, np.where(np.isfinite(part) & (part > 0), part, 0.0).reshape(shape)))
         return out
 
     def scores(self, T_template_camera: np.ndarray) -> np.ndarray:
         """(B,) occlusion-aware depth costs of the poses (lower is better; see the module doc)."""
         L = self.lattice
-        n_mask = max(self.mask_pixels, 1)
+        mask_pixels = self.mask_pixels
+        n_mask = max(mask_pixels, 1)
         out = []
         for win, r in self.render(T_template_camera):
             if win is None:
                 out.append(np.inf)
                 continue
-            o, m = L.depth[win], L.mask[win]
-            hit = r > 0
-            mask_cost = np.where(hit, np.minimum(np.abs(r - o), self.tau) / self.tau, 1.0)[m].sum()
-            mask_cost += self.mask_pixels - int(m.sum())  # mask pixels outside the window: unexplained
-            free = (~m & hit & (o > 0) & (o - r > self.tau)).sum()
+            mask_cost, in_window, free = window_cost(L.depth[win], L.mask[win], r, self.tau)
+            mask_cost += mask_pixels - in_window  # mask pixels outside the window: unexplained
             out.append((mask_cost + self.free_weight * free) / n_mask)
         return np.asarray(out, dtype=np.float64)
 
@@ -214,10 +213,8 @@ class DepthVerifier:
             if win is None:
                 continue
             o, m, mi = L.depth[win], L.mask[win], inner[win]
-            hit = r > 0
             for t, tol in enumerate(tolerances):
-                inliers = (mi & hit & (np.abs(r - o) <= tol)).sum()
-                free = (~m & hit & (o > 0) & (o - r > tol)).sum()
+                inliers, free = window_fit(o, m, mi, r, float(tol))
                 out[t, b] = (inliers / n_mask, free / n_mask)
         return out
 

@@ -14,9 +14,10 @@ method scoring many poses of one template); :func:`cast_rays` is the one-shot fo
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
-from catpose.geometry import dot3, norm3
+from catpose.geometry import norm3
 
 __all__ = ["RayCaster", "cast_rays"]
 
@@ -67,17 +68,33 @@ class RayCaster:
         rays = np.empty((len(o), 6), dtype=np.float32)
         rays[:, :3], rays[:, 3:] = o, d
         ans = self._scene.cast_rays(o3d.core.Tensor(rays))
-        prim = ans["primitive_ids"].numpy().astype(np.int64)
-        t_embree = ans["t_hit"].numpy().astype(np.float64)
-        s = np.full(len(o), np.inf)
-        hit = (prim != self._invalid) & np.isfinite(t_embree)
-        k = prim[hit]
-        n = self._normals[k]
-        nd = dot3(n, d[hit])
-        s_hit = dot3(n, self._v0[k] - o[hit]) / np.where(nd == 0.0, 1.0, nd)
-        grazing = np.abs(nd) < 1e-9 * self._normal_lengths[k] * norm3(d[hit])
-        s[hit] = np.where(grazing, t_embree[hit], s_hit)
+        s = np.empty(len(o))
+        _plane_hits(
+            o, d, ans["primitive_ids"].numpy(), ans["t_hit"].numpy(), self._invalid,
+            self._v0, self._normals, self._normal_lengths, s,
+        )  # fmt: skip
         return s.reshape(shape)
+
+
+@numba.njit(cache=True, nogil=True)
+def _plane_hits(o, d, prim, t_embree, invalid, v0, normals, normal_lengths, out):  # pragma: no cover - compiled
+    """Per ray ``i`` (``o``, ``d`` (N, 3) float64; Embree's ``prim`` (N,) uint32 and ``t_embree``
+    (N,) float32): ``out[i]`` = ``n . (v0 - o) / n . d`` of the hit triangle's plane, Embree's
+    value where the ray grazes it (``|n . d| < 1e-9 |n| |d|``), ``inf`` where it hits nothing.
+    Each product and sum in the order of :func:`catpose.geometry.dot3` (the NumPy form's bits)."""
+    for i in range(o.shape[0]):
+        k = np.int64(prim[i])
+        t = np.float64(t_embree[i])
+        if k == invalid or not np.isfinite(t):
+            out[i] = np.inf
+            continue
+        nx, ny, nz = normals[k, 0], normals[k, 1], normals[k, 2]
+        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        nd = nx * dx + ny * dy + nz * dz
+        num = nx * (v0[k, 0] - o[i, 0]) + ny * (v0[k, 1] - o[i, 1]) + nz * (v0[k, 2] - o[i, 2])
+        s_hit = num / (1.0 if nd == 0.0 else nd)
+        grazing = np.abs(nd) < 1e-9 * normal_lengths[k] * np.sqrt(dx * dx + dy * dy + dz * dz)
+        out[i] = t if grazing else s_hit
 
 
 def cast_rays(vertices: np.ndarray, triangles: np.ndarray, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
