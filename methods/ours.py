@@ -406,7 +406,8 @@ class Ours(RegistrationMethod):
                 src = cands.chamfer_src[: rs.grid_points]
                 T = icp(src, T, rs.grid_first_iterations, yaw)
                 feats = self.template_features(tpl)
-                T = T[np.sort(np.argsort(chamfer_distances(feats.tree, src, T), kind="stable")[: rs.grid_beam])]
+                dists = chamfer_distances(feats.tree, src, T, feats.truncated)
+                T = T[np.sort(np.argsort(dists, kind="stable")[: rs.grid_beam])]
                 return icp(cands.chamfer_src, T, rs.grid_iterations, yaw)
             if rs.grid_iterations > 0:  # the Chamfer subset is in farthest-point order: its head is one too
                 return icp(cands.chamfer_src[: rs.grid_points], T, rs.grid_iterations, yaw)

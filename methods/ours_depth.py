@@ -265,7 +265,7 @@ def dictionary_pool(
             keep = keep if keep.any() else allowed
         kept = np.nonzero(keep)[0]
         if 0 < sel.depth_prescreen < len(kept):
-            dists = chamfer_distances(f.tree, c.chamfer_src, c.T[kept])
+            dists = chamfer_distances(f.tree, c.chamfer_src, c.T[kept], f.truncated)
             kept = np.sort(kept[np.argsort(dists, kind="stable")[: sel.depth_prescreen]])
         out.append(h.to_template(c.T[kept]))
     return np.concatenate(out) if out else np.zeros((0, 4, 4))

@@ -58,12 +58,14 @@ def _scores_into(
     i_dims,
     i_start,
     i_cand,
+    i_cand_r,
     tp,
     t_origin,
     t_cell,
     t_dims,
     t_start,
     t_cand,
+    t_cand_r,
     normals,
     T,
     trunc,
@@ -73,7 +75,7 @@ def _scores_into(
         d_in = 0.0
         for i in range(points.shape[0]):
             sx, sy, sz = transform_point(T, b, points, i)
-            d, _ = cell_grid.nearest_one(tp, t_origin, t_cell, t_dims, t_start, t_cand, sx, sy, sz, trunc)
+            d, _ = cell_grid.nearest_one(tp, t_origin, t_cell, t_dims, t_start, t_cand, t_cand_r, sx, sy, sz, trunc)
             d_in += min(d, trunc)
         d_in /= max(points.shape[0], 1)
         cx, cy, cz = T[b, 0, 3], T[b, 1, 3], T[b, 2, 3]
@@ -89,6 +91,6 @@ def _scores_into(
             qx = T[b, 0, 0] * ux + T[b, 1, 0] * uy + T[b, 2, 0] * uz
             qy = T[b, 0, 1] * ux + T[b, 1, 1] * uy + T[b, 2, 1] * uz
             qz = T[b, 0, 2] * ux + T[b, 1, 2] * uy + T[b, 2, 2] * uz
-            d, _ = cell_grid.nearest_one(ip, i_origin, i_cell, i_dims, i_start, i_cand, qx, qy, qz, trunc)
+            d, _ = cell_grid.nearest_one(ip, i_origin, i_cell, i_dims, i_start, i_cand, i_cand_r, qx, qy, qz, trunc)
             d_vis += min(d, trunc)
         out[b] = d_in + (d_vis / visible if visible > 0 else trunc)

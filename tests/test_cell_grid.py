@@ -72,6 +72,36 @@ def test_nearest_edge_cases() -> None:
         cell_grid.build(points, 0.3, 0)
 
 
+def test_sorted_lists_stop_early_and_keep_every_tie() -> None:
+    """Lists by distance from the cell's centre, read until the triangle inequality rules the rest
+    out: on a lattice with many equidistant points (queries at cell centres, edge midpoints and
+    on lattice points) the answer is a brute-force search's, ties to the lowest index."""
+    axis = np.arange(-5, 6) * 0.01
+    points = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 3)
+    points = np.concatenate([points, points[::7]])  # duplicates: the lower index must win
+    rng = np.random.default_rng(3)
+    queries = np.concatenate(
+        [
+            points[rng.integers(0, len(points), 200)],
+            points[rng.integers(0, len(points), 200)] + 0.005,
+            points[rng.integers(0, len(points), 200)] + np.array([0.005, 0.0, 0.0]),
+            rng.uniform(-0.07, 0.07, size=(400, 3)),
+        ]
+    )
+    for cells_per_reach in (1, 2, 3):
+        grid = cell_grid.build(points, 0.02, cells_per_reach)
+        for c in range(len(grid.start) - 1):  # each list ascending in distance from its centre
+            assert np.all(np.diff(grid.cand_r[grid.start[c] : grid.start[c + 1]]) >= 0)
+        d, j = cell_grid.nearest(grid, queries, 0.02)
+        diff = queries[:, None, :] - points[None, :, :]
+        d2 = diff[..., 0] * diff[..., 0] + diff[..., 1] * diff[..., 1] + diff[..., 2] * diff[..., 2]
+        best = d2.min(axis=1)
+        within = best <= 0.02 * 0.02
+        j_ref = np.where(within, np.argmax(d2 == best[:, None], axis=1), -1)  # the first of equals
+        np.testing.assert_array_equal(j, j_ref)
+        np.testing.assert_array_equal(d[within], np.sqrt(best[within]))
+
+
 def test_huge_extent_coarsens_the_grid_and_stays_exact() -> None:
     rng = np.random.default_rng(1)
     points = rng.uniform(-1e4, 1e4, size=(500, 3))

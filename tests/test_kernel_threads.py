@@ -194,6 +194,14 @@ def test_chamfer_distances_are_the_same_on_any_number_of_threads() -> None:
     assert_all_equal(results)
     one = [chamfer_distances(tree, src, starts[b : b + 1])[0] for b in range(len(starts))]
     np.testing.assert_allclose(results[0], one, rtol=1e-12)  # each pose's distance on its own
+    # the grid answers the points within its reach, the tree the rest: the tree's bits, any count
+    grid = cell_grid.build(tgt, 0.1, 2)
+    with_grid = each_count(lambda: chamfer_distances(tree, src, starts, grid))
+    assert_all_equal(with_grid)
+    np.testing.assert_array_equal(with_grid[0], results[0])
+    moved = np.einsum("bij,nj->bni", starts[:, :3, :3], src) + starts[:, None, :3, 3]
+    near = tree.query(moved.reshape(-1, 3))[0]
+    assert 0.1 < (near <= 0.1).mean() < 0.9  # both searches answer some of the points
 
 
 def test_visibility_scores_are_the_same_on_any_number_of_threads() -> None:

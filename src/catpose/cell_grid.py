@@ -8,6 +8,11 @@ spends most of a query's time visiting nodes or cells; here each cell of the gri
 template, every point within the radius of the cell's box, so a query reads one list, and the
 whole refinement or scoring loop is one compiled call.
 
+Each list is sorted by its points' distance from the cell's centre, so a query stops reading at
+the first point that the triangle inequality puts beyond the best distance found so far (about
+half of a list, more once ICP has converged); the bound has a margin far above rounding, so the
+stop never changes the answer.
+
 The answer is exact: the same distance and index as a KD-tree queried with
 ``distance_upper_bound`` (``tests/test_cell_grid.py`` compares with ``scipy.spatial.cKDTree``),
 inclusive of the radius, ties broken towards the lowest point index.
@@ -38,7 +43,8 @@ class CellGrid:
         points: (M, 3) float64, original order (indices refer to it).
         origin, cell, dims: the grid over the points' bounding box grown by ``reach`` (cell edge
             ``reach / cells_per_reach`` or coarser); a query outside it has no point within ``reach``.
-        start: (prod(dims) + 1,) int64 offsets into ``cand``; cand: point indices, ascending per cell.
+        start: (prod(dims) + 1,) int64 offsets into ``cand``; cand: point indices, per cell by
+            distance from the cell's centre (ties: ascending index); cand_r: those distances.
         reach: the largest radius the lists answer.
     """
 
@@ -48,6 +54,7 @@ class CellGrid:
     dims: np.ndarray
     start: np.ndarray
     cand: np.ndarray
+    cand_r: np.ndarray
     reach: float
 
 
@@ -77,7 +84,37 @@ def build(points: np.ndarray, reach: float, cells_per_reach: int = 1) -> CellGri
     np.cumsum(counts[:-1], out=start[1:])
     cand = np.empty(int(start[-1]), dtype=np.int64)
     _reach_lists(p, lo, cell, dims, reach, start.copy(), cand, True)
-    return CellGrid(p, lo, cell, dims, start, cand, reach)
+    cand_r = np.empty(len(cand))
+    _sort_lists(p, lo, cell, dims, start, cand, cand_r)
+    return CellGrid(p, lo, cell, dims, start, cand, cand_r, reach)
+
+
+@numba.njit(cache=True, nogil=True)
+def _centre(origin, cell, i, j, k):  # pragma: no cover - compiled
+    """The centre of cell (i, j, k): the same expression wherever a list or a query needs it."""
+    return origin[0] + (i + 0.5) * cell, origin[1] + (j + 0.5) * cell, origin[2] + (k + 0.5) * cell
+
+
+@numba.njit(cache=True, nogil=True)
+def _sort_lists(points, origin, cell, dims, start, cand, cand_r):  # pragma: no cover - compiled
+    """Each cell's list (ascending indices) reordered by distance from the cell's centre, stably
+    (equal distances keep ascending indices); ``cand_r`` gets the distances."""
+    ny, nz = dims[1], dims[2]
+    for c in range(start.shape[0] - 1):
+        s0, s1 = start[c], start[c + 1]
+        if s1 == s0:
+            continue
+        cx, cy, cz = _centre(origin, cell, c // (ny * nz), (c // nz) % ny, c % nz)
+        r = np.empty(s1 - s0)
+        for s in range(s0, s1):
+            q = cand[s]
+            dx, dy, dz = points[q, 0] - cx, points[q, 1] - cy, points[q, 2] - cz
+            r[s - s0] = np.sqrt(dx * dx + dy * dy + dz * dz)
+        order = np.argsort(r, kind="mergesort")
+        listed = cand[s0:s1].copy()
+        for t in range(s1 - s0):
+            cand[s0 + t] = listed[order[t]]
+            cand_r[s0 + t] = r[order[t]]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -110,7 +147,7 @@ def _reach_lists(points, origin, cell, dims, reach, slots, cand, fill):  # pragm
 
 def arrays(grid: CellGrid) -> tuple:
     """The grid's fields in the argument order of :func:`nearest_one` (for compiled callers)."""
-    return grid.points, grid.origin, grid.cell, grid.dims, grid.start, grid.cand
+    return grid.points, grid.origin, grid.cell, grid.dims, grid.start, grid.cand, grid.cand_r
 
 
 def nearest(grid: CellGrid, queries: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
@@ -126,35 +163,48 @@ def nearest(grid: CellGrid, queries: np.ndarray, radius: float) -> tuple[np.ndar
 
 
 @numba.njit(cache=True, nogil=True)
-def nearest_one(points, origin, cell, dims, start, cand, x, y, z, radius):  # pragma: no cover - compiled
+def nearest_one(points, origin, cell, dims, start, cand, cand_r, x, y, z, radius):  # pragma: no cover - compiled
     """(distance, index) of the nearest point to (x, y, z) within ``radius`` (at most the grid's
-    reach, inclusive; ties to the lowest index); (inf, -1) if none or the query is not finite."""
+    reach, inclusive; ties to the lowest index); (inf, -1) if none or the query is not finite.
+    The cell's list is read in order of distance from the cell's centre ``c`` until a point's
+    ``|p - c| - |q - c|`` (a lower bound of ``|q - p|``) exceeds the best distance so far, with a
+    margin (1e-12 relative, 1e-12 cells) far above the rounding of these distances."""
     fx = (x - origin[0]) / cell
     fy = (y - origin[1]) / cell
     fz = (z - origin[2]) / cell
     # also false for NaN: outside the grid (or not finite) no point is within reach
     if not (0.0 <= fx < dims[0] and 0.0 <= fy < dims[1] and 0.0 <= fz < dims[2]):
         return np.inf, -1
-    c = (int(fx) * dims[1] + int(fy)) * dims[2] + int(fz)
+    i, j, k = int(fx), int(fy), int(fz)
+    c = (i * dims[1] + j) * dims[2] + k
+    cx, cy, cz = _centre(origin, cell, i, j, k)
+    qc = np.sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy) + (z - cz) * (z - cz))
+    slack = 1e-12 * cell
     best2 = radius * radius
+    bound = radius * (1.0 + 1e-12) + slack  # no listed point further from c than this + qc can win
     best_j = -1
     for s in range(start[c], start[c + 1]):
+        if cand_r[s] - qc > bound:
+            break
         p = cand[s]
         dx = points[p, 0] - x
         dy = points[p, 1] - y
         dz = points[p, 2] - z
         d2 = dx * dx + dy * dy + dz * dz
-        if d2 < best2 or (d2 == best2 and best_j < 0):  # ascending lists: the first of equals wins
+        if d2 < best2 or (d2 == best2 and (best_j < 0 or p < best_j)):
             best2 = d2
             best_j = p
+            bound = np.sqrt(d2) * (1.0 + 1e-12) + slack
     if best_j < 0:
         return np.inf, -1
     return np.sqrt(best2), best_j
 
 
 @numba.njit(cache=True, nogil=True)
-def _nearest_into(points, origin, cell, dims, start, cand, queries, radius, out_d, out_j):  # pragma: no cover
+def _nearest_into(points, origin, cell, dims, start, cand, cand_r, queries, radius, out_d, out_j):  # pragma: no cover
     for q in range(queries.shape[0]):
-        d, j = nearest_one(points, origin, cell, dims, start, cand, queries[q, 0], queries[q, 1], queries[q, 2], radius)
+        d, j = nearest_one(
+            points, origin, cell, dims, start, cand, cand_r, queries[q, 0], queries[q, 1], queries[q, 2], radius
+        )
         out_d[q] = d
         out_j[q] = j

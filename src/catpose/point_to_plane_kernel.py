@@ -110,7 +110,7 @@ NO_AXIS = np.zeros(3)  # normal_equations' axis when the rotation is free
 
 @numba.njit(cache=True, nogil=True)
 def normal_equations(
-    points, tp, origin, cell, dims, start, cand, normals, T, b, max_distance, axis, H, g, J
+    points, tp, origin, cell, dims, start, cand, cand_r, normals, T, b, max_distance, axis, H, g, J
 ):  # pragma: no cover - compiled
     """The damped normal equations ``H x = g`` of one point-to-plane step of pose ``T[b]``: each
     point of ``points`` moved by it and paired with its nearest grid point within
@@ -124,7 +124,7 @@ def normal_equations(
     pairs = 0
     for i in range(points.shape[0]):
         sx, sy, sz = transform_point(T, b, points, i)
-        d, j = cell_grid.nearest_one(tp, origin, cell, dims, start, cand, sx, sy, sz, max_distance)
+        d, j = cell_grid.nearest_one(tp, origin, cell, dims, start, cand, cand_r, sx, sy, sz, max_distance)
         if j < 0:
             continue
         pairs += 1
@@ -178,7 +178,7 @@ def turn_and_shift(T, b, dR, tx, ty, tz):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, nogil=True)
 def _refine_into(
-    points, tp, origin, cell, dims, start, cand, normals, T, max_distance, iterations, steps
+    points, tp, origin, cell, dims, start, cand, cand_r, normals, T, max_distance, iterations, steps
 ):  # pragma: no cover - compiled
     H = np.zeros((6, 6))
     g = np.zeros(6)
@@ -189,7 +189,7 @@ def _refine_into(
         for _ in range(iterations):
             steps[b] += 1
             pairs = normal_equations(
-                points, tp, origin, cell, dims, start, cand, normals, T, b, max_distance, NO_AXIS, H, g, J
+                points, tp, origin, cell, dims, start, cand, cand_r, normals, T, b, max_distance, NO_AXIS, H, g, J
             )
             if pairs < 6:
                 break

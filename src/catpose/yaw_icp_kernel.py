@@ -63,7 +63,7 @@ def refine_yaw_many(
 
 @numba.njit(cache=True, nogil=True)
 def _refine_yaw_into(
-    points, tp, origin, cell, dims, start, cand, normals, T, A, max_distance, iterations
+    points, tp, origin, cell, dims, start, cand, cand_r, normals, T, A, max_distance, iterations
 ):  # pragma: no cover - compiled
     H = np.zeros((4, 4))
     g = np.zeros(4)
@@ -74,7 +74,7 @@ def _refine_yaw_into(
         ax, ay, az = A[b, 0], A[b, 1], A[b, 2]
         for _ in range(iterations):
             pairs = normal_equations(
-                points, tp, origin, cell, dims, start, cand, normals, T, b, max_distance, A[b], H, g, J
+                points, tp, origin, cell, dims, start, cand, cand_r, normals, T, b, max_distance, A[b], H, g, J
             )
             if pairs < 4:
                 break
