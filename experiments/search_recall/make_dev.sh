@@ -82,13 +82,19 @@ declare -A V=(
   [inner2_t98]="selection.depth_fit_erode_px=2 selection.depth_min_inliers=0.98"
   [inner4_t98]="selection.depth_fit_erode_px=4 selection.depth_min_inliers=0.98"
   [default]=""  # today's defaults (3 px inside, 0.95)
+  # the last comparisons on a finer lattice: 4800 / 7200 / 9600 / 19200 mask pixels (default 2400)
+  [final_pixels4800]="selection.depth_final_pixels=4800"
+  [final_pixels7200]="selection.depth_final_pixels=7200"
+  [final_pixels9600]="selection.depth_final_pixels=9600"
+  [final_pixels19200]="selection.depth_final_pixels=19200"
 )
 ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tpl512 issue44_final3 issue44_escalate
   yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 union
   sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015 grid_keep12
   sel_polish3 sel_polish2_small sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3
   sel_distinct5 sel_distinct10 sel_distinct20 sel_distinct30 whole_mask fit_ratio125 fit_ratio15 fit_ratio2 no_fallback
-  inner3_t90 inner6_t90 inner3_t98 inner2_t98 inner4_t98 default)
+  inner3_t90 inner6_t90 inner3_t98 inner2_t98 inner4_t98 default final_pixels4800 final_pixels7200 final_pixels9600
+  final_pixels19200)
 variants() {  # $1: problems pickle, $2: folder of the per-sample lines, then the variants (rows of V)
   local pkl=$1 dir=$2 v; shift 2
   for v in "$@"; do  # resumes: a finished variant is not run again
@@ -106,7 +112,7 @@ $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORD
 [ -f "$OUT/dev2.pkl" ] || $PY $HERE/problems.py "$OUT/dev2.pkl" dataset=clutter "dataset.root=$SHARED/bop/ycbv" \
   dataset.num_scenes=400 "dataset.scenes=[$(seq -s, 200 399)]"
 ORDER2=(whole_mask sel_distinct10 fit_ratio125 fit_ratio15 fit_ratio2 no_fallback inner3_t90 inner6_t90 inner3_t98
-  inner2_t98 inner4_t98 default)  # rows of V
+  inner2_t98 inner4_t98 default final_pixels4800 final_pixels7200 final_pixels9600 final_pixels19200)  # rows of V
 mkdir -p "$OUT/dev2"
 variants "$OUT/dev2.pkl" "$OUT/dev2" "${ORDER2[@]}"
 $PY $HERE/table.py --out results/search_recall/dev2_variants.md --split clutter_objects_dev2 \
