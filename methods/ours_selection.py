@@ -132,7 +132,7 @@ def chamfer_distances(tree, points: np.ndarray, T: np.ndarray, grid: CellGrid | 
     (N, 3) under each pose of ``T`` (B, 4, 4); (B,), object-normalised units. Distances are
     unbounded: ``tree`` (a cKDTree of the template's points) answers them; with ``grid`` (a
     :class:`~catpose.cell_grid.CellGrid` of the same points) the grid answers every point within
-    its reach (the same bits as the tree, ten times cheaper) and the tree only the rest. Poses are
+    its reach (the same bits as the tree, without a tree walk) and the tree only the rest. Poses are
     split over the run's ``threads`` (:mod:`catpose.kernel_threads`; each point's distance is
     exact, so the same bits on any count)."""
     moved = (np.einsum("bij,nj->bni", T[:, :3, :3], points) + T[:, None, :3, 3]).reshape(-1, 3)

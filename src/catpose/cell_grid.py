@@ -9,9 +9,9 @@ template, every point within the radius of the cell's box, so a query reads one 
 whole refinement or scoring loop is one compiled call.
 
 Each list is sorted by its points' distance from the cell's centre, so a query stops reading at
-the first point that the triangle inequality puts beyond the best distance found so far (about
-half of a list, more once ICP has converged); the bound has a margin far above rounding, so the
-stop never changes the answer.
+the first point that the triangle inequality puts beyond the best distance found so far (the
+nearer the query lies to a point, as in converged ICP, the sooner); the bound has a margin far
+above rounding, so the stop never changes the answer.
 
 The answer is exact: the same distance and index as a KD-tree queried with
 ``distance_upper_bound`` (``tests/test_cell_grid.py`` compares with ``scipy.spatial.cKDTree``),
