@@ -176,7 +176,7 @@ class DepthVerifier:
             if win is None:
                 out.append((None, np.zeros(0)))
                 continue
-            out.append((win, s[k : k + n].reshape(len(self.lattice.rows[win[0]]), len(self.lattice.cols[win[1]]))))
+            out.append((win, s[k : k + n].reshape(self.lattice.depth[win].shape)))
             k += n
         return out
 

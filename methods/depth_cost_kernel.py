@@ -118,7 +118,7 @@ def window_cost(o, m, r, tau):  # pragma: no cover - compiled
                 count += 1
             elif rr > 0 and oo > 0 and oo - rr > tau:
                 free += 1
-    return 0.0 + _pairwise(vals, 0, count), count, free
+    return pairwise_sum(vals[:count]), count, free
 
 
 @numba.njit(cache=True, nogil=True)
