@@ -175,12 +175,14 @@ perf() {
   local P="$RESULTS/perf"
   mkdir -p "$P"
   local M=ours,adam=ours,icp,fgr,teaser,ransac,ppf
-  "$B" perf --n 12 --repeat 3 --methods $M --set adam:optimiser.solver=adam --out "$P/perf_synthetic.csv"
+  # one thread: every method as it runs on one core
+  "$B" perf --n 12 --repeat 3 --threads 1 --methods $M --set adam:optimiser.solver=adam --out "$P/perf_synthetic.csv"
   if [ -d "$SHARED/bop/ycbv" ]; then
-    "$B" perf --n 12 --repeat 3 --methods $M --set adam:optimiser.solver=adam --dataset ycbv \
+    "$B" perf --n 12 --repeat 3 --threads 1 --methods $M --set adam:optimiser.solver=adam --dataset ycbv \
       --root "$SHARED/bop/ycbv" --out "$P/perf_ycbv.csv"
   fi
-  # ours with its compiled search split over both CPUs (threads=2; the same results as threads=1)
+  # ours with its compiled search split over both CPUs (threads=2, what the default threads=auto
+  # takes on a 2-CPU machine; the same results as threads=1)
   "$B" perf --n 12 --repeat 3 --methods ours,fgr --threads 2 --out "$P/perf_synthetic_threads2.csv"
   if [ -d "$SHARED/bop/ycbv" ]; then
     "$B" perf --n 12 --repeat 3 --methods ours,fgr --threads 2 --dataset ycbv --root "$SHARED/bop/ycbv" \
@@ -191,7 +193,7 @@ perf() {
       --out "$P/first_sample_ycbv.csv"
   fi
   if [ -d "$SHARED/ModelNet40" ]; then
-    "$B" perf --n 12 --repeat 3 --methods ours,fgr --dataset modelnet40 --root "$SHARED/ModelNet40" \
+    "$B" perf --n 12 --repeat 3 --threads 1 --methods ours,fgr --dataset modelnet40 --root "$SHARED/ModelNet40" \
       --out "$P/perf_modelnet40.csv"
   fi
   # gpu_solver_*.csv come from `python3 bench/perf/gpu.py --out results/perf/gpu_solver_<device>.csv` on a GPU machine

@@ -31,8 +31,8 @@ def repo_root() -> Path:
 
 @pytest.fixture(scope="module")
 def one_torch_thread():
-    """The runner's ``threads=1`` (what configs/regress and bench perf use): ours' per-step
-    overhead dominates and extra threads only contend on a shared machine."""
+    """One torch thread (the runner's ``threads=1``, what the gate's worker processes take): the
+    module's solver tests are small, and extra threads only contend on a shared machine."""
     from catpose import extras
 
     if not extras.installed("torch"):  # the torch extra is absent: nothing uses its threads

@@ -93,7 +93,8 @@ def write_off(path: Path, vertex_lines: list[str]) -> Path:
         (["limit=abc"], "limit='abc' is not an integer >= 1"),
         (["seed=1.5"], "seed=1.5 is not an integer; set seed=<integer>"),
         (["seed=abc"], "seed='abc' is not an integer"),
-        (["threads=0"], "threads=0 is not an integer >= 1"),
+        (["threads=0"], "threads=0 is not auto or an integer >= 1; set threads=auto"),
+        (["threads=two"], "threads='two' is not auto or an integer >= 1"),
         (["lock_timeout=-2"], "lock_timeout=-2 is not a number >= 0"),
     ],
 )

@@ -5,6 +5,7 @@ plane and yaw ICP, the IRLS kernel, the Chamfer and visibility scores), so does 
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 from collections.abc import Iterator
@@ -119,9 +120,37 @@ def test_the_threads_key_sets_the_kernels_and_torchs_counts() -> None:
         assert kernel_threads.threads() == 2
         assert extras.torch_threads() in (None, 2)  # None: torch not installed
     with threads(None):
-        assert kernel_threads.threads() == 1  # null: the kernels keep their default, torch its own
-    with pytest.raises(ValueError, match="at least 1"):
-        kernel_threads.set_threads(0)
+        assert kernel_threads.threads() == 1  # null: the kernels take 1, torch keeps its own
+    for bad in (0, -1, 1.5, True, "two", "2"):
+        with pytest.raises(ValueError, match="auto or an integer at least 1"):
+            kernel_threads.set_threads(bad)
+
+
+def test_auto_takes_omp_num_threads_else_the_cpus_this_process_may_use(monkeypatch) -> None:
+    cpus = len(os.sched_getaffinity(0))
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    assert kernel_threads.available() == min(cpus, kernel_threads.MAX_AUTO)
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")  # a joblib or Ray worker's share
+    assert kernel_threads.available() == 3
+    assert kernel_threads.resolve("auto") == kernel_threads.resolve(" AUTO ") == 3
+    monkeypatch.setenv("OMP_NUM_THREADS", "1000")
+    assert kernel_threads.available() == kernel_threads.MAX_AUTO
+    for ignored in ("0", "", "four", "2,1"):  # not a positive count: the affinity decides
+        monkeypatch.setenv("OMP_NUM_THREADS", ignored)
+        assert kernel_threads.available() == min(cpus, kernel_threads.MAX_AUTO)
+    monkeypatch.setenv("OMP_NUM_THREADS", "2")
+    with threads("auto"):
+        assert kernel_threads.threads() == 2
+        assert extras.torch_threads() in (None, 2)
+
+
+def test_the_default_is_auto_for_runs_and_for_the_python_api(monkeypatch, repo_root) -> None:
+    import yaml
+
+    assert yaml.safe_load((repo_root / "configs" / "run.yaml").read_text())["threads"] == kernel_threads.AUTO
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")
+    monkeypatch.setattr(kernel_threads, "_threads", None)  # a process where no run has set the key
+    assert kernel_threads.threads() == 3
 
 
 # ----------------------------------------------------------------------------- the kernels

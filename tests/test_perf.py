@@ -130,6 +130,9 @@ def test_bad_arguments_are_config_errors():
         perf.main(["--set", "nonsense"])
     with pytest.raises(ConfigError, match="at least 1"):
         perf.main(["--repeat", "0"])
+    for bad in ("0", "two", "1.5"):
+        with pytest.raises(ConfigError, match="--threads"):
+            perf.main(["--threads", bad])
 
 
 def test_solvers_flag_delegates_to_the_solver_benchmark(monkeypatch):

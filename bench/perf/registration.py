@@ -310,10 +310,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument(
         "--threads",
-        type=int,
-        default=1,
+        default=kernel_threads.AUTO,
         help="the runs' threads key: ours' compiled kernels split over this many threads, and torch's intra-op "
-        "threads (default 1)",
+        f"threads (default {kernel_threads.AUTO}, as in runs: the CPUs this process may use; the CSV records the count)",
     )
     ap.add_argument(
         "--set",
@@ -326,8 +325,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--batch", type=int, default=1, help="problems per ours register_batch call (default 1)")
     ap.add_argument("--out", default=None, help="CSV path (default outputs/perf/<parameters>.csv)")
     args = ap.parse_args(argv)
-    if args.n < 1 or args.repeat < 1 or args.batch < 1 or args.threads < 1:
-        raise ConfigError("--n, --repeat, --batch and --threads must be at least 1")
+    if args.n < 1 or args.repeat < 1 or args.batch < 1:
+        raise ConfigError("--n, --repeat and --batch must be at least 1")
+    try:
+        threads = kernel_threads.resolve(int(args.threads) if args.threads.strip().isdigit() else args.threads)
+    except ValueError:
+        raise ConfigError(f"--threads {args.threads!r}: give {kernel_threads.AUTO} or an integer at least 1") from None
     for kv in args.set + args.dataset_set:
         if "=" not in kv:
             raise ConfigError(f"--set/--dataset-set {kv!r} is not KEY=VALUE")
@@ -341,7 +344,7 @@ def main(argv: list[str] | None = None) -> int:
             )
     from tabulate import tabulate
 
-    kernel_threads.set_threads(args.threads)
+    kernel_threads.set_threads(threads)
     load_before = os.getloadavg()
     ds_over = [f"dataset.{kv}" for kv in args.dataset_set]
     if args.categories:

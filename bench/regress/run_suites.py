@@ -199,15 +199,22 @@ def slim_rows(suite: Suite, method: str, perturbation: float = 0.0) -> dict[str,
 
 
 def map_jobs(tasks: Sequence[tuple], jobs: int) -> list:
-    """``[slim_rows(*t) for t in tasks]``, in ``jobs`` worker processes when ``jobs`` > 1 (each
-    method runs single-threaded, so workers never change a result, only the wall time)."""
+    """``[slim_rows(*t) for t in tasks]``, in ``jobs`` worker processes when ``jobs`` > 1, each on
+    one thread (:func:`_one_thread`; results do not depend on threads or workers, only the wall
+    time does)."""
     if jobs <= 1 or len(tasks) <= 1:
         return [slim_rows(*t) for t in tasks]
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=multiprocessing.get_context("spawn")) as ex:
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=ctx, initializer=_one_thread) as ex:
         return list(ex.map(slim_rows, *zip(*tasks)))
+
+
+def _one_thread() -> None:
+    """A gate worker's ``threads=auto`` is 1: the workers are the parallelism."""
+    os.environ["OMP_NUM_THREADS"] = "1"
 
 
 def _slim(row: dict) -> dict:

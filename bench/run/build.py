@@ -14,7 +14,7 @@ import inspect
 import re
 from typing import Any
 
-from catpose import extras
+from catpose import extras, kernel_threads
 from catpose.errors import CatposeError, ConfigError, one_line
 
 #: ``_target_``s that moved when ``bench/`` was split into wings: the name written into run
@@ -301,13 +301,21 @@ def _run_option(cfg: Any, key: str, kind: str, minimum: int | float | None = Non
 
 
 def validate_run_options(cfg: Any) -> None:
-    """Check the run-level keys (``seed``, ``limit``, ``threads``, ``batch``, ``lock_timeout``) and that no
+    """Check the run-level keys (``seed``, ``limit``, ``threads`` (or ``auto``), ``batch``, ``lock_timeout``) and that no
     mandatory group key (``dataset.root``) is unset, before any work."""
     if cfg.get("seed") is None:
         raise ConfigError("seed is not set; set seed=<integer>, e.g. seed=0")
     _run_option(cfg, "seed", "int")
     _run_option(cfg, "limit", "int", 1)
-    _run_option(cfg, "threads", "int", 1)
+    threads = cfg.get("threads")
+    if threads != kernel_threads.AUTO:
+        try:
+            _run_option(cfg, "threads", "int", 1)
+        except ConfigError:
+            raise ConfigError(
+                f"threads={threads!r} is not {kernel_threads.AUTO} or an integer >= 1; set threads={kernel_threads.AUTO} "
+                "(the CPUs this process may use) or threads=<integer >= 1>"
+            ) from None
     _run_option(cfg, "batch", "int", 1)
     _run_option(cfg, "lock_timeout", "float", 0)
     ids = cfg.get("sample_ids")

@@ -10,8 +10,12 @@ are the same bits for any thread count. Not numba's ``parallel=True``: its workq
 layer breaks when several Python threads call into it at once.
 
 The count is the runs' ``threads`` key (``configs/run.yaml``), set once per process with
-:func:`set_threads`, which also sets torch's intra-op threads. Default 1: every kernel is called
-directly, as without this module.
+:func:`set_threads`, which also sets torch's intra-op threads. Its default ``auto`` (also this
+module's until a run sets it, so the Python API gets what ``bench run`` gets) is
+:func:`available`: ``OMP_NUM_THREADS`` where set (joblib's and Ray's workers set it to their
+share of the cores), else the CPUs this process may run on (its affinity: a Slurm job's
+allocation), at most :data:`MAX_AUTO`. With 1 every kernel is called directly, as without this
+module.
 """
 
 from __future__ import annotations
@@ -22,15 +26,31 @@ import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
-__all__ = ["MIN_ITEMS", "PIECES", "chunks", "set_threads", "split", "threads"]
+__all__ = [
+    "AUTO",
+    "MAX_AUTO",
+    "MIN_ITEMS",
+    "PIECES",
+    "available",
+    "chunks",
+    "resolve",
+    "set_threads",
+    "split",
+    "threads",
+]
 
 #: below this many starts a call stays on the calling thread (a hand-off costs tens of microseconds,
 #: a start of ours' ICP about a millisecond)
 MIN_ITEMS = 2
 #: ranges per thread (starts differ in cost: ICP stops on convergence)
 PIECES = 4
+#: the ``threads`` value that asks for :func:`available`
+AUTO = "auto"
+#: most threads ``auto`` takes: ours' calls split 12-40 starts (hypotheses, candidates), so beyond
+#: this the threads mostly wait for one another
+MAX_AUTO = 8
 
-_threads = 1
+_threads: int | None = None  # None: auto, resolved on first use
 _pool: ThreadPoolExecutor | None = None
 _pool_key: tuple[int, int] | None = None  # (workers, pid): grows on demand; a forked child builds its own
 _lock = threading.Lock()
@@ -38,20 +58,49 @@ _local = threading.local()  # .worker: this thread is one of the pool's (no nest
 
 
 def threads() -> int:
-    """The kernels' thread count (at least 1)."""
+    """The kernels' thread count (at least 1): the one set, else :func:`available`."""
+    global _threads
+    if _threads is None:
+        _threads = available()
     return _threads
 
 
-def set_threads(n: int | None) -> None:
-    """The runs' ``threads`` key: ``n`` threads for the compiled kernels (:func:`split`) and for
-    torch's intra-op work where torch is installed. None: the kernels keep 1, torch its default."""
+def available() -> int:
+    """``auto``'s count: ``OMP_NUM_THREADS`` where it is a positive integer, else the CPUs this
+    process may run on; at most :data:`MAX_AUTO`, at least 1."""
+    env = os.environ.get("OMP_NUM_THREADS", "").strip()
+    if env.isdigit() and int(env) >= 1:
+        n = int(env)
+    elif hasattr(os, "sched_getaffinity"):
+        n = len(os.sched_getaffinity(0))
+    else:  # pragma: no cover - not Linux
+        n = os.cpu_count() or 1
+    return max(1, min(n, MAX_AUTO))
+
+
+def resolve(n: int | str | None) -> int | None:
+    """The count a ``threads`` value stands for: ``auto`` -> :func:`available`, an integer >= 1
+    as is, None as is. Raises ValueError for anything else."""
+    if n is None:
+        return None
+    if isinstance(n, str) and n.strip().lower() == AUTO:
+        return available()
+    ok = not isinstance(n, (bool, str)) and isinstance(n, (int, float)) and int(n) == n and n >= 1
+    if not ok:
+        raise ValueError(f"threads must be {AUTO} or an integer at least 1 (got {n!r})")
+    return int(n)
+
+
+def set_threads(n: int | str | None) -> None:
+    """The runs' ``threads`` key: ``n`` threads (``auto``: :func:`available`) for the compiled
+    kernels (:func:`split`) and for torch's intra-op work where torch is installed. None: the
+    kernels take 1, torch keeps its count."""
     global _threads
     from catpose import extras
 
-    if n is not None and int(n) < 1:
-        raise ValueError(f"threads must be at least 1 (got {n})")
-    _threads = 1 if n is None else int(n)
-    extras.set_torch_threads(n)
+    count = resolve(n)
+    _threads = 1 if count is None else count
+    extras.set_torch_threads(count)
 
 
 def _executor(workers: int) -> ThreadPoolExecutor:
