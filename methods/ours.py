@@ -375,6 +375,7 @@ class Ours(RegistrationMethod):
             tpl.normals,
             rs.grid_yaws,
             tpl.symmetry_axis,
+            rs.grid_shift,
         )
         key = (
             tpl.template_id,

@@ -288,6 +288,9 @@ class RestingSettings:
             the pose keeps the resting direction it was put in, :mod:`catpose.yaw_icp_kernel`),
             ``full`` (every rotation and translation: it can tilt into a rest the template lacks,
             and drift out of a right one) or ``union`` (both searches, their poses pooled).
+        grid_shift: a resting direction along the symmetry axis (one yaw) also starts from
+            ``grid_yaws - 1`` placements moved along the ground by this fraction of the template's
+            radius about it (0: one start).
     """
 
     max_poses: int = 10
@@ -304,6 +307,7 @@ class RestingSettings:
     grid_first_iterations: int = 3
     grid_pixels: int = 300
     grid_icp: str = "union"
+    grid_shift: float = 0.5
 
     def __post_init__(self) -> None:
         k, set_ = "method.resting.", object.__setattr__
@@ -329,3 +333,4 @@ class RestingSettings:
         )
         set_(self, "grid_pixels", options.positive(k + "grid_pixels", self.grid_pixels, integer=True))
         set_(self, "grid_icp", options.one_of(k + "grid_icp", self.grid_icp, ("yaw", "full", "union")))
+        set_(self, "grid_shift", options.non_negative(k + "grid_shift", self.grid_shift))

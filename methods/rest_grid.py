@@ -71,12 +71,24 @@ def grid_poses(
     template_normals: np.ndarray,
     yaws: int,
     symmetry_axis: np.ndarray | None = None,
+    shift: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Poses ``T_template_camera`` (B, 4, 4) of :func:`grid_rotations`, each translated so the
     template's camera-facing points (``template_points`` (M, 3) with unit ``template_normals``)
     have the centroid of ``points_camera`` (N, 3) (see the module docstring); and each pose's up
-    index (B,)."""
+    index (B,).
+
+    ``shift`` > 0 gives an up along the symmetry axis (one yaw) the budget of the others: beside
+    its pose, ``yaws - 1`` copies moved along the ground by ``shift`` times the template's radius
+    about that up, at evenly spaced directions (where occlusion moved the visible centroid off the
+    object's front, one of them starts nearer)."""
     R, rest = grid_rotations(ups, ground_normal_camera, yaws, symmetry_axis)
+    if shift > 0.0 and yaws > 1:
+        R, rest, moves = _shifted(
+            R, rest, np.asarray(ups, dtype=np.float64), ground_normal_camera, template_points, yaws, shift
+        )
+    else:
+        moves = None
     m = np.asarray(points_camera, dtype=np.float64).mean(axis=0)
     view = -m / max(norm3(m), 1e-12)  # towards the camera, camera frame
     P = np.asarray(template_points, dtype=np.float64)
@@ -86,5 +98,36 @@ def grid_poses(
     front = np.einsum("mb,mj->bj", facing, P) / np.maximum(count, 1.0)[:, None]  # einsum's loops: no BLAS
     T = np.tile(np.eye(4), (len(R), 1, 1))
     T[:, :3, :3] = R
-    T[:, :3, 3] = front - np.einsum("bij,j->bi", R, m)
+    if moves is None:
+        T[:, :3, 3] = front - np.einsum("bij,j->bi", R, m)
+    else:
+        T[:, :3, 3] = front - np.einsum("bij,bj->bi", R, m + moves)
     return T, rest
+
+
+def _shifted(R, rest, ups, ground_normal_camera, template_points, yaws, shift):
+    """Each single-yaw up's rotation repeated ``yaws`` times with camera-frame moves (K, 3): zero,
+    then ``yaws - 1`` ground-plane directions at radius ``shift`` x the template's radius about
+    the up (through the template's centroid)."""
+    g = unit3(np.asarray(ground_normal_camera, dtype=np.float64))
+    a = unit3(np.cross(g, [1.0, 0.0, 0.0]) if abs(g[0]) < 0.9 else np.cross(g, [0.0, 1.0, 0.0]))
+    b = np.cross(g, a)
+    P = np.asarray(template_points, dtype=np.float64)
+    centred = P - P.mean(axis=0)
+    counts = np.bincount(rest, minlength=len(ups))
+    out_R, out_rest, out_move = [], [], []
+    for i, k in enumerate(rest):
+        out_R.append(R[i])
+        out_rest.append(k)
+        out_move.append(np.zeros(3))
+        if counts[k] != 1:
+            continue
+        u = unit3(ups[k])
+        along = centred @ u
+        radius = float(np.sqrt(np.max(np.einsum("mj,mj->m", centred, centred) - along * along)))
+        for j in range(1, yaws):
+            angle = 2.0 * math.pi * (j - 1) / (yaws - 1)
+            out_R.append(R[i])
+            out_rest.append(k)
+            out_move.append(shift * radius * (math.cos(angle) * a + math.sin(angle) * b))
+    return np.stack(out_R), np.asarray(out_rest, dtype=np.int64), np.stack(out_move)

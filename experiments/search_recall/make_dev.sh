@@ -30,6 +30,9 @@ R0="selection.depth_poor_fit_max_ratio=0"
 # the poor-fit test on the whole mask at 0.9 (before depth_fit_erode_px 3 / depth_min_inliers 0.95 were chosen)
 E0="selection.depth_fit_erode_px=0 selection.depth_min_inliers=0.9"
 OLD="$TAU01 $FREE1 $D0 $R0 $E0"
+# one placement for an up along the symmetry axis (before resting.grid_shift 0.5 was chosen): every row
+# measured before it pins it (added to each row of V below but the shift rows and default)
+S0="resting.grid_shift=0.0"
 declare -A V=(
   [issue22]="$OLD $BEFORE"
   [grid12_turns]="$OLD $FULL selection.depth_half_turns=true"
@@ -87,14 +90,23 @@ declare -A V=(
   [final_pixels7200]="selection.depth_final_pixels=7200"
   [final_pixels9600]="selection.depth_final_pixels=9600"
   [final_pixels19200]="selection.depth_final_pixels=19200"
+  # an up along the symmetry axis (one yaw) also placed 7 times moved along the ground by 0.3 / 0.5 / 0.7 /
+  # 1.0 x the template's radius about it (resting.grid_shift; default 0.5 since)
+  [shift03]="resting.grid_shift=0.3"
+  [shift05]="resting.grid_shift=0.5"
+  [shift07]="resting.grid_shift=0.7"
+  [shift10]="resting.grid_shift=1.0"
 )
+for v in "${!V[@]}"; do
+  case $v in shift*|default) ;; *) V[$v]="${V[$v]} $S0" ;; esac
+done
 ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tpl512 issue44_final3 issue44_escalate
   yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 union
   sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015 grid_keep12
   sel_polish3 sel_polish2_small sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3
   sel_distinct5 sel_distinct10 sel_distinct20 sel_distinct30 whole_mask fit_ratio125 fit_ratio15 fit_ratio2 no_fallback
-  inner3_t90 inner6_t90 inner3_t98 inner2_t98 inner4_t98 default final_pixels4800 final_pixels7200 final_pixels9600
-  final_pixels19200)
+  inner3_t90 inner6_t90 inner3_t98 inner2_t98 inner4_t98 final_pixels4800 final_pixels7200 final_pixels9600
+  final_pixels19200 shift03 shift05 shift07 shift10 default)
 variants() {  # $1: problems pickle, $2: folder of the per-sample lines, then the variants (rows of V)
   local pkl=$1 dir=$2 v; shift 2
   for v in "$@"; do  # resumes: a finished variant is not run again
@@ -108,24 +120,29 @@ variants() {  # $1: problems pickle, $2: folder of the per-sample lines, then th
 variants "$OUT/dev.pkl" "$OUT" "${ORDER[@]}"
 $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORDER[@]}"; do echo "$v=$OUT/$v.jsonl"; done)
 # More development scenes (200-399; configs/split/clutter_objects_dev2.yaml): the choices since they were drawn
-# (the distinct poses, the fallback's ratio, no fallback, the inner poor-fit test) on 635 more views
+# (the distinct poses, the fallback's ratio, no fallback, the inner poor-fit test, the shifted placements) on
+# 635 more views
 [ -f "$OUT/dev2.pkl" ] || $PY $HERE/problems.py "$OUT/dev2.pkl" dataset=clutter "dataset.root=$SHARED/bop/ycbv" \
   dataset.num_scenes=400 "dataset.scenes=[$(seq -s, 200 399)]"
 ORDER2=(whole_mask sel_distinct10 fit_ratio125 fit_ratio15 fit_ratio2 no_fallback inner3_t90 inner6_t90 inner3_t98
-  inner2_t98 inner4_t98 default final_pixels4800 final_pixels7200 final_pixels9600 final_pixels19200)  # rows of V
+  inner2_t98 inner4_t98 final_pixels4800 final_pixels7200 final_pixels9600 final_pixels19200 shift03 shift05 shift07
+  shift10 default)  # rows of V
 mkdir -p "$OUT/dev2"
 variants "$OUT/dev2.pkl" "$OUT/dev2" "${ORDER2[@]}"
 $PY $HERE/table.py --out results/search_recall/dev2_variants.md --split clutter_objects_dev2 \
   --title "Ours on more clutter dev scenes (200-399), uniform resting poses" \
   $(for v in "${ORDER2[@]}"; do echo "$v=$OUT/dev2/$v.jsonl"; done)
-# The embedded set's development seed (1), own model: the coarse search's ICP, each way
+# The embedded set's development seed (1), own model: the coarse search's ICP, each way; the selection's
+# settings; the defaults before grid_shift (no_shift) and today's (default)
 EMB="$OUT/embedded_dev"
 ROWS=("full:resting.grid_icp=full resting.grid_beam=16 $OLD" "yaw:resting.grid_icp=yaw $OLD" "union:resting.grid_icp=union $OLD"
   "polish:selection.depth_polish_levels=3 $OLD" "top_k8:selection.depth_top_k=8 $OLD" "tau0125:selection.depth_tau=0.125 $FREE1 $D0 $R0 $E0"
   "tau015:selection.depth_tau=0.15 $FREE1 $D0 $R0 $E0" "tau02:selection.depth_tau=0.2 $FREE1 $D0 $R0 $E0"
   "free2:selection.depth_free_weight=2.0 $TAU01 $D0 $R0 $E0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15 $D0 $R0 $E0"
   "distinct10:selection.depth_final_distinct_deg=10.0 $R0 $E0" "whole_mask:$E0" "ratio15:selection.depth_poor_fit_max_ratio=1.5 $E0"
-  "no_fallback:selection.depth_min_inliers=0.0" "default:")
+  "no_fallback:selection.depth_min_inliers=0.0" "no_shift:")
+for i in "${!ROWS[@]}"; do ROWS[i]="${ROWS[i]} $S0"; done  # each measured before grid_shift was chosen
+ROWS+=("default:")  # today's defaults (grid_shift 0.5)
 bench_row() {  # $1: protocol, $2: seed, $3: output folder, $4: label prefix, $5: NAME:SETTINGS -> LABELS, DIRS
   local protocol=$1 seed=$2 dir=$3 prefix=$4 row=$5 kv s
   local name=${row%%:*}; set --
@@ -143,16 +160,19 @@ for row in "${ROWS[@]}"; do bench_row gt_model 1 "$EMB/${row%%:*}" "" "$row"; do
   --out results/search_recall/embedded_dev.md
 # The category templates (protocol templates) on the development seeds 1-3: the poor-fit test on the whole
 # mask (the fallback's answer always taken, declined over 1.25 / 1.5 / 2 x the winner's depth cost), none,
-# the test 3 px inside the mask's edge below 0.9 / 0.98, and today's (3 px, 0.95)
+# the test 3 px inside the mask's edge below 0.9 / 0.98, and the defaults before grid_shift (3 px, 0.95;
+# no_shift) and today's (default)
 TPL="$OUT/embedded_dev_templates"
 LABELS=() DIRS=()
 R15="ratio15:selection.depth_poor_fit_max_ratio=1.5 $E0"
 IN="inner3_t90:selection.depth_fit_erode_px=3 selection.depth_min_inliers=0.9"
 IN98="inner3_t98:selection.depth_fit_erode_px=3 selection.depth_min_inliers=0.98"
 for sd in 1 2 3; do
-  rows=("whole_mask:$E0" "$R15" "$IN" "$IN98" "default:")
+  rows=("whole_mask:$E0" "$R15" "$IN" "$IN98" "no_shift:")
   [ "$sd" = 1 ] && rows=("whole_mask:$E0" "ratio125:selection.depth_poor_fit_max_ratio=1.25 $E0" "$R15"
-    "ratio2:selection.depth_poor_fit_max_ratio=2.0 $E0" "no_fallback:selection.depth_min_inliers=0.0" "$IN" "$IN98" "default:")
+    "ratio2:selection.depth_poor_fit_max_ratio=2.0 $E0" "no_fallback:selection.depth_min_inliers=0.0" "$IN" "$IN98" "no_shift:")
+  for i in "${!rows[@]}"; do rows[i]="${rows[i]} $S0"; done  # each measured before grid_shift was chosen
+  rows+=("default:")  # today's defaults (grid_shift 0.5)
   for row in "${rows[@]}"; do bench_row templates "$sd" "$TPL/${row%%:*}-seed$sd" "seed $sd, " "$row"; done
 done
 "${BENCH:-.venv/bin/bench}" table --force "${DIRS[@]}" "${LABELS[@]}" --layout generic --categories all \
