@@ -123,7 +123,7 @@ def _shifted(R, rest, ups, ground_normal_camera, template_points, yaws, shift):
         if counts[k] != 1:
             continue
         u = unit3(ups[k])
-        along = centred @ u
+        along = np.einsum("mj,j->m", centred, u)  # einsum's loops: no BLAS, the same bits on every CPU
         radius = float(np.sqrt(np.max(np.einsum("mj,mj->m", centred, centred) - along * along)))
         for j in range(1, yaws):
             angle = 2.0 * math.pi * (j - 1) / (yaws - 1)

@@ -92,6 +92,7 @@ declare -A V=(
   [final_pixels19200]="selection.depth_final_pixels=19200"
   # an up along the symmetry axis (one yaw) also placed 7 times moved along the ground by 0.3 / 0.5 / 0.7 /
   # 1.0 x the template's radius about it (resting.grid_shift; default 0.5 since)
+  [no_shift]=""  # the defaults before it (S0 added below)
   [shift03]="resting.grid_shift=0.3"
   [shift05]="resting.grid_shift=0.5"
   [shift07]="resting.grid_shift=0.7"
@@ -106,7 +107,7 @@ ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tp
   sel_polish3 sel_polish2_small sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3
   sel_distinct5 sel_distinct10 sel_distinct20 sel_distinct30 whole_mask fit_ratio125 fit_ratio15 fit_ratio2 no_fallback
   inner3_t90 inner6_t90 inner3_t98 inner2_t98 inner4_t98 final_pixels4800 final_pixels7200 final_pixels9600
-  final_pixels19200 shift03 shift05 shift07 shift10 default)
+  final_pixels19200 no_shift shift03 shift05 shift07 shift10 default)
 variants() {  # $1: problems pickle, $2: folder of the per-sample lines, then the variants (rows of V)
   local pkl=$1 dir=$2 v; shift 2
   for v in "$@"; do  # resumes: a finished variant is not run again
@@ -125,8 +126,8 @@ $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORD
 [ -f "$OUT/dev2.pkl" ] || $PY $HERE/problems.py "$OUT/dev2.pkl" dataset=clutter "dataset.root=$SHARED/bop/ycbv" \
   dataset.num_scenes=400 "dataset.scenes=[$(seq -s, 200 399)]"
 ORDER2=(whole_mask sel_distinct10 fit_ratio125 fit_ratio15 fit_ratio2 no_fallback inner3_t90 inner6_t90 inner3_t98
-  inner2_t98 inner4_t98 final_pixels4800 final_pixels7200 final_pixels9600 final_pixels19200 shift03 shift05 shift07
-  shift10 default)  # rows of V
+  inner2_t98 inner4_t98 final_pixels4800 final_pixels7200 final_pixels9600 final_pixels19200 no_shift shift03 shift05
+  shift07 shift10 default)  # rows of V
 mkdir -p "$OUT/dev2"
 variants "$OUT/dev2.pkl" "$OUT/dev2" "${ORDER2[@]}"
 $PY $HERE/table.py --out results/search_recall/dev2_variants.md --split clutter_objects_dev2 \
