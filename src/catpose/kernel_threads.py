@@ -12,8 +12,8 @@ layer breaks when several Python threads call into it at once.
 The count is the runs' ``threads`` key (``configs/run.yaml``), set once per process with
 :func:`set_threads`, which also sets torch's intra-op threads. Its default ``auto`` (also this
 module's until a run sets it, so the Python API gets what ``bench run`` gets) is
-:func:`available`: ``OMP_NUM_THREADS`` where set (joblib's and Ray's workers set it to their
-share of the cores), else the CPUs this process may run on (its affinity: a Slurm job's
+:func:`available`: ``OMP_NUM_THREADS`` where set (joblib's workers get their share of the cores
+that way), else the CPUs this process may run on (its affinity: a Slurm job's
 allocation), at most :data:`MAX_AUTO`. With 1 every kernel is called directly, as without this
 module.
 """
@@ -46,8 +46,8 @@ MIN_ITEMS = 2
 PIECES = 4
 #: the ``threads`` value that asks for :func:`available`
 AUTO = "auto"
-#: most threads ``auto`` takes: ours' calls split 12-40 starts (hypotheses, candidates), so beyond
-#: this the threads mostly wait for one another
+#: most threads ``auto`` takes: ours' calls split tens of starts (hypotheses, candidates, grid
+#: poses) into ``PIECES`` ranges per thread, so far beyond this the ranges get too short to pay
 MAX_AUTO = 8
 
 _threads: int | None = None  # None: auto, resolved on first use
