@@ -223,3 +223,13 @@ def test_methods_of_one_suite_leave_the_other_suites_out(tmp_path: Path, repo_ro
     assert run_suites.main(["--config", str(path), "--methods", "teaser"]) == 0
     assert calls == [["teaser"]]
     assert "icp_only: skipped (none of --methods teaser is among its methods)" in capsys.readouterr().out
+
+
+def test_a_gate_worker_takes_one_thread_under_threads_auto(monkeypatch):
+    """The gate's worker processes are its parallelism: their ``threads=auto`` resolves to 1."""
+    from catpose import kernel_threads
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "4")  # recorded: the test leaves the environment as it was
+    run_suites._one_thread()
+    assert os.environ["OMP_NUM_THREADS"] == "1"
+    assert kernel_threads.resolve(kernel_threads.AUTO) == 1
