@@ -110,12 +110,14 @@ def _shifted(R, rest, ups, ground_normal_camera, template_points, yaws, shift):
     """Each single-yaw up's rotation repeated ``yaws`` times with camera-frame moves (K, 3): zero,
     then ``yaws - 1`` ground-plane directions at radius ``shift`` x the template's radius about
     the up (through the template's centroid)."""
+    counts = np.bincount(rest, minlength=len(ups))
+    if not np.any(counts == 1):  # no up along a symmetry axis: every pose unmoved
+        return R, rest, np.zeros((len(R), 3))
     g = unit3(np.asarray(ground_normal_camera, dtype=np.float64))
     a = unit3(np.cross(g, [1.0, 0.0, 0.0]) if abs(g[0]) < 0.9 else np.cross(g, [0.0, 1.0, 0.0]))
     b = np.cross(g, a)
     P = np.asarray(template_points, dtype=np.float64)
     centred = P - P.mean(axis=0)
-    counts = np.bincount(rest, minlength=len(ups))
     out_R, out_rest, out_move = [], [], []
     for i, k in enumerate(rest):
         out_R.append(R[i])
