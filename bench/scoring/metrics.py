@@ -13,6 +13,14 @@ seen from the camera (the paper's "main axis" error for TYO-L). Their translatio
 distance between the estimated and true positions of the object's origin in the camera frame,
 ``-R^T t`` (a spin about the axis moves the camera's position in the template frame, so the
 paper's ``|| t_gt - t_est ||`` would charge the unobservable spin to the translation).
+
+Angles are computed as ``atan2(sin, cos)`` of the same angle (the rotation's: half the length of
+the antisymmetric part of ``R_gt^T R_est`` and ``(tr - 1) / 2``; two axes': the length of their
+cross product and their dot product), in closed form (:mod:`catpose.geometry`) with
+:func:`catpose.libm.arctan2`: ``arccos`` of a cosine loses half the digits within a few ulp of 0
+and 180 degrees, and a BLAS product rounds per CPU kernel, so an estimate upside down would be
+scored differently in the last bits on different machines. These give the same bits on every
+x86-64 CPU.
 """
 
 from __future__ import annotations
@@ -21,20 +29,51 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from catpose import libm
+from catpose.geometry import compose_T, dot3, norm3
+
 FAILED_ERROR_DEG = 180.0
 """A failed sample (the method raised or returned a non-finite pose) counts as this error."""
 
 
 def rotation_error_deg(R_est: np.ndarray, R_gt: np.ndarray) -> float:
     """Geodesic angle between two rotations, in degrees, in [0, 180]."""
-    R_est, R_gt = np.asarray(R_est, float), np.asarray(R_gt, float)
-    cos = (np.trace(R_gt.T @ R_est) - 1.0) / 2.0
-    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+    return float(_rotation_angles_deg(np.asarray(R_est, float)[None], np.asarray(R_gt, float))[0])
+
+
+def _rotation_angles_deg(R_est: np.ndarray, R_gt: np.ndarray) -> np.ndarray:
+    """(B,) geodesic angles (degrees) between rotations ``R_est`` (B, 3, 3) and one ``R_gt``
+    (3, 3): of ``M = R_gt^T R_est``, ``atan2(|vee(M - M^T)| / 2, (tr M - 1) / 2)``."""
+    G = np.asarray(R_gt, float)
+    # M[b, i, j] = sum_k G[k, i] R_est[b, k, j], the terms added in a fixed order
+    M = (
+        G[0, :, None] * R_est[:, 0, None, :]
+        + G[1, :, None] * R_est[:, 1, None, :]
+        + G[2, :, None] * R_est[:, 2, None, :]
+    )
+    cos = (M[:, 0, 0] + M[:, 1, 1] + M[:, 2, 2] - 1.0) / 2.0
+    skew = np.stack([M[:, 2, 1] - M[:, 1, 2], M[:, 0, 2] - M[:, 2, 0], M[:, 1, 0] - M[:, 0, 1]], axis=-1)
+    return np.degrees(np.asarray(libm.arctan2(norm3(skew) / 2.0, cos), dtype=np.float64).reshape(-1))
+
+
+def _axis_angles_deg(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Angles (degrees) between 3-vectors ``u`` and ``v`` along the last axis (broadcast):
+    ``atan2(|u x v|, u . v)``, exact near 0 and 180 degrees; no normalisation needed."""
+    u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
+    cross = np.stack(
+        [
+            u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1],
+            u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2],
+            u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0],
+        ],
+        axis=-1,
+    )
+    return np.degrees(np.asarray(libm.arctan2(norm3(cross), dot3(u, v)), dtype=np.float64))
 
 
 def translation_error(t_est: np.ndarray, t_gt: np.ndarray) -> float:
     """Euclidean distance between two translations (object-normalised unit)."""
-    return float(np.linalg.norm(np.asarray(t_est, float).reshape(3) - np.asarray(t_gt, float).reshape(3)))
+    return float(norm3(np.asarray(t_est, float).reshape(3) - np.asarray(t_gt, float).reshape(3)))
 
 
 def axis_error_deg(R_est: np.ndarray, R_gt: np.ndarray, axis: np.ndarray) -> float:
@@ -45,9 +84,8 @@ def axis_error_deg(R_est: np.ndarray, R_gt: np.ndarray, axis: np.ndarray) -> flo
     angle between the two, in [0, 180] (an upside-down bottle is 180 degrees off).
     """
     a = np.asarray(axis, float).reshape(3)
-    a = a / np.linalg.norm(a)
-    u, v = np.asarray(R_est, float).T @ a, np.asarray(R_gt, float).T @ a
-    return float(np.degrees(np.arccos(np.clip(u @ v / (np.linalg.norm(u) * np.linalg.norm(v)), -1.0, 1.0))))
+    u, v = dot3(np.asarray(R_est, float).T, a), dot3(np.asarray(R_gt, float).T, a)  # R^T a
+    return float(_axis_angles_deg(u, v))
 
 
 def sample_errors(
@@ -66,7 +104,7 @@ def sample_errors(
     T_est, T_gt = np.asarray(T_est, float), np.asarray(T_gt, float)
     symmetries = [np.asarray(S, float).reshape(4, 4) for S in symmetries]
     if symmetries:
-        candidates = [sample_errors(T_est, S @ T_gt, symmetry_axis) for S in [np.eye(4), *symmetries]]
+        candidates = [sample_errors(T_est, compose_T(S, T_gt), symmetry_axis) for S in [np.eye(4), *symmetries]]
         return min(candidates, key=lambda e: (round(e["err_deg"], 9), e["trans_err"]))
     rot = rotation_error_deg(T_est[:3, :3], T_gt[:3, :3])
     if symmetry_axis is None:
@@ -74,7 +112,7 @@ def sample_errors(
         trans = translation_error(T_est[:3, 3], T_gt[:3, 3])
     else:
         axis = axis_error_deg(T_est[:3, :3], T_gt[:3, :3], symmetry_axis)
-        trans = translation_error(-T_est[:3, :3].T @ T_est[:3, 3], -T_gt[:3, :3].T @ T_gt[:3, 3])
+        trans = translation_error(-dot3(T_est[:3, :3].T, T_est[:3, 3]), -dot3(T_gt[:3, :3].T, T_gt[:3, 3]))
     return {
         "rot_err_deg": rot,
         "axis_err_deg": axis,
@@ -95,15 +133,14 @@ def pose_errors_deg(
     R = T_est[:, :3, :3]
     best = np.full(len(T_est), np.inf)
     for S in [np.eye(4), *[np.asarray(S, float).reshape(4, 4) for S in symmetries]]:
-        R_gt = (S @ np.asarray(T_gt, float))[:3, :3]
+        R_gt = compose_T(S, np.asarray(T_gt, float))[:3, :3]
         if symmetry_axis is None:
-            cos = (np.einsum("ij,bij->b", R_gt, R) - 1.0) / 2.0  # tr(R_gt^T R)
+            err = _rotation_angles_deg(R, R_gt)
         else:
             a = np.asarray(symmetry_axis, float).reshape(3)
-            a = a / np.linalg.norm(a)
-            u, v = np.einsum("bji,j->bi", R, a), R_gt.T @ a
-            cos = (u @ v) / (np.linalg.norm(u, axis=1) * np.linalg.norm(v))
-        best = np.minimum(best, np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+            u = R[:, 0, :] * a[0] + R[:, 1, :] * a[1] + R[:, 2, :] * a[2]  # R^T a, per pose
+            err = _axis_angles_deg(u, dot3(R_gt.T, a))
+        best = np.minimum(best, err)
     return best
 
 
