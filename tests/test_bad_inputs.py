@@ -95,6 +95,7 @@ def write_off(path: Path, vertex_lines: list[str]) -> Path:
         (["seed=abc"], "seed='abc' is not an integer"),
         (["threads=0"], "threads=0 is not auto or an integer >= 1; set threads=auto"),
         (["threads=two"], "threads='two' is not auto or an integer >= 1"),
+        (["threads=2.0"], "threads=2.0 is not auto or an integer >= 1"),
         (["lock_timeout=-2"], "lock_timeout=-2 is not a number >= 0"),
     ],
 )

@@ -121,7 +121,7 @@ def test_the_threads_key_sets_the_kernels_and_torchs_counts() -> None:
         assert extras.torch_threads() in (None, 2)  # None: torch not installed
     with threads(None):
         assert kernel_threads.threads() == 1  # null: the kernels take 1, torch keeps its own
-    for bad in (0, -1, 1.5, True, "two", "2"):
+    for bad in (0, -1, 1.5, 2.0, True, "two", "2"):
         with pytest.raises(ValueError, match="auto or an integer at least 1"):
             kernel_threads.set_threads(bad)
 

@@ -460,11 +460,12 @@ def test_ctrl_c_mid_loop_then_rerun_completes(tmp_path):
 
 
 def test_run_json_records_the_environment(tmp_path):
-    """run.json holds the versions, CPU and BLAS kernel the numbers came from."""
+    """run.json holds the versions, CPU and BLAS kernel the numbers came from, and the threads."""
     import json
 
     from hydra import compose, initialize_config_module
 
+    from catpose import kernel_threads
     from catpose.bench.run.runner import run
 
     with initialize_config_module("catpose.configs", version_base=None):
@@ -479,8 +480,11 @@ def test_run_json_records_the_environment(tmp_path):
                 f"output_root={tmp_path}",
                 "progress=false",
                 "print_summary=false",
+                "threads=auto",
             ],
         )
-    env = json.loads((run(cfg) / "run.json").read_text())["environment"]
+    meta = json.loads((run(cfg) / "run.json").read_text())
+    env = meta["environment"]
+    assert meta["threads"] == kernel_threads.available()  # what auto came to, the runtimes' context
     assert {"numpy", "scipy", "torch", "trimesh"} <= set(env["versions"])
     assert env["cpu"] and isinstance(env["blas"], list)

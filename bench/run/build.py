@@ -308,10 +308,10 @@ def validate_run_options(cfg: Any) -> None:
     _run_option(cfg, "seed", "int")
     _run_option(cfg, "limit", "int", 1)
     threads = cfg.get("threads")
-    if threads != kernel_threads.AUTO:
+    if threads is not None:  # null: the kernels take 1, torch keeps its count
         try:
-            _run_option(cfg, "threads", "int", 1)
-        except ConfigError:
+            kernel_threads.resolve(threads)
+        except ValueError:
             raise ConfigError(
                 f"threads={threads!r} is not {kernel_threads.AUTO} or an integer >= 1; set threads={kernel_threads.AUTO} "
                 "(the CPUs this process may use) or threads=<integer >= 1>"

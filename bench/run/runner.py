@@ -263,6 +263,7 @@ def _run_locked(
     done = {r["sample_id"] for r in existing if r.get("status") == "ok" or not retry}
     todo = [s for s in ids if s not in done]
     base = {"method": method_name, "dataset": dataset_name, "protocol": str(cfg.protocol.name), "seed": int(cfg.seed)}
+    base["threads"] = kernel_threads.threads()  # what threads=auto came to here: the runtimes' context
 
     with writing(out):
         writer = SampleWriter(samples_path)

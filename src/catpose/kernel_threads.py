@@ -12,8 +12,8 @@ layer breaks when several Python threads call into it at once.
 The count is the runs' ``threads`` key (``configs/run.yaml``), set once per process with
 :func:`set_threads`, which also sets torch's intra-op threads. Its default ``auto`` (also this
 module's until a run sets it, so the Python API gets what ``bench run`` gets) is
-:func:`available`: ``OMP_NUM_THREADS`` where set (joblib's workers get their share of the cores
-that way), else the CPUs this process may run on (its affinity: a Slurm job's
+:func:`available`: ``OMP_NUM_THREADS`` where set (joblib's workers and Ray's tasks get their
+share of the cores that way), else the CPUs this process may run on (its affinity: a Slurm job's
 allocation), at most :data:`MAX_AUTO`. With 1 every kernel is called directly, as without this
 module.
 """
@@ -21,6 +21,7 @@ module.
 from __future__ import annotations
 
 import itertools
+import numbers
 import os
 import threading
 from collections.abc import Callable
@@ -79,14 +80,15 @@ def available() -> int:
 
 
 def resolve(n: int | str | None) -> int | None:
-    """The count a ``threads`` value stands for: ``auto`` -> :func:`available`, an integer >= 1
-    as is, None as is. Raises ValueError for anything else."""
+    """The count a ``threads`` value stands for: ``auto`` (any case, spaces around) ->
+    :func:`available`, an integer >= 1 as is, None as is. Raises ValueError for anything else (a
+    float such as 2.0, a bool, a string of digits): the one check of the runs' key, ``bench perf``
+    and the API."""
     if n is None:
         return None
     if isinstance(n, str) and n.strip().lower() == AUTO:
         return available()
-    ok = not isinstance(n, (bool, str)) and isinstance(n, (int, float)) and int(n) == n and n >= 1
-    if not ok:
+    if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 1:
         raise ValueError(f"threads must be {AUTO} or an integer at least 1 (got {n!r})")
     return int(n)
 
