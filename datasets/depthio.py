@@ -15,6 +15,7 @@ import numpy as np
 
 from catpose.errors import DatasetError
 from catpose.geometry import dot3, smallest_eigenvector_sym3
+from catpose.plane_kernel import inlier_counts
 
 
 def read_depth_png(path: Path) -> np.ndarray:
@@ -92,12 +93,7 @@ def fit_ground_plane(points: np.ndarray, distance: float, iterations: int, seed:
     if not ok.any():
         raise DatasetError("background points are collinear; cannot fit the ground plane")
     normals, offsets = normals[ok] / norms[ok, None], -np.einsum("ij,ij->i", normals[ok] / norms[ok, None], a[ok])
-    best, best_count = 0, -1
-    for s in range(0, len(normals), 64):
-        counts = (np.abs(dot3(p[:, None, :], normals[None, s : s + 64]) + offsets[s : s + 64]) < distance).sum(axis=0)
-        k = int(counts.argmax())
-        if counts[k] > best_count:
-            best, best_count = s + k, int(counts[k])
+    best = int(inlier_counts(p, normals, offsets, distance).argmax())  # the first of the most inliers
     n, d = normals[best], offsets[best]
     for _ in range(2):  # least-squares refinement on the inliers
         inl = p[np.abs(dot3(p, n) + d) < distance]

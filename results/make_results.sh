@@ -31,7 +31,8 @@
 #   perf       seconds per registration (bench perf) on synthetic, YCB-V and ModelNet40 problems, and
 #              the speed tables made from those CSVs and the GPU check's (results/perf/*.md). Run it
 #              on an otherwise idle machine: it measures wall time.
-#   api        catpose.register without `up` (experiments/api_without_up/make_without_up.sh, when present). ~1.5 h.
+#   api        catpose.register without `up` (experiments/api_without_up/make_without_up.sh, when present; ~1.5 h)
+#              and with a depth frame beside bench run (experiments/api_frames/make_frames.sh; ~1 min).
 #   figures    a figure of each table the README quotes, from the committed tables alone
 #              (python -m catpose.bench.report.table_figure: @10 and @30 per method, the mean error
 #              beside): results/figures/*.{png,pdf,csv}. Seconds.
@@ -225,7 +226,8 @@ for section in "${SECTIONS[@]}"; do
     ambiguity) if [ -d "$SHARED/bop/ycbv/models" ]; then OUT="$OUT" RESULTS="$RESULTS" bash experiments/ambiguity/make_ambiguity.sh
                else echo "make_results: ambiguity skipped: no $SHARED/bop/ycbv/models" >&2; fi ;;
     perf) perf ;;
-    api) if [ -f experiments/api_without_up/make_without_up.sh ]; then bash experiments/api_without_up/make_without_up.sh; fi ;;
+    api) if [ -f experiments/api_without_up/make_without_up.sh ]; then bash experiments/api_without_up/make_without_up.sh; fi
+         bash experiments/api_frames/make_frames.sh ;;
     figures) figures ;;
     *) echo "make_results: unknown section '$section'; use synthetic, tables, category, clutter, real, ambiguity, perf, api, figures" >&2; exit 2 ;;
   esac
