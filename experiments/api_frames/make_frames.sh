@@ -10,4 +10,4 @@ if [ ! -d "$SHARED/bop/ycbv/test" ]; then
   echo "make_frames: no $SHARED/bop/ycbv/test; skipped (set CATPOSE_SHARED_DATA)" >&2
   exit 0
 fi
-.venv/bin/python experiments/api_frames/api_frames.py "$SHARED/bop/ycbv" results/api/frames_ycbv.md 2>/dev/null
+PYTHONWARNINGS=ignore .venv/bin/python experiments/api_frames/api_frames.py "$SHARED/bop/ycbv" results/api/frames_ycbv.md  # warnings: the frames' wide masks
