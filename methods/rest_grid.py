@@ -84,12 +84,11 @@ def grid_poses(
     about that up, at evenly spaced directions (where occlusion moved the visible centroid off the
     object's front, one of them starts nearer)."""
     R, rest = grid_rotations(ups, ground_normal_camera, yaws, symmetry_axis)
+    moves = None
     if shift > 0.0 and yaws > 1:
         R, rest, moves = _shifted(
             R, rest, np.asarray(ups, dtype=np.float64), ground_normal_camera, template_points, yaws, shift
         )
-    else:
-        moves = None
     m = np.asarray(points_camera, dtype=np.float64).mean(axis=0)
     view = -m / max(norm3(m), 1e-12)  # towards the camera, camera frame
     P = np.asarray(template_points, dtype=np.float64)
@@ -109,10 +108,11 @@ def grid_poses(
 def _shifted(R, rest, ups, ground_normal_camera, template_points, yaws, shift):
     """Each single-yaw up's rotation repeated ``yaws`` times with camera-frame moves (K, 3): zero,
     then ``yaws - 1`` ground-plane directions at radius ``shift`` x the template's radius about
-    the up (through the template's centroid)."""
+    the up (through the template's centroid). Moves None: no up along a symmetry axis (nothing
+    moved)."""
     counts = np.bincount(rest, minlength=len(ups))
-    if not np.any(counts == 1):  # no up along a symmetry axis: every pose unmoved
-        return R, rest, np.zeros((len(R), 3))
+    if not np.any(counts == 1):
+        return R, rest, None
     g = unit3(np.asarray(ground_normal_camera, dtype=np.float64))
     a = unit3(np.cross(g, [1.0, 0.0, 0.0]) if abs(g[0]) < 0.9 else np.cross(g, [0.0, 1.0, 0.0]))
     b = np.cross(g, a)
