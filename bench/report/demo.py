@@ -133,9 +133,6 @@ def main(argv: list[str] | None = None) -> int:
 if __name__ == "__main__":
     from catpose.errors import CatposeError, command_error
 
-    _, _env = profile_env("--native" in sys.argv[1:])
-    if _env != dict(os.environ):  # the table too under the runs' profile: its errors' last bits follow the BLAS kernel
-        os.execve(sys.executable, [sys.executable, "-m", "catpose.bench.report.demo", *sys.argv[1:]], _env)
     try:
         raise SystemExit(main())
     except CatposeError as e:
