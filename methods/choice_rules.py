@@ -61,6 +61,10 @@ CROSS_RULES = ("cross", "cross_top", "cross_top_turns", "fused")
 TURN_RULES = ("cross_top_turns", "fused")
 #: the rules that average the chosen pose with the agreeing poses of the other templates
 FUSE_RULES = ("fused",)
+#: the rule a view's K registrations are chosen by when nothing sets one: ``bench run``'s `choice`
+#: group default (configs/run.yaml; a test asserts they agree), chosen on the development tables
+#: (experiments/category_choice/README.md, "The protocol's default")
+DEFAULT_RULE = "fused"
 
 #: the Python defaults of :class:`ChoiceRule`; configs/choice/score.yaml is the source (a test
 #: asserts they agree): the cross rules' weight of the mean cost on the other templates
@@ -95,7 +99,7 @@ class ChoiceRule:
         density_weight: ``density``: the score less this times the template's point spacing.
     """
 
-    rule: str = "score"
+    rule: str = DEFAULT_RULE
     cross_weight: float = CROSS_WEIGHT
     top_weight: float = TOP_WEIGHT
     fused_top_weight: float = FUSED_TOP_WEIGHT

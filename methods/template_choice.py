@@ -28,6 +28,7 @@ from catpose.errors import ConfigError, InvalidInputError, one_line
 from catpose.methods.choice_rules import (
     AGREE_DEG,
     CROSS_WEIGHT,
+    DEFAULT_RULE,
     DENSITY_WEIGHT,
     FUSED_TOP_WEIGHT,
     TOP_WEIGHT,
@@ -70,7 +71,8 @@ class TemplateChoice:
     """Keeps one of a view's K template registrations (module doc).
 
     Args:
-        rule: the rule (:data:`catpose.methods.choice_rules.RULES`).
+        rule: the rule (:data:`catpose.methods.choice_rules.RULES`; default
+            :data:`~catpose.methods.choice_rules.DEFAULT_RULE`, ``fused``).
         cross_weight, top_weight, fused_top_weight, agree_deg, density_weight: the rule's weights
             (:class:`~catpose.methods.choice_rules.ChoiceRule`).
         turns_deg: the turns about the template's up (degrees) tried from each estimate when K > 1
@@ -83,7 +85,7 @@ class TemplateChoice:
 
     def __init__(
         self,
-        rule: str = "score",
+        rule: str = DEFAULT_RULE,
         cross_weight: float = CROSS_WEIGHT,
         top_weight: float = TOP_WEIGHT,
         fused_top_weight: float = FUSED_TOP_WEIGHT,
@@ -190,7 +192,7 @@ def register_with_templates(
     """Register the view of ``problem`` (a :class:`~catpose.types.RegistrationProblem`; its own
     template is not used) on each of ``templates`` with ``method`` (``register(problem)``), then
     keep one pose with ``chooser`` (default: :class:`TemplateChoice` with its defaults, the
-    ``score`` rule). Returns the :class:`~catpose.methods.choice_rules.Choice` and the K
+    ``fused`` rule, as ``bench run``). Returns the :class:`~catpose.methods.choice_rules.Choice` and the K
     :class:`~catpose.types.RegistrationResult` s (None where the method refused that template with
     a :class:`~catpose.errors.CatposeError`).
 

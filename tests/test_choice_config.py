@@ -30,13 +30,23 @@ def test_every_key_of_the_choice_is_in_the_base_file_with_its_python_default_and
     params = {k: p.default for k, p in inspect.signature(TemplateChoice).parameters.items()}
     keys = {k for k in node if k not in ("name", "_target_")}
     assert keys == set(params), "configs/choice/score.yaml and TemplateChoice take the same keys"
-    for key in keys:  # one default: the YAML's value is the constructor's
+    for key in keys - {"rule"}:  # one default: the YAML's value is the constructor's (each file sets its rule)
         default = list(params[key]) if isinstance(params[key], tuple) else params[key]
         assert node[key] == default, f"choice.{key}: YAML {node[key]!r}, Python {default!r}"
     for line in path.read_text().splitlines():  # one comment line per key, with its unit or range
         key = line.split(":", 1)[0]
         if key in keys:
             assert "#" in line and re.search(r"\((.*)\)", line.split("#", 1)[1]), line
+
+
+def test_the_default_rule_is_the_same_for_bench_run_and_python():
+    from catpose.methods.choice_rules import DEFAULT_RULE, ChoiceRule
+    from catpose.methods.template_choice import TemplateChoice
+
+    run_defaults = OmegaConf.load(CONFIGS / "run.yaml").defaults
+    assert {"choice": DEFAULT_RULE} in [OmegaConf.to_container(d) for d in run_defaults if not isinstance(d, str)]
+    assert TemplateChoice().rule.rule == ChoiceRule().rule == DEFAULT_RULE == "fused"
+    assert _compose(["protocol=templates"]).choice.rule == DEFAULT_RULE
 
 
 def test_each_rule_file_sets_its_rule_only():
@@ -111,6 +121,13 @@ def test_a_run_directory_written_before_the_group_still_builds():
     relative = {"protocol": {"name": "relative", "_target_": "catpose.bench.protocols.Relative", "choice": "density"}}
     assert build_protocol(relative)._views.choice.rule == "density"
     assert build_choice(relative).rule.rule == "density"
+    # older still: no choice key at all, written when score was the default; it keeps that rule
+    oldest = {
+        "protocol": {k: v for k, v in old["protocol"].items() if k not in ("choice", "turns", "one_template_turns")}
+    }
+    assert build_protocol(oldest).choice.rule == "score" == build_choice(oldest).rule.rule
+    bare = {"protocol": {"name": "relative", "_target_": "catpose.bench.protocols.Relative"}}
+    assert build_protocol(bare)._views.choice.rule == "score"
 
 
 def test_the_choice_is_part_of_a_templates_runs_identity_and_old_configurations_keep_their_directory():
@@ -141,4 +158,5 @@ def test_the_choice_is_part_of_a_templates_runs_identity_and_old_configurations_
     fused = ["protocol=templates", "choice=fused"]
     assert digest(fused) == old_digest(fused, choice="fused", turns=None, one_template_turns=False)
     relative = {"choice": "score", "_target_": "catpose.bench.relative.Relative"}  # the class's name before its move
-    assert digest(["protocol=relative"]) == old_digest(["protocol=relative"], **relative)
+    score = ["protocol=relative", "choice=score"]  # the default before `fused`
+    assert digest(score) == old_digest(score, **relative)

@@ -119,7 +119,8 @@ def test_score_units_category_templates_picks_lowest_score():
         _row("car/x/v1", "x", g2, g2 @ bad, category="car", score=0.5, template="0"),
         _row("car/x/v1", "x", g2, g2, category="car", score=0.2, template="1"),
     ]
-    units = Relative(template_source="category").score_units(pd.DataFrame(rows))
+    # rows without the cross check's facts: only their scores can choose
+    units = Relative(template_source="category", choice="score").score_units(pd.DataFrame(rows))
     assert len(units) == 1 and units.iloc[0]["err_deg"] == pytest.approx(0.0, abs=1e-4)
 
 
@@ -264,3 +265,38 @@ def test_symmetric_relative_errors_ignore_each_views_spin():
     e = relative_errors(T_gt1, spin @ T_gt2, T_gt1, T_gt2, axis)
     assert e["err_deg"] == pytest.approx(0.0, abs=1e-6) and e["trans_err"] == pytest.approx(0.0, abs=1e-9)
     assert relative_errors(T_gt1, spin @ T_gt2, T_gt1, T_gt2, None)["trans_err"] > 0.1
+
+
+def test_a_relative_run_on_category_templates_stores_the_facts_its_default_choice_reads(tmp_path):
+    """`fused` (the default) reads the cross check's facts: a relative run computes them as a
+    templates run does, and keeps each view's row by them."""
+    from hydra import compose, initialize_config_module
+
+    from catpose.bench.run.rundir import read_rows
+    from catpose.bench.run.runner import run
+
+    with initialize_config_module(config_module="catpose.configs", version_base="1.3"):
+        cfg = compose(
+            config_name="run",
+            overrides=[
+                f"output_root={tmp_path}",
+                "progress=false",
+                "print_summary=false",
+                "method=icp",
+                "protocol=relative",
+                "dataset.categories=[bowl]",
+                "dataset.instances_per_category=1",
+                "limit=6",  # two views x three templates
+            ],
+        )
+    assert cfg.choice.rule == "fused"
+    out = run(cfg)
+    rows = read_rows(out / "samples.jsonl")
+    assert len(rows) == 6 and all(len(r["info"]["cross_costs"]) == 3 and r["info"]["turns"] for r in rows)
+    from catpose.bench.run.build import build_protocol
+
+    protocol = build_protocol(cfg)
+    views = protocol.view_rows(pd.DataFrame(rows))
+    assert len(views) == 2 and all(i["fused_templates"] >= 1 for i in views["info"])  # kept by fused, from the facts
+    pairs = protocol.score_units(pd.DataFrame(rows))
+    assert len(pairs) == 1 and np.isfinite(pairs["err_deg"]).all()

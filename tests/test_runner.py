@@ -154,7 +154,7 @@ def test_a_moved_protocol_class_keeps_its_run_directory_and_old_configs_build(tm
     from catpose.bench.protocols import Relative
     from catpose.bench.run.build import build_from_config
 
-    cfg = make_cfg(tmp_path, overrides=["protocol=relative"])
+    cfg = make_cfg(tmp_path, overrides=["protocol=relative", "choice=score"])  # the default before fused
     assert cfg.protocol._target_ == "catpose.bench.protocols.Relative"
     identity = {k: OmegaConf.to_container(cfg[k], resolve=True) for k in ("method", "dataset", "protocol")}
     identity["protocol"]["_target_"] = "catpose.bench.relative.Relative"  # as configs wrote it before

@@ -284,8 +284,10 @@ def test_register_with_templates_registers_the_view_on_each_template_then_choose
     assert rotation_angle_deg(choice.T_template_camera[:3, :3], T[:3, :3]) < 10.0
     assert choice.turn_deg == (0.0 if choice.template_index == 0 else 270.0) and choice.fused_templates is None
     assert choice.pose_changed == (choice.template_index == 1)
-    by_score, _ = register_with_templates(method, problem, templates)  # the default: the score rule
+    by_score, _ = register_with_templates(method, problem, templates, TemplateChoice(rule="score"))
     assert by_score.template_index == 1 and by_score.turn_deg is None and not by_score.pose_changed
+    fused, _ = register_with_templates(method, problem, templates)  # the default: the fused rule
+    assert fused.fused_templates is not None and rotation_angle_deg(fused.T_template_camera[:3, :3], T[:3, :3]) < 10.0
     with pytest.raises(InvalidInputError, match="no pose"):
         register_with_templates(Fixed([None] * 3), problem, templates)
     with pytest.raises(InvalidInputError, match="one estimate"):

@@ -27,7 +27,7 @@ from catpose.bench.protocols.template_rows import (
 )
 from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.errors import ConfigError, DatasetError
-from catpose.methods.choice_rules import CROSS_RULES, TURN_RULES, ChoiceRule
+from catpose.methods.choice_rules import CROSS_RULES, DEFAULT_RULE, TURN_RULES, ChoiceRule
 from catpose.types import GroundTruth, RegistrationProblem, Sample, Template
 
 
@@ -159,7 +159,7 @@ class Templates(Protocol):
         max_templates: int | None = None,
         exclude_templates: bool = False,
         exclude_instances: list[str] | None = None,
-        choice: str | ChoiceRule = "score",
+        choice: str | ChoiceRule = DEFAULT_RULE,
     ) -> None:
         self.max_templates = max_templates
         self.exclude_templates = bool(exclude_templates)  # skip views of the template instances themselves

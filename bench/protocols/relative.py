@@ -31,7 +31,7 @@ from catpose.bench.scoring.rows import failed_row, scored_row
 from catpose.datasets.dataset import ObjectDataset
 from catpose.errors import ConfigError
 from catpose.geometry import invert_T
-from catpose.methods.choice_rules import ChoiceRule
+from catpose.methods.choice_rules import DEFAULT_RULE, ChoiceRule
 from catpose.types import Sample
 
 TEMPLATE_SOURCES = ("own", "category")
@@ -148,6 +148,8 @@ class Relative(Protocol):
             either source, so that ``own`` and ``category`` are scored on the same pairs).
         choice: with ``template_source="category"``, the rule that keeps a view's template (the
             ``choice`` config group, :class:`~catpose.methods.choice_rules.ChoiceRule`, or a rule name).
+            Such a protocol also has ``view_templates`` (the ``templates`` protocol's), so a run stores
+            the cross check's facts the cross rules read.
     """
 
     name = "relative"
@@ -160,7 +162,7 @@ class Relative(Protocol):
         max_templates: int | None = None,
         max_relative_angle_deg: float | None = None,
         exclude_templates: bool = False,
-        choice: str | ChoiceRule = "score",
+        choice: str | ChoiceRule = DEFAULT_RULE,
     ) -> None:
         if template_source not in TEMPLATE_SOURCES:
             raise ConfigError(f"protocol.template_source={template_source!r} is unknown; use one of {TEMPLATE_SOURCES}")
@@ -178,6 +180,8 @@ class Relative(Protocol):
             if template_source == "own"
             else Templates(max_templates=max_templates, exclude_templates=exclude_templates, choice=choice)
         )
+        if template_source == "category":  # the choice's facts are computed on a view's K templates
+            self.view_templates = self._views.view_templates
 
     def sample_ids(self, dataset: ObjectDataset) -> list[str]:
         """One registration per view (``"own"``) or per (view, template) (``"category"``)."""

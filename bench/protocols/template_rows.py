@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from catpose.methods.choice_rules import ChoiceRule, TemplateEstimate, choose, template_spacing
+from catpose.methods.choice_rules import DEFAULT_RULE, ChoiceRule, TemplateEstimate, choose, template_spacing
 
 
 def template_sample_id(obs_id: str, k: int) -> str:
@@ -89,7 +89,7 @@ def _template_index(sample_id: Any, position: int) -> int:
 
 
 def choose_row(
-    group, choice: str | ChoiceRule = "score", top_weight: float | None = None, fuse_deg: float | None = None
+    group, choice: str | ChoiceRule = DEFAULT_RULE, top_weight: float | None = None, fuse_deg: float | None = None
 ):
     """The row (a pandas Series) one view keeps among its registrations (``group``: the view's rows
     of ``samples.jsonl`` as a DataFrame, one per template) under ``choice`` (a rule name, with its

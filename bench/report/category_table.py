@@ -3,8 +3,8 @@ side by side, for every method, number of templates K and choice rule.
 
 For a run of the ``templates`` protocol (each view registered to each of K templates):
 
-- *chosen*: the registration the rule keeps without ground truth (the run's ``choice`` weights;
-  every rule of :data:`catpose.methods.choice_rules.RULES` with ``--choices``);
+- *chosen*: the registration the rule keeps without ground truth (the run's own ``choice``; any
+  rules of :data:`catpose.methods.choice_rules.RULES` with ``--choices``, at the run's weights);
 - *oracle*: the lowest error over the K registrations (the paper's "minimum error across
   templates"; it needs ground truth);
 - *random*: a template drawn uniformly at random, as expected statistics: every registration of
@@ -89,6 +89,7 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
     out = []
     run_rule = rule_of(run)
     own_rule = run_rule.rule
+    choices = list(choices) or [own_rule]  # none named: the run's own
     one_template_turns = K == 1 and own_rule in TURN_RULES and has_turns(samples)
     if K > 1:
         rules = list(choices)
@@ -210,12 +211,14 @@ def to_csv(rows: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``bench category RUN_OR_FOLDER... [--category C] [--choices score,density,agreement]
+    """``bench category RUN_OR_FOLDER... [--category C] [--choices fused,cross,score]
     [--format md|csv] [--out FILE]``."""
     ap = argparse.ArgumentParser(prog="bench category", description=__doc__.split("\n\n")[0])
     ap.add_argument("paths", nargs="+", help="run directories or folders holding them (templates protocol)")
     ap.add_argument("--category", default=None, help="only this category (default: all rows pooled)")
-    ap.add_argument("--choices", default="score", help="comma-separated choice rules (default: score)")
+    ap.add_argument(
+        "--choices", default="", help="comma-separated choice rules (default: the rule each run kept its views by)"
+    )
     ap.add_argument("--format", choices=("md", "csv"), default="md")
     ap.add_argument("--title", default="")
     ap.add_argument("--out", default=None, help="write here instead of printing (a new file; see --force)")

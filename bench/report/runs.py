@@ -207,8 +207,8 @@ def protocol_of(run: Run):
     if run.protocol == "relative":
         from catpose.bench.protocols.relative import Relative
 
-        return Relative()
-    return Templates() if run.protocol == "templates" else GtModel()
+        return Relative(choice="score")  # rows written elsewhere carry no cross facts: only their scores can choose
+    return Templates(choice="score") if run.protocol == "templates" else GtModel()
 
 
 def scored_units(run: Run, error: str = "err_deg"):

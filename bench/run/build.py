@@ -126,7 +126,8 @@ def build_choice(cfg: Any) -> Any | None:
     choice = _node(cfg, "choice")
     if choice is None:
         old = {new: protocol[key] for key, new in MOVED_PROTOCOL_KEYS.items() if protocol.get(key) is not None}
-        choice = {"name": str(old.get("rule", "score")), "_target_": CHOICE_TARGET, **old}
+        old.setdefault("rule", "score")  # written before the group: kept by score, the default then
+        choice = {"name": str(old["rule"]), "_target_": CHOICE_TARGET, **old}
     return build_from_config(choice, "choice")[1]
 
 
@@ -191,6 +192,8 @@ def build_protocol(cfg: Any) -> Any:
         if choice is not None and "choice" not in node:
             rule_keys = {f.name for f in fields(ChoiceRule)}
             node["choice"] = {"_target_": RULE_TARGET, **{k: v for k, v in choice.items() if k in rule_keys}}
+        elif "choice" not in node:  # written before the group and its key: kept by score, the default then
+            node["choice"] = "score"
     return build_from_config(node, "protocol")[1]
 
 
