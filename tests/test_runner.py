@@ -191,6 +191,15 @@ def test_templates_protocol_selects_by_score_and_reports_oracle(tmp_path):
     units = Templates(choice="score").score_units(df).set_index("group_id")
     assert units.loc["o1", "err_deg"] == 50.0 and units.loc["o1", "oracle_err_deg"] == 3.0
     assert units.loc["o2", "err_deg"] == 7.0 and units.loc["o2", "runtime_s"] == 4.0
+    # the oracle's translation error is its own registration's, not the kept one's
+    assert units.loc["o1", "trans_err"] == 0.2 and units.loc["o1", "oracle_trans_err"] == 0.1
+    assert units.loc["o2", "oracle_trans_err"] == 0.3
+    from types import SimpleNamespace
+
+    from catpose.bench.report.runs import scored_units
+
+    oracle = scored_units(SimpleNamespace(config={}, protocol="templates", samples=df, path="r"), "oracle_err_deg")
+    assert oracle.set_index("group_id")[["err_deg", "trans_err"]].loc["o1"].tolist() == [3.0, 0.1]
 
 
 def test_views_without_absolute_ground_truth_are_not_scored():

@@ -207,8 +207,9 @@ class Templates(Protocol):
 
     def best_per_view(self, samples):
         """One row per view (``group_id``): the registration the rule ``choice`` keeps, with
-        ``oracle_err_deg``, ``n_templates`` and the summed ``runtime_s`` of the group (with the
-        ``cross`` rule's checks)."""
+        ``oracle_err_deg`` (the lowest error of the view's registrations) and ``oracle_trans_err``
+        (that registration's translation error), ``n_templates`` and the summed ``runtime_s`` of
+        the group (with the ``cross`` rule's checks)."""
         import pandas as pd
 
         if len(samples) == 0:
@@ -218,6 +219,8 @@ class Templates(Protocol):
             row = choose_row(g, self.choice).copy()
             err = pd.to_numeric(g["err_deg"], errors="coerce").where(g["status"] == "ok")
             row["oracle_err_deg"] = float(err.min()) if err.notna().any() else 180.0
+            trans = g["trans_err"].loc[err.idxmin()] if err.notna().any() and "trans_err" in g else None
+            row["oracle_trans_err"] = float(trans) if trans is not None and pd.notna(trans) else float("nan")
             row["n_templates"] = len(g)
             row["runtime_s"] = float(pd.to_numeric(g["runtime_s"], errors="coerce").sum()) + self._choice_s(g)
             rows.append(row)

@@ -213,7 +213,8 @@ def protocol_of(run: Run):
 
 def scored_units(run: Run, error: str = "err_deg"):
     """The run's scoring units (protocol ``score_units``); ``error="oracle_err_deg"`` uses the
-    templates protocol's minimum error across templates as ``err_deg`` (an oracle)."""
+    templates protocol's minimum error across templates as ``err_deg`` (an oracle), and that
+    registration's translation error as ``trans_err``."""
     units = protocol_of(run).score_units(run.samples)
     if error != "err_deg":
         if error not in units:
@@ -221,4 +222,6 @@ def scored_units(run: Run, error: str = "err_deg"):
                 f"run {run.path} has no column {error!r}; the oracle exists only for the templates protocol"
             )
         units = units.assign(err_deg=units[error])
+        if error == "oracle_err_deg" and "oracle_trans_err" in units:  # the oracle's own registration
+            units = units.assign(trans_err=units["oracle_trans_err"])
     return units
