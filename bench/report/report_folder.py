@@ -44,7 +44,7 @@ MAX_PICTURES = 16
 
 PROTOCOL_TEXT = {
     "gt_model": "each partial view registered to its own complete model",
-    "templates": "each partial view registered to the category templates; the estimate is the one the method scores best",
+    "templates": "each partial view registered to the category templates; the estimate is the one the run's template choice keeps (its `choice`, `fused` by default)",
     "relative": "relative pose between two views of one object, each registered to the category templates",
 }
 
