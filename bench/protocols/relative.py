@@ -148,8 +148,8 @@ class Relative(Protocol):
             either source, so that ``own`` and ``category`` are scored on the same pairs).
         choice: with ``template_source="category"``, the rule that keeps a view's template (the
             ``choice`` config group, :class:`~catpose.methods.choice_rules.ChoiceRule`, or a rule name).
-            Such a protocol also has ``view_templates`` (the ``templates`` protocol's), so a run stores
-            the cross check's facts the cross rules read.
+            Its ``view_templates`` are then the ``templates`` protocol's, so a run stores the cross
+            check's facts the cross rules read.
     """
 
     name = "relative"
@@ -180,8 +180,12 @@ class Relative(Protocol):
             if template_source == "own"
             else Templates(max_templates=max_templates, exclude_templates=exclude_templates, choice=choice)
         )
-        if template_source == "category":  # the choice's facts are computed on a view's K templates
-            self.view_templates = self._views.view_templates
+
+    @property
+    def view_templates(self):
+        """The ``templates`` protocol's ``view_templates`` with category templates (a run stores the
+        choice's facts on a view's K templates); None with the own model."""
+        return getattr(self._views, "view_templates", None)
 
     def sample_ids(self, dataset: ObjectDataset) -> list[str]:
         """One registration per view (``"own"``) or per (view, template) (``"category"``)."""

@@ -29,8 +29,9 @@ class ChoiceFacts:
 
 
 def facts_hook(protocol: Any, chooser: Any) -> ChoiceFacts | None:
-    """The hook of a run: None unless the protocol lists a view's templates (``templates``) and the
-    run has a choice (:func:`catpose.bench.run.build.build_choice`)."""
-    if chooser is None or not hasattr(protocol, "view_templates"):
+    """The hook of a run: None unless the protocol lists a view's templates (``templates``, and
+    ``relative`` with category templates) and the run has a choice
+    (:func:`catpose.bench.run.build.build_choice`)."""
+    if chooser is None or getattr(protocol, "view_templates", None) is None:
         return None
     return ChoiceFacts(protocol, chooser)
