@@ -218,9 +218,12 @@ class Templates(Protocol):
         for _, g in samples.groupby("group_id", sort=False):
             row = choose_row(g, self.choice).copy()
             err = pd.to_numeric(g["err_deg"], errors="coerce").where(g["status"] == "ok")
-            row["oracle_err_deg"] = float(err.min()) if err.notna().any() else 180.0
-            trans = g["trans_err"].loc[err.idxmin()] if err.notna().any() and "trans_err" in g else None
-            row["oracle_trans_err"] = float(trans) if trans is not None and pd.notna(trans) else float("nan")
+            best = err.idxmin() if err.notna().any() else None  # the oracle's registration
+            row["oracle_err_deg"] = 180.0 if best is None else float(err[best])
+            trans = (
+                None if best is None or "trans_err" not in g else pd.to_numeric(g["trans_err"], errors="coerce")[best]
+            )
+            row["oracle_trans_err"] = float("nan") if trans is None else float(trans)
             row["n_templates"] = len(g)
             row["runtime_s"] = float(pd.to_numeric(g["runtime_s"], errors="coerce").sum()) + self._choice_s(g)
             rows.append(row)
