@@ -33,7 +33,10 @@ distance: :func:`dictionary_pool`), and the coarse search over every stable rest
 
 The result's ``extras["hypothesis_stages"]`` holds the poses held after each step (the runner
 scores them against the truth: hypothesis recall), ``extras`` say which resting direction and half
-turn won.
+turn won, and ``extras["runner_up"]`` is the best pose of steps 3 and 4 that an answer at 10 degrees
+would call another answer (:func:`runner_up`): with its ``margin`` (its cost minus the winner's on
+the final lattice) it says how nearly the depth image chose otherwise (a near-symmetric object's
+half turn: a margin near 0).
 """
 
 from __future__ import annotations
@@ -54,11 +57,16 @@ from catpose.methods.resting_hypotheses import Hypothesis
 from catpose.point_to_plane_kernel import refine_many
 from catpose.types import RegistrationProblem, RegistrationResult
 
+#: the runner-up differs from the answer by more than this (degrees; the @10 threshold)
+RUNNER_UP_DEG = 10.0
+
 __all__ = [
+    "RUNNER_UP_DEG",
     "depth_verifier",
     "dictionary_pool",
     "final_verifier",
     "refine_last",
+    "runner_up",
     "select_by_depth",
     "stage_lists",
     "tilts_deg",
@@ -136,10 +144,13 @@ def select_by_depth(
 
     # step 4: the winner against its own half turns on the final lattice
     final_turn = 0
+    compared = (T_top, np.where(top_keep, top_cost, np.inf))  # every pose scored on the final lattice
     if sel.depth_final_turns > 0:
-        T_out, score, rest, final_turn = _against_half_turns(
+        T_out, score, rest, final_turn, turned = _against_half_turns(
             sel, cands, feats, problem, (coarse, verifier), T_out, score, rest, gravity, timings
         )
+        compared = (np.concatenate([compared[0], turned[0]]), np.concatenate([compared[1], turned[1]]))
+    second = runner_up(T_out, score + sel.depth_rest_prior * (rest != 0), *compared, axis)
     polished = {}
     if sel.depth_polish_levels > 0:
         t0 = time.perf_counter()
@@ -169,6 +180,7 @@ def select_by_depth(
         "timings": {name: float(v) for name, v in timings.items()},
         "num_input_points": int(len(cands.points)),
         "hypothesis_stages": stage_lists(top_k=pool[order], expanded=T_exp, final_refine=T_top),
+        "runner_up": second,
     }
     extras.update(polished)
     # every turned pose scored in step 2 (template frame) with its cost (inf: not kept)
@@ -205,6 +217,33 @@ def distinct_best(ranked: np.ndarray, T: np.ndarray, k: int, min_deg: float, axi
             if len(taken) == k:
                 break
     return np.asarray(taken or [int(ranked[0])], dtype=np.int64)
+
+
+def runner_up(
+    T_win: np.ndarray, cost_win: float, T: np.ndarray, costs: np.ndarray, axis: np.ndarray | None
+) -> dict | None:
+    """The best of the poses ``T`` (B, 4, 4; their ``costs`` (B,), lower is better, inf: not
+    eligible) whose rotation differs from the answer ``T_win`` (4, 4) by more than
+    :data:`RUNNER_UP_DEG` (for a template with a continuous symmetry ``axis`` (3,), the angle
+    between the axis' directions in the camera frame: a spin about it is no other answer), as
+    ``{"T_template_camera": 4 x 4 nested list, "cost": float, "margin": float}`` with ``margin`` its
+    cost minus the answer's ``cost_win`` (>= 0 when both were compared on one lattice); None when
+    no finite-cost pose differs."""
+    T = np.asarray(T, dtype=np.float64).reshape(-1, 4, 4)
+    costs = np.asarray(costs, dtype=np.float64)
+    if len(T) == 0:
+        return None
+    R, R_win = T[:, :3, :3], np.asarray(T_win, dtype=np.float64)[:3, :3]
+    if axis is None:  # the angle between two rotations: cos = (trace(R_win^T R) - 1) / 2
+        cos = (np.einsum("ij,bij->b", R_win, R) - 1.0) / 2.0
+    else:  # the axis in the camera frame per pose (R^T a), against the answer's
+        a = np.asarray(axis, dtype=np.float64) / norm3(np.asarray(axis, dtype=np.float64))
+        cos = np.einsum("bji,j,ki,k->b", R, a, R_win, a)  # einsum, not BLAS: the same bits on any CPU
+    other = np.isfinite(costs) & (cos < math.cos(math.radians(RUNNER_UP_DEG)))
+    if not other.any():
+        return None
+    i = int(np.argmin(np.where(other, costs, np.inf)))
+    return {"T_template_camera": T[i].tolist(), "cost": float(costs[i]), "margin": float(costs[i] - cost_win)}
 
 
 def stage_lists(**stages: np.ndarray) -> dict[str, list]:
@@ -282,22 +321,24 @@ def _against_half_turns(
     rest: int,
     gravity,
     timings: dict[str, float],
-) -> tuple[np.ndarray, float, int, int]:
+) -> tuple[np.ndarray, float, int, int, tuple[np.ndarray, np.ndarray]]:
     """Step 4: the winner ``T_win`` (4, 4, template frame) against the one of its three half turns
     about the template's axes that the coarse lattice scores best (of those the gravity filter
     keeps; by the same cost as every comparison, :func:`_costs`), refined on all input points and
     scored with the winner on the final lattice. ``verifiers``: (coarse, final); ``gravity``:
     (ground normal, resting directions, symmetry axis). Returns the pose that costs less, its
-    depth score, its resting direction and which turn it is (0: the winner itself, 1-3: about x,
-    y, z)."""
+    depth score, its resting direction, which turn it is (0: the winner itself, 1-3: about x,
+    y, z) and the turned poses scored on the final lattice with their costs ((M, 4, 4), (M,); inf:
+    gravity does not keep it)."""
     coarse, final = verifiers
     t0 = time.perf_counter()
     turns = [(j, F) for j, F in enumerate(half_turns()) if j > 0 and not _spin(F, gravity[2])]
     T_turns = np.stack([compose_T(F, T_win) for _, F in turns])
     cost, keep, _ = _costs(sel, coarse.scores(T_turns), T_turns, *gravity)
     timings["verification"] += time.perf_counter() - t0
+    none = (np.zeros((0, 4, 4)), np.zeros(0))
     if not keep.any():
-        return T_win, score, rest, 0
+        return T_win, score, rest, 0, none
     best = [int(t) for t in np.argsort(np.where(keep, cost, np.inf), kind="stable")[: int(sel.depth_final_turns)]]
     best = [t for t in best if keep[t]]
     t0 = time.perf_counter()
@@ -314,11 +355,12 @@ def _against_half_turns(
     cost, keep, rests = _costs(sel, scores, T_all, *gravity)
     timings["verification"] += time.perf_counter() - t0
     if not keep.any():
-        return T_win, score, rest, 0
+        return T_win, score, rest, 0, none
+    turned = (T_turn, np.where(keep, cost, np.inf)[1:])
     w = int(np.argmin(np.where(keep, cost, np.inf)))
     if w == 0:
-        return T_win, score, rest, 0
-    return T_all[w], float(scores[w]), int(rests[w]), turns[best[w - 1]][0]
+        return T_win, score, rest, 0, turned
+    return T_all[w], float(scores[w]), int(rests[w]), turns[best[w - 1]][0], turned
 
 
 def _polished(sel: SelectionSettings, final: DepthVerifier, T_win: np.ndarray, score: float, rest: int, gravity):

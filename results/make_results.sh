@@ -28,7 +28,8 @@
 #              model beside the real frames (results/real/sensor_stats.md). ~1 h.
 #   ambiguity  why ours' wrong estimates won, search miss or ambiguous to its depth check, from the runs
 #              of the synthetic, clutter and real sections (experiments/ambiguity/make_ambiguity.sh:
-#              results/ambiguity/). ~2 min.
+#              results/ambiguity/), ~2 min; and how often the truth is ours' answer or its runner-up,
+#              from runs of its own (experiments/runner_up/make_runner_up.sh: results/runner_up/), ~25 min.
 #   perf       seconds per registration (bench perf) on synthetic, YCB-V and ModelNet40 problems, and
 #              the speed tables made from those CSVs and the GPU check's (results/perf/*.md). Run it
 #              on an otherwise idle machine: it measures wall time.
@@ -228,6 +229,7 @@ for section in "${SECTIONS[@]}"; do
              else echo "make_results: clutter skipped: no $SHARED/bop/ycbv/models" >&2; fi ;;
     real) real ;;
     ambiguity) if [ -d "$SHARED/bop/ycbv/models" ]; then OUT="$OUT" RESULTS="$RESULTS" bash experiments/ambiguity/make_ambiguity.sh
+                 RUNS="$OUT/runner_up" RESULTS="$RESULTS" bash experiments/runner_up/make_runner_up.sh
                else echo "make_results: ambiguity skipped: no $SHARED/bop/ycbv/models" >&2; fi ;;
     perf) perf ;;
     api) if [ -f experiments/api_without_up/make_without_up.sh ]; then bash experiments/api_without_up/make_without_up.sh; fi

@@ -54,6 +54,17 @@ def test_ours_from_a_frame_fits_the_table_and_finds_the_pose(example):
     assert r.extras["visible_pixels"] == int((example["mask"] & (example["depth"] > 0)).sum())
     again = catpose.register(_frame(example), example["ply"], method="ours")
     assert np.array_equal(again.T_template_camera, r.T_template_camera)  # deterministic
+    # the runner-up: another answer (> 10 deg off), in the caller's frame and unit, as ours named it
+    assert r.runner_up is not None and rotation_deg(r.runner_up[:3, :3], r.T_template_camera[:3, :3]) > 10.0
+    second = r.extras["runner_up"]
+    assert r.runner_up_margin == second["margin"] >= 0.0
+    T2 = np.asarray(second["T_template_camera"])  # normalised frames, mapped as the answer is
+    assert np.allclose(r.runner_up[:3, :3] @ T2[:3, :3].T, r.T_template_camera[:3, :3] @ r.T_normalised[:3, :3].T)
+
+
+def test_a_method_without_a_runner_up_leaves_it_empty(example):
+    r = catpose.register(_frame(example), example["ply"], method="icp")
+    assert r.runner_up is None and np.isnan(r.runner_up_margin)
 
 
 @pytest.mark.slow  # > 5 s: make test-slow

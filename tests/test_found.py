@@ -49,6 +49,7 @@ def test_a_planted_truth_is_found_though_not_chosen(tmp_path):
         assert r["info"]["hypothesis_errors"]["candidates"] == pytest.approx(0.0, abs=1e-4)
         assert r["info"]["hypothesis_errors"]["final"] == pytest.approx(90.0, abs=1e-6)
         assert "hypothesis_stages" not in r["extras"]  # the poses are scored, not stored
+        assert r["info"]["runner_up_err_deg"] == pytest.approx(0.0, abs=1e-4)  # the runner-up, scored
     summary = pd.read_csv(out / "summary.csv").set_index("category")
     assert summary.loc["all", "acc10"] == 0.0 and summary.loc["all", "found10"] == 1.0
     assert list(summary.columns).index("found10") == list(summary.columns).index("acc10") + 1
@@ -57,6 +58,7 @@ def test_a_planted_truth_is_found_though_not_chosen(tmp_path):
 def test_without_the_truth_it_is_never_found(tmp_path):
     rows, out = _run(tmp_path, plant=False)
     assert all(r["found_err_deg"] == pytest.approx(45.0, abs=1e-6) for r in rows)
+    assert all(r["info"]["runner_up_err_deg"] == pytest.approx(45.0, abs=1e-6) for r in rows)
     assert pd.read_csv(out / "summary.csv").set_index("category").loc["all", "found10"] == 0.0
 
 

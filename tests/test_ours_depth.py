@@ -204,12 +204,15 @@ def test_a_winner_turned_half_way_round_meets_its_half_turn_and_loses(template):
     timings = {"verification": 0.0, "refinement": 0.0}
     for T_win, turn in ((T_flip, 3), (T_true, 0)):
         score = float(verifiers[1].scores(T_win[None])[0])
-        T, s, rest, got = ours_depth._against_half_turns(
+        T, s, rest, got, (T_turned, turned_costs) = ours_depth._against_half_turns(
             sel, cands, feats, p, verifiers, T_win, score, 0, gravity, timings
         )
         assert got == turn and rest == 0
         assert rotation_error_deg(T[:3, :3], T_true[:3, :3]) < 3.0
         assert s <= score
+        # the turned poses it compared come back with their costs, the answer's among them or the winner
+        assert len(T_turned) == len(turned_costs) >= 1 and np.isfinite(turned_costs).any()
+        assert min(turned_costs) >= s or turn != 0
     assert timings["refinement"] > 0.0 and timings["verification"] > 0.0
 
 
@@ -248,3 +251,36 @@ def test_the_last_comparison_takes_distinct_poses_not_one_pose_twice():
     shifted[1, :3, 3] = [0.5, 0.0, 0.0]
     assert distinct_best(ranked, shifted, 2, 10.0, None).tolist() == [0, 2]
     assert distinct_best(np.array([3]), T, 2, 10.0, None).tolist() == [3]
+
+
+def test_the_runner_up_is_the_cheapest_pose_another_answer_away():
+    from catpose.methods.ours_depth import RUNNER_UP_DEG, runner_up
+
+    T_win = _turned(0.0)
+    # a copy 2 deg away (cheapest, the same answer), a half turn, a pose 40 deg away, one not eligible
+    T = np.stack([_turned(2.0), _turned(180.0, (1.0, 0.0, 0.0)), _turned(40.0), _turned(90.0)])
+    costs = np.array([0.10, 0.13, 0.20, np.inf])
+    got = runner_up(T_win, 0.11, T, costs, None)
+    assert got["cost"] == 0.13 and got["margin"] == pytest.approx(0.02)
+    assert np.allclose(got["T_template_camera"], T[1])
+    assert rotation_error_deg(np.asarray(got["T_template_camera"])[:3, :3], T_win[:3, :3]) > RUNNER_UP_DEG
+    # about a symmetry axis (z) a spin is the same answer: the 40-deg spin is not a runner-up either
+    assert runner_up(T_win, 0.11, T[[0, 2]], costs[[0, 2]], np.array([0.0, 0.0, 1.0])) is None
+    assert runner_up(T_win, 0.11, T[[0, 2]], costs[[0, 2]], None)["cost"] == 0.20
+    # nothing else compared, or nothing eligible: none
+    assert runner_up(T_win, 0.11, np.zeros((0, 4, 4)), np.zeros(0), None) is None
+    assert runner_up(T_win, 0.11, T[[3]], costs[[3]], None) is None
+
+
+def test_ours_names_its_runner_up_and_how_nearly_it_won(template):
+    """The answer's runner-up is another answer (more than 10 deg off it), compared on the final
+    lattice with it: its margin is >= 0 and its cost the answer's plus the margin."""
+    from catpose.methods.ours_depth import RUNNER_UP_DEG
+
+    p, _ = scene_problem(template, 0)
+    r = _ours().register(p)
+    second = json.loads(json.dumps(r.extras))["runner_up"]
+    assert second is not None and second["margin"] >= 0.0
+    assert second["cost"] == pytest.approx(r.score + second["margin"])
+    T2 = np.asarray(second["T_template_camera"])
+    assert rotation_error_deg(T2[:3, :3], r.T_template_camera[:3, :3]) > RUNNER_UP_DEG

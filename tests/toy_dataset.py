@@ -113,7 +113,8 @@ class Planted(RegistrationMethod):
     """Answers 90 degrees off the truth, after a search whose ``candidates`` stage holds the truth
     (``plant=True``) or only a pose 45 degrees off it (``extras["hypothesis_stages"]``). The truth
     comes from the dataset's own view sampler (seeded by the sample id), as a test's knowledge, not
-    a method's: it checks that the runner scores hypothesis recall, found or never found."""
+    a method's: it checks that the runner scores hypothesis recall, found or never found. Its
+    runner-up (``extras["runner_up"]``) is the best pose of ``candidates``."""
 
     def __init__(self, seed: int = 0, plant: bool = True) -> None:
         self.seed, self.plant = seed, bool(plant)
@@ -130,8 +131,9 @@ class Planted(RegistrationMethod):
             return compose_T(make_T(axis_angle_to_R(np.array([1.0, 0.0, 0.0]), np.radians(deg)), np.zeros(3)), truth)
 
         stages = {"candidates": [turned(45.0)] + ([truth] if self.plant else []), "final": [turned(90.0)]}
+        second = {"T_template_camera": stages["candidates"][-1].tolist(), "cost": 0.01, "margin": 0.01}
         return RegistrationResult(
             T_template_camera=turned(90.0),
             score=0.0,
-            extras={"hypothesis_stages": {k: np.stack(v).tolist() for k, v in stages.items()}},
+            extras={"hypothesis_stages": {k: np.stack(v).tolist() for k, v in stages.items()}, "runner_up": second},
         )

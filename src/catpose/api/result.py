@@ -37,6 +37,14 @@ class Registration:
         runtime_s: wall-clock seconds of the method call(s), preparation excluded.
         T_normalised: (4, 4) the method's own answer, in the object-normalised frames (what
             ``bench run`` stores as ``T_est``).
+        runner_up: (4, 4) the pose that came closest to being the answer while differing from
+            it by more than 10 degrees (ours with a depth frame: the best such pose of its last
+            comparisons, typically a near-symmetric object's half turn), in the caller's frame and
+            unit; None when the method names none.
+        runner_up_margin: the runner-up's score minus the answer's (ours: depth-check cost per
+            mask pixel, >= 0); near 0 the depth image barely told the two apart, so the answer
+            is a guess between them that another cue (colour, a second view) should settle; NaN
+            without a runner-up.
     """
 
     T_template_camera: np.ndarray
@@ -49,3 +57,5 @@ class Registration:
     extras: Mapping[str, Any] = field(default_factory=dict)
     runtime_s: float = float("nan")
     T_normalised: np.ndarray | None = None
+    runner_up: np.ndarray | None = None
+    runner_up_margin: float = float("nan")
