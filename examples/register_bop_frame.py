@@ -10,7 +10,8 @@ model are read as ``bench run`` reads them (:func:`catpose.api.bop.bop_instance`
 ``catpose.register`` takes the frame the way the benchmark does: the table plane fitted outside the
 mask, ours' depth check against the whole image. Prints the pose in the model frame (mm), the
 rotation error against the ground truth (for a rotationally symmetric object, the angle between the
-symmetry axes) and the error of the object's position in the camera frame, mm.
+symmetry axes) and the error of the object's position in the camera frame, mm; with ours, also its
+runner-up (the next-best other pose it compared, ``Registration.runner_up``), its margin and error.
 """
 
 from __future__ import annotations
@@ -46,13 +47,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"register_bop_frame: error: {e}", file=sys.stderr)
         return 2
     T, T_gt = result.T_template_camera, inst.T_model_camera
-    if inst.symmetry_axis is None:  # the geodesic angle between the rotations
-        cos = (np.trace(T[:3, :3].T @ T_gt[:3, :3]) - 1.0) / 2.0
-        what = "rotation error"
-    else:  # a rotationally symmetric object: the angle between its axis as each pose sees it
-        cos = (T[:3, :3].T @ inst.symmetry_axis) @ (T_gt[:3, :3].T @ inst.symmetry_axis)
-        what = "symmetry-axis error"
-    err = float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+    what = "rotation error" if inst.symmetry_axis is None else "symmetry-axis error"
+    err = _error_deg(T, T_gt, inst.symmetry_axis)
     np.set_printoptions(precision=4, suppress=True)
     print(f"{inst.obs_id} ({args.method}, {result.runtime_s:.2f} s, up from {result.extras['ground_source']})")
     print("T_model_camera (mm):")
@@ -60,7 +56,20 @@ def main(argv: list[str] | None = None) -> int:
     # where the object is: the model origin in the camera frame, t of T_camera_model = -R^T t
     position = -T[:3, :3].T @ T[:3, 3] + T_gt[:3, :3].T @ T_gt[:3, 3]
     print(f"{what}: {err:.2f} deg; object position error: {np.linalg.norm(position):.1f} mm")
+    if result.runner_up is not None:
+        second = _error_deg(result.runner_up, T_gt, inst.symmetry_axis)
+        print(f"runner-up: margin {result.runner_up_margin:.4f}, {what} {second:.2f} deg")
     return 0
+
+
+def _error_deg(T: np.ndarray, T_gt: np.ndarray, symmetry_axis: np.ndarray | None) -> float:
+    """Degrees between the rotations of two poses (4, 4); for a rotationally symmetric object, between
+    its ``symmetry_axis`` (3,) as each pose sees it."""
+    if symmetry_axis is None:  # the geodesic angle between the rotations
+        cos = (np.trace(T[:3, :3].T @ T_gt[:3, :3]) - 1.0) / 2.0
+    else:
+        cos = (T[:3, :3].T @ symmetry_axis) @ (T_gt[:3, :3].T @ symmetry_axis)
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
 
 
 if __name__ == "__main__":

@@ -84,6 +84,7 @@ def test_the_bop_example_prints_a_pose_within_5_degrees_of_the_truth(shared_data
         assert r.returncode == 0, r.stderr[-2000:]
         err = float(re.search(r"error: ([0-9.]+) deg", r.stdout).group(1))
         assert err < 5.0, r.stdout
+        assert re.search(r"runner-up: margin [0-9.]+, rotation error [0-9.]+ deg", r.stdout), r.stdout
     bad = subprocess.run(
         [sys.executable, str(script), str(root), "1", "2", "14"], capture_output=True, text=True, timeout=600
     )
