@@ -29,7 +29,7 @@
 #   ambiguity  why ours' wrong estimates won, search miss or ambiguous to its depth check, from the runs
 #              of the synthetic, clutter and real sections (experiments/ambiguity/make_ambiguity.sh:
 #              results/ambiguity/), ~2 min; and how often the truth is ours' answer or its runner-up,
-#              from runs of its own (experiments/runner_up/make_runner_up.sh: results/runner_up/), ~25 min.
+#              from runs of its own (experiments/runner_up/make_runner_up.sh: results/runner_up/), ~5 min.
 #   perf       seconds per registration (bench perf) on synthetic, YCB-V and ModelNet40 problems, and
 #              the speed tables made from those CSVs and the GPU check's (results/perf/*.md). Run it
 #              on an otherwise idle machine: it measures wall time.

@@ -3,7 +3,7 @@
 # (runs of an older ours lack the runner-up), then results/runner_up/dev.md (the margin, chosen on the
 # clutter dev scenes 0-99 and 200-399) and results/runner_up/report.md (the clutter report scenes and
 # their object halves, the shared YCB-V frames per scene, the TYO-L frame, the embedded set's seed 0).
-# Usage: bash experiments/runner_up/make_runner_up.sh   (repository root, after `make setup`; ~25 min on
+# Usage: bash experiments/runner_up/make_runner_up.sh   (repository root, after `make setup`; ~5 min on
 # 2 cores; resumes). Environment: RUNS (default outputs/runner_up), RESULTS (default results).
 # Needs ../shared/data (or $CATPOSE_SHARED_DATA); skips with a note without it.
 set -euo pipefail
