@@ -27,6 +27,8 @@ class SampleRow:
     ``error`` says why, ``stage`` where, and ``err_deg`` is 180). ``found_err_deg`` is the error of
     the best hypothesis the method held at any stage of its search, the chosen one included
     (None: the method names no stages); ``info["hypothesis_errors"]`` has it per stage.
+    ``info["runner_up_err_deg"]`` is the error of the method's runner-up (``extras["runner_up"]``:
+    its next-best other answer), when it names one.
     """
 
     method: str
