@@ -49,6 +49,17 @@ def test_every_study_has_a_readme_with_the_five_sections():
     assert studies_without_readme(REPO) == []
 
 
+def studies_not_listed(repo: Path) -> list[str]:
+    """``experiments/<study>/`` folders that ``experiments/README.md``'s table does not link."""
+    index = (repo / "experiments" / "README.md").read_text()
+    folders = (p for p in (repo / "experiments").iterdir() if p.is_dir() and not p.name.startswith((".", "_")))
+    return sorted(f.name for f in folders if f"]({f.name}/README.md)" not in index)
+
+
+def test_every_study_is_listed_in_the_experiments_index():
+    assert studies_not_listed(REPO) == []
+
+
 def test_the_checks_catch_a_stray_script_and_a_bare_study(tmp_path):
     (tmp_path / "results" / "dev").mkdir(parents=True)
     (tmp_path / "results" / "make_results.sh").write_text("")
@@ -61,6 +72,8 @@ def test_the_checks_catch_a_stray_script_and_a_bare_study(tmp_path):
     (tmp_path / "experiments" / "half").mkdir()
     (tmp_path / "experiments" / "half" / "README.md").write_text("# x\n\n## Question\n\n## Split\n\n### Choice\n")
     assert studies_without_readme(tmp_path) == ["bare: no README.md", "half: README.md lacks Choice, Results, Rerun"]
+    (tmp_path / "experiments" / "README.md").write_text("| [half](half/README.md) | q | c |\n")
+    assert studies_not_listed(tmp_path) == ["bare"]
 
 
 @pytest.mark.parametrize(
