@@ -202,14 +202,7 @@ def distinct_best(ranked: np.ndarray, T: np.ndarray, k: int, min_deg: float, axi
     ranked = np.asarray(ranked, dtype=np.int64)
     if min_deg <= 0:
         return ranked[:k]
-    R = np.asarray(T, dtype=np.float64)[:, :3, :3]
-    if axis is None:
-        rows = R.reshape(len(R), 9)  # cos of the angle between R_i and R_j: (sum(R_i * R_j) - 1) / 2
-        lim = 2.0 * math.cos(math.radians(min_deg)) + 1.0
-    else:
-        a = np.asarray(axis, dtype=np.float64) / norm3(np.asarray(axis, dtype=np.float64))
-        rows = np.einsum("bji,j->bi", R, a)  # the axis in the camera frame, per pose
-        lim = math.cos(math.radians(min_deg))
+    rows, lim = _orientations(T, axis), _dot_limit(min_deg, axis)
     taken: list[int] = []
     for i in ranked:
         if all(float(np.einsum("i,i->", rows[i], rows[j])) < lim for j in taken):
@@ -233,17 +226,31 @@ def runner_up(
     costs = np.asarray(costs, dtype=np.float64)
     if len(T) == 0:
         return None
-    R, R_win = T[:, :3, :3], np.asarray(T_win, dtype=np.float64)[:3, :3]
-    if axis is None:  # the angle between two rotations: cos = (trace(R_win^T R) - 1) / 2
-        cos = (np.einsum("ij,bij->b", R_win, R) - 1.0) / 2.0
-    else:  # the axis in the camera frame per pose (R^T a), against the answer's
-        a = np.asarray(axis, dtype=np.float64) / norm3(np.asarray(axis, dtype=np.float64))
-        cos = np.einsum("bji,j,ki,k->b", R, a, R_win, a)  # einsum, not BLAS: the same bits on any CPU
-    other = np.isfinite(costs) & (cos < math.cos(math.radians(RUNNER_UP_DEG)))
+    dots = np.einsum("bi,i->b", _orientations(T, axis), _orientations(np.asarray(T_win)[None], axis)[0])
+    other = np.isfinite(costs) & (dots < _dot_limit(RUNNER_UP_DEG, axis))
     if not other.any():
         return None
     i = int(np.argmin(np.where(other, costs, np.inf)))
     return {"T_template_camera": T[i].tolist(), "cost": float(costs[i]), "margin": float(costs[i] - cost_win)}
+
+
+def _orientations(T: np.ndarray, axis: np.ndarray | None) -> np.ndarray:
+    """Per pose (B, 4, 4) the row whose dot product with another pose's tells how far apart their
+    orientations are (:func:`_dot_limit`): the 9 entries of R ((B, 9): the dot is trace(R_i^T
+    R_j)), or, for a template with a continuous symmetry ``axis`` (3,), that axis in the camera
+    frame ((B, 3): a spin about it changes nothing). einsum, not BLAS: the same bits on any CPU."""
+    R = np.asarray(T, dtype=np.float64)[:, :3, :3]
+    if axis is None:
+        return R.reshape(len(R), 9)
+    a = np.asarray(axis, dtype=np.float64) / norm3(np.asarray(axis, dtype=np.float64))
+    return np.einsum("bji,j->bi", R, a)
+
+
+def _dot_limit(min_deg: float, axis: np.ndarray | None) -> float:
+    """The dot product of two :func:`_orientations` rows below which the orientations differ by
+    more than ``min_deg`` degrees (the trace 2 cos + 1; between axes, cos)."""
+    c = math.cos(math.radians(min_deg))
+    return c if axis is not None else 2.0 * c + 1.0
 
 
 def stage_lists(**stages: np.ndarray) -> dict[str, list]:

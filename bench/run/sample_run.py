@@ -88,10 +88,8 @@ def _scored(row: dict, sample: Any, result: Any, runtime: float) -> dict:
         found = stage_errors(stages, gt.T_template_camera, gt.symmetry_axis, gt.symmetries)
         row["info"] = {**dict(row.get("info") or {}), "hypothesis_errors": found}
         errors["found_err_deg"] = float(np.nanmin([errors["err_deg"], *found.values()]))
-    second = extras.get("runner_up")
-    if isinstance(second, dict) and "T_template_camera" in second:  # the method's next-best other answer
-        T2 = np.asarray(second["T_template_camera"], dtype=float).reshape(4, 4)
-        e2 = sample_errors(T2, gt.T_template_camera, gt.symmetry_axis, gt.symmetries)["err_deg"]
+    if result.runner_up is not None:  # the method's next-best other answer
+        e2 = sample_errors(result.runner_up[0], gt.T_template_camera, gt.symmetry_axis, gt.symmetries)["err_deg"]
         row["info"] = {**dict(row.get("info") or {}), "runner_up_err_deg": float(e2)}
     return scored_row(row, T, errors)
 

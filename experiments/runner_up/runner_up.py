@@ -14,7 +14,6 @@ the runs' errors only (``err_deg``, ``info.runner_up_err_deg``), which the runne
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from pathlib import Path
@@ -31,11 +30,12 @@ SHOWN_MARGINS = (0.0, 0.005, 0.01, 0.02, 0.03, 0.05)
 
 def load_rows(run: Path, part: str | None = None) -> list[dict]:
     """Per finished sample of ``run``: right (@10), the runner-up right, the margin (inf: none)."""
+    from catpose.bench.run.rundir import latest_rows
+
     path = run / "samples.jsonl"
     if not path.is_file():
         raise ConfigError(f"{path}: no samples.jsonl; pass a bench run directory of ours")
-    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-    rows = [r for r in rows if r.get("status") == "ok"]
+    rows = [r for r in latest_rows(path) if r.get("status") == "ok"]  # a retried sample: its last row
     if part is not None:
         from catpose.bench.real.split import load_split
 

@@ -235,7 +235,8 @@ class RegistrationResult:
             NaN when the method has none.
         runtime_s: wall-clock seconds of the registration (set by the runner).
         extras: method-specific, JSON-serialisable details (chosen template index, per-stage
-            timings, per-template losses, ...).
+            timings, per-template losses, ...); a method that names its next-best other answer
+            puts it in ``extras["runner_up"]`` (:attr:`runner_up`).
         candidates_T: (K, 4, 4) every hypothesis the method scored before choosing (ours: one
             per partial template; ICP: one per start; correspondence baselines: one per target),
             same frames as ``T_template_camera``; None when the method has none. Kept in memory
@@ -250,3 +251,14 @@ class RegistrationResult:
     extras: Mapping[str, Any] = field(default_factory=dict)
     candidates_T: np.ndarray | None = None
     candidate_scores: np.ndarray | None = None
+
+    @property
+    def runner_up(self) -> tuple[np.ndarray, float] | None:
+        """The method's next-best other answer, read from ``extras["runner_up"]``
+        (``{"T_template_camera": 4 x 4, "margin": float, ...}``): its (4, 4) pose, same frames as
+        ``T_template_camera``, and its margin (its score minus the answer's); None when the
+        method names none."""
+        second = self.extras.get("runner_up")
+        if not isinstance(second, Mapping) or "T_template_camera" not in second:
+            return None
+        return np.asarray(second["T_template_camera"], dtype=float).reshape(4, 4), float(second["margin"])

@@ -192,8 +192,7 @@ class Registrar:
         def to_caller(T: np.ndarray) -> np.ndarray:
             return _to_caller(T, tmpl.R_up, tmpl.centre, tmpl.scale)
 
-        second = extras.get("runner_up")
-        second = second if isinstance(second, dict) and "T_template_camera" in second else None
+        second = result.runner_up
 
         return Registration(
             T_template_camera=to_caller(np.asarray(result.T_template_camera, float)),
@@ -206,8 +205,8 @@ class Registrar:
             extras=extras,
             runtime_s=runtime,
             T_normalised=np.asarray(result.T_template_camera, float),
-            runner_up=None if second is None else to_caller(np.asarray(second["T_template_camera"], float)),
-            runner_up_margin=float("nan") if second is None else float(second["margin"]),
+            runner_up=None if second is None else to_caller(second[0]),
+            runner_up_margin=float("nan") if second is None else second[1],
         )
 
     def _call(self, obs: Observed, g: np.ndarray) -> RegistrationResult:
