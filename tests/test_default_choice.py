@@ -4,21 +4,18 @@ error."""
 
 from __future__ import annotations
 
-import runpy
+import sys
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _study import study_fixture  # noqa: E402
+
 pytestmark = pytest.mark.experiment
 
-REPO = Path(__file__).resolve().parents[1]
-SCRIPT = REPO / "experiments" / "category_choice" / "default_choice.py"
-
-
-@pytest.fixture(scope="module")
-def script():
-    return runpy.run_path(str(SCRIPT))
+script = study_fixture("experiments/category_choice/default_choice.py")
 
 
 def _table(rows):

@@ -3,7 +3,7 @@ that choice averaged with the agreeing templates within the setting's angle."""
 
 from __future__ import annotations
 
-import runpy
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,15 +11,12 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _study import study_fixture  # noqa: E402
+
 pytestmark = pytest.mark.experiment
 
-REPO = Path(__file__).resolve().parents[1]
-SCRIPT = REPO / "experiments" / "category_choice" / "fuse_grid.py"
-
-
-@pytest.fixture(scope="module")
-def grid():
-    return runpy.run_path(str(SCRIPT))
+grid = study_fixture("experiments/category_choice/fuse_grid.py")
 
 
 def _pose(deg: float) -> list:

@@ -3,22 +3,19 @@ and a view's gap is its chosen error less the best of its K registrations."""
 
 from __future__ import annotations
 
-import runpy
+import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _study import study_fixture  # noqa: E402
+
 pytestmark = pytest.mark.experiment
 
-REPO = Path(__file__).resolve().parents[1]
-SCRIPT = REPO / "experiments" / "category_choice" / "gap_spread.py"
-
-
-@pytest.fixture(scope="module")
-def spread():
-    return runpy.run_path(str(SCRIPT))
+spread = study_fixture("experiments/category_choice/gap_spread.py")
 
 
 def test_a_draw_takes_whole_chairs_without_replacement(spread):

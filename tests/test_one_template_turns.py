@@ -3,16 +3,16 @@ runs' stored turns, per view."""
 
 from __future__ import annotations
 
-import runpy
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-pytestmark = pytest.mark.experiment
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _study import run_study  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
-SCRIPT = REPO / "experiments" / "category_choice" / "one_template_turns.py"
+pytestmark = pytest.mark.experiment
 
 
 def test_one_template_turns_reads_the_stored_turns_of_each_view():
@@ -21,7 +21,7 @@ def test_one_template_turns_reads_the_stored_turns_of_each_view():
     that candidate's error."""
     import pandas as pd
 
-    turns_mod = runpy.run_path(str(SCRIPT))
+    turns_mod = run_study("experiments/category_choice/one_template_turns.py")
     half = np.diag([-1.0, -1.0, 1.0, 1.0])  # a half turn about z
     rows = []
     for view, own_cost, turn_cost in (

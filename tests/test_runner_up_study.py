@@ -6,20 +6,17 @@ from __future__ import annotations
 
 import json
 import math
-import runpy
+import sys
 from pathlib import Path
 
 import pytest
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _study import study_fixture  # noqa: E402
+
 pytestmark = pytest.mark.experiment
 
-REPO = Path(__file__).resolve().parents[1]
-SCRIPT = REPO / "experiments" / "runner_up" / "runner_up.py"
-
-
-@pytest.fixture(scope="module")
-def study():
-    return runpy.run_path(str(SCRIPT))
+study = study_fixture("experiments/runner_up/runner_up.py")
 
 
 def _run(folder: Path, views: list[tuple[float, float | None, float | None]]) -> Path:

@@ -3,7 +3,7 @@ estimates and oracle, split into the instances that chose the setting and those 
 
 from __future__ import annotations
 
-import runpy
+import sys
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -11,16 +11,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _study import study_fixture  # noqa: E402
+
 pytestmark = pytest.mark.experiment
 
-REPO = Path(__file__).resolve().parents[1]
-SCRIPT = REPO / "experiments" / "selection_breadth" / "selection_grid.py"
 TEMPLATES = {"_target_": "catpose.bench.protocols.Templates", "name": "templates", "choice": "score"}
-
-
-@pytest.fixture(scope="module")
-def grid():
-    return runpy.run_path(str(SCRIPT))
+grid = study_fixture("experiments/selection_breadth/selection_grid.py")
 
 
 def _rows(instance: str, errs, scores, seconds=0.02):
