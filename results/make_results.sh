@@ -31,8 +31,8 @@
 #              results/ambiguity/), ~2 min; and how often the truth is ours' answer or its runner-up,
 #              from runs of its own (experiments/runner_up/make_runner_up.sh: results/runner_up/), ~5 min.
 #   perf       seconds per registration (bench perf) on synthetic, YCB-V and ModelNet40 problems, and
-#              the speed tables made from those CSVs and the GPU check's (results/perf/*.md). Run it
-#              on an otherwise idle machine: it measures wall time.
+#              the speed tables made from those CSVs and the GPU check's (experiments/speed/make_speed.sh:
+#              results/perf/*.md). Run it on an otherwise idle machine: it measures wall time.
 #   api        catpose.register without `up` (experiments/api_without_up/make_without_up.sh, when present; ~1.5 h)
 #              and with a depth frame beside bench run (experiments/api_frames/make_frames.sh; ~1 min).
 #   figures    a figure of each table the README quotes, from the committed tables alone
@@ -177,35 +177,6 @@ real() {
   "$PY" -m catpose.bench.real.sensor_stats > "$RESULTS/real/sensor_stats.md"
 }
 
-perf() {
-  local P="$RESULTS/perf"
-  mkdir -p "$P"
-  local M=ours,adam=ours,icp,fgr,teaser,ransac,ppf
-  # one thread: every method as it runs on one core
-  "$B" perf --n 12 --repeat 3 --threads 1 --methods $M --set adam:optimiser.solver=adam --out "$P/perf_synthetic.csv"
-  if [ -d "$SHARED/bop/ycbv" ]; then
-    "$B" perf --n 12 --repeat 3 --threads 1 --methods $M --set adam:optimiser.solver=adam --dataset ycbv \
-      --root "$SHARED/bop/ycbv" --out "$P/perf_ycbv.csv"
-  fi
-  # ours with its compiled search split over both CPUs (threads=2, what the default threads=auto
-  # takes on a 2-CPU machine; the same results as threads=1)
-  "$B" perf --n 12 --repeat 3 --methods ours,fgr --threads 2 --out "$P/perf_synthetic_threads2.csv"
-  if [ -d "$SHARED/bop/ycbv" ]; then
-    "$B" perf --n 12 --repeat 3 --methods ours,fgr --threads 2 --dataset ycbv --root "$SHARED/bop/ycbv" \
-      --out "$P/perf_ycbv_threads2.csv"
-  fi
-  if [ -d "$SHARED/bop/ycbv" ]; then  # the first registration of a template in a new process, cache cold and warm
-    "$B" perf --first-sample --dataset ycbv --root "$SHARED/bop/ycbv" --templates 3 --repeat 3 \
-      --out "$P/first_sample_ycbv.csv"
-  fi
-  if [ -d "$SHARED/ModelNet40" ]; then
-    "$B" perf --n 12 --repeat 3 --threads 1 --methods ours,fgr --dataset modelnet40 --root "$SHARED/ModelNet40" \
-      --out "$P/perf_modelnet40.csv"
-  fi
-  # gpu_solver_*.csv come from `python3 bench/perf/gpu.py --out results/perf/gpu_solver_<device>.csv` on a GPU machine
-  "$PY" -m catpose.bench.perf.summary --dir "$P"
-}
-
 figures() {  # one per table the README quotes: table|figure stem|title
   local F="$RESULTS/figures"
   mkdir -p "$F"
@@ -231,7 +202,7 @@ for section in "${SECTIONS[@]}"; do
     ambiguity) if [ -d "$SHARED/bop/ycbv/models" ]; then OUT="$OUT" RESULTS="$RESULTS" bash experiments/ambiguity/make_ambiguity.sh
                  RUNS="$OUT/runner_up" RESULTS="$RESULTS" bash experiments/runner_up/make_runner_up.sh
                else echo "make_results: ambiguity skipped: no $SHARED/bop/ycbv/models" >&2; fi ;;
-    perf) perf ;;
+    perf) RESULTS="$RESULTS" bash experiments/speed/make_speed.sh ;;
     api) if [ -f experiments/api_without_up/make_without_up.sh ]; then bash experiments/api_without_up/make_without_up.sh; fi
          bash experiments/api_frames/make_frames.sh ;;
     figures) figures ;;

@@ -135,15 +135,6 @@ def test_bad_arguments_are_config_errors():
             perf.main(["--threads", bad])
 
 
-def test_solvers_flag_delegates_to_the_solver_benchmark(monkeypatch):
-    import catpose.bench.perf.solvers as ps
-
-    seen = []
-    monkeypatch.setattr(ps, "main", lambda argv: seen.append(argv) or 0)
-    assert perf.main(["--solvers", "--problems", "3"]) == 0
-    assert seen == [["--problems", "3"]]
-
-
 def test_labels_let_one_config_run_twice_with_its_own_options():
     assert perf.parse_methods("ours, adam=ours ,fgr") == [("ours", "ours"), ("adam", "ours"), ("fgr", "fgr")]
     with pytest.raises(ConfigError, match="repeats a label"):
@@ -153,17 +144,6 @@ def test_labels_let_one_config_run_twice_with_its_own_options():
     assert perf.method_overrides("adam", "ours", sets) == ["lr=0.1", "optimiser.solver=adam"]
     assert perf.method_overrides("ransac2", "ransac", sets) == ["num_threads=2"]
     assert perf.method_overrides("fgr", "fgr", sets) == []
-
-
-def test_solver_only_gpu_check_runs_on_cpu(tmp_path):
-    pytest.importorskip("torch")
-    from catpose.bench.perf import gpu as perf_gpu
-
-    out = tmp_path / "gpu.csv"
-    assert perf_gpu.main(["--devices", "cpu", "--batches", "1,3", "--repeat", "1", "--out", str(out)]) == 0
-    rows = list(csv.DictReader(open(out)))
-    assert [r["batch"] for r in rows] == ["1", "3"]
-    assert all(float(r["max_rot_diff_deg_vs_cpu64"]) < 1e-6 and float(r["ms_per_problem"]) > 0 for r in rows)
 
 
 class _NoPoseOn:

@@ -179,24 +179,6 @@ def test_bad_input() -> None:
         teaser_solver.solve(np.ones((5, 3)), np.ones((5, 3)), 0.1, rotation_tim_graph="star")
 
 
-def test_perf_solvers_problems_and_table(capsys) -> None:
-    """The ``perf_solvers`` problem class: the planted inliers form a clique the solver finds
-    (timings are not asserted; ``bench perf`` reports them)."""
-    from catpose.bench.perf import solvers as perf_solvers
-
-    problems = perf_solvers.problem_set(problems=3, n=200, noise_bound=0.05, seed=5)
-    assert [p.outlier_rate for p in problems] == pytest.approx([0.5, 0.745, 0.99])
-    for p in problems:
-        r = teaser_solver.solve(p.src, p.dst, p.noise_bound)
-        assert r.clique_exact and len(r.clique) >= len(p.inliers)
-        if len(p.inliers) >= 10:
-            assert set(p.inliers.tolist()) <= set(r.clique.tolist())
-            assert _rot_err_deg(r.R, p.R_gt) < 1.0
-    assert perf_solvers.main(["--problems", "2", "--n", "100", "--no-teaserpp"]) == 0
-    out = capsys.readouterr().out
-    assert "seconds_ours" in out and "clique_ours" in out
-
-
 def test_teaser_method_checks_the_clique_time_budget() -> None:
     from catpose.methods.teaser import TEASER
 

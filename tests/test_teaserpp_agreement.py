@@ -11,17 +11,24 @@ or a TEASER++ "clique" that repeats a vertex or is not a clique of the shared co
 from __future__ import annotations
 
 import itertools
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 pytest.importorskip("teaserpp_python", reason="TEASER++'s Python bindings (teaserpp_python) are not installed")
 
-from catpose.bench.perf.solvers import problem_set, synthetic_problem  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _study import run_study  # noqa: E402
+
 from catpose.errors import InvalidInputError  # noqa: E402
 from catpose.methods import teaser_solver, teaserpp  # noqa: E402
 
 pytestmark = pytest.mark.teaserpp
+
+_solvers = run_study("experiments/speed/solvers.py")  # the speed study's correspondence sets
+problem_set, synthetic_problem = _solvers["problem_set"], _solvers["synthetic_problem"]
 
 ROTATION_TOL_DEG = 1e-4
 
@@ -46,7 +53,7 @@ def _problems() -> list[tuple[str, np.ndarray, np.ndarray, float]]:
     out.append(("all outliers", rng.uniform(-1, 1, (12, 3)), rng.uniform(-1, 1, (12, 3)), 0.01))
     p = synthetic_problem(3, outlier_rate=0.99, n=200)
     out.append(("2 inliers in 200", p.src, p.dst, p.noise_bound))
-    # bench perf_solvers' problem 29, where TEASER++ (1 thread) listed a vertex of its clique twice
+    # experiments/speed/solvers.py's problem 29, where TEASER++ (1 thread) listed a vertex of its clique twice
     p = problem_set(problems=50, n=1000, noise_bound=0.05, seed=0)[29]
     out.append(("perf_solvers problem 29", p.src, p.dst, p.noise_bound))
     return out

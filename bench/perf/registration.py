@@ -24,8 +24,9 @@ How it measures, so that the numbers can be trusted:
 
 ``--device cuda`` runs ours' solver on the GPU; ``--batch B`` feeds ours ``B`` problems per call of
 ``register_batch`` (all candidates of all ``B`` problems in one solver launch) and counts the
-batch time divided by ``B`` per registration. ``--solvers`` runs the TEASER solver benchmark
-(:mod:`catpose.bench.perf.solvers`) with the remaining arguments instead.
+batch time divided by ``B`` per registration. The TEASER solver against TEASER++, the first
+sample's cold and warm latency and the GPU solver check are the speed study's scripts
+(``experiments/speed/``).
 
 Usage::
 
@@ -34,8 +35,6 @@ Usage::
     bench perf --methods ransac,ransac2=ransac --set ransac2:num_threads=2
     bench perf --dataset redwood --root ../shared/data/redwood --n 12
     bench perf --methods ours,fgr --device cuda --batch 16 --n 48
-    bench perf --solvers --problems 20
-    bench perf --first-sample --dataset ycbv --root ../shared/data/bop/ycbv   # cold / warm first sample
 """
 
 from __future__ import annotations
@@ -275,17 +274,6 @@ def _write_csv(path: Path, rows: list[dict]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import sys
-
-    argv = sys.argv[1:] if argv is None else list(argv)
-    if "--solvers" in argv:
-        from catpose.bench.perf.solvers import main as solvers_main
-
-        return solvers_main([a for a in argv if a != "--solvers"])
-    if "--first-sample" in argv:  # cold and warm first-sample latency, in new processes
-        from catpose.bench.perf.first_sample import main as first_main
-
-        return first_main([a for a in argv if a != "--first-sample"])
     import yaml
 
     ap = argparse.ArgumentParser(prog="bench perf", description=__doc__.split("\n\n")[0])

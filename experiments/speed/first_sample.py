@@ -1,7 +1,7 @@
-"""``bench perf --first-sample``: seconds to the first registration of a template in a new process,
+"""``python experiments/speed/first_sample.py``: seconds to the first registration of a template in a new process,
 with the template cache cold and warm.
 
-Each measurement is a fresh Python process (``python -m catpose.bench.perf.first_sample --child``)
+Each measurement is a fresh Python process (``python experiments/speed/first_sample.py --child``)
 that does what ``bench run`` does for its first samples, timing each phase:
 
 - ``import_s``: importing the runner's modules; ``build_s``: building the method from
@@ -111,14 +111,14 @@ def _jit_start() -> None:
 
 
 def _run_child(args: argparse.Namespace, cache: Path) -> dict:
-    cmd = [sys.executable, "-m", "catpose.bench.perf.first_sample", "--child", "--dataset", args.dataset]
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", "--dataset", args.dataset]
     cmd += ["--method", args.methods.split(",")[0], "--templates", str(args.templates), "--seed", str(args.seed)]
     if args.root:
         cmd += ["--root", str(args.root)]
     env = dict(os.environ, CATPOSE_CACHE_DIR=str(cache))
     r = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=3600)
     if r.returncode != 0:
-        raise ConfigError(f"bench perf --first-sample: the measured process failed: {r.stderr.strip()[-500:]}")
+        raise ConfigError(f"first_sample: the measured process failed: {r.stderr.strip()[-500:]}")
     return json.loads(r.stdout.strip().splitlines()[-1])
 
 
@@ -188,7 +188,7 @@ def main(argv: list[str]) -> int:
 
     from catpose import atomic
 
-    ap = argparse.ArgumentParser(prog="bench perf --first-sample", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python experiments/speed/first_sample.py", description=__doc__.split("\n\n")[0])
     ap.add_argument("--dataset", default="synthetic")
     ap.add_argument("--root", default=None, help="dataset root (sets dataset.root)")
     ap.add_argument("--methods", default="ours", help="the method config (the first name given)")
@@ -229,5 +229,11 @@ def main(argv: list[str]) -> int:
     return 0
 
 
-if __name__ == "__main__":  # python -m catpose.bench.perf.first_sample --child ...
-    sys.exit(main(sys.argv[1:]))
+if __name__ == "__main__":  # python experiments/speed/first_sample.py [--child ...]
+    from catpose.errors import CatposeError, command_error
+
+    try:
+        sys.exit(main(sys.argv[1:]))
+    except CatposeError as e:  # a bad option: one line, exit 2
+        print(command_error("first_sample", e), file=sys.stderr)
+        sys.exit(2)

@@ -1,9 +1,9 @@
 """The speed tables the docs quote, made from ``bench perf``'s and the GPU check's CSVs.
 
-    python -m catpose.bench.perf.summary [--dir results/perf]
+    python experiments/speed/summary.py [--dir results/perf]
 
 reads ``perf_<set>.csv`` and ``perf_<set>_stages.csv`` (``bench perf --out results/perf/perf_<set>.csv``)
-and ``gpu_solver_*.csv`` (``bench/perf/gpu.py --out``) in ``--dir`` and writes there:
+and ``gpu_solver_*.csv`` (``experiments/speed/gpu.py --out``) in ``--dir`` and writes there:
 
 - ``speed.md``: per problem set and method, the threads it ran on (``bench perf --threads``: ours'
   compiled kernels and torch), the median and 90th-percentile seconds per registration, the
@@ -94,7 +94,7 @@ def gpu_table(folder: Path) -> str:
         df = pd.read_csv(path)
         if not lines:
             lines = [
-                "**The solver alone** (`bench/perf/gpu.py`: ours' candidates solved in one launch; "
+                "**The solver alone** (`experiments/speed/gpu.py`: ours' candidates solved in one launch; "
                 "rotation difference to the CPU float64 solver)",
                 "",
                 "| file | device | problems per launch | ms per problem | max rotation difference (deg) | dtype | torch |",
@@ -129,7 +129,7 @@ def write_tables(folder: Path) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m catpose.bench.perf.summary", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python experiments/speed/summary.py", description=__doc__.split("\n\n")[0])
     ap.add_argument("--dir", type=Path, default=Path("results/perf"))
     args = ap.parse_args(argv)
     for path in write_tables(args.dir):

@@ -7,8 +7,8 @@ template keypoints per candidate, 5 + 5 iterations), with ``B`` problems per lau
 GPU answer (float32) against the CPU float64 answer of the same code. It runs from a bare checkout,
 without installing the project::
 
-    python3 bench/perf/gpu.py --out $OUT/gpu_solver.csv          # cuda if available, and cpu
-    python3 bench/perf/gpu.py --devices cpu --batches 1,16        # what the tests run
+    python3 experiments/speed/gpu.py --out $OUT/gpu_solver.csv          # cuda if available, and cpu
+    python3 experiments/speed/gpu.py --devices cpu --batches 1,16        # what the tests run
 
 Output: one row per (device, batch): milliseconds per problem (median over ``--repeat`` timed
 launches after two warm-ups, CUDA synchronised), problems per second, the largest rotation

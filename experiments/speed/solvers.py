@@ -11,8 +11,8 @@ numba kernels; TEASER++: its ``solve``, run with ``OMP_NUM_THREADS`` as set by t
 
 Usage::
 
-    python -m catpose.bench.perf.solvers                 # 50 problems, n = 1000
-    python -m catpose.bench.perf.solvers --problems 10 --n 500
+    python experiments/speed/solvers.py                 # 50 problems, n = 1000
+    python experiments/speed/solvers.py --problems 10 --n 500
 """
 
 from __future__ import annotations
@@ -157,7 +157,7 @@ def summary(rows: list[dict], min_clique: int = 400) -> list[dict]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m catpose.bench.perf.solvers", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python experiments/speed/solvers.py", description=__doc__.split("\n\n")[0])
     ap.add_argument("--problems", type=int, default=50, help="number of problems (default 50)")
     ap.add_argument("--n", type=int, default=1000, help="correspondences per problem (default 1000)")
     ap.add_argument("--noise-bound", type=float, default=0.05, help="object-normalised (default 0.05)")

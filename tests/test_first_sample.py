@@ -1,13 +1,20 @@
-"""``bench perf --first-sample``: the table of cold and warm first registrations (no timing is
+"""experiments/speed/first_sample.py: the table of cold and warm first registrations (no timing is
 asserted: only what is measured and how it is summarised)."""
 
 from __future__ import annotations
 
 import csv
+import sys
+from pathlib import Path
 
 import pytest
 
-from catpose.bench.perf.first_sample import medians
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _study import study_module  # noqa: E402
+
+pytestmark = pytest.mark.experiment
+
+first_sample = study_module("experiments/speed/first_sample.py")
 
 
 def _row(state, run, order, first, jit=1.0):
@@ -29,12 +36,12 @@ def _row(state, run, order, first, jit=1.0):
     }
 
 
-def test_medians_per_state_and_template_and_the_jit_start_counts_for_the_first_template_only():
+def test_medians_per_state_and_template_and_the_jit_start_counts_for_the_first_template_only(first_sample):
     rows = [_row("cold", r, o, f) for r, f in enumerate((3.0, 5.0, 4.0)) for o in (1, 2)]
     rows += [
         _row("warm", r, o, f, jit=j) for r, (f, j) in enumerate(((0.3, 0.8), (0.5, 1.2), (0.4, 1.0))) for o in (1, 2)
     ]
-    table = medians(rows)
+    table = first_sample.medians(rows)
     assert [(t["state"], t["template_order"]) for t in table] == [("cold", 1), ("cold", 2), ("warm", 1), ("warm", 2)]
     warm1, warm2 = table[2], table[3]
     assert warm1["runs"] == 3 and warm1["first_s"] == 0.4 and warm1["jit_start_s"] == 1.0
@@ -43,11 +50,9 @@ def test_medians_per_state_and_template_and_the_jit_start_counts_for_the_first_t
 
 
 @pytest.mark.slow
-def test_first_sample_runs_new_processes_cold_then_warm(tmp_path):
-    from catpose.bench.perf.registration import main
-
+def test_first_sample_runs_new_processes_cold_then_warm(first_sample, tmp_path):
     out = tmp_path / "first.csv"
-    assert main(["--first-sample", "--methods", "icp", "--templates", "2", "--repeat", "1", "--out", str(out)]) == 0
+    assert first_sample.main(["--methods", "icp", "--templates", "2", "--repeat", "1", "--out", str(out)]) == 0
     rows = list(csv.DictReader(out.open()))
     assert [(r["state"], r["template_order"]) for r in rows] == [
         ("cold", "1"),

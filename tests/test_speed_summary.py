@@ -1,15 +1,22 @@
 """The speed tables the docs quote are made from bench perf's and the GPU check's CSVs, rounded,
-nothing measured (catpose.bench.perf.summary)."""
+nothing measured (experiments/speed/summary.py)."""
 
 from __future__ import annotations
 
 import io
+import sys
 from pathlib import Path
 
 import pytest
 
-from catpose.bench.perf import summary
 from catpose.errors import DatasetError
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _study import study_module  # noqa: E402
+
+pytestmark = pytest.mark.experiment
+
+summary = study_module("experiments/speed/summary.py")
 
 PERF = (
     "method,n,median_s,mean_s,p90_s,ratio_to_fgr,warmup_s,source,repeat,device,batch,threads,load_before,"
@@ -24,7 +31,7 @@ GPU = (
 )
 
 
-def test_tables_from_the_csvs(tmp_path: Path):
+def test_tables_from_the_csvs(summary, tmp_path: Path):
     (tmp_path / "perf_synthetic.csv").write_text(PERF)
     (tmp_path / "perf_synthetic_stages.csv").write_text(STAGES)
     (tmp_path / "perf_synthetic_times.csv").write_text("method,call,seconds\nours,0,0.05\n")  # not a problem set
@@ -42,7 +49,7 @@ def test_tables_from_the_csvs(tmp_path: Path):
     )
 
 
-def test_the_threads_column_labels_each_row(tmp_path: Path):
+def test_the_threads_column_labels_each_row(summary, tmp_path: Path):
     """A row measured with ``bench perf --threads 2`` says 2; a CSV without the column says ``-``."""
     import pandas as pd
 
@@ -54,12 +61,12 @@ def test_the_threads_column_labels_each_row(tmp_path: Path):
     assert "| ycbv (gt_model, seed 0) | ours | - | 36 | 0.048 |" in speed
 
 
-def test_no_csv_is_one_line(tmp_path: Path):
+def test_no_csv_is_one_line(summary, tmp_path: Path):
     with pytest.raises(DatasetError, match="has no perf_<set>.csv or gpu_solver_"):
         summary.write_tables(tmp_path)
 
 
-def test_committed_tables_are_the_committed_csvs(repo_root: Path, tmp_path: Path):
+def test_committed_tables_are_the_committed_csvs(summary, repo_root: Path, tmp_path: Path):
     """results/perf/*.md are what the summary makes of results/perf/*.csv today."""
     import shutil
 
