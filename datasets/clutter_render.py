@@ -10,7 +10,7 @@ the whole scene; each object's ``mask_visib`` is its visible mask dilated by the
 bleed and restricted to measured depth, the segmentation a real pipeline would hand over.
 
 With a sensor model, three effects measured on the real YCB-Video frames
-(``python -m catpose.bench.real.sensor_stats``) follow, each in a strength drawn per scene or
+(``python experiments/_lib/sensor_stats.py``) follow, each in a strength drawn per scene or
 object from the spec's range (:func:`scene_effects`): depth lost in patches of an object (dark or
 shiny parts: a smooth random field over the object's pixels, thresholded at the drawn fraction),
 the segmentation shifted against the depth by a pixel or two (depth-to-colour registration), and

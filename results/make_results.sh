@@ -174,7 +174,7 @@ real() {
     "$B" table --force "${scored[@]}" --bop-metrics ar_mssd,ar_mspd,ar_vsd,adds@0.1,5deg5cm,10deg10cm --by object,category \
       --out "$RESULTS/real/bop_ycbv.md"
   fi
-  "$PY" -m catpose.bench.real.sensor_stats > "$RESULTS/real/sensor_stats.md"
+  "$PY" experiments/_lib/sensor_stats.py > "$RESULTS/real/sensor_stats.md"
 }
 
 figures() {  # one per table the README quotes: table|figure stem|title

@@ -1,4 +1,4 @@
-"""``python -m catpose.bench.real.ambiguity``: a wrong estimate is a search miss when the truth
+"""``python experiments/_lib/ambiguity.py``: a wrong estimate is a search miss when the truth
 explains the depth image better under ours' verifier, ambiguous otherwise."""
 
 from __future__ import annotations
@@ -9,13 +9,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.bench.real import ambiguity
 from catpose.geometry import compose_T, make_T
 from catpose.methods.ours_settings import SelectionSettings
 from catpose.types import RegistrationProblem
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _study import study_module  # noqa: E402
 from test_depth_check import _template, _view  # noqa: E402  (the depth check's test scene)
+
+pytestmark = pytest.mark.experiment
+
+ambiguity = study_module("experiments/_lib/ambiguity.py")
 
 
 def _problem(tpl, image):
@@ -29,7 +33,7 @@ def _problem(tpl, image):
     )
 
 
-def test_truth_costs_less_than_a_half_turn_of_an_asymmetric_object():
+def test_truth_costs_less_than_a_half_turn_of_an_asymmetric_object(ambiguity):
     tpl = _template()
     image, T_gt = _view(tpl)
     half_turn = compose_T(make_T(np.diag([-1.0, -1.0, 1.0]), np.zeros(3)), T_gt)  # 180 deg about the template's z
@@ -37,7 +41,7 @@ def test_truth_costs_less_than_a_half_turn_of_an_asymmetric_object():
     assert gt < 0.05 < est and gt_refined < 0.05
 
 
-def test_an_annotation_a_little_off_is_refined_before_it_is_judged():
+def test_an_annotation_a_little_off_is_refined_before_it_is_judged(ambiguity):
     """A truth annotated 4 deg and 2 cm off costs more than the estimate ours refined; the
     refined truth comes back to the depth image and the estimate is no longer called ambiguous."""
     from scipy.spatial.transform import Rotation
@@ -56,14 +60,14 @@ def test_an_annotation_a_little_off_is_refined_before_it_is_judged():
     )
 
 
-def test_an_occluded_truth_still_explains_the_visible_mask():
+def test_an_occluded_truth_still_explains_the_visible_mask(ambiguity):
     tpl = _template()
     image, T_gt = _view(tpl, occluder=True)
     est, gt, _ = ambiguity.verifier_costs(SelectionSettings(), _problem(tpl, image), T_gt, T_gt)
     assert est == gt and gt < 0.05
 
 
-def test_table_counts_ambiguous_and_search_misses_per_part_and_object():
+def test_table_counts_ambiguous_and_search_misses_per_part_and_object(ambiguity):
     rows = [
         {
             "sample_id": "a/1",
@@ -105,7 +109,7 @@ def test_table_counts_ambiguous_and_search_misses_per_part_and_object():
     assert "| a | obj 9 | 2 | 2 | 1 | 1 | 1 | 1 | 0.300 | 0.225 | 0.400 |" in ambiguity.markdown("t", out)
 
 
-def test_a_folder_that_is_not_a_run_is_one_line_and_exit_2(tmp_path, capsys):
+def test_a_folder_that_is_not_a_run_is_one_line_and_exit_2(ambiguity, tmp_path, capsys):
     assert ambiguity.main([str(tmp_path), "--out", str(tmp_path / "t.md")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: run ") and "config.yaml" in err and len(err.splitlines()) == 1

@@ -1,15 +1,23 @@
-"""``python -m catpose.bench.real.diagnose`` on the shared YCB-V frames under ours' default rule,
+"""``python experiments/_lib/diagnose.py`` on the shared YCB-V frames under ours' default rule,
 and its one-line errors."""
 
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
-from catpose.bench.real import diagnose
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _study import study_module  # noqa: E402
+
+pytestmark = pytest.mark.experiment
+
+diagnose = study_module("experiments/_lib/diagnose.py")
 
 
-def test_one_ycbv_sample_under_the_depth_rule(shared_data: Path, tmp_path: Path):
+def test_one_ycbv_sample_under_the_depth_rule(diagnose, shared_data: Path, tmp_path: Path):
     out = tmp_path / "diag.jsonl"
     assert diagnose.main(["--set", "ycbv", "--limit", "1", "--out", str(out), "--save-dir", str(tmp_path / "npz")]) == 0
     (row,) = [json.loads(line) for line in out.read_text().splitlines()]
@@ -22,7 +30,7 @@ def test_one_ycbv_sample_under_the_depth_rule(shared_data: Path, tmp_path: Path)
     assert len(list((tmp_path / "npz").glob("*.npz"))) == 1
 
 
-def test_unknown_set_or_ablation_is_one_line_and_exit_2(tmp_path: Path, capsys):
+def test_unknown_set_or_ablation_is_one_line_and_exit_2(diagnose, tmp_path: Path, capsys):
     assert diagnose.main(["--set", "nosuch", "--out", str(tmp_path / "d.jsonl")]) == 2
     assert diagnose.main(["--set", "ycbv", "--ablate", "none,blur", "--out", str(tmp_path / "d.jsonl")]) == 2
     err = capsys.readouterr().err.strip().splitlines()

@@ -25,7 +25,9 @@ import pytest
 from catpose.bench.cli import main as bench
 
 TESTS = Path(__file__).resolve().parent
+REPO = TESTS.parent
 sys.path.insert(0, str(TESTS))
+from _study import run_study  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -37,7 +39,7 @@ class Command:
     kind: str
     name: str
     input: Callable[[dict], Path] | None
-    module: str = "catpose.bench.cli"  # python -m <module> in the child process
+    module: str = "catpose.bench.cli"  # python -m <module> in the child process (a path ending .py: python <script>)
     old: str = "old\n"  # what an existing file target holds (a file the command may replace)
     needles: tuple[tuple[str, str], ...] = ()  # (situation, refusal) where it is not the input's
 
@@ -113,16 +115,21 @@ COMMANDS = {
         "file",
         "w.md",
         lambda w: w["trun"],
-        module="catpose.bench.category.why_wrong",
+        module="experiments/_lib/why_wrong.py",
     ),
     "ambiguity": Command(
         lambda w, o: [str(w["run"]), "--out", str(o), "--wrong-deg", "1000"],
         "file",
         "a.md",
         lambda w: w["run"],
-        module="catpose.bench.real.ambiguity",
+        module="experiments/_lib/ambiguity.py",
     ),
 }
+
+
+def _entry(module: str) -> list[str]:
+    """How a child process runs ``module``: a study's script by its path, a module with ``-m``."""
+    return [str(REPO / module)] if module.endswith(".py") else ["-m", module]
 
 
 def call(command: str, argv: list[str], capsys) -> tuple[int, str]:
@@ -130,6 +137,8 @@ def call(command: str, argv: list[str], capsys) -> tuple[int, str]:
     module = COMMANDS[command].module
     if module == "catpose.bench.cli":
         rc = bench(argv)
+    elif module.endswith(".py"):  # a study's script (experiments/), run as a module namespace
+        rc = run_study(module)["main"](argv)
     else:
         import importlib
 
@@ -307,7 +316,7 @@ def test_a_full_disk_is_one_line_and_leaves_nothing(command, world, tmp_path):
     (tmp_path / "keep.txt").write_text("x")
     env = dict(os.environ, CATPOSE_SHARED_DATA=str(world["shared"]), PYTHONPATH=str(TESTS))
     proc = subprocess.run(
-        [sys.executable, "-m", cmd.module, *cmd.argv(world, tmp_path / cmd.name)],
+        [sys.executable, *_entry(cmd.module), *cmd.argv(world, tmp_path / cmd.name)],
         capture_output=True,
         text=True,
         env=env,

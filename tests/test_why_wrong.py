@@ -1,4 +1,4 @@
-"""``python -m catpose.bench.category.why_wrong``: each wrong view of a templates run judged at the
+"""``python experiments/_lib/why_wrong.py``: each wrong view of a templates run judged at the
 step that chose it: ours' registration on the kept template, then the K-template rule."""
 
 from __future__ import annotations
@@ -11,13 +11,17 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench.category import why_wrong
 from catpose.methods.choice_rules import CROSS_WEIGHT, TOP_WEIGHT, ChoiceRule, cross_cost, rotation_angle_deg
 from catpose.methods.cross_check import CrossCheck
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _ours_fixtures import chair_template, partial_problem  # noqa: E402
+from _study import study_module  # noqa: E402
 from test_cross_check import _chair_like, _pose, _view  # noqa: E402  (the cross check's chair-like slabs)
+
+pytestmark = pytest.mark.experiment
+
+why_wrong = study_module("experiments/_lib/why_wrong.py")
 
 
 def _quarter_turn(T: np.ndarray) -> np.ndarray:
@@ -27,7 +31,7 @@ def _quarter_turn(T: np.ndarray) -> np.ndarray:
     return F @ T
 
 
-def test_an_asymmetric_chairs_quarter_turn_scores_worse_than_the_truth_it_could_have_found():
+def test_an_asymmetric_chairs_quarter_turn_scores_worse_than_the_truth_it_could_have_found(why_wrong):
     from catpose.methods.ours import Ours
 
     template = chair_template()
@@ -44,7 +48,7 @@ def test_an_asymmetric_chairs_quarter_turn_scores_worse_than_the_truth_it_could_
     assert same["cost_estimate"] == same["cost_truth"] and why_wrong.registration_verdict(0.0, same) == "right"
 
 
-def test_registration_verdicts():
+def test_registration_verdicts(why_wrong):
     costs = {"cost_estimate": 0.10, "cost_truth": 0.20, "cost_truth_refined": 0.12, "nearest_candidate_deg": 12.0}
     assert why_wrong.registration_verdict(5.0, costs) == "right"
     assert why_wrong.registration_verdict(20.0, costs) == "imprecise"  # inside the truth's basin
@@ -55,7 +59,7 @@ def test_registration_verdicts():
     assert why_wrong.registration_verdict(90.0, dict(costs, cost_truth_refined=np.inf)) == "ambiguous"
 
 
-def test_the_truth_costs_less_under_the_rule_than_a_quarter_turned_chair():
+def test_the_truth_costs_less_under_the_rule_than_a_quarter_turned_chair(why_wrong):
     templates = [_chair_like(0.7, 0.8, 0), _chair_like(0.6, 0.9, 10)]
     P, T = _view(_chair_like(0.65, 0.85, 30), np.array([0.8, 2.0, 1.5]))
     wrong = _pose(90.0) @ T
@@ -78,7 +82,7 @@ def test_the_truth_costs_less_under_the_rule_than_a_quarter_turned_chair():
     assert why_wrong.choice_verdict(15.0, c) == "imprecise"
 
 
-def test_rule_poses_are_the_registrations_and_their_turns_under_a_turn_rule():
+def test_rule_poses_are_the_registrations_and_their_turns_under_a_turn_rule(why_wrong):
     T = np.eye(4)
     info = {
         "cross_costs": [0.2, 0.3],
@@ -105,7 +109,7 @@ def test_rule_poses_are_the_registrations_and_their_turns_under_a_turn_rule():
 
 
 @pytest.mark.slow  # > 5 s: make test-slow
-def test_a_templates_run_gets_a_row_per_judged_view(tmp_path):
+def test_a_templates_run_gets_a_row_per_judged_view(why_wrong, tmp_path):
     out = tmp_path / "out"
     subprocess.run(
         [
@@ -142,7 +146,7 @@ def test_a_templates_run_gets_a_row_per_judged_view(tmp_path):
     assert "2 of 2 views kept an estimate 0 degrees or more" in md.read_text()
 
 
-def test_what_is_not_a_run_is_one_line_and_exit_2(tmp_path, capsys):
+def test_what_is_not_a_run_is_one_line_and_exit_2(why_wrong, tmp_path, capsys):
     assert why_wrong.main([str(tmp_path), "--out", str(tmp_path / "w.md")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and str(tmp_path) in err[0] and "sweep" in err[0]

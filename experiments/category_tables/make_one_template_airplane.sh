@@ -7,7 +7,7 @@
 # (choice=cross_top_turns, choice.turns_deg=[180], choice.one_template_turns=true: each estimate or its half turn about up,
 # chosen on procedural airplanes, docs/category-level.md): one_template_airplane_turns.{md,csv},
 # one_template_airplane_turns_views.csv. Last, why each of ours' wrong views is wrong, at the step that chose
-# it (catpose.bench.category.why_wrong): one_template_airplane_why.{md,csv}.
+# it (experiments/_lib/why_wrong.py): one_template_airplane_why.{md,csv}.
 # Usage (repository root, after `make setup`): bash experiments/category_tables/make_one_template_airplane.sh [tables]
 # Extra Hydra overrides go in EXTRA (e.g. EXTRA="dataset.root=/data/modelnet40_normal_resampled ...").
 set -euo pipefail
@@ -38,5 +38,5 @@ for fmt in md csv; do
 done
 .venv/bin/python -m catpose.bench.report.category_views "$ST" --row ours --out "$T/one_template_airplane_turns_views.csv"
 # why ours' wrong views are wrong: its own score of the estimate against the truth's (docs/category-level.md)
-.venv/bin/python -m catpose.bench.category.why_wrong --force "$S" --row ours --out "$T/one_template_airplane_why.md" \
+.venv/bin/python experiments/_lib/why_wrong.py --force "$S" --row ours --out "$T/one_template_airplane_why.md" \
   --title "Why ours' wrong views are wrong: one template (airplane_0536), shared resampled airplanes"

@@ -5,7 +5,7 @@
 # the chosen (rules cross_top_turns, the experiment's, cross, cross_top, score, density, agreement), oracle and
 # random-template errors side by side (results/category/paper/templates_chair.{md,csv}), and ours'
 # K = 3 views one by one (templates_chair_views.csv), and why each of its wrong views is wrong, at the
-# registration and at the choice (catpose.bench.category.why_wrong: templates_chair_why.{md,csv}).
+# registration and at the choice (experiments/_lib/why_wrong.py: templates_chair_why.{md,csv}).
 # Usage (repository root): bash experiments/category_tables/make_templates_chair.sh [tables]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -29,5 +29,5 @@ done
 .venv/bin/python -m catpose.bench.report.category_views "$OUT/multirun/mn40r_chair_ktemplates" --row ours \
   --out "$T/templates_chair_views.csv"
 # why ours' wrong K = 3 views are wrong: the registration's score and the rule's cost against the truth's
-.venv/bin/python -m catpose.bench.category.why_wrong --force "$OUT/multirun/mn40r_chair_ktemplates" --row ours \
+.venv/bin/python experiments/_lib/why_wrong.py --force "$OUT/multirun/mn40r_chair_ktemplates" --row ours \
   --out "$T/templates_chair_why.md" --title "Why ours' wrong views are wrong: chair, K = 3 (fused), shared resampled chairs"

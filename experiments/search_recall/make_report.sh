@@ -18,11 +18,11 @@ $BENCH suite clutter --force --methods ours --parts dev,dev_A,dev_B --output-roo
 $BENCH suite real --force --methods ours --output-root "$RUNS/real" --write $R/real_ours.md --objects $R/real_ours_objects.md
 source experiments/default_runs.sh  # ours' default runs only (no method.* override), the newest of each
 # shellcheck disable=SC2046  # one argument per run directory
-$PY -m catpose.bench.real.ambiguity $(default_runs "$RUNS/clutter/clutter-gt_model/ours") --split clutter_objects --force \
+$PY experiments/_lib/ambiguity.py $(default_runs "$RUNS/clutter/clutter-gt_model/ours") --split clutter_objects --force \
   --out $R/ambiguity_clutter.md --title "Clutter report and dev scenes, uniform resting poses: ours' wrong estimates"
 # shellcheck disable=SC2046
-$PY -m catpose.bench.real.ambiguity $(default_runs "$RUNS/real/ycbv-gt_model/ours") --split ycbv --force \
+$PY experiments/_lib/ambiguity.py $(default_runs "$RUNS/real/ycbv-gt_model/ours") --split ycbv --force \
   --out $R/ambiguity_ycbv.md --title "Shared real YCB-V frames: ours' wrong estimates"
 # shellcheck disable=SC2046
-$PY -m catpose.bench.real.ambiguity $(default_runs "$RUNS/real/bop-gt_model/ours") --force \
+$PY experiments/_lib/ambiguity.py $(default_runs "$RUNS/real/bop-gt_model/ours") --force \
   --out $R/ambiguity_tyol.md --title "The TYO-L frame: ours' wrong estimate"

@@ -4,4 +4,4 @@
 # results/search_recall/sensor_vs_real.md. Generates the first 40 clutter scenes if missing.
 set -euo pipefail
 PY=${PY:-.venv/bin/python}
-$PY -m catpose.bench.real.sensor_stats --clutter --scenes 40 --out results/search_recall/sensor_vs_real.md
+$PY experiments/_lib/sensor_stats.py --clutter --scenes 40 --out results/search_recall/sensor_vs_real.md

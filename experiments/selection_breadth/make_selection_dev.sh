@@ -66,12 +66,12 @@ done
   --title "Real development chairs (4 x 12 views), one template each (chair_0624, chair_0391, chair_0848 in turn; cross_top_turns)"
 # the airplanes' wrong views sorted by why_wrong at the default and the widest setting
 for k in 3 18; do
-  .venv/bin/python -m catpose.bench.category.why_wrong --force "$OUT/multirun/airplanes" --row ours --override method.selection.top_k=$k \
+  .venv/bin/python experiments/_lib/why_wrong.py --force "$OUT/multirun/airplanes" --row ours --override method.selection.top_k=$k \
     --out $DEV/selection_airplane_procedural_why_$k.md --title "Procedural airplanes, one template (airplane_0536), ours, top_k $k"
 done
 # the K = 3 chairs' wrong views at the default (fused), sorted the same way: where the chair rule misses
 # on development shapes (chair_procedural_why.md, chair_dev_why.md)
-.venv/bin/python -m catpose.bench.category.why_wrong --force "$OUT/multirun/chairs" --row ours --override method.selection.top_k=3 \
+.venv/bin/python experiments/_lib/why_wrong.py --force "$OUT/multirun/chairs" --row ours --override method.selection.top_k=3 \
   --out $DEV/chair_procedural_why.md --title "Procedural chairs (40 x 6 views), K = 3 (fused), ours"
-.venv/bin/python -m catpose.bench.category.why_wrong --force "$OUT/multirun/chair_dev" --row ours --override method.selection.top_k=3 \
+.venv/bin/python experiments/_lib/why_wrong.py --force "$OUT/multirun/chair_dev" --row ours --override method.selection.top_k=3 \
   --out $DEV/chair_dev_why.md --title "Real development chairs (4 x 12 views), K = 3 (fused), ours"

@@ -25,6 +25,6 @@ G=experiments/selection_breadth/selection_grid.py
 .venv/bin/python $G "$OUT/multirun/selection_mn40r_chair_1template" --key method.selection.top_k --out $T/selection_top_k_chair_k1.md \
   --title "Chair, one template (chair_0624, cross_top_turns), shared resampled chairs (2 x 4 views), ours"
 # the airplanes' wrong views at 18, sorted as at the default (one_template_airplane_why.md)
-.venv/bin/python -m catpose.bench.category.why_wrong --force "$OUT/multirun/selection_mn40r_airplane_1template" --row ours \
+.venv/bin/python experiments/_lib/why_wrong.py --force "$OUT/multirun/selection_mn40r_airplane_1template" --row ours \
   --override method.selection.top_k=18 --out $T/selection_top_k_airplane_why.md \
   --title "Why ours' wrong views are wrong with method.selection.top_k=18: one template (airplane_0536), shared resampled airplanes"

@@ -1,5 +1,5 @@
 """Why a category-level view's kept estimate is wrong, at each step that chose it
-(``python -m catpose.bench.category.why_wrong RUN_OR_SWEEP --row ours --out why.md``).
+(``python experiments/_lib/why_wrong.py RUN_OR_SWEEP --row ours --out why.md``).
 
 A ``templates`` run keeps, per view, one estimate: a registration on one of the K templates, and
 under the ``cross`` rules (:mod:`catpose.methods.choice_rules`) that registration or one
@@ -11,7 +11,7 @@ truth's basin (the poses within ``NEAR_DEG`` of the truth) put in the estimate's
 
 1. **The registration** on the kept template (``ours`` runs on point clouds: ours' own point rule,
    ``selection.rule`` or its ``depth_fallback``, the visibility-aware Chamfer score with which ours
-   chose among its candidates; where ours chose by the depth check, :mod:`catpose.bench.real.ambiguity`
+   chose among its candidates; where ours chose by the depth check, ``experiments/_lib/ambiguity.py``
    asks this question of depth images). Its own estimate and the truth are scored, and so is every pose ours'
    refinement (point-to-plane ICP on the Chamfer points, then on every input point) reaches inside
    the basin from the truth, from the truth nudged by ``NUDGE_DEG`` about each template axis, and
@@ -277,7 +277,7 @@ def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_
         # the view against each of its templates, in template order (the kept one among them)
         loaded = {sid: protocol.load(dataset, sid) for sid in sorted(group["sample_id"], key=_template_index)}
         sample = loaded[kept["sample_id"]]
-        if isinstance(method, Ours) and not method.uses_depth(sample.problem):  # depth: bench/real/ambiguity
+        if isinstance(method, Ours) and not method.uses_depth(sample.problem):  # depth: experiments/_lib/ambiguity.py
             costs = registration_costs(
                 method, sample.problem, np.reshape(own["T_est"], (4, 4)), sample.gt.T_template_camera
             )
@@ -431,7 +431,7 @@ def main(argv: list[str] | None = None) -> int:
     from catpose import atomic
 
     parser = argparse.ArgumentParser(
-        prog="python -m catpose.bench.category.why_wrong",
+        prog="python experiments/_lib/why_wrong.py",
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -26,7 +26,7 @@ Ground truth is read here for diagnosis only, never by a method. Rows are groupe
 (``configs/split/<name>.yaml``), by its part, so that figures of the scenes a default was chosen on
 stay apart from the others.
 
-    python -m catpose.bench.real.ambiguity RUN_DIR [RUN_DIR ...] --out results/ambiguity/table.md [--split clutter]
+    python experiments/_lib/ambiguity.py RUN_DIR [RUN_DIR ...] --out results/ambiguity/table.md [--split clutter]
 """
 
 from __future__ import annotations
@@ -110,7 +110,7 @@ def wrong_rows(run_dir: Path, wrong_deg: float = WRONG_DEG) -> tuple[list[dict],
             raise ConfigError(
                 f"run {run_dir}: sample {r['sample_id']} has no depth image; this check needs "
                 "data with depth images (BOP, clutter, the renderer); for point clouds of a "
-                "templates run use python -m catpose.bench.category.why_wrong"
+                "templates run use python experiments/_lib/why_wrong.py"
             )
         T_est = np.asarray(r["T_est"], float).reshape(4, 4)
         est, gt, gt_refined = verifier_costs(sel, sample.problem, T_est, np.asarray(sample.gt.T_template_camera, float))
@@ -229,7 +229,7 @@ def main(argv: list[str] | None = None) -> int:
     from catpose.bench.real.split import load_split
 
     parser = argparse.ArgumentParser(
-        prog="python -m catpose.bench.real.ambiguity",
+        prog="python experiments/_lib/ambiguity.py",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -19,7 +19,7 @@ model's (``gt_normals``), the exact ground normal (``gt_ground``), points projec
 model surface (``denoise``), the object's true up (in the object frame) given as the template up
 (``true_up``), every correction at once (``all``).
 
-    python -m catpose.bench.real.diagnose --set ycbv --out /tmp/diag_ycbv.jsonl [--ablate trim,gt_normals]
+    python experiments/_lib/diagnose.py --set ycbv --out /tmp/diag_ycbv.jsonl [--ablate trim,gt_normals]
 
 Ground truth is used here for diagnosis only, never by a method.
 """
@@ -257,7 +257,7 @@ def diagnose(
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m catpose.bench.real.diagnose",
+        prog="python experiments/_lib/diagnose.py",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

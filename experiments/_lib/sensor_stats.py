@@ -5,7 +5,7 @@ mean, mm), the fraction of observed points further than 10 mm from it (mask blee
 background), the fraction of object pixels without depth (missing), and the normal error
 (median, deg, sign-free) of the observed normals against the model's.
 
-    python -m catpose.bench.real.sensor_stats [--sensors kinect,realsense] [--categories can,bottle,mug]
+    python experiments/_lib/sensor_stats.py [--sensors kinect,realsense] [--categories can,bottle,mug]
 
 ``--clutter`` instead sets the cluttered synthetic set (``dataset=clutter``, its first
 ``--scenes`` scenes, generated if missing) beside the real YCB-V frames, instance by instance from
@@ -13,13 +13,14 @@ the files of both (:func:`frame_rows`: the model rendered at the written ground 
 depth image and the segmentation), per object and pooled, with the camera's distance and
 elevation above the table:
 
-    python -m catpose.bench.real.sensor_stats --clutter --scenes 40 [--out results/clutter/sensor_vs_real.md]
+    python experiments/_lib/sensor_stats.py --clutter --scenes 40 [--out results/clutter/sensor_vs_real.md]
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -28,7 +29,8 @@ def view_stats(
     points_object: np.ndarray, normals_object: np.ndarray, vertices: np.ndarray, triangles: np.ndarray, scale_mm: float
 ) -> dict:
     """Residual (mm), bleed fraction and normal error (deg) of one view in the object frame."""
-    from catpose.bench.real.diagnose import _MeshDistance
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from diagnose import _MeshDistance  # the sibling script (experiments/_lib/diagnose.py)
 
     d, _, mn = _MeshDistance(vertices, triangles).query(points_object)
     d_mm = d * scale_mm
@@ -225,7 +227,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from catpose.bench.run.config import shared_data_dir
 
-    parser = argparse.ArgumentParser(prog="python -m catpose.bench.real.sensor_stats", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python experiments/_lib/sensor_stats.py", description=__doc__)
     parser.add_argument("--sensors", default="kinect,realsense")
     parser.add_argument("--categories", default="can,bottle,mug")
     parser.add_argument("--instances", type=int, default=2)
