@@ -57,11 +57,11 @@ realcheck: setup
 # then the docs' quotes copied from the new files.
 results: setup
 	bash results/make_results.sh $(SECTIONS)
-	$(PY) -m catpose.bench.report.doc_quotes
+	$(PY) tools/doc_quotes.py
 
 # The docs' quotes copied from results/ (docs/developing.md, "Regenerating the results").
 quotes: setup
-	$(PY) -m catpose.bench.report.doc_quotes
+	$(PY) tools/doc_quotes.py
 
 # The launchers extra (`pip install -e ".[cluster]"`), with the same pins as `make setup`.
 cluster: $(VENV)/.cluster

@@ -36,7 +36,7 @@
 #   api        catpose.register without `up` (experiments/api_without_up/make_without_up.sh, when present; ~1.5 h)
 #              and with a depth frame beside bench run (experiments/api_frames/make_frames.sh; ~1 min).
 #   figures    a figure of each table the README quotes, from the committed tables alone
-#              (python -m catpose.bench.report.table_figure: @10 and @30 per method, the mean error
+#              (python tools/table_figure.py: @10 and @30 per method, the mean error
 #              beside): results/figures/*.{png,pdf,csv}. Seconds.
 # The sections that need the shared data (../shared/data or $CATPOSE_SHARED_DATA) skip with a note
 # when it is absent.
@@ -182,7 +182,7 @@ figures() {  # one per table the README quotes: table|figure stem|title
   mkdir -p "$F"
   while IFS='|' read -r table stem title; do
     [ -f "$RESULTS/$table" ] || { echo "make_results: figures: no $RESULTS/$table; skipped" >&2; continue; }
-    "$PY" -m catpose.bench.report.table_figure "$RESULTS/$table" --out "$F/$stem" --title "$title" > /dev/null
+    "$PY" tools/table_figure.py "$RESULTS/$table" --out "$F/$stem" --title "$title" > /dev/null
   done <<'TABLES'
 report/tables/gt_model_summary.md|embedded_gt_model|Embedded synthetic set, each view against its own model (48 views, seed 0)
 real/headline.md|real|Real frames (YCB-Video, TYO-L) and ModelNet40 resampled shapes, own model

@@ -4,11 +4,15 @@ stays a front door (<= 16 KB), and user docs hold no lab history (that is CHANGE
 from __future__ import annotations
 
 import re
+import sys
 from pathlib import Path
 
 import pytest
 
-from catpose.bench.report import doc_quotes
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _study import study_module  # noqa: E402
+
+doc_quotes = study_module("tools/doc_quotes.py")
 
 REPO = Path(__file__).resolve().parents[1]
 DOCS = ("methods.md", "evaluation.md", "results.md", "speed.md", "scale-out.md", "developing.md", "architecture.md")
@@ -23,11 +27,11 @@ PENDING = {
 }
 
 
-def test_every_quote_is_its_file():
+def test_every_quote_is_its_file(doc_quotes):
     assert doc_quotes.differing(REPO) == []
 
 
-def test_readme_is_a_front_door():
+def test_readme_is_a_front_door(doc_quotes):
     readme = (REPO / "README.md").read_text()
     assert len(readme.encode()) <= 16 * 1024
     for needed in ("make demo", "make test", "catpose.register", "docs/api.md", "T_template_camera"):
@@ -43,7 +47,7 @@ def _links(doc: Path) -> list[str]:
     return [m.split("#")[0] for m in re.findall(r"\]\(([^)\s]+)\)", text) if "://" not in m and not m.startswith("#")]
 
 
-def test_links_resolve():
+def test_links_resolve(doc_quotes):
     for doc in doc_quotes.doc_files(REPO) + [REPO / "CHANGELOG.md"]:
         for link in _links(doc):
             target = (doc.parent / link).resolve()
@@ -62,7 +66,7 @@ HISTORY = [
 
 
 @pytest.mark.parametrize("name", ["README.md", *[f"docs/{d}" for d in DOCS]])
-def test_no_history_in_user_docs(name):
+def test_no_history_in_user_docs(doc_quotes, name):
     """Outside the quotes of results files: those are the files' own words."""
     doc = REPO / name
     lines = doc.read_text().splitlines()
@@ -74,7 +78,7 @@ def test_no_history_in_user_docs(name):
         assert m is None, f"{name}: {what}: {text[max(0, m.start() - 40) : m.end() + 40]!r}"
 
 
-def test_quote_tool(tmp_path: Path):
+def test_quote_tool(doc_quotes, tmp_path: Path):
     (tmp_path / "docs").mkdir()
     (tmp_path / "results").mkdir()
     (tmp_path / "results" / "t.md").write_text(

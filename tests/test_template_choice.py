@@ -1,5 +1,5 @@
 """Choosing a view's template without ground truth (``choice=<rule>``, :mod:`catpose.methods.choice_rules`),
-excluded views, the chosen/oracle/random table and the alignment comparison (issue 25)."""
+excluded views and the chosen/oracle/random table (issue 25)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench.category import align_check
 from catpose.bench.protocols import Templates
 from catpose.bench.protocols.template_rows import is_excluded_view, with_template_facts
 from catpose.bench.report.category_table import error_stats, run_rows, to_markdown
@@ -159,46 +158,6 @@ def test_category_table_one_template_row_takes_the_runs_turn_rule_where_turns_we
         SimpleNamespace(samples=rows, config={"protocol": {"choice": "cross_top_turns"}}), "chair", ["cross"]
     )
     assert [(r["choice"], r["chosen_mean"]) for r in bare] == [("-", 90.0)]
-
-
-def test_alignment_agreement_is_up_to_one_common_rotation_and_roc_separates():
-    yaw = [axis_angle_to_R(np.array([0, 0, 1.0]), np.deg2rad(90 * k)) for k in range(4)]
-    verified = {"a": yaw[0], "b": yaw[1], "c": yaw[2], "d": yaw[3]}
-    G = yaw[1]  # the estimate lives in a frame turned by 90 deg, and gets "d" wrong
-    est = {"a": G @ yaw[0], "b": G @ yaw[1], "c": G @ yaw[2], "d": G @ yaw[1]}
-    offset, ok = align_check.agreement(est, verified)
-    np.testing.assert_allclose(offset, G, atol=1e-12)
-    assert ok == {"a": True, "b": True, "c": True, "d": False}
-    r = align_check.roc([0.5, 0.4, 0.3, 0.1], [True, True, True, False])
-    assert r["separates"] and r["auc"] == 1.0
-    r = align_check.roc([0.5, 0.2, 0.3, 0.25], [True, True, True, False])
-    assert not r["separates"] and r["auc"] == pytest.approx(2 / 3)
-    assert align_check.roc([0.5], [True])["separates"]
-
-
-def test_compare_tables_and_summary(tmp_path):
-    from catpose.datasets.alignment import write_alignment_table
-
-    yaw = [axis_angle_to_R(np.array([0, 0, 1.0]), np.deg2rad(90 * k)) for k in range(4)]
-    write_alignment_table(
-        tmp_path / "v.csv",
-        [{"category": "c", "instance_id": i, "R": yaw[k]} for i, k in (("a", 0), ("b", 1), ("c", 2))],
-    )
-    write_alignment_table(
-        tmp_path / "e.csv",
-        [
-            {"category": "c", "instance_id": i, "R": yaw[k], "confidence": c}
-            for i, k, c in (("a", 0, 0.4), ("b", 3, 0.05), ("c", 2, 0.3))
-        ],
-    )
-    res = align_check.compare_tables(tmp_path / "e.csv", tmp_path / "v.csv", "c")
-    assert res["agree"] == 2 and res["roc"]["separates"]
-    path = align_check.write_comparison(tmp_path / "e_vs_verified.csv", res)
-    assert align_check.read_comparison(path)["agree"] == 2
-    assert "agree 2/3" in align_check.summary_line(res)
-    assert align_check.main([f"x={path}", "--out", str(tmp_path / "s.md")]) == 0
-    assert "| x | 2/3 | 1.000 | yes |" in (tmp_path / "s.md").read_text()
-    assert align_check.main(["x=missing.csv"]) == 2
 
 
 def _chair_view():

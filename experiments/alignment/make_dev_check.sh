@@ -34,4 +34,4 @@ for flip in "" --flip; do
     --compare "$D/modelnet40_resampled_airplane.csv"
   items+=("development airplanes${flip:+ (8 hypotheses)}=$O/estimated${sfx}_vs_verified.csv")
 done
-.venv/bin/python -m catpose.bench.category.align_check "${items[@]}" --out "$D/summary.md"
+.venv/bin/python experiments/alignment/align_summary.py "${items[@]}" --out "$D/summary.md"

@@ -26,4 +26,4 @@ for flip in "" --flip; do
             "resampled $cat${flip:+ (8 hypotheses)}=$E/modelnet40_resampled_${cat}${sfx}_vs_verified.csv")
   done
 done
-.venv/bin/python -m catpose.bench.category.align_check "${items[@]}" --out "$E/summary.md"
+.venv/bin/python experiments/alignment/align_summary.py "${items[@]}" --out "$E/summary.md"

@@ -30,13 +30,13 @@ for fmt in md csv; do
   "$B" table --force --sweep "$S" --layout one_template --format $fmt --metrics mean,median,acc10,acc30,trans,n,failed \
     --title "One template (airplane_0536), shared resampled airplanes (17 x 2 views)" --out "$T/one_template_airplane.$fmt"
 done
-.venv/bin/python -m catpose.bench.report.category_views "$S" --row ours --out "$T/one_template_airplane_views.csv"
+.venv/bin/python experiments/category_tables/category_views.py "$S" --row ours --out "$T/one_template_airplane_views.csv"
 for fmt in md csv; do
   "$B" table --force --sweep "$ST" --layout one_template --format $fmt --metrics mean,median,acc10,acc30,trans,n,failed \
     --title "One template (airplane_0536) with the half-turn check (cross_top_turns, turns 180), shared resampled airplanes (17 x 2 views)" \
     --out "$T/one_template_airplane_turns.$fmt"
 done
-.venv/bin/python -m catpose.bench.report.category_views "$ST" --row ours --out "$T/one_template_airplane_turns_views.csv"
+.venv/bin/python experiments/category_tables/category_views.py "$ST" --row ours --out "$T/one_template_airplane_turns_views.csv"
 # why ours' wrong views are wrong: its own score of the estimate against the truth's (docs/category-level.md)
 .venv/bin/python experiments/_lib/why_wrong.py --force "$S" --row ours --out "$T/one_template_airplane_why.md" \
   --title "Why ours' wrong views are wrong: one template (airplane_0536), shared resampled airplanes"

@@ -26,7 +26,7 @@ for fmt in md csv; do
     --title "Chair, K templates (shared resampled chairs; test views chair_0454, chair_0858 x 4)"
 done
 # ours' K = 3 views one by one: the chosen template's error beside the oracle's
-.venv/bin/python -m catpose.bench.report.category_views "$OUT/multirun/mn40r_chair_ktemplates" --row ours \
+.venv/bin/python experiments/category_tables/category_views.py "$OUT/multirun/mn40r_chair_ktemplates" --row ours \
   --out "$T/templates_chair_views.csv"
 # why ours' wrong K = 3 views are wrong: the registration's score and the rule's cost against the truth's
 .venv/bin/python experiments/_lib/why_wrong.py --force "$OUT/multirun/mn40r_chair_ktemplates" --row ours \

@@ -1,6 +1,6 @@
 """A figure of a results table: accuracy at 10 and 30 degrees per method, one panel per column group.
 
-    python -m catpose.bench.report.table_figure results/real/table.md --out results/real/table
+    python tools/table_figure.py results/real/table.md --out results/real/table
 
 reads a Markdown table as ``bench table``, ``bench report`` and ``bench suite`` write them and
 draws, per group of columns (a dataset, a split part, a category), a horizontal bar per row: @30
@@ -163,7 +163,7 @@ def plot_table(path: str | Path, out_stem: str | Path, title: str | None = None,
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m catpose.bench.report.table_figure TABLE.md --out STEM [--title T] [--no-pdf]``."""
+    """``python tools/table_figure.py TABLE.md --out STEM [--title T] [--no-pdf]``."""
     ap = argparse.ArgumentParser(prog="table_figure", description=__doc__.split("\n\n")[0])
     ap.add_argument("table", help="a Markdown table written by bench table, bench report or bench suite")
     ap.add_argument("--out", required=True, help="output stem: STEM.png, STEM.pdf, STEM.csv")

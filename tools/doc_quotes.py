@@ -13,8 +13,8 @@ Selectors: none (the whole file), ``table`` (its first Markdown table: the first
 starting with ``|``, with a bold title line just above it), ``table N`` (the N-th). A quoted file
 that does not exist yet is shown as a placeholder saying which command writes it.
 
-    python -m catpose.bench.report.doc_quotes            # refresh every quote from its file
-    python -m catpose.bench.report.doc_quotes --check    # exit 1 and name each quote that differs
+    python tools/doc_quotes.py            # refresh every quote from its file
+    python tools/doc_quotes.py --check    # exit 1 and name each quote that differs
 
 ``make results`` regenerates the files (``results/make_results.sh``) and then refreshes the quotes;
 ``tests/test_doc_quotes.py`` fails while a quote differs from its file.
@@ -27,7 +27,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[1]
 START = re.compile(r"^<!-- quote: (?P<path>\S+)(?: \((?P<sel>[^)]*)\))? -->$")
 END = "<!-- end quote -->"
 PLACEHOLDER = "*(not generated yet: `make results` writes `{path}`)*"
@@ -142,7 +142,7 @@ def refresh(repo: Path = REPO) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m catpose.bench.report.doc_quotes", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python tools/doc_quotes.py", description=__doc__.split("\n\n")[0])
     ap.add_argument("--check", action="store_true", help="only check; exit 1 when a quote differs from its file")
     args = ap.parse_args(argv)
     if args.check:

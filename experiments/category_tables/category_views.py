@@ -1,5 +1,5 @@
 """Per-view errors of one method in a category-level sweep, with what kind of error each is
-(``python -m catpose.bench.report.category_views SWEEP_DIR --row ours --out views.csv``).
+(``python experiments/category_tables/category_views.py SWEEP_DIR --row ours --out views.csv``).
 
 For every scored view (the ``templates`` protocol's chosen registration) it writes the instance,
 view, chosen template, error, the oracle error, and the residual rotation ``R_gt^T R_est`` as an
@@ -80,7 +80,7 @@ def view_rows(sweep: str | Path, row: str) -> list[dict]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
-        prog="python -m catpose.bench.report.category_views", description=__doc__.split("\n\n")[0]
+        prog="python experiments/category_tables/category_views.py", description=__doc__.split("\n\n")[0]
     )
     ap.add_argument("sweep", help="a sweep directory of `bench run -m +experiment=...`")
     ap.add_argument("--row", default="ours", help="the +row of the jobs to list (default: ours)")
