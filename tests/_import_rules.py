@@ -17,7 +17,11 @@ The rules (docs/architecture.md explains them):
 - the CLI (the loose modules of ``bench/``) may import anything;
 - the protocols run no registration code (:data:`REGISTRATION_FREE`): they list problems and score
   answers, so of the methods they import only the choice rules (arithmetic over stored facts), and
-  never Open3D, ``catpose.o3d`` or the ICP kernel.
+  never Open3D, ``catpose.o3d`` or the ICP kernel;
+- the package never reaches the scripts outside it (:data:`OUTSIDE`: the studies in
+  ``experiments/``, the maintenance scripts in ``tools/``, the tests): no import of those folders
+  or of a script's name there (a sibling import), and none of the ways to load a file that is not
+  installed (:data:`FILE_LOADERS`: ``sys.path``, ``runpy``, ``importlib``'s file loaders).
 """
 
 from __future__ import annotations
@@ -87,6 +91,46 @@ def registration_free(source: str, module: str) -> bool:
 #: (importing module, imported unit) pairs allowed against the rules: the package root's lazy
 #: ``catpose.register`` (``catpose.__getattr__`` imports ``catpose.api`` on first use)
 EXCEPTIONS: frozenset[tuple[str, str]] = frozenset({("catpose", "api")})
+
+
+#: folders (relative to the repository root) whose scripts the package never imports
+OUTSIDE = ("experiments", "tools", "tests")
+
+#: names through which code loads a file that is not an installed module (``sys.path`` as the
+#: attribute ``path`` of ``sys``); the package uses none of them
+FILE_LOADERS = frozenset({"runpy", "run_path", "run_module", "spec_from_file_location", "SourceFileLoader"})
+
+
+def outside_names(root: Path) -> frozenset[str]:
+    """The top-level names an import of a script outside the package would use: the folders of
+    :data:`OUTSIDE`, every folder under them and every script's stem there (``from why_wrong import
+    ...`` after a ``sys.path`` insert)."""
+    names = set(OUTSIDE)
+    for folder in OUTSIDE:
+        for p in (Path(root) / folder).rglob("*"):
+            if p.suffix == ".py" or p.is_dir():
+                names.add(p.stem if p.suffix == ".py" else p.name)
+    return frozenset(n for n in names if n.isidentifier() and n != "__init__")
+
+
+def file_loads(tree: ast.AST) -> list[tuple[int, str]]:
+    """(line, what) of every use of :data:`FILE_LOADERS` in ``tree``: an import of one, an attribute
+    or name spelling one, and ``sys.path``."""
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute):
+            if node.attr in FILE_LOADERS:
+                out.append((node.lineno, node.attr))
+            elif node.attr == "path" and isinstance(node.value, ast.Name) and node.value.id == "sys":
+                out.append((node.lineno, "sys.path"))
+        elif isinstance(node, ast.Name) and node.id in FILE_LOADERS:
+            out.append((node.lineno, node.id))
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            names = [a.name for a in node.names] + (
+                [node.module] if isinstance(node, ast.ImportFrom) and node.module else []
+            )
+            out += [(node.lineno, n) for n in names if set(n.split(".")) & FILE_LOADERS]
+    return out
 
 
 class Violation(NamedTuple):
@@ -161,6 +205,7 @@ def check_tree(root: Path) -> list[Violation]:
     """Every import under ``root``'s source folders that breaks a rule."""
     root = Path(root)
     found = []
+    outside = outside_names(root)
     for folder in ROOTS:
         for path in sorted((root / folder).rglob("*.py")):
             module = module_name(root, path)
@@ -174,4 +219,9 @@ def check_tree(root: Path) -> list[Violation]:
                     target is not None and not allowed(source, target) and (module, target) not in EXCEPTIONS
                 ) or not registration_free(source, target_module):
                     found.append(Violation(path.relative_to(root).as_posix(), line, source, target_module))
+                elif target is None and target_module.split(".")[0] in outside:  # a script outside the package
+                    found.append(Violation(path.relative_to(root).as_posix(), line, source, target_module))
+            found += [
+                Violation(path.relative_to(root).as_posix(), line, source, what) for line, what in file_loads(tree)
+            ]
     return found

@@ -161,3 +161,35 @@ def test_the_application_layer_and_its_lazy_export(tmp_path):
         ("src/catpose/api/bad.py", "catpose.bench.report.tables"),
         ("src/catpose/api/bad.py", "catpose.bench.cli"),
     }
+
+
+def test_the_package_never_reaches_the_scripts_outside_it(tmp_path):
+    """No module of the package imports ``experiments/``, ``tools/`` or ``tests/``, a script there by
+    its own name (a sibling import after a ``sys.path`` insert), or loads a file by ``sys.path``,
+    ``runpy`` or ``importlib``'s file loaders; the studies and tools themselves may import the package."""
+    _plant(
+        tmp_path,
+        {
+            "experiments/_lib/why_wrong.py": "from catpose.bench.run import runner\n",
+            "experiments/speed/summary.py": "import catpose\n",
+            "tools/doc_quotes.py": "",
+            "bench/report/__init__.py": "",
+            "bench/report/bad.py": (
+                "import sys\nimport experiments._lib.why_wrong\nfrom tools import doc_quotes\n"
+                "def f():\n    sys.path.insert(0, 'experiments/_lib')\n    import why_wrong\n"
+            ),
+            "methods/bad.py": "import runpy\nfrom importlib.util import spec_from_file_location\n",
+            "datasets/bad.py": "import importlib.util\nm = importlib.util.spec_from_file_location('x', 'tools/x.py')\n",
+            "bench/report/fine.py": "import sys\nimport summary_statistics\nprint(sys.argv)\n",
+        },
+    )
+    found = {(v.path, v.line, v.target) for v in check_tree(tmp_path)}
+    assert found == {
+        ("bench/report/bad.py", 2, "experiments._lib.why_wrong"),
+        ("bench/report/bad.py", 3, "tools.doc_quotes"),
+        ("bench/report/bad.py", 5, "sys.path"),
+        ("bench/report/bad.py", 6, "why_wrong"),
+        ("methods/bad.py", 1, "runpy"),
+        ("methods/bad.py", 2, "spec_from_file_location"),
+        ("datasets/bad.py", 2, "spec_from_file_location"),
+    }
