@@ -467,12 +467,8 @@ def test_bench_run_bad_limit_gives_one_line(tmp_path):
     "argv,line",
     [
         (
-            ["run", "method=ours", "method.optimizer.lr=0.01"],
-            "bench run: error: method.optimizer was renamed method.optimiser; write method.optimiser.lr=0.01",
-        ),
-        (
-            ["run", "-m", "+experiment=optimizer"],
-            "bench run: error: experiment optimizer was renamed optimiser; write +experiment=optimiser",
+            ["run", "protocol=templates", "protocol.choice=fused"],
+            "bench run: error: protocol.choice was renamed choice; write choice=fused",
         ),
         (
             [
@@ -481,21 +477,21 @@ def test_bench_run_bad_limit_gives_one_line(tmp_path):
                 "--dataset",
                 "synthetic",
                 "--override",
-                "method.optimizer.lr=1",
+                "protocol.turns=[180]",
                 "--method",
                 "m",
                 "--out",
                 "o",
             ],
-            "bench score: error: method.optimizer was renamed method.optimiser; write method.optimiser.lr=1",
+            "bench score: error: protocol.turns was renamed choice.turns_deg; write choice.turns_deg=[180]",
         ),
         (
-            ["templates", "dataset=synthetic", "method.optimizer.lr=1", "--category", "mug", "--out", "x.yaml"],
-            "bench templates: error: method.optimizer was renamed method.optimiser; write method.optimiser.lr=1",
+            ["templates", "dataset=synthetic", "protocol.choice=fused", "--category", "mug", "--out", "x.yaml"],
+            "bench templates: error: protocol.choice was renamed choice; write choice=fused",
         ),
     ],
 )
-def test_old_optimizer_spelling_is_refused_in_one_line_naming_the_new_one(argv, line, capsys):
+def test_a_renamed_key_is_refused_in_one_line_naming_the_new_one(argv, line, capsys):
     from catpose.bench.cli import main
 
     assert main(argv) == 2

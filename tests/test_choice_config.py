@@ -157,6 +157,5 @@ def test_the_choice_is_part_of_a_templates_runs_identity_and_old_configurations_
     assert digest(one) == old_digest(one, choice="cross_top_turns", turns=[180], one_template_turns=True)
     fused = ["protocol=templates", "choice=fused"]
     assert digest(fused) == old_digest(fused, choice="fused", turns=None, one_template_turns=False)
-    relative = {"choice": "score", "_target_": "catpose.bench.relative.Relative"}  # the class's name before its move
     score = ["protocol=relative", "choice=score"]  # the default before `fused`
-    assert digest(score) == old_digest(score, **relative)
+    assert digest(score) == old_digest(score, choice="score")

@@ -17,17 +17,6 @@ from typing import Any
 from catpose import extras, kernel_threads
 from catpose.errors import CatposeError, ConfigError, one_line
 
-#: ``_target_``s that moved when ``bench/`` was split into wings: the name written into run
-#: directories' ``config.yaml`` before -> the class's name now. :func:`build_from_config` builds
-#: either, so old run directories still table and report; :func:`catpose.bench.run.rundir.run_dir_for`
-#: hashes the old name, so a configuration keeps its run directory (and its finished samples).
-MOVED_TARGETS = {"catpose.bench.relative.Relative": "catpose.bench.protocols.Relative"}
-
-
-def target_before_move(target: str) -> str:
-    """The name ``target`` had before it moved (itself when it did not move)."""
-    return next((old for old, new in MOVED_TARGETS.items() if new == target), target)
-
 
 def build_from_config(node: Any, what: str) -> tuple[str, Any]:
     """Pop ``name`` from a config group node and build its ``_target_`` with the rest.
@@ -47,8 +36,6 @@ def build_from_config(node: Any, what: str) -> tuple[str, Any]:
     except MissingMandatoryValue as e:
         raise ConfigError(f"{what}: a required value is missing ({e}); set it on the command line") from None
     name = str(d.pop("name", what))
-    if d.get("_target_") in MOVED_TARGETS:
-        d["_target_"] = MOVED_TARGETS[d["_target_"]]
     if "_target_" not in d:
         raise ConfigError(f"config group '{what}' ({name}) has no _target_; add one to configs/{what}/{name}.yaml")
     check_constructor_args(d, what, name)
@@ -108,7 +95,7 @@ def takes_choice(protocol: Any) -> bool:
     """Whether a protocol config node's class keeps one of a view's template registrations (its
     constructor takes ``choice``: templates, relative), so the ``choice`` group applies to it."""
     target = str(protocol.get("_target_", "")) if hasattr(protocol, "get") else ""
-    module_name, _, attr = MOVED_TARGETS.get(target, target).rpartition(".")
+    module_name, _, attr = target.rpartition(".")
     try:
         return "choice" in inspect.signature(getattr(importlib.import_module(module_name), attr)).parameters
     except (ImportError, AttributeError, ValueError, TypeError):

@@ -15,9 +15,7 @@ key that only another config of its group has with that config (``method.optimis
 the default ICP: "method ours has it: `method=ours method.optimiser.lr=0.001`"); a sweep's group
 combinations are checked the same way before its first job starts (:func:`check_sweep_composition`).
 
-Renamed: ``method.optimizer`` is ``method.optimiser`` (the spelling of the config key, of
-``Ours(optimiser=...)`` and of the docs), and the experiment and table layout ``optimizer`` are
-``optimiser``; ``protocol.choice``, ``protocol.turns`` and ``protocol.one_template_turns`` are
+Renamed: ``protocol.choice``, ``protocol.turns`` and ``protocol.one_template_turns`` are
 ``choice=<rule>``, ``choice.turns_deg`` and ``choice.one_template_turns`` (the ``choice`` group);
 the old spellings are refused with the new one named.
 
@@ -43,13 +41,10 @@ GROUPS = ("method", "dataset", "protocol", "choice", "experiment")
 #: dotted keys renamed in the configs: old -> new (an override of the old key is refused); the
 #: templates protocol's choice moved into its own group (configs/choice, the method side's)
 RENAMED_KEYS = {
-    "method.optimizer": "method.optimiser",
     "protocol.choice": "choice",
     "protocol.turns": "choice.turns_deg",
     "protocol.one_template_turns": "choice.one_template_turns",
 }
-#: config names renamed: (group, old name) -> new name
-RENAMED_NAMES = {("experiment", "optimizer"): "optimiser"}
 #: hydra/launcher option -> the plugin package it needs (the cluster extra, `make cluster`)
 LAUNCHER_PLUGINS = {
     "joblib": "hydra_joblib_launcher",
@@ -85,8 +80,8 @@ def did_you_mean(word: str, candidates: Iterable[str], spell=lambda c: c) -> str
 
 def check_overrides(argv: Sequence[str], names: bool = True) -> None:
     """Fail fast, in one line, on an unknown method, dataset, protocol or experiment name and on
-    a renamed key or name (``method.optimizer.lr=...``: "method.optimizer was renamed
-    method.optimiser; write method.optimiser.lr=...").
+    a renamed key (``protocol.choice=fused``: "protocol.choice was renamed choice; write
+    choice=fused").
 
     ``argv`` are plain overrides (:func:`split_hydra_args` takes Hydra's flags out first);
     ``hydra.*`` and ``hydra/...`` overrides are Hydra's and pass untouched. ``names=False`` skips
@@ -105,9 +100,6 @@ def check_overrides(argv: Sequence[str], names: bool = True) -> None:
             continue
         available_names = available(key)
         for v in value.split(","):
-            if (key, v) in RENAMED_NAMES:
-                new = RENAMED_NAMES[key, v]
-                raise ConfigError(f"{key} {v} was renamed {new}; write {prefix}{key}={new}")
             if names and v and v not in available_names:
                 guess = did_you_mean(v, available_names, lambda c: f"{prefix}{key}={c}")
                 raise ConfigError(

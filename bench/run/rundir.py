@@ -66,7 +66,7 @@ def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     """The output directory of a configuration (see the module docstring)."""
     from omegaconf import OmegaConf
 
-    from catpose.bench.run.build import identity_before_choice, takes_choice, target_before_move
+    from catpose.bench.run.build import identity_before_choice, takes_choice
 
     identity = {k: OmegaConf.to_container(cfg[k], resolve=True) for k in ("method", "dataset", "protocol")}
     if cfg.get("choice") is not None and takes_choice(identity["protocol"]):  # the protocols that keep a choice
@@ -75,9 +75,6 @@ def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:
         )
         if choice:
             identity["choice"] = choice
-    for node in identity.values():  # a class that moved keeps its configurations' directories
-        if isinstance(node, dict) and "_target_" in node:
-            node["_target_"] = target_before_move(str(node["_target_"]))
     identity["seed"] = int(cfg.seed)
     digest = hashlib.sha1(json.dumps(identity, sort_keys=True, default=str).encode()).hexdigest()[:8]
     parts = []
