@@ -2,6 +2,7 @@
 #   make demo   set up .venv (CPU torch, open3d-cpu) and run ICP and ours on the embedded data under the
 #               portable numeric profile the README's tables were made under, then print their table
 #   make test   the default test suite (slow and experiment tests excluded; `make test-slow`, `make test-experiments` run them)
+#   make lint   ruff, and the tests that check the repository rather than behaviour (module size, import rules, ...)
 #   make cluster  the optional Hydra launchers (joblib, Slurm via submitit, Ray): docs/scale-out.md
 #   make results  every table and figure the docs quote, regenerated (hours), then copied into the docs
 SHELL := /bin/bash
@@ -11,7 +12,7 @@ PY := $(VENV)/bin/python
 BENCH := $(VENV)/bin/bench
 TORCH_PIN ?= torch==2.13.0
 
-.PHONY: setup demo test test-slow test-experiments regress realcheck results quotes cluster slurm-check clean
+.PHONY: setup demo test lint test-slow test-experiments regress realcheck results quotes cluster slurm-check clean
 
 setup: $(VENV)/.installed
 
@@ -36,6 +37,16 @@ demo: setup
 
 test: setup
 	$(VENV)/bin/pytest -m "not slow and not experiment" -q
+
+# Repository hygiene: ruff clean and ruff formatted (pyproject.toml [tool.ruff]), then the tests that
+# check the repository, not behaviour: the module-size rule, the import rules, the studies' layout,
+# the changelog's format, the docs' quotes of results/ and their links.
+LINT_TESTS := tests/test_module_size.py tests/test_import_rules.py tests/test_experiments_layout.py \
+	tests/test_changelog.py tests/test_doc_quotes.py
+lint: setup
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+	$(VENV)/bin/pytest -q $(LINT_TESTS)
 
 test-slow: setup
 	$(VENV)/bin/pytest -m slow -q
