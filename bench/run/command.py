@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from catpose.bench.run import config
+from catpose.bench.run.hydra_flags import OTHER_CONFIGS, check_modes, flag_names, split_hydra_args
 from catpose.errors import CatposeError, ConfigError, command_error
 
 
@@ -14,10 +15,10 @@ def main(argv: list[str]) -> int:
     if any(a in ("-h", "--help") for a in argv):
         print(__doc_run__)
         return 0
-    flags, overrides = config.split_hydra_args(argv)
-    names = config.flag_names(flags)
+    flags, overrides = split_hydra_args(argv)
+    names = flag_names(flags)
     if "--shell-completion" in names:
-        config.check_modes(flags)
+        check_modes(flags)
         from catpose.bench.run.completion import shell_completion
 
         script = shell_completion(overrides)
@@ -47,7 +48,7 @@ def output_overrides(flags: list[str], overrides: list[str]) -> tuple[list[str],
     - a sweep (``-m``): each job's folder ``<hydra.sweep.dir>/<num>/`` gets ``.hydra/`` beside
       its ``job.json``; the runs stay under ``output_root``, named from their parameters.
     """
-    names = config.flag_names(flags)
+    names = flag_names(flags)
     if names & {"--cfg", "--info", "--shell-completion", "--hydra-help", "--version"}:
         return [], False
     keys = {o.partition("=")[0].lstrip("+~"): o.partition("=")[2].strip("'\"") for o in overrides}
@@ -56,12 +57,12 @@ def output_overrides(flags: list[str], overrides: list[str]) -> tuple[list[str],
         return subdir, False
     plain = [o for o in overrides if not o.lstrip("+~").startswith("hydra")]
     if "hydra.run.dir" in keys:
-        cfg = _composed(plain) if "${" not in keys["hydra.run.dir"] and not names & set(config.OTHER_CONFIGS) else None
+        cfg = _composed(plain) if "${" not in keys["hydra.run.dir"] and not names & set(OTHER_CONFIGS) else None
         if cfg is not None:  # before Hydra writes its .hydra/ there (the job checks the folder again)
             check_named_run_dir(Path(keys["hydra.run.dir"]), cfg, "run.log")
         return subdir + ([] if "hydra.job.name" in keys else ["hydra.job.name=run"]), True
     logging_config = keys.get("hydra/job_logging")
-    if logging_config is None or logging_config in CONSOLE_ONLY_LOGGING or names & set(config.OTHER_CONFIGS):
+    if logging_config is None or logging_config in CONSOLE_ONLY_LOGGING or names & set(OTHER_CONFIGS):
         return [], False
     from catpose.bench.run.rundir import run_dir_for
 
