@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 from catpose import atomic
@@ -14,7 +15,7 @@ from catpose.bench.report.labels import check_labels, parse_labels
 from catpose.bench.report.runs import find_run_dirs, load_runs, print_left_out, warn_incomplete
 from catpose.bench.report.table_format import METRICS
 from catpose.bench.report.tables import LAYOUTS, RENAMED_LAYOUTS, RENDERERS, build_table
-from catpose.errors import ConfigError
+from catpose.errors import ConfigError, DatasetError
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -96,12 +97,8 @@ def main(argv: list[str] | None = None) -> int:
 
         check_output(args.out, "file", input_runs([*args.runs, *run_paths, *args.sweep, *args.stability]), args.force)
     if args.bop_metrics:
-        from catpose.bench.scoring.bop_eval import table_main_from_runs
-
         text = (
-            table_main_from_runs(
-                find_run_dirs([*args.runs, *run_paths]), args.bop_metrics.split(","), args.by.split(",")
-            )
+            bop_recall_table(find_run_dirs([*args.runs, *run_paths]), args.bop_metrics.split(","), args.by.split(","))
             + "\n"
         )
         _write(args.out, text)
@@ -153,3 +150,40 @@ def check_categories(runs, wanted) -> None:
             f"--categories {','.join(unknown)}: no run here has {'that category' if len(unknown) == 1 else 'those'}; "
             f"they have {', '.join(have) or 'none'} (and 'all')"
         )
+
+
+def bop_recall_table(run_dirs: Sequence[str | Path], metrics: Sequence[str], by: Sequence[str]) -> str:
+    """One Markdown table of per-object/per-category recalls, a ``method`` column first, for
+    every run directory with a ``bop_errors.jsonl`` (``bench table --bop-metrics``), preceded
+    by each run's evaluation filters."""
+    import pandas as pd
+
+    from catpose.bench.scoring.bop_eval import ERRORS_FILE, read_errors, score_table
+
+    tables, notes = [], []
+    for d in run_dirs:
+        path = Path(d) / ERRORS_FILE
+        if not path.is_file():
+            continue
+        df, header = read_errors(path)
+        method = str(header.get("method", Path(d).name))
+        t = score_table(df, metrics, by)
+        t.insert(0, "method", method)
+        tables.append(t)
+        notes.append(
+            f"- {method}: "
+            + "; ".join(
+                [
+                    *header.get("filters", []),
+                    f"{header.get('matched', 0)}/{header.get('targets', len(df))} targets with an estimate",
+                ]
+            )
+        )
+    if not tables:
+        raise DatasetError(f"none of {', '.join(map(str, run_dirs))} has a {ERRORS_FILE}; write one with `bench score`")
+    table = pd.concat(tables, ignore_index=True).sort_values(
+        ["group", "name", "method"],
+        kind="stable",
+        key=lambda c: c.map({"object": 0, "category": 1, "all": 2}) if c.name == "group" else c,
+    )
+    return "\n".join(notes) + "\n\n" + table.to_markdown(index=False, floatfmt=".3f")

@@ -395,38 +395,3 @@ def format_scores(table, header: dict | None = None) -> str:
         )
     body = table.to_markdown(index=False, floatfmt=".3f")
     return ("\n".join(lines) + "\n\n" if lines else "") + body
-
-
-def table_main_from_runs(run_dirs: Sequence[str | Path], metrics: Sequence[str], by: Sequence[str]) -> str:
-    """One Markdown table of per-object/per-category recalls, a ``method`` column first, for
-    every run directory with a ``bop_errors.jsonl`` (``bench table --bop-metrics``), preceded
-    by each run's evaluation filters."""
-    import pandas as pd
-
-    tables, notes = [], []
-    for d in run_dirs:
-        path = Path(d) / ERRORS_FILE
-        if not path.is_file():
-            continue
-        df, header = read_errors(path)
-        method = str(header.get("method", Path(d).name))
-        t = score_table(df, metrics, by)
-        t.insert(0, "method", method)
-        tables.append(t)
-        notes.append(
-            f"- {method}: "
-            + "; ".join(
-                [
-                    *header.get("filters", []),
-                    f"{header.get('matched', 0)}/{header.get('targets', len(df))} targets with an estimate",
-                ]
-            )
-        )
-    if not tables:
-        raise DatasetError(f"none of {', '.join(map(str, run_dirs))} has a {ERRORS_FILE}; write one with `bench score`")
-    table = pd.concat(tables, ignore_index=True).sort_values(
-        ["group", "name", "method"],
-        kind="stable",
-        key=lambda c: c.map({"object": 0, "category": 1, "all": 2}) if c.name == "group" else c,
-    )
-    return "\n".join(notes) + "\n\n" + table.to_markdown(index=False, floatfmt=".3f")
