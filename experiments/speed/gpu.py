@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import importlib.util
 import statistics
 import sys
 import time
@@ -31,12 +30,15 @@ import numpy as np
 def _irls():
     try:
         from catpose.methods import irls
-    except ImportError:  # a bare checkout: load the module from its file
-        path = Path(__file__).resolve().parents[2] / "methods" / "irls.py"
-        spec = importlib.util.spec_from_file_location("catpose_irls", path)
-        irls = importlib.util.module_from_spec(spec)
-        sys.modules[spec.name] = irls  # dataclasses look their module up there
-        spec.loader.exec_module(irls)
+    except ImportError:  # a bare checkout: catpose from src/, its methods/ beside it, nothing installed
+        repo = Path(__file__).resolve().parents[2]
+        for name in [m for m in sys.modules if m == "catpose" or m.startswith("catpose.")]:
+            del sys.modules[name]  # a half-imported catpose from elsewhere
+        sys.path.insert(0, str(repo / "src"))
+        import catpose
+
+        catpose.__path__.append(str(repo))  # catpose.methods is the checkout's methods/
+        from catpose.methods import irls
     return irls
 
 
