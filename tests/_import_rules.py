@@ -47,7 +47,7 @@ WINGS: dict[str, frozenset[str]] = {
     "report": frozenset({"run", "protocols", "scoring"}),
     "interop": frozenset({"run", "protocols", "scoring", "report"}),
     "regress": frozenset({"run", "scoring"}),
-    "perf": frozenset({"run", "regress"}),
+    "perf": frozenset({"run"}),
     "category": frozenset({"run", "protocols"}),
     "real": frozenset({"run", "protocols", "scoring"}),
 }
