@@ -18,9 +18,11 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import ConfigError
-from catpose.methods.correspondence import CorrespondenceRegistration, MatchInput
+from catpose.methods.correspondence import PIPELINE_SPEC, CorrespondenceRegistration, MatchInput, suite
+from catpose.methods.registry import register_method
 
 
+@register_method("fgr", "FGR", suite=suite("fgr", 3), **PIPELINE_SPEC)
 class FGR(CorrespondenceRegistration):
     """FGR baseline.
 

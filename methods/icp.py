@@ -16,10 +16,11 @@ from functools import lru_cache
 import numpy as np
 
 from catpose.content_hash import template_key
-from catpose.errors import ConfigError
 from catpose.geometry import make_T, quat_to_R
 from catpose.lru import LRUCache
+from catpose.methods import options
 from catpose.methods.method import RegistrationMethod
+from catpose.methods.registry import SuiteRow, register_method
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
 
@@ -46,6 +47,7 @@ def so3_partition_centres(
     return quat_to_R(centres)
 
 
+@register_method("icp", "ICP", suite=(SuiteRow("icp", rank=2),))
 class ICP(RegistrationMethod):
     """Multi-start ICP.
 
@@ -74,27 +76,20 @@ class ICP(RegistrationMethod):
         center_source: bool = True,
         num_threads: int | None = 1,
     ) -> None:
-        if estimation not in ("point_to_plane", "point_to_point"):
-            raise ConfigError(f"icp: estimation={estimation!r}; use point_to_plane or point_to_point")
-        distances = [
-            float(d)
-            for d in (
-                max_correspondence_distances
-                if isinstance(max_correspondence_distances, (list, tuple))
-                else [max_correspondence_distances]
-            )
+        distances = max_correspondence_distances
+        if not isinstance(distances, (list, tuple)) or not distances:
+            distances = [distances]
+        self.num_starts = options.positive("method.num_starts", num_starts, integer=True)
+        self.voxel_size = options.non_negative("method.voxel_size", voxel_size)
+        self.max_correspondence_distances = [
+            options.positive("method.max_correspondence_distances", d) for d in distances
         ]
-        if num_starts < 1 or not distances or min(distances) <= 0 or max_iterations < 1 or voxel_size < 0:
-            raise ConfigError(
-                "icp: num_starts, max_iterations and max_correspondence_distances must be positive and voxel_size >= 0"
-            )
-        self.num_starts = int(num_starts)
-        self.voxel_size = float(voxel_size)
-        self.max_correspondence_distances = distances
-        self.max_iterations = int(max_iterations)
-        self.estimation = estimation
-        self.center_source = bool(center_source)
-        self.num_threads = None if num_threads is None else int(num_threads)
+        self.max_iterations = options.positive("method.max_iterations", max_iterations, integer=True)
+        self.estimation = options.one_of("method.estimation", estimation, ("point_to_plane", "point_to_point"))
+        self.center_source = options.flag("method.center_source", center_source)
+        self.num_threads = (
+            None if num_threads is None else options.positive("method.num_threads", num_threads, integer=True)
+        )
         self._targets: LRUCache[str, object] = LRUCache(16)
 
     def _cloud(self, points: np.ndarray, normals: np.ndarray):

@@ -54,6 +54,7 @@ from catpose.lru import LRUCache
 from catpose.methods import options
 from catpose.methods.keypoints import voxel_downsample
 from catpose.methods.method import RegistrationMethod
+from catpose.methods.registry import SuiteRow, register_method
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
 log = logging.getLogger(__name__)
@@ -99,6 +100,13 @@ def cloud_array(points: np.ndarray, normals: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.hstack([points, normals]), dtype=np.float32)
 
 
+@register_method(
+    "ppf",
+    "PPF",
+    suite=(SuiteRow("ppf", rank=9),),
+    requires="cv2.ppf_match_3d",  # OpenCV's contrib build: the extra ppf
+    smoke_options={"model_sampling": 0.08},  # coarse: trains in well under a second
+)
 class PPF(RegistrationMethod):
     """Point pair features and ICP, OpenCV's implementation.
 

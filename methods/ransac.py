@@ -17,9 +17,16 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import ConfigError
-from catpose.methods.correspondence import CorrespondenceRegistration, MatchInput
+from catpose.methods.correspondence import PIPELINE_SPEC, CorrespondenceRegistration, MatchInput, suite
+from catpose.methods.registry import register_method
 
 
+@register_method(
+    "ransac",
+    "RANSAC",
+    suite=suite("ransac", 5),
+    **{**PIPELINE_SPEC, "smoke_options": {**PIPELINE_SPEC["smoke_options"], "max_iteration": 20000}},
+)
 class RANSAC(CorrespondenceRegistration):
     """RANSAC baseline.
 

@@ -20,10 +20,12 @@ import numpy as np
 
 from catpose.errors import ConfigError, InvalidInputError
 from catpose.methods import teaser_solver
-from catpose.methods.correspondence import CorrespondenceRegistration, MatchInput
+from catpose.methods.correspondence import PIPELINE_SPEC, CorrespondenceRegistration, MatchInput, suite
+from catpose.methods.registry import register_method
 from catpose.methods.teaser_solver import MIN_CLIQUE_SIZE
 
 
+@register_method("teaser", "TEASER (re-impl.)", suite=suite("teaser", 4), **PIPELINE_SPEC)
 class TEASER(CorrespondenceRegistration):
     """TEASER-style robust registration (max clique + GNC-TLS rotation + adaptive voting).
 

@@ -38,7 +38,8 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import ConfigError, InvalidInputError
-from catpose.methods.correspondence import MatchInput
+from catpose.methods.correspondence import PIPELINE_SPEC, MatchInput
+from catpose.methods.registry import register_method
 from catpose.methods.teaser import TEASER, no_pose
 from catpose.methods.teaser_solver import MIN_CLIQUE_SIZE, SolverResult, checked_inputs
 
@@ -138,6 +139,8 @@ def solve(
     )
 
 
+# not in bench suite: TEASER++ is built by hand (method=teaser is its re-implementation there)
+@register_method("teaserpp", "Teaser++", suite=(), requires="teaserpp_python", **PIPELINE_SPEC)
 class TEASERPlusPlus(TEASER):
     """The same pipeline and arguments as :class:`~catpose.methods.teaser.TEASER`, solved by
     ``teaserpp_python.RobustRegistrationSolver`` through :func:`solve`."""

@@ -112,21 +112,19 @@ CLUTTER_SETS: dict[str, RealSet] = {
 
 SUITES: dict[str, dict[str, RealSet]] = {"real": SETS, "clutter": CLUTTER_SETS}
 
-METHODS: dict[str, MethodVariant] = {
-    v.label: v
-    for v in (
-        MethodVariant("ours", "ours"),
-        MethodVariant("ours-visibility", "ours", ("method.selection.rule=visibility",)),  # the rule before issue 22
-        MethodVariant("icp", "icp"),
-        MethodVariant("fgr", "fgr"),
-        MethodVariant("teaser", "teaser"),
-        MethodVariant("ransac", "ransac"),
-        MethodVariant("fgr-dict", "fgr", ("method.matching=dictionary",)),
-        MethodVariant("teaser-dict", "teaser", ("method.matching=dictionary",)),
-        MethodVariant("ransac-dict", "ransac", ("method.matching=dictionary",)),
-        MethodVariant("ppf", "ppf", requires="cv2.ppf_match_3d"),  # OpenCV's contrib build: the extra ppf
-    )
-}
+
+def _variants() -> dict[str, MethodVariant]:
+    """Every method's rows, from the method registry (:func:`catpose.methods.registry.suite_rows`)."""
+    from catpose.methods.registry import registered, suite_rows
+
+    specs = registered()
+    return {
+        label: MethodVariant(label, name, overrides, specs[name].requires)
+        for label, (name, overrides) in suite_rows().items()
+    }
+
+
+METHODS: dict[str, MethodVariant] = _variants()
 
 
 def missing_extra(variant: MethodVariant) -> str | None:

@@ -24,7 +24,7 @@ from catpose.api.method_cache import build_method, prepare_template, uses_up
 from catpose.api.observation import Observed, observed
 from catpose.api.result import Registration
 from catpose.errors import CatposeError, InvalidInputError, RegistrationFailed
-from catpose.geometry import apply_R, make_T, matmul3, unit3
+from catpose.geometry import apply_R, make_T, matmul3, seed_everything, unit3
 from catpose.types import RegistrationProblem, RegistrationResult
 
 __all__ = ["Registrar", "UP_HYPOTHESES"]
@@ -212,8 +212,6 @@ class Registrar:
     def _call(self, obs: Observed, g: np.ndarray) -> RegistrationResult:
         """The method on one problem, seeded as ``bench run`` seeds a sample; a method's failure
         on valid input is :class:`RegistrationFailed` (the input was checked above)."""
-        from catpose.bench.run.sample_run import seed_everything
-
         try:
             problem = RegistrationProblem(
                 sample_id=obs.sample_id,
