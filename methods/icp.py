@@ -12,6 +12,7 @@ correspondence distance), then the lowest inlier RMSE, wins.
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -109,6 +110,12 @@ class ICP(RegistrationMethod):
             template_key(template), lambda: self._cloud(template.points, template.normals)
         )
 
+    def _variant(self, reg: Any) -> tuple[Any, Any]:
+        """Open3D's ICP function and its estimation (``reg``: ``o3d.pipelines.registration``)."""
+        if self.estimation == "point_to_plane":
+            return reg.registration_icp, reg.TransformationEstimationPointToPlane()
+        return reg.registration_icp, reg.TransformationEstimationPointToPoint()
+
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
         from catpose.o3d import max_threads, o3d
 
@@ -117,18 +124,14 @@ class ICP(RegistrationMethod):
         target = self._target(problem.template)
         c_src = np.asarray(source.points).mean(axis=0) if self.center_source else np.zeros(3)
         c_tgt = np.asarray(target.points).mean(axis=0) if self.center_source else np.zeros(3)
-        estimation = (
-            reg.TransformationEstimationPointToPlane()
-            if self.estimation == "point_to_plane"
-            else reg.TransformationEstimationPointToPoint()
-        )
+        icp, estimation = self._variant(reg)
         criteria = reg.ICPConvergenceCriteria(max_iteration=self.max_iterations)
         starts = []
         for R in so3_partition_centres(self.num_starts):
             T = make_T(R, c_tgt - R @ c_src)
             with max_threads(self.num_threads):
                 for distance in self.max_correspondence_distances:
-                    res = reg.registration_icp(source, target, distance, T, estimation, criteria)
+                    res = icp(source, target, distance, T, estimation, criteria)
                     T = np.array(res.transformation)
             starts.append((float(res.fitness), float(res.inlier_rmse), np.array(res.transformation)))
         best = min(range(len(starts)), key=lambda i: (-round(starts[i][0], 9), starts[i][1]))
