@@ -146,8 +146,12 @@ def identity_before_choice(protocol: dict, choice: dict) -> tuple[dict, dict]:
     keys = PROTOCOL_KEYS_BEFORE_CHOICE.get(str(protocol.get("name")))
     if keys is None:
         return protocol, dict(choice)
-    defaults = {k: p.default for k, p in inspect.signature(TemplateChoice).parameters.items()}
-    rest = {k: v for k, v in choice.items() if k not in ("name", "_target_")}
+    from catpose.methods.cross_check import CrossCheck
+
+    # the cross check's settings were the choice's own keys before it took a CrossCheck: hashed flat
+    defaults = {k: p.default for c in (TemplateChoice, CrossCheck) for k, p in inspect.signature(c).parameters.items()}
+    rest = {k: v for k, v in choice.items() if k not in ("name", "_target_", "cross_check")}
+    rest.update({k: v for k, v in (choice.get("cross_check") or {}).items() if k != "_target_"})
     protocol = dict(protocol, choice=rest.pop("rule", defaults["rule"]))
     if "turns" in keys:  # null was the default set
         turns = rest.pop("turns_deg", None)
