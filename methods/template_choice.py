@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import ConfigError, InvalidInputError, one_line
+from catpose.methods import options
 from catpose.methods.choice_rules import (
     AGREE_DEG,
     CROSS_WEIGHT,
@@ -39,7 +40,6 @@ from catpose.methods.choice_rules import (
     choose,
     template_spacing,
 )
-from catpose.methods import options
 from catpose.methods.cross_check import TURNS_DEG, CrossCheck
 
 
