@@ -48,7 +48,7 @@ class Registrar:
         template: the template in its own frame (see :func:`catpose.register`), or a
             :class:`~catpose.api.inputs.NormalisedTemplate` (a template already normalised, with
             the map back to the caller's frame: what the BOP loader's models are).
-        method: a config name (``ours``, ``icp``, ``fgr``, ``ransac``, ``teaser``) or a
+        method: a registered method's config name (``ours``, ``icp``, ``gicp``, ...) or a
             :class:`~catpose.methods.method.RegistrationMethod` instance.
         template_normals, template_up, template_points: as :func:`catpose.register`.
         prepare: build the method's per-template data now (ours: dictionaries, descriptors, ray
@@ -76,7 +76,7 @@ class Registrar:
             if not callable(getattr(method, "register", None)):
                 raise InvalidInputError(
                     f"method is a {type(method).__name__}; pass a config name "
-                    "(ours, icp, fgr, ransac, teaser) or a RegistrationMethod instance"
+                    "(ours, icp, gicp, ...: catpose.methods.registry) or a RegistrationMethod instance"
                 )
             if options:
                 raise InvalidInputError(
