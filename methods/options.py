@@ -27,9 +27,9 @@ def positive(key: str, value: Any, integer: bool = False) -> Any:
 
 def non_negative(key: str, value: Any, integer: bool = False) -> Any:
     """``value`` >= 0 as float (or int with ``integer``)."""
-    kind = "integer" if integer else "number"
+    kind = "an integer" if integer else "a number"
     if not is_number(value) or (integer and not float(value).is_integer()) or not value >= 0:
-        raise ConfigError(f"{key}={value!r} must be a {kind} >= 0")
+        raise ConfigError(f"{key}={value!r} must be {kind} >= 0")
     return int(value) if integer else float(value)
 
 

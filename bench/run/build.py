@@ -255,9 +255,10 @@ def check_constructor_args(d: dict, what: str, name: str) -> None:
     """Check a group's options against its ``_target_``'s constructor before building it.
 
     Raises a one-line :class:`ConfigError` for an option the constructor does not take (unless
-    it has ``**kwargs``) and for a value that does not fit a parameter annotated with scalar
+    it has ``**kwargs``) and, outside the methods (which check their own arguments with
+    :mod:`catpose.methods.options`), for a value that does not fit a parameter annotated with scalar
     types only (``float``, ``int``, ``bool``, ``str``, optionally ``| None``), e.g.
-    ``method.lr='abc' is not a float; set method.lr=<number>``. Anything the check cannot read
+    ``dataset.width='abc' is not an int; set dataset.width=<integer>``. Anything the check cannot read
     (an unimportable target, container annotations) is left to the constructor.
     """
     try:
@@ -279,7 +280,7 @@ def check_constructor_args(d: dict, what: str, name: str) -> None:
                     f"{what}.{key} is not an option of {what} '{name}' ({d['_target_']}); options: {options}"
                 )
             continue
-        kinds = _scalar_annotation(params[key].annotation)
+        kinds = None if what.startswith("method") else _scalar_annotation(params[key].annotation)
         if kinds is not None and not _accepts(kinds, value):
             main = next(k for k in ("float", "int", "bool", "str") if k in kinds)
             article = "an" if main == "int" else "a"
