@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import catpose
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _ours_fixtures import chair_template, partial_problem, rotation_error_deg  # noqa: E402
 
@@ -33,8 +35,6 @@ def test_every_method_config_is_registered_and_every_method_has_a_config(repo_ro
 
 @pytest.mark.parametrize("name", sorted(SPECS))
 def test_method_recovers_a_known_transform(problem, name: str):
-    import catpose
-
     spec = SPECS[name]
     if spec.requires:
         pytest.importorskip(spec.requires, reason=f"{spec.requires} (an optional extra) is not installed")
@@ -74,3 +74,21 @@ def _state(obj) -> object:
             {k: _state(v) for k, v in vars(obj).items() if "cache" not in k and not k.startswith("_")},
         )
     return obj
+
+
+def test_labels_the_real_suite_and_the_api_read_the_registry():
+    """A registered method is in the report's labels, ``bench suite``'s rows and the API's up search
+    without any of those files naming it (``gicp`` was added as its module and its config only)."""
+    from catpose.api.method_cache import uses_up
+    from catpose.bench.real.suite import METHODS
+    from catpose.bench.report.labels import display_name
+
+    for name, spec in SPECS.items():
+        assert display_name(name) == spec.display_name
+        assert {row.label for row in spec.suite_rows()} <= set(METHODS)
+        assert all(METHODS[row.label].method == name for row in spec.suite_rows())
+    assert display_name("gicp") == "GICP" and METHODS["gicp"].overrides == ()
+    assert list(METHODS)[:3] == ["ours", "ours-visibility", "icp"]  # the rows' order: their ranks
+    build = catpose.build_method
+    assert uses_up(build("ours")) and uses_up(build("fgr", features="lps"))
+    assert not uses_up(build("icp")) and not uses_up(build("fgr"))
