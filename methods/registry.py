@@ -94,9 +94,3 @@ def spec_of(method: Any) -> MethodSpec | None:
     unregistered class, such as a user's own :class:`~catpose.methods.method.RegistrationMethod`)."""
     by_class = {s.cls: s for s in registered().values()}
     return next((by_class[c] for c in type(method).__mro__ if c in by_class), None)
-
-
-def suite_rows() -> dict[str, tuple[str, tuple[str, ...]]]:
-    """Every method's rows of ``bench suite``: label -> (method, overrides), in their order."""
-    rows = [(row, spec.name) for spec in registered().values() for row in spec.suite_rows()]
-    return {row.label: (name, row.overrides) for row, name in sorted(rows, key=lambda r: r[0].rank)}

@@ -114,14 +114,12 @@ SUITES: dict[str, dict[str, RealSet]] = {"real": SETS, "clutter": CLUTTER_SETS}
 
 
 def _variants() -> dict[str, MethodVariant]:
-    """Every method's rows, from the method registry (:func:`catpose.methods.registry.suite_rows`)."""
-    from catpose.methods.registry import registered, suite_rows
+    """Every method's rows, from the method registry (:attr:`catpose.methods.registry.MethodSpec.suite`),
+    in the order of their ranks."""
+    from catpose.methods.registry import registered
 
-    specs = registered()
-    return {
-        label: MethodVariant(label, name, overrides, specs[name].requires)
-        for label, (name, overrides) in suite_rows().items()
-    }
+    rows = sorted(((r, s) for s in registered().values() for r in s.suite_rows()), key=lambda rs: rs[0].rank)
+    return {r.label: MethodVariant(r.label, s.name, r.overrides, s.requires) for r, s in rows}
 
 
 METHODS: dict[str, MethodVariant] = _variants()
