@@ -507,7 +507,7 @@ CASES = {  # name -> (args, needle); the files are written by _prepare
     "seed=1.5": (["seed=1.5"], "seed=1.5 is not an integer"),
     "lr=abc": (
         ["method=ours", "method.optimiser.lr=abc"],
-        "method.optimiser.lr='abc' is not a float; set method.optimiser.lr=<number>",
+        "method.optimiser.lr='abc' must be a positive number",
     ),
     "no root": (["dataset=bop"], "e.g. dataset.root=<value>"),
     "bop fx<0": (["dataset=bop", "dataset.root={bop_fx}"], "fx=-300, fy=300"),
