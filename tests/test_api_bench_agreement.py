@@ -1,7 +1,8 @@
-"""``catpose.register`` is ``bench run``: every instance of the shared YCB-Video frames through both
-gives the same ``T_template_camera`` (issue 41); on generated frames (the synthetic set, no shared
-data) the API's method, built without Hydra, is the bench's pose for pose, and for the methods that
-read no depth image and draw no random numbers, so is the whole API path from the points.
+"""``catpose.register`` is ``bench run``: every instance of the shared YCB-Video frames, and of a BOP
+scene rendered here, through both gives the same ``T_template_camera`` (issue 41); on generated
+frames (the synthetic set, no shared data) the API's method, built without Hydra, is the bench's
+pose for pose, and for the methods that read no depth image and draw no random numbers, so is the
+whole API path from the points.
 
 The bench side is what ``bench run method=ours dataset=ycbv`` does per sample (the dataset and
 protocol built from the configs, the sample loaded by the protocol, the method seeded by the
@@ -13,10 +14,16 @@ go through :func:`catpose.datasets.frame_view.frame_view`; the estimates must ag
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import catpose
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_loaders_bop import bop_root  # noqa: E402, F401 (a fixture: a BOP scene rendered here)
 
 pytestmark = pytest.mark.usefixtures("private_cache_dir", "one_torch_thread")
 
@@ -142,3 +149,31 @@ def test_register_from_points_is_bench_run_on_generated_frames(generated, name):
             max_points=len(problem.points_camera),
         )
         assert np.allclose(r.T_normalised, _seeded(bench, problem), rtol=0, atol=1e-9), problem.sample_id
+
+
+@pytest.mark.slow
+def test_register_a_generated_depth_frame_equals_bench_run(bop_root):
+    """The shared-frames test above on a BOP scene rendered here (a box and a cylinder on a table,
+    tests/test_loaders_bop.py): every instance through ``bench run dataset=bop`` and through
+    ``catpose.register(DepthFrame)`` with the default method, ours, gives the same pose."""
+    from catpose.api.bop import bop_instance
+    from catpose.bench.run.config import compose_and_build
+    from catpose.geometry import seed_everything, stable_seed
+
+    _, ((_, ds), (_, protocol), (_, method)) = compose_and_build(
+        ["dataset=bop", f"dataset.root={bop_root}", "dataset.categories={1:box,2:can}", "method=ours", "seed=0"],
+        ("dataset", "protocol", "method"),
+    )
+    ids = protocol.sample_ids(ds)
+    assert len(ids) == 2
+    for sample_id in ids:
+        sample = protocol.load(ds, sample_id)
+        seed_everything(stable_seed(0, sample_id))
+        bench = method.register(sample.problem)
+        _, scene, im, _ = sample_id.split("/")
+        inst = bop_instance(
+            str(bop_root), int(scene), int(im), int(sample.info["obj_id"]), options={"categories": {1: "box", 2: "can"}}
+        )
+        assert inst.obs_id == sample_id
+        api = catpose.Registrar(inst.template, "ours")(inst.frame, **inst.options)
+        assert np.allclose(api.T_normalised, bench.T_template_camera, rtol=0, atol=1e-9), sample_id

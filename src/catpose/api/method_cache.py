@@ -70,7 +70,8 @@ def read_config(group: str, name: str) -> dict:
 
 def _with_options(name: str, node: dict, options: Mapping[str, Any], path: str = "", group: str = "method") -> dict:
     """``node`` with ``options`` merged in; an option the config does not have is refused in the
-    API's words (keyword arguments, not Hydra's overrides), listing the options that exist. A
+    API's words (keyword arguments, not Hydra's overrides), listing the options that exist. A dict
+    for a group (an object's options, ``selection={"rule": "chamfer"}``) sets those of its keys, a
     string naming a config of the group ``configs/<key>/`` (``descriptor="pfh"``) selects it."""
     node = dict(node)
     for key, value in options.items():
@@ -83,13 +84,10 @@ def _with_options(name: str, node: dict, options: Mapping[str, Any], path: str =
                 f"(configs/{group}/{name}.yaml)"
             )
         child = node[key]
-        if isinstance(value, Mapping):
-            if not isinstance(child, dict):
-                raise InvalidInputError(
-                    f"option {dotted} of {group} {name!r} is a value, not a group: pass {key}=<value>"
-                )
+        is_group = isinstance(child, dict) and "_target_" in child  # an object's options; other dicts are values
+        if isinstance(value, Mapping) and is_group:
             node[key] = _with_options(name, child, value, f"{dotted}.", group)
-        elif isinstance(child, dict) and isinstance(value, str):
+        elif is_group and isinstance(value, str):
             if not (resources.files("catpose.configs") / key / f"{value}.yaml").is_file():
                 raise InvalidInputError(
                     f"{dotted}={value!r} of {group} {name!r}: configs/{key}/{value}.yaml does not exist"
