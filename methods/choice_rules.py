@@ -39,7 +39,8 @@ computed after the registration) and returns a :class:`Choice`. The rules:
   ``Choice.fused_templates`` is how many poses were averaged (1: none agreed).
 
 Failed registrations are never chosen unless every registration of the view failed (then the
-first, a failure, is kept). Only NumPy and SciPy: no registration runs here, so the benchmark's
+first, a failure, is kept). Kept whole because the rules are one ladder over shared costs (each
+cross rule extends the one before it), which the protocols apply to stored facts as one import. Only NumPy and SciPy: no registration runs here, so the benchmark's
 protocols may apply these rules to the facts a run stored. How the weights were chosen:
 docs/category-level.md, docs/choosing-defaults.md.
 """

@@ -40,6 +40,8 @@ from typing import Any
 
 import numpy as np
 
+from catpose.methods import options
+
 #: the Python defaults of :class:`CrossCheck`; configs/choice/score.yaml is the source (a test
 #: asserts they agree)
 TRUNC = 0.1
@@ -149,12 +151,12 @@ class CrossCheck:
         silhouette_weight: float = SILHOUETTE_WEIGHT,
         top_fraction: float = TOP_FRACTION,
     ) -> None:
-        self.trunc = float(trunc)
-        self.icp_distance = float(icp_distance)
-        self.icp_iterations = int(icp_iterations)
-        self.silhouette_cell = float(silhouette_cell)
-        self.silhouette_weight = float(silhouette_weight)
-        self.top_fraction = float(top_fraction)
+        self.trunc = options.positive("choice.cross_check.trunc", trunc)
+        self.icp_distance = options.positive("choice.cross_check.icp_distance", icp_distance)
+        self.icp_iterations = options.positive("choice.cross_check.icp_iterations", icp_iterations, integer=True)
+        self.silhouette_cell = options.positive("choice.cross_check.silhouette_cell", silhouette_cell)
+        self.silhouette_weight = options.non_negative("choice.cross_check.silhouette_weight", silhouette_weight)
+        self.top_fraction = options.within("choice.cross_check.top_fraction", top_fraction, 0, 1, closed="high")
 
     def refine_on(
         self, points_camera: np.ndarray, template: Any, T_template_camera: np.ndarray, source: Any = None

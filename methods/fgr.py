@@ -17,10 +17,12 @@ from typing import Any
 
 import numpy as np
 
-from catpose.errors import ConfigError
-from catpose.methods.correspondence import CorrespondenceRegistration, MatchInput
+from catpose.methods import options
+from catpose.methods.correspondence import PIPELINE_SPEC, CorrespondenceRegistration, MatchInput, suite
+from catpose.methods.registry import register_method
 
 
+@register_method("fgr", "FGR", suite=suite("fgr", 3), **PIPELINE_SPEC)
 class FGR(CorrespondenceRegistration):
     """FGR baseline.
 
@@ -47,24 +49,17 @@ class FGR(CorrespondenceRegistration):
         **pipeline: Any,
     ) -> None:
         super().__init__(**pipeline)
-        if not division_factor > 1:
-            raise ConfigError(f"fgr division_factor={division_factor} must be > 1 (e.g. 1.4)")
-        if not maximum_correspondence_distance > 0:
-            raise ConfigError(f"fgr maximum_correspondence_distance={maximum_correspondence_distance} must be > 0")
-        if not 0 < tuple_scale < 1 or iteration_number < 1 or maximum_tuple_count < 1:
-            raise ConfigError(
-                f"fgr tuple_scale={tuple_scale} must be in (0, 1) and iteration_number="
-                f"{iteration_number}, maximum_tuple_count={maximum_tuple_count} >= 1"
-            )
         self.option_kwargs = dict(
-            division_factor=float(division_factor),
+            division_factor=options.within("method.division_factor", division_factor, 1),
             use_absolute_scale=False,
-            decrease_mu=bool(decrease_mu),
-            maximum_correspondence_distance=float(maximum_correspondence_distance),
-            iteration_number=int(iteration_number),
-            tuple_scale=float(tuple_scale),
-            maximum_tuple_count=int(maximum_tuple_count),
-            tuple_test=bool(tuple_test),
+            decrease_mu=options.flag("method.decrease_mu", decrease_mu),
+            maximum_correspondence_distance=options.positive(
+                "method.maximum_correspondence_distance", maximum_correspondence_distance
+            ),
+            iteration_number=options.positive("method.iteration_number", iteration_number, integer=True),
+            tuple_scale=options.within("method.tuple_scale", tuple_scale, 0, 1),
+            maximum_tuple_count=options.positive("method.maximum_tuple_count", maximum_tuple_count, integer=True),
+            tuple_test=options.flag("method.tuple_test", tuple_test),
         )
 
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:

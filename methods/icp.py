@@ -12,14 +12,16 @@ correspondence distance), then the lowest inlier RMSE, wins.
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
 from catpose.content_hash import template_key
-from catpose.errors import ConfigError
 from catpose.geometry import make_T, quat_to_R
 from catpose.lru import LRUCache
+from catpose.methods import options
 from catpose.methods.method import RegistrationMethod
+from catpose.methods.registry import SuiteRow, register_method
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
 
@@ -46,6 +48,7 @@ def so3_partition_centres(
     return quat_to_R(centres)
 
 
+@register_method("icp", "ICP", suite=(SuiteRow("icp", rank=2),))
 class ICP(RegistrationMethod):
     """Multi-start ICP.
 
@@ -74,27 +77,20 @@ class ICP(RegistrationMethod):
         center_source: bool = True,
         num_threads: int | None = 1,
     ) -> None:
-        if estimation not in ("point_to_plane", "point_to_point"):
-            raise ConfigError(f"icp: estimation={estimation!r}; use point_to_plane or point_to_point")
-        distances = [
-            float(d)
-            for d in (
-                max_correspondence_distances
-                if isinstance(max_correspondence_distances, (list, tuple))
-                else [max_correspondence_distances]
-            )
+        distances = max_correspondence_distances
+        if not isinstance(distances, (list, tuple)) or not distances:
+            distances = [distances]
+        self.num_starts = options.positive("method.num_starts", num_starts, integer=True)
+        self.voxel_size = options.non_negative("method.voxel_size", voxel_size)
+        self.max_correspondence_distances = [
+            options.positive("method.max_correspondence_distances", d) for d in distances
         ]
-        if num_starts < 1 or not distances or min(distances) <= 0 or max_iterations < 1 or voxel_size < 0:
-            raise ConfigError(
-                "icp: num_starts, max_iterations and max_correspondence_distances must be positive and voxel_size >= 0"
-            )
-        self.num_starts = int(num_starts)
-        self.voxel_size = float(voxel_size)
-        self.max_correspondence_distances = distances
-        self.max_iterations = int(max_iterations)
-        self.estimation = estimation
-        self.center_source = bool(center_source)
-        self.num_threads = None if num_threads is None else int(num_threads)
+        self.max_iterations = options.positive("method.max_iterations", max_iterations, integer=True)
+        self.estimation = options.one_of("method.estimation", estimation, ("point_to_plane", "point_to_point"))
+        self.center_source = options.flag("method.center_source", center_source)
+        self.num_threads = (
+            None if num_threads is None else options.positive("method.num_threads", num_threads, integer=True)
+        )
         self._targets: LRUCache[str, object] = LRUCache(16)
 
     def _cloud(self, points: np.ndarray, normals: np.ndarray):
@@ -114,6 +110,12 @@ class ICP(RegistrationMethod):
             template_key(template), lambda: self._cloud(template.points, template.normals)
         )
 
+    def _variant(self, reg: Any) -> tuple[Any, Any]:
+        """Open3D's ICP function and its estimation (``reg``: ``o3d.pipelines.registration``)."""
+        if self.estimation == "point_to_plane":
+            return reg.registration_icp, reg.TransformationEstimationPointToPlane()
+        return reg.registration_icp, reg.TransformationEstimationPointToPoint()
+
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
         from catpose.o3d import max_threads, o3d
 
@@ -122,18 +124,14 @@ class ICP(RegistrationMethod):
         target = self._target(problem.template)
         c_src = np.asarray(source.points).mean(axis=0) if self.center_source else np.zeros(3)
         c_tgt = np.asarray(target.points).mean(axis=0) if self.center_source else np.zeros(3)
-        estimation = (
-            reg.TransformationEstimationPointToPlane()
-            if self.estimation == "point_to_plane"
-            else reg.TransformationEstimationPointToPoint()
-        )
+        icp, estimation = self._variant(reg)
         criteria = reg.ICPConvergenceCriteria(max_iteration=self.max_iterations)
         starts = []
         for R in so3_partition_centres(self.num_starts):
             T = make_T(R, c_tgt - R @ c_src)
             with max_threads(self.num_threads):
                 for distance in self.max_correspondence_distances:
-                    res = reg.registration_icp(source, target, distance, T, estimation, criteria)
+                    res = icp(source, target, distance, T, estimation, criteria)
                     T = np.array(res.transformation)
             starts.append((float(res.fitness), float(res.inlier_rmse), np.array(res.transformation)))
         best = min(range(len(starts)), key=lambda i: (-round(starts[i][0], 9), starts[i][1]))

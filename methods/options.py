@@ -27,10 +27,21 @@ def positive(key: str, value: Any, integer: bool = False) -> Any:
 
 def non_negative(key: str, value: Any, integer: bool = False) -> Any:
     """``value`` >= 0 as float (or int with ``integer``)."""
-    kind = "integer" if integer else "number"
+    kind = "an integer" if integer else "a number"
     if not is_number(value) or (integer and not float(value).is_integer()) or not value >= 0:
-        raise ConfigError(f"{key}={value!r} must be a {kind} >= 0")
+        raise ConfigError(f"{key}={value!r} must be {kind} >= 0")
     return int(value) if integer else float(value)
+
+
+def within(key: str, value: Any, low: float, high: float = float("inf"), closed: str = "") -> float:
+    """A number in the interval from ``low`` to ``high``, open at both ends unless ``closed``
+    holds ``"low"`` or ``"high"`` (``within(k, v, 0, 1, closed="high")``: (0, 1])."""
+    above = value >= low if "low" in closed else value > low
+    below = value <= high if "high" in closed else value < high
+    if not is_number(value) or not (above and below):
+        interval = f"{'[' if 'low' in closed else '('}{low:g}, {high:g}{']' if 'high' in closed else ')'}"
+        raise ConfigError(f"{key}={value!r} must be a number in {interval}")
+    return float(value)
 
 
 def at_least(key: str, value: Any, minimum: int) -> int:

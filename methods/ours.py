@@ -84,6 +84,7 @@ from catpose.methods.ours_candidates import Candidates, Prepared, TemplateFeatur
 from catpose.methods.ours_selection import criterion, finish
 from catpose.methods.ours_settings import OptimiserSettings, RestingSettings, SelectionSettings
 from catpose.methods.ours_solver import IRLS_STAGES, optimise
+from catpose.methods.registry import SuiteRow, register_method
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
 __all__ = ["Candidates", "OptimiserSettings", "Ours", "RestingSettings", "SelectionSettings"]
@@ -497,3 +498,27 @@ class Ours(RegistrationMethod):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The solver on all candidates at once (:func:`catpose.methods.ours_solver.optimise`)."""
         return optimise(self.optimiser, P_c, P_t, A, T0, chamfer_src, complete, mode)
+
+
+def _prepare_template(method: Ours, template: Template) -> None:
+    """Ours' per-template data built now instead of on the first registration: the partial-view
+    dictionary and descriptors of the template and of each of its gravity hypotheses
+    (:mod:`catpose.methods.resting_hypotheses`), loaded from the disk cache when there, and the depth
+    check's ray caster of its mesh."""
+    from catpose.methods.resting_hypotheses import hypotheses
+
+    for h in hypotheses(template, method.resting):
+        method.template_features(h.template)
+    if template.has_mesh and method.selection.rule == "depth":
+        from catpose.methods.depth_check import caster_for
+
+        caster_for(template)
+
+
+register_method(
+    "ours",
+    "Ours",
+    uses_up=True,  # descriptor frames and the gravity filter
+    prepare_template=_prepare_template,
+    suite=(SuiteRow("ours", rank=0), SuiteRow("ours-visibility", ("method.selection.rule=visibility",), 1)),
+)(Ours)

@@ -54,6 +54,7 @@ from catpose.lru import LRUCache
 from catpose.methods import options
 from catpose.methods.keypoints import voxel_downsample
 from catpose.methods.method import RegistrationMethod
+from catpose.methods.registry import SuiteRow, register_method
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
 log = logging.getLogger(__name__)
@@ -99,6 +100,13 @@ def cloud_array(points: np.ndarray, normals: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.hstack([points, normals]), dtype=np.float32)
 
 
+@register_method(
+    "ppf",
+    "PPF",
+    suite=(SuiteRow("ppf", rank=9),),
+    requires="cv2.ppf_match_3d",  # OpenCV's contrib build: the extra ppf
+    smoke_options={"model_sampling": 0.08},  # coarse: trains in well under a second
+)
 class PPF(RegistrationMethod):
     """Point pair features and ICP, OpenCV's implementation.
 
@@ -133,13 +141,9 @@ class PPF(RegistrationMethod):
         icp_levels: int = 4,
         icp_model: str = "visible",
     ) -> None:
-        self.model_sampling = options.positive("method.model_sampling", model_sampling)
-        self.scene_sampling = options.positive("method.scene_sampling", scene_sampling)
-        if self.model_sampling >= 1 or self.scene_sampling >= 1:
-            raise ConfigError(
-                f"method.model_sampling={model_sampling} and method.scene_sampling={scene_sampling} are fractions "
-                "of the object's diameter; use values below 1 (e.g. 0.05)"
-            )
+        # fractions of the object's diameter
+        self.model_sampling = options.within("method.model_sampling", model_sampling, 0, 1)
+        self.scene_sampling = options.within("method.scene_sampling", scene_sampling, 0, 1)
         self.num_angles = options.at_least("method.num_angles", num_angles, 4)
         self.scene_reference_step = options.positive("method.scene_reference_step", scene_reference_step, integer=True)
         self.top_k = options.positive("method.top_k", top_k, integer=True)

@@ -16,10 +16,17 @@ from typing import Any
 
 import numpy as np
 
-from catpose.errors import ConfigError
-from catpose.methods.correspondence import CorrespondenceRegistration, MatchInput
+from catpose.methods import options
+from catpose.methods.correspondence import PIPELINE_SPEC, CorrespondenceRegistration, MatchInput, suite
+from catpose.methods.registry import register_method
 
 
+@register_method(
+    "ransac",
+    "RANSAC",
+    suite=suite("ransac", 5),
+    **{**PIPELINE_SPEC, "smoke_options": {**PIPELINE_SPEC["smoke_options"], "max_iteration": 20000}},
+)
 class RANSAC(CorrespondenceRegistration):
     """RANSAC baseline.
 
@@ -49,28 +56,16 @@ class RANSAC(CorrespondenceRegistration):
         **pipeline: Any,
     ) -> None:
         super().__init__(**pipeline)
-        if not max_correspondence_distance > 0:
-            raise ConfigError(f"ransac max_correspondence_distance={max_correspondence_distance} must be > 0")
-        if ransac_n < 3 or max_iteration < 1 or not 0 < confidence <= 1:
-            raise ConfigError(
-                f"ransac ransac_n={ransac_n} (>= 3), max_iteration={max_iteration} (>= 1), "
-                f"confidence={confidence} (in (0, 1]) out of range"
-            )
-        if num_threads < 0:
-            raise ConfigError(f"ransac num_threads={num_threads} must be >= 0 (1: deterministic, 0: Open3D default)")
-        if not 0 < edge_length_similarity < 1 or not 0 <= normal_angle_deg < 180:
-            raise ConfigError(
-                f"ransac edge_length_similarity={edge_length_similarity} must be in (0, 1) "
-                f"and normal_angle_deg={normal_angle_deg} in [0, 180)"
-            )
-        self.max_correspondence_distance = float(max_correspondence_distance)
-        self.mutual_filter = bool(mutual_filter)
-        self.ransac_n = int(ransac_n)
-        self.edge_length_similarity = float(edge_length_similarity)
-        self.normal_angle_deg = float(normal_angle_deg)
-        self.max_iteration = int(max_iteration)
-        self.confidence = float(confidence)
-        self.num_threads = int(num_threads)
+        self.max_correspondence_distance = options.positive(
+            "method.max_correspondence_distance", max_correspondence_distance
+        )
+        self.mutual_filter = options.flag("method.mutual_filter", mutual_filter)
+        self.ransac_n = options.at_least("method.ransac_n", ransac_n, 3)
+        self.edge_length_similarity = options.within("method.edge_length_similarity", edge_length_similarity, 0, 1)
+        self.normal_angle_deg = options.within("method.normal_angle_deg", normal_angle_deg, 0, 180, closed="low")
+        self.max_iteration = options.positive("method.max_iteration", max_iteration, integer=True)
+        self.confidence = options.within("method.confidence", confidence, 0, 1, closed="high")
+        self.num_threads = options.non_negative("method.num_threads", num_threads, integer=True)
 
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
         from catpose.o3d import o3d

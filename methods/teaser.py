@@ -18,12 +18,14 @@ from typing import Any
 
 import numpy as np
 
-from catpose.errors import ConfigError, InvalidInputError
-from catpose.methods import teaser_solver
-from catpose.methods.correspondence import CorrespondenceRegistration, MatchInput
+from catpose.errors import InvalidInputError
+from catpose.methods import options, teaser_solver
+from catpose.methods.correspondence import PIPELINE_SPEC, CorrespondenceRegistration, MatchInput, suite
+from catpose.methods.registry import register_method
 from catpose.methods.teaser_solver import MIN_CLIQUE_SIZE
 
 
+@register_method("teaser", "TEASER (re-impl.)", suite=suite("teaser", 4), **PIPELINE_SPEC)
 class TEASER(CorrespondenceRegistration):
     """TEASER-style robust registration (max clique + GNC-TLS rotation + adaptive voting).
 
@@ -57,63 +59,52 @@ class TEASER(CorrespondenceRegistration):
         **pipeline: Any,
     ) -> None:
         super().__init__(**pipeline)
-        if not noise_bound > 0:
-            raise ConfigError(f"teaser noise_bound={noise_bound} must be > 0 (object-normalised units, e.g. 0.05)")
-        if not cbar2 > 0 or not gnc_factor > 1 or max_iterations < 1:
-            raise ConfigError(
-                f"teaser cbar2={cbar2} (> 0), gnc_factor={gnc_factor} (> 1), "
-                f"max_iterations={max_iterations} (>= 1) out of range"
-            )
-        if not clique_time_budget_s >= 0:
-            raise ConfigError(
-                f"teaser clique_time_budget_s={clique_time_budget_s} must be >= 0 (seconds; 0 = no limit)"
-            )
-        if max_correspondences < 0 or clique_node_budget < 1:
-            raise ConfigError(
-                f"teaser max_correspondences={max_correspondences} (>= 0) or "
-                f"clique_node_budget={clique_node_budget} (>= 1) out of range"
-            )
-        if rotation_tim_graph not in ("chain", "complete"):
-            raise ConfigError(f"teaser rotation_tim_graph={rotation_tim_graph!r} is unknown; use 'chain' or 'complete'")
-        self.rotation_tim_graph = str(rotation_tim_graph)
-        self.noise_bound = float(noise_bound)
-        self.cbar2 = float(cbar2)
-        self.gnc_factor = float(gnc_factor)
-        self.max_iterations = int(max_iterations)
-        self.cost_threshold = float(cost_threshold)
-        self.mutual_filter = bool(mutual_filter)
-        self.max_correspondences = int(max_correspondences)
-        self.clique_node_budget = int(clique_node_budget)
-        self.clique_time_budget_s = float(clique_time_budget_s)
+        self.noise_bound = options.positive("method.noise_bound", noise_bound)
+        self.cbar2 = options.positive("method.cbar2", cbar2)
+        self.gnc_factor = options.within("method.gnc_factor", gnc_factor, 1)
+        self.max_iterations = options.positive("method.max_iterations", max_iterations, integer=True)
+        self.cost_threshold = options.non_negative("method.cost_threshold", cost_threshold)
+        self.mutual_filter = options.flag("method.mutual_filter", mutual_filter)
+        self.max_correspondences = options.non_negative("method.max_correspondences", max_correspondences, integer=True)
+        self.clique_node_budget = options.positive("method.clique_node_budget", clique_node_budget, integer=True)
+        self.rotation_tim_graph = options.one_of("method.rotation_tim_graph", rotation_tim_graph, ("chain", "complete"))
+        self.clique_time_budget_s = options.non_negative("method.clique_time_budget_s", clique_time_budget_s)
+
+    #: the solver's name in the details' timings (``teaser_<stage>``)
+    solver_name = "teaser"
+
+    def _solve(self, src: np.ndarray, dst: np.ndarray, seed: int) -> teaser_solver.SolverResult:
+        """``dst ~ R src + t`` by the re-implementation (:func:`catpose.methods.teaser_solver.solve`)."""
+        return teaser_solver.solve(
+            src,
+            dst,
+            self.noise_bound,
+            self.cbar2,
+            self.gnc_factor,
+            self.max_iterations,
+            self.cost_threshold,
+            self.clique_node_budget,
+            self.rotation_tim_graph,
+            seed=seed,
+            clique_time_budget_s=self.clique_time_budget_s or None,
+        )
 
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
         corr = match.fpfh_correspondences(self.mutual_filter, self.max_correspondences)
         if len(corr) < MIN_CLIQUE_SIZE:
             return None, {"num_correspondences": int(len(corr)), "clique_size": 0, "no_pose_reason": no_pose(len(corr))}
         try:
-            r = teaser_solver.solve(
-                match.source.points[corr[:, 0]],
-                match.target.points[corr[:, 1]],
-                self.noise_bound,
-                self.cbar2,
-                self.gnc_factor,
-                self.max_iterations,
-                self.cost_threshold,
-                self.clique_node_budget,
-                self.rotation_tim_graph,
-                seed=match.seed,
-                clique_time_budget_s=self.clique_time_budget_s or None,
-            )
+            r = self._solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]], match.seed)
         except InvalidInputError as e:  # a degenerate clique: this target gives no pose (others may)
             return None, {"num_correspondences": int(len(corr)), "clique_size": 0, "no_pose_reason": str(e)}
         info = {
             "num_correspondences": int(len(corr)),
-            "clique_size": int(len(r.clique)),
+            "clique_size": int(len(np.unique(r.clique))),  # PMC's exact solver (TEASER++) may list a vertex twice
             "clique_exact": r.clique_exact,
             "translation_inliers": int(len(r.translation_inliers)),
             "gnc_iterations": r.gnc_iterations,
             "rotation_degenerate": r.rotation_degenerate,
-            **{f"teaser_{k}": v for k, v in r.timings.items()},
+            **{f"{self.solver_name}_{k}": v for k, v in r.timings.items()},
         }
         return r.T, info
 

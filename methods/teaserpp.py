@@ -38,8 +38,9 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import ConfigError, InvalidInputError
-from catpose.methods.correspondence import MatchInput
-from catpose.methods.teaser import TEASER, no_pose
+from catpose.methods.correspondence import PIPELINE_SPEC
+from catpose.methods.registry import register_method
+from catpose.methods.teaser import TEASER
 from catpose.methods.teaser_solver import MIN_CLIQUE_SIZE, SolverResult, checked_inputs
 
 _MISSING = (
@@ -138,37 +139,27 @@ def solve(
     )
 
 
+# not in bench suite: TEASER++ is built by hand (method=teaser is its re-implementation there)
+@register_method("teaserpp", "Teaser++", suite=(), requires="teaserpp_python", **PIPELINE_SPEC)
 class TEASERPlusPlus(TEASER):
     """The same pipeline and arguments as :class:`~catpose.methods.teaser.TEASER`, solved by
     ``teaserpp_python.RobustRegistrationSolver`` through :func:`solve`."""
 
+    solver_name = "teaserpp"
+
     def __init__(self, **kwargs: Any) -> None:
-        _import_teaserpp()
+        _import_teaserpp()  # how to build TEASER++ when it is absent, before any sample runs
         super().__init__(**kwargs)
 
-    def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
-        corr = match.fpfh_correspondences(self.mutual_filter, self.max_correspondences)
-        if len(corr) < MIN_CLIQUE_SIZE:
-            return None, {"num_correspondences": int(len(corr)), "clique_size": 0, "no_pose_reason": no_pose(len(corr))}
-        try:
-            r = solve(
-                match.source.points[corr[:, 0]],
-                match.target.points[corr[:, 1]],
-                self.noise_bound,
-                self.cbar2,
-                self.gnc_factor,
-                self.max_iterations,
-                self.cost_threshold,
-                self.rotation_tim_graph,
-            )
-        except InvalidInputError as e:  # a degenerate clique: this target gives no pose (others may)
-            return None, {"num_correspondences": int(len(corr)), "clique_size": 0, "no_pose_reason": str(e)}
-        # PMC's exact solver has been seen to list a vertex twice: count distinct members
-        info = {
-            "num_correspondences": int(len(corr)),
-            "clique_size": int(len(np.unique(r.clique))),
-            "clique_exact": r.clique_exact,
-            "translation_inliers": int(len(r.translation_inliers)),
-            **{f"teaserpp_{k}": v for k, v in r.timings.items()},
-        }
-        return r.T, info
+    def _solve(self, src: np.ndarray, dst: np.ndarray, seed: int) -> SolverResult:
+        """By TEASER++ (:func:`solve`; its max clique search is exact and draws no random numbers)."""
+        return solve(
+            src,
+            dst,
+            self.noise_bound,
+            self.cbar2,
+            self.gnc_factor,
+            self.max_iterations,
+            self.cost_threshold,
+            self.rotation_tim_graph,
+        )

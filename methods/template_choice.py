@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import ConfigError, InvalidInputError, one_line
+from catpose.methods import options
 from catpose.methods.choice_rules import (
     AGREE_DEG,
     CROSS_WEIGHT,
@@ -39,16 +40,7 @@ from catpose.methods.choice_rules import (
     choose,
     template_spacing,
 )
-from catpose.methods.cross_check import (
-    ICP_DISTANCE,
-    ICP_ITERATIONS,
-    SILHOUETTE_CELL,
-    SILHOUETTE_WEIGHT,
-    TOP_FRACTION,
-    TRUNC,
-    TURNS_DEG,
-    CrossCheck,
-)
+from catpose.methods.cross_check import TURNS_DEG, CrossCheck
 
 
 def turns_of(turns_deg: Any) -> tuple[float, ...]:
@@ -79,8 +71,8 @@ class TemplateChoice:
             (``[]``: none, faster; the turn rules then cannot choose).
         one_template_turns: with K = 1 too, under a turn rule, the facts (and so the turns) are
             computed and the rule keeps the estimate or one of its turns on the one template.
-        trunc, icp_distance, icp_iterations, silhouette_cell, silhouette_weight, top_fraction: the
-            cross check's settings (:class:`~catpose.methods.cross_check.CrossCheck`).
+        cross_check: the cross check's settings (:class:`~catpose.methods.cross_check.CrossCheck`;
+            None: its defaults).
     """
 
     def __init__(
@@ -93,12 +85,7 @@ class TemplateChoice:
         density_weight: float = DENSITY_WEIGHT,
         turns_deg: Sequence[float] = TURNS_DEG,
         one_template_turns: bool = False,
-        trunc: float = TRUNC,
-        icp_distance: float = ICP_DISTANCE,
-        icp_iterations: int = ICP_ITERATIONS,
-        silhouette_cell: float = SILHOUETTE_CELL,
-        silhouette_weight: float = SILHOUETTE_WEIGHT,
-        top_fraction: float = TOP_FRACTION,
+        cross_check: CrossCheck | None = None,
     ) -> None:
         self.rule = ChoiceRule(
             rule=rule,
@@ -108,14 +95,8 @@ class TemplateChoice:
             agree_deg=float(agree_deg),
             density_weight=float(density_weight),
         )
-        self.cross_check = CrossCheck(
-            trunc=trunc,
-            icp_distance=icp_distance,
-            icp_iterations=icp_iterations,
-            silhouette_cell=silhouette_cell,
-            silhouette_weight=silhouette_weight,
-            top_fraction=top_fraction,
-        )
+        options.instance_of("choice.cross_check", cross_check, CrossCheck)
+        self.cross_check = cross_check or CrossCheck()
         self.turns_deg = turns_of(turns_deg)
         self.one_template_turns = bool(one_template_turns) and rule in TURN_RULES
 

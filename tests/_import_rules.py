@@ -9,8 +9,8 @@ checker reads every ``import`` (also those inside functions; relative ones resol
 The rules (docs/architecture.md explains them):
 
 - the core imports no other unit; the application layer ``catpose.api`` (``catpose.register``)
-  is its own unit and may import the core, configs, datasets, methods and the run wing, and the
-  package root exports it lazily (:data:`EXCEPTIONS`);
+  is its own unit and may import the core, configs, datasets and methods (never the bench, never
+  Hydra or OmegaConf: :data:`BANNED`), and the package root exports it lazily (:data:`EXCEPTIONS`);
 - datasets import only the core; methods import only the core (never a loader, never the bench);
 - a bench wing imports the core, datasets, methods, itself and the wings listed in :data:`WINGS`;
   no wing imports the CLI;
@@ -55,7 +55,7 @@ WINGS: dict[str, frozenset[str]] = {
 #: unit -> the units it may import besides itself and third-party packages (the wings: see WINGS)
 LAYERS: dict[str, frozenset[str]] = {
     "core": frozenset(),
-    "api": frozenset({"core", "configs", "datasets", "methods", "bench.run"}),
+    "api": frozenset({"core", "configs", "datasets", "methods"}),
     "configs": frozenset({"core"}),
     "datasets": frozenset({"core"}),
     "methods": frozenset({"core"}),
@@ -74,8 +74,15 @@ REGISTRATION_FREE: dict[str, tuple[frozenset[str], tuple[str, ...]]] = {
 }
 
 
+#: unit -> third-party packages it never imports: the library stands without the bench's Hydra
+BANNED: dict[str, tuple[str, ...]] = {"api": ("hydra", "omegaconf")}
+
+
 def registration_free(source: str, module: str) -> bool:
-    """Whether unit ``source`` may import ``module`` under :data:`REGISTRATION_FREE` (units not listed: yes)."""
+    """Whether unit ``source`` may import ``module`` under :data:`BANNED` and :data:`REGISTRATION_FREE`
+    (units not listed: yes)."""
+    if any(module == p or module.startswith(p + ".") for p in BANNED.get(source, ())):
+        return False
     if source not in REGISTRATION_FREE:
         return True
     methods, forbidden = REGISTRATION_FREE[source]

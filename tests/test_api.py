@@ -141,7 +141,10 @@ def test_options_reach_the_builder():
         ({"method": "nope"}, "method='nope' is not a method config; choose one of"),
         ({"method": 3}, "method is a int; pass a config name"),
         ({"method": "icp", "foo": 1}, "foo is not an option of method 'icp'; its options are: center_source,"),
-        ({"method": "icp", "num_starts": "many"}, "options of method 'icp': method.num_starts='many' is not an int"),
+        (
+            {"method": "icp", "num_starts": "many"},
+            "options of method 'icp': method.num_starts='many' must be a positive integer",
+        ),
         ({"observation_normals": np.ones((4, 3))}, "observation_normals has shape (4, 3); expected (200, 3)"),
         ({"template_up": [0, 0, 0]}, "template_up=[0, 0, 0] is not a finite non-zero 3-vector"),
         ({"max_points": -1}, "max_points=-1 is not a positive integer"),

@@ -121,22 +121,22 @@ _SEL = "catpose.methods.ours_settings.SelectionSettings"
         (
             "method",
             {"optimiser": {"_target_": _OPT, "lr": "abc"}},
-            "method.optimiser.lr='abc' is not a float; set method.optimiser.lr=<number>",
+            "method.optimiser.lr='abc' must be a positive number",
         ),
         (
             "method",
             {"optimiser": {"_target_": _OPT, "steps_pose": 1.5}},
-            "method.optimiser.steps_pose=1.5 is not an int; set method.optimiser.steps_pose=<integer>",
+            "method.optimiser.steps_pose=1.5 must be an integer >= 0",
         ),
         (
             "method",
             {"selection": {"_target_": _SEL, "refine": "maybe"}},
-            "method.selection.refine='maybe' is not a bool; set method.selection.refine=<true|false>",
+            "method.selection.refine='maybe' must be true or false",
         ),
         (
             "method",
             {"selection": {"_target_": _SEL, "gravity_max_deg": "x"}},
-            "method.selection.gravity_max_deg='x' is not a float or null",
+            "method.selection.gravity_max_deg='x' must be a number of degrees or null",
         ),
         ("method", {"no_such_option": 1}, "method.no_such_option is not an option of method 'ours'"),
         ("method", {"optimiser": {"_target_": _OPT, "lr_typo": 1}}, "method.optimiser.lr_typo is not an option"),
@@ -503,7 +503,7 @@ CASES = {  # name -> (args, needle); the files are written by _prepare
     "seed=1.5": (["seed=1.5"], "seed=1.5 is not an integer"),
     "lr=abc": (
         ["method=ours", "method.optimiser.lr=abc"],
-        "method.optimiser.lr='abc' is not a float; set method.optimiser.lr=<number>",
+        "method.optimiser.lr='abc' must be a positive number",
     ),
     "no root": (["dataset=bop"], "e.g. dataset.root=<value>"),
     "bop fx<0": (["dataset=bop", "dataset.root={bop_fx}"], "fx=-300, fy=300"),

@@ -23,6 +23,7 @@ def _compose(overrides: list[str]):
 
 
 def test_every_key_of_the_choice_is_in_the_base_file_with_its_python_default_and_a_comment():
+    from catpose.methods.cross_check import CrossCheck
     from catpose.methods.template_choice import TemplateChoice
 
     path = CONFIGS / "choice" / "score.yaml"
@@ -30,7 +31,9 @@ def test_every_key_of_the_choice_is_in_the_base_file_with_its_python_default_and
     params = {k: p.default for k, p in inspect.signature(TemplateChoice).parameters.items()}
     keys = {k for k in node if k not in ("name", "_target_")}
     assert keys == set(params), "configs/choice/score.yaml and TemplateChoice take the same keys"
-    for key in keys - {"rule"}:  # one default: the YAML's value is the constructor's (each file sets its rule)
+    check = {k: p.default for k, p in inspect.signature(CrossCheck).parameters.items()}
+    assert {k: v for k, v in node["cross_check"].items() if k != "_target_"} == check, "choice.cross_check"
+    for key in keys - {"rule", "cross_check"}:  # one default: the YAML's value is the constructor's
         default = list(params[key]) if isinstance(params[key], tuple) else params[key]
         assert node[key] == default, f"choice.{key}: YAML {node[key]!r}, Python {default!r}"
     for line in path.read_text().splitlines():  # one comment line per key, with its unit or range

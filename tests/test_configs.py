@@ -35,8 +35,17 @@ SHARED_ROOTS = {
 }
 #: dataset config -> overrides that keep its build small and out of the user's cache ({tmp}: the test's folder)
 SMALL_BUILDS = {"procedural": ["dataset.count=2", "dataset.cache_dir={tmp}"]}
-#: method config -> the optional module it needs (its absence must be a one-line error naming it)
-OPTIONAL_MODULES = {"teaserpp": "teaserpp_python", "ppf": "cv2.ppf_match_3d"}  # method -> module of its extra
+
+
+def _optional_modules() -> dict[str, str]:
+    """Method config -> the optional module it needs (the registry's ``requires``; its absence must
+    be a one-line error naming it)."""
+    from catpose.methods.registry import registered
+
+    return {name: spec.requires for name, spec in registered().items() if spec.requires}
+
+
+OPTIONAL_MODULES = _optional_modules()
 
 
 def _importable(module: str) -> bool:

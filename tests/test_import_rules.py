@@ -60,6 +60,7 @@ def test_checker_finds_planted_violations(tmp_path):
             ),
             "bench/cli.py": "from catpose.bench.report import fine\nimport catpose.bench.perf\n",  # the CLI: anything
             "datasets/fine.py": "from catpose.geometry import dot3\nfrom catpose.datasets import render\n",
+            "src/catpose/api/bad.py": "from omegaconf import OmegaConf\nfrom catpose.bench.run import build\n",
         },
     )
     found = {(v.path, v.target) for v in check_tree(tmp_path)}
@@ -71,6 +72,8 @@ def test_checker_finds_planted_violations(tmp_path):
         ("bench/scoring/bad_up.py", "catpose.bench.run.runner"),
         ("bench/run/bad_relative.py", "catpose.bench.report.tables"),
         ("bench/run/bad_cli.py", "catpose.bench.cli.main"),
+        ("src/catpose/api/bad.py", "omegaconf.OmegaConf"),
+        ("src/catpose/api/bad.py", "catpose.bench.run.build"),
     }
 
 
@@ -143,17 +146,16 @@ def test_violation_reads_as_one_line():
 
 
 def test_the_application_layer_and_its_lazy_export(tmp_path):
-    """``catpose.api`` may use the bench's run wing, datasets and methods; no other core module may
-    import it (only the package root's lazy ``catpose.register``), and it may not import the CLI
-    or another wing."""
+    """``catpose.api`` may use datasets and methods; no other core module may import it (only the
+    package root's lazy ``catpose.register``), and it imports no part of the bench, nor Hydra."""
     _plant(
         tmp_path,
         {
             "src/catpose/__init__.py": "def __getattr__(name):\n    from catpose import api\n",
             "src/catpose/geometry.py": "import catpose.api\n",  # the core below the application layer
-            "src/catpose/api/__init__.py": "from catpose.bench.run.build import build_from_config\n"
-            "from catpose.methods.ours import Ours\nfrom catpose.datasets import render\n",
-            "src/catpose/api/bad.py": "from catpose.bench.report import tables\nfrom catpose.bench import cli\n",
+            "src/catpose/api/__init__.py": "from catpose.methods.ours import Ours\nfrom catpose.datasets import render\n",
+            "src/catpose/api/bad.py": "from catpose.bench.report import tables\nfrom catpose.bench import cli\n"
+            "from catpose.bench.run.build import build_from_config\nimport hydra\n",
         },
     )
     found = {(v.path, v.target) for v in check_tree(tmp_path)}
@@ -161,6 +163,8 @@ def test_the_application_layer_and_its_lazy_export(tmp_path):
         ("src/catpose/geometry.py", "catpose.api"),
         ("src/catpose/api/bad.py", "catpose.bench.report.tables"),
         ("src/catpose/api/bad.py", "catpose.bench.cli"),
+        ("src/catpose/api/bad.py", "catpose.bench.run.build.build_from_config"),
+        ("src/catpose/api/bad.py", "hydra"),
     }
 
 

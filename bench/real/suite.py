@@ -112,21 +112,17 @@ CLUTTER_SETS: dict[str, RealSet] = {
 
 SUITES: dict[str, dict[str, RealSet]] = {"real": SETS, "clutter": CLUTTER_SETS}
 
-METHODS: dict[str, MethodVariant] = {
-    v.label: v
-    for v in (
-        MethodVariant("ours", "ours"),
-        MethodVariant("ours-visibility", "ours", ("method.selection.rule=visibility",)),  # the rule before issue 22
-        MethodVariant("icp", "icp"),
-        MethodVariant("fgr", "fgr"),
-        MethodVariant("teaser", "teaser"),
-        MethodVariant("ransac", "ransac"),
-        MethodVariant("fgr-dict", "fgr", ("method.matching=dictionary",)),
-        MethodVariant("teaser-dict", "teaser", ("method.matching=dictionary",)),
-        MethodVariant("ransac-dict", "ransac", ("method.matching=dictionary",)),
-        MethodVariant("ppf", "ppf", requires="cv2.ppf_match_3d"),  # OpenCV's contrib build: the extra ppf
-    )
-}
+
+def _variants() -> dict[str, MethodVariant]:
+    """Every method's rows, from the method registry (:attr:`catpose.methods.registry.MethodSpec.suite`),
+    in the order of their ranks."""
+    from catpose.methods.registry import registered
+
+    rows = sorted(((r, s) for s in registered().values() for r in s.suite_rows()), key=lambda rs: rs[0].rank)
+    return {r.label: MethodVariant(r.label, s.name, r.overrides, s.requires) for r, s in rows}
+
+
+METHODS: dict[str, MethodVariant] = _variants()
 
 
 def missing_extra(variant: MethodVariant) -> str | None:

@@ -13,20 +13,17 @@ from typing import Any
 from catpose.bench.report.runs import Run
 from catpose.errors import ConfigError
 
-DISPLAY_NAMES = {
-    "ours": "Ours",
-    "icp": "ICP",
-    "fgr": "FGR",
-    "teaser": "TEASER (re-impl.)",
-    "teaserpp": "Teaser++",
-    "teaser_pp": "Teaser++",
-    "equipose": "Equi-pose",
-    "equi_pose": "Equi-pose",
-    "rpmnet": "RPM-Net",
-    "rpm_net": "RPM-Net",
-    "ransac": "RANSAC",
-    "ppf": "PPF",
-}
+#: display names of methods outside catpose, scored from their own files (``bench score --method``);
+#: catpose's own come from the method registry (:class:`catpose.methods.registry.MethodSpec`)
+EXTERNAL_NAMES = {"equipose": "Equi-pose", "rpmnet": "RPM-Net"}
+
+
+def display_name(method: str) -> str:
+    """``icp`` -> ``ICP``: the registered method's display name, else an external one's, else itself."""
+    from catpose.methods.registry import registered
+
+    spec = registered().get(method.lower())
+    return spec.display_name if spec else EXTERNAL_NAMES.get(method.lower().replace("_", ""), method)
 
 
 def _first(cfg: dict, keys: Sequence[str]) -> Any:
@@ -68,7 +65,7 @@ def without_optimisation(run: Run) -> bool:
 
 def method_label(run: Run) -> str:
     """Display name of the run's method (``Ours``, ``Teaser++``, ...), marking ablations."""
-    name = DISPLAY_NAMES.get(run.method.lower(), run.method)
+    name = display_name(run.method)
     return f"{name} (w/o optimization)" if without_optimisation(run) else name
 
 

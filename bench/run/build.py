@@ -133,8 +133,12 @@ def identity_before_choice(protocol: dict, choice: dict) -> tuple[dict, dict]:
     keys = PROTOCOL_KEYS_BEFORE_CHOICE.get(str(protocol.get("name")))
     if keys is None:
         return protocol, dict(choice)
-    defaults = {k: p.default for k, p in inspect.signature(TemplateChoice).parameters.items()}
-    rest = {k: v for k, v in choice.items() if k not in ("name", "_target_")}
+    from catpose.methods.cross_check import CrossCheck
+
+    # the cross check's settings were the choice's own keys before it took a CrossCheck: hashed flat
+    defaults = {k: p.default for c in (TemplateChoice, CrossCheck) for k, p in inspect.signature(c).parameters.items()}
+    rest = {k: v for k, v in choice.items() if k not in ("name", "_target_", "cross_check")}
+    rest.update({k: v for k, v in (choice.get("cross_check") or {}).items() if k != "_target_"})
     protocol = dict(protocol, choice=rest.pop("rule", defaults["rule"]))
     if "turns" in keys:  # null was the default set
         turns = rest.pop("turns_deg", None)
@@ -238,9 +242,10 @@ def check_constructor_args(d: dict, what: str, name: str) -> None:
     """Check a group's options against its ``_target_``'s constructor before building it.
 
     Raises a one-line :class:`ConfigError` for an option the constructor does not take (unless
-    it has ``**kwargs``) and for a value that does not fit a parameter annotated with scalar
+    it has ``**kwargs``) and, outside the methods (which check their own arguments with
+    :mod:`catpose.methods.options`), for a value that does not fit a parameter annotated with scalar
     types only (``float``, ``int``, ``bool``, ``str``, optionally ``| None``), e.g.
-    ``method.lr='abc' is not a float; set method.lr=<number>``. Anything the check cannot read
+    ``dataset.width='abc' is not an int; set dataset.width=<integer>``. Anything the check cannot read
     (an unimportable target, container annotations) is left to the constructor.
     """
     try:
@@ -262,7 +267,7 @@ def check_constructor_args(d: dict, what: str, name: str) -> None:
                     f"{what}.{key} is not an option of {what} '{name}' ({d['_target_']}); options: {options}"
                 )
             continue
-        kinds = _scalar_annotation(params[key].annotation)
+        kinds = None if what.startswith("method") else _scalar_annotation(params[key].annotation)
         if kinds is not None and not _accepts(kinds, value):
             main = next(k for k in ("float", "int", "bool", "str") if k in kinds)
             article = "an" if main == "int" else "a"

@@ -9,8 +9,6 @@ memory) is raised for the runner (:mod:`catpose.bench.run.runner`) to abort the 
 from __future__ import annotations
 
 import dataclasses
-import random
-import sys
 import time
 from typing import Any
 
@@ -18,21 +16,7 @@ import numpy as np
 
 from catpose.bench.scoring.rows import failed_row, new_row, scored_row
 from catpose.errors import one_line as _one_line
-from catpose.geometry import stable_seed
-
-
-def seed_everything(seed: int) -> None:
-    """Seed Python, NumPy, and (when loaded) torch and Open3D, for one sample."""
-    seed32 = seed % (2**32)
-    random.seed(seed32)
-    np.random.seed(seed32)
-    if "torch" in sys.modules:
-        sys.modules["torch"].manual_seed(seed32)
-    if "open3d" in sys.modules:
-        from catpose.o3d import o3d
-
-        o3d.utility.random.seed(seed32 % (2**31))
-
+from catpose.geometry import seed_everything, stable_seed
 
 # raised inside a sample but not its fault: the run aborts (see run()); KeyboardInterrupt and
 # other BaseExceptions pass through `except Exception` anyway

@@ -198,3 +198,19 @@ def stable_seed(*parts: object) -> int:
 
     h = hashlib.blake2b("\x1f".join(map(str, parts)).encode(), digest_size=8).digest()
     return int.from_bytes(h, "little") & ((1 << 63) - 1)
+
+
+def seed_everything(seed: int) -> None:
+    """Seed Python, NumPy, and (when loaded) torch and Open3D, for one sample."""
+    import random
+    import sys
+
+    seed32 = seed % (2**32)
+    random.seed(seed32)
+    np.random.seed(seed32)
+    if "torch" in sys.modules:
+        sys.modules["torch"].manual_seed(seed32)
+    if "open3d" in sys.modules:
+        from catpose.o3d import o3d
+
+        o3d.utility.random.seed(seed32 % (2**31))

@@ -2,10 +2,10 @@
 a camera pose; ``catpose.Registrar``: a template held between calls.
 
 The application layer. This is the one package under ``src/catpose`` that imports
-``catpose.methods``, ``catpose.bench`` (the builder that turns ``configs/method/<name>.yaml``
-into a method, exactly as ``bench run`` does) and ``catpose.datasets`` (mesh reading, surface
-sampling, normal estimation); every other module under ``src/catpose`` stays below those
-packages. ``import catpose`` does not load it: ``catpose.register`` imports it on first use.
+``catpose.methods`` (the method registry, whose ``configs/method/<name>.yaml`` ``method_cache``
+reads without Hydra into the method ``bench run`` builds) and ``catpose.datasets`` (mesh reading,
+surface sampling, normal estimation); it never imports the bench or Hydra. Every other module under
+``src/catpose`` stays below those packages. ``import catpose`` does not load it: ``catpose.register`` imports it on first use.
 
 Units and frames. The caller's two clouds share one unit (mm, m, ...). The methods work in the
 object-normalised unit (the template centred at its bounding-box centre ``c`` and divided by

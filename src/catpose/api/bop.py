@@ -62,7 +62,7 @@ def bop_instance(
     instance: int = 0,
     dataset: str | None = None,
     seed: int = 0,
-    overrides: tuple[str, ...] = (),
+    options: dict[str, Any] | None = None,
 ) -> BopInstance:
     """The ``instance``-th instance of object ``obj_id`` in image ``im_id`` of scene ``scene_id``.
 
@@ -73,27 +73,28 @@ def bop_instance(
             (``.../ycbv``: ``ycbv``, so the observation id and its seeds are ``bench run
             dataset=ycbv``'s), else ``bop``.
         seed: the run seed (``bench run seed=...``), which seeds the frame's random subsets.
-        overrides: more ``dataset.<key>=<value>`` overrides.
+        options: more options of the dataset config (``{"mask": "render"}``).
 
     Raises:
         InvalidInputError: no such scene, image or object (one line, with what the frame shows).
     """
+    from importlib import resources
     from pathlib import Path
 
-    from catpose.bench.run.config import available, compose_and_build
+    from catpose.api.method_cache import build_config
     from catpose.datasets.bop_layout import read_json
     from catpose.datasets.frame_view import FrameSettings
     from catpose.errors import CatposeError
 
     if dataset is None:
-        dataset = Path(root).name if Path(root).name in available("dataset") else "bop"
+        known = (resources.files("catpose.configs") / "dataset" / f"{Path(root).name}.yaml").is_file()
+        dataset = Path(root).name if known else "bop"
     try:
-        key = (dataset, str(Path(root).resolve()), int(seed), tuple(overrides))
+        key = (dataset, str(Path(root).resolve()), int(seed), repr(sorted((options or {}).items())))
         ds = _DATASETS.get(key)
         if ds is None:
-            _, ((_, ds),) = compose_and_build(
-                [f"dataset={dataset}", f"dataset.root={root}", f"seed={int(seed)}", *overrides], ("dataset",)
-            )
+            ds = build_config("dataset", dataset, {"root": str(root), **(options or {})}, seed=int(seed))
+            ds.name = dataset  # as bench run names it (run directories and sample ids use it)
             _DATASETS.put(key, ds)
         gt_path = ds.layout.scene_gt(int(scene_id))
         entries = read_json(gt_path).get(str(int(im_id)))

@@ -1,139 +1,167 @@
-"""Methods for :func:`catpose.register`, built from ``configs/method/<name>.yaml`` by the same builder
-as ``bench run`` (:func:`catpose.bench.run.build.build_from_config`), keyword options as overrides."""
+"""Methods for :func:`catpose.register`, built without Hydra: ``configs/method/<name>.yaml`` read
+with PyYAML, its defaults list resolved from ``configs/<group>/<name>.yaml`` as Hydra composes it,
+the keyword options merged in, and every ``_target_`` built with plain arguments (children first,
+as Hydra's ``instantiate``). The constructors check their arguments (one line naming the option);
+the method registry (:mod:`catpose.methods.registry`) says which methods there are, which read the
+ground normal and which prepare a template ahead. ``tests/test_api_bench_agreement.py`` checks that
+this gives ``bench run``'s method, pose for pose."""
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Mapping
+from importlib import resources
 from typing import Any
 
-import numpy as np
-
-from catpose.errors import CatposeError, InvalidInputError
+from catpose.errors import CatposeError, InvalidInputError, one_line
 from catpose.lru import LRUCache
 
-__all__ = ["build_method", "prepare_template", "uses_up"]
+__all__ = ["build_config", "build_method", "prepare_template", "read_config", "uses_up"]
 
 #: Methods built from configs, reused across calls (their template caches with them).
 _METHODS: LRUCache[tuple, Any] = LRUCache(4)
 
 
-def _override_value(value: Any) -> str:
-    """A Python value as Hydra override syntax (``None`` -> ``null``, strings quoted)."""
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float, np.integer, np.floating)):
-        return repr(float(value)) if isinstance(value, (float, np.floating)) else str(int(value))
-    if isinstance(value, str):
-        return "'" + value.replace("\\", "\\\\").replace("'", "\\'") + "'"
-    if isinstance(value, (list, tuple)):
-        return "[" + ",".join(_override_value(v) for v in value) + "]"
-    raise InvalidInputError(
-        f"option value {value!r} ({type(value).__name__}) is not a number, string, bool, None or list"
-    )
+def _read(group: str, name: str) -> dict:
+    import yaml
+
+    path = resources.files("catpose.configs") / group / f"{name}.yaml"
+    if not path.is_file():
+        raise InvalidInputError(f"configs/{group}/{name}.yaml does not exist")
+    return yaml.safe_load(path.read_text()) or {}
 
 
-def _overrides(options: Mapping[str, Any], prefix: str = "method") -> list[str]:
-    """``{"selection": {"gravity_max_deg": None}, "descriptor": "pfh"}`` -> Hydra overrides:
-    nested dicts become dotted keys; a string naming a config of the group ``configs/<key>/``
-    (``descriptor="pfh"``) selects that config, as ``descriptor@method.descriptor=pfh`` does."""
-    from importlib import resources
-
-    out = []
-    for key, value in options.items():
-        if isinstance(value, Mapping):
-            out += _overrides(value, f"{prefix}.{key}")
-            continue
-        group = resources.files("catpose.configs") / str(key)
-        if prefix == "method" and isinstance(value, str) and (group / f"{value}.yaml").is_file():
-            out.append(f"{key}@method.{key}={value}")
-        else:
-            out.append(f"{prefix}.{key}={_override_value(value)}")
+def _merge(base: dict, top: Mapping) -> dict:
+    """``top`` over ``base``, nested groups merged key by key."""
+    out = dict(base)
+    for key, value in top.items():
+        out[key] = _merge(out[key], value) if isinstance(value, Mapping) and isinstance(out.get(key), dict) else value
     return out
 
 
-def _check_keys(name: str, node: Any, options: Mapping[str, Any], path: str = "") -> None:
-    """Refuse an option that ``configs/method/<name>.yaml`` does not have, in the API's words
-    (keyword arguments, not Hydra's ``+method.x`` overrides), listing the options that exist."""
-    from omegaconf import DictConfig
+def _resolve(node: Any, run: Mapping) -> Any:
+    """``${seed}``-style values (a key of ``configs/run.yaml``) replaced by that key's default."""
+    if isinstance(node, dict):
+        return {k: _resolve(v, run) for k, v in node.items()}
+    if isinstance(node, str) and node.startswith("${") and node.endswith("}") and node[2:-1] in run:
+        return run[node[2:-1]]
+    return node
 
+
+def read_config(group: str, name: str) -> dict:
+    """``configs/<group>/<name>.yaml`` as a plain dict, its defaults list resolved: ``_self_``
+    (last when not listed) over entries ``other`` (the same group, merged here),
+    ``/group/name@_here_`` (merged here) and ``/group@key: name`` (under ``key``)."""
+    raw = _read(group, name)
+    entries = raw.pop("defaults", [])
+    out: dict = {}
+    for entry in entries if "_self_" in entries else [*entries, "_self_"]:
+        if entry == "_self_":
+            out = _merge(out, raw)
+            continue
+        path, choice = next(iter(entry.items())) if isinstance(entry, dict) else (entry, None)
+        path, _, package = path.partition("@")
+        if choice is None:
+            path, _, choice = path.rpartition("/")
+        node = read_config(path.lstrip("/") if path.startswith("/") else group, choice)
+        out = _merge(out, node if package in ("", "_here_") else {package: node})
+    return out
+
+
+def _with_options(name: str, node: dict, options: Mapping[str, Any], path: str = "", group: str = "method") -> dict:
+    """``node`` with ``options`` merged in; an option the config does not have is refused in the
+    API's words (keyword arguments, not Hydra's overrides), listing the options that exist. A dict
+    for a group (an object's options, ``selection={"rule": "chamfer"}``) sets those of its keys, a
+    string naming a config of the group ``configs/<key>/`` (``descriptor="pfh"``) selects it."""
+    node = dict(node)
     for key, value in options.items():
         dotted = f"{path}{key}"
-        known = sorted(k for k in node if k not in ("_target_", "name")) if isinstance(node, DictConfig) else []
-        if not isinstance(node, DictConfig) or key not in node:
+        if key not in node or key in ("_target_", "name"):
+            known = sorted(k for k in node if k not in ("_target_", "name"))
             where = f"{path[:-1]} " if path else ""
             raise InvalidInputError(
-                f"{dotted} is not an option of method {name!r}; its {where}options are: {', '.join(known)} "
-                f"(configs/method/{name}.yaml)"
+                f"{dotted} is not an option of {group} {name!r}; its {where}options are: {', '.join(known)} "
+                f"(configs/{group}/{name}.yaml)"
             )
         child = node[key]
-        if isinstance(value, Mapping):
-            if not isinstance(child, DictConfig):
+        is_group = isinstance(child, dict) and "_target_" in child  # an object's options; other dicts are values
+        if isinstance(value, Mapping) and is_group:
+            node[key] = _with_options(name, child, value, f"{dotted}.", group)
+        elif is_group and isinstance(value, str):
+            if not (resources.files("catpose.configs") / key / f"{value}.yaml").is_file():
                 raise InvalidInputError(
-                    f"option {dotted} of method {name!r} is a value, not a group: pass {key}=<value>"
+                    f"{dotted}={value!r} of {group} {name!r}: configs/{key}/{value}.yaml does not exist"
                 )
-            _check_keys(name, child, value, f"{dotted}.")
+            node[key] = read_config(key, value)
+        else:
+            node[key] = value
+    return node
+
+
+def _instantiate(node: Any) -> Any:
+    """Every ``_target_`` of ``node`` built with its other keys, children first."""
+    if isinstance(node, list):
+        return [_instantiate(v) for v in node]
+    if not isinstance(node, dict):
+        return node
+    args = {k: _instantiate(v) for k, v in node.items() if k != "_target_"}
+    if "_target_" not in node:
+        return args
+    module, _, attr = str(node["_target_"]).rpartition(".")
+    return getattr(importlib.import_module(module), attr)(**args)
+
+
+def build_config(group: str, name: str, options: Mapping[str, Any], **run: Any) -> Any:
+    """``configs/<group>/<name>.yaml`` with ``options`` merged in, built; ``run``: values of the
+    run config's keys (``seed=0``) that ``${seed}`` takes instead of ``configs/run.yaml``'s.
+    A constructor's complaint is a one-line :class:`InvalidInputError` naming the options."""
+    node = _with_options(name, read_config(group, name), options, group=group)
+    node.pop("name", None)
+    try:
+        return _instantiate(_resolve(node, {**_read("", "run"), **run}))
+    except CatposeError as e:
+        raise InvalidInputError(f"options of {group} {name!r}: {e}") from None
+    except (TypeError, ValueError) as e:
+        raise InvalidInputError(f"options {sorted(options)} of {group} {name!r}: {one_line(e)}") from None
 
 
 def build_method(name: str, **options: Any) -> Any:
-    """The method ``configs/method/<name>.yaml`` with ``options`` as overrides, built by the same
-    builder as ``bench run`` (cached: the same name and options give the same object, whose
-    template caches then serve later calls). A one-line :class:`InvalidInputError` names an
-    unknown method or option."""
+    """The method ``configs/method/<name>.yaml`` with ``options`` (keyword arguments; a nested group
+    as a dict: ``selection={"rule": "chamfer"}``), as ``bench run method=<name>`` builds it (cached:
+    the same name and options give the same object, whose template caches then serve later calls).
+    A one-line :class:`InvalidInputError` names an unknown method or option."""
     key = (name, repr(sorted(options.items())))
     hit = _METHODS.get(key)
     if hit is not None:
         return hit
-    from catpose.bench.run.build import build_from_config
-    from catpose.bench.run.config import available, compose
+    from catpose.methods.registry import registered
 
-    names = available("method")
+    names = list(registered())
     if name not in names:
         raise InvalidInputError(
             f"method={name!r} is not a method config; choose one of {', '.join(names)} "
             "or pass a RegistrationMethod instance"
         )
-    if options:
-        _check_keys(name, compose([f"method={name}"]).method, options)
-    try:
-        cfg = compose([f"method={name}", *_overrides(options)], hint="see configs/method/" + name + ".yaml")
-    except CatposeError as e:
-        raise InvalidInputError(f"options {sorted(options)} do not fit method {name!r}: {e}") from None
-    try:
-        built = build_from_config(cfg.method, "method")[1]
-    except CatposeError as e:
-        raise InvalidInputError(f"options of method {name!r}: {e}") from None
+    built = build_config("method", name, options)
     _METHODS.put(key, built)
     return built
 
 
 def uses_up(method: Any) -> bool:
-    """Whether the method reads the ground normal: ours (descriptor frames and gravity filter),
-    a correspondence baseline on LPS features; not ICP, FPFH or PFH matching."""
-    from catpose.methods.ours import Ours
+    """Whether the method reads the ground normal (its registry entry says; ours, a baseline on LPS
+    features): then the API searches up directions when the caller gives none."""
+    from catpose.methods.registry import spec_of
 
-    if isinstance(method, Ours):
-        return True
-    return getattr(method, "features", None) == "lps"
+    spec = spec_of(method)
+    return spec is not None and spec.needs_up(method)
 
 
 def prepare_template(method: Any, template: Any) -> None:
     """Build ``method``'s per-template data for ``template`` (object-normalised) now instead of on
-    the first registration. Ours: the partial-view dictionary and descriptors of the template and
-    of each of its gravity hypotheses (:mod:`catpose.methods.resting_hypotheses`), loaded from the
-    disk cache when there, and the depth check's ray caster of its mesh. Other methods build
-    theirs on their first call (FPFH features take milliseconds; the dictionary baselines share
-    ours' disk-cached dictionary features)."""
-    from catpose.methods.ours import Ours
+    the first registration, as its registry entry says (ours: dictionaries, descriptors, ray caster,
+    loaded from the disk cache when there); other methods build theirs on their first call."""
+    from catpose.methods.registry import spec_of
 
-    if not isinstance(method, Ours):
-        return
-    from catpose.methods.resting_hypotheses import hypotheses
-
-    for h in hypotheses(template, method.resting):
-        method.template_features(h.template)
-    if template.has_mesh and method.selection.rule == "depth":
-        from catpose.methods.depth_check import caster_for
-
-        caster_for(template)
+    spec = spec_of(method)
+    if spec is not None:
+        spec.prepare(method, template)

@@ -35,9 +35,9 @@ def _recipe(registrar: Any) -> bytes:
 
 
 def _config_name(registrar: Any) -> str | None:
-    from catpose.bench.run.config import available
+    from catpose.methods.registry import registered
 
-    return registrar.method_name if registrar.method_name in available("method") else None
+    return registrar.method_name if registrar.method_name in registered() else None
 
 
 def _start(recipe: bytes) -> None:

@@ -24,7 +24,7 @@ from catpose.api.method_cache import build_method, prepare_template, uses_up
 from catpose.api.observation import Observed, observed
 from catpose.api.result import Registration
 from catpose.errors import CatposeError, InvalidInputError, RegistrationFailed
-from catpose.geometry import apply_R, make_T, matmul3, unit3
+from catpose.geometry import apply_R, make_T, matmul3, seed_everything, unit3
 from catpose.types import RegistrationProblem, RegistrationResult
 
 __all__ = ["Registrar", "UP_HYPOTHESES"]
@@ -48,7 +48,7 @@ class Registrar:
         template: the template in its own frame (see :func:`catpose.register`), or a
             :class:`~catpose.api.inputs.NormalisedTemplate` (a template already normalised, with
             the map back to the caller's frame: what the BOP loader's models are).
-        method: a config name (``ours``, ``icp``, ``fgr``, ``ransac``, ``teaser``) or a
+        method: a registered method's config name (``ours``, ``icp``, ``gicp``, ...) or a
             :class:`~catpose.methods.method.RegistrationMethod` instance.
         template_normals, template_up, template_points: as :func:`catpose.register`.
         prepare: build the method's per-template data now (ours: dictionaries, descriptors, ray
@@ -76,7 +76,7 @@ class Registrar:
             if not callable(getattr(method, "register", None)):
                 raise InvalidInputError(
                     f"method is a {type(method).__name__}; pass a config name "
-                    "(ours, icp, fgr, ransac, teaser) or a RegistrationMethod instance"
+                    "(ours, icp, gicp, ...: catpose.methods.registry) or a RegistrationMethod instance"
                 )
             if options:
                 raise InvalidInputError(
@@ -212,8 +212,6 @@ class Registrar:
     def _call(self, obs: Observed, g: np.ndarray) -> RegistrationResult:
         """The method on one problem, seeded as ``bench run`` seeds a sample; a method's failure
         on valid input is :class:`RegistrationFailed` (the input was checked above)."""
-        from catpose.bench.run.sample_run import seed_everything
-
         try:
             problem = RegistrationProblem(
                 sample_id=obs.sample_id,
