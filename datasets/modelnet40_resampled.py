@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from catpose.datasets.dataset import Observation
-from catpose.datasets.modelnet40 import ModelNetBase
+from catpose.datasets.modelnet40 import ModelNetBase, ShapeFrame
+from catpose.datasets.views import TemplateOptions, ViewOptions, view_observation
 from catpose.errors import DatasetError
 from catpose.geometry import apply_R, invert_T, normalize_to_unit_sphere, stable_seed, transform_points
 from catpose.hpr import visible_indices
@@ -53,6 +54,10 @@ def read_resampled_txt(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     return data[:, :3], normals / norms
 
 
+#: the resampled files' axes (y up, x negated w.r.t. the OFF meshes)
+RESAMPLED_FRAME = ShapeFrame(up="+y", forward="-x")
+
+
 class ModelNet40Resampled(ModelNetBase):
     """``modelnet40_normal_resampled`` clouds and their hidden-point-removal partial views.
 
@@ -62,21 +67,19 @@ class ModelNet40Resampled(ModelNetBase):
         split: ``"train"`` or ``"test"``.
         instances_per_category: use only the first N instances of each category (None: all).
         views_per_instance: partial views per instance.
-        distance, elevation_min_deg, elevation_max_deg, roll_max_deg: viewpoint distribution
-            (object-normalised unit, degrees), as for the rendered sets.
+        view: viewpoints, noise along the viewing rays and points kept, as for the rendered sets
+            (:class:`~catpose.datasets.views.ViewOptions`).
         hpr_radius_factor: HPR spherical-flip radius over the farthest point's distance.
-        depth_noise_std: Gaussian noise sigma along the viewing rays (object-normalised unit).
-        max_points: points kept per view (0: all).
-        template_points: points of each complete model (0: all 10,000).
-        templates: category -> template entries (instance ids of ``template_split`` or meshes).
+        template: templates (instance ids of ``template_split`` or meshes), their root, points of
+            each complete model (0: all 10,000), symmetric categories
+            (:class:`~catpose.datasets.views.TemplateOptions`).
         template_split: split of instance-id templates.
-        templates_root: base folder of relative template mesh paths (None: ``root``).
-        up, forward: the files' axes that become +z and +x. The resampled files are y-up with
-            x negated relative to the OFF meshes (measured: Chamfer 0.04 between
+        frame: as for :class:`~catpose.datasets.modelnet40.ModelNet40`, but the resampled files are
+            y-up with x negated relative to the OFF meshes (measured: Chamfer 0.04 between
             airplane_0001.txt read with ``+y``/``-x`` and airplane_0001.off, 0.18-0.41 for the
-            other axis choices), so the defaults put both releases in the same object frame.
-        aligned, alignment_table, symmetric, seed: as for
-            :class:`~catpose.datasets.modelnet40.ModelNet40`.
+            other axis choices), so the default axes ``+y``/``-x`` put both releases in the same
+            object frame.
+        seed: fixes every view.
     """
 
     name = "modelnet40_resampled"
@@ -88,45 +91,23 @@ class ModelNet40Resampled(ModelNetBase):
         split: str = "test",
         instances_per_category: int | None = None,
         views_per_instance: int = 5,
-        distance: float = 3.0,
-        elevation_min_deg: float = 10.0,
-        elevation_max_deg: float = 60.0,
-        roll_max_deg: float = 0.0,
+        view: ViewOptions = ViewOptions(),
         hpr_radius_factor: float = 100.0,
-        depth_noise_std: float = 0.0,
-        max_points: int = 2048,
-        template_points: int = 2048,
-        templates: dict[str, list] | None = None,
+        template: TemplateOptions = TemplateOptions(),
         template_split: str = "train",
-        templates_root: str | None = None,
-        aligned: bool = False,
-        alignment_table: str | None = None,
-        up: str = "+y",
-        forward: str = "-x",
-        symmetric: dict[str, list[float]] | None = None,
+        frame: ShapeFrame = RESAMPLED_FRAME,
         seed: int = 0,
     ) -> None:
-        self._init_common(
+        super().__init__(
             root,
             "modelnet40_normal_resampled root {root} is not a folder; set dataset.root",
             split,
             instances_per_category,
             views_per_instance,
-            distance,
-            elevation_min_deg,
-            elevation_max_deg,
-            roll_max_deg,
-            depth_noise_std,
-            max_points,
-            template_points,
-            templates,
+            view,
+            template,
             template_split,
-            templates_root,
-            aligned,
-            alignment_table,
-            up,
-            forward,
-            symmetric,
+            frame,
             seed,
         )
         self.categories = list(categories) if categories else None
@@ -213,28 +194,21 @@ class ModelNet40Resampled(ModelNetBase):
         visible = visible_indices(pts, T_object_camera[:3, 3], self.hpr_radius_factor)
         if len(visible) < 10:
             raise DatasetError(f"modelnet40_resampled {obs_id}: only {len(visible)} points are visible")
-        if self.max_points and len(visible) > self.max_points:
-            visible = np.sort(rng.choice(visible, size=self.max_points, replace=False))
+        if self.view.max_points and len(visible) > self.view.max_points:
+            visible = np.sort(rng.choice(visible, size=self.view.max_points, replace=False))
         points = transform_points(T_camera_object, pts[visible])
         normals = apply_R(T_camera_object[:3, :3], nrm[visible])
-        if self.depth_noise_std > 0:  # noise along the viewing ray, like a depth sensor's
+        if self.view.depth_noise_std > 0:  # noise along the viewing ray, like a depth sensor's
             rays = points / np.linalg.norm(points, axis=1, keepdims=True)
-            points = points + rays * rng.normal(0.0, self.depth_noise_std, size=(len(points), 1))
+            points = points + rays * rng.normal(0.0, self.view.depth_noise_std, size=(len(points), 1))
         flip = np.einsum("ij,ij->i", normals, points) > 0  # make them face the camera (origin)
         normals[flip] *= -1
-        return Observation(
-            obs_id=obs_id,
-            category=category,
-            instance_id=instance_id,
-            points_camera=points,
-            normals_camera=normals,
-            ground_normal_camera=T_camera_object[:3, 2].copy(),
-            T_object_camera=T_object_camera,
-            symmetry_axis=self.symmetric.get(category),
-            info={
-                "view": view,
-                "split": self.split,
-                "normals_flipped": int(flip.sum()),
-                "aligned": self.aligned or (category, instance_id) in self.alignment,
-            },
+        info = {
+            "view": view,
+            "split": self.split,
+            "normals_flipped": int(flip.sum()),
+            "aligned": self.aligned or (category, instance_id) in self.alignment,
+        }
+        return view_observation(
+            obs_id, points, normals, T_camera_object[:3, 2].copy(), T_camera_object, self.symmetric.get(category), info
         )

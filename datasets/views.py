@@ -1,13 +1,123 @@
-"""Camera set-up shared by the rendered datasets (synthetic, ModelNet40).
+"""What the datasets that draw their own views share: their option groups and the observation
+they assemble.
 
-Their configs give the pinhole intrinsics as plain numbers with an optional principal point;
-:func:`pinhole_camera` turns them into a :class:`~catpose.datasets.render.PinholeCamera` so the
-"None means the image centre" rule lives in one place.
+An option group is a frozen dataclass a dataset's constructor takes as one argument
+(``view: ViewOptions``) while its config gives the fields as flat keys of the group
+(``dataset.distance=4``): the builder (:func:`catpose.bench.run.build.build_from_config`) gathers
+the keys of every :class:`OptionGroup` argument into it, over the constructor's default. So the
+views of ``synthetic``, ``modelnet40``, ``modelnet40_resampled`` and ``procedural`` are drawn
+from one set of knobs with one default each, and the templates of every loader are given alike.
 """
 
 from __future__ import annotations
 
-from catpose.datasets.render import PinholeCamera
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from catpose import libm
+from catpose.datasets.dataset import Observation
+from catpose.datasets.render import PinholeCamera, ViewSampler, estimate_normals
+from catpose.errors import ConfigError
+from catpose.geometry import invert_T
+from catpose.types import DepthImage
+
+
+class OptionGroup:
+    """Base of the option dataclasses whose fields a config gives as flat keys of its group."""
+
+
+@dataclass(frozen=True)
+class ViewOptions(OptionGroup):
+    """Where the camera is and what a view keeps.
+
+    Attributes:
+        distance: camera distance from the object centre (object-normalised unit).
+        elevation_min_deg, elevation_max_deg: camera elevation above the ground plane, degrees,
+            drawn uniformly; azimuth is uniform in [0, 360).
+        roll_max_deg: camera roll about its optical axis, uniform in [-roll, roll] degrees.
+        depth_noise_std: std of zero-mean Gaussian depth noise (object-normalised unit; 0: clean).
+        max_points: keep at most this many observed points (seeded random subset; 0: all).
+    """
+
+    distance: float = 3.0
+    elevation_min_deg: float = 10.0
+    elevation_max_deg: float = 60.0
+    roll_max_deg: float = 0.0
+    depth_noise_std: float = 0.0
+    max_points: int = 2048
+
+    def sampler(self) -> ViewSampler:
+        """The viewpoint distribution (checks the distance and the elevation range)."""
+        if self.distance <= 1.0:
+            raise ConfigError(
+                f"dataset.distance={self.distance} puts the camera inside the unit bounding sphere; use a "
+                "distance > 1 (e.g. 3)"
+            )
+        return ViewSampler(
+            float(self.distance), float(self.elevation_min_deg), float(self.elevation_max_deg), float(self.roll_max_deg)
+        )
+
+
+@dataclass(frozen=True)
+class ImageOptions(OptionGroup):
+    """The depth image a rendered view is made of and what it must show.
+
+    Attributes:
+        width, height: image size in pixels.
+        fx, fy: pinhole focal lengths in pixels.
+        cx, cy: principal point in pixels; None: the image centre (``(width - 1) / 2``, ``(height - 1) / 2``).
+        fov_deg: if set, the horizontal field of view in degrees; overrides ``fx`` and ``fy`` (square pixels).
+        normal_radius: normal-estimation radius (object-normalised unit).
+        min_points: a view with fewer visible points raises :class:`~catpose.errors.DatasetError`.
+    """
+
+    width: int = 320
+    height: int = 240
+    fx: float = 300.0
+    fy: float = 300.0
+    cx: float | None = None
+    cy: float | None = None
+    fov_deg: float | None = None
+    normal_radius: float = 0.1
+    min_points: int = 50
+
+    def camera(self) -> PinholeCamera:
+        """The pinhole camera (:func:`pinhole_camera`, ``fov_deg`` applied)."""
+        for key in ("width", "height"):
+            if int(getattr(self, key)) < 1:
+                raise ConfigError(f"dataset.{key}={getattr(self, key)}; it must be a positive integer")
+        fx, fy = self.fx, self.fy
+        if self.fov_deg is not None:
+            if not 0.0 < self.fov_deg < 180.0:
+                raise ConfigError(f"dataset.fov_deg={self.fov_deg}; use a value in (0, 180)")
+            fx = fy = 0.5 * self.width / libm.tan(np.deg2rad(self.fov_deg) / 2)
+        return pinhole_camera(self.width, self.height, fx, fy, self.cx, self.cy)
+
+
+@dataclass(frozen=True)
+class TemplateOptions(OptionGroup):
+    """The category templates and complete models a dataset registers to.
+
+    Attributes:
+        templates: category -> template entries (instance ids or mesh specs, see
+            :class:`~catpose.datasets.meshio.TemplateSet`).
+        templates_root: base folder of relative template mesh paths (None: the dataset's root).
+        template_points: points sampled on each complete model / template.
+        symmetric: category -> main axis (template frame) of rotationally symmetric categories
+            (scored by main-axis error).
+    """
+
+    templates: dict[str, list] | None = None
+    templates_root: str | None = None
+    template_points: int = 2048
+    symmetric: dict[str, list[float]] | None = None
+
+    def symmetry_axes(self) -> dict[str, np.ndarray]:
+        """category -> (3,) main axis, float64."""
+        return {k: np.asarray(v, float) for k, v in (self.symmetric or {}).items()}
 
 
 def pinhole_camera(
@@ -29,4 +139,48 @@ def pinhole_camera(
         float(fy),
         float((width - 1) / 2 if cx is None else cx),
         float((height - 1) / 2 if cy is None else cy),
+    )
+
+
+def subsample(points: np.ndarray, max_points: int, rng: np.random.Generator) -> np.ndarray:
+    """At most ``max_points`` of ``points`` (N, 3), a seeded subset in their order (0: all)."""
+    if max_points and len(points) > max_points:
+        return points[np.sort(rng.choice(len(points), size=max_points, replace=False))]
+    return points
+
+
+def kept_view(
+    points: np.ndarray, max_points: int, normal_radius: float, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """The points a view keeps (:func:`subsample`) and their normals, estimated from the kept points as a
+    method would estimate them from a downsampled scan: the order every rendered dataset uses
+    (render, noise, subsample, normals)."""
+    points = subsample(points, max_points, rng)
+    return points, estimate_normals(points, normal_radius)
+
+
+def view_observation(
+    obs_id: str,
+    points_camera: np.ndarray,
+    normals_camera: np.ndarray,
+    ground_normal_camera: np.ndarray,
+    T_camera_object: np.ndarray,
+    symmetry_axis: np.ndarray | None,
+    info: Mapping[str, Any],
+    depth_image: DepthImage | None = None,
+) -> Observation:
+    """The observation of a drawn view whose id is ``<category>/<instance_id>/<view>``: camera frame,
+    object-normalised unit, ``T_camera_object`` (4, 4) the object's pose in the camera."""
+    category, instance_id, _ = obs_id.split("/")
+    return Observation(
+        obs_id=obs_id,
+        category=category,
+        instance_id=instance_id,
+        points_camera=points_camera,
+        normals_camera=normals_camera,
+        ground_normal_camera=ground_normal_camera,
+        T_object_camera=invert_T(T_camera_object),
+        symmetry_axis=symmetry_axis,
+        depth_image=depth_image,
+        info=info,
     )

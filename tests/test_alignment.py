@@ -22,7 +22,7 @@ from catpose.datasets.alignment import (
     yaw_flip_hypotheses,
     yaw_rotations,
 )
-from catpose.datasets.modelnet40 import ModelNet40
+from catpose.datasets.modelnet40 import ModelNet40, ShapeFrame
 from catpose.errors import DatasetError
 from catpose.geometry import axis_angle_to_R
 
@@ -196,7 +196,7 @@ def test_bench_align_writes_a_table_the_loader_applies(tmp_path, capsys):
     assert text[0].endswith("yaw_deg,flip,chamfer,confidence,verified,note") and ",false," in text[2]
     assert out.with_suffix(".png").stat().st_size > 1000
 
-    ds = ModelNet40(str(root), categories=["thing"], split="train", alignment_table=str(out))
+    ds = ModelNet40(str(root), categories=["thing"], split="train", frame=ShapeFrame(alignment_table=str(out)))
     a, _ = ds.canonical_mesh("thing", "thing_0001")
     b, _ = ds.canonical_mesh("thing", "thing_0002")
     np.testing.assert_allclose(a, b, atol=1e-9)

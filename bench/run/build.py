@@ -53,7 +53,10 @@ def build_from_config(node: Any, what: str) -> tuple[str, Any]:
         raise ConfigError(f"config group '{what}' ({name}) has no _target_; add one to configs/{what}/{name}.yaml")
     check_constructor_args(d, what, name)
     try:
-        return name, instantiate(d, _convert_="all")
+        rest, groups = gather_option_groups(d)
+        if not groups:
+            return name, instantiate(d, _convert_="all")
+        return name, instantiate({**rest, "_partial_": True}, _convert_="all")(**groups)
     except CatposeError:
         raise
     except Exception as e:  # Hydra wraps constructor errors; surface the user-facing one
@@ -247,6 +250,45 @@ def _accepts(kinds: set[str], value: Any) -> bool:
     return False
 
 
+def _target_parameters(target_name: str) -> dict[str, inspect.Parameter]:
+    """The options of a ``_target_``: its constructor's parameters, with each option group
+    (a parameter whose default is a :class:`catpose.datasets.views.OptionGroup`) replaced by the
+    group's fields, which a config gives as flat keys. Raises ImportError, AttributeError,
+    ValueError or TypeError when the target cannot be read."""
+    from dataclasses import fields
+
+    from catpose.datasets.views import OptionGroup
+
+    module_name, _, attr = target_name.rpartition(".")
+    params = dict(inspect.signature(getattr(importlib.import_module(module_name), attr)).parameters)
+    for key, p in list(params.items()):
+        if isinstance(p.default, OptionGroup):
+            del params[key]
+            for f in fields(p.default):
+                params[f.name] = inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, annotation=f.type)
+    return params
+
+
+def gather_option_groups(d: dict) -> tuple[dict, dict]:
+    """``d`` without the flat keys of its target's option groups, and the groups built from them
+    over the constructor's defaults (parameter -> group object); no groups: ``(d, {})``."""
+    from dataclasses import fields, replace
+
+    from catpose.datasets.views import OptionGroup
+
+    module_name, _, attr = str(d["_target_"]).rpartition(".")
+    try:
+        params = inspect.signature(getattr(importlib.import_module(module_name), attr)).parameters
+    except (ImportError, AttributeError, ValueError, TypeError):
+        return d, {}
+    rest, groups = dict(d), {}
+    for key, p in params.items():
+        if isinstance(p.default, OptionGroup):
+            given = {f.name: rest.pop(f.name) for f in fields(p.default) if f.name in rest}
+            groups[key] = replace(p.default, **given)
+    return rest, groups
+
+
 def check_constructor_args(d: dict, what: str, name: str) -> None:
     """Check a group's options against its ``_target_``'s constructor before building it.
 
@@ -257,9 +299,7 @@ def check_constructor_args(d: dict, what: str, name: str) -> None:
     (an unimportable target, container annotations) is left to the constructor.
     """
     try:
-        module_name, _, attr = str(d["_target_"]).rpartition(".")
-        target = getattr(importlib.import_module(module_name), attr)
-        params = inspect.signature(target).parameters
+        params = _target_parameters(str(d["_target_"]))
     except (ImportError, AttributeError, ValueError, TypeError):
         return  # Hydra reports an unknown target itself
     takes_kwargs = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
