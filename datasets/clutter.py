@@ -36,6 +36,7 @@ from catpose.datasets.bop import BOP
 from catpose.datasets.clutter_layout import YCBV_K, YCBV_OBJECTS, ClutterSpec, layout_scene
 from catpose.datasets.clutter_render import render_scene, write_scene
 from catpose.datasets.meshio import read_mesh
+from catpose.datasets.templates import TemplateOptions
 from catpose.errors import ConfigError, DatasetError
 
 #: bumped whenever generated files change for the same settings
@@ -182,9 +183,7 @@ class Clutter(BOP):
         scenes: list[int] | None = None,
         generate_missing: bool = True,
         categories: dict[int | str, str] | None = None,
-        templates: dict[str, list] | None = None,
-        templates_root: str | None = None,
-        symmetric: dict[str, list[float]] | None = None,
+        template: TemplateOptions = TemplateOptions(),
         mask: str = "mask_visib",
         min_visible_pixels: int = 50,
         plane_distance_mm: float = 10.0,
@@ -192,7 +191,6 @@ class Clutter(BOP):
         plane_max_points: int = 20000,
         normal_radius: float = 0.1,
         max_points: int = 2048,
-        template_points: int = 2048,
         seed: int = 0,
         min_visib_fract: float = 0.1,
     ) -> None:
@@ -231,9 +229,7 @@ class Clutter(BOP):
             split="test",
             scenes=self.wanted_scenes,
             categories=YCBV_CATEGORIES if categories is None else categories,
-            templates=templates,
-            templates_root=templates_root,
-            symmetric=symmetric,
+            template=template,
             mask=mask,
             min_visible_pixels=min_visible_pixels,
             plane_distance_mm=plane_distance_mm,
@@ -241,7 +237,6 @@ class Clutter(BOP):
             plane_max_points=plane_max_points,
             normal_radius=normal_radius,
             max_points=max_points,
-            template_points=template_points,
             seed=seed,
             min_visib_fract=min_visib_fract,
             targets=None,

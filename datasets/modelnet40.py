@@ -26,16 +26,10 @@ import numpy as np
 
 from catpose.datasets.alignment import check_alignment_coverage, read_alignment_table
 from catpose.datasets.dataset import ObjectDataset, Observation
-from catpose.datasets.meshio import R_template_file, TemplateSet, read_off, sampled_template
+from catpose.datasets.meshio import R_template_file, read_off, sampled_template
 from catpose.datasets.render import PinholeCamera, depth_to_points, render_depth
-from catpose.datasets.views import (
-    ImageOptions,
-    OptionGroup,
-    TemplateOptions,
-    ViewOptions,
-    kept_view,
-    view_observation,
-)
+from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.views import ImageOptions, OptionGroup, ViewOptions, kept_view, view_observation
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import apply_R, matmul3, normalize_to_unit_sphere, stable_seed
 from catpose.types import DepthImage, Template
@@ -147,13 +141,7 @@ class ModelNetBase(ObjectDataset):
         self.R_template_file = R_template_file(frame.up, frame.forward)
         self.symmetric = template.symmetry_axes()
         self.seed = int(seed)
-        self._templates = TemplateSet(
-            template.templates,
-            template.templates_root or self.root,
-            self.template_points,
-            self.seed,
-            instance_loader=self.instance_model,
-        )
+        self._templates = template.template_set(self.root, self.seed, self.instance_model)
         self._ids: list[str] | None = None
 
     def check_alignment_covers(self, wanted: dict[str, list[str]] | None = None) -> None:
@@ -201,7 +189,7 @@ class ModelNet40(ModelNetBase):
         view: viewpoints, depth noise, points kept (:class:`~catpose.datasets.views.ViewOptions`).
         image: image size, intrinsics, normal radius, ``min_points`` (:class:`~catpose.datasets.views.ImageOptions`).
         template: templates, their root, points per model, symmetric categories
-            (:class:`~catpose.datasets.views.TemplateOptions`).
+            (:class:`~catpose.datasets.templates.TemplateOptions`).
         template_split: the split that instance-id templates come from.
         frame: file axes, ``aligned`` and the alignment table (:class:`ShapeFrame`).
         seed: fixes every view.

@@ -25,7 +25,8 @@ import numpy as np
 
 from catpose.datasets.dataset import Observation
 from catpose.datasets.modelnet40 import ModelNetBase, ShapeFrame
-from catpose.datasets.views import TemplateOptions, ViewOptions, view_observation
+from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.views import ViewOptions, view_observation
 from catpose.errors import DatasetError
 from catpose.geometry import apply_R, invert_T, normalize_to_unit_sphere, stable_seed, transform_points
 from catpose.hpr import visible_indices
@@ -72,7 +73,7 @@ class ModelNet40Resampled(ModelNetBase):
         hpr_radius_factor: HPR spherical-flip radius over the farthest point's distance.
         template: templates (instance ids of ``template_split`` or meshes), their root, points of
             each complete model (0: all 10,000), symmetric categories
-            (:class:`~catpose.datasets.views.TemplateOptions`).
+            (:class:`~catpose.datasets.templates.TemplateOptions`).
         template_split: split of instance-id templates.
         frame: as for :class:`~catpose.datasets.modelnet40.ModelNet40`, but the resampled files are
             y-up with x negated relative to the OFF meshes (measured: Chamfer 0.04 between

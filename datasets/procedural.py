@@ -47,7 +47,8 @@ from pathlib import Path
 import numpy as np
 
 from catpose.datasets.modelnet40_resampled import RESAMPLED_FRAME, ModelNet40Resampled
-from catpose.datasets.views import TemplateOptions, ViewOptions
+from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.views import ViewOptions
 from catpose.errors import CatposeError, ConfigError, DatasetError
 
 #: bumped whenever the written files change for the same spec

@@ -97,29 +97,6 @@ class ImageOptions(OptionGroup):
         return pinhole_camera(self.width, self.height, fx, fy, self.cx, self.cy)
 
 
-@dataclass(frozen=True)
-class TemplateOptions(OptionGroup):
-    """The category templates and complete models a dataset registers to.
-
-    Attributes:
-        templates: category -> template entries (instance ids or mesh specs, see
-            :class:`~catpose.datasets.meshio.TemplateSet`).
-        templates_root: base folder of relative template mesh paths (None: the dataset's root).
-        template_points: points sampled on each complete model / template.
-        symmetric: category -> main axis (template frame) of rotationally symmetric categories
-            (scored by main-axis error).
-    """
-
-    templates: dict[str, list] | None = None
-    templates_root: str | None = None
-    template_points: int = 2048
-    symmetric: dict[str, list[float]] | None = None
-
-    def symmetry_axes(self) -> dict[str, np.ndarray]:
-        """category -> (3,) main axis, float64."""
-        return {k: np.asarray(v, float) for k, v in (self.symmetric or {}).items()}
-
-
 def pinhole_camera(
     width: int, height: int, fx: float, fy: float, cx: float | None = None, cy: float | None = None
 ) -> PinholeCamera:

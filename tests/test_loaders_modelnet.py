@@ -10,7 +10,8 @@ import pytest
 
 from catpose.datasets.modelnet40 import ModelNet40
 from catpose.datasets.modelnet40_resampled import ModelNet40Resampled
-from catpose.datasets.views import ImageOptions, TemplateOptions, ViewOptions
+from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.views import ImageOptions, ViewOptions
 from catpose.errors import DatasetError
 from catpose.geometry import invert_T, transform_points
 

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from catpose.datasets.procedural import Procedural, ProceduralSpec, build_root, main, procedural_root
-from catpose.datasets.views import TemplateOptions, ViewOptions
+from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.views import ViewOptions
 from catpose.errors import ConfigError, DatasetError
 
 

@@ -9,7 +9,7 @@ import pytest
 from catpose.bench.protocols.absolute import GtModel, Templates
 from catpose.bench.protocols.relative import Relative
 from catpose.datasets.modelnet40 import ModelNet40, ShapeFrame
-from catpose.datasets.views import TemplateOptions
+from catpose.datasets.templates import TemplateOptions
 from catpose.errors import ConfigError
 
 

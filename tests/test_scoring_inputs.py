@@ -329,7 +329,7 @@ def _box_dataset(root: Path, table: Path, categories=("box",)):
     from test_protocol_refusal import _box_off
 
     from catpose.datasets.modelnet40 import ModelNet40, ShapeFrame
-    from catpose.datasets.views import TemplateOptions
+    from catpose.datasets.templates import TemplateOptions
 
     for name in ("box_0001", "box_0002"):
         if not (root / f"box/train/{name}.off").exists():
