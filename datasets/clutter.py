@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from catpose import disk_cache
 from catpose.datasets.bop import BOP
 from catpose.datasets.clutter_layout import YCBV_K, YCBV_OBJECTS, ClutterSpec, layout_scene
 from catpose.datasets.clutter_render import render_scene, write_scene
@@ -44,12 +45,6 @@ GENERATOR_VERSION = "2"
 
 #: the YCB-Video categories (BOP obj_id -> category), as configs/dataset/ycbv.yaml
 YCBV_CATEGORIES = {1: "can", 4: "can", 5: "bottle", 6: "can", 9: "can", 12: "bottle", 13: "bowl", 14: "mug"}
-
-
-def default_cache_dir() -> Path:
-    """``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``."""
-    env = os.environ.get("CATPOSE_CACHE_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "catpose"
 
 
 def _model_files(models_root: Path, obj_ids: Sequence[int]) -> list[Path]:
@@ -71,7 +66,7 @@ def clutter_root(spec: ClutterSpec, models_root: Path, cache_dir: Path | None = 
     for f in _model_files(models_root, spec.obj_ids):
         h.update(f.name.encode())
         h.update(f.read_bytes())
-    return (cache_dir or default_cache_dir()) / "clutter" / f"clutter-{h.hexdigest()}"
+    return (cache_dir or disk_cache.cache_dir()) / "clutter" / f"clutter-{h.hexdigest()}"
 
 
 def scene_done(root: Path, scene_id: int) -> bool:

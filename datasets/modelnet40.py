@@ -105,12 +105,14 @@ class ShapeFrame(OptionGroup):
 class ModelNetBase(ObjectDataset):
     """What the two ModelNet40 releases share: root, split and instance selection, views per
     instance, the file-to-canonical rotation (file axes, then the optional per-instance alignment
-    table), templates and symmetric categories. Subclasses read their own file format."""
+    table), templates and symmetric categories. Subclasses read their own file format and say in
+    ``missing_root`` what their root holds."""
+
+    missing_root = "{root} is not a folder; set dataset.root"
 
     def __init__(
         self,
         root: str,
-        missing_root: str,
         split: str,
         instances_per_category: int | None,
         views_per_instance: int,
@@ -123,7 +125,7 @@ class ModelNetBase(ObjectDataset):
         _check_counts(views_per_instance=views_per_instance, instances_per_category=instances_per_category)
         self.root = Path(root)
         if not self.root.is_dir():
-            raise DatasetError(missing_root.format(root=self.root))
+            raise DatasetError(self.missing_root.format(root=self.root))
         self.split = str(split)
         self.instances_per_category = instances_per_category
         self.views_per_instance = int(views_per_instance)
@@ -176,6 +178,15 @@ class ModelNetBase(ObjectDataset):
     def category_templates(self, category: str) -> list[Template]:
         return self._templates.get(category)
 
+    @staticmethod
+    def parse(obs_id: str) -> tuple[str, str, str]:
+        """``(category, instance_id, view)`` of an observation id."""
+        try:
+            category, instance_id, view = obs_id.split("/")
+        except ValueError:
+            raise DatasetError(f"observation id {obs_id!r} is not <category>/<instance>/v<k>") from None
+        return category, instance_id, view
+
 
 class ModelNet40(ModelNetBase):
     """ModelNet40 OFF meshes and partial views rendered from them.
@@ -196,6 +207,9 @@ class ModelNet40(ModelNetBase):
     """
 
     name = "modelnet40"
+    missing_root = (
+        "ModelNet40 root {root} is not a folder; set dataset.root to the folder that holds <category>/<split>/*.off"
+    )
 
     def __init__(
         self,
@@ -212,17 +226,7 @@ class ModelNet40(ModelNetBase):
         seed: int = 0,
     ) -> None:
         super().__init__(
-            root,
-            "ModelNet40 root {root} is not a folder; set dataset.root to the folder that "
-            "holds <category>/<split>/*.off",
-            split,
-            instances_per_category,
-            views_per_instance,
-            view,
-            template,
-            template_split,
-            frame,
-            seed,
+            root, split, instances_per_category, views_per_instance, view, template, template_split, frame, seed
         )
         self.categories = (
             sorted(categories) if categories else sorted(p.name for p in self.root.iterdir() if p.is_dir())
@@ -301,10 +305,7 @@ class ModelNet40(ModelNetBase):
 
     # ------------------------------------------------------------------ views
     def observation(self, obs_id: str) -> Observation:
-        try:
-            category, instance_id, view = obs_id.split("/")
-        except ValueError:
-            raise DatasetError(f"observation id {obs_id!r} is not <category>/<instance>/v<k>") from None
+        category, instance_id, view = self.parse(obs_id)
         v, f = self.canonical_mesh(category, instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "modelnet40", obs_id))
         T_camera_object = self.sampler.sample(rng)

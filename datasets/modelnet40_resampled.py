@@ -84,6 +84,7 @@ class ModelNet40Resampled(ModelNetBase):
     """
 
     name = "modelnet40_resampled"
+    missing_root = "modelnet40_normal_resampled root {root} is not a folder; set dataset.root"
 
     def __init__(
         self,
@@ -100,16 +101,7 @@ class ModelNet40Resampled(ModelNetBase):
         seed: int = 0,
     ) -> None:
         super().__init__(
-            root,
-            "modelnet40_normal_resampled root {root} is not a folder; set dataset.root",
-            split,
-            instances_per_category,
-            views_per_instance,
-            view,
-            template,
-            template_split,
-            frame,
-            seed,
+            root, split, instances_per_category, views_per_instance, view, template, template_split, frame, seed
         )
         self.categories = list(categories) if categories else None
         self.hpr_radius_factor = float(hpr_radius_factor)
@@ -184,10 +176,7 @@ class ModelNet40Resampled(ModelNetBase):
 
     # ------------------------------------------------------------------ views
     def observation(self, obs_id: str) -> Observation:
-        try:
-            category, instance_id, view = obs_id.split("/")
-        except ValueError:
-            raise DatasetError(f"observation id {obs_id!r} is not <category>/<instance>/v<k>") from None
+        category, instance_id, view = self.parse(obs_id)
         pts, nrm = self.canonical_cloud(instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "modelnet40_resampled", obs_id))
         T_camera_object = self.sampler.sample(rng)

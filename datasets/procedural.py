@@ -38,7 +38,6 @@ import argparse
 import csv
 import hashlib
 import json
-import os
 import sys
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, replace
@@ -46,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
+from catpose import disk_cache
 from catpose.datasets.modelnet40_resampled import RESAMPLED_FRAME, ModelNet40Resampled
 from catpose.datasets.templates import TemplateOptions
 from catpose.datasets.views import ViewOptions
@@ -211,16 +211,10 @@ def build_root(root: str | Path, spec: ProceduralSpec) -> Path:
     return root
 
 
-def default_cache_dir() -> Path:
-    """``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``."""
-    env = os.environ.get("CATPOSE_CACHE_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "catpose"
-
-
 def procedural_root(spec: ProceduralSpec, cache_dir: str | Path | None = None) -> Path:
     """The cache folder of ``spec``: ``<cache_dir>/procedural/<category>-<hash of the spec>``."""
     h = hashlib.blake2b(json.dumps(spec.record(), sort_keys=True).encode(), digest_size=8).hexdigest()
-    return Path(cache_dir or default_cache_dir()) / "procedural" / f"{spec.category}-{h}"
+    return Path(cache_dir or disk_cache.cache_dir()) / "procedural" / f"{spec.category}-{h}"
 
 
 def kinds(alignment_csv: str | Path) -> dict[str, str]:
