@@ -9,7 +9,7 @@ by its entry in the optional alignment table (:mod:`catpose.datasets.alignment`;
 instances differ by multiples of 90 degrees of yaw), and normalised to the unit bounding sphere
 at its bounding-box centre: the object frame of every observation, in which translation errors
 are measured. Partial views are rendered with :mod:`catpose.datasets.render` from viewpoints of
-a :class:`~catpose.datasets.render.ViewSampler` with the synthetic set's knobs; the view of
+a :class:`~catpose.datasets.views.ViewOptions` with the synthetic set's knobs; the view of
 ``obs_id`` is a deterministic function of ``(seed, obs_id)``, made in the order every dataset
 uses: render, noise, subsample to ``max_points``, normals (as a method would estimate them from
 a downsampled scan).
@@ -130,7 +130,6 @@ class ModelNetBase(ObjectDataset):
         self.instances_per_category = instances_per_category
         self.views_per_instance = int(views_per_instance)
         self.view = view
-        self.sampler = view.sampler()
         self.template_points = int(template.template_points)
         self.template_split = str(template_split)
         self.aligned = bool(frame.aligned)
@@ -308,7 +307,7 @@ class ModelNet40(ModelNetBase):
         category, instance_id, view = self.parse(obs_id)
         v, f = self.canonical_mesh(category, instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "modelnet40", obs_id))
-        T_camera_object = self.sampler.sample(rng)
+        T_camera_object = self.view.sample(rng)
         points, normals, depth = render_partial_view(
             v,
             f,

@@ -10,7 +10,7 @@ Each cloud is rotated so that the configured ``up``/``forward`` axes become +z/+
 its optional alignment-table entry, and normalised to the unit bounding sphere at its
 bounding-box centre (the object frame; translation errors are in that unit). A partial view
 keeps the points visible from a camera drawn by the same
-:class:`~catpose.datasets.render.ViewSampler` as the rendered sets, found by Open3D's
+:class:`~catpose.datasets.views.ViewOptions` as the rendered sets, found by Open3D's
 ``hidden_point_removal`` (Katz et al. 2007); the file's normals are kept (rotated into the
 camera frame and flipped to face the camera where they do not).
 
@@ -179,7 +179,7 @@ class ModelNet40Resampled(ModelNetBase):
         category, instance_id, view = self.parse(obs_id)
         pts, nrm = self.canonical_cloud(instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "modelnet40_resampled", obs_id))
-        T_camera_object = self.sampler.sample(rng)
+        T_camera_object = self.view.sample(rng)
         T_object_camera = invert_T(T_camera_object)
         visible = visible_indices(pts, T_object_camera[:3, 3], self.hpr_radius_factor)
         if len(visible) < 10:

@@ -98,7 +98,6 @@ class SyntheticDataset(ObjectDataset):
         self.template_points = int(template_points)
         self.view, self.image = view, image
         self.camera = image.camera()
-        self.view_sampler = view.sampler()
         self.ground_normal_noise_deg = float(ground_normal_noise_deg)
         self.sensor = get_sensor(sensor)
         self._models: dict[tuple[str, str], Template] = {}
@@ -185,7 +184,7 @@ class SyntheticDataset(ObjectDataset):
         category, instance_id, view = self._parse(obs_id)
         model = self.instance_model(category, instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "synthetic", "view", obs_id))
-        T_camera_object = self.view_sampler.sample(rng)
+        T_camera_object = self.view.sample(rng)
         if self.sensor is not None:
             return self._sensor_observation(obs_id, category, view, model, T_camera_object, rng)
         depth = render_depth(model.vertices, model.triangles, T_camera_object, self.camera)

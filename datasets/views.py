@@ -19,9 +19,9 @@ import numpy as np
 
 from catpose import libm
 from catpose.datasets.dataset import Observation
-from catpose.datasets.render import PinholeCamera, ViewSampler, estimate_normals
+from catpose.datasets.render import PinholeCamera, estimate_normals
 from catpose.errors import ConfigError
-from catpose.geometry import invert_T
+from catpose.geometry import axis_angle_to_R, compose_T, invert_T, look_at_T_camera_world, make_T
 from catpose.types import DepthImage
 
 
@@ -31,10 +31,12 @@ class OptionGroup:
 
 @dataclass(frozen=True)
 class ViewOptions(OptionGroup):
-    """Where the camera is and what a view keeps.
+    """Where the camera is and what a view keeps: viewpoints around an object at the origin of its
+    canonical frame (z up), looking at the origin.
 
     Attributes:
-        distance: camera distance from the object centre (object-normalised unit).
+        distance: camera distance from the object centre (object-normalised unit; > 1, outside the
+            unit bounding sphere).
         elevation_min_deg, elevation_max_deg: camera elevation above the ground plane, degrees,
             drawn uniformly; azimuth is uniform in [0, 360).
         roll_max_deg: camera roll about its optical axis, uniform in [-roll, roll] degrees.
@@ -49,16 +51,30 @@ class ViewOptions(OptionGroup):
     depth_noise_std: float = 0.0
     max_points: int = 2048
 
-    def sampler(self) -> ViewSampler:
-        """The viewpoint distribution (checks the distance and the elevation range)."""
+    def __post_init__(self) -> None:
+        # checked once here, not discovered as every sample failing (issue 42, case 20)
         if self.distance <= 1.0:
             raise ConfigError(
                 f"dataset.distance={self.distance} puts the camera inside the unit bounding sphere; use a "
                 "distance > 1 (e.g. 3)"
             )
-        return ViewSampler(
-            float(self.distance), float(self.elevation_min_deg), float(self.elevation_max_deg), float(self.roll_max_deg)
-        )
+        if not 0.0 <= float(self.elevation_min_deg) <= float(self.elevation_max_deg) < 90.0:
+            raise ConfigError(
+                f"dataset.elevation_min_deg={self.elevation_min_deg} and dataset.elevation_max_deg="
+                f"{self.elevation_max_deg}: they must satisfy 0 <= elevation_min_deg <= elevation_max_deg < 90 "
+                "(degrees above the ground plane)"
+            )
+
+    def sample(self, rng: np.random.Generator) -> np.ndarray:
+        """Draw one viewpoint; returns ``T_camera_object`` (4, 4)."""
+        az = np.deg2rad(rng.uniform(0.0, 360.0))
+        el = np.deg2rad(rng.uniform(self.elevation_min_deg, self.elevation_max_deg))
+        roll = np.deg2rad(rng.uniform(-self.roll_max_deg, self.roll_max_deg)) if self.roll_max_deg > 0 else 0.0
+        eye = self.distance * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+        T = look_at_T_camera_world(eye, np.zeros(3), np.array([0.0, 0.0, 1.0]))
+        if roll:
+            T = compose_T(make_T(axis_angle_to_R(np.array([0.0, 0.0, 1.0]), roll), np.zeros(3)), T)
+        return T
 
 
 @dataclass(frozen=True)

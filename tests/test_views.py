@@ -3,11 +3,13 @@ keys reach them (bench/run/build.py)."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from catpose.bench.run.build import build_from_config
 from catpose.datasets.views import ImageOptions, ViewOptions
 from catpose.errors import ConfigError
+from catpose.geometry import invert_T
 
 
 def build(**keys):
@@ -26,8 +28,8 @@ def test_image_options_give_the_camera():
 
 def test_view_options_refuse_a_camera_inside_the_object():
     with pytest.raises(ConfigError, match="dataset.distance=0.5"):
-        ViewOptions(distance=0.5).sampler()
-    assert ViewOptions(distance=4.0).sampler().distance == 4.0
+        ViewOptions(distance=0.5)
+    assert ViewOptions(distance=4.0).sample(np.random.default_rng(0))[:3, 3] == pytest.approx([0.0, 0.0, 4.0])
 
 
 def test_flat_keys_fill_the_groups_over_the_constructor_default(tmp_path):
@@ -51,3 +53,18 @@ def test_a_key_no_group_takes_is_refused_and_a_bad_value_names_its_key(tmp_path)
         build(_target_=target, root=str(tmp_path), fx=300.0)  # no image: views by hidden point removal
     with pytest.raises(ConfigError, match=r"dataset.fx='abc' is not a float; set dataset.fx=<number>"):
         build(_target_="catpose.datasets.synthetic.SyntheticDataset", fx="abc")
+
+
+def test_view_options_look_at_the_object() -> None:
+    sampler = ViewOptions(distance=2.5, elevation_min_deg=10.0, elevation_max_deg=60.0, roll_max_deg=20.0)
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        T_camera_object = sampler.sample(rng)
+        R = T_camera_object[:3, :3]
+        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+        assert np.linalg.det(R) == pytest.approx(1.0)
+        # the object origin is on the optical axis at the sampled distance
+        np.testing.assert_allclose(T_camera_object[:3, 3], [0.0, 0.0, 2.5], atol=1e-12)
+        eye = invert_T(T_camera_object)[:3, 3]
+        elevation = np.rad2deg(np.arcsin(eye[2] / np.linalg.norm(eye)))
+        assert 10.0 - 1e-9 <= elevation <= 60.0 + 1e-9
