@@ -27,51 +27,12 @@ import numpy as np
 from catpose.datasets.alignment import check_alignment_coverage, read_alignment_table
 from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.datasets.meshio import R_template_file, read_off, sampled_template
-from catpose.datasets.render import PinholeCamera, depth_to_points, render_depth
+from catpose.datasets.render import depth_to_points, render_depth
 from catpose.datasets.templates import TemplateOptions
 from catpose.datasets.views import ImageOptions, OptionGroup, ViewOptions, kept_view, view_observation
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import apply_R, matmul3, normalize_to_unit_sphere, stable_seed
 from catpose.types import DepthImage, Template
-
-
-def render_partial_view(
-    vertices: np.ndarray,
-    triangles: np.ndarray,
-    T_camera_object: np.ndarray,
-    camera: PinholeCamera,
-    rng: np.random.Generator,
-    depth_noise_std: float,
-    normal_radius: float,
-    max_points: int,
-    what: str,
-    min_points: int = 10,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Render a mesh's depth, add Gaussian depth noise, back-project, subsample and estimate normals.
-
-    Args:
-        vertices: (V, 3) object frame, object-normalised unit; triangles: (F, 3).
-        T_camera_object: (4, 4) object pose in the camera frame.
-        depth_noise_std: standard deviation of the additive depth noise (object-normalised unit).
-        normal_radius: normal-estimation radius (object-normalised unit).
-        max_points: keep at most this many points (uniformly at random; 0 keeps all).
-        min_points: fewer visible points raise :class:`DatasetError`.
-        what: names the view in error messages.
-
-    Returns:
-        points (N, 3) and camera-facing unit normals (N, 3), camera frame, and the (H, W) depth
-        image they came from (object-normalised unit, 0 where the object is not).
-    """
-    depth = render_depth(vertices, triangles, T_camera_object, camera)
-    if depth_noise_std > 0:
-        hit = depth > 0
-        depth[hit] += rng.normal(0.0, depth_noise_std, size=int(hit.sum())).astype(depth.dtype)
-    points, _ = depth_to_points(depth, camera)
-    if len(points) < min_points:
-        raise DatasetError(
-            f"{what}: only {len(points)} pixels see the object; move the camera closer (distance) or enlarge the image"
-        )
-    return (*kept_view(points, max_points, normal_radius, rng), depth)
 
 
 def _check_counts(**counts: int | None) -> None:
@@ -304,22 +265,23 @@ class ModelNet40(ModelNetBase):
 
     # ------------------------------------------------------------------ views
     def observation(self, obs_id: str) -> Observation:
+        """Render view ``obs_id``: depth, Gaussian noise on the object's pixels, back-projection, then
+        the kept points and their normals (:func:`~catpose.datasets.views.kept_view`)."""
         category, instance_id, view = self.parse(obs_id)
         v, f = self.canonical_mesh(category, instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "modelnet40", obs_id))
         T_camera_object = self.view.sample(rng)
-        points, normals, depth = render_partial_view(
-            v,
-            f,
-            T_camera_object,
-            self.camera,
-            rng,
-            self.view.depth_noise_std,
-            self.image.normal_radius,
-            self.view.max_points,
-            f"ModelNet40 {obs_id}",
-            self.image.min_points,
-        )
+        depth = render_depth(v, f, T_camera_object, self.camera)
+        if self.view.depth_noise_std > 0:
+            hit = depth > 0
+            depth[hit] += rng.normal(0.0, self.view.depth_noise_std, size=int(hit.sum())).astype(depth.dtype)
+        points, _ = depth_to_points(depth, self.camera)
+        if len(points) < self.image.min_points:
+            raise DatasetError(
+                f"ModelNet40 {obs_id}: only {len(points)} pixels see the object; move the camera closer (distance) "
+                "or enlarge the image"
+            )
+        points, normals = kept_view(points, self.view.max_points, self.image.normal_radius, rng)
         return view_observation(
             obs_id,
             points,
