@@ -69,6 +69,15 @@ def clutter_root(spec: ClutterSpec, models_root: Path, cache_dir: Path | None = 
     return (cache_dir or disk_cache.cache_dir()) / "clutter" / f"clutter-{h.hexdigest()}"
 
 
+def scene_ids(spec: ClutterSpec, scenes: Sequence[int] | None) -> list[int]:
+    """The scene ids ``scenes`` (None: all ``spec.num_scenes``), each checked to be one of the set's."""
+    wanted = list(range(spec.num_scenes)) if scenes is None else [int(s) for s in scenes]
+    bad = [s for s in wanted if not 0 <= s < spec.num_scenes]
+    if bad:
+        raise ConfigError(f"dataset.scenes lists {bad[:5]}, outside 0..{spec.num_scenes - 1} (dataset.num_scenes)")
+    return wanted
+
+
 def scene_done(root: Path, scene_id: int) -> bool:
     return (root / "test" / f"{scene_id:06d}" / "scene_camera.json").is_file()
 
@@ -110,10 +119,7 @@ def generate(
 
     models_root = Path(models_root)
     root = clutter_root(spec, models_root, Path(cache_dir) if cache_dir else None)
-    wanted = list(range(spec.num_scenes)) if scenes is None else [int(s) for s in scenes]
-    bad = [s for s in wanted if not 0 <= s < spec.num_scenes]
-    if bad:
-        raise ConfigError(f"dataset.scenes lists {bad[:5]}, outside 0..{spec.num_scenes - 1} (dataset.num_scenes)")
+    wanted = scene_ids(spec, scenes)
     todo = [s for s in wanted if not scene_done(root, s)]
     prepare_root(spec, models_root, root)
     if not todo:
@@ -214,10 +220,7 @@ class Clutter(BOP):
         self.cache_dir = Path(cache_dir) if cache_dir else None
         self.generate_missing = bool(generate_missing)
         cache_root = clutter_root(spec, self.models_root, self.cache_dir)
-        self.wanted_scenes = list(range(spec.num_scenes)) if scenes is None else [int(s) for s in scenes]
-        bad = [s for s in self.wanted_scenes if not 0 <= s < spec.num_scenes]
-        if bad:
-            raise ConfigError(f"dataset.scenes lists {bad[:5]}, outside 0..{spec.num_scenes - 1} (dataset.num_scenes)")
+        self.wanted_scenes = scene_ids(spec, scenes)
         prepare_root(spec, self.models_root, cache_root)
         super().__init__(
             root=str(cache_root),

@@ -29,21 +29,10 @@ from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.datasets.meshio import R_template_file, read_off, sampled_template
 from catpose.datasets.render import depth_to_points, render_depth
 from catpose.datasets.templates import TemplateOptions
-from catpose.datasets.views import ImageOptions, OptionGroup, ViewOptions, kept_view, view_observation
-from catpose.errors import ConfigError, DatasetError
+from catpose.datasets.views import ImageOptions, OptionGroup, ViewOptions, check_counts, kept_view, view_observation
+from catpose.errors import DatasetError
 from catpose.geometry import apply_R, matmul3, normalize_to_unit_sphere, stable_seed
 from catpose.types import DepthImage, Template
-
-
-def _check_counts(**counts: int | None) -> None:
-    """One-line :class:`ConfigError` for a count below 1 (None means "all" and passes): with
-    ``views_per_instance=0`` there would be no sample, and the error would blame ``dataset.root``."""
-    for key, n in counts.items():
-        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
-            raise ConfigError(
-                f"dataset.{key}={n!r} must be an integer >= 1; set dataset.{key}=<N>"
-                + (" (or null for all)" if key == "instances_per_category" else "")
-            )
 
 
 @dataclass(frozen=True)
@@ -83,7 +72,7 @@ class ModelNetBase(ObjectDataset):
         frame: ShapeFrame,
         seed: int,
     ) -> None:
-        _check_counts(views_per_instance=views_per_instance, instances_per_category=instances_per_category)
+        check_counts(views_per_instance=views_per_instance, instances_per_category=instances_per_category)
         self.root = Path(root)
         if not self.root.is_dir():
             raise DatasetError(self.missing_root.format(root=self.root))

@@ -28,7 +28,7 @@ from catpose.datasets.meshio import sample_outer_surface
 from catpose.datasets.render import depth_to_points, render_depth
 from catpose.datasets.sensor import get_sensor
 from catpose.datasets.shapes import SHAPES, SYMMETRIC_CATEGORIES
-from catpose.datasets.views import ImageOptions, ViewOptions, kept_view, view_observation
+from catpose.datasets.views import ImageOptions, ViewOptions, check_counts, kept_view, view_observation
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import apply_R, axis_angle_to_R, dot3, stable_seed, unit3
 from catpose.types import DepthImage, Template
@@ -80,14 +80,12 @@ class SyntheticDataset(ObjectDataset):
             raise ConfigError(f"synthetic dataset: unknown categories {unknown}; valid: {sorted(SHAPES)}")
         if not cats:
             raise ConfigError(f"synthetic dataset: categories is empty; list at least one of {sorted(SHAPES)}")
-        for name, value in (
-            ("instances_per_category", instances_per_category),
-            ("views_per_instance", views_per_instance),
-            ("template_points", template_points),
-            ("max_points", view.max_points),
-        ):
-            if int(value) < 1:
-                raise ConfigError(f"synthetic dataset: {name}={value}; it must be a positive integer")
+        check_counts(
+            instances_per_category=instances_per_category,
+            views_per_instance=views_per_instance,
+            template_points=template_points,
+            max_points=view.max_points,
+        )
         if int(num_templates) < 0:
             raise ConfigError(f"synthetic dataset: num_templates={num_templates}; it must be >= 0")
         self.seed = int(seed)

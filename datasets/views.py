@@ -135,6 +135,17 @@ def pinhole_camera(
     )
 
 
+def check_counts(**counts: int | None) -> None:
+    """One-line :class:`ConfigError` for a count below 1 (None means "all" and passes): with
+    ``views_per_instance=0`` there would be no sample, and the error would blame ``dataset.root``."""
+    for key, n in counts.items():
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+            raise ConfigError(
+                f"dataset.{key}={n!r} must be an integer >= 1; set dataset.{key}=<N>"
+                + (" (or null for all)" if key == "instances_per_category" else "")
+            )
+
+
 def subsample(points: np.ndarray, max_points: int, rng: np.random.Generator) -> np.ndarray:
     """At most ``max_points`` of ``points`` (N, 3), a seeded subset in their order (0: all)."""
     if max_points and len(points) > max_points:
