@@ -25,11 +25,11 @@ from pathlib import Path
 import numpy as np
 
 from catpose.datasets.alignment import check_alignment_coverage, read_alignment_table
-from catpose.datasets.dataset import ObjectDataset, Observation
+from catpose.datasets.dataset import ObjectDataset, Observation, OptionGroup
 from catpose.datasets.meshio import R_template_file, read_off, sampled_template
 from catpose.datasets.render import depth_to_points, render_depth
 from catpose.datasets.templates import TemplateOptions
-from catpose.datasets.views import ImageOptions, OptionGroup, ViewOptions, check_counts, kept_view, view_observation
+from catpose.datasets.views import ImageOptions, ViewOptions, check_counts, kept_view, view_observation
 from catpose.errors import DatasetError
 from catpose.geometry import apply_R, matmul3, normalize_to_unit_sphere, stable_seed
 from catpose.types import DepthImage, Template

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from catpose.datasets.dataset import OptionGroup
 from catpose.datasets.meshio import MESH_SUFFIXES, load_template, template_spec_from_dict
-from catpose.datasets.views import OptionGroup
 from catpose.errors import DatasetError
 from catpose.types import Template
 

@@ -1,7 +1,7 @@
 """What the datasets that draw their own views share: their option groups and the observation
 they assemble.
 
-An option group is a frozen dataclass a dataset's constructor takes as one argument
+An option group (:class:`~catpose.datasets.dataset.OptionGroup`) is a frozen dataclass a dataset's constructor takes as one argument
 (``view: ViewOptions``) while its config gives the fields as flat keys of the group
 (``dataset.distance=4``): the builder (:func:`catpose.bench.run.build.build_from_config`) gathers
 the keys of every :class:`OptionGroup` argument into it, over the constructor's default. So the
@@ -18,15 +18,11 @@ from typing import Any
 import numpy as np
 
 from catpose import libm
-from catpose.datasets.dataset import Observation
+from catpose.datasets.dataset import Observation, OptionGroup
 from catpose.datasets.render import PinholeCamera, estimate_normals
 from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R, compose_T, invert_T, look_at_T_camera_world, make_T
 from catpose.types import DepthImage
-
-
-class OptionGroup:
-    """Base of the option dataclasses whose fields a config gives as flat keys of its group."""
 
 
 @dataclass(frozen=True)

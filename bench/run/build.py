@@ -5,7 +5,7 @@ Methods, datasets and protocols never see a config object; everything that reads
 through :func:`build_from_config`. Options are checked against the constructor's annotations
 before anything is built, so a wrong value is a one-line error that names its key
 (``method.optimiser.lr='abc' is not a float; set method.optimiser.lr=<number>``). A constructor
-argument whose default is an option group (:class:`catpose.datasets.views.OptionGroup`, e.g. a
+argument whose default is an option group (:class:`catpose.datasets.dataset.OptionGroup`, e.g. a
 dataset's ``view: ViewOptions``) takes the group's fields as flat keys (``dataset.distance=4``).
 """
 
@@ -255,10 +255,10 @@ def _accepts(kinds: set[str], value: Any) -> bool:
 
 def _option_groups(target_name: str) -> tuple[dict[str, inspect.Parameter], dict[str, Any]]:
     """A ``_target_``'s constructor parameters and its option groups: the parameters whose default is
-    a :class:`catpose.datasets.views.OptionGroup` (name -> that default), whose fields a config gives
+    a :class:`catpose.datasets.dataset.OptionGroup` (name -> that default), whose fields a config gives
     as flat keys of the group. Raises ImportError, AttributeError, ValueError or TypeError when the
     target cannot be read."""
-    from catpose.datasets.views import OptionGroup
+    from catpose.datasets.dataset import OptionGroup
 
     module_name, _, attr = target_name.rpartition(".")
     params = dict(inspect.signature(getattr(importlib.import_module(module_name), attr)).parameters)
