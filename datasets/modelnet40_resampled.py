@@ -26,7 +26,7 @@ import numpy as np
 from catpose.datasets.dataset import Observation
 from catpose.datasets.modelnet40 import ModelNetBase, ShapeFrame
 from catpose.datasets.templates import TemplateOptions
-from catpose.datasets.views import ViewOptions, view_observation
+from catpose.datasets.views import ViewOptions, subsample, view_observation
 from catpose.errors import DatasetError
 from catpose.geometry import apply_R, invert_T, normalize_to_unit_sphere, stable_seed, transform_points
 from catpose.hpr import visible_indices
@@ -160,11 +160,8 @@ class ModelNet40Resampled(ModelNetBase):
     def instance_model(self, category: str, instance_id: str) -> Template:
         if instance_id not in self._models:
             pts, nrm = self.canonical_cloud(instance_id)
-            n = self.template_points
-            if n and len(pts) > n:
-                rng = np.random.default_rng(stable_seed(self.seed, "resampled-model", instance_id))
-                keep = np.sort(rng.choice(len(pts), size=n, replace=False))
-                pts, nrm = pts[keep], nrm[keep]
+            rng = np.random.default_rng(stable_seed(self.seed, "resampled-model", instance_id))
+            pts, nrm = subsample(self.template_points, rng, pts, nrm)
             self._models[instance_id] = Template(
                 template_id=f"modelnet40_resampled/{instance_id}",
                 category=category,

@@ -40,6 +40,7 @@ from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.datasets.depthio import fit_ground_plane, read_depth_png
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals
 from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.views import subsample
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import dot3, stable_seed
 from catpose.types import DepthImage, Template
@@ -355,9 +356,7 @@ class Redwood(ObjectDataset):
         points = obj_m / scale
         normals = estimate_normals(points, self.normal_radius)
         rng = np.random.default_rng(stable_seed(self.seed, "redwood-points", obs_id))
-        if self.max_points and len(points) > self.max_points:
-            keep = np.sort(rng.choice(len(points), size=self.max_points, replace=False))
-            points, normals = points[keep], normals[keep]
+        points, normals = subsample(self.max_points, rng, points, normals)
         poses = self.poses(scan)
         if poses is not None and index not in poses:
             raise DatasetError(f"trajectory of scan {scan} has no pose for frame {index}")

@@ -142,11 +142,14 @@ def check_counts(**counts: int | None) -> None:
             )
 
 
-def subsample(points: np.ndarray, max_points: int, rng: np.random.Generator) -> np.ndarray:
-    """At most ``max_points`` of ``points`` (N, 3), a seeded subset in their order (0: all)."""
-    if max_points and len(points) > max_points:
-        return points[np.sort(rng.choice(len(points), size=max_points, replace=False))]
-    return points
+def subsample(max_points: int, rng: np.random.Generator, *arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """At most ``max_points`` rows of ``arrays`` (each (N, ...), the same rows of each): a seeded
+    subset in their order (0 or N <= ``max_points``: all, and ``rng`` is not drawn from)."""
+    n = len(arrays[0])
+    if max_points and n > max_points:
+        keep = np.sort(rng.choice(n, size=max_points, replace=False))
+        return tuple(a[keep] for a in arrays)
+    return arrays
 
 
 def kept_view(
@@ -155,7 +158,7 @@ def kept_view(
     """The points a view keeps (:func:`subsample`) and their normals, estimated from the kept points as a
     method would estimate them from a downsampled scan: the order every rendered dataset uses
     (render, noise, subsample, normals)."""
-    points = subsample(points, max_points, rng)
+    (points,) = subsample(max_points, rng, points)
     return points, estimate_normals(points, normal_radius)
 
 
