@@ -1,12 +1,13 @@
-"""What the datasets that draw their own views share: their option groups and the observation
-they assemble.
+"""What the datasets that draw their own views share: their option groups, the seeded subset of
+the points kept and the observation they assemble.
 
-An option group (:class:`~catpose.datasets.dataset.OptionGroup`) is a frozen dataclass a dataset's constructor takes as one argument
-(``view: ViewOptions``) while its config gives the fields as flat keys of the group
-(``dataset.distance=4``): the builder (:func:`catpose.bench.run.build.build_from_config`) gathers
-the keys of every :class:`OptionGroup` argument into it, over the constructor's default. So the
-views of ``synthetic``, ``modelnet40``, ``modelnet40_resampled`` and ``procedural`` are drawn
-from one set of knobs with one default each, and the templates of every loader are given alike.
+An option group (:class:`~catpose.datasets.dataset.OptionGroup`) is a frozen dataclass that a
+dataset's constructor takes as one argument (``view: ViewOptions``) while its config gives the
+fields as flat keys of the group (``dataset.distance=4``): the builder
+(:func:`catpose.bench.run.build.build_from_config`) gathers the keys of every option-group argument
+into it, over the constructor's default. So the views of ``synthetic``, ``modelnet40``,
+``modelnet40_resampled`` and ``procedural`` are drawn from one set of knobs with one default each
+(the templates' group: :class:`~catpose.datasets.templates.TemplateOptions`).
 """
 
 from __future__ import annotations
