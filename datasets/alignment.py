@@ -3,8 +3,7 @@
 Raw ModelNet40 instances are not consistently oriented (airplanes differ by multiples of 90
 degrees of yaw), so category-level ground truth needs a per-instance rotation
 ``R_canonical_raw`` that takes each instance's (normalised) raw frame into the category's
-canonical frame. This module reads and writes that table
-and estimates it.
+canonical frame. This module reads and writes that table and estimates it.
 
 :func:`estimate_table` searches the multiples of 90 degrees of yaw (optionally with an up-axis
 flip), refines every hypothesis by ICP, scores it by symmetric Chamfer against every other
@@ -28,7 +27,6 @@ instance, or holds a number that is not finite. ``bench align`` also writes ``fl
 from __future__ import annotations
 
 import csv
-import itertools
 from pathlib import Path
 
 import numpy as np
@@ -190,18 +188,6 @@ def write_alignment_table(path: str | Path, rows: list[dict]) -> None:
             )
 
 
-def axis_aligned_rotations() -> np.ndarray:
-    """The 24 proper rotations that map coordinate axes to coordinate axes, (24, 3, 3)."""
-    out = []
-    for perm in itertools.permutations(range(3)):
-        for signs in itertools.product((1.0, -1.0), repeat=3):
-            R = np.zeros((3, 3))
-            R[np.arange(3), perm] = signs
-            if dot3(np.cross(R[0], R[1]), R[2]) > 0:
-                out.append(R)
-    return np.stack(out)
-
-
 def yaw_rotations(n: int) -> np.ndarray:
     """``n`` rotations about +z by multiples of 360/n degrees, (n, 3, 3)."""
     return np.stack([axis_angle_to_R(np.array([0.0, 0.0, 1.0]), 2 * np.pi * k / n) for k in range(n)])
@@ -214,30 +200,6 @@ def chamfer_distance(a: np.ndarray, b: np.ndarray) -> float:
     return float(cKDTree(b).query(a)[0].mean() + cKDTree(a).query(b)[0].mean())
 
 
-def estimate_alignment(
-    reference: np.ndarray, points: np.ndarray, candidates: np.ndarray | None = None
-) -> tuple[np.ndarray, float]:
-    """The candidate rotation that best aligns ``points`` to ``reference``.
-
-    Both clouds (N, 3) are centred shapes in their normalised frames; returns
-    ``R_reference_points`` (3, 3) minimising ``chamfer(points @ R.T, reference)`` over
-    ``candidates`` (K, 3, 3; the 24 axis-aligned rotations by default) and that distance.
-    """
-    cands = axis_aligned_rotations() if candidates is None else np.asarray(candidates, float)
-    costs = [chamfer_distance(apply_R(R, points), reference) for R in cands]
-    k = int(np.argmin(costs))
-    return cands[k], float(costs[k])
-
-
-def rotation_candidates(kind: str) -> np.ndarray:
-    """``"24"`` (axis-aligned) or ``"yawN"`` (N yaw steps about +z, e.g. ``yaw4``, ``yaw36``)."""
-    if kind == "24":
-        return axis_aligned_rotations()
-    if kind.startswith("yaw") and kind[3:].isdigit() and int(kind[3:]) > 0:
-        return yaw_rotations(int(kind[3:]))
-    raise DatasetError(f"rotation search {kind!r} is not '24' or 'yaw<N>' (e.g. yaw4)")
-
-
 def yaw_deg_of(R: np.ndarray) -> float | None:
     """The yaw angle in degrees when ``R`` is a pure rotation about +z, else None."""
     if abs(R[2, 2] - 1.0) > 1e-6:
@@ -245,7 +207,6 @@ def yaw_deg_of(R: np.ndarray) -> float | None:
     return float(np.rad2deg(libm.arctan2(R[1, 0], R[0, 0])))
 
 
-# ---------------------------------------------------------------------------------------------
 # hypotheses, ICP refinement and the consensus estimate
 
 FLIP = np.diag([1.0, -1.0, -1.0])  # 180 deg about +x: the up axis turned over

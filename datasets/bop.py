@@ -37,7 +37,7 @@ from catpose.datasets.bop_frames import BopFrames
 from catpose.datasets.bop_layout import BopLayout, camera_K, gt_obj_id, read_json, read_targets, visible_fractions
 from catpose.datasets.bop_models import BopModels
 from catpose.datasets.dataset import ObjectDataset
-from catpose.datasets.meshio import TemplateSet
+from catpose.datasets.templates import TemplateOptions
 from catpose.errors import DatasetError
 from catpose.types import Template
 
@@ -51,9 +51,9 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         scenes: scene ids to use (None: all).
         categories: object id -> category name; objects not listed are skipped (None: every
             object, category ``obj_XXXXXX``).
-        templates: category -> template entries (mesh specs, or ``obj_XXXXXX`` to use a BOP model).
-        templates_root: base folder of relative template paths (None: ``root``).
-        symmetric: category -> main axis (object frame), overriding ``models_info.json``.
+        template: templates (mesh specs, or ``obj_XXXXXX`` to use a BOP model), their root,
+            points per model, and ``symmetric`` (category -> main axis, object frame), which
+            overrides ``models_info.json`` (:class:`~catpose.datasets.templates.TemplateOptions`).
         model_up, model_forward: the BOP model axes that become +z and +x.
         object_axes: object id -> ``{up, forward}`` per-object override of the model axes.
         mask: ``"auto"`` (mask_visib when present, else render), ``"mask_visib"`` or ``"render"``.
@@ -63,7 +63,6 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         plane_max_points: background points used by the fit (random subset).
         normal_radius: normal-estimation radius (object-normalised unit).
         max_points: points kept per view (0: all).
-        template_points: points sampled on each model / template.
         seed: fixes the random subsets.
         models_dir: ``models`` or ``models_eval``; depth_ext: ``.png`` or ``.tif`` (ITODD);
             sensor: multi-sensor layouts (``depth_<sensor>/``, ``scene_gt_<sensor>.json``, ...).
@@ -82,9 +81,7 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         split: str = "test",
         scenes: list[int] | None = None,
         categories: dict[int | str, str] | None = None,
-        templates: dict[str, list] | None = None,
-        templates_root: str | None = None,
-        symmetric: dict[str, list[float]] | None = None,
+        template: TemplateOptions = TemplateOptions(),
         model_up: str = "+z",
         model_forward: str = "+x",
         object_axes: dict[int | str, dict[str, str]] | None = None,
@@ -96,7 +93,6 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         plane_max_points: int = 20000,
         normal_radius: float = 0.1,
         max_points: int = 2048,
-        template_points: int = 2048,
         seed: int = 0,
         models_dir: str = "models",
         depth_ext: str = ".png",
@@ -118,7 +114,7 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         self.filters: list[str] = []
         self.scenes = None if scenes is None else {int(s) for s in scenes}
         self.categories = None if categories is None else {int(k): str(v) for k, v in categories.items()}
-        self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
+        self.symmetric = template.symmetry_axes()
         self.model_axes = (str(model_up), str(model_forward))
         self.object_axes = {
             int(k): (str(v.get("up", model_up)), str(v.get("forward", model_forward)))
@@ -132,11 +128,9 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         self.plane_max_points = int(plane_max_points)
         self.normal_radius = float(normal_radius)
         self.max_points = int(max_points)
-        self.template_points = int(template_points)
+        self.template_points = int(template.template_points)
         self.seed = int(seed)
-        self._templates = TemplateSet(
-            templates, templates_root or self.root, self.template_points, self.seed, instance_loader=self.instance_model
-        )
+        self._templates = template.template_set(self.root, self.seed, self.instance_model)
         self._json: dict[Path, Any] = {}
         self._models_mm: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._norm: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}

@@ -32,10 +32,12 @@ from pathlib import Path
 
 import numpy as np
 
+from catpose import disk_cache
 from catpose.datasets.bop import BOP
 from catpose.datasets.clutter_layout import YCBV_K, YCBV_OBJECTS, ClutterSpec, layout_scene
 from catpose.datasets.clutter_render import render_scene, write_scene
 from catpose.datasets.meshio import read_mesh
+from catpose.datasets.templates import TemplateOptions
 from catpose.errors import ConfigError, DatasetError
 
 #: bumped whenever generated files change for the same settings
@@ -43,12 +45,6 @@ GENERATOR_VERSION = "2"
 
 #: the YCB-Video categories (BOP obj_id -> category), as configs/dataset/ycbv.yaml
 YCBV_CATEGORIES = {1: "can", 4: "can", 5: "bottle", 6: "can", 9: "can", 12: "bottle", 13: "bowl", 14: "mug"}
-
-
-def default_cache_dir() -> Path:
-    """``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``."""
-    env = os.environ.get("CATPOSE_CACHE_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "catpose"
 
 
 def _model_files(models_root: Path, obj_ids: Sequence[int]) -> list[Path]:
@@ -70,7 +66,16 @@ def clutter_root(spec: ClutterSpec, models_root: Path, cache_dir: Path | None = 
     for f in _model_files(models_root, spec.obj_ids):
         h.update(f.name.encode())
         h.update(f.read_bytes())
-    return (cache_dir or default_cache_dir()) / "clutter" / f"clutter-{h.hexdigest()}"
+    return (cache_dir or disk_cache.cache_dir()) / "clutter" / f"clutter-{h.hexdigest()}"
+
+
+def scene_ids(spec: ClutterSpec, scenes: Sequence[int] | None) -> list[int]:
+    """The scene ids ``scenes`` (None: all ``spec.num_scenes``), each checked to be one of the set's."""
+    wanted = list(range(spec.num_scenes)) if scenes is None else [int(s) for s in scenes]
+    bad = [s for s in wanted if not 0 <= s < spec.num_scenes]
+    if bad:
+        raise ConfigError(f"dataset.scenes lists {bad[:5]}, outside 0..{spec.num_scenes - 1} (dataset.num_scenes)")
+    return wanted
 
 
 def scene_done(root: Path, scene_id: int) -> bool:
@@ -114,10 +119,7 @@ def generate(
 
     models_root = Path(models_root)
     root = clutter_root(spec, models_root, Path(cache_dir) if cache_dir else None)
-    wanted = list(range(spec.num_scenes)) if scenes is None else [int(s) for s in scenes]
-    bad = [s for s in wanted if not 0 <= s < spec.num_scenes]
-    if bad:
-        raise ConfigError(f"dataset.scenes lists {bad[:5]}, outside 0..{spec.num_scenes - 1} (dataset.num_scenes)")
+    wanted = scene_ids(spec, scenes)
     todo = [s for s in wanted if not scene_done(root, s)]
     prepare_root(spec, models_root, root)
     if not todo:
@@ -182,9 +184,7 @@ class Clutter(BOP):
         scenes: list[int] | None = None,
         generate_missing: bool = True,
         categories: dict[int | str, str] | None = None,
-        templates: dict[str, list] | None = None,
-        templates_root: str | None = None,
-        symmetric: dict[str, list[float]] | None = None,
+        template: TemplateOptions = TemplateOptions(),
         mask: str = "mask_visib",
         min_visible_pixels: int = 50,
         plane_distance_mm: float = 10.0,
@@ -192,7 +192,6 @@ class Clutter(BOP):
         plane_max_points: int = 20000,
         normal_radius: float = 0.1,
         max_points: int = 2048,
-        template_points: int = 2048,
         seed: int = 0,
         min_visib_fract: float = 0.1,
     ) -> None:
@@ -221,19 +220,14 @@ class Clutter(BOP):
         self.cache_dir = Path(cache_dir) if cache_dir else None
         self.generate_missing = bool(generate_missing)
         cache_root = clutter_root(spec, self.models_root, self.cache_dir)
-        self.wanted_scenes = list(range(spec.num_scenes)) if scenes is None else [int(s) for s in scenes]
-        bad = [s for s in self.wanted_scenes if not 0 <= s < spec.num_scenes]
-        if bad:
-            raise ConfigError(f"dataset.scenes lists {bad[:5]}, outside 0..{spec.num_scenes - 1} (dataset.num_scenes)")
+        self.wanted_scenes = scene_ids(spec, scenes)
         prepare_root(spec, self.models_root, cache_root)
         super().__init__(
             root=str(cache_root),
             split="test",
             scenes=self.wanted_scenes,
             categories=YCBV_CATEGORIES if categories is None else categories,
-            templates=templates,
-            templates_root=templates_root,
-            symmetric=symmetric,
+            template=template,
             mask=mask,
             min_visible_pixels=min_visible_pixels,
             plane_distance_mm=plane_distance_mm,
@@ -241,7 +235,6 @@ class Clutter(BOP):
             plane_max_points=plane_max_points,
             normal_radius=normal_radius,
             max_points=max_points,
-            template_points=template_points,
             seed=seed,
             min_visib_fract=min_visib_fract,
             targets=None,

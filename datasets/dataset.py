@@ -50,6 +50,11 @@ class Observation:
     depth_image: DepthImage | None = None
 
 
+class OptionGroup:
+    """Base of the option dataclasses a dataset's constructor takes as one argument and whose fields
+    a config gives as flat keys of its group (:mod:`catpose.datasets.views`)."""
+
+
 class ObjectDataset(ABC):
     """A set of observations plus the complete models and templates to register them to.
 

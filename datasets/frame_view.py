@@ -29,6 +29,7 @@ import numpy as np
 
 from catpose.datasets.depthio import fit_ground_plane
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals
+from catpose.datasets.views import subsample
 from catpose.depth_frame import DepthFrame
 from catpose.errors import InvalidInputError
 from catpose.geometry import stable_seed
@@ -122,9 +123,7 @@ def frame_view(
     else:
         ground, n_inliers = _ground(frame, camera, mask, exclude, settings, rng, source)
     normals = estimate_normals(points, settings.normal_radius)
-    if settings.max_points and len(points) > settings.max_points:
-        keep = np.sort(rng.choice(len(points), size=settings.max_points, replace=False))
-        points, normals = points[keep], normals[keep]
+    points, normals = subsample(settings.max_points, rng, points, normals)
     return FrameView(points, normals, ground, DepthImage(depth / scale, frame.K, mask), int(mask.sum()), n_inliers)
 
 

@@ -9,7 +9,7 @@ by its entry in the optional alignment table (:mod:`catpose.datasets.alignment`;
 instances differ by multiples of 90 degrees of yaw), and normalised to the unit bounding sphere
 at its bounding-box centre: the object frame of every observation, in which translation errors
 are measured. Partial views are rendered with :mod:`catpose.datasets.render` from viewpoints of
-a :class:`~catpose.datasets.render.ViewSampler` with the synthetic set's knobs; the view of
+a :class:`~catpose.datasets.views.ViewOptions` with the synthetic set's knobs; the view of
 ``obs_id`` is a deterministic function of ``(seed, obs_id)``, made in the order every dataset
 uses: render, noise, subsample to ``max_points``, normals (as a method would estimate them from
 a downsampled scan).
@@ -19,129 +19,80 @@ Observation ids: ``<category>/<instance_id>/v<k>``, e.g. ``airplane/airplane_000
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from catpose.datasets.alignment import check_alignment_coverage, read_alignment_table
-from catpose.datasets.dataset import ObjectDataset, Observation
-from catpose.datasets.meshio import R_template_file, TemplateSet, read_off, sampled_template
-from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
-from catpose.datasets.views import pinhole_camera
-from catpose.errors import ConfigError, DatasetError
-from catpose.geometry import apply_R, invert_T, matmul3, normalize_to_unit_sphere, stable_seed
+from catpose.datasets.dataset import ObjectDataset, Observation, OptionGroup
+from catpose.datasets.meshio import R_template_file, read_off, sampled_template
+from catpose.datasets.render import depth_to_points, render_depth
+from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.views import ImageOptions, ViewOptions, check_counts, kept_view, view_observation
+from catpose.errors import DatasetError
+from catpose.geometry import apply_R, matmul3, normalize_to_unit_sphere, stable_seed
 from catpose.types import DepthImage, Template
 
 
-def render_partial_view(
-    vertices: np.ndarray,
-    triangles: np.ndarray,
-    T_camera_object: np.ndarray,
-    camera: PinholeCamera,
-    rng: np.random.Generator,
-    depth_noise_std: float,
-    normal_radius: float,
-    max_points: int,
-    what: str,
-    min_points: int = 10,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Render a mesh's depth, add Gaussian depth noise, back-project, subsample and estimate normals.
+@dataclass(frozen=True)
+class ShapeFrame(OptionGroup):
+    """How a file's shape becomes the canonical object frame (z up, x forward).
 
-    Args:
-        vertices: (V, 3) object frame, object-normalised unit; triangles: (F, 3).
-        T_camera_object: (4, 4) object pose in the camera frame.
-        depth_noise_std: standard deviation of the additive depth noise (object-normalised unit).
-        normal_radius: normal-estimation radius (object-normalised unit).
-        max_points: keep at most this many points (uniformly at random; 0 keeps all).
-        min_points: fewer visible points raise :class:`DatasetError`.
-        what: names the view in error messages.
-
-    Returns:
-        points (N, 3) and camera-facing unit normals (N, 3), camera frame, and the (H, W) depth
-        image they came from (object-normalised unit, 0 where the object is not).
+    Attributes:
+        up, forward: the files' axes that become +z and +x.
+        aligned: the shapes are already consistently oriented (Sedaghat et al. release).
+        alignment_table: CSV of per-instance rotations (:mod:`catpose.datasets.alignment`;
+            ignored when ``aligned``).
     """
-    depth = render_depth(vertices, triangles, T_camera_object, camera)
-    if depth_noise_std > 0:
-        hit = depth > 0
-        depth[hit] += rng.normal(0.0, depth_noise_std, size=int(hit.sum())).astype(depth.dtype)
-    points, _ = depth_to_points(depth, camera)
-    if len(points) < min_points:
-        raise DatasetError(
-            f"{what}: only {len(points)} pixels see the object; move the camera closer (distance) or enlarge the image"
-        )
-    if max_points and len(points) > max_points:
-        keep = np.sort(rng.choice(len(points), size=max_points, replace=False))
-        points = points[keep]
-    return points, estimate_normals(points, normal_radius), depth
 
-
-def _check_counts(**counts: int | None) -> None:
-    """One-line :class:`ConfigError` for a count below 1 (None means "all" and passes): with
-    ``views_per_instance=0`` there would be no sample, and the error would blame ``dataset.root``."""
-    for key, n in counts.items():
-        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
-            raise ConfigError(
-                f"dataset.{key}={n!r} must be an integer >= 1; set dataset.{key}=<N>"
-                + (" (or null for all)" if key == "instances_per_category" else "")
-            )
+    up: str = "+z"
+    forward: str = "+x"
+    aligned: bool = False
+    alignment_table: str | None = None
 
 
 class ModelNetBase(ObjectDataset):
     """What the two ModelNet40 releases share: root, split and instance selection, views per
     instance, the file-to-canonical rotation (file axes, then the optional per-instance alignment
-    table), templates and symmetric categories. Subclasses read their own file format."""
+    table), templates and symmetric categories. Subclasses read their own file format and say in
+    ``missing_root`` what their root holds."""
 
-    def _init_common(
+    missing_root = "{root} is not a folder; set dataset.root"
+
+    def __init__(
         self,
         root: str,
-        missing_root: str,
         split: str,
         instances_per_category: int | None,
         views_per_instance: int,
-        distance: float,
-        elevation_min_deg: float,
-        elevation_max_deg: float,
-        roll_max_deg: float,
-        depth_noise_std: float,
-        max_points: int,
-        template_points: int,
-        templates: dict[str, list] | None,
+        view: ViewOptions,
+        template: TemplateOptions,
         template_split: str,
-        templates_root: str | None,
-        aligned: bool,
-        alignment_table: str | None,
-        up: str,
-        forward: str,
-        symmetric: dict[str, list[float]] | None,
+        frame: ShapeFrame,
         seed: int,
     ) -> None:
-        _check_counts(views_per_instance=views_per_instance, instances_per_category=instances_per_category)
+        check_counts(views_per_instance=views_per_instance, instances_per_category=instances_per_category)
         self.root = Path(root)
         if not self.root.is_dir():
-            raise DatasetError(missing_root.format(root=self.root))
+            raise DatasetError(self.missing_root.format(root=self.root))
         self.split = str(split)
         self.instances_per_category = instances_per_category
         self.views_per_instance = int(views_per_instance)
-        self.sampler = ViewSampler(
-            float(distance), float(elevation_min_deg), float(elevation_max_deg), float(roll_max_deg)
-        )
-        self.depth_noise_std = float(depth_noise_std)
-        self.max_points = int(max_points)
-        self.template_points = int(template_points)
+        self.view = view
+        self.template_points = int(template.template_points)
         self.template_split = str(template_split)
-        self.aligned = bool(aligned)
-        self.alignment_table = None if aligned or not alignment_table else str(alignment_table)
+        self.aligned = bool(frame.aligned)
+        self.alignment_table = None if frame.aligned or not frame.alignment_table else str(frame.alignment_table)
         self.alignment = {} if self.alignment_table is None else read_alignment_table(self.alignment_table)
         # raw ModelNet40 instances differ by multiples of 90 deg of yaw: consistent only when
         # aligned (Sedaghat et al. release) or given a per-instance alignment table that covers
         # every instance in use (check_alignment_covers, at the end of the subclass's __init__)
         self.frames_consistent = self.aligned or self.alignment_table is not None
-        self.R_template_file = R_template_file(up, forward)
-        self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
+        self.R_template_file = R_template_file(frame.up, frame.forward)
+        self.symmetric = template.symmetry_axes()
         self.seed = int(seed)
-        self._templates = TemplateSet(
-            templates, templates_root or self.root, self.template_points, self.seed, instance_loader=self.instance_model
-        )
+        self._templates = template.template_set(self.root, self.seed, self.instance_model)
         self._ids: list[str] | None = None
 
     def check_alignment_covers(self, wanted: dict[str, list[str]] | None = None) -> None:
@@ -176,6 +127,15 @@ class ModelNetBase(ObjectDataset):
     def category_templates(self, category: str) -> list[Template]:
         return self._templates.get(category)
 
+    @staticmethod
+    def parse(obs_id: str) -> tuple[str, str, str]:
+        """``(category, instance_id, view)`` of an observation id."""
+        try:
+            category, instance_id, view = obs_id.split("/")
+        except ValueError:
+            raise DatasetError(f"observation id {obs_id!r} is not <category>/<instance>/v<k>") from None
+        return category, instance_id, view
+
 
 class ModelNet40(ModelNetBase):
     """ModelNet40 OFF meshes and partial views rendered from them.
@@ -186,27 +146,19 @@ class ModelNet40(ModelNetBase):
         split: ``"train"`` or ``"test"``.
         instances_per_category: use only the first N instances of each category (None: all).
         views_per_instance: rendered views per instance.
-        width, height, fx, fy, cx, cy: pinhole camera (pixels; cx/cy None: the image centre).
-        distance: camera distance from the object centre (object-normalised unit).
-        elevation_min_deg, elevation_max_deg, roll_max_deg: viewpoint distribution
-            (:class:`~catpose.datasets.render.ViewSampler`).
-        depth_noise_std: Gaussian depth noise sigma (object-normalised unit).
-        normal_radius: normal-estimation radius (object-normalised unit).
-        max_points: points kept per view (0: all).
-        min_points: a view with fewer visible points raises :class:`DatasetError`.
-        template_points: points sampled on each complete model / template.
-        templates: category -> list of template entries (training instance ids or mesh specs,
-            see :class:`~catpose.datasets.meshio.TemplateSet`).
+        view: viewpoints, depth noise, points kept (:class:`~catpose.datasets.views.ViewOptions`).
+        image: image size, intrinsics, normal radius, ``min_points`` (:class:`~catpose.datasets.views.ImageOptions`).
+        template: templates, their root, points per model, symmetric categories
+            (:class:`~catpose.datasets.templates.TemplateOptions`).
         template_split: the split that instance-id templates come from.
-        templates_root: base folder of relative template mesh paths (None: ``root``).
-        aligned: the shapes are already consistently oriented (Sedaghat et al. release).
-        alignment_table: CSV of per-instance rotations (ignored when ``aligned``).
-        up, forward: the files' axes that become +z and +x (ModelNet40: +z, +x).
-        symmetric: category -> main axis (template frame) of rotationally symmetric categories.
+        frame: file axes, ``aligned`` and the alignment table (:class:`ShapeFrame`).
         seed: fixes every view.
     """
 
     name = "modelnet40"
+    missing_root = (
+        "ModelNet40 root {root} is not a folder; set dataset.root to the folder that holds <category>/<split>/*.off"
+    )
 
     def __init__(
         self,
@@ -215,61 +167,21 @@ class ModelNet40(ModelNetBase):
         split: str = "test",
         instances_per_category: int | None = None,
         views_per_instance: int = 5,
-        width: int = 320,
-        height: int = 240,
-        fx: float = 300.0,
-        fy: float = 300.0,
-        cx: float | None = None,
-        cy: float | None = None,
-        distance: float = 3.0,
-        elevation_min_deg: float = 10.0,
-        elevation_max_deg: float = 60.0,
-        roll_max_deg: float = 0.0,
-        depth_noise_std: float = 0.0,
-        normal_radius: float = 0.1,
-        max_points: int = 2048,
-        min_points: int = 50,
-        template_points: int = 2048,
-        templates: dict[str, list] | None = None,
+        view: ViewOptions = ViewOptions(),
+        image: ImageOptions = ImageOptions(),
+        template: TemplateOptions = TemplateOptions(),
         template_split: str = "train",
-        templates_root: str | None = None,
-        aligned: bool = False,
-        alignment_table: str | None = None,
-        up: str = "+z",
-        forward: str = "+x",
-        symmetric: dict[str, list[float]] | None = None,
+        frame: ShapeFrame = ShapeFrame(),
         seed: int = 0,
     ) -> None:
-        self._init_common(
-            root,
-            "ModelNet40 root {root} is not a folder; set dataset.root to the folder that "
-            "holds <category>/<split>/*.off",
-            split,
-            instances_per_category,
-            views_per_instance,
-            distance,
-            elevation_min_deg,
-            elevation_max_deg,
-            roll_max_deg,
-            depth_noise_std,
-            max_points,
-            template_points,
-            templates,
-            template_split,
-            templates_root,
-            aligned,
-            alignment_table,
-            up,
-            forward,
-            symmetric,
-            seed,
+        super().__init__(
+            root, split, instances_per_category, views_per_instance, view, template, template_split, frame, seed
         )
         self.categories = (
             sorted(categories) if categories else sorted(p.name for p in self.root.iterdir() if p.is_dir())
         )
-        self.camera = pinhole_camera(width, height, fx, fy, cx, cy)
-        self.normal_radius = float(normal_radius)
-        self.min_points = int(min_points)
+        self.image = image
+        self.camera = image.camera()
         self._meshes: dict[tuple[str, str, str], tuple[np.ndarray, np.ndarray]] = {}
         self._models: dict[tuple[str, str], Template] = {}
         self.check_alignment_covers()
@@ -342,38 +254,30 @@ class ModelNet40(ModelNetBase):
 
     # ------------------------------------------------------------------ views
     def observation(self, obs_id: str) -> Observation:
-        try:
-            category, instance_id, view = obs_id.split("/")
-        except ValueError:
-            raise DatasetError(f"observation id {obs_id!r} is not <category>/<instance>/v<k>") from None
+        """Render view ``obs_id``: depth, Gaussian noise on the object's pixels, back-projection, then
+        the kept points and their normals (:func:`~catpose.datasets.views.kept_view`)."""
+        category, instance_id, view = self.parse(obs_id)
         v, f = self.canonical_mesh(category, instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "modelnet40", obs_id))
-        T_camera_object = self.sampler.sample(rng)
-        points, normals, depth = render_partial_view(
-            v,
-            f,
+        T_camera_object = self.view.sample(rng)
+        depth = render_depth(v, f, T_camera_object, self.camera)
+        if self.view.depth_noise_std > 0:
+            hit = depth > 0
+            depth[hit] += rng.normal(0.0, self.view.depth_noise_std, size=int(hit.sum())).astype(depth.dtype)
+        points, _ = depth_to_points(depth, self.camera)
+        if len(points) < self.image.min_points:
+            raise DatasetError(
+                f"ModelNet40 {obs_id}: only {len(points)} pixels see the object; move the camera closer (distance) "
+                "or enlarge the image"
+            )
+        points, normals = kept_view(points, self.view.max_points, self.image.normal_radius, rng)
+        return view_observation(
+            obs_id,
+            points,
+            normals,
+            T_camera_object[:3, 2].copy(),
             T_camera_object,
-            self.camera,
-            rng,
-            self.depth_noise_std,
-            self.normal_radius,
-            self.max_points,
-            f"ModelNet40 {obs_id}",
-            self.min_points,
-        )
-        return Observation(
-            obs_id=obs_id,
-            category=category,
-            instance_id=instance_id,
-            points_camera=points,
-            normals_camera=normals,
-            ground_normal_camera=T_camera_object[:3, 2].copy(),
-            T_object_camera=invert_T(T_camera_object),
-            symmetry_axis=self.symmetric.get(category),
-            depth_image=DepthImage(depth, self.camera.K, depth > 0),
-            info={
-                "view": view,
-                "split": self.split,
-                "aligned": self.aligned or (category, instance_id) in self.alignment,
-            },
+            self.symmetric.get(category),
+            {"view": view, "split": self.split, "aligned": self.aligned or (category, instance_id) in self.alignment},
+            DepthImage(depth, self.camera.K, depth > 0),
         )

@@ -10,7 +10,7 @@ Each cloud is rotated so that the configured ``up``/``forward`` axes become +z/+
 its optional alignment-table entry, and normalised to the unit bounding sphere at its
 bounding-box centre (the object frame; translation errors are in that unit). A partial view
 keeps the points visible from a camera drawn by the same
-:class:`~catpose.datasets.render.ViewSampler` as the rendered sets, found by Open3D's
+:class:`~catpose.datasets.views.ViewOptions` as the rendered sets, found by Open3D's
 ``hidden_point_removal`` (Katz et al. 2007); the file's normals are kept (rotated into the
 camera frame and flipped to face the camera where they do not).
 
@@ -24,7 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from catpose.datasets.dataset import Observation
-from catpose.datasets.modelnet40 import ModelNetBase
+from catpose.datasets.modelnet40 import ModelNetBase, ShapeFrame
+from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.views import ViewOptions, subsample, view_observation
 from catpose.errors import DatasetError
 from catpose.geometry import apply_R, invert_T, normalize_to_unit_sphere, stable_seed, transform_points
 from catpose.hpr import visible_indices
@@ -53,6 +55,10 @@ def read_resampled_txt(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     return data[:, :3], normals / norms
 
 
+#: the resampled files' axes (y up, x negated w.r.t. the OFF meshes)
+RESAMPLED_FRAME = ShapeFrame(up="+y", forward="-x")
+
+
 class ModelNet40Resampled(ModelNetBase):
     """``modelnet40_normal_resampled`` clouds and their hidden-point-removal partial views.
 
@@ -62,24 +68,23 @@ class ModelNet40Resampled(ModelNetBase):
         split: ``"train"`` or ``"test"``.
         instances_per_category: use only the first N instances of each category (None: all).
         views_per_instance: partial views per instance.
-        distance, elevation_min_deg, elevation_max_deg, roll_max_deg: viewpoint distribution
-            (object-normalised unit, degrees), as for the rendered sets.
+        view: viewpoints, noise along the viewing rays and points kept, as for the rendered sets
+            (:class:`~catpose.datasets.views.ViewOptions`).
         hpr_radius_factor: HPR spherical-flip radius over the farthest point's distance.
-        depth_noise_std: Gaussian noise sigma along the viewing rays (object-normalised unit).
-        max_points: points kept per view (0: all).
-        template_points: points of each complete model (0: all 10,000).
-        templates: category -> template entries (instance ids of ``template_split`` or meshes).
+        template: templates (instance ids of ``template_split`` or meshes), their root, points of
+            each complete model (0: all 10,000), symmetric categories
+            (:class:`~catpose.datasets.templates.TemplateOptions`).
         template_split: split of instance-id templates.
-        templates_root: base folder of relative template mesh paths (None: ``root``).
-        up, forward: the files' axes that become +z and +x. The resampled files are y-up with
-            x negated relative to the OFF meshes (measured: Chamfer 0.04 between
+        frame: as for :class:`~catpose.datasets.modelnet40.ModelNet40`, but the resampled files are
+            y-up with x negated relative to the OFF meshes (measured: Chamfer 0.04 between
             airplane_0001.txt read with ``+y``/``-x`` and airplane_0001.off, 0.18-0.41 for the
-            other axis choices), so the defaults put both releases in the same object frame.
-        aligned, alignment_table, symmetric, seed: as for
-            :class:`~catpose.datasets.modelnet40.ModelNet40`.
+            other axis choices), so the default axes ``+y``/``-x`` put both releases in the same
+            object frame.
+        seed: fixes every view.
     """
 
     name = "modelnet40_resampled"
+    missing_root = "modelnet40_normal_resampled root {root} is not a folder; set dataset.root"
 
     def __init__(
         self,
@@ -88,46 +93,15 @@ class ModelNet40Resampled(ModelNetBase):
         split: str = "test",
         instances_per_category: int | None = None,
         views_per_instance: int = 5,
-        distance: float = 3.0,
-        elevation_min_deg: float = 10.0,
-        elevation_max_deg: float = 60.0,
-        roll_max_deg: float = 0.0,
+        view: ViewOptions = ViewOptions(),
         hpr_radius_factor: float = 100.0,
-        depth_noise_std: float = 0.0,
-        max_points: int = 2048,
-        template_points: int = 2048,
-        templates: dict[str, list] | None = None,
+        template: TemplateOptions = TemplateOptions(),
         template_split: str = "train",
-        templates_root: str | None = None,
-        aligned: bool = False,
-        alignment_table: str | None = None,
-        up: str = "+y",
-        forward: str = "-x",
-        symmetric: dict[str, list[float]] | None = None,
+        frame: ShapeFrame = RESAMPLED_FRAME,
         seed: int = 0,
     ) -> None:
-        self._init_common(
-            root,
-            "modelnet40_normal_resampled root {root} is not a folder; set dataset.root",
-            split,
-            instances_per_category,
-            views_per_instance,
-            distance,
-            elevation_min_deg,
-            elevation_max_deg,
-            roll_max_deg,
-            depth_noise_std,
-            max_points,
-            template_points,
-            templates,
-            template_split,
-            templates_root,
-            aligned,
-            alignment_table,
-            up,
-            forward,
-            symmetric,
-            seed,
+        super().__init__(
+            root, split, instances_per_category, views_per_instance, view, template, template_split, frame, seed
         )
         self.categories = list(categories) if categories else None
         self.hpr_radius_factor = float(hpr_radius_factor)
@@ -186,11 +160,8 @@ class ModelNet40Resampled(ModelNetBase):
     def instance_model(self, category: str, instance_id: str) -> Template:
         if instance_id not in self._models:
             pts, nrm = self.canonical_cloud(instance_id)
-            n = self.template_points
-            if n and len(pts) > n:
-                rng = np.random.default_rng(stable_seed(self.seed, "resampled-model", instance_id))
-                keep = np.sort(rng.choice(len(pts), size=n, replace=False))
-                pts, nrm = pts[keep], nrm[keep]
+            rng = np.random.default_rng(stable_seed(self.seed, "resampled-model", instance_id))
+            pts, nrm = subsample(self.template_points, rng, pts, nrm)
             self._models[instance_id] = Template(
                 template_id=f"modelnet40_resampled/{instance_id}",
                 category=category,
@@ -202,39 +173,29 @@ class ModelNet40Resampled(ModelNetBase):
 
     # ------------------------------------------------------------------ views
     def observation(self, obs_id: str) -> Observation:
-        try:
-            category, instance_id, view = obs_id.split("/")
-        except ValueError:
-            raise DatasetError(f"observation id {obs_id!r} is not <category>/<instance>/v<k>") from None
+        category, instance_id, view = self.parse(obs_id)
         pts, nrm = self.canonical_cloud(instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "modelnet40_resampled", obs_id))
-        T_camera_object = self.sampler.sample(rng)
+        T_camera_object = self.view.sample(rng)
         T_object_camera = invert_T(T_camera_object)
         visible = visible_indices(pts, T_object_camera[:3, 3], self.hpr_radius_factor)
         if len(visible) < 10:
             raise DatasetError(f"modelnet40_resampled {obs_id}: only {len(visible)} points are visible")
-        if self.max_points and len(visible) > self.max_points:
-            visible = np.sort(rng.choice(visible, size=self.max_points, replace=False))
+        if self.view.max_points and len(visible) > self.view.max_points:
+            visible = np.sort(rng.choice(visible, size=self.view.max_points, replace=False))
         points = transform_points(T_camera_object, pts[visible])
         normals = apply_R(T_camera_object[:3, :3], nrm[visible])
-        if self.depth_noise_std > 0:  # noise along the viewing ray, like a depth sensor's
+        if self.view.depth_noise_std > 0:  # noise along the viewing ray, like a depth sensor's
             rays = points / np.linalg.norm(points, axis=1, keepdims=True)
-            points = points + rays * rng.normal(0.0, self.depth_noise_std, size=(len(points), 1))
+            points = points + rays * rng.normal(0.0, self.view.depth_noise_std, size=(len(points), 1))
         flip = np.einsum("ij,ij->i", normals, points) > 0  # make them face the camera (origin)
         normals[flip] *= -1
-        return Observation(
-            obs_id=obs_id,
-            category=category,
-            instance_id=instance_id,
-            points_camera=points,
-            normals_camera=normals,
-            ground_normal_camera=T_camera_object[:3, 2].copy(),
-            T_object_camera=T_object_camera,
-            symmetry_axis=self.symmetric.get(category),
-            info={
-                "view": view,
-                "split": self.split,
-                "normals_flipped": int(flip.sum()),
-                "aligned": self.aligned or (category, instance_id) in self.alignment,
-            },
+        info = {
+            "view": view,
+            "split": self.split,
+            "normals_flipped": int(flip.sum()),
+            "aligned": self.aligned or (category, instance_id) in self.alignment,
+        }
+        return view_observation(
+            obs_id, points, normals, T_camera_object[:3, 2].copy(), T_camera_object, self.symmetric.get(category), info
         )

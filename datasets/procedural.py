@@ -38,15 +38,17 @@ import argparse
 import csv
 import hashlib
 import json
-import os
 import sys
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from catpose.datasets.modelnet40_resampled import ModelNet40Resampled
+from catpose import disk_cache
+from catpose.datasets.modelnet40_resampled import RESAMPLED_FRAME, ModelNet40Resampled
+from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.views import ViewOptions
 from catpose.errors import CatposeError, ConfigError, DatasetError
 
 #: bumped whenever the written files change for the same spec
@@ -209,16 +211,10 @@ def build_root(root: str | Path, spec: ProceduralSpec) -> Path:
     return root
 
 
-def default_cache_dir() -> Path:
-    """``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``."""
-    env = os.environ.get("CATPOSE_CACHE_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "catpose"
-
-
 def procedural_root(spec: ProceduralSpec, cache_dir: str | Path | None = None) -> Path:
     """The cache folder of ``spec``: ``<cache_dir>/procedural/<category>-<hash of the spec>``."""
     h = hashlib.blake2b(json.dumps(spec.record(), sort_keys=True).encode(), digest_size=8).hexdigest()
-    return Path(cache_dir or default_cache_dir()) / "procedural" / f"{spec.category}-{h}"
+    return Path(cache_dir or disk_cache.cache_dir()) / "procedural" / f"{spec.category}-{h}"
 
 
 def kinds(alignment_csv: str | Path) -> dict[str, str]:
@@ -240,13 +236,14 @@ class Procedural(ModelNet40Resampled):
         category: ``"chair"`` or ``"airplane"``: which generator draws the shapes.
         count: shapes drawn (ids ``<category>_8000`` ...).
         shape_seed: fixes every shape (the views are drawn by ``seed``).
-        templates: category -> template instance ids: drawn ones, or ids of ``template_root``
-            linked into the root (None: the first drawn shape).
         template_root: a ``modelnet40_normal_resampled`` folder that holds the templates that are not
             drawn shapes (``<category>/<id>.txt``).
         template_alignment: its alignment table, whose rows of the linked templates are copied
             (None: identity rows, right for the shared chairs, not for the shared airplanes).
         cache_dir: where the roots live (None: ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``).
+        template: ``templates`` maps the category to template instance ids: drawn ones, or ids of
+            ``template_root`` linked into the root (None: the first drawn shape); the rest as for
+            :class:`~catpose.datasets.modelnet40_resampled.ModelNet40Resampled`.
         Every other argument is :class:`~catpose.datasets.modelnet40_resampled.ModelNet40Resampled`'s.
     """
 
@@ -257,25 +254,19 @@ class Procedural(ModelNet40Resampled):
         category: str = "chair",
         count: int = 40,
         shape_seed: int = 0,
-        templates: dict[str, list] | None = None,
         template_root: str | None = None,
         template_alignment: str | None = None,
         cache_dir: str | None = None,
         instances_per_category: int | None = None,
         views_per_instance: int = 2,
-        distance: float = 3.0,
-        elevation_min_deg: float = 10.0,
-        elevation_max_deg: float = 60.0,
-        roll_max_deg: float = 0.0,
+        view: ViewOptions = ViewOptions(),
         hpr_radius_factor: float = 100.0,
-        depth_noise_std: float = 0.0,
-        max_points: int = 2048,
-        template_points: int = 2048,
-        symmetric: dict[str, list[float]] | None = None,
+        template: TemplateOptions = TemplateOptions(),
         seed: int = 0,
     ) -> None:
         category = str(category)
         drawn = shape_ids(category, int(count)) if category in CATEGORIES and int(count) > 0 else []
+        templates = template.templates
         templates = {category: drawn[:1]} if templates is None else {k: list(v) for k, v in templates.items()}
         other = [k for k in templates if k != category]
         if other:
@@ -297,18 +288,11 @@ class Procedural(ModelNet40Resampled):
             split="train",
             instances_per_category=instances_per_category,
             views_per_instance=views_per_instance,
-            distance=distance,
-            elevation_min_deg=elevation_min_deg,
-            elevation_max_deg=elevation_max_deg,
-            roll_max_deg=roll_max_deg,
+            view=view,
             hpr_radius_factor=hpr_radius_factor,
-            depth_noise_std=depth_noise_std,
-            max_points=max_points,
-            template_points=template_points,
-            templates=templates,
+            template=replace(template, templates=templates),
             template_split="train",
-            alignment_table=str(root / f"alignment_{category}.csv"),
-            symmetric=symmetric,
+            frame=replace(RESAMPLED_FRAME, alignment_table=str(root / f"alignment_{category}.csv")),
             seed=seed,
         )
 

@@ -38,8 +38,9 @@ import numpy as np
 
 from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.datasets.depthio import fit_ground_plane, read_depth_png
-from catpose.datasets.meshio import TemplateSet
 from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals
+from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.views import subsample
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import dot3, stable_seed
 from catpose.types import DepthImage, Template
@@ -119,10 +120,8 @@ class Redwood(ObjectDataset):
         object_size: object bounding radius in metres, or None to estimate it per scan.
         normal_radius: normal-estimation radius (object-normalised unit).
         max_points: points kept per view (0: all).
-        templates: category -> template mesh entries (see :class:`~catpose.datasets.meshio.TemplateSet`).
-        templates_root: base folder of relative template paths (None: ``root``).
-        template_points: points per template.
-        symmetric: category -> main axis (template frame) of symmetric categories.
+        template: template meshes, their root, points per template, symmetric categories
+            (:class:`~catpose.datasets.templates.TemplateOptions`).
         seed: fixes random subsets.
     """
 
@@ -154,10 +153,7 @@ class Redwood(ObjectDataset):
         object_size: float | None = None,
         normal_radius: float = 0.1,
         max_points: int = 2048,
-        templates: dict[str, list] | None = None,
-        templates_root: str | None = None,
-        template_points: int = 2048,
-        symmetric: dict[str, list[float]] | None = None,
+        template: TemplateOptions = TemplateOptions(),
         seed: int = 0,
     ) -> None:
         self.root = Path(root)
@@ -183,9 +179,9 @@ class Redwood(ObjectDataset):
         self.object_size = None if object_size is None else float(object_size)
         self.normal_radius = float(normal_radius)
         self.max_points = int(max_points)
-        self.symmetric = {k: np.asarray(v, float) for k, v in (symmetric or {}).items()}
+        self.symmetric = template.symmetry_axes()
         self.seed = int(seed)
-        self._templates = TemplateSet(templates, templates_root or self.root, template_points, self.seed)
+        self._templates = template.template_set(self.root, self.seed)
         self._ids: list[str] | None = None
         self._frames: dict[str, list[Path]] = {}
         self._poses: dict[str, dict[int, np.ndarray] | None] = {}
@@ -360,9 +356,7 @@ class Redwood(ObjectDataset):
         points = obj_m / scale
         normals = estimate_normals(points, self.normal_radius)
         rng = np.random.default_rng(stable_seed(self.seed, "redwood-points", obs_id))
-        if self.max_points and len(points) > self.max_points:
-            keep = np.sort(rng.choice(len(points), size=self.max_points, replace=False))
-            points, normals = points[keep], normals[keep]
+        points, normals = subsample(self.max_points, rng, points, normals)
         poses = self.poses(scan)
         if poses is not None and index not in poses:
             raise DatasetError(f"trajectory of scan {scan} has no pose for frame {index}")

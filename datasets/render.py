@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from catpose.errors import InvalidInputError
-from catpose.geometry import axis_angle_to_R, compose_T, look_at_T_camera_world, make_T, transform_points
+from catpose.geometry import transform_points
 from catpose.raycast import cast_rays  # noqa: F401  (catpose.datasets.render.cast_rays is its old home)
 
 
@@ -114,41 +114,3 @@ def estimate_normals(
     flip = np.einsum("ij,ij->i", normals, vp - points) < 0
     normals[flip] *= -1
     return normals
-
-
-@dataclass(frozen=True)
-class ViewSampler:
-    """Camera viewpoints around an object at the origin of its canonical frame (z up).
-
-    The camera sits at ``distance`` (object-normalised units) from the origin, at an azimuth
-    drawn uniformly in [0, 360) degrees and an elevation drawn uniformly in
-    [``elevation_min_deg``, ``elevation_max_deg``] above the ground plane, looking at the origin
-    with an optional roll about its optical axis drawn from [-``roll_max_deg``, ``roll_max_deg``].
-    """
-
-    distance: float = 3.0
-    elevation_min_deg: float = 10.0
-    elevation_max_deg: float = 60.0
-    roll_max_deg: float = 0.0
-
-    def __post_init__(self) -> None:
-        # checked once here, not discovered as every sample failing (issue 42, case 20)
-        if not 0.0 <= float(self.elevation_min_deg) <= float(self.elevation_max_deg) < 90.0:
-            from catpose.errors import ConfigError
-
-            raise ConfigError(
-                f"dataset.elevation_min_deg={self.elevation_min_deg} and dataset.elevation_max_deg="
-                f"{self.elevation_max_deg}: they must satisfy 0 <= elevation_min_deg <= elevation_max_deg < 90 "
-                "(degrees above the ground plane)"
-            )
-
-    def sample(self, rng: np.random.Generator) -> np.ndarray:
-        """Draw one viewpoint; returns ``T_camera_object`` (4, 4)."""
-        az = np.deg2rad(rng.uniform(0.0, 360.0))
-        el = np.deg2rad(rng.uniform(self.elevation_min_deg, self.elevation_max_deg))
-        roll = np.deg2rad(rng.uniform(-self.roll_max_deg, self.roll_max_deg)) if self.roll_max_deg > 0 else 0.0
-        eye = self.distance * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
-        T = look_at_T_camera_world(eye, np.zeros(3), np.array([0.0, 0.0, 1.0]))
-        if roll:
-            T = compose_T(make_T(axis_angle_to_R(np.array([0.0, 0.0, 1.0]), roll), np.zeros(3)), T)
-        return T

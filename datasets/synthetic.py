@@ -25,12 +25,12 @@ import numpy as np
 from catpose import libm
 from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.datasets.meshio import sample_outer_surface
-from catpose.datasets.render import ViewSampler, depth_to_points, estimate_normals, render_depth
+from catpose.datasets.render import depth_to_points, render_depth
 from catpose.datasets.sensor import get_sensor
 from catpose.datasets.shapes import SHAPES, SYMMETRIC_CATEGORIES
-from catpose.datasets.views import pinhole_camera
+from catpose.datasets.views import ImageOptions, ViewOptions, check_counts, kept_view, view_observation
 from catpose.errors import ConfigError, DatasetError
-from catpose.geometry import apply_R, axis_angle_to_R, dot3, invert_T, stable_seed, unit3
+from catpose.geometry import apply_R, axis_angle_to_R, dot3, stable_seed, unit3
 from catpose.types import DepthImage, Template
 
 DEFAULT_CATEGORIES = ("airplane", "chair", "car", "mug", "bottle", "bowl", "can", "plate")
@@ -46,20 +46,10 @@ class SyntheticDataset(ObjectDataset):
         views_per_instance: rendered views per instance (``v00``, ``v01``, ...).
         num_templates: category templates per category (other instances, ``t0``, ``t1``, ...).
         template_points: points in each complete cloud (instance models and templates).
-        width, height: image size in pixels.
-        fx, fy, cx, cy: pinhole intrinsics in pixels; ``cx``/``cy`` None means the image centre
-            (``(width - 1) / 2``, ``(height - 1) / 2``).
-        fov_deg: if set, the horizontal field of view in degrees; overrides ``fx`` and ``fy``
-            (square pixels).
-        distance: camera distance from the object centre (object-normalised unit).
-        elevation_min_deg, elevation_max_deg: camera elevation above the ground plane, degrees,
-            drawn uniformly; azimuth is uniform in [0, 360).
-        roll_max_deg: camera roll about its optical axis, uniform in [-roll, roll] degrees.
-        depth_noise_std: std of zero-mean Gaussian noise added to each valid depth pixel
-            (object-normalised unit; 0 for clean depth).
-        normal_radius: search radius for normal estimation (object-normalised unit).
-        max_points: keep at most this many observed points (seeded random subset).
-        min_points: fewer visible points than this raises :class:`DatasetError`.
+        view: viewpoints, depth noise and the points kept (:class:`~catpose.datasets.views.ViewOptions`;
+            ``distance`` must exceed 1, the unit bounding sphere).
+        image: image size, intrinsics, normal radius and ``min_points``
+            (:class:`~catpose.datasets.views.ImageOptions`).
         ground_normal_noise_deg: std of the angle (degrees) by which the reported ground normal
             is tilted about a random perpendicular axis (0: exact).
         sensor: ``none`` (default: clean depth as above), ``kinect`` or ``realsense``: render the
@@ -79,21 +69,8 @@ class SyntheticDataset(ObjectDataset):
         views_per_instance: int = 2,
         num_templates: int = 3,
         template_points: int = 2048,
-        width: int = 320,
-        height: int = 240,
-        fx: float = 300.0,
-        fy: float = 300.0,
-        cx: float | None = None,
-        cy: float | None = None,
-        fov_deg: float | None = None,
-        distance: float = 3.0,
-        elevation_min_deg: float = 10.0,
-        elevation_max_deg: float = 60.0,
-        roll_max_deg: float = 0.0,
-        depth_noise_std: float = 0.0,
-        normal_radius: float = 0.1,
-        max_points: int = 2048,
-        min_points: int = 50,
+        view: ViewOptions = ViewOptions(),
+        image: ImageOptions = ImageOptions(),
         ground_normal_noise_deg: float = 0.0,
         sensor: str | None = "none",
     ) -> None:
@@ -103,41 +80,22 @@ class SyntheticDataset(ObjectDataset):
             raise ConfigError(f"synthetic dataset: unknown categories {unknown}; valid: {sorted(SHAPES)}")
         if not cats:
             raise ConfigError(f"synthetic dataset: categories is empty; list at least one of {sorted(SHAPES)}")
-        for name, value in (
-            ("instances_per_category", instances_per_category),
-            ("views_per_instance", views_per_instance),
-            ("template_points", template_points),
-            ("max_points", max_points),
-            ("width", width),
-            ("height", height),
-        ):
-            if int(value) < 1:
-                raise ConfigError(f"synthetic dataset: {name}={value}; it must be a positive integer")
+        check_counts(
+            instances_per_category=instances_per_category,
+            views_per_instance=views_per_instance,
+            template_points=template_points,
+            max_points=view.max_points,
+        )
         if int(num_templates) < 0:
             raise ConfigError(f"synthetic dataset: num_templates={num_templates}; it must be >= 0")
-        if distance <= 1.0:
-            raise ConfigError(
-                f"synthetic dataset: distance={distance} puts the camera inside the unit "
-                "bounding sphere; use a distance > 1 (e.g. 3)"
-            )
-        if fov_deg is not None:
-            if not 0.0 < fov_deg < 180.0:
-                raise ConfigError(f"synthetic dataset: fov_deg={fov_deg}; use a value in (0, 180)")
-            fx = fy = 0.5 * width / libm.tan(np.deg2rad(fov_deg) / 2)
         self.seed = int(seed)
         self.categories = cats
         self.instances_per_category = int(instances_per_category)
         self.views_per_instance = int(views_per_instance)
         self.num_templates = int(num_templates)
         self.template_points = int(template_points)
-        self.camera = pinhole_camera(width, height, fx, fy, cx, cy)
-        self.view_sampler = ViewSampler(
-            float(distance), float(elevation_min_deg), float(elevation_max_deg), float(roll_max_deg)
-        )
-        self.depth_noise_std = float(depth_noise_std)
-        self.normal_radius = float(normal_radius)
-        self.max_points = int(max_points)
-        self.min_points = int(min_points)
+        self.view, self.image = view, image
+        self.camera = image.camera()
         self.ground_normal_noise_deg = float(ground_normal_noise_deg)
         self.sensor = get_sensor(sensor)
         self._models: dict[tuple[str, str], Template] = {}
@@ -224,50 +182,54 @@ class SyntheticDataset(ObjectDataset):
         category, instance_id, view = self._parse(obs_id)
         model = self.instance_model(category, instance_id)
         rng = np.random.default_rng(stable_seed(self.seed, "synthetic", "view", obs_id))
-        T_camera_object = self.view_sampler.sample(rng)
+        T_camera_object = self.view.sample(rng)
         if self.sensor is not None:
-            return self._sensor_observation(obs_id, category, instance_id, view, model, T_camera_object, rng)
+            return self._sensor_observation(obs_id, category, view, model, T_camera_object, rng)
         depth = render_depth(model.vertices, model.triangles, T_camera_object, self.camera)
-        if self.depth_noise_std > 0:
-            noise = rng.normal(0.0, self.depth_noise_std, size=depth.shape).astype(np.float32)
+        if self.view.depth_noise_std > 0:
+            noise = rng.normal(0.0, self.view.depth_noise_std, size=depth.shape).astype(np.float32)
             depth = np.where(depth > 0, depth + noise, 0.0).astype(np.float32)
         points, _ = depth_to_points(depth, self.camera)
         n_pixels = int(len(points))
-        if len(points) < self.min_points:
+        if len(points) < self.image.min_points:
             raise DatasetError(
                 f"synthetic observation {obs_id}: only {len(points)} points visible (need "
-                f"{self.min_points}); move the camera closer or enlarge the image"
+                f"{self.image.min_points}); move the camera closer or enlarge the image"
             )
-        if len(points) > self.max_points:
-            keep = np.sort(rng.choice(len(points), size=self.max_points, replace=False))
-            points = points[keep]
-        # normals from the kept points, as a method would estimate them from a downsampled scan
-        normals = estimate_normals(points, self.normal_radius)
+        ground = apply_R(T_camera_object[:3, :3], np.array([0.0, 0.0, 1.0]))
+        depth_image = DepthImage(depth, self.camera.K, depth > 0)
+        info = {"view": f"v{view:02d}", "n_depth_pixels": n_pixels}
+        return self._observation(obs_id, model, points, ground, T_camera_object, depth_image, info, rng)
 
-        R_camera_object = T_camera_object[:3, :3]
-        ground = apply_R(R_camera_object, np.array([0.0, 0.0, 1.0]))
+    def _observation(
+        self,
+        obs_id: str,
+        model: Template,
+        points: np.ndarray,
+        ground: np.ndarray,
+        T_camera_object: np.ndarray,
+        depth_image: DepthImage,
+        info: dict,
+        rng: np.random.Generator,
+        true_up: np.ndarray | None = None,
+    ) -> Observation:
+        """What both paths end with: subsample, normals, the reported ground normal's tilt (and,
+        given the object's ``true_up`` in the camera, the reported normal's angle to it)."""
+        points, normals = kept_view(points, self.view.max_points, self.image.normal_radius, rng)
         if self.ground_normal_noise_deg > 0:
             axis = np.cross(ground, rng.normal(size=3))
             angle = np.deg2rad(rng.normal(0.0, self.ground_normal_noise_deg))
             ground = apply_R(axis_angle_to_R(axis, angle), ground)
-        return Observation(
-            obs_id=obs_id,
-            category=category,
-            instance_id=instance_id,
-            points_camera=points,
-            normals_camera=normals,
-            ground_normal_camera=unit3(ground),
-            T_object_camera=invert_T(T_camera_object),
-            symmetry_axis=model.symmetry_axis,
-            depth_image=DepthImage(depth, self.camera.K, depth > 0),
-            info={"view": f"v{view:02d}", "n_depth_pixels": n_pixels},
+        if true_up is not None:
+            info["ground_vs_object_up_deg"] = float(np.degrees(libm.arccos(np.clip(dot3(ground, true_up), -1, 1))))
+        return view_observation(
+            obs_id, points, normals, unit3(ground), T_camera_object, model.symmetry_axis, info, depth_image
         )
 
     def _sensor_observation(
         self,
         obs_id: str,
         category: str,
-        instance_id: str,
         view: int,
         model: Template,
         T_camera_object: np.ndarray,
@@ -295,10 +257,10 @@ class SyntheticDataset(ObjectDataset):
         depth, mask = apply_sensor(depth_scene, true_mask, cam.fx, cam.fy, cam.cx, cam.cy, sensor, rng)
         points_m, _ = depth_to_points(depth, cam, mask)
         n_pixels = int(len(points_m))
-        if n_pixels < self.min_points:
+        if n_pixels < self.image.min_points:
             raise DatasetError(
                 f"synthetic observation {obs_id}: only {n_pixels} points measured with "
-                f"sensor={sensor.name} (need {self.min_points}); enlarge the image"
+                f"sensor={sensor.name} (need {self.image.min_points}); enlarge the image"
             )
         background_m, _ = depth_to_points(depth, cam, (depth > 0) & ~mask)
         if len(background_m) > 4000:  # the table is the dominant plane: a few thousand points fit it
@@ -309,35 +271,17 @@ class SyntheticDataset(ObjectDataset):
                 "to fit the ground plane; enlarge the image"
             )
         ground, _, _ = fit_ground_plane(background_m, 0.01, 300, stable_seed(self.seed, "synthetic", "plane", obs_id))
-        points = points_m / size
-        if len(points) > self.max_points:
-            keep = np.sort(rng.choice(len(points), size=self.max_points, replace=False))
-            points = points[keep]
-        normals = estimate_normals(points, self.normal_radius)
-        if self.ground_normal_noise_deg > 0:
-            axis = np.cross(ground, rng.normal(size=3))
-            angle = np.deg2rad(rng.normal(0.0, self.ground_normal_noise_deg))
-            ground = apply_R(axis_angle_to_R(axis, angle), ground)
         T_camera_object_unit = make_T(T_camera_object_m[:3, :3], T_camera_object_m[:3, 3] / size)
         true_up = apply_R(T_camera_object[:3, :3], np.array([0.0, 0.0, 1.0]))
-        return Observation(
-            obs_id=obs_id,
-            category=category,
-            instance_id=instance_id,
-            points_camera=points,
-            normals_camera=normals,
-            ground_normal_camera=unit3(ground),
-            T_object_camera=invert_T(T_camera_object_unit),
-            symmetry_axis=model.symmetry_axis,
-            depth_image=DepthImage(depth / size, cam.K, mask),
-            info={
-                "view": f"v{view:02d}",
-                "n_depth_pixels": n_pixels,
-                "sensor": sensor.name,
-                "scale_mm": 1000.0 * size,
-                "distance_m": distance_m,
-                "bleed_pixels": int((mask & ~true_mask).sum()),
-                "missing_fraction": float(1.0 - (depth[true_mask] > 0).mean()) if true_mask.any() else 0.0,
-                "ground_vs_object_up_deg": float(np.degrees(libm.arccos(np.clip(dot3(ground, true_up), -1, 1)))),
-            },
-        )
+        info = {
+            "view": f"v{view:02d}",
+            "n_depth_pixels": n_pixels,
+            "sensor": sensor.name,
+            "scale_mm": 1000.0 * size,
+            "distance_m": distance_m,
+            "bleed_pixels": int((mask & ~true_mask).sum()),
+            "missing_fraction": float(1.0 - (depth[true_mask] > 0).mean()) if true_mask.any() else 0.0,
+        }
+        depth_image = DepthImage(depth / size, cam.K, mask)
+        points = points_m / size
+        return self._observation(obs_id, model, points, ground, T_camera_object_unit, depth_image, info, rng, true_up)

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
+from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
+from catpose.datasets.views import ViewOptions
 from catpose.geometry import invert_T
 from catpose.types import RegistrationProblem, Template
 
@@ -42,7 +43,7 @@ def partial_problem(template: Template, seed: int) -> tuple[RegistrationProblem,
     """A rendered partial view of ``template``'s mesh at a seeded viewpoint; returns the problem
     and the true ``T_template_camera``."""
     rng = np.random.default_rng(seed)
-    T_camera_object = ViewSampler(distance=3.0).sample(rng)
+    T_camera_object = ViewOptions(distance=3.0).sample(rng)
     depth = render_depth(template.vertices, template.triangles, T_camera_object, CAMERA)
     pts, _ = depth_to_points(depth, CAMERA)
     nrm = estimate_normals(pts, radius=0.06)

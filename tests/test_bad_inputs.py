@@ -217,10 +217,11 @@ def test_missing_dataset_root_hint_is_a_working_override(tmp_path):
 )
 def test_bop_non_positive_focal_length_fails_when_indexing(tmp_path, cam_K, needle):
     from catpose.datasets.bop import BOP
+    from catpose.datasets.templates import TemplateOptions
 
     root = write_bop(tmp_path / "bop", cam_K=cam_K)
     with pytest.raises(DatasetError) as info:
-        BOP(str(root), categories={19: "basket"}, templates={}).observation_ids()
+        BOP(str(root), categories={19: "basket"}, template=TemplateOptions(templates={})).observation_ids()
     msg = one_line(info.value)
     assert needle in msg and "scene_camera.json" in msg and "fix cam_K" in msg
 
@@ -231,19 +232,21 @@ def test_bop_non_positive_focal_length_fails_when_indexing(tmp_path, cam_K, need
 )
 def test_bop_scene_gt_entry_without_obj_id_names_the_file(tmp_path, entry):
     from catpose.datasets.bop import BOP
+    from catpose.datasets.templates import TemplateOptions
 
     root = write_bop(tmp_path / "bop", gt_entry=entry)
     with pytest.raises(DatasetError) as info:
-        BOP(str(root), categories={19: "basket"}, templates={}).observation_ids()
+        BOP(str(root), categories={19: "basket"}, template=TemplateOptions(templates={})).observation_ids()
     msg = one_line(info.value)
     assert "scene_gt.json" in msg and "entry 0 of image 0 has no integer obj_id" in msg
 
 
 def test_bop_object_missing_from_models_info_warns_once(tmp_path):
     from catpose.datasets.bop import BOP
+    from catpose.datasets.templates import TemplateOptions
 
     root = write_bop(tmp_path / "bop", models_info={"7": {"diameter": 10.0}})
-    ds = BOP(str(root), categories={19: "basket"}, templates={})
+    ds = BOP(str(root), categories={19: "basket"}, template=TemplateOptions(templates={}))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         assert ds.symmetry_axis(19, "basket") is None

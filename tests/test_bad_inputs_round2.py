@@ -397,9 +397,10 @@ def test_case_20_a_bop_score_that_is_no_number_is_refused(tmp_path):
 
 def test_case_20_an_elevation_range_upside_down_is_refused():
     from catpose.datasets.synthetic import SyntheticDataset
+    from catpose.datasets.views import ViewOptions
 
     with pytest.raises(ConfigError, match=r"elevation_min_deg=60.*elevation_max_deg=10.*0 <= elevation_min_deg"):
-        SyntheticDataset(elevation_min_deg=60.0, elevation_max_deg=10.0)
+        SyntheticDataset(view=ViewOptions(elevation_min_deg=60.0, elevation_max_deg=10.0))
 
 
 def test_case_20_evaluate_of_a_zero_byte_run_json_is_refused(tmp_path, capsys):

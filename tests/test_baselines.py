@@ -20,8 +20,9 @@ def _easy_problem(seed: int, template: Template | None = None, view_seed: int | 
 
     Returns (problem, true T_template_camera)."""
     from catpose.datasets.meshio import sample_outer_surface
-    from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
+    from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
     from catpose.datasets.shapes import make_shape
+    from catpose.datasets.views import ViewOptions
 
     rng = np.random.default_rng(seed)
     mesh = make_shape("chair", rng)
@@ -31,7 +32,7 @@ def _easy_problem(seed: int, template: Template | None = None, view_seed: int | 
         template = Template(f"test/chair/{seed}", "chair", pts, nrm, V, F)
     cam = PinholeCamera(160, 120, 150.0, 150.0, 80.0, 60.0)
     view_rng = rng if view_seed is None else np.random.default_rng(view_seed)
-    T_camera_object = ViewSampler(distance=3.0).sample(view_rng)
+    T_camera_object = ViewOptions(distance=3.0).sample(view_rng)
     with np.errstate(over="ignore"):
         depth = render_depth(V, F, T_camera_object, cam)
     points, _ = depth_to_points(depth, cam)

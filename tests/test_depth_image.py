@@ -10,6 +10,7 @@ from catpose.bench.protocols import GtModel
 from catpose.bench.regress.golden import perturbed, read_golden, write_golden
 from catpose.datasets.render import PinholeCamera, depth_to_points
 from catpose.datasets.synthetic import SyntheticDataset
+from catpose.datasets.views import ViewOptions
 from catpose.errors import InvalidInputError
 from catpose.types import DepthImage
 
@@ -34,7 +35,12 @@ def test_bad_depth_images_are_refused_in_one_line(depth, mask, K_, needle):
 @pytest.mark.parametrize("sensor", ["none", "kinect"])
 def test_synthetic_views_carry_the_image_their_points_came_from(sensor):
     ds = SyntheticDataset(
-        seed=0, categories=["mug"], instances_per_category=1, views_per_instance=1, max_points=10**6, sensor=sensor
+        seed=0,
+        categories=["mug"],
+        instances_per_category=1,
+        views_per_instance=1,
+        view=ViewOptions(max_points=10**6),
+        sensor=sensor,
     )
     s = GtModel().load(ds, ds.observation_ids()[0])
     di = s.problem.depth_image

@@ -13,6 +13,7 @@ import pytest
 from catpose.datasets.bop import BOP
 from catpose.datasets.depthio import fit_ground_plane
 from catpose.datasets.render import PinholeCamera, render_depth
+from catpose.datasets.templates import TemplateOptions
 from catpose.errors import DatasetError
 from catpose.geometry import invert_T, look_at_T_camera_world, make_T, transform_points
 
@@ -153,7 +154,7 @@ def test_symmetry_from_models_info_and_category_override(bop_root):
     ds = BOP(str(bop_root), categories=CATS, max_points=500)
     np.testing.assert_allclose(ds.observation("can/000001/000000/1").symmetry_axis, [0, 0, 1])
     assert ds.instance_model("can", "obj_000002").symmetry_axis is not None
-    over = BOP(str(bop_root), categories=CATS, symmetric={"box": [1, 0, 0]})
+    over = BOP(str(bop_root), categories=CATS, template=TemplateOptions(symmetric={"box": [1, 0, 0]}))
     np.testing.assert_allclose(over.symmetry_axis(1, "box"), [1, 0, 0])
 
 
@@ -177,8 +178,9 @@ def test_templates_from_mesh_files_and_models(bop_root):
     ds = BOP(
         str(bop_root),
         categories=CATS,
-        template_points=200,
-        templates={"box": ["obj_000001", {"path": "models/obj_000002.ply", "up": "+z"}]},
+        template=TemplateOptions(
+            template_points=200, templates={"box": ["obj_000001", {"path": "models/obj_000002.ply", "up": "+z"}]}
+        ),
     )
     a, b = ds.category_templates("box")
     assert a.template_id == "bop/obj_000001" and b.template_id == "box/obj_000002"

@@ -10,6 +10,8 @@ import pytest
 
 from catpose.datasets.modelnet40 import ModelNet40
 from catpose.datasets.modelnet40_resampled import ModelNet40Resampled
+from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.views import ImageOptions, ViewOptions
 from catpose.errors import DatasetError
 from catpose.geometry import invert_T, transform_points
 
@@ -45,7 +47,12 @@ def modelnet_root(tmp_path) -> Path:
 
 
 def small(**kw) -> dict:
-    return dict(width=96, height=72, fx=90.0, fy=90.0, max_points=300, template_points=300, **kw)
+    small = dict(
+        image=ImageOptions(width=96, height=72, fx=90.0, fy=90.0),
+        view=ViewOptions(max_points=300),
+        template=TemplateOptions(template_points=300),
+    )
+    return {**small, **kw}
 
 
 def test_layout_split_and_category_selection(modelnet_root):
@@ -90,9 +97,9 @@ def test_templates_from_training_instances_and_instance_model(modelnet_root):
         str(modelnet_root),
         split="test",
         categories=["box"],
-        templates={"box": ["box_0001"]},
-        symmetric={"box": [0, 0, 1]},
-        **small(),
+        **small(
+            template=TemplateOptions(template_points=300, templates={"box": ["box_0001"]}, symmetric={"box": [0, 0, 1]})
+        ),
     )
     (t,) = ds.category_templates("box")
     assert t.template_id == "modelnet40/box_0001" and t.points.shape == (300, 3)
@@ -113,7 +120,7 @@ def test_a_malformed_off_fails_that_observation_only(modelnet_root):
 
 
 def test_too_small_a_view_raises(modelnet_root):
-    ds = ModelNet40(str(modelnet_root), split="train", distance=400.0, **small())
+    ds = ModelNet40(str(modelnet_root), split="train", **small(view=ViewOptions(max_points=300, distance=400.0)))
     with pytest.raises(DatasetError, match="pixels see the object"):
         ds.observation("box/box_0001/v00")
 
@@ -140,7 +147,11 @@ def resampled_root(tmp_path) -> Path:
 
 def test_resampled_views_are_visible_subsets_with_the_files_normals(resampled_root):
     ds = ModelNet40Resampled(
-        str(resampled_root), split="train", views_per_instance=2, max_points=400, templates={"box": ["box_0001"]}
+        str(resampled_root),
+        split="train",
+        views_per_instance=2,
+        view=ViewOptions(max_points=400),
+        template=TemplateOptions(templates={"box": ["box_0001"]}),
     )
     assert ds.observation_ids() == ["box/box_0001/v00", "box/box_0001/v01", "box/box_0002/v00", "box/box_0002/v01"]
     pts, nrm = ds.canonical_cloud("box_0001")
@@ -175,7 +186,9 @@ def test_shared_modelnet40_and_resampled_agree_on_the_object_frame(shared_data):
     off = ModelNet40(str(shared_data / "ModelNet40"), split="train", **small())
     obs = off.observation("airplane/airplane_0001/v00")
     assert len(obs.points_camera) == 300
-    res = ModelNet40Resampled(str(shared_data / "modelnet40_normal_resampled"), split="train", max_points=300)
+    res = ModelNet40Resampled(
+        str(shared_data / "modelnet40_normal_resampled"), split="train", view=ViewOptions(max_points=300)
+    )
     assert res.observation("chair/chair_0391/v00").points_camera.shape == (300, 3)
     a = off.instance_model("airplane", "airplane_0001").points
     b = res.instance_model("airplane", "airplane_0001").points

@@ -10,6 +10,7 @@ import pytest
 
 from catpose.datasets.redwood import Redwood, read_log_trajectory, write_log_trajectory
 from catpose.datasets.render import PinholeCamera, render_depth
+from catpose.datasets.templates import TemplateOptions
 from catpose.errors import DatasetError
 from catpose.geometry import invert_T, look_at_T_camera_world, transform_points
 
@@ -142,8 +143,10 @@ def test_shared_redwood_chair_frames(shared_data):
     ds = Redwood(
         str(shared_data / "redwood"),
         max_points=1000,
-        templates={"chair": [{"path": "../shapenet/chair/models/model_normalized.obj", "up": "+y"}]},
-        template_points=256,
+        template=TemplateOptions(
+            templates={"chair": [{"path": "../shapenet/chair/models/model_normalized.obj", "up": "+y"}]},
+            template_points=256,
+        ),
     )
     ids = ds.observation_ids()
     assert ids == ["chair/chair_00286/0000", "chair/chair_00286/0001", "chair/chair_00286/0002"]

@@ -9,13 +9,13 @@ import pytest
 
 from catpose.datasets.meshio import (
     R_template_file,
-    TemplateSet,
     TemplateSpec,
     load_template,
     read_mesh,
     read_off,
     sample_outer_surface,
 )
+from catpose.datasets.templates import TemplateSet
 from catpose.errors import DatasetError
 
 # an asymmetric box: 4 x 2 x 1 (x, y, z), corner at the origin

@@ -33,6 +33,7 @@ from catpose.bench.protocols.absolute import GtModel
 from catpose.datasets.render import cast_rays
 from catpose.datasets.shapes import make_shape
 from catpose.datasets.synthetic import SyntheticDataset
+from catpose.datasets.views import ImageOptions, ViewOptions
 
 def digest(*arrays):
     h = hashlib.sha1()
@@ -42,14 +43,15 @@ def digest(*arrays):
 
 out = {"kernel": numpy_blas_kernel()}
 proto = GtModel()
-plain = SyntheticDataset(seed=3, instances_per_category=1, views_per_instance=1, max_points=500, template_points=500,
-                         ground_normal_noise_deg=2.0)
+plain = SyntheticDataset(seed=3, instances_per_category=1, views_per_instance=1, view=ViewOptions(max_points=500),
+                         template_points=500, ground_normal_noise_deg=2.0)
 for sid in proto.sample_ids(plain):
     s = proto.load(plain, sid)
     out[sid] = digest(s.problem.points_camera, s.problem.normals_camera, s.problem.ground_normal_camera,
                       s.problem.template.points, s.problem.template.normals, s.gt.T_template_camera)
 sensor = SyntheticDataset(seed=5, categories=["mug", "chair"], instances_per_category=1, views_per_instance=1,
-                          max_points=500, template_points=500, sensor="kinect", width=320, height=240, fx=290.0, fy=290.0)
+                          view=ViewOptions(max_points=500), template_points=500, sensor="kinect",
+                          image=ImageOptions(width=320, height=240, fx=290.0, fy=290.0))
 for sid in proto.sample_ids(sensor):
     s = proto.load(sensor, sid)
     out["kinect/" + sid] = digest(s.problem.points_camera, s.problem.normals_camera, s.problem.ground_normal_camera,

@@ -23,8 +23,9 @@ def _rendered_chair(seed: int) -> tuple[RegistrationProblem, np.ndarray, float]:
     """A procedural chair rendered at a known pose, against its own complete model: (problem,
     true ``T_template_camera``, the template's diameter)."""
     from catpose.datasets.meshio import sample_outer_surface
-    from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
+    from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
     from catpose.datasets.shapes import make_shape
+    from catpose.datasets.views import ViewOptions
 
     rng = np.random.default_rng(seed)
     mesh = make_shape("chair", rng)
@@ -32,7 +33,7 @@ def _rendered_chair(seed: int) -> tuple[RegistrationProblem, np.ndarray, float]:
     pts, nrm = sample_outer_surface(V, F, 1500, rng)
     template = Template(f"test/ppf-chair/{seed}", "chair", pts, nrm, V, F)
     cam = PinholeCamera(160, 120, 150.0, 150.0, 80.0, 60.0)
-    T_camera_object = ViewSampler(distance=3.0).sample(rng)
+    T_camera_object = ViewOptions(distance=3.0).sample(rng)
     with np.errstate(over="ignore"):
         depth = render_depth(V, F, T_camera_object, cam)
     points, _ = depth_to_points(depth, cam)

@@ -5,6 +5,7 @@ by ``catpose.datasets.procedural.kinds``)."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,7 @@ def build(root: Path, count: int, seed: int, **templates) -> Path:
 
 
 def test_a_root_the_loader_reads_with_linked_templates(tmp_path):
-    from catpose.datasets.modelnet40_resampled import ModelNet40Resampled, read_resampled_txt
+    from catpose.datasets.modelnet40_resampled import RESAMPLED_FRAME, ModelNet40Resampled, read_resampled_txt
 
     shared = tmp_path / "shared"
     build(tmp_path / "planes", 1, 0)  # a stand-in for the shared airplane_0536
@@ -45,7 +46,7 @@ def test_a_root_the_loader_reads_with_linked_templates(tmp_path):
         categories=["airplane"],
         split="train",
         views_per_instance=1,
-        alignment_table=str(root / "alignment_airplane.csv"),
+        frame=replace(RESAMPLED_FRAME, alignment_table=str(root / "alignment_airplane.csv")),
     )
     assert len(ds.observation_ids()) == 3
 

@@ -4,6 +4,7 @@ towards +z), so their identity alignment rows are right."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,7 @@ def build(root: Path, count: int, seed: int) -> Path:
 
 
 def test_a_root_the_loader_reads(tmp_path):
-    from catpose.datasets.modelnet40_resampled import ModelNet40Resampled, read_resampled_txt
+    from catpose.datasets.modelnet40_resampled import RESAMPLED_FRAME, ModelNet40Resampled, read_resampled_txt
 
     build(tmp_path / "root", 3, 0)
     root = tmp_path / "root"
@@ -33,7 +34,7 @@ def test_a_root_the_loader_reads(tmp_path):
         categories=["chair"],
         split="train",
         views_per_instance=1,
-        alignment_table=str(root / "alignment_chair.csv"),
+        frame=replace(RESAMPLED_FRAME, alignment_table=str(root / "alignment_chair.csv")),
     )
     assert len(ds.observation_ids()) == 3
 

@@ -5,12 +5,15 @@ as ``modelnet40_resampled`` reading the root that ``python -m catpose.datasets.p
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from catpose.datasets.procedural import Procedural, ProceduralSpec, build_root, main, procedural_root
+from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.views import ViewOptions
 from catpose.errors import ConfigError, DatasetError
 
 
@@ -43,7 +46,12 @@ def test_the_config_composes_and_builds_the_dataset(cache):
 def test_every_observation_loads_and_views_are_deterministic(cache):
     def airplanes(seed: int = 0) -> Procedural:
         return Procedural(
-            category="airplane", count=2, views_per_instance=1, max_points=500, cache_dir=str(cache), seed=seed
+            category="airplane",
+            count=2,
+            views_per_instance=1,
+            view=ViewOptions(max_points=500),
+            cache_dir=str(cache),
+            seed=seed,
         )
 
     ds, again = airplanes(), airplanes()
@@ -104,7 +112,7 @@ def test_a_failed_build_leaves_nothing(cache, monkeypatch):
 def test_the_dataset_is_the_resampled_loader_on_the_written_root(tmp_path, cache):
     """The experiments' roots (written outside a run, read by dataset=modelnet40_resampled) and
     dataset=procedural give the same views of the same shapes, linked templates included."""
-    from catpose.datasets.modelnet40_resampled import ModelNet40Resampled
+    from catpose.datasets.modelnet40_resampled import RESAMPLED_FRAME, ModelNet40Resampled
 
     shared = tmp_path / "shared"
     build_root(tmp_path / "planes", ProceduralSpec(category="chair", count=1, shape_seed=7))
@@ -117,13 +125,13 @@ def test_the_dataset_is_the_resampled_loader_on_the_written_root(tmp_path, cache
         categories=["chair"],
         split="train",
         views_per_instance=1,
-        templates={"chair": ["chair_0391"]},
-        alignment_table=str(tmp_path / "root" / "alignment_chair.csv"),
+        template=TemplateOptions(templates={"chair": ["chair_0391"]}),
+        frame=replace(RESAMPLED_FRAME, alignment_table=str(tmp_path / "root" / "alignment_chair.csv")),
     )
     ds = Procedural(
         category="chair",
         count=2,
-        templates={"chair": ["chair_0391"]},
+        template=TemplateOptions(templates={"chair": ["chair_0391"]}),
         template_root=str(shared),
         views_per_instance=1,
         cache_dir=str(cache),
@@ -143,8 +151,13 @@ def test_bad_settings_are_one_line_errors(tmp_path, cache, capsys):
     with pytest.raises(ConfigError, match="dataset.count"):
         Procedural(count=0, cache_dir=str(cache))
     with pytest.raises(ConfigError, match="dataset.template_root"):
-        Procedural(templates={"chair": ["chair_0391"]}, count=1, cache_dir=str(cache))
+        Procedural(template=TemplateOptions(templates={"chair": ["chair_0391"]}), count=1, cache_dir=str(cache))
     with pytest.raises(DatasetError, match="does not exist"):
-        Procedural(templates={"chair": ["chair_0391"]}, template_root=str(tmp_path), count=1, cache_dir=str(cache))
+        Procedural(
+            template=TemplateOptions(templates={"chair": ["chair_0391"]}),
+            template_root=str(tmp_path),
+            count=1,
+            cache_dir=str(cache),
+        )
     assert main([str(tmp_path / "r"), "--category", "chair", "--count", "0"]) == 2
     assert "error: dataset.count" in capsys.readouterr().err

@@ -8,7 +8,8 @@ import pytest
 
 from catpose.bench.protocols.absolute import GtModel, Templates
 from catpose.bench.protocols.relative import Relative
-from catpose.datasets.modelnet40 import ModelNet40
+from catpose.datasets.modelnet40 import ModelNet40, ShapeFrame
+from catpose.datasets.templates import TemplateOptions
 from catpose.errors import ConfigError
 
 
@@ -40,9 +41,8 @@ def _dataset(root: Path, **kw) -> ModelNet40:
         categories=["box"],
         split="train",
         views_per_instance=1,
-        templates={"box": ["box_0001"]},
-        template_points=200,
-        **kw,
+        template=TemplateOptions(templates={"box": ["box_0001"]}, template_points=200),
+        frame=ShapeFrame(**kw),
     )
     ds.name = "modelnet40"
     return ds

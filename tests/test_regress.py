@@ -122,13 +122,14 @@ def test_chaos_detection_covers_every_code_path_of_this_cpu(monkeypatch):
 def test_golden_round_trip_is_bit_exact_and_perturbation_is_tiny(tmp_path: Path):
     from catpose.bench.protocols.absolute import GtModel
     from catpose.datasets.synthetic import SyntheticDataset
+    from catpose.datasets.views import ViewOptions
 
     ds = SyntheticDataset(
         seed=0,
         categories=["mug", "can"],
         instances_per_category=1,
         views_per_instance=1,
-        max_points=300,
+        view=ViewOptions(max_points=300),
         template_points=300,
     )
     proto = GtModel()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
+from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
 from catpose.errors import InvalidInputError
 from catpose.geometry import axis_angle_to_R, invert_T, make_T, transform_points
 
@@ -103,18 +103,3 @@ def test_estimate_normals_face_the_camera() -> None:
     normals = estimate_normals(points, radius=0.15)
     expected = np.array([0.5, 0.0, -1.0]) / np.linalg.norm([0.5, 0.0, -1.0])
     np.testing.assert_allclose(normals, np.broadcast_to(expected, normals.shape), atol=1e-6)
-
-
-def test_view_sampler_looks_at_the_object() -> None:
-    sampler = ViewSampler(distance=2.5, elevation_min_deg=10.0, elevation_max_deg=60.0, roll_max_deg=20.0)
-    rng = np.random.default_rng(3)
-    for _ in range(20):
-        T_camera_object = sampler.sample(rng)
-        R = T_camera_object[:3, :3]
-        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
-        assert np.linalg.det(R) == pytest.approx(1.0)
-        # the object origin is on the optical axis at the sampled distance
-        np.testing.assert_allclose(T_camera_object[:3, 3], [0.0, 0.0, 2.5], atol=1e-12)
-        eye = invert_T(T_camera_object)[:3, 3]
-        elevation = np.rad2deg(np.arcsin(eye[2] / np.linalg.norm(eye)))
-        assert 10.0 - 1e-9 <= elevation <= 60.0 + 1e-9

@@ -204,7 +204,7 @@ def test_report_pictures_from_synthetic_run(tmp_path: Path):
         "num_templates": 1,
         "template_points": 512,
     }
-    ds = SyntheticDataset(**{k: v for k, v in ds_cfg.items() if k not in ("name", "_target_")})
+    ds = SyntheticDataset(**{k: v for k, v in ds_cfg.items() if k not in ("name", "_target_")})  # no option group
     rows = []
     for k, obs_id in enumerate(ds.observation_ids()):
         T_gt = np.asarray(ds.observation(obs_id).T_object_camera, float)

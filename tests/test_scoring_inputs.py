@@ -328,7 +328,8 @@ def test_multirun_with_cfg_is_one_line(capsys):
 def _box_dataset(root: Path, table: Path, categories=("box",)):
     from test_protocol_refusal import _box_off
 
-    from catpose.datasets.modelnet40 import ModelNet40
+    from catpose.datasets.modelnet40 import ModelNet40, ShapeFrame
+    from catpose.datasets.templates import TemplateOptions
 
     for name in ("box_0001", "box_0002"):
         if not (root / f"box/train/{name}.off").exists():
@@ -338,9 +339,8 @@ def _box_dataset(root: Path, table: Path, categories=("box",)):
         categories=list(categories),
         split="train",
         views_per_instance=1,
-        templates={"box": ["box_0001"]},
-        template_points=200,
-        alignment_table=str(table),
+        template=TemplateOptions(templates={"box": ["box_0001"]}, template_points=200),
+        frame=ShapeFrame(alignment_table=str(table)),
     )
 
 

@@ -12,6 +12,7 @@ from scipy.spatial import cKDTree
 from catpose.datasets.meshio import sample_outer_surface
 from catpose.datasets.shapes import SHAPES, SYMMETRIC_CATEGORIES
 from catpose.datasets.synthetic import SyntheticDataset
+from catpose.datasets.views import ImageOptions, ViewOptions
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import invert_T, stable_seed, transform_points
 
@@ -23,11 +24,8 @@ SMALL = dict(
     views_per_instance=2,
     num_templates=1,
     template_points=1024,
-    width=160,
-    height=120,
-    fx=150.0,
-    fy=150.0,
-    max_points=1024,
+    image=ImageOptions(width=160, height=120, fx=150.0, fy=150.0),
+    view=ViewOptions(max_points=1024),
 )
 
 
@@ -188,7 +186,9 @@ def test_ground_truth_is_consistent(small: SyntheticDataset) -> None:
 def test_noise_options() -> None:
     kw = dict(SMALL, categories=["chair"], instances_per_category=1, views_per_instance=1)
     clean = SyntheticDataset(seed=3, **kw).observation("chair/000/v00")
-    noisy_ds = SyntheticDataset(seed=3, depth_noise_std=0.01, ground_normal_noise_deg=5.0, **kw)
+    noisy_ds = SyntheticDataset(
+        seed=3, ground_normal_noise_deg=5.0, **dict(kw, view=ViewOptions(max_points=1024, depth_noise_std=0.01))
+    )
     noisy = noisy_ds.observation("chair/000/v00")
     np.testing.assert_array_equal(noisy.T_object_camera, clean.T_object_camera)  # same view
     assert noisy.points_camera.tobytes() == noisy_ds.observation("chair/000/v00").points_camera.tobytes()
@@ -208,30 +208,27 @@ def test_empty_view_is_a_dataset_error() -> None:
         views_per_instance=1,
         num_templates=0,
         template_points=256,
-        width=16,
-        height=12,
-        fx=10.0,
-        fy=10.0,
-        distance=20.0,
+        image=ImageOptions(width=16, height=12, fx=10.0, fy=10.0),
+        view=ViewOptions(distance=20.0),
     )
     with pytest.raises(DatasetError, match="can/000/v00"):
         far.observation("can/000/v00")
 
 
 def test_fov_sets_the_focal_length() -> None:
-    ds = SyntheticDataset(width=200, height=100, fov_deg=90.0, categories=["can"])
+    ds = SyntheticDataset(image=ImageOptions(width=200, height=100, fov_deg=90.0), categories=["can"])
     assert ds.camera.fx == pytest.approx(100.0) and ds.camera.fy == pytest.approx(100.0)
     assert (ds.camera.cx, ds.camera.cy) == (99.5, 49.5)
 
 
 def test_default_config_composes_and_every_observation_loads(repo_root: Path) -> None:
-    from hydra.utils import instantiate
     from omegaconf import OmegaConf
 
+    from catpose.bench.run.build import build_from_config
+
     cfg = OmegaConf.create({"seed": 0, "dataset": OmegaConf.load(repo_root / "configs/dataset/synthetic.yaml")})
-    ds_cfg = OmegaConf.to_container(cfg, resolve=True)["dataset"]
-    assert ds_cfg.pop("name") == "synthetic"
-    ds = instantiate(ds_cfg)
+    name, ds = build_from_config(cfg.dataset, "dataset")
+    assert name == "synthetic"
     assert isinstance(ds, SyntheticDataset) and ds.seed == 0
     assert sorted(ds.categories) == sorted(CATEGORIES)
     ids = ds.observation_ids()

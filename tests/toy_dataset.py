@@ -13,7 +13,8 @@ import numpy as np
 import trimesh
 
 from catpose.datasets.dataset import ObjectDataset, Observation
-from catpose.datasets.render import PinholeCamera, ViewSampler, depth_to_points, estimate_normals, render_depth
+from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals, render_depth
+from catpose.datasets.views import ViewOptions
 from catpose.errors import DatasetError
 from catpose.geometry import invert_T, normalize_to_unit_sphere, stable_seed
 from catpose.methods.method import RegistrationMethod
@@ -51,7 +52,7 @@ class ToyDataset(ObjectDataset):
         kind = obs_id.rsplit("/", 1)[1]
         if kind == "load_error":
             raise DatasetError(f"{obs_id}: file is malformed on purpose")
-        T_camera_object = ViewSampler(distance=3.0).sample(np.random.default_rng(stable_seed(self.seed, obs_id)))
+        T_camera_object = ViewOptions(distance=3.0).sample(np.random.default_rng(stable_seed(self.seed, obs_id)))
         points, _ = depth_to_points(
             render_depth(self.mesh.vertices, self.mesh.faces, T_camera_object, self.camera), self.camera
         )
@@ -122,7 +123,7 @@ class Planted(RegistrationMethod):
     def register(self, problem):
         from catpose.geometry import axis_angle_to_R, compose_T, make_T
 
-        T_camera_object = ViewSampler(distance=3.0).sample(
+        T_camera_object = ViewOptions(distance=3.0).sample(
             np.random.default_rng(stable_seed(self.seed, problem.sample_id))
         )
         truth = invert_T(T_camera_object)

@@ -25,9 +25,9 @@ VERSION = "1"
 
 
 def _cache_dir() -> Path:
-    from catpose.datasets.clutter import default_cache_dir
+    from catpose.disk_cache import cache_dir
 
-    return default_cache_dir() / "bop_errors"
+    return cache_dir() / "bop_errors"
 
 
 def bop_dataset_config(run_dir: Path) -> dict | None:

@@ -4,11 +4,14 @@ into its ``_target_`` built with plain typed arguments, and the run-level option
 Methods, datasets and protocols never see a config object; everything that reads one goes
 through :func:`build_from_config`. Options are checked against the constructor's annotations
 before anything is built, so a wrong value is a one-line error that names its key
-(``method.optimiser.lr='abc' is not a float; set method.optimiser.lr=<number>``).
+(``method.optimiser.lr='abc' is not a float; set method.optimiser.lr=<number>``). A constructor
+argument whose default is an option group (:class:`catpose.datasets.dataset.OptionGroup`, e.g. a
+dataset's ``view: ViewOptions``) takes the group's fields as flat keys (``dataset.distance=4``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import inspect
 import re
@@ -40,7 +43,10 @@ def build_from_config(node: Any, what: str) -> tuple[str, Any]:
         raise ConfigError(f"config group '{what}' ({name}) has no _target_; add one to configs/{what}/{name}.yaml")
     check_constructor_args(d, what, name)
     try:
-        return name, instantiate(d, _convert_="all")
+        rest, groups = gather_option_groups(d)
+        if not groups:
+            return name, instantiate(d, _convert_="all")
+        return name, instantiate({**rest, "_partial_": True}, _convert_="all")(**groups)
     except CatposeError:
         raise
     except Exception as e:  # Hydra wraps constructor errors; surface the user-facing one
@@ -238,6 +244,43 @@ def _accepts(kinds: set[str], value: Any) -> bool:
     return False
 
 
+def _option_groups(target_name: str) -> tuple[dict[str, inspect.Parameter], dict[str, Any]]:
+    """A ``_target_``'s constructor parameters and its option groups: the parameters whose default is
+    a :class:`catpose.datasets.dataset.OptionGroup` (name -> that default), whose fields a config gives
+    as flat keys of the group. Raises ImportError, AttributeError, ValueError or TypeError when the
+    target cannot be read."""
+    from catpose.datasets.dataset import OptionGroup
+
+    module_name, _, attr = target_name.rpartition(".")
+    params = dict(inspect.signature(getattr(importlib.import_module(module_name), attr)).parameters)
+    return params, {k: p.default for k, p in params.items() if isinstance(p.default, OptionGroup)}
+
+
+def _target_parameters(target_name: str) -> dict[str, inspect.Parameter]:
+    """The options of a ``_target_``: its constructor's parameters, each option group replaced by
+    its fields (:func:`_option_groups`)."""
+    params, groups = _option_groups(target_name)
+    for key, default in groups.items():
+        del params[key]
+        for f in dataclasses.fields(default):
+            params[f.name] = inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, annotation=f.type)
+    return params
+
+
+def gather_option_groups(d: dict) -> tuple[dict, dict]:
+    """``d`` without the flat keys of its target's option groups, and the groups built from them
+    over the constructor's defaults (parameter -> group object)."""
+    try:
+        groups = _option_groups(str(d["_target_"]))[1]
+    except (ImportError, AttributeError, ValueError, TypeError):
+        return d, {}
+    rest = dict(d)
+    for key, default in groups.items():
+        given = {f.name: rest.pop(f.name) for f in dataclasses.fields(default) if f.name in rest}
+        groups[key] = dataclasses.replace(default, **given)
+    return rest, groups
+
+
 def check_constructor_args(d: dict, what: str, name: str) -> None:
     """Check a group's options against its ``_target_``'s constructor before building it.
 
@@ -249,9 +292,7 @@ def check_constructor_args(d: dict, what: str, name: str) -> None:
     (an unimportable target, container annotations) is left to the constructor.
     """
     try:
-        module_name, _, attr = str(d["_target_"]).rpartition(".")
-        target = getattr(importlib.import_module(module_name), attr)
-        params = inspect.signature(target).parameters
+        params = _target_parameters(str(d["_target_"]))
     except (ImportError, AttributeError, ValueError, TypeError):
         return  # Hydra reports an unknown target itself
     takes_kwargs = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
