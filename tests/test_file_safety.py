@@ -254,7 +254,8 @@ def test_a_full_disk_while_scoring_or_exporting_is_one_line_and_leaves_nothing(t
     def full(*args):
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(atomic.os, "replace", full)
+    for move in ("replace", "link", "rename"):  # a new file is linked into place, a folder renamed
+        monkeypatch.setattr(atomic.os, move, full)
     args = {
         "score": ["score", str(preds), "--gt", str(gt), "--method", "ext", "--out", str(tmp_path / "o")],
         "export": ["export", str(gt), "--out", str(tmp_path / "m_toy-test.csv")],

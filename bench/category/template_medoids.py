@@ -234,9 +234,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     check_options(args)
-    from catpose.bench.run.overwrite import check_output
+    from catpose.bench.run.overwrite import Output
 
-    check_output(args.out, "file", (), args.force, example="templates.yaml")  # before any work
+    out = Output(args.out, "file", (), args.force, example="templates.yaml")  # before any work
     if Path(args.out).is_file():
         read_templates_yaml(args.out)  # its own kind of file only, refused before the distances are computed
     if args.k != "auto" and not args.k.isdigit():
@@ -264,12 +264,9 @@ def main(argv: list[str] | None = None) -> int:
         )
     clouds = {i: dataset.instance_model(args.category, i).points for i in ids}
     result = choose_templates(clouds, k, args.tau, args.points, args.seed)
-    out = Path(args.out)
-    from catpose.bench.run.overwrite import output_errors
-
-    with output_errors(out):
+    with out.writing():
         write_templates_yaml(
-            out,
+            out.path,
             args.category,
             result,
             {
@@ -285,6 +282,6 @@ def main(argv: list[str] | None = None) -> int:
     sil = ", ".join(f"K={kk}: {v:.3f}" for kk, v in result["silhouette"].items()) or "n/a"
     print(
         f"{args.category}: templates {result['templates']} (mean 1-F to medoid {result['mean_distance']:.3f}; "
-        f"silhouette {sil}); wrote {out}"
+        f"silhouette {sil}); wrote {out.out}"
     )
     return 0

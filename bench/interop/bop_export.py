@@ -218,21 +218,20 @@ def main(argv: list[str] | None = None) -> int:
     """``bench export RUN_DIR --out METHOD_DATASET-SPLIT.csv``."""
     ap = argparse.ArgumentParser(prog="bench export", description="Export a run's estimates as a BOP results CSV.")
     ap.add_argument("run", help="a run directory written by `bench run`")
-    ap.add_argument(
-        "--out",
-        required=True,
-        help="CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the "
-        "BOP toolkit requires; a <out>.map.csv with the id mapping is written beside it",
-    )
-    ap.add_argument("--force", action="store_true", help="replace an existing --out (and its .map.csv)")
-    args = ap.parse_args(argv)
-    from catpose.bench.run.overwrite import Input, check_output, output_errors
+    from catpose.bench.run.overwrite import Input, Output, add_output_options
 
+    add_output_options(
+        ap,
+        "CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the BOP toolkit requires; a "
+        "<out>.map.csv with the id mapping is written beside it",
+        force_help="replace an existing --out and its .map.csv",
+    )
+    args = ap.parse_args(argv)
     inputs = [Input(Path(args.run), "the input run")]  # before any work (docs/file-safety.md)
-    check_output(args.out, "file", inputs, args.force, example="method_ycbv-test.csv")
-    check_output(str(args.out) + ".map.csv", "file", inputs, args.force)
+    out = Output(args.out, "file", inputs, args.force, example="method_ycbv-test.csv")
+    out_map = Output(str(args.out) + ".map.csv", "file", inputs, args.force)
     skipped: list[str] = []
-    with output_errors(args.out):  # a read-only folder or a full disk: one line, the old file, if any, kept
+    with out.writing(), out_map.writing():
         n = export_bop(args.run, args.out, skipped=skipped)
     for line in skipped:
         log.warning("skipped: %s", line)

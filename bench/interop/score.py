@@ -24,7 +24,7 @@ from catpose.bench.interop.bop_export import bop_ids
 from catpose.bench.interop.bop_score import DEFAULT_BOP_METRICS, bop_metrics, score_bop
 from catpose.bench.interop.prediction_checks import key_text
 from catpose.bench.interop.prediction_io import read_mapping, read_predictions
-from catpose.bench.run.overwrite import Input, check_output, write_error_text
+from catpose.bench.run.overwrite import Input, Output, add_output_options
 from catpose.bench.run.rundir import write_run_into
 from catpose.bench.scoring.bop_rows import is_bop_layout
 from catpose.errors import DatasetError, InvalidInputError
@@ -292,12 +292,7 @@ def main(argv: list[str] | None = None) -> int:
         help="name of the external method (row label in tables; default: "
         "METHOD of a METHOD_DATASET-SPLIT.csv file name)",
     )
-    ap.add_argument("--out", required=True, help="run directory to write (new or empty; see --force)")
-    ap.add_argument(
-        "--force",
-        action="store_true",
-        help="replace an existing run or other files at --out (never the --gt run itself)",
-    )
+    add_output_options(ap, "run directory to write (new or empty; see --force)", force_help="replace a run at --out")
     ap.add_argument(
         "--metrics",
         default=None,
@@ -352,7 +347,7 @@ def main(argv: list[str] | None = None) -> int:
     inputs += [Input(Path(p), what) for p, what in ((args.gt, "the --gt run"), (args.map, "the --map file")) if p]
     if args.ids:
         inputs.append(Input(Path(args.ids), "the --ids file"))
-    out = check_output(args.out, "folder", inputs, args.force, replaces="run")
+    out = Output(args.out, "folder", inputs, args.force, replaces="run")
     from catpose.bench.interop.transform_arrays import is_transform_array
 
     if args.inverse and not is_transform_array(args.predictions):
@@ -380,27 +375,24 @@ def main(argv: list[str] | None = None) -> int:
     # the whole run directory is built beside --out and moved there when complete: a failure
     # leaves no half-written folder, and --force replaces the old one only then
     thresholds = None
-    try:
-        with atomic.building_dir(out) as tmp:
-            write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
-            if preds.attrs["kind"] == "bop" and is_bop_layout(config.get("dataset")):
-                bop_text = score_bop(
-                    preds,
-                    config["dataset"],
-                    tmp,
-                    args.method,
-                    args.metrics.split(","),
-                    args.by.split(","),
-                    vsd=not args.no_vsd,
-                )
-            objects = _object_summary(rows, tmp)
-            summary = (tmp / "summary.md").read_text() if (tmp / "summary.md").is_file() else ""
-            if args.acc or args.auc is not None:
-                thresholds = _threshold_summary(rows, tmp, args.acc or "", args.auc)
-    except OSError as e:  # an unwritable or full --out: one line, nothing left behind
-        raise InvalidInputError(write_error_text(args.out, e)) from None
+    with out.writing(), atomic.building_dir(out.path) as tmp:
+        write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
+        if preds.attrs["kind"] == "bop" and is_bop_layout(config.get("dataset")):
+            bop_text = score_bop(
+                preds,
+                config["dataset"],
+                tmp,
+                args.method,
+                args.metrics.split(","),
+                args.by.split(","),
+                vsd=not args.no_vsd,
+            )
+        objects = _object_summary(rows, tmp)
+        summary = (tmp / "summary.md").read_text() if (tmp / "summary.md").is_file() else ""
+        if args.acc or args.auc is not None:
+            thresholds = _threshold_summary(rows, tmp, args.acc or "", args.auc)
     print(count_text(stats))
-    print(f"run directory {out}")
+    print(f"run directory {out.path}")
     print(summary)
     print(objects)
     if thresholds is not None:

@@ -362,13 +362,13 @@ def _html(md_lines: list[str]) -> str:
 def main(argv: list[str] | None = None) -> int:
     """``bench report RUN_DIR... --out DIR [--layout L ...] [--qualitative N] [--note TEXT ...]``."""
     from catpose.bench.report.tables import LAYOUTS, RENAMED_LAYOUTS, parse_labels
+    from catpose.bench.run.overwrite import Output, add_output_options, input_runs
 
     ap = argparse.ArgumentParser(
         prog="bench report", description="Tables and figures of run directories in one folder."
     )
     ap.add_argument("runs", nargs="+", help="run directories, or folders searched for samples.jsonl")
-    ap.add_argument("--out", required=True, help="the report folder to write (new or empty; see --force)")
-    ap.add_argument("--force", action="store_true", help="replace an existing --out (never a run or an input)")
+    add_output_options(ap, "the report folder to write (new or empty; see --force)")
     ap.add_argument(
         "--layout",
         action="append",
@@ -394,11 +394,9 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.qualitative < 0 or args.max_pictures < 0:
         raise ConfigError("--qualitative and --max-pictures take 0 or more (0: no pictures)")
-    from catpose.bench.run.overwrite import check_output, input_runs, output_errors
-
-    check_output(args.out, "folder", input_runs(args.runs), args.force)  # before any work
+    out = Output(args.out, "folder", input_runs(args.runs), args.force)  # before any work
     left_out: list[str] = []
-    with output_errors(args.out):
+    with out.writing():
         index = build_report(
             args.runs,
             args.out,
