@@ -128,3 +128,12 @@ def test_bop_scene_gt_without_depth(tmp_path, capsys):
     (scene / "scene_camera.json").write_text(json.dumps({"0": {"cam_K": [300, 0, 160, 0, 300, 120, 0, 0, 1]}}))
     code, lines = _check(capsys, "dataset=bop", f"dataset.root={tmp_path}")
     assert code == 2 and len(lines) == 1 and "no depth images under" in lines[0] and "000000.png" in lines[0]
+
+
+def test_a_flat_modelnet40_shape_is_a_problem(tmp_path, capsys):
+    """Issue 60 case 23: a two-triangle unit square, on which ours' resting poses never end."""
+    shape = tmp_path / "thing/train/thing_0001.off"
+    shape.parent.mkdir(parents=True)
+    shape.write_text("OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n")
+    code, lines = _check(capsys, "dataset=modelnet40", f"dataset.root={tmp_path}", "dataset.categories=[thing]")
+    assert code == 2 and f"problem: {shape} is flat (no volume)" in lines[0], lines

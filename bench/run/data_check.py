@@ -329,6 +329,7 @@ def _check_bop_files(layout: Any, scenes: list[Path], objects: set[int], report:
 
 def _check_modelnet40(name: str, ds: Any, report: Report) -> None:
     from catpose.datasets.meshio import read_off
+    from catpose.resting import solid_hull
 
     present = {c: ds.instance_ids(c) for c in ds.categories}
     if not any(present.values()):
@@ -344,8 +345,10 @@ def _check_modelnet40(name: str, ds: Any, report: Report) -> None:
         return
     first = next(ids for ids in present.values() if ids)[0]
     category = next(c for c, ids in present.items() if first in ids)
+    path = ds.root / category / ds.split / f"{first}.off"
     try:
-        read_off(ds.root / category / ds.split / f"{first}.off")
+        if solid_hull(read_off(path)[0]) is None:
+            report.problem(f"{path} is flat (no volume): ours has no resting pose for it; replace it with a solid mesh")
     except CatposeError as e:
         report.problem(str(e))
     report.facts.append(f"{sum(map(len, present.values()))} {ds.split}-split shapes in {len(present)} categories")
