@@ -85,9 +85,9 @@ def check_named_run_dir(out: Path, cfg, log_name: str) -> None:
     """Refuse, in one line, a ``hydra.run.dir`` that holds anything but this configuration's
     run (Hydra's ``.hydra/`` and the job's log aside): another configuration's run, or files of
     no run. No command writes into what it did not create."""
-    from omegaconf import OmegaConf
-
     import os
+
+    from omegaconf import OmegaConf
 
     from catpose.bench.run.overwrite import run_above
     from catpose.bench.run.rundir import run_dir_for
