@@ -178,9 +178,9 @@ def export_bop(
 
 def pose_problem(T: Any) -> str | None:
     """Why a stored ``T_est`` is not a rigid transform (16 numbers, a rotation within
-    :data:`~catpose.bench.interop.prediction_checks.ROTATION_TOL`, a finite translation, last row
+    :data:`~catpose.datasets.bop_layout.ROTATION_TOL`, a finite translation, last row
     ``[0, 0, 0, 1]``), None when it is one."""
-    from catpose.bench.interop.prediction_checks import rotation_problem
+    from catpose.datasets.bop_layout import rotation_problem
 
     a = np.asarray(T, dtype=object).reshape(-1)
     try:

@@ -20,11 +20,8 @@ from typing import Any
 
 import numpy as np
 
+from catpose.datasets.bop_layout import ROTATION_TOL, rotation_problem
 from catpose.errors import InvalidInputError
-
-ROTATION_TOL = 1e-3
-"""Largest entry of ``|R^T R - I|`` and of ``|det R - 1|`` accepted for a rotation (files hold
-rounded values; 9 significant digits give about 1e-9)."""
 
 _INT = re.compile(r"^[+-]?\d+$")
 
@@ -111,16 +108,6 @@ def check_ids(record: dict, kind: str, where: str) -> None:
         raise InvalidInputError(
             f"{where}: sample_id is empty; give each row the sample id (or observation id) it estimates"
         )
-
-
-def rotation_problem(R: np.ndarray, tol: float = ROTATION_TOL) -> str | None:
-    """Why the (3, 3) ``R`` is not a rotation within ``tol`` (None when it is one)."""
-    R = np.asarray(R, float).reshape(3, 3)
-    orth = float(np.abs(R.T @ R - np.eye(3)).max())
-    det = float(np.linalg.det(R))
-    if orth <= tol and abs(det - 1.0) <= tol:
-        return None
-    return f"max |R^T R - I| = {orth:.3g}, det R = {det:.3g}"
 
 
 def check_pose(T: np.ndarray, where: str) -> None:
