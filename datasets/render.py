@@ -141,6 +141,10 @@ class ViewSampler:
                 f"{self.elevation_max_deg}: they must satisfy 0 <= elevation_min_deg <= elevation_max_deg < 90 "
                 "(degrees above the ground plane)"
             )
+        if not 0.0 <= float(self.roll_max_deg) <= 180.0:
+            from catpose.errors import ConfigError
+
+            raise ConfigError(f"dataset.roll_max_deg={self.roll_max_deg}: pass a roll in [0, 180] degrees")
 
     def sample(self, rng: np.random.Generator) -> np.ndarray:
         """Draw one viewpoint; returns ``T_camera_object`` (4, 4)."""

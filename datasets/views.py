@@ -22,6 +22,11 @@ def pinhole_camera(
             ``(height - 1) / 2`` (the centre of the pixel grid).
     """
     width, height = int(width), int(height)
+    for name, value in (("fx", fx), ("fy", fy)):
+        if not float(value) > 0 or float(value) == float("inf"):
+            from catpose.errors import ConfigError
+
+            raise ConfigError(f"dataset.{name}={value}: pass a positive focal length in pixels (e.g. 300)")
     return PinholeCamera(
         width,
         height,

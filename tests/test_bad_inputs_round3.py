@@ -124,3 +124,74 @@ def test_case_17_18_hydra_run_dir_read_only_or_a_file_is_one_line(tmp_path, caps
     monkeypatch.setattr(os, "access", lambda p, mode: Path(p) != ro and access(p, mode))  # root writes anywhere
     assert bench(["run", "method=icp", "dataset=synthetic", "limit=1", f"hydra.run.dir={ro / 'r'}"]) == 2
     assert "is not writable" in one_error_line(capsys, "run")
+
+
+# ---------------------------------------------------------------------------------------------
+# silent wrong
+
+
+def test_case_09_score_with_no_matching_sample_is_refused(tmp_path, capsys):
+    gt = write_run(tmp_path / "gt", rows([5.0, 10.0]), CFG)
+    other = [dict(r, sample_id=f"airplane/{r['sample_id']}") for r in rows([7.0, 9.0])]
+    assert _score(per_sample_csv(tmp_path / "p.csv", other), gt, tmp_path / "o") == 2
+    line = one_error_line(capsys, "score")
+    assert "no prediction row of" in line and "airplane/mug/i0/v0" in line and "mug/i0/v0" in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_case_10_score_dataset_honours_limit():
+    from catpose.bench.interop.score import gt_rows_from_config
+
+    assert len(gt_rows_from_config("synthetic", "gt_model", 0, ["limit=2"])[0]) == 2
+
+
+def test_case_11_by_is_checked(tmp_path, capsys):
+    gt = write_run(tmp_path / "gt", rows([5.0]), CFG)
+    preds = per_sample_csv(tmp_path / "p.csv", rows([7.0]))
+    assert _score(preds, gt, tmp_path / "o", "--by", "nope") == 2
+    assert "--by 'nope': pass object, category or object,category" in one_error_line(capsys, "score")
+    assert bench(["table", str(gt), "--by", "object"]) == 2
+    assert "--by 'object' goes with --bop-metrics" in one_error_line(capsys, "table")
+
+
+def test_case_12_suite_table_only_without_runs_is_refused(tmp_path, monkeypatch, capsys):
+    from catpose.bench.real import suite
+
+    monkeypatch.setattr(suite, "run_suite", lambda *a, **k: ({}, {}))
+    monkeypatch.setenv("CATPOSE_SHARED_DATA", str(tmp_path))
+    assert bench(["suite", "real", "--table-only", "--output-root", str(tmp_path / "nonexistent")]) == 2
+    assert "--table-only: no run of these sets and methods under" in one_error_line(capsys, "suite")
+
+
+def test_case_13_30_templates_points_category_and_instances_are_checked(tmp_path, capsys):
+    base = ["templates", "dataset=synthetic", "--k", "2", "--out", str(tmp_path / "t.yaml")]
+    for extra, said in (
+        (["--category", "mug", "--points", "0"], "--points 0: pass at least 64 points"),
+        (["--category", "mug", "--points", "3"], "--points 3: pass at least 64 points"),
+        (["--category", "nope"], "--category 'nope' has no train instances in dataset synthetic"),
+        (["--category", "mug", "--instances", "nope"], "has no train instance nope in dataset synthetic"),
+    ):
+        assert bench([*base, *extra]) == 2
+        assert said in one_error_line(capsys, "templates")
+    assert not (tmp_path / "t.yaml").exists()
+
+
+@pytest.mark.parametrize(
+    "override, said",
+    [
+        ("dataset.fx=nan", "dataset.fx=nan: pass a positive focal length"),
+        ("dataset.roll_max_deg=1000", "dataset.roll_max_deg=1000.0: pass a roll in [0, 180] degrees"),
+        ("retry_failed=maybe", "retry_failed='maybe': pass true or false"),
+        ("output_root=/tmp/\u00fc\u00f1\u00ef", "quote a value with spaces or non-ASCII letters"),
+        ("--help-me", "unknown option --help-me"),
+    ],
+)
+def test_case_14_26_invalid_settings_are_one_line(tmp_path, capsys, override, said):
+    args = ["run", "method=icp", "dataset=synthetic", "limit=1", f"output_root={tmp_path}", override]
+    try:
+        code = bench(args)
+    except SystemExit as e:  # a dataset's options are checked where Hydra's job builds it
+        code = e.code
+    assert code == 2
+    assert said in one_error_line(capsys, "run")
+    assert not list(tmp_path.rglob("samples.jsonl"))

@@ -243,7 +243,8 @@ def gt_rows_from_config(
     )
     config = OmegaConf.to_container(cfg, resolve=True)
     rows, seen = [], set()
-    for sid in proto.sample_ids(ds):
+    ids = list(cfg.sample_ids) if cfg.get("sample_ids") else proto.sample_ids(ds)
+    for sid in ids[: cfg.limit] if cfg.get("limit") is not None else ids:
         sample = proto.load(ds, sid)
         group = sample.group_id or sid
         if group in seen and pr_name in ("templates", "relative"):
@@ -331,6 +332,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     args.metrics = bop_metrics(args.metrics, args.no_vsd)
+    if not args.by or set(args.by.split(",")) - {"object", "category"}:
+        raise InvalidInputError(f"--by {args.by!r}: pass object, category or object,category (BOP rows)")
     if args.method is None:
         from catpose.bench.scoring.bop_eval import check_results_filename
 
@@ -370,6 +373,12 @@ def main(argv: list[str] | None = None) -> int:
     mapping = read_mapping(map_path) if preds.attrs["kind"] == "bop" and map_path.is_file() else None
     stats: dict = {}
     rows = score_predictions(preds, gt_rows, args.method, mapping, stats)
+    if stats["predictions"] and not stats["scored"]:
+        raise InvalidInputError(
+            f"no prediction row of {args.predictions} names a sample of {args.gt or 'dataset=' + args.dataset} "
+            f"(its ids look like {', '.join(stats['unknown_examples'][:2])}; the samples' like "
+            f"{', '.join(r['sample_id'] for r in gt_rows[:2])}); score them against the run or dataset they estimate"
+        )
     config = dict(config, method={"name": args.method, "external": str(args.predictions)})
     bop_text = None
     # the whole run directory is built beside --out and moved there when complete: a failure

@@ -442,6 +442,11 @@ def main(argv: list[str]) -> int:
         table_only=args.table_only,
         catalogue=suite_sets,
     )
+    if args.table_only and not results and any(s not in skipped for s in sets):
+        raise ConfigError(
+            f"bench suite {args.suite} --table-only: no run of these sets and methods under "
+            f"{args.output_root or f'outputs/{args.suite}'}; pass the --output-root they were written to, or run them"
+        )
     whole_sets = [s for s in sets if s not in skipped]
     table = format_table(results, columns(results, whole_sets), methods, skipped)
     print(table)

@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
         help="BOP recalls of runs scored by `bench score` (bop_errors.jsonl), e.g. "
         "ar_mssd,ar_mspd,adds@0.1,5deg5cm (see catpose.bench.scoring.bop_eval.parse_metric)",
     )
-    ap.add_argument("--by", default="object,category", help="with --bop-metrics: rows per object and/or category")
+    ap.add_argument("--by", default=None, help="with --bop-metrics: rows per object and/or category (default both)")
     ap.add_argument(
         "--stability",
         action="append",
@@ -95,12 +95,16 @@ def main(argv: list[str] | None = None) -> int:
         from catpose.bench.run.overwrite import check_output, input_runs
 
         check_output(args.out, "file", input_runs([*args.runs, *run_paths, *args.sweep, *args.stability]), args.force)
+    if args.by is not None and (not args.bop_metrics or set(args.by.split(",")) - {"object", "category"}):
+        raise ConfigError(f"--by {args.by!r} goes with --bop-metrics and takes object, category or object,category")
     if args.bop_metrics:
         from catpose.bench.scoring.bop_eval import table_main_from_runs
 
         text = (
             table_main_from_runs(
-                find_run_dirs([*args.runs, *run_paths]), args.bop_metrics.split(","), args.by.split(",")
+                find_run_dirs([*args.runs, *run_paths]),
+                args.bop_metrics.split(","),
+                (args.by or "object,category").split(","),
             )
             + "\n"
         )
