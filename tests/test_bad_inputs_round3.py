@@ -195,3 +195,69 @@ def test_case_14_26_invalid_settings_are_one_line(tmp_path, capsys, override, sa
     assert code == 2
     assert said in one_error_line(capsys, "run")
     assert not list(tmp_path.rglob("samples.jsonl"))
+
+
+def test_case_15_hand_edited_runs_are_named(tmp_path, capsys):
+    import json
+
+    for field, value, said in (
+        ("status", "banana", "status 'banana' is neither 'ok' nor 'failed'"),
+        ("sample_id", " ", "its sample_id is empty"),
+    ):
+        run = write_run(tmp_path / field, rows([5.0, 10.0]), CFG)
+        lines = (run / "samples.jsonl").read_text().splitlines()
+        lines[1] = json.dumps(dict(json.loads(lines[1]), **{field: value}))
+        (run / "samples.jsonl").write_text("\n".join(lines) + "\n")
+        assert bench(["export", str(run), "--out", str(tmp_path / f"m_toy-{field.replace('_', '')}.csv")]) == 2
+        assert f"samples.jsonl:2: {said}" in one_error_line(capsys, "export")
+    for state, n, said in (
+        ("exploded", 2, "run.json has state 'exploded'"),
+        ("finished", 5, "holds 2 samples of the 5"),
+    ):
+        run = write_run(tmp_path / state, rows([5.0, 10.0]), CFG)
+        info = json.loads((run / "run.json").read_text())
+        (run / "run.json").write_text(json.dumps(dict(info, state=state, n_samples=n)))
+        assert bench(["table", str(run)]) == 0
+        assert said in capsys.readouterr().err
+
+
+BOP_HEAD = "scene_id,im_id,obj_id,score,R,t,time"
+ROT = "1 0 0 0 1 0 0 0 1"
+
+
+@pytest.mark.parametrize(
+    "body, said",
+    [
+        (f"1,1,1,nan,{ROT},0 0 500,0.1", "p.csv:2: score must be a finite number, got 'nan'"),
+        (f"1,1,1,inf,{ROT},0 0 500,0.1", "p.csv:2: score must be a finite number, got 'inf'"),
+        (f"1,1,1,0.5,{ROT},0 0 500,nan", "p.csv:2: time must be a finite number (seconds, or -1: not measured)"),
+        (f"1,1,1,0.5,{ROT},0 0 500,-5", "p.csv:2: time must be a finite number (seconds, or -1: not measured)"),
+        (f"1,1,1,0.5,{ROT},0 0 500,0.1\n1,1,2,0.5,{ROT},0 0 500,0.2", "scene 1 image 1 has different times"),
+        ("1,1,1,0.5,1 0 0 0 nan 0 0 0 1,0 0 500,0.1", "p.csv:2 R: has a NaN or infinite value"),
+        (f"1,1,1,0.5,{ROT},0 inf 500,0.1", "p.csv:2 t: has a NaN or infinite value"),
+        ("1,1,1,0.5,1.0005 0 0 0 1 0 0 0 1,0 0 500,0.1", "max |R^T R - I| = 0.00100025"),
+    ],
+)
+def test_case_16_31_32_bop_csv_numbers_are_checked(tmp_path, capsys, body, said):
+    """Cases 16 (NaN/inf score and time, time -5, times differing in one image), 31 (NaN in R or t
+    said to be a count), 32 (an R just outside the tolerance shown rounded onto it)."""
+    from catpose.bench.interop.prediction_io import read_predictions
+    from catpose.errors import InvalidInputError
+
+    path = tmp_path / "p.csv"
+    path.write_text(f"{BOP_HEAD}\n{body}\n")
+    with pytest.raises(InvalidInputError) as info:
+        read_predictions(path)
+    assert said in str(info.value)
+    path.write_text(f"{BOP_HEAD}\n1,1,1,0.5,{ROT},0 0 500,-1\n")  # -1: BOP's "not measured"
+    assert read_predictions(path)["time"].tolist() == [-1.0]
+
+
+def test_case_34_35_latin1_byte_and_auc_are_named(tmp_path, capsys):
+    gt = write_run(tmp_path / "gt", rows([5.0]), CFG)
+    preds = per_sample_csv(tmp_path / "p.csv", rows([7.0]))
+    assert _score(preds, gt, tmp_path / "o", "--auc", "1e308") == 2
+    assert "--auc 1e+308: pass an angle in degrees in (0, 180]" in one_error_line(capsys, "score")
+    preds.write_bytes(preds.read_bytes() + b"caf\xe9,1,2\n")
+    assert _score(preds, gt, tmp_path / "o") == 2
+    assert "p.csv:3: byte 0xe9 is not UTF-8 (a file saved as Latin-1?)" in one_error_line(capsys, "score")

@@ -14,6 +14,7 @@ and the fix. How duplicates, unknown ids and missing targets are counted is
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 from typing import Any
@@ -40,13 +41,18 @@ def read_csv_text(path: Path):
     data = path.read_bytes()
     try:
         text = data.decode("utf-8-sig")
-        if "\x00" in text:
-            raise UnicodeDecodeError("utf-8", data, 0, 1, "NUL byte")
-    except UnicodeDecodeError:
+    except UnicodeDecodeError as e:
+        if b"\x00" not in data:  # text in another encoding: name the byte and where it is
+            line = data[: e.start].count(b"\n") + 1
+            raise InvalidInputError(
+                f"{path}:{line}: byte {data[e.start]:#04x} is not UTF-8 (a file saved as Latin-1?); save it as UTF-8"
+            ) from None
+        text = "\x00"
+    if "\x00" in text:
         raise InvalidInputError(
             f"predictions file {path} is not a text CSV (binary data, e.g. a .npy); write the "
             "estimates as a BOP results CSV or a per-sample CSV (sample_id,R,t)"
-        ) from None
+        )
     reader = csv.reader(io.StringIO(text, newline=""))
     header, rows, last = None, [], 0
     try:
@@ -91,10 +97,16 @@ def number_or_empty(value: Any, column: str, where: str, required: bool = False)
     if not text and not required:
         return float("nan")
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
-        need = "a number" if required else "a number or empty"
-        raise InvalidInputError(f"{where}: {column} must be {need}, got {text[:20]!r}") from None
+        value = float("nan")
+    if math.isfinite(value) and (column != "time" or value >= 0 or value == -1):  # BOP: time -1 is "not measured"
+        return value
+    need = "a finite number" if required else "a finite number or empty"
+    raise InvalidInputError(
+        f"{where}: {column} must be {need}{' (seconds, or -1: not measured)' if column == 'time' else ''}, "
+        f"got {text[:20]!r}"
+    )
 
 
 def check_ids(record: dict, kind: str, where: str) -> None:

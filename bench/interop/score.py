@@ -332,6 +332,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     args.metrics = bop_metrics(args.metrics, args.no_vsd)
+    if args.auc is not None and not 0 < args.auc <= 180:
+        raise InvalidInputError(f"--auc {args.auc:g}: pass an angle in degrees in (0, 180], e.g. --auc 30")
     if not args.by or set(args.by.split(",")) - {"object", "category"}:
         raise InvalidInputError(f"--by {args.by!r}: pass object, category or object,category (BOP rows)")
     if args.method is None:
