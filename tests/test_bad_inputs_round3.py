@@ -6,9 +6,11 @@ Each case runs on toy runs and files made here (no shared data), in-process, in 
 from __future__ import annotations
 
 import os
+import re
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from catpose.bench.cli import main as bench
@@ -261,3 +263,78 @@ def test_case_34_35_latin1_byte_and_auc_are_named(tmp_path, capsys):
     preds.write_bytes(preds.read_bytes() + b"caf\xe9,1,2\n")
     assert _score(preds, gt, tmp_path / "o") == 2
     assert "p.csv:3: byte 0xe9 is not UTF-8 (a file saved as Latin-1?)" in one_error_line(capsys, "score")
+
+
+# ---------------------------------------------------------------------------------------------
+# tracebacks and unclear messages
+
+
+@pytest.mark.parametrize(
+    "args, said",
+    [
+        (["align", "dataset=modelnet40", "--category", "airplane", "--icp-distance", "-1"], "--icp-distance -1: pass"),
+        (["align", "dataset=modelnet40", "--category", "airplane", "--points", "0"], "--points 0: pass at least 64"),
+        (["align", "dataset=synthetic", "--category", "mug"], "dataset synthetic has no alignment table"),
+        (["clutter", "--part", "nope"], "--part 'nope' is not a part of configs/split/clutter.yaml"),
+    ],
+)
+def test_case_19_20_29_options_are_one_line(tmp_path, capsys, args, said):
+    command = args[0]
+    assert bench([*args, *(["--out", str(tmp_path / "a.csv")] if command == "align" else [])]) == 2
+    assert said in one_error_line(capsys, command)
+    assert not list(tmp_path.iterdir())
+
+
+def test_case_21_regress_config_that_is_no_yaml_mapping(tmp_path, capsys):
+    csv = tmp_path / "x.csv"
+    csv.write_text("a,b\n1,2\n")
+    assert bench(["regress", "--config", str(csv)]) == 2
+    assert "x.csv has no 'suites' mapping" in one_error_line(capsys, "regress")
+
+
+def test_case_22_28_symlink_loops_and_files_given_as_runs(tmp_path, capsys):
+    gt = write_run(tmp_path / "gt", rows([5.0]), CFG)
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    assert _score(tmp_path / "a", gt, tmp_path / "o") == 2
+    assert "is a loop of symbolic links" in one_error_line(capsys, "score")
+    preds = per_sample_csv(tmp_path / "p.csv", rows([7.0]))
+    assert bench(["report", str(preds), "--out", str(tmp_path / "r")]) == 2
+    assert f"{preds} is a file; pass run directories" in one_error_line(capsys, "report")
+    assert bench(["merge", str(preds)]) == 2
+    assert f"{preds} is a file; pass a run directory" in one_error_line(capsys, "merge")
+
+
+def test_case_28_37_mesh_paths_and_nan_vertices(tmp_path):
+    from catpose.datasets.meshio import read_mesh
+    from catpose.errors import DatasetError
+
+    with pytest.raises(DatasetError, match="is a folder, not a file"):
+        read_mesh(tmp_path)
+    ply = tmp_path / "m.ply"
+    ply.write_text(
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\nnan nan nan\n0 1 0\n3 0 1 2\n"
+    )
+    with pytest.raises(DatasetError, match="non-finite vertex coordinates"):
+        read_mesh(ply)
+
+
+@pytest.mark.parametrize(
+    "depth_value, K, said",
+    [
+        (np.inf, np.diag([300.0, 300.0, 1.0]), "none has a depth measurement (4 NaN or inf)"),
+        (1.0, np.zeros((3, 3)), "K is all zeros"),
+        (1.0, np.array([[300, 0, 2], [0, 300, 2], [0, 0, np.nan]]), "K has a NaN or inf"),
+    ],
+)
+def test_case_33_depth_frame_messages(depth_value, K, said):
+    from catpose.depth_frame import DepthFrame
+    from catpose.errors import InvalidInputError
+
+    depth = np.ones((4, 4))
+    mask = np.zeros((4, 4), bool)
+    mask[1:3, 1:3] = True
+    depth[mask] = depth_value
+    with pytest.raises(InvalidInputError, match=re.escape(said)):
+        DepthFrame(depth, K, mask)

@@ -89,6 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command; a user error raises :class:`~catpose.errors.CatposeError`, which the CLI prints
     as one line (exit status 2)."""
     args = build_parser().parse_args(argv)
+    check_options(args)
     check_outputs(args)
     from catpose.bench.run.overwrite import output_errors
 
@@ -104,6 +105,26 @@ def main(argv: list[str] | None = None) -> int:
             out = write_comparison(comparison_path(args), result)
         print(f"against {args.compare}: {summary_line(result)}; rows in {out}")
     return 0
+
+
+def check_options(args: argparse.Namespace) -> None:
+    """Before any work: the numbers, a dataset with an alignment table, a readable ``--compare``."""
+    import math
+
+    from catpose.bench.run.config import compose
+    from catpose.errors import ConfigError
+
+    if not (math.isfinite(args.icp_distance) and args.icp_distance > 0):
+        raise ConfigError(f"--icp-distance {args.icp_distance:g}: pass a distance > 0 (object-normalised, e.g. 0.05)")
+    if args.points < 64:
+        raise ConfigError(f"--points {args.points}: pass at least 64 surface points per shape (default 1024)")
+    dataset = compose(args.overrides).dataset
+    if "alignment_table" not in dataset:
+        raise ConfigError(f"dataset {dataset.get('name')} has no alignment table; pass dataset=modelnet40")
+    if args.compare:
+        from catpose.datasets.alignment import read_alignment_table
+
+        read_alignment_table(args.compare)  # a bad table: one line now, before --out is written
 
 
 def check_outputs(args: argparse.Namespace) -> None:

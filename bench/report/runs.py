@@ -188,7 +188,9 @@ def find_run_dirs(paths: Sequence[str | Path], merge_failures: list[str] | None 
                 raise DatasetError(f"no samples.jsonl below {p}; pass run directories written by `bench run`")
             out.extend(found)
         else:
-            raise DatasetError(f"{p} does not exist; pass run directories written by `bench run`")
+            raise DatasetError(
+                f"{p} {'is a file' if p.exists() else 'does not exist'}; pass run directories written by `bench run`"
+            )
     seen: set[Path] = set(unmerged)
     return [p for p in out if not (p.resolve() in seen or seen.add(p.resolve()))]
 

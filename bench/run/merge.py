@@ -237,7 +237,10 @@ def main(argv: list[str] | None = None) -> int:
     dirs: list[Path] = []
     for d in args.run_dirs:
         if not d.is_dir():
-            raise DatasetError(f"{d} does not exist; pass a run directory written by `bench run ... shards=N shard=I`")
+            raise DatasetError(
+                f"{d} {'is a file' if d.exists() else 'does not exist'}; pass a run directory written by "
+                "`bench run ... shards=N shard=I`"
+            )
         found = [d] if is_sharded(d) else sorted({p.parent for p in d.rglob("samples.shard-*-of-*.jsonl")})
         if not found:
             raise DatasetError(f"no samples.shard-I-of-N.jsonl in or below {d}; nothing to merge")

@@ -81,8 +81,11 @@ def input_runs(paths: Sequence[str | Path], what: str = "the input run") -> list
 
 
 def _abs(path: str | Path) -> Path:
-    """``path`` absolute, ``..`` and symbolic links resolved where they exist."""
-    return Path(os.path.abspath(Path(path).expanduser())).resolve()
+    """``path`` absolute, ``..`` and symbolic links resolved where they exist (a loop: one line)."""
+    try:
+        return Path(os.path.abspath(Path(path).expanduser())).resolve()
+    except (RuntimeError, OSError):  # Python < 3.13 raises RuntimeError on a loop
+        raise InvalidInputError(f"{path} is a loop of symbolic links; pass the file or folder itself") from None
 
 
 def verified_rows(path: Path) -> int:
