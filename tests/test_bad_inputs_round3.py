@@ -338,3 +338,10 @@ def test_case_33_depth_frame_messages(depth_value, K, said):
     depth[mask] = depth_value
     with pytest.raises(InvalidInputError, match=re.escape(said)):
         DepthFrame(depth, K, mask)
+
+
+def test_case_36_export_name_hint_names_the_runs_dataset(tmp_path, capsys):
+    run = write_run(tmp_path / "run", rows([5.0]), CFG)
+    assert bench(["export", str(run), "--out", str(tmp_path / "my results.csv")]) == 2
+    line = one_error_line(capsys, "export")
+    assert "e.g. my-results_toy-test.csv" in line and "ycbv" not in line

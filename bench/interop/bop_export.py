@@ -116,14 +116,14 @@ def export_bop(
     from catpose.errors import DatasetError, InvalidInputError
     from catpose.geometry import invert_T
 
+    run = load_run(run_dir)
+    example = f"method_{_dataset_of(run) if _dataset_of(run) not in ('', 'bop') else 'ycbv'}-test.csv"
     if Path(out_csv).is_dir():
         raise InvalidInputError(
-            f"--out {out_csv} is a folder; pass the CSV file to write, e.g. {Path(out_csv) / 'method_ycbv-test.csv'}"
+            f"--out {out_csv} is a folder; pass the CSV file to write, e.g. {Path(out_csv) / example}"
         )
     if check_name:
-        check_results_filename(out_csv)
-    run = load_run(run_dir)
-    if check_name:
+        check_results_filename(out_csv, example[7:-4])
         check_dataset_name(out_csv, run)
     if run.incomplete:  # exported all the same, and said
         log.warning("%s", run.incomplete)
@@ -196,6 +196,11 @@ def pose_problem(T: Any) -> str | None:
     return None if why is None else f"is not a rotation and translation ({why})"
 
 
+def _dataset_of(run: Any) -> str:
+    node = run.config.get("dataset")
+    return str(node.get("name")) if isinstance(node, dict) and node.get("name") else str(run.info.get("dataset", ""))
+
+
 def check_dataset_name(out_csv: str | Path, run: Any) -> None:
     """The ``DATASET`` of ``METHOD_DATASET-SPLIT.csv`` must be the run's dataset (the BOP toolkit
     scores the file against the dataset it names); a run of the generic ``dataset=bop`` config,
@@ -204,8 +209,7 @@ def check_dataset_name(out_csv: str | Path, run: Any) -> None:
     from catpose.errors import InvalidInputError
 
     _, named, split = check_results_filename(out_csv)
-    node = run.config.get("dataset")
-    dataset = str(node.get("name")) if isinstance(node, dict) and node.get("name") else str(run.info.get("dataset", ""))
+    dataset = _dataset_of(run)
     if dataset and dataset != "bop" and named != dataset:
         method = Path(out_csv).name.split("_", 1)[0]
         raise InvalidInputError(

@@ -43,11 +43,12 @@ DEFAULT_METRICS = ("ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg
 # 1. The results file
 
 
-def check_results_filename(path: str | Path) -> tuple[str, str, str]:
+def check_results_filename(path: str | Path, dataset_split: str = "ycbv-test") -> tuple[str, str, str]:
     """``(method, dataset, split)`` of a BOP results file name ``METHOD_DATASET-SPLIT[-TYPE].csv``.
 
     Raises :class:`InvalidInputError` with the fix when the name does not parse or ``METHOD``
-    holds an underscore (bop_toolkit splits the name at the first ``_``).
+    holds an underscore (bop_toolkit splits the name at the first ``_``); the example it gives ends
+    in ``dataset_split``.
     """
     name = Path(path).name
     m = re.fullmatch(r"([^_]+)_([^_-]+)-([^_]+?)\.csv", name)
@@ -56,7 +57,7 @@ def check_results_filename(path: str | Path) -> tuple[str, str, str]:
         example = (
             f"{parts.group(1).replace('_', '-')}_{parts.group(2)}-{parts.group(3)}.csv"
             if parts
-            else f"{re.sub(r'[^A-Za-z0-9-]', '-', Path(name).stem) or 'method'}_ycbv-test.csv"
+            else f"{re.sub(r'[^A-Za-z0-9-]', '-', Path(name).stem) or 'method'}_{dataset_split}.csv"
         )
         raise InvalidInputError(
             f"results file {name!r}: the BOP toolkit needs METHOD_DATASET-SPLIT.csv with no '_' "
