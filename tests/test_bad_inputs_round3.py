@@ -345,3 +345,24 @@ def test_case_36_export_name_hint_names_the_runs_dataset(tmp_path, capsys):
     assert bench(["export", str(run), "--out", str(tmp_path / "my results.csv")]) == 2
     line = one_error_line(capsys, "export")
     assert "e.g. my-results_toy-test.csv" in line and "ycbv" not in line
+
+
+def test_case_15_a_config_naming_another_method_is_named(tmp_path, capsys):
+    run = write_run(tmp_path / "run", [dict(r, method="icp") for r in rows([5.0])], dict(CFG, method={"name": "icp"}))
+    (run / "config.yaml").write_text((run / "config.yaml").read_text().replace("name: icp", "name: ours", 1))
+    assert bench(["table", str(run)]) == 2
+    assert "config.yaml names method 'ours' but its rows are of 'icp'" in one_error_line(capsys, "table")
+
+
+def test_also_a_killed_commands_hidden_folder_is_cleared_by_the_next(tmp_path):
+    import subprocess
+
+    from catpose import atomic
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    stale = tmp_path / f".r.{int(dead.stdout)}-0123abcd.tmp"
+    stale.mkdir()
+    (stale / "index.md").write_text("half")
+    with atomic.building_dir(tmp_path / "r") as tmp:
+        (tmp / "index.md").write_text("whole")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r"]

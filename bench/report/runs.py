@@ -107,6 +107,13 @@ def load_run(path: str | Path) -> Run:
             f"run {path} has no sample rows ({samples_path.name} is empty: its `bench run` finished no sample); "
             "re-run it, or leave it out"
         )
+    named = (config.get("method") or {}).get("name") if isinstance(config.get("method"), dict) else None
+    in_rows = sorted({str(m) for m in samples.get("method", [])} - {str(named)})
+    if named and in_rows:
+        raise DatasetError(
+            f"run {path}: config.yaml names method {named!r} but its rows are of {in_rows[0]!r}; restore config.yaml "
+            "(it labels the run in tables)"
+        )
     return Run(
         path=path,
         config=config,

@@ -331,6 +331,12 @@ def _check_bop_files(layout: Any, scenes: list[Path], objects: set[int], report:
                 why = png_problem(png, size, depth16)
                 if why:
                     problems.append(why)
+    no_masks = [s.name for s in scenes if not layout.mask_visib(int(s.name), 0, 0).parent.is_dir()]
+    if no_masks:
+        report.warn(
+            f"{len(no_masks)} scenes have no mask_visib/ (e.g. {no_masks[0]}): their masks are rendered from the model "
+            "and the ground truth pose, not measured; unzip the dataset's masks for BOP's visible masks"
+        )
     _note_files(report, depth_problems, "depth images")
     _note_files(report, mask_problems, "masks")
     models = [layout.model(o) for o in sorted(objects) if layout.model(o).is_file()]

@@ -26,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import errno
+import glob
 import os
 import shutil
 import uuid
@@ -132,6 +133,16 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
     return Path(path)
 
 
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process
+        return True
+    return True
+
+
 @contextlib.contextmanager
 def building_dir(final: str | Path) -> Iterator[Path]:
     """A fresh hidden folder beside ``final`` to build a whole folder in; on a clean exit it takes
@@ -140,6 +151,10 @@ def building_dir(final: str | Path) -> Iterator[Path]:
     all is the caller's decision (:mod:`catpose.bench.run.overwrite`)."""
     final = Path(final)
     final.parent.mkdir(parents=True, exist_ok=True)
+    for stale in final.parent.glob(f".{glob.escape(final.name)}.*-*.tmp"):  # left by a killed process
+        pid = stale.name[len(final.name) + 2 :].split("-")[0]
+        if pid.isdigit() and not _alive(int(pid)):
+            shutil.rmtree(stale, ignore_errors=True)
     tmp = final.with_name(f".{final.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.tmp")
     tmp.mkdir()
     try:
