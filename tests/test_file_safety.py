@@ -136,7 +136,8 @@ def _copy_run(src: Path, dst: Path) -> Path:
 @pytest.fixture()
 def two_runs(tmp_path) -> tuple[Path, Path]:
     a = write_run(tmp_path / "runs" / "a", rows([5.0, 40.0, 3.0]), CFG)
-    b = write_run(tmp_path / "runs" / "b", rows([6.0, 41.0, 4.0]), dict(CFG, method={"name": "icp", "_target_": "x.Z"}))
+    icp_rows = [dict(r, method="icp") for r in rows([6.0, 41.0, 4.0])]  # rows and config.yaml agree (issue 60)
+    b = write_run(tmp_path / "runs" / "b", icp_rows, dict(CFG, method={"name": "icp", "_target_": "x.Z"}))
     return a, b
 
 
