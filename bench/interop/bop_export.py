@@ -166,12 +166,12 @@ def export_bop(
             f"{' '.join(f'{x:.9g}' for x in t)},{rt:.6g}"
         )
     from catpose import atomic
-    from catpose.bench.scoring.bop_eval import check_results_csv
+    from catpose.bench.interop.prediction_io import read_predictions
 
     out_csv = Path(out_csv)
     with atomic.atomic_path(out_csv) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
-        check_results_csv(tmp)  # what bop_toolkit's loader checks (header, ids, one time per image)
+        read_predictions(tmp)  # what bench score and bop_toolkit's loader check (ids, poses, one time per image)
     atomic.write_text(str(out_csv) + ".map.csv", pd.DataFrame(mapping).to_csv(index=False))
     return len(rows)
 
