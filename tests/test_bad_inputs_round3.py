@@ -94,6 +94,11 @@ def test_case_03_a_new_file_is_claimed_at_the_final_move(tmp_path):
             atomic.write_text(path, "second\n")
     assert (tmp_path / "t.md").read_text() == "first\n"
     assert [p.name for p in tmp_path.iterdir()] == ["t.md"]
+    table, side = Output(tmp_path / "u.csv", "file"), Output(tmp_path / "u.csv.map.csv", "file")  # as bench export
+    (tmp_path / "u.csv").write_text("first\n")
+    with pytest.raises(InvalidInputError, match=r"--out \S*u.csv was written by another command"):
+        with table.writing(), side.writing():
+            atomic.write_text(table.path, "second\n")
 
 
 def test_case_04_no_run_inside_a_run_and_no_force_over_runs_below(tmp_path, capsys):

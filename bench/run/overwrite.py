@@ -288,7 +288,9 @@ class Output:
         try:
             with atomic.claiming(*([self.path] if self.new else [])):
                 yield self.path
-        except atomic.Claimed:
+        except atomic.Claimed as e:
+            if _abs(e.filename) != self.path:  # another Output's target, in a block nested in this one
+                raise
             raise InvalidInputError(
                 f"{self.flag} {self.out} was written by another command while this one ran; it is kept: "
                 f"pass another {self.flag}"
