@@ -371,3 +371,24 @@ def test_also_a_killed_commands_hidden_folder_is_cleared_by_the_next(tmp_path):
     with atomic.building_dir(tmp_path / "r") as tmp:
         (tmp / "index.md").write_text("whole")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r"]
+
+
+@pytest.mark.slow  # a bench run in a subprocess: about 10 s
+def test_also_sigterm_ends_a_run_with_a_line(tmp_path):
+    import signal
+    import subprocess
+    import time
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "catpose.bench.cli", "run", "method=icp", "dataset=synthetic", "limit=500",
+         f"output_root={tmp_path}", "progress=false"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    deadline = time.monotonic() + 120
+    while not list(tmp_path.rglob("samples.jsonl")) or not next(tmp_path.rglob("samples.jsonl")).stat().st_size:
+        assert time.monotonic() < deadline and proc.poll() is None
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert "bench run: interrupted; finished samples are saved" in err
