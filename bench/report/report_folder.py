@@ -392,8 +392,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--note", action="append", default=[], help="a paragraph under the title (how the runs were made)")
     ap.add_argument("--no-pdf", action="store_true", help="figures as PNG (+ CSV) only")
     args = ap.parse_args(argv)
-    if args.qualitative < 0 or args.max_pictures < 0:
-        raise ConfigError("--qualitative and --max-pictures take 0 or more (0: no pictures)")
+    if not 0 <= args.qualitative <= 2 or args.max_pictures < 0:
+        raise ConfigError("--qualitative takes 0, 1 or 2 (pictures per run), --max-pictures 0 or more (0: none)")
     out = Output(args.out, "folder", input_runs(args.runs), args.force)  # before any work
     left_out: list[str] = []
     with out.writing():
