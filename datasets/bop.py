@@ -165,6 +165,7 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         seen_objects: set[int] = set()
         n_low_visib, n_not_target, visib_files, n_no_depth = 0, 0, 0, 0
         no_depth_targets: list[str] = []
+        matched: set[tuple[int, int, int]] = set()
         scene_dirs = sorted(p for p in split_dir.iterdir() if p.is_dir() and p.name.isdigit())
         if self.scenes is not None:  # a scene named that has no folder is a typo, not an empty scene
             absent = sorted(self.scenes - {int(p.name) for p in scene_dirs})
@@ -205,6 +206,7 @@ class BOP(BopModels, BopFrames, ObjectDataset):
                     if targets is not None and (scene_id, im_id, obj_id) not in targets:
                         n_not_target += 1
                         continue
+                    matched.add((scene_id, im_id, obj_id))
                     fr = (visib or {}).get(im_id)
                     if fr is not None and gt_idx < len(fr) and fr[gt_idx] < self.min_visib_fract:
                         n_low_visib += 1
@@ -225,6 +227,19 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         self.filters = []
         if targets is not None:
             self.filters.append(f"targets from {self.targets} ({n_not_target} instances not listed left out)")
+        lost = [
+            k
+            for k in sorted(targets or {})
+            if k not in matched and (self.scenes is None or k[0] in self.scenes) and self.category_of_object(k[2])
+        ]
+        if lost:  # a missing scene, an emptied scene_gt.json, an object the frame does not show
+            self.filters.append(
+                f"{len(lost)} targets of {self.targets} have no ground truth in scene_gt.json (e.g. scene {lost[0][0]} "
+                f"image {lost[0][1]} object {lost[0][2]}) left out"
+            )
+            warnings.warn(
+                f"BOP {split_dir}: {self.filters[-1]}; check the scene folders and scene_gt.json", stacklevel=2
+            )
         if no_depth_targets:
             self.filters.append(
                 f"{len(no_depth_targets)} targets have no depth image (e.g. {no_depth_targets[0]}): kept, they fail "

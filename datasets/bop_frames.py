@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from catpose import libm
-from catpose.datasets.bop_layout import camera_K
+from catpose.datasets.bop_layout import camera_K, gt_obj_id, gt_pose
 from catpose.datasets.dataset import Observation
 from catpose.datasets.depthio import read_depth, read_mask_png
 from catpose.datasets.frame_view import FrameSettings, NoGroundPlane, frame_view
@@ -77,11 +77,10 @@ class BopFrames:
         gt_path, cam_path = self.layout.scene_gt(scene_id), self.layout.scene_camera(scene_id)
         try:
             gt = self._read_json(gt_path)[str(im_id)][gt_idx]
-            obj_id = int(gt["obj_id"])
-            R_cam_model = np.asarray(gt["cam_R_m2c"], float).reshape(3, 3)
-            t_cam_model = np.asarray(gt["cam_t_m2c"], float).reshape(3)
-        except (KeyError, IndexError, TypeError, ValueError):
+        except (KeyError, IndexError, TypeError):
             raise DatasetError(f"{gt_path} has no valid pose for image {im_id}, object index {gt_idx}") from None
+        obj_id = gt_obj_id(gt_path, str(im_id), gt_idx, gt)
+        R_cam_model, t_cam_model = gt_pose(gt_path, im_id, gt_idx, gt)
         K, depth_scale = camera_K(cam_path, self._read_json(cam_path), im_id)
         if self.category_of_object(obj_id) is None:
             raise DatasetError(f"object {obj_id} in {gt_path} is not in dataset.categories; add it there")
@@ -140,6 +139,14 @@ class BopFrames:
             view = frame_view(bf.frame, scale, self.frame_settings(), exclude=bf.exclude, source=str(bf.depth_path))
         except NoGroundPlane as e:
             raise DatasetError(str(e)) from None
+        pts = view.points_camera
+        radius = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) / 2 if len(pts) else 0.0
+        if not 0.05 < radius < 3.0:  # a view spans about 0.3 to 1.2 model radii
+            raise DatasetError(
+                f"{bf.depth_path}: object {obj_id}'s visible points span {radius:.3g} radii of its model "
+                f"{self.layout.model(obj_id)} (a view spans about 0.3 to 1.2): the depth and the model are in "
+                "different units; fix depth_scale in scene_camera.json or the model's unit (mm)"
+            )
 
         # p_object = R_obj_model R^T (p_cam - t) / s - centre / s, with p_cam in mm
         R_object_camera = matmul3(R_obj_model, R_cam_model.T)

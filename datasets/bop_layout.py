@@ -17,6 +17,43 @@ from catpose.geometry import apply_R, dot3, unit3
 #: values of dataset.sensor that mean a single-sensor layout
 SENSORLESS = (None, "", "none")
 
+ROTATION_TOL = 1e-3
+"""Largest entry of ``|R^T R - I|`` and of ``|det R - 1|`` accepted for a rotation, in ground
+truth and in results files (they hold rounded values; 9 significant digits give about 1e-9)."""
+
+
+def rotation_problem(R: np.ndarray, tol: float = ROTATION_TOL) -> str | None:
+    """Why the (3, 3) ``R`` is not a rotation within ``tol`` (None when it is one)."""
+    R = np.asarray(R, float).reshape(3, 3)
+    if not np.isfinite(R).all():
+        return "it has a NaN or infinite value"
+    orth = float(np.abs(R.T @ R - np.eye(3)).max())
+    det = float(np.linalg.det(R))
+    if orth <= tol and abs(det - 1.0) <= tol:
+        return None
+    return f"max |R^T R - I| = {orth:.6g}, det R = {det:.6g}"
+
+
+def gt_pose(gt_path: Path, im_key: str | int, gt_idx: int, entry: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``(R_camera_model (3, 3), t_camera_model (3,) mm)`` of entry ``gt_idx`` of image ``im_key`` in a
+    ``scene_gt.json``: a :class:`DatasetError` naming the file when it is missing, not a rotation
+    within :data:`ROTATION_TOL` or not finite (a zero matrix would score every estimate 0 deg)."""
+    where = f"{gt_path}: image {im_key}, object index {gt_idx}"
+    try:
+        R = np.asarray(entry["cam_R_m2c"], float).reshape(3, 3)
+        t = np.asarray(entry["cam_t_m2c"], float).reshape(3)
+    except (KeyError, IndexError, TypeError, ValueError):
+        raise DatasetError(f"{where} has no valid pose: cam_R_m2c must be 9 numbers, cam_t_m2c 3") from None
+    why = rotation_problem(R)
+    if why:
+        raise DatasetError(
+            f"{where}: cam_R_m2c is not a rotation ({why}); fix the file (9 row-major numbers of an orthonormal "
+            f"matrix with det +1, within {ROTATION_TOL:g})"
+        )
+    if not np.isfinite(t).all():
+        raise DatasetError(f"{where}: cam_t_m2c {t.tolist()} is not 3 finite numbers (mm); fix the file")
+    return R, t
+
 
 def read_json(path: Path) -> Any:
     """Load a JSON file, raising :class:`DatasetError` naming it when missing or malformed."""
@@ -35,14 +72,21 @@ def camera_K(cam_path: Path, cameras: Any, im_id: int | str) -> tuple[np.ndarray
     try:
         cam = cameras[str(im_id)]
         K = np.asarray(cam["cam_K"], float).reshape(3, 3)
-        depth_scale = float(cam.get("depth_scale", 1.0))
     except (KeyError, TypeError, ValueError, AttributeError):
         raise DatasetError(f"{cam_path} has no valid cam_K for image {im_id}") from None
-    fx, fy = float(K[0, 0]), float(K[1, 1])
-    if not (np.isfinite(fx) and np.isfinite(fy) and fx > 0 and fy > 0):
+    raw = cam.get("depth_scale", 1.0)
+    depth_scale = float(raw) if isinstance(raw, (int, float)) and not isinstance(raw, bool) else float("nan")
+    if not (np.isfinite(depth_scale) and depth_scale > 0):
         raise DatasetError(
-            f"{cam_path}: cam_K of image {im_id} has focal lengths fx={fx:g}, fy={fy:g}; they must "
-            "be positive pixels: fix cam_K (row-major [fx, 0, cx, 0, fy, cy, 0, 0, 1])"
+            f"{cam_path}: depth_scale of image {im_id} is {raw!r}; it must be a positive number (mm per depth "
+            "unit: 1 for depth PNGs in mm, 0.1 for YCB-Video)"
+        )
+    fx, fy = float(K[0, 0]), float(K[1, 1])
+    if not (np.isfinite(K).all() and fx > 0 and fy > 0):
+        raise DatasetError(
+            f"{cam_path}: cam_K of image {im_id} has focal lengths fx={fx:g}, fy={fy:g}"
+            + ("" if np.isfinite(K).all() else " and a NaN or infinite value")
+            + "; they must be positive pixels: fix cam_K (row-major [fx, 0, cx, 0, fy, cy, 0, 0, 1])"
         )
     return K, depth_scale
 

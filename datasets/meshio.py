@@ -32,6 +32,10 @@ _AXES = {"x": 0, "y": 1, "z": 2}
 # --------------------------------------------------------------------------- reading
 
 
+def _missing(path: Path) -> str:
+    return "is a folder, not a file" if path.is_dir() else "does not exist"
+
+
 def read_off(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """Read an OFF mesh; returns vertices (V, 3) float64 and triangles (F, 3) int64.
 
@@ -40,7 +44,7 @@ def read_off(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """
     path = Path(path)
     if not path.is_file():
-        raise DatasetError(f"mesh file {path} does not exist; check the dataset root and the id")
+        raise DatasetError(f"mesh file {path} {_missing(path)}; check the dataset root and the id")
     text = path.read_text(errors="replace")
     # (line number in the file, content) of the non-empty lines, so errors can point at the line
     numbered = [(k + 1, ln.split("#", 1)[0].strip()) for k, ln in enumerate(text.splitlines())]
@@ -108,7 +112,7 @@ def read_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """Read an OFF, OBJ or PLY triangle mesh; returns vertices (V, 3) and triangles (F, 3)."""
     path = Path(path)
     if not path.is_file():
-        raise DatasetError(f"mesh file {path} does not exist; check the path in the config")
+        raise DatasetError(f"mesh file {path} {_missing(path)}; check the path in the config")
     suffix = path.suffix.lower()
     if suffix == ".off":
         return read_off(path)
@@ -127,10 +131,10 @@ def read_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _check_mesh(path: Path, vertices: np.ndarray, triangles: np.ndarray) -> None:
+    if not np.isfinite(vertices).all():
+        raise DatasetError(f"{path} has non-finite vertex coordinates (NaN or inf); fix or re-export the mesh")
     if len(vertices) < 3 or len(triangles) == 0:
         raise DatasetError(f"{path} has no triangles ({len(vertices)} vertices, {len(triangles)} faces)")
-    if not np.isfinite(vertices).all():
-        raise DatasetError(f"{path} has non-finite vertex coordinates")
     if triangles.min() < 0 or triangles.max() >= len(vertices):
         raise DatasetError(f"{path} has face indices outside 0..{len(vertices) - 1}")
 

@@ -61,6 +61,8 @@ class ViewOptions(OptionGroup):
                 f"{self.elevation_max_deg}: they must satisfy 0 <= elevation_min_deg <= elevation_max_deg < 90 "
                 "(degrees above the ground plane)"
             )
+        if not 0.0 <= float(self.roll_max_deg) <= 180.0:
+            raise ConfigError(f"dataset.roll_max_deg={self.roll_max_deg}: pass a roll in [0, 180] degrees")
 
     def sample(self, rng: np.random.Generator) -> np.ndarray:
         """Draw one viewpoint; returns ``T_camera_object`` (4, 4)."""
@@ -122,6 +124,11 @@ def pinhole_camera(
             ``(height - 1) / 2`` (the centre of the pixel grid).
     """
     width, height = int(width), int(height)
+    for name, value in (("fx", fx), ("fy", fy)):
+        if not float(value) > 0 or float(value) == float("inf"):
+            from catpose.errors import ConfigError
+
+            raise ConfigError(f"dataset.{name}={value}: pass a positive focal length in pixels (e.g. 300)")
     return PinholeCamera(
         width,
         height,

@@ -128,3 +128,40 @@ def test_bop_scene_gt_without_depth(tmp_path, capsys):
     (scene / "scene_camera.json").write_text(json.dumps({"0": {"cam_K": [300, 0, 160, 0, 300, 120, 0, 0, 1]}}))
     code, lines = _check(capsys, "dataset=bop", f"dataset.root={tmp_path}")
     assert code == 2 and len(lines) == 1 and "no depth images under" in lines[0] and "000000.png" in lines[0]
+
+
+def test_a_flat_modelnet40_shape_is_a_problem(tmp_path, capsys):
+    """Issue 60 case 23: a two-triangle unit square, on which ours' resting poses never end."""
+    shape = tmp_path / "thing/train/thing_0001.off"
+    shape.parent.mkdir(parents=True)
+    shape.write_text("OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n")
+    code, lines = _check(capsys, "dataset=modelnet40", f"dataset.root={tmp_path}", "dataset.categories=[thing]")
+    assert code == 2 and f"problem: {shape} is flat (no volume)" in lines[0], lines
+
+
+def test_issue60_bad_ground_truth_and_scenes_are_problems(tmp_path, capsys):
+    """Issue 60 cases 6 (a zero cam_R_m2c passed as good), 27 (dataset.scenes=[99] said "no scene
+    folders") and a camera behind the object (cam_t_m2c z < 0)."""
+    sys.path.insert(0, str(REPO / "tests"))
+    from test_loaders_bop import bop_root
+
+    root = bop_root.__wrapped__(tmp_path)
+    base = ["dataset=bop", f"dataset.root={root}"]
+    shutil.copy(root / "models/obj_000001.ply", root / "models/obj_000004.ply")  # a model for every object
+    code, lines = _check(capsys, *base)
+    assert code == 0, lines
+    assert any("1 scenes have no mask_visib/ (e.g. 000001): their masks are rendered" in ln for ln in lines), lines
+    gt_path = root / "test/000001/scene_gt.json"
+    good = gt_path.read_text()
+    for key, value, said in (
+        ("cam_R_m2c", [0.0] * 9, "cam_R_m2c is not a rotation"),
+        ("cam_t_m2c", [0.0, 0.0, -500.0], "cam_t_m2c has z <= 0 (behind the camera)"),
+    ):
+        data = json.loads(good)
+        data["0"][0][key] = value
+        gt_path.write_text(json.dumps(data))
+        code, lines = _check(capsys, *base)
+        assert code == 2 and any(said in ln for ln in lines), lines
+    gt_path.write_text(good)
+    code, lines = _check(capsys, *base, "dataset.scenes=[99]")
+    assert code == 2 and lines == [f"problem: dataset.scenes=[99] names none of the 1 scenes in {root / 'test'} (1)"]

@@ -136,7 +136,8 @@ def _copy_run(src: Path, dst: Path) -> Path:
 @pytest.fixture()
 def two_runs(tmp_path) -> tuple[Path, Path]:
     a = write_run(tmp_path / "runs" / "a", rows([5.0, 40.0, 3.0]), CFG)
-    b = write_run(tmp_path / "runs" / "b", rows([6.0, 41.0, 4.0]), dict(CFG, method={"name": "icp", "_target_": "x.Z"}))
+    icp_rows = [dict(r, method="icp") for r in rows([6.0, 41.0, 4.0])]  # rows and config.yaml agree (issue 60)
+    b = write_run(tmp_path / "runs" / "b", icp_rows, dict(CFG, method={"name": "icp", "_target_": "x.Z"}))
     return a, b
 
 
@@ -254,7 +255,8 @@ def test_a_full_disk_while_scoring_or_exporting_is_one_line_and_leaves_nothing(t
     def full(*args):
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(atomic.os, "replace", full)
+    for move in ("replace", "link", "rename"):  # a new file is linked into place, a folder renamed
+        monkeypatch.setattr(atomic.os, move, full)
     args = {
         "score": ["score", str(preds), "--gt", str(gt), "--method", "ext", "--out", str(tmp_path / "o")],
         "export": ["export", str(gt), "--out", str(tmp_path / "m_toy-test.csv")],

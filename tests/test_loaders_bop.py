@@ -363,3 +363,57 @@ def test_tyol_config_composes_and_loads_the_shared_frame(shared_data):
     # the shared frame has neither targets nor scene_gt_info; its 74 other frames have no depth image
     assert ds.filters == ["74 frames of scene_gt.json without a depth image left out (no target list)"]
     assert len(ds.category_templates("mug")) == 1 and len(ds.category_templates("bottle")) == 1
+
+
+def _edit(path: Path, change) -> None:
+    data = json.loads(path.read_text())
+    change(data)
+    path.write_text(json.dumps(data))
+
+
+def test_issue60_ground_truth_and_cameras_are_checked(bop_root):
+    """Issue 60 cases 6 (a zero or scaled cam_R_m2c scored as a pose), 24 (NaN in cam_t_m2c)
+    and 25 (depth_scale 0, negative, NaN, null or text): one line naming the file and the key."""
+    gt_path, cam_path = bop_root / "test/000001/scene_gt.json", bop_root / "test/000001/scene_camera.json"
+    good_gt, good_cam = gt_path.read_text(), cam_path.read_text()
+    for key, value, match in (
+        ("cam_R_m2c", [0.0] * 9, r"image 0, object index 0: cam_R_m2c is not a rotation \(max \|R\^T R - I\| = 1"),
+        ("cam_R_m2c", (2 * np.eye(3)).ravel().tolist(), "cam_R_m2c is not a rotation"),
+        ("cam_t_m2c", [float("nan"), 0.0, 500.0], "cam_t_m2c .* is not 3 finite numbers"),
+    ):
+        _edit(gt_path, lambda d: d["0"][0].update({key: value}))
+        with pytest.raises(DatasetError, match=match):
+            BOP(str(bop_root), categories=CATS).observation("box/000001/000000/0")
+        gt_path.write_text(good_gt)
+    for scale in (0, -1, float("nan"), None, "abc"):
+        _edit(cam_path, lambda d: d["0"].update(depth_scale=scale))
+        with pytest.raises(DatasetError, match=f"depth_scale of image 0 is {scale!r}; it must be a positive number"):
+            BOP(str(bop_root), categories=CATS).observation("box/000001/000000/0")
+        cam_path.write_text(good_cam)
+
+
+def test_issue60_depth_in_another_unit_than_the_model_is_named(bop_root):
+    """Issue 60 case 8: depth_scale 10 times too large was scored (151 deg) without a word."""
+    from PIL import Image
+
+    depth = np.asarray(Image.open(bop_root / "test/000001/depth/000000.png")).astype(float)
+    v, f = models()[1]
+    rendered = render_depth(v, f, T_camera_model(1), CAMERA)
+    (bop_root / "test/000001/mask_visib").mkdir()
+    mask = (rendered > 0) & (np.abs(depth - rendered) < 5)
+    Image.fromarray((mask * 255).astype(np.uint8)).save(bop_root / "test/000001/mask_visib/000000_000000.png")
+    BOP(str(bop_root), categories=CATS).observation("box/000001/000000/0")  # right units: loads
+    _edit(bop_root / "test/000001/scene_camera.json", lambda d: d["0"].update(depth_scale=10.0))
+    with pytest.raises(DatasetError, match="the depth and the model are in different units; fix depth_scale"):
+        BOP(str(bop_root), categories=CATS).observation("box/000001/000000/0")
+
+
+def test_issue60_targets_without_ground_truth_are_said(bop_root):
+    """Issue 60 case 7: a target whose scene_gt.json entry is gone was dropped in silence."""
+    (bop_root / "test_targets_bop19.json").write_text(
+        json.dumps([{"scene_id": 1, "im_id": 0, "obj_id": o, "inst_count": 1} for o in (1, 2)])
+    )
+    _edit(bop_root / "test/000001/scene_gt.json", lambda d: d.update({"0": d["0"][:1]}))
+    ds = BOP(str(bop_root), categories=CATS)
+    with pytest.warns(UserWarning, match=r"1 targets of test_targets_bop19.json have no ground truth .*object 2"):
+        assert ds.observation_ids() == ["box/000001/000000/0"]

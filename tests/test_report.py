@@ -257,8 +257,9 @@ def test_pictures_are_on_by_default_and_capped(monkeypatch, tmp_path: Path):
     assert seen["kw"]["max_pictures"] == report_folder.MAX_PICTURES
     report_main(["some/run", "--out", str(tmp_path / "r"), "--qualitative", "0", "--max-pictures", "4"])
     assert seen["args"][3] == 0 and seen["kw"]["max_pictures"] == 4
-    with pytest.raises(ConfigError, match="--qualitative and --max-pictures take 0 or more"):
-        report_main(["some/run", "--out", str(tmp_path / "r"), "--max-pictures", "-1"])
+    for flag, value in (("--max-pictures", "-1"), ("--qualitative", "5")):  # issue 60: at most 2, as the help says
+        with pytest.raises(ConfigError, match="--qualitative takes 0, 1 or 2 .pictures per run., --max-pictures 0"):
+            report_main(["some/run", "--out", str(tmp_path / "r"), flag, value])
 
 
 def test_a_user_label_is_kept_beside_other_runs_of_the_method(tmp_path: Path):

@@ -106,3 +106,17 @@ def test_yaw_turns_are_rotations_about_the_up_after_the_half_turns():
     tilted = yaw_and_half_turns(np.array([1.0, 0.0, 1.0]), 4)
     axis = np.array([1.0, 0.0, 1.0]) / np.sqrt(2)
     assert len(tilted) == 4 + 3 and all(np.allclose(F[:3, :3] @ axis, axis) for F in tilted[4:])
+
+
+def test_a_flat_model_is_refused_at_once_not_searched_forever():
+    """Issue 60 case 23: trimesh's stable-pose search never ends on a hull of no volume."""
+    import time
+
+    from catpose.errors import InvalidInputError
+
+    square = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)  # two triangles, a unit square
+    start = time.monotonic()
+    with pytest.raises(InvalidInputError, match="flat or degenerate"):
+        resting_ups(square)
+    assert time.monotonic() - start < 5
+    assert len(resting_ups(np.vstack([square, square + [0, 0, 1e-3]]))) >= 2  # thin, yet solid

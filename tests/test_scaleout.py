@@ -131,6 +131,11 @@ def test_merge_restores_order_and_names_a_missing_shard(tmp_path):
     assert [r["sample_id"] for r in merged] == ids
     assert [r["v"] for r in merged if r["sample_id"] in ("x0", "x1", "x2")] == [2, 2, 2]
 
+    # issue 60: a shard file holding another shard's rows (copied over it) is named, not merged
+    (tmp_path / shard_samples_file(1, 3)).write_bytes((tmp_path / shard_samples_file(0, 3)).read_bytes())
+    with pytest.raises(DatasetError, match="holds 3 sample.s. that shard 1 of 3 does not list"):
+        merged_rows(tmp_path)
+
     (tmp_path / shard_meta_file(1, 3)).unlink()
     with pytest.raises(DatasetError, match="shard 1 of 3 has not run; run it with shards=3 shard=1"):
         merged_rows(tmp_path)

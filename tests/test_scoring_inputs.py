@@ -171,7 +171,11 @@ def _write(path: Path, content: bytes | str) -> Path:
             "m_toy-test.csv:2: obj_id must be an integer, got 'x'",
         ),
         ("m_toy-test.csv", f"sample_id,R,t\n ,{ROT},0 0 0\n", "m_toy-test.csv:2: sample_id is empty"),
-        ("m_toy-test.csv", f"sample_id,R,t\nmug/i0/v0,{ROT},0 nan 0\n", "m_toy-test.csv:2 t: expected 3"),
+        (
+            "m_toy-test.csv",
+            f"sample_id,R,t\nmug/i0/v0,{ROT},0 nan 0\n",
+            "m_toy-test.csv:2 t: has a NaN or infinite value",
+        ),
     ],
 )
 def test_bad_prediction_files_are_one_line(tmp_path, gt, capsys, name, content, needle):

@@ -26,6 +26,7 @@ written estimate against a verified table (:mod:`catpose.bench.category.align_ch
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 from pathlib import Path
 
@@ -89,10 +90,12 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command; a user error raises :class:`~catpose.errors.CatposeError`, which the CLI prints
     as one line (exit status 2)."""
     args = build_parser().parse_args(argv)
-    check_outputs(args)
-    from catpose.bench.run.overwrite import output_errors
-
-    with output_errors(args.out):  # a read-only folder or a full disk: one line, no file half-written
+    check_options(args)
+    outs = check_outputs(args)
+    with contextlib.ExitStack() as writing:  # a read-only folder or a full disk: one line, no file half-written
+        for flag in ("--out", "--sheet"):
+            if flag in outs:
+                writing.enter_context(outs[flag].writing())
         rows = redraw(args) if args.draw_only else align(args)
     n_low = sum(1 for r in rows if r["low"])
     print(f"wrote {len(rows)} rows to {args.out} ({n_low} marked for a closer look) and {sheet_path(args)}")
@@ -100,41 +103,66 @@ def main(argv: list[str] | None = None) -> int:
         from catpose.bench.category.align_check import compare_tables, summary_line, write_comparison
 
         result = compare_tables(args.out, args.compare, args.category)  # a user error: one line from the CLI
-        with output_errors(comparison_path(args)):
+        with outs["--compare"].writing():
             out = write_comparison(comparison_path(args), result)
         print(f"against {args.compare}: {summary_line(result)}; rows in {out}")
     return 0
 
 
-def check_outputs(args: argparse.Namespace) -> None:
+def check_options(args: argparse.Namespace) -> None:
+    """Before any work: the numbers, a dataset with an alignment table, a readable ``--compare``."""
+    import math
+
+    from catpose.bench.run.config import compose
+    from catpose.errors import ConfigError
+
+    if not (math.isfinite(args.icp_distance) and args.icp_distance > 0):
+        raise ConfigError(f"--icp-distance {args.icp_distance:g}: pass a distance > 0 (object-normalised, e.g. 0.05)")
+    if args.points < 64:
+        raise ConfigError(f"--points {args.points}: pass at least 64 surface points per shape (default 1024)")
+    dataset = compose(args.overrides).dataset
+    if "alignment_table" not in dataset:
+        raise ConfigError(f"dataset {dataset.get('name')} has no alignment table; pass dataset=modelnet40")
+    if args.compare:
+        from catpose.datasets.alignment import read_alignment_table
+
+        read_alignment_table(args.compare)  # a bad table: one line now, before --out is written
+
+
+def check_outputs(args: argparse.Namespace) -> dict:
     """Before any work, where the command may write (:mod:`catpose.bench.run.overwrite`): the table
     never over verified rows (the estimate goes to ``<name>.new.csv``) nor over another table
     without ``--force``; the sheet a picture file that is no verified table's picture (unless it is
-    the table's own, redrawn by ``--draw-only``) and that exists only with ``--force``; never an input."""
+    the table's own, redrawn by ``--draw-only``) and that exists only with ``--force``; never an input.
+    Returns the :class:`~catpose.bench.run.overwrite.Output` of each file written, by flag."""
     from catpose.bench.run.overwrite import (
         Input,
+        Output,
         check_not_input,
-        check_output,
         check_sheet_suffix,
         table_destination,
     )
 
     inputs = [Input(Path(args.compare), "the --compare table")] if args.compare else []
+    outs = {}
     check_not_input(args.out, inputs)  # never an input, not even by way of <name>.new.csv
     if args.draw_only:
         inputs.append(Input(Path(args.out), "the --out table"))
     else:
         args.out, note = table_destination(args.out, args.force)
-        check_output(args.out, "file", inputs, force=True, example="category.csv")  # existence: table_destination's
+        outs["--out"] = Output(args.out, "file", inputs, force=True, example="category.csv")  # see table_destination
         if note:
             log.warning("%s", note)
         inputs.append(Input(Path(args.out), "the --out table"))
     sheet = sheet_path(args)
     check_sheet_suffix(sheet)
     own = Path(args.out).with_suffix(".png") if args.draw_only and not args.sheet else None
-    check_output(sheet, "file", inputs, args.force or own is not None, "--sheet", allow=own, example="sheet.png")
+    outs["--sheet"] = Output(
+        sheet, "file", inputs, args.force or own is not None, "--sheet", allow=own, example="s.png"
+    )
     if args.compare:
-        check_output(comparison_path(args), "file", inputs, args.force, example="x_vs_verified.csv")
+        outs["--compare"] = Output(comparison_path(args), "file", inputs, args.force, example="x_vs_verified.csv")
+    return outs
 
 
 def comparison_path(args: argparse.Namespace) -> Path:

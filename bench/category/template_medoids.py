@@ -198,13 +198,13 @@ def read_templates_yaml(path: str | Path) -> dict[str, list[str]]:
 
 
 def check_options(args) -> None:
-    """``--tau`` a distance > 0 (object-normalised unit), ``--points`` >= 0, ``--out`` a ``.yaml``."""
+    """``--tau`` a distance > 0 (object-normalised unit), ``--points`` >= 64, ``--out`` a ``.yaml``."""
     import math
 
     if not (math.isfinite(args.tau) and args.tau > 0):
         raise ConfigError(f"--tau {args.tau:g} must be a distance > 0 (object-normalised unit, e.g. 0.05)")
-    if args.points < 0:
-        raise ConfigError(f"--points {args.points} must be >= 0 (0: every point)")
+    if args.points < 64:
+        raise ConfigError(f"--points {args.points}: pass at least 64 points per cloud for the F-score (default 2048)")
     if Path(args.out).suffix.lower() not in (".yaml", ".yml"):
         raise ConfigError(f"--out {args.out}: a templates file is a Hydra config: end its name in .yaml")
 
@@ -234,9 +234,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     check_options(args)
-    from catpose.bench.run.overwrite import check_output
+    from catpose.bench.run.overwrite import Output
 
-    check_output(args.out, "file", (), args.force, example="templates.yaml")  # before any work
+    out = Output(args.out, "file", (), args.force, example="templates.yaml")  # before any work
     if Path(args.out).is_file():
         read_templates_yaml(args.out)  # its own kind of file only, refused before the distances are computed
     if args.k != "auto" and not args.k.isdigit():
@@ -254,7 +254,14 @@ def main(argv: list[str] | None = None) -> int:
         overrides.append(f"dataset.categories=[{args.category}]")  # need not cover the others
     _, ((name, dataset),) = compose_and_build(overrides, ("dataset",))  # one-line errors (missing root, ...)
     require_consistent_frames(dataset, "bench templates")
-    ids = args.instances.split(",") if args.instances else instance_ids(dataset, args.category, args.split)
+    known = instance_ids(dataset, args.category, args.split)
+    ids = args.instances.split(",") if args.instances else known
+    unknown = [i for i in ids if i not in known]
+    if unknown or not known:
+        raise DatasetError(
+            f"--category {args.category!r} has no {args.split} instance{' ' + ', '.join(unknown[:3]) if unknown else 's'}"
+            f" in dataset {name} ({'its instances: ' + ', '.join(known[:3]) + ', ...' if known else 'check --category'})"
+        )
     if hasattr(dataset, "check_alignment_covers"):  # the instances clustered here are in the table too
         dataset.check_alignment_covers({args.category: ids})
     if len(ids) < (3 if k == "auto" else k):
@@ -264,12 +271,9 @@ def main(argv: list[str] | None = None) -> int:
         )
     clouds = {i: dataset.instance_model(args.category, i).points for i in ids}
     result = choose_templates(clouds, k, args.tau, args.points, args.seed)
-    out = Path(args.out)
-    from catpose.bench.run.overwrite import output_errors
-
-    with output_errors(out):
+    with out.writing():
         write_templates_yaml(
-            out,
+            out.path,
             args.category,
             result,
             {
@@ -285,6 +289,6 @@ def main(argv: list[str] | None = None) -> int:
     sil = ", ".join(f"K={kk}: {v:.3f}" for kk, v in result["silhouette"].items()) or "n/a"
     print(
         f"{args.category}: templates {result['templates']} (mean 1-F to medoid {result['mean_distance']:.3f}; "
-        f"silhouette {sil}); wrote {out}"
+        f"silhouette {sil}); wrote {out.out}"
     )
     return 0

@@ -116,14 +116,14 @@ def export_bop(
     from catpose.errors import DatasetError, InvalidInputError
     from catpose.geometry import invert_T
 
+    run = load_run(run_dir)
+    example = f"method_{_dataset_of(run) if _dataset_of(run) not in ('', 'bop') else 'ycbv'}-test.csv"
     if Path(out_csv).is_dir():
         raise InvalidInputError(
-            f"--out {out_csv} is a folder; pass the CSV file to write, e.g. {Path(out_csv) / 'method_ycbv-test.csv'}"
+            f"--out {out_csv} is a folder; pass the CSV file to write, e.g. {Path(out_csv) / example}"
         )
     if check_name:
-        check_results_filename(out_csv)
-    run = load_run(run_dir)
-    if check_name:
+        check_results_filename(out_csv, example[7:-4])
         check_dataset_name(out_csv, run)
     if run.incomplete:  # exported all the same, and said
         log.warning("%s", run.incomplete)
@@ -166,21 +166,21 @@ def export_bop(
             f"{' '.join(f'{x:.9g}' for x in t)},{rt:.6g}"
         )
     from catpose import atomic
-    from catpose.bench.scoring.bop_eval import check_results_csv
+    from catpose.bench.interop.prediction_io import read_predictions
 
     out_csv = Path(out_csv)
     with atomic.atomic_path(out_csv) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
-        check_results_csv(tmp)  # what bop_toolkit's loader checks (header, ids, one time per image)
+        read_predictions(tmp)  # what bench score and bop_toolkit's loader check (ids, poses, one time per image)
     atomic.write_text(str(out_csv) + ".map.csv", pd.DataFrame(mapping).to_csv(index=False))
     return len(rows)
 
 
 def pose_problem(T: Any) -> str | None:
     """Why a stored ``T_est`` is not a rigid transform (16 numbers, a rotation within
-    :data:`~catpose.bench.interop.prediction_checks.ROTATION_TOL`, a finite translation, last row
+    :data:`~catpose.datasets.bop_layout.ROTATION_TOL`, a finite translation, last row
     ``[0, 0, 0, 1]``), None when it is one."""
-    from catpose.bench.interop.prediction_checks import rotation_problem
+    from catpose.datasets.bop_layout import rotation_problem
 
     a = np.asarray(T, dtype=object).reshape(-1)
     try:
@@ -196,6 +196,11 @@ def pose_problem(T: Any) -> str | None:
     return None if why is None else f"is not a rotation and translation ({why})"
 
 
+def _dataset_of(run: Any) -> str:
+    node = run.config.get("dataset")
+    return str(node.get("name")) if isinstance(node, dict) and node.get("name") else str(run.info.get("dataset", ""))
+
+
 def check_dataset_name(out_csv: str | Path, run: Any) -> None:
     """The ``DATASET`` of ``METHOD_DATASET-SPLIT.csv`` must be the run's dataset (the BOP toolkit
     scores the file against the dataset it names); a run of the generic ``dataset=bop`` config,
@@ -204,8 +209,7 @@ def check_dataset_name(out_csv: str | Path, run: Any) -> None:
     from catpose.errors import InvalidInputError
 
     _, named, split = check_results_filename(out_csv)
-    node = run.config.get("dataset")
-    dataset = str(node.get("name")) if isinstance(node, dict) and node.get("name") else str(run.info.get("dataset", ""))
+    dataset = _dataset_of(run)
     if dataset and dataset != "bop" and named != dataset:
         method = Path(out_csv).name.split("_", 1)[0]
         raise InvalidInputError(
@@ -218,21 +222,20 @@ def main(argv: list[str] | None = None) -> int:
     """``bench export RUN_DIR --out METHOD_DATASET-SPLIT.csv``."""
     ap = argparse.ArgumentParser(prog="bench export", description="Export a run's estimates as a BOP results CSV.")
     ap.add_argument("run", help="a run directory written by `bench run`")
-    ap.add_argument(
-        "--out",
-        required=True,
-        help="CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the "
-        "BOP toolkit requires; a <out>.map.csv with the id mapping is written beside it",
-    )
-    ap.add_argument("--force", action="store_true", help="replace an existing --out (and its .map.csv)")
-    args = ap.parse_args(argv)
-    from catpose.bench.run.overwrite import Input, check_output, output_errors
+    from catpose.bench.run.overwrite import Input, Output, add_output_options
 
+    add_output_options(
+        ap,
+        "CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the BOP toolkit requires; a "
+        "<out>.map.csv with the id mapping is written beside it",
+        force_help="replace an existing --out and its .map.csv",
+    )
+    args = ap.parse_args(argv)
     inputs = [Input(Path(args.run), "the input run")]  # before any work (docs/file-safety.md)
-    check_output(args.out, "file", inputs, args.force, example="method_ycbv-test.csv")
-    check_output(str(args.out) + ".map.csv", "file", inputs, args.force)
+    out = Output(args.out, "file", inputs, args.force, example="method_ycbv-test.csv")
+    out_map = Output(str(args.out) + ".map.csv", "file", inputs, args.force)
     skipped: list[str] = []
-    with output_errors(args.out):  # a read-only folder or a full disk: one line, the old file, if any, kept
+    with out.writing(), out_map.writing():
         n = export_bop(args.run, args.out, skipped=skipped)
     for line in skipped:
         log.warning("skipped: %s", line)

@@ -14,17 +14,15 @@ and the fix. How duplicates, unknown ids and missing targets are counted is
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from catpose.datasets.bop_layout import ROTATION_TOL, rotation_problem
 from catpose.errors import InvalidInputError
-
-ROTATION_TOL = 1e-3
-"""Largest entry of ``|R^T R - I|`` and of ``|det R - 1|`` accepted for a rotation (files hold
-rounded values; 9 significant digits give about 1e-9)."""
 
 _INT = re.compile(r"^[+-]?\d+$")
 
@@ -43,13 +41,18 @@ def read_csv_text(path: Path):
     data = path.read_bytes()
     try:
         text = data.decode("utf-8-sig")
-        if "\x00" in text:
-            raise UnicodeDecodeError("utf-8", data, 0, 1, "NUL byte")
-    except UnicodeDecodeError:
+    except UnicodeDecodeError as e:
+        if b"\x00" not in data:  # text in another encoding: name the byte and where it is
+            line = data[: e.start].count(b"\n") + 1
+            raise InvalidInputError(
+                f"{path}:{line}: byte {data[e.start]:#04x} is not UTF-8 (a file saved as Latin-1?); save it as UTF-8"
+            ) from None
+        text = "\x00"
+    if "\x00" in text:
         raise InvalidInputError(
             f"predictions file {path} is not a text CSV (binary data, e.g. a .npy); write the "
             "estimates as a BOP results CSV or a per-sample CSV (sample_id,R,t)"
-        ) from None
+        )
     reader = csv.reader(io.StringIO(text, newline=""))
     header, rows, last = None, [], 0
     try:
@@ -94,10 +97,16 @@ def number_or_empty(value: Any, column: str, where: str, required: bool = False)
     if not text and not required:
         return float("nan")
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
-        need = "a number" if required else "a number or empty"
-        raise InvalidInputError(f"{where}: {column} must be {need}, got {text[:20]!r}") from None
+        value = float("nan")
+    if math.isfinite(value) and (column != "time" or value >= 0 or value == -1):  # BOP: time -1 is "not measured"
+        return value
+    need = "a finite number" if required else "a finite number or empty"
+    raise InvalidInputError(
+        f"{where}: {column} must be {need}{' (seconds, or -1: not measured)' if column == 'time' else ''}, "
+        f"got {text[:20]!r}"
+    )
 
 
 def check_ids(record: dict, kind: str, where: str) -> None:
@@ -111,16 +120,6 @@ def check_ids(record: dict, kind: str, where: str) -> None:
         raise InvalidInputError(
             f"{where}: sample_id is empty; give each row the sample id (or observation id) it estimates"
         )
-
-
-def rotation_problem(R: np.ndarray, tol: float = ROTATION_TOL) -> str | None:
-    """Why the (3, 3) ``R`` is not a rotation within ``tol`` (None when it is one)."""
-    R = np.asarray(R, float).reshape(3, 3)
-    orth = float(np.abs(R.T @ R - np.eye(3)).max())
-    det = float(np.linalg.det(R))
-    if orth <= tol and abs(det - 1.0) <= tol:
-        return None
-    return f"max |R^T R - I| = {orth:.3g}, det R = {det:.3g}"
 
 
 def check_pose(T: np.ndarray, where: str) -> None:

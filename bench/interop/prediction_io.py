@@ -32,8 +32,10 @@ def _floats(text: Any, n: int, where: str) -> np.ndarray:
         v = np.array([float(x) for x in str(text).replace(",", " ").split()], float)
     except ValueError:
         v = np.array([])
-    if v.shape != (n,) or not np.isfinite(v).all():
+    if v.shape != (n,):
         raise InvalidInputError(f"{where}: expected {n} space-separated numbers, got {str(text)[:60]!r}")
+    if not np.isfinite(v).all():
+        raise InvalidInputError(f"{where}: has a NaN or infinite value; write {n} finite numbers")
     return v
 
 
@@ -84,6 +86,14 @@ def read_predictions(path: str | Path, inverse: bool = False):
     df["T"] = pd.Series(Ts, index=df.index, dtype=object)
     df["score"] = pd.Series(scores, index=df.index, dtype=float)
     df["time"] = pd.Series(times, index=df.index, dtype=float)
+    if kind == "bop":  # the BOP toolkit's rule: one time per image, the whole image's
+        for (scene, im), group in df.groupby(["scene_id", "im_id"]):
+            if group["time"].nunique(dropna=False) > 1:
+                raise InvalidInputError(
+                    f"{path}:{group['line'].iloc[0]}: scene {scene} image {im} has different times "
+                    f"({', '.join(map(str, group['time'].unique()[:3]))}); give every estimate of an image the "
+                    "image's time (BOP toolkit rule)"
+                )
     df.attrs["kind"] = kind
     return df
 

@@ -24,7 +24,7 @@ from catpose.bench.interop.bop_export import bop_ids
 from catpose.bench.interop.bop_score import DEFAULT_BOP_METRICS, bop_metrics, score_bop
 from catpose.bench.interop.prediction_checks import key_text
 from catpose.bench.interop.prediction_io import read_mapping, read_predictions
-from catpose.bench.run.overwrite import Input, check_output, write_error_text
+from catpose.bench.run.overwrite import Input, Output, add_output_options
 from catpose.bench.run.rundir import write_run_into
 from catpose.bench.scoring.bop_rows import is_bop_layout
 from catpose.errors import DatasetError, InvalidInputError
@@ -243,7 +243,8 @@ def gt_rows_from_config(
     )
     config = OmegaConf.to_container(cfg, resolve=True)
     rows, seen = [], set()
-    for sid in proto.sample_ids(ds):
+    ids = list(cfg.sample_ids) if cfg.get("sample_ids") else proto.sample_ids(ds)
+    for sid in ids[: cfg.limit] if cfg.get("limit") is not None else ids:
         sample = proto.load(ds, sid)
         group = sample.group_id or sid
         if group in seen and pr_name in ("templates", "relative"):
@@ -292,12 +293,7 @@ def main(argv: list[str] | None = None) -> int:
         help="name of the external method (row label in tables; default: "
         "METHOD of a METHOD_DATASET-SPLIT.csv file name)",
     )
-    ap.add_argument("--out", required=True, help="run directory to write (new or empty; see --force)")
-    ap.add_argument(
-        "--force",
-        action="store_true",
-        help="replace an existing run or other files at --out (never the --gt run itself)",
-    )
+    add_output_options(ap, "run directory to write (new or empty; see --force)", force_help="replace a run at --out")
     ap.add_argument(
         "--metrics",
         default=None,
@@ -336,6 +332,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     args.metrics = bop_metrics(args.metrics, args.no_vsd)
+    if args.auc is not None and not 0 < args.auc <= 180:
+        raise InvalidInputError(f"--auc {args.auc:g}: pass an angle in degrees in (0, 180], e.g. --auc 30")
+    if not args.by or set(args.by.split(",")) - {"object", "category"}:
+        raise InvalidInputError(f"--by {args.by!r}: pass object, category or object,category (BOP rows)")
     if args.method is None:
         from catpose.bench.scoring.bop_eval import check_results_filename
 
@@ -352,7 +352,7 @@ def main(argv: list[str] | None = None) -> int:
     inputs += [Input(Path(p), what) for p, what in ((args.gt, "the --gt run"), (args.map, "the --map file")) if p]
     if args.ids:
         inputs.append(Input(Path(args.ids), "the --ids file"))
-    out = check_output(args.out, "folder", inputs, args.force, replaces="run")
+    out = Output(args.out, "folder", inputs, args.force, replaces="run")
     from catpose.bench.interop.transform_arrays import is_transform_array
 
     if args.inverse and not is_transform_array(args.predictions):
@@ -375,32 +375,35 @@ def main(argv: list[str] | None = None) -> int:
     mapping = read_mapping(map_path) if preds.attrs["kind"] == "bop" and map_path.is_file() else None
     stats: dict = {}
     rows = score_predictions(preds, gt_rows, args.method, mapping, stats)
+    if stats["predictions"] and not stats["scored"]:
+        raise InvalidInputError(
+            f"no prediction row of {args.predictions} names a sample of {args.gt or 'dataset=' + args.dataset} "
+            f"(its ids look like {', '.join(stats['unknown_examples'][:2])}; the samples' like "
+            f"{', '.join(r['sample_id'] for r in gt_rows[:2])}); score them against the run or dataset they estimate"
+        )
     config = dict(config, method={"name": args.method, "external": str(args.predictions)})
     bop_text = None
     # the whole run directory is built beside --out and moved there when complete: a failure
     # leaves no half-written folder, and --force replaces the old one only then
     thresholds = None
-    try:
-        with atomic.building_dir(out) as tmp:
-            write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
-            if preds.attrs["kind"] == "bop" and is_bop_layout(config.get("dataset")):
-                bop_text = score_bop(
-                    preds,
-                    config["dataset"],
-                    tmp,
-                    args.method,
-                    args.metrics.split(","),
-                    args.by.split(","),
-                    vsd=not args.no_vsd,
-                )
-            objects = _object_summary(rows, tmp)
-            summary = (tmp / "summary.md").read_text() if (tmp / "summary.md").is_file() else ""
-            if args.acc or args.auc is not None:
-                thresholds = _threshold_summary(rows, tmp, args.acc or "", args.auc)
-    except OSError as e:  # an unwritable or full --out: one line, nothing left behind
-        raise InvalidInputError(write_error_text(args.out, e)) from None
+    with out.writing(), atomic.building_dir(out.path) as tmp:
+        write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
+        if preds.attrs["kind"] == "bop" and is_bop_layout(config.get("dataset")):
+            bop_text = score_bop(
+                preds,
+                config["dataset"],
+                tmp,
+                args.method,
+                args.metrics.split(","),
+                args.by.split(","),
+                vsd=not args.no_vsd,
+            )
+        objects = _object_summary(rows, tmp)
+        summary = (tmp / "summary.md").read_text() if (tmp / "summary.md").is_file() else ""
+        if args.acc or args.auc is not None:
+            thresholds = _threshold_summary(rows, tmp, args.acc or "", args.auc)
     print(count_text(stats))
-    print(f"run directory {out}")
+    print(f"run directory {out.path}")
     print(summary)
     print(objects)
     if thresholds is not None:

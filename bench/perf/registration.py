@@ -311,7 +311,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--device", default="cpu", choices=("cpu", "cuda"), help="ours' solver device")
     ap.add_argument("--batch", type=int, default=1, help="problems per ours register_batch call (default 1)")
-    ap.add_argument("--out", default=None, help="CSV path (default outputs/perf/<parameters>.csv)")
+    from catpose.bench.run.overwrite import Output, add_output_options
+
+    add_output_options(ap, "CSV path (default outputs/perf/<parameters>.csv, replaced)", required=False)
     args = ap.parse_args(argv)
     if args.n < 1 or args.repeat < 1 or args.batch < 1:
         raise ConfigError("--n, --repeat and --batch must be at least 1")
@@ -330,6 +332,11 @@ def main(argv: list[str] | None = None) -> int:
                 "--device cuda but torch has no CUDA device here; run it on a GPU "
                 "machine with a CUDA build of torch, or use --device cpu"
             )
+    out = _out_path(args)  # before any work: the output rule (docs/file-safety.md); the default is perf's own
+    outs = [
+        Output(p, "file", (), args.force or not args.out, example="perf.csv")
+        for p in (out, *(out.with_name(f"{out.stem}_{k}.csv") for k in ("times", "stages")))
+    ]
     from tabulate import tabulate
 
     kernel_threads.set_threads(threads)
@@ -370,7 +377,6 @@ def main(argv: list[str] | None = None) -> int:
     if stage_rows:
         print()
         print(tabulate(stage_rows, headers="keys", tablefmt="github", floatfmt=".4f"))
-    out = _out_path(args)
     meta = {
         "source": source,
         "repeat": args.repeat,
@@ -382,16 +388,12 @@ def main(argv: list[str] | None = None) -> int:
         "cpus": os.cpu_count(),
         "peak_rss_mb": round(peak_rss, 1),
     }
-    _write_csv(out, [dict(r, **meta) for r in rows])
-    _write_csv(
-        out.with_name(out.stem + "_times.csv"),
-        [
-            {"method": name, "call": i, "seconds": x}
-            for name, rec in measured.items()
-            for i, x in enumerate(rec["times"])
-        ],
-    )
-    if stage_rows:
-        _write_csv(out.with_name(out.stem + "_stages.csv"), stage_rows)
+    times = [
+        {"method": name, "call": i, "seconds": x} for name, rec in measured.items() for i, x in enumerate(rec["times"])
+    ]
+    with outs[0].writing(), outs[1].writing(), outs[2].writing():
+        for o, table in zip(outs, ([dict(r, **meta) for r in rows], times, stage_rows)):
+            if table:
+                _write_csv(o.path, table)
     print(f"\nwrote {out} (and {out.stem}_times.csv{', ' + out.stem + '_stages.csv' if stage_rows else ''})")
     return 0

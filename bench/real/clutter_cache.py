@@ -19,6 +19,7 @@ import sys
 def main(argv: list[str]) -> int:
     from catpose.bench.real.split import load_split
     from catpose.bench.run.config import compose_and_build, shared_data_dir
+    from catpose.errors import ConfigError
 
     parser = argparse.ArgumentParser(
         prog="bench clutter", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -28,6 +29,10 @@ def main(argv: list[str]) -> int:
     args = parser.parse_args(argv)
     split = load_split("clutter")
     overrides = ["dataset=clutter", f"dataset.root={shared_data_dir() / 'bop' / 'ycbv'}", *args.overrides]
+    if args.part and args.part not in split.parts:
+        raise ConfigError(
+            f"--part {args.part!r} is not a part of configs/split/clutter.yaml; pass one of {list(split.parts)}"
+        )
     if args.part:
         overrides.append(f"dataset.scenes={split.scene_ids(args.part)}")
     _, [(_, dataset)] = compose_and_build(overrides, ["dataset"])

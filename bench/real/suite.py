@@ -386,15 +386,14 @@ def main(argv: list[str]) -> int:
         "--force", action="store_true", help="replace an existing --write / --objects / --headline file"
     )
     args = parser.parse_args(argv)
-    from catpose.bench.run.overwrite import check_output, input_runs, output_errors
+    from catpose.bench.run.overwrite import Output, input_runs
 
-    for flag, path in (
-        ("--write", args.write),
-        ("--objects", args.objects),
-        ("--headline", args.headline),
-    ):  # before any work (docs/file-safety.md)
-        if path is not None:
-            check_output(path, "file", input_runs([args.output_root]) if args.output_root else (), args.force, flag)
+    inputs = input_runs([args.output_root]) if args.output_root else ()
+    outs = {  # before any work (docs/file-safety.md)
+        flag: Output(path, "file", inputs, args.force, flag)
+        for flag, path in (("--write", args.write), ("--objects", args.objects), ("--headline", args.headline))
+        if path is not None
+    }
 
     suite_sets = SUITES[args.suite]
     if args.parts:
@@ -438,22 +437,27 @@ def main(argv: list[str]) -> int:
         table_only=args.table_only,
         catalogue=suite_sets,
     )
+    if args.table_only and not results and any(s not in skipped for s in sets):
+        raise ConfigError(
+            f"bench suite {args.suite} --table-only: no run of these sets and methods under "
+            f"{args.output_root or f'outputs/{args.suite}'}; pass the --output-root they were written to, or run them"
+        )
     whole_sets = [s for s in sets if s not in skipped]
     table = format_table(results, columns(results, whole_sets), methods, skipped)
     print(table)
     from catpose import atomic
 
     if args.write:
-        with output_errors(args.write, "--write"):
-            atomic.write_text(args.write, table + "\n")
+        with outs["--write"].writing() as path:
+            atomic.write_text(path, table + "\n")
     if args.headline:
-        with output_errors(args.headline, "--headline"):
-            atomic.write_text(args.headline, format_table(results, whole_sets, methods, skipped) + "\n")
+        with outs["--headline"].writing() as path:
+            atomic.write_text(path, format_table(results, whole_sets, methods, skipped) + "\n")
     if args.objects:
         from catpose.bench.real.suite_parts import object_tables
 
-        with output_errors(args.objects, "--objects"):
+        with outs["--objects"].writing() as path:
             atomic.write_text(
-                args.objects, object_tables(results, suite_sets, [s for s in sets if s not in skipped], methods) + "\n"
+                path, object_tables(results, suite_sets, [s for s in sets if s not in skipped], methods) + "\n"
             )
     return 0

@@ -93,8 +93,11 @@ def load_config(path: str | Path = DEFAULT_CONFIG) -> tuple[Gate, dict[str, Suit
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"regress config {path} does not exist; pass --config FILE")
-    cfg = yaml.safe_load(path.read_text()) or {}
-    if not isinstance(cfg.get("suites"), dict) or not cfg["suites"]:
+    try:
+        cfg = yaml.safe_load(path.read_text(errors="replace")) or {}
+    except yaml.YAMLError:
+        cfg = {}
+    if not isinstance(cfg, dict) or not isinstance(cfg.get("suites"), dict) or not cfg["suites"]:
         raise ConfigError(f"{path} has no 'suites' mapping; see configs/regress/default.yaml")
     g = dict(cfg.get("gate") or {})
     unknown = set(g) - set(Gate.__dataclass_fields__)

@@ -221,25 +221,22 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--format", choices=("md", "csv"), default="md")
     ap.add_argument("--title", default="")
-    ap.add_argument("--out", default=None, help="write here instead of printing (a new file; see --force)")
-    ap.add_argument("--force", action="store_true", help="replace an existing --out (never an input)")
-    args = ap.parse_args(argv)
-    if args.out:  # before any work (docs/file-safety.md)
-        from catpose.bench.run.overwrite import check_output, input_runs
+    from catpose.bench.run.overwrite import Output, add_output_options, input_runs
 
-        check_output(args.out, "file", input_runs(args.paths), args.force)
+    add_output_options(ap, "write here instead of printing (a new file; see --force)", required=False)
+    args = ap.parse_args(argv)
+    out = Output(args.out, "file", input_runs(args.paths), args.force) if args.out else None  # before any work
     incomplete: list[str] = []
     rows = build(args.paths, args.category, [c.strip() for c in args.choices.split(",") if c.strip()], incomplete)
     said = notes(rows, incomplete)
     for line in said:  # on stderr too: a CSV has no place for them
         print(f"bench category: warning: {line}", file=sys.stderr)
     text = to_markdown(rows, args.title, said) if args.format == "md" else to_csv(rows)
-    if args.out:
+    if out is not None:
         from catpose import atomic
-        from catpose.bench.run.overwrite import output_errors
 
-        with output_errors(args.out):
-            atomic.write_text(args.out, text)
+        with out.writing() as path:
+            atomic.write_text(path, text)
         print(f"wrote {len(rows)} rows to {args.out}")
     else:
         print(text, end="")

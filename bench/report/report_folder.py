@@ -314,13 +314,13 @@ def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes,
 def main(argv: list[str] | None = None) -> int:
     """``bench report RUN_DIR... --out DIR [--layout L ...] [--qualitative N] [--note TEXT ...]``."""
     from catpose.bench.report.tables import LAYOUTS, RENAMED_LAYOUTS, parse_labels
+    from catpose.bench.run.overwrite import Output, add_output_options, input_runs
 
     ap = argparse.ArgumentParser(
         prog="bench report", description="Tables and figures of run directories in one folder."
     )
     ap.add_argument("runs", nargs="+", help="run directories, or folders searched for samples.jsonl")
-    ap.add_argument("--out", required=True, help="the report folder to write (new or empty; see --force)")
-    ap.add_argument("--force", action="store_true", help="replace an existing --out (never a run or an input)")
+    add_output_options(ap, "the report folder to write (new or empty; see --force)")
     ap.add_argument(
         "--layout",
         action="append",
@@ -344,13 +344,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--note", action="append", default=[], help="a paragraph under the title (how the runs were made)")
     ap.add_argument("--no-pdf", action="store_true", help="figures as PNG (+ CSV) only")
     args = ap.parse_args(argv)
-    if args.qualitative < 0 or args.max_pictures < 0:
-        raise ConfigError("--qualitative and --max-pictures take 0 or more (0: no pictures)")
-    from catpose.bench.run.overwrite import check_output, input_runs, output_errors
-
-    check_output(args.out, "folder", input_runs(args.runs), args.force)  # before any work
+    if not 0 <= args.qualitative <= 2 or args.max_pictures < 0:
+        raise ConfigError("--qualitative takes 0, 1 or 2 (pictures per run), --max-pictures 0 or more (0: none)")
+    out = Output(args.out, "folder", input_runs(args.runs), args.force)  # before any work
     left_out: list[str] = []
-    with output_errors(args.out):
+    with out.writing():
         index = build_report(
             args.runs,
             args.out,

@@ -107,6 +107,13 @@ def load_run(path: str | Path) -> Run:
             f"run {path} has no sample rows ({samples_path.name} is empty: its `bench run` finished no sample); "
             "re-run it, or leave it out"
         )
+    named = (config.get("method") or {}).get("name") if isinstance(config.get("method"), dict) else None
+    in_rows = sorted({str(m) for m in samples.get("method", [])} - {str(named)})
+    if named and in_rows:
+        raise DatasetError(
+            f"run {path}: config.yaml names method {named!r} but its rows are of {in_rows[0]!r}; restore config.yaml "
+            "(it labels the run in tables)"
+        )
     return Run(
         path=path,
         config=config,
@@ -188,7 +195,9 @@ def find_run_dirs(paths: Sequence[str | Path], merge_failures: list[str] | None 
                 raise DatasetError(f"no samples.jsonl below {p}; pass run directories written by `bench run`")
             out.extend(found)
         else:
-            raise DatasetError(f"{p} does not exist; pass run directories written by `bench run`")
+            raise DatasetError(
+                f"{p} {'is a file' if p.exists() else 'does not exist'}; pass run directories written by `bench run`"
+            )
     seen: set[Path] = set(unmerged)
     return [p for p in out if not (p.resolve() in seen or seen.add(p.resolve()))]
 

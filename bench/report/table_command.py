@@ -20,6 +20,8 @@ from catpose.errors import ConfigError, DatasetError
 
 def main(argv: list[str] | None = None) -> int:
     """``bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE]``."""
+    from catpose.bench.run.overwrite import add_output_options
+
     ap = argparse.ArgumentParser(prog="bench table", description="Paper tables from run directories.")
     ap.add_argument("runs", nargs="*", help="run directories, or folders searched for samples.jsonl")
     ap.add_argument(
@@ -65,17 +67,14 @@ def main(argv: list[str] | None = None) -> int:
         help="the method's own choice or the minimum across templates (oracle)",
     )
     ap.add_argument("--title", default=None)
-    ap.add_argument("--out", default=None, help="write here instead of stdout (a new file; see --force)")
-    ap.add_argument(
-        "--force", action="store_true", help="replace an existing --out (never an input or a verified table)"
-    )
+    add_output_options(ap, "write here instead of stdout (a new file; see --force)", required=False)
     ap.add_argument(
         "--bop-metrics",
         default=None,
         help="BOP recalls of runs scored by `bench score` (bop_errors.jsonl), e.g. "
         "ar_mssd,ar_mspd,adds@0.1,5deg5cm (see catpose.bench.scoring.bop_eval.parse_metric)",
     )
-    ap.add_argument("--by", default="object,category", help="with --bop-metrics: rows per object and/or category")
+    ap.add_argument("--by", default=None, help="with --bop-metrics: rows per object and/or category (default both)")
     ap.add_argument(
         "--stability",
         action="append",
@@ -92,16 +91,23 @@ def main(argv: list[str] | None = None) -> int:
     run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
     if not args.runs and not run_paths:
         raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
+    out = None
     if args.out:  # before any work (docs/file-safety.md)
-        from catpose.bench.run.overwrite import check_output, input_runs
+        from catpose.bench.run.overwrite import Output, input_runs
 
-        check_output(args.out, "file", input_runs([*args.runs, *run_paths, *args.sweep, *args.stability]), args.force)
+        out = Output(args.out, "file", input_runs([*args.runs, *run_paths, *args.sweep, *args.stability]), args.force)
+    if args.by is not None and (not args.bop_metrics or set(args.by.split(",")) - {"object", "category"}):
+        raise ConfigError(f"--by {args.by!r} goes with --bop-metrics and takes object, category or object,category")
     if args.bop_metrics:
         text = (
-            bop_recall_table(find_run_dirs([*args.runs, *run_paths]), args.bop_metrics.split(","), args.by.split(","))
+            bop_recall_table(
+                find_run_dirs([*args.runs, *run_paths]),
+                args.bop_metrics.split(","),
+                (args.by or "object,category").split(","),
+            )
             + "\n"
         )
-        _write(args.out, text)
+        _write(out, text)
         return 0
     if args.layout not in (None, defaults.get("layout")):
         defaults = {}  # another layout than the experiment's: none of its settings apply
@@ -126,19 +132,17 @@ def main(argv: list[str] | None = None) -> int:
         [Path(p) for p in args.stability],
         threshold_keys(args.acc or [], args.auc) if (args.acc or args.auc is not None) else (),
     )
-    _write(args.out, RENDERERS[args.format](table))
+    _write(out, RENDERERS[args.format](table))
     return 2 if left_out else 0
 
 
-def _write(out: str | None, text: str) -> None:
-    """The table to ``out`` (atomically, one line on a full disk or a read-only folder), or stdout."""
-    if not out:
+def _write(out, text: str) -> None:
+    """The table to ``out`` (an :class:`~catpose.bench.run.overwrite.Output`), or stdout without one."""
+    if out is None:
         sys.stdout.write(text)
         return
-    from catpose.bench.run.overwrite import output_errors
-
-    with output_errors(out):
-        atomic.write_text(out, text)
+    with out.writing() as path:
+        atomic.write_text(path, text)
 
 
 def check_categories(runs, wanted) -> None:

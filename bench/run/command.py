@@ -86,10 +86,21 @@ def check_named_run_dir(out: Path, cfg, log_name: str) -> None:
     """Refuse, in one line, a ``hydra.run.dir`` that holds anything but this configuration's
     run (Hydra's ``.hydra/`` and the job's log aside): another configuration's run, or files of
     no run. No command writes into what it did not create."""
+    import os
+
     from omegaconf import OmegaConf
 
+    from catpose.bench.run.overwrite import run_above
     from catpose.bench.run.rundir import run_dir_for
 
+    outer = run_above(Path(os.path.realpath(out)))
+    if outer is not None:
+        raise ConfigError(f"hydra.run.dir={out} lies inside the run directory {outer}; name a folder outside it")
+    existing = next(p for p in (out, *out.absolute().parents) if p.exists())
+    if existing.is_file():
+        raise ConfigError(f"hydra.run.dir={out}: {existing} is a file, not a folder; name a new or empty folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise ConfigError(f"hydra.run.dir={out}: the folder {existing} is not writable; name a writable folder")
     if not out.is_dir():
         return
     entries = sorted(p.name for p in out.iterdir() if p.name not in (".hydra", log_name))

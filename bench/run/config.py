@@ -144,11 +144,20 @@ def compose(overrides: Sequence[str], hint: str = HINT) -> Any:
     from hydra.errors import ConfigCompositionException, OverrideParseException
 
     try:
-        return _compose(overrides)
+        cfg = _compose(overrides)
     except (ConfigCompositionException, OverrideParseException) as e:
         bad = re.match(r"Could not override '([^']+)'", str(e))
         if bad:
             raise ConfigError(unknown_key_message(overrides, bad.group(1), hint)) from None
+        for o in overrides if "LexerNoViableAlt" in str(e) else ():
+            key, _, value = o.partition("=")
+            if o.startswith("-"):
+                raise ConfigError(f"unknown option {o} ({hint})") from None
+            if not value.isascii() or " " in value:
+                raise ConfigError(
+                    f"{o}: quote a value with spaces or non-ASCII letters for Hydra, and the quotes for the shell: "
+                    f"\"{key}='{value}'\""
+                ) from None
         parts = [str(e)] + ([str(e.__cause__).splitlines()[0]] if e.__cause__ is not None else [])
         lines = [
             ln.strip().rstrip(".")
@@ -157,6 +166,10 @@ def compose(overrides: Sequence[str], hint: str = HINT) -> Any:
             if ln.strip() and not ln.startswith(("See https://", "Set the environment"))
         ]
         raise ConfigError("; ".join(lines) + f" ({hint})") from None
+    for key in ("retry_failed", "progress", "print_summary"):
+        if not isinstance(cfg.get(key, False), bool):
+            raise ConfigError(f"{key}={cfg.get(key)!r}: pass true or false")
+    return cfg
 
 
 def _compose(overrides: Sequence[str]) -> Any:

@@ -174,7 +174,7 @@ def _check_templates(dataset: Any, report: Report, instance_exists) -> None:
 
 
 def _check_bop(name: str, ds: Any, report: Report) -> None:
-    from catpose.datasets.bop_layout import camera_K, gt_obj_id, read_json, read_targets, visible_fractions
+    from catpose.datasets.bop_layout import camera_K, gt_obj_id, gt_pose, read_json, read_targets, visible_fractions
     from catpose.datasets.depthio import read_depth
 
     layout = ds.layout
@@ -207,6 +207,12 @@ def _check_bop(name: str, ds: Any, report: Report) -> None:
     except CatposeError as e:
         report.problem(str(e))
     scenes = sorted(p for p in split_dir.iterdir() if p.is_dir() and p.name.isdigit())
+    if ds.scenes is not None and scenes and not [s for s in scenes if int(s.name) in ds.scenes]:
+        have = ", ".join(str(int(s.name)) for s in scenes[:8]) + (", ..." if len(scenes) > 8 else "")
+        report.problem(
+            f"dataset.scenes={list(ds.scenes)} names none of the {len(scenes)} scenes in {split_dir} ({have})"
+        )
+        return
     if ds.scenes is not None:
         scenes = [s for s in scenes if int(s.name) in ds.scenes]
     if not scenes:
@@ -216,6 +222,7 @@ def _check_bop(name: str, ds: Any, report: Report) -> None:
         )
         return
     frames, objects, missing_depth, first_depth, expected = 0, set(), 0, None, None
+    size = _camera_size(layout.root)
     for scene in scenes:
         sid = int(scene.name)
         try:
@@ -228,9 +235,19 @@ def _check_bop(name: str, ds: Any, report: Report) -> None:
             for im_key, entries in gt.items():
                 for i, e in enumerate(entries if isinstance(entries, list) else []):
                     objects.add(gt_obj_id(layout.scene_gt(sid), im_key, i, e))
+                    if gt_pose(layout.scene_gt(sid), im_key, i, e)[1][2] <= 0:
+                        raise CatposeError(
+                            f"{layout.scene_gt(sid)}: image {im_key}, object index {i}: cam_t_m2c has z <= 0 (behind "
+                            "the camera); fix the file (mm, camera frame)"
+                        )
                 if layout.depth(sid, int(im_key)).is_file():
                     frames += 1
-                    camera_K(cam_path, cameras, im_key)
+                    K = camera_K(cam_path, cameras, im_key)[0]
+                    if size and not (0 <= K[0, 2] <= size[0] and 0 <= K[1, 2] <= size[1]):
+                        raise CatposeError(
+                            f"{cam_path}: cam_K of image {im_key} puts the principal point ({K[0, 2]:g}, {K[1, 2]:g}) "
+                            f"outside the {size[0]}x{size[1]} image; fix cx, cy (pixels)"
+                        )
                     first_depth = first_depth or layout.depth(sid, int(im_key))
                 else:
                     missing_depth += 1
@@ -314,6 +331,12 @@ def _check_bop_files(layout: Any, scenes: list[Path], objects: set[int], report:
                 why = png_problem(png, size, depth16)
                 if why:
                     problems.append(why)
+    no_masks = [s.name for s in scenes if not layout.mask_visib(int(s.name), 0, 0).parent.is_dir()]
+    if no_masks:
+        report.warn(
+            f"{len(no_masks)} scenes have no mask_visib/ (e.g. {no_masks[0]}): their masks are rendered from the model "
+            "and the ground truth pose, not measured; unzip the dataset's masks for BOP's visible masks"
+        )
     _note_files(report, depth_problems, "depth images")
     _note_files(report, mask_problems, "masks")
     models = [layout.model(o) for o in sorted(objects) if layout.model(o).is_file()]
@@ -329,6 +352,7 @@ def _check_bop_files(layout: Any, scenes: list[Path], objects: set[int], report:
 
 def _check_modelnet40(name: str, ds: Any, report: Report) -> None:
     from catpose.datasets.meshio import read_off
+    from catpose.resting import solid_hull
 
     present = {c: ds.instance_ids(c) for c in ds.categories}
     if not any(present.values()):
@@ -344,8 +368,10 @@ def _check_modelnet40(name: str, ds: Any, report: Report) -> None:
         return
     first = next(ids for ids in present.values() if ids)[0]
     category = next(c for c, ids in present.items() if first in ids)
+    path = ds.root / category / ds.split / f"{first}.off"
     try:
-        read_off(ds.root / category / ds.split / f"{first}.off")
+        if solid_hull(read_off(path)[0]) is None:
+            report.problem(f"{path} is flat (no volume): ours has no resting pose for it; replace it with a solid mesh")
     except CatposeError as e:
         report.problem(str(e))
     report.facts.append(f"{sum(map(len, present.values()))} {ds.split}-split shapes in {len(present)} categories")

@@ -15,6 +15,24 @@ LOCK_FILE = "run.lock"
 log = logging.getLogger(__name__)
 
 
+def in_use(run_dir: Path) -> str | None:
+    """The pid holding a lock of ``run_dir`` (``run.lock`` or a shard's), None when no run writes it."""
+    import fcntl
+
+    for path in sorted(Path(run_dir).glob("run*.lock")):
+        try:
+            fd = os.open(path, os.O_RDONLY)
+        except OSError:
+            continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return path.read_text().strip() or "unknown"
+        finally:
+            os.close(fd)
+    return None
+
+
 class RunLock:
     """An exclusive lock on a run directory (``fcntl.flock`` on ``run.lock``), held while a run
     writes it, so that two runs of one configuration never do the same samples.

@@ -152,6 +152,12 @@ def merged_rows(run_dir: Path) -> list[dict]:
     per_shard = []
     for i, meta in enumerate(metas):
         rows = {r["sample_id"]: r for r in latest_rows(run_dir / shard_samples_file(i, n))}
+        foreign = sorted(set(rows) - set(meta["sample_ids"]))
+        if foreign:  # a shard file copied over another's, or edited: its rows are not this shard's samples
+            raise DatasetError(
+                f"{run_dir / shard_samples_file(i, n)} holds {len(foreign)} sample(s) that shard {i} of {n} does not "
+                f"list (e.g. {foreign[0]!r}); restore that file or re-run the shard (shards={n} shard={i})"
+            )
         missing = [s for s in meta["sample_ids"] if s not in rows and s not in serial]
         if missing:
             raise ShardsNotDone(
@@ -237,7 +243,10 @@ def main(argv: list[str] | None = None) -> int:
     dirs: list[Path] = []
     for d in args.run_dirs:
         if not d.is_dir():
-            raise DatasetError(f"{d} does not exist; pass a run directory written by `bench run ... shards=N shard=I`")
+            raise DatasetError(
+                f"{d} {'is a file' if d.exists() else 'does not exist'}; pass a run directory written by "
+                "`bench run ... shards=N shard=I`"
+            )
         found = [d] if is_sharded(d) else sorted({p.parent for p in d.rglob("samples.shard-*-of-*.jsonl")})
         if not found:
             raise DatasetError(f"no samples.shard-I-of-N.jsonl in or below {d}; nothing to merge")

@@ -81,8 +81,11 @@ def input_runs(paths: Sequence[str | Path], what: str = "the input run") -> list
 
 
 def _abs(path: str | Path) -> Path:
-    """``path`` absolute, ``..`` and symbolic links resolved where they exist."""
-    return Path(os.path.abspath(Path(path).expanduser())).resolve()
+    """``path`` absolute, ``..`` and symbolic links resolved where they exist (a loop: one line)."""
+    try:
+        return Path(os.path.abspath(Path(path).expanduser())).resolve()
+    except (RuntimeError, OSError):  # Python < 3.13 raises RuntimeError on a loop
+        raise InvalidInputError(f"{path} is a loop of symbolic links; pass the file or folder itself") from None
 
 
 def verified_rows(path: Path) -> int:
@@ -112,7 +115,8 @@ def _sheet_of_verified(path: Path) -> Path | None:
     return table if verified_rows(table) else None
 
 
-def _run_above(path: Path) -> Path | None:
+def run_above(path: Path) -> Path | None:
+    """The run directory ``path`` lies inside, if any."""
     for parent in path.parents:
         if is_run_dir(parent):
             return parent
@@ -171,7 +175,7 @@ def check_output(
     """
     target = check_not_input(out, inputs, flag)
     shown = f"{flag} {out}"
-    run = _run_above(target)
+    run = run_above(target)
     if run is not None:
         raise InvalidInputError(
             f"{shown} lies inside the run directory {run}; pass an {flag} outside it "
@@ -221,13 +225,21 @@ def _check_existing(
         raise InvalidInputError(f"{shown} is a file; pass a folder (new or empty) to write")
     if not any(target.iterdir()):
         return
+    from catpose.bench.run.lock import in_use
+
+    pid = in_use(target)
+    if pid is not None:
+        raise InvalidInputError(
+            f"{shown} is a run that pid {pid} is still writing, which no command replaces, not even with --force; "
+            f"pass a new {flag}, or wait for that run to finish"
+        )
     if is_run_dir(target) and replaces != "run":
         raise InvalidInputError(f"{shown} holds a run directory, which this command never replaces; pass a new {flag}")
     if not force:
         raise InvalidInputError(
             f"{shown} already holds {_describe(target)}; pass a new {flag}, or add --force to replace it"
         )
-    nested = [p for p in runs_below([target]) if _abs(p) != target]
+    nested = runs_below([*target.iterdir()])
     if nested:
         raise InvalidInputError(
             f"{shown} holds run directories below it (e.g. {nested[0]}); replacing it would delete them, "
@@ -239,6 +251,60 @@ def _check_existing(
             f"{shown} holds {table}, a table with rows marked verified; replacing it would delete them, "
             f"not even --force does that: pass a new {flag}"
         )
+
+
+class Output:
+    """The one output helper of every command that writes where it is told: made before any work,
+    it applies the rule (:func:`check_output`, same arguments); :meth:`writing` wraps the writing.
+
+    Example::
+
+        out = Output(args.out, "folder", input_runs(args.runs), args.force)
+        ...  # the work
+        with out.writing() as path:
+            atomic.write_text(path / "index.md", text)
+    """
+
+    def __init__(
+        self,
+        out: str | Path,
+        kind: str = "file",
+        inputs: Sequence[Input] = (),
+        force: bool = False,
+        flag: str = "--out",
+        **rule,
+    ) -> None:
+        self.out, self.flag = out, flag
+        self.path = check_output(out, kind, inputs, force, flag, **rule)
+        self.new = not self.path.exists() or (self.path.is_dir() and not any(self.path.iterdir()))
+
+    @contextlib.contextmanager
+    def writing(self) -> Iterator[Path]:
+        """A new target is claimed at the final move (:func:`catpose.atomic.claiming`: what another
+        command wrote there meanwhile is kept, and this one fails in one line); an ``OSError``
+        (a read-only folder, a full disk) is one line (:func:`write_error_text`)."""
+        from catpose import atomic
+
+        try:
+            with atomic.claiming(*([self.path] if self.new else [])):
+                yield self.path
+        except atomic.Claimed as e:
+            if _abs(e.filename) != self.path:  # another Output's target, in a block nested in this one
+                raise
+            raise InvalidInputError(
+                f"{self.flag} {self.out} was written by another command while this one ran; it is kept: "
+                f"pass another {self.flag}"
+            ) from None
+        except OSError as e:
+            raise InvalidInputError(write_error_text(self.out, e, self.flag)) from None
+
+
+def add_output_options(ap, help: str, required: bool = True, force_help: str = "replace an existing --out") -> None:
+    """The ``--out`` and ``--force`` options of a command that writes (:class:`Output`)."""
+    ap.add_argument("--out", required=required, default=None, help=help)
+    ap.add_argument(
+        "--force", action="store_true", help=f"{force_help} (never an input, a run being written or a verified table)"
+    )
 
 
 def check_sheet_suffix(path: str | Path, flag: str = "--sheet") -> None:

@@ -39,6 +39,10 @@ def _row(text: str, path: Path, line: int) -> dict:
         raise _damaged(path, line, f"not a JSON row ({e.msg} at column {e.colno})") from None
     if not isinstance(row, dict) or not isinstance(row.get("sample_id"), str):
         raise _damaged(path, line, "not a sample row (a JSON object with a 'sample_id')")
+    if not row["sample_id"].strip():
+        raise _damaged(path, line, "its sample_id is empty")
+    if row.get("status", "ok") not in ("ok", "failed"):
+        raise _damaged(path, line, f"status {row['status']!r} is neither 'ok' nor 'failed'")
     for key, n in POSE_FIELDS.items():
         why = _numbers_problem(row.get(key), n)
         if why:

@@ -61,6 +61,14 @@ def incomplete_reason(run_dir: Path, info: dict, n_rows: int) -> str | None:
         planned = info.get("n_samples")
         of = f" of the {planned} its last `bench run` was to do" if isinstance(planned, int) else ""
         return f"run {run_dir} is incomplete: it holds {n_rows} samples{of}, and that run was stopped or is still running; {fix}"
+    if info.get("state") not in (None, "running", "finished"):
+        return f"run {run_dir}: run.json has state {info['state']!r}, which no `bench run` writes; {fix}"
+    planned = info.get("n_samples")
+    if info.get("state") == "finished" and isinstance(planned, int) and planned > n_rows:
+        return (
+            f"run {run_dir} is incomplete: it holds {n_rows} samples of the {planned} its finished run recorded "
+            f"(rows lost from samples.jsonl); {fix}"
+        )
     shards = any(Path(run_dir).glob("shard-*-of-*.json"))
     if not info and not shards and (Path(run_dir) / "overrides.txt").is_file():
         return (

@@ -78,7 +78,7 @@ _IF_INSTALLED = ("torch",)  # the torch extra: imported early where it is instal
 
 
 class _Interrupts:
-    """Ctrl-C that no library can swallow or turn into another exception.
+    """Ctrl-C (and SIGTERM) that no library can swallow or turn into another exception.
 
     While active (main thread only, and only when SIGINT has Python's default handler), SIGINT
     raises ``KeyboardInterrupt`` as usual and also sets :attr:`seen`; :meth:`check` re-raises it
@@ -89,22 +89,25 @@ class _Interrupts:
     def __init__(self) -> None:
         self.seen = False
         self._previous: Any = None
+        self._term: Any = None
 
     def _handler(self, signum: int, frame: Any) -> None:
         self.seen = True
         raise KeyboardInterrupt
 
     def __enter__(self) -> _Interrupts:
-        if (
-            threading.current_thread() is threading.main_thread()
-            and signal.getsignal(signal.SIGINT) is signal.default_int_handler
-        ):
-            self._previous = signal.signal(signal.SIGINT, self._handler)
+        if threading.current_thread() is threading.main_thread():
+            if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+                self._previous = signal.signal(signal.SIGINT, self._handler)
+            if signal.getsignal(signal.SIGTERM) == signal.SIG_DFL:  # a kill is said too, not a silent 143
+                self._term = signal.signal(signal.SIGTERM, self._handler)
         return self
 
     def __exit__(self, *exc: Any) -> None:
         if self._previous is not None:
             signal.signal(signal.SIGINT, self._previous)
+        if self._term is not None:
+            signal.signal(signal.SIGTERM, self._term)
 
     def check(self) -> None:
         """Raise ``KeyboardInterrupt`` if a Ctrl-C arrived, whatever became of its exception."""

@@ -1,7 +1,7 @@
 """BOP evaluation of a results CSV, staged like bop_toolkit: estimates -> errors -> scores.
 
-1. :func:`check_results_filename` / :func:`check_results_csv`: the file is one the BOP toolkit
-   accepts (``METHOD_DATASET-SPLIT.csv``, 7-column header, integer ids, one ``time`` per image).
+1. :func:`check_results_filename`: the file's name is one the BOP toolkit accepts
+   (``METHOD_DATASET-SPLIT.csv``; its rows: :func:`catpose.bench.interop.prediction_io.read_predictions`).
 2. :func:`compute_errors`: for every ground-truth target of a BOP dataset (the split's
    ``test_targets_bop19.json`` and ``visib_fract`` filter, applied by the dataset), the errors of
    the estimate matched to it: MSSD, MSPD, ADD, ADD-S (mm / px), rotation and translation error,
@@ -43,11 +43,12 @@ DEFAULT_METRICS = ("ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg
 # 1. The results file
 
 
-def check_results_filename(path: str | Path) -> tuple[str, str, str]:
+def check_results_filename(path: str | Path, dataset_split: str = "ycbv-test") -> tuple[str, str, str]:
     """``(method, dataset, split)`` of a BOP results file name ``METHOD_DATASET-SPLIT[-TYPE].csv``.
 
     Raises :class:`InvalidInputError` with the fix when the name does not parse or ``METHOD``
-    holds an underscore (bop_toolkit splits the name at the first ``_``).
+    holds an underscore (bop_toolkit splits the name at the first ``_``); the example it gives ends
+    in ``dataset_split``.
     """
     name = Path(path).name
     m = re.fullmatch(r"([^_]+)_([^_-]+)-([^_]+?)\.csv", name)
@@ -56,54 +57,13 @@ def check_results_filename(path: str | Path) -> tuple[str, str, str]:
         example = (
             f"{parts.group(1).replace('_', '-')}_{parts.group(2)}-{parts.group(3)}.csv"
             if parts
-            else f"{re.sub(r'[^A-Za-z0-9-]', '-', Path(name).stem) or 'method'}_ycbv-test.csv"
+            else f"{re.sub(r'[^A-Za-z0-9-]', '-', Path(name).stem) or 'method'}_{dataset_split}.csv"
         )
         raise InvalidInputError(
             f"results file {name!r}: the BOP toolkit needs METHOD_DATASET-SPLIT.csv with no '_' "
             f"in METHOD, e.g. {example}"
         )
     return m.group(1), m.group(2), m.group(3)
-
-
-def check_results_csv(path: str | Path) -> int:
-    """Check a results CSV the way bop_toolkit's loader does; returns the number of estimates.
-
-    Header ``scene_id,im_id,obj_id,score,R,t,time``; integer ids; float score; 9 numbers in R,
-    3 in t; one ``time`` per (scene_id, im_id) (``check_consistent_timings``). Raises
-    :class:`InvalidInputError` naming the line.
-    """
-    path = Path(path)
-    lines = [ln for ln in path.read_text().splitlines() if ln.strip()]
-    if not lines or lines[0].strip() != BOP_HEADER:
-        raise InvalidInputError(f"{path}: the header must be {BOP_HEADER!r}")
-    times: dict[tuple[int, int], float] = {}
-    for k, ln in enumerate(lines[1:], 2):
-        parts = ln.split(",")
-        if len(parts) != 7:
-            raise InvalidInputError(f"{path}:{k}: expected 7 comma-separated fields, got {len(parts)}")
-        try:
-            scene, im, _obj = (int(x) for x in parts[:3])
-            float(parts[3])
-            t_run = float(parts[6])
-        except ValueError:
-            raise InvalidInputError(
-                f"{path}:{k}: scene_id, im_id, obj_id must be integers, score and time numbers"
-            ) from None
-        for col, n in ((4, 9), (5, 3)):
-            vals = parts[col].split()
-            try:
-                ok = len(vals) == n and all(math.isfinite(float(v)) for v in vals)
-            except ValueError:
-                ok = False
-            if not ok:
-                raise InvalidInputError(f"{path}:{k}: {BOP_HEADER.split(',')[col]} needs {n} space-separated numbers")
-        if (scene, im) in times and times[(scene, im)] != t_run:
-            raise InvalidInputError(
-                f"{path}:{k}: scene {scene} image {im} has times {times[(scene, im)]:g} and "
-                f"{t_run:g}; the BOP toolkit needs one time per image (the whole image's)"
-            )
-        times[(scene, im)] = t_run
-    return len(lines) - 1
 
 
 # --------------------------------------------------------------------------------------------

@@ -14,17 +14,46 @@ can cut its last line.
 
 A whole folder (a run made from external predictions) is built beside its destination and
 moved into place when complete (:func:`building_dir`).
+
+Inside :func:`claiming` a destination that did not exist is claimed at that final move, never
+replaced: a file is linked into place (``os.link`` fails if the name exists), a folder renamed
+onto a missing or empty one; if another process took the name meanwhile, :class:`Claimed` is
+raised and its output is kept.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
+import errno
+import glob
 import os
 import shutil
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
+
+_NEW: contextvars.ContextVar[frozenset[Path]] = contextvars.ContextVar("catpose_new_outputs", default=frozenset())
+
+
+class Claimed(FileExistsError):
+    """A destination claimed as new (:func:`claiming`) was taken by another process meanwhile."""
+
+
+@contextlib.contextmanager
+def claiming(*paths: str | Path) -> Iterator[None]:
+    """Within the block, the final move onto any of ``paths`` claims it: it fails with
+    :class:`Claimed` instead of replacing what another process wrote there meanwhile."""
+    token = _NEW.set(_NEW.get() | {Path(os.path.realpath(p)) for p in paths})
+    try:
+        yield
+    finally:
+        _NEW.reset(token)
+
+
+def _claimed(path: Path) -> bool:
+    return Path(os.path.realpath(path)) in _NEW.get()
 
 
 def _temp_name(path: Path) -> Path:
@@ -59,7 +88,14 @@ def atomic_path(path: str | Path, mkdir: bool = True) -> Iterator[Path]:
         with contextlib.suppress(OSError):  # durable before it takes the name
             with open(tmp, "rb+") as f:
                 os.fsync(f.fileno())
-        os.replace(tmp, path)
+        if _claimed(path):
+            try:
+                os.link(tmp, path)
+            except FileExistsError:
+                raise Claimed(errno.EEXIST, "written by another process meanwhile", str(path)) from None
+            tmp.unlink()
+        else:
+            os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()
@@ -97,6 +133,16 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
     return Path(path)
 
 
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process
+        return True
+    return True
+
+
 @contextlib.contextmanager
 def building_dir(final: str | Path) -> Iterator[Path]:
     """A fresh hidden folder beside ``final`` to build a whole folder in; on a clean exit it takes
@@ -105,6 +151,10 @@ def building_dir(final: str | Path) -> Iterator[Path]:
     all is the caller's decision (:mod:`catpose.bench.run.overwrite`)."""
     final = Path(final)
     final.parent.mkdir(parents=True, exist_ok=True)
+    for stale in final.parent.glob(f".{glob.escape(final.name)}.*-*.tmp"):  # left by a killed process
+        pid = stale.name[len(final.name) + 2 :].split("-")[0]
+        if pid.isdigit() and not _alive(int(pid)):
+            shutil.rmtree(stale, ignore_errors=True)
     tmp = final.with_name(f".{final.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.tmp")
     tmp.mkdir()
     try:
@@ -113,10 +163,19 @@ def building_dir(final: str | Path) -> Iterator[Path]:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     old = None
-    if final.exists() and not (final.is_dir() and not any(final.iterdir())):
-        old = final.with_name(f".{final.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.old")
-        os.replace(final, old)
-    os.replace(tmp, final)  # onto a missing or empty folder
+    if _claimed(final):
+        try:
+            os.rename(tmp, final)  # onto a missing or empty folder only
+        except OSError as e:
+            shutil.rmtree(tmp, ignore_errors=True)
+            if e.errno in (errno.EEXIST, errno.ENOTEMPTY, errno.ENOTDIR, errno.EISDIR):
+                raise Claimed(errno.EEXIST, "written by another process meanwhile", str(final)) from None
+            raise
+    else:
+        if final.exists() and not (final.is_dir() and not any(final.iterdir())):
+            old = final.with_name(f".{final.name}.{os.getpid()}-{uuid.uuid4().hex[:8]}.old")
+            os.replace(final, old)
+        os.replace(tmp, final)  # onto a missing or empty folder
     fsync_dir(final.parent)
     if old is not None:
         if old.is_dir():

@@ -57,14 +57,17 @@ def _K_arg(value: Any) -> np.ndarray:
     if K.size == 9:
         K = K.reshape(3, 3)
     form = "[[fx, 0, cx], [0, fy, cy], [0, 0, 1]] in pixels"
-    if K.shape != (3, 3) or not np.isfinite(K).all():
-        raise InvalidInputError(f"K has shape {K.shape} or non-finite values; pass the camera matrix {form}")
+    if K.shape != (3, 3):
+        raise InvalidInputError(f"K has shape {K.shape}; pass the camera matrix {form}")
+    if not np.isfinite(K).all() or not K.any():
+        raise InvalidInputError(f"K {'is all zeros' if np.isfinite(K).all() else 'has a NaN or inf'}; pass {form}")
     if K[2, 0] != 0 or K[2, 1] != 0:
         if K[0, 2] == 0 and K[1, 2] == 0:
             raise InvalidInputError(f"K has cx, cy in its last row: it is transposed; pass K.T ({form})")
         raise InvalidInputError(f"K has last row {K[2].tolist()}; pass the camera matrix {form}")
     if K[2, 2] != 1.0:
-        raise InvalidInputError(f"K[2, 2] is {K[2, 2]:g}, not 1; divide K by it ({form})")
+        fix = "divide K by it" if K[2, 2] else "pass"
+        raise InvalidInputError(f"K[2, 2] is {K[2, 2]:g}, not 1; {fix} ({form})")
     if not (K[0, 0] > 0 and K[1, 1] > 0):
         raise InvalidInputError(f"K has focal lengths fx={K[0, 0]:g}, fy={K[1, 1]:g}; they must be positive pixels")
     if K[0, 1] != 0 or K[1, 0] != 0:
@@ -144,7 +147,8 @@ class DepthFrame:
                 raise InvalidInputError("mask is empty (no True pixel); pass the object's visible pixels")
             if not (mask & valid).any():
                 raise InvalidInputError(
-                    f"mask selects {int(mask.sum())} pixels but none has a depth measurement; check that "
+                    f"mask selects {int(mask.sum())} pixels but none has a depth measurement "
+                    f"({int((mask & ~np.isfinite(np.asarray(raw, float))).sum())} NaN or inf); check that "
                     "mask and depth come from the same (registered) image"
                 )
         if not isinstance(self.frame_id, str):

@@ -49,6 +49,22 @@ def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.degrees(libm.arccos(float(np.clip(dot3(a, b), -1.0, 1.0)))))
 
 
+def solid_hull(points: np.ndarray):
+    """The convex hull (``trimesh.Trimesh``) of ``points`` (N, 3), or None when they are not finite
+    or flat (a hull of no volume, on which trimesh's stable-pose search never ends)."""
+    import trimesh
+
+    p = np.asarray(points, dtype=np.float64)
+    if len(p) < 4 or not np.isfinite(p).all():
+        return None
+    try:
+        hull = trimesh.convex.convex_hull(p)
+    except Exception:  # noqa: BLE001 - qhull refuses some flat inputs itself
+        return None
+    with np.errstate(invalid="ignore", divide="ignore"):  # a flat hull's centre of mass is 0 / 0
+        return hull if hull.volume > 1e-12 * float(np.max(hull.extents)) ** 3 else None
+
+
 def resting_ups(points: np.ndarray, merge_deg: float = 10.0) -> list[RestingUp]:
     """Resting directions of the solid convex hull of ``points`` (N, 3), most probable first.
 
@@ -59,10 +75,21 @@ def resting_ups(points: np.ndarray, merge_deg: float = 10.0) -> list[RestingUp]:
 
     Returns:
         every distinct resting up with its probability (the probabilities sum to 1).
+
+    Raises:
+        InvalidInputError: the points are flat (their hull has no volume: trimesh's search would
+            never end) or not finite.
     """
     import trimesh
 
-    hull = trimesh.convex.convex_hull(np.asarray(points, dtype=np.float64))
+    from catpose.errors import InvalidInputError
+
+    hull = solid_hull(points)
+    if hull is None:
+        raise InvalidInputError(
+            f"the model is flat or degenerate ({len(points)} points, a hull of no volume): it has no resting pose "
+            "on a table; give a solid model (a mesh that encloses a volume)"
+        )
     transforms, probs = trimesh.poses.compute_stable_poses(hull, n_samples=1, sigma=0.0)
     raw = []
     for T, p in zip(transforms, probs):
