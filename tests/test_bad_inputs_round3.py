@@ -187,7 +187,7 @@ def test_case_13_30_templates_points_category_and_instances_are_checked(tmp_path
     "override, said",
     [
         ("dataset.fx=nan", "dataset.fx=nan: pass a positive focal length"),
-        ("dataset.roll_max_deg=1000", "dataset.roll_max_deg=1000.0: pass a roll in [0, 180] degrees"),
+        ("dataset.roll_max_deg=1000", "dataset.roll_max_deg=1000: pass a roll in [0, 180] degrees"),
         ("retry_failed=maybe", "retry_failed='maybe': pass true or false"),
         ("output_root=/tmp/\u00fc\u00f1\u00ef", "quote a value with spaces or non-ASCII letters"),
         ("--help-me", "unknown option --help-me"),
