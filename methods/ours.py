@@ -186,9 +186,16 @@ class Ours(RegistrationMethod):
             problem.points_camera, problem.normals_camera, self.num_keypoints, problem.ground_normal_camera
         )
         if len(inp.indices) < 3:
+            pts = problem.points_camera
+            span = 0.5 * float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+            fix = (  # a partial view spans 0.3-1.2 template radii; far less is a unit mismatch, not the voxel
+                "the observation is in another unit than the template (a depth frame: set depth_scale)"
+                if span < 0.1
+                else "lower method.descriptor.voxel_size"
+            )
             raise InvalidInputError(
-                f"sample {problem.sample_id}: only {len(inp.indices)} points after voxel "
-                f"downsampling at {self.descriptor.voxel_size}; lower method.descriptor.voxel_size"
+                f"sample {problem.sample_id}: only {len(inp.indices)} points after voxel downsampling at "
+                f"{self.descriptor.voxel_size} template radii (the observation spans {span:.3g} of them); {fix}"
             )
         return inp
 
