@@ -2,9 +2,9 @@
 
 The template is rendered at the answer (green: filled, outlined) and, when the method named one,
 at its runner-up (magenta outline; :attr:`~catpose.api.result.Registration.runner_up`), each with
-an arrow along the template's up axis (a half turn covers the same pixels; its arrow does not), over the
-depth image in grey (near is bright, no measurement black) with the object's mask outlined in
-yellow. A line above the image gives the method, the runner-up's margin and whether the answer
+the template's axes drawn from its centre, +z (up, ending in a dot) and +x (forward): a half turn
+covers the same pixels, its axes do not. Under them the depth image in grey (near is bright, no
+measurement black) and the object's mask outlined in yellow. A line above the image gives the method, the runner-up's margin and whether the answer
 is :attr:`~catpose.api.result.Registration.ambiguous`. A mesh template is rendered by
 :func:`catpose.datasets.render.render_depth` (the renderer of the synthetic sets); a point-cloud
 template is drawn as its projected points.
@@ -116,23 +116,24 @@ def _silhouette(frame: DepthFrame, tmpl: NormalisedTemplate, T_template_camera: 
 def _with_up_arrows(
     image: np.ndarray, k: int, K: np.ndarray, tmpl: NormalisedTemplate, poses: list[tuple[np.ndarray, tuple]]
 ) -> np.ndarray:
-    """Each pose's template up axis as an arrow from the template's centre, 0.8 radii long: what
-    tells a pose from its half turn when both cover the same pixels."""
+    """Each pose's template axes from the template's centre: up (+z, 0.8 radii, a dot at its tip)
+    and forward (+x, 0.5 radii): what tells a pose from its half turn when both cover the same
+    pixels."""
     from PIL import Image, ImageDraw
 
     from catpose.geometry import invert_T
 
-    centre = tmpl.centre @ tmpl.R_up  # the normalised origin and +z in the caller's template frame
-    tip = (tmpl.centre + 0.8 * tmpl.scale * np.array([0.0, 0.0, 1.0])) @ tmpl.R_up
+    # the normalised origin, +z and +x in the caller's template frame
+    ends = (tmpl.centre + tmpl.scale * np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.8], [0.5, 0.0, 0.0]])) @ tmpl.R_up
     picture = Image.fromarray(image)
     draw = ImageDraw.Draw(picture)
     for T_template_camera, rgb in poses[::-1]:
         T = invert_T(T_template_camera)
-        ends = np.stack([centre, tip]) @ T[:3, :3].T + T[:3, 3]
-        if (ends[:, 2] <= 0).any():
+        p = ends @ T[:3, :3].T + T[:3, 3]
+        if (p[:, 2] <= 0).any():
             continue
-        uv = k * (ends[:, :2] / ends[:, 2:] @ K[:2, :2].T + K[:2, 2] + 0.5)
-        (u0, v0), (u1, v1) = uv
+        (u0, v0), (u1, v1), (u2, v2) = k * (p[:, :2] / p[:, 2:] @ K[:2, :2].T + K[:2, 2] + 0.5)
+        draw.line([(u0, v0), (u2, v2)], fill=rgb, width=max(1, k - 1))
         draw.line([(u0, v0), (u1, v1)], fill=rgb, width=max(2, k + 1))
         r = 2 + k
         draw.ellipse([u1 - r, v1 - r, u1 + r, v1 + r], fill=rgb, outline=(0, 0, 0))
@@ -149,10 +150,10 @@ def _outline(mask: np.ndarray) -> np.ndarray:
 
 def _caption(result: Registration) -> str:
     if result.runner_up is None:
-        return f"{result.method}: answer (green; arrow: template up); no runner-up named"
+        return f"{result.method}: answer (green; lines: template up (dot) and forward); no runner-up named"
     verdict = "AMBIGUOUS: check both" if result.ambiguous else "clear"
     return (
-        f"{result.method}: answer (green), runner-up (magenta), arrows: template up; "
+        f"{result.method}: answer (green), runner-up (magenta), lines: template up (dot) and forward; "
         f"margin {result.runner_up_margin:.4f}: {verdict}"
     )
 
