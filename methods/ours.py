@@ -78,7 +78,7 @@ from catpose.methods import options
 from catpose.methods.descriptors import LPS, Descriptor
 from catpose.methods.dictionary import DictionaryLayout
 from catpose.methods.dictionary_features import dictionary_features
-from catpose.methods.keypoints import farthest_point_indices
+from catpose.methods.keypoints import farthest_point_indices, too_few_points
 from catpose.methods.method import RegistrationMethod
 from catpose.methods.ours_candidates import Candidates, Prepared, TemplateFeatures
 from catpose.methods.ours_selection import criterion, finish
@@ -186,17 +186,8 @@ class Ours(RegistrationMethod):
             problem.points_camera, problem.normals_camera, self.num_keypoints, problem.ground_normal_camera
         )
         if len(inp.indices) < 3:
-            pts = problem.points_camera
-            span = 0.5 * float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
-            fix = (  # a partial view spans 0.3-1.2 template radii; far less is a unit mismatch, not the voxel
-                "the observation is in another unit than the template (a depth frame: set depth_scale)"
-                if span < 0.1
-                else "lower method.descriptor.voxel_size"
-            )
-            raise InvalidInputError(
-                f"sample {problem.sample_id}: only {len(inp.indices)} points after voxel downsampling at "
-                f"{self.descriptor.voxel_size} template radii (the observation spans {span:.3g} of them); {fix}"
-            )
+            n, voxel = len(inp.indices), self.descriptor.voxel_size
+            raise InvalidInputError(too_few_points(problem.sample_id, n, problem.points_camera, voxel))
         return inp
 
     def _prepare(self, problem: RegistrationProblem, timings: dict[str, float], inp=None) -> Prepared:
