@@ -68,7 +68,7 @@ def overlay(frame: DepthFrame, result: Registration, template: Any, path: str | 
     for pixels, rgb in outlines:  # the runner-up's last: a half turn shares the answer's outline
         image[pixels] = rgb
     k = max(1, -(-MIN_WIDTH // image.shape[1]))
-    image = _with_up_arrows(np.repeat(np.repeat(image, k, axis=0), k, axis=1), k, frame.K, tmpl, poses)
+    image = _with_axes(np.repeat(np.repeat(image, k, axis=0), k, axis=1), k, frame.K, tmpl, poses)
     picture = _captioned(image, _caption(result))
     if path is not None:
         from PIL import Image
@@ -113,7 +113,7 @@ def _silhouette(frame: DepthFrame, tmpl: NormalisedTemplate, T_template_camera: 
     return seen
 
 
-def _with_up_arrows(
+def _with_axes(
     image: np.ndarray, k: int, K: np.ndarray, tmpl: NormalisedTemplate, poses: list[tuple[np.ndarray, tuple]]
 ) -> np.ndarray:
     """Each pose's template axes from the template's centre: up (+z, 0.8 radii, a dot at its tip)
