@@ -50,11 +50,18 @@ def main(argv: list[str] | None = None) -> int:
         with warnings.catch_warnings():  # said below, in one line, beside the runner-up's error
             warnings.filterwarnings("ignore", message="ambiguous")
             result = catpose.register(inst.frame, inst.template, method=args.method, **inst.options)
-        if args.overlay:
-            catpose.overlay(inst.frame, result, inst.template, args.overlay)
-    except (CatposeError, OSError) as e:
+    except CatposeError as e:
         print(f"register_bop_frame: error: {e}", file=sys.stderr)
         return 2
+    if args.overlay:
+        try:
+            catpose.overlay(inst.frame, result, inst.template, args.overlay)
+        except OSError as e:
+            print(
+                f"register_bop_frame: error: --overlay {args.overlay}: {e.strerror}; pass a PNG file path",
+                file=sys.stderr,
+            )
+            return 2
     T, T_gt = result.T_template_camera, inst.T_model_camera
     what = "rotation error" if inst.symmetry_axis is None else "symmetry-axis error"
     err = _error_deg(T, T_gt, inst.symmetry_axis)
