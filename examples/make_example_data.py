@@ -23,7 +23,13 @@ OFFSET_MM = np.array([120.0, -35.0, 260.0])  # the template-frame origin, away f
 OUT = Path(__file__).resolve().parent / "data"
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    import argparse
+
+    argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0] + f" Rewrites {OUT}; takes no arguments.",
+        epilog="Rerun it only to change the examples: the tests and docs read these files.",
+    ).parse_args(argv)
     import trimesh
 
     from catpose import atomic

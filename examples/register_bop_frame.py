@@ -2,8 +2,9 @@
 
 Usage::
 
-    python examples/register_bop_frame.py DATASET_ROOT SCENE IM OBJ [--method ours] [--dataset bop]
+    python examples/register_bop_frame.py DATASET_ROOT SCENE IM OBJ [--method ours] [--dataset bop] [--overlay PNG]
     python examples/register_bop_frame.py ../shared/data/bop/ycbv 1 2 5
+    python examples/register_bop_frame.py ../shared/data/bop/ycbv 1 2 1 --overlay o.png
 
 The frame (depth, ``cam_K``, the object's ``mask_visib``, ``depth_scale`` to mm) and the object's
 model are read as ``bench run`` reads them (:func:`catpose.api.bop.bop_instance`), and
@@ -11,13 +12,16 @@ model are read as ``bench run`` reads them (:func:`catpose.api.bop.bop_instance`
 mask, ours' depth check against the whole image. Prints the pose in the model frame (mm), the
 rotation error against the ground truth (for a rotationally symmetric object, the angle between the
 symmetry axes) and the error of the object's position in the camera frame, mm; with ours, also its
-runner-up (the next-best other pose it compared, ``Registration.runner_up``), its margin and error.
+runner-up (the next-best other pose it compared, ``Registration.runner_up``), its margin and error,
+and one line when the answer is ambiguous (``Registration.ambiguous``: the depth image barely told
+the two apart). ``--overlay PNG`` draws both on the depth image (``catpose.overlay``).
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
 import numpy as np
 
@@ -39,13 +43,25 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="dataset config whose settings apply (bop, ycbv, tyol; default: the root folder's name if a config has it, else bop)",
     )
+    ap.add_argument("--overlay", metavar="PNG", help="draw the answer and the runner-up on the depth image there")
     args = ap.parse_args(argv)
     try:
         inst = bop_instance(args.root, args.scene, args.im, args.obj, instance=args.instance, dataset=args.dataset)
-        result = catpose.register(inst.frame, inst.template, method=args.method, **inst.options)
+        with warnings.catch_warnings():  # said below, in one line, beside the runner-up's error
+            warnings.filterwarnings("ignore", message="ambiguous")
+            result = catpose.register(inst.frame, inst.template, method=args.method, **inst.options)
     except CatposeError as e:
         print(f"register_bop_frame: error: {e}", file=sys.stderr)
         return 2
+    if args.overlay:
+        try:
+            catpose.overlay(inst.frame, result, inst.template, args.overlay)
+        except OSError as e:
+            print(
+                f"register_bop_frame: error: --overlay {args.overlay}: {e.strerror}; pass a PNG file path",
+                file=sys.stderr,
+            )
+            return 2
     T, T_gt = result.T_template_camera, inst.T_model_camera
     what = "rotation error" if inst.symmetry_axis is None else "symmetry-axis error"
     err = _error_deg(T, T_gt, inst.symmetry_axis)
@@ -59,6 +75,10 @@ def main(argv: list[str] | None = None) -> int:
     if result.runner_up is not None:
         second = _error_deg(result.runner_up, T_gt, inst.symmetry_axis)
         print(f"runner-up: margin {result.runner_up_margin:.4f}, {what} {second:.2f} deg")
+    if result.ambiguous:
+        print(f"warning: {result.doubt()}")
+    if args.overlay:
+        print(f"overlay: {args.overlay} (answer green, runner-up magenta, mask yellow)")
     return 0
 
 

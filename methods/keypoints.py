@@ -64,3 +64,20 @@ def voxel_downsample(points: np.ndarray, normals: np.ndarray, voxel_size: float)
     _, first = np.unique(keys, axis=0, return_index=True)
     first.sort()
     return points[first], normals[first]
+
+
+def too_few_points(sample_id: str, n: int, points: np.ndarray, voxel_size: float) -> str:
+    """Why a view (N, 3), object-normalised, left ``n`` (fewer than 3) points after downsampling at
+    ``voxel_size`` template radii, and the fix: a partial view spans 0.3-1.2 template radii, so
+    one spanning under 0.1 is in another unit than the template (the unit check has warned), not
+    a voxel too coarse."""
+    span = 0.5 * float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+    fix = (
+        "the observation is in another unit than the template (a depth frame: set depth_scale)"
+        if span < 0.1
+        else "lower method.descriptor.voxel_size"
+    )
+    return (
+        f"sample {sample_id}: only {n} points after voxel "
+        f"downsampling at {voxel_size} template radii (the observation spans {span:.3g} of them); {fix}"
+    )

@@ -78,7 +78,7 @@ from catpose.methods import options
 from catpose.methods.descriptors import LPS, Descriptor
 from catpose.methods.dictionary import DictionaryLayout
 from catpose.methods.dictionary_features import dictionary_features
-from catpose.methods.keypoints import farthest_point_indices
+from catpose.methods.keypoints import farthest_point_indices, too_few_points
 from catpose.methods.method import RegistrationMethod
 from catpose.methods.ours_candidates import Candidates, Prepared, TemplateFeatures
 from catpose.methods.ours_selection import criterion, finish
@@ -187,10 +187,8 @@ class Ours(RegistrationMethod):
             problem.points_camera, problem.normals_camera, self.num_keypoints, problem.ground_normal_camera
         )
         if len(inp.indices) < 3:
-            raise InvalidInputError(
-                f"sample {problem.sample_id}: only {len(inp.indices)} points after voxel "
-                f"downsampling at {self.descriptor.voxel_size}; lower method.descriptor.voxel_size"
-            )
+            n, voxel = len(inp.indices), self.descriptor.voxel_size
+            raise InvalidInputError(too_few_points(problem.sample_id, n, problem.points_camera, voxel))
         return inp
 
     def _prepare(self, problem: RegistrationProblem, timings: dict[str, float], inp=None) -> Prepared:

@@ -154,6 +154,39 @@ def test_case_16_observation_in_metres_against_a_template_in_mm_warns_with_the_r
     assert np.isfinite(result.T_template_camera).all()
 
 
+def test_ours_in_the_wrong_unit_is_told_the_unit_not_the_voxel_size(example):
+    """Issue 61: after the unit warning, ours' refusal named the voxel size; it names depth_scale."""
+    from catpose.api.inputs import normalised_template
+
+    scale = normalised_template(example["ply"], None, np.array([0.0, 0.0, 1.0]), 2048).scale
+    voxel = 0.025 * scale  # configs/descriptor/lps.yaml's voxel_size, template radii, in mm
+    # a view 1000 times too small, inside one of ours' descriptor voxels: one point is left
+    cloud = np.random.default_rng(0).uniform(0.0, 0.1, size=(300, 3)) + voxel * np.array([0.45, 0.45, 10.45])
+    with pytest.warns(UserWarning, match="times smaller than the template"), pytest.raises(RegistrationFailed) as info:
+        catpose.register(cloud, example["ply"], method="ours", up=[0.0, -1.0, 0.0])
+    message = str(info.value)
+    assert "set depth_scale" in message and "spans 0.000" in message, message
+    assert "lower method.descriptor.voxel_size" not in message and "\n" not in message, message
+
+
+def test_a_few_stray_mask_pixels_do_not_trigger_the_span_warning(example):
+    """A real mask's edge sees past the object (1-2 % of YCB-V's pixels, far behind it): the span
+    the unit check reads ignores them; a whole view twice the template's size still warns."""
+    mask, depth = example["mask"], example["depth"].astype(float)
+    v, u = np.nonzero(mask)
+    stray = np.zeros_like(mask)
+    stray[v[:: max(1, len(v) // 20)], u[:: max(1, len(v) // 20)]] = True  # ~1 % of the mask
+    far = np.where(stray, depth + 5.0 * np.ptp(depth[mask]) + 2000.0, depth)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        catpose.register(catpose.DepthFrame(far, example["K"], mask), example["ply"], method="icp")
+    assert not [w for w in caught if "template radii" in str(w.message)], [str(w.message) for w in caught]
+    from catpose.api.observation import _radius
+
+    cloud = np.random.default_rng(0).uniform(-3.0, 3.0, size=(500, 3))
+    assert 4.5 < _radius(cloud) < 5.3  # a uniform box: the central 95 % of its half diagonal
+
+
 def test_case_29_too_many_template_points_is_one_line(example, monkeypatch):
     with pytest.raises(InvalidInputError) as info:
         catpose.register(_frame(example), example["ply"], method="icp", template_points=10**9)

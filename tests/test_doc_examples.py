@@ -1,7 +1,9 @@
-"""Every Python block of README.md and docs/api.md runs as pasted from the repository root
-(issue 41): the blocks of one file run in order in one fresh interpreter, as a reader pastes them
-into one session. The fast test checks that each block compiles and that the files it loads ship
-with the repository; the slow one runs them."""
+"""Every Python block of README.md, docs/api.md and docs/your-frame.md runs as pasted from the
+repository root (issues 41, 61): the blocks of one file run in order in one fresh interpreter, as a
+reader pastes them into one session. The fast test checks that each block compiles and that the
+files it loads ship with the repository; the slow one runs them. A block that reads
+``../shared/data`` runs on the shared data where it is (``CATPOSE_SHARED_DATA``) and is left out
+without it."""
 
 from __future__ import annotations
 
@@ -14,7 +16,8 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-DOCS = ("README.md", "docs/api.md")
+DOCS = ("README.md", "docs/api.md", "docs/your-frame.md")
+SHARED = "../shared/data"
 
 
 def python_blocks(doc: str) -> list[str]:
@@ -35,11 +38,18 @@ def test_blocks_compile_and_load_only_shipped_files(doc):
 @pytest.mark.slow
 @pytest.mark.parametrize("doc", DOCS)
 def test_blocks_run_as_pasted_from_the_repository_root(doc, tmp_path):
-    script = "\n".join(python_blocks(doc))
+    from catpose.bench.run.config import shared_data_dir
+
+    shared = shared_data_dir()
+    blocks = [b.replace(SHARED, str(shared)) for b in python_blocks(doc) if SHARED not in b or shared.is_dir()]
+    script = "\n".join(blocks)
     env = dict(os.environ, CATPOSE_CACHE_DIR=str(tmp_path / "cache"))
     r = subprocess.run([sys.executable, "-c", script], cwd=REPO, env=env, capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, f"{doc}:\n{r.stderr[-3000:]}"
-    if doc == "docs/api.md":
+    if doc == "docs/your-frame.md":
+        assert "ambiguous: False" in r.stdout and "picture:" in r.stdout, r.stdout  # the example chair: clear
+        assert not shared.is_dir() or "ambiguous: True" in r.stdout, r.stdout  # the mustard bottle: a half turn
+    elif doc == "docs/api.md":
         err = float(re.search(r"rotation error \(deg\): ([0-9.e+-]+)", r.stdout).group(1))
         assert err < 5.0, r.stdout
     else:

@@ -15,7 +15,16 @@ from _study import study_module  # noqa: E402
 doc_quotes = study_module("tools/doc_quotes.py")
 
 REPO = Path(__file__).resolve().parents[1]
-DOCS = ("methods.md", "evaluation.md", "results.md", "speed.md", "scale-out.md", "developing.md", "architecture.md")
+DOCS = (
+    "methods.md",
+    "evaluation.md",
+    "results.md",
+    "speed.md",
+    "scale-out.md",
+    "developing.md",
+    "architecture.md",
+    "your-frame.md",
+)
 #: docs written on other branches; links to them are checked once they exist
 PENDING = {
     "docs/api.md": "frontdoor",

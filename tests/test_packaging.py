@@ -40,6 +40,13 @@ def test_every_bench_wing_is_a_declared_package():
     packages = set(tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
     wings = {f"catpose.bench.{p.parent.name}" for p in (REPO / "bench").glob("*/__init__.py")}
     assert wings and wings <= packages, sorted(wings - packages)
+    # every config group folder too: one missing is packed as data with a BuildBackendWarning each
+    groups = {
+        "catpose.configs." + ".".join(p.relative_to(REPO / "configs").parts)
+        for p in (REPO / "configs").rglob("*")
+        if p.is_dir() and "__pycache__" not in p.parts
+    }
+    assert groups and groups <= packages, sorted(groups - packages)
 
 
 def test_wheel_installs_and_hydra_finds_its_configs(tmp_path):
@@ -57,6 +64,7 @@ def test_wheel_installs_and_hydra_finds_its_configs(tmp_path):
         ]
     )
     assert r.returncode == 0, r.stderr[-2000:]
+    assert "BuildBackendWarning" not in r.stdout + r.stderr, (r.stdout + r.stderr)[-2000:]
     wheel = next((tmp_path / "w").glob("catpose-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "catpose/configs/run.yaml" in names and "catpose/configs/method/icp.yaml" in names

@@ -4,8 +4,10 @@
 
 runs ``bench run method=icp dataset=synthetic`` and ``bench run method=ours dataset=synthetic``
 (2 methods x 48 views, each view against its own model; resumed when run before) into
-``<out>/<profile>/``, prints their summary table as the report writes it (the README quotes
-``results/report/tables/gt_model_summary.md``) and says how its rows compare with the quoted ones.
+``<out>/<profile>/``, prints their tables as the report writes them, per category (the paper's
+layout, ``results/report/tables/gt_model_per_category.md``) and pooled (the README quotes
+``results/report/tables/gt_model_summary.md``), and says how the pooled rows compare with the
+quoted ones.
 
 The numeric profile: the README's tables are made under the portable profile
 (:func:`catpose.bench.run.environment.portable_profile`: OpenBLAS's Haswell kernel, NumPy without
@@ -65,16 +67,17 @@ def run_methods(out: Path, env: dict[str, str]) -> list[Path]:
     return dirs
 
 
-def demo_table(run_dirs: list[Path]):
-    """The summary table of the runs (:func:`catpose.bench.report.report_folder.summary_table`)."""
-    from catpose.bench.report.report_folder import summary_table
+def demo_tables(run_dirs: list[Path]):
+    """``(per category, pooled)``: the runs' tables as the report writes them
+    (:func:`~catpose.bench.report.report_folder.per_category_table`, ``summary_table``)."""
+    from catpose.bench.report.report_folder import per_category_table, summary_table
     from catpose.bench.report.runs import load_runs
 
     runs, reasons = load_runs(run_dirs)
     if reasons:
         raise ConfigError("; ".join(reasons))
     labels = {str(r.path): ROWS[str(r.method)] for r in runs}
-    return summary_table(runs, labels, "gt_model")
+    return per_category_table(runs, labels, "gt_model"), summary_table(runs, labels, "gt_model")
 
 
 def differences(table_csv: str, quoted_csv: str, rel: float = 1e-9) -> list[str]:
@@ -113,7 +116,9 @@ def main(argv: list[str] | None = None) -> int:
     described, env = profile_env(args.native)
     print(f"make demo: numeric profile: {described}", flush=True)
     out = Path(args.out) / ("native" if args.native else "portable")
-    table = demo_table(run_methods(out, env))
+    per_category, table = demo_tables(run_methods(out, env))
+    if per_category is not None:
+        print("\n" + RENDERERS["md"](per_category))
     print("\n" + RENDERERS["md"](table))
     quoted = Path(args.quoted)
     if not quoted.is_file():

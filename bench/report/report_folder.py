@@ -138,6 +138,25 @@ def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str):
     return summary
 
 
+def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: str):
+    """A row block per run, a column per category (the paper's layout), mean, median, @10 and @30:
+    ``tables/<protocol>_per_category.*`` of a report, and what ``make demo`` prints above the
+    pooled table; None when the runs name no category."""
+    from catpose.bench.report import tables
+
+    cats = sorted({str(c) for r in runs for c in r.samples.get("category", [])})
+    if not cats:
+        return None
+    return tables.build_table(
+        runs,
+        "tyol",
+        categories=cats,
+        labels=labels,
+        metrics=["mean", "median", "acc10", "acc30"],
+        title=f"Per category ({protocol})",
+    )
+
+
 def build_report(
     run_dirs: Sequence[str | Path],
     out: str | Path,
@@ -216,16 +235,8 @@ def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes,
             "",
         ]
         md += _write_table(summary_table(group, names, protocol), out, f"{protocol}_summary")
-        cats = sorted({str(c) for r in group for c in r.samples.get("category", [])})
-        if cats:
-            per_cat = tables.build_table(
-                group,
-                "tyol",
-                categories=cats,
-                labels=names,
-                metrics=["mean", "median", "acc10", "acc30"],
-                title=f"Per category ({protocol})",
-            )
+        per_cat = per_category_table(group, names, protocol)
+        if per_cat is not None:
             md += _write_table(per_cat, out, f"{protocol}_per_category")
         for layout in layouts:
             md += _write_table(tables.build_table(group, layout, labels=names), out, f"{protocol}_{layout}")

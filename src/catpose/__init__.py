@@ -22,6 +22,7 @@ _API = (
     "Registration",
     "RegistrationFailed",
     "build_method",
+    "overlay",
     "register",
 )
 

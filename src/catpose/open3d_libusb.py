@@ -1,32 +1,85 @@
-"""Open3D importable on its own: ``libusb-1.0.so.0`` placed where Open3D's library finds it.
+"""Open3D importable on its own: ``libusb-1.0.so.0`` found however catpose was installed.
 
 Open3D's Linux wheels (``open3d-cpu`` 0.20 included) link against ``libusb-1.0.so.0``, which slim
-machines lack, so ``import open3d`` fails there with ``ImportError: libusb-1.0.so.0``.
-:mod:`catpose.o3d` works around it inside catpose (it loads the library of the PyPI package
-``libusb-package`` first); this module fixes the environment itself, so that ``python -c "import
-open3d"`` works before or without catpose: it links ``libusb-package``'s library into Open3D's
-package folder as ``libusb-1.0.so.0``, where the dynamic loader looks first (``libOpen3D.so``'s
-RUNPATH starts with ``$ORIGIN``). Nothing is done when the system provides libusb.
+machines lack, so ``import open3d`` fails there with ``ImportError: libusb-1.0.so.0``. The PyPI
+package ``libusb-package`` (a dependency of catpose) ships that library; loaded with
+``RTLD_GLOBAL`` before Open3D, it satisfies Open3D's link. Two ways, one library:
 
-``make setup`` runs it after installing (``python -m catpose.open3d_libusb``); rerun it after
-reinstalling Open3D. It never imports Open3D.
+- **the import hook** (every install, ``pip install .`` included): the wheel puts
+  ``catpose-open3d-libusb.pth`` in ``site-packages``; Python runs it at start-up, and it calls
+  :func:`install_import_hook`, which waits for the first ``import open3d`` (with or without
+  catpose) and loads the library just before it. Nothing else is imported or loaded until then.
+- **the link** (``python -m catpose.open3d_libusb``; ``make setup`` runs it, as an editable install
+  has no ``.pth`` of its own): ``libusb-package``'s library linked into Open3D's package folder as
+  ``libusb-1.0.so.0``, where the dynamic loader looks first (``libOpen3D.so``'s RUNPATH starts with
+  ``$ORIGIN``); it also serves ``python -S``, which skips ``.pth`` files. Rerun it after
+  reinstalling Open3D.
+
+Both do nothing when the system provides libusb. :mod:`catpose.o3d` calls :func:`preload_libusb`
+too, so catpose's own imports never depend on either.
 """
 
 from __future__ import annotations
 
-import ctypes.util
 import os
 import sys
-from importlib.util import find_spec
 from pathlib import Path
 
-__all__ = ["LINK_NAME", "link_libusb"]
+__all__ = ["LINK_NAME", "install_import_hook", "link_libusb", "preload_libusb"]
 
 #: the name Open3D's library asks the loader for
 LINK_NAME = "libusb-1.0.so.0"
 
 
+def _system_has_libusb() -> bool:
+    import ctypes.util
+
+    return ctypes.util.find_library("usb-1.0") is not None
+
+
+def preload_libusb() -> None:
+    """Load ``libusb-package``'s library globally unless the system provides libusb; silent when
+    the package is missing (Open3D's own error then names the library)."""
+    import ctypes
+
+    if _system_has_libusb():
+        return
+    try:
+        import libusb_package
+    except ImportError:
+        return
+    path = libusb_package.get_library_path()
+    if path is not None:
+        ctypes.CDLL(str(path), mode=ctypes.RTLD_GLOBAL)
+
+
+class _BeforeOpen3D:
+    """A ``sys.meta_path`` finder that finds nothing: on the first look-up of ``open3d`` it loads
+    libusb, removes itself and lets the ordinary finders import Open3D."""
+
+    @classmethod
+    def find_spec(cls, name, path=None, target=None):
+        if name == "open3d":
+            if cls in sys.meta_path:
+                sys.meta_path.remove(cls)
+            try:
+                preload_libusb()
+            except Exception:  # never break an import: Open3D's own error is clear enough
+                pass
+        return None
+
+
+def install_import_hook() -> None:
+    """Load libusb just before the first ``import open3d`` (the ``.pth`` file calls this)."""
+    if sys.platform.startswith("linux") and "open3d" not in sys.modules and _BeforeOpen3D not in sys.meta_path:
+        sys.meta_path.insert(0, _BeforeOpen3D)
+
+
 def _open3d_dir() -> Path | None:
+    from importlib.util import find_spec
+
+    if _BeforeOpen3D in sys.meta_path:  # find_spec would trigger the hook: harmless, but not asked for
+        sys.meta_path.remove(_BeforeOpen3D)
     spec = find_spec("open3d")
     if spec is None or not spec.submodule_search_locations:
         return None
@@ -37,7 +90,7 @@ def link_libusb(open3d_dir: Path | None = None, force: bool = False) -> str:
     """Link ``libusb-package``'s library into ``open3d_dir`` (default: the installed Open3D's
     folder) as :data:`LINK_NAME`; a sentence saying what was done. ``force``: even where the
     system provides libusb (tests)."""
-    if not force and ctypes.util.find_library("usb-1.0"):
+    if not force and _system_has_libusb():
         return "the system provides libusb-1.0; nothing to do"
     target_dir = open3d_dir if open3d_dir is not None else _open3d_dir()
     if target_dir is None:

@@ -19,7 +19,7 @@ A depth frame (:class:`~catpose.depth_frame.DepthFrame`) goes through
 :func:`catpose.datasets.frame_view.frame_view`, the function ``bench run``'s BOP loader calls for
 every instance, so the API and the benchmark see the same problem (modules: ``inputs`` argument
 checks and the normalised template, ``observation`` points or a frame in the methods' unit,
-``registrar`` the call itself, ``parallel`` ``Registrar.many`` over processes, ``bop`` a BOP
+``registrar`` the call itself, ``parallel`` ``Registrar.many`` over processes, ``overlay`` the answer drawn on the frame, ``bop`` a BOP
 frame and its model as the bench loads them, ``method_cache`` methods built from configs).
 
 Example::
@@ -31,6 +31,7 @@ Example::
 
 from catpose.api.inputs import NormalisedTemplate
 from catpose.api.method_cache import build_method
+from catpose.api.overlay import overlay
 from catpose.api.register import register
 from catpose.api.registrar import UP_HYPOTHESES, Registrar
 from catpose.api.result import Registration
@@ -46,5 +47,6 @@ __all__ = [
     "RegistrationFailed",
     "UP_HYPOTHESES",
     "build_method",
+    "overlay",
     "register",
 ]

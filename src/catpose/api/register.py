@@ -5,6 +5,7 @@ caller's frames and unit (the methods' answer ``T_n`` in the normalised frames m
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -79,7 +80,9 @@ def register(
 
     Warns:
         UserWarning: the observation spans more than 2 or less than 0.1 template radii (two
-        units, or more than the object), with the ratio.
+        units, or more than the object), with the ratio; the answer is
+        :attr:`~Registration.ambiguous` (a runner-up lost by less than
+        :data:`~catpose.api.result.AMBIGUOUS_MARGIN`), in one line.
 
     Deterministic: the same inputs give the same answer (the global NumPy, torch and Open3D
     seeds are set before each method call, as ``bench run`` does per sample).
@@ -93,7 +96,7 @@ def register(
         prepare=False,
         **options,
     )
-    return registrar(
+    result = registrar(
         observation,
         up,
         observation_normals=observation_normals,
@@ -102,3 +105,7 @@ def register(
         plane_distance=plane_distance,
         _stacklevel=3,
     )
+    doubt = result.doubt()
+    if doubt is not None:
+        warnings.warn(doubt, UserWarning, stacklevel=2)
+    return result

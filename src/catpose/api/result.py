@@ -8,7 +8,14 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Registration"]
+__all__ = ["AMBIGUOUS_MARGIN", "Registration"]
+
+#: :attr:`Registration.ambiguous` below this runner-up margin (ours' depth-check cost per mask
+#: pixel): the smallest margin whose answers at or above it were right (@10) on 0.99 of the 937
+#: development views, chosen by experiments/runner_up and written in results/runner_up/dev.md
+#: ("Chosen: **0.3734**"; tests/test_ambiguous.py reads it there). It flags 0.852 of those views;
+#: on the report scenes every wrong answer was flagged and every unflagged answer was right.
+AMBIGUOUS_MARGIN = 0.3734
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,6 +52,9 @@ class Registration:
             mask pixel, >= 0); near 0 the depth image barely told the two apart, so the answer
             is a guess between them that another cue (colour, a second view) should settle; NaN
             without a runner-up.
+        ambiguous: the runner-up margin is below :data:`AMBIGUOUS_MARGIN`: the depth image
+            barely chose between the answer and :attr:`runner_up`, so treat the answer as one of
+            the two (ours with a depth frame names a runner-up; otherwise False).
     """
 
     T_template_camera: np.ndarray
@@ -59,3 +69,18 @@ class Registration:
     T_normalised: np.ndarray | None = None
     runner_up: np.ndarray | None = None
     runner_up_margin: float = float("nan")
+
+    @property
+    def ambiguous(self) -> bool:
+        """True when a runner-up lost by less than :data:`AMBIGUOUS_MARGIN` (see the class doc)."""
+        return self.runner_up is not None and bool(self.runner_up_margin < AMBIGUOUS_MARGIN)
+
+    def doubt(self) -> str | None:
+        """One line saying why to doubt the answer (:attr:`ambiguous`), or None."""
+        if not self.ambiguous:
+            return None
+        return (
+            f"ambiguous: the runner-up pose (Registration.runner_up) lost by a margin of "
+            f"{self.runner_up_margin:.4f} < {AMBIGUOUS_MARGIN}; the depth image barely told them apart, "
+            "so check both (catpose.overlay draws them) or settle it with another cue"
+        )
