@@ -9,8 +9,7 @@ the rows store; no registration runs here. The kept row carries the kept pose (a
 pose: its ``T_est`` and errors replaced, ``info["turn_deg"]``, ``info["fused_templates"]``).
 
 Also here: :func:`is_excluded_view` (``protocol.exclude_templates``: a template instance's own views
-are not test views; ``protocol.exclude_instances``) and :func:`random_choice_rows` (what a random
-choice would score).
+are not test views; ``protocol.exclude_instances``).
 """
 
 from __future__ import annotations
@@ -146,12 +145,3 @@ def with_template_facts(sample: Any) -> Any:
     info = dict(sample.info)
     info["template_spacing"] = template_spacing(sample.problem.template)
     return dataclasses.replace(sample, info=info)
-
-
-def random_choice_rows(samples):
-    """The rows a uniformly random choice could return: every registration of every view that
-    has at least one, each weighted ``1 / K_view`` (a DataFrame with a ``weight`` column), so
-    weighted statistics are the expected statistics of choosing a template at random."""
-    out = samples.copy()
-    out["weight"] = 1.0 / out.groupby("group_id")["group_id"].transform("size")
-    return out
