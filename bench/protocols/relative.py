@@ -86,40 +86,28 @@ def relative_errors(
     T_c1_c2_est = invert_T(np.asarray(T_est1, float)) @ np.asarray(T_est2, float)
     T_c1_c2_gt = invert_T(np.asarray(T_gt1, float)) @ np.asarray(T_gt2, float)
     rot = rotation_error_deg(T_c1_c2_est[:3, :3], T_c1_c2_gt[:3, :3])
-    axis = float("nan")
-    if symmetry_axis is not None:
-        # Main axis in camera 2 (from view 2's ground truth); compare where the two relative
-        # poses put it in camera 1. axis_error_deg compares R_est^T a with R_gt^T a.
-        a_c2 = np.asarray(T_gt2, float)[:3, :3].T @ np.asarray(symmetry_axis, float).reshape(3)
-        axis = axis_error_deg(T_c1_c2_est[:3, :3].T, T_c1_c2_gt[:3, :3].T, a_c2)
     if symmetry_axis is None:
         trans = translation_error(T_c1_c2_est[:3, 3], T_c1_c2_gt[:3, 3])
-    else:
-        # the object's origin seen from camera 2, carried into camera 1 by both relative poses:
-        # unlike the relative translation, this ignores each view's unobservable spin
-        T2 = np.asarray(T_gt2, float)
-        o_c2 = -T2[:3, :3].T @ T2[:3, 3]
-        trans = translation_error(
-            T_c1_c2_est[:3, :3] @ o_c2 + T_c1_c2_est[:3, 3], T_c1_c2_gt[:3, :3] @ o_c2 + T_c1_c2_gt[:3, 3]
-        )
-    return {
-        "rot_err_deg": rot,
-        "axis_err_deg": axis,
-        "trans_err": trans,
-        "err_deg": rot if symmetry_axis is None else axis,
-    }
+        return {"rot_err_deg": rot, "axis_err_deg": float("nan"), "trans_err": trans, "err_deg": rot}
+    # Main axis in camera 2 (from view 2's ground truth); compare where the two relative
+    # poses put it in camera 1. axis_error_deg compares R_est^T a with R_gt^T a.
+    T2 = np.asarray(T_gt2, float)
+    a_c2 = T2[:3, :3].T @ np.asarray(symmetry_axis, float).reshape(3)
+    axis = axis_error_deg(T_c1_c2_est[:3, :3].T, T_c1_c2_gt[:3, :3].T, a_c2)
+    # the object's origin seen from camera 2, carried into camera 1 by both relative poses:
+    # unlike the relative translation, this ignores each view's unobservable spin
+    o_c2 = -T2[:3, :3].T @ T2[:3, 3]
+    trans = translation_error(
+        T_c1_c2_est[:3, :3] @ o_c2 + T_c1_c2_est[:3, 3], T_c1_c2_gt[:3, :3] @ o_c2 + T_c1_c2_gt[:3, 3]
+    )
+    return {"rot_err_deg": rot, "axis_err_deg": axis, "trans_err": trans, "err_deg": axis}
 
 
-def _matrix(value: Any) -> np.ndarray | None:
+def _matrix(value: Any, shape: tuple[int, ...] = (4, 4)) -> np.ndarray | None:
+    """A row's pose (or, with ``shape=(3,)``, axis) as an array; None when the row has none."""
     if value is None or (isinstance(value, float) and np.isnan(value)):
         return None
-    return np.asarray(value, float).reshape(4, 4)
-
-
-def _axis(value: Any) -> np.ndarray | None:
-    if value is None or (isinstance(value, float) and np.isnan(value)):
-        return None
-    return np.asarray(value, float).reshape(3)
+    return np.asarray(value, float).reshape(shape)
 
 
 def _relative_angle_deg(r1: dict, r2: dict) -> float:
@@ -288,7 +276,7 @@ class Relative(Protocol):
                 trans_err=float("nan"),
             )
         T_gt1, T_gt2 = _matrix(r1.get("T_gt")), _matrix(r2.get("T_gt"))
-        axis = _axis(r1.get("symmetry_axis"))
+        axis = _matrix(r1.get("symmetry_axis"), (3,))
         errors = relative_errors(_matrix(r1["T_est"]), _matrix(r2["T_est"]), T_gt1, T_gt2, axis)
         T_rel_est = invert_T(_matrix(r1["T_est"])) @ _matrix(r2["T_est"])
         T_rel_gt = invert_T(T_gt1) @ T_gt2
