@@ -111,11 +111,9 @@ def translation_cm(units) -> np.ndarray:
     or an estimate)."""
     n = len(units)
     out = np.full(n, np.nan)
-    infos = units["info"].tolist() if "info" in units else [None] * n
-    T_est = units["T_est"].tolist() if "T_est" in units else [None] * n
-    T_gt = units["T_gt"].tolist() if "T_gt" in units else [None] * n
-    trans = units["trans_err"].tolist() if "trans_err" in units else [None] * n
-    status = units["status"].tolist() if "status" in units else ["ok"] * n
+    column = lambda name, default=None: units[name].tolist() if name in units else [default] * n  # noqa: E731
+    infos, T_est, T_gt, trans = column("info"), column("T_est"), column("T_gt"), column("trans_err")
+    status = column("status", "ok")
     for k in range(n):
         info = infos[k] if isinstance(infos[k], dict) else {}
         scale = info.get("scale_mm")

@@ -82,16 +82,8 @@ def new_row(base: dict, sample_id: str, **fields: Any) -> dict:
 
 def failed_row(row: dict, error: str, stage: str | None = None, **fields: Any) -> dict:
     """``row`` marked failed with ``error`` (one line): no estimate, counted as 180 degrees."""
-    out = dict(
-        row,
-        status="failed",
-        error=error,
-        T_est=None,
-        err_deg=FAILED_ERROR_DEG,
-        rot_err_deg=None,
-        axis_err_deg=None,
-        trans_err=None,
-    )
+    out = dict(row, status="failed", error=error, T_est=None, err_deg=FAILED_ERROR_DEG)
+    out.update(rot_err_deg=None, axis_err_deg=None, trans_err=None)
     if stage is not None:
         out["stage"] = stage
     out.update(fields)
