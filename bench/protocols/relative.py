@@ -20,14 +20,12 @@ pairs (180 degrees).
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from catpose.bench.protocols.absolute import GtModel, Protocol, Templates, require_consistent_frames
 from catpose.bench.protocols.template_rows import is_excluded_view
 from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, axis_error_deg, rotation_error_deg, translation_error
-from catpose.bench.scoring.rows import failed_row, scored_row
+from catpose.bench.scoring.rows import failed_row, row_array, scored_row
 from catpose.datasets.dataset import ObjectDataset
 from catpose.errors import ConfigError
 from catpose.geometry import invert_T
@@ -103,16 +101,9 @@ def relative_errors(
     return {"rot_err_deg": rot, "axis_err_deg": axis, "trans_err": trans, "err_deg": axis}
 
 
-def _matrix(value: Any, shape: tuple[int, ...] = (4, 4)) -> np.ndarray | None:
-    """A row's pose (or, with ``shape=(3,)``, axis) as an array; None when the row has none."""
-    if value is None or (isinstance(value, float) and np.isnan(value)):
-        return None
-    return np.asarray(value, float).reshape(shape)
-
-
 def _relative_angle_deg(r1: dict, r2: dict) -> float:
     """Geodesic angle of the true relative rotation between two views (inf when unknown)."""
-    T1, T2 = _matrix(r1.get("T_gt")), _matrix(r2.get("T_gt"))
+    T1, T2 = row_array(r1.get("T_gt")), row_array(r2.get("T_gt"))
     if T1 is None or T2 is None:
         return float("inf")
     return rotation_error_deg(T1[:3, :3].T @ T2[:3, :3], np.eye(3))
@@ -266,7 +257,7 @@ class Relative(Protocol):
             runtime_s=float(np.nansum([r1.get("runtime_s", np.nan), r2.get("runtime_s", np.nan)])),
             score=float(np.nansum([r1.get("score", np.nan), r2.get("score", np.nan)])),
         )
-        failed = [r for r in (r1, r2) if r.get("status") != "ok" or _matrix(r.get("T_est")) is None]
+        failed = [r for r in (r1, r2) if r.get("status") != "ok" or row_array(r.get("T_est")) is None]
         if failed:
             return failed_row(
                 row,
@@ -275,10 +266,10 @@ class Relative(Protocol):
                 axis_err_deg=float("nan"),
                 trans_err=float("nan"),
             )
-        T_gt1, T_gt2 = _matrix(r1.get("T_gt")), _matrix(r2.get("T_gt"))
-        axis = _matrix(r1.get("symmetry_axis"), (3,))
-        errors = relative_errors(_matrix(r1["T_est"]), _matrix(r2["T_est"]), T_gt1, T_gt2, axis)
-        T_rel_est = invert_T(_matrix(r1["T_est"])) @ _matrix(r2["T_est"])
+        T_gt1, T_gt2 = row_array(r1.get("T_gt")), row_array(r2.get("T_gt"))
+        axis = row_array(r1.get("symmetry_axis"), (3,))
+        errors = relative_errors(row_array(r1["T_est"]), row_array(r2["T_est"]), T_gt1, T_gt2, axis)
+        T_rel_est = invert_T(row_array(r1["T_est"])) @ row_array(r2["T_est"])
         T_rel_gt = invert_T(T_gt1) @ T_gt2
         return scored_row(
             row,

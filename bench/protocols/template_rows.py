@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from catpose.bench.scoring.rows import row_array
 from catpose.methods.choice_rules import DEFAULT_RULE, ChoiceRule, TemplateEstimate, choose, template_spacing
 
 
@@ -49,12 +50,6 @@ def as_rule(choice: str | ChoiceRule) -> ChoiceRule:
     return choice if isinstance(choice, ChoiceRule) else ChoiceRule(rule=str(choice))
 
 
-def _pose(T_est: Any) -> np.ndarray | None:
-    if T_est is None or (isinstance(T_est, float) and np.isnan(T_est)):
-        return None
-    return np.asarray(T_est, float).reshape(4, 4)
-
-
 def estimates_of(group) -> list[TemplateEstimate]:
     """One view's rows (``group``: rows of ``samples.jsonl`` as a DataFrame, one per template) as the
     choice rules read them, in row order."""
@@ -64,7 +59,7 @@ def estimates_of(group) -> list[TemplateEstimate]:
     scores = (
         pd.to_numeric(group["score"], errors="coerce").to_numpy(float) if "score" in group else [np.nan] * len(group)
     )
-    poses = [_pose(T) for T in group["T_est"]] if "T_est" in group else [None] * len(group)
+    poses = [row_array(T) for T in group["T_est"]] if "T_est" in group else [None] * len(group)
     infos = group["info"] if "info" in group else [{}] * len(group)
     ids = group["sample_id"] if "sample_id" in group else [None] * len(group)
     return [

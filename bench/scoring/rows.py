@@ -64,6 +64,14 @@ class SampleRow:
         return dataclasses.asdict(self)
 
 
+def row_array(value: Any, shape: tuple[int, ...] = (4, 4)) -> np.ndarray | None:
+    """A row's pose (``T_est``, ``T_gt``: 16 floats) or, with ``shape=(3,)``, axis as an array;
+    None when the row has none (None, or NaN where a table filled a missing value)."""
+    if value is None or (isinstance(value, float) and np.isnan(value)):
+        return None
+    return np.asarray(value, float).reshape(shape)
+
+
 def new_row(base: dict, sample_id: str, **fields: Any) -> dict:
     """A fresh row (status failed at stage load until told otherwise) for ``sample_id``;
     ``base`` holds method, dataset, protocol and seed."""
