@@ -224,23 +224,15 @@ class Relative(Protocol):
         views = views.assign(instance_id=instance.where(instance.notna(), guess))
         rows = []
         for r in views[views["instance_id"].isna()].to_dict("records"):
-            why = r.get("error") or "no estimate"
-            rows.append(
-                failed_row(
-                    dict(r, sample_id=r["_view"]), f"view {r['_view']} failed ({why}) and its instance is unknown"
-                )
-            )
+            why = f"view {r['_view']} failed ({r.get('error') or 'no estimate'}) and its instance is unknown"
+            rows.append(failed_row(dict(r, sample_id=r["_view"]), why))
         known = views.dropna(subset=["instance_id"])
         for (category, instance), g in known.groupby(["category", "instance_id"], sort=True):
             g = g.drop_duplicates("_view")
             records = g.to_dict("records")
             candidates = pair_indices(len(records), self.pairs, None)
-            if self.max_relative_angle_deg is not None:
-                candidates = [
-                    (i, j)
-                    for i, j in candidates
-                    if _relative_angle_deg(records[i], records[j]) <= self.max_relative_angle_deg
-                ]
+            if (max_deg := self.max_relative_angle_deg) is not None:
+                candidates = [(i, j) for i, j in candidates if _relative_angle_deg(records[i], records[j]) <= max_deg]
             for i, j in evenly_spaced(candidates, self.max_pairs_per_instance):
                 rows.append(self._pair_row(records[i], records[j], str(category), str(instance)))
         out = pd.DataFrame(rows)
@@ -259,23 +251,13 @@ class Relative(Protocol):
         )
         failed = [r for r in (r1, r2) if r.get("status") != "ok" or row_array(r.get("T_est")) is None]
         if failed:
-            return failed_row(
-                row,
-                f"view {failed[0]['_view']} failed: {failed[0].get('error') or 'no estimate'}",
-                rot_err_deg=FAILED_ERROR_DEG,
-                axis_err_deg=float("nan"),
-                trans_err=float("nan"),
-            )
+            why = f"view {failed[0]['_view']} failed: {failed[0].get('error') or 'no estimate'}"
+            nan = float("nan")
+            return failed_row(row, why, rot_err_deg=FAILED_ERROR_DEG, axis_err_deg=nan, trans_err=nan)
         T_gt1, T_gt2 = row_array(r1.get("T_gt")), row_array(r2.get("T_gt"))
         axis = row_array(r1.get("symmetry_axis"), (3,))
         errors = relative_errors(row_array(r1["T_est"]), row_array(r2["T_est"]), T_gt1, T_gt2, axis)
         T_rel_est = invert_T(row_array(r1["T_est"])) @ row_array(r2["T_est"])
         T_rel_gt = invert_T(T_gt1) @ T_gt2
-        return scored_row(
-            row,
-            T_rel_est,
-            errors,
-            stage=row.get("stage", ""),
-            T_gt=T_rel_gt.reshape(-1).tolist(),
-            symmetric=axis is not None,
-        )
+        stage, T_gt = row.get("stage", ""), T_rel_gt.reshape(-1).tolist()
+        return scored_row(row, T_rel_est, errors, stage=stage, T_gt=T_gt, symmetric=axis is not None)
