@@ -97,9 +97,6 @@ class GoldenSet:
     def sample_ids(self) -> list[str]:
         return [s.problem.sample_id for s in self.samples]
 
-    def by_id(self) -> dict[str, Sample]:
-        return {s.problem.sample_id: s for s in self.samples}
-
 
 def read_golden(path: Path) -> GoldenSet:
     """Load a golden file written by :func:`write_golden`.
@@ -187,7 +184,7 @@ class GoldenProtocol:
     name = "golden"
 
     def __init__(self, golden: GoldenSet, transform=None) -> None:
-        self._samples = golden.by_id()
+        self._samples = {s.problem.sample_id: s for s in golden.samples}
         self._transform = transform
 
     def sample_ids(self, dataset=None) -> list[str]:

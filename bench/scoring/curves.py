@@ -123,13 +123,6 @@ def translation_cm(units) -> np.ndarray:
     return out
 
 
-def has_metric_scale(units) -> np.ndarray:
-    """Per unit, whether its row carries ``info["scale_mm"]``."""
-    if "info" not in units:
-        return np.zeros(len(units), bool)
-    return np.array([isinstance(i, dict) and i.get("scale_mm") is not None for i in units["info"]], bool)
-
-
 def statistic(units, key: str) -> float:
     """The statistic ``key`` (see the module docstring) over the scoring units ``units`` (a
     DataFrame with ``status``, ``err_deg`` and, for n-degree m-cm, ``info``, ``T_est``,
@@ -146,8 +139,8 @@ def statistic(units, key: str) -> float:
         return float((err <= params[0]).mean())
     if kind == "auc":
         return auc(err, params[0])
-    if not has_metric_scale(units).all():
-        return float("nan")
+    if "info" not in units or not all(isinstance(i, dict) and i.get("scale_mm") is not None for i in units["info"]):
+        return float("nan")  # a unit without a metric scale
     cm = translation_cm(units)
     ok = (err <= params[0]) & np.nan_to_num(cm <= params[1], nan=False).astype(bool)
     return float(ok.mean())

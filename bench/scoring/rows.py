@@ -59,10 +59,6 @@ class SampleRow:
     info: dict = field(default_factory=dict)
     extras: dict = field(default_factory=dict)
 
-    def as_dict(self) -> dict:
-        """The row as written to ``samples.jsonl``."""
-        return dataclasses.asdict(self)
-
 
 def row_array(value: Any, shape: tuple[int, ...] = (4, 4)) -> np.ndarray | None:
     """A row's pose (``T_est``, ``T_gt``: 16 floats) or, with ``shape=(3,)``, axis as an array;
@@ -75,15 +71,17 @@ def row_array(value: Any, shape: tuple[int, ...] = (4, 4)) -> np.ndarray | None:
 def new_row(base: dict, sample_id: str, **fields: Any) -> dict:
     """A fresh row (status failed at stage load until told otherwise) for ``sample_id``;
     ``base`` holds method, dataset, protocol and seed."""
-    row = SampleRow(
-        method=str(base["method"]),
-        dataset=str(base["dataset"]),
-        protocol=str(base["protocol"]),
-        seed=int(base["seed"]),
-        sample_id=sample_id,
-        group_id=sample_id,
-        obs_id=sample_id.split("|")[0],
-    ).as_dict()
+    row = dataclasses.asdict(
+        SampleRow(
+            method=str(base["method"]),
+            dataset=str(base["dataset"]),
+            protocol=str(base["protocol"]),
+            seed=int(base["seed"]),
+            sample_id=sample_id,
+            group_id=sample_id,
+            obs_id=sample_id.split("|")[0],
+        )
+    )
     row.update(fields)
     return row
 
