@@ -11,59 +11,41 @@ import sys
 import warnings
 from pathlib import Path
 
-# command -> (module, function, one-line help)
-COMMANDS: dict[str, tuple[str, str, str]] = {
-    "run": (
-        "catpose.bench.run.command",
-        "main",
-        "run a method on a dataset: bench run method=ours dataset=synthetic [-m sweeps]",
-    ),
-    "evaluate": (
-        "catpose.bench.run.command",
-        "evaluate_main",
-        "recompute errors and summaries of run directories from their files",
-    ),
-    "table": (
-        "catpose.bench.report.table_command",
-        "main",
-        "the paper's tables (Markdown, LaTeX, CSV) from run directories",
-    ),
-    "merge": (
-        "catpose.bench.run.merge",
-        "main",
-        "samples.jsonl and summaries of a sharded run (shards=N) from its shard files",
-    ),
-    "report": ("catpose.bench.report.report_folder", "main", "tables and plots of run directories in one folder"),
-    "perf": ("catpose.bench.perf.registration", "main", "seconds per registration and per stage for ours and ICP"),
-    "templates": (
-        "catpose.bench.category.template_medoids",
-        "main",
-        "choose K category templates by K-medoids over F-score",
-    ),
-    "align": ("catpose.bench.category.align", "main", "estimate a canonical-alignment table for a ModelNet40 category"),
-    "category": (
-        "catpose.bench.report.category_table",
+# command, module under catpose.bench, function, one-line help
+_TABLE = (
+    ("run", "run.command", "main", "run a method on a dataset: bench run method=ours dataset=synthetic [-m sweeps]"),
+    ("evaluate", "run.command", "evaluate_main", "recompute errors and summaries of run directories from their files"),
+    ("table", "report.table_command", "main", "the paper's tables (Markdown, LaTeX, CSV) from run directories"),
+    ("merge", "run.merge", "main", "samples.jsonl and summaries of a sharded run (shards=N) from its shard files"),
+    ("report", "report.report_folder", "main", "tables and plots of run directories in one folder"),
+    ("perf", "perf.registration", "main", "seconds per registration and per stage for ours and ICP"),
+    ("templates", "category.template_medoids", "main", "choose K category templates by K-medoids over F-score"),
+    ("align", "category.align", "main", "estimate a canonical-alignment table for a ModelNet40 category"),
+    (
+        "category",
+        "report.category_table",
         "main",
         "templates tables: chosen, oracle and random-template errors per method and K",
     ),
-    "export": ("catpose.bench.interop.bop_export", "main", "export a run's estimates as a BOP results CSV"),
-    "score": ("catpose.bench.interop.score", "main", "score an external predictions file (BOP CSV or per-sample CSV)"),
-    "suite": ("catpose.bench.real.suite", "main", "every method on the shared real data, one table: bench suite real"),
-    "clutter": (
-        "catpose.bench.real.clutter_cache",
+    ("export", "interop.bop_export", "main", "export a run's estimates as a BOP results CSV"),
+    ("score", "interop.score", "main", "score an external predictions file (BOP CSV or per-sample CSV)"),
+    ("suite", "real.suite", "main", "every method on the shared real data, one table: bench suite real"),
+    (
+        "clutter",
+        "real.clutter_cache",
         "main",
         "generate the cluttered synthetic set (dataset=clutter) and print its folder",
     ),
-    "data": (
-        "catpose.bench.run.data_check",
+    (
+        "data",
+        "run.data_check",
         "main",
         "check a dataset root before a run: bench data check dataset=NAME dataset.root=PATH",
     ),
-    "regress": (
-        "catpose.bench.regress.run_suites",
-        "main",
-        "CI regression: small subsets against committed reference metrics",
-    ),
+    ("regress", "regress.run_suites", "main", "CI regression: small subsets against committed reference metrics"),
+)
+COMMANDS: dict[str, tuple[str, str, str]] = {
+    name: (f"catpose.bench.{module}", function, help_) for name, module, function, help_ in _TABLE
 }
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from catpose.errors import ConfigError
-from catpose.geometry import invert_T, rotate_vectors
+from catpose.geometry import apply_R, invert_T
 from catpose.types import RegistrationProblem, Template
 
 
@@ -37,7 +37,7 @@ def _easy_problem(seed: int, template: Template | None = None, view_seed: int | 
         depth = render_depth(V, F, T_camera_object, cam)
     points, _ = depth_to_points(depth, cam)
     normals = estimate_normals(points, radius=0.08)
-    up_camera = rotate_vectors(T_camera_object, np.array([0.0, 0.0, 1.0]))
+    up_camera = apply_R(T_camera_object[:3, :3], np.array([0.0, 0.0, 1.0]))
     problem = RegistrationProblem(f"chair{seed}", "chair", points, normals, up_camera, template)
     return problem, invert_T(T_camera_object)
 

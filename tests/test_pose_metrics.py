@@ -242,12 +242,17 @@ def test_vsd_on_a_fronto_parallel_plate_by_hand():
 
 
 def test_recalls_at_bop19_thresholds_by_hand():
-    assert pm.mssd_thresholds(200.0) == pytest.approx([10, 20, 30, 40, 50, 60, 70, 80, 90, 100])
-    assert pm.mspd_thresholds(1280) == pytest.approx([10, 20, 30, 40, 50, 60, 70, 80, 90, 100])
-    # errors 15 and 55 mm, one missing (NaN): below 10 -> 0; 20..50 -> 1/3; 60..100 -> 2/3
+    import pandas as pd
+
+    from catpose.bench.scoring.bop_eval import metric_value
+
+    # diameter 200 mm: MSSD thresholds 10..100 mm; 1280 px wide: MSPD thresholds 10..100 px
+    # errors 15 and 55, one missing (NaN): below 10 -> 0; 20..50 -> 1/3; 60..100 -> 2/3
     errs = [15.0, 55.0, float("nan")]
     expected = (0 + 4 * (1 / 3) + 5 * (2 / 3)) / 10
-    assert pm.average_recall(errs, pm.mssd_thresholds(200.0)) == pytest.approx(expected)
+    df = pd.DataFrame({"mssd": errs, "diameter": 200.0, "mspd": errs, "im_width": 1280})
+    assert metric_value(df, "ar_mssd") == pytest.approx(expected)
+    assert metric_value(df, "ar_mspd") == pytest.approx(expected)
     assert pm.recall([10.0], 10.0) == 0.0  # BOP counts e < th
     # VSD: two instances with per-tau errors 0 and 0.3: the second is correct at th 0.35..0.5 (4 of 10)
     assert pm.average_recall_vsd([[0.0] * 10, [0.3] * 10]) == pytest.approx((1.0 + 0.4) / 2)

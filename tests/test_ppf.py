@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from catpose.errors import ConfigError
-from catpose.geometry import invert_T, rotate_vectors
+from catpose.geometry import apply_R, invert_T
 from catpose.types import RegistrationProblem, Template
 
 COARSE = dict(model_sampling=0.08, scene_sampling=0.05, top_k=2)
@@ -38,7 +38,7 @@ def _rendered_chair(seed: int) -> tuple[RegistrationProblem, np.ndarray, float]:
         depth = render_depth(V, F, T_camera_object, cam)
     points, _ = depth_to_points(depth, cam)
     normals = estimate_normals(points, radius=0.08)
-    up = rotate_vectors(T_camera_object, np.array([0.0, 0.0, 1.0]))
+    up = apply_R(T_camera_object[:3, :3], np.array([0.0, 0.0, 1.0]))
     problem = RegistrationProblem(f"chair{seed}", "chair", points, normals, up, template)
     return problem, invert_T(T_camera_object), float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
 

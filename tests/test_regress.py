@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import yaml
 
-from catpose.bench.regress import run_suites
+from catpose.bench.regress import reference, regress_gate, run_suites
 from catpose.bench.regress.golden import perturbed, read_golden, write_golden
 
 
@@ -40,7 +40,7 @@ def _rot_z(deg):
 
 def _reference(rows, chaotic=(), gate=run_suites.Gate()):
     samples = {k: dict(v, chaotic=k in chaotic) for k, v in rows.items()}
-    return {"samples": samples, "aggregates": run_suites.aggregates(samples, set(samples) - set(chaotic), gate)}
+    return {"samples": samples, "aggregates": regress_gate.aggregates(samples, set(samples) - set(chaotic), gate)}
 
 
 def test_compare_flags_a_stable_sample_leaving_10_degrees_but_not_a_chaotic_one():
@@ -69,7 +69,7 @@ def test_compare_fails_on_new_failures_and_missing_samples():
 
 def test_accuracy_tolerance_counts_samples_near_the_threshold():
     gate = run_suites.Gate()
-    agg = run_suites.aggregates(
+    agg = regress_gate.aggregates(
         {"a": _row(9.5), "b": _row(2.0), "c": _row(50.0), "d": _row(30.4)}, {"a", "b", "c", "d"}, gate
     )
     assert agg["all"]["acc10"] == 0.5 and agg["all"]["acc10_tolerance"] == 0.25
@@ -110,13 +110,13 @@ def test_chaos_detection_covers_every_code_path_of_this_cpu(monkeypatch):
     monkeypatch.setattr(environment, "cpu_flags", lambda: ["avx", "avx2", "avx512f", "fma"])
     monkeypatch.setattr(environment, "numpy_blas_kernel", lambda: "SkylakeX")
     monkeypatch.delenv("OPENBLAS_CORETYPE", raising=False)
-    paths = run_suites.other_code_paths()
+    paths = reference.other_code_paths()
     assert set(paths) == {"Haswell", "Sandybridge", "avx2-profile", "torch-default"}
     assert paths["avx2-profile"]["OPENBLAS_CORETYPE"] == "Haswell"
     monkeypatch.setattr(environment, "cpu_flags", lambda: ["avx", "avx2", "fma"])
     monkeypatch.setattr(environment, "numpy_blas_kernel", lambda: "Haswell")
     monkeypatch.setenv("OPENBLAS_CORETYPE", "Haswell")
-    assert set(run_suites.other_code_paths()) == {"Sandybridge", "torch-default"}
+    assert set(reference.other_code_paths()) == {"Sandybridge", "torch-default"}
 
 
 def test_golden_round_trip_is_bit_exact_and_perturbation_is_tiny(tmp_path: Path):

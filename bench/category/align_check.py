@@ -55,25 +55,14 @@ def roc(confidence: list[float], right: list[bool]) -> dict:
     ok = np.asarray(right, bool)
     min_right = float(c[ok].min()) if ok.any() else float("nan")
     max_wrong = float(c[~ok].max()) if (~ok).any() else float("nan")
-    out = {
-        "min_right": min_right,
-        "max_wrong": max_wrong,
-        "separates": bool((~ok).sum() == 0 or min_right > max_wrong),
-        "auc": float("nan"),
-        "fpr": [],
-        "tpr": [],
-        "thresholds": [],
-    }
+    out = {"min_right": min_right, "max_wrong": max_wrong, "separates": bool((~ok).sum() == 0 or min_right > max_wrong)}
+    out.update(auc=float("nan"), fpr=[], tpr=[], thresholds=[])
     if ok.any() and (~ok).any():
         from sklearn.metrics import roc_auc_score, roc_curve
 
         fpr, tpr, thr = roc_curve(ok.astype(int), c)
-        out.update(
-            auc=float(roc_auc_score(ok.astype(int), c)),
-            fpr=fpr.tolist(),
-            tpr=tpr.tolist(),
-            thresholds=[float(t) for t in thr],
-        )
+        auc = float(roc_auc_score(ok.astype(int), c))
+        out.update(auc=auc, fpr=fpr.tolist(), tpr=tpr.tolist(), thresholds=[float(t) for t in thr])
     return out
 
 

@@ -149,16 +149,6 @@ def device_override(name: str, device: str) -> list[str]:
     return [f"{key}={device}"]
 
 
-def _percentile(xs: Sequence[float], q: float) -> float:
-    import numpy as np
-
-    return float(np.percentile(xs, q)) if xs else float("nan")
-
-
-def _peak_rss_mb() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: KiB
-
-
 def _seeded(seed: int, sample_id: str) -> None:
     from catpose.bench.run.sample_run import seed_everything
     from catpose.geometry import stable_seed
@@ -243,6 +233,8 @@ def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int, bat
 
 def summarize(measured: dict[str, dict]) -> list[dict]:
     """One row per method: n, median/mean/p90 seconds, ratio to FGR's median, warm-up seconds."""
+    import numpy as np
+
     ref = measured.get(REFERENCE)
     ref_median = statistics.median(ref["times"]) if ref and ref["times"] else None
     rows = []
@@ -255,7 +247,7 @@ def summarize(measured: dict[str, dict]) -> list[dict]:
                 "n": len(xs),
                 "median_s": med,
                 "mean_s": statistics.fmean(xs),
-                "p90_s": _percentile(xs, 90),
+                "p90_s": float(np.percentile(xs, 90)),
                 f"ratio_to_{REFERENCE}": med / ref_median if ref_median else float("nan"),
                 "warmup_s": rec["warmup_s"],
                 "failed": rec.get("failed", 0),
@@ -359,7 +351,7 @@ def main(argv: list[str] | None = None) -> int:
     measured = measure(methods, problems, args.repeat, args.seed, args.batch)
     load_after = os.getloadavg()
     rows = summarize(measured)
-    peak_rss = _peak_rss_mb()
+    peak_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: KiB
     stage_rows = [
         {"method": name, "stage": s, "median_s": statistics.median(v), "mean_s": statistics.fmean(v)}
         for name, rec in measured.items()

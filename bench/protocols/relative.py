@@ -20,14 +20,12 @@ pairs (180 degrees).
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from catpose.bench.protocols.absolute import GtModel, Protocol, Templates, require_consistent_frames
 from catpose.bench.protocols.template_rows import is_excluded_view
 from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, axis_error_deg, rotation_error_deg, translation_error
-from catpose.bench.scoring.rows import failed_row, scored_row
+from catpose.bench.scoring.rows import failed_row, row_array, scored_row
 from catpose.datasets.dataset import ObjectDataset
 from catpose.errors import ConfigError
 from catpose.geometry import invert_T
@@ -86,45 +84,26 @@ def relative_errors(
     T_c1_c2_est = invert_T(np.asarray(T_est1, float)) @ np.asarray(T_est2, float)
     T_c1_c2_gt = invert_T(np.asarray(T_gt1, float)) @ np.asarray(T_gt2, float)
     rot = rotation_error_deg(T_c1_c2_est[:3, :3], T_c1_c2_gt[:3, :3])
-    axis = float("nan")
-    if symmetry_axis is not None:
-        # Main axis in camera 2 (from view 2's ground truth); compare where the two relative
-        # poses put it in camera 1. axis_error_deg compares R_est^T a with R_gt^T a.
-        a_c2 = np.asarray(T_gt2, float)[:3, :3].T @ np.asarray(symmetry_axis, float).reshape(3)
-        axis = axis_error_deg(T_c1_c2_est[:3, :3].T, T_c1_c2_gt[:3, :3].T, a_c2)
     if symmetry_axis is None:
         trans = translation_error(T_c1_c2_est[:3, 3], T_c1_c2_gt[:3, 3])
-    else:
-        # the object's origin seen from camera 2, carried into camera 1 by both relative poses:
-        # unlike the relative translation, this ignores each view's unobservable spin
-        T2 = np.asarray(T_gt2, float)
-        o_c2 = -T2[:3, :3].T @ T2[:3, 3]
-        trans = translation_error(
-            T_c1_c2_est[:3, :3] @ o_c2 + T_c1_c2_est[:3, 3], T_c1_c2_gt[:3, :3] @ o_c2 + T_c1_c2_gt[:3, 3]
-        )
-    return {
-        "rot_err_deg": rot,
-        "axis_err_deg": axis,
-        "trans_err": trans,
-        "err_deg": rot if symmetry_axis is None else axis,
-    }
-
-
-def _matrix(value: Any) -> np.ndarray | None:
-    if value is None or (isinstance(value, float) and np.isnan(value)):
-        return None
-    return np.asarray(value, float).reshape(4, 4)
-
-
-def _axis(value: Any) -> np.ndarray | None:
-    if value is None or (isinstance(value, float) and np.isnan(value)):
-        return None
-    return np.asarray(value, float).reshape(3)
+        return {"rot_err_deg": rot, "axis_err_deg": float("nan"), "trans_err": trans, "err_deg": rot}
+    # Main axis in camera 2 (from view 2's ground truth); compare where the two relative
+    # poses put it in camera 1. axis_error_deg compares R_est^T a with R_gt^T a.
+    T2 = np.asarray(T_gt2, float)
+    a_c2 = T2[:3, :3].T @ np.asarray(symmetry_axis, float).reshape(3)
+    axis = axis_error_deg(T_c1_c2_est[:3, :3].T, T_c1_c2_gt[:3, :3].T, a_c2)
+    # the object's origin seen from camera 2, carried into camera 1 by both relative poses:
+    # unlike the relative translation, this ignores each view's unobservable spin
+    o_c2 = -T2[:3, :3].T @ T2[:3, 3]
+    trans = translation_error(
+        T_c1_c2_est[:3, :3] @ o_c2 + T_c1_c2_est[:3, 3], T_c1_c2_gt[:3, :3] @ o_c2 + T_c1_c2_gt[:3, 3]
+    )
+    return {"rot_err_deg": rot, "axis_err_deg": axis, "trans_err": trans, "err_deg": axis}
 
 
 def _relative_angle_deg(r1: dict, r2: dict) -> float:
     """Geodesic angle of the true relative rotation between two views (inf when unknown)."""
-    T1, T2 = _matrix(r1.get("T_gt")), _matrix(r2.get("T_gt"))
+    T1, T2 = row_array(r1.get("T_gt")), row_array(r2.get("T_gt"))
     if T1 is None or T2 is None:
         return float("inf")
     return rotation_error_deg(T1[:3, :3].T @ T2[:3, :3], np.eye(3))
@@ -245,23 +224,15 @@ class Relative(Protocol):
         views = views.assign(instance_id=instance.where(instance.notna(), guess))
         rows = []
         for r in views[views["instance_id"].isna()].to_dict("records"):
-            why = r.get("error") or "no estimate"
-            rows.append(
-                failed_row(
-                    dict(r, sample_id=r["_view"]), f"view {r['_view']} failed ({why}) and its instance is unknown"
-                )
-            )
+            why = f"view {r['_view']} failed ({r.get('error') or 'no estimate'}) and its instance is unknown"
+            rows.append(failed_row(dict(r, sample_id=r["_view"]), why))
         known = views.dropna(subset=["instance_id"])
         for (category, instance), g in known.groupby(["category", "instance_id"], sort=True):
             g = g.drop_duplicates("_view")
             records = g.to_dict("records")
             candidates = pair_indices(len(records), self.pairs, None)
-            if self.max_relative_angle_deg is not None:
-                candidates = [
-                    (i, j)
-                    for i, j in candidates
-                    if _relative_angle_deg(records[i], records[j]) <= self.max_relative_angle_deg
-                ]
+            if (max_deg := self.max_relative_angle_deg) is not None:
+                candidates = [(i, j) for i, j in candidates if _relative_angle_deg(records[i], records[j]) <= max_deg]
             for i, j in evenly_spaced(candidates, self.max_pairs_per_instance):
                 rows.append(self._pair_row(records[i], records[j], str(category), str(instance)))
         out = pd.DataFrame(rows)
@@ -278,25 +249,15 @@ class Relative(Protocol):
             runtime_s=float(np.nansum([r1.get("runtime_s", np.nan), r2.get("runtime_s", np.nan)])),
             score=float(np.nansum([r1.get("score", np.nan), r2.get("score", np.nan)])),
         )
-        failed = [r for r in (r1, r2) if r.get("status") != "ok" or _matrix(r.get("T_est")) is None]
+        failed = [r for r in (r1, r2) if r.get("status") != "ok" or row_array(r.get("T_est")) is None]
         if failed:
-            return failed_row(
-                row,
-                f"view {failed[0]['_view']} failed: {failed[0].get('error') or 'no estimate'}",
-                rot_err_deg=FAILED_ERROR_DEG,
-                axis_err_deg=float("nan"),
-                trans_err=float("nan"),
-            )
-        T_gt1, T_gt2 = _matrix(r1.get("T_gt")), _matrix(r2.get("T_gt"))
-        axis = _axis(r1.get("symmetry_axis"))
-        errors = relative_errors(_matrix(r1["T_est"]), _matrix(r2["T_est"]), T_gt1, T_gt2, axis)
-        T_rel_est = invert_T(_matrix(r1["T_est"])) @ _matrix(r2["T_est"])
+            why = f"view {failed[0]['_view']} failed: {failed[0].get('error') or 'no estimate'}"
+            nan = float("nan")
+            return failed_row(row, why, rot_err_deg=FAILED_ERROR_DEG, axis_err_deg=nan, trans_err=nan)
+        T_gt1, T_gt2 = row_array(r1.get("T_gt")), row_array(r2.get("T_gt"))
+        axis = row_array(r1.get("symmetry_axis"), (3,))
+        errors = relative_errors(row_array(r1["T_est"]), row_array(r2["T_est"]), T_gt1, T_gt2, axis)
+        T_rel_est = invert_T(row_array(r1["T_est"])) @ row_array(r2["T_est"])
         T_rel_gt = invert_T(T_gt1) @ T_gt2
-        return scored_row(
-            row,
-            T_rel_est,
-            errors,
-            stage=row.get("stage", ""),
-            T_gt=T_rel_gt.reshape(-1).tolist(),
-            symmetric=axis is not None,
-        )
+        stage, T_gt = row.get("stage", ""), T_rel_gt.reshape(-1).tolist()
+        return scored_row(row, T_rel_est, errors, stage=stage, T_gt=T_gt, symmetric=axis is not None)

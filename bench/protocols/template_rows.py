@@ -9,8 +9,7 @@ the rows store; no registration runs here. The kept row carries the kept pose (a
 pose: its ``T_est`` and errors replaced, ``info["turn_deg"]``, ``info["fused_templates"]``).
 
 Also here: :func:`is_excluded_view` (``protocol.exclude_templates``: a template instance's own views
-are not test views; ``protocol.exclude_instances``) and :func:`random_choice_rows` (what a random
-choice would score).
+are not test views; ``protocol.exclude_instances``).
 """
 
 from __future__ import annotations
@@ -21,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from catpose.bench.scoring.rows import row_array
 from catpose.methods.choice_rules import DEFAULT_RULE, ChoiceRule, TemplateEstimate, choose, template_spacing
 
 
@@ -50,12 +50,6 @@ def as_rule(choice: str | ChoiceRule) -> ChoiceRule:
     return choice if isinstance(choice, ChoiceRule) else ChoiceRule(rule=str(choice))
 
 
-def _pose(T_est: Any) -> np.ndarray | None:
-    if T_est is None or (isinstance(T_est, float) and np.isnan(T_est)):
-        return None
-    return np.asarray(T_est, float).reshape(4, 4)
-
-
 def estimates_of(group) -> list[TemplateEstimate]:
     """One view's rows (``group``: rows of ``samples.jsonl`` as a DataFrame, one per template) as the
     choice rules read them, in row order."""
@@ -65,7 +59,7 @@ def estimates_of(group) -> list[TemplateEstimate]:
     scores = (
         pd.to_numeric(group["score"], errors="coerce").to_numpy(float) if "score" in group else [np.nan] * len(group)
     )
-    poses = [_pose(T) for T in group["T_est"]] if "T_est" in group else [None] * len(group)
+    poses = [row_array(T) for T in group["T_est"]] if "T_est" in group else [None] * len(group)
     infos = group["info"] if "info" in group else [{}] * len(group)
     ids = group["sample_id"] if "sample_id" in group else [None] * len(group)
     return [
@@ -146,12 +140,3 @@ def with_template_facts(sample: Any) -> Any:
     info = dict(sample.info)
     info["template_spacing"] = template_spacing(sample.problem.template)
     return dataclasses.replace(sample, info=info)
-
-
-def random_choice_rows(samples):
-    """The rows a uniformly random choice could return: every registration of every view that
-    has at least one, each weighted ``1 / K_view`` (a DataFrame with a ``weight`` column), so
-    weighted statistics are the expected statistics of choosing a template at random."""
-    out = samples.copy()
-    out["weight"] = 1.0 / out.groupby("group_id")["group_id"].transform("size")
-    return out

@@ -21,7 +21,7 @@ from __future__ import annotations
 import json
 import zipfile
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -97,9 +97,6 @@ class GoldenSet:
     def sample_ids(self) -> list[str]:
         return [s.problem.sample_id for s in self.samples]
 
-    def by_id(self) -> dict[str, Sample]:
-        return {s.problem.sample_id: s for s in self.samples}
-
 
 def read_golden(path: Path) -> GoldenSet:
     """Load a golden file written by :func:`write_golden`.
@@ -172,29 +169,12 @@ def perturbed(sample: Sample, rel: float, seed: int) -> Sample:
     rng_extra = np.random.default_rng([seed, 1])  # meshes and depth images: a stream of their own
     extra = lambda a: np.asarray(a, float) * (1.0 + rel * rng_extra.standard_normal(np.shape(a)))  # noqa: E731
     p = sample.problem
-    tpl = Template(
-        template_id=p.template.template_id,
-        category=p.template.category,
-        points=jitter(p.template.points),
-        normals=p.template.normals,
-        vertices=None if p.template.vertices is None else extra(p.template.vertices),
-        triangles=p.template.triangles,
-        up=p.template.up,
-        symmetry_axis=p.template.symmetry_axis,
-    )
+    vertices = None if p.template.vertices is None else extra(p.template.vertices)
+    tpl = replace(p.template, points=jitter(p.template.points), vertices=vertices)
     di = p.depth_image
     depth_image = None if di is None else DepthImage(extra(di.depth), di.K, di.mask)
-    problem = RegistrationProblem(
-        sample_id=p.sample_id,
-        category=p.category,
-        points_camera=jitter(p.points_camera),
-        normals_camera=p.normals_camera,
-        ground_normal_camera=p.ground_normal_camera,
-        template=tpl,
-        meta=p.meta,
-        depth_image=depth_image,
-    )
-    return Sample(problem=problem, gt=sample.gt, group_id=sample.group_id, info=sample.info)
+    problem = replace(p, points_camera=jitter(p.points_camera), template=tpl, depth_image=depth_image)
+    return replace(sample, problem=problem)
 
 
 class GoldenProtocol:
@@ -204,7 +184,7 @@ class GoldenProtocol:
     name = "golden"
 
     def __init__(self, golden: GoldenSet, transform=None) -> None:
-        self._samples = golden.by_id()
+        self._samples = {s.problem.sample_id: s for s in golden.samples}
         self._transform = transform
 
     def sample_ids(self, dataset=None) -> list[str]:

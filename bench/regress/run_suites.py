@@ -14,30 +14,26 @@ What is compared, per method (the reference is ``results/reference/<suite>.json`
 
 A sample is *chaotic* when its answer is decided by the last bits: a ``1e-12`` relative
 perturbation of its input, or another code path of the numerical libraries, moves its estimate
-by more than ``chaos_deg``. ``bench regress --update`` measures that for every sample: a nominal
-run, a perturbed run, and one run in a child process per code path this CPU can take
-(:func:`catpose.bench.run.environment.numeric_variants`: every OpenBLAS kernel it runs, SkylakeX
-included where AVX-512 exists, NumPy without its AVX-512 loops, torch's default kernels). It
-stores the flag in the reference; chaotic samples are reported, never failed on.
+by more than ``chaos_deg``. ``bench regress --update`` measures that for every sample
+(:mod:`catpose.bench.regress.reference`: a nominal run, a perturbed run, and one run in a child
+process per code path this CPU can take: every OpenBLAS kernel it runs, SkylakeX included where
+AVX-512 exists, NumPy without its AVX-512 loops, torch's default kernels) and stores the flag in
+the reference; chaotic samples are reported, never failed on.
 
     bench regress                          # every suite (shared-data suites only when present)
     bench regress --suite synthetic --methods icp,ours
     bench regress --update                 # after an intended change; commit results/reference/
     bench regress --write-inputs           # re-render the golden inputs (changes every answer)
 
-(Kept whole because the suites, running them, writing references and the command are one
-workflow that reads top to bottom; the judging rules are :mod:`catpose.bench.regress.regress_gate`.)
+The judging rules are :mod:`catpose.bench.regress.regress_gate`.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
-import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -45,20 +41,13 @@ from pathlib import Path
 from typing import Any
 
 from catpose import kernel_threads
-from catpose.bench.regress.regress_gate import (
-    Finding,
-    Gate,
-    aggregates,
-    compare_method,
-    estimate_distance_deg,
-    to_float,
-)
+from catpose.bench.regress.reference import FORMAT, build_reference, read_reference, write_reference
+from catpose.bench.regress.regress_gate import Finding, Gate, compare_method, to_float
 from catpose.bench.run.config import compose, shared_data_dir
 from catpose.errors import CatposeError, ConfigError, command_error
 
 REPO = Path(__file__).resolve().parents[2]
 DEFAULT_CONFIG = REPO / "configs" / "regress" / "default.yaml"
-AGGREGATES = ("n", "failed", "mean_err_deg", "median_err_deg", "acc10", "acc30", "mean_trans_err")
 
 
 # --------------------------------------------------------------------------------------------
@@ -222,154 +211,16 @@ def _one_thread() -> None:
 
 def _slim(row: dict) -> dict:
     """The part of a runner row the reference keeps."""
-    T = row.get("T_est")
+    floats = lambda v: None if v is None else [float(x) for x in list(v)]  # noqa: E731
     return {
         "category": row.get("category"),
         "status": row.get("status"),
         "error": row.get("error") or "",
         "err_deg": to_float(row.get("err_deg")),
         "trans_err": to_float(row.get("trans_err")),
-        "T_est": None if T is None else [float(x) for x in list(T)],
-        "T_gt": None if row.get("T_gt") is None else [float(x) for x in list(row["T_gt"])],
-        "symmetry_axis": None if row.get("symmetry_axis") is None else [float(x) for x in list(row["symmetry_axis"])],
-        "symmetries": [[float(x) for x in list(S)] for S in row.get("symmetries") or []],
+        **{k: floats(row.get(k)) for k in ("T_est", "T_gt", "symmetry_axis")},
+        "symmetries": [floats(S) for S in row.get("symmetries") or []],
     }
-
-
-# --------------------------------------------------------------------------------------------
-# aggregates and the comparison
-
-
-# --------------------------------------------------------------------------------------------
-# the reference
-
-
-def other_code_paths() -> dict[str, dict[str, str]]:
-    """The code paths of :func:`~catpose.bench.run.environment.numeric_variants` that differ from
-    this process's own (a variant already in effect is left out); without AVX2, another
-    OpenBLAS kernel and torch's default kernels."""
-    from catpose.bench.run.environment import numeric_variants, numpy_blas_kernel
-
-    variants = numeric_variants() or {
-        "other-kernel": {"OPENBLAS_CORETYPE": "Sandybridge"},
-        "torch-default": {"ATEN_CPU_CAPABILITY": "default"},
-    }
-    kernel = numpy_blas_kernel()
-    out = {}
-    for name, env in variants.items():
-        if all(os.environ.get(k) == v for k, v in env.items()):
-            continue
-        if set(env) == {"OPENBLAS_CORETYPE"} and env["OPENBLAS_CORETYPE"] == kernel:
-            continue
-        out[name] = env
-    return out
-
-
-def estimates_in_subprocess(
-    config: Path, suite: str, methods: Sequence[str], env_extra: dict[str, str], jobs: int = 1
-) -> dict:
-    """{method: {sample_id: slim row}} from ``bench regress --emit-estimates`` in a child process
-    with ``env_extra`` set (another code path of the numerical libraries)."""
-    with tempfile.TemporaryDirectory(prefix="catpose-regress-") as tmp:
-        out = Path(tmp) / "estimates.json"
-        cmd = [
-            sys.executable,
-            "-m",
-            "catpose.bench.regress.run_suites",
-            "--config",
-            str(config),
-            "--suite",
-            suite,
-            "--methods",
-            ",".join(methods),
-            "--emit-estimates",
-            str(out),
-            "--jobs",
-            str(jobs),
-        ]
-        proc = subprocess.run(cmd, env=dict(os.environ, **env_extra), capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise CatposeError(
-                f"run under another code path failed ({' '.join(f'{k}={v}' for k, v in env_extra.items())}): "
-                f"{proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}"
-            )
-        return json.loads(out.read_text())
-
-
-def build_reference(suite: Suite, methods: Sequence[str], gate: Gate, config: Path, jobs: int = 1, log=print) -> dict:
-    """Run, perturb, re-run under every other code path of this CPU, and return the reference
-    entries per method (each sample records how far each of them moved it)."""
-    t0 = time.perf_counter()
-    others = {}
-    for name, env in other_code_paths().items():
-        log(f"  chaos detection under {name}: {' '.join(f'{k}={v}' for k, v in env.items())}")
-        others[name] = estimates_in_subprocess(config, suite.name, methods, env, jobs)
-    tasks = [(suite, m, 0.0) for m in methods]
-    if suite.inputs is not None:  # live inputs already differ in their last bits across kernels
-        tasks += [(suite, m, gate.perturbation) for m in methods]
-    results = map_jobs(tasks, jobs)
-    log(f"  {suite.name}: {len(tasks) + len(others) * len(methods)} runs in {time.perf_counter() - t0:.1f} s")
-    out = {}
-    for i, m in enumerate(methods):
-        nominal = results[i]
-        shaken = results[len(methods) + i] if suite.inputs is not None else {}
-        for sid, r in nominal.items():
-            d_p = estimate_distance_deg(r, shaken[sid]) if sid in shaken else float("nan")
-            d_k = {name: estimate_distance_deg(r, o[m][sid]) for name, o in others.items() if sid in o.get(m, {})}
-            r["perturbation_moves_deg"] = None if math.isnan(d_p) else round(d_p, 4)
-            r["code_path_moves_deg"] = {name: round(d, 4) for name, d in d_k.items()}
-            r["chaotic"] = bool(max([0.0 if math.isnan(d_p) else d_p, *d_k.values()]) > gate.chaos_deg)
-        stable = {sid for sid, r in nominal.items() if not r["chaotic"]}
-        out[m] = {"samples": nominal, "aggregates": aggregates(nominal, stable, gate)}
-        n_ch = len(nominal) - len(stable)
-        log(
-            f"  {suite.name}/{m}: {n_ch} of {len(nominal)} samples chaotic"
-            + (f": {', '.join(sorted(set(nominal) - stable))}" if n_ch else "")
-        )
-    return out
-
-
-def write_reference(suite: Suite, entries: dict, gate: Gate) -> None:
-    """Merge ``entries`` (per method) into the suite's reference file with this environment."""
-    from catpose.bench.run.environment import environment
-
-    old = read_reference(suite.reference) if suite.reference.is_file() else {}
-    methods = dict(old.get("methods", {})) if old.get("format") == 2 else {}
-    methods.update(entries)
-    doc = {
-        "format": 2,
-        "suite": suite.name,
-        "dataset": suite.dataset,
-        "protocol": suite.protocol,
-        "seed": suite.seed,
-        "overrides": suite.overrides,
-        "method_overrides": suite.method_overrides,
-        "inputs": None if suite.inputs is None else str(suite.inputs.relative_to(REPO)),
-        "gate": gate.__dict__ | {"accuracy_thresholds": list(gate.accuracy_thresholds)},
-        "environment": environment(),
-        "methods": {m: methods[m] for m in sorted(methods)},
-    }
-    from catpose import atomic
-
-    atomic.write_text(suite.reference, json.dumps(doc, indent=1, allow_nan=True) + "\n")
-
-
-def read_reference(path: Path) -> dict:
-    """A suite's reference JSON; a cut-off or damaged file is a :class:`ConfigError` in one line
-    (exit status 2: exit 1 means the gate found a regression, never a file it cannot read)."""
-    try:
-        doc = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise ConfigError(
-            f"reference {path} cannot be read ({type(e).__name__}: {' '.join(str(e).split())[:80]}); "
-            "restore it (git checkout -- it) or rewrite it with `bench regress --update`"
-        ) from None
-    if not isinstance(doc, dict):
-        raise ConfigError(
-            f"reference {path} is not a JSON object; restore it (git checkout -- it) or rewrite it "
-            "with `bench regress --update`"
-        )
-    return doc
 
 
 def write_inputs(suite: Suite, log=print) -> None:
@@ -410,19 +261,12 @@ def check_suite(
     from catpose.bench.run.environment import differences, environment
 
     if not suite.reference.is_file():
-        return [
-            Finding(
-                "-",
-                suite.name,
-                f"no reference file {suite.reference}; run `bench regress --update` and commit it",
-                True,
-            )
-        ], []
+        what = f"no reference file {suite.reference}; run `bench regress --update` and commit it"
+        return [Finding("-", suite.name, what, True)], []
     doc = read_reference(suite.reference)
-    if doc.get("format") != 2:
-        return [
-            Finding("-", suite.name, f"{suite.reference} is of an older format; run `bench regress --update`", True)
-        ], []
+    if doc.get("format") != FORMAT:
+        what = f"{suite.reference} is of an older format; run `bench regress --update`"
+        return [Finding("-", suite.name, what, True)], []
     findings, notes = [], []
     for m in methods:
         if m not in doc["methods"]:
@@ -507,7 +351,7 @@ def main(argv: list[str] | None = None) -> int:
                 f"{'golden inputs' if suite.inputs else 'rendered here'}, BLAS kernel {numpy_blas_kernel()}"
             )
             if args.update:
-                write_reference(suite, build_reference(suite, methods, gate, Path(args.config), args.jobs), gate)
+                write_reference(suite, build_reference(suite, methods, gate, Path(args.config), args.jobs), gate, REPO)
                 notes.append(f"{name}: reference written to {suite.reference}")
                 continue
             found, more = check_suite(suite, methods, gate, args.jobs)

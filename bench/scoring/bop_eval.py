@@ -184,11 +184,8 @@ def compute_errors(preds, dataset, vsd: bool = True, max_points: int = 0, seed: 
         width = depth_mm.shape[1] if depth_mm is not None else _image_width(dataset, depth_path, K)
         scene_gt = dataset._read_json(dataset.layout.scene_gt(scene))[str(im)]
         gt_poses = [
-            (
-                np.asarray(scene_gt[g]["cam_R_m2c"], float).reshape(3, 3),
-                np.asarray(scene_gt[g]["cam_t_m2c"], float).reshape(3),
-            )
-            for g, _ in gts
+            (np.asarray(gt["cam_R_m2c"], float).reshape(3, 3), np.asarray(gt["cam_t_m2c"], float).reshape(3))
+            for gt in (scene_gt[g] for g, _ in gts)
         ]
         ests = sorted(by_key.get((scene, im, obj), []), key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
         ests = ests[: len(gts)]

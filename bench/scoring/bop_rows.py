@@ -80,25 +80,14 @@ def predictions_from_units(units: Sequence[dict]):
     Units without BOP ids in ``info`` are left out too."""
     import pandas as pd
 
+    ids = ("scene_id", "im_id", "obj_id")
     rows = []
     for u in units:
         info = u.get("info") or {}
-        if (
-            u.get("status") != "ok"
-            or u.get("T_est") is None
-            or not all(k in info for k in ("scene_id", "im_id", "obj_id"))
-        ):
-            continue
-        rows.append(
-            {
-                "scene_id": int(info["scene_id"]),
-                "im_id": int(info["im_id"]),
-                "obj_id": int(info["obj_id"]),
-                "score": confidence(u.get("score")),
-                "T": camera_model_pose(u["T_est"], info),
-            }
-        )
-    return pd.DataFrame(rows, columns=["scene_id", "im_id", "obj_id", "score", "T"])
+        if u.get("status") == "ok" and u.get("T_est") is not None and all(k in info for k in ids):
+            pose = {"score": confidence(u.get("score")), "T": camera_model_pose(u["T_est"], info)}
+            rows.append({k: int(info[k]) for k in ids} | pose)
+    return pd.DataFrame(rows, columns=[*ids, "score", "T"])
 
 
 def target_key(row: dict) -> tuple[int, int, int]:

@@ -111,11 +111,9 @@ def translation_cm(units) -> np.ndarray:
     or an estimate)."""
     n = len(units)
     out = np.full(n, np.nan)
-    infos = units["info"].tolist() if "info" in units else [None] * n
-    T_est = units["T_est"].tolist() if "T_est" in units else [None] * n
-    T_gt = units["T_gt"].tolist() if "T_gt" in units else [None] * n
-    trans = units["trans_err"].tolist() if "trans_err" in units else [None] * n
-    status = units["status"].tolist() if "status" in units else ["ok"] * n
+    column = lambda name, default=None: units[name].tolist() if name in units else [default] * n  # noqa: E731
+    infos, T_est, T_gt, trans = column("info"), column("T_est"), column("T_gt"), column("trans_err")
+    status = column("status", "ok")
     for k in range(n):
         info = infos[k] if isinstance(infos[k], dict) else {}
         scale = info.get("scale_mm")
@@ -123,13 +121,6 @@ def translation_cm(units) -> np.ndarray:
             continue
         out[k] = _origin_error(T_est[k], T_gt[k], trans[k]) * float(scale) / 10.0
     return out
-
-
-def has_metric_scale(units) -> np.ndarray:
-    """Per unit, whether its row carries ``info["scale_mm"]``."""
-    if "info" not in units:
-        return np.zeros(len(units), bool)
-    return np.array([isinstance(i, dict) and i.get("scale_mm") is not None for i in units["info"]], bool)
 
 
 def statistic(units, key: str) -> float:
@@ -148,8 +139,8 @@ def statistic(units, key: str) -> float:
         return float((err <= params[0]).mean())
     if kind == "auc":
         return auc(err, params[0])
-    if not has_metric_scale(units).all():
-        return float("nan")
+    if "info" not in units or not all(isinstance(i, dict) and i.get("scale_mm") is not None for i in units["info"]):
+        return float("nan")  # a unit without a metric scale
     cm = translation_cm(units)
     ok = (err <= params[0]) & np.nan_to_num(cm <= params[1], nan=False).astype(bool)
     return float(ok.mean())

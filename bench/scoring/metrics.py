@@ -58,17 +58,10 @@ def _rotation_angles_deg(R_est: np.ndarray, R_gt: np.ndarray) -> np.ndarray:
 
 def _axis_angles_deg(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Angles (degrees) between 3-vectors ``u`` and ``v`` along the last axis (broadcast):
-    ``atan2(|u x v|, u . v)``, exact near 0 and 180 degrees; no normalisation needed."""
+    ``atan2(|u x v|, u . v)``, exact near 0 and 180 degrees; no normalisation needed (``np.cross``
+    is element-wise products and differences, no BLAS: the same bits on every CPU)."""
     u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
-    cross = np.stack(
-        [
-            u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1],
-            u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2],
-            u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0],
-        ],
-        axis=-1,
-    )
-    return np.degrees(np.asarray(libm.arctan2(norm3(cross), dot3(u, v)), dtype=np.float64))
+    return np.degrees(np.asarray(libm.arctan2(norm3(np.cross(u, v)), dot3(u, v)), dtype=np.float64))
 
 
 def translation_error(t_est: np.ndarray, t_gt: np.ndarray) -> float:
@@ -185,27 +178,15 @@ def runtime_stats(runtimes_s: Iterable[float]) -> dict[str, float]:
     }
 
 
-SUMMARY_COLUMNS = [
-    "category",
-    "n",
-    "failed",
-    "mean_err_deg",
-    "median_err_deg",
-    "acc10",
-    "acc30",
-    "mean_trans_err",
-    "median_runtime_s",
-]
-
-
 def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0, 30.0)):
     """Per-group statistics of a per-sample (or per-scoring-unit) table.
 
     ``df`` needs columns ``by``, ``status``, ``err_deg``, ``trans_err`` and ``runtime_s``.
     Failed rows count as :data:`FAILED_ERROR_DEG` in the angle statistics, are counted in
     ``failed`` and are left out of the translation mean (they have no estimate). The last row,
-    ``all``, pools every sample. Returns a pandas DataFrame with :data:`SUMMARY_COLUMNS`
-    (``acc10``/``acc30`` named after ``thresholds``), and ``found10`` after ``acc10`` when the rows
+    ``all``, pools every sample. Returns a pandas DataFrame with columns ``by``, ``n``, ``failed``,
+    ``mean_err_deg``, ``median_err_deg``, ``acc10``, ``acc30`` (named after ``thresholds``),
+    ``mean_trans_err`` and ``median_runtime_s``, and ``found10`` after ``acc10`` when the rows
     have a ``found_err_deg`` (hypothesis recall: the fraction of samples where the method held a
     hypothesis within :data:`FOUND_DEG` of the truth at some stage; a row without one is found
     when its own answer is within it, a failed row never).
@@ -213,17 +194,8 @@ def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0,
     import pandas as pd
 
     lo, hi = thresholds
-    names = [
-        by,
-        "n",
-        "failed",
-        "mean_err_deg",
-        "median_err_deg",
-        f"acc{lo:g}",
-        f"acc{hi:g}",
-        "mean_trans_err",
-        "median_runtime_s",
-    ]
+    names = [by, "n", "failed", "mean_err_deg", "median_err_deg", f"acc{lo:g}", f"acc{hi:g}", "mean_trans_err"]
+    names.append("median_runtime_s")
     found = "found_err_deg" in df.columns and pd.to_numeric(df["found_err_deg"], errors="coerce").notna().any()
     if found:
         names.insert(names.index(f"acc{lo:g}") + 1, f"found{FOUND_DEG:g}")

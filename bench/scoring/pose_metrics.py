@@ -80,9 +80,12 @@ def symmetry_transforms(
     return [C @ D for D in discs for C in conts]
 
 
-def _syms(symmetries: Iterable[np.ndarray] | None) -> list[np.ndarray]:
-    out = [np.asarray(S, float).reshape(4, 4) for S in (symmetries if symmetries is not None else ())]
-    return out or [np.eye(4)]
+def _symmetric_gt(R_gt: np.ndarray, t_gt: np.ndarray, symmetries: Iterable[np.ndarray] | None):
+    """``(R, t)`` of every equally correct ground-truth pose ``T_gt S`` (the identity alone when
+    ``symmetries`` is None or empty)."""
+    R_gt, t_gt = np.asarray(R_gt, float).reshape(3, 3), np.asarray(t_gt, float).reshape(3)
+    syms = [np.asarray(S, float).reshape(4, 4) for S in (symmetries if symmetries is not None else ())]
+    return [(R_gt @ S[:3, :3], R_gt @ S[:3, 3] + t_gt) for S in syms or [np.eye(4)]]
 
 
 def _transform(R: np.ndarray, t: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -119,9 +122,6 @@ def adi(R_est: np.ndarray, t_est: np.ndarray, R_gt: np.ndarray, t_gt: np.ndarray
     return float(np.mean(d))
 
 
-add_s = adi
-
-
 def mssd(
     R_est: np.ndarray,
     t_est: np.ndarray,
@@ -138,12 +138,13 @@ def mssd(
     means the identity only.
     """
     pts_est = _transform(R_est, t_est, points)
-    best = math.inf
-    for S in _syms(symmetries):
-        R_s = np.asarray(R_gt, float).reshape(3, 3) @ S[:3, :3]
-        t_s = np.asarray(R_gt, float).reshape(3, 3) @ S[:3, 3] + np.asarray(t_gt, float).reshape(3)
-        best = min(best, float(np.linalg.norm(pts_est - _transform(R_s, t_s, points), axis=1).max()))
-    return best
+    return min(
+        [math.inf]
+        + [
+            float(np.linalg.norm(pts_est - _transform(R_s, t_s, points), axis=1).max())
+            for R_s, t_s in _symmetric_gt(R_gt, t_gt, symmetries)
+        ]
+    )
 
 
 def mspd(
@@ -162,28 +163,17 @@ def mspd(
     ``K`` (3, 3) camera intrinsics in pixels.
     """
     proj_est = _project(_transform(R_est, t_est, points), K)
-    best = math.inf
-    for S in _syms(symmetries):
-        R_s = np.asarray(R_gt, float).reshape(3, 3) @ S[:3, :3]
-        t_s = np.asarray(R_gt, float).reshape(3, 3) @ S[:3, 3] + np.asarray(t_gt, float).reshape(3)
-        best = min(best, float(np.linalg.norm(proj_est - _project(_transform(R_s, t_s, points), K), axis=1).max()))
-    return best
+    return min(
+        [math.inf]
+        + [
+            float(np.linalg.norm(proj_est - _project(_transform(R_s, t_s, points), K), axis=1).max())
+            for R_s, t_s in _symmetric_gt(R_gt, t_gt, symmetries)
+        ]
+    )
 
 
 # --------------------------------------------------------------------------------------------
 # Rotation / translation errors and n-degree m-cm
-
-
-def re_deg(R_est: np.ndarray, R_gt: np.ndarray) -> float:
-    """Rotation error (BOP's ``re``): the geodesic angle in degrees,
-    :func:`catpose.bench.scoring.metrics.rotation_error_deg` of the (3, 3) matrices."""
-    return rotation_error_deg(np.asarray(R_est, float).reshape(3, 3), np.asarray(R_gt, float).reshape(3, 3))
-
-
-def te(t_est: np.ndarray, t_gt: np.ndarray) -> float:
-    """Translation error (BOP's ``te``) ``||t_est - t_gt||`` in model units,
-    :func:`catpose.bench.scoring.metrics.translation_error`."""
-    return translation_error(t_est, t_gt)
 
 
 def rt_errors(
@@ -193,12 +183,12 @@ def rt_errors(
     t_gt: np.ndarray,
     symmetries: Iterable[np.ndarray] | None = None,
 ) -> list[tuple[float, float]]:
-    """``(rotation error deg, translation error)`` against every symmetric gt pose ``T_gt S``."""
-    out = []
-    R_gt = np.asarray(R_gt, float).reshape(3, 3)
-    for S in _syms(symmetries):
-        out.append((re_deg(R_est, R_gt @ S[:3, :3]), te(t_est, R_gt @ S[:3, 3] + np.asarray(t_gt, float).reshape(3))))
-    return out
+    """``(rotation error deg, translation error)`` against every symmetric gt pose ``T_gt S``: BOP's
+    ``re`` (:func:`~catpose.bench.scoring.metrics.rotation_error_deg`) and ``te`` (model units)."""
+    R_est = np.asarray(R_est, float).reshape(3, 3)
+    return [
+        (rotation_error_deg(R_est, R), translation_error(t_est, t)) for R, t in _symmetric_gt(R_gt, t_gt, symmetries)
+    ]
 
 
 def n_deg_m_cm(
@@ -327,22 +317,6 @@ def recall(errors: Iterable[float], threshold: float) -> float:
     if e.size == 0:
         return float("nan")
     return float((np.nan_to_num(e, nan=np.inf) < threshold).mean())
-
-
-def average_recall(errors: Iterable[float], thresholds: Iterable[float]) -> float:
-    """Mean of :func:`recall` over ``thresholds`` (BOP's AR_MSSD / AR_MSPD)."""
-    e = list(errors)
-    return float(np.mean([recall(e, th) for th in thresholds]))
-
-
-def mssd_thresholds(diameter: float, fractions: Sequence[float] = BOP19_CORRECT_TH) -> list[float]:
-    """BOP19 MSSD thresholds for an object of ``diameter`` (model units)."""
-    return [f * float(diameter) for f in fractions]
-
-
-def mspd_thresholds(image_width: int, pixels: Sequence[float] = BOP19_MSPD_TH_PX) -> list[float]:
-    """BOP19 MSPD thresholds in pixels, scaled by ``image_width / 640``."""
-    return [p * float(image_width) / 640.0 for p in pixels]
 
 
 def average_recall_vsd(vsd_errors: Iterable[Sequence[float]], correct_th: Sequence[float] = BOP19_CORRECT_TH) -> float:

@@ -59,39 +59,37 @@ class SampleRow:
     info: dict = field(default_factory=dict)
     extras: dict = field(default_factory=dict)
 
-    def as_dict(self) -> dict:
-        """The row as written to ``samples.jsonl``."""
-        return dataclasses.asdict(self)
+
+def row_array(value: Any, shape: tuple[int, ...] = (4, 4)) -> np.ndarray | None:
+    """A row's pose (``T_est``, ``T_gt``: 16 floats) or, with ``shape=(3,)``, axis as an array;
+    None when the row has none (None, or NaN where a table filled a missing value)."""
+    if value is None or (isinstance(value, float) and np.isnan(value)):
+        return None
+    return np.asarray(value, float).reshape(shape)
 
 
 def new_row(base: dict, sample_id: str, **fields: Any) -> dict:
     """A fresh row (status failed at stage load until told otherwise) for ``sample_id``;
     ``base`` holds method, dataset, protocol and seed."""
-    row = SampleRow(
-        method=str(base["method"]),
-        dataset=str(base["dataset"]),
-        protocol=str(base["protocol"]),
-        seed=int(base["seed"]),
-        sample_id=sample_id,
-        group_id=sample_id,
-        obs_id=sample_id.split("|")[0],
-    ).as_dict()
+    row = dataclasses.asdict(
+        SampleRow(
+            method=str(base["method"]),
+            dataset=str(base["dataset"]),
+            protocol=str(base["protocol"]),
+            seed=int(base["seed"]),
+            sample_id=sample_id,
+            group_id=sample_id,
+            obs_id=sample_id.split("|")[0],
+        )
+    )
     row.update(fields)
     return row
 
 
 def failed_row(row: dict, error: str, stage: str | None = None, **fields: Any) -> dict:
     """``row`` marked failed with ``error`` (one line): no estimate, counted as 180 degrees."""
-    out = dict(
-        row,
-        status="failed",
-        error=error,
-        T_est=None,
-        err_deg=FAILED_ERROR_DEG,
-        rot_err_deg=None,
-        axis_err_deg=None,
-        trans_err=None,
-    )
+    out = dict(row, status="failed", error=error, T_est=None, err_deg=FAILED_ERROR_DEG)
+    out.update(rot_err_deg=None, axis_err_deg=None, trans_err=None)
     if stage is not None:
         out["stage"] = stage
     out.update(fields)

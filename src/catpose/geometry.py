@@ -82,11 +82,6 @@ def transform_points(T: np.ndarray, points: np.ndarray) -> np.ndarray:
     return apply_R(T[:3, :3], points) + T[:3, 3]
 
 
-def rotate_vectors(T_or_R: np.ndarray, vectors: np.ndarray) -> np.ndarray:
-    """Rotate (N, 3) or (3,) direction vectors by the rotation part of a (4, 4) or (3, 3) matrix."""
-    return apply_R(T_or_R[:3, :3], vectors)
-
-
 def axis_angle_to_R(axis: np.ndarray, angle_rad: float) -> np.ndarray:
     """Rodrigues' formula: rotation by ``angle_rad`` about unit ``axis`` (3,)."""
     a = unit3(axis)

@@ -16,50 +16,27 @@ images, not for inner loops of a method.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
-_ACOS = np.frompyfunc(math.acos, 1, 1)
-_ATAN = np.frompyfunc(math.atan, 1, 1)
-_ATAN2 = np.frompyfunc(math.atan2, 2, 1)
-_TAN = np.frompyfunc(math.tan, 1, 1)
-_POW = np.frompyfunc(math.pow, 2, 1)
-_EXP = np.frompyfunc(math.exp, 1, 1)
+
+def _wrap(f: Callable[..., float], nin: int, doc: str) -> Callable[..., np.ndarray | float]:
+    """``f`` (a :mod:`math` routine of ``nin`` arguments) over float64 arrays, broadcast; a float
+    for scalars."""
+    ufunc = np.frompyfunc(f, nin, 1)
+
+    def apply(*args: np.ndarray | float) -> np.ndarray | float:
+        out = ufunc(*[np.asarray(a, dtype=np.float64) for a in args])
+        return out.astype(np.float64) if isinstance(out, np.ndarray) else float(out)
+
+    apply.__name__, apply.__qualname__, apply.__doc__ = f.__name__, f.__name__, doc
+    return apply
 
 
-def _apply(f: np.ufunc, *args: np.ndarray | float) -> np.ndarray | float:
-    arrays = [np.asarray(a, dtype=np.float64) for a in args]
-    out = f(*arrays)
-    if isinstance(out, np.ndarray):
-        return out.astype(np.float64)
-    return float(out)
-
-
-def arccos(x: np.ndarray | float) -> np.ndarray | float:
-    """``arccos`` (radians) of values in [-1, 1] (clip first); float for a scalar."""
-    return _apply(_ACOS, x)
-
-
-def arctan(x: np.ndarray | float) -> np.ndarray | float:
-    """``arctan`` (radians); float for a scalar."""
-    return _apply(_ATAN, x)
-
-
-def arctan2(y: np.ndarray | float, x: np.ndarray | float) -> np.ndarray | float:
-    """``arctan2(y, x)`` (radians), broadcast; float for scalars."""
-    return _apply(_ATAN2, y, x)
-
-
-def tan(x: np.ndarray | float) -> np.ndarray | float:
-    """``tan`` of angles in radians; float for a scalar."""
-    return _apply(_TAN, x)
-
-
-def power(x: np.ndarray | float, p: np.ndarray | float) -> np.ndarray | float:
-    """``x ** p`` for non-negative ``x`` (``math.pow``), broadcast; float for scalars."""
-    return _apply(_POW, x, p)
-
-
-def exp(x: np.ndarray | float) -> np.ndarray | float:
-    """``e ** x``; float for a scalar."""
-    return _apply(_EXP, x)
+arccos = _wrap(math.acos, 1, "``arccos(x)`` (radians) of values in [-1, 1] (clip first).")
+arctan = _wrap(math.atan, 1, "``arctan(x)`` (radians).")
+arctan2 = _wrap(math.atan2, 2, "``arctan2(y, x)`` (radians).")
+tan = _wrap(math.tan, 1, "``tan(x)`` of angles in radians.")
+power = _wrap(math.pow, 2, "``power(x, p)``: ``x ** p`` for non-negative ``x``.")
+exp = _wrap(math.exp, 1, "``exp(x)``: ``e ** x``.")

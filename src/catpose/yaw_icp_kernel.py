@@ -20,12 +20,7 @@ import numpy as np
 
 from catpose import cell_grid, kernel_threads
 from catpose.cell_grid import CellGrid
-from catpose.point_to_plane_kernel import (
-    normal_equations,
-    rodrigues_into,
-    solve_spd,
-    turn_and_shift,
-)
+from catpose.point_to_plane_kernel import normal_equations, rodrigues_into, solve_spd, turn_and_shift
 
 __all__ = ["refine_yaw_many"]
 
