@@ -144,28 +144,6 @@ def test_output_directory_is_named_from_parameters(tmp_path):
     assert a.parent.name == "oracle" and a.parent.parent.name == "toy-gt_model"
 
 
-def test_a_moved_protocol_class_keeps_its_run_directory_and_old_configs_build(tmp_path):
-    """The relative protocol moved (catpose.bench.relative -> catpose.bench.protocols): its
-    configurations keep the directory name they had (the digest hashes the old class name), and a
-    run directory's config.yaml written before the move still builds."""
-    import hashlib
-    import json
-
-    from catpose.bench.protocols import Relative
-    from catpose.bench.run.build import build_from_config
-
-    cfg = make_cfg(tmp_path, overrides=["protocol=relative", "choice=score"])  # the default before fused
-    assert cfg.protocol._target_ == "catpose.bench.protocols.Relative"
-    identity = {k: OmegaConf.to_container(cfg[k], resolve=True) for k in ("method", "dataset", "protocol")}
-    identity["protocol"]["_target_"] = "catpose.bench.relative.Relative"  # as configs wrote it before
-    identity["protocol"]["choice"] = "score"  # as it held it before the choice group (configs/choice)
-    identity["seed"] = int(cfg.seed)
-    digest = hashlib.sha1(json.dumps(identity, sort_keys=True, default=str).encode()).hexdigest()[:8]
-    assert run_dir_for(cfg).name == f"seed0-default-{digest}"
-    old = dict(OmegaConf.to_container(cfg.protocol, resolve=True), _target_="catpose.bench.relative.Relative")
-    assert isinstance(build_from_config(old, "protocol")[1], Relative)
-
-
 def test_same_seed_same_table(tmp_path):
     a = run(make_cfg(tmp_path / "a"))
     b = run(make_cfg(tmp_path / "b"))
