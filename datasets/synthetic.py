@@ -113,6 +113,11 @@ class SyntheticDataset(ObjectDataset):
         ):
             if int(value) < 1:
                 raise ConfigError(f"synthetic dataset: {name}={value}; it must be a positive integer")
+        if not 0 <= float(depth_noise_std) < float("inf") or not 1 <= int(min_points) <= int(width) * int(height):
+            raise ConfigError(
+                f"synthetic dataset: depth_noise_std={depth_noise_std} must be >= 0 and min_points={min_points} in "
+                f"1..{int(width) * int(height)} (the image's pixels)"
+            )
         if int(num_templates) < 0:
             raise ConfigError(f"synthetic dataset: num_templates={num_templates}; it must be >= 0")
         if distance <= 1.0:
