@@ -139,13 +139,15 @@ class BopFrames:
             view = frame_view(bf.frame, scale, self.frame_settings(), exclude=bf.exclude, source=str(bf.depth_path))
         except NoGroundPlane as e:
             raise DatasetError(str(e)) from None
+        depth_mm = float(np.median(bf.frame.depth_in_unit[bf.frame.object_pixels]))
         pts = view.points_camera
         radius = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) / 2 if len(pts) else 0.0
-        if not 0.05 < radius < 3.0:  # a view spans about 0.3 to 1.2 model radii
+        if not (0.5 < depth_mm / t_cam_model[2] < 2 and radius > 0.05):  # a view spans 0.3 to 1.2 model radii
             raise DatasetError(
-                f"{bf.depth_path}: object {obj_id}'s visible points span {radius:.3g} radii of its model "
-                f"{self.layout.model(obj_id)} (a view spans about 0.3 to 1.2): the depth and the model are in "
-                "different units; fix depth_scale in scene_camera.json or the model's unit (mm)"
+                f"{bf.depth_path}: object {obj_id} is seen at {depth_mm:.4g} mm but cam_t_m2c puts it at "
+                f"{t_cam_model[2]:.4g} mm, and its visible points span {radius:.3g} radii of its model "
+                f"{self.layout.model(obj_id)}: the depth and the model are in different units; fix depth_scale in "
+                "scene_camera.json or the model's unit (mm)"
             )
 
         # p_object = R_obj_model R^T (p_cam - t) / s - centre / s, with p_cam in mm

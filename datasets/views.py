@@ -61,6 +61,8 @@ class ViewOptions(OptionGroup):
                 f"{self.elevation_max_deg}: they must satisfy 0 <= elevation_min_deg <= elevation_max_deg < 90 "
                 "(degrees above the ground plane)"
             )
+        if not 0.0 <= float(self.depth_noise_std) < float("inf"):
+            raise ConfigError(f"dataset.depth_noise_std={self.depth_noise_std} must be >= 0 (0: clean depth)")
         if not 0.0 <= float(self.roll_max_deg) <= 180.0:
             raise ConfigError(f"dataset.roll_max_deg={self.roll_max_deg}: pass a roll in [0, 180] degrees")
 
@@ -104,6 +106,10 @@ class ImageOptions(OptionGroup):
         for key in ("width", "height"):
             if int(getattr(self, key)) < 1:
                 raise ConfigError(f"dataset.{key}={getattr(self, key)}; it must be a positive integer")
+        if not 1 <= int(self.min_points) <= int(self.width) * int(self.height):
+            raise ConfigError(
+                f"dataset.min_points={self.min_points} must be in 1..{int(self.width) * int(self.height)} (the image's pixels)"
+            )
         fx, fy = self.fx, self.fy
         if self.fov_deg is not None:
             if not 0.0 < self.fov_deg < 180.0:

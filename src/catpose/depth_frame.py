@@ -146,10 +146,11 @@ class DepthFrame:
             if not mask.any():
                 raise InvalidInputError("mask is empty (no True pixel); pass the object's visible pixels")
             if not (mask & valid).any():
+                bad = int((mask & ~np.isfinite(np.asarray(raw, float))).sum())
                 raise InvalidInputError(
-                    f"mask selects {int(mask.sum())} pixels but none has a depth measurement "
-                    f"({int((mask & ~np.isfinite(np.asarray(raw, float))).sum())} NaN or inf); check that "
-                    "mask and depth come from the same (registered) image"
+                    f"mask selects {int(mask.sum())} pixels but none has a depth measurement"
+                    + (f" ({bad} NaN or inf)" if bad else "")
+                    + "; check that mask and depth come from the same (registered) image"
                 )
         if not isinstance(self.frame_id, str):
             raise InvalidInputError(f"frame_id={self.frame_id!r} is not a string")
