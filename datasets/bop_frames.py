@@ -23,7 +23,7 @@ from catpose.datasets.frame_view import FrameSettings, NoGroundPlane, frame_view
 from catpose.datasets.render import PinholeCamera, render_depth
 from catpose.depth_frame import DepthFrame, scaled_depth
 from catpose.errors import DatasetError, InvalidInputError
-from catpose.geometry import apply_R, dot3, make_T, matmul3
+from catpose.geometry import apply_R, dot3, make_T, matmul3, norm3
 
 
 class BopFrame(NamedTuple):
@@ -141,7 +141,7 @@ class BopFrames:
             raise DatasetError(str(e)) from None
         depth_mm = float(np.median(bf.frame.depth_in_unit[bf.frame.object_pixels]))
         pts = view.points_camera
-        radius = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) / 2 if len(pts) else 0.0
+        radius = norm3(pts.max(axis=0) - pts.min(axis=0)) / 2 if len(pts) else 0.0
         if not (0.5 < depth_mm / t_cam_model[2] < 2 and radius > 0.05):  # a view spans 0.3 to 1.2 model radii
             raise DatasetError(
                 f"{bf.depth_path}: object {obj_id} is seen at {depth_mm:.4g} mm but cam_t_m2c puts it at "

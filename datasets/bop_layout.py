@@ -27,7 +27,7 @@ def rotation_problem(R: np.ndarray, tol: float = ROTATION_TOL) -> str | None:
     R = np.asarray(R, float).reshape(3, 3)
     if not np.isfinite(R).all():
         return "it has a NaN or infinite value"
-    orth = float(np.abs(R.T @ R - np.eye(3)).max())
+    orth = float(np.abs(np.einsum("ji,jk->ik", R, R) - np.eye(3)).max())
     det = float(np.linalg.det(R))
     if orth <= tol and abs(det - 1.0) <= tol:
         return None

@@ -231,9 +231,10 @@ def test_bop_export_reproduces_scene_gt_on_real_tyol_frame(shared_data: Path, tm
     """Exporting the ground truth of the shared TYO-L frame gives back BOP's own cam_R_m2c / cam_t_m2c."""
     from catpose.bench.protocols.absolute import GtModel
     from catpose.datasets.bop import BOP
+    from catpose.datasets.templates import TemplateOptions
 
     root = shared_data / "bop" / "tyol"
-    ds = BOP(root=str(root), categories={19: "basket"}, templates={"basket": ["obj_000019"]})
+    ds = BOP(root=str(root), categories={19: "basket"}, template=TemplateOptions(templates={"basket": ["obj_000019"]}))
     obs_id = ds.observation_ids()[0]
     sample = GtModel().load(ds, obs_id)
     info = dict(sample.info)

@@ -200,7 +200,7 @@ def seed_everything(seed: int) -> None:
     import random
     import sys
 
-    seed32 = seed % (2**32)
+    seed32 = seed % (1 << 32)
     random.seed(seed32)
     np.random.seed(seed32)
     if "torch" in sys.modules:
@@ -208,4 +208,4 @@ def seed_everything(seed: int) -> None:
     if "open3d" in sys.modules:
         from catpose.o3d import o3d
 
-        o3d.utility.random.seed(seed32 % (2**31))
+        o3d.utility.random.seed(seed32 % (1 << 31))

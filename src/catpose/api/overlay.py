@@ -31,6 +31,11 @@ MASK_RGB = (250, 220, 40)
 MIN_WIDTH = 480
 
 
+def _mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` without BLAS: the same pixels on every CPU."""
+    return np.einsum("ij,jk->ik", a, b)
+
+
 def overlay(frame: DepthFrame, result: Registration, template: Any, path: str | Path | None = None) -> np.ndarray:
     """Draw ``template`` at ``result``'s answer and runner-up on ``frame``'s depth image.
 
@@ -97,16 +102,16 @@ def _silhouette(frame: DepthFrame, tmpl: NormalisedTemplate, T_template_camera: 
 
     T_camera_template = invert_T(T_template_camera)
     t = tmpl.template
-    to_caller = lambda p: (tmpl.scale * np.asarray(p, float) + tmpl.centre) @ tmpl.R_up  # noqa: E731
+    to_caller = lambda p: _mul(tmpl.scale * np.asarray(p, float) + tmpl.centre, tmpl.R_up)  # noqa: E731
     height, width = frame.shape
     if t.vertices is not None and t.triangles is not None:
         from catpose.datasets.render import PinholeCamera, render_depth
 
         camera = PinholeCamera.from_K(frame.K, width, height)
         return render_depth(to_caller(t.vertices), np.asarray(t.triangles), T_camera_template, camera) > 0
-    p = to_caller(t.points) @ T_camera_template[:3, :3].T + T_camera_template[:3, 3]
+    p = _mul(to_caller(t.points), T_camera_template[:3, :3].T) + T_camera_template[:3, 3]
     p = p[p[:, 2] > 0]
-    uv = np.rint(p[:, :2] / p[:, 2:] @ frame.K[:2, :2].T + frame.K[:2, 2]).astype(int)
+    uv = np.rint(_mul(p[:, :2] / p[:, 2:], frame.K[:2, :2].T) + frame.K[:2, 2]).astype(int)
     inside = (uv[:, 0] >= 0) & (uv[:, 0] < width) & (uv[:, 1] >= 0) & (uv[:, 1] < height)
     seen = np.zeros((height, width), bool)
     seen[uv[inside, 1], uv[inside, 0]] = True
@@ -124,15 +129,15 @@ def _with_axes(
     from catpose.geometry import invert_T
 
     # the normalised origin, +z and +x in the caller's template frame
-    ends = (tmpl.centre + tmpl.scale * np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.8], [0.5, 0.0, 0.0]])) @ tmpl.R_up
+    ends = _mul(tmpl.centre + tmpl.scale * np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.8], [0.5, 0.0, 0.0]]), tmpl.R_up)
     picture = Image.fromarray(image)
     draw = ImageDraw.Draw(picture)
     for T_template_camera, rgb in poses[::-1]:
         T = invert_T(T_template_camera)
-        p = ends @ T[:3, :3].T + T[:3, 3]
+        p = _mul(ends, T[:3, :3].T) + T[:3, 3]
         if (p[:, 2] <= 0).any():
             continue
-        (u0, v0), (u1, v1), (u2, v2) = k * (p[:, :2] / p[:, 2:] @ K[:2, :2].T + K[:2, 2] + 0.5)
+        (u0, v0), (u1, v1), (u2, v2) = k * (_mul(p[:, :2] / p[:, 2:], K[:2, :2].T) + K[:2, 2] + 0.5)
         draw.line([(u0, v0), (u2, v2)], fill=rgb, width=max(1, k - 1))
         draw.line([(u0, v0), (u1, v1)], fill=rgb, width=max(2, k + 1))
         r = 2 + k
