@@ -111,8 +111,8 @@ def test_a_limit_keeps_exactly_that_many_samples(tmp_path):
     assert [r["sample_id"] for r in read_rows(out / "samples.jsonl")] == [f"block/0/v{i}" for i in range(3)]
 
 
-_OPT = "catpose.methods.ours_settings.OptimiserSettings"
-_SEL = "catpose.methods.ours_settings.SelectionSettings"
+_OPT = "catpose.methods.ours.settings.OptimiserSettings"
+_SEL = "catpose.methods.ours.settings.SelectionSettings"
 
 
 @pytest.mark.parametrize(

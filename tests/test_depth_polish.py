@@ -1,4 +1,4 @@
-"""The local search on the depth cost (:mod:`catpose.methods.depth_polish`): its moves against
+"""The local search on the depth cost (:mod:`catpose.methods.ours.polish`): its moves against
 scipy's rotations, and the search on a cost whose minimum is known."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from catpose.geometry import make_T
-from catpose.methods.depth_polish import STEPS, moves, polish
+from catpose.methods.ours.polish import STEPS, moves, polish
 
 
 def test_moves_are_the_turns_and_shifts_about_each_axis() -> None:
@@ -66,7 +66,7 @@ def test_no_level_or_no_better_move_keeps_the_pose() -> None:
 )
 def test_bad_settings_name_their_key(key: str, value: float) -> None:
     from catpose.errors import ConfigError
-    from catpose.methods.ours_settings import SelectionSettings
+    from catpose.methods.ours.settings import SelectionSettings
 
     with pytest.raises(ConfigError, match=f"method.selection.{key}"):
         SelectionSettings(**{key: value})

@@ -1,4 +1,4 @@
-"""The closed-form solver of ours (catpose.methods.irls) against independent references."""
+"""The closed-form solver of ours (catpose.methods.ours.irls) against independent references."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 torch = pytest.importorskip("torch")
 
-from catpose.methods import irls  # noqa: E402
+from catpose.methods.ours import irls  # noqa: E402
 
 
 def _random_problem(seed: int, m: int = 4, n: int = 12, noise: float = 0.02):

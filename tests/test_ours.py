@@ -1,4 +1,4 @@
-"""The paper's method (methods/ours.py) on rendered partial views with known poses."""
+"""The paper's method (methods/ours/) on rendered partial views with known poses."""
 
 from __future__ import annotations
 
@@ -187,7 +187,7 @@ def test_config_composes_and_instantiates():
 def test_analytic_gradients_match_autograd():
     import torch
 
-    from catpose.methods.optim import BatchedProblem, loss_autograd
+    from catpose.methods.ours.adam import BatchedProblem, loss_autograd
 
     g = torch.Generator().manual_seed(0)
     m, n = 3, 6

@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from catpose.methods.ours import Ours
-from catpose.methods.ours_settings import OptimiserSettings, RestingSettings, SelectionSettings
+from catpose.methods.ours.settings import OptimiserSettings, RestingSettings, SelectionSettings
 
 YAML = Path(__file__).resolve().parents[1] / "configs" / "method" / "ours.yaml"
 GROUPS = {"optimiser": OptimiserSettings, "selection": SelectionSettings, "resting": RestingSettings}

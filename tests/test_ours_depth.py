@@ -16,7 +16,7 @@ from _ours_fixtures import CAMERA, chair_template, rotation_error_deg  # noqa: E
 from catpose.datasets.render import depth_to_points, estimate_normals, render_depth  # noqa: E402
 from catpose.geometry import compose_T, invert_T, look_at_T_camera_world, make_T  # noqa: E402
 from catpose.methods.ours import Ours, RestingSettings, SelectionSettings  # noqa: E402
-from catpose.methods.resting_hypotheses import rotation_between  # noqa: E402
+from catpose.methods.ours.resting import rotation_between  # noqa: E402
 from catpose.types import DepthImage, RegistrationProblem  # noqa: E402
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread", "private_cache_dir")
@@ -190,8 +190,8 @@ def test_a_winner_turned_half_way_round_meets_its_half_turn_and_loses(template):
     """Step 4 (``depth_final_turns``): a winner that is the truth turned 180 deg about the up meets
     its half turns; the one about the up comes back to the truth after the refinement and costs
     less on the final lattice. The truth itself stays."""
-    from catpose.methods import ours_depth
-    from catpose.methods.resting_hypotheses import hypotheses
+    from catpose.methods.ours import choice as ours_depth
+    from catpose.methods.ours.resting import hypotheses
 
     method = _ours()
     sel = method.selection
@@ -204,7 +204,7 @@ def test_a_winner_turned_half_way_round_meets_its_half_turn_and_loses(template):
     timings = {"verification": 0.0, "refinement": 0.0}
     for T_win, turn in ((T_flip, 3), (T_true, 0)):
         score = float(verifiers[1].scores(T_win[None])[0])
-        T, s, rest, got, (T_turned, turned_costs) = ours_depth._against_half_turns(
+        T, s, rest, got, (T_turned, turned_costs) = ours_depth.against_half_turns(
             sel, cands, feats, p, verifiers, T_win, score, 0, gravity, timings
         )
         assert got == turn and rest == 0
@@ -235,7 +235,7 @@ def _turned(deg: float, axis=(0.0, 0.0, 1.0)) -> np.ndarray:
 
 
 def test_the_last_comparison_takes_distinct_poses_not_one_pose_twice():
-    from catpose.methods.ours_depth import distinct_best
+    from catpose.methods.ours.choice import distinct_best
 
     # ranked best first: a pose, its copy 2 deg away, a half turn, another 40 deg away
     T = np.stack([_turned(0.0), _turned(2.0), _turned(180.0, (1.0, 0.0, 0.0)), _turned(40.0)])
@@ -254,7 +254,7 @@ def test_the_last_comparison_takes_distinct_poses_not_one_pose_twice():
 
 
 def test_the_runner_up_is_the_cheapest_pose_another_answer_away():
-    from catpose.methods.ours_depth import RUNNER_UP_DEG, runner_up
+    from catpose.methods.ours.choice import RUNNER_UP_DEG, runner_up
 
     T_win = _turned(0.0)
     # a copy 2 deg away (cheapest, the same answer), a half turn, a pose 40 deg away, one not eligible
@@ -275,7 +275,7 @@ def test_the_runner_up_is_the_cheapest_pose_another_answer_away():
 def test_ours_names_its_runner_up_and_how_nearly_it_won(template):
     """The answer's runner-up is another answer (more than 10 deg off it), compared on the final
     lattice with it: its margin is >= 0 and its cost the answer's plus the margin."""
-    from catpose.methods.ours_depth import RUNNER_UP_DEG
+    from catpose.methods.ours.choice import RUNNER_UP_DEG
 
     p, _ = scene_problem(template, 0)
     r = _ours().register(p)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from catpose.methods.ours_settings import RestingSettings
-from catpose.methods.resting_hypotheses import hypotheses, rotation_between
+from catpose.methods.ours.resting import hypotheses, rotation_between
+from catpose.methods.ours.settings import RestingSettings
 from catpose.resting import resting_ups, up_classes
 from catpose.types import Template
 

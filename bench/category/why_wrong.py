@@ -94,7 +94,7 @@ def registration_costs(ours: Any, problem: Any, T_est: np.ndarray, T_gt: np.ndar
     from catpose import cell_grid
     from catpose.methods.choice_rules import rotation_angle_deg
     from catpose.methods.cross_check import turned
-    from catpose.methods.ours_selection import chamfer_distances
+    from catpose.methods.ours.point_choice import chamfer_distances
     from catpose.methods.pose_scores import half_turns
     from catpose.methods.pose_scores_kernel import visibility_scores
     from catpose.point_to_plane_kernel import refine_many

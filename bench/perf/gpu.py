@@ -30,7 +30,7 @@ import numpy as np
 
 def _irls():
     try:
-        from catpose.methods import irls
+        from catpose.methods.ours import irls
     except ImportError:  # a bare checkout: load the module from its file
         path = Path(__file__).resolve().parents[2] / "methods" / "irls.py"
         spec = importlib.util.spec_from_file_location("catpose_irls", path)
@@ -74,7 +74,7 @@ def dump_inputs(path: Path, golden: Path | None = None) -> int:
     arrays = {}
     samples = read_golden(golden).samples
     for i, s in enumerate(samples):
-        x = ours._prepare(s.problem, {})
+        x = ours.prepare(s.problem, {})
         arrays.update({f"p{i}": x.keypoints, f"q{i}": x.P_t, f"A{i}": x.A, f"T{i}": x.T_svd})
     from catpose import atomic
 

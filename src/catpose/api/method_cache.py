@@ -121,7 +121,7 @@ def uses_up(method: Any) -> bool:
 def prepare_template(method: Any, template: Any) -> None:
     """Build ``method``'s per-template data for ``template`` (object-normalised) now instead of on
     the first registration. Ours: the partial-view dictionary and descriptors of the template and
-    of each of its gravity hypotheses (:mod:`catpose.methods.resting_hypotheses`), loaded from the
+    of each of its gravity hypotheses (:mod:`catpose.methods.ours.resting`), loaded from the
     disk cache when there, and the depth check's ray caster of its mesh. Other methods build
     theirs on their first call (FPFH features take milliseconds; the dictionary baselines share
     ours' disk-cached dictionary features)."""
@@ -129,11 +129,11 @@ def prepare_template(method: Any, template: Any) -> None:
 
     if not isinstance(method, Ours):
         return
-    from catpose.methods.resting_hypotheses import hypotheses
+    from catpose.methods.ours.resting import hypotheses
 
     for h in hypotheses(template, method.resting):
         method.template_features(h.template)
     if template.has_mesh and method.selection.rule == "depth":
-        from catpose.methods.depth_check import caster_for
+        from catpose.methods.ours.check import caster_for
 
         caster_for(template)

@@ -1,12 +1,12 @@
 """The optimiser stage of ``ours`` (paper Section III-D) on all candidates of one problem at once:
-``solver=irls`` (closed form, :mod:`catpose.methods.irls`) or ``solver=adam`` (the paper's Adam,
-:mod:`catpose.methods.optim`), chosen by :class:`~catpose.methods.ours_settings.OptimiserSettings`."""
+``solver=irls`` (closed form, :mod:`catpose.methods.ours.irls`) or ``solver=adam`` (the paper's Adam,
+:mod:`catpose.methods.ours.adam`), chosen by :class:`~catpose.methods.ours.settings.OptimiserSettings`."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from catpose.methods.ours_settings import OptimiserSettings
+from catpose.methods.ours.settings import OptimiserSettings
 
 __all__ = ["IRLS_STAGES", "optimise"]
 
@@ -28,7 +28,7 @@ def optimise(
     poses (m, 4, 4), final losses (m,) as mean correspondence-weighted keypoint distances
     (object-normalised units) and the final soft correspondences C (m, n, 2n)."""
     if opt.solver == "irls":
-        from catpose.methods import irls
+        from catpose.methods.ours import irls
 
         cuda = opt.device.startswith("cuda")
         T, losses, C, _ = irls.solve_numpy(
@@ -46,7 +46,7 @@ def optimise(
         return T, losses, C
     import torch
 
-    from catpose.methods.optim import BatchedProblem, _rot6d, optimize
+    from catpose.methods.ours.adam import BatchedProblem, _rot6d, optimize
 
     dev = torch.device(opt.device)
     dt = torch.float32

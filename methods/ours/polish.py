@@ -49,7 +49,7 @@ def moves(deg: float, shift: float) -> np.ndarray:
 
 def polish(verifier, T: np.ndarray, score: float, levels: int, deg: float, shift: float) -> tuple[np.ndarray, float]:
     """``T`` (4, 4, ``T_template_camera``) moved downhill on ``verifier.scores`` (a
-    :class:`~catpose.methods.depth_check.DepthVerifier`), from its ``score``: ``levels`` levels
+    :class:`~catpose.methods.ours.check.DepthVerifier`), from its ``score``: ``levels`` levels
     of :func:`moves`, the first with ``deg`` degrees and ``shift`` (template unit), each next
     with half. Returns the pose and its score (``T`` and ``score`` when no move lowers it)."""
     T = np.asarray(T, dtype=np.float64)

@@ -18,7 +18,7 @@ Pipeline for one problem (input cloud ``X_c`` in the camera frame, template ``X*
    ``sum(A . d(T P_c, P_t))``; stage 2 updates the pose and the soft correspondences ``C``, loss
    ``sum(C . d(T P_c, P_t))``. ``solver=irls`` (default) solves each stage in closed form by
    iteratively reweighted Kabsch, stage 2 with the KL trust region ``C = softmax_rows(log A -
-   beta d)`` (:mod:`catpose.methods.irls`, a compiled kernel on the CPU, batched torch on the
+   beta d)`` (:mod:`catpose.methods.ours.irls`, a compiled kernel on the CPU, batched torch on the
    GPU); ``solver=adam`` is the paper's Adam on 6D rotations (Zhou et al. 2019), translation and
    logits ``L`` (initialised to ``log A``, ``C = softmax_rows(L)``), with an optional
    one-directional Chamfer term (input points -> complete template) of weight ``chamfer_weight``.
@@ -52,7 +52,7 @@ Choices where the paper is silent or that were measured (numbers in configs/meth
 - ``refine = true``: point-to-plane ICP from the selected pose costs a few ms and removes the
   keypoint-discretisation error left by the keypoint-to-keypoint loss.
 - ``solver=irls``: 5 + 5 iterations replace 300 + 300 Adam steps (numbers in the config).
-- The Adam optimisation uses analytic gradients (:mod:`catpose.methods.optim`); per-step overhead,
+- The Adam optimisation uses analytic gradients (:mod:`catpose.methods.ours.adam`); per-step overhead,
   not arithmetic, dominates at (18, 32, 64), so one torch thread (the runner's ``threads``) is
   enough.
 
@@ -80,13 +80,13 @@ from catpose.methods.dictionary import DictionaryLayout
 from catpose.methods.dictionary_features import dictionary_features
 from catpose.methods.keypoints import farthest_point_indices
 from catpose.methods.method import RegistrationMethod
-from catpose.methods.ours_candidates import Candidates, Prepared, TemplateFeatures
-from catpose.methods.ours_selection import criterion, finish
-from catpose.methods.ours_settings import OptimiserSettings, RestingSettings, SelectionSettings
-from catpose.methods.ours_solver import IRLS_STAGES, optimise
+from catpose.methods.ours.candidates import Candidates, Prepared, TemplateFeatures
+from catpose.methods.ours.point_choice import criterion, finish
+from catpose.methods.ours.settings import OptimiserSettings, RestingSettings, SelectionSettings
+from catpose.methods.ours.solver import IRLS_STAGES, optimise
 from catpose.types import RegistrationProblem, RegistrationResult, Template
 
-__all__ = ["Candidates", "OptimiserSettings", "Ours", "RestingSettings", "SelectionSettings"]
+__all__ = ["Ours"]
 
 
 class Ours(RegistrationMethod):
@@ -192,7 +192,7 @@ class Ours(RegistrationMethod):
             )
         return inp
 
-    def _prepare(self, problem: RegistrationProblem, timings: dict[str, float], inp=None) -> Prepared:
+    def prepare(self, problem: RegistrationProblem, timings: dict[str, float], inp=None) -> Prepared:
         """Everything before the optimiser: keypoints, affinities, SVD poses (``inp``: the input's
         features when already computed, :meth:`input_features`)."""
         t0 = time.perf_counter()
@@ -223,7 +223,7 @@ class Ours(RegistrationMethod):
         """Affinities, SVD poses and optimised poses of every candidate (no selection); ``inp``:
         the input's features when already computed (:meth:`input_features`)."""
         timings = {} if timings is None else timings
-        x = self._prepare(problem, timings, inp)
+        x = self.prepare(problem, timings, inp)
         feats, P_c, P_t, A, T0, chamfer_src = x.feats, x.keypoints, x.P_t, x.A, x.T_svd, x.chamfer_src
         m = len(P_t)
         t0 = time.perf_counter()
@@ -263,17 +263,17 @@ class Ours(RegistrationMethod):
         )
 
     def _register_depth(self, problem: RegistrationProblem, timings: dict[str, float]) -> RegistrationResult:
-        """The depth check (:func:`catpose.methods.ours_depth.select_by_depth`) over a pool of the
+        """The depth check (:func:`catpose.methods.ours.choice.select_by_depth`) over a pool of the
         dictionary's candidates on the template's own up and the coarse search over every resting
-        pose x yaw (:mod:`catpose.methods.rest_grid`, ``resting.grid_yaws`` > 0); the dictionary
+        pose x yaw (:mod:`catpose.methods.ours.rest_search`, ``resting.grid_yaws`` > 0); the dictionary
         on the other resting directions too when the winner explains fewer than
         ``resting.escalate_below`` of the mask's pixels; the ``depth_poor_fit_rule`` among the own
         up's candidates when no pose does (fewer than ``selection.depth_min_inliers`` within
         ``depth_fit_tau``: a template unlike the object)."""
         from dataclasses import replace
 
-        from catpose.methods.ours_depth import depth_verifier, dictionary_pool, select_by_depth, stage_lists
-        from catpose.methods.resting_hypotheses import hypotheses
+        from catpose.methods.ours.choice import depth_verifier, dictionary_pool, select_by_depth, stage_lists
+        from catpose.methods.ours.resting import hypotheses
 
         t0 = time.perf_counter()
         hyps = list(hypotheses(problem.template, self.resting))
@@ -357,8 +357,8 @@ class Ours(RegistrationMethod):
     def _rest_grid(self, problem: RegistrationProblem, ups: np.ndarray, cands: Candidates, verifier, timings):
         """The ``resting.grid_keep`` poses (template frame) of lowest depth cost of the coarse search
         over every resting direction ``ups`` x ``resting.grid_yaws`` yaws, each refined by
-        ``grid_iterations`` ICP steps (:mod:`catpose.methods.rest_grid`); (0, 4, 4) when off."""
-        from catpose.methods.rest_grid import grid_poses
+        ``grid_iterations`` ICP steps (:mod:`catpose.methods.ours.rest_search`); (0, 4, 4) when off."""
+        from catpose.methods.ours.rest_search import grid_poses
         from catpose.point_to_plane_kernel import refine_many
         from catpose.yaw_icp_kernel import refine_yaw_many
 
@@ -402,7 +402,7 @@ class Ours(RegistrationMethod):
             if rs.grid_iterations > 0 and 0 < rs.grid_beam < len(T):
                 # a few steps on the head of the Chamfer subset (farthest-point order: a subset of it
                 # too), the grid_beam of lowest one-directional Chamfer distance go on in full
-                from catpose.methods.ours_selection import chamfer_distances
+                from catpose.methods.ours.point_choice import chamfer_distances
 
                 src = cands.chamfer_src[: rs.grid_points]
                 T = icp(src, T, rs.grid_first_iterations, yaw)
@@ -422,7 +422,7 @@ class Ours(RegistrationMethod):
         if rs.grid_pixels < self.selection.depth_pixels:  # a coarser lattice for the many grid poses
             from dataclasses import replace
 
-            from catpose.methods.ours_depth import depth_verifier
+            from catpose.methods.ours.choice import depth_verifier
 
             sel = self.selection
             rays = max(sel.depth_max_rays * rs.grid_pixels // sel.depth_pixels, 1)
@@ -439,7 +439,7 @@ class Ours(RegistrationMethod):
         and torch differ there); the adam solver and ``stage2_top_k`` register one by one. Each
         result's ``timings["optimization"]`` is its share of the batch's solver time.
         """
-        from catpose.methods import irls
+        from catpose.methods.ours import irls
 
         opt = self.optimiser
         if opt.solver != "irls" or (opt.mode == "joint" and opt.stage2_top_k > 0):
@@ -447,7 +447,7 @@ class Ours(RegistrationMethod):
         if any(self.uses_depth(p) for p in problems):  # several hypotheses each: one by one
             return [self.register(p) for p in problems]
         timings: list[dict[str, float]] = [{} for _ in problems]
-        prepared = [self._prepare(p, tm) for p, tm in zip(problems, timings)]
+        prepared = [self.prepare(p, tm) for p, tm in zip(problems, timings)]
         t0 = time.perf_counter()
         solved = irls.solve_many(
             [(x.keypoints, x.P_t, x.A, x.T_svd) for x in prepared],
@@ -468,7 +468,7 @@ class Ours(RegistrationMethod):
 
     def _finish(self, problem: RegistrationProblem, c: Candidates, timings: dict[str, float]) -> RegistrationResult:
         """Selection among the candidates and refinement of the selected one
-        (:func:`catpose.methods.ours_selection.finish`; ``rule=depth`` without a depth image: its
+        (:func:`catpose.methods.ours.point_choice.finish`; ``rule=depth`` without a depth image: its
         ``depth_fallback`` rule)."""
         return finish(self._point_selection, problem, c, self.template_features(problem.template), timings)
 
@@ -482,7 +482,7 @@ class Ours(RegistrationMethod):
         allowed: np.ndarray,
     ):
         """Chamfer distances, tilts (deg), kept mask and criterion (inf where not kept), all (m,)
-        (:func:`catpose.methods.ours_selection.criterion`)."""
+        (:func:`catpose.methods.ours.point_choice.criterion`)."""
         return criterion(self._point_selection, problem, feats, chamfer_src, T, losses, allowed)
 
     def _optimize(
@@ -495,5 +495,5 @@ class Ours(RegistrationMethod):
         complete: np.ndarray,
         mode: str,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The solver on all candidates at once (:func:`catpose.methods.ours_solver.optimise`)."""
+        """The solver on all candidates at once (:func:`catpose.methods.ours.solver.optimise`)."""
         return optimise(self.optimiser, P_c, P_t, A, T0, chamfer_src, complete, mode)

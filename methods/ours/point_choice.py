@@ -1,6 +1,6 @@
 """The selection stage of ``ours`` (steps 7 and 8 of :mod:`catpose.methods.ours`): the gravity
 filter and criterion over the candidates, the rule of
-:class:`~catpose.methods.ours_settings.SelectionSettings` (``visibility``, ``chamfer`` or the
+:class:`~catpose.methods.ours.settings.SelectionSettings` (``visibility``, ``chamfer`` or the
 paper's ``loss``), and the point-to-plane refinement of the chosen pose."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import numpy as np
 
 from catpose import cell_grid, kernel_threads
 from catpose.cell_grid import CellGrid
-from catpose.methods.ours_candidates import Candidates, TemplateFeatures
-from catpose.methods.ours_settings import SelectionSettings
+from catpose.methods.ours.candidates import Candidates, TemplateFeatures
+from catpose.methods.ours.settings import SelectionSettings
 from catpose.point_to_plane_kernel import refine_many
 from catpose.types import RegistrationProblem, RegistrationResult
 

@@ -4,7 +4,7 @@ The paper's dictionary finds candidates from local correspondences, and for an o
 stand on the template's up it needs the template turned so that it does (one pipeline per resting
 direction). Where the ground normal ``g`` is known (a tabletop), the rotation of an object lying
 in one of its stable resting poses has one free parameter, the yaw about ``g``. So for every
-resting direction ``u`` of the template (:mod:`catpose.methods.resting_hypotheses`, the template's
+resting direction ``u`` of the template (:mod:`catpose.methods.ours.resting`, the template's
 own up first) and every yaw ``psi = 360 k / yaws`` degrees, the rotation ``R`` maps ``g`` onto
 ``u`` (the shortest arc, then the yaw about ``u``); a direction along a continuous symmetry axis
 (an upright or upside-down can) needs one yaw only.
@@ -15,7 +15,7 @@ face the camera (the viewing direction at the observation's centroid ``m``, in t
 refined by point-to-plane ICP on the input's Chamfer subset (``grid_iterations`` steps, pairs
 within ``grid_max_distance``; compiled, all at once; ``grid_icp``: turning about the ground normal
 only, which keeps the resting pose, every way, or both pooled), scored by the depth check, and the
-``grid_keep`` of lowest cost join the dictionary's candidates (:mod:`catpose.methods.ours_depth`).
+``grid_keep`` of lowest cost join the dictionary's candidates (:mod:`catpose.methods.ours.choice`).
 Every resting pose gets the same budget on every problem; which of them the object rests in is the
 depth check's choice alone.
 
@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 from catpose.geometry import norm3, small_matmul, unit3
-from catpose.methods.resting_hypotheses import rotation_between
+from catpose.methods.ours.resting import rotation_between
 
 __all__ = ["grid_poses", "grid_rotations"]
 

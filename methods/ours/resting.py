@@ -22,7 +22,7 @@ import numpy as np
 
 from catpose.content_hash import content_hash
 from catpose.lru import LRUCache
-from catpose.methods.ours_settings import RestingSettings
+from catpose.methods.ours.settings import RestingSettings
 from catpose.resting import resting_ups_cached, up_classes
 from catpose.types import Template
 

@@ -4,10 +4,10 @@ Input: a pool of candidate poses ``T_template_camera`` in the template's frame, 
 (:meth:`catpose.methods.ours.Ours.register`): the paper's dictionary candidates of the template's
 own up (those the gravity filter keeps, the ``depth_prescreen`` of lowest one-directional Chamfer
 distance: :func:`dictionary_pool`), and the coarse search over every stable resting pose x yaw
-(:mod:`catpose.methods.rest_grid`: the ``resting.grid_keep`` of lowest depth cost).
+(:mod:`catpose.methods.ours.rest_search`: the ``resting.grid_keep`` of lowest depth cost).
 
 1. Every pose of the pool is scored by the depth check
-   (:class:`catpose.methods.depth_check.DepthVerifier`) and the ``depth_top_k`` best go on.
+   (:class:`catpose.methods.ours.check.DepthVerifier`) and the ``depth_top_k`` best go on.
 2. Each goes on with its three half turns about the template's axes (a near-symmetric shape
    converges to the true pose or to a half turn of it; a half turn may also rest the object
    another of its ways) and, with ``yaw_turns`` (the escalated pass of the dictionary search
@@ -29,7 +29,7 @@ distance: :func:`dictionary_pool`), and the coarse search over every stable rest
    depth score is the result's ``score``.
 5. With ``depth_polish_levels`` (off by default), the winner and its half turns about the
    template's axes (those gravity allows) are each polished on the final lattice's cost itself
-   (:func:`catpose.methods.depth_polish.polish`), and the lowest cost wins.
+   (:func:`catpose.methods.ours.polish.polish`), and the lowest cost wins.
 
 The result's ``extras["hypothesis_stages"]`` holds the poses held after each step (the runner
 scores them against the truth: hypothesis recall), ``extras`` say which resting direction and half
@@ -47,13 +47,13 @@ import time
 import numpy as np
 
 from catpose.geometry import compose_T, norm3
-from catpose.methods.depth_check import DepthVerifier
-from catpose.methods.depth_polish import polish
-from catpose.methods.ours_candidates import Candidates, TemplateFeatures
-from catpose.methods.ours_selection import chamfer_distances
-from catpose.methods.ours_settings import SelectionSettings
+from catpose.methods.ours.candidates import Candidates, TemplateFeatures
+from catpose.methods.ours.check import DepthVerifier
+from catpose.methods.ours.point_choice import chamfer_distances
+from catpose.methods.ours.polish import polish
+from catpose.methods.ours.resting import Hypothesis
+from catpose.methods.ours.settings import SelectionSettings
 from catpose.methods.pose_scores import REACH_DEG, half_turns, yaw_and_half_turns
-from catpose.methods.resting_hypotheses import Hypothesis
 from catpose.point_to_plane_kernel import refine_many
 from catpose.types import RegistrationProblem, RegistrationResult
 
@@ -146,7 +146,7 @@ def select_by_depth(
     final_turn = 0
     compared = (T_top, np.where(top_keep, top_cost, np.inf))  # every pose scored on the final lattice
     if sel.depth_final_turns > 0:
-        T_out, score, rest, final_turn, turned = _against_half_turns(
+        T_out, score, rest, final_turn, turned = against_half_turns(
             sel, cands, feats, problem, (coarse, verifier), T_out, score, rest, gravity, timings
         )
         compared = (np.concatenate([compared[0], turned[0]]), np.concatenate([compared[1], turned[1]]))
@@ -317,7 +317,7 @@ def dictionary_pool(
     return np.concatenate(out) if out else np.zeros((0, 4, 4))
 
 
-def _against_half_turns(
+def against_half_turns(
     sel: SelectionSettings,
     cands: Candidates,
     feats: TemplateFeatures,

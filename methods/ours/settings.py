@@ -17,8 +17,8 @@ class OptimiserSettings:
 
     Attributes:
         solver: ``irls`` (default: each stage in closed form by iteratively reweighted Kabsch,
-            :mod:`catpose.methods.irls`) or ``adam`` (the paper's Adam on 6D rotation, translation
-            and correspondence logits, :mod:`catpose.methods.optim`).
+            :mod:`catpose.methods.ours.irls`) or ``adam`` (the paper's Adam on 6D rotation, translation
+            and correspondence logits, :mod:`catpose.methods.ours.adam`).
         irls_iterations: IRLS iterations per stage at most (each candidate also stops on
             convergence); irls_beta: stage-2 sharpness (1 / object-normalised unit, the KL trust
             region to the affinity is 1 / beta); irls_tol: relative objective decrease to stop.
@@ -75,7 +75,7 @@ class SelectionSettings:
 
     Attributes:
         rule: ``depth`` (where the problem has a depth image and the template a mesh: the
-            occlusion-aware depth check of :mod:`catpose.methods.depth_check` scores the
+            occlusion-aware depth check of :mod:`catpose.methods.ours.check` scores the
             candidates of every resting hypothesis, the ``top_k`` best are expanded by their half
             turns, refined and scored again, and the best wins; otherwise the ``depth_fallback``
             rule), ``visibility`` (the ``top_k`` candidates by the visibility-aware Chamfer,
@@ -108,7 +108,7 @@ class SelectionSettings:
             lattice (0: none; true / false read as 1 / 0).
         depth_polish_levels: ``depth``: after the last comparison, the winner and its half turns
             about the template's axes are each polished by a local search on the final lattice's
-            depth cost (:func:`catpose.methods.depth_polish.polish`) with this many levels, and the
+            depth cost (:func:`catpose.methods.ours.polish.polish`) with this many levels, and the
             one that costs least wins (0: off).
         depth_polish_deg, depth_polish_shift: that search's first turn (degrees) and shift
             (object-normalised unit), halved at each level.
@@ -271,7 +271,7 @@ class RestingSettings:
         merge_deg: resting directions closer than this are one.
         escalate_below: the dictionary runs on the other resting directions too only when the
             best pose explains fewer of the object mask's pixels than this (1: always; 0: never).
-        grid_yaws: the coarse search (:mod:`catpose.methods.rest_grid`): yaws per resting
+        grid_yaws: the coarse search (:mod:`catpose.methods.ours.rest_search`): yaws per resting
             direction (0: off).
         grid_iterations: its ICP steps of the full pass (on the input's Chamfer subset).
         grid_max_distance: its ICP pairing distance (object-normalised unit).

@@ -22,7 +22,7 @@ stride chosen so that the mask has about ``target_pixels`` lattice pixels and a 
 window at most ``max_rays``), casting only inside each hypothesis' window (the projection of the
 template's bounding sphere), all hypotheses in one call of one cached ray-casting scene per
 template (:class:`catpose.raycast.RayCaster`: Open3D ``RaycastingScene``, hits recomputed in
-float64), each window's costs in one compiled call (:mod:`catpose.methods.depth_cost_kernel`, the
+float64), each window's costs in one compiled call (:mod:`catpose.methods.ours.check_kernel`, the
 NumPy sums' bits). Lengths are in the unit of the depth image and the template (object-normalised).
 """
 
@@ -34,7 +34,7 @@ import numpy as np
 
 from catpose.content_hash import content_hash
 from catpose.lru import LRUCache
-from catpose.methods.depth_cost_kernel import window_cost, window_fit
+from catpose.methods.ours.check_kernel import window_cost, window_fit
 from catpose.raycast import RayCaster
 from catpose.types import DepthImage, Template
 
