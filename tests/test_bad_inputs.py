@@ -174,7 +174,6 @@ def test_right_option_values_pass_the_check():
     check_constructor_args(
         {
             "_target_": "catpose.methods.ours.Ours",
-            "chamfer_points": 256.0,
             "optimiser": {"_target_": _OPT, "lr": 1, "steps_pose": 300.0, "device": "cpu"},
             "selection": {"_target_": _SEL, "gravity_max_deg": None},
         },

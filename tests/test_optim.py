@@ -225,8 +225,6 @@ def test_solver_options_are_checked_and_compose():
 
     with pytest.raises(ConfigError, match="method.optimiser.solver='lbfgs' is unknown"):
         OptimiserSettings(solver="lbfgs")
-    with pytest.raises(ConfigError, match="needs method.optimiser.solver=adam"):
-        OptimiserSettings(chamfer_weight=0.1)
     with pytest.raises(ConfigError, match="irls_iterations"):
         OptimiserSettings(irls_iterations=0)
     with initialize_config_module(config_module="catpose.configs", version_base="1.3"):

@@ -127,13 +127,5 @@ def prepare_template(method: Any, template: Any) -> None:
     ours' disk-cached dictionary features)."""
     from catpose.methods.ours import Ours
 
-    if not isinstance(method, Ours):
-        return
-    from catpose.methods.ours.resting import hypotheses
-
-    for h in hypotheses(template, method.resting):
-        method.template_features(h.template)
-    if template.has_mesh and method.selection.rule == "depth":
-        from catpose.methods.ours.check import caster_for
-
-        caster_for(template)
+    if isinstance(method, Ours):
+        method.prepare_template(template)
