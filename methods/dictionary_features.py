@@ -25,7 +25,7 @@ from catpose.methods.dictionary import DictionaryLayout
 from catpose.types import Template
 
 #: templates whose dictionary features stay in memory (LPS: ~25 MB each); ours' gravity hypotheses
-#: turn a template into up to four (methods/resting_hypotheses.py), each with its own entry
+#: turn a template into up to four (methods/ours/resting.py), each with its own entry
 CACHE_SIZE = 32
 
 _CACHE: LRUCache[tuple, DictionaryFeatures] = LRUCache(CACHE_SIZE)

@@ -98,31 +98,6 @@ def half_turns() -> np.ndarray:
     return np.stack(out)
 
 
-def yaw_and_half_turns(up: np.ndarray, n: int) -> np.ndarray:
-    """(M, 4, 4): :func:`half_turns`, then (``n`` > 1) the turns by ``360 k / n`` degrees about the
-    unit ``up`` (3,) through the template origin, every rotation once (M = n + 2 when ``up`` is a
-    template axis and ``n`` is even). Angles use the C library's sine and cosine, the same bits on
-    every CPU (not :func:`catpose.geometry.axis_angle_to_R`, whose NumPy sine is chosen per CPU)."""
-    import math
-
-    from catpose.geometry import small_matmul, unit3
-
-    out = list(half_turns())
-    if n <= 1:
-        return np.stack(out)
-    a = unit3(np.asarray(up, dtype=np.float64))
-    K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-    KK = small_matmul(K, K)
-    for k in range(1, n):
-        angle = 2.0 * math.pi * k / n
-        R = np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * KK
-        if all(np.abs(R - F[:3, :3]).max() > 1e-9 for F in out):
-            F = np.eye(4)
-            F[:3, :3] = R
-            out.append(F)
-    return np.stack(out)
-
-
 def tilt_deg(T_template_camera: np.ndarray, ground_normal_camera: np.ndarray, up: np.ndarray) -> np.ndarray:
     """(B,) angle (deg) between the ground normal mapped into the template frame and the template up."""
     g = np.einsum("bij,j->bi", T_template_camera[:, :3, :3], ground_normal_camera)
@@ -145,7 +120,6 @@ def select_with_half_turns(
     up: np.ndarray,
     gravity_max_deg: float | None,
     top_k: int = 1,
-    refine_top: int | None = None,
 ) -> tuple[np.ndarray, float, dict]:
     """Visibility-aware selection with explicit 180-degree alternatives (the "flip class").
 
@@ -167,8 +141,6 @@ def select_with_half_turns(
         ground_normal_camera, up: gravity (camera frame) and the template up axis.
         gravity_max_deg: tilt limit in degrees (None: no limit).
         top_k: candidates expanded.
-        refine_top: refine only this many hypotheses, the best by their score before refinement
-            (None or 0: all ``4 top_k``).
 
     Returns:
         the chosen pose (4, 4), its score, and ``{"candidate": index into candidates,
@@ -182,11 +154,7 @@ def select_with_half_turns(
     order = np.argsort(scores, kind="stable")[: max(int(top_k), 1)]
     turns = half_turns()
     expanded = np.stack([compose_T(F, candidates[i]) for i in order for F in turns])
-    if refine_top is not None and 0 < refine_top < len(expanded):
-        # only the most promising hypotheses (by their score before refinement) are refined
-        chosen = np.sort(np.argsort(score(expanded), kind="stable")[:refine_top])
-    else:
-        chosen = np.arange(len(expanded))
+    chosen = np.arange(len(expanded))
     if gravity_max_deg is not None:
         reachable = tilt_deg(expanded[chosen], ground_normal_camera, up) <= gravity_max_deg + REACH_DEG
         if reachable.any():

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from catpose.geometry import compose_T, make_T
-from catpose.methods.ours_settings import SelectionSettings
+from catpose.methods.ours.settings import SelectionSettings
 from catpose.types import RegistrationProblem
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -111,8 +111,8 @@ def test_a_limit_keeps_exactly_that_many_samples(tmp_path):
     assert [r["sample_id"] for r in read_rows(out / "samples.jsonl")] == [f"block/0/v{i}" for i in range(3)]
 
 
-_OPT = "catpose.methods.ours_settings.OptimiserSettings"
-_SEL = "catpose.methods.ours_settings.SelectionSettings"
+_OPT = "catpose.methods.ours.settings.OptimiserSettings"
+_SEL = "catpose.methods.ours.settings.SelectionSettings"
 
 
 @pytest.mark.parametrize(
@@ -174,7 +174,6 @@ def test_right_option_values_pass_the_check():
     check_constructor_args(
         {
             "_target_": "catpose.methods.ours.Ours",
-            "chamfer_points": 256.0,
             "optimiser": {"_target_": _OPT, "lr": 1, "steps_pose": 300.0, "device": "cpu"},
             "selection": {"_target_": _SEL, "gravity_max_deg": None},
         },

@@ -1,4 +1,4 @@
-"""The occlusion-aware depth check (methods/depth_check.py) against a brute-force reference, and
+"""The occlusion-aware depth check (methods/ours/check.py) against a brute-force reference, and
 its behaviour under occlusion, free-space violation and half turns."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import trimesh
 
 from catpose.datasets.render import PinholeCamera, render_depth
 from catpose.geometry import compose_T, invert_T, make_T
-from catpose.methods.depth_check import DepthVerifier
+from catpose.methods.ours.check import DepthVerifier
 from catpose.methods.pose_scores import half_turns
 from catpose.types import DepthImage, Template
 
@@ -124,7 +124,7 @@ def test_an_empty_mask_is_refused():
 def test_a_pose_rendered_lately_is_not_cast_again(monkeypatch):
     """Scoring a pose and then measuring its fit casts it once; a batch larger than the kept
     renderings still scores every pose, the same as one by one."""
-    from catpose.methods import depth_check
+    from catpose.methods.ours import check as depth_check
 
     tpl = _template()
     image, T_gt = _view(tpl)

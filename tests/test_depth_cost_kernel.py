@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from catpose.methods.depth_cost_kernel import pairwise_sum, window_cost, window_fit
+from catpose.methods.ours.check_kernel import pairwise_sum, window_cost, window_fit
 
 
 @pytest.mark.parametrize("n", [0, 1, 7, 8, 9, 15, 16, 127, 128, 129, 130, 255, 256, 1000, 4099, 20000])

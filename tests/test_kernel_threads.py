@@ -198,7 +198,7 @@ def test_yaw_icp_is_the_same_on_any_number_of_threads() -> None:
 
 
 def test_irls_kernel_is_the_same_on_any_number_of_threads() -> None:
-    from catpose.methods import irls
+    from catpose.methods.ours import irls
 
     rng = np.random.default_rng(5)
     m, n = 10, 12
@@ -214,7 +214,7 @@ def test_irls_kernel_is_the_same_on_any_number_of_threads() -> None:
 
 
 def test_chamfer_distances_are_the_same_on_any_number_of_threads() -> None:
-    from catpose.methods.ours_selection import chamfer_distances
+    from catpose.methods.ours.point_choice import chamfer_distances
 
     tgt, _, src = _box(6)
     tree = cKDTree(tgt)

@@ -1,4 +1,4 @@
-"""The coarse search over every resting pose x yaw (catpose.methods.rest_grid)."""
+"""The coarse search over every resting pose x yaw (catpose.methods.ours.rest_search)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _ours_fixtures import chair_template, rotation_error_deg  # noqa: E402
 
 from catpose.geometry import axis_angle_to_R, invert_T, make_T, random_rotation  # noqa: E402
-from catpose.methods.rest_grid import grid_poses, grid_rotations  # noqa: E402
+from catpose.methods.ours.rest_search import grid_poses, grid_rotations  # noqa: E402
 
 
 def test_every_rotation_rests_the_template_on_its_up_and_the_yaws_differ():

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from catpose.methods.ours_settings import RestingSettings
-from catpose.methods.resting_hypotheses import hypotheses, rotation_between
+from catpose.methods.ours.resting import hypotheses, rotation_between
+from catpose.methods.ours.settings import RestingSettings
 from catpose.resting import resting_ups, up_classes
 from catpose.types import Template
 
@@ -86,26 +86,6 @@ def test_hypotheses_of_a_symmetric_template_skip_what_its_symmetry_makes_equal()
     hyps = hypotheses(_template(cyl, axis=np.array([0.0, 0.0, 1.0])), RestingSettings(max_poses=5, min_probability=0))
     angles = sorted(round(float(np.degrees(np.arccos(np.clip(h.up[2], -1, 1))))) for h in hyps)
     assert angles == [0, 90, 180]
-
-
-def test_yaw_turns_are_rotations_about_the_up_after_the_half_turns():
-    from catpose.methods.pose_scores import half_turns, yaw_and_half_turns
-
-    assert np.array_equal(yaw_and_half_turns(np.array([0.0, 0.0, 1.0]), 0), half_turns())
-    turns = yaw_and_half_turns(np.array([0.0, 0.0, 2.0]), 12)
-    assert len(turns) == 4 + 12 - 2  # identity and the 180-degree turn are half turns already
-    assert np.array_equal(turns[:4], half_turns())
-    up = np.array([0.0, 0.0, 1.0])
-    angles = []
-    for F in turns[4:]:
-        R = F[:3, :3]
-        assert np.allclose(R.T @ R, np.eye(3)) and np.isclose(np.linalg.det(R), 1.0)
-        assert np.allclose(R @ up, up) and np.allclose(F[:3, 3], 0.0)
-        angles.append(np.degrees(np.arctan2(R[1, 0], R[0, 0])) % 360)
-    assert np.allclose(sorted(angles), [30, 60, 90, 120, 150, 210, 240, 270, 300, 330])
-    tilted = yaw_and_half_turns(np.array([1.0, 0.0, 1.0]), 4)
-    axis = np.array([1.0, 0.0, 1.0]) / np.sqrt(2)
-    assert len(tilted) == 4 + 3 and all(np.allclose(F[:3, :3] @ axis, axis) for F in tilted[4:])
 
 
 def test_a_flat_model_is_refused_at_once_not_searched_forever():

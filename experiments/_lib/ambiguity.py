@@ -4,12 +4,12 @@ For every wrong registration (``err_deg >= wrong_deg``, failed samples left out)
 ``gt_model`` or ``templates`` runs on data with depth images (with category templates every
 registration of a view is judged, the template at the truth against the template at its
 estimate), the sample's template is rendered at the estimate and at the ground truth and both are
-scored with ours' occlusion-aware depth check (:class:`catpose.methods.depth_check.DepthVerifier`,
+scored with ours' occlusion-aware depth check (:class:`catpose.methods.ours.check.DepthVerifier`,
 with the settings of ours' final comparison read from the run's config).
 
 The estimate has been refined by ours; the annotated truth has not, and real annotations are a
 few millimetres off the depth image. So the truth is also refined the way ours refines its last
-poses (:func:`catpose.methods.ours_depth.refine_last`, on every input point) and the truth's cost
+poses (:func:`catpose.methods.ours.refine.refine_poses`, on every input point) and the truth's cost
 is the lower of the two:
 
 - **ambiguous**: the estimate explains the image at least as well as the truth
@@ -52,7 +52,7 @@ def _run_parts(run_dir: Path):
 
     from catpose.bench.run.build import build_dataset, build_from_config, build_protocol
     from catpose.bench.run.run_meta import read_config
-    from catpose.methods.ours_settings import SelectionSettings
+    from catpose.methods.ours.settings import SelectionSettings
 
     cfg = OmegaConf.create(read_config(run_dir, required=True))
     if str(cfg.protocol.name) not in ("gt_model", "templates"):
@@ -70,7 +70,7 @@ def verifier_costs(sel, problem, T_est: np.ndarray, T_gt: np.ndarray) -> tuple[f
     """Depth-check costs (lower is better) of the estimate, the truth and the refined truth
     (:func:`refined_truth`), (4, 4) ``T_template_camera`` each, on the lattice of ours' final
     comparison (``sel``: :class:`SelectionSettings`)."""
-    from catpose.methods.ours_depth import final_verifier
+    from catpose.methods.ours.check import final_verifier
 
     est, gt, gt_refined = final_verifier(sel, problem).scores(
         np.stack([T_est, T_gt, refined_truth(sel, problem, T_gt)])
@@ -80,16 +80,16 @@ def verifier_costs(sel, problem, T_est: np.ndarray, T_gt: np.ndarray) -> tuple[f
 
 def refined_truth(sel, problem, T_gt: np.ndarray) -> np.ndarray:
     """``T_gt`` (4, 4) ``T_template_camera`` refined as ours refines its last poses
-    (:func:`catpose.methods.ours_depth.refine_last`) on every input point; ``T_gt`` itself with
+    (:func:`catpose.methods.ours.refine.refine_poses`) on every input point; ``T_gt`` itself with
     ``sel.refine`` off."""
     from catpose import cell_grid
-    from catpose.methods.ours_depth import refine_last
+    from catpose.methods.ours.refine import REFINE_MAX_DISTANCE, refine_poses
 
     if not sel.refine:
         return np.asarray(T_gt, float)
     tpl = problem.template
-    grid = cell_grid.build(tpl.points, sel.refine_max_distance)
-    return refine_last(sel, problem.points_camera, grid, tpl.normals, np.asarray(T_gt, float)[None])[0]
+    grid = cell_grid.build(tpl.points, REFINE_MAX_DISTANCE)
+    return refine_poses(problem.points_camera, grid, tpl.normals, np.asarray(T_gt, float)[None])[0]
 
 
 def wrong_rows(run_dir: Path, wrong_deg: float = WRONG_DEG) -> tuple[list[dict], int]:

@@ -94,10 +94,10 @@ def registration_costs(ours: Any, problem: Any, T_est: np.ndarray, T_gt: np.ndar
     from catpose import cell_grid
     from catpose.methods.choice_rules import rotation_angle_deg
     from catpose.methods.cross_check import turned
-    from catpose.methods.ours_selection import chamfer_distances
+    from catpose.methods.ours.point_choice import VISIBILITY_TRUNC, chamfer_distances
+    from catpose.methods.ours.refine import refine_poses
     from catpose.methods.pose_scores import half_turns
     from catpose.methods.pose_scores_kernel import visibility_scores
-    from catpose.point_to_plane_kernel import refine_many
 
     sel = ours.point_selection
     if sel.rule not in ("visibility", "chamfer"):
@@ -110,10 +110,10 @@ def registration_costs(ours: Any, problem: Any, T_est: np.ndarray, T_gt: np.ndar
     normals = problem.template.normals
     src = c.chamfer_src
     if sel.rule == "visibility":
-        grid = cell_grid.build(src, sel.visibility_trunc)
+        grid = cell_grid.build(src, VISIBILITY_TRUNC)
 
         def score(T: np.ndarray) -> np.ndarray:
-            return visibility_scores(src, grid, T, feats.truncated, normals, sel.visibility_trunc)
+            return visibility_scores(src, grid, T, feats.truncated, normals, VISIBILITY_TRUNC)
     else:
 
         def score(T: np.ndarray) -> np.ndarray:
@@ -129,7 +129,7 @@ def registration_costs(ours: Any, problem: Any, T_est: np.ndarray, T_gt: np.ndar
     T_ref = np.stack(starts)
     if sel.refine:  # as ours refines a candidate (Chamfer points), then its winner (every input point)
         for points in (src, c.points):
-            T_ref = refine_many(points, feats.pairing, normals, T_ref, sel.refine_max_distance, sel.refine_iterations)
+            T_ref = refine_poses(points, feats.pairing, normals, T_ref)
     still_near = [rotation_angle_deg(T[:3, :3], T_gt[:3, :3]) < NEAR_DEG for T in T_ref]
     est, gt = score(np.stack([np.asarray(T_est, float), T_gt]))
     refined = score(T_ref)

@@ -7,6 +7,12 @@
 # development seed 1 -> results/search_recall/embedded_dev.md, and the poor-fit fallback with category templates on
 # that seed -> results/search_recall/embedded_dev_templates.md. Run from the repository root; ~1 h on two
 # cores from nothing (each finished variant is kept and not run again).
+# Issue 58 removed ours' options that were off by default (docs/choosing-defaults.md); the rows that set
+# them, or a value that became a constant (grid_points, grid_template_points, grid_first_iterations,
+# grid_keep), were dropped here: issue22, grid12_turns, grid12, grid12_prior, issue44_tpl512,
+# issue44_escalate, yaw_beam32_first5, grid_keep12, sel_polish3, sel_polish2_small, sel_distinct*,
+# fit_ratio*, and polish / distinct10 / ratio* of the embedded tables. Their lines in the results tables
+# were written by this script at commit 9c64f33, which reruns them (`git checkout 9c64f33`).
 set -euo pipefail
 PY=${PY:-.venv/bin/python}
 OUT=${OUT:-outputs/search_recall}
@@ -16,67 +22,41 @@ eval "$($PY -m catpose.bench.run.environment portable)"
 mkdir -p "$OUT"
 [ -f "$OUT/dev.pkl" ] || $PY $HERE/problems.py "$OUT/dev.pkl" dataset=clutter "dataset.root=$SHARED/bop/ycbv" \
   "dataset.scenes=[$(seq -s, 0 99)]"
-BEFORE="resting.grid_yaws=0 resting.max_poses=5 resting.min_probability=0.05 resting.escalate_below=0.95 selection.depth_rest_prior=0.03 selection.depth_half_turns=true"
-FULL="resting.grid_icp=\"full\" resting.grid_yaws=12 resting.grid_beam=0 resting.grid_points=256"
 ISSUE44="resting.grid_icp=\"full\" resting.grid_beam=16"  # the coarse search as issue 44 first landed it
 YAW="resting.grid_icp=\"yaw\""
 # the selection before depth_tau / depth_free_weight were chosen (below): every row measured then pins it
 TAU01="selection.depth_tau=0.1"
 FREE1="selection.depth_free_weight=1.0"
-# the last comparison's poses not kept apart (depth_final_distinct_deg, tried after them; off), and the
-# poor-fit fallback's answer always taken (depth_poor_fit_max_ratio, tried after them; off)
-D0="selection.depth_final_distinct_deg=0"
-R0="selection.depth_poor_fit_max_ratio=0"
 # the poor-fit test on the whole mask at 0.9 (before depth_fit_erode_px 3 / depth_min_inliers 0.95 were chosen)
 E0="selection.depth_fit_erode_px=0 selection.depth_min_inliers=0.9"
-OLD="$TAU01 $FREE1 $D0 $R0 $E0"
+OLD="$TAU01 $FREE1 $E0"
 # one placement for an up along the symmetry axis (before resting.grid_shift 0.5 was chosen): every row
 # measured before it pins it (added to each row of V below but the shift rows and default)
 S0="resting.grid_shift=0.0"
 declare -A V=(
-  [issue22]="$OLD $BEFORE"
-  [grid12_turns]="$OLD $FULL selection.depth_half_turns=true"
-  [grid12]="$OLD $FULL"
-  [grid12_prior]="$OLD $FULL selection.depth_rest_prior=0.03"
   [grid12_beam24]="$OLD resting.grid_icp=\"full\" resting.grid_yaws=12 resting.grid_beam=24"
   [issue44]="$OLD $ISSUE44"
-  [issue44_tpl512]="$OLD $ISSUE44 resting.grid_template_points=512"
   [issue44_final3]="$OLD $ISSUE44 selection.depth_final_turns=3"
-  [issue44_escalate]="$OLD $ISSUE44 resting.escalate_below=0.95"
   [yaw_beam16]="$OLD $YAW resting.grid_beam=16"
   [yaw_beam24]="$OLD $YAW resting.grid_beam=24"
   [yaw_beam32]="$OLD $YAW"
-  [yaw_beam32_first5]="$OLD $YAW resting.grid_first_iterations=5"
   [yaw_grid12_beam24]="$OLD $YAW resting.grid_yaws=12 resting.grid_beam=24"
   [union]="$OLD"  # issue 44's coarse search as landed (grid_icp union, beam 32), the selection before
   # the selection around its defaults, after issue 44's coarse search
   [sel_final_pixels300]="$OLD selection.depth_final_pixels=300"
   [sel_final_turns0]="$OLD selection.depth_final_turns=0"
   [sel_top_k8]="$OLD selection.depth_top_k=8"
-  [sel_tau0125]="$E0 $D0 $R0 $FREE1 selection.depth_tau=0.125"
-  [sel_tau015]="$E0 $D0 $R0 $FREE1 selection.depth_tau=0.15"
-  [sel_tau02]="$E0 $D0 $R0 $FREE1 selection.depth_tau=0.2"
-  [sel_free2]="$E0 $D0 $R0 $TAU01 selection.depth_free_weight=2.0"
-  [sel_free2_tau015]="$E0 $D0 $R0 selection.depth_free_weight=2.0 selection.depth_tau=0.15"  # the choice then (README.md)
-  [grid_keep12]="$OLD resting.grid_keep=12"
-  # the winner and its half turns polished on the final lattice's cost (step 5; off by default)
-  [sel_polish3]="$OLD selection.depth_polish_levels=3"
-  [sel_polish2_small]="$OLD selection.depth_polish_levels=2 selection.depth_polish_deg=2.0 selection.depth_polish_shift=0.02"
-  # around the tolerance's defaults, before the last comparison took distinct poses
-  [sel_final_refine3]="$E0 $D0 $R0 selection.depth_final_refine=3"
-  [sel_final_turns3]="$E0 $D0 $R0 selection.depth_final_turns=3"
-  [sel_final_refine3_turns3]="$E0 $D0 $R0 selection.depth_final_refine=3 selection.depth_final_turns=3"
-  # the last comparison's poses distinct by more than 5 / 10 / 20 / 30 deg (not taken: dev2 below)
-  [sel_distinct5]="$E0 $R0 selection.depth_final_distinct_deg=5.0"
-  [sel_distinct10]="$E0 $R0 selection.depth_final_distinct_deg=10.0"
-  [sel_distinct20]="$E0 $R0 selection.depth_final_distinct_deg=20.0"
-  [sel_distinct30]="$E0 $R0 selection.depth_final_distinct_deg=30.0"
-  # the poor-fit fallback's answer declined when its depth cost is over 1.25 / 1.5 / 2 x the winner's
-  # (its default: always taken), or no fallback at all
+  [sel_tau0125]="$E0 $FREE1 selection.depth_tau=0.125"
+  [sel_tau015]="$E0 $FREE1 selection.depth_tau=0.15"
+  [sel_tau02]="$E0 $FREE1 selection.depth_tau=0.2"
+  [sel_free2]="$E0 $TAU01 selection.depth_free_weight=2.0"
+  [sel_free2_tau015]="$E0 selection.depth_free_weight=2.0 selection.depth_tau=0.15"  # the choice then (README.md)
+  # around the tolerance's defaults
+  [sel_final_refine3]="$E0 selection.depth_final_refine=3"
+  [sel_final_turns3]="$E0 selection.depth_final_turns=3"
+  [sel_final_refine3_turns3]="$E0 selection.depth_final_refine=3 selection.depth_final_turns=3"
+  # the poor-fit test on the whole mask, or no fallback at all
   [whole_mask]="$E0"  # the defaults before the poor-fit test counted the mask's inner pixels
-  [fit_ratio125]="$E0 selection.depth_poor_fit_max_ratio=1.25"
-  [fit_ratio15]="$E0 selection.depth_poor_fit_max_ratio=1.5"
-  [fit_ratio2]="$E0 selection.depth_poor_fit_max_ratio=2.0"
   [no_fallback]="selection.depth_min_inliers=0.0"
   # the poor-fit test on the mask's pixels 2 / 3 / 4 / 6 px inside its edge, below 0.9 / 0.95 / 0.98
   [inner3_t90]="selection.depth_fit_erode_px=3 selection.depth_min_inliers=0.9"
@@ -101,11 +81,10 @@ declare -A V=(
 for v in "${!V[@]}"; do
   case $v in shift*|default) ;; *) V[$v]="${V[$v]} $S0" ;; esac
 done
-ORDER=(issue22 grid12_turns grid12 grid12_prior grid12_beam24 issue44 issue44_tpl512 issue44_final3 issue44_escalate
-  yaw_beam16 yaw_beam24 yaw_beam32 yaw_beam32_first5 yaw_grid12_beam24 union
-  sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015 grid_keep12
-  sel_polish3 sel_polish2_small sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3
-  sel_distinct5 sel_distinct10 sel_distinct20 sel_distinct30 whole_mask fit_ratio125 fit_ratio15 fit_ratio2 no_fallback
+ORDER=(grid12_beam24 issue44 issue44_final3
+  yaw_beam16 yaw_beam24 yaw_beam32 yaw_grid12_beam24 union
+  sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015
+  sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3 whole_mask no_fallback
   inner3_t90 inner6_t90 inner3_t98 inner2_t98 inner4_t98 final_pixels4800 final_pixels7200 final_pixels9600
   final_pixels19200 no_shift shift03 shift05 shift07 shift10 default)
 variants() {  # $1: problems pickle, $2: folder of the per-sample lines, then the variants (rows of V)
@@ -121,11 +100,11 @@ variants() {  # $1: problems pickle, $2: folder of the per-sample lines, then th
 variants "$OUT/dev.pkl" "$OUT" "${ORDER[@]}"
 $PY $HERE/table.py --out results/search_recall/dev_variants.md $(for v in "${ORDER[@]}"; do echo "$v=$OUT/$v.jsonl"; done)
 # More development scenes (200-399; configs/split/clutter_objects_dev2.yaml): the choices since they were drawn
-# (the distinct poses, the fallback's ratio, no fallback, the inner poor-fit test, the shifted placements) on
+# (no fallback, the inner poor-fit test, the shifted placements) on
 # 635 more views
 [ -f "$OUT/dev2.pkl" ] || $PY $HERE/problems.py "$OUT/dev2.pkl" dataset=clutter "dataset.root=$SHARED/bop/ycbv" \
   dataset.num_scenes=400 "dataset.scenes=[$(seq -s, 200 399)]"
-ORDER2=(whole_mask sel_distinct10 fit_ratio125 fit_ratio15 fit_ratio2 no_fallback inner3_t90 inner6_t90 inner3_t98
+ORDER2=(whole_mask no_fallback inner3_t90 inner6_t90 inner3_t98
   inner2_t98 inner4_t98 final_pixels4800 final_pixels7200 final_pixels9600 final_pixels19200 no_shift shift03 shift05
   shift07 shift10 default)  # rows of V
 mkdir -p "$OUT/dev2"
@@ -137,10 +116,10 @@ $PY $HERE/table.py --out results/search_recall/dev2_variants.md --split clutter_
 # settings; the defaults before grid_shift (no_shift) and today's (default)
 EMB="$OUT/embedded_dev"
 ROWS=("full:resting.grid_icp=full resting.grid_beam=16 $OLD" "yaw:resting.grid_icp=yaw $OLD" "union:resting.grid_icp=union $OLD"
-  "polish:selection.depth_polish_levels=3 $OLD" "top_k8:selection.depth_top_k=8 $OLD" "tau0125:selection.depth_tau=0.125 $FREE1 $D0 $R0 $E0"
-  "tau015:selection.depth_tau=0.15 $FREE1 $D0 $R0 $E0" "tau02:selection.depth_tau=0.2 $FREE1 $D0 $R0 $E0"
-  "free2:selection.depth_free_weight=2.0 $TAU01 $D0 $R0 $E0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15 $D0 $R0 $E0"
-  "distinct10:selection.depth_final_distinct_deg=10.0 $R0 $E0" "whole_mask:$E0" "ratio15:selection.depth_poor_fit_max_ratio=1.5 $E0"
+  "top_k8:selection.depth_top_k=8 $OLD" "tau0125:selection.depth_tau=0.125 $FREE1 $E0"
+  "tau015:selection.depth_tau=0.15 $FREE1 $E0" "tau02:selection.depth_tau=0.2 $FREE1 $E0"
+  "free2:selection.depth_free_weight=2.0 $TAU01 $E0" "free2_tau015:selection.depth_free_weight=2.0 selection.depth_tau=0.15 $E0"
+  "whole_mask:$E0"
   "no_fallback:selection.depth_min_inliers=0.0" "no_shift:")
 for i in "${!ROWS[@]}"; do ROWS[i]="${ROWS[i]} $S0"; done  # each measured before grid_shift was chosen
 ROWS+=("default:")  # today's defaults (grid_shift 0.5)
@@ -165,13 +144,11 @@ for row in "${ROWS[@]}"; do bench_row gt_model 1 "$EMB/${row%%:*}" "" "$row"; do
 # no_shift) and today's (default)
 TPL="$OUT/embedded_dev_templates"
 LABELS=() DIRS=()
-R15="ratio15:selection.depth_poor_fit_max_ratio=1.5 $E0"
 IN="inner3_t90:selection.depth_fit_erode_px=3 selection.depth_min_inliers=0.9"
 IN98="inner3_t98:selection.depth_fit_erode_px=3 selection.depth_min_inliers=0.98"
 for sd in 1 2 3; do
-  rows=("whole_mask:$E0" "$R15" "$IN" "$IN98" "no_shift:")
-  [ "$sd" = 1 ] && rows=("whole_mask:$E0" "ratio125:selection.depth_poor_fit_max_ratio=1.25 $E0" "$R15"
-    "ratio2:selection.depth_poor_fit_max_ratio=2.0 $E0" "no_fallback:selection.depth_min_inliers=0.0" "$IN" "$IN98" "no_shift:")
+  rows=("whole_mask:$E0" "$IN" "$IN98" "no_shift:")
+  [ "$sd" = 1 ] && rows=("whole_mask:$E0" "no_fallback:selection.depth_min_inliers=0.0" "$IN" "$IN98" "no_shift:")
   for i in "${!rows[@]}"; do rows[i]="${rows[i]} $S0"; done  # each measured before grid_shift was chosen
   rows+=("default:")  # today's defaults (grid_shift 0.5)
   for row in "${rows[@]}"; do bench_row templates "$sd" "$TPL/${row%%:*}-seed$sd" "seed $sd, " "$row"; done

@@ -17,7 +17,7 @@ import time
 
 from catpose.bench.scoring.metrics import sample_errors, stage_errors
 from catpose.methods.ours import Ours
-from catpose.methods.ours_settings import RestingSettings, SelectionSettings
+from catpose.methods.ours.settings import RestingSettings, SelectionSettings
 
 
 def build(settings: list[str]) -> Ours:

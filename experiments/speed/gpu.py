@@ -29,7 +29,7 @@ import numpy as np
 
 def _irls():
     try:
-        from catpose.methods import irls
+        from catpose.methods.ours import irls
     except ImportError:  # a bare checkout: catpose from src/, its methods/ beside it, nothing installed
         repo = Path(__file__).resolve().parents[2]
         for name in [m for m in sys.modules if m == "catpose" or m.startswith("catpose.")]:
@@ -38,7 +38,7 @@ def _irls():
         import catpose
 
         catpose.__path__.append(str(repo))  # catpose.methods is the checkout's methods/
-        from catpose.methods import irls
+        from catpose.methods.ours import irls
     return irls
 
 
@@ -76,7 +76,7 @@ def dump_inputs(path: Path, golden: Path | None = None) -> int:
     arrays = {}
     samples = read_golden(golden).samples
     for i, s in enumerate(samples):
-        x = ours._prepare(s.problem, {})
+        x = ours.prepare(s.problem, {})
         arrays.update({f"p{i}": x.keypoints, f"q{i}": x.P_t, f"A{i}": x.A, f"T{i}": x.T_svd})
     from catpose import atomic
 

@@ -34,7 +34,7 @@ def rank_one_rotation(H: np.ndarray) -> np.ndarray:
     ``u x v`` (a half turn about a fixed perpendicular when they are opposite), the identity for
     ``H = 0``. ``u`` is ``H``'s longest column, ``v`` is ``H^T u``; plain arithmetic only (no
     LAPACK, no BLAS), so it is bit-identical on every CPU. Written in scalar code so that numba
-    can compile it too (:mod:`catpose.methods.irls_kernel`).
+    can compile it too (:mod:`catpose.methods.ours.irls_kernel`).
     """
     R = np.eye(3)
     best, j = -1.0, 0

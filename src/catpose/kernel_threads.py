@@ -1,7 +1,7 @@
 """Threads for the compiled kernels: independent starts split over a small shared pool.
 
 Ours' compiled searches (:func:`catpose.point_to_plane_kernel.refine_many`,
-:func:`catpose.yaw_icp_kernel.refine_yaw_many`, the IRLS kernel of :mod:`catpose.methods.irls`,
+:func:`catpose.yaw_icp_kernel.refine_yaw_many`, the IRLS kernel of :mod:`catpose.methods.ours.irls`,
 :func:`catpose.methods.pose_scores_kernel.visibility_scores`) and its Chamfer distances (a
 KD-tree query) loop over many independent starts (poses, candidates) one after another.
 :func:`split` hands contiguous ranges of those starts to :func:`threads` threads (the kernels

@@ -7,7 +7,7 @@ distances differ in the last bits, so its own ``t_hit`` changes with the CPU; th
 given triangle does not (closed form, no BLAS).
 
 Both the datasets (depth rendering, :mod:`catpose.datasets.render`) and the methods (ours'
-depth-image verification, :mod:`catpose.methods.depth_check`) cast rays, so the helper lives here,
+depth-image verification, :mod:`catpose.methods.ours.check`) cast rays, so the helper lives here,
 where both may import it. :class:`RayCaster` keeps one scene per mesh for repeated casts (a
 method scoring many poses of one template); :func:`cast_rays` is the one-shot form.
 """

@@ -1,6 +1,6 @@
-"""The IRLS solver of :mod:`catpose.methods.irls` as one compiled CPU kernel (numba).
+"""The IRLS solver of :mod:`catpose.methods.ours.irls` as one compiled CPU kernel (numba).
 
-Same algorithm, same order of steps and the same stopping rule as :func:`catpose.methods.irls.solve`
+Same algorithm, same order of steps and the same stopping rule as :func:`catpose.methods.ours.irls.solve`
 (the torch version, which runs on the GPU and is this kernel's reference in the tests), in
 float64, one candidate after another on one thread. At ours' sizes (18 candidates, 32 x 64
 distances, about ten iterations) the torch version spends its time in ~40 small operations per
@@ -84,7 +84,7 @@ def solve(P, Q, A, R, t, stages, beta, max_iter, tol):  # pragma: no cover - com
     """In place on R (B, 3, 3), t (B, 3); returns loss (B,), C (B, n, 2n), iterations (B,).
 
     P (n, 3) is shared by all B candidates; Q (B, 2n, 3); A (B, n, 2n); stages: int array,
-    0 = pose, 1 = joint (see :func:`catpose.methods.irls.solve`).
+    0 = pose, 1 = joint (see :func:`catpose.methods.ours.irls.solve`).
     """
     B, n, k = A.shape
     loss = np.zeros(B)

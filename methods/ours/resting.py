@@ -22,13 +22,18 @@ import numpy as np
 
 from catpose.content_hash import content_hash
 from catpose.lru import LRUCache
-from catpose.methods.ours_settings import RestingSettings
+from catpose.methods.ours.settings import RestingSettings
 from catpose.resting import resting_ups_cached, up_classes
 from catpose.types import Template
 
 __all__ = ["Hypothesis", "hypotheses", "rotation_between"]
 
 _CACHE: LRUCache[tuple, tuple[Hypothesis, ...]] = LRUCache(32)
+
+
+#: resting directions closer than this are one (degrees): the drop test's classes of a cylinder's
+#: side differ by less than a degree, a box's faces by 90 (docs/choosing-defaults.md)
+MERGE_DEG = 10.0
 
 
 def rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -102,17 +107,17 @@ def hypotheses(template: Template, settings: RestingSettings) -> tuple[Hypothesi
         None if template.symmetry_axis is None else tuple(np.round(template.symmetry_axis, 9)),
         settings.max_poses,
         settings.min_probability,
-        settings.merge_deg,
+        MERGE_DEG,
     )
     hit = _CACHE.get(key)
     if hit is not None:
         return hit
-    classes = up_classes(resting_ups_cached(geometry, settings.merge_deg), template.symmetry_axis, settings.merge_deg)
+    classes = up_classes(resting_ups_cached(geometry, MERGE_DEG), template.symmetry_axis, MERGE_DEG)
     out = [own]
     for r in classes:
         if len(out) > settings.max_poses or r.probability < settings.min_probability:
             break
-        if _same_class(r.vector, up0, template.symmetry_axis, settings.merge_deg):
+        if _same_class(r.vector, up0, template.symmetry_axis, MERGE_DEG):
             continue
         R = rotation_between(r.vector, up0)
         out.append(Hypothesis(_turned(template, R, r.vector), R, r.vector, float(r.probability)))

@@ -5,10 +5,8 @@ All ``m`` candidates are optimised at once. Per candidate ``i`` with rotation ``
 translation ``t_i`` and soft correspondences ``C_i`` (n, 2n)::
 
     L_i = sum_jk C_i[j, k] * || R_i p_j + t_i - q_ik ||            (weighted pairwise distance)
-        + w * n * mean_s min_l || R_i s_s + t_i - c_l ||           (optional one-directional Chamfer)
 
-with ``p`` (n, 3) input keypoints, ``q_i`` (2n, 3) keypoints of partial template ``i``, ``s``
-input points and ``c`` complete-template points. Stage ``pose`` keeps ``C = A``; stage ``joint``
+with ``p`` (n, 3) input keypoints and ``q_i`` (2n, 3) keypoints of partial template ``i``. Stage ``pose`` keeps ``C = A``; stage ``joint``
 uses ``C = softmax_rows(Lg)`` with logits ``Lg`` initialised to ``log A``. Adam (Kingma & Ba
 2014; PyTorch's defaults beta = (0.9, 0.999), eps = 1e-8) updates (a1, a2, t[, Lg]).
 
@@ -107,17 +105,12 @@ class _Adam:
 
 
 class BatchedProblem:
-    """Constant tensors of one registration: p (n, 3), q (m, 2n, 3), A (m, n, 2n), optional
-    Chamfer points s (ns, 3), c (nc, 3) and weight w."""
+    """Constant tensors of one registration: p (n, 3), q (m, 2n, 3), A (m, n, 2n)."""
 
-    def __init__(self, p, q, A, s=None, c=None, chamfer_weight: float = 0.0) -> None:
+    def __init__(self, p, q, A) -> None:
         self.p, self.q, self.A = p, q, A
         self.q2 = (q * q).sum(-1)[:, None, :]  # (m, 1, 2n)
         self.qT = q.transpose(1, 2).contiguous()  # (m, 3, 2n)
-        self.w = float(chamfer_weight)
-        self.s, self.c = s, c
-        if self.w > 0:
-            self.c2 = (c * c).sum(-1)
         self.n = p.shape[0]
 
     def loss_and_grads(self, r6, t, logits=None, need_grad: bool = True):
@@ -136,22 +129,12 @@ class BatchedProblem:
         C = self.A if logits is None else torch.softmax(logits, dim=2)
         Cd = C * d
         loss = Cd.sum((1, 2))
-        if self.w > 0:
-            xs = torch.matmul(self.s, R.transpose(1, 2)) + t[:, None]  # (m, ns, 3)
-            e2 = (xs * xs).sum(-1, keepdim=True) + self.c2 - 2 * torch.matmul(xs, self.c.T)
-            e2min, nn = e2.min(dim=2)
-            e = e2min.clamp_min(1e-12).sqrt()
-            loss = loss + self.w * self.n * e.mean(1)
         if not need_grad:
             return loss, None, None, None
         G = C / d  # dL/dx = sum_k G (x - q)
         gx = x * G.sum(2, keepdim=True) - torch.bmm(G, self.q)
         gR = torch.bmm(gx.transpose(1, 2), self.p.expand(len(x), -1, -1))
         gt = gx.sum(1)
-        if self.w > 0:
-            diff = (xs - self.c[nn]) / e[..., None] * (self.w * self.n / xs.shape[1])
-            gR = gR + torch.bmm(diff.transpose(1, 2), self.s.expand(len(x), -1, -1))
-            gt = gt + diff.sum(1)
         gr6 = torch.from_numpy(_rot6d_backward_np(gR.numpy(), cache)) if cpu else _rot6d_backward(gR, cache)
         gL = None
         if logits is not None:
@@ -192,9 +175,4 @@ def loss_autograd(prob: BatchedProblem, r6, t, logits=None):
     x = torch.einsum("mij,nj->mni", R, prob.p) + t[:, None]
     d = torch.sqrt(((x[:, :, None] - prob.q[:, None]) ** 2).sum(-1))
     C = prob.A if logits is None else torch.softmax(logits, dim=2)
-    loss = (C * d).sum((1, 2))
-    if prob.w > 0:
-        xs = torch.einsum("mij,nj->mni", R, prob.s) + t[:, None]
-        e = torch.sqrt(((xs[:, :, None] - prob.c[None, None]) ** 2).sum(-1)).min(2).values
-        loss = loss + prob.w * prob.n * e.mean(1)
-    return loss
+    return (C * d).sum((1, 2))

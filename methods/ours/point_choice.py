@@ -1,6 +1,6 @@
 """The selection stage of ``ours`` (steps 7 and 8 of :mod:`catpose.methods.ours`): the gravity
 filter and criterion over the candidates, the rule of
-:class:`~catpose.methods.ours_settings.SelectionSettings` (``visibility``, ``chamfer`` or the
+:class:`~catpose.methods.ours.settings.SelectionSettings` (``visibility``, ``chamfer`` or the
 paper's ``loss``), and the point-to-plane refinement of the chosen pose."""
 
 from __future__ import annotations
@@ -11,12 +11,16 @@ import numpy as np
 
 from catpose import cell_grid, kernel_threads
 from catpose.cell_grid import CellGrid
-from catpose.methods.ours_candidates import Candidates, TemplateFeatures
-from catpose.methods.ours_settings import SelectionSettings
-from catpose.point_to_plane_kernel import refine_many
+from catpose.methods.ours.candidates import Candidates, TemplateFeatures
+from catpose.methods.ours.refine import refine_poses
+from catpose.methods.ours.settings import SelectionSettings
 from catpose.types import RegistrationProblem, RegistrationResult
 
-__all__ = ["chamfer_distances", "criterion", "finish"]
+__all__ = ["VISIBILITY_TRUNC", "chamfer_distances", "criterion", "finish"]
+
+#: truncation of both directions of the visibility-aware Chamfer, object-normalised unit (twice
+#: the refinement's pairing distance; docs/choosing-defaults.md)
+VISIBILITY_TRUNC = 0.1
 
 
 def criterion(
@@ -53,8 +57,7 @@ def finish(
     chamfer_src = c.chamfer_src
 
     t0 = time.perf_counter()
-    allowed = np.zeros(len(c.T), dtype=bool)
-    allowed[c.stage2] = True
+    allowed = np.ones(len(c.T), dtype=bool)
     dists, tilt_deg, keep, crit = criterion(sel, problem, feats, chamfer_src, c.T, c.losses, allowed)
     best = int(np.argmin(crit))
     score = float(crit[best])
@@ -70,18 +73,16 @@ def finish(
         """Poses (B, 4, 4) refined by point-to-plane ICP on ``points`` (all at once, compiled)."""
         if not sel.refine:
             return T
-        return refine_many(points, feats.pairing, template.normals, T, sel.refine_max_distance, sel.refine_iterations)
+        return refine_poses(points, feats.pairing, template.normals, T)
 
     if sel.rule == "visibility":
         from catpose.methods.pose_scores import select_with_half_turns
         from catpose.methods.pose_scores_kernel import visibility_scores
 
-        input_grid = cell_grid.build(chamfer_src, sel.visibility_trunc)
+        input_grid = cell_grid.build(chamfer_src, VISIBILITY_TRUNC)
 
         def score_of(T: np.ndarray) -> np.ndarray:
-            return visibility_scores(
-                chamfer_src, input_grid, T, feats.truncated, template.normals, sel.visibility_trunc
-            )
+            return visibility_scores(chamfer_src, input_grid, T, feats.truncated, template.normals, VISIBILITY_TRUNC)
 
         # scored and refined on the FPS subset of the Chamfer distances (4x fewer points: the
         # 4 top_k alternatives cost about what one full refinement did), the winner on all points
@@ -94,7 +95,6 @@ def finish(
             np.asarray(template.up, float),
             sel.gravity_max_deg,
             sel.top_k,
-            sel.refine_top,
         )
         T_best = refine(T_best[None], c.points)[0]
         best, half_turn = info["candidate"], info["half_turn"]
@@ -114,7 +114,6 @@ def finish(
         "timings": {k: float(v) for k, v in timings.items()},
         "num_input_points": int(len(c.points)),
     }
-    extras["stage2_candidates"] = [int(i) for i in c.stage2]
     extras["hypothesis_stages"] = {"candidates": c.T.tolist(), "kept": c.T[keep].tolist()}
     if half_turn is not None:
         extras["half_turn"] = half_turn  # 0: the candidate itself; 1, 2, 3: turned about x, y, z

@@ -22,7 +22,7 @@ stride chosen so that the mask has about ``target_pixels`` lattice pixels and a 
 window at most ``max_rays``), casting only inside each hypothesis' window (the projection of the
 template's bounding sphere), all hypotheses in one call of one cached ray-casting scene per
 template (:class:`catpose.raycast.RayCaster`: Open3D ``RaycastingScene``, hits recomputed in
-float64), each window's costs in one compiled call (:mod:`catpose.methods.depth_cost_kernel`, the
+float64), each window's costs in one compiled call (:mod:`catpose.methods.ours.check_kernel`, the
 NumPy sums' bits). Lengths are in the unit of the depth image and the template (object-normalised).
 """
 
@@ -34,11 +34,19 @@ import numpy as np
 
 from catpose.content_hash import content_hash
 from catpose.lru import LRUCache
-from catpose.methods.depth_cost_kernel import window_cost, window_fit
+from catpose.methods.ours.check_kernel import window_cost, window_fit
+from catpose.methods.ours.settings import SelectionSettings
 from catpose.raycast import RayCaster
-from catpose.types import DepthImage, Template
+from catpose.types import DepthImage, RegistrationProblem, Template
 
-__all__ = ["DepthVerifier", "caster_for"]
+__all__ = ["DEPTH_MAX_RAYS", "DEPTH_PIXELS", "DepthVerifier", "caster_for", "depth_verifier", "final_verifier"]
+
+#: lattice pixels wanted in the object's mask for ours' check of many poses (the pool, the
+#: resting-pose search); at most DEPTH_MAX_RAYS rays a pose (a coarser lattice otherwise). Chosen
+#: with the coarse search on the clutter dev scenes (docs/choosing-defaults.md): more pixels cost
+#: time and changed no answer there.
+DEPTH_PIXELS = 300
+DEPTH_MAX_RAYS = 2500
 
 _CASTERS: LRUCache[str, tuple[RayCaster, float]] = LRUCache(16)
 #: renderings a verifier keeps, keyed by the pose's bytes (the newest; each at most the window's size)
@@ -235,3 +243,29 @@ class DepthVerifier:
             inner = eroded[np.ix_(L.rows, L.cols)]
             hit = self._inner[erode_px] = inner if inner.any() else L.mask
         return hit
+
+
+def depth_verifier(sel: SelectionSettings, problem: RegistrationProblem) -> DepthVerifier:
+    """Ours' depth check of ``problem``'s template against its depth image on the coarse lattice
+    (:data:`DEPTH_PIXELS`), with ``sel``'s tolerance and free-space weight."""
+    return DepthVerifier(
+        problem.template, problem.depth_image, sel.depth_tau, DEPTH_PIXELS, DEPTH_MAX_RAYS, sel.depth_free_weight
+    )
+
+
+def final_verifier(
+    sel: SelectionSettings, problem: RegistrationProblem, verifier: DepthVerifier | None = None
+) -> DepthVerifier:
+    """The depth check of ours' final comparison: on a finer lattice when ``sel.depth_final_pixels``
+    exceeds :data:`DEPTH_PIXELS` (as many rays a pixel), else ``verifier`` (the problem's
+    :func:`depth_verifier`)."""
+    if sel.depth_final_pixels > DEPTH_PIXELS:
+        return DepthVerifier(
+            problem.template,
+            problem.depth_image,
+            sel.depth_tau,
+            sel.depth_final_pixels,
+            DEPTH_MAX_RAYS * sel.depth_final_pixels // DEPTH_PIXELS,
+            sel.depth_free_weight,
+        )
+    return depth_verifier(sel, problem) if verifier is None else verifier

@@ -1,17 +1,22 @@
 """The optimiser stage of ``ours`` (paper Section III-D) on all candidates of one problem at once:
-``solver=irls`` (closed form, :mod:`catpose.methods.irls`) or ``solver=adam`` (the paper's Adam,
-:mod:`catpose.methods.optim`), chosen by :class:`~catpose.methods.ours_settings.OptimiserSettings`."""
+``solver=irls`` (closed form, :mod:`catpose.methods.ours.irls`) or ``solver=adam`` (the paper's Adam,
+:mod:`catpose.methods.ours.adam`), chosen by :class:`~catpose.methods.ours.settings.OptimiserSettings`."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from catpose.methods.ours_settings import OptimiserSettings
+from catpose.methods.ours.settings import OptimiserSettings
 
-__all__ = ["IRLS_STAGES", "optimise"]
+__all__ = ["IRLS_BETA", "IRLS_STAGES", "IRLS_TOL", "optimise"]
 
 #: the IRLS stages of each optimiser mode
-IRLS_STAGES = {"none": (), "pose": ("pose",), "joint": ("pose", "joint"), "joint_only": ("joint",)}
+IRLS_STAGES = {"none": (), "pose": ("pose",), "joint": ("pose", "joint")}
+#: stage-2 sharpness, 1 / object-normalised unit (the KL trust region to the affinity is 1 / beta),
+#: and the relative objective decrease that stops a candidate; chosen with irls_iterations on
+#: ModelNet40 train shapes against the paper's Adam (docs/choosing-defaults.md)
+IRLS_BETA = 10.0
+IRLS_TOL = 1e-4
 
 
 def optimise(
@@ -20,15 +25,13 @@ def optimise(
     P_t: np.ndarray,
     A: np.ndarray,
     T0: np.ndarray,
-    chamfer_src: np.ndarray,
-    complete: np.ndarray,
     mode: str,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The solver on all candidates at once (``mode``: none, pose, joint or joint_only). Returns
+    """The solver on all candidates at once (``mode``: none, pose or joint). Returns
     poses (m, 4, 4), final losses (m,) as mean correspondence-weighted keypoint distances
     (object-normalised units) and the final soft correspondences C (m, n, 2n)."""
     if opt.solver == "irls":
-        from catpose.methods import irls
+        from catpose.methods.ours import irls
 
         cuda = opt.device.startswith("cuda")
         T, losses, C, _ = irls.solve_numpy(
@@ -37,16 +40,16 @@ def optimise(
             A,
             T0,
             IRLS_STAGES[mode],
-            opt.irls_beta,
+            IRLS_BETA,
             opt.irls_iterations,
-            opt.irls_tol,
+            IRLS_TOL,
             opt.device,
             "float32" if cuda else "float64",
         )
         return T, losses, C
     import torch
 
-    from catpose.methods.optim import BatchedProblem, _rot6d, optimize
+    from catpose.methods.ours.adam import BatchedProblem, _rot6d, optimize
 
     dev = torch.device(opt.device)
     dt = torch.float32
@@ -54,17 +57,14 @@ def optimise(
     def tens(a):
         return torch.as_tensor(np.ascontiguousarray(a), dtype=dt, device=dev)
 
-    w = opt.chamfer_weight
-    prob = BatchedProblem(
-        tens(P_c), tens(P_t), tens(A), tens(chamfer_src) if w > 0 else None, tens(complete) if w > 0 else None, w
-    )
+    prob = BatchedProblem(tens(P_c), tens(P_t), tens(A))
     n = len(P_c)
     r6 = tens(np.concatenate([T0[:, :3, 0], T0[:, :3, 1]], axis=1))
     t = tens(T0[:, :3, 3])
     stages = []
     if mode in ("pose", "joint"):
         stages.append(("pose", opt.steps_pose))
-    if mode in ("joint", "joint_only"):
+    if mode == "joint":
         stages.append(("joint", opt.steps_joint))
     final, logits = optimize(prob, r6, t, stages, opt.lr)
     with torch.no_grad():

@@ -4,7 +4,7 @@ The paper's dictionary finds candidates from local correspondences, and for an o
 stand on the template's up it needs the template turned so that it does (one pipeline per resting
 direction). Where the ground normal ``g`` is known (a tabletop), the rotation of an object lying
 in one of its stable resting poses has one free parameter, the yaw about ``g``. So for every
-resting direction ``u`` of the template (:mod:`catpose.methods.resting_hypotheses`, the template's
+resting direction ``u`` of the template (:mod:`catpose.methods.ours.resting`, the template's
 own up first) and every yaw ``psi = 360 k / yaws`` degrees, the rotation ``R`` maps ``g`` onto
 ``u`` (the shortest arc, then the yaw about ``u``); a direction along a continuous symmetry axis
 (an upright or upside-down can) needs one yaw only.
@@ -12,10 +12,10 @@ own up first) and every yaw ``psi = 360 k / yaws`` degrees, the rotation ``R`` m
 The translation puts the template's front on the observation: the template points whose normals
 face the camera (the viewing direction at the observation's centroid ``m``, in the template frame
 ``v = -R m / |m|``) have centroid ``f``; ``t = f - R m`` maps ``m`` onto ``f``. Every pose is then
-refined by point-to-plane ICP on the input's Chamfer subset (``grid_iterations`` steps, pairs
-within ``grid_max_distance``; compiled, all at once; ``grid_icp``: turning about the ground normal
+refined by point-to-plane ICP on the input's Chamfer subset (:data:`ITERATIONS` steps, pairs
+within :data:`MAX_DISTANCE`; compiled, all at once; ``grid_icp``: turning about the ground normal
 only, which keeps the resting pose, every way, or both pooled), scored by the depth check, and the
-``grid_keep`` of lowest cost join the dictionary's candidates (:mod:`catpose.methods.ours_depth`).
+:data:`KEEP` of lowest cost join the dictionary's candidates (:mod:`catpose.methods.ours.choice`).
 Every resting pose gets the same budget on every problem; which of them the object rests in is the
 depth check's choice alone.
 
@@ -27,13 +27,107 @@ vary with the OpenBLAS kernel (the regression gate allows for that).
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
+from catpose import cell_grid
+from catpose.content_hash import content_hash
 from catpose.geometry import norm3, small_matmul, unit3
-from catpose.methods.resting_hypotheses import rotation_between
+from catpose.lru import LRUCache
+from catpose.methods.keypoints import farthest_point_indices
+from catpose.methods.ours.candidates import Candidates, TemplateFeatures
+from catpose.methods.ours.check import DepthVerifier
+from catpose.methods.ours.resting import rotation_between
+from catpose.methods.ours.settings import RestingSettings
+from catpose.types import RegistrationProblem
 
-__all__ = ["grid_poses", "grid_rotations"]
+__all__ = ["search", "grid_poses", "grid_rotations"]
+
+# The search's budget, chosen on the clutter dev scenes 0-99 (docs/choosing-defaults.md,
+# experiments/search_recall): fewer points or steps lost right poses there, more changed nothing.
+#: ICP steps of the full pass (on the input's Chamfer subset)
+ITERATIONS = 10
+#: ICP pairing distance, object-normalised unit (a yaw step of 45 degrees moves the rim this far)
+MAX_DISTANCE = 0.15
+#: input points (the head of the Chamfer subset, itself in farthest-point order) of the first pass
+FIRST_POINTS = 64
+#: ICP steps of the first pass
+FIRST_ITERATIONS = 3
+#: template points (farthest-point subset) the ICP pairs with
+TEMPLATE_POINTS = 2048
+#: poses of lowest depth cost that join the dictionary's candidates
+KEEP = 8
+
+_GRIDS: LRUCache[tuple, tuple] = LRUCache(16)  # the search's ICP grids, per template
+
+
+def search(
+    problem: RegistrationProblem,
+    ups: np.ndarray,
+    cands: Candidates,
+    feats: TemplateFeatures,
+    verifier: DepthVerifier,
+    rs: RestingSettings,
+    timings: dict[str, float],
+) -> np.ndarray:
+    """The :data:`KEEP` poses (template frame, (K, 4, 4)) of lowest depth cost (``verifier``) of
+    the coarse search over every resting direction ``ups`` (H, 3) x ``rs.grid_yaws`` yaws, each
+    refined by ICP of the own up's Chamfer subset (``cands.chamfer_src``) against the template:
+    :data:`FIRST_ITERATIONS` steps on its first :data:`FIRST_POINTS`, then the ``rs.grid_beam``
+    of lowest one-directional Chamfer distance (``feats``) :data:`ITERATIONS` steps on all of it;
+    (0, 4, 4) when off (``grid_yaws`` 0)."""
+    from catpose.methods.ours.point_choice import chamfer_distances
+    from catpose.point_to_plane_kernel import refine_many
+    from catpose.yaw_icp_kernel import refine_yaw_many
+
+    if rs.grid_yaws <= 0:
+        return np.zeros((0, 4, 4))
+    t0 = time.perf_counter()
+    tpl = problem.template
+    T, _ = grid_poses(
+        ups,
+        problem.ground_normal_camera,
+        problem.points_camera,
+        tpl.points,
+        tpl.normals,
+        rs.grid_yaws,
+        tpl.symmetry_axis,
+        rs.grid_shift,
+    )
+    key = (tpl.template_id, content_hash(np.asarray(tpl.points, float)))
+    hit = _GRIDS.get(key)
+    if hit is None:  # a farthest-point subset of the template: fewer pairs to search at the long reach
+        keep = farthest_point_indices(tpl.points, min(TEMPLATE_POINTS, len(tpl.points)))
+        grid = cell_grid.build(tpl.points[keep], MAX_DISTANCE, cell_grid.CACHED_CELLS_PER_REACH)
+        hit = (grid, tpl.normals[keep])
+        _GRIDS.put(key, hit)
+    g = np.asarray(problem.ground_normal_camera, dtype=np.float64)
+    g = g / np.linalg.norm(g)
+
+    def icp(points: np.ndarray, T: np.ndarray, iterations: int, yaw: bool) -> np.ndarray:
+        if yaw:  # about each pose's up: the ground normal in the template frame
+            up = np.einsum("bij,j->bi", T[:, :3, :3], g)
+            return refine_yaw_many(points, hit[0], hit[1], T, up, MAX_DISTANCE, iterations)
+        return refine_many(points, hit[0], hit[1], T, MAX_DISTANCE, iterations)
+
+    def one(T: np.ndarray, yaw: bool) -> np.ndarray:
+        if 0 < rs.grid_beam < len(T):
+            # a few steps on the head of the Chamfer subset (farthest-point order: a subset of it
+            # too), the grid_beam of lowest one-directional Chamfer distance go on in full
+            src = cands.chamfer_src[:FIRST_POINTS]
+            T = icp(src, T, FIRST_ITERATIONS, yaw)
+            dists = chamfer_distances(feats.tree, src, T, feats.truncated)
+            T = T[np.sort(np.argsort(dists, kind="stable")[: rs.grid_beam])]
+            return icp(cands.chamfer_src, T, ITERATIONS, yaw)
+        return icp(cands.chamfer_src[:FIRST_POINTS], T, ITERATIONS, yaw)
+
+    T = np.concatenate([one(T, yaw) for yaw in {"yaw": (True,), "full": (False,), "union": (True, False)}[rs.grid_icp]])
+    timings["rest_grid"] = timings.get("rest_grid", 0.0) + time.perf_counter() - t0
+    t0 = time.perf_counter()
+    scores = verifier.scores(T)
+    timings["verification"] = timings.get("verification", 0.0) + time.perf_counter() - t0
+    return T[np.argsort(scores, kind="stable")[:KEEP]]
 
 
 def _about(axis: np.ndarray, angle: float) -> np.ndarray:

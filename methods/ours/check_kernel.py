@@ -1,7 +1,7 @@
 """The depth check's per-window costs, compiled (numba): one call per pose instead of a dozen
 NumPy operations on its window.
 
-:class:`~catpose.methods.depth_check.DepthVerifier` scores each pose on the lattice pixels of its
+:class:`~catpose.methods.ours.check.DepthVerifier` scores each pose on the lattice pixels of its
 window: rendered depth ``r``, observed depth ``o`` and the object's mask ``m`` (each (h, w), views
 of the lattice). The sums are the NumPy expressions they replaced, to the bit: the mask pixels'
 costs are gathered in row-major order (boolean indexing's order) and added the way NumPy's

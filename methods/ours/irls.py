@@ -190,7 +190,7 @@ def solve_numpy(
     Args:
         P_c: (n, 3) input keypoints (camera frame); P_t: (m, 2n, 3) partial-template keypoints;
         A: (m, n, 2n) affinities; T0: (m, 4, 4) initial ``T_template_camera``.
-        compiled: run the compiled CPU kernel (:mod:`catpose.methods.irls_kernel`, the same
+        compiled: run the compiled CPU kernel (:mod:`catpose.methods.ours.irls_kernel`, the same
             steps in float64) instead of torch; None: it on ``cpu`` in float64 when numba
             imports, torch otherwise. Its candidates are split over the run's ``threads``
             (:mod:`catpose.kernel_threads`; the same bits on any count).
@@ -246,7 +246,7 @@ def solve_numpy(
 def _kernel():
     """The compiled kernel module, or None where numba is missing."""
     try:
-        from catpose.methods import irls_kernel
+        from catpose.methods.ours import irls_kernel
     except ImportError:
         return None
     return irls_kernel

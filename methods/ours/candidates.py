@@ -26,8 +26,8 @@ class TemplateFeatures:
     keypoints: np.ndarray
     stacked: object  # the partials' descriptors, stacked for one batched affinity
     complete_points: np.ndarray  # (M', 3) FPS subset of the complete template for Chamfer terms
-    pairing: CellGrid  # the full template points, searched within refine_max_distance (ICP)
-    truncated: CellGrid  # the same, searched within visibility_trunc (visibility scores)
+    pairing: CellGrid  # the full template points, searched within the refinement's pairing distance
+    truncated: CellGrid  # the same, searched within the visibility score's truncation
     tree: object  # cKDTree of the same points (unbounded queries)
 
 
@@ -52,15 +52,13 @@ class Candidates:
 
     Attributes:
         points: (N', 3) downsampled input, camera frame; ``keypoints`` (n, 3) its FPS keypoints;
-            ``chamfer_src`` (chamfer_points, 3) its FPS subset for the Chamfer distances.
+            ``chamfer_src`` (CHAMFER_POINTS, 3) its FPS subset for the Chamfer distances.
         A: (m, n, 2n) row-normalised affinities (input keypoint -> partial-template keypoint).
         T_svd: (m, 4, 4) initial poses ``T_template_camera`` (weighted Kabsch on ``A P_t``).
         T: (m, 4, 4) poses after the optimiser (``mode=none``: ``T_svd`` rounded through the
             optimiser's float32 6D parameters and re-orthonormalised).
-        losses: (m,) final mean correspondence-weighted keypoint distances (inf: not optimised
-            in stage 2 with ``stage2_top_k``).
-        C: (m, n, 2n) final soft correspondences (``A`` unless stage 2 ran on that candidate).
-        stage2: indices of the candidates stage 2 ran on (all for the paper's setting).
+        losses: (m,) final mean correspondence-weighted keypoint distances.
+        C: (m, n, 2n) final soft correspondences (``A`` without stage 2).
     """
 
     points: np.ndarray
@@ -71,4 +69,3 @@ class Candidates:
     T: np.ndarray
     losses: np.ndarray
     C: np.ndarray
-    stage2: np.ndarray
