@@ -64,10 +64,11 @@ def test_cli_lists_the_suite_command():
 def test_one_real_sample_runs_through_the_runner(shared_data, tmp_path, monkeypatch):
     monkeypatch.setenv("CATPOSE_SHARED_DATA", str(shared_data))
     results, skipped = sr.run_suite(
-        ["ycbv"], ["icp"], Path(shared_data), limit=1, output_root=str(tmp_path), log=lambda m: None
+        ["ycbv"], ["icp"], Path(shared_data), seeds=(0,), limit=1, output_root=str(tmp_path), log=lambda m: None
     )
     r = results[("ycbv", "icp")]
     assert r["n"] == 1 and r["failed"] == 0 and Path(r["run_dir"], "samples.jsonl").is_file()
+    assert len(r["samples"]) == 1
 
 
 def test_sets_with_a_split_get_a_column_per_part(tmp_path):
