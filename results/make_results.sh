@@ -222,7 +222,7 @@ figures() {  # one per table the README quotes: table|figure stem|title
     "$PY" -m catpose.bench.report.table_figure "$RESULTS/$table" --out "$F/$stem" --title "$title" > /dev/null
   done <<'TABLES'
 report/tables/gt_model_summary.md|embedded_gt_model|Embedded synthetic set, each view against its own model (48 views, seed 0)
-real/headline.md|real|Real frames (YCB-Video, TYO-L) and ModelNet40 resampled shapes, own model
+real/headline.md|real|Real frames (YCB-Video, TYO-L), ModelNet40 resampled shapes; YCB-V with templates, relative (seeds 0-2)
 clutter/headline.md|clutter|Cluttered synthetic scenes of the YCB-Video objects (report scenes)
 category/paper/one_template_airplane.md|one_template_airplane|ModelNet40 airplanes, another instance as the only template
 TABLES

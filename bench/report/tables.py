@@ -1,4 +1,5 @@
 """Paper tables from run directories (files only: ``samples.jsonl``, ``config.yaml``, ``run.json``).
+Kept whole because pooling runs into rows, the layouts and the notes under a table are one table's making.
 
 A run directory is what the runner writes. Its per-sample rows are turned into scoring units by
 the run's own protocol (``score_units``: templates keep the best-scored template per view,
