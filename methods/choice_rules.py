@@ -53,6 +53,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from catpose.content_hash import content_hash
 from catpose.errors import ConfigError
 
 RULES = ("score", "density", "agreement", "cross", "cross_top", "cross_top_turns", "fused")
@@ -401,8 +402,8 @@ _SPACING: dict[str, float] = {}
 
 def template_spacing(template: Any) -> float:
     """Median distance (object-normalised unit) from each point of ``template.points`` (M, 3) to
-    its nearest neighbour, cached by template id (the ``density`` rule's fact)."""
-    key = f"{template.template_id}#{len(template.points)}"
+    its nearest neighbour, cached by the template's content (the ``density`` rule's fact)."""
+    key = f"{template.template_id}-{content_hash(np.asarray(template.points, float))}"
     if key not in _SPACING:
         from scipy.spatial import cKDTree
 

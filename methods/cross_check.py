@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from catpose.content_hash import template_key
 from catpose.methods import options
 
 #: the Python defaults of :class:`CrossCheck`; configs/choice/score.yaml is the source (a test
@@ -58,8 +59,8 @@ _TARGETS: dict[str, tuple[Any, Any, np.ndarray, np.ndarray]] = {}
 
 def _target(template: Any) -> tuple[Any, Any, np.ndarray, np.ndarray]:
     """(Open3D cloud with normals, cKDTree, points (M, 3), normals (M, 3)) of ``template``, cached
-    by its id and size."""
-    key = f"{template.template_id}#{len(template.points)}"
+    by its content (a template id names no seed: the same id holds other points under another)."""
+    key = template_key(template)
     if key not in _TARGETS:
         from scipy.spatial import cKDTree
 
@@ -112,8 +113,8 @@ _TOPS: dict[str, np.ndarray] = {}
 
 
 def _template_top(template: Any, fraction: float) -> np.ndarray:
-    """:func:`top_centroid` of ``template``'s points along its ``up``, cached by id, size and fraction."""
-    key = f"{template.template_id}#{len(template.points)}#{tuple(np.asarray(template.up, float))}#{fraction!r}"
+    """:func:`top_centroid` of ``template``'s points along its ``up``, cached by content, up and fraction."""
+    key = f"{template_key(template)}#{tuple(np.asarray(template.up, float))}#{fraction!r}"
     if key not in _TOPS:
         _TOPS[key] = top_centroid(template.points, template.up, fraction)
     return _TOPS[key]

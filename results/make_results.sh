@@ -21,7 +21,9 @@
 #   clutter    every method on the report scenes of the cluttered synthetic set of the real YCB-V
 #              meshes, and ours before / after with ICP on the dev scenes that chose ours' defaults
 #              (experiments/real_defaults/make_clutter.sh: results/clutter/). ~1 h.
-#   real       every method on the shared real data (bench suite real: results/real/table.md, a column
+#   real       ours, ICP and FGR under seeds 0-2 on the shared real data, YCB-V also with category templates
+#              and as relative pairs (results/real/headline.md, the README's); every method, seed 0
+#              (bench suite real: results/real/table.md, a column
 #              per YCB-V scene as configs/split/ycbv.yaml names them, per-object tables in
 #              results/real/objects.md), BOP
 #              metrics of ICP, PPF and ours on the YCB-V frames (results/real/bop_ycbv.md), the sensor
@@ -159,12 +161,18 @@ real() {
   if [ ! -d "$SHARED" ]; then echo "make_results: real skipped: no shared data at $SHARED" >&2; return 0; fi
   local R="$OUT/real"
   mkdir -p "$RESULTS/real"
-  nice "$B" suite real --force --output-root "$R" --write "$RESULTS/real/table.md" --objects "$RESULTS/real/objects.md" \
-    --headline "$RESULTS/real/headline.md"
+  # the README's real table (results/real/headline.md): the whole sets under seeds 0, 1, 2 (a cell: their
+  # mean [min-max]), YCB-V also with category templates and as relative pairs (the paper's protocols),
+  # the methods cheap enough for three seeds of every protocol (~15 CPU-min)
+  nice "$B" suite real --force --output-root "$R" --sets ycbv,ycbv_templates,ycbv_relative,tyol,modelnet40_resampled \
+    --methods ours,icp,fgr --headline "$RESULTS/real/headline.md"
+  # every method, seed 0, a column per YCB-V scene (results/real/table.md) and per object (objects.md)
+  nice "$B" suite real --force --output-root "$R" --sets ycbv,tyol,modelnet40_resampled,redwood --seeds 0 \
+    --write "$RESULTS/real/table.md" --objects "$RESULTS/real/objects.md"
   if [ -d "$SHARED/bop/ycbv" ]; then  # BOP's metrics of ICP, PPF and ours on the YCB-V frames
     local scored=()
     for m in icp ppf ours; do
-      run=$(default_runs "$R/ycbv-gt_model/$m" 1)  # the method's default run, not ours-visibility's
+      run=$(default_runs "$R/ycbv-gt_model/$m" | grep '/seed0-' | head -1)  # the default run of seed 0, not ours-visibility's
       [ -n "$run" ] || { echo "make_results: no default run of $m in $R/ycbv-gt_model" >&2; exit 2; }
       rm -rf "$R/bop/$m" "$R/bop/${m}_ycbv-test.csv"*; mkdir -p "$R/bop"
       "$B" export --force "$run" --out "$R/bop/${m}_ycbv-test.csv"
@@ -185,7 +193,7 @@ figures() {  # one per table the README quotes: table|figure stem|title
     "$PY" tools/table_figure.py "$RESULTS/$table" --out "$F/$stem" --title "$title" > /dev/null
   done <<'TABLES'
 report/tables/gt_model_summary.md|embedded_gt_model|Embedded synthetic set, each view against its own model (48 views, seed 0)
-real/headline.md|real|Real frames (YCB-Video, TYO-L) and ModelNet40 resampled shapes, own model
+real/headline.md|real|Real frames (YCB-Video, TYO-L), ModelNet40 resampled shapes; YCB-V with templates, relative (seeds 0-2)
 clutter/headline.md|clutter|Cluttered synthetic scenes of the YCB-Video objects (report scenes)
 category/paper/one_template_airplane.md|one_template_airplane|ModelNet40 airplanes, another instance as the only template
 TABLES

@@ -252,7 +252,9 @@ def test_case_11_an_edited_yaw_beside_r00_r22_is_refused_not_ignored(tmp_path):
     assert np.allclose(read_alignment_table(t)[("a", "a1")], FLIP)
 
 
-def test_case_12_a_limited_run_into_a_fuller_folder_prints_what_the_folder_holds(tmp_path, capsys):
+def test_case_12_a_limited_run_is_its_own_folder_never_the_fuller_one(tmp_path, capsys):
+    """A subset is another sample set (issue 59): its own run directory and label; the full run's
+    folder keeps its 3 samples and its overrides."""
     from test_bad_inputs import toy_cfg
 
     from catpose.bench.report.labels import _overrides
@@ -261,11 +263,12 @@ def test_case_12_a_limited_run_into_a_fuller_folder_prints_what_the_folder_holds
 
     out = run(toy_cfg(tmp_path))  # 3 samples
     cfg = toy_cfg(tmp_path, ["limit=1", "print_summary=true"])
-    run(cfg, ["limit=1"])
+    limited = run(cfg, ["limit=1"])
     printed = capsys.readouterr().out
-    assert "this command's 1 samples (0 run now) are 1 of the 3 the run directory holds" in printed
-    assert (out / "summary.md").read_text().strip() in printed  # stdout and summary.md: one summary, n = 3
-    assert (out / "overrides.txt").read_text().strip() == "limit=1" and _overrides(load_run(out)) == []
+    assert limited != out and "run directory holds" not in printed
+    assert (limited / "summary.md").read_text().strip() in printed  # n = 1
+    assert len(load_run(out).samples) == 3 and len(load_run(limited).samples) == 1
+    assert (out / "overrides.txt").read_text().strip() == "" and _overrides(load_run(limited)) == ["limit=1"]
 
 
 def test_case_13_regress_with_a_method_no_suite_has_is_refused(capsys):

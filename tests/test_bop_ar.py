@@ -73,7 +73,8 @@ def _scored(run_dir, tmp) -> dict[str, float]:
 
 
 def test_table_and_suite_ar_equal_bench_score(clutter_run) -> None:
-    from catpose.bench.real.suite import format_table, with_ar
+    from catpose.bench.real.suite import with_ar
+    from catpose.bench.real.suite_table import format_table
     from catpose.bench.report.runs import load_runs
     from catpose.bench.report.tables import build_table
     from catpose.bench.run.bop_ar import target_errors

@@ -199,7 +199,8 @@ def test_views_without_absolute_ground_truth_are_not_scored():
     assert Templates().score_units(df)["err_deg"].tolist() == [3.0]
 
 
-def test_limited_rerun_prints_its_subset_but_files_keep_every_sample(tmp_path):
+def test_a_limited_run_is_its_own_run_and_the_full_run_keeps_every_sample(tmp_path):
+    """A subset is another sample set (issue 59): its own directory, never the full run's."""
     from catpose.bench.run.evaluate import summarize_run
 
     out = run(make_cfg(tmp_path))
@@ -207,7 +208,9 @@ def test_limited_rerun_prints_its_subset_but_files_keep_every_sample(tmp_path):
     assert sub.loc["block", "n"] == 2
     assert pd.read_csv(out / "summary.csv").set_index("category").loc["block", "n"] == 4
     limited = run(make_cfg(tmp_path, overrides=["limit=2"]))
-    assert limited == out and pd.read_csv(out / "summary.csv").set_index("category").loc["block", "n"] == 4
+    assert limited != out and limited.parent == out.parent
+    assert pd.read_csv(limited / "summary.csv").set_index("category").loc["block", "n"] == 2
+    assert pd.read_csv(out / "summary.csv").set_index("category").loc["block", "n"] == 4
 
 
 # ---------------------------------------------------------------------------------------------

@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from catpose.bench.real import suite as sr
+from catpose.bench.real import suite_table as st
 from catpose.errors import ConfigError
 
 
@@ -45,7 +46,7 @@ def test_unknown_method_is_a_config_error(monkeypatch, tmp_path):
 def test_table_marks_the_best_and_lists_skips():
     row = dict(n=2, failed=0, mean_err_deg=10.0, median_err_deg=5.0, acc10=0.5, acc30=1.0, median_runtime_s=1.0)
     better = dict(row, mean_err_deg=2.0, acc10=1.0)
-    table = sr.format_table(
+    table = st.format_table(
         {("ycbv", "ours"): better, ("ycbv", "icp"): row}, ["ycbv"], ["ours", "icp"], {"redwood": "no trajectory"}
     )
     lines = table.splitlines()
@@ -64,10 +65,11 @@ def test_cli_lists_the_suite_command():
 def test_one_real_sample_runs_through_the_runner(shared_data, tmp_path, monkeypatch):
     monkeypatch.setenv("CATPOSE_SHARED_DATA", str(shared_data))
     results, skipped = sr.run_suite(
-        ["ycbv"], ["icp"], Path(shared_data), limit=1, output_root=str(tmp_path), log=lambda m: None
+        ["ycbv"], ["icp"], Path(shared_data), seeds=(0,), limit=1, output_root=str(tmp_path), log=lambda m: None
     )
     r = results[("ycbv", "icp")]
     assert r["n"] == 1 and r["failed"] == 0 and Path(r["run_dir"], "samples.jsonl").is_file()
+    assert len(r["samples"]) == 1
 
 
 def test_sets_with_a_split_get_a_column_per_part(tmp_path):
@@ -125,3 +127,45 @@ def test_headline_holds_the_whole_sets_and_write_every_part(tmp_path, monkeypatc
         == "| method | ycbv: mean / med / @10 / found@10 / @30 (s) | ycbv: AR (VSD / MSSD / MSPD) |"
     )
     assert "**0.900** (0.800 / 0.950 / 0.950)" in head.read_text()
+
+
+ROW = dict(n=2, failed=0, mean_err_deg=10.0, median_err_deg=5.0, acc10=0.5, acc30=1.0, median_runtime_s=1.0)
+
+
+def test_a_cell_is_the_mean_over_seeds_with_their_spread():
+    seeds = [
+        dict(ROW, mean_err_deg=m, acc10=a, samples=frozenset({(s, "x"), (s, "y")}))
+        for s, (m, a) in enumerate([(2.0, 1.0), (4.0, 0.5), (180.0, 0.0)])
+    ]
+    cell = st.pool_seeds(seeds)
+    assert cell["mean_err_deg"] == pytest.approx(62.0) and cell["spread"]["acc10"] == (0.0, 1.0)
+    assert cell["n"] == 2 and cell["seeds"] == 3 and len(cell["samples"]) == 6
+    table = st.format_table({("tyol", "ours"): cell}, ["tyol"], ["ours"], {}, [st.seeds_note((0, 1, 2))])
+    assert (
+        "| ours | **62.00** [2.00-180.00] / 5.00 / **0.500** [0.000-1.000] / - / 1.000 (1.00) n=2 x 3 seeds |" in table
+    )
+    assert "the mean over seeds 0, 1, 2" in table
+
+
+def test_a_column_of_different_samples_is_refused_unless_allowed(tmp_path, monkeypatch, capsys):
+    from catpose.bench.cli import main
+
+    full = dict(ROW, samples=frozenset({(0, "a"), (0, "b")}), run_dir="runs/ours")
+    part = dict(ROW, samples=frozenset({(0, "a")}), run_dir="runs/icp")
+    assert st.mixed_samples({("ycbv", "ours"): full, ("ycbv", "icp"): full}, ["ycbv"], ["ours", "icp"]) is None
+    monkeypatch.setattr(sr, "run_suite", lambda *a, **k: ({("ycbv", "ours"): full, ("ycbv", "icp"): part}, {}))
+    monkeypatch.setenv("CATPOSE_SHARED_DATA", str(tmp_path))
+    assert main(["suite", "real", "--sets", "ycbv", "--methods", "ours,icp"]) == 2
+    err = capsys.readouterr().err
+    assert "column ycbv compares different samples: ours (runs/ours) has 2, icp (runs/icp) 1" in err
+    assert err.count("\n") == 1
+    assert main(["suite", "real", "--sets", "ycbv", "--methods", "ours,icp", "--allow-mixed"]) == 0
+    assert "Mixed (--allow-mixed): column ycbv" in capsys.readouterr().out
+
+
+def test_the_ycbv_protocol_sets_compose(tmp_path):
+    t = sr.SETS["ycbv_templates"]
+    cfg, _ = sr.compose(t, sr.METHODS["ours"], tmp_path, 1, None, str(tmp_path / "out"), [])
+    assert cfg.protocol.name == "templates" and list(cfg.dataset.symmetric.can) == [0, 0, 1] and cfg.seed == 1
+    cfg, _ = sr.compose(sr.SETS["ycbv_relative"], sr.METHODS["icp"], tmp_path, 0, None, str(tmp_path / "out"), [])
+    assert cfg.protocol.name == "relative" and cfg.dataset.name == "ycbv"

@@ -194,10 +194,6 @@ def test_cli_writes_file_and_user_labels(runs, tmp_path: Path, capsys):
     assert "ICP (20 starts)" in text and "All" in text
     from catpose.bench.cli import main
 
-    assert main(["table", str(runs[0]), "--layout", "optimizer"]) == 2  # the old spelling
-    assert capsys.readouterr().err == (
-        "bench table: error: table layout optimizer was renamed optimiser; write --layout optimiser\n"
-    )
     assert main(["table", str(tmp_path / "nope")]) == 2
     err = capsys.readouterr().err
     assert err.startswith("bench table: error: ") and "does not exist" in err and err.count("\n") == 1

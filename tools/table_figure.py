@@ -33,10 +33,14 @@ import numpy as np
 from catpose.errors import DatasetError
 
 SUITE_HEADER = re.compile(r"^(?P<group>.*?):?\s*mean / med / @10 / (?P<found>found@10 / )?@30 \(s\)$")
-SUITE_CELL = re.compile(r"^(?P<mean>[-\d.]+) / (?P<med>[-\d.]+) / (?P<a10>[-\d.]+) / (?P<a30>[-\d.]+)")
+#: a cell of several seeds: their mean, then `` [min-max]`` after the mean and @10 (the bars: the mean)
+_SPREAD = r"(?: \[[^\]]*\])?"
+SUITE_CELL = re.compile(
+    rf"^(?P<mean>[-\d.]+){_SPREAD} / (?P<med>[-\d.]+) / (?P<a10>[-\d.]+){_SPREAD} / (?P<a30>[-\d.]+)"
+)
 #: the cell under a header with found@10: ``mean / med / @10 / found@10 (or -) / @30``
 SUITE_FOUND_CELL = re.compile(
-    r"^(?P<mean>[-\d.]+) / (?P<med>[-\d.]+) / (?P<a10>[-\d.]+) / (?P<found>[-\d.]+|-) / (?P<a30>[-\d.]+)"
+    rf"^(?P<mean>[-\d.]+){_SPREAD} / (?P<med>[-\d.]+) / (?P<a10>[-\d.]+){_SPREAD} / (?P<found>[-\d.]+|-) / (?P<a30>[-\d.]+)"
 )
 METRIC_HEADER = re.compile(r"^(?P<group>.*?)\s*(?P<metric>Mean°|@10|@30)\s*[↑↓]?$")
 

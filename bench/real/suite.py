@@ -1,8 +1,12 @@
-"""``bench suite real``: every method on the shared real development data, one table.
+"""``bench suite real``: every method on the shared real development data, one table. Kept whole
+because the sets, the method rows and the command that runs them are one catalogue (the table: suite_table).
 
 The real development set is ``../shared/data`` beside the checkout (or ``$CATPOSE_SHARED_DATA``):
 
 - ``ycbv``: 19 real YCB-Video frames in BOP layout, 38 instances (``dataset=ycbv``);
+- ``ycbv_templates``, ``ycbv_relative``: the paper's real-data protocols on the same frames: each
+  view registered to the category's templates (``protocol=templates``, scored by the main axis as
+  the paper's TYO-L table), and the relative pose of two frames of one scene (``protocol=relative``);
 - ``tyol``: the one TYO-L frame (``dataset=bop``);
 - ``modelnet40_resampled``: 23 real ModelNet40 CAD shapes (PointNet++ resampled clouds) x 2
   hidden-point-removal views (``dataset=modelnet40_resampled``);
@@ -11,7 +15,10 @@ The real development set is ``../shared/data`` beside the checkout (or ``$CATPOS
 
 Every (set, method) pair goes through the normal runner (:func:`catpose.bench.run.runner.run`), so
 run directories, resume and summaries are the ones ``bench run`` writes; the table is made from
-their files (``summary.csv``). Protocol: ``gt_model`` (each view against its own model).
+their files (``summary.csv``). Protocol: ``gt_model`` (each view against its own model) unless
+the set says otherwise. Every pair runs under seeds 0, 1 and 2 (``--seeds``): a cell is the mean
+across seeds, with the min and max of its mean, @10 and AR; a column whose methods were scored on
+different samples is refused in one line (``--allow-mixed`` to insist, said in a note).
 
     bench suite real                                  # every set, every method
     bench suite real --sets ycbv --methods ours,icp --limit 5
@@ -65,10 +72,22 @@ class MethodVariant:
     requires: str | None = None  # an optional module (an extra) without which the row is skipped, said why
 
 
+#: the YCB-V categories scored by their main axis (up, +z) with category templates: another
+#: instance's model fixes no forward direction of this one
+MAIN_AXIS = tuple(f"+dataset.symmetric.{c}=[0,0,1]" for c in ("can", "bottle", "bowl", "mug"))
+
+#: the seeds every suite runs by default (a cell: their mean, with min and max)
+SEEDS = (0, 1, 2)
+
 SETS: dict[str, RealSet] = {
     s.name: s
     for s in (
         RealSet("ycbv", "ycbv", "bop/ycbv", ("dataset.root={shared}/bop/ycbv",), split="ycbv"),
+        # the paper's real-data protocols on the same frames: each view registered to its category's
+        # templates (the other YCB-V models of the category), scored by the main axis as the paper's
+        # TYO-L table; and the relative pose of two frames of one scene, each registered to them
+        RealSet("ycbv_templates", "ycbv", "bop/ycbv", ("dataset.root={shared}/bop/ycbv", *MAIN_AXIS), "templates"),
+        RealSet("ycbv_relative", "ycbv", "bop/ycbv", ("dataset.root={shared}/bop/ycbv",), "relative"),
         RealSet("tyol", "bop", "bop/tyol", ("dataset.root={shared}/bop/tyol",)),
         RealSet(
             "modelnet40_resampled",
@@ -202,70 +221,11 @@ def with_ar(row: dict, errors, sample_ids: list[str] | None = None) -> dict:
     return {**row, **ar_scores(chosen)} if len(chosen) else row
 
 
-def format_table(
-    results: dict[tuple[str, str], dict], sets: list[str], methods: list[str], skipped: dict[str, str]
-) -> str:
-    """Markdown: one row per method, per set ``mean / median / @10 / found@10 / @30`` (deg; found@10:
-    a hypothesis within 10 deg existed at some stage of the method's search, ``-`` for a method that
-    names none) and s per registration (median); the best mean and @10 of each set in bold. Where the
-    set's rows have BOP scores, a second column ``AR (VSD / MSSD / MSPD)`` per set, the best AR in bold."""
-    ar_sets = {s for s in sets if any("ar" in (results.get((s, m)) or {}) for m in methods)}
-    header = ["method"]
-    for s in sets:
-        header.append(f"{s}: mean / med / @10 / found@10 / @30 (s)")
-        if s in ar_sets:
-            header.append(f"{s}: AR (VSD / MSSD / MSPD)")
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    best: dict[str, tuple[float, float]] = {}
-    best_ar: dict[str, float] = {}
-    for s in sets:
-        rows = [results[(s, m)] for m in methods if results.get((s, m))]
-        if rows:
-            best[s] = (min(r["mean_err_deg"] for r in rows), max(r["acc10"] for r in rows))
-            best_ar[s] = max((r["ar"] for r in rows if "ar" in r), default=float("nan"))
-    for m in methods:
-        cells = [m]
-        for s in sets:
-            r = results.get((s, m))
-            if not r:
-                cells += ["-", "-"] if s in ar_sets else ["-"]
-                continue
-            mean = f"{r['mean_err_deg']:.2f}"
-            acc10 = f"{r['acc10']:.3f}"
-            if abs(r["mean_err_deg"] - best[s][0]) < 1e-9:
-                mean = f"**{mean}**"
-            if abs(r["acc10"] - best[s][1]) < 1e-9:
-                acc10 = f"**{acc10}**"
-            fail = f", {int(r['failed'])} failed" if r.get("failed") else ""
-            found = r.get("found10")
-            found = "-" if found is None or found != found else f"{found:.3f}"
-            cells.append(
-                f"{mean} / {r['median_err_deg']:.2f} / {acc10} / {found} / {r['acc30']:.3f} "
-                f"({r['median_runtime_s']:.2f}{fail}) n={int(r['n'])}"
-            )
-            if s in ar_sets:
-                cells.append(ar_cell(r, best_ar[s]))
-        lines.append("| " + " | ".join(cells) + " |")
-    for s, why in skipped.items():
-        lines.append(f"\nskipped {s}: {why}")
-    return "\n".join(lines)
-
-
-def ar_cell(row: dict, best: float) -> str:
-    """``AR (VSD / MSSD / MSPD)`` of a row, AR in bold when it is ``best``; ``-`` without it."""
-    if "ar" not in row:
-        return "-"
-    ar = f"{row['ar']:.3f}"
-    if abs(row["ar"] - best) < 1e-9:
-        ar = f"**{ar}**"
-    return f"{ar} ({row['ar_vsd']:.3f} / {row['ar_mssd']:.3f} / {row['ar_mspd']:.3f})"
-
-
 def run_suite(
     sets: list[str],
     methods: list[str],
     shared: Path,
-    seed: int = 0,
+    seeds: tuple[int, ...] = SEEDS,
     limit: int | None = None,
     output_root: str = "outputs/real",
     method_overrides: list[str] | None = None,
@@ -273,19 +233,21 @@ def run_suite(
     table_only: bool = False,
     catalogue: dict[str, RealSet] | None = None,
 ) -> tuple[dict, dict]:
-    """Run every (set, method) pair; returns ({(set, method): summary row}, {set or method: skip reason}).
+    """Run every (set, method, seed); returns ({(set, method): summary row}, {set or method: skip
+    reason}). A row pools its seeds (:func:`pool_seeds`: the mean, and min and max across seeds).
     A set with a split also gets rows ``(<set>:<part> (<role>), method)`` for each of its parts.
     With ``table_only`` nothing runs: the rows come from the run directories already written
     (finished samples only; pairs never run are left out). ``catalogue``: the sets by name
     (default :data:`SETS`, the real suite)."""
     from catpose.bench.real.split import load_split
     from catpose.bench.real.suite_parts import part_label, part_rows
+    from catpose.bench.real.suite_table import pool_seeds
     from catpose.bench.run.bop_ar import target_errors
-    from catpose.bench.run.rundir import SAMPLES_FILE, run_dir_for
+    from catpose.bench.run.rundir import SAMPLES_FILE, latest_rows, run_dir_for
     from catpose.bench.run.runner import run
 
     catalogue = SETS if catalogue is None else catalogue
-    results: dict[tuple[str, str], dict] = {}
+    per_seed: dict[tuple[str, str], list[dict]] = {}
     skipped: dict[str, str] = {}
     if not table_only:
         for m in methods:
@@ -301,27 +263,37 @@ def run_suite(
             log(f"skipping {s}: {why}")
             continue
         for m in methods:
-            cfg, overrides = compose(catalogue[s], METHODS[m], shared, seed, limit, output_root, method_overrides or [])
-            if table_only:
-                run_dir = run_dir_for(cfg, overrides)
-                if not (run_dir / SAMPLES_FILE).is_file():
-                    continue
-            else:
-                log(f"{m} on {s} ...")
-                run_dir = run(cfg, overrides)
-            errors = target_errors(run_dir)  # None unless the set is in the BOP layout
-            results[(s, m)] = with_ar(summary_row(run_dir), errors)
-            results[(s, m)]["run_dir"] = str(run_dir)
-            if catalogue[s].split:
-                split = load_split(catalogue[s].split)
-                for part, row in part_rows(
-                    run_dir,
-                    split,
-                    list(catalogue[s].parts or split.parts),
-                    lambda d, ids: with_ar(summary_row(d, ids), errors, ids),
-                ).items():
-                    results[(part_label(s, split, part), m)] = dict(row, run_dir=str(run_dir))
-    return results, skipped
+            for seed in seeds:
+                cfg, overrides = compose(
+                    catalogue[s], METHODS[m], shared, seed, limit, output_root, method_overrides or []
+                )
+                if table_only:
+                    run_dir = run_dir_for(cfg, overrides)
+                    if not (run_dir / SAMPLES_FILE).is_file():
+                        continue
+                else:
+                    log(f"{m} on {s}, seed {seed} ...")
+                    run_dir = run(cfg, overrides)
+                # BOP's AR: estimates of the view's own model (None unless the set is in the BOP layout);
+                # not of another instance's template, nor of a relative pose
+                errors = target_errors(run_dir) if catalogue[s].protocol == "gt_model" else None
+                ids = [r["sample_id"] for r in latest_rows(run_dir / SAMPLES_FILE)]
+
+                def row(d: Path, chosen: list[str] | None, errors=errors, seed=seed) -> dict:
+                    summary = summary_row(d, chosen)  # {}: nothing scored (a relative run without a pair)
+                    samples = frozenset((seed, i) for i in (ids if chosen is None else chosen))
+                    return summary and dict(with_ar(summary, errors, chosen), run_dir=str(d), samples=samples)
+
+                if whole := row(run_dir, None):
+                    per_seed.setdefault((s, m), []).append(whole)
+                if catalogue[s].split:
+                    split = load_split(catalogue[s].split)
+                    for part, part_row in part_rows(
+                        run_dir, split, list(catalogue[s].parts or split.parts), row
+                    ).items():
+                        if part_row:
+                            per_seed.setdefault((part_label(s, split, part), m), []).append(part_row)
+    return {key: pool_seeds(rows) for key, rows in per_seed.items()}, skipped
 
 
 def columns(results: dict, sets: list[str]) -> list[str]:
@@ -356,7 +328,16 @@ def main(argv: list[str]) -> int:
     )
     parser.add_argument("--methods", default=",".join(METHODS), help=f"comma-separated subset of {', '.join(METHODS)}")
     parser.add_argument("--limit", type=int, default=None, help="only the first N samples of each set")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--seeds",
+        default=",".join(map(str, SEEDS)),
+        help=f"comma-separated seeds (default {','.join(map(str, SEEDS))}); a cell is their mean, with min and max",
+    )
+    parser.add_argument(
+        "--allow-mixed",
+        action="store_true",
+        help="write a column whose methods were scored on different samples (refused otherwise), said in a note",
+    )
     parser.add_argument("--output-root", default=None, help="where run directories go (default outputs/<suite>)")
     parser.add_argument(
         "-o",
@@ -425,11 +406,15 @@ def main(argv: list[str]) -> int:
     if not shared.is_dir():
         print(f"bench suite {args.suite}: skipped: no shared real data at {shared} (set CATPOSE_SHARED_DATA)")
         return 0
+    try:
+        seeds = tuple(int(x) for x in args.seeds.split(","))
+    except ValueError:
+        raise ConfigError(f"bench suite {args.suite}: --seeds {args.seeds!r} is not comma-separated integers") from None
     results, skipped = run_suite(
         sets,
         methods,
         shared,
-        args.seed,
+        seeds,
         args.limit,
         args.output_root or f"outputs/{args.suite}",
         args.ours_override,
@@ -442,8 +427,16 @@ def main(argv: list[str]) -> int:
             f"bench suite {args.suite} --table-only: no run of these sets and methods under "
             f"{args.output_root or f'outputs/{args.suite}'}; pass the --output-root they were written to, or run them"
         )
+    from catpose.bench.real.suite_table import format_table, mixed_samples, seeds_note
+
     whole_sets = [s for s in sets if s not in skipped]
-    table = format_table(results, columns(results, whole_sets), methods, skipped)
+    mixed = mixed_samples(results, columns(results, whole_sets), methods)
+    if mixed and not args.allow_mixed:
+        from catpose.errors import DatasetError
+
+        raise DatasetError(f"{mixed}; run every method on the same samples, or pass --allow-mixed")
+    notes = [seeds_note(seeds)] + ([f"Mixed (--allow-mixed): {mixed}; its methods do not compare."] if mixed else [])
+    table = format_table(results, columns(results, whole_sets), methods, skipped, notes)
     print(table)
     from catpose import atomic
 
@@ -452,7 +445,7 @@ def main(argv: list[str]) -> int:
             atomic.write_text(path, table + "\n")
     if args.headline:
         with outs["--headline"].writing() as path:
-            atomic.write_text(path, format_table(results, whole_sets, methods, skipped) + "\n")
+            atomic.write_text(path, format_table(results, whole_sets, methods, skipped, notes) + "\n")
     if args.objects:
         from catpose.bench.real.suite_parts import object_tables
 

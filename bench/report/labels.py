@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from catpose.bench.report.runs import Run
+from catpose.bench.report.tables_compare import config_key, data_of, seed_of
 from catpose.errors import ConfigError
 
 #: display names of methods outside catpose, scored from their own files (``bench score --method``);
@@ -79,14 +80,12 @@ def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
     return out
 
 
-#: run-level keys that do not change what a run directory holds (its name leaves them out): the
-#: last command's ``limit=3`` into a run of 12 samples is no label of those 12
+#: run-level keys that do not change what a run directory holds (its name leaves them out;
+#: ``limit`` and ``sample_ids`` do: a subset run has its own directory and label)
 RUN_LEVEL_KEYS = (
     "output_root",
     "progress",
     "print_summary",
-    "limit",
-    "sample_ids",
     "threads",
     "batch",
     "retry_failed",
@@ -104,6 +103,7 @@ def _overrides(run: Run) -> list[str]:
     if not f.is_file():
         return []
     out = [o.strip().lstrip("+~") for o in f.read_text().splitlines() if o.strip()]
+    out = [o for o in out if not (o.split("=", 1)[0] in ("limit", "sample_ids") and o.endswith("=null"))]
     return [o for o in out if o.split("=", 1)[0] not in RUN_LEVEL_KEYS and not o.startswith("hydra.")]
 
 
@@ -166,9 +166,10 @@ def run_labels(
 ) -> list[str]:
     """One label per run (in order), unique within each row group ``group_of(run)``.
 
-    The label is the user's (``labels``, see :func:`user_label`) or :func:`method_label`. Runs
-    sharing a label and group keep it, pooled into one row, when they have the same protocol and
-    disjoint categories (one run per category); otherwise each gets only what distinguishes it
+    The label is the user's (``labels``, see :func:`user_label`) or :func:`method_label`. The
+    seeds of one configuration share it (one row: the mean across seeds). Runs sharing a label and
+    group keep it, pooled into one row, when they have the same protocol and data and disjoint
+    categories (one run per category); otherwise each gets only what distinguishes it
     (:func:`_distinguishing`), e.g. ``Ours`` and ``Ours (descriptor=pfh)``, never a hash unless
     nothing else differs. A label the user gave to one of them is kept as given (``--label
     RUN=Ours`` beside other runs of ours: ``Ours``, ``Ours (row=ours_pfh)``).
@@ -180,18 +181,41 @@ def run_labels(
         keyed.setdefault((group_of(r), base[i]), []).append(i)
     out = list(base)
     for idx in keyed.values():
+        seeds_of = _seeds_of_one_config(runs, idx)  # each configuration's seeds: one row, told apart as one
+        idx = list(seeds_of)
         members = [runs[i] for i in idx]
         cats = [set(r.samples["category"].astype(str)) if len(r.samples) else set() for r in members]
         if len(members) == 1 or (
-            sum(map(len, cats)) == len(set().union(*cats)) and len({r.protocol for r in members}) == 1
+            sum(map(len, cats)) == len(set().union(*cats))
+            and len({r.protocol for r in members}) == 1
+            and len({data_of(r) for r in members}) == 1
         ):
             continue
         given = [i for i in idx if user_label(runs[i], labels)]
         for i, extra in zip(idx, _distinguishing(members)):
             if given == [i]:  # the one run the user named keeps that name; the others are told apart from it
                 continue
-            out[i] = f"{base[i]} ({', '.join(extra)})" if extra else base[i]
+            for j in seeds_of[i]:
+                out[j] = f"{base[i]} ({', '.join(extra)})" if extra else base[i]
     return out
+
+
+def _seeds_of_one_config(runs: Sequence[Run], idx: Sequence[int]) -> dict[int, list[int]]:
+    """``idx`` grouped by configuration (:func:`~catpose.bench.report.tables_compare.config_key`):
+    the first run of each configuration -> its runs, when their seeds differ (the seeds of one
+    configuration pool into one row); a configuration with a seed twice (one run under two output
+    roots) keeps each run apart."""
+    by_config: dict[str, list[int]] = {}
+    for i in idx:
+        by_config.setdefault(config_key(runs[i]), []).append(i)
+    out: dict[int, list[int]] = {}
+    for members in by_config.values():
+        seeds = [seed_of(runs[i]) for i in members]
+        if len(set(seeds)) == len(seeds):
+            out[members[0]] = members
+        else:
+            out.update({i: [i] for i in members})
+    return dict(sorted(out.items()))
 
 
 def template_count(run: Run) -> str:

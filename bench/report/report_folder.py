@@ -118,7 +118,7 @@ def _write_table(table, out: Path, stem: str) -> list[str]:
 SUMMARY_METRICS = ("mean", "median", "acc10", "acc30", "trans", "runtime", "failed")
 
 
-def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str):
+def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, allow_mixed: bool = False):
     """One row per run, all categories pooled, the columns of :data:`SUMMARY_METRICS` named by
     the metric alone: ``tables/<protocol>_summary.*`` of a report (the README's first table),
     and what ``make demo`` prints (:mod:`catpose.bench.report.demo`)."""
@@ -131,6 +131,7 @@ def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str):
         labels=labels,
         metrics=list(SUMMARY_METRICS),
         title=f"All categories pooled ({protocol})",
+        allow_mixed=allow_mixed,
     )
     # One category ("all"): the metric alone names each column.
     summary.cells = {(r, c[1:]): v for (r, c), v in summary.cells.items()}
@@ -138,7 +139,7 @@ def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str):
     return summary
 
 
-def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: str):
+def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, allow_mixed: bool = False):
     """A row block per run, a column per category (the paper's layout), mean, median, @10 and @30:
     ``tables/<protocol>_per_category.*`` of a report, and what ``make demo`` prints above the
     pooled table; None when the runs name no category."""
@@ -154,6 +155,7 @@ def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: 
         labels=labels,
         metrics=["mean", "median", "acc10", "acc30"],
         title=f"Per category ({protocol})",
+        allow_mixed=allow_mixed,
     )
 
 
@@ -168,10 +170,13 @@ def build_report(
     left_out: list[str] | None = None,
     max_pictures: int = MAX_PICTURES,
     label_items: Sequence[str] = (),
+    allow_mixed: bool = False,
 ) -> Path:
     """Write the report folder (see the module docstring); returns the path of ``index.md``.
     ``label_items``: the ``--label RUN_DIR=LABEL`` items ``labels`` came from, each checked to
-    name one of the runs (:func:`catpose.bench.report.labels.check_labels`).
+    name one of the runs (:func:`catpose.bench.report.labels.check_labels`). Runs of one protocol
+    on different samples (datasets, seeds, a ``limit`` run) are refused in one line unless
+    ``allow_mixed`` (:func:`catpose.bench.report.tables.build_table`).
 
     ``notes`` are paragraphs put under the title (how the runs were made); ``pdf`` adds a PDF
     of each summary figure; ``qualitative`` pictures per run, ``max_pictures`` in all. A run that
@@ -191,11 +196,13 @@ def build_report(
         left_out.extend(reasons)
     final = Path(out)
     with atomic.building_dir(final) as out:  # built aside, moved into place whole (docs/file-safety.md)
-        _write_report(runs, reasons, out, layouts, qualitative, labels, notes, pdf, max_pictures)
+        _write_report(runs, reasons, out, layouts, qualitative, labels, notes, pdf, max_pictures, allow_mixed)
     return final / "index.md"
 
 
-def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes, pdf, max_pictures: int) -> None:
+def _write_report(
+    runs, reasons, out: Path, layouts, qualitative, labels, notes, pdf, max_pictures: int, allow_mixed: bool = False
+) -> None:
     """The files of :func:`build_report` into the new, empty folder ``out``."""
     from catpose.bench.report import plots, tables
     from catpose.bench.report.qualitative import plot_sample_from_run
@@ -234,12 +241,14 @@ def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes,
             "### Tables",
             "",
         ]
-        md += _write_table(summary_table(group, names, protocol), out, f"{protocol}_summary")
-        per_cat = per_category_table(group, names, protocol)
+        md += _write_table(summary_table(group, names, protocol, allow_mixed), out, f"{protocol}_summary")
+        per_cat = per_category_table(group, names, protocol, allow_mixed)
         if per_cat is not None:
             md += _write_table(per_cat, out, f"{protocol}_per_category")
         for layout in layouts:
-            md += _write_table(tables.build_table(group, layout, labels=names), out, f"{protocol}_{layout}")
+            md += _write_table(
+                tables.build_table(group, layout, labels=names, allow_mixed=allow_mixed), out, f"{protocol}_{layout}"
+            )
 
         run_units = [tables.scored_units(r) for r in group]
         units = _units_by_label(group_labels, run_units)
@@ -324,7 +333,7 @@ def _write_report(runs, reasons, out: Path, layouts, qualitative, labels, notes,
 
 def main(argv: list[str] | None = None) -> int:
     """``bench report RUN_DIR... --out DIR [--layout L ...] [--qualitative N] [--note TEXT ...]``."""
-    from catpose.bench.report.tables import LAYOUTS, RENAMED_LAYOUTS, parse_labels
+    from catpose.bench.report.tables import LAYOUTS, parse_labels
     from catpose.bench.run.overwrite import Output, add_output_options, input_runs
 
     ap = argparse.ArgumentParser(
@@ -335,7 +344,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--layout",
         action="append",
-        choices=sorted({*LAYOUTS, *RENAMED_LAYOUTS}),
+        choices=sorted(LAYOUTS),
         help="extra table layouts per protocol (always: a summary and a per-category table)",
     )
     ap.add_argument(
@@ -354,6 +363,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--label", action="append", default=[], help="RUN_DIR=LABEL, repeatable")
     ap.add_argument("--note", action="append", default=[], help="a paragraph under the title (how the runs were made)")
     ap.add_argument("--no-pdf", action="store_true", help="figures as PNG (+ CSV) only")
+    ap.add_argument(
+        "--allow-mixed",
+        action="store_true",
+        help="tables of runs on different datasets, seeds or sample sets (refused otherwise), said in a note",
+    )
     args = ap.parse_args(argv)
     if not 0 <= args.qualitative <= 2 or args.max_pictures < 0:
         raise ConfigError("--qualitative takes 0, 1 or 2 (pictures per run), --max-pictures 0 or more (0: none)")
@@ -371,6 +385,7 @@ def main(argv: list[str] | None = None) -> int:
             left_out=left_out,
             max_pictures=args.max_pictures,
             label_items=args.label,
+            allow_mixed=args.allow_mixed,
         )
     print(f"report written: {index} (and index.html)" + (f"; {len(left_out)} run(s) left out" if left_out else ""))
     return 2 if left_out else 0

@@ -1,6 +1,10 @@
 """``bench table``: the command line of :mod:`catpose.bench.report.tables`.
 
-bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE]
+bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE] [--allow-mixed]
+
+Rows scored on different samples (datasets, protocols, seeds, a ``limit`` run) are refused in one
+line (exit 2) unless ``--allow-mixed``; the seeds of one configuration are one row (their mean,
+with min and max).
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ from catpose import atomic
 from catpose.bench.report.labels import check_labels, parse_labels
 from catpose.bench.report.runs import find_run_dirs, load_runs, print_left_out, warn_incomplete
 from catpose.bench.report.table_format import METRICS
-from catpose.bench.report.tables import LAYOUTS, RENAMED_LAYOUTS, RENDERERS, build_table
+from catpose.bench.report.tables import LAYOUTS, RENDERERS, build_table
 from catpose.errors import ConfigError, DatasetError
 
 
@@ -35,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--layout",
         default=None,
-        choices=sorted({*LAYOUTS, *RENAMED_LAYOUTS}),
+        choices=sorted(LAYOUTS),
         help="default: the sweep's, else generic",
     )
     ap.add_argument("--format", default="md", choices=sorted(RENDERERS))
@@ -67,6 +71,12 @@ def main(argv: list[str] | None = None) -> int:
         help="the method's own choice or the minimum across templates (oracle)",
     )
     ap.add_argument("--title", default=None)
+    ap.add_argument(
+        "--allow-mixed",
+        action="store_true",
+        help="put rows of different datasets, protocols, seeds or sample sets (a limit= run) in one table "
+        "anyway (refused otherwise); the table says so in a note",
+    )
     add_output_options(ap, "write here instead of stdout (a new file; see --force)", required=False)
     ap.add_argument(
         "--bop-metrics",
@@ -131,6 +141,7 @@ def main(argv: list[str] | None = None) -> int:
         args.title,
         [Path(p) for p in args.stability],
         threshold_keys(args.acc or [], args.auc) if (args.acc or args.auc is not None) else (),
+        allow_mixed=args.allow_mixed,
     )
     _write(out, RENDERERS[args.format](table))
     return 2 if left_out else 0

@@ -36,6 +36,8 @@ class Table:
     cells: dict[tuple[tuple[str, ...], tuple[str, ...]], tuple[float, str]] = field(default_factory=dict)
     rank_by: str = "column"
     notes: list[str] = field(default_factory=list)
+    #: (row, column) -> (min, max) across seeds of a cell that is their mean (shown beside it)
+    spread: dict[tuple[tuple[str, ...], tuple[str, ...]], tuple[float, float]] = field(default_factory=dict)
 
     def ranks(self) -> dict[tuple, int]:
         """1 for the best cell(s), 2 for the second best, per ranking group (ties share a rank)."""
@@ -61,7 +63,11 @@ class Table:
         v, m = self.cells.get((r, c), (float("nan"), "mean"))
         if v is None or not math.isfinite(v):
             return "-"
-        return f"{v:.{metric(m).digits}f}"
+        d = metric(m).digits
+        lo_hi = self.spread.get((r, c))
+        if lo_hi is None or not all(map(math.isfinite, lo_hi)):
+            return f"{v:.{d}f}"
+        return f"{v:.{d}f} [{lo_hi[0]:.{d}f}, {lo_hi[1]:.{d}f}]"
 
 
 def _tex_escape(s: str) -> str:
@@ -142,7 +148,8 @@ def to_latex(table: Table) -> str:
 
 
 def to_csv(table: Table) -> str:
-    """Plain CSV, one row per table row, full precision, no marks (empty for missing)."""
+    """Plain CSV, one row per table row, full precision, no marks (empty for missing); a cell
+    pooling seeds is their mean (its min and max are in the Markdown and LaTeX tables)."""
     import csv
     import io
 

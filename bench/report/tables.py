@@ -1,4 +1,5 @@
 """Paper tables from run directories (files only: ``samples.jsonl``, ``config.yaml``, ``run.json``).
+Kept whole because pooling runs into rows, the layouts and the notes under a table are one table's making.
 
 A run directory is what the runner writes. Its per-sample rows are turned into scoring units by
 the run's own protocol (``score_units``: templates keep the best-scored template per view,
@@ -25,14 +26,17 @@ Runs on BOP-layout data (YCB-V, TYO-L, ``dataset=clutter``) also get BOP'19's av
 its parts (``ar``, ``ar_vsd``, ``ar_mssd``, ``ar_mspd``) after the layout's own metrics, from the
 per-target errors of ``bench score``'s code (:func:`catpose.bench.run.bop_ar.target_errors`).
 
-Usage: ``bench table outputs/modelnet40-gt_model --layout optimiser --format latex``. (The layout
-was spelt ``optimizer`` before; that name is refused with the new one named.)
+Each layout is one :class:`Layout` spec (its shape, metrics, categories, title and row groups).
+Rows scored on different samples are refused (:mod:`catpose.bench.report.tables_compare`); the
+seeds of one configuration pool into one row, the mean across seeds with their min and max.
+
+Usage: ``bench table outputs/modelnet40-gt_model --layout optimiser --format latex``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -74,13 +78,29 @@ RENDERERS: dict[str, Callable[[Table], str]] = {"md": to_markdown, "latex": to_l
 
 @dataclass
 class Entry:
-    """The runs sharing one row label, pooled: per-category statistics."""
+    """The runs sharing one row label, pooled: per-category statistics, and the same per seed.
+
+    With one seed the cells are ``summary``'s; with several, each cell is the mean of the seeds'
+    values (``per_seed``) and the table shows their min and max beside it."""
 
     group: str
     label: str
     summary: Any  # DataFrame from metrics.summarize, indexed by category
     units: Any = None  # the pooled scoring units (DataFrame): statistics beyond the summary's (curves)
     bop: Any = None  # the pooled per-target BOP errors (DataFrame) of runs on BOP-layout data, or None
+    runs: list = field(default_factory=list)  # the runs pooled here
+    per_seed: list = field(default_factory=list)  # one Entry per seed (when more than one)
+    seeds: list = field(default_factory=list)
+
+
+def _entry(group: str, label: str, units: list, bop: list, runs: list | None = None) -> Entry:
+    import pandas as pd
+
+    from catpose.bench.scoring.metrics import summarize
+
+    pooled = pd.concat(units, ignore_index=True)
+    errors = pd.concat(bop, ignore_index=True) if bop else None
+    return Entry(group, label, summarize(pooled).set_index("category"), pooled, errors, list(runs or []))
 
 
 def collect(
@@ -90,31 +110,39 @@ def collect(
     error_of: Callable[[Run], str] = lambda r: "err_deg",
     with_bop: bool = False,
 ) -> list[Entry]:
-    """Pool the scoring units of runs with the same (group, label) and summarize per category.
+    """Pool the scoring units of runs with the same (group, label) and summarize per category;
+    the seeds of one configuration share a label (:func:`run_labels`), and each seed is also
+    summarized alone (``Entry.per_seed``) for the mean and spread across seeds.
 
     ``labels`` maps a run directory (as given, or its name) to a user label; labels are made
     unique within a group by :func:`run_labels`. ``error_of`` names the error column each run is
     scored by (see :func:`scored_units`). ``with_bop``: also pool the runs' per-target BOP errors
     (runs on BOP-layout data; :func:`catpose.bench.run.bop_ar.target_errors`).
     """
-    import pandas as pd
-
+    from catpose.bench.report.tables_compare import seed_of
     from catpose.bench.run.bop_ar import target_errors
-    from catpose.bench.scoring.metrics import summarize
 
-    pooled: dict[tuple[str, str], list] = {}
-    bop: dict[tuple[str, str], list] = {}
+    parts: dict[tuple[str, str], dict[Any, tuple[list, list, list]]] = {}
     for run, label in zip(runs, run_labels(runs, labels, group_of)):
-        key = (group_of(run), label)
-        pooled.setdefault(key, []).append(scored_units(run, error_of(run)))
+        units, bop, members = parts.setdefault((group_of(run), label), {}).setdefault(seed_of(run), ([], [], []))
+        units.append(scored_units(run, error_of(run)))
+        members.append(run)
         errors = target_errors(run.path) if with_bop else None
         if errors is not None and len(errors):
-            bop.setdefault(key, []).append(errors)
+            bop.append(errors)
     entries = []
-    for key, parts in pooled.items():
-        units = pd.concat(parts, ignore_index=True)
-        errors = pd.concat(bop[key], ignore_index=True) if key in bop else None
-        entries.append(Entry(*key, summarize(units).set_index("category"), units, errors))
+    for (group, label), by_seed in parts.items():
+        entry = _entry(
+            group,
+            label,
+            [u for s in by_seed.values() for u in s[0]],
+            [b for s in by_seed.values() for b in s[1]],
+            [r for s in by_seed.values() for r in s[2]],
+        )
+        if len(by_seed) > 1:
+            entry.seeds = sorted(by_seed, key=str)
+            entry.per_seed = [_entry(group, label, *by_seed[s]) for s in entry.seeds]
+        entries.append(entry)
     return entries
 
 
@@ -126,6 +154,25 @@ def is_bop_run(run: Run) -> bool:
 
 
 def _value(entry: Entry, category: str, key: str) -> float:
+    """A statistic of the entry's units of ``category`` (``all``: every unit): the mean of its
+    seeds' values when it pools several (:func:`_one_value` of each)."""
+    if entry.per_seed:
+        import numpy as np
+
+        values = [_one_value(e, category, key) for e in entry.per_seed]
+        return float(np.mean(values)) if all(np.isfinite(values)) else float("nan")
+    return _one_value(entry, category, key)
+
+
+def _spread(entry: Entry, category: str, key: str) -> tuple[float, float] | None:
+    """(min, max) of the statistic across the entry's seeds, None with one seed."""
+    if not entry.per_seed:
+        return None
+    values = [_one_value(e, category, key) for e in entry.per_seed]
+    return (min(values), max(values))
+
+
+def _one_value(entry: Entry, category: str, key: str) -> float:
     """A summary statistic, or a threshold statistic (``acc5``, ``auc30``, ``5deg5cm``:
     :mod:`catpose.bench.scoring.curves`) of the entry's units of ``category`` (``all``: every unit)."""
     from catpose.bench.scoring.bop_rows import AR_KEYS
@@ -164,37 +211,6 @@ def _categories(
     return chosen or sorted(seen)
 
 
-def grid_table(
-    entries: Sequence[Entry],
-    categories: Sequence[str],
-    metrics: Sequence[str],
-    title: str,
-    grouped: bool = True,
-    group_header: str = "Pipeline / Descriptor",
-) -> Table:
-    """Rows (group, method) x columns (category, metric); ranks per column."""
-    rows = [(e.group, e.label) if grouped else (e.label,) for e in entries]
-    cols = [(c.capitalize(), metric(m).md) for c in categories for m in metrics]
-    t = Table(title, [group_header, "Methods"] if grouped else ["Methods"], rows, cols)
-    for e, r in zip(entries, rows):
-        for c in categories:
-            for m in metrics:
-                t.cells[(r, (c.capitalize(), metric(m).md))] = (_value(e, c, m), m)
-    return t
-
-
-#: each layout's metrics when none are given (``--acc`` / ``--auc`` replace and add to them)
-DEFAULT_METRICS: dict[str, list[str]] = {
-    "generic": ["mean", "median", "acc10", "acc30", "trans"],
-    "optimiser": ["mean", "median", "trans"],
-    "one_template": ["mean", "median", "acc10", "acc30", "trans"],
-    "templates": ["mean", "median", "acc10", "acc30"],
-    "ablation": ["mean", "median", "acc10"],
-    "real": ["mean", "median", "acc10", "acc30"],
-    "tyol": ["mean", "median", "acc10", "acc30"],
-}
-
-
 def with_thresholds(metrics: Sequence[str], keys: Sequence[str]) -> list[str]:
     """``metrics`` with their ``acc<X>`` entries replaced by ``keys`` (``--acc``'s and
     ``--auc``'s), placed where the first accuracy was, else after ``median`` (else at the end)."""
@@ -210,144 +226,113 @@ def with_thresholds(metrics: Sequence[str], keys: Sequence[str]) -> list[str]:
     return kept[:pos] + [k for k in keys if k not in kept] + kept[pos:]
 
 
-def layout_generic(
-    entries: Sequence[Entry],
-    categories: Sequence[str] | None = None,
-    metrics: Sequence[str] | None = None,
-    title: str | None = "Results",
-) -> Table:
-    cats = _categories(entries, categories) + ([] if categories else ["all"])
-    return grid_table(
-        entries,
-        cats,
-        metrics or DEFAULT_METRICS["generic"],
-        title,
-        grouped=any(e.group not in ("", "-") for e in entries),
-    )
+def _no_group(run: Run) -> str:
+    return ""
 
 
-def layout_optimiser(
-    entries: Sequence[Entry],
-    categories: Sequence[str] | None = None,
-    metrics: Sequence[str] | None = None,
-    title: str | None = None,
-) -> Table:
-    return grid_table(
-        entries,
-        _categories(entries, categories, ["airplane", "chair", "car"]),
-        metrics or DEFAULT_METRICS["optimiser"],
-        title or "Partial point cloud registration with the ground-truth complete shape",
-    )
+@dataclass(frozen=True)
+class Layout:
+    """One table layout: its shape, defaults and how runs group into rows.
+
+    ``shape``: ``grid`` (rows (group, method) x columns (category, metric); ranks per column),
+    ``real`` (rows (category, metric) x one column per method; ranks across methods within a row)
+    or ``tyol`` (rows (method, metric) x one column per category; ranks per column and metric).
+    ``group_of`` None: no group column. ``with_all``: an ``all`` category after the others when
+    none are given."""
+
+    shape: str
+    metrics: tuple[str, ...]
+    title: str
+    categories: tuple[str, ...] = ()
+    group_of: Callable[[Run], str] | None = None
+    group_header: str = "Pipeline / Descriptor"
+    error: str = "err_deg"
+    with_all: bool = False
 
 
-def layout_one_template(
-    entries: Sequence[Entry],
-    categories: Sequence[str] | None = None,
-    metrics: Sequence[str] | None = None,
-    title: str | None = None,
-) -> Table:
-    return grid_table(
-        entries,
-        _categories(entries, categories, ["airplane"]),
-        metrics or DEFAULT_METRICS["one_template"],
-        title or "Registration with one category-level template (airplane)",
-    )
-
-
-def layout_templates(
-    entries: Sequence[Entry],
-    categories: Sequence[str] | None = None,
-    metrics: Sequence[str] | None = None,
-    title: str | None = None,
-) -> Table:
-    return grid_table(
-        entries,
-        _categories(entries, categories, ["chair"]),
-        metrics or DEFAULT_METRICS["templates"],
-        title or "Registration with several category-level templates (chair)",
-        group_header="Number of templates",
-    )
-
-
-def layout_ablation(
-    entries: Sequence[Entry],
-    categories: Sequence[str] | None = None,
-    metrics: Sequence[str] | None = None,
-    title: str | None = None,
-) -> Table:
-    return grid_table(
-        entries,
-        _categories(entries, categories, ["airplane"]),
-        metrics or DEFAULT_METRICS["ablation"],
-        title or "Registration with and without the pose optimisation (airplane)",
-        group_header="Setting",
-    )
-
-
-def layout_real(
-    entries: Sequence[Entry],
-    categories: Sequence[str] | None = None,
-    metrics: Sequence[str] | None = None,
-    title: str | None = None,
-) -> Table:
-    """Rows (category, metric) x one column per method; ranks across methods within a row."""
-    cats = _categories(entries, categories, ["airplane", "chair", "car"])
-    metrics = metrics or DEFAULT_METRICS["real"]
-    cols = [(e.label,) for e in entries]
-    rows = [(c.capitalize(), metric(m).md) for c in cats for m in metrics]
-    t = Table(
-        title or "Pairwise relative pose between two partial views of real scans",
-        ["Category", "Metric"],
-        rows,
-        cols,
-        rank_by="row",
-    )
-    for e, col in zip(entries, cols):
-        for c in cats:
-            for m in metrics:
-                t.cells[((c.capitalize(), metric(m).md), col)] = (_value(e, c, m), m)
-    return t
-
-
-def layout_tyol(
-    entries: Sequence[Entry],
-    categories: Sequence[str] | None = None,
-    metrics: Sequence[str] | None = None,
-    title: str | None = None,
-) -> Table:
-    """Rows (method, metric) x one column per category; ranks across methods per column and metric."""
-    cats = _categories(entries, categories, ["bottle", "bowl", "can", "plate", "mug"])
-    metrics = metrics or DEFAULT_METRICS["tyol"]
-    rows = [(e.label, metric(m).md) for e in entries for m in metrics]
-    cols = [(c.capitalize(),) for c in cats]
-    t = Table(
-        title or "Camera pose estimation on TYO-L (symmetric objects by main-axis error)",
-        ["Methods", "Metric"],
-        rows,
-        cols,
-        rank_by="column",
-    )
-    for e in entries:
-        for m in metrics:
-            for c in cats:
-                t.cells[((e.label, metric(m).md), (c.capitalize(),))] = (_value(e, c, m), m)
-    return t
-
-
-LAYOUTS: dict[str, tuple[Callable[..., Table], Callable[[Run], str], str]] = {
-    # name: (layout, row group of a run, default error column)
-    "generic": (layout_generic, lambda r: "", "err_deg"),
-    "optimiser": (layout_optimiser, pipeline_label, "err_deg"),
-    "one_template": (layout_one_template, pipeline_label, "err_deg"),
-    "templates": (layout_templates, template_count, "oracle_err_deg"),
-    "ablation": (layout_ablation, lambda r: f"{r.protocol} {pipeline_label(r)}".replace(" -", ""), "err_deg"),
-    "real": (layout_real, lambda r: "", "err_deg"),
-    "tyol": (layout_tyol, lambda r: "", "err_deg"),
+LAYOUTS: dict[str, Layout] = {
+    "generic": Layout("grid", ("mean", "median", "acc10", "acc30", "trans"), "Results", with_all=True),
+    "optimiser": Layout(
+        "grid",
+        ("mean", "median", "trans"),
+        "Partial point cloud registration with the ground-truth complete shape",
+        ("airplane", "chair", "car"),
+        pipeline_label,
+    ),
+    "one_template": Layout(
+        "grid",
+        ("mean", "median", "acc10", "acc30", "trans"),
+        "Registration with one category-level template (airplane)",
+        ("airplane",),
+        pipeline_label,
+    ),
+    "templates": Layout(
+        "grid",
+        ("mean", "median", "acc10", "acc30"),
+        "Registration with several category-level templates (chair)",
+        ("chair",),
+        template_count,
+        "Number of templates",
+        error="oracle_err_deg",
+    ),
+    "ablation": Layout(
+        "grid",
+        ("mean", "median", "acc10"),
+        "Registration with and without the pose optimisation (airplane)",
+        ("airplane",),
+        lambda r: f"{r.protocol} {pipeline_label(r)}".replace(" -", ""),
+        "Setting",
+    ),
+    "real": Layout(
+        "real",
+        ("mean", "median", "acc10", "acc30"),
+        "Pairwise relative pose between two partial views of real scans",
+        ("airplane", "chair", "car"),
+    ),
+    "tyol": Layout(
+        "tyol",
+        ("mean", "median", "acc10", "acc30"),
+        "Camera pose estimation on TYO-L (symmetric objects by main-axis error)",
+        ("bottle", "bowl", "can", "plate", "mug"),
+    ),
 }
 
 
-#: layouts renamed: old name -> new name (the old one is refused, naming the new one)
-RENAMED_LAYOUTS = {"optimizer": "optimiser"}
+def lay_out(spec: Layout, entries: Sequence[Entry], cats: Sequence[str], metrics: Sequence[str], title: str) -> Table:
+    """The table of ``entries`` in the layout ``spec`` (categories ``cats``, ``metrics``)."""
+    grouped = spec.group_of is not None
+    md = {m: metric(m).md for m in metrics}
+    if spec.shape == "grid":
+        rows = [(e.group, e.label) if grouped else (e.label,) for e in entries]
+        t = Table(title, [spec.group_header, "Methods"] if grouped else ["Methods"], rows, [])
+        t.columns = [(c.capitalize(), md[m]) for c in cats for m in metrics]
+        place = {
+            (i, c, m): (rows[i], (c.capitalize(), md[m])) for i in range(len(entries)) for c in cats for m in metrics
+        }
+    elif spec.shape == "real":
+        rows = [(c.capitalize(), md[m]) for c in cats for m in metrics]
+        t = Table(title, ["Category", "Metric"], rows, [(e.label,) for e in entries], rank_by="row")
+        place = {
+            (i, c, m): ((c.capitalize(), md[m]), (e.label,))
+            for i, e in enumerate(entries)
+            for c in cats
+            for m in metrics
+        }
+    else:
+        rows = [(e.label, md[m]) for e in entries for m in metrics]
+        t = Table(title, ["Methods", "Metric"], rows, [(c.capitalize(),) for c in cats], rank_by="column")
+        place = {
+            (i, c, m): ((e.label, md[m]), (c.capitalize(),))
+            for i, e in enumerate(entries)
+            for c in cats
+            for m in metrics
+        }
+    for (i, c, m), cell in place.items():
+        t.cells[cell] = (_value(entries[i], c, m), m)
+        spread = _spread(entries[i], c, m)
+        if spread is not None:
+            t.spread[cell] = spread
+    return t
 
 
 def build_table(
@@ -360,6 +345,7 @@ def build_table(
     title: str | None = None,
     stability_roots: Sequence[Path] = (),
     thresholds: Sequence[str] = (),
+    allow_mixed: bool = False,
 ) -> Table:
     """Lay out ``runs`` as one of :data:`LAYOUTS`.
 
@@ -372,43 +358,52 @@ def build_table(
     ``thresholds``: metric keys of :mod:`catpose.bench.scoring.curves` (``acc5``, ``auc30``,
     ``5deg5cm``; ``bench table --acc/--auc``) that replace the metrics' accuracies
     (:func:`with_thresholds`).
+
+    Rows that were not scored on the same samples (another dataset, protocol, seeds, a ``limit``
+    run: :func:`catpose.bench.report.tables_compare.mixed_rows`) are a one-line
+    :class:`~catpose.errors.DatasetError` naming the runs and what differs; ``allow_mixed`` builds
+    the table anyway and says so in a note. The seeds of one configuration are one row: the mean
+    across seeds, their min and max beside it; a note gives every row's n and seeds.
     """
-    if layout in RENAMED_LAYOUTS:
-        raise ConfigError(
-            f"table layout {layout} was renamed {RENAMED_LAYOUTS[layout]}; write --layout {RENAMED_LAYOUTS[layout]}"
-        )
     if layout not in LAYOUTS:
         raise ConfigError(f"unknown table layout {layout!r}; use one of {sorted(LAYOUTS)}")
+    from catpose.bench.report.tables_compare import FIX, mixed_rows
     from catpose.bench.scoring.bop_rows import AR_KEYS
+    from catpose.errors import DatasetError
 
+    spec = LAYOUTS[layout]
     chosen = metrics is not None
     if thresholds:
-        metrics = with_thresholds(metrics or DEFAULT_METRICS[layout], thresholds)
+        metrics = with_thresholds(metrics or spec.metrics, thresholds)
     if not chosen and any(is_bop_run(r) for r in runs):  # BOP's AR after the layout's metrics
-        metrics = list(metrics or DEFAULT_METRICS[layout]) + list(AR_KEYS)
-    for m in metrics or []:
+        metrics = list(metrics or spec.metrics) + list(AR_KEYS)
+    metrics = list(metrics or spec.metrics)
+    for m in metrics:
         metric(m)  # an unknown key: one line naming the choices
-    fn, group_of, default_error = LAYOUTS[layout]
-    error = error or default_error
+    group_of = spec.group_of or _no_group
+    error = error or spec.error
     # Only templates runs have an oracle; other runs in the same table keep their own error.
     oracle = error == "oracle_err_deg"
 
     def error_of(r: Run) -> str:
         return "oracle_err_deg" if oracle and r.protocol == "templates" else "err_deg"
 
-    entries = collect(runs, group_of, labels, error_of, with_bop=any(m in AR_KEYS for m in metrics or []))
+    entries = collect(runs, group_of, labels, error_of, with_bop=any(m in AR_KEYS for m in metrics))
     # Paper order: pipelines from plain to ours, and within one, our method last.
     entries.sort(key=lambda e: (_group_order(e.group), e.group, e.label.startswith("Ours")))
-    kwargs = {"title": title} if title else {}
-    table = fn(
-        entries,
-        categories=list(categories) if categories else None,
-        metrics=list(metrics) if metrics else None,
-        **kwargs,
-    )
+    cats = _categories(entries, categories, spec.categories) + (["all"] if spec.with_all and not categories else [])
+    mixed = mixed_rows([(f"{e.group} / {e.label}".lstrip(" /"), e.runs) for e in entries], cats)
+    if mixed and not allow_mixed:
+        raise DatasetError(f"{mixed}; {FIX}")
+    table = lay_out(spec, entries, cats, metrics, title or spec.title)
     prune(table)
+    if mixed:
+        table.notes.append(f"Mixed (--allow-mixed): {mixed}; its rows do not compare.")
+    table.notes.append(_n_note(entries))
+    if any(e.per_seed for e in entries):
+        table.notes.append("Cells pooling several seeds: the mean across seeds [their min, max].")
     shown = {c[-1] for c in table.columns} | {r[-1] for r in table.rows}
-    cm = [m for m in metrics or [] if m not in METRICS and m.endswith("cm") and metric(m).md not in shown]
+    cm = [m for m in metrics if m not in METRICS and m.endswith("cm") and metric(m).md not in shown]
     if cm:
         table.notes.append(
             f"Left out: {', '.join(cm)} (no run here has rows with a metric scale, info.scale_mm: "
@@ -425,6 +420,23 @@ def build_table(
         names = [f"{group_of(r)} / {label}".lstrip(" /") for r, label in zip(runs, run_labels(runs, labels, group_of))]
         table.notes += [""] + stability_notes(runs, names, stability_roots, error_of)
     return table
+
+
+def _n_note(entries: Sequence[Entry]) -> str:
+    """Every row's scored units (per seed when it pools seeds) and seeds."""
+    from catpose.bench.report.tables_compare import seed_of
+
+    parts = []
+    for e in entries:
+        name = f"{e.group} / {e.label}".lstrip(" /")
+        if e.per_seed:
+            ns = sorted({len(p.units) for p in e.per_seed})
+            n = "/".join(map(str, ns))
+            parts.append(f"{name} {n} x {len(e.seeds)} seeds ({', '.join(map(str, e.seeds))})")
+        else:
+            seeds = sorted({str(seed_of(r)) for r in e.runs})
+            parts.append(f"{name} {len(e.units)} (seed {', '.join(seeds)})")
+    return "n (scored units): " + "; ".join(parts) + "."
 
 
 def split_by_protocol(runs: Sequence[Run]) -> dict[str, list[Run]]:

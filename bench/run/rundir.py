@@ -2,7 +2,9 @@
 
 A run directory is ``<output_root>/<dataset>-<protocol>/<method>/seed<S>-<tag>-<hash>``: ``tag``
 spells the command-line overrides (readable), ``hash`` is a digest of the resolved method,
-dataset, protocol and seed (so two configurations never share a directory). It holds
+dataset, protocol and seed, and of the subset of the samples when one is taken (``limit``,
+``sample_ids``: another sample set, so a ``limit=4`` run never shares the full run's directory and
+a table never takes one for the other). Two configurations never share a directory. It holds
 
 - ``samples.jsonl``: one :class:`~catpose.bench.scoring.rows.SampleRow` per finished sample, appended and fsynced as soon as
   it is done (a truncated last line from a kill is dropped on resume);
@@ -39,13 +41,14 @@ from catpose.errors import RunAborted
 SAMPLES_FILE = "samples.jsonl"
 
 
+#: run-level keys that take a subset of the samples (the run's directory name and hash spell them)
+SUBSET_KEYS = ("limit", "sample_ids")
+
 _RUN_KEYS_EXCLUDED_FROM_TAG = {
     "method",
     "dataset",
     "protocol",
     "seed",
-    "limit",
-    "sample_ids",
     "output_root",
     "progress",
     "threads",
@@ -76,6 +79,9 @@ def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:
         if choice:
             identity["choice"] = choice
     identity["seed"] = int(cfg.seed)
+    subset = {k: OmegaConf.to_object(OmegaConf.create({k: cfg.get(k)}))[k] for k in SUBSET_KEYS if cfg.get(k)}
+    if subset:  # a subset of the samples is another sample set: its own directory (a full run's hash is unchanged)
+        identity["subset"] = subset
     digest = hashlib.sha1(json.dumps(identity, sort_keys=True, default=str).encode()).hexdigest()[:8]
     parts = []
     for o in overrides:
@@ -83,6 +89,8 @@ def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:
         if key.split(".")[0] in _RUN_KEYS_EXCLUDED_FROM_TAG and "." not in key:
             continue
         if key.startswith("hydra.") or key == "output_root":
+            continue
+        if key in SUBSET_KEYS and o.split("=", 1)[-1] in ("null", ""):  # no subset: the full run's name
             continue
         parts.append(re.sub(r"[^A-Za-z0-9_.=,+-]+", "_", o.replace("/", "_")))
     tag = ",".join(sorted(parts))[:80] or "default"

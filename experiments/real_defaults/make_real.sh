@@ -6,4 +6,6 @@
 # Run from the repository root; resumes (finished samples are skipped).
 set -euo pipefail
 BENCH=${BENCH:-.venv/bin/bench}
-$BENCH suite real --force --write results/real/table.md --objects results/real/objects.md --headline results/real/headline.md
+# seed 0 (the README's table, results/real/headline.md, pools seeds 0-2: section `real` of results/make_results.sh)
+$BENCH suite real --force --sets ycbv,tyol,modelnet40_resampled,redwood --seeds 0 --write results/real/table.md \
+  --objects results/real/objects.md

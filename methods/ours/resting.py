@@ -102,7 +102,8 @@ def hypotheses(template: Template, settings: RestingSettings) -> tuple[Hypothesi
     geometry = template.vertices if template.has_mesh else template.points
     key = (
         template.template_id,
-        content_hash(np.asarray(geometry, float)),
+        content_hash(np.asarray(geometry, float)),  # the up classes depend on the geometry, ...
+        content_hash(template.points, template.normals),  # ... the turned template holds the points
         tuple(np.round(up0, 9)),
         None if template.symmetry_axis is None else tuple(np.round(template.symmetry_axis, 9)),
         settings.max_poses,

@@ -1,0 +1,124 @@
+"""The table of ``bench suite``: one row per method, one column per set (and split part), each cell
+the mean over the seeds with their spread (:func:`pool_seeds`); a column whose methods were not
+scored on the same samples is named by :func:`mixed_samples` (``bench suite`` refuses it unless
+``--allow-mixed``)."""
+
+from __future__ import annotations
+
+
+def pool_seeds(rows: list[dict]) -> dict:
+    """One cell from the rows of several seeds: each number the mean across seeds, ``spread`` its
+    (min, max), ``seeds`` how many, ``samples`` every seed's sample ids; one row as it is."""
+    import numpy as np
+
+    if len(rows) == 1:
+        return rows[0]
+    keys = [k for k, v in rows[0].items() if isinstance(v, (int, float)) and all(k in r for r in rows)]
+    out = {k: float(np.mean([r[k] for r in rows])) for k in keys}
+    out["spread"] = {k: (min(r[k] for r in rows), max(r[k] for r in rows)) for k in keys}
+    out["n"] = rows[0]["n"] if all(r["n"] == rows[0]["n"] for r in rows) else out["n"]
+    out["seeds"] = len(rows)
+    out["samples"] = frozenset().union(*(r.get("samples", frozenset()) for r in rows))
+    out["run_dir"] = rows[0].get("run_dir")
+    out["run_dirs"] = [r.get("run_dir") for r in rows]
+    return out
+
+
+def mixed_samples(results: dict, cols: list[str], methods: list[str]) -> str | None:
+    """Why a column's methods were not scored on the same samples (seeds x sample ids; one line
+    naming the runs and the counts), or None."""
+    for c in cols:
+        have = [(m, results[(c, m)]) for m in methods if results.get((c, m)) and "samples" in results[(c, m)]]
+        for m, r in have[1:]:
+            m0, r0 = have[0]
+            if r["samples"] != r0["samples"]:
+                return (
+                    f"column {c} compares different samples: {m0} ({r0.get('run_dir')}) has {len(r0['samples'])}, "
+                    f"{m} ({r.get('run_dir')}) {len(r['samples'])}, {len(r0['samples'] ^ r['samples'])} in one only "
+                    "(a --limit, another seed or an unfinished run)"
+                )
+    return None
+
+
+def _with_spread(row: dict, key: str, text: str, digits: int) -> str:
+    lo_hi = (row.get("spread") or {}).get(key)
+    return text if lo_hi is None else f"{text} [{lo_hi[0]:.{digits}f}-{lo_hi[1]:.{digits}f}]"
+
+
+def format_table(
+    results: dict[tuple[str, str], dict],
+    sets: list[str],
+    methods: list[str],
+    skipped: dict[str, str],
+    notes: list[str] | None = None,
+) -> str:
+    """Markdown: one row per method, per set ``mean / median / @10 / found@10 / @30`` (deg; found@10:
+    a hypothesis within 10 deg existed at some stage of the method's search, ``-`` for a method that
+    names none) and s per registration (median), ``n`` samples (per seed, ``x S`` seeds); the best
+    mean and @10 of each set in bold. A cell of several seeds is their mean, with the min and max
+    of the mean, @10 (and AR) across seeds in brackets. Where the set's rows have BOP scores, a
+    second column ``AR (VSD / MSSD / MSPD)`` per set, the best AR in bold. ``notes``: lines under it."""
+    ar_sets = {s for s in sets if any("ar" in (results.get((s, m)) or {}) for m in methods)}
+    header = ["method"]
+    for s in sets:
+        header.append(f"{s}: mean / med / @10 / found@10 / @30 (s)")
+        if s in ar_sets:
+            header.append(f"{s}: AR (VSD / MSSD / MSPD)")
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    best: dict[str, tuple[float, float]] = {}
+    best_ar: dict[str, float] = {}
+    for s in sets:
+        rows = [results[(s, m)] for m in methods if results.get((s, m))]
+        if rows:
+            best[s] = (min(r["mean_err_deg"] for r in rows), max(r["acc10"] for r in rows))
+            best_ar[s] = max((r["ar"] for r in rows if "ar" in r), default=float("nan"))
+    for m in methods:
+        cells = [m]
+        for s in sets:
+            r = results.get((s, m))
+            if not r:
+                cells += ["-", "-"] if s in ar_sets else ["-"]
+                continue
+            mean = f"{r['mean_err_deg']:.2f}"
+            acc10 = f"{r['acc10']:.3f}"
+            if abs(r["mean_err_deg"] - best[s][0]) < 1e-9:
+                mean = f"**{mean}**"
+            if abs(r["acc10"] - best[s][1]) < 1e-9:
+                acc10 = f"**{acc10}**"
+            fail = f", {r['failed']:g} failed" if r.get("failed") else ""
+            found = r.get("found10")
+            found = "-" if found is None or found != found else f"{found:.3f}"
+            seeds = f" x {r['seeds']} seeds" if r.get("seeds") else ""
+            cells.append(
+                f"{_with_spread(r, 'mean_err_deg', mean, 2)} / {r['median_err_deg']:.2f} / "
+                f"{_with_spread(r, 'acc10', acc10, 3)} / {found} / {r['acc30']:.3f} "
+                f"({r['median_runtime_s']:.2f}{fail}) n={int(r['n'])}{seeds}"
+            )
+            if s in ar_sets:
+                cells.append(ar_cell(r, best_ar[s]))
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += [f"\n{n}" for n in notes or []]
+    for s, why in skipped.items():
+        lines.append(f"\nskipped {s}: {why}")
+    return "\n".join(lines)
+
+
+def ar_cell(row: dict, best: float) -> str:
+    """``AR (VSD / MSSD / MSPD)`` of a row, AR in bold when it is ``best``; ``-`` without it."""
+    if "ar" not in row:
+        return "-"
+    ar = f"{row['ar']:.3f}"
+    if abs(row["ar"] - best) < 1e-9:
+        ar = f"**{ar}**"
+    ar = _with_spread(row, "ar", ar, 3)
+    return f"{ar} ({row['ar_vsd']:.3f} / {row['ar_mssd']:.3f} / {row['ar_mspd']:.3f})"
+
+
+def seeds_note(seeds: tuple[int, ...]) -> str:
+    """The line under a suite table that says what a cell is."""
+    if len(seeds) == 1:
+        return f"Seed {seeds[0]}; n: samples."
+    return (
+        f"Each cell: the mean over seeds {', '.join(map(str, seeds))} ([min-max] across the seeds of the mean, "
+        "@10 and AR); n: samples per seed."
+    )
