@@ -4,13 +4,14 @@ header (:mod:`catpose.datasets.file_headers`). Archive names: docs/data.md."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
 from catpose.datasets.bop_layout import camera_K, gt_obj_id, gt_pose, read_json, read_targets, visible_fractions
 from catpose.datasets.depthio import read_depth
 from catpose.datasets.file_headers import ply_problem, png_problem, png_size
-from catpose.datasets.layout_check import LayoutReport, camera_size, check_templates
+from catpose.datasets.layout_check import LayoutReport, check_templates
 from catpose.errors import CatposeError
 
 #: BOP dataset config name -> (prefix of its archives, its test archive) (docs/data.md)
@@ -171,3 +172,12 @@ def check_bop_files(layout: Any, scenes: list[Path], objects: set[int], report: 
         f"headers: {counts[0]} depth PNGs, {counts[1]} masks and {len(models)} models whole"
         + (f", images {size[0]}x{size[1]}" if size else "")
     )
+
+
+def camera_size(root: Path) -> tuple[int, int] | None:
+    """``(width, height)`` of a BOP dataset's ``camera.json``, None without one."""
+    try:
+        cam = json.loads((root / "camera.json").read_text())
+        return int(cam["width"]), int(cam["height"])
+    except (OSError, KeyError, TypeError, ValueError):
+        return None

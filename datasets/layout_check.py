@@ -4,7 +4,6 @@ templates resolve, and at most three lines per kind of damaged file."""
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -62,12 +61,3 @@ def check_templates(dataset: Any, report: LayoutReport, instance_exists: Callabl
                     f"template mesh {full} of {category} does not exist; protocol=templates needs it: set "
                     "dataset.templates_root to the folder of the template meshes"
                 )
-
-
-def camera_size(root: Path) -> tuple[int, int] | None:
-    """``(width, height)`` of a BOP dataset's ``camera.json``, None without one."""
-    try:
-        cam = json.loads((Path(root) / "camera.json").read_text())
-        return int(cam["width"]), int(cam["height"])
-    except (OSError, KeyError, TypeError, ValueError):
-        return None
