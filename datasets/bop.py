@@ -33,10 +33,12 @@ from typing import Any
 
 import numpy as np
 
+from catpose.datasets.bop_check import check_bop
 from catpose.datasets.bop_frames import BopFrames
 from catpose.datasets.bop_layout import BopLayout, camera_K, gt_obj_id, read_json, read_targets, visible_fractions
 from catpose.datasets.bop_models import BopModels
 from catpose.datasets.dataset import ObjectDataset
+from catpose.datasets.layout_check import LayoutReport
 from catpose.datasets.templates import TemplateOptions
 from catpose.errors import DatasetError
 from catpose.types import Template
@@ -137,6 +139,9 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         self._instances: dict[int, Template] = {}
         self._ids: list[str] | None = None
         self._warned_no_info: set[int] = set()
+
+    def check_layout(self, name: str, report: LayoutReport) -> None:
+        check_bop(name, self, report)
 
     # ------------------------------------------------------------------ files
     def _scene_dir(self, scene_id: int) -> Path:

@@ -5,11 +5,14 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from catpose.types import DepthImage, Template
+
+if TYPE_CHECKING:
+    from catpose.datasets.layout_check import LayoutReport
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,6 +74,8 @@ class ObjectDataset(ABC):
     #: of yaw). True for data whose frames are consistent by construction (the synthetic set)
     #: or whose templates are the observed objects' own models (BOP).
     frames_consistent: bool = True
+    #: Why ``bench data check`` has no root to check (the data are generated), or None.
+    generated: str | None = None
 
     @abstractmethod
     def observation_ids(self) -> list[str]:
@@ -80,6 +85,10 @@ class ObjectDataset(ABC):
         """The category of an observation without loading it. Ids start with the category
         (``"chair/..."``) by convention; override when they do not."""
         return obs_id.split("/", 1)[0]
+
+    def check_layout(self, name: str, report: LayoutReport) -> None:  # noqa: B027 - optional, a no-op here
+        """Walk the root's layout for ``bench data check`` (config name ``name``), adding what is
+        wrong to ``report``; the check then lists the samples and loads the first. None here."""
 
     @abstractmethod
     def observation(self, obs_id: str) -> Observation:

@@ -1,5 +1,5 @@
 """Depth frames from files and the ground plane under an object: what every real RGB-D loader
-(BOP, Redwood) shares.
+(BOP, Redwood) shares; and camera trajectories in the Redwood / Open3D ``.log`` format.
 
 Depth PNGs are uint16 in the sensor's unit (millimetres times a scale the loader knows); TIFF
 depth (ITODD) is float. The ground normal of a real frame is the normal of the dominant plane of
@@ -108,3 +108,40 @@ def fit_ground_plane(points: np.ndarray, distance: float, iterations: int, seed:
     if d < 0:  # the origin must lie on the positive side: n . 0 + d > 0
         n, d = -n, -d
     return n, float(d), n_inliers
+
+
+def read_log_trajectory(path: str | Path) -> dict[int, np.ndarray]:
+    """Read a Redwood / Open3D ``.log`` trajectory: ``{frame index: T_world_camera (4, 4)}``."""
+    path = Path(path)
+    if not path.is_file():
+        raise DatasetError(f"trajectory {path} does not exist")
+    lines = [ln.split() for ln in path.read_text().splitlines() if ln.strip()]
+    if len(lines) % 5:
+        raise DatasetError(
+            f"{path} is malformed: {len(lines)} non-empty lines is not a multiple of 5 "
+            "(a metadata line and 4 matrix rows per frame)"
+        )
+    poses: dict[int, np.ndarray] = {}
+    for k in range(0, len(lines), 5):
+        try:
+            frame = int(lines[k][0])
+            T = np.array([[float(x) for x in row] for row in lines[k + 1 : k + 5]])
+        except (ValueError, IndexError):
+            raise DatasetError(
+                f"{path} is malformed near line {k + 1}: expected 'i j n' and 4 rows of 4 numbers"
+            ) from None
+        if T.shape != (4, 4) or not np.isfinite(T).all():
+            raise DatasetError(f"{path} line {k + 2}: the pose is not 4 rows of 4 finite numbers")
+        poses[frame] = T
+    return poses
+
+
+def write_log_trajectory(path: str | Path, poses: list[np.ndarray]) -> None:
+    """Write ``T_world_camera`` (4, 4) poses, frame indices 0.., in the ``.log`` format."""
+    from catpose import atomic
+
+    with atomic.atomic_write(path) as fh:
+        for i, T in enumerate(poses):
+            fh.write(f"{i} {i} {len(poses)}\n")
+            for row in np.asarray(T, float):
+                fh.write(" ".join(f"{x:.10f}" for x in row) + "\n")

@@ -26,11 +26,12 @@ import numpy as np
 
 from catpose.datasets.alignment import check_alignment_coverage, read_alignment_table
 from catpose.datasets.dataset import ObjectDataset, Observation, OptionGroup
+from catpose.datasets.layout_check import LayoutReport, check_templates
 from catpose.datasets.meshio import R_template_file, read_off, sampled_template
 from catpose.datasets.render import depth_to_points, render_depth
 from catpose.datasets.templates import TemplateOptions
 from catpose.datasets.views import ImageOptions, ViewOptions, check_counts, kept_view, view_observation
-from catpose.errors import DatasetError
+from catpose.errors import CatposeError, DatasetError
 from catpose.geometry import apply_R, matmul3, normalize_to_unit_sphere, stable_seed
 from catpose.types import DepthImage, Template
 
@@ -211,6 +212,35 @@ class ModelNet40(ModelNetBase):
                 )
             self._ids = ids
         return self._ids
+
+    def check_layout(self, name: str, report: LayoutReport) -> None:
+        from catpose.resting import solid_hull
+
+        present = {c: self.instance_ids(c) for c in self.categories}
+        if not any(present.values()):
+            report.problem(
+                f"no {self.split}-split OFF files under {self.root}/<category>/{self.split}/ for {self.categories}: "
+                "set dataset.root to the unpacked ModelNet40 folder (it holds airplane/, chair/, ...)"
+            )
+            return
+        for c, ids in present.items():
+            if not ids:
+                report.problem(
+                    f"{self.root / c / self.split} has no .off files: check dataset.categories and dataset.split"
+                )
+        if report.problems:
+            return
+        category, ids = next((c, ids) for c, ids in present.items() if ids)
+        path = self.root / category / self.split / f"{ids[0]}.off"
+        try:
+            if solid_hull(read_off(path)[0]) is None:
+                report.problem(
+                    f"{path} is flat (no volume): ours has no resting pose for it; replace it with a solid mesh"
+                )
+        except CatposeError as e:
+            report.problem(str(e))
+        report.facts.append(f"{sum(map(len, present.values()))} {self.split}-split shapes in {len(present)} categories")
+        check_templates(self, report, lambda c, inst: inst in self.instance_ids(c, self.template_split))
 
     # ------------------------------------------------------------------ shapes
     def _find(self, category: str, instance_id: str) -> tuple[Path, str]:

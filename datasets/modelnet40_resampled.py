@@ -24,10 +24,11 @@ from pathlib import Path
 import numpy as np
 
 from catpose.datasets.dataset import Observation
+from catpose.datasets.layout_check import LayoutReport, check_templates
 from catpose.datasets.modelnet40 import ModelNetBase, ShapeFrame
 from catpose.datasets.templates import TemplateOptions
 from catpose.datasets.views import ViewOptions, subsample, view_observation
-from catpose.errors import DatasetError
+from catpose.errors import CatposeError, DatasetError
 from catpose.geometry import apply_R, invert_T, normalize_to_unit_sphere, stable_seed, transform_points
 from catpose.hpr import visible_indices
 from catpose.types import Template
@@ -141,6 +142,33 @@ class ModelNet40Resampled(ModelNetBase):
                 )
             self._ids = ids
         return self._ids
+
+    def check_layout(self, name: str, report: LayoutReport) -> None:
+        try:
+            ids = self.split_ids()
+        except CatposeError as e:
+            report.problem(f"{e} (unzip modelnet40_normal_resampled.zip and set dataset.root to its folder)")
+            return
+        wanted = [i for i in ids if self.categories is None or self.category_of_instance(i) in self.categories]
+        if not wanted:
+            report.problem(
+                f"modelnet40_{self.split}.txt lists no shapes of {self.categories}: check dataset.categories"
+            )
+            return
+        files = [self.root / self.category_of_instance(i) / f"{i}.txt" for i in wanted]
+        missing = [f for f in files if not f.is_file()]
+        if missing:
+            report.problem(
+                f"{len(missing)} of {len(wanted)} shapes listed in modelnet40_{self.split}.txt are missing "
+                f"(first: {missing[0]}): re-unzip"
+            )
+            return
+        try:
+            read_resampled_txt(files[0])
+        except CatposeError as e:
+            report.problem(str(e))
+        report.facts.append(f"{len(wanted)} {self.split}-split clouds listed and present")
+        check_templates(self, report, lambda _c, inst: inst in self.split_ids(self.template_split))
 
     # ------------------------------------------------------------------ shapes
     def canonical_cloud(self, instance_id: str) -> tuple[np.ndarray, np.ndarray]:

@@ -248,6 +248,7 @@ class Procedural(ModelNet40Resampled):
     """
 
     name = "procedural"
+    generated = "generated into the cache on first use (no root to check)"
 
     def __init__(
         self,

@@ -37,66 +37,15 @@ from pathlib import Path
 import numpy as np
 
 from catpose.datasets.dataset import ObjectDataset, Observation
-from catpose.datasets.depthio import fit_ground_plane, read_depth_png
-from catpose.datasets.render import PinholeCamera, depth_to_points, estimate_normals
+from catpose.datasets.depthio import fit_ground_plane, read_depth_png, read_log_trajectory
+from catpose.datasets.file_headers import png_problem, png_size
+from catpose.datasets.layout_check import LayoutReport, check_templates
+from catpose.datasets.render import PinholeCamera, check_intrinsics, depth_to_points, estimate_normals
 from catpose.datasets.templates import TemplateOptions
 from catpose.datasets.views import subsample
-from catpose.errors import ConfigError, DatasetError
+from catpose.errors import CatposeError, DatasetError
 from catpose.geometry import dot3, stable_seed
 from catpose.types import DepthImage, Template
-
-
-def read_log_trajectory(path: str | Path) -> dict[int, np.ndarray]:
-    """Read a Redwood / Open3D ``.log`` trajectory: ``{frame index: T_world_camera (4, 4)}``."""
-    path = Path(path)
-    if not path.is_file():
-        raise DatasetError(f"trajectory {path} does not exist")
-    lines = [ln.split() for ln in path.read_text().splitlines() if ln.strip()]
-    if len(lines) % 5:
-        raise DatasetError(
-            f"{path} is malformed: {len(lines)} non-empty lines is not a multiple of 5 "
-            "(a metadata line and 4 matrix rows per frame)"
-        )
-    poses: dict[int, np.ndarray] = {}
-    for k in range(0, len(lines), 5):
-        try:
-            frame = int(lines[k][0])
-            T = np.array([[float(x) for x in row] for row in lines[k + 1 : k + 5]])
-        except (ValueError, IndexError):
-            raise DatasetError(
-                f"{path} is malformed near line {k + 1}: expected 'i j n' and 4 rows of 4 numbers"
-            ) from None
-        if T.shape != (4, 4) or not np.isfinite(T).all():
-            raise DatasetError(f"{path} line {k + 2}: the pose is not 4 rows of 4 finite numbers")
-        poses[frame] = T
-    return poses
-
-
-def write_log_trajectory(path: str | Path, poses: list[np.ndarray]) -> None:
-    """Write ``T_world_camera`` (4, 4) poses, frame indices 0.., in the ``.log`` format."""
-    from catpose import atomic
-
-    with atomic.atomic_write(path) as fh:
-        for i, T in enumerate(poses):
-            fh.write(f"{i} {i} {len(poses)}\n")
-            for row in np.asarray(T, float):
-                fh.write(" ".join(f"{x:.10f}" for x in row) + "\n")
-
-
-def check_intrinsics(group: str, **values: float) -> None:
-    """Raise a one-line :class:`ConfigError` unless every value (image size, focal length; pixels)
-    is a positive finite number: a zero or negative focal length would be scored as a mirrored or
-    degenerate camera instead of failing (``fx=0`` even stalls the renderer)."""
-    for key, value in values.items():
-        try:
-            ok = bool(np.isfinite(float(value)) and float(value) > 0)
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:
-            raise ConfigError(
-                f"{group}.{key}={value!r} must be a positive number of pixels; "
-                f"set {group}.{key}=<pixels> (e.g. the PrimeSense fx=fy=525)"
-            )
 
 
 class Redwood(ObjectDataset):
@@ -260,6 +209,50 @@ class Redwood(ObjectDataset):
                 path = self.root / scan / self.trajectory
             self._poses[scan] = None if path is None else read_log_trajectory(path)
         return self._poses[scan]
+
+    def check_layout(self, name: str, report: LayoutReport) -> None:
+        try:
+            scans = self.scan_dirs()
+        except CatposeError as e:
+            report.problem(str(e))
+            return
+        if not scans:
+            report.problem(
+                f"no scan folders with depth/ under {self.root}: unzip each scan <id>.zip into "
+                f"{self.root}/<category>_<id>/ (docs/data.md)"
+            )
+            return
+        no_trajectory = []
+        for scan in scans:
+            try:
+                self.category_of_scan(scan.name)
+                files, poses = self.frame_files(scan.name), self.poses(scan.name)
+            except CatposeError as e:
+                report.problem(str(e))
+                continue
+            if poses is None:
+                no_trajectory.append(scan.name)
+            elif len(poses) < len(files):
+                report.warn(
+                    f"the trajectory of {scan.name} has {len(poses)} poses for {len(files)} depth images; frames "
+                    "without a pose fail under protocol=relative"
+                )
+        if report.problems:
+            return
+        if no_trajectory:
+            report.warn(
+                f"{len(no_trajectory)} scans have no trajectory (*.log), e.g. {no_trajectory[0]}: "
+                "protocol=relative cannot score them (docs/data.md says how to make one)"
+            )
+        files = [f for scan in scans for f in self.frame_files(scan.name)]
+        try:
+            read_depth_png(files[0])
+        except CatposeError as e:
+            report.problem(str(e))
+        size = png_size(files[0]) if files else None
+        report.note_files([w for w in (png_problem(f, size, True) for f in files) if w], "depth images")
+        report.facts.append(f"{len(scans)} scans with depth/, {len(files)} depth images whole")
+        check_templates(self, report, lambda _c, _i: False)
 
     # ------------------------------------------------------------------ segmentation
     def segment(self, scan: str, index: int) -> tuple[np.ndarray, np.ndarray, dict]:

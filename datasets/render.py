@@ -13,9 +13,25 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from catpose.errors import InvalidInputError
+from catpose.errors import ConfigError, InvalidInputError
 from catpose.geometry import transform_points
 from catpose.raycast import cast_rays  # noqa: F401  (catpose.datasets.render.cast_rays is its old home)
+
+
+def check_intrinsics(group: str, **values: float) -> None:
+    """Raise a one-line :class:`ConfigError` unless every value (image size, focal length; pixels)
+    is a positive finite number: a zero or negative focal length would be scored as a mirrored or
+    degenerate camera instead of failing (``fx=0`` even stalls the renderer)."""
+    for key, value in values.items():
+        try:
+            ok = bool(np.isfinite(float(value)) and float(value) > 0)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise ConfigError(
+                f"{group}.{key}={value!r} must be a positive number of pixels; "
+                f"set {group}.{key}=<pixels> (e.g. the PrimeSense fx=fy=525)"
+            )
 
 
 @dataclass(frozen=True)

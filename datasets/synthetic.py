@@ -60,6 +60,7 @@ class SyntheticDataset(ObjectDataset):
     """
 
     name = "synthetic"
+    generated = "generated (no files, no root to check)"
 
     def __init__(
         self,

@@ -327,8 +327,9 @@ def test_case_15_a_killed_run_is_said_to_be_incomplete_by_table_report_and_expor
 def test_case_17_data_check_reads_every_depth_png_and_model_ply_header(tmp_path):
     from test_bad_inputs import write_bop
 
-    from catpose.bench.run.data_check import Report, _check_bop_files
     from catpose.datasets.bop import BOP
+    from catpose.datasets.bop_check import check_bop_files
+    from catpose.datasets.layout_check import LayoutReport
 
     root = write_bop(tmp_path / "bop")
     depth = root / "test/000001/depth"
@@ -341,16 +342,16 @@ def test_case_17_data_check_reads_every_depth_png_and_model_ply_header(tmp_path)
     trimesh.creation.box().export(root / "models" / "obj_000019.ply")
     ds = BOP(str(root), categories={19: "basket"})
     scenes = [root / "test/000001"]
-    good = Report()
-    _check_bop_files(ds.layout, scenes, {19}, good)
+    good = LayoutReport()
+    check_bop_files(ds.layout, scenes, {19}, good)
     assert good.problems == []
     data = (depth / "000001.png").read_bytes()
     (depth / "000001.png").write_bytes(data[: len(data) - 20])  # cut off
     Image.fromarray(np.full((120, 160), 500, np.uint16)).save(depth / "000002.png")  # another size
     ply = (root / "models" / "obj_000019.ply").read_bytes()
     (root / "models" / "obj_000019.ply").write_bytes(ply[: len(ply) - 40])  # a truncated model
-    bad = Report()
-    _check_bop_files(ds.layout, scenes, {19}, bad)
+    bad = LayoutReport()
+    check_bop_files(ds.layout, scenes, {19}, bad)
     text = "\n".join(bad.problems)
     assert "000001.png is not a whole PNG" in text and "000002.png is 160x120, not 320x240" in text
     assert "obj_000019.ply is not a whole PLY model" in text and "cut off" in text

@@ -165,3 +165,28 @@ def test_issue60_bad_ground_truth_and_scenes_are_problems(tmp_path, capsys):
     gt_path.write_text(good)
     code, lines = _check(capsys, *base, "dataset.scenes=[99]")
     assert code == 2 and lines == [f"problem: dataset.scenes=[99] names none of the 1 scenes in {root / 'test'} (1)"]
+
+
+class _NewDataset:
+    """A dataset data_check.py does not name: its own ``check_layout`` is what is asked."""
+
+    def __init__(self, root: str) -> None:
+        self.root = Path(root)
+
+    def check_layout(self, name, report):
+        report.problem(f"{self.root}/scans is missing ({name})")
+
+
+class _NewGenerated:
+    generated = "made up on the spot (no root to check)"
+
+
+def test_a_new_dataset_checks_its_own_layout_without_data_check_naming_it(tmp_path):
+    from omegaconf import OmegaConf
+
+    from catpose.bench.run.data_check import check
+
+    node = OmegaConf.create({"name": "new", "_target_": f"{__name__}._NewDataset", "root": str(tmp_path)})
+    assert check("new", node).problems == [f"{tmp_path}/scans is missing (new)"]
+    report = check("gen", OmegaConf.create({"name": "gen", "_target_": f"{__name__}._NewGenerated"}))
+    assert report.problems == [] and report.facts == ["dataset=gen is made up on the spot (no root to check)"]

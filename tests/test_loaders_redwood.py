@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.datasets.redwood import Redwood, read_log_trajectory, write_log_trajectory
+from catpose.datasets.depthio import read_log_trajectory, write_log_trajectory
+from catpose.datasets.redwood import Redwood
 from catpose.datasets.render import PinholeCamera, render_depth
 from catpose.datasets.templates import TemplateOptions
 from catpose.errors import DatasetError

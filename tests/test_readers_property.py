@@ -409,7 +409,7 @@ def _png(width: int, height: int, bits16: bool) -> bytes:
 @SETTINGS
 @given(st.integers(1, 40), st.integers(1, 40), st.booleans(), st.integers(0, 200), st.binary(max_size=8))
 def test_png_headers_are_read_right_or_refused_in_one_line(tmp_path, width, height, bits16, cut, noise):
-    from catpose.bench.run.file_headers import png_problem, png_size
+    from catpose.datasets.file_headers import png_problem, png_size
 
     data = _png(width, height, bits16)
     path = tmp_path / "d.png"
@@ -430,7 +430,7 @@ def test_png_headers_are_read_right_or_refused_in_one_line(tmp_path, width, heig
 @SETTINGS
 @given(st.binary(max_size=200))
 def test_png_and_ply_readers_never_raise_on_arbitrary_bytes(tmp_path, data):
-    from catpose.bench.run.file_headers import ply_problem, png_problem
+    from catpose.datasets.file_headers import ply_problem, png_problem
 
     path = tmp_path / "x.bin"
     path.write_bytes(data)
@@ -448,7 +448,7 @@ def _ply(encoding: str) -> bytes:
 @SETTINGS
 @given(st.integers(0, 400), st.sampled_from(["binary", "ascii"]))
 def test_a_cut_off_ply_is_never_whole(tmp_path, cut, encoding):
-    from catpose.bench.run.file_headers import ply_problem
+    from catpose.datasets.file_headers import ply_problem
 
     path = tmp_path / "m.ply"
     data = _ply(encoding)

@@ -9,7 +9,7 @@
 
 Every refusal is one :class:`~catpose.errors.InvalidInputError` line naming the file, the line
 and the fix. How duplicates, unknown ids and missing targets are counted is
-:mod:`catpose.bench.interop.score`'s (docs/file-safety.md).
+:mod:`catpose.bench.interop.prediction_match`'s (docs/file-safety.md).
 """
 
 from __future__ import annotations
