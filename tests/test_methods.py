@@ -80,7 +80,7 @@ def test_labels_the_real_suite_and_the_api_read_the_registry():
     """A registered method is in the report's labels, ``bench suite``'s rows and the API's up search
     without any of those files naming it (``gicp`` was added as its module and its config only)."""
     from catpose.api.method_cache import uses_up
-    from catpose.bench.real.suite import METHODS
+    from catpose.bench.real.suite_sets import METHODS
     from catpose.bench.report.labels import display_name
 
     for name, spec in SPECS.items():

@@ -1,10 +1,11 @@
-"""Paper tables from run directories (files only: ``samples.jsonl``, ``config.yaml``, ``run.json``).
-Kept whole because pooling runs into rows, the layouts and the notes under a table are one table's making.
+"""Paper tables from run directories (files only: ``samples.jsonl``, ``config.yaml``, ``run.json``):
+the layouts and the notes under a table. Pooling runs into rows and the value of a cell are
+:mod:`catpose.bench.report.table_rows`'.
 
 A run directory is what the runner writes. Its per-sample rows are turned into scoring units by
 the run's own protocol (``score_units``: templates keep the best-scored template per view,
-``relative`` forms view pairs), summarized per category with :func:`catpose.bench.scoring.metrics.summarize`,
-and laid out like the paper's tables:
+``relative`` forms view pairs), summarized per category with :func:`catpose.bench.scoring.metrics.summarize`
+(:func:`catpose.bench.report.table_rows.collect`), and laid out like the paper's tables:
 
 ==============  ================================================================================
 layout          paper table
@@ -36,13 +37,21 @@ Usage: ``bench table outputs/modelnet40-gt_model --layout optimiser --format lat
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from catpose.bench.report.labels import parse_labels, pipeline_label, run_labels, template_count
 from catpose.bench.report.runs import Run, find_run_dirs, load_run, protocol_of, scored_units
 from catpose.bench.report.table_format import METRICS, Metric, Table, metric, prune, to_csv, to_latex, to_markdown
+from catpose.bench.report.table_rows import (
+    Entry,
+    cell_spread,
+    cell_value,
+    collect,
+    is_bop_run,
+    n_note,
+    pick_categories,
+)
 from catpose.errors import ConfigError
 
 # tables.load_run, tables.scored_units, tables.protocol_of, tables.to_markdown ... stay reachable here:
@@ -74,141 +83,6 @@ RENDERERS: dict[str, Callable[[Table], str]] = {"md": to_markdown, "latex": to_l
 
 # --------------------------------------------------------------------------------------------
 # Layouts
-
-
-@dataclass
-class Entry:
-    """The runs sharing one row label, pooled: per-category statistics, and the same per seed.
-
-    With one seed the cells are ``summary``'s; with several, each cell is the mean of the seeds'
-    values (``per_seed``) and the table shows their min and max beside it."""
-
-    group: str
-    label: str
-    summary: Any  # DataFrame from metrics.summarize, indexed by category
-    units: Any = None  # the pooled scoring units (DataFrame): statistics beyond the summary's (curves)
-    bop: Any = None  # the pooled per-target BOP errors (DataFrame) of runs on BOP-layout data, or None
-    runs: list = field(default_factory=list)  # the runs pooled here
-    per_seed: list = field(default_factory=list)  # one Entry per seed (when more than one)
-    seeds: list = field(default_factory=list)
-
-
-def _entry(group: str, label: str, units: list, bop: list, runs: list | None = None) -> Entry:
-    import pandas as pd
-
-    from catpose.bench.scoring.metrics import summarize
-
-    pooled = pd.concat(units, ignore_index=True)
-    errors = pd.concat(bop, ignore_index=True) if bop else None
-    return Entry(group, label, summarize(pooled).set_index("category"), pooled, errors, list(runs or []))
-
-
-def collect(
-    runs: Sequence[Run],
-    group_of: Callable[[Run], str],
-    labels: dict[str, str] | None = None,
-    error_of: Callable[[Run], str] = lambda r: "err_deg",
-    with_bop: bool = False,
-) -> list[Entry]:
-    """Pool the scoring units of runs with the same (group, label) and summarize per category;
-    the seeds of one configuration share a label (:func:`run_labels`), and each seed is also
-    summarized alone (``Entry.per_seed``) for the mean and spread across seeds.
-
-    ``labels`` maps a run directory (as given, or its name) to a user label; labels are made
-    unique within a group by :func:`run_labels`. ``error_of`` names the error column each run is
-    scored by (see :func:`scored_units`). ``with_bop``: also pool the runs' per-target BOP errors
-    (runs on BOP-layout data; :func:`catpose.bench.run.bop_ar.target_errors`).
-    """
-    from catpose.bench.report.tables_compare import seed_of
-    from catpose.bench.run.bop_ar import target_errors
-
-    parts: dict[tuple[str, str], dict[Any, tuple[list, list, list]]] = {}
-    for run, label in zip(runs, run_labels(runs, labels, group_of)):
-        units, bop, members = parts.setdefault((group_of(run), label), {}).setdefault(seed_of(run), ([], [], []))
-        units.append(scored_units(run, error_of(run)))
-        members.append(run)
-        errors = target_errors(run.path) if with_bop else None
-        if errors is not None and len(errors):
-            bop.append(errors)
-    entries = []
-    for (group, label), by_seed in parts.items():
-        entry = _entry(
-            group,
-            label,
-            [u for s in by_seed.values() for u in s[0]],
-            [b for s in by_seed.values() for b in s[1]],
-            [r for s in by_seed.values() for r in s[2]],
-        )
-        if len(by_seed) > 1:
-            entry.seeds = sorted(by_seed, key=str)
-            entry.per_seed = [_entry(group, label, *by_seed[s]) for s in entry.seeds]
-        entries.append(entry)
-    return entries
-
-
-def is_bop_run(run: Run) -> bool:
-    """Whether a run is on BOP-layout data (its table rows can show BOP's AR)."""
-    from catpose.bench.scoring.bop_rows import is_bop_layout
-
-    return is_bop_layout(run.config.get("dataset"))
-
-
-def _value(entry: Entry, category: str, key: str) -> float:
-    """A statistic of the entry's units of ``category`` (``all``: every unit): the mean of its
-    seeds' values when it pools several (:func:`_one_value` of each)."""
-    if entry.per_seed:
-        import numpy as np
-
-        values = [_one_value(e, category, key) for e in entry.per_seed]
-        return float(np.mean(values)) if all(np.isfinite(values)) else float("nan")
-    return _one_value(entry, category, key)
-
-
-def _spread(entry: Entry, category: str, key: str) -> tuple[float, float] | None:
-    """(min, max) of the statistic across the entry's seeds, None with one seed."""
-    if not entry.per_seed:
-        return None
-    values = [_one_value(e, category, key) for e in entry.per_seed]
-    return (min(values), max(values))
-
-
-def _one_value(entry: Entry, category: str, key: str) -> float:
-    """A summary statistic, or a threshold statistic (``acc5``, ``auc30``, ``5deg5cm``:
-    :mod:`catpose.bench.scoring.curves`) of the entry's units of ``category`` (``all``: every unit)."""
-    from catpose.bench.scoring.bop_rows import AR_KEYS
-
-    if key in AR_KEYS:
-        if entry.bop is None:
-            return float("nan")
-        from catpose.bench.scoring.bop_eval import metric_value
-
-        errors = entry.bop if category == "all" else entry.bop[entry.bop["category"].astype(str) == category]
-        return metric_value(errors, key) if len(errors) else float("nan")
-    if key not in METRICS:
-        from catpose.bench.scoring.curves import statistic
-
-        if category not in entry.summary.index or entry.units is None:
-            return float("nan")
-        units = entry.units if category == "all" else entry.units[entry.units["category"].astype(str) == category]
-        return statistic(units, key)
-    col = METRICS[key].column
-    if category not in entry.summary.index or col not in entry.summary.columns:
-        return float("nan")
-    return float(entry.summary.loc[category, col])
-
-
-def _categories(
-    entries: Sequence[Entry], wanted: Sequence[str] | None = None, defaults: Sequence[str] | None = None
-) -> list[str]:
-    """User-given categories as they are; else the layout's defaults that some run has; else
-    every category present (sorted)."""
-    if wanted:
-        return list(wanted)
-    seen: list[str] = []
-    for e in entries:
-        seen += [c for c in e.summary.index if c != "all" and c not in seen]
-    chosen = [c for c in defaults or [] if c in seen]
-    return chosen or sorted(seen)
 
 
 def with_thresholds(metrics: Sequence[str], keys: Sequence[str]) -> list[str]:
@@ -328,8 +202,8 @@ def lay_out(spec: Layout, entries: Sequence[Entry], cats: Sequence[str], metrics
             for m in metrics
         }
     for (i, c, m), cell in place.items():
-        t.cells[cell] = (_value(entries[i], c, m), m)
-        spread = _spread(entries[i], c, m)
+        t.cells[cell] = (cell_value(entries[i], c, m), m)
+        spread = cell_spread(entries[i], c, m)
         if spread is not None:
             t.spread[cell] = spread
     return t
@@ -391,7 +265,7 @@ def build_table(
     entries = collect(runs, group_of, labels, error_of, with_bop=any(m in AR_KEYS for m in metrics))
     # Paper order: pipelines from plain to ours, and within one, our method last.
     entries.sort(key=lambda e: (_group_order(e.group), e.group, e.label.startswith("Ours")))
-    cats = _categories(entries, categories, spec.categories) + (["all"] if spec.with_all and not categories else [])
+    cats = pick_categories(entries, categories, spec.categories) + (["all"] if spec.with_all and not categories else [])
     mixed = mixed_rows([(f"{e.group} / {e.label}".lstrip(" /"), e.runs) for e in entries], cats)
     if mixed and not allow_mixed:
         raise DatasetError(f"{mixed}; {FIX}")
@@ -399,7 +273,7 @@ def build_table(
     prune(table)
     if mixed:
         table.notes.append(f"Mixed (--allow-mixed): {mixed}; its rows do not compare.")
-    table.notes.append(_n_note(entries))
+    table.notes.append(n_note(entries))
     if any(e.per_seed for e in entries):
         table.notes.append("Cells pooling several seeds: the mean across seeds [their min, max].")
     shown = {c[-1] for c in table.columns} | {r[-1] for r in table.rows}
@@ -420,23 +294,6 @@ def build_table(
         names = [f"{group_of(r)} / {label}".lstrip(" /") for r, label in zip(runs, run_labels(runs, labels, group_of))]
         table.notes += [""] + stability_notes(runs, names, stability_roots, error_of)
     return table
-
-
-def _n_note(entries: Sequence[Entry]) -> str:
-    """Every row's scored units (per seed when it pools seeds) and seeds."""
-    from catpose.bench.report.tables_compare import seed_of
-
-    parts = []
-    for e in entries:
-        name = f"{e.group} / {e.label}".lstrip(" /")
-        if e.per_seed:
-            ns = sorted({len(p.units) for p in e.per_seed})
-            n = "/".join(map(str, ns))
-            parts.append(f"{name} {n} x {len(e.seeds)} seeds ({', '.join(map(str, e.seeds))})")
-        else:
-            seeds = sorted({str(seed_of(r)) for r in e.runs})
-            parts.append(f"{name} {len(e.units)} (seed {', '.join(seeds)})")
-    return "n (scored units): " + "; ".join(parts) + "."
 
 
 def split_by_protocol(runs: Sequence[Run]) -> dict[str, list[Run]]:

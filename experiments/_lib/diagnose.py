@@ -137,7 +137,8 @@ def diagnose(
     ours_overrides: list[str],
     save_dir: Path | None = None,
 ) -> None:
-    from catpose.bench.real.suite import METHODS, SETS, compose
+    from catpose.bench.real.suite import compose
+    from catpose.bench.real.suite_sets import METHODS, SETS
     from catpose.bench.run.build import build_parts
     from catpose.bench.run.config import shared_data_dir
     from catpose.bench.run.sample_run import seed_everything
@@ -270,7 +271,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--save-dir", type=Path, default=None, help="save inputs and candidate poses (npz)")
     args = parser.parse_args(argv)
     from catpose import logs
-    from catpose.bench.real.suite import SETS
+    from catpose.bench.real.suite_sets import SETS
     from catpose.errors import CatposeError
 
     logs.configure("", prefix="diagnose")  # its progress lines on stderr
