@@ -326,7 +326,7 @@ def test_unwritable_or_full_output_directory_aborts_without_recording(tmp_path, 
     """Tests run as root here, so a read-only folder cannot be made with chmod: the OSError is
     injected where the runner writes a sample (as a full disk would raise it)."""
 
-    out = run(toy_cfg(tmp_path, ["limit=1"]))
+    out = rundir.run_dir_for(toy_cfg(tmp_path))
     real = rundir.SampleWriter.write
 
     def write(self, row):
@@ -381,7 +381,7 @@ def _hold_lock(run_dir: Path, pid: str) -> int:
 
 
 def test_a_held_run_directory_fails_in_one_line_naming_the_holder(tmp_path):
-    out = run(toy_cfg(tmp_path, ["limit=1"]))
+    out = run(toy_cfg(tmp_path))
     fd = _hold_lock(out, "4242")
     try:
         for timeout in (0, 0.3):
@@ -391,11 +391,11 @@ def test_a_held_run_directory_fails_in_one_line_naming_the_holder(tmp_path):
             assert "in use by pid 4242" in msg and str(out) in msg
     finally:
         os.close(fd)
-    assert len(read_rows(out / "samples.jsonl")) == 1  # the refused runs did nothing
+    assert len(read_rows(out / "samples.jsonl")) == 3  # the refused runs did nothing (no row twice)
 
 
 def test_a_second_run_waits_then_skips_what_the_first_did(tmp_path, capsys, caplog):
-    out = run(toy_cfg(tmp_path, ["limit=1"]))
+    out = run(toy_cfg(tmp_path))
     (out / "samples.jsonl").unlink()
     fd = _hold_lock(out, "4242")
 
