@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+import importlib
+import inspect
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -56,6 +59,30 @@ class Observation:
 class OptionGroup:
     """Base of the option dataclasses a dataset's constructor takes as one argument and whose fields
     a config gives as flat keys of its group (:mod:`catpose.datasets.views`)."""
+
+
+def option_groups(target_name: str) -> tuple[dict[str, inspect.Parameter], dict[str, Any]]:
+    """A ``_target_``'s constructor parameters and its option groups: the parameters whose default is
+    a :class:`catpose.datasets.dataset.OptionGroup` (name -> that default), whose fields a config gives
+    as flat keys of the group. Raises ImportError, AttributeError, ValueError or TypeError when the
+    target cannot be read."""
+    module_name, _, attr = target_name.rpartition(".")
+    params = dict(inspect.signature(getattr(importlib.import_module(module_name), attr)).parameters)
+    return params, {k: p.default for k, p in params.items() if isinstance(p.default, OptionGroup)}
+
+
+def gather_option_groups(d: dict) -> tuple[dict, dict]:
+    """``d`` without the flat keys of its target's option groups, and the groups built from them
+    over the constructor's defaults (parameter -> group object)."""
+    try:
+        groups = option_groups(str(d["_target_"]))[1]
+    except (ImportError, AttributeError, ValueError, TypeError):
+        return d, {}
+    rest = dict(d)
+    for key, default in groups.items():
+        given = {f.name: rest.pop(f.name) for f in dataclasses.fields(default) if f.name in rest}
+        groups[key] = dataclasses.replace(default, **given)
+    return rest, groups
 
 
 class ObjectDataset(ABC):

@@ -18,6 +18,7 @@ import re
 from typing import Any
 
 from catpose import extras, kernel_threads
+from catpose.datasets.dataset import gather_option_groups, option_groups
 from catpose.errors import CatposeError, ConfigError, one_line
 
 
@@ -244,41 +245,15 @@ def _accepts(kinds: set[str], value: Any) -> bool:
     return False
 
 
-def _option_groups(target_name: str) -> tuple[dict[str, inspect.Parameter], dict[str, Any]]:
-    """A ``_target_``'s constructor parameters and its option groups: the parameters whose default is
-    a :class:`catpose.datasets.dataset.OptionGroup` (name -> that default), whose fields a config gives
-    as flat keys of the group. Raises ImportError, AttributeError, ValueError or TypeError when the
-    target cannot be read."""
-    from catpose.datasets.dataset import OptionGroup
-
-    module_name, _, attr = target_name.rpartition(".")
-    params = dict(inspect.signature(getattr(importlib.import_module(module_name), attr)).parameters)
-    return params, {k: p.default for k, p in params.items() if isinstance(p.default, OptionGroup)}
-
-
 def _target_parameters(target_name: str) -> dict[str, inspect.Parameter]:
     """The options of a ``_target_``: its constructor's parameters, each option group replaced by
-    its fields (:func:`_option_groups`)."""
-    params, groups = _option_groups(target_name)
+    its fields (:func:`catpose.datasets.dataset.option_groups`)."""
+    params, groups = option_groups(target_name)
     for key, default in groups.items():
         del params[key]
         for f in dataclasses.fields(default):
             params[f.name] = inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, annotation=f.type)
     return params
-
-
-def gather_option_groups(d: dict) -> tuple[dict, dict]:
-    """``d`` without the flat keys of its target's option groups, and the groups built from them
-    over the constructor's defaults (parameter -> group object)."""
-    try:
-        groups = _option_groups(str(d["_target_"]))[1]
-    except (ImportError, AttributeError, ValueError, TypeError):
-        return d, {}
-    rest = dict(d)
-    for key, default in groups.items():
-        given = {f.name: rest.pop(f.name) for f in dataclasses.fields(default) if f.name in rest}
-        groups[key] = dataclasses.replace(default, **given)
-    return rest, groups
 
 
 def check_constructor_args(d: dict, what: str, name: str) -> None:

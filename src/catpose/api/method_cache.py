@@ -107,8 +107,12 @@ def _instantiate(node: Any) -> Any:
     args = {k: _instantiate(v) for k, v in node.items() if k != "_target_"}
     if "_target_" not in node:
         return args
+    from catpose.datasets.dataset import gather_option_groups
+
     module, _, attr = str(node["_target_"]).rpartition(".")
-    return getattr(importlib.import_module(module), attr)(**args)
+    args, groups = gather_option_groups({**args, "_target_": node["_target_"]})  # a dataset's flat keys
+    args.pop("_target_")
+    return getattr(importlib.import_module(module), attr)(**args, **groups)
 
 
 def build_config(group: str, name: str, options: Mapping[str, Any], **run: Any) -> Any:
