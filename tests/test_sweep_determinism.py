@@ -47,8 +47,8 @@ def test_the_template_caches_key_on_content_not_on_the_id():
 def test_the_resting_hypotheses_carry_this_templates_points():
     """The turned templates of the resting hypotheses are cut from this template's points, even
     when another template of the same mesh (another seed's sample of it) was seen first."""
-    from catpose.methods.ours.settings import RestingSettings
     from catpose.methods.ours.resting import hypotheses
+    from catpose.methods.ours.settings import RestingSettings
 
     box = np.array([[x, y, z] for x in (-1, 1) for y in (-0.5, 0.5) for z in (-0.2, 0.2)], float)
     faces = np.array(
