@@ -312,6 +312,19 @@ def test_case_22_28_symlink_loops_and_files_given_as_runs(tmp_path, capsys):
     assert f"{preds} is a file; pass a run directory" in one_error_line(capsys, "merge")
 
 
+def test_case_22_28_loops_and_folder_samples_given_to_report_table_merge_evaluate(tmp_path, capsys):
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    for args in (["report", "--out", str(tmp_path / "r")], ["table"], ["merge"], ["evaluate"]):
+        assert bench([args[0], str(tmp_path / "a"), *args[1:]]) == 2
+        assert f"{tmp_path / 'a'} is a loop of symbolic links" in one_error_line(capsys, args[0])
+    (tmp_path / "run" / "samples.jsonl").mkdir(parents=True)
+    for args in (["report", "--out", str(tmp_path / "r")], ["table"], ["evaluate"]):
+        assert bench([args[0], str(tmp_path / "run"), *args[1:]]) == 2
+        assert "samples.jsonl is a folder, not a file" in one_error_line(capsys, args[0])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a", "b", "run"]
+
+
 def test_case_28_37_mesh_paths_and_nan_vertices(tmp_path):
     from catpose.datasets.meshio import read_mesh
     from catpose.errors import DatasetError
