@@ -212,6 +212,7 @@ def test_case_15_hand_edited_runs_are_named(tmp_path, capsys):
     for field, value, said in (
         ("status", "banana", "status 'banana' is neither 'ok' nor 'failed'"),
         ("sample_id", " ", "its sample_id is empty"),
+        ("T_gt", None, "status 'ok' but T_gt null"),
     ):
         run = write_run(tmp_path / field, rows([5.0, 10.0]), CFG)
         lines = (run / "samples.jsonl").read_text().splitlines()
