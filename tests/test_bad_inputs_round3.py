@@ -206,6 +206,16 @@ def test_case_14_26_invalid_settings_are_one_line(tmp_path, capsys, override, sa
     assert not list(tmp_path.rglob("samples.jsonl"))
 
 
+def test_a_mapping_given_to_a_group_of_keys_is_one_line(tmp_path, capsys):
+    from catpose.bench.run.config import compose
+
+    args = ["run", "method=icp", "dataset=modelnet40", f"output_root={tmp_path}", "dataset.symmetric={can:[0,0,1]}"]
+    assert bench(args) == 2
+    assert "dataset.symmetric has no keys; a new key in it needs ++" in one_error_line(capsys, "run")
+    cfg = compose(["dataset=modelnet40", "++dataset.symmetric={can:[0,0,1]}"])  # as the line says
+    assert list(cfg.dataset.symmetric.can) == [0, 0, 1]
+
+
 def test_case_15_hand_edited_runs_are_named(tmp_path, capsys):
     import json
 
