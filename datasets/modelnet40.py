@@ -1,6 +1,6 @@
 """ModelNet40 meshes in the official layout, with rendered partial views.
 
-Layout: ``<root>/<category>/<split>/<category>_<id>.off`` (Princeton ModelNet40, or the
+Layout: ``<root>/<category>/<split>/<category>_<id>.off`` (``.OFF`` too; Princeton ModelNet40, or the
 aligned release of Sedaghat et al., which has the same layout: set ``aligned: true``). OFF files
 with ``OFF`` and the counts on one line are read (:func:`catpose.datasets.meshio.read_off`).
 
@@ -138,6 +138,11 @@ class ModelNetBase(ObjectDataset):
         return category, instance_id, view
 
 
+def _off_files(folder: Path) -> dict[str, Path]:
+    """A folder's OFF meshes by stem, their suffix in any case (some copies write ``.OFF``)."""
+    return {p.stem: p for p in sorted(folder.iterdir()) if p.suffix.lower() == ".off"} if folder.is_dir() else {}
+
+
 class ModelNet40(ModelNetBase):
     """ModelNet40 OFF meshes and partial views rendered from them.
 
@@ -190,10 +195,7 @@ class ModelNet40(ModelNetBase):
     # ------------------------------------------------------------------ index
     def instance_ids(self, category: str, split: str | None = None) -> list[str]:
         """Instance ids (file stems, e.g. ``airplane_0001``) of a category's split, sorted."""
-        folder = self.root / category / (split or self.split)
-        if not folder.is_dir():
-            return []
-        ids = sorted(p.stem for p in folder.glob("*.off"))
+        ids = sorted(_off_files(self.root / category / (split or self.split)))
         n = self.instances_per_category
         return ids[:n] if n and (split or self.split) == self.split else ids
 
@@ -231,7 +233,7 @@ class ModelNet40(ModelNetBase):
         if report.problems:
             return
         category, ids = next((c, ids) for c, ids in present.items() if ids)
-        path = self.root / category / self.split / f"{ids[0]}.off"
+        path = _off_files(self.root / category / self.split)[ids[0]]
         try:
             if solid_hull(read_off(path)[0]) is None:
                 report.problem(
@@ -245,9 +247,11 @@ class ModelNet40(ModelNetBase):
     # ------------------------------------------------------------------ shapes
     def _find(self, category: str, instance_id: str) -> tuple[Path, str]:
         for split in (self.split, self.template_split, "train", "test"):
-            path = self.root / category / split / f"{instance_id}.off"
-            if path.is_file():
-                return path, split
+            folder = self.root / category / split
+            path = folder / f"{instance_id}.off"
+            found = path if path.is_file() else _off_files(folder).get(instance_id)  # .OFF: from the listing
+            if found is not None:
+                return found, split
         raise DatasetError(
             f"no ModelNet40 file for {category}/{instance_id} under {self.root}/{category}/"
             f"{{train,test}}; check the instance id"

@@ -206,12 +206,23 @@ def test_case_14_26_invalid_settings_are_one_line(tmp_path, capsys, override, sa
     assert not list(tmp_path.rglob("samples.jsonl"))
 
 
+def test_a_mapping_given_to_a_group_of_keys_is_one_line(tmp_path, capsys):
+    from catpose.bench.run.config import compose
+
+    args = ["run", "method=icp", "dataset=modelnet40", f"output_root={tmp_path}", "dataset.symmetric={can:[0,0,1]}"]
+    assert bench(args) == 2
+    assert "dataset.symmetric has no keys; a new key in it needs ++" in one_error_line(capsys, "run")
+    cfg = compose(["dataset=modelnet40", "++dataset.symmetric={can:[0,0,1]}"])  # as the line says
+    assert list(cfg.dataset.symmetric.can) == [0, 0, 1]
+
+
 def test_case_15_hand_edited_runs_are_named(tmp_path, capsys):
     import json
 
     for field, value, said in (
         ("status", "banana", "status 'banana' is neither 'ok' nor 'failed'"),
         ("sample_id", " ", "its sample_id is empty"),
+        ("T_gt", None, "status 'ok' but T_gt null"),
     ):
         run = write_run(tmp_path / field, rows([5.0, 10.0]), CFG)
         lines = (run / "samples.jsonl").read_text().splitlines()
@@ -310,6 +321,19 @@ def test_case_22_28_symlink_loops_and_files_given_as_runs(tmp_path, capsys):
     assert f"{preds} is a file; pass run directories" in one_error_line(capsys, "report")
     assert bench(["merge", str(preds)]) == 2
     assert f"{preds} is a file; pass a run directory" in one_error_line(capsys, "merge")
+
+
+def test_case_22_28_loops_and_folder_samples_given_to_report_table_merge_evaluate(tmp_path, capsys):
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    for args in (["report", "--out", str(tmp_path / "r")], ["table"], ["merge"], ["evaluate"]):
+        assert bench([args[0], str(tmp_path / "a"), *args[1:]]) == 2
+        assert f"{tmp_path / 'a'} is a loop of symbolic links" in one_error_line(capsys, args[0])
+    (tmp_path / "run" / "samples.jsonl").mkdir(parents=True)
+    for args in (["report", "--out", str(tmp_path / "r")], ["table"], ["evaluate"]):
+        assert bench([args[0], str(tmp_path / "run"), *args[1:]]) == 2
+        assert "samples.jsonl is a folder, not a file" in one_error_line(capsys, args[0])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a", "b", "run"]
 
 
 def test_case_28_37_mesh_paths_and_nan_vertices(tmp_path):

@@ -110,6 +110,15 @@ def test_templates_from_training_instances_and_instance_model(modelnet_root):
         ds.instance_model("box", "box_9999")
 
 
+def test_uppercase_off_files_are_listed_and_read(modelnet_root):
+    (modelnet_root / "box/train/box_0002.off").rename(modelnet_root / "box/train/box_0002.OFF")
+    ds = ModelNet40(str(modelnet_root), split="train", views_per_instance=1, **small())
+    assert ds.observation_ids() == ["box/box_0001/v00", "box/box_0002/v00"]
+    big, small_box = ds.instance_model("box", "box_0002"), ds.instance_model("box", "box_0001")
+    np.testing.assert_allclose(big.vertices, small_box.vertices)  # twice the size: the same normalised mesh
+    assert len(ds.observation("box/box_0002/v00").points_camera) > 0
+
+
 def test_a_malformed_off_fails_that_observation_only(modelnet_root):
     (modelnet_root / "box/train/box_0003.off").write_text("OFF\n8 12 0\n1 2 3\n")
     ds = ModelNet40(str(modelnet_root), split="train", views_per_instance=1, **small())

@@ -96,8 +96,9 @@ def load_run(path: str | Path) -> Run:
     path = Path(path)
     samples_path = path / "samples.jsonl"
     if not samples_path.is_file():
+        what = "is a folder, not a file" if samples_path.is_dir() else "is missing"
         raise DatasetError(
-            f"{path} is not a run directory: {samples_path.name} is missing; pass a folder written by `bench run`"
+            f"{path} is not a run directory: {samples_path.name} {what}; pass a folder written by `bench run`"
         )
     config = read_config(path)
     info = read_run_json(path)
@@ -172,6 +173,7 @@ def find_run_dirs(paths: Sequence[str | Path], merge_failures: list[str] | None 
     Sharded runs are merged first; a merge that fails raises, or, with a ``merge_failures`` list,
     is appended to it as one line and the run is left out."""
     from catpose.bench.run.merge import ensure_merged, is_sharded
+    from catpose.bench.run.overwrite import absolute_path
     from catpose.errors import CatposeError
 
     out: list[Path] = []
@@ -195,6 +197,7 @@ def find_run_dirs(paths: Sequence[str | Path], merge_failures: list[str] | None 
                 raise DatasetError(f"no samples.jsonl below {p}; pass run directories written by `bench run`")
             out.extend(found)
         else:
+            absolute_path(p)  # a loop of symbolic links: said as such
             raise DatasetError(
                 f"{p} {'is a file' if p.exists() else 'does not exist'}; pass run directories written by `bench run`"
             )

@@ -217,6 +217,9 @@ def unknown_key_message(overrides: Sequence[str], key: str, hint: str = HINT) ->
         node, depth = node[parts[depth]], depth + 1
     if not isinstance(node, DictConfig):  # a value, not a node: nothing below it
         return f"{head}: {'.'.join(parts[:depth])} is a value, not a group of keys ({hint})"
+    if depth == len(parts):  # the key is a group of keys, and the mapping given names keys it lacks
+        keys = ", ".join(sorted(str(k) for k in node.keys())) or "no keys"
+        return f"{typed}: {key} has {keys}; a new key in it needs ++ (`++{key}={value}` merges the mapping in)"
     rest = ".".join(parts[depth + 1 :])
     guess = did_you_mean(
         parts[depth],

@@ -127,21 +127,21 @@ def evaluate_dir(run_dir: Path):
     import warnings
 
     from catpose.bench.run.merge import ensure_merged, is_sharded
-    from catpose.bench.run.overwrite import output_errors
+    from catpose.bench.run.overwrite import absolute_path, output_errors
     from catpose.bench.run.run_meta import incomplete_reason, read_config, read_run_json
     from catpose.errors import DatasetError
 
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
+        absolute_path(run_dir)  # a loop of symbolic links: said as such
         raise DatasetError(
             f"{run_dir} is not a run directory (it does not exist); pass a folder written by `bench run`"
         )
     if is_sharded(run_dir):
         ensure_merged(run_dir)  # a missing shard: "shard 1 of 2 has not run; run it with shards=2 shard=1"
     if not (run_dir / SAMPLES_FILE).is_file():
-        raise DatasetError(
-            f"{run_dir} is not a run directory (no {SAMPLES_FILE}); pass a folder written by `bench run`"
-        )
+        what = f"{SAMPLES_FILE} is a folder, not a file" if (run_dir / SAMPLES_FILE).is_dir() else f"no {SAMPLES_FILE}"
+        raise DatasetError(f"{run_dir} is not a run directory ({what}); pass a folder written by `bench run`")
     info = read_run_json(run_dir)  # an unreadable run.json or config.yaml: one line naming the run
     read_config(run_dir, required=True)
     rows = latest_rows(run_dir / SAMPLES_FILE)

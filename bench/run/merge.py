@@ -239,10 +239,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     from catpose.bench.run.evaluate import format_summary
+    from catpose.bench.run.overwrite import absolute_path
 
     dirs: list[Path] = []
     for d in args.run_dirs:
         if not d.is_dir():
+            absolute_path(d)  # a loop of symbolic links: said as such
             raise DatasetError(
                 f"{d} {'is a file' if d.exists() else 'does not exist'}; pass a run directory written by "
                 "`bench run ... shards=N shard=I`"

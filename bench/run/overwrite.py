@@ -80,8 +80,9 @@ def input_runs(paths: Sequence[str | Path], what: str = "the input run") -> list
     return found + given
 
 
-def _abs(path: str | Path) -> Path:
-    """``path`` absolute, ``..`` and symbolic links resolved where they exist (a loop: one line)."""
+def absolute_path(path: str | Path) -> Path:
+    """``path`` absolute, ``..`` and symbolic links resolved where they exist; a loop of symbolic
+    links raises :class:`InvalidInputError` saying so (every command's check of one)."""
     try:
         return Path(os.path.abspath(Path(path).expanduser())).resolve()
     except (RuntimeError, OSError):  # Python < 3.13 raises RuntimeError on a loop
@@ -128,10 +129,10 @@ def check_not_input(out: str | Path, inputs: Sequence[Input] = (), flag: str = "
     (a folder only searched for runs may hold it); returns it as an absolute path."""
     if str(out).strip() == "":
         raise InvalidInputError(f"{flag} is empty; pass the file or folder to write")
-    target = _abs(out)
+    target = absolute_path(out)
     shown = f"{flag} {out}"
     for path, what, searched in (Input(*i) for i in inputs):
-        inp = _abs(path)
+        inp = absolute_path(path)
         if inp == target:
             raise InvalidInputError(
                 f"{shown} is {what} itself; pass another {flag} (an input is never overwritten, not even with --force)"
@@ -181,7 +182,7 @@ def check_output(
             f"{shown} lies inside the run directory {run}; pass an {flag} outside it "
             "(no command writes into a run it did not create)"
         )
-    cwd = _abs(Path.cwd())
+    cwd = absolute_path(Path.cwd())
     if kind == "folder" and cwd.is_relative_to(target):
         raise InvalidInputError(
             f"{shown} is the current folder or holds it; pass a new folder for the {flag} (replacing it would "
@@ -213,7 +214,7 @@ def _check_existing(
                 f"pass another {flag}"
             )
         table = _sheet_of_verified(target)
-        if table is not None and (allow is None or _abs(allow) != target):
+        if table is not None and (allow is None or absolute_path(allow) != target):
             raise InvalidInputError(
                 f"{shown} is the contact sheet of {table}, which has {verified_rows(table)} row(s) marked "
                 f"verified; pass another {flag} (a verified table's picture is never overwritten)"
@@ -289,7 +290,7 @@ class Output:
             with atomic.claiming(*([self.path] if self.new else [])):
                 yield self.path
         except atomic.Claimed as e:
-            if _abs(e.filename) != self.path:  # another Output's target, in a block nested in this one
+            if absolute_path(e.filename) != self.path:  # another Output's target, in a block nested in this one
                 raise
             raise InvalidInputError(
                 f"{self.flag} {self.out} was written by another command while this one ran; it is kept: "

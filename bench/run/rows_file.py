@@ -47,6 +47,9 @@ def _row(text: str, path: Path, line: int) -> dict:
         why = _numbers_problem(row.get(key), n)
         if why:
             raise _damaged(path, line, f"{key} {why}")
+    nulls = [k for k in ("T_est", "T_gt") if k in row and row[k] is None]
+    if row.get("status") == "ok" and nulls:  # a run writes both poses on every ok row
+        raise _damaged(path, line, f"status 'ok' but {' and '.join(nulls)} null (an ok row holds both poses)")
     return row
 
 
