@@ -147,6 +147,34 @@ def test_a_cell_is_the_mean_over_seeds_with_their_spread():
     assert "the mean over seeds 0, 1, 2" in table
 
 
+def _planted(deg: float, about: str = "x", axis=None, status: str = "ok") -> dict:
+    """A ``samples.jsonl`` row whose estimate is turned ``deg`` degrees about ``about``."""
+    from scipy.spatial.transform import Rotation
+
+    T = [[*r, 0.0] for r in Rotation.from_euler(about, deg, degrees=True).as_matrix().tolist()] + [[0, 0, 0, 1.0]]
+    return dict(status=status, T_est=[v for r in T for v in r], symmetry_axis=axis, symmetries=None)
+
+
+def test_seed_agreement_counts_samples_whose_estimates_lie_within_10_deg_under_every_seed():
+    up = [0.0, 0.0, 1.0]
+    per_seed = [  # four samples under three seeds
+        {"same": _planted(0), "apart": _planted(0), "spin": _planted(0, "z", up), "flip": _planted(0, "x", up)},
+        {"same": _planted(4), "apart": _planted(9), "spin": _planted(120, "z", up), "flip": _planted(178, "x", up)},
+        {"same": _planted(8), "apart": _planted(18), "spin": _planted(240, "z", up), "flip": _planted(0, "x", up)},
+    ]
+    estimates = [{i: st.estimate(r) for i, r in seed.items()} for seed in per_seed]
+    # same: pairwise <= 8 deg; apart: 0 and 18 are 18 deg apart though each is within 10 of 9; spin: a
+    # turn about a symmetric object's main axis moves no axis; flip: that axis turned over under one seed
+    assert st.seed_agreement(estimates) == pytest.approx(2 / 4)
+    estimates[1]["same"] = st.estimate(_planted(4, status="failed"))  # a failed answer never agrees
+    assert st.seed_agreement(estimates) == pytest.approx(1 / 4)
+    del estimates[2]["spin"]  # only the samples every seed answered are counted
+    assert st.seed_agreement(estimates) == 0.0
+    cell = st.pool_seeds([dict(ROW, samples=frozenset(), estimates=e) for e in estimates])
+    table = st.format_table({("tyol", "ours"): cell}, ["tyol"], ["ours"], {}, [st.seeds_note((0, 1, 2))])
+    assert "n=2 x 3 seeds, agree 0.00 |" in table and "agree: the fraction of samples" in table
+
+
 def test_a_column_of_different_samples_is_refused_unless_allowed(tmp_path, monkeypatch, capsys):
     from catpose.bench.cli import main
 

@@ -128,7 +128,7 @@ def run_suite(
     (default :data:`SETS`, the real suite)."""
     from catpose.bench.real.split import load_split
     from catpose.bench.real.suite_parts import part_label, part_rows
-    from catpose.bench.real.suite_table import pool_seeds
+    from catpose.bench.real.suite_table import estimate, pool_seeds
     from catpose.bench.run.bop_ar import target_errors
     from catpose.bench.run.rundir import SAMPLES_FILE, latest_rows, run_dir_for
     from catpose.bench.run.runner import run
@@ -164,12 +164,16 @@ def run_suite(
                 # BOP's AR: estimates of the view's own model (None unless the set is in the BOP layout);
                 # not of another instance's template, nor of a relative pose
                 errors = target_errors(run_dir) if catalogue[s].protocol == "gt_model" else None
-                ids = [r["sample_id"] for r in latest_rows(run_dir / SAMPLES_FILE)]
+                answers = {r["sample_id"]: estimate(r) for r in latest_rows(run_dir / SAMPLES_FILE)}
 
-                def row(d: Path, chosen: list[str] | None, errors=errors, seed=seed) -> dict:
+                def row(d: Path, chosen: list[str] | None, errors=errors, seed=seed, answers=answers) -> dict:
                     summary = summary_row(d, chosen)  # {}: nothing scored (a relative run without a pair)
-                    samples = frozenset((seed, i) for i in (ids if chosen is None else chosen))
-                    return summary and dict(with_ar(summary, errors, chosen), run_dir=str(d), samples=samples)
+                    ids = list(answers) if chosen is None else chosen
+                    samples = frozenset((seed, i) for i in ids)
+                    estimates = {i: answers.get(i) for i in ids}  # for the seeds' agreement
+                    return summary and dict(
+                        with_ar(summary, errors, chosen), run_dir=str(d), samples=samples, estimates=estimates
+                    )
 
                 if whole := row(run_dir, None):
                     per_seed.setdefault((s, m), []).append(whole)
