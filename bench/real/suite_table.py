@@ -65,9 +65,7 @@ def seed_agreement(per_seed: list[dict[str, tuple | None]]) -> float:
         answers = [e[sample_id] for e in per_seed]
         if any(a is None for a in answers):
             return False
-        return all(
-            sample_errors(a[0], b[0], a[1], a[2])["err_deg"] <= AGREE_DEG for a, b in combinations(answers, 2)
-        )
+        return all(sample_errors(a[0], b[0], a[1], a[2])["err_deg"] <= AGREE_DEG for a, b in combinations(answers, 2))
 
     return sum(agree(i) for i in common) / len(common)
 
