@@ -147,12 +147,17 @@ def test_a_cell_is_the_mean_over_seeds_with_their_spread():
     assert "the mean over seeds 0, 1, 2" in table
 
 
-def _planted(deg: float, about: str = "x", axis=None, status: str = "ok") -> dict:
-    """A ``samples.jsonl`` row whose estimate is turned ``deg`` degrees about ``about``."""
+def _planted(deg: float, about: str = "x", axis=None, status: str = "ok", truth_deg: float = 0.0) -> dict:
+    """A ``samples.jsonl`` row whose truth is turned ``truth_deg`` degrees about y and its estimate
+    ``deg`` degrees about ``about`` from there."""
     from scipy.spatial.transform import Rotation
 
-    T = [[*r, 0.0] for r in Rotation.from_euler(about, deg, degrees=True).as_matrix().tolist()] + [[0, 0, 0, 1.0]]
-    return dict(status=status, T_est=[v for r in T for v in r], symmetry_axis=axis, symmetries=None)
+    def T(R) -> list[float]:
+        return [v for r in R.as_matrix().tolist() for v in [*r, 0.0]] + [0.0, 0.0, 0.0, 1.0]
+
+    truth = Rotation.from_euler("y", truth_deg, degrees=True)
+    estimate = Rotation.from_euler(about, deg, degrees=True) * truth
+    return dict(status=status, T_est=T(estimate), T_gt=T(truth), symmetry_axis=axis, symmetries=None)
 
 
 def test_seed_agreement_counts_samples_whose_estimates_lie_within_10_deg_under_every_seed():
@@ -170,6 +175,9 @@ def test_seed_agreement_counts_samples_whose_estimates_lie_within_10_deg_under_e
     assert st.seed_agreement(estimates) == pytest.approx(1 / 4)
     del estimates[2]["spin"]  # only the samples every seed answered are counted
     assert st.seed_agreement(estimates) == 0.0
+    # seeds that draw another view of a sample: the same error from each view's truth agrees
+    views = [{"v": st.estimate(_planted(90, "x", truth_deg=t))} for t in (0.0, 40.0, 80.0)]
+    assert st.seed_agreement(views) == 1.0
     cell = st.pool_seeds([dict(ROW, samples=frozenset(), estimates=e) for e in estimates])
     table = st.format_table({("tyol", "ours"): cell}, ["tyol"], ["ours"], {}, [st.seeds_note((0, 1, 2))])
     assert "n=2 x 3 seeds, agree 0.00 |" in table and "agree: the fraction of samples" in table

@@ -32,15 +32,24 @@ AGREE_DEG = 10.0
 
 
 def estimate(row: dict) -> tuple | None:
-    """What :func:`seed_agreement` compares of a ``samples.jsonl`` row: ``(T_est (4, 4), symmetry
-    axis or None, discrete symmetries)``, None for a sample without an estimate (failed)."""
+    """What :func:`seed_agreement` compares of a ``samples.jsonl`` row: ``(T_est T_gt^-1 (4, 4),
+    symmetry axis or None, discrete symmetries)``, None for a sample without an estimate (failed).
+    The estimate is taken relative to the truth (the identity when right), so that seeds which draw
+    another view of a sample (ModelNet40's, the synthetic sets') compare the same way as frames
+    whose truth is fixed, where it is the angle between the estimates themselves."""
     import numpy as np
 
-    T_est, axis, symmetries = row.get("T_est"), row.get("symmetry_axis"), row.get("symmetries")
+    from catpose.geometry import compose_T, invert_T
+
+    T_est, T_gt = row.get("T_est"), row.get("T_gt")
+    axis, symmetries = row.get("symmetry_axis"), row.get("symmetries")
     if row.get("status") != "ok" or not isinstance(T_est, (list, np.ndarray)):
         return None
+    T_est = np.reshape(np.asarray(T_est, float), (4, 4))
+    if isinstance(T_gt, (list, np.ndarray)):
+        T_est = compose_T(T_est, invert_T(np.reshape(np.asarray(T_gt, float), (4, 4))))
     return (
-        np.reshape(np.asarray(T_est, float), (4, 4)),
+        T_est,
         np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
         symmetries if isinstance(symmetries, (list, tuple)) else (),
     )
@@ -48,7 +57,7 @@ def estimate(row: dict) -> tuple | None:
 
 def seed_agreement(per_seed: list[dict[str, tuple | None]]) -> float:
     """The fraction of the samples every seed answered (``{sample_id: estimate(row)}`` per seed)
-    whose estimates lie pairwise within :data:`AGREE_DEG`, by the scorer's angle
+    whose estimates (relative to the truth) lie pairwise within :data:`AGREE_DEG`, by the scorer's angle
     (:func:`~catpose.bench.scoring.metrics.sample_errors` of one estimate against the other: the
     rotation's geodesic angle, the angle between the estimated main axes of a symmetric object,
     the closest of its discrete symmetries); a sample failed under some seed does not agree. NaN
