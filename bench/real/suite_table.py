@@ -56,7 +56,7 @@ def estimate(row: dict) -> tuple | None:
 
 
 def seed_agreement(per_seed: list[dict[str, tuple | None]]) -> float:
-    """The fraction of the samples every seed answered (``{sample_id: estimate(row)}`` per seed)
+    """The fraction of the samples every seed answered (``{view: estimate(unit)}`` per seed, the unit scored)
     whose estimates (relative to the truth) lie pairwise within :data:`AGREE_DEG`, by the scorer's angle
     (:func:`~catpose.bench.scoring.metrics.sample_errors` of one estimate against the other: the
     rotation's geodesic angle, the angle between the estimated main axes of a symmetric object,
