@@ -21,7 +21,7 @@
 #   clutter    every method on the report scenes of the cluttered synthetic set of the real YCB-V
 #              meshes, and ours before / after with ICP on the dev scenes that chose ours' defaults
 #              (experiments/real_defaults/make_clutter.sh: results/clutter/). ~1 h.
-#   real       ours, ICP and FGR under seeds 0-2 on the shared real data, YCB-V also with category templates
+#   real       ours, ICP, FGR and PPF under seeds 0-2 on the shared real data, YCB-V also with category templates
 #              and as relative pairs (results/real/headline.md, the README's); every method, seed 0
 #              (bench suite real: results/real/table.md, a column
 #              per YCB-V scene as configs/split/ycbv.yaml names them, per-object tables in
@@ -163,9 +163,10 @@ real() {
   mkdir -p "$RESULTS/real"
   # the README's real table (results/real/headline.md): the whole sets under seeds 0, 1, 2 (a cell: their
   # mean [min-max]), YCB-V also with category templates and as relative pairs (the paper's protocols),
-  # the methods cheap enough for three seeds of every protocol (~15 CPU-min)
+  # the methods cheap enough for three seeds of every protocol, PPF (OpenCV's) beside them, and how often
+  # each cell's answers agree across the seeds (~30 CPU-min)
   nice "$B" suite real --force --output-root "$R" --sets ycbv,ycbv_templates,ycbv_relative,tyol,modelnet40_resampled \
-    --methods ours,icp,fgr --headline "$RESULTS/real/headline.md"
+    --methods ours,icp,fgr,ppf --headline "$RESULTS/real/headline.md"
   # every method, seed 0, a column per YCB-V scene (results/real/table.md) and per object (objects.md)
   nice "$B" suite real --force --output-root "$R" --sets ycbv,tyol,modelnet40_resampled,redwood --seeds 0 \
     --write "$RESULTS/real/table.md" --objects "$RESULTS/real/objects.md"

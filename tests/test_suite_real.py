@@ -147,6 +147,42 @@ def test_a_cell_is_the_mean_over_seeds_with_their_spread():
     assert "the mean over seeds 0, 1, 2" in table
 
 
+def _planted(deg: float, about: str = "x", axis=None, status: str = "ok", truth_deg: float = 0.0) -> dict:
+    """A ``samples.jsonl`` row whose truth is turned ``truth_deg`` degrees about y and its estimate
+    ``deg`` degrees about ``about`` from there."""
+    from scipy.spatial.transform import Rotation
+
+    def T(R) -> list[float]:
+        return [v for r in R.as_matrix().tolist() for v in [*r, 0.0]] + [0.0, 0.0, 0.0, 1.0]
+
+    truth = Rotation.from_euler("y", truth_deg, degrees=True)
+    estimate = Rotation.from_euler(about, deg, degrees=True) * truth
+    return dict(status=status, T_est=T(estimate), T_gt=T(truth), symmetry_axis=axis, symmetries=None)
+
+
+def test_seed_agreement_counts_samples_whose_estimates_lie_within_10_deg_under_every_seed():
+    up = [0.0, 0.0, 1.0]
+    per_seed = [  # four samples under three seeds
+        {"same": _planted(0), "apart": _planted(0), "spin": _planted(0, "z", up), "flip": _planted(0, "x", up)},
+        {"same": _planted(4), "apart": _planted(9), "spin": _planted(120, "z", up), "flip": _planted(178, "x", up)},
+        {"same": _planted(8), "apart": _planted(18), "spin": _planted(240, "z", up), "flip": _planted(0, "x", up)},
+    ]
+    estimates = [{i: st.estimate(r) for i, r in seed.items()} for seed in per_seed]
+    # same: pairwise <= 8 deg; apart: 0 and 18 are 18 deg apart though each is within 10 of 9; spin: a
+    # turn about a symmetric object's main axis moves no axis; flip: that axis turned over under one seed
+    assert st.seed_agreement(estimates) == pytest.approx(2 / 4)
+    estimates[1]["same"] = st.estimate(_planted(4, status="failed"))  # a failed answer never agrees
+    assert st.seed_agreement(estimates) == pytest.approx(1 / 4)
+    del estimates[2]["spin"]  # only the samples every seed answered are counted
+    assert st.seed_agreement(estimates) == 0.0
+    # seeds that draw another view of a sample: the same error from each view's truth agrees
+    views = [{"v": st.estimate(_planted(90, "x", truth_deg=t))} for t in (0.0, 40.0, 80.0)]
+    assert st.seed_agreement(views) == 1.0
+    cell = st.pool_seeds([dict(ROW, samples=frozenset(), estimates=e) for e in estimates])
+    table = st.format_table({("tyol", "ours"): cell}, ["tyol"], ["ours"], {}, [st.seeds_note((0, 1, 2))])
+    assert "n=2 x 3 seeds, agree 0.00 |" in table and "agree: the fraction of samples" in table
+
+
 def test_a_column_of_different_samples_is_refused_unless_allowed(tmp_path, monkeypatch, capsys):
     from catpose.bench.cli import main
 

@@ -97,6 +97,21 @@ def summary_row(run_dir: Path, sample_ids: list[str] | None = None) -> dict:
     return {} if len(rows) == 0 else rows.iloc[0].to_dict()
 
 
+def scored_answers(run_dir: Path, rows: list[dict]) -> dict:
+    """``{view (obs_id; a pair: "<view1>~<view2>"): estimate}`` of the units the run's protocol
+    scores (the registration a view keeps among its templates, a pair's relative pose), what
+    :func:`~catpose.bench.real.suite_table.seed_agreement` compares across seeds."""
+    import pandas as pd
+
+    from catpose.bench.real.suite_table import estimate
+    from catpose.bench.run.evaluate import load_protocol, recompute_row_errors
+
+    if not rows:
+        return {}
+    units = load_protocol(run_dir).score_units(pd.DataFrame([recompute_row_errors(r) for r in rows]))
+    return {str(u.get("obs_id") or u["sample_id"]): estimate(u) for u in units.to_dict("records")}
+
+
 def with_ar(row: dict, errors, sample_ids: list[str] | None = None) -> dict:
     """``row`` with BOP's AR and its parts (:data:`~catpose.bench.scoring.bop_rows.AR_KEYS`) of the
     per-target ``errors`` of ``sample_ids`` (all of them when None); ``row`` as it is without errors."""
@@ -164,12 +179,19 @@ def run_suite(
                 # BOP's AR: estimates of the view's own model (None unless the set is in the BOP layout);
                 # not of another instance's template, nor of a relative pose
                 errors = target_errors(run_dir) if catalogue[s].protocol == "gt_model" else None
-                ids = [r["sample_id"] for r in latest_rows(run_dir / SAMPLES_FILE)]
+                latest = latest_rows(run_dir / SAMPLES_FILE)
+                ids, answers = [r["sample_id"] for r in latest], scored_answers(run_dir, latest)
+                view_of = {r["sample_id"]: str(r.get("obs_id") or r["sample_id"]) for r in latest}
 
-                def row(d: Path, chosen: list[str] | None, errors=errors, seed=seed) -> dict:
+                def row(d: Path, chosen: list[str] | None, errors=errors, seed=seed, answers=answers) -> dict:
                     summary = summary_row(d, chosen)  # {}: nothing scored (a relative run without a pair)
                     samples = frozenset((seed, i) for i in (ids if chosen is None else chosen))
-                    return summary and dict(with_ar(summary, errors, chosen), run_dir=str(d), samples=samples)
+                    views = None if chosen is None else {view_of[i] for i in chosen}
+                    # for the seeds' agreement: the answers scored, of the chosen views (a pair: both)
+                    estimates = {k: a for k, a in answers.items() if views is None or set(k.split("~")) <= views}
+                    return summary and dict(
+                        with_ar(summary, errors, chosen), run_dir=str(d), samples=samples, estimates=estimates
+                    )
 
                 if whole := row(run_dir, None):
                     per_seed.setdefault((s, m), []).append(whole)

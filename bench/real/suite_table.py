@@ -1,14 +1,15 @@
 """The table of ``bench suite``: one row per method, one column per set (and split part), each cell
 the mean over the seeds with their spread (:func:`pool_seeds`); a column whose methods were not
 scored on the same samples is named by :func:`mixed_samples` (``bench suite`` refuses it unless
-``--allow-mixed``)."""
+``--allow-mixed``); how often the seeds' answers agree: :func:`seed_agreement`."""
 
 from __future__ import annotations
 
 
 def pool_seeds(rows: list[dict]) -> dict:
     """One cell from the rows of several seeds: each number the mean across seeds, ``spread`` its
-    (min, max), ``seeds`` how many, ``samples`` every seed's sample ids; one row as it is."""
+    (min, max), ``seeds`` how many, ``samples`` every seed's sample ids, ``agree`` the
+    :func:`seed_agreement` of their ``estimates`` (when every row has them); one row as it is."""
     import numpy as np
 
     if len(rows) == 1:
@@ -21,7 +22,61 @@ def pool_seeds(rows: list[dict]) -> dict:
     out["samples"] = frozenset().union(*(r.get("samples", frozenset()) for r in rows))
     out["run_dir"] = rows[0].get("run_dir")
     out["run_dirs"] = [r.get("run_dir") for r in rows]
+    if all("estimates" in r for r in rows):
+        out["agree"] = seed_agreement([r["estimates"] for r in rows])
     return out
+
+
+AGREE_DEG = 10.0
+"""Two seeds' answers to a sample agree when they lie within this many degrees of each other."""
+
+
+def estimate(row: dict) -> tuple | None:
+    """What :func:`seed_agreement` compares of a ``samples.jsonl`` row: ``(T_est T_gt^-1 (4, 4),
+    symmetry axis or None, discrete symmetries)``, None for a sample without an estimate (failed).
+    The estimate is taken relative to the truth (the identity when right), so that seeds which draw
+    another view of a sample (ModelNet40's, the synthetic sets') compare the same way as frames
+    whose truth is fixed, where it is the angle between the estimates themselves."""
+    import numpy as np
+
+    from catpose.geometry import compose_T, invert_T
+
+    T_est, T_gt = row.get("T_est"), row.get("T_gt")
+    axis, symmetries = row.get("symmetry_axis"), row.get("symmetries")
+    if row.get("status") != "ok" or not isinstance(T_est, (list, np.ndarray)):
+        return None
+    T_est = np.reshape(np.asarray(T_est, float), (4, 4))
+    if isinstance(T_gt, (list, np.ndarray)):
+        T_est = compose_T(T_est, invert_T(np.reshape(np.asarray(T_gt, float), (4, 4))))
+    return (
+        T_est,
+        np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
+        symmetries if isinstance(symmetries, (list, tuple)) else (),
+    )
+
+
+def seed_agreement(per_seed: list[dict[str, tuple | None]]) -> float:
+    """The fraction of the samples every seed answered (``{view: estimate(unit)}`` per seed, the unit scored)
+    whose estimates (relative to the truth) lie pairwise within :data:`AGREE_DEG`, by the scorer's angle
+    (:func:`~catpose.bench.scoring.metrics.sample_errors` of one estimate against the other: the
+    rotation's geodesic angle, the angle between the estimated main axes of a symmetric object,
+    the closest of its discrete symmetries); a sample failed under some seed does not agree. NaN
+    without common samples."""
+    from itertools import combinations
+
+    from catpose.bench.scoring.metrics import sample_errors
+
+    common = set.intersection(*(set(e) for e in per_seed)) if per_seed else set()
+    if not common:
+        return float("nan")
+
+    def agree(sample_id: str) -> bool:
+        answers = [e[sample_id] for e in per_seed]
+        if any(a is None for a in answers):
+            return False
+        return all(sample_errors(a[0], b[0], a[1], a[2])["err_deg"] <= AGREE_DEG for a, b in combinations(answers, 2))
+
+    return sum(agree(i) for i in common) / len(common)
 
 
 def mixed_samples(results: dict, cols: list[str], methods: list[str]) -> str | None:
@@ -89,6 +144,8 @@ def format_table(
             found = r.get("found10")
             found = "-" if found is None or found != found else f"{found:.3f}"
             seeds = f" x {r['seeds']} seeds" if r.get("seeds") else ""
+            if r.get("agree") == r.get("agree") and r.get("agree") is not None:  # not NaN
+                seeds += f", agree {r['agree']:.2f}"
             cells.append(
                 f"{_with_spread(r, 'mean_err_deg', mean, 2)} / {r['median_err_deg']:.2f} / "
                 f"{_with_spread(r, 'acc10', acc10, 3)} / {found} / {r['acc30']:.3f} "
@@ -120,5 +177,6 @@ def seeds_note(seeds: tuple[int, ...]) -> str:
         return f"Seed {seeds[0]}; n: samples."
     return (
         f"Each cell: the mean over seeds {', '.join(map(str, seeds))} ([min-max] across the seeds of the mean, "
-        "@10 and AR); n: samples per seed."
+        "@10 and AR); n: samples per seed; agree: the fraction of samples whose estimates under every seed "
+        f"lie within {AGREE_DEG:g} deg of each other (of the main axis for a symmetric object)."
     )
