@@ -418,3 +418,20 @@ def test_also_sigterm_ends_a_run_with_a_line(tmp_path):
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130
     assert "bench run: interrupted; finished samples are saved" in err
+
+
+def test_case_23_a_flat_template_through_the_api_is_one_line():
+    """A flat (zero-volume) template given to catpose.register stops in one line, not in Qhull's
+    many-line precision error from the dictionary's hidden-point removal."""
+    import numpy as np
+    import trimesh
+
+    import catpose
+    from catpose.errors import RegistrationFailed
+
+    square = trimesh.Trimesh(vertices=[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], faces=[[0, 1, 2], [0, 2, 3]])
+    points = np.random.default_rng(0).uniform(0, 1, (300, 3))
+    points[:, 2] = 0
+    with pytest.raises(RegistrationFailed) as info:
+        catpose.register(points, square, method="ours")
+    assert "flat or degenerate" in str(info.value) and "\n" not in str(info.value)

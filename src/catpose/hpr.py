@@ -19,5 +19,13 @@ def visible_indices(points: np.ndarray, viewpoint: np.ndarray, radius_factor: fl
     viewpoint = np.asarray(viewpoint, dtype=np.float64)
     pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
     extent = float(np.linalg.norm(points - viewpoint, axis=1).max())
-    _, idx = pcd.hidden_point_removal(viewpoint, extent * radius_factor)
+    try:
+        _, idx = pcd.hidden_point_removal(viewpoint, extent * radius_factor)
+    except RuntimeError as e:  # Qhull's many-line refusal of a flat or degenerate cloud
+        from catpose.errors import InvalidInputError
+
+        raise InvalidInputError(
+            f"the points ({len(points)}) are flat or degenerate: Qhull found no volume in them "
+            f"({str(e).split(chr(10))[0][:80]}); give a solid model or a view with depth"
+        ) from None
     return np.unique(np.asarray(idx, dtype=np.int64))

@@ -166,16 +166,17 @@ class Registrar:
             from catpose.datasets.meshio import fibonacci_sphere
 
             t0 = time.perf_counter()
-            tried = []
+            tried, why = [], ""
             for g in fibonacci_sphere(int(up_hypotheses)):
                 try:
                     tried.append((g, self._call(obs, unit3(g))))
-                except RegistrationFailed:  # a hypothesis without an answer: the others decide
+                except RegistrationFailed as e:  # a hypothesis without an answer: the others decide
+                    why = str(e)
                     continue
             runtime = time.perf_counter() - t0
             if not tried:
                 raise RegistrationFailed(
-                    f"method {self.method_name!r}: no up hypothesis gave a pose; pass up (the ground normal)"
+                    f"method {self.method_name!r}: no up hypothesis gave a pose (the last: {why}); pass up (the ground normal)"
                 )
             best = min(range(len(tried)), key=lambda i: (not np.isfinite(tried[i][1].score), tried[i][1].score))
             chosen_up, result = tried[best]
