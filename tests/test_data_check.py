@@ -163,6 +163,15 @@ def test_issue60_bad_ground_truth_and_scenes_are_problems(tmp_path, capsys):
         code, lines = _check(capsys, *base)
         assert code == 2 and any(said in ln for ln in lines), lines
     gt_path.write_text(good)
+    cam_path = root / "test/000001/scene_camera.json"
+    cams = json.loads(cam_path.read_text())
+    (root / "camera.json").write_text(json.dumps({"width": 640, "height": 480}))
+    cam_path.write_text(
+        json.dumps({k: {**c, "cam_K": [*c["cam_K"][:2], 1e6, *c["cam_K"][3:]]} for k, c in cams.items()})
+    )
+    code, lines = _check(capsys, *base)  # "also worth a line": cx = 1e6 passed as good
+    assert code == 2 and any("outside the 640x480 image; fix cx, cy" in ln for ln in lines), lines
+    cam_path.write_text(json.dumps(cams))
     code, lines = _check(capsys, *base, "dataset.scenes=[99]")
     assert code == 2 and lines == [f"problem: dataset.scenes=[99] names none of the 1 scenes in {root / 'test'} (1)"]
 

@@ -393,7 +393,9 @@ def test_issue60_ground_truth_and_cameras_are_checked(bop_root):
 
 
 def test_issue60_depth_in_another_unit_than_the_model_is_named(bop_root):
-    """Issue 60 case 8: depth_scale 10 times too large was scored (151 deg) without a word."""
+    """Issue 60 case 8: depth_scale 10 times too large, or a model 1e6 times too large, was scored
+    (151 deg) without a word."""
+    import trimesh
     from PIL import Image
 
     depth = np.asarray(Image.open(bop_root / "test/000001/depth/000000.png")).astype(float)
@@ -405,6 +407,12 @@ def test_issue60_depth_in_another_unit_than_the_model_is_named(bop_root):
     BOP(str(bop_root), categories=CATS).observation("box/000001/000000/0")  # right units: loads
     _edit(bop_root / "test/000001/scene_camera.json", lambda d: d["0"].update(depth_scale=10.0))
     with pytest.raises(DatasetError, match="the depth and the model are in different units; fix depth_scale"):
+        BOP(str(bop_root), categories=CATS).observation("box/000001/000000/0")
+    _edit(bop_root / "test/000001/scene_camera.json", lambda d: d["0"].update(depth_scale=1.0))
+    mesh = trimesh.load(bop_root / "models/obj_000001.ply", process=False)
+    mesh.vertices *= 1e6  # the model in another unit than the depth (the issue's other half of case 8)
+    mesh.export(bop_root / "models/obj_000001.ply")
+    with pytest.raises(DatasetError, match="the depth and the model are in different units"):
         BOP(str(bop_root), categories=CATS).observation("box/000001/000000/0")
 
 
