@@ -241,10 +241,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--force", action="store_true", help="replace an existing --out (and the .csv beside it)")
     args = parser.parse_args(argv)
     try:
-        from catpose.bench.run.overwrite import check_output, input_runs, output_errors
+        from catpose.bench.run.overwrite import Output, input_runs
 
-        for path in (args.out, args.out.with_suffix(".csv")):  # before any work (docs/file-safety.md)
-            check_output(path, "file", input_runs(args.runs), args.force)
+        # the one output rule, before any work (docs/file-safety.md)
+        md, csv = (
+            Output(p, "file", input_runs(args.runs), args.force) for p in (args.out, args.out.with_suffix(".csv"))
+        )
         split = load_split(args.split) if args.split else None
         rows: list[dict] = []
         for run in args.runs:
@@ -261,11 +263,9 @@ def main(argv: list[str] | None = None) -> int:
         summary = table(rows, part_of)
         import pandas as pd
 
-        with output_errors(args.out):
-            atomic.write_text(
-                args.out.with_suffix(".csv"), pd.DataFrame(summary).to_csv(index=False, float_format="%.4f")
-            )
-            atomic.write_text(args.out, markdown(args.title, summary))
+        with md.writing() as md_path, csv.writing() as csv_path:
+            atomic.write_text(csv_path, pd.DataFrame(summary).to_csv(index=False, float_format="%.4f"))
+            atomic.write_text(md_path, markdown(args.title, summary))
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
