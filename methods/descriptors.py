@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 
-from catpose.errors import ConfigError
 from catpose.methods import options
 from catpose.methods.keypoints import farthest_point_indices, voxel_downsample
 
@@ -108,8 +107,6 @@ class LPS(Descriptor):
         tau: F-score threshold (object-normalised).
         max_points: patch size cap (nearest points kept).
         parallel_deg: PCA frame when the normal is this close to the ground normal (degrees).
-        fscore: ``voxel`` (fast grid F-score) or ``exact`` (reference).
-        voxel_subdiv: grid cells per ``tau`` (``voxel`` only).
         voxel_size: downsampling voxel before keypoints and patches (0: none).
     """
 
@@ -117,8 +114,6 @@ class LPS(Descriptor):
     tau: float = 0.03
     max_points: int = 96
     parallel_deg: float = 10.0
-    fscore: str = "voxel"
-    voxel_subdiv: int = 1
     voxel_size: float = 0.025
     name = "lps"
 
@@ -126,29 +121,23 @@ class LPS(Descriptor):
         set_ = object.__setattr__
         for key in ("radius", "tau"):
             set_(self, key, options.positive(_KEY + key, getattr(self, key)))
-        for key in ("max_points", "voxel_subdiv"):
-            set_(self, key, options.positive(_KEY + key, getattr(self, key), integer=True))
+        set_(self, "max_points", options.positive(_KEY + "max_points", self.max_points, integer=True))
         set_(self, "parallel_deg", options.non_negative(_KEY + "parallel_deg", self.parallel_deg))
-        set_(self, "fscore", options.one_of(_KEY + "fscore", self.fscore, ("voxel", "exact")))
         set_(self, "voxel_size", options.non_negative(_KEY + "voxel_size", self.voxel_size))
 
     def describe(self, points, normals, kp_idx, up, tree):
-        """``VoxelPatches`` (``fscore=voxel``) or ``Patches`` (``exact``) of the keypoints."""
+        """``VoxelPatches`` of the keypoints."""
         from catpose.methods.lps import lps_patches, voxelize
 
         patches = lps_patches(points, normals, kp_idx, up, self.radius, self.max_points, self.parallel_deg, tree)
-        if self.fscore == "exact":
-            return patches
-        return voxelize(patches, self.radius, self.tau, self.voxel_subdiv)
+        return voxelize(patches, self.radius, self.tau)
 
     def affinity(self, a, b) -> np.ndarray:
-        from catpose.methods.lps import fscore_exact, fscore_voxel
+        from catpose.methods.lps import fscore_voxel
 
-        return fscore_exact(a, b, self.tau) if self.fscore == "exact" else fscore_voxel(a, b)
+        return fscore_voxel(a, b)
 
     def stack(self, sets):
-        if self.fscore == "exact":
-            return list(sets)
         from catpose.methods.lps import VoxelPatches
 
         # Fortran order: fscore_voxel multiplies by the transposes, which are then C-contiguous
@@ -162,8 +151,6 @@ class LPS(Descriptor):
         )
 
     def batched_affinity(self, a, stacked) -> np.ndarray:
-        if self.fscore == "exact":
-            return super().batched_affinity(a, stacked)
         from catpose.methods.lps import fscore_voxel
 
         m, b = stacked
@@ -178,16 +165,13 @@ class PFH(Descriptor):
     Args:
         radius: neighbourhood radius (object-normalised).
         max_nn: neighbour cap.
-        eps: affinity epsilon.
-        distance: ``marginal`` (sum of the 1D EMDs of the 3 marginals, fast) or ``exact``
-            (POT, ~1 ms a pair; needs the ``pfh`` extra, ``pip install 'catpose[pfh]'``).
+        eps: affinity epsilon (the EMD: the sum of the 1D EMDs of the 3 marginals).
         voxel_size: downsampling voxel before keypoints and histograms (0: none).
     """
 
     radius: float = 0.2
     max_nn: int = 32
     eps: float = 0.01
-    distance: str = "marginal"
     voxel_size: float = 0.025
     name = "pfh"
 
@@ -196,16 +180,7 @@ class PFH(Descriptor):
         set_(self, "radius", options.positive(_KEY + "radius", self.radius))
         set_(self, "max_nn", options.positive(_KEY + "max_nn", self.max_nn, integer=True))
         set_(self, "eps", options.positive(_KEY + "eps", self.eps))
-        set_(self, "distance", options.one_of(_KEY + "distance", self.distance, ("marginal", "exact")))
         set_(self, "voxel_size", options.non_negative(_KEY + "voxel_size", self.voxel_size))
-        if self.distance == "exact":
-            try:
-                import ot  # noqa: F401
-            except ImportError:
-                raise ConfigError(
-                    f"{_KEY}distance='exact' needs POT (Python Optimal Transport): "
-                    "pip install 'catpose[pfh]' (or pip install pot); or use distance=marginal"
-                ) from None
 
     def describe(self, points, normals, kp_idx, up, tree):
         """(k, 125) histograms, each summing to 1 (``up`` is not used: PFH is rotation-invariant)."""
@@ -216,18 +191,14 @@ class PFH(Descriptor):
     def affinity(self, a, b) -> np.ndarray:
         from catpose.methods.pfh import pfh_affinity
 
-        return pfh_affinity(a, b, self.eps, self.distance)
+        return pfh_affinity(a, b, self.eps)
 
     def stack(self, sets):
-        if self.distance == "exact":
-            return list(sets)
         from catpose.methods.pfh import marginal_cdfs
 
         return len(sets), marginal_cdfs(np.concatenate(sets))  # (m k, 15)
 
     def batched_affinity(self, a, stacked) -> np.ndarray:
-        if self.distance == "exact":
-            return super().batched_affinity(a, stacked)
         from scipy.spatial.distance import cdist
 
         from catpose.methods.pfh import marginal_cdfs

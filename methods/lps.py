@@ -12,8 +12,8 @@ normal rotates too), so patches, and any similarity between them, are invariant.
 
 Similarity of two patches = F-score at threshold ``tau`` (Tatarchenko et al. 2019): precision =
 fraction of patch-a points with a patch-b point within ``tau``, recall = the converse,
-``F = 2 P R / (P + R)``. :func:`fscore_exact` is the reference (all pairs, exact nearest
-distances). :func:`fscore_voxel` is the fast default: each patch becomes a point-count grid on
+``F = 2 P R / (P + R)``. :func:`fscore_voxel` computes it on grids (the exact all-pairs form
+is its reference in tests/test_lps.py): each patch becomes a point-count grid on
 the cube [-radius, radius]^3 with cells of ``tau / subdiv`` and a dilated occupancy grid (cells
 within ``tau`` of an occupied cell, a ball of ``subdiv`` cells); precision and recall for all
 pairs come from two matrix products ``counts_a @ dilated_b^T``. A point counts as matched when
@@ -108,43 +108,6 @@ def lps_patches(
     return Patches(points=local, mask=nb_mask, frames=frames)
 
 
-def fscore_exact(a: Patches, b: Patches, tau: float) -> np.ndarray:
-    """Exact F-score (Ka, Kb) between every patch of ``a`` and of ``b`` at threshold ``tau``.
-
-    All patch-b points (local coordinates) go into one KD-tree; for each patch of ``a`` the pairs
-    within ``tau`` give, per a-point and per b-patch, whether a match exists (precision), and per
-    b-point whether this a-patch has a match (recall); a sparse indicator product sums them per
-    patch. Exact, and ~100x faster than dense all-pairs distances.
-    """
-    from scipy import sparse
-    from scipy.spatial import cKDTree
-
-    Kb = len(b.points)
-    pb = b.points[b.mask]
-    lb = np.nonzero(b.mask)[0]  # patch label of every b point
-    nb = np.maximum(b.mask.sum(1), 1).astype(np.float64)
-    tb = cKDTree(pb)
-    out = np.zeros((len(a.points), Kb))
-    for i in range(len(a.points)):
-        pa = a.points[i][a.mask[i]]
-        if len(pa) == 0:
-            continue
-        pairs = cKDTree(pa).query_ball_tree(tb, tau)
-        ia = np.repeat(np.arange(len(pa)), [len(p) for p in pairs])
-        jb = np.fromiter((j for p in pairs for j in p), dtype=np.int64, count=len(ia))
-        if len(ia) == 0:
-            continue
-        hit_a = sparse.coo_matrix((np.ones(len(ia)), (ia, lb[jb])), shape=(len(pa), Kb)).tocsr()
-        hit_a.data[:] = 1.0  # any match in that patch
-        prec = np.asarray(hit_a.sum(0)).ravel() / len(pa)
-        matched_b = np.zeros(len(pb))
-        matched_b[np.unique(jb)] = 1.0
-        rec = np.bincount(lb, weights=matched_b, minlength=Kb) / nb
-        s = prec + rec
-        out[i] = np.where(s > 0, 2 * prec * rec / np.maximum(s, 1e-12), 0.0)
-    return out
-
-
 @dataclass(frozen=True, eq=False)
 class VoxelPatches:
     """Grid form of patches for :func:`fscore_voxel`: (K, G^3) float32 point counts, (K, G^3)
@@ -185,11 +148,3 @@ def fscore_voxel(a: VoxelPatches, b: VoxelPatches, dtype: type = np.float64) -> 
     rec = np.asarray(sparse.csr_matrix(a.dilated) @ b.counts.T) / np.maximum(b.n[None], 1)
     s = prec + rec
     return np.where(s > 0, 2 * prec * rec / np.maximum(s, 1e-12), 0.0).astype(dtype)
-
-
-def lps_affinity(a: Patches, b: Patches, tau: float, radius: float, mode: str = "voxel", subdiv: int = 1) -> np.ndarray:
-    """LPS affinity (Ka, Kb) between patch sets (unnormalised F-scores in [0, 1]);
-    ``mode`` is ``voxel`` (fast, default) or ``exact``."""
-    if mode == "exact":
-        return fscore_exact(a, b, tau)
-    return fscore_voxel(voxelize(a, radius, tau, subdiv), voxelize(b, radius, tau, subdiv))

@@ -97,32 +97,13 @@ def marginal_cdfs(hist: np.ndarray) -> np.ndarray:
 
 def marginal_emd(hist_a: np.ndarray, hist_b: np.ndarray) -> np.ndarray:
     """Marginal EMD (Ka, Kb) between histograms (Ka, 125) and (Kb, 125), in bin units: the sum
-    over the three features of the L1 distance between marginal CDFs. A lower bound of
-    :func:`exact_emd`."""
+    over the three features of the L1 distance between marginal CDFs. A lower bound of the exact
+    EMD with the L1 grid ground distance (tests/test_pfh.py)."""
     from scipy.spatial.distance import cdist
 
     return cdist(marginal_cdfs(hist_a), marginal_cdfs(hist_b), metric="cityblock")
 
 
-def grid_ground_distance() -> np.ndarray:
-    """(125, 125) L1 distance between the 3D bin centres, in bin units."""
-    g = np.stack(np.unravel_index(np.arange(BINS**3), (BINS,) * 3), axis=1).astype(np.float64)
-    return np.abs(g[:, None] - g[None]).sum(-1)
-
-
-def exact_emd(hist_a: np.ndarray, hist_b: np.ndarray) -> np.ndarray:
-    """Exact EMD (Ka, Kb) with the L1 grid ground distance (POT ``ot.emd2``); slow, a reference."""
-    import ot
-
-    M = grid_ground_distance()
-    out = np.empty((len(hist_a), len(hist_b)))
-    for i, a in enumerate(hist_a):
-        for j, b in enumerate(hist_b):
-            out[i, j] = ot.emd2(a / a.sum(), b / b.sum(), M)
-    return out
-
-
-def pfh_affinity(hist_a: np.ndarray, hist_b: np.ndarray, eps: float = 0.01, distance: str = "marginal") -> np.ndarray:
-    """Affinity (Ka, Kb) = 1 / (EMD + eps), unnormalised; ``distance`` is ``marginal`` or ``exact``."""
-    emd = marginal_emd(hist_a, hist_b) if distance == "marginal" else exact_emd(hist_a, hist_b)
-    return 1.0 / (emd + eps)
+def pfh_affinity(hist_a: np.ndarray, hist_b: np.ndarray, eps: float = 0.01) -> np.ndarray:
+    """Affinity (Ka, Kb) = 1 / (marginal EMD + eps), unnormalised."""
+    return 1.0 / (marginal_emd(hist_a, hist_b) + eps)

@@ -2,19 +2,17 @@
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
 from catpose.errors import ConfigError
 from catpose.geometry import random_rotation
-from catpose.methods import lps, pfh
+from catpose.methods import lps
 from catpose.methods.descriptors import LPS, PFH, Descriptor
 from catpose.methods.dictionary import DictionaryLayout, viewpoint_layout
 
-DESCRIPTORS = [LPS(), LPS(fscore="exact"), PFH()]
+DESCRIPTORS = [LPS(), PFH()]
 
 
 def _cloud(seed: int = 0, n: int = 1500) -> tuple[np.ndarray, np.ndarray]:
@@ -28,7 +26,7 @@ def _cloud(seed: int = 0, n: int = 1500) -> tuple[np.ndarray, np.ndarray]:
     return p, nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
 
 
-@pytest.mark.parametrize("desc", DESCRIPTORS, ids=["lps", "lps-exact", "pfh"])
+@pytest.mark.parametrize("desc", DESCRIPTORS, ids=["lps", "pfh"])
 def test_batched_affinity_equals_pairwise(desc: Descriptor) -> None:
     p, n = _cloud()
     up = np.array([0.0, 0.0, 1.0])
@@ -57,10 +55,10 @@ def test_fscore_voxel_equals_the_dense_grid_formula() -> None:
     assert dense.max() > 0.5
 
 
-@pytest.mark.parametrize("desc", [LPS(fscore="exact"), PFH()], ids=["lps-exact", "pfh"])
-def test_affinity_is_invariant_to_a_rigid_motion(desc: Descriptor) -> None:
-    """Rotating the cloud and its up direction leaves the affinities unchanged (LPS frames and
-    PFH pair features rotate with the cloud)."""
+def test_pfh_affinity_is_invariant_to_a_rigid_motion() -> None:
+    """Rotating the cloud leaves the affinities unchanged (PFH pair features rotate with the cloud;
+    LPS: tests/test_lps.py)."""
+    desc = PFH()
     p, n = _cloud()
     up = np.array([0.0, 0.0, 1.0])
     R = random_rotation(np.random.default_rng(9))
@@ -83,8 +81,7 @@ def test_cache_keys_name_every_parameter() -> None:
     [
         (lambda: LPS(tau="abc"), "method.descriptor.tau='abc' must be a positive number"),
         (lambda: LPS(max_points=0), "method.descriptor.max_points=0 must be a positive integer"),
-        (lambda: LPS(fscore="dense"), "method.descriptor.fscore='dense' is unknown"),
-        (lambda: PFH(distance="l2"), "method.descriptor.distance='l2' is unknown"),
+        (lambda: PFH(eps=0), "method.descriptor.eps=0 must be a positive number"),
         (lambda: PFH(voxel_size=-1), "method.descriptor.voxel_size=-1 must be a number >= 0"),
         (lambda: DictionaryLayout(num_views=17), "method.dictionary.num_views=17 is not a multiple of the 3"),
         (lambda: DictionaryLayout(num_keypoints=2), "method.dictionary.num_keypoints=2 must be an integer >= 3"),
@@ -95,24 +92,6 @@ def test_bad_options_raise_one_line_errors_naming_the_key(make, match: str) -> N
     with pytest.raises(ConfigError, match=match.replace("(", r"\(").replace(".", r"\.")) as info:
         make()
     assert "\n" not in str(info.value)
-
-
-def test_exact_pfh_without_pot_says_how_to_install_it(monkeypatch) -> None:
-    monkeypatch.setitem(sys.modules, "ot", None)  # `import ot` now raises ImportError
-    with pytest.raises(ConfigError, match=r"pip install 'catpose\[pfh\]'") as info:
-        PFH(distance="exact")
-    assert "\n" not in str(info.value)
-
-
-def test_exact_pfh_with_pot_bounds_the_marginal_distance() -> None:
-    pytest.importorskip("ot")
-    p, n = _cloud()
-    up = np.array([0.0, 0.0, 1.0])
-    h = PFH().keypoint_features(p, n, 6, up).features
-    exact = PFH(distance="exact").affinity(h, h[::-1])
-    marginal = PFH().affinity(h, h[::-1])
-    assert np.all(marginal >= exact - 1e-9)  # marginal EMD <= exact EMD
-    np.testing.assert_allclose(1 / exact - 0.01, pfh.exact_emd(h, h[::-1]), atol=1e-9)
 
 
 def test_dictionary_layout_is_the_viewpoint_layout() -> None:

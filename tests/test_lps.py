@@ -9,6 +9,47 @@ from catpose.methods import lps
 from catpose.methods.pfh import neighbourhoods
 
 
+def fscore_exact(a: lps.Patches, b: lps.Patches, tau: float) -> np.ndarray:
+    """Exact F-score (Ka, Kb) between every patch of ``a`` and of ``b`` at threshold ``tau``.
+
+    All patch-b points (local coordinates) go into one KD-tree; for each patch of ``a`` the pairs
+    within ``tau`` give, per a-point and per b-patch, whether a match exists (precision), and per
+    b-point whether this a-patch has a match (recall); a sparse indicator product sums them per
+    patch. Exact, and ~100x faster than dense all-pairs distances.
+    """
+    from scipy import sparse
+    from scipy.spatial import cKDTree
+
+    Kb = len(b.points)
+    pb = b.points[b.mask]
+    lb = np.nonzero(b.mask)[0]  # patch label of every b point
+    nb = np.maximum(b.mask.sum(1), 1).astype(np.float64)
+    tb = cKDTree(pb)
+    out = np.zeros((len(a.points), Kb))
+    for i in range(len(a.points)):
+        pa = a.points[i][a.mask[i]]
+        if len(pa) == 0:
+            continue
+        pairs = cKDTree(pa).query_ball_tree(tb, tau)
+        ia = np.repeat(np.arange(len(pa)), [len(p) for p in pairs])
+        jb = np.fromiter((j for p in pairs for j in p), dtype=np.int64, count=len(ia))
+        if len(ia) == 0:
+            continue
+        hit_a = sparse.coo_matrix((np.ones(len(ia)), (ia, lb[jb])), shape=(len(pa), Kb)).tocsr()
+        hit_a.data[:] = 1.0  # any match in that patch
+        prec = np.asarray(hit_a.sum(0)).ravel() / len(pa)
+        matched_b = np.zeros(len(pb))
+        matched_b[np.unique(jb)] = 1.0
+        rec = np.bincount(lb, weights=matched_b, minlength=Kb) / nb
+        s = prec + rec
+        out[i] = np.where(s > 0, 2 * prec * rec / np.maximum(s, 1e-12), 0.0)
+    return out
+
+
+def _voxel(a: lps.Patches, b: lps.Patches, tau: float = 0.02, radius: float = 0.15) -> np.ndarray:
+    return lps.fscore_voxel(lps.voxelize(a, radius, tau), lps.voxelize(b, radius, tau))
+
+
 def _bumpy_cloud(n: int = 800, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     xy = rng.uniform(-0.5, 0.5, size=(n, 2))
@@ -66,13 +107,13 @@ def test_affinity_invariant_to_rigid_motion_and_voxel_close_to_exact():
     t = np.array([1.0, 2.0, -0.5])
     a_r = lps.lps_patches(P @ R.T + t, N @ R.T, ia, R @ g, 0.15)
     b_r = lps.lps_patches(P2 @ R.T - t, N2 @ R.T, ib, R @ g, 0.15)
-    exact = lps.lps_affinity(a, b, 0.02, 0.15, mode="exact")
-    np.testing.assert_allclose(exact, lps.lps_affinity(a_r, b_r, 0.02, 0.15, mode="exact"), atol=1e-6)
-    fast = lps.lps_affinity(a, b, 0.02, 0.15, mode="voxel")
-    fast_r = lps.lps_affinity(a_r, b_r, 0.02, 0.15, mode="voxel")
+    exact = fscore_exact(a, b, 0.02)
+    np.testing.assert_allclose(exact, fscore_exact(a_r, b_r, 0.02), atol=1e-6)
+    fast = _voxel(a, b)
+    fast_r = _voxel(a_r, b_r)
     # the grid is fixed in the local frame, so only float round-off at cell borders can differ
     assert np.abs(fast - fast_r).mean() < 0.01
     assert np.corrcoef(fast.ravel(), exact.ravel())[0, 1] > 0.8
     # a patch matches itself perfectly
-    np.testing.assert_allclose(np.diag(lps.lps_affinity(a, a, 0.02, 0.15, mode="exact")), 1.0)
-    np.testing.assert_allclose(np.diag(lps.lps_affinity(a, a, 0.02, 0.15, mode="voxel")), 1.0)
+    np.testing.assert_allclose(np.diag(fscore_exact(a, a, 0.02)), 1.0)
+    np.testing.assert_allclose(np.diag(_voxel(a, a)), 1.0)

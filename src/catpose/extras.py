@@ -29,7 +29,6 @@ EXTRAS: dict[str, tuple[str, str]] = {
         "ours' Adam solver (method.optimiser.solver=adam), its GPU path (method.optimiser.device=cuda) "
         "and its batched solver (batch>1 on clouds without a depth image)",
     ),
-    "ot": ("pfh", "the exact EMD of the PFH descriptor (method.descriptor.distance=exact)"),
 }
 
 
