@@ -2,23 +2,17 @@
 
 Re-implements the pipeline of TEASER (Yang, Shi, Carlone, "TEASER: Fast and Certifiable Point
 Cloud Registration", T-RO 2020) and its C++ library TEASER++ with the scale fixed to 1 (the real
-TEASER++ is ``method=teaserpp``, :mod:`catpose.methods.teaserpp`, where its bindings are
-installed). Given correspondences
-``b_i = R a_i + t + e_i`` with ``|e_i| <= noise_bound`` for inliers:
+TEASER++ is ``method=teaserpp``, :func:`catpose.methods.teaser.solve_teaserpp`). Given
+correspondences ``b_i = R a_i + t + e_i`` with ``|e_i| <= noise_bound`` for inliers:
 
 1. Translation- and rotation-invariant measurements (TIMs): pairwise lengths. A pair (i, j) is
    consistent when ``| ||b_i - b_j|| - ||a_i - a_j|| | <= 2 * noise_bound`` (scale 1).
-2. Maximum clique of the consistency graph (exact branch and bound with greedy-colouring bounds,
-   Tomita's MCQ on bitsets, compiled with numba, after pruning to the k-core that a greedy
-   clique proves necessary; :mod:`catpose.methods.max_clique`). A node budget and a time budget
-   cap the search; past either, the best clique found so far (at least the greedy clique) is
-   returned and ``SolverResult.clique_exact`` is False.
-3. Rotation from the translation-invariant measurements (TIMs ``b_j - b_i`` vs ``a_j - a_i``)
-   inside the clique (a cyclic chain through the clique, TEASER++'s default, or every pair) by graduated non-convexity with a truncated least-squares cost (GNC-TLS,
-   Yang et al., RA-L 2020): weighted Kabsch each iteration, closed-form TLS weights, ``mu``
-   starting at ``1 / (2 r_max^2 / c^2 - 1)`` and multiplied by ``gnc_factor`` until the cost
-   settles. The TIM noise bound is ``2 * noise_bound`` (sum of two point bounds) times
-   ``sqrt(cbar2)``, with ``cbar2 = 1``.
+2. Maximum clique of the consistency graph (:mod:`catpose.methods.max_clique`, exact within a
+   node and a time budget; past either, ``SolverResult.clique_exact`` is False).
+3. Rotation from the translation-invariant measurements (TIMs ``b_j - b_i`` vs ``a_j - a_i``) of
+   a cyclic chain through the clique (TEASER++'s default) by graduated non-convexity with a
+   truncated least-squares cost (GNC-TLS, Yang et al., RA-L 2020, :func:`gnc_tls_rotation`). The
+   TIM noise bound is ``2 * noise_bound`` (sum of two point bounds) times ``sqrt(cbar2)``.
 4. Translation by component-wise adaptive voting: per axis, the intervals
    ``t_i +- noise_bound`` of ``t_i = b_i - R a_i`` over the clique; the estimate is the mean of
    the largest consistent (maximum-consensus) set, ties broken by the smaller spread.
@@ -38,13 +32,11 @@ from catpose.errors import ConfigError, InvalidInputError
 from catpose.geometry import apply_R
 from catpose.kabsch import rotations_from_covariance
 
-#: A max clique smaller than this gives no pose (both solvers), TEASER++'s own rule:
-#: ``teaser::RobustRegistrationSolver::solve`` (teaser/src/registration.cc) aborts with
-#: ``solution_.valid = false`` when ``max_clique_.size() <= 1`` ("Clique size too small. Abort.")
-#: and solves every larger clique. A clique of 2 or 3 is solved as TEASER++ solves it; where its
-#: measurements span one direction the rotation about it is the closed-form shortest arc
-#: (:func:`catpose.kabsch.rank_one_rotation`, where TEASER++ takes whatever its SVD returns) and
-#: ``SolverResult.rotation_degenerate`` says so.
+#: A max clique smaller than this gives no pose (both solvers), TEASER++'s own rule
+#: (``RobustRegistrationSolver::solve``, teaser/src/registration.cc: "Clique size too small.
+#: Abort." when ``max_clique_.size() <= 1``). Where a clique of 2 or 3 spans one direction the
+#: rotation about it is the closed-form shortest arc (:func:`catpose.kabsch.rank_one_rotation`;
+#: TEASER++ takes whatever its SVD returns) and ``SolverResult.rotation_degenerate`` says so.
 MIN_CLIQUE_SIZE = 2
 
 
@@ -56,7 +48,7 @@ class SolverResult:
         R: (3, 3) rotation with ``b ~ R a + t``.
         t: (3,) translation.
         clique: indices of the max-clique correspondences (into the input rows).
-        clique_exact: whether the clique search finished within its node budget.
+        clique_exact: whether the clique search finished within its budgets.
         rotation_inliers: (k_pairs,) bool, TIMs kept by GNC-TLS (weight > 0.5).
         translation_inliers: indices (into the input rows) that voted for ``t`` on all axes.
         gnc_iterations: number of GNC iterations run.
@@ -85,16 +77,8 @@ class SolverResult:
 
 
 def consistency_graph(src: np.ndarray, dst: np.ndarray, noise_bound: float) -> np.ndarray:
-    """Pairwise-length consistency (scale fixed to 1).
-
-    Args:
-        src: (N, 3) source points ``a_i``.
-        dst: (N, 3) corresponding target points ``b_i``.
-        noise_bound: per-point noise bound ``beta`` (same unit as the points).
-
-    Returns:
-        (N, N) bool adjacency, ``| ||b_i - b_j|| - ||a_i - a_j|| | <= 2 beta``, zero diagonal.
-    """
+    """(N, N) bool adjacency of the row-matched ``src`` ``a_i`` and ``dst`` ``b_i`` (N, 3):
+    ``| ||b_i - b_j|| - ||a_i - a_j|| | <= 2 noise_bound`` (scale 1), zero diagonal."""
     from scipy.spatial.distance import cdist
 
     adj = np.abs(cdist(dst, dst) - cdist(src, src)) <= 2.0 * noise_bound  # no (N, N, 3) temporaries
@@ -105,18 +89,8 @@ def consistency_graph(src: np.ndarray, dst: np.ndarray, noise_bound: float) -> n
 def max_clique(
     adj: np.ndarray, node_budget: int = 200_000, time_budget_s: float | None = None
 ) -> tuple[np.ndarray, bool]:
-    """Maximum clique of an undirected graph: :func:`catpose.methods.max_clique.max_clique`
-    (compiled MCQ branch and bound on the k-core a greedy clique implies, as TEASER++'s PMC).
-
-    Args:
-        adj: (N, N) symmetric bool adjacency with a false diagonal.
-        node_budget: maximum number of search-tree nodes.
-        time_budget_s: maximum seconds of search (None: no limit).
-
-    Returns:
-        (sorted vertex indices of the clique, whether the search was exact). Past a budget, the
-        best clique found so far (at least the multi-start greedy clique) and False.
-    """
+    """:func:`catpose.methods.max_clique.max_clique` of the (N, N) bool adjacency ``adj``:
+    (sorted vertex indices, whether the search was exact within the budgets)."""
     try:  # numba is imported here, not with this module, so `bench --help` stays instant
         from catpose.methods import max_clique as mc
     except ImportError as e:
@@ -128,16 +102,9 @@ def max_clique(
 
 
 def weighted_kabsch(src: np.ndarray, dst: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, bool]:
-    """Rotation minimising ``sum_k w_k ||dst_k - R src_k||^2`` (no translation), det(R) = +1.
-
-    Args:
-        src, dst: (K, 3) vectors; w: (K,) non-negative weights.
-
-    Returns:
-        The rotation (3, 3), and whether the weighted measurements span one direction or none
-        (then the rotation about it is not determined, and the rotation is the closed-form
-        :func:`catpose.kabsch.rank_one_rotation`).
-    """
+    """Rotation (3, 3) minimising ``sum_k w_k ||dst_k - R src_k||^2`` over (K, 3) vectors, and
+    whether the weighted measurements span one direction or none (then the rotation about it is
+    :func:`catpose.kabsch.rank_one_rotation`'s)."""
     H = np.einsum("k,ki,kj->ij", w, src, dst)
     R, degenerate = rotations_from_covariance(H[None])
     return R[0], bool(degenerate[0])
@@ -168,8 +135,8 @@ def gnc_tls_rotation(
         noise_bound: bound ``c`` on an inlier measurement's residual norm.
 
     Returns:
-        (R (3, 3), weights (K,), iterations run, whether the final weighted measurements span one
-        direction or none, so that R is not determined by them).
+        (R (3, 3), weights (K,), iterations run, whether R is not determined by the final weighted
+        measurements, as :func:`weighted_kabsch`).
     """
     K = len(src)
     w = np.ones(K)
@@ -205,19 +172,10 @@ def gnc_tls_rotation(
 
 
 def adaptive_voting(values: np.ndarray, bound: float) -> tuple[float, np.ndarray]:
-    """Scalar maximum-consensus estimate by adaptive voting.
-
-    Every measurement ``x_i`` votes for the interval ``[x_i - bound, x_i + bound]``; sweeping the
-    sorted interval end points gives every maximal set of mutually overlapping intervals. The
-    estimate is the mean of the largest set (ties: the one with the smallest variance).
-
-    Args:
-        values: (K,) scalar measurements.
-        bound: half-width of each interval.
-
-    Returns:
-        (estimate, bool (K,) mask of the consensus set).
-    """
+    """Scalar maximum-consensus estimate of ``values`` (K,) by adaptive voting: each votes for
+    ``[x_i - bound, x_i + bound]``; sweeping the sorted end points gives every maximal set of
+    overlapping intervals. Returns the mean of the largest (ties: the least variance) and its
+    bool (K,) mask."""
     x = np.asarray(values, dtype=np.float64)
     lo, hi = x - bound, x + bound
     # events: +1 at the interval start, -1 after its end; starts sort before ends at ties
@@ -237,18 +195,16 @@ def adaptive_voting(values: np.ndarray, bound: float) -> tuple[float, np.ndarray
 
 
 def checked_inputs(
-    src: np.ndarray, dst: np.ndarray, noise_bound: float, rotation_tim_graph: str, solver: str = "TEASER"
+    src: np.ndarray, dst: np.ndarray, noise_bound: float, solver: str = "TEASER"
 ) -> tuple[np.ndarray, np.ndarray]:
     """``src``, ``dst`` as float64 after the checks every TEASER solver makes (matched (N, 3)
-    arrays, a positive noise bound, a known TIM graph), each failure in one line naming ``solver``."""
+    arrays, a positive noise bound), each failure in one line naming ``solver``."""
     src = np.asarray(src, dtype=np.float64)
     dst = np.asarray(dst, dtype=np.float64)
     if src.shape != dst.shape or src.ndim != 2 or src.shape[1] != 3:
         raise InvalidInputError(f"{solver} needs two (N, 3) arrays of matched points; got {src.shape} and {dst.shape}")
     if not noise_bound > 0:
         raise ConfigError(f"noise_bound={noise_bound} must be > 0 (object-normalised units, e.g. 0.02)")
-    if rotation_tim_graph not in ("chain", "complete"):
-        raise ConfigError(f"rotation_tim_graph={rotation_tim_graph!r} is unknown; use 'chain' or 'complete'")
     return src, dst
 
 
@@ -261,9 +217,6 @@ def solve(
     max_iterations: int = 100,
     cost_threshold: float = 1e-6,
     clique_node_budget: int = 200_000,
-    rotation_tim_graph: str = "chain",
-    max_rotation_tims: int = 20_000,
-    seed: int = 0,
     clique_time_budget_s: float | None = None,
 ) -> SolverResult:
     """Robust registration ``dst ~ R src + t`` from putative correspondences (TEASER, scale 1).
@@ -274,15 +227,8 @@ def solve(
         noise_bound: inlier bound ``beta`` on ``||b_i - (R a_i + t)||`` (same unit).
         cbar2: TLS truncation (squared, in units of the bound); 1 as in TEASER++.
         gnc_factor, max_iterations, cost_threshold: GNC-TLS schedule.
-        clique_node_budget: branch-and-bound node cap of the max-clique search.
-        rotation_tim_graph: which TIMs of the clique the rotation uses: ``"chain"`` (clique
-            member k to k+1, cyclic; TEASER++'s default) or ``"complete"`` (every pair, as in the
-            T-RO paper).
-        max_rotation_tims: ``complete`` uses all clique pairs up to this many, else a random
-            subset drawn with ``seed``.
-        clique_time_budget_s: seconds the max-clique search may take (None: no limit); past it,
-            or past ``clique_node_budget``, the best clique so far is used and
-            ``clique_exact`` is False.
+        clique_node_budget, clique_time_budget_s: the max-clique search's node cap and seconds
+            (None: no limit); past either, the best clique so far is used.
 
     Returns:
         :class:`SolverResult`.
@@ -294,7 +240,7 @@ def solve(
     """
     import time
 
-    src, dst = checked_inputs(src, dst, noise_bound, rotation_tim_graph)
+    src, dst = checked_inputs(src, dst, noise_bound)
     timings: dict[str, float] = {}
     if len(src) < MIN_CLIQUE_SIZE:
         raise InvalidInputError(
@@ -313,16 +259,10 @@ def solve(
         )
 
     t0 = time.perf_counter()
-    if rotation_tim_graph == "chain":
-        i = np.arange(len(clique))
-        j = np.roll(i, -1)
-        if len(clique) == 2:
-            i, j = i[:1], j[:1]
-    else:
-        i, j = np.triu_indices(len(clique), k=1)
-    if len(i) > max_rotation_tims:
-        pick = np.random.default_rng(seed).choice(len(i), max_rotation_tims, replace=False)
-        i, j = i[pick], j[pick]
+    i = np.arange(len(clique))  # the cyclic chain k -> k + 1 (one pair for a clique of 2)
+    j = np.roll(i, -1)
+    if len(clique) == 2:
+        i, j = i[:1], j[:1]
     a, b = src[clique], dst[clique]
     R, w, iters, degenerate = gnc_tls_rotation(
         a[j] - a[i], b[j] - b[i], 2.0 * noise_bound, cbar2, gnc_factor, max_iterations, cost_threshold

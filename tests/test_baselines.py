@@ -145,7 +145,7 @@ def test_dictionary_is_shared_with_ours(monkeypatch, tmp_path) -> None:
         ("catpose.methods.fgr.FGR", dict(division_factor=0.5), "division_factor"),
         ("catpose.methods.ransac.RANSAC", dict(confidence=2.0), "confidence"),
         ("catpose.methods.ransac.RANSAC", dict(num_threads=-1), "num_threads"),
-        ("catpose.methods.teaser.TEASER", dict(rotation_tim_graph="star"), "rotation_tim_graph"),
+        ("catpose.methods.teaser.TEASER", dict(gnc_factor=1.0), "gnc_factor"),
         ("catpose.methods.teaser.TEASER", dict(matching="dictionary", dictionary={"num_views": 17}), "dictionary"),
     ],
 )
@@ -158,14 +158,13 @@ def test_bad_options_fail_at_construction(cls_path: str, kwargs: dict, match: st
 
 
 def test_teaserpp_without_bindings_says_how_to_get_them() -> None:
-    pytest.importorskip("catpose.methods.teaserpp")
     try:
         import teaserpp_python  # noqa: F401
 
         pytest.skip("teaserpp_python is installed")
     except ImportError:
         pass
-    from catpose.methods.teaserpp import TEASERPlusPlus
+    from catpose.methods.teaser import TEASERPlusPlus
 
     with pytest.raises(ConfigError, match="method=teaser") as info:
         TEASERPlusPlus()

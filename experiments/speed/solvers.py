@@ -121,10 +121,10 @@ def measure(problems: list[CorrespondenceProblem], with_teaserpp: bool | None = 
             "seconds_ours": time.perf_counter() - t0,
         }
         if with_teaserpp:
-            from catpose.methods import teaserpp
+            from catpose.methods import teaser
 
             t0 = time.perf_counter()
-            tpp = teaserpp.solve(p.src, p.dst, p.noise_bound, min_clique_size=0)
+            tpp = teaser.solve_teaserpp(p.src, p.dst, p.noise_bound, min_clique_size=0)
             seconds = time.perf_counter() - t0
             same = np.array_equal(ours.clique, tpp.clique)
             row.update(
