@@ -1,47 +1,29 @@
 """The rules that keep one of a view's K template registrations without ground truth (``choice=<rule>``).
 
-A view registered to each of its category's K templates gives K estimates; a system has to keep
-one. :func:`choose` applies a :class:`ChoiceRule` to the K :class:`TemplateEstimate` s (each its
-pose, the method's score and the facts :class:`catpose.methods.template_choice.TemplateChoice`
-computed after the registration) and returns a :class:`Choice`. The rules:
+:func:`choose` applies a :class:`ChoiceRule` to a view's K :class:`TemplateEstimate` s (pose, the
+method's score, the facts :class:`catpose.methods.template_choice.TemplateChoice` computed after
+the registration) and returns a :class:`Choice`. Each cross rule extends the one before it:
 
-- ``score``: the registration with the lowest method ``score``; views whose scores are all NaN
-  keep the first template's.
-- ``density``: the score less ``density_weight`` times the template's point spacing (median
-  distance of a template point to its nearest neighbour, :func:`template_spacing`): a Chamfer-type
-  score cannot fall below what the template's sampling density leaves, and sparser templates would
-  otherwise lose for their density alone (all templates share the unit-sphere size).
-- ``agreement``: the templates share the category's canonical frame, so the K estimates of a
-  view should agree when they are right, while wrong ones scatter. Each registration's support is
-  the number of the view's other registrations whose rotation lies within ``agree_deg`` of its
-  own; the most supported wins, ties broken by the lowest score (with no agreement at all this is
-  the ``score`` rule).
-- ``cross``: each estimate is also checked on the view's other templates
-  (:mod:`catpose.methods.cross_check`, facts ``cross_costs``): its cost is its own template's cost
-  (visibility-aware Chamfer distance plus a silhouette term) plus ``cross_weight`` times the mean
-  over the other templates (each after a short ICP); the lowest wins. A right pose fits every
-  template of the category; a turned pose that fits its own template by a shape coincidence does
-  not. Estimates without costs (their check failed) are chosen only when none of the view has them
-  (then by ``score``).
-- ``cross_top``: the ``cross`` cost plus ``top_weight`` times the estimate's top offset (facts
-  ``top_offset``: how far across the vertical the view's highest part, posed by the estimate, stands
-  from where the K templates put theirs). A chair turned a quarter puts its back at its side. It
-  needs a category whose templates agree on where their top part stands.
-- ``cross_top_turns``: the ``cross_top`` cost, now over each estimate and its turned candidates
-  (facts ``turns``: the estimate turned about the template's up and refined on its own template).
-  The kept pose is the candidate's, ``Choice.turn_deg`` the turn (0: the registration's own
-  estimate); so, unlike the other rules, it can end better than the best of the K registrations.
-- ``fused``: the ``cross_top_turns`` choice with the top offset weighted ``fused_top_weight``,
-  then its pose averaged with those of the other templates that agree with it
-  (:func:`fuse_agreeing`): for each other template, its lowest-cost candidate (registration or
-  turn) whose rotation lies within ``agree_deg`` of the chosen one's; the rotations are averaged
-  (:meth:`scipy.spatial.transform.Rotation.mean`) and so are the translations.
-  ``Choice.fused_templates`` is how many poses were averaged (1: none agreed).
+- ``score``: the lowest method score (all NaN: the first template's).
+- ``density``: the score less ``density_weight`` times the template's point spacing
+  (:func:`template_spacing`): a Chamfer-type score cannot fall below what the template's sampling
+  leaves, so sparser templates would otherwise lose for their density alone.
+- ``agreement``: the estimate with the most others within ``agree_deg`` of its rotation (the
+  templates share the category's frame: right estimates agree, wrong ones scatter), then the score.
+- ``cross``: own template's cost plus ``cross_weight`` times the mean cost on the other templates
+  (facts ``cross_costs``, :mod:`catpose.methods.cross_check`); estimates without costs are chosen
+  only when none has them (then by ``score``).
+- ``cross_top``: ``cross`` plus ``top_weight`` times the top offset (facts ``top_offset``: how far
+  across the vertical the view's highest part stands from where the templates put theirs).
+- ``cross_top_turns``: ``cross_top`` over each estimate and its turned candidates (facts
+  ``turns``); ``Choice.turn_deg`` is the turn kept, so it can beat the best registration.
+- ``fused``: ``cross_top_turns`` with the offset weighted ``fused_top_weight``, its pose then
+  averaged with each other template's lowest-cost candidate within ``agree_deg``
+  (:func:`fuse_agreeing`).
 
-Failed registrations are never chosen unless every registration of the view failed (then the
-first, a failure, is kept). Kept whole because the rules are one ladder over shared costs (each
-cross rule extends the one before it), which the protocols apply to stored facts as one import. Only NumPy and SciPy: no registration runs here, so the benchmark's
-protocols may apply these rules to the facts a run stored. How the weights were chosen:
+A failed registration is chosen only when all failed (the first is kept). Kept whole because the
+rules are one ladder over shared costs, which the protocols apply to stored facts as one import;
+only NumPy and SciPy, no registration runs here. How the weights were chosen:
 docs/category-level.md, docs/choosing-defaults.md.
 """
 
@@ -63,13 +45,12 @@ CROSS_RULES = ("cross", "cross_top", "cross_top_turns", "fused")
 TURN_RULES = ("cross_top_turns", "fused")
 #: the rules that average the chosen pose with the agreeing poses of the other templates
 FUSE_RULES = ("fused",)
-#: the rule a view's K registrations are chosen by when nothing sets one: ``bench run``'s `choice`
-#: group default (configs/run.yaml; a test asserts they agree), chosen on the development tables
-#: (experiments/category_choice/README.md, "The protocol's default")
+#: the default rule (configs/run.yaml's `choice`; a test asserts they agree), chosen on the
+#: development tables (experiments/category_choice/README.md)
 DEFAULT_RULE = "fused"
 
-#: the Python defaults of :class:`ChoiceRule`; configs/choice/score.yaml is the source (a test
-#: asserts they agree): the cross rules' weight of the mean cost on the other templates
+#: the defaults of :class:`ChoiceRule` (configs/choice/score.yaml is the source; a test asserts
+#: they agree): the cross rules' weight of the mean cost on the other templates
 CROSS_WEIGHT = 0.25
 #: ``cross_top`` and ``cross_top_turns``: weight of the top offset (per object-normalised unit)
 TOP_WEIGHT = 0.05
@@ -90,16 +71,7 @@ def check_rule(rule: str) -> str:
 
 @dataclass(frozen=True)
 class ChoiceRule:
-    """A rule of the module doc and its weights.
-
-    Args:
-        rule: one of :data:`RULES`.
-        cross_weight: the cross rules' weight of the mean cost on the other templates.
-        top_weight: ``cross_top`` and ``cross_top_turns``' weight of the top offset (per object-normalised unit).
-        fused_top_weight: ``fused``'s weight of the top offset (per object-normalised unit).
-        agree_deg: ``agreement`` and ``fused``: two rotations agree within this (degrees).
-        density_weight: ``density``: the score less this times the template's point spacing.
-    """
+    """A rule of :data:`RULES` and its weights (the constants above)."""
 
     rule: str = DEFAULT_RULE
     cross_weight: float = CROSS_WEIGHT
@@ -128,18 +100,12 @@ class ChoiceRule:
 
 @dataclass(frozen=True, eq=False)
 class TemplateEstimate:
-    """One registration of a view on one of its K templates, as the rules read it.
-
-    Attributes:
-        template_index: the template it was estimated against (0 <= k < K).
-        T_template_camera: (4, 4) the estimate, or None (failed, or stored without a pose).
-        score: the method's score (lower is better; NaN: none).
-        facts: what :meth:`catpose.methods.template_choice.TemplateChoice.estimate_facts` found:
-            ``cross_costs`` (K,), ``top_offset``, ``turns`` (dicts ``turn_deg``,
-            ``T_template_camera``, ``cross_costs``, ``top_offset``), ``estimate_facts_error``
-            (why they are missing); and ``template_spacing`` (:func:`template_spacing`).
-        ok: whether the registration succeeded (a failed one is never chosen while another is ok).
-    """
+    """One registration of a view on its template ``template_index`` (0 <= k < K), as the rules
+    read it: ``T_template_camera`` (4, 4) or None, the method's ``score`` (lower is better; NaN:
+    none), ``ok`` (succeeded), and ``facts``: :meth:`~catpose.methods.template_choice.TemplateChoice.estimate_facts`'
+    ``cross_costs`` (K,), ``top_offset``, ``turns`` (dicts ``turn_deg``, ``T_template_camera``,
+    ``cross_costs``, ``top_offset``), ``estimate_facts_error`` (why they are missing), and
+    ``template_spacing``."""
 
     template_index: int
     T_template_camera: np.ndarray | None
@@ -149,18 +115,11 @@ class TemplateEstimate:
 
 
 class Choice(NamedTuple):
-    """What :func:`choose` keeps.
-
-    Attributes:
-        position: the kept registration's index in the estimates given.
-        template_index: its template.
-        T_template_camera: (4, 4) the kept pose (the registration's own, one of its turns, or the
-            fused pose), or None when the kept registration has none.
-        turn_deg: the turn kept (0: the registration's own estimate); None under a rule that reads no turns.
-        fused_templates: ``fused``: how many poses were averaged (1: none agreed); else None.
-        pose_changed: whether the kept pose is not the registration's own estimate (a turn or a fusion).
-        estimates: the estimates chosen among (their facts: every cost the rule read).
-    """
+    """What :func:`choose` keeps: the registration's ``position`` among the estimates and its
+    ``template_index``; the kept pose ``T_template_camera`` (4, 4; its own, a turn, or the fused
+    pose; None when it has none); ``turn_deg`` (0: its own estimate; None: the rule reads no
+    turns); ``fused_templates`` (``fused``: poses averaged, 1: none agreed; else None);
+    ``pose_changed`` (a turn or a fusion); the ``estimates`` chosen among."""
 
     position: int
     template_index: int
