@@ -1,29 +1,16 @@
 """The matching pipeline shared by the correspondence-based baselines (FGR, RANSAC, TEASER).
 
-Two choices, both plain constructor arguments (paper Section IV-B, Table "optimiser"):
-
-``matching``
-    ``"direct"``: the partial input against the complete template (one estimate).
-    ``"dictionary"``: against each partial template of the injected
-    :class:`~catpose.methods.dictionary.DictionaryLayout` (the one ``ours`` uses, same cache),
-    keeping the estimate with the lowest one-directional Chamfer distance from the transformed
-    input to the complete template.
-
-``features``
-    ``"fpfh"``: FPFH (Rusu et al. 2009, Open3D ``compute_fpfh_feature``) on voxel-downsampled
-    clouds; FGR/RANSAC use Open3D's feature-matching entry points, TEASER mutual nearest
-    neighbours in feature space.
-    ``"lps"`` / ``"pfh"``: the injected :class:`~catpose.methods.descriptors.Descriptor` (the one
-    ``ours`` uses; its name must match): keypoints by farthest point sampling (``n`` on the input,
-    ``2n`` on the target, ``n`` from the dictionary layout) and the descriptor's affinity; each
-    input keypoint keeps its top-1 template keypoint. FGR/RANSAC use the correspondence entry
-    points.
+Two constructor arguments (paper Section IV-B, Table "optimiser"): ``matching="direct"`` matches
+the partial input against the complete template, ``"dictionary"`` against each partial template
+of ours' :class:`~catpose.methods.dictionary.DictionaryLayout` (same cache), keeping the estimate
+of the lowest one-directional Chamfer distance to the complete template. ``features="fpfh"``:
+Open3D's FPFH on voxel-downsampled clouds; ``"lps"`` / ``"pfh"``: the injected
+:class:`~catpose.methods.descriptors.Descriptor` (ours'; its name must match) on FPS keypoints
+(``n`` on the input, ``2n`` on a target), each input keypoint paired with its top-1 target keypoint.
 
 A method subclasses :class:`CorrespondenceRegistration` and implements ``_estimate`` for one
-(input, target) pair; this module does the rest (downsampling, features, per-template caching,
-optional point-to-plane ICP refinement, candidate selection, score, extras).
-All lengths are object-normalised units; the source is the camera frame, targets the template
-frame, and every estimate is ``T_template_camera``.
+(input, target) pair. Lengths are object-normalised; the source is the camera frame, targets the
+template frame, and every estimate is ``T_template_camera``.
 """
 
 from __future__ import annotations

@@ -1,36 +1,25 @@
 """How well one view's estimate fits each of its category's K templates: the facts the cross rules
 of :mod:`catpose.methods.choice_rules` choose by (:class:`CrossCheck`).
 
-The K templates share the category's canonical frame, so a right estimate from any template is
-a pose the other templates also fit, after a small correction for their different shapes; an
-estimate that is a quarter or half turn off fits its own template by a shape coincidence that the
-other templates do not share. For the estimate ``T`` (camera -> template ``k``) of a view:
+The K templates share the category's canonical frame, so a right estimate from any template is a
+pose the others also fit after a small correction; an estimate a quarter or half turn off fits its
+own template by a shape coincidence the others do not share. For the estimate ``T`` (camera ->
+template ``k``) of a view:
 
-- on its own template ``k`` the cost is the visibility-aware two-directional Chamfer distance
-  (:func:`catpose.methods.pose_scores.visibility_chamfer`, truncated at ``trunc``) at ``T`` itself;
-- on every other template ``j`` it is the same distance after point-to-plane ICP of the view
-  against template ``j`` from ``T`` (Open3D, within ``icp_distance``, at most ``icp_iterations``);
-- each of those poses also pays ``silhouette_weight x (1 - IoU)`` of the view's and the posed
-  template's silhouettes (:func:`silhouette_iou`): a chair turned a quarter shows the camera a
-  seat as wide as it is deep and a back seen edge-on, an outline the view does not have even where
-  the Chamfer distances tie.
+- the cost on template ``k`` is the visibility-aware Chamfer distance
+  (:func:`catpose.methods.pose_scores.visibility_chamfer`, truncated at ``trunc``) at ``T``; on
+  every other template the same after point-to-plane ICP from ``T`` (Open3D); each pays
+  ``silhouette_weight x (1 - IoU)`` of the view's and the posed template's silhouettes
+  (:func:`silhouette_iou`: a quarter-turned chair shows another outline even where Chamfer ties).
+- :meth:`CrossCheck.top_offset`: the horizontal distance between the centroid of the view's
+  highest ``top_fraction`` points, posed by ``T``, and the mean of the templates' own (they agree
+  where a chair's back or an airplane's fin stands).
+- :meth:`CrossCheck.turn_candidates`: ``T`` turned about the template's up by each turn and
+  refined on its own template, each with its costs and top offset (a chair's seat is often as
+  wide as deep, so a registration can settle a quarter turn off on every template).
 
-Beside the K costs, :meth:`CrossCheck.top_offset` (read by the ``cross_top`` rules) places the
-estimate's top part: the horizontal distance (across the template frame's up) between the centroid
-of the view's highest ``top_fraction`` points, posed by the estimate, and the mean of the K
-templates' own top centroids. The templates share the category's frame, so they agree where a
-category's highest part stands (a chair's back, an airplane's tail fin); a quarter-turned chair puts
-its back at the side, a nose/tail-swapped airplane its fin at the nose, even where the Chamfer
-distances and silhouettes tie.
-
-:meth:`CrossCheck.turn_candidates` (read by the turn rules) proposes more poses from each estimate:
-the estimate turned by each of the given turns about the template frame's up, refined by the same
-ICP on its own template, each with its own costs and top offset. A chair's seat is often as wide as
-it is deep, so a registration can settle a quarter turn off on every template; its turned pose is
-then a candidate the cross check can prefer.
-
-The settings are constructor arguments; ``configs/choice/score.yaml`` holds their values (the
-defaults here equal them, ``tests/test_choice_config.py``).
+``configs/choice/score.yaml`` holds the settings' values (the defaults here equal them,
+``tests/test_choice_config.py``).
 """
 
 from __future__ import annotations

@@ -1,28 +1,16 @@
 """The partial-template dictionary (paper Section III-B, "Overview").
 
-A complete template cloud ``X*`` (template frame) is seen from ``m`` viewpoints; hidden point
-removal (Katz et al. 2007, Open3D ``hidden_point_removal``) keeps the points visible from each
-one. The ``m`` partial templates stay in the template frame (only different parts are missing),
-so a pose estimated against any of them is a pose against the template.
+A complete template cloud (template frame) is seen from ``m`` viewpoints; hidden point removal
+(Katz et al. 2007, Open3D) keeps the points visible from each. The partial templates stay in the
+template frame, so a pose estimated against any of them is a pose against the template.
 
-Viewpoint layout (default, ``layout="rings"``, ``num_views=18``): 3 elevation rings at
-``elevations_deg = (0, 30, 60)`` degrees above the template's ground plane (the xy plane,
-z up) x 6 azimuths every 60 degrees (starting at +x on even rings, offset by half a step, 30 degrees,
-on odd rings), at ``distance`` (object-normalised units)
-from the origin. The rings match where a depth camera looks at an upright object from.
-``layout="fibonacci"`` spreads ``num_views`` directions evenly over the whole sphere instead.
+Viewpoints (:func:`viewpoint_layout`, ``num_views=18``): elevation rings at ``elevations_deg = (0,
+30, 60)`` degrees above the template's ground plane (xy, z up), azimuths evenly spaced from +x (odd
+rings offset by half a step), at ``distance`` (object-normalised) from the origin: where a depth
+camera looks at an upright object from.
 
-Built once per template and parameters and cached in memory and on disk: the key is the
-template id, a hash of the template points and normals and every parameter. The disk cache
-(:mod:`catpose.disk_cache`: ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``, written atomically, a
-corrupt entry rebuilt, keyed also by this code) holds only indices; points and normals are looked
-up from the template.
-
-Usage::
-
-    from catpose.methods.dictionary import get_dictionary
-    d = get_dictionary(template)                 # 18 partial templates
-    for pts, nrm in zip(d.points, d.normals): ...
+Built once per template content and parameters, cached in memory and on disk
+(:mod:`catpose.disk_cache`, indices only; points and normals come from the template).
 """
 
 from __future__ import annotations
@@ -80,50 +68,31 @@ class PartialDictionary:
 
 
 def viewpoint_layout(
-    num_views: int = 18,
-    layout: str = "rings",
-    elevations_deg: tuple[float, ...] = (0.0, 30.0, 60.0),
-    distance: float = 3.0,
+    num_views: int = 18, elevations_deg: tuple[float, ...] = (0.0, 30.0, 60.0), distance: float = 3.0
 ) -> np.ndarray:
-    """Camera positions (num_views, 3) around the template origin, template frame (z up).
-
-    ``rings``: ``len(elevations_deg)`` rings (degrees above the xy plane), each with
-    ``num_views / len(elevations_deg)`` azimuths evenly spaced from +x (ring ``j`` is rotated by
-    half an azimuth step for odd ``j`` so rings interleave). ``fibonacci``: a Fibonacci sphere.
-    """
-    if num_views < 1:
-        raise ConfigError(f"method.dictionary.num_views={num_views}; use a positive count such as 18")
-    if layout == "rings":
-        rings = len(elevations_deg)
-        if rings == 0 or num_views % rings:
-            raise ConfigError(
-                f"method.dictionary.num_views={num_views} is not a multiple of the "
-                f"{rings} elevation rings {list(elevations_deg)}; change one of them"
-            )
-        per = num_views // rings
-        out = []
-        for j, el in enumerate(elevations_deg):
-            el_r = np.deg2rad(el)
-            offset = 0.5 * (j % 2) * 2 * np.pi / per
-            for a in range(per):
-                az = offset + 2 * np.pi * a / per
-                out.append([np.cos(el_r) * np.cos(az), np.cos(el_r) * np.sin(az), np.sin(el_r)])
-        dirs = np.array(out)
-    elif layout == "fibonacci":
-        i = np.arange(num_views) + 0.5
-        z = 1 - 2 * i / num_views
-        r = np.sqrt(1 - z * z)
-        phi = np.pi * (1 + 5**0.5) * i
-        dirs = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
-    else:
-        raise ConfigError(f"method.dictionary.layout={layout!r} is unknown; use 'rings' or 'fibonacci'")
-    return distance * dirs
+    """Camera positions (num_views, 3) around the template origin, template frame (z up):
+    ``len(elevations_deg)`` rings (degrees above the xy plane) of ``num_views / len(elevations_deg)``
+    azimuths evenly spaced from +x, odd rings turned by half a step so that rings interleave."""
+    rings = len(elevations_deg)
+    if num_views < 1 or rings == 0 or num_views % rings:
+        raise ConfigError(
+            f"method.dictionary.num_views={num_views} is not a multiple of the "
+            f"{rings} elevation rings {list(elevations_deg)}; change one of them"
+        )
+    per = num_views // rings
+    out = []
+    for j, el in enumerate(elevations_deg):
+        el_r = np.deg2rad(el)
+        offset = 0.5 * (j % 2) * 2 * np.pi / per
+        for a in range(per):
+            az = offset + 2 * np.pi * a / per
+            out.append([np.cos(el_r) * np.cos(az), np.cos(el_r) * np.sin(az), np.sin(el_r)])
+    return distance * np.array(out)
 
 
 def dictionary_key(
     template: Template,
     num_views: int,
-    layout: str,
     elevations_deg: tuple[float, ...],
     distance: float,
     hpr_radius_factor: float,
@@ -133,7 +102,7 @@ def dictionary_key(
         (
             _VERSION,
             num_views,
-            layout,
+            "rings",  # the one layout (keeps the keys of entries cached before)
             tuple(float(e) for e in elevations_deg),
             float(distance),
             float(hpr_radius_factor),
@@ -146,33 +115,21 @@ def dictionary_key(
 def get_dictionary(
     template: Template,
     num_views: int = 18,
-    layout: str = "rings",
     elevations_deg: tuple[float, ...] = (0.0, 30.0, 60.0),
     distance: float = 3.0,
     hpr_radius_factor: float = 100.0,
     use_disk_cache: bool = True,
 ) -> PartialDictionary:
-    """The partial-template dictionary of ``template``, built once and cached.
-
-    Args:
-        template: complete template (points and normals in the template frame).
-        num_views: number ``m`` of viewpoints (partial templates).
-        layout: ``"rings"`` or ``"fibonacci"`` (see the module docstring).
-        elevations_deg: ring elevations in degrees above the xy plane (``rings`` only).
-        distance: camera distance from the origin, object-normalised unit.
-        hpr_radius_factor: hidden point removal radius as a multiple of the cloud's extent seen
-            from the viewpoint (Open3D's usual choice is 100).
-        use_disk_cache: also read/write the disk cache (:mod:`catpose.disk_cache`, kind ``dictionary``).
-
-    Returns:
-        A :class:`PartialDictionary`; the same object for repeated calls with equal inputs.
-    """
+    """The :class:`PartialDictionary` of ``template`` (the same object for equal inputs), its
+    viewpoints by :func:`viewpoint_layout`; ``hpr_radius_factor``: the hidden point removal radius
+    over the cloud's extent from the viewpoint (Open3D's usual 100); ``use_disk_cache``: also
+    read and write the disk cache (kind ``dictionary``)."""
     elevations_deg = tuple(float(e) for e in elevations_deg)
-    key = dictionary_key(template, num_views, layout, elevations_deg, distance, hpr_radius_factor)
+    key = dictionary_key(template, num_views, elevations_deg, distance, hpr_radius_factor)
     hit = _MEMORY.get(key)
     if hit is not None:
         return hit
-    viewpoints = viewpoint_layout(num_views, layout, elevations_deg, distance)
+    viewpoints = viewpoint_layout(num_views, elevations_deg, distance)
 
     def build() -> list[np.ndarray]:
         return [visible_indices(template.points, v, hpr_radius_factor) for v in viewpoints]
@@ -216,8 +173,7 @@ class DictionaryLayout:
     """How a template becomes a dictionary of partial templates, and how many keypoints each has.
 
     Attributes:
-        num_views: ``m`` viewpoints (partial templates); ``rings`` needs a multiple of the rings.
-        layout: ``rings`` (elevation rings x azimuths) or ``fibonacci`` (whole sphere).
+        num_views: ``m`` viewpoints (partial templates), a multiple of the rings.
         elevations_deg: ring elevations, degrees above the template's ground plane.
         view_distance: camera distance from the template origin, object-normalised units.
         hpr_radius_factor: hidden point removal radius / the cloud's extent from the viewpoint.
@@ -226,7 +182,6 @@ class DictionaryLayout:
     """
 
     num_views: int = 18
-    layout: str = "rings"
     elevations_deg: tuple[float, ...] = (0.0, 30.0, 60.0)
     view_distance: float = 3.0
     hpr_radius_factor: float = 100.0
@@ -236,7 +191,6 @@ class DictionaryLayout:
         k = "method.dictionary."
         set_ = object.__setattr__
         set_(self, "num_views", options.positive(k + "num_views", self.num_views, integer=True))
-        set_(self, "layout", options.one_of(k + "layout", self.layout, ("rings", "fibonacci")))
         try:
             elevations = tuple(float(e) for e in self.elevations_deg)
         except (TypeError, ValueError):
@@ -245,19 +199,12 @@ class DictionaryLayout:
         set_(self, "view_distance", options.positive(k + "view_distance", self.view_distance))
         set_(self, "hpr_radius_factor", options.positive(k + "hpr_radius_factor", self.hpr_radius_factor))
         set_(self, "num_keypoints", options.at_least(k + "num_keypoints", self.num_keypoints, 3))
-        self.viewpoints()  # a rings layout that does not divide num_views fails here, not per sample
-
-    @property
-    def azimuths_per_ring(self) -> int:
-        """Azimuths on each elevation ring (``rings`` layout)."""
-        return self.num_views // len(self.elevations_deg)
+        self.viewpoints()  # rings that do not divide num_views fail here, not per sample
 
     def viewpoints(self) -> np.ndarray:
         """Camera positions (num_views, 3), template frame, object-normalised units."""
-        return viewpoint_layout(self.num_views, self.layout, self.elevations_deg, self.view_distance)
+        return viewpoint_layout(self.num_views, self.elevations_deg, self.view_distance)
 
     def dictionary(self, template: Template) -> PartialDictionary:
         """The partial-template dictionary of ``template`` (cached in memory and on disk)."""
-        return get_dictionary(
-            template, self.num_views, self.layout, self.elevations_deg, self.view_distance, self.hpr_radius_factor
-        )
+        return get_dictionary(template, self.num_views, self.elevations_deg, self.view_distance, self.hpr_radius_factor)

@@ -75,7 +75,7 @@ _CODE = (
     "catpose.methods.pfh",
 )
 #: the dataclasses an entry may hold (the descriptors' stacked forms)
-_TYPES = ("catpose.methods.lps:VoxelPatches", "catpose.methods.lps:Patches")
+_TYPES = ("catpose.methods.lps:VoxelPatches",)
 
 
 def dictionary_features(

@@ -23,19 +23,15 @@ def _sphere_template(tid: str = "test/sphere", n: int = 800) -> Template:
     )
 
 
-def test_layout_rings_and_fibonacci():
-    v = dmod.viewpoint_layout(18, "rings", (0.0, 30.0, 60.0), 3.0)
+def test_layout_rings():
+    v = dmod.viewpoint_layout(18, (0.0, 30.0, 60.0), 3.0)
     assert v.shape == (18, 3)
     np.testing.assert_allclose(np.linalg.norm(v, axis=1), 3.0)
     el = np.degrees(np.arcsin(v[:, 2] / 3.0))
     np.testing.assert_allclose(np.sort(np.unique(np.round(el, 6))), [0.0, 30.0, 60.0], atol=1e-6)
-    f = dmod.viewpoint_layout(18, "fibonacci", distance=2.0)
-    np.testing.assert_allclose(np.linalg.norm(f, axis=1), 2.0)
-    assert len(np.unique(np.round(f, 6), axis=0)) == 18
+    assert len(np.unique(np.round(v, 6), axis=0)) == 18
     with pytest.raises(ConfigError, match="multiple"):
-        dmod.viewpoint_layout(17, "rings", (0.0, 30.0, 60.0))
-    with pytest.raises(ConfigError, match="layout"):
-        dmod.viewpoint_layout(18, "cube")
+        dmod.viewpoint_layout(17, (0.0, 30.0, 60.0))
 
 
 def test_partials_are_visible_subsets_and_cached(tmp_path, monkeypatch):
@@ -66,6 +62,6 @@ def test_partials_are_visible_subsets_and_cached(tmp_path, monkeypatch):
 
 def test_key_depends_on_points():
     a, b = _sphere_template(n=800), _sphere_template(n=801)
-    args = (18, "rings", (0.0, 30.0, 60.0), 3.0, 100.0)
+    args = (18, (0.0, 30.0, 60.0), 3.0, 100.0)
     assert dmod.dictionary_key(a, *args) != dmod.dictionary_key(b, *args)
     assert dmod.dictionary_key(a, *args) == dmod.dictionary_key(_sphere_template(n=800), *args)
