@@ -1,26 +1,16 @@
 """``catpose.register``: one call from an observed view (points or a depth frame) and a template to
 a camera pose; ``catpose.Registrar``: a template held between calls.
 
-The application layer. This is the one package under ``src/catpose`` that imports
-``catpose.methods`` (the method registry, whose ``configs/method/<name>.yaml`` ``method_cache``
-reads without Hydra into the method ``bench run`` builds) and ``catpose.datasets`` (mesh reading,
-surface sampling, normal estimation); it never imports the bench or Hydra. Every other module under
-``src/catpose`` stays below those packages. ``import catpose`` does not load it: ``catpose.register`` imports it on first use.
+The application layer: the one package under ``src/catpose`` that imports ``catpose.methods`` (the
+method registry; ``method_cache`` builds a method from ``configs/method/<name>.yaml`` without
+Hydra) and ``catpose.datasets`` (meshes, sampling, normals, a frame's view through
+:func:`catpose.datasets.frame_view.frame_view` as ``bench run``'s BOP loader); never the bench or
+Hydra. ``import catpose`` loads it on first use of ``catpose.register``.
 
-Units and frames. The caller's two clouds share one unit (mm, m, ...). The methods work in the
-object-normalised unit (the template centred at its bounding-box centre ``c`` and divided by
-its radius ``s``, the distance of its farthest point from ``c``), so the template becomes
-``(R_up p - c) / s`` (``R_up`` turns the caller's ``template_up`` onto +z, the methods' up
-axis) and the observation ``p / s`` (camera frame, origin kept: ours scores visibility from
-the camera). A method's answer ``T_n`` maps back to the caller's frames and units as
-``R = R_up^T R_n``, ``t = R_up^T (s t_n + c)``.
-
-A depth frame (:class:`~catpose.depth_frame.DepthFrame`) goes through
-:func:`catpose.datasets.frame_view.frame_view`, the function ``bench run``'s BOP loader calls for
-every instance, so the API and the benchmark see the same problem (modules: ``inputs`` argument
-checks and the normalised template, ``observation`` points or a frame in the methods' unit,
-``registrar`` the call itself, ``parallel`` ``Registrar.many`` over processes, ``overlay`` the answer drawn on the frame, ``bop`` a BOP
-frame and its model as the bench loads them, ``method_cache`` methods built from configs).
+Units and frames: the caller's clouds share one unit; the methods work in the object-normalised
+one, the template as ``(R_up p - c) / s`` (``R_up`` turns ``template_up`` onto +z, ``c`` its
+bounding-box centre, ``s`` its radius) and the observation as ``p / s`` (camera frame). An answer
+``T_n`` maps back as ``R = R_up^T R_n``, ``t = R_up^T (s t_n + c)``.
 
 Example::
 

@@ -1,13 +1,7 @@
-"""``catpose.Registrar``: one template held between calls, its dictionary and features built once.
-
-``Registrar(template, method="ours", **options)`` normalises the template, builds the method (as
-``bench run`` builds it) and, for ours, its per-template data (every gravity hypothesis' partial-
-view dictionary, keypoints and descriptors, the depth check's ray caster), which also lands in the
-disk cache (``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``), so that the same template in another
-process loads instead of rebuilding. ``registrar(observation)`` registers one view (an (N, 3)
-array or a :class:`~catpose.depth_frame.DepthFrame`); ``registrar.many([...], processes=N)`` a list,
-optionally over ``N`` worker processes (each loads the template's data from the disk cache), in
-order, with the same answers as one by one. :func:`catpose.register` is a one-off Registrar.
+"""``catpose.Registrar``: one template held between calls, its method's per-template data built
+once (and kept in the disk cache, so that another process loads it). ``registrar(observation)``
+registers one view, ``registrar.many([...], processes=N)`` a list, in order, with the same
+answers as one by one. :func:`catpose.register` is a one-off Registrar.
 """
 
 from __future__ import annotations
@@ -45,15 +39,10 @@ class Registrar:
     """A template and a method, ready to register views of the template's object.
 
     Args:
-        template: the template in its own frame (see :func:`catpose.register`), or a
-            :class:`~catpose.api.inputs.NormalisedTemplate` (a template already normalised, with
-            the map back to the caller's frame: what the BOP loader's models are).
-        method: a registered method's config name (``ours``, ``icp``, ``gicp``, ...) or a
-            :class:`~catpose.methods.method.RegistrationMethod` instance.
-        template_normals, template_up, template_points: as :func:`catpose.register`.
+        template, method, template_normals, template_up, template_points, **options: as
+            :func:`catpose.register`.
         prepare: build the method's per-template data now (ours: dictionaries, descriptors, ray
             caster; loaded from the disk cache when there); False: on the first call.
-        **options: method options as in ``bench run`` (``method.<key>=<value>``).
 
     Raises:
         InvalidInputError: a bad argument or option, in one line naming it.
