@@ -1,18 +1,10 @@
-"""Keypoint descriptors as interchangeable strategies: :class:`LPS` (the paper's) and :class:`PFH`.
-
-Both share one interface, used by ``ours`` (:mod:`catpose.methods.ours`) and by the
-correspondence baselines (:mod:`catpose.methods.correspondence`):
-
-- :meth:`Descriptor.keypoint_features`: voxel-downsample a cloud with ``voxel_size`` (first point
-  per voxel), pick keypoints by farthest point sampling (start index 0) and describe them;
-- :meth:`Descriptor.affinity`: unnormalised affinities (Ka, Kb) between two descriptor sets;
-- :meth:`Descriptor.stack` and :meth:`Descriptor.batched_affinity`: the affinities (m, n, k) of one
-  input set to ``m`` sets of ``k`` keypoints (the partial templates) in one product;
-- :meth:`Descriptor.cache_key`: every parameter, for caches of template-side descriptors.
-
-Affinities: LPS = F-score of local patches (:mod:`catpose.methods.lps`), PFH = 1 / (EMD + eps)
-of point feature histograms (:mod:`catpose.methods.pfh`). Lengths are object-normalised units.
-Invalid options raise a one-line ConfigError naming ``method.descriptor.<key>``.
+"""Keypoint descriptors as interchangeable strategies: :class:`LPS` (the paper's) and :class:`PFH`,
+used by ``ours`` and the correspondence baselines. :meth:`Descriptor.keypoint_features`
+voxel-downsamples a cloud, picks keypoints by farthest point sampling from index 0 and describes
+them; :meth:`Descriptor.affinity` gives unnormalised affinities (Ka, Kb), and
+:meth:`Descriptor.batched_affinity` those of one set to ``m`` stacked sets (m, Ka, k) in one
+product. Lengths are object-normalised; a bad option raises a one-line ConfigError naming
+``method.descriptor.<key>``.
 """
 
 from __future__ import annotations

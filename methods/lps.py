@@ -1,26 +1,16 @@
 """Local Patch Similarity (LPS), the paper's descriptor (Section III-B).
 
 Local frame at a keypoint ``p`` with unit normal ``n_p`` and ground normal ``g`` (the up
-direction, same frame as the cloud): ``x = n_p``, ``y = g x x / |g x x|``, ``z = x x y``. When
-``n_p`` is within ``parallel_deg`` of +-g (``y`` undefined), the fallback is PCA of the
-neighbourhood: ``x`` = eigenvector of the smallest eigenvalue (signed like ``n_p``), ``y`` = the
-largest-eigenvalue eigenvector made orthogonal to ``x``, signed so that the neighbourhood's third
-moment along ``y`` is positive (deterministic and rotation-equivariant), ``z = x x y``.
-The patch is every point within ``radius`` of ``p`` (up to ``max_points`` nearest), in local
-coordinates ``R^T (q - p)`` where ``R = [x y z]``. Frames rotate with the cloud (if the ground
-normal rotates too), so patches, and any similarity between them, are invariant.
+direction, same frame): ``x = n_p``, ``y = g x x / |g x x|``, ``z = x x y``; when ``n_p`` is
+within ``parallel_deg`` of +-g, PCA of the neighbourhood instead (:func:`local_frames`). The patch
+is every point within ``radius`` of ``p`` (at most ``max_points`` nearest) in local coordinates
+``R^T (q - p)``, ``R = [x y z]``: invariant to rigid motions that move the ground normal along.
 
-Similarity of two patches = F-score at threshold ``tau`` (Tatarchenko et al. 2019): precision =
-fraction of patch-a points with a patch-b point within ``tau``, recall = the converse,
-``F = 2 P R / (P + R)``. :func:`fscore_voxel` computes it on grids (the exact all-pairs form
-is its reference in tests/test_lps.py): each patch becomes a point-count grid on
-the cube [-radius, radius]^3 with cells of ``tau / subdiv`` and a dilated occupancy grid (cells
-within ``tau`` of an occupied cell, a ball of ``subdiv`` cells); precision and recall for all
-pairs come from two matrix products ``counts_a @ dilated_b^T``. A point counts as matched when
-another point lies in a cell whose centre is within ``tau`` of its own cell's centre, so the
-effective threshold is tau +- one cell diagonal.
-
-The affinity ``A_jk = F(patch(P_c[j]), patch(P_t[k]))``; rows are normalised by the caller.
+Similarity of two patches = F-score at threshold ``tau`` (Tatarchenko et al. 2019).
+:func:`fscore_voxel` computes it on grids (its exact all-pairs reference: tests/test_lps.py): each
+patch becomes point counts on cells of ``tau / subdiv`` over [-radius, radius]^3 and a dilated
+occupancy grid, and precision and recall of all pairs are two products ``counts_a @ dilated_b^T``
+(effective threshold tau +- one cell diagonal). Rows of the affinity are normalised by the caller.
 """
 
 from __future__ import annotations

@@ -1,21 +1,13 @@
 """Exact maximum clique of an undirected graph, compiled with numba (the TEASER solver's step 2).
 
-Tomita and Seki's MCQ branch and bound (greedy sequential colouring as the upper bound; Tomita &
-Seki, DMTCS 2003) on uint64 bitsets in the manner of San Segundo's BBMC, with an explicit stack
-so that the search can be paused and resumed. Before the search, as TEASER++'s PMC does, the
-graph is pruned to the ``(s - 1)``-core implied by a greedy clique of size ``s`` (every vertex of
-a clique of size ``s`` has degree ``>= s - 1``).
-
-Budgets and the fallback heuristic: the search stops after ``node_budget`` search-tree nodes
-(deterministic) or after ``time_budget_s`` seconds (checked every few thousand nodes; machine
-dependent). It then returns the best clique found so far, which is at least the greedy clique:
-from each of the 16 highest-degree vertices, repeatedly add the candidate with the most candidate
-neighbours; the largest of those. The result says whether the search finished (exact).
-
-The search visits branches in the same order and applies the same bound as the pure-Python MCQ
-this module replaced, so it returns the same clique, ties included.
-
-This module imports numba; :func:`catpose.methods.teaser_solver.max_clique` imports it lazily.
+Tomita and Seki's MCQ branch and bound (greedy sequential colouring as the bound; DMTCS 2003) on
+uint64 bitsets as San Segundo's BBMC, with an explicit stack so that the search can pause and
+resume; first, as TEASER++'s PMC, the graph is pruned to the ``(s - 1)``-core that a greedy clique
+of size ``s`` implies. Past ``node_budget`` search-tree nodes or ``time_budget_s`` seconds it
+returns the best clique so far (at least the greedy one: from each of the 16 highest-degree
+vertices, add the candidate with the most candidate neighbours) and says it is not exact. It
+returns the same clique, ties included, as the pure-Python MCQ it replaced (networkx's
+``max_weight_clique`` picks other ties, which would move TEASER's answers).
 """
 
 from __future__ import annotations

@@ -1,20 +1,14 @@
 """Point Feature Histograms (Rusu et al. 2008) and their EMD affinity (paper Section III-B).
 
-A keypoint's descriptor is the 125-bin histogram (5 bins for each of the three Darboux-frame
-angle features theta, alpha, phi; the distance feature is not used) of the point-pair features
-of all unordered pairs among its neighbours within ``radius``. The pair feature follows PCL's
-``computePairFeatures``: for points ``p1, p2`` with normals ``n1, n2`` and ``d = p2 - p1``, the
-source is the point whose normal makes the smaller angle with the line; ``u = n1``,
-``v = d x u / |d x u|``, ``w = u x v``; ``alpha = v . n2`` in [-1, 1], ``phi = u . d / |d|`` in
-[-1, 1], ``theta = atan2(w . n2, u . n2)`` in [-pi, pi]. Only dot and cross products enter, so
-the descriptor is invariant to rigid motions.
+A keypoint's descriptor is the 125-bin histogram (5 bins for each Darboux-frame angle theta,
+alpha, phi; no distance feature) of the pair features of all unordered pairs of its neighbours
+within ``radius``, as PCL's ``computePairFeatures`` (:func:`pair_features`): only dot and cross
+products, so invariant to rigid motions.
 
-Affinity ``A_jk = 1 / (EMD(h_j, h_k) + eps)`` (paper Eq. 1). Exact EMD over 125 bins with the
-L1 grid ground distance costs about 1 ms a pair (POT), ~38 s per sample, so the default is the
-*marginal EMD*: the sum over the three features of the 1D EMD of their 5-bin marginals
-(= L1 distance of the marginal CDFs, in bin units). Because the L1 ground distance is the sum
-of per-axis distances and any transport plan projects onto a plan between the marginals, it is
-a lower bound of the exact L1-ground EMD; tests check that bound and the rank agreement.
+Affinity ``A_jk = 1 / (EMD(h_j, h_k) + eps)`` (paper Eq. 1) with the *marginal EMD*: the sum over
+the three features of the 1D EMD of their 5-bin marginals (L1 distance of the marginal CDFs, bin
+units), a lower bound of the exact L1-ground EMD (~1 ms a pair; tests/test_pfh.py checks the bound
+and the rank agreement).
 """
 
 from __future__ import annotations

@@ -1,29 +1,15 @@
 """Scores for choosing among the candidate poses of ours (selection, step 7 of the pipeline).
 
-Every score takes the input cloud in the camera frame ``points_camera`` (N, 3), candidate poses
-``T_template_camera`` (B, 4, 4) and the complete template (``points`` (M, 3), ``normals``
-(M, 3), a KD-tree of ``points``), all lengths in the object-normalised unit, and returns (B,)
-values where **lower is better**.
-
-- :func:`chamfer`: mean distance of the transformed input to the nearest template point (the
-  one-directional Chamfer distance ours has used; it cannot see template surface that the
-  camera should have seen but did not).
-- :func:`outlier_ratio`: ``1 -`` the fraction of input points within ``threshold`` of the
-  template (an inlier ratio; robust to background points bleeding into the mask).
-- :func:`visibility_chamfer`: the two-directional, visibility-aware Chamfer distance: the
-  truncated mean distance of the input to the template, plus the truncated mean distance of the
-  template points the estimated camera sees (outward normal facing the camera centre: back-face
-  visibility, no self-occlusion) to the input. A pose that shows the camera a side of the template
-  that is not in the observation (a flipped airplane, a bottle seen from the side instead of from
-  above) pays for every such point; the truncation at ``trunc`` bounds what background points
-  and missing data cost.
-
-The paper's rule (lowest final loss) and the earlier one-directional Chamfer stay reachable
-through ``method.selection.rule`` (``loss`` | ``chamfer`` | ``visibility``).
+Each takes the input cloud ``points_camera`` (N, 3, camera frame), candidate poses
+``T_template_camera`` (B, 4, 4) and the complete template (``points``, ``normals`` (M, 3), a
+KD-tree of ``points``), object-normalised, and returns (B,) values, **lower is better**:
+:func:`chamfer` (mean distance of the posed input to the template), :func:`outlier_ratio` (``1 -``
+the input's inlier fraction within ``threshold``) and :func:`visibility_chamfer` (truncated
+two-directional Chamfer over the input and the template points the estimated camera sees, by
+back-face visibility: a pose that shows the camera a side the view lacks pays for it).
 
 These NumPy scores are the readable references; ours calls the compiled twin of
-:func:`visibility_chamfer` (:mod:`catpose.methods.pose_scores_kernel`) and passes it, with the
-compiled refinement, to :func:`select_with_half_turns` as callables.
+:func:`visibility_chamfer` (:mod:`catpose.methods.pose_scores_kernel`).
 """
 
 from __future__ import annotations

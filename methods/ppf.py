@@ -1,42 +1,25 @@
 """Point pair features (Drost, Ulrich, Navab, Ilic, CVPR 2010) through OpenCV's ``ppf_match_3d``.
 
-The classic depth-only peer of BOP, as OpenCV's contrib build ships it
-(``cv2.ppf_match_3d.PPF3DDetector`` and ``cv2.ppf_match_3d.ICP``; the optional extra ``ppf``:
-``pip install -e ".[ppf]"``, i.e. ``opencv-contrib-python-headless``).
+The classic depth-only peer of BOP, as OpenCV's contrib build ships it (the optional extra ``ppf``,
+``opencv-contrib-python-headless``):
 
 1. **Model** (once per template and setting): the template's points and outward normals,
-   voxel-downsampled at ``model_sampling`` times the template's diameter (the diagonal of its
-   bounding box, OpenCV's diameter), are handed to ``PPF3DDetector(model_sampling, ...,
-   num_angles).trainModel``, which quantises them once more on its own grid (``model_sampling``
-   of each bounding-box side, finer than the voxels) and hashes every point pair's feature with
-   distance step ``model_sampling`` x diameter (OpenCV's ``trainModel`` uses the sampling step
-   for both; its ``relativeDistanceStep`` is not read).
-2. **Detection** on the observation, camera frame, normals oriented towards the camera (the
-   problem's): voxel-downsampled at ``scene_sampling`` x the template's diameter, then every
-   ``scene_reference_step``-th point is a reference point whose pairs vote (``match``). OpenCV
-   quantises the scene relative to the *scene's* bounding box (not the model's diameter, as its
-   documentation says), so a few stray points far behind the object would coarsen the sampling
-   of the object itself; the voxels here are absolute, and OpenCV's own scene grid is set finer
-   than them (at most :data:`MAX_SCENE_CELLS` cells a side; ``scene_grid_capped`` in the extras
-   says when that cap made it coarser).
-3. **Refinement**: OpenCV's ICP (``registerModelToScene``: the template's points onto the
-   observation's, point to plane, ``icp_levels`` pyramid levels) of each of the ``top_k`` pose
-   clusters with most votes, from that pose, with the template points that face the camera
-   under it (``icp_model``).
-4. **Choice** among them (``select``): ``votes`` (the detector's own order), ``residual`` (OpenCV
-   ICP's residual) or ``chamfer`` (lowest mean distance of the observation, so posed, to the
-   template: the score every correspondence baseline reports).
+   voxel-downsampled at ``model_sampling`` times its diameter (bounding-box diagonal, OpenCV's),
+   train ``PPF3DDetector``, whose feature distance step is the same ``model_sampling`` (its
+   ``relativeDistanceStep`` is not read).
+2. **Detection**: the observation (camera frame, normals towards the camera) voxel-downsampled at
+   ``scene_sampling`` x the diameter; every ``scene_reference_step``-th point votes. OpenCV grids
+   the scene relative to the *scene's* bounding box, so stray points far behind the object would
+   coarsen it: the voxels here are absolute and OpenCV's grid is set finer (at most
+   :data:`MAX_SCENE_CELLS` a side; ``scene_grid_capped`` in the extras when that cap bit).
+3. **Refinement**: OpenCV's ICP of each of the ``top_k`` most voted pose clusters, with the
+   template points facing the camera under that pose (``icp_model``).
+4. **Choice** (``select``): ``votes``, ``residual`` (ICP's) or ``chamfer`` (the observation's mean
+   distance to the posed template, the score every correspondence baseline reports).
 
-Frames: OpenCV's pose maps the model into the scene, ``p_camera = R p_template + t``; the answer
-is its inverse, ``T_template_camera``. ``score`` is the one-directional Chamfer distance of the
-chosen pose (object-normalised), comparable across templates.
-
-Caching: training is slow (seconds to minutes per template: OpenCV's hash table walks every
-equal feature on insertion, so symmetric objects cost most), so each trained detector is kept
-for the life of the process (:data:`_MODELS`, keyed by the template's content and the model
-settings) and shared by every ``PPF`` instance. It is not kept on disk: the Python binding of
-``PPF3DDetector`` exposes only ``trainModel`` and ``match`` (its C++ ``read`` / ``write`` are not
-wrapped), so a trained model cannot leave the process.
+OpenCV's pose maps the model into the scene; the answer is its inverse, ``T_template_camera``.
+Trained detectors stay for the process's life (:data:`_MODELS`; training takes seconds to minutes,
+and the Python binding cannot write a model to disk).
 """
 
 from __future__ import annotations

@@ -1,18 +1,8 @@
-"""Choosing among K templates: one view registered to each of its category's K templates, one pose
-kept without ground truth (the ``choice`` config group, ``configs/choice/<rule>.yaml``).
-
-:class:`TemplateChoice` is the component. After each registration,
-:meth:`~TemplateChoice.estimate_facts` checks the estimate on every template of the view
-(:class:`~catpose.methods.cross_check.CrossCheck`: costs after a short ICP, the top offset, the
-turned candidates); :meth:`~TemplateChoice.choose` then keeps one of the K estimates by its rule
-(:func:`catpose.methods.choice_rules.choose`). :meth:`~TemplateChoice.choose_among` does both for K
-estimates in hand, :func:`register_with_templates` registers the view on each template with a
-method first.
-
-The benchmark's templates protocol registers each (view, template) pair as a sample of its own, so
-there the runner calls :meth:`~TemplateChoice.estimate_facts` after each registration and stores the
-facts in the row, and the protocol applies the same :func:`~catpose.methods.choice_rules.choose` to
-the facts the rows store: the benchmark reports what this component returns.
+"""Choosing among K templates (the ``choice`` config group): :class:`TemplateChoice` computes an
+estimate's facts after its registration (:meth:`~TemplateChoice.estimate_facts`, by
+:class:`~catpose.methods.cross_check.CrossCheck`) and keeps one of K estimates by its rule
+(:func:`catpose.methods.choice_rules.choose`). The benchmark's templates protocol stores the facts
+in each row and applies the same ``choose`` to them, so it reports what this component returns.
 """
 
 from __future__ import annotations

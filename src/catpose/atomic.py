@@ -1,24 +1,12 @@
 """Files written whole or not at all.
 
-Every file catpose writes (a run's ``config.yaml`` and ``run.json``, its summaries, tables,
-exports, regression references, alignment tables, a score's outputs) goes through this module:
-the bytes are written to a temporary file in the destination's own folder, flushed to disk, and
-moved over the destination with ``os.replace``, which is atomic on one file system. A full disk,
-a kill or an exception while writing leaves the old file as it was (or no file), never a
-truncated one; the temporary file is removed on an exception. Readers therefore see either the
-previous version or the new one.
-
-``samples.jsonl`` is the one exception: it is appended a line at a time, flushed and fsynced
-per line (:class:`catpose.bench.run.rundir.SampleWriter`), and its readers know that a kill
-can cut its last line.
-
-A whole folder (a run made from external predictions) is built beside its destination and
-moved into place when complete (:func:`building_dir`).
-
-Inside :func:`claiming` a destination that did not exist is claimed at that final move, never
-replaced: a file is linked into place (``os.link`` fails if the name exists), a folder renamed
-onto a missing or empty one; if another process took the name meanwhile, :class:`Claimed` is
-raised and its output is kept.
+Every file catpose writes goes through this module: written to a temporary file in the
+destination's folder, flushed, and moved over the destination with ``os.replace`` (atomic on one
+file system), so readers see the old version or the new one, never a truncated file; the temporary
+file goes on an exception. (``samples.jsonl`` is appended a line at a time instead, fsynced per
+line.) A whole folder is built beside its destination and moved into place (:func:`building_dir`).
+Inside :func:`claiming`, a destination that did not exist is claimed, never replaced: if another
+process took the name meanwhile, :class:`Claimed` is raised and its output is kept.
 """
 
 from __future__ import annotations

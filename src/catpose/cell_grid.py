@@ -1,21 +1,12 @@
 """Exact nearest-neighbour queries within a radius, on a uniform cell grid, compiled (numba).
 
-Ours asks ~100,000 bounded nearest-neighbour questions per problem: point-to-plane ICP pairs within
-0.05 (object-normalised) on each of its hypotheses for 30 iterations, and truncated (0.1)
-visibility-aware Chamfer scores of ~30 poses. A ``cKDTree.query`` call costs tens of microseconds
-of Python and dispatch before any search, and a KD-tree or a search over neighbouring cells still
-spends most of a query's time visiting nodes or cells; here each cell of the grid lists, once per
-template, every point within the radius of the cell's box, so a query reads one list, and the
-whole refinement or scoring loop is one compiled call.
-
-Each list is sorted by its points' distance from the cell's centre, so a query stops reading at
-the first point that the triangle inequality puts beyond the best distance found so far (the
-nearer the query lies to a point, as in converged ICP, the sooner); the bound has a margin far
-above rounding, so the stop never changes the answer.
-
-The answer is exact: the same distance and index as a KD-tree queried with
-``distance_upper_bound`` (``tests/test_cell_grid.py`` compares with ``scipy.spatial.cKDTree``),
-inclusive of the radius, ties broken towards the lowest point index.
+Ours asks ~100,000 bounded nearest-neighbour questions per problem (ICP pairs, truncated Chamfer
+scores); a ``cKDTree.query`` call costs tens of microseconds before any search. Here each cell
+lists, once per template, every point within the radius of the cell's box, sorted by distance
+from the cell's centre, so a query reads one list and stops at the first point the triangle
+inequality puts beyond the best so far (with a margin far above rounding), and a whole loop is one
+compiled call. The answer is exact: the distance and index of a KD-tree queried with
+``distance_upper_bound`` (inclusive, ties towards the lowest index; ``tests/test_cell_grid.py``).
 """
 
 from __future__ import annotations

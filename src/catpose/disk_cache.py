@@ -1,29 +1,18 @@
 """Arrays kept on disk between processes: what is built once per template (its partial-view
-dictionary, the dictionary's keypoints and descriptors, its resting directions) so that a second
-run, or a second process, loads instead of rebuilding.
+dictionary, the dictionary's keypoints and descriptors, its resting directions).
 
-Where: ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose`` (:func:`cache_dir`), one folder per kind of
-entry, one ``<key>.npz`` per entry (NumPy's uncompressed ``.npz``, no pickles).
+Where: ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose`` (:func:`cache_dir`), one folder per kind,
+one uncompressed ``<key>.npz`` per entry (no pickles). Keys hash the caller's content key with
+:func:`fingerprint`: the source of the modules that compute the entry, the numerical libraries'
+versions, the environment variables that choose their code paths (:data:`NUMERIC_ENV`) and the
+CPU model, so another code path never reads bits this one computed. The full key text is stored
+and compared on reading. Entries are written atomically (:mod:`catpose.atomic`); one that cannot
+be read or fails the caller's check is rebuilt, and a folder that cannot be written costs only
+the rebuild.
 
-Keys: a hash of the entry's content key (the template's content hash and every option, given by
-the caller) and of :func:`fingerprint`: the source of the modules that compute the entry, the
-versions of the numerical libraries and the environment variables that choose their code paths
-(:data:`NUMERIC_ENV`: OpenBLAS's kernel, NumPy's, torch's and numba's CPU features, MKL's), and the
-CPU model. An edit of that
-code, another library or another BLAS kernel therefore finds no entry and builds its own; it never
-reads bits another code path computed. The full key text is stored in the entry and compared on
-reading (a hash collision, or a file copied under another name, is a miss).
-
-Safety: an entry is written to a temporary file beside its name and moved into place
-(:mod:`catpose.atomic`), so two processes building the same entry both write whole files and the
-last one wins; a reader sees a whole old file, a whole new one, or none. An entry that cannot be read
-(truncated, a flipped bit that fails the zip checksum, another layout) or fails the caller's check is
-a miss: it is rebuilt and overwritten. A cache folder that cannot be written costs only the rebuild.
-
-Structures (:func:`pack`, :func:`unpack`): nested tuples, lists, numbers, strings, None, arrays and
-dataclasses of an allow-list travel as arrays plus a JSON outline; an array with fewer than a quarter
-of its values non-zero (a descriptor's voxel grid) is stored as its non-zero values and their places,
-and comes back with the same dtype, shape, memory order and bits.
+:func:`pack` / :func:`unpack`: nested tuples, lists, numbers, strings, None, arrays and allowed
+dataclasses as arrays plus a JSON outline; a mostly-zero array is stored sparse and comes back
+with the same dtype, shape, memory order and bits.
 """
 
 from __future__ import annotations

@@ -1,17 +1,10 @@
 """Optional dependencies: which extra installs a module, and one line naming it when it is missing.
 
-``pip install catpose`` (or ``pip install .`` from a clone) installs what ``bench run`` needs for
-every method's default settings; the rest are extras (``pyproject.toml``, docs/install.md):
-
-- ``torch``: PyTorch, for ours' Adam solver (``method.optimiser.solver=adam``), the GPU path
-  (``method.optimiser.device=cuda``) and the batched solver (``batch>1`` on clouds without a
-  depth image); left out of the core so that a plain install pulls no CUDA build;
-- ``pfh``: POT, for the exact EMD of the PFH descriptor;
-- ``cluster``: Hydra's launchers (joblib, Slurm, Ray).
-
-Code that needs one imports it through :func:`require`, and the places that catch a failed import
-(the runner, the builder, the CLI) turn it into :class:`MissingExtra` with :func:`missing_extra`,
-so that a missing extra reads as one line that says what to install.
+``pip install catpose`` installs what ``bench run`` needs for every method's defaults; the rest
+are extras (``pyproject.toml``, docs/install.md), e.g. ``torch`` (ours' Adam solver, GPU path and
+batched solver; out of the core so that a plain install pulls no CUDA build). Code imports one
+through :func:`require`; the runner, the builder and the CLI turn a failed import into
+:class:`MissingExtra` (:func:`missing_extra`), one line saying what to install.
 """
 
 from __future__ import annotations

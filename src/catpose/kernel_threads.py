@@ -1,21 +1,14 @@
 """Threads for the compiled kernels: independent starts split over a small shared pool.
 
-Ours' compiled searches (:func:`catpose.point_to_plane_kernel.refine_many`,
-:func:`catpose.yaw_icp_kernel.refine_yaw_many`, the IRLS kernel of :mod:`catpose.methods.ours.irls`,
-:func:`catpose.methods.pose_scores_kernel.visibility_scores`) and its Chamfer distances (a
-KD-tree query) loop over many independent starts (poses, candidates) one after another.
-:func:`split` hands contiguous ranges of those starts to :func:`threads` threads (the kernels
-release the GIL); each start is still computed by one thread, in its fixed order, so the answers
-are the same bits for any thread count. Not numba's ``parallel=True``: its workqueue
-layer breaks when several Python threads call into it at once.
+Ours' compiled searches and its Chamfer distances loop over many independent starts (poses,
+candidates). :func:`split` hands contiguous ranges of them to :func:`threads` threads (the kernels
+release the GIL); each start is still computed by one thread in its fixed order, so the answers
+are the same bits for any thread count. (Not numba's ``parallel=True``: its workqueue layer breaks
+when several Python threads call into it.)
 
-The count is the runs' ``threads`` key (``configs/run.yaml``), set once per process with
-:func:`set_threads`, which also sets torch's intra-op threads. Its default ``auto`` (also this
-module's until a run sets it, so the Python API gets what ``bench run`` gets) is
-:func:`available`: ``OMP_NUM_THREADS`` where set (joblib's workers and Ray's tasks get their
-share of the cores that way), else the CPUs this process may run on (its affinity: a Slurm job's
-allocation), at most :data:`MAX_AUTO`. With 1 every kernel is called directly, as without this
-module.
+The count is the runs' ``threads`` key, set per process by :func:`set_threads` (torch's intra-op
+threads too); ``auto``, also the default here, is :func:`available`: ``OMP_NUM_THREADS`` where set,
+else the CPUs of this process's affinity, at most :data:`MAX_AUTO`.
 """
 
 from __future__ import annotations

@@ -1,24 +1,11 @@
-"""Logging: every catpose module logs through its own logger (``logging.getLogger(__name__)``),
-all below the ``catpose`` logger; nothing in the library prints diagnostics.
+"""Logging: every catpose module logs through ``logging.getLogger(__name__)`` below the ``catpose``
+logger; nothing in the library prints diagnostics, and used as a library catpose adds no handler.
 
-The command line (``bench`` / ``catpose``) calls :func:`configure` once: one handler on the
-``catpose`` logger writes each record as one line on stderr, in the CLI's format::
-
-    bench run: sweep outputs/multirun/sweep/2026-01-01_10-00-00: 4 of 4 jobs ok; table: ...
-    bench run: warning: sample mug/002/v01 failed: the estimate is not a finite rigid transform
-    bench run: debug: [catpose.bench.run.runner] sample car/000/v00: ok, error 0.310 deg, 0.052 s
-
-(INFO without a level word; a tqdm progress bar in use is kept intact). ``bench run`` then sets
-the level from the run config's ``log_level`` key, or to DEBUG when Hydra's ``hydra.verbose``
-names catpose (``hydra.verbose=true`` or ``hydra.verbose=catpose``; a module name such as
-``hydra.verbose=catpose.bench.run.runner`` turns on that module only, as Hydra does), and with
-a Hydra job logging config (``hydra/job_logging=default``: console and the job's ``.log`` file)
-the records go to Hydra's handlers instead: :func:`configure_run`. Used as a library, catpose
-adds no handler: the application decides.
-
-What a command prints as its result (tables, ``bench regress``'s report lines, written file
-names) stays on stdout and is not logging; errors stay one line on stderr
-(:func:`catpose.errors.command_error`).
+The command line calls :func:`configure` once: one line per record on stderr, prefixed with the
+command (``bench run: warning: ...``; INFO without a level word; a tqdm bar is kept intact).
+:func:`configure_run` sets a ``bench run`` job's level from ``log_level`` or Hydra's
+``hydra.verbose``, and hands the records to Hydra's handlers under a Hydra job logging config.
+A command's results (tables, written file names) are stdout, not logging.
 """
 
 from __future__ import annotations

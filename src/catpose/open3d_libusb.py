@@ -1,22 +1,13 @@
 """Open3D importable on its own: ``libusb-1.0.so.0`` found however catpose was installed.
 
-Open3D's Linux wheels (``open3d-cpu`` 0.20 included) link against ``libusb-1.0.so.0``, which slim
-machines lack, so ``import open3d`` fails there with ``ImportError: libusb-1.0.so.0``. The PyPI
-package ``libusb-package`` (a dependency of catpose) ships that library; loaded with
-``RTLD_GLOBAL`` before Open3D, it satisfies Open3D's link. Two ways, one library:
-
-- **the import hook** (every install, ``pip install .`` included): the wheel puts
-  ``catpose-open3d-libusb.pth`` in ``site-packages``; Python runs it at start-up, and it calls
-  :func:`install_import_hook`, which waits for the first ``import open3d`` (with or without
-  catpose) and loads the library just before it. Nothing else is imported or loaded until then.
-- **the link** (``python -m catpose.open3d_libusb``; ``make setup`` runs it, as an editable install
-  has no ``.pth`` of its own): ``libusb-package``'s library linked into Open3D's package folder as
-  ``libusb-1.0.so.0``, where the dynamic loader looks first (``libOpen3D.so``'s RUNPATH starts with
-  ``$ORIGIN``); it also serves ``python -S``, which skips ``.pth`` files. Rerun it after
-  reinstalling Open3D.
-
-Both do nothing when the system provides libusb. :mod:`catpose.o3d` calls :func:`preload_libusb`
-too, so catpose's own imports never depend on either.
+Open3D's Linux wheels link against ``libusb-1.0.so.0``, which slim machines lack; the PyPI package
+``libusb-package`` (a dependency) ships it, and loaded with ``RTLD_GLOBAL`` before Open3D it
+satisfies the link. Two ways: the wheel's ``catpose-open3d-libusb.pth`` calls
+:func:`install_import_hook`, which loads it just before the first ``import open3d``; ``python -m
+catpose.open3d_libusb`` (``make setup``: an editable install has no ``.pth``; also ``python -S``)
+links it into Open3D's folder, where ``libOpen3D.so``'s RUNPATH looks first (rerun after
+reinstalling Open3D). Both do nothing when the system has libusb; :mod:`catpose.o3d` also calls
+:func:`preload_libusb`.
 """
 
 from __future__ import annotations

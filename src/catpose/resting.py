@@ -1,19 +1,11 @@
 """Stable resting poses of a rigid object on a table: which of its directions can point up.
 
-An object dropped on a plane comes to rest on a face of its convex hull. trimesh's
-``compute_stable_poses`` (quasi-static: the probability of a face is the solid angle of the
-orientations that roll onto it from a uniform random orientation, centre of mass of the solid hull)
-lists those faces with their probabilities. What a registration method and a scene generator need
-from each is one direction: ``up``, the unit vector in the object frame that points away from the
-table (the table normal seen from the object). :func:`resting_ups` returns them, merged where
-they differ by less than ``merge_deg``.
-
-Objects with a continuous symmetry axis (cans, bowls) rest on their side in a ring of equivalent
-poses; :func:`up_classes` merges ups that make the same angle with the axis, so a can has three
-classes: upright, upside down and on its side (:func:`rest_classes` keeps each class's members).
-
-The values are rounded (ups to 1e-6, probabilities to 1e-9) so that the last bits of the library's
-BLAS-dependent arithmetic cannot change them between CPUs.
+An object dropped on a plane rests on a face of its convex hull; trimesh's
+``compute_stable_poses`` lists those faces with their probabilities. :func:`resting_ups` turns
+each into ``up``, the object-frame unit vector pointing away from the table, merged within
+``merge_deg``; :func:`up_classes` merges ups of an object with a continuous symmetry axis that make
+the same angle with it (a can: upright, upside down, on its side). Ups are rounded to 1e-6 and
+probabilities to 1e-9 so that BLAS-dependent last bits cannot change them between CPUs.
 """
 
 from __future__ import annotations
