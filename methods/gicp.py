@@ -25,7 +25,7 @@ class GICP(ICP):
         epsilon: the covariances' regulariser, the variance across a point's local plane relative
             to along it (Open3D's ``TransformationEstimationForGeneralizedICP`` default 1e-3).
         **icp: :class:`~catpose.methods.icp.ICP`'s arguments (starts, voxel, distances, iterations,
-            centring, threads); its ``estimation`` is generalized ICP's.
+            threads).
     """
 
     def __init__(self, epsilon: float = 1e-3, **icp: Any) -> None:

@@ -2,10 +2,9 @@
 
 ICP (Besl & McKay 1992; point-to-plane, Chen & Medioni 1992) converges to the nearest local
 minimum, so the paper "divide[s] the full SO(3) into 20 sub-regions and sample[s] one rotation from
-each sub-region". Here the 20 sub-regions are the Voronoi cells of a k-means clustering of
-uniformly drawn rotations (unit quaternions, q and -q identified); each start is a cell's centre.
-Every start puts the input's centroid on the template's centroid, runs Open3D ICP, and the
-result with the highest fitness (fraction of input points with a template point within the
+each sub-region": here the Voronoi cells of a k-means clustering of uniform rotations, each start a
+cell's centre with the input's centroid on the template's. Open3D's point-to-plane ICP runs from
+each; the highest fitness (fraction of input points with a template point within the
 correspondence distance), then the lowest inlier RMSE, wins.
 """
 
@@ -60,8 +59,6 @@ class ICP(RegistrationMethod):
             rank the starts. A coarse first stage widens each start's basin of convergence (on
             the embedded set a single 0.1 stage left ICP in local minima far more often).
         max_iterations: ICP iterations per stage.
-        estimation: ``point_to_plane`` (uses normals) or ``point_to_point``.
-        center_source: start with the input's centroid on the template's centroid.
         num_threads: Open3D threads during registration; 1 makes runs reproducible (Open3D's
             parallel reductions differ in the last digits between runs, which can flip the
             choice between two near-equal starts), None leaves Open3D's default.
@@ -73,8 +70,6 @@ class ICP(RegistrationMethod):
         voxel_size: float = 0.03,
         max_correspondence_distances: tuple[float, ...] = (0.4, 0.1),
         max_iterations: int = 30,
-        estimation: str = "point_to_plane",
-        center_source: bool = True,
         num_threads: int | None = 1,
     ) -> None:
         distances = max_correspondence_distances
@@ -86,8 +81,6 @@ class ICP(RegistrationMethod):
             options.positive("method.max_correspondence_distances", d) for d in distances
         ]
         self.max_iterations = options.positive("method.max_iterations", max_iterations, integer=True)
-        self.estimation = options.one_of("method.estimation", estimation, ("point_to_plane", "point_to_point"))
-        self.center_source = options.flag("method.center_source", center_source)
         self.num_threads = (
             None if num_threads is None else options.positive("method.num_threads", num_threads, integer=True)
         )
@@ -112,9 +105,7 @@ class ICP(RegistrationMethod):
 
     def _variant(self, reg: Any) -> tuple[Any, Any]:
         """Open3D's ICP function and its estimation (``reg``: ``o3d.pipelines.registration``)."""
-        if self.estimation == "point_to_plane":
-            return reg.registration_icp, reg.TransformationEstimationPointToPlane()
-        return reg.registration_icp, reg.TransformationEstimationPointToPoint()
+        return reg.registration_icp, reg.TransformationEstimationPointToPlane()
 
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
         from catpose.o3d import max_threads, o3d
@@ -122,8 +113,8 @@ class ICP(RegistrationMethod):
         reg = o3d.pipelines.registration
         source = self._cloud(problem.points_camera, problem.normals_camera)
         target = self._target(problem.template)
-        c_src = np.asarray(source.points).mean(axis=0) if self.center_source else np.zeros(3)
-        c_tgt = np.asarray(target.points).mean(axis=0) if self.center_source else np.zeros(3)
+        c_src = np.asarray(source.points).mean(axis=0)
+        c_tgt = np.asarray(target.points).mean(axis=0)
         icp, estimation = self._variant(reg)
         criteria = reg.ICPConvergenceCriteria(max_iteration=self.max_iterations)
         starts = []

@@ -140,7 +140,10 @@ def test_options_reach_the_builder():
         ({"up": [1.0, 2.0]}, "up=[1.0, 2.0] is not a finite non-zero 3-vector"),
         ({"method": "nope"}, "method='nope' is not a method config; choose one of"),
         ({"method": 3}, "method is a int; pass a config name"),
-        ({"method": "icp", "foo": 1}, "foo is not an option of method 'icp'; its options are: center_source,"),
+        (
+            {"method": "icp", "foo": 1},
+            "foo is not an option of method 'icp'; its options are: max_correspondence_distances,",
+        ),
         (
             {"method": "icp", "num_starts": "many"},
             "options of method 'icp': method.num_starts='many' must be a positive integer",

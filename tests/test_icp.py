@@ -48,7 +48,7 @@ def test_icp_recovers_the_pose_of_a_view_against_its_own_model():
 
 
 def test_bad_options_are_config_errors():
-    with pytest.raises(ConfigError, match="estimation"):
-        ICP(estimation="nope")
+    with pytest.raises(ConfigError, match="num_starts"):
+        ICP(num_starts=0)
     with pytest.raises(ConfigError):
         ICP(max_correspondence_distances=[-1.0])
