@@ -100,10 +100,9 @@ def _make_cloud(
     points: np.ndarray, normals: np.ndarray, voxel_size: float, fpfh_radius: float, fpfh_max_nn: int, with_fpfh: bool
 ) -> Cloud:
     """Voxel-downsample (averaging normals) and optionally compute FPFH."""
-    from catpose.o3d import o3d
+    from catpose.o3d import cloud, o3d
 
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64)))
-    pcd.normals = o3d.utility.Vector3dVector(np.asarray(normals, dtype=np.float64))
+    pcd = cloud(points, normals)
     if voxel_size > 0:
         pcd = pcd.voxel_down_sample(voxel_size)
     pcd.normalize_normals()
@@ -118,11 +117,9 @@ def _make_cloud(
 
 def _keypoint_cloud(points: np.ndarray, normals: np.ndarray) -> Cloud:
     """A cloud of keypoints (no features) with its Open3D point cloud."""
-    from catpose.o3d import o3d
+    from catpose.o3d import cloud
 
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-    pcd.normals = o3d.utility.Vector3dVector(normals)
-    return Cloud(points, normals, pcd)
+    return Cloud(points, normals, cloud(points, normals))
 
 
 def one_directional_chamfer(points: np.ndarray, tree: Any) -> float:
@@ -275,19 +272,9 @@ class CorrespondenceRegistration(RegistrationMethod):
         ]
 
     def _refine(self, source: Cloud, complete: Cloud, T: np.ndarray) -> np.ndarray:
-        from catpose.o3d import max_threads, o3d
+        from catpose.o3d import point_to_plane_icp
 
-        reg = o3d.pipelines.registration
-        with max_threads(1):  # Open3D's parallel ICP sums differ in the last digits run to run
-            result = reg.registration_icp(
-                source.pcd,
-                complete.pcd,
-                self.icp_max_distance,
-                T,
-                reg.TransformationEstimationPointToPlane(),
-                reg.ICPConvergenceCriteria(max_iteration=self.icp_max_iterations),
-            )
-        return np.asarray(result.transformation).copy()
+        return point_to_plane_icp(source.pcd, complete.pcd, self.icp_max_distance, T, self.icp_max_iterations)
 
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
         """Run ``_estimate`` against every target and keep the lowest-Chamfer estimate.

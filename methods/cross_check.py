@@ -53,20 +53,17 @@ def _target(template: Any) -> tuple[Any, Any, np.ndarray, np.ndarray]:
     if key not in _TARGETS:
         from scipy.spatial import cKDTree
 
-        from catpose.o3d import o3d
+        from catpose.o3d import cloud
 
         points, normals = np.asarray(template.points, float), np.asarray(template.normals, float)
-        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-        pcd.normals = o3d.utility.Vector3dVector(normals)
-        _TARGETS[key] = (pcd, cKDTree(points), points, normals)
+        _TARGETS[key] = (cloud(points, normals), cKDTree(points), points, normals)
     return _TARGETS[key]
 
 
 def _cloud(points_camera: np.ndarray):
-    """The view (N, 3) as an Open3D cloud."""
-    from catpose.o3d import o3d
+    from catpose.o3d import cloud
 
-    return o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points_camera, float)))
+    return cloud(points_camera)
 
 
 def silhouette_cells(points_camera: np.ndarray, cell: float) -> set[tuple[int, int]]:
@@ -154,21 +151,11 @@ class CrossCheck:
         """(4, 4) ``T_template_camera`` refined by point-to-plane ICP of ``points_camera`` (N, 3)
         against ``template`` (single-threaded: Open3D's parallel sums differ run to run); ``source``:
         the view already as an Open3D cloud (built here when None)."""
-        from catpose.o3d import max_threads, o3d
+        from catpose.o3d import point_to_plane_icp
 
-        reg = o3d.pipelines.registration
-        pcd = _target(template)[0]
         src = _cloud(points_camera) if source is None else source
-        with max_threads(1):
-            result = reg.registration_icp(
-                src,
-                pcd,
-                self.icp_distance,
-                np.asarray(T_template_camera, float),
-                reg.TransformationEstimationPointToPlane(),
-                reg.ICPConvergenceCriteria(max_iteration=self.icp_iterations),
-            )
-        return np.asarray(result.transformation).copy()
+        T = np.asarray(T_template_camera, float)
+        return point_to_plane_icp(src, _target(template)[0], self.icp_distance, T, self.icp_iterations)
 
     def cross_costs(
         self, points_camera: np.ndarray, T_template_camera: np.ndarray, templates: Sequence[Any], own: int

@@ -87,10 +87,9 @@ class ICP(RegistrationMethod):
         self._targets: LRUCache[str, object] = LRUCache(16)
 
     def _cloud(self, points: np.ndarray, normals: np.ndarray):
-        from catpose.o3d import o3d
+        from catpose.o3d import cloud
 
-        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-        pcd.normals = o3d.utility.Vector3dVector(normals)
+        pcd = cloud(points, normals)
         if self.voxel_size > 0:
             pcd = pcd.voxel_down_sample(self.voxel_size)
             pcd.normalize_normals()  # voxel averaging shortens normals; point-to-plane needs unit ones

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import contextlib
 
+import numpy as np
+
 from catpose.open3d_libusb import preload_libusb
 
 preload_libusb()
@@ -39,4 +41,29 @@ def max_threads(n: int | None):
         o3d.utility.set_max_threads(previous)
 
 
-__all__ = ["o3d", "max_threads"]
+def cloud(points: np.ndarray, normals: np.ndarray | None = None):
+    """An Open3D ``PointCloud`` of ``points`` (N, 3) and, when given, ``normals`` (N, 3), float64."""
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64)))
+    if normals is not None:
+        pcd.normals = o3d.utility.Vector3dVector(np.asarray(normals, dtype=np.float64))
+    return pcd
+
+
+def point_to_plane_icp(source, target, distance: float, T: np.ndarray, iterations: int) -> np.ndarray:
+    """(4, 4) Open3D's point-to-plane ICP of the cloud ``source`` onto ``target`` (with normals)
+    from ``T`` (4, 4), pairs within ``distance``, at most ``iterations``; on one thread (its
+    parallel sums differ run to run)."""
+    reg = o3d.pipelines.registration
+    with max_threads(1):
+        result = reg.registration_icp(
+            source,
+            target,
+            distance,
+            T,
+            reg.TransformationEstimationPointToPlane(),
+            reg.ICPConvergenceCriteria(max_iteration=iterations),
+        )
+    return np.asarray(result.transformation).copy()
+
+
+__all__ = ["cloud", "max_threads", "o3d", "point_to_plane_icp"]
