@@ -6,8 +6,8 @@ Hypotheses are pruned by the edge-length and distance checkers (and optionally t
 checker) before the full inlier count. Open3D's RANSAC draws from its global generator, which
 the pipeline seeds per (sample, candidate) with ``o3d.utility.random.seed`` before every call.
 Its TBB worker threads share that generator and an early-termination counter, so the result
-depends on thread timing unless Open3D runs on one thread: ``num_threads=1`` (the default)
-limits it with ``o3d.utility.set_max_threads`` for the call and makes runs reproducible.
+depends on thread timing unless Open3D runs on one thread: ``num_threads=1`` (the default,
+:func:`catpose.o3d.max_threads` for the call) makes runs reproducible.
 """
 
 from __future__ import annotations
@@ -68,7 +68,7 @@ class RANSAC(CorrespondenceRegistration):
         self.num_threads = options.non_negative("method.num_threads", num_threads, integer=True)
 
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
-        from catpose.o3d import o3d
+        from catpose.o3d import max_threads, o3d
 
         reg = o3d.pipelines.registration
         checkers = [
@@ -79,10 +79,7 @@ class RANSAC(CorrespondenceRegistration):
             checkers.append(reg.CorrespondenceCheckerBasedOnNormal(np.deg2rad(self.normal_angle_deg)))
         criteria = reg.RANSACConvergenceCriteria(self.max_iteration, self.confidence)
         estimation = reg.TransformationEstimationPointToPoint(False)
-        previous_threads = o3d.utility.get_max_threads()
-        if self.num_threads:
-            o3d.utility.set_max_threads(self.num_threads)
-        try:
+        with max_threads(self.num_threads or None):
             if match.correspondences is None:
                 result = reg.registration_ransac_based_on_feature_matching(
                     match.source.pcd,
@@ -107,9 +104,6 @@ class RANSAC(CorrespondenceRegistration):
                     checkers,
                     criteria,
                 )
-        finally:
-            if self.num_threads:
-                o3d.utility.set_max_threads(previous_threads)
         info = {
             "num_inliers": int(len(result.correspondence_set)),
             "fitness": float(result.fitness),
