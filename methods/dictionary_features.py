@@ -74,8 +74,6 @@ _CODE = (
     "catpose.methods.lps",
     "catpose.methods.pfh",
 )
-#: the dataclasses an entry may hold (the descriptors' stacked forms)
-_TYPES = ("catpose.methods.lps:VoxelPatches",)
 
 
 def dictionary_features(
@@ -109,16 +107,12 @@ def dictionary_features(
 
 
 def _from_arrays(arrays) -> DictionaryFeatures:
-    """A :class:`DictionaryFeatures` from its disk-cache entry."""
-    import importlib
-
+    """A :class:`DictionaryFeatures` from its disk-cache entry (the dataclasses it may hold: itself
+    and LPS's stacked grids)."""
     from catpose import disk_cache
+    from catpose.methods.lps import VoxelPatches
 
-    types = {}
-    for name in _TYPES:
-        module, qualname = name.split(":")
-        types[name] = getattr(importlib.import_module(module), qualname)
-    types[f"{DictionaryFeatures.__module__}:{DictionaryFeatures.__qualname__}"] = DictionaryFeatures
+    types = {f"{c.__module__}:{c.__qualname__}": c for c in (DictionaryFeatures, VoxelPatches)}
     out = disk_cache.unpack(arrays, types)
     if not isinstance(out, DictionaryFeatures):
         raise ValueError("not a DictionaryFeatures entry")

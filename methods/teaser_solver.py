@@ -91,13 +91,8 @@ def max_clique(
 ) -> tuple[np.ndarray, bool]:
     """:func:`catpose.methods.max_clique.max_clique` of the (N, N) bool adjacency ``adj``:
     (sorted vertex indices, whether the search was exact within the budgets)."""
-    try:  # numba is imported here, not with this module, so `bench --help` stays instant
-        from catpose.methods import max_clique as mc
-    except ImportError as e:
-        raise ConfigError(
-            f"the TEASER max-clique search needs numba ({e}); install it with "
-            "`pip install 'numba>=0.60'` or reinstall catpose (`pip install -e .`)"
-        ) from None
+    from catpose.methods import max_clique as mc  # numba loads here, so `bench --help` stays instant
+
     return mc.max_clique(adj, node_budget, time_budget_s)
 
 
