@@ -104,10 +104,8 @@ class PPF(RegistrationMethod):
         select: ``votes`` | ``residual`` | ``chamfer``: which refined pose is returned.
         icp_iterations, icp_tolerance, icp_rejection_scale, icp_levels: OpenCV's ICP (iterations,
             relative change that stops a level, robust rejection scale, pyramid levels).
-        icp_model: ``visible``: each pose's ICP takes the template's points facing the camera
-            under it; ``all``: the whole template (OpenCV's own use, which pulls a complete model
-            towards a partial view: from 5 degrees off on the embedded set's car it ended at 6.3,
-            at 0.07 with the visible points).
+        icp_model: ``visible`` (the template's points facing the camera under each pose) or
+            ``all`` (OpenCV's own use, which pulls a complete model towards a partial view).
     """
 
     def __init__(

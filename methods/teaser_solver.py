@@ -217,21 +217,15 @@ def solve(
     """Robust registration ``dst ~ R src + t`` from putative correspondences (TEASER, scale 1).
 
     Args:
-        src: (N, 3) source points ``a_i`` (e.g. camera frame).
-        dst: (N, 3) target points ``b_i`` (e.g. template frame), row-matched with ``src``.
+        src, dst: (N, 3) row-matched points ``a_i`` (e.g. camera frame), ``b_i`` (template frame).
         noise_bound: inlier bound ``beta`` on ``||b_i - (R a_i + t)||`` (same unit).
         cbar2: TLS truncation (squared, in units of the bound); 1 as in TEASER++.
         gnc_factor, max_iterations, cost_threshold: GNC-TLS schedule.
         clique_node_budget, clique_time_budget_s: the max-clique search's node cap and seconds
             (None: no limit); past either, the best clique so far is used.
 
-    Returns:
-        :class:`SolverResult`.
-
     Raises:
-        InvalidInputError: a max clique smaller than :data:`MIN_CLIQUE_SIZE` (of 0 or 1
-            correspondences), where TEASER++ returns no valid solution
-            (``RobustRegistrationSolver::solve`` in teaser/src/registration.cc): no pose.
+        InvalidInputError: a max clique smaller than :data:`MIN_CLIQUE_SIZE`: no pose.
     """
     import time
 
