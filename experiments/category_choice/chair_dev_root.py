@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from catpose.datasets.procedural import HEADER
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
+from procedural import HEADER  # noqa: E402  (experiments/_lib/procedural.py)
 
 DEV = {
     "chair_0001": "ModelNet40/chair/train/chair_0001.off",

@@ -24,7 +24,7 @@ E=experiments/category_choice
 CHECK=(choice=cross_top_turns "choice.turns_deg=[90,180,270]" choice.one_template_turns=true
        "+row=ours,icp" output_root="$OUT" progress=false print_summary=false)
 SETS="none;90,270;180;90,180,270"
-.venv/bin/python -m catpose.datasets.procedural "$PROC_ROOT" --category chair --count 40 --shape-seed 0 \
+.venv/bin/python experiments/_lib/procedural.py "$PROC_ROOT" --category chair --count 40 --shape-seed 0 \
   --template-root "$SHARED/modelnet40_normal_resampled" --template-ids chair_0624
 "$B" run -m +experiment=mn40r_chair_1template "${CHECK[@]}" dataset.root="$PROC_ROOT" \
   dataset.alignment_table="$PROC_ROOT/alignment_chair.csv" dataset.views_per_instance=6 hydra.sweep.dir="$OUT/multirun/procedural"
