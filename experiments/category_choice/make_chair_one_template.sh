@@ -4,7 +4,7 @@
 # (docs/category-level.md): ours and ICP at K = 1, each estimate's turns about up by 90, 180 and 270
 # degrees stored, then top_weight_grid.py over turn sets at weights 0 and 0.05 (with one template
 # the oracle is the registration's own estimate, so a gap below 0 is what the check gains):
-#  1. the 40 procedural chairs (dataset=procedural, seed 0) x 6 views against the chair
+#  1. the 40 procedural chairs (experiments/_lib/procedural.py, seed 0) x 6 views against the chair
 #     experiment's K = 1 template chair_0624: chair_procedural_one_template.md;
 #  2. the 4 real development chairs (chair_dev_root.py) x 12 views against each of the three paper
 #     templates alone (chair_0624, chair_0391, chair_0848): chair_dev_one_template.md.

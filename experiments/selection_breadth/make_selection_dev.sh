@@ -3,10 +3,10 @@
 # wrong"): method.selection.top_k, how many of ours' candidates the point rule expands by their half
 # turns and refines before it keeps the lowest score. Every run is ours on development shapes only,
 # roots outside the repository:
-#  1. the 80 procedural airplanes (dataset=procedural, seed 0) x 4 views, one template
+#  1. the 80 procedural airplanes (experiments/_lib/procedural.py, seed 0) x 4 views, one template
 #     (airplane_0536): top_k chosen on airplanes 8000-8039, confirmed on 8040-8079
 #     (selection_airplane_procedural.md);
-#  2. the 40 procedural chairs (dataset=procedural, seed 0) x 6 views, the paper table's K = 3
+#  2. the 40 procedural chairs (experiments/_lib/procedural.py, seed 0) x 6 views, the paper table's K = 3
 #     templates and its rule (fused) (selection_chair_procedural.md);
 #  3. the 4 real development chairs (experiments/category_choice/chair_dev_root.py) x 12 views, the same templates and rule
 #     (selection_chair_dev.md);
