@@ -12,7 +12,7 @@ NumPy; the GPL-licensed ``kmedoids`` package is its test reference, not a depend
 medoids; scikit-learn's silhouette score over the same precomputed distances is reported for
 every K (``--k auto`` takes the best). The instances
 must be in one frame: a dataset whose frames are not declared consistent (raw ModelNet40) is
-refused unless it has an alignment table (``bench align``)::
+refused unless it has an alignment table (``results/alignment/``)::
 
     bench templates dataset=modelnet40_resampled dataset.root=/data/modelnet40_normal_resampled \
         dataset.alignment_table=results/alignment/modelnet40_resampled_chair.csv \
