@@ -11,7 +11,7 @@ Table format (CSV with a header): ``category,instance_id`` and either the nine e
 ``r00,r01,r02,r10,r11,r12,r20,r21,r22`` of ``R_canonical_raw`` (row-major) or ``yaw_deg``
 (a rotation about +z, the up axis) with ``flip`` (``true``: the up axis turned over). Empty cells
 mean "not given". A dataset refuses a table that misses an instance it uses
-(:func:`check_alignment_coverage`), has two rows for one instance, or holds a number that is not
+(``check_alignment_covers`` of the ModelNet40 loaders), has two rows for one instance, or holds a number that is not
 finite. Other columns (``chamfer``, ``confidence``, ``verified``, ``note``) are ignored.
 """
 
@@ -40,7 +40,7 @@ def read_alignment_table(path: str | Path | list) -> dict[tuple[str, str], np.nd
     Every row is checked: finite numbers (a ``yaw_deg`` of ``nan`` or ``inf`` is refused here,
     naming the line, not later as a degenerate shape), a rotation, and one row per instance within
     a file (a second row of an instance is refused with both lines). Whether the table covers the
-    instances a dataset uses is :func:`check_alignment_coverage`'s."""
+    instances a dataset uses is the loader's check (``check_alignment_covers``)."""
     if isinstance(path, str) and "," in path and not Path(path).is_file():
         path = [p.strip() for p in path.split(",") if p.strip()]
     if not isinstance(path, (str, Path)):
@@ -127,27 +127,6 @@ def _row_rotation(row: dict, where: str) -> np.ndarray:
             "and empty yaw_deg"
         )
     return R
-
-
-def check_alignment_coverage(
-    table: dict[tuple[str, str], np.ndarray], path: str | Path, wanted: dict[str, list[str]]
-) -> None:
-    """Refuse, in one line, an alignment table that leaves out an instance the dataset uses.
-
-    ``wanted``: category -> the instance ids the dataset will load (its observed instances and its
-    instance-id templates). A table for another category, or with ids that match nothing, would
-    otherwise leave those instances in their raw frames while the dataset declares its frames
-    consistent."""
-    for category, ids in wanted.items():
-        missing = [i for i in ids if (category, i) not in table]
-        if missing:
-            have = sorted({c for c, _ in table})
-            raise DatasetError(
-                f"alignment table {path} has no row for {len(missing)} of the {len(ids)} {category} "
-                f"instances used (e.g. {missing[0]}; the table covers {', '.join(have) or 'nothing'}); "
-                f"add them (experiments/alignment/align.py --category {category}), keep dataset.categories to the "
-                "table's, or unset dataset.alignment_table"
-            )
 
 
 def yaw_deg_of(R: np.ndarray) -> float | None:
