@@ -20,7 +20,6 @@ _TABLE = (
     ("report", "report.report_folder", "main", "tables and plots of run directories in one folder"),
     ("perf", "perf.registration", "main", "seconds per registration and per stage for ours and ICP"),
     ("templates", "category.template_medoids", "main", "choose K category templates by K-medoids over F-score"),
-    ("align", "category.align", "main", "estimate a canonical-alignment table for a ModelNet40 category"),
     (
         "category",
         "report.category_table",

@@ -34,7 +34,7 @@ import numpy as np
 
 from catpose import disk_cache
 from catpose.datasets.bop import BOP
-from catpose.datasets.clutter_layout import YCBV_K, YCBV_OBJECTS, ClutterSpec, layout_scene
+from catpose.datasets.clutter_layout import ClutterSpec, layout_scene
 from catpose.datasets.clutter_render import render_scene, write_scene
 from catpose.datasets.meshio import read_mesh
 from catpose.datasets.templates import TemplateOptions
@@ -147,10 +147,8 @@ class Clutter(BOP):
         root: a BOP dataset folder whose ``models/`` holds the meshes (``obj_XXXXXX.ply`` in mm,
             ``models_info.json``), e.g. ``../shared/data/bop/ycbv``; nothing else of it is read.
         cache_dir: where the generated sets live (None: ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``).
-        scene_seed, num_scenes, obj_ids, objects_per_scene, upright_prior, resting,
-            rest_min_probability, table_radius_mm, distance_mm, elevation_deg, width, height, K,
-            sensor, dropout_blobs, mask_shift_px, annotation_mm, annotation_deg: the generation settings
-            (:class:`~catpose.datasets.clutter_layout.ClutterSpec`).
+        spec: the generation settings (:class:`~catpose.datasets.clutter_layout.ClutterSpec`; the
+            config gives its fields as flat keys).
         mask_noise: the loaded masks corrupted as a segmenter's are, strength drawn per instance
             up to this (:mod:`catpose.datasets.mask_noise`; 0: the written masks), seeded by the run.
         scenes: the scene ids loaded (and generated if missing); None: all.
@@ -165,24 +163,7 @@ class Clutter(BOP):
         self,
         root: str,
         cache_dir: str | None = None,
-        scene_seed: int = 0,
-        num_scenes: int = 200,
-        obj_ids: Sequence[int] = YCBV_OBJECTS,
-        objects_per_scene: Sequence[int] = (3, 6),
-        upright_prior: float = 0.0,
-        resting: str = "uniform",
-        rest_min_probability: float = 0.01,
-        table_radius_mm: float = 100.0,
-        distance_mm: Sequence[float] = (900.0, 1250.0),
-        elevation_deg: Sequence[float] = (28.0, 48.0),
-        width: int = 640,
-        height: int = 480,
-        K: Sequence[Sequence[float]] = YCBV_K,
-        sensor: str = "kinect",
-        dropout_blobs: Sequence[float] = (0.0, 0.15),
-        mask_shift_px: Sequence[float] = (1.0, 3.0),
-        annotation_mm: Sequence[float] = (0.0, 1.5),
-        annotation_deg: Sequence[float] = (0.0, 0.5),
+        spec: ClutterSpec = ClutterSpec(),
         mask_noise: float = 0.0,
         scenes: list[int] | None = None,
         generate_missing: bool = True,
@@ -198,26 +179,6 @@ class Clutter(BOP):
         seed: int = 0,
         min_visib_fract: float = 0.1,
     ) -> None:
-        spec = ClutterSpec(
-            scene_seed=int(scene_seed),
-            num_scenes=int(num_scenes),
-            obj_ids=tuple(obj_ids),
-            objects_per_scene=tuple(objects_per_scene),
-            upright_prior=float(upright_prior),
-            resting=str(resting),
-            rest_min_probability=float(rest_min_probability),
-            table_radius_mm=float(table_radius_mm),
-            distance_mm=tuple(distance_mm),
-            elevation_deg=tuple(elevation_deg),
-            width=int(width),
-            height=int(height),
-            K=K,
-            sensor=str(sensor),
-            dropout_blobs=tuple(dropout_blobs),
-            mask_shift_px=tuple(mask_shift_px),
-            annotation_mm=tuple(annotation_mm),
-            annotation_deg=tuple(annotation_deg),
-        )
         self.spec = spec
         if not 0.0 <= float(mask_noise) <= 1.0:
             raise ConfigError(f"dataset.mask_noise={mask_noise!r} must be in [0, 1] (0: the rendered masks)")

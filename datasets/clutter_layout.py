@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from catpose.datasets.dataset import OptionGroup
 from catpose.errors import ConfigError
 from catpose.geometry import (
     apply_R,
@@ -56,8 +57,9 @@ YCBV_K = ((1066.778, 0.0, 312.9869), (0.0, 1067.487, 241.3109), (0.0, 0.0, 1.0))
 
 
 @dataclass(frozen=True)
-class ClutterSpec:
-    """Everything that decides the scenes (see the module docstring).
+class ClutterSpec(OptionGroup):
+    """Everything that decides the scenes (see the module docstring); ``dataset=clutter`` gives its
+    fields as flat keys (an option group, :mod:`catpose.datasets.views`).
 
     Attributes:
         scene_seed: seed of every scene's generator.
@@ -105,6 +107,12 @@ class ClutterSpec:
 
     def __post_init__(self) -> None:
         k, set_ = "dataset.", object.__setattr__
+        for key, kind in (("scene_seed", int), ("num_scenes", int), ("width", int), ("height", int)):
+            set_(self, key, kind(getattr(self, key)))
+        for key in ("upright_prior", "rest_min_probability", "table_radius_mm"):
+            set_(self, key, float(getattr(self, key)))
+        set_(self, "resting", str(self.resting))
+        set_(self, "sensor", str(self.sensor))
         set_(self, "obj_ids", tuple(int(o) for o in self.obj_ids))
         set_(self, "objects_per_scene", tuple(int(n) for n in self.objects_per_scene))
         set_(self, "distance_mm", tuple(float(x) for x in self.distance_mm))

@@ -134,14 +134,3 @@ def read_log_trajectory(path: str | Path) -> dict[int, np.ndarray]:
             raise DatasetError(f"{path} line {k + 2}: the pose is not 4 rows of 4 finite numbers")
         poses[frame] = T
     return poses
-
-
-def write_log_trajectory(path: str | Path, poses: list[np.ndarray]) -> None:
-    """Write ``T_world_camera`` (4, 4) poses, frame indices 0.., in the ``.log`` format."""
-    from catpose import atomic
-
-    with atomic.atomic_write(path) as fh:
-        for i, T in enumerate(poses):
-            fh.write(f"{i} {i} {len(poses)}\n")
-            for row in np.asarray(T, float):
-                fh.write(" ".join(f"{x:.10f}" for x in row) + "\n")

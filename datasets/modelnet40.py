@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from catpose.datasets.alignment import check_alignment_coverage, read_alignment_table
+from catpose.datasets.alignment import read_alignment_table
 from catpose.datasets.dataset import ObjectDataset, Observation, OptionGroup
 from catpose.datasets.layout_check import LayoutReport, check_templates
 from catpose.datasets.meshio import R_template_file, read_off, sampled_template
@@ -99,8 +99,9 @@ class ModelNetBase(ObjectDataset):
     def check_alignment_covers(self, wanted: dict[str, list[str]] | None = None) -> None:
         """With an alignment table: refuse it in one line unless it has a row for every instance in
         ``wanted`` (category -> ids; default: every instance the observations and the instance-id
-        templates of the dataset's categories use). See
-        :func:`catpose.datasets.alignment.check_alignment_coverage`."""
+        templates of the dataset's categories use). A table for another category, or with ids that
+        match nothing, would otherwise leave those instances in their raw frames while the dataset
+        declares its frames consistent."""
         if self.alignment_table is None:
             return
         if wanted is None:
@@ -118,7 +119,16 @@ class ModelNetBase(ObjectDataset):
                 for i in self._templates.instance_ids(category):
                     if i not in wanted.setdefault(category, []):
                         wanted[category].append(i)
-        check_alignment_coverage(self.alignment, self.alignment_table, wanted)
+        for category, ids in wanted.items():
+            missing = [i for i in ids if (category, i) not in self.alignment]
+            if missing:
+                have = ", ".join(sorted({c for c, _ in self.alignment})) or "nothing"
+                raise DatasetError(
+                    f"alignment table {self.alignment_table} has no row for {len(missing)} of the {len(ids)} "
+                    f"{category} instances used (e.g. {missing[0]}; the table covers {have}); add them "
+                    f"(experiments/alignment/align.py --category {category}), keep dataset.categories to the "
+                    "table's, or unset dataset.alignment_table"
+                )
 
     def canonical_rotation(self, category: str, instance_id: str) -> np.ndarray:
         """(3, 3) rotation from the file's frame into the canonical object frame (z up, x forward)."""

@@ -5,8 +5,8 @@ An option group (:class:`~catpose.datasets.dataset.OptionGroup`) is a frozen dat
 dataset's constructor takes as one argument (``view: ViewOptions``) while its config gives the
 fields as flat keys of the group (``dataset.distance=4``): the builder
 (:func:`catpose.bench.run.build.build_from_config`) gathers the keys of every option-group argument
-into it, over the constructor's default. So the views of ``synthetic``, ``modelnet40``,
-``modelnet40_resampled`` and ``procedural`` are drawn from one set of knobs with one default each
+into it, over the constructor's default. So the views of ``synthetic``, ``modelnet40`` and
+``modelnet40_resampled`` are drawn from one set of knobs with one default each
 (the templates' group: :class:`~catpose.datasets.templates.TemplateOptions`).
 """
 

@@ -1,14 +1,21 @@
-"""How an estimated alignment table agrees with a verified one (``bench align --compare``,
-:mod:`catpose.bench.category.align_check`): up to one common rotation, and the ROC of the confidence."""
+"""How an estimated alignment table agrees with a verified one (``align.py --compare``,
+``experiments/alignment/align_check.py``): up to one common rotation, and the ROC of the confidence."""
 
 from __future__ import annotations
+
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from catpose.bench.category import align_check
-from catpose.datasets.alignment import write_alignment_table
-from catpose.geometry import axis_angle_to_R
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments" / "alignment"))
+import align_check  # noqa: E402  (the study's scripts)
+from alignment_estimate import write_alignment_table  # noqa: E402
+
+from catpose.geometry import axis_angle_to_R  # noqa: E402
+
+pytestmark = pytest.mark.experiment
 
 
 def test_alignment_agreement_is_up_to_one_common_rotation_and_roc_separates():

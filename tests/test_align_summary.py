@@ -1,4 +1,4 @@
-"""experiments/alignment/align_summary.py: one Markdown row per comparison ``bench align
+"""experiments/alignment/align_summary.py: one Markdown row per comparison ``align.py
 --compare`` wrote, read back as it was written; a missing file is one line and exit 2."""
 
 from __future__ import annotations
@@ -9,9 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.bench.category import align_check
-from catpose.datasets.alignment import write_alignment_table
-from catpose.geometry import axis_angle_to_R
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments" / "alignment"))
+import align_check  # noqa: E402  (the study's scripts)
+from alignment_estimate import write_alignment_table  # noqa: E402
+
+from catpose.geometry import axis_angle_to_R  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _study import study_module  # noqa: E402

@@ -1,4 +1,6 @@
-"""Alignment tables, the Chamfer rotation search and the ``bench align`` command."""
+"""Alignment tables (``catpose.datasets.alignment``): read, refused in one line, applied by the
+loader; the committed verified tables and the experiment configs that read them (their estimation:
+``tests/test_align.py``)."""
 
 from __future__ import annotations
 
@@ -7,20 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.bench.category import align as align_cmd
-from catpose.datasets.alignment import (
-    FLIP,
-    estimate_table,
-    read_alignment_table,
-    synchronize,
-    write_alignment_table,
-    yaw_deg_of,
-    yaw_flip_hypotheses,
-    yaw_rotations,
-)
+from catpose.datasets.alignment import read_alignment_table, yaw_deg_of
 from catpose.datasets.modelnet40 import ModelNet40, ShapeFrame
 from catpose.errors import DatasetError
 from catpose.geometry import axis_angle_to_R
+
+YAWS = [axis_angle_to_R(np.array([0, 0, 1.0]), np.pi / 2 * k) for k in range(4)]
 
 # an "L": a long bar along +x and a short bar along +y, both 0.2 thick: no rotational symmetry
 L_PARTS = [((0, 0, 0), (3, 0.5, 0.5)), ((0, 0.5, 0), (0.5, 1.5, 0.5))]
@@ -49,13 +43,12 @@ def write_off(path: Path, v: np.ndarray, f: np.ndarray) -> None:
 
 
 def test_table_round_trip_with_matrices_and_yaw(tmp_path):
-    R = axis_angle_to_R(np.array([0, 0, 1.0]), np.pi / 2)
-    write_alignment_table(
-        tmp_path / "t.csv",
-        [{"category": "airplane", "instance_id": "airplane_0002", "R": R, "yaw_deg": yaw_deg_of(R), "chamfer": 0.1}],
+    R = YAWS[1]
+    header = "category,instance_id," + ",".join(f"r{i}{j}" for i in range(3) for j in range(3)) + ",yaw_deg,flip\n"
+    matrix = ",".join(f"{x:.9g}" for x in R.reshape(-1))
+    (tmp_path / "t.csv").write_text(
+        header + f"airplane,airplane_0002,{matrix},90,false\n" + "airplane,airplane_0003,,,,,,,,,,180,\n"
     )
-    with (tmp_path / "t.csv").open("a") as fh:
-        fh.write("airplane,airplane_0003,,,,,,,,,,180,\n")
     table = read_alignment_table(tmp_path / "t.csv")
     np.testing.assert_allclose(table[("airplane", "airplane_0002")], R, atol=1e-8)
     np.testing.assert_allclose(table[("airplane", "airplane_0003")], np.diag([-1.0, -1.0, 1.0]), atol=1e-12)
@@ -83,139 +76,20 @@ def test_bad_tables_raise(tmp_path, text, words):
         read_alignment_table(tmp_path / "missing.csv")
 
 
-def test_hypotheses_form_a_group():
-    for flip in (False, True):
-        G = yaw_flip_hypotheses(flip)
-        assert len(G) == (8 if flip else 4)
-        for A in G:
-            for B in G:
-                assert min(np.abs(G - A @ B).max(axis=(1, 2))) < 1e-9
-
-
-def test_synchronize_recovers_labels_from_noisy_pairwise_costs():
-    G = yaw_flip_hypotheses(True)
-    rng = np.random.default_rng(0)
-    truth = rng.integers(0, len(G), 7)
-    truth[2] = 0
-    C = rng.uniform(0.3, 0.5, size=(7, 7, len(G)))
-    for i in range(7):
-        for j in range(7):
-            g = int(np.argmin(np.abs(G - G[truth[j]].T @ G[truth[i]]).max(axis=(1, 2))))
-            C[i, j, g] = 0.2 if (i, j) != (0, 1) else 0.6  # one misleading pair
-    out = synchronize(C, G, reference=2)
-    np.testing.assert_array_equal(out["labels"], truth)
-    assert (out["confidence"] > 0).all()
-
-
-def test_estimate_table_recovers_yaws_and_a_flip_of_distinct_instances():
-    from catpose.datasets.meshio import sample_outer_surface
-
-    v, f = l_shape_mesh()
-    v = v - (v.max(0) + v.min(0)) / 2
-    G = yaw_flip_hypotheses(True)
-    truth = [0, 1, 6, 3]  # R_reference_instance labels
-    clouds = []
-    for k, label in enumerate(truth):
-        vk = v * (1.0 + 0.05 * k)  # distinct instances: scaled, resampled
-        p, _ = sample_outer_surface(vk @ G[label], f, 600, seed=k)  # raw_k = R_ref_k^T ref
-        clouds.append(p / np.linalg.norm(p, axis=1).max())
-    out = estimate_table(clouds, G, reference=0)
-    np.testing.assert_array_equal(out["labels"], truth)
-    np.testing.assert_allclose(G[6], yaw_rotations(4)[2] @ FLIP)
-
-
-def test_bench_align_writes_a_table_the_loader_applies(tmp_path, capsys):
+def test_the_loader_applies_a_table(tmp_path):
     v, f = l_shape_mesh()
     root = tmp_path / "ModelNet40"
     write_off(root / "thing/train/thing_0001.off", v, f)
-    yaw90 = axis_angle_to_R(np.array([0, 0, 1.0]), np.pi / 2)
-    write_off(root / "thing/train/thing_0002.off", v @ yaw90.T * 7.0 + 3.0, f)  # rotated, scaled, moved
-    out = tmp_path / "align.csv"
-    verified = tmp_path / "verified.csv"  # in another frame (turned by 180 deg): agreement is up to one rotation
-    write_alignment_table(
-        verified,
-        [
-            {"category": "thing", "instance_id": "thing_0001", "R": yaw_rotations(2)[1]},
-            {"category": "thing", "instance_id": "thing_0002", "R": yaw_rotations(2)[1] @ yaw90.T},
-        ],
-    )
-    assert (
-        align_cmd.main(
-            [
-                "dataset=modelnet40",
-                f"dataset.root={root}",
-                "dataset.categories=[thing]",
-                "dataset.split=train",
-                "--category",
-                "thing",
-                "--out",
-                str(out),
-                "--points",
-                "600",
-                "--compare",
-                str(verified),
-            ]
-        )
-        == 0
-    )
-    assert "agree 2/2" in capsys.readouterr().out
-    assert (tmp_path / "align_vs_verified.csv").read_text().count(",true,") == 2
-    table = read_alignment_table(out)
-    np.testing.assert_allclose(table[("thing", "thing_0001")], np.eye(3), atol=1e-12)
-    np.testing.assert_allclose(table[("thing", "thing_0002")], yaw90.T, atol=1e-12)
-    text = out.read_text().splitlines()
-    assert text[0].endswith("yaw_deg,flip,chamfer,confidence,verified,note") and ",false," in text[2]
-    assert out.with_suffix(".png").stat().st_size > 1000
-
-    ds = ModelNet40(str(root), categories=["thing"], split="train", frame=ShapeFrame(alignment_table=str(out)))
+    write_off(root / "thing/train/thing_0002.off", v @ YAWS[1].T * 7.0 + 3.0, f)  # rotated, scaled, moved
+    table = tmp_path / "align.csv"
+    table.write_text("category,instance_id,yaw_deg\nthing,thing_0001,0\nthing,thing_0002,-90\n")
+    ds = ModelNet40(str(root), categories=["thing"], split="train", frame=ShapeFrame(alignment_table=str(table)))
     a, _ = ds.canonical_mesh("thing", "thing_0001")
     b, _ = ds.canonical_mesh("thing", "thing_0002")
     np.testing.assert_allclose(a, b, atol=1e-9)
     raw = ModelNet40(str(root), categories=["thing"], split="train")
     assert not np.allclose(raw.canonical_mesh("thing", "thing_0002")[0], a, atol=1e-3)
     assert ds.observation("thing/thing_0002/v00").info["aligned"] is True
-
-    sheet = tmp_path / "redrawn.png"  # --draw-only redraws the table as it is
-    assert (
-        align_cmd.main(
-            [
-                "dataset=modelnet40",
-                f"dataset.root={root}",
-                "dataset.categories=[thing]",
-                "dataset.split=train",
-                "--category",
-                "thing",
-                "--out",
-                str(out),
-                "--draw-only",
-                "--sheet",
-                str(sheet),
-            ]
-        )
-        == 0
-    )
-    assert sheet.stat().st_size > 1000
-
-
-def test_bench_align_reports_a_bad_root_in_one_line(tmp_path, capsys):
-    from catpose.bench.cli import main
-
-    assert (
-        main(
-            [
-                "align",
-                "dataset=modelnet40",
-                f"dataset.root={tmp_path / 'none'}",
-                "--category",
-                "x",
-                "--out",
-                str(tmp_path / "o.csv"),
-            ]
-        )
-        == 2
-    )
-    err = capsys.readouterr().err.strip()
-    assert err.startswith("bench align: error: ") and "\n" not in err
 
 
 COMMITTED = Path(__file__).resolve().parents[1] / "results" / "alignment"
@@ -236,39 +110,10 @@ def test_committed_tables_are_verified_yaw_tables_with_small_sheets(name, n_rows
     table = read_alignment_table(COMMITTED / f"{name}.csv")
     assert len(table) == n_rows
     for R in table.values():  # ModelNet40 files share their up axis: yaw steps only
-        assert any(np.allclose(R, Y, atol=1e-9) for Y in yaw_rotations(4))
+        assert any(np.allclose(R, Y, atol=1e-9) for Y in YAWS)
     rows = list(csv.DictReader((COMMITTED / f"{name}.csv").open()))
     assert all(r["verified"] == "true" and r["note"] for r in rows)
     assert 0 < (COMMITTED / f"{name}.png").stat().st_size < 500_000
-
-
-@pytest.mark.data
-@pytest.mark.slow
-def test_shared_airplanes_fuselage_axis_matches_the_verified_table(shared_data, tmp_path):
-    out = tmp_path / "airplane.csv"
-    assert (
-        align_cmd.main(
-            [
-                "dataset=modelnet40",
-                f"dataset.root={shared_data / 'ModelNet40'}",
-                "--category",
-                "airplane",
-                "--out",
-                str(out),
-                "--points",
-                "512",
-            ]
-        )
-        == 0
-    )
-    est, verified = read_alignment_table(out), read_alignment_table(COMMITTED / "modelnet40_airplane.csv")
-    assert set(est) == set(verified)
-    np.testing.assert_allclose(est[("airplane", "airplane_0001")], np.eye(3))
-    for key, R in est.items():
-        # the fuselage axis is found; nose against tail (180 deg) is what the person checks
-        assert np.allclose(R, verified[key], atol=1e-9) or np.allclose(
-            R, yaw_rotations(2)[1] @ verified[key], atol=1e-9
-        )
 
 
 EXPERIMENTS = [

@@ -1,14 +1,22 @@
-"""The nose/tail cues of automatic alignment (issue 25): equivariance, and the estimate on toy
-airplanes of unlike kinds whose Chamfer distances do not say which end is the front."""
+"""The nose/tail cues of the alignment study (``experiments/alignment/alignment_cues.py``, issue
+25): equivariance, and the estimate on toy airplanes of unlike kinds whose Chamfer distances do not
+say which end is the front."""
 
 from __future__ import annotations
+
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from catpose.datasets import alignment_cues as ac
-from catpose.datasets.alignment import _index_of, estimate_table, resolve_cues, yaw_flip_hypotheses
-from catpose.errors import DatasetError
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments" / "alignment"))
+import alignment_cues as ac  # noqa: E402  (the study's scripts)
+from alignment_estimate import _index_of, estimate_table, resolve_cues, yaw_flip_hypotheses  # noqa: E402
+
+from catpose.errors import DatasetError  # noqa: E402
+
+pytestmark = pytest.mark.experiment
 
 
 def _box(rng, n, centre, size):

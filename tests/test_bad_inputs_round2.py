@@ -101,29 +101,6 @@ def test_case_02_export_never_replaces_a_file_without_force_nor_names_another_da
     assert not (tmp_path / "m_ycbv-test.csv").exists()
 
 
-def _align_args(tmp_path: Path, *extra: str) -> list[str]:
-    from test_alignment import l_shape_mesh, write_off
-
-    v, f = l_shape_mesh()
-    root = tmp_path / "ModelNet40"
-    write_off(root / "thing/train/thing_0001.off", v, f)
-    write_off(root / "thing/train/thing_0002.off", v * 3.0, f)
-    return ["align", "dataset=modelnet40", f"dataset.root={root}", "dataset.categories=[thing]", "dataset.split=train"]
-
-
-def test_case_03_align_never_overwrites_a_verified_tables_sheet(tmp_path, capsys):
-    table = tmp_path / "thing.csv"
-    table.write_text("category,instance_id,yaw_deg,verified,note\nthing,thing_0001,0,true,checked\n")
-    sheet = tmp_path / "thing.png"
-    sheet.write_bytes(b"the checked picture")
-    base = _align_args(tmp_path) + ["--category", "thing", "--out", str(tmp_path / "new.csv"), "--sheet", str(sheet)]
-    for extra in ([], ["--force"]):
-        assert bench(base + extra) == 2
-        line = one_error_line(capsys, "align")
-        assert "--sheet" in line and "is the contact sheet of" in line and "marked verified" in line
-    assert sheet.read_bytes() == b"the checked picture" and not (tmp_path / "new.csv").exists()
-
-
 def test_case_04_templates_into_an_existing_file_needs_force_and_a_templates_file(tmp_path, capsys):
     out = tmp_path / "run.yaml"
     out.write_text("method: {name: icp}\nseed: 0\n")  # another config: its keys are no categories
@@ -248,7 +225,7 @@ def test_case_11_an_edited_yaw_beside_r00_r22_is_refused_not_ignored(tmp_path):
     t.write_text(head + "a,a1,,,,,,,,,,90,true\n")  # the documented fix: yaw_deg (and flip), r00..r22 cleared
     R = read_alignment_table(t)[("a", "a1")]
     assert np.allclose(R, np.array([[0, -1, 0], [1, 0, 0], [0, 0, 1.0]]) @ FLIP)
-    t.write_text(head + "a,a1,1,0,0,0,-1,0,0,0,-1,0,true\n")  # both, agreeing (bench align writes both)
+    t.write_text(head + "a,a1,1,0,0,0,-1,0,0,0,-1,0,true\n")  # both, agreeing (align.py writes both)
     assert np.allclose(read_alignment_table(t)[("a", "a1")], FLIP)
 
 
@@ -481,19 +458,6 @@ def test_case_25_table_and_report_on_a_full_disk_are_one_line_and_leave_nothing(
     assert bench(["report", str(run), "--out", str(tmp_path / "rep"), "--no-pdf"]) == 2
     assert "cannot write --out" in one_error_line(capsys, "report")
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # no file, no half-built folder
-
-
-def test_case_26_align_sheet_that_is_no_picture_is_refused(tmp_path, capsys):
-    args = _align_args(tmp_path) + [
-        "--category",
-        "thing",
-        "--out",
-        str(tmp_path / "a.csv"),
-        "--sheet",
-        str(tmp_path / "x.csv"),
-    ]
-    assert bench(args) == 2
-    assert "--sheet" in (line := one_error_line(capsys, "align")) and "is not a picture file name" in line
 
 
 def test_case_27_templates_out_an_existing_non_yaml_file_is_one_line(tmp_path, capsys):

@@ -1,4 +1,4 @@
-"""One answer to "which instances of a category" for ``bench align`` and ``bench templates``."""
+"""One answer to "which instances of a category" for ``bench templates`` and the alignment study."""
 
 from __future__ import annotations
 
@@ -60,7 +60,7 @@ def test_a_split_file_is_filtered_by_category_and_the_split_is_honoured():
 
 
 def test_without_splits_the_observed_instances_are_read_from_the_observations():
-    # bench align parsed "category/instance/view" ids and found nothing in ids of another shape
+    # the alignment command parsed "category/instance/view" ids and found nothing in ids of another shape
     assert instance_ids(_Observed(), "bottle") == ["05", "12"]
     assert instance_ids(_Observed(), "box", "train") == ["02"]
     assert instance_ids(_Observed(), "mug") == []

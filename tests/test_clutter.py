@@ -115,13 +115,7 @@ def test_the_bop_loader_reads_the_set_with_depth_images(models, tmp_path):
     ds = Clutter(
         str(models),
         cache_dir=str(tmp_path),
-        num_scenes=4,
-        obj_ids=[1, 2],
-        objects_per_scene=[2, 2],
-        width=160,
-        height=120,
-        K=[[300.0, 0, 79.5], [0, 300.0, 59.5], [0, 0, 1]],
-        distance_mm=[500.0, 600.0],
+        spec=_spec(),
         scenes=[0, 1],
         categories={1: "box", 2: "can"},
         min_visible_pixels=20,
@@ -147,9 +141,7 @@ def test_bad_settings_fail_in_one_line(models, tmp_path):
     with pytest.raises(ConfigError, match="dataset.root"):
         Clutter(str(tmp_path), cache_dir=str(tmp_path))
     with pytest.raises(ConfigError, match="dataset.scenes"):
-        Clutter(
-            str(models), cache_dir=str(tmp_path), num_scenes=4, obj_ids=[1, 2], objects_per_scene=[1, 2], scenes=[7]
-        )
+        Clutter(str(models), cache_dir=str(tmp_path), spec=_spec(objects_per_scene=(1, 2)), scenes=[7])
 
 
 def test_split_files_name_disjoint_parts():

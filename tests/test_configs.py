@@ -33,8 +33,6 @@ SHARED_ROOTS = {
     "clutter": "bop/ycbv",
     "redwood": "redwood",
 }
-#: dataset config -> overrides that keep its build small and out of the user's cache ({tmp}: the test's folder)
-SMALL_BUILDS = {"procedural": ["dataset.count=2", "dataset.cache_dir={tmp}"]}
 
 
 def _optional_modules() -> dict[str, str]:
@@ -152,8 +150,6 @@ def test_config_composes_and_builds(group: str, name: str, tmp_path: Path, monke
     top = group.split("/")[0]
     if group in RUN_GROUPS:
         overrides = [f"{group}={name}"]
-        if group == "dataset":
-            overrides += [o.format(tmp=tmp_path) for o in SMALL_BUILDS.get(name, [])]
         shared = CONFIGS.parents[1] / "shared" / "data"
         cfg = _compose(overrides)
         needs_root = group == "dataset" and OmegaConf.is_missing(cfg.dataset, "root")

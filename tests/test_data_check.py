@@ -16,7 +16,7 @@ from catpose.bench.run.data_check import main
 
 REPO = Path(__file__).resolve().parents[1]
 BENCH = [sys.executable, "-m", "catpose.bench.cli"]
-ROOTED = [d for d in available("dataset") if d not in ("synthetic", "procedural")]  # generated: no root
+ROOTED = [d for d in available("dataset") if d != "synthetic"]  # generated: no root
 
 
 def _check(capsys, *overrides: str) -> tuple[int, list[str]]:
@@ -56,8 +56,6 @@ def test_missing_root_and_synthetic(capsys, tmp_path):
     code, lines = _check(capsys, "dataset=redwood", f"dataset.root={tmp_path / 'nope'}")
     assert code == 2 and len(lines) == 1 and "is not a folder" in lines[0]
     code, lines = _check(capsys, "dataset=synthetic")
-    assert code == 0 and "generated" in lines[0]
-    code, lines = _check(capsys, "dataset=procedural")
     assert code == 0 and "generated" in lines[0]
 
 

@@ -285,44 +285,6 @@ def test_table_destination_never_overwrites_verified_rows(tmp_path):
     assert table_destination(t)[0] == tmp_path / "airplane.new2.csv"
 
 
-def test_bench_align_writes_a_new_file_beside_a_verified_table(tmp_path, capsys):
-    """Finding 6: align --out erased the verified flags and notes of a hand-checked table."""
-    from test_alignment import l_shape_mesh, write_off  # noqa: F401 (tests/ is on sys.path)
-
-    v, f = l_shape_mesh()
-    root = tmp_path / "ModelNet40"
-    write_off(root / "thing/train/thing_0001.off", v, f)
-    write_off(root / "thing/train/thing_0002.off", v * 3.0, f)
-    table = tmp_path / "thing.csv"
-    text = (
-        "category,instance_id,yaw_deg,verified,note\nthing,thing_0001,0,true,checked\nthing,thing_0002,0,true,checked\n"
-    )
-    table.write_text(text)
-    args = [
-        "align",
-        "dataset=modelnet40",
-        f"dataset.root={root}",
-        "dataset.categories=[thing]",
-        "dataset.split=train",
-        "--category",
-        "thing",
-        "--out",
-        str(table),
-        "--points",
-        "300",
-        "--no-refine",
-    ]
-    assert bench(args + ["--force"]) == 0
-    err = capsys.readouterr().err
-    assert table.read_text() == text  # untouched, even with --force
-    new = tmp_path / "thing.new.csv"
-    assert "2 row(s) marked verified" in err and str(new) in err and new.is_file()
-    unverified = tmp_path / "u.csv"
-    unverified.write_text("category,instance_id,yaw_deg\nthing,thing_0001,0\n")
-    assert bench(args[:-5] + ["--out", str(unverified), "--points", "300", "--no-refine"]) == 2
-    assert "exists; pass another --out, or add --force" in one_error_line(capsys, "align")
-
-
 # ---------------------------------------------------------------------------------------------
 # 6. shards and merges compare the full config
 

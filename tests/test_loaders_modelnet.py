@@ -190,7 +190,7 @@ def test_resampled_bad_files(resampled_root):
 
 @pytest.mark.data
 def test_shared_modelnet40_and_resampled_agree_on_the_object_frame(shared_data):
-    from catpose.datasets.alignment import chamfer_distance
+    from scipy.spatial import cKDTree
 
     off = ModelNet40(str(shared_data / "ModelNet40"), split="train", **small())
     obs = off.observation("airplane/airplane_0001/v00")
@@ -201,4 +201,5 @@ def test_shared_modelnet40_and_resampled_agree_on_the_object_frame(shared_data):
     assert res.observation("chair/chair_0391/v00").points_camera.shape == (300, 3)
     a = off.instance_model("airplane", "airplane_0001").points
     b = res.instance_model("airplane", "airplane_0001").points
-    assert chamfer_distance(a, b) < 0.08  # same shape in the same frame (measured 0.04)
+    chamfer = cKDTree(b).query(a)[0].mean() + cKDTree(a).query(b)[0].mean()  # symmetric, mean distances
+    assert chamfer < 0.08  # same shape in the same frame (measured 0.04)

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from catpose.datasets.depthio import read_log_trajectory, write_log_trajectory
+from catpose.datasets.depthio import read_log_trajectory
 from catpose.datasets.redwood import Redwood
 from catpose.datasets.render import PinholeCamera, render_depth
 from catpose.datasets.templates import TemplateOptions
@@ -19,6 +19,15 @@ from catpose.geometry import invert_T, look_at_T_camera_world, transform_points
 CAM = dict(width=160, height=120, fx=131.25, fy=131.25, cx=79.5, cy=59.5)
 BOX = np.array([0.6, 0.4, 0.8])  # metres, standing on the floor at the origin
 EYES = [np.array([1.6, -1.2, 1.3]), np.array([-0.4, -1.9, 1.1])]
+
+
+def write_log_trajectory(path: Path, poses: list[np.ndarray]) -> None:
+    """Write ``T_world_camera`` (4, 4) poses, frame indices 0.., in the Redwood ``.log`` format."""
+    with open(path, "w") as fh:
+        for i, T in enumerate(poses):
+            fh.write(f"{i} {i} {len(poses)}\n")
+            for row in np.asarray(T, float):
+                fh.write(" ".join(f"{x:.10f}" for x in row) + "\n")
 
 
 def scene_mesh() -> tuple[np.ndarray, np.ndarray]:

@@ -45,7 +45,7 @@ class Command:
 
 
 def _align(w: dict) -> list[str]:
-    return ["align", "dataset=modelnet40", f"dataset.root={w['mn40']}", "dataset.categories=[thing]"]
+    return ["dataset=modelnet40", f"dataset.root={w['mn40']}", "dataset.categories=[thing]"]
 
 
 ALIGN_TAIL = ["dataset.split=train", "--category", "thing", "--points", "200", "--no-refine"]
@@ -69,6 +69,7 @@ COMMANDS = {
         "file",
         "a.csv",
         lambda w: w["verified"],
+        module="experiments/alignment/align.py",
         old="category,instance_id,yaw_deg\nthing,thing_0001,0\n",
     ),
     "align --sheet": Command(
@@ -76,6 +77,7 @@ COMMANDS = {
         "file",
         "s.png",
         lambda w: w["verified"].with_suffix(".png"),  # a verified table's picture
+        module="experiments/alignment/align.py",
         needles=(
             ("own input", "is the contact sheet of"),
             ("a parent", "is not a picture file name"),

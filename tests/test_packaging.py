@@ -83,7 +83,7 @@ def test_wheel_installs_and_hydra_finds_its_configs(tmp_path):
     probe = """
 import catpose, catpose.bench.run.config as rc
 import catpose.bench.cli, catpose.bench.protocols, catpose.bench.report.tables, catpose.bench.interop.score
-import catpose.bench.regress.run_suites, catpose.bench.perf.registration, catpose.bench.category.align
+import catpose.bench.regress.run_suites, catpose.bench.perf.registration, catpose.bench.category.template_medoids
 import catpose.bench.real.suite, catpose.bench.scoring.bop_eval, catpose.api
 from hydra import compose, initialize_config_module
 assert catpose.__file__.startswith(TARGET), catpose.__file__

@@ -55,7 +55,7 @@ def test_raw_modelnet_is_refused_with_the_fix_in_one_line(root, protocol):
     with pytest.raises(ConfigError) as e:
         protocol.sample_ids(ds)
     msg = str(e.value)
-    assert "\n" not in msg and "modelnet40_aligned" in msg and "bench align" in msg
+    assert "\n" not in msg and "modelnet40_aligned" in msg and "align.py" in msg
     assert "dataset.alignment_table" in msg
     with pytest.raises(ConfigError):
         protocol.load(ds, "box/box_0002/v00|0")

@@ -190,7 +190,7 @@ def test_out_is_required_and_unaligned_data_is_refused(tmp_path, capsys):
         == 2
     )
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("bench templates: error: ") and "bench align" in err[0]
+    assert len(err) == 1 and err[0].startswith("bench templates: error: ") and "align.py" in err[0]
     assert not (tmp_path / "t.yaml").exists()
 
 

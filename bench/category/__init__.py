@@ -1,3 +1,2 @@
-"""Category tools: canonical-alignment tables of raw instances (``bench align``) and the choice of
-category templates (``bench templates``). Imports :mod:`catpose.bench.run` and
-:mod:`catpose.bench.protocols`."""
+"""Category tools: the choice of category templates (``bench templates``: K-medoids over F-score).
+Imports :mod:`catpose.bench.run` and :mod:`catpose.bench.protocols`."""

@@ -1,4 +1,5 @@
-"""The instances of a category that the category tools work on (``bench align``, ``bench templates``).
+"""The instances of a category that the category tools work on (``bench templates``,
+``experiments/alignment/align.py``).
 
 Datasets say it in three ways, tried in this order:
 

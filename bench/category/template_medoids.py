@@ -12,7 +12,7 @@ NumPy; the GPL-licensed ``kmedoids`` package is its test reference, not a depend
 medoids; scikit-learn's silhouette score over the same precomputed distances is reported for
 every K (``--k auto`` takes the best). The instances
 must be in one frame: a dataset whose frames are not declared consistent (raw ModelNet40) is
-refused unless it has an alignment table (``bench align``)::
+refused unless it has an alignment table (``results/alignment/``)::
 
     bench templates dataset=modelnet40_resampled dataset.root=/data/modelnet40_normal_resampled \
         dataset.alignment_table=results/alignment/modelnet40_resampled_chair.csv \
@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from catpose.datasets.views import subsample
 from catpose.errors import ConfigError, DatasetError
 
 
@@ -97,14 +98,6 @@ def silhouette_by_k(D: np.ndarray, ks: Sequence[int], seed: int = 0) -> dict[int
     }
 
 
-def subsample(points: np.ndarray, n: int, seed: int) -> np.ndarray:
-    """At most ``n`` points of ``points`` (N, 3), chosen reproducibly."""
-    if n <= 0 or len(points) <= n:
-        return np.asarray(points, float)
-    rng = np.random.default_rng(seed)
-    return np.asarray(points, float)[np.sort(rng.choice(len(points), size=n, replace=False))]
-
-
 def choose_templates(
     clouds: dict[str, np.ndarray], k: int | str, tau: float = 0.05, n_points: int = 2048, seed: int = 0
 ) -> dict:
@@ -117,7 +110,7 @@ def choose_templates(
     (``mean_distance``: mean distance of each instance to its medoid).
     """
     ids = list(clouds)
-    pts = [subsample(clouds[i], n_points, seed) for i in ids]
+    pts = [subsample(n_points, np.random.default_rng(seed), np.asarray(clouds[i], float))[0] for i in ids]
     D = fscore_distances(pts, tau)
     silhouette = silhouette_by_k(D, range(2, len(ids)), seed)
     if k == "auto":

@@ -68,7 +68,8 @@ def require_consistent_frames(dataset: ObjectDataset, what: str) -> None:
     raise ConfigError(
         f"{dataset.name}: {what} compares instances, but their frames are not declared "
         "consistent and dataset.alignment_table is unset; use dataset=modelnet40_aligned (the "
-        "aligned release), or run `bench align` and set dataset.alignment_table=<csv>"
+        "aligned release), or set dataset.alignment_table=<csv> (results/alignment/ holds the shared "
+        "shapes' tables; experiments/alignment/align.py writes one)"
     )
 
 

@@ -3,7 +3,7 @@
 Every command that needs a config composes it through :func:`compose` (or
 :func:`compose_and_build`, which also builds groups with
 :func:`catpose.bench.run.build.build_from_config`): ``bench run``'s fail-fast check, ``bench
-perf``, ``bench align``, ``bench templates``, ``bench score --dataset``, ``bench suite``,
+perf``, ``bench templates``, ``bench score --dataset``, ``bench suite``,
 ``bench regress`` and the GPU check's input dump. ``bench run`` itself then goes through
 ``hydra.main`` (:mod:`catpose.bench.run.command`), the one other place Hydra composes.
 

@@ -17,7 +17,7 @@ destination and moved into place (:func:`catpose.atomic.building_dir`); :func:`o
 turns an ``OSError`` while writing (a read-only folder, a full disk) into one line.
 
 Besides: ``bench merge`` (and the automatic merge of ``bench table``) refuses, unless ``--force``,
-to replace a ``samples.jsonl`` holding rows the merge would drop; ``bench align --out TABLE``
+to replace a ``samples.jsonl`` holding rows the merge would drop; ``align.py --out TABLE`` (experiments/alignment)
 sends its estimate to ``<name>.new.csv`` when ``TABLE`` has verified rows (:func:`table_destination`).
 """
 
@@ -168,7 +168,7 @@ def check_output(
         flag: the option's name in messages (``--out``, ``--sheet``, ``--write``).
         replaces: for a folder, ``"run"`` when a run directory at ``out`` itself may be replaced
             with ``--force`` (``bench score`` writes runs); otherwise a run is never replaced.
-        allow: a verified table's picture this command may redraw (``bench align --draw-only``).
+        allow: a verified table's picture this command may redraw (``align.py --draw-only``).
         example: a file name the message suggests when a file's ``out`` is a folder.
 
     Raises:
@@ -356,7 +356,7 @@ def free_name(path: Path) -> Path:
 
 
 def table_destination(out: str | Path, force: bool = False) -> tuple[Path, str | None]:
-    """Where ``bench align --out`` may write: ``(path, note)`` (see the module docstring); the note
+    """Where ``align.py --out`` (experiments/alignment) may write: ``(path, note)`` (see the module docstring); the note
     says why another file than ``out`` is written (None when it is ``out``)."""
     out = Path(out)
     if not out.exists():
@@ -367,7 +367,7 @@ def table_destination(out: str | Path, force: bool = False) -> tuple[Path, str |
     if n:
         new = free_name(out)
         return new, (
-            f"{out} has {n} row(s) marked verified, which bench align never overwrites; the new estimate "
+            f"{out} has {n} row(s) marked verified, which align.py never overwrites; the new estimate "
             f"goes to {new}: compare the two and copy rows across by hand"
         )
     if not force:

@@ -1,5 +1,5 @@
 """The alignment estimates against the verified tables, one Markdown row per comparison that
-``bench align --compare VERIFIED.csv`` wrote (``<estimate>_vs_verified.csv``): agreement, the ROC
+``align.py --compare VERIFIED.csv`` wrote (``<estimate>_vs_verified.csv``): agreement, the ROC
 AUC of the confidence as a detector of right rows, whether it separates them, the wrong rows::
 
     python experiments/alignment/align_summary.py NAME=<estimate>_vs_verified.csv ... --out summary.md
@@ -8,11 +8,13 @@ AUC of the confidence as a detector of right rows, whether it separates them, th
 from __future__ import annotations
 
 import csv
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from catpose.bench.category.align_check import roc
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from align_check import roc  # noqa: E402  (the sibling script)
 
 
 def read_comparison(path: str | Path) -> dict:
@@ -34,7 +36,6 @@ def main(argv: list[str] | None = None) -> int:
     """``python experiments/alignment/align_summary.py NAME=COMPARISON_CSV ... [--out FILE]``: one
     Markdown row per comparison (agreement, ROC AUC, whether the confidence separates, wrong rows)."""
     import argparse
-    import sys
 
     ap = argparse.ArgumentParser(prog="python experiments/alignment/align_summary.py", description=main.__doc__)
     ap.add_argument("items", nargs="+", help="NAME=<estimate>_vs_verified.csv")

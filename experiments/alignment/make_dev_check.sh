@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The development measurement of `bench align` (what its cues and weights were chosen on): 161
+# The development measurement of align.py (what its cues and weights were chosen on): 161
 # ModelNet40 TRAIN-split airplanes that are not among the 18 shared ones (results/alignment/dev/ids.txt:
 # 116 drawn at random, 45 among the least typical shapes), each checked by eye on contact sheets
 # (results/alignment/dev/modelnet40_resampled_airplane.csv: nose at +x, z up; 19 drawn airplanes whose
@@ -13,7 +13,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 SRC=${1:?give the modelnet40_normal_resampled folder that holds the ids of results/alignment/dev/ids.txt}
-B=.venv/bin/bench
 D=results/alignment/dev
 O=${OUT:-outputs/alignment/dev}
 mkdir -p "$O"
@@ -29,7 +28,7 @@ cp "$D/ids.txt" "$ROOT/modelnet40_train.txt"
 items=()
 for flip in "" --flip; do
   sfx=${flip:+_flip}
-  "$B" align dataset=modelnet40_resampled dataset.root="$ROOT" "dataset.categories=[airplane]" --category airplane \
+  .venv/bin/python experiments/alignment/align.py dataset=modelnet40_resampled dataset.root="$ROOT" "dataset.categories=[airplane]" --category airplane \
     --points 512 --no-refine $flip --force --out "$O/estimated$sfx.csv" --sheet "$ROOT/sheet$sfx.png" \
     --compare "$D/modelnet40_resampled_airplane.csv"
   items+=("development airplanes${flip:+ (8 hypotheses)}=$O/estimated${sfx}_vs_verified.csv")

@@ -4,8 +4,8 @@ repository, from the shared data only: the 3 ModelNet40 train chair meshes (``ch
 to 10,000 points with face normals in PointNet++'s resampled layout (y up; the OFF meshes' axes
 mapped as the loader expects), beside links to the shared resampled chairs that are the K = 3
 templates, a split file and an alignment table (every dev chair needs no turn: checked by eye on
-``bench align``'s contact sheet, and ``bench align`` with reference chair_0391 estimates yaw 0
-for all four).
+the alignment contact sheet, and ``experiments/alignment/align.py`` with reference chair_0391
+estimates yaw 0 for all four).
 
 Usage: python experiments/category_choice/chair_dev_root.py SHARED_DATA OUT_ROOT
 """
@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from catpose.datasets.procedural import HEADER
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
+from procedural import HEADER  # noqa: E402  (experiments/_lib/procedural.py)
 
 DEV = {
     "chair_0001": "ModelNet40/chair/train/chair_0001.off",

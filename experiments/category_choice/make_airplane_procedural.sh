@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The one-template airplane choice on procedural airplanes (issue 25; docs/category-level.md): 80
-# airplanes drawn part by part (dataset=procedural: datasets/procedural_airplanes.py, seed 0, root in $PROC_ROOT outside the
+# airplanes drawn part by part (experiments/_lib/procedural.py and procedural_airplanes.py, seed 0, root in $PROC_ROOT outside the
 # repository: airliners, propeller planes, fighters, biplanes, gliders), none of them a ModelNet40
 # shape, 4 views each, registered by ours and ICP to the one-template experiment's template
 # (airplane_0536, linked from the shared data with its verified alignment row). The run stores each
@@ -19,7 +19,7 @@ PROC_ROOT=${PROC_ROOT:-$HOME/.cache/catpose/airplane_procedural/n80}
 OUT=${OUT:-outputs/airplane_procedural}
 DEV=results/category/dev
 E=experiments/category_choice
-.venv/bin/python -m catpose.datasets.procedural "$PROC_ROOT" --category airplane --count 80 --shape-seed 0 \
+.venv/bin/python experiments/_lib/procedural.py "$PROC_ROOT" --category airplane --count 80 --shape-seed 0 \
   --template-root "$SHARED/modelnet40_normal_resampled" --template-ids airplane_0536 \
   --template-alignment results/alignment/modelnet40_resampled_airplane.csv
 "$B" run -m +experiment=mn40r_airplane_1template "+row=ours,icp" dataset.root="$PROC_ROOT" \
@@ -34,7 +34,7 @@ E=experiments/category_choice
 # top-offset / turn-set grid (airplane_procedural_k3.md, airplane_procedural_k3_grid.md). Not used to
 # change the airplane experiments' rule (docs/category-level.md).
 K3_ROOT=${K3_ROOT:-$PROC_ROOT-k3}
-.venv/bin/python -m catpose.datasets.procedural "$K3_ROOT" --category airplane --count 80 --shape-seed 0 \
+.venv/bin/python experiments/_lib/procedural.py "$K3_ROOT" --category airplane --count 80 --shape-seed 0 \
   --template-root "$SHARED/modelnet40_normal_resampled" --template-ids airplane_0002,airplane_0256,airplane_0432 \
   --template-alignment results/alignment/modelnet40_resampled_airplane.csv
 "$B" run -m +experiment=mn40r_airplane_ktemplates "+row=ours" +category_templates=mn40r_airplane_k3 \

@@ -4,7 +4,7 @@
 # (docs/category-level.md): ours and ICP at K = 1, each estimate's turns about up by 90, 180 and 270
 # degrees stored, then top_weight_grid.py over turn sets at weights 0 and 0.05 (with one template
 # the oracle is the registration's own estimate, so a gap below 0 is what the check gains):
-#  1. the 40 procedural chairs (dataset=procedural, seed 0) x 6 views against the chair
+#  1. the 40 procedural chairs (experiments/_lib/procedural.py, seed 0) x 6 views against the chair
 #     experiment's K = 1 template chair_0624: chair_procedural_one_template.md;
 #  2. the 4 real development chairs (chair_dev_root.py) x 12 views against each of the three paper
 #     templates alone (chair_0624, chair_0391, chair_0848): chair_dev_one_template.md.
@@ -24,7 +24,7 @@ E=experiments/category_choice
 CHECK=(choice=cross_top_turns "choice.turns_deg=[90,180,270]" choice.one_template_turns=true
        "+row=ours,icp" output_root="$OUT" progress=false print_summary=false)
 SETS="none;90,270;180;90,180,270"
-.venv/bin/python -m catpose.datasets.procedural "$PROC_ROOT" --category chair --count 40 --shape-seed 0 \
+.venv/bin/python experiments/_lib/procedural.py "$PROC_ROOT" --category chair --count 40 --shape-seed 0 \
   --template-root "$SHARED/modelnet40_normal_resampled" --template-ids chair_0624
 "$B" run -m +experiment=mn40r_chair_1template "${CHECK[@]}" dataset.root="$PROC_ROOT" \
   dataset.alignment_table="$PROC_ROOT/alignment_chair.csv" dataset.views_per_instance=6 hydra.sweep.dir="$OUT/multirun/procedural"

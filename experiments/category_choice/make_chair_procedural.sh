@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The template choice on procedural chairs (issue 25; docs/category-level.md): 40 chairs drawn part
-# by part (dataset=procedural: datasets/procedural_chairs.py, seed 0, root in $PROC_ROOT outside the repository), none of them
+# by part (experiments/_lib/procedural.py and procedural_chairs.py, seed 0, root in $PROC_ROOT outside the repository), none of them
 # a ModelNet40 shape, 6 views each.
 #  1. Registered by ours and ICP to the paper table's K = 3 chair templates (chair_0391,
 #     chair_0624, chair_0848, linked from the shared data): `bench category` writes chosen (every
@@ -26,7 +26,7 @@ OUT=${OUT:-outputs/category_procedural}
 DEV=results/category/dev
 E=experiments/category_choice
 FINE_TURNS="none;90,270;60,300;60,90,120,240,270,300;30,60,90,270,300,330;30,60,90,120,150,180,210,240,270,300,330"
-.venv/bin/python -m catpose.datasets.procedural "$PROC_ROOT/with_templates" --category chair --count 40 --shape-seed 0 \
+.venv/bin/python experiments/_lib/procedural.py "$PROC_ROOT/with_templates" --category chair --count 40 --shape-seed 0 \
   --template-root "$SHARED/modelnet40_normal_resampled" --template-ids chair_0391,chair_0624,chair_0848
 "$B" run -m +experiment=mn40r_chair_ktemplates "+row=ours,icp" dataset.root="$PROC_ROOT/with_templates" \
   dataset.alignment_table="$PROC_ROOT/with_templates/alignment_chair.csv" dataset.views_per_instance=6 \
@@ -59,6 +59,6 @@ done
 # how far 8 views (2 chairs x 4) can stand from the oracle by chance under the rule (gap_spread.py)
 .venv/bin/python $E/gap_spread.py "$OUT/multirun/procedural_k3_turns30" --out $DEV/chair_procedural_gap_spread.md \
   --title "Procedural chairs (40 x 6 views, K = 3)"
-.venv/bin/python -m catpose.datasets.procedural "$PROC_ROOT/alone" --category chair --count 40 --shape-seed 0
+.venv/bin/python experiments/_lib/procedural.py "$PROC_ROOT/alone" --category chair --count 40 --shape-seed 0
 OUT="$OUT/any_root" ROWS="ours icp" TITLE="Procedural chairs, K templates drawn from them (40 chairs, 2 views of each non-template)" bash experiments/category_tables/make_any_root_ktemplates.sh "$PROC_ROOT/alone" \
   "$PROC_ROOT/alone/alignment_chair.csv" chair $DEV/chair_procedural_any_root.md

@@ -9,7 +9,7 @@ the kept setting, the same per kind of airplane (where it gains and where it los
 Reads the runs' stored ``info.cross_costs``, ``info.top_offset`` and ``info.turns`` (no
 registration is run). With one template the oracle is the registration's own estimate, so a gap
 below 0 is what the turns gain. The kinds come from the ``note`` column that
-the procedural dataset writes (``catpose.datasets.procedural.kinds``). Written by experiments/category_choice/make_airplane_procedural.sh.
+the procedural dataset writes (``experiments/_lib/procedural.py``'s ``kinds``). Written by experiments/category_choice/make_airplane_procedural.sh.
 """
 
 from __future__ import annotations
@@ -29,7 +29,9 @@ def main(argv: list[str] | None = None) -> int:
     from catpose.bench.protocols.absolute import absolute_gt_only
     from catpose.bench.report.category_table import run_dirs
     from catpose.bench.report.runs import load_run
-    from catpose.datasets.procedural import kinds as kinds_of
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
+    from procedural import kinds as kinds_of  # experiments/_lib/procedural.py
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("sweep")

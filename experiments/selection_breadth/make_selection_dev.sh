@@ -3,10 +3,10 @@
 # wrong"): method.selection.top_k, how many of ours' candidates the point rule expands by their half
 # turns and refines before it keeps the lowest score. Every run is ours on development shapes only,
 # roots outside the repository:
-#  1. the 80 procedural airplanes (dataset=procedural, seed 0) x 4 views, one template
+#  1. the 80 procedural airplanes (experiments/_lib/procedural.py, seed 0) x 4 views, one template
 #     (airplane_0536): top_k chosen on airplanes 8000-8039, confirmed on 8040-8079
 #     (selection_airplane_procedural.md);
-#  2. the 40 procedural chairs (dataset=procedural, seed 0) x 6 views, the paper table's K = 3
+#  2. the 40 procedural chairs (experiments/_lib/procedural.py, seed 0) x 6 views, the paper table's K = 3
 #     templates and its rule (fused) (selection_chair_procedural.md);
 #  3. the 4 real development chairs (experiments/category_choice/chair_dev_root.py) x 12 views, the same templates and rule
 #     (selection_chair_dev.md);
@@ -33,12 +33,12 @@ CHAIRS_K1=$CACHE/chair_procedural/one_template
 DEV_ROOT=$CACHE/chair_dev
 TOP_K=${TOP_K:-3,6,9,12,18}
 RUN=(output_root="$OUT" progress=false print_summary=false "+row=ours")
-.venv/bin/python -m catpose.datasets.procedural "$AIR" --category airplane --count 80 --shape-seed 0 \
+.venv/bin/python experiments/_lib/procedural.py "$AIR" --category airplane --count 80 --shape-seed 0 \
   --template-root "$SHARED/modelnet40_normal_resampled" --template-ids airplane_0536 \
   --template-alignment results/alignment/modelnet40_resampled_airplane.csv
-.venv/bin/python -m catpose.datasets.procedural "$CHAIRS" --category chair --count 40 --shape-seed 0 \
+.venv/bin/python experiments/_lib/procedural.py "$CHAIRS" --category chair --count 40 --shape-seed 0 \
   --template-root "$SHARED/modelnet40_normal_resampled" --template-ids chair_0391,chair_0624,chair_0848
-.venv/bin/python -m catpose.datasets.procedural "$CHAIRS_K1" --category chair --count 40 --shape-seed 0 \
+.venv/bin/python experiments/_lib/procedural.py "$CHAIRS_K1" --category chair --count 40 --shape-seed 0 \
   --template-root "$SHARED/modelnet40_normal_resampled" --template-ids chair_0624
 .venv/bin/python experiments/category_choice/chair_dev_root.py "$SHARED" "$DEV_ROOT"
 "$B" run -m +experiment=mn40r_airplane_1template "${RUN[@]}" dataset.root="$AIR" dataset.alignment_table="$AIR/alignment_airplane.csv" \

@@ -1,34 +1,28 @@
-"""``dataset=procedural``: chairs or airplanes drawn part by part from a seed, read like
-``modelnet40_resampled``.
+"""Procedural chairs or airplanes drawn part by part from a seed, written as a
+``modelnet40_resampled`` root: a development set of any size in the category frame of the shared
+ModelNet40 shapes (which are few: 5 chairs, 18 airplanes, and report results), for the studies
+category_choice and selection_breadth.
 
-The shared ModelNet40 shapes are few (5 chairs, 18 airplanes) and report results; the procedural
-shapes are a development set of any size in the same category frame
-(:mod:`catpose.datasets.procedural_chairs`, :mod:`catpose.datasets.procedural_airplanes`). Shape
-``i`` of a set is drawn by ``numpy.random.default_rng(shape_seed)`` after shapes ``0..i-1`` and
-sampled to 10,000 points with face normals (area-uniform, seed ``shape_seed * 100003 + i``), written
-``%.6f`` in PointNet++'s resampled layout (``<root>/<category>/<category>_<8000 + i>.txt``, lines
-``x,y,z,nx,ny,nz``, y up); so a set is fixed by its category, count and seed, and, in the last printed
-digit of a few points, by the BLAS kernel (:func:`blas_kernel`; the portable numeric profile gives
-every AVX2 CPU the same set).
+The generators are the sibling scripts ``procedural_chairs.py`` and ``procedural_airplanes.py``.
+Shape ``i`` of a set is drawn by ``numpy.random.default_rng(shape_seed)`` after shapes ``0..i-1``
+and sampled to 10,000 points with face normals (area-uniform, seed ``shape_seed * 100003 + i``),
+written ``%.6f`` in PointNet++'s resampled layout (``<root>/<category>/<category>_<8000 + i>.txt``,
+lines ``x,y,z,nx,ny,nz``, y up); so a set is fixed by its category, count and seed, and, in the last
+printed digit of a few points, by the BLAS kernel (:func:`blas_kernel`; the portable numeric profile
+gives every AVX2 CPU the same set).
 
 A root also has the split files (every id in ``modelnet40_train.txt``, ``modelnet40_test.txt``
 empty), ``alignment_<category>.csv`` (the identity for every drawn shape, its note
 ``procedural[ <kind>]: built in the category frame``) and ``spec.json`` (what made it). Shapes of
-another root, e.g. the shared resampled chairs, can be linked in as templates
-(``template_root``, ``templates``), with their rows of a verified alignment table
-(``template_alignment``) or, without one, the identity.
+another root, e.g. the shared resampled chairs, can be linked in as templates (``--template-root``,
+``--template-ids``), with their rows of a verified alignment table (``--template-alignment``) or,
+without one, the identity. A root appears whole or not at all (:func:`catpose.atomic.building_dir`)::
 
-The dataset writes its root once into a cache folder outside the repository (``cache_dir``,
-default ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``, ``/procedural/<category>-<hash>``; the
-hash covers the spec) and reads it with :class:`~catpose.datasets.modelnet40_resampled.ModelNet40Resampled`:
-views by hidden point removal, drawn by ``seed`` as for every resampled root. A root appears whole
-or not at all (:func:`catpose.atomic.building_dir`). Outside a run::
-
-    python -m catpose.datasets.procedural OUT_ROOT --category chair --count 40 --shape-seed 0 \\
+    python experiments/_lib/procedural.py OUT_ROOT --category chair --count 40 --shape-seed 0 \\
         [--template-root SHARED/modelnet40_normal_resampled --template-ids chair_0391,chair_0624 \\
          [--template-alignment results/alignment/modelnet40_resampled_chair.csv]]
 
-writes the same root into ``OUT_ROOT`` (again: nothing to do), for ``dataset=modelnet40_resampled
+writes the root into ``OUT_ROOT`` (again: nothing to do), for ``dataset=modelnet40_resampled
 dataset.root=OUT_ROOT dataset.alignment_table=OUT_ROOT/alignment_<category>.csv``.
 """
 
@@ -40,16 +34,14 @@ import hashlib
 import json
 import sys
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
-from catpose import disk_cache
-from catpose.datasets.modelnet40_resampled import RESAMPLED_FRAME, ModelNet40Resampled
-from catpose.datasets.templates import TemplateOptions
-from catpose.datasets.views import ViewOptions
 from catpose.errors import CatposeError, ConfigError, DatasetError
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the generators, sibling scripts
 
 #: bumped whenever the written files change for the same spec
 GENERATOR_VERSION = "1"
@@ -76,12 +68,12 @@ class ProceduralSpec:
 
     def __post_init__(self) -> None:
         if self.category not in CATEGORIES:
-            raise ConfigError(f"dataset.category: {self.category!r} is not one of {', '.join(CATEGORIES)}")
+            raise ConfigError(f"--category {self.category!r} is not one of {', '.join(CATEGORIES)}")
         if int(self.count) < 1:
-            raise ConfigError(f"dataset.count: {self.count} shapes; draw at least 1")
+            raise ConfigError(f"--count {self.count}: draw at least 1 shape")
         if self.template_ids and self.template_root is None:
             raise ConfigError(
-                f"templates {', '.join(self.template_ids)} are not drawn shapes; set dataset.template_root "
+                f"templates {', '.join(self.template_ids)} are not drawn shapes; set --template-root "
                 "to the resampled root that holds them"
             )
 
@@ -133,10 +125,10 @@ def draw(category: str, rng: np.random.Generator):
     """The next shape of ``category`` from ``rng`` (a trimesh mesh; airplanes carry their kind in
     ``metadata["kind"]``)."""
     if category == "chair":
-        from catpose.datasets.procedural_chairs import chair
+        from procedural_chairs import chair
 
         return chair(rng)
-    from catpose.datasets.procedural_airplanes import airplane
+    from procedural_airplanes import airplane
 
     return airplane(rng)
 
@@ -148,9 +140,7 @@ def template_rows(alignment_csv: Path, ids: Sequence[str]) -> list[str]:
         rows = {r["instance_id"]: r for r in csv.DictReader(f)}
     missing = [i for i in ids if i not in rows]
     if missing:
-        raise DatasetError(
-            f"{alignment_csv} has no row for {', '.join(missing)}; give the table of dataset.template_root"
-        )
+        raise DatasetError(f"{alignment_csv} has no row for {', '.join(missing)}; give the table of --template-root")
     out = []
     for i in ids:
         vals = [rows[i][k] for k in HEADER.strip().split(",")]
@@ -176,7 +166,7 @@ def write_root(root: Path, spec: ProceduralSpec) -> None:
     for name in spec.template_ids:
         source = Path(spec.template_root) / spec.category / f"{name}.txt"
         if not source.is_file():
-            raise DatasetError(f"template {source} does not exist; check dataset.template_root and dataset.templates")
+            raise DatasetError(f"template {source} does not exist; check --template-root and --template-ids")
         (folder / f"{name}.txt").symlink_to(source.resolve())
     if spec.template_alignment is not None:
         rows += template_rows(Path(spec.template_alignment), spec.template_ids)
@@ -211,12 +201,6 @@ def build_root(root: str | Path, spec: ProceduralSpec) -> Path:
     return root
 
 
-def procedural_root(spec: ProceduralSpec, cache_dir: str | Path | None = None) -> Path:
-    """The cache folder of ``spec``: ``<cache_dir>/procedural/<category>-<hash of the spec>``."""
-    h = hashlib.blake2b(json.dumps(spec.record(), sort_keys=True).encode(), digest_size=8).hexdigest()
-    return Path(cache_dir or disk_cache.cache_dir()) / "procedural" / f"{spec.category}-{h}"
-
-
 def kinds(alignment_csv: str | Path) -> dict[str, str]:
     """instance id -> kind of every drawn airplane of a root's alignment table (its note
     ``procedural <kind>: ...``; chairs have none)."""
@@ -228,78 +212,8 @@ def kinds(alignment_csv: str | Path) -> dict[str, str]:
         }
 
 
-class Procedural(ModelNet40Resampled):
-    """Procedural chairs or airplanes (see the module docstring), built into the cache on first
-    use and read as a ``modelnet40_resampled`` root.
-
-    Args:
-        category: ``"chair"`` or ``"airplane"``: which generator draws the shapes.
-        count: shapes drawn (ids ``<category>_8000`` ...).
-        shape_seed: fixes every shape (the views are drawn by ``seed``).
-        template_root: a ``modelnet40_normal_resampled`` folder that holds the templates that are not
-            drawn shapes (``<category>/<id>.txt``).
-        template_alignment: its alignment table, whose rows of the linked templates are copied
-            (None: identity rows, right for the shared chairs, not for the shared airplanes).
-        cache_dir: where the roots live (None: ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``).
-        template: ``templates`` maps the category to template instance ids: drawn ones, or ids of
-            ``template_root`` linked into the root (None: the first drawn shape); the rest as for
-            :class:`~catpose.datasets.modelnet40_resampled.ModelNet40Resampled`.
-        Every other argument is :class:`~catpose.datasets.modelnet40_resampled.ModelNet40Resampled`'s.
-    """
-
-    name = "procedural"
-    generated = "generated into the cache on first use (no root to check)"
-
-    def __init__(
-        self,
-        category: str = "chair",
-        count: int = 40,
-        shape_seed: int = 0,
-        template_root: str | None = None,
-        template_alignment: str | None = None,
-        cache_dir: str | None = None,
-        instances_per_category: int | None = None,
-        views_per_instance: int = 2,
-        view: ViewOptions = ViewOptions(),
-        hpr_radius_factor: float = 100.0,
-        template: TemplateOptions = TemplateOptions(),
-        seed: int = 0,
-    ) -> None:
-        category = str(category)
-        drawn = shape_ids(category, int(count)) if category in CATEGORIES and int(count) > 0 else []
-        templates = template.templates
-        templates = {category: drawn[:1]} if templates is None else {k: list(v) for k, v in templates.items()}
-        other = [k for k in templates if k != category]
-        if other:
-            raise ConfigError(f"dataset.templates names {other[0]}; a procedural set has one category, {category}")
-        linked = tuple(t for t in templates.get(category, []) if t not in drawn)
-        spec = ProceduralSpec(
-            category=category,
-            count=int(count),
-            shape_seed=int(shape_seed),
-            template_ids=linked,
-            template_root=str(Path(template_root).resolve()) if template_root and linked else None,
-            template_alignment=str(Path(template_alignment).resolve()) if template_alignment and linked else None,
-        )
-        self.spec = spec
-        root = build_root(procedural_root(spec, cache_dir), spec)
-        super().__init__(
-            root=str(root),
-            categories=[category],
-            split="train",
-            instances_per_category=instances_per_category,
-            views_per_instance=views_per_instance,
-            view=view,
-            hpr_radius_factor=hpr_radius_factor,
-            template=replace(template, templates=templates),
-            template_split="train",
-            frame=replace(RESAMPLED_FRAME, alignment_table=str(root / f"alignment_{category}.csv")),
-            seed=seed,
-        )
-
-
 def main(argv: list[str] | None = None) -> int:
-    """``python -m catpose.datasets.procedural OUT_ROOT ...``: write a procedural root (see the
+    """``python experiments/_lib/procedural.py OUT_ROOT ...``: write a procedural root (see the
     module docstring); a bad argument is one line and exit status 2."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("out_root")
@@ -324,7 +238,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         root = build_root(args.out_root, spec)
     except CatposeError as e:
-        print(f"python -m catpose.datasets.procedural: error: {e}", file=sys.stderr)
+        print(f"experiments/_lib/procedural.py: error: {e}", file=sys.stderr)
         return 2
     print(f"{root}: {spec.count} procedural {spec.category}s (seed {spec.shape_seed}), {len(ids)} linked templates")
     return 0

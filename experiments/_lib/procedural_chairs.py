@@ -1,5 +1,5 @@
-"""Procedural chairs, drawn part by part from a random generator (``dataset=procedural
-dataset.category=chair``; :mod:`catpose.datasets.procedural` writes and reads them).
+"""Procedural chairs, drawn part by part from a random generator (``procedural.py
+--category chair`` writes them as a resampled root).
 
 A seat (box, optional cushion), one of four bases (four legs, optionally splayed and joined by
 stretchers; an office pedestal on a five-spoke star; two side panels; a cantilever sled), one of

@@ -1,8 +1,8 @@
 """How an estimated alignment table agrees with a verified one, and whether its confidence
-separates the right rows from the wrong ones (``bench align --compare VERIFIED.csv``).
+separates the right rows from the wrong ones (``align.py --compare VERIFIED.csv``).
 
 The verified table is read only after the estimate is written: nothing here feeds back into
-:func:`catpose.datasets.alignment.estimate_table`.
+``alignment_estimate.estimate_table``.
 
 Two tables may put the category in different frames (each is "the reference instance's frame",
 and a table may be re-based), so a row agrees when its estimated rotation equals the verified one

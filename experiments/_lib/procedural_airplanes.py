@@ -1,5 +1,5 @@
-"""Procedural airplanes, drawn part by part from a random generator (``dataset=procedural
-dataset.category=airplane``; :mod:`catpose.datasets.procedural` writes and reads them).
+"""Procedural airplanes, drawn part by part from a random generator (``procedural.py
+--category airplane`` writes them as a resampled root).
 
 The kinds the shared ModelNet40 airplanes mix: airliners (swept low wings, two or four engine pods,
 a conventional or a T tail), propeller planes (straight high or low wings, a propeller at the nose),
@@ -17,8 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 import trimesh
-
-from catpose.datasets.procedural_chairs import rod
+from procedural_chairs import rod  # the sibling script (procedural.py puts this folder on sys.path)
 
 KINDS = ("airliner", "prop", "fighter", "biplane", "glider")
 KIND_P = (0.35, 0.2, 0.2, 0.12, 0.13)

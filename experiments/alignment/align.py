@@ -1,4 +1,6 @@
-"""``bench align``: estimate, and draw for checking, a category's per-instance alignment table.
+"""Estimate, and draw for checking, a category's per-instance alignment table (the study's
+command; it wrote the verified tables ``results/alignment/modelnet40_*.csv`` before a person
+checked them).
 
 Raw ModelNet40 instances differ by multiples of 90 degrees of yaw, so a category-level protocol
 needs a rotation ``R_canonical_raw`` per instance (or the aligned release,
@@ -6,10 +8,9 @@ needs a rotation ``R_canonical_raw`` per instance (or the aligned release,
 other under each hypothesis (4 yaws, times an up-axis flip with ``--flip``), each hypothesis
 refined by ICP and scored by symmetric Chamfer distance (which finds the main axis) plus shape cues
 at the ends (which find the front of airplanes: ``--cues ends``, what the default ``auto`` gives
-airplanes; :mod:`catpose.datasets.alignment_cues`);
-a consensus over all pairs picks each instance's hypothesis in the reference instance's frame
-(:func:`catpose.datasets.alignment.estimate_table`). ``--compare VERIFIED.csv`` then measures the
-written estimate against a verified table (:mod:`catpose.bench.category.align_check`). It writes
+airplanes; ``alignment_cues.py``); a consensus over all pairs picks each instance's hypothesis in
+the reference instance's frame (``alignment_estimate.estimate_table``). ``--compare VERIFIED.csv``
+then measures the written estimate against a verified table (``align_check.py``). It writes
 
 - a CSV (``--out``) that ``dataset.alignment_table=<csv>`` applies, with ``confidence`` (relative
   margin between the best and second-best hypothesis) and ``verified`` (false: set it to true,
@@ -19,8 +20,10 @@ written estimate against a verified table (:mod:`catpose.bench.category.align_ch
   (x forward, z up); rows with low confidence, or where the consensus and the reference-only
   estimate disagree, are titled in red::
 
-    bench align dataset=modelnet40 dataset.root=/data/ModelNet40 --category airplane \\
-        --reference airplane_0001 --out results/alignment/modelnet40_airplane.csv
+    python experiments/alignment/align.py dataset=modelnet40 dataset.root=/data/ModelNet40 \\
+        --category airplane --reference airplane_0001 --out results/alignment/modelnet40_airplane.csv
+
+A bad input is one line (``align.py: error: ...``) and exit status 2.
 """
 
 from __future__ import annotations
@@ -28,13 +31,16 @@ from __future__ import annotations
 import argparse
 import contextlib
 import logging
+import sys
 from pathlib import Path
 
-log = logging.getLogger(__name__)
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling scripts
+
+log = logging.getLogger("catpose.align")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="bench align", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python experiments/alignment/align.py", description=__doc__.split("\n\n")[0])
     p.add_argument(
         "overrides", nargs="*", help="Hydra dataset overrides: dataset=modelnet40|modelnet40_resampled dataset.root=..."
     )
@@ -87,9 +93,20 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command; a user error raises :class:`~catpose.errors.CatposeError`, which the CLI prints
-    as one line (exit status 2)."""
+    """Run the command; a user error is one line on stderr and exit status 2."""
+    from catpose import logs
+    from catpose.errors import CatposeError
+
     args = build_parser().parse_args(argv)
+    logs.configure("align", prefix="align.py")
+    try:
+        return run(args)
+    except CatposeError as e:
+        print(f"align.py: error: {e}", file=sys.stderr)
+        return 2
+
+
+def run(args: argparse.Namespace) -> int:
     check_options(args)
     outs = check_outputs(args)
     with contextlib.ExitStack() as writing:  # a read-only folder or a full disk: one line, no file half-written
@@ -100,9 +117,9 @@ def main(argv: list[str] | None = None) -> int:
     n_low = sum(1 for r in rows if r["low"])
     print(f"wrote {len(rows)} rows to {args.out} ({n_low} marked for a closer look) and {sheet_path(args)}")
     if args.compare:
-        from catpose.bench.category.align_check import compare_tables, summary_line, write_comparison
+        from align_check import compare_tables, summary_line, write_comparison
 
-        result = compare_tables(args.out, args.compare, args.category)  # a user error: one line from the CLI
+        result = compare_tables(args.out, args.compare, args.category)
         with outs["--compare"].writing():
             out = write_comparison(comparison_path(args), result)
         print(f"against {args.compare}: {summary_line(result)}; rows in {out}")
@@ -211,7 +228,7 @@ def redraw(args: argparse.Namespace) -> list[dict]:
     name, ids, ref, clouds = load_clouds(args)
     missing = [i for i in ids if (args.category, i) not in table]
     if missing:
-        raise DatasetError(f"{args.out} has no rows for {missing[:3]}; run `bench align` without --draw-only")
+        raise DatasetError(f"{args.out} has no rows for {missing[:3]}; run align.py without --draw-only")
     rows = []
     for i in ids:
         m = meta[(args.category, i)]
@@ -233,13 +250,9 @@ def redraw(args: argparse.Namespace) -> list[dict]:
 
 
 def align(args: argparse.Namespace) -> list[dict]:
-    from catpose.datasets.alignment import (
-        estimate_table,
-        resolve_cues,
-        write_alignment_table,
-        yaw_deg_of,
-        yaw_flip_hypotheses,
-    )
+    from alignment_estimate import estimate_table, resolve_cues, write_alignment_table, yaw_flip_hypotheses
+
+    from catpose.datasets.alignment import yaw_deg_of
 
     name, ids, ref, clouds = load_clouds(args)
     hyps = yaw_flip_hypotheses(args.flip)

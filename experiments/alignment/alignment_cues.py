@@ -1,6 +1,6 @@
 """Shape cues that tell nose from tail where the symmetric Chamfer distance cannot.
 
-Issue 25: on the shared airplanes the Chamfer consensus of :func:`catpose.datasets.alignment.estimate_table`
+Issue 25: on the shared airplanes the Chamfer consensus of ``alignment_estimate.estimate_table``
 found every fuselage axis but turned nose against tail: a propeller plane turned 180 degrees fits
 a jet about as well as the right way round (the wings move to where the other's wings are). What
 the ends of a shape look like is more alike across a category than where its bulk lies. Each cue
@@ -17,7 +17,7 @@ is measured in the frame a hypothesis puts a cloud in (z up), at the four horizo
 The cues are *equivariant* under the hypothesis group (yaws by 90 degrees, the up axis turned
 over): a common rotation of two clouds permutes (and negates) their entries alike, so the L1
 distance between two instances' cues depends only on their relative rotation, like the Chamfer
-distance, and the costs fit :func:`catpose.datasets.alignment.synchronize` as they are.
+distance, and the costs fit ``alignment_estimate.synchronize`` as they are.
 
 :func:`combined_costs` adds them to the Chamfer costs, each divided by its median over all pairs
 and hypotheses; the Chamfer term keeps only the main-axis information (the lower of a hypothesis
@@ -142,7 +142,7 @@ def median_scaled(C: np.ndarray) -> np.ndarray:
 def combined_costs(
     C_chamfer: np.ndarray, cues: dict[str, np.ndarray], hypotheses: np.ndarray, weights: dict[str, float] | None = None
 ) -> np.ndarray:
-    """The costs :func:`catpose.datasets.alignment.synchronize` minimises with the cues:
+    """The costs ``alignment_estimate.synchronize`` minimises with the cues:
     ``w_chamfer * coset_min(Chamfer) + sum_cue w_cue * cue``, each term scaled by its median
     (:func:`median_scaled`; the Chamfer term before :func:`coset_min`). ``cues`` is
     :func:`cue_costs`' dict; ``weights`` default to :data:`WEIGHTS` (a cue without a weight is
