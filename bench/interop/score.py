@@ -99,8 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     """``bench score PREDICTIONS.csv --gt RUN_DIR --method NAME --out DIR`` (or ``--dataset D --protocol P``)."""
     ap = argparse.ArgumentParser(
         prog="bench score",
-        description="Score an external predictions file (BOP CSV, per-sample CSV, or a "
-        ".npy/.npz array of (B, 3, 4) or (B, 4, 4) transforms with --ids).",
+        description="Score an external predictions file (BOP CSV or per-sample CSV).",
     )
     ap.add_argument("predictions")
     ap.add_argument("--gt", help="a run directory whose ground truth (and samples) to score against")
@@ -127,15 +126,9 @@ def main(argv: list[str] | None = None) -> int:
         "--no-vsd", action="store_true", help="BOP datasets: skip VSD (it renders the model twice per estimate)"
     )
     ap.add_argument(
-        "--ids",
-        default=None,
-        help=".npy/.npz transforms: a text file of sample ids, one per line, in the "
-        "arrays' order (not needed when the .npz has an 'ids' array)",
-    )
-    ap.add_argument(
         "--inverse",
         action="store_true",
-        help=".npy/.npz transforms or a per-sample CSV: they map the template onto the observation "
+        help="a per-sample CSV: its poses map the template onto the observation "
         "(T_camera_template); invert them (not for a BOP CSV, whose convention is fixed)",
     )
     ap.add_argument(
@@ -172,23 +165,15 @@ def main(argv: list[str] | None = None) -> int:
     # before any work: no input and no other run is written over (bench/run/overwrite.py), the --gt run never
     inputs = [Input(Path(args.predictions), "the predictions file")]
     inputs += [Input(Path(p), what) for p, what in ((args.gt, "the --gt run"), (args.map, "the --map file")) if p]
-    if args.ids:
-        inputs.append(Input(Path(args.ids), "the --ids file"))
     out = Output(args.out, "folder", inputs, args.force, replaces="run")
-    from catpose.bench.interop.transform_arrays import is_transform_array, read_transform_arrays
-
-    if args.inverse and not is_transform_array(args.predictions):
+    if args.inverse:
         check_inverse_csv(args.predictions)
     gt_rows, config = (
         gt_rows_from_run(args.gt)
         if args.gt
         else gt_rows_from_config(args.dataset, args.protocol, args.seed, args.override)
     )
-    preds = (
-        read_transform_arrays(args.predictions, args.ids, args.inverse)
-        if is_transform_array(args.predictions)
-        else read_predictions(args.predictions, inverse=args.inverse)
-    )
+    preds = read_predictions(args.predictions, inverse=args.inverse)
     map_path = Path(args.map) if args.map else Path(str(args.predictions) + ".map.csv")
     if args.map and not map_path.is_file():
         raise InvalidInputError(f"--map {map_path} does not exist")
@@ -243,7 +228,7 @@ def check_inverse_csv(path: str | Path) -> None:
     if {"scene_id", "im_id", "obj_id"} <= {c.strip() for c in first.split(",")}:
         raise InvalidInputError(
             f"--inverse: {path} is a BOP results CSV, whose R, t are T_camera_model by definition; drop "
-            "--inverse (it applies to per-sample CSVs and .npy/.npz transforms)"
+            "--inverse (it applies to per-sample CSVs)"
         )
 
 

@@ -2,8 +2,7 @@
 
     bench report outputs/synthetic-gt_model --out report/ [--layout optimiser] [--qualitative 2]
 
-writes ``index.md`` and ``index.html`` (the same content; every link relative, so the folder can
-be moved or opened from disk), and per protocol (errors of different protocols answer different
+writes ``index.md`` (every link relative, so the folder can be moved or opened from disk), and per protocol (errors of different protocols answer different
 questions, so they never share a table or a figure):
 
 - ``tables/<protocol>_summary.{md,tex,csv}``: one row per method, all categories pooled;
@@ -121,7 +120,7 @@ SUMMARY_METRICS = ("mean", "median", "acc10", "acc30", "trans", "runtime", "fail
 def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, allow_mixed: bool = False):
     """One row per run, all categories pooled, the columns of :data:`SUMMARY_METRICS` named by
     the metric alone: ``tables/<protocol>_summary.*`` of a report (the README's first table),
-    and what ``make demo`` prints (:mod:`catpose.bench.report.demo`)."""
+    and what ``make demo`` prints."""
     from catpose.bench.report import tables
 
     summary = tables.build_table(
@@ -141,8 +140,8 @@ def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, 
 
 def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, allow_mixed: bool = False):
     """A row block per run, a column per category (the paper's layout), mean, median, @10 and @30:
-    ``tables/<protocol>_per_category.*`` of a report, and what ``make demo`` prints above the
-    pooled table; None when the runs name no category."""
+    ``tables/<protocol>_per_category.*`` of a report (``make demo`` prints it above the
+    pooled table); None when the runs name no category."""
     from catpose.bench.report import tables
 
     cats = sorted({str(c) for r in runs for c in r.samples.get("category", [])})
@@ -326,9 +325,6 @@ def _write_report(
                     ]
 
     atomic.write_text(out / "index.md", "\n".join(md) + "\n")
-    from catpose.bench.report.html_page import markdown_page
-
-    atomic.write_text(out / "index.html", markdown_page(md, "catpose report"))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -387,5 +383,5 @@ def main(argv: list[str] | None = None) -> int:
             label_items=args.label,
             allow_mixed=args.allow_mixed,
         )
-    print(f"report written: {index} (and index.html)" + (f"; {len(left_out)} run(s) left out" if left_out else ""))
+    print(f"report written: {index}" + (f"; {len(left_out)} run(s) left out" if left_out else ""))
     return 2 if left_out else 0
