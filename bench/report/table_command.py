@@ -22,8 +22,8 @@ from catpose.bench.report.tables import LAYOUTS, RENDERERS, build_table
 from catpose.errors import ConfigError, DatasetError
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE]``."""
+def parser() -> argparse.ArgumentParser:
+    """``bench table``'s options."""
     from catpose.bench.run.overwrite import add_output_options
 
     ap = argparse.ArgumentParser(prog="bench table", description="Paper tables from run directories.")
@@ -85,40 +85,46 @@ def main(argv: list[str] | None = None) -> int:
         "ar_mssd,ar_mspd,adds@0.1,5deg5cm (see catpose.bench.scoring.bop_eval.parse_metric)",
     )
     ap.add_argument("--by", default=None, help="with --bop-metrics: rows per object and/or category (default both)")
-    ap.add_argument(
-        "--stability",
-        action="append",
-        default=[],
-        metavar="ROOT",
-        help="an output root with the same runs made under another code path of the numerical "
-        "libraries (results/make_results.sh); notes say per row how many views changed "
-        "and the range of the overall figures (repeatable)",
-    )
-    args = ap.parse_args(argv)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE]``."""
     from catpose.bench.report.sweep_runs import sweep_runs
-    from catpose.bench.scoring.curves import threshold_keys
 
-    run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
-    if not args.runs and not run_paths:
-        raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
-    out = None
-    if args.out:  # before any work (docs/file-safety.md)
-        from catpose.bench.run.overwrite import Output, input_runs
-
-        out = Output(args.out, "file", input_runs([*args.runs, *run_paths, *args.sweep, *args.stability]), args.force)
+    args = parser().parse_args(argv)
+    swept = sweep_runs(args.sweep)
+    out = output(args, swept[0])
     if args.by is not None and (not args.bop_metrics or set(args.by.split(",")) - {"object", "category"}):
         raise ConfigError(f"--by {args.by!r} goes with --bop-metrics and takes object, category or object,category")
     if args.bop_metrics:
-        text = (
-            bop_recall_table(
-                find_run_dirs([*args.runs, *run_paths]),
-                args.bop_metrics.split(","),
-                (args.by or "object,category").split(","),
-            )
-            + "\n"
-        )
-        _write(out, text)
+        run_dirs = find_run_dirs([*args.runs, *swept[0]])
+        by = (args.by or "object,category").split(",")
+        _write(out, bop_recall_table(run_dirs, args.bop_metrics.split(","), by) + "\n")
         return 0
+    table, left_out = make_table(args, swept)[:2]
+    _write(out, RENDERERS[args.format](table))
+    return 2 if left_out else 0
+
+
+def output(args, run_paths: Sequence[Path], extra_inputs: Sequence[str | Path] = ()):
+    """The ``--out`` of ``args`` (an :class:`~catpose.bench.run.overwrite.Output`, checked before any
+    work: docs/file-safety.md), or None for stdout; no runs at all is refused first."""
+    if not args.runs and not run_paths:
+        raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
+    if not args.out:
+        return None
+    from catpose.bench.run.overwrite import Output, input_runs
+
+    return Output(args.out, "file", input_runs([*args.runs, *run_paths, *args.sweep, *extra_inputs]), args.force)
+
+
+def make_table(args, swept):
+    """``(table, left_out, runs, labels)`` of ``bench table``'s ``args`` (not ``--bop-metrics``) and
+    its sweeps' ``(run directories, labels, table settings)``."""
+    from catpose.bench.scoring.curves import threshold_keys
+
+    run_paths, sweep_labels, defaults = swept
     if args.layout not in (None, defaults.get("layout")):
         defaults = {}  # another layout than the experiment's: none of its settings apply
     for key, value in defaults.items():  # the experiment's settings, unless given here
@@ -131,20 +137,19 @@ def main(argv: list[str] | None = None) -> int:
     warn_incomplete("table", runs)  # and the table's notes say it
     if args.categories:
         check_categories(runs, args.categories.split(","))
+    labels = {**sweep_labels, **parse_labels(args.label)}
     table = build_table(
         runs,
         args.layout,
         args.categories.split(",") if args.categories else None,
         args.metrics.split(",") if args.metrics else None,
-        {**sweep_labels, **parse_labels(args.label)},
+        labels,
         args.error,
         args.title,
-        [Path(p) for p in args.stability],
         threshold_keys(args.acc or [], args.auc) if (args.acc or args.auc is not None) else (),
         allow_mixed=args.allow_mixed,
     )
-    _write(out, RENDERERS[args.format](table))
-    return 2 if left_out else 0
+    return table, left_out, runs, labels
 
 
 def _write(out, text: str) -> None:

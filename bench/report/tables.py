@@ -38,7 +38,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 from catpose.bench.report.labels import parse_labels, pipeline_label, run_labels, template_count
 from catpose.bench.report.runs import Run, find_run_dirs, load_run, protocol_of, scored_units
@@ -217,7 +216,6 @@ def build_table(
     labels: dict[str, str] | None = None,
     error: str | None = None,
     title: str | None = None,
-    stability_roots: Sequence[Path] = (),
     thresholds: Sequence[str] = (),
     allow_mixed: bool = False,
 ) -> Table:
@@ -226,9 +224,6 @@ def build_table(
     ``error`` picks the per-unit error: ``"err_deg"`` (the method's own choice) or
     ``"oracle_err_deg"`` (templates protocol: minimum across templates); the ``templates``
     layout defaults to the oracle, as in the paper, and says so in a note.
-    ``stability_roots``: output roots holding the same runs made under other code paths of the
-    numerical libraries; the notes then say, per row, how many views changed and the range of
-    the overall figures (:mod:`catpose.bench.report.stability`).
     ``thresholds``: metric keys of :mod:`catpose.bench.scoring.curves` (``acc5``, ``auc30``,
     ``5deg5cm``; ``bench table --acc/--auc``) that replace the metrics' accuracies
     (:func:`with_thresholds`).
@@ -288,11 +283,6 @@ def build_table(
             "Errors of templates runs are the minimum across templates (an oracle that needs ground truth)."
         )
     table.notes += [f"Incomplete: {r.incomplete}" for r in runs if getattr(r, "incomplete", None)]
-    if stability_roots:
-        from catpose.bench.report.stability import stability_notes
-
-        names = [f"{group_of(r)} / {label}".lstrip(" /") for r, label in zip(runs, run_labels(runs, labels, group_of))]
-        table.notes += [""] + stability_notes(runs, names, stability_roots, error_of)
     return table
 
 
