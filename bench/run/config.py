@@ -15,10 +15,6 @@ key that only another config of its group has with that config (``method.optimis
 the default ICP: "method ours has it: `method=ours method.optimiser.lr=0.001`"); a sweep's group
 combinations are checked the same way before its first job starts (:func:`check_sweep_composition`).
 
-Renamed: ``protocol.choice``, ``protocol.turns`` and ``protocol.one_template_turns`` are
-``choice=<rule>``, ``choice.turns_deg`` and ``choice.one_template_turns`` (the ``choice`` group);
-the old spellings are refused with the new one named.
-
 Also here: where the shared real data is (:func:`shared_data_dir`).
 """
 
@@ -39,13 +35,6 @@ REPO = Path(__file__).resolve().parents[2]
 
 #: config groups whose names a command line picks (``method=ours``); their names are checked
 GROUPS = ("method", "dataset", "protocol", "choice", "experiment")
-#: dotted keys renamed in the configs: old -> new (an override of the old key is refused); the
-#: templates protocol's choice moved into its own group (configs/choice, the method side's)
-RENAMED_KEYS = {
-    "protocol.choice": "choice",
-    "protocol.turns": "choice.turns_deg",
-    "protocol.one_template_turns": "choice.one_template_turns",
-}
 #: hydra/launcher option -> the plugin package it needs (the cluster extra, `make cluster`)
 LAUNCHER_PLUGINS = {
     "joblib": "hydra_joblib_launcher",
@@ -80,9 +69,7 @@ def did_you_mean(word: str, candidates: Iterable[str], spell=lambda c: c) -> str
 
 
 def check_overrides(argv: Sequence[str], names: bool = True) -> None:
-    """Fail fast, in one line, on an unknown method, dataset, protocol or experiment name and on
-    a renamed key (``protocol.choice=fused``: "protocol.choice was renamed choice; write
-    choice=fused").
+    """Fail fast, in one line, on an unknown method, dataset, protocol or experiment name.
 
     ``argv`` are plain overrides (:func:`split_hydra_args` takes Hydra's flags out first);
     ``hydra.*`` and ``hydra/...`` overrides are Hydra's and pass untouched. ``names=False`` skips
@@ -93,10 +80,6 @@ def check_overrides(argv: Sequence[str], names: bool = True) -> None:
         prefix = raw[: len(raw) - len(key)]  # "+" / "~" as typed
         if key == "hydra" or key.startswith(("hydra.", "hydra/")):
             continue
-        for old, new in RENAMED_KEYS.items():
-            if key == old or key.startswith(old + "."):
-                fixed = prefix + new + key[len(old) :] + (f"={value}" if sep else "")
-                raise ConfigError(f"{old} was renamed {new}; write {fixed}")
         if not sep or key not in GROUPS:
             continue
         available_names = available(key)
