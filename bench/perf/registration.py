@@ -1,39 +1,19 @@
 """``bench perf``: seconds per registration of several methods on the same problems, interleaved.
 
-Problems come from any configured dataset through the runner's builder (``--dataset NAME``,
-``--root PATH`` for the real ones, ``--protocol``, default ``synthetic`` / ``gt_model``), the first
-``--n`` sample ids taken round-robin over categories. Methods are built from
-``configs/method/<name>.yaml`` exactly as ``bench run`` builds them (``--set key=value`` overrides
-an ``ours`` option; ``--methods adam=ours`` with ``--set adam:optimiser.solver=adam`` runs a second,
-differently configured copy in the same interleaved rounds).
-
-How it measures, so that the numbers can be trusted:
-
-- problems are taken in order; before a problem with a new template every method registers it
-  once, untimed: the one-off dictionary and template-descriptor build (cached afterwards) is
-  reported apart as ``warmup_s``, and the caches are warm for the timed calls whatever their size;
-- then ``--repeat`` rounds on that problem, each calling every method back to back (the method
-  order rotates per round), so load changes on a shared machine hit all methods alike; every
-  call is seeded as in ``bench run``;
-- per method: median, mean and p90 seconds per registration and the ratio of its median to FGR's
-  median from the same run; the process' peak RSS (``ru_maxrss``), the load average before
-  and after and the ``--threads`` used (the runs' ``threads`` key: ours' compiled kernels and
-  torch) are printed and written with the table;
-- the table is also written as CSV (``--out``, default ``outputs/perf/<parameters>.csv``) with the
-  raw per-registration times beside it (``*_times.csv``) and, for ``ours``, the per-stage medians.
-
-``--set optimiser.device=cuda`` runs ours' solver on the GPU. The TEASER solver against TEASER++,
-the first sample's cold and warm latency and the batched GPU solver are the speed study's scripts
-(``experiments/speed/``).
-
-Usage::
+Problems are the first ``--n`` samples of a configured dataset (round-robin over categories),
+built as ``bench run`` builds them; methods are built from ``configs/method/<name>.yaml``
+(``--set [LABEL:]KEY=VALUE`` overrides an option; ``--methods adam=ours`` runs a second,
+differently configured copy). Before a problem with a new template every method registers it
+once, untimed (``warmup_s``); then ``--repeat`` rounds call every method back to back, the order
+rotating per round, so load changes hit all methods alike. Per method: median, mean and p90
+seconds and the ratio to FGR's median; the peak RSS, load average and ``--threads`` are printed
+and written with the CSV (``--out``), beside the raw times (``*_times.csv``) and ours' per-stage
+medians (``*_stages.csv``).
 
     bench perf                                    # 12 synthetic problems, ours, icp, fgr, 3 rounds
     bench perf --n 24 --methods ours,adam=ours,fgr --repeat 5 --set adam:optimiser.solver=adam
-    bench perf --methods ransac,ransac2=ransac --set ransac2:num_threads=2
     bench perf --dataset redwood --root ../shared/data/redwood --n 12
-    bench perf --methods ours,fgr --set optimiser.device=cuda
-"""
+    bench perf --methods ours,fgr --set optimiser.device=cuda"""
 
 from __future__ import annotations
 
@@ -160,20 +140,12 @@ def _register(method: Any, problem: Any) -> Any:
 
 
 def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int) -> dict[str, dict]:
-    """Time every method on every problem, ``repeat`` times, interleaved call by call.
-
-    Problems are taken in order; before a problem whose template is new, every method registers it once untimed (``warmup_s``: the dictionary and
-    template-descriptor build). Then ``repeat`` rounds on it, each calling every method back to
-    back, the method order rotating per round. The template caches therefore stay warm whatever
-    their size (ours keeps 8 templates' descriptors; a round-robin over more would time rebuilds).
-
-    A registration that gives no pose (the method raises :class:`InvalidInputError`, e.g. TEASER on
-    a degenerate clique) is timed like any other and counted in ``failed``; as in a run, it is the
-    method's answer on that problem, not a reason to stop measuring.
+    """Time every method on every problem, ``repeat`` times, interleaved call by call (see the
+    module docstring). A registration that gives no pose (:class:`InvalidInputError`) is timed like
+    any other and counted in ``failed``.
 
     Returns per method: ``times`` (s per registration, in call order), ``stages`` (stage -> list
-    of s, ours only), ``warmup_s`` and ``failed`` (timed calls that gave no pose).
-    """
+    of s, ours only), ``warmup_s`` and ``failed``."""
     out = {name: {"times": [], "stages": {s: [] for s in STAGES}, "warmup_s": 0.0, "failed": 0} for name in methods}
     names = list(methods)
     seen: set = set()

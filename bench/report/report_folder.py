@@ -2,25 +2,13 @@
 
     bench report outputs/synthetic-gt_model --out report/ [--layout optimiser] [--qualitative 2]
 
-writes ``index.md`` (every link relative, so the folder can be moved or opened from disk), and per protocol (errors of different protocols answer different
-questions, so they never share a table or a figure):
-
-- ``tables/<protocol>_summary.{md,tex,csv}``: one row per method, all categories pooled;
-- ``tables/<protocol>_per_category.{md,tex,csv}``: (method, metric) rows x category columns;
-- ``tables/<protocol>_<layout>.*`` for each ``--layout``;
-- ``figures/<protocol>_{error_cdf,accuracy,runtime}.{png,pdf,csv}`` (the CSV holds the plotted data);
-- pictures of failures, on by default (``--qualitative N``, default 2, 0: none): per run its
-  worst registration and a typical failure (:func:`qualitative_picks`), rebuilt from the run's
-  config, at most ``--max-pictures`` (default :data:`MAX_PICTURES`) in the whole report.
-
-The runtime figure leaves each run's first registration (imports, numba's compilation: seconds)
-out of its boxes and marks it (:data:`catpose.bench.report.plots.WARMUP_COLUMN`).
-
-Labels are unique per protocol (:func:`catpose.bench.report.tables.run_labels`). Everything is made
-from the run directories' files. The folder is built beside ``--out`` and moved into place whole,
-so it holds one report and a failure leaves none; an existing ``--out`` needs ``--force``, and no
-``--out`` may hold, or lie inside, a run it reads (:func:`catpose.bench.run.overwrite.check_output`).
-"""
+writes ``index.md`` (every link relative) and, per protocol (they never share a table or figure),
+``tables/<protocol>_{summary,per_category,<layout>}.{md,tex,csv}``,
+``figures/<protocol>_{error_cdf,accuracy,runtime}.{png,pdf,csv}`` (the CSV holds the plotted
+data) and pictures of each run's worst registration and a typical failure (``--qualitative N``,
+at most ``--max-pictures`` in all). The runtime figure leaves each run's first registration
+(imports, compilation) out of its boxes. The folder is built beside ``--out`` and moved into
+place whole (:func:`catpose.bench.run.overwrite.check_output`)."""
 
 from __future__ import annotations
 

@@ -1,31 +1,16 @@
 """The runner: every sample of a dataset + protocol through one method, into one run directory.
 
-Stages with files between them (run -> estimates and errors -> tables):
-
-- ``samples.jsonl``: one JSON object per finished sample, appended and flushed as soon as it is
-  done, so a run killed midway loses nothing already written and a re-run skips finished
-  samples (resume). A truncated last line from a kill is ignored and rewritten.
-- ``config.yaml`` (the resolved config), ``git_rev.txt``, ``run.json`` (counts and the environment:
-  library versions, CPU, BLAS kernels).
-- ``samples.csv``, ``summary.csv``, ``summary.md``: made from ``samples.jsonl`` by
-  :func:`summarize_run`, never from in-memory state.
-
-``batch=N`` (default 1) hands the method ``N`` samples per call of its ``register_batch`` where
-it has one (ours: one solver launch for all their candidates, the GPU path with
-``method.optimiser.device=cuda``); each sample's ``runtime_s`` is then its share of the call.
+``samples.jsonl`` gets one row per finished sample, flushed as soon as it is done, so a killed
+run loses nothing written and a re-run skips finished samples; ``config.yaml``, ``git_rev.txt``
+and ``run.json`` (counts, environment) beside it; ``samples.csv`` and ``summary.{csv,md}`` are
+made from ``samples.jsonl`` (:func:`summarize_run`). ``batch=N`` hands the method ``N`` samples
+per ``register_batch`` call where it has one.
 
 A sample whose data fails to load, whose method raises, or whose estimate is not a finite rigid
-transform is recorded with ``status="failed"`` and its message; the run goes on. What is not the
-sample's own fault aborts the run in one line and records nothing for the sample in progress, so
-a re-run redoes it: Ctrl-C (at any moment: the heavy libraries are imported before the first
-sample), an import error, ``MemoryError``, an ``OSError`` writing the run directory. A run holds
-a lock on its directory (``run.lock``); a second run of the same configuration waits for it.
-
-The run directory's name and files are :mod:`catpose.bench.run.rundir`'s, its lock
-:mod:`catpose.bench.run.lock`'s, the rows :mod:`catpose.bench.scoring.rows`'; configs become
-objects in :mod:`catpose.bench.run.build`; one sample's load, registration and scoring are
-:mod:`catpose.bench.run.sample_run`'s; errors and summaries are :mod:`catpose.bench.run.evaluate`'s.
-"""
+transform is recorded as failed and the run goes on. What is not the sample's fault (Ctrl-C, an
+import error, ``MemoryError``, an ``OSError`` writing the run directory) aborts the run in one
+line and records nothing for the sample in progress. A run holds a lock on its directory
+(:mod:`catpose.bench.run.lock`); a second run of the same configuration waits for it."""
 
 from __future__ import annotations
 
