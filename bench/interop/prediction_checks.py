@@ -1,16 +1,7 @@
-"""What a prediction file must be before anything in it is scored.
-
-- The file is a text CSV with a header (not empty, not binary, e.g. a ``.npy``).
-- BOP ids (``scene_id``, ``im_id``, ``obj_id``) are integers; a per-sample ``sample_id`` is not
-  empty.
-- Each pose is a pose: ``R`` a rotation within :data:`ROTATION_TOL` (``R^T R = I`` entrywise and
-  ``det R = +1``), ``t`` finite. A zero matrix, a scaled rotation or a reflection is not projected
-  onto the nearest rotation and scored: the file is refused with the line number.
-
-Every refusal is one :class:`~catpose.errors.InvalidInputError` line naming the file, the line
-and the fix. How duplicates, unknown ids and missing targets are counted is
-:mod:`catpose.bench.interop.prediction_match`'s (docs/file-safety.md).
-"""
+"""What a prediction file must be before anything in it is scored: a text CSV with a header; BOP
+ids integers, a per-sample ``sample_id`` not empty; ``R`` a rotation within :data:`ROTATION_TOL`
+(never projected onto the nearest one) and ``t`` finite. Every refusal is one
+:class:`~catpose.errors.InvalidInputError` line naming the file, the line and the fix."""
 
 from __future__ import annotations
 

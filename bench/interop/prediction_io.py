@@ -1,19 +1,11 @@
-"""Prediction files: reading a BOP results CSV or a per-sample CSV, and an export's id mapping.
+"""Prediction files: a BOP results CSV or a per-sample CSV (told apart by the header), and an
+export's id mapping.
 
-Two file formats are read (detected from the header):
-
-- **BOP results CSV** (``scene_id,im_id,obj_id,score,R,t,time``; bop_toolkit's format). ``R`` is
-  ``R_camera_model`` (BOP's ``cam_R_m2c``), 9 space-separated row-major values; ``t`` is
-  ``t_camera_model`` in millimetres; ``score`` is a confidence (higher is better); ``time`` in
-  seconds, one value per image (-1 when unknown). Several rows of one image and object are
-  matched to that object's instances greedily by score (as bop_toolkit does); files must be
-  named ``METHOD_DATASET-SPLIT.csv`` for the toolkit. For BOP datasets ``bench score`` also
-  computes BOP's metrics (MSSD, MSPD, VSD, ADD(-S), n-degree m-cm; :mod:`catpose.bench.scoring.bop_eval`)
-  on the split's official targets with gt instances at ``visib_fract >= 0.1``.
-- **Per-sample CSV** (``sample_id,R,t[,score][,time]``): ``R``/``t`` of ``T_template_camera``
-  (this project's convention: camera points into the template frame) in the object-normalised
-  unit; ``sample_id`` is a run's sample id or observation id (``obs_id``).
-"""
+- BOP results CSV ``scene_id,im_id,obj_id,score,R,t,time`` (bop_toolkit's): ``R`` is
+  ``R_camera_model`` (9 row-major values), ``t`` ``t_camera_model`` in mm, ``score`` a confidence
+  (higher is better), ``time`` seconds per image (-1 unknown). Named ``METHOD_DATASET-SPLIT.csv``.
+- Per-sample CSV ``sample_id,R,t[,score][,time]``: ``T_template_camera`` (camera points into the
+  template frame) in the object-normalised unit; ``sample_id`` a run's sample or observation id."""
 
 from __future__ import annotations
 

@@ -2,21 +2,11 @@
 
 Every command that needs a config composes it through :func:`compose` (or
 :func:`compose_and_build`, which also builds groups with
-:func:`catpose.bench.run.build.build_from_config`): ``bench run``'s fail-fast check, ``bench
-perf``, ``bench align``, ``bench templates``, ``bench score --dataset``, ``bench suite``,
-``bench regress`` and the GPU check's input dump. ``bench run`` itself then goes through
-``hydra.main`` (:mod:`catpose.bench.run.command`), the one other place Hydra composes.
-
-What a user types is checked before Hydra sees it (:func:`check_overrides`): an unknown method,
-dataset, protocol or experiment name, or a key that was renamed, is one line that names the fix;
-a composition error is one line instead of Hydra's multi-line report. A name or key that does not
-exist is answered with the closest valid ones (``difflib``: "did you mean `method=ours`?"), and a
-key that only another config of its group has with that config (``method.optimiser.lr`` under
-the default ICP: "method ours has it: `method=ours method.optimiser.lr=0.001`"); a sweep's group
-combinations are checked the same way before its first job starts (:func:`check_sweep_composition`).
-
-Also here: where the shared real data is (:func:`shared_data_dir`).
-"""
+:func:`catpose.bench.run.build.build_from_config`); ``bench run`` then goes through ``hydra.main``
+(:mod:`catpose.bench.run.command`). What a user types is checked before Hydra sees it: an unknown
+group name, key or launcher is one line naming the closest valid ones (``difflib``), or the
+config of its group that has the key; a sweep's group combinations are checked before its first
+job (:func:`check_sweep_composition`). Also here: the shared real data (:func:`shared_data_dir`)."""
 
 from __future__ import annotations
 

@@ -1,21 +1,12 @@
 """Sharded runs: one run's samples split across jobs, merged back from files.
 
-``bench run ... shards=N shard=I`` runs the samples ``ids[I::N]`` of the run's fixed order
-(dataset, protocol, seed, ``limit``/``sample_ids``) into the run directory every shard shares, and
-writes its own files there, so concurrent shards never write to one file:
-
-- ``samples.shard-I-of-N.jsonl``: the shard's per-sample rows (the format of ``samples.jsonl``);
-- ``shard-I-of-N.json``: the shard's sample ids in run order, and when it finished.
-
-``bench merge RUNDIR`` (and ``bench table``, automatically) writes ``samples.jsonl`` from every
-shard's rows in the run's own order (shard I's j-th id is the run's ``j*N + I``-th), then the
-summaries, so a sharded run's files, summaries and tables are those of the serial run, bit for
-bit. A shard with samples still missing stops the merge with the command that finishes it.
-
-Every shard records its config; shards of different configs or different counts are refused
-(:mod:`catpose.bench.run.shard_check`), and a merge never drops rows it did not write
-(:mod:`catpose.bench.run.overwrite`).
-"""
+``bench run ... shards=N shard=I`` runs the samples ``ids[I::N]`` of the run's fixed order into
+the run directory every shard shares, writing its own ``samples.shard-I-of-N.jsonl`` (rows) and
+``shard-I-of-N.json`` (its ids in run order, whether it finished, its config). ``bench merge
+RUNDIR`` (and ``bench table``, automatically) writes ``samples.jsonl`` from every shard's rows in
+the run's own order, then the summaries: the serial run's files, bit for bit. Shards of other
+configs or counts are refused (:mod:`catpose.bench.run.shard_check`), and a merge never drops
+rows it did not write."""
 
 from __future__ import annotations
 
