@@ -26,7 +26,6 @@ from typing import Any
 
 from catpose import extras, kernel_threads
 from catpose.bench.run.build import build_choice, build_parts, validate_run_options
-from catpose.bench.run.choice_facts import facts_hook
 from catpose.bench.run.evaluate import format_summary, summarize_run
 from catpose.bench.run.lock import LOCK_FILE, RunLock
 from catpose.bench.run.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
@@ -40,7 +39,7 @@ from catpose.bench.run.rundir import (
     write_run_json,
     writing,
 )
-from catpose.bench.run.sample_run import run_batch, run_one
+from catpose.bench.run.sample_run import facts_hook, run_batch, run_one
 from catpose.errors import CatposeError, ConfigError, RunAborted
 from catpose.errors import one_line as _one_line
 
