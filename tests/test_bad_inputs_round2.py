@@ -189,7 +189,7 @@ def test_case_07_a_missing_bop_depth_png_is_a_failed_sample_with_its_reason(tmp_
 def test_case_09_bop_ar_without_vsd_is_not_computed_nor_labelled_ar():
     import pandas as pd
 
-    from catpose.bench.interop.bop_score import DEFAULT_BOP_METRICS, bop_metrics
+    from catpose.bench.interop.score import DEFAULT_BOP_METRICS, bop_metrics
     from catpose.bench.scoring.bop_eval import format_scores, score_table
 
     df = pd.DataFrame(

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from catpose.bench.interop.bop_export import bop_ids
-from catpose.bench.interop.prediction_checks import key_text
+from catpose.bench.interop.prediction_io import key_text
 
 
 def _orthonormalise(R: np.ndarray) -> np.ndarray:
