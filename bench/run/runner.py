@@ -236,8 +236,8 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts, run_dir: Path 
         ids = shard_ids(ids, *sharding)
 
     out = run_dir if run_dir is not None else run_dir_for(cfg, overrides)
-    if sharding:  # every shard of a run has one config and one shard count (bench/run/shard_check.py)
-        from catpose.bench.run.shard_check import check_shard_start, comparable_config
+    if sharding:  # every shard of a run has one config and one shard count (bench/run/merge.py)
+        from catpose.bench.run.merge import check_shard_start, comparable_config
 
         check_shard_start(out, *sharding, comparable_config(cfg))
     with writing(out):
@@ -273,7 +273,7 @@ def _run_locked(
 
     shard_config = None
     if sharding:  # checked by _run before the lock; recorded in the shard's meta file
-        from catpose.bench.run.shard_check import comparable_config
+        from catpose.bench.run.merge import comparable_config
 
         shard_config = comparable_config(cfg)
     write_run_files(out, cfg, overrides)
@@ -358,7 +358,7 @@ def _finish_shard(out: Path, sharding: tuple[int, int], cfg: Any, base: dict, n_
             print(
                 f"{head}: {n_ids} samples ({n_run_now} run now) in {out}; the last shard to finish merges (or: bench merge {out})"
             )
-        if not isinstance(e, ShardsNotDone):  # a merge refused (bench/run/shard_check.py, overwrite.py): say why
+        if not isinstance(e, ShardsNotDone):  # a merge refused (bench/run/merge.py, overwrite.py): say why
             log.error("shard %d of %d is done but the run was not merged: %s", i, n, e)
         return out
     if cfg.get("print_summary", True):
