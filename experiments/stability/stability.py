@@ -152,12 +152,11 @@ def main(argv: list[str] | None = None) -> int:
     """``bench table``'s options and ``--stability ROOT`` (repeatable): the table with the notes."""
     from catpose import atomic
     from catpose.bench.report import table_command, tables
-    from catpose.bench.report.sweep_runs import sweep_runs
 
     ap = table_command.parser()
     ap.add_argument("--stability", action="append", default=[], metavar="ROOT", help="an output root of twins")
     args = ap.parse_args(argv)
-    swept = sweep_runs(args.sweep)
+    swept = table_command.sweep_runs(args.sweep)
     out = table_command.output(args, swept[0], args.stability)
     table, left_out, runs, labels = table_command.make_table(args, swept)
     if args.stability:
