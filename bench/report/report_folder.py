@@ -160,19 +160,12 @@ def build_report(
     allow_mixed: bool = False,
 ) -> Path:
     """Write the report folder (see the module docstring); returns the path of ``index.md``.
-    ``label_items``: the ``--label RUN_DIR=LABEL`` items ``labels`` came from, each checked to
-    name one of the runs (:func:`catpose.bench.report.labels.check_labels`). Runs of one protocol
-    on different samples (datasets, seeds, a ``limit`` run) are refused in one line unless
-    ``allow_mixed`` (:func:`catpose.bench.report.tables.build_table`).
 
-    ``notes`` are paragraphs put under the title (how the runs were made); ``pdf`` adds a PDF
-    of each summary figure; ``qualitative`` pictures per run, ``max_pictures`` in all. A run that
-    cannot be read is left out, said so in the index and in one line on stderr, and its reason appended to ``left_out`` (the command then exits 2).
-    The folder is built beside ``out`` and moved into place when complete
-    (:func:`catpose.atomic.building_dir`): a failure leaves no half-built report, and an existing
-    ``out`` is replaced whole (whether it may be is :func:`main`'s question,
-    :func:`catpose.bench.run.overwrite.check_output`).
-    """
+    ``label_items``: the ``--label RUN_DIR=LABEL`` items ``labels`` came from (each must name a run);
+    ``notes``: paragraphs under the title; ``pdf``: a PDF of each summary figure too; ``qualitative``
+    pictures per run, ``max_pictures`` in all. Runs of one protocol on different samples are refused
+    unless ``allow_mixed``. A run that cannot be read is left out, said in the index and on stderr,
+    and its reason appended to ``left_out``. The folder is built aside and moved into place whole."""
     from catpose.bench.report.labels import check_labels
     from catpose.bench.report.runs import load_runs, print_left_out
 

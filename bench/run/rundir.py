@@ -216,15 +216,10 @@ def write_run_json(out: Path, meta: dict) -> None:
 def write_run(
     out_dir: str | Path, rows: Sequence[dict], config: dict, info: dict | None = None, force: bool = False
 ) -> Path:
-    """Write a run directory (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries).
-
-    ``rows`` follow the ``samples.jsonl`` schema; ``config`` is a plain dict with at least
-    ``method``, ``dataset``, ``protocol`` (config-group dicts with ``name`` and ``_target_``)
-    and ``seed``. The folder is built beside ``out_dir`` and moved into place when complete
-    (:func:`catpose.atomic.building_dir`); an existing run or other non-empty folder at ``out_dir``
-    is refused unless ``force`` (:func:`catpose.bench.run.overwrite.check_new_output`). Returns
-    ``out_dir``.
-    """
+    """Write a run directory (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries) from
+    ``rows`` (the ``samples.jsonl`` schema) and ``config`` (a plain dict with ``method``, ``dataset``,
+    ``protocol`` nodes and ``seed``), built aside and moved into place; an existing run or other
+    non-empty folder at ``out_dir`` is refused unless ``force``. Returns ``out_dir``."""
     from catpose import atomic
     from catpose.bench.run.overwrite import check_new_output
 
