@@ -113,8 +113,8 @@ def export_bop(
     from catpose.bench.protocols.relative import Relative
     from catpose.bench.report.tables import load_run, protocol_of
     from catpose.bench.scoring.bop_eval import check_results_filename
+    from catpose.bench.scoring.bop_rows import camera_model_pose, confidence
     from catpose.errors import DatasetError, InvalidInputError
-    from catpose.geometry import invert_T
 
     run = load_run(run_dir)
     example = f"method_{_dataset_of(run) if _dataset_of(run) not in ('', 'bop') else 'ycbv'}-test.csv"
@@ -154,12 +154,10 @@ def export_bop(
             )
     times = image_times(ids, [r.get("runtime_s") for r in rows])
     lines = [",".join(BOP_COLUMNS)]
-    for r, (scene, im, obj, scale, centre, R_om) in zip(rows, ids):
-        T_co = invert_T(np.asarray(r["T_est"], float).reshape(4, 4))
-        R = T_co[:3, :3] @ R_om
-        t = scale * T_co[:3, 3] - T_co[:3, :3] @ centre
-        s = r.get("score")
-        conf = 1.0 if s is None or not math.isfinite(float(s)) else math.exp(-max(float(s), 0.0))
+    for r, (scene, im, obj, *_) in zip(rows, ids):
+        info = r.get("info") or {}  # without BOP ids: the documented mapping, in the object-normalised unit
+        T = camera_model_pose(r["T_est"], info if all(k in info for k in ("scene_id", "im_id", "obj_id")) else {})
+        R, t, conf = T[:3, :3], T[:3, 3], confidence(r.get("score"))
         rt = times[(scene, im)]
         lines.append(
             f"{scene},{im},{obj},{conf:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"
