@@ -93,21 +93,12 @@ def image_times(ids: Sequence[tuple], runtimes: Sequence[Any]) -> dict[tuple[int
 def export_bop(
     run_dir: str | Path, out_csv: str | Path, check_name: bool = True, skipped: list[str] | None = None
 ) -> int:
-    """Write a run's estimates as a BOP results CSV; returns the number of rows written.
-
-    ``out_csv`` must be named ``METHOD_DATASET-SPLIT.csv`` (no ``_`` in METHOD) as the BOP
-    toolkit requires (``check_name=False`` skips this, e.g. for non-BOP datasets). ``time`` is
-    one value per image: the summed runtimes of all the image's estimates (-1 if one is unknown).
-
-    Uses the run's scoring units of one view each (for the templates protocol: the template the
-    method chose), skips failed samples, and writes ``<out_csv>.map.csv`` with the sample ->
-    BOP id mapping. ``score`` is ``exp(-max(method score, 0))``, a confidence in (0, 1] (1 when
-    the method has no score; every built-in method's score is a non-negative loss).
-
-    What is left out is said: ``skipped`` (a list, optional) receives one line per reason. A run
-    with no estimate at all is refused (:class:`DatasetError`) instead of giving an empty file;
-    an ``out_csv`` that is a folder is refused. Both files are written atomically.
-    """
+    """Write a run's estimates as a BOP results CSV (and ``<out_csv>.map.csv``, the sample -> BOP id
+    mapping); returns the number of rows written. ``out_csv`` must be named
+    ``METHOD_DATASET-SPLIT.csv`` (``check_name=False`` skips this). One row per scoring unit with an
+    estimate (templates: the template the method chose); ``score`` is the confidence
+    ``exp(-max(method score, 0))``, ``time`` one value per image (the summed runtimes, -1 if one is
+    unknown). What is left out goes to ``skipped``; a run without any estimate is refused."""
     import pandas as pd
 
     from catpose.bench.protocols.relative import Relative

@@ -244,16 +244,9 @@ def _check_existing(
 
 
 class Output:
-    """The one output helper of every command that writes where it is told: made before any work,
-    it applies the rule (:func:`check_output`, same arguments); :meth:`writing` wraps the writing.
-
-    Example::
-
-        out = Output(args.out, "folder", input_runs(args.runs), args.force)
-        ...  # the work
-        with out.writing() as path:
-            atomic.write_text(path / "index.md", text)
-    """
+    """The one output helper of every command that writes where it is told: made before any work, it
+    applies the rule (:func:`check_output`, same arguments); :meth:`writing` wraps the writing
+    (``with out.writing() as path: atomic.write_text(path, text)``)."""
 
     def __init__(
         self,
