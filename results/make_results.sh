@@ -53,7 +53,7 @@
 # AVX-512 ones included, so they come out the same there. The experiments then run again under other
 # code paths (OpenBLAS Sandybridge with torch's default kernels; where the CPU has AVX-512, its own
 # AVX-512 paths), each into its own output root, and the Markdown tables' notes say per row how many
-# views changed and the range of the overall figures (catpose.bench.report.stability): a difference between
+# views changed and the range of the overall figures (experiments/stability): a difference between
 # methods smaller than that range is chaos of ambiguous views, not evidence.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -104,16 +104,17 @@ synthetic_tables() {
   rm -f "$T"/*.md "$T"/*.tex "$T"/*.csv  # only what this section writes is left
   for fmt in md latex csv; do
     ext=$fmt; [ "$fmt" = latex ] && ext=tex
-    ST=(); if [ "$fmt" = md ]; then ST=(${STAB[@]+"${STAB[@]}"}); fi  # the stability notes are Markdown text
+    # the stability notes are Markdown text: bench table's table with them under it
+    ST=(); TB=("$B" table); if [ "$fmt" = md ]; then ST=(${STAB[@]+"${STAB[@]}"}); TB=("$PY" experiments/stability/stability.py); fi
     for e in optimiser ablation one_template templates tyol; do
-      "$B" table --force --sweep "$S/$e" --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/$e.$ext"
+      "${TB[@]}" --force --sweep "$S/$e" --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/$e.$ext"
     done
-    "$B" table --force --sweep "$S/optimiser" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/gt_model_all.$ext"
-    "$B" table --force --sweep "$S/templates" --layout generic --format $fmt --error err_deg ${ST[@]+"${ST[@]}"} \
+    "${TB[@]}" --force --sweep "$S/optimiser" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} --out "$T/gt_model_all.$ext"
+    "${TB[@]}" --force --sweep "$S/templates" --layout generic --format $fmt --error err_deg ${ST[@]+"${ST[@]}"} \
       --title "Category templates (3 other instances; estimate kept by the protocol's choice, fused)" --out "$T/templates_selected.$ext"
-    "$B" table --force --sweep "$S/templates" --layout generic --format $fmt --error oracle_err_deg ${ST[@]+"${ST[@]}"} \
+    "${TB[@]}" --force --sweep "$S/templates" --layout generic --format $fmt --error oracle_err_deg ${ST[@]+"${ST[@]}"} \
       --title "Category templates: minimum error across templates (oracle, the paper's Table templatechair)" --out "$T/templates_oracle.$ext"
-    "$B" table --force --sweep "$S/relative_real" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} \
+    "${TB[@]}" --force --sweep "$S/relative_real" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} \
       --title "Relative pose between two views of one object, each registered to the category templates" --out "$T/relative.$ext"
     "$B" table --force "$OUT/kinect/synthetic-gt_model" --layout generic --categories all --format $fmt \
       --metrics mean,median,acc10,acc30,trans --acc 5,10,30,5deg5cm,10deg10cm --auc 30 \

@@ -465,41 +465,6 @@ def test_bench_run_bad_limit_gives_one_line(tmp_path):
     ), r.stderr
 
 
-@pytest.mark.parametrize(
-    "argv,line",
-    [
-        (
-            ["run", "protocol=templates", "protocol.choice=fused"],
-            "bench run: error: protocol.choice was renamed choice; write choice=fused",
-        ),
-        (
-            [
-                "score",
-                "p.csv",
-                "--dataset",
-                "synthetic",
-                "--override",
-                "protocol.turns=[180]",
-                "--method",
-                "m",
-                "--out",
-                "o",
-            ],
-            "bench score: error: protocol.turns was renamed choice.turns_deg; write choice.turns_deg=[180]",
-        ),
-        (
-            ["templates", "dataset=synthetic", "protocol.choice=fused", "--category", "mug", "--out", "x.yaml"],
-            "bench templates: error: protocol.choice was renamed choice; write choice=fused",
-        ),
-    ],
-)
-def test_a_renamed_key_is_refused_in_one_line_naming_the_new_one(argv, line, capsys):
-    from catpose.bench.cli import main
-
-    assert main(argv) == 2
-    assert capsys.readouterr().err == line + "\n"
-
-
 CASES = {  # name -> (args, needle); the files are written by _prepare
     "limit=abc": (["limit=abc"], "limit='abc' is not an integer"),
     "seed=1.5": (["seed=1.5"], "seed=1.5 is not an integer"),

@@ -163,22 +163,10 @@ def test_case_07_a_missing_bop_depth_png_is_a_failed_sample_with_its_reason(tmp_
         BOP(str(root), categories={19: "basket"}).observation_ids()
 
 
-def test_case_08_a_4x4_transform_whose_last_row_is_not_0001_is_refused(tmp_path):
-    from catpose.bench.interop.transform_arrays import read_transform_arrays
-
-    T = np.eye(4)
-    T[3, :3] = [0.1, 0.2, 0.3]  # t written in the bottom row (a transposed export)
-    np.save(tmp_path / "t.npy", T[None])
-    with pytest.raises(
-        InvalidInputError, match=r"transform 0 has the last row \[0.1, 0.2, 0.3, 1.0\], not \[0, 0, 0, 1\]"
-    ):
-        read_transform_arrays(tmp_path / "t.npy", ids=["mug/i0/v0"])
-
-
 def test_case_09_bop_ar_without_vsd_is_not_computed_nor_labelled_ar():
     import pandas as pd
 
-    from catpose.bench.interop.bop_score import DEFAULT_BOP_METRICS, bop_metrics
+    from catpose.bench.interop.score import DEFAULT_BOP_METRICS, bop_metrics
     from catpose.bench.scoring.bop_eval import format_scores, score_table
 
     df = pd.DataFrame(
@@ -356,17 +344,6 @@ def test_case_20_table_categories_no_run_has_are_refused(tmp_path, capsys):
     assert "--categories nope: no run here has that category; they have mug" in one_error_line(capsys, "table")
 
 
-@pytest.mark.parametrize(
-    "array, kind", [(np.eye(4)[None].astype(complex), "complex"), (np.eye(4)[None] > 0, "true/false")]
-)
-def test_case_20_complex_and_bool_transform_arrays_are_refused(tmp_path, array, kind):
-    from catpose.bench.interop.transform_arrays import read_transform_arrays
-
-    np.save(tmp_path / "t.npy", array)
-    with pytest.raises(InvalidInputError, match=f"the transforms holds {kind}"):
-        read_transform_arrays(tmp_path / "t.npy", ids=["mug/i0/v0"])
-
-
 def test_case_20_a_bop_score_that_is_no_number_is_refused(tmp_path):
     from catpose.bench.interop.prediction_io import read_predictions
 
@@ -402,15 +379,6 @@ def test_case_20_export_of_an_estimate_that_is_no_rotation_is_refused(tmp_path, 
 
 # ---------------------------------------------------------------------------------------------
 # tracebacks (must be exit 2 and one line)
-
-
-def test_case_21_an_npz_with_string_scores_is_one_line(tmp_path, capsys):
-    gt = write_run(tmp_path / "gt", rows([5.0]), CFG)
-    np.savez(tmp_path / "t.npz", transforms=np.eye(4)[None], ids=np.array(["mug/i0/v0"]), scores=np.array(["high"]))
-    assert (
-        bench(["score", str(tmp_path / "t.npz"), "--gt", str(gt), "--method", "m", "--out", str(tmp_path / "o")]) == 2
-    )
-    assert "t.npz: scores holds text" in one_error_line(capsys, "score")
 
 
 def test_case_22_score_out_dot_is_one_line(tmp_path, capsys, monkeypatch):
@@ -499,24 +467,6 @@ def test_case_30_a_bad_row_after_blank_lines_is_named_by_its_own_line(tmp_path):
     path.write_text(f"sample_id,R,t\n\nmug/i0/v0,{ROT},0 0 0\n\n\nmug/i1/v0,{ROT},0 x 0\n")
     with pytest.raises(InvalidInputError, match=r"p.csv:6 t: expected 3"):
         read_predictions(path)
-
-
-@pytest.mark.parametrize(
-    "arrays, needle",
-    [
-        ({"transforms": np.zeros((2, 3))}, "expected transforms of shape (B, 3, 4) or (B, 4, 4), got (1, 2, 3)"),
-        ({"transforms": np.full((1, 3, 4), np.nan)}, "transform 0 has a NaN or infinite value"),
-        ({"transforms": np.ones((1, 3, 4), bool)}, "the transforms holds true/false values (bool)"),
-        ({}, "no transforms; name the array one of transforms"),
-    ],
-)
-def test_case_31_npy_and_npz_errors_say_what_is_wrong(tmp_path, arrays, needle):
-    from catpose.bench.interop.transform_arrays import read_transform_arrays
-
-    np.savez(tmp_path / "t.npz", **arrays, ids=np.array(["mug/i0/v0"]))
-    with pytest.raises(InvalidInputError) as e:
-        read_transform_arrays(tmp_path / "t.npz")
-    assert needle in str(e.value) and "not a readable NumPy array file" not in str(e.value)
 
 
 def test_case_32_a_csv_row_with_extra_fields_says_so(tmp_path):

@@ -86,9 +86,8 @@ def test_the_builder_hands_the_choice_to_the_runner_and_its_rule_to_the_protocol
 @pytest.mark.parametrize(
     "override,fix",
     [
-        ("protocol.choice=fused", "write choice=fused"),
-        ("protocol.turns=[180]", "write choice.turns_deg=[180]"),
-        ("protocol.one_template_turns=true", "write choice.one_template_turns=true"),
+        ("protocol.choice=fused", "unknown key 'protocol.choice'"),
+        ("protocol.turns=[180]", "unknown key 'protocol.turns'"),
         ("choice=fuse", "unknown choice 'fuse'"),
     ],
 )

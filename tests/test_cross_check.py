@@ -13,7 +13,7 @@ import pytest
 from catpose.bench.protocols.absolute import Templates
 from catpose.bench.protocols.template_rows import choose_row
 from catpose.bench.run import sample_run
-from catpose.bench.run.choice_facts import ChoiceFacts, facts_hook
+from catpose.bench.run.sample_run import ChoiceFacts, facts_hook
 from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R
 from catpose.methods.choice_rules import CROSS_WEIGHT, TOP_WEIGHT, choose_index, cross_cost

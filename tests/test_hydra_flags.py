@@ -56,8 +56,6 @@ def test_plain_overrides_still_checked_beside_flags():
         check_run_args(["--cfg", "job", "method=nosuch"])
     with pytest.raises(ConfigError, match="unknown key 'datset'"):
         check_run_args(["--cfg", "job", "datset=x"])
-    with pytest.raises(ConfigError, match="protocol.choice was renamed choice"):
-        check_run_args(["--info", "protocol.choice=fused"])
     check_run_args(["--cfg", "job", "hydra.verbose=true", "hydra.job.name=x", "log_level=DEBUG"])
     # another config folder may add names the package does not have: Hydra judges them
     check_run_args(["--config-dir", "/somewhere", "method=mine"])

@@ -1,12 +1,11 @@
 """What a Hydra user expects of ``bench run``: the closest valid names and keys for a typo,
-``hydra.run.dir`` / ``hydra.sweep.dir`` with ``.hydra/``, shell completion, quiet runs without a
+``hydra.run.dir`` / ``hydra.sweep.dir`` with ``.hydra/``, quiet runs without a
 progress bar, ``hydra/job_logging`` writing into the run directory."""
 
 from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -115,26 +114,3 @@ def test_log_level_error_silences_the_progress_bar(tmp_path: Path):
     assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr
     shown = bench("run", "method=icp", *TINY, "seed=1", "log_level=ERROR", "progress=true", cwd=tmp_path)
     assert shown.returncode == 0 and "icp on synthetic" in shown.stderr  # asked for: kept
-
-
-def test_shell_completion_installs_and_completes(tmp_path: Path):
-    r = bench("run", "-sc", "install=bash", cwd=tmp_path)
-    assert r.returncode == 0 and "complete -o nospace -o default -F _catpose_bench_completion bench catpose" in r.stdout
-    assert bench("run", "-sc", "uninstall=bash", cwd=tmp_path).returncode == 0
-    bad = bench("run", "-sc", "install=fish", cwd=tmp_path)
-    assert bad.returncode == 2 and "-sc takes install=SHELL" in bad.stderr
-    query = bench("run", "-sc", "query=bash", cwd=tmp_path, env={"COMP_LINE": "bench run method=", "COMP_POINT": "17"})
-    assert query.returncode == 0 and "method=ours" in query.stdout.split(), query.stderr
-    bash = shutil.which("bash")
-    if bash is None:
-        return
-    # the script in a real bash: `bench <Tab>` gives the commands, `bench run method=o<Tab>` the method
-    bindir = Path(sys.executable).parent
-    script = r.stdout + (
-        'COMP_LINE="bench ru"; COMP_POINT=8; COMP_CWORD=1; _catpose_bench_completion; echo "1:${COMPREPLY[*]}"\n'
-        'COMP_LINE="bench run method=o"; COMP_POINT=18; COMP_CWORD=2; _catpose_bench_completion; echo "2:${COMPREPLY[*]}"\n'
-    )
-    env = dict(os.environ, PATH=f"{bindir}{os.pathsep}{os.environ.get('PATH', '')}")
-    out = subprocess.run([bash, "-c", script], capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env)
-    lines = dict(line.split(":", 1) for line in out.stdout.splitlines() if line[:2] in ("1:", "2:"))
-    assert lines.get("1") == "run" and lines.get("2") == "method=ours", (out.stdout, out.stderr)

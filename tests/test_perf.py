@@ -17,10 +17,8 @@ from catpose.types import RegistrationResult
 class _Recorder:
     """A method that records the order of its calls (shared log) and reports a stage timing."""
 
-    def __init__(self, name: str, log: list, batched: bool = False) -> None:
+    def __init__(self, name: str, log: list) -> None:
         self.name, self.log = name, log
-        if batched:
-            self.register_batch = lambda ps: [self.register(p) for p in ps]
 
     def register(self, problem):
         self.log.append((self.name, problem.sample_id))
@@ -44,17 +42,6 @@ def test_methods_are_interleaved_per_call_and_rotate_per_round():
     assert [len(out[m]["times"]) for m in "ab"] == [6, 6]
     assert out["a"]["stages"]["optimization"] == [0.001] * 6
     assert out["a"]["warmup_s"] > 0
-
-
-def test_batch_goes_through_register_batch_when_the_method_has_one():
-    log: list = []
-    calls = []
-    batched = _Recorder("ours", log, batched=True)
-    inner = batched.register_batch
-    batched.register_batch = lambda ps: calls.append(len(ps)) or inner(ps)
-    out = perf.measure({"ours": batched, "fgr": _Recorder("fgr", log)}, _problems(5), repeat=1, seed=0, batch=2)
-    assert calls == [2, 2, 1]
-    assert len(out["ours"]["times"]) == 5 and len(out["fgr"]["times"]) == 5
 
 
 def test_summary_statistics_and_ratio_to_fgr():
@@ -115,14 +102,6 @@ def test_cli_writes_the_table_and_csvs(tmp_path, capsys):
     assert len(times) == 4 and all(float(r["seconds"]) > 0 for r in times)
     source = inspect.getsource(perf)
     assert "_ours_fixtures" not in source and "sys.path" not in source  # bench never imports from tests/
-
-
-def test_cuda_without_a_gpu_is_a_one_line_error():
-    torch = pytest.importorskip("torch")
-    if torch.cuda.is_available():
-        pytest.skip("a CUDA device is present")
-    with pytest.raises(ConfigError, match="--device cuda"):
-        perf.main(["--device", "cuda"])
 
 
 def test_bad_arguments_are_config_errors():

@@ -93,28 +93,19 @@ def image_times(ids: Sequence[tuple], runtimes: Sequence[Any]) -> dict[tuple[int
 def export_bop(
     run_dir: str | Path, out_csv: str | Path, check_name: bool = True, skipped: list[str] | None = None
 ) -> int:
-    """Write a run's estimates as a BOP results CSV; returns the number of rows written.
-
-    ``out_csv`` must be named ``METHOD_DATASET-SPLIT.csv`` (no ``_`` in METHOD) as the BOP
-    toolkit requires (``check_name=False`` skips this, e.g. for non-BOP datasets). ``time`` is
-    one value per image: the summed runtimes of all the image's estimates (-1 if one is unknown).
-
-    Uses the run's scoring units of one view each (for the templates protocol: the template the
-    method chose), skips failed samples, and writes ``<out_csv>.map.csv`` with the sample ->
-    BOP id mapping. ``score`` is ``exp(-max(method score, 0))``, a confidence in (0, 1] (1 when
-    the method has no score; every built-in method's score is a non-negative loss).
-
-    What is left out is said: ``skipped`` (a list, optional) receives one line per reason. A run
-    with no estimate at all is refused (:class:`DatasetError`) instead of giving an empty file;
-    an ``out_csv`` that is a folder is refused. Both files are written atomically.
-    """
+    """Write a run's estimates as a BOP results CSV (and ``<out_csv>.map.csv``, the sample -> BOP id
+    mapping); returns the number of rows written. ``out_csv`` must be named
+    ``METHOD_DATASET-SPLIT.csv`` (``check_name=False`` skips this). One row per scoring unit with an
+    estimate (templates: the template the method chose); ``score`` is the confidence
+    ``exp(-max(method score, 0))``, ``time`` one value per image (the summed runtimes, -1 if one is
+    unknown). What is left out goes to ``skipped``; a run without any estimate is refused."""
     import pandas as pd
 
     from catpose.bench.protocols.relative import Relative
     from catpose.bench.report.tables import load_run, protocol_of
     from catpose.bench.scoring.bop_eval import check_results_filename
+    from catpose.bench.scoring.bop_rows import camera_model_pose, confidence
     from catpose.errors import DatasetError, InvalidInputError
-    from catpose.geometry import invert_T
 
     run = load_run(run_dir)
     example = f"method_{_dataset_of(run) if _dataset_of(run) not in ('', 'bop') else 'ycbv'}-test.csv"
@@ -154,12 +145,10 @@ def export_bop(
             )
     times = image_times(ids, [r.get("runtime_s") for r in rows])
     lines = [",".join(BOP_COLUMNS)]
-    for r, (scene, im, obj, scale, centre, R_om) in zip(rows, ids):
-        T_co = invert_T(np.asarray(r["T_est"], float).reshape(4, 4))
-        R = T_co[:3, :3] @ R_om
-        t = scale * T_co[:3, 3] - T_co[:3, :3] @ centre
-        s = r.get("score")
-        conf = 1.0 if s is None or not math.isfinite(float(s)) else math.exp(-max(float(s), 0.0))
+    for r, (scene, im, obj, *_) in zip(rows, ids):
+        info = r.get("info") or {}  # without BOP ids: the documented mapping, in the object-normalised unit
+        T = camera_model_pose(r["T_est"], info if all(k in info for k in ("scene_id", "im_id", "obj_id")) else {})
+        R, t, conf = T[:3, :3], T[:3, 3], confidence(r.get("score"))
         rt = times[(scene, im)]
         lines.append(
             f"{scene},{im},{obj},{conf:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from catpose.bench.interop.bop_export import bop_ids
-from catpose.bench.interop.prediction_checks import key_text
+from catpose.bench.interop.prediction_io import key_text
 
 
 def _orthonormalise(R: np.ndarray) -> np.ndarray:
@@ -27,22 +27,14 @@ def score_predictions(
     mapping: dict[tuple[int, int, int], str] | None = None,
     stats: dict | None = None,
 ) -> list[dict]:
-    """Per-sample rows (``samples.jsonl`` schema) for the predictions against ground-truth rows.
-
-    ``gt_rows`` are rows with ``T_gt`` (a run's ``samples.jsonl``, one per view is enough). A
-    view without a prediction is recorded as failed ("no prediction"): a miss. For a BOP file,
-    ``mapping`` ((scene_id, im_id, obj_id) -> sample_id, from the export's ``.map.csv``) takes
-    precedence over the ids derived from the rows. Without it, where several gt rows share
-    (scene_id, im_id, obj_id) (several instances of one object in an image), the estimates are
-    matched greedily as bop_toolkit does: in descending score order, each takes the unmatched
-    instance with the smallest ``err_deg`` (then ``trans_err``).
-
-    Duplicates, one rule each (docs/file-safety.md): in a per-sample file the LAST row of a
-    sample id counts, as a run's ``samples.jsonl`` keeps a retried sample's last row; in a BOP
-    file an (image, object) keeps its highest-scored estimates, one per gt instance (ties: file
-    order), and the others are extra and ignored. Predictions for ids that no gt row has are
-    unknown and ignored. ``stats`` (a dict, optional) receives the counts :func:`count_text` prints.
-    """
+    """Per-sample rows (``samples.jsonl`` schema) for the predictions against ground-truth rows
+    (``gt_rows``, with ``T_gt``; one per view is enough). A view without a prediction is a failed row
+    ("no prediction"): a miss. A BOP file's ids map to samples by ``mapping`` (the export's
+    ``.map.csv``: (scene_id, im_id, obj_id) -> sample_id) when given; else several instances of one
+    object in an image are matched greedily as bop_toolkit does (by descending score, each taking the
+    unmatched instance with the smallest ``err_deg``, then ``trans_err``). Duplicates and unknown ids
+    follow docs/file-safety.md (a per-sample file's last row of an id counts; a BOP (image, object)
+    keeps its best-scored estimates, one per instance). ``stats`` receives :func:`count_text`'s counts."""
     from catpose.bench.scoring.metrics import sample_errors
     from catpose.bench.scoring.rows import failed_row, scored_row
     from catpose.geometry import invert_T, make_T

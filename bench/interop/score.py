@@ -7,7 +7,9 @@ them beside ours.
 
 The file formats are :mod:`catpose.bench.interop.prediction_io`'s; BOP ids map to samples as
 :mod:`catpose.bench.interop.bop_export` documents; predictions are matched to samples and scored by
-:mod:`catpose.bench.interop.prediction_match`.
+:mod:`catpose.bench.interop.prediction_match`; on a BOP dataset, BOP's metrics of every target
+(:mod:`catpose.bench.scoring.bop_eval`) are written beside the run (``bop_errors.jsonl``,
+``bop_summary.md``: :func:`score_bop`).
 """
 
 from __future__ import annotations
@@ -19,13 +21,73 @@ from pathlib import Path
 import numpy as np
 
 from catpose import atomic
-from catpose.bench.interop.bop_score import DEFAULT_BOP_METRICS, bop_metrics, score_bop
 from catpose.bench.interop.prediction_io import read_mapping, read_predictions
 from catpose.bench.interop.prediction_match import count_text, score_predictions
 from catpose.bench.run.overwrite import Input, Output, add_output_options
 from catpose.bench.run.rundir import write_run_into
-from catpose.bench.scoring.bop_rows import is_bop_layout
+from catpose.bench.scoring.bop_rows import evaluation_models, is_bop_layout
 from catpose.errors import DatasetError, InvalidInputError
+
+DEFAULT_BOP_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
+
+
+def score_bop(
+    preds,
+    dataset_cfg: dict,
+    out_dir: str | Path,
+    method: str,
+    metrics: Sequence[str],
+    by: Sequence[str],
+    vsd: bool = True,
+) -> str:
+    """BOP metrics of a BOP results CSV on the dataset of ``dataset_cfg`` (a resolved config
+    dict): writes ``bop_errors.jsonl`` and ``bop_summary.md`` into ``out_dir`` and returns the
+    summary (which states the target and visibility filters applied, and the models used: the
+    dataset's ``models_eval/`` when present, :func:`evaluation_models`)."""
+    from catpose.bench.run.build import build_from_config
+    from catpose.bench.scoring.bop_eval import ERRORS_FILE, compute_errors, format_scores, score_table, write_errors
+
+    dataset_cfg = evaluation_models(dataset_cfg)
+    _, ds = build_from_config(dict(dataset_cfg), "dataset")
+    errs = compute_errors(preds, ds, vsd=vsd)
+    instances: dict[tuple, int] = {}
+    for r in errs:
+        key = (int(r["scene_id"]), int(r["im_id"]), int(r["obj_id"]))
+        instances[key] = instances.get(key, 0) + 1
+    estimates: dict[tuple, int] = {}
+    for p in preds.to_dict("records"):
+        key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"]))
+        estimates[key] = estimates.get(key, 0) + 1
+    filters = list(getattr(ds, "filters", [])) + [f"models: {dataset_cfg.get('models_dir', 'models')}/"]
+    header = {
+        "method": method,
+        "filters": filters,
+        "targets": len(errs),
+        "matched": int(sum(r["matched"] for r in errs)),
+        # ignored, and said so: estimates of no target, and those beyond an (image, object)'s instances
+        "unknown_estimates": sum(n for k, n in estimates.items() if k not in instances),
+        "extra_estimates": sum(max(0, n - instances[k]) for k, n in estimates.items() if k in instances),
+    }
+    write_errors(errs, Path(out_dir) / ERRORS_FILE, header)
+    import pandas as pd
+
+    text = f"BOP metrics ({method}):\n" + format_scores(score_table(pd.DataFrame(errs), metrics, by), header)
+    atomic.write_text(Path(out_dir) / "bop_summary.md", text + "\n")
+    return text
+
+
+def bop_metrics(asked: str | None, no_vsd: bool) -> str:
+    """The BOP recalls to print: ``--metrics`` or :data:`DEFAULT_BOP_METRICS`; with ``--no-vsd``
+    the defaults lose ``ar`` and ``ar_vsd`` (BOP's AR needs VSD), and asking for them is refused."""
+    if asked is None:
+        return ",".join(m for m in DEFAULT_BOP_METRICS if not (no_vsd and m in ("ar", "ar_vsd")))
+    needs_vsd = [m for m in asked.split(",") if m.strip().lower() in ("ar", "ar_vsd")]
+    if no_vsd and needs_vsd:
+        raise InvalidInputError(
+            f"--metrics {','.join(needs_vsd)} needs VSD, which --no-vsd skips (BOP's AR is the mean of ar_mssd, "
+            "ar_mspd and ar_vsd); drop --no-vsd, or ask for ar_mssd,ar_mspd"
+        )
+    return asked
 
 
 def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
@@ -99,8 +161,7 @@ def main(argv: list[str] | None = None) -> int:
     """``bench score PREDICTIONS.csv --gt RUN_DIR --method NAME --out DIR`` (or ``--dataset D --protocol P``)."""
     ap = argparse.ArgumentParser(
         prog="bench score",
-        description="Score an external predictions file (BOP CSV, per-sample CSV, or a "
-        ".npy/.npz array of (B, 3, 4) or (B, 4, 4) transforms with --ids).",
+        description="Score an external predictions file (BOP CSV or per-sample CSV).",
     )
     ap.add_argument("predictions")
     ap.add_argument("--gt", help="a run directory whose ground truth (and samples) to score against")
@@ -127,15 +188,9 @@ def main(argv: list[str] | None = None) -> int:
         "--no-vsd", action="store_true", help="BOP datasets: skip VSD (it renders the model twice per estimate)"
     )
     ap.add_argument(
-        "--ids",
-        default=None,
-        help=".npy/.npz transforms: a text file of sample ids, one per line, in the "
-        "arrays' order (not needed when the .npz has an 'ids' array)",
-    )
-    ap.add_argument(
         "--inverse",
         action="store_true",
-        help=".npy/.npz transforms or a per-sample CSV: they map the template onto the observation "
+        help="a per-sample CSV: its poses map the template onto the observation "
         "(T_camera_template); invert them (not for a BOP CSV, whose convention is fixed)",
     )
     ap.add_argument(
@@ -172,23 +227,15 @@ def main(argv: list[str] | None = None) -> int:
     # before any work: no input and no other run is written over (bench/run/overwrite.py), the --gt run never
     inputs = [Input(Path(args.predictions), "the predictions file")]
     inputs += [Input(Path(p), what) for p, what in ((args.gt, "the --gt run"), (args.map, "the --map file")) if p]
-    if args.ids:
-        inputs.append(Input(Path(args.ids), "the --ids file"))
     out = Output(args.out, "folder", inputs, args.force, replaces="run")
-    from catpose.bench.interop.transform_arrays import is_transform_array, read_transform_arrays
-
-    if args.inverse and not is_transform_array(args.predictions):
+    if args.inverse:
         check_inverse_csv(args.predictions)
     gt_rows, config = (
         gt_rows_from_run(args.gt)
         if args.gt
         else gt_rows_from_config(args.dataset, args.protocol, args.seed, args.override)
     )
-    preds = (
-        read_transform_arrays(args.predictions, args.ids, args.inverse)
-        if is_transform_array(args.predictions)
-        else read_predictions(args.predictions, inverse=args.inverse)
-    )
+    preds = read_predictions(args.predictions, inverse=args.inverse)
     map_path = Path(args.map) if args.map else Path(str(args.predictions) + ".map.csv")
     if args.map and not map_path.is_file():
         raise InvalidInputError(f"--map {map_path} does not exist")
@@ -243,7 +290,7 @@ def check_inverse_csv(path: str | Path) -> None:
     if {"scene_id", "im_id", "obj_id"} <= {c.strip() for c in first.split(",")}:
         raise InvalidInputError(
             f"--inverse: {path} is a BOP results CSV, whose R, t are T_camera_model by definition; drop "
-            "--inverse (it applies to per-sample CSVs and .npy/.npz transforms)"
+            "--inverse (it applies to per-sample CSVs)"
         )
 
 

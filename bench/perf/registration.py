@@ -1,41 +1,19 @@
 """``bench perf``: seconds per registration of several methods on the same problems, interleaved.
 
-Problems come from any configured dataset through the runner's builder (``--dataset NAME``,
-``--root PATH`` for the real ones, ``--protocol``, default ``synthetic`` / ``gt_model``), the first
-``--n`` sample ids taken round-robin over categories. Methods are built from
-``configs/method/<name>.yaml`` exactly as ``bench run`` builds them (``--set key=value`` overrides
-an ``ours`` option; ``--methods adam=ours`` with ``--set adam:optimiser.solver=adam`` runs a second,
-differently configured copy in the same interleaved rounds).
-
-How it measures, so that the numbers can be trusted:
-
-- problems are taken in order; before a problem with a new template every method registers it
-  once, untimed: the one-off dictionary and template-descriptor build (cached afterwards) is
-  reported apart as ``warmup_s``, and the caches are warm for the timed calls whatever their size;
-- then ``--repeat`` rounds on that problem, each calling every method back to back (the method
-  order rotates per round), so load changes on a shared machine hit all methods alike; every
-  call is seeded as in ``bench run``;
-- per method: median, mean and p90 seconds per registration and the ratio of its median to FGR's
-  median from the same run; the process' peak RSS (``ru_maxrss``), the load average before
-  and after and the ``--threads`` used (the runs' ``threads`` key: ours' compiled kernels and
-  torch) are printed and written with the table;
-- the table is also written as CSV (``--out``, default ``outputs/perf/<parameters>.csv``) with the
-  raw per-registration times beside it (``*_times.csv``) and, for ``ours``, the per-stage medians.
-
-``--device cuda`` runs ours' solver on the GPU; ``--batch B`` feeds ours ``B`` problems per call of
-``register_batch`` (all candidates of all ``B`` problems in one solver launch) and counts the
-batch time divided by ``B`` per registration. The TEASER solver against TEASER++, the first
-sample's cold and warm latency and the GPU solver check are the speed study's scripts
-(``experiments/speed/``).
-
-Usage::
+Problems are the first ``--n`` samples of a configured dataset (round-robin over categories),
+built as ``bench run`` builds them; methods are built from ``configs/method/<name>.yaml``
+(``--set [LABEL:]KEY=VALUE`` overrides an option; ``--methods adam=ours`` runs a second,
+differently configured copy). Before a problem with a new template every method registers it
+once, untimed (``warmup_s``); then ``--repeat`` rounds call every method back to back, the order
+rotating per round, so load changes hit all methods alike. Per method: median, mean and p90
+seconds and the ratio to FGR's median; the peak RSS, load average and ``--threads`` are printed
+and written with the CSV (``--out``), beside the raw times (``*_times.csv``) and ours' per-stage
+medians (``*_stages.csv``).
 
     bench perf                                    # 12 synthetic problems, ours, icp, fgr, 3 rounds
     bench perf --n 24 --methods ours,adam=ours,fgr --repeat 5 --set adam:optimiser.solver=adam
-    bench perf --methods ransac,ransac2=ransac --set ransac2:num_threads=2
     bench perf --dataset redwood --root ../shared/data/redwood --n 12
-    bench perf --methods ours,fgr --device cuda --batch 16 --n 48
-"""
+    bench perf --methods ours,fgr --set optimiser.device=cuda"""
 
 from __future__ import annotations
 
@@ -138,17 +116,6 @@ def method_overrides(label: str, name: str, sets: Sequence[str]) -> list[str]:
     return out
 
 
-def device_override(name: str, device: str) -> list[str]:
-    """The ``--set`` that puts ``name``'s solver on ``device`` (empty for cpu)."""
-    if device == "cpu":
-        return []
-    from catpose.bench.run.config import compose
-
-    cfg = compose([f"method={name}"])
-    key = "optimiser.device" if "optimiser" in cfg.method else "device"
-    return [f"{key}={device}"]
-
-
 def _seeded(seed: int, sample_id: str) -> None:
     from catpose.bench.run.sample_run import seed_everything
     from catpose.geometry import stable_seed
@@ -159,10 +126,7 @@ def _seeded(seed: int, sample_id: str) -> None:
 def _out_path(args: argparse.Namespace) -> Path:
     if args.out:
         return Path(args.out)
-    tag = f"{args.dataset}-{args.protocol}-n{args.n}-r{args.repeat}-{args.device}"
-    if args.batch > 1:
-        tag += f"-b{args.batch}"
-    return Path("outputs") / "perf" / f"{tag}.csv"
+    return Path("outputs") / "perf" / f"{args.dataset}-{args.protocol}-n{args.n}-r{args.repeat}.csv"
 
 
 def _register(method: Any, problem: Any) -> Any:
@@ -175,59 +139,37 @@ def _register(method: Any, problem: Any) -> Any:
         return None
 
 
-def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int, batch: int = 1) -> dict[str, dict]:
-    """Time every method on every problem, ``repeat`` times, interleaved call by call.
-
-    Problems (or batches of ``batch`` problems) are taken in order; before a problem whose
-    template is new, every method registers it once untimed (``warmup_s``: the dictionary and
-    template-descriptor build). Then ``repeat`` rounds on it, each calling every method back to
-    back, the method order rotating per round. The template caches therefore stay warm whatever
-    their size (ours keeps 8 templates' descriptors; a round-robin over more would time rebuilds).
-
-    A registration that gives no pose (the method raises :class:`InvalidInputError`, e.g. TEASER on
-    a degenerate clique) is timed like any other and counted in ``failed``; as in a run, it is the
-    method's answer on that problem, not a reason to stop measuring.
+def measure(methods: dict[str, Any], problems: list, repeat: int, seed: int) -> dict[str, dict]:
+    """Time every method on every problem, ``repeat`` times, interleaved call by call (see the
+    module docstring). A registration that gives no pose (:class:`InvalidInputError`) is timed like
+    any other and counted in ``failed``.
 
     Returns per method: ``times`` (s per registration, in call order), ``stages`` (stage -> list
-    of s, ours only), ``warmup_s`` and ``failed`` (timed calls that gave no pose).
-    """
+    of s, ours only), ``warmup_s`` and ``failed``."""
     out = {name: {"times": [], "stages": {s: [] for s in STAGES}, "warmup_s": 0.0, "failed": 0} for name in methods}
     names = list(methods)
     seen: set = set()
-    chunks = [problems[i : i + batch] for i in range(0, len(problems), batch)]
-    for chunk in chunks:
-        for name, method in methods.items():
-            for p in chunk:  # one untimed call per new template builds its caches
-                if p.template.template_id not in seen:
-                    _seeded(seed, p.sample_id)
-                    t0 = time.perf_counter()
-                    _register(method, p)
-                    out[name]["warmup_s"] += time.perf_counter() - t0
-        seen.update(p.template.template_id for p in chunk)
+    for p in problems:
+        if p.template.template_id not in seen:  # one untimed call per new template builds its caches
+            for name, method in methods.items():
+                _seeded(seed, p.sample_id)
+                t0 = time.perf_counter()
+                _register(method, p)
+                out[name]["warmup_s"] += time.perf_counter() - t0
+            seen.add(p.template.template_id)
         for r in range(repeat):
-            order = names[r % len(names) :] + names[: r % len(names)]
-            for name in order:
-                method, rec = methods[name], out[name]
-                if batch > 1 and hasattr(method, "register_batch"):
-                    _seeded(seed, chunk[0].sample_id)
-                    t0 = time.perf_counter()
-                    results = method.register_batch(chunk)
-                    rec["times"] += [(time.perf_counter() - t0) / len(chunk)] * len(chunk)
-                else:
-                    results = []
-                    for p in chunk:
-                        _seeded(seed, p.sample_id)
-                        t0 = time.perf_counter()
-                        res = _register(method, p)
-                        rec["times"].append(time.perf_counter() - t0)
-                        if res is None:
-                            rec["failed"] += 1
-                        else:
-                            results.append(res)
-                for res in results:
-                    for s, v in dict(res.extras).get("timings", {}).items():
-                        if s in rec["stages"]:
-                            rec["stages"][s].append(float(v))
+            for name in names[r % len(names) :] + names[: r % len(names)]:
+                rec = out[name]
+                _seeded(seed, p.sample_id)
+                t0 = time.perf_counter()
+                res = _register(methods[name], p)
+                rec["times"].append(time.perf_counter() - t0)
+                if res is None:
+                    rec["failed"] += 1
+                    continue
+                for s, v in dict(res.extras).get("timings", {}).items():
+                    if s in rec["stages"]:
+                        rec["stages"][s].append(float(v))
     return out
 
 
@@ -301,14 +243,12 @@ def main(argv: list[str] | None = None) -> int:
         metavar="[LABEL:]KEY=VALUE",
         help="override an option of ours (KEY=VALUE) or of the method LABEL (LABEL:KEY=VALUE)",
     )
-    ap.add_argument("--device", default="cpu", choices=("cpu", "cuda"), help="ours' solver device")
-    ap.add_argument("--batch", type=int, default=1, help="problems per ours register_batch call (default 1)")
     from catpose.bench.run.overwrite import Output, add_output_options
 
     add_output_options(ap, "CSV path (default outputs/perf/<parameters>.csv, replaced)", required=False)
     args = ap.parse_args(argv)
-    if args.n < 1 or args.repeat < 1 or args.batch < 1:
-        raise ConfigError("--n, --repeat and --batch must be at least 1")
+    if args.n < 1 or args.repeat < 1:
+        raise ConfigError("--n and --repeat must be at least 1")
     try:
         threads = kernel_threads.resolve(int(args.threads) if args.threads.strip().isdigit() else args.threads)
     except ValueError:
@@ -317,13 +257,6 @@ def main(argv: list[str] | None = None) -> int:
         if "=" not in kv:
             raise ConfigError(f"--set/--dataset-set {kv!r} is not KEY=VALUE")
         yaml.safe_load(kv.partition("=")[2])  # a malformed value fails here, before any work
-    if args.device == "cuda":
-        torch = extras.require("torch", "--device cuda")
-        if not torch.cuda.is_available():
-            raise ConfigError(
-                "--device cuda but torch has no CUDA device here; run it on a GPU "
-                "machine with a CUDA build of torch, or use --device cpu"
-            )
     out = _out_path(args)  # before any work: the output rule (docs/file-safety.md); the default is perf's own
     outs = [
         Output(p, "file", (), args.force or not args.out, example="perf.csv")
@@ -340,15 +273,13 @@ def main(argv: list[str] | None = None) -> int:
     methods: dict[str, Any] = {}
     for label, name in parse_methods(args.methods):
         over = method_overrides(label, name, args.set)
-        if name == "ours":
-            over += device_override(name, args.device)
         try:
             methods[label] = build_method(name, args.seed, over)
         except Exception as e:  # a method whose module or config is missing or broken: skip it, say why
             log.warning("skipping %s: %s: %s", label, type(e).__name__, str(e).splitlines()[0] if str(e) else "")
     if not methods:
         raise ConfigError(f"none of --methods {args.methods} could be built")
-    measured = measure(methods, problems, args.repeat, args.seed, args.batch)
+    measured = measure(methods, problems, args.repeat, args.seed)
     load_after = os.getloadavg()
     rows = summarize(measured)
     peak_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: KiB
@@ -362,7 +293,7 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"problems: {len(problems)} from {source}; {args.repeat} interleaved rounds; threads "
         f"{kernel_threads.threads()} (torch: {extras.torch_threads() or 'n/a, not installed'}); "
-        f"ours on {args.device}, batch {args.batch}; load average {load_before[0]:.1f} before, "
+        f"load average {load_before[0]:.1f} before, "
         f"{load_after[0]:.1f} after on {os.cpu_count()} CPUs; peak RSS {peak_rss:.0f} MiB (the process, all methods)"
     )
     print(tabulate(rows, headers="keys", tablefmt="github", floatfmt=".3f"))
@@ -372,8 +303,6 @@ def main(argv: list[str] | None = None) -> int:
     meta = {
         "source": source,
         "repeat": args.repeat,
-        "device": args.device,
-        "batch": args.batch,
         "threads": kernel_threads.threads(),
         "load_before": round(load_before[0], 2),
         "load_after": round(load_after[0], 2),

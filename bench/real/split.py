@@ -1,27 +1,11 @@
-"""Development splits: which scenes of a data set choose defaults and which report results.
+"""Development splits: which scenes (and objects) of a data set choose defaults and which report.
 
-A split is ``configs/split/<name>.yaml`` (the rule is in docs/choosing-defaults.md)::
-
-    dataset: ycbv
-    parts:                       # part name -> scene ids as [first, last] inclusive ranges
-      scene1: [[1, 1]]
-      scene2: [[2, 2]]
-    folds:                       # each fold: the part that chooses, the part that reports
-      - {choose: scene1, report: scene2}
-      - {choose: scene2, report: scene1}
-
-Observation ids of BOP-layout sets are ``<category>/<scene_id>/<im_id>/<gt_idx>``, so a part is
-a filter on the second field (:meth:`Split.sample_ids`).
-
-A part may also hold only some objects (a split **by object**: a default must hold on objects it
-was not chosen on), written ``{scenes: [[first, last], ...], objects: [obj_id, ...]}``; its
-samples are then the rows of those scenes whose ``info["obj_id"]`` is listed
-(:meth:`Split.sample_ids` with ``obj_of``, :meth:`Split.row_ids` for rows)::
-
-    parts:
-      dev_A: {scenes: [[0, 99]], objects: [1, 6, 9, 12]}
-      report_B: {scenes: [[100, 199]], objects: [4, 5, 13, 14]}
-"""
+A split is ``configs/split/<name>.yaml`` (the rule is in docs/choosing-defaults.md): ``parts``
+maps a part name to scene ids as ``[first, last]`` inclusive ranges, or to
+``{scenes: [...], objects: [obj_id, ...]}`` for a split by object; ``folds`` lists
+``{choose: PART, report: PART}``. Observation ids of BOP-layout sets are
+``<category>/<scene_id>/<im_id>/<gt_idx>``, so a part filters the second field
+(:meth:`Split.sample_ids`; rows by ``info["obj_id"]``: :meth:`Split.row_ids`)."""
 
 from __future__ import annotations
 

@@ -1,38 +1,16 @@
-"""``bench suite real``: every method on the shared real development data, one table (the sets and
-method rows: suite_sets; the table: suite_table).
+"""``bench suite real|clutter``: every method on the shared real data (or the cluttered synthetic
+set's report scenes), one table (the sets and method rows: suite_sets; the table: suite_table).
 
-The real development set is ``../shared/data`` beside the checkout (or ``$CATPOSE_SHARED_DATA``):
+Every (set, method, seed) goes through ``bench run``'s runner, so run directories, resume and
+summaries are the usual ones; the table is made from their files. A cell is the mean across
+``--seeds`` (default 0, 1, 2) with the min and max; a column whose methods were scored on
+different samples is refused (``--allow-mixed`` to insist). A set with a development split
+(``configs/split/<name>.yaml``) gets one column per part, and a BOP-layout set BOP'19's AR
+(:mod:`catpose.bench.run.bop_ar`). The sets: docs/real-scenes.md.
 
-- ``ycbv``: 19 real YCB-Video frames in BOP layout, 38 instances (``dataset=ycbv``);
-- ``ycbv_templates``, ``ycbv_relative``: the paper's real-data protocols on the same frames: each
-  view registered to the category's templates (``protocol=templates``, scored by the main axis as
-  the paper's TYO-L table), and the relative pose of two frames of one scene (``protocol=relative``);
-- ``tyol``: the one TYO-L frame (``dataset=bop``);
-- ``modelnet40_resampled``: 23 real ModelNet40 CAD shapes (PointNet++ resampled clouds) x 2
-  hidden-point-removal views (``dataset=modelnet40_resampled``);
-- ``redwood``: real Redwood frames; scored only when the scan has a camera trajectory (``*.log``)
-  under ``protocol=relative`` (the shared frames have none: the set is listed as skipped).
-
-Every (set, method) pair goes through the normal runner (:func:`catpose.bench.run.runner.run`), so
-run directories, resume and summaries are the ones ``bench run`` writes; the table is made from
-their files (``summary.csv``). Protocol: ``gt_model`` (each view against its own model) unless
-the set says otherwise. Every pair runs under seeds 0, 1 and 2 (``--seeds``): a cell is the mean
-across seeds, with the min and max of its mean, @10 and AR; a column whose methods were scored on
-different samples is refused in one line (``--allow-mixed`` to insist, said in a note).
-
-    bench suite real                                  # every set, every method
     bench suite real --sets ycbv --methods ours,icp --limit 5
     bench suite real --methods ours -o method.selection=loss   # a variant of one method
-    bench suite real --write results/real/table.md    # also write the table
-    bench suite clutter                               # the cluttered synthetic set's report scenes
-
-A set with a development split (``configs/split/<name>.yaml``: YCB-V by scene, the clutter set
-by scene id) also gets one column per part, labelled with its role (choose / report;
-docs/choosing-defaults.md). A set in the BOP layout (YCB-V, TYO-L, clutter) also gets BOP'19's
-average recall beside each column, ``AR (VSD / MSSD / MSPD)``, computed from the same run
-directories by ``bench score``'s code (:mod:`catpose.bench.run.bop_ar`). ``bench suite clutter`` runs the ``report`` part of
-``configs/split/clutter.yaml`` (``--parts dev,report`` for both).
-"""
+    bench suite clutter --parts dev,report"""
 
 from __future__ import annotations
 

@@ -1,20 +1,13 @@
 """Golden inputs: a regression suite's problems frozen in one ``.npz`` file.
 
-``bench regress`` must judge the code, not the machine. Rendering the problems on each machine
-would let a CPU's BLAS kernel change the inputs' last bits, and an ambiguous sample turns that
-into another answer. So the problems are rendered once (``bench regress --write-inputs``),
-stored here as float32 arrays, and read back as float64: the same bits everywhere.
-
-File layout (NumPy ``.npz``, compressed): ``meta`` is a JSON string with the suite name, the
-dataset overrides that made it and one record per sample (ids, category, template id, symmetry
-axis, discrete symmetries, info); per sample ``i`` the arrays ``p{i}`` (N, 3) observed points and
-``n{i}`` (N, 3) normals (camera frame), ``g{i}`` (3,) ground normal, ``T{i}`` (4, 4)
-``T_template_camera``; per template ``j`` the arrays ``tp{j}``, ``tn{j}`` (M, 3) points and normals
-(template frame), ``tu{j}`` (3,) up axis; per template with a mesh ``tv{j}`` (V, 3) vertices and
-``tf{j}`` (F, 3) int32 triangles; per sample with a depth image (:class:`~catpose.types.DepthImage`)
-``d{i}`` (H, W) depth, ``k{i}`` (3, 3) intrinsics and ``m{i}`` (H, W) mask. Files written before
-meshes and depth images were stored load without them. Units are the dataset's (object-normalised).
-"""
+The problems are rendered once (``bench regress --write-inputs``), stored as float32 and read back
+as float64, so every machine judges the code on the same bits (a CPU's BLAS kernel cannot change
+the inputs). Layout: ``meta``, a JSON string (suite, dataset overrides, one record per sample:
+ids, category, template id, symmetries, info); per sample ``i``: ``p{i}``, ``n{i}`` (N, 3) points
+and normals (camera frame), ``g{i}`` (3,) ground normal, ``T{i}`` (4, 4) ``T_template_camera``, and
+with a depth image ``d{i}`` (H, W), ``k{i}`` (3, 3) intrinsics, ``m{i}`` (H, W) mask; per template
+``j``: ``tp{j}``, ``tn{j}`` (M, 3) (template frame), ``tu{j}`` (3,) up axis, with a mesh ``tv{j}``
+(V, 3) and ``tf{j}`` (F, 3) int32. Units are the dataset's (object-normalised)."""
 
 from __future__ import annotations
 

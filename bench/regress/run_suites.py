@@ -1,32 +1,17 @@
 """``bench regress``: a per-sample regression gate for ours and the baselines.
 
-Each suite of ``configs/regress/default.yaml`` is a fixed set of problems and a list of methods.
-The embedded suite reads its problems from committed golden inputs (:mod:`catpose.bench.regress.golden`),
-so every machine registers the same bits; a suite on ``../shared/data`` renders them live.
-
-What is compared, per method (the reference is ``results/reference/<suite>.json``):
-
-- **every sample**: it fails when a sample that was ok now fails, or when a *stable* sample that
-  was within ``within_deg`` (10 deg) of the truth leaves it by more than ``chaos_deg``;
-  every sample whose answer moved more than ``chaos_deg`` is printed with how far;
-- **aggregates** per category and overall, over the stable samples only, within the
-  tolerances derived in the config (mean / median error, @10 / @30, translation error).
-
-A sample is *chaotic* when its answer is decided by the last bits: a ``1e-12`` relative
-perturbation of its input, or another code path of the numerical libraries, moves its estimate
-by more than ``chaos_deg``. ``bench regress --update`` measures that for every sample
-(:mod:`catpose.bench.regress.reference`: a nominal run, a perturbed run, and one run in a child
-process per code path this CPU can take: every OpenBLAS kernel it runs, SkylakeX included where
-AVX-512 exists, NumPy without its AVX-512 loops, torch's default kernels) and stores the flag in
-the reference; chaotic samples are reported, never failed on.
+Each suite of ``configs/regress/default.yaml`` is a fixed set of problems (the embedded suite's
+from committed golden inputs, :mod:`catpose.bench.regress.golden`) and a list of methods, checked
+against ``results/reference/<suite>.json`` by the rules of :mod:`catpose.bench.regress.regress_gate`:
+a sample that was ok now fails, or a stable sample within ``within_deg`` leaves it by more than
+``chaos_deg``, or an aggregate leaves its tolerance. A *chaotic* sample (its answer moves under a
+``1e-12`` perturbation or another code path of the numerical libraries, measured by ``--update``:
+:mod:`catpose.bench.regress.reference`) is reported, never failed on.
 
     bench regress                          # every suite (shared-data suites only when present)
     bench regress --suite synthetic --methods icp,ours
     bench regress --update                 # after an intended change; commit results/reference/
-    bench regress --write-inputs           # re-render the golden inputs (changes every answer)
-
-The judging rules are :mod:`catpose.bench.regress.regress_gate`.
-"""
+    bench regress --write-inputs           # re-render the golden inputs (changes every answer)"""
 
 from __future__ import annotations
 

@@ -1,22 +1,11 @@
-"""Figures from run directories (matplotlib, Agg backend), each with a CSV of what it plots.
+"""Figures from run directories (matplotlib, Agg backend), each with a CSV of what it plots:
+:func:`plot_error_cdf` (the error's cumulative distribution per method, a panel per category, log
+error axis), :func:`plot_accuracy` (accuracy at thresholds, categories pooled) and
+:func:`plot_runtime` (seconds per registration per method, a box plot; each run's first
+registration, paying for imports and compilation, drawn apart as a red cross).
 
-- :func:`plot_error_cdf`: cumulative distribution of the scored error per method, one panel
-  per category, on a log error axis so methods near zero stay visible (a point (x, y): a
-  fraction y of the samples has error <= x degrees). CSV: one row per step point.
-- :func:`plot_accuracy`: accuracy (error <= threshold) at a few thresholds, all categories
-  pooled, as grouped bars per method. CSV: one row per (method, threshold).
-- :func:`plot_runtime`: per-registration runtime per method (horizontal box plot, log scale,
-  method names on the y axis). The first registration of each run (column ``first_in_run``, set
-  by the report) pays for imports, numba's compilation and first-touch caches (seconds, where a
-  registration takes a tenth of that); it is left out of the box and its statistics and drawn as
-  a red cross. CSV: one row per method with its runtime statistics and that warm-up.
-
-The qualitative picture of one registration is :mod:`catpose.bench.report.qualitative`'s.
-
-Inputs are per-method tables of scoring units (``{label: DataFrame}``, columns ``category``,
-``status``, ``err_deg``) as :func:`catpose.bench.report.tables.scored_units` returns them. Failed units
-count as :data:`~catpose.bench.scoring.metrics.FAILED_ERROR_DEG` (180 degrees) everywhere.
-"""
+Inputs are per-method tables of scoring units (``{label: DataFrame}`` with ``category``,
+``status``, ``err_deg``); failed units count as 180 degrees everywhere."""
 
 from __future__ import annotations
 

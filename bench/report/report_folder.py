@@ -2,26 +2,13 @@
 
     bench report outputs/synthetic-gt_model --out report/ [--layout optimiser] [--qualitative 2]
 
-writes ``index.md`` and ``index.html`` (the same content; every link relative, so the folder can
-be moved or opened from disk), and per protocol (errors of different protocols answer different
-questions, so they never share a table or a figure):
-
-- ``tables/<protocol>_summary.{md,tex,csv}``: one row per method, all categories pooled;
-- ``tables/<protocol>_per_category.{md,tex,csv}``: (method, metric) rows x category columns;
-- ``tables/<protocol>_<layout>.*`` for each ``--layout``;
-- ``figures/<protocol>_{error_cdf,accuracy,runtime}.{png,pdf,csv}`` (the CSV holds the plotted data);
-- pictures of failures, on by default (``--qualitative N``, default 2, 0: none): per run its
-  worst registration and a typical failure (:func:`qualitative_picks`), rebuilt from the run's
-  config, at most ``--max-pictures`` (default :data:`MAX_PICTURES`) in the whole report.
-
-The runtime figure leaves each run's first registration (imports, numba's compilation: seconds)
-out of its boxes and marks it (:data:`catpose.bench.report.plots.WARMUP_COLUMN`).
-
-Labels are unique per protocol (:func:`catpose.bench.report.tables.run_labels`). Everything is made
-from the run directories' files. The folder is built beside ``--out`` and moved into place whole,
-so it holds one report and a failure leaves none; an existing ``--out`` needs ``--force``, and no
-``--out`` may hold, or lie inside, a run it reads (:func:`catpose.bench.run.overwrite.check_output`).
-"""
+writes ``index.md`` (every link relative) and, per protocol (they never share a table or figure),
+``tables/<protocol>_{summary,per_category,<layout>}.{md,tex,csv}``,
+``figures/<protocol>_{error_cdf,accuracy,runtime}.{png,pdf,csv}`` (the CSV holds the plotted
+data) and pictures of each run's worst registration and a typical failure (``--qualitative N``,
+at most ``--max-pictures`` in all). The runtime figure leaves each run's first registration
+(imports, compilation) out of its boxes. The folder is built beside ``--out`` and moved into
+place whole (:func:`catpose.bench.run.overwrite.check_output`)."""
 
 from __future__ import annotations
 
@@ -121,7 +108,7 @@ SUMMARY_METRICS = ("mean", "median", "acc10", "acc30", "trans", "runtime", "fail
 def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, allow_mixed: bool = False):
     """One row per run, all categories pooled, the columns of :data:`SUMMARY_METRICS` named by
     the metric alone: ``tables/<protocol>_summary.*`` of a report (the README's first table),
-    and what ``make demo`` prints (:mod:`catpose.bench.report.demo`)."""
+    and what ``make demo`` prints."""
     from catpose.bench.report import tables
 
     summary = tables.build_table(
@@ -141,8 +128,8 @@ def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, 
 
 def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, allow_mixed: bool = False):
     """A row block per run, a column per category (the paper's layout), mean, median, @10 and @30:
-    ``tables/<protocol>_per_category.*`` of a report, and what ``make demo`` prints above the
-    pooled table; None when the runs name no category."""
+    ``tables/<protocol>_per_category.*`` of a report (``make demo`` prints it above the
+    pooled table); None when the runs name no category."""
     from catpose.bench.report import tables
 
     cats = sorted({str(c) for r in runs for c in r.samples.get("category", [])})
@@ -173,19 +160,12 @@ def build_report(
     allow_mixed: bool = False,
 ) -> Path:
     """Write the report folder (see the module docstring); returns the path of ``index.md``.
-    ``label_items``: the ``--label RUN_DIR=LABEL`` items ``labels`` came from, each checked to
-    name one of the runs (:func:`catpose.bench.report.labels.check_labels`). Runs of one protocol
-    on different samples (datasets, seeds, a ``limit`` run) are refused in one line unless
-    ``allow_mixed`` (:func:`catpose.bench.report.tables.build_table`).
 
-    ``notes`` are paragraphs put under the title (how the runs were made); ``pdf`` adds a PDF
-    of each summary figure; ``qualitative`` pictures per run, ``max_pictures`` in all. A run that
-    cannot be read is left out, said so in the index and in one line on stderr, and its reason appended to ``left_out`` (the command then exits 2).
-    The folder is built beside ``out`` and moved into place when complete
-    (:func:`catpose.atomic.building_dir`): a failure leaves no half-built report, and an existing
-    ``out`` is replaced whole (whether it may be is :func:`main`'s question,
-    :func:`catpose.bench.run.overwrite.check_output`).
-    """
+    ``label_items``: the ``--label RUN_DIR=LABEL`` items ``labels`` came from (each must name a run);
+    ``notes``: paragraphs under the title; ``pdf``: a PDF of each summary figure too; ``qualitative``
+    pictures per run, ``max_pictures`` in all. Runs of one protocol on different samples are refused
+    unless ``allow_mixed``. A run that cannot be read is left out, said in the index and on stderr,
+    and its reason appended to ``left_out``. The folder is built aside and moved into place whole."""
     from catpose.bench.report.labels import check_labels
     from catpose.bench.report.runs import load_runs, print_left_out
 
@@ -326,9 +306,6 @@ def _write_report(
                     ]
 
     atomic.write_text(out / "index.md", "\n".join(md) + "\n")
-    from catpose.bench.report.html_page import markdown_page
-
-    atomic.write_text(out / "index.html", markdown_page(md, "catpose report"))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -387,5 +364,5 @@ def main(argv: list[str] | None = None) -> int:
             label_items=args.label,
             allow_mixed=args.allow_mixed,
         )
-    print(f"report written: {index} (and index.html)" + (f"; {len(left_out)} run(s) left out" if left_out else ""))
+    print(f"report written: {index}" + (f"; {len(left_out)} run(s) left out" if left_out else ""))
     return 2 if left_out else 0

@@ -13,6 +13,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from catpose import atomic
 from catpose.bench.report.labels import check_labels, parse_labels
@@ -22,8 +23,8 @@ from catpose.bench.report.tables import LAYOUTS, RENDERERS, build_table
 from catpose.errors import ConfigError, DatasetError
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE]``."""
+def parser() -> argparse.ArgumentParser:
+    """``bench table``'s options."""
     from catpose.bench.run.overwrite import add_output_options
 
     ap = argparse.ArgumentParser(prog="bench table", description="Paper tables from run directories.")
@@ -85,40 +86,44 @@ def main(argv: list[str] | None = None) -> int:
         "ar_mssd,ar_mspd,adds@0.1,5deg5cm (see catpose.bench.scoring.bop_eval.parse_metric)",
     )
     ap.add_argument("--by", default=None, help="with --bop-metrics: rows per object and/or category (default both)")
-    ap.add_argument(
-        "--stability",
-        action="append",
-        default=[],
-        metavar="ROOT",
-        help="an output root with the same runs made under another code path of the numerical "
-        "libraries (results/make_results.sh); notes say per row how many views changed "
-        "and the range of the overall figures (repeatable)",
-    )
-    args = ap.parse_args(argv)
-    from catpose.bench.report.sweep_runs import sweep_runs
-    from catpose.bench.scoring.curves import threshold_keys
+    return ap
 
-    run_paths, sweep_labels, defaults = sweep_runs(args.sweep)
-    if not args.runs and not run_paths:
-        raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
-    out = None
-    if args.out:  # before any work (docs/file-safety.md)
-        from catpose.bench.run.overwrite import Output, input_runs
 
-        out = Output(args.out, "file", input_runs([*args.runs, *run_paths, *args.sweep, *args.stability]), args.force)
+def main(argv: list[str] | None = None) -> int:
+    """``bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE]``."""
+    args = parser().parse_args(argv)
+    swept = sweep_runs(args.sweep)
+    out = output(args, swept[0])
     if args.by is not None and (not args.bop_metrics or set(args.by.split(",")) - {"object", "category"}):
         raise ConfigError(f"--by {args.by!r} goes with --bop-metrics and takes object, category or object,category")
     if args.bop_metrics:
-        text = (
-            bop_recall_table(
-                find_run_dirs([*args.runs, *run_paths]),
-                args.bop_metrics.split(","),
-                (args.by or "object,category").split(","),
-            )
-            + "\n"
-        )
-        _write(out, text)
+        run_dirs = find_run_dirs([*args.runs, *swept[0]])
+        by = (args.by or "object,category").split(",")
+        _write(out, bop_recall_table(run_dirs, args.bop_metrics.split(","), by) + "\n")
         return 0
+    table, left_out = make_table(args, swept)[:2]
+    _write(out, RENDERERS[args.format](table))
+    return 2 if left_out else 0
+
+
+def output(args, run_paths: Sequence[Path], extra_inputs: Sequence[str | Path] = ()):
+    """The ``--out`` of ``args`` (an :class:`~catpose.bench.run.overwrite.Output`, checked before any
+    work: docs/file-safety.md), or None for stdout; no runs at all is refused first."""
+    if not args.runs and not run_paths:
+        raise ConfigError("no runs: pass run directories or --sweep DIR (a sweep directory of `bench run -m`)")
+    if not args.out:
+        return None
+    from catpose.bench.run.overwrite import Output, input_runs
+
+    return Output(args.out, "file", input_runs([*args.runs, *run_paths, *args.sweep, *extra_inputs]), args.force)
+
+
+def make_table(args, swept):
+    """``(table, left_out, runs, labels)`` of ``bench table``'s ``args`` (not ``--bop-metrics``) and
+    its sweeps' ``(run directories, labels, table settings)``."""
+    from catpose.bench.scoring.curves import threshold_keys
+
+    run_paths, sweep_labels, defaults = swept
     if args.layout not in (None, defaults.get("layout")):
         defaults = {}  # another layout than the experiment's: none of its settings apply
     for key, value in defaults.items():  # the experiment's settings, unless given here
@@ -131,20 +136,19 @@ def main(argv: list[str] | None = None) -> int:
     warn_incomplete("table", runs)  # and the table's notes say it
     if args.categories:
         check_categories(runs, args.categories.split(","))
+    labels = {**sweep_labels, **parse_labels(args.label)}
     table = build_table(
         runs,
         args.layout,
         args.categories.split(",") if args.categories else None,
         args.metrics.split(",") if args.metrics else None,
-        {**sweep_labels, **parse_labels(args.label)},
+        labels,
         args.error,
         args.title,
-        [Path(p) for p in args.stability],
         threshold_keys(args.acc or [], args.auc) if (args.acc or args.auc is not None) else (),
         allow_mixed=args.allow_mixed,
     )
-    _write(out, RENDERERS[args.format](table))
-    return 2 if left_out else 0
+    return table, left_out, runs, labels
 
 
 def _write(out, text: str) -> None:
@@ -202,3 +206,46 @@ def bop_recall_table(run_dirs: Sequence[str | Path], metrics: Sequence[str], by:
         key=lambda c: c.map({"object": 0, "category": 1, "all": 2}) if c.name == "group" else c,
     )
     return "\n".join(notes) + "\n\n" + table.to_markdown(index=False, floatfmt=".3f")
+
+
+def sweep_runs(sweep_dirs: Sequence[str | Path]) -> tuple[list[Path], dict[str, str], dict[str, Any]]:
+    """Run directories, labels and table settings of sweeps (``bench run -m``).
+
+    Reads each job's ``job.json`` (:mod:`catpose.bench.run.sweep`) and the sweep's ``multirun.yaml``,
+    whose ``table`` node (set by ``configs/experiment/*.yaml``) gives ``layout``, ``categories``,
+    ``metrics``, ``error`` and ``title``. A failed or unfinished job stops the table with a
+    one-line error naming it."""
+    from catpose.bench.run.sweep import read_sweep
+
+    paths: list[Path] = []
+    labels: dict[str, str] = {}
+    settings: dict[str, Any] = {}
+    for d in map(Path, sweep_dirs):
+        records = read_sweep(d)
+        if not records:
+            raise DatasetError(
+                f"{d} is not a sweep directory (no */job.json); pass <output_root>/multirun/<name>/<time> "
+                f"of a `bench run -m` that has finished"
+            )
+        bad = [r for r in records if r.get("status") != "ok" or not r.get("run_dir")]
+        if bad:
+            raise DatasetError(
+                f"sweep {d}: job {bad[0].get('job')} ({' '.join(bad[0].get('overrides') or [])}) failed: "
+                f"{bad[0].get('error')}; re-run the sweep (finished samples are skipped)"
+            )
+        for r in records:
+            run_dir = Path(r["run_dir"])
+            if run_dir not in paths:
+                paths.append(run_dir)
+            if r.get("label"):
+                labels.update({str(run_dir): r["label"], str(run_dir.resolve()): r["label"]})
+        if (d / "multirun.yaml").is_file() and not settings:
+            from omegaconf import OmegaConf
+
+            table = OmegaConf.to_container(OmegaConf.load(d / "multirun.yaml"), resolve=False).get("table") or {}
+            settings = {k: v for k, v in table.items() if k in ("layout", "categories", "metrics", "error", "title")}
+    from catpose.bench.report.tables import LAYOUTS
+
+    if settings.get("layout") not in (None, *LAYOUTS):
+        raise ConfigError(f"the sweep's table.layout {settings['layout']!r} is not one of {sorted(LAYOUTS)}")
+    return paths, labels, settings

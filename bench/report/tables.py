@@ -1,44 +1,20 @@
-"""Paper tables from run directories (files only: ``samples.jsonl``, ``config.yaml``, ``run.json``):
-the layouts and the notes under a table. Pooling runs into rows and the value of a cell are
-:mod:`catpose.bench.report.table_rows`'.
+"""Paper tables from run directories (files only): the layouts and the notes under a table.
 
-A run directory is what the runner writes. Its per-sample rows are turned into scoring units by
-the run's own protocol (``score_units``: templates keep the best-scored template per view,
-``relative`` forms view pairs), summarized per category with :func:`catpose.bench.scoring.metrics.summarize`
-(:func:`catpose.bench.report.table_rows.collect`), and laid out like the paper's tables:
+A run's per-sample rows become scoring units by the run's own protocol, pooled into rows and
+cells by :mod:`catpose.bench.report.table_rows`, and laid out as one of :data:`LAYOUTS` (one
+:class:`Layout` spec each: ``optimiser``, ``one_template``, ``templates``, ``ablation``, ``real``,
+``tyol`` are the paper's tables, ``generic`` any runs x categories x metrics). Best values are
+bold and second best underlined (errors lower, accuracies higher); BOP-layout runs also get
+BOP'19's AR and its parts. Rows scored on different samples are refused
+(:mod:`catpose.bench.report.tables_compare`); a configuration's seeds pool into one row, the
+mean with the min and max. Output: Markdown, LaTeX or CSV.
 
-==============  ================================================================================
-layout          paper table
-==============  ================================================================================
-optimiser       \\compareoptimizerfull: pipeline/descriptor x method rows, category x {mean,
-                median, L_T} columns
-one_template    \\matchonetemplateplane: one category (airplane), {mean, median, @10, @30, L_T}
-templates       \\templatechair: rows grouped by the number of templates (chair), oracle error
-real            \\realdatatablesmall: category x metric rows, one column per method
-tyol            \\TYOL: method x metric rows, one column per category (bottle ... mug)
-ablation        \\ablationsvd: with and without optimisation, {mean, median, @10}
-generic         any runs x categories x metrics
-==============  ================================================================================
-
-Best values are bold and second best underlined per column (or per row for ``real``), with the
-direction of each metric (errors lower, accuracies higher). Output: Markdown, LaTeX or CSV.
-
-Runs on BOP-layout data (YCB-V, TYO-L, ``dataset=clutter``) also get BOP'19's average recall and
-its parts (``ar``, ``ar_vsd``, ``ar_mssd``, ``ar_mspd``) after the layout's own metrics, from the
-per-target errors of ``bench score``'s code (:func:`catpose.bench.run.bop_ar.target_errors`).
-
-Each layout is one :class:`Layout` spec (its shape, metrics, categories, title and row groups).
-Rows scored on different samples are refused (:mod:`catpose.bench.report.tables_compare`); the
-seeds of one configuration pool into one row, the mean across seeds with their min and max.
-
-Usage: ``bench table outputs/modelnet40-gt_model --layout optimiser --format latex``.
-"""
+    bench table outputs/modelnet40-gt_model --layout optimiser --format latex"""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 from catpose.bench.report.labels import parse_labels, pipeline_label, run_labels, template_count
 from catpose.bench.report.runs import Run, find_run_dirs, load_run, protocol_of, scored_units
@@ -217,7 +193,6 @@ def build_table(
     labels: dict[str, str] | None = None,
     error: str | None = None,
     title: str | None = None,
-    stability_roots: Sequence[Path] = (),
     thresholds: Sequence[str] = (),
     allow_mixed: bool = False,
 ) -> Table:
@@ -226,9 +201,6 @@ def build_table(
     ``error`` picks the per-unit error: ``"err_deg"`` (the method's own choice) or
     ``"oracle_err_deg"`` (templates protocol: minimum across templates); the ``templates``
     layout defaults to the oracle, as in the paper, and says so in a note.
-    ``stability_roots``: output roots holding the same runs made under other code paths of the
-    numerical libraries; the notes then say, per row, how many views changed and the range of
-    the overall figures (:mod:`catpose.bench.report.stability`).
     ``thresholds``: metric keys of :mod:`catpose.bench.scoring.curves` (``acc5``, ``auc30``,
     ``5deg5cm``; ``bench table --acc/--auc``) that replace the metrics' accuracies
     (:func:`with_thresholds`).
@@ -288,11 +260,6 @@ def build_table(
             "Errors of templates runs are the minimum across templates (an oracle that needs ground truth)."
         )
     table.notes += [f"Incomplete: {r.incomplete}" for r in runs if getattr(r, "incomplete", None)]
-    if stability_roots:
-        from catpose.bench.report.stability import stability_notes
-
-        names = [f"{group_of(r)} / {label}".lstrip(" /") for r, label in zip(runs, run_labels(runs, labels, group_of))]
-        table.notes += [""] + stability_notes(runs, names, stability_roots, error_of)
     return table
 
 

@@ -1,16 +1,10 @@
 """What a table may put side by side: rows scored on the same samples.
 
 Two rows compare when they were scored on the same problems: the same data (the dataset's name,
-its root's folder and its settings, less the templates', the categories' and the scenes' choice,
-which the samples themselves show), the same protocol, the same seeds and the same samples (no
-``limit`` or ``sample_ids`` subset on one side only, no unfinished run). :func:`mixed_rows` says,
-in one line naming the runs, what differs in a table's first column (or row) that compares
-anything else; ``bench table``, ``bench report`` and ``bench suite`` refuse such a table (exit 2)
-unless ``--allow-mixed``, and then say it under the table.
-
-A run's seeds of one configuration pool into one row (:func:`config_key`): their mean, with the
-spread across seeds (:mod:`catpose.bench.report.tables`).
-"""
+root folder and settings, less the choice of templates, categories and scenes), protocol, seeds
+and samples (no ``limit``/``sample_ids`` subset on one side only, no unfinished run).
+:func:`mixed_rows` says in one line what differs; ``bench table``, ``report`` and ``suite`` refuse
+such a table unless ``--allow-mixed``. A configuration's seeds pool into one row (:func:`config_key`)."""
 
 from __future__ import annotations
 

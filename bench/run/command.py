@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from catpose.bench.run import config
-from catpose.bench.run.hydra_flags import OTHER_CONFIGS, check_modes, flag_names, split_hydra_args
+from catpose.bench.run.hydra_flags import OTHER_CONFIGS, flag_names, split_hydra_args
 from catpose.errors import CatposeError, ConfigError, command_error
 
 
@@ -16,16 +16,6 @@ def main(argv: list[str]) -> int:
         print(__doc_run__)
         return 0
     flags, overrides = split_hydra_args(argv)
-    names = flag_names(flags)
-    if "--shell-completion" in names:
-        check_modes(flags)
-        from catpose.bench.run.completion import shell_completion
-
-        script = shell_completion(overrides)
-        if script is not None:
-            print(script, end="")
-            return 0
-        return _hydra_main(argv, named_run_dir=False)
     config.check_run_args(argv)  # plain overrides only: Hydra's flags (--cfg, --info, ...) and hydra.* pass untouched
     extra, named = output_overrides(flags, overrides)
     return _hydra_main(argv + extra, named_run_dir=named)
@@ -209,8 +199,7 @@ Run a method over every sample of a dataset under a protocol (Hydra overrides).
 
 Hydra's own flags pass through: --cfg job|hydra|all [--resolve] [--package PKG] prints the
 composed config instead of running; --info [plugins|config|defaults|defaults-tree|searchpath];
---config-dir DIR adds a config folder; --hydra-help; hydra.KEY=VALUE overrides;
--sc install=bash|zsh prints the shell completion script (eval "$(bench run -sc install=bash)").
+--config-dir DIR adds a config folder; --hydra-help; hydra.KEY=VALUE overrides.
 
 Writes <output_root>/<dataset>-<protocol>/<method>/seed<S>-<overrides>-<hash>/ with samples.jsonl,
 samples.csv, summary.csv, summary.md, config.yaml and git_rev.txt. Re-running the same command

@@ -2,25 +2,11 @@
 
 Every command that needs a config composes it through :func:`compose` (or
 :func:`compose_and_build`, which also builds groups with
-:func:`catpose.bench.run.build.build_from_config`): ``bench run``'s fail-fast check, ``bench
-perf``, ``bench templates``, ``bench score --dataset``, ``bench suite``,
-``bench regress`` and the GPU check's input dump. ``bench run`` itself then goes through
-``hydra.main`` (:mod:`catpose.bench.run.command`), the one other place Hydra composes.
-
-What a user types is checked before Hydra sees it (:func:`check_overrides`): an unknown method,
-dataset, protocol or experiment name, or a key that was renamed, is one line that names the fix;
-a composition error is one line instead of Hydra's multi-line report. A name or key that does not
-exist is answered with the closest valid ones (``difflib``: "did you mean `method=ours`?"), and a
-key that only another config of its group has with that config (``method.optimiser.lr`` under
-the default ICP: "method ours has it: `method=ours method.optimiser.lr=0.001`"); a sweep's group
-combinations are checked the same way before its first job starts (:func:`check_sweep_composition`).
-
-Renamed: ``protocol.choice``, ``protocol.turns`` and ``protocol.one_template_turns`` are
-``choice=<rule>``, ``choice.turns_deg`` and ``choice.one_template_turns`` (the ``choice`` group);
-the old spellings are refused with the new one named.
-
-Also here: where the shared real data is (:func:`shared_data_dir`).
-"""
+:func:`catpose.bench.run.build.build_from_config`); ``bench run`` then goes through ``hydra.main``
+(:mod:`catpose.bench.run.command`). What a user types is checked before Hydra sees it: an unknown
+group name, key or launcher is one line naming the closest valid ones (``difflib``), or the
+config of its group that has the key; a sweep's group combinations are checked before its first
+job (:func:`check_sweep_composition`). Also here: the shared real data (:func:`shared_data_dir`)."""
 
 from __future__ import annotations
 
@@ -39,13 +25,6 @@ REPO = Path(__file__).resolve().parents[2]
 
 #: config groups whose names a command line picks (``method=ours``); their names are checked
 GROUPS = ("method", "dataset", "protocol", "choice", "experiment")
-#: dotted keys renamed in the configs: old -> new (an override of the old key is refused); the
-#: templates protocol's choice moved into its own group (configs/choice, the method side's)
-RENAMED_KEYS = {
-    "protocol.choice": "choice",
-    "protocol.turns": "choice.turns_deg",
-    "protocol.one_template_turns": "choice.one_template_turns",
-}
 #: hydra/launcher option -> the plugin package it needs (the cluster extra, `make cluster`)
 LAUNCHER_PLUGINS = {
     "joblib": "hydra_joblib_launcher",
@@ -80,9 +59,7 @@ def did_you_mean(word: str, candidates: Iterable[str], spell=lambda c: c) -> str
 
 
 def check_overrides(argv: Sequence[str], names: bool = True) -> None:
-    """Fail fast, in one line, on an unknown method, dataset, protocol or experiment name and on
-    a renamed key (``protocol.choice=fused``: "protocol.choice was renamed choice; write
-    choice=fused").
+    """Fail fast, in one line, on an unknown method, dataset, protocol or experiment name.
 
     ``argv`` are plain overrides (:func:`split_hydra_args` takes Hydra's flags out first);
     ``hydra.*`` and ``hydra/...`` overrides are Hydra's and pass untouched. ``names=False`` skips
@@ -93,10 +70,6 @@ def check_overrides(argv: Sequence[str], names: bool = True) -> None:
         prefix = raw[: len(raw) - len(key)]  # "+" / "~" as typed
         if key == "hydra" or key.startswith(("hydra.", "hydra/")):
             continue
-        for old, new in RENAMED_KEYS.items():
-            if key == old or key.startswith(old + "."):
-                fixed = prefix + new + key[len(old) :] + (f"={value}" if sep else "")
-                raise ConfigError(f"{old} was renamed {new}; write {fixed}")
         if not sep or key not in GROUPS:
             continue
         available_names = available(key)

@@ -178,30 +178,17 @@ def differences(reference: dict | None, current: dict) -> list[str]:
     return lines
 
 
-def _shell_exports(env: dict[str, str]) -> str:
-    import shlex
-
-    return "\n".join(f"export {k}={shlex.quote(v)}" for k, v in env.items())
-
-
 def main(argv: list[str] | None = None) -> int:
-    """``python -m catpose.bench.run.environment portable|variants``: shell lines for scripts.
-
-    ``portable`` prints ``export`` lines of :func:`portable_profile`; ``variants`` prints one line
-    per :func:`numeric_variants` entry, ``NAME<TAB>export ...; export ...``.
-    """
+    """``python -m catpose.bench.run.environment portable``: ``export`` lines of
+    :func:`portable_profile` for scripts (``eval "$(...)"``)."""
+    import shlex
     import sys
 
-    argv = sys.argv[1:] if argv is None else argv
-    if argv == ["portable"]:
-        print(_shell_exports(portable_profile()))
-        return 0
-    if argv == ["variants"]:
-        for name, env in numeric_variants().items():
-            print(f"{name}\t{_shell_exports(env).replace(chr(10), '; ')}")
-        return 0
-    print("usage: python -m catpose.bench.run.environment portable|variants", file=sys.stderr)
-    return 2
+    if (sys.argv[1:] if argv is None else argv) != ["portable"]:
+        print("usage: python -m catpose.bench.run.environment portable", file=sys.stderr)
+        return 2
+    print("\n".join(f"export {k}={shlex.quote(v)}" for k, v in portable_profile().items()))
+    return 0
 
 
 if __name__ == "__main__":

@@ -9,36 +9,20 @@ from collections.abc import Sequence
 
 from catpose.errors import ConfigError
 
-#: flags that take a value (``--cfg job`` or ``--cfg=job``), long and short spellings
-HYDRA_VALUE_FLAGS = {
-    "--cfg": "--cfg",
-    "-c": "--cfg",
-    "--package": "--package",
-    "-p": "--package",
-    "--config-path": "--config-path",
-    "-cp": "--config-path",
-    "--config-name": "--config-name",
-    "-cn": "--config-name",
-    "--config-dir": "--config-dir",
-    "-cd": "--config-dir",
-    "--experimental-rerun": "--experimental-rerun",
-}
-#: ``--info`` takes an optional value, one of these (default ``all``)
-HYDRA_INFO_CHOICES = ("all", "config", "defaults", "defaults-tree", "plugins", "searchpath")
-#: flags without a value
-HYDRA_SWITCHES = {
-    "--resolve": "--resolve",
-    "--run": "--run",
-    "-r": "--run",
-    "--multirun": "--multirun",
-    "-m": "--multirun",
-    "--shell-completion": "--shell-completion",
-    "-sc": "--shell-completion",
-    "--hydra-help": "--hydra-help",
-    "--version": "--version",
-    "--info": "--info",
-    "-i": "--info",
-}
+
+def _options() -> dict[str, tuple[str, object, object]]:
+    """Hydra's flags from its own argument parser: option string (``-c``, ``--cfg``) -> (long name,
+    ``nargs``: None a value, ``"?"`` an optional one of ``choices``, 0 none, ``choices``)."""
+    from hydra._internal.utils import get_args_parser
+
+    out = {}
+    for action in get_args_parser()._actions:
+        if action.option_strings and action.dest != "help":
+            long = max(action.option_strings, key=len)
+            out.update({s: (long, action.nargs, action.choices) for s in action.option_strings})
+    return out
+
+
 #: flags that make Hydra read other configs than the package's (names and composition unchecked)
 OTHER_CONFIGS = ("--config-path", "--config-name", "--config-dir", "--experimental-rerun")
 
@@ -49,6 +33,7 @@ def split_hydra_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
     (``key=value``, ``+key=value``, ``~key``). The flags go to Hydra untouched; only the
     overrides are checked here. A flag Hydra does not know is left among the overrides, where
     Hydra reports it."""
+    options = _options()
     flags: list[str] = []
     overrides: list[str] = []
     args = list(argv)
@@ -56,32 +41,23 @@ def split_hydra_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
     while k < len(args):
         a = args[k]
         name, eq, _ = a.partition("=")
-        if a.startswith("-") and name in HYDRA_VALUE_FLAGS:
-            flags.append(a)
-            if not eq and k + 1 < len(args):
-                flags.append(args[k + 1])
-                k += 1
-        elif a.startswith("-") and name in ("--info", "-i"):
-            flags.append(a)
-            if not eq and k + 1 < len(args) and args[k + 1] in HYDRA_INFO_CHOICES:
-                flags.append(args[k + 1])
-                k += 1
-        elif a.startswith("-") and a in HYDRA_SWITCHES:
-            flags.append(a)
-        else:
+        _, nargs, choices = options.get(name, (None, -1, None)) if a.startswith("-") else (None, -1, None)
+        if nargs == -1 or (nargs == 0 and eq):
             overrides.append(a)
+        else:
+            flags.append(a)
+            takes = nargs is None or (nargs == "?" and k + 1 < len(args) and args[k + 1] in (choices or ()))
+            if not eq and takes and k + 1 < len(args):
+                flags.append(args[k + 1])
+                k += 1
         k += 1
     return flags, overrides
 
 
 def flag_names(flags: Sequence[str]) -> set[str]:
     """The long names of the Hydra flags among ``flags`` (values dropped): ``{"--cfg", ...}``."""
-    out = set()
-    for f in flags:
-        name = f.partition("=")[0]
-        if f.startswith("-") and (name in HYDRA_VALUE_FLAGS or name in HYDRA_SWITCHES):
-            out.add(HYDRA_VALUE_FLAGS.get(name) or HYDRA_SWITCHES[name])
-    return out
+    options = _options()
+    return {options[f.partition("=")[0]][0] for f in flags if f.partition("=")[0] in options}
 
 
 #: Hydra's modes: one per command line (Hydra refuses two, with a traceback)

@@ -1,21 +1,14 @@
 """Sharded runs: one run's samples split across jobs, merged back from files.
 
-``bench run ... shards=N shard=I`` runs the samples ``ids[I::N]`` of the run's fixed order
-(dataset, protocol, seed, ``limit``/``sample_ids``) into the run directory every shard shares, and
-writes its own files there, so concurrent shards never write to one file:
-
-- ``samples.shard-I-of-N.jsonl``: the shard's per-sample rows (the format of ``samples.jsonl``);
-- ``shard-I-of-N.json``: the shard's sample ids in run order, and when it finished.
-
-``bench merge RUNDIR`` (and ``bench table``, automatically) writes ``samples.jsonl`` from every
-shard's rows in the run's own order (shard I's j-th id is the run's ``j*N + I``-th), then the
-summaries, so a sharded run's files, summaries and tables are those of the serial run, bit for
-bit. A shard with samples still missing stops the merge with the command that finishes it.
-
-Every shard records its config; shards of different configs or different counts are refused
-(:mod:`catpose.bench.run.shard_check`), and a merge never drops rows it did not write
-(:mod:`catpose.bench.run.overwrite`).
-"""
+``bench run ... shards=N shard=I`` runs the samples ``ids[I::N]`` of the run's fixed order into
+the run directory every shard shares, writing its own ``samples.shard-I-of-N.jsonl`` (rows) and
+``shard-I-of-N.json`` (its ids in run order, whether it finished, its config). ``bench merge
+RUNDIR`` (and ``bench table``, automatically) writes ``samples.jsonl`` from every shard's rows in
+the run's own order, then the summaries: the serial run's files, bit for bit. Shards of other
+configs or counts are refused (the run directory's name hashes only method, dataset, protocol and
+seed, so shards run with another ``limit`` would meet in one folder: each shard records its
+config less :data:`IGNORED_KEYS`, and a shard or merge of another config is refused in one line),
+and a merge never drops rows it did not write."""
 
 from __future__ import annotations
 
@@ -24,6 +17,7 @@ import json
 import re
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from catpose.bench.run.rundir import SAMPLES_FILE
 from catpose.errors import ConfigError, DatasetError
@@ -85,7 +79,7 @@ def write_shard_meta(
     run_dir: Path, shard: int, shards: int, ids: Sequence[str], finished: bool, config: dict | None = None
 ) -> None:
     """Record a shard's ids (run order), whether it went through all of them, and its config
-    (:func:`catpose.bench.run.shard_check.comparable_config`), which merges compare."""
+    (:func:`comparable_config`), which merges compare."""
     from catpose import atomic
 
     meta = {"shard": shard, "shards": shards, "finished": finished, "sample_ids": list(ids)}
@@ -140,7 +134,6 @@ def merged_rows(run_dir: Path) -> list[dict]:
             f"(delete the samples.shard-*-of-N.jsonl of the others)"
         )
     ((n, present),) = found.items()
-    from catpose.bench.run.shard_check import _metas, check_shard_configs
 
     read = _metas(run_dir, n)
     for i in range(n):
@@ -261,3 +254,80 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{d}: merged {', '.join(sorted(p.name for p in d.glob('samples.shard-*-of-*.jsonl')))}")
         print(format_summary(summary) + "\n")
     return 0
+
+
+# ---------------------------------------------------------------------------------------------
+# shards of one run are one configuration
+
+IGNORED_KEYS = ("shard", "progress", "print_summary", "lock_timeout", "retry_failed", "output_root")
+"""Run-level keys that do not change which samples a shard runs or what it records: the shard's
+own index, console output, waiting for a lock, retrying failures, and the output root (one
+folder, however it is spelt)."""
+
+
+def comparable_config(cfg: Any) -> dict:
+    """The resolved config as a plain dict, less :data:`IGNORED_KEYS` (``cfg``: a DictConfig or dict)."""
+    from omegaconf import DictConfig, OmegaConf
+
+    plain = OmegaConf.to_container(cfg, resolve=True) if isinstance(cfg, DictConfig) else dict(cfg)
+    return {k: v for k, v in plain.items() if k not in IGNORED_KEYS and k != "hydra"}
+
+
+def first_difference(a: Any, b: Any, where: str = "") -> str | None:
+    """The first key (dotted) whose values differ, as ``key=a vs b``; None when equal."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in sorted(set(a) | set(b), key=str):
+            d = first_difference(a.get(k, "<unset>"), b.get(k, "<unset>"), f"{where}.{k}" if where else str(k))
+            if d:
+                return d
+        return None
+    if a != b:
+        return f"{where or 'config'}={json.dumps(a, default=str)} vs {json.dumps(b, default=str)}"
+    return None
+
+
+def _metas(run_dir: Path, shards: int) -> dict[int, dict]:
+    out = {}
+    for i in range(shards):
+        path = run_dir / shard_meta_file(i, shards)
+        if path.is_file():
+            try:
+                out[i] = json.loads(path.read_text())
+            except (OSError, json.JSONDecodeError) as e:
+                raise DatasetError(
+                    f"{path} is unreadable ({type(e).__name__}); re-run shard {i} with the same "
+                    f"command (shards={shards} shard={i})"
+                ) from None
+    return out
+
+
+def check_shard_start(run_dir: Path, shard: int, shards: int, config: dict) -> None:
+    """Before shard ``shard`` of ``shards`` writes into ``run_dir``: refuse other shard counts and
+    other configs (see the module docstring). ``config`` is :func:`comparable_config`'s."""
+    other = sorted(n for n in shard_files(run_dir) if n != shards)
+    if other:
+        raise ConfigError(
+            f"{run_dir} already holds a run in {other[0]} shards (samples.shard-*-of-{other[0]}.jsonl); "
+            f"run it with shards={other[0]}, or delete those files to re-shard it"
+        )
+    for i, meta in _metas(run_dir, shards).items():
+        if i == shard or "config" not in meta:
+            continue
+        diff = first_difference(meta["config"], config)
+        if diff:
+            raise ConfigError(
+                f"{run_dir}: shard {i} of {shards} was run with another config ({diff} in this job); "
+                "run every shard of a run with one config (or give this one another output_root)"
+            )
+
+
+def check_shard_configs(run_dir: Path, metas: list[dict]) -> None:
+    """Before a merge: every shard that recorded its config recorded the same one."""
+    recorded = [(i, m["config"]) for i, m in enumerate(metas) if "config" in m]
+    for i, cfg in recorded[1:]:
+        diff = first_difference(recorded[0][1], cfg)
+        if diff:
+            raise DatasetError(
+                f"{run_dir}: shards {recorded[0][0]} and {i} of {len(metas)} were run with different "
+                f"configs ({diff}); re-run the odd one with the others' config, or delete its files"
+            )

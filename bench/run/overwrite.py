@@ -1,25 +1,14 @@
 """No command writes into what it did not create: the one output rule (docs/file-safety.md).
 
-Every command that writes a file or a folder it is told to (``--out``, ``--sheet``,
-``--write``) asks :func:`check_output` first, before any work:
-
-- ``--out`` may not equal, contain or lie inside any input (a run directory the command reads, an
-  input file, a table marked verified), nor lie inside any other run directory, nor be or hold the
-  current folder; not even with ``--force``;
-- a file may not replace a folder and a folder may not replace a file;
-- an existing target needs ``--force``; a table with rows marked ``verified`` (and its contact
-  sheet) is never replaced, and a folder that holds run directories or verified tables below it
-  is never replaced either;
-- the folder it goes into must exist or be creatable (no file in the way) and be writable.
-
-Files are then written atomically (:mod:`catpose.atomic`) and folders built beside their
-destination and moved into place (:func:`catpose.atomic.building_dir`); :func:`output_errors`
-turns an ``OSError`` while writing (a read-only folder, a full disk) into one line.
-
-Besides: ``bench merge`` (and the automatic merge of ``bench table``) refuses, unless ``--force``,
-to replace a ``samples.jsonl`` holding rows the merge would drop; ``align.py --out TABLE`` (experiments/alignment)
-sends its estimate to ``<name>.new.csv`` when ``TABLE`` has verified rows (:func:`table_destination`).
-"""
+Every command that writes where it is told (``--out``, ``--sheet``, ``--write``) applies
+:func:`check_output` before any work: the target is no input and lies inside none (nor inside a
+run directory, nor holds the current folder), not even with ``--force``; a file never replaces a
+folder nor a folder a file; an existing target needs ``--force``, and a table with rows marked
+``verified`` (or its contact sheet, or a folder holding runs or such tables) is never replaced;
+its folder must be writable. Files are then written atomically (:mod:`catpose.atomic`) and
+folders built beside their destination and moved into place; an ``OSError`` while writing is one
+line (:func:`output_errors`). ``align.py --out TABLE`` (experiments/alignment) sends its estimate to ``<name>.new.csv``
+when ``TABLE`` has verified rows (:func:`table_destination`)."""
 
 from __future__ import annotations
 
@@ -255,16 +244,9 @@ def _check_existing(
 
 
 class Output:
-    """The one output helper of every command that writes where it is told: made before any work,
-    it applies the rule (:func:`check_output`, same arguments); :meth:`writing` wraps the writing.
-
-    Example::
-
-        out = Output(args.out, "folder", input_runs(args.runs), args.force)
-        ...  # the work
-        with out.writing() as path:
-            atomic.write_text(path / "index.md", text)
-    """
+    """The one output helper of every command that writes where it is told: made before any work, it
+    applies the rule (:func:`check_output`, same arguments); :meth:`writing` wraps the writing
+    (``with out.writing() as path: atomic.write_text(path, text)``)."""
 
     def __init__(
         self,

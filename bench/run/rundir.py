@@ -1,24 +1,13 @@
 """The run directory: its name and its files.
 
-A run directory is ``<output_root>/<dataset>-<protocol>/<method>/seed<S>-<tag>-<hash>``: ``tag``
-spells the command-line overrides (readable), ``hash`` is a digest of the resolved method,
-dataset, protocol and seed, and of the subset of the samples when one is taken (``limit``,
-``sample_ids``: another sample set, so a ``limit=4`` run never shares the full run's directory and
-a table never takes one for the other). Two configurations never share a directory. It holds
-
-- ``samples.jsonl``: one :class:`~catpose.bench.scoring.rows.SampleRow` per finished sample, appended and fsynced as soon as
-  it is done (a truncated last line from a kill is dropped on resume);
-- ``config.yaml`` (resolved), ``overrides.txt``, ``git_rev.txt``, ``run.json`` (counts and the
-  environment, :mod:`catpose.bench.run.environment`), ``run.lock`` (:mod:`catpose.bench.run.lock`);
-- ``samples.csv``, ``summary.csv`` / ``.md``, written by :mod:`catpose.bench.run.evaluate` from the
-  files alone.
-
-:func:`write_run` writes a whole run directory from rows made elsewhere (external predictions,
-:mod:`catpose.bench.interop.score`).
-
-The rows themselves (:class:`~catpose.bench.scoring.rows.SampleRow`) are
-:mod:`catpose.bench.scoring.rows`'s.
-"""
+``<output_root>/<dataset>-<protocol>/<method>/seed<S>-<tag>-<hash>``: ``tag`` spells the
+command-line overrides, ``hash`` digests the resolved method, dataset, protocol, seed and the
+subset of samples when one is taken (``limit``, ``sample_ids``), so two configurations never
+share a directory. It holds ``samples.jsonl`` (one :class:`~catpose.bench.scoring.rows.SampleRow`
+per finished sample, appended and fsynced), ``config.yaml`` (resolved), ``overrides.txt``,
+``git_rev.txt``, ``run.json`` (counts, environment), ``run.lock``, and ``samples.csv`` and
+``summary.{csv,md}`` written by :mod:`catpose.bench.run.evaluate` from the files alone.
+:func:`write_run` writes a whole run directory from rows made elsewhere (``bench score``)."""
 
 from __future__ import annotations
 
@@ -227,15 +216,10 @@ def write_run_json(out: Path, meta: dict) -> None:
 def write_run(
     out_dir: str | Path, rows: Sequence[dict], config: dict, info: dict | None = None, force: bool = False
 ) -> Path:
-    """Write a run directory (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries).
-
-    ``rows`` follow the ``samples.jsonl`` schema; ``config`` is a plain dict with at least
-    ``method``, ``dataset``, ``protocol`` (config-group dicts with ``name`` and ``_target_``)
-    and ``seed``. The folder is built beside ``out_dir`` and moved into place when complete
-    (:func:`catpose.atomic.building_dir`); an existing run or other non-empty folder at ``out_dir``
-    is refused unless ``force`` (:func:`catpose.bench.run.overwrite.check_new_output`). Returns
-    ``out_dir``.
-    """
+    """Write a run directory (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries) from
+    ``rows`` (the ``samples.jsonl`` schema) and ``config`` (a plain dict with ``method``, ``dataset``,
+    ``protocol`` nodes and ``seed``), built aside and moved into place; an existing run or other
+    non-empty folder at ``out_dir`` is refused unless ``force``. Returns ``out_dir``."""
     from catpose import atomic
     from catpose.bench.run.overwrite import check_new_output
 

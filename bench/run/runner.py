@@ -1,31 +1,16 @@
 """The runner: every sample of a dataset + protocol through one method, into one run directory.
 
-Stages with files between them (run -> estimates and errors -> tables):
-
-- ``samples.jsonl``: one JSON object per finished sample, appended and flushed as soon as it is
-  done, so a run killed midway loses nothing already written and a re-run skips finished
-  samples (resume). A truncated last line from a kill is ignored and rewritten.
-- ``config.yaml`` (the resolved config), ``git_rev.txt``, ``run.json`` (counts and the environment:
-  library versions, CPU, BLAS kernels).
-- ``samples.csv``, ``summary.csv``, ``summary.md``: made from ``samples.jsonl`` by
-  :func:`summarize_run`, never from in-memory state.
-
-``batch=N`` (default 1) hands the method ``N`` samples per call of its ``register_batch`` where
-it has one (ours: one solver launch for all their candidates, the GPU path with
-``method.optimiser.device=cuda``); each sample's ``runtime_s`` is then its share of the call.
+``samples.jsonl`` gets one row per finished sample, flushed as soon as it is done, so a killed
+run loses nothing written and a re-run skips finished samples; ``config.yaml``, ``git_rev.txt``
+and ``run.json`` (counts, environment) beside it; ``samples.csv`` and ``summary.{csv,md}`` are
+made from ``samples.jsonl`` (:func:`summarize_run`). ``batch=N`` hands the method ``N`` samples
+per ``register_batch`` call where it has one.
 
 A sample whose data fails to load, whose method raises, or whose estimate is not a finite rigid
-transform is recorded with ``status="failed"`` and its message; the run goes on. What is not the
-sample's own fault aborts the run in one line and records nothing for the sample in progress, so
-a re-run redoes it: Ctrl-C (at any moment: the heavy libraries are imported before the first
-sample), an import error, ``MemoryError``, an ``OSError`` writing the run directory. A run holds
-a lock on its directory (``run.lock``); a second run of the same configuration waits for it.
-
-The run directory's name and files are :mod:`catpose.bench.run.rundir`'s, its lock
-:mod:`catpose.bench.run.lock`'s, the rows :mod:`catpose.bench.scoring.rows`'; configs become
-objects in :mod:`catpose.bench.run.build`; one sample's load, registration and scoring are
-:mod:`catpose.bench.run.sample_run`'s; errors and summaries are :mod:`catpose.bench.run.evaluate`'s.
-"""
+transform is recorded as failed and the run goes on. What is not the sample's fault (Ctrl-C, an
+import error, ``MemoryError``, an ``OSError`` writing the run directory) aborts the run in one
+line and records nothing for the sample in progress. A run holds a lock on its directory
+(:mod:`catpose.bench.run.lock`); a second run of the same configuration waits for it."""
 
 from __future__ import annotations
 
@@ -41,7 +26,6 @@ from typing import Any
 
 from catpose import extras, kernel_threads
 from catpose.bench.run.build import build_choice, build_parts, validate_run_options
-from catpose.bench.run.choice_facts import facts_hook
 from catpose.bench.run.evaluate import format_summary, summarize_run
 from catpose.bench.run.lock import LOCK_FILE, RunLock
 from catpose.bench.run.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
@@ -55,7 +39,7 @@ from catpose.bench.run.rundir import (
     write_run_json,
     writing,
 )
-from catpose.bench.run.sample_run import run_batch, run_one
+from catpose.bench.run.sample_run import facts_hook, run_batch, run_one
 from catpose.errors import CatposeError, ConfigError, RunAborted
 from catpose.errors import one_line as _one_line
 
@@ -252,8 +236,8 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts, run_dir: Path 
         ids = shard_ids(ids, *sharding)
 
     out = run_dir if run_dir is not None else run_dir_for(cfg, overrides)
-    if sharding:  # every shard of a run has one config and one shard count (bench/run/shard_check.py)
-        from catpose.bench.run.shard_check import check_shard_start, comparable_config
+    if sharding:  # every shard of a run has one config and one shard count (bench/run/merge.py)
+        from catpose.bench.run.merge import check_shard_start, comparable_config
 
         check_shard_start(out, *sharding, comparable_config(cfg))
     with writing(out):
@@ -289,7 +273,7 @@ def _run_locked(
 
     shard_config = None
     if sharding:  # checked by _run before the lock; recorded in the shard's meta file
-        from catpose.bench.run.shard_check import comparable_config
+        from catpose.bench.run.merge import comparable_config
 
         shard_config = comparable_config(cfg)
     write_run_files(out, cfg, overrides)
@@ -374,7 +358,7 @@ def _finish_shard(out: Path, sharding: tuple[int, int], cfg: Any, base: dict, n_
             print(
                 f"{head}: {n_ids} samples ({n_run_now} run now) in {out}; the last shard to finish merges (or: bench merge {out})"
             )
-        if not isinstance(e, ShardsNotDone):  # a merge refused (bench/run/shard_check.py, overwrite.py): say why
+        if not isinstance(e, ShardsNotDone):  # a merge refused (bench/run/merge.py, overwrite.py): say why
             log.error("shard %d of %d is done but the run was not merged: %s", i, n, e)
         return out
     if cfg.get("print_summary", True):

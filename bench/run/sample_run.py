@@ -92,9 +92,34 @@ def _register_one(method: Any, row: dict, sample: Any, seed: int) -> dict:
     return _scored(row, sample, result, time.perf_counter() - t0)
 
 
+class ChoiceFacts:
+    """The facts hook of a run whose protocol keeps one of a view's K template registrations:
+    ``estimate_facts(dataset, sample, T_template_camera)``, the choice's (``chooser``,
+    :class:`catpose.methods.template_choice.TemplateChoice`) facts about one finished estimate
+    (4, 4) on the templates ``protocol`` gives its view (the cross check's ICP, the top offset, the
+    turned candidates); stored in the row's ``info``, where the protocol's scoring applies the rule."""
+
+    def __init__(self, protocol: Any, chooser: Any) -> None:
+        self.protocol = protocol
+        self.chooser = chooser
+
+    def estimate_facts(self, dataset: Any, sample: Any, T_template_camera: np.ndarray) -> dict:
+        templates, own = self.protocol.view_templates(dataset, sample)
+        return self.chooser.estimate_facts(sample.problem.points_camera, templates, own, T_template_camera)
+
+
+def facts_hook(protocol: Any, chooser: Any) -> ChoiceFacts | None:
+    """The hook of a run: None unless the protocol lists a view's templates (``templates``, and
+    ``relative`` with category templates) and the run has a choice
+    (:func:`catpose.bench.run.build.build_choice`)."""
+    if chooser is None or getattr(protocol, "view_templates", None) is None:
+        return None
+    return ChoiceFacts(protocol, chooser)
+
+
 def _with_estimate_facts(facts_hook: Any, dataset: Any, row: dict, sample: Any) -> dict:
     """``row`` with the facts about its finished estimate added to ``info``
-    (``facts_hook.estimate_facts``: a templates run's choice facts, :mod:`catpose.bench.run.choice_facts`);
+    (``facts_hook.estimate_facts``: a templates run's choice facts, :class:`ChoiceFacts`);
     a failed row, or no hook, is returned as it is. An error there is the sample's own: the
     estimate stays, and ``info["estimate_facts_error"]`` says why its facts are missing."""
     if row.get("status") != "ok" or not hasattr(facts_hook, "estimate_facts"):

@@ -1,19 +1,11 @@
 """Sweeps (``bench run -m``): one directory per sweep, one status file per job, an exit code.
 
-Hydra launches the jobs: in this process (basic launcher), in local processes (joblib), as
-Slurm jobs (submitit) or as Ray tasks. Whatever the launcher, every job ends by writing
-``<sweep dir>/<job num>/job.json`` from the job's own process (the :class:`SweepStatus` callback's
-``on_job_end``), and the parent process reads those files when the sweep ends
-(``on_multirun_end``), so a failed job reaches the parent's exit code through the file system,
-never through in-memory state that a process launcher would not carry back.
-
-``job.json``: ``{"job": N, "overrides": [...], "status": "ok" | "failed", "error": str | null,
-"run_dir": str | null, "label": str | null}``. ``bench table --sweep DIR`` builds a table from
-them (:func:`read_sweep`).
-
-The sweep directory is ``<output_root>/multirun/<hydra.job.name>/<YYYY-MM-DD_HH-MM-SS>`` (see
-``configs/run.yaml``): a new one per sweep, so a second sweep never overwrites the first's.
-"""
+Whatever Hydra's launcher (basic, joblib, submitit, Ray), every job writes
+``<sweep dir>/<job num>/job.json`` from its own process (:class:`SweepStatus`'s ``on_job_end``:
+``{"job", "overrides", "status": "ok"|"failed", "error", "run_dir", "label"}``) and the parent reads
+them when the sweep ends, so a failed job reaches the exit code through the file system. The sweep
+directory is ``<output_root>/multirun/<hydra.job.name>/<time>`` (``configs/run.yaml``); ``bench
+table --sweep DIR`` reads it (:func:`read_sweep`)."""
 
 from __future__ import annotations
 

@@ -1,30 +1,17 @@
 """Accuracy at any threshold, n-degree m-cm and the area under the accuracy curve: statistics of
-per-unit errors beside :func:`catpose.bench.scoring.metrics.summarize`'s fixed @10 / @30.
+per-unit errors beside :func:`catpose.bench.scoring.metrics.summarize`'s fixed @10 / @30
+(``bench table --metrics/--acc/--auc``, ``bench score --acc/--auc``; docs/evaluation.md).
 
-Metric keys (``bench table --metrics`` / ``--acc`` / ``--auc``, ``bench score --acc`` / ``--auc``):
+- ``acc<X>``: fraction of units whose ``err_deg`` is at most ``X`` degrees.
+- ``<n>deg<m>cm``: error at most ``n`` degrees and translation error of the object's origin in
+  the camera frame, ``|| (-R_est^T t_est) - (-R_gt^T t_gt) ||`` of the ``T_template_camera``
+  poses (NOCS's convention), at most ``m`` cm, with the row's ``info["scale_mm"]`` (mm per object
+  unit); NaN (a table's ``-``) where a unit has no scale. Rows without both poses (relative
+  pairs) use their ``trans_err``.
+- ``auc<X>``: the area under the accuracy curve from 0 to ``X`` degrees over ``X``, exactly:
+  ``mean(max(0, 1 - e / X))``.
 
-``acc<X>``
-    fraction of units whose error (``err_deg``: rotation, or main-axis angle for symmetric
-    objects) is at most ``X`` degrees. ``acc10`` and ``acc30`` equal the summaries' @10 / @30.
-``<n>deg<m>cm``
-    fraction with error at most ``n`` degrees **and** translation error at most ``m``
-    centimetres (``5deg5cm``, ``10deg10cm``: the category-level pose papers' metrics). The
-    translation error is that of the object's origin (the template frame's origin, the
-    bounding-box centre) in the camera frame, ``|| (-R_est^T t_est) - (-R_gt^T t_gt) ||`` of the
-    ``T_template_camera`` poses (NOCS's convention), turned into centimetres with the row's
-    ``info["scale_mm"]`` (millimetres per object unit). Only rows that carry that scale have
-    metric units: BOP datasets and the synthetic set with a sensor model
-    (``dataset.sensor=kinect|realsense``, physical sizes). Where a unit has none the statistic
-    is NaN (a table shows ``-``), never a guess. Rows without both poses (relative-pose pairs)
-    use their ``trans_err``.
-``auc<X>``
-    the area under the accuracy-vs-threshold curve from 0 to ``X`` degrees, divided by ``X``
-    (1 = every error is 0, 0 = none below ``X``). Computed exactly, not on a grid of
-    thresholds: ``(1/X) * integral_0^X acc(t) dt = mean(max(0, 1 - e / X))``.
-
-Failed units (``status != "ok"`` or no error) count as :data:`FAILED_ERROR_DEG` and as wrong in
-every statistic, as in the summaries.
-"""
+Failed units count as :data:`FAILED_ERROR_DEG` and as wrong in every statistic."""
 
 from __future__ import annotations
 

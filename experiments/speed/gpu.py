@@ -1,6 +1,6 @@
 """Solver-only GPU check of ours' batched IRLS solver: needs torch and NumPy, nothing else.
 
-``bench perf --device cuda --batch B`` times the whole pipeline but needs the project's full
+``bench perf --set optimiser.device=cuda`` times the whole pipeline but needs the project's full
 environment (Open3D, Hydra) on the GPU machine. This script times only the part that runs on the
 GPU, on problems of the default size (``m = 18`` candidates, ``n = 32`` input keypoints, ``2n``
 template keypoints per candidate, 5 + 5 iterations), with ``B`` problems per launch, and checks the

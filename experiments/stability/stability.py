@@ -1,5 +1,7 @@
-"""How far a table's numbers move under another CPU's arithmetic: the same runs made under other
-code paths of the numerical libraries, compared unit by unit.
+"""How far a table's numbers move under another CPU's arithmetic: ``bench table`` with notes that
+compare its runs with the same runs made under other code paths of the numerical libraries.
+
+    python experiments/stability/stability.py BENCH_TABLE_ARGS... --stability ROOT [--stability ROOT ...]
 
 An ambiguous view (a mug with its handle hidden, a symmetric can, a solver's tie-break) can be
 decided by the last bit of a sum, and the last bits depend on the CPU's BLAS kernel, NumPy's
@@ -10,7 +12,8 @@ their twins there (a run directory is ``<output_root>/<dataset>-<protocol>/<meth
 twin is the same last three path parts under another root) and says, per run, how many scored
 units (views, view pairs) changed their error by more than :data:`CHANGED_DEG` and the range of
 the overall mean and accuracies. A difference between two methods smaller than those ranges is
-not evidence that one is better.
+not evidence that one is better. The table is ``bench table``'s (the same options), the notes
+under it.
 """
 
 from __future__ import annotations
@@ -143,3 +146,45 @@ def stability_notes(
             f"@10 {_range(s.acc10, '.3f')}, @30 {_range(s.acc30, '.3f')}"
         )
     return lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bench table``'s options and ``--stability ROOT`` (repeatable): the table with the notes."""
+    from catpose import atomic
+    from catpose.bench.report import table_command, tables
+
+    ap = table_command.parser()
+    ap.add_argument("--stability", action="append", default=[], metavar="ROOT", help="an output root of twins")
+    args = ap.parse_args(argv)
+    swept = table_command.sweep_runs(args.sweep)
+    out = table_command.output(args, swept[0], args.stability)
+    table, left_out, runs, labels = table_command.make_table(args, swept)
+    if args.stability:
+        spec = tables.LAYOUTS[args.layout]
+        group_of = spec.group_of or (lambda run: "")
+        oracle = (args.error or spec.error) == "oracle_err_deg"
+
+        def error_of(run) -> str:
+            return "oracle_err_deg" if oracle and run.protocol == "templates" else "err_deg"
+
+        names = [f"{group_of(r)} / {x}".lstrip(" /") for r, x in zip(runs, tables.run_labels(runs, labels, group_of))]
+        table.notes += [""] + stability_notes(runs, names, args.stability, error_of)
+    text = tables.RENDERERS[args.format](table)
+    if out is None:
+        print(text, end="")
+    else:
+        with out.writing() as path:
+            atomic.write_text(path, text)
+    return 2 if left_out else 0
+
+
+if __name__ == "__main__":
+    import sys
+
+    from catpose.errors import CatposeError, command_error
+
+    try:
+        sys.exit(main())
+    except CatposeError as e:
+        print(command_error("table", e), file=sys.stderr)
+        sys.exit(2)
