@@ -49,7 +49,7 @@ test: setup
 # Repository hygiene: ruff clean and ruff formatted (pyproject.toml [tool.ruff]), then the tests that
 # check the repository, not behaviour: the module-size rule, the import rules, the studies' layout,
 # the changelog's format, the docs' quotes of results/ and their links.
-LINT_TESTS := tests/test_module_size.py tests/test_import_rules.py tests/test_experiments_layout.py \
+LINT_TESTS := tests/test_module_size.py tests/test_product_size.py tests/test_import_rules.py tests/test_experiments_layout.py \
 	tests/test_changelog.py tests/test_doc_quotes.py
 lint: setup
 	$(VENV)/bin/ruff check .
