@@ -40,7 +40,7 @@ from catpose.datasets.bop_models import BopModels
 from catpose.datasets.dataset import ObjectDataset
 from catpose.datasets.layout_check import LayoutReport
 from catpose.datasets.templates import TemplateOptions
-from catpose.errors import DatasetError
+from catpose.errors import ConfigError, DatasetError
 from catpose.types import Template
 
 
@@ -73,6 +73,8 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         targets: the split's target list (``test_targets_bop19.json``): only the listed
             (scene, image, object) are used when the file exists (None: every frame).
             ``self.filters`` says which filters were applied.
+        mask_noise: the loaded masks corrupted as a segmenter's are, strength drawn per instance
+            up to this (:mod:`catpose.datasets.mask_noise`; 0: the masks as loaded), seeded by the run.
     """
 
     name = "bop"
@@ -101,6 +103,7 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         sensor: str | None = None,
         min_visib_fract: float = 0.1,
         targets: str | None = "test_targets_bop19.json",
+        mask_noise: float = 0.0,
     ) -> None:
         self.root = Path(root)
         if not self.root.is_dir():
@@ -109,6 +112,9 @@ class BOP(BopModels, BopFrames, ObjectDataset):
             )
         if mask not in ("auto", "mask_visib", "render"):
             raise DatasetError(f"dataset.mask {mask!r} is not auto, mask_visib or render")
+        if not 0.0 <= float(mask_noise) <= 1.0:
+            raise ConfigError(f"dataset.mask_noise={mask_noise!r} must be in [0, 1] (0: the masks as loaded)")
+        self.mask_noise = float(mask_noise)
         self.split = str(split)
         self.layout = BopLayout(self.root, self.split, models_dir, depth_ext, sensor)
         self.min_visib_fract = float(min_visib_fract)
@@ -139,6 +145,21 @@ class BOP(BopModels, BopFrames, ObjectDataset):
         self._instances: dict[int, Template] = {}
         self._ids: list[str] | None = None
         self._warned_no_info: set[int] = set()
+
+    def instance_frame(self, obs_id: str):
+        """The frames' loader's frame (:meth:`BopFrames.instance_frame`), its mask corrupted when
+        ``mask_noise`` > 0."""
+        bf = super().instance_frame(obs_id)
+        if self.mask_noise <= 0:
+            return bf
+        from dataclasses import replace
+
+        from catpose.datasets.mask_noise import corrupt_mask
+
+        f = bf.frame
+        return bf._replace(
+            frame=replace(f, mask=corrupt_mask(f.mask, f.depth_in_unit, self.mask_noise, self.seed, obs_id))
+        )
 
     def check_layout(self, name: str, report: LayoutReport) -> None:
         check_bop(name, self, report)

@@ -180,9 +180,6 @@ class Clutter(BOP):
         min_visib_fract: float = 0.1,
     ) -> None:
         self.spec = spec
-        if not 0.0 <= float(mask_noise) <= 1.0:
-            raise ConfigError(f"dataset.mask_noise={mask_noise!r} must be in [0, 1] (0: the rendered masks)")
-        self.mask_noise = float(mask_noise)
         self.models_root = Path(root) / "models"
         self.cache_dir = Path(cache_dir) if cache_dir else None
         self.generate_missing = bool(generate_missing)
@@ -205,20 +202,8 @@ class Clutter(BOP):
             seed=seed,
             min_visib_fract=min_visib_fract,
             targets=None,
+            mask_noise=mask_noise,
         )
-
-    def instance_frame(self, obs_id: str):
-        """The BOP loader's frame, its mask corrupted when ``mask_noise`` > 0."""
-        bf = super().instance_frame(obs_id)
-        if self.mask_noise <= 0:
-            return bf
-        from dataclasses import replace
-
-        from catpose.datasets.mask_noise import corrupt_mask
-
-        f = bf.frame
-        mask = corrupt_mask(f.mask, f.depth_in_unit, self.mask_noise, self.seed, obs_id)
-        return bf._replace(frame=replace(f, mask=mask))
 
     def observation_ids(self) -> list[str]:
         """The ids of the loaded scenes' instances; missing scenes are generated first."""

@@ -14,7 +14,7 @@ from catpose.datasets.bop import BOP
 from catpose.datasets.depthio import fit_ground_plane
 from catpose.datasets.render import PinholeCamera, render_depth
 from catpose.datasets.templates import TemplateOptions
-from catpose.errors import DatasetError
+from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import invert_T, look_at_T_camera_world, make_T, transform_points
 
 CAMERA = PinholeCamera(320, 240, 300.0, 300.0, 159.5, 119.5)
@@ -425,3 +425,17 @@ def test_issue60_targets_without_ground_truth_are_said(bop_root):
     ds = BOP(str(bop_root), categories=CATS)
     with pytest.warns(UserWarning, match=r"1 targets of test_targets_bop19.json have no ground truth .*object 2"):
         assert ds.observation_ids() == ["box/000001/000000/0"]
+
+
+def test_mask_noise_corrupts_the_loaded_mask_by_seed(bop_root):
+    """``dataset.mask_noise`` gives the BOP loader a segmenter's masks (datasets/mask_noise.py):
+    0 leaves the mask, 1 moves it, the same under one seed, out of range is a one-line error."""
+    sid = "box/000001/000000/0"
+    clean = BOP(str(bop_root), categories=CATS, max_points=0).instance_frame(sid).frame.mask
+    noisy = [
+        BOP(str(bop_root), categories=CATS, max_points=0, mask_noise=1.0).instance_frame(sid).frame.mask for _ in (0, 1)
+    ]
+    np.testing.assert_array_equal(noisy[0], noisy[1])
+    assert noisy[0].shape == clean.shape and (noisy[0] != clean).any()
+    with pytest.raises(ConfigError, match="dataset.mask_noise"):
+        BOP(str(bop_root), mask_noise=1.5)

@@ -176,21 +176,22 @@ def test_a_winner_turned_half_way_round_meets_its_half_turn_and_loses(template):
     its half turns; the one about the up comes back to the truth after the refinement and costs
     less on the final lattice. The truth itself stays."""
     from catpose.methods.ours import check, choice
+    from catpose.methods.ours.refine import final_inputs
     from catpose.methods.ours.resting import hypotheses
 
     method = _ours()
     sel = method.selection
     p, T_true = scene_problem(template, 1)
     hyps = list(hypotheses(template, RestingSettings(max_poses=0)))
-    cands, feats = method.candidates(p), method.template_features(template)
     verifiers = (check.depth_verifier(sel, p), check.final_verifier(sel, p))
+    fixed = final_inputs(verifiers[1], template)
     gravity = (p.ground_normal_camera, np.stack([h.up for h in hyps]), None)
     T_flip = compose_T(make_T(np.diag([-1.0, -1.0, 1.0]), np.zeros(3)), T_true)  # 180 deg about the template's z
     timings = {"verification": 0.0, "refinement": 0.0}
     for T_win, turn in ((T_flip, 3), (T_true, 0)):
         score = float(verifiers[1].scores(T_win[None])[0])
         T, s, rest, got, (T_turned, turned_costs) = choice.against_half_turns(
-            sel, cands, feats, p, verifiers, T_win, score, 0, gravity, timings
+            sel, fixed, verifiers, T_win, score, 0, gravity, timings
         )
         assert got == turn and rest == 0
         assert rotation_error_deg(T[:3, :3], T_true[:3, :3]) < 3.0

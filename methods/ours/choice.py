@@ -12,11 +12,12 @@ distance: :func:`dictionary_pool`), and the coarse search over every stable rest
    point-to-plane ICP on the input's Chamfer subset (:mod:`catpose.methods.ours.refine`), scored
    again, filtered by gravity (any resting direction), and the ``depth_final_refine`` of lowest
    depth cost go on (the pool's poses as they were compete too).
-3. Those are refined on all input points and scored again on the final lattice
-   (``depth_final_pixels``); the lowest cost wins.
+3. Those are refined on the depth image's mask pixels of the final lattice against a fixed sample
+   of the template's mesh (:func:`catpose.methods.ours.refine.final_inputs`: points no seed
+   draws) and scored again on the final lattice (``depth_final_pixels``); the lowest cost wins.
 4. With ``depth_final_turns``, the winner meets the one of its three half turns about the
-   template's axes that the coarse lattice scores best (of those gravity allows), refined on all
-   input points and compared on the final lattice: a near-symmetric object's half turn explains
+   template's axes that the coarse lattice scores best (of those gravity allows), refined as in
+   step 3 and compared on the final lattice: a near-symmetric object's half turn explains
    the image almost as well as the truth, and the coarse lattice of step 2 often drops the right
    one of the two before step 3 sees it. The lower cost wins; its depth score is the ``score``.
 5. When the winner explains fewer than ``depth_min_inliers`` of the mask's inner pixels (a
@@ -43,7 +44,7 @@ from catpose.geometry import compose_T, norm3
 from catpose.methods.ours.candidates import Candidates, TemplateFeatures
 from catpose.methods.ours.check import DepthVerifier, final_verifier
 from catpose.methods.ours.point_choice import chamfer_distances, finish
-from catpose.methods.ours.refine import refine_poses
+from catpose.methods.ours.refine import final_inputs, refine_poses
 from catpose.methods.ours.resting import Hypothesis
 from catpose.methods.ours.settings import SelectionSettings
 from catpose.methods.pose_scores import REACH_DEG, half_turns
@@ -123,12 +124,13 @@ def select_by_depth(
     top = np.argsort(np.where(keep, cost, np.inf), kind="stable")[: sel.depth_final_refine]
     top = top[np.isfinite(cost[top])] if np.isfinite(cost[top]).any() else top[:1]
     T_top = T_exp[top].copy()
-    if sel.refine:  # each refined on all points, and as it was (whichever costs less on the final lattice)
-        T_top = np.concatenate([refine_poses(cands.points, feats.pairing, problem.template.normals, T_top), T_top])
+    coarse, verifier = verifier, final_verifier(sel, problem, verifier)
+    fixed = final_inputs(verifier, problem.template)  # the same under every seed
+    if sel.refine:  # each refined on the image's points, and as it was (whichever costs less on the final lattice)
+        T_top = np.concatenate([refine_poses(*fixed, T_top), T_top])
         top = np.concatenate([top, top])
     timings["refinement"] += time.perf_counter() - t0
     t0 = time.perf_counter()
-    coarse, verifier = verifier, final_verifier(sel, problem, verifier)
     top_scores = verifier.scores(T_top)
     top_cost, top_keep, rest_top = _costs(sel, top_scores, T_top, *gravity)
     b = int(np.argmin(np.where(top_keep, top_cost, np.inf))) if top_keep.any() else int(np.argmin(top_cost))
@@ -140,7 +142,7 @@ def select_by_depth(
     compared = (T_top, np.where(top_keep, top_cost, np.inf))  # every pose scored on the final lattice
     if sel.depth_final_turns > 0:
         T_out, score, rest, final_turn, turned = against_half_turns(
-            sel, cands, feats, problem, (coarse, verifier), T_out, score, rest, gravity, timings
+            sel, fixed, (coarse, verifier), T_out, score, rest, gravity, timings
         )
         compared = (np.concatenate([compared[0], turned[0]]), np.concatenate([compared[1], turned[1]]))
     second = runner_up(T_out, score, *compared, axis)
@@ -290,9 +292,7 @@ def dictionary_pool(
 
 def against_half_turns(
     sel: SelectionSettings,
-    cands: Candidates,
-    feats: TemplateFeatures,
-    problem: RegistrationProblem,
+    fixed: tuple,
     verifiers,
     T_win: np.ndarray,
     score: float,
@@ -302,7 +302,8 @@ def against_half_turns(
 ) -> tuple[np.ndarray, float, int, int, tuple[np.ndarray, np.ndarray]]:
     """Step 4: the winner ``T_win`` (4, 4, template frame) against the one of its three half turns
     about the template's axes that the coarse lattice scores best (of those the gravity filter
-    keeps; by the same cost as every comparison, :func:`_costs`), refined on all input points and
+    keeps; by the same cost as every comparison, :func:`_costs`), refined on ``fixed`` (the
+    points, template grid and normals of :func:`catpose.methods.ours.refine.final_inputs`) and
     scored with the winner on the final lattice. ``verifiers``: (coarse, final); ``gravity``:
     (ground normal, resting directions, symmetry axis). Returns the pose that costs less, its
     depth score, its resting direction, which turn it is (0: the winner itself, 1-3: about x,
@@ -321,8 +322,8 @@ def against_half_turns(
     best = [t for t in best if keep[t]]
     t0 = time.perf_counter()
     T_turn = T_turns[best]
-    if sel.refine:  # each refined on all points, and as it was (ICP can make a right pose worse)
-        T_turn = np.concatenate([refine_poses(cands.points, feats.pairing, problem.template.normals, T_turn), T_turn])
+    if sel.refine:  # each refined on the fixed points, and as it was (ICP can make a right pose worse)
+        T_turn = np.concatenate([refine_poses(*fixed, T_turn), T_turn])
         best = best + best
     timings["refinement"] += time.perf_counter() - t0
     t0 = time.perf_counter()

@@ -77,12 +77,13 @@ class SelectionSettings:
         depth_free_weight: ``depth``: cost of a free-space violation relative to an unexplained
             mask pixel.
         depth_top_k: ``depth``: poses of the pool (by their depth cost) refined and scored again.
-        depth_final_refine: ``depth``: poses refined on all input points and compared on the
-            final lattice at the end.
+        depth_final_refine: ``depth``: poses refined on the mask's pixels of the final lattice
+            (against a fixed sample of the mesh: no seed draws them) and compared on that
+            lattice at the end.
         depth_final_pixels: ``depth``: lattice pixels in the mask of the last comparisons.
         depth_final_turns: ``depth``: the winner meets this many of its half turns about the
-            template's axes (those the coarse lattice scores best), each refined on all input
-            points and compared on the final lattice (0: none; true / false read as 1 / 0).
+            template's axes (those the coarse lattice scores best), each refined as the
+            ``depth_final_refine`` poses and compared on the final lattice (0: none; true / false read as 1 / 0).
         depth_min_inliers: ``depth``: when the winner explains fewer of the mask's inner pixels
             than this, the template is taken to be unlike the object and the ``chamfer`` rule
             chooses among the candidates of the template's own up instead.
