@@ -60,6 +60,7 @@ def pair_rows(ours: dict[str, dict], ppf: dict[str, dict]) -> list[dict]:
             to_second, margin, err2 = math.inf, math.inf, math.inf
         out.append(
             {
+                "obj_id": (o.get("info") or {}).get("obj_id"),
                 "ours": o["err_deg"],
                 "second": err2,
                 "margin": margin,
@@ -118,6 +119,18 @@ def source_tables(name: str, per_seed: list[list[dict]]) -> list[str]:
         near_right = sum(d[0] <= FOUND_DEG for d in dist)
         near_wrong = sum(d[1] <= FOUND_DEG for d in dist)
         lines.append(f"| {fmt_t(t)} | {len(ties)} | {ours_right} | {near_right} | {near_wrong} |")
+    t, x = MARGINS[0], NEAR_DEG[0]
+    lines += [
+        "",
+        f"Per object (BOP obj_id), all seeds pooled: right (@10) of n; the rule at t = {t:g}, X = {x:.0f}:",
+        "",
+    ]
+    lines += ["| obj_id | n | ours | PPF | rule |", "|---|---|---|---|---|"]
+    pooled = [(r, e) for rows in per_seed for r, e in zip(rows, rule_errors(rows, t, x), strict=True)]
+    for obj in sorted({r["obj_id"] for r, _ in pooled}, key=lambda v: -1 if v is None else v):
+        mine = [(r, e) for r, e in pooled if r["obj_id"] == obj]
+        right = [sum(v <= FOUND_DEG for v in col) for col in zip(*[(r["ours"], r["ppf"], e) for r, e in mine])]
+        lines.append(f"| {obj} | {len(mine)} | {right[0]} | {right[1]} | {right[2]} |")
     return lines + [""]
 
 
