@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from catpose import atomic
 from catpose.errors import CatposeError
 
 #: the check's variants: name -> (tau, object unit; normal weight; noise_tau, in units of the
@@ -236,10 +237,10 @@ def main(argv: list[str] | None = None) -> int:
         for seed in (int(s) for s in args.seeds.split(",")):
             rows += sample_rows(args.set, seed, args.limit, variants, shared)
         args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.with_suffix(".jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+        atomic.write_text(args.out.with_suffix(".jsonl"), "".join(json.dumps(r) + "\n" for r in rows))
         title = {"ycbv": "Shared YCB-V frames, scene 1 (development)",
                  "clutter": "Clutter dev scenes 0-14, segmenter-like masks (mask_noise 1)"}[args.set]  # fmt: skip
-        args.out.write_text(table(rows, variants, f"{title}: the check's separation, seeds {args.seeds}"))
+        atomic.write_text(args.out, table(rows, variants, f"{title}: the check's separation, seeds {args.seeds}"))
     except CatposeError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from catpose import atomic
 from catpose.api.result import AMBIGUOUS_MARGIN
 from catpose.bench.run.rundir import latest_rows
 from catpose.bench.scoring.metrics import FOUND_DEG, sample_errors
@@ -153,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.dest is None:
         print(text)
     else:
-        args.dest.write_text(text)
+        atomic.write_text(args.dest, text)
         print(args.dest)
     return 0
 
