@@ -16,7 +16,6 @@ _TABLE = (
     ("run", "run.command", "main", "run a method on a dataset: bench run method=ours dataset=synthetic [-m sweeps]"),
     ("evaluate", "run.command", "evaluate_main", "recompute errors and summaries of run directories from their files"),
     ("table", "report.table_command", "main", "the paper's tables (Markdown, LaTeX, CSV) from run directories"),
-    ("merge", "run.merge", "main", "samples.jsonl and summaries of a sharded run (shards=N) from its shard files"),
     ("report", "report.report_folder", "main", "tables and plots of run directories in one folder"),
     ("perf", "perf.registration", "main", "seconds per registration and per stage for ours and ICP"),
     ("templates", "category.template_medoids", "main", "choose K category templates by K-medoids over F-score"),

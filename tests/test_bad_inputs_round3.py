@@ -316,14 +316,12 @@ def test_case_22_28_symlink_loops_and_files_given_as_runs(tmp_path, capsys):
     preds = per_sample_csv(tmp_path / "p.csv", rows([7.0]))
     assert bench(["report", str(preds), "--out", str(tmp_path / "r")]) == 2
     assert f"{preds} is a file; pass run directories" in one_error_line(capsys, "report")
-    assert bench(["merge", str(preds)]) == 2
-    assert f"{preds} is a file; pass a run directory" in one_error_line(capsys, "merge")
 
 
-def test_case_22_28_loops_and_folder_samples_given_to_report_table_merge_evaluate(tmp_path, capsys):
+def test_case_22_28_loops_and_folder_samples_given_to_report_table_evaluate(tmp_path, capsys):
     (tmp_path / "a").symlink_to(tmp_path / "b")
     (tmp_path / "b").symlink_to(tmp_path / "a")
-    for args in (["report", "--out", str(tmp_path / "r")], ["table"], ["merge"], ["evaluate"]):
+    for args in (["report", "--out", str(tmp_path / "r")], ["table"], ["evaluate"]):
         assert bench([args[0], str(tmp_path / "a"), *args[1:]]) == 2
         assert f"{tmp_path / 'a'} is a loop of symbolic links" in one_error_line(capsys, args[0])
     (tmp_path / "run" / "samples.jsonl").mkdir(parents=True)

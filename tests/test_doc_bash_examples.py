@@ -33,7 +33,6 @@ SKIPS: list[tuple[str, str]] = [
     (r"hydra/launcher=(?!basic)", "needs a launcher of the cluster extra (tests/test_scaleout.py runs them)"),
     (r"^bench regress", "the regression gate: tests/test_regress.py runs it on its suites"),
     (r"^bench perf", "timing: tests/test_perf.py runs bench perf on small problems"),
-    (r"^bench merge", "merges the sharded run of the example before it, which needs a launcher of the cluster extra"),
 ]
 
 

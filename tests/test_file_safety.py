@@ -1,5 +1,5 @@
 """Files you can trust (issue 23): atomic writes, readers that never skip in silence, no command
-writing into a run it did not create, shards of one config only.
+writing into a run it did not create.
 
 docs/file-safety.md states the rules these tests check.
 """
@@ -7,7 +7,6 @@ docs/file-safety.md states the rules these tests check.
 from __future__ import annotations
 
 import errno
-import json
 import shutil
 import sys
 from pathlib import Path
@@ -19,7 +18,7 @@ from catpose import atomic
 from catpose.bench.cli import main as bench
 from catpose.bench.run.rows_file import CutOffLineWarning
 from catpose.bench.run.rundir import SampleWriter, read_rows, write_run
-from catpose.errors import ConfigError, DatasetError, InvalidInputError, RunAborted
+from catpose.errors import DatasetError, InvalidInputError, RunAborted
 
 TESTS = Path(__file__).resolve().parent
 sys.path.insert(0, str(TESTS))
@@ -283,64 +282,3 @@ def test_table_destination_never_overwrites_verified_rows(tmp_path):
         assert path == tmp_path / "airplane.new.csv" and "1 row(s) marked verified" in note and str(path) in note
     path.write_text("x")
     assert table_destination(t)[0] == tmp_path / "airplane.new2.csv"
-
-
-# ---------------------------------------------------------------------------------------------
-# 6. shards and merges compare the full config
-
-
-def _toy(tmp_path: Path, *overrides: str):
-    from test_bad_inputs import toy_cfg
-
-    return toy_cfg(tmp_path, overrides)
-
-
-def test_shards_of_different_configs_are_refused(tmp_path):
-    """Finding 5: shard 0 with limit=3 and shard 1 with limit=5 merged into a run of neither; since
-    issue 59 a limit is another sample set, so the two shards are shards of two runs."""
-    from catpose.bench.run.runner import run
-
-    cfg0 = _toy(tmp_path, "shards=2", "shard=0", "limit=3")
-    cfg0.dataset.num_views = 6
-    out = run(cfg0)
-    cfg1 = _toy(tmp_path, "shards=2", "shard=1", "limit=5")
-    cfg1.dataset.num_views = 6
-    other = run(cfg1)
-    assert other != out and not (out / "samples.shard-1-of-2.jsonl").exists()
-    cfg1.limit = 3
-    run(cfg1)  # the same config: merged
-    assert [r["sample_id"] for r in read_rows(out / "samples.jsonl")] == ["block/0/v0", "block/0/v1", "block/0/v2"]
-    # a shards=3 job into the finished shards=2 folder
-    cfg3 = _toy(tmp_path, "shards=3", "shard=0", "limit=3")
-    cfg3.dataset.num_views = 6
-    with pytest.raises(ConfigError, match=r"already holds a run in 2 shards .*run it with shards=2"):
-        run(cfg3)
-    assert not list(out.glob("*of-3*"))
-
-
-def test_merge_refuses_shards_whose_recorded_configs_differ(tmp_path):
-    from catpose.bench.run.merge import merge_run, shard_samples_file, write_shard_meta
-
-    for i, limit in ((0, 3), (1, 5)):
-        write_shard_meta(tmp_path, i, 2, [f"s{i}"], finished=True, config={"limit": limit, "seed": 0})
-        (tmp_path / shard_samples_file(i, 2)).write_text(json.dumps({"sample_id": f"s{i}"}) + "\n")
-    with pytest.raises(DatasetError, match=r"shards 0 and 1 of 2 were run with different configs \(limit=3 vs 5\)"):
-        merge_run(tmp_path)
-    assert not (tmp_path / "samples.jsonl").exists()
-
-
-def test_merge_never_drops_rows_it_did_not_write(tmp_path, capsys):
-    from catpose.bench.run.merge import shard_samples_file, write_shard_meta
-
-    run_dir = write_run(tmp_path / "run", rows([5.0, 6.0, 7.0]), CFG)  # a serial run of 3 samples
-    for i in range(2):  # shards of the first 2 samples only
-        sid = f"mug/i{i}/v0"
-        write_shard_meta(run_dir, i, 2, [sid], finished=True)
-        (run_dir / shard_samples_file(i, 2)).write_text(json.dumps(rows([1.0 + i])[0] | {"sample_id": sid}) + "\n")
-    before = (run_dir / "samples.jsonl").read_bytes()
-    assert bench(["merge", str(run_dir)]) == 2
-    line = one_error_line(capsys, "merge")
-    assert "holds 1 sample(s) that no shard lists (e.g. 'mug/i2/v0')" in line and "--force" in line
-    assert (run_dir / "samples.jsonl").read_bytes() == before
-    assert bench(["merge", str(run_dir), "--force"]) == 0
-    assert [r["sample_id"] for r in read_rows(run_dir / "samples.jsonl")] == ["mug/i0/v0", "mug/i1/v0"]

@@ -331,37 +331,23 @@ def test_a_full_disk_is_one_line_and_leaves_nothing(command, world, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.txt"]  # no file, no half-built folder
 
 
-def _sharded_run(tmp_path: Path) -> Path:
-    """A toy run made in two shards and merged (``samples.jsonl`` then removed: a merge to do)."""
-    from test_bad_inputs import toy_cfg
-
-    from catpose.bench.run.runner import run
-
-    for i in range(2):
-        out = run(toy_cfg(tmp_path, ["shards=2", f"shard={i}"]))
-    (out / "samples.jsonl").unlink()
-    return out
-
-
-@pytest.mark.parametrize("command", ["evaluate", "merge"])
-def test_evaluate_and_merge_into_a_read_only_run_directory_are_one_line(command, world, tmp_path, capsys):
-    """They write only a run's own files (summaries; a sharded run's samples.jsonl), atomically."""
-    run = _sharded_run(tmp_path) if command == "merge" else Path(shutil.copytree(world["run"], tmp_path / "run"))
+def test_evaluate_into_a_read_only_run_directory_is_one_line(world, tmp_path, capsys):
+    """It writes only a run's own files (summaries), atomically."""
+    run = Path(shutil.copytree(world["run"], tmp_path / "run"))
     before = snapshot(run)
     with read_only(run):
-        assert bench([command, str(run)]) == 2
+        assert bench(["evaluate", str(run)]) == 2
         err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
-        assert len(err) == 1 and err[0].startswith(f"bench {command}: error: cannot write the run directory"), err
+        assert len(err) == 1 and err[0].startswith("bench evaluate: error: cannot write the run directory"), err
     assert snapshot(run) == before
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("command", ["evaluate", "merge"])
-def test_evaluate_and_merge_on_a_full_disk_are_one_line_and_keep_the_old_files(command, world, tmp_path):
-    run = _sharded_run(tmp_path) if command == "merge" else Path(shutil.copytree(world["run"], tmp_path / "run"))
+def test_evaluate_on_a_full_disk_is_one_line_and_keeps_the_old_files(world, tmp_path):
+    run = Path(shutil.copytree(world["run"], tmp_path / "run"))
     before = snapshot(run)
     proc = subprocess.run(
-        [sys.executable, "-m", "catpose.bench.cli", command, str(run)],
+        [sys.executable, "-m", "catpose.bench.cli", "evaluate", str(run)],
         capture_output=True,
         text=True,
         env=dict(os.environ, PYTHONPATH=str(TESTS)),

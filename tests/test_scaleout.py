@@ -1,8 +1,8 @@
-"""Scale-out: sweeps through Hydra launchers and sharded runs give the serial run's tables.
+"""Scale-out: sweeps through Hydra launchers give the serial run's tables.
 
 The serial reference is ``bench run -m`` with Hydra's basic launcher (one job after another in
 one process). Launcher tests need the cluster extra (``make cluster``) and skip without it; the
-shard and failed-job tests need nothing beyond the default install.
+failed-job tests need nothing beyond the default install.
 """
 
 from __future__ import annotations
@@ -15,8 +15,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
-from catpose.errors import ConfigError, DatasetError
 
 BENCH = [sys.executable, "-m", "catpose.bench.cli"]
 TINY = [
@@ -76,72 +74,6 @@ def serial(tmp_path_factory) -> Path:
 
 
 # ---------------------------------------------------------------------------------------------
-# shards: pure functions
-
-
-def test_shards_partition_the_ids_in_order():
-    from catpose.bench.run.merge import shard_ids
-
-    ids = [f"s{i:02d}" for i in range(11)]
-    for n in (1, 2, 3, 4, 11, 12):
-        parts = [shard_ids(ids, i, n) for i in range(n)]
-        assert sorted(sum(parts, [])) == ids  # every id exactly once
-        assert parts == [shard_ids(ids, i, n) for i in range(n)]  # deterministic
-        interleaved = [p[j] for j in range(max(map(len, parts))) for p in parts if j < len(p)]
-        assert interleaved == ids  # round-robin restores the run order (what merge relies on)
-
-
-@pytest.mark.parametrize(
-    "shard, shards, needle",
-    [
-        (None, 4, "shards=4 needs shard=I"),
-        (4, 4, "out of range"),
-        (-1, 2, "out of range"),
-        ("a", 2, "shard='a' is not an integer"),
-        (0, 0, "N >= 1"),
-    ],
-)
-def test_bad_shard_values_name_the_key(shard, shards, needle):
-    from catpose.bench.run.merge import parse_shard
-
-    with pytest.raises(ConfigError, match=needle):
-        parse_shard(shard, shards)
-
-
-def test_parse_shard_accepts_unsharded_and_sharded():
-    from catpose.bench.run.merge import parse_shard
-
-    assert parse_shard(None, 1) is None and parse_shard(0, 1) is None
-    assert parse_shard(3, 4) == (3, 4) and parse_shard("1", "2") == (1, 2)
-
-
-def test_merge_restores_order_and_names_a_missing_shard(tmp_path):
-    from catpose.bench.run.merge import merged_rows, shard_ids, shard_meta_file, shard_samples_file, write_shard_meta
-
-    ids = [f"x{i}" for i in range(7)]
-    for i in range(3):
-        mine = shard_ids(ids, i, 3)
-        write_shard_meta(tmp_path, i, 3, mine, finished=True)
-        # written in reverse order, and one sample twice (a retry): the last row counts
-        rows = [{"sample_id": s, "status": "ok", "v": 1} for s in reversed(mine)] + [
-            {"sample_id": mine[0], "status": "ok", "v": 2}
-        ]
-        (tmp_path / shard_samples_file(i, 3)).write_text("".join(json.dumps(r) + "\n" for r in rows))
-    merged = merged_rows(tmp_path)
-    assert [r["sample_id"] for r in merged] == ids
-    assert [r["v"] for r in merged if r["sample_id"] in ("x0", "x1", "x2")] == [2, 2, 2]
-
-    # issue 60: a shard file holding another shard's rows (copied over it) is named, not merged
-    (tmp_path / shard_samples_file(1, 3)).write_bytes((tmp_path / shard_samples_file(0, 3)).read_bytes())
-    with pytest.raises(DatasetError, match="holds 3 sample.s. that shard 1 of 3 does not list"):
-        merged_rows(tmp_path)
-
-    (tmp_path / shard_meta_file(1, 3)).unlink()
-    with pytest.raises(DatasetError, match="shard 1 of 3 has not run; run it with shards=3 shard=1"):
-        merged_rows(tmp_path)
-
-
-# ---------------------------------------------------------------------------------------------
 # sweeps: directories, status files, exit codes
 
 
@@ -194,34 +126,6 @@ def test_every_experiment_names_its_sweep_and_table():
 
 # ---------------------------------------------------------------------------------------------
 # the same tables from every way of running
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("shards", [2, 4])
-def test_sharded_run_equals_serial_bit_for_bit(tmp_path, shards):
-    serial_root, sharded_root = tmp_path / "serial", tmp_path / "sharded"
-    r = bench("run", "method=icp", *TINY, f"output_root={serial_root}", cwd=tmp_path)
-    assert r.returncode == 0, r.stderr[-3000:]
-    r = bench(
-        "run",
-        "-m",
-        "method=icp",
-        *TINY,
-        f"shards={shards}",
-        f"shard=range({shards})",
-        f"output_root={sharded_root}",
-        cwd=tmp_path,
-    )
-    assert r.returncode == 0, r.stderr[-3000:]
-    (run_dir,) = sharded_root.glob("synthetic-gt_model/icp/*")
-    assert len(list(run_dir.glob("samples.shard-*-of-*.jsonl"))) == shards
-    assert table(sharded_root, tmp_path) == table(serial_root, tmp_path)  # bench table merges the shards
-    assert estimates(sharded_root) == estimates(serial_root)
-    import pandas as pd
-
-    serial_dir = next(serial_root.glob("synthetic-gt_model/icp/*"))
-    merged, ref = (pd.read_csv(d / "summary.csv").drop(columns="median_runtime_s") for d in (run_dir, serial_dir))
-    pd.testing.assert_frame_equal(merged, ref, check_exact=True)  # every statistic but wall time
 
 
 def _assert_sweep_equals_serial(launcher: str, serial: Path, tmp_path: Path) -> None:

@@ -91,8 +91,6 @@ RUN_LEVEL_KEYS = (
     "retry_failed",
     "lock_timeout",
     "log_level",
-    "shard",
-    "shards",
 )
 
 

@@ -126,13 +126,13 @@ def load_run(path: str | Path) -> Run:
 
 def load_runs(paths: Sequence[str | Path]) -> tuple[list[Run], list[str]]:
     """Every run directory given or found below ``paths`` (:func:`find_run_dirs`), read with
-    :func:`load_run`; a run that cannot be read or merged is left out and its one-line reason
+    :func:`load_run`; a run that cannot be read is left out and its one-line reason
     returned, so one damaged run does not stop the others: ``(runs, reasons)``."""
     from catpose.errors import CatposeError
 
     reasons: list[str] = []
     runs = []
-    for d in find_run_dirs(paths, reasons):
+    for d in find_run_dirs(paths):
         try:
             runs.append(load_run(d))
         except CatposeError as e:
@@ -167,33 +167,17 @@ def warn_incomplete(command: str, runs: Sequence[Run]) -> list[str]:
     return reasons
 
 
-def find_run_dirs(paths: Sequence[str | Path], merge_failures: list[str] | None = None) -> list[Path]:
-    """Run directories given directly or found below the given folders (sorted, no duplicates).
-
-    Sharded runs are merged first; a merge that fails raises, or, with a ``merge_failures`` list,
-    is appended to it as one line and the run is left out."""
-    from catpose.bench.run.merge import ensure_merged, is_sharded
+def find_run_dirs(paths: Sequence[str | Path]) -> list[Path]:
+    """Run directories given directly or found below the given folders (sorted, no duplicates)."""
     from catpose.bench.run.overwrite import absolute_path
-    from catpose.errors import CatposeError
 
     out: list[Path] = []
-    unmerged: set[Path] = set()
     for p in map(Path, paths):
-        if p.is_dir():  # sharded runs: samples.jsonl from the shard files first (bench merge)
-            for d in sorted({p} | {q.parent for q in p.rglob("samples.shard-*-of-*.jsonl")}):
-                if is_sharded(d):
-                    try:
-                        ensure_merged(d)
-                    except CatposeError as e:
-                        if merge_failures is None:
-                            raise
-                        merge_failures.append(f"{e}")
-                        unmerged.add(d.resolve())
         if (p / "samples.jsonl").is_file():
             out.append(p)
         elif p.is_dir():
             found = sorted(q.parent for q in p.rglob("samples.jsonl"))
-            if not found and not any(u.is_relative_to(p.resolve()) for u in unmerged):
+            if not found:
                 raise DatasetError(f"no samples.jsonl below {p}; pass run directories written by `bench run`")
             out.extend(found)
         else:
@@ -201,7 +185,7 @@ def find_run_dirs(paths: Sequence[str | Path], merge_failures: list[str] | None 
             raise DatasetError(
                 f"{p} {'is a file' if p.exists() else 'does not exist'}; pass run directories written by `bench run`"
             )
-    seen: set[Path] = set(unmerged)
+    seen: set[Path] = set()
     return [p for p in out if not (p.resolve() in seen or seen.add(p.resolve()))]
 
 

@@ -192,7 +192,6 @@ Run a method over every sample of a dataset under a protocol (Hydra overrides).
   +experiment=NAME one paper table's sweep (configs/experiment/NAME.yaml), with -m
   hydra/launcher=L with -m: local_procs | slurm | ray_local (presets) or joblib | submitit_slurm |
                    submitit_local | ray (the cluster extra, `make cluster`); docs/scale-out.md
-  shard=I shards=N only the I-th of N deterministic parts of the samples (sweep shard=range(N))
   log_level=LEVEL  DEBUG | INFO (default) | WARNING | ERROR: catpose's messages on stderr; above
                    INFO also no progress bar (progress=true keeps it); hydra.verbose=true: DEBUG
   hydra/job_logging=default  Hydra's logging (console and run.log in the run directory)

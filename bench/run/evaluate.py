@@ -120,13 +120,12 @@ def evaluate_dir(run_dir: Path):
     """``bench evaluate`` of one run directory: its errors and summaries recomputed from its files
     (``samples.csv``, ``summary.csv`` / ``.md`` rewritten); returns the summary.
 
-    A sharded run is merged first (a shard that has not run is named); a folder that is no run,
+    A folder that is no run,
     an unreadable ``run.json`` or ``config.yaml``, or a ``samples.jsonl`` without rows is one
     :class:`~catpose.errors.DatasetError` line; a run that is still incomplete is summarized and
     said to be (a warning)."""
     import warnings
 
-    from catpose.bench.run.merge import ensure_merged, is_sharded
     from catpose.bench.run.overwrite import absolute_path, output_errors
     from catpose.bench.run.run_meta import incomplete_reason, read_config, read_run_json
     from catpose.errors import DatasetError
@@ -137,8 +136,6 @@ def evaluate_dir(run_dir: Path):
         raise DatasetError(
             f"{run_dir} is not a run directory (it does not exist); pass a folder written by `bench run`"
         )
-    if is_sharded(run_dir):
-        ensure_merged(run_dir)  # a missing shard: "shard 1 of 2 has not run; run it with shards=2 shard=1"
     if not (run_dir / SAMPLES_FILE).is_file():
         what = f"{SAMPLES_FILE} is a folder, not a file" if (run_dir / SAMPLES_FILE).is_dir() else f"no {SAMPLES_FILE}"
         raise DatasetError(f"{run_dir} is not a run directory ({what}); pass a folder written by `bench run`")

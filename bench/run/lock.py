@@ -1,5 +1,5 @@
 """The lock that keeps two runs of one configuration apart: an exclusive ``fcntl.flock`` on the
-run directory's ``run.lock`` (a shard locks its own file, :mod:`catpose.bench.run.merge`)."""
+run directory's ``run.lock``."""
 
 from __future__ import annotations
 
@@ -16,20 +16,20 @@ log = logging.getLogger(__name__)
 
 
 def in_use(run_dir: Path) -> str | None:
-    """The pid holding a lock of ``run_dir`` (``run.lock`` or a shard's), None when no run writes it."""
+    """The pid holding the lock of ``run_dir``, None when no run writes it."""
     import fcntl
 
-    for path in sorted(Path(run_dir).glob("run*.lock")):
-        try:
-            fd = os.open(path, os.O_RDONLY)
-        except OSError:
-            continue
-        try:
-            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-        except BlockingIOError:
-            return path.read_text().strip() or "unknown"
-        finally:
-            os.close(fd)
+    path = Path(run_dir) / LOCK_FILE
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return path.read_text().strip() or "unknown"
+    finally:
+        os.close(fd)
     return None
 
 
@@ -42,8 +42,8 @@ class RunLock:
     The lock file holds the pid of the holder; the kernel drops the lock when the holder exits.
     """
 
-    def __init__(self, run_dir: Path, timeout: float | None = None, poll_s: float = 0.2, name: str = LOCK_FILE) -> None:
-        self.path = run_dir / name
+    def __init__(self, run_dir: Path, timeout: float | None = None, poll_s: float = 0.2) -> None:
+        self.path = run_dir / LOCK_FILE
         self.timeout = timeout
         self.poll_s = poll_s
         self._fd: int | None = None

@@ -37,27 +37,24 @@ class Input(NamedTuple):
 
 def _describe(folder: Path) -> str:
     entries = sorted(p.name for p in folder.iterdir())
-    if any(name in entries for name in RUN_FILES) or any(n.startswith("samples.shard-") for n in entries):
-        shown = ([n for n in RUN_FILES if n in entries] + [n for n in entries if n.startswith("samples.shard-")])[:3]
-        return f"a run ({', '.join(shown)}, ...)"
+    if any(name in entries for name in RUN_FILES):
+        return f"a run ({', '.join(n for n in RUN_FILES if n in entries)}, ...)"
     return f"{len(entries)} other file(s) ({', '.join(entries[:3])}{', ...' if len(entries) > 3 else ''})"
 
 
 def is_run_dir(path: Path) -> bool:
-    """Whether ``path`` is a run directory (``samples.jsonl`` or a shard's samples file in it)."""
-    path = Path(path)
-    return path.is_dir() and ((path / "samples.jsonl").is_file() or any(path.glob("samples.shard-*-of-*.jsonl")))
+    """Whether ``path`` is a run directory (``samples.jsonl`` in it)."""
+    return (Path(path) / "samples.jsonl").is_file()
 
 
 def runs_below(paths: Sequence[str | Path]) -> list[Path]:
-    """The run directories given, or found below the folders given (read only: nothing merged)."""
+    """The run directories given, or found below the folders given."""
     out: list[Path] = []
     for p in map(Path, paths):
         if is_run_dir(p):
             out.append(p)
         elif p.is_dir():
-            found = {q.parent for q in p.rglob("samples.jsonl")} | {q.parent for q in p.rglob("samples.shard-*.jsonl")}
-            out += sorted(found)
+            out += sorted(q.parent for q in p.rglob("samples.jsonl"))
     return out
 
 

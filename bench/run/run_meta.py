@@ -69,8 +69,7 @@ def incomplete_reason(run_dir: Path, info: dict, n_rows: int) -> str | None:
             f"run {run_dir} is incomplete: it holds {n_rows} samples of the {planned} its finished run recorded "
             f"(rows lost from samples.jsonl); {fix}"
         )
-    shards = any(Path(run_dir).glob("shard-*-of-*.json"))
-    if not info and not shards and (Path(run_dir) / "overrides.txt").is_file():
+    if not info and (Path(run_dir) / "overrides.txt").is_file():
         return (
             f"run {run_dir} is incomplete: it holds {n_rows} samples and no run.json, which `bench run` writes "
             f"when it finishes; {fix}"

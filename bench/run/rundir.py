@@ -46,9 +46,7 @@ _RUN_KEYS_EXCLUDED_FROM_TAG = {
     "print_summary",
     "lock_timeout",
     "log_level",
-    # shards of one run share its directory; an experiment's rows name themselves
-    "shard",
-    "shards",
+    # an experiment's rows name themselves
     "label",
     "experiment",
 }

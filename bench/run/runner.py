@@ -27,8 +27,7 @@ from typing import Any
 from catpose import extras, kernel_threads
 from catpose.bench.run.build import build_choice, build_parts, validate_run_options
 from catpose.bench.run.evaluate import format_summary, summarize_run
-from catpose.bench.run.lock import LOCK_FILE, RunLock
-from catpose.bench.run.merge import parse_shard, shard_ids, shard_lock_file, shard_samples_file, write_shard_meta
+from catpose.bench.run.lock import RunLock
 from catpose.bench.run.rundir import (
     SAMPLES_FILE,
     SampleWriter,
@@ -231,24 +230,15 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts, run_dir: Path 
         ids = wanted
     if cfg.get("limit") is not None:
         ids = ids[: int(cfg.limit)]
-    sharding = parse_shard(cfg.get("shard"), cfg.get("shards", 1))
-    if sharding:  # this job's part of the run: its own files in the run directory (bench/run/merge.py)
-        ids = shard_ids(ids, *sharding)
 
     out = run_dir if run_dir is not None else run_dir_for(cfg, overrides)
-    if sharding:  # every shard of a run has one config and one shard count (bench/run/merge.py)
-        from catpose.bench.run.merge import check_shard_start, comparable_config
-
-        check_shard_start(out, *sharding, comparable_config(cfg))
+    lock = RunLock(out, cfg.get("lock_timeout"))
     with writing(out):
         out.mkdir(parents=True, exist_ok=True)
-    # a shard locks its own files only, so the shards of one run go on side by side
-    lock = RunLock(out, cfg.get("lock_timeout"), name=shard_lock_file(*sharding) if sharding else LOCK_FILE)
-    with writing(out):
         lock.acquire()
     try:
         return _run_locked(
-            cfg, overrides, interrupts, out, ids, method_name, method, dataset_name, dataset, protocol, sharding, facts
+            cfg, overrides, interrupts, out, ids, method_name, method, dataset_name, dataset, protocol, facts
         )
     finally:
         lock.release()
@@ -265,25 +255,15 @@ def _run_locked(
     dataset_name: str,
     dataset: Any,
     protocol: Any,
-    sharding: tuple[int, int] | None = None,
     facts: Any = None,
 ) -> Path:
     """The part of a run that writes ``out``, under its lock (samples read after locking, so a
     run that waited for another skips what that one finished)."""
-
-    shard_config = None
-    if sharding:  # checked by _run before the lock; recorded in the shard's meta file
-        from catpose.bench.run.merge import comparable_config
-
-        shard_config = comparable_config(cfg)
     write_run_files(out, cfg, overrides)
 
-    samples_path = out / (shard_samples_file(*sharding) if sharding else SAMPLES_FILE)
+    samples_path = out / SAMPLES_FILE
     retry = bool(cfg.get("retry_failed", False))
     existing = read_rows(samples_path)
-    if sharding:  # samples already in the run's merged (or serial) file are done too
-        existing = read_rows(out / SAMPLES_FILE) + existing
-        write_shard_meta(out, *sharding, ids, finished=False, config=shard_config)
     done = {r["sample_id"] for r in existing if r.get("status") == "ok" or not retry}
     todo = [s for s in ids if s not in done]
     base = {"method": method_name, "dataset": dataset_name, "protocol": str(cfg.protocol.name), "seed": int(cfg.seed)}
@@ -291,8 +271,8 @@ def _run_locked(
 
     with writing(out):
         writer = SampleWriter(samples_path)
-        if not sharding:  # until the last sample is done the run says it is running (bench table: incomplete)
-            write_run_json(out, dict(base, n_samples=len(ids), state="running", output_dir=str(out)))
+        # until the last sample is done the run says it is running (bench table: incomplete)
+        write_run_json(out, dict(base, n_samples=len(ids), state="running", output_dir=str(out)))
     log.debug("%s: %d samples, %d done before, %d to run", out, len(ids), len(ids) - len(todo), len(todo))
     bar = _Progress(len(ids), len(ids) - len(todo), f"{method_name} on {dataset_name}", cfg.get("progress", True))
     batch = int(cfg.get("batch") or 1)
@@ -326,10 +306,7 @@ def _run_locked(
         with contextlib.suppress(OSError):
             writer.close()
 
-    if sharding:
-        write_shard_meta(out, *sharding, ids, finished=True, config=shard_config)
-        return _finish_shard(out, sharding, cfg, base, len(ids), len(todo))
-    held = len(latest_rows(out / SAMPLES_FILE))
+    held = len(latest_rows(samples_path))
     meta = dict(base, n_samples=len(ids), n_run_now=len(todo), n_in_directory=held, state="finished")
     write_run_json(out, dict(meta, output_dir=str(out)))
     with writing(out):
@@ -341,27 +318,5 @@ def _run_locked(
                 f"this command's {len(ids)} samples ({len(todo)} run now) are {len(ids)} of the {held} the run "
                 f"directory holds; the summary (summary.md, bench table) is of all {held}:"
             )
-        print(format_summary(summary))
-    return out
-
-
-def _finish_shard(out: Path, sharding: tuple[int, int], cfg: Any, base: dict, n_ids: int, n_run_now: int) -> Path:
-    """After a shard: merge the run when every shard is done (the last shard to finish does it)."""
-    from catpose.bench.run.merge import ShardsNotDone, merge_run
-
-    i, n = sharding
-    head = f"\n{base['method']} on {base['dataset']} ({base['protocol']}), seed {base['seed']}, shard {i} of {n}"
-    try:
-        summary = merge_run(out)
-    except CatposeError as e:  # other shards still running: the last one (or bench merge) merges
-        if cfg.get("print_summary", True):
-            print(
-                f"{head}: {n_ids} samples ({n_run_now} run now) in {out}; the last shard to finish merges (or: bench merge {out})"
-            )
-        if not isinstance(e, ShardsNotDone):  # a merge refused (bench/run/merge.py, overwrite.py): say why
-            log.error("shard %d of %d is done but the run was not merged: %s", i, n, e)
-        return out
-    if cfg.get("print_summary", True):
-        print(f"{head}: all {n} shards done, merged into {out}")
         print(format_summary(summary))
     return out
