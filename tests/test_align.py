@@ -240,3 +240,24 @@ def test_a_verified_table_and_its_sheet_are_never_overwritten(tmp_path, capsys):
     assert sheet.read_bytes() == b"the checked picture" and not (tmp_path / "new.csv").exists()
     assert align_main([*args, "--out", str(tmp_path / "a.csv"), "--sheet", str(tmp_path / "x.csv")]) == 2
     assert "--sheet" in (line := _one_error_line(capsys)) and "is not a picture file name" in line
+
+
+def test_table_destination_never_overwrites_verified_rows(tmp_path):
+    from catpose.errors import InvalidInputError
+
+    table_destination = run_study("experiments/alignment/align.py")["table_destination"]
+
+    t = tmp_path / "airplane.csv"
+    assert table_destination(t) == (t, None)
+    t.write_text("category,instance_id,yaw_deg,verified,note\nairplane,a1,0,false,\n")
+    with pytest.raises(InvalidInputError, match=r"--out .*airplane.csv exists; .*--force"):
+        table_destination(t)
+    assert table_destination(t, force=True) == (t, None)
+    t.write_text(
+        "category,instance_id,yaw_deg,verified,note\nairplane,a1,0,true,checked by eye\nairplane,a2,90,false,\n"
+    )
+    for force in (False, True):
+        path, note = table_destination(t, force)
+        assert path == tmp_path / "airplane.new.csv" and "1 row(s) marked verified" in note and str(path) in note
+    path.write_text("x")
+    assert table_destination(t)[0] == tmp_path / "airplane.new2.csv"

@@ -263,22 +263,3 @@ def test_a_full_disk_while_scoring_or_exporting_is_one_line_and_leaves_nothing(t
     assert bench(args) == 2
     assert "No space left on device); pass a" in one_error_line(capsys, command)
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # no half-written folder or file
-
-
-def test_table_destination_never_overwrites_verified_rows(tmp_path):
-    from catpose.bench.run.overwrite import table_destination
-
-    t = tmp_path / "airplane.csv"
-    assert table_destination(t) == (t, None)
-    t.write_text("category,instance_id,yaw_deg,verified,note\nairplane,a1,0,false,\n")
-    with pytest.raises(InvalidInputError, match=r"--out .*airplane.csv exists; .*--force"):
-        table_destination(t)
-    assert table_destination(t, force=True) == (t, None)
-    t.write_text(
-        "category,instance_id,yaw_deg,verified,note\nairplane,a1,0,true,checked by eye\nairplane,a2,90,false,\n"
-    )
-    for force in (False, True):
-        path, note = table_destination(t, force)
-        assert path == tmp_path / "airplane.new.csv" and "1 row(s) marked verified" in note and str(path) in note
-    path.write_text("x")
-    assert table_destination(t)[0] == tmp_path / "airplane.new2.csv"

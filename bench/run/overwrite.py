@@ -7,8 +7,7 @@ folder nor a folder a file; an existing target needs ``--force``, and a table wi
 ``verified`` (or its contact sheet, or a folder holding runs or such tables) is never replaced;
 its folder must be writable. Files are then written atomically (:mod:`catpose.atomic`) and
 folders built beside their destination and moved into place; an ``OSError`` while writing is one
-line (:func:`output_errors`). ``align.py --out TABLE`` (experiments/alignment) sends its estimate to ``<name>.new.csv``
-when ``TABLE`` has verified rows (:func:`table_destination`)."""
+line (:func:`output_errors`)."""
 
 from __future__ import annotations
 
@@ -33,13 +32,6 @@ class Input(NamedTuple):
     path: Path
     what: str
     searched: bool = False
-
-
-def _describe(folder: Path) -> str:
-    entries = sorted(p.name for p in folder.iterdir())
-    if any(name in entries for name in RUN_FILES):
-        return f"a run ({', '.join(n for n in RUN_FILES if n in entries)}, ...)"
-    return f"{len(entries)} other file(s) ({', '.join(entries[:3])}{', ...' if len(entries) > 3 else ''})"
 
 
 def is_run_dir(path: Path) -> bool:
@@ -87,27 +79,9 @@ def verified_rows(path: Path) -> int:
         return 0
 
 
-def _verified_below(folder: Path) -> Path | None:
-    for p in sorted(folder.rglob("*.csv")):
-        if verified_rows(p):
-            return p
-    return None
-
-
-def _sheet_of_verified(path: Path) -> Path | None:
-    """The verified table whose picture ``path`` is (``<stem>.csv`` beside it), if any."""
-    if path.suffix.lower() not in SHEET_SUFFIXES:
-        return None
-    table = path.with_suffix(".csv")
-    return table if verified_rows(table) else None
-
-
 def run_above(path: Path) -> Path | None:
     """The run directory ``path`` lies inside, if any."""
-    for parent in path.parents:
-        if is_run_dir(parent):
-            return parent
-    return None
+    return next((parent for parent in path.parents if is_run_dir(parent)), None)
 
 
 def check_not_input(out: str | Path, inputs: Sequence[Input] = (), flag: str = "--out") -> Path:
@@ -116,21 +90,17 @@ def check_not_input(out: str | Path, inputs: Sequence[Input] = (), flag: str = "
     if str(out).strip() == "":
         raise InvalidInputError(f"{flag} is empty; pass the file or folder to write")
     target = absolute_path(out)
-    shown = f"{flag} {out}"
     for path, what, searched in (Input(*i) for i in inputs):
         inp = absolute_path(path)
         if inp == target:
-            raise InvalidInputError(
-                f"{shown} is {what} itself; pass another {flag} (an input is never overwritten, not even with --force)"
-            )
-        if inp.is_relative_to(target):
-            raise InvalidInputError(
-                f"{shown} contains {what} {path}; pass an {flag} outside it (writing it would replace an input)"
-            )
-        if target.is_relative_to(inp) and not searched:
-            raise InvalidInputError(
-                f"{shown} lies inside {what} {path}; pass an {flag} outside it (no command writes into an input)"
-            )
+            why = f"is {what} itself; pass another {flag} (an input is never overwritten, not even with --force)"
+        elif inp.is_relative_to(target):
+            why = f"contains {what} {path}; pass an {flag} outside it (writing it would replace an input)"
+        elif target.is_relative_to(inp) and not searched:
+            why = f"lies inside {what} {path}; pass an {flag} outside it (no command writes into an input)"
+        else:
+            continue
+        raise InvalidInputError(f"{flag} {out} {why}")
     return target
 
 
@@ -168,76 +138,73 @@ def check_output(
             f"{shown} lies inside the run directory {run}; pass an {flag} outside it "
             "(no command writes into a run it did not create)"
         )
-    cwd = absolute_path(Path.cwd())
-    if kind == "folder" and cwd.is_relative_to(target):
+    if kind == "folder" and absolute_path(Path.cwd()).is_relative_to(target):
         raise InvalidInputError(
             f"{shown} is the current folder or holds it; pass a new folder for the {flag} (replacing it would "
             "delete where you stand)"
         )
-    for parent in reversed(target.parents):
-        if parent.exists() and not parent.is_dir():
-            raise InvalidInputError(f"{shown}: {parent} is a file, not a folder; pass an {flag} in a folder")
-    if target.exists():
-        _check_existing(target, shown, kind, force, flag, replaces, allow, example)
+    blocking = next((p for p in reversed(target.parents) if p.exists() and not p.is_dir()), None)
+    if blocking is not None:
+        raise InvalidInputError(f"{shown}: {blocking} is a file, not a folder; pass an {flag} in a folder")
+    why = _in_the_way(target, kind, force, flag, replaces, allow, example) if target.exists() else None
+    if why:
+        raise InvalidInputError(f"{shown} {why}")
     existing = next(p for p in (target, *target.parents) if p.exists())
     folder = existing if existing.is_dir() and existing != target else existing.parent
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise InvalidInputError(f"cannot write {shown}: the folder {folder} is not writable; pass a writable folder")
+        raise InvalidInputError(
+            f"cannot write {flag} {out}: the folder {folder} is not writable; pass a writable folder"
+        )
     return target
 
 
-def _check_existing(
-    target: Path, shown: str, kind: str, force: bool, flag: str, replaces: str, allow, example: str
-) -> None:
-    """The part of :func:`check_output` for a ``target`` that exists."""
+def _in_the_way(target: Path, kind: str, force: bool, flag: str, replaces: str, allow, example: str) -> str | None:
+    """Why the existing ``target`` may not be replaced (the end of :func:`check_output`'s line), or None."""
+    never = "not even --force does that: pass a new " + flag
     if kind == "file":
         if target.is_dir():
-            raise InvalidInputError(f"{shown} is a folder; pass the file to write, e.g. {target / example}")
+            return f"is a folder; pass the file to write, e.g. {target / example}"
         n = verified_rows(target)
         if n:
-            raise InvalidInputError(
-                f"{shown} has {n} row(s) marked verified, which no command overwrites, not even with --force; "
-                f"pass another {flag}"
+            return f"has {n} row(s) marked verified, which no command overwrites, not even with --force; pass another {flag}"
+        table = target.with_suffix(".csv")  # the contact sheet of a verified table is its picture
+        n = verified_rows(table) if target.suffix.lower() in SHEET_SUFFIXES else 0
+        if n and (allow is None or absolute_path(allow) != target):
+            return (
+                f"is the contact sheet of {table}, which has {n} row(s) marked verified; pass "
+                f"another {flag} (a verified table's picture is never overwritten)"
             )
-        table = _sheet_of_verified(target)
-        if table is not None and (allow is None or absolute_path(allow) != target):
-            raise InvalidInputError(
-                f"{shown} is the contact sheet of {table}, which has {verified_rows(table)} row(s) marked "
-                f"verified; pass another {flag} (a verified table's picture is never overwritten)"
-            )
-        if not force:
-            raise InvalidInputError(f"{shown} exists; pass another {flag}, or add --force to replace it")
-        return
+        return None if force else f"exists; pass another {flag}, or add --force to replace it"
     if not target.is_dir():
-        raise InvalidInputError(f"{shown} is a file; pass a folder (new or empty) to write")
-    if not any(target.iterdir()):
-        return
+        return "is a file; pass a folder (new or empty) to write"
+    entries = sorted(p.name for p in target.iterdir())
+    if not entries:
+        return None
     from catpose.bench.run.lock import in_use
 
     pid = in_use(target)
     if pid is not None:
-        raise InvalidInputError(
-            f"{shown} is a run that pid {pid} is still writing, which no command replaces, not even with --force; "
+        return (
+            f"is a run that pid {pid} is still writing, which no command replaces, not even with --force; "
             f"pass a new {flag}, or wait for that run to finish"
         )
     if is_run_dir(target) and replaces != "run":
-        raise InvalidInputError(f"{shown} holds a run directory, which this command never replaces; pass a new {flag}")
+        return f"holds a run directory, which this command never replaces; pass a new {flag}"
     if not force:
-        raise InvalidInputError(
-            f"{shown} already holds {_describe(target)}; pass a new {flag}, or add --force to replace it"
+        files = [n for n in RUN_FILES if n in entries]
+        held = (
+            f"a run ({', '.join(files)}, ...)"
+            if files
+            else (f"{len(entries)} other file(s) ({', '.join(entries[:3])}{', ...' if len(entries) > 3 else ''})")
         )
-    nested = runs_below([*target.iterdir()])
+        return f"already holds {held}; pass a new {flag}, or add --force to replace it"
+    nested = runs_below([target / n for n in entries])
     if nested:
-        raise InvalidInputError(
-            f"{shown} holds run directories below it (e.g. {nested[0]}); replacing it would delete them, "
-            f"not even --force does that: pass a new {flag}"
-        )
-    table = _verified_below(target)
+        return f"holds run directories below it (e.g. {nested[0]}); replacing it would delete them, {never}"
+    table = next((p for p in sorted(target.rglob("*.csv")) if verified_rows(p)), None)
     if table is not None:
-        raise InvalidInputError(
-            f"{shown} holds {table}, a table with rows marked verified; replacing it would delete them, "
-            f"not even --force does that: pass a new {flag}"
-        )
+        return f"holds {table}, a table with rows marked verified; replacing it would delete them, {never}"
+    return None
 
 
 class Output:
@@ -287,15 +254,6 @@ def add_output_options(ap, help: str, required: bool = True, force_help: str = "
     )
 
 
-def check_sheet_suffix(path: str | Path, flag: str = "--sheet") -> None:
-    """A picture's name must end in a format matplotlib writes (:data:`SHEET_SUFFIXES`)."""
-    if Path(path).suffix.lower() not in SHEET_SUFFIXES:
-        raise InvalidInputError(
-            f"{flag} {path} is not a picture file name; end it in {', '.join(SHEET_SUFFIXES)} (e.g. "
-            f"{Path(path).with_suffix('.png')})"
-        )
-
-
 def write_error_text(out: str | Path, e: OSError, flag: str = "--out") -> str:
     """One line for an ``OSError`` while writing ``out``: what happened and the fix."""
     if e.errno in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT):
@@ -315,42 +273,3 @@ def output_errors(out: str | Path, flag: str = "--out") -> Iterator[None]:
         yield
     except OSError as e:
         raise InvalidInputError(write_error_text(out, e, flag)) from None
-
-
-def check_new_output(out: str | Path, force: bool = False, flag: str = "--out", protected: Path | None = None) -> None:
-    """Refuse to write a new run directory at ``out`` over something: :func:`check_output` for a
-    folder that may replace a run (``protected``: a run never replaced, ``bench score``'s ``--gt``)."""
-    inputs = [Input(Path(protected), "the --gt run")] if protected is not None else []
-    check_output(out, "folder", inputs, force, flag, replaces="run")
-
-
-def free_name(path: Path) -> Path:
-    """``<stem>.new<suffix>``, else ``<stem>.new2<suffix>``, ... : the first that does not exist."""
-    k = 1
-    while True:
-        candidate = path.with_name(f"{path.stem}.new{'' if k == 1 else k}{path.suffix}")
-        if not candidate.exists():
-            return candidate
-        k += 1
-
-
-def table_destination(out: str | Path, force: bool = False) -> tuple[Path, str | None]:
-    """Where ``align.py --out`` (experiments/alignment) may write: ``(path, note)`` (see the module docstring); the note
-    says why another file than ``out`` is written (None when it is ``out``)."""
-    out = Path(out)
-    if not out.exists():
-        return out, None
-    if out.is_dir():
-        raise InvalidInputError(f"--out {out} is a folder; pass the CSV file to write")
-    n = verified_rows(out)
-    if n:
-        new = free_name(out)
-        return new, (
-            f"{out} has {n} row(s) marked verified, which align.py never overwrites; the new estimate "
-            f"goes to {new}: compare the two and copy rows across by hand"
-        )
-    if not force:
-        raise InvalidInputError(
-            f"--out {out} exists; pass another --out, or add --force to overwrite it (it has no row marked verified)"
-        )
-    return out, None

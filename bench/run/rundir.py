@@ -219,10 +219,10 @@ def write_run(
     ``protocol`` nodes and ``seed``), built aside and moved into place; an existing run or other
     non-empty folder at ``out_dir`` is refused unless ``force``. Returns ``out_dir``."""
     from catpose import atomic
-    from catpose.bench.run.overwrite import check_new_output
+    from catpose.bench.run.overwrite import check_output
 
     out = Path(out_dir)
-    check_new_output(out, force)
+    check_output(out, "folder", force=force, replaces="run")
     with atomic.building_dir(out) as tmp:
         write_run_into(tmp, rows, config, info)
     return out

@@ -152,13 +152,7 @@ def check_outputs(args: argparse.Namespace) -> dict:
     without ``--force``; the sheet a picture file that is no verified table's picture (unless it is
     the table's own, redrawn by ``--draw-only``) and that exists only with ``--force``; never an input.
     Returns the :class:`~catpose.bench.run.overwrite.Output` of each file written, by flag."""
-    from catpose.bench.run.overwrite import (
-        Input,
-        Output,
-        check_not_input,
-        check_sheet_suffix,
-        table_destination,
-    )
+    from catpose.bench.run.overwrite import Input, Output, check_not_input
 
     inputs = [Input(Path(args.compare), "the --compare table")] if args.compare else []
     outs = {}
@@ -180,6 +174,54 @@ def check_outputs(args: argparse.Namespace) -> dict:
     if args.compare:
         outs["--compare"] = Output(comparison_path(args), "file", inputs, args.force, example="x_vs_verified.csv")
     return outs
+
+
+def check_sheet_suffix(path: str | Path, flag: str = "--sheet") -> None:
+    """A picture's name must end in a format matplotlib writes (``SHEET_SUFFIXES``)."""
+    from catpose.bench.run.overwrite import SHEET_SUFFIXES
+    from catpose.errors import InvalidInputError
+
+    if Path(path).suffix.lower() not in SHEET_SUFFIXES:
+        raise InvalidInputError(
+            f"{flag} {path} is not a picture file name; end it in {', '.join(SHEET_SUFFIXES)} (e.g. "
+            f"{Path(path).with_suffix('.png')})"
+        )
+
+
+def free_name(path: Path) -> Path:
+    """``<stem>.new<suffix>``, else ``<stem>.new2<suffix>``, ... : the first that does not exist."""
+    k = 1
+    while True:
+        candidate = path.with_name(f"{path.stem}.new{'' if k == 1 else k}{path.suffix}")
+        if not candidate.exists():
+            return candidate
+        k += 1
+
+
+def table_destination(out: str | Path, force: bool = False) -> tuple[Path, str | None]:
+    """Where ``align.py --out`` may write: ``(path, note)``: ``out``, or ``<name>.new.csv`` when ``out``
+        has verified rows (a verified table is never overwritten); the note says why another file than
+    ``out`` is written (None when it is ``out``)."""
+    from catpose.bench.run.overwrite import verified_rows
+    from catpose.errors import InvalidInputError
+
+    out = Path(out)
+    if not out.exists():
+        return out, None
+    if out.is_dir():
+        raise InvalidInputError(f"--out {out} is a folder; pass the CSV file to write")
+    n = verified_rows(out)
+    if n:
+        new = free_name(out)
+        return new, (
+            f"{out} has {n} row(s) marked verified, which align.py never overwrites; the new estimate "
+            f"goes to {new}: compare the two and copy rows across by hand"
+        )
+    if not force:
+        raise InvalidInputError(
+            f"--out {out} exists; pass another --out, or add --force to overwrite it (it has no row marked verified)"
+        )
+    return out, None
 
 
 def comparison_path(args: argparse.Namespace) -> Path:
