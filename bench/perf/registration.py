@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import itertools
 import logging
 import os
 import resource
@@ -64,12 +65,8 @@ def load_problems(
     by_cat: dict[str, list[str]] = {}
     for sid in proto.sample_ids(ds):
         by_cat.setdefault(str(ds.category_of(sid.split("|")[0])), []).append(sid)
-    ids: list[str] = []
-    queues = [list(v) for v in by_cat.values()]
-    while len(ids) < n and any(queues):
-        for q in queues:
-            if q and len(ids) < n:
-                ids.append(q.pop(0))
+    rounds = itertools.zip_longest(*by_cat.values())  # the first of each category, then the second, ...
+    ids = [sid for sid in itertools.chain.from_iterable(rounds) if sid is not None][:n]
     if not ids:
         raise ConfigError(f"dataset {name} ({protocol}) has no samples; check --root / --dataset-set")
     return [proto.load(ds, sid).problem for sid in ids], f"{name} ({protocol}, seed {seed})"
@@ -121,12 +118,6 @@ def _seeded(seed: int, sample_id: str) -> None:
     from catpose.geometry import stable_seed
 
     seed_everything(stable_seed(seed, sample_id))
-
-
-def _out_path(args: argparse.Namespace) -> Path:
-    if args.out:
-        return Path(args.out)
-    return Path("outputs") / "perf" / f"{args.dataset}-{args.protocol}-n{args.n}-r{args.repeat}.csv"
 
 
 def _register(method: Any, problem: Any) -> Any:
@@ -257,7 +248,8 @@ def main(argv: list[str] | None = None) -> int:
         if "=" not in kv:
             raise ConfigError(f"--set/--dataset-set {kv!r} is not KEY=VALUE")
         yaml.safe_load(kv.partition("=")[2])  # a malformed value fails here, before any work
-    out = _out_path(args)  # before any work: the output rule (docs/file-safety.md); the default is perf's own
+    # before any work: the output rule (docs/file-safety.md); the default is perf's own
+    out = Path(args.out or f"outputs/perf/{args.dataset}-{args.protocol}-n{args.n}-r{args.repeat}.csv")
     outs = [
         Output(p, "file", (), args.force or not args.out, example="perf.csv")
         for p in (out, *(out.with_name(f"{out.stem}_{k}.csv") for k in ("times", "stages")))

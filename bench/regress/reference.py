@@ -47,34 +47,33 @@ def other_code_paths() -> dict[str, dict[str, str]]:
     return out
 
 
-def estimates_in_subprocess(
-    config: Path, suite: str, methods: Sequence[str], env_extra: dict[str, str], jobs: int = 1
-) -> dict:
-    """{method: {sample_id: slim row}} from ``bench regress --emit-estimates`` in a child process
-    with ``env_extra`` set (another code path of the numerical libraries)."""
-    with tempfile.TemporaryDirectory(prefix="catpose-regress-") as tmp:
-        out = Path(tmp) / "estimates.json"
-        cmd = [sys.executable, "-m", "catpose.bench.regress.run_suites", "--config", str(config), "--suite", suite]
-        cmd += ["--methods", ",".join(methods), "--emit-estimates", str(out), "--jobs", str(jobs)]
-        proc = subprocess.run(cmd, env=dict(os.environ, **env_extra), capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise CatposeError(
-                f"run under another code path failed ({' '.join(f'{k}={v}' for k, v in env_extra.items())}): "
-                f"{proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}"
-            )
-        return json.loads(out.read_text())
-
-
 def build_reference(suite, methods: Sequence[str], gate: Gate, config: Path, jobs: int = 1, log=print) -> dict:
     """Run, perturb, re-run under every other code path of this CPU, and return the reference
     entries per method (each sample records how far each of them moved it)."""
     from catpose.bench.regress.run_suites import map_jobs
 
     t0 = time.perf_counter()
-    others = {}
+    others = {}  # {code path: {method: {sample_id: slim row}}}, from `bench regress --emit-estimates` in a child
     for name, env in other_code_paths().items():
-        log(f"  chaos detection under {name}: {' '.join(f'{k}={v}' for k, v in env.items())}")
-        others[name] = estimates_in_subprocess(config, suite.name, methods, env, jobs)
+        shown = " ".join(f"{k}={v}" for k, v in env.items())
+        log(f"  chaos detection under {name}: {shown}")
+        with tempfile.TemporaryDirectory(prefix="catpose-regress-") as tmp:
+            out = Path(tmp) / "estimates.json"
+            cmd = [
+                sys.executable,
+                "-m",
+                "catpose.bench.regress.run_suites",
+                "--config",
+                str(config),
+                "--suite",
+                suite.name,
+            ]
+            cmd += ["--methods", ",".join(methods), "--emit-estimates", str(out), "--jobs", str(jobs)]
+            proc = subprocess.run(cmd, env=dict(os.environ, **env), capture_output=True, text=True)
+            if proc.returncode != 0:
+                why = proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode
+                raise CatposeError(f"run under another code path failed ({shown}): {why}")
+            others[name] = json.loads(out.read_text())
     tasks = [(suite, m, 0.0) for m in methods]
     if suite.inputs is not None:  # live inputs already differ in their last bits across kernels
         tasks += [(suite, m, gate.perturbation) for m in methods]

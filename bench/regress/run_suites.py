@@ -100,20 +100,6 @@ def load_config(path: str | Path = DEFAULT_CONFIG) -> tuple[Gate, dict[str, Suit
     return gate, suites
 
 
-def method_available(name: str, suite: Suite | None = None) -> str | None:
-    """None when ``configs/method/<name>.yaml`` exists and the method can be built (its module
-    and optional dependencies import), else why not."""
-    if not (REPO / "configs" / "method" / f"{name}.yaml").is_file():
-        return f"no configs/method/{name}.yaml"
-    from catpose.bench.run.build import build_from_config
-
-    try:
-        build_from_config(_compose(suite or Suite(name="-", methods=[], reference=Path("-")), name).method, "method")
-    except (CatposeError, ImportError) as e:
-        return " ".join(str(e).split())
-    return None
-
-
 # --------------------------------------------------------------------------------------------
 # running
 
@@ -147,23 +133,14 @@ def suite_samples(suite: Suite, transform: Callable | None = None) -> tuple[Any,
     return dataset, protocol, protocol.sample_ids(dataset)
 
 
-def run_method(suite: Suite, method_name: str, transform: Callable | None = None) -> dict[str, dict]:
-    """Register every problem of ``suite`` with one method; {sample_id: runner row}."""
+def slim_rows(suite: Suite, method: str, perturbation: float = 0.0) -> dict[str, dict]:
+    """{sample_id: slim row} of one method on a suite (every problem registered as ``bench run``
+    registers a sample); with ``perturbation`` > 0 every golden
+    input is first perturbed by that relative amount (see :func:`catpose.bench.regress.golden.perturbed`).
+    A top-level function, so that worker processes can run it."""
     from catpose.bench.run.build import build_from_config
     from catpose.bench.run.sample_run import run_one
 
-    cfg = _compose(suite, method_name)
-    kernel_threads.set_threads(cfg.get("threads"))
-    _, method = build_from_config(cfg.method, "method")
-    dataset, protocol, ids = suite_samples(suite, transform)
-    base = {"method": method_name, "dataset": suite.dataset, "protocol": suite.protocol, "seed": suite.seed}
-    return {sid: run_one(method, protocol, dataset, sid, base, suite.seed) for sid in ids}
-
-
-def slim_rows(suite: Suite, method: str, perturbation: float = 0.0) -> dict[str, dict]:
-    """{sample_id: slim row} of one method on a suite; with ``perturbation`` > 0 every golden
-    input is first perturbed by that relative amount (see :func:`catpose.bench.regress.golden.perturbed`).
-    A top-level function, so that worker processes can run it."""
     transform = None
     if perturbation > 0:
         from catpose.bench.regress.golden import perturbed
@@ -172,7 +149,12 @@ def slim_rows(suite: Suite, method: str, perturbation: float = 0.0) -> dict[str,
         def transform(s):
             return perturbed(s, perturbation, stable_seed("regress-perturb", s.problem.sample_id))
 
-    return {k: _slim(v) for k, v in run_method(suite, method, transform).items()}
+    cfg = _compose(suite, method)
+    kernel_threads.set_threads(cfg.get("threads"))
+    _, built = build_from_config(cfg.method, "method")
+    dataset, protocol, ids = suite_samples(suite, transform)
+    base = {"method": method, "dataset": suite.dataset, "protocol": suite.protocol, "seed": suite.seed}
+    return {sid: _slim(run_one(built, protocol, dataset, sid, base, suite.seed)) for sid in ids}
 
 
 def map_jobs(tasks: Sequence[tuple], jobs: int) -> list:
@@ -228,10 +210,21 @@ def write_inputs(suite: Suite, log=print) -> None:
 # the command
 
 
-def _available_methods(suite: Suite, wanted: Sequence[str] | None, notes: list[str]) -> list[str]:
+def available_methods(suite: Suite, wanted: Sequence[str] | None, notes: list[str]) -> list[str]:
+    """The methods of ``suite`` (or ``wanted``) whose config exists and builds (module and optional
+    dependencies import); each other one is skipped with a note saying why."""
+    from catpose.bench.run.build import build_from_config
+
     methods = []
     for m in wanted or suite.methods:
-        why = method_available(m, suite)
+        why = None
+        if not (REPO / "configs" / "method" / f"{m}.yaml").is_file():
+            why = f"no configs/method/{m}.yaml"
+        else:
+            try:
+                build_from_config(_compose(suite, m).method, "method")
+            except (CatposeError, ImportError) as e:
+                why = " ".join(str(e).split())
         if why:
             notes.append(f"{suite.name}/{m}: skipped ({why})")
         else:
@@ -327,7 +320,7 @@ def main(argv: list[str] | None = None) -> int:
                 if suite.inputs is not None:
                     write_inputs(suite)
                 continue
-            methods = _available_methods(suite, wanted, notes)
+            methods = available_methods(suite, wanted, notes)
             if args.emit_estimates:
                 emitted = dict(zip(methods, map_jobs([(suite, m, 0.0) for m in methods], args.jobs)))
                 continue

@@ -158,22 +158,11 @@ def _override_key(override: str) -> str:
     return override.partition("=")[0].lstrip("+~")
 
 
-def _has_path(cfg: Any, parts: Sequence[str]) -> bool:
-    from omegaconf import DictConfig
-
-    node = cfg
-    for p in parts:
-        if not isinstance(node, DictConfig) or p not in node:
-            return False
-        node = node[p]
-    return True
-
-
 def unknown_key_message(overrides: Sequence[str], key: str, hint: str = HINT) -> str:
     """One line for an override of a key the composed config does not have: the closest keys at
     the level where the path stops (``metod`` -> `method=...`), or, for a key of a config group
     (``method.optimiser.lr`` under ``method=icp``), the group's configs that have it."""
-    from omegaconf import DictConfig
+    from omegaconf import DictConfig, OmegaConf
 
     typed = next((o for o in overrides if _override_key(o) == key), key)
     value = typed.partition("=")[2]
@@ -204,12 +193,13 @@ def unknown_key_message(overrides: Sequence[str], key: str, hint: str = HINT) ->
     group = parts[0] if parts[0] in GROUPS[:3] and depth >= 1 else None
     if group:  # another config of the group has the key: name it
         current = str(cfg[group].get("name", ""))
-        having = []
+        having, absent = [], object()
         for name in available(group):
             if name == current:
                 continue
             try:
-                if _has_path(_compose([o for o in others if _override_key(o) != group] + [f"{group}={name}"]), parts):
+                there = _compose([o for o in others if _override_key(o) != group] + [f"{group}={name}"])
+                if OmegaConf.select(there, key, default=absent, throw_on_resolution_failure=False) is not absent:
                     having.append(name)
             except Exception:  # noqa: BLE001 - a config that needs other settings (a dataset root) proves nothing
                 continue
@@ -288,27 +278,22 @@ def compose_and_build(
     return cfg, built
 
 
-def check_composition(argv: Sequence[str]) -> None:
-    """``bench run``'s fail-fast check: a single run's plain overrides compose, or a one-line
-    error (see :func:`compose`). A sweep (``-m``) or an experiment is left to Hydra, which
-    composes what this check cannot (sweep values, hydra keys); so is a command line that points
-    Hydra at other configs (``--config-dir``, ``--config-name``, ``--config-path``)."""
-    flags, overrides = split_hydra_args(argv)
-    if flag_names(flags) & {"--multirun", *OTHER_CONFIGS}:
-        return
-    if any(a.lstrip("+~").startswith(("hydra", "experiment")) for a in overrides):
-        return
-    compose(overrides)
-
-
 def check_run_args(argv: Sequence[str]) -> None:
-    """Every check ``bench run`` makes before Hydra, on the plain overrides only: names and
-    renamed keys (:func:`check_overrides`), the launcher's plugin (:func:`check_launcher`) and,
-    for a single run, the composition (:func:`check_composition`)."""
+    """Every check ``bench run`` makes before Hydra, on the plain overrides only: names
+    (:func:`check_overrides`), the launcher's plugin (:func:`check_launcher`) and the composition:
+    a single run's composes once (:func:`compose`), a sweep's every group combination
+    (:func:`check_sweep_composition`). A command line that points Hydra at other configs
+    (``--config-dir``, ``--config-name``, ``--config-path``) is left to Hydra, as is a single run
+    that sets Hydra keys or an experiment."""
     flags, overrides = split_hydra_args(argv)
     check_modes(flags)
-    check_overrides(overrides, names=not flag_names(flags) & set(OTHER_CONFIGS))
+    names = flag_names(flags)
+    other_configs = bool(names & set(OTHER_CONFIGS))
+    check_overrides(overrides, names=not other_configs)
     check_launcher(overrides)
-    check_composition(argv)
-    if "--multirun" in flag_names(flags) and not flag_names(flags) & set(OTHER_CONFIGS):
+    if other_configs:
+        return
+    if "--multirun" in names:
         check_sweep_composition(overrides)
+    elif not any(a.lstrip("+~").startswith(("hydra", "experiment")) for a in overrides):
+        compose(overrides)

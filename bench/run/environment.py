@@ -15,6 +15,7 @@ which ``results/make_results.sh`` uses so that its tables are the same bits on e
 
 from __future__ import annotations
 
+import contextlib
 import os
 import platform
 from importlib import metadata
@@ -32,36 +33,24 @@ NUMERIC_ENV = (
 _CACHE: dict[str, Any] = {}
 
 
-def _version(dist: str) -> str | None:
+def _cpuinfo(*keys: str) -> str | None:
+    """The value of the first ``/proc/cpuinfo`` line starting with one of ``keys`` (None elsewhere)."""
     try:
-        return metadata.version(dist)
-    except metadata.PackageNotFoundError:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            return next((line.split(":", 1)[1].strip() for line in f if line.startswith(keys)), None)
+    except OSError:
         return None
 
 
 def cpu_model() -> str:
     """The CPU's model name (``/proc/cpuinfo``; ``platform.processor()`` elsewhere)."""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
+    return _cpuinfo("model name") or platform.processor() or platform.machine()
 
 
 def cpu_flags() -> list[str]:
     """The vector extensions the CPU reports that decide BLAS kernels (avx, avx2, avx512f, ...)."""
     wanted = {"sse4_2", "avx", "avx2", "fma", "avx512f", "avx512_bf16", "amx_tile", "asimd", "sve"}
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            for line in f:
-                if line.startswith(("flags", "Features")):
-                    return sorted(wanted & set(line.split(":", 1)[1].split()))
-    except OSError:
-        pass
-    return []
+    return sorted(wanted & set((_cpuinfo("flags", "Features") or "").split()))
 
 
 def blas_kernels() -> list[dict]:
@@ -137,7 +126,10 @@ def numeric_variants() -> dict[str, dict[str, str]]:
 def environment() -> dict:
     """Versions, CPU and BLAS kernels of this process (computed once per process)."""
     if "env" not in _CACHE:
-        versions = {p: v for p in PACKAGES if (v := _version(p))}
+        versions = {}
+        for p in PACKAGES:
+            with contextlib.suppress(metadata.PackageNotFoundError):
+                versions[p] = metadata.version(p)
         env = {
             "python": platform.python_version(),
             "platform": platform.platform(),

@@ -61,26 +61,18 @@ def flag_names(flags: Sequence[str]) -> set[str]:
 
 
 #: Hydra's modes: one per command line (Hydra refuses two, with a traceback)
-HYDRA_MODES = {
-    "--multirun": "-m",
-    "--run": "--run",
-    "--cfg": "--cfg",
-    "--info": "--info",
-    "--shell-completion": "--shell-completion",
-}
+HYDRA_MODES = ("--multirun", "--run", "--cfg", "--info", "--shell-completion")
 
 
 def check_modes(flags: Sequence[str]) -> None:
     """Fail fast, in one line, on two of Hydra's modes together (``-m`` with ``--cfg job``);
     ``flags`` as :func:`split_hydra_args` returns them."""
     names = flag_names(flags)
-    modes = [shown for name, shown in HYDRA_MODES.items() if name in names]
+    modes = ["-m" if name == "--multirun" else name for name in HYDRA_MODES if name in names]
     if len(modes) > 1:
-        hint = (
-            " (show one job's config: drop -m and give one value per key, e.g. bench run method=icp --cfg job)"
-            if "-m" in modes and "--cfg" in modes
-            else ""
-        )
+        hint = ""
+        if "-m" in modes and "--cfg" in modes:
+            hint = " (show one job's config: drop -m and give one value per key, e.g. bench run method=icp --cfg job)"
         raise ConfigError(
             f"{' and '.join(modes)} cannot be combined: pass one of -m, --run, --cfg, --info, --shell-completion{hint}"
         )

@@ -68,19 +68,10 @@ def _numbers_problem(value, n: int) -> str | None:
     return None
 
 
-def _complete(text: str) -> bool:
-    """Whether a last line is a whole row (a row is a JSON object: cut anywhere, it does not parse)."""
-    try:
-        row = json.loads(text)
-    except json.JSONDecodeError:
-        return False
-    return isinstance(row, dict) and isinstance(row.get("sample_id"), str)
-
-
 def _cut_off(text: str) -> bool:
-    """Whether a last line that is no whole row can be what a kill leaves: the start of a JSON
-    object cut before its end (it does not parse). Anything else (``[1, 2]``, ``nan``, an object
-    without ``sample_id``) is damage a kill cannot make."""
+    """Whether a last line is what a kill leaves: the start of a JSON object cut before its end (a
+    row is a JSON object: cut anywhere, it does not parse). Anything else is a whole row or damage
+    a kill cannot make (``[1, 2]``, ``nan``, an object without ``sample_id``)."""
     if not text.lstrip().startswith("{"):
         return False
     try:
@@ -119,7 +110,7 @@ def parse_rows(path: Path) -> list[dict]:
             rows.append(_row(text, path, k))
     if tail:
         text = tail.decode("utf-8", errors="replace")
-        if _complete(text) or not _cut_off(text):  # a whole row, or damage no kill makes: read, or refused
+        if not _cut_off(text):  # a whole row, or damage no kill makes: read, or refused
             rows.append(_row(text, path, len(lines) + 1))
         else:
             warnings.warn(
@@ -132,17 +123,17 @@ def parse_rows(path: Path) -> list[dict]:
 
 
 def repair_last_line(path: Path) -> None:
-    """Before appending to ``path``: drop a cut-off last line (its sample is re-run), or end a whole
-    last row that lacks its newline, so that the next row starts on a line of its own."""
+    """Before appending to ``path`` (read by :func:`parse_rows` first): drop a cut-off last line (its
+    sample is re-run), or end a whole last row that lacks its newline, so that the next row starts
+    on a line of its own."""
     data = path.read_bytes()
     cut = _last_line_start(data)
     tail = data[cut:].strip()
     if not tail:
         return
-    if _complete(tail.decode("utf-8", errors="replace")):
-        if not data.endswith(b"\n"):
-            with open(path, "ab") as f:
-                f.write(b"\n")
-        return
-    with open(path, "r+b") as f:
-        f.truncate(cut)
+    if _cut_off(tail.decode("utf-8", errors="replace")):
+        with open(path, "r+b") as f:
+            f.truncate(cut)
+    elif not data.endswith(b"\n"):
+        with open(path, "ab") as f:
+            f.write(b"\n")

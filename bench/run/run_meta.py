@@ -53,9 +53,7 @@ def incomplete_reason(run_dir: Path, info: dict, n_rows: int) -> str | None:
 
     ``bench run`` records ``state: running`` in ``run.json`` before its first sample and
     ``state: finished`` after its last; a run killed (``kill -9``), or still running, is left
-    ``running``. A run of an older catpose, which wrote ``run.json`` only when it finished, is
-    incomplete when it has the files ``bench run`` writes first (``overrides.txt``) but no
-    ``run.json``. ``info``: its ``run.json`` (:func:`read_run_json`); ``n_rows``: its samples."""
+    ``running``. ``info``: its ``run.json`` (:func:`read_run_json`); ``n_rows``: its samples."""
     fix = "re-run the same `bench run` command to finish it (finished samples are skipped)"
     if info.get("state") == "running":
         planned = info.get("n_samples")
@@ -68,10 +66,5 @@ def incomplete_reason(run_dir: Path, info: dict, n_rows: int) -> str | None:
         return (
             f"run {run_dir} is incomplete: it holds {n_rows} samples of the {planned} its finished run recorded "
             f"(rows lost from samples.jsonl); {fix}"
-        )
-    if not info and (Path(run_dir) / "overrides.txt").is_file():
-        return (
-            f"run {run_dir} is incomplete: it holds {n_rows} samples and no run.json, which `bench run` writes "
-            f"when it finishes; {fix}"
         )
     return None

@@ -208,12 +208,13 @@ def run(cfg: Any, overrides: Iterable[str] = (), run_dir: Path | None = None) ->
 
 
 def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts, run_dir: Path | None = None) -> Path:
-    """Build the pieces, list the samples, lock the run directory and run (see :func:`run`)."""
+    """Build the pieces, list the samples, lock the run directory and run (see :func:`run`). The
+    finished samples are read after locking, so a run that waited for another skips what that one
+    finished."""
     import_heavy_libraries(interrupts, _EARLY_MODULES)
     kernel_threads.set_threads(cfg.get("threads"))
     method_name, method, dataset, protocol = build_parts(cfg)
     facts = facts_hook(protocol, build_choice(cfg))  # a templates run's choice facts after each registration
-    dataset_name = dataset.name
     interrupts.check()
     # after the builds (so that a config mistake is reported without waiting for torch) and
     # before the first sample (so that a Ctrl-C during an import stops the run)
@@ -221,98 +222,79 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts, run_dir: Path 
 
     ids = protocol.sample_ids(dataset)
     if cfg.get("sample_ids"):
-        wanted = list(cfg.sample_ids)
-        unknown = sorted(set(wanted) - set(ids))
+        unknown = sorted(set(cfg.sample_ids) - set(ids))
         if unknown:
             raise ConfigError(
-                f"sample_ids not in {dataset_name}/{cfg.protocol.name}: {unknown[:3]}; valid ids look like {ids[:2]}"
+                f"sample_ids not in {dataset.name}/{cfg.protocol.name}: {unknown[:3]}; valid ids look like {ids[:2]}"
             )
-        ids = wanted
+        ids = list(cfg.sample_ids)
     if cfg.get("limit") is not None:
         ids = ids[: int(cfg.limit)]
 
     out = run_dir if run_dir is not None else run_dir_for(cfg, overrides)
+    samples_path = out / SAMPLES_FILE
     lock = RunLock(out, cfg.get("lock_timeout"))
     with writing(out):
         out.mkdir(parents=True, exist_ok=True)
         lock.acquire()
     try:
-        return _run_locked(
-            cfg, overrides, interrupts, out, ids, method_name, method, dataset_name, dataset, protocol, facts
-        )
+        write_run_files(out, cfg, overrides)
+        retry = bool(cfg.get("retry_failed", False))
+        done = {r["sample_id"] for r in read_rows(samples_path) if r.get("status") == "ok" or not retry}
+        todo = [s for s in ids if s not in done]
+        base = {
+            "method": method_name,
+            "dataset": dataset.name,
+            "protocol": str(cfg.protocol.name),
+            "seed": int(cfg.seed),
+        }
+        base["threads"] = kernel_threads.threads()  # what threads=auto came to here: the runtimes' context
+        with writing(out):
+            writer = SampleWriter(samples_path)
+            # until the last sample is done the run says it is running (bench table: incomplete)
+            write_run_json(out, dict(base, n_samples=len(ids), state="running", output_dir=str(out)))
+        log.debug("%s: %d samples, %d done before, %d to run", out, len(ids), len(ids) - len(todo), len(todo))
+        bar = _Progress(len(ids), len(ids) - len(todo), f"{method_name} on {dataset.name}", cfg.get("progress", True))
+        batch = int(cfg.get("batch") or 1)
+        try:
+            for start in range(0, len(todo), batch):
+                chunk = todo[start : start + batch]
+                try:
+                    if batch == 1:
+                        rows = [run_one(method, protocol, dataset, chunk[0], base, int(cfg.seed), facts)]
+                    else:
+                        rows = run_batch(method, protocol, dataset, chunk, base, int(cfg.seed), facts)
+                except (ImportError, MemoryError) as e:
+                    interrupts.check()
+                    raise RunAborted(_abort_message(e, ", ".join(chunk))) from None
+                interrupts.check()  # a Ctrl-C caught inside the sample is not the sample's failure
+                for row in rows:
+                    with writing(out):
+                        writer.write(row)
+                    bar.update(1)
+                    if row["status"] != "ok":
+                        log.warning("sample %s failed: %s", row["sample_id"], row["error"])
+                    else:
+                        log.debug(
+                            "sample %s: ok, error %s deg, %s s",
+                            row["sample_id"],
+                            _short(row.get("err_deg")),
+                            _short(row.get("runtime_s")),
+                        )
+        finally:
+            bar.close()
+            with contextlib.suppress(OSError):
+                writer.close()
+
+        held = len(latest_rows(samples_path))
+        meta = dict(base, n_samples=len(ids), n_run_now=len(todo), n_in_directory=held, state="finished")
+        write_run_json(out, dict(meta, output_dir=str(out)))
+        with writing(out):
+            summary = summarize_run(out)  # the directory's, as summary.md and bench table have it
     finally:
         lock.release()
-
-
-def _run_locked(
-    cfg: Any,
-    overrides: list[str],
-    interrupts: _Interrupts,
-    out: Path,
-    ids: list[str],
-    method_name: str,
-    method: Any,
-    dataset_name: str,
-    dataset: Any,
-    protocol: Any,
-    facts: Any = None,
-) -> Path:
-    """The part of a run that writes ``out``, under its lock (samples read after locking, so a
-    run that waited for another skips what that one finished)."""
-    write_run_files(out, cfg, overrides)
-
-    samples_path = out / SAMPLES_FILE
-    retry = bool(cfg.get("retry_failed", False))
-    existing = read_rows(samples_path)
-    done = {r["sample_id"] for r in existing if r.get("status") == "ok" or not retry}
-    todo = [s for s in ids if s not in done]
-    base = {"method": method_name, "dataset": dataset_name, "protocol": str(cfg.protocol.name), "seed": int(cfg.seed)}
-    base["threads"] = kernel_threads.threads()  # what threads=auto came to here: the runtimes' context
-
-    with writing(out):
-        writer = SampleWriter(samples_path)
-        # until the last sample is done the run says it is running (bench table: incomplete)
-        write_run_json(out, dict(base, n_samples=len(ids), state="running", output_dir=str(out)))
-    log.debug("%s: %d samples, %d done before, %d to run", out, len(ids), len(ids) - len(todo), len(todo))
-    bar = _Progress(len(ids), len(ids) - len(todo), f"{method_name} on {dataset_name}", cfg.get("progress", True))
-    batch = int(cfg.get("batch") or 1)
-    try:
-        for start in range(0, len(todo), batch):
-            chunk = todo[start : start + batch]
-            try:
-                if batch == 1:
-                    rows = [run_one(method, protocol, dataset, chunk[0], base, int(cfg.seed), facts)]
-                else:
-                    rows = run_batch(method, protocol, dataset, chunk, base, int(cfg.seed), facts)
-            except (ImportError, MemoryError) as e:
-                interrupts.check()
-                raise RunAborted(_abort_message(e, ", ".join(chunk))) from None
-            interrupts.check()  # a Ctrl-C caught inside the sample is not the sample's failure
-            for row in rows:
-                with writing(out):
-                    writer.write(row)
-                bar.update(1)
-                if row["status"] != "ok":
-                    log.warning("sample %s failed: %s", row["sample_id"], row["error"])
-                else:
-                    log.debug(
-                        "sample %s: ok, error %s deg, %s s",
-                        row["sample_id"],
-                        _short(row.get("err_deg")),
-                        _short(row.get("runtime_s")),
-                    )
-    finally:
-        bar.close()
-        with contextlib.suppress(OSError):
-            writer.close()
-
-    held = len(latest_rows(samples_path))
-    meta = dict(base, n_samples=len(ids), n_run_now=len(todo), n_in_directory=held, state="finished")
-    write_run_json(out, dict(meta, output_dir=str(out)))
-    with writing(out):
-        summary = summarize_run(out)  # the directory's, as summary.md and bench table have it
     if cfg.get("print_summary", True):
-        print(f"\n{method_name} on {dataset_name} ({cfg.protocol.name}), seed {int(cfg.seed)}: {out}")
+        print(f"\n{method_name} on {dataset.name} ({cfg.protocol.name}), seed {int(cfg.seed)}: {out}")
         if held != len(ids):
             print(
                 f"this command's {len(ids)} samples ({len(todo)} run now) are {len(ids)} of the {held} the run "

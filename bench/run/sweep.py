@@ -14,6 +14,8 @@ import logging
 from pathlib import Path
 from typing import Any
 
+from catpose import atomic
+
 log = logging.getLogger(__name__)
 
 JOB_FILE = "job.json"
@@ -25,23 +27,10 @@ last_sweep: dict[str, Any] = {}
 def job_record(num: int, overrides: list[str], result: Any, error: BaseException | None) -> dict:
     """The ``job.json`` of one job from the task function's return value or its exception."""
     if error is not None:
-        return {
-            "job": num,
-            "overrides": overrides,
-            "status": "failed",
-            "error": " ".join(f"{type(error).__name__}: {error}".split()),
-            "run_dir": None,
-            "label": None,
-        }
+        result = {"status": "failed", "error": " ".join(f"{type(error).__name__}: {error}".split())}
     result = result if isinstance(result, dict) else {}
-    return {
-        "job": num,
-        "overrides": overrides,
-        "status": result.get("status", "failed"),
-        "error": result.get("error"),
-        "run_dir": result.get("run_dir"),
-        "label": result.get("label"),
-    }
+    record = {"job": num, "overrides": overrides, "status": result.get("status", "failed")}
+    return record | {k: result.get(k) for k in ("error", "run_dir", "label")}
 
 
 def read_sweep(sweep_dir: str | Path) -> list[dict]:
@@ -82,9 +71,7 @@ class SweepStatus(Callback):  # type: ignore[misc]
         )
         out = Path(hc.runtime.output_dir)
         out.mkdir(parents=True, exist_ok=True)
-        tmp = out / f".{JOB_FILE}.tmp"
-        tmp.write_text(json.dumps(record, indent=1) + "\n")
-        tmp.replace(out / JOB_FILE)  # atomic: the parent never reads half a file
+        atomic.write_text(out / JOB_FILE, json.dumps(record, indent=1) + "\n")  # the parent never reads half a file
 
     def on_multirun_end(self, config: Any, **kwargs: Any) -> None:
         sweep_dir = Path(str(config.hydra.sweep.dir))
