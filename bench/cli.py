@@ -14,7 +14,7 @@ from pathlib import Path
 # command, module under catpose.bench, function, one-line help
 _TABLE = (
     ("run", "run.command", "main", "run a method on a dataset: bench run method=ours dataset=synthetic [-m sweeps]"),
-    ("evaluate", "run.command", "evaluate_main", "recompute errors and summaries of run directories from their files"),
+    ("evaluate", "run.evaluate", "main", "recompute errors and summaries of run directories from their files"),
     ("table", "report.table_command", "main", "the paper's tables (Markdown, LaTeX, CSV) from run directories"),
     ("report", "report.report_folder", "main", "tables and plots of run directories in one folder"),
     ("perf", "perf.registration", "main", "seconds per registration and per stage for ours and ICP"),

@@ -157,22 +157,24 @@ def perturbed(sample: Sample, rel: float, seed: int) -> Sample:
     """``sample`` with every input coordinate scaled by ``1 + rel * u``, ``u ~ N(0, 1)`` drawn per
     coordinate from ``seed``: the relative perturbation used to find chaotic samples (a change
     of the last bits of the input, far below any sensor's noise)."""
-    rng = np.random.default_rng(seed)
-    jitter = lambda a: np.asarray(a, float) * (1.0 + rel * rng.standard_normal(np.shape(a)))  # noqa: E731
-    rng_extra = np.random.default_rng([seed, 1])  # meshes and depth images: a stream of their own
-    extra = lambda a: np.asarray(a, float) * (1.0 + rel * rng_extra.standard_normal(np.shape(a)))  # noqa: E731
+    rng, rng_extra = np.random.default_rng(seed), np.random.default_rng([seed, 1])  # meshes, depth: their own stream
+
+    def jitter(a, rng=rng):
+        return np.asarray(a, float) * (1.0 + rel * rng.standard_normal(np.shape(a)))
+
     p = sample.problem
-    vertices = None if p.template.vertices is None else extra(p.template.vertices)
+    vertices = None if p.template.vertices is None else jitter(p.template.vertices, rng_extra)
     tpl = replace(p.template, points=jitter(p.template.points), vertices=vertices)
     di = p.depth_image
-    depth_image = None if di is None else DepthImage(extra(di.depth), di.K, di.mask)
+    depth_image = None if di is None else DepthImage(jitter(di.depth, rng_extra), di.K, di.mask)
     problem = replace(p, points_camera=jitter(p.points_camera), template=tpl, depth_image=depth_image)
     return replace(sample, problem=problem)
 
 
 class GoldenProtocol:
-    """Serves a :class:`GoldenSet`'s samples to the runner's per-sample function
-    (``load(dataset, sample_id)``; the dataset argument is ignored)."""
+    """Serves a :class:`GoldenSet`'s samples to the runner's per-sample function as both its
+    protocol (``load(dataset, sample_id)``, the dataset argument ignored) and its dataset (only
+    ``category_of``)."""
 
     name = "golden"
 
@@ -183,20 +185,12 @@ class GoldenProtocol:
     def sample_ids(self, dataset=None) -> list[str]:
         return list(self._samples)
 
+    def category_of(self, sample_id: str) -> str | None:
+        s = self._samples.get(sample_id)
+        return None if s is None else s.problem.category
+
     def load(self, dataset, sample_id: str) -> Sample:
         if sample_id not in self._samples:
             raise DatasetError(f"golden inputs have no sample {sample_id!r}")
         s = self._samples[sample_id]
         return self._transform(s) if self._transform else s
-
-
-class GoldenDataset:
-    """The stand-in dataset for rows built from golden inputs (only ``category_of``)."""
-
-    name = "golden"
-
-    def __init__(self, golden: GoldenSet) -> None:
-        self._cat = {s.problem.sample_id: s.problem.category for s in golden.samples}
-
-    def category_of(self, sample_id: str) -> str | None:
-        return self._cat.get(sample_id)

@@ -120,13 +120,13 @@ def _compose(suite: Suite, method: str | None) -> Any:
 def suite_samples(suite: Suite, transform: Callable | None = None) -> tuple[Any, Any, list[str]]:
     """(dataset, protocol, sample ids) of a suite: golden inputs when it has them, else its
     dataset and protocol built from config. ``transform`` maps each loaded sample (golden only)."""
-    from catpose.bench.regress.golden import GoldenDataset, GoldenProtocol, read_golden
+    from catpose.bench.regress.golden import GoldenProtocol, read_golden
     from catpose.bench.run.build import build_dataset, build_from_config
 
     if suite.inputs is not None:
         golden = read_golden(suite.inputs)
         protocol = GoldenProtocol(golden, transform)
-        return GoldenDataset(golden), protocol, protocol.sample_ids()
+        return protocol, protocol, protocol.sample_ids()
     cfg = _compose(suite, None)
     dataset = build_dataset(cfg.dataset)
     _, protocol = build_from_config(cfg.protocol, "protocol")

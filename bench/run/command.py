@@ -1,5 +1,4 @@
-"""``bench run`` (Hydra's ``hydra.main``, after the checks of :mod:`catpose.bench.run.config`) and
-``bench evaluate``."""
+"""``bench run``: Hydra's ``hydra.main``, after the checks of :mod:`catpose.bench.run.config`."""
 
 from __future__ import annotations
 
@@ -211,10 +210,3 @@ examples:
   bench run method=icp dataset=synthetic limit=1 hydra.run.dir=outputs/first_icp
   bench run -m method=icp,ours dataset=synthetic seed=0,1 limit=2
   bench run method=ours --cfg job"""
-
-
-def evaluate_main(argv: list[str]) -> int:
-    """Recompute errors and summaries of run directories from their files (:mod:`catpose.bench.run.evaluate`)."""
-    from catpose.bench.run.evaluate import main
-
-    return main(argv)

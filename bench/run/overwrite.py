@@ -254,15 +254,20 @@ def add_output_options(ap, help: str, required: bool = True, force_help: str = "
     )
 
 
+def oserror_reason(e: OSError) -> str:
+    """What an ``OSError`` while writing means, in words: the disk is full, a folder is not writable, ..."""
+    if e.errno in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT):
+        return "the disk is full"
+    if e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        return "the folder is not writable"
+    if e.errno in (errno.ENOTDIR, errno.EEXIST) or isinstance(e, (NotADirectoryError, FileExistsError)):
+        return "a file is in the way of a folder on its path"
+    return e.strerror or type(e).__name__
+
+
 def write_error_text(out: str | Path, e: OSError, flag: str = "--out") -> str:
     """One line for an ``OSError`` while writing ``out``: what happened and the fix."""
-    if e.errno in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT):
-        why = "the disk is full"
-    elif e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
-        why = "the folder is not writable"
-    else:
-        why = e.strerror or type(e).__name__
-    return f"cannot write {flag} {out} ({why}: {e.strerror or e}); pass a writable folder with free space"
+    return f"cannot write {flag} {out} ({oserror_reason(e)}: {e.strerror or e}); pass a writable folder with free space"
 
 
 @contextlib.contextmanager

@@ -12,7 +12,6 @@ per finished sample, appended and fsynced), ``config.yaml`` (resolved), ``overri
 from __future__ import annotations
 
 import contextlib
-import errno
 import hashlib
 import json
 import math
@@ -25,6 +24,8 @@ from typing import Any
 
 import numpy as np
 
+from catpose.bench.run.rows_file import parse_rows as read_rows  # every row, nothing skipped in silence
+from catpose.bench.run.rows_file import repair_last_line
 from catpose.errors import RunAborted
 
 SAMPLES_FILE = "samples.jsonl"
@@ -122,24 +123,12 @@ def jsonable(x: Any) -> Any:
     return str(x)
 
 
-def read_rows(path: Path) -> list[dict]:
-    """Every row of a ``samples.jsonl`` in file order (a retried sample: each of its rows; one per
-    sample: :func:`latest_rows`). Nothing is skipped in silence (:mod:`catpose.bench.run.rows_file`):
-    a damaged line is a :class:`~catpose.errors.DatasetError` naming the file and the line; a cut-off
-    last line (what a kill leaves) is skipped with a warning, and its sample is re-run on resume."""
-    from catpose.bench.run.rows_file import parse_rows
-
-    return parse_rows(path)
-
-
 class SampleWriter:
     """Appends one JSON line per sample and makes it durable before the next sample starts."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
         if path.exists():  # drop a partial last line left by a kill, keep every complete one
-            from catpose.bench.run.rows_file import repair_last_line
-
             repair_last_line(path)
         self._f = open(path, "a", encoding="utf-8")
 
@@ -152,31 +141,20 @@ class SampleWriter:
         self._f.close()
 
 
-def output_error(path: Path, e: OSError) -> RunAborted:
-    """A one-line error for an ``OSError`` while writing the run directory."""
-    if e.errno == errno.ENOSPC:
-        why = "the disk is full"
-    elif e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
-        why = "it is not writable"
-    elif e.errno in (errno.ENOTDIR, errno.EEXIST) or isinstance(e, (NotADirectoryError, FileExistsError)):
-        why = "a file is in the way of a folder on its path"
-    else:
-        why = e.strerror or type(e).__name__
-    filename = getattr(e, "filename", None)
-    where = f" ({filename})" if filename and Path(str(filename)) != path else ""
-    return RunAborted(
-        f"cannot write the run directory {path}{where}: {why}; set output_root=<a writable "
-        "folder with free space> (finished samples are kept, a re-run resumes)"
-    )
-
-
 @contextlib.contextmanager
 def writing(path: Path) -> Iterator[None]:
-    """Turn an ``OSError`` while writing the run directory ``path`` into :func:`output_error`."""
+    """Turn an ``OSError`` while writing the run directory ``path`` into one :class:`RunAborted` line."""
+    from catpose.bench.run.overwrite import oserror_reason
+
     try:
         yield
     except OSError as e:
-        raise output_error(path, e) from None
+        filename = getattr(e, "filename", None)
+        where = f" ({filename})" if filename and Path(str(filename)) != path else ""
+        raise RunAborted(
+            f"cannot write the run directory {path}{where}: {oserror_reason(e)}; set output_root=<a writable "
+            "folder with free space> (finished samples are kept, a re-run resumes)"
+        ) from None
 
 
 def latest_rows(path: Path) -> list[dict]:
