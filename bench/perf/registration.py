@@ -1,14 +1,8 @@
 """``bench perf``: seconds per registration of several methods on the same problems, interleaved.
 
-Problems are the first ``--n`` samples of a configured dataset (round-robin over categories),
-built as ``bench run`` builds them; methods are built from ``configs/method/<name>.yaml``
-(``--set [LABEL:]KEY=VALUE`` overrides an option; ``--methods adam=ours`` runs a second,
-differently configured copy). Before a problem with a new template every method registers it
-once, untimed (``warmup_s``); then ``--repeat`` rounds call every method back to back, the order
-rotating per round, so load changes hit all methods alike. Per method: median, mean and p90
-seconds and the ratio to FGR's median; the peak RSS, load average and ``--threads`` are printed
-and written with the CSV (``--out``), beside the raw times (``*_times.csv``) and ours' per-stage
-medians (``*_stages.csv``).
+Problems are the first ``--n`` samples of a configured dataset, built as ``bench run`` builds
+them; every method registers each new template once untimed, then ``--repeat`` rounds call
+every method back to back, the order rotating per round, so load changes hit all methods alike.
 
     bench perf                                    # 12 synthetic problems, ours, icp, fgr, 3 rounds
     bench perf --n 24 --methods ours,adam=ours,fgr --repeat 5 --set adam:optimiser.solver=adam

@@ -2,11 +2,7 @@
 
 Each suite of ``configs/regress/default.yaml`` is a fixed set of problems (the embedded suite's
 from committed golden inputs, :mod:`catpose.bench.regress.golden`) and a list of methods, checked
-against ``results/reference/<suite>.json`` by the rules of :mod:`catpose.bench.regress.regress_gate`:
-a sample that was ok now fails, or a stable sample within ``within_deg`` leaves it by more than
-``chaos_deg``, or an aggregate leaves its tolerance. A *chaotic* sample (its answer moves under a
-``1e-12`` perturbation or another code path of the numerical libraries, measured by ``--update``:
-:mod:`catpose.bench.regress.reference`) is reported, never failed on.
+against ``results/reference/<suite>.json`` by the rules of :mod:`catpose.bench.regress.regress_gate`.
 
     bench regress                          # every suite (shared-data suites only when present)
     bench regress --suite synthetic --methods icp,ours

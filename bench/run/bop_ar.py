@@ -1,16 +1,6 @@
 """BOP's per-target errors of a run on BOP-layout data, for the AR columns of ``bench suite`` and
-``bench table``.
-
-:func:`target_errors` reads a run directory's files (``samples.jsonl``, ``config.yaml``), turns
-its scoring units into BOP estimates (:func:`catpose.bench.scoring.bop_rows.predictions_from_units`)
-and computes every target's errors with ``bench score``'s code
-(:func:`catpose.bench.scoring.bop_eval.compute_errors`, VSD included, on the dataset's evaluation
-models), keeping the targets the run has a sample of (a failed sample's target is a miss). VSD
-renders the model twice per target, so the errors are cached outside the run (which a table
-command did not create and must not write into): ``$CATPOSE_CACHE_DIR`` or ``~/.cache/catpose``,
-``bop_errors/<hash>.jsonl``, the hash covering the run's rows, its evaluation dataset config and
-:data:`VERSION`; a changed or resumed run gets a new entry.
-"""
+``bench table`` (:func:`target_errors`), computed with ``bench score``'s code and cached outside
+the run, which a table command did not create and must not write into."""
 
 from __future__ import annotations
 

@@ -98,14 +98,22 @@ def _node(cfg: Any, key: str) -> dict | None:
     return dict(node) if isinstance(node, dict) else None
 
 
+def target_class(node: Any) -> Any:
+    """What a config node's ``_target_`` names, None where it names nothing importable (building
+    then says why)."""
+    module_name, _, attr = str(node.get("_target_", "") if hasattr(node, "get") else "").rpartition(".")
+    try:
+        return getattr(importlib.import_module(module_name), attr, None)
+    except (ImportError, ValueError):
+        return None
+
+
 def takes_choice(protocol: Any) -> bool:
     """Whether a protocol config node's class keeps one of a view's template registrations (its
     constructor takes ``choice``: templates, relative), so the ``choice`` group applies to it."""
-    target = str(protocol.get("_target_", "")) if hasattr(protocol, "get") else ""
-    module_name, _, attr = target.rpartition(".")
     try:
-        return "choice" in inspect.signature(getattr(importlib.import_module(module_name), attr)).parameters
-    except (ImportError, AttributeError, ValueError, TypeError):
+        return "choice" in inspect.signature(target_class(protocol)).parameters
+    except (ValueError, TypeError):
         return False
 
 

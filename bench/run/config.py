@@ -269,12 +269,10 @@ def compose_and_build(
     from catpose.bench.run.build import build_from_config
 
     cfg = compose(overrides, hint)
-    built = []
-    for group in groups:
-        name, obj = build_from_config(cfg[group], group)
+    built = [build_from_config(cfg[group], group) for group in groups]
+    for (name, obj), group in zip(built, groups):
         if group == "dataset":
             obj.name = name
-        built.append((name, obj))
     return cfg, built
 
 

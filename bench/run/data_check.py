@@ -1,13 +1,9 @@
 """``bench data check dataset=NAME dataset.root=PATH``: is a dataset root laid out as its loader expects?
 
-Walks the layout with the loader's own code (the dataset object built from the config exactly as
-``bench run`` builds it, then its :meth:`~catpose.datasets.dataset.ObjectDataset.check_layout`), in
-seconds and without loading every sample: folders, every JSON file parsed, the files the frames
-and templates reference, one file of each kind read, and finally the loader's sample list and its
-first sample loaded. Prints one line per problem with its fix (``problem:``)
-and exits 2 when there is any; things that only limit some protocols are ``warning:`` lines
-(exit 0). On an empty folder it stops after the first missing level (at most two lines).
-Layouts and downloads: docs/data.md.
+Walks the layout with the loader's own code (the dataset built as ``bench run`` builds it, then
+its :meth:`~catpose.datasets.dataset.ObjectDataset.check_layout`) in seconds, then loads the
+first sample. Prints one ``problem:`` line per problem with its fix and exits 2 when there is
+any; ``warning:`` lines only limit some protocols (exit 0). Layouts and downloads: docs/data.md.
 """
 
 from __future__ import annotations
@@ -64,10 +60,10 @@ def check(name: str, node: Any) -> LayoutReport:
     """Check the dataset of config ``node`` (the composed ``dataset`` group)."""
     from omegaconf import OmegaConf
 
-    from catpose.bench.run.build import build_from_config
+    from catpose.bench.run.build import build_from_config, target_class
 
     report = LayoutReport()
-    generated = getattr(_target_class(str(node.get("_target_", ""))), "generated", None)
+    generated = getattr(target_class(node), "generated", None)
     if generated:
         report.facts.append(f"dataset={name} is {generated}")
         return report
@@ -89,17 +85,6 @@ def check(name: str, node: Any) -> LayoutReport:
     if not report.problems:
         _check_loader(dataset, report)
     return report
-
-
-def _target_class(target: str) -> type | None:
-    """The class a config's ``_target_`` names, None where it names none (building then says why)."""
-    import importlib
-
-    module, _, attr = target.rpartition(".")
-    try:
-        return getattr(importlib.import_module(module), attr, None)
-    except (ImportError, ValueError):
-        return None
 
 
 def _check_loader(dataset: Any, report: LayoutReport) -> None:

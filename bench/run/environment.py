@@ -1,16 +1,11 @@
 """The software and hardware a run's numbers came from, and how two such records differ.
 
 Last-bit floating-point differences between machines come from library versions and from the
-code paths the libraries choose at run time for the CPU: OpenBLAS's kernel (SkylakeX, Haswell,
-Zen, Sandybridge...), NumPy's dispatched loops (AVX-512 versions of ``exp``, ``log``,
-``arccos``, ... round differently from the AVX2 ones), torch's CPU capability and numba's target
-CPU. Every ``run.json`` and every regression reference records them, so that a result that moved
-can be traced to the code or to the machine.
-
-:func:`numeric_variants` lists, for this CPU, the environment settings under which it computes
-the way other x86-64 CPUs do (``bench regress --update`` and ``tests/test_portable_bits.py`` run
-under each); :func:`portable_profile` is the one setting every AVX2 and AVX-512 CPU can run,
-which ``results/make_results.sh`` uses so that its tables are the same bits on either.
+code paths the libraries choose at run time for the CPU (OpenBLAS's kernel, NumPy's dispatched
+loops, torch's CPU capability, numba's target CPU). Every ``run.json`` and every regression
+reference records them, so that a result that moved can be traced to the code or to the machine;
+:func:`numeric_variants` and :func:`portable_profile` name the settings that make this CPU
+compute as others do.
 """
 
 from __future__ import annotations

@@ -1,13 +1,13 @@
 """No command writes into what it did not create: the one output rule (docs/file-safety.md).
 
-Every command that writes where it is told (``--out``, ``--sheet``, ``--write``) applies
-:func:`check_output` before any work: the target is no input and lies inside none (nor inside a
-run directory, nor holds the current folder), not even with ``--force``; a file never replaces a
-folder nor a folder a file; an existing target needs ``--force``, and a table with rows marked
-``verified`` (or its contact sheet, or a folder holding runs or such tables) is never replaced;
-its folder must be writable. Files are then written atomically (:mod:`catpose.atomic`) and
-folders built beside their destination and moved into place; an ``OSError`` while writing is one
-line (:func:`output_errors`)."""
+Every command that writes where it is told (``--out``, ``--sheet``, ``--write``) makes an
+:class:`Output` before any work, which applies :func:`check_output`: the target is no input and
+lies inside none (nor inside a run directory, nor holds the current folder), not even with
+``--force``; a file never replaces a folder nor a folder a file; an existing target needs
+``--force``, and a table with rows marked ``verified`` (or its contact sheet, or a folder holding
+runs or such tables) is never replaced; its folder must be writable. Files are then written
+atomically (:mod:`catpose.atomic`), folders built beside their destination and moved into
+place, and an ``OSError`` while writing is one line (:func:`output_errors`)."""
 
 from __future__ import annotations
 

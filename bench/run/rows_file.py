@@ -1,14 +1,9 @@
 """Reading a ``samples.jsonl`` without skipping anything in silence.
 
-A ``samples.jsonl`` is appended one line per finished sample, each line flushed and fsynced
-before the next sample starts (:class:`~catpose.bench.run.rundir.SampleWriter`). The only damage
-a kill can do is therefore a cut-off LAST line: the start of a JSON object that does not parse (a
-kill leaves it without its newline). That line is skipped with a warning that gives the count, and the
-runner re-runs its sample on resume (:func:`repair_last_line` drops it before appending).
-
-Anything else is damage no run makes (a line edited by hand, a disk error, two files joined): it
-is a :class:`~catpose.errors.DatasetError` naming the file and the line, so a table is never made
-from a run with rows silently missing.
+The runner appends and fsyncs one line per finished sample, so the only damage a kill can do is
+a cut-off LAST line: it is skipped with a warning and its sample re-run on resume. Anything else
+(a line edited by hand, a disk error, two files joined) is a :class:`~catpose.errors.DatasetError`
+naming the file and the line, so a table is never made from a run with rows silently missing.
 """
 
 from __future__ import annotations

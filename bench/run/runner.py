@@ -1,16 +1,7 @@
-"""The runner: every sample of a dataset + protocol through one method, into one run directory.
-
-``samples.jsonl`` gets one row per finished sample, flushed as soon as it is done, so a killed
-run loses nothing written and a re-run skips finished samples; ``config.yaml``, ``git_rev.txt``
-and ``run.json`` (counts, environment) beside it; ``samples.csv`` and ``summary.{csv,md}`` are
-made from ``samples.jsonl`` (:func:`summarize_run`). ``batch=N`` hands the method ``N`` samples
-per ``register_batch`` call where it has one.
-
-A sample whose data fails to load, whose method raises, or whose estimate is not a finite rigid
-transform is recorded as failed and the run goes on. What is not the sample's fault (Ctrl-C, an
-import error, ``MemoryError``, an ``OSError`` writing the run directory) aborts the run in one
-line and records nothing for the sample in progress. A run holds a lock on its directory
-(:mod:`catpose.bench.run.lock`); a second run of the same configuration waits for it."""
+"""The runner: every sample of a dataset + protocol through one method, into one run directory
+(:mod:`catpose.bench.run.rundir`: rows appended and fsynced as they finish, so a re-run skips
+finished samples). What is a sample's own fault is its row's failure; what is not (Ctrl-C, an
+import error, no memory, an unwritable run directory) aborts the run in one line (:func:`run`)."""
 
 from __future__ import annotations
 
