@@ -4,6 +4,7 @@ run directory's ``run.lock``."""
 from __future__ import annotations
 
 import logging
+import math
 import os
 import time
 from pathlib import Path
@@ -59,44 +60,34 @@ class RunLock:
         import fcntl
 
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        deadline = None
         try:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                self._wait(fd)
+            while True:
+                try:
+                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    break
+                except BlockingIOError:
+                    if deadline is None:  # the first try: say who holds it, once
+                        deadline = time.monotonic() + (math.inf if self.timeout is None else self.timeout)
+                        if deadline > time.monotonic():
+                            log.warning(
+                                "waiting for pid %s, which is running into %s (it finishes the same samples; "
+                                "Ctrl-C to stop)",
+                                self.holder(),
+                                self.path.parent,
+                            )
+                    if time.monotonic() >= deadline:
+                        raise RunAborted(
+                            f"run directory {self.path.parent} is in use by pid {self.holder()} (waited "
+                            f"{self.timeout:g} s); wait for that run to finish or stop it, or raise lock_timeout"
+                        ) from None
+                    time.sleep(self.poll_s)
             os.ftruncate(fd, 0)
             os.write(fd, f"{os.getpid()}\n".encode())
         except BaseException:
             os.close(fd)
             raise
         self._fd = fd
-
-    def _wait(self, fd: int) -> None:
-        import fcntl
-
-        holder = self.holder()
-        if self.timeout is not None and self.timeout <= 0:
-            raise RunAborted(
-                f"run directory {self.path.parent} is in use by pid {holder}; wait for that run to finish or stop it"
-            )
-        log.warning(
-            "waiting for pid %s, which is running into %s (it finishes the same samples; Ctrl-C to stop)",
-            holder,
-            self.path.parent,
-        )
-        deadline = None if self.timeout is None else time.monotonic() + self.timeout
-        while True:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                return
-            except BlockingIOError:
-                if deadline is not None and time.monotonic() > deadline:
-                    raise RunAborted(
-                        f"run directory {self.path.parent} is still in use by pid {self.holder()} "
-                        f"after {self.timeout:g} s; wait for that run to finish or stop it, or "
-                        "raise lock_timeout"
-                    ) from None
-                time.sleep(self.poll_s)
 
     def release(self) -> None:
         if self._fd is not None:

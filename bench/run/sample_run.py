@@ -136,12 +136,7 @@ def _with_estimate_facts(facts_hook: Any, dataset: Any, row: dict, sample: Any) 
 def run_one(method: Any, protocol: Any, dataset: Any, sample_id: str, base: dict, seed: int, facts: Any = None) -> dict:
     """Load, register and score one sample; its row (see :class:`catpose.bench.scoring.rows.SampleRow`),
     with ``facts``' facts about the estimate (:func:`_with_estimate_facts`)."""
-    row, sample = _load_one(protocol, dataset, sample_id, base)
-    return (
-        row
-        if sample is None
-        else _with_estimate_facts(facts, dataset, _register_one(method, row, sample, seed), sample)
-    )
+    return run_batch(method, protocol, dataset, [sample_id], base, seed, facts)[0]
 
 
 def run_batch(
@@ -169,14 +164,11 @@ def run_batch(
             scored = {
                 row["sample_id"]: _scored(row, sample, result, share) for (row, sample), result in zip(ready, results)
             }
-    rows = []
-    for row, sample in loaded:
-        if sample is None:
-            rows.append(row)
-        else:
-            rows.append(
-                _with_estimate_facts(
-                    facts, dataset, scored.get(row["sample_id"]) or _register_one(method, row, sample, seed), sample
-                )
-            )
-    return rows
+    return [
+        row
+        if sample is None
+        else _with_estimate_facts(
+            facts, dataset, scored.get(row["sample_id"]) or _register_one(method, row, sample, seed), sample
+        )
+        for row, sample in loaded
+    ]

@@ -14,6 +14,8 @@ import logging
 from pathlib import Path
 from typing import Any
 
+from hydra.experimental.callback import Callback
+
 from catpose import atomic
 
 log = logging.getLogger(__name__)
@@ -45,13 +47,7 @@ def read_sweep(sweep_dir: str | Path) -> list[dict]:
     return sorted(records, key=lambda r: int(r["job"]) if str(r.get("job", "")).isdigit() else 1 << 30)
 
 
-try:
-    from hydra.experimental.callback import Callback
-except ImportError:  # pragma: no cover - hydra-core is a dependency
-    Callback = object  # type: ignore[misc,assignment]
-
-
-class SweepStatus(Callback):  # type: ignore[misc]
+class SweepStatus(Callback):
     """Hydra callback (``hydra.callbacks.sweep_status`` in ``configs/run.yaml``)."""
 
     def on_job_end(self, config: Any, job_return: Any, **kwargs: Any) -> None:
