@@ -211,9 +211,8 @@ def main(argv: list[str] | None = None) -> int:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="override a dataset option (e.g. instances_per_category=1)",
+        help="override a dataset option (e.g. instances_per_category=1, categories=[mug,chair])",
     )
-    ap.add_argument("--categories", default=None, help="comma-separated categories (sets dataset.categories)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument(
         "--threads",
@@ -253,8 +252,6 @@ def main(argv: list[str] | None = None) -> int:
     kernel_threads.set_threads(threads)
     load_before = os.getloadavg()
     ds_over = [f"dataset.{kv}" for kv in args.dataset_set]
-    if args.categories:
-        ds_over.append(f"dataset.categories=[{args.categories}]")
     problems, source = load_problems(args.dataset, args.protocol, args.n, args.seed, args.root, ds_over)
     methods: dict[str, Any] = {}
     for label, name in parse_methods(args.methods):

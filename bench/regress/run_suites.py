@@ -12,6 +12,7 @@ against ``results/reference/<suite>.json`` by the rules of :mod:`catpose.bench.r
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
@@ -187,13 +188,11 @@ def _slim(row: dict) -> dict:
 
 
 def write_inputs(suite: Suite, log=print) -> None:
-    """Render the suite's problems from its dataset config and freeze them (golden inputs)."""
+    """Render the suite's problems from its dataset config and freeze them into its ``inputs``
+    file (golden inputs)."""
     from catpose.bench.regress.golden import write_golden
 
-    if suite.inputs is None:
-        raise ConfigError(f"suite {suite.name!r} has no 'inputs' file configured; add inputs: <path>.npz")
-    cfg_suite = Suite(**{**suite.__dict__, "inputs": None})
-    dataset, protocol, ids = suite_samples(cfg_suite)
+    dataset, protocol, ids = suite_samples(dataclasses.replace(suite, inputs=None))
     samples = [protocol.load(dataset, sid) for sid in ids]
     write_golden(suite.inputs, suite.name, suite.overrides, samples)
     log(
