@@ -163,8 +163,8 @@ def test_templates_layout_uses_oracle(tmp_path: Path):
 
 
 def test_ablation_labels(tmp_path: Path):
-    a = make_run(tmp_path, "full", {"airplane": [1.0]}, {"name": "ours", "optimize": True})
-    b = make_run(tmp_path, "svd", {"airplane": [9.0]}, {"name": "ours", "optimize": "none"})
+    a = make_run(tmp_path, "full", {"airplane": [1.0]}, {"name": "ours", "optimiser": {"mode": "joint"}})
+    b = make_run(tmp_path, "svd", {"airplane": [9.0]}, {"name": "ours", "optimiser": {"mode": "none"}})
     t = tables.build_table([tables.load_run(a), tables.load_run(b)], "ablation")
     assert [r[1] for r in t.rows] == ["Ours", "Ours (w/o optimization)"]
     assert t.rows[0][0] == "gt_model Dictionary"  # ours always matches against the dictionary

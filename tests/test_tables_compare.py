@@ -93,7 +93,7 @@ def test_the_report_refuses_mixed_samples_unless_allowed(make, tmp_path: Path, c
 
     full = make("ours_full", "ours", FULL)
     part = make("icp_limit4", "icp", FIRST4, limit=4)
-    args = ["report", str(full), str(part), "--qualitative", "0", "--no-pdf"]
+    args = ["report", str(full), str(part), "--no-pictures", "--no-pdf"]
     assert main([*args, "--out", str(tmp_path / "r1")]) == 2
     assert "rows of different samples" in capsys.readouterr().err and not (tmp_path / "r1").exists()
     assert main([*args, "--out", str(tmp_path / "r2"), "--allow-mixed"]) == 0

@@ -91,11 +91,11 @@ def scored_answers(run_dir: Path, rows: list[dict]) -> dict:
 
 
 def with_ar(row: dict, errors, sample_ids: list[str] | None = None) -> dict:
-    """``row`` with BOP's AR and its parts (:data:`~catpose.bench.scoring.bop_rows.AR_KEYS`) of the
+    """``row`` with BOP's AR and its parts (:data:`~catpose.bench.run.bop_ar.AR_KEYS`) of the
     per-target ``errors`` of ``sample_ids`` (all of them when None); ``row`` as it is without errors."""
     if errors is None or len(errors) == 0:
         return row
-    from catpose.bench.scoring.bop_rows import ar_scores
+    from catpose.bench.run.bop_ar import ar_scores
 
     chosen = errors if sample_ids is None else errors[errors["sample_id"].isin(set(sample_ids))]
     return {**row, **ar_scores(chosen)} if len(chosen) else row

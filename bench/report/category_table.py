@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from catpose.bench.scoring.curves import scored_errors
 from catpose.errors import ConfigError
 
 STATS = ("mean", "median", "acc10", "acc30")
@@ -41,16 +42,6 @@ def error_stats(err: np.ndarray) -> dict[str, float]:
         "acc10": float((err < 10).mean()),
         "acc30": float((err < 30).mean()),
     }
-
-
-def row_errors(rows) -> np.ndarray:
-    """(n,) each row's error in degrees, a failed row (or one without an error) counting 180."""
-    import pandas as pd
-
-    from catpose.bench.scoring.metrics import FAILED_ERROR_DEG
-
-    err = pd.to_numeric(rows["err_deg"], errors="coerce").to_numpy(float)
-    return np.where((rows["status"] != "ok").to_numpy() | ~np.isfinite(err), FAILED_ERROR_DEG, err)
 
 
 def rule_of(run):
@@ -99,9 +90,9 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
         units = Templates(choice=dataclasses.replace(run_rule, rule=choice)).best_per_view(samples)
         row = {"K": K, "views": len(units), "choice": choice if K > 1 or one_template_turns else "-"}
         row["incomplete_views"] = incomplete
-        row.update({f"chosen_{k}": v for k, v in error_stats(row_errors(units)).items()})
+        row.update({f"chosen_{k}": v for k, v in error_stats(scored_errors(units)).items()})
         row.update({f"oracle_{k}": v for k, v in error_stats(units["oracle_err_deg"].to_numpy(float)).items()})
-        row.update({f"random_{k}": v for k, v in error_stats(row_errors(samples)).items()})
+        row.update({f"random_{k}": v for k, v in error_stats(scored_errors(samples)).items()})
         out.append(row)
     return out
 

@@ -214,7 +214,7 @@ def build_table(
     if layout not in LAYOUTS:
         raise ConfigError(f"unknown table layout {layout!r}; use one of {sorted(LAYOUTS)}")
     from catpose.bench.report.tables_compare import FIX, mixed_rows
-    from catpose.bench.scoring.bop_rows import AR_KEYS
+    from catpose.bench.run.bop_ar import AR_KEYS
     from catpose.errors import DatasetError
 
     spec = LAYOUTS[layout]

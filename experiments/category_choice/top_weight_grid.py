@@ -42,12 +42,12 @@ def chosen_errors(samples, turns: tuple[float, ...] | None, weight: float) -> np
     import pandas as pd
 
     from catpose.bench.protocols.template_rows import choose_row
-    from catpose.bench.report.category_table import row_errors
+    from catpose.bench.scoring.curves import scored_errors
 
     rule = "cross_top" if not turns else "cross_top_turns"
     rows = samples if not turns else with_turns(samples, turns)
     chosen = pd.DataFrame([choose_row(g, rule, top_weight=weight) for _, g in rows.groupby("group_id")])
-    return np.asarray(row_errors(chosen), float)
+    return np.asarray(scored_errors(chosen), float)
 
 
 def gap(samples, weight: float, turns: tuple[float, ...] | None = None) -> float:
