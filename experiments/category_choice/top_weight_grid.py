@@ -17,6 +17,7 @@ experiments/category_choice/make_chair_dev.sh and make_chair_procedural.sh.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -76,8 +77,10 @@ def sweeps_parser(doc: str, title: str = "Chair development runs") -> argparse.A
 
 def set_runs(sweep: str | Path) -> list:
     """The runs (:func:`catpose.bench.report.runs.load_run`) of one sweep directory, by method name."""
-    from catpose.bench.report.category_table import run_dirs
     from catpose.bench.report.runs import load_run
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
+    from category_table import run_dirs  # experiments/_lib/category_table.py
 
     return sorted((load_run(p) for p in run_dirs([sweep])), key=lambda r: r.method)
 
