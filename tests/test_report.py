@@ -11,8 +11,10 @@ import pandas as pd
 import pytest
 
 from catpose.bench.report import tables
+from catpose.bench.report.labels import parse_labels, run_labels
 from catpose.bench.report.report_folder import build_report, worst_drawable
 from catpose.bench.report.report_folder import main as report_main
+from catpose.bench.report.runs import load_run
 from catpose.bench.run.rundir import write_run
 from catpose.errors import DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
@@ -86,8 +88,8 @@ def test_labels_unique_by_the_distinguishing_override(tmp_path: Path):
         overrides=["method.descriptor=pfh"],
     )
     c = _run(tmp_path, "seed0-default-9c0d1e2f", {"name": "icp"}, overrides=[])
-    runs = [tables.load_run(p) for p in (a, b, c)]
-    assert tables.run_labels(runs) == ["Ours", "Ours (descriptor=pfh)", "ICP"]
+    runs = [load_run(p) for p in (a, b, c)]
+    assert run_labels(runs) == ["Ours", "Ours (descriptor=pfh)", "ICP"]
     t = tables.build_table(runs, "generic")
     assert sorted(r[-1] for r in t.rows) == ["ICP", "Ours", "Ours (descriptor=pfh)"]
 
@@ -96,9 +98,9 @@ def test_labels_from_config_differences_then_protocol(tmp_path: Path):
     a = _run(tmp_path, "seed0-x-1a2b3c4d", {"name": "icp", "max_iter": 30})
     b = _run(tmp_path, "seed0-y-5e6f7a8b", {"name": "icp", "max_iter": 100})
     c = _run(tmp_path, "seed0-default-9c0d1e2f", {"name": "icp", "max_iter": 30}, TEMPLATES)
-    labels = tables.run_labels([tables.load_run(p) for p in (a, b)])
+    labels = run_labels([load_run(p) for p in (a, b)])
     assert labels == ["ICP (max_iter=30)", "ICP (max_iter=100)"]
-    labels = tables.run_labels([tables.load_run(p) for p in (a, c)])
+    labels = run_labels([load_run(p) for p in (a, c)])
     assert labels == ["ICP (gt_model)", "ICP (templates)"]
     assert not any(HASH.search(x) for x in labels)
 
@@ -106,14 +108,14 @@ def test_labels_from_config_differences_then_protocol(tmp_path: Path):
 def test_labels_hash_only_when_nothing_else_differs(tmp_path: Path):
     a = _run(tmp_path, "seed0-default-1a2b3c4d", {"name": "icp"})
     b = _run(tmp_path / "again", "seed0-default-5e6f7a8b", {"name": "icp"})
-    labels = tables.run_labels([tables.load_run(p) for p in (a, b)])
+    labels = run_labels([load_run(p) for p in (a, b)])
     assert len(set(labels)) == 2 and all(HASH.search(x) for x in labels)
 
 
 def test_labels_pool_one_run_per_category(tmp_path: Path):
     a = _run(tmp_path, "chair", {"name": "ours"}, errors={"chair": [1.0]})
     b = _run(tmp_path, "car", {"name": "ours"}, errors={"car": [2.0]})
-    assert tables.run_labels([tables.load_run(p) for p in (a, b)]) == ["Ours", "Ours"]
+    assert run_labels([load_run(p) for p in (a, b)]) == ["Ours", "Ours"]
 
 
 def _picks_units(errors: list[float | None]) -> pd.DataFrame:
@@ -252,8 +254,8 @@ def test_a_user_label_is_kept_beside_other_runs_of_the_method(tmp_path: Path):
     b = _run(
         tmp_path, "seed0-+row=ours_pfh-5e6f7a8b", {"name": "ours", "descriptor": "pfh"}, overrides=["+row=ours_pfh"]
     )
-    runs = [tables.load_run(p) for p in (a, b)]
-    assert tables.run_labels(runs, tables.parse_labels([f"{a}=Ours"])) == ["Ours", "Ours (row=ours_pfh)"]
+    runs = [load_run(p) for p in (a, b)]
+    assert run_labels(runs, parse_labels([f"{a}=Ours"])) == ["Ours", "Ours (row=ours_pfh)"]
 
 
 def test_report_index_links_every_file_and_a_second_report_replaces_the_folder_whole(tmp_path: Path):

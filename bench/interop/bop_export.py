@@ -54,7 +54,7 @@ def export_bop(
     summed runtimes, -1 if one is unknown). What is left out goes to ``skipped``; a run without any
     estimate, or whose samples have no BOP ids, is refused."""
     from catpose.bench.protocols.relative import Relative
-    from catpose.bench.report.tables import load_run, protocol_of
+    from catpose.bench.report.runs import load_run, protocol_of
     from catpose.bench.run.bop_ar import bop_key, camera_model_pose, confidence, has_bop_ids
     from catpose.bench.scoring.bop_eval import check_results_filename
     from catpose.errors import DatasetError, InvalidInputError

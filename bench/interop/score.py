@@ -92,7 +92,7 @@ def bop_metrics(asked: str | None, no_vsd: bool) -> str:
 
 def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
     """Ground-truth rows (one per view) and the config of a run directory."""
-    from catpose.bench.report.tables import load_run
+    from catpose.bench.report.runs import load_run
 
     run = load_run(run_dir)
     if run.incomplete:  # its missing samples cannot be scored: said, not hidden

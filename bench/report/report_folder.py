@@ -160,12 +160,14 @@ def build_report(
 def _write_report(runs, reasons, out: Path, layouts, pictures, labels, notes, pdf, allow_mixed: bool = False) -> None:
     """The files of :func:`build_report` into the new, empty folder ``out``."""
     from catpose.bench.report import plots, tables
+    from catpose.bench.report.labels import run_labels
     from catpose.bench.report.qualitative import plot_sample_from_run
+    from catpose.bench.report.runs import scored_units
 
     (out / "tables").mkdir(parents=True, exist_ok=True)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     by_protocol = tables.split_by_protocol(runs)
-    label_of = {id(r): lab for group in by_protocol.values() for r, lab in zip(group, tables.run_labels(group, labels))}
+    label_of = {id(r): lab for group in by_protocol.values() for r, lab in zip(group, run_labels(group, labels))}
 
     # One colour per label across the protocols' figures.
     colors = {lab: f"C{k % 10}" for k, lab in enumerate(dict.fromkeys(label_of[id(r)] for r in runs))}
@@ -204,7 +206,7 @@ def _write_report(runs, reasons, out: Path, layouts, pictures, labels, notes, pd
                 tables.build_table(group, layout, labels=names, allow_mixed=allow_mixed), out, f"{protocol}_{layout}"
             )
 
-        run_units = [tables.scored_units(r) for r in group]
+        run_units = [scored_units(r) for r in group]
         units = _units_by_label(group_labels, run_units)
         samples = _units_by_label(group_labels, [_with_warmup(r.samples) for r in group])
         fig = out / "figures"
@@ -272,7 +274,8 @@ def _write_report(runs, reasons, out: Path, layouts, pictures, labels, notes, pd
 
 def main(argv: list[str] | None = None) -> int:
     """``bench report RUN_DIR... --out DIR [--layout L ...] [--no-pictures] [--note TEXT ...]``."""
-    from catpose.bench.report.tables import LAYOUTS, parse_labels
+    from catpose.bench.report.labels import parse_labels
+    from catpose.bench.report.tables import LAYOUTS
     from catpose.bench.run.overwrite import Output, add_output_options, input_runs
 
     ap = argparse.ArgumentParser(
