@@ -154,14 +154,14 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
         ),
     ]
     out = tmp_path / "report"
-    index = build_report([tmp_path / "runs"], out, layouts=["optimiser"], notes=["Made by the test."])
+    index = build_report([tmp_path / "runs"], out, notes=["Made by the test."])
     md = index.read_text()
     assert str(tmp_path) not in md and "/abs/" not in md
     for link in _links(md):
         assert not link.startswith("/") and "://" not in link, link
         assert (out / link).is_file(), link
     for protocol in ("gt_model", "templates"):
-        for stem in ("summary", "per_category", "optimiser"):
+        for stem in ("summary", "per_category"):
             assert f"tables/{protocol}_{stem}.md" in md
         for fig in ("error_cdf", "accuracy", "runtime"):
             assert f"figures/{protocol}_{fig}.png" in md and (out / "figures" / f"{protocol}_{fig}.csv").is_file()
@@ -242,9 +242,9 @@ def test_pictures_are_on_by_default(monkeypatch, tmp_path: Path):
     seen = {}
     monkeypatch.setattr(report_folder, "build_report", lambda *a, **k: seen.update(args=a, kw=k) or tmp_path / "i.md")
     assert report_main(["some/run", "--out", str(tmp_path / "r")]) == 0
-    assert seen["args"][3] is True
+    assert seen["args"][2] is True
     report_main(["some/run", "--out", str(tmp_path / "r"), "--no-pictures"])
-    assert seen["args"][3] is False
+    assert seen["args"][2] is False
 
 
 def test_a_user_label_is_kept_beside_other_runs_of_the_method(tmp_path: Path):

@@ -1,9 +1,9 @@
 """``bench report``: tables and figures of run directories in one folder a person can open.
 
-    bench report outputs/synthetic-gt_model --out report/ [--layout optimiser] [--no-pictures]
+    bench report outputs/synthetic-gt_model --out report/ [--no-pictures]
 
 writes ``index.md`` (every link relative) and, per protocol (they never share a table or figure),
-``tables/<protocol>_{summary,per_category,<layout>}.{md,tex,csv}``,
+``tables/<protocol>_{summary,per_category}.{md,tex,csv}`` (other layouts: ``bench table``),
 ``figures/<protocol>_{error_cdf,accuracy,runtime}.{png,pdf,csv}`` (the CSV holds the plotted
 data) and a picture of each run's worst registration (``--no-pictures``: none). The runtime figure leaves each run's first registration
 (imports, compilation) out of its boxes. The folder is built beside ``--out`` and moved into
@@ -127,7 +127,6 @@ def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: 
 def build_report(
     run_dirs: Sequence[str | Path],
     out: str | Path,
-    layouts: Sequence[str] = (),
     pictures: bool = False,
     labels: dict[str, str] | None = None,
     notes: Sequence[str] = (),
@@ -153,11 +152,11 @@ def build_report(
         left_out.extend(reasons)
     final = Path(out)
     with atomic.building_dir(final) as out:  # built aside, moved into place whole (docs/file-safety.md)
-        _write_report(runs, reasons, out, layouts, pictures, labels, notes, pdf, allow_mixed)
+        _write_report(runs, reasons, out, pictures, labels, notes, pdf, allow_mixed)
     return final / "index.md"
 
 
-def _write_report(runs, reasons, out: Path, layouts, pictures, labels, notes, pdf, allow_mixed: bool = False) -> None:
+def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_mixed: bool = False) -> None:
     """The files of :func:`build_report` into the new, empty folder ``out``."""
     from catpose.bench.report import plots, tables
     from catpose.bench.report.labels import run_labels
@@ -201,10 +200,6 @@ def _write_report(runs, reasons, out: Path, layouts, pictures, labels, notes, pd
         per_cat = per_category_table(group, names, protocol, allow_mixed)
         if per_cat is not None:
             md += _write_table(per_cat, out, f"{protocol}_per_category")
-        for layout in layouts:
-            md += _write_table(
-                tables.build_table(group, layout, labels=names, allow_mixed=allow_mixed), out, f"{protocol}_{layout}"
-            )
 
         run_units = [scored_units(r) for r in group]
         units = _units_by_label(group_labels, run_units)
@@ -273,9 +268,8 @@ def _write_report(runs, reasons, out: Path, layouts, pictures, labels, notes, pd
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``bench report RUN_DIR... --out DIR [--layout L ...] [--no-pictures] [--note TEXT ...]``."""
+    """``bench report RUN_DIR... --out DIR [--no-pictures] [--note TEXT ...]``."""
     from catpose.bench.report.labels import parse_labels
-    from catpose.bench.report.tables import LAYOUTS
     from catpose.bench.run.overwrite import Output, add_output_options, input_runs
 
     ap = argparse.ArgumentParser(
@@ -283,12 +277,6 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("runs", nargs="+", help="run directories, or folders searched for samples.jsonl")
     add_output_options(ap, "the report folder to write (new or empty; see --force)")
-    ap.add_argument(
-        "--layout",
-        action="append",
-        choices=sorted(LAYOUTS),
-        help="extra table layouts per protocol (always: a summary and a per-category table)",
-    )
     ap.add_argument(
         "--no-pictures",
         action="store_true",
@@ -309,7 +297,6 @@ def main(argv: list[str] | None = None) -> int:
         index = build_report(
             args.runs,
             args.out,
-            args.layout or [],
             not args.no_pictures,
             parse_labels(args.label),
             args.note,
