@@ -13,12 +13,6 @@ import numpy as np
 from catpose.bench.interop.prediction_io import key_text
 
 
-def _orthonormalise(R: np.ndarray) -> np.ndarray:
-    """Nearest rotation (files hold rounded values)."""
-    U, _, Vt = np.linalg.svd(R)
-    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
-
-
 def score_predictions(
     preds,
     gt_rows: Sequence[dict],
@@ -33,6 +27,7 @@ def score_predictions(
     follow docs/file-safety.md (a per-sample file's last row of an id counts; a BOP (image, object)
     keeps its best-scored estimates, one per instance). ``stats`` receives :func:`count_text`'s counts."""
     from catpose.bench.run.bop_ar import bop_key, template_camera_pose
+    from catpose.bench.scoring.bop_eval import nearest_rotation
     from catpose.bench.scoring.metrics import sample_errors
     from catpose.bench.scoring.rows import failed_row, scored_row
     from catpose.geometry import make_T
@@ -50,7 +45,7 @@ def score_predictions(
 
     def estimate(p: dict, k: int) -> np.ndarray:
         T = np.asarray(p["T"], float)
-        T = make_T(_orthonormalise(T[:3, :3]), T[:3, 3])
+        T = make_T(nearest_rotation(T[:3, :3]), T[:3, 3])
         return template_camera_pose(T, gt_rows[k].get("info") or {}) if kind == "bop" else T
 
     def errors_of(T_est: np.ndarray, g: dict) -> dict:

@@ -26,9 +26,8 @@ from catpose.bench.interop.prediction_match import count_text, score_predictions
 from catpose.bench.run.bop_ar import evaluation_models, has_bop_ids, is_bop_layout
 from catpose.bench.run.overwrite import Input, Output, add_output_options
 from catpose.bench.run.rundir import write_run_into
+from catpose.bench.scoring.bop_eval import DEFAULT_METRICS as DEFAULT_BOP_METRICS
 from catpose.errors import DatasetError, InvalidInputError
-
-DEFAULT_BOP_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
 
 
 def score_bop(
