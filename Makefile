@@ -38,7 +38,7 @@ DEMO := outputs/demo
 demo: setup
 	eval "$$($(PY) -m catpose.bench.run.environment portable)" && \
 	for m in icp ours; do $(BENCH) run method=$$m dataset=synthetic output_root=$(DEMO) print_summary=false || exit 2; done
-	$(BENCH) report $(DEMO)/synthetic-gt_model --out $(DEMO)/report --force --qualitative 0 >/dev/null
+	$(BENCH) report $(DEMO)/synthetic-gt_model --out $(DEMO)/report --force --no-pictures >/dev/null
 	@for t in per_category summary; do cat $(DEMO)/report/tables/gt_model_$$t.md; echo; done
 	@echo "The README's rows (results/report/tables/gt_model_summary.md):"
 	@grep -E '^\| (Methods|---|ICP|Ours) ' results/report/tables/gt_model_summary.md

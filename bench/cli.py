@@ -19,12 +19,6 @@ _TABLE = (
     ("report", "report.report_folder", "main", "tables and plots of run directories in one folder"),
     ("perf", "perf.registration", "main", "seconds per registration and per stage for ours and ICP"),
     ("templates", "category.template_medoids", "main", "choose K category templates by K-medoids over F-score"),
-    (
-        "category",
-        "report.category_table",
-        "main",
-        "templates tables: chosen, oracle and random-template errors per method and K",
-    ),
     ("export", "interop.bop_export", "main", "export a run's estimates as a BOP results CSV"),
     ("score", "interop.score", "main", "score an external predictions file (BOP CSV or per-sample CSV)"),
     ("suite", "real.suite", "main", "every method on the shared real data, one table: bench suite real"),

@@ -136,7 +136,7 @@ synthetic_tables() {
   add "$G/ours/seed0-+row=ours-*" "Ours"
   add "$P/icp/seed0-+row=icp,protocol.max_templates=null-*" "ICP"
   add "$P/ours/seed0-+row=ours,protocol.max_templates=null-*" "Ours"
-  "$B" report --force "${runs[@]}" "${labels[@]}" --out "$RESULTS/report" --qualitative 1 \
+  "$B" report --force "${runs[@]}" "${labels[@]}" --out "$RESULTS/report" \
     --note "Made by results/make_results.sh (synthetic section): the embedded synthetic set, seed 0, 8 categories x 3 instances x 2 views; templates: 3 other instances of the category."
 }
 

@@ -52,3 +52,9 @@ def rows(errors_deg: list[float], category: str = "mug") -> list[dict]:
             }
         )
     return out
+
+
+def with_bop_ids(run_rows: list[dict]) -> list[dict]:
+    """``run_rows`` as rows of BOP-layout data: BOP scene, image and object ids in each ``info``
+    (what ``bench export`` needs)."""
+    return [dict(r, info={**r["info"], "scene_id": 1, "im_id": k, "obj_id": 1}) for k, r in enumerate(run_rows)]

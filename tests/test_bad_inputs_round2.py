@@ -24,7 +24,7 @@ from catpose.errors import ConfigError, DatasetError, InvalidInputError
 TESTS = Path(__file__).resolve().parent
 sys.path.insert(0, str(TESTS))
 
-from _trust import CFG, one_error_line, rows  # noqa: E402
+from _trust import CFG, one_error_line, rows, with_bop_ids  # noqa: E402
 
 ROT = "1 0 0 0 1 0 0 0 1"
 BOP_HEAD = "scene_id,im_id,obj_id,score,R,t,time"
@@ -86,7 +86,7 @@ def test_case_01_score_out_containing_the_gt_run_is_refused(tmp_path, capsys):
 
 
 def test_case_02_export_never_replaces_a_file_without_force_nor_names_another_dataset(tmp_path, capsys):
-    run = write_run(tmp_path / "run", rows([5.0, 10.0]), CFG)
+    run = write_run(tmp_path / "run", with_bop_ids(rows([5.0, 10.0])), CFG)
     existing = tmp_path / "m_toy-test.csv"
     existing.write_text("mine\n")
     assert bench(["export", str(run), "--out", str(existing)]) == 2
@@ -187,15 +187,6 @@ def test_case_09_bop_ar_without_vsd_is_not_computed_nor_labelled_ar():
         bop_metrics("ar,ar_mssd", no_vsd=True)
 
 
-def test_case_10_a_view_on_fewer_templates_than_its_K_is_said(tmp_path, capsys):
-    run = write_run(tmp_path / "run", templates_rows(n_views=1, k=3, present=2), TEMPLATES_CFG)  # limit=2
-    assert bench(["category", str(run)]) == 0
-    out, err = capsys.readouterr()
-    row = next(ln for ln in out.splitlines() if ln.startswith("| 3 |"))  # K = 3, not 2
-    assert "Note: Ours (K = 3): 1 of 1 views were registered to fewer than 3 templates" in out
-    assert "bench category: warning: Ours (K = 3): 1 of 1 views" in err and row
-
-
 def test_case_11_an_edited_yaw_beside_r00_r22_is_refused_not_ignored(tmp_path):
     from catpose.datasets.alignment import FLIP, read_alignment_table
 
@@ -279,7 +270,7 @@ def test_case_15_a_killed_run_is_said_to_be_incomplete_by_table_report_and_expor
     assert bench(["table", str(out)]) == 0
     o, e = capsys.readouterr()
     assert f"Incomplete: run {out} is incomplete: it holds 2 samples of the 4" in o and "bench table: warning: run" in e
-    assert bench(["export", str(out), "--out", str(tmp_path / "m_toy-test.csv")]) == 0
+    assert bench(["export", str(out), "--out", str(tmp_path / "m_toy-test.csv")]) == 2  # toy data: no BOP ids
     assert "is incomplete" in capsys.readouterr().err
     assert bench(["report", str(out), "--out", str(tmp_path / "rep"), "--no-pdf"]) == 0
     assert "Incomplete: run" in (tmp_path / "rep" / "index.md").read_text()
@@ -368,7 +359,7 @@ def test_case_20_evaluate_of_a_zero_byte_run_json_is_refused(tmp_path, capsys):
 
 
 def test_case_20_export_of_an_estimate_that_is_no_rotation_is_refused(tmp_path, capsys):
-    bad = rows([5.0])
+    bad = with_bop_ids(rows([5.0]))
     bad[0]["T_est"] = (np.diag([2.0, 2.0, 2.0, 1.0])).ravel().tolist()
     run = write_run(tmp_path / "run", bad, CFG)
     assert bench(["export", str(run), "--out", str(tmp_path / "m_toy-test.csv")]) == 2
@@ -398,17 +389,14 @@ def test_case_23_report_of_an_empty_run_is_one_line_and_leaves_no_folder(tmp_pat
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
-def test_case_24_report_out_a_file_and_table_or_category_out_a_folder_are_one_line(tmp_path, capsys):
+def test_case_24_report_out_a_file_and_table_out_a_folder_are_one_line(tmp_path, capsys):
     run = write_run(tmp_path / "run", rows([5.0]), CFG)
-    templates = write_run(tmp_path / "t", templates_rows(1, 2, 2), TEMPLATES_CFG)
     (tmp_path / "afile").write_text("x")
     (tmp_path / "adir").mkdir()
     assert bench(["report", str(run), "--out", str(tmp_path / "afile"), "--force"]) == 2
     assert "is a file; pass a folder" in one_error_line(capsys, "report")
     assert bench(["table", str(run), "--out", str(tmp_path / "adir"), "--force"]) == 2
     assert "is a folder; pass the file to write" in one_error_line(capsys, "table")
-    assert bench(["category", str(templates), "--out", str(tmp_path / "adir"), "--force"]) == 2
-    assert "is a folder; pass the file to write" in one_error_line(capsys, "category")
 
 
 def test_case_25_table_and_report_on_a_full_disk_are_one_line_and_leave_nothing(tmp_path, capsys, monkeypatch):

@@ -146,12 +146,6 @@ def test_case_09_score_with_no_matching_sample_is_refused(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
-def test_case_10_score_dataset_honours_limit():
-    from catpose.bench.interop.score import gt_rows_from_config
-
-    assert len(gt_rows_from_config("synthetic", "gt_model", 0, ["limit=2"])[0]) == 2
-
-
 def test_case_11_by_is_checked(tmp_path, capsys):
     gt = write_run(tmp_path / "gt", rows([5.0]), CFG)
     preds = per_sample_csv(tmp_path / "p.csv", rows([7.0]))
@@ -273,11 +267,9 @@ def test_case_16_31_32_bop_csv_numbers_are_checked(tmp_path, capsys, body, said)
     assert read_predictions(path)["time"].tolist() == [-1.0]
 
 
-def test_case_34_35_latin1_byte_and_auc_are_named(tmp_path, capsys):
+def test_case_34_a_latin1_byte_is_named(tmp_path, capsys):
     gt = write_run(tmp_path / "gt", rows([5.0]), CFG)
     preds = per_sample_csv(tmp_path / "p.csv", rows([7.0]))
-    assert _score(preds, gt, tmp_path / "o", "--auc", "1e308") == 2
-    assert "--auc 1e+308: pass an angle in degrees in (0, 180]" in one_error_line(capsys, "score")
     preds.write_bytes(preds.read_bytes() + b"caf\xe9,1,2\n")
     assert _score(preds, gt, tmp_path / "o") == 2
     assert "p.csv:3: byte 0xe9 is not UTF-8 (a file saved as Latin-1?)" in one_error_line(capsys, "score")

@@ -12,7 +12,7 @@ import json
 import pytest
 import trimesh
 
-from catpose.bench.scoring.bop_rows import AR_KEYS
+from catpose.bench.run.bop_ar import AR_KEYS
 
 
 @pytest.fixture(scope="module")
@@ -77,8 +77,7 @@ def test_table_and_suite_ar_equal_bench_score(clutter_run) -> None:
     from catpose.bench.real.suite_table import format_table
     from catpose.bench.report.runs import load_runs
     from catpose.bench.report.tables import build_table
-    from catpose.bench.run.bop_ar import target_errors
-    from catpose.bench.scoring.bop_rows import ar_scores
+    from catpose.bench.run.bop_ar import ar_scores, target_errors
 
     run_dir, tmp = clutter_run
     expected = _scored(run_dir, tmp)

@@ -129,8 +129,6 @@ def test_export_of_a_two_object_image_passes_the_toolkit_checks_and_scores_perfe
     assert all(df[c].dtype.kind == "i" for c in ("scene_id", "im_id", "obj_id"))
     scored = tmp_path / "scored"
     assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
-    objects = (scored / "summary_objects.md").read_text()
-    assert "box/obj_000001" in objects and "can/obj_000002" in objects  # per-object rows of the run summary
     errs, header = bop_eval.read_errors(scored / bop_eval.ERRORS_FILE)
     assert header["method"] == "catposeOurs" and len(errs) == 2 and errs["matched"].all()
     table = bop_eval.score_table(errs, ALL_METRICS)

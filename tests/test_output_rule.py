@@ -56,7 +56,7 @@ COMMANDS = {
         lambda w, o: ["report", str(w["run"]), "--out", str(o), "--no-pdf"], "folder", "rep", lambda w: w["run"]
     ),
     "export": Command(
-        lambda w, o: ["export", str(w["run"]), "--out", str(o)], "file", "m_toy-test.csv", lambda w: w["run"]
+        lambda w, o: ["export", str(w["bop_run"]), "--out", str(o)], "file", "m_toy-test.csv", lambda w: w["bop_run"]
     ),
     "score": Command(
         lambda w, o: ["score", str(w["preds"]), "--gt", str(w["run"]), "--method", "m", "--out", str(o)],
@@ -90,9 +90,6 @@ COMMANDS = {
         "t.yaml",
         None,
         old="mug: [old]\n",
-    ),
-    "category": Command(
-        lambda w, o: ["category", str(w["trun"]), "--out", str(o)], "file", "c.md", lambda w: w["trun"]
     ),
     "suite --write": Command(
         lambda w, o: [
@@ -182,7 +179,12 @@ def world(tmp_path_factory) -> dict:
     )
     verified.with_suffix(".png").write_bytes(b"the checked picture")
     (root / "shared").mkdir()
+    from _trust import CFG, rows, with_bop_ids
+
+    from catpose.bench.run.rundir import write_run
+
     return {
+        "bop_run": write_run(root / "bop_run", with_bop_ids(rows([5.0, 10.0])), CFG),
         "root": root,
         "runs": root / "runs",
         "run": out,

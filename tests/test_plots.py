@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from catpose.bench.report import plots, qualitative
+from catpose.bench.scoring.curves import scored_errors
 from catpose.geometry import axis_angle_to_R, make_T
 
 # Errors in degrees (None: failed). "ICP" is near zero everywhere: it must stay visible.
@@ -60,7 +61,7 @@ def _scored(errs: list[float | None]) -> list[float]:
 
 
 def test_scored_errors_counts_failures_as_180():
-    e = plots.scored_errors(_units({"a": [5.0, None, 20.0]}, [1, 1, 1]))
+    e = scored_errors(_units({"a": [5.0, None, 20.0]}, [1, 1, 1]))
     assert e.tolist() == [5.0, 180.0, 20.0]
 
 

@@ -203,7 +203,7 @@ def test_runner_end_to_end(tmp_path: Path):
     run_dir = run(cfg, overrides)
     summary = pd.read_csv(run_dir / "summary.csv").set_index("category")
     assert summary.loc["car", "n"] == 3  # pairs (v00, v01), (v00, v02), (v01, v02)
-    from catpose.bench.report.tables import load_run, scored_units
+    from catpose.bench.report.runs import load_run, scored_units
 
     units = scored_units(load_run(run_dir))
     assert sorted(units["sample_id"]) == [

@@ -1,5 +1,5 @@
 """The report folder: unique hash-free labels, per-protocol tables, relative links only, and the
-qualitative examples (the worst registration and a typical failure)."""
+pictures of each run's worst registration."""
 
 from __future__ import annotations
 
@@ -11,10 +11,12 @@ import pandas as pd
 import pytest
 
 from catpose.bench.report import tables
-from catpose.bench.report.report_folder import build_report, qualitative_picks
+from catpose.bench.report.labels import parse_labels, run_labels
+from catpose.bench.report.report_folder import build_report, worst_drawable
 from catpose.bench.report.report_folder import main as report_main
+from catpose.bench.report.runs import load_run
 from catpose.bench.run.rundir import write_run
-from catpose.errors import ConfigError, DatasetError
+from catpose.errors import DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 
 GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}
@@ -86,8 +88,8 @@ def test_labels_unique_by_the_distinguishing_override(tmp_path: Path):
         overrides=["method.descriptor=pfh"],
     )
     c = _run(tmp_path, "seed0-default-9c0d1e2f", {"name": "icp"}, overrides=[])
-    runs = [tables.load_run(p) for p in (a, b, c)]
-    assert tables.run_labels(runs) == ["Ours", "Ours (descriptor=pfh)", "ICP"]
+    runs = [load_run(p) for p in (a, b, c)]
+    assert run_labels(runs) == ["Ours", "Ours (descriptor=pfh)", "ICP"]
     t = tables.build_table(runs, "generic")
     assert sorted(r[-1] for r in t.rows) == ["ICP", "Ours", "Ours (descriptor=pfh)"]
 
@@ -96,9 +98,9 @@ def test_labels_from_config_differences_then_protocol(tmp_path: Path):
     a = _run(tmp_path, "seed0-x-1a2b3c4d", {"name": "icp", "max_iter": 30})
     b = _run(tmp_path, "seed0-y-5e6f7a8b", {"name": "icp", "max_iter": 100})
     c = _run(tmp_path, "seed0-default-9c0d1e2f", {"name": "icp", "max_iter": 30}, TEMPLATES)
-    labels = tables.run_labels([tables.load_run(p) for p in (a, b)])
+    labels = run_labels([load_run(p) for p in (a, b)])
     assert labels == ["ICP (max_iter=30)", "ICP (max_iter=100)"]
-    labels = tables.run_labels([tables.load_run(p) for p in (a, c)])
+    labels = run_labels([load_run(p) for p in (a, c)])
     assert labels == ["ICP (gt_model)", "ICP (templates)"]
     assert not any(HASH.search(x) for x in labels)
 
@@ -106,14 +108,14 @@ def test_labels_from_config_differences_then_protocol(tmp_path: Path):
 def test_labels_hash_only_when_nothing_else_differs(tmp_path: Path):
     a = _run(tmp_path, "seed0-default-1a2b3c4d", {"name": "icp"})
     b = _run(tmp_path / "again", "seed0-default-5e6f7a8b", {"name": "icp"})
-    labels = tables.run_labels([tables.load_run(p) for p in (a, b)])
+    labels = run_labels([load_run(p) for p in (a, b)])
     assert len(set(labels)) == 2 and all(HASH.search(x) for x in labels)
 
 
 def test_labels_pool_one_run_per_category(tmp_path: Path):
     a = _run(tmp_path, "chair", {"name": "ours"}, errors={"chair": [1.0]})
     b = _run(tmp_path, "car", {"name": "ours"}, errors={"car": [2.0]})
-    assert tables.run_labels([tables.load_run(p) for p in (a, b)]) == ["Ours", "Ours"]
+    assert run_labels([load_run(p) for p in (a, b)]) == ["Ours", "Ours"]
 
 
 def _picks_units(errors: list[float | None]) -> pd.DataFrame:
@@ -127,17 +129,10 @@ def _picks_units(errors: list[float | None]) -> pd.DataFrame:
     )
 
 
-def test_qualitative_picks_worst_and_typical_failure():
-    #            s0   s1    s2   s3    s4   s5    s6 (failed: no estimate to draw)
-    units = _picks_units([1.0, 35.0, 3.0, 150.0, 12.0, 20.0, None])
-    # worst drawable: s3 (150); failures above 10 deg besides it: 12, 20, 35 -> median 20 -> s5
-    assert qualitative_picks(units, 2) == [("worst", "s3"), ("typical failure", "s5")]
-    assert qualitative_picks(units, 1) == [("worst", "s3")]
-    assert qualitative_picks(units, 0) == []
-    # failures 12, 20, 35, 50: median 27.5 -> closest is 20 (7.5) before 35 (7.5) in error order
-    assert qualitative_picks(_picks_units([12.0, 50.0, 35.0, 20.0, 170.0]), 2)[1] == ("typical failure", "s3")
-    # no failure besides the worst: only the worst
-    assert qualitative_picks(_picks_units([1.0, 2.0, 30.0]), 2) == [("worst", "s2")]
+def test_the_worst_drawable_unit_is_pictured():
+    #                            s0   s1    s2   s3    s4   s5 (failed: no estimate to draw)
+    assert worst_drawable(_picks_units([1.0, 35.0, 3.0, 150.0, 12.0, None])) == "s3"
+    assert worst_drawable(_picks_units([None])) is None
 
 
 def _links(text: str) -> list[str]:
@@ -159,14 +154,14 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
         ),
     ]
     out = tmp_path / "report"
-    index = build_report([tmp_path / "runs"], out, layouts=["optimiser"], notes=["Made by the test."])
+    index = build_report([tmp_path / "runs"], out, notes=["Made by the test."])
     md = index.read_text()
     assert str(tmp_path) not in md and "/abs/" not in md
     for link in _links(md):
         assert not link.startswith("/") and "://" not in link, link
         assert (out / link).is_file(), link
     for protocol in ("gt_model", "templates"):
-        for stem in ("summary", "per_category", "optimiser"):
+        for stem in ("summary", "per_category"):
             assert f"tables/{protocol}_{stem}.md" in md
         for fig in ("error_cdf", "accuracy", "runtime"):
             assert f"figures/{protocol}_{fig}.png" in md and (out / "figures" / f"{protocol}_{fig}.csv").is_file()
@@ -231,33 +226,25 @@ def test_report_pictures_from_synthetic_run(tmp_path: Path):
         )
     cfg = {"method": {"name": "ours", "_target_": "x.Y"}, "dataset": ds_cfg, "protocol": GT_MODEL, "seed": 0}
     run = write_run(tmp_path / "run_ours", rows, cfg)
-    index = build_report([run], tmp_path / "report", qualitative=2, pdf=False)
+    index = build_report([run], tmp_path / "report", pictures=True, pdf=False)
     md = index.read_text()
     ids = list(ds.observation_ids())
-    assert f"worst: `{ids[2]}`, 80.0 deg" in md and f"typical failure: `{ids[1]}`, 40.0 deg" in md
+    assert f"worst: `{ids[2]}`, 80.0 deg" in md
     assert "not drawn" not in md
     for link in _links(md):
         assert (tmp_path / "report" / link).is_file(), link
     assert not list((tmp_path / "report" / "figures").glob("*.pdf"))
-    capped = build_report([run], tmp_path / "capped", qualitative=2, pdf=False, max_pictures=1).read_text()
-    assert f"worst: `{ids[2]}`" in capped and "typical failure: `" not in capped
-    assert "**Ours**: 1 picture(s): the report stops at 1 (--max-pictures)." in capped
-    assert len(list((tmp_path / "capped" / "figures").glob("*_worst.png"))) == 1
 
 
-def test_pictures_are_on_by_default_and_capped(monkeypatch, tmp_path: Path):
+def test_pictures_are_on_by_default(monkeypatch, tmp_path: Path):
     from catpose.bench.report import report_folder
 
     seen = {}
     monkeypatch.setattr(report_folder, "build_report", lambda *a, **k: seen.update(args=a, kw=k) or tmp_path / "i.md")
     assert report_main(["some/run", "--out", str(tmp_path / "r")]) == 0
-    assert seen["args"][3] == report_folder.QUALITATIVE_PER_RUN == 2
-    assert seen["kw"]["max_pictures"] == report_folder.MAX_PICTURES
-    report_main(["some/run", "--out", str(tmp_path / "r"), "--qualitative", "0", "--max-pictures", "4"])
-    assert seen["args"][3] == 0 and seen["kw"]["max_pictures"] == 4
-    for flag, value in (("--max-pictures", "-1"), ("--qualitative", "5")):  # issue 60: at most 2, as the help says
-        with pytest.raises(ConfigError, match="--qualitative takes 0, 1 or 2 .pictures per run., --max-pictures 0"):
-            report_main(["some/run", "--out", str(tmp_path / "r"), flag, value])
+    assert seen["args"][2] is True
+    report_main(["some/run", "--out", str(tmp_path / "r"), "--no-pictures"])
+    assert seen["args"][2] is False
 
 
 def test_a_user_label_is_kept_beside_other_runs_of_the_method(tmp_path: Path):
@@ -267,8 +254,8 @@ def test_a_user_label_is_kept_beside_other_runs_of_the_method(tmp_path: Path):
     b = _run(
         tmp_path, "seed0-+row=ours_pfh-5e6f7a8b", {"name": "ours", "descriptor": "pfh"}, overrides=["+row=ours_pfh"]
     )
-    runs = [tables.load_run(p) for p in (a, b)]
-    assert tables.run_labels(runs, tables.parse_labels([f"{a}=Ours"])) == ["Ours", "Ours (row=ours_pfh)"]
+    runs = [load_run(p) for p in (a, b)]
+    assert run_labels(runs, parse_labels([f"{a}=Ours"])) == ["Ours", "Ours (row=ours_pfh)"]
 
 
 def test_report_index_links_every_file_and_a_second_report_replaces_the_folder_whole(tmp_path: Path):
@@ -276,10 +263,10 @@ def test_report_index_links_every_file_and_a_second_report_replaces_the_folder_w
     a = _run(runs, "seed0-default-1a2b3c4d", {"name": "ours"}, overrides=[])
     b = _run(runs, "seed0-default-9c0d1e2f", {"name": "icp"}, TEMPLATES, overrides=["protocol=templates"])
     out = tmp_path / "report"
-    build_report([a, b], out, qualitative=0)
+    build_report([a, b], out, pictures=False)
     assert (out / "figures" / "templates_accuracy.png").is_file()
     (out / "notes.txt").write_text("mine")
-    index = build_report([a], out, qualitative=0, pdf=False)  # a second report (bench report --force), gt_model only
+    index = build_report([a], out, pictures=False, pdf=False)  # a second report (bench report --force), gt_model only
     assert not (out / "figures" / "templates_accuracy.png").exists() and not list(out.glob("figures/*.pdf"))
     assert not (out / "notes.txt").exists()  # the folder is built aside and replaces the old one whole
     assert unlinked_report_files(out, index.read_text()) == []

@@ -2,7 +2,7 @@
 subset of the targets missing (issue 23).
 
 Property: for a run of a method on the shared YCB-V frames, exported as a BOP results CSV, every
-subset of the exported estimates (in any order, with or without the export's id mapping) scores
+subset of the exported estimates (in any order) scores
 to the run's own per-sample errors for the estimates kept, and to misses ("no prediction",
 180 degrees) for the ones left out and for the run's failed samples. With three samples every
 subset is tried (8 of them). ``bench score`` with BOP's metrics (no VSD: it renders) is run once
@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from catpose.bench.cli import main as bench
-from catpose.bench.interop.prediction_io import read_mapping, read_predictions
+from catpose.bench.interop.prediction_io import read_predictions
 from catpose.bench.interop.prediction_match import score_predictions
 from catpose.bench.interop.score import gt_rows_from_run
 from catpose.bench.run.evaluate import recompute_row_errors
@@ -73,9 +73,10 @@ def check_every_subset(run_dir: Path, csv: Path, tmp_path: Path) -> int:
     own = {r["sample_id"]: recompute_row_errors(r) for r in latest_rows(run_dir / "samples.jsonl")}
     gt_rows = gt_rows_from_run(run_dir)[0]
     header, *lines = csv.read_text().splitlines()
-    mapping = read_mapping(str(csv) + ".map.csv")
-    line_samples = [r.split(",")[0] for r in Path(str(csv) + ".map.csv").read_text().splitlines()[1:]]
-    assert len(line_samples) == len(lines)  # the map's rows are the CSV's lines, in order
+    sample_of = {
+        (int(i["scene_id"]), int(i["im_id"]), int(i["obj_id"])): r["sample_id"] for r in gt_rows for i in [r["info"]]
+    }
+    line_samples = [sample_of[tuple(int(x) for x in line.split(",")[:3])] for line in lines]
     rng = np.random.default_rng(0)
     checked = 0
     for n in range(len(lines) + 1):
@@ -84,16 +85,14 @@ def check_every_subset(run_dir: Path, csv: Path, tmp_path: Path) -> int:
             part = tmp_path / f"part{checked}_ycbv-test.csv"
             part.write_text("\n".join([header, *[lines[k] for k in order]]) + "\n")
             kept_samples = {line_samples[k] for k in keep}
-            for use_mapping in (True, False):
-                scored = score_predictions(read_predictions(part), gt_rows, "again", mapping if use_mapping else None)
-                for row in scored:
-                    sid = row["sample_id"]
-                    if sid in kept_samples:
-                        assert row["status"] == "ok", (sid, row["error"])
-                        assert row["err_deg"] == pytest.approx(own[sid]["err_deg"], abs=1e-4), sid
-                        assert row["trans_err"] == pytest.approx(own[sid]["trans_err"], rel=1e-5, abs=1e-7), sid
-                    else:  # left out of the file, or failed in the run: a miss
-                        assert row["status"] == "failed" and row["error"] == "no prediction" and row["err_deg"] == 180.0
+            for row in score_predictions(read_predictions(part), gt_rows, "again"):
+                sid = row["sample_id"]
+                if sid in kept_samples:
+                    assert row["status"] == "ok", (sid, row["error"])
+                    assert row["err_deg"] == pytest.approx(own[sid]["err_deg"], abs=1e-4), sid
+                    assert row["trans_err"] == pytest.approx(own[sid]["trans_err"], rel=1e-5, abs=1e-7), sid
+                else:  # left out of the file, or failed in the run: a miss
+                    assert row["status"] == "failed" and row["error"] == "no prediction" and row["err_deg"] == 180.0
             checked += 1
     return checked
 

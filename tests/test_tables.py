@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 from catpose.bench.report import table_command, tables
+from catpose.bench.report.labels import pipeline_label
+from catpose.bench.report.runs import load_run
 from catpose.bench.run.rundir import write_run
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
@@ -100,9 +102,9 @@ def runs(tmp_path: Path) -> list[Path]:
 
 def test_golden_statistics(runs):
     """Statistics recomputed from the frozen poses (the stored err_deg is not trusted)."""
-    run = tables.load_run(runs[0])
+    run = load_run(runs[0])
     assert run.samples["err_deg"].tolist()[:4] == pytest.approx([1, 2, 3, 40], abs=1e-4)
-    entries = tables.collect([run], tables.pipeline_label)
+    entries = tables.collect([run], pipeline_label)
     s = entries[0].summary
     assert entries[0].group == "Dictionary LPS" and entries[0].label == "Ours"
     assert s.loc["airplane", "mean_err_deg"] == pytest.approx(11.5, abs=1e-4)
@@ -114,7 +116,7 @@ def test_golden_statistics(runs):
 
 
 def test_optimiser_layout_marks_best_and_second(runs):
-    t = tables.build_table([tables.load_run(p) for p in runs], "optimiser")
+    t = tables.build_table([load_run(p) for p in runs], "optimiser")
     assert [r for r in t.rows] == [("-", "ICP"), ("Direct match FPFH", "FGR"), ("Dictionary LPS", "Ours")]
     assert ("Airplane", "Mean° ↓") in t.columns and ("Chair", "L_T ↓") in t.columns
     ranks = t.ranks()
@@ -133,7 +135,7 @@ def test_optimiser_layout_marks_best_and_second(runs):
 
 
 def test_higher_is_better_columns(runs):
-    t = tables.build_table([tables.load_run(p) for p in runs], "one_template")
+    t = tables.build_table([load_run(p) for p in runs], "one_template")
     ranks = t.ranks()
     # @10 airplane: ours 0.75 (best), icp 0.25 and fgr 0.25 tie for second
     col = ("Airplane", "@10 ↑")
@@ -142,7 +144,7 @@ def test_higher_is_better_columns(runs):
 
 
 def test_real_and_tyol_layouts(runs):
-    loaded = [tables.load_run(p) for p in runs]
+    loaded = [load_run(p) for p in runs]
     real = tables.build_table(loaded, "real", categories=["airplane", "chair"])
     assert real.columns == [("FGR",), ("ICP",), ("Ours",)] and real.rank_by == "row"
     # chair medians: ours 50, fgr 60, icp 100 -> ranked across methods within the row
@@ -156,16 +158,16 @@ def test_real_and_tyol_layouts(runs):
 def test_templates_layout_uses_oracle(tmp_path: Path):
     one = make_run(tmp_path, "ours1", {"chair": [20, 40]}, {"name": "ours"}, TEMPLATES, templates=1)
     five = make_run(tmp_path, "ours5", {"chair": [20, 40]}, {"name": "ours"}, TEMPLATES, templates=5)
-    t = tables.build_table([tables.load_run(one), tables.load_run(five)], "templates")
+    t = tables.build_table([load_run(one), load_run(five)], "templates")
     assert t.rows == [("1", "Ours"), ("5", "Ours")]
     assert t.cells[(("5", "Ours"), ("Chair", "Mean° ↓"))][0] == pytest.approx(30.0, abs=1e-4)
     assert any("oracle" in n for n in t.notes)
 
 
 def test_ablation_labels(tmp_path: Path):
-    a = make_run(tmp_path, "full", {"airplane": [1.0]}, {"name": "ours", "optimize": True})
-    b = make_run(tmp_path, "svd", {"airplane": [9.0]}, {"name": "ours", "optimize": "none"})
-    t = tables.build_table([tables.load_run(a), tables.load_run(b)], "ablation")
+    a = make_run(tmp_path, "full", {"airplane": [1.0]}, {"name": "ours", "optimiser": {"mode": "joint"}})
+    b = make_run(tmp_path, "svd", {"airplane": [9.0]}, {"name": "ours", "optimiser": {"mode": "none"}})
+    t = tables.build_table([load_run(a), load_run(b)], "ablation")
     assert [r[1] for r in t.rows] == ["Ours", "Ours (w/o optimization)"]
     assert t.rows[0][0] == "gt_model Dictionary"  # ours always matches against the dictionary
 
@@ -198,20 +200,20 @@ def test_cli_writes_file_and_user_labels(runs, tmp_path: Path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("bench table: error: ") and "does not exist" in err and err.count("\n") == 1
     with pytest.raises(ConfigError):
-        tables.build_table([tables.load_run(runs[0])], "nope")
+        tables.build_table([load_run(runs[0])], "nope")
     with pytest.raises(DatasetError):
-        tables.load_run(tmp_path)
+        load_run(tmp_path)
 
 
 def test_truncated_jsonl_line_is_skipped_as_by_the_runner(tmp_path: Path):
     # a killed run leaves a partial last line: tables read it as `bench run` resumes it
     (tmp_path / "samples.jsonl").write_text('{"sample_id": "a"}\n{"sample_id": "a", "sta\n')
-    assert tables.load_run(tmp_path).samples["sample_id"].tolist() == ["a"]
+    assert load_run(tmp_path).samples["sample_id"].tolist() == ["a"]
 
 
 def test_rows_without_shown_categories_are_dropped(runs, tmp_path: Path):
     only_car = make_run(tmp_path, "car_only", {"car": [3.0]}, {"name": "teaser"})
-    t = tables.build_table([tables.load_run(p) for p in [*runs, only_car]], "optimiser", categories=["airplane"])
+    t = tables.build_table([load_run(p) for p in [*runs, only_car]], "optimiser", categories=["airplane"])
     assert ("-", "TEASER (re-impl.)") not in t.rows and len(t.rows) == 3
     assert any("TEASER (re-impl.)" in n for n in t.notes)
 
@@ -224,7 +226,7 @@ def test_errors_come_from_poses_not_stored_numbers(runs):
     for r in rows:
         r["err_deg"] = 999.0 if r["status"] == "ok" else r["err_deg"]
     path.write_text("".join(json.dumps(r) + "\n" for r in rows))
-    s = tables.load_run(runs[0]).samples
+    s = load_run(runs[0]).samples
     assert s.loc[s["status"] == "ok", "err_deg"].max() < 100.0
 
 

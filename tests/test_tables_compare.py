@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from catpose.bench.report import tables
+from catpose.bench.report.runs import load_run
 from catpose.bench.run.rundir import write_run
 from catpose.errors import DatasetError
 
@@ -50,7 +51,7 @@ def test_a_limit_run_beside_a_full_run_is_refused_in_one_line_naming_both(make, 
     full = make("ours_full", "ours", FULL)
     part = make("icp_limit4", "icp", FIRST4, limit=4)
     with pytest.raises(DatasetError, match="samples: 4 vs 6") as e:
-        tables.build_table([tables.load_run(full), tables.load_run(part)])
+        tables.build_table([load_run(full), load_run(part)])
     assert str(full) in str(e.value) and str(part) in str(e.value) and "\n" not in str(e.value)
     assert main(["table", str(full), str(part)]) == 2
     err = capsys.readouterr().err
@@ -69,7 +70,7 @@ def test_two_datasets_are_two_rows_and_refused(make, capsys):
     assert main(["table", str(syn), str(ycbv)]) == 2
     err = capsys.readouterr().err
     assert "differ in dataset synthetic vs ycbv" in err and err.count("\n") == 1
-    t = tables.build_table([tables.load_run(syn), tables.load_run(ycbv)], allow_mixed=True)
+    t = tables.build_table([load_run(syn), load_run(ycbv)], allow_mixed=True)
     assert t.rows == [("ICP (synthetic)",), ("ICP (ycbv)",)]  # never pooled into one row
     assert any(n.startswith("Mixed (--allow-mixed)") for n in t.notes)
 
@@ -77,7 +78,7 @@ def test_two_datasets_are_two_rows_and_refused(make, capsys):
 def test_the_seeds_of_one_config_are_one_row_with_their_spread(make):
     a = [make(f"ours_s{s}", "ours", {"chair": [float(s + 1)] * 3}, seed=s) for s in (0, 1, 2)]
     b = [make(f"icp_s{s}", "icp", {"chair": [10.0 * (s + 1)] * 3}, seed=s) for s in (0, 1, 2)]
-    t = tables.build_table([tables.load_run(p) for p in a + b], metrics=["mean"])
+    t = tables.build_table([load_run(p) for p in a + b], metrics=["mean"])
     assert t.rows == [("ICP",), ("Ours",)]
     cell = (("Ours",), ("Chair", "Mean° ↓"))
     assert t.cells[cell][0] == pytest.approx(2.0, abs=1e-4) and t.spread[cell] == pytest.approx((1.0, 3.0), abs=1e-4)
@@ -85,7 +86,7 @@ def test_the_seeds_of_one_config_are_one_row_with_their_spread(make):
     assert "**2.000 [1.000, 3.000]**" in md and "20.000 [10.000, 30.000]" in md
     assert "Ours 3 x 3 seeds (0, 1, 2)" in md and "the mean across seeds [their min, max]" in md
     with pytest.raises(DatasetError, match="differ in seeds 0 vs 0, 1, 2"):  # all of ours' seeds beside one of ICP's
-        tables.build_table([tables.load_run(p) for p in a + b[:1]])
+        tables.build_table([load_run(p) for p in a + b[:1]])
 
 
 def test_the_report_refuses_mixed_samples_unless_allowed(make, tmp_path: Path, capsys):
@@ -93,7 +94,7 @@ def test_the_report_refuses_mixed_samples_unless_allowed(make, tmp_path: Path, c
 
     full = make("ours_full", "ours", FULL)
     part = make("icp_limit4", "icp", FIRST4, limit=4)
-    args = ["report", str(full), str(part), "--qualitative", "0", "--no-pdf"]
+    args = ["report", str(full), str(part), "--no-pictures", "--no-pdf"]
     assert main([*args, "--out", str(tmp_path / "r1")]) == 2
     assert "rows of different samples" in capsys.readouterr().err and not (tmp_path / "r1").exists()
     assert main([*args, "--out", str(tmp_path / "r2"), "--allow-mixed"]) == 0

@@ -1,5 +1,5 @@
 """Choosing a view's template without ground truth (``choice=<rule>``, :mod:`catpose.methods.choice_rules`),
-excluded views and the chosen/oracle/random table (issue 25)."""
+and excluded views (issue 25); the chosen/oracle/random table: tests/test_category_table.py."""
 
 from __future__ import annotations
 
@@ -11,12 +11,10 @@ import pytest
 
 from catpose.bench.protocols import Templates
 from catpose.bench.protocols.template_rows import is_excluded_view, with_template_facts
-from catpose.bench.report.category_table import error_stats, run_rows, to_markdown
 from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R
 from catpose.methods.choice_rules import (
     DENSITY_WEIGHT,
-    RULES,
     choose_index,
     rotation_angle_deg,
     support,
@@ -105,59 +103,6 @@ def test_excluded_views_and_template_facts():
 
     out = with_template_facts(S(sample.problem, {"instance_id": "x"}))
     assert out.info["template_spacing"] == pytest.approx(0.1, abs=1e-4) and out.info["instance_id"] == "x"
-
-
-def test_category_table_reports_chosen_oracle_and_random_side_by_side():
-    rows = pd.concat(
-        [
-            view_rows("chair/a/v00", [0, 170, 5], [0.2, 0.1, 0.15], [3.0, 170.0, 4.0]),
-            view_rows("chair/b/v00", [0, 90, 3], [0.1, 0.2, 0.3], [2.0, 90.0, 40.0]),
-        ],
-        ignore_index=True,
-    )
-    out = run_rows(SimpleNamespace(samples=rows), "chair", ["score", "agreement"])
-    score, agree = out
-    assert score["K"] == 3 and score["views"] == 2
-    assert score["chosen_mean"] == pytest.approx((170.0 + 2.0) / 2)
-    assert agree["chosen_mean"] == pytest.approx((4.0 + 2.0) / 2)
-    assert score["oracle_mean"] == pytest.approx(2.5) and score["oracle_acc10"] == 1.0
-    every = [3.0, 170.0, 4.0, 2.0, 90.0, 40.0]  # a random template: all registrations pooled
-    assert score["random_mean"] == pytest.approx(np.mean(every))
-    assert score["random_acc30"] == pytest.approx(3 / 6)
-    assert error_stats(np.array([]))["mean"] != error_stats(np.array([]))["mean"]  # NaN
-    md = to_markdown([{"method": "Ours", **r} for r in out], "t")
-    assert "| 3 | Ours | agreement | 2 | 3.00 |" in md and md.count("\n") == 6
-    assert set(RULES) == {"score", "density", "agreement", "cross", "cross_top", "cross_top_turns", "fused"}
-    one = run_rows(SimpleNamespace(samples=view_rows("chair/c/v00", [0], [0.2], [7.0])), "chair", ["cross", "score"])
-    assert [(r["K"], r["choice"], r["chosen_mean"]) for r in one] == [(1, "-", 7.0)]  # one template: nothing chosen
-
-
-def test_category_table_one_template_row_takes_the_runs_turn_rule_where_turns_were_stored():
-    rows = view_rows("chair/c/v00", [90], [0.2], [90.0])
-    rows["sample_id"] = ["chair/c/v00|0"]
-    rows["T_gt"] = [np.eye(4).tolist()]
-    rows["info"] = [
-        {
-            "cross_costs": [0.3],
-            "top_offset": 0.0,
-            "turns": [
-                {"turn_deg": 270.0, "T_template_camera": np.eye(4).tolist(), "cross_costs": [0.1], "top_offset": 0.0}
-            ],
-        }
-    ]
-    [row] = run_rows(
-        SimpleNamespace(samples=rows, config={"protocol": {"choice": "cross_top_turns"}}), "chair", ["cross", "score"]
-    )
-    assert row["choice"] == "cross_top_turns" and row["chosen_mean"] == pytest.approx(0.0, abs=1e-6)
-    assert row["oracle_mean"] == 90.0  # the registration's own estimate
-    # a run under another rule keeps the own estimate, as does a turn-rule run that stored no turns
-    plain = run_rows(SimpleNamespace(samples=rows, config={"protocol": {"choice": "score"}}), "chair", ["cross"])
-    assert [(r["choice"], r["chosen_mean"]) for r in plain] == [("-", 90.0)]
-    rows["info"] = [{}]
-    bare = run_rows(
-        SimpleNamespace(samples=rows, config={"protocol": {"choice": "cross_top_turns"}}), "chair", ["cross"]
-    )
-    assert [(r["choice"], r["chosen_mean"]) for r in bare] == [("-", 90.0)]
 
 
 def _chair_view():

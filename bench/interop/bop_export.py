@@ -1,21 +1,16 @@
-"""``bench export``: a run's estimates as a BOP results CSV (bop_toolkit's format,
-:mod:`catpose.bench.interop.prediction_io`), with the sample -> BOP id mapping beside it.
+"""``bench export``: the estimates of a run on BOP-layout data as a BOP results CSV (bop_toolkit's
+format, :mod:`catpose.bench.interop.prediction_io`).
 
-Mapping between samples and BOP ids. BOP datasets put ``scene_id``, ``im_id``, ``obj_id`` in each
-sample's ``info`` (from ``Observation.info``), with ``scale_mm`` (millimetres per
-object-normalised unit; ``mm_per_unit`` is read too) and optionally ``centre_mm`` (3,) and
-``R_object_model`` (9, row-major) of the normalisation ``p_object = (R_object_model p_model -
-centre_mm) / scale_mm`` (defaults: 0 and identity). With ``(R_co, t_co) = inv(T_template_camera_est)``:
+BOP datasets put ``scene_id``, ``im_id``, ``obj_id`` in each sample's ``info`` (from
+``Observation.info``), with ``scale_mm`` (millimetres per object-normalised unit) and optionally
+``centre_mm`` (3,) and ``R_object_model`` (9, row-major) of the normalisation ``p_object =
+(R_object_model p_model - centre_mm) / scale_mm`` (defaults: 0 and identity). With ``(R_co, t_co) =
+inv(T_template_camera_est)``:
 
     R_camera_model = R_co @ R_object_model,    t_camera_model[mm] = scale_mm * t_co - R_co @ centre_mm
 
-Other datasets have no BOP ids; the export
-then uses this documented mapping and writes it to ``<out>.map.csv``: ``obj_id`` = 1-based index
-of the category in sorted order, ``scene_id`` = 1-based index of the instance within its
-category (sorted), ``im_id`` = 0-based index of the observation within the instance (sorted
-``obs_id``), ``scale_mm`` = 1 (translations stay in the object-normalised unit). ``bench score``
-reads ``<predictions>.map.csv`` when it is there (or ``--map FILE``) and otherwise derives the
-same ids from the ground-truth rows.
+(:func:`catpose.bench.run.bop_ar.camera_model_pose`). Runs on other datasets have no BOP ids:
+an external method's estimates of them are scored from a per-sample CSV.
 """
 
 from __future__ import annotations
@@ -32,47 +27,6 @@ import numpy as np
 from catpose.bench.interop.prediction_io import BOP_COLUMNS
 
 log = logging.getLogger(__name__)
-
-
-def bop_ids(runs_rows: Sequence[dict]) -> tuple[list[tuple], list[dict]]:
-    """(scene_id, im_id, obj_id, scale_mm, centre_mm (3,), R_object_model (3, 3)) for each row,
-    and the rows of the mapping file."""
-    categories = sorted({str(r["category"]) for r in runs_rows})
-    instances: dict[str, list[str]] = {}
-    views: dict[tuple[str, str], list[str]] = {}
-    for r in runs_rows:
-        instances.setdefault(r["category"], [])
-        if str(r.get("instance_id")) not in instances[r["category"]]:
-            instances[r["category"]].append(str(r.get("instance_id")))
-        views.setdefault((r["category"], str(r.get("instance_id"))), []).append(str(r.get("obs_id")))
-    out, mapping = [], []
-    for r in runs_rows:
-        info = r.get("info") or {}
-        if all(k in info for k in ("scene_id", "im_id", "obj_id")):
-            ids = (int(info["scene_id"]), int(info["im_id"]), int(info["obj_id"]))
-            scale = float(info.get("scale_mm", info.get("mm_per_unit", 1.0)))
-            centre = np.asarray(info.get("centre_mm", info.get("model_centre_mm", [0.0, 0.0, 0.0])), float).reshape(3)
-            R_om = np.asarray(info.get("R_object_model", np.eye(3)), float).reshape(3, 3)
-        else:
-            inst = str(r.get("instance_id"))
-            ids = (
-                sorted(instances[r["category"]]).index(inst) + 1,
-                sorted(set(views[(r["category"], inst)])).index(str(r.get("obs_id"))),
-                categories.index(r["category"]) + 1,
-            )
-            scale, centre, R_om = 1.0, np.zeros(3), np.eye(3)
-        out.append((*ids, scale, centre, R_om))
-        mapping.append(
-            {
-                "sample_id": r["sample_id"],
-                "obs_id": r.get("obs_id"),
-                "scene_id": ids[0],
-                "im_id": ids[1],
-                "obj_id": ids[2],
-                "scale_mm": scale,
-            }
-        )
-    return out, mapping
 
 
 def image_times(ids: Sequence[tuple], runtimes: Sequence[Any]) -> dict[tuple[int, int], float]:
@@ -93,18 +47,16 @@ def image_times(ids: Sequence[tuple], runtimes: Sequence[Any]) -> dict[tuple[int
 def export_bop(
     run_dir: str | Path, out_csv: str | Path, check_name: bool = True, skipped: list[str] | None = None
 ) -> int:
-    """Write a run's estimates as a BOP results CSV (and ``<out_csv>.map.csv``, the sample -> BOP id
-    mapping); returns the number of rows written. ``out_csv`` must be named
-    ``METHOD_DATASET-SPLIT.csv`` (``check_name=False`` skips this). One row per scoring unit with an
-    estimate (templates: the template the method chose); ``score`` is the confidence
-    ``exp(-max(method score, 0))``, ``time`` one value per image (the summed runtimes, -1 if one is
-    unknown). What is left out goes to ``skipped``; a run without any estimate is refused."""
-    import pandas as pd
-
+    """Write the estimates of a run on BOP-layout data as a BOP results CSV; returns the number of
+    rows written. ``out_csv`` must be named ``METHOD_DATASET-SPLIT.csv`` (``check_name=False`` skips
+    this). One row per scoring unit with an estimate (templates: the template the method chose);
+    ``score`` is the confidence ``exp(-max(method score, 0))``, ``time`` one value per image (the
+    summed runtimes, -1 if one is unknown). What is left out goes to ``skipped``; a run without any
+    estimate, or whose samples have no BOP ids, is refused."""
     from catpose.bench.protocols.relative import Relative
-    from catpose.bench.report.tables import load_run, protocol_of
+    from catpose.bench.report.runs import load_run, protocol_of
+    from catpose.bench.run.bop_ar import bop_key, camera_model_pose, confidence, has_bop_ids
     from catpose.bench.scoring.bop_eval import check_results_filename
-    from catpose.bench.scoring.bop_rows import camera_model_pose, confidence
     from catpose.errors import DatasetError, InvalidInputError
 
     run = load_run(run_dir)
@@ -120,11 +72,8 @@ def export_bop(
         log.warning("%s", run.incomplete)
     proto = protocol_of(run)
     units = proto.view_rows(run.samples) if isinstance(proto, Relative) else proto.score_units(run.samples)
-    # ids over every view (failed ones too), so the mapping matches the scorer's, which sees all
     everything = units.to_dict("records")
-    all_ids, all_mapping = bop_ids(everything)
-    keep = [k for k, r in enumerate(everything) if r.get("status") == "ok" and r.get("T_est") is not None]
-    rows, ids, mapping = [everything[k] for k in keep], [all_ids[k] for k in keep], [all_mapping[k] for k in keep]
+    rows = [r for r in everything if r.get("status") == "ok" and r.get("T_est") is not None]
     failed = [r for r in everything if not (r.get("status") == "ok" and r.get("T_est") is not None)]
     if not rows:
         raise DatasetError(
@@ -136,6 +85,11 @@ def export_bop(
             f"{len(failed)} of {len(everything)} samples have no estimate (failed) and are not in the "
             f"file, e.g. {failed[0].get('sample_id')}: {str(failed[0].get('error') or '')[:80]}"
         )
+    if not all(has_bop_ids(r) for r in rows):
+        raise InvalidInputError(
+            f"run {run_dir} is not on BOP-layout data (dataset {_dataset_of(run) or '?'}): its samples have no BOP "
+            "ids to export; score another method's estimates of it from a per-sample CSV (docs/evaluation.md)"
+        )
     for r in rows:  # only poses are exported (a hand-edited samples.jsonl can hold anything)
         why = pose_problem(r["T_est"])
         if why:
@@ -143,11 +97,11 @@ def export_bop(
                 f"run {run_dir}: sample {r.get('sample_id')}: T_est {why}; its samples.jsonl is damaged: "
                 "re-run that sample (delete its line and re-run the same command)"
             )
+    ids = [bop_key(r["info"]) for r in rows]
     times = image_times(ids, [r.get("runtime_s") for r in rows])
     lines = [",".join(BOP_COLUMNS)]
-    for r, (scene, im, obj, *_) in zip(rows, ids):
-        info = r.get("info") or {}  # without BOP ids: the documented mapping, in the object-normalised unit
-        T = camera_model_pose(r["T_est"], info if all(k in info for k in ("scene_id", "im_id", "obj_id")) else {})
+    for r, (scene, im, obj) in zip(rows, ids):
+        T = camera_model_pose(r["T_est"], r["info"])
         R, t, conf = T[:3, :3], T[:3, 3], confidence(r.get("score"))
         rt = times[(scene, im)]
         lines.append(
@@ -157,11 +111,9 @@ def export_bop(
     from catpose import atomic
     from catpose.bench.interop.prediction_io import read_predictions
 
-    out_csv = Path(out_csv)
-    with atomic.atomic_path(out_csv) as tmp:
+    with atomic.atomic_path(Path(out_csv)) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
         read_predictions(tmp)  # what bench score and bop_toolkit's loader check (ids, poses, one time per image)
-    atomic.write_text(str(out_csv) + ".map.csv", pd.DataFrame(mapping).to_csv(index=False))
     return len(rows)
 
 
@@ -215,16 +167,14 @@ def main(argv: list[str] | None = None) -> int:
 
     add_output_options(
         ap,
-        "CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the BOP toolkit requires; a "
-        "<out>.map.csv with the id mapping is written beside it",
-        force_help="replace an existing --out and its .map.csv",
+        "CSV to write, named METHOD_DATASET-SPLIT.csv (no '_' in METHOD) as the BOP toolkit requires",
+        force_help="replace an existing --out",
     )
     args = ap.parse_args(argv)
     inputs = [Input(Path(args.run), "the input run")]  # before any work (docs/file-safety.md)
     out = Output(args.out, "file", inputs, args.force, example="method_ycbv-test.csv")
-    out_map = Output(str(args.out) + ".map.csv", "file", inputs, args.force)
     skipped: list[str] = []
-    with out.writing(), out_map.writing():
+    with out.writing():
         n = export_bop(args.run, args.out, skipped=skipped)
     for line in skipped:
         log.warning("skipped: %s", line)

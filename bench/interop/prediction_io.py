@@ -1,5 +1,5 @@
 """Prediction files: a BOP results CSV or a per-sample CSV (told apart by the header), what
-they must be before anything in them is scored, and an export's id mapping.
+they must be before anything in them is scored.
 
 - BOP results CSV ``scene_id,im_id,obj_id,score,R,t,time`` (bop_toolkit's): ``R`` is
   ``R_camera_model`` (9 row-major values), ``t`` ``t_camera_model`` in mm, ``score`` a confidence
@@ -211,17 +211,3 @@ def read_predictions(path: str | Path, inverse: bool = False):
                 )
     df.attrs["kind"] = kind
     return df
-
-
-def read_mapping(path: str | Path) -> dict[tuple[int, int, int], str]:
-    """An export's ``<out>.map.csv``: (scene_id, im_id, obj_id) -> sample_id. Ids shared by
-    several samples (several instances of one object in an image) are left out: those are
-    matched greedily by score."""
-    import pandas as pd
-
-    df = pd.read_csv(path, dtype={"sample_id": str})
-    keys = [(int(r.scene_id), int(r.im_id), int(r.obj_id)) for r in df.itertuples()]
-    counts: dict[tuple, int] = {}
-    for k in keys:
-        counts[k] = counts.get(k, 0) + 1
-    return {k: str(sid) for k, sid in zip(keys, df["sample_id"]) if counts[k] == 1}

@@ -10,34 +10,27 @@ from typing import Any
 
 import numpy as np
 
-from catpose.bench.interop.bop_export import bop_ids
 from catpose.bench.interop.prediction_io import key_text
-
-
-def _orthonormalise(R: np.ndarray) -> np.ndarray:
-    """Nearest rotation (files hold rounded values)."""
-    U, _, Vt = np.linalg.svd(R)
-    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
 
 
 def score_predictions(
     preds,
     gt_rows: Sequence[dict],
     method: str,
-    mapping: dict[tuple[int, int, int], str] | None = None,
     stats: dict | None = None,
 ) -> list[dict]:
     """Per-sample rows (``samples.jsonl`` schema) for the predictions against ground-truth rows
     (``gt_rows``, with ``T_gt``; one per view is enough). A view without a prediction is a failed row
-    ("no prediction"): a miss. A BOP file's ids map to samples by ``mapping`` (the export's
-    ``.map.csv``: (scene_id, im_id, obj_id) -> sample_id) when given; else several instances of one
-    object in an image are matched greedily as bop_toolkit does (by descending score, each taking the
+    ("no prediction"): a miss. A BOP file's ids are those of the rows' ``info`` (runs on BOP-layout
+    data); several instances of one object in an image are matched greedily as bop_toolkit does (by descending score, each taking the
     unmatched instance with the smallest ``err_deg``, then ``trans_err``). Duplicates and unknown ids
     follow docs/file-safety.md (a per-sample file's last row of an id counts; a BOP (image, object)
     keeps its best-scored estimates, one per instance). ``stats`` receives :func:`count_text`'s counts."""
+    from catpose.bench.run.bop_ar import bop_key, template_camera_pose
+    from catpose.bench.scoring.bop_eval import nearest_rotation
     from catpose.bench.scoring.metrics import sample_errors
     from catpose.bench.scoring.rows import failed_row, scored_row
-    from catpose.geometry import invert_T, make_T
+    from catpose.geometry import make_T
 
     kind = preds.attrs.get("kind", "sample")
     all_by_key: dict[Any, list[dict]] = {}
@@ -48,19 +41,12 @@ def score_predictions(
     def by_score(cands: list[dict]) -> list[dict]:  # highest first, ties in file order (a stable sort)
         return sorted(cands, key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
 
-    by_key = {k: (by_score(v)[0] if kind == "bop" else v[-1]) for k, v in all_by_key.items()}
-    ids = bop_ids(gt_rows)[0] if kind == "bop" else None
-    if kind == "bop" and mapping:
-        by_sample = {mapping[k]: p for k, p in by_key.items() if k in mapping}
+    by_key = {k: v[-1] for k, v in all_by_key.items()}
 
     def estimate(p: dict, k: int) -> np.ndarray:
         T = np.asarray(p["T"], float)
-        R = _orthonormalise(T[:3, :3])
-        if kind != "bop":
-            return make_T(R, T[:3, 3])
-        _, _, _, scale, centre, R_om = ids[k]  # T_camera_model[mm] -> T_template_camera[unit]
-        R_co = R @ R_om.T
-        return invert_T(make_T(R_co, (T[:3, 3] + R_co @ centre) / scale))
+        T = make_T(nearest_rotation(T[:3, :3]), T[:3, 3])
+        return template_camera_pose(T, gt_rows[k].get("info") or {}) if kind == "bop" else T
 
     def errors_of(T_est: np.ndarray, g: dict) -> dict:
         axis, symmetries = g.get("symmetry_axis"), g.get("symmetries")
@@ -74,8 +60,8 @@ def score_predictions(
     matched: dict[int, dict] = {}
     groups: dict[Any, list[int]] = {}
     if kind == "bop":
-        for k in range(len(gt_rows)):
-            groups.setdefault(ids[k][:3], []).append(k)
+        for k, g in enumerate(gt_rows):
+            groups.setdefault(bop_key(g.get("info") or {}), []).append(k)
         for key, members in groups.items():
             cands = by_score(all_by_key.get(key, []))
             free = list(members)
@@ -107,8 +93,7 @@ def score_predictions(
         }
         row.update(method=method, extras={}, stage="")
         if kind == "bop":
-            sid = str(g["sample_id"])
-            p = by_sample[sid] if mapping and sid in by_sample else matched.get(k)
+            p = matched.get(k)
         else:
             p = by_key.get(str(g["sample_id"])) or by_key.get(str(g.get("obs_id")))
         if p is None:
@@ -133,18 +118,15 @@ def score_predictions(
             )
         )
     if stats is not None:
-        stats.update(_counts(kind, all_by_key, gt_rows, groups, mapping, out))
+        stats.update(_counts(kind, all_by_key, gt_rows, groups, out))
     return out
 
 
-def _counts(
-    kind: str, all_by_key: dict, gt_rows: Sequence[dict], groups: dict, mapping: dict | None, out: Sequence[dict]
-) -> dict:
+def _counts(kind: str, all_by_key: dict, gt_rows: Sequence[dict], groups: dict, out: Sequence[dict]) -> dict:
     """The counts of :func:`score_predictions` (see :func:`count_text`)."""
     if kind == "bop":
-        known = set(groups) | set(mapping or {})
+        known = set(groups)
         wanted = {k: len(v) for k, v in groups.items()}
-        wanted.update({k: 1 for k in (mapping or {})})
         ignored = sum(max(0, len(v) - wanted[k]) for k, v in all_by_key.items() if k in wanted)
         rule = "an (image, object) keeps its highest-scored estimates, one per instance"
     else:

@@ -9,7 +9,6 @@ different samples is refused (``--allow-mixed`` to insist). A set with a develop
 (:mod:`catpose.bench.run.bop_ar`). The sets: docs/real-scenes.md.
 
     bench suite real --sets ycbv --methods ours,icp --limit 5
-    bench suite real --methods ours -o method.selection=loss   # a variant of one method
     bench suite clutter --parts dev,report"""
 
 from __future__ import annotations
@@ -42,9 +41,10 @@ def compose(
     seed: int,
     limit: int | None,
     output_root: str,
-    method_overrides: list[str],
+    method_overrides: list[str] = (),
 ) -> tuple[object, list[str]]:
-    """The resolved run config of one (set, method) pair and its command-line overrides."""
+    """The resolved run config of one (set, method) pair and its command-line overrides
+    (``method_overrides``: applied to ours only, for the studies' variants)."""
     from catpose.bench.real.suite_parts import scenes_override
     from catpose.bench.run import config
 
@@ -91,11 +91,11 @@ def scored_answers(run_dir: Path, rows: list[dict]) -> dict:
 
 
 def with_ar(row: dict, errors, sample_ids: list[str] | None = None) -> dict:
-    """``row`` with BOP's AR and its parts (:data:`~catpose.bench.scoring.bop_rows.AR_KEYS`) of the
+    """``row`` with BOP's AR and its parts (:data:`~catpose.bench.run.bop_ar.AR_KEYS`) of the
     per-target ``errors`` of ``sample_ids`` (all of them when None); ``row`` as it is without errors."""
     if errors is None or len(errors) == 0:
         return row
-    from catpose.bench.scoring.bop_rows import ar_scores
+    from catpose.bench.run.bop_ar import ar_scores
 
     chosen = errors if sample_ids is None else errors[errors["sample_id"].isin(set(sample_ids))]
     return {**row, **ar_scores(chosen)} if len(chosen) else row
@@ -108,7 +108,6 @@ def run_suite(
     seeds: tuple[int, ...] = SEEDS,
     limit: int | None = None,
     output_root: str = "outputs/real",
-    method_overrides: list[str] | None = None,
     log=print,
     table_only: bool = False,
     catalogue: dict[str, RealSet] | None = None,
@@ -144,9 +143,7 @@ def run_suite(
             continue
         for m in methods:
             for seed in seeds:
-                cfg, overrides = compose(
-                    catalogue[s], METHODS[m], shared, seed, limit, output_root, method_overrides or []
-                )
+                cfg, overrides = compose(catalogue[s], METHODS[m], shared, seed, limit, output_root)
                 if table_only:
                     run_dir = run_dir_for(cfg, overrides)
                     if not (run_dir / SAMPLES_FILE).is_file():
@@ -227,14 +224,6 @@ def main(argv: list[str]) -> int:
     )
     parser.add_argument("--output-root", default=None, help="where run directories go (default outputs/<suite>)")
     parser.add_argument(
-        "-o",
-        "--ours-override",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="an override applied to method=ours only (repeatable), e.g. -o method.selection=loss",
-    )
-    parser.add_argument(
         "--table-only", action="store_true", help="run nothing: the table of the run directories already written"
     )
     parser.add_argument("--write", type=Path, default=None, help="also write the Markdown table to this file")
@@ -304,7 +293,6 @@ def main(argv: list[str]) -> int:
         seeds,
         args.limit,
         args.output_root or f"outputs/{args.suite}",
-        args.ours_override,
         log=log.info,
         table_only=args.table_only,
         catalogue=suite_sets,

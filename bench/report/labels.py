@@ -27,21 +27,14 @@ def display_name(method: str) -> str:
     return spec.display_name if spec else EXTERNAL_NAMES.get(method.lower().replace("_", ""), method)
 
 
-def _first(cfg: dict, keys: Sequence[str]) -> Any:
-    for k in keys:
-        if cfg.get(k) not in (None, ""):
-            return cfg[k]
-    return None
-
-
 def pipeline_label(run: Run) -> str:
     """``"Dictionary LPS"``-style group label from the method's pipeline options, or ``"-"``."""
     cfg = run.method_config
-    matching = _first(cfg, ("matching", "pipeline", "match"))
+    matching = cfg.get("matching")
     if matching is None and run.method.lower().startswith("ours"):
         matching = "dictionary"  # our method always matches against the partial-template dictionary
     # baselines name their features; ours' descriptor is a config group node ({_target_: ...LPS, ...})
-    descriptor = _first(cfg, ("features", "feature", "descriptor"))
+    descriptor = cfg.get("features") or cfg.get("descriptor")
     if isinstance(descriptor, dict):
         descriptor = str(descriptor.get("_target_", "")).rsplit(".", 1)[-1] or None
     parts = []
@@ -53,15 +46,10 @@ def pipeline_label(run: Run) -> str:
 
 
 def without_optimisation(run: Run) -> bool:
-    """Whether the method config switches the pose optimisation off (ablation runs)."""
-    for k, v in run.method_config.items():
-        if "optim" in k.lower() and isinstance(v, dict):  # ours: optimiser.mode
-            v = v.get("mode")
-        if "optim" in k.lower() and (v is False or str(v).lower() in ("none", "false", "off", "svd")):
-            return True
-        if k in ("steps", "n_steps", "opt_steps", "optim_steps", "iterations") and v == 0:
-            return True
-    return False
+    """Whether the method config switches the pose optimisation off (ours' ``optimiser.mode: none``,
+    the ablation's SVD-only row)."""
+    optimiser = run.method_config.get("optimiser")
+    return isinstance(optimiser, dict) and str(optimiser.get("mode")) == "none"
 
 
 def method_label(run: Run) -> str:

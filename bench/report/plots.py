@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from catpose.bench.scoring.curves import scored_errors
 from catpose.bench.scoring.metrics import FAILED_ERROR_DEG
 
 #: The CDF's log axis starts at 0.01 degrees, or lower (down to 1e-4) when smaller errors occur;
@@ -76,15 +77,6 @@ def _write_csv(rows: list[dict], columns: list[str], out_stem: str | Path) -> Pa
 
     atomic.write_text(path, pd.DataFrame(rows, columns=columns).to_csv(index=False, float_format="%.6g"))
     return path
-
-
-def scored_errors(units) -> np.ndarray:
-    """Errors (degrees) of scoring units, failed ones as 180."""
-    import pandas as pd
-
-    err = pd.to_numeric(units["err_deg"], errors="coerce").to_numpy(float)
-    failed = (units["status"] != "ok").to_numpy()
-    return np.where(failed | np.isnan(err), FAILED_ERROR_DEG, err)
 
 
 def cdf_points(errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

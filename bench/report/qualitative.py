@@ -75,7 +75,7 @@ def plot_sample_from_run(
 
     Raises :class:`~catpose.errors.CatposeError` when the dataset cannot be rebuilt here.
     """
-    from catpose.bench.report.tables import load_run
+    from catpose.bench.report.runs import load_run
     from catpose.errors import CatposeError, ConfigError, DatasetError
 
     run = load_run(run_dir)

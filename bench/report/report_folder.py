@@ -1,12 +1,11 @@
 """``bench report``: tables and figures of run directories in one folder a person can open.
 
-    bench report outputs/synthetic-gt_model --out report/ [--layout optimiser] [--qualitative 2]
+    bench report outputs/synthetic-gt_model --out report/ [--no-pictures]
 
 writes ``index.md`` (every link relative) and, per protocol (they never share a table or figure),
-``tables/<protocol>_{summary,per_category,<layout>}.{md,tex,csv}``,
+``tables/<protocol>_{summary,per_category}.{md,tex,csv}`` (other layouts: ``bench table``),
 ``figures/<protocol>_{error_cdf,accuracy,runtime}.{png,pdf,csv}`` (the CSV holds the plotted
-data) and pictures of each run's worst registration and a typical failure (``--qualitative N``,
-at most ``--max-pictures`` in all). The runtime figure leaves each run's first registration
+data) and a picture of each run's worst registration (``--no-pictures``: none). The runtime figure leaves each run's first registration
 (imports, compilation) out of its boxes. The folder is built beside ``--out`` and moved into
 place whole (:func:`catpose.bench.run.overwrite.check_output`)."""
 
@@ -19,14 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from catpose import atomic
-from catpose.errors import CatposeError, ConfigError
-
-#: Errors (degrees) above which a registration counts as a failure for the qualitative examples.
-FAILURE_DEG = 10.0
-#: pictures per run by default (the worst registration and a typical failure)
-QUALITATIVE_PER_RUN = 2
-#: pictures in a whole report at most (each is a registration rebuilt from its run's config)
-MAX_PICTURES = 16
+from catpose.errors import CatposeError
 
 PROTOCOL_TEXT = {
     "gt_model": "each partial view registered to its own complete model",
@@ -35,27 +27,13 @@ PROTOCOL_TEXT = {
 }
 
 
-def qualitative_picks(units, n: int = 2, failure_deg: float = FAILURE_DEG) -> list[tuple[str, str]]:
-    """``(kind, sample_id)`` of the units worth a picture, at most ``n``: the ``"worst"`` (largest
-    error among units with an estimate), then a ``"typical failure"``: among the other units with
-    error > ``failure_deg`` degrees, the one whose error is closest to their median (ties: the
-    first in error order). Units without an estimate (``status != "ok"``) cannot be drawn."""
-    import numpy as np
-
-    if n <= 0 or len(units) == 0 or "T_est" not in units:
-        return []
+def worst_drawable(units) -> str | None:
+    """The ``sample_id`` of the unit with the largest error among those with an estimate (the last
+    in file order among equals), None when no unit has one (``status != "ok"``: nothing to draw)."""
+    if len(units) == 0 or "T_est" not in units:
+        return None
     ok = units[(units["status"] == "ok") & units["T_est"].notna()]
-    if len(ok) == 0:
-        return []
-    ok = ok.sort_values("err_deg", kind="stable")
-    worst = ok.iloc[-1]
-    picks = [("worst", str(worst["sample_id"]))]
-    failures = ok.iloc[:-1]
-    failures = failures[failures["err_deg"].astype(float) > failure_deg]
-    if len(failures):
-        err = failures["err_deg"].to_numpy(float)
-        picks.append(("typical failure", str(failures.iloc[int(np.argmin(np.abs(err - np.median(err))))]["sample_id"])))
-    return picks[:n]
+    return None if len(ok) == 0 else str(ok.sort_values("err_deg", kind="stable").iloc[-1]["sample_id"])
 
 
 def _units_by_label(labels: list[str], units: list) -> dict:
@@ -149,21 +127,19 @@ def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: 
 def build_report(
     run_dirs: Sequence[str | Path],
     out: str | Path,
-    layouts: Sequence[str] = (),
-    qualitative: int = 0,
+    pictures: bool = False,
     labels: dict[str, str] | None = None,
     notes: Sequence[str] = (),
     pdf: bool = True,
     left_out: list[str] | None = None,
-    max_pictures: int = MAX_PICTURES,
     label_items: Sequence[str] = (),
     allow_mixed: bool = False,
 ) -> Path:
     """Write the report folder (see the module docstring); returns the path of ``index.md``.
 
     ``label_items``: the ``--label RUN_DIR=LABEL`` items ``labels`` came from (each must name a run);
-    ``notes``: paragraphs under the title; ``pdf``: a PDF of each summary figure too; ``qualitative``
-    pictures per run, ``max_pictures`` in all. Runs of one protocol on different samples are refused
+    ``notes``: paragraphs under the title; ``pdf``: a PDF of each summary figure too; ``pictures``:
+    each run's worst registration drawn. Runs of one protocol on different samples are refused
     unless ``allow_mixed``. A run that cannot be read is left out, said in the index and on stderr,
     and its reason appended to ``left_out``. The folder is built aside and moved into place whole."""
     from catpose.bench.report.labels import check_labels
@@ -176,21 +152,21 @@ def build_report(
         left_out.extend(reasons)
     final = Path(out)
     with atomic.building_dir(final) as out:  # built aside, moved into place whole (docs/file-safety.md)
-        _write_report(runs, reasons, out, layouts, qualitative, labels, notes, pdf, max_pictures, allow_mixed)
+        _write_report(runs, reasons, out, pictures, labels, notes, pdf, allow_mixed)
     return final / "index.md"
 
 
-def _write_report(
-    runs, reasons, out: Path, layouts, qualitative, labels, notes, pdf, max_pictures: int, allow_mixed: bool = False
-) -> None:
+def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_mixed: bool = False) -> None:
     """The files of :func:`build_report` into the new, empty folder ``out``."""
     from catpose.bench.report import plots, tables
+    from catpose.bench.report.labels import run_labels
     from catpose.bench.report.qualitative import plot_sample_from_run
+    from catpose.bench.report.runs import scored_units
 
     (out / "tables").mkdir(parents=True, exist_ok=True)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     by_protocol = tables.split_by_protocol(runs)
-    label_of = {id(r): lab for group in by_protocol.values() for r, lab in zip(group, tables.run_labels(group, labels))}
+    label_of = {id(r): lab for group in by_protocol.values() for r, lab in zip(group, run_labels(group, labels))}
 
     # One colour per label across the protocols' figures.
     colors = {lab: f"C{k % 10}" for k, lab in enumerate(dict.fromkeys(label_of[id(r)] for r in runs))}
@@ -209,7 +185,6 @@ def _write_report(
     if reasons:
         md += ["Left out (unreadable):", ""] + [f"- {why}" for why in reasons] + [""]
 
-    drawn = 0  # pictures so far (max_pictures in all)
     for protocol, group in by_protocol.items():
         names = {str(r.path): label_of[id(r)] for r in group}
         group_labels = [label_of[id(r)] for r in group]
@@ -225,12 +200,8 @@ def _write_report(
         per_cat = per_category_table(group, names, protocol, allow_mixed)
         if per_cat is not None:
             md += _write_table(per_cat, out, f"{protocol}_per_category")
-        for layout in layouts:
-            md += _write_table(
-                tables.build_table(group, layout, labels=names, allow_mixed=allow_mixed), out, f"{protocol}_{layout}"
-            )
 
-        run_units = [tables.scored_units(r) for r in group]
+        run_units = [scored_units(r) for r in group]
         units = _units_by_label(group_labels, run_units)
         samples = _units_by_label(group_labels, [_with_warmup(r.samples) for r in group])
         fig = out / "figures"
@@ -265,52 +236,40 @@ def _write_report(
             links = ", ".join(f"[{p.suffix[1:].upper()}](figures/{p.name})" for p in paths[1:])
             md += [f"#### {caption}", "", f"![{caption}](figures/{paths[0].name})", "", f"Data and vector: {links}", ""]
 
-        if qualitative > 0:
+        if pictures:
             md += [
-                "### Examples: the worst registration and a typical failure per method",
+                "### Examples: the worst registration per method",
                 "",
-                f"A typical failure is the one closest to the median error among those above {FAILURE_DEG:g} deg. "
                 "Orange: the input carried into the template frame (left: by the estimate, right: by the truth); "
                 "blue-grey: the template.",
                 "",
             ]
             for run, label, u in zip(group, group_labels, run_units):
                 view_rows = run.samples if run.protocol == "relative" else u  # pairs have no single sample
-                if drawn >= max_pictures:
-                    md += [f"**{label}**: not drawn: the report stops at {max_pictures} pictures (--max-pictures).", ""]
-                    continue
-                limit = min(qualitative, max_pictures - drawn)
-                picks = qualitative_picks(view_rows, limit)
-                if not picks:
+                sid = worst_drawable(view_rows)
+                if sid is None:
                     md += [f"**{label}**: no registration with an estimate to draw.", ""]
-                elif len(picks) == 1 and limit > 1:
-                    md += [f"**{label}**: no other registration with error above {FAILURE_DEG:g} deg.", ""]
-                elif limit < qualitative:
-                    md += [f"**{label}**: {limit} picture(s): the report stops at {max_pictures} (--max-pictures).", ""]
-                for kind, sid in picks:
-                    err = float(view_rows.loc[view_rows["sample_id"] == sid, "err_deg"].iloc[-1])
-                    stem = (
-                        fig / f"{protocol}_{re.sub(r'[^A-Za-z0-9]+', '_', label).strip('_')}_{kind.replace(' ', '_')}"
-                    )
-                    try:
-                        plot_sample_from_run(run.path, sid, stem, f"{label} | {sid} | {kind}", pdf=False)
-                    except CatposeError as e:
-                        md += [f"**{label}**, {kind} `{sid}` ({err:.1f} deg): not drawn ({e})", ""]
-                        break
-                    drawn += 1
-                    md += [
-                        f"**{label}**, {kind}: `{sid}`, {err:.1f} deg",
-                        "",
-                        f"![{label} {kind}](figures/{stem.name}.png)",
-                        "",
-                    ]
+                    continue
+                err = float(view_rows.loc[view_rows["sample_id"] == sid, "err_deg"].iloc[-1])
+                stem = fig / f"{protocol}_{re.sub(r'[^A-Za-z0-9]+', '_', label).strip('_')}_worst"
+                try:
+                    plot_sample_from_run(run.path, sid, stem, f"{label} | {sid} | worst", pdf=False)
+                except CatposeError as e:
+                    md += [f"**{label}**, worst `{sid}` ({err:.1f} deg): not drawn ({e})", ""]
+                    continue
+                md += [
+                    f"**{label}**, worst: `{sid}`, {err:.1f} deg",
+                    "",
+                    f"![{label} worst](figures/{stem.name}.png)",
+                    "",
+                ]
 
     atomic.write_text(out / "index.md", "\n".join(md) + "\n")
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``bench report RUN_DIR... --out DIR [--layout L ...] [--qualitative N] [--note TEXT ...]``."""
-    from catpose.bench.report.tables import LAYOUTS, parse_labels
+    """``bench report RUN_DIR... --out DIR [--no-pictures] [--note TEXT ...]``."""
+    from catpose.bench.report.labels import parse_labels
     from catpose.bench.run.overwrite import Output, add_output_options, input_runs
 
     ap = argparse.ArgumentParser(
@@ -319,23 +278,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("runs", nargs="+", help="run directories, or folders searched for samples.jsonl")
     add_output_options(ap, "the report folder to write (new or empty; see --force)")
     ap.add_argument(
-        "--layout",
-        action="append",
-        choices=sorted(LAYOUTS),
-        help="extra table layouts per protocol (always: a summary and a per-category table)",
-    )
-    ap.add_argument(
-        "--qualitative",
-        type=int,
-        default=QUALITATIVE_PER_RUN,
-        help="pictures per run, at most 2: the worst and a typical failure (re-loads samples from the "
-        f"config; default {QUALITATIVE_PER_RUN}, 0: none)",
-    )
-    ap.add_argument(
-        "--max-pictures",
-        type=int,
-        default=MAX_PICTURES,
-        help=f"pictures in the whole report at most (default {MAX_PICTURES})",
+        "--no-pictures",
+        action="store_true",
+        help="no picture of each run's worst registration (they re-load its sample from the run's config)",
     )
     ap.add_argument("--label", action="append", default=[], help="RUN_DIR=LABEL, repeatable")
     ap.add_argument("--note", action="append", default=[], help="a paragraph under the title (how the runs were made)")
@@ -346,21 +291,17 @@ def main(argv: list[str] | None = None) -> int:
         help="tables of runs on different datasets, seeds or sample sets (refused otherwise), said in a note",
     )
     args = ap.parse_args(argv)
-    if not 0 <= args.qualitative <= 2 or args.max_pictures < 0:
-        raise ConfigError("--qualitative takes 0, 1 or 2 (pictures per run), --max-pictures 0 or more (0: none)")
     out = Output(args.out, "folder", input_runs(args.runs), args.force)  # before any work
     left_out: list[str] = []
     with out.writing():
         index = build_report(
             args.runs,
             args.out,
-            args.layout or [],
-            args.qualitative,
+            not args.no_pictures,
             parse_labels(args.label),
             args.note,
             pdf=not args.no_pdf,
             left_out=left_out,
-            max_pictures=args.max_pictures,
             label_items=args.label,
             allow_mixed=args.allow_mixed,
         )

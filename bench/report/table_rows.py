@@ -86,7 +86,7 @@ def collect(
 
 def is_bop_run(run: Run) -> bool:
     """Whether a run is on BOP-layout data (its table rows can show BOP's AR)."""
-    from catpose.bench.scoring.bop_rows import is_bop_layout
+    from catpose.bench.run.bop_ar import is_bop_layout
 
     return is_bop_layout(run.config.get("dataset"))
 
@@ -113,7 +113,7 @@ def cell_spread(entry: Entry, category: str, key: str) -> tuple[float, float] | 
 def one_value(entry: Entry, category: str, key: str) -> float:
     """A summary statistic, or a threshold statistic (``acc5``, ``auc30``, ``5deg5cm``:
     :mod:`catpose.bench.scoring.curves`) of the entry's units of ``category`` (``all``: every unit)."""
-    from catpose.bench.scoring.bop_rows import AR_KEYS
+    from catpose.bench.run.bop_ar import AR_KEYS
 
     if key in AR_KEYS:
         if entry.bop is None:

@@ -16,9 +16,9 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from catpose.bench.report.labels import parse_labels, pipeline_label, run_labels, template_count
-from catpose.bench.report.runs import Run, find_run_dirs, load_run, protocol_of, scored_units
-from catpose.bench.report.table_format import METRICS, Metric, Table, metric, prune, to_csv, to_latex, to_markdown
+from catpose.bench.report.labels import pipeline_label, template_count
+from catpose.bench.report.runs import Run
+from catpose.bench.report.table_format import METRICS, Table, metric, prune, to_csv, to_latex, to_markdown
 from catpose.bench.report.table_rows import (
     Entry,
     cell_spread,
@@ -29,30 +29,6 @@ from catpose.bench.report.table_rows import (
     pick_categories,
 )
 from catpose.errors import ConfigError
-
-# tables.load_run, tables.scored_units, tables.protocol_of, tables.to_markdown ... stay reachable here:
-# reports and plots read runs and render tables through this module's names
-__all__ = [
-    "LAYOUTS",
-    "build_table",
-    "collect",
-    "split_by_protocol",
-    "load_run",
-    "scored_units",
-    "protocol_of",
-    "find_run_dirs",
-    "run_labels",
-    "pipeline_label",
-    "parse_labels",
-    "to_markdown",
-    "to_latex",
-    "to_csv",
-    "Run",
-    "Table",
-    "Metric",
-    "METRICS",
-]
-
 
 RENDERERS: dict[str, Callable[[Table], str]] = {"md": to_markdown, "latex": to_latex, "csv": to_csv}
 
@@ -214,7 +190,7 @@ def build_table(
     if layout not in LAYOUTS:
         raise ConfigError(f"unknown table layout {layout!r}; use one of {sorted(LAYOUTS)}")
     from catpose.bench.report.tables_compare import FIX, mixed_rows
-    from catpose.bench.scoring.bop_rows import AR_KEYS
+    from catpose.bench.run.bop_ar import AR_KEYS
     from catpose.errors import DatasetError
 
     spec = LAYOUTS[layout]

@@ -36,7 +36,8 @@ from catpose.errors import DatasetError, InvalidInputError
 
 BOP_HEADER = "scene_id,im_id,obj_id,score,R,t,time"
 ERRORS_FILE = "bop_errors.jsonl"
-DEFAULT_METRICS = ("ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
+DEFAULT_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
+"""The recalls ``bench score`` prints by default."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -68,6 +69,12 @@ def check_results_filename(path: str | Path, dataset_split: str = "ycbv-test") -
 
 # --------------------------------------------------------------------------------------------
 # 2. Errors
+
+
+def nearest_rotation(R: np.ndarray) -> np.ndarray:
+    """The rotation (3, 3) nearest to ``R`` (a file's rounded values), by SVD."""
+    U, _, Vt = np.linalg.svd(R)
+    return U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
 
 
 def _model_points(vertices: np.ndarray, max_points: int, seed: int) -> np.ndarray:
@@ -192,10 +199,13 @@ def compute_errors(preds, dataset, vsd: bool = True, max_points: int = 0, seed: 
         errors = []
         for p in ests:
             T = np.asarray(p["T"], float)
-            U, _, Vt = np.linalg.svd(T[:3, :3])
-            R_e = U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
             errors.append(
-                [_pair_errors(R_e, T[:3, 3], R_g, t_g, K, pts, syms, depth_mm, mesh, diameter) for R_g, t_g in gt_poses]
+                [
+                    _pair_errors(
+                        nearest_rotation(T[:3, :3]), T[:3, 3], R_g, t_g, K, pts, syms, depth_mm, mesh, diameter
+                    )
+                    for R_g, t_g in gt_poses
+                ]
             )
         matched = {key: _match(errors, key, len(gts)) for key in ERROR_KEYS}
         for k, (g, category) in enumerate(gts):

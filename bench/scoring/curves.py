@@ -71,7 +71,9 @@ def auc(errors_deg: Sequence[float], max_deg: float) -> float:
     return float(np.clip(1.0 - e / float(max_deg), 0.0, 1.0).mean())
 
 
-def _errors(units) -> np.ndarray:
+def scored_errors(units) -> np.ndarray:
+    """(n,) errors (degrees) of scoring units, a failed unit (or one without an error) as
+    :data:`FAILED_ERROR_DEG`."""
     import pandas as pd
 
     err = (
@@ -121,7 +123,7 @@ def statistic(units, key: str) -> float:
     if len(units) == 0:
         return float("nan")
     kind, params = parsed
-    err = _errors(units)
+    err = scored_errors(units)
     if kind == "acc":
         return float((err <= params[0]).mean())
     if kind == "auc":
@@ -131,12 +133,3 @@ def statistic(units, key: str) -> float:
     cm = translation_cm(units)
     ok = (err <= params[0]) & np.nan_to_num(cm <= params[1], nan=False).astype(bool)
     return float(ok.mean())
-
-
-def threshold_table(units, keys: Sequence[str], by: str = "category"):
-    """One row per ``by`` group and ``all``: ``n`` and each of ``keys`` (a pandas DataFrame)."""
-    import pandas as pd
-
-    rows = [[str(k), len(g), *[statistic(g, key) for key in keys]] for k, g in units.groupby(by, sort=True)]
-    rows.append(["all", len(units), *[statistic(units, key) for key in keys]])
-    return pd.DataFrame(rows, columns=[by, "n", *keys])

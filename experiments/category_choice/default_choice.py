@@ -4,7 +4,7 @@ development table that holds a row for every rule, pooled.
     .venv/bin/python experiments/category_choice/default_choice.py \
         results/category/dev/embedded_seed1_k3.csv ... --out results/category/dev/default_choice.md
 
-Each input is a `bench category --format csv` table (columns ``method``, ``choice``, ``views``,
+Each input is a `experiments/_lib/category_table.py --format csv` table (columns ``method``, ``choice``, ``views``,
 ``chosen_acc10``, ``chosen_mean``); each (table, method) row set, one per template set and method,
 weighs the same. The rule: the highest mean @10 over those row sets, then the lowest mean error.
 Reads the committed tables only (no run). Written by results/make_results.sh (category section).
@@ -29,7 +29,9 @@ def pooled(tables: dict[str, pd.DataFrame]) -> tuple[pd.DataFrame, pd.DataFrame,
     for name, df in tables.items():
         missing = [c for c in COLUMNS if c not in df.columns]
         if missing:
-            raise ValueError(f"{name}: no column(s) {missing}; pass `bench category --format csv` tables")
+            raise ValueError(
+                f"{name}: no column(s) {missing}; pass `experiments/_lib/category_table.py --format csv` tables"
+            )
         frames.append(df.assign(table=name))
     rows = pd.concat(frames, ignore_index=True)
     sets = rows.groupby(["table", "method"], sort=False)
@@ -63,7 +65,7 @@ def markdown(acc: pd.DataFrame, summary: pd.DataFrame, rules: list[str], title: 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("tables", nargs="+", type=Path, help="bench category --format csv tables")
+    ap.add_argument("tables", nargs="+", type=Path, help="category_table.py --format csv tables")
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--title", default="The templates protocol's default choice: every rule on the development tables")
     args = ap.parse_args(argv)

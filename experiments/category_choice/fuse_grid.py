@@ -45,7 +45,7 @@ def chosen(samples, fuse_deg: float | None, top_weight: float | None = None):
 def main(argv: list[str] | None = None) -> int:
     from catpose.atomic import write_text
     from catpose.bench.protocols.absolute import Templates, absolute_gt_only
-    from catpose.bench.report.category_table import row_errors
+    from catpose.bench.scoring.curves import scored_errors
     from catpose.methods.choice_rules import FUSED_TOP_WEIGHT
 
     ap = sweeps_parser(__doc__)
@@ -69,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
             samples = with_turns(absolute_gt_only(run.samples), turns)
             oracle = Templates(choice="cross").best_per_view(samples)["oracle_err_deg"].to_numpy(float).mean()
             rows = [chosen(samples, a, w) for w, a in settings]
-            gaps.setdefault(run.method, []).append([float(row_errors(r).mean() - oracle) for r in rows])
+            gaps.setdefault(run.method, []).append([float(scored_errors(r).mean() - oracle) for r in rows])
             fused.setdefault(run.method, []).append(
                 [float(np.mean([i.get("fused_templates", 1) for i in r["info"]])) for r in rows]
             )

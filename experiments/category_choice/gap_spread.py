@@ -29,11 +29,11 @@ def view_gaps(samples, choice: str, turns: tuple[float, ...]):
     """(instance ids, gaps): per view of one template run's rows, the chosen error less the
     oracle's (degrees), by the view's instance."""
     from catpose.bench.protocols.absolute import Templates
-    from catpose.bench.report.category_table import row_errors
+    from catpose.bench.scoring.curves import scored_errors
     from catpose.methods.choice_rules import TURN_RULES
 
     views = Templates(choice=choice).best_per_view(with_turns(samples, turns) if choice in TURN_RULES else samples)
-    gaps = np.asarray(row_errors(views), float) - views["oracle_err_deg"].to_numpy(float)
+    gaps = np.asarray(scored_errors(views), float) - views["oracle_err_deg"].to_numpy(float)
     return views["instance_id"].astype(str).to_numpy(), gaps
 
 

@@ -30,7 +30,7 @@ E=experiments/category_choice
   --split-at airplane_8040 --keep "180@0.05" --out $DEV/airplane_procedural_one_template.md \
   --title "Procedural airplanes (80 x 4 views), one template (airplane_0536)"
 # The same 80 airplanes against the shared K = 3 airplane templates (configs/category_templates/
-# mn40r_airplane_k3.yaml), 2 views each, ours, turns stored: every rule of `bench category` and the
+# mn40r_airplane_k3.yaml), 2 views each, ours, turns stored: every rule of `experiments/_lib/category_table.py` and the
 # top-offset / turn-set grid (airplane_procedural_k3.md, airplane_procedural_k3_grid.md). Not used to
 # change the airplane experiments' rule (docs/category-level.md).
 K3_ROOT=${K3_ROOT:-$PROC_ROOT-k3}
@@ -41,7 +41,7 @@ K3_ROOT=${K3_ROOT:-$PROC_ROOT-k3}
   "protocol.exclude_instances=[airplane_0002,airplane_0256,airplane_0432]" dataset.root="$K3_ROOT" \
   dataset.alignment_table="$K3_ROOT/alignment_airplane.csv" dataset.views_per_instance=2 "choice.turns_deg=[90,180,270]" \
   output_root="$OUT/k3" progress=false print_summary=false hydra.sweep.dir="$OUT/k3/multirun/k3"
-"$B" category --force "$OUT/k3/multirun/k3" --category airplane --choices cross,cross_top,cross_top_turns,score,density,agreement \
+.venv/bin/python experiments/_lib/category_table.py --force "$OUT/k3/multirun/k3" --category airplane --choices cross,cross_top,cross_top_turns,score,density,agreement \
   --format md --out $DEV/airplane_procedural_k3.md \
   --title "Procedural airplanes, K = 3 (80 airplanes x 2 views; the shared airplane K = 3 templates)"
 .venv/bin/python $E/top_weight_grid.py "$OUT/k3/multirun/k3" --turn-sets "none;180;90,270;90,180,270" --weights 0,0.05 \

@@ -2,7 +2,7 @@
 # The development table of the template choice (issue 25; docs/category-level.md): 4 chairs that
 # are not among the shared resampled ones (chair_dev_root.py builds their root in $DEV_ROOT,
 # outside the repository, from the shared data), 12 views each, registered by ours and ICP to the
-# K = 3 chair templates of the paper table (chair_0391, chair_0624, chair_0848); `bench category`
+# K = 3 chair templates of the paper table (chair_0391, chair_0624, chair_0848); `experiments/_lib/category_table.py`
 # writes chosen (rules cross, cross_top, score, density, agreement) / oracle / random side by side to
 # results/category/dev/chair_dev_k3.{md,csv}. The cross rule's weight was chosen on these runs
 # (and on development airplanes that cannot be shared), cross_top's top-offset weight on these runs
@@ -28,7 +28,7 @@ dev_run() {
 .venv/bin/python experiments/category_choice/chair_dev_root.py "$SHARED" "$DEV_ROOT"
 dev_run ours,icp chair_dev_k3
 for fmt in md csv; do
-  "$B" category --force "$OUT/multirun/chair_dev_k3" --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement --format $fmt \
+  .venv/bin/python experiments/_lib/category_table.py --force "$OUT/multirun/chair_dev_k3" --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement --format $fmt \
     --out results/category/dev/chair_dev_k3.$fmt \
     --title "Chair development set, K = 3 (chair_0001, chair_0002, chair_0059, ShapeNet chair x 12 views)"
 done
@@ -38,7 +38,7 @@ for i in "${!SWAPS[@]}"; do
   dev_run ours,icp chair_dev_swap$i "dataset.templates.chair=[${SWAPS[$i]}]" "protocol.exclude_instances=[]"
 done
 for fmt in md csv; do
-  "$B" category --force "$OUT"/multirun/chair_dev_swap{0,1,2,3} --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement \
+  .venv/bin/python experiments/_lib/category_table.py --force "$OUT"/multirun/chair_dev_swap{0,1,2,3} --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement \
     --format $fmt --out results/category/dev/chair_dev_swaps.$fmt \
     --title "Chair development set, roles swapped: 4 template sets of K = 3 from the 7 non-report chairs, the other 4 chairs x 12 views"
 done

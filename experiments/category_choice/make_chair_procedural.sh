@@ -3,7 +3,7 @@
 # by part (experiments/_lib/procedural.py and procedural_chairs.py, seed 0, root in $PROC_ROOT outside the repository), none of them
 # a ModelNet40 shape, 6 views each.
 #  1. Registered by ours and ICP to the paper table's K = 3 chair templates (chair_0391,
-#     chair_0624, chair_0848, linked from the shared data): `bench category` writes chosen (every
+#     chair_0624, chair_0848, linked from the shared data): `experiments/_lib/category_table.py` writes chosen (every
 #     rule) / oracle / random to chair_procedural_k3.{md,csv}, and top_weight_grid.py the
 #     cross_top weight grid to chair_procedural_top_weight.md. cross_top's weight was chosen
 #     before this set existed, on the real development chairs (make_chair_dev.sh).
@@ -32,7 +32,7 @@ FINE_TURNS="none;90,270;60,300;60,90,120,240,270,300;30,60,90,270,300,330;30,60,
   dataset.alignment_table="$PROC_ROOT/with_templates/alignment_chair.csv" dataset.views_per_instance=6 \
   output_root="$OUT" progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/procedural_k3"
 for fmt in md csv; do
-  "$B" category --force "$OUT/multirun/procedural_k3" --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement \
+  .venv/bin/python experiments/_lib/category_table.py --force "$OUT/multirun/procedural_k3" --category chair --choices cross,cross_top,cross_top_turns,fused,score,density,agreement \
     --format $fmt --out $DEV/chair_procedural_k3.$fmt \
     --title "Procedural chairs, K = 3 (40 chairs x 6 views; the paper table's templates)"
 done

@@ -17,7 +17,7 @@ for seed in 1 2 3; do
   "$B" run -m +experiment=templates "+row=ours,icp" protocol.max_templates=null seed=$seed output_root="$OUT" \
     progress=false print_summary=false hydra.sweep.dir="$OUT/multirun/embedded_seed${seed}_k3"
   for fmt in md csv; do
-    "$B" category --force "$OUT/multirun/embedded_seed${seed}_k3" --choices cross,cross_top,cross_top_turns,fused,score,density,agreement --format $fmt \
+    .venv/bin/python experiments/_lib/category_table.py --force "$OUT/multirun/embedded_seed${seed}_k3" --choices cross,cross_top,cross_top_turns,fused,score,density,agreement --format $fmt \
       --out results/category/dev/embedded_seed${seed}_k3.$fmt \
       --title "Embedded set (depth images), 3 category templates, seed $seed: every choice rule"
   done

@@ -27,10 +27,10 @@ from top_weight_grid import WEIGHTS, chosen_errors, parse_turn_sets  # noqa: E40
 def main(argv: list[str] | None = None) -> int:
     from catpose.atomic import write_text
     from catpose.bench.protocols.absolute import absolute_gt_only
-    from catpose.bench.report.category_table import run_dirs
     from catpose.bench.report.runs import load_run
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
+    from category_table import run_dirs  # experiments/_lib/category_table.py
     from procedural import kinds as kinds_of  # experiments/_lib/procedural.py
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])

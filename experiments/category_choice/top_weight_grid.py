@@ -17,6 +17,7 @@ experiments/category_choice/make_chair_dev.sh and make_chair_procedural.sh.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -42,12 +43,12 @@ def chosen_errors(samples, turns: tuple[float, ...] | None, weight: float) -> np
     import pandas as pd
 
     from catpose.bench.protocols.template_rows import choose_row
-    from catpose.bench.report.category_table import row_errors
+    from catpose.bench.scoring.curves import scored_errors
 
     rule = "cross_top" if not turns else "cross_top_turns"
     rows = samples if not turns else with_turns(samples, turns)
     chosen = pd.DataFrame([choose_row(g, rule, top_weight=weight) for _, g in rows.groupby("group_id")])
-    return np.asarray(row_errors(chosen), float)
+    return np.asarray(scored_errors(chosen), float)
 
 
 def gap(samples, weight: float, turns: tuple[float, ...] | None = None) -> float:
@@ -76,8 +77,10 @@ def sweeps_parser(doc: str, title: str = "Chair development runs") -> argparse.A
 
 def set_runs(sweep: str | Path) -> list:
     """The runs (:func:`catpose.bench.report.runs.load_run`) of one sweep directory, by method name."""
-    from catpose.bench.report.category_table import run_dirs
     from catpose.bench.report.runs import load_run
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
+    from category_table import run_dirs  # experiments/_lib/category_table.py
 
     return sorted((load_run(p) for p in run_dirs([sweep])), key=lambda r: r.method)
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # K = 1, 3, 5 category templates on any modelnet40_normal_resampled root: the K-medoids of the
 # root's aligned instances (`bench templates`), every instance that is a template for no K as test
-# views (2 views each), each view registered to each template, then `bench category` (chosen /
+# views (2 views each), each view registered to each template, then `experiments/_lib/category_table.py` (chosen /
 # oracle / random, rules cross (the run's), score, density, agreement). Nothing is downloaded: give a root you have.
 # Usage (repository root):
 #   bash experiments/category_tables/make_any_root_ktemplates.sh ROOT ALIGNMENT_CSV CATEGORY OUT.md
@@ -30,6 +30,6 @@ for K in 1 3 5; do
     hydra.sweep.dir="$OUT/multirun/k$K"
 done
 for fmt in md csv; do
-  "$B" category --force "$OUT/multirun/k1" "$OUT/multirun/k3" "$OUT/multirun/k5" --category "$CAT" --choices cross,cross_top,cross_top_turns,score,density,agreement \
+  .venv/bin/python experiments/_lib/category_table.py --force "$OUT/multirun/k1" "$OUT/multirun/k3" "$OUT/multirun/k5" --category "$CAT" --choices cross,cross_top,cross_top_turns,score,density,agreement \
     --format $fmt --out "${MD%.md}.$fmt" --title "${TITLE:-$CAT, K templates ($ROOT)}"
 done

@@ -16,6 +16,6 @@ if [ "${1:-}" != tables ]; then
 fi
 T=results/category/paper; mkdir -p "$T"
 for fmt in md csv; do
-  "$B" category --force "$S" --category airplane --choices cross,cross_top,score,density,agreement --format $fmt \
+  .venv/bin/python experiments/_lib/category_table.py --force "$S" --category airplane --choices cross,cross_top,score,density,agreement --format $fmt \
     --out "$T/templates_airplane.$fmt" --title "Airplane, K templates (shared resampled airplanes; 11 x 2 test views)"
 done

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The paper's "templates, chair" table on the shared resampled ModelNet40 train chairs, K = 1 and 3
 # (K = 5 would leave no test chair among the 5 shared ones): ours and every baseline (ICP; FGR,
-# TEASER re-implementation and RANSAC with dictionary matching, as in the paper), then `bench category`:
+# TEASER re-implementation and RANSAC with dictionary matching, as in the paper), then `experiments/_lib/category_table.py`:
 # the chosen (rules cross_top_turns, the experiment's, cross, cross_top, score, density, agreement), oracle and
 # random-template errors side by side (results/category/paper/templates_chair.{md,csv}), and ours'
 # K = 3 views one by one (templates_chair_views.csv), and why each of its wrong views is wrong, at the
@@ -21,7 +21,7 @@ if [ "${1:-}" != tables ]; then
 fi
 T=results/category/paper; mkdir -p "$T"
 for fmt in md csv; do
-  "$B" category --force "$OUT/multirun/mn40r_chair_1template" "$OUT/multirun/mn40r_chair_ktemplates" --category chair \
+  .venv/bin/python experiments/_lib/category_table.py --force "$OUT/multirun/mn40r_chair_1template" "$OUT/multirun/mn40r_chair_ktemplates" --category chair \
     --choices cross,cross_top,cross_top_turns,fused,score,density,agreement --format $fmt --out "$T/templates_chair.$fmt" \
     --title "Chair, K templates (shared resampled chairs; test views chair_0454, chair_0858 x 4)"
 done

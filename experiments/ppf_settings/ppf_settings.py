@@ -138,10 +138,10 @@ def table(work: Path, root: str, scenes: list[int]) -> str:
     import pandas as pd
     from omegaconf import OmegaConf
 
+    from catpose.bench.run.bop_ar import evaluation_models, predictions_from_units, target_key
     from catpose.bench.run.build import build_from_config
     from catpose.bench.run.config import compose
     from catpose.bench.scoring.bop_eval import compute_errors, metric_value
-    from catpose.bench.scoring.bop_rows import evaluation_models, predictions_from_units, target_key
 
     cfg = OmegaConf.to_container(compose(dataset_overrides(root, scenes)).dataset, resolve=True)
     _, dataset = build_from_config(evaluation_models(cfg), "dataset")

@@ -39,15 +39,15 @@ def view_table(run):
     import pandas as pd
 
     from catpose.bench.protocols.absolute import absolute_gt_only
-    from catpose.bench.report.category_table import row_errors
     from catpose.bench.report.runs import protocol_of
+    from catpose.bench.scoring.curves import scored_errors
 
     samples = absolute_gt_only(run.samples)
     kept = protocol_of(run).best_per_view(samples)
     seconds = pd.to_numeric(samples["runtime_s"], errors="coerce").to_numpy(float)
     return (
         kept["instance_id"].astype(str).to_numpy(),
-        row_errors(kept),
+        scored_errors(kept),
         kept["oracle_err_deg"].to_numpy(float),
         seconds,
     )

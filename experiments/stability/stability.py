@@ -152,6 +152,7 @@ def main(argv: list[str] | None = None) -> int:
     """``bench table``'s options and ``--stability ROOT`` (repeatable): the table with the notes."""
     from catpose import atomic
     from catpose.bench.report import table_command, tables
+    from catpose.bench.report.labels import run_labels
 
     ap = table_command.parser()
     ap.add_argument("--stability", action="append", default=[], metavar="ROOT", help="an output root of twins")
@@ -167,7 +168,7 @@ def main(argv: list[str] | None = None) -> int:
         def error_of(run) -> str:
             return "oracle_err_deg" if oracle and run.protocol == "templates" else "err_deg"
 
-        names = [f"{group_of(r)} / {x}".lstrip(" /") for r, x in zip(runs, tables.run_labels(runs, labels, group_of))]
+        names = [f"{group_of(r)} / {x}".lstrip(" /") for r, x in zip(runs, run_labels(runs, labels, group_of))]
         table.notes += [""] + stability_notes(runs, names, args.stability, error_of)
     text = tables.RENDERERS[args.format](table)
     if out is None:

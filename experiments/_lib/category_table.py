@@ -1,5 +1,6 @@
-"""``bench category``: the templates tables with the chosen, oracle and random-template errors
-side by side, for every method, number of templates K and choice rule.
+"""The templates tables with the chosen, oracle and random-template errors side by side, for every
+method, number of templates K and choice rule (``python experiments/_lib/category_table.py``; was
+``experiments/_lib/category_table.py``): the paper's K-template tables and the template choice's development tables.
 
 For a run of the ``templates`` protocol (each view registered to each of K templates):
 
@@ -13,7 +14,8 @@ For a run of the ``templates`` protocol (each view registered to each of K templ
 Errors are the run's recomputed ones (:func:`catpose.bench.report.runs.load_run`); a failed registration
 counts 180 degrees. With K = 1 the three coincide::
 
-    bench category outputs/modelnet40_resampled-templates --category chair --out results/category/chair.md
+    python experiments/_lib/category_table.py outputs/modelnet40_resampled-templates --category chair \
+        --out results/category/chair.md
 """
 
 from __future__ import annotations
@@ -25,7 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from catpose.errors import ConfigError
+from catpose.bench.scoring.curves import scored_errors
+from catpose.errors import CatposeError, ConfigError
 
 STATS = ("mean", "median", "acc10", "acc30")
 
@@ -41,16 +44,6 @@ def error_stats(err: np.ndarray) -> dict[str, float]:
         "acc10": float((err < 10).mean()),
         "acc30": float((err < 30).mean()),
     }
-
-
-def row_errors(rows) -> np.ndarray:
-    """(n,) each row's error in degrees, a failed row (or one without an error) counting 180."""
-    import pandas as pd
-
-    from catpose.bench.scoring.metrics import FAILED_ERROR_DEG
-
-    err = pd.to_numeric(rows["err_deg"], errors="coerce").to_numpy(float)
-    return np.where((rows["status"] != "ok").to_numpy() | ~np.isfinite(err), FAILED_ERROR_DEG, err)
 
 
 def rule_of(run):
@@ -99,9 +92,9 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
         units = Templates(choice=dataclasses.replace(run_rule, rule=choice)).best_per_view(samples)
         row = {"K": K, "views": len(units), "choice": choice if K > 1 or one_template_turns else "-"}
         row["incomplete_views"] = incomplete
-        row.update({f"chosen_{k}": v for k, v in error_stats(row_errors(units)).items()})
+        row.update({f"chosen_{k}": v for k, v in error_stats(scored_errors(units)).items()})
         row.update({f"oracle_{k}": v for k, v in error_stats(units["oracle_err_deg"].to_numpy(float)).items()})
-        row.update({f"random_{k}": v for k, v in error_stats(row_errors(samples)).items()})
+        row.update({f"random_{k}": v for k, v in error_stats(scored_errors(samples)).items()})
         out.append(row)
     return out
 
@@ -211,9 +204,17 @@ def to_csv(rows: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``bench category RUN_OR_FOLDER... [--category C] [--choices fused,cross,score]
-    [--format md|csv] [--out FILE]``."""
-    ap = argparse.ArgumentParser(prog="bench category", description=__doc__.split("\n\n")[0])
+    """``category_table.py RUN_OR_FOLDER... [--category C] [--choices fused,cross,score]
+    [--format md|csv] [--out FILE]``; a user error is one line on stderr, exit status 2."""
+    try:
+        return _main(argv)
+    except CatposeError as e:
+        print(f"category_table: error: {e}", file=sys.stderr)
+        return 2
+
+
+def _main(argv: list[str] | None) -> int:
+    ap = argparse.ArgumentParser(prog="category_table.py", description=__doc__.split("\n\n")[0])
     ap.add_argument("paths", nargs="+", help="run directories or folders holding them (templates protocol)")
     ap.add_argument("--category", default=None, help="only this category (default: all rows pooled)")
     ap.add_argument(
@@ -230,7 +231,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = build(args.paths, args.category, [c.strip() for c in args.choices.split(",") if c.strip()], incomplete)
     said = notes(rows, incomplete)
     for line in said:  # on stderr too: a CSV has no place for them
-        print(f"bench category: warning: {line}", file=sys.stderr)
+        print(f"category_table: warning: {line}", file=sys.stderr)
     text = to_markdown(rows, args.title, said) if args.format == "md" else to_csv(rows)
     if out is not None:
         from catpose import atomic
@@ -241,3 +242,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         print(text, end="")
     return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
