@@ -17,21 +17,34 @@ from catpose.errors import DatasetError
 from catpose.geometry import dot3, smallest_eigenvector_sym3
 from catpose.plane_kernel import inlier_counts
 
+REFETCH = "download or unzip it again"
+PNG_END = b"\0\0\0\0IEND\xaeB`\x82"  # the IEND chunk: a PNG's last 12 bytes (Pillow's verify stops before its CRC)
 
-def read_depth_png(path: Path) -> np.ndarray:
-    """A 16-bit depth PNG as a (H, W) uint16 array; other dtypes raise :class:`DatasetError`."""
+
+def _image(path: Path, what: str) -> np.ndarray:
+    """The image at ``path`` (Pillow) as an array; a missing or unreadable file raises
+    :class:`DatasetError` naming it."""
     from PIL import Image
 
     if not path.is_file():
-        raise DatasetError(f"depth image {path} does not exist")
+        raise DatasetError(f"{what} {path} does not exist")
     try:
         with Image.open(path) as im:
-            arr = np.asarray(im)
+            return np.asarray(im)
     except Exception as exc:  # PIL raises several types for a broken file
-        raise DatasetError(f"{path} cannot be read as an image ({type(exc).__name__})") from None
-    if arr.ndim != 2 or arr.dtype not in (np.uint16, np.int32, np.int16):
-        raise DatasetError(f"{path} is {arr.dtype} with shape {arr.shape}; depth must be a single-channel 16-bit PNG")
-    if arr.dtype != np.uint16:  # PIL opens some 16-bit PNGs as mode "I" (int32)
+        raise DatasetError(f"{what} {path} cannot be read as an image ({type(exc).__name__}); {REFETCH}") from None
+
+
+def read_depth(path: Path) -> np.ndarray:
+    """A depth image (16-bit PNG, or TIFF as in ITODD) as a (H, W) array of raw values (multiply
+    by the frame's ``depth_scale`` for mm); a PNG is uint16, other PNG dtypes raise
+    :class:`DatasetError`."""
+    arr = _image(path, "depth image")
+    png = path.suffix.lower() == ".png"
+    if arr.ndim != 2 or arr.dtype.kind not in "uif" or png and arr.dtype not in (np.uint16, np.int32, np.int16):
+        kind = "16-bit PNG" if png else "image"
+        raise DatasetError(f"{path} is {arr.dtype} with shape {arr.shape}; depth must be a single-channel {kind}")
+    if png and arr.dtype != np.uint16:  # PIL opens some 16-bit PNGs as mode "I" (int32)
         if arr.min() < 0 or arr.max() > 65535:
             raise DatasetError(f"{path} has values outside 0..65535; depth must be a 16-bit PNG")
         arr = arr.astype(np.uint16)
@@ -40,33 +53,43 @@ def read_depth_png(path: Path) -> np.ndarray:
 
 def read_mask_png(path: Path) -> np.ndarray:
     """A mask PNG as a (H, W) bool array (non-zero = object)."""
-    from PIL import Image
-
-    try:
-        with Image.open(path) as im:
-            arr = np.asarray(im)
-    except Exception as exc:
-        raise DatasetError(f"mask {path} cannot be read as an image ({type(exc).__name__})") from None
+    arr = _image(path, "mask")
     return (arr if arr.ndim == 2 else arr[..., 0]) > 0
 
 
-def read_depth(path: Path) -> np.ndarray:
-    """A depth image (16-bit PNG, or TIFF as in ITODD) as a (H, W) array of raw values
-    (multiply by the frame's ``depth_scale`` for mm)."""
-    if path.suffix.lower() == ".png":
-        return read_depth_png(path)
+def png_problem(path: Path, size: tuple[int, int] | None = None, depth16: bool = False) -> str | None:
+    """Why the file at ``path`` is not a whole PNG (Pillow's ``verify``: every chunk's length and
+    CRC up to ``IEND``, nothing decoded), or, with ``depth16``, not a 16-bit single-channel depth
+    image, or, with ``size``, not ``(width, height)``; None when it is. Never raises."""
     from PIL import Image
 
-    if not path.is_file():
-        raise DatasetError(f"depth image {path} does not exist")
     try:
-        with Image.open(path) as im:
-            arr = np.asarray(im)
-    except Exception as exc:
-        raise DatasetError(f"{path} cannot be read as an image ({type(exc).__name__})") from None
-    if arr.ndim != 2 or arr.dtype.kind not in "uif":
-        raise DatasetError(f"{path} is {arr.dtype} with shape {arr.shape}; depth must be a single-channel image")
-    return arr
+        with Image.open(path, formats=["PNG"]) as im:
+            mode, im_size = im.mode, im.size
+            im.verify()
+        with open(path, "rb") as fh:
+            fh.seek(-len(PNG_END), 2)
+            if fh.read() != PNG_END:
+                raise SyntaxError("it does not end with the IEND chunk (cut off)")
+    except Exception as exc:  # PIL raises several types for a cut-off or damaged file
+        why = " ".join(str(exc).split())[:80]
+        return f"{path} is not a whole PNG ({type(exc).__name__}: {why}); {REFETCH}"
+    if depth16 and mode not in ("I;16", "I;16B", "I"):
+        return f"{path} is a PNG of mode {mode}; a depth image is a 16-bit single-channel PNG"
+    if size is not None and im_size != tuple(size):
+        return f"{path} is {im_size[0]}x{im_size[1]}, not {size[0]}x{size[1]} as the other images of the dataset"
+    return None
+
+
+def png_size(path: Path) -> tuple[int, int] | None:
+    """``(width, height)`` of a PNG from its header, None when it has none."""
+    from PIL import Image
+
+    try:
+        with Image.open(path, formats=["PNG"]) as im:
+            return im.size
+    except Exception:  # not a PNG, or unreadable
+        return None
 
 
 def fit_ground_plane(points: np.ndarray, distance: float, iterations: int, seed: int) -> tuple[np.ndarray, float, int]:

@@ -2,7 +2,7 @@
 
 Layout: ``<root>/<category>/<split>/<category>_<id>.off`` (``.OFF`` too; Princeton ModelNet40, or the
 aligned release of Sedaghat et al., which has the same layout: set ``aligned: true``). OFF files
-with ``OFF`` and the counts on one line are read (:func:`catpose.datasets.meshio.read_off`).
+with ``OFF`` and the counts on one line are read (trimesh, :func:`catpose.datasets.meshio.read_mesh`).
 
 Each shape is rotated so that the configured ``up``/``forward`` file axes become +z/+x, rotated
 by its entry in the optional alignment table (:mod:`catpose.datasets.alignment`; raw ModelNet40
@@ -27,7 +27,7 @@ import numpy as np
 from catpose.datasets.alignment import read_alignment_table
 from catpose.datasets.dataset import ObjectDataset, Observation, OptionGroup
 from catpose.datasets.layout_check import LayoutReport, check_templates
-from catpose.datasets.meshio import R_template_file, read_off, sampled_template
+from catpose.datasets.meshio import R_template_file, read_mesh, sampled_template
 from catpose.datasets.render import depth_to_points, render_depth
 from catpose.datasets.templates import TemplateOptions
 from catpose.datasets.views import ImageOptions, ViewOptions, check_counts, kept_view, view_observation
@@ -245,7 +245,7 @@ class ModelNet40(ModelNetBase):
         category, ids = next((c, ids) for c, ids in present.items() if ids)
         path = _off_files(self.root / category / self.split)[ids[0]]
         try:
-            if solid_hull(read_off(path)[0]) is None:
+            if solid_hull(read_mesh(path)[0]) is None:
                 report.problem(
                     f"{path} is flat (no volume): ours has no resting pose for it; replace it with a solid mesh"
                 )
@@ -272,7 +272,7 @@ class ModelNet40(ModelNetBase):
         path, split = self._find(category, instance_id)
         key = (category, split, instance_id)
         if key not in self._meshes:
-            v, f = read_off(path)
+            v, f = read_mesh(path)
             v = apply_R(self.canonical_rotation(category, instance_id), v)
             try:
                 v, _, _ = normalize_to_unit_sphere(v)
