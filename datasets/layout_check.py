@@ -36,7 +36,8 @@ class LayoutReport:
 
 def check_templates(dataset: Any, report: LayoutReport, instance_exists: Callable[[str, str], bool]) -> None:
     """Every configured template resolves: a mesh file, or an instance ``instance_exists`` knows."""
-    from catpose.datasets.meshio import MESH_SUFFIXES, template_spec_from_dict
+    from catpose.datasets.meshio import MESH_SUFFIXES
+    from catpose.datasets.templates import template_spec
 
     tset = getattr(dataset, "_templates", None)
     if tset is None:
@@ -51,7 +52,7 @@ def check_templates(dataset: Any, report: LayoutReport, instance_exists: Callabl
                     )
                 continue
             try:
-                path = Path(template_spec_from_dict(category, entry).path)
+                path = Path(template_spec(category, entry)["path"])
             except CatposeError as e:
                 report.problem(str(e))
                 continue

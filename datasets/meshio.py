@@ -14,7 +14,6 @@ so that inner faces of CAD models do not enter the cloud). A dataset's configure
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -206,30 +205,6 @@ def sample_outer_surface(
 # --------------------------------------------------------------------------- templates
 
 
-@dataclass(frozen=True)
-class TemplateSpec:
-    """How to turn a mesh file into a template.
-
-    Attributes:
-        path: OFF, OBJ or PLY file.
-        category: category name.
-        up: the file's up axis (``"+y"`` for ShapeNet, ``"+z"`` for ModelNet40).
-        forward: the file's forward axis, mapped to the template's +x.
-        scale: file units per metre (or any unit); it cancels in the unit-sphere
-            normalisation and is kept for templates loaded with ``normalize=False``.
-        template_id: id; defaults to ``<category>/<file stem>``.
-        symmetry_axis: (3,) main axis in the template frame for symmetric categories, or None.
-    """
-
-    path: str
-    category: str
-    up: str = "+z"
-    forward: str = "+x"
-    scale: float = 1.0
-    template_id: str = ""
-    symmetry_axis: tuple[float, float, float] | None = None
-
-
 def mesh_to_template(
     vertices: np.ndarray,
     triangles: np.ndarray,
@@ -291,56 +266,4 @@ def sampled_template(
         vertices=vertices,
         triangles=np.asarray(triangles, np.int64),
         symmetry_axis=axis,
-    )
-
-
-def load_template(
-    spec: TemplateSpec, n_points: int = 2048, seed: int = 0, base_dir: str | Path | None = None
-) -> Template:
-    """Load a :class:`TemplateSpec` into a :class:`~catpose.types.Template` (z up, x forward,
-    unit sphere); a relative ``spec.path`` is resolved against ``base_dir``."""
-    path = Path(spec.path)
-    if not path.is_absolute() and base_dir is not None:
-        path = Path(base_dir) / path
-    vertices, triangles = read_mesh(path)
-    tid = spec.template_id or f"{spec.category}/{path.stem}"
-    return mesh_to_template(
-        vertices,
-        triangles,
-        tid,
-        spec.category,
-        n_points=n_points,
-        seed=seed,
-        up=spec.up,
-        forward=spec.forward,
-        scale=spec.scale,
-        symmetry_axis=spec.symmetry_axis,
-    )
-
-
-def template_spec_from_dict(category: str, entry: object) -> TemplateSpec:
-    """A config entry (a path string or a mapping with path/up/forward/scale/...) -> spec."""
-    if isinstance(entry, (str, Path)):
-        return TemplateSpec(path=str(entry), category=category)
-    try:
-        d = dict(entry)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise DatasetError(f"template entry {entry!r} for {category!r} must be a path or a mapping") from None
-    if "path" not in d:
-        raise DatasetError(f"template entry {d} for {category!r} has no 'path'")
-    allowed = {"path", "up", "forward", "scale", "template_id", "symmetry_axis"}
-    unknown = set(d) - allowed
-    if unknown:
-        raise DatasetError(
-            f"template entry for {category!r} has unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}"
-        )
-    sym = d.get("symmetry_axis")
-    return TemplateSpec(
-        path=str(d["path"]),
-        category=category,
-        up=str(d.get("up", "+z")),
-        forward=str(d.get("forward", "+x")),
-        scale=float(d.get("scale", 1.0)),
-        template_id=str(d.get("template_id", "")),
-        symmetry_axis=None if sym is None else tuple(float(x) for x in sym),
     )

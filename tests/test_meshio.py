@@ -9,12 +9,10 @@ import pytest
 
 from catpose.datasets.meshio import (
     R_template_file,
-    TemplateSpec,
-    load_template,
     read_mesh,
     sample_outer_surface,
 )
-from catpose.datasets.templates import TemplateSet
+from catpose.datasets.templates import TemplateSet, load_template
 from catpose.errors import DatasetError
 
 # an asymmetric box: 4 x 2 x 1 (x, y, z), corner at the origin
@@ -106,8 +104,8 @@ def test_template_from_y_up_obj_is_z_up_unit_sphere_with_outward_normals(tmp_pat
     v_file = BOX_V[:, [1, 2, 0]] * np.array([1, 1, -1]) * 10.0  # (y, z, -x) -> file (x, y, z), in cm
     tri = read_mesh(write_off(tmp_path / "a.off", BOX_V, BOX_QUADS))[1]
     trimesh.Trimesh(v_file, tri[:, ::-1], process=False).export(tmp_path / "box_y_up.obj")
-    spec = TemplateSpec(path="box_y_up.obj", category="box", up="+y", forward="-z")
-    t = load_template(spec, n_points=500, seed=1, base_dir=tmp_path)
+    spec = {"path": "box_y_up.obj", "up": "+y", "forward": "-z"}
+    t = load_template("box", spec, n_points=500, seed=1, base_dir=tmp_path)
     assert t.template_id == "box/box_y_up" and t.points.shape == (500, 3) and t.has_mesh
     ext = np.ptp(t.vertices, axis=0)
     np.testing.assert_allclose(ext / ext.max(), [1.0, 0.5, 0.25], atol=1e-9)  # x long, z short: z up, x forward
@@ -135,9 +133,7 @@ def test_template_set_resolves_paths_instances_and_bad_entries(tmp_path):
 
     def loader(category, instance_id):
         calls.append((category, instance_id))
-        return load_template(
-            TemplateSpec(path=str(tmp_path / "box.off"), category=category, template_id=instance_id), n_points=100
-        )
+        return load_template(category, {"path": str(tmp_path / "box.off"), "template_id": instance_id}, n_points=100)
 
     ts = TemplateSet(
         {"box": ["box.off", {"path": "box.off", "up": "+x", "forward": "+y"}, "inst_1"]},
@@ -164,7 +160,8 @@ def test_real_meshes_load(shared_data):
         v, f = read_mesh(path)
         assert len(v) > 3 and len(f) > 1
     chair = load_template(
-        TemplateSpec(path="shapenet/chair/models/model_normalized.obj", category="chair", up="+y", forward="+z"),
+        "chair",
+        {"path": "shapenet/chair/models/model_normalized.obj", "up": "+y", "forward": "+z"},
         n_points=256,
         base_dir=shared_data,
     )
