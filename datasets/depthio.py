@@ -1,5 +1,6 @@
 """Depth frames from files and the ground plane under an object: what every real RGB-D loader
-(BOP, Redwood) shares; and camera trajectories in the Redwood / Open3D ``.log`` format.
+(BOP, Redwood) shares; whether a PNG is whole (``bench data check``); and camera trajectories in
+the Redwood / Open3D ``.log`` format.
 
 Depth PNGs are uint16 in the sensor's unit (millimetres times a scale the loader knows); TIFF
 depth (ITODD) is float. The ground normal of a real frame is the normal of the dominant plane of
@@ -11,11 +12,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numba
 import numpy as np
 
+from catpose import kernel_threads
 from catpose.errors import DatasetError
 from catpose.geometry import dot3, smallest_eigenvector_sym3
-from catpose.plane_kernel import inlier_counts
 
 REFETCH = "download or unzip it again"
 PNG_END = b"\0\0\0\0IEND\xaeB`\x82"  # the IEND chunk: a PNG's last 12 bytes (Pillow's verify stops before its CRC)
@@ -131,6 +133,38 @@ def fit_ground_plane(points: np.ndarray, distance: float, iterations: int, seed:
     if d < 0:  # the origin must lie on the positive side: n . 0 + d > 0
         n, d = -n, -d
     return n, float(d), n_inliers
+
+
+@numba.njit(cache=True, nogil=True)
+def _counts(p, normals, offsets, distance, lo, hi, out):  # pragma: no cover - compiled
+    """``out[h]`` for planes ``lo <= h < hi``: points of ``p`` (N, 3) within ``distance``."""
+    n_points = p.shape[0]
+    for h in range(lo, hi):
+        nx, ny, nz, d = normals[h, 0], normals[h, 1], normals[h, 2], offsets[h]
+        c = 0
+        for i in range(n_points):
+            if abs(p[i, 0] * nx + p[i, 1] * ny + p[i, 2] * nz + d) < distance:
+                c += 1
+        out[h] = c
+
+
+def inlier_counts(points: np.ndarray, normals: np.ndarray, offsets: np.ndarray, distance: float) -> np.ndarray:
+    """(H,) int64: for each plane ``normals[h] . p + offsets[h] = 0`` (``normals`` (H, 3) unit,
+    ``offsets`` (H,)), how many of ``points`` (N, 3) lie strictly within ``distance`` of it (the
+    points' unit).
+
+    Compiled (numba): one pass over the points per range of planes instead of NumPy temporaries of
+    (points x planes). Each count is the NumPy expression it replaced, to the bit: the signed
+    distance is ``((p_x n_x + p_y n_y) + p_z n_z) + d`` in float64 without fused multiply-adds
+    (:func:`catpose.geometry.dot3`'s order); ``tests/test_depthio.py`` checks it. Ranges of planes
+    go to the run's ``threads`` (:func:`catpose.kernel_threads.split`), one plane per thread, so
+    the counts do not depend on the number of threads."""
+    p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    n = np.ascontiguousarray(normals, dtype=np.float64).reshape(-1, 3)
+    d = np.ascontiguousarray(offsets, dtype=np.float64).reshape(-1)
+    out = np.zeros(len(n), dtype=np.int64)
+    kernel_threads.split(lambda lo, hi: _counts(p, n, d, float(distance), lo, hi, out), len(n))
+    return out
 
 
 def read_log_trajectory(path: str | Path) -> dict[int, np.ndarray]:
