@@ -39,9 +39,9 @@ import numpy as np
 from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.datasets.depthio import fit_ground_plane, png_problem, png_size, read_depth, read_log_trajectory
 from catpose.datasets.layout_check import LayoutReport, check_templates
-from catpose.datasets.render import PinholeCamera, check_intrinsics, depth_to_points, estimate_normals
+from catpose.datasets.render import depth_to_points, estimate_normals
 from catpose.datasets.templates import TemplateOptions
-from catpose.datasets.views import subsample
+from catpose.datasets.views import pinhole_camera, subsample
 from catpose.errors import CatposeError, DatasetError
 from catpose.geometry import dot3, stable_seed
 from catpose.types import DepthImage, Template
@@ -109,13 +109,12 @@ class Redwood(ObjectDataset):
             raise DatasetError(
                 f"Redwood root {self.root} is not a folder; set dataset.root to the folder with <scan>/depth/*.png"
             )
-        check_intrinsics("dataset", width=width, height=height, fx=fx, fy=fy)
         self.scans = None if scans is None else [str(s) for s in scans]
         self.scan_categories = {str(k): str(v) for k, v in (scan_categories or {}).items()}
         self.frames = None if frames is None else [int(f) for f in frames]
         self.frame_stride = max(1, int(frame_stride))
         self.max_frames = max_frames
-        self.camera = PinholeCamera(int(width), int(height), float(fx), float(fy), float(cx), float(cy))
+        self.camera = pinhole_camera(width, height, fx, fy, cx, cy)
         self.depth_scale = float(depth_scale)
         self.depth_range = (float(depth_range[0]), float(depth_range[1]))
         self.trajectory = trajectory
