@@ -85,10 +85,10 @@ class TemplateSet:
 
     def instance_ids(self, category: str) -> list[str]:
         """The dataset instance ids among ``category``'s template entries (meshes left out)."""
-        return [i for i in map(self._instance, self.entries.get(category, [])) if i is not None]
+        return [i for i in map(self.instance_of, self.entries.get(category, [])) if i is not None]
 
     @staticmethod
-    def _instance(entry: object) -> str | None:
+    def instance_of(entry: object) -> str | None:
         """The instance id an entry names (None: a mesh path or spec)."""
         if isinstance(entry, str) and not entry.lower().endswith(MESH_SUFFIXES):
             return entry
@@ -97,7 +97,7 @@ class TemplateSet:
         return None
 
     def _load(self, category: str, entry: object) -> Template:
-        instance = self._instance(entry)
+        instance = self.instance_of(entry)
         if instance is not None:
             if self.instance_loader is None:
                 raise DatasetError(
