@@ -138,6 +138,30 @@ class ModelNetBase(ObjectDataset):
     def category_templates(self, category: str) -> list[Template]:
         return self._templates.get(category)
 
+    def instances(self) -> dict[str, list[str]]:
+        """category -> the instance ids observed (the split's, at most ``instances_per_category``)."""
+        raise NotImplementedError
+
+    def observation_ids(self) -> list[str]:
+        if self._ids is None:
+            by_category = self.instances()
+            self._ids = [
+                f"{c}/{i}/v{k:02d}"
+                for c, ids in by_category.items()
+                for i in ids
+                for k in range(self.views_per_instance)
+            ]
+            if not self._ids:
+                raise DatasetError(
+                    f"no {self.split}-split instances under {self.root} for categories {list(by_category)}; "
+                    "check dataset.root, dataset.split and dataset.categories"
+                )
+        return self._ids
+
+    def aligned_instance(self, category: str, instance_id: str) -> bool:
+        """Whether the instance's frame is the category's (the aligned release, or a table row)."""
+        return self.aligned or (category, instance_id) in self.alignment
+
     @staticmethod
     def parse(obs_id: str) -> tuple[str, str, str]:
         """``(category, instance_id, view)`` of an observation id."""
@@ -209,21 +233,8 @@ class ModelNet40(ModelNetBase):
         n = self.instances_per_category
         return ids[:n] if n and (split or self.split) == self.split else ids
 
-    def observation_ids(self) -> list[str]:
-        if self._ids is None:
-            ids = [
-                f"{c}/{i}/v{k:02d}"
-                for c in self.categories
-                for i in self.instance_ids(c)
-                for k in range(self.views_per_instance)
-            ]
-            if not ids:
-                raise DatasetError(
-                    f"no {self.split}-split OFF files under {self.root} for categories "
-                    f"{self.categories}; check dataset.root, dataset.split and dataset.categories"
-                )
-            self._ids = ids
-        return self._ids
+    def instances(self) -> dict[str, list[str]]:
+        return {c: self.instance_ids(c) for c in self.categories}
 
     def check_layout(self, name: str, report: LayoutReport) -> None:
         from catpose.resting import solid_hull
@@ -322,6 +333,6 @@ class ModelNet40(ModelNetBase):
             T_camera_object[:3, 2].copy(),
             T_camera_object,
             self.symmetric.get(category),
-            {"view": view, "split": self.split, "aligned": self.aligned or (category, instance_id) in self.alignment},
+            {"view": view, "split": self.split, "aligned": self.aligned_instance(category, instance_id)},
             DepthImage(depth, self.camera.K, depth > 0),
         )
