@@ -1,6 +1,6 @@
 """``bench data check`` of a BOP root (:meth:`catpose.datasets.bop.BOP.check_layout`): folders, every
 JSON file parsed, the files the frames reference, and every depth image, mask and model whole by its
-header (:mod:`catpose.datasets.file_headers`). Archive names: docs/data.md."""
+header and chunks (Pillow's PNG ``verify``) or by reading it (trimesh). Archive names: docs/data.md."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ from pathlib import Path
 from typing import Any
 
 from catpose.datasets.bop_layout import camera_K, gt_obj_id, gt_pose, read_json, read_targets, visible_fractions
-from catpose.datasets.depthio import read_depth
-from catpose.datasets.file_headers import ply_problem, png_problem, png_size
+from catpose.datasets.depthio import png_problem, png_size, read_depth
 from catpose.datasets.layout_check import LayoutReport, check_templates
+from catpose.datasets.meshio import mesh_problem
 from catpose.errors import CatposeError
 
 #: BOP dataset config name -> (prefix of its archives, its test archive) (docs/data.md)
@@ -141,8 +141,8 @@ def check_bop(name: str, ds: Any, report: LayoutReport) -> None:
 
 def check_bop_files(layout: Any, scenes: list[Path], objects: set[int], report: LayoutReport) -> None:
     """Every depth image and visible-object mask (PNG: 16-bit and one channel for depth, whole,
-    one size: camera.json's or the first image's) and every model the frames show (PLY: as long as
-    its header says), from headers and sizes (:mod:`catpose.datasets.file_headers`)."""
+    one size: camera.json's or the first image's; Pillow's ``verify``, nothing decoded) and every
+    model the frames show (read whole: :func:`~catpose.datasets.meshio.mesh_problem`)."""
     size = camera_size(layout.root)
     depth_problems, mask_problems, counts = [], [], [0, 0]
     for scene in scenes:  # the folders of the configured sensor only (their images share one size)
@@ -167,7 +167,7 @@ def check_bop_files(layout: Any, scenes: list[Path], objects: set[int], report: 
     report.note_files(depth_problems, "depth images")
     report.note_files(mask_problems, "masks")
     models = [layout.model(o) for o in sorted(objects) if layout.model(o).is_file()]
-    report.note_files([w for w in map(ply_problem, models) if w], "models")
+    report.note_files([w for w in map(mesh_problem, models) if w], "models")
     report.facts.append(
         f"headers: {counts[0]} depth PNGs, {counts[1]} masks and {len(models)} models whole"
         + (f", images {size[0]}x{size[1]}" if size else "")

@@ -14,9 +14,6 @@ import numpy as np
 from catpose.errors import DatasetError
 from catpose.geometry import apply_R, dot3, unit3
 
-#: values of dataset.sensor that mean a single-sensor layout
-SENSORLESS = (None, "", "none")
-
 ROTATION_TOL = 1e-3
 """Largest entry of ``|R^T R - I|`` and of ``|det R - 1|`` accepted for a rotation, in ground
 truth and in results files (they hold rounded values; 9 significant digits give about 1e-9)."""
@@ -130,7 +127,7 @@ class BopLayout:
         self.depth_ext = ext if ext.startswith(".") else "." + ext
         if self.depth_ext.lower() not in (".png", ".tif", ".tiff"):
             raise DatasetError(f"dataset.depth_ext {depth_ext!r} is not .png or .tif")
-        self.sensor = None if sensor in SENSORLESS else str(sensor)
+        self.sensor = None if sensor in (None, "", "none") else str(sensor)  # none: a single-sensor layout
 
     @property
     def _sfx(self) -> str:

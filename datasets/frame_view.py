@@ -2,7 +2,7 @@
 points and normals, the ground normal and the depth image, in the object-normalised unit.
 
 This is the one path from a depth frame to a registration problem: the BOP loader
-(:mod:`catpose.datasets.bop_frames`, so ``bench run`` on ycbv, tyol and clutter) and
+(:mod:`catpose.datasets.bop`, so ``bench run`` on ycbv, tyol and clutter) and
 ``catpose.register`` (:mod:`catpose.api`) both call :func:`frame_view`. Steps:
 
 1. back-projection of the mask's pixels with a measurement

@@ -36,22 +36,23 @@ class LayoutReport:
 
 def check_templates(dataset: Any, report: LayoutReport, instance_exists: Callable[[str, str], bool]) -> None:
     """Every configured template resolves: a mesh file, or an instance ``instance_exists`` knows."""
-    from catpose.datasets.meshio import MESH_SUFFIXES, template_spec_from_dict
+    from catpose.datasets.templates import template_spec
 
     tset = getattr(dataset, "_templates", None)
     if tset is None:
         return
     for category, entries in tset.entries.items():
         for entry in entries:
-            if isinstance(entry, str) and not entry.lower().endswith(MESH_SUFFIXES):
-                if not instance_exists(category, entry):
+            instance = tset.instance_of(entry)
+            if instance is not None:
+                if not instance_exists(category, instance):
                     report.warn(
-                        f"template {entry} of {category} does not exist; protocol=templates needs it: fix "
+                        f"template {instance} of {category} does not exist; protocol=templates needs it: fix "
                         f"dataset.templates.{category}"
                     )
                 continue
             try:
-                path = Path(template_spec_from_dict(category, entry).path)
+                path = Path(template_spec(category, entry)["path"])
             except CatposeError as e:
                 report.problem(str(e))
                 continue

@@ -1,11 +1,8 @@
 """Mesh files (OFF, OBJ, PLY) and category templates built from them.
 
-Reading:
-
-- OFF is parsed here, including ModelNet40's known quirk where the header keyword and the
-  counts share one line (``OFF490 518 0``) and Windows line endings.
-- OBJ and PLY are read with trimesh (``process=False`` keeps the vertices as written); polygons
-  are triangulated by trimesh.
+Reading: trimesh, for all three (``process=False`` keeps the vertices as written; polygons are
+triangulated by trimesh). Its OFF reader takes ModelNet40's known quirk where the header keyword
+and the counts share one line (``OFF490 518 0``), comments and Windows line endings.
 
 Templates: a mesh file in its own axes (ShapeNet's ``model_normalized.obj`` is y-up, most CAD
 files are z-up) is rotated so that its ``up`` axis becomes +z and its ``forward`` axis +x (the
@@ -17,7 +14,6 @@ so that inner faces of CAD models do not enter the cloud). A dataset's configure
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -27,116 +23,68 @@ from catpose.geometry import apply_R, dot3, norm3, normalize_to_unit_sphere, sta
 from catpose.types import Template
 
 _AXES = {"x": 0, "y": 1, "z": 2}
+MESH_SUFFIXES = (".off", ".obj", ".ply")
 
 
 # --------------------------------------------------------------------------- reading
 
 
-def _missing(path: Path) -> str:
-    return "is a folder, not a file" if path.is_dir() else "does not exist"
-
-
-def read_off(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
-    """Read an OFF mesh; returns vertices (V, 3) float64 and triangles (F, 3) int64.
-
-    Polygons with more than three corners are fan-triangulated. Accepts the ModelNet40 quirk
-    of ``OFF`` and the counts on one line, comments (``#``) and CRLF line endings.
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise DatasetError(f"mesh file {path} {_missing(path)}; check the dataset root and the id")
-    text = path.read_text(errors="replace")
-    # (line number in the file, content) of the non-empty lines, so errors can point at the line
-    numbered = [(k + 1, ln.split("#", 1)[0].strip()) for k, ln in enumerate(text.splitlines())]
-    numbered = [(k, ln) for k, ln in numbered if ln]
-    lines = [ln for _, ln in numbered]
-    if not lines or not lines[0].startswith("OFF"):
-        raise DatasetError(f"{path} is not an OFF file: its first line must start with 'OFF'")
-    head = lines[0][3:].strip()  # the quirk: counts right after 'OFF' on the same line
-    body, body_numbers = lines[1:], [k for k, _ in numbered[1:]]
-    if not head:
-        if not body:
-            raise DatasetError(f"{path} is a malformed OFF file: the counts line is missing")
-        head, body, body_numbers = body[0], body[1:], body_numbers[1:]
-    try:
-        n_v, n_f = (int(c) for c in head.split()[:2])
-    except ValueError:
-        raise DatasetError(f"{path} is a malformed OFF file: counts line {head!r} is not 'V F E'") from None
-    if len(body) < n_v + n_f:
-        raise DatasetError(
-            f"{path} is a truncated OFF file: header says {n_v} vertices and {n_f} faces "
-            f"but only {len(body)} lines follow"
-        )
-    vertex_fields = [ln.split()[:3] for ln in body[:n_v]]
-    for i, fields in enumerate(vertex_fields):
-        if len(fields) < 3:
-            raise DatasetError(
-                f"{path} line {body_numbers[i]}: a vertex needs 3 coordinates, found "
-                f"{len(fields)} ({body[i][:60]!r}); fix or re-export the file"
-            )
-    try:
-        vertices = np.array(vertex_fields, dtype=np.float64)
-    except ValueError:
-        bad = next(i for i, f in enumerate(vertex_fields) if not _all_floats(f))
-        raise DatasetError(
-            f"{path} line {body_numbers[bad]}: vertex coordinates {body[bad][:60]!r} are not "
-            "numbers; fix or re-export the file"
-        ) from None
-    tris: list[list[int]] = []
-    for i in range(n_v, n_v + n_f):
-        try:
-            vals = [int(v) for v in body[i].split()]
-            k, idx = vals[0], vals[1 : 1 + vals[0]]
-            if k < 3 or len(idx) != k:
-                raise ValueError(body[i])
-        except (ValueError, IndexError):
-            raise DatasetError(
-                f"{path} line {body_numbers[i]}: face {body[i][:60]!r} is not 'k i1 ... ik' "
-                "with k >= 3 integer vertex indices; fix or re-export the file"
-            ) from None
-        tris.extend([idx[0], idx[j], idx[j + 1]] for j in range(1, k - 1))
-    triangles = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
-    _check_mesh(path, vertices, triangles)
-    return vertices, triangles
-
-
-def _all_floats(fields: list[str]) -> bool:
-    try:
-        [float(x) for x in fields]
-    except ValueError:
-        return False
-    return True
-
-
 def read_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
-    """Read an OFF, OBJ or PLY triangle mesh; returns vertices (V, 3) and triangles (F, 3)."""
-    path = Path(path)
-    if not path.is_file():
-        raise DatasetError(f"mesh file {path} {_missing(path)}; check the path in the config")
-    suffix = path.suffix.lower()
-    if suffix == ".off":
-        return read_off(path)
-    if suffix not in (".obj", ".ply"):
-        raise DatasetError(f"{path}: unsupported mesh format {suffix!r}; use .off, .obj or .ply")
+    """Read an OFF, OBJ or PLY triangle mesh with trimesh; returns vertices (V, 3) float64 and
+    triangles (F, 3) int64, as written (``process=False``). A file that cannot be read, or holds
+    no triangles, raises :class:`DatasetError` naming it."""
+    return _read(Path(path))[1:]
+
+
+def _read(path: Path) -> tuple[object, np.ndarray, np.ndarray]:
+    """``(trimesh mesh, vertices, triangles)`` of a mesh file, checked as :func:`read_mesh` says."""
     import trimesh
 
+    if not path.is_file():
+        missing = "is a folder, not a file" if path.is_dir() else "does not exist"
+        raise DatasetError(f"mesh file {path} {missing}; check the dataset root, the id or the path in the config")
+    suffix = path.suffix.lower()
+    if suffix not in MESH_SUFFIXES:
+        raise DatasetError(f"{path}: unsupported mesh format {suffix!r}; use .off, .obj or .ply")
     try:
-        mesh = trimesh.load(str(path), force="mesh", process=False, skip_materials=True)
+        mesh = trimesh.load(str(path), file_type=suffix[1:], force="mesh", process=False, skip_materials=True)
     except Exception as exc:  # trimesh raises many types for a bad file
-        raise DatasetError(f"{path} cannot be read as a mesh ({type(exc).__name__}: {str(exc)[:80]})") from None
+        why = " ".join(str(exc).split())[:80]
+        raise DatasetError(
+            f"{path} cannot be read as a mesh ({type(exc).__name__}: {why}); fix or re-export it"
+        ) from None
     vertices = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64)
     triangles = np.asarray(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64).reshape(-1, 3)
-    _check_mesh(path, vertices, triangles)
-    return vertices, triangles
-
-
-def _check_mesh(path: Path, vertices: np.ndarray, triangles: np.ndarray) -> None:
     if not np.isfinite(vertices).all():
         raise DatasetError(f"{path} has non-finite vertex coordinates (NaN or inf); fix or re-export the mesh")
     if len(vertices) < 3 or len(triangles) == 0:
         raise DatasetError(f"{path} has no triangles ({len(vertices)} vertices, {len(triangles)} faces)")
     if triangles.min() < 0 or triangles.max() >= len(vertices):
         raise DatasetError(f"{path} has face indices outside 0..{len(vertices) - 1}")
+    return mesh, vertices, triangles
+
+
+def mesh_problem(path: Path) -> str | None:
+    """Why the model file at ``path`` is not whole (``bench data check``), None when it is; never
+    raises. :func:`read_mesh` must read it; a PLY must also hold every row its header's element
+    counts promise (trimesh reads a short ASCII body without complaint), and an ASCII PLY must end
+    with a newline (not cut inside its last line)."""
+    try:
+        mesh, data = _read(Path(path))[0], Path(path).read_bytes()
+    except (DatasetError, OSError) as e:
+        return f"{e}: download or unzip it again"
+    rows = {name: (_rows(e.get("data", {})), e["length"]) for name, e in mesh.metadata.get("_ply_raw", {}).items()}
+    short = [f"{have} {name} rows of {want}" for name, (have, want) in rows.items() if have < want]
+    if data.startswith(b"ply") and b"format ascii" in data[:40] and not data.endswith(b"\n"):
+        short.append("its last line is cut")
+    if short:
+        return f"{path} is not a whole PLY model ({', '.join(short)}): cut off; download or unzip it again"
+    return None
+
+
+def _rows(data: np.ndarray | dict) -> int:
+    """Rows of one element of trimesh's raw PLY (a structured array, or a dict of columns)."""
+    return len(data) if isinstance(data, np.ndarray) else len(next(iter(data.values()), ()))
 
 
 # --------------------------------------------------------------------------- axes
@@ -257,30 +205,6 @@ def sample_outer_surface(
 # --------------------------------------------------------------------------- templates
 
 
-@dataclass(frozen=True)
-class TemplateSpec:
-    """How to turn a mesh file into a template.
-
-    Attributes:
-        path: OFF, OBJ or PLY file.
-        category: category name.
-        up: the file's up axis (``"+y"`` for ShapeNet, ``"+z"`` for ModelNet40).
-        forward: the file's forward axis, mapped to the template's +x.
-        scale: file units per metre (or any unit); it cancels in the unit-sphere
-            normalisation and is kept for templates loaded with ``normalize=False``.
-        template_id: id; defaults to ``<category>/<file stem>``.
-        symmetry_axis: (3,) main axis in the template frame for symmetric categories, or None.
-    """
-
-    path: str
-    category: str
-    up: str = "+z"
-    forward: str = "+x"
-    scale: float = 1.0
-    template_id: str = ""
-    symmetry_axis: tuple[float, float, float] | None = None
-
-
 def mesh_to_template(
     vertices: np.ndarray,
     triangles: np.ndarray,
@@ -343,58 +267,3 @@ def sampled_template(
         triangles=np.asarray(triangles, np.int64),
         symmetry_axis=axis,
     )
-
-
-def load_template(
-    spec: TemplateSpec, n_points: int = 2048, seed: int = 0, base_dir: str | Path | None = None
-) -> Template:
-    """Load a :class:`TemplateSpec` into a :class:`~catpose.types.Template` (z up, x forward,
-    unit sphere); a relative ``spec.path`` is resolved against ``base_dir``."""
-    path = Path(spec.path)
-    if not path.is_absolute() and base_dir is not None:
-        path = Path(base_dir) / path
-    vertices, triangles = read_mesh(path)
-    tid = spec.template_id or f"{spec.category}/{path.stem}"
-    return mesh_to_template(
-        vertices,
-        triangles,
-        tid,
-        spec.category,
-        n_points=n_points,
-        seed=seed,
-        up=spec.up,
-        forward=spec.forward,
-        scale=spec.scale,
-        symmetry_axis=spec.symmetry_axis,
-    )
-
-
-def template_spec_from_dict(category: str, entry: object) -> TemplateSpec:
-    """A config entry (a path string or a mapping with path/up/forward/scale/...) -> spec."""
-    if isinstance(entry, (str, Path)):
-        return TemplateSpec(path=str(entry), category=category)
-    try:
-        d = dict(entry)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise DatasetError(f"template entry {entry!r} for {category!r} must be a path or a mapping") from None
-    if "path" not in d:
-        raise DatasetError(f"template entry {d} for {category!r} has no 'path'")
-    allowed = {"path", "up", "forward", "scale", "template_id", "symmetry_axis"}
-    unknown = set(d) - allowed
-    if unknown:
-        raise DatasetError(
-            f"template entry for {category!r} has unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}"
-        )
-    sym = d.get("symmetry_axis")
-    return TemplateSpec(
-        path=str(d["path"]),
-        category=category,
-        up=str(d.get("up", "+z")),
-        forward=str(d.get("forward", "+x")),
-        scale=float(d.get("scale", 1.0)),
-        template_id=str(d.get("template_id", "")),
-        symmetry_axis=None if sym is None else tuple(float(x) for x in sym),
-    )
-
-
-MESH_SUFFIXES = (".off", ".obj", ".ply")

@@ -2,7 +2,7 @@
 
 Layout: ``<root>/<category>/<split>/<category>_<id>.off`` (``.OFF`` too; Princeton ModelNet40, or the
 aligned release of Sedaghat et al., which has the same layout: set ``aligned: true``). OFF files
-with ``OFF`` and the counts on one line are read (:func:`catpose.datasets.meshio.read_off`).
+with ``OFF`` and the counts on one line are read (trimesh, :func:`catpose.datasets.meshio.read_mesh`).
 
 Each shape is rotated so that the configured ``up``/``forward`` file axes become +z/+x, rotated
 by its entry in the optional alignment table (:mod:`catpose.datasets.alignment`; raw ModelNet40
@@ -27,7 +27,7 @@ import numpy as np
 from catpose.datasets.alignment import read_alignment_table
 from catpose.datasets.dataset import ObjectDataset, Observation, OptionGroup
 from catpose.datasets.layout_check import LayoutReport, check_templates
-from catpose.datasets.meshio import R_template_file, read_off, sampled_template
+from catpose.datasets.meshio import R_template_file, read_mesh, sampled_template
 from catpose.datasets.render import depth_to_points, render_depth
 from catpose.datasets.templates import TemplateOptions
 from catpose.datasets.views import ImageOptions, ViewOptions, check_counts, kept_view, view_observation
@@ -138,6 +138,30 @@ class ModelNetBase(ObjectDataset):
     def category_templates(self, category: str) -> list[Template]:
         return self._templates.get(category)
 
+    def instances(self) -> dict[str, list[str]]:
+        """category -> the instance ids observed (the split's, at most ``instances_per_category``)."""
+        raise NotImplementedError
+
+    def observation_ids(self) -> list[str]:
+        if self._ids is None:
+            by_category = self.instances()
+            self._ids = [
+                f"{c}/{i}/v{k:02d}"
+                for c, ids in by_category.items()
+                for i in ids
+                for k in range(self.views_per_instance)
+            ]
+            if not self._ids:
+                raise DatasetError(
+                    f"no {self.split}-split instances under {self.root} for categories {list(by_category)}; "
+                    "check dataset.root, dataset.split and dataset.categories"
+                )
+        return self._ids
+
+    def aligned_instance(self, category: str, instance_id: str) -> bool:
+        """Whether the instance's frame is the category's (the aligned release, or a table row)."""
+        return self.aligned or (category, instance_id) in self.alignment
+
     @staticmethod
     def parse(obs_id: str) -> tuple[str, str, str]:
         """``(category, instance_id, view)`` of an observation id."""
@@ -209,21 +233,8 @@ class ModelNet40(ModelNetBase):
         n = self.instances_per_category
         return ids[:n] if n and (split or self.split) == self.split else ids
 
-    def observation_ids(self) -> list[str]:
-        if self._ids is None:
-            ids = [
-                f"{c}/{i}/v{k:02d}"
-                for c in self.categories
-                for i in self.instance_ids(c)
-                for k in range(self.views_per_instance)
-            ]
-            if not ids:
-                raise DatasetError(
-                    f"no {self.split}-split OFF files under {self.root} for categories "
-                    f"{self.categories}; check dataset.root, dataset.split and dataset.categories"
-                )
-            self._ids = ids
-        return self._ids
+    def instances(self) -> dict[str, list[str]]:
+        return {c: self.instance_ids(c) for c in self.categories}
 
     def check_layout(self, name: str, report: LayoutReport) -> None:
         from catpose.resting import solid_hull
@@ -245,7 +256,7 @@ class ModelNet40(ModelNetBase):
         category, ids = next((c, ids) for c, ids in present.items() if ids)
         path = _off_files(self.root / category / self.split)[ids[0]]
         try:
-            if solid_hull(read_off(path)[0]) is None:
+            if solid_hull(read_mesh(path)[0]) is None:
                 report.problem(
                     f"{path} is flat (no volume): ours has no resting pose for it; replace it with a solid mesh"
                 )
@@ -272,7 +283,7 @@ class ModelNet40(ModelNetBase):
         path, split = self._find(category, instance_id)
         key = (category, split, instance_id)
         if key not in self._meshes:
-            v, f = read_off(path)
+            v, f = read_mesh(path)
             v = apply_R(self.canonical_rotation(category, instance_id), v)
             try:
                 v, _, _ = normalize_to_unit_sphere(v)
@@ -322,6 +333,6 @@ class ModelNet40(ModelNetBase):
             T_camera_object[:3, 2].copy(),
             T_camera_object,
             self.symmetric.get(category),
-            {"view": view, "split": self.split, "aligned": self.aligned or (category, instance_id) in self.alignment},
+            {"view": view, "split": self.split, "aligned": self.aligned_instance(category, instance_id)},
             DepthImage(depth, self.camera.K, depth > 0),
         )

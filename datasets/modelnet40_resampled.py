@@ -122,26 +122,12 @@ class ModelNet40Resampled(ModelNetBase):
     def category_of_instance(instance_id: str) -> str:
         return instance_id.rsplit("_", 1)[0]
 
-    def observation_ids(self) -> list[str]:
-        if self._ids is None:
-            per_cat: dict[str, list[str]] = {}
-            for iid in self.split_ids():
-                per_cat.setdefault(self.category_of_instance(iid), []).append(iid)
-            cats = self.categories if self.categories is not None else sorted(per_cat)
-            n = self.instances_per_category
-            ids = [
-                f"{c}/{i}/v{k:02d}"
-                for c in cats
-                for i in sorted(per_cat.get(c, []))[: n or None]
-                for k in range(self.views_per_instance)
-            ]
-            if not ids:
-                raise DatasetError(
-                    f"modelnet40_{self.split}.txt in {self.root} lists no instances of "
-                    f"{cats}; check dataset.split and dataset.categories"
-                )
-            self._ids = ids
-        return self._ids
+    def instances(self) -> dict[str, list[str]]:
+        per_cat: dict[str, list[str]] = {}
+        for iid in self.split_ids():
+            per_cat.setdefault(self.category_of_instance(iid), []).append(iid)
+        cats = self.categories if self.categories is not None else sorted(per_cat)
+        return {c: sorted(per_cat.get(c, []))[: self.instances_per_category or None] for c in cats}
 
     def check_layout(self, name: str, report: LayoutReport) -> None:
         try:
@@ -222,7 +208,7 @@ class ModelNet40Resampled(ModelNetBase):
             "view": view,
             "split": self.split,
             "normals_flipped": int(flip.sum()),
-            "aligned": self.aligned or (category, instance_id) in self.alignment,
+            "aligned": self.aligned_instance(category, instance_id),
         }
         return view_observation(
             obs_id, points, normals, T_camera_object[:3, 2].copy(), T_camera_object, self.symmetric.get(category), info

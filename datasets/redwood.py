@@ -37,12 +37,11 @@ from pathlib import Path
 import numpy as np
 
 from catpose.datasets.dataset import ObjectDataset, Observation
-from catpose.datasets.depthio import fit_ground_plane, read_depth_png, read_log_trajectory
-from catpose.datasets.file_headers import png_problem, png_size
+from catpose.datasets.depthio import fit_ground_plane, png_problem, png_size, read_depth, read_log_trajectory
 from catpose.datasets.layout_check import LayoutReport, check_templates
-from catpose.datasets.render import PinholeCamera, check_intrinsics, depth_to_points, estimate_normals
+from catpose.datasets.render import depth_to_points, estimate_normals
 from catpose.datasets.templates import TemplateOptions
-from catpose.datasets.views import subsample
+from catpose.datasets.views import pinhole_camera, subsample
 from catpose.errors import CatposeError, DatasetError
 from catpose.geometry import dot3, stable_seed
 from catpose.types import DepthImage, Template
@@ -110,13 +109,12 @@ class Redwood(ObjectDataset):
             raise DatasetError(
                 f"Redwood root {self.root} is not a folder; set dataset.root to the folder with <scan>/depth/*.png"
             )
-        check_intrinsics("dataset", width=width, height=height, fx=fx, fy=fy)
         self.scans = None if scans is None else [str(s) for s in scans]
         self.scan_categories = {str(k): str(v) for k, v in (scan_categories or {}).items()}
         self.frames = None if frames is None else [int(f) for f in frames]
         self.frame_stride = max(1, int(frame_stride))
         self.max_frames = max_frames
-        self.camera = PinholeCamera(int(width), int(height), float(fx), float(fy), float(cx), float(cy))
+        self.camera = pinhole_camera(width, height, fx, fy, cx, cy)
         self.depth_scale = float(depth_scale)
         self.depth_range = (float(depth_range[0]), float(depth_range[1]))
         self.trajectory = trajectory
@@ -246,7 +244,7 @@ class Redwood(ObjectDataset):
             )
         files = [f for scan in scans for f in self.frame_files(scan.name)]
         try:
-            read_depth_png(files[0])
+            read_depth(files[0])
         except CatposeError as e:
             report.problem(str(e))
         size = png_size(files[0]) if files else None
@@ -258,7 +256,7 @@ class Redwood(ObjectDataset):
     def segment(self, scan: str, index: int) -> tuple[np.ndarray, np.ndarray, dict]:
         """Object points (N, 3, metres, camera frame), floor normal (3,) and facts of one frame."""
         path = self.frame_files(scan)[index]
-        depth = read_depth_png(path).astype(np.float64) / self.depth_scale
+        depth = read_depth(path).astype(np.float64) / self.depth_scale
         if depth.shape != (self.camera.height, self.camera.width):
             raise DatasetError(
                 f"{path} is {depth.shape[1]}x{depth.shape[0]} but the intrinsics are for "
@@ -290,7 +288,7 @@ class Redwood(ObjectDataset):
         clustering) of the segmented object points ``obj_m`` (N, 3)."""
         from scipy.spatial import cKDTree
 
-        depth = read_depth_png(self.frame_files(scan)[index]).astype(np.float64) / self.depth_scale
+        depth = read_depth(self.frame_files(scan)[index]).astype(np.float64) / self.depth_scale
         points, pixels = depth_to_points(depth, self.camera, depth_range=self.depth_range)
         reach = self.cluster_eps / 4 * np.sqrt(3.0) if self.cluster_eps > 0 else 0.005
         near = cKDTree(obj_m).query(points, distance_upper_bound=reach)[0] <= reach

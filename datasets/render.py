@@ -20,11 +20,13 @@ from catpose.raycast import cast_rays  # noqa: F401  (catpose.datasets.render.ca
 
 def check_intrinsics(group: str, **values: float) -> None:
     """Raise a one-line :class:`ConfigError` unless every value (image size, focal length; pixels)
-    is a positive finite number: a zero or negative focal length would be scored as a mirrored or
+    is a positive finite number (an image size a positive integer): a zero or negative focal length would be scored as a mirrored or
     degenerate camera instead of failing (``fx=0`` even stalls the renderer)."""
     for key, value in values.items():
         try:
-            ok = bool(np.isfinite(float(value)) and float(value) > 0)
+            ok = bool(
+                np.isfinite(float(value)) and float(value) > 0 and (key not in ("width", "height") or int(value) >= 1)
+            )
         except (TypeError, ValueError):
             ok = False
         if not ok:

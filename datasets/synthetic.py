@@ -112,22 +112,13 @@ class SyntheticDataset(ObjectDataset):
         ]
 
     def _parse(self, obs_id: str) -> tuple[str, str, int]:
-        parts = obs_id.split("/")
-        ok = (
-            len(parts) == 3
-            and parts[0] in self.categories
-            and parts[1].isdigit()
-            and int(parts[1]) < self.instances_per_category
-            and parts[2].startswith("v")
-            and parts[2][1:].isdigit()
-            and int(parts[2][1:]) < self.views_per_instance
-        )
-        if not ok:
+        if obs_id not in self.observation_ids():
             raise DatasetError(
                 f"synthetic dataset has no observation {obs_id!r}; ids look like "
                 f"'{self.categories[0]}/000/v00' (see observation_ids())"
             )
-        return parts[0], parts[1], int(parts[2][1:])
+        category, instance_id, view = obs_id.split("/")
+        return category, instance_id, int(view[1:])
 
     def _check_category(self, category: str) -> None:
         if category not in SHAPES:

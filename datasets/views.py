@@ -20,7 +20,7 @@ import numpy as np
 
 from catpose import libm
 from catpose.datasets.dataset import Observation, OptionGroup
-from catpose.datasets.render import PinholeCamera, estimate_normals
+from catpose.datasets.render import PinholeCamera, check_intrinsics, estimate_normals
 from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R, compose_T, invert_T, look_at_T_camera_world, make_T
 from catpose.types import DepthImage
@@ -103,9 +103,7 @@ class ImageOptions(OptionGroup):
 
     def camera(self) -> PinholeCamera:
         """The pinhole camera (:func:`pinhole_camera`, ``fov_deg`` applied)."""
-        for key in ("width", "height"):
-            if int(getattr(self, key)) < 1:
-                raise ConfigError(f"dataset.{key}={getattr(self, key)}; it must be a positive integer")
+        check_intrinsics("dataset", width=self.width, height=self.height)
         if not 1 <= int(self.min_points) <= int(self.width) * int(self.height):
             raise ConfigError(
                 f"dataset.min_points={self.min_points} must be in 1..{int(self.width) * int(self.height)} (the image's pixels)"
@@ -121,20 +119,10 @@ class ImageOptions(OptionGroup):
 def pinhole_camera(
     width: int, height: int, fx: float, fy: float, cx: float | None = None, cy: float | None = None
 ) -> PinholeCamera:
-    """A pinhole camera whose principal point defaults to the image centre.
-
-    Args:
-        width, height: image size in pixels.
-        fx, fy: focal lengths in pixels.
-        cx, cy: principal point in pixels; None means ``(width - 1) / 2`` and
-            ``(height - 1) / 2`` (the centre of the pixel grid).
-    """
+    """A pinhole camera (image size and focal lengths checked: :func:`~catpose.datasets.render.check_intrinsics`)
+    whose principal point defaults to the centre of the pixel grid (``(width - 1) / 2``, ``(height - 1) / 2``)."""
+    check_intrinsics("dataset", width=width, height=height, fx=fx, fy=fy)
     width, height = int(width), int(height)
-    for name, value in (("fx", fx), ("fy", fy)):
-        if not float(value) > 0 or float(value) == float("inf"):
-            from catpose.errors import ConfigError
-
-            raise ConfigError(f"dataset.{name}={value}: pass a positive focal length in pixels (e.g. 300)")
     return PinholeCamera(
         width,
         height,

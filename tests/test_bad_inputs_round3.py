@@ -180,7 +180,7 @@ def test_case_13_30_templates_points_category_and_instances_are_checked(tmp_path
 @pytest.mark.parametrize(
     "override, said",
     [
-        ("dataset.fx=nan", "dataset.fx=nan: pass a positive focal length"),
+        ("dataset.fx=nan", "dataset.fx=nan must be a positive number of pixels"),
         ("dataset.roll_max_deg=1000", "dataset.roll_max_deg=1000: pass a roll in [0, 180] degrees"),
         ("dataset.depth_noise_std=-1", "depth_noise_std=-1 must be >= 0"),
         ("dataset.min_points=100000", "min_points=100000 must be in 1..76800"),

@@ -72,7 +72,7 @@ def ycbv_rows(root: str, seed: int) -> list[dict]:
 
     from catpose.bench.protocols.absolute import GtModel
     from catpose.datasets.bop import BOP
-    from catpose.datasets.depthio import read_depth_png, read_mask_png
+    from catpose.datasets.depthio import read_depth, read_mask_png
 
     ds = BOP(root, categories={1: "can", 5: "bottle", 9: "can"}, seed=seed)
     proto = GtModel()
@@ -90,7 +90,7 @@ def ycbv_rows(root: str, seed: int) -> list[dict]:
         )
         info = sample.info
         scene = Path(root) / "test" / f"{info['scene_id']:06d}"
-        depth = read_depth_png(scene / "depth" / f"{info['im_id']:06d}.png")
+        depth = read_depth(scene / "depth" / f"{info['im_id']:06d}.png")
         mask = read_mask_png(scene / "mask_visib" / f"{info['im_id']:06d}_{info['gt_idx']:06d}.png")
         rows.append(
             dict(
@@ -128,7 +128,7 @@ def frame_rows(root, scenes: list[int] | None = None, source: str = "") -> list[
     from scipy.ndimage import binary_erosion, distance_transform_edt
 
     from catpose.datasets.clutter_render import object_depth
-    from catpose.datasets.depthio import fit_ground_plane, read_depth_png, read_mask_png
+    from catpose.datasets.depthio import fit_ground_plane, read_depth, read_mask_png
     from catpose.datasets.meshio import read_mesh
     from catpose.datasets.render import PinholeCamera, depth_to_points
     from catpose.geometry import make_T
@@ -142,7 +142,7 @@ def frame_rows(root, scenes: list[int] | None = None, source: str = "") -> list[
         cams = json.loads((scene / "scene_camera.json").read_text())
         for im, objs in gt.items():
             K = np.asarray(cams[im]["cam_K"], float).reshape(3, 3)
-            depth = read_depth_png(scene / "depth" / f"{int(im):06d}.png") * float(cams[im].get("depth_scale", 1.0))
+            depth = read_depth(scene / "depth" / f"{int(im):06d}.png") * float(cams[im].get("depth_scale", 1.0))
             camera = PinholeCamera.from_K(K, depth.shape[1], depth.shape[0])
             labels = [read_mask_png(scene / "mask_visib" / f"{int(im):06d}_{k:06d}.png") for k in range(len(objs))]
             background = (depth > 0) & ~np.any(labels, axis=0)

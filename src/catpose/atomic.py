@@ -114,13 +114,6 @@ def write_text(path: str | Path, text: str, encoding: str = "utf-8") -> Path:
     return Path(path)
 
 
-def write_bytes(path: str | Path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically; returns ``path``."""
-    with atomic_write(path, "wb") as f:
-        f.write(data)
-    return Path(path)
-
-
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)

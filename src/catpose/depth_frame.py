@@ -1,7 +1,7 @@
 """A depth frame as input: a scene's depth image, its camera matrix and the object's mask.
 
 :class:`DepthFrame` is what ``catpose.register`` takes from an RGB-D camera and what the BOP
-loader (:mod:`catpose.datasets.bop_frames`) builds for every instance of a ``bench run``; both
+loader (:mod:`catpose.datasets.bop`) builds for every instance of a ``bench run``; both
 turn it into a registration problem with one function
 (:func:`catpose.datasets.frame_view.frame_view`). Its arguments are checked here, once, at the
 boundary: a bad one raises :class:`~catpose.errors.InvalidInputError` in one line that names the

@@ -3,15 +3,13 @@
 ``pip install catpose`` installs what ``bench run`` needs for every method's defaults; the rest
 are extras (``pyproject.toml``, docs/install.md), e.g. ``torch`` (ours' Adam solver, GPU path and
 batched solver; out of the core so that a plain install pulls no CUDA build). Code imports one
-through :func:`require`; the runner, the builder and the CLI turn a failed import into
+where it needs it; the runner, the builder and the CLI turn a failed import into
 :class:`MissingExtra` (:func:`missing_extra`), one line saying what to install.
 """
 
 from __future__ import annotations
 
-import importlib
 import importlib.util
-from types import ModuleType
 
 from catpose.errors import CatposeError
 
@@ -31,10 +29,10 @@ class MissingExtra(CatposeError, ImportError):
     An :class:`ImportError` too, so that a run stops on it (not the sample's fault) instead of
     recording every sample as failed."""
 
-    def __init__(self, module: str, purpose: str | None = None) -> None:
+    def __init__(self, module: str) -> None:
         extra, needs = EXTRAS.get(module, (module, ""))
         super().__init__(
-            f"{purpose or needs or module} needs {module}, which is not installed: "
+            f"{needs or module} needs {module}, which is not installed: "
             f"pip install 'catpose[{extra}]' (from a clone: pip install -e '.[{extra}]'; docs/install.md)"
         )
         self.name = module
@@ -46,16 +44,6 @@ def installed(module: str) -> bool:
         return importlib.util.find_spec(module) is not None
     except (ImportError, ValueError):
         return False
-
-
-def require(module: str, purpose: str | None = None) -> ModuleType:
-    """``module`` imported, or :class:`MissingExtra` naming its extra and ``purpose``."""
-    try:
-        return importlib.import_module(module)
-    except ModuleNotFoundError as e:
-        if e.name != module and not str(e.name or "").startswith(module + "."):
-            raise  # the module is there but one of its own imports is broken: not an extra's absence
-        raise MissingExtra(module, purpose) from None
 
 
 def missing_extra(error: BaseException) -> MissingExtra | None:

@@ -1,12 +1,12 @@
-"""The plane fit's compiled inlier counts are NumPy's to the bit (``catpose.plane_kernel``)."""
+"""The plane fit's compiled inlier counts (``catpose.datasets.depthio.inlier_counts``) are NumPy's to the bit."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from catpose import kernel_threads
+from catpose.datasets.depthio import inlier_counts
 from catpose.geometry import dot3
-from catpose.plane_kernel import inlier_counts
 
 
 def numpy_counts(p, normals, offsets, distance):
