@@ -53,12 +53,9 @@ def visibility_chamfer(
 def half_turns() -> np.ndarray:
     """(4, 4, 4): the identity and the 180-degree rotations about the template's x, y and z axes
     (through the template origin), as rigid transforms of the template frame."""
-    out = [np.eye(4)]
-    for axis in np.eye(3):
-        F = np.eye(4)
-        F[:3, :3] = 2.0 * np.outer(axis, axis) - np.eye(3)
-        out.append(F)
-    return np.stack(out)
+    out = np.tile(np.eye(4), (4, 1, 1))
+    out[1:, :3, :3] = 2.0 * np.einsum("ai,aj->aij", np.eye(3), np.eye(3)) - np.eye(3)
+    return out
 
 
 def tilt_deg(T_template_camera: np.ndarray, ground_normal_camera: np.ndarray, up: np.ndarray) -> np.ndarray:
