@@ -40,11 +40,13 @@ from catpose.errors import ConfigError
 
 RULES = ("score", "density", "agreement", "cross", "cross_top", "cross_top_turns", "fused")
 #: the rules that read the cross check (``cross_costs``)
-CROSS_RULES = ("cross", "cross_top", "cross_top_turns", "fused")
+CROSS_RULES = RULES[3:]
 #: the rules that also choose among each registration's turned candidates (``turns``)
 TURN_RULES = ("cross_top_turns", "fused")
 #: the rules that average the chosen pose with the agreeing poses of the other templates
 FUSE_RULES = ("fused",)
+#: the :class:`ChoiceRule` field that weights the top offset, by rule (the others read none)
+OFFSET_FIELDS = {"cross_top": "top_weight", "cross_top_turns": "top_weight", "fused": "fused_top_weight"}
 #: the default rule (configs/run.yaml's `choice`; a test asserts they agree), chosen on the
 #: development tables (experiments/category_choice/README.md)
 DEFAULT_RULE = "fused"
@@ -86,16 +88,13 @@ class ChoiceRule:
     @property
     def offset_weight(self) -> float | None:
         """The weight this rule gives the top offset (None: it reads none)."""
-        if self.rule in ("cross_top", "cross_top_turns"):
-            return self.top_weight
-        return self.fused_top_weight if self.rule == "fused" else None
+        key = OFFSET_FIELDS.get(self.rule)
+        return None if key is None else getattr(self, key)
 
     def with_offset_weight(self, weight: float | None) -> ChoiceRule:
         """This rule with its top-offset weight ``weight`` (unchanged when None or when it reads none)."""
-        if weight is None or self.offset_weight is None:
-            return self
-        key = "fused_top_weight" if self.rule == "fused" else "top_weight"
-        return replace(self, **{key: float(weight)})
+        key = OFFSET_FIELDS.get(self.rule)
+        return self if weight is None or key is None else replace(self, **{key: float(weight)})
 
 
 @dataclass(frozen=True, eq=False)
@@ -139,12 +138,10 @@ def rotation_angle_deg(R_a: np.ndarray, R_b: np.ndarray) -> float:
 def support(rotations: Sequence[np.ndarray], agree_deg: float = AGREE_DEG) -> np.ndarray:
     """(K,) for each rotation, how many of the others lie within ``agree_deg`` of it."""
     K = len(rotations)
-    out = np.zeros(K, int)
-    for a in range(K):
-        for b in range(K):
-            if a != b and rotation_angle_deg(rotations[a], rotations[b]) <= agree_deg:
-                out[a] += 1
-    return out
+    near = [
+        [a != b and rotation_angle_deg(rotations[a], rotations[b]) <= agree_deg for b in range(K)] for a in range(K)
+    ]
+    return np.array([sum(row) for row in near], int)
 
 
 def cross_cost(costs: Sequence[float], own: int, weight: float, top: float = 0.0, top_weight: float = 0.0) -> float:
@@ -154,6 +151,16 @@ def cross_cost(costs: Sequence[float], own: int, weight: float, top: float = 0.0
     c = np.asarray(costs, float)
     others = np.delete(c, own)
     return float(c[own] + (weight * others.mean() if len(others) else 0.0) + top_weight * float(top))
+
+
+def _facts_cost(facts: Mapping[str, Any], own: int, cross_weight: float, offset_weight: float | None) -> float:
+    """:func:`cross_cost` of one candidate's ``facts`` (``cross_costs``, and ``top_offset`` weighted
+    ``offset_weight`` unless None); NaN where they are missing."""
+    costs = facts.get("cross_costs")
+    top = 0.0 if offset_weight is None else facts.get("top_offset")
+    if costs is None or not len(costs) or top is None:
+        return np.nan
+    return cross_cost(costs, own, cross_weight, top, offset_weight or 0.0)
 
 
 def choose_index(
@@ -178,10 +185,9 @@ def choose_index(
     if not ok:
         return 0
     s = np.array([scores[k] for k in ok], float)
-    if choice in CROSS_RULES:
-        c = np.array([np.nan if cross is None else cross[k] for k in ok], float)
-        if np.isfinite(c).any():
-            s = np.where(np.isfinite(c), c, np.inf)
+    c = np.array([np.nan if cross is None else cross[k] for k in ok], float)
+    if choice in CROSS_RULES and np.isfinite(c).any():
+        s = np.where(np.isfinite(c), c, np.inf)
     if choice == "density":
         sp = np.array([np.nan if spacings is None else spacings[k] for k in ok], float)
         if not np.isfinite(sp).all():
@@ -193,19 +199,12 @@ def choose_index(
     s = np.where(np.isfinite(s), s, np.inf)
     if choice == "agreement":
         sup = support([rotations[k] for k in ok], agree_deg)
-        order = sorted(range(len(ok)), key=lambda a: (-sup[a], s[a], a))
-    else:
-        order = sorted(range(len(ok)), key=lambda a: (s[a], a))
-    return ok[order[0]]
+        return ok[min(range(len(ok)), key=lambda a: (-sup[a], s[a], a))]
+    return ok[int(np.argmin(s))]  # the first of the lowest
 
 
 def _has_facts_error(estimates: Sequence[TemplateEstimate]) -> bool:
     return any("estimate_facts_error" in e.facts for e in estimates)
-
-
-def has_turns(estimates: Sequence[TemplateEstimate]) -> bool:
-    """Whether any estimate carries turned candidates (facts ``turns``)."""
-    return any(e.facts.get("turns") for e in estimates)
 
 
 def cross_costs_of(
@@ -218,16 +217,7 @@ def cross_costs_of(
     Raises:
         ConfigError: no ok estimate has them (rows written before the check existed).
     """
-    out = []
-    for e in estimates:
-        costs = e.facts.get("cross_costs")
-        offset = (0.0 if offset_weight is None else e.facts.get("top_offset")) if costs else None
-        own = e.template_index if costs else 0
-        out.append(
-            cross_cost(costs, own, cross_weight, offset, offset_weight or 0.0)
-            if costs and offset is not None
-            else np.nan
-        )
+    out = [_facts_cost(e.facts, e.template_index, cross_weight, offset_weight) for e in estimates]
     status_ok = np.array([e.ok for e in estimates], bool)
     if status_ok.any() and not np.isfinite(np.asarray(out, float)[status_ok]).any() and not _has_facts_error(estimates):
         top = offset_weight is not None
@@ -254,19 +244,14 @@ def turn_candidates_of(
     candidates: list[tuple[tuple[float, int, int], int, Any]] = []
     seen_turns = False
     for pos, e in enumerate(estimates):
-        facts = e.facts
-        if not e.ok or not facts.get("cross_costs") or facts.get("top_offset") is None:
+        if not e.ok or not e.facts.get("cross_costs") or e.facts.get("top_offset") is None:
             continue
-        own = e.template_index
-        turns = facts.get("turns") or []
+        turns = e.facts.get("turns") or []
         seen_turns = seen_turns or bool(turns)
-        for c, (costs, top, T) in enumerate(
-            [(facts["cross_costs"], facts["top_offset"], e.T_template_camera)]
-            + [(t["cross_costs"], t["top_offset"], t["T_template_camera"]) for t in turns]
-        ):
-            key = (cross_cost(costs, own, cross_weight, top, offset_weight), pos, c - 1)
+        for c, facts in enumerate([{**e.facts, "T_template_camera": e.T_template_camera}, *turns]):
+            key = (_facts_cost(facts, e.template_index, cross_weight, offset_weight), pos, c - 1)
             if np.isfinite(key[0]):
-                candidates.append((key, own, T))
+                candidates.append((key, e.template_index, facts["T_template_camera"]))
     if any(e.ok for e in estimates) and not seen_turns and not _has_facts_error(estimates):
         raise ConfigError(
             f"choice={rule} needs info.turns (computed after each registration of a templates run "
@@ -336,13 +321,11 @@ def choose(estimates: Sequence[TemplateEstimate], rule: ChoiceRule) -> Choice:
     if not estimates:
         raise ValueError("choose needs at least one estimate")
     name = rule.rule
-    cross = spacings = None
+    cross = None
     if name in CROSS_RULES and len(estimates) > 1:  # one template: nothing to choose, no costs
         cross = cross_costs_of(estimates, rule.cross_weight, rule.offset_weight)
-    if name == "density":
-        spacings = [float(e.facts.get("template_spacing", np.nan)) for e in estimates]
     # one template: the estimate or one of its turns, where they were computed (else nothing to choose)
-    if name in TURN_RULES and (len(estimates) > 1 or has_turns(estimates)):
+    if name in TURN_RULES and (len(estimates) > 1 or any(e.facts.get("turns") for e in estimates)):
         kept = _best_turn(estimates, rule)
         if kept is not None:
             return kept
@@ -350,6 +333,7 @@ def choose(estimates: Sequence[TemplateEstimate], rule: ChoiceRule) -> Choice:
         (np.eye(3) if e.T_template_camera is None else _pose(e.T_template_camera)[:3, :3]) if e.ok else None
         for e in estimates
     ]
+    spacings = [float(e.facts.get("template_spacing", np.nan)) for e in estimates] if name == "density" else None
     scores = [float(e.score) for e in estimates]
     pos = choose_index(scores, rotations, name, rule.agree_deg, spacings, cross, rule.density_weight)
     e = estimates[pos]

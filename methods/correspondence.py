@@ -96,25 +96,6 @@ class MatchInput:
         return corr.astype(np.int64)
 
 
-def _make_cloud(
-    points: np.ndarray, normals: np.ndarray, voxel_size: float, fpfh_radius: float, fpfh_max_nn: int, with_fpfh: bool
-) -> Cloud:
-    """Voxel-downsample (averaging normals) and optionally compute FPFH."""
-    from catpose.o3d import cloud, o3d
-
-    pcd = cloud(points, normals)
-    if voxel_size > 0:
-        pcd = pcd.voxel_down_sample(voxel_size)
-    pcd.normalize_normals()
-    fpfh = feature = None
-    if with_fpfh:
-        feature = o3d.pipelines.registration.compute_fpfh_feature(
-            pcd, o3d.geometry.KDTreeSearchParamHybrid(radius=fpfh_radius, max_nn=fpfh_max_nn)
-        )
-        fpfh = np.asarray(feature.data).T.copy()
-    return Cloud(np.asarray(pcd.points).copy(), np.asarray(pcd.normals).copy(), pcd, fpfh, feature)
-
-
 def _keypoint_cloud(points: np.ndarray, normals: np.ndarray) -> Cloud:
     """A cloud of keypoints (no features) with its Open3D point cloud."""
     from catpose.o3d import cloud
@@ -122,24 +103,12 @@ def _keypoint_cloud(points: np.ndarray, normals: np.ndarray) -> Cloud:
     return Cloud(points, normals, cloud(points, normals))
 
 
-def one_directional_chamfer(points: np.ndarray, tree: Any) -> float:
-    """Mean distance from each of ``points`` (N, 3) to its nearest neighbour in ``tree``
-    (a ``scipy.spatial.cKDTree`` of the complete template), object-normalised units."""
-    d, _ = tree.query(points, k=1)
-    return float(np.mean(d))
-
-
-def lps_features(method: CorrespondenceRegistration) -> bool:
-    """Whether a baseline reads the ground normal: on LPS features (their frames), not on FPFH or PFH."""
-    return method.features == "lps"
-
-
 #: the registration of the baselines on this pipeline (:func:`catpose.methods.registry.register_method`):
-#: the up search on LPS features; the tiny known-transform test matches against the dictionary and
+#: they read the ground normal (the up search) on LPS features (their frames), not on FPFH or PFH; the tiny known-transform test matches against the dictionary and
 #: refines with ICP (on one small partial view, direct FPFH matching against the complete model is the
 #: ablation the paper shows failing, and the unrefined FPFH poses are a few degrees off)
 PIPELINE_SPEC: dict[str, Any] = {
-    "uses_up": lps_features,
+    "uses_up": lambda method: method.features == "lps",
     "smoke_options": {"matching": "dictionary", "refine_icp": True},
 }
 
@@ -210,6 +179,22 @@ class CorrespondenceRegistration(RegistrationMethod):
 
     # -- the pipeline ---------------------------------------------------------------------------
 
+    def _cloud(self, points: np.ndarray, normals: np.ndarray, with_fpfh: bool) -> Cloud:
+        """Voxel-downsampled (averaging normals), with FPFH if ``with_fpfh``."""
+        from catpose.o3d import cloud, o3d
+
+        pcd = cloud(points, normals)
+        if self.voxel_size > 0:
+            pcd = pcd.voxel_down_sample(self.voxel_size)
+        pcd.normalize_normals()
+        fpfh = feature = None
+        if with_fpfh:
+            feature = o3d.pipelines.registration.compute_fpfh_feature(
+                pcd, o3d.geometry.KDTreeSearchParamHybrid(radius=self.fpfh_radius, max_nn=self.fpfh_max_nn)
+            )
+            fpfh = np.asarray(feature.data).T.copy()
+        return Cloud(np.asarray(pcd.points).copy(), np.asarray(pcd.normals).copy(), pcd, fpfh, feature)
+
     def _targets(self, template: Template) -> dict[str, Any]:
         """Per-template data, cached in memory: complete cloud + KD-tree, downsampled targets."""
         from scipy.spatial import cKDTree
@@ -221,9 +206,7 @@ class CorrespondenceRegistration(RegistrationMethod):
             return hit
         with_fpfh = self.features == "fpfh"
         direct = self.matching == "direct"
-        complete = _make_cloud(
-            template.points, template.normals, self.voxel_size, self.fpfh_radius, self.fpfh_max_nn, with_fpfh and direct
-        )
+        complete = self._cloud(template.points, template.normals, with_fpfh and direct)
         if direct:
             parts = [(template.points, template.normals)]
         else:
@@ -246,7 +229,7 @@ class CorrespondenceRegistration(RegistrationMethod):
         elif direct:
             targets = [complete]
         else:
-            targets = [_make_cloud(p, n, self.voxel_size, self.fpfh_radius, self.fpfh_max_nn, True) for p, n in parts]
+            targets = [self._cloud(p, n, True) for p, n in parts]
         data = {"complete": complete, "tree": cKDTree(template.points), "targets": targets, "described": described}
         self._target_cache.put(key, data)
         return data
@@ -271,41 +254,24 @@ class CorrespondenceRegistration(RegistrationMethod):
             for i, c in enumerate(described.counts)
         ]
 
-    def _refine(self, source: Cloud, complete: Cloud, T: np.ndarray) -> np.ndarray:
-        from catpose.o3d import point_to_plane_icp
-
-        return point_to_plane_icp(source.pcd, complete.pcd, self.icp_max_distance, T, self.icp_max_iterations)
-
     def register(self, problem: RegistrationProblem) -> RegistrationResult:
         """Run ``_estimate`` against every target and keep the lowest-Chamfer estimate.
 
         ``score`` = one-directional Chamfer distance (mean nearest-neighbour distance, object-
         normalised) from the transformed downsampled input to the complete template.
         """
-        from catpose.o3d import o3d
+        from catpose.o3d import o3d, point_to_plane_icp
 
         t_start = time.perf_counter()
         data = self._targets(problem.template)
-        source = _make_cloud(
-            problem.points_camera,
-            problem.normals_camera,
-            self.voxel_size,
-            self.fpfh_radius,
-            self.fpfh_max_nn,
-            self.features == "fpfh",
-        )
+        source = self._cloud(problem.points_camera, problem.normals_camera, self.features == "fpfh")
         keypoint_features = self.features != "fpfh"
         if keypoint_features:
             source_kp, source_desc = self._keypoints(
                 problem.points_camera, problem.normals_camera, problem.ground_normal_camera, self.num_keypoints
             )
-        stages = {
-            "prepare_s": time.perf_counter() - t_start,
-            "match_s": 0.0,
-            "estimate_s": 0.0,
-            "refine_s": 0.0,
-            "select_s": 0.0,
-        }
+        stages = dict.fromkeys(("prepare_s", "match_s", "estimate_s", "refine_s", "select_s"), 0.0)
+        stages["prepare_s"] = time.perf_counter() - t_start
         candidates = []
         t0 = time.perf_counter()
         pairs = self._correspondences(source_desc, data["described"]) if keypoint_features else None
@@ -322,11 +288,14 @@ class CorrespondenceRegistration(RegistrationMethod):
             T, info = self._estimate(match)
             t2 = time.perf_counter()
             if T is not None and self.refine_icp:
-                T = self._refine(source, data["complete"], T)
+                T = point_to_plane_icp(
+                    source.pcd, data["complete"].pcd, self.icp_max_distance, T, self.icp_max_iterations
+                )
             t3 = time.perf_counter()
             # an estimator without an estimate (too few correspondences) cannot be selected
+            # the one-directional Chamfer distance to the complete template (none without an estimate)
             cd = (
-                float("inf") if T is None else one_directional_chamfer(transform_points(T, source.points), data["tree"])
+                float("inf") if T is None else float(np.mean(data["tree"].query(transform_points(T, source.points))[0]))
             )
             stages["match_s"] += t1 - t0
             stages["estimate_s"] += t2 - t1

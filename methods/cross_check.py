@@ -11,15 +11,9 @@ template ``k``) of a view:
   every other template the same after point-to-plane ICP from ``T`` (Open3D); each pays
   ``silhouette_weight x (1 - IoU)`` of the view's and the posed template's silhouettes
   (:func:`silhouette_iou`: a quarter-turned chair shows another outline even where Chamfer ties).
-- :meth:`CrossCheck.top_offset`: the horizontal distance between the centroid of the view's
-  highest ``top_fraction`` points, posed by ``T``, and the mean of the templates' own (they agree
-  where a chair's back or an airplane's fin stands).
-- :meth:`CrossCheck.turn_candidates`: ``T`` turned about the template's up by each turn and
-  refined on its own template, each with its costs and top offset (a chair's seat is often as
-  wide as deep, so a registration can settle a quarter turn off on every template).
-
-``configs/choice/score.yaml`` holds the settings' values (the defaults here equal them,
-``tests/test_choice_config.py``).
+- :meth:`CrossCheck.top_offset`: where the view's top part stands (a chair's back, an airplane's fin).
+- :meth:`CrossCheck.turn_candidates`: ``T`` turned about the template's up and refined (a chair's
+  seat is often as wide as deep, so a registration can settle a quarter turn off on every template).
 """
 
 from __future__ import annotations
@@ -32,8 +26,7 @@ import numpy as np
 from catpose.content_hash import template_key
 from catpose.methods import options
 
-#: the Python defaults of :class:`CrossCheck`; configs/choice/score.yaml is the source (a test
-#: asserts they agree)
+#: the defaults of :class:`CrossCheck`; configs/choice/score.yaml is the source (tests/test_choice_config.py)
 TRUNC = 0.1
 ICP_DISTANCE = 0.03
 ICP_ITERATIONS = 30

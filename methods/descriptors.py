@@ -74,16 +74,16 @@ class Descriptor(ABC):
         """Features of the keypoints ``points[kp_idx]`` (``tree``: cKDTree of ``points``)."""
 
     @abstractmethod
-    def affinity(self, a: Any, b: Any) -> np.ndarray:
-        """Unnormalised affinities (Ka, Kb) between two feature sets from :meth:`describe`."""
-
     def stack(self, sets: list[Any]) -> Any:
         """``m`` feature sets of ``k`` keypoints each, prepared for :meth:`batched_affinity`."""
-        return list(sets)
 
+    @abstractmethod
     def batched_affinity(self, a: Any, stacked: Any) -> np.ndarray:
-        """Unnormalised affinities (m, Ka, k) of ``a`` to each of the stacked sets."""
-        return np.stack([self.affinity(a, b) for b in stacked])
+        """Unnormalised affinities (m, Ka, k) of ``a`` (:meth:`describe`'s) to each of the stacked sets."""
+
+    def affinity(self, a: Any, b: Any) -> np.ndarray:
+        """Unnormalised affinities (Ka, Kb) between two feature sets from :meth:`describe`."""
+        return self.batched_affinity(a, self.stack([b]))[0]
 
     def cache_key(self) -> tuple:
         """The descriptor's name and every parameter."""
@@ -123,11 +123,6 @@ class LPS(Descriptor):
 
         patches = lps_patches(points, normals, kp_idx, up, self.radius, self.max_points, self.parallel_deg, tree)
         return voxelize(patches, self.radius, self.tau)
-
-    def affinity(self, a, b) -> np.ndarray:
-        from catpose.methods.lps import fscore_voxel
-
-        return fscore_voxel(a, b)
 
     def stack(self, sets):
         from catpose.methods.lps import VoxelPatches
@@ -179,11 +174,6 @@ class PFH(Descriptor):
         from catpose.methods.pfh import pfh_descriptors
 
         return pfh_descriptors(points, normals, points[kp_idx], self.radius, self.max_nn, tree)
-
-    def affinity(self, a, b) -> np.ndarray:
-        from catpose.methods.pfh import pfh_affinity
-
-        return pfh_affinity(a, b, self.eps)
 
     def stack(self, sets):
         from catpose.methods.pfh import marginal_cdfs

@@ -118,12 +118,11 @@ def get_dictionary(
     elevations_deg: tuple[float, ...] = (0.0, 30.0, 60.0),
     distance: float = 3.0,
     hpr_radius_factor: float = 100.0,
-    use_disk_cache: bool = True,
 ) -> PartialDictionary:
     """The :class:`PartialDictionary` of ``template`` (the same object for equal inputs), its
     viewpoints by :func:`viewpoint_layout`; ``hpr_radius_factor``: the hidden point removal radius
-    over the cloud's extent from the viewpoint (Open3D's usual 100); ``use_disk_cache``: also
-    read and write the disk cache (kind ``dictionary``)."""
+    over the cloud's extent from the viewpoint (Open3D's usual 100); cached on disk too (kind
+    ``dictionary``)."""
     elevations_deg = tuple(float(e) for e in elevations_deg)
     key = dictionary_key(template, num_views, elevations_deg, distance, hpr_radius_factor)
     hit = _MEMORY.get(key)
@@ -144,13 +143,10 @@ def get_dictionary(
     def to_arrays(indices: list[np.ndarray]) -> dict[str, np.ndarray]:
         return {"indices": np.concatenate(indices), "offsets": np.cumsum([0] + [len(i) for i in indices])}
 
-    if use_disk_cache:
-        from catpose import disk_cache
+    from catpose import disk_cache
 
-        disk_key = f"{key}|{disk_cache.fingerprint('catpose.methods.dictionary', 'catpose.hpr')}"
-        indices = disk_cache.cached("dictionary", disk_key, build, to_arrays, from_arrays, label=key)
-    else:
-        indices = build()
+    disk_key = f"{key}|{disk_cache.fingerprint('catpose.methods.dictionary', 'catpose.hpr')}"
+    indices = disk_cache.cached("dictionary", disk_key, build, to_arrays, from_arrays, label=key)
     d = PartialDictionary(
         template_id=template.template_id,
         key=key,

@@ -81,7 +81,6 @@ def dictionary_features(
     layout: DictionaryLayout,
     template: Template,
     num_keypoints: int,
-    use_disk_cache: bool = True,
 ) -> DictionaryFeatures:
     """The partial templates of ``template`` under ``layout`` described by ``descriptor`` with
     ``num_keypoints`` keypoints each (template frame, ``template.up`` as up), from the shared
@@ -93,8 +92,6 @@ def dictionary_features(
     def build() -> DictionaryFeatures:
         return describe_clouds(descriptor, list(zip(dictionary.points, dictionary.normals)), up, num_keypoints)
 
-    if not use_disk_cache:
-        return _CACHE.get_or_build(key, build)
     from catpose import disk_cache
 
     disk_key = f"{key!r}|{disk_cache.fingerprint(*_CODE)}"

@@ -17,23 +17,9 @@ import time
 import numba
 import numpy as np
 
-_DEBRUIJN = 0x03F79D71B4CB0A89
 _CHUNK_NODES = 4096  # search-tree nodes between two checks of the time budget
 GREEDY_STARTS = 16
-
-
-def _debruijn_table() -> np.ndarray:
-    """Index of a 64-bit word's lowest set bit ``lsb`` is ``table[(lsb * M mod 2^64) >> 58]``."""
-    table = np.zeros(64, dtype=np.int64)
-    for i in range(64):
-        table[((1 << i) * _DEBRUIJN % (1 << 64)) >> 58] = i
-    return table
-
-
-_TABLE = _debruijn_table()
 _ONE = np.uint64(1)
-_B58 = np.uint64(58)
-_DB = np.uint64(_DEBRUIJN)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -142,7 +128,7 @@ def _colour_sort(nbr, P, kmin, ordr, colr, U, Q):
                 break
             x = Q[wq]
             lsb = x & (~x + _ONE)
-            v = wq * 64 + _TABLE[(lsb * _DB) >> _B58]
+            v = wq * 64 + np.int64(_popcount(lsb - _ONE))  # the lowest set bit's index
             U[wq] &= ~lsb
             Q[wq] &= ~lsb
             for w in range(wq, W):

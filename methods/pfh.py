@@ -5,10 +5,9 @@ alpha, phi; no distance feature) of the pair features of all unordered pairs of 
 within ``radius``, as PCL's ``computePairFeatures`` (:func:`pair_features`): only dot and cross
 products, so invariant to rigid motions.
 
-Affinity ``A_jk = 1 / (EMD(h_j, h_k) + eps)`` (paper Eq. 1) with the *marginal EMD*: the sum over
-the three features of the 1D EMD of their 5-bin marginals (L1 distance of the marginal CDFs, bin
-units), a lower bound of the exact L1-ground EMD (~1 ms a pair; tests/test_pfh.py checks the bound
-and the rank agreement).
+The affinity (:class:`catpose.methods.descriptors.PFH`) is ``A_jk = 1 / (EMD(h_j, h_k) + eps)``
+(paper Eq. 1) with the *marginal EMD*: the L1 distance of the :func:`marginal_cdfs`, bin units, a
+lower bound of the exact L1-ground EMD (tests/test_pfh.py checks the bound and the rank agreement).
 """
 
 from __future__ import annotations
@@ -87,17 +86,3 @@ def marginal_cdfs(hist: np.ndarray) -> np.ndarray:
     h = hist.reshape(-1, BINS, BINS, BINS)
     margs = [h.sum(axis=(2, 3)), h.sum(axis=(1, 3)), h.sum(axis=(1, 2))]
     return np.concatenate([np.cumsum(m, axis=1) for m in margs], axis=1)
-
-
-def marginal_emd(hist_a: np.ndarray, hist_b: np.ndarray) -> np.ndarray:
-    """Marginal EMD (Ka, Kb) between histograms (Ka, 125) and (Kb, 125), in bin units: the sum
-    over the three features of the L1 distance between marginal CDFs. A lower bound of the exact
-    EMD with the L1 grid ground distance (tests/test_pfh.py)."""
-    from scipy.spatial.distance import cdist
-
-    return cdist(marginal_cdfs(hist_a), marginal_cdfs(hist_b), metric="cityblock")
-
-
-def pfh_affinity(hist_a: np.ndarray, hist_b: np.ndarray, eps: float = 0.01) -> np.ndarray:
-    """Affinity (Ka, Kb) = 1 / (marginal EMD + eps), unnormalised."""
-    return 1.0 / (marginal_emd(hist_a, hist_b) + eps)

@@ -1,15 +1,7 @@
-"""Scores for choosing among the candidate poses of ours (selection, step 7 of the pipeline).
-
-Each takes the input cloud ``points_camera`` (N, 3, camera frame), candidate poses
-``T_template_camera`` (B, 4, 4) and the complete template (``points``, ``normals`` (M, 3), a
-KD-tree of ``points``), object-normalised, and returns (B,) values, **lower is better**:
-:func:`chamfer` (mean distance of the posed input to the template), :func:`outlier_ratio` (``1 -``
-the input's inlier fraction within ``threshold``) and :func:`visibility_chamfer` (truncated
-two-directional Chamfer over the input and the template points the estimated camera sees, by
-back-face visibility: a pose that shows the camera a side the view lacks pays for it).
-
-These NumPy scores are the readable references; ours calls the compiled twin of
-:func:`visibility_chamfer` (:mod:`catpose.methods.pose_scores_kernel`).
+"""Scores for choosing among the candidate poses of ours (selection, step 7 of the pipeline):
+:func:`visibility_chamfer`, the readable reference of ours' compiled score
+(:mod:`catpose.methods.pose_scores_kernel`), and the choice with explicit half turns
+(:func:`select_with_half_turns`). Lower is better; lengths object-normalised.
 """
 
 from __future__ import annotations
@@ -22,21 +14,6 @@ from catpose.geometry import compose_T
 def transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:
     """``points`` (N, 3) mapped by the rigid ``T`` (4, 4)."""
     return points @ T[:3, :3].T + T[:3, 3]
-
-
-def chamfer(points_camera: np.ndarray, T_template_camera: np.ndarray, tree) -> np.ndarray:
-    """(B,) mean distance of the input mapped by each pose to the nearest template point."""
-    return np.array([tree.query(transform(T, points_camera))[0].mean() for T in T_template_camera])
-
-
-def outlier_ratio(points_camera: np.ndarray, T_template_camera: np.ndarray, tree, threshold: float) -> np.ndarray:
-    """(B,) fraction of input points further than ``threshold`` from the template, per pose."""
-    return np.array(
-        [
-            (tree.query(transform(T, points_camera), distance_upper_bound=threshold)[0] > threshold).mean()
-            for T in T_template_camera
-        ]
-    )
 
 
 def visible_mask(points: np.ndarray, normals: np.ndarray, camera_centre: np.ndarray) -> np.ndarray:
@@ -76,12 +53,9 @@ def visibility_chamfer(
 def half_turns() -> np.ndarray:
     """(4, 4, 4): the identity and the 180-degree rotations about the template's x, y and z axes
     (through the template origin), as rigid transforms of the template frame."""
-    out = [np.eye(4)]
-    for axis in np.eye(3):
-        F = np.eye(4)
-        F[:3, :3] = 2.0 * np.outer(axis, axis) - np.eye(3)
-        out.append(F)
-    return np.stack(out)
+    out = np.tile(np.eye(4), (4, 1, 1))
+    out[1:, :3, :3] = 2.0 * np.einsum("ai,aj->aij", np.eye(3), np.eye(3)) - np.eye(3)
+    return out
 
 
 def tilt_deg(T_template_camera: np.ndarray, ground_normal_camera: np.ndarray, up: np.ndarray) -> np.ndarray:

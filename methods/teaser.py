@@ -79,23 +79,17 @@ class TEASER(CorrespondenceRegistration):
 
     def _solve(self, src: np.ndarray, dst: np.ndarray) -> SolverResult:
         """``dst ~ R src + t`` by the re-implementation (:func:`catpose.methods.teaser_solver.solve`)."""
-        return teaser_solver.solve(
-            src,
-            dst,
-            self.noise_bound,
-            self.cbar2,
-            self.gnc_factor,
-            self.max_iterations,
-            self.cost_threshold,
-            self.clique_node_budget,
-            clique_time_budget_s=self.clique_time_budget_s or None,
-        )
+        settings = (self.noise_bound, self.cbar2, self.gnc_factor, self.max_iterations, self.cost_threshold)
+        return teaser_solver.solve(src, dst, *settings, self.clique_node_budget, self.clique_time_budget_s or None)
 
     def _estimate(self, match: MatchInput) -> tuple[np.ndarray, dict[str, Any]]:
         corr = match.fpfh_correspondences(self.mutual_filter, self.max_correspondences)
-        if len(corr) < MIN_CLIQUE_SIZE:
-            return None, {"num_correspondences": int(len(corr)), "clique_size": 0, "no_pose_reason": no_pose(len(corr))}
         try:
+            if len(corr) < MIN_CLIQUE_SIZE:  # TEASER++ is not called: its solution would be invalid
+                raise InvalidInputError(
+                    f"TEASER got {len(corr)} correspondences: no pose under a max clique of {MIN_CLIQUE_SIZE}, "
+                    "as TEASER++ (registration.cc, RobustRegistrationSolver::solve)"
+                )
             r = self._solve(match.source.points[corr[:, 0]], match.target.points[corr[:, 1]])
         except InvalidInputError as e:  # a degenerate clique: this target gives no pose (others may)
             return None, {"num_correspondences": int(len(corr)), "clique_size": 0, "no_pose_reason": str(e)}
@@ -109,14 +103,6 @@ class TEASER(CorrespondenceRegistration):
             **{f"{self.solver_name}_{k}": v for k, v in r.timings.items()},
         }
         return r.T, info
-
-
-def no_pose(num_correspondences: int) -> str:
-    """Why a target with ``num_correspondences`` (fewer than :data:`MIN_CLIQUE_SIZE`) gives no pose."""
-    return (
-        f"TEASER got {num_correspondences} correspondences: no pose under a max clique of {MIN_CLIQUE_SIZE}, "
-        "as TEASER++ (registration.cc, RobustRegistrationSolver::solve)"
-    )
 
 
 _MISSING = (
@@ -203,18 +189,16 @@ def solve_teaserpp(
             f"TEASER++ max clique has {len(np.unique(clique))} of {len(src)} correspondences: degenerate, "
             f"no valid solution under {min_clique_size} (registration.cc, RobustRegistrationSolver::solve)"
         )
-    R = np.asarray(sol.rotation, dtype=np.float64).reshape(3, 3)
-    t = np.asarray(sol.translation, dtype=np.float64).reshape(3)
     translation_inliers = np.asarray(solver.getTranslationInliers(), dtype=np.int64)
     return SolverResult(
-        R,
-        t,
-        clique,
-        True,
-        np.asarray(solver.getRotationInliersMask(), dtype=bool).reshape(-1),
-        clique[translation_inliers[translation_inliers < len(clique)]],
-        -1,
-        {"solve_s": solve_s},
+        R=np.asarray(sol.rotation, dtype=np.float64).reshape(3, 3),
+        t=np.asarray(sol.translation, dtype=np.float64).reshape(3),
+        clique=clique,
+        clique_exact=True,
+        rotation_inliers=np.asarray(solver.getRotationInliersMask(), dtype=bool).reshape(-1),
+        translation_inliers=clique[translation_inliers[translation_inliers < len(clique)]],
+        gnc_iterations=-1,
+        timings={"solve_s": solve_s},
     )
 
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from catpose.errors import ConfigError, InvalidInputError
-from catpose.geometry import apply_R
+from catpose.geometry import apply_R, make_T
 from catpose.kabsch import rotations_from_covariance
 
 #: A max clique smaller than this gives no pose (both solvers), TEASER++'s own rule
@@ -70,10 +70,7 @@ class SolverResult:
     @property
     def T(self) -> np.ndarray:
         """(4, 4) homogeneous transform mapping ``a`` (source) into ``b`` (target)."""
-        T = np.eye(4)
-        T[:3, :3] = self.R
-        T[:3, 3] = self.t
-        return T
+        return make_T(self.R, self.t)
 
 
 def consistency_graph(src: np.ndarray, dst: np.ndarray, noise_bound: float) -> np.ndarray:

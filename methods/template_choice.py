@@ -113,11 +113,6 @@ class TemplateChoice:
             facts["turns_s"] = time.perf_counter() - t0
         return facts
 
-    def choose(self, estimates: Sequence[TemplateEstimate]) -> Choice:
-        """The estimate the rule keeps among one view's ``estimates`` and its pose
-        (:func:`catpose.methods.choice_rules.choose`)."""
-        return choose(estimates, self.rule)
-
     def choose_among(self, points_camera: np.ndarray, templates: Sequence[Any], estimates: Sequence[Any]) -> Choice:
         """The pose kept among K estimates of the view ``points_camera`` (N, 3, camera frame), one
         per template of ``templates`` (in order): each a :class:`~catpose.types.RegistrationResult`,
@@ -145,16 +140,15 @@ class TemplateChoice:
                 except Exception as e:  # noqa: BLE001 - the estimate stays, chosen without its facts
                     facts["estimate_facts_error"] = one_line(e)
             out.append(TemplateEstimate(k, T, score, facts, ok=T is not None))
-        return self.choose(out)
+        return choose(out, self.rule)
 
 
 def _pose_and_score(estimate: Any) -> tuple[np.ndarray | None, float]:
     """((4, 4) pose or None, score) of a :class:`~catpose.types.RegistrationResult`, a pose or None."""
     if estimate is None:
         return None, float("nan")
-    if hasattr(estimate, "T_template_camera"):
-        return np.asarray(estimate.T_template_camera, float).reshape(4, 4), float(estimate.score)
-    return np.asarray(estimate, float).reshape(4, 4), float("nan")
+    T = getattr(estimate, "T_template_camera", estimate)
+    return np.asarray(T, float).reshape(4, 4), float(getattr(estimate, "score", float("nan")))
 
 
 def register_with_templates(

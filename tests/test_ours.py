@@ -92,8 +92,6 @@ def test_stage1_only_leaves_c_equal_to_a_and_lowers_the_loss(problems):
 
 
 def test_pfh_descriptor_gives_the_pfh_affinity(problems):
-    from catpose.methods import pfh
-
     p, _ = problems[1]
     method = _ours(descriptor=PFH())
     c = method.candidates(p)
@@ -101,7 +99,7 @@ def test_pfh_descriptor_gives_the_pfh_affinity(problems):
     d = method.layout.dictionary(p.template)
     for i in (0, 9):
         part = method.descriptor.keypoint_features(d.points[i], d.normals[i], 64, p.template.up, pad=True)
-        A = pfh.pfh_affinity(inp.features, part.features, 0.01) + 1e-12
+        A = PFH(eps=0.01).affinity(inp.features, part.features) + 1e-12
         np.testing.assert_allclose(c.A[i], A / A.sum(1, keepdims=True), rtol=1e-12)
     lps = _ours().candidates(p)
     assert np.abs(lps.A - c.A).max() > 1e-2

@@ -15,6 +15,7 @@ from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R
 from catpose.methods.choice_rules import (
     DENSITY_WEIGHT,
+    choose,
     choose_index,
     rotation_angle_deg,
     support,
@@ -151,7 +152,7 @@ def test_the_component_and_the_templates_protocol_keep_the_same_pose():
     # ... and in the component's estimates (none were given to it: poses only)
     scored = [dataclasses.replace(e, score=s) for e, s in zip(choice.estimates, [0.2, 0.1, np.nan])]
     for rule in ("score", "density", "agreement", "cross", "cross_top", "cross_top_turns", "fused"):
-        kept_pose = TemplateChoice(rule=rule).choose(scored)
+        kept_pose = choose(scored, TemplateChoice(rule=rule).rule)
         kept = Templates(choice=ChoiceRule(rule=rule)).best_per_view(rows).iloc[0]
         assert kept["sample_id"] == f"v|{kept_pose.template_index}", rule
         np.testing.assert_array_equal(np.reshape(kept["T_est"], (4, 4)), kept_pose.T_template_camera)

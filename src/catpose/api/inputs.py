@@ -16,7 +16,6 @@ import numpy as np
 
 from catpose.errors import CatposeError, InvalidInputError
 from catpose.geometry import apply_R, axis_angle_to_R, dot3, matmul3, norm3, normalize_to_unit_sphere, unit3
-from catpose.lru import LRUCache
 from catpose.types import Template
 
 __all__ = [
@@ -196,50 +195,13 @@ def normalised_template(
             f"template_points={template_points} is more than {MAX_TEMPLATE_POINTS}; the methods use 2048 "
             "(more only costs time and memory)"
         )
-    key = _template_key(template, template_normals, template_up, template_points)
-    hit = None if key is None else _PREPARED.get(key)
-    if hit is not None:
-        return hit
     try:
-        prepared = _normalised_template(template, template_normals, template_up, template_points)
+        return _normalised_template(template, template_normals, template_up, template_points)
     except MemoryError:
         raise InvalidInputError(
             f"template: out of memory preparing it with template_points={template_points}; "
             "pass a smaller mesh or cloud, or fewer template_points"
         ) from None
-    if key is not None:
-        _PREPARED.put(key, prepared)
-    return prepared
-
-
-#: templates prepared by earlier calls (a mesh is sampled once, not per ``register`` call)
-_PREPARED: LRUCache[str, NormalisedTemplate] = LRUCache(8)
-
-
-def _template_key(template: Any, normals: Any, up: np.ndarray, points: int) -> str | None:
-    """What identifies a template argument: a file's path, size and modification time, or the
-    content hash of its arrays; with the preparation's parameters. None: not cached."""
-    from catpose.content_hash import content_hash
-
-    params = f"{np.round(up, 12).tolist()}|{points}"
-    try:
-        if isinstance(template, (str, Path)):
-            st = Path(template).stat()
-            return f"file:{Path(template).resolve()}:{st.st_size}:{st.st_mtime_ns}|{params}|{normals is None}"
-        if hasattr(template, "vertices") and hasattr(template, "faces"):
-            arrays = [np.asarray(template.vertices), np.asarray(template.faces)]
-        elif isinstance(template, (tuple, list)) and len(template) == 2:
-            arrays = [np.asarray(template[0]), np.asarray(template[1])]
-        else:
-            arrays = [np.asarray(template)]
-        if normals is not None:
-            arrays.append(np.asarray(normals))
-        if any(a.dtype.kind not in "uif" for a in arrays):
-            return None
-        shapes = "|".join(str(a.shape) for a in arrays)
-        return f"arrays:{content_hash(*arrays)}:{shapes}|{params}|{normals is None}"
-    except (OSError, TypeError, ValueError):
-        return None
 
 
 def _normalised_template(
@@ -344,17 +306,15 @@ def unit_warning(radius: float, what: str = "observation") -> str | None:
     """The warning for an observation whose radius (bounding-box half diagonal) is ``radius``
     template radii, when that says the two are in different units (or the observation is not only
     the object); None when it looks right. A partial view spans about 0.3 to 1.2 template radii."""
+    spans = f"catpose.register: the {what} span{'s' if what == 'observation' else ''}"
     if radius > 2.0:
         return (
-            f"catpose.register: the {what} span{'s' if what == 'observation' else ''} {radius:.1f} template radii; "
-            "check that both use the same unit and that the observation holds only the object (a mask's stray "
-            "pixels: ours' depth check copes with a few)"
+            f"{spans} {radius:.1f} template radii; check that both use the same unit and that the observation "
+            "holds only the object (a mask's stray pixels: ours' depth check copes with a few)"
         )
     if 0 < radius < 0.1:
         return (
-            f"catpose.register: the {what} span{'s' if what == 'observation' else ''} {radius:.3g} template radii, "
-            f"{1.0 / radius:.3g} times smaller "
-            "than the template: are they in different units (metres against millimetres: 1000)? pass both in "
-            "one unit (a DepthFrame: set depth_scale)"
+            f"{spans} {radius:.3g} template radii, {1.0 / radius:.3g} times smaller than the template: are they "
+            "in different units (metres against millimetres: 1000)? pass both in one unit (a DepthFrame: set depth_scale)"
         )
     return None

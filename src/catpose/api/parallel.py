@@ -24,7 +24,9 @@ _WORKER: Any = None  # the worker's Registrar
 def _recipe(registrar: Any) -> bytes:
     """What a worker needs to rebuild ``registrar``: its template and method (name and options,
     or the pickled instance)."""
-    method = registrar.method_name if registrar.method_name == _config_name(registrar) else registrar.method
+    from catpose.methods.registry import registered
+
+    method = registrar.method_name if registrar.method_name in registered() else registrar.method
     try:
         return pickle.dumps((registrar.template, method, registrar.options))
     except Exception as e:  # noqa: BLE001 - an instance that does not pickle
@@ -32,12 +34,6 @@ def _recipe(registrar: Any) -> bytes:
             f"processes > 1 needs a method that pickles; {type(registrar.method).__name__} does not "
             f"({type(e).__name__}): pass a method config name, or processes=1"
         ) from None
-
-
-def _config_name(registrar: Any) -> str | None:
-    from catpose.methods.registry import registered
-
-    return registrar.method_name if registrar.method_name in registered() else None
 
 
 def _start(recipe: bytes) -> None:

@@ -178,16 +178,11 @@ class Registrar:
             parts = [_candidates(r) for _, r in tried]
             cands, scores = np.concatenate([c for c, _ in parts]), np.concatenate([s for _, s in parts])
         extras.update({k: v for k, v in obs.facts.items() if k != "ground"}, ground_source=obs.facts["ground"])
-
-        def to_caller(T: np.ndarray) -> np.ndarray:
-            return _to_caller(T, tmpl.R_up, tmpl.centre, tmpl.scale)
-
         second = result.runner_up
-
         return Registration(
-            T_template_camera=to_caller(np.asarray(result.T_template_camera, float)),
+            T_template_camera=_to_caller(np.asarray(result.T_template_camera, float), tmpl),
             score=float(result.score),
-            candidates=np.stack([to_caller(T) for T in cands]),
+            candidates=np.stack([_to_caller(T, tmpl) for T in cands]),
             candidate_scores=scores,
             method=self.method_name,
             scale=float(tmpl.scale),
@@ -195,7 +190,7 @@ class Registrar:
             extras=extras,
             runtime_s=runtime,
             T_normalised=np.asarray(result.T_template_camera, float),
-            runner_up=None if second is None else to_caller(second[0]),
+            runner_up=None if second is None else _to_caller(second[0], tmpl),
             runner_up_margin=float("nan") if second is None else second[1],
         )
 
@@ -241,7 +236,8 @@ def _candidates(result: RegistrationResult) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(result.candidates_T, float), np.asarray(result.candidate_scores, float)
 
 
-def _to_caller(T_n: np.ndarray, R_up: np.ndarray, centre: np.ndarray, scale: float) -> np.ndarray:
+def _to_caller(T_n: np.ndarray, tmpl: NormalisedTemplate) -> np.ndarray:
     """``T_template_camera`` in the caller's frame and unit from the normalised estimate ``T_n``:
     ``R = R_up^T R_n``, ``t = R_up^T (s t_n + c)``."""
-    return make_T(matmul3(R_up.T, T_n[:3, :3]), apply_R(R_up.T, scale * T_n[:3, 3] + centre))
+    R_up = tmpl.R_up
+    return make_T(matmul3(R_up.T, T_n[:3, :3]), apply_R(R_up.T, tmpl.scale * T_n[:3, 3] + tmpl.centre))
