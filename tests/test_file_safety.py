@@ -23,7 +23,7 @@ from catpose.errors import DatasetError, InvalidInputError, RunAborted
 TESTS = Path(__file__).resolve().parent
 sys.path.insert(0, str(TESTS))
 
-from _trust import CFG, one_error_line, rows  # noqa: E402
+from _trust import CFG, one_error_line, rows, with_bop_ids  # noqa: E402
 
 # ---------------------------------------------------------------------------------------------
 # 2. atomic writes
@@ -247,7 +247,8 @@ def test_score_never_writes_over_a_run(tmp_path, capsys):
 
 @pytest.mark.parametrize("command", ["score", "export"])
 def test_a_full_disk_while_scoring_or_exporting_is_one_line_and_leaves_nothing(tmp_path, capsys, monkeypatch, command):
-    gt = write_run(tmp_path / "gt", rows([5.0, 10.0]), CFG)
+    gt_rows = rows([5.0, 10.0]) if command == "score" else with_bop_ids(rows([5.0, 10.0]))  # export: BOP ids
+    gt = write_run(tmp_path / "gt", gt_rows, CFG)
     preds = _per_sample_csv(tmp_path / "p.csv", rows([7.0, 9.0]))
     before = sorted(p.name for p in tmp_path.iterdir())
 
