@@ -170,7 +170,7 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
     for protocol in ("gt_model", "templates"):
         for stem in ("summary", "per_category"):
             assert f"tables/{protocol}_{stem}.md" in md
-        for fig in ("error_cdf", "accuracy", "runtime"):
+        for fig in ("error_cdf", "accuracy"):
             assert f"figures/{protocol}_{fig}.png" in md and (out / "figures" / f"{protocol}_{fig}.csv").is_file()
     # Each table holds one protocol's runs, with hash-free unique labels.
     gt = (out / "tables" / "gt_model_summary.csv").read_text().splitlines()
