@@ -96,6 +96,15 @@ def test_the_old_protocol_keys_and_an_unknown_rule_are_refused_in_one_line(overr
         _compose(["protocol=templates", override])
 
 
+def test_a_templates_config_without_the_choice_group_is_refused_in_one_line():
+    from catpose.bench.run.build import build_choice, build_protocol
+
+    old = {"protocol": {"name": "templates", "_target_": "catpose.bench.protocols.Templates", "choice": "score"}}
+    for build in (build_protocol, build_choice):
+        with pytest.raises(ConfigError, match=r"the config has no choice; set choice=<name>"):
+            build(old)
+
+
 def test_the_choice_is_part_of_a_templates_runs_identity_and_old_configurations_keep_their_directory():
     import hashlib
     import json

@@ -122,7 +122,9 @@ def build_choice(cfg: Any) -> Any | None:
 def _choice_node(cfg: Any) -> dict:
     choice = _node(cfg, "choice")
     if choice is None:
-        raise ConfigError("the config has no choice; set choice=<name> (bench run --help)")
+        raise ConfigError(
+            "the config has no choice; set choice=<name> (bench run --help), or re-run an older run to rewrite its config.yaml"
+        )
     return choice
 
 
