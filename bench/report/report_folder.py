@@ -5,8 +5,9 @@
 writes ``index.md`` (every link relative) and, per protocol (they never share a table or figure),
 ``tables/<protocol>_{summary,per_category}.{md,tex,csv}`` (other layouts: ``bench table``),
 ``figures/<protocol>_{error_cdf,accuracy}.{png,pdf,csv}`` (the CSV holds the plotted data) and a
-picture of each run's worst registration (``--no-pictures``: none); speed is ``bench perf``'s. The folder is built beside ``--out`` and moved into
-place whole (:func:`catpose.bench.run.overwrite.check_output`)."""
+picture of each run's worst registration (``--no-pictures``: none); speed is ``bench perf``'s.
+The folder is built beside ``--out`` and moved into place whole
+(:func:`catpose.bench.run.overwrite.check_output`)."""
 
 from __future__ import annotations
 

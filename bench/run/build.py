@@ -123,7 +123,8 @@ def _choice_node(cfg: Any) -> dict:
     choice = _node(cfg, "choice")
     if choice is None:
         raise ConfigError(
-            "the config has no choice; set choice=<name> (bench run --help), or re-run an older run to rewrite its config.yaml"
+            "the config has no choice; set choice=<name> (bench run --help), "
+            "or re-run an older run to rewrite its config.yaml"
         )
     return choice
 
