@@ -18,9 +18,8 @@ setup: $(VENV)/.installed
 
 # torch is the `torch` extra, pinned here (TORCH_PIN; the CPU wheel on this machine): an unpinned
 # torch pulls a multi-GB CUDA build on Linux (docs/install.md: the CPU wheel elsewhere).
-# open3d-cpu's missing libusb-1.0.so.0 comes from the PyPI package libusb-package: a wheel install
-# loads it before `import open3d` (catpose-open3d-libusb.pth); an editable one has no .pth, so it is
-# linked into Open3D's folder (catpose.open3d_libusb) so that `import open3d` works before or without catpose.
+# open3d-cpu's missing libusb-1.0.so.0 comes from the PyPI package libusb-package: it is linked into
+# Open3D's folder (catpose.open3d_libusb) so that `import open3d` works before or without catpose.
 # PYTHONWARNINGS: setuptools' notice that every editable install prints, not a problem of this one.
 # No GPL package is installed (K-medoids is catpose's own FasterPAM).
 $(VENV)/.installed: pyproject.toml constraints.txt

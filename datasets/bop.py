@@ -204,6 +204,22 @@ class BOP(ObjectDataset):
             return f"obj_{obj_id:06d}"
         return self.categories.get(obj_id)
 
+    def scene_dirs(self) -> list[Path]:
+        """The split's scene folders that ``scenes`` names (all without it), sorted; a named scene
+        with no folder is a typo, not an empty scene: a :class:`DatasetError`."""
+        split_dir = self.layout.split_dir()
+        scene_dirs = sorted(p for p in split_dir.iterdir() if p.is_dir() and p.name.isdigit())
+        if self.scenes is None:
+            return scene_dirs
+        absent = sorted(self.scenes - {int(p.name) for p in scene_dirs})
+        if absent:
+            raise DatasetError(
+                f"dataset.scenes lists {absent}, which {'has' if len(absent) == 1 else 'have'} no folder under "
+                f"{split_dir} (its scenes: {', '.join(str(int(p.name)) for p in scene_dirs) or 'none'}); "
+                "fix dataset.scenes"
+            )
+        return [p for p in scene_dirs if int(p.name) in self.scenes]
+
     def observation_ids(self) -> list[str]:
         if self._ids is not None:
             return self._ids
@@ -218,19 +234,8 @@ class BOP(ObjectDataset):
         n_low_visib, n_not_target, visib_files, n_no_depth = 0, 0, 0, 0
         no_depth_targets: list[str] = []
         matched: set[tuple[int, int, int]] = set()
-        scene_dirs = sorted(p for p in split_dir.iterdir() if p.is_dir() and p.name.isdigit())
-        if self.scenes is not None:  # a scene named that has no folder is a typo, not an empty scene
-            absent = sorted(self.scenes - {int(p.name) for p in scene_dirs})
-            if absent:
-                raise DatasetError(
-                    f"dataset.scenes lists {absent}, which {'has' if len(absent) == 1 else 'have'} no folder under "
-                    f"{split_dir} (its scenes: {', '.join(str(int(p.name)) for p in scene_dirs) or 'none'}); "
-                    "fix dataset.scenes"
-                )
-        for scene_dir in scene_dirs:
+        for scene_dir in self.scene_dirs():
             scene_id = int(scene_dir.name)
-            if self.scenes is not None and scene_id not in self.scenes:
-                continue
             gt_path, cam_path = self.layout.scene_gt(scene_id), self.layout.scene_camera(scene_id)
             scene_gt = self._read_json(gt_path)
             if not isinstance(scene_gt, dict) or not all(str(k).isdigit() for k in scene_gt):

@@ -54,15 +54,11 @@ def check_bop(name: str, ds: Any, report: LayoutReport) -> None:
                 )
     except CatposeError as e:
         report.problem(str(e))
-    scenes = sorted(p for p in split_dir.iterdir() if p.is_dir() and p.name.isdigit())
-    if ds.scenes is not None and scenes and not [s for s in scenes if int(s.name) in ds.scenes]:
-        have = ", ".join(str(int(s.name)) for s in scenes[:8]) + (", ..." if len(scenes) > 8 else "")
-        report.problem(
-            f"dataset.scenes={list(ds.scenes)} names none of the {len(scenes)} scenes in {split_dir} ({have})"
-        )
+    try:
+        scenes = ds.scene_dirs()
+    except CatposeError as e:
+        report.problem(str(e))
         return
-    if ds.scenes is not None:
-        scenes = [s for s in scenes if int(s.name) in ds.scenes]
     if not scenes:
         report.problem(
             f"{split_dir} has no scene folders (000001, ...): unzip {test_zip} into "

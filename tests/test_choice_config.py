@@ -96,40 +96,13 @@ def test_the_old_protocol_keys_and_an_unknown_rule_are_refused_in_one_line(overr
         _compose(["protocol=templates", override])
 
 
-def test_a_run_directory_written_before_the_group_still_builds():
-    """config.yaml of a templates run before the move: the protocol holds choice, turns and
-    one_template_turns, and there is no choice group."""
+def test_a_templates_config_without_the_choice_group_is_refused_in_one_line():
     from catpose.bench.run.build import build_choice, build_protocol
-    from catpose.methods.choice_rules import ChoiceRule
 
-    old = {
-        "protocol": {
-            "name": "templates",
-            "_target_": "catpose.bench.protocols.Templates",
-            "max_templates": 1,
-            "exclude_templates": False,
-            "exclude_instances": [],
-            "choice": "cross_top_turns",
-            "turns": [180],
-            "one_template_turns": True,
-        }
-    }
-    protocol = build_protocol(old)
-    assert protocol.choice == ChoiceRule(rule="cross_top_turns") and protocol.max_templates == 1
-    chooser = build_choice(old)
-    assert chooser.rule.rule == "cross_top_turns" and chooser.turns_deg == (180.0,) and chooser.one_template_turns
-    default = {"protocol": {**old["protocol"], "choice": "fused", "turns": None, "one_template_turns": False}}
-    assert build_choice(default).turns_deg == (90.0, 270.0) and build_protocol(default).choice.rule == "fused"
-    relative = {"protocol": {"name": "relative", "_target_": "catpose.bench.protocols.Relative", "choice": "density"}}
-    assert build_protocol(relative)._views.choice.rule == "density"
-    assert build_choice(relative).rule.rule == "density"
-    # older still: no choice key at all, written when score was the default; it keeps that rule
-    oldest = {
-        "protocol": {k: v for k, v in old["protocol"].items() if k not in ("choice", "turns", "one_template_turns")}
-    }
-    assert build_protocol(oldest).choice.rule == "score" == build_choice(oldest).rule.rule
-    bare = {"protocol": {"name": "relative", "_target_": "catpose.bench.protocols.Relative"}}
-    assert build_protocol(bare)._views.choice.rule == "score"
+    old = {"protocol": {"name": "templates", "_target_": "catpose.bench.protocols.Templates", "choice": "score"}}
+    for build in (build_protocol, build_choice):
+        with pytest.raises(ConfigError, match=r"the config has no choice; set choice=<name>"):
+            build(old)
 
 
 def test_the_choice_is_part_of_a_templates_runs_identity_and_old_configurations_keep_their_directory():

@@ -171,7 +171,9 @@ def test_issue60_bad_ground_truth_and_scenes_are_problems(tmp_path, capsys):
     assert code == 2 and any("outside the 640x480 image; fix cx, cy" in ln for ln in lines), lines
     cam_path.write_text(json.dumps(cams))
     code, lines = _check(capsys, *base, "dataset.scenes=[99]")
-    assert code == 2 and lines == [f"problem: dataset.scenes=[99] names none of the 1 scenes in {root / 'test'} (1)"]
+    assert code == 2 and lines == [
+        f"problem: dataset.scenes lists [99], which has no folder under {root / 'test'} (its scenes: 1); fix dataset.scenes"
+    ]
 
 
 class _NewDataset:

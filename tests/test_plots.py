@@ -3,7 +3,6 @@ written beside it, against values counted here from the input rows."""
 
 from __future__ import annotations
 
-import statistics
 from pathlib import Path
 
 import numpy as np
@@ -120,48 +119,8 @@ def test_accuracy_bars_match_counting(units, captured, tmp_path: Path):
     assert csv[(csv["method"] == "Ours") & (csv["threshold_deg"] == 1.0)]["accuracy"].item() == pytest.approx(2 / 7)
 
 
-def test_runtime_stats_and_labels_do_not_overlap(captured, tmp_path: Path):
-    long = {
-        "Ours (descriptor=pfh, max_templates=1)": RUNTIMES["Ours"],
-        "ICP (templates)": RUNTIMES["ICP"],
-        "FGR (matching=dictionary, features=lps)": RUNTIMES["Ours"][:5],
-    }
-    samples = {m: pd.DataFrame({"runtime_s": r}) for m, r in long.items()}
-    paths = plots.plot_runtime(samples, tmp_path / "rt")
-    csv = pd.read_csv(paths[-1]).set_index("method")
-    for method, r in long.items():
-        assert csv.loc[method, "median_s"] == pytest.approx(statistics.median(r), rel=1e-5)
-        assert csv.loc[method, "n"] == len(r) and csv.loc[method, "max_s"] == pytest.approx(max(r))
-    fig = captured[0]
-    ax = fig.axes[0]
-    ticks = [t for t in ax.get_yticklabels() if t.get_text()]
-    assert [t.get_text() for t in ticks] == list(long)[::-1] or [t.get_text() for t in ticks] == list(long)
-    renderer = fig.canvas.get_renderer()
-    boxes = [t.get_window_extent(renderer) for t in ticks]
-    for i in range(len(boxes)):
-        for j in range(i + 1, len(boxes)):
-            assert not boxes[i].overlaps(boxes[j]), (ticks[i].get_text(), ticks[j].get_text())
-
-
-def test_runtime_leaves_each_runs_warmup_out_of_the_box(captured, tmp_path: Path):
-    """The first registration of a run (imports, compilation) is drawn as a cross, outside the
-    box and its statistics; the CSV says how many and the largest."""
-    steady = [0.1, 0.2, 0.4, 0.3, 0.25]
-    rows = pd.DataFrame({"runtime_s": [18.0, *steady, 9.0, 0.2], "first_in_run": [True] + [False] * 5 + [True, False]})
-    paths = plots.plot_runtime({"Ours": rows, "ICP": pd.DataFrame({"runtime_s": steady})}, tmp_path / "rt")
-    csv = pd.read_csv(paths[-1]).set_index("method")
-    assert csv.loc["Ours", "n"] == 6 and csv.loc["Ours", "max_s"] == pytest.approx(0.4)
-    assert csv.loc["Ours", "median_s"] == pytest.approx(statistics.median([*steady, 0.2]))
-    assert csv.loc["Ours", "n_warmup"] == 2 and csv.loc["Ours", "warmup_s"] == pytest.approx(18.0)
-    assert csv.loc["ICP", "n_warmup"] == 0 and np.isnan(csv.loc["ICP", "warmup_s"])
-    fig = captured[0]
-    (crosses,) = [c for c in fig.axes[0].collections if c.get_offsets().shape[0] == 2]
-    assert sorted(crosses.get_offsets()[:, 0]) == pytest.approx([9.0, 18.0])
-    assert "first registration" in fig.legends[0].get_texts()[0].get_text()
-
-
 def test_files_written(units, tmp_path: Path):
-    for fn, name in ((plots.plot_error_cdf, "cdf"), (plots.plot_accuracy, "acc"), (plots.plot_runtime, "rt")):
+    for fn, name in ((plots.plot_error_cdf, "cdf"), (plots.plot_accuracy, "acc")):
         paths = fn(units, tmp_path / name)
         assert [p.suffix for p in paths] == [".png", ".pdf", ".csv"]
         assert paths[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

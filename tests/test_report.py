@@ -20,6 +20,7 @@ from catpose.errors import DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 
 GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}
+SCORE = {"name": "score", "rule": "score"}  # the choice group: read by a templates run only
 TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.absolute.Templates", "max_templates": None}
 HASH = re.compile(r"\b[0-9a-f]{8}\b")
 
@@ -68,7 +69,13 @@ def _run(
 ) -> Path:
     """A frozen run directory named like the runner's (``<tag>-<hash>``), with its overrides file."""
     errors = errors or {"airplane": [1.0, 2.0, 40.0], "chair": [0.5, 90.0]}
-    cfg = {"method": dict(method, _target_="x.Y"), "dataset": {"name": "toy"}, "protocol": protocol, "seed": 0}
+    cfg = {
+        "method": dict(method, _target_="x.Y"),
+        "dataset": {"name": "toy"},
+        "protocol": protocol,
+        "choice": SCORE,
+        "seed": 0,
+    }
     out = write_run(
         root / f"toy-{protocol['name']}" / method["name"] / name, _rows(errors, method["name"], protocol["name"]), cfg
     )
@@ -163,7 +170,7 @@ def test_report_per_protocol_relative_links(tmp_path: Path):
     for protocol in ("gt_model", "templates"):
         for stem in ("summary", "per_category"):
             assert f"tables/{protocol}_{stem}.md" in md
-        for fig in ("error_cdf", "accuracy", "runtime"):
+        for fig in ("error_cdf", "accuracy"):
             assert f"figures/{protocol}_{fig}.png" in md and (out / "figures" / f"{protocol}_{fig}.csv").is_file()
     # Each table holds one protocol's runs, with hash-free unique labels.
     gt = (out / "tables" / "gt_model_summary.csv").read_text().splitlines()

@@ -16,7 +16,7 @@ from _study import study_fixture  # noqa: E402
 
 pytestmark = pytest.mark.experiment
 
-TEMPLATES = {"_target_": "catpose.bench.protocols.Templates", "name": "templates", "choice": "score"}
+TEMPLATES = {"_target_": "catpose.bench.protocols.Templates", "name": "templates"}
 grid = study_fixture("experiments/selection_breadth/selection_grid.py")
 
 
@@ -48,7 +48,9 @@ def test_setting_reads_a_dotted_key(grid):
 def test_view_table_keeps_the_runs_own_choice_with_the_oracle(grid):
     # chair_a: the lower score (template 1) is 40 degrees off, the oracle 5; chair_b: the score keeps the best
     rows = _rows("chair_a", [5.0, 40.0], [0.3, 0.2]) + _rows("chair_b", [2.0, 90.0], [0.1, 0.4], seconds=0.04)
-    run = SimpleNamespace(config={"protocol": TEMPLATES}, samples=pd.DataFrame(rows))
+    run = SimpleNamespace(
+        config={"protocol": TEMPLATES, "choice": {"name": "score", "rule": "score"}}, samples=pd.DataFrame(rows)
+    )
     ids, kept, oracle, seconds = grid["view_table"](run)
     assert list(ids) == ["chair_a", "chair_b"]
     assert kept.tolist() == [40.0, 2.0] and oracle.tolist() == [5.0, 2.0]

@@ -15,6 +15,7 @@ from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 
 GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}
+SCORE = {"name": "score", "rule": "score"}  # the choice group: read by a templates run only
 TEMPLATES = {"name": "templates", "_target_": "catpose.bench.protocols.absolute.Templates", "max_templates": None}
 
 
@@ -74,7 +75,13 @@ def rows_with_errors(
 
 def make_run(root: Path, name: str, errors: dict, method_cfg: dict, protocol: dict = GT_MODEL, **kw) -> Path:
     rows = rows_with_errors(errors, method_cfg["name"], protocol["name"], **kw)
-    cfg = {"method": dict(method_cfg, _target_="x.Y"), "dataset": {"name": "toy"}, "protocol": protocol, "seed": 0}
+    cfg = {
+        "method": dict(method_cfg, _target_="x.Y"),
+        "dataset": {"name": "toy"},
+        "protocol": protocol,
+        "choice": SCORE,
+        "seed": 0,
+    }
     return write_run(root / name, rows, cfg)
 
 

@@ -150,7 +150,7 @@ class Templates(Protocol):
         exclude_instances: instance ids whose views are not test views.
         choice: the rule that keeps a view's row: a :class:`~catpose.methods.choice_rules.ChoiceRule`
             (the builder makes it from the ``choice`` config group) or a rule name with its default
-            weights (run directories written before the group existed).
+            weights.
     """
 
     name = "templates"

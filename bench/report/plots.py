@@ -1,8 +1,7 @@
 """Figures from run directories (matplotlib, Agg backend), each with a CSV of what it plots:
 :func:`plot_error_cdf` (the error's cumulative distribution per method, a panel per category, log
-error axis), :func:`plot_accuracy` (accuracy at thresholds, categories pooled) and
-:func:`plot_runtime` (seconds per registration per method, a box plot; each run's first
-registration, paying for imports and compilation, drawn apart as a red cross).
+error axis) and :func:`plot_accuracy` (accuracy at thresholds, categories pooled). Speed is
+``bench perf``'s (docs/speed.md).
 
 Inputs are per-method tables of scoring units (``{label: DataFrame}`` with ``category``,
 ``status``, ``err_deg``); failed units count as 180 degrees everywhere."""
@@ -228,104 +227,4 @@ def plot_accuracy(
     ax.set_title(title or "Accuracy at thresholds (all categories; failures count as wrong)", fontsize=10)
     fig.tight_layout()
     csv = _write_csv(csv_rows, ["method", "threshold_deg", "n", "accuracy"], out_stem)
-    return save(fig, out_stem, pdf) + [csv]
-
-
-#: the column marking the first registration of a run (the warm-up), when present
-WARMUP_COLUMN = "first_in_run"
-
-
-def runtime_rows(samples_by_method: Mapping[str, object]) -> list[dict]:
-    """Per method: ``n``, ``min_s``, ``q1_s``, ``median_s``, ``q3_s``, ``max_s``, ``mean_s`` of the
-    finite positive ``runtime_s`` values (seconds per registration) other than the warm-ups
-    (rows with :data:`WARMUP_COLUMN` true), ``n_warmup`` and ``warmup_s`` (their largest value,
-    NaN without one); ``_warmup`` holds those values."""
-    import pandas as pd
-
-    out = []
-    for label, s in samples_by_method.items():
-        r = pd.to_numeric(s["runtime_s"], errors="coerce").to_numpy(float)
-        first = s[WARMUP_COLUMN].fillna(False).to_numpy(bool) if WARMUP_COLUMN in s else np.zeros(len(r), bool)
-        keep = np.isfinite(r) & (r > 0)
-        warm, r = r[keep & first], r[keep & ~first]
-        if not len(r) and len(warm):  # one registration per run: nothing but warm-ups to show
-            r, warm = warm, warm[:0]
-        if len(r):
-            q = np.percentile(r, [0, 25, 50, 75, 100])
-            out.append(
-                {
-                    "method": label,
-                    "n": len(r),
-                    "min_s": q[0],
-                    "q1_s": q[1],
-                    "median_s": q[2],
-                    "q3_s": q[3],
-                    "max_s": q[4],
-                    "mean_s": float(r.mean()),
-                    "n_warmup": len(warm),
-                    "warmup_s": float(warm.max()) if len(warm) else float("nan"),
-                    "_values": r,
-                    "_warmup": warm,
-                }
-            )
-    return out
-
-
-def plot_runtime(
-    samples_by_method: Mapping[str, object], out_stem: str | Path, title: str = "", pdf: bool = True
-) -> list[Path]:
-    """Horizontal box plot of per-registration runtime (seconds, log scale) per method, from
-    per-sample rows; method labels on the y axis, the median written at the right. Warm-ups
-    (:data:`WARMUP_COLUMN`) are red crosses beside the box, not part of it.
-
-    Writes ``<out_stem>.csv`` with columns ``method, n, min_s, q1_s, median_s, q3_s, max_s,
-    mean_s, n_warmup, warmup_s``.
-    """
-    plt = pyplot()
-    stats = runtime_rows(samples_by_method)
-    warm = [(k, w) for k, s in enumerate(stats) for w in s["_warmup"]]
-    legend_in = 0.28 if warm else 0.0  # a line below the axes explaining the crosses
-    height = 0.9 + 0.45 * max(len(stats), 1) + legend_in
-    fig, ax = plt.subplots(figsize=(6.4, height))
-    if stats:
-        pos = np.arange(len(stats), 0, -1)  # first method on top
-        import matplotlib
-
-        # ``vert`` is deprecated from matplotlib 3.10, which added ``orientation``.
-        horizontal = (
-            {"orientation": "horizontal"}
-            if tuple(int(x) for x in matplotlib.__version__.split(".")[:2]) >= (3, 10)
-            else {"vert": False}
-        )
-        ax.boxplot(
-            [s["_values"] for s in stats],
-            positions=pos,
-            widths=0.6,
-            showfliers=True,
-            flierprops={"markersize": 3},
-            **horizontal,
-        )
-        ax.set_yticks(pos, [s["method"] for s in stats], fontsize=9)
-        ax.set_xscale("log")
-        if warm:
-            ax.scatter(
-                [w for _, w in warm],
-                [pos[k] for k, _ in warm],
-                marker="x",
-                color="C3",
-                s=30,
-                zorder=3,
-                label="first registration of each run (imports, compilation): drawn, not in the box",
-            )
-            fig.legend(loc="lower center", fontsize=8, frameon=False)
-        for p, s in zip(pos, stats):
-            ax.annotate(
-                f"median {s['median_s']:.3g} s", (1.01, p), xycoords=("axes fraction", "data"), va="center", fontsize=8
-            )
-    ax.set_xlabel("seconds per registration (log)", fontsize=9)
-    ax.grid(alpha=0.3, axis="x")
-    ax.set_title(title or "Runtime per registration", fontsize=10)
-    fig.tight_layout(rect=(0, legend_in / height, 1, 1))
-    columns = ["method", "n", "min_s", "q1_s", "median_s", "q3_s", "max_s", "mean_s", "n_warmup", "warmup_s"]
-    csv = _write_csv([{k: s[k] for k in columns} for s in stats], columns, out_stem)
     return save(fig, out_stem, pdf) + [csv]

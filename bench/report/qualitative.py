@@ -6,7 +6,7 @@
   ``config.yaml`` (dataset + protocol built by :func:`catpose.bench.run.build.build_from_config`),
   since the run stores no points.
 
-The aggregate figures (CDF, accuracy, runtime) are :mod:`catpose.bench.report.plots`'.
+The aggregate figures (CDF, accuracy) are :mod:`catpose.bench.report.plots`'.
 """
 
 from __future__ import annotations

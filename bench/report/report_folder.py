@@ -4,10 +4,10 @@
 
 writes ``index.md`` (every link relative) and, per protocol (they never share a table or figure),
 ``tables/<protocol>_{summary,per_category}.{md,tex,csv}`` (other layouts: ``bench table``),
-``figures/<protocol>_{error_cdf,accuracy,runtime}.{png,pdf,csv}`` (the CSV holds the plotted
-data) and a picture of each run's worst registration (``--no-pictures``: none). The runtime figure leaves each run's first registration
-(imports, compilation) out of its boxes. The folder is built beside ``--out`` and moved into
-place whole (:func:`catpose.bench.run.overwrite.check_output`)."""
+``figures/<protocol>_{error_cdf,accuracy}.{png,pdf,csv}`` (the CSV holds the plotted data) and a
+picture of each run's worst registration (``--no-pictures``: none); speed is ``bench perf``'s.
+The folder is built beside ``--out`` and moved into place whole
+(:func:`catpose.bench.run.overwrite.check_output`)."""
 
 from __future__ import annotations
 
@@ -44,16 +44,6 @@ def _units_by_label(labels: list[str], units: list) -> dict:
     for label, u in zip(labels, units):
         out.setdefault(label, []).append(u)
     return {k: pd.concat(v, ignore_index=True) for k, v in out.items()}
-
-
-def _with_warmup(samples):
-    """A run's rows with :data:`~catpose.bench.report.plots.WARMUP_COLUMN` true on its first
-    registration (file order), the one that paid for imports and compilation."""
-    import numpy as np
-
-    from catpose.bench.report.plots import WARMUP_COLUMN
-
-    return samples.assign(**{WARMUP_COLUMN: np.arange(len(samples)) == 0})
 
 
 def _relative_names(paths: Sequence[Path]) -> tuple[str, list[str]]:
@@ -203,7 +193,6 @@ def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_
 
         run_units = [scored_units(r) for r in group]
         units = _units_by_label(group_labels, run_units)
-        samples = _units_by_label(group_labels, [_with_warmup(r.samples) for r in group])
         fig = out / "figures"
         figures = [
             (
@@ -216,22 +205,8 @@ def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_
                 "Accuracy at thresholds",
                 plots.plot_accuracy(units, fig / f"{protocol}_accuracy", pdf=pdf, colors=colors),
             ),
-            ("runtime", "Runtime per registration", plots.plot_runtime(samples, fig / f"{protocol}_runtime", pdf=pdf)),
         ]
-        md += [
-            "### Figures",
-            "",
-            "Runtime: wall-clock seconds per registration, measured under whatever load the "
-            "machine had during the run; compare only runs made together. Each run's first "
-            "registration (imports, compilation) is a red cross, not part of the boxes."
-            + (
-                ""
-                if protocol == "gt_model"
-                else " The tables' time is per scored unit (a view with all its "
-                "templates, or a pair of views); the box plot shows single registrations."
-            ),
-            "",
-        ]
+        md += ["### Figures", ""]
         for _name, caption, paths in figures:
             links = ", ".join(f"[{p.suffix[1:].upper()}](figures/{p.name})" for p in paths[1:])
             md += [f"#### {caption}", "", f"![{caption}](figures/{paths[0].name})", "", f"Data and vector: {links}", ""]

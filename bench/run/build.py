@@ -82,12 +82,6 @@ def build_parts(cfg: Any) -> tuple[str, Any, Any, Any]:
     return method_name, method, dataset, build_protocol(cfg)
 
 
-#: the templates protocol's keys that moved into the ``choice`` group (configs/choice): protocol key
-#: -> choice key. A run directory's ``config.yaml`` written before the move still has them:
-#: :func:`build_choice` reads them, :func:`build_protocol` leaves ``turns`` and ``one_template_turns`` out.
-MOVED_PROTOCOL_KEYS = {"choice": "rule", "turns": "turns_deg", "one_template_turns": "one_template_turns"}
-
-
 def _node(cfg: Any, key: str) -> dict | None:
     """``cfg[key]`` (a composed config or a ``config.yaml`` read as a dict) as a plain dict, or None."""
     from omegaconf import DictConfig, OmegaConf
@@ -119,18 +113,20 @@ def takes_choice(protocol: Any) -> bool:
 
 def build_choice(cfg: Any) -> Any | None:
     """The run's template choice (:class:`catpose.methods.template_choice.TemplateChoice`) from its
-    ``choice`` group, or, for a ``config.yaml`` written before the group existed, from the
-    protocol's old keys (:data:`MOVED_PROTOCOL_KEYS`; the defaults for the rest). None when the
-    protocol keeps no choice (``gt_model``)."""
-    protocol = _node(cfg, "protocol") or {}
-    if not takes_choice(protocol):
+    ``choice`` group. None when the protocol keeps no choice (``gt_model``)."""
+    if not takes_choice(_node(cfg, "protocol") or {}):
         return None
+    return build_from_config(_choice_node(cfg), "choice")[1]
+
+
+def _choice_node(cfg: Any) -> dict:
     choice = _node(cfg, "choice")
     if choice is None:
-        old = {new: protocol[key] for key, new in MOVED_PROTOCOL_KEYS.items() if protocol.get(key) is not None}
-        old.setdefault("rule", "score")  # written before the group: kept by score, the default then
-        choice = {"name": str(old["rule"]), "_target_": CHOICE_TARGET, **old}
-    return build_from_config(choice, "choice")[1]
+        raise ConfigError(
+            "the config has no choice; set choice=<name> (bench run --help), "
+            "or re-run an older run to rewrite its config.yaml"
+        )
+    return choice
 
 
 #: the keys each protocol's config held before the ``choice`` group took them (by protocol name)
@@ -174,16 +170,14 @@ def _same(a: Any, b: Any) -> bool:
         return a == b
 
 
-#: the class of the ``choice`` group (configs/choice/*.yaml) and the rule the protocols read of it
-CHOICE_TARGET = "catpose.methods.template_choice.TemplateChoice"
+#: the rule the protocols read of the ``choice`` group (configs/choice/*.yaml)
 RULE_TARGET = "catpose.methods.choice_rules.ChoiceRule"
 
 
 def build_protocol(cfg: Any) -> Any:
     """The protocol of a composed run config or a run directory's ``config.yaml``; one that keeps a
     view's template (:func:`takes_choice`) gets the ``choice`` group's rule and weights
-    (:class:`catpose.methods.choice_rules.ChoiceRule`), or, in a ``config.yaml`` written before the
-    group existed, its own old ``choice`` key (the rule's default weights)."""
+    (:class:`catpose.methods.choice_rules.ChoiceRule`)."""
     from dataclasses import fields
 
     from catpose.methods.choice_rules import ChoiceRule
@@ -191,15 +185,9 @@ def build_protocol(cfg: Any) -> Any:
     node = _node(cfg, "protocol")
     if node is None:
         raise ConfigError("the config has no protocol; set protocol=<name> (bench run --help)")
-    choice = _node(cfg, "choice")
     if takes_choice(node):
-        for key in ("turns", "one_template_turns"):  # the choice's now (build_choice reads them)
-            node.pop(key, None)
-        if choice is not None and "choice" not in node:
-            rule_keys = {f.name for f in fields(ChoiceRule)}
-            node["choice"] = {"_target_": RULE_TARGET, **{k: v for k, v in choice.items() if k in rule_keys}}
-        elif "choice" not in node:  # written before the group and its key: kept by score, the default then
-            node["choice"] = "score"
+        rule_keys = {f.name for f in fields(ChoiceRule)}
+        node["choice"] = {"_target_": RULE_TARGET, **{k: v for k, v in _choice_node(cfg).items() if k in rule_keys}}
     return build_from_config(node, "protocol")[1]
 
 

@@ -180,11 +180,11 @@ def _abort_message(e: BaseException, sample_id: str) -> str:
 # run and summarize
 
 
-def run(cfg: Any, overrides: Iterable[str] = (), run_dir: Path | None = None) -> Path:
+def run(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     """Run ``cfg.method`` on every sample of ``cfg.dataset`` under ``cfg.protocol``.
 
-    Returns the run directory: ``run_dir`` where the caller names one (``bench run
-    hydra.run.dir=DIR``), else the one named from the parameters (:func:`run_dir_for`). Finished samples already in its ``samples.jsonl`` are skipped.
+    Returns the run directory, named from the parameters (:func:`run_dir_for`). Finished samples
+    already in its ``samples.jsonl`` are skipped.
     Only a sample's own fault is recorded as its failure; Ctrl-C, a failed import, no memory
     and an unwritable output directory abort the run (``KeyboardInterrupt`` or
     :class:`RunAborted`) and record nothing for the sample in progress.
@@ -192,13 +192,13 @@ def run(cfg: Any, overrides: Iterable[str] = (), run_dir: Path | None = None) ->
     validate_run_options(cfg)
     with _Interrupts() as interrupts:
         try:
-            return _run(cfg, list(overrides), interrupts, run_dir)
+            return _run(cfg, list(overrides), interrupts)
         except CatposeError:
             interrupts.check()  # a Ctrl-C that a library turned into a build or load error
             raise
 
 
-def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts, run_dir: Path | None = None) -> Path:
+def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts) -> Path:
     """Build the pieces, list the samples, lock the run directory and run (see :func:`run`). The
     finished samples are read after locking, so a run that waited for another skips what that one
     finished."""
@@ -222,7 +222,7 @@ def _run(cfg: Any, overrides: list[str], interrupts: _Interrupts, run_dir: Path 
     if cfg.get("limit") is not None:
         ids = ids[: int(cfg.limit)]
 
-    out = run_dir if run_dir is not None else run_dir_for(cfg, overrides)
+    out = run_dir_for(cfg, overrides)
     samples_path = out / SAMPLES_FILE
     lock = RunLock(out, cfg.get("lock_timeout"))
     with writing(out):

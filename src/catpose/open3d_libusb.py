@@ -2,12 +2,10 @@
 
 Open3D's Linux wheels link against ``libusb-1.0.so.0``, which slim machines lack; the PyPI package
 ``libusb-package`` (a dependency) ships it, and loaded with ``RTLD_GLOBAL`` before Open3D it
-satisfies the link. Two ways: the wheel's ``catpose-open3d-libusb.pth`` calls
-:func:`install_import_hook`, which loads it just before the first ``import open3d``; ``python -m
-catpose.open3d_libusb`` (``make setup``: an editable install has no ``.pth``; also ``python -S``)
-links it into Open3D's folder, where ``libOpen3D.so``'s RUNPATH looks first (rerun after
-reinstalling Open3D). Both do nothing when the system has libusb; :mod:`catpose.o3d` also calls
-:func:`preload_libusb`.
+satisfies the link; :mod:`catpose.o3d` calls :func:`preload_libusb`. So that ``import open3d``
+works before or without catpose, ``python -m catpose.open3d_libusb`` (``make setup`` runs it; after
+a wheel install or reinstalling Open3D, run it once) links it into Open3D's folder, where
+``libOpen3D.so``'s RUNPATH looks first. Both do nothing when the system has libusb.
 """
 
 from __future__ import annotations
@@ -16,7 +14,7 @@ import os
 import sys
 from pathlib import Path
 
-__all__ = ["LINK_NAME", "install_import_hook", "link_libusb", "preload_libusb"]
+__all__ = ["LINK_NAME", "link_libusb", "preload_libusb"]
 
 #: the name Open3D's library asks the loader for
 LINK_NAME = "libusb-1.0.so.0"
@@ -44,33 +42,9 @@ def preload_libusb() -> None:
         ctypes.CDLL(str(path), mode=ctypes.RTLD_GLOBAL)
 
 
-class _BeforeOpen3D:
-    """A ``sys.meta_path`` finder that finds nothing: on the first look-up of ``open3d`` it loads
-    libusb, removes itself and lets the ordinary finders import Open3D."""
-
-    @classmethod
-    def find_spec(cls, name, path=None, target=None):
-        if name == "open3d":
-            if cls in sys.meta_path:
-                sys.meta_path.remove(cls)
-            try:
-                preload_libusb()
-            except Exception:  # never break an import: Open3D's own error is clear enough
-                pass
-        return None
-
-
-def install_import_hook() -> None:
-    """Load libusb just before the first ``import open3d`` (the ``.pth`` file calls this)."""
-    if sys.platform.startswith("linux") and "open3d" not in sys.modules and _BeforeOpen3D not in sys.meta_path:
-        sys.meta_path.insert(0, _BeforeOpen3D)
-
-
 def _open3d_dir() -> Path | None:
     from importlib.util import find_spec
 
-    if _BeforeOpen3D in sys.meta_path:  # find_spec would trigger the hook: harmless, but not asked for
-        sys.meta_path.remove(_BeforeOpen3D)
     spec = find_spec("open3d")
     if spec is None or not spec.submodule_search_locations:
         return None
