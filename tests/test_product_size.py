@@ -10,7 +10,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 PRODUCT = ("bench", "methods", "datasets", "src")
 GOAL = 25_000
-CEILING = 26_400
+CEILING = 26_200
 
 
 def product_lines(root: Path) -> int:
