@@ -5,7 +5,7 @@
 # table results/depth_check_masks/dev.md. Labels: dirty (dataset.mask_noise=1), clean (the written masks),
 # dilate, erode, bleed (one component of the dirty masks alone, the same draws); MASKS-CHECK (dirty-edge2,
 # clean-trim20, ...) runs ours with its depth check replaced by a variant for the whole run (rescore.py check:):
-# edge2, edge4, mad2, mad3, trim10, trim20, trim30.
+# edge2, edge4, mad2, mad3, trim10, trim20, trim30, grow3.
 # Usage (repository root): bash experiments/depth_check_masks/make.sh   (LABELS="dirty clean" runs only those)
 set -euo pipefail
 SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
@@ -22,6 +22,7 @@ for label in ${LABELS:-dirty clean dilate erode bleed}; do
     -trim10) noise+=("check:trimmed 10 %") ;;
     -trim20) noise+=("check:trimmed 20 %") ;;
     -trim30) noise+=("check:trimmed 30 %") ;;
+    -grow3) noise+=("check:grown 3 px in MAD band c=3") ;;
     *) echo "make.sh: unknown check variant in $label" >&2; exit 2 ;;
   esac
   case $masks in

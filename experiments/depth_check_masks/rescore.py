@@ -41,6 +41,7 @@ VARIANTS = {
     "trimmed 10 %": ("trim", 0.10),
     "trimmed 20 %": ("trim", 0.20),
     "trimmed 30 %": ("trim", 0.30),
+    "grown 3 px in MAD band c=3": ("grow", 3),
 }
 
 
@@ -91,13 +92,16 @@ class Rescorer:
         self.Z, self.M = L.depth, L.mask  # observed depth, mask (lattice)
         image_mask = np.asarray(verifier.image.mask, bool)
         self.inner, self.outer = {}, {}
-        for k in (2, 4):
+        for k in (2, 3, 4):
             er = ndimage.binary_erosion(image_mask, _SQUARE, iterations=k)[np.ix_(L.rows, L.cols)]
             self.inner[k] = er if er.any() else self.M
             self.outer[k] = ndimage.binary_dilation(image_mask, _SQUARE, iterations=k)[np.ix_(L.rows, L.cols)]
         od = self.Z[self.M & (self.Z > 0)]
         self.med = float(np.median(od)) if od.size else 0.0
         self.mad = 1.4826 * float(np.median(np.abs(od - self.med))) if od.size else 0.0
+        # grown: the mask and the pixels within 3 px outside it whose depth lies in the band (c = 3)
+        band = (self.Z > 0) & (np.abs(self.Z - self.med) <= 3.0 * self.mad)
+        self.grown = self.M | (self.outer[3] & band)
 
     def costs(self, T: np.ndarray, only: str | None = None) -> dict[str, np.ndarray]:
         """Per variant (``only``: that one), the (B,) costs of poses ``T`` (B, 4, 4)."""
@@ -118,6 +122,9 @@ class Rescorer:
                 elif kind == "edge":
                     inner = self.inner[p]
                     val = (c[inner].sum() + fw * (free & ~self.outer[p]).sum()) / max(inner.sum(), 1)
+                elif kind == "grow":
+                    g = self.grown
+                    val = (c[g].sum() + fw * (free & ~g).sum()) / max(g.sum(), 1)
                 elif kind == "mad":
                     keep = M & (np.abs(Z - self.med) <= p * self.mad) if self.mad > 0 else M
                     keep = keep if keep.any() else M
