@@ -10,7 +10,7 @@
 set -euo pipefail
 SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
 PY=.venv/bin/python
-for label in ${LABELS:-dirty clean dilate erode bleed}; do
+for label in ${LABELS:-dirty clean dilate erode bleed dirty-edge2 dirty-edge4 dirty-mad2 dirty-trim20 dirty-grow3}; do
   noise=(dataset.mask_noise=1.0)
   masks=${label%%-*}
   case ${label#"$masks"} in
