@@ -28,7 +28,7 @@ def cloud(n=100, seed=0):
         (cloud()[0], np.zeros((100, 3)), "zero-length normals"),
         (cloud()[0], cloud(50)[1], "normals have shape (50, 3)"),
         (np.zeros((10, 2)), None, "expected (N, 3)"),
-        (cloud(5)[0], None, "only 5 points"),
+        (cloud(5)[0], None, "has 5 points; at least 10"),
     ],
 )
 def test_bad_clouds(points, normals, needle):

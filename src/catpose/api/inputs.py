@@ -16,13 +16,12 @@ import numpy as np
 
 from catpose.errors import CatposeError, InvalidInputError
 from catpose.geometry import apply_R, axis_angle_to_R, dot3, matmul3, norm3, normalize_to_unit_sphere, unit3
-from catpose.types import Template
+from catpose.types import Template, points_arg
 
 __all__ = [
     "MAX_TEMPLATE_POINTS",
     "NormalisedTemplate",
     "check_position",
-    "cloud_arg",
     "direction_arg",
     "estimated_normals",
     "normalised_template",
@@ -71,28 +70,11 @@ class NormalisedTemplate:
         object.__setattr__(self, "scale", scale)
 
 
-def cloud_arg(name: str, value: Any, min_points: int = 10) -> np.ndarray:
-    """An (N, 3) float64 array from ``value``, or a one-line error naming the argument."""
-    try:
-        a = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InvalidInputError(f"{name} is a {type(value).__name__}, not an (N, 3) array of numbers") from None
-    if a.ndim != 2 or a.shape[1] != 3:
-        raise InvalidInputError(f"{name} has shape {a.shape}; expected (N, 3)")
-    if not np.isfinite(a).all():
-        raise InvalidInputError(
-            f"{name} has {int((~np.isfinite(a).all(axis=1)).sum())} rows with NaN or inf; drop them first"
-        )
-    if len(a) < min_points:
-        raise InvalidInputError(f"{name} has {len(a)} points; at least {min_points} are needed")
-    return a
-
-
 def normals_arg(name: str, value: Any, points: np.ndarray) -> np.ndarray | None:
     """Unit normals (N, 3) matching ``points`` (N, 3), None for None, or a one-line error."""
     if value is None:
         return None
-    n = cloud_arg(name, value, min_points=0)
+    n = points_arg(name, value, min_points=0)
     if n.shape != points.shape:
         raise InvalidInputError(f"{name} has shape {n.shape}; expected {points.shape} (one normal per point)")
     length = norm3(n)
@@ -131,8 +113,8 @@ def _template_geometry(template: Any) -> tuple[np.ndarray, np.ndarray | None]:
     if hasattr(template, "vertices") and hasattr(template, "faces"):  # a trimesh.Trimesh (or alike)
         v, f = np.asarray(template.vertices), np.asarray(template.faces)
         if f.size == 0:
-            return cloud_arg("template vertices", v), None
-        return cloud_arg("template vertices", v, 3), _triangles(f, len(v))
+            return points_arg("template vertices", v), None
+        return points_arg("template vertices", v, 3), _triangles(f, len(v))
     if (
         isinstance(template, (tuple, list))
         and len(template) == 2
@@ -140,9 +122,9 @@ def _template_geometry(template: Any) -> tuple[np.ndarray, np.ndarray | None]:
         and np.shape(template[1])[-1] == 3
         and np.ndim(template[0]) == 2
     ):
-        v = cloud_arg("template vertices", template[0], 3)
+        v = points_arg("template vertices", template[0], 3)
         return v, _triangles(template[1], len(v))
-    return cloud_arg("template", template), None
+    return points_arg("template", template), None
 
 
 def _triangles(faces: Any, n_vertices: int) -> np.ndarray:

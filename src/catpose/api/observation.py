@@ -18,7 +18,6 @@ import numpy as np
 from catpose.api.inputs import (
     NormalisedTemplate,
     check_position,
-    cloud_arg,
     estimated_normals,
     normals_arg,
     oriented_to_camera,
@@ -27,7 +26,7 @@ from catpose.api.inputs import (
 from catpose.depth_frame import DepthFrame
 from catpose.errors import InvalidInputError
 from catpose.geometry import norm3, stable_seed
-from catpose.types import DepthImage
+from catpose.types import DepthImage, points_arg
 
 __all__ = ["Observed", "observed"]
 
@@ -89,7 +88,7 @@ def observed(
         return _from_frame(observation, template, up, max_points, plane_distance)
     if plane_distance is not None:
         raise InvalidInputError("plane_distance applies to a DepthFrame (its table plane); drop it for a point array")
-    pts = cloud_arg("observation", observation)
+    pts = points_arg("observation", observation)
     check_position("observation", pts)
     obs_normals = normals_arg("observation_normals", observation_normals, pts)
     points = pts / template.scale
