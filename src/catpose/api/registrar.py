@@ -72,16 +72,12 @@ class Registrar:
                     "set them on the instance"
                 )
             self.method_name, self.method = type(method).__name__, method
-        self.options = dict(options)
         t_up = direction_arg("template_up", template_up)
         points = _count("template_points", template_points, 1)
         self.template: NormalisedTemplate = normalised_template(template, template_normals, t_up, points)
         self.needs_up = uses_up(self.method)
-        self.prepare_s = 0.0
         if prepare:
-            t0 = time.perf_counter()
             prepare_template(self.method, self.template.template)
-            self.prepare_s = time.perf_counter() - t0
 
     def __call__(
         self,
