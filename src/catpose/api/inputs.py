@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import CatposeError, InvalidInputError
-from catpose.geometry import apply_R, axis_angle_to_R, dot3, matmul3, norm3, normalize_to_unit_sphere, unit3
+from catpose.geometry import R_onto_z, apply_R, dot3, matmul3, norm3, normalize_to_unit_sphere, unit3
 from catpose.types import Template, points_arg
 
 __all__ = [
@@ -136,19 +136,6 @@ def _triangles(faces: Any, n_vertices: int) -> np.ndarray:
     return f.astype(np.int64)
 
 
-def _R_onto_z(up: np.ndarray) -> np.ndarray:
-    """The shortest-arc rotation (3, 3) taking unit ``up`` onto +z."""
-    from catpose import libm
-
-    z = np.array([0.0, 0.0, 1.0])
-    c = float(np.clip(dot3(up, z), -1.0, 1.0))
-    if c > 1.0 - 1e-12:
-        return np.eye(3)
-    if c < -1.0 + 1e-12:
-        return np.diag([1.0, -1.0, -1.0])  # a half turn about x
-    return axis_angle_to_R(np.cross(up, z), float(libm.arccos(c)))
-
-
 def subsample(n: int, max_points: int, key: str) -> np.ndarray | None:
     """Sorted indices of a seeded random subset of ``max_points`` of ``n`` (None: keep all)."""
     if not max_points or n <= max_points:
@@ -199,7 +186,7 @@ def _normalised_template(
             "template_normals applies to a point-cloud template; a mesh's normals come "
             "from its faces: drop template_normals"
         )
-    R_up = _R_onto_z(template_up)
+    R_up = R_onto_z(template_up)
     rotated = apply_R(R_up, geometry)
     check_position("template", rotated)
     try:
