@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import CatposeError, InvalidInputError
-from catpose.geometry import R_onto_z, apply_R, dot3, matmul3, norm3, normalize_to_unit_sphere, unit3
+from catpose.geometry import R_onto_z, apply_R, dot3, matmul3, norm3, normalize_to_unit_sphere, stable_seed, unit3
 from catpose.types import Template, points_arg
 
 __all__ = [
@@ -27,7 +27,6 @@ __all__ = [
     "normalised_template",
     "normals_arg",
     "oriented_to_camera",
-    "subsample",
     "unit_warning",
 ]
 
@@ -136,15 +135,6 @@ def _triangles(faces: Any, n_vertices: int) -> np.ndarray:
     return f.astype(np.int64)
 
 
-def subsample(n: int, max_points: int, key: str) -> np.ndarray | None:
-    """Sorted indices of a seeded random subset of ``max_points`` of ``n`` (None: keep all)."""
-    if not max_points or n <= max_points:
-        return None
-    from catpose.geometry import stable_seed
-
-    return np.sort(np.random.default_rng(stable_seed("catpose.register", key)).choice(n, max_points, replace=False))
-
-
 def normalised_template(
     template: Any, template_normals: Any, template_up: np.ndarray, template_points: int
 ) -> NormalisedTemplate:
@@ -178,6 +168,7 @@ def _normalised_template(
 ) -> NormalisedTemplate:
     from catpose.datasets.meshio import sampled_template
     from catpose.datasets.render import estimate_normals
+    from catpose.datasets.views import subsample
 
     geometry, triangles = _template_geometry(template)
     normals = None if triangles is not None else normals_arg("template_normals", template_normals, geometry)
@@ -207,9 +198,8 @@ def _normalised_template(
         normals = -normals  # estimate_normals faces the viewpoint (the centre): outwards is the opposite
     else:
         normals = apply_R(R_up, normals)
-    keep = subsample(len(points), template_points, "template")
-    if keep is not None:
-        points, normals = points[keep], normals[keep]
+    rng = np.random.default_rng(stable_seed("catpose.register", "template"))
+    points, normals = subsample(template_points, rng, points, normals)
     try:
         t = Template(template_id="catpose.register/template", category="object", points=points, normals=normals)
     except CatposeError as e:

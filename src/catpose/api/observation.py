@@ -21,7 +21,6 @@ from catpose.api.inputs import (
     estimated_normals,
     normals_arg,
     oriented_to_camera,
-    subsample,
 )
 from catpose.depth_frame import DepthFrame
 from catpose.errors import InvalidInputError
@@ -94,9 +93,10 @@ def observed(
     points = pts / template.scale
     normals = oriented_to_camera(points, obs_normals) if obs_normals is not None else estimated_normals(points)
     radius = _radius(points)
-    keep = subsample(len(points), int(max_points), "observation")
-    if keep is not None:
-        points, normals = points[keep], normals[keep]
+    from catpose.datasets.views import subsample
+
+    rng = np.random.default_rng(stable_seed("catpose.register", "observation"))
+    points, normals = subsample(int(max_points), rng, points, normals)
     return Observed(
         points, normals, up, None, POINTS_SAMPLE_ID, 0, radius, {"ground": "search" if up is None else "given"}
     )
