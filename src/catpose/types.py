@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import InvalidInputError
-from catpose.geometry import dot3, matmul3, norm3, unit3
+from catpose.geometry import norm3, unit3
 
 
 def points_arg(name: str, value: Any, min_points: int = 10) -> np.ndarray:
@@ -70,19 +70,6 @@ def validate_cloud(
             raise InvalidInputError(f"{name} has {int((norms < 1e-8).sum())} zero-length normals; re-estimate them")
         n = n / norms[:, None]
     return p, n
-
-
-def validate_pose(name: str, T: np.ndarray) -> np.ndarray:
-    """Return ``T`` as a float64 (4, 4) rigid transform or raise :class:`InvalidInputError`."""
-    T = np.asarray(T, dtype=np.float64)
-    if T.shape != (4, 4):
-        raise InvalidInputError(f"{name} has shape {T.shape}; expected (4, 4)")
-    if not np.isfinite(T).all():
-        raise InvalidInputError(f"{name} is not finite")
-    R = T[:3, :3]
-    if np.abs(matmul3(R, R.T) - np.eye(3)).max() > 1e-4 or dot3(np.cross(R[0], R[1]), R[2]) < 0:
-        raise InvalidInputError(f"{name} is not a rotation (R R^T != I or det R < 0)")
-    return T
 
 
 @dataclass(frozen=True, eq=False)
