@@ -103,20 +103,6 @@ def R_onto_z(up: np.ndarray) -> np.ndarray:
     return np.eye(3) + s * K + (1.0 - c) * matmul3(K, K)
 
 
-def random_rotation(rng: np.random.Generator) -> np.ndarray:
-    """A rotation drawn uniformly from SO(3) (Shoemake's unit-quaternion method)."""
-    u1, u2, u3 = rng.random(3)
-    q = np.array(
-        [
-            np.sqrt(1 - u1) * np.sin(2 * np.pi * u2),
-            np.sqrt(1 - u1) * np.cos(2 * np.pi * u2),
-            np.sqrt(u1) * np.sin(2 * np.pi * u3),
-            np.sqrt(u1) * np.cos(2 * np.pi * u3),
-        ]
-    )
-    return quat_to_R(q)
-
-
 def quat_to_R(q: np.ndarray) -> np.ndarray:
     """(x, y, z, w) unit quaternion(s) (..., 4) to rotation matrices (..., 3, 3)."""
     q = np.asarray(q, dtype=np.float64)
