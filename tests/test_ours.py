@@ -215,7 +215,7 @@ def test_modelnet40_airplanes_own_model(shared_data):
 def test_bench_perf_prints_a_table(capsys):
     from catpose.bench.perf.registration import main
 
-    assert main(["--n", "2", "--methods", "ours", "--categories", "chair"]) == 0
+    assert main(["--n", "2", "--methods", "ours", "--dataset-set", "categories=[chair]"]) == 0
     out = capsys.readouterr().out
     assert "| ours" in out and "optimization" in out
 
