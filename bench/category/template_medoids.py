@@ -7,10 +7,9 @@ clouds (Tatarchenko et al., "What do single-view 3D reconstruction networks lear
     precision = |{p in P : d(p, Q) < tau}| / |P|,  recall = |{q in Q : d(q, P) < tau}| / |Q|
     F = 2 * precision * recall / (precision + recall)
 
-FasterPAM (:mod:`catpose.bench.category.fasterpam`, BUILD then eager swaps in index order, in
-NumPy; the GPL-licensed ``kmedoids`` package is its test reference, not a dependency) picks the K
-medoids; scikit-learn's silhouette score over the same precomputed distances is reported for
-every K (``--k auto`` takes the best). The instances
+PAM (:func:`pam`, BUILD then best swaps, in NumPy) picks the K medoids; scikit-learn's
+silhouette score over the same precomputed distances is reported for every K (``--k auto`` takes
+the best). The instances
 must be in one frame: a dataset whose frames are not declared consistent (raw ModelNet40) is
 refused unless it has an alignment table (``results/alignment/``)::
 
@@ -61,22 +60,42 @@ def fscore_distances(clouds: Sequence[np.ndarray], tau: float) -> np.ndarray:
     return D
 
 
-def select_medoids(D: np.ndarray, k: int, seed: int = 0) -> tuple[list[int], np.ndarray]:
-    """K medoids of a distance matrix with FasterPAM (:func:`catpose.bench.category.fasterpam.fasterpam`).
+def pam(D: np.ndarray, k: int, max_iter: int = 100) -> np.ndarray:
+    """K medoid indices (K,) of the (N, N) distance matrix ``D`` by PAM (Kaufman and Rousseeuw,
+    "Partitioning Around Medoids", 1990), in NumPy. BUILD adds, K times, the point that lowers the
+    loss ``sum_i min_m D[i, m]`` most (ties: the lowest index); SWAP then makes the exchange of a
+    medoid for a point that lowers it most, all K x N of them at once, until none lowers it by more
+    than a relative 1e-12 (rounding never swaps between equal losses). Deterministic."""
+    n = len(D)
+    medoids = [int(np.argmin(D.sum(axis=0)))]
+    nearest = D[:, medoids[0]].copy()
+    for _ in range(1, k):
+        gain = np.minimum(D - nearest[:, None], 0.0).sum(axis=0)  # (N,) loss change per candidate
+        gain[medoids] = np.inf
+        medoids.append(int(np.argmin(gain)))
+        nearest = np.minimum(nearest, D[:, medoids[-1]])
+    medoids, loss = np.array(medoids), nearest.sum()
+    for _ in range(max_iter if 1 < k < n else 0):
+        order = np.argsort(D[:, medoids], axis=1, kind="stable")
+        dn, ds = np.take_along_axis(D[:, medoids], order[:, :2], axis=1).T  # nearest, second nearest
+        # each point's distance to the medoids left without slot b (N, K), then with point j added
+        rest = np.where(order[:, :1] == np.arange(k), ds[:, None], dn[:, None])
+        after = np.minimum(D[:, :, None], rest[:, None, :]).sum(axis=0)  # (N points j, K slots b)
+        after[medoids] = np.inf
+        j, b = np.unravel_index(np.argmin(after), after.shape)
+        if after[j, b] >= loss - 1e-12 * max(loss, 1.0):
+            break
+        medoids[b], loss = j, after[j, b]
+    return medoids
 
-    Returns (medoid indices sorted by cluster size, largest first, ties by index; (N,) labels
-    indexing that medoid list). Deterministic; ``seed`` is kept for the callers' signature
-    (FasterPAM here visits the points in a fixed order from BUILD's start and draws nothing).
-    """
-    from catpose.bench.category.fasterpam import fasterpam
 
+def select_medoids(D: np.ndarray, k: int) -> tuple[list[int], np.ndarray]:
+    """K medoids of a distance matrix (:func:`pam`): (medoid indices sorted by cluster size,
+    largest first, ties by index; (N,) labels indexing that medoid list)."""
     n = len(D)
     if not 1 <= k <= n:
         raise ConfigError(f"--k {k} must be between 1 and the number of instances ({n})")
-    if k == n:
-        medoids = np.arange(n)
-    else:
-        medoids = fasterpam(D, k, max_iter=100)[0]
+    medoids = pam(np.asarray(D, float), k)
     labels = np.argmin(D[:, medoids], axis=1)
     sizes = np.bincount(labels, minlength=len(medoids))
     order = sorted(range(len(medoids)), key=lambda c: (-sizes[c], int(medoids[c])))
@@ -85,14 +104,14 @@ def select_medoids(D: np.ndarray, k: int, seed: int = 0) -> tuple[list[int], np.
     return [int(medoids[c]) for c in order], remap[labels]
 
 
-def silhouette_by_k(D: np.ndarray, ks: Sequence[int], seed: int = 0) -> dict[int, float]:
+def silhouette_by_k(D: np.ndarray, ks: Sequence[int]) -> dict[int, float]:
     """Mean silhouette (scikit-learn, ``metric="precomputed"``) of the K-medoids clustering of the
     (N, N) distance matrix ``D`` for each K in ``ks`` with 2 <= K <= N - 1 (higher is better)."""
     from sklearn.metrics import silhouette_score
 
     n = len(D)
     return {
-        int(k): float(silhouette_score(D, select_medoids(D, int(k), seed)[1], metric="precomputed"))
+        int(k): float(silhouette_score(D, select_medoids(D, int(k))[1], metric="precomputed"))
         for k in ks
         if 2 <= int(k) <= n - 1
     }
@@ -112,12 +131,12 @@ def choose_templates(
     ids = list(clouds)
     pts = [subsample(n_points, np.random.default_rng(seed), np.asarray(clouds[i], float))[0] for i in ids]
     D = fscore_distances(pts, tau)
-    silhouette = silhouette_by_k(D, range(2, len(ids)), seed)
+    silhouette = silhouette_by_k(D, range(2, len(ids)))
     if k == "auto":
         if not silhouette:
             raise ConfigError(f"--k auto needs at least 3 instances; there are {len(ids)}")
         k = max(silhouette, key=lambda kk: (silhouette[kk], -kk))
-    medoids, labels = select_medoids(D, int(k), seed)
+    medoids, labels = select_medoids(D, int(k))
     clusters = {ids[m]: [ids[j] for j in np.flatnonzero(labels == c)] for c, m in enumerate(medoids)}
     mean_d = float(np.mean([D[j, medoids[labels[j]]] for j in range(len(ids))]))
     return {
@@ -145,7 +164,7 @@ def write_templates_yaml(path: str | Path, category: str, result: dict, settings
     doc[category] = list(result["templates"])
     lines = [
         HEADER,
-        "# Category templates chosen by `bench templates`: K-medoids (FasterPAM) over 1 - F-score@tau",
+        "# Category templates chosen by `bench templates`: K-medoids (PAM) over 1 - F-score@tau",
         f"# between complete canonical clouds. Last run ({category}): "
         + ", ".join(f"{k}={v}" for k, v in settings.items()),
         f"# mean distance to medoid {result['mean_distance']:.4f}; silhouette by K: "
