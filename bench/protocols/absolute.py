@@ -94,6 +94,12 @@ class Protocol(ABC):
         """
         return absolute_gt_only(samples)
 
+    def _observation(self, dataset: ObjectDataset, obs_id: str) -> Observation:
+        """``dataset.observation(obs_id)``, the last one kept: consecutive samples often share one."""
+        if getattr(self, "_last", (None,))[0] != (id(dataset), obs_id):
+            self._last = ((id(dataset), obs_id), dataset.observation(obs_id))
+        return self._last[1]
+
 
 def absolute_gt_only(samples):
     """The rows whose ground truth is an absolute pose (see :meth:`Protocol.score_units`)."""
@@ -103,33 +109,16 @@ def absolute_gt_only(samples):
     return samples[keep.astype(bool)].reset_index(drop=True)
 
 
-class _ObservationCache:
-    """Keeps the last observation, since consecutive samples often share one."""
-
-    def __init__(self) -> None:
-        self._key: tuple[int, str] | None = None
-        self._obs: Observation | None = None
-
-    def get(self, dataset: ObjectDataset, obs_id: str) -> Observation:
-        key = (id(dataset), obs_id)
-        if key != self._key:
-            self._obs, self._key = dataset.observation(obs_id), key
-        return self._obs
-
-
 class GtModel(Protocol):
     """Each partial view registered to the observed instance's own complete model."""
 
     name = "gt_model"
 
-    def __init__(self) -> None:
-        self._cache = _ObservationCache()
-
     def sample_ids(self, dataset: ObjectDataset) -> list[str]:
         return list(dataset.observation_ids())
 
     def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
-        obs = self._cache.get(dataset, sample_id)
+        obs = self._observation(dataset, sample_id)
         return make_sample(obs, dataset.instance_model(obs.category, obs.instance_id), sample_id, sample_id)
 
 
@@ -166,7 +155,6 @@ class Templates(Protocol):
         self.exclude_templates = bool(exclude_templates)  # skip views of the template instances themselves
         self.exclude_instances = [str(i) for i in (exclude_instances or [])]  # and of these instances
         self.choice = as_rule(choice)  # how a view's row is kept (catpose.methods.choice_rules)
-        self._cache = _ObservationCache()
 
     def _templates(self, dataset: ObjectDataset, category: str) -> list[Template]:
         templates = list(dataset.category_templates(category))
@@ -195,7 +183,7 @@ class Templates(Protocol):
     def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
         require_consistent_frames(dataset, f"protocol={self.name}")
         obs_id, k = split_template_sample_id(sample_id)
-        obs = self._cache.get(dataset, obs_id)
+        obs = self._observation(dataset, obs_id)
         template = self._templates(dataset, obs.category)[k]
         return with_template_facts(make_sample(obs, template, sample_id, obs_id))
 
