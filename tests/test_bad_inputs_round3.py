@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 from catpose.bench.cli import main as bench
-from catpose.bench.run.rundir import read_rows, write_run
+from catpose.bench.run.rundir import read_rows
 
 TESTS = Path(__file__).resolve().parent
 sys.path.insert(0, str(TESTS))
 
-from _trust import CFG, one_error_line, rows  # noqa: E402
+from _trust import CFG, one_error_line, rows, write_run  # noqa: E402
 from test_bad_inputs_round2 import per_sample_csv, snapshot  # noqa: E402
 
 

@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from _trust import write_run
 
 from catpose.bench.interop import score as score_cmd
 from catpose.bench.interop.bop_export import export_bop
 from catpose.bench.interop.prediction_io import read_predictions
 from catpose.bench.interop.prediction_match import score_predictions
-from catpose.bench.run.rundir import write_run
 from catpose.errors import InvalidInputError
 from catpose.geometry import axis_angle_to_R, make_T, random_rotation
 

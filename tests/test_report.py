@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from _trust import write_run
 
 from catpose.bench.report import tables
 from catpose.bench.report.labels import parse_labels, run_labels
 from catpose.bench.report.report_folder import build_report, worst_drawable
 from catpose.bench.report.report_folder import main as report_main
 from catpose.bench.report.runs import load_run
-from catpose.bench.run.rundir import write_run
 from catpose.errors import DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 

@@ -6,11 +6,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _trust import write_run
 
 from catpose.bench.report import table_command, tables
 from catpose.bench.report.labels import pipeline_label
 from catpose.bench.report.runs import load_run
-from catpose.bench.run.rundir import write_run
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import axis_angle_to_R, make_T
 

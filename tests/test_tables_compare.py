@@ -8,10 +8,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from _trust import write_run
 
 from catpose.bench.report import tables
 from catpose.bench.report.runs import load_run
-from catpose.bench.run.rundir import write_run
 from catpose.errors import DatasetError
 
 TESTS = Path(__file__).resolve().parent

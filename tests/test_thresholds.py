@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from _trust import write_run
 
 from catpose.bench.report import tables
-from catpose.bench.run.rundir import write_run
 from catpose.bench.scoring import curves
 from catpose.bench.scoring.metrics import accuracy
 from catpose.errors import ConfigError

@@ -7,7 +7,7 @@ share a directory. It holds ``samples.jsonl`` (one :class:`~catpose.bench.scorin
 per finished sample, appended and fsynced), ``config.yaml`` (resolved), ``overrides.txt``,
 ``git_rev.txt``, ``run.json`` (counts, environment), ``run.lock``, and ``samples.csv`` and
 ``summary.{csv,md}`` written by :mod:`catpose.bench.run.evaluate` from the files alone.
-:func:`write_run` writes a whole run directory from rows made elsewhere (``bench score``)."""
+:func:`write_run_into` writes a whole run directory from rows made elsewhere (``bench score``)."""
 
 from __future__ import annotations
 
@@ -189,25 +189,10 @@ def write_run_json(out: Path, meta: dict) -> None:
         atomic.write_text(out / "run.json", json.dumps(dict(meta, environment=environment()), indent=2) + "\n")
 
 
-def write_run(
-    out_dir: str | Path, rows: Sequence[dict], config: dict, info: dict | None = None, force: bool = False
-) -> Path:
-    """Write a run directory (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries) from
-    ``rows`` (the ``samples.jsonl`` schema) and ``config`` (a plain dict with ``method``, ``dataset``,
-    ``protocol`` nodes and ``seed``), built aside and moved into place; an existing run or other
-    non-empty folder at ``out_dir`` is refused unless ``force``. Returns ``out_dir``."""
-    from catpose import atomic
-    from catpose.bench.run.overwrite import check_output
-
-    out = Path(out_dir)
-    check_output(out, "folder", force=force, replaces="run")
-    with atomic.building_dir(out) as tmp:
-        write_run_into(tmp, rows, config, info)
-    return out
-
-
 def write_run_into(out: Path, rows: Sequence[dict], config: dict, info: dict | None = None) -> None:
-    """The files of :func:`write_run` into the existing, empty folder ``out``."""
+    """A run directory's files (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries) from
+    ``rows`` (the ``samples.jsonl`` schema) and ``config`` (a plain dict with ``method``, ``dataset``,
+    ``protocol`` nodes and ``seed``) into the existing, empty folder ``out``."""
     from omegaconf import OmegaConf
 
     from catpose import atomic
