@@ -143,8 +143,8 @@ def target_errors(run_dir: str | Path):
     import pandas as pd
 
     from catpose.bench.run.evaluate import load_protocol, recompute_row_errors
-    from catpose.bench.run.rundir import latest_rows
     from catpose.bench.run.run_meta import read_config
+    from catpose.bench.run.rundir import latest_rows
     from catpose.disk_cache import cache_dir
 
     run_dir = Path(run_dir)
