@@ -8,8 +8,7 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
-from catpose.bench.protocols.absolute import Templates
-from catpose.bench.protocols.template_rows import choose_row
+from catpose.bench.protocols.absolute import Templates, choose_row
 from catpose.errors import ConfigError
 from catpose.methods.choice_rules import AGREE_DEG, FUSE_RULES, TURN_RULES, ChoiceRule, fuse_agreeing
 

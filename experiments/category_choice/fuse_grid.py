@@ -34,7 +34,7 @@ def chosen(samples, fuse_deg: float | None, top_weight: float | None = None):
     ``fuse_deg`` degrees (``fused``) unless None."""
     import pandas as pd
 
-    from catpose.bench.protocols.template_rows import choose_row
+    from catpose.bench.protocols.absolute import choose_row
 
     rule = "cross_top_turns" if fuse_deg is None else "fused"
     return pd.DataFrame(

@@ -42,7 +42,7 @@ def chosen_errors(samples, turns: tuple[float, ...] | None, weight: float) -> np
     template and no turns: each view's own estimate."""
     import pandas as pd
 
-    from catpose.bench.protocols.template_rows import choose_row
+    from catpose.bench.protocols.absolute import choose_row
     from catpose.bench.scoring.curves import scored_errors
 
     rule = "cross_top" if not turns else "cross_top_turns"
