@@ -44,7 +44,7 @@ def test_case_01_perf_out_follows_the_output_rule(tmp_path, capsys):
 
 
 def test_case_02_score_force_never_replaces_a_run_being_written(tmp_path, capsys):
-    from catpose.bench.run.lock import RunLock
+    from catpose.bench.run.rundir import RunLock
 
     gt = write_run(tmp_path / "gt", rows([5.0, 10.0]), CFG)
     busy = write_run(tmp_path / "busy", rows([1.0]), CFG)
