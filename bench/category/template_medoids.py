@@ -238,16 +238,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--instances", default=None, help="comma-separated instance ids (default: the split's)")
     ap.add_argument("--points", type=int, default=2048, help="points per cloud")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", required=True, help="YAML to write (e.g. <dir>/templates/<dataset>_<category>.yaml)")
-    ap.add_argument(
-        "--force",
-        action="store_true",
-        help="update an existing --out (a file of bench templates: its other categories stay)",
+    from catpose.bench.run.overwrite import Output, add_output_options
+
+    add_output_options(
+        ap,
+        "YAML to write (e.g. <dir>/templates/<dataset>_<category>.yaml)",
+        force_help="update an existing --out (a file of bench templates: its other categories stay)",
     )
     args = ap.parse_args(argv)
     check_options(args)
-    from catpose.bench.run.overwrite import Output
-
     out = Output(args.out, "file", (), args.force, example="templates.yaml")  # before any work
     if Path(args.out).is_file():
         read_templates_yaml(args.out)  # its own kind of file only, refused before the distances are computed
