@@ -297,21 +297,16 @@ def _template_index(sample_id: Any, position: int) -> int:
     return int(k) if sep and k.isdigit() else position
 
 
-def choose_row(
-    group, choice: str | ChoiceRule = DEFAULT_RULE, top_weight: float | None = None, fuse_deg: float | None = None
-):
+def choose_row(group, choice: str | ChoiceRule = DEFAULT_RULE):
     """The row (a pandas Series) one view keeps among its registrations (``group``: the view's rows
     of ``samples.jsonl`` as a DataFrame, one per template) under ``choice`` (a rule name, with its
-    default weights, or a :class:`~catpose.methods.choice_rules.ChoiceRule`); ``top_weight``:
-    another weight of the top offset than the rule's, ``fuse_deg``: another agreement angle for
-    ``fused`` (the development grids). A turn or a fused pose replaces the row's ``T_est`` and errors.
+    default weights, or a :class:`~catpose.methods.choice_rules.ChoiceRule`). A turn or a fused pose
+    replaces the row's ``T_est`` and errors.
 
     Raises:
         ConfigError: the rule needs facts the rows do not store (written before them).
     """
-    rule = as_rule(choice).with_offset_weight(top_weight)
-    if fuse_deg is not None and rule.rule == "fused":
-        rule = dataclasses.replace(rule, agree_deg=float(fuse_deg))
+    rule = as_rule(choice)
     kept = choose(estimates_of(group), rule)
     row = group.iloc[kept.position]
     if kept.turn_deg is None and kept.fused_templates is None:
