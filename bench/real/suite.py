@@ -310,18 +310,14 @@ def main(argv: list[str]) -> int:
     table = format_table(results, columns(results, whole_sets), methods, skipped, notes)
     print(table)
     from catpose import atomic
+    from catpose.bench.real.suite_table import object_tables
 
-    if args.write:
-        with outs["--write"].writing() as path:
-            atomic.write_text(path, table + "\n")
-    if args.headline:
-        with outs["--headline"].writing() as path:
-            atomic.write_text(path, format_table(results, whole_sets, methods, skipped, notes) + "\n")
-    if args.objects:
-        from catpose.bench.real.suite_table import object_tables
-
-        with outs["--objects"].writing() as path:
-            atomic.write_text(
-                path, object_tables(results, suite_sets, [s for s in sets if s not in skipped], methods) + "\n"
-            )
+    texts = {  # the headline: the whole sets only (no split-part columns)
+        "--write": lambda: table,
+        "--objects": lambda: object_tables(results, suite_sets, whole_sets, methods),
+        "--headline": lambda: format_table(results, whole_sets, methods, skipped, notes),
+    }
+    for flag, out in outs.items():
+        with out.writing() as path:
+            atomic.write_text(path, texts[flag]() + "\n")
     return 0
