@@ -9,9 +9,8 @@ clouds (Tatarchenko et al., "What do single-view 3D reconstruction networks lear
 
 PAM (:func:`pam`, BUILD then best swaps, in NumPy) picks the K medoids; scikit-learn's
 silhouette score over the same precomputed distances is reported for every K (``--k auto`` takes
-the best). The instances
-must be in one frame: a dataset whose frames are not declared consistent (raw ModelNet40) is
-refused unless it has an alignment table (``results/alignment/``)::
+the best). The instances must be in one frame: a dataset whose frames are not declared consistent
+(raw ModelNet40) is refused unless it has an alignment table (``results/alignment/``)::
 
     bench templates dataset=modelnet40_resampled dataset.root=/data/modelnet40_normal_resampled \
         dataset.alignment_table=results/alignment/modelnet40_resampled_chair.csv \
@@ -24,8 +23,6 @@ merges into the dataset's templates::
 
     bench run method=ours dataset=modelnet40 protocol=templates +templates=<name> \
         hydra.searchpath=[file://<dir>]
-
-Nothing is written into the installed package: ``--out`` is required.
 """
 
 from __future__ import annotations

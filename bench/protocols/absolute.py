@@ -5,13 +5,9 @@ scored on the same problems (fixed by dataset, protocol and seed alone).
 - ``gt_model``: each partial view against its own complete model.
 - ``templates``: each view against each of the category's K templates (one problem each, sample id
   ``<obs_id>|<k>``); the estimate of a view is the one the method side's choice keeps without
-  ground truth (``choice=<rule>``, :mod:`catpose.methods.template_choice`): the runner stores the
-  choice's facts in each row's ``info`` after the registration (``cross_costs``, ``top_offset``,
-  ``turns``), and :func:`choose_row` applies the same rule
-  (:func:`catpose.methods.choice_rules.choose`) to what the rows store, no registration running
-  here; the kept row carries the kept pose (a turn or a fused pose: its ``T_est`` and errors
-  replaced, ``info["turn_deg"]``, ``info["fused_templates"]``). The paper's "minimum error across
-  templates" is reported beside it as an oracle.
+  ground truth (``choice=<rule>``, :mod:`catpose.methods.template_choice`), applied by
+  :func:`choose_row` to the facts the runner stored in the rows (no registration runs here), and
+  the paper's "minimum error across templates" is reported beside it as an oracle.
 - ``relative`` (:mod:`catpose.bench.protocols.relative`): relative pose between two views of one object.
 """
 
@@ -300,8 +296,9 @@ def _template_index(sample_id: Any, position: int) -> int:
 def choose_row(group, choice: str | ChoiceRule = DEFAULT_RULE):
     """The row (a pandas Series) one view keeps among its registrations (``group``: the view's rows
     of ``samples.jsonl`` as a DataFrame, one per template) under ``choice`` (a rule name, with its
-    default weights, or a :class:`~catpose.methods.choice_rules.ChoiceRule`). A turn or a fused pose
-    replaces the row's ``T_est`` and errors.
+    default weights, or a :class:`~catpose.methods.choice_rules.ChoiceRule`), applied to the facts the
+    runner stored in each row's ``info`` (``cross_costs``, ``top_offset``, ``turns``). A turn or a
+    fused pose replaces the row's ``T_est`` and errors (``info["turn_deg"]``, ``info["fused_templates"]``).
 
     Raises:
         ConfigError: the rule needs facts the rows do not store (written before them).

@@ -2,13 +2,9 @@
 and BOP's average recall (AR).
 
 ``bench suite`` and ``bench table`` show BOP's AR beside mean / median / @10 for runs on BOP-layout
-data (real YCB-V, TYO-L, ``dataset=clutter``). They compute it with the code ``bench score``
-uses on a BOP results CSV (:func:`catpose.bench.scoring.bop_eval.compute_errors`, then
-:func:`~catpose.bench.scoring.bop_eval.metric_value`): this module turns a run's scoring units
-into the estimates ``bench export`` writes (:func:`predictions_from_units`), names the evaluation
-models (:func:`evaluation_models`, ``bench score``'s rule), computes a run's per-target errors
-(:func:`target_errors`) and reads AR and its parts off them (:func:`ar_scores`). A test checks
-the figures against ``bench export`` + ``bench score``.
+data (real YCB-V, TYO-L, ``dataset=clutter``), computed with the code ``bench score`` uses on a
+BOP results CSV (:mod:`catpose.bench.scoring.bop_eval`); a test checks the figures against
+``bench export`` + ``bench score``.
 
 AR is BOP'19's: the mean of AR_VSD (taus 5-50 mm, thresholds 0.05-0.5), AR_MSSD (0.05-0.5 of the
 diameter) and AR_MSPD (5-50 px at 640 wide), each a mean recall over its thresholds; a target
