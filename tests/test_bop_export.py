@@ -13,7 +13,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from _trust import write_run
 
 from catpose.bench.interop import score as score_cmd
 from catpose.bench.interop.bop_export import export_bop
@@ -25,6 +24,7 @@ from catpose.errors import InvalidInputError
 from catpose.geometry import make_T
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _trust import write_run  # noqa: E402
 from test_loaders_bop import T_camera_model, bop_root  # noqa: E402, F401  (the rendered scene fixture)
 
 CFG = {

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
-from _trust import write_run
 
 from catpose.bench.interop import score as score_cmd
 from catpose.bench.interop.bop_export import export_bop
@@ -16,6 +16,9 @@ from catpose.bench.interop.prediction_io import read_predictions
 from catpose.bench.interop.prediction_match import score_predictions
 from catpose.errors import InvalidInputError
 from catpose.geometry import axis_angle_to_R, make_T, random_rotation
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _trust import write_run  # noqa: E402
 
 
 def _rows(info_fn=lambda i: {}) -> list[dict]:
