@@ -30,11 +30,34 @@ from __future__ import annotations
 import argparse
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from catpose.datasets.views import subsample
 from catpose.errors import ConfigError, DatasetError
+
+
+def instance_ids(dataset: Any, category: str, split: str | None = None) -> list[str]:
+    """Instance ids of ``category`` in ``split`` (None: the dataset's own split), no duplicates: the
+    instances the category tools work on (``bench templates``, ``experiments/alignment/align.py``).
+
+    Datasets say it in three ways, tried in this order: ``dataset.instance_ids(category, split)``
+    (ModelNet40 from OFF files); ``dataset.split_ids(split)`` with
+    ``dataset.category_of_instance(id)`` (ModelNet40 resampled: one split file for every category);
+    otherwise the instances observed in ``dataset.observation_ids()``, in order, each read from its
+    observation (``Observation.instance_id``), for datasets without splits (the synthetic set, BOP
+    scenes), where ``split`` does not apply.
+    """
+    if hasattr(dataset, "instance_ids"):
+        return list(dataset.instance_ids(category, split))
+    if hasattr(dataset, "split_ids"):
+        return [i for i in dataset.split_ids(split) if dataset.category_of_instance(i) == category]
+    ids: dict[str, None] = {}
+    for obs_id in dataset.observation_ids():
+        if dataset.category_of(obs_id) == category:
+            ids.setdefault(str(dataset.observation(obs_id).instance_id))
+    return list(ids)
 
 
 def fscore(P: np.ndarray, Q: np.ndarray, tau: float) -> float:
@@ -230,7 +253,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--split",
         default="train",
-        help="which instances to cluster (datasets with splits; catpose.bench.category.instances)",
+        help="which instances to cluster (datasets with splits; template_medoids.instance_ids)",
     )
     ap.add_argument("--instances", default=None, help="comma-separated instance ids (default: the split's)")
     ap.add_argument("--points", type=int, default=2048, help="points per cloud")
@@ -250,7 +273,6 @@ def main(argv: list[str] | None = None) -> int:
     if args.k != "auto" and not args.k.isdigit():
         raise ConfigError(f"--k {args.k!r} is not a positive integer or 'auto'")
     k = args.k if args.k == "auto" else int(args.k)
-    from catpose.bench.category.instances import instance_ids
     from catpose.bench.protocols.absolute import require_consistent_frames
     from catpose.bench.run.config import compose, compose_and_build
 
