@@ -13,10 +13,10 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _study import study_module  # noqa: E402
+from _trust import write_run  # noqa: E402
 from test_bad_inputs_round2 import TEMPLATES_CFG, templates_rows  # noqa: E402
 from test_template_choice import view_rows  # noqa: E402
 
-from catpose.bench.run.rundir import write_run  # noqa: E402
 from catpose.methods.choice_rules import RULES  # noqa: E402
 
 pytestmark = pytest.mark.experiment

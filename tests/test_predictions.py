@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,9 +15,11 @@ from catpose.bench.interop import score as score_cmd
 from catpose.bench.interop.bop_export import export_bop
 from catpose.bench.interop.prediction_io import read_predictions
 from catpose.bench.interop.prediction_match import score_predictions
-from catpose.bench.run.rundir import write_run
 from catpose.errors import InvalidInputError
 from catpose.geometry import axis_angle_to_R, make_T
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _trust import write_run  # noqa: E402
 
 
 def _rows(info_fn=lambda i: {}) -> list[dict]:
