@@ -78,7 +78,8 @@ def test_category_table_one_template_row_takes_the_runs_turn_rule_where_turns_we
 
 
 def test_a_view_on_fewer_templates_than_its_K_is_said(ct, tmp_path, capsys):
-    run = write_run(tmp_path / "run", templates_rows(n_views=1, k=3, present=2), TEMPLATES_CFG)  # limit=2
+    cfg = dict(TEMPLATES_CFG, choice={"name": "score", "rule": "score"})
+    run = write_run(tmp_path / "run", templates_rows(n_views=1, k=3, present=2), cfg)  # limit=2
     assert ct.main([str(run)]) == 0
     out, err = capsys.readouterr()
     row = next(ln for ln in out.splitlines() if ln.startswith("| 3 |"))  # K = 3, not 2
