@@ -172,7 +172,7 @@ def test_depth_problems_register_one_by_one_in_a_batch(template):
 
 
 def test_a_winner_turned_half_way_round_meets_its_half_turn_and_loses(template):
-    """Step 4 (``depth_final_turns``): a winner that is the truth turned 180 deg about the up meets
+    """Step 4 (the last comparison): a winner that is the truth turned 180 deg about the up meets
     its half turns; the one about the up comes back to the truth after the refinement and costs
     less on the final lattice. The truth itself stays."""
     from catpose.methods.ours import check, choice

@@ -12,7 +12,9 @@
 # grid_keep), were dropped here: issue22, grid12_turns, grid12, grid12_prior, issue44_tpl512,
 # issue44_escalate, yaw_beam32_first5, grid_keep12, sel_polish3, sel_polish2_small, sel_distinct*,
 # fit_ratio*, and polish / distinct10 / ratio* of the embedded tables. Their lines in the results tables
-# were written by this script at commit 9c64f33, which reruns them (`git checkout 9c64f33`).
+# were written by this script at commit 9c64f33, which reruns them (`git checkout 9c64f33`). The count of
+# half turns at the end (depth_final_turns) became a constant later: issue44_final3, sel_final_turns0,
+# sel_final_turns3 and sel_final_refine3_turns3 went the same way (rerun them at 02fb724).
 set -euo pipefail
 PY=${PY:-.venv/bin/python}
 OUT=${OUT:-outputs/search_recall}
@@ -36,7 +38,6 @@ S0="resting.grid_shift=0.0"
 declare -A V=(
   [grid12_beam24]="$OLD resting.grid_icp=\"full\" resting.grid_yaws=12 resting.grid_beam=24"
   [issue44]="$OLD $ISSUE44"
-  [issue44_final3]="$OLD $ISSUE44 selection.depth_final_turns=3"
   [yaw_beam16]="$OLD $YAW resting.grid_beam=16"
   [yaw_beam24]="$OLD $YAW resting.grid_beam=24"
   [yaw_beam32]="$OLD $YAW"
@@ -44,7 +45,6 @@ declare -A V=(
   [union]="$OLD"  # issue 44's coarse search as landed (grid_icp union, beam 32), the selection before
   # the selection around its defaults, after issue 44's coarse search
   [sel_final_pixels300]="$OLD selection.depth_final_pixels=300"
-  [sel_final_turns0]="$OLD selection.depth_final_turns=0"
   [sel_top_k8]="$OLD selection.depth_top_k=8"
   [sel_tau0125]="$E0 $FREE1 selection.depth_tau=0.125"
   [sel_tau015]="$E0 $FREE1 selection.depth_tau=0.15"
@@ -53,8 +53,6 @@ declare -A V=(
   [sel_free2_tau015]="$E0 selection.depth_free_weight=2.0 selection.depth_tau=0.15"  # the choice then (README.md)
   # around the tolerance's defaults
   [sel_final_refine3]="$E0 selection.depth_final_refine=3"
-  [sel_final_turns3]="$E0 selection.depth_final_turns=3"
-  [sel_final_refine3_turns3]="$E0 selection.depth_final_refine=3 selection.depth_final_turns=3"
   # the poor-fit test on the whole mask, or no fallback at all
   [whole_mask]="$E0"  # the defaults before the poor-fit test counted the mask's inner pixels
   [no_fallback]="selection.depth_min_inliers=0.0"
@@ -81,10 +79,10 @@ declare -A V=(
 for v in "${!V[@]}"; do
   case $v in shift*|default) ;; *) V[$v]="${V[$v]} $S0" ;; esac
 done
-ORDER=(grid12_beam24 issue44 issue44_final3
+ORDER=(grid12_beam24 issue44
   yaw_beam16 yaw_beam24 yaw_beam32 yaw_grid12_beam24 union
-  sel_final_pixels300 sel_final_turns0 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015
-  sel_final_refine3 sel_final_turns3 sel_final_refine3_turns3 whole_mask no_fallback
+  sel_final_pixels300 sel_top_k8 sel_tau0125 sel_tau015 sel_tau02 sel_free2 sel_free2_tau015
+  sel_final_refine3 whole_mask no_fallback
   inner3_t90 inner6_t90 inner3_t98 inner2_t98 inner4_t98 final_pixels4800 final_pixels7200 final_pixels9600
   final_pixels19200 no_shift shift03 shift05 shift07 shift10 default)
 variants() {  # $1: problems pickle, $2: folder of the per-sample lines, then the variants (rows of V)

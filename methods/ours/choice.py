@@ -15,7 +15,7 @@ distance: :func:`dictionary_pool`), and the coarse search over every stable rest
 3. Those are refined on the depth image's mask pixels of the final lattice against a fixed sample
    of the template's mesh (:func:`catpose.methods.ours.refine.final_inputs`: points no seed
    draws) and scored again on the final lattice (``depth_final_pixels``); the lowest cost wins.
-4. With ``depth_final_turns``, the winner meets the one of its three half turns about the
+4. The winner meets the one of its three half turns about the
    template's axes that the coarse lattice scores best (of those gravity allows), refined as in
    step 3 and compared on the final lattice: a near-symmetric object's half turn explains
    the image almost as well as the truth, and the coarse lattice of step 2 often drops the right
@@ -138,13 +138,11 @@ def select_by_depth(
     timings["verification"] += time.perf_counter() - t0
 
     # step 4: the winner against its own half turns on the final lattice
-    final_turn = 0
     compared = (T_top, np.where(top_keep, top_cost, np.inf))  # every pose scored on the final lattice
-    if sel.depth_final_turns > 0:
-        T_out, score, rest, final_turn, turned = against_half_turns(
-            sel, fixed, (coarse, verifier), T_out, score, rest, gravity, timings
-        )
-        compared = (np.concatenate([compared[0], turned[0]]), np.concatenate([compared[1], turned[1]]))
+    T_out, score, rest, final_turn, turned = against_half_turns(
+        sel, fixed, (coarse, verifier), T_out, score, rest, gravity, timings
+    )
+    compared = (np.concatenate([compared[0], turned[0]]), np.concatenate([compared[1], turned[1]]))
     second = runner_up(T_out, score, *compared, axis)
     t0 = time.perf_counter()
     fit = verifier.fits(T_out[None], (verifier.tau,))[0, 0]  # the whole mask
@@ -318,8 +316,8 @@ def against_half_turns(
     none = (np.zeros((0, 4, 4)), np.zeros(0))
     if not keep.any():
         return T_win, score, rest, 0, none
-    best = [int(t) for t in np.argsort(np.where(keep, cost, np.inf), kind="stable")[: int(sel.depth_final_turns)]]
-    best = [t for t in best if keep[t]]
+    # one turn: three measured the same (docs/choosing-defaults.md); the gravity filter mostly keeps one
+    best = [int(np.argmin(np.where(keep, cost, np.inf)))]
     t0 = time.perf_counter()
     T_turn = T_turns[best]
     if sel.refine:  # each refined on the fixed points, and as it was (ICP can make a right pose worse)

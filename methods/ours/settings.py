@@ -81,9 +81,6 @@ class SelectionSettings:
             (against a fixed sample of the mesh: no seed draws them) and compared on that
             lattice at the end.
         depth_final_pixels: ``depth``: lattice pixels in the mask of the last comparisons.
-        depth_final_turns: ``depth``: the winner meets this many of its half turns about the
-            template's axes (those the coarse lattice scores best), each refined as the
-            ``depth_final_refine`` poses and compared on the final lattice (0: none; true / false read as 1 / 0).
         depth_min_inliers: ``depth``: when the winner explains fewer of the mask's inner pixels
             than this, the template is taken to be unlike the object and the ``chamfer`` rule
             chooses among the candidates of the template's own up instead.
@@ -101,7 +98,6 @@ class SelectionSettings:
     depth_top_k: int = 5
     depth_final_refine: int = 2
     depth_final_pixels: int = 2400
-    depth_final_turns: int = 1
     depth_min_inliers: float = 0.95
     depth_fit_erode_px: int = 3
 
@@ -120,9 +116,6 @@ class SelectionSettings:
             raise ConfigError(f"{k}gravity_max_deg={g!r} must be a number of degrees or null (off)")
         set_(self, "gravity_max_deg", None if g is None or g <= 0 else float(g))
         set_(self, "refine", options.flag(k + "refine", self.refine))
-        turns = self.depth_final_turns
-        turns = int(turns) if isinstance(turns, bool) else turns  # true / false: 1 / 0 (the key was a flag)
-        set_(self, "depth_final_turns", options.non_negative(k + "depth_final_turns", turns, integer=True))
 
 
 @dataclass(frozen=True)
