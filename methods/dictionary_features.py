@@ -24,8 +24,7 @@ from catpose.methods.descriptors import Descriptor
 from catpose.methods.dictionary import DictionaryLayout
 from catpose.types import Template
 
-#: templates whose dictionary features stay in memory (LPS: ~25 MB each); ours' gravity hypotheses
-#: turn a template into up to four (methods/ours/resting.py), each with its own entry
+#: templates whose dictionary features stay in memory (LPS: ~25 MB each)
 CACHE_SIZE = 32
 
 _CACHE: LRUCache[tuple, DictionaryFeatures] = LRUCache(CACHE_SIZE)

@@ -177,15 +177,14 @@ def test_a_winner_turned_half_way_round_meets_its_half_turn_and_loses(template):
     less on the final lattice. The truth itself stays."""
     from catpose.methods.ours import check, choice
     from catpose.methods.ours.refine import final_inputs
-    from catpose.methods.ours.resting import hypotheses
+    from catpose.methods.ours.resting import ups
 
     method = _ours()
     sel = method.selection
     p, T_true = scene_problem(template, 1)
-    hyps = list(hypotheses(template, RestingSettings(max_poses=0)))
     verifiers = (check.depth_verifier(sel, p), check.final_verifier(sel, p))
     fixed = final_inputs(verifiers[1], template)
-    gravity = (p.ground_normal_camera, np.stack([h.up for h in hyps]), None)
+    gravity = (p.ground_normal_camera, ups(template, RestingSettings(max_poses=0)), None)
     T_flip = compose_T(make_T(np.diag([-1.0, -1.0, 1.0]), np.zeros(3)), T_true)  # 180 deg about the template's z
     timings = {"verification": 0.0, "refinement": 0.0}
     for T_win, turn in ((T_flip, 3), (T_true, 0)):

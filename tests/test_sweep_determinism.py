@@ -44,27 +44,6 @@ def test_the_template_caches_key_on_content_not_on_the_id():
     np.testing.assert_array_equal(_template_top(b, 0.1), _template_top(dataclasses.replace(b), 0.1))
 
 
-def test_the_resting_hypotheses_carry_this_templates_points():
-    """The turned templates of the resting hypotheses are cut from this template's points, even
-    when another template of the same mesh (another seed's sample of it) was seen first."""
-    from catpose.methods.ours.resting import hypotheses
-    from catpose.methods.ours.settings import RestingSettings
-
-    box = np.array([[x, y, z] for x in (-1, 1) for y in (-0.5, 0.5) for z in (-0.2, 0.2)], float)
-    faces = np.array(
-        [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4]]
-        + [[1, 5, 7], [1, 7, 3]]
-    )
-    settings = RestingSettings()
-    out = []
-    for seed in (0, 1):
-        t = dataclasses.replace(_template(seed), vertices=box, triangles=faces)
-        out.append((t, hypotheses(t, settings)))
-    for t, hyps in out:
-        for h in hyps:
-            np.testing.assert_allclose(h.template.points, t.points @ h.R_turned_template.T)
-
-
 def _seed2_rows(root: Path, out_root: Path, cache: Path, seeds: str) -> list[dict]:
     """The ``samples.jsonl`` rows of seed 2 after ``bench run [-m] seed=<seeds>`` in a fresh process."""
     one = ["method=ours", "dataset=bop", f"dataset.root={root}", "progress=false", "print_summary=false"]

@@ -7,7 +7,7 @@ module                 stage
 ``settings``           the typed option groups (``configs/method/ours.yaml``)
 ``candidates``         what the stages hand each other (features, candidates)
 ``solver``             solving every dictionary candidate (``irls``, ``irls_kernel``; ``adam``)
-``resting``            the resting directions of the template (gravity hypotheses)
+``resting``            the resting directions of the template
 ``rest_search``        the coarse search over every resting pose x yaw
 ``check``              the occlusion-aware depth check (``check_kernel``: its compiled costs)
 ``choice``             the choice among the pool by the depth check, with refinement

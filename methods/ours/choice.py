@@ -45,7 +45,6 @@ from catpose.methods.ours.candidates import Candidates, TemplateFeatures
 from catpose.methods.ours.check import DepthVerifier, final_verifier
 from catpose.methods.ours.point_choice import chamfer_distances, finish
 from catpose.methods.ours.refine import final_inputs, refine_poses
-from catpose.methods.ours.resting import Hypothesis
 from catpose.methods.ours.settings import SelectionSettings
 from catpose.methods.pose_scores import REACH_DEG, half_turns
 from catpose.types import RegistrationProblem, RegistrationResult
@@ -264,28 +263,23 @@ def stage_lists(**stages: np.ndarray) -> dict[str, list]:
 def dictionary_pool(
     sel: SelectionSettings,
     problem: RegistrationProblem,
-    hyps: list[Hypothesis],
-    cands: list[Candidates],
-    feats: list[TemplateFeatures],
-    ups: np.ndarray,
+    cands: Candidates,
+    feats: TemplateFeatures,
+    up: np.ndarray,
 ) -> np.ndarray:
-    """(P, 4, 4) template-frame poses of the dictionary candidates of ``hyps`` (parallel lists with
-    ``cands`` and ``feats``): per hypothesis, those the gravity filter keeps (tilt against its up;
-    all of them when none passes), the :data:`PRESCREEN` of lowest one-directional Chamfer
-    distance among them."""
-    g, axis = problem.ground_normal_camera, problem.template.symmetry_axis
-    out = []
-    for k, (h, c, f) in enumerate(zip(hyps, cands, feats)):
-        keep = np.ones(len(c.T), dtype=bool)
-        if sel.gravity_max_deg is not None:
-            keep &= tilts_deg(h.to_template(c.T), g, ups[k : k + 1], axis)[:, 0] <= sel.gravity_max_deg
-            keep = keep if keep.any() else np.ones(len(c.T), dtype=bool)
-        kept = np.nonzero(keep)[0]
-        if 0 < PRESCREEN < len(kept):
-            dists = chamfer_distances(f.tree, c.chamfer_src, c.T[kept], f.truncated)
-            kept = np.sort(kept[np.argsort(dists, kind="stable")[:PRESCREEN]])
-        out.append(h.to_template(c.T[kept]))
-    return np.concatenate(out) if out else np.zeros((0, 4, 4))
+    """(P, 4, 4) template-frame poses of the dictionary candidates ``cands``: those the gravity
+    filter keeps (tilt against the template's up ``up`` (3,); all of them when none passes), the
+    :data:`PRESCREEN` of lowest one-directional Chamfer distance (``feats``) among them."""
+    keep = np.ones(len(cands.T), dtype=bool)
+    if sel.gravity_max_deg is not None:
+        g, axis = problem.ground_normal_camera, problem.template.symmetry_axis
+        keep &= tilts_deg(cands.T, g, up[None], axis)[:, 0] <= sel.gravity_max_deg
+        keep = keep if keep.any() else np.ones(len(cands.T), dtype=bool)
+    kept = np.nonzero(keep)[0]
+    if 0 < PRESCREEN < len(kept):
+        dists = chamfer_distances(feats.tree, cands.chamfer_src, cands.T[kept], feats.truncated)
+        kept = np.sort(kept[np.argsort(dists, kind="stable")[:PRESCREEN]])
+    return cands.T[kept]
 
 
 def against_half_turns(

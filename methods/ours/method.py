@@ -94,19 +94,16 @@ class Ours(RegistrationMethod):
             return self._point_choice(problem, self.candidates(problem, timings), timings)
         sel = self.selection
         t0 = time.perf_counter()
-        hyps = resting.hypotheses(problem.template, self.resting)
-        ups = np.stack([h.up for h in hyps])
+        ups = resting.ups(problem.template, self.resting)
         timings["hypotheses"] = time.perf_counter() - t0
         cands = self.candidates(problem, timings)  # the dictionary's, on the template's own up
         feats = self.template_features(problem.template)
         verifier = check.depth_verifier(sel, problem)  # one per problem: every stage below shares it
         searched = rest_search.search(problem, ups, cands, feats, verifier, self.resting, timings)
-        pool = np.concatenate([choice.dictionary_pool(sel, problem, hyps[:1], [cands], [feats], ups), searched])
+        pool = np.concatenate([choice.dictionary_pool(sel, problem, cands, feats, ups[0]), searched])
         ups = ups if len(searched) else ups[:1]  # without the resting-pose search, the own up only
         result = choice.select_by_depth(sel, problem, pool, cands, feats, ups, timings, verifier)
-        stages = choice.stage_lists(
-            candidates=hyps[0].to_template(cands.T), **({"rest_grid": searched} if len(searched) else {}), pool=pool
-        )
+        stages = choice.stage_lists(candidates=cands.T, **({"rest_grid": searched} if len(searched) else {}), pool=pool)
         extras = dict(result.extras, hypothesis_stages={**stages, **result.extras["hypothesis_stages"]})
         return choice.poor_fit(sel, problem, replace(result, extras=extras), cands, feats, verifier, timings)
 
@@ -150,10 +147,10 @@ class Ours(RegistrationMethod):
 
     def prepare_template(self, template: Template) -> None:
         """Build the per-template data now instead of on the first registration: the dictionary's
-        features of the template and of each of its resting directions (the disk cache's) and the
-        depth check's ray caster of its mesh."""
-        for h in resting.hypotheses(template, self.resting):
-            self.template_features(h.template)
+        features of the template (the disk cache's), its resting directions and the depth check's
+        ray caster of its mesh."""
+        self.template_features(template)
+        resting.ups(template, self.resting)
         if template.has_mesh and self.selection.rule == "depth":
             check.caster_for(template)
 
