@@ -185,7 +185,7 @@ def solve_numpy(
     dtype: str = "float64",
     compiled: bool | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`solve` for one problem's ``m`` candidates from NumPy arrays.
+    """:func:`solve` for one problem's ``m`` candidates from NumPy arrays (torch: :func:`solve_many`).
 
     Args:
         P_c: (n, 3) input keypoints (camera frame); P_t: (m, 2n, 3) partial-template keypoints;
@@ -221,26 +221,8 @@ def solve_numpy(
 
         parts = kernel_threads.split(run, len(R))
         loss, C, iters = (np.concatenate([p[k] for p in parts]) for k in range(3))
-        U, _, Vt = np.linalg.svd(R)
-        T = np.tile(np.eye(4), (len(R), 1, 1))
-        T[:, :3, :3], T[:, :3, 3] = U @ Vt, t
-        return T, loss / len(P_c), C, iters
-    import torch
-
-    dev, dt = torch.device(device), getattr(torch, dtype)
-
-    def tens(a):
-        return torch.as_tensor(np.ascontiguousarray(a), dtype=dt, device=dev)
-
-    m = len(P_t)
-    P = tens(P_c)[None].expand(m, -1, -1)
-    res = solve(P, tens(P_t), tens(A), tens(T0[:, :3, :3]), tens(T0[:, :3, 3]), stages, beta, max_iter, tol)
-    return (
-        to_poses(res.R, res.t),
-        res.loss.double().cpu().numpy() / len(P_c),
-        res.C.double().cpu().numpy(),
-        res.iterations.cpu().numpy(),
-    )
+        return to_poses(R, t), loss / len(P_c), C, iters
+    return solve_many([(P_c, P_t, A, T0)], stages, beta, max_iter, tol, device, dtype)[0]
 
 
 def _kernel():
@@ -307,10 +289,10 @@ def solve_many(
 
 
 def to_poses(R, t) -> np.ndarray:
-    """(B, 4, 4) float64 poses from torch R (B, 3, 3), t (B, 3), rotations re-orthonormalised in
-    float64 so pose validation accepts float32 results."""
-    R = R.double().cpu().numpy()
+    """(B, 4, 4) float64 poses from R (B, 3, 3), t (B, 3) (NumPy arrays or torch tensors),
+    rotations re-orthonormalised in float64 so pose validation accepts float32 results."""
+    R, t = (a.double().cpu().numpy() if hasattr(a, "cpu") else np.asarray(a, dtype=np.float64) for a in (R, t))
     U, _, Vt = np.linalg.svd(R)
     T = np.tile(np.eye(4), (len(R), 1, 1))
-    T[:, :3, :3], T[:, :3, 3] = U @ Vt, t.double().cpu().numpy()
+    T[:, :3, :3], T[:, :3, 3] = U @ Vt, t
     return T

@@ -67,13 +67,9 @@ def optimise(
     if mode == "joint":
         stages.append(("joint", opt.steps_joint))
     final, logits = optimize(prob, r6, t, stages, opt.lr)
+    from catpose.methods.ours.irls import to_poses
+
     with torch.no_grad():
-        R = _rot6d(r6)[0].cpu().double().numpy()
-        tt = t.cpu().double().numpy()
+        T = to_poses(_rot6d(r6)[0], t)
         C = A if logits is None else torch.softmax(logits, dim=2).cpu().double().numpy()
-    # re-orthonormalise in float64 so validate_pose accepts the result
-    U, _, Vt = np.linalg.svd(R)
-    R = U @ Vt
-    T = np.tile(np.eye(4), (len(R), 1, 1))
-    T[:, :3, :3], T[:, :3, 3] = R, tt
     return T, final.detach().cpu().double().numpy() / n, C
