@@ -3,18 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
-from catpose.methods.ours.check_kernel import pairwise_sum, window_cost, window_fit
-
-
-@pytest.mark.parametrize("n", [0, 1, 7, 8, 9, 15, 16, 127, 128, 129, 130, 255, 256, 1000, 4099, 20000])
-def test_pairwise_sum_is_numpy_sum(n: int) -> None:
-    rng = np.random.default_rng(n)
-    for scale in (1e-3, 1.0, 1e3):
-        a = np.where(rng.random(n) < 0.3, 1.0, rng.random(n) * scale)
-        assert pairwise_sum(a) == a.sum()
-        assert pairwise_sum(a) == np.add.reduce(a)
+from catpose.methods.ours.check_kernel import window_cost, window_fit
 
 
 def numpy_window(o, m, r, tau):
@@ -43,11 +33,9 @@ def windows(seed: int, count: int):
 def test_window_cost_is_the_numpy_form() -> None:
     seen = 0
     for o, m, r, tau in windows(0, 400):
-        got = window_cost(o, m, r, tau)
+        costs, free = window_cost(o, m, r, tau)
         want = numpy_window(o, m, r, tau)
-        assert got[0] == want[0] and got[1:] == want[1:]
-        seen += want[1] > 128
-    assert seen > 50  # the pairwise sum's halving is exercised
+        assert (costs.sum(), len(costs), free) == want
 
 
 def test_window_fit_counts() -> None:
@@ -64,5 +52,5 @@ def test_nan_depth_costs_like_numpy() -> None:
     o = np.array([[1.0, np.nan], [2.0, 0.0]])
     m = np.array([[True, True], [False, False]])
     r = np.array([[1.05, 1.0], [1.0, 1.0]])
-    got, want = window_cost(o, m, r, 0.1), numpy_window(o, m, r, 0.1)
-    assert np.isnan(got[0]) and np.isnan(want[0]) and got[1:] == want[1:] == (2, 1)
+    (costs, free), want = window_cost(o, m, r, 0.1), numpy_window(o, m, r, 0.1)
+    assert np.isnan(costs.sum()) and np.isnan(want[0]) and (len(costs), free) == want[1:] == (2, 1)

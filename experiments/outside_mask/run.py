@@ -39,8 +39,6 @@ import numba
 import numpy as np
 from scipy import ndimage
 
-from catpose.methods.ours.check_kernel import pairwise_sum
-
 #: name -> (ring width in image pixels, evidence weight W (0: the check unchanged), refine on the
 #: ring's pixels too, the check's lattices that read the ring: "all" or "final" (the last comparisons' only))
 VARIANTS = {
@@ -56,7 +54,7 @@ VARIANTS = {
 
 @numba.njit(cache=True, nogil=True)
 def window_cost_ring(o, m, ring, r, tau):  # pragma: no cover - compiled
-    """:func:`catpose.methods.ours.check_kernel.window_cost` (the same bits) and the ring's
+    """:func:`catpose.methods.ours.check_kernel.window_cost` and the ring's
     evidence: the sum over ``ring`` pixels outside ``m`` with ``r > 0``, ``o > 0`` and
     ``|r - o| <= tau`` of ``1 - |r - o| / tau``."""
     h, w = m.shape
@@ -80,7 +78,7 @@ def window_cost_ring(o, m, ring, r, tau):  # pragma: no cover - compiled
                     free += 1
                 elif ring[i, j] and np.abs(rr - oo) <= tau:
                     evidence += 1.0 - np.abs(rr - oo) / tau
-    return pairwise_sum(vals[:count]), count, free, evidence
+    return vals[:count], free, evidence
 
 
 def ring_mask(image_mask: np.ndarray, k: int, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
@@ -138,8 +136,8 @@ def patched(variant: str) -> tuple:
             if win is None:
                 out.append(np.inf)
                 continue
-            mask_cost, in_window, free, evidence = window_cost_ring(L.depth[win], L.mask[win], ring[win], r, self.tau)
-            mask_cost += mask_pixels - in_window
+            costs, free, evidence = window_cost_ring(L.depth[win], L.mask[win], ring[win], r, self.tau)
+            mask_cost = costs.sum() + (mask_pixels - len(costs))
             out.append((mask_cost + self.free_weight * free - weight * evidence) / n_mask)
         return np.asarray(out, dtype=np.float64)
 

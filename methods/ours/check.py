@@ -22,8 +22,7 @@ stride chosen so that the mask has about ``target_pixels`` lattice pixels and a 
 window at most ``max_rays``), casting only inside each hypothesis' window (the projection of the
 template's bounding sphere), all hypotheses in one call of one cached ray-casting scene per
 template (:class:`catpose.raycast.RayCaster`: Open3D ``RaycastingScene``, hits recomputed in
-float64), each window's costs in one compiled call (:mod:`catpose.methods.ours.check_kernel`, the
-NumPy sums' bits). Lengths are in the unit of the depth image and the template (object-normalised).
+float64), each window's costs in one compiled call (:mod:`catpose.methods.ours.check_kernel`). Lengths are in the unit of the depth image and the template (object-normalised).
 """
 
 from __future__ import annotations
@@ -198,8 +197,8 @@ class DepthVerifier:
             if win is None:
                 out.append(np.inf)
                 continue
-            mask_cost, in_window, free = window_cost(L.depth[win], L.mask[win], r, self.tau)
-            mask_cost += mask_pixels - in_window  # mask pixels outside the window: unexplained
+            costs, free = window_cost(L.depth[win], L.mask[win], r, self.tau)
+            mask_cost = costs.sum() + (mask_pixels - len(costs))  # mask pixels outside the window: unexplained
             out.append((mask_cost + self.free_weight * free) / n_mask)
         return np.asarray(out, dtype=np.float64)
 
