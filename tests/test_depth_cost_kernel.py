@@ -31,7 +31,6 @@ def windows(seed: int, count: int):
 
 
 def test_window_cost_is_the_numpy_form() -> None:
-    seen = 0
     for o, m, r, tau in windows(0, 400):
         costs, free = window_cost(o, m, r, tau)
         want = numpy_window(o, m, r, tau)
