@@ -53,12 +53,6 @@ def _target(template: Any) -> tuple[Any, Any, np.ndarray, np.ndarray]:
     return _TARGETS[key]
 
 
-def _cloud(points_camera: np.ndarray):
-    from catpose.o3d import cloud
-
-    return cloud(points_camera)
-
-
 def silhouette_cells(points_camera: np.ndarray, cell: float) -> set[tuple[int, int]]:
     """The image cells (side ``cell`` in normalised image coordinates ``x / z``, ``y / z``) hit by
     ``points_camera`` (N, 3, camera frame); points at or behind the camera centre are left out."""
@@ -144,9 +138,9 @@ class CrossCheck:
         """(4, 4) ``T_template_camera`` refined by point-to-plane ICP of ``points_camera`` (N, 3)
         against ``template`` (single-threaded: Open3D's parallel sums differ run to run); ``source``:
         the view already as an Open3D cloud (built here when None)."""
-        from catpose.o3d import point_to_plane_icp
+        from catpose.o3d import cloud, point_to_plane_icp
 
-        src = _cloud(points_camera) if source is None else source
+        src = cloud(points_camera) if source is None else source
         T = np.asarray(T_template_camera, float)
         return point_to_plane_icp(src, _target(template)[0], self.icp_distance, T, self.icp_iterations)
 
@@ -158,10 +152,11 @@ class CrossCheck:
         of the template it was estimated against (its cost is taken at the estimate unrefined)."""
         from catpose.geometry import invert_T, transform_points
         from catpose.methods.pose_scores import visibility_chamfer
+        from catpose.o3d import cloud
 
         P = np.asarray(points_camera, float)
         T_est = np.asarray(T_template_camera, float)
-        source = _cloud(P) if len(templates) > 1 else None  # one cloud for the K - 1 refinements
+        source = cloud(P) if len(templates) > 1 else None  # one cloud for the K - 1 refinements
         cell = self.silhouette_cell / float(np.median(P[:, 2]))  # the cell's side at the view's depth
         view_cells = silhouette_cells(P, cell)
         out = []
@@ -208,9 +203,11 @@ class CrossCheck:
         -> template ``own``) :func:`turned` about the own template's ``up`` and refined on it
         (:meth:`refine_on`), with its :meth:`cross_costs` and :meth:`top_offset`. Returns dicts
         ``turn_deg``, ``T_template_camera`` (4 x 4 nested lists), ``cross_costs`` (K,), ``top_offset``."""
+        from catpose.o3d import cloud
+
         P = np.asarray(points_camera, float)
         up = np.asarray(templates[own].up, float)
-        source = _cloud(P)
+        source = cloud(P)
         out = []
         for deg in turns_deg:
             # from the estimate rounded to 1e-9, as in cross_costs: its last bits differ between kernels

@@ -191,8 +191,8 @@ def solve_numpy(
         P_c: (n, 3) input keypoints (camera frame); P_t: (m, 2n, 3) partial-template keypoints;
         A: (m, n, 2n) affinities; T0: (m, 4, 4) initial ``T_template_camera``.
         compiled: run the compiled CPU kernel (:mod:`catpose.methods.ours.irls_kernel`, the same
-            steps in float64) instead of torch; None: it on ``cpu`` in float64 when numba
-            imports, torch otherwise. Its candidates are split over the run's ``threads``
+            steps in float64) instead of torch; None: it on ``cpu`` in float64, torch
+            otherwise. Its candidates are split over the run's ``threads``
             (:mod:`catpose.kernel_threads`; the same bits on any count).
 
     Returns:
@@ -203,11 +203,10 @@ def solve_numpy(
         if s not in _STAGE_CODES:
             raise ValueError(f"unknown stage {s!r}; use 'pose' or 'joint'")
     if compiled is None:
-        compiled = device == "cpu" and dtype == "float64" and _kernel() is not None
+        compiled = device == "cpu" and dtype == "float64"
     if compiled:
-        kernel = _kernel()
-        if kernel is None:
-            raise ImportError("the compiled IRLS kernel needs numba; install it (pip install 'numba>=0.60')")
+        from catpose.methods.ours import irls_kernel
+
         R = np.ascontiguousarray(T0[:, :3, :3], dtype=np.float64).copy()
         t = np.ascontiguousarray(T0[:, :3, 3], dtype=np.float64).copy()
         codes = np.array([_STAGE_CODES[s] for s in stages], dtype=np.int64)
@@ -215,7 +214,7 @@ def solve_numpy(
         Q, A64 = np.ascontiguousarray(P_t, dtype=np.float64), np.ascontiguousarray(A, dtype=np.float64)
 
         def run(lo: int, hi: int):  # candidates lo..hi-1 (R, t in place), one by one as in one call
-            return kernel.solve(
+            return irls_kernel.solve(
                 P, Q[lo:hi], A64[lo:hi], R[lo:hi], t[lo:hi], codes, float(beta), int(max_iter), float(tol)
             )
 
@@ -223,15 +222,6 @@ def solve_numpy(
         loss, C, iters = (np.concatenate([p[k] for p in parts]) for k in range(3))
         return to_poses(R, t), loss / len(P_c), C, iters
     return solve_many([(P_c, P_t, A, T0)], stages, beta, max_iter, tol, device, dtype)[0]
-
-
-def _kernel():
-    """The compiled kernel module, or None where numba is missing."""
-    try:
-        from catpose.methods.ours import irls_kernel
-    except ImportError:
-        return None
-    return irls_kernel
 
 
 def solve_many(

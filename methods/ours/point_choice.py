@@ -33,10 +33,10 @@ def criterion(
     allowed: np.ndarray,
 ):
     """Chamfer distances, tilts (deg), kept mask and criterion (inf where not kept), all (m,)."""
+    from catpose.methods.pose_scores import tilt_deg
+
     dists = chamfer_distances(feats.tree, chamfer_src, T, feats.truncated)
-    up = np.asarray(problem.template.up, dtype=np.float64) / np.linalg.norm(problem.template.up)
-    g_template = np.einsum("mij,j->mi", T[:, :3, :3], problem.ground_normal_camera)
-    tilt = np.degrees(np.arccos(np.clip(g_template @ up, -1.0, 1.0)))
+    tilt = tilt_deg(T, problem.ground_normal_camera, np.asarray(problem.template.up, dtype=np.float64))
     keep = allowed.copy()
     if sel.gravity_max_deg is not None:
         keep &= tilt <= sel.gravity_max_deg
