@@ -153,7 +153,7 @@ def test_the_inner_fit_ignores_a_mask_that_bleeds_over_its_edge():
     image, T_true = _view(tpl)
     bled = DepthImage(image.depth, image.K, binary_dilation(image.mask, iterations=2) & (image.depth > 0))
     v = DepthVerifier(tpl, bled, tau=0.05, target_pixels=10**6, max_rays=10**6)  # stride 1: every pixel
-    whole, inner = v.fits(T_true[None], (0.05,))[0, 0, 0], v.fits(T_true[None], (0.05,), 3)[0, 0, 0]
+    whole, inner = v.fit(T_true[None], 0.05)[0, 0], v.fit(T_true[None], 0.05, 3)[0, 0]
     assert whole < 0.95 and inner > 0.99
     # the denominator is the eroded mask's pixel count
     n_inner = int(binary_erosion(bled.mask, iterations=3).sum())
@@ -161,6 +161,6 @@ def test_the_inner_fit_ignores_a_mask_that_bleeds_over_its_edge():
     inside = binary_erosion(bled.mask, iterations=3)[win]
     assert inner == pytest.approx(((r > 0) & (np.abs(r - bled.depth[win]) <= 0.05) & inside).sum() / n_inner)
     T_turned = compose_T(half_turns()[1], T_true)
-    assert v.fits(T_turned[None], (0.05,), 3)[0, 0, 0] < 0.9
+    assert v.fit(T_turned[None], 0.05, 3)[0, 0] < 0.9
     # an erosion that leaves nothing falls back to the whole mask
-    assert v.fits(T_true[None], (0.05,), 10**4)[0, 0, 0] == pytest.approx(whole)
+    assert v.fit(T_true[None], 0.05, 10**4)[0, 0] == pytest.approx(whole)

@@ -152,7 +152,7 @@ class DepthVerifier:
     def render(self, T_template_camera: np.ndarray) -> list[tuple[tuple[slice, slice] | None, np.ndarray]]:
         """Per pose, its window and the rendered depth (window-shaped, 0 where the template is
         not hit), the poses not rendered lately cast in one call (the last ``RENDERS_KEPT``
-        renderings are kept: a pose scored and then measured by :meth:`fits` is cast once)."""
+        renderings are kept: a pose scored and then measured by :meth:`fit` is cast once)."""
         T_all = np.asarray(T_template_camera, dtype=np.float64).reshape(-1, 4, 4)
         keys = [T.tobytes() for T in T_all]
         new = [i for i, k in enumerate(keys) if k not in self._renders]
@@ -202,27 +202,21 @@ class DepthVerifier:
             out.append((mask_cost + self.free_weight * free) / n_mask)
         return np.asarray(out, dtype=np.float64)
 
-    def fit(self, T_template_camera: np.ndarray, tolerance: float | None = None) -> np.ndarray:
+    def fit(self, T_template_camera: np.ndarray, tolerance: float | None = None, erode_px: int = 0) -> np.ndarray:
         """(B, 2) per pose: the fraction of mask pixels explained within ``tolerance`` (default
         ``tau``) and the free-space violations (by more than ``tolerance``) per mask pixel: how
-        well a pose fits, in units that do not depend on the object's size."""
-        return self.fits(T_template_camera, (self.tau if tolerance is None else float(tolerance),))[0]
-
-    def fits(self, T_template_camera: np.ndarray, tolerances: tuple[float, ...], erode_px: int = 0) -> np.ndarray:
-        """(len(tolerances), B, 2): :meth:`fit` at each tolerance, the poses rendered once. With
-        ``erode_px`` > 0 the explained fraction counts only the mask pixels at least that many
-        image pixels inside the mask's edge (the whole mask where none are)."""
+        well a pose fits, in units that do not depend on the object's size. With ``erode_px`` > 0
+        the explained fraction counts only the mask pixels at least that many image pixels inside
+        the mask's edge (the whole mask where none are)."""
         L = self.lattice
+        tol = self.tau if tolerance is None else float(tolerance)
         inner = self._inner_mask(int(erode_px)) if erode_px > 0 else L.mask
         n_mask = max(int(inner.sum()), 1)
-        out = np.zeros((len(tolerances), len(np.asarray(T_template_camera).reshape(-1, 4, 4)), 2))
+        out = np.zeros((len(np.asarray(T_template_camera).reshape(-1, 4, 4)), 2))
         for b, (win, r) in enumerate(self.render(T_template_camera)):
-            if win is None:
-                continue
-            o, m, mi = L.depth[win], L.mask[win], inner[win]
-            for t, tol in enumerate(tolerances):
-                inliers, free = window_fit(o, m, mi, r, float(tol))
-                out[t, b] = (inliers / n_mask, free / n_mask)
+            if win is not None:
+                inliers, free = window_fit(L.depth[win], L.mask[win], inner[win], r, tol)
+                out[b] = (inliers / n_mask, free / n_mask)
         return out
 
     def _inner_mask(self, erode_px: int) -> np.ndarray:

@@ -144,9 +144,9 @@ def select_by_depth(
     compared = (np.concatenate([compared[0], turned[0]]), np.concatenate([compared[1], turned[1]]))
     second = runner_up(T_out, score, *compared, axis)
     t0 = time.perf_counter()
-    fit = verifier.fits(T_out[None], (verifier.tau,))[0, 0]  # the whole mask
+    fit = verifier.fit(T_out[None])[0]  # the whole mask
     # the poor-fit test's, depth_fit_erode_px inside the mask's edge (the rendering is kept)
-    fit_loose = verifier.fits(T_out[None], (FIT_TAU,), sel.depth_fit_erode_px)[0, 0]
+    fit_loose = verifier.fit(T_out[None], FIT_TAU, sel.depth_fit_erode_px)[0]
     timings["verification"] += time.perf_counter() - t0
 
     extras = {
