@@ -154,29 +154,23 @@ class Ours(RegistrationMethod):
         if template.has_mesh and self.selection.rule == "depth":
             check.caster_for(template)
 
-    def input_features(self, problem: RegistrationProblem):
-        """The input's keypoints and descriptors (independent of the template)."""
-        return hypotheses.input_features(self.descriptor, self.num_keypoints, problem)
-
-    def prepare(self, problem: RegistrationProblem, timings: dict[str, float], inp=None) -> Prepared:
-        """Everything before the solver: keypoints, affinities, SVD poses (``inp``: the input's
-        features when already computed, :meth:`input_features`)."""
+    def prepare(self, problem: RegistrationProblem, timings: dict[str, float]) -> Prepared:
+        """Everything before the solver: keypoints, affinities, SVD poses."""
         t0 = time.perf_counter()
         self.layout.dictionary(problem.template)
         timings["dictionary"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         feats = self.template_features(problem.template)
-        inp = self.input_features(problem) if inp is None else inp
+        inp = hypotheses.input_features(self.descriptor, self.num_keypoints, problem)
         timings["descriptors"] = time.perf_counter() - t0
         return hypotheses.prepare(self.descriptor, feats, inp, timings)
 
-    def candidates(self, problem: RegistrationProblem, timings: dict[str, float] | None = None, inp=None) -> Candidates:
-        """Affinities, SVD poses and solved poses of every candidate (no choice); ``inp``: the
-        input's features when already computed (:meth:`input_features`)."""
+    def candidates(self, problem: RegistrationProblem, timings: dict[str, float] | None = None) -> Candidates:
+        """Affinities, SVD poses and solved poses of every candidate (no choice)."""
         timings = {} if timings is None else timings
-        x = self.prepare(problem, timings, inp)
+        x = self.prepare(problem, timings)
         t0 = time.perf_counter()
-        T, losses, C = solver.optimise(self.optimiser, x.keypoints, x.P_t, x.A, x.T_svd, self.optimiser.mode)
+        T, losses, C = solver.optimise(self.optimiser, x.keypoints, x.P_t, x.A, x.T_svd)
         timings["optimization"] = time.perf_counter() - t0
         return Candidates(x.points, x.keypoints, x.chamfer_src, x.A, x.T_svd, T, losses, C)
 

@@ -25,11 +25,11 @@ def optimise(
     P_t: np.ndarray,
     A: np.ndarray,
     T0: np.ndarray,
-    mode: str,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The solver on all candidates at once (``mode``: none, pose or joint). Returns
+    """The solver on all candidates at once (``opt.mode``: none, pose or joint). Returns
     poses (m, 4, 4), final losses (m,) as mean correspondence-weighted keypoint distances
     (object-normalised units) and the final soft correspondences C (m, n, 2n)."""
+    mode = opt.mode
     if opt.solver == "irls":
         from catpose.methods.ours import irls
 
