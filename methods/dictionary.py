@@ -102,7 +102,6 @@ def dictionary_key(
         (
             _VERSION,
             num_views,
-            "rings",  # the one layout (keeps the keys of entries cached before)
             tuple(float(e) for e in elevations_deg),
             float(distance),
             float(hpr_radius_factor),
@@ -195,11 +194,8 @@ class DictionaryLayout:
         set_(self, "view_distance", options.positive(k + "view_distance", self.view_distance))
         set_(self, "hpr_radius_factor", options.positive(k + "hpr_radius_factor", self.hpr_radius_factor))
         set_(self, "num_keypoints", options.at_least(k + "num_keypoints", self.num_keypoints, 3))
-        self.viewpoints()  # rings that do not divide num_views fail here, not per sample
-
-    def viewpoints(self) -> np.ndarray:
-        """Camera positions (num_views, 3), template frame, object-normalised units."""
-        return viewpoint_layout(self.num_views, self.elevations_deg, self.view_distance)
+        # rings that do not divide num_views fail here, not per sample
+        viewpoint_layout(self.num_views, self.elevations_deg, self.view_distance)
 
     def dictionary(self, template: Template) -> PartialDictionary:
         """The partial-template dictionary of ``template`` (cached in memory and on disk)."""

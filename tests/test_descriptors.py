@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 from catpose.errors import ConfigError
 from catpose.methods import lps
 from catpose.methods.descriptors import LPS, PFH, Descriptor
-from catpose.methods.dictionary import DictionaryLayout, viewpoint_layout
+from catpose.methods.dictionary import DictionaryLayout
 
 DESCRIPTORS = [LPS(), PFH()]
 
@@ -93,10 +93,9 @@ def test_bad_options_raise_one_line_errors_naming_the_key(make, match: str) -> N
     assert "\n" not in str(info.value)
 
 
-def test_dictionary_layout_is_the_viewpoint_layout() -> None:
+def test_dictionary_layout_reads_elevations_as_degrees() -> None:
     layout = DictionaryLayout(elevations_deg=[0, 45], num_views=12)
     assert layout.elevations_deg == (0.0, 45.0)
-    np.testing.assert_array_equal(layout.viewpoints(), viewpoint_layout(12, (0.0, 45.0), 3.0))
 
 
 @pytest.mark.parametrize("group,cls", [("descriptor", Descriptor), ("dictionary", DictionaryLayout)])

@@ -165,10 +165,23 @@ def test_config_composes_and_instantiates():
     assert isinstance(Ours().descriptor, LPS)
 
 
+def loss_autograd(prob, r6, t, logits=None):
+    """Reference per-candidate loss (m,) of the Adam solver, from differentiable torch ops."""
+    import torch
+
+    from catpose.methods.ours.adam import _rot6d
+
+    R, _ = _rot6d(r6)
+    x = torch.einsum("mij,nj->mni", R, prob.p) + t[:, None]
+    d = torch.sqrt(((x[:, :, None] - prob.q[:, None]) ** 2).sum(-1))
+    C = prob.A if logits is None else torch.softmax(logits, dim=2)
+    return (C * d).sum((1, 2))
+
+
 def test_analytic_gradients_match_autograd():
     import torch
 
-    from catpose.methods.ours.adam import BatchedProblem, loss_autograd
+    from catpose.methods.ours.adam import BatchedProblem
 
     g = torch.Generator().manual_seed(0)
     m, n = 3, 6

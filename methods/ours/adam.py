@@ -11,8 +11,8 @@ uses ``C = softmax_rows(Lg)`` with logits ``Lg`` initialised to ``log A``. Adam 
 2014; PyTorch's defaults beta = (0.9, 0.999), eps = 1e-8) updates (a1, a2, t[, Lg]).
 
 Per-step overhead dominates at these sizes (m = 18, n = 32), so the gradients are written out by
-hand (no autograd graph per step) and every constant is computed once; :func:`loss_autograd` is
-the autograd reference the tests compare against.
+hand (no autograd graph per step) and every constant is computed once; the tests compare them
+with autograd.
 """
 
 from __future__ import annotations
@@ -165,14 +165,3 @@ def optimize(prob: BatchedProblem, r6, t, stages: list[tuple[str, int]], lr: flo
         t.copy_(theta[:, 6:])
         loss = prob.loss_and_grads(r6, t, logits, need_grad=False)[0]
     return loss, logits
-
-
-def loss_autograd(prob: BatchedProblem, r6, t, logits=None):
-    """Reference per-candidate loss (m,) built from differentiable torch ops (for tests)."""
-    import torch
-
-    R, _ = _rot6d(r6)
-    x = torch.einsum("mij,nj->mni", R, prob.p) + t[:, None]
-    d = torch.sqrt(((x[:, :, None] - prob.q[:, None]) ** 2).sum(-1))
-    C = prob.A if logits is None else torch.softmax(logits, dim=2)
-    return (C * d).sum((1, 2))

@@ -142,9 +142,7 @@ def solve(
     iters = torch.zeros(len(P), dtype=torch.int64, device=P.device)
     logA = torch.log(A.clamp_min(1e-30))
     with torch.no_grad():
-        for stage in stages:
-            if stage not in ("pose", "joint"):
-                raise ValueError(f"unknown stage {stage!r}; use 'pose' or 'joint'")
+        for stage in stages:  # checked by solve_numpy
             active = torch.ones(len(P), dtype=torch.bool, device=P.device)
             prev = torch.full((len(P),), float("inf"), dtype=P.dtype, device=P.device)
             C_stage = C
