@@ -30,7 +30,7 @@ docs/category-level.md, docs/choosing-defaults.md.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -90,11 +90,6 @@ class ChoiceRule:
         """The weight this rule gives the top offset (None: it reads none)."""
         key = OFFSET_FIELDS.get(self.rule)
         return None if key is None else getattr(self, key)
-
-    def with_offset_weight(self, weight: float | None) -> ChoiceRule:
-        """This rule with its top-offset weight ``weight`` (unchanged when None or when it reads none)."""
-        key = OFFSET_FIELDS.get(self.rule)
-        return self if weight is None or key is None else replace(self, **{key: float(weight)})
 
 
 @dataclass(frozen=True, eq=False)

@@ -130,5 +130,5 @@ def test_fused_weighs_the_top_offset_by_its_own_weight():
     assert choose_row(rows, "cross_top_turns")["sample_id"] == "chair/a/v00|1"
     kept = choose_row(rows, "fused")
     assert kept["sample_id"] == "chair/a/v00|0" and kept["err_deg"] == pytest.approx(2.0)
-    assert choose_row(rows, ChoiceRule(rule="fused").with_offset_weight(TOP_WEIGHT))["sample_id"] == "chair/a/v00|1"
+    assert choose_row(rows, ChoiceRule(rule="fused", fused_top_weight=TOP_WEIGHT))["sample_id"] == "chair/a/v00|1"
     assert choose_row(rows, ChoiceRule(rule="fused", fused_top_weight=TOP_WEIGHT))["sample_id"] == "chair/a/v00|1"

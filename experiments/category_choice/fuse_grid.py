@@ -36,9 +36,11 @@ def chosen(samples, fuse_deg: float | None, top_weight: float | None = None):
     import pandas as pd
 
     from catpose.bench.protocols.absolute import choose_row
-    from catpose.methods.choice_rules import ChoiceRule
+    from catpose.methods.choice_rules import OFFSET_FIELDS, ChoiceRule
 
-    rule = ChoiceRule(rule="cross_top_turns" if fuse_deg is None else "fused").with_offset_weight(top_weight)
+    rule = ChoiceRule(rule="cross_top_turns" if fuse_deg is None else "fused")
+    if top_weight is not None:  # the rule's own weight field for the top offset
+        rule = dataclasses.replace(rule, **{OFFSET_FIELDS[rule.rule]: float(top_weight)})
     if fuse_deg is not None:
         rule = dataclasses.replace(rule, agree_deg=float(fuse_deg))
     return pd.DataFrame([choose_row(g, rule) for _, g in samples.groupby("group_id")])

@@ -46,7 +46,7 @@ def chosen_errors(samples, turns: tuple[float, ...] | None, weight: float) -> np
     from catpose.bench.scoring.curves import scored_errors
     from catpose.methods.choice_rules import ChoiceRule
 
-    rule = ChoiceRule(rule="cross_top" if not turns else "cross_top_turns").with_offset_weight(weight)
+    rule = ChoiceRule(rule="cross_top" if not turns else "cross_top_turns", top_weight=float(weight))
     rows = samples if not turns else with_turns(samples, turns)
     chosen = pd.DataFrame([choose_row(g, rule) for _, g in rows.groupby("group_id")])
     return np.asarray(scored_errors(chosen), float)
