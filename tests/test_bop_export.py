@@ -16,7 +16,7 @@ import pytest
 
 from catpose.bench.interop import score as score_cmd
 from catpose.bench.interop.bop_export import export_bop
-from catpose.bench.interop.prediction_io import read_predictions
+from catpose.bench.interop.prediction_io import BOP_COLUMNS, read_predictions
 from catpose.bench.interop.prediction_match import score_predictions
 from catpose.bench.run.rundir import write_run
 from catpose.bench.scoring import bop_eval
@@ -26,6 +26,8 @@ from catpose.geometry import make_T
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_loaders_bop import T_camera_model, bop_root  # noqa: E402, F401  (the rendered scene fixture)
+
+BOP_HEADER = ",".join(BOP_COLUMNS)
 
 CFG = {
     "method": {"name": "ours", "_target_": "x.Y"},
@@ -101,12 +103,12 @@ def test_file_name_check_names_the_fix(tmp_path: Path):
 def test_toolkit_csv_checks_reject_what_the_toolkit_rejects(tmp_path: Path):
     R, t = "1 0 0 0 1 0 0 0 1", "0 0 500"
     ok = tmp_path / "a_b-test.csv"
-    ok.write_text(f"{bop_eval.BOP_HEADER}\n1,2,3,0.5,{R},{t},1.5\n1,2,4,0.5,{R},{t},1.5\n1,3,3,0.5,{R},{t},0.2\n")
+    ok.write_text(f"{BOP_HEADER}\n1,2,3,0.5,{R},{t},1.5\n1,2,4,0.5,{R},{t},1.5\n1,3,3,0.5,{R},{t},0.2\n")
     assert len(read_predictions(ok)) == 3
     cases = {
-        f"{bop_eval.BOP_HEADER}\n1,2,3,0.5,{R},{t},1.5\n1,2,4,0.5,{R},{t},0.7\n": "one time per image|different times",
-        f"{bop_eval.BOP_HEADER}\n1,2.5,3,0.5,{R},{t},1\n": "integer",
-        f"{bop_eval.BOP_HEADER}\n1,2,3,0.5,1 0 0,{t},1\n": "expected 9",
+        f"{BOP_HEADER}\n1,2,3,0.5,{R},{t},1.5\n1,2,4,0.5,{R},{t},0.7\n": "one time per image|different times",
+        f"{BOP_HEADER}\n1,2.5,3,0.5,{R},{t},1\n": "integer",
+        f"{BOP_HEADER}\n1,2,3,0.5,1 0 0,{t},1\n": "expected 9",
     }
     for text, msg in cases.items():
         ok.write_text(text)
@@ -162,7 +164,7 @@ def test_several_instances_of_one_object_are_matched_greedily_by_score(bop_root)
     text = (
         "\n".join(
             [
-                bop_eval.BOP_HEADER,
+                BOP_HEADER,
                 line(shifted, 0.9),
                 line(T_camera_model(1), 0.8),
                 line(T_camera_model(1) @ make_T(np.eye(3), [0, 0, 300.0]), 0.1),
@@ -185,7 +187,7 @@ def test_several_instances_of_one_object_are_matched_greedily_by_score(bop_root)
 
 def _gt_csv(ds: BOP, path: Path, shift_mm=(0.0, 0.0, 0.0)) -> Path:
     """Every target's ground truth as an estimate (optionally shifted, camera frame, mm)."""
-    lines = [bop_eval.BOP_HEADER]
+    lines = [BOP_HEADER]
     for oid in ds.observation_ids():
         _, scene, im, g = oid.split("/")
         e = json.loads(ds.layout.scene_gt(int(scene)).read_text())[str(int(im))][int(g)]

@@ -15,6 +15,7 @@ The file formats are :mod:`catpose.bench.interop.prediction_io`'s; BOP ids map t
 from __future__ import annotations
 
 import argparse
+from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -49,14 +50,8 @@ def score_bop(
     dataset_cfg = evaluation_models(dataset_cfg)
     _, ds = build_from_config(dict(dataset_cfg), "dataset")
     errs = compute_errors(preds, ds, vsd=vsd)
-    instances: dict[tuple, int] = {}
-    for r in errs:
-        key = (int(r["scene_id"]), int(r["im_id"]), int(r["obj_id"]))
-        instances[key] = instances.get(key, 0) + 1
-    estimates: dict[tuple, int] = {}
-    for p in preds.to_dict("records"):
-        key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"]))
-        estimates[key] = estimates.get(key, 0) + 1
+    ids = lambda rows: Counter((int(r["scene_id"]), int(r["im_id"]), int(r["obj_id"])) for r in rows)  # noqa: E731
+    instances, estimates = ids(errs), ids(preds.to_dict("records"))
     filters = list(getattr(ds, "filters", [])) + [f"models: {dataset_cfg.get('models_dir', 'models')}/"]
     header = {
         "method": method,

@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
+from catpose import atomic
 from catpose.bench.scoring.curves import scored_errors
-from catpose.bench.scoring.metrics import FAILED_ERROR_DEG
+from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, accuracy
 
 #: The CDF's log axis starts at 0.01 degrees, or lower (down to 1e-4) when smaller errors occur;
 #: errors below the start are drawn at it (a log axis has no zero).
@@ -51,8 +52,6 @@ def save(fig, out_stem: str | Path, pdf: bool = True, dpi: int = 150) -> list[Pa
     out_stem = Path(out_stem)
     out_stem.parent.mkdir(parents=True, exist_ok=True)
     paths = [out_stem.with_suffix(".png")] + ([out_stem.with_suffix(".pdf")] if pdf else [])
-    from catpose import atomic
-
     for path in paths:
         with atomic.atomic_path(path) as tmp:
             # no creation date in a PDF: the same figure is the same bytes (results/ regenerate byte for byte)
@@ -72,8 +71,6 @@ def _write_csv(rows: list[dict], columns: list[str], out_stem: str | Path) -> Pa
     import pandas as pd
 
     path = Path(out_stem).with_suffix(".csv")
-    from catpose import atomic
-
     atomic.write_text(path, pd.DataFrame(rows, columns=columns).to_csv(index=False, float_format="%.6g"))
     return path
 
@@ -185,12 +182,6 @@ def plot_error_cdf(
     return save(fig, out_stem, pdf) + [csv]
 
 
-def accuracy_at(errors: np.ndarray, thresholds=ACCURACY_THRESHOLDS_DEG) -> np.ndarray:
-    """Fraction of ``errors`` (degrees) <= each threshold (degrees)."""
-    e = np.asarray(errors, float)
-    return np.array([(e <= t).mean() if len(e) else np.nan for t in thresholds])
-
-
 def plot_accuracy(
     units_by_method: Mapping[str, object],
     out_stem: str | Path,
@@ -214,7 +205,7 @@ def plot_accuracy(
     x = np.arange(len(thresholds))
     csv_rows = []
     for m, (label, e) in enumerate(items):
-        acc = accuracy_at(e, thresholds)
+        acc = np.array([accuracy(e, t) for t in thresholds])
         bars = ax.bar(x - 0.4 + width * (m + 0.5), acc, width, color=color[label], label=label)
         ax.bar_label(bars, [f"{a:.2f}" for a in acc], fontsize=7, padding=1, rotation=90 if k > 3 else 0)
         csv_rows += [{"method": label, "threshold_deg": t, "n": len(e), "accuracy": a} for t, a in zip(thresholds, acc)]

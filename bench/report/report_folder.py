@@ -118,31 +118,30 @@ def build_report(
     run_dirs: Sequence[str | Path],
     out: str | Path,
     pictures: bool = False,
-    labels: dict[str, str] | None = None,
+    labels: Sequence[str] = (),
     notes: Sequence[str] = (),
     pdf: bool = True,
     left_out: list[str] | None = None,
-    label_items: Sequence[str] = (),
     allow_mixed: bool = False,
 ) -> Path:
     """Write the report folder (see the module docstring); returns the path of ``index.md``.
 
-    ``label_items``: the ``--label RUN_DIR=LABEL`` items ``labels`` came from (each must name a run);
+    ``labels``: ``--label RUN_DIR=LABEL`` items (each must name a run);
     ``notes``: paragraphs under the title; ``pdf``: a PDF of each summary figure too; ``pictures``:
     each run's worst registration drawn. Runs of one protocol on different samples are refused
     unless ``allow_mixed``. A run that cannot be read is left out, said in the index and on stderr,
     and its reason appended to ``left_out``. The folder is built aside and moved into place whole."""
-    from catpose.bench.report.labels import check_labels
+    from catpose.bench.report.labels import parse_labels
     from catpose.bench.report.runs import load_runs, print_left_out
 
     runs, reasons = load_runs(run_dirs)
-    check_labels(label_items, runs)
+    label_of = parse_labels(labels, runs)
     print_left_out("report", runs, reasons)
     if left_out is not None:
         left_out.extend(reasons)
     final = Path(out)
     with atomic.building_dir(final) as out:  # built aside, moved into place whole (docs/file-safety.md)
-        _write_report(runs, reasons, out, pictures, labels, notes, pdf, allow_mixed)
+        _write_report(runs, reasons, out, pictures, label_of, notes, pdf, allow_mixed)
     return final / "index.md"
 
 
@@ -194,20 +193,12 @@ def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_
         run_units = [scored_units(r) for r in group]
         units = _units_by_label(group_labels, run_units)
         fig = out / "figures"
-        figures = [
-            (
-                "error_cdf",
-                "Cumulative error distribution per category",
-                plots.plot_error_cdf(units, fig / f"{protocol}_error_cdf", pdf=pdf, colors=colors),
-            ),
-            (
-                "accuracy",
-                "Accuracy at thresholds",
-                plots.plot_accuracy(units, fig / f"{protocol}_accuracy", pdf=pdf, colors=colors),
-            ),
-        ]
         md += ["### Figures", ""]
-        for _name, caption, paths in figures:
+        for name, caption, plot in (
+            ("error_cdf", "Cumulative error distribution per category", plots.plot_error_cdf),
+            ("accuracy", "Accuracy at thresholds", plots.plot_accuracy),
+        ):
+            paths = plot(units, fig / f"{protocol}_{name}", pdf=pdf, colors=colors)
             links = ", ".join(f"[{p.suffix[1:].upper()}](figures/{p.name})" for p in paths[1:])
             md += [f"#### {caption}", "", f"![{caption}](figures/{paths[0].name})", "", f"Data and vector: {links}", ""]
 
@@ -244,7 +235,6 @@ def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_
 
 def main(argv: list[str] | None = None) -> int:
     """``bench report RUN_DIR... --out DIR [--no-pictures] [--note TEXT ...]``."""
-    from catpose.bench.report.labels import parse_labels
     from catpose.bench.run.overwrite import Output, add_output_options, input_runs
 
     ap = argparse.ArgumentParser(
@@ -273,11 +263,10 @@ def main(argv: list[str] | None = None) -> int:
             args.runs,
             args.out,
             not args.no_pictures,
-            parse_labels(args.label),
+            args.label,
             args.note,
             pdf=not args.no_pdf,
             left_out=left_out,
-            label_items=args.label,
             allow_mixed=args.allow_mixed,
         )
     print(f"report written: {index}" + (f"; {len(left_out)} run(s) left out" if left_out else ""))

@@ -60,38 +60,22 @@ class Run:
         return m if isinstance(m, dict) else {}
 
 
-def samples_frame(path: Path):
-    """A ``samples.jsonl`` as a DataFrame, one row per sample (the runner's reader,
-    :mod:`catpose.bench.run.rows_file`: a damaged line is an error naming it, a cut-off last line
-    of a killed run is skipped with a warning, a retried sample's last row counts)."""
-    import pandas as pd
-
-    from catpose.bench.run.rundir import latest_rows
-
-    return pd.DataFrame(latest_rows(Path(path)))
-
-
-def recompute_frame_errors(samples):
-    """Errors of every row recomputed from its estimate and ground truth by the runner's
-    :func:`~catpose.bench.run.evaluate.recompute_row_errors` (symmetries included), so tables follow the
-    current metric definitions rather than the numbers stored at run time."""
-    import pandas as pd
-
-    from catpose.bench.run.evaluate import recompute_row_errors
-
-    if len(samples) == 0 or not {"T_est", "T_gt", "status"} <= set(samples.columns):
-        return samples
-    return pd.DataFrame([recompute_row_errors(r) for r in samples.to_dict("records")], index=samples.index)
-
-
 def load_run(path: str | Path) -> Run:
     """Read a run directory (``samples.jsonl`` required, ``config.yaml`` and ``run.json`` optional).
 
-    Errors are recomputed from the stored poses (:func:`recompute_frame_errors`). An unreadable
+    Rows are read by the runner's reader (:func:`catpose.bench.run.rundir.latest_rows`: a cut-off
+    last line of a killed run is skipped with a warning, a retried sample's last row counts), and
+    their errors recomputed from the stored poses by the runner's
+    :func:`~catpose.bench.run.evaluate.recompute_row_errors` (symmetries included), so tables follow
+    the current metric definitions rather than the numbers stored at run time. An unreadable
     ``config.yaml`` or ``run.json``, a damaged ``samples.jsonl`` line, or a ``samples.jsonl``
     without any row raises :class:`DatasetError` naming the run (:mod:`catpose.bench.run.run_meta`).
     """
+    import pandas as pd
+
+    from catpose.bench.run.evaluate import recompute_row_errors
     from catpose.bench.run.run_meta import incomplete_reason, read_config, read_run_json
+    from catpose.bench.run.rundir import latest_rows
 
     path = Path(path)
     samples_path = path / "samples.jsonl"
@@ -102,7 +86,7 @@ def load_run(path: str | Path) -> Run:
         )
     config = read_config(path)
     info = read_run_json(path)
-    samples = samples_frame(samples_path)
+    samples = pd.DataFrame(latest_rows(samples_path))
     if len(samples) == 0:
         raise DatasetError(
             f"run {path} has no sample rows ({samples_path.name} is empty: its `bench run` finished no sample); "
@@ -115,11 +99,13 @@ def load_run(path: str | Path) -> Run:
             f"run {path}: config.yaml names method {named!r} but its rows are of {in_rows[0]!r}; restore config.yaml "
             "(it labels the run in tables)"
         )
+    if {"T_est", "T_gt", "status"} <= set(samples.columns):  # else rows without poses: their errors as written
+        samples = pd.DataFrame([recompute_row_errors(r) for r in samples.to_dict("records")], index=samples.index)
     return Run(
         path=path,
         config=config,
         info=info,
-        samples=recompute_frame_errors(samples),
+        samples=samples,
         incomplete=incomplete_reason(path, info, len(samples)),
     )
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from catpose import atomic
-from catpose.bench.report.labels import check_labels, parse_labels
+from catpose.bench.report.labels import parse_labels
 from catpose.bench.report.runs import find_run_dirs, load_runs, print_left_out, warn_incomplete
 from catpose.bench.report.table_format import METRICS
 from catpose.bench.report.tables import LAYOUTS, RENDERERS, build_table
@@ -131,12 +131,11 @@ def make_table(args, swept):
             setattr(args, key, ",".join(map(str, value)) if isinstance(value, list) else str(value))
     args.layout = args.layout or "generic"
     runs, left_out = load_runs([*args.runs, *run_paths])
-    check_labels(args.label, runs)
+    labels = {**sweep_labels, **parse_labels(args.label, runs)}
     print_left_out("table", runs, left_out)  # one damaged run does not stop the others; the exit status says so
     warn_incomplete("table", runs)  # and the table's notes say it
     if args.categories:
         check_categories(runs, args.categories.split(","))
-    labels = {**sweep_labels, **parse_labels(args.label)}
     table = build_table(
         runs,
         args.layout,

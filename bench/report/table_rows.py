@@ -91,23 +91,15 @@ def is_bop_run(run: Run) -> bool:
     return is_bop_layout(run.config.get("dataset"))
 
 
-def cell_value(entry: Entry, category: str, key: str) -> float:
-    """A statistic of the entry's units of ``category`` (``all``: every unit): the mean of its
-    seeds' values when it pools several (:func:`one_value` of each)."""
-    if entry.per_seed:
-        import numpy as np
-
-        values = [one_value(e, category, key) for e in entry.per_seed]
-        return float(np.mean(values)) if all(np.isfinite(values)) else float("nan")
-    return one_value(entry, category, key)
-
-
-def cell_spread(entry: Entry, category: str, key: str) -> tuple[float, float] | None:
-    """(min, max) of the statistic across the entry's seeds, None with one seed."""
+def cell(entry: Entry, category: str, key: str) -> tuple[float, tuple[float, float] | None]:
+    """A statistic of the entry's units of ``category`` (``all``: every unit) (:func:`one_value`),
+    and None; when it pools several seeds, the mean of their values and their (min, max)."""
     if not entry.per_seed:
-        return None
+        return one_value(entry, category, key), None
+    import numpy as np
+
     values = [one_value(e, category, key) for e in entry.per_seed]
-    return (min(values), max(values))
+    return (float(np.mean(values)) if all(np.isfinite(values)) else float("nan")), (min(values), max(values))
 
 
 def one_value(entry: Entry, category: str, key: str) -> float:

@@ -21,8 +21,7 @@ from catpose.bench.report.runs import Run
 from catpose.bench.report.table_format import METRICS, Table, metric, prune, to_csv, to_latex, to_markdown
 from catpose.bench.report.table_rows import (
     Entry,
-    cell_spread,
-    cell_value,
+    cell,
     collect,
     is_bop_run,
     n_note,
@@ -50,10 +49,6 @@ def with_thresholds(metrics: Sequence[str], keys: Sequence[str]) -> list[str]:
     kept = [m for m, a in zip(metrics, is_acc) if not a]
     pos -= sum(is_acc[:pos])
     return kept[:pos] + [k for k in keys if k not in kept] + kept[pos:]
-
-
-def _no_group(run: Run) -> str:
-    return ""
 
 
 @dataclass(frozen=True)
@@ -153,11 +148,11 @@ def lay_out(spec: Layout, entries: Sequence[Entry], cats: Sequence[str], metrics
             for c in cats
             for m in metrics
         }
-    for (i, c, m), cell in place.items():
-        t.cells[cell] = (cell_value(entries[i], c, m), m)
-        spread = cell_spread(entries[i], c, m)
+    for (i, c, m), where in place.items():
+        value, spread = cell(entries[i], c, m)
+        t.cells[where] = (value, m)
         if spread is not None:
-            t.spread[cell] = spread
+            t.spread[where] = spread
     return t
 
 
@@ -202,7 +197,7 @@ def build_table(
     metrics = list(metrics or spec.metrics)
     for m in metrics:
         metric(m)  # an unknown key: one line naming the choices
-    group_of = spec.group_of or _no_group
+    group_of = spec.group_of or (lambda r: "")
     error = error or spec.error
     # Only templates runs have an oracle; other runs in the same table keep their own error.
     oracle = error == "oracle_err_deg"

@@ -34,7 +34,6 @@ import numpy as np
 from catpose.bench.scoring import pose_metrics as pm
 from catpose.errors import DatasetError, InvalidInputError
 
-BOP_HEADER = "scene_id,im_id,obj_id,score,R,t,time"
 ERRORS_FILE = "bop_errors.jsonl"
 DEFAULT_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
 """The recalls ``bench score`` prints by default."""
@@ -320,39 +319,31 @@ def score_table(df, metrics: Iterable[str] = DEFAULT_METRICS, by: Sequence[str] 
     metrics = list(metrics)
     for m in metrics:
         parse_metric(m)
-    rows = []
+    groups = []
     if "object" in by:
-        for obj, g in df.groupby("obj_id", sort=True):
-            rows.append(
-                [
-                    "object",
-                    f"obj_{int(obj):06d} ({g['category'].iloc[0]})",
-                    len(g),
-                    *[metric_value(g, m) for m in metrics],
-                ]
-            )
+        groups += [("object", f"obj_{int(o):06d} ({g['category'].iloc[0]})", g) for o, g in df.groupby("obj_id")]
     if "category" in by:
-        for cat, g in df.groupby("category", sort=True):
-            rows.append(["category", str(cat), len(g), *[metric_value(g, m) for m in metrics]])
-    rows.append(["all", "all", len(df), *[metric_value(df, m) for m in metrics]])
+        groups += [("category", str(c), g) for c, g in df.groupby("category")]
+    rows = [
+        [kind, name, len(g), *[metric_value(g, m) for m in metrics]] for kind, name, g in [*groups, ("all", "all", df)]
+    ]
     return pd.DataFrame(rows, columns=["group", "name", "n", *metrics])
 
 
 def format_scores(table, header: dict | None = None) -> str:
     """Markdown of :func:`score_table`, preceded by the evaluation filters."""
-    lines = []
-    for note in (header or {}).get("filters", []):
-        lines.append(f"- {note}")
-    if header and header.get("targets") is not None:
+    header = header or {}
+    lines = [f"- {note}" for note in header.get("filters", [])]
+    if header.get("targets") is not None:
         lines.append(
             f"- {header['targets']} targets, {header.get('matched', 0)} with an estimate (the others count as misses)"
         )
-    if header and header.get("extra_estimates"):
+    if header.get("extra_estimates"):
         lines.append(
             f"- {header['extra_estimates']} estimates beyond an (image, object)'s instances ignored (the "
             "highest-scored are kept)"
         )
-    if header and header.get("unknown_estimates"):
+    if header.get("unknown_estimates"):
         lines.append(f"- {header['unknown_estimates']} estimates of an (image, object) that is no target ignored")
     no_vsd = [m for m in table.columns if m in ("ar", "ar_vsd") and table[m].isna().all()]
     if no_vsd:

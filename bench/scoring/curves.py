@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from catpose.bench.scoring.metrics import FAILED_ERROR_DEG
+from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, accuracy
 from catpose.errors import ConfigError
 
 _NUMBER = r"(\d+(?:\.\d+)?)"
@@ -125,7 +125,7 @@ def statistic(units, key: str) -> float:
     kind, params = parsed
     err = scored_errors(units)
     if kind == "acc":
-        return float((err <= params[0]).mean())
+        return accuracy(err, params[0])
     if kind == "auc":
         return auc(err, params[0])
     if "info" not in units or not all(isinstance(i, dict) and i.get("scale_mm") is not None for i in units["info"]):

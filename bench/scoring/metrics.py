@@ -165,19 +165,6 @@ def accuracy(errors_deg: Iterable[float], threshold_deg: float) -> float:
     return float("nan") if e.size == 0 else float((e <= threshold_deg).mean())
 
 
-def runtime_stats(runtimes_s: Iterable[float]) -> dict[str, float]:
-    """Mean, median, 90th percentile and total of runtimes in seconds (finite values only)."""
-    r = np.asarray([x for x in runtimes_s if x is not None and np.isfinite(x)], float)
-    if r.size == 0:
-        return {"mean_s": float("nan"), "median_s": float("nan"), "p90_s": float("nan"), "total_s": 0.0}
-    return {
-        "mean_s": float(r.mean()),
-        "median_s": float(np.median(r)),
-        "p90_s": float(np.percentile(r, 90)),
-        "total_s": float(r.sum()),
-    }
-
-
 def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0, 30.0)):
     """Per-group statistics of a per-sample (or per-scoring-unit) table.
 
@@ -200,12 +187,17 @@ def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0,
     if found:
         names.insert(names.index(f"acc{lo:g}") + 1, f"found{FOUND_DEG:g}")
 
+    from catpose.bench.scoring.curves import scored_errors
+
+    def finite(values) -> np.ndarray:
+        x = pd.to_numeric(values, errors="coerce").to_numpy(float)
+        return x[np.isfinite(x)]
+
     def stats(key: str, g) -> list:
         failed = (g["status"] != "ok").to_numpy()
-        err = np.where(failed, FAILED_ERROR_DEG, pd.to_numeric(g["err_deg"], errors="coerce").to_numpy(float))
-        err = np.where(np.isnan(err), FAILED_ERROR_DEG, err)
-        trans = pd.to_numeric(g["trans_err"], errors="coerce").to_numpy(float)[~failed]
-        trans = trans[np.isfinite(trans)]
+        err = scored_errors(g)
+        trans = finite(g["trans_err"][~failed])
+        runtimes = finite(g["runtime_s"])
         out = [
             key,
             len(g),
@@ -215,7 +207,7 @@ def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0,
             accuracy(err, lo),
             accuracy(err, hi),
             float(trans.mean()) if trans.size else float("nan"),
-            runtime_stats(pd.to_numeric(g["runtime_s"], errors="coerce"))["median_s"],
+            float(np.median(runtimes)) if runtimes.size else float("nan"),
         ]
         if found:
             f = pd.to_numeric(g["found_err_deg"], errors="coerce").to_numpy(float)
