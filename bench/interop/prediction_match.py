@@ -27,7 +27,7 @@ def score_predictions(
     follow docs/file-safety.md (a per-sample file's last row of an id counts; a BOP (image, object)
     keeps its best-scored estimates, one per instance). ``stats`` receives :func:`count_text`'s counts."""
     from catpose.bench.run.bop_ar import bop_key, template_camera_pose
-    from catpose.bench.scoring.bop_eval import nearest_rotation
+    from catpose.bench.scoring.bop_eval import by_score, nearest_rotation
     from catpose.bench.scoring.metrics import sample_errors
     from catpose.bench.scoring.rows import failed_row, scored_row
     from catpose.geometry import make_T
@@ -37,9 +37,6 @@ def score_predictions(
     for p in preds.to_dict("records"):
         key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"])) if kind == "bop" else str(p["sample_id"]).strip()
         all_by_key.setdefault(key, []).append(p)
-
-    def by_score(cands: list[dict]) -> list[dict]:  # highest first, ties in file order (a stable sort)
-        return sorted(cands, key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
 
     by_key = {k: v[-1] for k, v in all_by_key.items()}
 

@@ -155,22 +155,19 @@ def warn_incomplete(command: str, runs: Sequence[Run]) -> list[str]:
 
 def find_run_dirs(paths: Sequence[str | Path]) -> list[Path]:
     """Run directories given directly or found below the given folders (sorted, no duplicates)."""
-    from catpose.bench.run.overwrite import absolute_path
+    from catpose.bench.run.overwrite import absolute_path, runs_below
 
     out: list[Path] = []
     for p in map(Path, paths):
-        if (p / "samples.jsonl").is_file():
-            out.append(p)
-        elif p.is_dir():
-            found = sorted(q.parent for q in p.rglob("samples.jsonl"))
-            if not found:
-                raise DatasetError(f"no samples.jsonl below {p}; pass run directories written by `bench run`")
-            out.extend(found)
-        else:
+        if not p.is_dir():
             absolute_path(p)  # a loop of symbolic links: said as such
             raise DatasetError(
                 f"{p} {'is a file' if p.exists() else 'does not exist'}; pass run directories written by `bench run`"
             )
+        found = runs_below([p])
+        if not found:
+            raise DatasetError(f"no samples.jsonl below {p}; pass run directories written by `bench run`")
+        out.extend(found)
     seen: set[Path] = set()
     return [p for p in out if not (p.resolve() in seen or seen.add(p.resolve()))]
 

@@ -50,20 +50,6 @@ def parser() -> argparse.ArgumentParser:
         default=None,
         help=f"comma-separated, of {','.join(METRICS)} or acc<X>, auc<X>, <n>deg<m>cm (catpose.bench.scoring.curves)",
     )
-    ap.add_argument(
-        "--acc",
-        default=None,
-        metavar="LIST",
-        help="accuracy thresholds replacing @10/@30: degrees and n-degree m-cm, e.g. --acc 5,10,30,5deg5cm "
-        "(cm only where rows carry a metric scale: BOP, synthetic with a sensor model)",
-    )
-    ap.add_argument(
-        "--auc",
-        type=float,
-        default=None,
-        metavar="DEG",
-        help="add the area under the accuracy-vs-threshold curve from 0 to DEG degrees, over DEG",
-    )
     ap.add_argument("--label", action="append", default=[], help="RUN_DIR=LABEL, repeatable")
     ap.add_argument(
         "--error",
@@ -121,8 +107,6 @@ def output(args, run_paths: Sequence[Path], extra_inputs: Sequence[str | Path] =
 def make_table(args, swept):
     """``(table, left_out, runs, labels)`` of ``bench table``'s ``args`` (not ``--bop-metrics``) and
     its sweeps' ``(run directories, labels, table settings)``."""
-    from catpose.bench.scoring.curves import threshold_keys
-
     run_paths, sweep_labels, defaults = swept
     if args.layout not in (None, defaults.get("layout")):
         defaults = {}  # another layout than the experiment's: none of its settings apply
@@ -144,7 +128,6 @@ def make_table(args, swept):
         labels,
         args.error,
         args.title,
-        threshold_keys(args.acc or [], args.auc) if (args.acc or args.auc is not None) else (),
         allow_mixed=args.allow_mixed,
     )
     return table, left_out, runs, labels

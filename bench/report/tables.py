@@ -36,21 +36,6 @@ RENDERERS: dict[str, Callable[[Table], str]] = {"md": to_markdown, "latex": to_l
 # Layouts
 
 
-def with_thresholds(metrics: Sequence[str], keys: Sequence[str]) -> list[str]:
-    """``metrics`` with their ``acc<X>`` entries replaced by ``keys`` (``--acc``'s and
-    ``--auc``'s), placed where the first accuracy was, else after ``median`` (else at the end)."""
-    import re
-
-    is_acc = [bool(re.fullmatch(r"acc\d+(\.\d+)?", m)) for m in metrics]
-    if any(is_acc):
-        pos = is_acc.index(True)
-    else:
-        pos = list(metrics).index("median") + 1 if "median" in metrics else len(metrics)
-    kept = [m for m, a in zip(metrics, is_acc) if not a]
-    pos -= sum(is_acc[:pos])
-    return kept[:pos] + [k for k in keys if k not in kept] + kept[pos:]
-
-
 @dataclass(frozen=True)
 class Layout:
     """One table layout: its shape, defaults and how runs group into rows.
@@ -164,17 +149,15 @@ def build_table(
     labels: dict[str, str] | None = None,
     error: str | None = None,
     title: str | None = None,
-    thresholds: Sequence[str] = (),
     allow_mixed: bool = False,
 ) -> Table:
     """Lay out ``runs`` as one of :data:`LAYOUTS`.
 
     ``error`` picks the per-unit error: ``"err_deg"`` (the method's own choice) or
     ``"oracle_err_deg"`` (templates protocol: minimum across templates); the ``templates``
-    layout defaults to the oracle, as in the paper, and says so in a note.
-    ``thresholds``: metric keys of :mod:`catpose.bench.scoring.curves` (``acc5``, ``auc30``,
-    ``5deg5cm``; ``bench table --acc/--auc``) that replace the metrics' accuracies
-    (:func:`with_thresholds`).
+    layout defaults to the oracle, as in the paper, and says so in a note. ``metrics``: keys of
+    :data:`~catpose.bench.report.table_format.METRICS` or of :mod:`catpose.bench.scoring.curves`
+    (``acc5``, ``auc30``, ``5deg5cm``), default the layout's.
 
     Rows that were not scored on the same samples (another dataset, protocol, seeds, a ``limit``
     run: :func:`catpose.bench.report.tables_compare.mixed_rows`) are a one-line
@@ -189,10 +172,7 @@ def build_table(
     from catpose.errors import DatasetError
 
     spec = LAYOUTS[layout]
-    chosen = metrics is not None
-    if thresholds:
-        metrics = with_thresholds(metrics or spec.metrics, thresholds)
-    if not chosen and any(is_bop_run(r) for r in runs):  # BOP's AR after the layout's metrics
+    if metrics is None and any(is_bop_run(r) for r in runs):  # BOP's AR after the layout's metrics
         metrics = list(metrics or spec.metrics) + list(AR_KEYS)
     metrics = list(metrics or spec.metrics)
     for m in metrics:

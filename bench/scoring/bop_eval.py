@@ -131,6 +131,11 @@ ERROR_KEYS = ("mssd", "mspd", "add", "adds", "re_deg", "te_mm", "5deg5cm", "10de
 """Per-target errors; ``5deg5cm``/``10deg10cm`` are 0 (correct) or 1 so that smaller is better."""
 
 
+def by_score(estimates: list[dict]) -> list[dict]:
+    """Estimates (rows with a ``score``) highest score first, ties in file order; NaN last."""
+    return sorted(estimates, key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
+
+
 def _match(errors: list[list[dict]], key: str, n_gt: int) -> list[Any]:
     """Greedy matching for one error type: ``errors[e][g]`` of estimate ``e`` (score order)
     against each of the ``n_gt`` gt instances ``g``; returns each gt's matched error (None when
@@ -160,11 +165,12 @@ def compute_errors(preds, dataset, vsd: bool = True, max_points: int = 0, seed: 
     MSSD, MSPD and ADD(-S) use every model vertex, as bop_toolkit does (``max_points`` > 0: a
     seeded subset, for speed).
     """
-    targets: dict[tuple[int, int, int], list[tuple[int, str]]] = {}
+    targets: dict[tuple[int, int, int], list[tuple]] = {}  # (scene, image, object) -> (gt_idx, category, R, t)
     for oid in dataset.observation_ids():
         category, scene, im, gt_idx = oid.split("/")
         gt = dataset._read_json(dataset.layout.scene_gt(int(scene)))[str(int(im))][int(gt_idx)]
-        targets.setdefault((int(scene), int(im), int(gt["obj_id"])), []).append((int(gt_idx), category))
+        R, t = np.asarray(gt["cam_R_m2c"], float).reshape(3, 3), np.asarray(gt["cam_t_m2c"], float).reshape(3)
+        targets.setdefault((int(scene), int(im), int(gt["obj_id"])), []).append((int(gt_idx), category, R, t))
     by_key: dict[tuple[int, int, int], list[dict]] = {}
     for p in preds.to_dict("records"):
         by_key.setdefault((int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"])), []).append(p)
@@ -188,26 +194,15 @@ def compute_errors(preds, dataset, vsd: bool = True, max_points: int = 0, seed: 
 
             depth_mm = read_depth(depth_path).astype(np.float64) * float(cam.get("depth_scale", 1.0))
         width = depth_mm.shape[1] if depth_mm is not None else _image_width(dataset, depth_path, K)
-        scene_gt = dataset._read_json(dataset.layout.scene_gt(scene))[str(im)]
-        gt_poses = [
-            (np.asarray(gt["cam_R_m2c"], float).reshape(3, 3), np.asarray(gt["cam_t_m2c"], float).reshape(3))
-            for gt in (scene_gt[g] for g, _ in gts)
+        errors = [
+            [
+                _pair_errors(nearest_rotation(T[:3, :3]), T[:3, 3], R_g, t_g, K, pts, syms, depth_mm, mesh, diameter)
+                for _, _, R_g, t_g in gts
+            ]
+            for T in (np.asarray(p["T"], float) for p in by_score(by_key.get((scene, im, obj), []))[: len(gts)])
         ]
-        ests = sorted(by_key.get((scene, im, obj), []), key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
-        ests = ests[: len(gts)]
-        errors = []
-        for p in ests:
-            T = np.asarray(p["T"], float)
-            errors.append(
-                [
-                    _pair_errors(
-                        nearest_rotation(T[:3, :3]), T[:3, 3], R_g, t_g, K, pts, syms, depth_mm, mesh, diameter
-                    )
-                    for R_g, t_g in gt_poses
-                ]
-            )
         matched = {key: _match(errors, key, len(gts)) for key in ERROR_KEYS}
-        for k, (g, category) in enumerate(gts):
+        for k, (g, category, _, _) in enumerate(gts):
             row = {
                 "scene_id": scene,
                 "im_id": im,
