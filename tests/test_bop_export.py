@@ -130,7 +130,7 @@ def test_export_of_a_two_object_image_passes_the_toolkit_checks_and_scores_perfe
     assert df["time"].tolist() == [3.25, 3.25]  # the image's total, on every row
     assert all(df[c].dtype.kind == "i" for c in ("scene_id", "im_id", "obj_id"))
     scored = tmp_path / "scored"
-    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
+    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored)]) == 0
     errs, header = bop_eval.read_errors(scored / bop_eval.ERRORS_FILE)
     assert header["method"] == "catposeOurs" and len(errs) == 2 and errs["matched"].all()
     table = bop_eval.score_table(errs, ALL_METRICS)
@@ -245,7 +245,7 @@ def test_tyol_frame_export_then_score_gives_recall_one(shared_data: Path, tmp_pa
     out = tmp_path / "gt_tyol-test.csv"
     assert export_bop(run, out) == 1 and len(read_predictions(out)) == 1
     scored = tmp_path / "scored"
-    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
+    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored)]) == 0
     errs, _ = bop_eval.read_errors(scored / bop_eval.ERRORS_FILE)
     assert (bop_eval.score_table(errs, ALL_METRICS)[ALL_METRICS].to_numpy() == 1.0).all()
     samples = [json.loads(x) for x in (scored / "samples.jsonl").read_text().splitlines()]
@@ -261,7 +261,7 @@ def test_ycbv_bench_export_then_bench_score_reproduces_the_ground_truth(shared_d
     out = tmp_path / "gt_ycbv-test.csv"
     assert export_bop(run, out) == 38 and len(read_predictions(out)) == 38
     scored = tmp_path / "scored"
-    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
+    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored)]) == 0
     errs, header = bop_eval.read_errors(scored / bop_eval.ERRORS_FILE)
     assert header["targets"] == 38 and header["matched"] == 38
     assert (bop_eval.score_table(errs, ALL_METRICS)[ALL_METRICS].to_numpy() == 1.0).all()

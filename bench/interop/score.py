@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 from collections import Counter
-from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -36,14 +35,14 @@ def score_bop(
     dataset_cfg: dict,
     out_dir: str | Path,
     method: str,
-    metrics: Sequence[str],
-    by: Sequence[str],
     vsd: bool = True,
 ) -> str:
     """BOP metrics of a BOP results CSV on the dataset of ``dataset_cfg`` (a resolved config
     dict): writes ``bop_errors.jsonl`` and ``bop_summary.md`` into ``out_dir`` and returns the
-    summary (which states the target and visibility filters applied, and the models used: the
-    dataset's ``models_eval/`` when present, :func:`evaluation_models`)."""
+    summary: the recalls of :data:`DEFAULT_BOP_METRICS` per object and category (without VSD, no
+    ``ar`` and ``ar_vsd``: BOP's AR needs it; other recalls: ``bench table --bop-metrics``), under
+    the target and visibility filters applied and the models used (the dataset's ``models_eval/``
+    when present, :func:`evaluation_models`)."""
     from catpose.bench.run.build import build_from_config
     from catpose.bench.scoring.bop_eval import ERRORS_FILE, compute_errors, format_scores, score_table, write_errors
 
@@ -65,23 +64,10 @@ def score_bop(
     write_errors(errs, Path(out_dir) / ERRORS_FILE, header)
     import pandas as pd
 
-    text = f"BOP metrics ({method}):\n" + format_scores(score_table(pd.DataFrame(errs), metrics, by), header)
+    metrics = [m for m in DEFAULT_BOP_METRICS if vsd or m not in ("ar", "ar_vsd")]
+    text = f"BOP metrics ({method}):\n" + format_scores(score_table(pd.DataFrame(errs), metrics), header)
     atomic.write_text(Path(out_dir) / "bop_summary.md", text + "\n")
     return text
-
-
-def bop_metrics(asked: str | None, no_vsd: bool) -> str:
-    """The BOP recalls to print: ``--metrics`` or :data:`DEFAULT_BOP_METRICS`; with ``--no-vsd``
-    the defaults lose ``ar`` and ``ar_vsd`` (BOP's AR needs VSD), and asking for them is refused."""
-    if asked is None:
-        return ",".join(m for m in DEFAULT_BOP_METRICS if not (no_vsd and m in ("ar", "ar_vsd")))
-    needs_vsd = [m for m in asked.split(",") if m.strip().lower() in ("ar", "ar_vsd")]
-    if no_vsd and needs_vsd:
-        raise InvalidInputError(
-            f"--metrics {','.join(needs_vsd)} needs VSD, which --no-vsd skips (BOP's AR is the mean of ar_mssd, "
-            "ar_mspd and ar_vsd); drop --no-vsd, or ask for ar_mssd,ar_mspd"
-        )
-    return asked
 
 
 def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
@@ -123,13 +109,6 @@ def main(argv: list[str] | None = None) -> int:
     )
     add_output_options(ap, "run directory to write (new or empty; see --force)", force_help="replace a run at --out")
     ap.add_argument(
-        "--metrics",
-        default=None,
-        help="BOP datasets: comma-separated recalls, e.g. ar,ar_mssd,ar_mspd,ar_vsd,adds@0.1,add@0.1,mssd@0.2,"
-        "mspd@10,5deg5cm,10deg10cm (default: " + ",".join(DEFAULT_BOP_METRICS) + "; without ar, ar_vsd with --no-vsd)",
-    )
-    ap.add_argument("--by", default="object,category", help="BOP datasets: rows per object and/or category")
-    ap.add_argument(
         "--no-vsd", action="store_true", help="BOP datasets: skip VSD (it renders the model twice per estimate)"
     )
     ap.add_argument(
@@ -139,9 +118,6 @@ def main(argv: list[str] | None = None) -> int:
         "(T_camera_template); invert them (not for a BOP CSV, whose convention is fixed)",
     )
     args = ap.parse_args(argv)
-    args.metrics = bop_metrics(args.metrics, args.no_vsd)
-    if not args.by or set(args.by.split(",")) - {"object", "category"}:
-        raise InvalidInputError(f"--by {args.by!r}: pass object, category or object,category (BOP rows)")
     if not args.gt:
         raise InvalidInputError("pass --gt RUN_DIR: the run whose samples the predictions estimate")
     if args.method is None:
@@ -178,15 +154,7 @@ def main(argv: list[str] | None = None) -> int:
     with out.writing(), atomic.building_dir(out.path) as tmp:
         write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
         if preds.attrs["kind"] == "bop" and is_bop_layout(config.get("dataset")):
-            bop_text = score_bop(
-                preds,
-                config["dataset"],
-                tmp,
-                args.method,
-                args.metrics.split(","),
-                args.by.split(","),
-                vsd=not args.no_vsd,
-            )
+            bop_text = score_bop(preds, config["dataset"], tmp, args.method, vsd=not args.no_vsd)
         summary = (tmp / "summary.md").read_text() if (tmp / "summary.md").is_file() else ""
     print(count_text(stats))
     print(f"run directory {out.path}")

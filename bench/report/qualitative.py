@@ -68,17 +68,16 @@ def plot_registration(
 
 
 def plot_sample_from_run(
-    run_dir: str | Path, sample_id: str, out_stem: str | Path, title: str | None = None, pdf: bool = True
+    run, sample_id: str, out_stem: str | Path, title: str | None = None, pdf: bool = True
 ) -> list[Path]:
-    """Re-load ``sample_id`` from the run's config (dataset + protocol) and plot its registration
-    (``title`` defaults to ``method | sample | status``).
+    """Re-load ``sample_id`` of ``run`` (a :class:`~catpose.bench.report.runs.Run`) from its config
+    (dataset + protocol) and plot its registration (``title`` defaults to ``method | sample | status``).
 
     Raises :class:`~catpose.errors.CatposeError` when the dataset cannot be rebuilt here.
     """
-    from catpose.bench.report.runs import load_run
     from catpose.errors import CatposeError, ConfigError, DatasetError
 
-    run = load_run(run_dir)
+    run_dir = run.path
     rows = run.samples[run.samples["sample_id"] == sample_id]
     if len(rows) == 0:
         raise DatasetError(f"sample {sample_id!r} is not in {run_dir}/samples.jsonl")

@@ -219,7 +219,7 @@ def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_
                 err = float(view_rows.loc[view_rows["sample_id"] == sid, "err_deg"].iloc[-1])
                 stem = fig / f"{protocol}_{re.sub(r'[^A-Za-z0-9]+', '_', label).strip('_')}_worst"
                 try:
-                    plot_sample_from_run(run.path, sid, stem, f"{label} | {sid} | worst", pdf=False)
+                    plot_sample_from_run(run, sid, stem, f"{label} | {sid} | worst", pdf=False)
                 except CatposeError as e:
                     md += [f"**{label}**, worst `{sid}` ({err:.1f} deg): not drawn ({e})", ""]
                     continue

@@ -101,13 +101,10 @@ def _image_width(dataset, depth_path: Path, K: np.ndarray) -> int:
 
         with Image.open(depth_path) as im:
             return int(im.size[0])
-    cam = dataset.root / "camera.json"
-    if cam.is_file():
-        try:
-            return int(json.loads(cam.read_text())["width"])
-        except (KeyError, TypeError, ValueError, json.JSONDecodeError):
-            pass
-    return int(round(2 * K[0, 2]))
+    from catpose.datasets.bop_check import camera_size
+
+    size = camera_size(dataset.root)
+    return size[0] if size else int(round(2 * K[0, 2]))
 
 
 def _pair_errors(R_e, t_e, R_g, t_g, K, pts, syms, depth_mm, mesh, diameter) -> dict[str, Any]:
