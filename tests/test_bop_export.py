@@ -17,7 +17,7 @@ import pytest
 from catpose.bench.interop import score as score_cmd
 from catpose.bench.interop.bop_export import export_bop
 from catpose.bench.interop.prediction_io import BOP_COLUMNS, read_predictions
-from catpose.bench.interop.prediction_match import score_predictions
+from catpose.bench.interop.score import score_predictions
 from catpose.bench.run.rundir import write_run
 from catpose.bench.scoring import bop_eval
 from catpose.datasets.bop import BOP

@@ -26,8 +26,7 @@ import pytest
 
 from catpose.bench.cli import main as bench
 from catpose.bench.interop.prediction_io import read_predictions
-from catpose.bench.interop.prediction_match import score_predictions
-from catpose.bench.interop.score import gt_rows_from_run
+from catpose.bench.interop.score import gt_rows_from_run, score_predictions
 from catpose.bench.run.evaluate import recompute_row_errors
 from catpose.bench.run.rundir import latest_rows, read_rows
 

@@ -44,12 +44,11 @@ def image_times(ids: Sequence[tuple], runtimes: Sequence[Any]) -> dict[tuple[int
     return out
 
 
-def export_bop(
-    run_dir: str | Path, out_csv: str | Path, check_name: bool = True, skipped: list[str] | None = None
-) -> int:
+def export_bop(run_dir: str | Path, out_csv: str | Path, skipped: list[str] | None = None) -> int:
     """Write the estimates of a run on BOP-layout data as a BOP results CSV; returns the number of
-    rows written. ``out_csv`` must be named ``METHOD_DATASET-SPLIT.csv`` (``check_name=False`` skips
-    this). One row per scoring unit with an estimate (templates: the template the method chose);
+    rows written. ``out_csv`` must be named ``METHOD_DATASET-SPLIT.csv`` with the run's DATASET (the
+    BOP toolkit scores the file against the dataset it names; a run of the generic ``dataset=bop``
+    config may name it as its user knows it). One row per scoring unit with an estimate (templates: the template the method chose);
     ``score`` is the confidence ``exp(-max(method score, 0))``, ``time`` one value per image (the
     summed runtimes, -1 if one is unknown). What is left out goes to ``skipped``; a run without any
     estimate, or whose samples have no BOP ids, is refused."""
@@ -60,14 +59,19 @@ def export_bop(
     from catpose.errors import DatasetError, InvalidInputError
 
     run = load_run(run_dir)
-    example = f"method_{_dataset_of(run) if _dataset_of(run) not in ('', 'bop') else 'ycbv'}-test.csv"
+    node = run.config.get("dataset")
+    dataset = str(node.get("name")) if isinstance(node, dict) and node.get("name") else str(run.info.get("dataset", ""))
+    example = f"method_{dataset if dataset not in ('', 'bop') else 'ycbv'}-test.csv"
     if Path(out_csv).is_dir():
         raise InvalidInputError(
             f"--out {out_csv} is a folder; pass the CSV file to write, e.g. {Path(out_csv) / example}"
         )
-    if check_name:
-        check_results_filename(out_csv, example[7:-4])
-        check_dataset_name(out_csv, run)
+    method, named, split = check_results_filename(out_csv, example[7:-4])
+    if dataset and dataset != "bop" and named != dataset:
+        raise InvalidInputError(
+            f"--out {Path(out_csv).name} names dataset {named!r}, but run {run.path} is of dataset {dataset!r}; "
+            f"name it {method}_{dataset}-{split}.csv"
+        )
     if run.incomplete:  # exported all the same, and said
         log.warning("%s", run.incomplete)
     proto = protocol_of(run)
@@ -87,7 +91,7 @@ def export_bop(
         )
     if not all(has_bop_ids(r) for r in rows):
         raise InvalidInputError(
-            f"run {run_dir} is not on BOP-layout data (dataset {_dataset_of(run) or '?'}): its samples have no BOP "
+            f"run {run_dir} is not on BOP-layout data (dataset {dataset or '?'}): its samples have no BOP "
             "ids to export; score another method's estimates of it from a per-sample CSV (docs/evaluation.md)"
         )
     for r in rows:  # only poses are exported (a hand-edited samples.jsonl can hold anything)
@@ -130,28 +134,6 @@ def pose_problem(T: Any) -> str | None:
         return f"has the last row {M[3].tolist()}, not [0, 0, 0, 1]"
     why = rotation_problem(M[:3, :3])
     return None if why is None else f"is not a rotation and translation ({why})"
-
-
-def _dataset_of(run: Any) -> str:
-    node = run.config.get("dataset")
-    return str(node.get("name")) if isinstance(node, dict) and node.get("name") else str(run.info.get("dataset", ""))
-
-
-def check_dataset_name(out_csv: str | Path, run: Any) -> None:
-    """The ``DATASET`` of ``METHOD_DATASET-SPLIT.csv`` must be the run's dataset (the BOP toolkit
-    scores the file against the dataset it names); a run of the generic ``dataset=bop`` config,
-    whose name says nothing of the dataset, may be named as its user knows it."""
-    from catpose.bench.scoring.bop_eval import check_results_filename
-    from catpose.errors import InvalidInputError
-
-    _, named, split = check_results_filename(out_csv)
-    dataset = _dataset_of(run)
-    if dataset and dataset != "bop" and named != dataset:
-        method = Path(out_csv).name.split("_", 1)[0]
-        raise InvalidInputError(
-            f"--out {Path(out_csv).name} names dataset {named!r}, but run {run.path} is of dataset {dataset!r}; "
-            f"name it {method}_{dataset}-{split}.csv"
-        )
 
 
 def main(argv: list[str] | None = None) -> int:

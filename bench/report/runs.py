@@ -129,7 +129,9 @@ def load_runs(paths: Sequence[str | Path]) -> tuple[list[Run], list[str]]:
 def print_left_out(command: str, runs: Sequence[Run], reasons: Sequence[str]) -> None:
     """Each run left out by :func:`load_runs`, one ``bench <command>: error: left out: ...`` line each
     (stderr); the command then exits with status 2 after doing what it can with the others. With
-    no run left at all it raises instead (one line when one run was given)."""
+    no run left at all it raises instead (one line when one run was given). Then one ``bench
+    <command>: warning: run ... is incomplete`` line per incomplete run (:attr:`Run.incomplete`;
+    tables and reports note them too)."""
     import sys
 
     from catpose.errors import command_error
@@ -140,17 +142,9 @@ def print_left_out(command: str, runs: Sequence[Run], reasons: Sequence[str]) ->
         print(command_error(command, f"left out: {why}"), file=sys.stderr)
     if not runs:
         raise DatasetError(f"no run could be read ({len(reasons)} left out, see above)")
-
-
-def warn_incomplete(command: str, runs: Sequence[Run]) -> list[str]:
-    """One ``bench <command>: warning: run ... is incomplete`` line on stderr per incomplete run
-    (:attr:`Run.incomplete`); returns those lines' reasons (tables and reports note them too)."""
-    import sys
-
-    reasons = [r.incomplete for r in runs if r.incomplete]
-    for why in reasons:
-        print(f"bench {command}: warning: {why}", file=sys.stderr)
-    return reasons
+    for run in runs:
+        if run.incomplete:
+            print(f"bench {command}: warning: {run.incomplete}", file=sys.stderr)
 
 
 def find_run_dirs(paths: Sequence[str | Path]) -> list[Path]:

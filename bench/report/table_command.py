@@ -17,7 +17,7 @@ from typing import Any
 
 from catpose import atomic
 from catpose.bench.report.labels import parse_labels
-from catpose.bench.report.runs import find_run_dirs, load_runs, print_left_out, warn_incomplete
+from catpose.bench.report.runs import find_run_dirs, load_runs, print_left_out
 from catpose.bench.report.table_format import METRICS
 from catpose.bench.report.tables import LAYOUTS, RENDERERS, build_table
 from catpose.errors import ConfigError, DatasetError
@@ -117,7 +117,6 @@ def make_table(args, swept):
     runs, left_out = load_runs([*args.runs, *run_paths])
     labels = {**sweep_labels, **parse_labels(args.label, runs)}
     print_left_out("table", runs, left_out)  # one damaged run does not stop the others; the exit status says so
-    warn_incomplete("table", runs)  # and the table's notes say it
     if args.categories:
         check_categories(runs, args.categories.split(","))
     table = build_table(
