@@ -18,6 +18,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from catpose import atomic
+from catpose.bench.report import plots, tables
+from catpose.bench.report.labels import parse_labels, run_labels
+from catpose.bench.report.runs import load_runs, print_left_out, scored_units
 from catpose.errors import CatposeError
 
 PROTOCOL_TEXT = {
@@ -58,8 +61,6 @@ def _git_rev(run) -> str:
 
 
 def _write_table(table, out: Path, stem: str) -> list[str]:
-    from catpose.bench.report import tables
-
     for fmt, ext in (("md", "md"), ("latex", "tex"), ("csv", "csv")):
         atomic.write_text(out / "tables" / f"{stem}.{ext}", tables.RENDERERS[fmt](table))
     return [
@@ -77,8 +78,6 @@ def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, 
     """One row per run, all categories pooled, the columns of :data:`SUMMARY_METRICS` named by
     the metric alone: ``tables/<protocol>_summary.*`` of a report (the README's first table),
     and what ``make demo`` prints."""
-    from catpose.bench.report import tables
-
     summary = tables.build_table(
         runs,
         "generic",
@@ -98,8 +97,6 @@ def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: 
     """A row block per run, a column per category (the paper's layout), mean, median, @10 and @30:
     ``tables/<protocol>_per_category.*`` of a report (``make demo`` prints it above the
     pooled table); None when the runs name no category."""
-    from catpose.bench.report import tables
-
     cats = sorted({str(c) for r in runs for c in r.samples.get("category", [])})
     if not cats:
         return None
@@ -131,9 +128,6 @@ def build_report(
     each run's worst registration drawn. Runs of one protocol on different samples are refused
     unless ``allow_mixed``. A run that cannot be read is left out, said in the index and on stderr,
     and its reason appended to ``left_out``. The folder is built aside and moved into place whole."""
-    from catpose.bench.report.labels import parse_labels
-    from catpose.bench.report.runs import load_runs, print_left_out
-
     runs, reasons = load_runs(run_dirs)
     label_of = parse_labels(labels, runs)
     print_left_out("report", runs, reasons)
@@ -147,11 +141,6 @@ def build_report(
 
 def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_mixed: bool = False) -> None:
     """The files of :func:`build_report` into the new, empty folder ``out``."""
-    from catpose.bench.report import plots, tables
-    from catpose.bench.report.labels import run_labels
-    from catpose.bench.report.qualitative import plot_sample_from_run
-    from catpose.bench.report.runs import scored_units
-
     (out / "tables").mkdir(parents=True, exist_ok=True)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     by_protocol = tables.split_by_protocol(runs)
@@ -219,7 +208,7 @@ def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_
                 err = float(view_rows.loc[view_rows["sample_id"] == sid, "err_deg"].iloc[-1])
                 stem = fig / f"{protocol}_{re.sub(r'[^A-Za-z0-9]+', '_', label).strip('_')}_worst"
                 try:
-                    plot_sample_from_run(run, sid, stem, f"{label} | {sid} | worst", pdf=False)
+                    plots.plot_sample_from_run(run, sid, stem, f"{label} | {sid} | worst", pdf=False)
                 except CatposeError as e:
                     md += [f"**{label}**, worst `{sid}` ({err:.1f} deg): not drawn ({e})", ""]
                     continue
