@@ -117,23 +117,12 @@ def score_predictions(
             out.append(failed_row(row, "no prediction", stage="register", score=None, runtime_s=None))
             continue
         T_est = estimate(p, k)
-        errs = errors_of(T_est, g)
-        score = p.get("score")
-        score = (
-            None
-            if score is None or not math.isfinite(float(score))
-            else (-float(score) if kind == "bop" else float(score))
+        score, rt = (
+            None if x is None or not math.isfinite(float(x)) else float(x) for x in (p.get("score"), p.get("time"))
         )
-        rt = p.get("time")
-        out.append(
-            scored_row(
-                row,
-                T_est,
-                errs,
-                score=score,
-                runtime_s=None if rt is None or not math.isfinite(float(rt)) or float(rt) < 0 else float(rt),
-            )
-        )
+        score = None if score is None else -score if kind == "bop" else score  # a BOP score is a confidence
+        rt = rt if rt is not None and rt >= 0 else None  # BOP's -1: not measured
+        out.append(scored_row(row, T_est, errors_of(T_est, g), score=score, runtime_s=rt))
     if stats is not None:
         stats.update(_counts(kind, all_by_key, gt_rows, groups, out))
     return out

@@ -94,15 +94,11 @@ def _overrides(run: Run) -> list[str]:
     return [o for o in out if o.split("=", 1)[0] not in RUN_LEVEL_KEYS and not o.startswith("hydra.")]
 
 
-def _short(item: str) -> str:
-    """``method.descriptor=pfh`` -> ``descriptor=pfh`` (the method is already in the label)."""
-    return item[len("method.") :] if item.startswith("method.") else item
-
-
 def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
     """Label suffixes that tell ``members`` (runs sharing a label) apart, the fewest kinds first:
     the protocol, the dataset, the recorded overrides not shared by all, the config values that
-    differ, and only when nothing else does, the run directory's name (which ends in a hash)."""
+    differ (``method.`` left out: the method is already in the label), and only when nothing else
+    does, the run directory's name (which ends in a hash)."""
 
     def dataset(r: Run) -> str:
         d = r.config.get("dataset")
@@ -119,7 +115,9 @@ def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
     if not unique(parts):
         overrides = [[o for o in _overrides(r) if o.split("=", 1)[0] not in ("protocol", "dataset")] for r in members]
         shared = set.intersection(*(set(o) for o in overrides))
-        parts = [p + [_short(o) for o in sorted(ov) if o not in shared] for p, ov in zip(parts, overrides)]
+        parts = [
+            p + [o.removeprefix("method.") for o in sorted(ov) if o not in shared] for p, ov in zip(parts, overrides)
+        ]
     if not unique(parts):
         flats = [
             _flat({k: r.config.get(k) for k in ("method", "dataset", "protocol", "choice", "seed")}) for r in members
@@ -127,7 +125,7 @@ def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
         keys = sorted(
             {k for f in flats for k in f if len({json.dumps(g.get(k), sort_keys=True, default=str) for g in flats}) > 1}
         )
-        parts = [p + [_short(f"{k}={f.get(k)}") for k in keys] for p, f in zip(parts, flats)]
+        parts = [p + [f"{k}={f.get(k)}".removeprefix("method.") for k in keys] for p, f in zip(parts, flats)]
     if not unique(parts):
         parts = [p + [where] for p, where in zip(parts, _path_labels([r.path for r in members]))]
     return parts

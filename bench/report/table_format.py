@@ -4,6 +4,7 @@ underlined) or CSV. Knows nothing of runs: :mod:`catpose.bench.report.tables` fi
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -125,12 +126,7 @@ def to_latex(table: Table) -> str:
         r"\toprule",
     ]
     if two_level:
-        spans: list[tuple[str, int]] = []
-        for c in table.columns:
-            if spans and spans[-1][0] == c[0]:
-                spans[-1] = (c[0], spans[-1][1] + 1)
-            else:
-                spans.append((c[0], 1))
+        spans = [(name, len(list(run))) for name, run in itertools.groupby(c[0] for c in table.columns)]
         top = [""] * n_lead + [rf"\multicolumn{{{n}}}{{c}}{{{_tex_escape(name)}}}" for name, n in spans]
         out.append(" & ".join(top) + r" \\")
     bottom = [rf"\textbf{{{_tex_escape(h)}}}" for h in table.row_header] + [_tex_label(c[-1]) for c in table.columns]
