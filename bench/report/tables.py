@@ -238,38 +238,28 @@ LAYOUTS: dict[str, Layout] = {
 
 def lay_out(spec: Layout, entries: Sequence[Entry], cats: Sequence[str], metrics: Sequence[str], title: str) -> Table:
     """The table of ``entries`` in the layout ``spec`` (categories ``cats``, ``metrics``)."""
-    grouped = spec.group_of is not None
     md = {m: metric(m).md for m in metrics}
+    grouped = spec.group_of is not None
+    # per shape: the leading headers, the (entry, category, metric) in the order that lists the rows and columns,
+    # and where each statistic goes, (row, column)
     if spec.shape == "grid":
-        rows = [(e.group, e.label) if grouped else (e.label,) for e in entries]
-        t = Table(title, [spec.group_header, "Methods"] if grouped else ["Methods"], rows, [])
-        t.columns = [(c.capitalize(), md[m]) for c in cats for m in metrics]
-        place = {
-            (i, c, m): (rows[i], (c.capitalize(), md[m])) for i in range(len(entries)) for c in cats for m in metrics
-        }
+        lead = [spec.group_header, "Methods"] if grouped else ["Methods"]
+        order = [(e, c, m) for e in entries for c in cats for m in metrics]
+        where = lambda e, c, m: ((e.group, e.label) if grouped else (e.label,), (c.capitalize(), md[m]))  # noqa: E731
     elif spec.shape == "real":
-        rows = [(c.capitalize(), md[m]) for c in cats for m in metrics]
-        t = Table(title, ["Category", "Metric"], rows, [(e.label,) for e in entries], rank_by="row")
-        place = {
-            (i, c, m): ((c.capitalize(), md[m]), (e.label,))
-            for i, e in enumerate(entries)
-            for c in cats
-            for m in metrics
-        }
+        lead, order = ["Category", "Metric"], [(e, c, m) for c in cats for m in metrics for e in entries]
+        where = lambda e, c, m: ((c.capitalize(), md[m]), (e.label,))  # noqa: E731
     else:
-        rows = [(e.label, md[m]) for e in entries for m in metrics]
-        t = Table(title, ["Methods", "Metric"], rows, [(c.capitalize(),) for c in cats], rank_by="column")
-        place = {
-            (i, c, m): ((e.label, md[m]), (c.capitalize(),))
-            for i, e in enumerate(entries)
-            for c in cats
-            for m in metrics
-        }
-    for (i, c, m), where in place.items():
-        value, spread = cell(entries[i], c, m)
-        t.cells[where] = (value, m)
+        lead, order = ["Methods", "Metric"], [(e, c, m) for e in entries for m in metrics for c in cats]
+        where = lambda e, c, m: ((e.label, md[m]), (c.capitalize(),))  # noqa: E731
+    places = [where(*k) for k in order]
+    rows, columns = list(dict.fromkeys(r for r, _ in places)), list(dict.fromkeys(c for _, c in places))
+    t = Table(title, lead, rows, columns, rank_by="row" if spec.shape == "real" else "column")
+    for (e, c, m), place in zip(order, places):
+        value, spread = cell(e, c, m)
+        t.cells[place] = (value, m)
         if spread is not None:
-            t.spread[where] = spread
+            t.spread[place] = spread
     return t
 
 
