@@ -2,15 +2,10 @@
 format, :mod:`catpose.bench.interop.prediction_io`).
 
 BOP datasets put ``scene_id``, ``im_id``, ``obj_id`` in each sample's ``info`` (from
-``Observation.info``), with ``scale_mm`` (millimetres per object-normalised unit) and optionally
-``centre_mm`` (3,) and ``R_object_model`` (9, row-major) of the normalisation ``p_object =
-(R_object_model p_model - centre_mm) / scale_mm`` (defaults: 0 and identity). With ``(R_co, t_co) =
-inv(T_template_camera_est)``:
-
-    R_camera_model = R_co @ R_object_model,    t_camera_model[mm] = scale_mm * t_co - R_co @ centre_mm
-
-(:func:`catpose.bench.run.bop_ar.camera_model_pose`). Runs on other datasets have no BOP ids:
-an external method's estimates of them are scored from a per-sample CSV.
+``Observation.info``), with the object's normalisation (``scale_mm``, ``centre_mm``,
+``R_object_model``) that takes an estimate to BOP's ``T_camera_model`` in millimetres
+(:func:`catpose.bench.run.bop_ar.camera_model_pose`). Runs on other datasets have no BOP ids: an
+external method's estimates of them are scored from a per-sample CSV.
 """
 
 from __future__ import annotations
@@ -54,7 +49,7 @@ def export_bop(run_dir: str | Path, out_csv: str | Path, skipped: list[str] | No
     estimate, or whose samples have no BOP ids, is refused."""
     from catpose.bench.protocols.relative import Relative
     from catpose.bench.report.runs import load_run, protocol_of
-    from catpose.bench.run.bop_ar import bop_key, camera_model_pose, confidence, has_bop_ids
+    from catpose.bench.run.bop_ar import has_bop_ids, predictions_from_units
     from catpose.bench.scoring.bop_eval import check_results_filename
     from catpose.errors import DatasetError, InvalidInputError
 
@@ -101,16 +96,14 @@ def export_bop(run_dir: str | Path, out_csv: str | Path, skipped: list[str] | No
                 f"run {run_dir}: sample {r.get('sample_id')}: T_est {why}; its samples.jsonl is damaged: "
                 "re-run that sample (delete its line and re-run the same command)"
             )
-    ids = [bop_key(r["info"]) for r in rows]
-    times = image_times(ids, [r.get("runtime_s") for r in rows])
+    preds = predictions_from_units(rows).to_dict("records")  # what bench score reads back
+    times = image_times([(p["scene_id"], p["im_id"]) for p in preds], [r.get("runtime_s") for r in rows])
     lines = [",".join(BOP_COLUMNS)]
-    for r, (scene, im, obj) in zip(rows, ids):
-        T = camera_model_pose(r["T_est"], r["info"])
-        R, t, conf = T[:3, :3], T[:3, 3], confidence(r.get("score"))
-        rt = times[(scene, im)]
+    for p in preds:
+        R, t = p["T"][:3, :3], p["T"][:3, 3]
         lines.append(
-            f"{scene},{im},{obj},{conf:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"
-            f"{' '.join(f'{x:.9g}' for x in t)},{rt:.6g}"
+            f"{p['scene_id']},{p['im_id']},{p['obj_id']},{p['score']:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"
+            f"{' '.join(f'{x:.9g}' for x in t)},{times[(p['scene_id'], p['im_id'])]:.6g}"
         )
     from catpose import atomic
     from catpose.bench.interop.prediction_io import read_predictions
