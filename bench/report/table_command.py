@@ -1,10 +1,6 @@
 """``bench table``: the command line of :mod:`catpose.bench.report.tables`.
 
 bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE] [--allow-mixed]
-
-Rows scored on different samples (datasets, protocols, seeds, a ``limit`` run) are refused in one
-line (exit 2) unless ``--allow-mixed``; the seeds of one configuration are one row (their mean,
-with min and max).
 """
 
 from __future__ import annotations
