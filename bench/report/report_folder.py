@@ -74,10 +74,12 @@ def _write_table(table, out: Path, stem: str) -> list[str]:
 SUMMARY_METRICS = ("mean", "median", "acc10", "acc30", "trans", "runtime", "failed")
 
 
-def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, allow_mixed: bool = False):
-    """One row per run, all categories pooled, the columns of :data:`SUMMARY_METRICS` named by
-    the metric alone: ``tables/<protocol>_summary.*`` of a report (the README's first table),
-    and what ``make demo`` prints."""
+def protocol_tables(runs: Sequence, labels: dict[str, str] | None, protocol: str, allow_mixed: bool = False) -> dict:
+    """A report's tables of one protocol, ``tables/<protocol>_<name>.*``: ``summary``, one row per
+    run with all categories pooled and the columns of :data:`SUMMARY_METRICS` named by the metric
+    alone (the README's first table), and, when the runs name categories, ``per_category``, a row
+    block per run and a column per category (the paper's layout) with mean, median, @10 and @30;
+    ``make demo`` prints both."""
     summary = tables.build_table(
         runs,
         "generic",
@@ -90,17 +92,10 @@ def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, 
     # One category ("all"): the metric alone names each column.
     summary.cells = {(r, c[1:]): v for (r, c), v in summary.cells.items()}
     summary.columns = [c[1:] for c in summary.columns]
-    return summary
-
-
-def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, allow_mixed: bool = False):
-    """A row block per run, a column per category (the paper's layout), mean, median, @10 and @30:
-    ``tables/<protocol>_per_category.*`` of a report (``make demo`` prints it above the
-    pooled table); None when the runs name no category."""
     cats = sorted({str(c) for r in runs for c in r.samples.get("category", [])})
     if not cats:
-        return None
-    return tables.build_table(
+        return {"summary": summary}
+    per_category = tables.build_table(
         runs,
         "tyol",
         categories=cats,
@@ -109,6 +104,7 @@ def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: 
         title=f"Per category ({protocol})",
         allow_mixed=allow_mixed,
     )
+    return {"summary": summary, "per_category": per_category}
 
 
 def build_report(
@@ -174,10 +170,8 @@ def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_
             "### Tables",
             "",
         ]
-        md += _write_table(summary_table(group, names, protocol, allow_mixed), out, f"{protocol}_summary")
-        per_cat = per_category_table(group, names, protocol, allow_mixed)
-        if per_cat is not None:
-            md += _write_table(per_cat, out, f"{protocol}_per_category")
+        for name, table in protocol_tables(group, names, protocol, allow_mixed).items():
+            md += _write_table(table, out, f"{protocol}_{name}")
 
         run_units = [scored_units(r) for r in group]
         units = _units_by_label(group_labels, run_units)
