@@ -21,7 +21,7 @@ setup: $(VENV)/.installed
 # open3d-cpu's missing libusb-1.0.so.0 comes from the PyPI package libusb-package: it is linked into
 # Open3D's folder (catpose.open3d_libusb) so that `import open3d` works before or without catpose.
 # PYTHONWARNINGS: setuptools' notice that every editable install prints, not a problem of this one.
-# No GPL package is installed (K-medoids is catpose's own FasterPAM).
+# No GPL package is installed (K-medoids is catpose's own PAM).
 $(VENV)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip

@@ -37,15 +37,14 @@ import numpy as np
 from catpose.datasets.dataset import OptionGroup
 from catpose.errors import ConfigError
 from catpose.geometry import (
+    R_onto_z,
     apply_R,
     axis_angle_to_R,
     compose_T,
     look_at_T_camera_world,
     make_T,
     matmul3,
-    norm3,
     stable_seed,
-    unit3,
 )
 from catpose.resting import RestingUp, rest_classes
 
@@ -162,20 +161,6 @@ class SceneLayout:
     T_camera_world: np.ndarray
 
 
-def R_up_to_z(up: np.ndarray) -> np.ndarray:
-    """The rotation (3, 3) that turns unit ``up`` onto +z by the shortest arc (about ``up x z``);
-    the identity for ``up = z`` and a half turn about x for ``up = -z``."""
-    up = unit3(np.asarray(up, dtype=np.float64))
-    z = np.array([0.0, 0.0, 1.0])
-    axis = np.cross(up, z)
-    s, c = norm3(axis), float(np.clip(up[2], -1.0, 1.0))
-    if s < 1e-12:
-        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
-    a = axis / s
-    K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-    return np.eye(3) + s * K + (1.0 - c) * matmul3(K, K)
-
-
 #: the smallest gap (mm) between two objects' footprints
 GAP_MM = 2.0
 
@@ -247,7 +232,7 @@ def layout_scene(
         else:
             up = _draw_up(spec, rng, rests[obj_id], axes.get(obj_id))
         yaw = float(rng.uniform(0.0, 2.0 * np.pi))
-        R = matmul3(axis_angle_to_R(np.array([0.0, 0.0, 1.0]), yaw), R_up_to_z(up))
+        R = matmul3(axis_angle_to_R(np.array([0.0, 0.0, 1.0]), yaw), R_onto_z(up))
         v = apply_R(R, vertices_mm[obj_id])
         centre_xy = 0.5 * (v[:, :2].min(axis=0) + v[:, :2].max(axis=0))
         outline = footprint(v[:, :2] - centre_xy)

@@ -215,7 +215,6 @@ def mesh_to_template(
     up: str = "+z",
     forward: str = "+x",
     scale: float = 1.0,
-    normalize: bool = True,
     symmetry_axis: np.ndarray | None = None,
 ) -> Template:
     """Rotate a mesh into the template frame, normalise it and sample its outer surface.
@@ -226,15 +225,14 @@ def mesh_to_template(
         n_points: number of surface samples.
         seed: sampling seed (combined with ``template_id``).
         up, forward: the file's axes that become +z and +x.
-        scale: multiplies the vertices before normalisation.
-        normalize: centre at the bounding-box centre and scale to the unit bounding sphere.
+        scale: multiplies the vertices before normalisation (centre at the bounding-box centre,
+            scaled to the unit bounding sphere).
     """
     v = apply_R(R_template_file(up, forward), np.asarray(vertices, np.float64) * float(scale))
-    if normalize:
-        try:
-            v, _, _ = normalize_to_unit_sphere(v)
-        except ValueError:
-            raise DatasetError(f"template {template_id}: mesh has zero extent") from None
+    try:
+        v, _, _ = normalize_to_unit_sphere(v)
+    except ValueError:
+        raise DatasetError(f"template {template_id}: mesh has zero extent") from None
     return sampled_template(v, triangles, template_id, category, n_points, seed, symmetry_axis)
 
 

@@ -1,7 +1,10 @@
 """Helpers of the file-safety tests (test_file_safety.py, test_scoring_inputs.py): a toy run's rows,
-its config, and the one-line error check."""
+its config, a run directory written from rows, and the one-line error check."""
 
 from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -58,3 +61,21 @@ def with_bop_ids(run_rows: list[dict]) -> list[dict]:
     """``run_rows`` as rows of BOP-layout data: BOP scene, image and object ids in each ``info``
     (what ``bench export`` needs)."""
     return [dict(r, info={**r["info"], "scene_id": 1, "im_id": k, "obj_id": 1}) for k, r in enumerate(run_rows)]
+
+
+def write_run(
+    out_dir: str | Path, rows: Sequence[dict], config: dict, info: dict | None = None, force: bool = False
+) -> Path:
+    """Write a run directory (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries) from
+    ``rows`` (the ``samples.jsonl`` schema) and ``config`` (a plain dict with ``method``, ``dataset``,
+    ``protocol`` nodes and ``seed``), built aside and moved into place; an existing run or other
+    non-empty folder at ``out_dir`` is refused unless ``force``. Returns ``out_dir``."""
+    from catpose import atomic
+    from catpose.bench.run.overwrite import check_output
+    from catpose.bench.run.rundir import write_run_into
+
+    out = Path(out_dir)
+    check_output(out, "folder", force=force, replaces="run")
+    with atomic.building_dir(out) as tmp:
+        write_run_into(tmp, rows, config, info)
+    return out

@@ -178,12 +178,3 @@ def test_import_catpose_stays_light():
     )
     r = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
-
-
-def test_the_api_builds_a_dataset_from_its_flat_keys_without_hydra():
-    """A dataset's option groups (``view``, ``image``, ``template``) take their config's flat keys in
-    the API's builder as in ``bench run``'s (the BOP example builds its dataset this way)."""
-    from catpose.api.method_cache import build_config
-
-    ds = build_config("dataset", "synthetic", {"max_points": 300, "width": 120}, seed=0)
-    assert ds.view.max_points == 300 and ds.image.width == 120 and ds.seed == 0

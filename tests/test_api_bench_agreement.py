@@ -7,7 +7,7 @@ whole API path from the points.
 The bench side is what ``bench run method=ours dataset=ycbv`` does per sample (the dataset and
 protocol built from the configs, the sample loaded by the protocol, the method seeded by the
 sample id and called); the API side is what a user does with the frame and the model
-(``catpose.api.bop.bop_instance`` reads them as the loader does, then ``catpose.register``). Both
+(the loader's depth frame and normalised model, :func:`api_inputs`, then ``catpose.register``). Both
 go through :func:`catpose.datasets.frame_view.frame_view`; the estimates must agree to 1e-6 degrees
 (they are the same bits).
 """
@@ -33,10 +33,21 @@ def rotation_deg(R_a: np.ndarray, R_b: np.ndarray) -> float:
     return float(np.degrees(2.0 * np.arcsin(min(1.0, np.linalg.norm(R_a - R_b) / np.sqrt(8.0)))))
 
 
+def api_inputs(ds, sample_id: str, obj: int) -> tuple:
+    """What a user gives ``catpose.Registrar`` for one BOP instance (as
+    ``examples/register_bop_frame.py`` does): the loader's depth frame (raw depth, ``cam_K``, mask,
+    ``depth_scale`` to mm), the model as the loader normalises it, the config's frame settings."""
+    from catpose.api.inputs import NormalisedTemplate
+
+    template = NormalisedTemplate(ds.instance_model(sample_id.split("/")[0], f"obj_{obj:06d}"), *ds.normalisation(obj))
+    settings = ds.frame_settings()
+    options = {"max_points": settings.max_points, "plane_distance": settings.plane_distance}
+    return ds.instance_frame(sample_id).frame, template, options
+
+
 @pytest.mark.data
 @pytest.mark.slow
 def test_register_a_depth_frame_equals_bench_run_on_every_shared_ycbv_instance(shared_data):
-    from catpose.api.bop import bop_instance
     from catpose.bench.run.config import compose_and_build
     from catpose.bench.run.sample_run import seed_everything
     from catpose.geometry import stable_seed
@@ -54,13 +65,11 @@ def test_register_a_depth_frame_equals_bench_run_on_every_shared_ycbv_instance(s
         seed_everything(stable_seed(0, sample_id))
         bench = method.register(sample.problem)
 
-        _, scene, im, _ = sample_id.split("/")
         obj = int(sample.info["obj_id"])
-        inst = bop_instance(str(root), int(scene), int(im), obj, dataset="ycbv")
-        assert inst.obs_id == sample_id
+        frame, template, options = api_inputs(ds, sample_id, obj)
         if obj not in registrars:
-            registrars[obj] = catpose.Registrar(inst.template, "ours")
-        api = registrars[obj](inst.frame, **inst.options)
+            registrars[obj] = catpose.Registrar(template, "ours")
+        api = registrars[obj](frame, **options)
 
         worst = max(worst, rotation_deg(api.T_normalised[:3, :3], bench.T_template_camera[:3, :3]))
         assert np.allclose(api.T_normalised, bench.T_template_camera, rtol=0, atol=1e-9), sample_id
@@ -156,7 +165,6 @@ def test_register_a_generated_depth_frame_equals_bench_run(bop_root):
     """The shared-frames test above on a BOP scene rendered here (a box and a cylinder on a table,
     tests/test_loaders_bop.py): every instance through ``bench run dataset=bop`` and through
     ``catpose.register(DepthFrame)`` with the default method, ours, gives the same pose."""
-    from catpose.api.bop import bop_instance
     from catpose.bench.run.config import compose_and_build
     from catpose.geometry import seed_everything, stable_seed
 
@@ -170,10 +178,6 @@ def test_register_a_generated_depth_frame_equals_bench_run(bop_root):
         sample = protocol.load(ds, sample_id)
         seed_everything(stable_seed(0, sample_id))
         bench = method.register(sample.problem)
-        _, scene, im, _ = sample_id.split("/")
-        inst = bop_instance(
-            str(bop_root), int(scene), int(im), int(sample.info["obj_id"]), options={"categories": {1: "box", 2: "can"}}
-        )
-        assert inst.obs_id == sample_id
-        api = catpose.Registrar(inst.template, "ours")(inst.frame, **inst.options)
+        frame, template, options = api_inputs(ds, sample_id, int(sample.info["obj_id"]))
+        api = catpose.Registrar(template, "ours")(frame, **options)
         assert np.allclose(api.T_normalised, bench.T_template_camera, rtol=0, atol=1e-9), sample_id

@@ -23,8 +23,7 @@ from omegaconf import OmegaConf
 
 from catpose.bench.run import rundir
 from catpose.bench.run.build import build_from_config
-from catpose.bench.run.lock import LOCK_FILE
-from catpose.bench.run.rundir import read_rows
+from catpose.bench.run.rundir import LOCK_FILE, read_rows
 from catpose.bench.run.runner import run
 from catpose.errors import ConfigError, DatasetError, RunAborted
 

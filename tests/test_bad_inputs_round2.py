@@ -18,13 +18,13 @@ import pytest
 
 from catpose import atomic
 from catpose.bench.cli import main as bench
-from catpose.bench.run.rundir import read_rows, write_run
+from catpose.bench.run.rundir import read_rows
 from catpose.errors import ConfigError, DatasetError, InvalidInputError
 
 TESTS = Path(__file__).resolve().parent
 sys.path.insert(0, str(TESTS))
 
-from _trust import CFG, one_error_line, rows, with_bop_ids  # noqa: E402
+from _trust import CFG, one_error_line, rows, with_bop_ids, write_run  # noqa: E402
 
 ROT = "1 0 0 0 1 0 0 0 1"
 BOP_HEAD = "scene_id,im_id,obj_id,score,R,t,time"

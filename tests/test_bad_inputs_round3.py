@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 from catpose.bench.cli import main as bench
-from catpose.bench.run.rundir import read_rows, write_run
+from catpose.bench.run.rundir import read_rows
 
 TESTS = Path(__file__).resolve().parent
 sys.path.insert(0, str(TESTS))
 
-from _trust import CFG, one_error_line, rows  # noqa: E402
+from _trust import CFG, one_error_line, rows, write_run  # noqa: E402
 from test_bad_inputs_round2 import per_sample_csv, snapshot  # noqa: E402
 
 
@@ -44,7 +44,7 @@ def test_case_01_perf_out_follows_the_output_rule(tmp_path, capsys):
 
 
 def test_case_02_score_force_never_replaces_a_run_being_written(tmp_path, capsys):
-    from catpose.bench.run.lock import RunLock
+    from catpose.bench.run.rundir import RunLock
 
     gt = write_run(tmp_path / "gt", rows([5.0, 10.0]), CFG)
     busy = write_run(tmp_path / "busy", rows([1.0]), CFG)

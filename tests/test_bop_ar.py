@@ -99,7 +99,7 @@ def test_table_and_suite_ar_equal_bench_score(clutter_run) -> None:
 
     # bench suite --objects: per object, the AR of bench score's per-object rows
     from catpose.bench.real.split import load_split
-    from catpose.bench.real.suite_parts import object_rows
+    from catpose.bench.real.suite_table import object_rows
     from catpose.bench.scoring.bop_eval import read_errors, score_table
 
     scored, _ = read_errors(tmp / "scored" / "bop_errors.jsonl")

@@ -18,13 +18,13 @@ from catpose.bench.interop import score as score_cmd
 from catpose.bench.interop.bop_export import export_bop
 from catpose.bench.interop.prediction_io import BOP_COLUMNS, read_predictions
 from catpose.bench.interop.score import score_predictions
-from catpose.bench.run.rundir import write_run
 from catpose.bench.scoring import bop_eval
 from catpose.datasets.bop import BOP
 from catpose.errors import InvalidInputError
 from catpose.geometry import make_T
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _trust import write_run  # noqa: E402
 from test_loaders_bop import T_camera_model, bop_root  # noqa: E402, F401  (the rendered scene fixture)
 
 BOP_HEADER = ",".join(BOP_COLUMNS)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from catpose.bench.category.instances import instance_ids
+from catpose.bench.category.template_medoids import instance_ids
 
 
 class _Split:

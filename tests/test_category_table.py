@@ -13,10 +13,10 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _study import study_module  # noqa: E402
+from _trust import write_run  # noqa: E402
 from test_bad_inputs_round2 import TEMPLATES_CFG, templates_rows  # noqa: E402
 from test_template_choice import view_rows  # noqa: E402
 
-from catpose.bench.run.rundir import write_run  # noqa: E402
 from catpose.methods.choice_rules import RULES  # noqa: E402
 
 pytestmark = pytest.mark.experiment
@@ -78,7 +78,8 @@ def test_category_table_one_template_row_takes_the_runs_turn_rule_where_turns_we
 
 
 def test_a_view_on_fewer_templates_than_its_K_is_said(ct, tmp_path, capsys):
-    run = write_run(tmp_path / "run", templates_rows(n_views=1, k=3, present=2), TEMPLATES_CFG)  # limit=2
+    cfg = dict(TEMPLATES_CFG, choice={"name": "score", "rule": "score"})
+    run = write_run(tmp_path / "run", templates_rows(n_views=1, k=3, present=2), cfg)  # limit=2
     assert ct.main([str(run)]) == 0
     out, err = capsys.readouterr()
     row = next(ln for ln in out.splitlines() if ln.startswith("| 3 |"))  # K = 3, not 2

@@ -10,8 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench.protocols.absolute import Templates
-from catpose.bench.protocols.template_rows import choose_row
+from catpose.bench.protocols.absolute import Templates, choose_row
 from catpose.bench.run import sample_run
 from catpose.bench.run.sample_run import ChoiceFacts, facts_hook
 from catpose.errors import ConfigError

@@ -56,7 +56,7 @@ def test_golden_inputs_keep_depth_images_and_meshes(tmp_path):
     ds = SyntheticDataset(seed=0, categories=["can"], instances_per_category=1, views_per_instance=1)
     sample = GtModel().load(ds, ds.observation_ids()[0])
     path = write_golden(tmp_path / "g.npz", "t", [], [sample])
-    back = read_golden(path).samples[0]
+    back = read_golden(path)[0]
     di, db = sample.problem.depth_image, back.problem.depth_image
     np.testing.assert_allclose(db.depth, di.depth.astype(np.float32), atol=0)
     assert np.array_equal(db.mask, di.mask) and np.allclose(db.K, di.K)

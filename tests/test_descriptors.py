@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
 
 from catpose.errors import ConfigError
-from catpose.geometry import random_rotation
 from catpose.methods import lps
 from catpose.methods.descriptors import LPS, PFH, Descriptor
 from catpose.methods.dictionary import DictionaryLayout, viewpoint_layout
@@ -61,7 +61,7 @@ def test_pfh_affinity_is_invariant_to_a_rigid_motion() -> None:
     desc = PFH()
     p, n = _cloud()
     up = np.array([0.0, 0.0, 1.0])
-    R = random_rotation(np.random.default_rng(9))
+    R = Rotation.random(random_state=np.random.default_rng(9)).as_matrix()
     a = desc.keypoint_features(p, n, 16, up)
     moved = a.points @ R.T + 0.5  # the same downsampled cloud, moved
     b = desc.describe(moved, a.normals @ R.T, a.indices, R @ up, cKDTree(moved))

@@ -56,7 +56,7 @@ def _names(requirements: list[str]) -> set[str]:
 def test_a_plain_install_pulls_no_torch_and_nothing_gpl():
     """torch is the `torch` extra (its Linux wheel on PyPI is the CUDA build, with nvidia-* and
     triton); no extra that `make setup` installs brings GPL code (kmedoids was one: K-medoids is
-    catpose's own FasterPAM now)."""
+    catpose's own PAM now)."""
     core, extras = _names(PROJECT["dependencies"]), PROJECT["optional-dependencies"]
     assert "torch" not in core and _names(extras["torch"]) == {"torch"}
     setup_extras = re.search(r'-e "\.\[([a-z,]+)\]"', (REPO / "Makefile").read_text()).group(1).split(",")

@@ -17,13 +17,13 @@ import pytest
 from catpose import atomic
 from catpose.bench.cli import main as bench
 from catpose.bench.run.rows_file import CutOffLineWarning
-from catpose.bench.run.rundir import SampleWriter, read_rows, write_run
+from catpose.bench.run.rundir import SampleWriter, read_rows
 from catpose.errors import DatasetError, InvalidInputError, RunAborted
 
 TESTS = Path(__file__).resolve().parent
 sys.path.insert(0, str(TESTS))
 
-from _trust import CFG, one_error_line, rows, with_bop_ids  # noqa: E402
+from _trust import CFG, one_error_line, rows, with_bop_ids, write_run  # noqa: E402
 
 # ---------------------------------------------------------------------------------------------
 # 2. atomic writes

@@ -8,8 +8,7 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
-from catpose.bench.protocols.absolute import Templates
-from catpose.bench.protocols.template_rows import choose_row
+from catpose.bench.protocols.absolute import Templates, choose_row
 from catpose.errors import ConfigError
 from catpose.methods.choice_rules import AGREE_DEG, FUSE_RULES, TURN_RULES, ChoiceRule, fuse_agreeing
 
@@ -98,7 +97,7 @@ def test_fused_rule_averages_the_chosen_estimate_with_the_agreeing_templates():
     assert fused["err_deg"] == pytest.approx(_angle(np.eye(3), q)) and fused["err_deg"] < 0.1
     assert "fused_templates" not in rows["info"][0]  # the run's rows are not changed
     # within 5 degrees of the chosen 6, neither -4 nor -2 agrees: the chosen pose is kept
-    alone = choose_row(rows, "fused", fuse_deg=5.0)
+    alone = choose_row(rows, ChoiceRule(rule="fused", agree_deg=5.0))
     assert alone["info"]["fused_templates"] == 1 and alone["err_deg"] == pytest.approx(6.0)
 
 
@@ -131,5 +130,5 @@ def test_fused_weighs_the_top_offset_by_its_own_weight():
     assert choose_row(rows, "cross_top_turns")["sample_id"] == "chair/a/v00|1"
     kept = choose_row(rows, "fused")
     assert kept["sample_id"] == "chair/a/v00|0" and kept["err_deg"] == pytest.approx(2.0)
-    assert choose_row(rows, "fused", top_weight=TOP_WEIGHT)["sample_id"] == "chair/a/v00|1"
+    assert choose_row(rows, ChoiceRule(rule="fused").with_offset_weight(TOP_WEIGHT))["sample_id"] == "chair/a/v00|1"
     assert choose_row(rows, ChoiceRule(rule="fused", fused_top_weight=TOP_WEIGHT))["sample_id"] == "chair/a/v00|1"

@@ -14,8 +14,7 @@ import pytest
 import yaml
 
 from catpose.bench.cli import main
-from catpose.bench.run.config import check_run_args
-from catpose.bench.run.hydra_flags import split_hydra_args
+from catpose.bench.run.config import check_run_args, split_hydra_args
 from catpose.errors import ConfigError
 
 

@@ -179,9 +179,7 @@ def world(tmp_path_factory) -> dict:
     )
     verified.with_suffix(".png").write_bytes(b"the checked picture")
     (root / "shared").mkdir()
-    from _trust import CFG, rows, with_bop_ids
-
-    from catpose.bench.run.rundir import write_run
+    from _trust import CFG, rows, with_bop_ids, write_run
 
     return {
         "bop_run": write_run(root / "bop_run", with_bop_ids(rows([5.0, 10.0])), CFG),

@@ -3,26 +3,30 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from scipy.spatial.transform import Rotation
 
 from catpose.bench.interop import score as score_cmd
 from catpose.bench.interop.bop_export import export_bop
 from catpose.bench.interop.prediction_io import read_predictions
 from catpose.bench.interop.score import score_predictions
-from catpose.bench.run.rundir import write_run
 from catpose.errors import InvalidInputError
-from catpose.geometry import axis_angle_to_R, make_T, random_rotation
+from catpose.geometry import axis_angle_to_R, make_T
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _trust import write_run  # noqa: E402
 
 
 def _rows(info_fn=lambda i: {}) -> list[dict]:
     rng = np.random.default_rng(0)
     rows = []
     for i, (cat, err) in enumerate([("mug", 5.0), ("mug", 25.0), ("can", None), ("can", 70.0)]):
-        T_gt = make_T(random_rotation(rng), rng.normal(size=3) + [0, 0, 3])
+        T_gt = make_T(Rotation.random(random_state=rng).as_matrix(), rng.normal(size=3) + [0, 0, 3])
         row = {
             "sample_id": f"{cat}/i{i}/v0",
             "group_id": f"{cat}/i{i}/v0",
@@ -134,7 +138,7 @@ def test_bad_prediction_files(tmp_path: Path):
 def test_bop_export_matches_bop_pose_convention(tmp_path: Path):
     """An exact estimate exports as BOP's own cam_R_m2c / cam_t_m2c (the bop loader's normalisation)."""
     rng = np.random.default_rng(5)
-    R_cm, t_cm = random_rotation(rng), np.array([30.0, -20.0, 800.0])
+    R_cm, t_cm = Rotation.random(random_state=rng).as_matrix(), np.array([30.0, -20.0, 800.0])
     R_om, centre, scale = axis_angle_to_R(np.array([0, 1.0, 0]), 0.3), np.array([5.0, -4.0, 2.0]), 90.0
     R_oc = R_om @ R_cm.T  # as datasets/bop.py builds T_object_camera
     T_object_camera = make_T(R_oc, -(R_oc @ t_cm + centre) / scale)

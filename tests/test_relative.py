@@ -7,11 +7,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from scipy.spatial.transform import Rotation
 
 from catpose.bench.protocols.relative import Relative, pair_indices, relative_errors
 from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.errors import ConfigError
-from catpose.geometry import axis_angle_to_R, make_T, random_rotation
+from catpose.geometry import axis_angle_to_R, make_T
 from catpose.types import Template
 
 
@@ -56,10 +57,10 @@ def test_pair_indices():
 
 def test_relative_error_ignores_unknown_absolute_frame():
     rng = np.random.default_rng(0)
-    T_gt1 = make_T(random_rotation(rng), rng.normal(size=3))
-    T_gt2 = make_T(random_rotation(rng), rng.normal(size=3))
+    T_gt1 = make_T(Rotation.random(random_state=rng).as_matrix(), rng.normal(size=3))
+    T_gt2 = make_T(Rotation.random(random_state=rng).as_matrix(), rng.normal(size=3))
     # Estimates in another frame (template != the trajectory's frame): relative pose is exact.
-    T_template_object = make_T(random_rotation(rng), rng.normal(size=3))
+    T_template_object = make_T(Rotation.random(random_state=rng).as_matrix(), rng.normal(size=3))
     e = relative_errors(T_template_object @ T_gt1, T_template_object @ T_gt2, T_gt1, T_gt2)
     assert e["rot_err_deg"] < 1e-4 and e["trans_err"] < 1e-9 and e["err_deg"] == e["rot_err_deg"]
     # A 20 degree error in view 2's rotation about the camera z axis gives 20 degrees.
@@ -71,7 +72,10 @@ def test_relative_error_ignores_unknown_absolute_frame():
 def test_symmetric_relative_error_ignores_spin_about_axis():
     rng = np.random.default_rng(1)
     axis = np.array([0.0, 0.0, 1.0])
-    T_gt1, T_gt2 = make_T(random_rotation(rng), np.zeros(3)), make_T(random_rotation(rng), np.zeros(3))
+    T_gt1, T_gt2 = (
+        make_T(Rotation.random(random_state=rng).as_matrix(), np.zeros(3)),
+        make_T(Rotation.random(random_state=rng).as_matrix(), np.zeros(3)),
+    )
     spin1 = make_T(axis_angle_to_R(axis, 0.7), np.zeros(3))  # template-frame spin: unobservable
     spin2 = make_T(axis_angle_to_R(axis, -1.9), np.zeros(3))
     e = relative_errors(spin1 @ T_gt1, spin2 @ T_gt2, T_gt1, T_gt2, axis)
@@ -83,7 +87,7 @@ def test_symmetric_relative_error_ignores_spin_about_axis():
 
 def test_score_units_pairs_and_failures():
     rng = np.random.default_rng(2)
-    gts = [make_T(random_rotation(rng), rng.normal(size=3)) for _ in range(3)]
+    gts = [make_T(Rotation.random(random_state=rng).as_matrix(), rng.normal(size=3)) for _ in range(3)]
     off = make_T(axis_angle_to_R(np.array([0, 1.0, 0]), np.radians(30)), np.zeros(3))
     rows = [
         _row("chair/a/v0", "a", gts[0], gts[0]),
@@ -111,7 +115,10 @@ def test_score_units_pairs_and_failures():
 
 def test_score_units_category_templates_picks_lowest_score():
     rng = np.random.default_rng(3)
-    g1, g2 = make_T(random_rotation(rng), np.zeros(3)), make_T(random_rotation(rng), np.zeros(3))
+    g1, g2 = (
+        make_T(Rotation.random(random_state=rng).as_matrix(), np.zeros(3)),
+        make_T(Rotation.random(random_state=rng).as_matrix(), np.zeros(3)),
+    )
     bad = make_T(axis_angle_to_R(np.array([1.0, 0, 0]), np.radians(90)), np.zeros(3))
     rows = [
         _row("car/x/v0", "x", g1, g1, category="car", score=0.1, template="0"),
@@ -130,7 +137,7 @@ class _TinyDataset(ObjectDataset):
     def __init__(self) -> None:
         rng = np.random.default_rng(4)
         self._pts = rng.normal(size=(50, 3))
-        self._T = {f"mug/i0/v{k}": make_T(random_rotation(rng), np.zeros(3)) for k in range(3)}
+        self._T = {f"mug/i0/v{k}": make_T(Rotation.random(random_state=rng).as_matrix(), np.zeros(3)) for k in range(3)}
 
     def observation_ids(self) -> list[str]:
         return list(self._T)
@@ -216,7 +223,7 @@ def test_runner_end_to_end(tmp_path: Path):
 
 def test_max_relative_angle_keeps_small_motions():
     rng = np.random.default_rng(7)
-    T0 = make_T(random_rotation(rng), np.zeros(3))
+    T0 = make_T(Rotation.random(random_state=rng).as_matrix(), np.zeros(3))
     small = T0 @ make_T(axis_angle_to_R(np.array([0, 0, 1.0]), np.radians(20)), np.zeros(3))
     large = T0 @ make_T(axis_angle_to_R(np.array([0, 0, 1.0]), np.radians(120)), np.zeros(3))
     rows = [_row("cup/a/v0", "a", T0, T0), _row("cup/a/v1", "a", small, small), _row("cup/a/v2", "a", large, large)]
@@ -259,8 +266,8 @@ def test_views_without_relative_ground_truth_are_not_scored():
 def test_symmetric_relative_errors_ignore_each_views_spin():
     rng = np.random.default_rng(3)
     axis = np.array([0.0, 0.0, 1.0])
-    T_gt1 = make_T(random_rotation(rng), [0.2, -0.1, 3.0])
-    T_gt2 = make_T(random_rotation(rng), [-0.3, 0.4, 2.5])
+    T_gt1 = make_T(Rotation.random(random_state=rng).as_matrix(), [0.2, -0.1, 3.0])
+    T_gt2 = make_T(Rotation.random(random_state=rng).as_matrix(), [-0.3, 0.4, 2.5])
     spin = make_T(axis_angle_to_R(axis, 1.1), np.zeros(3))  # unobservable for a can
     e = relative_errors(T_gt1, spin @ T_gt2, T_gt1, T_gt2, axis)
     assert e["err_deg"] == pytest.approx(0.0, abs=1e-6) and e["trans_err"] == pytest.approx(0.0, abs=1e-9)

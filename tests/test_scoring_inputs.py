@@ -21,11 +21,11 @@ import pytest
 from catpose.bench.cli import main as bench
 from catpose.bench.interop.prediction_io import read_predictions
 from catpose.bench.interop.score import count_text, score_predictions
-from catpose.bench.run.rundir import read_rows, write_run
+from catpose.bench.run.rundir import read_rows
 from catpose.errors import InvalidInputError
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _trust import CFG, one_error_line, rows  # noqa: E402
+from _trust import CFG, one_error_line, rows, write_run  # noqa: E402
 
 ROT = "1 0 0 0 1 0 0 0 1"
 BOP_HEAD = "scene_id,im_id,obj_id,score,R,t,time"

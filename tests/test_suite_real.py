@@ -72,19 +72,14 @@ def test_one_real_sample_runs_through_the_runner(shared_data, tmp_path, monkeypa
     assert len(r["samples"]) == 1
 
 
-def test_sets_with_a_split_get_a_column_per_part(tmp_path):
-    import json
-
+def test_sets_with_a_split_get_a_column_per_part():
     from catpose.bench.real.split import load_split
-    from catpose.bench.real.suite_parts import part_label, part_rows
+    from catpose.bench.real.suite_table import part_label
 
-    run = tmp_path / "run"
-    run.mkdir()
     ids = ["can/000001/000002/0", "bottle/000001/000004/1", "can/000002/000002/0"]
-    (run / "samples.jsonl").write_text("".join(json.dumps({"sample_id": i}) + "\n" for i in ids))
     split = load_split("ycbv")
-    rows = part_rows(run, split, ["scene1", "scene2"], lambda d, chosen: {"n": len(chosen), "ids": chosen})
-    assert rows["scene1"]["ids"] == ids[:2] and rows["scene2"]["ids"] == ids[2:]
+    rows = [{"sample_id": i} for i in ids]
+    assert split.row_ids("scene1", rows) == ids[:2] and split.row_ids("scene2", rows) == ids[2:]
     assert part_label("ycbv", split, "scene2") == "ycbv:scene2 (report A, choose B)"
     results = {("ycbv", "ours"): {}, (part_label("ycbv", split, "scene1"), "ours"): {}, ("tyol", "ours"): {}}
     assert sr.columns(results, ["ycbv", "tyol"]) == ["ycbv", part_label("ycbv", split, "scene1"), "tyol"]

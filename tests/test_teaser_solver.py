@@ -6,9 +6,9 @@ import itertools
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from catpose.errors import ConfigError, InvalidInputError
-from catpose.geometry import random_rotation
 from catpose.methods import teaser_solver
 
 
@@ -20,7 +20,7 @@ def _outlier_problem(seed: int, n: int = 100, n_in: int = 10, noise_bound: float
     """``n`` correspondences in the unit cube, ``n_in`` inliers with noise inside the bound,
     the rest random (90 % outliers by default)."""
     rng = np.random.default_rng(seed)
-    R, t = random_rotation(rng), rng.normal(size=3)
+    R, t = Rotation.random(random_state=rng).as_matrix(), rng.normal(size=3)
     src = rng.uniform(-1, 1, (n, 3))
     dst = src @ R.T + t
     noise = rng.normal(size=(n_in, 3))
@@ -45,7 +45,7 @@ def test_recovers_pose_with_90_percent_outliers(seed: int) -> None:
 
 def test_noise_free_is_exact() -> None:
     rng = np.random.default_rng(3)
-    R, t = random_rotation(rng), rng.normal(size=3)
+    R, t = Rotation.random(random_state=rng).as_matrix(), rng.normal(size=3)
     src = rng.normal(size=(30, 3))
     r = teaser_solver.solve(src, src @ R.T + t, 1e-3)
     assert _rot_err_deg(r.R, R) < 1e-5 and np.linalg.norm(r.t - t) < 1e-6
@@ -144,7 +144,7 @@ def test_consistency_graph_matches_its_definition() -> None:
 
 def test_gnc_tls_rejects_outlier_measurements() -> None:
     rng = np.random.default_rng(1)
-    R = random_rotation(rng)
+    R = Rotation.random(random_state=rng).as_matrix()
     a = rng.normal(size=(60, 3))
     b = a @ R.T
     b[:30] = rng.normal(size=(30, 3)) * 2  # 50 % gross outliers
@@ -189,7 +189,7 @@ def test_small_cliques_follow_teaserpp() -> None:
     """TEASER++ (teaser/src/registration.cc, ``RobustRegistrationSolver::solve``) aborts only on a
     max clique of 0 or 1 and solves every larger one; so does the re-implementation."""
     rng = np.random.default_rng(3)
-    R, t = random_rotation(rng), np.array([0.2, -0.1, 0.3])
+    R, t = Rotation.random(random_state=rng).as_matrix(), np.array([0.2, -0.1, 0.3])
     src = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [0.0, 0.7, 0.1]])
     # three exact correspondences, not on a line: a 3-clique fixes the pose
     r = teaser_solver.solve(src, src @ R.T + t, 0.01)

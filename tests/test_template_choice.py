@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from catpose.bench.protocols import Templates
-from catpose.bench.protocols.template_rows import is_excluded_view, with_template_facts
+from catpose.bench.protocols.absolute import is_excluded_view, with_template_facts
 from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R
 from catpose.methods.choice_rules import (

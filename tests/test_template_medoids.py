@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -88,7 +89,7 @@ def test_silhouette_picks_the_three_families():
     result = ts.choose_templates(clouds, k="auto", tau=0.05, n_points=800, seed=0)
     assert len(result["templates"]) == 3 and max(result["silhouette"], key=result["silhouette"].get) == 3
     assert set(result["silhouette"]) == set(range(2, len(clouds)))
-    labels = ts.select_medoids(result["distances"], 3, 0)[1]
+    labels = ts.select_medoids(result["distances"], 3)[1]
     assert result["silhouette"][3] == pytest.approx(silhouette_score(result["distances"], labels, metric="precomputed"))
 
 
@@ -213,3 +214,70 @@ def test_bad_dataset_root_is_one_line(tmp_path, capsys):
     )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("bench templates: error: ") and "nope" in err[0]
+
+
+# PAM itself (ts.pam): against an exhaustive search and, where the GPL ``kmedoids`` package is
+# installed (not by ``make setup``), against its Rust PAM
+
+
+def _distances(seed: int, n: int, clustered: bool) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    X = rng.normal(size=(n, 3))
+    if clustered:
+        X[: n // 3] += 6.0
+        X[n // 3 : 2 * n // 3] -= 6.0
+    return np.linalg.norm(X[:, None] - X[None], axis=2)
+
+
+def _loss(D: np.ndarray, medoids) -> float:
+    return float(D[:, list(medoids)].min(axis=1).sum())
+
+
+def _optimum(D: np.ndarray, k: int) -> float:
+    return min(_loss(D, m) for m in itertools.combinations(range(len(D)), k))
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_pam_ends_in_a_local_optimum_no_single_swap_improves(seed):
+    D = _distances(seed, 14, clustered=seed % 2 == 0)
+    k = 2 + seed % 3
+    medoids = ts.pam(D, k)
+    loss = _loss(D, medoids)
+    assert len(set(medoids.tolist())) == k
+    for slot, j in itertools.product(range(k), range(len(D))):
+        if j in medoids:
+            continue
+        swapped = medoids.copy()
+        swapped[slot] = j
+        assert _loss(D, swapped) >= loss - 1e-9, (slot, j)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_pam_on_separated_clusters_reaches_the_exhaustive_optimum(seed):
+    D = _distances(seed, 12, clustered=True)
+    assert _loss(D, ts.pam(D, 3)) == pytest.approx(_optimum(D, 3), rel=1e-12)
+
+
+def test_pam_build_takes_the_best_first_medoid_and_k_1_and_n():
+    D = _distances(0, 9, clustered=False)
+    assert ts.pam(D, 1).tolist() == [int(np.argmin(D.sum(axis=0)))]
+    assert _loss(D, ts.pam(D, 1)) == pytest.approx(_optimum(D, 1))
+    assert sorted(ts.pam(D, 9).tolist()) == list(range(9))
+
+
+def test_pam_duplicate_points_and_ties_stay_deterministic():
+    X = np.repeat(np.array([[0.0, 0, 0], [5, 0, 0], [0, 5, 0]]), 3, axis=0)  # three triples of equal points
+    D = np.linalg.norm(X[:, None] - X[None], axis=2)
+    medoids = ts.pam(D, 3)
+    assert _loss(D, medoids) == 0.0 and sorted(medoids.tolist()) == [0, 3, 6]  # the lowest index of each triple
+    assert ts.pam(D, 3).tolist() == medoids.tolist()
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_pam_same_loss_as_the_kmedoids_package(seed):
+    kmedoids = pytest.importorskip("kmedoids")
+    rng = np.random.default_rng(1000 + seed)
+    n, k = int(rng.integers(6, 40)), int(rng.integers(2, 6))
+    D = _distances(1000 + seed, n, clustered=seed % 2 == 1)
+    ref = kmedoids.pam(D, k, max_iter=100, init="build", random_state=None)
+    assert _loss(D, ts.pam(D, k)) == pytest.approx(float(ref.loss), rel=1e-12)

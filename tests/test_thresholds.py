@@ -3,16 +3,19 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench.run.rundir import write_run
 from catpose.bench.scoring import curves
 from catpose.bench.scoring.metrics import accuracy
 from catpose.geometry import axis_angle_to_R, invert_T, make_T
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _trust import write_run  # noqa: E402
 
 GT_MODEL = {"name": "gt_model", "_target_": "catpose.bench.protocols.absolute.GtModel"}
 

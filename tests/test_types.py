@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from catpose.errors import CatposeError, InvalidInputError
-from catpose.types import RegistrationProblem, RegistrationResult, Template, validate_cloud, validate_pose
+from catpose.types import RegistrationProblem, RegistrationResult, Template, validate_cloud
 
 
 def cloud(n=100, seed=0):
@@ -28,7 +28,7 @@ def cloud(n=100, seed=0):
         (cloud()[0], np.zeros((100, 3)), "zero-length normals"),
         (cloud()[0], cloud(50)[1], "normals have shape (50, 3)"),
         (np.zeros((10, 2)), None, "expected (N, 3)"),
-        (cloud(5)[0], None, "only 5 points"),
+        (cloud(5)[0], None, "has 5 points; at least 10"),
     ],
 )
 def test_bad_clouds(points, normals, needle):
@@ -49,12 +49,7 @@ def test_problem_validates_and_normalises():
         RegistrationProblem("s", "c", p[:0], n[:0], np.array([0.0, 0.0, 1.0]), t)
 
 
-def test_result_is_frozen_and_pose_validation():
+def test_result_is_frozen():
     r = RegistrationResult(T_template_camera=np.eye(4))
     with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign to field 'score'"):
         r.score = 1.0  # frozen
-    assert validate_pose("T", np.eye(4)).shape == (4, 4)
-    bad = np.eye(4)
-    bad[0, 0] = -1
-    with pytest.raises(InvalidInputError, match="not a rotation"):
-        validate_pose("T", bad)

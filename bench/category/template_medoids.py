@@ -7,12 +7,10 @@ clouds (Tatarchenko et al., "What do single-view 3D reconstruction networks lear
     precision = |{p in P : d(p, Q) < tau}| / |P|,  recall = |{q in Q : d(q, P) < tau}| / |Q|
     F = 2 * precision * recall / (precision + recall)
 
-FasterPAM (:mod:`catpose.bench.category.fasterpam`, BUILD then eager swaps in index order, in
-NumPy; the GPL-licensed ``kmedoids`` package is its test reference, not a dependency) picks the K
-medoids; scikit-learn's silhouette score over the same precomputed distances is reported for
-every K (``--k auto`` takes the best). The instances
-must be in one frame: a dataset whose frames are not declared consistent (raw ModelNet40) is
-refused unless it has an alignment table (``results/alignment/``)::
+PAM (:func:`pam`, BUILD then best swaps, in NumPy) picks the K medoids; scikit-learn's
+silhouette score over the same precomputed distances is reported for every K (``--k auto`` takes
+the best). The instances must be in one frame: a dataset whose frames are not declared consistent
+(raw ModelNet40) is refused unless it has an alignment table (``results/alignment/``)::
 
     bench templates dataset=modelnet40_resampled dataset.root=/data/modelnet40_normal_resampled \
         dataset.alignment_table=results/alignment/modelnet40_resampled_chair.csv \
@@ -25,8 +23,6 @@ merges into the dataset's templates::
 
     bench run method=ours dataset=modelnet40 protocol=templates +templates=<name> \
         hydra.searchpath=[file://<dir>]
-
-Nothing is written into the installed package: ``--out`` is required.
 """
 
 from __future__ import annotations
@@ -34,11 +30,34 @@ from __future__ import annotations
 import argparse
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from catpose.datasets.views import subsample
 from catpose.errors import ConfigError, DatasetError
+
+
+def instance_ids(dataset: Any, category: str, split: str | None = None) -> list[str]:
+    """Instance ids of ``category`` in ``split`` (None: the dataset's own split), no duplicates: the
+    instances the category tools work on (``bench templates``, ``experiments/alignment/align.py``).
+
+    Datasets say it in three ways, tried in this order: ``dataset.instance_ids(category, split)``
+    (ModelNet40 from OFF files); ``dataset.split_ids(split)`` with
+    ``dataset.category_of_instance(id)`` (ModelNet40 resampled: one split file for every category);
+    otherwise the instances observed in ``dataset.observation_ids()``, in order, each read from its
+    observation (``Observation.instance_id``), for datasets without splits (the synthetic set, BOP
+    scenes), where ``split`` does not apply.
+    """
+    if hasattr(dataset, "instance_ids"):
+        return list(dataset.instance_ids(category, split))
+    if hasattr(dataset, "split_ids"):
+        return [i for i in dataset.split_ids(split) if dataset.category_of_instance(i) == category]
+    ids: dict[str, None] = {}
+    for obs_id in dataset.observation_ids():
+        if dataset.category_of(obs_id) == category:
+            ids.setdefault(str(dataset.observation(obs_id).instance_id))
+    return list(ids)
 
 
 def fscore(P: np.ndarray, Q: np.ndarray, tau: float) -> float:
@@ -61,22 +80,42 @@ def fscore_distances(clouds: Sequence[np.ndarray], tau: float) -> np.ndarray:
     return D
 
 
-def select_medoids(D: np.ndarray, k: int, seed: int = 0) -> tuple[list[int], np.ndarray]:
-    """K medoids of a distance matrix with FasterPAM (:func:`catpose.bench.category.fasterpam.fasterpam`).
+def pam(D: np.ndarray, k: int, max_iter: int = 100) -> np.ndarray:
+    """K medoid indices (K,) of the (N, N) distance matrix ``D`` by PAM (Kaufman and Rousseeuw,
+    "Partitioning Around Medoids", 1990), in NumPy. BUILD adds, K times, the point that lowers the
+    loss ``sum_i min_m D[i, m]`` most (ties: the lowest index); SWAP then makes the exchange of a
+    medoid for a point that lowers it most, all K x N of them at once, until none lowers it by more
+    than a relative 1e-12 (rounding never swaps between equal losses). Deterministic."""
+    n = len(D)
+    medoids = [int(np.argmin(D.sum(axis=0)))]
+    nearest = D[:, medoids[0]].copy()
+    for _ in range(1, k):
+        gain = np.minimum(D - nearest[:, None], 0.0).sum(axis=0)  # (N,) loss change per candidate
+        gain[medoids] = np.inf
+        medoids.append(int(np.argmin(gain)))
+        nearest = np.minimum(nearest, D[:, medoids[-1]])
+    medoids, loss = np.array(medoids), nearest.sum()
+    for _ in range(max_iter if 1 < k < n else 0):
+        order = np.argsort(D[:, medoids], axis=1, kind="stable")
+        dn, ds = np.take_along_axis(D[:, medoids], order[:, :2], axis=1).T  # nearest, second nearest
+        # each point's distance to the medoids left without slot b (N, K), then with point j added
+        rest = np.where(order[:, :1] == np.arange(k), ds[:, None], dn[:, None])
+        after = np.minimum(D[:, :, None], rest[:, None, :]).sum(axis=0)  # (N points j, K slots b)
+        after[medoids] = np.inf
+        j, b = np.unravel_index(np.argmin(after), after.shape)
+        if after[j, b] >= loss - 1e-12 * max(loss, 1.0):
+            break
+        medoids[b], loss = j, after[j, b]
+    return medoids
 
-    Returns (medoid indices sorted by cluster size, largest first, ties by index; (N,) labels
-    indexing that medoid list). Deterministic; ``seed`` is kept for the callers' signature
-    (FasterPAM here visits the points in a fixed order from BUILD's start and draws nothing).
-    """
-    from catpose.bench.category.fasterpam import fasterpam
 
+def select_medoids(D: np.ndarray, k: int) -> tuple[list[int], np.ndarray]:
+    """K medoids of a distance matrix (:func:`pam`): (medoid indices sorted by cluster size,
+    largest first, ties by index; (N,) labels indexing that medoid list)."""
     n = len(D)
     if not 1 <= k <= n:
         raise ConfigError(f"--k {k} must be between 1 and the number of instances ({n})")
-    if k == n:
-        medoids = np.arange(n)
-    else:
-        medoids = fasterpam(D, k, max_iter=100)[0]
+    medoids = pam(np.asarray(D, float), k)
     labels = np.argmin(D[:, medoids], axis=1)
     sizes = np.bincount(labels, minlength=len(medoids))
     order = sorted(range(len(medoids)), key=lambda c: (-sizes[c], int(medoids[c])))
@@ -85,14 +124,14 @@ def select_medoids(D: np.ndarray, k: int, seed: int = 0) -> tuple[list[int], np.
     return [int(medoids[c]) for c in order], remap[labels]
 
 
-def silhouette_by_k(D: np.ndarray, ks: Sequence[int], seed: int = 0) -> dict[int, float]:
+def silhouette_by_k(D: np.ndarray, ks: Sequence[int]) -> dict[int, float]:
     """Mean silhouette (scikit-learn, ``metric="precomputed"``) of the K-medoids clustering of the
     (N, N) distance matrix ``D`` for each K in ``ks`` with 2 <= K <= N - 1 (higher is better)."""
     from sklearn.metrics import silhouette_score
 
     n = len(D)
     return {
-        int(k): float(silhouette_score(D, select_medoids(D, int(k), seed)[1], metric="precomputed"))
+        int(k): float(silhouette_score(D, select_medoids(D, int(k))[1], metric="precomputed"))
         for k in ks
         if 2 <= int(k) <= n - 1
     }
@@ -112,12 +151,12 @@ def choose_templates(
     ids = list(clouds)
     pts = [subsample(n_points, np.random.default_rng(seed), np.asarray(clouds[i], float))[0] for i in ids]
     D = fscore_distances(pts, tau)
-    silhouette = silhouette_by_k(D, range(2, len(ids)), seed)
+    silhouette = silhouette_by_k(D, range(2, len(ids)))
     if k == "auto":
         if not silhouette:
             raise ConfigError(f"--k auto needs at least 3 instances; there are {len(ids)}")
         k = max(silhouette, key=lambda kk: (silhouette[kk], -kk))
-    medoids, labels = select_medoids(D, int(k), seed)
+    medoids, labels = select_medoids(D, int(k))
     clusters = {ids[m]: [ids[j] for j in np.flatnonzero(labels == c)] for c, m in enumerate(medoids)}
     mean_d = float(np.mean([D[j, medoids[labels[j]]] for j in range(len(ids))]))
     return {
@@ -145,7 +184,7 @@ def write_templates_yaml(path: str | Path, category: str, result: dict, settings
     doc[category] = list(result["templates"])
     lines = [
         HEADER,
-        "# Category templates chosen by `bench templates`: K-medoids (FasterPAM) over 1 - F-score@tau",
+        "# Category templates chosen by `bench templates`: K-medoids (PAM) over 1 - F-score@tau",
         f"# between complete canonical clouds. Last run ({category}): "
         + ", ".join(f"{k}={v}" for k, v in settings.items()),
         f"# mean distance to medoid {result['mean_distance']:.4f}; silhouette by K: "
@@ -214,28 +253,26 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--split",
         default="train",
-        help="which instances to cluster (datasets with splits; catpose.bench.category.instances)",
+        help="which instances to cluster (datasets with splits; template_medoids.instance_ids)",
     )
     ap.add_argument("--instances", default=None, help="comma-separated instance ids (default: the split's)")
     ap.add_argument("--points", type=int, default=2048, help="points per cloud")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", required=True, help="YAML to write (e.g. <dir>/templates/<dataset>_<category>.yaml)")
-    ap.add_argument(
-        "--force",
-        action="store_true",
-        help="update an existing --out (a file of bench templates: its other categories stay)",
+    from catpose.bench.run.overwrite import Output, add_output_options
+
+    add_output_options(
+        ap,
+        "YAML to write (e.g. <dir>/templates/<dataset>_<category>.yaml)",
+        force_help="update an existing --out (a file of bench templates: its other categories stay)",
     )
     args = ap.parse_args(argv)
     check_options(args)
-    from catpose.bench.run.overwrite import Output
-
     out = Output(args.out, "file", (), args.force, example="templates.yaml")  # before any work
     if Path(args.out).is_file():
         read_templates_yaml(args.out)  # its own kind of file only, refused before the distances are computed
     if args.k != "auto" and not args.k.isdigit():
         raise ConfigError(f"--k {args.k!r} is not a positive integer or 'auto'")
     k = args.k if args.k == "auto" else int(args.k)
-    from catpose.bench.category.instances import instance_ids
     from catpose.bench.protocols.absolute import require_consistent_frames
     from catpose.bench.run.config import compose, compose_and_build
 

@@ -3,31 +3,35 @@ per-sample errors are scored. The same protocol applies to every method, so ever
 scored on the same problems (fixed by dataset, protocol and seed alone).
 
 - ``gt_model``: each partial view against its own complete model.
-- ``templates``: each view against each of the category's K templates (one problem each); the
-  estimate of a view is the one the method side's choice keeps without ground truth (``choice=<rule>``,
-  default ``score``: :mod:`catpose.methods.template_choice`, applied to the facts the rows store by
-  :mod:`~catpose.bench.protocols.template_rows`), and the paper's "minimum error across templates" is
-  reported beside it as an oracle.
+- ``templates``: each view against each of the category's K templates (one problem each, sample id
+  ``<obs_id>|<k>``); the estimate of a view is the one the method side's choice keeps without
+  ground truth (``choice=<rule>``, :mod:`catpose.methods.template_choice`), applied by
+  :func:`choose_row` to the facts the runner stored in the rows (no registration runs here), and
+  the paper's "minimum error across templates" is reported beside it as an oracle.
 - ``relative`` (:mod:`catpose.bench.protocols.relative`): relative pose between two views of one object.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
-from catpose.bench.protocols.template_rows import (
-    as_rule,
-    choose_row,
-    is_excluded_view,
-    split_template_sample_id,
-    template_sample_id,
-    with_template_facts,
-)
+from catpose.bench.scoring.rows import row_array
 from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.errors import ConfigError, DatasetError
-from catpose.methods.choice_rules import CROSS_RULES, DEFAULT_RULE, TURN_RULES, ChoiceRule
+from catpose.methods.choice_rules import (
+    CROSS_RULES,
+    DEFAULT_RULE,
+    TURN_RULES,
+    ChoiceRule,
+    TemplateEstimate,
+    choose,
+    template_spacing,
+)
 from catpose.types import GroundTruth, RegistrationProblem, Sample, Template
 
 
@@ -94,6 +98,12 @@ class Protocol(ABC):
         """
         return absolute_gt_only(samples)
 
+    def _observation(self, dataset: ObjectDataset, obs_id: str) -> Observation:
+        """``dataset.observation(obs_id)``, the last one kept: consecutive samples often share one."""
+        if getattr(self, "_last", (None,))[0] != (id(dataset), obs_id):
+            self._last = ((id(dataset), obs_id), dataset.observation(obs_id))
+        return self._last[1]
+
 
 def absolute_gt_only(samples):
     """The rows whose ground truth is an absolute pose (see :meth:`Protocol.score_units`)."""
@@ -103,33 +113,16 @@ def absolute_gt_only(samples):
     return samples[keep.astype(bool)].reset_index(drop=True)
 
 
-class _ObservationCache:
-    """Keeps the last observation, since consecutive samples often share one."""
-
-    def __init__(self) -> None:
-        self._key: tuple[int, str] | None = None
-        self._obs: Observation | None = None
-
-    def get(self, dataset: ObjectDataset, obs_id: str) -> Observation:
-        key = (id(dataset), obs_id)
-        if key != self._key:
-            self._obs, self._key = dataset.observation(obs_id), key
-        return self._obs
-
-
 class GtModel(Protocol):
     """Each partial view registered to the observed instance's own complete model."""
 
     name = "gt_model"
 
-    def __init__(self) -> None:
-        self._cache = _ObservationCache()
-
     def sample_ids(self, dataset: ObjectDataset) -> list[str]:
         return list(dataset.observation_ids())
 
     def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
-        obs = self._cache.get(dataset, sample_id)
+        obs = self._observation(dataset, sample_id)
         return make_sample(obs, dataset.instance_model(obs.category, obs.instance_id), sample_id, sample_id)
 
 
@@ -140,7 +133,7 @@ class Templates(Protocol):
     observation id. :meth:`view_templates` gives a sample's view templates, which the runner hands
     to the method side's choice (:class:`catpose.methods.template_choice.TemplateChoice`) after each
     registration; ``score_units`` keeps, per observation, the row the rule ``choice`` keeps given the
-    facts the rows store (:func:`~catpose.bench.protocols.template_rows.choose_row`) and adds
+    facts the rows store (:func:`choose_row`) and adds
     ``oracle_err_deg``, the minimum error across templates, which needs ground truth and is
     labelled an oracle.
 
@@ -166,7 +159,6 @@ class Templates(Protocol):
         self.exclude_templates = bool(exclude_templates)  # skip views of the template instances themselves
         self.exclude_instances = [str(i) for i in (exclude_instances or [])]  # and of these instances
         self.choice = as_rule(choice)  # how a view's row is kept (catpose.methods.choice_rules)
-        self._cache = _ObservationCache()
 
     def _templates(self, dataset: ObjectDataset, category: str) -> list[Template]:
         templates = list(dataset.category_templates(category))
@@ -195,7 +187,7 @@ class Templates(Protocol):
     def load(self, dataset: ObjectDataset, sample_id: str) -> Sample:
         require_consistent_frames(dataset, f"protocol={self.name}")
         obs_id, k = split_template_sample_id(sample_id)
-        obs = self._cache.get(dataset, obs_id)
+        obs = self._observation(dataset, obs_id)
         template = self._templates(dataset, obs.category)[k]
         return with_template_facts(make_sample(obs, template, sample_id, obs_id))
 
@@ -237,3 +229,121 @@ class Templates(Protocol):
             return 0.0
         keys = ("cross_check_s", "turns_s") if self.choice.rule in TURN_RULES else ("cross_check_s",)
         return float(sum(i.get(k, 0.0) for i in group["info"] if isinstance(i, dict) for k in keys))
+
+
+# ---------------------------------------------------------------------------------------------
+# a templates run's rows: their sample ids, the views left out, and the row each view keeps
+
+
+def template_sample_id(obs_id: str, k: int) -> str:
+    """The templates protocol's sample id of view ``obs_id`` against its ``k``-th template."""
+    return f"{obs_id}|{k}"
+
+
+def split_template_sample_id(sample_id: str) -> tuple[str, int]:
+    """(view id, template index) of a :func:`template_sample_id`."""
+    obs_id, _, k = str(sample_id).rpartition("|")
+    return obs_id, int(k)
+
+
+def is_excluded_view(obs_id: str, templates: Sequence[Any], instances: Sequence[str] = ()) -> bool:
+    """Whether the view ``obs_id`` (``<category>/<instance_id>/v<k>``, the ModelNet loaders'
+    ids) shows one of ``templates`` (template ids ``<dataset>/<instance_id>``) or one of
+    ``instances`` (instance ids). Ids of another form never match."""
+    parts = obs_id.split("/")
+    if len(parts) != 3:
+        return False
+    return parts[1] in instances or any(str(t.template_id).rsplit("/", 1)[-1] == parts[1] for t in templates)
+
+
+def as_rule(choice: str | ChoiceRule) -> ChoiceRule:
+    """A rule name (its default weights) or a :class:`~catpose.methods.choice_rules.ChoiceRule` as the latter."""
+    return choice if isinstance(choice, ChoiceRule) else ChoiceRule(rule=str(choice))
+
+
+def estimates_of(group) -> list[TemplateEstimate]:
+    """One view's rows (``group``: rows of ``samples.jsonl`` as a DataFrame, one per template) as the
+    choice rules read them, in row order."""
+    import pandas as pd
+
+    status_ok = (group["status"] == "ok").to_numpy() if "status" in group else np.ones(len(group), bool)
+    scores = (
+        pd.to_numeric(group["score"], errors="coerce").to_numpy(float) if "score" in group else [np.nan] * len(group)
+    )
+    poses = [row_array(T) for T in group["T_est"]] if "T_est" in group else [None] * len(group)
+    infos = group["info"] if "info" in group else [{}] * len(group)
+    ids = group["sample_id"] if "sample_id" in group else [None] * len(group)
+    return [
+        TemplateEstimate(
+            template_index=_template_index(sample_id, position),
+            T_template_camera=T,
+            score=float(score),
+            facts=info if isinstance(info, dict) else {},
+            # rows from files without estimates: an ok row is a registration all the same
+            ok=bool(good) and (T is not None or "T_est" not in group),
+        )
+        for position, (sample_id, T, score, info, good) in enumerate(zip(ids, poses, scores, infos, status_ok))
+    ]
+
+
+def _template_index(sample_id: Any, position: int) -> int:
+    """The template index of a templates run's sample id (``<obs_id>|<k>``); rows whose ids have
+    another form (rows made by hand, external predictions) count in their order."""
+    _, sep, k = str(sample_id).rpartition("|")
+    return int(k) if sep and k.isdigit() else position
+
+
+def choose_row(group, choice: str | ChoiceRule = DEFAULT_RULE):
+    """The row (a pandas Series) one view keeps among its registrations (``group``: the view's rows
+    of ``samples.jsonl`` as a DataFrame, one per template) under ``choice`` (a rule name, with its
+    default weights, or a :class:`~catpose.methods.choice_rules.ChoiceRule`), applied to the facts the
+    runner stored in each row's ``info`` (``cross_costs``, ``top_offset``, ``turns``). A turn or a
+    fused pose replaces the row's ``T_est`` and errors (``info["turn_deg"]``, ``info["fused_templates"]``).
+
+    Raises:
+        ConfigError: the rule needs facts the rows do not store (written before them).
+    """
+    rule = as_rule(choice)
+    kept = choose(estimates_of(group), rule)
+    row = group.iloc[kept.position]
+    if kept.turn_deg is None and kept.fused_templates is None:
+        return row
+    row = row.copy()
+    info = dict(row["info"])
+    info["turn_deg"] = kept.turn_deg
+    if kept.fused_templates is not None:
+        info["fused_templates"] = kept.fused_templates
+    row["info"] = info
+    if kept.pose_changed:
+        _set_estimate(row, kept.T_template_camera)
+    return row
+
+
+def has_turns(group) -> bool:
+    """Whether any row of ``group`` (rows of ``samples.jsonl``) carries ``info["turns"]``."""
+    return "info" in group and any(isinstance(i, dict) and i.get("turns") for i in group["info"])
+
+
+def _set_estimate(row, T_est: np.ndarray) -> None:
+    """Give the chosen ``row`` the estimate ``T_est`` (4, 4) and its errors (where it has a ``T_gt``)."""
+    from catpose.bench.scoring.metrics import sample_errors
+
+    T_est = np.asarray(T_est, float).reshape(4, 4)
+    row["T_est"] = T_est.tolist()
+    if isinstance(row.get("T_gt"), (list, np.ndarray)):
+        axis, syms = row.get("symmetry_axis"), row.get("symmetries")
+        for key, value in sample_errors(
+            T_est,
+            np.reshape(row["T_gt"], (4, 4)),
+            np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
+            syms if isinstance(syms, (list, tuple)) else (),
+        ).items():
+            row[key] = value
+
+
+def with_template_facts(sample: Any) -> Any:
+    """``sample`` with ``info["template_spacing"]`` (the ``density`` rule's fact of its template,
+    :func:`catpose.methods.choice_rules.template_spacing`)."""
+    info = dict(sample.info)
+    info["template_spacing"] = template_spacing(sample.problem.template)
+    return dataclasses.replace(sample, info=info)

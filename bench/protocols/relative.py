@@ -22,8 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from catpose.bench.protocols.absolute import GtModel, Protocol, Templates, require_consistent_frames
-from catpose.bench.protocols.template_rows import is_excluded_view
+from catpose.bench.protocols.absolute import GtModel, Protocol, Templates, is_excluded_view, require_consistent_frames
 from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, axis_error_deg, rotation_error_deg, translation_error
 from catpose.bench.scoring.rows import failed_row, row_array, scored_row
 from catpose.datasets.dataset import ObjectDataset

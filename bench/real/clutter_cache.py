@@ -38,11 +38,7 @@ def main(argv: list[str]) -> int:
     _, [(_, dataset)] = compose_and_build(overrides, ["dataset"])
     ids = dataset.observation_ids()
     print(f"clutter: {dataset.root}")
-    by_part = {name: 0 for name in split.parts}
-    for obs_id in ids:
-        scene = int(obs_id.split("/")[1])
-        for name in split.parts:
-            by_part[name] += split.contains(name, scene)
+    by_part = {name: len(split.sample_ids(name, ids)) for name in split.parts}
     print(json.dumps({"instances": len(ids), "filters": dataset.filters, "by_part": by_part}))
     return 0
 

@@ -17,6 +17,7 @@ import argparse
 import logging
 from pathlib import Path
 
+from catpose.bench.real.split import load_split
 from catpose.bench.real.suite_sets import (
     CLUTTER_SETS,
     METHODS,
@@ -45,9 +46,10 @@ def compose(
 ) -> tuple[object, list[str]]:
     """The resolved run config of one (set, method) pair and its command-line overrides
     (``method_overrides``: applied to ours only, for the studies' variants)."""
-    from catpose.bench.real.suite_parts import scenes_override
     from catpose.bench.run import config
 
+    split = load_split(real_set.split) if real_set.split and real_set.parts else None
+    scenes = sorted({s for p in real_set.parts for s in split.scene_ids(p)}) if split else []
     overrides = [
         f"method={variant.method}",
         f"dataset={real_set.dataset}",
@@ -57,7 +59,7 @@ def compose(
         "progress=false",
         "print_summary=false",
         *[o.replace("{shared}", str(shared)) for o in real_set.overrides],
-        *(scenes_override(real_set.split, real_set.parts) if real_set.split else []),
+        *([f"dataset.scenes=[{','.join(map(str, scenes))}]"] if scenes else []),  # the parts' scenes only
         *variant.overrides,
         *(method_overrides if variant.method == "ours" else []),
     ]
@@ -118,9 +120,7 @@ def run_suite(
     With ``table_only`` nothing runs: the rows come from the run directories already written
     (finished samples only; pairs never run are left out). ``catalogue``: the sets by name
     (default :data:`SETS`, the real suite)."""
-    from catpose.bench.real.split import load_split
-    from catpose.bench.real.suite_parts import part_label, part_rows
-    from catpose.bench.real.suite_table import pool_seeds
+    from catpose.bench.real.suite_table import part_label, pool_seeds
     from catpose.bench.run.bop_ar import target_errors
     from catpose.bench.run.rundir import SAMPLES_FILE, latest_rows, run_dir_for
     from catpose.bench.run.runner import run
@@ -170,13 +170,11 @@ def run_suite(
 
                 if whole := row(run_dir, None):
                     per_seed.setdefault((s, m), []).append(whole)
-                if catalogue[s].split:
-                    split = load_split(catalogue[s].split)
-                    for part, part_row in part_rows(
-                        run_dir, split, list(catalogue[s].parts or split.parts), row
-                    ).items():
-                        if part_row:
-                            per_seed.setdefault((part_label(s, split, part), m), []).append(part_row)
+                split = load_split(catalogue[s].split) if catalogue[s].split else None
+                for part in (catalogue[s].parts or tuple(split.parts)) if split else ():
+                    chosen = split.row_ids(part, latest)  # a column per part of the split
+                    if chosen and (part_row := row(run_dir, chosen)):
+                        per_seed.setdefault((part_label(s, split, part), m), []).append(part_row)
     return {key: pool_seeds(rows) for key, rows in per_seed.items()}, skipped
 
 
@@ -256,8 +254,6 @@ def main(argv: list[str]) -> int:
     if args.parts:
         from dataclasses import replace
 
-        from catpose.bench.real.split import load_split
-
         wanted = tuple(args.parts.split(","))
         known = {name: load_split(rs.split).parts for name, rs in suite_sets.items() if rs.split}
         unknown = sorted(set(wanted) - {p for parts in known.values() for p in parts})
@@ -314,18 +310,14 @@ def main(argv: list[str]) -> int:
     table = format_table(results, columns(results, whole_sets), methods, skipped, notes)
     print(table)
     from catpose import atomic
+    from catpose.bench.real.suite_table import object_tables
 
-    if args.write:
-        with outs["--write"].writing() as path:
-            atomic.write_text(path, table + "\n")
-    if args.headline:
-        with outs["--headline"].writing() as path:
-            atomic.write_text(path, format_table(results, whole_sets, methods, skipped, notes) + "\n")
-    if args.objects:
-        from catpose.bench.real.suite_parts import object_tables
-
-        with outs["--objects"].writing() as path:
-            atomic.write_text(
-                path, object_tables(results, suite_sets, [s for s in sets if s not in skipped], methods) + "\n"
-            )
+    texts = {  # the headline: the whole sets only (no split-part columns)
+        "--write": lambda: table,
+        "--objects": lambda: object_tables(results, suite_sets, whole_sets, methods),
+        "--headline": lambda: format_table(results, whole_sets, methods, skipped, notes),
+    }
+    for flag, out in outs.items():
+        with out.writing() as path:
+            atomic.write_text(path, texts[flag]() + "\n")
     return 0

@@ -1,9 +1,21 @@
-"""The table of ``bench suite``: one row per method, one column per set (and split part), each cell
-the mean over the seeds with their spread (:func:`pool_seeds`); a column whose methods were not
+"""The tables of ``bench suite``: one row per method, one column per set and per part of its
+development split (:func:`part_label`: the part's role in the split's folds, so the figures of
+scenes a choice was made on never share a cell with those of scenes it was not), each cell the
+mean over the seeds with their spread (:func:`pool_seeds`); a column whose methods were not
 scored on the same samples is named by :func:`mixed_samples` (``bench suite`` refuses it unless
-``--allow-mixed``); how often the seeds' answers agree: :func:`seed_agreement`."""
+``--allow-mixed``); how often the seeds' answers agree: :func:`seed_agreement`. Per-object tables
+of the split parts: :func:`object_tables`."""
 
 from __future__ import annotations
+
+from pathlib import Path
+
+from catpose.bench.real.split import Split, load_split
+
+
+def part_label(set_name: str, split: Split, part: str) -> str:
+    """``ycbv:scene1 (choose A, report B)``."""
+    return f"{set_name}:{part} ({split.role(part)})"
 
 
 def pool_seeds(rows: list[dict]) -> dict:
@@ -180,3 +192,83 @@ def seeds_note(seeds: tuple[int, ...]) -> str:
         "@10 and AR); n: samples per seed; agree: the fraction of samples whose estimates under every seed "
         f"lie within {AGREE_DEG:g} deg of each other (of the main axis for a symmetric object)."
     )
+
+
+def object_rows(run_dirs: dict[str, Path], split: Split, part: str) -> list[dict]:
+    """Per-object rows (BOP ``obj_id`` of each sample's info) of several methods' runs on ``part``:
+    ``{method, obj_id, n, mean_err_deg, median_err_deg, acc10, acc30}`` and, for runs on BOP-layout
+    data, ``ar`` (BOP'19's AR of the object's targets); failed samples count as 180 degrees and a
+    miss, as everywhere."""
+    import numpy as np
+
+    from catpose.bench.run.bop_ar import target_errors
+    from catpose.bench.run.evaluate import recompute_row_errors
+    from catpose.bench.run.rundir import latest_rows
+    from catpose.bench.scoring.bop_eval import metric_value
+
+    out = []
+    for method, run_dir in run_dirs.items():
+        rows = [recompute_row_errors(r) for r in latest_rows(Path(run_dir) / "samples.jsonl")]
+        keep = set(split.row_ids(part, rows))
+        errors = target_errors(run_dir)
+        if errors is not None:
+            errors = errors[errors["sample_id"].isin(keep)]
+        by: dict[int, list[float]] = {}
+        for r in rows:
+            if r["sample_id"] in keep:  # a failed sample has err_deg 180 (recompute_row_errors)
+                by.setdefault(int((r.get("info") or {}).get("obj_id", -1)), []).append(float(r["err_deg"]))
+        for obj_id, errs in sorted(by.items()):
+            e = np.asarray(errs)
+            out.append(
+                {
+                    "method": method,
+                    "obj_id": obj_id,
+                    "n": len(e),
+                    "mean_err_deg": float(e.mean()),
+                    "median_err_deg": float(np.median(e)),
+                    "acc10": float((e < 10).mean()),
+                    "acc30": float((e < 30).mean()),
+                    **(
+                        {"ar": metric_value(errors[errors["obj_id"] == obj_id], "ar")}
+                        if errors is not None and (errors["obj_id"] == obj_id).any()
+                        else {}
+                    ),
+                }
+            )
+    return out
+
+
+def object_tables(results: dict, catalogue: dict, sets: list[str], methods: list[str]) -> str:
+    """Markdown: for every set with a split and each of its parts, one row per object and method
+    (``mean / median / @10 / @30 (n)``, and ``AR`` after @30 for BOP-layout data), from the run
+    directories of ``results``."""
+    lines: list[str] = []
+    for s in sets:
+        rs = catalogue[s]
+        if not rs.split:
+            continue
+        split = load_split(rs.split)
+        run_dirs = {m: Path(results[(s, m)]["run_dir"]) for m in methods if (s, m) in results}
+        for part in rs.parts or tuple(split.parts):
+            rows = object_rows(run_dirs, split, part)
+            if not rows:
+                continue
+            objects = sorted({r["obj_id"] for r in rows})
+            ar = any("ar" in r for r in rows)
+            lines += [
+                f"\n{part_label(s, split, part)}: mean / median / @10 / @30{' / AR' if ar else ''} (n) per object\n",
+                "| method | " + " | ".join(f"obj {o}" for o in objects) + " |",
+                "|---|" + "---|" * len(objects),
+            ]
+            for m in run_dirs:
+                cells = {r["obj_id"]: r for r in rows if r["method"] == m}
+                texts = [
+                    f"{r['mean_err_deg']:.1f} / {r['median_err_deg']:.1f} / {r['acc10']:.2f} / {r['acc30']:.2f}"
+                    + (f" / {r['ar']:.2f}" if "ar" in r else "")
+                    + f" ({r['n']})"
+                    if (r := cells.get(o))
+                    else "-"
+                    for o in objects
+                ]
+                lines.append(f"| {m} | " + " | ".join(texts) + " |")
+    return "\n".join(lines)

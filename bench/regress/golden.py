@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 import zipfile
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -78,21 +78,9 @@ def write_golden(path: Path, suite: str, overrides: Sequence[str], samples: Sequ
     return path
 
 
-@dataclass(frozen=True)
-class GoldenSet:
-    """The problems of one golden file, loaded as float64 (identical bits on every machine)."""
-
-    path: Path
-    meta: dict
-    samples: tuple[Sample, ...]
-
-    @property
-    def sample_ids(self) -> list[str]:
-        return [s.problem.sample_id for s in self.samples]
-
-
-def read_golden(path: Path) -> GoldenSet:
-    """Load a golden file written by :func:`write_golden`.
+def read_golden(path: Path) -> tuple[Sample, ...]:
+    """The problems of a golden file written by :func:`write_golden`, loaded as float64 (identical
+    bits on every machine).
 
     Raises :class:`ConfigError` naming the file when it is missing or of another format.
     """
@@ -150,7 +138,7 @@ def read_golden(path: Path) -> GoldenSet:
         samples.append(
             Sample(problem=problem, gt=gt, group_id=r.get("group_id") or r["sample_id"], info=dict(r.get("info") or {}))
         )
-    return GoldenSet(path=path, meta=meta, samples=tuple(samples))
+    return tuple(samples)
 
 
 def perturbed(sample: Sample, rel: float, seed: int) -> Sample:
@@ -172,14 +160,14 @@ def perturbed(sample: Sample, rel: float, seed: int) -> Sample:
 
 
 class GoldenProtocol:
-    """Serves a :class:`GoldenSet`'s samples to the runner's per-sample function as both its
+    """Serves golden samples (:func:`read_golden`) to the runner's per-sample function as both its
     protocol (``load(dataset, sample_id)``, the dataset argument ignored) and its dataset (only
     ``category_of``)."""
 
     name = "golden"
 
-    def __init__(self, golden: GoldenSet, transform=None) -> None:
-        self._samples = {s.problem.sample_id: s for s in golden.samples}
+    def __init__(self, golden: Sequence[Sample], transform=None) -> None:
+        self._samples = {s.problem.sample_id: s for s in golden}
         self._transform = transform
 
     def sample_ids(self, dataset=None) -> list[str]:

@@ -47,22 +47,13 @@ def estimate_distance_deg(a: dict, b: dict) -> float:
     """How far apart two answers to one sample are: the symmetry-aware rotation error of one
     estimate measured against the other (degrees); 180 when exactly one of them failed, 0 when
     both did."""
-    import numpy as np
-
-    from catpose.bench.scoring.metrics import sample_errors
+    from catpose.bench.run.evaluate import row_errors
 
     if (a.get("T_est") is None) != (b.get("T_est") is None):
         return 180.0
     if a.get("T_est") is None:
         return 0.0
-    axis = a.get("symmetry_axis")
-    err = sample_errors(
-        np.reshape(a["T_est"], (4, 4)),
-        np.reshape(b["T_est"], (4, 4)),
-        None if axis is None else np.asarray(axis, float),
-        [np.reshape(S, (4, 4)) for S in a.get("symmetries") or []],
-    )
-    return float(err["err_deg"])
+    return float(row_errors(a, a["T_est"], b["T_est"])["err_deg"])
 
 
 def aggregates(

@@ -121,8 +121,7 @@ def suite_samples(suite: Suite, transform: Callable | None = None) -> tuple[Any,
     from catpose.bench.run.build import build_dataset, build_from_config
 
     if suite.inputs is not None:
-        golden = read_golden(suite.inputs)
-        protocol = GoldenProtocol(golden, transform)
+        protocol = GoldenProtocol(read_golden(suite.inputs), transform)
         return protocol, protocol, protocol.sample_ids()
     cfg = _compose(suite, None)
     dataset = build_dataset(cfg.dataset)

@@ -2,13 +2,9 @@
 and BOP's average recall (AR).
 
 ``bench suite`` and ``bench table`` show BOP's AR beside mean / median / @10 for runs on BOP-layout
-data (real YCB-V, TYO-L, ``dataset=clutter``). They compute it with the code ``bench score``
-uses on a BOP results CSV (:func:`catpose.bench.scoring.bop_eval.compute_errors`, then
-:func:`~catpose.bench.scoring.bop_eval.metric_value`): this module turns a run's scoring units
-into the estimates ``bench export`` writes (:func:`predictions_from_units`), names the evaluation
-models (:func:`evaluation_models`, ``bench score``'s rule), computes a run's per-target errors
-(:func:`target_errors`) and reads AR and its parts off them (:func:`ar_scores`). A test checks
-the figures against ``bench export`` + ``bench score``.
+data (real YCB-V, TYO-L, ``dataset=clutter``), computed with the code ``bench score`` uses on a
+BOP results CSV (:mod:`catpose.bench.scoring.bop_eval`); a test checks the figures against
+``bench export`` + ``bench score``.
 
 AR is BOP'19's: the mean of AR_VSD (taus 5-50 mm, thresholds 0.05-0.5), AR_MSSD (0.05-0.5 of the
 diameter) and AR_MSPD (5-50 px at 640 wide), each a mean recall over its thresholds; a target
@@ -136,39 +132,28 @@ def ar_scores(errors) -> dict[str, float]:
     return {k: metric_value(errors, k) for k in AR_KEYS}
 
 
-def _cache_dir() -> Path:
-    from catpose.disk_cache import cache_dir
-
-    return cache_dir() / "bop_errors"
-
-
-def bop_dataset_config(run_dir: Path) -> dict | None:
-    """The evaluation dataset config of a run on BOP-layout data (its ``models_eval`` when the
-    dataset has them, as ``bench score``), or None for any other dataset."""
-    from catpose.bench.run.run_meta import read_config
-
-    cfg = read_config(Path(run_dir)).get("dataset")
-    return evaluation_models(cfg) if is_bop_layout(cfg) else None
-
-
 def target_errors(run_dir: str | Path):
     """Per-target BOP errors of a run (a DataFrame: ``compute_errors``' columns plus ``sample_id``),
-    or None when the run is not on BOP-layout data or has no sample."""
+    on its evaluation models (:func:`evaluation_models`, as ``bench score``), or None when the run
+    is not on BOP-layout data or has no sample."""
     import pandas as pd
 
     from catpose.bench.run.evaluate import load_protocol, recompute_row_errors
+    from catpose.bench.run.run_meta import read_config
     from catpose.bench.run.rundir import latest_rows
+    from catpose.disk_cache import cache_dir
 
     run_dir = Path(run_dir)
-    dataset_cfg = bop_dataset_config(run_dir)
+    dataset_cfg = read_config(run_dir).get("dataset")
     samples = run_dir / SAMPLES_FILE
-    if dataset_cfg is None or not samples.is_file():
+    if not is_bop_layout(dataset_cfg) or not samples.is_file():
         return None
+    dataset_cfg = evaluation_models(dataset_cfg)
     h = hashlib.blake2b(digest_size=12)
     h.update(VERSION.encode())
     h.update(json.dumps(dataset_cfg, sort_keys=True, default=str).encode())
     h.update(samples.read_bytes())
-    cached = _cache_dir() / f"{h.hexdigest()}.jsonl"
+    cached = cache_dir() / "bop_errors" / f"{h.hexdigest()}.jsonl"
     if cached.is_file():
         try:
             return pd.DataFrame([json.loads(x) for x in cached.read_text().splitlines() if x.strip()])

@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from catpose.bench.run import config
-from catpose.bench.run.hydra_flags import OTHER_CONFIGS, flag_names, split_hydra_args
+from catpose.bench.run.config import OTHER_CONFIGS, flag_names, split_hydra_args
 from catpose.errors import CatposeError, command_error
 
 

@@ -32,8 +32,11 @@ def main(argv: list[str]) -> int:
     overrides = argv[1:]
     if not any(a.split("=", 1)[0].lstrip("+~") == "dataset" for a in overrides):
         raise ConfigError("name the dataset: bench data check dataset=NAME dataset.root=PATH")
+    from catpose.bench.run.config import compose
+
     t0 = time.perf_counter()
-    name, node = _dataset_config(overrides)
+    node = compose(overrides).dataset  # as `bench run` composes it (one-line errors)
+    name = str(node.get("name", "dataset"))
     report = check(name, node)
     for line in report.problems:
         print(f"problem: {line}")
@@ -46,14 +49,6 @@ def main(argv: list[str]) -> int:
     where = f" root={node.root}" if "root" in list(node.keys()) else ""
     print(f"bench data check: dataset={name}{where} is good ({time.perf_counter() - t0:.1f} s)")
     return 0
-
-
-def _dataset_config(overrides: list[str]) -> tuple[str, Any]:
-    """The composed ``dataset`` node, as ``bench run`` composes it (one-line errors)."""
-    from catpose.bench.run.config import compose
-
-    cfg = compose(overrides)
-    return str(cfg.dataset.get("name", "dataset")), cfg.dataset
 
 
 def check(name: str, node: Any) -> LayoutReport:

@@ -38,24 +38,30 @@ def recompute_row_errors(row: dict) -> dict:
     """A per-sample row with its errors recomputed from ``T_est``, ``T_gt``, ``symmetry_axis``
     and ``symmetries`` (the current metric definitions); a row without an estimate gets
     :data:`~catpose.bench.scoring.metrics.FAILED_ERROR_DEG`. Every table is scored through this."""
-    from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, sample_errors
+    from catpose.bench.scoring.metrics import FAILED_ERROR_DEG
 
     row = dict(row)
     T_est, T_gt = row.get("T_est"), row.get("T_gt")
     if row.get("status") == "ok" and isinstance(T_est, (list, np.ndarray)) and isinstance(T_gt, (list, np.ndarray)):
-        axis = row.get("symmetry_axis")
-        symmetries = row.get("symmetries")
-        row.update(
-            sample_errors(
-                np.reshape(T_est, (4, 4)),
-                np.reshape(T_gt, (4, 4)),
-                np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
-                symmetries if isinstance(symmetries, (list, tuple)) else (),
-            )
-        )
+        row.update(row_errors(row, T_est, T_gt))
     else:
         row["err_deg"] = FAILED_ERROR_DEG
     return row
+
+
+def row_errors(row: dict, T_est: Any, T_ref: Any) -> dict:
+    """:func:`~catpose.bench.scoring.metrics.sample_errors` of ``T_est`` against ``T_ref`` (each
+    (4, 4) or 16 numbers) under the symmetries a ``samples.jsonl`` row stores (``symmetry_axis``,
+    ``symmetries``)."""
+    from catpose.bench.scoring.metrics import sample_errors
+
+    axis, symmetries = row.get("symmetry_axis"), row.get("symmetries")
+    return sample_errors(
+        np.reshape(T_est, (4, 4)),
+        np.reshape(T_ref, (4, 4)),
+        np.asarray(axis, float) if isinstance(axis, (list, np.ndarray)) else None,
+        symmetries if isinstance(symmetries, (list, tuple)) else (),
+    )
 
 
 def summarize_run(run_dir: Path, sample_ids: Iterable[str] | None = None):

@@ -180,7 +180,7 @@ def _in_the_way(target: Path, kind: str, force: bool, flag: str, replaces: str, 
     entries = sorted(p.name for p in target.iterdir())
     if not entries:
         return None
-    from catpose.bench.run.lock import in_use
+    from catpose.bench.run.rundir import in_use
 
     pid = in_use(target)
     if pid is not None:

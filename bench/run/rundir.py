@@ -6,18 +6,21 @@ subset of samples when one is taken (``limit``, ``sample_ids``), so two configur
 share a directory. It holds ``samples.jsonl`` (one :class:`~catpose.bench.scoring.rows.SampleRow`
 per finished sample, appended and fsynced), ``config.yaml`` (resolved), ``overrides.txt``,
 ``git_rev.txt``, ``run.json`` (counts, environment), ``run.lock``, and ``samples.csv`` and
-``summary.{csv,md}`` written by :mod:`catpose.bench.run.evaluate` from the files alone.
-:func:`write_run` writes a whole run directory from rows made elsewhere (``bench score``)."""
+``summary.{csv,md}`` written by :mod:`catpose.bench.run.evaluate` from the files alone. Two runs
+of one configuration are kept apart by an exclusive ``fcntl.flock`` on ``run.lock`` (:class:`RunLock`).
+:func:`write_run_into` writes a whole run directory from rows made elsewhere (``bench score``)."""
 
 from __future__ import annotations
 
 import contextlib
 import hashlib
 import json
+import logging
 import math
 import os
 import re
 import subprocess
+import time
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -29,6 +32,9 @@ from catpose.bench.run.rows_file import repair_last_line
 from catpose.errors import RunAborted
 
 SAMPLES_FILE = "samples.jsonl"
+LOCK_FILE = "run.lock"
+
+log = logging.getLogger(__name__)
 
 
 #: run-level keys that take a subset of the samples (the run's directory name and hash spell them)
@@ -157,6 +163,85 @@ def writing(path: Path) -> Iterator[None]:
         ) from None
 
 
+def in_use(run_dir: Path) -> str | None:
+    """The pid holding the lock of ``run_dir``, None when no run writes it."""
+    import fcntl
+
+    path = Path(run_dir) / LOCK_FILE
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return path.read_text().strip() or "unknown"
+    finally:
+        os.close(fd)
+    return None
+
+
+class RunLock:
+    """An exclusive lock on a run directory (``fcntl.flock`` on ``run.lock``), held while a run
+    writes it, so that two runs of one configuration never do the same samples.
+
+    A second run waits for the first (saying which pid holds the lock) and then resumes from
+    its samples; with ``timeout`` (seconds) it gives up with :class:`RunAborted` instead.
+    The lock file holds the pid of the holder; the kernel drops the lock when the holder exits.
+    """
+
+    def __init__(self, run_dir: Path, timeout: float | None = None, poll_s: float = 0.2) -> None:
+        self.path = run_dir / LOCK_FILE
+        self.timeout = timeout
+        self.poll_s = poll_s
+        self._fd: int | None = None
+
+    def holder(self) -> str:
+        """The pid written by the holder ("unknown" if none yet)."""
+        try:
+            return self.path.read_text().strip() or "unknown"
+        except OSError:
+            return "unknown"
+
+    def acquire(self) -> None:
+        import fcntl
+
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        deadline = None
+        try:
+            while True:
+                try:
+                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    break
+                except BlockingIOError:
+                    if deadline is None:  # the first try: say who holds it, once
+                        deadline = time.monotonic() + (math.inf if self.timeout is None else self.timeout)
+                        if deadline > time.monotonic():
+                            log.warning(
+                                "waiting for pid %s, which is running into %s (it finishes the same samples; "
+                                "Ctrl-C to stop)",
+                                self.holder(),
+                                self.path.parent,
+                            )
+                    if time.monotonic() >= deadline:
+                        raise RunAborted(
+                            f"run directory {self.path.parent} is in use by pid {self.holder()} (waited "
+                            f"{self.timeout:g} s); wait for that run to finish or stop it, or raise lock_timeout"
+                        ) from None
+                    time.sleep(self.poll_s)
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode())
+        except BaseException:
+            os.close(fd)
+            raise
+        self._fd = fd
+
+    def release(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)  # closing the last descriptor drops the flock
+            self._fd = None
+
+
 def latest_rows(path: Path) -> list[dict]:
     """The rows of a ``samples.jsonl``, one per sample (a retried sample: its last row)."""
     latest: dict[str, dict] = {}
@@ -189,25 +274,10 @@ def write_run_json(out: Path, meta: dict) -> None:
         atomic.write_text(out / "run.json", json.dumps(dict(meta, environment=environment()), indent=2) + "\n")
 
 
-def write_run(
-    out_dir: str | Path, rows: Sequence[dict], config: dict, info: dict | None = None, force: bool = False
-) -> Path:
-    """Write a run directory (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries) from
-    ``rows`` (the ``samples.jsonl`` schema) and ``config`` (a plain dict with ``method``, ``dataset``,
-    ``protocol`` nodes and ``seed``), built aside and moved into place; an existing run or other
-    non-empty folder at ``out_dir`` is refused unless ``force``. Returns ``out_dir``."""
-    from catpose import atomic
-    from catpose.bench.run.overwrite import check_output
-
-    out = Path(out_dir)
-    check_output(out, "folder", force=force, replaces="run")
-    with atomic.building_dir(out) as tmp:
-        write_run_into(tmp, rows, config, info)
-    return out
-
-
 def write_run_into(out: Path, rows: Sequence[dict], config: dict, info: dict | None = None) -> None:
-    """The files of :func:`write_run` into the existing, empty folder ``out``."""
+    """A run directory's files (``samples.jsonl``, ``config.yaml``, ``run.json``, summaries) from
+    ``rows`` (the ``samples.jsonl`` schema) and ``config`` (a plain dict with ``method``, ``dataset``,
+    ``protocol`` nodes and ``seed``) into the existing, empty folder ``out``."""
     from omegaconf import OmegaConf
 
     from catpose import atomic

@@ -18,9 +18,9 @@ from typing import Any
 from catpose import extras, kernel_threads
 from catpose.bench.run.build import build_choice, build_parts, validate_run_options
 from catpose.bench.run.evaluate import format_summary, summarize_run
-from catpose.bench.run.lock import RunLock
 from catpose.bench.run.rundir import (
     SAMPLES_FILE,
+    RunLock,
     SampleWriter,
     latest_rows,
     read_rows,

@@ -67,8 +67,7 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
     (``choice.one_template_turns``). Each rule weighs as the run's ``choice`` group does."""
     import dataclasses
 
-    from catpose.bench.protocols.absolute import Templates, absolute_gt_only
-    from catpose.bench.protocols.template_rows import has_turns
+    from catpose.bench.protocols.absolute import Templates, absolute_gt_only, has_turns
     from catpose.methods.choice_rules import TURN_RULES
 
     samples = absolute_gt_only(run.samples)

@@ -157,7 +157,7 @@ def rule_poses(group, rule: Any) -> list[tuple[float, int, np.ndarray]]:
     """(cost, own template index, pose (4, 4)) of every candidate ``rule`` (a ``cross`` rule's
     :class:`~catpose.methods.choice_rules.ChoiceRule`) chose among in one view's rows ``group``:
     the registrations, and their turns under the turn rules."""
-    from catpose.bench.protocols.template_rows import estimates_of
+    from catpose.bench.protocols.absolute import estimates_of
     from catpose.methods.choice_rules import TURN_RULES, cross_costs_of, turn_candidates_of
 
     estimates = estimates_of(group)
@@ -242,7 +242,7 @@ def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_
 
     import pandas as pd
 
-    from catpose.bench.protocols.template_rows import has_turns
+    from catpose.bench.protocols.absolute import has_turns
     from catpose.bench.run.evaluate import recompute_row_errors
     from catpose.bench.run.rundir import latest_rows
     from catpose.methods.choice_rules import CROSS_RULES, check_rule
@@ -305,7 +305,7 @@ def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_
 
 
 def _template_index(sample_id: str) -> int:
-    from catpose.bench.protocols.template_rows import split_template_sample_id
+    from catpose.bench.protocols.absolute import split_template_sample_id
 
     return split_template_sample_id(sample_id)[1]
 

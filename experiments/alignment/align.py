@@ -237,7 +237,7 @@ def load_clouds(args: argparse.Namespace) -> tuple[str, list[str], str, list]:
     """(dataset name, instance ids, reference id, raw-frame normalised clouds (M, 3) per id)."""
     import numpy as np
 
-    from catpose.bench.category.instances import instance_ids
+    from catpose.bench.category.template_medoids import instance_ids
     from catpose.bench.run.config import compose_and_build
     from catpose.errors import ConfigError, DatasetError
 

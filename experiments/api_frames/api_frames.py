@@ -6,7 +6,7 @@ answers, errors and seconds per view (study: README.md).
 ``ROOT``: the BOP YCB-Video folder (``../shared/data/bop/ycbv``). For every instance the bench side
 is what ``bench run method=ours dataset=ycbv seed=0`` does per sample (the protocol's problem, the
 method seeded by the sample id); the API side is what a user does with the frame and the model
-(:func:`catpose.api.bop.bop_instance`, then a :class:`catpose.Registrar` per object). Both are
+(the loader's depth frame and normalised model, then a :class:`catpose.Registrar` per object). Both are
 scored against the truth in the object-normalised frame by the scorer of every table. Ground
 truth is read here to score, never by either side.
 """
@@ -27,7 +27,7 @@ from catpose.bench.scoring.metrics import accuracy, rotation_error_deg, sample_e
 def rows(root: Path) -> tuple[list[dict], float, float]:
     """Per instance: its id, object, both sides' errors (degrees) and seconds; and the largest
     rotation (degrees) and translation (object unit) difference between the two sides' poses."""
-    from catpose.api.bop import bop_instance
+    from catpose.api.inputs import NormalisedTemplate
     from catpose.bench.run.config import compose_and_build
     from catpose.bench.run.sample_run import seed_everything
     from catpose.geometry import stable_seed
@@ -45,13 +45,14 @@ def rows(root: Path) -> tuple[list[dict], float, float]:
         bench = method.register(sample.problem)
         bench_s, bench_method_s = time.perf_counter() - t0, time.perf_counter() - t1
 
-        _, scene, im, _ = sample_id.split("/")
         obj = int(sample.info["obj_id"])
-        inst = bop_instance(str(root), int(scene), int(im), obj, dataset="ycbv")
-        if obj not in registrars:
-            registrars[obj] = catpose.Registrar(inst.template, "ours")
+        if obj not in registrars:  # the model as the loader normalises it
+            model = ds.instance_model(sample_id.split("/")[0], f"obj_{obj:06d}")
+            registrars[obj] = catpose.Registrar(NormalisedTemplate(model, *ds.normalisation(obj)), "ours")
+        settings = ds.frame_settings()
+        frame = ds.instance_frame(sample_id).frame  # raw depth, cam_K, mask, depth_scale to mm
         t0 = time.perf_counter()
-        api = registrars[obj](inst.frame, **inst.options)
+        api = registrars[obj](frame, max_points=settings.max_points, plane_distance=settings.plane_distance)
         api_s = time.perf_counter() - t0
 
         gt = sample.gt

@@ -16,6 +16,7 @@ Written by experiments/category_choice/make_chair_dev.sh and make_chair_procedur
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -34,12 +35,13 @@ def chosen(samples, fuse_deg: float | None, top_weight: float | None = None):
     ``fuse_deg`` degrees (``fused``) unless None."""
     import pandas as pd
 
-    from catpose.bench.protocols.template_rows import choose_row
+    from catpose.bench.protocols.absolute import choose_row
+    from catpose.methods.choice_rules import ChoiceRule
 
-    rule = "cross_top_turns" if fuse_deg is None else "fused"
-    return pd.DataFrame(
-        [choose_row(g, rule, top_weight=top_weight, fuse_deg=fuse_deg) for _, g in samples.groupby("group_id")]
-    )
+    rule = ChoiceRule(rule="cross_top_turns" if fuse_deg is None else "fused").with_offset_weight(top_weight)
+    if fuse_deg is not None:
+        rule = dataclasses.replace(rule, agree_deg=float(fuse_deg))
+    return pd.DataFrame([choose_row(g, rule) for _, g in samples.groupby("group_id")])
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -42,12 +42,13 @@ def chosen_errors(samples, turns: tuple[float, ...] | None, weight: float) -> np
     template and no turns: each view's own estimate."""
     import pandas as pd
 
-    from catpose.bench.protocols.template_rows import choose_row
+    from catpose.bench.protocols.absolute import choose_row
     from catpose.bench.scoring.curves import scored_errors
+    from catpose.methods.choice_rules import ChoiceRule
 
-    rule = "cross_top" if not turns else "cross_top_turns"
+    rule = ChoiceRule(rule="cross_top" if not turns else "cross_top_turns").with_offset_weight(weight)
     rows = samples if not turns else with_turns(samples, turns)
-    chosen = pd.DataFrame([choose_row(g, rule, top_weight=weight) for _, g in rows.groupby("group_id")])
+    chosen = pd.DataFrame([choose_row(g, rule) for _, g in rows.groupby("group_id")])
     return np.asarray(scored_errors(chosen), float)
 
 

@@ -74,7 +74,7 @@ def dump_inputs(path: Path, golden: Path | None = None) -> int:
     golden = golden or Path(__file__).resolve().parents[2] / "results" / "reference" / "synthetic_inputs.npz"
     _, ((_, ours),) = compose_and_build(["method=ours"], ("method",))
     arrays = {}
-    samples = read_golden(golden).samples
+    samples = read_golden(golden)
     for i, s in enumerate(samples):
         x = ours.prepare(s.problem, {})
         arrays.update({f"p{i}": x.keypoints, f"q{i}": x.P_t, f"A{i}": x.A, f"T{i}": x.T_svd})

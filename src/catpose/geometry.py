@@ -89,18 +89,18 @@ def axis_angle_to_R(axis: np.ndarray, angle_rad: float) -> np.ndarray:
     return np.eye(3) + np.sin(angle_rad) * K + (1 - np.cos(angle_rad)) * matmul3(K, K)
 
 
-def random_rotation(rng: np.random.Generator) -> np.ndarray:
-    """A rotation drawn uniformly from SO(3) (Shoemake's unit-quaternion method)."""
-    u1, u2, u3 = rng.random(3)
-    q = np.array(
-        [
-            np.sqrt(1 - u1) * np.sin(2 * np.pi * u2),
-            np.sqrt(1 - u1) * np.cos(2 * np.pi * u2),
-            np.sqrt(u1) * np.sin(2 * np.pi * u3),
-            np.sqrt(u1) * np.cos(2 * np.pi * u3),
-        ]
-    )
-    return quat_to_R(q)
+def R_onto_z(up: np.ndarray) -> np.ndarray:
+    """The rotation (3, 3) that turns unit ``up`` onto +z by the shortest arc (about ``up x z``);
+    the identity for ``up = z`` and a half turn about x for ``up = -z``."""
+    up = unit3(np.asarray(up, dtype=np.float64))
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(up, z)
+    s, c = norm3(axis), float(np.clip(up[2], -1.0, 1.0))
+    if s < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    a = axis / s
+    K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return np.eye(3) + s * K + (1.0 - c) * matmul3(K, K)
 
 
 def quat_to_R(q: np.ndarray) -> np.ndarray:

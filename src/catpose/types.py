@@ -20,20 +20,27 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import InvalidInputError
-from catpose.geometry import dot3, matmul3, norm3, unit3
+from catpose.geometry import norm3, unit3
 
 
-def _as_points(name: str, array: np.ndarray | None, *, allow_empty: bool = False) -> np.ndarray:
-    if array is None:
+def points_arg(name: str, value: Any, min_points: int = 10) -> np.ndarray:
+    """``value`` as an (N, 3) float64 array of finite numbers with at least ``min_points`` rows, or
+    a one-line :class:`InvalidInputError` naming ``name``."""
+    if value is None:
         raise InvalidInputError(f"{name} is missing; pass an (N, 3) array")
-    a = np.asarray(array, dtype=np.float64)
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"{name} is a {type(value).__name__}, not an (N, 3) array of numbers") from None
     if a.ndim != 2 or a.shape[1] != 3:
         raise InvalidInputError(f"{name} has shape {a.shape}; expected (N, 3)")
-    if not allow_empty and len(a) == 0:
+    if min_points and len(a) == 0:
         raise InvalidInputError(f"{name} has no points; the view or file is empty")
     if not np.isfinite(a).all():
         bad = int((~np.isfinite(a).all(axis=1)).sum())
-        raise InvalidInputError(f"{name} has {bad} rows with NaN or inf; drop them before registration")
+        raise InvalidInputError(f"{name} has {bad} rows with NaN or inf; drop them first")
+    if len(a) < min_points:
+        raise InvalidInputError(f"{name} has {len(a)} points; at least {min_points} are needed")
     return a
 
 
@@ -46,9 +53,7 @@ def validate_cloud(
     has fewer than ``min_points`` points, contains NaN/inf, or is degenerate (all points equal
     or collinear: no rigid pose can be recovered from it), or when the normals do not match.
     """
-    p = _as_points(name, points)
-    if len(p) < min_points:
-        raise InvalidInputError(f"{name} has only {len(p)} points; at least {min_points} are needed")
+    p = points_arg(name, points, min_points)
     extent = np.linalg.svd(p - p.mean(axis=0), compute_uv=False)
     scale = max(float(np.abs(p).max()), 1e-12)
     if extent[0] <= 1e-9 * scale * np.sqrt(len(p)):
@@ -57,7 +62,7 @@ def validate_cloud(
         raise InvalidInputError(f"{name} is degenerate: all points lie on one line")
     n = None
     if normals is not None:
-        n = _as_points(f"{name} normals", normals)
+        n = points_arg(f"{name} normals", normals, 1)
         if n.shape != p.shape:
             raise InvalidInputError(f"{name} normals have shape {n.shape}; expected {p.shape}")
         norms = np.linalg.norm(n, axis=1)
@@ -65,19 +70,6 @@ def validate_cloud(
             raise InvalidInputError(f"{name} has {int((norms < 1e-8).sum())} zero-length normals; re-estimate them")
         n = n / norms[:, None]
     return p, n
-
-
-def validate_pose(name: str, T: np.ndarray) -> np.ndarray:
-    """Return ``T`` as a float64 (4, 4) rigid transform or raise :class:`InvalidInputError`."""
-    T = np.asarray(T, dtype=np.float64)
-    if T.shape != (4, 4):
-        raise InvalidInputError(f"{name} has shape {T.shape}; expected (4, 4)")
-    if not np.isfinite(T).all():
-        raise InvalidInputError(f"{name} is not finite")
-    R = T[:3, :3]
-    if np.abs(matmul3(R, R.T) - np.eye(3)).max() > 1e-4 or dot3(np.cross(R[0], R[1]), R[2]) < 0:
-        raise InvalidInputError(f"{name} is not a rotation (R R^T != I or det R < 0)")
-    return T
 
 
 @dataclass(frozen=True, eq=False)

@@ -15,20 +15,18 @@ from typing import Any
 import numpy as np
 
 from catpose.errors import CatposeError, InvalidInputError
-from catpose.geometry import apply_R, axis_angle_to_R, dot3, matmul3, norm3, normalize_to_unit_sphere, unit3
-from catpose.types import Template
+from catpose.geometry import R_onto_z, apply_R, dot3, matmul3, norm3, normalize_to_unit_sphere, stable_seed, unit3
+from catpose.types import Template, points_arg
 
 __all__ = [
     "MAX_TEMPLATE_POINTS",
     "NormalisedTemplate",
     "check_position",
-    "cloud_arg",
     "direction_arg",
     "estimated_normals",
     "normalised_template",
     "normals_arg",
     "oriented_to_camera",
-    "subsample",
     "unit_warning",
 ]
 
@@ -71,28 +69,11 @@ class NormalisedTemplate:
         object.__setattr__(self, "scale", scale)
 
 
-def cloud_arg(name: str, value: Any, min_points: int = 10) -> np.ndarray:
-    """An (N, 3) float64 array from ``value``, or a one-line error naming the argument."""
-    try:
-        a = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InvalidInputError(f"{name} is a {type(value).__name__}, not an (N, 3) array of numbers") from None
-    if a.ndim != 2 or a.shape[1] != 3:
-        raise InvalidInputError(f"{name} has shape {a.shape}; expected (N, 3)")
-    if not np.isfinite(a).all():
-        raise InvalidInputError(
-            f"{name} has {int((~np.isfinite(a).all(axis=1)).sum())} rows with NaN or inf; drop them first"
-        )
-    if len(a) < min_points:
-        raise InvalidInputError(f"{name} has {len(a)} points; at least {min_points} are needed")
-    return a
-
-
 def normals_arg(name: str, value: Any, points: np.ndarray) -> np.ndarray | None:
     """Unit normals (N, 3) matching ``points`` (N, 3), None for None, or a one-line error."""
     if value is None:
         return None
-    n = cloud_arg(name, value, min_points=0)
+    n = points_arg(name, value, min_points=0)
     if n.shape != points.shape:
         raise InvalidInputError(f"{name} has shape {n.shape}; expected {points.shape} (one normal per point)")
     length = norm3(n)
@@ -131,8 +112,8 @@ def _template_geometry(template: Any) -> tuple[np.ndarray, np.ndarray | None]:
     if hasattr(template, "vertices") and hasattr(template, "faces"):  # a trimesh.Trimesh (or alike)
         v, f = np.asarray(template.vertices), np.asarray(template.faces)
         if f.size == 0:
-            return cloud_arg("template vertices", v), None
-        return cloud_arg("template vertices", v, 3), _triangles(f, len(v))
+            return points_arg("template vertices", v), None
+        return points_arg("template vertices", v, 3), _triangles(f, len(v))
     if (
         isinstance(template, (tuple, list))
         and len(template) == 2
@@ -140,9 +121,9 @@ def _template_geometry(template: Any) -> tuple[np.ndarray, np.ndarray | None]:
         and np.shape(template[1])[-1] == 3
         and np.ndim(template[0]) == 2
     ):
-        v = cloud_arg("template vertices", template[0], 3)
+        v = points_arg("template vertices", template[0], 3)
         return v, _triangles(template[1], len(v))
-    return cloud_arg("template", template), None
+    return points_arg("template", template), None
 
 
 def _triangles(faces: Any, n_vertices: int) -> np.ndarray:
@@ -152,28 +133,6 @@ def _triangles(faces: Any, n_vertices: int) -> np.ndarray:
     if f.min() < 0 or f.max() >= n_vertices:
         raise InvalidInputError(f"template faces index vertices outside 0..{n_vertices - 1}")
     return f.astype(np.int64)
-
-
-def _R_onto_z(up: np.ndarray) -> np.ndarray:
-    """The shortest-arc rotation (3, 3) taking unit ``up`` onto +z."""
-    from catpose import libm
-
-    z = np.array([0.0, 0.0, 1.0])
-    c = float(np.clip(dot3(up, z), -1.0, 1.0))
-    if c > 1.0 - 1e-12:
-        return np.eye(3)
-    if c < -1.0 + 1e-12:
-        return np.diag([1.0, -1.0, -1.0])  # a half turn about x
-    return axis_angle_to_R(np.cross(up, z), float(libm.arccos(c)))
-
-
-def subsample(n: int, max_points: int, key: str) -> np.ndarray | None:
-    """Sorted indices of a seeded random subset of ``max_points`` of ``n`` (None: keep all)."""
-    if not max_points or n <= max_points:
-        return None
-    from catpose.geometry import stable_seed
-
-    return np.sort(np.random.default_rng(stable_seed("catpose.register", key)).choice(n, max_points, replace=False))
 
 
 def normalised_template(
@@ -209,6 +168,7 @@ def _normalised_template(
 ) -> NormalisedTemplate:
     from catpose.datasets.meshio import sampled_template
     from catpose.datasets.render import estimate_normals
+    from catpose.datasets.views import subsample
 
     geometry, triangles = _template_geometry(template)
     normals = None if triangles is not None else normals_arg("template_normals", template_normals, geometry)
@@ -217,7 +177,7 @@ def _normalised_template(
             "template_normals applies to a point-cloud template; a mesh's normals come "
             "from its faces: drop template_normals"
         )
-    R_up = _R_onto_z(template_up)
+    R_up = R_onto_z(template_up)
     rotated = apply_R(R_up, geometry)
     check_position("template", rotated)
     try:
@@ -238,9 +198,8 @@ def _normalised_template(
         normals = -normals  # estimate_normals faces the viewpoint (the centre): outwards is the opposite
     else:
         normals = apply_R(R_up, normals)
-    keep = subsample(len(points), template_points, "template")
-    if keep is not None:
-        points, normals = points[keep], normals[keep]
+    rng = np.random.default_rng(stable_seed("catpose.register", "template"))
+    points, normals = subsample(template_points, rng, points, normals)
     try:
         t = Template(template_id="catpose.register/template", category="object", points=points, normals=normals)
     except CatposeError as e:

@@ -16,7 +16,7 @@ from typing import Any
 from catpose.errors import CatposeError, InvalidInputError, one_line
 from catpose.lru import LRUCache
 
-__all__ = ["build_config", "build_method", "prepare_template", "read_config", "uses_up"]
+__all__ = ["build_method", "prepare_template", "read_config", "uses_up"]
 
 #: Methods built from configs, reused across calls (their template caches with them).
 _METHODS: LRUCache[tuple, Any] = LRUCache(4)
@@ -68,7 +68,7 @@ def read_config(group: str, name: str) -> dict:
     return out
 
 
-def _with_options(name: str, node: dict, options: Mapping[str, Any], path: str = "", group: str = "method") -> dict:
+def _with_options(name: str, node: dict, options: Mapping[str, Any], path: str = "") -> dict:
     """``node`` with ``options`` merged in; an option the config does not have is refused in the
     API's words (keyword arguments, not Hydra's overrides), listing the options that exist. A dict
     for a group (an object's options, ``selection={"rule": "chamfer"}``) sets those of its keys, a
@@ -80,17 +80,17 @@ def _with_options(name: str, node: dict, options: Mapping[str, Any], path: str =
             known = sorted(k for k in node if k not in ("_target_", "name"))
             where = f"{path[:-1]} " if path else ""
             raise InvalidInputError(
-                f"{dotted} is not an option of {group} {name!r}; its {where}options are: {', '.join(known)} "
-                f"(configs/{group}/{name}.yaml)"
+                f"{dotted} is not an option of method {name!r}; its {where}options are: {', '.join(known)} "
+                f"(configs/method/{name}.yaml)"
             )
         child = node[key]
         is_group = isinstance(child, dict) and "_target_" in child  # an object's options; other dicts are values
         if isinstance(value, Mapping) and is_group:
-            node[key] = _with_options(name, child, value, f"{dotted}.", group)
+            node[key] = _with_options(name, child, value, f"{dotted}.")
         elif is_group and isinstance(value, str):
             if not (resources.files("catpose.configs") / key / f"{value}.yaml").is_file():
                 raise InvalidInputError(
-                    f"{dotted}={value!r} of {group} {name!r}: configs/{key}/{value}.yaml does not exist"
+                    f"{dotted}={value!r} of method {name!r}: configs/{key}/{value}.yaml does not exist"
                 )
             node[key] = read_config(key, value)
         else:
@@ -107,26 +107,8 @@ def _instantiate(node: Any) -> Any:
     args = {k: _instantiate(v) for k, v in node.items() if k != "_target_"}
     if "_target_" not in node:
         return args
-    from catpose.datasets.dataset import gather_option_groups
-
     module, _, attr = str(node["_target_"]).rpartition(".")
-    args, groups = gather_option_groups({**args, "_target_": node["_target_"]})  # a dataset's flat keys
-    args.pop("_target_")
-    return getattr(importlib.import_module(module), attr)(**args, **groups)
-
-
-def build_config(group: str, name: str, options: Mapping[str, Any], **run: Any) -> Any:
-    """``configs/<group>/<name>.yaml`` with ``options`` merged in, built; ``run``: values of the
-    run config's keys (``seed=0``) that ``${seed}`` takes instead of ``configs/run.yaml``'s.
-    A constructor's complaint is a one-line :class:`InvalidInputError` naming the options."""
-    node = _with_options(name, read_config(group, name), options, group=group)
-    node.pop("name", None)
-    try:
-        return _instantiate(_resolve(node, {**_read("", "run"), **run}))
-    except CatposeError as e:
-        raise InvalidInputError(f"options of {group} {name!r}: {e}") from None
-    except (TypeError, ValueError) as e:
-        raise InvalidInputError(f"options {sorted(options)} of {group} {name!r}: {one_line(e)}") from None
+    return getattr(importlib.import_module(module), attr)(**args)
 
 
 def build_method(name: str, **options: Any) -> Any:
@@ -146,7 +128,14 @@ def build_method(name: str, **options: Any) -> Any:
             f"method={name!r} is not a method config; choose one of {', '.join(names)} "
             "or pass a RegistrationMethod instance"
         )
-    built = build_config("method", name, options)
+    node = _with_options(name, read_config("method", name), options)
+    node.pop("name", None)
+    try:
+        built = _instantiate(_resolve(node, _read("", "run")))
+    except CatposeError as e:
+        raise InvalidInputError(f"options of method {name!r}: {e}") from None
+    except (TypeError, ValueError) as e:
+        raise InvalidInputError(f"options {sorted(options)} of method {name!r}: {one_line(e)}") from None
     _METHODS.put(key, built)
     return built
 

@@ -18,16 +18,14 @@ import numpy as np
 from catpose.api.inputs import (
     NormalisedTemplate,
     check_position,
-    cloud_arg,
     estimated_normals,
     normals_arg,
     oriented_to_camera,
-    subsample,
 )
 from catpose.depth_frame import DepthFrame
 from catpose.errors import InvalidInputError
 from catpose.geometry import norm3, stable_seed
-from catpose.types import DepthImage
+from catpose.types import DepthImage, points_arg
 
 __all__ = ["Observed", "observed"]
 
@@ -89,15 +87,16 @@ def observed(
         return _from_frame(observation, template, up, max_points, plane_distance)
     if plane_distance is not None:
         raise InvalidInputError("plane_distance applies to a DepthFrame (its table plane); drop it for a point array")
-    pts = cloud_arg("observation", observation)
+    pts = points_arg("observation", observation)
     check_position("observation", pts)
     obs_normals = normals_arg("observation_normals", observation_normals, pts)
     points = pts / template.scale
     normals = oriented_to_camera(points, obs_normals) if obs_normals is not None else estimated_normals(points)
     radius = _radius(points)
-    keep = subsample(len(points), int(max_points), "observation")
-    if keep is not None:
-        points, normals = points[keep], normals[keep]
+    from catpose.datasets.views import subsample
+
+    rng = np.random.default_rng(stable_seed("catpose.register", "observation"))
+    points, normals = subsample(int(max_points), rng, points, normals)
     return Observed(
         points, normals, up, None, POINTS_SAMPLE_ID, 0, radius, {"ground": "search" if up is None else "given"}
     )

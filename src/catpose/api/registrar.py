@@ -1,7 +1,6 @@
 """``catpose.Registrar``: one template held between calls, its method's per-template data built
 once (and kept in the disk cache, so that another process loads it). ``registrar(observation)``
-registers one view, ``registrar.many([...], processes=N)`` a list, in order, with the same
-answers as one by one. :func:`catpose.register` is a one-off Registrar.
+registers one view. :func:`catpose.register` is a one-off Registrar.
 """
 
 from __future__ import annotations
@@ -73,16 +72,12 @@ class Registrar:
                     "set them on the instance"
                 )
             self.method_name, self.method = type(method).__name__, method
-        self.options = dict(options)
         t_up = direction_arg("template_up", template_up)
         points = _count("template_points", template_points, 1)
         self.template: NormalisedTemplate = normalised_template(template, template_normals, t_up, points)
         self.needs_up = uses_up(self.method)
-        self.prepare_s = 0.0
         if prepare:
-            t0 = time.perf_counter()
             prepare_template(self.method, self.template.template)
-            self.prepare_s = time.perf_counter() - t0
 
     def __call__(
         self,
@@ -113,32 +108,6 @@ class Registrar:
         if message:
             warnings.warn(message, stacklevel=_stacklevel + 1)
         return self._register(obs, up_hypotheses)
-
-    def many(
-        self,
-        observations: Sequence[Any],
-        up: Sequence[float] | Sequence[Sequence[float] | None] | None = None,
-        *,
-        processes: int = 1,
-        **kwargs: Any,
-    ) -> list[Registration]:
-        """Register every view of ``observations``, in order (the same answers as one by one).
-
-        Args:
-            observations: (N, 3) arrays or :class:`~catpose.depth_frame.DepthFrame` objects.
-            up: one up direction (3,) for all, or one entry (3,) or None per observation.
-            processes: worker processes (each builds the method and loads the template's data,
-                from the disk cache when there); 1 registers here.
-            **kwargs: the keyword arguments of a call (``max_points``, ``plane_distance``, ...).
-        """
-        from catpose.api.parallel import register_in_processes
-
-        views = list(observations)
-        ups = _ups(up, len(views))
-        processes = _count("processes", processes, 1)
-        if processes == 1 or len(views) < 2:
-            return [self(v, u, _stacklevel=3, **kwargs) for v, u in zip(views, ups)]
-        return register_in_processes(self, views, ups, kwargs, min(processes, len(views)))
 
     # ------------------------------------------------------------------ internals
     def _register(self, obs: Observed, up_hypotheses: int) -> Registration:
@@ -215,19 +184,6 @@ class Registrar:
         except CatposeError as e:
             why = str(e).replace(f"sample {obs.sample_id}: ", "")
             raise RegistrationFailed(f"method {self.method_name!r} gave no pose: {why}") from None
-
-
-def _ups(up: Any, n: int) -> list[np.ndarray | None]:
-    """One up direction (or None) per observation from ``many``'s ``up``: None, one direction
-    (3,) for all, or a sequence of ``n`` entries, each (3,) or None."""
-    if up is None:
-        return [None] * n
-    if (isinstance(up, (list, tuple)) and any(u is None for u in up)) or np.ndim(up) == 2:
-        if len(up) != n:
-            raise InvalidInputError(f"up has {len(up)} entries for {n} observations; pass one each, or one for all")
-        return [None if u is None else direction_arg(f"up[{i}]", u) for i, u in enumerate(up)]
-    g = direction_arg("up", up)
-    return [g] * n
 
 
 def _candidates(result: RegistrationResult) -> tuple[np.ndarray, np.ndarray]:
