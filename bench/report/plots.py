@@ -86,7 +86,6 @@ def cdf_points(errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def plot_error_cdf(
     units_by_method: Mapping[str, object],
     out_stem: str | Path,
-    title: str = "",
     pdf: bool = True,
     colors: Mapping[str, str] | None = None,
 ) -> list[Path]:
@@ -146,9 +145,7 @@ def plot_error_cdf(
     for ax in axes.ravel():
         for h, lab in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(lab, h)
-    fig.suptitle(
-        title or "Cumulative error distribution per category (rotation; main axis for symmetric objects)", fontsize=11
-    )
+    fig.suptitle("Cumulative error distribution per category (rotation; main axis for symmetric objects)", fontsize=11)
     note = (
         f"errors below {floor:g} deg drawn at {floor:g};\nfailures count as "
         f"{FAILED_ERROR_DEG:g} deg; dashed: 10 and 30 deg"
@@ -188,7 +185,6 @@ def plot_accuracy(
     units_by_method: Mapping[str, object],
     out_stem: str | Path,
     thresholds=ACCURACY_THRESHOLDS_DEG,
-    title: str = "",
     pdf: bool = True,
     colors: Mapping[str, str] | None = None,
 ) -> list[Path]:
@@ -217,7 +213,7 @@ def plot_accuracy(
     ax.set_ylabel("fraction of samples")
     ax.grid(alpha=0.3, axis="y")
     ax.legend(fontsize=8, loc="upper left", ncol=min(k, 3), frameon=False)
-    ax.set_title(title or "Accuracy at thresholds (all categories; failures count as wrong)", fontsize=10)
+    ax.set_title("Accuracy at thresholds (all categories; failures count as wrong)", fontsize=10)
     fig.tight_layout()
     csv = _write_csv(csv_rows, ["method", "threshold_deg", "n", "accuracy"], out_stem)
     return save(fig, out_stem, pdf) + [csv]
