@@ -22,12 +22,7 @@ _TABLE = (
     ("export", "interop.bop_export", "main", "export a run's estimates as a BOP results CSV"),
     ("score", "interop.score", "main", "score an external predictions file (BOP CSV or per-sample CSV)"),
     ("suite", "real.suite", "main", "every method on the shared real data, one table: bench suite real"),
-    (
-        "clutter",
-        "real.clutter_cache",
-        "main",
-        "generate the cluttered synthetic set (dataset=clutter) and print its folder",
-    ),
+    ("clutter", "real.suite", "clutter_main", "generate the cluttered synthetic set ahead and print its folder"),
     (
         "data",
         "run.data_check",

@@ -27,7 +27,7 @@ from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.datasets.meshio import sample_outer_surface
 from catpose.datasets.render import depth_to_points, render_depth
 from catpose.datasets.sensor import get_sensor
-from catpose.datasets.shapes import SHAPES, SYMMETRIC_CATEGORIES
+from catpose.datasets.shapes import SHAPES, SYMMETRIC_CATEGORIES, make_shape
 from catpose.datasets.views import ImageOptions, ViewOptions, check_counts, kept_view, view_observation
 from catpose.errors import ConfigError, DatasetError
 from catpose.geometry import apply_R, axis_angle_to_R, dot3, stable_seed, unit3
@@ -120,10 +120,6 @@ class SyntheticDataset(ObjectDataset):
         category, instance_id, view = obs_id.split("/")
         return category, instance_id, int(view[1:])
 
-    def _check_category(self, category: str) -> None:
-        if category not in SHAPES:
-            raise ConfigError(f"synthetic dataset: unknown category {category!r}; valid: {sorted(SHAPES)}")
-
     # ------------------------------------------------------------------ models
 
     def _build(self, category: str, model_id: str, stream: str) -> Template:
@@ -131,7 +127,7 @@ class SyntheticDataset(ObjectDataset):
         key = (category, model_id)
         if key not in self._models:
             mesh_rng = np.random.default_rng(stable_seed(self.seed, "synthetic", stream, "mesh", category, model_id))
-            mesh = SHAPES[category](mesh_rng)
+            mesh = make_shape(category, mesh_rng)  # an unknown category: a one-line ConfigError
             cloud_rng = np.random.default_rng(stable_seed(self.seed, "synthetic", stream, "cloud", category, model_id))
             vertices, triangles = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
             points, normals = sample_outer_surface(vertices, triangles, self.template_points, cloud_rng)
@@ -149,7 +145,6 @@ class SyntheticDataset(ObjectDataset):
 
     def instance_model(self, category: str, instance_id: str) -> Template:
         """The instance's complete model: mesh plus outer-surface cloud, object frame."""
-        self._check_category(category)
         if not (instance_id.isdigit() and int(instance_id) < self.instances_per_category):
             raise DatasetError(
                 f"synthetic dataset has no {category} instance {instance_id!r}; "
@@ -160,7 +155,6 @@ class SyntheticDataset(ObjectDataset):
     def category_templates(self, category: str) -> list[Template]:
         """``num_templates`` other instances of ``category`` (ids ``t0``, ``t1``, ...), drawn from
         a seed stream separate from the observed instances'."""
-        self._check_category(category)
         return [self._build(category, f"t{k}", "template") for k in range(self.num_templates)]
 
     # ------------------------------------------------------------------ observations

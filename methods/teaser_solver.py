@@ -83,16 +83,6 @@ def consistency_graph(src: np.ndarray, dst: np.ndarray, noise_bound: float) -> n
     return adj
 
 
-def max_clique(
-    adj: np.ndarray, node_budget: int = 200_000, time_budget_s: float | None = None
-) -> tuple[np.ndarray, bool]:
-    """:func:`catpose.methods.max_clique.max_clique` of the (N, N) bool adjacency ``adj``:
-    (sorted vertex indices, whether the search was exact within the budgets)."""
-    from catpose.methods import max_clique as mc  # numba loads here, so `bench --help` stays instant
-
-    return mc.max_clique(adj, node_budget, time_budget_s)
-
-
 def weighted_kabsch(src: np.ndarray, dst: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, bool]:
     """Rotation (3, 3) minimising ``sum_k w_k ||dst_k - R src_k||^2`` over (K, 3) vectors, and
     whether the weighted measurements span one direction or none (then the rotation about it is
@@ -235,6 +225,8 @@ def solve(
         )
 
     t0 = time.perf_counter()
+    from catpose.methods.max_clique import max_clique  # numba loads here, so `bench --help` stays instant
+
     adj = consistency_graph(src, dst, noise_bound)
     clique, exact = max_clique(adj, clique_node_budget, clique_time_budget_s)
     timings["clique_s"] = time.perf_counter() - t0

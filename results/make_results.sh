@@ -117,7 +117,7 @@ synthetic_tables() {
     "${TB[@]}" --force --sweep "$S/relative_real" --layout generic --format $fmt ${ST[@]+"${ST[@]}"} \
       --title "Relative pose between two views of one object, each registered to the category templates" --out "$T/relative.$ext"
     "$B" table --force "$OUT/kinect/synthetic-gt_model" --layout generic --categories all --format $fmt \
-      --metrics mean,median,acc10,acc30,trans --acc 5,10,30,5deg5cm,10deg10cm --auc 30 \
+      --metrics mean,median,acc5,acc10,acc30,5deg5cm,10deg10cm,auc30,trans \
       --title "Embedded set with the Kinect sensor model (8 categories x 1 instance x 2 views, seed 0)" --out "$T/synthetic_kinect.$ext"
   done
   # the report: every category, ours beside ICP and the three dictionary-matching baselines (own

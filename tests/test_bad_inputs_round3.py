@@ -127,9 +127,6 @@ def test_case_09_score_with_no_matching_sample_is_refused(tmp_path, capsys):
 
 def test_case_11_by_is_checked(tmp_path, capsys):
     gt = write_run(tmp_path / "gt", rows([5.0]), CFG)
-    preds = per_sample_csv(tmp_path / "p.csv", rows([7.0]))
-    assert _score(preds, gt, tmp_path / "o", "--by", "nope") == 2
-    assert "--by 'nope': pass object, category or object,category" in one_error_line(capsys, "score")
     assert bench(["table", str(gt), "--by", "object"]) == 2
     assert "--by 'object' goes with --bop-metrics" in one_error_line(capsys, "table")
 

@@ -16,8 +16,8 @@ import pytest
 
 from catpose.bench.interop import score as score_cmd
 from catpose.bench.interop.bop_export import export_bop
-from catpose.bench.interop.prediction_io import read_predictions
-from catpose.bench.interop.prediction_match import score_predictions
+from catpose.bench.interop.prediction_io import BOP_COLUMNS, read_predictions
+from catpose.bench.interop.score import score_predictions
 from catpose.bench.scoring import bop_eval
 from catpose.datasets.bop import BOP
 from catpose.errors import InvalidInputError
@@ -26,6 +26,8 @@ from catpose.geometry import make_T
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _trust import write_run  # noqa: E402
 from test_loaders_bop import T_camera_model, bop_root  # noqa: E402, F401  (the rendered scene fixture)
+
+BOP_HEADER = ",".join(BOP_COLUMNS)
 
 CFG = {
     "method": {"name": "ours", "_target_": "x.Y"},
@@ -101,12 +103,12 @@ def test_file_name_check_names_the_fix(tmp_path: Path):
 def test_toolkit_csv_checks_reject_what_the_toolkit_rejects(tmp_path: Path):
     R, t = "1 0 0 0 1 0 0 0 1", "0 0 500"
     ok = tmp_path / "a_b-test.csv"
-    ok.write_text(f"{bop_eval.BOP_HEADER}\n1,2,3,0.5,{R},{t},1.5\n1,2,4,0.5,{R},{t},1.5\n1,3,3,0.5,{R},{t},0.2\n")
+    ok.write_text(f"{BOP_HEADER}\n1,2,3,0.5,{R},{t},1.5\n1,2,4,0.5,{R},{t},1.5\n1,3,3,0.5,{R},{t},0.2\n")
     assert len(read_predictions(ok)) == 3
     cases = {
-        f"{bop_eval.BOP_HEADER}\n1,2,3,0.5,{R},{t},1.5\n1,2,4,0.5,{R},{t},0.7\n": "one time per image|different times",
-        f"{bop_eval.BOP_HEADER}\n1,2.5,3,0.5,{R},{t},1\n": "integer",
-        f"{bop_eval.BOP_HEADER}\n1,2,3,0.5,1 0 0,{t},1\n": "expected 9",
+        f"{BOP_HEADER}\n1,2,3,0.5,{R},{t},1.5\n1,2,4,0.5,{R},{t},0.7\n": "one time per image|different times",
+        f"{BOP_HEADER}\n1,2.5,3,0.5,{R},{t},1\n": "integer",
+        f"{BOP_HEADER}\n1,2,3,0.5,1 0 0,{t},1\n": "expected 9",
     }
     for text, msg in cases.items():
         ok.write_text(text)
@@ -128,7 +130,7 @@ def test_export_of_a_two_object_image_passes_the_toolkit_checks_and_scores_perfe
     assert df["time"].tolist() == [3.25, 3.25]  # the image's total, on every row
     assert all(df[c].dtype.kind == "i" for c in ("scene_id", "im_id", "obj_id"))
     scored = tmp_path / "scored"
-    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
+    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored)]) == 0
     errs, header = bop_eval.read_errors(scored / bop_eval.ERRORS_FILE)
     assert header["method"] == "catposeOurs" and len(errs) == 2 and errs["matched"].all()
     table = bop_eval.score_table(errs, ALL_METRICS)
@@ -162,7 +164,7 @@ def test_several_instances_of_one_object_are_matched_greedily_by_score(bop_root)
     text = (
         "\n".join(
             [
-                bop_eval.BOP_HEADER,
+                BOP_HEADER,
                 line(shifted, 0.9),
                 line(T_camera_model(1), 0.8),
                 line(T_camera_model(1) @ make_T(np.eye(3), [0, 0, 300.0]), 0.1),
@@ -185,7 +187,7 @@ def test_several_instances_of_one_object_are_matched_greedily_by_score(bop_root)
 
 def _gt_csv(ds: BOP, path: Path, shift_mm=(0.0, 0.0, 0.0)) -> Path:
     """Every target's ground truth as an estimate (optionally shifted, camera frame, mm)."""
-    lines = [bop_eval.BOP_HEADER]
+    lines = [BOP_HEADER]
     for oid in ds.observation_ids():
         _, scene, im, g = oid.split("/")
         e = json.loads(ds.layout.scene_gt(int(scene)).read_text())[str(int(im))][int(g)]
@@ -243,7 +245,7 @@ def test_tyol_frame_export_then_score_gives_recall_one(shared_data: Path, tmp_pa
     out = tmp_path / "gt_tyol-test.csv"
     assert export_bop(run, out) == 1 and len(read_predictions(out)) == 1
     scored = tmp_path / "scored"
-    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
+    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored)]) == 0
     errs, _ = bop_eval.read_errors(scored / bop_eval.ERRORS_FILE)
     assert (bop_eval.score_table(errs, ALL_METRICS)[ALL_METRICS].to_numpy() == 1.0).all()
     samples = [json.loads(x) for x in (scored / "samples.jsonl").read_text().splitlines()]
@@ -259,7 +261,7 @@ def test_ycbv_bench_export_then_bench_score_reproduces_the_ground_truth(shared_d
     out = tmp_path / "gt_ycbv-test.csv"
     assert export_bop(run, out) == 38 and len(read_predictions(out)) == 38
     scored = tmp_path / "scored"
-    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored), "--metrics", ",".join(ALL_METRICS)]) == 0
+    assert score_cmd.main([str(out), "--gt", str(run), "--out", str(scored)]) == 0
     errs, header = bop_eval.read_errors(scored / bop_eval.ERRORS_FILE)
     assert header["targets"] == 38 and header["matched"] == 38
     assert (bop_eval.score_table(errs, ALL_METRICS)[ALL_METRICS].to_numpy() == 1.0).all()

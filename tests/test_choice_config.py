@@ -105,10 +105,7 @@ def test_a_templates_config_without_the_choice_group_is_refused_in_one_line():
             build(old)
 
 
-def test_the_choice_is_part_of_a_templates_runs_identity_and_old_configurations_keep_their_directory():
-    import hashlib
-    import json
-
+def test_the_choice_is_part_of_a_templates_runs_identity():
     from catpose.bench.run.rundir import run_dir_for
 
     def digest(overrides):
@@ -118,19 +115,3 @@ def test_the_choice_is_part_of_a_templates_runs_identity_and_old_configurations_
     assert digest(["protocol=templates"]) != digest(["protocol=templates", "choice.cross_weight=0.3"])
     assert digest(["protocol=templates", "choice=cross"]) != digest(["protocol=templates", "choice=fused"])
     assert digest(["protocol=relative"]) != digest(["protocol=relative", "choice=density"])
-
-    # a configuration written before the choice group (the protocol held choice, turns and
-    # one_template_turns) hashes as it did then, so its run directory and finished samples stay
-    def old_digest(overrides, **protocol_keys):
-        cfg = _compose(overrides)
-        identity = {k: OmegaConf.to_container(cfg[k], resolve=True) for k in ("method", "dataset", "protocol")}
-        identity["protocol"].update(protocol_keys)
-        identity["seed"] = int(cfg.seed)
-        return hashlib.sha1(json.dumps(identity, sort_keys=True, default=str).encode()).hexdigest()[:8]
-
-    one = ["protocol=templates", "choice=cross_top_turns", "choice.turns_deg=[180]", "choice.one_template_turns=true"]
-    assert digest(one) == old_digest(one, choice="cross_top_turns", turns=[180], one_template_turns=True)
-    fused = ["protocol=templates", "choice=fused"]
-    assert digest(fused) == old_digest(fused, choice="fused", turns=None, one_template_turns=False)
-    score = ["protocol=relative", "choice=score"]  # the default before `fused`
-    assert digest(score) == old_digest(score, choice="score")

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench.report import plots, qualitative
+from catpose.bench.report import plots
 from catpose.bench.scoring.curves import scored_errors
 from catpose.geometry import axis_angle_to_R, make_T
 
@@ -135,7 +135,7 @@ def test_registration_picture_places_points(captured, tmp_path: Path):
     template /= np.linalg.norm(template, axis=1, keepdims=True)
     T_gt = make_T(axis_angle_to_R(np.array([0, 0, 1.0]), 0.5), [0, 0, -3])
     points_camera = (template[:200] - T_gt[:3, 3]) @ T_gt[:3, :3]  # inv(T_gt) applied
-    qualitative.plot_registration(points_camera, template, T_gt, T_gt, tmp_path / "reg", "toy", 0.0)
+    plots.plot_registration(points_camera, template, T_gt, T_gt, tmp_path / "reg", "toy", 0.0)
     fig = captured[0]
     assert len(fig.axes) == 2 and fig.axes[0].get_title() == "estimate (0.0 deg)"
     drawn = np.column_stack(fig.axes[0].collections[1]._offsets3d)  # the input, in the template frame

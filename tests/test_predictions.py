@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 from catpose.bench.interop import score as score_cmd
 from catpose.bench.interop.bop_export import export_bop
 from catpose.bench.interop.prediction_io import read_predictions
-from catpose.bench.interop.prediction_match import score_predictions
+from catpose.bench.interop.score import score_predictions
 from catpose.errors import InvalidInputError
 from catpose.geometry import axis_angle_to_R, make_T
 

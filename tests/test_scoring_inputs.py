@@ -20,7 +20,7 @@ import pytest
 
 from catpose.bench.cli import main as bench
 from catpose.bench.interop.prediction_io import read_predictions
-from catpose.bench.interop.prediction_match import count_text, score_predictions
+from catpose.bench.interop.score import count_text, score_predictions
 from catpose.bench.run.rundir import read_rows
 from catpose.errors import InvalidInputError
 

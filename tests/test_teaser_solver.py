@@ -10,6 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from catpose.errors import ConfigError, InvalidInputError
 from catpose.methods import teaser_solver
+from catpose.methods.max_clique import max_clique
 
 
 def _rot_err_deg(R_a: np.ndarray, R_b: np.ndarray) -> float:
@@ -67,7 +68,7 @@ def test_max_clique_matches_brute_force(seed: int) -> None:
     n = 14
     upper = np.triu(rng.random((n, n)) < 0.5, k=1)
     adj = upper | upper.T
-    clique, exact = teaser_solver.max_clique(adj)
+    clique, exact = max_clique(adj)
     assert exact
     assert all(adj[i, j] for i, j in itertools.combinations(clique.tolist(), 2))
     assert len(clique) == _brute_force_clique_size(adj)
@@ -78,7 +79,7 @@ def test_max_clique_budget_returns_a_clique_flagged_inexact() -> None:
     n = 120
     upper = np.triu(rng.random((n, n)) < 0.7, k=1)
     adj = upper | upper.T
-    clique, exact = teaser_solver.max_clique(adj, node_budget=5)
+    clique, exact = max_clique(adj, node_budget=5)
     assert not exact
     assert len(clique) >= 2
     assert all(adj[i, j] for i, j in itertools.combinations(clique.tolist(), 2))
@@ -104,7 +105,7 @@ def test_max_clique_size_equals_networkx(n: int, p: float, planted: int, seed: i
     n > 64 exercises multi-word bitsets."""
     nx = pytest.importorskip("networkx")
     adj = _random_graph(np.random.default_rng(seed), n, p, planted)
-    clique, exact = teaser_solver.max_clique(adj)
+    clique, exact = max_clique(adj)
     _, size = nx.max_weight_clique(nx.from_numpy_array(adj.astype(int)), weight=None)
     assert exact and len(clique) == size
     assert len(set(clique.tolist())) == len(clique)
@@ -112,10 +113,10 @@ def test_max_clique_size_equals_networkx(n: int, p: float, planted: int, seed: i
 
 
 def test_max_clique_edge_cases() -> None:
-    assert teaser_solver.max_clique(np.zeros((0, 0), bool))[0].tolist() == []
-    assert len(teaser_solver.max_clique(np.zeros((5, 5), bool))[0]) == 1  # no edges: one vertex
+    assert max_clique(np.zeros((0, 0), bool))[0].tolist() == []
+    assert len(max_clique(np.zeros((5, 5), bool))[0]) == 1  # no edges: one vertex
     full = ~np.eye(9, dtype=bool)
-    assert teaser_solver.max_clique(full)[0].tolist() == list(range(9))
+    assert max_clique(full)[0].tolist() == list(range(9))
 
 
 def test_max_clique_time_budget_falls_back_to_a_clique() -> None:
@@ -124,7 +125,7 @@ def test_max_clique_time_budget_falls_back_to_a_clique() -> None:
     from catpose.methods import max_clique as mc
 
     adj = _random_graph(np.random.default_rng(0), 300, 0.8)
-    clique, exact = teaser_solver.max_clique(adj, time_budget_s=0.0)
+    clique, exact = max_clique(adj, time_budget_s=0.0)
     assert not exact
     greedy = mc.greedy_clique(adj, np.argsort(-adj.sum(axis=1), kind="stable")[: mc.GREEDY_STARTS])
     assert len(clique) >= len(greedy)

@@ -1,5 +1,5 @@
 """Accuracy at any threshold, n-degree m-cm and the AUC of the accuracy curve
-(catpose.bench.scoring.curves), in ``bench table --acc/--auc``."""
+(catpose.bench.scoring.curves), in ``bench table --metrics``."""
 
 from __future__ import annotations
 
@@ -10,10 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catpose.bench.report import tables
 from catpose.bench.scoring import curves
 from catpose.bench.scoring.metrics import accuracy
-from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R, invert_T, make_T
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -80,27 +78,6 @@ def test_n_degree_m_cm_uses_the_object_origin_in_metres():
     assert np.isnan(curves.statistic(no_scale, "5deg5cm"))
 
 
-def test_threshold_keys_and_bad_items():
-    assert curves.threshold_keys("5,10,30,5deg5cm") == ["acc5", "acc10", "acc30", "5deg5cm"]
-    assert curves.threshold_keys("", 30) == ["auc30"]
-    with pytest.raises(ConfigError, match="--acc item 'ten' is not a threshold"):
-        curves.threshold_keys("5,ten")
-    with pytest.raises(ConfigError, match="--auc"):
-        curves.threshold_keys("5", -1.0)
-
-
-def test_with_thresholds_replaces_the_accuracies_in_place():
-    assert tables.with_thresholds(["mean", "median", "acc10", "acc30", "trans"], ["acc5", "acc10", "auc30"]) == [
-        "mean",
-        "median",
-        "acc5",
-        "acc10",
-        "auc30",
-        "trans",
-    ]
-    assert tables.with_thresholds(["mean", "median", "trans"], ["acc5"]) == ["mean", "median", "acc5", "trans"]
-
-
 def _run(root: Path, name: str, errors: list[float], scale_mm: float | None = None) -> Path:
     T_gt = make_T(np.eye(3), np.array([0.0, 0.0, 2.0]))
     rows = []
@@ -136,7 +113,7 @@ def test_bench_table_acc_and_auc(tmp_path: Path, capsys):
     from catpose.bench.cli import main
 
     a = _run(tmp_path, "icp", [1.0, 4.0, 8.0, 20.0])
-    assert main(["table", str(a), "--acc", "5,10,5deg5cm", "--auc", "10", "--format", "csv"]) == 0
+    assert main(["table", str(a), "--metrics", "mean,median,acc5,acc10,5deg5cm,auc10,trans", "--format", "csv"]) == 0
     frame = pd.read_csv(__import__("io").StringIO(capsys.readouterr().out))
     row = frame.iloc[0]
     # 5deg5cm is left out: these rows have no metric scale
@@ -157,11 +134,11 @@ def test_bench_table_acc_and_auc(tmp_path: Path, capsys):
     ]
     assert row["All/@5 ↑"] == 0.5 and row["All/@10 ↑"] == 0.75
     assert row["All/AUC@10 ↑"] == pytest.approx(np.mean([0.9, 0.6, 0.2, 0.0]))
-    assert main(["table", str(a), "--acc", "5deg5cm"]) == 0
+    assert main(["table", str(a), "--metrics", "mean,median,5deg5cm,trans"]) == 0
     assert "Left out: 5deg5cm (no run here has rows with a metric scale" in capsys.readouterr().out
     b = _run(tmp_path / "metric", "icp", [1.0, 4.0, 8.0, 20.0], scale_mm=100.0)
     assert main(["table", str(b), "--metrics", "mean,5deg5cm,10deg10cm"]) == 0
     text = capsys.readouterr().out
     assert "| ICP | 8.250 | 0.500 | 0.750 |" in text  # the translation is exact: rotation alone decides
-    assert main(["table", str(a), "--acc", "5,x"]) == 2
-    assert "--acc item 'x' is not a threshold" in capsys.readouterr().err
+    assert main(["table", str(a), "--metrics", "acc5,x"]) == 2
+    assert "unknown metric 'x'" in capsys.readouterr().err

@@ -2,15 +2,10 @@
 format, :mod:`catpose.bench.interop.prediction_io`).
 
 BOP datasets put ``scene_id``, ``im_id``, ``obj_id`` in each sample's ``info`` (from
-``Observation.info``), with ``scale_mm`` (millimetres per object-normalised unit) and optionally
-``centre_mm`` (3,) and ``R_object_model`` (9, row-major) of the normalisation ``p_object =
-(R_object_model p_model - centre_mm) / scale_mm`` (defaults: 0 and identity). With ``(R_co, t_co) =
-inv(T_template_camera_est)``:
-
-    R_camera_model = R_co @ R_object_model,    t_camera_model[mm] = scale_mm * t_co - R_co @ centre_mm
-
-(:func:`catpose.bench.run.bop_ar.camera_model_pose`). Runs on other datasets have no BOP ids:
-an external method's estimates of them are scored from a per-sample CSV.
+``Observation.info``), with the object's normalisation (``scale_mm``, ``centre_mm``,
+``R_object_model``) that takes an estimate to BOP's ``T_camera_model`` in millimetres
+(:func:`catpose.bench.run.bop_ar.camera_model_pose`). Runs on other datasets have no BOP ids: an
+external method's estimates of them are scored from a per-sample CSV.
 """
 
 from __future__ import annotations
@@ -44,30 +39,34 @@ def image_times(ids: Sequence[tuple], runtimes: Sequence[Any]) -> dict[tuple[int
     return out
 
 
-def export_bop(
-    run_dir: str | Path, out_csv: str | Path, check_name: bool = True, skipped: list[str] | None = None
-) -> int:
+def export_bop(run_dir: str | Path, out_csv: str | Path, skipped: list[str] | None = None) -> int:
     """Write the estimates of a run on BOP-layout data as a BOP results CSV; returns the number of
-    rows written. ``out_csv`` must be named ``METHOD_DATASET-SPLIT.csv`` (``check_name=False`` skips
-    this). One row per scoring unit with an estimate (templates: the template the method chose);
+    rows written. ``out_csv`` must be named ``METHOD_DATASET-SPLIT.csv`` with the run's DATASET (the
+    BOP toolkit scores the file against the dataset it names; a run of the generic ``dataset=bop``
+    config may name it as its user knows it). One row per scoring unit with an estimate (templates: the template the method chose);
     ``score`` is the confidence ``exp(-max(method score, 0))``, ``time`` one value per image (the
     summed runtimes, -1 if one is unknown). What is left out goes to ``skipped``; a run without any
     estimate, or whose samples have no BOP ids, is refused."""
     from catpose.bench.protocols.relative import Relative
     from catpose.bench.report.runs import load_run, protocol_of
-    from catpose.bench.run.bop_ar import bop_key, camera_model_pose, confidence, has_bop_ids
+    from catpose.bench.run.bop_ar import has_bop_ids, predictions_from_units
     from catpose.bench.scoring.bop_eval import check_results_filename
     from catpose.errors import DatasetError, InvalidInputError
 
     run = load_run(run_dir)
-    example = f"method_{_dataset_of(run) if _dataset_of(run) not in ('', 'bop') else 'ycbv'}-test.csv"
+    node = run.config.get("dataset")
+    dataset = str(node.get("name")) if isinstance(node, dict) and node.get("name") else str(run.info.get("dataset", ""))
+    example = f"method_{dataset if dataset not in ('', 'bop') else 'ycbv'}-test.csv"
     if Path(out_csv).is_dir():
         raise InvalidInputError(
             f"--out {out_csv} is a folder; pass the CSV file to write, e.g. {Path(out_csv) / example}"
         )
-    if check_name:
-        check_results_filename(out_csv, example[7:-4])
-        check_dataset_name(out_csv, run)
+    method, named, split = check_results_filename(out_csv, example[7:-4])
+    if dataset and dataset != "bop" and named != dataset:
+        raise InvalidInputError(
+            f"--out {Path(out_csv).name} names dataset {named!r}, but run {run.path} is of dataset {dataset!r}; "
+            f"name it {method}_{dataset}-{split}.csv"
+        )
     if run.incomplete:  # exported all the same, and said
         log.warning("%s", run.incomplete)
     proto = protocol_of(run)
@@ -87,7 +86,7 @@ def export_bop(
         )
     if not all(has_bop_ids(r) for r in rows):
         raise InvalidInputError(
-            f"run {run_dir} is not on BOP-layout data (dataset {_dataset_of(run) or '?'}): its samples have no BOP "
+            f"run {run_dir} is not on BOP-layout data (dataset {dataset or '?'}): its samples have no BOP "
             "ids to export; score another method's estimates of it from a per-sample CSV (docs/evaluation.md)"
         )
     for r in rows:  # only poses are exported (a hand-edited samples.jsonl can hold anything)
@@ -97,16 +96,14 @@ def export_bop(
                 f"run {run_dir}: sample {r.get('sample_id')}: T_est {why}; its samples.jsonl is damaged: "
                 "re-run that sample (delete its line and re-run the same command)"
             )
-    ids = [bop_key(r["info"]) for r in rows]
-    times = image_times(ids, [r.get("runtime_s") for r in rows])
+    preds = predictions_from_units(rows).to_dict("records")  # what bench score reads back
+    times = image_times([(p["scene_id"], p["im_id"]) for p in preds], [r.get("runtime_s") for r in rows])
     lines = [",".join(BOP_COLUMNS)]
-    for r, (scene, im, obj) in zip(rows, ids):
-        T = camera_model_pose(r["T_est"], r["info"])
-        R, t, conf = T[:3, :3], T[:3, 3], confidence(r.get("score"))
-        rt = times[(scene, im)]
+    for p in preds:
+        R, t = p["T"][:3, :3], p["T"][:3, 3]
         lines.append(
-            f"{scene},{im},{obj},{conf:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"
-            f"{' '.join(f'{x:.9g}' for x in t)},{rt:.6g}"
+            f"{p['scene_id']},{p['im_id']},{p['obj_id']},{p['score']:.6g},{' '.join(f'{x:.9g}' for x in R.ravel())},"
+            f"{' '.join(f'{x:.9g}' for x in t)},{times[(p['scene_id'], p['im_id'])]:.6g}"
         )
     from catpose import atomic
     from catpose.bench.interop.prediction_io import read_predictions
@@ -118,45 +115,18 @@ def export_bop(
 
 
 def pose_problem(T: Any) -> str | None:
-    """Why a stored ``T_est`` is not a rigid transform (16 numbers, a rotation within
-    :data:`~catpose.datasets.bop_layout.ROTATION_TOL`, a finite translation, last row
-    ``[0, 0, 0, 1]``), None when it is one."""
+    """Why a stored ``T_est`` (16 numbers, as :mod:`catpose.bench.run.rows_file` reads every row) is
+    not a rigid transform (finite, a rotation within :data:`~catpose.datasets.bop_layout.ROTATION_TOL`,
+    last row ``[0, 0, 0, 1]``), None when it is one."""
     from catpose.datasets.bop_layout import rotation_problem
 
-    a = np.asarray(T, dtype=object).reshape(-1)
-    try:
-        M = np.asarray(a, float)
-    except (TypeError, ValueError):
-        return "is not 16 numbers"
-    if M.size != 16 or not np.isfinite(M).all():
-        return f"is not 16 finite numbers ({M.size} values)"
-    M = M.reshape(4, 4)
+    M = np.asarray(T, float).reshape(4, 4)
+    if not np.isfinite(M).all():
+        return "has a NaN or infinite value"
     if np.abs(M[3] - [0, 0, 0, 1]).max() > 1e-9:
         return f"has the last row {M[3].tolist()}, not [0, 0, 0, 1]"
     why = rotation_problem(M[:3, :3])
     return None if why is None else f"is not a rotation and translation ({why})"
-
-
-def _dataset_of(run: Any) -> str:
-    node = run.config.get("dataset")
-    return str(node.get("name")) if isinstance(node, dict) and node.get("name") else str(run.info.get("dataset", ""))
-
-
-def check_dataset_name(out_csv: str | Path, run: Any) -> None:
-    """The ``DATASET`` of ``METHOD_DATASET-SPLIT.csv`` must be the run's dataset (the BOP toolkit
-    scores the file against the dataset it names); a run of the generic ``dataset=bop`` config,
-    whose name says nothing of the dataset, may be named as its user knows it."""
-    from catpose.bench.scoring.bop_eval import check_results_filename
-    from catpose.errors import InvalidInputError
-
-    _, named, split = check_results_filename(out_csv)
-    dataset = _dataset_of(run)
-    if dataset and dataset != "bop" and named != dataset:
-        method = Path(out_csv).name.split("_", 1)[0]
-        raise InvalidInputError(
-            f"--out {Path(out_csv).name} names dataset {named!r}, but run {run.path} is of dataset {dataset!r}; "
-            f"name it {method}_{dataset}-{split}.csv"
-        )
 
 
 def main(argv: list[str] | None = None) -> int:

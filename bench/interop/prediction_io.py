@@ -121,18 +121,6 @@ def check_ids(record: dict, kind: str, where: str) -> None:
         )
 
 
-def check_pose(T: np.ndarray, where: str) -> None:
-    """``T`` (4, 4): a rotation within :data:`ROTATION_TOL` and a finite translation."""
-    why = rotation_problem(T[:3, :3])
-    if why:
-        raise InvalidInputError(
-            f"{where}: R is not a rotation ({why}); write R as 9 row-major numbers of an "
-            f"orthonormal matrix with det +1 (within {ROTATION_TOL:g})"
-        )
-    if not np.isfinite(T[:3, 3]).all():
-        raise InvalidInputError(f"{where}: t is not finite; write 3 finite numbers")
-
-
 def key_text(key: Any) -> str:
     """A prediction key as people read it: ``scene 1 image 2 object 5`` or the sample id."""
     if isinstance(key, tuple):
@@ -167,7 +155,7 @@ def read_predictions(path: str | Path, inverse: bool = False):
     """
     import pandas as pd
 
-    from catpose.geometry import invert_T
+    from catpose.geometry import invert_T, make_T
 
     path = Path(path)
     if not path.exists():
@@ -191,10 +179,13 @@ def read_predictions(path: str | Path, inverse: bool = False):
     for r in df.to_dict("records"):
         where = f"{path}:{r['line']}"
         check_ids(r, kind, where)
-        T = np.eye(4)
-        T[:3, :3] = _floats(r["R"], 9, f"{where} R").reshape(3, 3)
-        T[:3, 3] = _floats(r["t"], 3, f"{where} t")
-        check_pose(T, where)
+        T = make_T(_floats(r["R"], 9, f"{where} R").reshape(3, 3), _floats(r["t"], 3, f"{where} t"))
+        why = rotation_problem(T[:3, :3])
+        if why:
+            raise InvalidInputError(
+                f"{where}: R is not a rotation ({why}); write R as 9 row-major numbers of an "
+                f"orthonormal matrix with det +1 (within {ROTATION_TOL:g})"
+            )
         Ts.append(invert_T(T) if inverse else T)
         scores.append(number_or_empty(r.get("score"), "score", where, required=kind == "bop" and "score" in r))
         times.append(number_or_empty(r.get("time"), "time", where, required=kind == "bop" and "time" in r))

@@ -6,8 +6,9 @@ into a run directory scored with the same metrics, so ``bench table`` / ``bench 
 them beside ours.
 
 The file formats are :mod:`catpose.bench.interop.prediction_io`'s; BOP ids map to samples as
-:mod:`catpose.bench.interop.bop_export` documents; predictions are matched to samples and scored by
-:mod:`catpose.bench.interop.prediction_match`; on a BOP dataset, BOP's metrics of every target
+:mod:`catpose.bench.interop.bop_export` documents; predictions are matched to a run's ground-truth
+rows and scored as rows of ``samples.jsonl`` (:func:`score_predictions`), what was counted on the
+way said (:func:`count_text`); on a BOP dataset, BOP's metrics of every target
 (:mod:`catpose.bench.scoring.bop_eval`) are written beside the run (``bop_errors.jsonl``,
 ``bop_summary.md``: :func:`score_bop`).
 """
@@ -15,14 +16,16 @@ The file formats are :mod:`catpose.bench.interop.prediction_io`'s; BOP ids map t
 from __future__ import annotations
 
 import argparse
+import math
+from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from catpose import atomic
-from catpose.bench.interop.prediction_io import read_predictions
-from catpose.bench.interop.prediction_match import count_text, score_predictions
+from catpose.bench.interop.prediction_io import key_text, read_predictions
 from catpose.bench.run.bop_ar import evaluation_models, has_bop_ids, is_bop_layout
 from catpose.bench.run.overwrite import Input, Output, add_output_options
 from catpose.bench.run.rundir import write_run_into
@@ -30,33 +33,164 @@ from catpose.bench.scoring.bop_eval import DEFAULT_METRICS as DEFAULT_BOP_METRIC
 from catpose.errors import DatasetError, InvalidInputError
 
 
+def score_predictions(
+    preds,
+    gt_rows: Sequence[dict],
+    method: str,
+    stats: dict | None = None,
+) -> list[dict]:
+    """Per-sample rows (``samples.jsonl`` schema) for the predictions against ground-truth rows
+    (``gt_rows``, with ``T_gt``; one per view is enough). A view without a prediction is a failed row
+    ("no prediction"): a miss. A BOP file's ids are those of the rows' ``info`` (runs on BOP-layout
+    data); several instances of one object in an image are matched greedily as bop_toolkit does (by descending score, each taking the
+    unmatched instance with the smallest ``err_deg``, then ``trans_err``). Duplicates and unknown ids
+    follow docs/file-safety.md (a per-sample file's last row of an id counts; a BOP (image, object)
+    keeps its best-scored estimates, one per instance). ``stats`` receives :func:`count_text`'s counts."""
+    from catpose.bench.run.bop_ar import bop_key, template_camera_pose
+    from catpose.bench.scoring.bop_eval import by_score, nearest_rotation
+    from catpose.bench.scoring.metrics import sample_errors
+    from catpose.bench.scoring.rows import failed_row, scored_row
+    from catpose.geometry import make_T
+
+    kind = preds.attrs.get("kind", "sample")
+    all_by_key: dict[Any, list[dict]] = {}
+    for p in preds.to_dict("records"):
+        key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"])) if kind == "bop" else str(p["sample_id"]).strip()
+        all_by_key.setdefault(key, []).append(p)
+
+    by_key = {k: v[-1] for k, v in all_by_key.items()}
+
+    def estimate(p: dict, k: int) -> np.ndarray:
+        T = np.asarray(p["T"], float)
+        T = make_T(nearest_rotation(T[:3, :3]), T[:3, 3])
+        return template_camera_pose(T, gt_rows[k].get("info") or {}) if kind == "bop" else T
+
+    def errors_of(T_est: np.ndarray, g: dict) -> dict:
+        axis, symmetries = g.get("symmetry_axis"), g.get("symmetries")
+        return sample_errors(
+            T_est,
+            np.asarray(g["T_gt"], float).reshape(4, 4),
+            None if axis is None else np.asarray(axis, float),
+            symmetries if isinstance(symmetries, (list, tuple)) else (),
+        )
+
+    matched: dict[int, dict] = {}
+    groups: dict[Any, list[int]] = {}
+    if kind == "bop":
+        for k, g in enumerate(gt_rows):
+            groups.setdefault(bop_key(g.get("info") or {}), []).append(k)
+        for key, members in groups.items():
+            cands = by_score(all_by_key.get(key, []))
+            free = list(members)
+            for p in cands[: len(members)]:
+                errs = {k: errors_of(estimate(p, k), gt_rows[k]) for k in free}
+                best = min(free, key=lambda k: (round(errs[k]["err_deg"], 9), errs[k]["trans_err"]))
+                matched[best] = p
+                free.remove(best)
+    out = []
+    for k, g in enumerate(gt_rows):
+        row = {
+            key: g.get(key)
+            for key in (
+                "sample_id",
+                "group_id",
+                "obs_id",
+                "category",
+                "instance_id",
+                "template_id",
+                "dataset",
+                "protocol",
+                "seed",
+                "symmetric",
+                "T_gt",
+                "symmetry_axis",
+                "symmetries",
+                "info",
+            )
+        }
+        row.update(method=method, extras={}, stage="")
+        if kind == "bop":
+            p = matched.get(k)
+        else:
+            p = by_key.get(str(g["sample_id"])) or by_key.get(str(g.get("obs_id")))
+        if p is None:
+            out.append(failed_row(row, "no prediction", stage="register", score=None, runtime_s=None))
+            continue
+        T_est = estimate(p, k)
+        score, rt = (
+            None if x is None or not math.isfinite(float(x)) else float(x) for x in (p.get("score"), p.get("time"))
+        )
+        score = None if score is None else -score if kind == "bop" else score  # a BOP score is a confidence
+        rt = rt if rt is not None and rt >= 0 else None  # BOP's -1: not measured
+        out.append(scored_row(row, T_est, errors_of(T_est, g), score=score, runtime_s=rt))
+    if stats is not None:
+        stats.update(_counts(kind, all_by_key, gt_rows, groups, out))
+    return out
+
+
+def _counts(kind: str, all_by_key: dict, gt_rows: Sequence[dict], groups: dict, out: Sequence[dict]) -> dict:
+    """The counts of :func:`score_predictions` (see :func:`count_text`)."""
+    if kind == "bop":
+        known = set(groups)
+        wanted = {k: len(v) for k, v in groups.items()}
+        ignored = sum(max(0, len(v) - wanted[k]) for k, v in all_by_key.items() if k in wanted)
+        rule = "an (image, object) keeps its highest-scored estimates, one per instance"
+    else:
+        known = {str(g["sample_id"]) for g in gt_rows} | {str(g.get("obs_id")) for g in gt_rows}
+        ignored = sum(len(v) - 1 for k, v in all_by_key.items() if k in known)
+        rule = "the last row of a sample id counts"
+    unknown = [k for k in all_by_key if k not in known]
+    return {
+        "predictions": sum(map(len, all_by_key.values())),
+        "targets": len(gt_rows),
+        "scored": sum(r["status"] == "ok" for r in out),
+        "missing": sum(r["status"] != "ok" for r in out),
+        "duplicates_ignored": ignored,
+        "duplicate_rule": rule,
+        "unknown_ids": len(unknown),
+        "unknown_rows": sum(len(all_by_key[k]) for k in unknown),
+        "unknown_examples": [key_text(k) for k in unknown[:5]],
+    }
+
+
+def count_text(stats: dict) -> str:
+    """What a score counted, for people: scored, missing (misses), duplicates and unknown ids."""
+    lines = [
+        f"{stats['predictions']} prediction rows; {stats['scored']} of {stats['targets']} samples scored, "
+        f"{stats['missing']} without a prediction (counted as misses: failed, 180 deg)"
+    ]
+    if stats["duplicates_ignored"]:
+        lines.append(f"{stats['duplicates_ignored']} duplicate row(s) ignored ({stats['duplicate_rule']})")
+    if stats["unknown_ids"]:
+        lines.append(
+            f"{stats['unknown_rows']} row(s) with {stats['unknown_ids']} id(s) that no sample has, ignored: "
+            + ", ".join(stats["unknown_examples"])
+            + (", ..." if stats["unknown_ids"] > 5 else "")
+        )
+    return "\n".join(lines)
+
+
 def score_bop(
     preds,
     dataset_cfg: dict,
     out_dir: str | Path,
     method: str,
-    metrics: Sequence[str],
-    by: Sequence[str],
     vsd: bool = True,
 ) -> str:
     """BOP metrics of a BOP results CSV on the dataset of ``dataset_cfg`` (a resolved config
     dict): writes ``bop_errors.jsonl`` and ``bop_summary.md`` into ``out_dir`` and returns the
-    summary (which states the target and visibility filters applied, and the models used: the
-    dataset's ``models_eval/`` when present, :func:`evaluation_models`)."""
+    summary: the recalls of :data:`DEFAULT_BOP_METRICS` per object and category (without VSD, no
+    ``ar`` and ``ar_vsd``: BOP's AR needs it; other recalls: ``bench table --bop-metrics``), under
+    the target and visibility filters applied and the models used (the dataset's ``models_eval/``
+    when present, :func:`evaluation_models`)."""
     from catpose.bench.run.build import build_from_config
     from catpose.bench.scoring.bop_eval import ERRORS_FILE, compute_errors, format_scores, score_table, write_errors
 
     dataset_cfg = evaluation_models(dataset_cfg)
     _, ds = build_from_config(dict(dataset_cfg), "dataset")
     errs = compute_errors(preds, ds, vsd=vsd)
-    instances: dict[tuple, int] = {}
-    for r in errs:
-        key = (int(r["scene_id"]), int(r["im_id"]), int(r["obj_id"]))
-        instances[key] = instances.get(key, 0) + 1
-    estimates: dict[tuple, int] = {}
-    for p in preds.to_dict("records"):
-        key = (int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"]))
-        estimates[key] = estimates.get(key, 0) + 1
+    ids = lambda rows: Counter((int(r["scene_id"]), int(r["im_id"]), int(r["obj_id"])) for r in rows)  # noqa: E731
+    instances, estimates = ids(errs), ids(preds.to_dict("records"))
     filters = list(getattr(ds, "filters", [])) + [f"models: {dataset_cfg.get('models_dir', 'models')}/"]
     header = {
         "method": method,
@@ -70,23 +204,10 @@ def score_bop(
     write_errors(errs, Path(out_dir) / ERRORS_FILE, header)
     import pandas as pd
 
-    text = f"BOP metrics ({method}):\n" + format_scores(score_table(pd.DataFrame(errs), metrics, by), header)
+    metrics = [m for m in DEFAULT_BOP_METRICS if vsd or m not in ("ar", "ar_vsd")]
+    text = f"BOP metrics ({method}):\n" + format_scores(score_table(pd.DataFrame(errs), metrics), header)
     atomic.write_text(Path(out_dir) / "bop_summary.md", text + "\n")
     return text
-
-
-def bop_metrics(asked: str | None, no_vsd: bool) -> str:
-    """The BOP recalls to print: ``--metrics`` or :data:`DEFAULT_BOP_METRICS`; with ``--no-vsd``
-    the defaults lose ``ar`` and ``ar_vsd`` (BOP's AR needs VSD), and asking for them is refused."""
-    if asked is None:
-        return ",".join(m for m in DEFAULT_BOP_METRICS if not (no_vsd and m in ("ar", "ar_vsd")))
-    needs_vsd = [m for m in asked.split(",") if m.strip().lower() in ("ar", "ar_vsd")]
-    if no_vsd and needs_vsd:
-        raise InvalidInputError(
-            f"--metrics {','.join(needs_vsd)} needs VSD, which --no-vsd skips (BOP's AR is the mean of ar_mssd, "
-            "ar_mspd and ar_vsd); drop --no-vsd, or ask for ar_mssd,ar_mspd"
-        )
-    return asked
 
 
 def gt_rows_from_run(run_dir: str | Path) -> tuple[list[dict], dict]:
@@ -128,13 +249,6 @@ def main(argv: list[str] | None = None) -> int:
     )
     add_output_options(ap, "run directory to write (new or empty; see --force)", force_help="replace a run at --out")
     ap.add_argument(
-        "--metrics",
-        default=None,
-        help="BOP datasets: comma-separated recalls, e.g. ar,ar_mssd,ar_mspd,ar_vsd,adds@0.1,add@0.1,mssd@0.2,"
-        "mspd@10,5deg5cm,10deg10cm (default: " + ",".join(DEFAULT_BOP_METRICS) + "; without ar, ar_vsd with --no-vsd)",
-    )
-    ap.add_argument("--by", default="object,category", help="BOP datasets: rows per object and/or category")
-    ap.add_argument(
         "--no-vsd", action="store_true", help="BOP datasets: skip VSD (it renders the model twice per estimate)"
     )
     ap.add_argument(
@@ -144,9 +258,6 @@ def main(argv: list[str] | None = None) -> int:
         "(T_camera_template); invert them (not for a BOP CSV, whose convention is fixed)",
     )
     args = ap.parse_args(argv)
-    args.metrics = bop_metrics(args.metrics, args.no_vsd)
-    if not args.by or set(args.by.split(",")) - {"object", "category"}:
-        raise InvalidInputError(f"--by {args.by!r}: pass object, category or object,category (BOP rows)")
     if not args.gt:
         raise InvalidInputError("pass --gt RUN_DIR: the run whose samples the predictions estimate")
     if args.method is None:
@@ -183,15 +294,7 @@ def main(argv: list[str] | None = None) -> int:
     with out.writing(), atomic.building_dir(out.path) as tmp:
         write_run_into(tmp, rows, config, {"predictions": str(args.predictions), "counts": stats})
         if preds.attrs["kind"] == "bop" and is_bop_layout(config.get("dataset")):
-            bop_text = score_bop(
-                preds,
-                config["dataset"],
-                tmp,
-                args.method,
-                args.metrics.split(","),
-                args.by.split(","),
-                vsd=not args.no_vsd,
-            )
+            bop_text = score_bop(preds, config["dataset"], tmp, args.method, vsd=not args.no_vsd)
         summary = (tmp / "summary.md").read_text() if (tmp / "summary.md").is_file() else ""
     print(count_text(stats))
     print(f"run directory {out.path}")

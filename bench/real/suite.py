@@ -6,7 +6,8 @@ summaries are the usual ones; the table is made from their files. A cell is the 
 ``--seeds`` (default 0, 1, 2) with the min and max; a column whose methods were scored on
 different samples is refused (``--allow-mixed`` to insist). A set with a development split
 (``configs/split/<name>.yaml``) gets one column per part, and a BOP-layout set BOP'19's AR
-(:mod:`catpose.bench.run.bop_ar`). The sets: docs/real-scenes.md.
+(:mod:`catpose.bench.run.bop_ar`). The sets: docs/real-scenes.md. ``bench clutter``
+(:func:`clutter_main`) renders the cluttered set ahead of its suite.
 
     bench suite real --sets ycbv --methods ours,icp --limit 5
     bench suite clutter --parts dev,report"""
@@ -320,4 +321,44 @@ def main(argv: list[str]) -> int:
     for flag, out in outs.items():
         with out.writing() as path:
             atomic.write_text(path, texts[flag]() + "\n")
+    return 0
+
+
+def clutter_main(argv: list[str]) -> int:
+    """``bench clutter``: generate the cluttered synthetic set ahead of a run and say where it is.
+
+    The set (``dataset=clutter``, :mod:`catpose.datasets.clutter`) is also generated on first use;
+    this command does it once, for the scenes of a split part or all, and prints the cache folder and
+    how many instances each part has (before and after the BOP19 visibility filter).
+
+        bench clutter                                  # all 200 scenes of the default settings
+        bench clutter --part dev                       # only the scenes that choose defaults
+        bench clutter dataset.sensor=realsense         # any dataset override
+    """
+    import inspect
+    import json
+
+    from catpose.bench.run.config import compose_and_build
+
+    parser = argparse.ArgumentParser(
+        prog="bench clutter",
+        description=inspect.cleandoc(clutter_main.__doc__),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("overrides", nargs="*", help="dataset overrides, e.g. dataset.num_scenes=40")
+    parser.add_argument("--part", default=None, help="only the scenes of this part of configs/split/clutter.yaml")
+    args = parser.parse_args(argv)
+    split = load_split("clutter")
+    overrides = ["dataset=clutter", f"dataset.root={shared_data_dir() / 'bop' / 'ycbv'}", *args.overrides]
+    if args.part and args.part not in split.parts:
+        raise ConfigError(
+            f"--part {args.part!r} is not a part of configs/split/clutter.yaml; pass one of {list(split.parts)}"
+        )
+    if args.part:
+        overrides.append(f"dataset.scenes={split.scene_ids(args.part)}")
+    _, [(_, dataset)] = compose_and_build(overrides, ["dataset"])
+    ids = dataset.observation_ids()
+    print(f"clutter: {dataset.root}")
+    by_part = {name: len(split.sample_ids(name, ids)) for name in split.parts}
+    print(json.dumps({"instances": len(ids), "filters": dataset.filters, "by_part": by_part}))
     return 0

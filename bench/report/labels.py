@@ -12,6 +12,7 @@ from typing import Any
 
 from catpose.bench.report.runs import Run
 from catpose.bench.report.tables_compare import config_key, data_of, seed_of
+from catpose.bench.run.rundir import SUBSET_KEYS
 from catpose.errors import ConfigError
 
 #: display names of methods outside catpose, scored from their own files (``bench score --method``);
@@ -89,19 +90,15 @@ def _overrides(run: Run) -> list[str]:
     if not f.is_file():
         return []
     out = [o.strip().lstrip("+~") for o in f.read_text().splitlines() if o.strip()]
-    out = [o for o in out if not (o.split("=", 1)[0] in ("limit", "sample_ids") and o.endswith("=null"))]
+    out = [o for o in out if not (o.split("=", 1)[0] in SUBSET_KEYS and o.endswith("=null"))]
     return [o for o in out if o.split("=", 1)[0] not in RUN_LEVEL_KEYS and not o.startswith("hydra.")]
-
-
-def _short(item: str) -> str:
-    """``method.descriptor=pfh`` -> ``descriptor=pfh`` (the method is already in the label)."""
-    return item[len("method.") :] if item.startswith("method.") else item
 
 
 def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
     """Label suffixes that tell ``members`` (runs sharing a label) apart, the fewest kinds first:
     the protocol, the dataset, the recorded overrides not shared by all, the config values that
-    differ, and only when nothing else does, the run directory's name (which ends in a hash)."""
+    differ (``method.`` left out: the method is already in the label), and only when nothing else
+    does, the run directory's name (which ends in a hash)."""
 
     def dataset(r: Run) -> str:
         d = r.config.get("dataset")
@@ -118,7 +115,9 @@ def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
     if not unique(parts):
         overrides = [[o for o in _overrides(r) if o.split("=", 1)[0] not in ("protocol", "dataset")] for r in members]
         shared = set.intersection(*(set(o) for o in overrides))
-        parts = [p + [_short(o) for o in sorted(ov) if o not in shared] for p, ov in zip(parts, overrides)]
+        parts = [
+            p + [o.removeprefix("method.") for o in sorted(ov) if o not in shared] for p, ov in zip(parts, overrides)
+        ]
     if not unique(parts):
         flats = [
             _flat({k: r.config.get(k) for k in ("method", "dataset", "protocol", "choice", "seed")}) for r in members
@@ -126,7 +125,7 @@ def _distinguishing(members: Sequence[Run]) -> list[list[str]]:
         keys = sorted(
             {k for f in flats for k in f if len({json.dumps(g.get(k), sort_keys=True, default=str) for g in flats}) > 1}
         )
-        parts = [p + [_short(f"{k}={f.get(k)}") for k in keys] for p, f in zip(parts, flats)]
+        parts = [p + [f"{k}={f.get(k)}".removeprefix("method.") for k in keys] for p, f in zip(parts, flats)]
     if not unique(parts):
         parts = [p + [where] for p, where in zip(parts, _path_labels([r.path for r in members]))]
     return parts
@@ -218,29 +217,22 @@ def user_label(run: Run, labels: dict[str, str]) -> str | None:
     return labels.get(str(run.path)) or labels.get(str(run.path.resolve())) or labels.get(run.path.name)
 
 
-def check_labels(items: Sequence[str], runs: Sequence[Run]) -> None:
-    """Raise :class:`ConfigError` for a ``--label RUN_DIR=LABEL`` whose RUN_DIR names none of
-    ``runs`` (by path, resolved path or folder name) and no folder: a label holding ``=`` is
-    split inside the label (at its last ``=``) and would otherwise be dropped without a word."""
-    names = {str(r.path) for r in runs} | {str(r.path.resolve()) for r in runs} | {r.path.name for r in runs}
-    for item in items:
-        key = item.rpartition("=")[0]
-        if key in names or str(Path(key).resolve()) in names or Path(key).is_dir():
-            continue
-        raise ConfigError(
-            f"--label {item!r}: {key!r} is none of the runs; write --label RUN_DIR=LABEL with a run "
-            "directory of the table (the item is split at its last '=', so a label may hold none)"
-        )
-
-
-def parse_labels(items: Sequence[str]) -> dict[str, str]:
+def parse_labels(items: Sequence[str], runs: Sequence[Run] | None = None) -> dict[str, str]:
     """``["runs/a=Ours (LPS)", ...]`` -> ``{"runs/a": "Ours (LPS)"}``.
 
     Run directories contain ``=`` (``seed0-method.lr=0.01-<hash>``), labels rarely do, so the
-    item is split at its last ``=``."""
+    item is split at its last ``=``. With ``runs``, an item whose RUN_DIR names none of them (by
+    path, resolved path or folder name) and no folder is a :class:`ConfigError`: a label holding
+    ``=`` would otherwise be dropped without a word."""
+    names = {n for r in runs or () for n in (str(r.path), str(r.path.resolve()), r.path.name)}
     out = {}
     for item in items:
         key, sep, value = item.rpartition("=")
+        if runs is not None and not (key in names or str(Path(key).resolve()) in names or Path(key).is_dir()):
+            raise ConfigError(
+                f"--label {item!r}: {key!r} is none of the runs; write --label RUN_DIR=LABEL with a run "
+                "directory of the table (the item is split at its last '=', so a label may hold none)"
+            )
         if not sep or not value:
             raise ConfigError(f"--label {item!r} must be RUN_DIR=LABEL")
         out[str(Path(key))] = value

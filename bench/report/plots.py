@@ -1,10 +1,12 @@
-"""Figures from run directories (matplotlib, Agg backend), each with a CSV of what it plots:
-:func:`plot_error_cdf` (the error's cumulative distribution per method, a panel per category, log
-error axis) and :func:`plot_accuracy` (accuracy at thresholds, categories pooled). Speed is
-``bench perf``'s (docs/speed.md).
-
-Inputs are per-method tables of scoring units (``{label: DataFrame}`` with ``category``,
-``status``, ``err_deg``); failed units count as 180 degrees everywhere."""
+"""Figures from run directories (matplotlib, Agg backend). The aggregate ones come with a CSV of
+what they plot: :func:`plot_error_cdf` (the error's cumulative distribution per method, a panel
+per category, log error axis) and :func:`plot_accuracy` (accuracy at thresholds, categories
+pooled); their inputs are per-method tables of scoring units (``{label: DataFrame}`` with
+``category``, ``status``, ``err_deg``), failed units counting as 180 degrees everywhere. One
+registration is drawn in 3D by :func:`plot_registration` (the observed points carried into the
+template frame by the estimate, over the template, next to the same with the ground truth), and
+for a sample of a run by :func:`plot_sample_from_run`, rebuilt from the run's ``config.yaml``
+since the run stores no points. Speed is ``bench perf``'s (docs/speed.md)."""
 
 from __future__ import annotations
 
@@ -13,8 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from catpose import atomic
 from catpose.bench.scoring.curves import scored_errors
-from catpose.bench.scoring.metrics import FAILED_ERROR_DEG
+from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, accuracy
 
 #: The CDF's log axis starts at 0.01 degrees, or lower (down to 1e-4) when smaller errors occur;
 #: errors below the start are drawn at it (a log axis has no zero).
@@ -51,8 +54,6 @@ def save(fig, out_stem: str | Path, pdf: bool = True, dpi: int = 150) -> list[Pa
     out_stem = Path(out_stem)
     out_stem.parent.mkdir(parents=True, exist_ok=True)
     paths = [out_stem.with_suffix(".png")] + ([out_stem.with_suffix(".pdf")] if pdf else [])
-    from catpose import atomic
-
     for path in paths:
         with atomic.atomic_path(path) as tmp:
             # no creation date in a PDF: the same figure is the same bytes (results/ regenerate byte for byte)
@@ -72,8 +73,6 @@ def _write_csv(rows: list[dict], columns: list[str], out_stem: str | Path) -> Pa
     import pandas as pd
 
     path = Path(out_stem).with_suffix(".csv")
-    from catpose import atomic
-
     atomic.write_text(path, pd.DataFrame(rows, columns=columns).to_csv(index=False, float_format="%.6g"))
     return path
 
@@ -87,7 +86,6 @@ def cdf_points(errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def plot_error_cdf(
     units_by_method: Mapping[str, object],
     out_stem: str | Path,
-    title: str = "",
     pdf: bool = True,
     colors: Mapping[str, str] | None = None,
 ) -> list[Path]:
@@ -147,9 +145,7 @@ def plot_error_cdf(
     for ax in axes.ravel():
         for h, lab in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(lab, h)
-    fig.suptitle(
-        title or "Cumulative error distribution per category (rotation; main axis for symmetric objects)", fontsize=11
-    )
+    fig.suptitle("Cumulative error distribution per category (rotation; main axis for symmetric objects)", fontsize=11)
     note = (
         f"errors below {floor:g} deg drawn at {floor:g};\nfailures count as "
         f"{FAILED_ERROR_DEG:g} deg; dashed: 10 and 30 deg"
@@ -185,17 +181,10 @@ def plot_error_cdf(
     return save(fig, out_stem, pdf) + [csv]
 
 
-def accuracy_at(errors: np.ndarray, thresholds=ACCURACY_THRESHOLDS_DEG) -> np.ndarray:
-    """Fraction of ``errors`` (degrees) <= each threshold (degrees)."""
-    e = np.asarray(errors, float)
-    return np.array([(e <= t).mean() if len(e) else np.nan for t in thresholds])
-
-
 def plot_accuracy(
     units_by_method: Mapping[str, object],
     out_stem: str | Path,
     thresholds=ACCURACY_THRESHOLDS_DEG,
-    title: str = "",
     pdf: bool = True,
     colors: Mapping[str, str] | None = None,
 ) -> list[Path]:
@@ -214,7 +203,7 @@ def plot_accuracy(
     x = np.arange(len(thresholds))
     csv_rows = []
     for m, (label, e) in enumerate(items):
-        acc = accuracy_at(e, thresholds)
+        acc = np.array([accuracy(e, t) for t in thresholds])
         bars = ax.bar(x - 0.4 + width * (m + 0.5), acc, width, color=color[label], label=label)
         ax.bar_label(bars, [f"{a:.2f}" for a in acc], fontsize=7, padding=1, rotation=90 if k > 3 else 0)
         csv_rows += [{"method": label, "threshold_deg": t, "n": len(e), "accuracy": a} for t, a in zip(thresholds, acc)]
@@ -224,7 +213,98 @@ def plot_accuracy(
     ax.set_ylabel("fraction of samples")
     ax.grid(alpha=0.3, axis="y")
     ax.legend(fontsize=8, loc="upper left", ncol=min(k, 3), frameon=False)
-    ax.set_title(title or "Accuracy at thresholds (all categories; failures count as wrong)", fontsize=10)
+    ax.set_title("Accuracy at thresholds (all categories; failures count as wrong)", fontsize=10)
     fig.tight_layout()
     csv = _write_csv(csv_rows, ["method", "threshold_deg", "n", "accuracy"], out_stem)
     return save(fig, out_stem, pdf) + [csv]
+
+
+def _scatter(ax, points: np.ndarray, color: str, size: float, label: str, max_points: int = 3000) -> None:
+    if len(points) > max_points:
+        points = points[np.linspace(0, len(points) - 1, max_points).astype(int)]
+    ax.scatter(points[:, 0], points[:, 1], points[:, 2], s=size, c=color, label=label, depthshade=False)
+
+
+def plot_registration(
+    points_camera: np.ndarray,
+    template_points: np.ndarray,
+    T_est: np.ndarray | None,
+    T_gt: np.ndarray | None,
+    out_stem: str | Path,
+    title: str = "",
+    err_deg: float | None = None,
+    pdf: bool = True,
+) -> list[Path]:
+    """The input (orange) carried into the template frame over the template (blue-grey).
+
+    Args:
+        points_camera: (N, 3) observed points, camera frame.
+        template_points: (M, 3) template points, template frame.
+        T_est, T_gt: (4, 4) estimated / true ``T_template_camera`` (either may be None).
+    """
+    from catpose.geometry import transform_points
+
+    plt = pyplot()
+    panels = [(T, name) for T, name in ((T_est, "estimate"), (T_gt, "ground truth")) if T is not None]
+    fig = plt.figure(figsize=(4.2 * max(len(panels), 1), 4.2))
+    lim = 1.1 * max(1.0, float(np.abs(template_points).max()))
+    for k, (T, name) in enumerate(panels, 1):
+        ax = fig.add_subplot(1, len(panels), k, projection="3d")
+        _scatter(ax, template_points, "#8fa8c8", 1.0, "template")
+        _scatter(ax, transform_points(np.asarray(T, float), points_camera), "#e8751a", 2.0, "input")
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
+        ax.set_zlim(-lim, lim)
+        ax.set_box_aspect((1, 1, 1))
+        ax.view_init(elev=20, azim=-60)
+        ax.set_xlabel("x")
+        ax.set_ylabel("y")
+        ax.set_zlabel("z (up)")
+        sub = f" ({err_deg:.1f} deg)" if name == "estimate" and err_deg is not None else ""
+        ax.set_title(f"{name}{sub}", fontsize=9)
+        if k == 1:
+            ax.legend(fontsize=7, loc="upper left", markerscale=4)
+    fig.suptitle(title, fontsize=9)
+    return save(fig, out_stem, pdf, dpi=110)
+
+
+def plot_sample_from_run(
+    run, sample_id: str, out_stem: str | Path, title: str | None = None, pdf: bool = True
+) -> list[Path]:
+    """Re-load ``sample_id`` of ``run`` (a :class:`~catpose.bench.report.runs.Run`) from its config
+    (dataset + protocol) and plot its registration (``title`` defaults to ``method | sample | status``).
+
+    Raises :class:`~catpose.errors.CatposeError` when the dataset cannot be rebuilt here.
+    """
+    from catpose.errors import CatposeError, ConfigError, DatasetError
+
+    run_dir = run.path
+    rows = run.samples[run.samples["sample_id"] == sample_id]
+    if len(rows) == 0:
+        raise DatasetError(f"sample {sample_id!r} is not in {run_dir}/samples.jsonl")
+    row = rows.iloc[-1]
+    cfg = run.config
+    if not isinstance(cfg.get("dataset"), dict) or not isinstance(cfg.get("protocol"), dict):
+        raise ConfigError(f"{run_dir}/config.yaml has no dataset/protocol to re-load samples from")
+    from catpose.bench.run.build import build_from_config, build_protocol
+
+    try:
+        ds_name, dataset = build_from_config(dict(cfg["dataset"]), "dataset")
+        protocol = build_protocol(cfg)
+    except CatposeError as e:
+        raise DatasetError(f"cannot rebuild the dataset from {run_dir}/config.yaml: {e}") from None
+    dataset.name = ds_name
+    sample = protocol.load(dataset, sample_id)
+    T_est = None if row.get("T_est") is None else np.asarray(row["T_est"], float).reshape(4, 4)
+    err = None if row.get("status") != "ok" else float(row["err_deg"])
+    title = title or f"{run.method} | {sample_id} | {row.get('status')}"
+    return plot_registration(
+        sample.problem.points_camera,
+        sample.problem.template.points,
+        T_est,
+        sample.gt.T_template_camera,
+        out_stem,
+        title,
+        err,
+        pdf,
+    )

@@ -18,6 +18,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from catpose import atomic
+from catpose.bench.report import plots, tables
+from catpose.bench.report.labels import parse_labels, run_labels
+from catpose.bench.report.runs import load_runs, print_left_out, scored_units
 from catpose.errors import CatposeError
 
 PROTOCOL_TEXT = {
@@ -58,8 +61,6 @@ def _git_rev(run) -> str:
 
 
 def _write_table(table, out: Path, stem: str) -> list[str]:
-    from catpose.bench.report import tables
-
     for fmt, ext in (("md", "md"), ("latex", "tex"), ("csv", "csv")):
         atomic.write_text(out / "tables" / f"{stem}.{ext}", tables.RENDERERS[fmt](table))
     return [
@@ -73,12 +74,12 @@ def _write_table(table, out: Path, stem: str) -> list[str]:
 SUMMARY_METRICS = ("mean", "median", "acc10", "acc30", "trans", "runtime", "failed")
 
 
-def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, allow_mixed: bool = False):
-    """One row per run, all categories pooled, the columns of :data:`SUMMARY_METRICS` named by
-    the metric alone: ``tables/<protocol>_summary.*`` of a report (the README's first table),
-    and what ``make demo`` prints."""
-    from catpose.bench.report import tables
-
+def protocol_tables(runs: Sequence, labels: dict[str, str] | None, protocol: str, allow_mixed: bool = False) -> dict:
+    """A report's tables of one protocol, ``tables/<protocol>_<name>.*``: ``summary``, one row per
+    run with all categories pooled and the columns of :data:`SUMMARY_METRICS` named by the metric
+    alone (the README's first table), and, when the runs name categories, ``per_category``, a row
+    block per run and a column per category (the paper's layout) with mean, median, @10 and @30;
+    ``make demo`` prints both."""
     summary = tables.build_table(
         runs,
         "generic",
@@ -91,19 +92,10 @@ def summary_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, 
     # One category ("all"): the metric alone names each column.
     summary.cells = {(r, c[1:]): v for (r, c), v in summary.cells.items()}
     summary.columns = [c[1:] for c in summary.columns]
-    return summary
-
-
-def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: str, allow_mixed: bool = False):
-    """A row block per run, a column per category (the paper's layout), mean, median, @10 and @30:
-    ``tables/<protocol>_per_category.*`` of a report (``make demo`` prints it above the
-    pooled table); None when the runs name no category."""
-    from catpose.bench.report import tables
-
     cats = sorted({str(c) for r in runs for c in r.samples.get("category", [])})
     if not cats:
-        return None
-    return tables.build_table(
+        return {"summary": summary}
+    per_category = tables.build_table(
         runs,
         "tyol",
         categories=cats,
@@ -112,47 +104,39 @@ def per_category_table(runs: Sequence, labels: dict[str, str] | None, protocol: 
         title=f"Per category ({protocol})",
         allow_mixed=allow_mixed,
     )
+    return {"summary": summary, "per_category": per_category}
 
 
 def build_report(
     run_dirs: Sequence[str | Path],
     out: str | Path,
     pictures: bool = False,
-    labels: dict[str, str] | None = None,
+    labels: Sequence[str] = (),
     notes: Sequence[str] = (),
     pdf: bool = True,
     left_out: list[str] | None = None,
-    label_items: Sequence[str] = (),
     allow_mixed: bool = False,
 ) -> Path:
     """Write the report folder (see the module docstring); returns the path of ``index.md``.
 
-    ``label_items``: the ``--label RUN_DIR=LABEL`` items ``labels`` came from (each must name a run);
+    ``labels``: ``--label RUN_DIR=LABEL`` items (each must name a run);
     ``notes``: paragraphs under the title; ``pdf``: a PDF of each summary figure too; ``pictures``:
     each run's worst registration drawn. Runs of one protocol on different samples are refused
     unless ``allow_mixed``. A run that cannot be read is left out, said in the index and on stderr,
     and its reason appended to ``left_out``. The folder is built aside and moved into place whole."""
-    from catpose.bench.report.labels import check_labels
-    from catpose.bench.report.runs import load_runs, print_left_out
-
     runs, reasons = load_runs(run_dirs)
-    check_labels(label_items, runs)
+    label_of = parse_labels(labels, runs)
     print_left_out("report", runs, reasons)
     if left_out is not None:
         left_out.extend(reasons)
     final = Path(out)
     with atomic.building_dir(final) as out:  # built aside, moved into place whole (docs/file-safety.md)
-        _write_report(runs, reasons, out, pictures, labels, notes, pdf, allow_mixed)
+        _write_report(runs, reasons, out, pictures, label_of, notes, pdf, allow_mixed)
     return final / "index.md"
 
 
 def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_mixed: bool = False) -> None:
     """The files of :func:`build_report` into the new, empty folder ``out``."""
-    from catpose.bench.report import plots, tables
-    from catpose.bench.report.labels import run_labels
-    from catpose.bench.report.qualitative import plot_sample_from_run
-    from catpose.bench.report.runs import scored_units
-
     (out / "tables").mkdir(parents=True, exist_ok=True)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     by_protocol = tables.split_by_protocol(runs)
@@ -186,28 +170,18 @@ def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_
             "### Tables",
             "",
         ]
-        md += _write_table(summary_table(group, names, protocol, allow_mixed), out, f"{protocol}_summary")
-        per_cat = per_category_table(group, names, protocol, allow_mixed)
-        if per_cat is not None:
-            md += _write_table(per_cat, out, f"{protocol}_per_category")
+        for name, table in protocol_tables(group, names, protocol, allow_mixed).items():
+            md += _write_table(table, out, f"{protocol}_{name}")
 
         run_units = [scored_units(r) for r in group]
         units = _units_by_label(group_labels, run_units)
         fig = out / "figures"
-        figures = [
-            (
-                "error_cdf",
-                "Cumulative error distribution per category",
-                plots.plot_error_cdf(units, fig / f"{protocol}_error_cdf", pdf=pdf, colors=colors),
-            ),
-            (
-                "accuracy",
-                "Accuracy at thresholds",
-                plots.plot_accuracy(units, fig / f"{protocol}_accuracy", pdf=pdf, colors=colors),
-            ),
-        ]
         md += ["### Figures", ""]
-        for _name, caption, paths in figures:
+        for name, caption, plot in (
+            ("error_cdf", "Cumulative error distribution per category", plots.plot_error_cdf),
+            ("accuracy", "Accuracy at thresholds", plots.plot_accuracy),
+        ):
+            paths = plot(units, fig / f"{protocol}_{name}", pdf=pdf, colors=colors)
             links = ", ".join(f"[{p.suffix[1:].upper()}](figures/{p.name})" for p in paths[1:])
             md += [f"#### {caption}", "", f"![{caption}](figures/{paths[0].name})", "", f"Data and vector: {links}", ""]
 
@@ -228,7 +202,7 @@ def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_
                 err = float(view_rows.loc[view_rows["sample_id"] == sid, "err_deg"].iloc[-1])
                 stem = fig / f"{protocol}_{re.sub(r'[^A-Za-z0-9]+', '_', label).strip('_')}_worst"
                 try:
-                    plot_sample_from_run(run.path, sid, stem, f"{label} | {sid} | worst", pdf=False)
+                    plots.plot_sample_from_run(run, sid, stem, f"{label} | {sid} | worst", pdf=False)
                 except CatposeError as e:
                     md += [f"**{label}**, worst `{sid}` ({err:.1f} deg): not drawn ({e})", ""]
                     continue
@@ -244,7 +218,6 @@ def _write_report(runs, reasons, out: Path, pictures, labels, notes, pdf, allow_
 
 def main(argv: list[str] | None = None) -> int:
     """``bench report RUN_DIR... --out DIR [--no-pictures] [--note TEXT ...]``."""
-    from catpose.bench.report.labels import parse_labels
     from catpose.bench.run.overwrite import Output, add_output_options, input_runs
 
     ap = argparse.ArgumentParser(
@@ -273,11 +246,10 @@ def main(argv: list[str] | None = None) -> int:
             args.runs,
             args.out,
             not args.no_pictures,
-            parse_labels(args.label),
+            args.label,
             args.note,
             pdf=not args.no_pdf,
             left_out=left_out,
-            label_items=args.label,
             allow_mixed=args.allow_mixed,
         )
     print(f"report written: {index}" + (f"; {len(left_out)} run(s) left out" if left_out else ""))

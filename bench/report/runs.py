@@ -60,38 +60,22 @@ class Run:
         return m if isinstance(m, dict) else {}
 
 
-def samples_frame(path: Path):
-    """A ``samples.jsonl`` as a DataFrame, one row per sample (the runner's reader,
-    :mod:`catpose.bench.run.rows_file`: a damaged line is an error naming it, a cut-off last line
-    of a killed run is skipped with a warning, a retried sample's last row counts)."""
-    import pandas as pd
-
-    from catpose.bench.run.rundir import latest_rows
-
-    return pd.DataFrame(latest_rows(Path(path)))
-
-
-def recompute_frame_errors(samples):
-    """Errors of every row recomputed from its estimate and ground truth by the runner's
-    :func:`~catpose.bench.run.evaluate.recompute_row_errors` (symmetries included), so tables follow the
-    current metric definitions rather than the numbers stored at run time."""
-    import pandas as pd
-
-    from catpose.bench.run.evaluate import recompute_row_errors
-
-    if len(samples) == 0 or not {"T_est", "T_gt", "status"} <= set(samples.columns):
-        return samples
-    return pd.DataFrame([recompute_row_errors(r) for r in samples.to_dict("records")], index=samples.index)
-
-
 def load_run(path: str | Path) -> Run:
     """Read a run directory (``samples.jsonl`` required, ``config.yaml`` and ``run.json`` optional).
 
-    Errors are recomputed from the stored poses (:func:`recompute_frame_errors`). An unreadable
+    Rows are read by the runner's reader (:func:`catpose.bench.run.rundir.latest_rows`: a cut-off
+    last line of a killed run is skipped with a warning, a retried sample's last row counts), and
+    their errors recomputed from the stored poses by the runner's
+    :func:`~catpose.bench.run.evaluate.recompute_row_errors` (symmetries included), so tables follow
+    the current metric definitions rather than the numbers stored at run time. An unreadable
     ``config.yaml`` or ``run.json``, a damaged ``samples.jsonl`` line, or a ``samples.jsonl``
     without any row raises :class:`DatasetError` naming the run (:mod:`catpose.bench.run.run_meta`).
     """
+    import pandas as pd
+
+    from catpose.bench.run.evaluate import recompute_row_errors
     from catpose.bench.run.run_meta import incomplete_reason, read_config, read_run_json
+    from catpose.bench.run.rundir import latest_rows
 
     path = Path(path)
     samples_path = path / "samples.jsonl"
@@ -102,7 +86,7 @@ def load_run(path: str | Path) -> Run:
         )
     config = read_config(path)
     info = read_run_json(path)
-    samples = samples_frame(samples_path)
+    samples = pd.DataFrame(latest_rows(samples_path))
     if len(samples) == 0:
         raise DatasetError(
             f"run {path} has no sample rows ({samples_path.name} is empty: its `bench run` finished no sample); "
@@ -115,11 +99,13 @@ def load_run(path: str | Path) -> Run:
             f"run {path}: config.yaml names method {named!r} but its rows are of {in_rows[0]!r}; restore config.yaml "
             "(it labels the run in tables)"
         )
+    if {"T_est", "T_gt", "status"} <= set(samples.columns):  # else rows without poses: their errors as written
+        samples = pd.DataFrame([recompute_row_errors(r) for r in samples.to_dict("records")], index=samples.index)
     return Run(
         path=path,
         config=config,
         info=info,
-        samples=recompute_frame_errors(samples),
+        samples=samples,
         incomplete=incomplete_reason(path, info, len(samples)),
     )
 
@@ -143,7 +129,9 @@ def load_runs(paths: Sequence[str | Path]) -> tuple[list[Run], list[str]]:
 def print_left_out(command: str, runs: Sequence[Run], reasons: Sequence[str]) -> None:
     """Each run left out by :func:`load_runs`, one ``bench <command>: error: left out: ...`` line each
     (stderr); the command then exits with status 2 after doing what it can with the others. With
-    no run left at all it raises instead (one line when one run was given)."""
+    no run left at all it raises instead (one line when one run was given). Then one ``bench
+    <command>: warning: run ... is incomplete`` line per incomplete run (:attr:`Run.incomplete`;
+    tables and reports note them too)."""
     import sys
 
     from catpose.errors import command_error
@@ -154,37 +142,26 @@ def print_left_out(command: str, runs: Sequence[Run], reasons: Sequence[str]) ->
         print(command_error(command, f"left out: {why}"), file=sys.stderr)
     if not runs:
         raise DatasetError(f"no run could be read ({len(reasons)} left out, see above)")
-
-
-def warn_incomplete(command: str, runs: Sequence[Run]) -> list[str]:
-    """One ``bench <command>: warning: run ... is incomplete`` line on stderr per incomplete run
-    (:attr:`Run.incomplete`); returns those lines' reasons (tables and reports note them too)."""
-    import sys
-
-    reasons = [r.incomplete for r in runs if r.incomplete]
-    for why in reasons:
-        print(f"bench {command}: warning: {why}", file=sys.stderr)
-    return reasons
+    for run in runs:
+        if run.incomplete:
+            print(f"bench {command}: warning: {run.incomplete}", file=sys.stderr)
 
 
 def find_run_dirs(paths: Sequence[str | Path]) -> list[Path]:
     """Run directories given directly or found below the given folders (sorted, no duplicates)."""
-    from catpose.bench.run.overwrite import absolute_path
+    from catpose.bench.run.overwrite import absolute_path, runs_below
 
     out: list[Path] = []
     for p in map(Path, paths):
-        if (p / "samples.jsonl").is_file():
-            out.append(p)
-        elif p.is_dir():
-            found = sorted(q.parent for q in p.rglob("samples.jsonl"))
-            if not found:
-                raise DatasetError(f"no samples.jsonl below {p}; pass run directories written by `bench run`")
-            out.extend(found)
-        else:
+        if not p.is_dir():
             absolute_path(p)  # a loop of symbolic links: said as such
             raise DatasetError(
                 f"{p} {'is a file' if p.exists() else 'does not exist'}; pass run directories written by `bench run`"
             )
+        found = runs_below([p])
+        if not found:
+            raise DatasetError(f"no samples.jsonl below {p}; pass run directories written by `bench run`")
+        out.extend(found)
     seen: set[Path] = set()
     return [p for p in out if not (p.resolve() in seen or seen.add(p.resolve()))]
 

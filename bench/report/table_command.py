@@ -1,10 +1,6 @@
 """``bench table``: the command line of :mod:`catpose.bench.report.tables`.
 
 bench table RUN_DIR... [--sweep DIR] [--layout L] [--format md|latex|csv] [--out FILE] [--allow-mixed]
-
-Rows scored on different samples (datasets, protocols, seeds, a ``limit`` run) are refused in one
-line (exit 2) unless ``--allow-mixed``; the seeds of one configuration are one row (their mean,
-with min and max).
 """
 
 from __future__ import annotations
@@ -16,8 +12,8 @@ from pathlib import Path
 from typing import Any
 
 from catpose import atomic
-from catpose.bench.report.labels import check_labels, parse_labels
-from catpose.bench.report.runs import find_run_dirs, load_runs, print_left_out, warn_incomplete
+from catpose.bench.report.labels import parse_labels
+from catpose.bench.report.runs import find_run_dirs, load_runs, print_left_out
 from catpose.bench.report.table_format import METRICS
 from catpose.bench.report.tables import LAYOUTS, RENDERERS, build_table
 from catpose.errors import ConfigError, DatasetError
@@ -49,20 +45,6 @@ def parser() -> argparse.ArgumentParser:
         "--metrics",
         default=None,
         help=f"comma-separated, of {','.join(METRICS)} or acc<X>, auc<X>, <n>deg<m>cm (catpose.bench.scoring.curves)",
-    )
-    ap.add_argument(
-        "--acc",
-        default=None,
-        metavar="LIST",
-        help="accuracy thresholds replacing @10/@30: degrees and n-degree m-cm, e.g. --acc 5,10,30,5deg5cm "
-        "(cm only where rows carry a metric scale: BOP, synthetic with a sensor model)",
-    )
-    ap.add_argument(
-        "--auc",
-        type=float,
-        default=None,
-        metavar="DEG",
-        help="add the area under the accuracy-vs-threshold curve from 0 to DEG degrees, over DEG",
     )
     ap.add_argument("--label", action="append", default=[], help="RUN_DIR=LABEL, repeatable")
     ap.add_argument(
@@ -121,8 +103,6 @@ def output(args, run_paths: Sequence[Path], extra_inputs: Sequence[str | Path] =
 def make_table(args, swept):
     """``(table, left_out, runs, labels)`` of ``bench table``'s ``args`` (not ``--bop-metrics``) and
     its sweeps' ``(run directories, labels, table settings)``."""
-    from catpose.bench.scoring.curves import threshold_keys
-
     run_paths, sweep_labels, defaults = swept
     if args.layout not in (None, defaults.get("layout")):
         defaults = {}  # another layout than the experiment's: none of its settings apply
@@ -131,12 +111,10 @@ def make_table(args, swept):
             setattr(args, key, ",".join(map(str, value)) if isinstance(value, list) else str(value))
     args.layout = args.layout or "generic"
     runs, left_out = load_runs([*args.runs, *run_paths])
-    check_labels(args.label, runs)
+    labels = {**sweep_labels, **parse_labels(args.label, runs)}
     print_left_out("table", runs, left_out)  # one damaged run does not stop the others; the exit status says so
-    warn_incomplete("table", runs)  # and the table's notes say it
     if args.categories:
         check_categories(runs, args.categories.split(","))
-    labels = {**sweep_labels, **parse_labels(args.label)}
     table = build_table(
         runs,
         args.layout,
@@ -145,7 +123,6 @@ def make_table(args, swept):
         labels,
         args.error,
         args.title,
-        threshold_keys(args.acc or [], args.auc) if (args.acc or args.auc is not None) else (),
         allow_mixed=args.allow_mixed,
     )
     return table, left_out, runs, labels

@@ -4,6 +4,7 @@ underlined) or CSV. Knows nothing of runs: :mod:`catpose.bench.report.tables` fi
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -84,35 +85,32 @@ def _tex_label(label: str) -> str:
     return _tex_escape(label)
 
 
-def _ranked_cells(table: Table, ranks: dict, row: tuple, best: str, second: str) -> list[str]:
-    """The cells of ``row``, the best value of its column formatted by ``best``, the second by
-    ``second`` (``str.format`` patterns with one ``{}``)."""
-    cells = []
-    for c in table.columns:
-        t = table.text(row, c)
-        rank = ranks.get((row, c))
-        cells.append(best.format(t) if rank == 1 else second.format(t) if rank == 2 else t)
-    return cells
+def _body(table: Table, best: str, second: str, label=lambda x: x) -> list[tuple[tuple, list[str]]]:
+    """Each row and its cells: its labels (by ``label``), each left empty under the same one in the
+    row above (the last always shown), then its values, the best of its ranking group formatted by
+    ``best``, the second by ``second`` (``str.format`` patterns with one ``{}``)."""
+    ranks, out, prev = table.ranks(), [], ()
+    for r in table.rows:
+        cells = [label(x) if (k == len(r) - 1 or prev[: k + 1] != r[: k + 1]) else "" for k, x in enumerate(r)]
+        for c in table.columns:
+            t, rank = table.text(r, c), ranks.get((r, c))
+            cells.append(best.format(t) if rank == 1 else second.format(t) if rank == 2 else t)
+        out.append((r, cells))
+        prev = r
+    return out
 
 
 def to_markdown(table: Table) -> str:
     """GitHub Markdown: best in **bold**, second <u>underlined</u>."""
-    ranks = table.ranks()
     head = table.row_header + [" ".join(x for x in c if x) for c in table.columns]
     lines = [f"**{table.title}**", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    prev: tuple = ()
-    for r in table.rows:
-        shown = [x if (k == len(r) - 1 or prev[: k + 1] != r[: k + 1]) else "" for k, x in enumerate(r)]
-        prev = r
-        cells = _ranked_cells(table, ranks, r, "**{}**", "<u>{}</u>")
-        lines.append("| " + " | ".join(shown + cells) + " |")
+    lines += ["| " + " | ".join(cells) + " |" for _, cells in _body(table, "**{}**", "<u>{}</u>")]
     lines += [""] + [f"{n}" for n in table.notes]
     return "\n".join(lines).rstrip() + "\n"
 
 
 def to_latex(table: Table) -> str:
     """A booktabs ``tabular``: best in ``\\textbf``, second in ``\\underline``."""
-    ranks = table.ranks()
     n_lead = len(table.row_header)
     two_level = any(len(c) > 1 for c in table.columns)
     spec = "l" * n_lead + " " + " ".join("c" for _ in table.columns)
@@ -125,24 +123,17 @@ def to_latex(table: Table) -> str:
         r"\toprule",
     ]
     if two_level:
-        spans: list[tuple[str, int]] = []
-        for c in table.columns:
-            if spans and spans[-1][0] == c[0]:
-                spans[-1] = (c[0], spans[-1][1] + 1)
-            else:
-                spans.append((c[0], 1))
+        spans = [(name, len(list(run))) for name, run in itertools.groupby(c[0] for c in table.columns)]
         top = [""] * n_lead + [rf"\multicolumn{{{n}}}{{c}}{{{_tex_escape(name)}}}" for name, n in spans]
         out.append(" & ".join(top) + r" \\")
     bottom = [rf"\textbf{{{_tex_escape(h)}}}" for h in table.row_header] + [_tex_label(c[-1]) for c in table.columns]
     out += [" & ".join(bottom) + r" \\", r"\midrule"]
     prev: tuple = ()
-    for r in table.rows:
+    for r, cells in _body(table, r"\textbf{{{}}}", r"\underline{{{}}}", _tex_label):
         if prev and n_lead > 1 and prev[0] != r[0]:
             out.append(r"\midrule")
-        shown = [_tex_label(x) if (k == len(r) - 1 or prev[: k + 1] != r[: k + 1]) else "" for k, x in enumerate(r)]
+        out.append(" & ".join(cells) + r" \\")
         prev = r
-        cells = _ranked_cells(table, ranks, r, r"\textbf{{{}}}", r"\underline{{{}}}")
-        out.append(" & ".join(shown + cells) + r" \\")
     out += [r"\bottomrule", r"\end{tabular}%", "}", r"\end{table}"]
     return "\n".join(out) + "\n"
 

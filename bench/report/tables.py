@@ -1,7 +1,8 @@
 """Paper tables from run directories (files only): the layouts and the notes under a table.
 
-A run's per-sample rows become scoring units by the run's own protocol, pooled into rows and
-cells by :mod:`catpose.bench.report.table_rows`, and laid out as one of :data:`LAYOUTS` (one
+A run's per-sample rows become scoring units by the run's own protocol; the runs sharing one row
+label are pooled into an :class:`Entry` (per category, and per seed when it pools seeds) whose
+cells are a summary statistic, a threshold statistic or BOP's AR, and laid out as one of :data:`LAYOUTS` (one
 :class:`Layout` spec each: ``optimiser``, ``one_template``, ``templates``, ``ablation``, ``real``,
 ``tyol`` are the paper's tables, ``generic`` any runs x categories x metrics). Best values are
 bold and second best underlined (errors lower, accuracies higher); BOP-layout runs also get
@@ -14,46 +15,157 @@ mean with the min and max. Output: Markdown, LaTeX or CSV.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
-from catpose.bench.report.labels import pipeline_label, template_count
-from catpose.bench.report.runs import Run
+import numpy as np
+
+from catpose.bench.report.labels import pipeline_label, run_labels, template_count
+from catpose.bench.report.runs import Run, scored_units
 from catpose.bench.report.table_format import METRICS, Table, metric, prune, to_csv, to_latex, to_markdown
-from catpose.bench.report.table_rows import (
-    Entry,
-    cell_spread,
-    cell_value,
-    collect,
-    is_bop_run,
-    n_note,
-    pick_categories,
-)
-from catpose.errors import ConfigError
+from catpose.bench.report.tables_compare import FIX, mixed_rows, seed_of
+from catpose.bench.run.bop_ar import AR_KEYS, is_bop_layout, target_errors
+from catpose.bench.scoring.bop_eval import metric_value
+from catpose.bench.scoring.curves import statistic
+from catpose.bench.scoring.metrics import summarize
+from catpose.errors import ConfigError, DatasetError
 
 RENDERERS: dict[str, Callable[[Table], str]] = {"md": to_markdown, "latex": to_latex, "csv": to_csv}
 
 
 # --------------------------------------------------------------------------------------------
+# Rows
+
+
+@dataclass
+class Entry:
+    """The runs sharing one row label, pooled: per-category statistics, and the same per seed.
+
+    With one seed the cells are ``summary``'s; with several, each cell is the mean of the seeds'
+    values (``per_seed``) and the table shows their min and max beside it."""
+
+    group: str
+    label: str
+    summary: Any  # DataFrame from metrics.summarize, indexed by category
+    units: Any = None  # the pooled scoring units (DataFrame): statistics beyond the summary's (curves)
+    bop: Any = None  # the pooled per-target BOP errors (DataFrame) of runs on BOP-layout data, or None
+    runs: list = field(default_factory=list)  # the runs pooled here
+    per_seed: list = field(default_factory=list)  # one Entry per seed (when more than one)
+    seeds: list = field(default_factory=list)
+
+
+def pool_entry(group: str, label: str, units: list, bop: list, runs: list | None = None) -> Entry:
+    import pandas as pd
+
+    pooled = pd.concat(units, ignore_index=True)
+    errors = pd.concat(bop, ignore_index=True) if bop else None
+    return Entry(group, label, summarize(pooled).set_index("category"), pooled, errors, list(runs or []))
+
+
+def collect(
+    runs: Sequence[Run],
+    group_of: Callable[[Run], str],
+    labels: dict[str, str] | None = None,
+    error_of: Callable[[Run], str] = lambda r: "err_deg",
+    with_bop: bool = False,
+) -> list[Entry]:
+    """Pool the scoring units of runs with the same (group, label) and summarize per category;
+    the seeds of one configuration share a label (:func:`run_labels`), and each seed is also
+    summarized alone (``Entry.per_seed``) for the mean and spread across seeds.
+
+    ``labels`` maps a run directory (as given, or its name) to a user label; labels are made
+    unique within a group by :func:`run_labels`. ``error_of`` names the error column each run is
+    scored by (see :func:`scored_units`). ``with_bop``: also pool the runs' per-target BOP errors
+    (runs on BOP-layout data; :func:`catpose.bench.run.bop_ar.target_errors`).
+    """
+    parts: dict[tuple[str, str], dict[Any, tuple[list, list, list]]] = {}
+    for run, label in zip(runs, run_labels(runs, labels, group_of)):
+        units, bop, members = parts.setdefault((group_of(run), label), {}).setdefault(seed_of(run), ([], [], []))
+        units.append(scored_units(run, error_of(run)))
+        members.append(run)
+        errors = target_errors(run.path) if with_bop else None
+        if errors is not None and len(errors):
+            bop.append(errors)
+    entries = []
+    for (group, label), by_seed in parts.items():
+        entry = pool_entry(
+            group,
+            label,
+            [u for s in by_seed.values() for u in s[0]],
+            [b for s in by_seed.values() for b in s[1]],
+            [r for s in by_seed.values() for r in s[2]],
+        )
+        if len(by_seed) > 1:
+            entry.seeds = sorted(by_seed, key=str)
+            entry.per_seed = [pool_entry(group, label, *by_seed[s]) for s in entry.seeds]
+        entries.append(entry)
+    return entries
+
+
+def is_bop_run(run: Run) -> bool:
+    """Whether a run is on BOP-layout data (its table rows can show BOP's AR)."""
+    return is_bop_layout(run.config.get("dataset"))
+
+
+def cell(entry: Entry, category: str, key: str) -> tuple[float, tuple[float, float] | None]:
+    """A statistic of the entry's units of ``category`` (``all``: every unit) (:func:`one_value`),
+    and None; when it pools several seeds, the mean of their values and their (min, max)."""
+    if not entry.per_seed:
+        return one_value(entry, category, key), None
+    values = [one_value(e, category, key) for e in entry.per_seed]
+    return (float(np.mean(values)) if all(np.isfinite(values)) else float("nan")), (min(values), max(values))
+
+
+def one_value(entry: Entry, category: str, key: str) -> float:
+    """A summary statistic, or a threshold statistic (``acc5``, ``auc30``, ``5deg5cm``:
+    :mod:`catpose.bench.scoring.curves`) of the entry's units of ``category`` (``all``: every unit)."""
+    if key in AR_KEYS:
+        if entry.bop is None:
+            return float("nan")
+        errors = entry.bop if category == "all" else entry.bop[entry.bop["category"].astype(str) == category]
+        return metric_value(errors, key) if len(errors) else float("nan")
+    if key not in METRICS:
+        if category not in entry.summary.index or entry.units is None:
+            return float("nan")
+        units = entry.units if category == "all" else entry.units[entry.units["category"].astype(str) == category]
+        return statistic(units, key)
+    col = METRICS[key].column
+    if category not in entry.summary.index or col not in entry.summary.columns:
+        return float("nan")
+    return float(entry.summary.loc[category, col])
+
+
+def pick_categories(
+    entries: Sequence[Entry], wanted: Sequence[str] | None = None, defaults: Sequence[str] | None = None
+) -> list[str]:
+    """User-given categories as they are; else the layout's defaults that some run has; else
+    every category present (sorted)."""
+    if wanted:
+        return list(wanted)
+    seen: list[str] = []
+    for e in entries:
+        seen += [c for c in e.summary.index if c != "all" and c not in seen]
+    chosen = [c for c in defaults or [] if c in seen]
+    return chosen or sorted(seen)
+
+
+def n_note(entries: Sequence[Entry]) -> str:
+    """Every row's scored units (per seed when it pools seeds) and seeds."""
+    parts = []
+    for e in entries:
+        name = f"{e.group} / {e.label}".lstrip(" /")
+        if e.per_seed:
+            ns = sorted({len(p.units) for p in e.per_seed})
+            n = "/".join(map(str, ns))
+            parts.append(f"{name} {n} x {len(e.seeds)} seeds ({', '.join(map(str, e.seeds))})")
+        else:
+            seeds = sorted({str(seed_of(r)) for r in e.runs})
+            parts.append(f"{name} {len(e.units)} (seed {', '.join(seeds)})")
+    return "n (scored units): " + "; ".join(parts) + "."
+
+
+# --------------------------------------------------------------------------------------------
 # Layouts
-
-
-def with_thresholds(metrics: Sequence[str], keys: Sequence[str]) -> list[str]:
-    """``metrics`` with their ``acc<X>`` entries replaced by ``keys`` (``--acc``'s and
-    ``--auc``'s), placed where the first accuracy was, else after ``median`` (else at the end)."""
-    import re
-
-    is_acc = [bool(re.fullmatch(r"acc\d+(\.\d+)?", m)) for m in metrics]
-    if any(is_acc):
-        pos = is_acc.index(True)
-    else:
-        pos = list(metrics).index("median") + 1 if "median" in metrics else len(metrics)
-    kept = [m for m, a in zip(metrics, is_acc) if not a]
-    pos -= sum(is_acc[:pos])
-    return kept[:pos] + [k for k in keys if k not in kept] + kept[pos:]
-
-
-def _no_group(run: Run) -> str:
-    return ""
 
 
 @dataclass(frozen=True)
@@ -126,38 +238,28 @@ LAYOUTS: dict[str, Layout] = {
 
 def lay_out(spec: Layout, entries: Sequence[Entry], cats: Sequence[str], metrics: Sequence[str], title: str) -> Table:
     """The table of ``entries`` in the layout ``spec`` (categories ``cats``, ``metrics``)."""
-    grouped = spec.group_of is not None
     md = {m: metric(m).md for m in metrics}
+    grouped = spec.group_of is not None
+    # per shape: the leading headers, the (entry, category, metric) in the order that lists the rows and columns,
+    # and where each statistic goes, (row, column)
     if spec.shape == "grid":
-        rows = [(e.group, e.label) if grouped else (e.label,) for e in entries]
-        t = Table(title, [spec.group_header, "Methods"] if grouped else ["Methods"], rows, [])
-        t.columns = [(c.capitalize(), md[m]) for c in cats for m in metrics]
-        place = {
-            (i, c, m): (rows[i], (c.capitalize(), md[m])) for i in range(len(entries)) for c in cats for m in metrics
-        }
+        lead = [spec.group_header, "Methods"] if grouped else ["Methods"]
+        order = [(e, c, m) for e in entries for c in cats for m in metrics]
+        where = lambda e, c, m: ((e.group, e.label) if grouped else (e.label,), (c.capitalize(), md[m]))  # noqa: E731
     elif spec.shape == "real":
-        rows = [(c.capitalize(), md[m]) for c in cats for m in metrics]
-        t = Table(title, ["Category", "Metric"], rows, [(e.label,) for e in entries], rank_by="row")
-        place = {
-            (i, c, m): ((c.capitalize(), md[m]), (e.label,))
-            for i, e in enumerate(entries)
-            for c in cats
-            for m in metrics
-        }
+        lead, order = ["Category", "Metric"], [(e, c, m) for c in cats for m in metrics for e in entries]
+        where = lambda e, c, m: ((c.capitalize(), md[m]), (e.label,))  # noqa: E731
     else:
-        rows = [(e.label, md[m]) for e in entries for m in metrics]
-        t = Table(title, ["Methods", "Metric"], rows, [(c.capitalize(),) for c in cats], rank_by="column")
-        place = {
-            (i, c, m): ((e.label, md[m]), (c.capitalize(),))
-            for i, e in enumerate(entries)
-            for c in cats
-            for m in metrics
-        }
-    for (i, c, m), cell in place.items():
-        t.cells[cell] = (cell_value(entries[i], c, m), m)
-        spread = cell_spread(entries[i], c, m)
+        lead, order = ["Methods", "Metric"], [(e, c, m) for e in entries for m in metrics for c in cats]
+        where = lambda e, c, m: ((e.label, md[m]), (c.capitalize(),))  # noqa: E731
+    places = [where(*k) for k in order]
+    rows, columns = list(dict.fromkeys(r for r, _ in places)), list(dict.fromkeys(c for _, c in places))
+    t = Table(title, lead, rows, columns, rank_by="row" if spec.shape == "real" else "column")
+    for (e, c, m), place in zip(order, places):
+        value, spread = cell(e, c, m)
+        t.cells[place] = (value, m)
         if spread is not None:
-            t.spread[cell] = spread
+            t.spread[place] = spread
     return t
 
 
@@ -169,17 +271,15 @@ def build_table(
     labels: dict[str, str] | None = None,
     error: str | None = None,
     title: str | None = None,
-    thresholds: Sequence[str] = (),
     allow_mixed: bool = False,
 ) -> Table:
     """Lay out ``runs`` as one of :data:`LAYOUTS`.
 
     ``error`` picks the per-unit error: ``"err_deg"`` (the method's own choice) or
     ``"oracle_err_deg"`` (templates protocol: minimum across templates); the ``templates``
-    layout defaults to the oracle, as in the paper, and says so in a note.
-    ``thresholds``: metric keys of :mod:`catpose.bench.scoring.curves` (``acc5``, ``auc30``,
-    ``5deg5cm``; ``bench table --acc/--auc``) that replace the metrics' accuracies
-    (:func:`with_thresholds`).
+    layout defaults to the oracle, as in the paper, and says so in a note. ``metrics``: keys of
+    :data:`~catpose.bench.report.table_format.METRICS` or of :mod:`catpose.bench.scoring.curves`
+    (``acc5``, ``auc30``, ``5deg5cm``), default the layout's.
 
     Rows that were not scored on the same samples (another dataset, protocol, seeds, a ``limit``
     run: :func:`catpose.bench.report.tables_compare.mixed_rows`) are a one-line
@@ -189,20 +289,14 @@ def build_table(
     """
     if layout not in LAYOUTS:
         raise ConfigError(f"unknown table layout {layout!r}; use one of {sorted(LAYOUTS)}")
-    from catpose.bench.report.tables_compare import FIX, mixed_rows
-    from catpose.bench.run.bop_ar import AR_KEYS
-    from catpose.errors import DatasetError
 
     spec = LAYOUTS[layout]
-    chosen = metrics is not None
-    if thresholds:
-        metrics = with_thresholds(metrics or spec.metrics, thresholds)
-    if not chosen and any(is_bop_run(r) for r in runs):  # BOP's AR after the layout's metrics
+    if metrics is None and any(is_bop_run(r) for r in runs):  # BOP's AR after the layout's metrics
         metrics = list(metrics or spec.metrics) + list(AR_KEYS)
     metrics = list(metrics or spec.metrics)
     for m in metrics:
         metric(m)  # an unknown key: one line naming the choices
-    group_of = spec.group_of or _no_group
+    group_of = spec.group_of or (lambda r: "")
     error = error or spec.error
     # Only templates runs have an oracle; other runs in the same table keep their own error.
     oracle = error == "oracle_err_deg"

@@ -13,11 +13,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from catpose.bench.run.rundir import SUBSET_KEYS
+
 #: dataset keys that choose templates, categories or scenes, or where files are cached: not the
 #: observations of a sample (the sample ids tell which samples a run has)
 _NOT_DATA = ("name", "_target_", "root", "seed", "categories", "scenes", "cache_dir", "generate_missing")
-#: run-level keys that take a subset of the samples (their own run directory, :mod:`catpose.bench.run.rundir`)
-_SUBSET = ("limit", "sample_ids")
 
 
 def data_of(run: Any) -> str:
@@ -54,25 +54,26 @@ def config_key(run: Any) -> str:
 
     cfg = run.config
     ident = {k: strip(cfg.get(k)) for k in ("method", "dataset", "protocol", "choice")}
-    ident["subset"] = {k: cfg.get(k) for k in _SUBSET if cfg.get(k)}
+    ident["subset"] = {k: cfg.get(k) for k in SUBSET_KEYS if cfg.get(k)}
     ident["name"] = run.method if not cfg else None  # rows written by hand: their method's name
     return json.dumps(ident, sort_keys=True, default=str)
 
 
-def sample_keys(run: Any) -> dict[str, frozenset]:
-    """Per category (and ``all``), the run's samples: ``(data, protocol, seed, view)``; a view is a
-    row's ``group_id`` (a templates view with all its templates), else its ``sample_id``."""
-    s = run.samples
-    if len(s) == 0:
-        return {"all": frozenset()}
-    views = s["group_id"] if "group_id" in s else s["sample_id"]
-    views = views.where(views.notna(), s["sample_id"]).astype(str)
-    cats = s["category"].astype(str) if "category" in s else views.map(lambda _: "?")
-    head = (data_of(run), run.protocol, seed_of(run))
+def sample_keys(runs: Sequence[Any]) -> dict[str, frozenset]:
+    """Per category (and ``all``), the samples of ``runs``: ``(data, protocol, seed, view)``; a view
+    is a row's ``group_id`` (a templates view with all its templates), else its ``sample_id``."""
     out: dict[str, set] = {"all": set()}
-    for c, v in zip(cats, views):
-        out.setdefault(c, set()).add((*head, v))
-        out["all"].add((*head, v))
+    for run in runs:
+        s = run.samples
+        if len(s) == 0:
+            continue
+        views = s["group_id"] if "group_id" in s else s["sample_id"]
+        views = views.where(views.notna(), s["sample_id"]).astype(str)
+        cats = s["category"].astype(str) if "category" in s else views.map(lambda _: "?")
+        head = (data_of(run), run.protocol, seed_of(run))
+        for c, v in zip(cats, views):
+            out.setdefault(c, set()).add((*head, v))
+            out["all"].add((*head, v))
     return {c: frozenset(v) for c, v in out.items()}
 
 
@@ -99,7 +100,7 @@ def mixed_rows(rows: Sequence[tuple[str, Sequence[Any]]], categories: Sequence[s
         kinds = sorted({f"{data_name(data_of(r))} / {r.protocol}" for r in runs})
         if len(kinds) > 1:
             return f"row {label} pools runs of different data or protocols ({' vs '.join(kinds)}): {_paths(runs)}"
-    keys = [(label, runs, _merged([sample_keys(r) for r in runs])) for label, runs in rows]
+    keys = [(label, runs, sample_keys(runs)) for label, runs in rows]
     for c in categories:
         have = [(label, runs, k[c]) for label, runs, k in keys if k.get(c)]
         for label, runs, samples in have[1:]:
@@ -111,14 +112,6 @@ def mixed_rows(rows: Sequence[tuple[str, Sequence[Any]]], categories: Sequence[s
                     f"({_paths(runs)}) differ in {_difference(samples0, samples)}"
                 )
     return None
-
-
-def _merged(parts: Sequence[dict[str, frozenset]]) -> dict[str, frozenset]:
-    out: dict[str, frozenset] = {}
-    for p in parts:
-        for c, v in p.items():
-            out[c] = out.get(c, frozenset()) | v
-    return out
 
 
 #: the end of a refusal: how to compare, or to insist

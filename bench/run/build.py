@@ -129,47 +129,6 @@ def _choice_node(cfg: Any) -> dict:
     return choice
 
 
-#: the keys each protocol's config held before the ``choice`` group took them (by protocol name)
-PROTOCOL_KEYS_BEFORE_CHOICE = {"templates": ("choice", "turns", "one_template_turns"), "relative": ("choice",)}
-
-
-def identity_before_choice(protocol: dict, choice: dict) -> tuple[dict, dict]:
-    """A run's protocol and choice nodes as its run directory's digest hashes them
-    (:func:`catpose.bench.run.rundir.run_dir_for`): the choice's rule (for ``templates`` also its
-    turns) folded back into the protocol node as configs wrote them before the ``choice`` group, so a
-    configuration that existed before keeps its run directory and finished samples; what else of the
-    choice differs from its defaults stays apart (the second node, empty when nothing does)."""
-    from catpose.methods.template_choice import TemplateChoice
-
-    keys = PROTOCOL_KEYS_BEFORE_CHOICE.get(str(protocol.get("name")))
-    if keys is None:
-        return protocol, dict(choice)
-    from catpose.methods.cross_check import CrossCheck
-
-    # the cross check's settings were the choice's own keys before it took a CrossCheck: hashed flat
-    defaults = {k: p.default for c in (TemplateChoice, CrossCheck) for k, p in inspect.signature(c).parameters.items()}
-    rest = {k: v for k, v in choice.items() if k not in ("name", "_target_", "cross_check")}
-    rest.update({k: v for k, v in (choice.get("cross_check") or {}).items() if k != "_target_"})
-    protocol = dict(protocol, choice=rest.pop("rule", defaults["rule"]))
-    if "turns" in keys:  # null was the default set
-        turns = rest.pop("turns_deg", None)
-        protocol["turns"] = None if turns is None or _same(turns, defaults["turns_deg"]) else turns
-        protocol["one_template_turns"] = rest.pop("one_template_turns", False)
-    return protocol, {k: v for k, v in rest.items() if not (k in defaults and _same(v, defaults[k]))}
-
-
-def _same(a: Any, b: Any) -> bool:
-    """Whether two config values are equal as numbers (``[90, 270]`` and ``(90.0, 270.0)``), or at all."""
-    try:
-        if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
-            return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
-        if isinstance(a, bool) or isinstance(b, bool):
-            return a is b
-        return float(a) == float(b)
-    except (TypeError, ValueError):
-        return a == b
-
-
 #: the rule the protocols read of the ``choice`` group (configs/choice/*.yaml)
 RULE_TARGET = "catpose.methods.choice_rules.ChoiceRule"
 

@@ -8,7 +8,6 @@ any; ``warning:`` lines only limit some protocols (exit 0). Layouts and download
 
 from __future__ import annotations
 
-import sys
 import time
 import warnings
 from pathlib import Path
@@ -97,7 +96,3 @@ def _check_loader(dataset: Any, report: LayoutReport) -> None:
             return
     report.warnings += [" ".join(str(w.message).split()) for w in caught]
     report.facts.append(f"{len(ids)} samples; the first ({ids[0]}) loads with {len(obs.points_camera)} points")
-
-
-if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))

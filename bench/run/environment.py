@@ -37,11 +37,6 @@ def _cpuinfo(*keys: str) -> str | None:
         return None
 
 
-def cpu_model() -> str:
-    """The CPU's model name (``/proc/cpuinfo``; ``platform.processor()`` elsewhere)."""
-    return _cpuinfo("model name") or platform.processor() or platform.machine()
-
-
 def cpu_flags() -> list[str]:
     """The vector extensions the CPU reports that decide BLAS kernels (avx, avx2, avx512f, ...)."""
     wanted = {"sse4_2", "avx", "avx2", "fma", "avx512f", "avx512_bf16", "amx_tile", "asimd", "sve"}
@@ -129,7 +124,7 @@ def environment() -> dict:
             "python": platform.python_version(),
             "platform": platform.platform(),
             "versions": versions,
-            "cpu": cpu_model(),
+            "cpu": _cpuinfo("model name") or platform.processor() or platform.machine(),
             "cpu_flags": cpu_flags(),
             "blas": blas_kernels(),
             "OPENBLAS_CORETYPE": os.environ.get("OPENBLAS_CORETYPE"),

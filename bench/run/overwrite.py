@@ -79,11 +79,6 @@ def verified_rows(path: Path) -> int:
         return 0
 
 
-def run_above(path: Path) -> Path | None:
-    """The run directory ``path`` lies inside, if any."""
-    return next((parent for parent in path.parents if is_run_dir(parent)), None)
-
-
 def check_not_input(out: str | Path, inputs: Sequence[Input] = (), flag: str = "--out") -> Path:
     """The first part of :func:`check_output`: ``out`` is no input, holds none and lies inside none
     (a folder only searched for runs may hold it); returns it as an absolute path."""
@@ -132,7 +127,7 @@ def check_output(
     """
     target = check_not_input(out, inputs, flag)
     shown = f"{flag} {out}"
-    run = run_above(target)
+    run = next((parent for parent in target.parents if is_run_dir(parent)), None)  # the run it lies inside
     if run is not None:
         raise InvalidInputError(
             f"{shown} lies inside the run directory {run}; pass an {flag} outside it "

@@ -1,14 +1,15 @@
 """The run directory: its name and its files.
 
 ``<output_root>/<dataset>-<protocol>/<method>/seed<S>-<tag>-<hash>``: ``tag`` spells the
-command-line overrides, ``hash`` digests the resolved method, dataset, protocol, seed and the
-subset of samples when one is taken (``limit``, ``sample_ids``), so two configurations never
-share a directory. It holds ``samples.jsonl`` (one :class:`~catpose.bench.scoring.rows.SampleRow`
-per finished sample, appended and fsynced), ``config.yaml`` (resolved), ``overrides.txt``,
-``git_rev.txt``, ``run.json`` (counts, environment), ``run.lock``, and ``samples.csv`` and
-``summary.{csv,md}`` written by :mod:`catpose.bench.run.evaluate` from the files alone. Two runs
-of one configuration are kept apart by an exclusive ``fcntl.flock`` on ``run.lock`` (:class:`RunLock`).
-:func:`write_run_into` writes a whole run directory from rows made elsewhere (``bench score``)."""
+command-line overrides, ``hash`` digests the resolved method, dataset, protocol, the template choice
+(protocols that keep one), seed and the subset of samples when one is taken (``limit``,
+``sample_ids``), so two configurations never share a directory. It holds ``samples.jsonl`` (one
+:class:`~catpose.bench.scoring.rows.SampleRow` per finished sample, appended and fsynced),
+``config.yaml`` (resolved), ``overrides.txt``, ``git_rev.txt``, ``run.json`` (counts, environment),
+``run.lock``, and ``samples.csv`` and ``summary.{csv,md}`` written by
+:mod:`catpose.bench.run.evaluate` from the files alone. Two runs of one configuration are kept apart
+by an exclusive ``fcntl.flock`` on ``run.lock`` (:class:`RunLock`). :func:`write_run_into` writes a
+whole run directory from rows made elsewhere (``bench score``)."""
 
 from __future__ import annotations
 
@@ -63,15 +64,11 @@ def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:
     """The output directory of a configuration (see the module docstring)."""
     from omegaconf import OmegaConf
 
-    from catpose.bench.run.build import identity_before_choice, takes_choice
+    from catpose.bench.run.build import takes_choice
 
     identity = {k: OmegaConf.to_container(cfg[k], resolve=True) for k in ("method", "dataset", "protocol")}
     if cfg.get("choice") is not None and takes_choice(identity["protocol"]):  # the protocols that keep a choice
-        identity["protocol"], choice = identity_before_choice(
-            identity["protocol"], OmegaConf.to_container(cfg.choice, resolve=True)
-        )
-        if choice:
-            identity["choice"] = choice
+        identity["choice"] = OmegaConf.to_container(cfg.choice, resolve=True)
     identity["seed"] = int(cfg.seed)
     subset = {k: OmegaConf.to_object(OmegaConf.create({k: cfg.get(k)}))[k] for k in SUBSET_KEYS if cfg.get(k)}
     if subset:  # a subset of the samples is another sample set: its own directory (a full run's hash is unchanged)

@@ -34,7 +34,6 @@ import numpy as np
 from catpose.bench.scoring import pose_metrics as pm
 from catpose.errors import DatasetError, InvalidInputError
 
-BOP_HEADER = "scene_id,im_id,obj_id,score,R,t,time"
 ERRORS_FILE = "bop_errors.jsonl"
 DEFAULT_METRICS = ("ar", "ar_mssd", "ar_mspd", "ar_vsd", "adds@0.1", "5deg5cm", "10deg10cm")
 """The recalls ``bench score`` prints by default."""
@@ -102,13 +101,10 @@ def _image_width(dataset, depth_path: Path, K: np.ndarray) -> int:
 
         with Image.open(depth_path) as im:
             return int(im.size[0])
-    cam = dataset.root / "camera.json"
-    if cam.is_file():
-        try:
-            return int(json.loads(cam.read_text())["width"])
-        except (KeyError, TypeError, ValueError, json.JSONDecodeError):
-            pass
-    return int(round(2 * K[0, 2]))
+    from catpose.datasets.bop_check import camera_size
+
+    size = camera_size(dataset.root)
+    return size[0] if size else int(round(2 * K[0, 2]))
 
 
 def _pair_errors(R_e, t_e, R_g, t_g, K, pts, syms, depth_mm, mesh, diameter) -> dict[str, Any]:
@@ -130,6 +126,11 @@ def _pair_errors(R_e, t_e, R_g, t_g, K, pts, syms, depth_mm, mesh, diameter) -> 
 
 ERROR_KEYS = ("mssd", "mspd", "add", "adds", "re_deg", "te_mm", "5deg5cm", "10deg10cm", "vsd")
 """Per-target errors; ``5deg5cm``/``10deg10cm`` are 0 (correct) or 1 so that smaller is better."""
+
+
+def by_score(estimates: list[dict]) -> list[dict]:
+    """Estimates (rows with a ``score``) highest score first, ties in file order; NaN last."""
+    return sorted(estimates, key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
 
 
 def _match(errors: list[list[dict]], key: str, n_gt: int) -> list[Any]:
@@ -161,11 +162,12 @@ def compute_errors(preds, dataset, vsd: bool = True, max_points: int = 0, seed: 
     MSSD, MSPD and ADD(-S) use every model vertex, as bop_toolkit does (``max_points`` > 0: a
     seeded subset, for speed).
     """
-    targets: dict[tuple[int, int, int], list[tuple[int, str]]] = {}
+    targets: dict[tuple[int, int, int], list[tuple]] = {}  # (scene, image, object) -> (gt_idx, category, R, t)
     for oid in dataset.observation_ids():
         category, scene, im, gt_idx = oid.split("/")
         gt = dataset._read_json(dataset.layout.scene_gt(int(scene)))[str(int(im))][int(gt_idx)]
-        targets.setdefault((int(scene), int(im), int(gt["obj_id"])), []).append((int(gt_idx), category))
+        R, t = np.asarray(gt["cam_R_m2c"], float).reshape(3, 3), np.asarray(gt["cam_t_m2c"], float).reshape(3)
+        targets.setdefault((int(scene), int(im), int(gt["obj_id"])), []).append((int(gt_idx), category, R, t))
     by_key: dict[tuple[int, int, int], list[dict]] = {}
     for p in preds.to_dict("records"):
         by_key.setdefault((int(p["scene_id"]), int(p["im_id"]), int(p["obj_id"])), []).append(p)
@@ -189,26 +191,15 @@ def compute_errors(preds, dataset, vsd: bool = True, max_points: int = 0, seed: 
 
             depth_mm = read_depth(depth_path).astype(np.float64) * float(cam.get("depth_scale", 1.0))
         width = depth_mm.shape[1] if depth_mm is not None else _image_width(dataset, depth_path, K)
-        scene_gt = dataset._read_json(dataset.layout.scene_gt(scene))[str(im)]
-        gt_poses = [
-            (np.asarray(gt["cam_R_m2c"], float).reshape(3, 3), np.asarray(gt["cam_t_m2c"], float).reshape(3))
-            for gt in (scene_gt[g] for g, _ in gts)
+        errors = [
+            [
+                _pair_errors(nearest_rotation(T[:3, :3]), T[:3, 3], R_g, t_g, K, pts, syms, depth_mm, mesh, diameter)
+                for _, _, R_g, t_g in gts
+            ]
+            for T in (np.asarray(p["T"], float) for p in by_score(by_key.get((scene, im, obj), []))[: len(gts)])
         ]
-        ests = sorted(by_key.get((scene, im, obj), []), key=lambda p: -np.nan_to_num(float(p["score"]), nan=-np.inf))
-        ests = ests[: len(gts)]
-        errors = []
-        for p in ests:
-            T = np.asarray(p["T"], float)
-            errors.append(
-                [
-                    _pair_errors(
-                        nearest_rotation(T[:3, :3]), T[:3, 3], R_g, t_g, K, pts, syms, depth_mm, mesh, diameter
-                    )
-                    for R_g, t_g in gt_poses
-                ]
-            )
         matched = {key: _match(errors, key, len(gts)) for key in ERROR_KEYS}
-        for k, (g, category) in enumerate(gts):
+        for k, (g, category, _, _) in enumerate(gts):
             row = {
                 "scene_id": scene,
                 "im_id": im,
@@ -320,39 +311,31 @@ def score_table(df, metrics: Iterable[str] = DEFAULT_METRICS, by: Sequence[str] 
     metrics = list(metrics)
     for m in metrics:
         parse_metric(m)
-    rows = []
+    groups = []
     if "object" in by:
-        for obj, g in df.groupby("obj_id", sort=True):
-            rows.append(
-                [
-                    "object",
-                    f"obj_{int(obj):06d} ({g['category'].iloc[0]})",
-                    len(g),
-                    *[metric_value(g, m) for m in metrics],
-                ]
-            )
+        groups += [("object", f"obj_{int(o):06d} ({g['category'].iloc[0]})", g) for o, g in df.groupby("obj_id")]
     if "category" in by:
-        for cat, g in df.groupby("category", sort=True):
-            rows.append(["category", str(cat), len(g), *[metric_value(g, m) for m in metrics]])
-    rows.append(["all", "all", len(df), *[metric_value(df, m) for m in metrics]])
+        groups += [("category", str(c), g) for c, g in df.groupby("category")]
+    rows = [
+        [kind, name, len(g), *[metric_value(g, m) for m in metrics]] for kind, name, g in [*groups, ("all", "all", df)]
+    ]
     return pd.DataFrame(rows, columns=["group", "name", "n", *metrics])
 
 
 def format_scores(table, header: dict | None = None) -> str:
     """Markdown of :func:`score_table`, preceded by the evaluation filters."""
-    lines = []
-    for note in (header or {}).get("filters", []):
-        lines.append(f"- {note}")
-    if header and header.get("targets") is not None:
+    header = header or {}
+    lines = [f"- {note}" for note in header.get("filters", [])]
+    if header.get("targets") is not None:
         lines.append(
             f"- {header['targets']} targets, {header.get('matched', 0)} with an estimate (the others count as misses)"
         )
-    if header and header.get("extra_estimates"):
+    if header.get("extra_estimates"):
         lines.append(
             f"- {header['extra_estimates']} estimates beyond an (image, object)'s instances ignored (the "
             "highest-scored are kept)"
         )
-    if header and header.get("unknown_estimates"):
+    if header.get("unknown_estimates"):
         lines.append(f"- {header['unknown_estimates']} estimates of an (image, object) that is no target ignored")
     no_vsd = [m for m in table.columns if m in ("ar", "ar_vsd") and table[m].isna().all()]
     if no_vsd:

@@ -1,6 +1,6 @@
 """Accuracy at any threshold, n-degree m-cm and the area under the accuracy curve: statistics of
 per-unit errors beside :func:`catpose.bench.scoring.metrics.summarize`'s fixed @10 / @30
-(``bench table --metrics/--acc/--auc``, ``bench score --acc/--auc``; docs/evaluation.md).
+(``bench table --metrics``; docs/evaluation.md).
 
 - ``acc<X>``: fraction of units whose ``err_deg`` is at most ``X`` degrees.
 - ``<n>deg<m>cm``: error at most ``n`` degrees and translation error of the object's origin in
@@ -15,14 +15,13 @@ Failed units count as :data:`FAILED_ERROR_DEG` and as wrong in every statistic."
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from catpose.bench.scoring.metrics import FAILED_ERROR_DEG
+from catpose.bench.scoring.metrics import FAILED_ERROR_DEG, accuracy
 from catpose.errors import ConfigError
 
 _NUMBER = r"(\d+(?:\.\d+)?)"
@@ -40,26 +39,6 @@ def parse_key(key: str) -> tuple[str, tuple[float, ...]] | None:
     if m:
         return "ndegmcm", (float(m.group(1)), float(m.group(2)))
     return None
-
-
-def threshold_keys(spec: str | Sequence[str], auc: float | None = None) -> list[str]:
-    """``"5,10,30,5deg5cm"`` (what ``--acc`` takes) as metric keys ``["acc5", "acc10", "acc30",
-    "5deg5cm"]``, plus ``auc<X>`` when ``auc`` is given. A bad item is a one-line
-    :class:`ConfigError` naming it."""
-    items = [s.strip() for s in (spec.split(",") if isinstance(spec, str) else spec) if str(s).strip()]
-    keys = []
-    for item in items:
-        key = item if parse_key(item) else f"acc{item}"
-        if parse_key(key) is None:
-            raise ConfigError(
-                f"--acc item {item!r} is not a threshold; give degrees or NdegMcm, e.g. --acc 5,10,30,5deg5cm"
-            )
-        keys.append(key)
-    if auc is not None:
-        if not (isinstance(auc, (int, float)) and auc > 0 and math.isfinite(auc)):
-            raise ConfigError(f"--auc {auc!r} must be a positive number of degrees, e.g. --auc 30")
-        keys.append(f"auc{auc:g}")
-    return keys
 
 
 def auc(errors_deg: Sequence[float], max_deg: float) -> float:
@@ -125,7 +104,7 @@ def statistic(units, key: str) -> float:
     kind, params = parsed
     err = scored_errors(units)
     if kind == "acc":
-        return float((err <= params[0]).mean())
+        return accuracy(err, params[0])
     if kind == "auc":
         return auc(err, params[0])
     if "info" not in units or not all(isinstance(i, dict) and i.get("scale_mm") is not None for i in units["info"]):

@@ -165,27 +165,14 @@ def accuracy(errors_deg: Iterable[float], threshold_deg: float) -> float:
     return float("nan") if e.size == 0 else float((e <= threshold_deg).mean())
 
 
-def runtime_stats(runtimes_s: Iterable[float]) -> dict[str, float]:
-    """Mean, median, 90th percentile and total of runtimes in seconds (finite values only)."""
-    r = np.asarray([x for x in runtimes_s if x is not None and np.isfinite(x)], float)
-    if r.size == 0:
-        return {"mean_s": float("nan"), "median_s": float("nan"), "p90_s": float("nan"), "total_s": 0.0}
-    return {
-        "mean_s": float(r.mean()),
-        "median_s": float(np.median(r)),
-        "p90_s": float(np.percentile(r, 90)),
-        "total_s": float(r.sum()),
-    }
+def summarize(df):
+    """Per-category statistics of a per-sample (or per-scoring-unit) table.
 
-
-def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0, 30.0)):
-    """Per-group statistics of a per-sample (or per-scoring-unit) table.
-
-    ``df`` needs columns ``by``, ``status``, ``err_deg``, ``trans_err`` and ``runtime_s``.
+    ``df`` needs columns ``category``, ``status``, ``err_deg``, ``trans_err`` and ``runtime_s``.
     Failed rows count as :data:`FAILED_ERROR_DEG` in the angle statistics, are counted in
     ``failed`` and are left out of the translation mean (they have no estimate). The last row,
-    ``all``, pools every sample. Returns a pandas DataFrame with columns ``by``, ``n``, ``failed``,
-    ``mean_err_deg``, ``median_err_deg``, ``acc10``, ``acc30`` (named after ``thresholds``),
+    ``all``, pools every sample. Returns a pandas DataFrame with columns ``category``, ``n``,
+    ``failed``, ``mean_err_deg``, ``median_err_deg``, ``acc10``, ``acc30`` (at 10 and 30 degrees),
     ``mean_trans_err`` and ``median_runtime_s``, and ``found10`` after ``acc10`` when the rows
     have a ``found_err_deg`` (hypothesis recall: the fraction of samples where the method held a
     hypothesis within :data:`FOUND_DEG` of the truth at some stage; a row without one is found
@@ -193,29 +180,33 @@ def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0,
     """
     import pandas as pd
 
-    lo, hi = thresholds
-    names = [by, "n", "failed", "mean_err_deg", "median_err_deg", f"acc{lo:g}", f"acc{hi:g}", "mean_trans_err"]
+    from catpose.bench.scoring.curves import scored_errors
+
+    names = ["category", "n", "failed", "mean_err_deg", "median_err_deg", "acc10", "acc30", "mean_trans_err"]
     names.append("median_runtime_s")
     found = "found_err_deg" in df.columns and pd.to_numeric(df["found_err_deg"], errors="coerce").notna().any()
     if found:
-        names.insert(names.index(f"acc{lo:g}") + 1, f"found{FOUND_DEG:g}")
+        names.insert(names.index("acc10") + 1, f"found{FOUND_DEG:g}")
+
+    def finite(values) -> np.ndarray:
+        x = pd.to_numeric(values, errors="coerce").to_numpy(float)
+        return x[np.isfinite(x)]
 
     def stats(key: str, g) -> list:
         failed = (g["status"] != "ok").to_numpy()
-        err = np.where(failed, FAILED_ERROR_DEG, pd.to_numeric(g["err_deg"], errors="coerce").to_numpy(float))
-        err = np.where(np.isnan(err), FAILED_ERROR_DEG, err)
-        trans = pd.to_numeric(g["trans_err"], errors="coerce").to_numpy(float)[~failed]
-        trans = trans[np.isfinite(trans)]
+        err = scored_errors(g)
+        trans = finite(g["trans_err"][~failed])
+        runtimes = finite(g["runtime_s"])
         out = [
             key,
             len(g),
             int(failed.sum()),
             float(err.mean()),
             float(np.median(err)),
-            accuracy(err, lo),
-            accuracy(err, hi),
+            accuracy(err, 10.0),
+            accuracy(err, 30.0),
             float(trans.mean()) if trans.size else float("nan"),
-            runtime_stats(pd.to_numeric(g["runtime_s"], errors="coerce"))["median_s"],
+            float(np.median(runtimes)) if runtimes.size else float("nan"),
         ]
         if found:
             f = pd.to_numeric(g["found_err_deg"], errors="coerce").to_numpy(float)
@@ -224,6 +215,6 @@ def summarize(df, by: str = "category", thresholds: tuple[float, float] = (10.0,
 
     if len(df) == 0:
         return pd.DataFrame(columns=names)
-    rows = [stats(str(k), g) for k, g in df.groupby(by, sort=True)]
+    rows = [stats(str(k), g) for k, g in df.groupby("category", sort=True)]
     rows.append(stats("all", df))
     return pd.DataFrame(rows, columns=names)

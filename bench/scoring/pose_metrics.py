@@ -97,6 +97,19 @@ def _project(points_cam: np.ndarray, K: np.ndarray) -> np.ndarray:
     return uvw[:, :2] / uvw[:, 2:3]
 
 
+def _max_symmetric_distance(f, R_est, t_est, R_gt, t_gt, symmetries) -> float:
+    """``min_S max_i || f(T_est)_i - f(T_gt S)_i ||`` over the symmetric gt poses, ``f(R, t)`` (N, d)
+    the model points placed (MSSD) or projected (MSPD) at a pose."""
+    at_est = f(R_est, t_est)
+    return min(
+        [math.inf]
+        + [
+            float(np.linalg.norm(at_est - f(R_s, t_s), axis=1).max())
+            for R_s, t_s in _symmetric_gt(R_gt, t_gt, symmetries)
+        ]
+    )
+
+
 # --------------------------------------------------------------------------------------------
 # Point-distance errors
 
@@ -137,14 +150,7 @@ def mssd(
     ``symmetries`` (each (4, 4), model frame) from :func:`symmetry_transforms`; None or empty
     means the identity only.
     """
-    pts_est = _transform(R_est, t_est, points)
-    return min(
-        [math.inf]
-        + [
-            float(np.linalg.norm(pts_est - _transform(R_s, t_s, points), axis=1).max())
-            for R_s, t_s in _symmetric_gt(R_gt, t_gt, symmetries)
-        ]
-    )
+    return _max_symmetric_distance(lambda R, t: _transform(R, t, points), R_est, t_est, R_gt, t_gt, symmetries)
 
 
 def mspd(
@@ -162,13 +168,8 @@ def mspd(
 
     ``K`` (3, 3) camera intrinsics in pixels.
     """
-    proj_est = _project(_transform(R_est, t_est, points), K)
-    return min(
-        [math.inf]
-        + [
-            float(np.linalg.norm(proj_est - _project(_transform(R_s, t_s, points), K), axis=1).max())
-            for R_s, t_s in _symmetric_gt(R_gt, t_gt, symmetries)
-        ]
+    return _max_symmetric_distance(
+        lambda R, t: _project(_transform(R, t, points), K), R_est, t_est, R_gt, t_gt, symmetries
     )
 
 
@@ -214,14 +215,17 @@ def n_deg_m_cm(
 # VSD
 
 
+def _pixel_rays(K: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """``x, y`` (H, W) of the ray ``(x, y, 1)`` through each pixel centre of the camera ``K`` (3, 3)."""
+    K = np.asarray(K, float).reshape(3, 3)
+    u, v = np.meshgrid(np.arange(width, dtype=float), np.arange(height, dtype=float))
+    return (u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1]
+
+
 def depth_to_distance(depth: np.ndarray, K: np.ndarray) -> np.ndarray:
     """Distance of each pixel's 3D point from the camera centre (H, W), from a z-depth image."""
     depth = np.asarray(depth, float)
-    K = np.asarray(K, float).reshape(3, 3)
-    h, w = depth.shape
-    u, v = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
-    x = (u - K[0, 2]) / K[0, 0]
-    y = (v - K[1, 2]) / K[1, 1]
+    x, y = _pixel_rays(K, depth.shape[1], depth.shape[0])
     return depth * np.sqrt(x * x + y * y + 1.0)
 
 
@@ -272,9 +276,8 @@ def render_depth(
     bits on every CPU); 0 where no surface. Units of the vertices."""
     from catpose.datasets.render import cast_rays
 
-    K = np.asarray(K, float).reshape(3, 3)
-    u, v = np.meshgrid(np.arange(width, dtype=float), np.arange(height, dtype=float))
-    dirs = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
+    x, y = _pixel_rays(K, width, height)
+    dirs = np.stack([x, y, np.ones_like(x)], axis=-1)
     z = cast_rays(_transform(R, t, vertices), triangles, np.zeros(3), dirs)  # along dirs with z = 1: s = depth
     return np.where(np.isfinite(z), z, 0.0)
 
