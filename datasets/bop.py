@@ -175,11 +175,14 @@ class BOP(ObjectDataset):
         self.mask = mask
         self.depth_tolerance_mm = float(depth_tolerance_mm)
         self.min_visible_pixels = int(min_visible_pixels)
-        self.plane_distance_mm = float(plane_distance_mm)
-        self.plane_iterations = int(plane_iterations)
-        self.plane_max_points = int(plane_max_points)
-        self.normal_radius = float(normal_radius)
-        self.max_points = int(max_points)
+        #: the frame -> view settings, as :func:`~catpose.datasets.frame_view.frame_view` takes them
+        self.frame_settings = FrameSettings(
+            float(normal_radius),
+            int(max_points),
+            float(plane_distance_mm),
+            int(plane_iterations),
+            int(plane_max_points),
+        )
         self.template_points = int(template.template_points)
         self.seed = int(seed)
         self._templates = template.template_set(self.root, self.seed, self.instance_model)
@@ -450,17 +453,6 @@ class BOP(ObjectDataset):
 
     # ------------------------------------------------------------------ frames
 
-    def frame_settings(self) -> FrameSettings:
-        """The dataset config's frame -> view settings (``normal_radius``, ``max_points``, the
-        ``plane_*`` keys), as :func:`~catpose.datasets.frame_view.frame_view` takes them."""
-        return FrameSettings(
-            normal_radius=self.normal_radius,
-            max_points=self.max_points,
-            plane_distance=self.plane_distance_mm,
-            plane_iterations=self.plane_iterations,
-            plane_max_points=self.plane_max_points,
-        )
-
     def instance_frame(self, obs_id: str) -> BopFrame:
         """The instance's depth frame (raw depth, ``cam_K``, its mask, corrupted when ``mask_noise`` >
         0, ``depth_scale`` to mm, named by ``obs_id`` and the run's seed) and what the loader knows
@@ -534,7 +526,7 @@ class BOP(ObjectDataset):
         R_obj_model, centre, scale = self.normalisation(obj_id)
         # the same frame -> view path as catpose.register(DepthFrame(...)) (datasets/frame_view.py)
         try:
-            view = frame_view(bf.frame, scale, self.frame_settings(), exclude=bf.exclude, source=str(bf.depth_path))
+            view = frame_view(bf.frame, scale, self.frame_settings, exclude=bf.exclude, source=str(bf.depth_path))
         except NoGroundPlane as e:
             raise DatasetError(str(e)) from None
         depth_mm = float(np.median(bf.frame.depth_in_unit[bf.frame.object_pixels]))
