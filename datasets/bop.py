@@ -56,7 +56,7 @@ from catpose.datasets.layout_check import LayoutReport
 from catpose.datasets.mask_noise import corrupt_mask
 from catpose.datasets.meshio import R_template_file, read_mesh, sampled_template
 from catpose.datasets.render import PinholeCamera, render_depth
-from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.templates import TemplateOptions, TemplateSet
 from catpose.depth_frame import DepthFrame, scaled_depth
 from catpose.errors import ConfigError, DatasetError, InvalidInputError
 from catpose.geometry import apply_R, dot3, make_T, matmul3, norm3, normalize_to_unit_sphere, small_matmul, unit3
@@ -185,7 +185,7 @@ class BOP(ObjectDataset):
         )
         self.template_points = int(template.template_points)
         self.seed = int(seed)
-        self._templates = template.template_set(self.root, self.seed, self.instance_model)
+        self._templates = TemplateSet(template, self.root, self.seed, self.instance_model)
         self._json: dict[Path, Any] = {}
         self._models_mm: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._norm: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
