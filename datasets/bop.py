@@ -365,10 +365,14 @@ class BOP(ObjectDataset):
         if not path.is_file():
             return {}
         entry = self._read_json(path).get(str(obj_id))
-        if entry is None:
-            self._warn_no_info(path, obj_id)
-            return {}
-        return entry
+        if entry is None and obj_id not in self._warned_no_info:  # once per object: it is non-symmetric then
+            self._warned_no_info.add(obj_id)
+            warnings.warn(
+                f"{path} has no entry for object {obj_id}; it is scored as non-symmetric: add "
+                f'"{obj_id}" there, or set dataset.symmetric.<category>=[x, y, z] if it is symmetric',
+                stacklevel=2,
+            )
+        return {} if entry is None else entry
 
     def continuous_symmetries(self, obj_id: int) -> list[dict]:
         """Every ``symmetries_continuous`` entry, ``{"axis": (3,), "offset": (3,) mm}`` (model frame)."""
@@ -399,16 +403,6 @@ class BOP(ObjectDataset):
             return None
         R, _, _ = self.normalisation(obj_id)
         return unit3(apply_R(R, np.asarray(sym[0]["axis"], float)))
-
-    def _warn_no_info(self, info_path: Path, obj_id: int) -> None:
-        """Warn once per object that ``models_info.json`` lacks it (then it is non-symmetric)."""
-        if obj_id not in self._warned_no_info:
-            self._warned_no_info.add(obj_id)
-            warnings.warn(
-                f"{info_path} has no entry for object {obj_id}; it is scored as non-symmetric: add "
-                f'"{obj_id}" there, or set dataset.symmetric.<category>=[x, y, z] if it is symmetric',
-                stacklevel=2,
-            )
 
     def discrete_symmetries(self, obj_id: int) -> tuple[np.ndarray, ...]:
         """``symmetries_discrete`` of ``models_info.json`` as (4, 4) transforms of the normalised
