@@ -3,7 +3,8 @@ of it, so that adding a method is its module and its config (``configs/method/<n
 no list elsewhere (small_gicp's benchmark: each engine one file that registers itself).
 
 The report's labels (:attr:`MethodSpec.display_name`), ``bench suite real`` (:attr:`MethodSpec.suite`),
-the API's up search and template preparation (:func:`needs_up`, :func:`prepare`) and the method tests (:attr:`MethodSpec.smoke_options`) read it.
+the API's up search and template preparation (:func:`needs_up`, :func:`prepare`) and the method
+tests (:attr:`MethodSpec.smoke_options`) read it.
 """
 
 from __future__ import annotations
