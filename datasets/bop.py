@@ -56,7 +56,7 @@ from catpose.datasets.layout_check import LayoutReport
 from catpose.datasets.mask_noise import corrupt_mask
 from catpose.datasets.meshio import R_template_file, read_mesh, sampled_template
 from catpose.datasets.render import PinholeCamera, render_depth
-from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.templates import TemplateOptions, TemplateSet
 from catpose.depth_frame import DepthFrame, scaled_depth
 from catpose.errors import ConfigError, DatasetError, InvalidInputError
 from catpose.geometry import apply_R, dot3, make_T, matmul3, norm3, normalize_to_unit_sphere, small_matmul, unit3
@@ -175,14 +175,17 @@ class BOP(ObjectDataset):
         self.mask = mask
         self.depth_tolerance_mm = float(depth_tolerance_mm)
         self.min_visible_pixels = int(min_visible_pixels)
-        self.plane_distance_mm = float(plane_distance_mm)
-        self.plane_iterations = int(plane_iterations)
-        self.plane_max_points = int(plane_max_points)
-        self.normal_radius = float(normal_radius)
-        self.max_points = int(max_points)
+        #: the frame -> view settings, as :func:`~catpose.datasets.frame_view.frame_view` takes them
+        self.frame_settings = FrameSettings(
+            float(normal_radius),
+            int(max_points),
+            float(plane_distance_mm),
+            int(plane_iterations),
+            int(plane_max_points),
+        )
         self.template_points = int(template.template_points)
         self.seed = int(seed)
-        self._templates = template.template_set(self.root, self.seed, self.instance_model)
+        self._templates = TemplateSet(template, self.root, self.seed, self.instance_model)
         self._json: dict[Path, Any] = {}
         self._models_mm: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._norm: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}
@@ -362,10 +365,14 @@ class BOP(ObjectDataset):
         if not path.is_file():
             return {}
         entry = self._read_json(path).get(str(obj_id))
-        if entry is None:
-            self._warn_no_info(path, obj_id)
-            return {}
-        return entry
+        if entry is None and obj_id not in self._warned_no_info:  # once per object: it is non-symmetric then
+            self._warned_no_info.add(obj_id)
+            warnings.warn(
+                f"{path} has no entry for object {obj_id}; it is scored as non-symmetric: add "
+                f'"{obj_id}" there, or set dataset.symmetric.<category>=[x, y, z] if it is symmetric',
+                stacklevel=2,
+            )
+        return {} if entry is None else entry
 
     def continuous_symmetries(self, obj_id: int) -> list[dict]:
         """Every ``symmetries_continuous`` entry, ``{"axis": (3,), "offset": (3,) mm}`` (model frame)."""
@@ -396,16 +403,6 @@ class BOP(ObjectDataset):
             return None
         R, _, _ = self.normalisation(obj_id)
         return unit3(apply_R(R, np.asarray(sym[0]["axis"], float)))
-
-    def _warn_no_info(self, info_path: Path, obj_id: int) -> None:
-        """Warn once per object that ``models_info.json`` lacks it (then it is non-symmetric)."""
-        if obj_id not in self._warned_no_info:
-            self._warned_no_info.add(obj_id)
-            warnings.warn(
-                f"{info_path} has no entry for object {obj_id}; it is scored as non-symmetric: add "
-                f'"{obj_id}" there, or set dataset.symmetric.<category>=[x, y, z] if it is symmetric',
-                stacklevel=2,
-            )
 
     def discrete_symmetries(self, obj_id: int) -> tuple[np.ndarray, ...]:
         """``symmetries_discrete`` of ``models_info.json`` as (4, 4) transforms of the normalised
@@ -449,17 +446,6 @@ class BOP(ObjectDataset):
         return self._instances[obj_id]
 
     # ------------------------------------------------------------------ frames
-
-    def frame_settings(self) -> FrameSettings:
-        """The dataset config's frame -> view settings (``normal_radius``, ``max_points``, the
-        ``plane_*`` keys), as :func:`~catpose.datasets.frame_view.frame_view` takes them."""
-        return FrameSettings(
-            normal_radius=self.normal_radius,
-            max_points=self.max_points,
-            plane_distance=self.plane_distance_mm,
-            plane_iterations=self.plane_iterations,
-            plane_max_points=self.plane_max_points,
-        )
 
     def instance_frame(self, obs_id: str) -> BopFrame:
         """The instance's depth frame (raw depth, ``cam_K``, its mask, corrupted when ``mask_noise`` >
@@ -534,7 +520,7 @@ class BOP(ObjectDataset):
         R_obj_model, centre, scale = self.normalisation(obj_id)
         # the same frame -> view path as catpose.register(DepthFrame(...)) (datasets/frame_view.py)
         try:
-            view = frame_view(bf.frame, scale, self.frame_settings(), exclude=bf.exclude, source=str(bf.depth_path))
+            view = frame_view(bf.frame, scale, self.frame_settings, exclude=bf.exclude, source=str(bf.depth_path))
         except NoGroundPlane as e:
             raise DatasetError(str(e)) from None
         depth_mm = float(np.median(bf.frame.depth_in_unit[bf.frame.object_pixels]))

@@ -159,7 +159,7 @@ def sample_outer_surface(
     Raises:
         DatasetError: the mesh has only zero-area faces, or fewer than 10 samples are visible.
     """
-    from catpose.raycast import cast_rays
+    from catpose.raycast import RayCaster
 
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     vertices = np.asarray(vertices, dtype=np.float64)
@@ -184,7 +184,7 @@ def sample_outer_surface(
     # (sample - eye) puts the sample itself at t_hit == 1 (float64, the same on every CPU)
     origins = np.repeat(eyes, n_cand, axis=0)
     d = np.tile(points, (n_views, 1)) - origins
-    t_hit = cast_rays(vertices, triangles, origins, d).reshape(n_views, n_cand)
+    t_hit = RayCaster(vertices, triangles).cast(origins, d).reshape(n_views, n_cand)
     tol = 1e-3 * r / norm3(d).reshape(n_views, n_cand)  # 1e-3 r (object units)
     visible = t_hit >= 1.0 - tol
     keep = np.nonzero(visible.any(axis=0))[0]

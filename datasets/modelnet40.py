@@ -29,7 +29,7 @@ from catpose.datasets.dataset import ObjectDataset, Observation, OptionGroup
 from catpose.datasets.layout_check import LayoutReport, check_templates
 from catpose.datasets.meshio import R_template_file, read_mesh, sampled_template
 from catpose.datasets.render import depth_to_points, render_depth
-from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.templates import TemplateOptions, TemplateSet
 from catpose.datasets.views import ImageOptions, ViewOptions, check_counts, kept_view, view_observation
 from catpose.errors import CatposeError, DatasetError
 from catpose.geometry import apply_R, matmul3, normalize_to_unit_sphere, stable_seed
@@ -93,7 +93,7 @@ class ModelNetBase(ObjectDataset):
         self.R_template_file = R_template_file(frame.up, frame.forward)
         self.symmetric = template.symmetry_axes()
         self.seed = int(seed)
-        self._templates = template.template_set(self.root, self.seed, self.instance_model)
+        self._templates = TemplateSet(template, self.root, self.seed, self.instance_model)
         self._ids: list[str] | None = None
 
     def check_alignment_covers(self, wanted: dict[str, list[str]] | None = None) -> None:

@@ -40,7 +40,7 @@ from catpose.datasets.dataset import ObjectDataset, Observation
 from catpose.datasets.depthio import fit_ground_plane, png_problem, png_size, read_depth, read_log_trajectory
 from catpose.datasets.layout_check import LayoutReport, check_templates
 from catpose.datasets.render import depth_to_points, estimate_normals
-from catpose.datasets.templates import TemplateOptions
+from catpose.datasets.templates import TemplateOptions, TemplateSet
 from catpose.datasets.views import pinhole_camera, subsample
 from catpose.errors import CatposeError, DatasetError
 from catpose.geometry import dot3, stable_seed
@@ -128,7 +128,7 @@ class Redwood(ObjectDataset):
         self.max_points = int(max_points)
         self.symmetric = template.symmetry_axes()
         self.seed = int(seed)
-        self._templates = template.template_set(self.root, self.seed)
+        self._templates = TemplateSet(template, self.root, self.seed)
         self._ids: list[str] | None = None
         self._frames: dict[str, list[Path]] = {}
         self._poses: dict[str, dict[int, np.ndarray] | None] = {}

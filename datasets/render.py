@@ -1,7 +1,7 @@
 """Depth rendering and back-projection with a pinhole camera.
 
 Rendering casts one ray per pixel with Open3D's ``RaycastingScene`` and recomputes each hit in
-float64 from the hit triangle (:func:`catpose.raycast.cast_rays`), so depth images are the same bits on every
+float64 from the hit triangle (:meth:`catpose.raycast.RayCaster.cast`), so depth images are the same bits on every
 CPU whatever code path Embree takes. Depth is the z coordinate in the camera frame (OpenCV:
 x right, y down, z forward), in the object-normalised unit, 0 where no surface was hit. The same camera model back-projects depth images from real
 sensors (BOP, Redwood), so synthetic and real views go through one code path.
@@ -15,7 +15,7 @@ import numpy as np
 
 from catpose.errors import ConfigError, InvalidInputError
 from catpose.geometry import transform_points
-from catpose.raycast import cast_rays  # noqa: F401  (catpose.datasets.render.cast_rays is its old home)
+from catpose.raycast import RayCaster
 
 
 def check_intrinsics(group: str, **values: float) -> None:
@@ -65,7 +65,7 @@ def render_depth(
     Pixel (row, col) is cast through image point (col, row), the OpenCV convention that
     :func:`depth_to_points` and real sensors' ``K`` use. The mesh is moved into the camera frame
     in closed form and each ray ``(0, (col - cx) / fx, (row - cy) / fy, 1)`` is cast by
-    :func:`cast_rays`, so the ray parameter is the depth itself.
+    :meth:`~catpose.raycast.RayCaster.cast`, so the ray parameter is the depth itself.
 
     Args:
         vertices: (V, 3) mesh vertices in the object frame.
@@ -79,7 +79,7 @@ def render_depth(
     v_camera = transform_points(np.asarray(T_camera_object, dtype=np.float64), np.asarray(vertices, dtype=np.float64))
     rows, cols = np.mgrid[0 : camera.height, 0 : camera.width].astype(np.float64)
     dirs = np.stack([(cols - camera.cx) / camera.fx, (rows - camera.cy) / camera.fy, np.ones_like(cols)], axis=-1)
-    z = cast_rays(v_camera, triangles, np.zeros(3), dirs)
+    z = RayCaster(v_camera, triangles).cast(np.zeros(3), dirs)
     return np.where(np.isfinite(z), z, 0.0).astype(np.float32)
 
 

@@ -38,41 +38,23 @@ class TemplateOptions(OptionGroup):
         """category -> (3,) main axis, float64."""
         return {k: np.asarray(v, float) for k, v in (self.symmetric or {}).items()}
 
-    def template_set(self, root: str | Path, seed: int, instance_loader=None) -> TemplateSet:
-        """The templates, relative paths under ``templates_root`` (None: ``root``); an instance-id
-        entry is loaded by ``instance_loader(category, instance_id)``."""
-        return TemplateSet(
-            self.templates,
-            self.templates_root or root,
-            int(self.template_points),
-            seed,
-            instance_loader=instance_loader,
-        )
-
 
 class TemplateSet:
-    """The configured templates of each category, loaded once and kept.
+    """The configured templates of each category (``options.templates``), loaded once and kept.
 
-    ``entries`` maps a category to a list of entries, each one of:
+    ``options.templates`` maps a category to a list of entries, each one of:
 
     - a mesh path (``.off``/``.obj``/``.ply``) or a mapping ``{path, up, forward, scale,
       template_id, symmetry_axis}`` (:func:`template_spec`); relative paths are resolved
-      against ``base_dir``;
+      against ``options.templates_root`` (None: ``root``, the dataset's);
     - an instance id of the dataset (a string without a mesh suffix, or ``{instance: id}``),
       loaded with ``instance_loader(category, instance_id)`` (e.g. ModelNet40 training shapes).
     """
 
-    def __init__(
-        self,
-        entries: dict | None,
-        base_dir: str | Path | None,
-        n_points: int = 2048,
-        seed: int = 0,
-        instance_loader=None,
-    ) -> None:
-        self.entries = {str(k): list(v or []) for k, v in (entries or {}).items()}
-        self.base_dir = None if base_dir is None else Path(base_dir)
-        self.n_points = int(n_points)
+    def __init__(self, options: TemplateOptions, root: str | Path, seed: int = 0, instance_loader=None) -> None:
+        self.entries = {str(k): list(v or []) for k, v in (options.templates or {}).items()}
+        self.base_dir = Path(options.templates_root or root)
+        self.n_points = int(options.template_points)
         self.seed = int(seed)
         self.instance_loader = instance_loader
         self._cache: dict[str, list[Template]] = {}

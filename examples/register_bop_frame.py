@@ -64,7 +64,7 @@ def bop_instance(root: str, scene: int, im: int, obj: int, instance: int = 0, da
     obs_id = f"{category}/{scene:06d}/{im:06d}/{indices[instance]}"
     R, centre, scale = ds.normalisation(obj)
     axis = ds.symmetry_axis(obj, category)
-    settings, bf = ds.frame_settings(), ds.instance_frame(obs_id)
+    settings, bf = ds.frame_settings, ds.instance_frame(obs_id)
     return {
         "frame": bf.frame,
         "template": NormalisedTemplate(ds.instance_model(category, f"obj_{obj:06d}"), R, centre, scale),

@@ -3,8 +3,8 @@ of it, so that adding a method is its module and its config (``configs/method/<n
 no list elsewhere (small_gicp's benchmark: each engine one file that registers itself).
 
 The report's labels (:attr:`MethodSpec.display_name`), ``bench suite real`` (:attr:`MethodSpec.suite`),
-the API's up search and template preparation (:meth:`MethodSpec.needs_up`,
-:meth:`MethodSpec.prepare`) and the method tests (:attr:`MethodSpec.smoke_options`) read it.
+the API's up search and template preparation (:func:`needs_up`, :func:`prepare`) and the method
+tests (:attr:`MethodSpec.smoke_options`) read it.
 """
 
 from __future__ import annotations
@@ -52,15 +52,6 @@ class MethodSpec:
     requires: str | None = None
     smoke_options: Mapping[str, Any] = field(default_factory=dict)
 
-    def needs_up(self, method: Any) -> bool:
-        """Whether the built ``method`` reads the ground normal."""
-        return bool(self.uses_up(method) if callable(self.uses_up) else self.uses_up)
-
-    def prepare(self, method: Any, template: Any) -> None:
-        """Build ``method``'s per-template data for ``template`` now (nothing for most methods)."""
-        if self.prepare_template is not None:
-            self.prepare_template(method, template)
-
     def suite_rows(self) -> tuple[SuiteRow, ...]:
         return (SuiteRow(self.name),) if self.suite is None else self.suite
 
@@ -94,3 +85,19 @@ def spec_of(method: Any) -> MethodSpec | None:
     unregistered class, such as a user's own :class:`~catpose.methods.method.RegistrationMethod`)."""
     by_class = {s.cls: s for s in registered().values()}
     return next((by_class[c] for c in type(method).__mro__ if c in by_class), None)
+
+
+def needs_up(method: Any) -> bool:
+    """Whether the built ``method`` reads the ground normal (its spec's ``uses_up``; ours, a baseline
+    on LPS features): then the API searches up directions when the caller gives none."""
+    spec = spec_of(method)
+    return spec is not None and bool(spec.uses_up(method) if callable(spec.uses_up) else spec.uses_up)
+
+
+def prepare(method: Any, template: Any) -> None:
+    """Build ``method``'s per-template data for ``template`` (object-normalised) now instead of on
+    its first registration, where its spec has a ``prepare_template`` (ours: dictionaries,
+    descriptors, ray caster, loaded from the disk cache when there)."""
+    spec = spec_of(method)
+    if spec is not None and spec.prepare_template is not None:
+        spec.prepare_template(method, template)

@@ -40,7 +40,7 @@ def api_inputs(ds, sample_id: str, obj: int) -> tuple:
     from catpose.api.inputs import NormalisedTemplate
 
     template = NormalisedTemplate(ds.instance_model(sample_id.split("/")[0], f"obj_{obj:06d}"), *ds.normalisation(obj))
-    settings = ds.frame_settings()
+    settings = ds.frame_settings
     options = {"max_points": settings.max_points, "plane_distance": settings.plane_distance}
     return ds.instance_frame(sample_id).frame, template, options
 

@@ -12,7 +12,7 @@ import pytest
 
 from catpose.bench.protocols.absolute import Templates, choose_row
 from catpose.bench.run import sample_run
-from catpose.bench.run.sample_run import ChoiceFacts, facts_hook
+from catpose.bench.run.sample_run import facts_hook
 from catpose.errors import ConfigError
 from catpose.geometry import axis_angle_to_R
 from catpose.methods.choice_rules import CROSS_WEIGHT, TOP_WEIGHT, choose_index, cross_cost
@@ -193,7 +193,7 @@ class _Hook:
     def __init__(self, facts=None, error=None):
         self.facts, self.error = facts, error
 
-    def estimate_facts(self, dataset, sample, T):
+    def __call__(self, dataset, sample, T):
         assert T.shape == (4, 4)
         if self.error:
             raise self.error
@@ -283,12 +283,12 @@ def test_the_runners_hook_writes_the_costs_and_the_top_offset_on_the_protocols_t
     sample = SimpleNamespace(problem=SimpleNamespace(points_camera=P, category="chair", sample_id="chair/c/v00|1"))
     assert Templates().view_templates(dataset, sample) == (templates, 1)
     hook = facts_hook(Templates(), TemplateChoice(rule="cross"))
-    facts = hook.estimate_facts(dataset, sample, T)
+    facts = hook(dataset, sample, T)
     assert facts["cross_costs"] == cross_costs(P, T, templates, 1)
     assert facts["top_offset"] == top_offset(P, T, templates, 1)
     assert facts["cross_check_s"] >= 0.0
     one = SimpleNamespace(category_templates=lambda category: templates[:1])
-    assert ChoiceFacts(Templates(), TemplateChoice(rule="cross")).estimate_facts(one, sample, T) == {}
+    assert hook(one, sample, T) == {}
     from catpose.bench.protocols.absolute import GtModel
 
     assert facts_hook(GtModel(), TemplateChoice()) is None and facts_hook(Templates(), None) is None

@@ -12,7 +12,7 @@ from catpose.datasets.meshio import (
     read_mesh,
     sample_outer_surface,
 )
-from catpose.datasets.templates import TemplateSet, load_template
+from catpose.datasets.templates import TemplateOptions, TemplateSet, load_template
 from catpose.errors import DatasetError
 
 # an asymmetric box: 4 x 2 x 1 (x, y, z), corner at the origin
@@ -135,20 +135,16 @@ def test_template_set_resolves_paths_instances_and_bad_entries(tmp_path):
         calls.append((category, instance_id))
         return load_template(category, {"path": str(tmp_path / "box.off"), "template_id": instance_id}, n_points=100)
 
-    ts = TemplateSet(
-        {"box": ["box.off", {"path": "box.off", "up": "+x", "forward": "+y"}, "inst_1"]},
-        tmp_path,
-        n_points=100,
-        instance_loader=loader,
-    )
+    entries = {"box": ["box.off", {"path": "box.off", "up": "+x", "forward": "+y"}, "inst_1"]}
+    ts = TemplateSet(TemplateOptions(entries, template_points=100), tmp_path, instance_loader=loader)
     got = ts.get("box")
     assert [t.template_id for t in got] == ["box/box", "box/box", "inst_1"] and calls == [("box", "inst_1")]
     assert ts.get("box")[0] is got[0]  # loaded once
     assert ts.get("other") == []
     with pytest.raises(DatasetError, match="unknown keys"):
-        TemplateSet({"box": [{"path": "box.off", "upp": "+z"}]}, tmp_path).get("box")
+        TemplateSet(TemplateOptions({"box": [{"path": "box.off", "upp": "+z"}]}), tmp_path).get("box")
     with pytest.raises(DatasetError, match="no instances"):
-        TemplateSet({"box": ["inst_2"]}, tmp_path).get("box")
+        TemplateSet(TemplateOptions({"box": ["inst_2"]}), tmp_path).get("box")
 
 
 @pytest.mark.data

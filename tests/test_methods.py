@@ -79,9 +79,9 @@ def _state(obj) -> object:
 def test_labels_the_real_suite_and_the_api_read_the_registry():
     """A registered method is in the report's labels, ``bench suite``'s rows and the API's up search
     without any of those files naming it (``gicp`` was added as its module and its config only)."""
-    from catpose.api.method_cache import uses_up
     from catpose.bench.real.suite_sets import METHODS
     from catpose.bench.report.labels import display_name
+    from catpose.methods.registry import needs_up
 
     for name, spec in SPECS.items():
         assert display_name(name) == spec.display_name
@@ -90,5 +90,5 @@ def test_labels_the_real_suite_and_the_api_read_the_registry():
     assert display_name("gicp") == "GICP" and METHODS["gicp"].overrides == ()
     assert list(METHODS)[:3] == ["ours", "ours-visibility", "icp"]  # the rows' order: their ranks
     build = catpose.build_method
-    assert uses_up(build("ours")) and uses_up(build("fgr", features="lps"))
-    assert not uses_up(build("icp")) and not uses_up(build("fgr"))
+    assert needs_up(build("ours")) and needs_up(build("fgr", features="lps"))
+    assert not needs_up(build("icp")) and not needs_up(build("fgr"))

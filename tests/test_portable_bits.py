@@ -7,7 +7,7 @@ Two checks. The first runs the sample-making code under every code path this CPU
 NumPy without AVX-512) and compares hashes of everything a method or the scorer reads. The second
 reads the source: no BLAS product, 1-D ``np.linalg.norm`` or CPU-dispatched NumPy transcendental
 is left under ``datasets/`` and ``src/catpose/`` (Embree's path cannot be switched from here;
-:func:`catpose.raycast.cast_rays` recomputes every hit in float64, tested in
+:meth:`catpose.raycast.RayCaster.cast` recomputes every hit in float64, tested in
 ``test_render.py``).
 """
 
@@ -30,7 +30,7 @@ import hashlib, json, os
 import numpy as np
 from catpose.bench.run.environment import numpy_blas_kernel
 from catpose.bench.protocols.absolute import GtModel
-from catpose.datasets.render import cast_rays
+from catpose.raycast import RayCaster
 from catpose.datasets.shapes import make_shape
 from catpose.datasets.synthetic import SyntheticDataset
 from catpose.datasets.views import ImageOptions, ViewOptions
@@ -61,7 +61,7 @@ for t in plain.category_templates("airplane"):
 mesh = make_shape("car", np.random.default_rng(0))
 rng = np.random.default_rng(1)
 origins = rng.normal(size=(20000, 3)) * 0.1 + np.array([0.0, 0.0, -3.0])
-out["rays"] = digest(cast_rays(mesh.vertices, mesh.faces, origins, -origins + rng.normal(size=(20000, 3)) * 0.3))
+out["rays"] = digest(RayCaster(mesh.vertices, mesh.faces).cast(origins, -origins + rng.normal(size=(20000, 3)) * 0.3))
 print(json.dumps(out))
 """
 

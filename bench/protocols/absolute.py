@@ -319,11 +319,6 @@ def choose_row(group, choice: str | ChoiceRule = DEFAULT_RULE):
     return row
 
 
-def has_turns(group) -> bool:
-    """Whether any row of ``group`` (rows of ``samples.jsonl``) carries ``info["turns"]``."""
-    return "info" in group and any(isinstance(i, dict) and i.get("turns") for i in group["info"])
-
-
 def _set_estimate(row, T_est: np.ndarray) -> None:
     """Give the chosen ``row`` the estimate ``T_est`` (4, 4) and its errors (where it has a ``T_gt``)."""
     from catpose.bench.scoring.metrics import sample_errors

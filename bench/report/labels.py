@@ -12,7 +12,7 @@ from typing import Any
 
 from catpose.bench.report.runs import Run
 from catpose.bench.report.tables_compare import config_key, data_of, seed_of
-from catpose.bench.run.rundir import SUBSET_KEYS
+from catpose.bench.run.rundir import RUN_LEVEL_KEYS, SUBSET_KEYS
 from catpose.errors import ConfigError
 
 #: display names of methods outside catpose, scored from their own files (``bench score --method``);
@@ -69,23 +69,9 @@ def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
     return out
 
 
-#: run-level keys that do not change what a run directory holds (its name leaves them out;
-#: ``limit`` and ``sample_ids`` do: a subset run has its own directory and label)
-RUN_LEVEL_KEYS = (
-    "output_root",
-    "progress",
-    "print_summary",
-    "threads",
-    "batch",
-    "retry_failed",
-    "lock_timeout",
-    "log_level",
-)
-
-
 def _overrides(run: Run) -> list[str]:
     """The command-line overrides the runner recorded beside the run (``overrides.txt``), less the
-    run-level keys (:data:`RUN_LEVEL_KEYS`) and Hydra's own."""
+    run-level keys (:data:`~catpose.bench.run.rundir.RUN_LEVEL_KEYS`) and Hydra's own."""
     f = run.path / "overrides.txt"
     if not f.is_file():
         return []

@@ -16,15 +16,11 @@ import platform
 from importlib import metadata
 from typing import Any
 
-PACKAGES = ("numpy", "scipy", "open3d-cpu", "open3d", "torch", "trimesh", "hydra-core", "numba")
-#: environment variables that choose a library's code path (recorded with every run)
-NUMERIC_ENV = (
-    "OPENBLAS_CORETYPE",
-    "NPY_DISABLE_CPU_FEATURES",
-    "ATEN_CPU_CAPABILITY",
-    "NUMBA_CPU_NAME",
-    "MKL_ENABLE_INSTRUCTIONS",
-)
+from catpose.disk_cache import LIBRARIES, NUMERIC_ENV
+
+#: the packages whose versions every run records: the numerical libraries (those the disk cache's
+#: keys name) and Hydra; the variables of :data:`~catpose.disk_cache.NUMERIC_ENV` set are recorded too
+PACKAGES = (*LIBRARIES, "hydra-core")
 _CACHE: dict[str, Any] = {}
 
 

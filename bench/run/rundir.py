@@ -41,23 +41,20 @@ log = logging.getLogger(__name__)
 #: run-level keys that take a subset of the samples (the run's directory name and hash spell them)
 SUBSET_KEYS = ("limit", "sample_ids")
 
-_RUN_KEYS_EXCLUDED_FROM_TAG = {
-    "method",
-    "dataset",
-    "protocol",
-    "seed",
+#: run-level keys that do not change what a run directory holds (its name and the report's labels
+#: leave them out; the subset keys do change it)
+RUN_LEVEL_KEYS = (
     "output_root",
     "progress",
+    "print_summary",
     "threads",
     "batch",
     "retry_failed",
-    "print_summary",
     "lock_timeout",
     "log_level",
-    # an experiment's rows name themselves
-    "label",
-    "experiment",
-}
+)
+# an experiment's rows name themselves (label, experiment)
+_RUN_KEYS_EXCLUDED_FROM_TAG = {"method", "dataset", "protocol", "seed", *RUN_LEVEL_KEYS, "label", "experiment"}
 
 
 def run_dir_for(cfg: Any, overrides: Iterable[str] = ()) -> Path:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -92,40 +93,33 @@ def _register_one(method: Any, row: dict, sample: Any, seed: int) -> dict:
     return _scored(row, sample, result, time.perf_counter() - t0)
 
 
-class ChoiceFacts:
+def facts_hook(protocol: Any, chooser: Any) -> Callable[[Any, Any, np.ndarray], dict] | None:
     """The facts hook of a run whose protocol keeps one of a view's K template registrations:
-    ``estimate_facts(dataset, sample, T_template_camera)``, the choice's (``chooser``,
+    ``hook(dataset, sample, T_template_camera)``, the choice's (``chooser``,
     :class:`catpose.methods.template_choice.TemplateChoice`) facts about one finished estimate
     (4, 4) on the templates ``protocol`` gives its view (the cross check's ICP, the top offset, the
-    turned candidates); stored in the row's ``info``, where the protocol's scoring applies the rule."""
-
-    def __init__(self, protocol: Any, chooser: Any) -> None:
-        self.protocol = protocol
-        self.chooser = chooser
-
-    def estimate_facts(self, dataset: Any, sample: Any, T_template_camera: np.ndarray) -> dict:
-        templates, own = self.protocol.view_templates(dataset, sample)
-        return self.chooser.estimate_facts(sample.problem.points_camera, templates, own, T_template_camera)
-
-
-def facts_hook(protocol: Any, chooser: Any) -> ChoiceFacts | None:
-    """The hook of a run: None unless the protocol lists a view's templates (``templates``, and
-    ``relative`` with category templates) and the run has a choice
-    (:func:`catpose.bench.run.build.build_choice`)."""
+    turned candidates); stored in the row's ``info``, where the protocol's scoring applies the rule.
+    None unless the protocol lists a view's templates (``templates``, and ``relative`` with category
+    templates) and the run has a choice (:func:`catpose.bench.run.build.build_choice`)."""
     if chooser is None or getattr(protocol, "view_templates", None) is None:
         return None
-    return ChoiceFacts(protocol, chooser)
+
+    def estimate_facts(dataset: Any, sample: Any, T_template_camera: np.ndarray) -> dict:
+        templates, own = protocol.view_templates(dataset, sample)
+        return chooser.estimate_facts(sample.problem.points_camera, templates, own, T_template_camera)
+
+    return estimate_facts
 
 
 def _with_estimate_facts(facts_hook: Any, dataset: Any, row: dict, sample: Any) -> dict:
-    """``row`` with the facts about its finished estimate added to ``info``
-    (``facts_hook.estimate_facts``: a templates run's choice facts, :class:`ChoiceFacts`);
-    a failed row, or no hook, is returned as it is. An error there is the sample's own: the
-    estimate stays, and ``info["estimate_facts_error"]`` says why its facts are missing."""
-    if row.get("status") != "ok" or not hasattr(facts_hook, "estimate_facts"):
+    """``row`` with the facts about its finished estimate added to ``info`` (a templates run's
+    choice facts, :func:`facts_hook`); a failed row, or no hook, is returned as it is. An error
+    there is the sample's own: the estimate stays, and ``info["estimate_facts_error"]`` says why
+    its facts are missing."""
+    if row.get("status") != "ok" or facts_hook is None:
         return row
     try:
-        facts = facts_hook.estimate_facts(dataset, sample, np.asarray(row["T_est"], float).reshape(4, 4))
+        facts = facts_hook(dataset, sample, np.asarray(row["T_est"], float).reshape(4, 4))
     except _NOT_THE_SAMPLES_FAULT:
         raise
     except Exception as e:  # noqa: BLE001 - recorded with the sample, the run goes on

@@ -271,14 +271,14 @@ def render_depth(
     vertices: np.ndarray, triangles: np.ndarray, R: np.ndarray, t: np.ndarray, K: np.ndarray, width: int, height: int
 ) -> np.ndarray:
     """z-depth (H, W) float64 of a mesh (vertices (V, 3), triangles (F, 3)) at pose ``R, t``, one
-    ray per pixel centre cast by :func:`catpose.datasets.render.cast_rays` (the renderer of the
+    ray per pixel centre cast by :meth:`catpose.raycast.RayCaster.cast` (the renderer of the
     datasets: Embree finds the hit triangle, the depth is recomputed from it in float64, the same
     bits on every CPU); 0 where no surface. Units of the vertices."""
-    from catpose.datasets.render import cast_rays
+    from catpose.raycast import RayCaster
 
     x, y = _pixel_rays(K, width, height)
     dirs = np.stack([x, y, np.ones_like(x)], axis=-1)
-    z = cast_rays(_transform(R, t, vertices), triangles, np.zeros(3), dirs)  # along dirs with z = 1: s = depth
+    z = RayCaster(_transform(R, t, vertices), triangles).cast(np.zeros(3), dirs)  # along dirs with z = 1: s = depth
     return np.where(np.isfinite(z), z, 0.0)
 
 

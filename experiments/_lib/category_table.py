@@ -33,6 +33,11 @@ from catpose.errors import CatposeError, ConfigError
 STATS = ("mean", "median", "acc10", "acc30")
 
 
+def has_turns(group) -> bool:
+    """Whether any row of ``group`` (rows of ``samples.jsonl``) carries ``info["turns"]``."""
+    return "info" in group and any(isinstance(i, dict) and i.get("turns") for i in group["info"])
+
+
 def error_stats(err: np.ndarray) -> dict[str, float]:
     """Mean and median (degrees) and the fractions under 10 and 30 degrees of ``err`` (n,)."""
     err = np.asarray(err, float)
@@ -67,7 +72,7 @@ def run_rows(run, category: str | None, choices: Sequence[str]) -> list[dict]:
     (``choice.one_template_turns``). Each rule weighs as the run's ``choice`` group does."""
     import dataclasses
 
-    from catpose.bench.protocols.absolute import Templates, absolute_gt_only, has_turns
+    from catpose.bench.protocols.absolute import Templates, absolute_gt_only
     from catpose.methods.choice_rules import TURN_RULES
 
     samples = absolute_gt_only(run.samples)

@@ -242,7 +242,9 @@ def why_rows(run_dir: Path, choice: str | None = None, wrong_deg: float = WRONG_
 
     import pandas as pd
 
-    from catpose.bench.protocols.absolute import has_turns
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from category_table import has_turns  # the sibling script (experiments/_lib/category_table.py)
+
     from catpose.bench.run.evaluate import recompute_row_errors
     from catpose.bench.run.rundir import latest_rows
     from catpose.methods.choice_rules import CROSS_RULES, check_rule

@@ -49,7 +49,7 @@ def rows(root: Path) -> tuple[list[dict], float, float]:
         if obj not in registrars:  # the model as the loader normalises it
             model = ds.instance_model(sample_id.split("/")[0], f"obj_{obj:06d}")
             registrars[obj] = catpose.Registrar(NormalisedTemplate(model, *ds.normalisation(obj)), "ours")
-        settings = ds.frame_settings()
+        settings = ds.frame_settings
         frame = ds.instance_frame(sample_id).frame  # raw depth, cam_K, mask, depth_scale to mm
         t0 = time.perf_counter()
         api = registrars[obj](frame, max_points=settings.max_points, plane_distance=settings.plane_distance)

@@ -36,8 +36,8 @@ log = logging.getLogger(__name__)
 
 #: the numerical libraries whose versions every key includes
 LIBRARIES = ("numpy", "scipy", "open3d-cpu", "open3d", "trimesh", "numba", "torch")
-#: environment variables that choose a numerical library's code path (those that
-#: ``catpose.bench.run.environment`` records with every run, and a few more)
+#: environment variables that choose a numerical library's code path (``bench run`` records those
+#: set with every run, :mod:`catpose.bench.run.environment`)
 NUMERIC_ENV = (
     "OPENBLAS_CORETYPE",
     "NPY_DISABLE_CPU_FEATURES",

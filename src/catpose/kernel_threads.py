@@ -118,9 +118,7 @@ def chunks(n_items: int, n: int) -> list[tuple[int, int]]:
     """``n_items`` split into at most ``n`` contiguous ``(start, stop)`` ranges, sizes within one."""
     n = max(1, min(n, n_items))
     q, r = divmod(n_items, n)
-    bounds = [0]
-    for i in range(n):
-        bounds.append(bounds[-1] + q + (i < r))
+    bounds = list(itertools.accumulate((q + (i < r) for i in range(n)), initial=0))
     return list(zip(bounds[:-1], bounds[1:]))
 
 

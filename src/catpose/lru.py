@@ -53,13 +53,3 @@ class LRUCache(Generic[K, V]):
 
     def clear(self) -> None:
         self._data.clear()
-
-    def keys(self) -> list[K]:
-        """Keys from least to most recently used."""
-        return list(self._data)
-
-    def __contains__(self, key: object) -> bool:
-        return key in self._data
-
-    def __len__(self) -> int:
-        return len(self._data)

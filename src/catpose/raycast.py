@@ -9,7 +9,7 @@ given triangle does not (closed form, no BLAS).
 Both the datasets (depth rendering, :mod:`catpose.datasets.render`) and the methods (ours'
 depth-image verification, :mod:`catpose.methods.ours.check`) cast rays, so the helper lives here,
 where both may import it. :class:`RayCaster` keeps one scene per mesh for repeated casts (a
-method scoring many poses of one template); :func:`cast_rays` is the one-shot form.
+method scoring many poses of one template).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 
 from catpose.geometry import norm3
 
-__all__ = ["RayCaster", "cast_rays"]
+__all__ = ["RayCaster"]
 
 
 class RayCaster:
@@ -95,17 +95,3 @@ def _plane_hits(o, d, prim, t_embree, invalid, v0, normals, normal_lengths, out)
         s_hit = num / (1.0 if nd == 0.0 else nd)
         grazing = np.abs(nd) < 1e-9 * normal_lengths[k] * np.sqrt(dx * dx + dy * dy + dz * dz)
         out[i] = t if grazing else s_hit
-
-
-def cast_rays(vertices: np.ndarray, triangles: np.ndarray, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    """Ray parameter ``s`` of the first hit along ``origins + s * directions``, in float64
-    (:meth:`RayCaster.cast` on a scene built for this one call).
-
-    Args:
-        vertices: (V, 3) mesh vertices; triangles: (F, 3) vertex indices.
-        origins, directions: (..., 3) rays in the vertices' frame (directions need not be unit).
-
-    Returns:
-        (...) float64 ray parameters, ``inf`` where the ray hits nothing.
-    """
-    return RayCaster(vertices, triangles).cast(origins, directions)

@@ -2,9 +2,8 @@
 with PyYAML, its defaults list resolved from ``configs/<group>/<name>.yaml`` as Hydra composes it,
 the keyword options merged in, and every ``_target_`` built with plain arguments (children first,
 as Hydra's ``instantiate``). The constructors check their arguments (one line naming the option);
-the method registry (:mod:`catpose.methods.registry`) says which methods there are, which read the
-ground normal and which prepare a template ahead. ``tests/test_api_bench_agreement.py`` checks that
-this gives ``bench run``'s method, pose for pose."""
+the method registry (:mod:`catpose.methods.registry`) says which methods there are.
+``tests/test_api_bench_agreement.py`` checks that this gives ``bench run``'s method, pose for pose."""
 
 from __future__ import annotations
 
@@ -16,7 +15,7 @@ from typing import Any
 from catpose.errors import CatposeError, InvalidInputError, one_line
 from catpose.lru import LRUCache
 
-__all__ = ["build_method", "prepare_template", "read_config", "uses_up"]
+__all__ = ["build_method", "read_config"]
 
 #: Methods built from configs, reused across calls (their template caches with them).
 _METHODS: LRUCache[tuple, Any] = LRUCache(4)
@@ -138,23 +137,3 @@ def build_method(name: str, **options: Any) -> Any:
         raise InvalidInputError(f"options {sorted(options)} of method {name!r}: {one_line(e)}") from None
     _METHODS.put(key, built)
     return built
-
-
-def uses_up(method: Any) -> bool:
-    """Whether the method reads the ground normal (its registry entry says; ours, a baseline on LPS
-    features): then the API searches up directions when the caller gives none."""
-    from catpose.methods.registry import spec_of
-
-    spec = spec_of(method)
-    return spec is not None and spec.needs_up(method)
-
-
-def prepare_template(method: Any, template: Any) -> None:
-    """Build ``method``'s per-template data for ``template`` (object-normalised) now instead of on
-    the first registration, as its registry entry says (ours: dictionaries, descriptors, ray caster,
-    loaded from the disk cache when there); other methods build theirs on their first call."""
-    from catpose.methods.registry import spec_of
-
-    spec = spec_of(method)
-    if spec is not None:
-        spec.prepare(method, template)

@@ -13,11 +13,12 @@ from typing import Any
 import numpy as np
 
 from catpose.api.inputs import NormalisedTemplate, direction_arg, normalised_template, unit_warning
-from catpose.api.method_cache import build_method, prepare_template, uses_up
+from catpose.api.method_cache import build_method
 from catpose.api.observation import Observed, observed
 from catpose.api.result import Registration
 from catpose.errors import CatposeError, InvalidInputError, RegistrationFailed
 from catpose.geometry import apply_R, make_T, matmul3, seed_everything, unit3
+from catpose.methods import registry
 from catpose.types import RegistrationProblem, RegistrationResult
 
 __all__ = ["Registrar", "UP_HYPOTHESES"]
@@ -75,9 +76,9 @@ class Registrar:
         t_up = direction_arg("template_up", template_up)
         points = _count("template_points", template_points, 1)
         self.template: NormalisedTemplate = normalised_template(template, template_normals, t_up, points)
-        self.needs_up = uses_up(self.method)
+        self.needs_up = registry.needs_up(self.method)
         if prepare:
-            prepare_template(self.method, self.template.template)
+            registry.prepare(self.method, self.template.template)
 
     def __call__(
         self,
