@@ -1,7 +1,7 @@
 """The product's size ceiling (docs/architecture.md, "Conventions the layout keeps"): the Python in
 ``bench/``, ``methods/``, ``datasets/`` and ``src/`` may not grow past :data:`CEILING` lines, so a
-change pays for what it adds by removing. The project's goal is :data:`GOAL`; the ceiling is lowered
-as lines go (never raised) until it reaches the goal."""
+change pays for what it adds by removing. The project's goal is :data:`GOAL`, and the
+ceiling has reached it: it is never raised."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 PRODUCT = ("bench", "methods", "datasets", "src")
 GOAL = 25_000
-CEILING = 26_200
+CEILING = 25_000
 
 
 def product_lines(root: Path) -> int:
