@@ -245,11 +245,11 @@ def test_dictionary_features_are_cached_once_per_descriptor_and_bounded(easy) ->
     a = DF.dictionary_features(LPS(), layout, template, 64)
     assert DF.dictionary_features(LPS(), DictionaryLayout(), template, 64) is a  # equal parameters: shared
     b = DF.dictionary_features(LPS(tau=0.02), layout, template, 64)  # other parameters: not
-    assert b is not a and len(DF._CACHE) == 2
+    assert b is not a and len(DF._CACHE._data) == 2
     assert a.keypoints.shape == (len(layout.dictionary(template).points), 64, 3) and np.all(a.counts <= 64)
     for k in range(DF.CACHE_SIZE + 2):
         DF.dictionary_features(LPS(), layout, template, 8 + k)
-    assert len(DF._CACHE) == DF.CACHE_SIZE
+    assert len(DF._CACHE._data) == DF.CACHE_SIZE
 
 
 @pytest.mark.parametrize("method", ["fgr", "ransac", "teaser", "ppf"])
