@@ -3,7 +3,7 @@ survives it? One JSON line per sample (study: README.md).
 
     python experiments/depth_check_masks/rescore.py OUT.jsonl SEED [noise:COMPONENT] [OVERRIDE ...]
 
-Ours runs as ``bench run`` runs it (``experiments/rest_recall/rest_recall.py``'s problem building:
+Ours runs as ``bench run`` runs it (``experiments/_lib/sample_rows.py``'s problem building:
 same problems, same per-sample seed), its answer and found@10 (the best pose it held at any stage,
 ``extras["hypothesis_stages"]``) are recorded, and then ours' held poses (the stages ``pool``,
 ``expanded`` and ``final_refine``) are re-scored here, on ours' final lattice
@@ -28,6 +28,8 @@ from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
 
 _SQUARE = np.ones((3, 3), dtype=bool)
 STAGES = ("pool", "expanded", "final_refine")
@@ -156,10 +158,9 @@ def patch_check(variant: str) -> None:
 
 
 def main(argv: list[str]) -> int:
-    from catpose import kernel_threads
-    from catpose.bench.run.config import compose_and_build
-    from catpose.bench.scoring.metrics import pose_errors_deg, sample_errors, stage_errors
-    from catpose.geometry import seed_everything, stable_seed
+    from sample_rows import answer_errors, build, done_ids, register_seeded
+
+    from catpose.bench.scoring.metrics import pose_errors_deg
     from catpose.methods.ours.check import final_verifier
 
     out, seed = Path(argv[0]), int(argv[1])
@@ -171,14 +172,8 @@ def main(argv: list[str]) -> int:
             bop.corrupt_mask = component_noise(item[len("noise:") :])
         elif item.startswith("check:"):
             patch_check(item[len("check:") :])
-    overrides = [a for a in rest if not a.startswith(("noise:", "check:"))]
-    cfg, [(_, method), (_, dataset), (_, protocol)] = compose_and_build(
-        ["method=ours", f"seed={seed}", "threads=1", *overrides], ["method", "dataset", "protocol"]
-    )
-    kernel_threads.set_threads(cfg.get("threads"))
-    done = set()
-    if out.exists():
-        done = {json.loads(line)["sample_id"] for line in out.read_text().splitlines() if line.strip()}
+    _, method, dataset, protocol = build(seed, [a for a in rest if not a.startswith(("noise:", "check:"))])
+    done = done_ids(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     t_all = time.time()
     with out.open("a") as f:
@@ -187,19 +182,10 @@ def main(argv: list[str]) -> int:
                 continue
             s = protocol.load(dataset, sid)
             p, gt = s.problem, s.gt
-            seed_everything(stable_seed(seed, sid))
-            r = method.register(p)
-            T = np.asarray(r.T_template_camera, float)
-            err = sample_errors(T, gt.T_template_camera, gt.symmetry_axis, gt.symmetries)["err_deg"]
+            r, _ = register_seeded(method, p, seed, sid)
+            _, err, _, found = answer_errors(r, gt)
             hs = r.extras.get("hypothesis_stages", {})
-            stages = stage_errors(hs, gt.T_template_camera, gt.symmetry_axis, gt.symmetries)
-            row = {
-                "sample_id": sid,
-                "seed": seed,
-                "category": p.category,
-                "err_deg": float(err),
-                "found_err_deg": float(np.nanmin([err, *stages.values()])),
-            }
+            row = {"sample_id": sid, "seed": seed, "category": p.category, "err_deg": err, "found_err_deg": found}
             held = [np.asarray(hs[k], float).reshape(-1, 4, 4) for k in STAGES if k in hs and len(hs[k])]
             if held and p.depth_image is not None:
                 H = np.concatenate(held)

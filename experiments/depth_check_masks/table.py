@@ -8,11 +8,13 @@ each with ``clutter-seed{0,1,2}.jsonl`` and ``ycbv1-seed{0,1,2}.jsonl``.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
+from sample_rows import read_rows, spread  # noqa: E402  (experiments/_lib/sample_rows.py)
 
 SOURCES = {"clutter": "clutter dev scenes 0-49", "ycbv1": "YCB-V scene 1"}
 LABELS = {
@@ -34,19 +36,6 @@ CHECKS = {
     "trim30": "trimmed 30 %",
     "grow3": "grown 3 px in MAD band c=3",
 }
-
-
-def load(path: Path) -> list[dict]:
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()] if path.exists() else []
-
-
-def stat(values: list[float]) -> str:
-    if not values:
-        return "n/a"
-    a = np.asarray(values)
-    if a.max() - a.min() < 5e-4:
-        return f"{a.mean():.3f}"
-    return f"{a.mean():.3f} [{a.min():.3f}-{a.max():.3f}]"
 
 
 def per_seed(runs: dict, key) -> list[float]:
@@ -81,7 +70,7 @@ def main(argv: list[str]) -> int:
             if (root / f"{masks}-{key}").is_dir():
                 names[f"{masks}-{key}"] = f"{masks}, the whole run with the check `{check}`"
     data = {
-        (label, src): {s: load(root / label / f"{src}-seed{s}.jsonl") for s in SEEDS}
+        (label, src): {s: read_rows(root / label / f"{src}-seed{s}.jsonl") for s in SEEDS}
         for label in names
         for src in SOURCES
     }
@@ -118,7 +107,7 @@ def main(argv: list[str]) -> int:
             runs = data[label, s]
             at10 = per_seed(runs, lambda r: r["err_deg"])
             vs = paired(runs, data["dirty", s])
-            cells += [stat(at10), stat(per_seed(runs, lambda r: r["found_err_deg"])), vs]
+            cells += [spread(at10), spread(per_seed(runs, lambda r: r["found_err_deg"])), vs]
         lines.append(f"| {name} | {n} | " + " | ".join(cells) + " |")
     lines += [
         "",
@@ -128,13 +117,13 @@ def main(argv: list[str]) -> int:
         "`final_refine`), on ours' final lattice; `plain` is the check's own cost (ours' choice adds the",
         "half-turn comparison and the rest prior on top, so `plain` is below ours' @10 above). found@10 of the",
         "held poses is the same for every variant (clutter clean "
-        + stat(per_seed(data["clean", "clutter"], lambda r: r.get("held_found_deg", 1e9)))
+        + spread(per_seed(data["clean", "clutter"], lambda r: r.get("held_found_deg", 1e9)))
         + ", dirty "
-        + stat(per_seed(data["dirty", "clutter"], lambda r: r.get("held_found_deg", 1e9)))
+        + spread(per_seed(data["dirty", "clutter"], lambda r: r.get("held_found_deg", 1e9)))
         + "; YCB-V scene 1 clean "
-        + stat(per_seed(data["clean", "ycbv1"], lambda r: r.get("held_found_deg", 1e9)))
+        + spread(per_seed(data["clean", "ycbv1"], lambda r: r.get("held_found_deg", 1e9)))
         + ", dirty "
-        + stat(per_seed(data["dirty", "ycbv1"], lambda r: r.get("held_found_deg", 1e9)))
+        + spread(per_seed(data["dirty", "ycbv1"], lambda r: r.get("held_found_deg", 1e9)))
         + "). gap: clean minus dirty @10 (seed means); recovered: (variant dirty - plain dirty) /"
         " (plain clean - plain dirty), n/a where plain has no gap (clean not above dirty by 0.01).",
         "",
@@ -156,7 +145,7 @@ def main(argv: list[str]) -> int:
                 lab: per_seed(data[lab, s], lambda r, v=v: r["pick_err_deg"][v]) if has(data[lab, s], v) else []
                 for lab in labels
             }
-            cells = [stat(vals[lab]) for lab in labels]
+            cells = [spread(vals[lab]) for lab in labels]
             gap = rec = "n/a"
             if vals.get("clean") and vals.get("dirty"):
                 gap = f"{np.mean(vals['clean']) - np.mean(vals['dirty']):+.3f}"

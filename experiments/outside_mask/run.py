@@ -9,7 +9,7 @@ in this process only, ours' depth check (:meth:`catpose.methods.ours.check.Depth
 stage that ranks poses by it) and, for ``+refine`` variants, the points of the last comparisons'
 refinement (:func:`catpose.methods.ours.choice.final_inputs`); nothing in the product changes.
 ``OVERRIDE``s are ``bench run``'s; the problems are built and ours is seeded per sample as
-``bench run`` does (``experiments/depth_check_masks/rescore.py``'s loop), so ``default`` gives the
+``bench run`` does (``experiments/_lib/sample_rows.py``), so ``default`` gives the
 run's answers. Each line: the answer's error, found@10's best error over ours' held poses, and
 ours' seconds for the sample (the variants run back to back, so their seconds pair up). Finished
 samples already in a variant's file are skipped.
@@ -38,6 +38,8 @@ from pathlib import Path
 import numba
 import numpy as np
 from scipy import ndimage
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
 
 #: name -> (ring width in image pixels, evidence weight W (0: the check unchanged), refine on the
 #: ring's pixels too, the check's lattices that read the ring: "all" or "final" (the last comparisons' only))
@@ -170,25 +172,14 @@ def use(functions: tuple) -> None:
 
 
 def main(argv: list[str]) -> int:
-    from catpose import kernel_threads
-    from catpose.bench.run.config import compose_and_build
-    from catpose.bench.scoring.metrics import sample_errors, stage_errors
-    from catpose.geometry import seed_everything, stable_seed
+    from sample_rows import answer_errors, build, done_ids, register_seeded
 
     out_dir, seed, names = Path(argv[0]), int(argv[1]), argv[2].split(",")
     functions = {v: patched(v) for v in names}
-    cfg, [(_, method), (_, dataset), (_, protocol)] = compose_and_build(
-        ["method=ours", f"seed={seed}", "threads=1", *argv[3:]], ["method", "dataset", "protocol"]
-    )
-    kernel_threads.set_threads(cfg.get("threads"))
+    _, method, dataset, protocol = build(seed, argv[3:])
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = {v: out_dir / f"{slug(v)}.jsonl" for v in names}
-    done = {
-        v: {json.loads(line)["sample_id"] for line in p.read_text().splitlines() if line.strip()}
-        if p.exists()
-        else set()
-        for v, p in paths.items()
-    }
+    done = {v: done_ids(p) for v, p in paths.items()}
     t_all = time.time()
     files = {v: p.open("a") for v, p in paths.items()}
     seen = set()
@@ -205,21 +196,15 @@ def main(argv: list[str]) -> int:
         k = i % len(todo)  # the variants one after the other on the same problem (paired seconds), in turns first
         for v in todo[k:] + todo[:k]:
             use(functions[v])
-            seed_everything(stable_seed(seed, sid))
-            t0 = time.perf_counter()
-            r = method.register(p)
-            seconds = time.perf_counter() - t0
-            T = np.asarray(r.T_template_camera, float)
-            err = sample_errors(T, gt.T_template_camera, gt.symmetry_axis, gt.symmetries)["err_deg"]
-            hs = r.extras.get("hypothesis_stages", {})
-            stages = stage_errors(hs, gt.T_template_camera, gt.symmetry_axis, gt.symmetries)
+            r, seconds = register_seeded(method, p, seed, sid)
+            _, err, _, found = answer_errors(r, gt)
             row = {
                 "sample_id": sid,
                 "seed": seed,
                 "category": p.category,
                 "obj_id": int((s.info or {}).get("obj_id", -1)),
-                "err_deg": float(err),
-                "found_err_deg": float(np.nanmin([err, *stages.values()])),
+                "err_deg": err,
+                "found_err_deg": found,
                 "seconds": seconds,
             }
             files[v].write(json.dumps(row) + "\n")

@@ -8,12 +8,14 @@ with one ``<variant>.jsonl`` per variant (run.py).
 
 from __future__ import annotations
 
-import json
 import statistics
 import sys
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
+from sample_rows import read_rows, spread  # noqa: E402  (experiments/_lib/sample_rows.py)
 
 SOURCES = {
     "clutter": "clutter dev scenes 0-49, segmenter-like masks (dataset.mask_noise=1)",
@@ -26,19 +28,6 @@ SEEDS = (0, 1, 2)
 HALVES = {"dev_A": (1, 6, 9, 12), "dev_B": (4, 5, 13, 14)}
 
 
-def load(path: Path) -> list[dict]:
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()] if path.exists() else []
-
-
-def stat(values: list[float]) -> str:
-    if not values:
-        return "n/a"
-    a = np.asarray(values)
-    if a.max() - a.min() < 5e-4:
-        return f"{a.mean():.3f}"
-    return f"{a.mean():.3f} [{a.min():.3f}-{a.max():.3f}]"
-
-
 def at10(rows: list[dict], key: str = "err_deg") -> float:
     return float(np.mean([r[key] <= 10.0 for r in rows]))
 
@@ -47,7 +36,7 @@ def table(runs: Path, source: str, variants: dict[str, str]) -> list[str]:
     """One source's rows: per variant @10 (mean [min-max] over seeds), its paired difference from
     ``default`` (the same views of each seed), found@10, the object halves (clutter), and the
     median seconds against ``default``'s on the same views. ``variants``: name -> file stem."""
-    runs_of = {v: {s: load(runs / f"{source}-seed{s}" / f"{f}.jsonl") for s in SEEDS} for v, f in variants.items()}
+    runs_of = {v: {s: read_rows(runs / f"{source}-seed{s}" / f"{f}.jsonl") for s in SEEDS} for v, f in variants.items()}
     ref = {s: {r["sample_id"]: r for r in runs_of["default"][s]} for s in SEEDS}
     halves = source.startswith("clutter")
     head = "| variant | views per seed | @10 | vs default | found@10 |"
@@ -65,13 +54,13 @@ def table(runs: Path, source: str, variants: dict[str, str]) -> list[str]:
         cells = [
             v,
             ",".join(str(len(r)) for r in seeds.values()),
-            stat([at10(r) for r in seeds.values()]),
+            spread([at10(r) for r in seeds.values()]),
             f"{np.mean(diffs):+.3f}" if diffs else "n/a",
-            stat([at10(r, "found_err_deg") for r in seeds.values()]),
+            spread([at10(r, "found_err_deg") for r in seeds.values()]),
         ]
         if halves:
             for objs in HALVES.values():
-                cells.append(stat([at10([x for x in r if x["obj_id"] in objs]) for r in seeds.values()]))
+                cells.append(spread([at10([x for x in r if x["obj_id"] in objs]) for r in seeds.values()]))
         out.append("| " + " | ".join(cells) + " |")
     return out
 
@@ -85,8 +74,8 @@ def changed(runs: Path, source: str, variants: dict[str, str]) -> list[str]:
             continue
         moves = []
         for s in SEEDS:
-            ref = {r["sample_id"]: r for r in load(runs / f"{source}-seed{s}" / "default.jsonl")}
-            for r in load(runs / f"{source}-seed{s}" / f"{f}.jsonl"):
+            ref = {r["sample_id"]: r for r in read_rows(runs / f"{source}-seed{s}" / "default.jsonl")}
+            for r in read_rows(runs / f"{source}-seed{s}" / f"{f}.jsonl"):
                 b = ref.get(r["sample_id"])
                 if b is not None and (r["err_deg"] <= 10.0) != (b["err_deg"] <= 10.0):
                     moves.append(f"{s}: {r['sample_id']} (obj {r['obj_id']}) {b['err_deg']:.0f} -> {r['err_deg']:.0f}")
@@ -102,9 +91,11 @@ def timing(runs: Path, variants: dict[str, str]) -> list[str]:
     for v, f in variants.items():
         cells = [v]
         for folder in ("timing-clutter-seed0", "timing-ycbv1clean-seed0"):
-            ref = {r["sample_id"]: r["seconds"] for r in load(runs / folder / "default.jsonl")}
+            ref = {r["sample_id"]: r["seconds"] for r in read_rows(runs / folder / "default.jsonl")}
             mine = [
-                (r["seconds"], ref[r["sample_id"]]) for r in load(runs / folder / f"{f}.jsonl") if r["sample_id"] in ref
+                (r["seconds"], ref[r["sample_id"]])
+                for r in read_rows(runs / folder / f"{f}.jsonl")
+                if r["sample_id"] in ref
             ]
             if not mine:
                 cells += ["n/a", "n/a"]

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
+
 #: a rest within this of the truth's up (deg; under a symmetry axis, of its angle to the axis) is
 #: the truth's rest; farther, the object does not lie in a stable rest of its model ("none")
 REST_TOL_DEG = 15.0
@@ -61,10 +63,7 @@ def rest_of(T_template_camera: np.ndarray, g_camera: np.ndarray, rests: list[dic
 
 
 def main(argv: list[str]) -> int:
-    from catpose import kernel_threads
-    from catpose.bench.run.config import compose_and_build
-    from catpose.bench.scoring.metrics import sample_errors, stage_errors
-    from catpose.geometry import seed_everything, stable_seed
+    from sample_rows import answer_errors, build, done_ids, register_seeded
 
     out, seed = Path(argv[0]), int(argv[1])
     overrides = [a for a in argv[2:] if not a.startswith("const:")]
@@ -76,13 +75,8 @@ def main(argv: list[str]) -> int:
             if not hasattr(target, attr) or attr.startswith("_"):
                 raise SystemExit(f"{item}: catpose.methods.ours.{module} has no public constant {attr}")
             setattr(target, attr, json.loads(value))
-    cfg, [(_, method), (_, dataset), (_, protocol)] = compose_and_build(
-        ["method=ours", f"seed={seed}", "threads=1", *overrides], ["method", "dataset", "protocol"]
-    )
-    kernel_threads.set_threads(cfg.get("threads"))
-    done = set()
-    if out.exists():
-        done = {json.loads(line)["sample_id"] for line in out.read_text().splitlines() if line.strip()}
+    cfg, method, dataset, protocol = build(seed, overrides)
+    done = done_ids(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     t_all = time.time()
     with out.open("a") as f:
@@ -92,15 +86,8 @@ def main(argv: list[str]) -> int:
                 continue
             s = protocol.load(dataset, sid)
             p, gt = s.problem, s.gt
-            seed_everything(stable_seed(seed, sid))
-            t0 = time.perf_counter()
-            r = method.register(p)
-            runtime = time.perf_counter() - t0
-            T = np.asarray(r.T_template_camera, float)
-            err = sample_errors(T, gt.T_template_camera, gt.symmetry_axis, gt.symmetries)["err_deg"]
-            stages = stage_errors(
-                r.extras.get("hypothesis_stages", {}), gt.T_template_camera, gt.symmetry_axis, gt.symmetries
-            )
+            r, runtime = register_seeded(method, p, seed, sid)
+            T, err, stages, found = answer_errors(r, gt)
             rests = rest_labels(p.template)
             axis = p.template.symmetry_axis
             truth, truth_off = rest_of(gt.T_template_camera, p.ground_normal_camera, rests, axis)
@@ -111,8 +98,8 @@ def main(argv: list[str]) -> int:
                 "obj_id": s.info.get("obj_id"),
                 "category": p.category,
                 "status": "ok",
-                "err_deg": float(err),
-                "found_err_deg": float(np.nanmin([err, *stages.values()])),
+                "err_deg": err,
+                "found_err_deg": found,
                 "stages": stages,
                 "rests": rests,
                 "truth_rest": truth,
