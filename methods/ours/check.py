@@ -20,7 +20,7 @@ object hides is not held against the pose.
 Cost is kept small by scoring on a lattice of pixels (every ``stride``-th row and column, the
 stride chosen so that the mask has about ``target_pixels`` lattice pixels and a hypothesis'
 window at most ``max_rays``), casting only inside each hypothesis' window (the projection of the
-template's bounding sphere), all hypotheses in one call of one cached ray-casting scene per
+template's bounding sphere) the rays that can change its cost, all hypotheses in one call of one cached ray-casting scene per
 template (:class:`catpose.raycast.RayCaster`: Open3D ``RaycastingScene``, hits recomputed in
 float64), each window's costs in one compiled call (:mod:`catpose.methods.ours.check_kernel`). Lengths are in the unit of the depth image and the template (object-normalised).
 """
@@ -33,7 +33,7 @@ import numpy as np
 
 from catpose.content_hash import content_hash
 from catpose.lru import LRUCache
-from catpose.methods.ours.check_kernel import window_cost, window_fit
+from catpose.methods.ours.check_kernel import needed, window_cost, window_fit
 from catpose.methods.ours.settings import SelectionSettings
 from catpose.raycast import RayCaster
 from catpose.types import DepthImage, RegistrationProblem, Template
@@ -113,7 +113,9 @@ class DepthVerifier:
         window_px = 2.0 * max(self.fx, self.fy) * self.radius / max(z - self.radius, 0.25 * z)
         stride = max(1.0, np.sqrt(n_mask / max(target_pixels, 1)), window_px / np.sqrt(max(max_rays, 1)))
         self.lattice = self._lattice(int(np.ceil(stride)))
-        self._renders: dict[bytes, tuple[tuple[slice, slice] | None, np.ndarray]] = {}
+        self._renders: dict[bytes, tuple] = {}  # pose -> (window, rendering, tolerance cast for)
+        lo, hi = self.caster.bounds  # grown far beyond float32's rounding of hits (the pruning's margin)
+        self.box = (lo - 1e-3 * self.radius, hi + 1e-3 * self.radius)
         self._inner: dict[int, np.ndarray] = {}  # the lattice's inner mask per erosion (fits)
 
     def _lattice(self, stride: int) -> _Lattice:
@@ -149,42 +151,56 @@ class DepthVerifier:
             out.append((slice(int(r0), int(r1)), slice(int(c0), int(c1))) if r1 > r0 and c1 > c0 else None)
         return out
 
-    def render(self, T_template_camera: np.ndarray) -> list[tuple[tuple[slice, slice] | None, np.ndarray]]:
+    def render(
+        self, T_template_camera: np.ndarray, tolerance: float | None = None
+    ) -> list[tuple[tuple[slice, slice] | None, np.ndarray]]:
         """Per pose, its window and the rendered depth (window-shaped, 0 where the template is
         not hit), the poses not rendered lately cast in one call (the last ``RENDERS_KEPT``
-        renderings are kept: a pose scored and then measured by :meth:`fit` is cast once)."""
+        renderings are kept: a pose scored and then measured by :meth:`fit` is cast once). With
+        a ``tolerance``, only the pixels whose rendering can change a cost or fit of that
+        tolerance or a larger one are cast (:func:`~catpose.methods.ours.check_kernel.needed`);
+        the others read 0."""
         T_all = np.asarray(T_template_camera, dtype=np.float64).reshape(-1, 4, 4)
         keys = [T.tobytes() for T in T_all]
-        new = [i for i, k in enumerate(keys) if k not in self._renders]
-        cast = dict(zip(new, self._cast(T_all[new]))) if new else {}
-        out = [cast[i] if i in cast else self._renders[k] for i, k in enumerate(keys)]
+
+        def kept(k: bytes) -> bool:  # a rendering cast for this tolerance or a smaller one
+            tol = self._renders[k][2] if k in self._renders else np.inf
+            return tol is None or (tolerance is not None and tol <= tolerance)
+
+        new = [i for i, k in enumerate(keys) if not kept(k)]
+        cast = dict(zip(new, self._cast(T_all[new], tolerance))) if new else {}
+        out = [cast[i] if i in cast else self._renders[k][:2] for i, k in enumerate(keys)]
         for i in new[-RENDERS_KEPT:]:
-            self._renders[keys[i]] = cast[i]
+            self._renders.pop(keys[i], None)
+            self._renders[keys[i]] = (*cast[i], tolerance)
         while len(self._renders) > RENDERS_KEPT:
             del self._renders[next(iter(self._renders))]  # the oldest first
         return out
 
-    def _cast(self, T_all: np.ndarray) -> list[tuple[tuple[slice, slice] | None, np.ndarray]]:
+    def _cast(self, T_all: np.ndarray, tolerance: float | None) -> list[tuple[tuple[slice, slice] | None, np.ndarray]]:
         """:meth:`render` of poses (B, 4, 4), all cast in one call."""
-        wins = self.windows(T_all)
-        origins, dirs, sizes = [], [], []
+        L, wins = self.lattice, self.windows(T_all)
+        origins, dirs, needs = [], [], []
         for T, win in zip(T_all, wins):
             if win is None:
-                sizes.append(0)
+                needs.append(None)
                 continue
-            d = self.lattice.dirs[win].reshape(-1, 3)
-            dirs.append(d @ T[:3, :3].T)  # ray directions in the template frame
-            origins.append(np.broadcast_to(T[:3, 3], d.shape))  # the camera centre in the template frame
-            sizes.append(len(d))
+            d = L.dirs[win].reshape(-1, 3) @ T[:3, :3].T  # ray directions in the template frame
+            need = None if tolerance is None else needed(L.depth[win], L.mask[win], d, T[:3, 3], *self.box, tolerance)
+            dirs.append(d if need is None else d[need])
+            origins.append(np.broadcast_to(T[:3, 3], dirs[-1].shape))  # the camera centre in the template frame
+            needs.append(np.ones(len(d), dtype=bool) if need is None else need)
         s = self.caster.cast(np.concatenate(origins), np.concatenate(dirs)) if origins else np.zeros(0)
         s = np.where(np.isfinite(s) & (s > 0), s, 0.0)
         out, k = [], 0
-        for win, n in zip(wins, sizes):
+        for win, need in zip(wins, needs):
             if win is None:
                 out.append((None, np.zeros(0)))
                 continue
-            out.append((win, s[k : k + n].reshape(self.lattice.depth[win].shape)))
-            k += n
+            r = np.zeros(len(need))
+            r[need] = s[k : k + int(need.sum())]
+            out.append((win, r.reshape(L.depth[win].shape)))
+            k += int(need.sum())
         return out
 
     def scores(self, T_template_camera: np.ndarray) -> np.ndarray:
@@ -193,7 +209,7 @@ class DepthVerifier:
         mask_pixels = self.mask_pixels
         n_mask = max(mask_pixels, 1)
         out = []
-        for win, r in self.render(T_template_camera):
+        for win, r in self.render(T_template_camera, self.tau):
             if win is None:
                 out.append(np.inf)
                 continue
@@ -213,7 +229,7 @@ class DepthVerifier:
         inner = self._inner_mask(int(erode_px)) if erode_px > 0 else L.mask
         n_mask = max(int(inner.sum()), 1)
         out = np.zeros((len(np.asarray(T_template_camera).reshape(-1, 4, 4)), 2))
-        for b, (win, r) in enumerate(self.render(T_template_camera)):
+        for b, (win, r) in enumerate(self.render(T_template_camera, tol)):
             if win is not None:
                 inliers, free = window_fit(L.depth[win], L.mask[win], inner[win], r, tol)
                 out[b] = (inliers / n_mask, free / n_mask)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["window_cost", "window_fit"]
+__all__ = ["needed", "window_cost", "window_fit"]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -62,3 +62,30 @@ def window_fit(o, m, inner, r, tol):  # pragma: no cover - compiled
                 if not m[i, j] and oo > 0 and oo - rr > tol:
                     free += 1
     return inliers, free
+
+
+@numba.njit(cache=True, nogil=True)
+def needed(o, m, d, t, lo, hi, tol):  # pragma: no cover - compiled
+    """(h * w,) bool, row-major: the pixels of one pose's window whose rendering can change
+    :func:`window_cost` or :func:`window_fit` with tolerance ``tol`` or a larger one. A ray that
+    misses the box ``lo``, ``hi`` (3,) hits nothing, and every hit lies at least the ray's entry
+    into it deep, so a pixel is needed when its ray enters the box and it is in the mask ``m`` or
+    its observed depth ``o`` lies more than ``tol`` behind that entry. Rays: from ``t`` (3,) along
+    ``d`` (h * w, 3), template frame (the box: the template's, grown beyond any rounding of hits);
+    the ray parameter is the camera's depth."""
+    h, w = m.shape
+    out = np.zeros(h * w, dtype=np.bool_)
+    for i in range(h):
+        for j in range(w):
+            if not m[i, j] and not o[i, j] > 0:
+                continue
+            p = i * w + j
+            near, far = 0.0, np.inf
+            for a in range(3):
+                if d[p, a] != 0.0:
+                    s0, s1 = (lo[a] - t[a]) / d[p, a], (hi[a] - t[a]) / d[p, a]
+                    near, far = max(near, min(s0, s1)), min(far, max(s0, s1))
+                elif t[a] < lo[a] or t[a] > hi[a]:
+                    far = -1.0
+            out[p] = near <= far and (m[i, j] or o[i, j] - tol > near)
+    return out

@@ -40,6 +40,7 @@ class RayCaster:
         mesh.triangle.indices = o3d.core.Tensor(self.triangles.astype(np.int32))
         self._scene.add_triangles(mesh)
         self._invalid = int(o3d.t.geometry.RaycastingScene.INVALID_ID)
+        self.bounds = (self.vertices.min(axis=0), self.vertices.max(axis=0))  # the box every hit lies in
         # per triangle, once: its first vertex, its plane's normal (unnormalised) and that normal's length
         tri = self.vertices[self.triangles]  # (F, 3, 3)
         self._v0 = np.ascontiguousarray(tri[:, 0])
