@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from catpose.content_hash import content_hash
+from catpose.content_hash import template_hash
 from catpose.errors import ConfigError
 from catpose.hpr import visible_indices
 from catpose.lru import LRUCache
@@ -108,7 +108,7 @@ def dictionary_key(
         )
     )
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", template.template_id)[-80:]
-    return f"{safe}-{content_hash(template.points, template.normals, extra=params, digest_size=10)}"
+    return f"{safe}-{template_hash(template, 'points', 'normals', extra=params, digest_size=10)}"
 
 
 def get_dictionary(

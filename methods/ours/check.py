@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from catpose.content_hash import content_hash
+from catpose.content_hash import template_hash
 from catpose.lru import LRUCache
 from catpose.methods.ours.check_kernel import needed, window_cost, window_fit
 from catpose.methods.ours.settings import SelectionSettings
@@ -48,14 +48,14 @@ DEPTH_PIXELS = 300
 DEPTH_MAX_RAYS = 2500
 
 _CASTERS: LRUCache[str, tuple[RayCaster, float]] = LRUCache(16)
-#: renderings a verifier keeps, keyed by the pose's bytes (the newest; each at most the window's size)
-RENDERS_KEPT = 16
+#: renderings a verifier keeps, keyed by the pose's bytes (the newest): the search's poses are not cast again
+RENDERS_KEPT = 128
 
 
 def caster_for(template: Template) -> tuple[RayCaster, float]:
     """The template mesh's ray-casting scene and its bounding radius (largest vertex distance
     from the template origin), cached per mesh content. The template must have a mesh."""
-    key = template.template_id + "-" + content_hash(template.vertices, np.asarray(template.triangles, float))
+    key = template.template_id + "-" + template_hash(template, "vertices", "triangles")
     hit = _CASTERS.get(key)
     if hit is None:
         v = np.asarray(template.vertices, dtype=np.float64)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from catpose import cell_grid
-from catpose.content_hash import content_hash
+from catpose.content_hash import template_hash
 from catpose.lru import LRUCache
 from catpose.point_to_plane_kernel import refine_many
 from catpose.types import Template
@@ -44,7 +44,7 @@ def mesh_sample(template: Template) -> tuple:
     """(grid, normals): a fixed area-weighted sample of :data:`MESH_SAMPLES` points of the
     template's mesh (the same points under every seed; its triangles' unit normals) as a
     :class:`~catpose.cell_grid.CellGrid` of reach :data:`REFINE_MAX_DISTANCE`, cached per mesh."""
-    key = content_hash(template.vertices, np.asarray(template.triangles, float))
+    key = template_hash(template, "vertices", "triangles")
     hit = _MESH_SAMPLES.get(key)
     if hit is None:
         v = np.asarray(template.vertices, dtype=np.float64)

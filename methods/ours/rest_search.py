@@ -32,7 +32,7 @@ import time
 import numpy as np
 
 from catpose import cell_grid
-from catpose.content_hash import content_hash
+from catpose.content_hash import template_hash
 from catpose.geometry import norm3, small_matmul, unit3
 from catpose.lru import LRUCache
 from catpose.methods.keypoints import farthest_point_indices
@@ -95,7 +95,7 @@ def search(
         tpl.symmetry_axis,
         rs.grid_shift,
     )
-    key = (tpl.template_id, content_hash(np.asarray(tpl.points, float)))
+    key = (tpl.template_id, template_hash(tpl, "points"))
     hit = _GRIDS.get(key)
     if hit is None:  # a farthest-point subset of the template: fewer pairs to search at the long reach
         keep = farthest_point_indices(tpl.points, min(TEMPLATE_POINTS, len(tpl.points)))

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from catpose.content_hash import content_hash
+from catpose.content_hash import template_hash
 from catpose.lru import LRUCache
 from catpose.methods.ours.settings import RestingSettings
 from catpose.resting import resting_ups_cached, up_classes
@@ -56,7 +56,7 @@ def ups(template: Template, settings: RestingSettings) -> np.ndarray:
     geometry = template.vertices if template.has_mesh else template.points
     key = (
         template.template_id,
-        content_hash(np.asarray(geometry, float)),  # the up classes depend on the geometry
+        template_hash(template, "vertices" if template.has_mesh else "points"),  # the up classes depend on it
         tuple(np.round(up0, 9)),
         None if template.symmetry_axis is None else tuple(np.round(template.symmetry_axis, 9)),
         settings.max_poses,

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import hashlib
 import re
+import weakref
 
 import numpy as np
 
@@ -22,7 +23,20 @@ def content_hash(*arrays: np.ndarray, extra: str = "", digest_size: int = 8) -> 
     return h.hexdigest()
 
 
+_TEMPLATES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def template_hash(template, *fields: str, extra: str = "", digest_size: int = 8) -> str:
+    """:func:`content_hash` of a template's arrays ``fields`` (names: ``"points"``, ``"vertices"``,
+    ...), once per template object (a template's arrays are not changed in place)."""
+    memo = _TEMPLATES.setdefault(template, {})
+    key = (fields, extra, digest_size)
+    if key not in memo:
+        memo[key] = content_hash(*(getattr(template, f) for f in fields), extra=extra, digest_size=digest_size)
+    return memo[key]
+
+
 def template_key(template, digest_size: int = 8) -> str:
     """``<safe template id>-<hash of its points and normals>`` for a :class:`~catpose.types.Template`."""
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", template.template_id)[-80:]
-    return f"{safe}-{content_hash(template.points, template.normals, digest_size=digest_size)}"
+    return f"{safe}-{template_hash(template, 'points', 'normals', digest_size=digest_size)}"
