@@ -27,6 +27,7 @@ float64), each window's costs in one compiled call (:mod:`catpose.methods.ours.c
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -135,21 +136,17 @@ class DepthVerifier:
     def windows(self, T_template_camera: np.ndarray) -> list[tuple[slice, slice] | None]:
         """Per pose, the lattice window (row slice, column slice) that the template's bounding
         sphere projects into; None when the template is not in front of the camera."""
-        L = self.lattice
-        out: list[tuple[slice, slice] | None] = []
-        for T in np.asarray(T_template_camera, dtype=np.float64).reshape(-1, 4, 4):
-            R, t = T[:3, :3], T[:3, 3]
-            c = -(R.T @ t)  # template origin in the camera frame
-            if c[2] <= 1.05 * self.radius:
-                out.append(None)
-                continue
-            u, v = self.fx * c[0] / c[2] + self.cx, self.fy * c[1] / c[2] + self.cy
-            ru = self.fx * self.radius / (c[2] - self.radius) + 1.0
-            rv = self.fy * self.radius / (c[2] - self.radius) + 1.0
-            r0, r1 = np.searchsorted(L.rows, v - rv), np.searchsorted(L.rows, v + rv, side="right")
-            c0, c1 = np.searchsorted(L.cols, u - ru), np.searchsorted(L.cols, u + ru, side="right")
-            out.append((slice(int(r0), int(r1)), slice(int(c0), int(c1))) if r1 > r0 and c1 > c0 else None)
-        return out
+        L, T = self.lattice, np.asarray(T_template_camera, dtype=np.float64).reshape(-1, 4, 4)
+        c = -np.matmul(T[:, :3, :3].transpose(0, 2, 1), T[:, :3, 3, None])[:, :, 0]  # template origins, camera frame
+        x, y, z, rad = c[:, 0], c[:, 1], c[:, 2], self.radius
+        with np.errstate(divide="ignore", invalid="ignore"):  # behind the camera: no window anyway
+            u, v = self.fx * x / z + self.cx, self.fy * y / z + self.cy
+            ru, rv = self.fx * rad / (z - rad) + 1.0, self.fy * rad / (z - rad) + 1.0
+        r0, r1 = np.searchsorted(L.rows, v - rv), np.searchsorted(L.rows, v + rv, side="right")
+        c0, c1 = np.searchsorted(L.cols, u - ru), np.searchsorted(L.cols, u + ru, side="right")
+        ok = (z > 1.05 * rad) & (r1 > r0) & (c1 > c0)
+        bounds = zip(ok.tolist(), r0.tolist(), r1.tolist(), c0.tolist(), c1.tolist())
+        return [(slice(i, j), slice(k, m)) if o else None for o, i, j, k, m in bounds]
 
     def render(
         self, T_template_camera: np.ndarray, tolerance: float | None = None
@@ -180,27 +177,26 @@ class DepthVerifier:
     def _cast(self, T_all: np.ndarray, tolerance: float | None) -> list[tuple[tuple[slice, slice] | None, np.ndarray]]:
         """:meth:`render` of poses (B, 4, 4), all cast in one call."""
         L, wins = self.lattice, self.windows(T_all)
-        origins, dirs, needs = [], [], []
+        dirs, needs, origins = [], [], []
         for T, win in zip(T_all, wins):
-            if win is None:
-                needs.append(None)
-                continue
-            d = L.dirs[win].reshape(-1, 3) @ T[:3, :3].T  # ray directions in the template frame
-            need = None if tolerance is None else needed(L.depth[win], L.mask[win], d, T[:3, 3], *self.box, tolerance)
-            dirs.append(d if need is None else d[need])
-            origins.append(np.broadcast_to(T[:3, 3], dirs[-1].shape))  # the camera centre in the template frame
-            needs.append(np.ones(len(d), dtype=bool) if need is None else need)
-        s = self.caster.cast(np.concatenate(origins), np.concatenate(dirs)) if origins else np.zeros(0)
-        s = np.where(np.isfinite(s) & (s > 0), s, 0.0)
+            if win is not None:
+                d = L.dirs[win].reshape(-1, 3) @ T[:3, :3].T  # ray directions in the template frame
+                o, m = L.depth[win], L.mask[win]
+                needs.append(
+                    np.ones(len(d), bool) if tolerance is None else needed(o, m, d, T[:3, 3], *self.box, tolerance)
+                )
+                dirs.append(d[needs[-1]])
+                origins.append(T[:3, 3])  # the camera centre in the template frame
+        if not needs:
+            return [(None, np.zeros(0))] * len(wins)
+        s = self.caster.cast(np.repeat(origins, [len(d) for d in dirs], axis=0), np.concatenate(dirs))
+        r = np.zeros(sum(map(len, needs)))
+        r[np.concatenate(needs)] = np.where(np.isfinite(s) & (s > 0), s, 0.0)
         out, k = [], 0
-        for win, need in zip(wins, needs):
-            if win is None:
-                out.append((None, np.zeros(0)))
-                continue
-            r = np.zeros(len(need))
-            r[need] = s[k : k + int(need.sum())]
-            out.append((win, r.reshape(L.depth[win].shape)))
-            k += int(need.sum())
+        for win in wins:
+            shape = (0,) if win is None else L.depth[win].shape
+            out.append((win, r[k : k + math.prod(shape)].reshape(shape)))
+            k += math.prod(shape)
         return out
 
     def scores(self, T_template_camera: np.ndarray) -> np.ndarray:
