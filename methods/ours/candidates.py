@@ -28,6 +28,7 @@ class TemplateFeatures:
     complete_points: np.ndarray  # (M', 3) FPS subset of the complete template for Chamfer terms
     pairing: CellGrid  # the full template points, searched within the refinement's pairing distance
     truncated: CellGrid  # the same, searched within the visibility score's truncation
+    chamfer: CellGrid  # the same, the Chamfer distances' nearest points within CHAMFER_REACH (the tree's beyond)
     tree: object  # cKDTree of the same points (unbounded queries)
 
 

@@ -181,12 +181,13 @@ class DepthVerifier:
         for T, win in zip(T_all, wins):
             if win is not None:
                 d = L.dirs[win].reshape(-1, 3) @ T[:3, :3].T  # ray directions in the template frame
-                o, m = L.depth[win], L.mask[win]
-                needs.append(
-                    np.ones(len(d), bool) if tolerance is None else needed(o, m, d, T[:3, 3], *self.box, tolerance)
+                o, m, t = L.depth[win], L.mask[win], T[:3, 3]
+                need, rays = (
+                    (np.ones(len(d), bool), d) if tolerance is None else needed(o, m, d, t, *self.box, tolerance)
                 )
-                dirs.append(d[needs[-1]])
-                origins.append(T[:3, 3])  # the camera centre in the template frame
+                needs.append(need)
+                dirs.append(rays)
+                origins.append(t)  # the camera centre in the template frame
         if not needs:
             return [(None, np.zeros(0))] * len(wins)
         s = self.caster.cast(np.repeat(origins, [len(d) for d in dirs], axis=0), np.concatenate(dirs))

@@ -66,15 +66,18 @@ def window_fit(o, m, inner, r, tol):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, nogil=True)
 def needed(o, m, d, t, lo, hi, tol):  # pragma: no cover - compiled
-    """(h * w,) bool, row-major: the pixels of one pose's window whose rendering can change
-    :func:`window_cost` or :func:`window_fit` with tolerance ``tol`` or a larger one. A ray that
-    misses the box ``lo``, ``hi`` (3,) hits nothing, and every hit lies at least the ray's entry
-    into it deep, so a pixel is needed when its ray enters the box and it is in the mask ``m`` or
-    its observed depth ``o`` lies more than ``tol`` behind that entry. Rays: from ``t`` (3,) along
-    ``d`` (h * w, 3), template frame (the box: the template's, grown beyond any rounding of hits);
-    the ray parameter is the camera's depth."""
+    """``(need, rays)``: ``need`` (h * w,) bool, row-major, the pixels of one pose's window whose
+    rendering can change :func:`window_cost` or :func:`window_fit` with tolerance ``tol`` or a
+    larger one, and ``rays`` their rows of ``d``. A ray that misses the box ``lo``, ``hi`` (3,)
+    hits nothing, and every hit lies at least the ray's entry into it deep, so a pixel is needed
+    when its ray enters the box and it is in the mask ``m`` or its observed depth ``o`` lies more
+    than ``tol`` behind that entry. Rays: from ``t`` (3,) along ``d`` (h * w, 3), template frame
+    (the box: the template's, grown beyond any rounding of hits); the ray parameter is the
+    camera's depth."""
     h, w = m.shape
-    out = np.zeros(h * w, dtype=np.bool_)
+    need = np.zeros(h * w, dtype=np.bool_)
+    rays = np.empty((h * w, 3))
+    count = 0
     for i in range(h):
         for j in range(w):
             if not m[i, j] and not o[i, j] > 0:
@@ -87,5 +90,8 @@ def needed(o, m, d, t, lo, hi, tol):  # pragma: no cover - compiled
                     near, far = max(near, min(s0, s1)), min(far, max(s0, s1))
                 elif t[a] < lo[a] or t[a] > hi[a]:
                     far = -1.0
-            out[p] = near <= far and (m[i, j] or o[i, j] - tol > near)
-    return out
+            if near <= far and (m[i, j] or o[i, j] - tol > near):
+                need[p] = True
+                rays[count] = d[p]
+                count += 1
+    return need, rays[:count]

@@ -38,6 +38,9 @@ __all__ = ["CHAMFER_POINTS", "input_features", "prepare", "template_features"]
 #: input / template points (farthest-point subsets) of the Chamfer distances: the selection's and
 #: the search's scores and the refinement of many poses (docs/choosing-defaults.md: the embedded set)
 CHAMFER_POINTS = 256
+#: the Chamfer distances' grid answers nearest points this near (object-normalised unit; the KD-tree
+#: the rest): the same distances as the tree alone, fewer tree walks
+CHAMFER_REACH = 0.3
 
 
 def template_features(descriptor: Descriptor, layout: DictionaryLayout, template: Template) -> TemplateFeatures:
@@ -54,6 +57,7 @@ def template_features(descriptor: Descriptor, layout: DictionaryLayout, template
         complete,
         cell_grid.build(template.points, REFINE_MAX_DISTANCE, cell_grid.CACHED_CELLS_PER_REACH),
         cell_grid.build(template.points, VISIBILITY_TRUNC, cell_grid.CACHED_CELLS_PER_REACH),
+        cell_grid.build(template.points, CHAMFER_REACH, cell_grid.CACHED_CELLS_PER_REACH),
         cKDTree(template.points),
     )
 
