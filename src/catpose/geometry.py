@@ -39,10 +39,10 @@ def unit3(v: np.ndarray) -> np.ndarray:
 
 
 def matmul3(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """``A @ B`` for (3, 3) matrices, in closed form (bit-identical on every CPU)."""
+    """``A @ B`` for (..., 3, 3) matrices, in closed form (bit-identical on every CPU)."""
     A = np.asarray(A, dtype=np.float64)
     B = np.asarray(B, dtype=np.float64)
-    return A[:, 0:1] * B[0] + A[:, 1:2] * B[1] + A[:, 2:3] * B[2]
+    return A[..., 0:1] * B[..., 0:1, :] + A[..., 1:2] * B[..., 1:2, :] + A[..., 2:3] * B[..., 2:3, :]
 
 
 def small_matmul(A: np.ndarray, B: np.ndarray) -> np.ndarray:

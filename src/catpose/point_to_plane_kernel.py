@@ -57,9 +57,9 @@ def refine_many(
 
     kernel_threads.split(run, len(T))
 
-    for b in range(len(T)):  # re-orthonormalise (LAPACK once per start, outside the kernel)
-        U, _, Vt = np.linalg.svd(T[b, :3, :3])
-        T[b, :3, :3] = matmul3(U, Vt)
+    if len(T):  # re-orthonormalise (LAPACK per start, outside the kernel)
+        U, _, Vt = np.linalg.svd(T[:, :3, :3])
+        T[:, :3, :3] = matmul3(U, Vt)
     return (T, steps) if return_steps else T
 
 
