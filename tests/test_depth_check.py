@@ -164,3 +164,34 @@ def test_the_inner_fit_ignores_a_mask_that_bleeds_over_its_edge():
     assert v.fit(T_turned[None], 0.05, 3)[0, 0] < 0.9
     # an erosion that leaves nothing falls back to the whole mask
     assert v.fit(T_true[None], 0.05, 10**4)[0, 0] == pytest.approx(whole)
+
+
+def test_the_rays_left_uncast_change_no_cost_and_no_fit():
+    """Rendering with a tolerance casts only the rays that can change a cost or a fit of that
+    tolerance (and larger ones): every pose's costs and fits are those of the whole rendering,
+    bit for bit, while pixels whose depth lies in front of the template's box (the occluder) are
+    not cast."""
+    from scipy.spatial.transform import Rotation
+
+    from catpose.methods.ours.check_kernel import window_cost, window_fit
+
+    tpl = _template()
+    image, T_true = _view(tpl, occluder=True)
+    v = DepthVerifier(tpl, image, tau=0.05, target_pixels=10**6, max_rays=10**6)
+    rng = np.random.default_rng(0)
+    moves = [make_T(Rotation.random(random_state=k).as_matrix(), rng.normal(0.0, 0.3, 3)) for k in range(30)]
+    poses = np.stack([T_true] + [compose_T(F, T_true) for F in [*half_turns()[1:], *moves]])
+    full, pruned = v.render(poses), v.render(poses, 0.05)
+    skipped = 0
+    for (win, r), (win2, r2) in zip(full, pruned):
+        assert win == win2
+        if win is None:
+            continue
+        o, m = v.lattice.depth[win], v.lattice.mask[win]
+        for tol in (0.05, 0.2):
+            a, b = window_cost(o, m, r, tol), window_cost(o, m, r2, tol)
+            assert a[1] == b[1] and np.array_equal(a[0], b[0])
+            assert window_fit(o, m, m, r, tol) == window_fit(o, m, m, r2, tol)
+        assert np.array_equal(r2[r2 > 0], r[r2 > 0])
+        skipped += int(((r > 0) & (r2 == 0)).sum())
+    assert skipped > 0

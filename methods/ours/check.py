@@ -114,7 +114,7 @@ class DepthVerifier:
         window_px = 2.0 * max(self.fx, self.fy) * self.radius / max(z - self.radius, 0.25 * z)
         stride = max(1.0, np.sqrt(n_mask / max(target_pixels, 1)), window_px / np.sqrt(max(max_rays, 1)))
         self.lattice = self._lattice(int(np.ceil(stride)))
-        self._renders: dict[bytes, tuple] = {}  # pose -> (window, rendering, tolerance cast for)
+        self._renders: dict[tuple, tuple] = {}  # (pose's bytes, tolerance) -> (window, rendering)
         lo, hi = self.caster.bounds  # grown far beyond float32's rounding of hits (the pruning's margin)
         self.box = (lo - 1e-3 * self.radius, hi + 1e-3 * self.radius)
         self._inner: dict[int, np.ndarray] = {}  # the lattice's inner mask per erosion (fits)
@@ -155,21 +155,14 @@ class DepthVerifier:
         not hit), the poses not rendered lately cast in one call (the last ``RENDERS_KEPT``
         renderings are kept: a pose scored and then measured by :meth:`fit` is cast once). With
         a ``tolerance``, only the pixels whose rendering can change a cost or fit of that
-        tolerance or a larger one are cast (:func:`~catpose.methods.ours.check_kernel.needed`);
-        the others read 0."""
+        tolerance are cast (:func:`~catpose.methods.ours.check_kernel.needed`); the others read 0."""
         T_all = np.asarray(T_template_camera, dtype=np.float64).reshape(-1, 4, 4)
-        keys = [T.tobytes() for T in T_all]
-
-        def kept(k: bytes) -> bool:  # a rendering cast for this tolerance or a smaller one
-            tol = self._renders[k][2] if k in self._renders else np.inf
-            return tol is None or (tolerance is not None and tol <= tolerance)
-
-        new = [i for i, k in enumerate(keys) if not kept(k)]
+        keys = [(T.tobytes(), tolerance) for T in T_all]
+        new = [i for i, k in enumerate(keys) if k not in self._renders]
         cast = dict(zip(new, self._cast(T_all[new], tolerance))) if new else {}
-        out = [cast[i] if i in cast else self._renders[k][:2] for i, k in enumerate(keys)]
+        out = [cast[i] if i in cast else self._renders[k] for i, k in enumerate(keys)]
         for i in new[-RENDERS_KEPT:]:
-            self._renders.pop(keys[i], None)
-            self._renders[keys[i]] = (*cast[i], tolerance)
+            self._renders[keys[i]] = cast[i]
         while len(self._renders) > RENDERS_KEPT:
             del self._renders[next(iter(self._renders))]  # the oldest first
         return out
