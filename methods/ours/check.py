@@ -19,10 +19,10 @@ object hides is not held against the pose.
 
 Cost is kept small by scoring on a lattice of pixels (every ``stride``-th row and column, the
 stride chosen so that the mask has about ``target_pixels`` lattice pixels and a hypothesis'
-window at most ``max_rays``), casting only inside each hypothesis' window (the projection of the
-template's bounding sphere) the rays that can change its cost, all hypotheses in one call of one cached ray-casting scene per
-template (:class:`catpose.raycast.RayCaster`: Open3D ``RaycastingScene``, hits recomputed in
-float64), each window's costs in one compiled call (:mod:`catpose.methods.ours.check_kernel`). Lengths are in the unit of the depth image and the template (object-normalised).
+window at most ``max_rays``), casting only the rays of each hypothesis' window (the projection of
+the template's bounding sphere) that can change its cost, all hypotheses in one call of one cached
+ray-casting scene per template (:class:`catpose.raycast.RayCaster`: Open3D ``RaycastingScene``,
+hits recomputed in float64), each window's costs in one compiled call (:mod:`catpose.methods.ours.check_kernel`). Lengths are in the unit of the depth image and the template (object-normalised).
 """
 
 from __future__ import annotations
@@ -175,9 +175,8 @@ class DepthVerifier:
             if win is not None:
                 d = L.dirs[win].reshape(-1, 3) @ T[:3, :3].T  # ray directions in the template frame
                 o, m, t = L.depth[win], L.mask[win], T[:3, 3]
-                need, rays = (
-                    (np.ones(len(d), bool), d) if tolerance is None else needed(o, m, d, t, *self.box, tolerance)
-                )
+                full = (np.ones(len(d), bool), d)
+                need, rays = full if tolerance is None else needed(o, m, d, t, *self.box, tolerance)
                 needs.append(need)
                 dirs.append(rays)
                 origins.append(t)  # the camera centre in the template frame
@@ -244,27 +243,19 @@ class DepthVerifier:
         return hit
 
 
-def depth_verifier(sel: SelectionSettings, problem: RegistrationProblem) -> DepthVerifier:
-    """Ours' depth check of ``problem``'s template against its depth image on the coarse lattice
-    (:data:`DEPTH_PIXELS`), with ``sel``'s tolerance and free-space weight."""
-    return DepthVerifier(
-        problem.template, problem.depth_image, sel.depth_tau, DEPTH_PIXELS, DEPTH_MAX_RAYS, sel.depth_free_weight
-    )
+def depth_verifier(sel: SelectionSettings, problem: RegistrationProblem, pixels: int = DEPTH_PIXELS) -> DepthVerifier:
+    """Ours' depth check of ``problem``'s template against its depth image on a lattice of about
+    ``pixels`` mask pixels (the coarse one, :data:`DEPTH_PIXELS`, by default; as many rays a pixel
+    as it), with ``sel``'s tolerance and free-space weight."""
+    rays = DEPTH_MAX_RAYS * pixels // DEPTH_PIXELS
+    return DepthVerifier(problem.template, problem.depth_image, sel.depth_tau, pixels, rays, sel.depth_free_weight)
 
 
 def final_verifier(
     sel: SelectionSettings, problem: RegistrationProblem, verifier: DepthVerifier | None = None
 ) -> DepthVerifier:
     """The depth check of ours' final comparison: on a finer lattice when ``sel.depth_final_pixels``
-    exceeds :data:`DEPTH_PIXELS` (as many rays a pixel), else ``verifier`` (the problem's
-    :func:`depth_verifier`)."""
+    exceeds :data:`DEPTH_PIXELS`, else ``verifier`` (the problem's :func:`depth_verifier`)."""
     if sel.depth_final_pixels > DEPTH_PIXELS:
-        return DepthVerifier(
-            problem.template,
-            problem.depth_image,
-            sel.depth_tau,
-            sel.depth_final_pixels,
-            DEPTH_MAX_RAYS * sel.depth_final_pixels // DEPTH_PIXELS,
-            sel.depth_free_weight,
-        )
+        return depth_verifier(sel, problem, sel.depth_final_pixels)
     return depth_verifier(sel, problem) if verifier is None else verifier

@@ -66,14 +66,11 @@ def window_fit(o, m, inner, r, tol):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, nogil=True)
 def needed(o, m, d, t, lo, hi, tol):  # pragma: no cover - compiled
-    """``(need, rays)``: ``need`` (h * w,) bool, row-major, the pixels of one pose's window whose
-    rendering can change :func:`window_cost` or :func:`window_fit` with tolerance ``tol`` or a
-    larger one, and ``rays`` their rows of ``d``. A ray that misses the box ``lo``, ``hi`` (3,)
-    hits nothing, and every hit lies at least the ray's entry into it deep, so a pixel is needed
-    when its ray enters the box and it is in the mask ``m`` or its observed depth ``o`` lies more
-    than ``tol`` behind that entry. Rays: from ``t`` (3,) along ``d`` (h * w, 3), template frame
-    (the box: the template's, grown beyond any rounding of hits); the ray parameter is the
-    camera's depth."""
+    """``(need, rays)``: which pixels (h * w,) of one pose's window can change :func:`window_cost`
+    or :func:`window_fit` of tolerance ``tol`` or more, and their rows of the rays ``d`` (h * w, 3;
+    from ``t``, template frame; the parameter is depth). Every hit lies in the box ``lo``, ``hi``,
+    no nearer than the ray's entry: needed are the rays into it in the mask ``m`` or where the
+    observed depth ``o`` lies more than ``tol`` behind that entry."""
     h, w = m.shape
     need = np.zeros(h * w, dtype=np.bool_)
     rays = np.empty((h * w, 3))

@@ -38,8 +38,7 @@ __all__ = ["CHAMFER_POINTS", "input_features", "prepare", "template_features"]
 #: input / template points (farthest-point subsets) of the Chamfer distances: the selection's and
 #: the search's scores and the refinement of many poses (docs/choosing-defaults.md: the embedded set)
 CHAMFER_POINTS = 256
-#: the Chamfer distances' grid answers nearest points this near (object-normalised unit; the KD-tree
-#: the rest): the same distances as the tree alone, fewer tree walks
+#: the Chamfer distances' grid answers nearer points (object-normalised unit), the KD-tree the rest
 CHAMFER_REACH = 0.3
 
 

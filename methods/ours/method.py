@@ -139,11 +139,9 @@ class Ours(RegistrationMethod):
             self.descriptor.cache_key(),
             self.num_keypoints,
         )
-        hit = self._features.get(key)
-        if hit is None:
-            hit = hypotheses.template_features(self.descriptor, self.layout, template)
-            self._features.put(key, hit)
-        return hit
+        return self._features.get_or_build(
+            key, lambda: hypotheses.template_features(self.descriptor, self.layout, template)
+        )
 
     def prepare_template(self, template: Template) -> None:
         """Build the per-template data now instead of on the first registration: the dictionary's
