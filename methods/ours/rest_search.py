@@ -130,11 +130,12 @@ def search(
     return T[np.argsort(scores, kind="stable")[:KEEP]]
 
 
-def _about(axis: np.ndarray, angle: float) -> np.ndarray:
-    """(3, 3) rotation by ``angle`` (radians) about unit ``axis`` (Rodrigues, C library sine)."""
+def _about(axis: np.ndarray, angles: list[float]) -> np.ndarray:
+    """(A, 3, 3) rotations by ``angles`` (radians) about unit ``axis`` (Rodrigues, C library sine)."""
     a = unit3(np.asarray(axis, dtype=np.float64))
     K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * K + (1.0 - math.cos(angle)) * small_matmul(K, K)
+    sin, cos = (np.array([f(x) for x in angles])[:, None, None] for f in (math.sin, math.cos))
+    return np.eye(3) + sin * K + (1.0 - cos) * small_matmul(K, K)
 
 
 def grid_rotations(
@@ -152,9 +153,8 @@ def grid_rotations(
         n = max(int(yaws), 1)
         if axis is not None and abs(float(u @ axis)) > math.cos(math.radians(10.0)):
             n = 1  # a spin about the symmetry axis is invisible
-        for j in range(n):
-            out.append(small_matmul(_about(u, 2.0 * math.pi * j / n), R0))
-            rest.append(k)
+        out.extend(small_matmul(_about(u, [2.0 * math.pi * j / n for j in range(n)]), R0))
+        rest += [k] * n
     return np.stack(out), np.asarray(rest, dtype=np.int64)
 
 
