@@ -27,8 +27,7 @@ class TemplateFeatures:
     stacked: object  # the partials' descriptors, stacked for one batched affinity
     complete_points: np.ndarray  # (M', 3) FPS subset of the complete template for Chamfer terms
     pairing: CellGrid  # the full template points, searched within the refinement's pairing distance
-    truncated: CellGrid  # the same, searched within the visibility score's truncation
-    chamfer: CellGrid  # the same, the Chamfer distances' nearest points within CHAMFER_REACH (the tree's beyond)
+    truncated: CellGrid  # the same: the visibility score's truncation, the Chamfer distances' nearer points
     tree: object  # cKDTree of the same points (unbounded queries)
 
 

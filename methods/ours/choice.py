@@ -277,7 +277,7 @@ def dictionary_pool(
         keep = keep if keep.any() else np.ones(len(cands.T), dtype=bool)
     kept = np.nonzero(keep)[0]
     if 0 < PRESCREEN < len(kept):
-        dists = chamfer_distances(feats.tree, cands.chamfer_src, cands.T[kept], feats.chamfer)
+        dists = chamfer_distances(feats.tree, cands.chamfer_src, cands.T[kept], feats.truncated)
         kept = np.sort(kept[np.argsort(dists, kind="stable")[:PRESCREEN]])
     return cands.T[kept]
 

@@ -55,8 +55,7 @@ def template_features(descriptor: Descriptor, layout: DictionaryLayout, template
         shared.stacked,
         complete,
         cell_grid.build(template.points, REFINE_MAX_DISTANCE, cell_grid.CACHED_CELLS_PER_REACH),
-        cell_grid.build(template.points, VISIBILITY_TRUNC, cell_grid.CACHED_CELLS_PER_REACH),
-        cell_grid.build(template.points, CHAMFER_REACH, cell_grid.CACHED_CELLS_PER_REACH),
+        cell_grid.build(template.points, max(VISIBILITY_TRUNC, CHAMFER_REACH), cell_grid.CACHED_CELLS_PER_REACH),
         cKDTree(template.points),
     )
 

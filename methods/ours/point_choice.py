@@ -35,7 +35,7 @@ def criterion(
     """Chamfer distances, tilts (deg), kept mask and criterion (inf where not kept), all (m,)."""
     from catpose.methods.pose_scores import tilt_deg
 
-    dists = chamfer_distances(feats.tree, chamfer_src, T, feats.chamfer)
+    dists = chamfer_distances(feats.tree, chamfer_src, T, feats.truncated)
     tilt = tilt_deg(T, problem.ground_normal_camera, np.asarray(problem.template.up, dtype=np.float64))
     keep = allowed.copy()
     if sel.gravity_max_deg is not None:
@@ -102,7 +102,7 @@ def finish(
     elif sel.refine:
         T_best = refine(T_best[None], c.points)[0]
         if sel.rule == "chamfer":  # the score of the pose actually returned
-            score = float(chamfer_distances(feats.tree, chamfer_src, T_best[None], feats.chamfer)[0])
+            score = float(chamfer_distances(feats.tree, chamfer_src, T_best[None], feats.truncated)[0])
     timings["refinement"] = time.perf_counter() - t0
 
     extras = {

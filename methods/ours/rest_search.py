@@ -117,7 +117,7 @@ def search(
             # too), the grid_beam of lowest one-directional Chamfer distance go on in full
             src = cands.chamfer_src[:FIRST_POINTS]
             T = icp(src, T, FIRST_ITERATIONS, yaw)
-            dists = chamfer_distances(feats.tree, src, T, feats.chamfer)
+            dists = chamfer_distances(feats.tree, src, T, feats.truncated)
             T = T[np.sort(np.argsort(dists, kind="stable")[: rs.grid_beam])]
             return icp(cands.chamfer_src, T, ITERATIONS, yaw)
         return icp(cands.chamfer_src[:FIRST_POINTS], T, ITERATIONS, yaw)
