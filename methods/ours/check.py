@@ -218,7 +218,7 @@ class DepthVerifier:
         inner = self._inner_mask(int(erode_px)) if erode_px > 0 else L.mask
         n_mask = max(int(inner.sum()), 1)
         out = np.zeros((len(np.asarray(T_template_camera).reshape(-1, 4, 4)), 2))
-        for b, (win, r) in enumerate(self.render(T_template_camera, tol)):
+        for b, (win, r) in enumerate(self.render(T_template_camera, min(tol, self.tau))):  # scores' rendering serves it
             if win is not None:
                 inliers, free = window_fit(L.depth[win], L.mask[win], inner[win], r, tol)
                 out[b] = (inliers / n_mask, free / n_mask)
