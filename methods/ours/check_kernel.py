@@ -83,7 +83,8 @@ def needed(o, m, d, t, lo, hi, tol):  # pragma: no cover - compiled
             near, far = 0.0, np.inf
             for a in range(3):
                 if d[p, a] != 0.0:
-                    s0, s1 = (lo[a] - t[a]) / d[p, a], (hi[a] - t[a]) / d[p, a]
+                    inv = 1.0 / d[p, a]  # rounding moves the entry far less than the box's margin
+                    s0, s1 = (lo[a] - t[a]) * inv, (hi[a] - t[a]) * inv
                     near, far = max(near, min(s0, s1)), min(far, max(s0, s1))
                 elif t[a] < lo[a] or t[a] > hi[a]:
                     far = -1.0
