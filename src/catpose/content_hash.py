@@ -28,8 +28,12 @@ _TEMPLATES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 def template_hash(template, *fields: str, extra: str = "", digest_size: int = 8) -> str:
     """:func:`content_hash` of a template's arrays ``fields`` (names: ``"points"``, ``"vertices"``,
-    ...), once per template object (a template's arrays are not changed in place)."""
-    memo = _TEMPLATES.setdefault(template, {})
+    ...), once per template object (a template's arrays are not changed in place; an object no weak
+    reference can name is hashed every time)."""
+    try:
+        memo = _TEMPLATES.setdefault(template, {})
+    except TypeError:
+        memo = {}
     key = (fields, extra, digest_size)
     if key not in memo:
         memo[key] = content_hash(*(getattr(template, f) for f in fields), extra=extra, digest_size=digest_size)
