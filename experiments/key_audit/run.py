@@ -47,6 +47,8 @@ VARIANTS = {
     # the rule's drops, one key at a time, taken together (README.md, Choice): without and with the
     # poor-fit fallback's and the gravity filter's
     "the drops but the fallback": (R + "grid_icp=full", S + "depth_final_refine=1", S + "depth_top_k=1"),
+    # the drops that earn on neither source alone (no source rises either)
+    "the neutral drops": (R + "grid_icp=full", S + "depth_final_refine=1", S + "gravity_max_deg=null"),
     "the drops together": (
         S + "depth_min_inliers=0",
         R + "grid_icp=full",

@@ -134,7 +134,7 @@ def main(argv: list[str]) -> int:
         cells = [v, *(f3(d[k]) for k in ("clutter", "dev_A", "dev_B", "ycbv1dirty", "ycbv1clean")), agree]
         if v == "default":
             cells.append("reference")
-        elif v.startswith("the drops"):  # a combination: the rule's verdict read on it, nothing adopted (README)
+        elif v.startswith("the "):  # a combination: the rule's verdict read on it, nothing adopted (README)
             cells.append(f"combination: {verdict(d)}")
         elif v in MOOT and verdict_of.get(MOOT[v], "").startswith("**drop**"):
             cells.append(f"moot: its stage goes with `{MOOT[v]}` (by the rule: {verdict(d)})")
