@@ -43,11 +43,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
 
-#: name -> (the coarse search on the fixed points, the dictionary pool's prescreen too)
+#: name -> (the coarse search on the fixed points, the dictionary pool's prescreen too, the
+#: choice's step 2 refinement too)
 VARIANTS = {
-    "default": (False, False),
-    "search on fixed points": (True, False),
-    "pool on fixed points": (True, True),
+    "default": (False, False, False),
+    "search on fixed points": (True, False, False),
+    "pool on fixed points": (True, True, False),
+    "step 2 on fixed points": (True, True, True),
 }
 #: observed fixed points that replace ``cands.chamfer_src`` (its size: hypotheses.CHAMFER_POINTS)
 CHAMFER_POINTS = 256
@@ -143,15 +145,38 @@ def dictionary_pool(sel, problem, cands, feats, up):
     return ORIGINAL["pool"](sel, problem, fixed, mesh_feats, up)
 
 
+def select_by_depth(sel, problem, pool, cands, feats, ups, timings, verifier):
+    """:func:`catpose.methods.ours.choice.select_by_depth` with its step 2 (the depth_top_k poses
+    refined by ICP) on the fixed points against the mesh sample (its grid of reach
+    ``REFINE_MAX_DISTANCE`` and its normals) instead of ``cands.chamfer_src`` and the template's
+    points; steps 3 and 4 read the same points as ours' own."""
+    from catpose.methods.ours.refine import mesh_sample
+
+    pts = fixed_points(problem)
+    grid, normals = mesh_sample(problem.template)
+    key = id(problem.template)
+    tpl = _TEMPLATES.get(key)
+    if tpl is None or tpl[0] is not problem.template:
+        tpl = _TEMPLATES[key] = (problem.template, replace(problem.template, points=grid.points, normals=normals))
+    fixed = replace(cands, chamfer_src=pts[:CHAMFER_POINTS])
+    moved = replace(problem, template=tpl[1])
+    return ORIGINAL["select"](sel, moved, pool, fixed, replace(feats, pairing=grid), ups, timings, verifier)
+
+
+_TEMPLATES: dict = {}
+
+
 def use(variant: str) -> None:
     """Install ``variant``'s search and pool in ours (for the whole process until the next call)."""
     from catpose.methods.ours import choice, rest_search
 
     ORIGINAL.setdefault("search", rest_search.search)
     ORIGINAL.setdefault("pool", choice.dictionary_pool)
-    on_search, on_pool = VARIANTS[variant]
+    ORIGINAL.setdefault("select", choice.select_by_depth)
+    on_search, on_pool, on_select = VARIANTS[variant]
     rest_search.search = search if on_search else ORIGINAL["search"]
     choice.dictionary_pool = dictionary_pool if on_pool else ORIGINAL["pool"]
+    choice.select_by_depth = select_by_depth if on_select else ORIGINAL["select"]
     STATE["info"] = {}
 
 
