@@ -1,12 +1,15 @@
-"""The per-sample loop of ours' studies (``rest_recall``, ``depth_check_masks``, ``outside_mask``):
-ours and the problems built and seeded as ``bench run`` builds and seeds them, so their answers are
-the run's; one JSON line per sample, finished samples skipped on a rerun; and the tables' reading of
-those lines."""
+"""The per-sample loop of ours' studies (``rest_recall``, ``depth_check_masks``, ``outside_mask``,
+``key_audit``, ``seed_free``): ours and the problems built and seeded as ``bench run`` builds and
+seeds them, so their answers are the run's; one JSON line per sample, finished samples skipped on a
+rerun; every variant of a study on each problem back to back (:func:`variant_rows`); and the tables'
+reading of those lines."""
 
 from __future__ import annotations
 
 import json
+import statistics
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -57,6 +60,132 @@ def answer_errors(result: Any, gt: Any) -> tuple[np.ndarray, float, dict, float]
         result.extras.get("hypothesis_stages", {}), gt.T_template_camera, gt.symmetry_axis, gt.symmetries
     )
     return T, err, stages, float(np.nanmin([err, *stages.values()]))
+
+
+def slug(variant: str) -> str:
+    """The file name of a variant's lines (``grid_icp yaw`` -> ``grid_icp-yaw``)."""
+    return "-".join("".join(c if c.isalnum() or c in "._" else " " for c in variant).split())
+
+
+def variant_rows(
+    out_dir: Path,
+    seed: int,
+    names: list[str],
+    dataset: Any,
+    protocol: Any,
+    method_for: Callable[[str], Any],
+    warm_each: bool = False,
+    extra: Callable[[], dict] | None = None,
+) -> None:
+    """Every sample of ``protocol`` on ``dataset`` registered by each variant of ``names`` in turn
+    (``method_for(v)``: the method of variant ``v``, after installing whatever the variant patches),
+    one JSON line per sample into ``out_dir/<slug(v)>.jsonl``: the answer's error, found@10's best
+    error over ours' held poses, the seconds (the variants back to back on the same problem, so
+    their seconds pair up; who goes first rotates), the answer relative to the truth (``T_rel`` =
+    T_est T_gt^-1, with the truth's symmetries: the seeds' agreement) and ``extra()``'s fields.
+    A template's caches are built before any timed run (by the first variant, or by each when
+    ``warm_each``); finished samples already in a variant's file are skipped."""
+    from catpose.geometry import compose_T, invert_T
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = {v: out_dir / f"{slug(v)}.jsonl" for v in names}
+    done = {v: done_ids(p) for v, p in paths.items()}
+    t_all = time.time()
+    files = {v: p.open("a") for v, p in paths.items()}
+    seen = set()
+    for i, sid in enumerate(protocol.sample_ids(dataset)):
+        todo = [v for v in names if sid not in done[v]]
+        if not todo:
+            continue
+        s = protocol.load(dataset, sid)
+        p, gt = s.problem, s.gt
+        if p.template.template_id not in seen:
+            seen.add(p.template.template_id)
+            for v in todo if warm_each else todo[:1]:
+                method_for(v).register(p)
+        k = i % len(todo)
+        for v in todo[k:] + todo[:k]:
+            r, seconds = register_seeded(method_for(v), p, seed, sid)
+            T, err, _, found = answer_errors(r, gt)
+            axis = gt.symmetry_axis
+            row = {
+                "sample_id": sid,
+                "seed": seed,
+                "category": p.category,
+                "obj_id": int((s.info or {}).get("obj_id", -1)),
+                "err_deg": err,
+                "found_err_deg": found,
+                "seconds": seconds,
+                "T_rel": compose_T(T, invert_T(np.asarray(gt.T_template_camera, float))).tolist(),
+                "symmetry_axis": None if axis is None else [float(x) for x in np.asarray(axis).ravel()],
+                "symmetries": [np.asarray(x, float).tolist() for x in (gt.symmetries or ())],
+                **(extra() if extra else {}),
+            }
+            files[v].write(json.dumps(row) + "\n")
+            files[v].flush()
+    for f in files.values():
+        f.close()
+    print(f"{out_dir} seed {seed}: done in {time.time() - t_all:.0f} s")
+
+
+#: the seeds every study judges over
+SEEDS = (0, 1, 2)
+#: configs/split/clutter_objects.yaml: the clutter dev scenes' object halves
+HALVES = {"dev_A": (1, 6, 9, 12), "dev_B": (4, 5, 13, 14)}
+
+
+def at10(rows: list[dict], key: str = "err_deg") -> float:
+    return float(np.mean([r[key] <= 10.0 for r in rows])) if rows else float("nan")
+
+
+def load(runs: Path, source: str, variant: str) -> dict[int, list[dict]]:
+    """Seed -> the variant's rows on ``source`` (seeds without rows left out)."""
+    out = {s: read_rows(runs / f"{source}-seed{s}" / f"{variant}.jsonl") for s in SEEDS}
+    return {s: rows for s, rows in out.items() if rows}
+
+
+def delta(mine: dict[int, list[dict]], ref: dict[int, list[dict]], objs: tuple | None = None) -> float:
+    """The variant's @10 minus the default's on the same views of each seed (only the objects
+    ``objs`` when given), mean over the seeds both have; NaN without any."""
+    diffs = []
+    for s, rows in mine.items():
+        by_id = {r["sample_id"]: r for r in ref.get(s, [])}
+        paired = [(r, by_id[r["sample_id"]]) for r in rows if r["sample_id"] in by_id]
+        if objs is not None:
+            paired = [(a, b) for a, b in paired if a["obj_id"] in objs]
+        if paired:
+            diffs.append(at10([a for a, _ in paired]) - at10([b for _, b in paired]))
+    return float(np.mean(diffs)) if diffs else float("nan")
+
+
+def agreement(seeds: dict[int, list[dict]]) -> float:
+    """``bench suite``'s agree (:func:`catpose.bench.real.suite_table.seed_agreement`): the fraction
+    of the views every seed answered whose answers (relative to the truth) lie pairwise within 10
+    deg; NaN unless all three seeds ran."""
+    from catpose.bench.real.suite_table import seed_agreement
+
+    if len(seeds) < len(SEEDS):
+        return float("nan")
+    per_seed = [
+        {
+            r["sample_id"]: (
+                np.asarray(r["T_rel"]),
+                r["symmetry_axis"] and np.asarray(r["symmetry_axis"]),
+                r["symmetries"],
+            )
+            for r in rows
+        }
+        for rows in seeds.values()
+    ]
+    return seed_agreement(per_seed)
+
+
+def seconds(mine: dict[int, list[dict]]) -> float:
+    return statistics.median(r["seconds"] for rows in mine.values() for r in rows)
+
+
+def f3(x: float) -> str:
+    return "n/a" if x != x else f"{x:+.3f}"
 
 
 def spread(values: list[float]) -> str:

@@ -15,12 +15,8 @@ variant's file are skipped.
 
 from __future__ import annotations
 
-import json
 import sys
-import time
 from pathlib import Path
-
-import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
 
@@ -59,16 +55,10 @@ VARIANTS = {
 }
 
 
-def slug(variant: str) -> str:
-    """The file name of a variant's lines (``grid_icp yaw`` -> ``grid_icp-yaw``)."""
-    return "-".join("".join(c if c.isalnum() or c in "._" else " " for c in variant).split())
-
-
 def main(argv: list[str]) -> int:
-    from sample_rows import answer_errors, build, done_ids, register_seeded
+    from sample_rows import build, variant_rows
 
     from catpose.bench.run.config import compose_and_build
-    from catpose.geometry import compose_T, invert_T
 
     out_dir, seed, names = Path(argv[0]), int(argv[1]), argv[2].split(",")
     unknown = [v for v in names if v not in VARIANTS]
@@ -80,43 +70,7 @@ def main(argv: list[str]) -> int:
         m = first if not VARIANTS[v] else compose_and_build(["method=ours", *VARIANTS[v]], ["method"])[1][0][1]
         m._features = first._features  # the same descriptor and dictionary: one feature cache for all
         methods[v] = m
-    out_dir.mkdir(parents=True, exist_ok=True)
-    paths = {v: out_dir / f"{slug(v)}.jsonl" for v in names}
-    done = {v: done_ids(p) for v, p in paths.items()}
-    t_all = time.time()
-    files = {v: p.open("a") for v, p in paths.items()}
-    seen = set()
-    for i, sid in enumerate(protocol.sample_ids(dataset)):
-        todo = [v for v in names if sid not in done[v]]
-        if not todo:
-            continue
-        s = protocol.load(dataset, sid)
-        p, gt = s.problem, s.gt
-        if p.template.template_id not in seen:  # the template's caches built before any timed run
-            seen.add(p.template.template_id)
-            methods[todo[0]].register(p)
-        k = i % len(todo)  # the variants one after the other on the same problem (paired seconds), in turns first
-        for v in todo[k:] + todo[:k]:
-            r, seconds = register_seeded(methods[v], p, seed, sid)
-            T, err, _, found = answer_errors(r, gt)
-            axis = gt.symmetry_axis
-            row = {
-                "sample_id": sid,
-                "seed": seed,
-                "category": p.category,
-                "obj_id": int((s.info or {}).get("obj_id", -1)),
-                "err_deg": err,
-                "found_err_deg": found,
-                "seconds": seconds,
-                "T_rel": compose_T(T, invert_T(np.asarray(gt.T_template_camera, float))).tolist(),
-                "symmetry_axis": None if axis is None else [float(x) for x in np.asarray(axis).ravel()],
-                "symmetries": [np.asarray(x, float).tolist() for x in (gt.symmetries or ())],
-            }
-            files[v].write(json.dumps(row) + "\n")
-            files[v].flush()
-    for f in files.values():
-        f.close()
-    print(f"{out_dir} seed {seed}: done in {time.time() - t_all:.0f} s")
+    variant_rows(out_dir, seed, names, dataset, protocol, methods.__getitem__)
     return 0
 
 

@@ -8,77 +8,21 @@ with one ``<variant>.jsonl`` per variant (run.py).
 
 from __future__ import annotations
 
-import statistics
 import sys
 from pathlib import Path
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
-from sample_rows import read_rows, spread  # noqa: E402  (experiments/_lib/sample_rows.py)
+from sample_rows import HALVES, agreement, at10, delta, f3, load, seconds, slug, spread  # noqa: E402  (experiments/_lib/sample_rows.py)
 
 SOURCES = {
     "clutter": "clutter dev scenes 0-49, segmenter-like masks (dataset.mask_noise=1)",
     "ycbv1dirty": "YCB-V scene 1, segmenter-like masks (dataset.mask_noise=1)",
     "ycbv1clean": "YCB-V scene 1, the written masks",
 }
-SEEDS = (0, 1, 2)
-#: configs/split/clutter_objects.yaml: the dev scenes' object halves
-HALVES = {"dev_A": (1, 6, 9, 12), "dev_B": (4, 5, 13, 14)}
 #: the README's rule, fixed before the runs: the two sources it reads, the margins
 RULE_SOURCES, SMALL, LARGE = ("clutter", "ycbv1dirty"), 0.005, 0.01
 #: variants whose key only tunes a stage another variant's verdict removes, and that variant
 MOOT = {"depth_fit_erode_px 0": "depth_min_inliers 0"}
-
-
-def at10(rows: list[dict], key: str = "err_deg") -> float:
-    return float(np.mean([r[key] <= 10.0 for r in rows])) if rows else float("nan")
-
-
-def load(runs: Path, source: str, variant: str) -> dict[int, list[dict]]:
-    """Seed -> the variant's rows on ``source`` (seeds without rows left out)."""
-    out = {s: read_rows(runs / f"{source}-seed{s}" / f"{variant}.jsonl") for s in SEEDS}
-    return {s: rows for s, rows in out.items() if rows}
-
-
-def delta(mine: dict[int, list[dict]], ref: dict[int, list[dict]], objs: tuple | None = None) -> float:
-    """The variant's @10 minus the default's on the same views of each seed (only the objects
-    ``objs`` when given), mean over the seeds both have; NaN without any."""
-    diffs = []
-    for s, rows in mine.items():
-        by_id = {r["sample_id"]: r for r in ref.get(s, [])}
-        paired = [(r, by_id[r["sample_id"]]) for r in rows if r["sample_id"] in by_id]
-        if objs is not None:
-            paired = [(a, b) for a, b in paired if a["obj_id"] in objs]
-        if paired:
-            diffs.append(at10([a for a, _ in paired]) - at10([b for _, b in paired]))
-    return float(np.mean(diffs)) if diffs else float("nan")
-
-
-def agreement(seeds: dict[int, list[dict]]) -> float:
-    """``bench suite``'s agree (:func:`catpose.bench.real.suite_table.seed_agreement`): the fraction
-    of the views every seed answered whose answers (relative to the truth) lie pairwise within 10
-    deg; NaN unless all three seeds ran."""
-    from catpose.bench.real.suite_table import seed_agreement
-
-    if len(seeds) < len(SEEDS):
-        return float("nan")
-    per_seed = [
-        {
-            r["sample_id"]: (
-                np.asarray(r["T_rel"]),
-                r["symmetry_axis"] and np.asarray(r["symmetry_axis"]),
-                r["symmetries"],
-            )
-            for r in rows
-        }
-        for rows in seeds.values()
-    ]
-    return seed_agreement(per_seed)
-
-
-def seconds(mine: dict[int, list[dict]]) -> float:
-    return statistics.median(r["seconds"] for rows in mine.values() for r in rows)
 
 
 def verdict(d: dict[str, float]) -> str:
@@ -99,14 +43,10 @@ def verdict(d: dict[str, float]) -> str:
     return "keep (no rule applies: a source or half falls by less than the keep margin)"
 
 
-def f3(x: float) -> str:
-    return "n/a" if x != x else f"{x:+.3f}"
-
-
 def main(argv: list[str]) -> int:
     runs, out = Path(argv[0]), Path(argv[1])
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from run import VARIANTS, slug  # the study's runner, beside this file
+    from run import VARIANTS  # the study's runner, beside this file
 
     ref = {src: load(runs, src, "default") for src in SOURCES}
     ran = [v for v in VARIANTS if any(load(runs, src, slug(v)) for src in SOURCES)]

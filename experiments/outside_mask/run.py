@@ -30,9 +30,7 @@ misleads ours) moves the object's rim and a mug's handle into it.
 
 from __future__ import annotations
 
-import json
 import sys
-import time
 from pathlib import Path
 
 import numba
@@ -88,11 +86,6 @@ def ring_mask(image_mask: np.ndarray, k: int, rows: np.ndarray, cols: np.ndarray
     ``rows`` x ``cols``."""
     grown = ndimage.binary_dilation(image_mask, np.ones((3, 3), bool), iterations=k)
     return (grown & ~image_mask)[np.ix_(rows, cols)]
-
-
-def slug(variant: str) -> str:
-    """The file name of a variant's lines (``ring 3 px +refine`` -> ``ring-3-px-refine``)."""
-    return "-".join("".join(c if c.isalnum() or c == "." else " " for c in variant).split())
 
 
 def patched(variant: str) -> tuple:
@@ -172,46 +165,17 @@ def use(functions: tuple) -> None:
 
 
 def main(argv: list[str]) -> int:
-    from sample_rows import answer_errors, build, done_ids, register_seeded
+    from sample_rows import build, variant_rows
 
     out_dir, seed, names = Path(argv[0]), int(argv[1]), argv[2].split(",")
     functions = {v: patched(v) for v in names}
     _, method, dataset, protocol = build(seed, argv[3:])
-    out_dir.mkdir(parents=True, exist_ok=True)
-    paths = {v: out_dir / f"{slug(v)}.jsonl" for v in names}
-    done = {v: done_ids(p) for v, p in paths.items()}
-    t_all = time.time()
-    files = {v: p.open("a") for v, p in paths.items()}
-    seen = set()
-    for i, sid in enumerate(protocol.sample_ids(dataset)):
-        todo = [v for v in names if sid not in done[v]]
-        if not todo:
-            continue
-        s = protocol.load(dataset, sid)
-        p, gt = s.problem, s.gt
-        if p.template.template_id not in seen:  # the template's caches built before any timed run
-            seen.add(p.template.template_id)
-            use(functions[todo[0]])
-            method.register(p)
-        k = i % len(todo)  # the variants one after the other on the same problem (paired seconds), in turns first
-        for v in todo[k:] + todo[:k]:
-            use(functions[v])
-            r, seconds = register_seeded(method, p, seed, sid)
-            _, err, _, found = answer_errors(r, gt)
-            row = {
-                "sample_id": sid,
-                "seed": seed,
-                "category": p.category,
-                "obj_id": int((s.info or {}).get("obj_id", -1)),
-                "err_deg": err,
-                "found_err_deg": found,
-                "seconds": seconds,
-            }
-            files[v].write(json.dumps(row) + "\n")
-            files[v].flush()
-    for f in files.values():
-        f.close()
-    print(f"{out_dir} seed {seed}: done in {time.time() - t_all:.0f} s")
+
+    def method_for(v: str):
+        use(functions[v])
+        return method
+
+    variant_rows(out_dir, seed, names, dataset, protocol, method_for)
     return 0
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
-from sample_rows import read_rows, spread  # noqa: E402  (experiments/_lib/sample_rows.py)
+from sample_rows import HALVES, SEEDS, at10, read_rows, slug, spread  # noqa: E402  (experiments/_lib/sample_rows.py)
 
 SOURCES = {
     "clutter": "clutter dev scenes 0-49, segmenter-like masks (dataset.mask_noise=1)",
@@ -23,13 +23,6 @@ SOURCES = {
     "ycbv1dirty": "YCB-V scene 1, segmenter-like masks (dataset.mask_noise=1)",
     "ycbv1clean": "YCB-V scene 1, the written masks",
 }
-SEEDS = (0, 1, 2)
-#: configs/split/clutter_objects.yaml: the dev scenes' object halves
-HALVES = {"dev_A": (1, 6, 9, 12), "dev_B": (4, 5, 13, 14)}
-
-
-def at10(rows: list[dict], key: str = "err_deg") -> float:
-    return float(np.mean([r[key] <= 10.0 for r in rows]))
 
 
 def table(runs: Path, source: str, variants: dict[str, str]) -> list[str]:
@@ -108,7 +101,7 @@ def timing(runs: Path, variants: dict[str, str]) -> list[str]:
 
 def main(argv: list[str]) -> int:
     runs, out = Path(argv[0]), Path(argv[1])
-    from run import VARIANTS, slug  # the study's runner, beside this file
+    from run import VARIANTS  # the study's runner, beside this file
 
     names = {slug(v): v for v in VARIANTS}
     lines = [

@@ -33,9 +33,7 @@ the other (median nearest-neighbour distance, the depth unit: the same frame and
 
 from __future__ import annotations
 
-import json
 import sys
-import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -180,15 +178,8 @@ def use(variant: str) -> None:
     STATE["info"] = {}
 
 
-def slug(variant: str) -> str:
-    """The file name of a variant's lines (``search on fixed points`` -> ``search-on-fixed-points``)."""
-    return "-".join("".join(c if c.isalnum() or c in "._" else " " for c in variant).split())
-
-
 def main(argv: list[str]) -> int:
-    from sample_rows import answer_errors, build, done_ids, register_seeded
-
-    from catpose.geometry import compose_T, invert_T
+    from sample_rows import build, variant_rows
 
     out_dir, seed, names = Path(argv[0]), int(argv[1]), argv[2].split(",")
     unknown = [v for v in names if v not in VARIANTS]
@@ -196,47 +187,12 @@ def main(argv: list[str]) -> int:
         raise SystemExit(f"{unknown}: not in VARIANTS ({', '.join(VARIANTS)})")
     _, method, dataset, protocol = build(seed, argv[3:])
     STATE["sel"] = method.selection
-    out_dir.mkdir(parents=True, exist_ok=True)
-    paths = {v: out_dir / f"{slug(v)}.jsonl" for v in names}
-    done = {v: done_ids(p) for v, p in paths.items()}
-    t_all = time.time()
-    files = {v: p.open("a") for v, p in paths.items()}
-    seen = set()
-    for i, sid in enumerate(protocol.sample_ids(dataset)):
-        todo = [v for v in names if sid not in done[v]]
-        if not todo:
-            continue
-        s = protocol.load(dataset, sid)
-        p, gt = s.problem, s.gt
-        if p.template.template_id not in seen:  # the template's caches built before any timed run
-            seen.add(p.template.template_id)
-            for v in todo:
-                use(v)
-                method.register(p)
-        k = i % len(todo)  # the variants one after the other on the same problem (paired seconds), in turns first
-        for v in todo[k:] + todo[:k]:
-            use(v)
-            r, seconds = register_seeded(method, p, seed, sid)
-            T, err, _, found = answer_errors(r, gt)
-            axis = gt.symmetry_axis
-            row = {
-                "sample_id": sid,
-                "seed": seed,
-                "category": p.category,
-                "obj_id": int((s.info or {}).get("obj_id", -1)),
-                "err_deg": err,
-                "found_err_deg": found,
-                "seconds": seconds,
-                "T_rel": compose_T(T, invert_T(np.asarray(gt.T_template_camera, float))).tolist(),
-                "symmetry_axis": None if axis is None else [float(x) for x in np.asarray(axis).ravel()],
-                "symmetries": [np.asarray(x, float).tolist() for x in (gt.symmetries or ())],
-                **STATE["info"],
-            }
-            files[v].write(json.dumps(row) + "\n")
-            files[v].flush()
-    for f in files.values():
-        f.close()
-    print(f"{out_dir} seed {seed}: done in {time.time() - t_all:.0f} s")
+
+    def method_for(v: str):
+        use(v)
+        return method
+
+    variant_rows(out_dir, seed, names, dataset, protocol, method_for, warm_each=True, extra=lambda: STATE["info"])
     return 0
 
 

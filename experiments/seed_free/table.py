@@ -4,12 +4,11 @@
 
 RUNS_DIR holds one folder per source and seed (``clutterclean-seed0``, ``ycbv1dirty-seed1``, ...),
 each with one ``<variant>.jsonl`` per variant (run.py). The paired differences, the seeds'
-agreement and the seconds are key_audit's (``experiments/key_audit/table.py``).
+agreement and the seconds are the studies' shared reading (``experiments/_lib/sample_rows.py``).
 """
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 from pathlib import Path
 
@@ -17,11 +16,7 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "_lib"))
-from sample_rows import read_rows, spread  # noqa: E402  (experiments/_lib/sample_rows.py)
-
-_spec = importlib.util.spec_from_file_location("key_audit_table", HERE.parent / "key_audit" / "table.py")
-ka = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(ka)
+from sample_rows import HALVES, agreement, at10, delta, f3, load, seconds, slug, spread  # noqa: E402  (experiments/_lib/sample_rows.py)
 
 SOURCES = {
     "clutterclean": "clutter dev scenes 0-49, the written masks (dataset.mask_noise=0)",
@@ -35,17 +30,9 @@ SHORT = {
     "clutter": "clutter dirty",
     "ycbv1dirty": "YCB-V s1 dirty",
 }
-SEEDS = ka.SEEDS
-HALVES = ka.HALVES
 #: the README's rule, fixed before the runs: agreement must rise on these; @10 may fall by at most
 #: SMALL on any source and by at most LARGE on either clutter half
 AGREE_SOURCES, SMALL, LARGE = ("clutterclean", "ycbv1clean"), 0.005, 0.01
-
-
-def load(runs: Path, source: str, variant: str) -> dict[int, list[dict]]:
-    """Seed -> the variant's rows on ``source`` (seeds without rows left out)."""
-    out = {s: read_rows(runs / f"{source}-seed{s}" / f"{variant}.jsonl") for s in SEEDS}
-    return {s: rows for s, rows in out.items() if rows}
 
 
 def paired(mine: dict[int, list[dict]], ref: dict[int, list[dict]]) -> tuple[dict, dict]:
@@ -80,7 +67,7 @@ def verdict(d: dict[str, float], agree: dict[str, tuple[float, float]]) -> str:
 def main(argv: list[str]) -> int:
     runs, out = Path(argv[0]), Path(argv[1])
     sys.path.insert(0, str(HERE))
-    from run import VARIANTS, slug  # the study's runner, beside this file
+    from run import VARIANTS  # the study's runner, beside this file
 
     ref_all = {src: load(runs, src, "default") for src in SOURCES}
     ran = [v for v in VARIANTS if any(load(runs, src, slug(v)) for src in SOURCES)]
@@ -108,28 +95,28 @@ def main(argv: list[str]) -> int:
             if not mine_all:
                 cells.append("not run")
                 continue
-            d[src] = ka.delta(mine_all, ref_all[src])
+            d[src] = delta(mine_all, ref_all[src])
             mine, ref = paired(mine_all, ref_all[src])
-            a, a0 = ka.agreement(mine), ka.agreement(ref)
+            a, a0 = agreement(mine), agreement(ref)
             if a == a and a0 == a0:
                 agree[src] = (a, a0)
             if src.startswith("clutter"):
-                d.update({f"{src}:{h}": ka.delta(mine_all, ref_all[src], objs) for h, objs in HALVES.items()})
-            at = float(np.mean([ka.at10(r) for r in mine_all.values()]))
-            cells.append(f"{at:.3f} ({ka.f3(d[src])}), {'n/a' if a != a else f'{a:.2f}'}")
+                d.update({f"{src}:{h}": delta(mine_all, ref_all[src], objs) for h, objs in HALVES.items()})
+            at = float(np.mean([at10(r) for r in mine_all.values()]))
+            cells.append(f"{at:.3f} ({f3(d[src])}), {'n/a' if a != a else f'{a:.2f}'}")
             row = [
                 v,
                 ",".join(str(len(r)) for r in mine_all.values()),
-                spread([ka.at10(r) for r in mine_all.values()]),
-                ka.f3(d[src]),
-                spread([ka.at10(r, "found_err_deg") for r in mine_all.values()]),
+                spread([at10(r) for r in mine_all.values()]),
+                f3(d[src]),
+                spread([at10(r, "found_err_deg") for r in mine_all.values()]),
                 "n/a" if a != a else f"{a:.2f}",
-                f"{ka.seconds(mine_all):.3f}",
+                f"{seconds(mine_all):.3f}",
             ]
             if src.startswith("clutter"):
                 for h, objs in HALVES.items():
-                    half = spread([ka.at10([x for x in r if x["obj_id"] in objs]) for r in mine_all.values()])
-                    row.append(f"{half} ({ka.f3(d[f'{src}:{h}'])})")
+                    half = spread([at10([x for x in r if x["obj_id"] in objs]) for r in mine_all.values()])
+                    row.append(f"{half} ({f3(d[f'{src}:{h}'])})")
             sizes = [r for rows in mine_all.values() for r in rows if "n_fixed" in r]
             if sizes:
                 med = lambda k: float(np.median([r[k] for r in sizes]))  # noqa: E731
