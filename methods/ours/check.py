@@ -34,6 +34,7 @@ import numpy as np
 
 from catpose.content_hash import template_hash
 from catpose.lru import LRUCache
+from catpose.methods.ours import span
 from catpose.methods.ours.check_kernel import needed, window_cost, window_fit
 from catpose.methods.ours.settings import SelectionSettings
 from catpose.raycast import RayCaster
@@ -118,6 +119,7 @@ class DepthVerifier:
         lo, hi = self.caster.bounds  # grown far beyond float32's rounding of hits (the pruning's margin)
         self.box = (lo - 1e-3 * self.radius, hi + 1e-3 * self.radius)
         self._inner: dict[int, np.ndarray] = {}  # the lattice's inner mask per erosion (fits)
+        self.span_depth = span.median_depth(image)  # the object's depth span's centre
 
     def _lattice(self, stride: int) -> _Lattice:
         h, w = self.image.depth.shape
@@ -212,7 +214,8 @@ class DepthVerifier:
         ``tau``) and the free-space violations (by more than ``tolerance``) per mask pixel: how
         well a pose fits, in units that do not depend on the object's size. With ``erode_px`` > 0
         the explained fraction counts only the mask pixels at least that many image pixels inside
-        the mask's edge (the whole mask where none are)."""
+        the mask's edge (the whole mask where none are) and within the object's depth span
+        (:mod:`~catpose.methods.ours.span`; all of them where none is)."""
         L = self.lattice
         tol = self.tau if tolerance is None else float(tolerance)
         inner = self._inner_mask(int(erode_px)) if erode_px > 0 else L.mask
@@ -226,7 +229,8 @@ class DepthVerifier:
 
     def _inner_mask(self, erode_px: int) -> np.ndarray:
         """The lattice's mask pixels at least ``erode_px`` image pixels inside the mask's edge
-        (the whole lattice mask where erosion leaves none)."""
+        (the whole lattice mask where erosion leaves none), of them those within the object's depth
+        span (all where none is)."""
         from scipy.ndimage import binary_erosion
 
         hit = self._inner.get(erode_px)
@@ -239,7 +243,9 @@ class DepthVerifier:
             eroded = np.zeros_like(mask)
             eroded[r0:r1, c0:c1] = binary_erosion(mask[r0:r1, c0:c1], iterations=erode_px)
             inner = eroded[np.ix_(L.rows, L.cols)]
-            hit = self._inner[erode_px] = inner if inner.any() else L.mask
+            inner = inner if inner.any() else L.mask
+            kept = inner & span.in_span(L.depth, self.span_depth)
+            hit = self._inner[erode_px] = kept if kept.any() else inner
         return hit
 
 

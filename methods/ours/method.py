@@ -2,6 +2,8 @@
 
 :meth:`Ours.register` is the list of stages, each a module of this package:
 
+0. with a depth image, the points within the object's depth span (:mod:`~catpose.methods.ours.span`:
+   a mask that bleeds onto a far background moves no statistic);
 1. hypotheses from the dictionary (:mod:`~catpose.methods.ours.hypotheses`): partial templates,
    keypoints, descriptors, affinities and an SVD pose per partial;
 2. solving (:mod:`~catpose.methods.ours.solver`): the two stages of pose (and soft
@@ -36,7 +38,7 @@ from catpose.methods import options
 from catpose.methods.descriptors import LPS, Descriptor
 from catpose.methods.dictionary import DictionaryLayout
 from catpose.methods.method import RegistrationMethod
-from catpose.methods.ours import check, choice, hypotheses, point_choice, rest_search, resting, solver
+from catpose.methods.ours import check, choice, hypotheses, point_choice, rest_search, resting, solver, span
 from catpose.methods.ours.candidates import Candidates, Prepared, TemplateFeatures
 from catpose.methods.ours.settings import OptimiserSettings, RestingSettings, SelectionSettings
 from catpose.methods.registry import SuiteRow, register_method
@@ -93,6 +95,7 @@ class Ours(RegistrationMethod):
         if not self.uses_depth(problem):
             return self._point_choice(problem, self.candidates(problem, timings), timings)
         sel = self.selection
+        problem, n_far = span.observed_points(problem)  # the points within the object's depth span
         t0 = time.perf_counter()
         ups = resting.ups(problem.template, self.resting)
         timings["hypotheses"] = time.perf_counter() - t0
@@ -104,7 +107,8 @@ class Ours(RegistrationMethod):
         ups = ups if len(searched) else ups[:1]  # without the resting-pose search, the own up only
         result = choice.select_by_depth(sel, problem, pool, cands, feats, ups, timings, verifier)
         stages = choice.stage_lists(candidates=cands.T, **({"rest_grid": searched} if len(searched) else {}), pool=pool)
-        extras = dict(result.extras, hypothesis_stages={**stages, **result.extras["hypothesis_stages"]})
+        stages = {**stages, **result.extras["hypothesis_stages"]}
+        extras = dict(result.extras, hypothesis_stages=stages, depth_far_points=n_far)
         return choice.poor_fit(sel, problem, replace(result, extras=extras), cands, feats, verifier, timings)
 
     def uses_depth(self, problem: RegistrationProblem) -> bool:
