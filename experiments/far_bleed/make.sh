@@ -20,4 +20,8 @@ for seed in 0 1 2 3 4 5; do
     nice -n 5 $PY experiments/far_bleed/run.py "$OUT/clutter${far:+far}-seed$seed" $seed $variants $far "${CLUTTER[@]}" 2>/dev/null
   done
 done
+for seed in 0 1 2; do  # the written masks, after the choice (not in the rule)
+  nice -n 5 $PY experiments/far_bleed/run.py "$OUT/ycbv1clean-seed$seed" $seed default,trim-points-fit "${YCBV[@]/mask_noise=1.0/mask_noise=0.0}" 2>/dev/null
+  nice -n 5 $PY experiments/far_bleed/run.py "$OUT/clutterclean-seed$seed" $seed default,trim-points-fit "${CLUTTER[@]/mask_noise=1.0/mask_noise=0.0}" 2>/dev/null
+done
 $PY experiments/far_bleed/table.py "$OUT" results/far_bleed/dev.md
