@@ -146,7 +146,7 @@ def test_the_inner_fit_ignores_a_mask_that_bleeds_over_its_edge():
     """A segmentation grown by 2 px onto the backdrop (real masks' edges are off by a pixel or two)
     leaves the true pose's whole-mask fit at about 0.9; counted 3 px inside the mask's edge it is
     over 0.99 again, while a pose half a turn off stays short inside too (the erosion is a reference:
-    scipy.ndimage, pixel by pixel)."""
+    scipy.ndimage, pixel by pixel; the span, 2 object units of the mask's median depth, numpy's)."""
     from scipy.ndimage import binary_dilation, binary_erosion
 
     tpl = _template()
@@ -155,15 +155,19 @@ def test_the_inner_fit_ignores_a_mask_that_bleeds_over_its_edge():
     v = DepthVerifier(tpl, bled, tau=0.05, target_pixels=10**6, max_rays=10**6)  # stride 1: every pixel
     whole, inner = v.fit(T_true[None], 0.05)[0, 0], v.fit(T_true[None], 0.05, 3)[0, 0]
     assert whole < 0.95 and inner > 0.99
-    # the denominator is the eroded mask's pixel count
-    n_inner = int(binary_erosion(bled.mask, iterations=3).sum())
+    # the denominator: the eroded mask's pixels within the object's depth span (the backdrop's are not)
+    inner_px = binary_erosion(bled.mask, iterations=3) & (np.abs(bled.depth - np.median(bled.depth[bled.mask])) <= 2)
+    assert inner_px.sum() < binary_erosion(bled.mask, iterations=3).sum()
+    n_inner = int(inner_px.sum())
     win, r = v.render(T_true[None])[0]
-    inside = binary_erosion(bled.mask, iterations=3)[win]
+    inside = inner_px[win]
     assert inner == pytest.approx(((r > 0) & (np.abs(r - bled.depth[win]) <= 0.05) & inside).sum() / n_inner)
     T_turned = compose_T(half_turns()[1], T_true)
     assert v.fit(T_turned[None], 0.05, 3)[0, 0] < 0.9
-    # an erosion that leaves nothing falls back to the whole mask
-    assert v.fit(T_true[None], 0.05, 10**4)[0, 0] == pytest.approx(whole)
+    # an erosion that leaves nothing falls back to the whole mask (within the span)
+    in_span = bled.mask & (np.abs(bled.depth - np.median(bled.depth[bled.mask])) <= 2)
+    explained = ((r > 0) & (np.abs(r - bled.depth[win]) <= 0.05) & in_span[win]).sum()
+    assert v.fit(T_true[None], 0.05, 10**4)[0, 0] == pytest.approx(explained / in_span.sum())
 
 
 def test_the_rays_left_uncast_change_no_cost_and_no_fit():
