@@ -138,10 +138,18 @@ def at10(rows: list[dict], key: str = "err_deg") -> float:
     return float(np.mean([r[key] <= 10.0 for r in rows])) if rows else float("nan")
 
 
-def load(runs: Path, source: str, variant: str) -> dict[int, list[dict]]:
-    """Seed -> the variant's rows on ``source`` (seeds without rows left out)."""
-    out = {s: read_rows(runs / f"{source}-seed{s}" / f"{variant}.jsonl") for s in SEEDS}
+def load(runs: Path, source: str, variant: str, seeds: tuple[int, ...] = SEEDS) -> dict[int, list[dict]]:
+    """Seed -> the variant's rows on ``source`` under ``seeds`` (seeds without rows left out)."""
+    out = {s: read_rows(runs / f"{source}-seed{s}" / f"{variant}.jsonl") for s in seeds}
     return {s: rows for s, rows in out.items() if rows}
+
+
+def write_table(out: Path, lines: list[str]) -> int:
+    """A study's table: ``lines`` into ``out`` (its folder made), its path printed; 0 (the exit code)."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text("\n".join(lines) + "\n")
+    print(out)
+    return 0
 
 
 def delta(mine: dict[int, list[dict]], ref: dict[int, list[dict]], objs: tuple | None = None) -> float:

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
-from sample_rows import HALVES, agreement, at10, delta, f3, read_rows, seconds, slug, spread  # noqa: E402
+from sample_rows import HALVES, agreement, at10, delta, f3, load, seconds, slug, spread, write_table  # noqa: E402
 
 SOURCES = {
     "clutter": "clutter dev 0-49, dirty masks",
@@ -32,11 +32,6 @@ OTHERS = {"icp+trim": "icp", "ppf+trim": "ppf"}
 FAR, USUAL, HALF_LOSS = ("clutterfar", "ycbv1far"), ("clutter", "ycbv1"), 0.01
 
 
-def load(runs: Path, source: str, variant: str, seeds) -> dict[int, list[dict]]:
-    out = {s: read_rows(runs / f"{source}-seed{s}" / f"{slug(variant)}.jsonl") for s in seeds}
-    return {s: rows for s, rows in out.items() if rows}
-
-
 def verdict(d: dict[str, float]) -> str:
     fails = [f"{s} {f3(d[s])}" for s in FAR if not d[s] > 1e-9]
     fails += [f"{s} {f3(d[s])}" for s in USUAL if d[s] < -1e-9]
@@ -49,7 +44,7 @@ def rows_of(runs: Path, seeds, variants, ref_of, sources=SOURCES) -> tuple[list[
     for v in variants:
         d: dict[str, float] = {}
         for src, title in sources.items():
-            rows, ref = load(runs, src, v, seeds), load(runs, src, ref_of(v), seeds)
+            rows, ref = load(runs, src, slug(v), seeds), load(runs, src, slug(ref_of(v)), seeds)
             if not rows:
                 continue
             d[src] = delta(rows, ref)
@@ -127,7 +122,7 @@ def main(argv: list[str]) -> int:
     per_obj = []
     for src in SOURCES:
         for v in OURS:
-            rows = [r for rs in load(runs, src, v, (0, 1, 2)).values() for r in rs]
+            rows = [r for rs in load(runs, src, slug(v)).values() for r in rs]
             objs = sorted({r["obj_id"] for r in rows})
             right = {o: sum(r["err_deg"] <= 10 for r in rows if r["obj_id"] == o) for o in objs}
             n = {o: sum(r["obj_id"] == o for r in rows) for o in objs}
@@ -140,10 +135,7 @@ def main(argv: list[str]) -> int:
         "|---|---|---|",
         *per_obj,
     ]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text("\n".join(lines) + "\n")
-    print(out)
-    return 0
+    return write_table(out, lines)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
-from sample_rows import HALVES, agreement, at10, delta, f3, load, seconds, slug, spread  # noqa: E402  (experiments/_lib/sample_rows.py)
+from sample_rows import HALVES, agreement, at10, delta, f3, load, seconds, slug, spread, write_table  # noqa: E402  (experiments/_lib/sample_rows.py)
 
 SOURCES = {
     "clutter": "clutter dev scenes 0-49, segmenter-like masks (dataset.mask_noise=1)",
@@ -104,10 +104,7 @@ def main(argv: list[str]) -> int:
                 for objs in HALVES.values():
                     cells.append(spread([at10([x for x in r if x["obj_id"] in objs]) for r in mine.values()]))
             lines.append("| " + " | ".join(cells) + " |")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text("\n".join(lines) + "\n")
-    print(out)
-    return 0
+    return write_table(out, lines)
 
 
 if __name__ == "__main__":

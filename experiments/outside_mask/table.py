@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
-from sample_rows import HALVES, SEEDS, at10, read_rows, slug, spread  # noqa: E402  (experiments/_lib/sample_rows.py)
+from sample_rows import HALVES, SEEDS, at10, read_rows, slug, spread, write_table  # noqa: E402  (experiments/_lib/sample_rows.py)
 
 SOURCES = {
     "clutter": "clutter dev scenes 0-49, segmenter-like masks (dataset.mask_noise=1)",
@@ -134,9 +134,7 @@ def main(argv: list[str]) -> int:
                 runs, {v: slug(v) for v in VARIANTS if (runs / "timing-clutter-seed0" / f"{slug(v)}.jsonl").exists()}
             ),
         ]
-    out.write_text("\n".join(lines) + "\n")
-    print(out)
-    return 0
+    return write_table(out, lines)
 
 
 if __name__ == "__main__":

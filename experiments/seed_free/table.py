@@ -16,7 +16,7 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "_lib"))
-from sample_rows import HALVES, agreement, at10, delta, f3, load, seconds, slug, spread  # noqa: E402  (experiments/_lib/sample_rows.py)
+from sample_rows import HALVES, agreement, at10, delta, f3, load, seconds, slug, spread, write_table  # noqa: E402  (experiments/_lib/sample_rows.py)
 
 SOURCES = {
     "clutterclean": "clutter dev scenes 0-49, the written masks (dataset.mask_noise=0)",
@@ -144,10 +144,7 @@ def main(argv: list[str]) -> int:
         "back, beside `chamfer_src`'s own median nearest-neighbour spacing (the depth unit: both sets lie",
         "in the same frame and unit when the distances are of the order of the spacing).",
     ]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text("\n".join(lines) + "\n")
-    print(out)
-    return 0
+    return write_table(out, lines)
 
 
 if __name__ == "__main__":
