@@ -10,7 +10,7 @@
 set -euo pipefail
 SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
 PY=.venv/bin/python
-OUT=outputs/seed_free
+OUT=${OUT:-outputs/seed_free}
 VARIANTS=${VARIANTS:-default,search on fixed points,pool on fixed points,step 2 on fixed points}
 CLUTTER=(dataset=clutter "dataset.root=$SHARED/bop/ycbv" "dataset.scenes=[$(seq -s, 0 49)]")
 YCBV=(dataset=ycbv "dataset.root=$SHARED/bop/ycbv" "dataset.scenes=[1]")

@@ -112,7 +112,10 @@ def fixed_points(problem) -> np.ndarray:
     last, pts = STATE["last"]
     if last is problem:
         return pts
+    from catpose.methods.ours.span import in_span, median_depth
+
     points = final_inputs(final_verifier(STATE["sel"], problem), problem.template)[0]
+    points = points[in_span(points[:, 2], median_depth(problem.depth_image))]  # ours' depth span
     pts = np.ascontiguousarray(points[farthest_point_indices(points, len(points))])
     STATE["last"] = (problem, pts)
     return pts
