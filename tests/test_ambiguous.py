@@ -52,6 +52,7 @@ def test_ambiguous_below_the_margin_only_and_only_with_a_runner_up():
     assert not _result(None).ambiguous and _result(None).doubt() is None
     line = _result(0.0014).doubt()
     assert "\n" not in line and "0.0014" in line and str(AMBIGUOUS_MARGIN) in line and "runner_up" in line
+    assert "max_poses" in line  # the cue a user may know: docs/real-scenes.md
 
 
 @pytest.mark.parametrize("margin, warns", [(0.0014, True), (1.2, False), (None, False)])

@@ -82,5 +82,6 @@ class Registration:
         return (
             f"ambiguous: the runner-up pose (Registration.runner_up) lost by a margin of "
             f"{self.runner_up_margin:.4f} < {AMBIGUOUS_MARGIN}; the depth image barely told them apart, "
-            "so check both (catpose.overlay draws them) or settle it with another cue"
+            "so check both (catpose.overlay draws them) or settle it with another cue (an object known "
+            "to stand on the template's up: resting={'max_poses': 0}, docs/real-scenes.md)"
         )
