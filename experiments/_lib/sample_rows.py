@@ -132,6 +132,17 @@ def variant_rows(
 SEEDS = (0, 1, 2)
 #: configs/split/clutter_objects.yaml: the clutter dev scenes' object halves
 HALVES = {"dev_A": (1, 6, 9, 12), "dev_B": (4, 5, 13, 14)}
+#: BOP YCB-V object ids -> names: the clutter set's eight objects (the shared frames hold 1, 5 and 9)
+OBJECTS = {
+    1: "master chef can",
+    4: "tomato soup can",
+    5: "mustard bottle",
+    6: "tuna fish can",
+    9: "potted meat can",
+    12: "bleach cleanser",
+    13: "bowl",
+    14: "mug",
+}
 
 
 def at10(rows: list[dict], key: str = "err_deg") -> float:

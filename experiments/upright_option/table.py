@@ -13,10 +13,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "_lib"))
+from sample_rows import OBJECTS as ALL_OBJECTS  # noqa: E402
 
 VARIANTS = {"default": "ours (default)", "upright": "ours, `method.resting.max_poses=0`"}
 #: YCB-V object id -> name (the shared frames' three objects)
-OBJECTS = {1: "master chef can", 5: "mustard bottle", 9: "potted meat can"}
+OBJECTS = {o: name for o, name in ALL_OBJECTS.items() if o in (1, 5, 9)}
 
 
 def runs(root: Path) -> dict[int, list[dict]]:
