@@ -21,9 +21,10 @@ study = study_fixture("experiments/dirty_report/table.py")
 FLIP = np.diag([1.0, -1.0, -1.0, 1.0])  # a half turn about x
 
 
-def _row(sid: str, obj: int, scene: int, err: float, found: float | None = None) -> dict:
+def _row(sid: str, obj: int, scene: int, err: float, found: float | None = None, margin: float | None = None) -> dict:
     T = FLIP if err > 90 else np.eye(4)
     return {
+        "extras": {} if margin is None else {"runner_up": {"margin": margin}},
         "sample_id": sid,
         "status": "ok",
         "err_deg": err,
@@ -51,7 +52,7 @@ def test_cells_halves_wrong_kinds_and_the_object_split(study, tmp_path: Path) ->
             seed,
             [
                 _row("can/000100/000000/0", 9, 100, 179.0 if seed == 1 else 1.0, 1.0),
-                _row("mug/000100/000000/1", 14, 100, 95.0, 60.0),
+                _row("mug/000100/000000/1", 14, 100, 95.0, 60.0, margin=0.01),  # flagged ambiguous
                 _row("can/000101/000000/0", 1, 101, 1.0, 1.0),
                 _row("bowl/000101/000000/1", 13, 101, 1.0, 1.0),
             ],
@@ -88,8 +89,8 @@ def test_cells_halves_wrong_kinds_and_the_object_split(study, tmp_path: Path) ->
     for line in lines:
         if line.startswith("|"):
             kinds.setdefault(line.split("|")[1].strip(), [c.strip() for c in line.split("|")[2:-1]])
-    assert kinds["potted meat can"] == ["3", "1", "1", "0", "0"]
-    assert kinds["mug"][:5] == ["3", "3", "0", "0", "3"]
+    assert kinds["potted meat can"] == ["3", "1", "1", "0", "0", "0", "2 of 3"]  # never flagged
+    assert kinds["mug"] == ["3", "3", "0", "0", "3", "3", "0 of 0"]  # a search miss, flagged under every seed
     folds = {k: v for k, v in kinds.items() if k in ("A", "B")}
     # fold A: dev half A (1.000) chooses for report half B (0.500); fold B: dev half B (0.500) for report half A
     assert folds["A"] == ["1.000", "0.500", "-0.500"]

@@ -90,13 +90,25 @@ def table(cols: list[tuple[str, dict[str, dict], Keep]], ar: bool = True) -> lis
     return lines + [""]
 
 
+def flagged(row: dict) -> bool:
+    """Whether ``Registration.ambiguous`` flags the answer: its runner-up lost by less than
+    :data:`catpose.api.result.AMBIGUOUS_MARGIN` (a sample without a runner-up is not flagged)."""
+    from catpose.api.result import AMBIGUOUS_MARGIN
+
+    margin = ((row.get("extras") or {}).get("runner_up") or {}).get("margin")
+    return margin is not None and margin < AMBIGUOUS_MARGIN
+
+
 def wrong_kinds(seeds: dict[int, tuple[Path, list[dict]]], objects: dict[int, str]) -> list[str]:
     """Ours' wrong answers per object, all seeds pooled: the truth held (found@10: some pose ours
     held lies within 10 deg of it) and a half turn (170 deg or more) chosen, the truth held and
-    another pose chosen, or the truth never held (a search miss)."""
+    another pose chosen, or the truth never held (a search miss); and how many of them the doubt
+    flag (``Registration.ambiguous``) marks, with how many answers it leaves unmarked and how many
+    of those are right."""
     lines = [
-        "| object | views (all seeds) | wrong | truth held, half turn chosen | truth held, other chosen | search miss |",
-        "|---|---|---|---|---|---|",
+        "| object | views (all seeds) | wrong | truth held, half turn chosen | truth held, other chosen | search miss"
+        " | wrong and flagged ambiguous | unflagged: right of n |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     rows = [r for _, rs in seeds.values() for r in rs]
     for o, name in [*objects.items(), (None, "all")]:
@@ -104,8 +116,10 @@ def wrong_kinds(seeds: dict[int, tuple[Path, list[dict]]], objects: dict[int, st
         wrong = [r for r in mine if not right(r)]
         held = [r for r in wrong if (r.get("found_err_deg") or 999.0) <= 10.0]
         half = [r for r in held if (r.get("err_deg") or 0.0) >= 170.0]
+        calm = [r for r in mine if not flagged(r)]
         lines.append(
-            f"| {name} | {len(mine)} | {len(wrong)} | {len(half)} | {len(held) - len(half)} | {len(wrong) - len(held)} |"
+            f"| {name} | {len(mine)} | {len(wrong)} | {len(half)} | {len(held) - len(half)} | {len(wrong) - len(held)}"
+            f" | {sum(flagged(r) for r in wrong)} | {sum(right(r) for r in calm)} of {len(calm)} |"
         )
     return lines + [""]
 
