@@ -11,7 +11,7 @@ import pytest
 from catpose.bench.scoring.metrics import rotation_error_deg, translation_error
 from catpose.errors import ConfigError
 from catpose.geometry import quat_to_R
-from catpose.methods.icp import ICP, so3_partition_centres
+from catpose.methods.icp import ICP, icp_starts, so3_partition_centres
 from catpose.types import RegistrationProblem
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -30,6 +30,53 @@ def test_partition_centres_cover_so3():
     pairwise = [rotation_error_deg(C[i], C[j]) for i in range(20) for j in range(i + 1, 20)]
     assert min(pairwise) > 60.0
     assert np.array_equal(so3_partition_centres.__wrapped__(20), C)  # deterministic
+
+
+def test_stored_starts_are_the_partition_centres():
+    """The default 20 starts are the k-means' centres (to the last bits the CPU kernel moves); any
+    other count is computed."""
+    assert np.allclose(icp_starts(20), so3_partition_centres(20), atol=1e-12, rtol=0.0)
+    assert np.array_equal(icp_starts(12), so3_partition_centres(12))
+
+
+ICP_SCRIPT = r"""
+import hashlib
+import numpy as np
+from catpose.bench.protocols.absolute import GtModel
+from catpose.datasets.synthetic import SyntheticDataset
+from catpose.datasets.views import ViewOptions
+from catpose.methods.icp import ICP
+ds = SyntheticDataset(seed=3, categories=["mug", "chair", "bottle"], instances_per_category=1, views_per_instance=2,
+                      view=ViewOptions(max_points=500), template_points=500)
+proto, icp, h = GtModel(), ICP(), hashlib.sha1()
+for sid in proto.sample_ids(ds):
+    h.update(np.asarray(icp.register(proto.load(ds, sid).problem).T_template_camera, dtype=np.float64).tobytes())
+print(h.hexdigest())
+"""
+
+
+@pytest.mark.slow  # a process per code path: make test-slow
+def test_icp_answers_are_the_same_bits_under_every_fma_code_path():
+    """ICP's answers do not depend on the CPU's kernels (OpenBLAS SkylakeX or Haswell, NumPy with or
+    without AVX-512): its starts are stored, not computed. OpenBLAS's Sandybridge kernel (CPUs
+    without FMA) still rounds the starts' translation ``R @ c`` differently and is left out."""
+    import os
+    import subprocess
+
+    from catpose.bench.run.environment import numeric_variants
+
+    variants = {k: v for k, v in numeric_variants().items() if k not in ("Sandybridge", "torch-default")}
+    if len(variants) < 2:
+        pytest.skip("needs an x86-64 CPU with AVX2 to run another code path")
+    base = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
+    digests = {}
+    for name, env in variants.items():
+        proc = subprocess.run(
+            [sys.executable, "-c", ICP_SCRIPT], env=dict(base, **env), capture_output=True, text=True, timeout=600
+        )
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        digests[name] = proc.stdout.strip().splitlines()[-1]
+    assert len(set(digests.values())) == 1, digests
 
 
 def test_icp_recovers_the_pose_of_a_view_against_its_own_model():
