@@ -67,6 +67,7 @@ STARTS_20 = (
 )
 
 
+@lru_cache(maxsize=8)
 def icp_starts(num_starts: int) -> np.ndarray:
     """(num_starts, 3, 3) ICP's initial rotations: :data:`STARTS_20` for 20, else the k-means'."""
     if num_starts != 20:

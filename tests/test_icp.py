@@ -60,22 +60,14 @@ def test_icp_answers_are_the_same_bits_under_every_fma_code_path():
     """ICP's answers do not depend on the CPU's kernels (OpenBLAS SkylakeX or Haswell, NumPy with or
     without AVX-512): its starts are stored, not computed. OpenBLAS's Sandybridge kernel (CPUs
     without FMA) still rounds the starts' translation ``R @ c`` differently and is left out."""
-    import os
-    import subprocess
+    from _code_paths import last_line
 
     from catpose.bench.run.environment import numeric_variants
 
     variants = {k: v for k, v in numeric_variants().items() if k not in ("Sandybridge", "torch-default")}
     if len(variants) < 2:
         pytest.skip("needs an x86-64 CPU with AVX2 to run another code path")
-    base = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
-    digests = {}
-    for name, env in variants.items():
-        proc = subprocess.run(
-            [sys.executable, "-c", ICP_SCRIPT], env=dict(base, **env), capture_output=True, text=True, timeout=600
-        )
-        assert proc.returncode == 0, proc.stderr[-2000:]
-        digests[name] = proc.stdout.strip().splitlines()[-1]
+    digests = {name: last_line(ICP_SCRIPT, env) for name, env in variants.items()}
     assert len(set(digests.values())) == 1, digests
 
 

@@ -190,23 +190,20 @@ def test_errors_are_the_same_bits_under_every_code_path_of_this_cpu():
     discrete symmetry) are bit for bit the same under each OpenBLAS kernel and NumPy dispatch
     level, so a table recomputed from stored poses does not depend on the machine."""
     import json
-    import os
-    import subprocess
     import sys
+    from pathlib import Path
 
     from catpose.bench.run.environment import numeric_variants
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from _code_paths import last_line
 
     variants = {k: v for k, v in numeric_variants().items() if k != "torch-default"}
     if not variants:
         pytest.skip("needs an x86-64 CPU with AVX2 to run other OpenBLAS kernels")
-    base = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
     outs = {}
     for name, env in variants.items():
-        proc = subprocess.run(
-            [sys.executable, "-c", ERRORS_SCRIPT], env=dict(base, **env), capture_output=True, text=True, timeout=300
-        )
-        assert proc.returncode == 0, proc.stderr[-2000:]
-        outs[name] = json.loads(proc.stdout.strip().splitlines()[-1])
+        outs[name] = json.loads(last_line(ERRORS_SCRIPT, env, timeout=300))
         if "OPENBLAS_CORETYPE" in env:
             assert outs[name]["kernel"] == env["OPENBLAS_CORETYPE"]
     first = next(iter(outs))

@@ -14,14 +14,15 @@ is left under ``datasets/`` and ``src/catpose/`` (Embree's path cannot be switch
 from __future__ import annotations
 
 import ast
-import os
-import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
 from catpose.bench.run.environment import numeric_variants
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _code_paths import last_line  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -67,14 +68,9 @@ print(json.dumps(out))
 
 
 def _digests(env_extra: dict[str, str]) -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
-    proc = subprocess.run(
-        [sys.executable, "-c", SCRIPT], env=dict(env, **env_extra), capture_output=True, text=True, timeout=600
-    )
-    assert proc.returncode == 0, proc.stderr[-2000:]
     import json
 
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return json.loads(last_line(SCRIPT, env_extra))
 
 
 @pytest.mark.slow  # > 5 s: make test-slow

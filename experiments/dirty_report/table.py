@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -48,11 +49,19 @@ def right(row: dict) -> bool:
     return row.get("status") == "ok" and err is not None and err <= 10.0
 
 
+@cache
+def run_errors(run_dir: Path):
+    """The run's per-target BOP errors (``target_errors``), read once per run for all its cells."""
+    from catpose.bench.run.bop_ar import target_errors
+
+    return target_errors(run_dir)
+
+
 def ar_of(run_dir: Path, ids: set[str]) -> float:
     """BOP's AR of the run's targets among ``ids`` (as ``bench suite`` scores them)."""
-    from catpose.bench.run.bop_ar import ar_scores, target_errors
+    from catpose.bench.run.bop_ar import ar_scores
 
-    errors = target_errors(run_dir)
+    errors = run_errors(run_dir)
     if errors is None or not ids:
         return float("nan")
     return float(ar_scores(errors[errors["sample_id"].isin(ids)])["ar"])
