@@ -139,7 +139,8 @@ def plot_error_cdf(
         ax.set_xlabel("error [deg], log")
     for ax in axes[:, 0]:
         ax.set_ylabel("fraction <= error")
-    for ax in axes.ravel()[len(categories) :]:
+    spare = axes.ravel()[len(categories) :]
+    for ax in spare:
         ax.axis("off")
     handles: dict[str, object] = {}
     for ax in axes.ravel():
@@ -150,31 +151,14 @@ def plot_error_cdf(
         f"errors below {floor:g} deg drawn at {floor:g};\nfailures count as "
         f"{FAILED_ERROR_DEG:g} deg; dashed: 10 and 30 deg"
     )
-    spare = axes.ravel()[len(categories) :]
+    legend = dict(handles=list(handles.values()), labels=list(handles), fontsize=9, frameon=False)
     if len(spare):  # the legend goes into the first empty panel, beside the curves
-        spare[0].legend(
-            list(handles.values()),
-            list(handles),
-            loc="upper left",
-            fontsize=9,
-            frameon=False,
-            title=note,
-            title_fontsize=9,
-            alignment="left",
-        )
+        spare[0].legend(**legend, loc="upper left", title=note, title_fontsize=9, alignment="left")
         fig.tight_layout(rect=(0, 0, 1, 0.97))
     else:  # the legend and the note below the panels, in the figure's text size
         ncol = min(len(handles), 4) or 1
         legend_rows = int(np.ceil(len(handles) / ncol))
-        fig.legend(
-            list(handles.values()),
-            list(handles),
-            loc="lower center",
-            fontsize=9,
-            ncol=ncol,
-            frameon=False,
-            bbox_to_anchor=(0.5, 0.02 / rows),
-        )
+        fig.legend(**legend, loc="lower center", ncol=ncol, bbox_to_anchor=(0.5, 0.02 / rows))
         fig.text(0.5, 0.003, note.replace("\n", " "), ha="center", va="bottom", fontsize=9, color="0.25")
         fig.tight_layout(rect=(0, (0.05 + 0.04 * legend_rows) / rows, 1, 0.97))
     csv = _write_csv(csv_rows, ["method", "category", "n", "error_deg", "fraction"], out_stem)
