@@ -67,17 +67,13 @@ class FGR(CorrespondenceRegistration):
 
         reg = o3d.pipelines.registration
         option = reg.FastGlobalRegistrationOption(**self.option_kwargs)
+        clouds = (match.source.pcd, match.target.pcd)
         if match.correspondences is None:
-            result = reg.registration_fgr_based_on_feature_matching(
-                match.source.pcd, match.target.pcd, match.source.feature, match.target.feature, option
-            )
+            features = (match.source.feature, match.target.feature)
+            result = reg.registration_fgr_based_on_feature_matching(*clouds, *features, option)
+            n = len(match.source.points)
         else:
-            result = reg.registration_fgr_based_on_correspondence(
-                match.source.pcd, match.target.pcd, o3d.utility.Vector2iVector(match.correspondences), option
-            )
-        info = {
-            "num_correspondences": int(len(match.correspondences))
-            if match.correspondences is not None
-            else int(len(match.source.points))
-        }
-        return np.asarray(result.transformation).copy(), info
+            pairs = o3d.utility.Vector2iVector(match.correspondences)
+            result = reg.registration_fgr_based_on_correspondence(*clouds, pairs, option)
+            n = len(match.correspondences)
+        return np.asarray(result.transformation).copy(), {"num_correspondences": int(n)}

@@ -79,31 +79,15 @@ class RANSAC(CorrespondenceRegistration):
             checkers.append(reg.CorrespondenceCheckerBasedOnNormal(np.deg2rad(self.normal_angle_deg)))
         criteria = reg.RANSACConvergenceCriteria(self.max_iteration, self.confidence)
         estimation = reg.TransformationEstimationPointToPoint(False)
+        clouds = (match.source.pcd, match.target.pcd)
+        solver = (self.max_correspondence_distance, estimation, self.ransac_n, checkers, criteria)
         with max_threads(self.num_threads or None):
             if match.correspondences is None:
-                result = reg.registration_ransac_based_on_feature_matching(
-                    match.source.pcd,
-                    match.target.pcd,
-                    match.source.feature,
-                    match.target.feature,
-                    self.mutual_filter,
-                    self.max_correspondence_distance,
-                    estimation,
-                    self.ransac_n,
-                    checkers,
-                    criteria,
-                )
+                features = (match.source.feature, match.target.feature, self.mutual_filter)
+                result = reg.registration_ransac_based_on_feature_matching(*clouds, *features, *solver)
             else:
-                result = reg.registration_ransac_based_on_correspondence(
-                    match.source.pcd,
-                    match.target.pcd,
-                    o3d.utility.Vector2iVector(match.correspondences),
-                    self.max_correspondence_distance,
-                    estimation,
-                    self.ransac_n,
-                    checkers,
-                    criteria,
-                )
+                pairs = o3d.utility.Vector2iVector(match.correspondences)
+                result = reg.registration_ransac_based_on_correspondence(*clouds, pairs, *solver)
         info = {
             "num_inliers": int(len(result.correspondence_set)),
             "fitness": float(result.fitness),
