@@ -12,6 +12,7 @@ The folder is built beside ``--out`` and moved into place whole
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import re
 from collections.abc import Sequence
@@ -80,14 +81,9 @@ def protocol_tables(runs: Sequence, labels: dict[str, str] | None, protocol: str
     alone (the README's first table), and, when the runs name categories, ``per_category``, a row
     block per run and a column per category (the paper's layout) with mean, median, @10 and @30;
     ``make demo`` prints both."""
-    summary = tables.build_table(
-        runs,
-        "generic",
-        categories=["all"],
-        labels=labels,
-        metrics=list(SUMMARY_METRICS),
-        title=f"All categories pooled ({protocol})",
-        allow_mixed=allow_mixed,
+    table = functools.partial(tables.build_table, runs, labels=labels, allow_mixed=allow_mixed)
+    summary = table(
+        "generic", categories=["all"], metrics=list(SUMMARY_METRICS), title=f"All categories pooled ({protocol})"
     )
     # One category ("all"): the metric alone names each column.
     summary.cells = {(r, c[1:]): v for (r, c), v in summary.cells.items()}
@@ -95,14 +91,8 @@ def protocol_tables(runs: Sequence, labels: dict[str, str] | None, protocol: str
     cats = sorted({str(c) for r in runs for c in r.samples.get("category", [])})
     if not cats:
         return {"summary": summary}
-    per_category = tables.build_table(
-        runs,
-        "tyol",
-        categories=cats,
-        labels=labels,
-        metrics=["mean", "median", "acc10", "acc30"],
-        title=f"Per category ({protocol})",
-        allow_mixed=allow_mixed,
+    per_category = table(
+        "tyol", categories=cats, metrics=["mean", "median", "acc10", "acc30"], title=f"Per category ({protocol})"
     )
     return {"summary": summary, "per_category": per_category}
 
