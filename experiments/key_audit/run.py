@@ -26,6 +26,9 @@ VARIANTS = {
     "default": (),
     "depth_min_inliers 0": (S + "depth_min_inliers=0",),
     "depth_fit_erode_px 0": (S + "depth_fit_erode_px=0",),
+    # experiments/poor_fit: the poor-fit test at a fraction a mask's bleed trips less often
+    "depth_min_inliers 0.9": (S + "depth_min_inliers=0.9",),
+    "depth_min_inliers 0.85": (S + "depth_min_inliers=0.85",),
     "min_probability 0": (R + "min_probability=0",),
     "grid_shift 0": (R + "grid_shift=0",),
     "grid_beam 0": (R + "grid_beam=0",),

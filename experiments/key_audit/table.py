@@ -1,6 +1,9 @@
 """The study's tables and each variant's verdict under the README's rule, from run.py's JSON lines.
 
-    python experiments/key_audit/table.py RUNS_DIR OUT.md
+    python experiments/key_audit/table.py RUNS_DIR OUT.md [STUDY_README]
+
+STUDY_README: another study that ran variants with this harness (experiments/poor_fit): the header
+names it and the verdict column (this study's rule of removal) is left out.
 
 RUNS_DIR holds one folder per source and seed (``clutter-seed0``, ``ycbv1dirty-seed1``, ...), each
 with one ``<variant>.jsonl`` per variant (run.py).
@@ -45,25 +48,29 @@ def verdict(d: dict[str, float]) -> str:
 
 def main(argv: list[str]) -> int:
     runs, out = Path(argv[0]), Path(argv[1])
+    study = argv[2] if len(argv) > 2 else None
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from run import VARIANTS  # the study's runner, beside this file
 
     ref = {src: load(runs, src, "default") for src in SOURCES}
     ran = [v for v in VARIANTS if any(load(runs, src, slug(v)) for src in SOURCES)]
     lines = [
-        "# Ours' keys, one at a time set to their off or simplest value",
+        "# Ours' keys, one at a time set to their off or simplest value" if study is None else "# Ours' variants",
         "",
-        f"Written by `experiments/key_audit/table.py` from `{runs}` (study: `experiments/key_audit/README.md`).",
+        f"Written by `experiments/key_audit/table.py` from `{runs}` (study: `{study or 'experiments/key_audit/README.md'}`).",
         "Dev parts only: the clutter dev scenes 0-49 and YCB-V scene 1, seeds 0-2. Δ: the variant's @10",
         "minus ours' default's on the same views, mean over the seeds; dev_A / dev_B: the clutter object",
         "halves of `configs/split/clutter_objects.yaml`; written: YCB-V scene 1 with its written masks",
-        "(reported, not in the rule); agree: the fraction of views whose answers under seeds 0-2 lie",
+        "(reported, not in "
+        + ("the rule" if study is None else "key_audit's rule")
+        + "); agree: the fraction of views whose answers under seeds 0-2 lie",
         "within 10 deg of each other (`bench suite`'s), clutter / YCB-V s1 dirty.",
         "",
-        "## Summary and the rule's verdict",
+        "## Summary and the rule's verdict" if study is None else "## Summary (the study's rule: its README)",
         "",
-        "| variant | Δ clutter dirty | Δ dev_A | Δ dev_B | Δ YCB-V s1 dirty | Δ written | agree | verdict |",
-        "|---|---|---|---|---|---|---|---|",
+        "| variant | Δ clutter dirty | Δ dev_A | Δ dev_B | Δ YCB-V s1 dirty | Δ written | agree |"
+        + (" verdict |" if study is None else ""),
+        "|---|---|---|---|---|---|---|" + ("---|" if study is None else ""),
     ]
     verdict_of: dict[str, str] = {}
     for v in ran:
@@ -72,7 +79,9 @@ def main(argv: list[str]) -> int:
         d.update({h: delta(mine["clutter"], ref["clutter"], objs) for h, objs in HALVES.items()})
         agree = " / ".join("n/a" if (a := agreement(mine[s])) != a else f"{a:.2f}" for s in RULE_SOURCES)
         cells = [v, *(f3(d[k]) for k in ("clutter", "dev_A", "dev_B", "ycbv1dirty", "ycbv1clean")), agree]
-        if v == "default":
+        if study is not None:
+            pass
+        elif v == "default":
             cells.append("reference")
         elif v.startswith("the "):  # a combination: the rule's verdict read on it, nothing adopted (README)
             cells.append(f"combination: {verdict(d)}")
