@@ -6,7 +6,7 @@ one JSON line per sample and variant (study: README.md).
 
 Each ``VARIANT`` is a name of :data:`VARIANTS` (``default``: ours unchanged); each problem is loaded
 once and registered by every variant in turn, into ``OUT_DIR/<variant>.jsonl``
-(``experiments/_lib/sample_rows.py``, as ``bench run`` builds and seeds them). ``median start``
+(``experiments/_lib/patched_runs.py``, as ``bench run`` builds and seeds them). ``median start``
 replaces, in this process only, :func:`catpose.methods.ours.rest_search.grid_poses` by
 :func:`median_grid_poses`; everything else in the product is unchanged. ``--bench`` runs the
 ``bench`` command line (``bench run ...``) with the variant installed (the category templates).
@@ -66,29 +66,7 @@ def install(variant: str) -> None:
     rest_search.grid_poses = median_grid_poses if variant == "median start" else ORIGINAL["grid_poses"]
 
 
-def main(argv: list[str]) -> int:
-    if argv and argv[0] == "--bench":
-        if argv[1] not in VARIANTS:
-            raise SystemExit(f"{argv[1]!r}: not in VARIANTS ({', '.join(VARIANTS)})")
-        install(argv[1])
-        from catpose.bench.cli import main as bench_main
-
-        return bench_main(argv[2:])
-    from sample_rows import build, variant_rows
-
-    out_dir, seed, names = Path(argv[0]), int(argv[1]), argv[2].split(",")
-    unknown = [v for v in names if v not in VARIANTS]
-    if unknown:
-        raise SystemExit(f"{unknown}: not in VARIANTS ({', '.join(VARIANTS)})")
-    _, method, dataset, protocol = build(seed, argv[3:])
-
-    def method_for(v: str):
-        install(v)
-        return method
-
-    variant_rows(out_dir, seed, names, dataset, protocol, method_for)
-    return 0
-
-
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    from patched_runs import main
+
+    sys.exit(main(sys.argv[1:], {v: (lambda v=v: install(v)) for v in VARIANTS}))

@@ -1,6 +1,9 @@
 """The study's table from run.py's JSON lines (README.md).
 
-    python experiments/robust_start/table.py RUNS_DIR OUT.md
+    python experiments/robust_start/table.py RUNS_DIR OUT.md [VARIANT STUDY_README]
+
+VARIANT and STUDY_README: another study's variant against ``default`` in the same layout
+(experiments/bleed_fit); by default this study's ``median start``.
 
 RUNS_DIR holds one folder per source and seed (``clutter-seed0``, ``ycbv1clean-seed2``, ...), each
 with one ``<variant>.jsonl`` per variant, and ``templates/`` (``bench run`` folders of the category
@@ -21,15 +24,19 @@ SOURCES = {
     "clutterclean": "clutter dev scenes 0-49, the written masks",
     "ycbv1clean": "YCB-V scene 1, the written masks",
 }
-VARIANT = "median start"
+TITLES = {
+    "median start": "Ours' coarse search started at the points' median",
+    "bleed-aware": "Ours' poor-fit test without the mask's bleed",
+}
 
 
 def main(argv: list[str]) -> int:
     runs, out = Path(argv[0]), Path(argv[1])
+    variant, study = (argv[2], argv[3]) if len(argv) > 3 else ("median start", "experiments/robust_start/README.md")
     lines = [
-        "# Ours' coarse search started at the points' median",
+        f"# {TITLES.get(variant, variant)}",
         "",
-        f"Written by `experiments/robust_start/table.py` from `{runs}` (study: `experiments/robust_start/README.md`).",
+        f"Written by `experiments/robust_start/table.py` from `{runs}` (study: `{study}`).",
         "Dev parts only, seeds 0-2. @10: mean over the seeds [min-max]; Δ: the variant's @10 minus the",
         "default's on the same views, mean over the seeds; dev_A / dev_B: the clutter object halves of",
         "`configs/split/clutter_objects.yaml`; agree: the fraction of views whose answers under seeds",
@@ -44,7 +51,7 @@ def main(argv: list[str]) -> int:
         head = "| variant | views per seed | @10 | Δ | found@10 | agree | median s |"
         head += " dev_A @10 (Δ) | dev_B @10 (Δ) |" if src.startswith("clutter") else ""
         lines += [head, "|" + "---|" * (head.count("|") - 1)]
-        for v in ("default", VARIANT):
+        for v in ("default", variant):
             mine = load(runs, src, slug(v))
             if not mine:
                 continue
