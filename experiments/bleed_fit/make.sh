@@ -6,6 +6,7 @@
 # results/bleed_fit/dev.md (experiments/robust_start/table.py's layout), templates.md and ycbv_templates.md.
 # Usage (repository root): bash experiments/bleed_fit/make.sh   (PARTS="clutter ycbv templates" by default)
 set -euo pipefail
+source experiments/_lib/seed_tables.sh
 SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
 PY=.venv/bin/python
 OUT=${OUT:-outputs/bleed_fit}
@@ -38,15 +39,4 @@ for part in ${PARTS:-clutter ycbv templates}; do
 done
 mkdir -p results/bleed_fit
 $PY experiments/robust_start/table.py "$OUT" results/bleed_fit/dev.md bleed-aware experiments/bleed_fit/README.md
-for set in "templates:results/bleed_fit/templates.md:the embedded set, development seeds 1-3" \
-  "ycbv_templates:results/bleed_fit/ycbv_templates.md:YCB-V scene 1 (dev), seeds 0-2"; do
-  IFS=: read -r sub out title <<< "$set"
-  [ -d "$OUT/$sub" ] || continue
-  dirs=() labels=()
-  for d in "$OUT/$sub"/*-seed*; do
-    dirs+=("$d")
-    labels+=(--label "$(dirname "$(find "$d" -name samples.jsonl | head -1)")=$(basename "$d")")
-  done
-  .venv/bin/bench table --force "${dirs[@]}" "${labels[@]}" --layout generic --categories all --allow-mixed \
-    --metrics n,mean,median,acc10,acc30 --out "$out" --title "Ours on $title, category templates (protocol templates)"
-done
+seed_tables "$OUT" results/bleed_fit

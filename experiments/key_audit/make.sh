@@ -14,6 +14,7 @@
 #   same three on YCB-V scene 1 with the category templates (the README's ycbv_templates set, its dev part),
 #   seeds 0-2, into outputs/key_audit/ycbv_templates/, then results/key_audit/ycbv_templates.md.
 set -euo pipefail
+source experiments/_lib/seed_tables.sh
 SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
 PY=.venv/bin/python
 OUT=${OUT:-outputs/key_audit}
@@ -65,16 +66,5 @@ for variants in "${batches[@]}"; do
 done
 if [ -z "${NO_TABLE:-}" ]; then
   $PY experiments/key_audit/table.py "$OUT" "${TABLE:-results/key_audit/dev.md}"
-  for set in "templates:results/key_audit/templates.md:the embedded set, development seeds 1-3" \
-    "ycbv_templates:results/key_audit/ycbv_templates.md:YCB-V scene 1 (dev), seeds 0-2"; do
-    IFS=: read -r sub out title <<< "$set"
-    [ -d "$OUT/$sub" ] || continue
-    dirs=() labels=()
-    for d in "$OUT/$sub"/*-seed*; do
-      dirs+=("$d")
-      labels+=(--label "$(dirname "$(find "$d" -name samples.jsonl | head -1)")=$(basename "$d")")
-    done
-    .venv/bin/bench table --force "${dirs[@]}" "${labels[@]}" --layout generic --categories all --allow-mixed \
-      --metrics n,mean,median,acc10,acc30 --out "$out" --title "Ours on $title, category templates (protocol templates)"
-  done
+  seed_tables "$OUT" results/key_audit
 fi

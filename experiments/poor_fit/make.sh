@@ -6,6 +6,7 @@
 # then results/poor_fit/templates.md and ycbv_templates.md.
 # Usage (repository root): bash experiments/poor_fit/make.sh   (PARTS as key_audit's make.sh; SKIP_TEMPLATES=1)
 set -euo pipefail
+source experiments/_lib/seed_tables.sh
 SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
 OUT=${OUT:-outputs/poor_fit}
 VALUES="0.95 0.9 0.85 0"
@@ -28,14 +29,4 @@ for v in $VALUES; do
       progress=false print_summary=false method.selection.depth_min_inliers=$v
   done
 done
-for set in "templates:results/poor_fit/templates.md:the embedded set, development seeds 1-3" \
-  "ycbv_templates:results/poor_fit/ycbv_templates.md:YCB-V scene 1 (dev), seeds 0-2"; do
-  IFS=: read -r sub out title <<< "$set"
-  dirs=() labels=()
-  for d in "$OUT/$sub"/*-seed*; do
-    dirs+=("$d")
-    labels+=(--label "$(dirname "$(find "$d" -name samples.jsonl | head -1)")=$(basename "$d")")
-  done
-  .venv/bin/bench table --force "${dirs[@]}" "${labels[@]}" --layout generic --categories all --allow-mixed \
-    --metrics n,mean,median,acc10,acc30 --out "$out" --title "Ours on $title, category templates (protocol templates)"
-done
+seed_tables "$OUT" results/poor_fit

@@ -6,6 +6,7 @@
 # results/robust_start/dev.md (table.py).
 # Usage (repository root): bash experiments/robust_start/make.sh   (PARTS="clutter ycbv templates" by default)
 set -euo pipefail
+source experiments/_lib/seed_tables.sh
 SHARED=${CATPOSE_SHARED_DATA:-../shared/data}
 PY=.venv/bin/python
 OUT=${OUT:-outputs/robust_start}
@@ -33,13 +34,4 @@ for part in ${PARTS:-clutter ycbv templates}; do
   done
 done
 $PY experiments/robust_start/table.py "$OUT" results/robust_start/dev.md
-if [ -d "$OUT/templates" ]; then
-  dirs=() labels=()
-  for d in "$OUT/templates"/*-seed*; do
-    dirs+=("$d")
-    labels+=(--label "$(dirname "$(find "$d" -name samples.jsonl | head -1)")=$(basename "$d")")
-  done
-  .venv/bin/bench table --force "${dirs[@]}" "${labels[@]}" --layout generic --categories all --allow-mixed \
-    --metrics n,mean,median,acc10,acc30 --out results/robust_start/templates.md \
-    --title "Ours on the embedded set, development seeds 1-3, category templates (protocol templates)"
-fi
+seed_tables "$OUT" results/robust_start
